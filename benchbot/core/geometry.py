@@ -1,0 +1,127 @@
+"""Rigid-body helpers for poses in the ``map`` frame.
+
+Conventions: metres and radians; a 7-number pose is ``[qw, qx, qy, qz, x, y, z]`` (the original BenchBot's order,
+quaternion first, not always unit length: it is normalised here); an SE(2) pose is ``(x, y, yaw)``; a transform
+``T_a_b`` is a (4, 4) float64 homogeneous matrix mapping points of frame ``b`` into frame ``a``; Euler angles are
+static-axis x, y, z (roll, pitch, yaw; R = Rz·Ry·Rx), as ROS ``tf.transformations`` ``sxyz``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def wrap_angle(angle: float) -> float:
+    """Wrap ``angle`` (radians) to [-π, π)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def quaternion_wxyz_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) float64 of the quaternion ``q`` = (w, x, y, z), normalised first.
+
+    Raises:
+        ValueError: if ``q`` has zero length.
+    """
+    w, x, y, z = np.asarray(q, dtype=np.float64)
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if n == 0.0:
+        raise ValueError("quaternion has zero length")
+    w, x, y, z = w / n, x / n, y / n, z / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def matrix_to_quaternion_xyzw(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (4,) float64 ``[x, y, z, w]`` (ROS order) of the rotation matrix ``R`` (3, 3), w ≥ 0."""
+    R = np.asarray(R, dtype=np.float64)
+    t = np.trace(R)
+    if t > 0:
+        s = math.sqrt(t + 1.0) * 2
+        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2
+        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s
+    elif R[1, 1] > R[2, 2]:
+        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2
+        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s
+    else:
+        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
+        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s
+    q = np.array([x, y, z, w])
+    q /= np.linalg.norm(q)
+    return -q if q[3] < 0 else q
+
+
+def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
+    """Static-axis (x, y, z) Euler angles ``(roll, pitch, yaw)`` in radians of ``R`` (3, 3), R = Rz·Ry·Rx."""
+    R = np.asarray(R, dtype=np.float64)
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    roll = math.atan2(R[2, 1], R[2, 2])
+    yaw = math.atan2(R[1, 0], R[0, 0])
+    return (roll, pitch, yaw)
+
+
+def pose7_to_matrix(pose: "list[float] | np.ndarray") -> np.ndarray:
+    """``T_map_pose`` (4, 4) float64 of a 7-number pose ``[qw, qx, qy, qz, x, y, z]`` (quaternion normalised).
+
+    Raises:
+        ValueError: if ``pose`` does not have 7 numbers or its quaternion has zero length.
+    """
+    p = np.asarray(pose, dtype=np.float64).reshape(-1)
+    if p.shape != (7,):
+        raise ValueError(f"a pose needs 7 numbers [qw,qx,qy,qz,x,y,z], got {p.shape[0]}")
+    T = np.eye(4)
+    T[:3, :3] = quaternion_wxyz_to_matrix(p[:4])
+    T[:3, 3] = p[4:]
+    return T
+
+
+def pose7_to_se2(pose: "list[float] | np.ndarray") -> np.ndarray:
+    """SE(2) pose (3,) float64 ``[x, y, yaw]`` of a 7-number pose: position x, y and the yaw of its rotation."""
+    T = pose7_to_matrix(pose)
+    return np.array([T[0, 3], T[1, 3], math.atan2(T[1, 0], T[0, 0])])
+
+
+def se2_to_matrix(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
+    """``T`` (4, 4) float64 of a planar pose at height ``z`` (metres), rotated by ``yaw`` (radians) about +z."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    T = np.eye(4)
+    T[:2, :2] = [[c, -s], [s, c]]
+    T[:3, 3] = (x, y, z)
+    return T
+
+
+def se2_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """SE(2) product ``a · b`` of two (3,) poses ``[x, y, yaw]``; yaw wrapped to [-π, π)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap_angle(a[2] + b[2])])
+
+
+def se2_relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """SE(2) ``a⁻¹ · b``: pose ``b`` (3,) expressed in the frame of pose ``a`` (3,)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return np.array([c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[2] - a[2])])
+
+
+def pose_observation(T_parent_frame: np.ndarray, parent_frame: str) -> dict:
+    """One entry of the ``poses`` observation (reference §4) from ``T_parent_frame`` (4, 4).
+
+    Returns:
+        ``{'parent_frame': str, 'translation_xyz': (3,) float64 metres, 'rotation_rpy': (roll, pitch, yaw)
+        radians (static xyz), 'rotation_xyzw': (4,) float64 unit quaternion [x, y, z, w]}``.
+    """
+    T = np.asarray(T_parent_frame, dtype=np.float64)
+    return {
+        "parent_frame": parent_frame,
+        "translation_xyz": T[:3, 3].copy(),
+        "rotation_rpy": matrix_to_rpy(T[:3, :3]),
+        "rotation_xyzw": matrix_to_quaternion_xyzw(T[:3, :3]),
+    }

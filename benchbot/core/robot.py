@@ -1,0 +1,78 @@
+"""The contract between the episode (core) and a robot backend (a simulator or a real robot).
+
+A plugin offers backends through the hook ``benchbot_robot_backends`` as ``{robot type: factory}``; the episode
+builds one with ``factory(robot_spec, options)`` and drives it through the methods below. Backends know nothing of
+tasks, scenes or the HTTP protocol: the episode keeps that state (reference §3–§5).
+
+Frames: ``map`` is the environment's world frame (z up, metres). The robot frame (``robot_spec['robot_frame']``)
+is x forward, y left, z up, at floor level under the robot's centre. The camera frame (``camera``) is the optical
+frame of the RGB-D camera: z forward along the optical axis, x right, y down in the image, so a pixel (u, v) with
+depth d (metres, along z) is ``d · K⁻¹ [u, v, 1]ᵀ`` in that frame.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class MotionOutcome:
+    """What happened during one motion.
+
+    Attributes:
+        collided: the robot's footprint touched the scene; the motion stopped before the contact.
+        duration_s: simulated or wall time the motion took, seconds.
+    """
+
+    collided: bool
+    duration_s: float
+
+
+class RobotBackend(abc.ABC):
+    """One robot, in one scene at a time.
+
+    Args (of every factory):
+        robot_spec: the validated robot spec (dict; schema ``robot``).
+        options: backend options, e.g. ``{'seed': 0, 'arch': 'cpu', 'width': 640, 'height': 480}``; unknown keys
+            are ignored.
+    """
+
+    @abc.abstractmethod
+    def load_scene(self, environment: dict, *, seed: int = 0) -> None:
+        """Load ``environment`` (a validated environment spec) and place the robot at its normalised
+        ``start_pose``, at rest, with no collision. Called at the start of every scene and on reset/restart.
+
+        Raises:
+            benchbot.core.errors.BackendError: the scene cannot be loaded.
+        """
+
+    @abc.abstractmethod
+    def base_pose(self) -> np.ndarray:
+        """The robot frame's ground-truth pose, (3,) float64 ``[x m, y m, yaw rad]`` in the ``map`` frame."""
+
+    @abc.abstractmethod
+    def move_to(self, goal: np.ndarray) -> MotionOutcome:
+        """Drive to ``goal`` (3,) ``[x m, y m, yaw rad]`` (map frame) with the pose controller of
+        :mod:`benchbot.core.motion`; stop before any contact with the scene and report it."""
+
+    @abc.abstractmethod
+    def frame_transforms(self) -> dict[str, np.ndarray]:
+        """Ground-truth ``T_map_<frame>`` (4, 4) float64 for every frame the robot spec's ``poses`` lists (except
+        the special ``initial_pose``)."""
+
+    @abc.abstractmethod
+    def observe(self, names: Sequence[str]) -> dict[str, Any]:
+        """Sensor observations in the structures of reference §4, for the names among ``image_rgb``,
+        ``image_depth``, ``image_rgb_info``, ``image_depth_info``, ``laser``, ``image_segment`` that this robot
+        has (``poses`` is built by the episode from :meth:`frame_transforms`).
+
+        Raises:
+            KeyError: a name this backend cannot observe.
+        """
+
+    def close(self) -> None:
+        """Release resources (GPU memory, threads, connections). The backend is not used afterwards."""

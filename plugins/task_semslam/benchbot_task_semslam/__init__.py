@@ -1,0 +1,1 @@
+"""BenchBot plugin package."""
