@@ -1,1 +1,35 @@
-"""Hook implementations (filled in by the plugin)."""
+"""Hook implementations of the ``task_semslam`` plugin: the six semantic SLAM / scene change detection tasks and
+their three object-map formats (YAML specs next to this module)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from benchbot.core.hookspecs import hookimpl
+
+_HERE = Path(__file__).resolve().parent
+TASKS_DIR = _HERE / "tasks"
+FORMATS_DIR = _HERE / "formats"
+
+
+def _yaml_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.suffix in (".yaml", ".yml") and p.is_file())
+
+
+@hookimpl
+def benchbot_tasks() -> list[Path]:
+    """Return the paths of the six task specs (``semantic_slam:*``, ``scd:*``) in ``tasks/``."""
+    return _yaml_files(TASKS_DIR)
+
+
+@hookimpl
+def benchbot_formats() -> list[Path]:
+    """Return the paths of the ``object_map``, ``object_map_with_states`` and ``object_map_ground_truth`` format
+    specs in ``formats/``."""
+    return _yaml_files(FORMATS_DIR)
+
+
+# ----------------------------------------------------------------------------------------------------------------------
+# benchbot_examples: RESERVED — another agent adds the ``benchbot_examples`` hook implementation below this line
+# (specs live in ``examples/``). Nothing else in this file depends on it.
+# ----------------------------------------------------------------------------------------------------------------------

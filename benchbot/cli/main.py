@@ -1,0 +1,50 @@
+"""The ``benchbot`` command: one Typer app, one module per command; plugins add commands through the hook
+``benchbot_commands``."""
+
+from __future__ import annotations
+
+import typer
+
+from benchbot import __version__
+from benchbot.cli import batch_cmd, eval_cmd, list_cmd, run_cmd, show_cmd, submit_cmd
+
+HELP = """BenchBot: benchmark robotics research on simulated and real robots.
+
+Typical use:
+
+  benchbot batch --example semslam_geometric --envs miniroom:1     (run, score, print a table)
+
+  benchbot run --env miniroom:1     then, in another terminal:     benchbot submit --native python my_solution.py
+
+  benchbot eval results.json        (score a results file with OMQ)
+
+See `benchbot list tasks|robots|environments|...` for what is installed.
+"""
+
+app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich")
+for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd):
+    module.register(app)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"benchbot {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", "-v", help="Print the version and exit.", callback=_version, is_eager=True),
+) -> None:
+    """BenchBot."""
+
+
+def main() -> None:
+    """Entry point of the ``benchbot`` script."""
+    from benchbot.cli.common import registry
+
+    try:
+        registry().plugin_manager.hook.benchbot_commands(app=app)
+    except Exception:  # a plugin's command must not break the CLI
+        pass
+    app()

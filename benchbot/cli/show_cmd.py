@@ -1,0 +1,31 @@
+"""``benchbot show KIND NAME``: one spec."""
+
+from __future__ import annotations
+
+import json
+
+import typer
+import yaml
+
+from benchbot.cli.common import handle_errors, out, registry
+from benchbot.cli.list_cmd import Kind
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("show")
+    @handle_errors
+    def show(
+        kind: Kind = typer.Argument(..., help="The kind of spec."),
+        name: str = typer.Argument(..., help="Its name (environments: name:variant, e.g. miniroom:1)."),
+        as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    ) -> None:
+        """Show a spec: where it comes from and its content."""
+        entry = registry().entry(kind.value, name)
+        spec = {k: v for k, v in entry.spec.items() if k != "_file_path"}
+        if as_json:
+            out.print_json(json.dumps(spec))
+            return
+        out.print(f"# {kind.value[:-1]} '{entry.name}' from plugin {entry.plugin}" + (f" ({entry.path})" if entry.path else ""), highlight=False)
+        text = yaml.safe_dump(spec, sort_keys=False, width=110)
+        lines = text.splitlines()
+        out.print("\n".join(lines[:60]) + (f"\n... ({len(lines) - 60} more lines; --json for all)" if len(lines) > 60 else ""), highlight=False)

@@ -1,0 +1,298 @@
+"""The episode: the supervisor's state machine for one task, one robot and one or more scenes.
+
+Semantics follow the original BenchBot supervisor and robot controller (docs/benchbot-reference.md §3–§5), with
+its state-machine bugs fixed (§10.4):
+
+* ``reset`` really returns to scene 0 (the original reloaded the current scene while reporting 0);
+* ``next`` clears ``initial_pose`` along with the trajectory progress (the original kept scene 1's);
+* ``stop`` clears the running state; the default localisation is ``ground_truth`` (the original's default was 1);
+* one switch decides localisation for motion and observations alike: the task's ``localisation`` field.
+
+States: ``scene_index`` (0-based), ``trajectory_next`` (index of the next ``move_next`` pose, ``None`` before the
+first), ``collided`` (latched until the scene is reloaded), ``dirty`` (latched once the robot is more than 1 m or
+2° from the scene's start pose), ``initial_pose`` (``T_map_robot`` captured before the first motion).
+
+All methods must be called from one thread (the backend server's worker thread).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from benchbot.core.errors import ActionError, BackendError
+from benchbot.core.geometry import (
+    pose7_to_se2,
+    pose_observation,
+    se2_compose,
+    se2_relative,
+    se2_to_matrix,
+    wrap_angle,
+)
+from benchbot.core.robot import RobotBackend
+
+ACTIONS = ("move_next", "move_distance", "move_angle")
+DIRTY_DISTANCE_M = 1.0  # reference §5.4: the simulator marks the robot dirty past 1 m or 2° from the start pose
+DIRTY_ANGLE_RAD = math.radians(2.0)
+
+SUCCESS, FINISHED, COLLISION = "SUCCESS", "FINISHED", "COLLISION"
+
+
+class OdometryNoise:
+    """Zero-mean, seeded multiplicative noise on each motion's SE(2) increment (dead-reckoning tasks).
+
+    Each motion's increment (dx, dy, dyaw) in the robot frame becomes (dx·(1+n₁), dy·(1+n₁), dyaw·(1+n₂)) with
+    nᵢ ~ Normal(0, σ) drawn from ``numpy.random.default_rng(seed)``; σ defaults to the original's 0.1 (reference
+    §5.6), whose noise had mean +σ (a bias this model removes).
+    """
+
+    def __init__(self, seed: int, sigma_linear: float = 0.1, sigma_angular: float = 0.1) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.sigma_linear, self.sigma_angular = sigma_linear, sigma_angular
+
+    def apply(self, increment: np.ndarray) -> np.ndarray:
+        """The noisy version of ``increment`` (3,) ``[dx m, dy m, dyaw rad]`` (robot frame)."""
+        n_lin = self.rng.normal(0.0, self.sigma_linear)
+        n_ang = self.rng.normal(0.0, self.sigma_angular)
+        return np.array([increment[0] * (1 + n_lin), increment[1] * (1 + n_lin), increment[2] * (1 + n_ang)])
+
+
+class Episode:
+    """One run of a task on a robot through a list of scenes.
+
+    Args:
+        task: validated task spec.
+        robot: validated robot spec.
+        environments: validated environment specs, one per scene (``len == task.scene_count``).
+        backend: the robot backend (already built).
+        results_format: the task's results-format spec, or ``{}`` when the task has none.
+        seed: seeds the backend's scenes and the odometry noise.
+        on_step: optional callback ``on_step(info: dict)`` after every action (observer hooks).
+
+    Raises:
+        BackendError: the first scene cannot be loaded.
+    """
+
+    def __init__(
+        self,
+        task: dict,
+        robot: dict,
+        environments: Sequence[dict],
+        backend: RobotBackend,
+        *,
+        results_format: dict | None = None,
+        seed: int = 0,
+        on_step: Callable[[dict], None] | None = None,
+    ) -> None:
+        self.task, self.robot, self.environments = task, robot, list(environments)
+        self.results_format = results_format or {}
+        self.backend, self.seed, self.on_step = backend, seed, on_step
+        self.localisation = task.get("localisation", "ground_truth")
+        self.step_count = 0
+        self.running = False
+        self.scene_index = 0
+        self._load(0)
+
+    # ----------------------------------------------------------------------------------------- state
+    def _load(self, scene_index: int) -> None:
+        self.scene_index = scene_index
+        self.backend.load_scene(self.environments[scene_index], seed=self.seed + scene_index)
+        self.start_se2 = pose7_to_se2(self.environments[scene_index]["start_pose"])
+        self.trajectory_next: int | None = None
+        self.collided = False
+        self.dirty = False
+        self.initial_pose: np.ndarray | None = None
+        self.odometry = self.backend.base_pose()  # the estimate reported in noisy localisation
+        self.noise = OdometryNoise(self.seed * 1000 + scene_index)
+        self.running = True
+
+    @property
+    def environment(self) -> dict:
+        """The current scene's environment spec."""
+        return self.environments[self.scene_index]
+
+    @property
+    def config(self) -> dict:
+        """The supervisor's config: ``{task, results, robot, environments}`` (reference §3)."""
+        return {
+            "task": self.task,
+            "results": self.results_format,
+            "robot": self.robot,
+            "environments": self.environments,
+        }
+
+    @property
+    def is_finished(self) -> bool:
+        """The passive trajectory is used up (False before the first ``move_next``)."""
+        trajectory = self.environment.get("trajectory_poses") or []
+        return self.trajectory_next is not None and self.trajectory_next >= len(trajectory)
+
+    @property
+    def actions(self) -> list[str]:
+        """The actions allowed now: none once collided or finished, else the task's."""
+        return [] if (self.collided or self.is_finished) else list(self.task["actions"])
+
+    def state(self) -> dict:
+        """Every flag the client needs after a step: ``is_collided``, ``is_dirty``, ``is_finished``,
+        ``is_running``, ``actions``, ``scene_number``, ``scene_count``, ``step``."""
+        return {
+            "is_collided": self.collided,
+            "is_dirty": self.dirty,
+            "is_finished": self.is_finished,
+            "is_running": self.running,
+            "actions": self.actions,
+            "scene_number": self.scene_index,
+            "scene_count": len(self.environments),
+            "step": self.step_count,
+        }
+
+    def selected_environment(self) -> dict:
+        """``{name, variant, number}`` of the current scene."""
+        env = self.environment
+        return {"name": env["name"], "variant": env["variant"], "number": self.scene_index}
+
+    def result(self) -> str:
+        """``COLLISION`` if collided, else ``FINISHED`` if the trajectory is used up, else ``SUCCESS``."""
+        return COLLISION if self.collided else FINISHED if self.is_finished else SUCCESS
+
+    # ----------------------------------------------------------------------------------------- scenes
+    def next(self) -> bool:
+        """Move to the next scene; False (and nothing changes) at the last scene."""
+        if self.scene_index + 1 >= len(self.environments):
+            return False
+        self._load(self.scene_index + 1)
+        return True
+
+    def reset(self) -> bool:
+        """Back to scene 0 with a fresh state (the robot at its start pose)."""
+        self._load(0)
+        return True
+
+    def restart(self) -> bool:
+        """Reload the current scene (robot back at its start pose); trajectory progress and ``initial_pose`` are
+        kept, as in the original."""
+        trajectory_next, initial_pose = self.trajectory_next, self.initial_pose
+        self._load(self.scene_index)
+        self.trajectory_next, self.initial_pose = trajectory_next, initial_pose
+        return True
+
+    def stop(self) -> bool:
+        """Stop the episode: no more actions are accepted until reset."""
+        self.running = False
+        return True
+
+    # ----------------------------------------------------------------------------------------- actions
+    def _capture_initial_pose(self) -> None:
+        if self.initial_pose is None and not self.dirty:
+            self.initial_pose = se2_to_matrix(*self.backend.base_pose())
+
+    def _control_pose(self) -> np.ndarray:
+        return self.backend.base_pose() if self.localisation != "noisy" else self.odometry
+
+    def act(self, action: str, args: dict | None = None) -> str:
+        """Perform ``action`` with ``args`` and return the result (``SUCCESS``/``FINISHED``/``COLLISION``).
+
+        Args:
+            action: ``move_next``; ``move_distance`` (``{'distance': metres}``, + forward); ``move_angle``
+                (``{'angle': degrees}``, + counter-clockwise). Missing arguments mean 0.
+
+        Raises:
+            ActionError: the action is not allowed now (its message names why: COLLISION, FINISHED, not part of
+                the task, stopped) or an argument is not a finite number.
+        """
+        args = dict(args or {})
+        if not self.running:
+            raise ActionError("the episode is stopped", "call reset to start again")
+        if action not in self.actions:
+            why = "COLLISION" if self.collided else "FINISHED" if self.is_finished else "not an action of this task"
+            raise ActionError(
+                f"action '{action}' refused ({why})", f"allowed now: {', '.join(self.actions) or 'none'}"
+            )
+        if action not in ACTIONS:
+            raise ActionError(f"action '{action}' is not supported by this robot", f"supported: {', '.join(ACTIONS)}")
+        self._capture_initial_pose()
+        current = self._control_pose()
+        if action == "move_next":
+            trajectory = self.environment.get("trajectory_poses") or []
+            if not trajectory:
+                raise ActionError(
+                    f"environment {self.environment['name']}:{self.environment['variant']} has no trajectory_poses",
+                    "move_next needs an environment with a trajectory",
+                )
+            index = self.trajectory_next or 0
+            goal = pose7_to_se2(trajectory[index])
+        else:
+            key, unit = ("distance", 1.0) if action == "move_distance" else ("angle", math.pi / 180.0)
+            value = args.get(key, 0.0)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ActionError(f"{action}: '{key}' must be a finite number, got {value!r}", f"e.g. {{'{key}': 0.5}}")
+            delta = np.array([value, 0.0, 0.0]) if key == "distance" else np.array([0.0, 0.0, value * unit])
+            goal = se2_compose(current, delta)
+        before = self.backend.base_pose()
+        # In noisy localisation the robot steers by its estimate: the motion it makes is the one that would take
+        # the estimate to the goal, applied from where it really is.
+        truth_goal = goal if self.localisation != "noisy" else se2_compose(before, se2_relative(current, goal))
+        try:
+            outcome = self.backend.move_to(truth_goal)
+        except BackendError:
+            raise
+        except Exception as exc:  # a backend bug must reach the user as a clear error, not a dead server
+            raise BackendError(f"robot backend failed during {action}: {exc!r}", "see the backend log") from exc
+        after = self.backend.base_pose()
+        self.odometry = se2_compose(self.odometry, self.noise.apply(se2_relative(before, after)))
+        self.collided = self.collided or outcome.collided
+        if action == "move_next":
+            self.trajectory_next = (self.trajectory_next or 0) + 1
+        moved = se2_relative(self.start_se2, after)
+        if math.hypot(moved[0], moved[1]) > DIRTY_DISTANCE_M or abs(wrap_angle(moved[2])) > DIRTY_ANGLE_RAD:
+            self.dirty = True
+        self.step_count += 1
+        result = self.result()
+        if self.on_step is not None:
+            self.on_step(
+                {"step": self.step_count, "action": action, "args": args, "result": result,
+                 "scene_number": self.scene_index, "pose": after}
+            )
+        return result
+
+    # ----------------------------------------------------------------------------------------- observations
+    def observe(self, names: Sequence[str] | None = None) -> dict[str, Any]:
+        """The observations ``names`` (default: the task's) in the structures of reference §4, plus
+        ``scene_number`` (int, 0-based).
+
+        Raises:
+            ActionError: a name the task does not observe.
+        """
+        names = list(self.task["observations"] if names is None else names)
+        unknown = [n for n in names if n not in self.task["observations"]]
+        if unknown:
+            raise ActionError(
+                f"observation '{unknown[0]}' is not part of task {self.task['name']}",
+                f"available: {', '.join(self.task['observations'])}",
+            )
+        sensors = [n for n in names if n != "poses"]
+        obs = self.backend.observe(sensors) if sensors else {}
+        if "poses" in names:
+            obs["poses"] = self._poses()
+        obs["scene_number"] = self.scene_index
+        return obs
+
+    def _poses(self) -> dict[str, dict]:
+        self._capture_initial_pose()
+        parent = self.robot.get("global_frame", "map")
+        frames = self.backend.frame_transforms()
+        if self.localisation == "noisy":
+            T_true = se2_to_matrix(*self.backend.base_pose())
+            T_believed = se2_to_matrix(*self.odometry)
+            correction = T_believed @ np.linalg.inv(T_true)
+            frames = {name: correction @ T for name, T in frames.items()}
+        out = {}
+        for name in self.robot.get("poses", list(frames)):
+            if name == "initial_pose":
+                if self.initial_pose is not None:
+                    out[name] = pose_observation(self.initial_pose, parent)
+            elif name in frames:
+                out["camera" if "camera_left" in name else name] = pose_observation(frames[name], parent)
+        return out

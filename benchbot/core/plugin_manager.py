@@ -1,0 +1,102 @@
+"""Loading plugins: every module registered under the entry-point group ``benchbot`` is a plugin.
+
+Environment variables:
+    ``BENCHBOT_DISABLE_PLUGINS``: comma-separated entry-point names to skip (e.g. ``sim_taichi,eval_omq``).
+    ``BENCHBOT_ONLY_PLUGINS``: comma-separated entry-point names; when set, every other plugin is skipped (the test
+    suite uses it so installed third-party plugins never load into tests).
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.metadata as md
+import os
+from dataclasses import dataclass, field
+from types import ModuleType
+
+import pluggy
+
+from benchbot.core import hookspecs
+
+
+@dataclass
+class PluginInfo:
+    """One plugin as found through its entry point.
+
+    Attributes:
+        name: the entry-point name (e.g. ``sim_taichi``).
+        module: the module path (e.g. ``benchbot_sim_taichi.plugin``).
+        distribution: the distribution that declares it (e.g. ``benchbot-sim-taichi``), or ``""``.
+        version: that distribution's version, or ``""``.
+        status: ``loaded``, ``disabled`` or ``failed``.
+        error: why it failed to load (one line), or ``""``.
+        registers: filled by the registry: kind → names this plugin contributed.
+    """
+
+    name: str
+    module: str
+    distribution: str = ""
+    version: str = ""
+    status: str = "loaded"
+    error: str = ""
+    registers: dict[str, list[str]] = field(default_factory=dict)
+
+
+def _names_from_env(var: str) -> set[str]:
+    return {n.strip() for n in os.environ.get(var, "").split(",") if n.strip()}
+
+
+def build_plugin_manager(extra_plugins: dict[str, ModuleType | object] | None = None) -> tuple[
+    pluggy.PluginManager, list[PluginInfo]
+]:
+    """A plugin manager with every enabled ``benchbot`` entry point registered.
+
+    Args:
+        extra_plugins: ``{name: module or object}`` registered in addition (tests, embedding applications).
+
+    Returns:
+        ``(plugin_manager, infos)``; a plugin that fails to import is not registered and appears in ``infos`` with
+        ``status='failed'`` and the reason. Never raises for a broken plugin.
+    """
+    pm = pluggy.PluginManager(hookspecs.PROJECT_NAME)
+    for hook_class in hookspecs.HOOK_CLASSES:
+        pm.add_hookspecs(hook_class)
+    disabled = _names_from_env("BENCHBOT_DISABLE_PLUGINS")
+    only = _names_from_env("BENCHBOT_ONLY_PLUGINS")
+    infos: list[PluginInfo] = []
+    seen: set[str] = set()
+    for ep in sorted(md.entry_points(group=hookspecs.ENTRY_POINT_GROUP), key=lambda e: e.name):
+        if ep.name in seen:  # the same distribution visible twice on sys.path
+            continue
+        seen.add(ep.name)
+        dist = getattr(ep, "dist", None)
+        info = PluginInfo(
+            name=ep.name,
+            module=ep.value,
+            distribution=dist.metadata["Name"] if dist is not None else "",
+            version=dist.version if dist is not None else "",
+        )
+        infos.append(info)
+        if ep.name in disabled or (only and ep.name not in only):
+            info.status = "disabled"
+            continue
+        try:
+            plugin = ep.load()
+            pm.register(plugin, name=ep.name)
+        except Exception as exc:  # a broken third-party plugin must not break the others
+            info.status, info.error = "failed", f"{type(exc).__name__}: {exc}".splitlines()[0]
+    for name, plugin in (extra_plugins or {}).items():
+        pm.register(plugin, name=name)
+        infos.append(PluginInfo(name=name, module=getattr(plugin, "__name__", repr(plugin))))
+    return pm, infos
+
+
+def import_object(path: str) -> object:
+    """The object named by an import path ``"package.module:attr"``.
+
+    Raises:
+        ImportError, AttributeError: the module or attribute does not exist.
+    """
+    module_name, _, attr = path.partition(":")
+    module = importlib.import_module(module_name)
+    return getattr(module, attr) if attr else module

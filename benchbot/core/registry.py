@@ -1,0 +1,263 @@
+"""The registry: every spec contributed by plugins, validated against ``schemas/`` and indexed by name.
+
+Kinds and their schemas: tasks (``task``), robots (``robot``), environments (``environment``, indexed as
+``name:variant``), formats (``format``), evaluators (``evaluator``), examples (``example``), batches (``batch``),
+ground_truths (``ground_truth``, indexed by its environment's ``name:variant``).
+
+A spec that fails to load or validate, or whose name clashes with another, is kept out and recorded in
+:attr:`Registry.problems`; asking for it raises :class:`~benchbot.core.errors.SpecError` with that problem.
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, Callable
+
+import jsonschema
+import yaml
+
+from benchbot.core.errors import SpecError
+from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
+
+KIND_SCHEMAS = {
+    "tasks": "task",
+    "robots": "robot",
+    "environments": "environment",
+    "formats": "format",
+    "evaluators": "evaluator",
+    "examples": "example",
+    "batches": "batch",
+    "ground_truths": "ground_truth",
+}
+
+
+def schema_dir() -> Path:
+    """The folder of the JSON Schemas: inside the installed wheel, or the repository's ``schemas/``."""
+    packaged = resources.files("benchbot") / "schemas"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parents[2] / "schemas"
+
+
+@functools.lru_cache(maxsize=None)
+def validator(schema_name: str) -> jsonschema.Draft202012Validator:
+    """The Draft 2020-12 validator of ``schemas/<schema_name>.schema.json``."""
+    schema = json.loads((schema_dir() / f"{schema_name}.schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    return jsonschema.Draft202012Validator(schema)
+
+
+def json_path(path: "list[Any] | Any") -> str:
+    """``$.a.b[3].c`` from a jsonschema error path."""
+    out = "$"
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else f".{part}"
+    return out
+
+
+def validate(instance: Any, schema_name: str, source: str) -> None:
+    """Validate ``instance`` against ``schemas/<schema_name>.schema.json``.
+
+    Raises:
+        SpecError: ``"<source>: <$.json.path>: <message>"`` for the first error (by path).
+    """
+    errors = sorted(validator(schema_name).iter_errors(instance), key=lambda e: list(map(str, e.absolute_path)))
+    if errors:
+        err = errors[0]
+        raise SpecError(
+            f"{source}: {json_path(err.absolute_path)}: {err.message}",
+            f"fix the field to match schemas/{schema_name}.schema.json",
+        )
+
+
+def load_spec_file(path: Path) -> dict:
+    """Parse a YAML or JSON spec file into a dict.
+
+    Raises:
+        SpecError: the file is missing, unreadable, malformed, or not a mapping.
+    """
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot read: {exc.strerror}", "check the path") from None
+    try:
+        data = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
+    except (yaml.YAMLError, json.JSONDecodeError) as exc:
+        where = getattr(exc, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else (f" (line {exc.lineno})" if hasattr(exc, "lineno") else "")
+        raise SpecError(f"{path}: not valid {'JSON' if path.suffix == '.json' else 'YAML'}{line}", "fix the syntax") from None
+    if not isinstance(data, dict):
+        raise SpecError(f"{path}: expected a mapping at the top level, got {type(data).__name__}", "")
+    return data
+
+
+@dataclass
+class Entry:
+    """One registered spec.
+
+    Attributes:
+        kind: the registry kind (``tasks``, ``environments``, ...).
+        name: its index name (``name`` field; ``name:variant`` for environments and ground truths).
+        spec: the validated spec (dict). File specs get ``_file_path`` (absolute path) as in the original.
+        plugin: the name of the plugin that contributed it.
+        path: the spec's file, or ``None`` when a plugin gave a dict.
+    """
+
+    kind: str
+    name: str
+    spec: dict
+    plugin: str
+    path: Path | None
+
+
+def entry_name(kind: str, spec: dict) -> str:
+    """The index name of a spec of ``kind``."""
+    if kind == "environments":
+        return f"{spec['name']}:{spec['variant']}"
+    if kind == "ground_truths":
+        return f"{spec['environment']['name']}:{spec['environment']['variant']}"
+    return str(spec["name"])
+
+
+class Registry:
+    """All content of all enabled plugins.
+
+    Args:
+        extra_plugins: plugins registered in addition to the entry points (see ``build_plugin_manager``).
+    """
+
+    def __init__(self, extra_plugins: dict | None = None) -> None:
+        self.plugin_manager, self.plugins = build_plugin_manager(extra_plugins)
+        self.entries: dict[str, dict[str, Entry]] = {kind: {} for kind in KIND_SCHEMAS}
+        self.problems: dict[tuple[str, str], str] = {}  # (kind, name or source) -> one-line problem
+        self.backend_factories: dict[str, tuple[str, Callable]] = {}
+        infos = {p.name: p for p in self.plugins}
+        for kind, schema_name in KIND_SCHEMAS.items():
+            hook = getattr(self.plugin_manager.hook, f"benchbot_{kind}")
+            for impl in hook.get_hookimpls():
+                try:
+                    specs = impl.function() or []
+                except Exception as exc:
+                    self.problems[(kind, impl.plugin_name)] = f"plugin {impl.plugin_name}: benchbot_{kind}() raised {exc!r}"
+                    continue
+                for raw in specs:
+                    self._add(kind, schema_name, raw, impl.plugin_name, infos.get(impl.plugin_name))
+        for impl in self.plugin_manager.hook.benchbot_robot_backends.get_hookimpls():
+            for type_name, factory in (impl.function() or {}).items():
+                if type_name in self.backend_factories:
+                    other = self.backend_factories[type_name][0]
+                    self.problems[("robot_backends", type_name)] = (
+                        f"robot type '{type_name}' is offered by plugins '{other}' and '{impl.plugin_name}'"
+                    )
+                    continue
+                self.backend_factories[type_name] = (impl.plugin_name, factory)
+                if impl.plugin_name in infos:
+                    infos[impl.plugin_name].registers.setdefault("robot_backends", []).append(type_name)
+
+    def _add(self, kind: str, schema_name: str, raw: Any, plugin: str, info: PluginInfo | None) -> None:
+        path = Path(raw).resolve() if isinstance(raw, (str, Path)) else None
+        source = str(path) if path else f"plugin {plugin} ({kind})"
+        try:
+            spec = load_spec_file(path) if path else dict(raw)
+            validate(spec, schema_name, source)
+        except SpecError as exc:
+            self.problems[(kind, source)] = exc.message
+            return
+        if path:
+            spec["_file_path"] = str(path)
+        name = entry_name(kind, spec)
+        if name in self.entries[kind]:
+            first = self.entries[kind][name]
+            self.problems[(kind, name)] = (
+                f"{kind[:-1]} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
+                f"and by plugin '{plugin}' ({path or 'dict'})"
+            )
+            return
+        self.entries[kind][name] = Entry(kind, name, spec, plugin, path)
+        if info is not None:
+            info.registers.setdefault(kind, []).append(name)
+
+    def names(self, kind: str) -> list[str]:
+        """Sorted names of every valid entry of ``kind``."""
+        return sorted(self.entries[kind])
+
+    def entry(self, kind: str, name: str) -> Entry:
+        """The entry ``name`` of ``kind``.
+
+        Raises:
+            SpecError: it does not exist (with close matches as the hint) or it has a recorded problem.
+        """
+        if (kind, name) in self.problems:
+            raise SpecError(self.problems[(kind, name)], "remove or rename one of the two")
+        try:
+            return self.entries[kind][name]
+        except KeyError:
+            singular = kind[:-1].replace("_", " ")
+            close = difflib.get_close_matches(name, self.names(kind), n=3)
+            hint = f"did you mean {', '.join(close)}?" if close else f"see `benchbot list {kind}`"
+            raise SpecError(f"no {singular} named '{name}'", hint) from None
+
+    def get(self, kind: str, name: str) -> dict:
+        """The spec ``name`` of ``kind`` (see :meth:`entry`)."""
+        return self.entry(kind, name).spec
+
+    def scenes(self, env_string: str) -> list[dict]:
+        """The environment specs of an environment string: ``miniroom:1`` → one, ``miniroom:1:2`` → two
+        (the name is everything before the first ':'; every later field is a variant, reference §1.2).
+
+        Raises:
+            SpecError: malformed string or unknown environment.
+        """
+        name, _, variants = env_string.partition(":")
+        if not name or not variants or "" in variants.split(":"):
+            raise SpecError(
+                f"environment '{env_string}' is not of the form NAME:VARIANT[:VARIANT...]", "e.g. miniroom:1 or house:1:2"
+            )
+        return [self.get("environments", f"{name}:{v}") for v in variants.split(":")]
+
+    def ground_truth(self, env_name: str) -> dict:
+        """The ground truth of environment ``name:variant`` (raises SpecError when there is none)."""
+        return self.get("ground_truths", env_name)
+
+    def backend_factory(self, robot_type: str) -> Callable:
+        """The robot-backend factory for robot ``type``.
+
+        Raises:
+            SpecError: no enabled plugin offers it.
+        """
+        if robot_type not in self.backend_factories:
+            types = ", ".join(sorted(self.backend_factories)) or "none"
+            raise SpecError(
+                f"no plugin provides robots of type '{robot_type}' (available: {types})",
+                "install the plugin for it (e.g. benchbot-sim-taichi for sim_taichi) or check BENCHBOT_DISABLE_PLUGINS",
+            )
+        return self.backend_factories[robot_type][1]
+
+    def functions(self, kind: str, name: str) -> dict[str, Callable]:
+        """The ``functions`` of a format or evaluator spec, imported: ``{function name: callable}``.
+
+        Raises:
+            SpecError: a function cannot be imported.
+        """
+        spec = self.get(kind, name)
+        out = {}
+        for fn_name, path in spec.get("functions", {}).items():
+            try:
+                out[fn_name] = import_object(path)
+            except (ImportError, AttributeError) as exc:
+                raise SpecError(
+                    f"{kind[:-1]} '{name}': functions.{fn_name}: cannot import '{path}': {exc}",
+                    "check that the plugin providing it is installed",
+                ) from None
+        return out
+
+
+@functools.lru_cache(maxsize=1)
+def get_registry() -> Registry:
+    """The process-wide registry of the installed, enabled plugins (built once)."""
+    return Registry()

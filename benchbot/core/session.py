@@ -1,0 +1,107 @@
+"""Resolving and starting a run: task + robot + environment(s) → a validated combination → a backend service.
+
+Validation follows the original ``benchbot_run`` (reference §1.2), in order, with its unchecked cases checked:
+the robot exists; the task exists; the task's results format exists; every scene exists; the robot's type equals
+every scene's type; a plugin provides a backend for that type (the original's check never failed); the number of
+scenes equals the task's ``scene_count``; the robot offers every action and observation of the task (§3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from benchbot.core.episode import Episode
+from benchbot.core.errors import SpecError
+from benchbot.core.registry import Registry
+from benchbot.core.server import BackendService
+
+
+@dataclass
+class RunSpec:
+    """A validated combination.
+
+    Attributes:
+        task, robot: their specs. environments: one spec per scene. results_format: the format spec or ``{}``.
+        env_string: ``name:v1[:v2]``.
+    """
+
+    task: dict
+    robot: dict
+    environments: list[dict]
+    results_format: dict
+    env_string: str
+
+
+def resolve_run(registry: Registry, task_name: str, robot_name: str, env_string: str) -> RunSpec:
+    """Validate a task/robot/environment combination (module doc lists the checks).
+
+    Raises:
+        SpecError: the first failing check, naming what and how to fix it.
+    """
+    robot = registry.get("robots", robot_name)
+    task = registry.get("tasks", task_name)
+    results_format = registry.get("formats", task["results_format"]) if task.get("results_format") else {}
+    environments = registry.scenes(env_string)
+    for env in environments:
+        if env["type"] != robot["type"]:
+            raise SpecError(
+                f"robot '{robot_name}' is of type '{robot['type']}' but environment {env['name']}:{env['variant']} "
+                f"is of type '{env['type']}'",
+                "choose a robot of the environment's type (`benchbot list robots`)",
+            )
+    registry.backend_factory(robot["type"])
+    scene_count = task.get("scene_count", 1)
+    if len(environments) != scene_count:
+        raise SpecError(
+            f"task '{task_name}' needs {scene_count} scene(s) but '{env_string}' gives {len(environments)}",
+            "e.g. miniroom:1 for single-scene tasks, miniroom:1:2 for scene change detection",
+        )
+    offered = set(robot.get("connections", {}))
+    for kind in ("actions", "observations"):
+        missing = [n for n in task[kind] if n not in offered]
+        if missing:
+            raise SpecError(
+                f"robot '{robot_name}' lacks the {kind} {', '.join(missing)} that task '{task_name}' needs",
+                "choose another robot or task",
+            )
+    return RunSpec(task, robot, environments, results_format, env_string)
+
+
+def start_service(
+    registry: Registry,
+    run: RunSpec,
+    *,
+    seed: int = 0,
+    options: dict | None = None,
+    on_step: Callable[[dict], None] | None = None,
+) -> BackendService:
+    """Build the robot backend and the episode on the backend worker thread.
+
+    Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``.
+
+    Raises:
+        SpecError, BackendError: the backend or the first scene cannot be built.
+    """
+    factory = registry.backend_factory(run.robot["type"])
+    hook = registry.plugin_manager.hook
+
+    def step_observer(info: dict) -> None:
+        hook.benchbot_step(info=info)
+        if on_step is not None:
+            on_step(info)
+
+    def build() -> Episode:
+        backend = factory(run.robot, {"seed": seed, **(options or {})})
+        episode = Episode(
+            run.task, run.robot, run.environments, backend,
+            results_format=run.results_format, seed=seed, on_step=step_observer,
+        )
+        hook.benchbot_episode_started(
+            info={"task": run.task["name"], "robot": run.robot["name"],
+                  "environments": [f"{e['name']}:{e['variant']}" for e in run.environments]}
+        )
+        return episode
+
+    functions = registry.functions("formats", run.task["results_format"]) if run.task.get("results_format") else {}
+    return BackendService(build, functions)

@@ -1,0 +1,232 @@
+"""``TaichiSimBackend``: the :class:`~benchbot.core.robot.RobotBackend` of robots of type ``sim_taichi``.
+
+The robot is a differential-drive base with a circular footprint moving on the floor of a box scene
+(:mod:`benchbot_sim_taichi.scene`), driven by :class:`benchbot.core.motion.PoseController` in simulated time;
+its RGB-D camera, segmentation and planar laser are ray cast with Taichi (:mod:`benchbot_sim_taichi.renderer`,
+imported on first use). Use from one thread.
+
+Frames (all ``T_map_<frame>`` (4, 4) float64): ``robot`` (x forward, y left, z up, on the floor under the base
+centre); ``camera`` (OPTICAL frame: z forward, x right, y down) at the mount of ``sensors.camera``; ``lidar``
+(x forward, z up) at ``sensors.laser.mount_xyz``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from benchbot.core.errors import BackendError
+from benchbot.core.geometry import se2_to_matrix
+from benchbot.core.motion import ControllerGains
+from benchbot.core.robot import MotionOutcome, RobotBackend
+
+from benchbot_sim_taichi.kinematics import Obstacles, drive
+from benchbot_sim_taichi.scene import Scene, build_scene
+
+#: Defaults of the robot spec's ``sensors`` block.
+DEFAULT_SENSORS: dict[str, Any] = {
+    "camera": {"width": 640, "height": 480, "horizontal_fov_deg": 90.0, "mount_xyz": [0.08, 0.0, 0.8],
+               "mount_rpy_deg": [0.0, 0.0, 0.0]},
+    "laser": {"mount_xyz": [0.0, 0.0, 0.3], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
+              "range_min": 0.1, "range_max": 20.0},
+    "footprint_radius_m": 0.25,
+    "max_height_m": 1.0,
+}
+
+#: Rotation (3, 3) of the camera OPTICAL frame in the camera body frame (x forward, y left, z up).
+R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
+_IMAGE_NAMES = ("image_rgb", "image_depth", "image_segment")
+
+
+def _rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw),
+                              math.sin(yaw))
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1.0]])
+    Ry = np.array([[cp, 0, sp], [0, 1.0, 0], [-sp, 0, cp]])
+    Rx = np.array([[1.0, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    return Rz @ Ry @ Rx
+
+
+def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]:
+    """The robot spec's ``sensors`` block merged over :data:`DEFAULT_SENSORS`; ``options['width'/'height']``
+    override the camera size."""
+    src = dict(robot_spec.get("sensors") or {})
+    cfg: dict[str, Any] = {}
+    for key, default in DEFAULT_SENSORS.items():
+        if isinstance(default, dict):
+            cfg[key] = {**default, **(src.get(key) or {})}
+        else:
+            cfg[key] = float(src.get(key, default))
+    options = options or {}
+    if options.get("width"):
+        cfg["camera"]["width"] = int(options["width"])
+    if options.get("height"):
+        cfg["camera"]["height"] = int(options["height"])
+    return cfg
+
+
+class TaichiSimBackend(RobotBackend):
+    """Simulated ``sim_taichi`` robot (see the module docstring for frames).
+
+    Args:
+        robot_spec: the robot spec (``sensors`` block optional, defaults :data:`DEFAULT_SENSORS`; ``speed_factor``
+            optional).
+        options: ``seed`` (int, default 0: colour variation), ``arch`` (``'cpu'``/``'gpu'``/``'cuda'``; default
+            env ``BENCHBOT_TAICHI_ARCH`` or cpu), ``width``/``height`` (camera size override, pixels); others ignored.
+    """
+
+    def __init__(self, robot_spec: dict, options: dict | None = None) -> None:
+        self.robot_spec = dict(robot_spec)
+        self.options = dict(options or {})
+        self.sensors = sensor_config(self.robot_spec, self.options)
+        cam = self.sensors["camera"]
+        self.width, self.height = int(cam["width"]), int(cam["height"])
+        fx = (self.width / 2.0) / math.tan(math.radians(float(cam["horizontal_fov_deg"])) / 2.0)
+        self.K = np.array([[fx, 0.0, (self.width - 1) / 2.0], [0.0, fx, (self.height - 1) / 2.0], [0.0, 0.0, 1.0]])
+        T = np.eye(4)
+        T[:3, :3] = _rpy_matrix(*np.radians(np.asarray(cam["mount_rpy_deg"], dtype=np.float64))) @ R_BODY_OPTICAL
+        T[:3, 3] = np.asarray(cam["mount_xyz"], dtype=np.float64)
+        self.T_robot_camera = T
+        las = self.sensors["laser"]
+        self.T_robot_lidar = np.eye(4)
+        self.T_robot_lidar[:3, 3] = np.asarray(las["mount_xyz"], dtype=np.float64)
+        a0, a1, nb = math.radians(float(las["angle_min_deg"])), math.radians(float(las["angle_max_deg"])), int(las["beams"])
+        full = abs((a1 - a0) - 2.0 * math.pi) < 1e-9
+        inc = (a1 - a0) / nb if full else ((a1 - a0) / (nb - 1) if nb > 1 else 0.0)
+        self.laser_angles = a0 + inc * np.arange(nb, dtype=np.float64)
+        self.laser_angles_wrapped = (self.laser_angles + math.pi) % (2.0 * math.pi) - math.pi
+        self.range_min, self.range_max = float(las["range_min"]), float(las["range_max"])
+        self.radius = float(self.sensors["footprint_radius_m"])
+        self.max_height = float(self.sensors["max_height_m"])
+        self.gains = ControllerGains(speed_factor=float(self.robot_spec.get("speed_factor", 1.0) or 1.0))
+        self._renderer = None
+        self.scene: Scene | None = None
+        self.obstacles: Obstacles | None = None
+        self._pose = np.zeros(3)
+        self._cache: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------------------------------------ contract
+    def load_scene(self, environment: dict, *, seed: int = 0) -> None:
+        """Build the scene of ``environment`` (its ``map_path`` is a BEAR ground-truth JSON), place the robot at the
+        normalised start pose (x, y, yaw; on the floor) and clear cached observations.
+
+        Raises:
+            BackendError: the map file is missing or malformed, or the start pose collides with the scene.
+        """
+        seed = int(self.options.get("seed", 0) if seed is None else seed)
+        scene = build_scene(environment, seed=seed)
+        if self._renderer is None:
+            from benchbot_sim_taichi.renderer import Renderer  # Taichi is imported and initialised here
+
+            self._renderer = Renderer(self.options.get("arch"))
+        self._renderer.set_scene(scene)
+        self.scene = scene
+        self.obstacles = Obstacles.from_scene(scene, self.radius, self.max_height)
+        self._pose = scene.start_se2.copy()
+        self._cache = {}
+        clearance, what = self.obstacles.clearance(self._pose[:2])
+        if clearance <= 0.0:
+            raise BackendError(
+                f"environment {environment.get('name')}:{environment.get('variant')}: the start pose "
+                f"{self._pose.round(3).tolist()} collides with {what}",
+                "move the start pose away from the objects, or reduce sensors.footprint_radius_m")
+
+    def _need_scene(self) -> Scene:
+        if self.scene is None:
+            raise BackendError("no scene is loaded in the sim_taichi backend", "call load_scene(environment) first")
+        return self.scene
+
+    def base_pose(self) -> np.ndarray:
+        """(3,) float64 ``[x m, y m, yaw rad]`` of the robot frame in ``map``."""
+        return self._pose.copy()
+
+    def move_to(self, goal: np.ndarray) -> MotionOutcome:
+        """Drive to ``goal`` (3,) ``[x, y, yaw]`` (map) with the pose controller in simulated time (no sleeping).
+        Each step is checked first: if the footprint circle would touch a wall or an object box whose bottom is
+        below ``max_height_m``, the robot stays where it is and ``collided`` is True.
+
+        Raises:
+            BackendError: no scene is loaded.
+        """
+        self._need_scene()
+        pose, outcome = drive(self._pose, np.asarray(goal, dtype=np.float64).reshape(3), self.obstacles, self.gains)
+        if not np.array_equal(pose, self._pose):
+            self._cache = {}
+        self._pose = pose
+        return outcome
+
+    def frame_transforms(self) -> dict[str, np.ndarray]:
+        """``{'robot': T_map_robot, 'camera': T_map_camera (optical), 'lidar': T_map_lidar}``, (4, 4) float64 each,
+        plus the robot spec's ``robot_frame`` name if it is not ``robot``."""
+        T_map_robot = se2_to_matrix(*self._pose)
+        out = {"robot": T_map_robot, "camera": T_map_robot @ self.T_robot_camera, "lidar": T_map_robot @ self.T_robot_lidar}
+        rf = self.robot_spec.get("robot_frame")
+        if rf and rf not in out:
+            out[rf] = T_map_robot.copy()
+        return out
+
+    def _render(self) -> dict[str, np.ndarray]:
+        if "render" not in self._cache:
+            T = se2_to_matrix(*self._pose) @ self.T_robot_camera
+            self._cache["render"] = self._renderer.render(self.K, T, self.width, self.height)
+        return self._cache["render"]
+
+    def _info(self) -> dict[str, Any]:
+        P = np.zeros((3, 4))
+        P[:, :3] = self.K
+        return {"frame_id": "camera", "height": self.height, "width": self.width,
+                "matrix_intrinsics": self.K.copy(), "matrix_projection": P}
+
+    def observe(self, names: Sequence[str]) -> dict[str, Any]:
+        """Observations (reference §4) for ``names`` among :data:`OBSERVATIONS`; rendered once per pose and cached.
+
+        Returns per name: ``image_rgb`` (H, W, 3) uint8 RGB; ``image_depth`` (H, W) float32 z-depth metres (0: no
+        hit); ``image_rgb_info``/``image_depth_info`` ``{frame_id, height, width, matrix_intrinsics (3,3),
+        matrix_projection (3,4) = [K|0]}``; ``laser`` ``{scans (N,2) float64 [range m (clipped to range_max),
+        angle rad in [-π,π)], range_min, range_max}``; ``image_segment`` ``{class_segment_img (H,W) uint8,
+        instance_segment_img (H,W) int32 class*1000+instance (0: background), class_ids {name: id}}``.
+
+        Raises:
+            KeyError: a name this backend cannot observe. BackendError: no scene is loaded.
+        """
+        for n in names:
+            if n not in OBSERVATIONS:
+                raise KeyError(n)
+        scene = self._need_scene()
+        out: dict[str, Any] = {}
+        for n in names:
+            if n == "image_rgb":
+                out[n] = self._render()["rgb"].copy()
+            elif n == "image_depth":
+                out[n] = self._render()["depth"].copy()
+            elif n in ("image_rgb_info", "image_depth_info"):
+                out[n] = self._info()
+            elif n == "image_segment":
+                r = self._render()
+                out[n] = {"class_segment_img": r["class"].astype(np.uint8),
+                          "instance_segment_img": r["instance"].astype(np.int32, copy=True),
+                          "class_ids": dict(scene.class_ids)}
+            elif n == "laser":
+                if "laser" not in self._cache:
+                    T = se2_to_matrix(*self._pose) @ self.T_robot_lidar
+                    ranges = np.minimum(self._renderer.scan(T, self.laser_angles), self.range_max)
+                    self._cache["laser"] = np.stack([ranges, self.laser_angles_wrapped], axis=1)
+                out[n] = {"scans": self._cache["laser"].copy(), "range_min": self.range_min,
+                          "range_max": self.range_max}
+        return out
+
+    def close(self) -> None:
+        """Drop the scene and caches (Taichi's runtime stays up for the process)."""
+        self._cache = {}
+        self.scene = None
+        self._renderer = None
+
+
+def create_backend(robot_spec: dict, options: dict) -> TaichiSimBackend:
+    """Factory of the ``sim_taichi`` robot type: ``create_backend(robot_spec, options) -> TaichiSimBackend``.
+    Taichi is imported and initialised on the first ``load_scene``."""
+    return TaichiSimBackend(robot_spec, options)

@@ -1,0 +1,105 @@
+"""Planar robot motion for the Taichi simulator (pure NumPy/math, no Taichi): exact unicycle integration of the
+pose controller's commands and a circular-footprint collision check against the room walls and object boxes.
+
+Frames and units: SE(2) poses ``[x m, y m, yaw rad]`` in the ``map`` frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from benchbot.core.geometry import wrap_angle
+from benchbot.core.motion import ControllerGains, PoseController
+from benchbot.core.robot import MotionOutcome
+
+
+def integrate_unicycle(pose: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
+    """Exact pose (3,) float64 after driving at constant ``v`` (m/s) and ``w`` (rad/s) for ``dt`` seconds from
+    ``pose`` (3,) ``[x, y, yaw]``; yaw wrapped to [-π, π)."""
+    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
+    if abs(w) < 1e-9:
+        x += v * math.cos(th) * dt
+        y += v * math.sin(th) * dt
+    else:
+        th1 = th + w * dt
+        x += v / w * (math.sin(th1) - math.sin(th))
+        y -= v / w * (math.cos(th1) - math.cos(th))
+    return np.array([x, y, wrap_angle(th + w * dt)])
+
+
+@dataclass
+class Obstacles:
+    """The obstacles of the robot's footprint.
+
+    Attributes:
+        rect_min, rect_max: (K, 2) float64 xy rectangles of the object boxes whose bottom is below the robot's
+            ``max_height_m`` (the others pass over the robot).
+        names: (K,) object names (for messages).
+        room_min, room_max: (2,) float64 xy of the walls' inner faces.
+        radius: footprint radius, metres.
+    """
+
+    rect_min: np.ndarray
+    rect_max: np.ndarray
+    names: list[str]
+    room_min: np.ndarray
+    room_max: np.ndarray
+    radius: float
+
+    @classmethod
+    def from_scene(cls, scene, radius: float, max_height: float) -> "Obstacles":
+        """Obstacles of a :class:`~benchbot_sim_taichi.scene.Scene` for a robot of footprint ``radius`` (m) and
+        height ``max_height`` (m): every object box with ``min z < max_height``, and the four walls."""
+        keep = scene.box_min[:, 2].astype(np.float64) < max_height
+        return cls(
+            rect_min=scene.box_min[keep, :2].astype(np.float64),
+            rect_max=scene.box_max[keep, :2].astype(np.float64),
+            names=[n for n, k in zip(scene.box_names, keep) if k],
+            room_min=scene.room_min[:2].astype(np.float64),
+            room_max=scene.room_max[:2].astype(np.float64),
+            radius=float(radius),
+        )
+
+    def clearance(self, xy: np.ndarray) -> tuple[float, str]:
+        """Signed clearance (m) between the footprint at ``xy`` (2,) and the nearest obstacle (negative: overlap),
+        and that obstacle's name (``'wall'`` for the walls)."""
+        p = np.asarray(xy, dtype=np.float64)[:2]
+        wall = float(min(p[0] - self.room_min[0], self.room_max[0] - p[0],
+                         p[1] - self.room_min[1], self.room_max[1] - p[1])) - self.radius
+        best, name = wall, "wall"
+        if len(self.rect_min):
+            q = np.clip(p, self.rect_min, self.rect_max)
+            d = np.hypot(q[:, 0] - p[0], q[:, 1] - p[1]) - self.radius
+            i = int(np.argmin(d))
+            if d[i] < best:
+                best, name = float(d[i]), self.names[i]
+        return best, name
+
+    def collides(self, xy: np.ndarray) -> bool:
+        """Whether the footprint circle centred at ``xy`` (2,) touches a wall or an obstacle box."""
+        return self.clearance(xy)[0] <= 0.0
+
+
+def drive(pose: np.ndarray, goal: np.ndarray, obstacles: Obstacles | None,
+          gains: ControllerGains = ControllerGains()) -> tuple[np.ndarray, MotionOutcome]:
+    """Drive from ``pose`` to ``goal`` (both (3,) ``[x, y, yaw]``) with :class:`PoseController`, integrating each
+    command exactly over ``1 / gains.rate_hz`` seconds of simulated time. Before each step, the next pose is checked
+    against ``obstacles``; on contact the robot stays at the current pose and the outcome says ``collided``.
+
+    Returns:
+        (final pose (3,) float64, :class:`MotionOutcome` with the simulated duration including ``settle_s``).
+    """
+    dt = 1.0 / gains.rate_hz
+    ctl = PoseController(np.asarray(goal, dtype=np.float64), gains)
+    pose = np.asarray(pose, dtype=np.float64).copy()
+    t = 0.0
+    while (cmd := ctl.command(pose)) is not None:
+        nxt = integrate_unicycle(pose, cmd[0], cmd[1], dt)
+        if obstacles is not None and obstacles.collides(nxt[:2]):
+            return pose, MotionOutcome(collided=True, duration_s=t)
+        pose = nxt
+        t += dt
+    return pose, MotionOutcome(collided=False, duration_s=t + gains.settle_s)

@@ -1,0 +1,182 @@
+"""TaichiSimBackend: the RobotBackend contract, motion, collisions, observations, determinism."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from benchbot.core.errors import BackendError
+from benchbot.core.geometry import pose7_to_se2, se2_compose, se2_relative
+from benchbot.core.robot import MotionOutcome, RobotBackend
+
+ALL = ["image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment"]
+
+
+def _reached(pose, goal):
+    e = se2_relative(pose, goal)
+    return math.hypot(e[0], e[1]) <= 0.01 + 1e-9 and abs(e[2]) <= math.radians(1.0) + 1e-9
+
+
+def test_factory_and_start_pose(bear_envs, carter_spec):
+    from benchbot_sim_taichi import plugin
+
+    b = plugin.benchbot_robot_backends()["sim_taichi"](carter_spec, {"width": 32, "height": 24})
+    assert isinstance(b, RobotBackend)
+    with pytest.raises(BackendError):
+        b.observe(["image_rgb"])
+    env = bear_envs["house:1"]  # start quaternion [1,0,0,0.8] is not unit length
+    b.load_scene(env)
+    p = b.base_pose()
+    assert p.shape == (3,) and p.dtype == np.float64
+    np.testing.assert_allclose(p, pose7_to_se2(env["start_pose"]))
+    assert math.degrees(p[2]) == pytest.approx(77.32, abs=0.01)
+    tf = b.frame_transforms()
+    assert set(tf) >= {"robot", "camera", "lidar"}
+    assert tf["robot"][2, 3] == 0.0
+    cam = tf["camera"]
+    # optical frame: z forward (= robot +x), x right (= robot -y), y down; ~0.8 m high
+    R_robot = tf["robot"][:3, :3]
+    np.testing.assert_allclose(cam[:3, 2], R_robot[:, 0], atol=1e-12)
+    np.testing.assert_allclose(cam[:3, 0], -R_robot[:, 1], atol=1e-12)
+    np.testing.assert_allclose(cam[:3, 1], [0, 0, -1], atol=1e-12)
+    assert cam[2, 3] == pytest.approx(0.8)
+    b.close()
+
+
+def test_observe_structures_and_cache(bear_envs, make_backend, monkeypatch):
+    b = make_backend(40, 30)
+    b.load_scene(bear_envs["miniroom:1"])
+    calls = []
+    real = b._renderer.render
+    monkeypatch.setattr(b._renderer, "render", lambda *a, **k: calls.append(1) or real(*a, **k))
+    obs = b.observe(ALL)
+    assert set(obs) == set(ALL)
+    obs2 = b.observe(["image_depth", "image_segment", "image_rgb"])
+    assert len(calls) == 1
+    rgb, depth = obs["image_rgb"], obs["image_depth"]
+    assert rgb.shape == (30, 40, 3) and rgb.dtype == np.uint8
+    assert depth.shape == (30, 40) and depth.dtype == np.float32 and np.all(depth > 0)
+    assert np.array_equal(obs2["image_depth"], depth)
+    for k in ("image_rgb_info", "image_depth_info"):
+        info = obs[k]
+        assert info["frame_id"] == "camera" and (info["height"], info["width"]) == (30, 40)
+        K, P = info["matrix_intrinsics"], info["matrix_projection"]
+        assert K.shape == (3, 3) and P.shape == (3, 4) and K.dtype == np.float64
+        np.testing.assert_array_equal(P[:, :3], K)
+        np.testing.assert_array_equal(P[:, 3], 0)
+    las = obs["laser"]
+    sc = las["scans"]
+    assert sc.shape == (360, 2) and sc.dtype == np.float64
+    assert np.all(sc[:, 1] >= -math.pi) and np.all(sc[:, 1] < math.pi)
+    assert np.all(sc[:, 0] <= las["range_max"]) and np.all(sc[:, 0] >= 0.25)  # nothing inside the footprint
+    seg = obs["image_segment"]
+    cls, inst, ids = seg["class_segment_img"], seg["instance_segment_img"], seg["class_ids"]
+    assert cls.shape == (30, 40) and inst.shape == (30, 40) and inst.dtype == np.int32
+    assert ids["background"] == 30 and ids["bed"] == 21
+    fg = inst > 0
+    assert fg.any() and (~fg).any()
+    np.testing.assert_array_equal(inst[fg] // 1000, cls[fg])
+    assert np.all(cls[~fg] == 30)
+    with pytest.raises(KeyError):
+        b.observe(["image_rgb", "nonsense"])
+    # moving invalidates the cache
+    b.move_to(se2_compose(b.base_pose(), np.array([0.0, 0.0, math.radians(30)])))
+    b.observe(["image_rgb"])
+    assert len(calls) == 2
+
+
+def test_move_distance_and_angle(bear_envs, make_backend):
+    b = make_backend()
+    b.load_scene(bear_envs["miniroom:1"])
+    # turn to face free space (+x from the start at (1.2, 1.5) is open), then drive
+    for goal_rel in ([0.0, 0.0, math.radians(90)], [0.3, 0.0, 0.0], [-0.2, 0.0, 0.0], [0.0, 0.0, math.radians(-45)]):
+        start = b.base_pose()
+        goal = se2_compose(start, np.array(goal_rel))
+        out = b.move_to(goal)
+        assert isinstance(out, MotionOutcome) and not out.collided
+        assert _reached(b.base_pose(), goal)
+        assert out.duration_s > 0.65
+
+
+def test_drive_into_wall_collides(synthetic_env, make_backend):
+    from benchbot_sim_taichi.kinematics import Obstacles
+
+    env = synthetic_env([("chair", (1.0, 3.0, 0.4), (0.4, 0.4, 0.8))])
+    b = make_backend()
+    b.load_scene(env)
+    wall_x = b.scene.room_max[0]
+    out = b.move_to(np.array([wall_x + 1.0, 0.0, 0.0]))
+    p = b.base_pose()
+    assert out.collided
+    assert p[0] < wall_x - b.radius  # stopped short of the wall
+    assert wall_x - b.radius - p[0] < 0.1  # ...but close to it
+    assert b.obstacles.clearance(p[:2])[0] > 0
+    # furniture collides too
+    b.load_scene(env)
+    out = b.move_to(np.array([1.0, 3.0, math.pi / 2]))
+    assert out.collided
+    c, what = b.obstacles.clearance(b.base_pose()[:2])
+    assert 0 < c < 0.1 and what == "chair_0"
+    # an object above the robot's max height does not block it
+    high = synthetic_env([("table", (1.0, 0.0, 1.6), (0.6, 0.6, 0.4))], name="high")
+    b.load_scene(high)
+    assert not b.move_to(np.array([1.0, 0.0, 0.0])).collided
+    assert isinstance(b.obstacles, Obstacles)
+
+
+def test_all_trajectories_collision_free(bear_envs, carter_spec):
+    """Driving the start pose through every trajectory pose of all ten environments never collides and reaches each
+    pose within 0.01 m / 1°. (Kinematics only: no rendering.)"""
+    from benchbot_sim_taichi.backend import sensor_config
+    from benchbot_sim_taichi.kinematics import Obstacles, drive
+    from benchbot_sim_taichi.scene import build_scene
+
+    sensors = sensor_config(carter_spec)
+    for key, env in bear_envs.items():
+        scene = build_scene(env)
+        obstacles = Obstacles.from_scene(scene, sensors["footprint_radius_m"], sensors["max_height_m"])
+        pose = scene.start_se2.copy()
+        assert obstacles.clearance(pose[:2])[0] > 0, key
+        for i, goal in enumerate(scene.trajectory_se2):
+            pose, out = drive(pose, goal, obstacles)
+            assert not out.collided, (key, i, obstacles.clearance(pose[:2]))
+            assert _reached(pose, goal), (key, i)
+
+
+def test_backend_trajectory_and_determinism(bear_envs, make_backend):
+    env = bear_envs["miniroom:2"]
+    runs = []
+    for _ in range(2):
+        b = make_backend(32, 24, seed=3)
+        b.load_scene(env, seed=3)
+        seq = []
+        for p in env["trajectory_poses"][:6]:
+            out = b.move_to(pose7_to_se2(p))
+            assert not out.collided
+            seq.append((b.base_pose(), b.observe(ALL)))
+        runs.append(seq)
+    for (pa, oa), (pb, ob) in zip(*runs):
+        assert np.array_equal(pa, pb)
+        for k in ("image_rgb", "image_depth"):
+            assert np.array_equal(oa[k], ob[k])
+        assert np.array_equal(oa["laser"]["scans"], ob["laser"]["scans"])
+        for k in ("class_segment_img", "instance_segment_img"):
+            assert np.array_equal(oa["image_segment"][k], ob["image_segment"][k])
+    # another seed changes object colours, not geometry
+    b = make_backend(32, 24)
+    b.load_scene(env, seed=4)
+    b.move_to(pose7_to_se2(env["trajectory_poses"][0]))
+    o = b.observe(["image_depth"])
+    b2 = make_backend(32, 24)
+    b2.load_scene(env, seed=3)
+    b2.move_to(pose7_to_se2(env["trajectory_poses"][0]))
+    assert np.array_equal(o["image_depth"], b2.observe(["image_depth"])["image_depth"])
+
+
+def test_start_pose_in_collision_is_an_error(synthetic_env, make_backend):
+    env = synthetic_env([("chair", (0.1, 0.0, 0.4), (0.4, 0.4, 0.8))])
+    with pytest.raises(BackendError) as e:
+        make_backend().load_scene(env)
+    assert "chair_0" in e.value.message

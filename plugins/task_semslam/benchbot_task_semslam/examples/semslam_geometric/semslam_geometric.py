@@ -1,0 +1,140 @@
+"""semslam_geometric: an honest RGB-D semantic-mapping baseline for ``semantic_slam:passive:ground_truth``.
+
+Uses only the task's observations (``image_rgb``, ``image_depth``, ``image_rgb_info``, ``poses``) and never ground
+truth. Each step fuses the frame into a voxel map (see ``mapping.py``); at the end the map is segmented into
+axis-aligned cuboids with size/colour label probabilities and written as an ``object_map`` result.
+
+Run against BenchBot (from the example's folder, as the core does)::
+
+    python semslam_geometric/semslam_geometric.py
+
+Run offline on recorded frames (an ``.npz`` with ``rgb`` (N, H, W, 3) uint8, ``depth`` (N, H, W) float32 metres,
+``K`` (3, 3) or (N, 3, 3), ``T`` (N, 4, 4) T_map_camera of the optical frame)::
+
+    python semslam_geometric.py --offline frames.npz --output result.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mapping import GeometricMapper, pose_to_matrix  # noqa: E402
+
+try:
+    from benchbot_api import ActionResult, Agent, BenchBot
+except ImportError:  # offline use only (no BenchBot API installed)
+    ActionResult = BenchBot = None
+
+    class Agent:  # minimal stand-in with the reference interface
+        pass
+
+#: The default object_map class list (reference §6), used offline.
+DEFAULT_CLASS_LIST = ["bottle", "cup", "knife", "bowl", "wine glass", "fork", "spoon", "banana", "apple", "orange",
+                      "cake", "potted plant", "mouse", "keyboard", "laptop", "cell phone", "book", "clock", "chair",
+                      "table", "couch", "bed", "toilet", "tv", "microwave", "toaster", "refrigerator", "oven",
+                      "sink", "person", "background"]
+
+
+def observation_frame(observations: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(rgb (H, W, 3) uint8, depth (H, W) float32 m, K (3, 3), T_map_camera (4, 4))`` from BenchBot observations,
+    or None if something needed is missing."""
+    try:
+        rgb = np.asarray(observations["image_rgb"])
+        depth = np.asarray(observations["image_depth"], dtype=np.float32)
+        info = observations.get("image_depth_info") or observations["image_rgb_info"]
+        K = info.get("matrix_intrinsics", info.get("matrix_instrinsics"))
+        cam = observations["poses"]["camera"]
+        T = pose_to_matrix(cam["translation_xyz"], cam["rotation_xyzw"])
+    except (KeyError, TypeError, AttributeError):
+        return None
+    if depth.shape[:2] != rgb.shape[:2]:
+        return None
+    return rgb, depth, np.asarray(K, dtype=np.float64).reshape(3, 3), T
+
+
+class GeometricAgent(Agent):
+    """Passive agent: fuses every observation and follows the trajectory with ``move_next`` until it ends."""
+
+    def __init__(self, **mapper_kwargs):
+        self._mapper_kwargs = mapper_kwargs
+        self.mappers: dict[int, GeometricMapper] = {}
+
+    def _mapper(self, scene: int) -> GeometricMapper:
+        if scene not in self.mappers:
+            self.mappers[scene] = GeometricMapper(**self._mapper_kwargs)
+        return self.mappers[scene]
+
+    def is_done(self, action_result) -> bool:
+        return action_result != ActionResult.SUCCESS
+
+    def pick_action(self, observations, action_list):
+        frame = observation_frame(observations)
+        if frame is not None:
+            self._mapper(int(observations.get("scene_number", 0) or 0)).integrate(*frame)
+        return "move_next", {}
+
+    def build_objects(self, class_list) -> list[dict]:
+        """Objects of the first scene's map (semantic SLAM has one scene)."""
+        if not self.mappers:
+            return []
+        return self.mappers[min(self.mappers)].build_map(class_list)
+
+    def save_result(self, filename, empty_results, results_format_fns):
+        results = empty_results.setdefault("results", {})
+        class_list = results.get("class_list") or list(DEFAULT_CLASS_LIST)
+        results["class_list"] = class_list
+        objects = []
+        for o in self.build_objects(class_list):
+            obj = {}
+            try:  # the format's own empty object (keeps any extra fields it defines)
+                obj = dict(results_format_fns["create_object"](num_classes=len(class_list)))
+            except Exception:
+                obj = {}
+            obj.update(o)
+            objects.append(obj)
+        results["objects"] = objects
+        with open(filename, "w") as f:
+            json.dump(empty_results, f)
+        print(f"semslam_geometric: wrote {len(objects)} objects to {filename}")
+
+
+def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
+    """Fuse the frames recorded in ``path`` (.npz, see the module docstring) and write an object_map result."""
+    data = np.load(path)
+    rgb, depth, T = data["rgb"], data["depth"], data["T"]
+    K = data["K"]
+    agent = GeometricAgent(**mapper_kwargs)
+    mapper = agent._mapper(0)
+    for i in range(len(rgb)):
+        mapper.integrate(rgb[i], depth[i], K if K.ndim == 2 else K[i], T[i])
+    empty = {"task_details": {"name": "semantic_slam:passive:ground_truth", "results_format": "object_map"},
+             "environment_details": [{"name": "offline", "variant": 1}],
+             "results": {"objects": [], "class_list": list(DEFAULT_CLASS_LIST)}}
+    agent.save_result(output, empty, {})
+    return empty
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--offline", metavar="NPZ", help="fuse recorded frames instead of connecting to BenchBot")
+    p.add_argument("--output", default="semslam_geometric_result.json", help="results file in offline mode")
+    p.add_argument("--voxel", type=float, default=0.04, help="voxel edge, metres")
+    p.add_argument("--stride", type=int, default=2, help="pixel subsampling")
+    args = p.parse_args(argv)
+    kwargs = dict(voxel=args.voxel, stride=args.stride)
+    if args.offline:
+        run_offline(args.offline, args.output, **kwargs)
+        return
+    if BenchBot is None:
+        sys.exit("benchbot_api is not installed: use --offline")
+    BenchBot(agent=GeometricAgent(**kwargs)).run()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,206 @@
+"""Tests of the ``semslam_geometric`` example's mapper on a synthetic room rendered by a small NumPy ray-caster.
+
+The scene: a 4 × 4.5 m room (floor z = 0, four walls, ceiling 2.6 m) with axis-aligned coloured boxes; an RGB-D
+camera (160 × 120, 90° horizontal field of view, level, 0.8 m above the floor, optical frame z forward / x right /
+y down) looks around from a few poses. The mapper must find each box and nothing of the room shell.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+EXAMPLE_DIR = Path(__file__).resolve().parents[1] / "benchbot_task_semslam" / "examples" / "semslam_geometric"
+
+
+def _load(name: str, filename: str):
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, EXAMPLE_DIR / filename)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+mapping = _load("semslam_geometric_mapping", "mapping.py")
+
+CLASS_LIST = ["bottle", "cup", "knife", "bowl", "wine glass", "fork", "spoon", "banana", "apple", "orange", "cake",
+              "potted plant", "mouse", "keyboard", "laptop", "cell phone", "book", "clock", "chair", "table", "couch",
+              "bed", "toilet", "tv", "microwave", "toaster", "refrigerator", "oven", "sink", "person", "background"]
+
+ROOM_LO = np.array([0.0, 0.0, 0.0])
+ROOM_HI = np.array([4.0, 4.5, 2.6])
+#: (name, lo (3,), hi (3,), sRGB 0..255)
+BOXES = [
+    ("table", (0.6, 2.6, 0.0), (1.8, 3.3, 0.75), (140, 95, 52)),
+    ("microwave", (0.9, 2.75, 0.75), (1.4, 3.1, 1.05), (40, 40, 42)),  # stands on the table
+    ("potted plant", (3.2, 0.5, 0.0), (3.6, 0.9, 0.7), (56, 122, 46)),
+    ("refrigerator", (3.3, 3.7, 0.0), (4.0, 4.5, 1.8), (228, 230, 232)),  # in a corner, against two walls
+    ("chair", (2.0, 1.0, 0.0), (2.5, 1.5, 0.9), (125, 82, 45)),
+]
+SHELL_COLOURS = {"floor": (158, 122, 84), "wall": (219, 214, 199), "ceiling": (242, 242, 240)}
+W, H = 160, 120
+K = np.array([[80.0, 0, 79.5], [0, 80.0, 59.5], [0, 0, 1]])
+
+
+def camera_pose(position, yaw) -> np.ndarray:
+    """T_map_camera (4, 4) of a level optical-frame camera at ``position`` looking along ``yaw`` (rad)."""
+    f = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    x = np.cross(f, [0.0, 0.0, 1.0])
+    y = np.cross(f, x)
+    T = np.eye(4)
+    T[:3, :3] = np.stack([x, y, f], axis=1)
+    T[:3, 3] = position
+    return T
+
+
+def render(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ray-cast the scene: (rgb (H, W, 3) uint8, depth (H, W) float32 metres along the optical axis)."""
+    v, u = np.mgrid[0:H, 0:W]
+    rays_c = np.linalg.inv(K) @ np.stack([u.ravel(), v.ravel(), np.ones(u.size)])  # z = 1: t is the depth
+    d = (T[:3, :3] @ rays_c).T
+    o = T[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        # room: exit distance from inside
+        t_exit = np.where(d > 0, (ROOM_HI - o) * inv, (ROOM_LO - o) * inv)
+        t_exit[~np.isfinite(t_exit)] = np.inf
+        best = t_exit.min(axis=1)
+        axis = t_exit.argmin(axis=1)
+        colour = np.zeros((len(d), 3))
+        hit_dir = d[np.arange(len(d)), axis]
+        shade_wall = np.where(axis == 0, 0.9, 0.8)
+        colour[:] = np.array(SHELL_COLOURS["wall"]) * shade_wall[:, None]
+        colour[(axis == 2) & (hit_dir < 0)] = SHELL_COLOURS["floor"]
+        colour[(axis == 2) & (hit_dir > 0)] = SHELL_COLOURS["ceiling"]
+        for _, lo, hi, rgb in BOXES:
+            t1, t2 = (np.array(lo) - o) * inv, (np.array(hi) - o) * inv
+            tmin, tmax = np.minimum(t1, t2), np.maximum(t1, t2)
+            tmin[np.isnan(tmin)] = -np.inf
+            tmax[np.isnan(tmax)] = np.inf
+            t_in, t_out = tmin.max(axis=1), tmax.min(axis=1)
+            hit = (t_in <= t_out) & (t_in > 0) & (t_in < best)
+            face = tmin.argmax(axis=1)
+            shade = np.where(face == 2, 1.0, np.where(face == 0, 0.85, 0.7))
+            best = np.where(hit, t_in, best)
+            colour[hit] = np.array(rgb) * shade[hit, None]
+    depth = best.reshape(H, W).astype(np.float32)
+    rgb = np.clip(colour, 0, 255).reshape(H, W, 3).astype(np.uint8)
+    return rgb, depth
+
+
+def trajectory() -> list[np.ndarray]:
+    """Camera poses on a loop around the room centre, looking inwards and along the loop."""
+    poses = []
+    c = np.array([2.0, 2.25])
+    for i in range(16):
+        a = 2 * math.pi * i / 16
+        p = c + np.array([1.2 * math.cos(a), 1.3 * math.sin(a)])
+        for yaw in (a + math.pi, a + math.pi / 2):  # towards the centre, and tangentially (walls, corners)
+            poses.append(camera_pose(np.array([p[0], p[1], 0.8]), yaw))
+    return poses
+
+
+@pytest.fixture(scope="module")
+def frames():
+    return [(*render(T), T) for T in trajectory()]
+
+
+@pytest.fixture(scope="module")
+def mapped(frames):
+    mapper = mapping.GeometricMapper(stride=1)
+    t0 = time.perf_counter()
+    for rgb, depth, T in frames:
+        mapper.integrate(rgb, depth, K, T)
+    t1 = time.perf_counter()
+    objects = mapper.build_map(CLASS_LIST)
+    t2 = time.perf_counter()
+    print(f"\nintegrate {1e3 * (t1 - t0) / len(frames):.1f} ms/frame ({W}x{H}), build_map {1e3 * (t2 - t1):.0f} ms, "
+          f"{len(objects)} objects")
+    return mapper, objects
+
+
+def _match(objects, lo, hi):
+    c = 0.5 * (np.array(lo) + np.array(hi))
+    dists = [np.linalg.norm(np.array(o["centroid"]) - c) for o in objects]
+    return objects[int(np.argmin(dists))], float(min(dists))
+
+
+def test_renderer_depth_is_along_the_optical_axis():
+    T = camera_pose(np.array([2.0, 2.25, 0.8]), 0.0)  # looking along +x at the wall x = 4
+    _, depth = render(T)
+    # the middle of the centre row hits the wall x = 4 (2 m ahead): the depth is constant along it, not a range
+    assert np.allclose(depth[H // 2, W // 2 - 30:W // 2 + 30], 2.0, atol=1e-4)
+
+
+def test_room_shell_found(mapped):
+    mapper, _ = mapped
+    shell = mapper.shell
+    assert shell.floor_z == pytest.approx(0.0, abs=0.03)
+    assert shell.ceiling_z == pytest.approx(2.6, abs=0.03)
+    found = sorted((a, round(p, 1)) for a, p, _, _ in shell.walls)
+    assert found == [(0, 0.0), (0, 4.0), (1, 0.0), (1, 4.5)]
+
+
+@pytest.mark.parametrize("name,lo,hi,rgb", BOXES, ids=[b[0] for b in BOXES])
+def test_each_box_found(mapped, name, lo, hi, rgb):
+    _, objects = mapped
+    obj, dist = _match(objects, lo, hi)
+    assert dist < 0.1, (name, obj)
+    ext = np.array(hi) - np.array(lo)
+    assert np.all(np.abs(np.array(obj["extent"]) - ext) < 0.15), (name, obj["extent"], ext)
+    assert len(obj["label_probs"]) == len(CLASS_LIST)
+    assert sum(obj["label_probs"]) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_no_shell_objects(mapped):
+    """Every reported object lies near a box: nothing of the floor, walls or ceiling is reported."""
+    _, objects = mapped
+    assert len(objects) <= len(BOXES) + 1
+    for o in objects:
+        c = np.array(o["centroid"])
+        near = [np.all((c > np.array(lo) - 0.15) & (c < np.array(hi) + 0.15)) for _, lo, hi, _ in BOXES]
+        assert any(near), o
+        assert max(o["extent"]) < 2.5
+
+
+def test_labels(mapped):
+    _, objects = mapped
+    plant, _ = _match(objects, BOXES[2][1], BOXES[2][2])
+    assert CLASS_LIST[int(np.argmax(plant["label_probs"]))] == "potted plant"
+    for name, lo, hi, _ in BOXES:
+        obj, _ = _match(objects, lo, hi)
+        top = CLASS_LIST[int(np.argmax(obj["label_probs"]))]
+        print(name, "->", top, round(max(obj["label_probs"]), 2))
+
+
+def test_probabilities_calibrated_with_background():
+    """A shapeless grey blob of no class's size keeps most of its mass on background."""
+    blob = mapping.Cluster(lo=np.zeros(3), hi=np.array([2.8, 0.05, 2.0]), colour=np.array([128.0, 0, 128.0]),
+                           n_voxels=5)
+    p = mapping.label_probabilities(blob, CLASS_LIST)
+    assert p[-1] > 0.5 and p.sum() == pytest.approx(1.0)
+
+
+def test_offline_script(frames, tmp_path):
+    """The submission script's offline mode reads recorded frames and writes a valid object_map results file."""
+    script = _load("semslam_geometric_script", "semslam_geometric.py")
+    rec = tmp_path / "frames.npz"
+    np.savez(rec, rgb=np.stack([f[0] for f in frames]), depth=np.stack([f[1] for f in frames]), K=K,
+             T=np.stack([f[2] for f in frames]))
+    out = tmp_path / "result.json"
+    script.main(["--offline", str(rec), "--output", str(out), "--stride", "1"])
+    res = json.loads(out.read_text())
+    objs = res["results"]["objects"]
+    assert res["results"]["class_list"] == CLASS_LIST
+    assert len(objs) >= len(BOXES)
+    for o in objs:
+        assert len(o["label_probs"]) == 31 and len(o["centroid"]) == 3 and len(o["extent"]) == 3
