@@ -10,7 +10,7 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from benchbot.batch.local import EpisodeRecord, new_run_dir, parse_env_list, run_batch
-from benchbot.cli.common import err, handle_errors, out, registry
+from benchbot.cli.common import backend_options, err, handle_errors, out, registry
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core.errors import ExitCode, UsageError
@@ -41,6 +41,7 @@ def register(app: typer.Typer) -> None:
         no_evaluate: bool = typer.Option(False, "--no-evaluate", help="Do not evaluate."),
         seed: int = typer.Option(0, "--seed", help="Seed of the first episode (episode i uses seed + i)."),
         arch: str = typer.Option("cpu", "--arch", help="Simulator device: cpu or gpu."),
+        camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
         timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Kill a solution after this many seconds."),
         as_json: bool = typer.Option(False, "--json", help="Print the outcome as JSON on stdout."),
     ) -> None:
@@ -74,7 +75,7 @@ def register(app: typer.Typer) -> None:
 
             outcome = run_batch(
                 reg, task=task, robot=robot, envs=env_list, submission=submission, run_dir=run_dir,
-                evaluate_with=None if no_evaluate else evaluate_with, seed=seed, options={"arch": arch},
+                evaluate_with=None if no_evaluate else evaluate_with, seed=seed, options=backend_options(arch, camera_size),
                 on_episode_start=started, on_step=stepped, on_episode_end=ended, episode_timeout_s=timeout,
             )
         for record in outcome.episodes:

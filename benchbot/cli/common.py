@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 import sys
 import traceback
 from typing import Any, Callable
@@ -11,7 +12,7 @@ from typing import Any, Callable
 import typer
 from rich.console import Console
 
-from benchbot.core.errors import BenchbotError, ExitCode
+from benchbot.core.errors import BenchbotError, ExitCode, UsageError
 from benchbot.core.registry import Registry, get_registry
 
 out = Console(soft_wrap=True)
@@ -56,6 +57,21 @@ def handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             raise typer.Exit(int(ExitCode.INTERRUPTED)) from None
 
     return wrapper
+
+
+def backend_options(arch: str, camera_size: str | None) -> dict:
+    """Robot-backend options from the CLI: ``{'arch': ..., 'width': W, 'height': H}``.
+
+    Raises:
+        UsageError: ``camera_size`` is not ``WxH`` with positive integers.
+    """
+    options: dict = {"arch": arch}
+    if camera_size:
+        match = re.fullmatch(r"(\d+)[xX](\d+)", camera_size.strip())
+        if not match or int(match[1]) < 1 or int(match[2]) < 1:
+            raise UsageError(f"--camera-size '{camera_size}' is not WIDTHxHEIGHT", "e.g. --camera-size 320x240")
+        options.update(width=int(match[1]), height=int(match[2]))
+    return options
 
 
 def is_tty() -> bool:

@@ -32,6 +32,9 @@ TILE_M = 0.6
 TILE_CONTRAST = 0.06
 GAMMA = 1.0 / 2.2
 
+#: Kind code of point lights in the packed light table (see :mod:`benchbot_sim_taichi.scene`).
+LIGHT_POINT_KIND = 1
+
 _INIT_ARCH: str | None = None
 
 
@@ -87,7 +90,8 @@ def pack_scene(scene) -> dict[str, np.ndarray]:
         ``boxes`` (max(N,1), 9) float32 [min xyz, max xyz, linear albedo rgb]; ``ids`` (max(N,1), 2) int32
         [class, instance]; ``lights`` (max(L,1), 8) float32 [kind, vec xyz, colour rgb, range]; ``world`` (19,)
         float32 [room min xyz, room max xyz, floor/wall/ceiling albedo (9), ambient rgb, background class];
-        ``n_boxes``, ``n_lights`` ints.
+        ``n_boxes``, ``n_lights`` ints; ``light_boxes`` (max(L,1), max(N,1)) int32 and ``light_count`` (max(L,1),)
+        int32: per light, the boxes that can shadow it; ``corners`` (N, 8, 3) float64 box corners.
     """
     n, nl = scene.n_boxes, int(scene.light_kind.shape[0])
     boxes = np.zeros((max(n, 1), 9), dtype=np.float32)
@@ -99,10 +103,49 @@ def pack_scene(scene) -> dict[str, np.ndarray]:
     if nl:
         lights[:nl, 0] = scene.light_kind
         lights[:nl, 1:4], lights[:nl, 4:7], lights[:nl, 7] = scene.light_vec, scene.light_colour, scene.light_range
+    # per light, the boxes that can shadow it: all for directional lights; for point lights the boxes that come
+    # within the light's range (points farther than the range get no light from it)
+    light_boxes = np.zeros((max(nl, 1), max(n, 1)), dtype=np.int32)
+    light_count = np.zeros(max(nl, 1), dtype=np.int32)
+    for j in range(nl):
+        if scene.light_kind[j] == LIGHT_POINT_KIND and n:
+            q = np.clip(scene.light_vec[j], scene.box_min, scene.box_max)
+            near = np.nonzero(np.linalg.norm(q - scene.light_vec[j], axis=1) <= scene.light_range[j] + 1e-3)[0]
+        else:
+            near = np.arange(n)
+        light_boxes[j, : near.size] = near
+        light_count[j] = near.size
     world = np.concatenate([scene.room_min, scene.room_max, scene.shell_albedo.reshape(-1), scene.ambient,
                             [scene.background_class]]).astype(np.float32)
     return {"boxes": np.ascontiguousarray(boxes), "ids": np.ascontiguousarray(ids),
-            "lights": np.ascontiguousarray(lights), "world": world, "n_boxes": n, "n_lights": nl}
+            "lights": np.ascontiguousarray(lights), "world": world, "n_boxes": n, "n_lights": nl,
+            "light_boxes": light_boxes, "light_count": light_count,
+            "corners": _corners(boxes[:n, 0:3], boxes[:n, 3:6])}
+
+
+def _corners(bmin: np.ndarray, bmax: np.ndarray) -> np.ndarray:
+    """(N, 8, 3) float64 corners of boxes."""
+    sel = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=bool)
+    return np.where(sel[None], bmax[:, None, :], bmin[:, None, :]).astype(np.float64)
+
+
+def frustum_boxes(packed: dict, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Indices (M,) int32 of the boxes that may be hit by a camera ray (a box is dropped only when its 8 corners all
+    lie outside one side of the view frustum widened by one pixel; the side planes pass through the camera centre, so
+    the test is exact for convex boxes, whichever side of the camera they are on)."""
+    c = packed["corners"]
+    if c.shape[0] == 0:
+        return np.zeros(0, dtype=np.int32)
+    T = np.asarray(T_map_camera, dtype=np.float64)
+    K = np.asarray(K, dtype=np.float64)
+    pc = (c - T[:3, 3]) @ T[:3, :3]  # (N, 8, 3) in the optical frame
+    x, y, z = pc[..., 0], pc[..., 1], pc[..., 2]
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    u0, u1, v0, v1 = -1.0, width, -1.0, height
+    out = (np.all(z <= 0.0, axis=1)
+           | np.all(fx * x < (u0 - cx) * z, axis=1) | np.all(fx * x > (u1 - cx) * z, axis=1)
+           | np.all(fy * y < (v0 - cy) * z, axis=1) | np.all(fy * y > (v1 - cy) * z, axis=1))
+    return np.nonzero(~out)[0].astype(np.int32)
 
 
 def camera_params(K: np.ndarray, T_map_camera: np.ndarray) -> np.ndarray:
@@ -141,10 +184,11 @@ def _box_entry(o, inv, boxes: ti.template(), i):
 
 
 @ti.func
-def _occluded(p, L, dist, boxes: ti.template(), n_boxes):
+def _occluded(p, L, dist, boxes: ti.template(), light_boxes: ti.template(), j, count):
     inv = _safe_inv(L)
     hit = 0
-    for i in range(n_boxes):
+    for k in range(count):
+        i = light_boxes[j, k]
         tn, tf, axis = _box_entry(p, inv, boxes, i)
         if tn <= tf and tf > T_EPS and tn < dist:
             hit = 1
@@ -157,9 +201,12 @@ def _render_kernel(
     cam: ti.types.ndarray(dtype=ti.f32, ndim=1),
     boxes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     ids: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    n_boxes: ti.i32,
+    prim: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    n_prim: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
+    light_boxes: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    light_count: ti.types.ndarray(dtype=ti.i32, ndim=1),
     world: ti.types.ndarray(dtype=ti.f32, ndim=1),
     rgb: ti.types.ndarray(dtype=ti.u8, ndim=3),
     depth: ti.types.ndarray(dtype=ti.f32, ndim=2),
@@ -181,7 +228,8 @@ def _render_kernel(
         best = 1e30
         best_i = -1
         best_axis = 0
-        for i in range(n_boxes):
+        for kk in range(n_prim):
+            i = prim[kk]
             tn, tf, axis = _box_entry(o, inv, boxes, i)
             if tn <= tf and tn > T_EPS and tn < best:
                 best = tn
@@ -249,7 +297,7 @@ def _render_kernel(
                 if ok == 1:
                     ndl = n.dot(L)
                     if ndl > 0:
-                        if _occluded(po, L, dist, boxes, n_boxes) == 0:
+                        if _occluded(po, L, dist, boxes, light_boxes, j, light_count[j]) == 0:
                             radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten)
             c = albedo * radiance
             for k in ti.static(range(3)):
@@ -341,8 +389,12 @@ class Renderer:
         depth = np.zeros((H, W), dtype=np.float32)
         cls = np.zeros((H, W), dtype=np.int32)
         inst = np.zeros((H, W), dtype=np.int32)
-        _render_kernel(camera_params(K, T_map_camera), s["boxes"], s["ids"], s["n_boxes"], s["lights"],
-                       s["n_lights"], s["world"], rgb, depth, cls, inst)
+        prim = frustum_boxes(s, K, T_map_camera, W, H)
+        n_prim = int(prim.shape[0])
+        if n_prim == 0:
+            prim = np.zeros(1, dtype=np.int32)
+        _render_kernel(camera_params(K, T_map_camera), s["boxes"], s["ids"], prim, n_prim, s["lights"],
+                       s["n_lights"], s["light_boxes"], s["light_count"], s["world"], rgb, depth, cls, inst)
         return {"rgb": rgb, "depth": depth, "class": cls, "instance": inst}
 
     def scan(self, T_map_lidar: np.ndarray, angles: np.ndarray) -> np.ndarray:

@@ -29,7 +29,10 @@ def benchbot_formats() -> list[Path]:
     return _yaml_files(FORMATS_DIR)
 
 
-# ----------------------------------------------------------------------------------------------------------------------
-# benchbot_examples: RESERVED — another agent adds the ``benchbot_examples`` hook implementation below this line
-# (specs live in ``examples/``). Nothing else in this file depends on it.
-# ----------------------------------------------------------------------------------------------------------------------
+EXAMPLES_DIR = Path(__file__).parent / "examples"
+
+
+@hookimpl
+def benchbot_examples() -> list[Path]:
+    """Return the paths of the example specs in ``examples/`` (``semslam_geometric``)."""
+    return _yaml_files(EXAMPLES_DIR)

@@ -121,8 +121,8 @@ CLASS_PRIORS: dict[str, dict] = {
 # --------------------------------------------------------------------------------------------------------------
 
 #: Softmax temperature applied to the per-class log-likelihood scores. T = 1 would be the Bayes posterior of the
-#: hand-written generative model; the model ignores that partial views and merged clusters make sizes wrong in
-#: correlated ways, so it is over-confident. T was set with :func:`calibrate_temperature` (minimum negative
+#: hand-written generative model if the model were right; partial views and merged clusters make sizes wrong in
+#: correlated ways the model ignores. T was set with :func:`calibrate_temperature` (minimum negative
 #: log-likelihood of the true class on boxes sampled from CLASS_PRIORS and corrupted by partial views,
 #: colour/shading noise, merged clusters): the NLL is lowest between T = 0.75 (1.01 nats) and T = 1.0 (1.03 nats)
 #: and rises steadily above (2.0: 1.33 nats); we take the softer 1.0 because real failures are worse than modelled.

@@ -1,0 +1,62 @@
+"""Poses and the original pose controller (reference §5.4), on plain numbers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from benchbot.core.geometry import (
+    matrix_to_quaternion_xyzw, matrix_to_rpy, pose7_to_matrix, pose7_to_se2, se2_compose, se2_relative, wrap_angle,
+)
+from benchbot.core.motion import ControllerGains, PoseController
+
+
+def test_unnormalised_start_pose_is_normalised():
+    # house start pose [1,0,0,0.8,...] is yaw 77.3 degrees once normalised (reference §9)
+    x, y, yaw = pose7_to_se2([1, 0, 0, 0.8, -1.8, -2.5, 0.3])
+    assert (x, y) == (-1.8, -2.5)
+    assert math.degrees(yaw) == pytest.approx(77.32, abs=0.01)
+
+
+def test_rotation_roundtrip():
+    T = pose7_to_matrix([0.7, 0.1, -0.2, 0.3, 1, 2, 3])
+    q = matrix_to_quaternion_xyzw(T[:3, :3])
+    T2 = pose7_to_matrix([q[3], q[0], q[1], q[2], 1, 2, 3])
+    assert np.allclose(T, T2)
+    roll, pitch, yaw = matrix_to_rpy(pose7_to_matrix([math.cos(0.3), 0, 0, math.sin(0.3), 0, 0, 0])[:3, :3])
+    assert (roll, pitch) == pytest.approx((0, 0)) and yaw == pytest.approx(0.6)
+
+
+def test_se2_inverse_and_wrap():
+    a, b = np.array([1.0, 2.0, 0.5]), np.array([-1.0, 0.5, 3.0])
+    assert np.allclose(se2_compose(a, se2_relative(a, b)), [b[0], b[1], wrap_angle(b[2])])
+    assert wrap_angle(math.pi) == pytest.approx(-math.pi)
+
+
+def _drive(goal, start=(0.0, 0.0, 0.0)):
+    pose = np.array(start, dtype=float)
+    ctl = PoseController(np.array(goal), ControllerGains())
+    steps = 0
+    while (cmd := ctl.command(pose)) is not None:
+        v, w = cmd
+        assert -0.6 - 1e-9 <= v <= 1.5 + 1e-9 and abs(w) <= 1.0 + 1e-9
+        dt = 0.05
+        pose = np.array([pose[0] + v * dt * math.cos(pose[2]), pose[1] + v * dt * math.sin(pose[2]), wrap_angle(pose[2] + w * dt)])
+        steps += 1
+    return pose, steps
+
+
+@pytest.mark.parametrize("goal", [(0.5, 0.0, 0.0), (-0.4, 0.0, 0.0), (0.0, 0.0, math.radians(90)), (1.0, 0.8, 2.0)])
+def test_controller_reaches_goal_within_tolerance(goal):
+    pose, steps = _drive(goal)
+    assert math.hypot(pose[0] - goal[0], pose[1] - goal[1]) <= 0.02
+    assert abs(wrap_angle(pose[2] - goal[2])) <= math.radians(1.0) + 1e-6
+    assert steps < 2 * 30 * 20
+
+
+def test_goal_behind_drives_backwards():
+    ctl = PoseController(np.array([-1.0, 0.0, 0.0]))
+    v, _ = ctl.command(np.zeros(3))
+    assert v < 0

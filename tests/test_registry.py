@@ -1,0 +1,84 @@
+"""The registry: schemas, validation errors with file and JSON path, duplicates, disabling plugins."""
+
+from __future__ import annotations
+
+import json
+import types
+from pathlib import Path
+
+import jsonschema
+import pytest
+
+from benchbot.core.errors import SpecError
+from benchbot.core.hookspecs import hookimpl
+from benchbot.core.registry import Registry, schema_dir
+
+EXPECTED = {
+    "tasks": 6, "formats": 3, "evaluators": 1, "robots": 1, "environments": 10, "ground_truths": 10,
+}
+
+
+def test_every_schema_is_valid_draft_2020_12():
+    schemas = sorted(schema_dir().glob("*.schema.json"))
+    assert len(schemas) >= 9
+    for path in schemas:
+        schema = json.loads(path.read_text())
+        assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+        jsonschema.Draft202012Validator.check_schema(schema)
+
+
+def test_first_party_content_loads_without_problems(registry):
+    assert registry.problems == {}
+    for kind, count in EXPECTED.items():
+        assert len(registry.names(kind)) == count, kind
+    assert {"hello_passive", "hello_active", "hello_eval_semantic_slam", "semslam_geometric"} <= set(registry.names("examples"))
+    assert "sim_taichi" in registry.backend_factories
+
+
+def test_environment_strings(registry):
+    assert [e["variant"] for e in registry.scenes("miniroom:1:2")] == [1, 2]
+    with pytest.raises(SpecError, match="not of the form"):
+        registry.scenes("miniroom")
+    with pytest.raises(SpecError) as info:
+        registry.scenes("minirom:1")
+    assert "miniroom:1" in info.value.hint
+
+
+def _plugin(**hooks):
+    module = types.SimpleNamespace()
+    for name, value in hooks.items():
+        setattr(module, name, hookimpl(lambda value=value: value))
+    return module
+
+
+def test_invalid_spec_is_skipped_with_file_and_json_path(tmp_path):
+    bad = tmp_path / "bad_task.yaml"
+    bad.write_text("name: my_task\nactions: [move_next]\nobservations: [image_rgb, 3]\n")
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("name: [unclosed\n")
+    reg = Registry(extra_plugins={"mine": _plugin(benchbot_tasks=[bad, broken])})
+    problems = list(reg.problems.values())
+    assert any(str(bad) in p and "$.observations[1]" in p for p in problems), problems
+    assert any(str(broken) in p and "not valid YAML" in p for p in problems), problems
+    assert "my_task" not in reg.names("tasks")
+    assert len(reg.names("tasks")) == 6  # the rest keep working
+
+
+def test_duplicate_name_names_both_plugins():
+    dup = {"name": "semantic_slam:passive:ground_truth", "actions": ["move_next"], "observations": ["poses"]}
+    reg = Registry(extra_plugins={"copycat": _plugin(benchbot_tasks=[dup])})
+    with pytest.raises(SpecError) as info:
+        reg.get("tasks", "semantic_slam:passive:ground_truth")
+    assert "task_semslam" in info.value.message and "copycat" in info.value.message
+
+
+def test_disable_plugins(monkeypatch):
+    monkeypatch.setenv("BENCHBOT_DISABLE_PLUGINS", "eval_omq")
+    reg = Registry()
+    assert reg.names("evaluators") == []
+    assert [p.status for p in reg.plugins if p.name == "eval_omq"] == ["disabled"]
+
+
+def test_spec_files_get_their_path(registry):
+    entry = registry.entry("tasks", "semantic_slam:passive:ground_truth")
+    assert entry.path is not None and Path(entry.spec["_file_path"]) == entry.path
