@@ -15,6 +15,8 @@ from benchbot.core.errors import UsageError
 from benchbot.core.evaluation import Evaluation, evaluate, load_results, validate_result
 
 SCORE_ORDER = ["OMQ", "avg_pairwise", "avg_label", "avg_spatial", "avg_fp_quality", "avg_state_quality", "TP", "FP", "FN"]
+SHORT = {"avg_pairwise": "pairwise", "avg_label": "label", "avg_spatial": "spatial", "avg_fp_quality": "fp_quality",
+         "avg_state_quality": "state"}
 
 
 def _fmt(value: object) -> str:
@@ -27,9 +29,11 @@ def print_scores(evaluation: Evaluation) -> None:
     for _, s in evaluation.per_result:
         keys += [k for k in s.get("scores", {}) if k not in keys]
     keys = [k for k in SCORE_ORDER if k in keys] + [k for k in keys if k not in SCORE_ORDER]
-    table = Table("results", *keys, title=f"{evaluation.method} scores")
+    table = Table("environment", *[SHORT.get(k, k) for k in keys], title=f"{evaluation.method} scores")
     for source, s in evaluation.per_result:
-        table.add_row(Path(source).name, *[_fmt(s["scores"].get(k, "")) for k in keys])
+        envs = s.get("environment_details") or []
+        name = f"{envs[0]['name']}:" + ":".join(str(e["variant"]) for e in envs) if envs else Path(source).name
+        table.add_row(name, *[_fmt(s["scores"].get(k, "")) for k in keys])
     if evaluation.combined is not None and len(evaluation.per_result) + len(evaluation.missing) > 1:
         combined = evaluation.combined.get("scores", {})
         table.add_row("[bold]combined (mean)[/]", *[_fmt(combined.get(k, "")) for k in keys])

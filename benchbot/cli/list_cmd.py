@@ -54,7 +54,8 @@ def register(app: typer.Typer) -> None:
             ]))
             return
         table = Table("name", "plugin", "description")
+        table.columns[0].no_wrap = True
         for e in entries:
-            desc = str(e.spec.get("description", "")).strip().splitlines()
-            table.add_row(e.name, e.plugin, desc[0] if desc else "")
+            desc = " ".join(str(e.spec.get("description", "")).split())
+            table.add_row(e.name, e.plugin, desc.split(". ")[0].rstrip("."))
         out.print(table)

@@ -8,6 +8,8 @@ scenes equals the task's ``scene_count``; the robot offers every action and obse
 
 from __future__ import annotations
 
+import contextlib
+import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -92,11 +94,14 @@ def start_service(
             on_step(info)
 
     def build() -> Episode:
-        backend = factory(run.robot, {"seed": seed, **(options or {})})
-        episode = Episode(
-            run.task, run.robot, run.environments, backend,
-            results_format=run.results_format, seed=seed, on_step=step_observer,
-        )
+        # stdout carries the CLI's data (tables, --json): whatever a backend prints while starting (Taichi's banner)
+        # goes to stderr instead.
+        with contextlib.redirect_stdout(sys.stderr):
+            backend = factory(run.robot, {"seed": seed, **(options or {})})
+            episode = Episode(
+                run.task, run.robot, run.environments, backend,
+                results_format=run.results_format, seed=seed, on_step=step_observer,
+            )
         hook.benchbot_episode_started(
             info={"task": run.task["name"], "robot": run.robot["name"],
                   "environments": [f"{e['name']}:{e['variant']}" for e in run.environments]}

@@ -133,3 +133,15 @@ def test_lighting_parse():
     assert lighting_of_map_path("/Game/AIUE_V02_002_night_extra/Maps/AIUE_V02_002") == "night_extra"
     assert lighting_of_map_path("/Game/AIUE_V02_002_day/Maps/AIUE_V02_002") == "day"
     assert lighting_of_map_path("") == "base"
+
+
+def test_specs_pass_core_schemas():
+    from benchbot.core import registry
+    from benchbot_sim_taichi import plugin
+
+    for e in plugin.environment_specs():
+        registry.validate(e, "environment", "sim_taichi")
+    for g in plugin.ground_truth_specs():
+        registry.validate(g, "ground_truth", "sim_taichi")
+    (path,) = plugin.benchbot_robots()
+    registry.validate(registry.load_spec_file(Path(path)), "robot", path)

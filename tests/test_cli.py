@@ -1,0 +1,83 @@
+"""The ``benchbot`` command, run as a user would (a real process; real simulator, server and OMQ)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+
+
+def cli(*args: str, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([*BENCHBOT, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout,
+                          env=dict(os.environ, COLUMNS="200"))
+
+
+def test_list_plugins_json_names_distributions_and_content():
+    proc = cli("list", "plugins", "--json")
+    assert proc.returncode == 0, proc.stderr
+    plugins = {p["name"]: p for p in json.loads(proc.stdout)}
+    assert plugins["sim_taichi"]["distribution"] == "benchbot-sim-taichi" and plugins["sim_taichi"]["version"]
+    assert "miniroom:1" in plugins["sim_taichi"]["registers"]["environments"]
+    assert plugins["eval_omq"]["registers"]["evaluators"] == ["omq"]
+
+
+def test_show_and_unknown_names():
+    proc = cli("show", "environments", "miniroom:1")
+    assert proc.returncode == 0 and "start_pose" in proc.stdout
+    proc = cli("show", "robots", "cartr")
+    assert proc.returncode == 3
+    assert proc.stderr.strip().splitlines()[0] == "error: no robot named 'cartr'"
+    assert "carter" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_run_validates_the_combination():
+    proc = cli("run", "--env", "miniroom:1:2")
+    assert proc.returncode == 3 and "needs 1 scene(s)" in proc.stderr
+    proc = cli("run", "--env", "miniroom:1", "--task", "scd:passive:ground_truth")
+    assert proc.returncode == 3 and "needs 2 scene(s)" in proc.stderr
+
+
+def test_batch_scores_the_ground_truth_example_one(tmp_path):
+    proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1,house:1",
+               "--camera-size", "64x48", "--output-dir", str(tmp_path), "--json")
+    assert proc.returncode == 0, proc.stderr
+    outcome = json.loads(proc.stdout)
+    run_dir = Path(outcome["run_dir"])
+    assert [e["status"] for e in outcome["episodes"]] == ["ok", "ok"]
+    scores = json.loads((run_dir / "scores.json").read_text())
+    assert scores["scores"]["OMQ"] == 1.0
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["versions"]["benchbot-sim-taichi"] and manifest["seed"] == 0
+    assert sorted(p.name for p in (run_dir / "results").glob("*.json")) == ["00_miniroom_1.json", "01_house_1.json"]
+
+
+@pytest.mark.slow
+def test_readme_main_job_with_the_baseline(tmp_path):
+    """README command 1 (smaller camera so the test stays quick)."""
+    proc = cli("batch", "--example", "semslam_geometric", "--envs", "miniroom:1", "--camera-size", "320x240",
+               "--output-dir", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert "OMQ" in proc.stdout and "miniroom:1" in proc.stdout
+    run_dir = next(tmp_path.iterdir())
+    omq = json.loads((run_dir / "scores.json").read_text())["scores"]["OMQ"]
+    assert 0.0 < omq < 1.0  # an honest baseline: it finds objects, and it is not the ground truth
+
+
+def test_eval_errors_are_one_line(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text("[1, 2")
+    proc = cli("eval", str(bad), "-o", str(tmp_path / "s.json"))
+    assert proc.returncode == 4
+    assert proc.stderr.startswith(f"error: {bad}: not valid JSON")
+    assert not (tmp_path / "s.json").exists()
+
+
+def test_submit_needs_exactly_one_mode():
+    proc = cli("submit")
+    assert proc.returncode == 2 and "exactly one of --native" in proc.stderr
