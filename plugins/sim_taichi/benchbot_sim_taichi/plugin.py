@@ -89,3 +89,10 @@ def _factory(robot_spec: dict, options: dict):
 def benchbot_robot_backends() -> dict:
     """``{'sim_taichi': factory}``; ``factory(robot_spec, options) -> TaichiSimBackend`` (Taichi loads lazily)."""
     return {"sim_taichi": _factory}
+
+
+@hookimpl
+def benchbot_batches() -> list[Path]:
+    """The BEAR batches in ``batches/``: ``develop_1..3`` (4 single scenes each), ``develop_4..6`` (6 scene pairs
+    each, for scene change detection) and ``bear_all`` (all ten environments)."""
+    return sorted((Path(__file__).parent / "batches").glob("*.yaml"))
