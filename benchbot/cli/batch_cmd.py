@@ -1,4 +1,4 @@
-"""``benchbot batch``: run a solution over many environments, score it, print the table."""
+"""``benchbot batch``: run a solution over many environments (and robots, and repetitions), score it, print it."""
 
 from __future__ import annotations
 
@@ -9,82 +9,100 @@ from typing import Optional
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from benchbot.batch.local import EpisodeRecord, new_run_dir, parse_env_list, run_batch
+from benchbot.batch.plan import EpisodeRecord, plan_episodes, read_manifest, specs_from_manifest
+from benchbot.batch.runner import new_run_dir, parse_env_list, prepare_batch, run_batch
 from benchbot.cli.common import backend_options, err, handle_errors, out, registry
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core.errors import ExitCode, UsageError
-from benchbot.core.session import RunSpec
 from benchbot.core.submission import example_submission, native_submission
-
-
-def _expected_steps(run: RunSpec) -> int | None:
-    if run.task["actions"] == ["move_next"]:
-        return sum(len(e.get("trajectory_poses") or []) for e in run.environments)
-    return None
 
 
 def register(app: typer.Typer) -> None:
     @app.command("batch")
     @handle_errors
     def batch(
-        envs: Optional[str] = typer.Option(None, "--envs", "-e", help="Comma list of environments, e.g. miniroom:1,house:1."),
+        envs: Optional[str] = typer.Option(None, "--envs", "-e", help="Comma list of environments, e.g. miniroom:1,house:1 (scene pairs: miniroom:1:2)."),
         envs_batch: Optional[str] = typer.Option(None, "--envs-batch", "-E", help="A named batch of environments (`benchbot list batches`)."),
-        task: str = typer.Option(DEFAULT_TASK, "--task", "-t", help="Task name."),
-        robot: str = typer.Option(DEFAULT_ROBOT, "--robot", "-r", help="Robot name."),
+        task: str = typer.Option(DEFAULT_TASK, "--task", "-t", help="Task name (`benchbot list tasks`)."),
+        robot: str = typer.Option(DEFAULT_ROBOT, "--robot", "-r", help="Robot name (`benchbot list robots`)."),
+        robots: Optional[str] = typer.Option(None, "--robots", help="Comma list of robots to sweep (instead of --robot)."),
         native: Optional[str] = typer.Option(None, "--native", "-n", help="A command to run as the solution, e.g. 'python my.py'."),
-        example: Optional[str] = typer.Option(None, "--example", help="An installed example as the solution."),
+        example: Optional[str] = typer.Option(None, "--example", help="An installed example as the solution (`benchbot list examples`)."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the solution's command."),
-        prefix: str = typer.Option("batch", "--prefix", "-p", help="Name prefix of the run directory."),
+        repeat: int = typer.Option(1, "--repeat", help="Run every (robot, environment) this many times, each with its own recorded seed."),
+        workers: int = typer.Option(1, "--workers", "-w", help="Episodes run in parallel (each in its own process with its own backend)."),
+        retries: int = typer.Option(0, "--retries", help="Re-run failed episodes up to this many times."),
+        executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks)."),
+        ray_address: Optional[str] = typer.Option(None, "--ray-address", help="An existing Ray cluster (default: start a local one)."),
+        resume: Optional[Path] = typer.Option(None, "--resume", help="Resume the batch in this run directory: only unfinished episodes run."),
+        prefix: str = typer.Option("batch", "--prefix", "-p", help="Name prefix of the run directory (and of the --zip archive)."),
+        zip_results: bool = typer.Option(False, "--zip", "-z", help="Also write PREFIX.zip of the results files, as the original did."),
         output_dir: Path = typer.Option(Path("runs"), "--output-dir", help="Where run directories are made."),
         evaluate_with: str = typer.Option("auto", "--evaluate-with", help="Evaluation method; 'auto' picks one when every environment has a ground truth."),
         no_evaluate: bool = typer.Option(False, "--no-evaluate", help="Do not evaluate."),
         seed: int = typer.Option(0, "--seed", help="Seed of the first episode (episode i uses seed + i)."),
-        arch: str = typer.Option("cpu", "--arch", help="Simulator device: cpu or gpu."),
+        arch: str = typer.Option("auto", "--arch", help="Simulator device: auto (a GPU when present), cpu or gpu."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
-        timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Kill a solution after this many seconds."),
+        timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Kill a solution after this many seconds (the episode fails)."),
         as_json: bool = typer.Option(False, "--json", help="Print the outcome as JSON on stdout."),
     ) -> None:
-        """Run a solution on every environment (each with its own backend on 127.0.0.1), then score the results.
+        """Run a solution on every environment, each episode with its own backend on 127.0.0.1, then score it.
 
-        Results, scores, logs, the resolved configuration and a manifest are kept in a run directory under
-        --output-dir, named on stderr. Exit status 0 when every episode produced results.
+        Results, scores, logs, the resolved configuration and a manifest (versions, seeds, timings) are kept in a run
+        directory under --output-dir, named on stderr; a batch stopped at any moment continues with --resume.
+        Exit status 0 when every episode produced results.
         """
         reg = registry()
-        if bool(native) == bool(example):
-            raise UsageError("give exactly one of --native COMMAND and --example NAME", "e.g. --example semslam_geometric")
-        env_list = parse_env_list(envs, envs_batch, reg)
-        submission = example_submission(reg, example, args) if example else native_submission([native], args)
-        run_dir = new_run_dir(output_dir, prefix)
-        err.print(f"run directory: {run_dir}")
-        with Progress(
-            TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
-            TimeElapsedColumn(), console=err, transient=False,
-        ) as progress:
-            current: dict = {}
-
-            def started(record: EpisodeRecord, run: RunSpec) -> None:
-                current["id"] = progress.add_task(f"[{record.index + 1}/{len(env_list)}] {record.env}", total=_expected_steps(run))
-
-            def stepped(info: dict) -> None:
-                progress.advance(current["id"])
-
-            def ended(record: EpisodeRecord) -> None:
-                colour = "green" if record.status == "ok" else "red"
-                progress.update(current["id"], description=f"[{record.index + 1}/{len(env_list)}] {record.env} [{colour}]{record.status}[/]")
-
-            outcome = run_batch(
-                reg, task=task, robot=robot, envs=env_list, submission=submission, run_dir=run_dir,
-                evaluate_with=None if no_evaluate else evaluate_with, seed=seed, options=backend_options(arch, camera_size),
-                on_episode_start=started, on_step=stepped, on_episode_end=ended, episode_timeout_s=timeout,
+        if resume is not None:
+            run_dir = resume.resolve()
+            specs, records = specs_from_manifest(read_manifest(run_dir))
+            done = sum(r.status == "ok" for r in records)
+            err.print(f"resuming {run_dir}: {done} of {len(specs)} episodes already done")
+        else:
+            if bool(native) == bool(example):
+                raise UsageError("give exactly one of --native COMMAND and --example NAME", "e.g. --example semslam_geometric")
+            env_list = parse_env_list(envs, envs_batch, reg)
+            robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
+            submission = example_submission(reg, example, args) if example else native_submission([native], args)
+            specs = plan_episodes(
+                task=task, robots=robot_list, envs=env_list, repeat=repeat, seed=seed, argv=submission.argv,
+                cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout,
             )
+            run_dir = new_run_dir(output_dir, prefix)
+            prepare_batch(reg, run_dir=run_dir, specs=specs, evaluate_with=None if no_evaluate else evaluate_with,
+                          prefix=prefix, zip_results=zip_results)
+            err.print(f"run directory: {run_dir}")
+        total = len(specs)
+        expected = {s.index: _expected_steps(reg, s.task, s.env) for s in specs}
+        label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
+                 + (f" r{s.repeat}" if s.repeat else "") for s in specs}
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+                      TimeElapsedColumn(), console=err) as progress:
+            rows: dict[int, int] = {}
+
+            def on_event(kind: str, index: int, info: dict | None) -> None:
+                if kind == "start":
+                    rows[index] = progress.add_task(label[index], total=expected[index])
+                elif kind == "step" and index in rows:
+                    progress.update(rows[index], completed=info["step"])
+
+            def on_record(record: EpisodeRecord) -> None:
+                colour = "green" if record.status == "ok" else "red"
+                if record.index in rows:
+                    progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
+
+            outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
+                                ray_address=ray_address, on_event=on_event, on_record=on_record)
         for record in outcome.episodes:
             if record.status != "ok":
-                err.print(f"[red]{record.env}: {record.status}[/] (exit status {record.returncode}); see {run_dir / record.log}")
+                why = record.error or f"exit status {record.returncode}"
+                err.print(f"[red]{record.env}: {record.status}[/] ({why}); see {run_dir / record.log}", highlight=False)
+        if outcome.evaluation_error:
+            err.print(f"[red]evaluation failed:[/] {outcome.evaluation_error}", highlight=False)
         if as_json:
             out.print_json(json.dumps({
-                "run_dir": str(run_dir),
-                "episodes": [vars(e) for e in outcome.episodes],
+                "run_dir": str(run_dir), "episodes": [vars(e) for e in outcome.episodes],
                 "scores": outcome.evaluation.to_json() if outcome.evaluation else None,
             }, default=lambda o: o.tolist()))
         elif outcome.evaluation is not None:
@@ -92,3 +110,10 @@ def register(app: typer.Typer) -> None:
         err.print(f"results and scores in {run_dir}")
         if not outcome.ok:
             raise typer.Exit(int(ExitCode.FAILURE))
+
+
+def _expected_steps(reg, task: str, env: str) -> int | None:
+    """The number of steps of a passive episode (its trajectories' lengths); None for active tasks."""
+    if reg.get("tasks", task)["actions"] != ["move_next"]:
+        return None
+    return sum(len(e.get("trajectory_poses") or []) for e in reg.scenes(env))

@@ -15,7 +15,8 @@ from rich.console import Console
 from benchbot.core.errors import BenchbotError, ExitCode, UsageError
 from benchbot.core.registry import Registry, get_registry
 
-out = Console(soft_wrap=True)
+# Tables go to stdout; when it is not a terminal (a pipe, a file, CI) they get room instead of 80 columns.
+out = Console(soft_wrap=True, width=None if sys.stdout.isatty() else 160)
 err = Console(stderr=True, soft_wrap=True)
 
 
@@ -60,11 +61,14 @@ def handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def backend_options(arch: str, camera_size: str | None) -> dict:
-    """Robot-backend options from the CLI: ``{'arch': ..., 'width': W, 'height': H}``.
+    """Robot-backend options from the CLI: ``{'arch': 'cpu'|'gpu', 'width': W, 'height': H}`` (``arch='auto'``
+    means a GPU when an NVIDIA device is present, else the CPU).
 
     Raises:
         UsageError: ``camera_size`` is not ``WxH`` with positive integers.
     """
+    if arch == "auto":  # a GPU when the machine has an NVIDIA device, else the CPU
+        arch = "gpu" if os.path.exists("/dev/nvidiactl") else "cpu"
     options: dict = {"arch": arch}
     if camera_size:
         match = re.fullmatch(r"(\d+)[xX](\d+)", camera_size.strip())

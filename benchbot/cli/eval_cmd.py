@@ -36,7 +36,7 @@ def print_scores(evaluation: Evaluation) -> None:
         table.add_row(name, *[_fmt(s["scores"].get(k, "")) for k in keys])
     if evaluation.combined is not None and len(evaluation.per_result) + len(evaluation.missing) > 1:
         combined = evaluation.combined.get("scores", {})
-        table.add_row("[bold]combined (mean)[/]", *[_fmt(combined.get(k, "")) for k in keys])
+        table.add_row("[bold]combined[/]", *[_fmt(combined.get(k, "")) for k in keys])
     out.print(table)
     for source, why in evaluation.skipped:
         err.print(f"[yellow]skipped[/] {source}: {why}")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import typer
 
 from benchbot import __version__
-from benchbot.cli import batch_cmd, eval_cmd, list_cmd, run_cmd, show_cmd, submit_cmd
+from benchbot.cli import batch_cmd, eval_cmd, list_cmd, report_cmd, run_cmd, show_cmd, submit_cmd
 
 HELP = """BenchBot: benchmark robotics research on simulated and real robots.
 
@@ -22,7 +22,7 @@ See `benchbot list tasks|robots|environments|...` for what is installed.
 """
 
 app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich")
-for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd):
+for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd):
     module.register(app)
 
 

@@ -22,7 +22,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from benchbot.core.errors import ActionError, BackendError
+from benchbot.core.errors import ActionError, BackendError, BenchbotError
 from benchbot.core.geometry import (
     pose7_to_se2,
     pose_observation,
@@ -91,6 +91,7 @@ class Episode:
         self.backend, self.seed, self.on_step = backend, seed, on_step
         self.localisation = task.get("localisation", "ground_truth")
         self.step_count = 0
+        self.last_observation: tuple[int, dict] | None = None  # (step_count, observations) of the last observe()
         self.running = False
         self.scene_index = 0
         self._load(0)
@@ -236,7 +237,7 @@ class Episode:
         truth_goal = goal if self.localisation != "noisy" else se2_compose(before, se2_relative(current, goal))
         try:
             outcome = self.backend.move_to(truth_goal)
-        except BackendError:
+        except BenchbotError:
             raise
         except Exception as exc:  # a backend bug must reach the user as a clear error, not a dead server
             raise BackendError(f"robot backend failed during {action}: {exc!r}", "see the backend log") from exc
@@ -277,6 +278,7 @@ class Episode:
         if "poses" in names:
             obs["poses"] = self._poses()
         obs["scene_number"] = self.scene_index
+        self.last_observation = (self.step_count, obs)  # for observers (recorder, live view): no extra render
         return obs
 
     def _poses(self) -> dict[str, dict]:

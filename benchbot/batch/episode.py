@@ -1,0 +1,72 @@
+"""Running one batch episode: a backend on a free 127.0.0.1 port, the submission as a child process, the record.
+
+:func:`run_episode` runs in the batch process (one worker) or in a worker process (several workers, Ray); it
+reports steps through an optional ``events`` queue as ``("step", index, info)`` tuples.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
+from benchbot.core.errors import BenchbotError
+from benchbot.core.registry import get_registry
+from benchbot.core.server import ServerThread, build_app
+from benchbot.core.session import resolve_run, start_service
+from benchbot.core.submission import Submission, run_submission
+
+
+def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
+    """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
+
+    Args:
+        spec: the episode.
+        run_dir: absolute path of the run directory (results and logs go there).
+        events: a queue receiving ``("start", index, None)``, ``("step", index, info)`` and ``("end", index, None)``.
+    """
+    record = new_record(spec)
+    run = Path(run_dir)
+    (run / "results").mkdir(exist_ok=True)
+    (run / "logs").mkdir(exist_ok=True)
+    (run / spec.results).unlink(missing_ok=True)  # a stale file from a killed attempt must not count
+    if events is not None:
+        events.put(("start", spec.index, None))
+    t0 = time.monotonic()
+    try:
+        registry = get_registry()
+        run_spec = resolve_run(registry, spec.task, spec.robot, spec.env)
+
+        def on_step(info: dict) -> None:
+            if events is not None:
+                events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
+
+        service = start_service(registry, run_spec, seed=spec.seed, options=spec.options, on_step=on_step)
+        try:
+            server = ServerThread(build_app(service)).start()
+            try:
+                with open(run / spec.log, "w") as log:
+                    submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
+                    record.returncode = run_submission(
+                        submission, address=server.address, result_location=run / spec.results, log=log,
+                        timeout_s=spec.timeout_s,
+                    )
+            finally:
+                server.stop()
+            state = service.call(service.episode.state)
+            record.steps, record.collided = state["step"], state["is_collided"]
+        finally:
+            service.close()
+        if record.returncode != 0:
+            record.status = "failed"
+        elif not (run / spec.results).is_file():
+            record.status = "no_results"
+        else:
+            record.status = "ok"
+    except BenchbotError as exc:
+        record.status, record.error = "error", exc.message
+    record.wall_s = round(time.monotonic() - t0, 3)
+    if events is not None:
+        events.put(("end", spec.index, None))
+    return record

@@ -1,0 +1,108 @@
+"""Executors: where a batch's episodes run. Every executor runs :func:`~benchbot.batch.episode.run_episode`, reports
+the same events and returns the same records, so results do not depend on the executor.
+
+``local``: ``workers == 1`` runs episodes one after another in this process (the simulator starts once);
+``workers > 1`` runs them in that many worker processes (spawned; each has its own simulator thread and its own
+backend on a free loopback port). ``ray``: episodes are Ray tasks on a local or existing Ray cluster.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import queue
+import threading
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Callable
+
+from benchbot.batch.episode import run_episode
+from benchbot.batch.plan import EpisodeRecord, EpisodeSpec
+from benchbot.core.errors import UsageError
+
+EventHandler = Callable[[str, int, dict | None], None]
+
+
+def _drain(events: "queue.Queue | object", on_event: EventHandler, stop: threading.Event) -> None:
+    while True:
+        try:
+            kind, index, info = events.get(timeout=0.1)
+        except queue.Empty:
+            if stop.is_set():
+                return
+            continue
+        except (EOFError, OSError):  # the manager went away
+            return
+        on_event(kind, index, info)
+
+
+def run_local(
+    specs: list[EpisodeSpec], run_dir: str, *, workers: int, on_event: EventHandler,
+    on_record: Callable[[EpisodeRecord], None],
+) -> None:
+    """Run ``specs`` with ``workers`` parallel episodes; ``on_record`` is called (in this thread) as each ends."""
+    stop = threading.Event()
+    if workers <= 1:
+        events: queue.Queue = queue.Queue()
+        drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
+        drainer.start()
+        try:
+            for spec in specs:
+                on_record(run_episode(spec, run_dir, events))
+        finally:
+            stop.set()
+            drainer.join()
+        return
+    context = multiprocessing.get_context("spawn")
+    with context.Manager() as manager:
+        events = manager.Queue()
+        drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
+        drainer.start()
+        try:
+            with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+                futures = [pool.submit(run_episode, spec, run_dir, events) for spec in specs]
+                for future in as_completed(futures):
+                    on_record(future.result())
+        finally:
+            stop.set()
+            drainer.join()
+
+
+def run_ray(
+    specs: list[EpisodeSpec], run_dir: str, *, address: str | None, workers: int, on_event: EventHandler,
+    on_record: Callable[[EpisodeRecord], None],
+) -> None:
+    """Run ``specs`` as Ray tasks (one CPU each) and call ``on_record`` as each ends.
+
+    Args:
+        address: an existing cluster's address (``ray://host:10001`` or ``host:6379``); None starts a local Ray
+            with ``workers`` CPUs for this batch (and shuts it down afterwards).
+
+    On a cluster, every node needs BenchBot and the plugins installed, and the run directory and the submission's
+    folder must be on a filesystem all nodes share (each episode writes its results and log there).
+
+    Raises:
+        UsageError: Ray is not installed.
+    """
+    try:
+        import ray
+        from ray.util.queue import Queue
+    except ImportError:
+        raise UsageError("--executor ray needs Ray", "install it: uv pip install 'benchbot[ray]'") from None
+    started_here = not ray.is_initialized()
+    if started_here:
+        kwargs = {"address": address} if address else {"num_cpus": workers}
+        ray.init(include_dashboard=False, log_to_driver=False, configure_logging=False, **kwargs)
+    stop = threading.Event()
+    events = Queue()
+    drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
+    drainer.start()
+    try:
+        remote_episode = ray.remote(num_cpus=1, max_retries=0)(run_episode)
+        pending = [remote_episode.remote(spec, run_dir, events) for spec in specs]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            on_record(ray.get(done[0]))
+    finally:
+        stop.set()
+        drainer.join()
+        if started_here:
+            ray.shutdown()

@@ -1,0 +1,216 @@
+"""Batches: plan, run (resumably), evaluate (reference §8, without Docker, with parallel episodes).
+
+A run directory holds::
+
+    config.json          the resolved task, robots and environments
+    manifest.json        command, versions, seeds, the plan, and every episode's record (atomic, after each change)
+    results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
+    scores.json          the evaluation in the original's format (the combined scores)
+    episode_scores.json  per-episode scores with environment, robot, repetition and seed
+    PREFIX.zip           with --zip: the results files, flat, as the original made them
+
+``--resume RUN_DIR`` re-runs only the episodes whose record is not ``ok``; finished results are never redone.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata as md
+import platform
+import sys
+import time
+import zipfile
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable
+
+from benchbot.batch.executors import EventHandler, run_local, run_ray
+from benchbot.batch.plan import (
+    EpisodeRecord, EpisodeSpec, new_record, read_manifest, specs_from_manifest, to_json, write_manifest,
+)
+from benchbot.core import atomic
+from benchbot.core.errors import BenchbotError, UsageError
+from benchbot.core.evaluation import Evaluation, evaluate
+from benchbot.core.registry import Registry
+from benchbot.core.session import RunSpec, resolve_run
+
+
+@dataclass
+class BatchOutcome:
+    """A batch's run directory, episode records and evaluation (None when not evaluated)."""
+
+    run_dir: Path
+    episodes: list[EpisodeRecord] = field(default_factory=list)
+    evaluation: Evaluation | None = None
+    evaluation_error: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """Every episode produced results and the evaluation (if any) succeeded."""
+        return all(e.status == "ok" for e in self.episodes) and not self.evaluation_error
+
+
+def default_evaluator(registry: Registry, run: RunSpec) -> str | None:
+    """The method used when none is named: the first (by name) that scores the task's results format, provided
+    every scene has a ground truth; otherwise None."""
+    fmt = run.task.get("results_format")
+    if not fmt:
+        return None
+    if any(f"{e['name']}:{e['variant']}" not in registry.entries["ground_truths"] for e in run.environments):
+        return None
+    for name in registry.names("evaluators"):
+        if fmt in registry.get("evaluators", name)["valid_result_formats"]:
+            return name
+    return None
+
+
+def new_run_dir(output_dir: Path, prefix: str) -> Path:
+    """A fresh ``<output_dir>/<prefix>-<UTC timestamp>`` folder (absolute; suffixed if it exists)."""
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+    base = output_dir.resolve() / f"{prefix}-{stamp}"
+    path, n = base, 1
+    while path.exists():
+        n += 1
+        path = Path(f"{base}-{n}")
+    path.mkdir(parents=True)
+    return path
+
+
+def parse_env_list(envs: str | None, envs_batch: str | None, registry: Registry) -> list[str]:
+    """The environment strings of ``--envs a,b`` xor ``--envs-batch NAME``.
+
+    Raises:
+        UsageError: both or neither given. SpecError: an unknown batch.
+    """
+    if bool(envs) == bool(envs_batch):
+        raise UsageError("give exactly one of --envs and --envs-batch", "e.g. --envs miniroom:1,house:1")
+    if envs_batch:
+        return list(registry.get("batches", envs_batch)["environments"])
+    return [e.strip() for e in envs.split(",") if e.strip()]
+
+
+def _versions(registry: Registry) -> dict:
+    out = {"python": platform.python_version(), "platform": platform.platform()}
+    for dist in ["benchbot"] + sorted({p.distribution for p in registry.plugins if p.distribution}):
+        try:
+            out[dist] = md.version(dist)
+        except md.PackageNotFoundError:
+            pass
+    return out
+
+
+def prepare_batch(
+    registry: Registry, *, run_dir: Path, specs: list[EpisodeSpec], evaluate_with: str | None, prefix: str,
+    zip_results: bool,
+) -> dict:
+    """Validate every combination of the plan, resolve the evaluation method, and write config + manifest.
+
+    Returns:
+        the manifest.
+
+    Raises:
+        SpecError: a combination is invalid (nothing has run yet) or the named method does not exist.
+    """
+    runs = {(s.robot, s.env): resolve_run(registry, s.task, s.robot, s.env) for s in specs}
+    if evaluate_with == "auto":
+        evaluate_with = default_evaluator(registry, next(iter(runs.values())))
+    elif evaluate_with is not None:
+        registry.get("evaluators", evaluate_with)
+    first = next(iter(runs.values()))
+    atomic.write_json(run_dir / "config.json", {
+        "task": first.task,
+        "robots": {robot: registry.get("robots", robot) for robot, _ in runs},
+        "environments": {env: run.environments for (_, env), run in runs.items()},
+    })
+    manifest = {
+        "command": sys.argv, "task": specs[0].task, "robots": sorted({s.robot for s in specs}),
+        "environments": list(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
+        "prefix": prefix, "zip": zip_results, "versions": _versions(registry),
+        "started": datetime.now(timezone.utc).isoformat(),
+        "plan": to_json(specs), "episodes": to_json([new_record(s) for s in specs]),
+    }
+    write_manifest(run_dir, manifest)
+    return manifest
+
+
+def run_batch(
+    registry: Registry, run_dir: Path, *, workers: int = 1, retries: int = 0, executor: str = "local",
+    ray_address: str | None = None, on_event: EventHandler | None = None,
+    on_record: Callable[[EpisodeRecord], None] | None = None,
+) -> BatchOutcome:
+    """Run (or resume) the batch planned in ``run_dir``'s manifest, then evaluate.
+
+    Episodes whose record is ``ok`` are skipped; the others run, and failed ones are retried up to ``retries``
+    times. The manifest is rewritten atomically after every episode.
+
+    Args:
+        executor: ``local`` (this process, or ``workers`` processes) or ``ray`` (Ray tasks; ``ray_address`` names
+            an existing cluster, else a local one with ``workers`` CPUs is started).
+
+    Raises:
+        UsageError: no manifest in ``run_dir``; ``workers`` < 1; unknown executor.
+    """
+    if workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {workers}", "")
+    if executor not in ("local", "ray"):
+        raise UsageError(f"unknown executor '{executor}'", "use local or ray")
+    run_dir = run_dir.resolve()
+    manifest = read_manifest(run_dir)
+    specs, records = specs_from_manifest(manifest)
+    by_index = {r.index: r for r in records}
+    t0 = time.monotonic()
+
+    def record_done(record: EpisodeRecord) -> None:
+        record.attempts = by_index[record.index].attempts + 1
+        by_index[record.index] = record
+        manifest["episodes"] = to_json([by_index[s.index] for s in specs])
+        write_manifest(run_dir, manifest)
+        if on_record is not None:
+            on_record(record)
+
+    for _ in range(retries + 1):
+        todo = [s for s in specs if by_index[s.index].status != "ok"]
+        if not todo:
+            break
+        handler = on_event or (lambda *a: None)
+        if executor == "ray":
+            run_ray(todo, str(run_dir), address=ray_address, workers=workers, on_event=handler, on_record=record_done)
+        else:
+            run_local(todo, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
+    outcome = BatchOutcome(run_dir, [by_index[s.index] for s in specs])
+    done = [e for e in outcome.episodes if e.status == "ok"]
+    if manifest.get("zip") and done:
+        _zip_results(run_dir, manifest.get("prefix", "batch"), done)
+    method = manifest.get("evaluate_with")
+    if method and done:
+        try:
+            outcome.evaluation = evaluate(
+                [run_dir / e.results for e in done], method, registry,
+                required_envs=manifest["environments"], required_task=manifest["task"],
+            )
+            atomic.write_json(run_dir / "scores.json", outcome.evaluation.to_json())
+            by_source = {str(run_dir / e.results): e for e in done}
+            atomic.write_json(run_dir / "episode_scores.json", [
+                {"index": by_source[src].index, "env": by_source[src].env, "robot": by_source[src].robot,
+                 "repeat": by_source[src].repeat, "seed": by_source[src].seed, **scores}
+                for src, scores in outcome.evaluation.per_result if src in by_source
+            ])
+        except BenchbotError as exc:
+            outcome.evaluation_error = exc.message
+    manifest["episodes"] = to_json(outcome.episodes)
+    manifest["evaluation_error"] = outcome.evaluation_error
+    manifest["wall_s"] = round(manifest.get("wall_s", 0.0) + time.monotonic() - t0, 3)
+    manifest["finished"] = datetime.now(timezone.utc).isoformat()
+    write_manifest(run_dir, manifest)
+    return outcome
+
+
+def _zip_results(run_dir: Path, prefix: str, done: list[EpisodeRecord]) -> Path:
+    """``PREFIX.zip`` of the results files (flat, named ``PREFIX_i.json`` in episode order, as the original)."""
+    path = run_dir / f"{prefix}.zip"
+    tmp = path.with_suffix(".zip.tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as archive:
+        for i, record in enumerate(sorted(done, key=lambda r: r.index)):
+            archive.write(run_dir / record.results, f"{prefix}_{i}.json")
+    tmp.replace(path)
+    return path

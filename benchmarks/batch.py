@@ -1,0 +1,64 @@
+"""Batch throughput: the ten BEAR environments with ``semslam_geometric`` on the passive task, with 1 worker and with
+N workers in the same run.
+
+Prints wall time and episodes per minute for each, the speed-up and the parallel efficiency (speed-up / N).
+
+    python benchmarks/batch.py [--workers N] [--envs-batch bear_all] [--camera-size 640x480] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def run(workers: int, args: argparse.Namespace, out: Path) -> dict:
+    command = [sys.executable, "-m", "benchbot.cli", "batch", "--example", args.example, "--envs-batch", args.envs_batch,
+               "--workers", str(workers), "--output-dir", str(out), "--json", "--arch", args.arch]
+    if args.camera_size:
+        command += ["--camera-size", args.camera_size]
+    t0 = time.monotonic()
+    proc = subprocess.run(command, capture_output=True, text=True)
+    wall = time.monotonic() - t0
+    if proc.returncode != 0:
+        sys.exit(f"batch with {workers} worker(s) failed:\n{proc.stderr[-2000:]}")
+    outcome = json.loads(proc.stdout)
+    episodes = len(outcome["episodes"])
+    return {"workers": workers, "wall_s": round(wall, 2), "episodes": episodes,
+            "episodes_per_min": round(60.0 * episodes / wall, 3),
+            "omq": outcome["scores"]["scores"]["OMQ"] if outcome.get("scores") else None}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="N (default: the number of CPUs)")
+    ap.add_argument("--envs-batch", default="bear_all")
+    ap.add_argument("--example", default="semslam_geometric")
+    ap.add_argument("--camera-size", default=None, help="WIDTHxHEIGHT (default: the robot's 640x480)")
+    ap.add_argument("--arch", default="cpu")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="benchbot-bench-") as tmp:
+        one = run(1, args, Path(tmp) / "one")
+        many = run(args.workers, args, Path(tmp) / "many") if args.workers > 1 else one
+    speedup = one["wall_s"] / many["wall_s"]
+    result = {"envs_batch": args.envs_batch, "example": args.example, "cpu_count": os.cpu_count(),
+              "one_worker": one, "n_workers": many, "speedup": round(speedup, 3),
+              "parallel_efficiency": round(speedup / args.workers, 3)}
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for r in (one, many):
+            print(f"{r['workers']:>3} worker(s): {r['wall_s']:8.1f} s, {r['episodes_per_min']:.2f} episodes/min, OMQ {r['omq']}")
+        print(f"speed-up {speedup:.2f}x, parallel efficiency {speedup / args.workers:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,108 @@
+"""Batches: plans and seeds, parallel workers, failures and retries, kill-and-resume without redoing work."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from benchbot.batch.plan import plan_episodes
+from benchbot.core.errors import UsageError
+
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+SMALL = ["--camera-size", "64x48"]
+
+
+def cli(*args, timeout=300):
+    return subprocess.run([*BENCHBOT, *args], capture_output=True, text=True, timeout=timeout)
+
+
+def manifest(run_dir: Path) -> dict:
+    return json.loads((run_dir / "manifest.json").read_text())
+
+
+def test_plan_gives_each_episode_a_recorded_seed():
+    specs = plan_episodes(task="t", robots=["a", "b"], envs=["miniroom:1", "house:1"], repeat=2, seed=10,
+                          argv=["x"], cwd=".", options={}, timeout_s=None)
+    assert len(specs) == 8 and [s.seed for s in specs] == list(range(10, 18))
+    assert (specs[3].robot, specs[3].env, specs[3].repeat) == ("a", "house:1", 1)
+    assert len({s.results for s in specs}) == 8
+    with pytest.raises(UsageError):
+        plan_episodes(task="t", robots=["a"], envs=["e:1"], repeat=0, seed=0, argv=["x"], cwd=".", options={}, timeout_s=None)
+
+
+def test_repeats_on_two_workers(tmp_path):
+    proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1", "--repeat", "2",
+               "--workers", "2", "--output-dir", str(tmp_path), "--json", "--zip", *SMALL)
+    assert proc.returncode == 0, proc.stderr
+    run_dir = Path(json.loads(proc.stdout)["run_dir"])
+    records = manifest(run_dir)["episodes"]
+    assert [(r["status"], r["repeat"], r["seed"]) for r in records] == [("ok", 0, 0), ("ok", 1, 1)]
+    per_episode = json.loads((run_dir / "episode_scores.json").read_text())
+    assert [e["scores"]["OMQ"] for e in per_episode] == [1.0, 1.0]
+    assert (run_dir / "batch.zip").is_file()
+
+
+def test_failing_solution_is_reported_and_retried(tmp_path):
+    proc = cli("batch", "--native", f"{sys.executable} -c 'import sys; sys.exit(3)'", "--envs", "miniroom:1",
+               "--retries", "1", "--output-dir", str(tmp_path), *SMALL)
+    assert proc.returncode == 1
+    run_dir = next(tmp_path.iterdir())
+    record = manifest(run_dir)["episodes"][0]
+    assert (record["status"], record["returncode"], record["attempts"]) == ("failed", 3, 2)
+    assert "miniroom:1: failed (exit status 3)" in proc.stderr
+
+
+def test_killed_batch_resumes_without_redoing_finished_episodes(tmp_path):
+    args = [*BENCHBOT, "batch", "--example", "hello_passive", "--envs", "miniroom:4,miniroom:1,house:1",
+            "--output-dir", str(tmp_path), *SMALL]
+    child = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 240
+    run_dir = None
+    while time.monotonic() < deadline:  # wait until the first episode is recorded as done
+        dirs = list(tmp_path.iterdir())
+        if dirs and (dirs[0] / "manifest.json").is_file():
+            run_dir = dirs[0]
+            if manifest(run_dir)["episodes"][0]["status"] == "ok":
+                break
+        time.sleep(0.2)
+    os.killpg(child.pid, signal.SIGKILL)
+    child.wait()
+    first = manifest(run_dir)["episodes"]
+    assert first[0]["status"] == "ok" and first[2]["status"] != "ok"
+    results_0 = (run_dir / first[0]["results"]).read_bytes()
+    proc = cli("batch", "--resume", str(run_dir))
+    assert proc.returncode == 0, proc.stderr
+    after = manifest(run_dir)["episodes"]
+    assert [e["status"] for e in after] == ["ok", "ok", "ok"]
+    assert after[0]["attempts"] == 1  # not redone
+    assert (run_dir / after[0]["results"]).read_bytes() == results_0
+    assert json.loads((run_dir / "scores.json").read_text())["scores"]["OMQ"] == 0.0  # empty maps
+
+
+def test_resume_needs_a_run_directory(tmp_path):
+    proc = cli("batch", "--resume", str(tmp_path))
+    assert proc.returncode == 2 and "is not a batch run directory" in proc.stderr
+
+
+@pytest.mark.slow
+def test_ray_executor_gives_the_same_results_as_local(tmp_path):
+    outcomes = {}
+    for executor in ("local", "ray"):
+        out = tmp_path / executor
+        proc = cli("batch", "--example", "hello_passive", "--envs", "miniroom:4,miniroom:1", "--executor", executor,
+                   "--workers", "2", "--output-dir", str(out), "--json", *SMALL, timeout=600)
+        assert proc.returncode == 0, proc.stderr
+        run_dir = Path(json.loads(proc.stdout)["run_dir"])
+        records = manifest(run_dir)["episodes"]
+        outcomes[executor] = [(r["env"], r["seed"], r["status"], r["steps"], r["collided"]) for r in records]
+        outcomes[executor + "_results"] = [(run_dir / r["results"]).read_text() for r in records]
+    assert outcomes["local"] == outcomes["ray"]
+    assert outcomes["local"][0][3] == 33  # the whole miniroom:4 trajectory
+    assert outcomes["local_results"] == outcomes["ray_results"]
