@@ -33,6 +33,9 @@ DEFAULT_SENSORS: dict[str, Any] = {
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
     "max_height_m": 1.0,
+    # seeded sensor noise, off by default: rgb_sigma (0..255 levels, Gaussian), depth_sigma (m, Gaussian, scaled by
+    # depth), depth_dropout (fraction of pixels set to 0), laser_sigma (m, Gaussian)
+    "noise": {"rgb_sigma": 0.0, "depth_sigma": 0.0, "depth_dropout": 0.0, "laser_sigma": 0.0},
 }
 
 #: Rotation (3, 3) of the camera OPTICAL frame in the camera body frame (x forward, y left, z up).
@@ -75,8 +78,13 @@ class TaichiSimBackend(RobotBackend):
     Args:
         robot_spec: the robot spec (``sensors`` block optional, defaults :data:`DEFAULT_SENSORS`; ``speed_factor``
             optional).
-        options: ``seed`` (int, default 0: colour variation), ``arch`` (``'cpu'``/``'gpu'``/``'cuda'``; default
-            env ``BENCHBOT_TAICHI_ARCH`` or cpu), ``width``/``height`` (camera size override, pixels); others ignored.
+        options: ``seed`` (int, default 0: colour variation, sampling and noise), ``arch`` (``'cpu'``/``'gpu'``/
+            ``'cuda'``; default env ``BENCHBOT_TAICHI_ARCH`` or cpu), ``width``/``height`` (camera size override,
+            pixels), ``mode`` (``fast`` default / ``quality``), ``shadow_samples`` (shadow rays per light and pixel
+            in fast mode, default 1 = hard shadows); others ignored.
+
+    Sensor noise (robot spec ``sensors.noise``, all 0 = off by default): ``rgb_sigma``, ``depth_sigma`` (relative),
+    ``depth_dropout``, ``laser_sigma`` (m); drawn from ``numpy.random.default_rng([seed, frame, sensor])``.
     """
 
     def __init__(self, robot_spec: dict, options: dict | None = None) -> None:
@@ -103,6 +111,17 @@ class TaichiSimBackend(RobotBackend):
         self.radius = float(self.sensors["footprint_radius_m"])
         self.max_height = float(self.sensors["max_height_m"])
         self.gains = ControllerGains(speed_factor=float(self.robot_spec.get("speed_factor", 1.0) or 1.0))
+        self.noise = {k: float(v) for k, v in self.sensors["noise"].items()}
+        for k, v in self.noise.items():
+            if k not in DEFAULT_SENSORS["noise"] or not (v >= 0.0) or (k == "depth_dropout" and v > 1.0):
+                raise BackendError(f"sensors.noise.{k} = {v} is not valid",
+                                   f"use rgb_sigma, depth_sigma, laser_sigma ≥ 0 and 0 ≤ depth_dropout ≤ 1")
+        self.mode = str(self.options.get("mode", "fast"))
+        if self.mode not in ("fast", "quality"):
+            raise BackendError(f"unknown render mode {self.mode!r}", "use options mode: fast (default) or quality")
+        self.shadow_samples = int(self.options.get("shadow_samples", 1))
+        self._seed = int(self.options.get("seed", 0))
+        self._frame = 0
         self._renderer = None
         self.scene: Scene | None = None
         self.obstacles: Obstacles | None = None
@@ -122,8 +141,11 @@ class TaichiSimBackend(RobotBackend):
         if self._renderer is None:
             from benchbot_sim_taichi.renderer import Renderer  # Taichi is imported and initialised here
 
-            self._renderer = Renderer(self.options.get("arch"))
+            self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed)
+        self._renderer.seed = seed
         self._renderer.set_scene(scene)
+        self._seed = seed
+        self._frame = 0
         self.scene = scene
         self.obstacles = Obstacles.from_scene(scene, self.radius, self.max_height)
         self._pose = scene.start_se2.copy()
@@ -154,10 +176,17 @@ class TaichiSimBackend(RobotBackend):
         """
         self._need_scene()
         pose, outcome = drive(self._pose, np.asarray(goal, dtype=np.float64).reshape(3), self.obstacles, self.gains)
+        self.set_pose(pose)
+        return outcome
+
+    def set_pose(self, pose: np.ndarray) -> None:
+        """Place the robot at ``pose`` (3,) ``[x m, y m, yaw rad]`` (map) without motion or collision checks (used
+        by bridges that integrate their own velocity commands, e.g. the ROS 2 simulator bridge)."""
+        pose = np.asarray(pose, dtype=np.float64).reshape(3).copy()
         if not np.array_equal(pose, self._pose):
             self._cache = {}
+            self._frame += 1
         self._pose = pose
-        return outcome
 
     def frame_transforms(self) -> dict[str, np.ndarray]:
         """``{'robot': T_map_robot, 'camera': T_map_camera (optical), 'lidar': T_map_lidar}``, (4, 4) float64 each,
@@ -172,8 +201,29 @@ class TaichiSimBackend(RobotBackend):
     def _render(self) -> dict[str, np.ndarray]:
         if "render" not in self._cache:
             T = se2_to_matrix(*self._pose) @ self.T_robot_camera
-            self._cache["render"] = self._renderer.render(self.K, T, self.width, self.height)
+            out = self._renderer.render(self.K, T, self.width, self.height, mode=self.mode)
+            if any(self.noise[k] > 0 for k in ("rgb_sigma", "depth_sigma", "depth_dropout")):
+                out = self._add_image_noise(out)
+            self._cache["render"] = out
         return self._cache["render"]
+
+    def _rng(self, what: int) -> np.random.Generator:
+        """Noise generator of this frame: seeded by (seed, frame count, sensor) so reruns are bit-identical."""
+        return np.random.default_rng([self._seed, self._frame, what])
+
+    def _add_image_noise(self, out: dict) -> dict:
+        out = dict(out)
+        nz = self.noise
+        if nz["rgb_sigma"] > 0:
+            g = self._rng(1).normal(0.0, nz["rgb_sigma"], out["rgb"].shape)
+            out["rgb"] = np.clip(out["rgb"].astype(np.float64) + g, 0, 255).round().astype(np.uint8)
+        if nz["depth_sigma"] > 0 or nz["depth_dropout"] > 0:
+            rng = self._rng(2)
+            d = out["depth"].astype(np.float64)
+            d = d + rng.normal(0.0, 1.0, d.shape) * nz["depth_sigma"] * d
+            d[rng.random(d.shape) < nz["depth_dropout"]] = 0.0
+            out["depth"] = np.maximum(d, 0.0).astype(np.float32)
+        return out
 
     def _info(self) -> dict[str, Any]:
         P = np.zeros((3, 4))
@@ -213,7 +263,10 @@ class TaichiSimBackend(RobotBackend):
             elif n == "laser":
                 if "laser" not in self._cache:
                     T = se2_to_matrix(*self._pose) @ self.T_robot_lidar
-                    ranges = np.minimum(self._renderer.scan(T, self.laser_angles), self.range_max)
+                    ranges = self._renderer.scan(T, self.laser_angles)
+                    if self.noise["laser_sigma"] > 0:
+                        ranges = ranges + self._rng(3).normal(0.0, self.noise["laser_sigma"], ranges.shape)
+                    ranges = np.clip(ranges, 0.0, self.range_max)
                     self._cache["laser"] = np.stack([ranges, self.laser_angles_wrapped], axis=1)
                 out[n] = {"scans": self._cache["laser"].copy(), "range_min": self.range_min,
                           "range_max": self.range_max}

@@ -96,3 +96,11 @@ def benchbot_batches() -> list[Path]:
     """The BEAR batches in ``batches/``: ``develop_1..3`` (4 single scenes each), ``develop_4..6`` (6 scene pairs
     each, for scene change detection) and ``bear_all`` (all ten environments)."""
     return sorted((Path(__file__).parent / "batches").glob("*.yaml"))
+
+
+@hookimpl
+def benchbot_commands(app) -> None:
+    """``benchbot sim render|export|ground-truth`` (see :mod:`benchbot_sim_taichi.cli`)."""
+    from benchbot_sim_taichi.cli import app as sim_app
+
+    app.add_typer(sim_app, name="sim")

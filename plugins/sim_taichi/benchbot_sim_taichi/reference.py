@@ -1,5 +1,6 @@
-"""A straightforward NumPy implementation of the renderer's ray casting and laser scan (same rays, same shading), used
-to test the Taichi kernels. Slow; float64. Shapes and units as in :meth:`Renderer.render` / :meth:`Renderer.scan`.
+"""A straightforward NumPy implementation of the renderer's ray casting and laser scan (same rays, same shading with
+hard shadows, brute force over every primitive — no BVH), used to test the Taichi kernels. Slow; float64. Shapes and
+units as in :meth:`Renderer.render` / :meth:`Renderer.scan`.
 """
 
 from __future__ import annotations
@@ -8,7 +9,10 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.renderer import DIR_EPS, GAMMA, SHADOW_OFFSET, T_EPS, TILE_CONTRAST, TILE_M, pack_scene
+from benchbot_sim_taichi.renderer import DIR_EPS, GAMMA, SHADOW_OFFSET, T_EPS, TILE_CONTRAST, TILE_M
+from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
+
+_INF = 1e30
 
 
 def _safe(d: np.ndarray) -> np.ndarray:
@@ -17,20 +21,106 @@ def _safe(d: np.ndarray) -> np.ndarray:
     return d
 
 
-def _entry(o, inv, bmin, bmax):
-    t1 = (bmin - o) * inv
-    t2 = (bmax - o) * inv
-    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-    axis = np.argmax(lo, axis=-1)  # first maximum, as the kernel's strict '>' keeps the first
-    return lo.max(axis=-1), hi.min(axis=-1), axis
+def hit_primitive(scene, i: int, o: np.ndarray, d: np.ndarray, tmax: np.ndarray):
+    """Entry ``(t (R,), normal (R, 3))`` of rays ``o`` (R, 3) / ``d`` (R, 3) into primitive ``i`` of ``scene``
+    where ``T_EPS < t < tmax``, else ``t = tmax``."""
+    R = d.shape[0]
+    o = np.broadcast_to(o, (R, 3))
+    lo, hi = scene.prim_min[i].astype(np.float64), scene.prim_max[i].astype(np.float64)
+    kind = int(scene.prim_type[i])
+    t = np.full(R, _INF)
+    n = np.zeros((R, 3))
+    if kind == PRIM_BOX:
+        inv = 1.0 / _safe(d)
+        t1, t2 = (lo - o) * inv, (hi - o) * inv
+        a, b = np.minimum(t1, t2), np.maximum(t1, t2)
+        axis = np.argmax(a, axis=1)
+        tn, tf = a.max(axis=1), b.min(axis=1)
+        m = (tn <= tf) & (tn > T_EPS)
+        t[m] = tn[m]
+        idx = np.nonzero(m)[0]
+        n[idx, axis[idx]] = np.where(d[idx, axis[idx]] > 0, -1.0, 1.0)
+    elif kind == PRIM_ELLIPSOID:
+        c, r = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-6)
+        oc, dd = (o - c) / r, d / r
+        a = (dd * dd).sum(1)
+        b = (oc * dd).sum(1)
+        cc = (oc * oc).sum(1) - 1
+        disc = b * b - a * cc
+        ok = disc >= 0
+        t0 = np.where(ok, (-b - np.sqrt(np.maximum(disc, 0))) / a, _INF)
+        m = ok & (t0 > T_EPS)
+        t[m] = t0[m]
+        q = (oc + t0[:, None] * dd) / r
+        n[m] = q[m] / np.linalg.norm(q[m], axis=1, keepdims=True)
+    elif kind == PRIM_CYLINDER:
+        ax = int(scene.prim_axis[i])
+        perm = [(ax + 1) % 3, (ax + 2) % 3, ax]
+        c, r = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-6)
+        R3 = r[perm]
+        O, D = (o - c)[:, perm] / R3, d[:, perm] / R3
+        a = D[:, 0] ** 2 + D[:, 1] ** 2
+        b = O[:, 0] * D[:, 0] + O[:, 1] * D[:, 1]
+        cc = O[:, 0] ** 2 + O[:, 1] ** 2 - 1
+        disc = b * b - a * cc
+        par = a < 1e-12
+        ok = np.where(par, cc <= 0, disc >= 0)
+        s = np.sqrt(np.maximum(disc, 0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ts0 = np.where(par, -_INF, (-b - s) / np.where(par, 1, a))
+            ts1 = np.where(par, _INF, (-b + s) / np.where(par, 1, a))
+        dz = _safe(D[:, 2:3])[:, 0]
+        tz0, tz1 = (-1 - O[:, 2]) / dz, (1 - O[:, 2]) / dz
+        tza = np.minimum(tz0, tz1)
+        tn, tf = np.maximum(ts0, tza), np.minimum(ts1, np.maximum(tz0, tz1))
+        m = ok & (tn <= tf) & (tn > T_EPS)
+        t[m] = tn[m]
+        q = O + tn[:, None] * D
+        nl = np.where((ts0 > tza)[:, None], np.stack([q[:, 0] / R3[0], q[:, 1] / R3[1], np.zeros(R)], 1),
+                      np.stack([np.zeros(R), np.zeros(R), np.where(D[:, 2] > 0, -1.0, 1.0)], 1))
+        nw = np.zeros((R, 3))
+        nw[:, perm] = nl
+        nn = np.linalg.norm(nw, axis=1, keepdims=True)
+        n[m] = (nw / np.maximum(nn, 1e-30))[m]
+    else:
+        v0, v1, v2 = scene.tri_v[int(scene.prim_axis[i])].astype(np.float64)
+        e1, e2 = v1 - v0, v2 - v0
+        p = np.cross(d, e2)
+        det = p @ e1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            idet = 1.0 / det
+            s = o - v0
+            u = (s * p).sum(1) * idet
+            qv = np.cross(s, e1)
+            w = (d * qv).sum(1) * idet
+            tt = (qv @ e2) * idet
+        m = (det != 0) & (u >= 0) & (u <= 1) & (w >= 0) & (u + w <= 1) & (tt > T_EPS)
+        t[m] = tt[m]
+        nf = np.cross(e1, e2)
+        nf = nf / np.linalg.norm(nf)
+        n[m] = np.where(((d @ nf) > 0)[:, None], -nf, nf)[m]
+    m = t < tmax
+    return np.where(m, t, tmax), np.where(m[:, None], n, 0.0)
+
+
+def trace_reference(scene, o, d, tmax=None):
+    """Closest primitive hit of rays ``o``/``d``: ``(t (R,), index (R,) (-1: none), normal (R, 3))``."""
+    R = d.shape[0]
+    best = np.full(R, _INF) if tmax is None else np.asarray(tmax, dtype=np.float64).copy()
+    k = np.full(R, -1)
+    nrm = np.zeros((R, 3))
+    for i in range(int(scene.prim_type.shape[0])):
+        t, n = hit_primitive(scene, i, o, d, best)
+        m = t < best
+        best[m], k[m], nrm[m] = t[m], i, n[m]
+    return best, k, nrm
 
 
 def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int) -> dict:
-    """Same outputs as :meth:`benchbot_sim_taichi.renderer.Renderer.render`, computed with NumPy."""
-    s = pack_scene(scene)
-    boxes, ids, lights, world = (s["boxes"].astype(np.float64), s["ids"], s["lights"].astype(np.float64),
-                                 s["world"].astype(np.float64))
-    nb, nl = s["n_boxes"], s["n_lights"]
+    """Same outputs as :meth:`benchbot_sim_taichi.renderer.Renderer.render` (fast mode, one shadow sample),
+    computed with NumPy."""
+    room_min, room_max = scene.room_min.astype(np.float64), scene.room_max.astype(np.float64)
+    shell = scene.shell_albedo.astype(np.float64)
     K = np.asarray(K, dtype=np.float64)
     T = np.asarray(T_map_camera, dtype=np.float64)
     v, u = np.mgrid[0:height, 0:width]
@@ -39,63 +129,55 @@ def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int,
     d = np.stack([xc, yc, np.ones_like(xc)], axis=1) @ T[:3, :3].T
     o = T[:3, 3]
     P = d.shape[0]
+    best, best_i, best_n = trace_reference(scene, o, d)
     inv = 1.0 / _safe(d)
-    best = np.full(P, 1e30)
-    best_i = np.full(P, -1)
-    best_axis = np.zeros(P, dtype=int)
-    for i in range(nb):
-        tn, tf, ax = _entry(o, inv, boxes[i, 0:3], boxes[i, 3:6])
-        m = (tn <= tf) & (tn > T_EPS) & (tn < best)
-        best[m], best_i[m], best_axis[m] = tn[m], i, ax[m]
-    th = np.maximum((world[0:3] - o) * inv, (world[3:6] - o) * inv)
+    th = np.maximum((room_min - o) * inv, (room_max - o) * inv)
     exit_axis = np.argmin(th, axis=1)
     t_exit = th.min(axis=1)
-    inside = bool(np.all(o >= world[0:3]) and np.all(o <= world[3:6]))
+    inside = bool(np.all(o >= room_min) and np.all(o <= room_max))
     use_box = (best_i >= 0) & ((not inside) | (best < t_exit))
     use_shell = (~use_box) & inside & (t_exit > T_EPS)
     hit = use_box | use_shell
     t = np.where(use_box, best, np.where(use_shell, t_exit, 0.0))
-    axis = np.where(use_box, best_axis, exit_axis)
     n = np.zeros((P, 3))
-    n[np.arange(P), axis] = np.where(d[np.arange(P), axis] > 0, -1.0, 1.0)
+    n[np.arange(P), exit_axis] = np.where(d[np.arange(P), exit_axis] > 0, -1.0, 1.0)
+    n[use_box] = best_n[use_box]
     albedo = np.zeros((P, 3))
-    cls = np.full(P, int(world[18]), dtype=np.int32)
+    cls = np.full(P, int(scene.background_class), dtype=np.int32)
     inst = np.zeros(P, dtype=np.int32)
     bi = np.where(use_box, best_i, 0)
-    albedo[use_box] = boxes[bi[use_box], 6:9]
-    cls[use_box] = ids[bi[use_box], 0]
-    inst[use_box] = ids[bi[use_box], 1]
+    obj = scene.prim_object[bi]
+    albedo[use_box] = scene.prim_albedo[bi[use_box]]
+    cls[use_box] = scene.box_class[obj[use_box]]
+    inst[use_box] = scene.box_instance[obj[use_box]]
     surf = np.where(exit_axis == 2, np.where(d[:, 2] < 0, 0, 2), 1)
-    shell_alb = world[6:15].reshape(3, 3)[surf]
     p = o + t[:, None] * d
     parity = (np.floor(p[:, 0] / TILE_M).astype(int) + np.floor(p[:, 1] / TILE_M).astype(int)) & 1
     floor_mod = np.where(surf == 0, 1.0 + TILE_CONTRAST * (2.0 * parity - 1.0), 1.0)
-    albedo[use_shell] = (shell_alb * floor_mod[:, None])[use_shell]
-    radiance = world[15:18][None, :] * (0.8 + 0.2 * n[:, 2:3])
+    albedo[use_shell] = (shell[surf] * floor_mod[:, None])[use_shell]
+    radiance = scene.ambient.astype(np.float64)[None, :] * (0.8 + 0.2 * n[:, 2:3])
     po = p + n * SHADOW_OFFSET
-    for j in range(nl):
-        if lights[j, 0] > 0.5:
-            Lv = lights[j, 1:4] - p
+    for j in range(int(scene.light_kind.shape[0])):
+        vec, col, rng = scene.light_vec[j].astype(np.float64), scene.light_colour[j].astype(np.float64), float(scene.light_range[j])
+        if scene.light_kind[j] == 1:
+            Lv = vec - p
             dist = np.linalg.norm(Lv, axis=1)
-            rng = lights[j, 7]
             ok = (dist <= rng) & (dist >= 1e-6)
             L = Lv / np.maximum(dist, 1e-12)[:, None]
             f = 1.0 - (dist / rng) ** 2
             atten = f * f / np.maximum(dist * dist, 0.25)
         else:
-            L = np.broadcast_to(lights[j, 1:4], (P, 3))
-            dist = np.full(P, 1e30)
+            L = np.broadcast_to(vec, (P, 3)).copy()
+            dist = np.full(P, _INF)
             ok = np.ones(P, dtype=bool)
             atten = np.ones(P)
         ndl = np.einsum("ij,ij->i", n, L)
         lit = ok & (ndl > 0) & hit
-        inv_l = 1.0 / _safe(np.array(L, dtype=np.float64))
-        occ = np.zeros(P, dtype=bool)
-        for i in range(nb):
-            tn, tf, _ = _entry(po, inv_l, boxes[i, 0:3], boxes[i, 3:6])
-            occ |= (tn <= tf) & (tf > T_EPS) & (tn < dist)
-        lit &= ~occ
-        radiance = radiance + np.where(lit, ndl * atten, 0.0)[:, None] * lights[j, 4:7][None, :]
+        idx = np.nonzero(lit)[0]
+        if idx.size:
+            _, k, _ = trace_reference(scene, po[idx], L[idx], dist[idx])
+            lit[idx[k >= 0]] = False
+        radiance = radiance + np.where(lit, ndl * atten, 0.0)[:, None] * col[None, :]
     c = np.clip(albedo * radiance, 0.0, 1.0)
     rgb = np.where(hit[:, None], np.floor(np.power(c, GAMMA) * 255.0 + 0.5), 0).astype(np.uint8)
     return {
@@ -108,19 +190,11 @@ def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int,
 
 def scan_reference(scene, T_map_lidar: np.ndarray, angles: np.ndarray) -> np.ndarray:
     """Same output as :meth:`benchbot_sim_taichi.renderer.Renderer.scan`, computed with NumPy."""
-    s = pack_scene(scene)
-    boxes, world = s["boxes"].astype(np.float64), s["world"].astype(np.float64)
     T = np.asarray(T_map_lidar, dtype=np.float64)
     a = np.asarray(angles, dtype=np.float64) + math.atan2(T[1, 0], T[0, 0])
-    d = _safe(np.stack([np.cos(a), np.sin(a)], axis=1))
-    inv = 1.0 / d
+    d = np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=1)
     o = T[:3, 3]
-    best = np.full(a.shape[0], 1e30)
-    for i in range(s["n_boxes"]):
-        if not (boxes[i, 2] <= o[2] <= boxes[i, 5]):
-            continue
-        tn, tf, _ = _entry(o[:2], inv, boxes[i, 0:2], boxes[i, 3:5])
-        m = (tn <= tf) & (tn > T_EPS) & (tn < best)
-        best[m] = tn[m]
-    th = np.maximum((world[0:2] - o[:2]) * inv, (world[3:5] - o[:2]) * inv).min(axis=1)
+    best, _, _ = trace_reference(scene, o, d)
+    inv = 1.0 / _safe(d[:, :2])
+    th = np.maximum((scene.room_min[:2] - o[:2]) * inv, (scene.room_max[:2] - o[:2]) * inv).min(axis=1)
     return np.minimum(best, th)

@@ -113,9 +113,12 @@ class Scene:
         light_range: (L,) float32 cut-off distance of point lights (metres; ignored for directional ones).
         lighting: the lighting name.
         start_se2: (3,) float64 normalised start pose ``[x, y, yaw]``; trajectory_se2: (M, 3) float64.
+        prim_type, prim_axis, prim_min, prim_max, prim_albedo, prim_object: the primitives drawn (see
+            :data:`PRIM_BOX` …; ``prim_object`` indexes the per-object arrays ``box_*``, whose boxes are each object's
+            cuboid, i.e. the AABB of its primitives); tri_v: (T, 3, 3) float32 triangle vertices.
     """
 
-    box_min: np.ndarray
+    box_min: np.ndarray  # per object: its cuboid (AABB of its primitives)
     box_max: np.ndarray
     box_albedo: np.ndarray
     box_class: np.ndarray
@@ -135,6 +138,13 @@ class Scene:
     start_se2: np.ndarray
     trajectory_se2: np.ndarray
     class_ids: dict[str, int] = field(default_factory=dict)
+    prim_type: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    prim_axis: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    prim_min: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    prim_max: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    prim_albedo: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    prim_object: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    tri_v: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), np.float32))
 
     @property
     def n_boxes(self) -> int:
@@ -178,13 +188,188 @@ def load_ground_truth_json(path: "str | Path") -> dict:
     return data
 
 
-def object_geometry(obj: dict) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Geometry of one ground-truth object as a list of axis-aligned boxes ``(min (3,), max (3,))`` float64, metres,
-    map frame. Today one box equal to the ground-truth cuboid ``centroid ± extent / 2`` (so the union's AABB is the
-    cuboid); a later version may return several boxes (procedural models) with the same AABB."""
+#: Primitive kinds (:attr:`Scene.prim_type`). Boxes, ellipsoids and cylinders are inscribed in their AABB
+#: ``prim_min..prim_max`` (so a primitive's bounds ARE its AABB); a cylinder's axis is :attr:`Scene.prim_axis`
+#: (0 x, 1 y, 2 z; elliptic cross-section filling the other two extents); a triangle's vertices are
+#: ``Scene.tri_v[prim_axis]``.
+PRIM_BOX, PRIM_ELLIPSOID, PRIM_CYLINDER, PRIM_TRIANGLE = 0, 1, 2, 3
+_KIND = {"box": PRIM_BOX, "ellipsoid": PRIM_ELLIPSOID, "cylinder": PRIM_CYLINDER}
+
+
+@dataclass
+class Part:
+    """One primitive of an object: ``kind`` ('box', 'ellipsoid', 'cylinder' or 'mesh'), its AABB ``lo``/``hi``
+    (3,) float64 (map frame, metres), the cylinder ``axis`` (0/1/2), ``colour`` (sRGB (3,) or None: the object's
+    colour; a float: the object's colour times it) and, for 'mesh', ``tris`` (T, 3, 3) float64."""
+
+    kind: str
+    lo: np.ndarray
+    hi: np.ndarray
+    axis: int = 2
+    colour: object = None
+    tris: np.ndarray | None = None
+
+
+# Procedural models: parts in the unit cube of the object's cuboid, (kind, axis, (u0, w0, z0), (u1, w1, z1), colour);
+# u runs along the longer horizontal side, w along the shorter one (w = 1 is the "back"), z up; axis 'u'/'w'/'z'.
+# Every model touches all six faces of the unit cube, so the union's AABB is exactly the ground-truth cuboid.
+_WOOD_DARK = 0.65
+
+
+def _legs(z1, inset=0.0, size=0.09, colour=_WOOD_DARK, kind="cylinder"):
+    out = []
+    for u0 in (inset, 1.0 - inset - size):
+        for w0 in (inset, 1.0 - inset - size):
+            out.append((kind, "z", (u0, w0, 0.0), (u0 + size, w0 + size, z1), colour))
+    return out
+
+
+_MODELS: dict[str, list] = {
+    "chair": [("box", "z", (0, 0, 0.44), (1, 1, 0.52), None), ("box", "z", (0.02, 0.86, 0.52), (0.98, 1, 1), None)]
+    + _legs(0.44, 0.02, 0.1, _WOOD_DARK, "box"),
+    "table": [("box", "z", (0, 0, 0.93), (1, 1, 1), None)] + _legs(0.93, 0.04, 0.07),
+    "bed": [("box", "z", (0, 0, 0), (0.94, 1, 0.3), _WOOD_DARK), ("box", "z", (0.94, 0, 0), (1, 1, 1), _WOOD_DARK),
+            ("box", "z", (0.01, 0.01, 0.3), (0.94, 0.99, 0.52), None),
+            ("box", "z", (0.0, 0.0, 0.44), (0.62, 1.0, 0.56), 0.93),
+            ("ellipsoid", "z", (0.76, 0.06, 0.48), (0.93, 0.47, 0.66), (0.97, 0.97, 0.95)),
+            ("ellipsoid", "z", (0.76, 0.53, 0.48), (0.93, 0.94, 0.66), (0.97, 0.97, 0.95))],
+    "couch": [("box", "z", (0, 0, 0.08), (1, 1, 0.42), None), ("box", "z", (0.0, 0.72, 0.42), (1, 1, 1), 0.92),
+              ("box", "z", (0, 0, 0.42), (0.1, 0.72, 0.66), 0.85), ("box", "z", (0.9, 0, 0.42), (1, 0.72, 0.66), 0.85),
+              ("box", "z", (0.11, 0.02, 0.42), (0.495, 0.71, 0.55), 1.08),
+              ("box", "z", (0.505, 0.02, 0.42), (0.89, 0.71, 0.55), 1.08)] + _legs(0.08, 0.03, 0.05, (0.2, 0.15, 0.1)),
+    "toilet": [("box", "z", (0.72, 0, 0.45), (1, 1, 1), None), ("cylinder", "z", (0.3, 0.25, 0), (0.72, 0.75, 0.3), None),
+               ("ellipsoid", "z", (0, 0.1, 0.2), (0.8, 0.9, 0.55), None),
+               ("cylinder", "z", (0.0, 0.1, 0.5), (0.8, 0.9, 0.56), 0.93)],
+    "sink": [("box", "z", (0, 0, 0.78), (1, 1, 1), None), ("cylinder", "z", (0.35, 0.3, 0), (0.65, 0.7, 0.78), None),
+             ("ellipsoid", "z", (0.15, 0.1, 0.6), (0.85, 0.75, 0.9), 0.95)],
+    "tv": [("box", "z", (0, 0.4, 0.14), (1, 0.6, 1), None), ("box", "z", (0.03, 0.38, 0.17), (0.97, 0.4, 0.97),
+                                                                   (0.02, 0.03, 0.06)),
+           ("cylinder", "z", (0.46, 0.42, 0.04), (0.54, 0.58, 0.14), None), ("box", "z", (0.3, 0, 0), (0.7, 1, 0.04), None)],
+    "laptop": [("box", "z", (0, 0, 0), (1, 0.96, 0.12), None), ("box", "z", (0, 0.9, 0.12), (1, 1, 1), None),
+               ("box", "z", (0.05, 0.12, 0.12), (0.95, 0.6, 0.14), (0.08, 0.08, 0.09)),
+               ("box", "z", (0.05, 0.88, 0.2), (0.95, 0.9, 0.95), (0.1, 0.15, 0.3))],
+    "keyboard": [("box", "z", (0, 0, 0), (1, 1, 0.55), None), ("box", "z", (0.03, 0.08, 0.55), (0.97, 0.92, 1), 1.6)],
+    "mouse": [("ellipsoid", "z", (0, 0, -1), (1, 1, 1), None)],
+    "bowl": [("cylinder", "z", (0, 0, 0.4), (1, 1, 1), None), ("ellipsoid", "z", (0.08, 0.08, 0.0), (0.92, 0.92, 0.8), None)],
+    "cup": [("cylinder", "z", (0, 0.05, 0), (0.8, 0.95, 1), None), ("box", "z", (0.78, 0.42, 0.25), (1, 0.58, 0.75), None),
+            ("cylinder", "z", (0, 0, 0.96), (0.8, 1, 1), None)],
+    "bottle": [("cylinder", "z", (0, 0, 0), (1, 1, 0.6), None), ("ellipsoid", "z", (0, 0, 0.42), (1, 1, 0.8), None),
+               ("cylinder", "z", (0.33, 0.33, 0.7), (0.67, 0.67, 1), (0.9, 0.9, 0.88))],
+    "wine glass": [("cylinder", "z", (0.15, 0.15, 0), (0.85, 0.85, 0.04), None),
+                   ("cylinder", "z", (0.45, 0.45, 0.04), (0.55, 0.55, 0.45), None),
+                   ("ellipsoid", "z", (0, 0, 0.35), (1, 1, 1.1), None), ("cylinder", "z", (0, 0, 0.7), (1, 1, 1), None)],
+    "potted plant": [("cylinder", "z", (0.22, 0.22, 0), (0.78, 0.78, 0.32), (0.72, 0.38, 0.22)),
+                     ("ellipsoid", "z", (0, 0, 0.25), (1, 1, 1), None),
+                     ("ellipsoid", "z", (0.05, 0.1, 0.5), (0.6, 0.6, 1), 1.25)],
+    "clock": [("cylinder", "w", (0, 0, 0), (1, 1, 1), (0.2, 0.2, 0.22)),
+              ("cylinder", "w", (0.06, -0.02, 0.06), (0.94, 0.02, 0.94), None),
+              ("box", "z", (0.48, -0.04, 0.48), (0.52, 0.0, 0.85), (0.05, 0.05, 0.05)),
+              ("box", "z", (0.48, -0.04, 0.47), (0.75, 0.0, 0.53), (0.05, 0.05, 0.05))],
+    "apple": [("ellipsoid", "z", (0, 0, 0), (1, 1, 0.95), None), ("cylinder", "z", (0.47, 0.47, 0.9), (0.53, 0.53, 1),
+                                                                    (0.3, 0.2, 0.1))],
+    "orange": [("ellipsoid", "z", (0, 0, 0), (1, 1, 1), None)],
+    "banana": [("ellipsoid", "z", (0, 0, 0), (1, 1, 1), None),
+               ("cylinder", "u", (0.0, 0.4, 0.4), (0.08, 0.6, 0.6), (0.3, 0.25, 0.1))],
+    "cake": [("cylinder", "z", (0, 0, 0), (1, 1, 0.85), None), ("cylinder", "z", (0.02, 0.02, 0.85), (0.98, 0.98, 1),
+                                                                    (0.95, 0.93, 0.9))],
+    "refrigerator": [("box", "z", (0, 0, 0), (1, 0.95, 1), None),
+                     ("box", "z", (0.01, 0.95, 0.01), (0.99, 1, 0.62), 1.03), ("box", "z", (0.01, 0.95, 0.64), (0.99, 1, 0.99), 1.03),
+                     ("box", "z", (0.85, 0.96, 0.35), (0.9, 1, 0.58), (0.35, 0.35, 0.37)),
+                     ("box", "z", (0.85, 0.96, 0.68), (0.9, 1, 0.85), (0.35, 0.35, 0.37))],
+    "toaster": [("box", "z", (0, 0.04, 0), (1, 0.96, 0.85), None),
+                ("box", "z", (0.12, 0.25, 0.85), (0.88, 0.42, 1), (0.08, 0.08, 0.08)),
+                ("box", "z", (0.12, 0.58, 0.85), (0.88, 0.75, 1), (0.08, 0.08, 0.08)),
+                ("box", "z", (0.8, 0, 0.5), (0.9, 0.04, 0.65), (0.1, 0.1, 0.1)),
+                ("box", "z", (0.1, 0.96, 0.1), (0.2, 1, 0.2), (0.1, 0.1, 0.1))],
+    "microwave": [("box", "z", (0, 0, 0), (1, 0.94, 1), None), ("box", "z", (0.05, 0.94, 0.12), (0.68, 1, 0.88),
+                                                                  (0.06, 0.06, 0.07)),
+                  ("box", "z", (0.74, 0.94, 0.2), (0.94, 0.97, 0.8), 0.7)],
+    "oven": [("box", "z", (0, 0, 0), (1, 0.94, 1), None), ("box", "z", (0.08, 0.94, 0.15), (0.92, 1, 0.75),
+                                                             (0.05, 0.05, 0.06)),
+             ("box", "z", (0.08, 0.95, 0.8), (0.92, 1, 0.86), (0.7, 0.7, 0.72))],
+    "person": [("cylinder", "z", (0.3, 0.3, 0), (0.48, 0.7, 0.48), (0.2, 0.25, 0.4)),
+               ("cylinder", "z", (0.52, 0.3, 0), (0.7, 0.7, 0.48), (0.2, 0.25, 0.4)),
+               ("ellipsoid", "z", (0.18, 0.0, 0.4), (0.82, 1.0, 0.86), (0.35, 0.45, 0.6)),
+               ("cylinder", "z", (0.0, 0.38, 0.46), (0.17, 0.62, 0.82), (0.35, 0.45, 0.6)),
+               ("cylinder", "z", (0.83, 0.38, 0.46), (1.0, 0.62, 0.82), (0.35, 0.45, 0.6)),
+               ("ellipsoid", "z", (0.38, 0.3, 0.84), (0.62, 0.7, 1), None)],
+}
+#: Book objects wider than this along their long side are drawn as a row of books (a shelf group).
+BOOK_ROW_MIN_M = 0.12
+
+
+def _book_row(obj: dict, rng: np.random.Generator) -> list:
+    """A row of books along the long side of the unit cube (random widths, heights and colours, one full height)."""
+    e = np.asarray(obj["extent"], dtype=np.float64)
+    length = float(max(e[0], e[1]))
+    n = int(np.clip(round(length / 0.035), 2, 40))
+    widths = rng.uniform(0.7, 1.3, n)
+    edges = np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
+    heights = rng.uniform(0.72, 1.0, n)
+    heights[int(rng.integers(n))] = 1.0
+    pal = _CLASS_COLOURS["book"]
+    parts = []
+    for i in range(n):
+        col = pal[int(rng.integers(len(pal)))]
+        depth0 = 0.0 if i % 3 else 0.06  # a few books stick out a little less
+        if i == 0:
+            depth0 = 0.0
+        parts.append(("box", "z", (edges[i], depth0, 0.0), (edges[i + 1] - 0.004 * (i < n - 1), 1.0, heights[i]), col))
+    return parts
+
+
+def _instantiate(parts: list, obj: dict, flip: bool) -> list[Part]:
     c = np.asarray(obj["centroid"], dtype=np.float64)
     e = np.asarray(obj["extent"], dtype=np.float64)
-    return [(c - e / 2.0, c + e / 2.0)]
+    lo, hi = c - e / 2.0, c + e / 2.0
+    ua, wa = (0, 1) if e[0] >= e[1] else (1, 0)  # u along the longer horizontal side
+    axis_of = {"u": ua, "w": wa, "z": 2}
+    out = []
+    for kind, ax, p0, p1, col in parts:
+        a = np.clip(np.array(p0, dtype=np.float64), 0.0, 1.0)
+        b = np.clip(np.array(p1, dtype=np.float64), 0.0, 1.0)
+        if flip:  # mirror the back to the other side of the shorter axis
+            a[1], b[1] = 1.0 - b[1], 1.0 - a[1]
+        f0 = np.zeros(3)
+        f1 = np.zeros(3)
+        f0[ua], f1[ua] = a[0], b[0]
+        f0[wa], f1[wa] = a[1], b[1]
+        f0[2], f1[2] = a[2], b[2]
+        plo, phi = lo + f0 * e, lo + f1 * e
+        plo[f0 <= 0.0] = lo[f0 <= 0.0]  # exact bounds on the cuboid's faces
+        phi[f1 >= 1.0] = hi[f1 >= 1.0]
+        if np.any(phi - plo <= 0.0):
+            continue
+        out.append(Part(kind, plo, phi, axis_of[ax], col))
+    return out
+
+
+def object_geometry(obj: dict, *, procedural: bool = True) -> list[Part]:
+    """Geometry of one ground-truth object as a list of :class:`Part` (map frame, metres), the single object →
+    geometry step. With ``procedural`` a recognisable model of its class (chair: seat, legs, back; table: top and
+    legs; bed; couch; toilet; sink; tv on a stand; laptop; keyboard; mouse; rows of books; bowl; cup; bottle; potted
+    plant; clock; fruit; refrigerator; toaster; microwave; oven; person; …) fitted to the ground-truth cuboid so the
+    union of its parts' AABBs is exactly ``centroid ± extent / 2``; other classes, degenerate cuboids or
+    ``procedural=False``: one box equal to the cuboid. Objects with a ``mesh`` key (mesh objects of an
+    environment's ``objects`` list) return their triangles. Deterministic (choices seeded by ``ID_name``)."""
+    if obj.get("_tris") is not None:
+        tris = np.asarray(obj["_tris"], dtype=np.float64)
+        return [Part("mesh", tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0), 2, None, tris)]
+    c = np.asarray(obj["centroid"], dtype=np.float64)
+    e = np.asarray(obj["extent"], dtype=np.float64)
+    cuboid = [Part("box", c - e / 2.0, c + e / 2.0)]
+    cls = str(obj.get("class", ""))
+    if not procedural or np.any(e <= 1e-6):
+        return cuboid
+    rng = np.random.default_rng(zlib.crc32(f"geom|{obj.get('ID_name', '')}".encode("utf-8")))
+    flip = bool(rng.integers(2))
+    if cls == "book":
+        if max(e[0], e[1]) < BOOK_ROW_MIN_M:
+            return cuboid
+        return _instantiate(_book_row(obj, rng), obj, flip)
+    if cls not in _MODELS:
+        return cuboid
+    return _instantiate(_MODELS[cls], obj, flip)
 
 
 def object_colour(cls: str, id_name: str, seed: int) -> np.ndarray:
@@ -262,17 +447,24 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         BackendError: ``map_path`` is missing, unreadable or malformed, or a pose is malformed.
     """
     map_path = environment.get("map_path")
-    if not map_path:
+    mesh_objs = load_mesh_objects(environment)
+    if not map_path and not environment.get("objects"):
         raise BackendError(f"environment {environment.get('name')}:{environment.get('variant')} has no map_path",
-                           "set map_path to a BEAR ground-truth JSON file")
-    data = load_ground_truth_json(map_path)
-    gt = data["ground_truth"]
+                           "set map_path to a BEAR ground-truth JSON file (or list mesh objects in 'objects')")
+    if map_path:
+        data = load_ground_truth_json(map_path)
+    else:
+        data = {"environment": {}, "ground_truth": {"class_list": list(BEAR_CLASS_LIST), "objects": []}}
+    gt = dict(data["ground_truth"])
+    gt["objects"] = list(gt["objects"]) + mesh_objs
     file_env = data.get("environment") or {}
     class_list = [str(c) for c in gt["class_list"]]
     class_ids = {c: i for i, c in enumerate(class_list)}
     background = class_ids.get("background", len(class_list) - 1)
 
+    procedural = bool(environment.get("procedural", True))
     mins, maxs, albedo, cls_ids, inst_ids, names = [], [], [], [], [], []
+    p_type, p_axis, p_min, p_max, p_alb, p_obj, tris = [], [], [], [], [], [], []
     counters: dict[int, int] = {}
     for obj in gt["objects"]:
         cname = str(obj["class"])
@@ -282,13 +474,38 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
                                "every object's class must appear in ground_truth.class_list")
         counters[cid] = counters.get(cid, 0) + 1
         colour = object_colour(cname, str(obj.get("ID_name", "")), seed)
-        for bmin, bmax in object_geometry(obj):
-            mins.append(bmin)
-            maxs.append(bmax)
-            albedo.append(colour)
-            cls_ids.append(cid)
-            inst_ids.append(cid * 1000 + counters[cid])
-            names.append(str(obj.get("ID_name", "")))
+        parts = object_geometry(obj, procedural=procedural)
+        k = len(mins)
+        for part in parts:
+            if part.colour is None:
+                col = colour
+            elif isinstance(part.colour, float):
+                col = np.clip(colour * part.colour, 0.0, 1.0)
+            else:
+                col = np.asarray(part.colour, dtype=np.float32)
+            if part.kind == "mesh":
+                t = np.asarray(part.tris, dtype=np.float64).reshape(-1, 3, 3)
+                for tri in t:
+                    p_type.append(PRIM_TRIANGLE)
+                    p_axis.append(len(tris))
+                    tris.append(tri)
+                    p_min.append(tri.min(axis=0))
+                    p_max.append(tri.max(axis=0))
+                    p_alb.append(col)
+                    p_obj.append(k)
+            else:
+                p_type.append(_KIND[part.kind])
+                p_axis.append(int(part.axis))
+                p_min.append(part.lo)
+                p_max.append(part.hi)
+                p_alb.append(col)
+                p_obj.append(k)
+        mins.append(np.min([p.lo for p in parts], axis=0))
+        maxs.append(np.max([p.hi for p in parts], axis=0))
+        albedo.append(colour)
+        cls_ids.append(cid)
+        inst_ids.append(cid * 1000 + counters[cid])
+        names.append(str(obj.get("ID_name", "")))
 
     def poses(key):
         v = environment.get(key)
@@ -342,4 +559,116 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         lighting=lighting,
         start_se2=start,
         trajectory_se2=traj,
+        prim_type=np.asarray(p_type, dtype=np.int32),
+        prim_axis=np.asarray(p_axis, dtype=np.int32),
+        prim_min=np.asarray(p_min, dtype=np.float32).reshape(-1, 3),
+        prim_max=np.asarray(p_max, dtype=np.float32).reshape(-1, 3),
+        prim_albedo=srgb_to_linear(np.asarray(p_alb, dtype=np.float32).reshape(-1, 3)),
+        prim_object=np.asarray(p_obj, dtype=np.int32),
+        tri_v=np.asarray(tris, dtype=np.float32).reshape(-1, 3, 3),
     )
+
+
+#: The BEAR class list (30 classes, ``background`` last): the class list of environments without a map_path.
+BEAR_CLASS_LIST = ("bottle", "cup", "knife", "bowl", "wine glass", "fork", "spoon", "banana", "apple", "orange", "cake",
+                   "potted plant", "mouse", "keyboard", "laptop", "cell phone", "book", "clock", "chair", "table",
+                   "couch", "bed", "toilet", "tv", "microwave", "toaster", "refrigerator", "oven", "sink", "person",
+                   "background")
+
+
+def _env_dir(environment: dict) -> Path:
+    fp = environment.get("_file_path")
+    return Path(fp).resolve().parent if fp else Path.cwd()
+
+
+def _rotation(pose: list) -> tuple[np.ndarray, np.ndarray]:
+    """(R (3, 3), t (3,)) of ``[x, y, z, yaw_deg]`` or ``[qw, qx, qy, qz, x, y, z]``."""
+    if len(pose) == 4:
+        x, y, z, yaw = (float(v) for v in pose)
+        c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array([x, y, z])
+    qw, qx, qy, qz, x, y, z = (float(v) for v in pose)
+    n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    if n < 1e-12:
+        raise ValueError("zero quaternion")
+    qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
+    R = np.array([[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+                  [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+                  [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]])
+    return R, np.array([x, y, z])
+
+
+def load_mesh_objects(environment: dict) -> list[dict]:
+    """The environment's mesh objects as ground-truth-like objects (``class``, ``ID_name``, ``centroid``,
+    ``extent`` = the axis-aligned bounds of the placed mesh, ``isgroup: False``, and ``_tris`` (T, 3, 3) map-frame
+    triangles).
+
+    The environment field ``objects`` is a list of ``{mesh: PATH, class: NAME, pose: [x, y, z, yaw_deg] or
+    [qw, qx, qy, qz, x, y, z] (default [0, 0, 0, 0]), scale: s or [sx, sy, sz] (default 1), name: ID (optional)}``;
+    PATH (OBJ, GLB/glTF, PLY, STL, … — anything trimesh reads; a scene is flattened) is absolute or relative to the
+    environment file. The mesh's vertices are scaled, rotated, then translated: ``p_map = R · (s ⊙ p_mesh) + t``.
+
+    Raises:
+        BackendError: ``objects`` is not a list, an entry lacks ``mesh``/``class`` or has a malformed ``pose`` or
+            ``scale``, a mesh file is missing, unreadable or has no triangles.
+    """
+    objs = environment.get("objects")
+    if objs is None:
+        return []
+    where = f"environment {environment.get('name')}:{environment.get('variant')}"
+    form = "objects: [{mesh: PATH, class: NAME, pose: [x, y, z, yaw_deg] | [qw,qx,qy,qz,x,y,z], scale: s | [sx,sy,sz]}]"
+    if not isinstance(objs, list):
+        raise BackendError(f"{where}: 'objects' must be a list", form)
+    out = []
+    for i, o in enumerate(objs):
+        if not isinstance(o, dict) or not isinstance(o.get("mesh"), str) or not isinstance(o.get("class"), str):
+            raise BackendError(f"{where}: objects[{i}] needs a 'mesh' path and a 'class' name", form)
+        pose = o.get("pose", [0, 0, 0, 0])
+        scale = o.get("scale", 1.0)
+        try:
+            if not isinstance(pose, (list, tuple)) or len(pose) not in (4, 7):
+                raise ValueError("pose must have 4 or 7 numbers")
+            R, t = _rotation(list(pose))
+            sc = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,)).copy()
+            if not (np.all(np.isfinite(sc)) and np.all(sc > 0) and np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+                raise ValueError("scale must be positive and pose finite")
+        except (TypeError, ValueError) as e:
+            raise BackendError(f"{where}: objects[{i}] has a bad pose or scale ({e})", form) from e
+        path = Path(o["mesh"]).expanduser()
+        if not path.is_absolute():
+            path = _env_dir(environment) / path
+        if not path.is_file():
+            raise BackendError(f"{where}: objects[{i}].mesh {path} does not exist",
+                               "mesh paths are absolute or relative to the environment file")
+        try:
+            import trimesh
+
+            loaded = trimesh.load(str(path), force="mesh", process=False)
+            tris = np.asarray(loaded.triangles, dtype=np.float64)
+        except Exception as e:  # noqa: BLE001 - trimesh raises many kinds
+            raise BackendError(f"{where}: cannot read the mesh {path}: {e}",
+                               "use an OBJ, GLB/glTF, PLY or STL file that trimesh can read") from e
+        if tris.size == 0:
+            raise BackendError(f"{where}: the mesh {path} has no triangles", "use a triangle mesh")
+        tris = (tris * sc) @ R.T + t
+        lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+        out.append({"class": o["class"], "ID_name": str(o.get("name") or f"{o['class']}_mesh_{i}"),
+                    "centroid": ((lo + hi) / 2).tolist(), "extent": (hi - lo).tolist(), "isgroup": False,
+                    "_tris": tris})
+    return out
+
+
+def derive_ground_truth(environment: dict, *, seed: int = 0) -> dict:
+    """The ground truth ``{environment, format, ground_truth}`` of an environment, derived from its scene: one
+    object per ground-truth object (the map_path's, then the mesh objects'), its cuboid the axis-aligned bounds of
+    its geometry. For ``benchbot eval`` on environments with mesh objects."""
+    scene = build_scene(environment, seed=seed)
+    objects = []
+    for i in range(scene.n_boxes):
+        lo, hi = scene.box_min[i].astype(np.float64), scene.box_max[i].astype(np.float64)
+        objects.append({"class": scene.class_list[int(scene.box_class[i])], "ID_name": scene.box_names[i],
+                        "centroid": ((lo + hi) / 2).tolist(), "extent": (hi - lo).tolist(), "isgroup": False})
+    env = {k: environment[k] for k in ("name", "variant", "start_pose", "trajectory_poses", "object_labels")
+           if k in environment}
+    return {"environment": env, "format": {"name": "object_map_ground_truth"},
+            "ground_truth": {"class_list": list(scene.class_list), "objects": objects}}

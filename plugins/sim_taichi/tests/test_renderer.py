@@ -66,7 +66,9 @@ def test_depth_of_known_box(synthetic_env):
     from benchbot_sim_taichi.scene import build_scene
 
     # a 1 m cube whose near face is the plane x = 2.0, camera at the origin looking along +x at 0.8 m
-    scene = build_scene(synthetic_env([("chair", (2.5, 0.0, 0.8), (1.0, 1.0, 1.0))]))
+    env = synthetic_env([("chair", (2.5, 0.0, 0.8), (1.0, 1.0, 1.0))])
+    env["procedural"] = False  # one box per object
+    scene = build_scene(env)
     r = Renderer("cpu")
     r.set_scene(scene)
     W, H = 64, 48
@@ -95,7 +97,9 @@ def test_laser_sees_wall(synthetic_env):
     from benchbot_sim_taichi.scene import build_scene
 
     # one low box far away to one side sets the room extent; the robot at the origin
-    scene = build_scene(synthetic_env([("table", (3.0, 2.0, 0.4), (0.5, 0.5, 0.8))]))
+    env = synthetic_env([("table", (3.0, 2.0, 0.4), (0.5, 0.5, 0.8))])
+    env["procedural"] = False  # one box per object
+    scene = build_scene(env)
     r = Renderer("cpu")
     r.set_scene(scene)
     T = se2_to_matrix(0.0, 0.0, 0.0, z=0.3)

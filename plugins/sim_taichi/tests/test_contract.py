@@ -1,0 +1,19 @@
+"""sim_taichi against the core's contract checks (benchbot.plugins.testing): content and the robot backend."""
+
+from __future__ import annotations
+
+from benchbot.plugins import testing
+
+
+def test_plugin_content_contract():
+    from benchbot_sim_taichi import plugin
+
+    registers = testing.check_content_plugin(plugin)
+    assert registers["robot_backends"] == ["sim_taichi"] and "miniroom:1" in registers["environments"]
+
+
+def test_robot_backend_contract(carter_spec, bear_envs):
+    from benchbot_sim_taichi import plugin
+
+    obs = testing.check_robot_backend(plugin.benchbot_robot_backends()["sim_taichi"], carter_spec, bear_envs["miniroom:1"])
+    assert obs["image_rgb"].shape == (48, 64, 3)
