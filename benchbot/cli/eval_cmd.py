@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 from pathlib import Path
 from typing import Optional
@@ -11,8 +12,8 @@ from rich.table import Table
 
 from benchbot.cli.common import err, handle_errors, out, registry
 from benchbot.core import atomic
-from benchbot.core.errors import UsageError
-from benchbot.core.evaluation import Evaluation, evaluate, load_results, validate_result
+from benchbot.core.errors import ExitCode, ResultsError, SpecError, UsageError
+from benchbot.core.evaluation import COMBINE_MODES, Evaluation, evaluate, validate_all
 
 SCORE_ORDER = ["OMQ", "avg_pairwise", "avg_label", "avg_spatial", "avg_fp_quality", "avg_state_quality", "TP", "FP", "FN"]
 SHORT = {"avg_pairwise": "pairwise", "avg_label": "label", "avg_spatial": "spatial", "avg_fp_quality": "fp_quality",
@@ -23,63 +24,136 @@ def _fmt(value: object) -> str:
     return f"{value:.4f}" if isinstance(value, float) else str(value)
 
 
-def print_scores(evaluation: Evaluation) -> None:
-    """A table of the per-result scores and the combined scores on stdout."""
+def _env_name(source: str, scores: dict) -> str:
+    envs = scores.get("environment_details") or []
+    return f"{envs[0]['name']}:" + ":".join(str(e["variant"]) for e in envs) if envs else Path(source).name
+
+
+def _score_keys(entries: list[dict]) -> list[str]:
     keys: list[str] = []
-    for _, s in evaluation.per_result:
-        keys += [k for k in s.get("scores", {}) if k not in keys]
-    keys = [k for k in SCORE_ORDER if k in keys] + [k for k in keys if k not in SCORE_ORDER]
+    for s in entries:
+        keys += [k for k in s if k not in keys]
+    return [k for k in SCORE_ORDER if k in keys] + [k for k in keys if k not in SCORE_ORDER]
+
+
+def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
+    """A table of the per-result scores and the combined scores on stdout (and, with ``per_class``, a table of
+    the per-class scores of every result and of the combination); skipped results and missing environments on
+    stderr."""
+    keys = _score_keys([s.get("scores", {}) for _, s in evaluation.per_result])
+    mode = getattr(evaluation, "combine_mode", "mean")
     table = Table("environment", *[SHORT.get(k, k) for k in keys], title=f"{evaluation.method} scores")
     for source, s in evaluation.per_result:
-        envs = s.get("environment_details") or []
-        name = f"{envs[0]['name']}:" + ":".join(str(e["variant"]) for e in envs) if envs else Path(source).name
-        table.add_row(name, *[_fmt(s["scores"].get(k, "")) for k in keys])
+        table.add_row(_env_name(source, s), *[_fmt(s["scores"].get(k, "")) for k in keys])
     if evaluation.combined is not None and len(evaluation.per_result) + len(evaluation.missing) > 1:
         combined = evaluation.combined.get("scores", {})
-        table.add_row("[bold]combined[/]", *[_fmt(combined.get(k, "")) for k in keys])
+        table.add_row(f"[bold]combined[/] ({mode})", *[_fmt(combined.get(k, "")) for k in keys])
     out.print(table)
+    if per_class:
+        rows = [(_env_name(src, s), s["per_class"]) for src, s in evaluation.per_result if "per_class" in s]
+        if evaluation.combined is not None and "per_class" in evaluation.combined and len(rows) > 1:
+            rows.append(("combined (pooled)", evaluation.combined["per_class"]))
+        class_keys = _score_keys([c["scores"] for _, pc in rows for c in pc.values()])
+        pc_table = Table("environment", "class", *[SHORT.get(k, k) for k in class_keys],
+                         title=f"{evaluation.method} scores per class")  # fmt: skip
+        for env, pc in rows:
+            for cls, entry in pc.items():
+                pc_table.add_row(env, cls, *[_fmt(entry["scores"].get(k, "")) for k in class_keys])
+        out.print(pc_table)
     for source, why in evaluation.skipped:
-        err.print(f"[yellow]skipped[/] {source}: {why}")
+        err.print(f"[yellow]skipped[/] {source}: {why}", highlight=False)
     for env in evaluation.missing:
-        err.print(f"[yellow]missing[/] no results for required environment {env} (it counts as 0)")
+        err.print(f"[yellow]missing[/] no results for required environment {env} (it counts as 0)", highlight=False)
+
+
+def _print_errors(errors: list) -> None:
+    for _, exc in errors:
+        err.print(f"[bold red]error:[/] {exc.message}", highlight=False)
+
+
+EVAL_HELP = """Validate results files and score them against the environments' ground truths.
+
+FILES are results JSON files and/or .zip archives of them (members named submission.json are skipped, as in the
+original BenchBot). Every file must exist (checked first). The scores go to -o (default scores.json, written
+atomically) and to stdout as a table (or JSON with --json).
+
+A file that is not valid JSON, fails validation (the message names the file, the object index and the field, e.g.
+"r.json: results.objects[3].extent: expected 3 numbers, got 2"), has no ground truth, or cannot be scored does NOT
+stop the others: its one-line error goes to stderr, the other files are scored and written, a required
+environment it was meant to cover counts as missing (0), and the command exits with code 4 (ExitCode.RESULTS).
+If no file can be scored, nothing is written.
+
+Combining (--combine): mean (default, the original) = each score averaged over the results, a missing required
+environment counting as 0; pooled = TP, FP, FN and the quality sums added up over all results before dividing (a
+missing required environment counts its ground-truth objects as FN).
+
+--per-class adds OMQ and its sub-scores per ground-truth class (TPs and FNs by the GT object's class, FPs by
+their most likely non-background class). --oriented turns on the oriented-cuboid extension: a result object's
+optional "yaw" (radians about +z, map frame) rotates its box in the IoU; off (default) yaw is ignored, as in the
+original. See docs/evaluation.md.
+"""
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("eval")
+    @app.command("eval", help=EVAL_HELP)
     @handle_errors
     def eval_(
         files: list[Path] = typer.Argument(..., help="Results JSON files and/or .zip archives of them."),
         method: str = typer.Option("omq", "--method", "-m", help="Evaluation method (`benchbot list evaluators`)."),
         output: Path = typer.Option(Path("scores.json"), "--output-location", "-o", help="Where to write the scores."),
-        required_envs: Optional[str] = typer.Option(None, "--required-envs", help="Comma list of environments that must be covered, e.g. miniroom:1,house:1."),
-        required_envs_batch: Optional[str] = typer.Option(None, "--required-envs-batch", help="Take the required environments from a batch."),
+        required_envs: Optional[str] = typer.Option(None, "--required-envs", help="Comma list of environments that must be covered, e.g. miniroom:1,house:1:2."),
+        required_envs_batch: Optional[str] = typer.Option(None, "--required-envs-batch", help="Take the required environments from a batch (`benchbot list batches`)."),
         required_task: Optional[str] = typer.Option(None, "--required-task", help="Only score results of this task."),
-        validate_only: bool = typer.Option(False, "--validate-only", "-V", help="Validate the files, then exit."),
+        validate_only: bool = typer.Option(False, "--validate-only", "-V", help="Validate the files, then exit (0 if all are valid)."),
+        combine: str = typer.Option("mean", "--combine", help="How to combine several results: mean (default, the original) or pooled."),
+        per_class: bool = typer.Option(False, "--per-class", help="Also report the scores per ground-truth class."),
+        oriented: bool = typer.Option(False, "--oriented", help="Use result objects' optional yaw (radians about +z) in the IoU."),
         as_json: bool = typer.Option(False, "--json", help="Print the scores as JSON on stdout."),
     ) -> None:
-        """Validate results files and score them against the environments' ground truths.
-
-        Missing required environments count as 0 in the combined score (as in the original BenchBot).
-        """
         reg = registry()
         if required_envs and required_envs_batch:
             raise UsageError("give at most one of --required-envs and --required-envs-batch", "")
+        if combine not in COMBINE_MODES:
+            raise UsageError(f"--combine '{combine}' is not one of {', '.join(COMBINE_MODES)}", "e.g. --combine pooled")
         envs = None
         if required_envs:
             envs = [e.strip() for e in required_envs.split(",") if e.strip()]
         elif required_envs_batch:
+            if required_envs_batch not in reg.names("batches"):
+                close = difflib.get_close_matches(required_envs_batch, reg.names("batches"), n=3)
+                raise SpecError(f"no batch named '{required_envs_batch}'",
+                                f"did you mean {', '.join(close)}?" if close else "see `benchbot list batches`")  # fmt: skip
             envs = list(reg.get("batches", required_envs_batch)["environments"])
         if validate_only:
-            for path in files:
-                for result in load_results(path):
-                    validate_result(result, reg)
-                    err.print(f"[green]valid[/] {result.source}")
+            valid, errors = validate_all(list(files), reg)
+            tasks = sorted({r.data["task_details"]["name"] for r in valid})
+            if len(tasks) > 1:
+                raise ResultsError(f"results name several tasks: {', '.join(tasks)}", "evaluate one task at a time")
+            for result in valid:
+                err.print(f"[green]valid[/] {result.source}", highlight=False)
+            _print_errors(errors)
+            if errors:
+                raise typer.Exit(int(ExitCode.RESULTS))
             return
-        evaluation = evaluate(list(files), method, reg, required_envs=envs, required_task=required_task)
+        evaluation = evaluate(
+            list(files), method, reg, required_envs=envs, required_task=required_task, combine=combine,
+            options={"per_class": per_class, "oriented": oriented}, keep_going=True,
+        )  # fmt: skip
+        _print_errors(evaluation.errors)
+        if not evaluation.per_result and evaluation.errors:
+            raise typer.Exit(int(ExitCode.RESULTS))
         atomic.write_json(output, evaluation.to_json())
         if as_json:
-            out.print_json(json.dumps({"per_result": [{"source": s, **v} for s, v in evaluation.per_result],
-                                       "combined": evaluation.combined}, default=lambda o: o.tolist()))
+            out.print_json(json.dumps({
+                "per_result": [{"source": s, **v} for s, v in evaluation.per_result],
+                "combined": evaluation.combined,
+                "combine": evaluation.combine_mode,
+                "skipped": [{"source": s, "reason": r} for s, r in evaluation.skipped],
+                "missing": evaluation.missing,
+                "errors": [{"source": s, "error": e.message} for s, e in evaluation.errors],
+            }, default=lambda o: o.tolist()))  # fmt: skip
         else:
-            print_scores(evaluation)
-        err.print(f"scores written to {output}")
+            print_scores(evaluation, per_class=per_class)
+        err.print(f"scores written to {output}", highlight=False)
+        if evaluation.errors:
+            raise typer.Exit(int(ExitCode.RESULTS))

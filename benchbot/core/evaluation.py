@@ -7,12 +7,14 @@ members are skipped, as in the original). Ground truths are found by each scene'
 
 from __future__ import annotations
 
+import inspect
 import json
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Callable
 
-from benchbot.core.errors import BenchbotError, ResultsError, SpecError
+from benchbot.core.errors import BenchbotError, ResultsError, SpecError, UsageError
 from benchbot.core.registry import Registry, json_path, validator
 
 
@@ -84,6 +86,68 @@ def validate_result(result: LoadedResult, registry: Registry) -> None:
             raise ResultsError(f"{result.source}: results.{exc.message}", exc.hint) from None
 
 
+PerFileError = tuple[str, BenchbotError]
+"""``(source, error)`` of a results file (or archive member) that could not be loaded, validated or scored."""
+
+
+def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileError]]:
+    """Load every results file and archive member, collecting per-file errors instead of stopping at the first.
+
+    Returns:
+        ``(results, errors)``: the parsed results in input order, and ``(source, ResultsError)`` for each file or
+        archive member that is not valid JSON or not a JSON object (``source`` is ``path`` or ``zip:member``).
+
+    Raises:
+        ResultsError: a path does not exist (checked for every path before anything is read, as the original's
+            pre-checks), or a zip archive cannot be read.
+    """
+    for path in paths:
+        if not Path(path).is_file():
+            raise ResultsError(f"{path}: no such results file", "check the path")
+    results: list[LoadedResult] = []
+    errors: list[PerFileError] = []
+    for path in map(Path, paths):
+        if zipfile.is_zipfile(path):
+            try:
+                with zipfile.ZipFile(path) as archive:
+                    members = [(m, archive.read(m)) for m in archive.namelist()
+                               if not m.endswith("/") and Path(m).name != "submission.json"]  # fmt: skip
+            except (zipfile.BadZipFile, OSError) as exc:
+                raise ResultsError(f"{path}: cannot read the zip archive ({exc})", "") from None
+            items = [(f"{path}:{m}", data) for m, data in members]
+        else:
+            items = [(str(path), path.read_bytes())]
+        for source, data in items:
+            try:
+                results.append(LoadedResult(source, _parse(source, data)))
+            except ResultsError as exc:
+                errors.append((source, exc))
+    return results, errors
+
+
+def validate_all(
+    paths: list[Path | str], registry: Registry
+) -> tuple[list[LoadedResult], list[PerFileError]]:
+    """:func:`load_all`, then :func:`validate_result` on each: ``(valid results, per-file errors)``.
+
+    Raises:
+        ResultsError: a path does not exist.
+    """
+    load_all([p for p in paths if not Path(p).is_file()])  # the existence pre-check
+    valid: list[LoadedResult] = []
+    errors: list[PerFileError] = []
+    for path in paths:
+        loaded, load_errors = load_all([path])
+        errors += load_errors
+        for result in loaded:
+            try:
+                validate_result(result, registry)
+                valid.append(result)
+            except BenchbotError as exc:
+                errors.append((result.source, exc))
+    return valid, errors
+
+
 @dataclass
 class Evaluation:
     """Scores of a set of results.
@@ -91,10 +155,13 @@ class Evaluation:
     Attributes:
         method: the evaluation method's name.
         per_result: ``[(source, scores dict)]`` in input order (``scores`` as returned by the method).
-        combined: the method's ``combine`` over the results, padded with ``{}`` for missing required
-            environments, or ``None`` when the method has no ``combine``.
+        combined: the method's ``combine`` over the results, padded for missing required environments, or
+            ``None`` when the method has no ``combine``.
         skipped: ``[(source, reason)]`` of results left out (another task, not a required environment).
-        missing: required environments without a result.
+        missing: required environments without a (valid) result.
+        errors: ``[(source, error)]`` of files that could not be loaded, validated or scored (only filled with
+            ``keep_going=True``; otherwise the first one is raised).
+        combine_mode: ``"mean"`` or ``"pooled"``.
     """
 
     method: str
@@ -102,10 +169,23 @@ class Evaluation:
     combined: dict | None = None
     skipped: list[tuple[str, str]] = field(default_factory=list)
     missing: list[str] = field(default_factory=list)
+    errors: list[PerFileError] = field(default_factory=list)
+    combine_mode: str = "mean"
 
     def to_json(self) -> dict | list:
         """What the original wrote to ``scores.json``: the combined dict, or the list of per-result dicts."""
         return self.combined if self.combined is not None else [s for _, s in self.per_result]
+
+
+COMBINE_MODES = ("mean", "pooled")
+
+
+def _accepts(fn: Callable, name: str) -> bool:
+    try:
+        params = inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
+    return name in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
 
 
 def evaluate(
@@ -115,6 +195,9 @@ def evaluate(
     *,
     required_envs: list[str] | None = None,
     required_task: str | None = None,
+    combine: str = "mean",
+    options: dict[str, Any] | None = None,
+    keep_going: bool = False,
 ) -> Evaluation:
     """Validate and score results files (reference §1.4, §7.1).
 
@@ -122,31 +205,70 @@ def evaluate(
         paths: JSON files and/or zip archives.
         method: evaluation-method name (e.g. ``omq``).
         required_envs: environment strings that must be covered; a missing one counts as an empty result in
-            ``combine``.
+            ``combine`` (``{}`` for ``mean``, as the original; for ``pooled``, the method's evaluation of an
+            empty map, so that the environment's ground-truth objects count as FN).
         required_task: results of any other task are skipped.
+        combine: ``"mean"`` (the original: mean of each score over the results) or ``"pooled"`` (the method's
+            ``combine(..., mode="pooled")``: counts and sums pooled over the results before dividing).
+        options: extra keyword arguments for the method's ``evaluate`` (e.g. ``{"per_class": True,
+            "oriented": True}`` for OMQ); false values are not passed.
+        keep_going: collect per-file problems (bad JSON, validation errors, no ground truth, the method refusing
+            a file) in ``Evaluation.errors`` and score the other files, instead of raising the first one.
 
     Raises:
-        SpecError: unknown method, task or environment; no ground truth for a scene.
-        ResultsError: a results file is malformed (naming it and the field), or results name several tasks, or
-            the method cannot score a result.
+        UsageError: unknown combine mode, or the method does not support an option or pooled combining.
+        SpecError: unknown method, task or environment; (without ``keep_going``) no ground truth for a scene.
+        ResultsError: a results file does not exist; results name several tasks; (without ``keep_going``) a
+            results file is malformed (naming it and the field) or the method cannot score it.
     """
+    if combine not in COMBINE_MODES:
+        raise UsageError(f"unknown combine mode '{combine}'", f"use one of: {', '.join(COMBINE_MODES)}")
     spec = registry.get("evaluators", method)
     functions = registry.functions("evaluators", method)
+    if "evaluate" not in functions:
+        raise SpecError(f"evaluator '{method}': has no 'evaluate' function", "check its spec's functions")
+    method_kwargs = {k: v for k, v in (options or {}).items() if v}
+    for name in method_kwargs:
+        if not _accepts(functions["evaluate"], name):
+            raise UsageError(f"evaluation method '{method}' does not support the option '{name}'", "")
+    if combine != "mean" and "combine" in functions and not _accepts(functions["combine"], "mode"):
+        raise UsageError(f"evaluation method '{method}' has no '{combine}' combine mode", "use --combine mean")
     if required_task is not None:
         registry.get("tasks", required_task)
     for env in required_envs or []:
         registry.scenes(env)
-    evaluation = Evaluation(method)
-    loaded = [r for p in paths for r in load_results(p)]
-    if not loaded:
+    evaluation = Evaluation(method, combine_mode=combine)
+
+    def fail(source: str, exc: BenchbotError) -> None:
+        if not keep_going:
+            raise exc
+        evaluation.errors.append((source, exc))
+
+    load_all([p for p in paths if not Path(p).is_file()])  # the existence pre-check, before anything is read
+    order: dict[str, int] = {}  # source -> index of its path (errors are reported in input order)
+    loaded: list[LoadedResult] = []
+    for index, path in enumerate(paths):
+        results, load_errors = load_all([path])
+        order.update({r.source: index for r in results})
+        order.update({source: index for source, _ in load_errors})
+        for source, exc in load_errors:
+            fail(source, exc)
+        loaded += results
+    if not loaded and not evaluation.errors:
         raise ResultsError("no results to evaluate", "give results files or zip archives")
+    valid = []
     for result in loaded:
-        validate_result(result, registry)
-    tasks = {r.data["task_details"]["name"] for r in loaded}
+        try:
+            validate_result(result, registry)
+            valid.append(result)
+        except BenchbotError as exc:
+            fail(result.source, exc)
+    tasks = {r.data["task_details"]["name"] for r in valid}
     if len(tasks) > 1:
         raise ResultsError(f"results name several tasks: {', '.join(sorted(tasks))}", "evaluate one task at a time")
     covered = set()
-    for result in loaded:
+    task_details = None
+    for result in valid:
         task = result.data["task_details"]
         if required_task is not None and task["name"] != required_task:
             evaluation.skipped.append((result.source, f"task {task['name']} is not {required_task}"))
@@ -154,28 +276,70 @@ def evaluate(
         if required_envs is not None and result.env_string not in required_envs:
             evaluation.skipped.append((result.source, f"environment {result.env_string} is not required"))
             continue
-        if task["results_format"] not in spec["valid_result_formats"]:
-            raise ResultsError(
-                f"{result.source}: method '{method}' cannot score results of format '{task['results_format']}'",
-                f"it scores: {', '.join(spec['valid_result_formats'])}",
-            )
-        ground_truths = []
-        for env in result.data["environment_details"]:
-            gt = registry.ground_truth(f"{env['name']}:{env['variant']}")
-            if gt["format"]["name"] not in spec["valid_ground_truth_formats"]:
-                raise SpecError(f"ground truth of {env['name']}:{env['variant']} has format {gt['format']['name']}", "")
-            ground_truths.append(gt)
         try:
-            scores = functions["evaluate"](result.data, ground_truths)
-        except BenchbotError:
-            raise
-        except Exception as exc:  # the method's own bug: name the file, keep a one-line message
-            raise ResultsError(f"{result.source}: {method} failed: {exc!r}", "report this as a bug in the method") from exc
+            if task["results_format"] not in spec["valid_result_formats"]:
+                raise ResultsError(
+                    f"{result.source}: method '{method}' cannot score results of format '{task['results_format']}'",
+                    f"it scores: {', '.join(spec['valid_result_formats'])}",
+                )
+            ground_truths = _ground_truths(result.source, result.data["environment_details"], spec, registry)
+            try:
+                scores = functions["evaluate"](result.data, ground_truths, **method_kwargs)
+            except BenchbotError as exc:
+                raise type(exc)(f"{result.source}: {exc.message}", exc.hint) from None
+            except Exception as exc:  # the method's own bug: name the file, keep a one-line message
+                raise ResultsError(
+                    f"{result.source}: {method} failed: {exc!r}", "report this as a bug in the method"
+                ) from exc
+        except BenchbotError as exc:
+            fail(result.source, exc)
+            continue
         evaluation.per_result.append((result.source, scores))
         covered.add(result.env_string)
+        task_details = task_details or task
+    evaluation.errors.sort(key=lambda e: order.get(e[0], len(paths)))
     evaluation.missing = [e for e in (required_envs or []) if e not in covered]
     if "combine" in functions:
         scores_list = [s for _, s in evaluation.per_result]
-        scores_list += [{} for _ in evaluation.missing]
-        evaluation.combined = functions["combine"](scores_list)
+        if combine == "mean":
+            scores_list += [{} for _ in evaluation.missing]
+            evaluation.combined = functions["combine"](scores_list)
+        else:
+            if task_details is None and required_task is not None:
+                task_details = registry.get("tasks", required_task)
+            for env in evaluation.missing:
+                scores_list.append(_empty_evaluation(env, task_details, spec, functions, registry, method_kwargs))
+            evaluation.combined = functions["combine"](scores_list, mode=combine)
     return evaluation
+
+
+def _ground_truths(source: str, environment_details: list[dict], spec: dict, registry: Registry) -> list[dict]:
+    ground_truths = []
+    for env in environment_details:
+        name = f"{env['name']}:{env['variant']}"
+        if name not in registry.entries["ground_truths"]:
+            raise SpecError(f"{source}: no ground truth for environment {name}", "see `benchbot list environments`")
+        gt = registry.ground_truth(name)
+        if gt["format"]["name"] not in spec["valid_ground_truth_formats"]:
+            raise SpecError(f"{source}: the ground truth of {name} has format {gt['format']['name']}", "")
+        ground_truths.append(gt)
+    return ground_truths
+
+
+def _empty_evaluation(
+    env: str, task_details: dict | None, spec: dict, functions: dict, registry: Registry, kwargs: dict
+) -> dict:
+    """The method's scores of an empty map for ``env`` (pooled combine of a missing environment); ``{}`` when it
+    cannot be made (no task known, no ground truth)."""
+    if task_details is None:
+        return {}
+    try:
+        scenes = registry.scenes(env)
+        gts = _ground_truths(env, scenes, spec, registry)
+        inner: dict[str, Any] = {"objects": [], "class_list": list(gts[0]["ground_truth"].get("class_list") or [])}
+        if task_details.get("results_format") == "object_map_with_states":
+            inner["state_list"] = ["added", "removed", "unchanged"]
+        empty = {"task_details": task_details, "environment_details": scenes, "results": inner}
+        return functions["evaluate"](empty, gts, **kwargs)
+    except Exception:  # noqa: BLE001 - padding must never hide the real scores
+        return {}

@@ -22,6 +22,7 @@ Units: centroids and extents in metres, ``map`` frame; extents are full side len
 
 from __future__ import annotations
 
+import itertools
 import math
 from numbers import Real
 from typing import Any, Optional, Sequence
@@ -37,7 +38,10 @@ __all__ = [
     "SCORE_NAMES",
     "evaluate",
     "combine",
+    "COMBINE_MODES",
+    "scores_from_totals",
     "pairwise_iou",
+    "footprint_intersection",
     "scd_ground_truth",
     "build_class_list",
     "build_synonyms",
@@ -128,6 +132,11 @@ def resolve_class(name: Any, class_index: dict[str, int], synonyms: dict[str, st
 # Input checking / sanitising
 # --------------------------------------------------------------------------------------------------------------------
 def _number_array(value: Any, length: int, path: str, what: str, non_negative: bool = False) -> np.ndarray:
+    # Fast path (the common case: a list of JSON ints/floats): one type pass, then vectorised checks.
+    if type(value) is list and len(value) == length and all(type(v) is float or type(v) is int for v in value):
+        arr = np.asarray(value, dtype=np.float64)
+        if np.isfinite(arr).all() and not (non_negative and (arr < 0).any()):
+            return arr
     if not isinstance(value, (list, tuple)):
         raise ResultsError(f"{path}: expected a list of {length} {what}, got {type(value).__name__}", _RESULTS_HINT)
     if len(value) != length:
@@ -153,16 +162,38 @@ def _sanitise(probs: np.ndarray, mapping: np.ndarray, n_out: int) -> np.ndarray:
     return out
 
 
+def _number_matrix(
+    objects: Sequence[dict], key: str, length: int, prefix: str, what: str, non_negative: bool, err: type
+) -> np.ndarray:
+    """``objects[i][key]`` for every object as an ``(n, length)`` float64 array.
+
+    Fast path: one C-level pass over the element types (JSON ints/floats only) and one ``np.array``; otherwise
+    (or when a value is non-finite/negative) each object is checked in turn so that the error names the first bad
+    one (``{prefix}[i].{key}...``), raised as ``err`` (ResultsError or SpecError).
+    """
+    values = [obj.get(key) for obj in objects]
+    if all(type(v) is list and len(v) == length for v in values) and set(
+        map(type, itertools.chain.from_iterable(values))
+    ) <= {float, int}:
+        arr = np.array(values, dtype=np.float64).reshape(len(values), length)
+        if np.isfinite(arr).all() and not (non_negative and (arr < 0).any()):
+            return arr
+    out = np.zeros((len(values), length))
+    hint = _GT_HINT if err is SpecError else _RESULTS_HINT
+    for i, (obj, value) in enumerate(zip(objects, values)):
+        if key not in obj:
+            raise err(f"{prefix}[{i}].{key}: missing", hint)
+        try:
+            out[i] = _number_array(value, length, f"{prefix}[{i}].{key}", what, non_negative)
+        except ResultsError as e:
+            raise err(e.message, hint) from None
+    return out
+
+
 def _boxes(objects: Sequence[dict], prefix: str, err: type) -> tuple[np.ndarray, np.ndarray]:
-    hint = _RESULTS_HINT if err is ResultsError else _GT_HINT
-    centroids = np.zeros((len(objects), 3))
-    extents = np.zeros((len(objects), 3))
-    for i, obj in enumerate(objects):
-        for key, out, non_neg in (("centroid", centroids, False), ("extent", extents, True)):
-            try:
-                out[i] = _number_array(obj.get(key), 3, f"{prefix}[{i}].{key}", "numbers (metres)", non_neg)
-            except ResultsError as e:
-                raise err(e.message, hint) from None
+    """Centroids and extents ``(n, 3)`` float64 (metres) of ``objects``; extents must be >= 0."""
+    centroids = _number_matrix(objects, "centroid", 3, prefix, "numbers (metres)", False, err)
+    extents = _number_matrix(objects, "extent", 3, prefix, "numbers (metres)", True, err)
     return centroids, extents
 
 
@@ -230,41 +261,147 @@ def scd_ground_truth(
 # Pairwise qualities
 # --------------------------------------------------------------------------------------------------------------------
 def pairwise_iou(
-    gt_centroids: np.ndarray, gt_extents: np.ndarray, prop_centroids: np.ndarray, prop_extents: np.ndarray
+    gt_centroids: np.ndarray,
+    gt_extents: np.ndarray,
+    prop_centroids: np.ndarray,
+    prop_extents: np.ndarray,
+    gt_yaw: Optional[np.ndarray] = None,
+    prop_yaw: Optional[np.ndarray] = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Axis-aligned 3D IoU of every GT box with every proposal box (vectorised by broadcasting).
+    """3D IoU of every GT box with every proposal box (vectorised by broadcasting).
+
+    Without yaws (the default, and the original's behaviour) the boxes are axis-aligned. With yaws (the opt-in
+    oriented-cuboid extension), each box's footprint is its x/y extent rotated by its yaw about +z (radians,
+    counter-clockwise seen from above, ``map`` frame) around its centroid; the intersection volume is then the
+    exact area of the intersection of the two rotated rectangles (:func:`footprint_intersection`) times the
+    z-overlap. Pairs whose two yaws are both exactly 0 use the axis-aligned formula, so ``yaw = 0`` reproduces the
+    axis-aligned scores bit for bit.
 
     Args:
         gt_centroids, gt_extents: ``(g, 3)`` float64, metres (map frame); extents are full side lengths.
         prop_centroids, prop_extents: ``(p, 3)`` float64, metres.
+        gt_yaw: ``(g,)`` float64 radians, or None (axis-aligned).
+        prop_yaw: ``(p,)`` float64 radians, or None (axis-aligned).
 
     Returns:
         ``(iou, intersection)``, both ``(g, p)`` float64: IoU = inter / (vol_gt + vol_prop - inter), 0 where the
-        union is 0; ``intersection`` is the overlap volume in m³. Volumes are the products of the extents.
+        union is 0; ``intersection`` is the overlap volume in m³. Volumes are the products of the extents (a
+        rotation does not change them).
     """
     # Overlap of [cg - eg/2, cg + eg/2] and [cp - ep/2, cp + ep/2] per axis, written as
     # min(eg, ep, (eg + ep)/2 - |cg - cp|): the same value as min(hi) - max(lo), but without the rounding of c ± e/2,
     # so that identical boxes give an IoU of exactly 1.
-    ge, pe = gt_extents[:, None, :], prop_extents[None, :, :]
-    distance = np.abs(gt_centroids[:, None, :] - prop_centroids[None, :, :])
-    overlap = np.minimum(np.minimum(ge, pe), (ge + pe) / 2 - distance)
-    inter = np.prod(np.clip(overlap, 0.0, None), axis=2)
-    union = np.prod(gt_extents, axis=1)[:, None] + np.prod(prop_extents, axis=1)[None, :] - inter
+    # Sparse in practice: the x-overlap is computed for every pair, y and z only where x overlaps, then z where
+    # y overlaps (most pairs of a real map are far apart).
+    g, p = len(gt_centroids), len(prop_centroids)
+
+    def axis_overlap(axis: int, rows: Any, cols: Any) -> np.ndarray:
+        eg, ep = gt_extents[:, axis][rows], prop_extents[:, axis][cols]
+        cg, cp = gt_centroids[:, axis][rows], prop_centroids[:, axis][cols]
+        return np.minimum(np.minimum(eg, ep), (eg + ep) * 0.5 - np.abs(cg - cp))
+
+    ox = axis_overlap(0, (slice(None), None), (None, slice(None)))  # (g, p)
+    rows, cols = np.nonzero(ox > 0)
+    oy = axis_overlap(1, rows, cols)
+    keep = oy > 0
+    rows, cols, oxy = rows[keep], cols[keep], ox[rows[keep], cols[keep]] * oy[keep]
+    oz = np.maximum(axis_overlap(2, rows, cols), 0.0)
+    inter = np.zeros((g, p))
+    inter[rows, cols] = oxy * oz
+    gy = np.zeros(g) if gt_yaw is None else np.asarray(gt_yaw, dtype=np.float64)
+    py = np.zeros(p) if prop_yaw is None else np.asarray(prop_yaw, dtype=np.float64)
+    rotated = (gy[:, None] != 0) | (py[None, :] != 0)
+    if rotated.any():
+        rows, cols = np.nonzero(rotated)
+        oz = np.maximum(axis_overlap(2, rows, cols), 0.0)
+        area = footprint_intersection(
+            gt_centroids[rows, :2], gt_extents[rows, :2], gy[rows],
+            prop_centroids[cols, :2], prop_extents[cols, :2], py[cols],
+        )  # fmt: skip
+        inter[rows, cols] = area * oz
+    rows, cols = np.nonzero(inter > 0)
+    union = np.prod(gt_extents[rows], axis=1) + np.prod(prop_extents[cols], axis=1) - inter[rows, cols]
+    iou = np.zeros((g, p))
+    iou[rows, cols] = np.minimum(inter[rows, cols] / union, 1.0)  # union >= inter > 0
+    return iou, inter
+
+
+def _rectangles(centres: np.ndarray, extents: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Corners ``(n, 4, 2)`` of rectangles (centre ``(n, 2)``, full sides ``(n, 2)``, yaw ``(n,)`` rad), CCW."""
+    local = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])[None] * extents[:, None, :]
+    cos, sin = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    x = cos * local[..., 0] - sin * local[..., 1]
+    y = sin * local[..., 0] + cos * local[..., 1]
+    return np.stack([x, y], axis=-1) + centres[:, None, :]
+
+
+def _inside_boundary_area(poly: np.ndarray, clip: np.ndarray, keep_same_direction: bool) -> np.ndarray:
+    """Σ over the edges of convex CCW ``poly`` of the shoelace term of the part of the edge inside convex CCW
+    ``clip`` (Cyrus–Beck clipping), both ``(n, 4, 2)``. Edges lying on a clip edge's line count when they run
+    the opposite way, and when they run the same way only if ``keep_same_direction`` (so that a shared boundary
+    is counted once)."""
+    start = poly[:, :, None, :]  # (n, 4 edges, 1, 2)
+    d = (np.roll(poly, -1, axis=1) - poly)[:, :, None, :]
+    q0 = clip[:, None, :, :]  # (n, 1, 4 half-planes, 2)
+    qd = (np.roll(clip, -1, axis=1) - clip)[:, None, :, :]
+    # inside(x) <=> cross(qd, x - q0) >= 0; along the edge x = start + t d: num + t den
+    num = qd[..., 0] * (start[..., 1] - q0[..., 1]) - qd[..., 1] * (start[..., 0] - q0[..., 0])
+    den = qd[..., 0] * d[..., 1] - qd[..., 1] * d[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
-        iou = np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
-    return np.clip(iou, 0.0, 1.0), inter
+        t = np.where(den != 0, -num / np.where(den != 0, den, 1.0), 0.0)
+    lo = np.max(np.where(den > 0, t, 0.0), axis=2, initial=0.0)
+    hi = np.min(np.where(den < 0, t, 1.0), axis=2, initial=1.0)
+    same_dir = (qd[..., 0] * d[..., 0] + qd[..., 1] * d[..., 1]) > 0
+    parallel_out = (den == 0) & ((num < 0) | ((num == 0) & same_dir & (not keep_same_direction)))
+    keep = (hi > lo) & ~parallel_out.any(axis=2)
+    a = poly + lo[..., None] * (np.roll(poly, -1, axis=1) - poly)
+    b = poly + hi[..., None] * (np.roll(poly, -1, axis=1) - poly)
+    return np.where(keep, a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0], 0.0).sum(axis=1)
+
+
+def footprint_intersection(
+    centres_a: np.ndarray, extents_a: np.ndarray, yaw_a: np.ndarray,
+    centres_b: np.ndarray, extents_b: np.ndarray, yaw_b: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """Exact area of the intersection of rotated rectangles A[k] and B[k] (element-wise, numpy only).
+
+    Green's theorem: the intersection of two convex polygons is bounded by the parts of A's edges inside B and the
+    parts of B's edges inside A, so its area is half the sum of the shoelace terms ``x0*y1 - x1*y0`` of those
+    parts (each edge clipped to the other polygon by Cyrus–Beck). Coordinates are taken relative to A's centre.
+
+    Args:
+        centres_a, extents_a, yaw_a: ``(n, 2)`` metres, ``(n, 2)`` full side lengths in metres, ``(n,)`` radians
+            about +z (counter-clockwise seen from above); likewise for B.
+
+    Returns:
+        ``(n,)`` float64 areas in m², >= 0.
+    """
+    origin = np.asarray(centres_a, dtype=np.float64)
+    rect_a = _rectangles(np.zeros_like(origin), np.asarray(extents_a, float), np.asarray(yaw_a, float))
+    rect_b = _rectangles(np.asarray(centres_b, float) - origin, np.asarray(extents_b, float), np.asarray(yaw_b, float))
+    area = 0.5 * (
+        _inside_boundary_area(rect_a, rect_b, keep_same_direction=True)
+        + _inside_boundary_area(rect_b, rect_a, keep_same_direction=False)
+    )
+    smaller = np.minimum(np.prod(extents_a, axis=1), np.prod(extents_b, axis=1))
+    area = np.where(area > 1e-12 * smaller, area, 0.0)  # rounding residue of boxes that only touch
+    return np.minimum(area, smaller)
 
 
 def _geometric_mean(*qualities: np.ndarray) -> np.ndarray:
     """Element-wise geometric mean (as scipy.stats.gmean over the stacked qualities); any zero gives 0."""
-    stacked = np.stack(qualities)
-    return np.prod(stacked, axis=0) ** (1.0 / len(qualities))
+    product = qualities[0]
+    for q in qualities[1:]:
+        product = product * q
+    if len(qualities) == 2:
+        return np.sqrt(product)
+    return product ** (1.0 / len(qualities))
 
 
 # --------------------------------------------------------------------------------------------------------------------
 # evaluate / combine
 # --------------------------------------------------------------------------------------------------------------------
-def evaluate(results: dict, ground_truths: list[dict]) -> dict:
+def evaluate(results: dict, ground_truths: list[dict], *, per_class: bool = False, oriented: bool = False) -> dict:
     """Score one submitted results file with OMQ (Hall et al. 2020, arXiv:2009.05246; benchbot_eval's OMQ add-on).
 
     Args:
@@ -276,10 +413,20 @@ def evaluate(results: dict, ground_truths: list[dict]) -> dict:
             synonyms, objects: [{class, ID_name, centroid, extent, isgroup}]}}`` as in the BEAR JSON files:
             exactly 1 for semantic SLAM, exactly 2 (scene A, scene B) for SCD.
 
+        per_class: also return the scores per class (key ``per_class``, see below).
+        oriented: the oriented-cuboid extension: a proposal's optional ``yaw`` (radians about +z, map frame; also
+            read on ground-truth objects, default 0) rotates its footprint in the IoU (:func:`pairwise_iou`). Off
+            (the default, as the original), ``yaw`` is ignored.
+
     Returns:
         ``{"task_details", "environment_details", "scores": {"OMQ", "avg_pairwise", "avg_label", "avg_spatial",
-        "avg_fp_quality", ["avg_state_quality" (SCD only)], "TP", "FP", "FN"}}``; qualities are floats in [0, 1],
-        counts are ints.
+        "avg_fp_quality", ["avg_state_quality" (SCD only)], "TP", "FP", "FN"}, "totals": {...}[, "per_class"]}``;
+        qualities are floats in [0, 1], counts are ints. ``totals`` holds the sums the scores are ratios of
+        (``TP, FP, FN, sum_overall, sum_label, sum_spatial, sum_state, sum_fp_cost``; used by the pooled
+        :func:`combine`). ``per_class`` = ``{class name: {"scores": {...}, "totals": {...}}}`` for every class
+        that has a ground-truth object or a false positive: TP pairs and FNs count for their GT object's class,
+        an FP for its argmax non-background class (``background`` when all those are 0); per-class counts and sums
+        add up to the totals.
 
     Raises:
         benchbot.core.errors.ResultsError: the results cannot be scored (missing parts, ``label_probs`` /
@@ -325,14 +472,10 @@ def evaluate(results: dict, ground_truths: list[dict]) -> dict:
     class_map = np.array(
         [bg if (k := resolve_class(c, class_index, synonyms)) is None else k for c in res_classes], dtype=np.int64
     )
-    raw_labels = np.zeros((len(objects), len(res_classes)))
-    for j, obj in enumerate(objects):
-        if "label_probs" not in obj:
-            raise ResultsError(f"results.objects[{j}].label_probs: missing", _RESULTS_HINT)
-        raw_labels[j] = _number_array(
-            obj["label_probs"], len(res_classes), f"results.objects[{j}].label_probs",
-            "probabilities (len(class_list))", non_negative=True,
-        )  # fmt: skip
+    raw_labels = _number_matrix(
+        objects, "label_probs", len(res_classes), "results.objects", "probabilities (len(class_list))", True,
+        ResultsError,
+    )  # fmt: skip
     labels = _sanitise(raw_labels, class_map, n_classes)  # (p, n_classes)
     prop_c, prop_e = _boxes(objects, "results.objects", ResultsError)
 
@@ -346,22 +489,79 @@ def evaluate(results: dict, ground_truths: list[dict]) -> dict:
             [state_index.get(_STATE_ALIASES.get(str(s).lower(), str(s).lower()), len(SCD_STATE_LIST) - 1)
              for s in res_states], dtype=np.int64,
         )  # fmt: skip
-        raw_states = np.zeros((len(objects), len(res_states)))
-        for j, obj in enumerate(objects):
-            if "state_probs" not in obj:
-                raise ResultsError(f"results.objects[{j}].state_probs: missing", _RESULTS_HINT)
-            raw_states[j] = _number_array(
-                obj["state_probs"], len(res_states), f"results.objects[{j}].state_probs",
-                "probabilities (len(state_list))", non_negative=True,
-            )  # fmt: skip
+        raw_states = _number_matrix(
+            objects, "state_probs", len(res_states), "results.objects", "probabilities (len(state_list))", True,
+            ResultsError,
+        )  # fmt: skip
         states = _sanitise(raw_states, state_map, len(SCD_STATE_LIST))  # (p, 3)
 
-    scores = _score(gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e)
-    return {
+    gt_yaw = prop_yaw = None
+    if oriented:
+        gt_yaw = _yaws(gt_objects, "ground truth objects", SpecError)
+        prop_yaw = _yaws(objects, "results.objects", ResultsError)
+    totals, by_class = _score(
+        gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e, gt_yaw, prop_yaw, per_class
+    )
+    out = {
         "task_details": results.get("task_details"),
         "environment_details": results.get("environment_details"),
-        "scores": scores,
+        "scores": scores_from_totals(totals, scd),
+        "totals": totals,
     }
+    if per_class:
+        out["per_class"] = {
+            class_list[k]: {"scores": scores_from_totals(t, scd), "totals": t} for k, t in sorted(by_class.items())
+        }
+    return out
+
+
+def _yaws(objects: Sequence[dict], prefix: str, err: type) -> np.ndarray:
+    """The objects' ``yaw`` (radians, 0 when absent) as ``(n,)`` float64."""
+    out = np.zeros(len(objects))
+    for i, obj in enumerate(objects):
+        yaw = obj.get("yaw", 0.0)
+        if not isinstance(yaw, Real) or isinstance(yaw, bool) or not math.isfinite(yaw):
+            raise err(f"{prefix}[{i}].yaw: expected a finite number (radians about +z), got {yaw!r}",
+                      _RESULTS_HINT if err is ResultsError else _GT_HINT)  # fmt: skip
+        out[i] = float(yaw)
+    return out
+
+
+TOTAL_NAMES: tuple[str, ...] = (
+    "TP", "FP", "FN", "sum_overall", "sum_label", "sum_spatial", "sum_state", "sum_fp_cost",
+)  # fmt: skip
+"""Keys of an evaluation's ``totals``: the counts and the sums that every score is a ratio of."""
+
+
+def _new_totals() -> dict:
+    return {k: (0 if k in COUNT_NAMES else 0.0) for k in TOTAL_NAMES}
+
+
+def scores_from_totals(totals: dict, scd: bool) -> dict:
+    """The OMQ scores from counts and sums (reference §7.2):
+    ``OMQ = Σoverall / (TP + ΣFPcost + FN)`` (0 if the denominator is 0); ``avg_pairwise/label/spatial
+    [/state_quality] = Σ/TP`` (0 if TP = 0); ``avg_fp_quality = (FP − ΣFPcost)/FP`` (1.0 if FP = 0).
+
+    Args:
+        totals: ``{TP, FP, FN, sum_overall, sum_label, sum_spatial, sum_state, sum_fp_cost}``.
+        scd: include ``avg_state_quality``.
+    """
+
+    def ratio(num: float, den: float, default: float = 0.0) -> float:
+        return float(num / den) if den else default
+
+    tp, fp, fn, fp_cost = totals["TP"], totals["FP"], totals["FN"], totals["sum_fp_cost"]
+    scores = {
+        "OMQ": ratio(totals["sum_overall"], tp + fp_cost + fn),
+        "avg_pairwise": ratio(totals["sum_overall"], tp),
+        "avg_label": ratio(totals["sum_label"], tp),
+        "avg_spatial": ratio(totals["sum_spatial"], tp),
+        "avg_fp_quality": ratio(fp - fp_cost, fp, default=1.0),
+    }
+    if scd:
+        scores["avg_state_quality"] = ratio(totals["sum_state"], tp)
+    scores.update({"TP": int(tp), "FP": int(fp), "FN": int(fn)})
+    return scores
 
 
 def _fp_cost(labels: np.ndarray, states: Optional[np.ndarray], j: int, label_only: bool = False) -> float:
@@ -372,63 +572,102 @@ def _fp_cost(labels: np.ndarray, states: Optional[np.ndarray], j: int, label_onl
     return float(np.sqrt(label * state))
 
 
-def _score(gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e) -> dict:
+def _fp_class(labels: np.ndarray, j: int, bg: int) -> int:
+    """The class an FP is attributed to in the per-class breakdown: argmax non-background, else background."""
+    if labels.shape[1] < 2 or labels[j, :-1].max() <= 0:
+        return bg
+    return int(np.argmax(labels[j, :-1]))
+
+
+def _score(
+    gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e, gt_yaw=None, prop_yaw=None,
+    per_class=False,
+) -> tuple[dict, dict]:  # fmt: skip
+    """Assignment and sums. Returns ``(totals, {class id: totals})`` (the second empty unless ``per_class``)."""
     from scipy.optimize import linear_sum_assignment
 
     scd = states is not None
     g, p = len(gt_class), labels.shape[0]
-    tp = fp = fn = 0
-    fp_cost = 0.0
-    sum_overall = sum_label = sum_spatial = sum_state = 0.0
+    bg = labels.shape[1] - 1
+    totals = _new_totals()
+    by_class: dict[int, dict] = {}
+
+    def add(cls: int, **values: float) -> None:
+        for target in (totals, by_class.setdefault(cls, _new_totals()) if per_class else None):
+            if target is not None:
+                for k, v in values.items():
+                    target[k] += v
 
     if g == 0 or p == 0:  # special case: nothing to match
-        fp, fn = p, g
-        fp_cost = float(sum(_fp_cost(labels, states, j, label_only=True) for j in range(p)))
-    else:
-        spatial, inter = pairwise_iou(gt_c, gt_e, prop_c, prop_e)  # (g, p)
-        label_q = labels[:, gt_class].T  # (g, p): P_j(class of GT i)
-        if scd:
-            state_q = states[:, gt_states].T  # (g, p): P_j(state of GT i)
-            overall = _geometric_mean(label_q, spatial, state_q)
-        else:
-            state_q = None
-            overall = _geometric_mean(label_q, spatial)
-        n = max(g, p)
-        cost = np.ones((n, n), dtype=np.float32)
-        cost[:g, :p] = 1.0 - overall
-        rows, cols = linear_sum_assignment(cost)
-        prop_vol = np.prod(prop_e, axis=1)
-        for r, c in zip(rows, cols):
-            if r < g and c < p and overall[r, c] > 0:
-                tp += 1
-                sum_overall += overall[r, c]
-                sum_label += label_q[r, c]
-                sum_spatial += spatial[r, c]
-                if scd:
-                    sum_state += state_q[r, c]
-                continue
-            if r < g:
-                fn += 1
-            if c < p:
-                if _group_exempt(c, overall, inter, prop_vol, gt_group, gt_class, labels):
-                    continue
-                fp += 1
-                fp_cost += _fp_cost(labels, states, c)
+        for i in range(g):
+            add(int(gt_class[i]), FN=1)
+        for j in range(p):
+            add(_fp_class(labels, j, bg), FP=1, sum_fp_cost=_fp_cost(labels, states, j, label_only=True))
+        return totals, by_class
 
-    def ratio(num: float, den: float, default: float = 0.0) -> float:
-        return float(num / den) if den else default
-
-    scores = {
-        "OMQ": ratio(sum_overall, tp + fp_cost + fn),
-        "avg_pairwise": ratio(sum_overall, tp),
-        "avg_label": ratio(sum_label, tp),
-        "avg_spatial": ratio(sum_spatial, tp),
-        "avg_fp_quality": ratio(fp - fp_cost, fp, default=1.0),
-    }
+    spatial, inter = pairwise_iou(gt_c, gt_e, prop_c, prop_e, gt_yaw, prop_yaw)  # (g, p)
+    label_q = labels[:, gt_class].T  # (g, p): P_j(class of GT i)
     if scd:
-        scores["avg_state_quality"] = ratio(sum_state, tp)
-    scores.update({"TP": int(tp), "FP": int(fp), "FN": int(fn)})
-    return scores
+        state_q = states[:, gt_states].T  # (g, p): P_j(state of GT i)
+        overall = _geometric_mean(label_q, spatial, state_q)
+    else:
+        state_q = None
+        overall = _geometric_mean(label_q, spatial)
+    # The original solves a square n×n float32 matrix (n = max(g, p)) of ones with 1 − overall in the g×p corner.
+    # The padding rows/columns cost 1 whatever they are paired with, so that problem has the same optimal pairs as
+    # the rectangular g×p one solved here (scipy supports rectangular matrices; 40× faster at g=56, p=1000).
+    # Only pairs with overall > 0 become TPs; every other real row is an FN and every other real column an FP.
+    cost = (1.0 - overall).astype(np.float32)
+    rows, cols = linear_sum_assignment(cost)
+    matched = overall[rows, cols] > 0
+    tp_rows, tp_cols = rows[matched], cols[matched]
+    for r, c in zip(tp_rows, tp_cols):
+        add(
+            int(gt_class[r]), TP=1, sum_overall=float(overall[r, c]), sum_label=float(label_q[r, c]),
+            sum_spatial=float(spatial[r, c]), sum_state=float(state_q[r, c]) if scd else 0.0,
+        )  # fmt: skip
+    fn_rows = np.setdiff1d(np.arange(g), tp_rows)
+    for r in fn_rows:
+        add(int(gt_class[r]), FN=1)
+    # False positives, vectorised over the unmatched columns (same rules as _group_exempt / _fp_cost / _fp_class).
+    unmatched = np.ones(p, dtype=bool)
+    unmatched[tp_cols] = False
+    cols_fp = np.nonzero(unmatched)[0]
+    exempt = _group_exempt_all(cols_fp, overall, inter, np.prod(prop_e, axis=1), gt_group, gt_class, labels)
+    cols_fp = cols_fp[~exempt]
+    nonbg = labels[cols_fp, :-1] if labels.shape[1] > 1 else np.zeros((len(cols_fp), 1))
+    label_cost = nonbg.max(axis=1) if len(cols_fp) else np.zeros(0)
+    if scd:
+        fp_costs = np.sqrt(label_cost * np.maximum(states[cols_fp, STATE_ADDED], states[cols_fp, STATE_REMOVED]))
+    else:
+        fp_costs = label_cost
+    totals["FP"] += int(len(cols_fp))
+    totals["sum_fp_cost"] += float(fp_costs.sum())
+    if per_class:
+        fp_cls = np.where(label_cost > 0, np.argmax(nonbg, axis=1) if len(cols_fp) else 0, bg)
+        for k in np.unique(fp_cls):
+            t = by_class.setdefault(int(k), _new_totals())
+            t["FP"] += int(np.count_nonzero(fp_cls == k))
+            t["sum_fp_cost"] += float(fp_costs[fp_cls == k].sum())
+    return totals, by_class
+
+
+def _group_exempt_all(cols, overall, inter, prop_vol, gt_group, gt_class, labels) -> np.ndarray:
+    """Vectorised :func:`_group_exempt` over the proposal indices ``cols`` → ``(len(cols),)`` bool."""
+    if len(cols) == 0 or labels.shape[1] < 2:
+        return np.zeros(len(cols), dtype=bool)
+    column = overall[:, cols]
+    best = np.argmax(column, axis=0)
+    vol = prop_vol[cols]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inside = np.where(vol > 0, inter[best, cols] / np.where(vol > 0, vol, 1.0), 0.0)
+    return (
+        (column > 0).any(axis=0)
+        & gt_group[best]
+        & (np.argmax(labels[cols, :-1], axis=1) == gt_class[best])
+        & (vol > 0)
+        & (inside >= 0.5)
+    )
 
 
 def _group_exempt(c, overall, inter, prop_vol, gt_group, gt_class, labels) -> bool:
@@ -449,19 +688,35 @@ def _zero_scores(score_names: Sequence[str]) -> dict:
     return {"task_details": None, "environment_details": [], "scores": {k: 0.0 for k in score_names}}
 
 
-def combine(scores: list[dict]) -> dict:
-    """Combine per-result OMQ score dicts into one, as the original ``combine``.
+COMBINE_MODES: tuple[str, ...] = ("mean", "pooled")
+
+
+def combine(scores: list[dict], mode: str = "mean") -> dict:
+    """Combine per-result OMQ score dicts into one.
+
+    ``mode="mean"`` (the default) is the original ``combine``: every score is the arithmetic mean over the entries,
+    and a ``{}`` entry (a required environment without results, padded in by the caller) counts as all zeros.
+    ``mode="pooled"`` adds up the entries' ``totals`` (TP, FP, FN and the quality sums) and computes the scores
+    from those sums (:func:`scores_from_totals`), so that a scene with many objects weighs more than one with few;
+    ``{}`` entries contribute nothing (the core pads missing environments with the evaluation of an empty map,
+    whose ground-truth objects all count as FN).
 
     Args:
-        scores: the :func:`evaluate` outputs, padded by the caller with ``{}`` for every required environment that
-            has no result.
+        scores: the :func:`evaluate` outputs, padded by the caller for every required environment without results.
+        mode: ``"mean"`` or ``"pooled"``.
 
     Returns:
         ``{"task_details": <of the first real entry, else None>, "environment_details": [<each entry's>],
-        "scores": {name: arithmetic mean over the entries}}``. An empty list is treated as ``[{}]``; every ``{}`` entry
-        counts as all-zero scores (so missing environments pull the means down). The score names are those found in
-        the entries (the original five when none has scores); the counts ``TP``/``FP``/``FN`` are averaged too.
+        "combine": mode, "scores": {...}[, "totals": {...}][, "per_class": {...}]}``. Mean: the score names are
+        those found in the entries (the original five when none has scores); the counts ``TP``/``FP``/``FN`` are
+        averaged too. Pooled: the scores of the summed totals (counts are the sums). ``per_class`` (when the
+        entries have one) is always pooled: per class, the totals of every entry that has the class.
+
+    Raises:
+        ValueError: unknown ``mode``.
     """
+    if mode not in COMBINE_MODES:
+        raise ValueError(f"combine mode must be one of {', '.join(COMBINE_MODES)}, got {mode!r}")
     entries = list(scores) if scores else [{}]
     names: list[str] = []
     for entry in entries:
@@ -470,12 +725,35 @@ def combine(scores: list[dict]) -> dict:
                 names.append(name)
     if not names:
         names = list(SCORE_NAMES)
+    scd = "avg_state_quality" in names
     filled = [e if isinstance(e, dict) and e else _zero_scores(names) for e in entries]
     first = next((e for e in filled if e.get("task_details") is not None), filled[0])
-    return {
+    out = {
         "task_details": first.get("task_details"),
         "environment_details": [e.get("environment_details", []) for e in filled],
-        "scores": {
-            name: float(np.mean([float((e.get("scores") or {}).get(name, 0.0)) for e in filled])) for name in names
-        },
+        "combine": mode,
     }
+    if mode == "mean":
+        out["scores"] = {
+            name: float(np.mean([float((e.get("scores") or {}).get(name, 0.0)) for e in filled])) for name in names
+        }
+    else:
+        pooled = _new_totals()
+        for e in filled:
+            for k, v in (e.get("totals") or {}).items():
+                if k in pooled:
+                    pooled[k] += v
+        out["scores"] = scores_from_totals(pooled, scd)
+        out["totals"] = pooled
+    if any("per_class" in e for e in filled):
+        per_class: dict[str, dict] = {}
+        for e in filled:
+            for cls, entry in (e.get("per_class") or {}).items():
+                t = per_class.setdefault(cls, _new_totals())
+                for k, v in (entry.get("totals") or {}).items():
+                    if k in t:
+                        t[k] += v
+        out["per_class"] = {
+            cls: {"scores": scores_from_totals(t, scd), "totals": t} for cls, t in sorted(per_class.items())
+        }
+    return out
