@@ -1,27 +1,39 @@
-"""The BenchBot client: talks to a backend (``benchbot run``/``batch``) over HTTP on loopback.
+"""The BenchBot client: talks to a backend (``benchbot run``/``batch``) over HTTP, or to one in the same process.
 
 One step is one request (``POST /native/step``, MessagePack with raw arrays); configuration and scene changes use
-the original supervisor's JSON routes. Every request has a timeout.
+the original supervisor's JSON routes. Every request has a timeout. The transport is pluggable:
+:class:`HttpTransport` (the default) or :class:`InProcessTransport` (``BenchBot(backend=service)`` or
+:func:`InProcessBenchBot`), which calls the backend's operations directly, without HTTP or serialisation, and gives
+the same results.
 
 Address: the ``supervisor_address`` argument, else ``$BENCHBOT_SUPERVISOR_ADDRESS`` (set by ``benchbot submit`` and
-``benchbot batch``), else ``http://127.0.0.1:10000/``. Results location: ``$BENCHBOT_RESULT_LOCATION``, else the
-original's ``/tmp/benchbot_result``.
+``benchbot batch``), else ``http://127.0.0.1:10000/``. Token (for backends served beyond loopback):
+``$BENCHBOT_TOKEN``, sent as the ``X-BenchBot-Token`` header. Results location: ``$BENCHBOT_RESULT_LOCATION``, else
+the original's ``/tmp/benchbot_result``.
 """
 
 from __future__ import annotations
 
 import enum
+import json
+import http.client
 import os
+import threading
+import urllib.parse
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import httpx
 
 from benchbot.core import wire
 
+if TYPE_CHECKING:
+    from benchbot.core.server import BackendService
+
 RESULT_LOCATION = os.environ.get("BENCHBOT_RESULT_LOCATION", "/tmp/benchbot_result")
 DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
+TOKEN_HEADER = "X-BenchBot-Token"
 
 
 class ActionResult(enum.Enum):
@@ -33,44 +45,35 @@ class ActionResult(enum.Enum):
     COLLISION = 2
 
 
-class BenchBot:
-    """A connection to a BenchBot backend.
+class HttpTransport:
+    """The client's HTTP transport (httpx, keep-alive, per-request timeouts).
 
     Args:
-        agent: the :class:`~benchbot.api.Agent` that :meth:`run` drives.
-        supervisor_address: ``http://host:port/`` of the backend (see module doc for the default).
-        auto_start: wait for the backend and reset the episode now.
-        timeout_s: per-request timeout in seconds (an action may take this long).
-
-    Raises:
-        ConnectionError: the backend does not answer within 60 s, or a request fails (the message names the
-            route and the backend's error).
+        address: ``http://host:port/``.
+        timeout_s: per-request read timeout in seconds (an action may take this long); connect timeout 5 s.
+        token: sent as ``X-BenchBot-Token`` when set.
+        event_hooks: httpx event hooks (e.g. to count requests).
     """
 
-    def __init__(
-        self,
-        agent: Any = None,
-        supervisor_address: str | None = None,
-        auto_start: bool = True,
-        timeout_s: float = 120.0,
-    ) -> None:
-        self.agent = agent
-        address = supervisor_address or os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS") or DEFAULT_ADDRESS
-        self.address = address if "://" in address else f"http://{address}"
-        self.address = self.address.rstrip("/") + "/"
-        self._http = httpx.Client(base_url=self.address, timeout=httpx.Timeout(timeout_s, connect=5.0))
-        self._state: dict = {}
-        self._config: dict | None = None
-        if auto_start:
-            self.start()
+    def __init__(self, address: str, timeout_s: float = 120.0, token: str | None = None,
+                 event_hooks: dict | None = None) -> None:
+        self.address = address
+        self.timeout_s = timeout_s
+        self.headers = {TOKEN_HEADER: token} if token else {}
+        self.http = httpx.Client(base_url=address, timeout=httpx.Timeout(timeout_s, connect=5.0), headers=self.headers,
+                                 event_hooks=event_hooks or {})
+        self.event_hooks = event_hooks or {}
+        url = urllib.parse.urlsplit(address)
+        self._host, self._port = url.hostname or "127.0.0.1", url.port or 80
+        self._base_path = url.path.rstrip("/")
+        self._local = threading.local()
 
-    # --------------------------------------------------------------------------------------- transport
     def _request(self, route: str, *, json_body: dict | None = None, content: bytes | None = None) -> httpx.Response:
         try:
             if content is not None:
-                reply = self._http.post(route, content=content, headers={"content-type": wire.MSGPACK_TYPE})
+                reply = self.http.post(route, content=content, headers={"content-type": wire.MSGPACK_TYPE})
             else:
-                reply = self._http.post(route, json=json_body or {})
+                reply = self.http.post(route, json=json_body or {})
         except httpx.HTTPError as exc:
             raise ConnectionError(f"communication with the BenchBot backend at {self.address} failed on /{route}: {exc}") from None
         if reply.status_code >= 300:
@@ -84,25 +87,184 @@ class BenchBot:
             raise ConnectionError(f"BenchBot backend refused /{route} ({reply.status_code}): {detail}")
         return reply
 
-    def _get(self, route: str, body: dict | None = None) -> Any:
+    def ping(self) -> bool:
+        """True when the backend answers ``GET /``."""
+        try:
+            self.http.get("", timeout=2.0).raise_for_status()
+            return True
+        except httpx.HTTPError:
+            return False
+
+    def get(self, route: str, body: dict | None = None) -> Any:
+        """The JSON reply of a JSON route (``config/...``, ``robot/...``, ``results_functions/...``)."""
         return self._request(route, json_body=body).json()
+
+    def _post_binary(self, route: str, body: bytes) -> tuple[int, bytes]:
+        """POST ``body`` on a kept-alive :mod:`http.client` connection (per thread): for multi-megabyte replies it
+        is several times faster than httpx. Connect timeout 5 s, then ``timeout_s`` per socket operation."""
+        headers = {"content-type": wire.MSGPACK_TYPE, **self.headers}
+        for hook in self.event_hooks.get("request", []):
+            hook(httpx.Request("POST", self.address + route, headers=headers))
+        for attempt in (0, 1):
+            conn = getattr(self._local, "conn", None)
+            if conn is None:
+                conn = http.client.HTTPConnection(self._host, self._port, timeout=5.0)
+                conn.connect()
+                conn.sock.settimeout(self.timeout_s)
+                self._local.conn = conn
+            try:
+                conn.request("POST", f"{self._base_path}/{route}", body=body, headers=headers)
+                reply = conn.getresponse()
+                return reply.status, reply.read()
+            except (http.client.RemoteDisconnected, BrokenPipeError, ConnectionResetError):
+                conn.close()
+                self._local.conn = None
+                if attempt:  # a kept-alive connection the server had closed: retry once on a fresh one
+                    raise
+            except BaseException:
+                conn.close()
+                self._local.conn = None
+                raise
+        raise AssertionError("unreachable")
+
+    def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
+        """One native step: ``{result, observations, state}``.
+
+        Raises:
+            ValueError: the action was refused (409). ConnectionError: any other failure or timeout.
+        """
+        request: dict = {"action": action, "args": args}
+        if observations is not None:
+            request["observations"] = observations
+        route = "native/step"
+        try:
+            status, content = self._post_binary(route, wire.pack(request))
+        except (OSError, http.client.HTTPException) as exc:
+            raise ConnectionError(f"communication with the BenchBot backend at {self.address} failed on /{route}: {exc!r}") from None
+        if status >= 300:
+            try:
+                err = json.loads(content)
+                detail = f"{err.get('error')} ({err.get('hint')})" if err.get("hint") else err.get("error")
+            except Exception:
+                detail = content[:200].decode("utf-8", "replace")
+            if status == 409:
+                raise ValueError(detail)
+            raise ConnectionError(f"BenchBot backend refused /{route} ({status}): {detail}")
+        return wire.unpack(content)
+
+    def close(self) -> None:
+        self.http.close()
+        conn = getattr(self._local, "conn", None)
+        if conn is not None:
+            conn.close()
+
+
+class InProcessTransport:
+    """Calls a :class:`~benchbot.core.server.BackendService` in this process: no HTTP, no serialisation; episode
+    calls run on the backend thread (``service.call``). Errors are raised as the HTTP transport raises them
+    (``ValueError`` for a refused action, ``ConnectionError`` otherwise).
+
+    Args:
+        service: the backend service (``benchbot.core.session.start_service``).
+    """
+
+    def __init__(self, service: "BackendService") -> None:
+        from benchbot.core.server import BackendApi
+
+        self.service = service
+        self.api = BackendApi(service)
+        self.address = "in-process"
+
+    def _call(self, route: str, fn: Callable, *args: Any) -> Any:
+        from benchbot.core.errors import ActionError, BenchbotError
+        from benchbot.core.server import status_of
+
+        try:
+            return fn(*args)
+        except ActionError as exc:
+            raise ValueError(f"{exc.message} ({exc.hint})" if exc.hint else exc.message) from None
+        except BenchbotError as exc:
+            detail = f"{exc.message} ({exc.hint})" if exc.hint else exc.message
+            raise ConnectionError(f"BenchBot backend refused /{route} ({status_of(exc)}): {detail}") from None
+
+    def ping(self) -> bool:
+        return True
+
+    def get(self, route: str, body: dict | None = None) -> Any:
+        prefix, _, rest = route.partition("/")
+        if prefix == "config":
+            return self._call(route, self.api.config, [k for k in rest.split("/") if k])
+        if prefix == "robot":
+            return self._call(route, self.service.call, self.api.robot, rest)
+        if prefix == "results_functions":
+            if not rest:
+                return self.api.results_function_names()
+            return self._call(route, self.api.results_function, rest, body or {})
+        raise ConnectionError(f"BenchBot backend refused /{route} (404): unknown route")
+
+    def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
+        return self._call("native/step", self.service.call, self.api.step, action, args, observations)
+
+    def close(self) -> None:
+        pass
+
+
+class BenchBot:
+    """A connection to a BenchBot backend.
+
+    Args:
+        agent: the :class:`~benchbot.api.Agent` that :meth:`run` drives.
+        supervisor_address: ``http://host:port/`` of the backend (see module doc for the default).
+        auto_start: wait for the backend and reset the episode now.
+        timeout_s: per-request timeout in seconds (an action may take this long).
+        backend: a :class:`~benchbot.core.server.BackendService` in this process: use it directly instead of
+            HTTP (``supervisor_address`` is then ignored).
+        transport: any object with the transport methods (``ping``, ``get``, ``step``, ``close``); overrides the
+            two above.
+
+    Raises:
+        ConnectionError: the backend does not answer within 60 s, or a request fails (the message names the
+            route and the backend's error).
+    """
+
+    def __init__(
+        self,
+        agent: Any = None,
+        supervisor_address: str | None = None,
+        auto_start: bool = True,
+        timeout_s: float = 120.0,
+        backend: "BackendService | None" = None,
+        transport: Any = None,
+    ) -> None:
+        self.agent = agent
+        if transport is None and backend is not None:
+            transport = InProcessTransport(backend)
+        if transport is None:
+            address = supervisor_address or os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS") or DEFAULT_ADDRESS
+            address = address if "://" in address else f"http://{address}"
+            transport = HttpTransport(address.rstrip("/") + "/", timeout_s, os.environ.get("BENCHBOT_TOKEN"))
+        self.transport = transport
+        self.address = transport.address
+        self._state: dict = {}
+        self._config: dict | None = None
+        if auto_start:
+            self.start()
+
+    def _get(self, route: str, body: dict | None = None) -> Any:
+        return self.transport.get(route, body)
 
     # --------------------------------------------------------------------------------------- lifecycle
     def start(self, wait_s: float = 60.0) -> None:
         """Wait up to ``wait_s`` for the backend, then :meth:`reset` to scene 0 (the original restarted the
         current scene instead, reference §4)."""
         deadline = time.monotonic() + wait_s
-        while True:
-            try:
-                self._http.get("", timeout=2.0).raise_for_status()
-                break
-            except httpx.HTTPError:
-                if time.monotonic() > deadline:
-                    raise ConnectionError(
-                        f"no BenchBot backend answered at {self.address} within {wait_s:.0f} s; "
-                        "start one with `benchbot run` or set BENCHBOT_SUPERVISOR_ADDRESS"
-                    ) from None
-                time.sleep(0.2)
+        while not self.transport.ping():
+            if time.monotonic() > deadline:
+                raise ConnectionError(
+                    f"no BenchBot backend answered at {self.address} within {wait_s:.0f} s; "
+                    "start one with `benchbot run` or set BENCHBOT_SUPERVISOR_ADDRESS"
+                )
+            time.sleep(0.2)
         self._get("robot/reset")
         self._state = self._get("robot/state")
 
@@ -133,9 +295,7 @@ class BenchBot:
         if action is not None and action not in self.actions:
             why = "COLLISION" if self._state.get("is_collided") else "FINISHED" if self._state.get("is_finished") else "WRONG_ACTUATION_MODE?"
             raise ValueError(f"action '{action}' is not allowed now ({why}); allowed: {self.actions}")
-        reply = wire.unpack(
-            self._request("native/step", content=wire.pack({"action": action, "args": action_kwargs})).content
-        )
+        reply = self.transport.step(action, action_kwargs, None)
         self._state = reply["state"]
         return reply["observations"], ActionResult[reply["result"]]
 
@@ -198,5 +358,10 @@ class BenchBot:
         agent.save_result(self.result_filename, self.empty_results(), self.results_functions())
 
     def close(self) -> None:
-        """Close the HTTP connection."""
-        self._http.close()
+        """Close the connection."""
+        self.transport.close()
+
+
+def InProcessBenchBot(service: "BackendService", agent: Any = None, auto_start: bool = True) -> BenchBot:
+    """A :class:`BenchBot` driving ``service`` in this process (no HTTP); same results as over HTTP."""
+    return BenchBot(agent=agent, auto_start=auto_start, backend=service)

@@ -1,13 +1,14 @@
-"""``benchbot submit``: run a solution against a running backend."""
+"""``benchbot submit``: run a solution against a running backend (reference §1.3)."""
 
 from __future__ import annotations
 
+import datetime as _dt
 import os
-import shutil
 import tempfile
 from pathlib import Path
 from typing import Optional
 
+import httpx
 import typer
 
 from benchbot.cli.common import err, handle_errors, registry
@@ -15,9 +16,35 @@ from benchbot.cli.eval_cmd import print_scores
 from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
-from benchbot.core.submission import example_submission, native_submission, run_submission
+from benchbot.core.submission import (
+    container_engine,
+    example_submission,
+    make_submission_archive,
+    native_submission,
+    run_container_submission,
+    run_submission,
+)
 
 DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
+
+
+def _run_info(address: str) -> dict:
+    """Task, robot, environments and seed of the backend, or ``{}`` when none answers."""
+    token = os.environ.get("BENCHBOT_TOKEN")
+    try:
+        reply = httpx.get(address.rstrip("/") + "/robot/run_info", timeout=5.0,
+                          headers={"X-BenchBot-Token": token} if token else {})
+        return reply.json() if reply.status_code == 200 else {}
+    except (httpx.HTTPError, ValueError):
+        return {}
+
+
+def _dockerfile(path: Path) -> tuple[Path, Path]:
+    """(Dockerfile, build context) of ``--containerised PATH`` (a folder means ``PATH/Dockerfile``)."""
+    dockerfile = path / "Dockerfile" if path.is_dir() else path
+    if not dockerfile.is_file():
+        raise UsageError(f"--containerised: no Dockerfile at {dockerfile}", "give a folder holding a Dockerfile, or the file")
+    return dockerfile, dockerfile.parent
 
 
 def register(app: typer.Typer) -> None:
@@ -26,29 +53,72 @@ def register(app: typer.Typer) -> None:
     def submit(
         command: Optional[list[str]] = typer.Argument(None, help="With --native: the command and its arguments."),
         native: bool = typer.Option(False, "--native", "-n", help="Run COMMAND on this machine, in this folder."),
+        containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman; the build context is its folder."),
+        submission: Optional[Path] = typer.Option(None, "--submission", "-s", help="Package DIR as a .tgz plus a manifest (--args: output path; default ../submission.tgz relative to DIR)."),
         example: Optional[str] = typer.Option(None, "--example", "-E", help="Run an installed example (`benchbot list examples`)."),
-        args: str = typer.Option("", "--args", "-a", help="Arguments appended to the command."),
+        example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the example in a container."),
+        args: str = typer.Option("", "--args", "-a", help="Arguments appended to the command (containers: the variable `args`; -s: output path)."),
         evaluate_with: Optional[str] = typer.Option(None, "--evaluate-with", "-e", help="Evaluate the results afterwards (e.g. omq)."),
         results_location: Optional[Path] = typer.Option(None, "--results-location", "-r", help="Also copy the results here."),
         address: str = typer.Option(os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS", DEFAULT_ADDRESS), "--address", help="The backend (`benchbot run`)."),
         scores: Path = typer.Option(Path("scores.json"), "--scores", "-o", help="Where --evaluate-with writes scores."),
+        timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill a native submission after this many seconds."),
     ) -> None:
         """Run a solution against the backend started by `benchbot run`.
 
-        Examples: `benchbot submit --native python my_solution.py`, `benchbot submit --example hello_passive -e omq`.
+        Examples: `benchbot submit --native python my_solution.py`, `benchbot submit --example hello_passive -e omq`,
+        `benchbot submit --containerised my_dir/`, `benchbot submit --submission my_dir/`.
         """
         reg = registry()
-        if bool(native) == bool(example):
-            raise UsageError("give exactly one of --native COMMAND... and --example NAME", "e.g. --native python my.py")
-        if example and command:
-            raise UsageError(f"unexpected arguments with --example: {' '.join(command)}", "use --args to pass arguments")
+        modes = [m for m, on in (("--native", native), ("--containerised", containerised is not None),
+                                 ("--submission", submission is not None)) if on]
+        if example and modes:
+            raise UsageError(f"give either --example or {modes[0]}, not both", "e.g. --example hello_passive --example-containerised")
+        if example_containerised and not example:
+            raise UsageError("--example-containerised needs --example NAME", "e.g. --example hello_passive --example-containerised")
+        if len(modes) > 1:
+            raise UsageError(f"give one mode, not {' and '.join(modes)}", "one of --native, --containerised, --submission")
+        if not modes and not example:
+            raise UsageError("give exactly one of --native COMMAND..., --containerised DIR, --submission DIR or --example NAME", "e.g. --native python my.py")
+        if command and not native:
+            raise UsageError(f"unexpected arguments: {' '.join(command)}", "use --args to pass arguments")
+        if submission is not None and (evaluate_with or results_location):
+            raise UsageError("--submission only packages: it cannot be combined with -e/-r", "submit natively to evaluate")
         if evaluate_with:
             reg.get("evaluators", evaluate_with)
-        submission = example_submission(reg, example, args) if example else native_submission(command or [], args)
+
+        if submission is not None:
+            output = Path(args) if args else submission / ".." / "submission.tgz"
+            info = _run_info(address)
+            archive, manifest = make_submission_archive(submission, output, manifest={
+                "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                "task": info.get("task"), "robot": info.get("robot"), "environments": info.get("environments"),
+                "seeds": [info["seed"]] if "seed" in info else [],
+            })
+            err.print(f"submission archive {archive}; manifest {manifest}")
+            return
+
         with tempfile.TemporaryDirectory(prefix="benchbot-submit-") as tmp:
             result = Path(tmp) / "result.json"
-            err.print(f"running {submission.label} against {address}")
-            code = run_submission(submission, address=address, result_location=result)
+            if containerised is not None or example_containerised:
+                if example:
+                    entry = reg.entry("examples", example)
+                    base = entry.path.parent if entry.path else Path.cwd()
+                    spec = entry.spec
+                    context = base / spec.get("container_directory", ".")
+                    dockerfile = base / spec["container_filename"] if spec.get("container_filename") else context / "Dockerfile"
+                    if not dockerfile.is_file():
+                        raise UsageError(f"example '{example}' has no Dockerfile ({dockerfile})", "run it natively: drop --example-containerised")
+                else:
+                    dockerfile, context = _dockerfile(containerised)  # type: ignore[arg-type]
+                engine = container_engine()
+                err.print(f"building and running {dockerfile} with {engine} against {address}")
+                code = run_container_submission(engine, dockerfile, context, address=address, result_location=result,
+                                                args=args, token=os.environ.get("BENCHBOT_TOKEN"))
+            else:
+                sub = example_submission(reg, example, args) if example else native_submission(command or [], args)
+                err.print(f"running {sub.label} against {address}")
+                code = run_submission(sub, address=address, result_location=result, timeout_s=timeout)
             if code != 0:
                 err.print(f"[red]the submission exited with status {code}[/]")
                 raise typer.Exit(code if 0 < code < 256 else int(ExitCode.FAILURE))

@@ -98,3 +98,116 @@ def run_submission(
         child.kill()
         child.wait()
         raise
+
+
+# ------------------------------------------------------------------------------------------------- containers
+def container_engine() -> str:
+    """The first of ``docker``/``podman`` whose engine answers (``<tool> info`` exits 0 within 15 s).
+
+    Raises:
+        UsageError: none is installed, or the installed clients reach no engine (one line naming which).
+    """
+    import shutil
+
+    found = []
+    for tool in ("docker", "podman"):
+        if shutil.which(tool) is None:
+            continue
+        found.append(tool)
+        try:
+            probe = subprocess.run([tool, "info"], capture_output=True, text=True, timeout=15)
+        except (OSError, subprocess.TimeoutExpired):
+            continue
+        if probe.returncode == 0:
+            return tool
+    if not found:
+        raise UsageError("containerised submissions need Docker or Podman, and neither is installed",
+                         "install one, or run the submission with --native")
+    raise UsageError(f"{' and '.join(found)} installed but no container engine answers ({found[0]} info failed)",
+                     "start the engine (e.g. `sudo systemctl start docker`) or use --native")
+
+
+def container_image_tag(directory: Path) -> str:
+    """``benchbot/submission:<first 10 hex of sha256(directory)>`` (the original hashed ``$PWD``)."""
+    import hashlib
+
+    return "benchbot/submission:" + hashlib.sha256(f"{directory.resolve()}\n".encode()).hexdigest()[:10]
+
+
+def run_container_submission(
+    engine: str,
+    dockerfile: Path,
+    context: Path,
+    *,
+    address: str,
+    result_location: Path,
+    args: str = "",
+    token: str | None = None,
+) -> int:
+    """Build ``dockerfile`` with build context ``context`` (the submission's folder, not the current one as in the
+    original), run it on the host network with ``BENCHBOT_SUPERVISOR_ADDRESS``, ``BENCHBOT_RESULT_LOCATION``
+    (``/tmp/benchbot_result`` inside) and ``args`` set, and copy the results out to ``result_location``.
+    ``benchbot_supervisor`` resolves to the host (``--add-host benchbot_supervisor:host-gateway``) for original
+    clients. Returns the container's exit status (a failed build returns the build's).
+    """
+    tag = container_image_tag(context)
+    build = subprocess.run([engine, "build", "-f", str(dockerfile), "-t", tag, str(context)])
+    if build.returncode != 0:
+        return build.returncode
+    name = "benchbot_submission_" + tag.rsplit(":", 1)[1]
+    subprocess.run([engine, "rm", "-f", name], capture_output=True)
+    env = ["-e", f"BENCHBOT_SUPERVISOR_ADDRESS={address}", "-e", "BENCHBOT_RESULT_LOCATION=/tmp/benchbot_result",
+           "-e", f"args={args}"]
+    if token:
+        env += ["-e", f"BENCHBOT_TOKEN={token}"]
+    run = subprocess.run([engine, "run", "--network", "host", "--add-host", "benchbot_supervisor:host-gateway",
+                          "--name", name, "--hostname", "benchbot_submission", *env, tag])
+    copy = subprocess.run([engine, "cp", f"{name}:/tmp/benchbot_result", str(result_location)], capture_output=True)
+    if copy.returncode != 0 and not result_location.exists():
+        pass  # the caller reports missing results
+    subprocess.run([engine, "rm", "-f", name], capture_output=True)
+    return run.returncode
+
+
+# ------------------------------------------------------------------------------------------------- tarballs
+def package_versions() -> dict[str, str]:
+    """Versions of the installed ``benchbot*`` distributions and of the key libraries."""
+    from importlib import metadata
+
+    versions = {}
+    for dist in metadata.distributions():
+        name = (dist.metadata.get("Name") or "").lower()
+        if name.startswith("benchbot") or name in ("numpy", "taichi", "scipy", "jsonpickle"):
+            versions[name] = dist.version
+    return dict(sorted(versions.items()))
+
+
+def make_submission_archive(directory: Path, output: Path, *, manifest: dict) -> tuple[Path, Path]:
+    """``tar -czf output .`` of ``directory`` (contents at the archive's root, as the original) plus
+    ``<output>.manifest.json``: ``{files: {relative path: sha256}, packages, ...manifest}``.
+
+    Raises:
+        UsageError: ``directory`` is not a folder, or ``output`` lies inside it.
+    """
+    import hashlib
+    import json
+    import tarfile
+
+    directory = directory.resolve()
+    if not directory.is_dir():
+        raise UsageError(f"--submission: {directory} is not a folder", "give the folder holding your solution")
+    output = output.resolve()
+    if directory in output.parents:
+        raise UsageError(f"--submission: the archive {output} would be inside {directory}", "write it elsewhere (--args PATH)")
+    files = {}
+    for path in sorted(p for p in directory.rglob("*") if p.is_file()):
+        files[path.relative_to(directory).as_posix()] = hashlib.sha256(path.read_bytes()).hexdigest()
+    output.parent.mkdir(parents=True, exist_ok=True)
+    with tarfile.open(output, "w:gz") as tar:
+        for rel in files:
+            tar.add(directory / rel, arcname=f"./{rel}")
+    manifest_path = output.with_name(output.name + ".manifest.json")
+    data = {**manifest, "archive": output.name, "archive_sha256": hashlib.sha256(output.read_bytes()).hexdigest(),
+            "files": files, "packages": package_versions()}
+    manifest_path.write_text(json.dumps(data, indent=2))
+    return output, manifest_path

@@ -22,7 +22,8 @@ def _encode(obj: Any) -> Any:
         if obj.dtype.hasobject:
             raise TypeError("object arrays cannot be sent")
         arr = np.ascontiguousarray(obj)
-        return {_ND: arr.dtype.str, "shape": list(arr.shape), "data": arr.tobytes()}
+        data = memoryview(arr).cast("B") if arr.size else b""  # no copy: msgpack reads the buffer directly
+        return {_ND: arr.dtype.str, "shape": list(arr.shape), "data": data}
     if isinstance(obj, np.generic):
         return obj.item()
     raise TypeError(f"cannot encode {type(obj).__name__}")

@@ -1,0 +1,167 @@
+"""Tools for solutions: :class:`ObservationVisualiser`, like the original's ``benchbot_api.tools`` (reference §4).
+
+matplotlib is imported on first use (``pip install benchbot[vis]``), so ``import benchbot.api`` stays light.
+With a display the figure is shown in a window; without one (no ``DISPLAY``/``WAYLAND_DISPLAY`` on Linux, or a
+non-interactive backend) nothing is shown and :meth:`ObservationVisualiser.save` writes PNG files.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+SUPPORTED = ("image_rgb", "image_depth", "laser", "poses", "image_class", "image_instance")
+AXIS_LENGTH_M = 0.25
+
+
+def _has_display() -> bool:
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True
+
+
+def _pyplot() -> Any:
+    try:
+        import matplotlib
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise ImportError("the visualiser needs matplotlib: `pip install benchbot[vis]`") from None
+    if not _has_display():
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _quat_matrix(xyzw: Sequence[float]) -> np.ndarray:
+    x, y, z, w = (float(v) for v in xyzw)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+class ObservationVisualiser:
+    """Draws observations on a grid of 2 rows × ceil(n/2) columns, filled column by column.
+
+    Args:
+        vis_list: the entries to draw, from ``image_rgb``, ``image_depth`` (colour map 'hot'), ``laser`` (a scatter
+            plot in the robot frame, metres), ``poses`` (3-D axes of each frame, 0.25 m long, map frame),
+            ``image_class`` and ``image_instance`` (both from ``image_segment``).
+        show: show a window (default: when there is a display).
+
+    Raises:
+        ValueError: an unsupported entry.
+    """
+
+    def __init__(self, vis_list: Sequence[str] = ("image_rgb", "image_depth", "laser", "poses"),
+                 show: bool | None = None) -> None:
+        unknown = [v for v in vis_list if v not in SUPPORTED]
+        if unknown:
+            raise ValueError(f"cannot visualise {unknown}; supported: {', '.join(SUPPORTED)}")
+        self.vis_list = list(vis_list)
+        self.show = _has_display() if show is None else show
+        self.fig: Any = None
+        self.axs: list[Any] = []
+
+    def _layout(self) -> None:
+        plt = _pyplot()
+        n = len(self.vis_list)
+        cols = max(1, math.ceil(n / 2))
+        self.fig = plt.figure(figsize=(4 * cols, 7))
+        self.axs = []
+        for i, name in enumerate(self.vis_list):
+            row, col = i % 2, i // 2  # column by column
+            index = row * cols + col + 1
+            projection = "3d" if name == "poses" else None
+            self.axs.append(self.fig.add_subplot(2, cols, index, projection=projection))
+        if self.show:
+            plt.ion()
+            plt.show(block=False)
+
+    def visualise(self, observations: dict, step_count: int | None = None) -> None:
+        """Draw ``observations`` (the API's structures); the window title is "Agent Observations (step # N)".
+
+        Raises:
+            KeyError: an entry of ``vis_list`` is missing from ``observations``.
+        """
+        if self.fig is None:
+            self._layout()
+        title = "Agent Observations" + ("" if step_count is None else f" (step # {step_count})")
+        self.fig.suptitle(title)
+        manager = getattr(self.fig.canvas, "manager", None)
+        if manager is not None:
+            manager.set_window_title(title)
+        for ax, name in zip(self.axs, self.vis_list):
+            ax.clear()
+            getattr(self, f"_draw_{name}")(ax, observations)
+        self.fig.canvas.draw_idle()
+        if self.show:
+            self.update()
+
+    def _draw_image_rgb(self, ax: Any, obs: dict) -> None:
+        ax.imshow(obs["image_rgb"])
+        ax.set_title("image_rgb")
+        ax.axis("off")
+
+    def _draw_image_depth(self, ax: Any, obs: dict) -> None:
+        ax.imshow(obs["image_depth"], cmap="hot")
+        ax.set_title("image_depth (m)")
+        ax.axis("off")
+
+    def _draw_laser(self, ax: Any, obs: dict) -> None:
+        scans = np.asarray(obs["laser"]["scans"])
+        x, y = scans[:, 0] * np.cos(scans[:, 1]), scans[:, 0] * np.sin(scans[:, 1])
+        ax.scatter(x, y, s=2, c="k")
+        ax.plot(0, 0, "r>", markersize=8)
+        ax.set_aspect("equal")
+        ax.set_title("laser (robot frame, m)")
+
+    def _draw_poses(self, ax: Any, obs: dict) -> None:
+        for frame, pose in obs["poses"].items():
+            origin = np.asarray(pose["translation_xyz"], dtype=float)
+            R = _quat_matrix(pose["rotation_xyzw"])
+            for axis, colour in zip(R.T, "rgb"):
+                end = origin + AXIS_LENGTH_M * axis
+                ax.plot([origin[0], end[0]], [origin[1], end[1]], [origin[2], end[2]], colour)
+            ax.text(*origin, frame, fontsize=7)
+        ax.set_title("poses (map frame)")
+
+    def _draw_image_class(self, ax: Any, obs: dict) -> None:
+        ax.imshow(obs["image_segment"]["class_segment_img"], cmap="tab20", interpolation="nearest")
+        ax.set_title("image_class")
+        ax.axis("off")
+
+    def _draw_image_instance(self, ax: Any, obs: dict) -> None:
+        ax.imshow(obs["image_segment"]["instance_segment_img"] % 1000, cmap="tab20", interpolation="nearest")
+        ax.set_title("image_instance")
+        ax.axis("off")
+
+    def update(self) -> None:
+        """Pump GUI events for 0.05 s (a window stays responsive)."""
+        if self.fig is not None and self.show:
+            _pyplot().pause(0.05)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the current figure as PNG to ``path``; returns it.
+
+        Raises:
+            RuntimeError: nothing was visualised yet.
+        """
+        if self.fig is None:
+            raise RuntimeError("call visualise(observations) before save()")
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.fig.savefig(path, format="png", dpi=80)
+        return path
+
+    def close(self) -> None:
+        """Close the figure."""
+        if self.fig is not None:
+            _pyplot().close(self.fig)
+            self.fig = None

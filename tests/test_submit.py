@@ -1,0 +1,94 @@
+"""``benchbot submit``: modes, flag validation, tarball + manifest, containers (where an engine works)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tarfile
+from pathlib import Path
+
+import pytest
+
+from benchbot.core.errors import UsageError
+from benchbot.core.submission import container_engine
+
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+
+
+def cli(*args: str, cwd: Path | None = None, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([*BENCHBOT, *args], cwd=cwd, capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, COLUMNS="200", **(env or {})))
+
+
+def _engine() -> str | None:
+    try:
+        return container_engine()
+    except UsageError as exc:
+        return "skip:" + exc.message
+
+
+def test_flag_validation_is_one_line():
+    for args, text in [
+        (["--native", "python", "x.py", "--example", "hello_passive"], "not both"),
+        (["--native", "a", "--containerised", "."], "give one mode"),
+        (["--example-containerised"], "needs --example"),
+        (["--submission", ".", "-e", "omq"], "cannot be combined"),
+    ]:
+        proc = cli("submit", *args)
+        assert proc.returncode == 2, (args, proc.stderr)
+        assert proc.stderr.startswith("error:") and text in proc.stderr and len(proc.stderr.splitlines()) <= 2
+
+
+def test_submission_archive_and_manifest(tmp_path):
+    folder = tmp_path / "solution"
+    (folder / "pkg").mkdir(parents=True)
+    (folder / "my.py").write_text("print('hi')\n")
+    (folder / "pkg" / "data.txt").write_text("x")
+    out = tmp_path / "out" / "sub.tgz"
+    proc = cli("submit", "--submission", str(folder), "--args", str(out), "--address", "http://127.0.0.1:9/")
+    assert proc.returncode == 0, proc.stderr
+    with tarfile.open(out) as tar:
+        assert sorted(tar.getnames()) == ["./my.py", "./pkg/data.txt"]
+    manifest = json.loads(out.with_name("sub.tgz.manifest.json").read_text())
+    assert set(manifest["files"]) == {"my.py", "pkg/data.txt"} and len(manifest["files"]["my.py"]) == 64
+    assert "benchbot" in manifest["packages"] and {"task", "robot", "environments", "seeds"} <= set(manifest)
+    default = cli("submit", "--submission", str(folder), "--address", "http://127.0.0.1:9/")
+    assert default.returncode == 0 and (tmp_path / "submission.tgz").is_file()
+
+
+def test_submission_manifest_names_the_running_backend(served, tmp_path):
+    _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
+    folder = tmp_path / "s"
+    folder.mkdir()
+    (folder / "a.py").write_text("")
+    proc = cli("submit", "-s", str(folder), "-a", str(tmp_path / "x.tgz"), "--address", server.address)
+    assert proc.returncode == 0, proc.stderr
+    manifest = json.loads((tmp_path / "x.tgz.manifest.json").read_text())
+    assert manifest["task"] == "semantic_slam:passive:ground_truth" and manifest["robot"] == "carter"
+    assert manifest["environments"] == ["miniroom:1"] and manifest["seeds"] == [0]
+
+
+def test_containerised_without_an_engine_says_so(tmp_path):
+    engine = _engine()
+    if engine and not engine.startswith("skip:"):
+        pytest.skip(f"{engine} works here: the error path cannot be exercised")
+    (tmp_path / "Dockerfile").write_text("FROM python:3.11-slim\n")
+    proc = cli("submit", "--containerised", str(tmp_path))
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("error:") and ("no container engine answers" in proc.stderr or "neither is installed" in proc.stderr)
+
+
+def test_containerised_submission_runs_where_an_engine_works(served, tmp_path):
+    engine = _engine()
+    if engine is None or engine.startswith("skip:"):
+        pytest.skip(f"no working container engine: {engine[5:] if engine else 'none'}")
+    _, server = served("semantic_slam:passive:ground_truth", "miniroom:4")
+    (tmp_path / "Dockerfile").write_text(
+        "FROM python:3.11-slim\nCOPY run.py /run.py\nCMD [\"python\", \"/run.py\"]\n")
+    (tmp_path / "run.py").write_text("open('/tmp/benchbot_result', 'w').write('{}')\n")
+    proc = cli("submit", "--containerised", str(tmp_path), "--address", server.address,
+               "-r", str(tmp_path / "copied.json"))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "copied.json").read_text() == "{}"
