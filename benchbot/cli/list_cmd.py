@@ -24,6 +24,40 @@ class Kind(str, enum.Enum):
     plugins = "plugins"
 
 
+def plugin_rows() -> list[dict]:
+    """One dict per plugin: ``name``, ``module``, ``distribution``, ``version``, ``status`` (loaded, disabled,
+    failed), ``error``, ``registers`` ({kind: names}), ``hooks`` (implemented hook names), ``problems`` (skipped
+    specs, one line each); plus the installed content packs as ``packs`` of the ``content_packs`` plugin."""
+    from benchbot.core.content_packs import installed_packs
+
+    rows = [asdict(p) for p in registry().plugins]
+    for row in rows:
+        if row["name"] == "content_packs":
+            row["packs"] = [{k: p.get(k) for k in ("name", "path", "source", "allow_code", "files")} for p in installed_packs()]
+    return rows
+
+
+def print_plugins(as_json: bool) -> None:
+    """Print the plugins (``benchbot plugins`` and ``benchbot list plugins``)."""
+    rows = plugin_rows()
+    if as_json:
+        out.print_json(json.dumps(rows))
+        return
+    table = Table("plugin", "distribution", "version", "status", "hooks", "registers / problems")
+    for p in rows:
+        hooks = ", ".join(h.removeprefix("benchbot_") for h in p["hooks"])
+        what = "; ".join(f"{k}: {', '.join(v)}" for k, v in p["registers"].items())
+        if p.get("packs"):
+            what += ("; " if what else "") + "packs: " + ", ".join(pk["name"] for pk in p["packs"])
+        if p["error"]:
+            what = f"[red]{p['error']}[/]"
+        for problem in p["problems"]:
+            what += f"\n[yellow]skipped:[/] {problem}"
+        status = p["status"] + (f" ({len(p['problems'])} problem(s))" if p["problems"] else "")
+        table.add_row(p["name"], p["distribution"], p["version"], status, hooks, what)
+    out.print(table)
+
+
 def register(app: typer.Typer) -> None:
     @app.command("list")
     @handle_errors
@@ -35,15 +69,7 @@ def register(app: typer.Typer) -> None:
         plugins. Environments are listed as name:variant."""
         reg = registry()
         if kind is Kind.plugins:
-            rows = [asdict(p) for p in reg.plugins]
-            if as_json:
-                out.print_json(json.dumps(rows))
-                return
-            table = Table("plugin", "distribution", "version", "status", "registers")
-            for p in rows:
-                what = "; ".join(f"{k}: {', '.join(v)}" for k, v in p["registers"].items()) or p["error"]
-                table.add_row(p["name"], p["distribution"], p["version"], p["status"], what)
-            out.print(table)
+            print_plugins(as_json)
             return
         entries = [reg.entries[kind.value][n] for n in reg.names(kind.value)]
         if as_json:

@@ -33,46 +33,141 @@ class ContentHooks:
 
     @hookspec
     def benchbot_tasks(self) -> list[Spec]:
-        """Return task specs (schema ``task``): ``name``, ``actions``, ``observations``, ``localisation``,
-        ``results_format``, ``scene_count``, ``description``. Called once when the registry is built."""
+        """Task specs (schema ``task``): ``name``, ``actions``, ``observations``, ``localisation``,
+        ``results_format``, ``scene_count``, ``description``.
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_robots(self) -> list[Spec]:
-        """Return robot specs (schema ``robot``): ``name``, ``type`` (selects the robot backend), ``global_frame``,
-        ``robot_frame``, ``poses``, ``connections``. Called once when the registry is built."""
+        """Robot specs (schema ``robot``): ``name``, ``type`` (selects the robot backend), ``global_frame``,
+        ``robot_frame``, ``poses``, ``connections``.
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_environments(self) -> list[Spec]:
-        """Return environment specs (schema ``environment``): ``name``, ``variant``, ``type``, ``map_path``,
-        ``start_pose`` ``[qw,qx,qy,qz,x,y,z]``, ``trajectory_poses``, ``object_labels``. Indexed as
-        ``name:variant``. Called once when the registry is built."""
+        """Environment specs (schema ``environment``): ``name``, ``variant``, ``type``, ``map_path``,
+        ``start_pose`` ``[qw,qx,qy,qz,x,y,z]`` (map frame, metres), ``trajectory_poses``, ``object_labels``.
+        Indexed as ``name:variant``.
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_formats(self) -> list[Spec]:
-        """Return results-format specs (schema ``format``): ``name`` and ``functions`` (``create``,
-        ``create_object``, ``validate`` as ``"module:attr"`` import paths). Called once when the registry is built."""
+        """Results-format specs (schema ``format``): ``name`` and ``functions`` (``create``,
+        ``create_object``, ``validate`` as ``"module:attr"`` import paths).
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_evaluators(self) -> list[Spec]:
-        """Return evaluation-method specs (schema ``evaluator``): ``name``, ``valid_result_formats``,
-        ``valid_ground_truth_formats``, ``functions`` (``evaluate``, optional ``combine``). Called once when the
-        registry is built."""
+        """Evaluation-method specs (schema ``evaluator``): ``name``, ``valid_result_formats``,
+        ``valid_ground_truth_formats``, ``functions`` (``evaluate(results, ground_truths) -> dict``, optional
+        ``combine(list) -> dict``).
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_examples(self) -> list[Spec]:
-        """Return example-solution specs (schema ``example``): ``name``, ``native_command`` (run from the spec's
-        folder), ``description``. Called once when the registry is built."""
+        """Example-solution specs (schema ``example``): ``name``, ``native_command`` (run from the spec's
+        folder), ``description``.
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+            Give file paths: the command runs from the file's folder.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_batches(self) -> list[Spec]:
-        """Return batch specs (schema ``batch``): ``name`` and ``environments`` (a list of environment strings).
-        Called once when the registry is built."""
+        """Batch specs (schema ``batch``): ``name`` and ``environments`` (a list of environment strings).
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
     @hookspec
     def benchbot_ground_truths(self) -> list[Spec]:
-        """Return ground-truth specs (schema ``ground_truth``): ``{environment, format, ground_truth}`` as in the
-        original BenchBot's ground-truth JSON files; found by the environment's ``name:variant``. Called once when
-        the registry is built."""
+        """Ground-truth specs (schema ``ground_truth``): ``{environment, format, ground_truth}`` as in the
+        original BenchBot's ground-truth JSON files; found by the environment's ``name:variant``.
+
+        Returns:
+            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
+            recorded as ``_file_path``) or a dict.
+
+        Called:
+            Once per process, when the registry is built (first use of any content).
+
+        Call policy:
+            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
 
 
 class BehaviourHooks:
@@ -80,13 +175,39 @@ class BehaviourHooks:
 
     @hookspec
     def benchbot_robot_backends(self) -> dict[str, Callable[..., "RobotBackend"]]:
-        """Return ``{robot type: factory}``. ``factory(robot_spec: dict, options: dict) -> RobotBackend`` builds a
-        backend for robots whose spec has that ``type``. Called once when the registry is built; a type offered
-        by two plugins is an error."""
+        """Robot backends (simulators, real robots) by robot ``type``.
+
+        Returns:
+            ``{robot type: factory}``; ``factory(robot_spec: dict, options: dict) -> RobotBackend`` builds a backend
+            for robots whose spec has that ``type`` (see ``benchbot.core.robot``). Import heavy modules inside the
+            factory, not at module level.
+
+        Called:
+            Once per process, when the registry is built.
+
+        Call policy:
+            every implementation is called; the dicts are merged. A type offered by two plugins is an error: the
+            second is skipped and reported.
+        """
 
     @hookspec
     def benchbot_commands(self, app: Any) -> None:
-        """Add commands to the Typer ``app`` of the ``benchbot`` CLI. Called once when the CLI starts."""
+        """Add commands to the ``benchbot`` CLI.
+
+        Args:
+            ``app``: the ``typer.Typer`` application of the ``benchbot`` command; add commands with
+                ``@app.command()`` or sub-apps with ``app.add_typer``.
+
+        Returns:
+            Nothing (results are ignored).
+
+        Called:
+            Once, when the ``benchbot`` command starts, before it parses its arguments.
+
+        Call policy:
+            every implementation is called; results are ignored; an exception in one is swallowed so the CLI
+            still starts.
+        """
 
 
 class ObserverHooks:
@@ -95,17 +216,56 @@ class ObserverHooks:
 
     @hookspec
     def benchbot_episode_started(self, info: dict) -> None:
-        """Called when an episode starts. ``info``: ``task``, ``robot``, ``environments`` (names)."""
+        """An episode started.
+
+        Args:
+            ``info``: ``task`` (name), ``robot`` (name), ``environments`` (list of ``name:variant``).
+
+        Returns:
+            Nothing (results are ignored).
+
+        Called:
+            On the backend thread, once the robot backend and the episode are built, before the first action.
+
+        Call policy:
+            every implementation is called; results are ignored; it must return quickly.
+        """
 
     @hookspec
     def benchbot_step(self, info: dict) -> None:
-        """Called after every action. ``info``: ``step`` (int), ``action`` (str or None), ``args`` (dict),
-        ``result`` (``SUCCESS``/``FINISHED``/``COLLISION``), ``scene_number`` (int), ``pose`` ((3,) x m, y m,
-        yaw rad, map frame)."""
+        """An action was executed.
+
+        Args:
+            ``info``: ``step`` (int), ``action`` (str or None), ``args`` (dict), ``result``
+                (``SUCCESS``/``FINISHED``/``COLLISION``), ``scene_number`` (int), ``pose`` ((3,) x m, y m, yaw rad,
+                map frame).
+
+        Returns:
+            Nothing (results are ignored).
+
+        Called:
+            On the backend thread after every action of the episode.
+
+        Call policy:
+            every implementation is called; results are ignored; it must return quickly.
+        """
 
     @hookspec
     def benchbot_episode_finished(self, info: dict) -> None:
-        """Called when an episode ends. ``info``: ``steps`` (int), ``collided`` (bool), ``finished`` (bool)."""
+        """An episode ended.
+
+        Args:
+            ``info``: ``steps`` (int), ``collided`` (bool), ``finished`` (bool).
+
+        Returns:
+            Nothing (results are ignored).
+
+        Called:
+            When the episode ends (trajectory finished, collision, or the service is closed).
+
+        Call policy:
+            every implementation is called; results are ignored; it must return quickly.
+        """
 
 
 HOOK_CLASSES = (ContentHooks, BehaviourHooks, ObserverHooks)

@@ -31,6 +31,9 @@ class PluginInfo:
         status: ``loaded``, ``disabled`` or ``failed``.
         error: why it failed to load (one line), or ``""``.
         registers: filled by the registry: kind → names this plugin contributed.
+        hooks: names of the hooks it implements (e.g. ``["benchbot_robots", "benchbot_tasks"]``).
+        problems: filled by the registry: one line per spec of this plugin that was skipped (invalid, clashing,
+            or a hook that raised).
     """
 
     name: str
@@ -40,6 +43,8 @@ class PluginInfo:
     status: str = "loaded"
     error: str = ""
     registers: dict[str, list[str]] = field(default_factory=dict)
+    hooks: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
 
 
 def _names_from_env(var: str) -> set[str]:
@@ -83,12 +88,18 @@ def build_plugin_manager(extra_plugins: dict[str, ModuleType | object] | None = 
         try:
             plugin = ep.load()
             pm.register(plugin, name=ep.name)
+            info.hooks = _hook_names(pm, plugin)
         except Exception as exc:  # a broken third-party plugin must not break the others
             info.status, info.error = "failed", f"{type(exc).__name__}: {exc}".splitlines()[0]
     for name, plugin in (extra_plugins or {}).items():
         pm.register(plugin, name=name)
-        infos.append(PluginInfo(name=name, module=getattr(plugin, "__name__", repr(plugin))))
+        infos.append(PluginInfo(name=name, module=getattr(plugin, "__name__", repr(plugin)), hooks=_hook_names(pm, plugin)))
     return pm, infos
+
+
+def _hook_names(pm: pluggy.PluginManager, plugin: object) -> list[str]:
+    """Sorted names of the hooks ``plugin`` implements."""
+    return sorted(caller.name for caller in (pm.get_hookcallers(plugin) or []))
 
 
 def import_object(path: str) -> object:

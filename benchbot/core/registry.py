@@ -115,6 +115,11 @@ class Entry:
     path: Path | None
 
 
+def singular(kind: str) -> str:
+    """``tasks`` → ``task``, ``batches`` → ``batch``, ``ground_truths`` → ``ground truth``."""
+    return {"batches": "batch"}.get(kind, kind[:-1]).replace("_", " ")
+
+
 def entry_name(kind: str, spec: dict) -> str:
     """The index name of a spec of ``kind``."""
     if kind == "environments":
@@ -143,7 +148,10 @@ class Registry:
                 try:
                     specs = impl.function() or []
                 except Exception as exc:
-                    self.problems[(kind, impl.plugin_name)] = f"plugin {impl.plugin_name}: benchbot_{kind}() raised {exc!r}"
+                    problem = f"plugin {impl.plugin_name}: benchbot_{kind}() raised {exc!r}"
+                    self.problems[(kind, impl.plugin_name)] = problem
+                    if impl.plugin_name in infos:
+                        infos[impl.plugin_name].problems.append(problem)
                     continue
                 for raw in specs:
                     self._add(kind, schema_name, raw, impl.plugin_name, infos.get(impl.plugin_name))
@@ -154,6 +162,8 @@ class Registry:
                     self.problems[("robot_backends", type_name)] = (
                         f"robot type '{type_name}' is offered by plugins '{other}' and '{impl.plugin_name}'"
                     )
+                    if impl.plugin_name in infos:
+                        infos[impl.plugin_name].problems.append(self.problems[("robot_backends", type_name)])
                     continue
                 self.backend_factories[type_name] = (impl.plugin_name, factory)
                 if impl.plugin_name in infos:
@@ -161,12 +171,23 @@ class Registry:
 
     def _add(self, kind: str, schema_name: str, raw: Any, plugin: str, info: PluginInfo | None) -> None:
         path = Path(raw).resolve() if isinstance(raw, (str, Path)) else None
+        from_dict = path is None
+        if from_dict and isinstance(raw, dict) and raw.get("_file_path"):
+            path = Path(raw["_file_path"])  # a dict spec read (and adapted) from a file by its plugin
         source = str(path) if path else f"plugin {plugin} ({kind})"
         try:
-            spec = load_spec_file(path) if path else dict(raw)
-            validate(spec, schema_name, source)
+            if not from_dict:
+                spec = load_spec_file(path)
+            else:
+                try:
+                    spec = dict(raw)
+                except (TypeError, ValueError):
+                    raise SpecError(f"{source}: expected a mapping or a file path, got {type(raw).__name__}", "") from None
+            validate({k: v for k, v in spec.items() if k != "_file_path"}, schema_name, source)
         except SpecError as exc:
             self.problems[(kind, source)] = exc.message
+            if info is not None:
+                info.problems.append(exc.message)
             return
         if path:
             spec["_file_path"] = str(path)
@@ -174,9 +195,11 @@ class Registry:
         if name in self.entries[kind]:
             first = self.entries[kind][name]
             self.problems[(kind, name)] = (
-                f"{kind[:-1]} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
+                f"{singular(kind)} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
                 f"and by plugin '{plugin}' ({path or 'dict'})"
             )
+            if info is not None:
+                info.problems.append(self.problems[(kind, name)])
             return
         self.entries[kind][name] = Entry(kind, name, spec, plugin, path)
         if info is not None:
@@ -197,10 +220,9 @@ class Registry:
         try:
             return self.entries[kind][name]
         except KeyError:
-            singular = kind[:-1].replace("_", " ")
             close = difflib.get_close_matches(name, self.names(kind), n=3)
             hint = f"did you mean {', '.join(close)}?" if close else f"see `benchbot list {kind}`"
-            raise SpecError(f"no {singular} named '{name}'", hint) from None
+            raise SpecError(f"no {singular(kind)} named '{name}'", hint) from None
 
     def get(self, kind: str, name: str) -> dict:
         """The spec ``name`` of ``kind`` (see :meth:`entry`)."""
@@ -251,7 +273,7 @@ class Registry:
                 out[fn_name] = import_object(path)
             except (ImportError, AttributeError) as exc:
                 raise SpecError(
-                    f"{kind[:-1]} '{name}': functions.{fn_name}: cannot import '{path}': {exc}",
+                    f"{singular(kind)} '{name}': functions.{fn_name}: cannot import '{path}': {exc}",
                     "check that the plugin providing it is installed",
                 ) from None
         return out

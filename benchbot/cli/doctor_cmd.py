@@ -1,0 +1,243 @@
+"""``benchbot doctor``: what works here, with a fix for each problem; exit 0 when the default main job
+(``benchbot batch --example semslam_geometric --envs miniroom:1``) can run."""
+
+from __future__ import annotations
+
+import importlib.metadata as md
+import importlib.util
+import json
+import os
+import platform
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from dataclasses import asdict, dataclass
+
+import typer
+from rich.table import Table
+
+from benchbot.cli.common import handle_errors, out
+
+MAIN_JOB = {"tasks": "semantic_slam:passive:ground_truth", "robots": "carter", "environments": "miniroom:1",
+            "evaluators": "omq", "examples": "semslam_geometric", "ground_truths": "miniroom:1"}
+MAIN_PLUGINS = ("sim_taichi", "task_semslam", "eval_omq")
+
+RENDER_SCRIPT = r"""
+import contextlib, json, sys, time
+arch = sys.argv[1]
+t0 = time.monotonic()
+with contextlib.redirect_stdout(sys.stderr):
+    if arch == "vulkan":  # sim_taichi renders on cpu/cuda; check that Taichi itself runs a kernel on Vulkan
+        import taichi as ti
+        ti.init(arch=ti.vulkan, log_level=ti.ERROR)
+        got = str(ti.lang.impl.current_cfg().arch).split(".")[-1]
+        x = ti.field(ti.f32, shape=8)
+        @ti.kernel
+        def fill():
+            for i in x:
+                x[i] = i
+        fill()
+        result = {"arch": got, "render": "taichi kernel only (sim_taichi renders on cpu/cuda)", "shape": [8]}
+    else:
+        from benchbot.core.registry import Registry
+        reg = Registry()
+        robot, env = reg.get("robots", "carter"), reg.get("environments", "miniroom:1")
+        backend = reg.backend_factory(robot["type"])(robot, {"arch": arch, "width": 32, "height": 24, "seed": 0})
+        backend.load_scene(env, seed=0)
+        rgb = backend.observe(["image_rgb"])["image_rgb"]
+        got = getattr(getattr(backend, "_renderer", None), "arch", None) or arch
+        result = {"arch": str(got), "render": "one 32x24 frame of miniroom:1", "shape": list(rgb.shape)}
+        backend.close()
+result["seconds"] = round(time.monotonic() - t0, 2)
+print(json.dumps(result))
+"""
+
+
+@dataclass
+class Check:
+    """One finding: ``name``, ``ok``, ``required`` (needed by the default main job), ``detail``, ``fix``."""
+
+    name: str
+    ok: bool
+    required: bool
+    detail: str
+    fix: str = ""
+
+
+def _version(dist: str) -> str:
+    try:
+        return md.version(dist)
+    except md.PackageNotFoundError:
+        return ""
+
+
+def check_python() -> Check:
+    v = sys.version_info
+    ok = (3, 11) <= v[:2] <= (3, 13)
+    return Check("python", ok, True, f"{platform.python_implementation()} {platform.python_version()} ({sys.executable})",
+                 "" if ok else "use CPython 3.11-3.13 (Taichi wheels): uv venv --python 3.12")
+
+
+def check_packages() -> Check:
+    names = ["benchbot", "benchbot-sim-taichi", "benchbot-task-semslam", "benchbot-eval-omq", "taichi", "numpy",
+             "scipy", "pluggy", "jsonschema"]
+    versions = {n: _version(n) or "missing" for n in names}
+    missing = [n for n in names[:4] if versions[n] == "missing"]
+    return Check("packages", not missing, True, ", ".join(f"{n} {v}" for n, v in versions.items()),
+                 f"install them: benchbot install {' '.join(missing)}  (in the repo: uv sync)" if missing else "")
+
+
+def check_plugins() -> list[Check]:
+    from benchbot.core.registry import Registry
+
+    reg = Registry()
+    failed = [p for p in reg.plugins if p.status == "failed"]
+    problems = sum(len(p.problems) for p in reg.plugins)
+    loaded = [p.name for p in reg.plugins if p.status == "loaded"]
+    checks = [Check("plugins", not failed, False,
+                    f"loaded: {', '.join(loaded) or 'none'}" + "".join(f"; {p.name} FAILED: {p.error}" for p in failed)
+                    + (f"; {problems} spec(s) skipped" if problems else ""),
+                    "see `benchbot plugins` for the errors; reinstall or uninstall the broken plugin" if failed or problems else "")]
+    missing_plugins = [n for n in MAIN_PLUGINS if n not in loaded]
+    missing = [f"{kind[:-1]} {name}" for kind, name in MAIN_JOB.items() if name not in reg.entries[kind]]
+    checks.append(Check("main-job content", not missing and not missing_plugins, True,
+                        "task, robot, environment, ground truth, evaluator and example of the main job are installed"
+                        if not missing and not missing_plugins else f"missing: {', '.join(missing_plugins + missing)}",
+                        "" if not missing and not missing_plugins else
+                        "install benchbot-sim-taichi, benchbot-task-semslam and benchbot-eval-omq (in the repo: uv sync); "
+                        "check BENCHBOT_DISABLE_PLUGINS"))
+    return checks
+
+
+def check_render(arch: str, timeout_s: float) -> Check:
+    required = arch == "cpu"
+    fixes = {"cpu": "reinstall taichi (uv pip install --reinstall taichi); see the error above",
+             "cuda": "install an NVIDIA driver with CUDA support (nvidia-smi must work); not needed: cpu is the default",
+             "vulkan": "install a Vulkan driver/ICD (vulkaninfo must work); not needed: cpu is the default"}
+    # a file, not -c: Taichi reads the kernels' source code
+    with tempfile.TemporaryDirectory(prefix="benchbot-doctor-") as tmp:
+        script = os.path.join(tmp, "render_check.py")
+        with open(script, "w") as f:
+            f.write(RENDER_SCRIPT)
+        try:
+            proc = subprocess.run([sys.executable, script, arch], capture_output=True, text=True,
+                                  timeout=timeout_s, env={**os.environ, "TI_LOG_LEVEL": "error"})
+        except subprocess.TimeoutExpired:
+            proc = None
+    if proc is None:
+        return Check(f"taichi {arch}", False, required, f"no frame within {timeout_s:.0f} s",
+                     f"retry with --timeout {int(timeout_s * 3)} (the first run compiles kernels)")
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or [f"exit code {proc.returncode}"])[-1]
+        return Check(f"taichi {arch}", False, required, f"failed: {last[:200]}", fixes[arch])
+    try:
+        result = json.loads(proc.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        return Check(f"taichi {arch}", False, required, "no result printed", fixes[arch])
+    if arch != "cpu" and arch not in result["arch"]:
+        return Check(f"taichi {arch}", False, False, f"not available (Taichi fell back to {result['arch']})", fixes[arch])
+    return Check(f"taichi {arch}", True, required, f"{result['render']} in {result['seconds']} s")
+
+
+def check_gpu() -> Check:
+    smi = shutil.which("nvidia-smi")
+    if not smi:
+        return Check("gpu", False, False, "no nvidia-smi: no NVIDIA GPU/driver visible", "optional: the simulator runs on the CPU")
+    try:
+        proc = subprocess.run([smi, "--query-gpu=name,driver_version,memory.total", "--format=csv,noheader"],
+                              capture_output=True, text=True, timeout=15)
+    except subprocess.TimeoutExpired:
+        return Check("gpu", False, False, "nvidia-smi timed out", "check the NVIDIA driver")
+    ok = proc.returncode == 0 and proc.stdout.strip() != ""
+    return Check("gpu", ok, False, "; ".join(proc.stdout.strip().splitlines()) if ok else (proc.stderr.strip() or "nvidia-smi failed")[:200],
+                 "" if ok else "reinstall or load the NVIDIA driver")
+
+
+def check_module(name: str, label: str, fix: str) -> Check:
+    found = [m for m in name.split("|") if importlib.util.find_spec(m) is not None]
+    return Check(label, bool(found), False, f"importable: {', '.join(found)}" if found else f"{' or '.join(name.split('|'))} not importable",
+                 "" if found else fix)
+
+
+def check_containers() -> Check:
+    for client in ("docker", "podman"):
+        exe = shutil.which(client)
+        if not exe:
+            continue
+        try:
+            proc = subprocess.run([exe, "info", "--format", "{{.ServerVersion}}" if client == "docker" else "{{.Version.Version}}"],
+                                  capture_output=True, text=True, timeout=15)
+            answers = proc.returncode == 0
+        except subprocess.TimeoutExpired:
+            answers = False
+        return Check("containers", answers, False,
+                     f"{client} client at {exe}; engine " + (f"answers ({proc.stdout.strip()})" if answers else "does not answer"),
+                     "" if answers else f"start the engine (e.g. systemctl start {client}) or add yourself to the {client} group")
+    return Check("containers", False, False, "neither docker nor podman found", "optional: install Docker or Podman for containerised solutions")
+
+
+def check_port(port: int = 10000) -> Check:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        try:
+            s.bind(("127.0.0.1", port))
+            return Check(f"port {port}", True, False, f"127.0.0.1:{port} is free")
+        except OSError as exc:
+            return Check(f"port {port}", False, False, f"127.0.0.1:{port} is in use ({exc.strerror})",
+                         "stop what listens there (e.g. another `benchbot run`) or use `benchbot run --port 0`")
+
+
+def check_data_dir() -> Check:
+    from benchbot.core.content_packs import data_dir
+
+    path = data_dir()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".doctor-"):
+            pass
+        return Check("data directory", True, False, f"{path} is writable")
+    except OSError as exc:
+        return Check("data directory", False, False, f"{path}: {exc.strerror or exc}",
+                     "set BENCHBOT_DATA_DIR (or XDG_DATA_HOME) to a writable folder")
+
+
+def run_checks(render: bool = True, timeout_s: float = 180.0) -> list[Check]:
+    """Every check, in order (renders run in one subprocess per arch, each limited to ``timeout_s`` seconds)."""
+    checks = [check_python(), check_packages(), *check_plugins()]
+    if render:
+        checks += [check_render(arch, timeout_s if arch == "cpu" else min(timeout_s, 90.0)) for arch in ("cpu", "cuda", "vulkan")]
+    checks += [
+        check_gpu(),
+        check_module("rclpy|cyclonedds", "ros", "optional (real robots): install ROS 2 (rclpy) or `pip install cyclonedds`"),
+        check_containers(),
+        check_module("ray", "ray", "optional (distributed batches): benchbot install ray"),
+        check_port(10000),
+        check_data_dir(),
+    ]
+    return checks
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("doctor")
+    @handle_errors
+    def doctor(
+        as_json: bool = typer.Option(False, "--json", help="Print JSON: {ok, checks: [{name, ok, required, detail, fix}]}."),
+        render: bool = typer.Option(True, "--render/--no-render", help="Render one frame per Taichi backend (subprocesses)."),
+        timeout: float = typer.Option(180.0, "--timeout", min=1.0, help="Seconds each render may take."),
+    ) -> None:
+        """Check this machine: Python and packages, plugins, Taichi backends (one rendered frame each), GPU, ROS,
+        Docker/Podman, Ray, port 10000, the data directory. Exit code 0 when the default main job can run."""
+        checks = run_checks(render, timeout)
+        ok = all(c.ok for c in checks if c.required)
+        if as_json:
+            out.print_json(json.dumps({"ok": ok, "checks": [asdict(c) for c in checks]}))
+        else:
+            table = Table("check", "", "detail", "fix")
+            for c in checks:
+                mark = "[green]ok[/]" if c.ok else ("[red]FAIL[/]" if c.required else "[yellow]no[/]")
+                table.add_row(c.name, mark, c.detail, c.fix)
+            out.print(table)
+            out.print("[green]the main job can run here[/]" if ok else "[red]the main job cannot run here: see the FAIL rows[/]")
+        if not ok:
+            raise typer.Exit(1)

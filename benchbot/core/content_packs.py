@@ -1,0 +1,464 @@
+"""Content packs: folders in the original BenchBot add-on layout (reference §2.1–§2.4), installed by path.
+
+A pack holds spec files in type folders — ``tasks/``, ``robots/``, ``environments/``, ``formats/``,
+``evaluation_methods/`` (our kind ``evaluators``), ``ground_truths/`` (JSON), ``examples/``, ``batches/`` — each
+file directly inside a folder of that name, anywhere in the pack (the original's discovery rule; files in
+sub-folders of a type folder are ignored). ``benchbot install ./my_pack`` validates every file, refuses names that
+clash with installed content, and copies the pack atomically to ``<data dir>/packs/<name>/`` with a manifest
+``.benchbot-pack.json``; the built-in plugin ``benchbot.plugins.content_packs`` loads the installed packs.
+
+Security: symlinks leaving the pack, symlinked folders and special files are refused; ``map_path`` may not be
+absolute (except Unreal ``/Game/...`` asset paths) nor leave the pack; nothing in a pack is imported or run unless
+it was installed with ``allow_code=True`` (``--allow-code``), which it must be when it declares Python functions
+that live in the pack (formats/evaluation methods) or examples (their ``native_command`` runs from the pack).
+
+Pack code is imported under the synthetic package ``benchbot_packs.<pack>`` (never on ``sys.path``): the
+original's ``functions: {evaluate: "omq.evaluate"}`` next to ``evaluation_methods/omq.yaml`` becomes
+``benchbot_packs.<pack>.evaluation_methods.omq:evaluate``; use relative imports between pack modules.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import stat
+import sys
+import tempfile
+import time
+import types
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from benchbot.core.errors import BenchbotError, ExitCode, SpecError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from benchbot.core.registry import Registry
+
+FOLDER_KINDS = {
+    "tasks": "tasks",
+    "robots": "robots",
+    "environments": "environments",
+    "formats": "formats",
+    "evaluation_methods": "evaluators",
+    "evaluators": "evaluators",
+    "ground_truths": "ground_truths",
+    "examples": "examples",
+    "batches": "batches",
+}
+"""Pack folder name → registry kind (the original's ``evaluation_methods`` is our ``evaluators``)."""
+
+SPEC_SUFFIXES = (".yaml", ".yml", ".json")
+MANIFEST = ".benchbot-pack.json"
+NAMESPACE = "benchbot_packs"
+_NAME_RE = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
+_IDENT_RE = re.compile(r"^[A-Za-z_]\w*$")
+_IGNORED = {".git", "__pycache__", ".venv", ".mypy_cache", ".pytest_cache", MANIFEST}
+
+
+class PackError(BenchbotError):
+    """A content pack is invalid, unsafe, clashes with installed content, or cannot be installed.
+
+    Attributes:
+        details: one line per problem (``<file>: <$.json.path>: <message>``), printed before the message.
+    """
+
+    exit_code = ExitCode.SPEC
+
+    def __init__(self, message: str, hint: str = "", details: list[str] | None = None) -> None:
+        super().__init__(message, hint)
+        self.details = list(details or [])
+
+
+def data_dir() -> Path:
+    """BenchBot's data directory: ``$BENCHBOT_DATA_DIR``, else ``$XDG_DATA_HOME/benchbot``, else
+    ``~/.local/share/benchbot`` (not created)."""
+    if os.environ.get("BENCHBOT_DATA_DIR"):
+        return Path(os.environ["BENCHBOT_DATA_DIR"]).expanduser()
+    xdg = os.environ.get("XDG_DATA_HOME")
+    return (Path(xdg).expanduser() if xdg else Path.home() / ".local" / "share") / "benchbot"
+
+
+def packs_dir() -> Path:
+    """``<data dir>/packs`` (not created)."""
+    return data_dir() / "packs"
+
+
+def pack_name(text: str) -> str:
+    """A pack name from a folder name or ``--name``: lower case, ``-``/``.``/spaces → ``_``.
+
+    Raises:
+        PackError: the result is not ``[a-z][a-z0-9_]*`` (at most 64 characters).
+    """
+    name = re.sub(r"[-. ]+", "_", text.strip().lower())
+    if not _NAME_RE.match(name):
+        raise PackError(f"'{text}' is not a valid pack name", "use letters, digits and _ (starting with a letter), or pass --name")
+    return name
+
+
+@dataclass
+class PackFile:
+    """One spec file of a pack.
+
+    Attributes:
+        kind: registry kind (``evaluators`` for ``evaluation_methods/``).
+        path: absolute path of the file.
+        rel: path relative to the pack root (POSIX).
+        spec: the spec as the registry will see it (functions rewritten, ``map_path`` resolved, ``_file_path``
+            set), or ``None`` when the file could not be parsed.
+        error: the first problem with the file (``"<rel>: <$.path>: <message>"``), or ``""``.
+        name: its index name (``name``; ``name:variant`` for environments/ground truths), or ``""``.
+        code: why this file needs ``--allow-code`` (one line per reason).
+    """
+
+    kind: str
+    path: Path
+    rel: str
+    spec: dict | None = None
+    error: str = ""
+    name: str = ""
+    code: list[str] = field(default_factory=list)
+
+
+@dataclass
+class PackScan:
+    """What :func:`scan_pack` found.
+
+    Attributes:
+        name: the pack name.
+        root: the pack folder (resolved).
+        files: every spec file, valid or not.
+        errors: safety problems and invalid files, one line each.
+    """
+
+    name: str
+    root: Path
+    files: list[PackFile] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+
+    @property
+    def code(self) -> list[str]:
+        """Every reason this pack needs ``--allow-code``."""
+        return [c for f in self.files for c in f.code]
+
+
+def _check_tree(root: Path) -> list[str]:
+    """Safety problems of the files under ``root``: escaping symlinks, symlinked folders, special files."""
+    problems = []
+    for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
+        dirnames[:] = [d for d in dirnames if d not in _IGNORED]
+        for entry in dirnames + filenames:
+            path = Path(dirpath) / entry
+            rel = path.relative_to(root).as_posix()
+            mode = path.lstat().st_mode
+            if stat.S_ISLNK(mode):
+                target = path.resolve()
+                if not target.is_relative_to(root):
+                    problems.append(f"{rel}: symlink to {os.readlink(path)} leaves the pack")
+                elif target.is_dir():
+                    problems.append(f"{rel}: symlinked folders are not allowed")
+            elif not (stat.S_ISDIR(mode) or stat.S_ISREG(mode)):
+                problems.append(f"{rel}: not a regular file or folder")
+    return problems
+
+
+def _spec_files(root: Path) -> list[tuple[str, Path]]:
+    """``(kind, path)`` of every spec file directly inside a type folder anywhere under ``root`` (sorted)."""
+    found = []
+    for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
+        dirnames[:] = sorted(d for d in dirnames if d not in _IGNORED and not d.startswith("."))
+        folder = Path(dirpath)
+        kind = FOLDER_KINDS.get(folder.name) if folder != root else None
+        if kind is None:
+            continue
+        for fname in sorted(filenames):
+            path = folder / fname
+            if path.suffix not in SPEC_SUFFIXES or fname.startswith(".") or not path.is_file():
+                continue
+            if path.is_symlink() and not path.resolve().is_relative_to(root):
+                continue  # reported by _check_tree
+            found.append((kind, path))
+    return found
+
+
+def _pack_module(root: Path, folder: Path, dotted: str, pack: str) -> str | None:
+    """The ``benchbot_packs.<pack>.…`` module of ``dotted`` (a module path relative to ``folder``), or ``None``
+    when no such module file exists in the pack."""
+    parts = dotted.split(".")
+    for base in (folder, root):
+        target = base.joinpath(*parts)
+        if target.with_suffix(".py").is_file() or (target / "__init__.py").is_file():
+            rel = base.relative_to(root).parts
+            if not all(_IDENT_RE.match(p) for p in rel):
+                return None
+            return ".".join((NAMESPACE, pack, *rel, *parts))
+    return None
+
+
+def _adapt_functions(pf: PackFile, spec: dict, root: Path, pack: str) -> None:
+    """Rewrite ``functions`` that live in the pack to ``benchbot_packs.<pack>...:attr`` and note the code."""
+    functions = spec.get("functions")
+    if not isinstance(functions, dict):
+        return
+    folder = pf.path.parent
+    for fn_name, value in list(functions.items()):
+        if not isinstance(value, str):
+            continue
+        if ":" in value:
+            module, _, attr = value.partition(":")
+        else:  # the original's "module.attr" relative to the YAML's folder
+            module, _, attr = value.rpartition(".")
+        if not module or not all(_IDENT_RE.match(p) for p in module.split(".")) or not _IDENT_RE.match(attr or ""):
+            if ":" not in value:
+                raise SpecError(f"{pf.rel}: $.functions.{fn_name}: '{value}' is not module.attr or module:attr", "")
+            continue
+        if module.split(".")[0] == NAMESPACE:
+            raise SpecError(f"{pf.rel}: $.functions.{fn_name}: '{value}' may not name {NAMESPACE} directly",
+                            "name the module relative to the spec's folder, e.g. omq.evaluate")
+        inside = _pack_module(root, folder, module, pack)
+        if inside is not None:
+            functions[fn_name] = f"{inside}:{attr}"
+            pf.code.append(f"{pf.rel}: functions.{fn_name} runs pack code '{value}'")
+        elif ":" not in value:
+            raise SpecError(f"{pf.rel}: $.functions.{fn_name}: '{value}': no module {module.replace('.', '/')}.py "
+                            f"in {folder.relative_to(root).as_posix() or '.'}/ of the pack",
+                            "add the module or use an installed module as module:attr")
+
+
+def _adapt_paths(pf: PackFile, spec: dict, root: Path) -> None:
+    """Resolve a relative ``map_path`` against the spec's folder; refuse absolute ones and ones leaving the pack."""
+    map_path = spec.get("map_path")
+    if pf.kind != "environments" or not isinstance(map_path, str) or not map_path:
+        return
+    if os.path.isabs(map_path) or map_path.startswith("~"):
+        if map_path.startswith("/Game/"):  # an Unreal asset path (original sim_unreal environments)
+            return
+        raise SpecError(f"{pf.rel}: $.map_path: absolute path '{map_path}' is not allowed in a pack",
+                        "give a path relative to the spec's folder, inside the pack")
+    target = (pf.path.parent / map_path).resolve()
+    if not target.is_relative_to(root):
+        raise SpecError(f"{pf.rel}: $.map_path: '{map_path}' leaves the pack", "keep the map inside the pack")
+    if target.exists():
+        spec["map_path"] = str(target)
+
+
+def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
+    """Find, check and validate every spec file of the pack folder ``path``.
+
+    Args:
+        path: the pack folder.
+        name: the pack name (default: derived from the folder name).
+
+    Returns:
+        A :class:`PackScan`; problems are in ``errors`` (and per file in ``PackFile.error``), never raised.
+
+    Raises:
+        PackError: ``path`` is not a folder, or the name is invalid.
+    """
+    from benchbot.core.registry import KIND_SCHEMAS, entry_name, load_spec_file, validate
+
+    given = Path(path).expanduser()
+    if not given.is_dir():
+        raise PackError(f"{given}: not a folder", "give the path of a content pack folder")
+    root = given.resolve()
+    scan = PackScan(pack_name(name or root.name), root)
+    scan.errors.extend(_check_tree(root))
+    for kind, file in _spec_files(root):
+        pf = PackFile(kind, file, file.relative_to(root).as_posix())
+        scan.files.append(pf)
+        spec: dict | None = None
+        try:
+            spec = load_spec_file(file)
+            spec.pop("_file_path", None)
+            if kind in ("formats", "evaluators"):
+                _adapt_functions(pf, spec, root, scan.name)
+            _adapt_paths(pf, spec, root)
+            validate(spec, KIND_SCHEMAS[kind], pf.rel)
+            pf.name = entry_name(kind, spec)
+        except SpecError as exc:
+            pf.error = exc.message.replace(str(file), pf.rel)
+            scan.errors.append(pf.error)  # a parsed-but-invalid spec is kept: the registry reports it too
+        if kind == "examples":
+            pf.code.append(f"{pf.rel}: example runs '{(spec or {}).get('native_command', '?')}' from the pack")
+        if spec is not None:
+            spec["_file_path"] = str(file)
+        pf.spec = spec
+    if not scan.files:
+        scan.errors.append(f"no spec files found: expected {', '.join(sorted(set(FOLDER_KINDS) - {'evaluators'}))}/ "
+                           "folders with YAML/JSON files (reference §2.1)")
+    seen: dict[tuple[str, str], str] = {}
+    for pf in scan.files:
+        if pf.name and (pf.kind, pf.name) in seen:
+            scan.errors.append(f"{pf.rel}: {pf.kind[:-1]} '{pf.name}' is also defined by {seen[(pf.kind, pf.name)]}")
+        elif pf.name:
+            seen[(pf.kind, pf.name)] = pf.rel
+    return scan
+
+
+def read_manifest(pack_dir: Path) -> dict:
+    """The manifest of an installed pack (``{}`` when missing or unreadable)."""
+    try:
+        data = json.loads((pack_dir / MANIFEST).read_text())
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def installed_packs() -> list[dict]:
+    """Manifests of the installed packs (sorted by name), each with ``path`` added."""
+    base = packs_dir()
+    out = []
+    if base.is_dir():
+        for child in sorted(base.iterdir()):
+            if child.is_dir() and not child.name.startswith(".") and (child / MANIFEST).is_file():
+                out.append({**read_manifest(child), "name": child.name, "path": str(child)})
+    return out
+
+
+def _clashes(scan: PackScan, registry: "Registry", replacing: Path | None) -> list[str]:
+    problems = []
+    for pf in scan.files:
+        if not pf.name:
+            continue
+        entry = registry.entries.get(pf.kind, {}).get(pf.name)
+        if entry is None:
+            continue
+        if replacing is not None and entry.path is not None and entry.path.resolve().is_relative_to(replacing.resolve()):
+            continue  # the previous version of this pack
+        where = f"plugin '{entry.plugin}'" + (f" ({entry.path})" if entry.path else "")
+        problems.append(f"{pf.rel}: {pf.kind[:-1]} '{pf.name}' is already installed by {where}")
+    return problems
+
+
+def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool = False, force: bool = False,
+                 registry: "Registry | None" = None) -> dict:
+    """Validate the pack at ``path`` and copy it atomically to ``<data dir>/packs/<name>/``.
+
+    Args:
+        path: the pack folder.
+        name: the pack name (default: the folder's name, normalised by :func:`pack_name`).
+        allow_code: allow Python functions and examples that live in the pack (``--allow-code``).
+        force: replace an installed pack of the same name.
+        registry: the installed content to check clashes against (default: a fresh ``Registry()``).
+
+    Returns:
+        The manifest written: ``name``, ``source``, ``allow_code``, ``code`` (reasons), ``installed_at`` (Unix s),
+        ``files`` (``{kind: [names]}``) and ``path``.
+
+    Raises:
+        PackError: invalid or unsafe files (``details`` lists every one), code without ``allow_code``, clashing
+            names, a pack of that name already installed (without ``force``), or the copy failed.
+    """
+    scan = scan_pack(path, name)
+    if scan.errors:
+        raise PackError(f"pack '{scan.name}' ({scan.root}) has {len(scan.errors)} problem(s); nothing installed",
+                        "fix the files listed above", scan.errors)
+    if scan.code and not allow_code:
+        raise PackError(f"pack '{scan.name}' contains code that BenchBot would run ({len(scan.code)} place(s)); "
+                        "nothing installed", "read the code, then install again with --allow-code", scan.code)
+    base = packs_dir()
+    dest = base / scan.name
+    if dest.exists() and not force:
+        raise PackError(f"a pack named '{scan.name}' is already installed ({dest})",
+                        "pass --force to replace it, or --name to install under another name")
+    if registry is None:
+        from benchbot.core.registry import Registry
+
+        registry = Registry()
+    clashes = _clashes(scan, registry, dest if dest.exists() else None)
+    if clashes:
+        raise PackError(f"pack '{scan.name}' clashes with installed content ({len(clashes)} name(s)); nothing installed",
+                        "rename the specs in the pack, or uninstall the other source", clashes)
+    if base.resolve().is_relative_to(scan.root):
+        raise PackError(f"the data directory {base} is inside the pack", "install from another folder")
+    manifest = {
+        "name": scan.name,
+        "source": str(scan.root),
+        "allow_code": bool(allow_code),
+        "code": scan.code,
+        "installed_at": time.time(),
+        "files": {},
+    }
+    for pf in scan.files:
+        manifest["files"].setdefault(pf.kind, []).append(pf.name)
+    base.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=base, prefix=f".tmp-{scan.name}-"))
+    old: Path | None = None
+    try:
+        shutil.copytree(scan.root, tmp, symlinks=False, dirs_exist_ok=True,
+                        ignore=shutil.ignore_patterns(*_IGNORED, "*.pyc"))
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
+        if dest.exists():
+            old = base / f".old-{scan.name}-{os.getpid()}-{time.monotonic_ns()}"
+            os.rename(dest, old)
+        os.rename(tmp, dest)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None and not dest.exists():
+            os.rename(old, dest)
+        raise PackError(f"cannot install pack '{scan.name}' into {dest}: {exc.strerror or exc}",
+                        "check that the data directory is writable (BENCHBOT_DATA_DIR)") from None
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+    return {**manifest, "path": str(dest)}
+
+
+def uninstall_pack(name: str) -> Path:
+    """Remove the installed pack ``name`` (renamed away first, then deleted).
+
+    Returns:
+        The folder it was installed in.
+
+    Raises:
+        PackError: no such pack.
+    """
+    dest = packs_dir() / pack_name(name)
+    if not (dest / MANIFEST).is_file():
+        names = ", ".join(p["name"] for p in installed_packs()) or "none"
+        raise PackError(f"no content pack named '{name}' is installed (installed packs: {names})",
+                        "see `benchbot plugins`")
+    trash = dest.parent / f".old-{dest.name}-{os.getpid()}-{time.monotonic_ns()}"
+    os.rename(dest, trash)
+    shutil.rmtree(trash, ignore_errors=True)
+    return dest
+
+
+def _register_namespace(pack: str, pack_dir: Path) -> None:
+    """Make ``benchbot_packs.<pack>`` importable from ``pack_dir`` (only called for packs allowed to run code)."""
+    ns = sys.modules.get(NAMESPACE)
+    if ns is None:
+        ns = types.ModuleType(NAMESPACE, "Code of content packs installed with --allow-code.")
+        ns.__path__ = []  # type: ignore[attr-defined]
+        sys.modules[NAMESPACE] = ns
+    module_name = f"{NAMESPACE}.{pack}"
+    existing = sys.modules.get(module_name)
+    if existing is not None and list(getattr(existing, "__path__", [])) == [str(pack_dir)]:
+        return
+    for key in [k for k in sys.modules if k == module_name or k.startswith(module_name + ".")]:
+        del sys.modules[key]
+    mod = types.ModuleType(module_name, f"Code of the content pack '{pack}'.")
+    mod.__path__ = [str(pack_dir)]  # type: ignore[attr-defined]
+    sys.modules[module_name] = mod
+    setattr(ns, pack, mod)
+
+
+def load_installed_specs() -> dict[str, list[Any]]:
+    """``{kind: [spec dict or path]}`` of every installed pack, for the registry.
+
+    Invalid files are returned as well (dicts with ``_file_path``, or the path when unparsable) so the registry
+    reports them naming the file. Code of a pack installed without ``--allow-code`` is never made importable.
+    """
+    out: dict[str, list[Any]] = {}
+    for manifest in installed_packs():
+        pack_dir = Path(manifest["path"])
+        try:
+            scan = scan_pack(pack_dir, manifest["name"])
+        except PackError:
+            continue
+        if manifest.get("allow_code") is True:
+            _register_namespace(scan.name, scan.root)
+        for pf in scan.files:
+            out.setdefault(pf.kind, []).append(pf.spec if pf.spec is not None else pf.path)
+    return out

@@ -1,0 +1,41 @@
+"""`benchbot doctor --json`: structure, a fix for every problem, exit code = whether the main job can run."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+REQUIRED = {"python", "packages", "main-job content", "taichi cpu"}
+
+
+def doctor(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "benchbot.cli", "doctor", "--json", *args], capture_output=True,
+                          text=True, timeout=400, env={**os.environ, **(env or {})})
+
+
+def test_doctor_json_and_exit_code(tmp_path):
+    proc = doctor("--timeout", "240", env={"BENCHBOT_DATA_DIR": str(tmp_path / "data")})
+    report = json.loads(proc.stdout)
+    names = [c["name"] for c in report["checks"]]
+    for name in ("python", "packages", "plugins", "taichi cpu", "taichi cuda", "taichi vulkan", "gpu", "ros",
+                 "containers", "ray", "port 10000", "data directory"):
+        assert name in names, name
+    for c in report["checks"]:
+        assert set(c) == {"name", "ok", "required", "detail", "fix"}
+        assert c["ok"] or c["fix"], f"{c['name']} failed without a fix"
+    assert {c["name"] for c in report["checks"] if c["required"]} == REQUIRED
+    assert report["ok"] is all(c["ok"] for c in report["checks"] if c["required"])
+    assert proc.returncode == (0 if report["ok"] else 1)
+    assert report["ok"], proc.stdout  # this machine runs the main job (the test suite does)
+    data = next(c for c in report["checks"] if c["name"] == "data directory")
+    assert data["ok"] and str(tmp_path / "data") in data["detail"]
+
+
+def test_doctor_fails_without_the_simulator(tmp_path):
+    proc = doctor("--no-render", env={"BENCHBOT_ONLY_PLUGINS": "core_examples,eval_omq,task_semslam"})
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 1 and report["ok"] is False
+    content = next(c for c in report["checks"] if c["name"] == "main-job content")
+    assert not content["ok"] and "sim_taichi" in content["detail"] and content["fix"]

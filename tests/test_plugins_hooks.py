@@ -1,0 +1,47 @@
+"""The hook reference: every hookspec documented (Args/Returns/Called/Call policy), docs/hooks.md up to date;
+`benchbot plugins` shows hooks and problems; a broken plugin is reported and skipped."""
+
+from __future__ import annotations
+
+import types
+from pathlib import Path
+
+from benchbot.core import hookdoc
+from benchbot.core.hookspecs import hookimpl
+from benchbot.core.registry import Registry
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_hook_documented():
+    assert hookdoc.undocumented() == []
+    assert len(hookdoc.hooks()) >= 13
+
+
+def test_docs_hooks_md_is_up_to_date():
+    assert (ROOT / "docs" / "hooks.md").read_text() == hookdoc.render(), (
+        "docs/hooks.md is out of date: run `python -m benchbot.core.hookdoc > docs/hooks.md`")
+
+
+def test_plugin_infos_list_hooks_and_problems(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad_task\nactions: 3\nobservations: []\n")
+    mod = types.ModuleType("fake_plugin")
+    mod.benchbot_tasks = hookimpl(lambda: [str(bad), {"name": "good_task", "actions": [], "observations": ["poses"]}])
+    reg = Registry(extra_plugins={"fake": mod})
+    info = next(p for p in reg.plugins if p.name == "fake")
+    assert info.hooks == ["benchbot_tasks"] and info.registers == {"tasks": ["good_task"]}
+    assert len(info.problems) == 1 and "bad.yaml: $.actions" in info.problems[0]
+    sim = next(p for p in reg.plugins if p.name == "sim_taichi")
+    assert "benchbot_robot_backends" in sim.hooks
+
+
+def test_contract_check_reports_bad_plugin(tmp_path):
+    import pytest
+
+    from benchbot.plugins import testing
+
+    mod = types.ModuleType("fake_plugin2")
+    mod.benchbot_tasks = hookimpl(lambda: [{"name": "x", "actions": "no"}])
+    with pytest.raises(AssertionError, match="'observations' is a required property"):
+        testing.check_content_plugin(mod)
