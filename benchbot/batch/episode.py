@@ -43,7 +43,13 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
                 events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
 
         service = start_service(registry, run_spec, seed=spec.seed, options=spec.options, on_step=on_step)
+        recorder = None
         try:
+            if spec.record:
+                from benchbot.plugins.recorder import attach_recorder
+
+                recorder = attach_recorder(registry, service, run_spec, run / spec.recording, seed=spec.seed,
+                                           options=spec.options)
             server = ServerThread(build_app(service)).start()
             try:
                 with open(run / spec.log, "w") as log:
@@ -57,6 +63,10 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
             state = service.call(service.episode.state)
             record.steps, record.collided = state["step"], state["is_collided"]
         finally:
+            if recorder is not None:
+                from benchbot.plugins.recorder import detach_recorder
+
+                detach_recorder(registry, service, recorder)
             service.close()
         if record.returncode != 0:
             record.status = "failed"

@@ -28,6 +28,7 @@ class EpisodeSpec:
         options: robot-backend options (``arch``, ``width``, ``height``).
         timeout_s: kill the submission after this long (None: never).
         results, log: paths relative to the run directory.
+        record: also record the episode as MCAP to ``recordings/NNN_<env>.mcap`` (:attr:`recording`).
     """
 
     index: int
@@ -42,6 +43,12 @@ class EpisodeSpec:
     timeout_s: float | None = None
     results: str = ""
     log: str = ""
+    record: bool = False
+
+    @property
+    def recording(self) -> str:
+        """The recording's path relative to the run directory (named like the results file)."""
+        return f"recordings/{Path(self.results).stem}.mcap"
 
 
 @dataclass
@@ -79,10 +86,10 @@ def slug(text: str) -> str:
 
 def plan_episodes(
     *, task: str, robots: list[str], envs: list[str], repeat: int, seed: int, argv: list[str], cwd: str,
-    options: dict, timeout_s: float | None,
+    options: dict, timeout_s: float | None, record: bool = False,
 ) -> list[EpisodeSpec]:
     """Episodes for every robot × environment × repetition (in that nesting order); episode ``i`` gets seed
-    ``seed + i``.
+    ``seed + i``. ``record``: every episode is recorded as MCAP.
 
     Raises:
         UsageError: ``repeat`` < 1, or no robots or environments.
@@ -100,6 +107,7 @@ def plan_episodes(
                 specs.append(EpisodeSpec(
                     index=i, task=task, robot=robot, env=env, repeat=r, seed=seed + i, argv=argv, cwd=cwd,
                     options=options, timeout_s=timeout_s, results=f"results/{name}.json", log=f"logs/{name}.log",
+                    record=record,
                 ))
     return specs
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import threading
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -11,9 +13,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from benchbot.batch.plan import EpisodeRecord, plan_episodes, read_manifest, specs_from_manifest
 from benchbot.batch.runner import new_run_dir, parse_env_list, prepare_batch, run_batch
-from benchbot.cli.common import backend_options, err, handle_errors, out, registry
+from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
+from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.submission import example_submission, native_submission
 
@@ -46,6 +49,8 @@ def register(app: typer.Typer) -> None:
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
         timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Kill a solution after this many seconds (the episode fails)."),
         as_json: bool = typer.Option(False, "--json", help="Print the outcome as JSON on stdout."),
+        record: bool = typer.Option(False, "--record", help="Record every episode as MCAP (ROS 2 messages) in RUN_DIR/recordings/NNN_<env>.mcap."),
+        no_tui: bool = typer.Option(False, "--no-tui", help="Progress bars instead of the live episode table (the default when stderr is not a terminal)."),
     ) -> None:
         """Run a solution on every environment, each episode with its own backend on 127.0.0.1, then score it.
 
@@ -67,7 +72,7 @@ def register(app: typer.Typer) -> None:
             submission = example_submission(reg, example, args) if example else native_submission([native], args)
             specs = plan_episodes(
                 task=task, robots=robot_list, envs=env_list, repeat=repeat, seed=seed, argv=submission.argv,
-                cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout,
+                cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout, record=record,
             )
             run_dir = new_run_dir(output_dir, prefix)
             prepare_batch(reg, run_dir=run_dir, specs=specs, evaluate_with=None if no_evaluate else evaluate_with,
@@ -77,23 +82,29 @@ def register(app: typer.Typer) -> None:
         expected = {s.index: _expected_steps(reg, s.task, s.env) for s in specs}
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
                  + (f" r{s.repeat}" if s.repeat else "") for s in specs}
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
-                      TimeElapsedColumn(), console=err) as progress:
-            rows: dict[int, int] = {}
+        live = ProgressFile(run_dir, expected)
+        if is_tty() and not no_tui:
+            outcome = _run_with_tui(reg, run_dir, live, workers=workers, retries=retries, executor=executor,
+                                    ray_address=ray_address)
+        else:
+            with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+                          TimeElapsedColumn(), console=err) as progress:
+                rows: dict[int, int] = {}
 
-            def on_event(kind: str, index: int, info: dict | None) -> None:
-                if kind == "start":
-                    rows[index] = progress.add_task(label[index], total=expected[index])
-                elif kind == "step" and index in rows:
-                    progress.update(rows[index], completed=info["step"])
+                def on_event(kind: str, index: int, info: dict | None) -> None:
+                    live.event(kind, index, info)
+                    if kind == "start":
+                        rows[index] = progress.add_task(label[index], total=expected[index])
+                    elif kind == "step" and index in rows:
+                        progress.update(rows[index], completed=info["step"])
 
-            def on_record(record: EpisodeRecord) -> None:
-                colour = "green" if record.status == "ok" else "red"
-                if record.index in rows:
-                    progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
+                def on_record(record: EpisodeRecord) -> None:
+                    colour = "green" if record.status == "ok" else "red"
+                    if record.index in rows:
+                        progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
 
-            outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
-                                ray_address=ray_address, on_event=on_event, on_record=on_record)
+                outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
+                                    ray_address=ray_address, on_event=on_event, on_record=on_record)
         for record in outcome.episodes:
             if record.status != "ok":
                 why = record.error or f"exit status {record.returncode}"
@@ -110,6 +121,65 @@ def register(app: typer.Typer) -> None:
         err.print(f"results and scores in {run_dir}")
         if not outcome.ok:
             raise typer.Exit(int(ExitCode.FAILURE))
+
+
+class ProgressFile:
+    """``RUN_DIR/progress.json``: live step counts for the TUI, ``{'episodes': {index: {state, step, expected,
+    started (Unix s)}}}``, replaced atomically on every episode start and end and at most ``max_rate_hz`` times a
+    second on steps.
+
+    Args:
+        run_dir: the run directory. expected: ``{index: expected steps or None}``.
+    """
+
+    def __init__(self, run_dir: Path, expected: dict[int, int | None], max_rate_hz: float = 4.0) -> None:
+        self.path, self.expected = run_dir / "progress.json", expected
+        self.episodes: dict[str, dict] = {}
+        self.min_interval, self.written_at = 1.0 / max_rate_hz, 0.0
+        self.lock = threading.Lock()
+
+    def event(self, kind: str, index: int, info: dict | None) -> None:
+        """An executor event (``start``/``step``/``end``)."""
+        with self.lock:
+            key = str(index)
+            if kind == "start":
+                self.episodes[key] = {"state": "running", "step": 0, "expected": self.expected.get(index),
+                                      "started": time.time()}
+            elif kind == "step" and key in self.episodes:
+                self.episodes[key]["step"] = info["step"]
+                if time.monotonic() - self.written_at < self.min_interval:
+                    return
+            elif kind == "end" and key in self.episodes:
+                self.episodes[key]["state"] = "ended"
+            else:
+                return
+            atomic.write_json(self.path, {"episodes": self.episodes})
+            self.written_at = time.monotonic()
+
+
+def _run_with_tui(reg, run_dir: Path, live: ProgressFile, **kwargs):
+    """Run the batch (``run_batch(reg, run_dir, **kwargs)``) in a background thread and the episode table
+    (:class:`benchbot.tui.batch_app.BatchApp`) in the foreground; the table closes itself when the batch ends.
+    Quitting it early lets the batch go on."""
+    from benchbot.tui.batch_app import BatchApp
+
+    result: dict = {}
+
+    def work() -> None:
+        try:
+            result["outcome"] = run_batch(reg, run_dir, on_event=live.event, **kwargs)
+        except BaseException as exc:  # re-raised in the main thread
+            result["error"] = exc
+
+    thread = threading.Thread(target=work, name="benchbot-batch", daemon=True)
+    thread.start()
+    BatchApp(run_dir, is_done=lambda: not thread.is_alive()).run()
+    if thread.is_alive():
+        err.print(f"the table was closed; the batch goes on (watch it again: benchbot tui {run_dir})")
+        thread.join()
+    if "error" in result:
+        raise result["error"]
+    return result["outcome"]
 
 
 def _expected_steps(reg, task: str, env: str) -> int | None:

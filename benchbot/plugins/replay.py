@@ -1,0 +1,254 @@
+"""Replaying a recorded episode (an MCAP file of :mod:`benchbot.plugins.recorder`) as a robot backend.
+
+:class:`ReplayBackend` serves the recorded observations instead of simulating: ``load_scene`` goes to the first
+recorded frame of that scene, every ``move_to`` advances to the next recorded step (whatever the goal: the
+recording decides where the robot goes), ``observe`` decodes the recorded ROS 2 messages back into the reference
+structures (docs/observations.md) and ``frame_transforms`` comes from the recorded ``/tf``. It plugs into the same
+:class:`~benchbot.core.episode.Episode` / :class:`~benchbot.core.server.BackendService` / ``ServerThread``
+machinery as a simulator (:func:`start_replay_service`), so a solution of a *passive* task can be re-run and
+re-scored without a simulator. Precision: images, depth, camera matrices are exact; laser ranges are float32
+(``sensor_msgs/LaserScan``); poses go through quaternions (about 1e-15).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from bisect import bisect_right
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from benchbot.core.errors import BackendError, BenchbotError, ExitCode
+from benchbot.core.geometry import quaternion_wxyz_to_matrix
+from benchbot.core.robot import MotionOutcome, RobotBackend
+from benchbot.plugins.recorder import TOPICS
+
+
+class RecordingError(BenchbotError):
+    """A recording is missing, unreadable or not a BenchBot episode recording."""
+
+    exit_code = ExitCode.USAGE
+
+
+def _encoding_array(msg: Any) -> np.ndarray:
+    dtypes = {"rgb8": (np.uint8, 3), "mono8": (np.uint8, 1), "32FC1": (np.float32, 1), "32SC1": (np.int32, 1)}
+    if msg.encoding not in dtypes:
+        raise RecordingError(f"unsupported image encoding '{msg.encoding}'", "recordings use rgb8, mono8, 32FC1, 32SC1")
+    dtype, channels = dtypes[msg.encoding]
+    dtype = np.dtype(dtype).newbyteorder(">" if msg.is_bigendian else "<")
+    row = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.step)
+    itemsize = dtype.itemsize * channels
+    pixels = np.ascontiguousarray(row[:, : msg.width * itemsize]).view(dtype).astype(dtype.newbyteorder("="))
+    return pixels.reshape(msg.height, msg.width, channels) if channels > 1 else pixels.reshape(msg.height, msg.width)
+
+
+def _transform(tf: Any) -> np.ndarray:
+    t, q = tf.transform.translation, tf.transform.rotation
+    T = np.eye(4)
+    T[:3, :3] = quaternion_wxyz_to_matrix(np.array([q.w, q.x, q.y, q.z]))
+    T[:3, 3] = [t.x, t.y, t.z]
+    return T
+
+
+class Recording:
+    """A recorded episode read into memory.
+
+    Attributes:
+        run: the ``benchbot.run`` metadata (``task``, ``robot``, ``environments``, ``results_format``, ``seed``,
+            ``options``, ``env_string``). steps: the ``benchbot.steps`` metadata. frames: ``benchbot.frames``.
+        messages: ``{topic: [(log_time_ns, decoded message)]}`` in time order.
+
+    Raises:
+        RecordingError: the file is missing, not MCAP, or lacks the BenchBot metadata.
+    """
+
+    def __init__(self, path: Path | str) -> None:
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise RecordingError(f"{self.path}: no such recording", "record one with --record")
+        try:
+            from mcap.reader import make_reader
+            from mcap_ros2.decoder import DecoderFactory
+
+            with open(self.path, "rb") as f:
+                reader = make_reader(f, decoder_factories=[DecoderFactory()])
+                meta = {m.name: m.metadata for m in reader.iter_metadata()}
+                self.messages: dict[str, list[tuple[int, Any]]] = {}
+                for _schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+                    self.messages.setdefault(channel.topic, []).append((message.log_time, decoded))
+        except BenchbotError:
+            raise
+        except Exception as exc:
+            raise RecordingError(f"{self.path}: not a readable MCAP file ({exc})", "was the recording finished?") from None
+        try:
+            self.run = json.loads(meta["benchbot.run"]["json"])
+            self.steps = json.loads(meta["benchbot.steps"]["json"])
+            self.frames = json.loads(meta["benchbot.frames"]["json"])
+        except (KeyError, json.JSONDecodeError):
+            raise RecordingError(f"{self.path}: no BenchBot metadata (benchbot.run/steps/frames)",
+                                 "only files written by `--record` can be replayed") from None
+
+    def at(self, topic: str, time_ns: int) -> Any:
+        """The message of ``topic`` logged at ``time_ns``, or None."""
+        entries = self.messages.get(topic, [])
+        times = [t for t, _ in entries]
+        i = bisect_right(times, time_ns) - 1
+        return entries[i][1] if i >= 0 and times[i] == time_ns else None
+
+    def latest(self, topic: str, time_ns: int) -> Any:
+        """The last message of ``topic`` logged at or before ``time_ns``, or None."""
+        entries = self.messages.get(topic, [])
+        i = bisect_right([t for t, _ in entries], time_ns) - 1
+        return entries[i][1] if i >= 0 else None
+
+
+class ReplayBackend(RobotBackend):
+    """A :class:`RobotBackend` serving a :class:`Recording` (module doc).
+
+    Args:
+        recording: the recording.
+        robot_spec: the robot spec (the recording's).
+    """
+
+    def __init__(self, recording: Recording, robot_spec: dict) -> None:
+        self.recording = recording
+        self.robot_spec = robot_spec
+        self.moves = 0  # == the episode's step_count: every action makes exactly one move_to
+        self.loaded = False
+
+    def _time(self) -> int:
+        if self.moves == 0:
+            return 0
+        if self.moves > len(self.recording.steps):
+            raise BackendError(
+                f"the recording has {len(self.recording.steps)} steps; step {self.moves} was not recorded",
+                "a replay can only repeat the recorded trajectory (passive tasks)")
+        return int(self.recording.steps[self.moves - 1]["time_ns"])
+
+    def load_scene(self, environment: dict, *, seed: int = 0) -> None:
+        """Go to the recorded frame of the current step (the first one at the start).
+
+        Raises:
+            BackendError: ``environment`` is not one the recording was made in.
+        """
+        names = [f"{e['name']}:{e['variant']}" for e in self.recording.run["environments"]]
+        if f"{environment['name']}:{environment['variant']}" not in names:
+            raise BackendError(f"environment {environment['name']}:{environment['variant']} was not recorded",
+                               f"the recording has {', '.join(names)}")
+        self.loaded = True
+
+    def _robot_transform(self) -> dict[str, np.ndarray]:
+        tf = self.recording.latest(TOPICS["tf"][0], self._time())
+        if tf is None:
+            raise BackendError("the recording has no /tf before this step", "was it written by --record?")
+        robot = self.robot_spec.get("robot_frame", "robot")
+        by_child = {t.child_frame_id: _transform(t) for t in tf.transforms}
+        T_map_robot = by_child[robot]
+        out = {"robot": T_map_robot}
+        for name in ("camera", "lidar"):
+            if name in by_child:
+                out[name] = T_map_robot @ by_child[name]
+        if robot not in out:
+            out[robot] = T_map_robot.copy()
+        return out
+
+    def base_pose(self) -> np.ndarray:
+        """``[x, y, yaw]`` of the recorded step (the exact recorded pose)."""
+        if self.moves > 0 and self.moves <= len(self.recording.steps):
+            return np.asarray(self.recording.steps[self.moves - 1]["pose"], dtype=np.float64)
+        T = self._robot_transform()["robot"]
+        return np.array([T[0, 3], T[1, 3], math.atan2(T[1, 0], T[0, 0])])
+
+    def move_to(self, goal: np.ndarray) -> MotionOutcome:
+        """Advance to the next recorded step (``goal`` is ignored).
+
+        Raises:
+            BackendError: the recording has no more steps.
+        """
+        self.moves += 1
+        self._time()
+        step = self.recording.steps[self.moves - 1]
+        return MotionOutcome(collided=bool(step["collided"]), duration_s=float(step["duration_s"]))
+
+    def frame_transforms(self) -> dict[str, np.ndarray]:
+        """``T_map_<frame>`` of ``robot``, ``camera``, ``lidar`` from the recorded ``/tf`` at this step."""
+        return self._robot_transform()
+
+    def observe(self, names: Sequence[str]) -> dict[str, Any]:
+        """The recorded observations of this step, decoded into the reference structures.
+
+        Raises:
+            KeyError: a name that was not recorded at this step (or is not a sensor).
+        """
+        t = self._time()
+        rec = self.recording
+        frame = next((f for f in rec.frames if f["time_ns"] == t and f["step"] == self.moves), None)
+        out: dict[str, Any] = {}
+        for name in names:
+            if frame is None or name not in frame["names"]:
+                raise KeyError(name)
+            if name in ("image_rgb", "image_depth"):
+                out[name] = _encoding_array(rec.at(TOPICS[name][0], t))
+            elif name in ("image_rgb_info", "image_depth_info"):
+                msg = rec.at(TOPICS[name][0], t)
+                out[name] = {"frame_id": msg.header.frame_id, "height": int(msg.height), "width": int(msg.width),
+                             "matrix_intrinsics": np.asarray(msg.k, dtype=np.float64).reshape(3, 3),
+                             "matrix_projection": np.asarray(msg.p, dtype=np.float64).reshape(3, 4)}
+            elif name == "laser":
+                msg = rec.at(TOPICS["laser"][0], t)
+                ranges = np.asarray(msg.ranges, dtype=np.float32).astype(np.float64)
+                angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges), dtype=np.float64)
+                angles = (angles + math.pi) % (2.0 * math.pi) - math.pi
+                angles[angles >= math.pi - 1e-6] -= 2.0 * math.pi  # float32 rounding of −π must not wrap to +π
+                out[name] = {"scans": np.stack([ranges, angles], axis=1), "range_min": float(msg.range_min),
+                             "range_max": float(msg.range_max)}
+            elif name == "image_segment":
+                out[name] = {"class_segment_img": _encoding_array(rec.at(TOPICS["segment_class"][0], t)),
+                             "instance_segment_img": _encoding_array(rec.at(TOPICS["segment_instance"][0], t)),
+                             "class_ids": dict(frame.get("class_ids", {}))}
+            else:
+                raise KeyError(name)
+        return out
+
+
+def start_replay_service(path: Path | str, registry: Any = None, *, on_step: Any = None):
+    """A :class:`~benchbot.core.server.BackendService` replaying ``path``: the recorded task, robot and
+    environments (from its metadata), an :class:`~benchbot.core.episode.Episode` over a :class:`ReplayBackend`,
+    with the observer hooks of ``registry`` (default: the process's) and the results-format functions.
+
+    Returns:
+        ``(service, run_spec)``.
+
+    Raises:
+        RecordingError: the file cannot be replayed. SpecError: its results format is not installed.
+    """
+    from benchbot.core.episode import Episode
+    from benchbot.core.registry import get_registry
+    from benchbot.core.server import BackendService
+    from benchbot.core.session import RunSpec
+
+    recording = Recording(path)
+    registry = registry or get_registry()
+    run = recording.run
+    spec = RunSpec(run["task"], run["robot"], run["environments"], run.get("results_format") or {},
+                   run.get("env_string") or ":".join([run["environments"][0]["name"]] + [e["variant"] for e in run["environments"]]))
+    hook = registry.plugin_manager.hook
+
+    def step_observer(info: dict) -> None:
+        hook.benchbot_step(info=info)
+        if on_step is not None:
+            on_step(info)
+
+    def build() -> Episode:
+        backend = ReplayBackend(recording, spec.robot)
+        episode = Episode(spec.task, spec.robot, spec.environments, backend, results_format=spec.results_format,
+                          seed=int(run.get("seed", 0)), on_step=step_observer)
+        hook.benchbot_episode_started(info={"task": spec.task["name"], "robot": spec.robot["name"],
+                                            "environments": [f"{e['name']}:{e['variant']}" for e in spec.environments]})
+        return episode
+
+    fmt = spec.task.get("results_format")
+    functions = registry.functions("formats", fmt) if fmt else {}
+    return BackendService(build, functions), spec

@@ -1,0 +1,145 @@
+"""The live view of one episode (``benchbot run --tui``): task, robot, environment, robot state and pose, step count
+and rate, the last action and its result, a camera preview drawn with half-block characters, and the log.
+
+:class:`RunApp` only reads the folder that :class:`benchbot.plugins.live_state.LiveStateWriter` keeps
+(``state.json``, ``preview.npy``), polling it every ``poll_s`` seconds; it never touches the episode.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from rich.style import Style
+from rich.text import Text
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.css.query import NoMatches
+from textual.containers import Horizontal, Vertical
+from textual.widgets import Footer, Log, Static
+
+from benchbot.plugins.live_state import PREVIEW, STATE
+from benchbot.tui.batch_app import read_json
+
+HALF_BLOCK = "▀"
+
+
+def half_blocks(rgb: np.ndarray, width: int | None = None) -> Text:
+    """``rgb`` (H, W, 3) uint8 as text: one cell per column and two rows (``▀``: foreground = upper pixel,
+    background = lower pixel), strided to at most ``width`` columns."""
+    rgb = np.asarray(rgb, dtype=np.uint8)
+    if width and rgb.shape[1] > width:
+        f = int(math.ceil(rgb.shape[1] / width))
+        rgb = rgb[::f, ::f]
+    if rgb.shape[0] % 2:
+        rgb = np.concatenate([rgb, np.zeros_like(rgb[:1])], axis=0)
+    text = Text(no_wrap=True, overflow="crop")
+    for r in range(0, rgb.shape[0], 2):
+        for top, bottom in zip(rgb[r], rgb[r + 1]):
+            text.append(HALF_BLOCK, Style(color=f"rgb({top[0]},{top[1]},{top[2]})",
+                                          bgcolor=f"rgb({bottom[0]},{bottom[1]},{bottom[2]})"))
+        if r + 2 < rgb.shape[0]:
+            text.append("\n")
+    return text
+
+
+def describe(state: dict) -> str:
+    """The status panel's text (rich markup) for a ``state.json``."""
+    flags = state.get("state") or {}
+    pose = state.get("pose") or [0.0, 0.0, 0.0]
+    last = state.get("last_action")
+    status = ("[bold red]COLLIDED[/]" if flags.get("is_collided") else "[green]finished[/]" if flags.get("is_finished")
+              else "[yellow]running[/]" if flags.get("is_running") else "[dim]stopped[/]")
+    lines = [
+        f"[b]task[/b]         {state.get('task', '?')}",
+        f"[b]robot[/b]        {state.get('robot', '?')}",
+        f"[b]environment[/b]  {', '.join(state.get('environments') or [])}"
+        f"  (scene {flags.get('scene_number', 0) + 1}/{flags.get('scene_count', 1)})",
+        f"[b]state[/b]        {status}" + ("  [yellow]dirty[/]" if flags.get("is_dirty") else ""),
+        f"[b]pose[/b]         x {pose[0]:+.3f} m  y {pose[1]:+.3f} m  yaw {math.degrees(pose[2]):+.1f}°  (map)",
+        f"[b]steps[/b]        {state.get('step', 0)}  ({state.get('rate_hz', 0.0):.2f} steps/s)",
+    ]
+    if last:
+        args = ", ".join(f"{k}={v}" for k, v in (last.get("args") or {}).items())
+        colour = "green" if last.get("result") == "SUCCESS" else "yellow" if last.get("result") == "FINISHED" else "red"
+        lines.append(f"[b]last action[/b]  {last.get('action')}({args}) → [{colour}]{last.get('result')}[/]")
+    else:
+        lines.append("[b]last action[/b]  none yet")
+    return "\n".join(lines)
+
+
+class RunApp(App):
+    """The live view of a running episode.
+
+    Args:
+        state_dir: the live-state folder (``state.json``, ``preview.npy``).
+        poll_s: seconds between reads.
+        preview_width: columns of the camera preview.
+        address: the backend's address, shown in the sub-title (optional).
+    """
+
+    TITLE = "BenchBot run"
+    CSS = """
+    #top { height: auto; }
+    #status { width: 1fr; padding: 0 1; height: auto; }
+    #preview { width: auto; height: auto; padding: 0 1; }
+    Log { height: 1fr; border-top: solid $primary; }
+    """
+    BINDINGS = [Binding("q", "quit", "quit (stops the backend)")]
+
+    def __init__(self, state_dir: Path | str, *, poll_s: float = 0.5, preview_width: int = 64,
+                 address: str = "") -> None:
+        super().__init__()
+        self.state_dir = Path(state_dir)
+        self.poll_s, self.preview_width, self.address = poll_s, preview_width, address
+        self._preview_mtime: float | None = None
+        self._log_lines = 0
+
+    def compose(self) -> ComposeResult:
+        with Vertical():
+            with Horizontal(id="top"):
+                yield Static("waiting for the episode …", id="status")
+                yield Static("", id="preview")
+            yield Log(id="log", auto_scroll=True)
+        yield Footer()
+
+    def on_mount(self) -> None:
+        if self.address:
+            self.sub_title = self.address
+        self.refresh_view()
+        self.set_interval(self.poll_s, self.refresh_view)
+
+    def refresh_view(self) -> None:
+        """Re-read the live-state folder."""
+        try:
+            self._refresh()
+        except NoMatches:  # the app is closing
+            pass
+
+    def _refresh(self) -> None:
+        state = read_json(self.state_dir / STATE)
+        if not isinstance(state, dict):
+            return
+        self.query_one("#status", Static).update(describe(state))
+        preview = self.state_dir / PREVIEW
+        if state.get("preview") and preview.is_file():
+            mtime = preview.stat().st_mtime_ns
+            if mtime != self._preview_mtime:
+                try:
+                    rgb = np.load(preview, allow_pickle=False)
+                except (OSError, ValueError):
+                    rgb = None
+                if rgb is not None and rgb.ndim == 3:
+                    self.query_one("#preview", Static).update(half_blocks(rgb, self.preview_width))
+                    self._preview_mtime = mtime
+        lines = state.get("log") or []
+        total = int(state.get("log_total", len(lines)))
+        log = self.query_one(Log)
+        if total < self._log_lines:  # another episode wrote this folder: start again
+            log.clear()
+            self._log_lines = 0
+        new = min(total - self._log_lines, len(lines))
+        if new > 0:
+            log.write_lines(lines[-new:])
+        self._log_lines = total

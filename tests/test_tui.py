@@ -1,0 +1,190 @@
+"""The Textual views: the batch table and the live run view (Pilot tests and snapshots), and their writers."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchbot.api.benchbot import BenchBot
+from benchbot.core import atomic
+from benchbot.plugins.live_state import PREVIEW, STATE, LiveStateWriter
+from benchbot.tui.batch_app import BatchApp, batch_rows, format_seconds
+from benchbot.tui.run_app import RunApp, half_blocks
+
+FROZEN = 1_700_000_100.0  # the frozen clock of the views: wall times in snapshots never change
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+
+
+def _record(index, env, status, steps=0, wall=0.0, repeat=0):
+    return {"index": index, "env": env, "robot": "carter", "repeat": repeat, "seed": index, "status": status,
+            "attempts": int(status != "pending"), "steps": steps, "collided": False, "wall_s": wall,
+            "returncode": 0 if status == "ok" else None, "error": "", "results": f"results/{index:03d}.json",
+            "log": f"logs/{index:03d}.log"}
+
+
+def make_run_dir(path: Path, finished: bool = False) -> Path:
+    """A fabricated run directory: 4 episodes (ok, failed, running, pending), scores for the first."""
+    trajectory = [[1, 0, 0, 0, 0, 0, 0]] * 33
+    atomic.write_json(path / "config.json", {
+        "task": {"name": "semantic_slam:passive:ground_truth", "actions": ["move_next"]},
+        "environments": {e: [{"name": e.split(":")[0], "variant": e.split(":")[1], "trajectory_poses": trajectory}]
+                         for e in ("miniroom:1", "miniroom:4", "house:1")}})
+    episodes = [_record(0, "miniroom:1", "ok", 33, 12.5), _record(1, "miniroom:4", "failed", 7, 3.25),
+                _record(2, "house:1", "running" if not finished else "ok", 0 if not finished else 33, 0.0 if not finished else 75.0),
+                _record(3, "miniroom:1", "pending" if not finished else "ok", 0 if not finished else 33, 0.0 if not finished else 11.0, repeat=1)]
+    manifest = {"task": "semantic_slam:passive:ground_truth", "robots": ["carter"], "episodes": episodes,
+                "environments": ["miniroom:1", "miniroom:4", "house:1"], "plan": []}
+    if finished:
+        manifest.update(finished="2024-01-01T00:00:00+00:00", evaluation_error="")
+        atomic.write_json(path / "episode_scores.json", [
+            {"index": i, "env": e["env"], "robot": "carter", "repeat": e["repeat"], "seed": i,
+             "scores": {"OMQ": 0.25 * (i + 1) - 0.0123}} for i, e in enumerate(episodes) if e["status"] == "ok"])
+        atomic.write_json(path / "scores.json", {"scores": {"OMQ": 0.6543}})
+    else:
+        atomic.write_json(path / "progress.json", {"episodes": {
+            "2": {"state": "running", "step": 17, "expected": 33, "started": FROZEN - 65.0}}})
+    atomic.write_json(path / "manifest.json", manifest)
+    return path
+
+
+def make_state_dir(path: Path) -> Path:
+    """A fabricated live-state folder: a 24x32 gradient preview and 3 steps."""
+    y, x = np.mgrid[0:24, 0:32]
+    rgb = np.stack([x * 8, y * 10, np.full_like(x, 128)], axis=-1).astype(np.uint8)
+    np.save(path / PREVIEW, rgb)
+    atomic.write_json(path / STATE, {
+        "task": "semantic_slam:passive:ground_truth", "robot": "carter", "environments": ["miniroom:4"],
+        "step": 3, "rate_hz": 1.5,
+        "state": {"is_collided": False, "is_dirty": True, "is_finished": False, "is_running": True,
+                  "scene_number": 0, "scene_count": 1},
+        "pose": [1.25, -0.5, 0.7854], "last_action": {"action": "move_next", "args": {}, "result": "SUCCESS"},
+        "preview": PREVIEW, "log": ["episode started", "step 1", "step 2", "step 3"], "log_total": 4})
+    return path
+
+
+# --------------------------------------------------------------------------------------------- batch view
+def test_batch_rows_read_manifest_progress_and_scores(tmp_path):
+    summary, rows = batch_rows(make_run_dir(tmp_path), now=FROZEN)
+    assert summary["episodes"] == 4 and not summary["finished"]
+    assert rows[0] == (0, "miniroom:1", "carter", 0, "ok", "33/33", "0:12", "")
+    assert rows[2][4:7] == ("running", "17/33", "1:05")
+    assert rows[3][4:7] == ("pending", "0/33", "")
+    assert format_seconds(3725) == "1:02:05"
+    assert batch_rows(tmp_path / "nothing") == ({}, [])
+
+
+def test_batch_app_follows_the_run_directory(tmp_path):
+    asyncio.run(_test_batch_app_follows_the_run_directory(tmp_path))
+
+
+async def _test_batch_app_follows_the_run_directory(tmp_path):
+    run_dir = make_run_dir(tmp_path)
+    app = BatchApp(run_dir, poll_s=0.05, clock=lambda: FROZEN)
+    async with app.run_test() as pilot:
+        table = app.query_one("DataTable")
+        assert table.row_count == 4
+        assert "running" in str(table.get_cell("2", "status"))
+        make_run_dir(run_dir, finished=True)  # the batch writes its manifest; the view polls it
+        await pilot.pause(0.2)
+        assert "ok" in str(table.get_cell("2", "status"))
+        assert table.get_cell("0", "OMQ") == "0.2377"
+        await pilot.press("q")
+    assert app.return_code == 0
+
+
+def test_batch_app_exits_when_the_batch_ends(tmp_path):
+    asyncio.run(_test_batch_app_exits_when_the_batch_ends(tmp_path))
+
+
+async def _test_batch_app_exits_when_the_batch_ends(tmp_path):
+    app = BatchApp(make_run_dir(tmp_path, finished=True), poll_s=0.05, is_done=lambda: True, linger_s=0.05)
+    await asyncio.wait_for(app.run_async(headless=True, size=(100, 14)), timeout=20)  # returns: the app exited
+
+
+def test_batch_snapshot_running(snap_compare, tmp_path):
+    app = BatchApp(make_run_dir(tmp_path), poll_s=3600, clock=lambda: FROZEN)
+    app.sub_title = "run"
+    assert snap_compare(app, terminal_size=(100, 14))
+
+
+def test_batch_snapshot_finished(snap_compare, tmp_path):
+    assert snap_compare(BatchApp(make_run_dir(tmp_path, finished=True), poll_s=3600, clock=lambda: FROZEN),
+                        terminal_size=(100, 14))
+
+
+# --------------------------------------------------------------------------------------------- run view
+def test_half_blocks_draw_two_pixel_rows_per_line():
+    rgb = np.zeros((3, 4, 3), np.uint8)
+    rgb[0] = 255
+    text = half_blocks(rgb)
+    assert text.plain == "▀▀▀▀\n▀▀▀▀"
+    assert str(text.spans[0].style.color.triplet) == "#ffffff" or text.spans[0].style.color.triplet.red == 255
+    assert len(half_blocks(np.zeros((48, 64, 3), np.uint8), width=16).plain.splitlines()) == 6
+
+
+def test_run_snapshot(snap_compare, tmp_path):
+    assert snap_compare(RunApp(make_state_dir(tmp_path), poll_s=3600, preview_width=32), terminal_size=(110, 20))
+
+
+def test_run_app_appends_new_log_lines(tmp_path):
+    asyncio.run(_test_run_app_appends_new_log_lines(tmp_path))
+
+
+async def _test_run_app_appends_new_log_lines(tmp_path):
+    state_dir = make_state_dir(tmp_path)
+    app = RunApp(state_dir, poll_s=0.05)
+    async with app.run_test() as pilot:
+        log = app.query_one("Log")
+        assert log.line_count == 4
+        state = json.loads((state_dir / STATE).read_text())
+        state.update(step=4, log=state["log"][1:] + ["step 4"], log_total=5)
+        atomic.write_json(state_dir / STATE, state)
+        await pilot.pause(0.2)
+        assert log.line_count == 5 and "steps        4" in str(app.query_one("#status").render())
+
+
+def test_live_state_writer_follows_a_real_episode(make_service, registry, tmp_path):
+    service = make_service("semantic_slam:passive:ground_truth", "miniroom:4")
+    writer = LiveStateWriter(tmp_path, max_rate_hz=1000)
+    service.call(writer.attach, service.episode)
+    registry.plugin_manager.register(writer)
+    try:
+        bot = BenchBot(backend=service)
+        bot.reset()
+        for _ in range(3):
+            bot.step("move_next")
+        service.call(writer.refresh)  # what `benchbot run --tui` does every 0.5 s: picks up the last observation
+    finally:
+        registry.plugin_manager.unregister(writer)
+    state = json.loads((tmp_path / STATE).read_text())
+    assert state["step"] == 3 and state["last_action"]["result"] == "SUCCESS"
+    assert state["environments"] == ["miniroom:4"] and len(state["pose"]) == 3
+    preview = np.load(tmp_path / PREVIEW)
+    assert preview.dtype == np.uint8 and preview.shape == (48, 64, 3)
+    assert state["log_total"] == 4
+
+
+# --------------------------------------------------------------------------------------------- CLI
+def test_tui_command_needs_a_run_directory(tmp_path):
+    proc = subprocess.run([*BENCHBOT, "tui", str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "neither manifest.json nor state.json" in proc.stderr
+
+
+def test_batch_records_and_writes_progress_without_a_terminal(tmp_path):
+    proc = subprocess.run([*BENCHBOT, "batch", "--example", "hello_passive", "--envs", "miniroom:4", "--record",
+                           "--camera-size", "64x48", "--arch", "cpu", "--no-evaluate", "--output-dir", str(tmp_path)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    run_dir = next(tmp_path.iterdir())
+    assert (run_dir / "recordings" / "000_miniroom_4.mcap").is_file()
+    progress = json.loads((run_dir / "progress.json").read_text())
+    assert progress["episodes"]["0"]["state"] == "ended" and progress["episodes"]["0"]["expected"] == 33
+    from benchbot.plugins.replay import Recording
+
+    assert len(Recording(run_dir / "recordings" / "000_miniroom_4.mcap").steps) == 33
