@@ -1,0 +1,1 @@
+"""BenchBot plugin: ROS 2 robots."""

@@ -1,0 +1,68 @@
+"""Hook implementations of the robot_ros2 plugin: robots of type ``ros2`` (``carter_ros2``, ``turtlebot4``), their
+backend, and the ``benchbot ros2 serve-sim`` command. Imports nothing heavy: cyclonedds/rclpy/Taichi load lazily."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Optional
+
+from benchbot.core.hookspecs import hookimpl
+
+ROBOTS_DIR = Path(__file__).resolve().parent / "robots"
+
+
+@hookimpl
+def benchbot_robots() -> list[str]:
+    """``carter_ros2`` (the simulator behind ROS 2) and ``turtlebot4`` (YAML paths)."""
+    return [str(p) for p in sorted(ROBOTS_DIR.glob("*.yaml"))]
+
+
+def _factory(robot_spec: dict, options: dict):
+    from benchbot_robot_ros2.backend import Ros2RobotBackend
+
+    return Ros2RobotBackend(robot_spec, options)
+
+
+@hookimpl
+def benchbot_robot_backends() -> dict:
+    """``{'ros2': factory}``; ``factory(robot_spec, options) -> Ros2RobotBackend``."""
+    return {"ros2": _factory}
+
+
+@hookimpl
+def benchbot_commands(app: Any) -> None:
+    """``benchbot ros2 serve-sim --env ENV``: the Taichi simulator served as a ROS 2 robot."""
+    import typer
+
+    ros2 = typer.Typer(help="ROS 2 robots: serve the simulator as a ROS 2 robot.", no_args_is_help=True)
+
+    @ros2.command("serve-sim")
+    def serve_sim(
+        env: str = typer.Option(..., "--env", "-e", help="Environment, e.g. miniroom:1."),
+        domain_id: Optional[int] = typer.Option(None, "--domain-id", min=0, max=232, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID or 0)."),
+        camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default 640x480)."),
+        arch: str = typer.Option("cpu", "--arch", help="Simulator device: cpu or gpu."),
+        time_scale: float = typer.Option(1.0, "--time-scale", min=0.01, help="Simulated seconds per wall second."),
+        camera_hz: float = typer.Option(10.0, "--camera-hz", min=0.1, help="Camera rate (simulated time)."),
+        transport: str = typer.Option("auto", "--transport", help="auto (rclpy if importable), rclpy or cyclonedds."),
+        network: str = typer.Option("loopback", "--network", help="loopback (Cyclone DDS on lo unless CYCLONEDDS_URI is set) or system."),
+        seed: int = typer.Option(0, "--seed", help="Scene seed."),
+    ) -> None:
+        """Publish the simulated carter's camera, depth, laser, odometry and TF over ROS 2 and obey /cmd_vel in
+        real time; /benchbot/reset (std_msgs/String JSON) reloads the scene. Ctrl-C stops."""
+        import os
+
+        from benchbot.cli.common import handle_errors
+
+        from benchbot_robot_ros2.sim_bridge import parse_size, serve
+
+        @handle_errors
+        def _run() -> None:
+            domain = domain_id if domain_id is not None else int(os.environ.get("ROS_DOMAIN_ID", "0") or 0)
+            w, h = parse_size(camera_size)
+            serve(env, domain_id=domain, width=w, height=h, arch=arch, time_scale=time_scale, camera_hz=camera_hz,
+                  transport=transport, network=network, seed=seed)
+
+        _run()
+
+    app.add_typer(ros2, name="ros2")

@@ -1,0 +1,84 @@
+"""A small TF buffer: the newest transform of every (parent → child) edge from ``/tf`` and ``/tf_static``.
+
+Lookups compose edges through the tree; a dynamic edge older than ``max_age_s`` (by receipt time, monotonic clock)
+counts as lost. Thread-safe (written by the transport's thread, read by the backend's).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from benchbot_robot_ros2.convert import transform_to_matrix
+
+
+class TfLookupError(LookupError):
+    """No (fresh) chain of transforms links the two frames."""
+
+
+class TfBuffer:
+    """Newest transforms by child frame.
+
+    Args:
+        max_age_s: dynamic transforms older than this (receipt time) are lost (static ones never are).
+    """
+
+    def __init__(self, max_age_s: float = 1.0) -> None:
+        self.max_age_s = float(max_age_s)
+        self._edges: dict[str, tuple[str, np.ndarray, float, bool]] = {}  # child -> (parent, T_parent_child, t, static)
+        self._lock = threading.Lock()
+
+    def add_message(self, msg: Any, static: bool = False) -> None:
+        """Store every ``TransformStamped`` of a ``tf2_msgs/TFMessage``; malformed entries are skipped (the first
+        problem is re-raised as ValueError after the good ones are stored)."""
+        now = time.monotonic()
+        problem = None
+        for ts in list(msg.transforms):
+            try:
+                parent, child = str(ts.header.frame_id).lstrip("/"), str(ts.child_frame_id).lstrip("/")
+                if not parent or not child or parent == child:
+                    raise ValueError(f"transform with frames {parent!r} → {child!r}")
+                T = transform_to_matrix(ts.transform)
+            except Exception as exc:  # noqa: BLE001
+                problem = problem or exc
+                continue
+            with self._lock:
+                self._edges[child] = (parent, T, now, static)
+        if problem is not None:
+            raise ValueError(f"malformed transform: {problem}")
+
+    def _chain(self, frame: str, now: float) -> tuple[list[str], np.ndarray]:
+        """Frames from ``frame`` up to its root, and T_root_frame."""
+        T = np.eye(4)
+        path = [frame]
+        while frame in self._edges and len(path) < 64:
+            parent, T_pc, t, static = self._edges[frame]
+            if not static and now - t > self.max_age_s:
+                raise TfLookupError(f"transform {parent} → {frame} is {now - t:.2f} s old (limit {self.max_age_s} s)")
+            T = T_pc @ T
+            frame = parent
+            path.append(frame)
+        return path, T
+
+    def lookup(self, target: str, source: str) -> np.ndarray:
+        """``T_target_source`` (4, 4) float64: maps points of ``source`` into ``target``.
+
+        Raises:
+            TfLookupError: the frames are not connected, or a transform on the way is stale.
+        """
+        now = time.monotonic()
+        with self._lock:
+            p_t, T_rt = self._chain(target, now)
+            p_s, T_rs = self._chain(source, now)
+        if p_t[-1] != p_s[-1]:
+            raise TfLookupError(f"no transform between '{target}' and '{source}' (trees rooted at '{p_t[-1]}' and "
+                                f"'{p_s[-1]}')")
+        return np.linalg.inv(T_rt) @ T_rs
+
+    def frames(self) -> list[str]:
+        """Every child frame seen so far."""
+        with self._lock:
+            return sorted(self._edges)

@@ -1,0 +1,313 @@
+"""Publish/subscribe by ROS 2 topic and message type, over ``rclpy`` or directly over Cyclone DDS.
+
+Two implementations of :class:`Transport` behave the same:
+
+* :class:`CycloneTransport`: the ``cyclonedds`` Python package with ROS 2's wire conventions (topics ``rt/<name>``,
+  type names ``<pkg>::msg::dds_::<Name>_``, XCDR1): it talks to ROS 2 nodes on ``rmw_cyclonedds_cpp``.
+* :class:`RclpyTransport`: a node of ``rclpy`` (a ROS 2 install), used when ``import rclpy`` works.
+
+Messages are built with :meth:`Transport.message` (an object with the ROS field names, nested messages already
+built) and read by attribute, so code on top never sees which transport it runs on. Callbacks run on the
+transport's own thread; an exception inside one (or a sample that cannot be decoded) is counted in
+:attr:`Transport.errors` and never reaches the caller.
+
+QoS: publishers are reliable, keep-last 10 (latched topics such as ``/tf_static``: transient-local); subscribers
+are best-effort keep-last 10 (they match reliable and best-effort publishers alike), or reliable/transient-local
+where asked (``reliable=True`` for commands, ``latched=True`` for ``/tf_static``).
+
+Network: ``network='loopback'`` confines Cyclone DDS to the ``lo`` interface (multicast off, peer 127.0.0.1) by
+setting ``CYCLONEDDS_URI`` before the first participant — unless the user has set ``CYCLONEDDS_URI`` already, which
+always wins. ``network='system'`` leaves DDS configuration to the environment (a real robot on a LAN).
+"""
+
+from __future__ import annotations
+
+import abc
+import importlib
+import logging
+import os
+import threading
+from typing import Any, Callable
+
+log = logging.getLogger(__name__)
+
+LOOPBACK_URI = (
+    '<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
+    "<AllowMulticast>false</AllowMulticast></General><Discovery><Peers><Peer address=\"127.0.0.1\"/></Peers>"
+    "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>50</MaxAutoParticipantIndex></Discovery>"
+    "</Domain></CycloneDDS>"
+)
+
+
+def configure_network(network: str = "loopback") -> None:
+    """Set ``CYCLONEDDS_URI`` to :data:`LOOPBACK_URI` for ``network='loopback'`` unless it is already set.
+
+    Raises:
+        ValueError: ``network`` is neither ``loopback`` nor ``system``.
+    """
+    if network not in ("loopback", "system"):
+        raise ValueError(f"ros2.network must be 'loopback' or 'system', got {network!r}")
+    if network == "loopback" and not os.environ.get("CYCLONEDDS_URI"):
+        os.environ["CYCLONEDDS_URI"] = LOOPBACK_URI
+
+
+def rclpy_available() -> bool:
+    """Whether ``import rclpy`` works (a sourced ROS 2 install)."""
+    try:
+        importlib.import_module("rclpy")
+        return True
+    except Exception:  # noqa: BLE001 - any failure means no usable rclpy
+        return False
+
+
+class Publisher(abc.ABC):
+    """A publisher on one topic."""
+
+    @abc.abstractmethod
+    def publish(self, msg: Any) -> None:
+        """Send ``msg`` (built with :meth:`Transport.message` for this publisher's type)."""
+
+
+class Transport(abc.ABC):
+    """Publish/subscribe by topic and ROS 2 type name (``pkg/msg/Name``).
+
+    Attributes:
+        name: ``'cyclonedds'`` or ``'rclpy'``.
+        errors: count of callbacks that raised and of samples that could not be decoded.
+    """
+
+    name = "abstract"
+
+    def __init__(self) -> None:
+        self.errors = 0
+        self.last_error = ""
+
+    @abc.abstractmethod
+    def message(self, ros_type: str) -> Any:
+        """A new message of ``ros_type`` with default field values."""
+
+    @abc.abstractmethod
+    def publisher(self, topic: str, ros_type: str, *, latched: bool = False) -> Publisher:
+        """A publisher of ``ros_type`` on ROS 2 topic ``topic`` (e.g. ``/cmd_vel``)."""
+
+    @abc.abstractmethod
+    def subscribe(self, topic: str, ros_type: str, callback: Callable[[Any], None], *, latched: bool = False,
+                  reliable: bool = False) -> Any:
+        """Call ``callback(msg)`` for each message on ``topic``; returns a handle kept alive by the transport."""
+
+    def close(self) -> None:
+        """Release the participant/node."""
+
+    def _guard(self, callback: Callable[[Any], None], msg: Any) -> None:
+        try:
+            callback(msg)
+        except Exception as exc:  # noqa: BLE001 - a bad message must not kill the transport thread
+            self.errors += 1
+            self.last_error = repr(exc)
+            log.debug("callback failed: %r", exc)
+
+
+class _CyclonePublisher(Publisher):
+    def __init__(self, writer: Any, cls: type) -> None:
+        self.writer, self.cls = writer, cls
+
+    def publish(self, msg: Any) -> None:
+        self.writer.write(msg)
+
+
+class CycloneTransport(Transport):
+    """:class:`Transport` over one Cyclone DDS domain participant.
+
+    Args:
+        domain_id: the DDS domain (ROS_DOMAIN_ID), 0..232.
+        network: ``'loopback'`` (default) or ``'system'`` (see the module doc).
+    """
+
+    name = "cyclonedds"
+
+    def __init__(self, domain_id: int = 0, network: str = "loopback") -> None:
+        super().__init__()
+        configure_network(network)
+        from cyclonedds.domain import DomainParticipant
+
+        self.domain_id = int(domain_id)
+        self.participant = DomainParticipant(self.domain_id)
+        self._topics: dict[str, Any] = {}
+        self._keep: list[Any] = []
+        self._lock = threading.Lock()
+
+    def message(self, ros_type: str) -> Any:
+        from benchbot_robot_ros2.msgs import message_class
+
+        return message_class(ros_type)()
+
+    def _topic(self, topic: str, ros_type: str) -> tuple[Any, type]:
+        from cyclonedds.topic import Topic
+
+        from benchbot_robot_ros2.msgs import dds_topic, message_class
+
+        cls = message_class(ros_type)
+        name = dds_topic(topic)
+        with self._lock:
+            if name not in self._topics:
+                self._topics[name] = (Topic(self.participant, name, cls), cls)
+            existing, existing_cls = self._topics[name]
+        if existing_cls is not cls:
+            raise ValueError(f"topic {topic} is already used with type {existing_cls.__name__}, not {ros_type}")
+        return existing, cls
+
+    def publisher(self, topic: str, ros_type: str, *, latched: bool = False) -> Publisher:
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.pub import DataWriter
+
+        dds_topic_obj, cls = self._topic(topic, ros_type)
+        qos = Qos(
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000),
+            Policy.History.KeepLast(1 if latched else 10),
+            Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
+            Policy.DataRepresentation(use_cdrv0_representation=True),
+        )
+        writer = DataWriter(self.participant, dds_topic_obj, qos=qos)
+        self._keep.append(writer)
+        return _CyclonePublisher(writer, cls)
+
+    def subscribe(self, topic: str, ros_type: str, callback: Callable[[Any], None], *, latched: bool = False,
+                  reliable: bool = False) -> Any:
+        from cyclonedds.core import Listener, Policy, Qos
+        from cyclonedds.sub import DataReader
+
+        dds_topic_obj, cls = self._topic(topic, ros_type)
+        transport = self
+
+        def on_data_available(reader: Any) -> None:
+            for _ in range(64):  # bounded: a flood cannot pin this thread
+                try:
+                    samples = reader.take(N=16)
+                except Exception as exc:  # noqa: BLE001 - undecodable sample(s): dropped, counted
+                    transport.errors += 1
+                    transport.last_error = f"cannot decode a {ros_type} on {topic}: {exc!r}"
+                    return
+                if not samples:
+                    return
+                for sample in samples:
+                    if isinstance(sample, cls):
+                        transport._guard(callback, sample)
+
+        policies = [
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000) if (reliable or latched) else Policy.Reliability.BestEffort,
+            Policy.History.KeepLast(10),
+            Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
+            Policy.DataRepresentation(use_cdrv0_representation=True, use_xcdrv2_representation=True),
+        ]
+        reader = DataReader(self.participant, dds_topic_obj, qos=Qos(*policies),
+                            listener=Listener(on_data_available=on_data_available))
+        self._keep.append(reader)
+        on_data_available(reader)  # samples that arrived while the reader was being built (latched topics)
+        return reader
+
+    def close(self) -> None:
+        self._keep.clear()
+        self._topics.clear()
+        self.participant = None
+
+
+class _RclpyPublisher(Publisher):
+    def __init__(self, pub: Any) -> None:
+        self.pub = pub
+
+    def publish(self, msg: Any) -> None:
+        self.pub.publish(msg)
+
+
+class RclpyTransport(Transport):
+    """:class:`Transport` over an ``rclpy`` node (its own context, spun on a daemon thread).
+
+    Args:
+        domain_id: ROS_DOMAIN_ID of the node.
+        network: as for :class:`CycloneTransport` (applies when the RMW is rmw_cyclonedds_cpp).
+
+    Raises:
+        ImportError: rclpy or a message package is not importable.
+    """
+
+    name = "rclpy"
+
+    def __init__(self, domain_id: int = 0, network: str = "loopback") -> None:
+        super().__init__()
+        configure_network(network)
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=int(domain_id))
+        self.node = rclpy.create_node("benchbot_robot_ros2", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name="benchbot-rclpy", daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        while self._rclpy.ok(context=self.context):
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception as exc:  # noqa: BLE001
+                self.errors += 1
+                self.last_error = repr(exc)
+
+    @staticmethod
+    def _cls(ros_type: str) -> type:
+        from benchbot_robot_ros2.naming import normalise_type
+
+        pkg, _, name = normalise_type(ros_type).split("/")
+        return getattr(importlib.import_module(f"{pkg}.msg"), name)
+
+    def message(self, ros_type: str) -> Any:
+        return self._cls(ros_type)()
+
+    def _qos(self, latched: bool, reliable: bool, publisher: bool) -> Any:
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        rel = ReliabilityPolicy.RELIABLE if (publisher or reliable or latched) else ReliabilityPolicy.BEST_EFFORT
+        dur = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1 if (latched and publisher) else 10,
+                          reliability=rel, durability=dur)
+
+    def publisher(self, topic: str, ros_type: str, *, latched: bool = False) -> Publisher:
+        return _RclpyPublisher(self.node.create_publisher(self._cls(ros_type), topic, self._qos(latched, True, True)))
+
+    def subscribe(self, topic: str, ros_type: str, callback: Callable[[Any], None], *, latched: bool = False,
+                  reliable: bool = False) -> Any:
+        return self.node.create_subscription(self._cls(ros_type), topic, lambda m: self._guard(callback, m),
+                                             self._qos(latched, reliable, False))
+
+    def close(self) -> None:
+        try:
+            self.executor.shutdown()
+            self.node.destroy_node()
+            self._rclpy.shutdown(context=self.context)
+        except Exception:  # noqa: BLE001
+            pass
+
+
+def make_transport(kind: str = "auto", domain_id: int = 0, network: str = "loopback") -> Transport:
+    """The transport ``kind``: ``'auto'`` (rclpy when importable, else Cyclone DDS), ``'rclpy'`` or
+    ``'cyclonedds'``.
+
+    Raises:
+        benchbot.core.errors.BackendError: the transport cannot be started (names the missing package).
+    """
+    from benchbot.core.errors import BackendError
+
+    if kind not in ("auto", "rclpy", "cyclonedds"):
+        raise BackendError(f"unknown ROS 2 transport {kind!r}", "use ros2.transport: auto, rclpy or cyclonedds")
+    try:
+        if kind == "rclpy" or (kind == "auto" and rclpy_available()):
+            return RclpyTransport(domain_id, network)
+        return CycloneTransport(domain_id, network)
+    except ImportError as exc:
+        raise BackendError(f"ROS 2 transport {kind!r} cannot start: {exc}",
+                           "source a ROS 2 Jazzy install for rclpy, or install the cyclonedds package") from exc
+    except Exception as exc:  # noqa: BLE001 - DDS configuration errors etc.
+        raise BackendError(f"ROS 2 transport {kind!r} cannot start: {exc!r}",
+                           "check CYCLONEDDS_URI / ROS_DOMAIN_ID (domain ids 0..232)") from exc

@@ -1,0 +1,49 @@
+"""Fixtures of the robot_ros2 tests: DDS confined to loopback, a test-specific ROS domain, a fake ROS 2 robot and
+the simulator served over ROS 2 in a subprocess (Taichi is one thread per process)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from benchbot_robot_ros2.transport import LOOPBACK_URI
+
+os.environ.setdefault("CYCLONEDDS_URI", LOOPBACK_URI)
+_BASE_DOMAIN = 100 + (os.getpid() % 50) * 2  # per test process: no cross-talk with other runs
+
+
+@pytest.fixture(scope="session")
+def domain_id() -> int:
+    return _BASE_DOMAIN
+
+
+@pytest.fixture()
+def transport(domain_id):
+    from benchbot_robot_ros2.transport import CycloneTransport
+
+    tr = CycloneTransport(domain_id, "loopback")
+    yield tr
+    tr.close()
+
+
+@pytest.fixture(scope="module")
+def sim_bridge(domain_id):
+    """``benchbot_robot_ros2.sim_bridge`` serving miniroom (64×48 camera, 4× real time) in a subprocess, on
+    ``domain_id + 1``; yields that domain id."""
+    dom = domain_id + 1
+    env = dict(os.environ, ROS_DOMAIN_ID=str(dom), CYCLONEDDS_URI=os.environ["CYCLONEDDS_URI"])
+    log = open(Path(os.environ.get("TMPDIR", "/tmp")) / f"benchbot_bridge_{dom}.log", "w")
+    proc = subprocess.Popen([sys.executable, "-m", "benchbot_robot_ros2.sim_bridge", "--env", "miniroom:4",
+                             "--camera-size", "64x48", "--time-scale", "4", "--transport", "cyclonedds"],
+                            env=env, stdout=log, stderr=subprocess.STDOUT)
+    yield dom
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+    log.close()
