@@ -14,7 +14,7 @@ from benchbot.core.hookspecs import hookimpl
 from benchbot.core.registry import Registry, schema_dir
 
 EXPECTED = {
-    "tasks": 6, "formats": 3, "evaluators": 1, "robots": 1, "environments": 10, "ground_truths": 10, "batches": 7,
+    "tasks": 6, "formats": 3, "evaluators": 1, "robots": 3, "environments": 10, "ground_truths": 10, "batches": 7,
 }
 
 

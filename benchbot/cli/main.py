@@ -6,7 +6,10 @@ from __future__ import annotations
 import typer
 
 from benchbot import __version__
-from benchbot.cli import batch_cmd, eval_cmd, list_cmd, report_cmd, run_cmd, show_cmd, submit_cmd
+from benchbot.cli import (
+    batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, list_cmd, plugin_cmd, report_cmd, run_cmd, show_cmd, submit_cmd,
+)
+from benchbot.cli import replay_cmd, tui_cmd
 
 HELP = """BenchBot: benchmark robotics research on simulated and real robots.
 
@@ -22,7 +25,7 @@ See `benchbot list tasks|robots|environments|...` for what is installed.
 """
 
 app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich")
-for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd):
+for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd):
     module.register(app)
 
 

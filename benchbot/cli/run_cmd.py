@@ -1,14 +1,18 @@
-"""``benchbot run``: serve one task/robot/environment on 127.0.0.1 until Ctrl-C."""
+"""``benchbot run``: serve one task/robot/environment on 127.0.0.1 (by default) until Ctrl-C, episode after
+episode: each new client's start resets the episode."""
 
 from __future__ import annotations
 
+import secrets
 import threading
+from pathlib import Path
 from typing import Optional
 
 import typer
 
 from benchbot.cli.common import backend_options, err, handle_errors, registry
-from benchbot.core.server import ServerThread, build_app
+from benchbot.core.errors import UsageError
+from benchbot.core.server import DEFAULT_ACTION_TIMEOUT_S, ServerThread, build_app, is_loopback
 from benchbot.core.session import resolve_run, start_service
 
 DEFAULT_TASK = "semantic_slam:passive:ground_truth"
@@ -22,23 +26,47 @@ def register(app: typer.Typer) -> None:
         env: str = typer.Option(..., "--env", "--environment", "-e", help="Environment, e.g. miniroom:1 (scene change detection: miniroom:1:2)."),
         task: str = typer.Option(DEFAULT_TASK, "--task", "-t", help="Task name (`benchbot list tasks`)."),
         robot: str = typer.Option(DEFAULT_ROBOT, "--robot", "-r", help="Robot name (`benchbot list robots`)."),
-        port: int = typer.Option(10000, "--port", "-p", min=0, max=65535, help="TCP port on 127.0.0.1 (0: any free port)."),
+        port: int = typer.Option(10000, "--port", "-p", min=0, max=65535, help="TCP port (0: any free port)."),
+        host: str = typer.Option("127.0.0.1", "--host", help="Bind address. Anything but loopback requires a token (--token, else one is generated and printed)."),
+        token: Optional[str] = typer.Option(None, "--token", envvar="BENCHBOT_TOKEN", help="Clients must send it (X-BenchBot-Token header; BENCHBOT_TOKEN for the API)."),
+        action_timeout: float = typer.Option(DEFAULT_ACTION_TIMEOUT_S, "--action-timeout", min=0.1, help="Seconds after which an action answers 504 (the episode stays usable)."),
         seed: int = typer.Option(0, "--seed", help="Seed of the scene and of sensor/odometry noise."),
         arch: str = typer.Option("cpu", "--arch", help="Simulator device: cpu or gpu."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
+        record: Optional[Path] = typer.Option(None, "--record", help="Record the episode as MCAP (ROS 2 messages) to this file; `benchbot replay` serves it."),
+        tui: Optional[bool] = typer.Option(None, "--tui/--no-tui", help="Live view (state, pose, camera preview, log); default: when stderr is a terminal."),
     ) -> None:
         """Start a backend for one task, robot and environment on 127.0.0.1, validating the combination first.
 
         A solution then connects with `benchbot submit` (or BenchBot(supervisor_address=...)). Ctrl-C stops it.
         """
+        if token is not None and not token.strip():
+            raise UsageError("--token is empty", "give a non-empty token or leave it out")
+        if not is_loopback(host) and not token:
+            token = secrets.token_urlsafe(24)
+            err.print(f"serving beyond loopback: clients must send the token [bold]{token}[/] (export BENCHBOT_TOKEN={token})")
         reg = registry()
         spec = resolve_run(reg, task, robot, env)
         err.print(f"task {task} | robot {robot} | environment {env} | results format {spec.task.get('results_format') or 'none'}")
         service = start_service(reg, spec, seed=seed, options=backend_options(arch, camera_size))
-        server = ServerThread(build_app(service), port=port).start()
-        err.print(f"[green]backend ready[/] at {server.address}  (BENCHBOT_SUPERVISOR_ADDRESS={server.address}); Ctrl-C stops it")
         try:
-            threading.Event().wait()
+            server = ServerThread(build_app(service, token=token, action_timeout_s=action_timeout), host=host, port=port).start()
+        except BaseException:
+            service.close()
+            raise
+        err.print(f"[green]backend ready[/] at {server.address}  (BENCHBOT_SUPERVISOR_ADDRESS={server.address}); Ctrl-C stops it")
+        from benchbot.tui.run_support import RunObservers
+
+        try:
+            observers = RunObservers(reg, service, spec, record=record, tui=tui, seed=seed,
+                                     options=backend_options(arch, camera_size), address=server.address)
+        except BaseException:
+            server.stop()
+            service.close()
+            raise
+        try:
+            observers.wait()  # the live view in the foreground, or until Ctrl-C
         finally:
+            observers.close()  # finishes the recording
             server.stop()
             service.close()

@@ -41,22 +41,56 @@ SUCCESS, FINISHED, COLLISION = "SUCCESS", "FINISHED", "COLLISION"
 
 
 class OdometryNoise:
-    """Zero-mean, seeded multiplicative noise on each motion's SE(2) increment (dead-reckoning tasks).
+    """Seeded multiplicative noise on each motion's SE(2) increment (dead-reckoning tasks).
 
-    Each motion's increment (dx, dy, dyaw) in the robot frame becomes (dx·(1+n₁), dy·(1+n₁), dyaw·(1+n₂)) with
-    nᵢ ~ Normal(0, σ) drawn from ``numpy.random.default_rng(seed)``; σ defaults to the original's 0.1 (reference
-    §5.6), whose noise had mean +σ (a bias this model removes).
+    Two models (task or robot spec field ``odometry_noise``, default ``zero_mean``):
+
+    * ``zero_mean``: the increment (dx, dy, dyaw) in the robot frame becomes (dx·(1+n₁), dy·(1+n₁), dyaw·(1+n₂))
+      with nᵢ ~ Normal(0, σ).
+    * ``original``: the original BenchBot's ``noisify_odom`` (reference §5.6): the forward speed and the turn rate
+      are scaled by (1+n₁), (1+n₂) with nᵢ ~ Normal(**mean = σ**, std = σ) — a positive bias: on average the robot
+      "thinks it went 10 % further" — and sideways motion is ignored (dy = 0 before the increment is re-integrated
+      as a constant-(v, ω) arc).
+
+    nᵢ are drawn from ``numpy.random.default_rng(seed)``; σ defaults to the original's 0.1 on both.
+
+    Raises:
+        ValueError: an unknown model.
     """
 
-    def __init__(self, seed: int, sigma_linear: float = 0.1, sigma_angular: float = 0.1) -> None:
+    MODELS = ("zero_mean", "original")
+
+    def __init__(self, seed: int, sigma_linear: float = 0.1, sigma_angular: float = 0.1,
+                 model: str = "zero_mean") -> None:
+        if model not in self.MODELS:
+            raise ValueError(f"unknown odometry_noise model {model!r}: use one of {self.MODELS}")
         self.rng = np.random.default_rng(seed)
         self.sigma_linear, self.sigma_angular = sigma_linear, sigma_angular
+        self.model = model
 
     def apply(self, increment: np.ndarray) -> np.ndarray:
         """The noisy version of ``increment`` (3,) ``[dx m, dy m, dyaw rad]`` (robot frame)."""
+        if self.model == "original":
+            n_lin = self.rng.normal(self.sigma_linear, self.sigma_linear)
+            n_ang = self.rng.normal(self.sigma_angular, self.sigma_angular)
+            dx, dyaw = float(increment[0]) * (1 + n_lin), float(increment[2]) * (1 + n_ang)
+            # integrate translate(v·dt) · rotZ(ω·dt) in small steps as the original node does at its odometry rate
+            steps = 20
+            x = y = th = 0.0
+            for _ in range(steps):
+                x += dx / steps * np.cos(th)
+                y += dx / steps * np.sin(th)
+                th += dyaw / steps
+            return np.array([x, y, dyaw])
         n_lin = self.rng.normal(0.0, self.sigma_linear)
         n_ang = self.rng.normal(0.0, self.sigma_angular)
         return np.array([increment[0] * (1 + n_lin), increment[1] * (1 + n_lin), increment[2] * (1 + n_ang)])
+
+
+def odometry_noise_model(task: dict, robot: dict) -> str:
+    """The odometry noise model named by the task's, else the robot's, ``odometry_noise`` field (default
+    ``zero_mean``)."""
+    return str((task or {}).get("odometry_noise") or (robot or {}).get("odometry_noise") or "zero_mean")
 
 
 class Episode:
@@ -106,7 +140,7 @@ class Episode:
         self.dirty = False
         self.initial_pose: np.ndarray | None = None
         self.odometry = self.backend.base_pose()  # the estimate reported in noisy localisation
-        self.noise = OdometryNoise(self.seed * 1000 + scene_index)
+        self.noise = OdometryNoise(self.seed * 1000 + scene_index, model=odometry_noise_model(self.task, self.robot))
         self.running = True
 
     @property

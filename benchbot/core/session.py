@@ -1,8 +1,9 @@
 """Resolving and starting a run: task + robot + environment(s) → a validated combination → a backend service.
 
 Validation follows the original ``benchbot_run`` (reference §1.2), in order, with its unchecked cases checked:
-the robot exists; the task exists; the task's results format exists; every scene exists; the robot's type equals
-every scene's type; a plugin provides a backend for that type (the original's check never failed); the number of
+the robot exists; the task exists; the task's results format exists; every scene exists; every scene's type is one
+the robot works in (its ``environment_types``, by default just its own ``type``: a ROS 2 robot bridged to the
+simulator lists ``sim_taichi``); a plugin provides a backend for that type (the original's check never failed); the number of
 scenes equals the task's ``scene_count``; the robot offers every action and observation of the task (§3).
 """
 
@@ -45,12 +46,13 @@ def resolve_run(registry: Registry, task_name: str, robot_name: str, env_string:
     task = registry.get("tasks", task_name)
     results_format = registry.get("formats", task["results_format"]) if task.get("results_format") else {}
     environments = registry.scenes(env_string)
+    serves = robot.get("environment_types", [robot["type"]])
     for env in environments:
-        if env["type"] != robot["type"]:
+        if env["type"] not in serves:
             raise SpecError(
-                f"robot '{robot_name}' is of type '{robot['type']}' but environment {env['name']}:{env['variant']} "
-                f"is of type '{env['type']}'",
-                "choose a robot of the environment's type (`benchbot list robots`)",
+                f"robot '{robot_name}' works in environments of type {', '.join(serves)} but environment "
+                f"{env['name']}:{env['variant']} is of type '{env['type']}'",
+                "choose a robot for the environment's type (`benchbot list robots`)",
             )
     registry.backend_factory(robot["type"])
     scene_count = task.get("scene_count", 1)
