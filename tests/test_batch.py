@@ -106,3 +106,34 @@ def test_ray_executor_gives_the_same_results_as_local(tmp_path):
     assert outcomes["local"] == outcomes["ray"]
     assert outcomes["local"][0][3] == 33  # the whole miniroom:4 trajectory
     assert outcomes["local_results"] == outcomes["ray_results"]
+
+
+def _engine_works() -> str | None:
+    from benchbot.core.errors import UsageError as _UsageError
+    from benchbot.core.submission import container_engine
+
+    try:
+        container_engine()
+        return None
+    except _UsageError as exc:
+        return exc.message
+
+
+def test_containerised_batch_needs_a_dockerfile_and_an_engine(tmp_path):
+    proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1")
+    assert proc.returncode == 2 and "no Dockerfile at" in proc.stderr
+    (tmp_path / "Dockerfile").write_text("FROM python:3.11-slim\n")
+    reason = _engine_works()
+    if reason is None:
+        pytest.skip("an engine works here: the real container run below covers it")
+    proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1")
+    assert proc.returncode == 2 and proc.stderr.startswith("error: ") and "engine" in proc.stderr
+
+
+@pytest.mark.skipif(_engine_works() is not None, reason=f"no working container engine: {_engine_works()}")
+def test_containerised_batch_runs_a_container(tmp_path):
+    (tmp_path / "Dockerfile").write_text(
+        "FROM python:3.11-slim\nCMD [\"python\", \"-c\", \"open('/tmp/benchbot_result', 'w').write('{}')\"]\n")
+    proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1", "--no-evaluate",
+               "--output-dir", str(tmp_path / "runs"), *SMALL, timeout=900)
+    assert proc.returncode == 0, proc.stderr

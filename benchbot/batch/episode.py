@@ -15,7 +15,7 @@ from benchbot.core.errors import BenchbotError
 from benchbot.core.registry import get_registry
 from benchbot.core.server import ServerThread, build_app
 from benchbot.core.session import resolve_run, start_service
-from benchbot.core.submission import Submission, run_submission
+from benchbot.core.submission import Submission, run_container_submission, run_submission
 
 
 def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
@@ -53,11 +53,19 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
             server = ServerThread(build_app(service)).start()
             try:
                 with open(run / spec.log, "w") as log:
-                    submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
-                    record.returncode = run_submission(
-                        submission, address=server.address, result_location=run / spec.results, log=log,
-                        timeout_s=spec.timeout_s,
-                    )
+                    if spec.container:
+                        c = spec.container
+                        record.returncode = run_container_submission(
+                            c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=server.address,
+                            result_location=run / spec.results, args=c.get("args", ""),
+                            name_suffix=f"_{spec.index}", log=log,
+                        )
+                    else:
+                        submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
+                        record.returncode = run_submission(
+                            submission, address=server.address, result_location=run / spec.results, log=log,
+                            timeout_s=spec.timeout_s,
+                        )
             finally:
                 server.stop()
             state = service.call(service.episode.state)

@@ -9,6 +9,7 @@ backend on a free loopback port). ``ray``: episodes are Ray tasks on a local or 
 from __future__ import annotations
 
 import multiprocessing
+import os
 import queue
 import threading
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -90,7 +91,11 @@ def run_ray(
     started_here = not ray.is_initialized()
     if started_here:
         kwargs = {"address": address} if address else {"num_cpus": workers}
-        ray.init(include_dashboard=False, log_to_driver=False, configure_logging=False, **kwargs)
+        # Ray's workers do not inherit this process's environment: pass BenchBot's settings (plugins to load or
+        # skip, data directory, Taichi arch) so every episode sees the same registry as a local run would.
+        env_vars = {k: v for k, v in os.environ.items() if k.startswith(("BENCHBOT_", "TI_", "CYCLONEDDS_"))}
+        ray.init(include_dashboard=False, log_to_driver=False, configure_logging=False,
+                 runtime_env={"env_vars": env_vars}, **kwargs)
     stop = threading.Event()
     events = Queue()
     drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)

@@ -29,6 +29,7 @@ class EpisodeSpec:
         timeout_s: kill the submission after this long (None: never).
         results, log: paths relative to the run directory.
         record: also record the episode as MCAP to ``recordings/NNN_<env>.mcap`` (:attr:`recording`).
+        container: for containerised solutions, ``{engine, dockerfile, context, args}`` (``argv`` is then unused).
     """
 
     index: int
@@ -44,6 +45,7 @@ class EpisodeSpec:
     results: str = ""
     log: str = ""
     record: bool = False
+    container: dict | None = None
 
     @property
     def recording(self) -> str:
@@ -86,7 +88,7 @@ def slug(text: str) -> str:
 
 def plan_episodes(
     *, task: str, robots: list[str], envs: list[str], repeat: int, seed: int, argv: list[str], cwd: str,
-    options: dict, timeout_s: float | None, record: bool = False,
+    options: dict, timeout_s: float | None, record: bool = False, container: dict | None = None,
 ) -> list[EpisodeSpec]:
     """Episodes for every robot × environment × repetition (in that nesting order); episode ``i`` gets seed
     ``seed + i``. ``record``: every episode is recorded as MCAP.
@@ -107,7 +109,7 @@ def plan_episodes(
                 specs.append(EpisodeSpec(
                     index=i, task=task, robot=robot, env=env, repeat=r, seed=seed + i, argv=argv, cwd=cwd,
                     options=options, timeout_s=timeout_s, results=f"results/{name}.json", log=f"logs/{name}.log",
-                    record=record,
+                    record=record, container=container,
                 ))
     return specs
 

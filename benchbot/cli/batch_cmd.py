@@ -18,7 +18,7 @@ from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, UsageError
-from benchbot.core.submission import example_submission, native_submission
+from benchbot.core.submission import container_engine, container_files, example_submission, native_submission
 
 
 def register(app: typer.Typer) -> None:
@@ -32,6 +32,8 @@ def register(app: typer.Typer) -> None:
         robots: Optional[str] = typer.Option(None, "--robots", help="Comma list of robots to sweep (instead of --robot)."),
         native: Optional[str] = typer.Option(None, "--native", "-n", help="A command to run as the solution, e.g. 'python my.py'."),
         example: Optional[str] = typer.Option(None, "--example", help="An installed example as the solution (`benchbot list examples`)."),
+        containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman as the solution."),
+        example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the --example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the solution's command."),
         repeat: int = typer.Option(1, "--repeat", help="Run every (robot, environment) this many times, each with its own recorded seed."),
         workers: int = typer.Option(1, "--workers", "-w", help="Episodes run in parallel (each in its own process with its own backend)."),
@@ -65,14 +67,25 @@ def register(app: typer.Typer) -> None:
             done = sum(r.status == "ok" for r in records)
             err.print(f"resuming {run_dir}: {done} of {len(specs)} episodes already done")
         else:
-            if bool(native) == bool(example):
-                raise UsageError("give exactly one of --native COMMAND and --example NAME", "e.g. --example semslam_geometric")
+            modes = [m for m, on in (("--native", native), ("--example", example), ("--containerised", containerised)) if on]
+            if len(modes) != 1:
+                raise UsageError("give exactly one of --native COMMAND, --example NAME and --containerised DIR",
+                                 "e.g. --example semslam_geometric")
+            if example_containerised and not example:
+                raise UsageError("--example-containerised needs --example NAME", "")
             env_list = parse_env_list(envs, envs_batch, reg)
             robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
-            submission = example_submission(reg, example, args) if example else native_submission([native], args)
+            container = None
+            if containerised is not None or example_containerised:
+                dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
+                container = {"engine": container_engine(), "dockerfile": str(dockerfile), "context": str(context), "args": args}
+                submission = native_submission(["true"])  # unused: the container runs instead
+            else:
+                submission = example_submission(reg, example, args) if example else native_submission([native], args)
             specs = plan_episodes(
                 task=task, robots=robot_list, envs=env_list, repeat=repeat, seed=seed, argv=submission.argv,
-                cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout, record=record,
+                cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout,
+                container=container, record=record,
             )
             run_dir = new_run_dir(output_dir, prefix)
             prepare_batch(reg, run_dir=run_dir, specs=specs, evaluate_with=None if no_evaluate else evaluate_with,

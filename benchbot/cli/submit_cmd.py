@@ -18,6 +18,7 @@ from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
 from benchbot.core.submission import (
     container_engine,
+    container_files,
     example_submission,
     make_submission_archive,
     native_submission,
@@ -37,14 +38,6 @@ def _run_info(address: str) -> dict:
         return reply.json() if reply.status_code == 200 else {}
     except (httpx.HTTPError, ValueError):
         return {}
-
-
-def _dockerfile(path: Path) -> tuple[Path, Path]:
-    """(Dockerfile, build context) of ``--containerised PATH`` (a folder means ``PATH/Dockerfile``)."""
-    dockerfile = path / "Dockerfile" if path.is_dir() else path
-    if not dockerfile.is_file():
-        raise UsageError(f"--containerised: no Dockerfile at {dockerfile}", "give a folder holding a Dockerfile, or the file")
-    return dockerfile, dockerfile.parent
 
 
 def register(app: typer.Typer) -> None:
@@ -101,16 +94,7 @@ def register(app: typer.Typer) -> None:
         with tempfile.TemporaryDirectory(prefix="benchbot-submit-") as tmp:
             result = Path(tmp) / "result.json"
             if containerised is not None or example_containerised:
-                if example:
-                    entry = reg.entry("examples", example)
-                    base = entry.path.parent if entry.path else Path.cwd()
-                    spec = entry.spec
-                    context = base / spec.get("container_directory", ".")
-                    dockerfile = base / spec["container_filename"] if spec.get("container_filename") else context / "Dockerfile"
-                    if not dockerfile.is_file():
-                        raise UsageError(f"example '{example}' has no Dockerfile ({dockerfile})", "run it natively: drop --example-containerised")
-                else:
-                    dockerfile, context = _dockerfile(containerised)  # type: ignore[arg-type]
+                dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
                 engine = container_engine()
                 err.print(f"building and running {dockerfile} with {engine} against {address}")
                 code = run_container_submission(engine, dockerfile, context, address=address, result_location=result,

@@ -9,7 +9,7 @@ import textwrap
 from benchbot.core import hookspecs
 
 SECTIONS = ("Returns:", "Called:", "Call policy:")
-"""Sections every hookspec docstring has (Google style), plus ``Args:`` naming each parameter as ````name``\`\`."""
+"""Sections every hookspec docstring has (Google style), plus ``Args:`` naming each parameter in double backticks."""
 
 
 def hooks() -> list[tuple[type, str, object]]:

@@ -127,6 +127,29 @@ def container_engine() -> str:
                      "start the engine (e.g. `sudo systemctl start docker`) or use --native")
 
 
+def container_files(registry: Registry, *, path: Path | None = None, example: str | None = None) -> tuple[Path, Path]:
+    """(Dockerfile, build context) of ``--containerised PATH`` (a folder means ``PATH/Dockerfile``; the context is
+    the Dockerfile's folder) or of an example's ``container_directory``/``container_filename`` (reference §1.3).
+
+    Raises:
+        UsageError: no Dockerfile there. SpecError: unknown example.
+    """
+    if example is not None:
+        entry = registry.entry("examples", example)
+        base = entry.path.parent if entry.path else Path.cwd()
+        context = base / entry.spec.get("container_directory", ".")
+        name = entry.spec.get("container_filename")
+        dockerfile = base / name if name else context / "Dockerfile"
+        if not dockerfile.is_file():
+            raise UsageError(f"example '{example}' has no Dockerfile ({dockerfile})", "run it natively instead")
+        return dockerfile, context
+    assert path is not None
+    dockerfile = path / "Dockerfile" if path.is_dir() else path
+    if not dockerfile.is_file():
+        raise UsageError(f"--containerised: no Dockerfile at {dockerfile}", "give a folder holding a Dockerfile, or the file")
+    return dockerfile.resolve(), dockerfile.parent.resolve()
+
+
 def container_image_tag(directory: Path) -> str:
     """``benchbot/submission:<first 10 hex of sha256(directory)>`` (the original hashed ``$PWD``)."""
     import hashlib
@@ -143,28 +166,31 @@ def run_container_submission(
     result_location: Path,
     args: str = "",
     token: str | None = None,
+    name_suffix: str = "",
+    log: IO[str] | None = None,
 ) -> int:
     """Build ``dockerfile`` with build context ``context`` (the submission's folder, not the current one as in the
     original), run it on the host network with ``BENCHBOT_SUPERVISOR_ADDRESS``, ``BENCHBOT_RESULT_LOCATION``
     (``/tmp/benchbot_result`` inside) and ``args`` set, and copy the results out to ``result_location``.
     ``benchbot_supervisor`` resolves to the host (``--add-host benchbot_supervisor:host-gateway``) for original
-    clients. Returns the container's exit status (a failed build returns the build's).
+    clients. ``name_suffix`` keeps parallel containers apart; ``log`` receives the build's and the container's
+    output. Returns the container's exit status (a failed build returns the build's).
     """
     tag = container_image_tag(context)
-    build = subprocess.run([engine, "build", "-f", str(dockerfile), "-t", tag, str(context)])
+    output = {"stdout": log, "stderr": subprocess.STDOUT} if log is not None else {}
+    build = subprocess.run([engine, "build", "-f", str(dockerfile), "-t", tag, str(context)], **output)
     if build.returncode != 0:
         return build.returncode
-    name = "benchbot_submission_" + tag.rsplit(":", 1)[1]
+    name = "benchbot_submission_" + tag.rsplit(":", 1)[1] + name_suffix
     subprocess.run([engine, "rm", "-f", name], capture_output=True)
     env = ["-e", f"BENCHBOT_SUPERVISOR_ADDRESS={address}", "-e", "BENCHBOT_RESULT_LOCATION=/tmp/benchbot_result",
            "-e", f"args={args}"]
     if token:
         env += ["-e", f"BENCHBOT_TOKEN={token}"]
     run = subprocess.run([engine, "run", "--network", "host", "--add-host", "benchbot_supervisor:host-gateway",
-                          "--name", name, "--hostname", "benchbot_submission", *env, tag])
-    copy = subprocess.run([engine, "cp", f"{name}:/tmp/benchbot_result", str(result_location)], capture_output=True)
-    if copy.returncode != 0 and not result_location.exists():
-        pass  # the caller reports missing results
+                          "--name", name, "--hostname", "benchbot_submission", *env, tag], **output)
+    # results are optional here: the caller reports a submission that saved none
+    subprocess.run([engine, "cp", f"{name}:/tmp/benchbot_result", str(result_location)], capture_output=True)
     subprocess.run([engine, "rm", "-f", name], capture_output=True)
     return run.returncode
 
