@@ -21,12 +21,17 @@ towards the light's centre.
 
 
 
+import contextlib
 import math
 import os
+import sys
 import warnings
 
 import numpy as np
-import taichi as ti
+
+# Taichi prints its banner on stdout; stdout carries our programs' data (tables, --json), so it goes to stderr.
+with contextlib.redirect_stdout(sys.stderr):
+    import taichi as ti
 
 #: Tiny direction component substituted for zero before inverting (avoids 0·inf).
 DIR_EPS = 1e-12
@@ -72,22 +77,26 @@ def ensure_taichi(arch: str | None = None) -> str:
             warnings.warn(f"Taichi is already initialised on {_INIT_ARCH}; ignoring the request for {want}",
                           RuntimeWarning, stacklevel=2)
         return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
+    with contextlib.redirect_stdout(sys.stderr):  # "[Taichi] Starting on arch=..." is printed on stdout
+        _INIT_ARCH = _init(want)
+    return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
+
+
+def _init(want: str) -> str:
+    """``ti.init`` for ``want`` (``cpu``/``gpu``/``cuda``); returns ``cpu``, ``cuda`` or ``cpu-fallback``."""
     if want == "cpu":
         ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN)
-        _INIT_ARCH = "cpu"
-    else:
-        try:
-            ti.init(arch=ti.cuda, default_fp=ti.f32, offline_cache=True, log_level=ti.ERROR)
-            got = ti.lang.impl.current_cfg().arch
-        except Exception:  # noqa: BLE001 - any CUDA failure means CPU
-            got = None
-        if got == ti.cuda:
-            _INIT_ARCH = "cuda"
-        else:
-            warnings.warn("CUDA is not available to Taichi; rendering on the CPU", RuntimeWarning, stacklevel=2)
-            ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN)
-            _INIT_ARCH = "cpu-fallback"
-    return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
+        return "cpu"
+    try:
+        ti.init(arch=ti.cuda, default_fp=ti.f32, offline_cache=True, log_level=ti.ERROR)
+        got = ti.lang.impl.current_cfg().arch
+    except Exception:  # noqa: BLE001 - any CUDA failure means CPU
+        got = None
+    if got == ti.cuda:
+        return "cuda"
+    warnings.warn("CUDA is not available to Taichi; rendering on the CPU", RuntimeWarning, stacklevel=3)
+    ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN)
+    return "cpu-fallback"
 
 
 def intrinsics(width: int, height: int, horizontal_fov_deg: float) -> np.ndarray:
