@@ -83,6 +83,9 @@ def run_ray(
     Raises:
         UsageError: Ray is not installed.
     """
+    # Under `uv run`, Ray would copy the working directory and run workers from that copy (paths in specs and
+    # results would differ from a local run); workers use the installed BenchBot instead. Ray reads this at import.
+    os.environ["RAY_ENABLE_UV_RUN_RUNTIME_ENV"] = "0"
     try:
         import ray
         from ray.util.queue import Queue
@@ -94,9 +97,6 @@ def run_ray(
         # Ray's workers do not inherit this process's environment: pass BenchBot's settings (plugins to load or
         # skip, data directory, Taichi arch) so every episode sees the same registry as a local run would.
         env_vars = {k: v for k, v in os.environ.items() if k.startswith(("BENCHBOT_", "TI_", "CYCLONEDDS_"))}
-        # Under `uv run`, Ray would copy the working directory and run workers from that copy (paths in specs
-        # and results would differ from a local run); workers use the installed BenchBot instead.
-        os.environ["RAY_ENABLE_UV_RUN_RUNTIME_ENV"] = "0"
         ray.init(include_dashboard=False, log_to_driver=False, configure_logging=False,
                  runtime_env={"env_vars": env_vars}, **kwargs)
     stop = threading.Event()
