@@ -12,7 +12,7 @@ from __future__ import annotations
 import contextlib
 import sys
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 from benchbot.core.episode import Episode
 from benchbot.core.errors import SpecError
@@ -79,15 +79,19 @@ def start_service(
     seed: int = 0,
     options: dict | None = None,
     on_step: Callable[[dict], None] | None = None,
+    factory: Callable[[dict, dict], Any] | None = None,
 ) -> BackendService:
     """Build the robot backend and the episode on the backend worker thread.
+
+    ``factory(robot_spec, options)`` builds the backend; by default the one registered for the robot's ``type``
+    (the replay of a recording passes its own).
 
     Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``.
 
     Raises:
         SpecError, BackendError: the backend or the first scene cannot be built.
     """
-    factory = registry.backend_factory(run.robot["type"])
+    factory = factory or registry.backend_factory(run.robot["type"])
     hook = registry.plugin_manager.hook
 
     def step_observer(info: dict) -> None:

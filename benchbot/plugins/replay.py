@@ -224,31 +224,14 @@ def start_replay_service(path: Path | str, registry: Any = None, *, on_step: Any
     Raises:
         RecordingError: the file cannot be replayed. SpecError: its results format is not installed.
     """
-    from benchbot.core.episode import Episode
     from benchbot.core.registry import get_registry
-    from benchbot.core.server import BackendService
-    from benchbot.core.session import RunSpec
+    from benchbot.core.session import RunSpec, start_service
 
     recording = Recording(path)
     registry = registry or get_registry()
     run = recording.run
     spec = RunSpec(run["task"], run["robot"], run["environments"], run.get("results_format") or {},
-                   run.get("env_string") or ":".join([run["environments"][0]["name"]] + [e["variant"] for e in run["environments"]]))
-    hook = registry.plugin_manager.hook
-
-    def step_observer(info: dict) -> None:
-        hook.benchbot_step(info=info)
-        if on_step is not None:
-            on_step(info)
-
-    def build() -> Episode:
-        backend = ReplayBackend(recording, spec.robot)
-        episode = Episode(spec.task, spec.robot, spec.environments, backend, results_format=spec.results_format,
-                          seed=int(run.get("seed", 0)), on_step=step_observer)
-        hook.benchbot_episode_started(info={"task": spec.task["name"], "robot": spec.robot["name"],
-                                            "environments": [f"{e['name']}:{e['variant']}" for e in spec.environments]})
-        return episode
-
-    fmt = spec.task.get("results_format")
-    functions = registry.functions("formats", fmt) if fmt else {}
-    return BackendService(build, functions), spec
+                   run.get("env_string") or ":".join([run["environments"][0]["name"]] + [str(e["variant"]) for e in run["environments"]]))
+    service = start_service(registry, spec, seed=int(run.get("seed", 0)), on_step=on_step,
+                            factory=lambda robot, options: ReplayBackend(recording, robot))
+    return service, spec
