@@ -112,11 +112,11 @@ def prepare_batch(
         SpecError: a combination is invalid (nothing has run yet) or the named method does not exist.
     """
     runs = {(s.robot, s.env): resolve_run(registry, s.task, s.robot, s.env) for s in specs}
+    first = next(iter(runs.values()))
     if evaluate_with == "auto":
-        evaluate_with = default_evaluator(registry, next(iter(runs.values())))
+        evaluate_with = default_evaluator(registry, first)
     elif evaluate_with is not None:
         registry.get("evaluators", evaluate_with)
-    first = next(iter(runs.values()))
     atomic.write_json(run_dir / "config.json", {
         "task": first.task,
         "robots": {robot: registry.get("robots", robot) for robot, _ in runs},

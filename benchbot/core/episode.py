@@ -223,9 +223,6 @@ class Episode:
         if self.initial_pose is None and not self.dirty:
             self.initial_pose = se2_to_matrix(*self.backend.base_pose())
 
-    def _control_pose(self) -> np.ndarray:
-        return self.backend.base_pose() if self.localisation != "noisy" else self.odometry
-
     def act(self, action: str, args: dict | None = None) -> str:
         """Perform ``action`` with ``args`` and return the result (``SUCCESS``/``FINISHED``/``COLLISION``).
 
@@ -248,7 +245,8 @@ class Episode:
         if action not in ACTIONS:
             raise ActionError(f"action '{action}' is not supported by this robot", f"supported: {', '.join(ACTIONS)}")
         self._capture_initial_pose()
-        current = self._control_pose()
+        before = self.backend.base_pose()
+        current = before if self.localisation != "noisy" else self.odometry  # the pose the robot steers by
         if action == "move_next":
             trajectory = self.environment.get("trajectory_poses") or []
             if not trajectory:
@@ -265,7 +263,6 @@ class Episode:
                 raise ActionError(f"{action}: '{key}' must be a finite number, got {value!r}", f"e.g. {{'{key}': 0.5}}")
             delta = np.array([value, 0.0, 0.0]) if key == "distance" else np.array([0.0, 0.0, value * unit])
             goal = se2_compose(current, delta)
-        before = self.backend.base_pose()
         # In noisy localisation the robot steers by its estimate: the motion it makes is the one that would take
         # the estimate to the goal, applied from where it really is.
         truth_goal = goal if self.localisation != "noisy" else se2_compose(before, se2_relative(current, goal))

@@ -48,18 +48,10 @@ def load_results(path: Path | str) -> list[LoadedResult]:
     Raises:
         ResultsError: the file is missing or unreadable, or a member is not valid JSON.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ResultsError(f"{path}: no such results file", "check the path")
-    if zipfile.is_zipfile(path):
-        out = []
-        with zipfile.ZipFile(path) as archive:
-            for member in archive.namelist():
-                if member.endswith("/") or Path(member).name == "submission.json":
-                    continue
-                out.append(LoadedResult(f"{path}:{member}", _parse(f"{path}:{member}", archive.read(member))))
-        return out
-    return [LoadedResult(str(path), _parse(str(path), path.read_bytes()))]
+    results, errors = load_all([path])
+    if errors:
+        raise errors[0][1]
+    return results
 
 
 def validate_result(result: LoadedResult, registry: Registry) -> None:
@@ -86,6 +78,13 @@ def validate_result(result: LoadedResult, registry: Registry) -> None:
             raise ResultsError(f"{result.source}: results.{exc.message}", exc.hint) from None
 
 
+def _check_exist(paths: list[Path | str]) -> None:
+    """Raise ResultsError for the first path that is not a file (checked before anything is read)."""
+    for path in paths:
+        if not Path(path).is_file():
+            raise ResultsError(f"{path}: no such results file", "check the path")
+
+
 PerFileError = tuple[str, BenchbotError]
 """``(source, error)`` of a results file (or archive member) that could not be loaded, validated or scored."""
 
@@ -99,11 +98,9 @@ def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileE
 
     Raises:
         ResultsError: a path does not exist (checked for every path before anything is read, as the original's
-            pre-checks), or a zip archive cannot be read.
+            pre-checks), or a file or zip archive cannot be read.
     """
-    for path in paths:
-        if not Path(path).is_file():
-            raise ResultsError(f"{path}: no such results file", "check the path")
+    _check_exist(paths)
     results: list[LoadedResult] = []
     errors: list[PerFileError] = []
     for path in map(Path, paths):
@@ -116,7 +113,10 @@ def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileE
                 raise ResultsError(f"{path}: cannot read the zip archive ({exc})", "") from None
             items = [(f"{path}:{m}", data) for m, data in members]
         else:
-            items = [(str(path), path.read_bytes())]
+            try:
+                items = [(str(path), path.read_bytes())]
+            except OSError as exc:
+                raise ResultsError(f"{path}: cannot read the results file ({exc.strerror or exc})", "") from None
         for source, data in items:
             try:
                 results.append(LoadedResult(source, _parse(source, data)))
@@ -133,7 +133,7 @@ def validate_all(
     Raises:
         ResultsError: a path does not exist.
     """
-    load_all([p for p in paths if not Path(p).is_file()])  # the existence pre-check
+    _check_exist(paths)
     valid: list[LoadedResult] = []
     errors: list[PerFileError] = []
     for path in paths:
@@ -244,7 +244,7 @@ def evaluate(
             raise exc
         evaluation.errors.append((source, exc))
 
-    load_all([p for p in paths if not Path(p).is_file()])  # the existence pre-check, before anything is read
+    _check_exist(paths)  # before anything is read
     order: dict[str, int] = {}  # source -> index of its path (errors are reported in input order)
     loaded: list[LoadedResult] = []
     for index, path in enumerate(paths):

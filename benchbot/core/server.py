@@ -204,6 +204,11 @@ class BackendApi:
         self._fresh_at = self.episode.step_count
         return ok
 
+    def _obs_key(self) -> tuple:
+        """What the cached observations depend on: any change of it means a new instant."""
+        ep = self.episode
+        return (self._generation, ep.scene_index, ep.step_count, ep.trajectory_next, ep.collided, id(ep.initial_pose))
+
     def _is_running(self) -> dict:
         """*worker*. ``is_running`` is the original client's start handshake (reference §4: it is only queried by
         ``BenchBot.start``): an episode that a previous client used is returned to a fresh scene 0 first, so
@@ -315,12 +320,9 @@ class BackendApi:
                 f"observation '{name}' is not part of task {ep.task['name']}",
                 f"available: {', '.join(ep.task['observations'])}",
             )
-        key = (self._generation, ep.scene_index, ep.step_count, ep.trajectory_next, ep.collided, id(ep.initial_pose))
-        if self._obs_cache is None or self._obs_cache[0] != key:
+        if self._obs_cache is None or self._obs_cache[0] != self._obs_key():
             obs = ep.observe(None)
-            key = (self._generation, ep.scene_index, ep.step_count, ep.trajectory_next, ep.collided,
-                   id(ep.initial_pose))
-            self._obs_cache = (key, obs)
+            self._obs_cache = (self._obs_key(), obs)  # after observe: it may capture initial_pose
         value = self._obs_cache[1][name]
         if name == "image_rgb":
             return {"encoding": "rgb8", "data": value}
@@ -517,6 +519,11 @@ class ServerThread:
         self.port = port
 
     def start(self) -> "ServerThread":
+        """Start serving and wait until the socket listens (at most 10 s); returns self.
+
+        Raises:
+            BackendError: the server did not come up (e.g. the port is taken).
+        """
         self.thread.start()
         deadline = time.monotonic() + 10.0
         while not self.server.started:

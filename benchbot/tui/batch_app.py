@@ -107,7 +107,31 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     return summary, rows
 
 
-class BatchApp(App):
+class PollingApp(App):
+    """An app that re-reads files every ``poll_s`` seconds: subclasses set ``poll_s``, implement ``_refresh``
+    (a :class:`~textual.css.query.NoMatches` it raises while the app is closing is ignored) and call
+    :meth:`start_polling` from their ``on_mount`` (not ``super().on_mount()``: Textual already calls the handlers of
+    every class in the MRO)."""
+
+    poll_s: float = 0.5
+
+    def start_polling(self) -> None:
+        """Refresh now, then every ``poll_s`` seconds."""
+        self.refresh_view()
+        self.set_interval(self.poll_s, self.refresh_view)
+
+    def refresh_view(self) -> None:
+        """Re-read the files and update the widgets in place."""
+        try:
+            self._refresh()
+        except NoMatches:  # the app is closing
+            pass
+
+    def _refresh(self) -> None:
+        raise NotImplementedError
+
+
+class BatchApp(PollingApp):
     """A live table of a batch's episodes.
 
     Args:
@@ -142,15 +166,7 @@ class BatchApp(App):
         table = self.query_one(DataTable)
         for name in COLUMNS:
             table.add_column(name, key=name)
-        self.refresh_view()
-        self.set_interval(self.poll_s, self.refresh_view)
-
-    def refresh_view(self) -> None:
-        """Re-read the run directory and update the table in place."""
-        try:
-            self._refresh()
-        except NoMatches:  # the app is closing
-            pass
+        self.start_polling()
 
     def _refresh(self) -> None:
         summary, rows = batch_rows(self.run_dir, self.clock())

@@ -13,14 +13,13 @@ from pathlib import Path
 import numpy as np
 from rich.style import Style
 from rich.text import Text
-from textual.app import App, ComposeResult
+from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.css.query import NoMatches
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Log, Static
 
 from benchbot.plugins.live_state import PREVIEW, STATE
-from benchbot.tui.batch_app import read_json
+from benchbot.tui.batch_app import PollingApp, read_json
 
 HALF_BLOCK = "▀"
 
@@ -69,7 +68,7 @@ def describe(state: dict) -> str:
     return "\n".join(lines)
 
 
-class RunApp(App):
+class RunApp(PollingApp):
     """The live view of a running episode.
 
     Args:
@@ -107,15 +106,7 @@ class RunApp(App):
     def on_mount(self) -> None:
         if self.address:
             self.sub_title = self.address
-        self.refresh_view()
-        self.set_interval(self.poll_s, self.refresh_view)
-
-    def refresh_view(self) -> None:
-        """Re-read the live-state folder."""
-        try:
-            self._refresh()
-        except NoMatches:  # the app is closing
-            pass
+        self.start_polling()
 
     def _refresh(self) -> None:
         state = read_json(self.state_dir / STATE)

@@ -564,12 +564,9 @@ def scores_from_totals(totals: dict, scd: bool) -> dict:
     return scores
 
 
-def _fp_cost(labels: np.ndarray, states: Optional[np.ndarray], j: int, label_only: bool = False) -> float:
-    label = float(labels[j, :-1].max()) if labels.shape[1] > 1 else 0.0
-    if states is None or label_only:
-        return label
-    state = float(max(states[j, STATE_ADDED], states[j, STATE_REMOVED]))
-    return float(np.sqrt(label * state))
+def _fp_label_cost(labels: np.ndarray, j: int) -> float:
+    """Proposal ``j``'s largest non-background label probability (the FP cost when nothing can be matched)."""
+    return float(labels[j, :-1].max()) if labels.shape[1] > 1 else 0.0
 
 
 def _fp_class(labels: np.ndarray, j: int, bg: int) -> int:
@@ -602,7 +599,7 @@ def _score(
         for i in range(g):
             add(int(gt_class[i]), FN=1)
         for j in range(p):
-            add(_fp_class(labels, j, bg), FP=1, sum_fp_cost=_fp_cost(labels, states, j, label_only=True))
+            add(_fp_class(labels, j, bg), FP=1, sum_fp_cost=_fp_label_cost(labels, j))
         return totals, by_class
 
     spatial, inter = pairwise_iou(gt_c, gt_e, prop_c, prop_e, gt_yaw, prop_yaw)  # (g, p)
@@ -629,7 +626,7 @@ def _score(
     fn_rows = np.setdiff1d(np.arange(g), tp_rows)
     for r in fn_rows:
         add(int(gt_class[r]), FN=1)
-    # False positives, vectorised over the unmatched columns (same rules as _group_exempt / _fp_cost / _fp_class).
+    # False positives, vectorised over the unmatched columns (same rules as _fp_class).
     unmatched = np.ones(p, dtype=bool)
     unmatched[tp_cols] = False
     cols_fp = np.nonzero(unmatched)[0]
@@ -653,7 +650,9 @@ def _score(
 
 
 def _group_exempt_all(cols, overall, inter, prop_vol, gt_group, gt_class, labels) -> np.ndarray:
-    """Vectorised :func:`_group_exempt` over the proposal indices ``cols`` → ``(len(cols),)`` bool."""
+    """Which unassigned proposals ``cols`` lie in a group GT box → ``(len(cols),)`` bool: a proposal's column has a
+    non-zero quality, its best GT is a group, its argmax non-background label is that GT's class, and >= 50 % of its
+    volume is inside that box."""
     if len(cols) == 0 or labels.shape[1] < 2:
         return np.zeros(len(cols), dtype=bool)
     column = overall[:, cols]
@@ -668,20 +667,6 @@ def _group_exempt_all(cols, overall, inter, prop_vol, gt_group, gt_class, labels
         & (vol > 0)
         & (inside >= 0.5)
     )
-
-
-def _group_exempt(c, overall, inter, prop_vol, gt_group, gt_class, labels) -> bool:
-    """True when unassigned proposal ``c`` lies in a group GT box: its column has a non-zero quality, its best GT
-    is a group, its argmax non-background label is that GT's class, and >= 50 % of its volume is inside that box."""
-    column = overall[:, c]
-    if not np.any(column > 0):
-        return False
-    best = int(np.argmax(column))
-    if not gt_group[best] or labels.shape[1] < 2:
-        return False
-    if int(np.argmax(labels[c, :-1])) != int(gt_class[best]):
-        return False
-    return bool(prop_vol[c] > 0 and inter[best, c] / prop_vol[c] >= 0.5)
 
 
 def _zero_scores(score_names: Sequence[str]) -> dict:

@@ -51,9 +51,6 @@ LAMP_RADIUS = 0.15
 #: Render modes.
 MODES = ("fast", "quality")
 
-#: Kind code of point lights in the packed light table (see :mod:`benchbot_sim_taichi.scene`).
-LIGHT_POINT_KIND = 1
-
 _INIT_ARCH: str | None = None
 
 
@@ -645,6 +642,11 @@ class Renderer:
             as :meth:`render` with a leading batch axis: ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32,
             ``class``/``instance`` (B, H, W) int32.
         """
+        return self._render_fast(K, T_map_cameras, width, height, lit=True)
+
+    def _render_fast(self, K, T_map_cameras, width: int, height: int, *, lit: bool) -> dict[str, np.ndarray]:
+        """:meth:`render_batch`; ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for callers
+        that only keep depth and segmentation, which do not depend on the lights."""
         Ts = np.asarray(T_map_cameras, dtype=np.float64).reshape(-1, 4, 4)
         B, H, W = Ts.shape[0], int(height), int(width)
         cams = np.ascontiguousarray(np.stack([camera_params(K, T) for T in Ts]).reshape(B, 16))
@@ -653,7 +655,10 @@ class Renderer:
         cls = np.zeros((B, H, W), dtype=np.int32)
         inst = np.zeros((B, H, W), dtype=np.int32)
         if B:
-            _render_kernel(cams, *self._args(), render_params(self.shadow_samples, self.seed), rgb, depth, cls, inst)
+            args = list(self._args())
+            if not lit:
+                args[7] = 0  # n_lights
+            _render_kernel(cams, *args, render_params(self.shadow_samples, self.seed), rgb, depth, cls, inst)
         return {"rgb": rgb, "depth": depth, "class": cls, "instance": inst}
 
     def render(self, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
@@ -674,7 +679,9 @@ class Renderer:
         """
         if mode not in MODES:
             raise ValueError(f"unknown render mode {mode!r}: use one of {MODES}")
-        out = {k: v[0] for k, v in self.render_batch(K, np.asarray(T_map_camera)[None], width, height).items()}
+        # quality mode replaces the RGB, so its fast pass only needs depth and segmentation: no lights
+        batch = self._render_fast(K, np.asarray(T_map_camera)[None], width, height, lit=mode == "fast")
+        out = {k: v[0] for k, v in batch.items()}
         if mode == "quality":
             H, W = int(height), int(width)
             lin = np.zeros((1, H, W, 3), dtype=np.float32)

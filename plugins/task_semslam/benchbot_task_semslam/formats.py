@@ -209,26 +209,24 @@ def _check_box(obj: dict, path: str, fmt: str) -> None:
     _check_numbers(obj["extent"], f"{path}.extent", fmt, 3, non_negative=True)
 
 
+def _check_probs(obj: dict, path: str, key: str, names_key: str, n: int, fmt: str) -> None:
+    """``obj[key]``: ``n`` finite probabilities >= 0, one per entry of the instance's ``names_key``."""
+    if key not in obj:
+        _fail(f"{path}.{key}", f"missing (a list of {n} probabilities)", fmt)
+    _check_numbers(obj[key], f"{path}.{key}", fmt, n, what=f"probabilities (one per {names_key} entry)",
+                   non_negative=True)
+
+
 def _validate_object_map(instance: Any, fmt: str, with_states: bool) -> None:
     objects = _check_objects(instance, fmt)
     class_list = _check_name_list(instance, "class_list", fmt)
     state_list = _check_name_list(instance, "state_list", fmt) if with_states else None
     for i, obj in enumerate(objects):
         path = f"objects[{i}]"
-        if "label_probs" not in obj:
-            _fail(f"{path}.label_probs", f"missing (a list of {len(class_list)} probabilities)", fmt)
-        _check_numbers(
-            obj["label_probs"], f"{path}.label_probs", fmt, len(class_list),
-            what="probabilities (one per class_list entry)", non_negative=True,
-        )  # fmt: skip
+        _check_probs(obj, path, "label_probs", "class_list", len(class_list), fmt)
         _check_box(obj, path, fmt)
         if with_states:
-            if "state_probs" not in obj:
-                _fail(f"{path}.state_probs", f"missing (a list of {len(state_list)} probabilities)", fmt)
-            _check_numbers(
-                obj["state_probs"], f"{path}.state_probs", fmt, len(state_list),
-                what="probabilities (one per state_list entry)", non_negative=True,
-            )  # fmt: skip
+            _check_probs(obj, path, "state_probs", "state_list", len(state_list), fmt)
 
 
 def validate_object_map(results_instance: Any) -> None:
