@@ -6,7 +6,8 @@ Files (both replaced atomically, at most ``max_rate_hz`` times a second):
 * ``state.json``: ``task``, ``robot``, ``environments`` (names), ``step``, ``rate_hz`` (steps per second over the
   last ~5 s), ``state`` (the episode's flags: ``is_collided``, ``is_dirty``, ``is_finished``, ``is_running``,
   ``scene_number``, ``scene_count``), ``pose`` ``[x m, y m, yaw rad]`` (map frame, ground truth), ``last_action``
-  ``{action, args, result}`` (or None), ``preview`` (the preview file's name or None), ``log`` (the last 200 lines), ``log_total`` (lines ever logged).
+  ``{action, args, result}`` (or None), ``preview`` (the preview file's name or None), ``log`` (the last 200 lines),
+  ``log_total`` (lines ever logged).
 * ``preview.npy``: the last RGB observation, downsampled by striding to at most ``preview_width`` columns,
   (h, w, 3) uint8.
 
@@ -34,9 +35,10 @@ PREVIEW = "preview.npy"
 
 
 def downsample(rgb: np.ndarray, max_width: int) -> np.ndarray:
-    """``rgb`` (H, W, 3) uint8 strided to at most ``max_width`` columns (rows by the same factor)."""
+    """``rgb`` (H, W, 3+) uint8 strided to at most ``max_width`` columns (rows by the same factor) → (h, w, 3) uint8,
+    C-contiguous (it may share memory with ``rgb`` when no striding is needed: do not modify it)."""
     factor = max(1, int(np.ceil(rgb.shape[1] / max_width)))
-    return np.ascontiguousarray(rgb[::factor, ::factor, :3]).astype(np.uint8)
+    return np.ascontiguousarray(rgb[::factor, ::factor, :3], dtype=np.uint8)  # one copy (astype made a second)
 
 
 def write_npy(path: Path, array: np.ndarray) -> None:
@@ -88,6 +90,7 @@ class LiveStateWriter:
 
     @hookimpl
     def benchbot_episode_started(self, info: dict) -> None:
+        """A new episode (backend thread): keep its ``task``, ``robot`` and ``environments`` for the snapshot."""
         self.info = {k: info.get(k) for k in ("task", "robot", "environments")}
 
     @hookimpl

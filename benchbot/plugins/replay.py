@@ -71,7 +71,9 @@ class Recording:
         try:
             from mcap.reader import make_reader
             from mcap_ros2.decoder import DecoderFactory
-
+        except ImportError:
+            raise RecordingError("replaying needs the MCAP reader", "install it: uv pip install 'benchbot[record]'") from None
+        try:
             with open(self.path, "rb") as f:
                 reader = make_reader(f, decoder_factories=[DecoderFactory()])
                 meta = {m.name: m.metadata for m in reader.iter_metadata()}
@@ -89,18 +91,25 @@ class Recording:
         except (KeyError, json.JSONDecodeError):
             raise RecordingError(f"{self.path}: no BenchBot metadata (benchbot.run/steps/frames)",
                                  "only files written by `--record` can be replayed") from None
+        run_ok = isinstance(self.run, dict) and all(k in self.run for k in ("task", "robot", "environments"))
+        if not (run_ok and self.run["environments"] and isinstance(self.steps, list)
+                and isinstance(self.frames, list)):
+            raise RecordingError(f"{self.path}: malformed BenchBot metadata (benchbot.run needs task, robot and "
+                                 "environments; benchbot.steps/frames must be lists)",
+                                 "only files written by `--record` can be replayed")
+        # log times per topic, for the bisections of at() / latest() (called for every observation)
+        self._times = {topic: [t for t, _ in entries] for topic, entries in self.messages.items()}
 
     def at(self, topic: str, time_ns: int) -> Any:
         """The message of ``topic`` logged at ``time_ns``, or None."""
-        entries = self.messages.get(topic, [])
-        times = [t for t, _ in entries]
+        entries, times = self.messages.get(topic, []), self._times.get(topic, [])
         i = bisect_right(times, time_ns) - 1
         return entries[i][1] if i >= 0 and times[i] == time_ns else None
 
     def latest(self, topic: str, time_ns: int) -> Any:
         """The last message of ``topic`` logged at or before ``time_ns``, or None."""
         entries = self.messages.get(topic, [])
-        i = bisect_right([t for t, _ in entries], time_ns) - 1
+        i = bisect_right(self._times.get(topic, []), time_ns) - 1
         return entries[i][1] if i >= 0 else None
 
 
@@ -145,6 +154,8 @@ class ReplayBackend(RobotBackend):
             raise BackendError("the recording has no /tf before this step", "was it written by --record?")
         robot = self.robot_spec.get("robot_frame", "robot")
         by_child = {t.child_frame_id: _transform(t) for t in tf.transforms}
+        if robot not in by_child:
+            raise BackendError(f"the recorded /tf has no '{robot}' frame", "was it written by --record?")
         T_map_robot = by_child[robot]
         out = {"robot": T_map_robot}
         for name in ("camera", "lidar"):
@@ -176,28 +187,35 @@ class ReplayBackend(RobotBackend):
         """``T_map_<frame>`` of ``robot``, ``camera``, ``lidar`` from the recorded ``/tf`` at this step."""
         return self._robot_transform()
 
+    def _message(self, key: str, t: int) -> Any:
+        msg = self.recording.at(TOPICS[key][0], t)
+        if msg is None:
+            raise BackendError(f"the recording has no {TOPICS[key][0]} message at step {self.moves}",
+                               "was it written by --record (and finished)?")
+        return msg
+
     def observe(self, names: Sequence[str]) -> dict[str, Any]:
         """The recorded observations of this step, decoded into the reference structures.
 
         Raises:
             KeyError: a name that was not recorded at this step (or is not a sensor).
+            BackendError: the frame lists a name whose message is missing from the file.
         """
         t = self._time()
-        rec = self.recording
-        frame = next((f for f in rec.frames if f["time_ns"] == t and f["step"] == self.moves), None)
+        frame = next((f for f in self.recording.frames if f["time_ns"] == t and f["step"] == self.moves), None)
         out: dict[str, Any] = {}
         for name in names:
             if frame is None or name not in frame["names"]:
                 raise KeyError(name)
             if name in ("image_rgb", "image_depth"):
-                out[name] = _encoding_array(rec.at(TOPICS[name][0], t))
+                out[name] = _encoding_array(self._message(name, t))
             elif name in ("image_rgb_info", "image_depth_info"):
-                msg = rec.at(TOPICS[name][0], t)
+                msg = self._message(name, t)
                 out[name] = {"frame_id": msg.header.frame_id, "height": int(msg.height), "width": int(msg.width),
                              "matrix_intrinsics": np.asarray(msg.k, dtype=np.float64).reshape(3, 3),
                              "matrix_projection": np.asarray(msg.p, dtype=np.float64).reshape(3, 4)}
             elif name == "laser":
-                msg = rec.at(TOPICS["laser"][0], t)
+                msg = self._message("laser", t)
                 ranges = np.asarray(msg.ranges, dtype=np.float32).astype(np.float64)
                 angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges), dtype=np.float64)
                 angles = (angles + math.pi) % (2.0 * math.pi) - math.pi
@@ -205,8 +223,8 @@ class ReplayBackend(RobotBackend):
                 out[name] = {"scans": np.stack([ranges, angles], axis=1), "range_min": float(msg.range_min),
                              "range_max": float(msg.range_max)}
             elif name == "image_segment":
-                out[name] = {"class_segment_img": _encoding_array(rec.at(TOPICS["segment_class"][0], t)),
-                             "instance_segment_img": _encoding_array(rec.at(TOPICS["segment_instance"][0], t)),
+                out[name] = {"class_segment_img": _encoding_array(self._message("segment_class", t)),
+                             "instance_segment_img": _encoding_array(self._message("segment_instance", t)),
                              "class_ids": dict(frame.get("class_ids", {}))}
             else:
                 raise KeyError(name)
