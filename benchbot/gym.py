@@ -91,6 +91,7 @@ def make_env_class() -> type:
             return out
 
         def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+            """Back to a fresh scene 0 (robot at its start pose); returns ``(observation, {'scene_number': int})``."""
             super().reset(seed=seed)
             obs, _ = self._hard_reset()  # always a fresh scene 0: the robot at its start pose
             self._steps = 0
@@ -102,6 +103,12 @@ def make_env_class() -> type:
             return self.bot.step(None)
 
         def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
+            """Perform action ``action`` (an int of :attr:`action_space`); returns ``(observation, 0.0, terminated,
+            truncated, {'result': ActionResult name, 'scene_number': int})``.
+
+            Raises:
+                ValueError: ``action`` is not in the action space. ConnectionError: the backend failed.
+            """
             if not self.action_space.contains(action):
                 raise ValueError(f"action {action!r} is not in {self.action_space}")
             action = int(action)
@@ -118,9 +125,11 @@ def make_env_class() -> type:
             return self._convert(obs), 0.0, terminated, truncated, info
 
         def render(self) -> Any:
+            """The last colour image, (H, W, 3) uint8 (None when the task observes none)."""
             return self._last_rgb
 
         def close(self) -> None:
+            """Close the connection to the backend."""
             self.bot.close()
 
     return BenchBotEnv

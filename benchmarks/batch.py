@@ -1,7 +1,9 @@
 """Batch throughput: the ten BEAR environments with ``semslam_geometric`` on the passive task, with 1 worker and with
 N workers in the same run.
 
-Prints wall time and episodes per minute for each, the speed-up and the parallel efficiency (speed-up / N).
+Prints wall time and episodes per minute for each, the speed-up and the parallel efficiency (speed-up / N). The wall
+time is that of the whole ``benchbot batch`` process (interpreter start, plugin loading, simulator start-up and the
+OMQ evaluation included), not of the episodes alone.
 
     python benchmarks/batch.py [--workers N] [--envs-batch bear_all] [--camera-size 640x480] [--json]
 """

@@ -107,6 +107,7 @@ class HttpTransport:
             hook(httpx.Request("POST", self.address + route, headers=headers))
         for attempt in (0, 1):
             conn = getattr(self._local, "conn", None)
+            reused = conn is not None
             if conn is None:
                 conn = http.client.HTTPConnection(self._host, self._port, timeout=5.0)
                 conn.connect()
@@ -119,7 +120,10 @@ class HttpTransport:
             except (http.client.RemoteDisconnected, BrokenPipeError, ConnectionResetError):
                 conn.close()
                 self._local.conn = None
-                if attempt:  # a kept-alive connection the server had closed: retry once on a fresh one
+                # Only a kept-alive connection that the server closed while idle is retried (once, on a fresh
+                # one): the request never reached it. A fresh connection failing is an error, never re-sent, so an
+                # action cannot run twice.
+                if attempt or not reused:
                     raise
             except BaseException:
                 conn.close()
@@ -153,6 +157,7 @@ class HttpTransport:
         return wire.unpack(content)
 
     def close(self) -> None:
+        """Close the HTTP connections."""
         self.http.close()
         conn = getattr(self._local, "conn", None)
         if conn is not None:
@@ -188,9 +193,15 @@ class InProcessTransport:
             raise ConnectionError(f"BenchBot backend refused /{route} ({status_of(exc)}): {detail}") from None
 
     def ping(self) -> bool:
+        """Always True: the service is in this process."""
         return True
 
     def get(self, route: str, body: dict | None = None) -> Any:
+        """The reply of HTTP route ``route`` (``config/...``, ``robot/<command>``, ``results_functions/[fn]``).
+
+        Raises:
+            ConnectionError: unknown route, or the backend refused the request. ValueError: an action refused.
+        """
         prefix, _, rest = route.partition("/")
         if prefix == "config":
             return self._call(route, self.api.config, [k for k in rest.split("/") if k])
@@ -203,10 +214,11 @@ class InProcessTransport:
         raise ConnectionError(f"BenchBot backend refused /{route} (404): unknown route")
 
     def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
+        """The native step (:meth:`benchbot.core.server.BackendApi.step`) on the backend thread."""
         return self._call("native/step", self.service.call, self.api.step, action, args, observations)
 
     def close(self) -> None:
-        pass
+        """Nothing to close: the service belongs to the caller."""
 
 
 class BenchBot:

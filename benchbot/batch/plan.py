@@ -137,12 +137,22 @@ def read_manifest(run_dir: Path) -> dict:
         return json.loads(path.read_text())
     except json.JSONDecodeError as exc:
         raise UsageError(f"{path}: not valid JSON ({exc})", "the manifest is written atomically; was it edited?") from None
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot read the manifest ({exc.strerror or exc})", "") from None
 
 
 def specs_from_manifest(manifest: dict) -> tuple[list[EpisodeSpec], list[EpisodeRecord]]:
-    """The plan and records stored in a manifest (for ``--resume``)."""
-    specs = [EpisodeSpec(**s) for s in manifest["plan"]]
-    records = [EpisodeRecord(**r) for r in manifest["episodes"]]
+    """The plan and records stored in a manifest (for ``--resume``).
+
+    Raises:
+        UsageError: the manifest has no valid ``plan`` or ``episodes`` (not written by this version, or edited).
+    """
+    try:
+        specs = [EpisodeSpec(**s) for s in manifest["plan"]]
+        records = [EpisodeRecord(**r) for r in manifest["episodes"]]
+    except (KeyError, TypeError) as exc:
+        raise UsageError(f"the batch manifest has no valid plan or episodes ({exc!r})",
+                         "was it edited, or written by another BenchBot version?") from None
     return specs, records
 
 

@@ -42,6 +42,7 @@ class RunData:
 
     @property
     def name(self) -> str:
+        """The run directory's folder name."""
         return self.run_dir.name
 
 
@@ -55,14 +56,20 @@ def load_run(run_dir: Path) -> RunData:
     path = run_dir / "episode_scores.json"
     if not path.is_file():
         raise UsageError(f"{run_dir} has no episode_scores.json (the batch was not evaluated)", "run it with --evaluate-with omq")
-    config = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").is_file() else {}
-    lighting = {env: "+".join(str(s.get("lighting", "")) for s in scenes) for env, scenes in config.get("environments", {}).items()}
-    rows = []
-    for entry in json.loads(path.read_text()):
-        row = {k: entry[k] for k in ("index", "env", "robot", "repeat", "seed")}
-        row["lighting"] = lighting.get(entry["env"], "")
-        row.update({k: float(v) for k, v in entry.get("scores", {}).items() if k in SCORES})
-        rows.append(row)
+    try:
+        config = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").is_file() else {}
+        lighting = {env: "+".join(str(s.get("lighting", "")) for s in scenes) for env, scenes in config.get("environments", {}).items()}
+        rows = []
+        for entry in json.loads(path.read_text()):
+            row = {k: entry[k] for k in ("index", "env", "robot", "repeat", "seed")}
+            row["lighting"] = lighting.get(entry["env"], "")
+            row.update({k: float(v) for k, v in entry.get("scores", {}).items() if k in SCORES})
+            rows.append(row)
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:  # unreadable, not JSON, wrong shape
+        raise UsageError(f"{run_dir}: episode_scores.json or config.json is unreadable or malformed ({exc!r})",
+                         "they are written by `benchbot batch`; were they edited?") from None
+    if not rows:
+        raise UsageError(f"{run_dir} has no scored episodes", "every episode failed, or the batch ran with --no-evaluate")
     return RunData(run_dir, manifest, rows)
 
 

@@ -13,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from benchbot.batch.plan import EpisodeRecord, plan_episodes, read_manifest, specs_from_manifest
 from benchbot.batch.runner import new_run_dir, parse_env_list, prepare_batch, run_batch
-from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry
+from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core import atomic
@@ -36,8 +36,8 @@ def register(app: typer.Typer) -> None:
         example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the --example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the solution's command."),
         repeat: int = typer.Option(1, "--repeat", help="Run every (robot, environment) this many times, each with its own recorded seed."),
-        workers: int = typer.Option(1, "--workers", "-w", help="Episodes run in parallel (each in its own process with its own backend)."),
-        retries: int = typer.Option(0, "--retries", help="Re-run failed episodes up to this many times."),
+        workers: int = typer.Option(1, "--workers", "-w", min=1, help="Episodes run in parallel (each in its own process with its own backend)."),
+        retries: int = typer.Option(0, "--retries", min=0, help="Re-run failed episodes up to this many times."),
         executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks)."),
         ray_address: Optional[str] = typer.Option(None, "--ray-address", help="An existing Ray cluster (default: start a local one)."),
         resume: Optional[Path] = typer.Option(None, "--resume", help="Resume the batch in this run directory: only unfinished episodes run."),
@@ -61,6 +61,8 @@ def register(app: typer.Typer) -> None:
         Exit status 0 when every episode produced results.
         """
         reg = registry()
+        if executor not in ("local", "ray"):
+            raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
         if resume is not None:
             run_dir = resume.resolve()
             specs, records = specs_from_manifest(read_manifest(run_dir))
@@ -87,7 +89,8 @@ def register(app: typer.Typer) -> None:
                 cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout,
                 container=container, record=record,
             )
-            run_dir = new_run_dir(output_dir, prefix)
+            with writing(output_dir, "--output-dir"):
+                run_dir = new_run_dir(output_dir, prefix)
             prepare_batch(reg, run_dir=run_dir, specs=specs, evaluate_with=None if no_evaluate else evaluate_with,
                           prefix=prefix, zip_results=zip_results)
             err.print(f"run directory: {run_dir}")

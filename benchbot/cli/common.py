@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import re
 import sys
 import traceback
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import typer
 from rich.console import Console
@@ -76,6 +77,19 @@ def backend_options(arch: str, camera_size: str | None) -> dict:
             raise UsageError(f"--camera-size '{camera_size}' is not WIDTHxHEIGHT", "e.g. --camera-size 320x240")
         options.update(width=int(match[1]), height=int(match[2]))
     return options
+
+
+@contextlib.contextmanager
+def writing(path: Any, flag: str) -> Iterator[None]:
+    """Context for writing an output file: an OSError (no such folder, permission denied) becomes one line.
+
+    Raises:
+        UsageError: ``flag``'s file ``path`` cannot be written.
+    """
+    try:
+        yield
+    except OSError as exc:
+        raise UsageError(f"{flag}: cannot write {path} ({exc.strerror or exc})", "choose a writable path") from None
 
 
 def is_tty() -> bool:

@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from benchbot.cli.common import err, handle_errors, out, registry
+from benchbot.cli.common import err, handle_errors, out, registry, writing
 from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, ResultsError, SpecError, UsageError
 from benchbot.core.evaluation import COMBINE_MODES, Evaluation, evaluate, validate_all
@@ -142,7 +142,8 @@ def register(app: typer.Typer) -> None:
         _print_errors(evaluation.errors)
         if not evaluation.per_result and evaluation.errors:
             raise typer.Exit(int(ExitCode.RESULTS))
-        atomic.write_json(output, evaluation.to_json())
+        with writing(output, "--output-location"):
+            atomic.write_json(output, evaluation.to_json())
         if as_json:
             out.print_json(json.dumps({
                 "per_result": [{"source": s, **v} for s, v in evaluation.per_result],

@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from benchbot.cli.common import err, handle_errors, registry
+from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.core import atomic
 from benchbot.core.errors import SpecError
 from benchbot.core.registry import Registry
@@ -54,5 +54,6 @@ def register(app: typer.Typer) -> None:
         if output is None:
             typer.echo(json.dumps(instance, indent=2))
         else:
-            atomic.write_json(output, instance)
+            with writing(output, "--output"):
+                atomic.write_json(output, instance)
             err.print(f"ground truth of {env} ({len(instance['objects'])} objects) written to {output}", highlight=False)

@@ -13,6 +13,8 @@ from benchbot.cli.common import handle_errors, out, registry
 
 
 class Kind(str, enum.Enum):
+    """What ``benchbot list`` can list: a registry kind, or the plugins."""
+
     tasks = "tasks"
     robots = "robots"
     environments = "environments"

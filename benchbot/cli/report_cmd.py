@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from benchbot.batch.report import bootstrap_ci, compare, group, load_run, render_html, summary
-from benchbot.cli.common import err, handle_errors, out
+from benchbot.cli.common import err, handle_errors, out, writing
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 
@@ -50,5 +50,7 @@ def register(app: typer.Typer) -> None:
                 out.print(f"B − A on {len(c['environments'])} shared environments: {c['mean_difference']}; "
                           f"paired t-test p = {c['ttest_p']}, Wilcoxon p = {c['wilcoxon_p']}", highlight=False)
         if output is not None:
-            atomic.write_text(output, render_html(data))
+            html = render_html(data)
+            with writing(output, "--output"):
+                atomic.write_text(output, html)
             err.print(f"report written to {output}")

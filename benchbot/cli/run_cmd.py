@@ -4,7 +4,6 @@ episode: each new client's start resets the episode."""
 from __future__ import annotations
 
 import secrets
-import threading
 from pathlib import Path
 from typing import Optional
 

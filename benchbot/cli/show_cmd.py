@@ -9,6 +9,8 @@ import yaml
 
 from benchbot.cli.common import handle_errors, out, registry
 from benchbot.cli.list_cmd import Kind
+from benchbot.core.errors import UsageError
+from benchbot.core.registry import singular
 
 
 def register(app: typer.Typer) -> None:
@@ -20,12 +22,14 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print JSON."),
     ) -> None:
         """Show a spec: where it comes from and its content."""
+        if kind is Kind.plugins:
+            raise UsageError("`benchbot show` shows specs, not plugins", "use `benchbot plugins` (or --json)")
         entry = registry().entry(kind.value, name)
         spec = {k: v for k, v in entry.spec.items() if k != "_file_path"}
         if as_json:
             out.print_json(json.dumps(spec))
             return
-        out.print(f"# {kind.value[:-1]} '{entry.name}' from plugin {entry.plugin}" + (f" ({entry.path})" if entry.path else ""), highlight=False)
+        out.print(f"# {singular(kind.value)} '{entry.name}' from plugin {entry.plugin}" + (f" ({entry.path})" if entry.path else ""), highlight=False)
         text = yaml.safe_dump(spec, sort_keys=False, width=110)
         lines = text.splitlines()
         out.print("\n".join(lines[:60]) + (f"\n... ({len(lines) - 60} more lines; --json for all)" if len(lines) > 60 else ""), highlight=False)

@@ -11,7 +11,7 @@ from typing import Optional
 import httpx
 import typer
 
-from benchbot.cli.common import err, handle_errors, registry
+from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, UsageError
@@ -112,10 +112,12 @@ def register(app: typer.Typer) -> None:
                 err.print("[yellow]warning:[/] the submission saved no results; using {}")
                 atomic.write_text(result, "{}")
             if results_location is not None:
-                atomic.write_text(results_location, result.read_text())
+                with writing(results_location, "--results-location"):
+                    atomic.write_text(results_location, result.read_text())
                 err.print(f"results copied to {results_location}")
             if evaluate_with:
                 evaluation = evaluate([result], evaluate_with, reg)
-                atomic.write_json(scores, evaluation.to_json())
+                with writing(scores, "--scores"):
+                    atomic.write_json(scores, evaluation.to_json())
                 print_scores(evaluation)
                 err.print(f"scores written to {scores}")

@@ -271,7 +271,7 @@ class Registry:
         for fn_name, path in spec.get("functions", {}).items():
             try:
                 out[fn_name] = import_object(path)
-            except (ImportError, AttributeError) as exc:
+            except Exception as exc:  # ImportError, AttributeError, or the module failing as it is imported
                 raise SpecError(
                     f"{singular(kind)} '{name}': functions.{fn_name}: cannot import '{path}': {exc}",
                     "check that the plugin providing it is installed",

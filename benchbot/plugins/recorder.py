@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from benchbot.core.errors import UsageError
 from benchbot.core.geometry import matrix_to_quaternion_xyzw, se2_relative
 from benchbot.core.hookspecs import hookimpl
 
@@ -169,13 +170,24 @@ class EpisodeRecorder:
 
     # ------------------------------------------------------------------------------------------ lifecycle
     def attach(self, episode: Any) -> None:
-        """Start recording ``episode`` (backend thread): opens the file, writes the frames at time 0."""
-        from mcap_ros2.writer import Writer
+        """Start recording ``episode`` (backend thread): opens the file, writes the frames at time 0.
+
+        Raises:
+            UsageError: the file (or its folder) cannot be created, or the ``record`` extra is not installed.
+        """
+        try:
+            from mcap_ros2.writer import Writer
+        except ImportError:
+            raise UsageError("--record needs the MCAP writer", "install it: uv pip install 'benchbot[record]'") from None
 
         self.episode = episode
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._tmp = self.path.with_name(f".{self.path.name}.tmp")
-        self._file = open(self._tmp, "wb")
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = open(self._tmp, "wb")
+        except OSError as exc:
+            raise UsageError(f"{self.path}: cannot write the recording ({exc.strerror or exc})",
+                             "choose a writable --record path") from None
         self.writer = Writer(self._file)
         self._schemas = {dt: self.writer.register_msgdef(dt, text) for dt, text in MSGDEFS.items()}
         backend = episode.backend

@@ -551,8 +551,10 @@ def new_plugin(kind: str, name: str, out_dir: Path | str = ".", *, force: bool =
         UsageError: bad kind or name, or the folder exists and is not empty (without ``force``).
     """
     files = project_files(kind, name)
-    dist = next(iter(t for t in [files["pyproject.toml"].split('name = "', 1)[1].split('"', 1)[0]]))
+    dist = files["pyproject.toml"].split('name = "', 1)[1].split('"', 1)[0]  # benchbot-<kind>-<name>
     root = Path(out_dir).expanduser() / dist
+    if root.exists() and not root.is_dir():
+        raise UsageError(f"{root} exists and is not a folder", "choose another -o folder")
     if root.exists() and any(root.iterdir()) and not force:
         raise UsageError(f"{root} exists and is not empty", "choose another -o folder or pass --force")
     for rel, text in files.items():

@@ -53,12 +53,18 @@ def benchbot_commands(app: Any) -> None:
         import os
 
         from benchbot.cli.common import handle_errors
+        from benchbot.core.errors import UsageError
 
         from benchbot_robot_ros2.sim_bridge import parse_size, serve
 
         @handle_errors
         def _run() -> None:
-            domain = domain_id if domain_id is not None else int(os.environ.get("ROS_DOMAIN_ID", "0") or 0)
+            domain = domain_id
+            if domain is None:
+                raw = os.environ.get("ROS_DOMAIN_ID", "").strip() or "0"
+                if not raw.isdigit() or int(raw) > 232:
+                    raise UsageError(f"ROS_DOMAIN_ID '{raw}' is not a domain id", "use an integer 0..232, or --domain-id")
+                domain = int(raw)
             w, h = parse_size(camera_size)
             serve(env, domain_id=domain, width=w, height=h, arch=arch, time_scale=time_scale, camera_hz=camera_hz,
                   transport=transport, network=network, seed=seed)

@@ -42,7 +42,6 @@ DEFAULT_SENSORS: dict[str, Any] = {
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
-_IMAGE_NAMES = ("image_rgb", "image_depth", "image_segment")
 
 
 def _rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
@@ -56,19 +55,56 @@ def _rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]:
     """The robot spec's ``sensors`` block merged over :data:`DEFAULT_SENSORS`; ``options['width'/'height']``
-    override the camera size."""
-    src = dict(robot_spec.get("sensors") or {})
+    override the camera size.
+
+    Raises:
+        BackendError: a malformed block (a sub-block that is not a mapping, a value that is not a number of the
+            default's kind, a non-positive size, beam count or footprint, a field of view outside (0°, 180°), or
+            ``range_max`` ≤ ``range_min``), naming the field.
+    """
+    name = robot_spec.get("name", "?")
+
+    def bad(field: str, why: str) -> BackendError:
+        return BackendError(f"robot '{name}': sensors.{field}: {why}", "see plugins/sim_taichi/README.md (Sensors)")
+
+    src = robot_spec.get("sensors") or {}
+    if not isinstance(src, dict):
+        raise bad("", "expected a mapping")
     cfg: dict[str, Any] = {}
     for key, default in DEFAULT_SENSORS.items():
         if isinstance(default, dict):
-            cfg[key] = {**default, **(src.get(key) or {})}
+            block = src.get(key) or {}
+            if not isinstance(block, dict):
+                raise bad(key, "expected a mapping")
+            cfg[key] = {**default, **block}
+            for field, value in cfg[key].items():
+                want = default.get(field)
+                if isinstance(want, list) and (not isinstance(value, list) or len(value) != len(want)
+                                               or not all(isinstance(v, (int, float)) for v in value)):
+                    raise bad(f"{key}.{field}", f"expected {len(want)} numbers, got {value!r}")
+                if isinstance(want, (int, float)) and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                                       or not math.isfinite(value)):
+                    raise bad(f"{key}.{field}", f"expected a number, got {value!r}")
         else:
-            cfg[key] = float(src.get(key, default))
+            value = src.get(key, default)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+                raise bad(key, f"expected a positive number, got {value!r}")
+            cfg[key] = float(value)
     options = options or {}
     if options.get("width"):
         cfg["camera"]["width"] = int(options["width"])
     if options.get("height"):
         cfg["camera"]["height"] = int(options["height"])
+    cam, laser = cfg["camera"], cfg["laser"]
+    for field in ("width", "height"):
+        if int(cam[field]) != cam[field] or cam[field] < 1:
+            raise bad(f"camera.{field}", f"expected a positive integer, got {cam[field]!r}")
+    if not 0 < cam["horizontal_fov_deg"] < 180:
+        raise bad("camera.horizontal_fov_deg", "expected degrees in (0, 180)")
+    if int(laser["beams"]) != laser["beams"] or laser["beams"] < 1:
+        raise bad("laser.beams", f"expected a positive integer, got {laser['beams']!r}")
+    if not 0 <= laser["range_min"] < laser["range_max"]:
+        raise bad("laser.range_max", "expected 0 <= range_min < range_max")
     return cfg
 
 

@@ -87,12 +87,22 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
 
         if mode not in ("fast", "quality"):
             raise UsageError(f"unknown --mode {mode!r}", "use fast or quality")
+        if min(width, height, spp, shadow_samples) < 1:
+            raise UsageError("--width, --height, --spp and --shadow-samples must be ≥ 1",
+                             "e.g. --width 640 --height 480 --spp 32 --shadow-samples 8")
+        if not 0.0 < fov < 180.0:
+            raise UsageError(f"--fov {fov} is not between 0 and 180 degrees", "e.g. --fov 90")
         scene = build_scene(_environment(env), seed=seed)
         r = Renderer(None, shadow_samples=shadow_samples, seed=seed)
         r.set_scene(scene)
         out = r.render(intrinsics(width, height, fov), _T_camera(scene, pose), width, height, mode=mode, spp=spp)
         output.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(output), out["rgb"][:, :, ::-1])
+        try:
+            written = cv2.imwrite(str(output), out["rgb"][:, :, ::-1])
+        except cv2.error:
+            written = False
+        if not written:
+            raise UsageError(f"cannot write the image {output}", "use a writable path ending in .png (or .jpg)")
         typer.echo(str(output))
 
     _run(go)
@@ -107,10 +117,17 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
         from benchbot_sim_taichi.export import scene_mesh
         from benchbot_sim_taichi.scene import build_scene
 
+        from benchbot.core.errors import UsageError
+
         mesh = scene_mesh(build_scene(_environment(env)))
         mesh.metadata.pop("face_instance", None)
         output.parent.mkdir(parents=True, exist_ok=True)
-        mesh.export(str(output))
+        try:
+            mesh.export(str(output))
+        except (ValueError, KeyError, OSError) as e:  # trimesh: unknown format (ValueError/KeyError)
+            why = e.strerror if isinstance(e, OSError) else f"no exporter for {output.suffix or 'files without a suffix'}"
+            raise UsageError(f"cannot write the mesh {output}: {why}",
+                             "use a writable path ending in .glb, .gltf, .obj, .ply or .stl") from e
         typer.echo(f"{output} ({len(mesh.faces)} triangles)")
 
     _run(go)

@@ -350,8 +350,9 @@ def object_geometry(obj: dict, *, procedural: bool = True) -> list[Part]:
     legs; bed; couch; toilet; sink; tv on a stand; laptop; keyboard; mouse; rows of books; bowl; cup; bottle; potted
     plant; clock; fruit; refrigerator; toaster; microwave; oven; person; …) fitted to the ground-truth cuboid so the
     union of its parts' AABBs is exactly ``centroid ± extent / 2``; other classes, degenerate cuboids or
-    ``procedural=False``: one box equal to the cuboid. Objects with a ``mesh`` key (mesh objects of an
-    environment's ``objects`` list) return their triangles. Deterministic (choices seeded by ``ID_name``)."""
+    ``procedural=False``: one box equal to the cuboid. Objects with a ``_tris`` key (mesh objects of an
+    environment's ``objects`` list, see :func:`load_mesh_objects`) return their triangles as one 'mesh' part.
+    Deterministic (choices seeded by ``ID_name``)."""
     if obj.get("_tris") is not None:
         tris = np.asarray(obj["_tris"], dtype=np.float64)
         return [Part("mesh", tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0), 2, None, tris)]
@@ -470,7 +471,9 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         cname = str(obj["class"])
         cid = class_ids.get(cname)
         if cid is None:
-            raise BackendError(f"the scene file {map_path}: object class {cname!r} is not in class_list",
+            src = f"the scene file {map_path}" if obj.get("_tris") is None else \
+                f"environment {environment.get('name')}:{environment.get('variant')}: mesh object {obj.get('ID_name')}"
+            raise BackendError(f"{src}: object class {cname!r} is not in class_list",
                                "every object's class must appear in ground_truth.class_list")
         counters[cid] = counters.get(cid, 0) + 1
         colour = object_colour(cname, str(obj.get("ID_name", "")), seed)
