@@ -6,14 +6,18 @@ per pixel, one diffuse bounce, OpenCV denoiser).
 Importing this module imports Taichi but does not initialise it; :func:`ensure_taichi` (called by
 :class:`Renderer`) runs ``ti.init`` once per process. Taichi must be used from one thread per process.
 
-Kernels take NumPy arrays (``ti.types.ndarray``), so a scene with any number of primitives, or any image size, reuses
-the compiled kernels (they are compiled once per process, not per scene). The BVH (:mod:`benchbot_sim_taichi.bvh`)
-is built once per scene in NumPy and traversed in the kernels with a fixed-size stack.
+One kernel launch computes every sensor of a frame (or of a batch of B frames): the camera pixels (RGB, depth, class
+and instance ids) and the laser beams are two parallel loops of :func:`_sensors_kernel`. Kernels take
+``ti.types.ndarray`` arguments, so a scene with any number of primitives, or any image size, reuses the compiled
+kernels (compiled once per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
+``ti.ndarray`` and the outputs stay in reused device buffers; each launch goes through a compiled ``ti.graph`` with the
+camera and lidar pose passed by value, so the per-frame cost is one launch plus, when wanted, one copy to the host.
+The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and traversed stacklessly (skip pointers).
 
 Conventions: ``map`` frame, metres. Cameras use the OPTICAL frame (z forward, x right, y down); the ray of pixel
 (u, v) (column, row; integer pixel centres) is ``R · K⁻¹ [u, v, 1]ᵀ`` so its parameter t is the z-depth.
 Lighting: linear radiance = albedo · (ambient·(0.8 + 0.2·n_z) + Σ_lights visibility · colour · max(0, n·l) ·
-attenuation), then clamped and gamma-encoded (1/2.2) to uint8. Visibility is the fraction of ``shadow_samples``
+attenuation), then clamped and gamma-encoded (1/2.2) to uint8 through a table (:func:`gamma_table`). Visibility is the fraction of ``shadow_samples``
 shadow rays (stratified over the light's disc — the sun's angular radius, a lamp's radius — with a per-pixel
 rotation from a seeded integer hash, so renders are deterministic) that reach the light; one sample is a hard shadow
 towards the light's centre.
@@ -22,9 +26,11 @@ towards the light's centre.
 
 
 import contextlib
+import functools
 import math
 import os
 import sys
+import threading
 import warnings
 
 import numpy as np
@@ -59,11 +65,12 @@ def ensure_taichi(arch: str | None = None) -> str:
 
     Args:
         arch: ``'cpu'`` (default), ``'gpu'`` or ``'cuda'`` (CUDA if available, else CPU with a warning); ``None`` reads
-            the environment variable ``BENCHBOT_TAICHI_ARCH``. A later call asking for another arch keeps the first
+            the environment variable ``BENCHBOT_TAICHI_ARCH``. On the CPU, ``BENCHBOT_TAICHI_THREADS`` caps the
+            threads (default: one per core). A later call asking for another arch keeps the first
             one and warns (Taichi cannot switch without resetting every kernel and field).
 
     Raises:
-        ValueError: an unknown arch name.
+        ValueError: an unknown arch name, or a ``BENCHBOT_TAICHI_THREADS`` that is not a positive integer.
     """
     global _INIT_ARCH
     want = (arch or os.environ.get("BENCHBOT_TAICHI_ARCH") or "cpu").strip().lower()
@@ -76,13 +83,31 @@ def ensure_taichi(arch: str | None = None) -> str:
         return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
     with contextlib.redirect_stdout(sys.stderr):  # "[Taichi] Starting on arch=..." is printed on stdout
         _INIT_ARCH = _init(want)
+    if _INIT_ARCH == "cuda" and threading.current_thread() is not threading.main_thread():
+        # The CUDA context is current only on this thread: release Taichi here when this thread ends, or the
+        # interpreter's exit (on the main thread) would synchronise a context it does not hold and abort.
+        _THIS_THREAD.release = _ReleaseTaichiAtThreadExit()
     return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
+
+
+_THIS_THREAD = threading.local()
+
+
+class _ReleaseTaichiAtThreadExit:
+    """Held in the Taichi thread's thread-local storage; Python drops it on that thread as the thread ends."""
+
+    def __del__(self) -> None:
+        global _INIT_ARCH, _SENSORS_GRAPH
+        try:
+            ti.reset()
+        finally:
+            _INIT_ARCH, _SENSORS_GRAPH = None, None
 
 
 def _init(want: str) -> str:
     """``ti.init`` for ``want`` (``cpu``/``gpu``/``cuda``); returns ``cpu``, ``cuda`` or ``cpu-fallback``."""
     if want == "cpu":
-        ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN)
+        ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN, **_cpu_threads())
         return "cpu"
     try:
         ti.init(arch=ti.cuda, default_fp=ti.f32, offline_cache=True, log_level=ti.ERROR)
@@ -92,8 +117,23 @@ def _init(want: str) -> str:
     if got == ti.cuda:
         return "cuda"
     warnings.warn("CUDA is not available to Taichi; rendering on the CPU", RuntimeWarning, stacklevel=3)
-    ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN)
+    ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN, **_cpu_threads())
     return "cpu-fallback"
+
+
+def _cpu_threads() -> dict:
+    """``{'cpu_max_num_threads': n}`` from ``BENCHBOT_TAICHI_THREADS`` (set by batch workers so that N parallel
+    episodes share the cores instead of each starting one thread per core), else ``{}`` (Taichi's default: all)."""
+    value = os.environ.get("BENCHBOT_TAICHI_THREADS", "").strip()
+    if not value:
+        return {}
+    try:
+        n = int(value)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ValueError(f"BENCHBOT_TAICHI_THREADS={value!r}: use a positive integer (threads per process)")
+    return {"cpu_max_num_threads": n}
 
 
 def intrinsics(width: int, height: int, horizontal_fov_deg: float) -> np.ndarray:
@@ -153,6 +193,45 @@ def camera_params(K: np.ndarray, T_map_camera: np.ndarray) -> np.ndarray:
     K = np.asarray(K, dtype=np.float64)
     T = np.asarray(T_map_camera, dtype=np.float64)
     return np.concatenate([T[:3, :3].reshape(-1), T[:3, 3], [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]]).astype(np.float32)
+
+
+#: Length of one frame's pose row for :func:`_sensors_kernel` (see :func:`sensor_pose`).
+POSE_LEN = 16
+
+
+def sensor_pose(T_map_camera: np.ndarray | None, T_map_lidar: np.ndarray | None) -> np.ndarray:
+    """(16,) float32 [camera R row-major (9), camera origin (3), lidar x, y, z, yaw] (map frame; the camera in its
+    optical frame; the lidar assumed level, its yaw read from its x axis). A missing sensor's entries are zero."""
+    out = np.zeros(POSE_LEN, dtype=np.float64)
+    if T_map_camera is not None:
+        T = np.asarray(T_map_camera, dtype=np.float64)
+        out[:9], out[9:12] = T[:3, :3].reshape(-1), T[:3, 3]
+    if T_map_lidar is not None:
+        T = np.asarray(T_map_lidar, dtype=np.float64)
+        out[12:15], out[15] = T[:3, 3], math.atan2(T[1, 0], T[0, 0])
+    return out.astype(np.float32)
+
+
+#: Entries of the gamma-encoding table and where it starts in :func:`frame_constants`.
+GAMMA_STEPS = 4096
+FRAME_CONSTS = 31
+
+
+@functools.lru_cache(maxsize=1)
+def gamma_table() -> np.ndarray:
+    """(GAMMA_STEPS,) float64 (cached: do not modify): entry i is the 8-bit value of linear radiance (i / (GAMMA_STEPS − 1))², i.e. the
+    table is indexed by the square root of the radiance (nearly linear in the output, so the nearest entry is
+    within one 8-bit level of ``round(255 · x^(1/2.2))``; a table lookup costs far less than ``pow`` per channel)."""
+    s = np.linspace(0.0, 1.0, GAMMA_STEPS)
+    return np.floor(np.power(s * s, GAMMA) * 255.0 + 0.5)
+
+
+def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None) -> np.ndarray:
+    """(31 + GAMMA_STEPS,) float32 [world (19, see :func:`pack_scene`), render params (8, see
+    :func:`render_params`), fx, fy, cx, cy, gamma table (see :func:`gamma_table`)] — what :func:`_sensors_kernel`
+    reads besides the scene and the poses (zeros for K when None)."""
+    k = np.zeros(4) if K is None else np.asarray(K, dtype=np.float64)[[0, 1, 0, 1], [0, 1, 2, 2]]
+    return np.concatenate([world, params, k, gamma_table()]).astype(np.float32)
 
 
 # ----------------------------------------------------------------------------------------------------------- kernels
@@ -465,21 +544,38 @@ def _direct(p, n, key, ns, s0, params: ti.template(), lights: ti.template(), n_l
 
 
 @ti.func
-def _ray(cams: ti.template(), b, x, y):
-    o = ti.Vector([cams[b, 9], cams[b, 10], cams[b, 11]])
-    xc = (x - cams[b, 14]) / cams[b, 12]
-    yc = (y - cams[b, 15]) / cams[b, 13]
+def _ray(c, x, y):
+    o = ti.Vector([c[9], c[10], c[11]])
+    xc = (x - c[14]) / c[12]
+    yc = (y - c[15]) / c[13]
     d = ti.Vector([
-        cams[b, 0] * xc + cams[b, 1] * yc + cams[b, 2],
-        cams[b, 3] * xc + cams[b, 4] * yc + cams[b, 5],
-        cams[b, 6] * xc + cams[b, 7] * yc + cams[b, 8],
+        c[0] * xc + c[1] * yc + c[2],
+        c[3] * xc + c[4] * yc + c[5],
+        c[6] * xc + c[7] * yc + c[8],
     ])
     return o, d
 
 
+@ti.func
+def _scan_beam(o, a, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(),
+               tris: ti.template(), world: ti.template()):
+    """Range (m) along the horizontal beam from o at map-frame angle a to the first primitive or wall."""
+    d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
+    best, k, n = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
+    inv = _safe_inv(d)
+    tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
+    ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
+    return ti.min(best, ti.min(tx, ty))
+
+
 @ti.kernel
-def _render_kernel(
-    cams: ti.types.ndarray(dtype=ti.f32, ndim=2),
+def _sensors_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_beams: ti.i32,
     nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
     nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
@@ -488,29 +584,41 @@ def _render_kernel(
     n_prims: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
-    world: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    params: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
     rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
     depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
     cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
     inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
 ):
+    """One launch (two parallel loops) for B sensor frames: fast-mode images (when ``images`` is 1) into rgb/depth/cls/inst (B, H, W)
+    and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams), beam j at map-frame angle
+    ``beams[j] + yaw``. Frame b's pose (see :func:`sensor_pose`) is ``pose0`` (by value: no upload) when ``one``
+    is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is :func:`frame_constants`."""
     B = depth.shape[0]
     H = depth.shape[1]
     W = depth.shape[2]
-    for b, v, u in ti.ndrange(B, H, W):
-        o, d = _ray(cams, b, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
-        hit, t, n, albedo, c_id, i_id = _shade_hit(o, d, n_prims, nodes_f, nodes_i, pf, pi, tris, world)
+    for b, v, u in ti.ndrange(B * images, H, W):
+        q = pose0
+        if one == 0:
+            for k in ti.static(range(12)):
+                q[k] = table[b, k]
+        c = ti.Vector([q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11],
+                       consts[27], consts[28], consts[29], consts[30]])
+        params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
+        o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
+        hit, t, n, albedo, c_id, i_id = _shade_hit(o, d, n_prims, nodes_f, nodes_i, pf, pi, tris, consts)
         if hit == 1:
             p = o + t * d
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
-            radiance = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * n[2])
+            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * n[2])
             radiance += _direct(p, n, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
                                 nodes_f, nodes_i, pf, pi, tris)
-            c = albedo * radiance
+            col = albedo * radiance
             for k in ti.static(range(3)):
-                x = ti.min(ti.max(c[k], 0.0), 1.0)
-                rgb[b, v, u, k] = ti.cast(ti.pow(x, GAMMA) * 255.0 + 0.5, ti.u8)
+                x = ti.min(ti.max(col[k], 0.0), 1.0)
+                rgb[b, v, u, k] = ti.cast(consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)],
+                                          ti.u8)
             depth[b, v, u] = t
         else:
             for k in ti.static(range(3)):
@@ -518,11 +626,18 @@ def _render_kernel(
             depth[b, v, u] = 0.0
         cls[b, v, u] = c_id
         inst[b, v, u] = i_id
+    for b, k in ti.ndrange(B, n_beams):
+        q = pose0
+        if one == 0:
+            for m in ti.static(range(12, POSE_LEN)):
+                q[m] = table[b, m]
+        ranges[b, k] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[k] + q[15], n_prims, nodes_f, nodes_i,
+                                  pf, pi, tris, consts)
 
 
 @ti.kernel
 def _quality_kernel(
-    cams: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cam: ti.types.vector(16, ti.f32),
     nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
     nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
@@ -532,10 +647,10 @@ def _quality_kernel(
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
     world: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    params: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    params: ti.types.vector(8, ti.f32),
     out: ti.types.ndarray(dtype=ti.f32, ndim=4),
 ):
-    """Path-traced linear radiance (B, H, W, 3): ``params[4]`` samples per pixel (jittered in the pixel), each with
+    """Path-traced linear radiance (B, H, W, 3) of camera ``cam`` (B = 1): ``params[4]`` samples per pixel (jittered in the pixel), each with
     one stratum of the soft-shadow samples per light, and one cosine-sampled diffuse bounce (direct light and
     ambient at the bounce point, scaled by ``params[5]``)."""
     B = out.shape[0]
@@ -547,7 +662,7 @@ def _quality_kernel(
         base = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
         for s in range(spp):
             key = base * 131 + s * 7
-            o, d = _ray(cams, b, ti.cast(u, ti.f32) + _rand(key + 1) - 0.5, ti.cast(v, ti.f32) + _rand(key + 2) - 0.5)
+            o, d = _ray(cam, ti.cast(u, ti.f32) + _rand(key + 1) - 0.5, ti.cast(v, ti.f32) + _rand(key + 2) - 0.5)
             hit, t, n, albedo, c_id, i_id = _shade_hit(o, d, n_prims, nodes_f, nodes_i, pf, pi, tris, world)
             if hit == 1:
                 p = o + t * d
@@ -576,31 +691,55 @@ def _quality_kernel(
             out[b, v, u, k] = acc[k]
 
 
-@ti.kernel
-def _scan_kernel(
-    origin: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    angles: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    n_prims: ti.i32,
-    world: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=1),
-):
-    for b in range(angles.shape[0]):
-        a = angles[b]
-        d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
-        o = ti.Vector([origin[0], origin[1], origin[2]])
-        best, k, n = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
-        inv = _safe_inv(d)
-        tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
-        ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
-        ranges[b] = ti.min(best, ti.min(tx, ty))
+#: Parameters of :func:`_sensors_kernel`, in order: (name, kind, dtype, ndim) with kind ``nd`` (ndarray), ``sc``
+#: (scalar) or ``vec`` (by-value vector of POSE_LEN).
+_SENSORS_ARGS = (
+    ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
+    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes_f", "nd", "f32", 2), ("nodes_i", "nd", "i32", 2),
+    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("n_prims", "sc", "i32", 0),
+    ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("consts", "nd", "f32", 1), ("rgb", "nd", "u8", 4),
+    ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
+)
+_SENSORS_GRAPH = None
+
+
+def _sensors_graph():
+    """:func:`_sensors_kernel` as a compiled Taichi compute graph (``ti.graph``), built once per process. Running
+    the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument work, which is
+    most of the time of a one-camera frame on a GPU. Graph arguments must be Taichi ndarrays (device buffers)."""
+    global _SENSORS_GRAPH
+    if _SENSORS_GRAPH is None:
+        kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
+        dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8}
+        symbols = []
+        for name, kind, dtype, ndim in _SENSORS_ARGS:
+            extra = {"ndim": ndim} if kind == "nd" else {}
+            dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
+            symbols.append(ti.graph.Arg(kinds[kind], name, dtype=dt, **extra))
+        builder = ti.graph.GraphBuilder()
+        builder.dispatch(_sensors_kernel, *symbols)
+        _SENSORS_GRAPH = builder.compile()
+    return _SENSORS_GRAPH
 
 
 # ---------------------------------------------------------------------------------------------------------- renderer
+#: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
+_SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "lights", "world")
+
+
+def _device_array(a: np.ndarray):
+    """A Taichi ndarray (in the arch's memory: GPU memory on CUDA) holding a copy of ``a``."""
+    dtype = {np.dtype(np.float32): ti.f32, np.dtype(np.int32): ti.i32, np.dtype(np.uint8): ti.u8}[a.dtype]
+    out = ti.ndarray(dtype=dtype, shape=a.shape)
+    out.from_numpy(np.ascontiguousarray(a))
+    return out
+
+
+def _empty_outputs(B: int, H: int, W: int) -> dict:
+    return {"rgb": np.zeros((B, H, W, 3), np.uint8), "depth": np.zeros((B, H, W), np.float32),
+            "class": np.zeros((B, H, W), np.int32), "instance": np.zeros((B, H, W), np.int32)}
+
+
 class Renderer:
     """Renders one scene at a time with Taichi. Use from a single thread.
 
@@ -609,28 +748,115 @@ class Renderer:
         shadow_samples: shadow rays per light and pixel in ``fast`` mode (1: hard shadows; more: soft shadows over
             the light's disc).
         seed: seeds the sampling patterns (same seed → bit-identical images).
+        device_buffers: keep the scene and the output images in Taichi ndarrays, i.e. in GPU memory on CUDA, so a
+            launch copies nothing between host and device (``None``: on CUDA only). On the CPU, NumPy arrays are
+            already shared with the kernels, so the default there passes them directly.
     """
 
-    def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0) -> None:
+    def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
+                 device_buffers: bool | None = None) -> None:
         self.arch = ensure_taichi(arch)
         self._packed: dict | None = None
+        self._scene_args: tuple | None = None
         self.shadow_samples = int(shadow_samples)
         self.seed = int(seed)
+        self.device_buffers = (self.arch == "cuda") if device_buffers is None else bool(device_buffers)
+        self._buffers: dict = {}
+        self._uploaded: dict = {}
+        self._consts_key: tuple | None = None
+        self._consts = None
 
     def set_scene(self, scene) -> None:
         """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
-        use it."""
+        use it. With device buffers, this is the only host-to-device copy of the scene."""
         self._packed = pack_scene(scene)
+        arrays = {k: (_device_array(self._packed[k]) if self.device_buffers else self._packed[k])
+                  for k in _SCENE_ARRAYS}
+        self._scene_args = (arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
+                            self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"])
 
     def _need_scene(self) -> dict:
         if self._packed is None:
             raise RuntimeError("Renderer.set_scene() has not been called")
         return self._packed
 
-    def _args(self):
-        s = self._need_scene()
-        return (s["nodes_f"], s["nodes_i"], s["pf"], s["pi"], s["tris"], s["n_prims"], s["lights"], s["n_lights"],
-                s["world"])
+    def _args(self) -> tuple:
+        self._need_scene()
+        return self._scene_args
+
+    def _buffer(self, name: str, shape: tuple, dtype) -> object:
+        """The output/input buffer ``name`` of ``shape``: a reused Taichi ndarray with device buffers, else a new
+        NumPy array."""
+        if not self.device_buffers:
+            return np.zeros(shape, dtype=dtype)
+        key = (name, shape)
+        if key not in self._buffers:
+            self._buffers[key] = ti.ndarray(dtype={np.uint8: ti.u8, np.float32: ti.f32, np.int32: ti.i32}[dtype],
+                                            shape=shape)
+        return self._buffers[key]
+
+    def _upload(self, name: str, a: np.ndarray, *, cached: bool = False) -> object:
+        """``a`` where the kernels read it: copied into a reused device buffer, or ``a`` itself. ``cached``: skip
+        the copy when the buffer already holds these values (beam angles, which rarely change)."""
+        a = np.ascontiguousarray(a)
+        if not self.device_buffers:
+            return a
+        buf = self._buffer(name, a.shape, a.dtype.type)
+        if cached and np.array_equal(self._uploaded.get(name), a):
+            return buf
+        buf.from_numpy(a)
+        self._uploaded[name] = a.copy() if cached else None
+        return buf
+
+    def _frame_constants(self, K) -> object:
+        """:func:`frame_constants` for ``K`` and the current render settings, rebuilt (and uploaded) only when they
+        change."""
+        key = (None if K is None else np.asarray(K, dtype=np.float64).tobytes(), self.shadow_samples, self.seed,
+               id(self._packed))
+        if self._consts_key != key:
+            params = render_params(self.shadow_samples, self.seed)
+            self._consts = self._upload("consts", frame_constants(self._packed["world"], params, K))
+            self._consts_key = key
+        return self._consts
+
+    def sync(self) -> None:
+        """Wait for every launched kernel to finish (launches on CUDA are asynchronous; copies to the host wait
+        by themselves)."""
+        ti.sync()
+
+    def render_sensors(self, K: np.ndarray, T_map_cameras, width: int, height: int, T_map_lidars=None,
+                       angles: np.ndarray | None = None, *, to_host: bool = True) -> dict:
+        """Render B camera views (``fast`` mode) and, optionally, B planar laser scans, all in ONE kernel launch.
+
+        Args:
+            K: (3, 3) intrinsics shared by the views. T_map_cameras: (B, 4, 4) optical-frame poses in ``map``.
+            width, height: image size, pixels.
+            T_map_lidars: (B, 4, 4) lidar poses (x forward, z up, assumed level), or ``None`` for no scans.
+            angles: (N,) beam angles (rad, about each lidar's z from its +x); required with ``T_map_lidars``.
+            to_host: return NumPy arrays (copied from the GPU on CUDA). ``False`` leaves the outputs where the
+                kernel wrote them — Taichi ndarrays in GPU memory with device buffers (``.to_numpy()`` copies one),
+                NumPy arrays otherwise — and returns without waiting for the GPU (see :meth:`sync`); such device
+                outputs are overwritten by the next call of the same sizes.
+
+        Returns:
+            ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``class``/``instance``
+            (B, H, W) int32 (as :meth:`render`), and with lidars ``ranges`` (B, N) float32 metres.
+
+        Raises:
+            ValueError: lidars without angles, or a lidar count different from the camera count.
+        """
+        Ts = np.asarray(T_map_cameras, dtype=np.float64).reshape(-1, 4, 4)
+        Tl = None
+        if T_map_lidars is not None:
+            if angles is None:
+                raise ValueError("render_sensors: T_map_lidars needs angles")
+            Tl = np.asarray(T_map_lidars, dtype=np.float64).reshape(-1, 4, 4)
+            if Tl.shape[0] != Ts.shape[0]:
+                raise ValueError(f"render_sensors: {Tl.shape[0]} lidar poses for {Ts.shape[0]} camera poses")
+        out = self._launch(K, Ts, int(width), int(height), Tl, angles, lit=True)
+        if to_host and self.device_buffers:
+            out = {k: (v if isinstance(v, np.ndarray) else v.to_numpy()) for k, v in out.items()}
+        return out
 
     def render_batch(self, K: np.ndarray, T_map_cameras, width: int, height: int) -> dict[str, np.ndarray]:
         """Render B views of the scene in ONE kernel launch (``fast`` mode).
@@ -640,26 +866,49 @@ class Renderer:
 
         Returns:
             as :meth:`render` with a leading batch axis: ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32,
-            ``class``/``instance`` (B, H, W) int32.
+            ``class``/``instance`` (B, H, W) int32 (NumPy arrays).
         """
-        return self._render_fast(K, T_map_cameras, width, height, lit=True)
+        return self.render_sensors(K, T_map_cameras, width, height)
 
-    def _render_fast(self, K, T_map_cameras, width: int, height: int, *, lit: bool) -> dict[str, np.ndarray]:
-        """:meth:`render_batch`; ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for callers
-        that only keep depth and segmentation, which do not depend on the lights."""
-        Ts = np.asarray(T_map_cameras, dtype=np.float64).reshape(-1, 4, 4)
-        B, H, W = Ts.shape[0], int(height), int(width)
-        cams = np.ascontiguousarray(np.stack([camera_params(K, T) for T in Ts]).reshape(B, 16))
-        rgb = np.zeros((B, H, W, 3), dtype=np.uint8)
-        depth = np.zeros((B, H, W), dtype=np.float32)
-        cls = np.zeros((B, H, W), dtype=np.int32)
-        inst = np.zeros((B, H, W), dtype=np.int32)
-        if B:
-            args = list(self._args())
-            if not lit:
-                args[7] = 0  # n_lights
-            _render_kernel(cams, *args, render_params(self.shadow_samples, self.seed), rgb, depth, cls, inst)
-        return {"rgb": rgb, "depth": depth, "class": cls, "instance": inst}
+    def _launch(self, K, Ts, W: int, H: int, Tl, angles, *, lit: bool) -> dict:
+        """One :func:`_sensors_kernel` launch: images for the (B, 4, 4) camera poses ``Ts`` (none if ``K`` is None),
+        scans for the lidar poses ``Tl`` (none if None) at beam ``angles``. Outputs stay in the renderer's buffers.
+        ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for callers that only keep depth and
+        segmentation, which do not depend on the lights."""
+        packed = self._need_scene()
+        images = K is not None
+        B = Ts.shape[0] if images else Tl.shape[0]
+        n_beams = 0 if Tl is None else int(np.asarray(angles).size)
+        if B == 0 or (Tl is not None and n_beams == 0):  # nothing to launch: empty NumPy outputs
+            out = _empty_outputs(B, H, W) if images else {}
+            if Tl is not None:
+                out["ranges"] = np.zeros((B, 0), np.float32)
+            return out
+        shape = (B, H, W) if images else (1, 1, 1)
+        out = {"rgb": self._buffer("rgb", shape + (3,), np.uint8), "depth": self._buffer("depth", shape, np.float32),
+               "class": self._buffer("class", shape, np.int32), "instance": self._buffer("instance", shape, np.int32)}
+        ranges = self._buffer("ranges", (B, max(n_beams, 1)), np.float32)
+        poses = [sensor_pose(Ts[b] if images else None, None if Tl is None else Tl[b]) for b in range(B)]
+        if B == 1:  # the pose travels by value: no upload (an upload costs a device round trip on CUDA)
+            table, pose0, one = self._buffer("no_table", (1, POSE_LEN), np.float32), poses[0], 1
+        else:
+            table, pose0, one = self._upload("poses", np.stack(poses)), np.zeros(POSE_LEN, np.float32), 0
+        beams = self._upload("beams", np.asarray(angles if n_beams else [0.0], dtype=np.float32).reshape(-1),
+                             cached=True)
+        consts = self._frame_constants(K)
+        s = self._args()
+        values = (table, pose0, one, int(images), beams, n_beams, s[0], s[1], s[2], s[3], s[4], s[5], s[6],
+                  s[7] if lit else 0, consts, out["rgb"], out["depth"], out["class"], out["instance"], ranges)
+        if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
+            values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(_SENSORS_ARGS, values))
+            _sensors_graph().run(dict(zip((a[0] for a in _SENSORS_ARGS), values)))
+        else:
+            _sensors_kernel(*values)
+        if not images:
+            out = {}
+        if Tl is not None:
+            out["ranges"] = ranges
+        return out
 
     def render(self, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
                mode: str = "fast", spp: int = 16, denoise: bool = True) -> dict[str, np.ndarray]:
@@ -680,13 +929,15 @@ class Renderer:
         if mode not in MODES:
             raise ValueError(f"unknown render mode {mode!r}: use one of {MODES}")
         # quality mode replaces the RGB, so its fast pass only needs depth and segmentation: no lights
-        batch = self._render_fast(K, np.asarray(T_map_camera)[None], width, height, lit=mode == "fast")
-        out = {k: v[0] for k, v in batch.items()}
+        batch = self._launch(K, np.asarray(T_map_camera, dtype=np.float64)[None], int(width), int(height), None, None,
+                             lit=mode == "fast")
+        out = {k: (v if isinstance(v, np.ndarray) else v.to_numpy())[0] for k, v in batch.items()}
         if mode == "quality":
             H, W = int(height), int(width)
-            lin = np.zeros((1, H, W, 3), dtype=np.float32)
+            lin = self._buffer("quality", (1, H, W, 3), np.float32)
             params = render_params(max(spp, 1), self.seed, spp=spp, bounce_gain=0.6)
-            _quality_kernel(camera_params(K, T_map_camera)[None].copy(), *self._args(), params, lin)
+            _quality_kernel(camera_params(K, T_map_camera), *self._args(), params, lin)
+            lin = lin.to_numpy() if self.device_buffers else lin
             img = np.floor(np.power(np.clip(lin[0], 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
             if denoise:
                 import cv2
@@ -707,12 +958,7 @@ class Renderer:
         Returns:
             (N,) float64 distances (metres) to the first primitive or wall hit (no clipping).
         """
-        s = self._need_scene()
-        T = np.asarray(T_map_lidar, dtype=np.float64)
-        yaw = math.atan2(T[1, 0], T[0, 0])
-        world_angles = (np.asarray(angles, dtype=np.float64) + yaw).astype(np.float32)
-        out = np.zeros(world_angles.shape[0], dtype=np.float32)
-        if out.size:
-            _scan_kernel(T[:3, 3].astype(np.float32), world_angles, s["nodes_f"], s["nodes_i"], s["pf"], s["pi"],
-                         s["tris"], s["n_prims"], s["world"], out)
-        return out.astype(np.float64)
+        angles = np.asarray(angles, dtype=np.float64).reshape(-1)
+        ranges = self._launch(None, None, 1, 1, np.asarray(T_map_lidar, dtype=np.float64)[None], angles,
+                              lit=False)["ranges"]
+        return (ranges if isinstance(ranges, np.ndarray) else ranges.to_numpy())[0, :angles.size].astype(np.float64)
