@@ -137,3 +137,30 @@ def test_containerised_batch_runs_a_container(tmp_path):
     proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1", "--no-evaluate",
                "--output-dir", str(tmp_path / "runs"), *SMALL, timeout=900)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_parallel_workers_start_the_longest_episodes_first():
+    from benchbot.batch.runner import longest_first
+    from benchbot.core.registry import get_registry
+
+    specs = plan_episodes(task="semantic_slam:passive:ground_truth", robots=["carter"],
+                          envs=["miniroom:1", "house:1", "miniroom:3", "nowhere:1"], repeat=1, seed=0, argv=["x"],
+                          cwd=".", options={}, timeout_s=None)
+    order = [s.env for s in longest_first(specs, get_registry())]
+    assert order == ["house:1", "miniroom:3", "miniroom:1", "nowhere:1"]  # 269, 56, 48 poses; unknown last
+
+
+def test_parallel_workers_share_the_cores(tmp_path):
+    """Each of N workers caps its simulator threads and its solutions' BLAS/OpenMP threads at cores / N."""
+    report = ("import os; print('threads', os.environ.get('BENCHBOT_TAICHI_THREADS'), "
+              "os.environ.get('OMP_NUM_THREADS'), os.environ.get('OPENBLAS_NUM_THREADS'))")
+    env = {k: v for k, v in os.environ.items() if k not in ("BENCHBOT_TAICHI_THREADS", "OMP_NUM_THREADS",
+                                                           "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+    proc = subprocess.run([*BENCHBOT, "batch", "--native", f"{sys.executable} -c \"{report}\"", "--envs",
+                           "miniroom:1,miniroom:2", "--workers", "2", "--output-dir", str(tmp_path), *SMALL],
+                          capture_output=True, text=True, timeout=300, env=env)
+    run_dir = next(tmp_path.iterdir())
+    share = str(max(1, (os.cpu_count() or 1) // 2))
+    for record in manifest(run_dir)["episodes"]:
+        log = (run_dir / record["log"]).read_text()
+        assert f"threads {share} {share} {share}" in log, (log, proc.stderr)

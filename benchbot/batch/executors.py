@@ -3,7 +3,8 @@ the same events and returns the same records, so results do not depend on the ex
 
 ``local``: ``workers == 1`` runs episodes one after another in this process (the simulator starts once);
 ``workers > 1`` runs them in that many worker processes (spawned; each has its own simulator thread and its own
-backend on a free loopback port). ``ray``: episodes are Ray tasks on a local or existing Ray cluster.
+backend on a free loopback port; each worker's simulator and solutions get cores / workers threads). ``ray``:
+episodes are Ray tasks on a local or existing Ray cluster.
 """
 
 from __future__ import annotations
@@ -35,6 +36,19 @@ def _drain(events: "queue.Queue | object", on_event: EventHandler, stop: threadi
         on_event(kind, index, info)
 
 
+#: Thread-count variables a worker sets (unless already set) for its simulator and for the solution processes it
+#: starts (NumPy's BLAS and OpenMP read them when they load).
+THREAD_VARIABLES = ("BENCHBOT_TAICHI_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _share_cores(threads: int) -> None:
+    """Worker initialiser: cap each worker's simulator threads and its solutions' BLAS/OpenMP threads to the
+    worker's share of the cores (unless the user set them), so N workers do not each start one thread per core —
+    oversubscribed BLAS threads spin and slow every episode down."""
+    for name in THREAD_VARIABLES:
+        os.environ.setdefault(name, str(threads))
+
+
 def run_local(
     specs: list[EpisodeSpec], run_dir: str, *, workers: int, on_event: EventHandler,
     on_record: Callable[[EpisodeRecord], None],
@@ -58,7 +72,9 @@ def run_local(
         drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
         drainer.start()
         try:
-            with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            threads = max(1, (os.cpu_count() or 1) // min(workers, len(specs)))
+            with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_share_cores,
+                                     initargs=(threads,)) as pool:
                 futures = [pool.submit(run_episode, spec, run_dir, events) for spec in specs]
                 for future in as_completed(futures):
                     on_record(future.result())

@@ -133,6 +133,21 @@ def prepare_batch(
     return manifest
 
 
+def longest_first(specs: list[EpisodeSpec], registry: Registry) -> list[EpisodeSpec]:
+    """``specs`` in the order parallel workers should start them: longest expected episode first (the number of
+    trajectory poses of its scenes, which is the number of steps of a passive episode), so that no long episode
+    starts last and holds up the end of the batch (longest-processing-time-first scheduling). Ties and episodes
+    without trajectories keep their batch order. Results do not depend on the order."""
+
+    def steps(spec: EpisodeSpec) -> int:
+        try:
+            return sum(len(scene.get("trajectory_poses") or []) for scene in registry.scenes(spec.env))
+        except BenchbotError:
+            return 0
+
+    return sorted(specs, key=lambda spec: -steps(spec))
+
+
 def run_batch(
     registry: Registry, run_dir: Path, *, workers: int = 1, retries: int = 0, executor: str = "local",
     ray_address: str | None = None, on_event: EventHandler | None = None,
@@ -172,6 +187,8 @@ def run_batch(
         todo = [s for s in specs if by_index[s.index].status != "ok"]
         if not todo:
             break
+        if workers > 1 or executor == "ray":
+            todo = longest_first(todo, registry)
         handler = on_event or (lambda *a: None)
         if executor == "ray":
             run_ray(todo, str(run_dir), address=ray_address, workers=workers, on_event=handler, on_record=record_done)
