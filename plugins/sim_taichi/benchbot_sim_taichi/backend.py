@@ -309,9 +309,12 @@ class TaichiSimBackend(RobotBackend):
         return out
 
     def close(self) -> None:
-        """Drop the scene and caches (Taichi's runtime stays up for the process)."""
+        """Drop the scene and caches and free the renderer's GPU memory (Taichi's runtime stays up for the
+        process). Runs on the backend thread, the thread that renders."""
         self._cache = {}
         self.scene = None
+        if self._renderer is not None:
+            self._renderer.close()
         self._renderer = None
 
 

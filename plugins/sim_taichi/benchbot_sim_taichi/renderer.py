@@ -27,6 +27,7 @@ towards the light's centre.
 
 import contextlib
 import functools
+import gc
 import math
 import os
 import sys
@@ -99,9 +100,12 @@ class _ReleaseTaichiAtThreadExit:
     def __del__(self) -> None:
         global _INIT_ARCH, _SENSORS_GRAPH
         try:
-            ti.reset()
+            ti.reset()  # frees every ndarray; after it, dropping an ndarray frees nothing, on any thread
         finally:
             _INIT_ARCH, _SENSORS_GRAPH = None, None
+            with _RETIRE_LOCK:
+                _DEVICE_ARRAYS.clear()
+                _RETIRED.clear()
 
 
 def _init(want: str) -> str:
@@ -719,6 +723,9 @@ def _sensors_graph():
         builder = ti.graph.GraphBuilder()
         builder.dispatch(_sensors_kernel, *symbols)
         _SENSORS_GRAPH = builder.compile()
+        # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
+        # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
+        gc.collect()
     return _SENSORS_GRAPH
 
 
@@ -727,12 +734,53 @@ def _sensors_graph():
 _SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "lights", "world")
 
 
-def _device_array(a: np.ndarray):
-    """A Taichi ndarray (in the arch's memory: GPU memory on CUDA) holding a copy of ``a``."""
-    dtype = {np.dtype(np.float32): ti.f32, np.dtype(np.int32): ti.i32, np.dtype(np.uint8): ti.u8}[a.dtype]
-    out = ti.ndarray(dtype=dtype, shape=a.shape)
-    out.from_numpy(np.ascontiguousarray(a))
-    return out
+# Taichi ndarrays must be freed on Taichi's thread: on CUDA the context is current only there, and freeing GPU
+# memory from any other thread aborts the process (CUDA_ERROR_INVALID_CONTEXT). A Renderer may be dropped on any
+# thread (or collected there by the cyclic garbage collector), so the ndarrays it makes are also held here; a dropped
+# Renderer's arrays are retired, and retired arrays are released by :func:`_free_retired` on Taichi's thread once
+# nothing else refers to them.
+_DEVICE_ARRAYS: dict[int, object] = {}
+_RETIRED: list = []
+_RETIRE_LOCK = threading.Lock()
+
+
+def _new_device_array(dtype, shape: tuple):
+    """A new Taichi ndarray of ``dtype`` (NumPy dtype: uint8, int32 or float32) and ``shape`` (zeroed), in the arch's
+    memory (GPU memory on CUDA), held until :func:`_retire`. Call on Taichi's thread."""
+    arr = ti.ndarray(dtype={np.dtype(np.uint8): ti.u8, np.dtype(np.float32): ti.f32,
+                            np.dtype(np.int32): ti.i32}[np.dtype(dtype)], shape=tuple(shape))
+    _DEVICE_ARRAYS[id(arr)] = arr
+    return arr
+
+
+def _retire(arrays) -> None:
+    """Mark ``arrays`` (ndarrays from :func:`_new_device_array`) as no longer used; any thread may call this."""
+    with _RETIRE_LOCK:
+        for arr in arrays:
+            held = _DEVICE_ARRAYS.pop(id(arr), None)
+            if held is not None:
+                _RETIRED.append(held)
+
+
+def _references(obj) -> int:
+    return sys.getrefcount(obj)
+
+
+#: What :func:`_references` reports, in the comprehension of :func:`_free_retired`, for an object that only a list
+#: refers to (measured, as it differs between Python versions).
+_ONLY_LISTED = [_references(obj) for obj in [object()]][0]
+
+
+def _free_retired() -> int:
+    """Release the retired ndarrays that only the retired list still refers to (call on Taichi's thread); returns
+    how many remain retired because something else still refers to them."""
+    if not _RETIRED:
+        return 0
+    with _RETIRE_LOCK:
+        keep = [arr for arr in _RETIRED if _references(arr) > _ONLY_LISTED]
+        freed, _RETIRED[:] = list(_RETIRED), keep
+    del freed  # the last references of the others go here, on this thread
+    return len(keep)
 
 
 def _empty_outputs(B: int, H: int, W: int) -> dict:
@@ -765,13 +813,35 @@ class Renderer:
         self._uploaded: dict = {}
         self._consts_key: tuple | None = None
         self._consts = None
+        self._scene_arrays: list = []
+
+    def __del__(self) -> None:
+        # may run on any thread: the device arrays are only retired here, and freed later on Taichi's thread
+        try:
+            _retire(list(getattr(self, "_buffers", {}).values()) + getattr(self, "_scene_arrays", []))
+        except (TypeError, AttributeError):  # at interpreter exit this module's globals may already be None
+            pass
+
+    def close(self) -> None:
+        """Release the GPU memory of this renderer now (call on the thread that renders); it cannot render
+        afterwards until :meth:`set_scene` is called again."""
+        _retire(list(self._buffers.values()) + self._scene_arrays)
+        self._buffers, self._uploaded, self._scene_arrays = {}, {}, []
+        self._packed = self._scene_args = self._consts = self._consts_key = None
+        _free_retired()
 
     def set_scene(self, scene) -> None:
         """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
         use it. With device buffers, this is the only host-to-device copy of the scene."""
+        _free_retired()
         self._packed = pack_scene(scene)
-        arrays = {k: (_device_array(self._packed[k]) if self.device_buffers else self._packed[k])
-                  for k in _SCENE_ARRAYS}
+        _retire(self._scene_arrays)
+        arrays = {k: self._packed[k] for k in _SCENE_ARRAYS}
+        if self.device_buffers:
+            for k, a in arrays.items():
+                arrays[k] = _new_device_array(a.dtype, a.shape)
+                arrays[k].from_numpy(np.ascontiguousarray(a))
+        self._scene_arrays = [arrays[k] for k in _SCENE_ARRAYS] if self.device_buffers else []
         self._scene_args = (arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
                             self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"])
 
@@ -791,8 +861,7 @@ class Renderer:
             return np.zeros(shape, dtype=dtype)
         key = (name, shape)
         if key not in self._buffers:
-            self._buffers[key] = ti.ndarray(dtype={np.uint8: ti.u8, np.float32: ti.f32, np.int32: ti.i32}[dtype],
-                                            shape=shape)
+            self._buffers[key] = _new_device_array(dtype, shape)
         return self._buffers[key]
 
     def _upload(self, name: str, a: np.ndarray, *, cached: bool = False) -> object:
@@ -876,6 +945,8 @@ class Renderer:
         ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for callers that only keep depth and
         segmentation, which do not depend on the lights."""
         packed = self._need_scene()
+        if _RETIRED:
+            _free_retired()
         images = K is not None
         B = Ts.shape[0] if images else Tl.shape[0]
         n_beams = 0 if Tl is None else int(np.asarray(angles).size)

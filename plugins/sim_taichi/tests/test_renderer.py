@@ -149,3 +149,64 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
         host.render_sensors(K, cams, W, H, lidars[:2], angles)
     with pytest.raises(ValueError, match="needs angles"):
         host.render_sensors(K, cams, W, H, lidars)
+
+
+def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_taichi_thread(bear_envs):
+    """Freeing GPU memory off Taichi's thread aborts a CUDA process, so a Renderer dropped (or garbage-collected)
+    on another thread only retires its device arrays; they are freed on the rendering thread once nothing else
+    refers to them (exercised with device buffers on the CPU, where the bookkeeping is the same)."""
+    import threading
+
+    from benchbot_sim_taichi import renderer as rmod
+    from benchbot_sim_taichi.scene import build_scene
+
+    scene = build_scene(bear_envs["miniroom:1"])
+    K = rmod.intrinsics(16, 12, 90.0)
+    cam = _cam(*scene.trajectory_se2[0])
+    rmod._free_retired()
+    held_before = len(rmod._DEVICE_ARRAYS)
+    owner = rmod.Renderer("cpu", device_buffers=True)
+    owner.set_scene(scene)
+    kept = owner.render_sensors(K, cam[None], 16, 12, to_host=False)["depth"]  # a caller still holds an output
+    made = len(rmod._DEVICE_ARRAYS) - held_before
+    assert made >= len(rmod._SCENE_ARRAYS) + 4
+
+    box = [owner]
+    del owner
+    dropper = threading.Thread(target=box.clear)  # the last reference goes on another thread
+    dropper.start()
+    dropper.join()
+    assert len(rmod._DEVICE_ARRAYS) == held_before and len(rmod._RETIRED) == made  # retired, nothing freed there
+    assert rmod._free_retired() == 1  # on this (Taichi's) thread: all freed but the output still held
+    assert kept.to_numpy().shape == (1, 12, 16)  # and that one is still valid
+    del kept
+    assert rmod._free_retired() == 0 and not rmod._RETIRED
+
+    closing = rmod.Renderer("cpu", device_buffers=True)
+    closing.set_scene(scene)
+    closing.render(K, cam, 16, 12)
+    closing.close()  # frees at once, on this thread
+    assert len(rmod._DEVICE_ARRAYS) == held_before and not rmod._RETIRED
+    with pytest.raises(RuntimeError, match="set_scene"):
+        closing.render(K, cam, 16, 12)
+
+
+def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector():
+    """Taichi's graph compiler makes placeholder ndarrays that end up in reference cycles; the collector would
+    free them on whatever thread it runs, which aborts a CUDA process off Taichi's thread. Compiling collects them
+    on the compiling thread."""
+    import gc
+
+    from taichi.lang._ndarray import Ndarray
+
+    from benchbot_sim_taichi import renderer as rmod
+
+    rmod.ensure_taichi("cpu")
+    rmod._SENSORS_GRAPH = None
+    gc.disable()  # so that nothing but the compiler's own collect runs during the compile
+    try:
+        rmod._sensors_graph()
+        stray = [o for o in gc.get_objects() if isinstance(o, Ndarray) and id(o) not in rmod._DEVICE_ARRAYS]
+    finally:
+        gc.enable()
+    assert stray == []
