@@ -35,6 +35,12 @@ BODIES = st.one_of(
     JSONISH.map(lambda v: json.dumps(v).encode()),
     st.fixed_dictionaries({"args": JSONISH, "kwargs": JSONISH}).map(lambda v: json.dumps(v).encode()),
     st.fixed_dictionaries({"action": JSONISH, "args": JSONISH}).map(lambda v: __import__("msgpack").packb(v)),
+    # the shared-memory offer: junk, and well-formed offers naming segments that do not exist or paths elsewhere
+    st.fixed_dictionaries({"action": st.none() | JSONISH, "shm": JSONISH | st.fixed_dictionaries({
+        "client": st.from_regex(r"[0-9a-f]{32}", fullmatch=True) | JSONISH,
+        "segment": st.none() | st.from_regex(r"benchbot-[0-9a-f]{32}", fullmatch=True) | JSONISH
+        | st.sampled_from(["../../etc/passwd", "benchbot-", "/dev/shm/x", "benchbot-" + "a" * 32 + "/"])})})
+    .map(lambda v: __import__("msgpack").packb(v)),
 )
 
 

@@ -18,6 +18,7 @@ import enum
 import json
 import http.client
 import os
+import secrets
 import threading
 import urllib.parse
 import time
@@ -26,7 +27,8 @@ from typing import TYPE_CHECKING, Any, Callable
 
 import httpx
 
-from benchbot.core import wire
+from benchbot.core import shared_frames, wire
+from benchbot.core.errors import BenchbotError
 
 if TYPE_CHECKING:
     from benchbot.core.server import BackendService
@@ -53,10 +55,15 @@ class HttpTransport:
         timeout_s: per-request read timeout in seconds (an action may take this long); connect timeout 5 s.
         token: sent as ``X-BenchBot-Token`` when set.
         event_hooks: httpx event hooks (e.g. to count requests).
+        shared_memory: receive a step's large arrays through a shared-memory file instead of the HTTP reply
+            (:mod:`benchbot.core.shared_frames`; same results, fewer copies). ``None`` (default): when the backend
+            is on loopback and ``/dev/shm`` is usable, unless ``$BENCHBOT_SHARED_MEMORY=0``. If this process cannot
+            map the backend's segment (e.g. it runs in another container), the transport turns the path off and
+            carries on inline; :attr:`shared_memory_error` says why.
     """
 
     def __init__(self, address: str, timeout_s: float = 120.0, token: str | None = None,
-                 event_hooks: dict | None = None) -> None:
+                 event_hooks: dict | None = None, shared_memory: bool | None = None) -> None:
         self.address = address
         self.timeout_s = timeout_s
         self.headers = {TOKEN_HEADER: token} if token else {}
@@ -67,6 +74,34 @@ class HttpTransport:
         self._host, self._port = url.hostname or "127.0.0.1", url.port or 80
         self._base_path = url.path.rstrip("/")
         self._local = threading.local()
+        if shared_memory is None:
+            shared_memory = shared_frames.is_loopback(self._host) and shared_frames.available()
+        self.shared_memory = bool(shared_memory)
+        self.shared_memory_error: str | None = None
+        self._mappings: list[shared_frames.ClientMapping] = []  # every thread's, to unmap them on close
+
+    def _shm_offer(self) -> dict:
+        """This thread's ``shm`` field: its client id (one segment per thread, as requests of two threads may
+        overlap) and the segment it has mapped."""
+        local = self._local
+        if getattr(local, "shm_client", None) is None:
+            local.shm_client, local.mapping = secrets.token_hex(16), None
+        return {"client": local.shm_client, "segment": local.mapping.name if local.mapping else None}
+
+    def _map(self, announced: Any) -> None:
+        """Map the segment a reply announced (``shm_segment``), replacing this thread's; if that fails, the backend
+        cannot share memory with this process: turn the path off."""
+        old = self._local.mapping
+        try:
+            self._local.mapping = shared_frames.ClientMapping(announced.get("name"), announced.get("size"))
+            self._mappings.append(self._local.mapping)
+        except (OSError, BenchbotError, AttributeError) as exc:
+            self._local.mapping = None
+            self.shared_memory = False
+            self.shared_memory_error = f"cannot map the backend's segment: {exc}"
+        if old is not None:
+            old.close()
+            self._mappings.remove(old)
 
     def _request(self, route: str, *, json_body: dict | None = None, content: bytes | None = None) -> httpx.Response:
         try:
@@ -140,6 +175,10 @@ class HttpTransport:
         request: dict = {"action": action, "args": args}
         if observations is not None:
             request["observations"] = observations
+        mapping = None
+        if self.shared_memory:
+            request["shm"] = self._shm_offer()
+            mapping = self._local.mapping
         route = "native/step"
         try:
             status, content = self._post_binary(route, wire.pack(request))
@@ -154,11 +193,23 @@ class HttpTransport:
             if status == 409:
                 raise ValueError(detail)
             raise ConnectionError(f"BenchBot backend refused /{route} ({status}): {detail}")
-        return wire.unpack(content)
+        try:
+            reply = wire.unpack(content, mapping.read if mapping is not None else None)
+        except BenchbotError as exc:
+            raise ConnectionError(f"the BenchBot backend at {self.address} sent a malformed /{route} reply: "
+                                  f"{exc.message}") from None
+        if "shm_segment" in reply:
+            self._map(reply.pop("shm_segment"))
+        if "shm_error" in reply:
+            self.shared_memory, self.shared_memory_error = False, str(reply.pop("shm_error"))
+        return reply
 
     def close(self) -> None:
-        """Close the HTTP connections."""
+        """Close the HTTP connections and unmap the shared-memory segments."""
         self.http.close()
+        for mapping in self._mappings:
+            mapping.close()
+        self._mappings.clear()
         conn = getattr(self._local, "conn", None)
         if conn is not None:
             conn.close()

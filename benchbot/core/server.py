@@ -14,7 +14,9 @@ Routes (the original supervisor's, reference §3 and §5.1, plus the native prot
 ``GET|POST /results_functions/[fn]``    the results format's function names, or call one with
                                         ``{"args": [...], "kwargs": {...}}``
 ``POST /native/step``                   one round trip per step: MessagePack ``{action, args, observations?}``
-                                        → ``{result, observations, state}`` (arrays as raw bytes, wire.py)
+                                        → ``{result, observations, state}`` (arrays as raw bytes, wire.py);
+                                        with ``shm: {client, segment}`` from a loopback client, large arrays
+                                        go through a shared-memory segment instead (shared_frames.py)
 ======================================  ======================================================================
 
 Errors are JSON ``{"error": message, "hint": hint}`` with 400 (bad request), 401 (missing/wrong token), 404
@@ -43,7 +45,8 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
-from benchbot.core import wire
+from benchbot.core import shared_frames, wire
+from benchbot.core.shared_frames import is_loopback
 from benchbot.core.episode import ACTIONS, Episode
 from benchbot.core.errors import ActionError, BackendError, BenchbotError
 
@@ -372,6 +375,7 @@ def build_app(
         api: the operations object (one is built when None).
     """
     api = api or BackendApi(service)
+    segments = shared_frames.SegmentPool()  # same-host clients' shared-memory segments (used on the event loop)
 
     async def guarded(request: Request, handler: Callable) -> Response:
         try:
@@ -425,8 +429,19 @@ def build_app(
             raise BadRequestError(exc.message, exc.hint) from None
         if not isinstance(body, dict):
             raise BadRequestError("step request must be a map", "send {action, args}")
+        offer = body.get("shm")
+        if offer is not None:
+            try:
+                shared_frames.check_offer(offer)
+            except BenchbotError as exc:
+                raise BadRequestError(exc.message, exc.hint) from None
         reply = await with_timeout(api.step, body.get("action"), body.get("args"), body.get("observations"))
-        return Response(wire.pack(reply), media_type=MSGPACK)
+        if offer is None:
+            return Response(wire.pack(reply), media_type=MSGPACK)
+        if request.client is None or not is_loopback(request.client.host):
+            reply = {**reply, "shm_error": "shared memory is for clients on the backend's host (loopback) only"}
+            return Response(wire.pack(reply), media_type=MSGPACK)
+        return Response(segments.pack(reply, offer), media_type=MSGPACK)
 
     def route(path: str, handler: Callable, methods: list[str]) -> Route:
         async def endpoint(request: Request) -> Response:
@@ -450,7 +465,9 @@ def build_app(
     )
     app.state.api = api
     guarded_app: Any = TokenGuard(app, token) if token else app
-    return MergeSlashes(guarded_app)  # type: ignore[return-value]
+    served = MergeSlashes(guarded_app)
+    served.segments = segments  # ServerThread.stop removes them
+    return served  # type: ignore[return-value]
 
 
 class MergeSlashes:
@@ -493,11 +510,6 @@ class TokenGuard:
         await self.app(scope, receive, send)
 
 
-def is_loopback(host: str) -> bool:
-    """True for 127.0.0.0/8, ::1 and localhost."""
-    return host in ("localhost", "::1") or host.startswith("127.")
-
-
 class ServerThread:
     """Serves an app with uvicorn on a background thread (127.0.0.1 by default).
 
@@ -512,6 +524,7 @@ class ServerThread:
 
     def __init__(self, app: Any, host: str = "127.0.0.1", port: int = 0) -> None:
         self.host = host
+        self.app = app
         self.server = uvicorn.Server(
             uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off", access_log=False)
         )
@@ -544,3 +557,6 @@ class ServerThread:
         """Stop serving and wait for the thread."""
         self.server.should_exit = True
         self.thread.join(timeout=10)
+        segments = getattr(self.app, "segments", None)
+        if segments is not None:
+            segments.close()

@@ -1,0 +1,169 @@
+"""The native step's same-host shared-memory path (benchbot.core.shared_frames) against a real backend on loopback."""
+
+from __future__ import annotations
+
+import os
+
+import msgpack
+import numpy as np
+import pytest
+from starlette.testclient import TestClient
+
+from benchbot.api import BenchBot, InProcessBenchBot
+from benchbot.api.benchbot import HttpTransport
+from benchbot.core import shared_frames, wire
+from benchbot.core.errors import BenchbotError
+from benchbot.core.server import build_app
+
+pytestmark = pytest.mark.skipif(not shared_frames.available(), reason="no writable /dev/shm on this machine")
+
+ACTIVE = "semantic_slam:active:ground_truth"
+#: Large enough that the images pass shared_frames.MIN_BYTES (a 256×192 RGB image is 147,456 bytes).
+CAMERA = {"width": 256, "height": 192}
+
+
+@pytest.fixture
+def reads(monkeypatch):
+    """Counts the arrays that clients copy out of segments."""
+    count = [0]
+    original = shared_frames.ClientMapping.read
+
+    def counted(self, *args):
+        count[0] += 1
+        return original(self, *args)
+
+    monkeypatch.setattr(shared_frames.ClientMapping, "read", counted)
+    return count
+
+
+def _equal(a: dict, b: dict) -> bool:
+    assert set(a) == set(b)
+    for key in a:
+        x, y = a[key], b[key]
+        if isinstance(x, np.ndarray):
+            if not (isinstance(y, np.ndarray) and x.dtype == y.dtype and np.array_equal(x, y)):
+                return False
+        elif isinstance(x, dict):
+            if not _equal(x, y):
+                return False
+        elif isinstance(x, (list, tuple)):  # MessagePack has no tuples
+            if list(x) != list(y):
+                return False
+        elif x != y:
+            return False
+    return True
+
+
+def _segments() -> set[str]:
+    return {n for n in os.listdir(shared_frames.SHM_DIR) if shared_frames.NAME_PATTERN.fullmatch(n)}
+
+
+def test_shared_memory_steps_equal_the_inline_and_in_process_steps(served, reads):
+    before = _segments()
+    service, server = served(ACTIVE, "miniroom:1", **CAMERA)
+    shared = BenchBot(transport=HttpTransport(server.address))
+    assert shared.transport.shared_memory, "on by default for a loopback backend"
+    inline = BenchBot(transport=HttpTransport(server.address, shared_memory=False))
+    local = InProcessBenchBot(service)
+    shared.step(None)  # the handshake step (inline): the client maps the segment the reply names
+    for action, kwargs in ((None, {}), ("move_angle", {"angle": 20.0}), ("move_distance", {"distance": 0.2})):
+        got = []
+        for bot in (shared, inline, local):
+            service.call(service.episode.reset)
+            bot._state = {"actions": ["move_angle", "move_distance"]}
+            got.append(bot.step(action, **kwargs))
+        (a, ra), (b, rb), (c, rc) = got
+        assert ra == rb == rc and _equal(a, b) and _equal(a, c)
+        assert a["image_rgb"].shape == (192, 256, 3) and a["image_rgb"].flags.writeable
+    assert reads[0] >= 3 * 2, "RGB and depth of every shared step came through the segment"
+    assert _segments() == before, "the segment's file is removed once the client has mapped it"
+    shared.close()
+    inline.close()
+    server.stop()
+    assert _segments() == before, "stopping the server removes its segments"
+
+
+def test_a_segment_too_small_is_replaced_without_losing_a_step(served, reads, monkeypatch):
+    service, server = served(ACTIVE, "miniroom:1", **CAMERA)
+    transport = HttpTransport(server.address)
+    first = transport.step(None, {}, None)  # the handshake step: inline, and the segment to map
+    assert reads[0] == 0 and transport._local.mapping is not None
+    small = transport._local.mapping.size
+    service.call(service.episode.backend.close)  # the next observations are larger: a new camera size
+    service.episode.backend.width, service.episode.backend.height = 512, 384
+    service.call(service.episode.reset)
+    bigger = transport.step(None, {}, None)
+    assert bigger["observations"]["image_rgb"].shape == (384, 512, 3), "inline while the segment grew"
+    assert transport._local.mapping.size > small and transport.shared_memory
+    again = transport.step(None, {}, None)
+    assert reads[0] >= 2 and _equal(bigger["observations"], again["observations"])
+    assert first["observations"]["image_rgb"].shape == (192, 256, 3)
+    transport.close()
+
+
+def test_a_segment_the_client_cannot_map_turns_the_path_off(served, reads, monkeypatch):
+    before = _segments()
+    _, server = served(ACTIVE, "miniroom:1", **CAMERA)
+    transport = HttpTransport(server.address)
+    transport.step(None, {}, None)
+    made = _segments() - before  # offered, not yet mapped: the file is there, for the backend's user only
+    assert len(made) == 1 and oct(os.stat(os.path.join(shared_frames.SHM_DIR, made.pop())).st_mode & 0o777) == "0o600"
+    transport.close()
+    transport = HttpTransport(server.address)
+
+    def elsewhere(*args):  # as if this client's /dev/shm were not the backend's (another container)
+        raise FileNotFoundError(2, "No such file or directory")
+
+    monkeypatch.setattr(shared_frames, "ClientMapping", elsewhere)
+    for _ in range(3):
+        reply = transport.step(None, {}, None)
+        assert reply["observations"]["image_rgb"].shape == (192, 256, 3)
+    assert reads[0] == 0 and not transport.shared_memory and "cannot map" in transport.shared_memory_error
+    transport.close()
+
+
+def test_only_loopback_clients_get_shared_memory_and_bad_offers_are_refused(make_service):
+    service = make_service(ACTIVE, "miniroom:1", **CAMERA)
+    offer = {"client": "0" * 32, "segment": None}
+    with TestClient(build_app(service)) as http:  # its client address is "testclient", not loopback
+        reply = http.post("/native/step", content=wire.pack({"action": None, "shm": offer}))
+        assert reply.status_code == 200
+        body = wire.unpack(reply.content)
+        assert "loopback" in body["shm_error"] and body["observations"]["image_depth"].shape == (192, 256)
+        for bad in ("../etc/passwd", 7, {"client": "x"}, {"client": "0" * 32, "segment": "../../etc/passwd"},
+                    {"client": "0" * 32, "segment": 3}):
+            refused = http.post("/native/step", content=msgpack.packb({"action": None, "shm": bad}))
+            assert refused.status_code == 400 and "shm" in refused.json()["error"]
+
+
+def test_the_backend_keeps_a_bounded_number_of_segments():
+    pool = shared_frames.SegmentPool(capacity=2)
+    reply = {"observations": {"depth": np.ones((300, 300), np.float32)}}
+    before = _segments()
+    for client in ("a" * 32, "b" * 32, "c" * 32):
+        body = wire.unpack(pool.pack(reply, {"client": client, "segment": None}))
+        assert "shm_segment" in body and np.array_equal(body["observations"]["depth"], reply["observations"]["depth"])
+    assert len(_segments() - before) == 2
+    pool.close()
+    assert _segments() == before
+
+
+def test_mapped_reads_check_their_descriptor():
+    segment = shared_frames.BackendSegment(1 << 20)
+    segment.write(np.arange(4, dtype=np.float32), 64)
+    mapping = shared_frames.ClientMapping(segment.name, segment.size)
+    assert mapping.read("<f4", [4], 64).tolist() == [0.0, 1.0, 2.0, 3.0]
+    with pytest.raises(BenchbotError, match="outside"):
+        mapping.read("<f4", [1 << 20], 0)
+    with pytest.raises(BenchbotError, match="malformed"):
+        mapping.read("|O", [1], 0)
+    with pytest.raises(BenchbotError, match="outside"):
+        mapping.read("u1", [1], -1)
+    with pytest.raises(BenchbotError, match="malformed"):
+        mapping.read("u1", [-1, 2], 0)
+    with pytest.raises(BenchbotError, match="malformed shm_segment"):
+        shared_frames.ClientMapping("../x", 10)
+    mapping.close()
+    segment.close()
+    with pytest.raises(BenchbotError, match="no segment"):
+        wire.unpack(msgpack.packb({"a": {wire.SHM: "<f4", "shape": [1], "offset": 0}}))
