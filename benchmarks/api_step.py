@@ -1,12 +1,20 @@
 """Cost of one step through the three client paths, side by side in one run.
 
-One backend (Taichi simulator, ``--width``×``--height``, default 640×480) serves a task that observes RGB, depth,
-segmentation, laser and poses (``semantic_slam:active:ground_truth`` with ``image_segment`` added). Each round
+The episode (Taichi simulator, ``--width``×``--height``, default 640×480) observes RGB, depth, segmentation,
+laser and poses (``semantic_slam:active:ground_truth`` with ``image_segment`` added). ``--server thread`` (the
+default) serves it over HTTP from a thread of the benchmark's process, so every path renders with the same
+simulator and only the transport differs (client and server then share one GIL); ``--server process`` serves an
+identical backend from its own process, as ``benchbot run`` serves a submission (on a 2-core machine its renders
+then compete with the benchmark process's simulator threads). Each round
 resets the episode (untimed) and then times one step ``move_angle`` (``--angle`` degrees from the start pose, the
 same motion and the same images for every path) through:
 
 * ``inprocess``: :func:`benchbot.api.InProcessBenchBot` (no HTTP, no serialisation);
-* ``native``: :class:`benchbot.api.BenchBot` over HTTP on 127.0.0.1 (``POST /native/step``, MessagePack);
+* ``native``: :class:`benchbot.api.BenchBot` over HTTP on 127.0.0.1 (``POST /native/step``, MessagePack), as a
+  client gets it by default: on the same host, large arrays travel through a shared-memory file
+  (:mod:`benchbot.core.shared_frames`);
+* ``native_inline``: the same with the shared-memory path off (``BENCHBOT_SHARED_MEMORY=0``: every array in the
+  HTTP reply, as for a client on another host or in a container);
 * ``legacy``: the original client's request sequence (tests/legacy_client.py: ``requests`` GETs with JSON bodies,
   jsonpickle observations one by one) against the compatibility routes.
 
@@ -14,7 +22,7 @@ Then observe-only steps (``step(None)``: no motion) time the transport overhead 
 Paths are interleaved round by round, so drift in the machine's load affects them alike; medians are reported.
 Requests are counted for real (an httpx event hook; the legacy client's counter).
 
-    python benchmarks/api_step.py [--rounds 15] [--width 640 --height 480] [--env miniroom:1] [--json]
+    python benchmarks/api_step.py [--rounds 15] [--width 640 --height 480] [--env miniroom:1] [--server thread|process] [--json]
 """
 
 from __future__ import annotations
@@ -22,12 +30,39 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import multiprocessing
 import os
 import platform
 import statistics
 import sys
 import time
 from pathlib import Path
+
+import httpx
+
+
+def start_backend(args: argparse.Namespace):
+    """The benchmark's episode (RGB, depth, segmentation, laser, poses) as a BackendService in this process."""
+    from benchbot.core.registry import get_registry
+    from benchbot.core.session import resolve_run, start_service
+
+    registry = get_registry()
+    spec = resolve_run(registry, "semantic_slam:active:ground_truth", "carter", args.env)
+    spec.task = dict(spec.task, observations=[*spec.task["observations"], "image_segment"])
+    with contextlib.redirect_stdout(sys.stderr):
+        return start_service(registry, spec, options={"arch": args.arch, "width": args.width, "height": args.height})
+
+
+def serve(args: argparse.Namespace, pipe) -> None:
+    """Backend process: serve the episode on 127.0.0.1, send the address, stop when told."""
+    from benchbot.core.server import ServerThread, build_app
+
+    service = start_backend(args)
+    server = ServerThread(build_app(service)).start()
+    pipe.send(server.address)
+    pipe.recv()
+    server.stop()
+    service.close()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,6 +73,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--env", default="miniroom:1")
     ap.add_argument("--angle", type=float, default=10.0)
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
+    ap.add_argument("--server", choices=["thread", "process"], default="thread",
+                    help="HTTP backend on a thread of this process (default: same simulator for every path) or in "
+                         "its own process (as `benchbot run` serves a submission)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
 
@@ -46,30 +84,36 @@ def main(argv: list[str] | None = None) -> int:
 
     from benchbot.api import BenchBot, InProcessBenchBot
     from benchbot.api.benchbot import HttpTransport
-    from benchbot.core.registry import get_registry
     from benchbot.core.server import ServerThread, build_app
-    from benchbot.core.session import resolve_run, start_service
 
-    registry = get_registry()
-    spec = resolve_run(registry, "semantic_slam:active:ground_truth", "carter", args.env)
-    spec.task = dict(spec.task, observations=[*spec.task["observations"], "image_segment"])
-    with contextlib.redirect_stdout(sys.stderr):
-        service = start_service(registry, spec, options={"arch": args.arch, "width": args.width, "height": args.height})
-    server = ServerThread(build_app(service)).start()
+    service = start_backend(args)  # the in-process path's backend (and the thread server's)
+    if args.server == "process":
+        parent, child = multiprocessing.get_context("spawn").Pipe()
+        backend = multiprocessing.get_context("spawn").Process(target=serve, args=(args, child), daemon=True)
+        backend.start()
+        address = parent.recv()
+    else:
+        server = ServerThread(build_app(service)).start()
+        address = server.address
+    reset_http = httpx.Client(base_url=address, timeout=60)
     native_count = [0]
-    transport = HttpTransport(server.address, event_hooks={"request": [lambda request: native_count.__setitem__(0, native_count[0] + 1)]})
+    transport = HttpTransport(address, event_hooks={"request": [lambda request: native_count.__setitem__(0, native_count[0] + 1)]})
     clients = {
         "inprocess": InProcessBenchBot(service),
         "native": BenchBot(transport=transport),
+        "native_inline": BenchBot(transport=HttpTransport(address, shared_memory=False)),
     }
     with contextlib.redirect_stdout(sys.stderr):
-        legacy = LegacyBenchBot(supervisor_address=server.address, poll_s=0.1)
-    times: dict[str, list[float]] = {"inprocess": [], "native": [], "legacy": []}
+        legacy = LegacyBenchBot(supervisor_address=address, poll_s=0.1)
+    times: dict[str, list[float]] = {"inprocess": [], "native": [], "native_inline": [], "legacy": []}
     native_requests, legacy_requests = [], []
     shapes = {}
     for i in range(args.rounds + 1):  # round 0 warms up (kernels, connections)
-        for name in ("inprocess", "native", "legacy"):
-            service.call(service.episode.reset)
+        for name in ("inprocess", "native", "native_inline", "legacy"):
+            if name == "inprocess":
+                service.call(service.episode.reset)
+            else:
+                reset_http.post("robot/reset").raise_for_status()
             before_native, before_legacy = native_count[0], legacy.requests_made
             t0 = time.perf_counter()
             if name == "legacy":
@@ -88,9 +132,9 @@ def main(argv: list[str] | None = None) -> int:
             if name == "legacy":
                 legacy_requests.append(legacy.requests_made - before_legacy)
     # transport overhead alone: observe-only steps (no motion), interleaved the same way
-    observe: dict[str, list[float]] = {"inprocess": [], "native": []}
+    observe: dict[str, list[float]] = {"inprocess": [], "native": [], "native_inline": []}
     for i in range(args.rounds * 2 + 1):
-        for name in ("inprocess", "native"):
+        for name in observe:
             t0 = time.perf_counter()
             clients[name].step(None)
             if i:
@@ -99,25 +143,38 @@ def main(argv: list[str] | None = None) -> int:
     for _ in range(5):
         service.call(service.episode.observe, None)
     observe_ms = (time.perf_counter() - t0) * 200.0
-    server.stop()
+    shared_memory = clients["native"].transport.shared_memory
+    for client in clients.values():
+        client.close()
+    reset_http.close()
+    if args.server == "process":
+        parent.send("stop")
+        backend.join(timeout=30)
+    else:
+        server.stop()
     service.close()
 
     med = {k: statistics.median(v) for k, v in times.items()}
     report = {
         "inprocess_step_ms": round(med["inprocess"], 2),
         "native_step_ms": round(med["native"], 2),
+        "native_inline_step_ms": round(med["native_inline"], 2),
         "legacy_step_ms": round(med["legacy"], 2),
         "native_minus_inprocess_ms": round(med["native"] - med["inprocess"], 2),
+        "native_inline_minus_inprocess_ms": round(med["native_inline"] - med["inprocess"], 2),
+        "native_shared_memory": shared_memory,
         "native_requests_per_step": statistics.mean(native_requests),
         "legacy_requests_per_step": statistics.mean(legacy_requests),
         "inprocess_observe_step_ms": round(statistics.median(observe["inprocess"]), 2),
         "native_observe_step_ms": round(statistics.median(observe["native"]), 2),
+        "native_inline_observe_step_ms": round(statistics.median(observe["native_inline"]), 2),
         "backend_observe_ms": round(observe_ms, 2),
         "observations": shapes["native"],
         "resolution": f"{args.width}x{args.height}",
         "rounds": args.rounds,
         "machine": f"{platform.machine()} {os.cpu_count()} cpu, {platform.python_implementation()} {platform.python_version()}",
         "arch": args.arch,
+        "server": args.server,
     }
     if args.json:
         print(json.dumps(report))
