@@ -36,7 +36,7 @@ def register(app: typer.Typer) -> None:
         example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the --example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the solution's command."),
         repeat: int = typer.Option(1, "--repeat", help="Run every (robot, environment) this many times, each with its own recorded seed."),
-        workers: int = typer.Option(1, "--workers", "-w", min=1, help="Episodes run in parallel (each in its own process with its own backend)."),
+        workers: int = typer.Option(1, "--workers", "-w", min=1, help="Episodes run in parallel (each in its own process with its own backend and cores/N simulator threads; the longest episodes start first)."),
         retries: int = typer.Option(0, "--retries", min=0, help="Re-run failed episodes up to this many times."),
         executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks)."),
         ray_address: Optional[str] = typer.Option(None, "--ray-address", help="An existing Ray cluster (default: start a local one)."),
