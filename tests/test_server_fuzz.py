@@ -39,7 +39,8 @@ BODIES = st.one_of(
     st.fixed_dictionaries({"action": st.none() | JSONISH, "shm": JSONISH | st.fixed_dictionaries({
         "client": st.from_regex(r"[0-9a-f]{32}", fullmatch=True) | JSONISH,
         "segment": st.none() | st.from_regex(r"benchbot-[0-9a-f]{32}", fullmatch=True) | JSONISH
-        | st.sampled_from(["../../etc/passwd", "benchbot-", "/dev/shm/x", "benchbot-" + "a" * 32 + "/"])})})
+        | st.sampled_from(["../../etc/passwd", "benchbot-", "/dev/shm/x", "benchbot-" + "a" * 32 + "/"])},
+        optional={"slot": st.integers(-3, 8) | JSONISH})})
     .map(lambda v: __import__("msgpack").packb(v)),
 )
 

@@ -74,7 +74,7 @@ def test_shared_memory_steps_equal_the_inline_and_in_process_steps(served, reads
             got.append(bot.step(action, **kwargs))
         (a, ra), (b, rb), (c, rc) = got
         assert ra == rb == rc and _equal(a, b) and _equal(a, c)
-        assert a["image_rgb"].shape == (192, 256, 3) and a["image_rgb"].flags.writeable
+        assert a["image_rgb"].shape == (192, 256, 3) and not a["image_rgb"].flags.writeable  # as inline arrays
     assert reads[0] >= 3 * 2, "RGB and depth of every shared step came through the segment"
     assert _segments() == before, "the segment's file is removed once the client has mapped it"
     shared.close()
@@ -153,6 +153,8 @@ def test_mapped_reads_check_their_descriptor():
     segment.write(np.arange(4, dtype=np.float32), 64)
     mapping = shared_frames.ClientMapping(segment.name, segment.size)
     assert mapping.read("<f4", [4], 64).tolist() == [0.0, 1.0, 2.0, 3.0]
+    with pytest.raises(BenchbotError, match="malformed shm_segment"):
+        shared_frames.ClientMapping(segment.name, segment.size, slots=0)
     with pytest.raises(BenchbotError, match="outside"):
         mapping.read("<f4", [1 << 20], 0)
     with pytest.raises(BenchbotError, match="malformed"):
@@ -167,3 +169,34 @@ def test_mapped_reads_check_their_descriptor():
     segment.close()
     with pytest.raises(BenchbotError, match="no segment"):
         wire.unpack(msgpack.packb({"a": {wire.SHM: "<f4", "shape": [1], "offset": 0}}))
+
+
+def test_arrays_are_never_overwritten_while_anything_refers_to_them(served):
+    """Views of a slot keep it busy; once every view slot is held the scratch slot copies; a freed slot is reused."""
+    import mmap as mmap_module
+
+    service, server = served(ACTIVE, "miniroom:1", **CAMERA)
+    transport = HttpTransport(server.address)
+    transport.step(None, {}, None)  # handshake
+    views_slots = shared_frames.SLOTS - 1
+
+    def turn() -> dict:
+        return transport.step("move_angle", {"angle": 15.0}, None)["observations"]
+
+    held, expected = [], []
+    for _ in range(views_slots + 2):
+        obs = turn()
+        held.append(obs["image_rgb"][8:40])  # only a view of part of the image is kept
+        expected.append(np.array(obs["image_rgb"][8:40]))
+        del obs
+    zero_copy = [isinstance(h.base.base, mmap_module.mmap) for h in held]
+    assert zero_copy == [True] * views_slots + [False, False], "views while a slot is free, then copies"
+    for _ in range(3):
+        turn()
+    assert all(np.array_equal(h, e) for h, e in zip(held, expected)), "no held array was overwritten"
+    mapping = transport._local.mapping
+    assert mapping.free_slot() == views_slots  # every view slot is held: the scratch slot is next
+    held.clear()
+    assert mapping.free_slot() == 0, "dropping the last views frees their slots"
+    assert isinstance(turn()["image_depth"].base, mmap_module.mmap)
+    transport.close()

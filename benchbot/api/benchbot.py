@@ -86,14 +86,17 @@ class HttpTransport:
         local = self._local
         if getattr(local, "shm_client", None) is None:
             local.shm_client, local.mapping = secrets.token_hex(16), None
-        return {"client": local.shm_client, "segment": local.mapping.name if local.mapping else None}
+        mapping = local.mapping
+        return {"client": local.shm_client, "segment": mapping.name if mapping else None,
+                "slot": mapping.free_slot() if mapping else 0}
 
     def _map(self, announced: Any) -> None:
         """Map the segment a reply announced (``shm_segment``), replacing this thread's; if that fails, the backend
         cannot share memory with this process: turn the path off."""
         old = self._local.mapping
         try:
-            self._local.mapping = shared_frames.ClientMapping(announced.get("name"), announced.get("size"))
+            self._local.mapping = shared_frames.ClientMapping(announced.get("name"), announced.get("size"),
+                                                              announced.get("slots", 1))
             self._mappings.append(self._local.mapping)
         except (OSError, BenchbotError, AttributeError) as exc:
             self._local.mapping = None

@@ -2,18 +2,21 @@
 reply.
 
 The backend keeps one *segment* per client: a file ``/dev/shm/benchbot-<32 hex digits>`` (mode 0600, in RAM:
-``/dev/shm`` is a tmpfs) that it creates, maps and writes; the client maps it read-only and copies each array out
-(one ``memcpy`` on each side; the HTTP exchange carries a few hundred bytes instead of megabytes).
+``/dev/shm`` is a tmpfs) in :data:`SLOTS` slots, that it creates, maps and writes; the client maps it read-only and
+hands out the arrays as read-only views of a slot no earlier array still uses (one ``memcpy``, on the backend's side;
+the HTTP exchange carries a few kilobytes instead of megabytes). See :class:`ClientMapping` for when a slot is
+reused.
 
 Handshake (no step's data can be lost on the way):
 
 1. the client sends ``shm: {"client": <32 hex, its own id>, "segment": <name of the segment it has mapped, or
-   null>}`` with each step;
-2. when ``segment`` names the client's current segment and it is large enough, the backend writes each array of at
-   least :data:`MIN_BYTES` into it and sends ``{"__shm__": dtype, "shape": [...], "offset": bytes}`` in its place;
+   null>, "slot": <a slot it has free>}`` with each step;
+2. when ``segment`` names the client's current segment and its slots are large enough, the backend writes each
+   array of at least :data:`MIN_BYTES` into that slot and sends ``{"__shm__": dtype, "shape": [...], "offset":
+   bytes}`` in its place;
 3. otherwise (first step, the segment had to grow, was evicted) the reply carries every array inline, plus
-   ``shm_segment: {"name", "size"}`` for the client to map before its next step. A client that cannot map it (its
-   ``/dev/shm`` is not the backend's, e.g. in a container) stops asking; a reply is never unreadable.
+   ``shm_segment: {"name", "size", "slots"}`` for the client to map before its next step. A client that cannot
+   map it (its ``/dev/shm`` is not the backend's, e.g. in a container) stops asking; a reply is never unreadable.
 
 Only loopback clients are offered segments; the backend holds at most :data:`MAX_SEGMENTS` (the least recently used
 is removed), removes a segment's file as soon as its client has mapped it (so a killed backend leaves nothing in
@@ -27,6 +30,7 @@ import mmap
 import os
 import re
 import secrets
+import threading
 import weakref
 from collections import OrderedDict
 
@@ -45,6 +49,10 @@ MIN_BYTES = 64 * 1024
 ALIGN = 64
 #: Segments the backend keeps (one per client).
 MAX_SEGMENTS = 8
+#: Slots of a segment, each holding one step's arrays. The client hands out the arrays of slots 0..SLOTS-2 as
+#: read-only views (no copy) and asks for a slot only when no array from it is alive; slot SLOTS-1 is its scratch
+#: slot, copied out, for when every other slot is still held.
+SLOTS = 4
 #: Environment variable that turns the path off in clients (``0``).
 ENV_SWITCH = "BENCHBOT_SHARED_MEMORY"
 
@@ -153,24 +161,24 @@ class SegmentPool:
         """
         from benchbot.core import wire
 
-        client, mapped = check_offer(offer)
+        client, mapped, slot = check_offer(offer)
         needed = sum(aligned(a.nbytes) for a in large_arrays(reply))
         segment = self._by_client.pop(client, None)
-        if segment is not None and (needed > segment.size):
+        if segment is not None and needed > segment.size // SLOTS:
             segment.close()
             segment = None
         if segment is None:
             try:
-                segment = BackendSegment(max(aligned(needed + needed // 4), 1 << 20))
+                segment = BackendSegment(SLOTS * max(aligned(needed + needed // 4), 1 << 18))
             except OSError as exc:
                 return wire.pack({**reply, "shm_error": f"no shared-memory segment: {exc.strerror or exc}"})
         self._by_client[client] = segment
         while len(self._by_client) > self.capacity:
             self._by_client.popitem(last=False)[1].close()
         if mapped != segment.name:
-            return wire.pack({**reply, "shm_segment": {"name": segment.name, "size": segment.size}})
+            return wire.pack({**reply, "shm_segment": {"name": segment.name, "size": segment.size, "slots": SLOTS}})
         segment.unlink()  # the client has it mapped
-        offset = 0
+        offset = slot * (segment.size // SLOTS)
 
         def place(arr: np.ndarray) -> dict | None:
             nonlocal offset
@@ -190,11 +198,12 @@ class SegmentPool:
             self._by_client.popitem()[1].close()
 
 
-def check_offer(offer: object) -> tuple[str, str | None]:
-    """``(client id, mapped segment name or None)`` of a request's ``shm`` field.
+def check_offer(offer: object) -> tuple[str, str | None, int]:
+    """``(client id, mapped segment name or None, slot)`` of a request's ``shm`` field.
 
     Raises:
-        BenchbotError: not ``{"client": <32 hex>, "segment": <segment name or null>}``.
+        BenchbotError: not ``{"client": <32 hex>, "segment": <segment name or null>, "slot": <0..SLOTS-1>}``
+            (``slot`` may be left out: 0).
     """
     if not isinstance(offer, dict) or not isinstance(offer.get("client"), str) \
             or not CLIENT_PATTERN.fullmatch(offer["client"]):
@@ -203,23 +212,32 @@ def check_offer(offer: object) -> tuple[str, str | None]:
     if mapped is not None and not (isinstance(mapped, str) and NAME_PATTERN.fullmatch(mapped)):
         raise BenchbotError("'shm.segment' must be a segment name benchbot-<32 hex digits> or null",
                             "send the name from the last shm_segment reply")
-    return offer["client"], mapped
+    slot = offer.get("slot", 0)
+    if not isinstance(slot, int) or isinstance(slot, bool) or not 0 <= slot < SLOTS:
+        raise BenchbotError(f"'shm.slot' must be an integer in [0, {SLOTS})", "send the slot the client has free")
+    return offer["client"], mapped, slot
 
 
 class ClientMapping:
-    """The client's read-only mapping of the segment the backend made for it.
+    """The client's read-only mapping of the segment the backend made for it, in ``slots`` equal slots.
+
+    Arrays of slots ``0 .. slots-2`` are handed out as read-only views of the mapping (no copy); each slot counts its
+    live arrays (and their views, which keep them alive) and :meth:`free_slot` offers the backend only a slot with
+    none alive, so an array is never overwritten while anything refers to it. The last slot is the scratch slot:
+    its arrays are copied out, for the steps when every other slot is still held.
 
     Args:
-        name: the segment name (``shm_segment.name`` of a reply). size: its size in bytes.
+        name: the segment name (``shm_segment.name`` of a reply). size: its size in bytes. slots: its slot count.
 
     Raises:
         OSError: it cannot be opened or mapped (e.g. this process's ``/dev/shm`` is not the backend's).
-        BenchbotError: ``name`` is not a segment name.
+        BenchbotError: a malformed name, size or slot count.
     """
 
-    def __init__(self, name: str, size: int) -> None:
-        if not (isinstance(name, str) and NAME_PATTERN.fullmatch(name)) or not isinstance(size, int) or size <= 0:
-            raise BenchbotError(f"malformed shm_segment {name!r} ({size!r} bytes)", "")
+    def __init__(self, name: str, size: int, slots: int = 1) -> None:
+        if not (isinstance(name, str) and NAME_PATTERN.fullmatch(name)) or not isinstance(size, int) or size <= 0 \
+                or not isinstance(slots, int) or not 1 <= slots <= 64:
+            raise BenchbotError(f"malformed shm_segment {name!r} ({size!r} bytes, {slots!r} slots)", "")
         fd = os.open(os.path.join(SHM_DIR, name), os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0)
                      | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NONBLOCK", 0))
         try:
@@ -230,11 +248,23 @@ class ClientMapping:
             os.close(fd)
             raise
         self.name, self.size, self.view = name, size, view
+        self.slots, self.slot_size = slots, size // slots
+        self._live = [0] * slots
+        self._lock = threading.Lock()
         self._finalizer = weakref.finalize(self, _release, view, fd, None)
 
+    def free_slot(self) -> int:
+        """The slot the backend may write next: the first view slot with no live array, else the scratch slot."""
+        with self._lock:
+            return next((k for k in range(self.slots - 1) if self._live[k] == 0), self.slots - 1)
+
+    def _released(self, slot: int) -> None:
+        with self._lock:
+            self._live[slot] -= 1
+
     def read(self, dtype: str, shape: list, offset: int) -> np.ndarray:
-        """A new (writeable, owned) array of ``dtype`` (a NumPy dtype string, e.g. ``'<f4'``) and ``shape`` copied
-        from ``offset``.
+        """The read-only array of ``dtype`` (a NumPy dtype string, e.g. ``'<f4'``) and ``shape`` at ``offset``: a
+        view of the mapping in a view slot, a copy in the scratch slot.
 
         Raises:
             BenchbotError: the descriptor is malformed or lies outside the segment.
@@ -249,13 +279,24 @@ class ClientMapping:
                 raise ValueError(f"negative shape {shape}")
         except (TypeError, ValueError) as exc:
             raise BenchbotError(f"malformed shared-memory array descriptor: {exc}", "") from None
-        if offset < 0 or offset + count * dt.itemsize > self.size:
-            raise BenchbotError(f"shared-memory array [{offset}, {offset + count * dt.itemsize}) lies outside the "
-                                f"{self.size}-byte segment", "")
-        if count == 0:
-            return np.empty(shape, dtype=dt)
-        return np.frombuffer(self.view, dtype=dt, count=count, offset=offset).reshape(shape).copy()
+        end = offset + count * dt.itemsize
+        if offset < 0 or end > self.size:
+            raise BenchbotError(f"shared-memory array [{offset}, {end}) lies outside the {self.size}-byte segment", "")
+        slot = offset // self.slot_size
+        if count == 0 or slot == self.slots - 1 or end > (slot + 1) * self.slot_size:
+            out = np.empty(shape, dtype=dt)
+            if count:
+                out[...] = np.ndarray(shape, dtype=dt, buffer=self.view, offset=offset)
+            out.flags.writeable = False
+            return out
+        # The array's base is the mapping itself, so every view a caller takes of it keeps it alive (NumPy sets a
+        # view's base to it): the slot stays busy until the last of them is gone.
+        out = np.ndarray(shape, dtype=dt, buffer=self.view, offset=offset)
+        with self._lock:
+            self._live[slot] += 1
+        weakref.finalize(out, self._released, slot)
+        return out
 
     def close(self) -> None:
-        """Unmap (idempotent)."""
+        """Unmap (idempotent; a mapping that arrays still view stays until they are gone)."""
         self._finalizer()
