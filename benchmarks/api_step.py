@@ -19,10 +19,12 @@ same motion and the same images for every path) through:
   jsonpickle observations one by one) against the compatibility routes.
 
 Then observe-only steps (``step(None)``: no motion) time the transport overhead alone (``*_observe_step_ms``).
-Paths are interleaved round by round, so drift in the machine's load affects them alike; medians are reported.
+Paths are interleaved round by round, so drift in the machine's load affects them alike; medians are reported,
+and the ``*_minus_inprocess_ms`` figures are medians of the per-round differences (a paired comparison: each
+round's native step against the same round's in-process step).
 Requests are counted for real (an httpx event hook; the legacy client's counter).
 
-    python benchmarks/api_step.py [--rounds 15] [--width 640 --height 480] [--env miniroom:1] [--server thread|process] [--json]
+    python benchmarks/api_step.py [--rounds 31] [--width 640 --height 480] [--env miniroom:1] [--server thread|process] [--json]
 """
 
 from __future__ import annotations
@@ -67,7 +69,7 @@ def serve(args: argparse.Namespace, pipe) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--rounds", type=int, default=31)
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--env", default="miniroom:1")
@@ -155,13 +157,17 @@ def main(argv: list[str] | None = None) -> int:
     service.close()
 
     med = {k: statistics.median(v) for k, v in times.items()}
+
+    def paired(name: str) -> float:
+        return round(statistics.median(a - b for a, b in zip(times[name], times["inprocess"])), 2)
+
     report = {
         "inprocess_step_ms": round(med["inprocess"], 2),
         "native_step_ms": round(med["native"], 2),
         "native_inline_step_ms": round(med["native_inline"], 2),
         "legacy_step_ms": round(med["legacy"], 2),
-        "native_minus_inprocess_ms": round(med["native"] - med["inprocess"], 2),
-        "native_inline_minus_inprocess_ms": round(med["native_inline"] - med["inprocess"], 2),
+        "native_minus_inprocess_ms": paired("native"),
+        "native_inline_minus_inprocess_ms": paired("native_inline"),
         "native_shared_memory": shared_memory,
         "native_requests_per_step": statistics.mean(native_requests),
         "legacy_requests_per_step": statistics.mean(legacy_requests),
