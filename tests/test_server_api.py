@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import benchbot_api
-from benchbot.api import ActionResult, Agent, BenchBot
+from benchbot.api import ActionResult, Agent, BenchBot, InProcessBenchBot
 
 PASSIVE = "semantic_slam:passive:ground_truth"
 
@@ -98,3 +98,14 @@ def test_original_routes_and_errors(served):
 def test_client_reports_missing_backend_clearly():
     with pytest.raises(ConnectionError, match="no BenchBot backend answered"):
         BenchBot(supervisor_address="http://127.0.0.1:9/").start(wait_s=0.5)
+
+
+def test_in_process_observations_are_read_only_views_like_the_native_ones(make_service):
+    service = make_service("semantic_slam:active:ground_truth", "miniroom:1")
+    bot = InProcessBenchBot(service)
+    obs, _ = bot.step(None)
+    assert not obs["image_rgb"].flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        obs["image_depth"][0, 0] = 1.0
+    again, _ = bot.step(None)
+    assert np.array_equal(again["image_depth"], obs["image_depth"])

@@ -200,3 +200,4 @@ def test_arrays_are_never_overwritten_while_anything_refers_to_them(served):
     assert mapping.free_slot() == 0, "dropping the last views frees their slots"
     assert isinstance(turn()["image_depth"].base, mmap_module.mmap)
     transport.close()
+

@@ -218,6 +218,19 @@ class HttpTransport:
             conn.close()
 
 
+def _read_only(obj: Any) -> Any:
+    """``obj`` (nested dicts and lists) with every NumPy array replaced by a read-only view of it."""
+    if isinstance(obj, dict):
+        return {k: _read_only(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_read_only(v) for v in obj]
+    if hasattr(obj, "__array_interface__") and hasattr(obj, "flags"):
+        view = obj.view()
+        view.flags.writeable = False
+        return view
+    return obj
+
+
 class InProcessTransport:
     """Calls a :class:`~benchbot.core.server.BackendService` in this process: no HTTP, no serialisation; episode
     calls run on the backend thread (``service.call``). Errors are raised as the HTTP transport raises them
@@ -268,8 +281,10 @@ class InProcessTransport:
         raise ConnectionError(f"BenchBot backend refused /{route} (404): unknown route")
 
     def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
-        """The native step (:meth:`benchbot.core.server.BackendApi.step`) on the backend thread."""
-        return self._call("native/step", self.service.call, self.api.step, action, args, observations)
+        """The native step (:meth:`benchbot.core.server.BackendApi.step`) on the backend thread. Its arrays come
+        back as read-only views (no copy), as over HTTP: writing into them cannot change the backend's cache."""
+        reply = self._call("native/step", self.service.call, self.api.step, action, args, observations)
+        return {**reply, "observations": _read_only(reply["observations"])}
 
     def close(self) -> None:
         """Nothing to close: the service belongs to the caller."""
