@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.renderer import DIR_EPS, GAMMA, SHADOW_OFFSET, T_EPS, TILE_CONTRAST, TILE_M
+from benchbot_sim_taichi.kernels import DIR_EPS, GAMMA, SHADOW_OFFSET, T_EPS, TILE_CONTRAST, TILE_M
 from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
 
 _INF = 1e30

@@ -199,13 +199,14 @@ def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector
 
     from taichi.lang._ndarray import Ndarray
 
+    from benchbot_sim_taichi import kernels
     from benchbot_sim_taichi import renderer as rmod
 
     rmod.ensure_taichi("cpu")
-    rmod._SENSORS_GRAPH = None
+    kernels.reset_graph()
     gc.disable()  # so that nothing but the compiler's own collect runs during the compile
     try:
-        rmod._sensors_graph()
+        kernels.sensors_graph()
         stray = [o for o in gc.get_objects() if isinstance(o, Ndarray) and id(o) not in rmod._DEVICE_ARRAYS]
     finally:
         gc.enable()
