@@ -141,7 +141,7 @@ def test_the_backend_keeps_a_bounded_number_of_segments():
     reply = {"observations": {"depth": np.ones((300, 300), np.float32)}}
     before = _segments()
     for client in ("a" * 32, "b" * 32, "c" * 32):
-        body = wire.unpack(pool.pack(reply, {"client": client, "segment": None}))
+        body = wire.unpack(pool.pack(reply, shared_frames.check_offer({"client": client, "segment": None})))
         assert "shm_segment" in body and np.array_equal(body["observations"]["depth"], reply["observations"]["depth"])
     assert len(_segments() - before) == 2
     pool.close()

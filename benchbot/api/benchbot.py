@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 import httpx
+import numpy as np
 
 from benchbot.core import shared_frames, wire
 from benchbot.core.errors import BenchbotError
@@ -224,7 +225,7 @@ def _read_only(obj: Any) -> Any:
         return {k: _read_only(v) for k, v in obj.items()}
     if isinstance(obj, list):
         return [_read_only(v) for v in obj]
-    if hasattr(obj, "__array_interface__") and hasattr(obj, "flags"):
+    if isinstance(obj, np.ndarray):
         view = obj.view()
         view.flags.writeable = False
         return view
@@ -282,7 +283,8 @@ class InProcessTransport:
 
     def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
         """The native step (:meth:`benchbot.core.server.BackendApi.step`) on the backend thread. Its arrays come
-        back as read-only views (no copy), as over HTTP: writing into them cannot change the backend's cache."""
+        back as read-only views (no copy), as over HTTP: the episode keeps the same arrays for its observers
+        (recorder, live view) and a backend may cache them, so a caller must not be able to write into them."""
         reply = self._call("native/step", self.service.call, self.api.step, action, args, observations)
         return {**reply, "observations": _read_only(reply["observations"])}
 

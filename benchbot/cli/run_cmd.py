@@ -11,7 +11,8 @@ import typer
 
 from benchbot.cli.common import backend_options, err, handle_errors, registry
 from benchbot.core.errors import UsageError
-from benchbot.core.server import DEFAULT_ACTION_TIMEOUT_S, ServerThread, build_app, is_loopback
+from benchbot.core.server import DEFAULT_ACTION_TIMEOUT_S, ServerThread, build_app
+from benchbot.core.shared_frames import is_loopback
 from benchbot.core.session import resolve_run, start_service
 
 DEFAULT_TASK = "semantic_slam:passive:ground_truth"

@@ -15,7 +15,7 @@ Routes (the original supervisor's, reference §3 and §5.1, plus the native prot
                                         ``{"args": [...], "kwargs": {...}}``
 ``POST /native/step``                   one round trip per step: MessagePack ``{action, args, observations?}``
                                         → ``{result, observations, state}`` (arrays as raw bytes, wire.py);
-                                        with ``shm: {client, segment}`` from a loopback client, large arrays
+                                        with ``shm: {client, segment, slot}`` from a loopback client, large arrays
                                         go through a shared-memory segment instead (shared_frames.py)
 ======================================  ======================================================================
 
@@ -429,10 +429,10 @@ def build_app(
             raise BadRequestError(exc.message, exc.hint) from None
         if not isinstance(body, dict):
             raise BadRequestError("step request must be a map", "send {action, args}")
-        offer = body.get("shm")
-        if offer is not None:
+        offer = None
+        if body.get("shm") is not None:
             try:
-                shared_frames.check_offer(offer)
+                offer = shared_frames.check_offer(body["shm"])
             except BenchbotError as exc:
                 raise BadRequestError(exc.message, exc.hint) from None
         reply = await with_timeout(api.step, body.get("action"), body.get("args"), body.get("observations"))

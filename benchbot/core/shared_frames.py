@@ -75,10 +75,16 @@ def aligned(n: int) -> int:
     return (n + ALIGN - 1) // ALIGN * ALIGN
 
 
+def is_shared(arr: np.ndarray) -> bool:
+    """Whether ``arr`` travels through the segment: at least :data:`MIN_BYTES` and not an object array."""
+    return arr.nbytes >= MIN_BYTES and not arr.dtype.hasobject
+
+
 def large_arrays(obj) -> list[np.ndarray]:
-    """The ndarrays of at least :data:`MIN_BYTES` in ``obj`` (nested dicts, lists, tuples), in packing order."""
+    """The ndarrays in ``obj`` (nested dicts, lists, tuples) that :func:`is_shared` sends through the segment, in
+    packing order."""
     if isinstance(obj, np.ndarray):
-        return [obj] if obj.nbytes >= MIN_BYTES and not obj.dtype.hasobject else []
+        return [obj] if is_shared(obj) else []
     if isinstance(obj, dict):
         return [a for v in obj.values() for a in large_arrays(v)]
     if isinstance(obj, (list, tuple)):
@@ -152,16 +158,13 @@ class SegmentPool:
         self.capacity = capacity
         self._by_client: OrderedDict[str, BackendSegment] = OrderedDict()
 
-    def pack(self, reply: dict, offer: object) -> bytes:
-        """``reply`` packed for a client that sent ``shm: offer`` (see the module doc): large arrays in its segment
-        when it has mapped it, else inline with ``shm_segment`` to map (or ``shm_error`` when none can be made).
-
-        Raises:
-            BenchbotError: ``offer`` is malformed (answer 400).
-        """
+    def pack(self, reply: dict, offer: tuple[str, str | None, int]) -> bytes:
+        """``reply`` packed for a client whose ``shm`` field is ``offer`` (as :func:`check_offer` returns it; see
+        the module doc): large arrays in the requested slot of its segment when it has mapped it, else inline with
+        ``shm_segment`` to map (or ``shm_error`` when none can be made)."""
         from benchbot.core import wire
 
-        client, mapped, slot = check_offer(offer)
+        client, mapped, slot = offer
         needed = sum(aligned(a.nbytes) for a in large_arrays(reply))
         segment = self._by_client.pop(client, None)
         if segment is not None and needed > segment.size // SLOTS:
@@ -182,7 +185,7 @@ class SegmentPool:
 
         def place(arr: np.ndarray) -> dict | None:
             nonlocal offset
-            if arr.nbytes < MIN_BYTES or arr.dtype.hasobject:
+            if not is_shared(arr):
                 return None
             arr = np.ascontiguousarray(arr)
             segment.write(arr, offset)
