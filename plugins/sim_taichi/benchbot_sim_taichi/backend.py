@@ -234,14 +234,34 @@ class TaichiSimBackend(RobotBackend):
             out[rf] = T_map_robot.copy()
         return out
 
-    def _render(self) -> dict[str, np.ndarray]:
+    def _render(self, with_scan: bool = False) -> dict[str, np.ndarray]:
+        """This pose's camera images (cached); ``with_scan``: its laser scan too, from the same kernel launch."""
         if "render" not in self._cache:
-            T = se2_to_matrix(*self._pose) @ self.T_robot_camera
-            out = self._renderer.render(self.K, T, self.width, self.height, mode=self.mode)
-            if any(self.noise[k] > 0 for k in ("rgb_sigma", "depth_sigma", "depth_dropout")):
-                out = self._add_image_noise(out)
-            self._cache["render"] = out
+            T_map_robot = se2_to_matrix(*self._pose)
+            lidar = (T_map_robot @ self.T_robot_lidar) if with_scan else None
+            out = self._renderer.render(self.K, T_map_robot @ self.T_robot_camera, self.width, self.height,
+                                        mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles)
+            if with_scan:
+                self._cache_scan(out.pop("ranges"))
+            self._cache_images(out)
         return self._cache["render"]
+
+    def _scan(self) -> np.ndarray:
+        if "laser" not in self._cache:
+            T = se2_to_matrix(*self._pose) @ self.T_robot_lidar
+            self._cache_scan(self._renderer.scan(T, self.laser_angles))
+        return self._cache["laser"]
+
+    def _cache_images(self, out: dict[str, np.ndarray]) -> None:
+        if any(self.noise[k] > 0 for k in ("rgb_sigma", "depth_sigma", "depth_dropout")):
+            out = self._add_image_noise(out)
+        self._cache["render"] = out
+
+    def _cache_scan(self, ranges: np.ndarray) -> None:
+        if self.noise["laser_sigma"] > 0:
+            ranges = ranges + self._rng(3).normal(0.0, self.noise["laser_sigma"], ranges.shape)
+        ranges = np.clip(ranges, 0.0, self.range_max)
+        self._cache["laser"] = np.stack([ranges, self.laser_angles_wrapped], axis=1)
 
     def _rng(self, what: int) -> np.random.Generator:
         """Noise generator of this frame: seeded by (seed, frame count, sensor) so reruns are bit-identical."""
@@ -268,7 +288,8 @@ class TaichiSimBackend(RobotBackend):
                 "matrix_intrinsics": self.K.copy(), "matrix_projection": P}
 
     def observe(self, names: Sequence[str]) -> dict[str, Any]:
-        """Observations (reference §4) for ``names`` among :data:`OBSERVATIONS`; rendered once per pose and cached.
+        """Observations (reference §4) for ``names`` among :data:`OBSERVATIONS`; rendered once per pose (images and
+        laser in one kernel launch when both are asked for) and cached.
 
         Returns per name: ``image_rgb`` (H, W, 3) uint8 RGB; ``image_depth`` (H, W) float32 z-depth metres (0: no
         hit); ``image_rgb_info``/``image_depth_info`` ``{frame_id, height, width, matrix_intrinsics (3,3),
@@ -283,6 +304,9 @@ class TaichiSimBackend(RobotBackend):
             if n not in OBSERVATIONS:
                 raise KeyError(n)
         scene = self._need_scene()
+        if "laser" in names and not self._cache and any(n in ("image_rgb", "image_depth", "image_segment")
+                                                        for n in names):
+            self._render(with_scan=True)  # one kernel launch for both
         out: dict[str, Any] = {}
         for n in names:
             if n == "image_rgb":
@@ -297,15 +321,7 @@ class TaichiSimBackend(RobotBackend):
                           "instance_segment_img": r["instance"].astype(np.int32, copy=True),
                           "class_ids": dict(scene.class_ids)}
             elif n == "laser":
-                if "laser" not in self._cache:
-                    T = se2_to_matrix(*self._pose) @ self.T_robot_lidar
-                    ranges = self._renderer.scan(T, self.laser_angles)
-                    if self.noise["laser_sigma"] > 0:
-                        ranges = ranges + self._rng(3).normal(0.0, self.noise["laser_sigma"], ranges.shape)
-                    ranges = np.clip(ranges, 0.0, self.range_max)
-                    self._cache["laser"] = np.stack([ranges, self.laser_angles_wrapped], axis=1)
-                out[n] = {"scans": self._cache["laser"].copy(), "range_min": self.range_min,
-                          "range_max": self.range_max}
+                out[n] = {"scans": self._scan().copy(), "range_min": self.range_min, "range_max": self.range_max}
         return out
 
     def close(self) -> None:

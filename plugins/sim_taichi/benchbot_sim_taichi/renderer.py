@@ -33,6 +33,8 @@ import warnings
 
 import numpy as np
 
+from benchbot.core.errors import UsageError
+
 # Taichi prints its banner on stdout; stdout carries our programs' data (tables, --json), so it goes to stderr.
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
@@ -48,6 +50,11 @@ MODES = ("fast", "quality")
 _INIT_ARCH: str | None = None
 
 
+class TaichiSettingError(UsageError, ValueError):
+    """An invalid Taichi setting (the arch, ``BENCHBOT_TAICHI_ARCH`` or ``BENCHBOT_TAICHI_THREADS``): a one-line
+    usage error for the command line, and a ``ValueError`` for callers that catch that."""
+
+
 def ensure_taichi(arch: str | None = None) -> str:
     """Initialise Taichi once per process and return the arch in use (``'cpu'`` or ``'cuda'``).
 
@@ -58,12 +65,14 @@ def ensure_taichi(arch: str | None = None) -> str:
             one and warns (Taichi cannot switch without resetting every kernel and field).
 
     Raises:
-        ValueError: an unknown arch name, or a ``BENCHBOT_TAICHI_THREADS`` that is not a positive integer.
+        TaichiSettingError: (a ``ValueError``) an unknown arch name, or a ``BENCHBOT_TAICHI_THREADS`` that is not a
+            positive integer.
     """
     global _INIT_ARCH
     want = (arch or os.environ.get("BENCHBOT_TAICHI_ARCH") or "cpu").strip().lower()
     if want not in ("cpu", "gpu", "cuda"):
-        raise ValueError(f"unknown Taichi arch {want!r}: use 'cpu', 'gpu' or 'cuda'")
+        raise TaichiSettingError(f"unknown Taichi arch {want!r}",
+                                 "use cpu, gpu or cuda (--arch, or BENCHBOT_TAICHI_ARCH)")
     if _INIT_ARCH is not None:
         if (want == "cpu") != (_INIT_ARCH == "cpu") and not (want != "cpu" and _INIT_ARCH == "cpu-fallback"):
             warnings.warn(f"Taichi is already initialised on {_INIT_ARCH}; ignoring the request for {want}",
@@ -124,7 +133,8 @@ def _cpu_threads() -> dict:
     except ValueError:
         n = 0
     if n < 1:
-        raise ValueError(f"BENCHBOT_TAICHI_THREADS={value!r}: use a positive integer (threads per process)")
+        raise TaichiSettingError(f"BENCHBOT_TAICHI_THREADS={value!r} is not a positive integer",
+                                 "set it to the simulator's threads per process, e.g. 2, or unset it")
     return {"cpu_max_num_threads": n}
 
 
@@ -433,11 +443,11 @@ class Renderer:
         return self.render_sensors(K, T_map_cameras, width, height)
 
     def _launch(self, K, Ts, W: int, H: int, Tl, angles, *, lit: bool) -> dict:
-        """One :func:`~benchbot_sim_taichi.kernels.sensors_kernel` launch: images for the (B, 4, 4) camera poses ``Ts`` (none if ``K`` is None),
-        scans for the lidar poses ``Tl`` (none if None) at beam ``angles``. Outputs stay in the renderer's buffers.
-        ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for callers that only keep depth and
-        segmentation, which do not depend on the lights."""
-        packed = self._need_scene()
+        """One :func:`~benchbot_sim_taichi.kernels.sensors_kernel` launch: images for the (B, 4, 4) camera poses
+        ``Ts`` (none if ``K`` is None), scans for the lidar poses ``Tl`` (none if None) at beam ``angles``. Outputs
+        stay in the renderer's buffers. ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for
+        callers that only keep depth and segmentation, which do not depend on the lights."""
+        self._need_scene()
         if _RETIRED:
             _free_retired()
         images = K is not None
@@ -475,8 +485,9 @@ class Renderer:
         return out
 
     def render(self, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
-               mode: str = "fast", spp: int = 16, denoise: bool = True) -> dict[str, np.ndarray]:
-        """Render one view.
+               mode: str = "fast", spp: int = 16, denoise: bool = True, T_map_lidar: np.ndarray | None = None,
+               angles: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Render one view and, with ``T_map_lidar``, the laser scan of the same instant in the same kernel launch.
 
         Args:
             K: (3, 3) pinhole intrinsics (pixels). T_map_camera: (4, 4) pose of the camera's OPTICAL frame in ``map``.
@@ -484,18 +495,32 @@ class Renderer:
             mode: ``'fast'`` (default) or ``'quality'`` (RGB path traced with ``spp`` samples per pixel, soft
                 shadows, one diffuse bounce, then OpenCV's non-local-means denoiser if ``denoise``; depth and
                 segmentation as in ``fast``).
+            T_map_lidar, angles: as :meth:`scan`; ``None`` (default) for no scan.
 
         Returns:
             ``{'rgb': (H, W, 3) uint8 RGB, 'depth': (H, W) float32 z-depth metres (0 = no hit), 'class': (H, W)
             int32 class ids (background where the shell or nothing is hit), 'instance': (H, W) int32
-            ``class*1000+instance`` ids (0 = background)}``.
+            ``class*1000+instance`` ids (0 = background)}``, plus ``'ranges'`` (N,) float64 metres (as :meth:`scan`)
+            with a lidar.
+
+        Raises:
+            ValueError: an unknown mode, or a lidar pose without angles.
         """
         if mode not in MODES:
             raise ValueError(f"unknown render mode {mode!r}: use one of {MODES}")
+        Tl = beams = None
+        if T_map_lidar is not None:
+            if angles is None:
+                raise ValueError("render: T_map_lidar needs angles")
+            Tl = np.asarray(T_map_lidar, dtype=np.float64)[None]
+            beams = np.asarray(angles, dtype=np.float64).reshape(-1)
         # quality mode replaces the RGB, so its fast pass only needs depth and segmentation: no lights
-        batch = self._launch(K, np.asarray(T_map_camera, dtype=np.float64)[None], int(width), int(height), None, None,
-                             lit=mode == "fast")
+        with_scan = beams is not None and beams.size > 0  # no beams: nothing to launch for the scan
+        batch = self._launch(K, np.asarray(T_map_camera, dtype=np.float64)[None], int(width), int(height),
+                             Tl if with_scan else None, beams, lit=mode == "fast")
         out = {k: (v if isinstance(v, np.ndarray) else v.to_numpy())[0] for k, v in batch.items()}
+        if beams is not None:
+            out["ranges"] = out["ranges"][:beams.size].astype(np.float64) if with_scan else np.zeros(0)
         if mode == "quality":
             H, W = int(height), int(width)
             lin = self._buffer("quality", (1, H, W, 3), np.float32)

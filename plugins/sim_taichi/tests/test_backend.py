@@ -180,3 +180,21 @@ def test_start_pose_in_collision_is_an_error(synthetic_env, make_backend):
     with pytest.raises(BackendError) as e:
         make_backend().load_scene(env)
     assert "chair_0" in e.value.message
+
+
+def test_images_and_laser_of_a_pose_come_from_one_launch_with_the_same_values(bear_envs, make_backend, monkeypatch):
+    both = make_backend(40, 30)
+    both.load_scene(bear_envs["house:1"])
+    launches = []
+    real = both._renderer._launch
+    monkeypatch.setattr(both._renderer, "_launch", lambda *a, **k: launches.append(1) or real(*a, **k))
+    together = both.observe(["image_rgb", "image_depth", "image_segment", "laser"])
+    assert len(launches) == 1
+    apart = make_backend(40, 30)
+    apart.load_scene(bear_envs["house:1"])
+    separately = {**apart.observe(["laser"]), **apart.observe(["image_rgb", "image_depth", "image_segment"])}
+    for key in ("image_rgb", "image_depth"):
+        assert np.array_equal(together[key], separately[key])
+    assert np.array_equal(together["laser"]["scans"], separately["laser"]["scans"])
+    assert all(np.array_equal(together["image_segment"][k], separately["image_segment"][k])
+               for k in ("class_segment_img", "instance_segment_img"))
