@@ -394,10 +394,12 @@ def sensors_kernel(
     inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
     ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
 ):
-    """One launch (two parallel loops) for B sensor frames: fast-mode images (when ``images`` is 1) into rgb/depth/cls/inst (B, H, W)
-    and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams), beam j at map-frame angle
-    ``beams[j] + yaw``. Frame b's pose (see :func:`sensor_pose`) is ``pose0`` (by value: no upload) when ``one``
-    is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is :func:`frame_constants`."""
+    """One launch (two parallel loops) for B sensor frames in the ``map`` frame: fast-mode images (when ``images``
+    is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``cls``/``inst`` (B, H, W)
+    int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame
+    angle ``beams[j]`` (rad) + the lidar's yaw. Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value: no
+    upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
+    the scene arrays are ``renderer.pack_scene``'s."""
     B = depth.shape[0]
     H = depth.shape[1]
     W = depth.shape[2]
@@ -453,9 +455,10 @@ def quality_kernel(
     params: ti.types.vector(8, ti.f32),
     out: ti.types.ndarray(dtype=ti.f32, ndim=4),
 ):
-    """Path-traced linear radiance (B, H, W, 3) of camera ``cam`` (B = 1): ``params[4]`` samples per pixel (jittered in the pixel), each with
-    one stratum of the soft-shadow samples per light, and one cosine-sampled diffuse bounce (direct light and
-    ambient at the bounce point, scaled by ``params[5]``)."""
+    """Path-traced linear radiance into ``out`` (B, H, W, 3) float32 (B = 1) for camera ``cam``
+    (``renderer.camera_params``: optical frame in ``map``, pixels): ``params[4]`` samples per pixel (jittered in
+    the pixel), each with one stratum of the soft-shadow samples per light, and one cosine-sampled diffuse bounce
+    (direct light and ambient at the bounce point, scaled by ``params[5]``)."""
     B = out.shape[0]
     H = out.shape[1]
     W = out.shape[2]
