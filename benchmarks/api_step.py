@@ -80,6 +80,8 @@ def main(argv: list[str] | None = None) -> int:
                          "its own process (as `benchbot run` serves a submission)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
+    if args.rounds < 1:
+        ap.error("--rounds must be at least 1")
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     from legacy_client import LegacyBenchBot
@@ -182,12 +184,17 @@ def main(argv: list[str] | None = None) -> int:
         "arch": args.arch,
         "server": args.server,
     }
-    if args.json:
+    print_report(report, args.json)
+    return 0
+
+
+def print_report(report: dict, as_json: bool) -> None:
+    """``report`` as one JSON object, or as aligned ``key value`` lines."""
+    if as_json:
         print(json.dumps(report))
     else:
         for key, value in report.items():
-            print(f"{key:28s} {value}")
-    return 0
+            print(f"{key:32s} {value}")
 
 
 if __name__ == "__main__":

@@ -5,18 +5,18 @@ times every stage: the request until the backend thread starts the step, the ste
 the reply (writing the images into the client's slot), the reply's way to the client, and decoding it. Stages are
 timed by wrapping ``BackendApi.step``, ``SegmentPool.pack`` and ``wire.unpack``; medians over ``--steps`` steps.
 
-    python benchmarks/api_step_stages.py [--steps 80] [--width 640 --height 480] [--env miniroom:1] [--json]
+    python benchmarks/api_step_stages.py [--steps 80] [--width 640 --height 480] [--env miniroom:1] [--arch cpu] [--json]
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
-import contextlib
-import json
+import os
 import statistics
-import sys
 import time
+
+from api_step import print_report, start_backend  # this folder is on sys.path when a script here runs
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,20 +25,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--env", default="miniroom:1")
+    ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
+    if args.steps < 1:
+        ap.error("--steps must be at least 1")
 
     from benchbot.api.benchbot import HttpTransport
     from benchbot.core import server as server_module
     from benchbot.core import shared_frames, wire
-    from benchbot.core.registry import get_registry
-    from benchbot.core.session import resolve_run, start_service
 
-    registry = get_registry()
-    spec = resolve_run(registry, "semantic_slam:active:ground_truth", "carter", args.env)
-    spec.task = dict(spec.task, observations=[*spec.task["observations"], "image_segment"])
-    with contextlib.redirect_stdout(sys.stderr):
-        service = start_service(registry, spec, options={"width": args.width, "height": args.height})
+    service = start_backend(args)  # the same episode as api_step.py
 
     marks: dict[str, float] = {}
 
@@ -78,11 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     service.close()
     report = {f"{k}_ms": round(statistics.median(v) * 1000.0, 3) for k, v in stages.items()}
     report.update(shared_memory=transport.shared_memory, resolution=f"{args.width}x{args.height}", steps=args.steps)
-    if args.json:
-        print(json.dumps(report))
-    else:
-        for key, value in report.items():
-            print(f"{key:32s} {value}")
+    print_report(report, args.json)
     return 0
 
 

@@ -53,6 +53,8 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=1, help="run each environment N times (more, shorter-tailed work)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
+    if args.workers < 1 or args.repeat < 1:
+        ap.error("--workers and --repeat must be at least 1")
     with tempfile.TemporaryDirectory(prefix="benchbot-bench-") as tmp:
         one = run(1, args, Path(tmp) / "one")
         many = run(args.workers, args, Path(tmp) / "many") if args.workers > 1 else one

@@ -7,8 +7,8 @@ same primary camera rays at the exported triangle mesh of the same scene (``benc
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
         [--shadow-samples 1] [--json]
 
-Each launch renders N cameras (``--batch N``, default 1) and N laser scans (``Renderer.render_sensors``: one kernel
-launch for the images, one for the scans). On CUDA the scene and the outputs stay in GPU memory
+Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
+(``Renderer.render_sensors``). On CUDA the scene and the outputs stay in GPU memory
 (``device_buffers``): ``fps`` counts frames finished in GPU memory (the timing ends with a device synchronisation),
 ``fps_with_host_copy`` the same frames copied into NumPy arrays; on the CPU both are the same figure. JSON keys:
 ``fps`` (sensor frames per second), ``fps_with_host_copy``, ``mrays_per_s`` (primary camera rays, millions per
@@ -90,7 +90,8 @@ def main(argv: list[str] | None = None) -> int:
            "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
            "mrays_per_s": W * H * fps / 1e6, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
-           "setup_s": t_setup, "fps_with_host_copy": fps_host, "device_buffers": r.device_buffers, "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
+           "setup_s": t_setup, "fps_with_host_copy": fps_host, "device_buffers": r.device_buffers,
+           "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
            "outputs": "rgb+depth+class+instance+laser(360)"}
     if not args.no_embree:
         try:
@@ -120,7 +121,8 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         print(f"{args.env} {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
-              f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host:.1f} fps with host copies; embree {out.get('embree_mrays_per_s', float('nan')):.2f} "
+              f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host:.1f} fps with host copies; "
+              f"embree {out.get('embree_mrays_per_s', float('nan')):.2f} "
               f"Mrays/s on {out.get('embree_triangles', 0)} triangles")
     return 0
 
