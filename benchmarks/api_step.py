@@ -21,10 +21,12 @@ same motion and the same images for every path) through:
 Then observe-only steps (``step(None)``: no motion) time the transport overhead alone (``*_observe_step_ms``).
 Paths are interleaved round by round, so drift in the machine's load affects them alike; medians are reported,
 and the ``*_minus_inprocess_ms`` figures are medians of the per-round differences (a paired comparison: each
-round's native step against the same round's in-process step).
+round's native step against the same round's in-process step), each with a distribution-free 95% confidence
+interval of that median (``*_ci95_ms``, from the order statistics of the differences: this machine's load drifts, and
+the interval says how far the median may be off).
 Requests are counted for real (an httpx event hook; the legacy client's counter).
 
-    python benchmarks/api_step.py [--rounds 31] [--width 640 --height 480] [--env miniroom:1] [--server thread|process] [--json]
+    python benchmarks/api_step.py [--rounds 101] [--width 640 --height 480] [--env miniroom:1] [--server thread|process] [--json]
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import multiprocessing
 import os
 import platform
@@ -69,7 +72,7 @@ def serve(args: argparse.Namespace, pipe) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rounds", type=int, default=31)
+    ap.add_argument("--rounds", type=int, default=101)
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--env", default="miniroom:1")
@@ -160,8 +163,18 @@ def main(argv: list[str] | None = None) -> int:
 
     med = {k: statistics.median(v) for k, v in times.items()}
 
+    def differences(name: str) -> list[float]:
+        return sorted(a - b for a, b in zip(times[name], times["inprocess"]))
+
     def paired(name: str) -> float:
-        return round(statistics.median(a - b for a, b in zip(times[name], times["inprocess"])), 2)
+        return round(statistics.median(differences(name)), 2)
+
+    def paired_ci95(name: str) -> list[float]:
+        # ranks n/2 ∓ 0.98·√n bound the median with ~95% confidence (normal approximation of Binomial(n, 1/2))
+        d = differences(name)
+        low = max(int(math.floor(len(d) / 2 - 0.98 * math.sqrt(len(d)))), 0)
+        high = min(int(math.ceil(len(d) / 2 + 0.98 * math.sqrt(len(d)))), len(d) - 1)
+        return [round(d[low], 2), round(d[high], 2)]
 
     report = {
         "inprocess_step_ms": round(med["inprocess"], 2),
@@ -169,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         "native_inline_step_ms": round(med["native_inline"], 2),
         "legacy_step_ms": round(med["legacy"], 2),
         "native_minus_inprocess_ms": paired("native"),
+        "native_minus_inprocess_ci95_ms": paired_ci95("native"),
         "native_inline_minus_inprocess_ms": paired("native_inline"),
         "native_shared_memory": shared_memory,
         "native_requests_per_step": statistics.mean(native_requests),

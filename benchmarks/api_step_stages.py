@@ -1,11 +1,14 @@
-"""Where one native observe-only step spends its time, stage by stage (same-host shared-memory path).
+"""Where one native step spends its time, stage by stage (same-host shared-memory path).
 
 The backend is served over HTTP from a thread of this process (as ``api_step.py --server thread``), so one clock
-times every stage: the request until the backend thread starts the step, the step itself, waking the server, packing
-the reply (writing the images into the client's slot), the reply's way to the client, and decoding it. Stages are
-timed by wrapping ``BackendApi.step``, ``SegmentPool.pack`` and ``wire.unpack``; medians over ``--steps`` steps.
+times every stage: the request until the backend thread starts the step, the step itself, packing the reply on the
+backend thread (writing the images into the client's slot), the reply's way to the client (waking the server's
+event loop, sending, receiving), and decoding it. Stages are timed by wrapping ``BackendApi.step``,
+``SegmentPool.pack`` and ``wire.unpack``; medians over ``--steps`` steps. Steps only observe, unless ``--angle``
+turns the robot first (then the step renders a new view).
 
-    python benchmarks/api_step_stages.py [--steps 80] [--width 640 --height 480] [--env miniroom:1] [--arch cpu] [--json]
+    python benchmarks/api_step_stages.py [--steps 80] [--width 640 --height 480] [--env miniroom:1] [--arch cpu] [--angle 0]
+        [--json]
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--env", default="miniroom:1")
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
+    ap.add_argument("--angle", type=float, default=0.0,
+                    help="each step turns the robot by this many degrees first (0: observe-only steps)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     if args.steps < 1:
@@ -59,13 +64,15 @@ def main(argv: list[str] | None = None) -> int:
     stages = collections.defaultdict(list)
     for i in range(args.steps + 5):
         t0 = time.perf_counter()
-        transport.step(None, {}, None)
+        if args.angle:
+            transport.step("move_angle", {"angle": args.angle}, None)
+        else:
+            transport.step(None, {}, None)
         t1 = time.perf_counter()
         if i < 5:  # warm-up, and the shared-memory handshake
             continue
         stages["request_to_backend_thread"].append(marks["step_in"] - t0)
         stages["step"].append(marks["step_out"] - marks["step_in"])
-        stages["waking_the_server"].append(marks["pack_in"] - marks["step_out"])
         stages["pack_into_slot"].append(marks["pack_out"] - marks["pack_in"])
         stages["reply_to_client"].append(marks["unpack_in"] - marks["pack_out"])
         stages["decode"].append(marks["unpack_out"] - marks["unpack_in"])

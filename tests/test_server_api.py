@@ -109,3 +109,11 @@ def test_in_process_observations_are_read_only_views_like_the_native_ones(make_s
         obs["image_depth"][0, 0] = 1.0
     again, _ = bot.step(None)
     assert np.array_equal(again["image_depth"], obs["image_depth"])
+
+
+def test_the_server_parses_http_with_httptools(served):
+    """uvicorn picks httptools (a declared dependency, its C parser) over the pure-Python h11: the native step's
+    request and reply legs are ~0.25 ms shorter after a render (benchmarks/api_step_stages.py --angle 10)."""
+    _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
+    assert server.server.config.http_protocol_class.__name__ == "HttpToolsProtocol"
+    assert httpx.get(server.address, timeout=10).json() == "Hello, I am the BenchBot supervisor"

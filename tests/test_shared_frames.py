@@ -201,3 +201,31 @@ def test_arrays_are_never_overwritten_while_anything_refers_to_them(served):
     assert isinstance(turn()["image_depth"].base, mmap_module.mmap)
     transport.close()
 
+
+
+@pytest.mark.parametrize("shared_memory", [True, False], ids=["shared-memory", "inline"])
+def test_native_steps_copy_borrowed_observations_before_the_backend_reuses_them(served, shared_memory):
+    """The native step observes with ``observe_borrowed`` and copies each array at once: a backend that lends one
+    reused buffer for every observation still gives each step its own image."""
+    service, server = served(ACTIVE, "miniroom:1", **CAMERA)
+    backend = service.episode.backend
+    lent = np.zeros((CAMERA["height"], CAMERA["width"], 3), np.uint8)
+    lent_values = []
+
+    def observe_borrowed(names):
+        obs = backend.observe(names)
+        if "image_rgb" in obs:
+            lent[...] = obs["image_rgb"]  # the same buffer every time, overwritten by the next observation
+            obs["image_rgb"] = lent
+            lent_values.append(lent.copy())
+        return obs
+
+    backend.observe_borrowed = observe_borrowed  # this backend only
+    transport = HttpTransport(server.address, shared_memory=shared_memory)
+    held = [transport.step("move_angle", {"angle": 25.0}, None)["observations"]["image_rgb"] for _ in range(4)]
+    assert len(lent_values) == 4, "every native step observed through observe_borrowed"
+    assert not np.array_equal(lent_values[0], lent_values[1]), "the robot turned: the images differ"
+    for got, lent_then in zip(held, lent_values):
+        assert np.array_equal(got, lent_then), "each step kept the image of its own instant"
+    assert not any(np.shares_memory(got, lent) for got in held)
+    transport.close()

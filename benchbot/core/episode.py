@@ -125,7 +125,9 @@ class Episode:
         self.backend, self.seed, self.on_step = backend, seed, on_step
         self.localisation = task.get("localisation", "ground_truth")
         self.step_count = 0
-        self.last_observation: tuple[int, dict] | None = None  # (step_count, observations) of the last observe()
+        # (step_count, observations) of the last observe(); its arrays may be borrowed from the backend, valid until
+        # the next observe(): observers read them on the backend thread before then, and never modify them
+        self.last_observation: tuple[int, dict] | None = None
         self.running = False
         self.scene_index = 0
         self._load(0)
@@ -290,9 +292,11 @@ class Episode:
         return result
 
     # ----------------------------------------------------------------------------------------- observations
-    def observe(self, names: Sequence[str] | None = None) -> dict[str, Any]:
+    def observe(self, names: Sequence[str] | None = None, *, borrowed: bool = False) -> dict[str, Any]:
         """The observations ``names`` (default: the task's) in the structures of reference §4, plus
-        ``scene_number`` (int, 0-based).
+        ``scene_number`` (int, 0-based). ``borrowed``: the sensor arrays may be the backend's own
+        (:meth:`~benchbot.core.robot.RobotBackend.observe_borrowed`), for a caller that copies them at once and
+        modifies none.
 
         Raises:
             ActionError: a name the task does not observe.
@@ -305,7 +309,8 @@ class Episode:
                 f"available: {', '.join(self.task['observations'])}",
             )
         sensors = [n for n in names if n != "poses"]
-        obs = self.backend.observe(sensors) if sensors else {}
+        backend_observe = self.backend.observe_borrowed if borrowed else self.backend.observe
+        obs = backend_observe(sensors) if sensors else {}
         if "poses" in names:
             obs["poses"] = self._poses()
         obs["scene_number"] = self.scene_index

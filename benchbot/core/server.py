@@ -284,8 +284,10 @@ class BackendApi:
             raise BadRequestError(f"{name} returned a value that is not JSON", "check the arguments") from None
         return value
 
-    def step(self, action: Any, args: Any, names: Any) -> dict:
-        """*worker*. The native step: perform ``action`` (None: only observe), then observe.
+    def step(self, action: Any, args: Any, names: Any, *, borrowed: bool = False) -> dict:
+        """*worker*. The native step: perform ``action`` (None: only observe), then observe. ``borrowed``: the
+        observations' arrays may be the backend's own (:meth:`Episode.observe`), for a caller that copies them before
+        the next episode call and modifies none.
 
         Returns:
             ``{'result': 'SUCCESS'|'FINISHED'|'COLLISION', 'observations': {...}, 'state': {...}}``.
@@ -303,7 +305,7 @@ class BackendApi:
             raise BadRequestError("'observations' must be a list of names", "")
         ep = self.episode
         result = self._mutate(lambda: ep.act(action, args)) if action is not None else ep.result()
-        return {"result": result, "observations": ep.observe(names), "state": ep.state()}
+        return {"result": result, "observations": ep.observe(names, borrowed=borrowed), "state": ep.state()}
 
     def act(self, action: str, args: dict) -> None:
         """*worker*. The original protocol's action connection: perform it (blocking)."""
@@ -375,7 +377,7 @@ def build_app(
         api: the operations object (one is built when None).
     """
     api = api or BackendApi(service)
-    segments = shared_frames.SegmentPool()  # same-host clients' shared-memory segments (used on the event loop)
+    segments = shared_frames.SegmentPool()  # same-host clients' shared-memory segments (used on the backend thread)
 
     async def guarded(request: Request, handler: Callable) -> Response:
         try:
@@ -435,13 +437,19 @@ def build_app(
                 offer = shared_frames.check_offer(body["shm"])
             except BenchbotError as exc:
                 raise BadRequestError(exc.message, exc.hint) from None
-        reply = await with_timeout(api.step, body.get("action"), body.get("args"), body.get("observations"))
-        if offer is None:
-            return Response(wire.pack(reply), media_type=MSGPACK)
-        if request.client is None or not is_loopback(request.client.host):
-            reply = {**reply, "shm_error": "shared memory is for clients on the backend's host (loopback) only"}
-            return Response(wire.pack(reply), media_type=MSGPACK)
-        return Response(segments.pack(reply, offer), media_type=MSGPACK)
+        refused = offer is not None and (request.client is None or not is_loopback(request.client.host))
+
+        def step_and_pack() -> bytes:
+            # On the backend thread: the observations are borrowed from the backend and copied once, into the
+            # reply or into the client's slot, before any other episode call can change them.
+            reply = api.step(body.get("action"), body.get("args"), body.get("observations"), borrowed=True)
+            if refused:
+                reply["shm_error"] = "shared memory is for clients on the backend's host (loopback) only"
+            if offer is None or refused:
+                return wire.pack(reply)
+            return segments.pack(reply, offer)
+
+        return Response(await with_timeout(step_and_pack), media_type=MSGPACK)
 
     def route(path: str, handler: Callable, methods: list[str]) -> Route:
         async def endpoint(request: Request) -> Response:

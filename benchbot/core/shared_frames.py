@@ -26,6 +26,7 @@ is removed), removes a segment's file as soon as its client has mapped it (so a 
 
 from __future__ import annotations
 
+import math
 import mmap
 import os
 import re
@@ -152,7 +153,7 @@ class BackendSegment:
 
 class SegmentPool:
     """The backend's segments by client id (the most recent :data:`MAX_SEGMENTS`). Used from one thread (the
-    server's event loop)."""
+    backend thread, which packs each native step's reply)."""
 
     def __init__(self, capacity: int = MAX_SEGMENTS) -> None:
         self.capacity = capacity
@@ -277,9 +278,9 @@ class ClientMapping:
             if dt.hasobject:
                 raise ValueError("object arrays are refused")
             shape = [int(n) for n in shape]
-            count, offset = int(np.prod(shape, dtype=np.int64)), int(offset)
-            if count < 0 or min(shape, default=0) < 0:
+            if min(shape, default=0) < 0:
                 raise ValueError(f"negative shape {shape}")
+            count, offset = math.prod(shape), int(offset)
         except (TypeError, ValueError) as exc:
             raise BenchbotError(f"malformed shared-memory array descriptor: {exc}", "") from None
         end = offset + count * dt.itemsize

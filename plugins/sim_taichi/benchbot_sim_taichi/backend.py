@@ -300,6 +300,20 @@ class TaichiSimBackend(RobotBackend):
         Raises:
             KeyError: a name this backend cannot observe. BackendError: no scene is loaded.
         """
+        return self._observations(names, owned=True)
+
+    def observe_borrowed(self, names: Sequence[str]) -> dict[str, Any]:
+        """As :meth:`observe`, but the images and the scan are this pose's cached arrays, not copies (see
+        :meth:`benchbot.core.robot.RobotBackend.observe_borrowed`; the renderer never writes into them again, so
+        they stay valid; callers must not modify them). The class image is converted to uint8, a new array.
+
+        Raises:
+            KeyError: a name this backend cannot observe. BackendError: no scene is loaded.
+        """
+        return self._observations(names, owned=False)
+
+    def _observations(self, names: Sequence[str], owned: bool) -> dict[str, Any]:
+        """:meth:`observe` (``owned``: copies of the cached arrays) or :meth:`observe_borrowed` (the arrays)."""
         for n in names:
             if n not in OBSERVATIONS:
                 raise KeyError(n)
@@ -307,21 +321,22 @@ class TaichiSimBackend(RobotBackend):
         if "laser" in names and not self._cache and any(n in ("image_rgb", "image_depth", "image_segment")
                                                         for n in names):
             self._render(with_scan=True)  # one kernel launch for both
+        mine = np.copy if owned else np.asarray
         out: dict[str, Any] = {}
         for n in names:
             if n == "image_rgb":
-                out[n] = self._render()["rgb"].copy()
+                out[n] = mine(self._render()["rgb"])
             elif n == "image_depth":
-                out[n] = self._render()["depth"].copy()
+                out[n] = mine(self._render()["depth"])
             elif n in ("image_rgb_info", "image_depth_info"):
                 out[n] = self._info()
             elif n == "image_segment":
                 r = self._render()
                 out[n] = {"class_segment_img": r["class"].astype(np.uint8),
-                          "instance_segment_img": r["instance"].astype(np.int32, copy=True),
+                          "instance_segment_img": r["instance"].astype(np.int32, copy=owned),
                           "class_ids": dict(scene.class_ids)}
             elif n == "laser":
-                out[n] = {"scans": self._scan().copy(), "range_min": self.range_min, "range_max": self.range_max}
+                out[n] = {"scans": mine(self._scan()), "range_min": self.range_min, "range_max": self.range_max}
         return out
 
     def close(self) -> None:

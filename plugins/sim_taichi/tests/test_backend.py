@@ -87,6 +87,24 @@ def test_observe_structures_and_cache(bear_envs, make_backend, monkeypatch):
     assert len(calls) == 2
 
 
+def test_borrowed_observations_are_the_cached_arrays_with_the_same_values(bear_envs, make_backend):
+    b = make_backend(40, 30)
+    b.load_scene(bear_envs["miniroom:1"])
+    owned, borrowed = b.observe(ALL), b.observe_borrowed(ALL)
+    again = b.observe_borrowed(ALL)
+    for name, key in (("image_rgb", None), ("image_depth", None), ("laser", "scans"),
+                      ("image_segment", "instance_segment_img"), ("image_segment", "class_segment_img")):
+        mine, lent, lent_again = (o[name] if key is None else o[name][key] for o in (owned, borrowed, again))
+        assert mine.dtype == lent.dtype and np.array_equal(mine, lent), name
+        assert not np.shares_memory(mine, lent), f"observe gives {name} as a copy the caller owns"
+        if key != "class_segment_img":  # converted to uint8: a new array each time
+            assert np.shares_memory(lent, lent_again), f"observe_borrowed gives {name} without a copy"
+    # the renderer never writes into a pose's arrays again: a new pose gets new ones
+    b.move_to(se2_compose(b.base_pose(), np.array([0.0, 0.0, math.radians(30)])))
+    moved = b.observe_borrowed(["image_rgb"])["image_rgb"]
+    assert not np.shares_memory(moved, lent_again) and np.array_equal(borrowed["image_rgb"], owned["image_rgb"])
+
+
 def test_move_distance_and_angle(bear_envs, make_backend):
     b = make_backend()
     b.load_scene(bear_envs["miniroom:1"])
