@@ -206,6 +206,19 @@ def _check_transform(name: str, t: Any, problems: list[str]) -> None:
 
 
 
+def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
+    """Where nested observations ``a`` and ``b`` first differ (key path), or None when their values are equal."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        same = isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.dtype == b.dtype \
+            and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+        return None if same else where or "the top level"
+    if isinstance(a, dict) and isinstance(b, dict):
+        if set(a) != set(b):
+            return f"{where or 'the top level'} (keys {sorted(set(a) ^ set(b))})"
+        return next((d for k in a if (d := _first_difference(a[k], b[k], f"{where}['{k}']"))), None)
+    return None if a == b else where or "the top level"
+
+
 def _yaw_of(start_pose: list[float]) -> float:
     qw, qx, qy, qz = start_pose[:4]
     return math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
@@ -219,7 +232,8 @@ def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, 
                         turn_rad: float = 0.3) -> dict:
     """Drive a robot backend through the :class:`~benchbot.core.robot.RobotBackend` contract: build it, load the
     scene, read the pose (must be the environment's ``start_pose``), frame transforms for every frame of the
-    robot's ``poses``, every sensor observation the robot offers (structures of docs/observations.md), turn on the
+    robot's ``poses``, every sensor observation the robot offers (structures of docs/observations.md; the same values
+    from ``observe_borrowed`` where the backend overrides it), turn on the
     spot by ``turn_rad`` with ``move_to`` (the pose must follow unless it collided), ask for an unknown
     observation (``KeyError``), reload the scene (back at the start), close.
 
@@ -268,6 +282,13 @@ def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, 
             check_observations(obs, names)
         except AssertionError as exc:
             problems.append(str(exc))
+        # a backend that overrides observe_borrowed must give observe's values (the default is observe itself,
+        # whose values may change between two calls on a live robot)
+        overrides = getattr(type(backend), "observe_borrowed", None) is not RobotBackend.observe_borrowed
+        difference = _first_difference(obs, backend.observe_borrowed(names)) if overrides else None
+        if difference:
+            problems.append(f"observe_borrowed() differs from observe() at {difference}: it must give the same "
+                            "values (only without copies)")
         try:
             backend.observe(["no_such_sensor"])
             problems.append("observe(['no_such_sensor']) must raise KeyError")
