@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+
 import pytest
 
 from benchbot.core.registry import Registry, get_registry
@@ -45,3 +48,29 @@ def served(make_service):
     yield serve
     for server in servers:
         server.stop()
+
+
+#: The base image of the test containers (needs python3), e.g. one made offline with debootstrap + `docker import`.
+CONTAINER_BASE_IMAGE = os.environ.get("BENCHBOT_TEST_BASE_IMAGE", "python:3.11-slim")
+
+
+@pytest.fixture(scope="session")
+def container_engine_with_base_image() -> tuple[str, str]:
+    """``(engine, base image)``: a working Docker/Podman with :data:`CONTAINER_BASE_IMAGE` present locally; otherwise
+    the test is skipped with the reason."""
+    from benchbot.core.errors import UsageError
+    from benchbot.core.submission import container_engine
+
+    try:
+        engine = container_engine()
+    except UsageError as exc:
+        pytest.skip(f"no working container engine: {exc.message}")
+    image = CONTAINER_BASE_IMAGE
+    try:  # tests reach loopback only: they never pull
+        present = subprocess.run([engine, "image", "inspect", image], capture_output=True, timeout=60).returncode == 0
+    except subprocess.TimeoutExpired:
+        present = False
+    if not present:
+        pytest.skip(f"base image {image} is not present in {engine} (tests never pull; pull it, or set "
+                    "BENCHBOT_TEST_BASE_IMAGE to a local image with python3)")
+    return engine, image

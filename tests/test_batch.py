@@ -130,10 +130,10 @@ def test_containerised_batch_needs_a_dockerfile_and_an_engine(tmp_path):
     assert proc.returncode == 2 and proc.stderr.startswith("error: ") and "engine" in proc.stderr
 
 
-@pytest.mark.skipif(_engine_works() is not None, reason=f"no working container engine: {_engine_works()}")
-def test_containerised_batch_runs_a_container(tmp_path):
+def test_containerised_batch_runs_a_container(tmp_path, container_engine_with_base_image):
+    _, base_image = container_engine_with_base_image
     (tmp_path / "Dockerfile").write_text(
-        "FROM python:3.11-slim\nCMD [\"python\", \"-c\", \"open('/tmp/benchbot_result', 'w').write('{}')\"]\n")
+        f"FROM {base_image}\nCMD [\"python3\", \"-c\", \"open('/tmp/benchbot_result', 'w').write('{{}}')\"]\n")
     proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1", "--no-evaluate",
                "--output-dir", str(tmp_path / "runs"), *SMALL, timeout=900)
     assert proc.returncode == 0, proc.stderr

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from benchbot.core.errors import UsageError
-from benchbot.core.submission import container_engine
+from benchbot.core.server import SUPERVISOR_GREETING
+from benchbot.core.submission import container_engine, container_image_tag
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 
@@ -80,15 +81,47 @@ def test_containerised_without_an_engine_says_so(tmp_path):
     assert proc.stderr.startswith("error:") and ("no container engine answers" in proc.stderr or "neither is installed" in proc.stderr)
 
 
-def test_containerised_submission_runs_where_an_engine_works(served, tmp_path):
+def test_containerised_submission_reaches_the_backend(served, tmp_path, container_engine_with_base_image):
+    """The container reaches the backend by BENCHBOT_SUPERVISOR_ADDRESS and by the original client's
+    ``benchbot_supervisor`` name, gets ``args``, the token and BENCHBOT_SHARED_MEMORY=0, and its results are
+    copied out."""
+    _, base_image = container_engine_with_base_image
+    _, server = served("semantic_slam:passive:ground_truth", "miniroom:4")
+    (tmp_path / "Dockerfile").write_text(
+        f"FROM {base_image}\nCOPY run.py /run.py\nCMD [\"python3\", \"/run.py\"]\n")
+    (tmp_path / "run.py").write_text(
+        "import json, os, urllib.request\n"
+        "def get(url):\n"
+        "    return json.loads(urllib.request.urlopen(url, timeout=10).read())\n"
+        "address = os.environ['BENCHBOT_SUPERVISOR_ADDRESS']\n"
+        f"out = {{'greeting': get(address), 'by_name': get('http://benchbot_supervisor:{server.port}/'),\n"
+        "       'args': os.environ.get('args'), 'token': os.environ.get('BENCHBOT_TOKEN'),\n"
+        "       'shm': os.environ.get('BENCHBOT_SHARED_MEMORY')}\n"
+        "json.dump(out, open(os.environ['BENCHBOT_RESULT_LOCATION'], 'w'))\n")
+    proc = cli("submit", "--containerised", str(tmp_path), "--address", server.address, "--args", "a b",
+               "-r", str(tmp_path / "copied.json"), env={"BENCHBOT_TOKEN": "t0ken"})
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert json.loads((tmp_path / "copied.json").read_text()) == {
+        "greeting": SUPERVISOR_GREETING, "by_name": SUPERVISOR_GREETING, "args": "a b", "token": "t0ken", "shm": "0"}
+
+
+def test_containerised_build_failure_is_one_line(tmp_path):
     engine = _engine()
     if engine is None or engine.startswith("skip:"):
         pytest.skip(f"no working container engine: {engine[5:] if engine else 'none'}")
-    _, server = served("semantic_slam:passive:ground_truth", "miniroom:4")
+    (tmp_path / "Dockerfile").write_text("FROM scratch\nNOT_AN_INSTRUCTION x\n")  # fails before any pull
+    proc = cli("submit", "--containerised", str(tmp_path), "--address", "http://127.0.0.1:9/")
+    assert proc.returncode == 1, proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and f"{engine} build of" in errors[0] and "failed" in errors[0], proc.stderr
+
+
+def test_containerised_timeout_kills_and_removes_the_container(tmp_path, container_engine_with_base_image):
+    engine, base_image = container_engine_with_base_image
     (tmp_path / "Dockerfile").write_text(
-        "FROM python:3.11-slim\nCOPY run.py /run.py\nCMD [\"python\", \"/run.py\"]\n")
-    (tmp_path / "run.py").write_text("open('/tmp/benchbot_result', 'w').write('{}')\n")
-    proc = cli("submit", "--containerised", str(tmp_path), "--address", server.address,
-               "-r", str(tmp_path / "copied.json"))
-    assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "copied.json").read_text() == "{}"
+        f"FROM {base_image}\nCMD [\"python3\", \"-c\", \"import time; time.sleep(300)\"]\n")
+    proc = cli("submit", "--containerised", str(tmp_path), "--address", "http://127.0.0.1:9/", "--timeout", "2")
+    assert proc.returncode == 1 and "exited with status -9" in proc.stderr, proc.stderr
+    name = "benchbot_submission_" + container_image_tag(tmp_path).rsplit(":", 1)[1]
+    left = subprocess.run([engine, "ps", "-a", "-q", "--filter", f"name={name}"], capture_output=True, text=True)
+    assert left.stdout.strip() == ""

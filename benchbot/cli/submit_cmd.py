@@ -55,7 +55,7 @@ def register(app: typer.Typer) -> None:
         results_location: Optional[Path] = typer.Option(None, "--results-location", "-r", help="Also copy the results here."),
         address: str = typer.Option(os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS", DEFAULT_ADDRESS), "--address", help="The backend (`benchbot run`)."),
         scores: Path = typer.Option(Path("scores.json"), "--scores", "-o", help="Where --evaluate-with writes scores."),
-        timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill a native submission after this many seconds."),
+        timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill the submission (native, or the container once built) after this many seconds."),
     ) -> None:
         """Run a solution against the backend started by `benchbot run`.
 
@@ -98,7 +98,7 @@ def register(app: typer.Typer) -> None:
                 engine = container_engine()
                 err.print(f"building and running {dockerfile} with {engine} against {address}")
                 code = run_container_submission(engine, dockerfile, context, address=address, result_location=result,
-                                                args=args, token=os.environ.get("BENCHBOT_TOKEN"))
+                                                args=args, token=os.environ.get("BENCHBOT_TOKEN"), timeout_s=timeout)
             else:
                 sub = example_submission(reg, example, args) if example else native_submission(command or [], args)
                 err.print(f"running {sub.label} against {address}")
