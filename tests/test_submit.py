@@ -125,3 +125,37 @@ def test_containerised_timeout_kills_and_removes_the_container(tmp_path, contain
     name = "benchbot_submission_" + container_image_tag(tmp_path).rsplit(":", 1)[1]
     left = subprocess.run([engine, "ps", "-a", "-q", "--filter", f"name={name}"], capture_output=True, text=True)
     assert left.stdout.strip() == ""
+
+
+def test_an_example_without_a_container_says_how_to_run_it():
+    proc = cli("submit", "--example", "hello_passive", "--example-containerised")
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("error: example 'hello_passive' has no container set up") and \
+        "--example hello_passive" in proc.stderr
+
+
+def test_an_example_with_a_container_runs_in_it(served, tmp_path, container_engine_with_base_image):
+    """``--example NAME --example-containerised`` for an example whose spec names a container folder (a content
+    pack, in the original add-on layout): built from that folder, run against the backend, results copied out."""
+    _, base_image = container_engine_with_base_image
+    _, server = served("semantic_slam:passive:ground_truth", "miniroom:4")
+    pack = tmp_path / "pack"
+    files = {
+        "examples/boxed_hello.yaml": "name: boxed_hello\nnative_command: python run.py\n"
+                                     "container_directory: boxed_hello\n",
+        "examples/boxed_hello/Dockerfile": f"FROM {base_image}\nCOPY run.py /run.py\nCMD [\"python3\", \"/run.py\"]\n",
+        "examples/boxed_hello/run.py": (
+            "import json, os, urllib.request\n"
+            "greeting = json.loads(urllib.request.urlopen(os.environ['BENCHBOT_SUPERVISOR_ADDRESS'], timeout=10).read())\n"
+            "json.dump({'greeting': greeting}, open(os.environ['BENCHBOT_RESULT_LOCATION'], 'w'))\n"),
+    }
+    for rel, text in files.items():
+        (pack / rel).parent.mkdir(parents=True, exist_ok=True)
+        (pack / rel).write_text(text)
+    env = {"BENCHBOT_DATA_DIR": str(tmp_path / "data")}
+    installed = cli("install", str(pack), "--allow-code", env=env)
+    assert installed.returncode == 0, installed.stderr
+    proc = cli("submit", "--example", "boxed_hello", "--example-containerised", "--address", server.address,
+               "-r", str(tmp_path / "copied.json"), env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "copied.json").read_text()) == {"greeting": SUPERVISOR_GREETING}
