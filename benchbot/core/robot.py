@@ -78,10 +78,10 @@ class RobotBackend(abc.ABC):
         """As :meth:`observe`, but the arrays may be the backend's own (its render or cache buffers) instead of
         copies the caller owns. They must stay valid until the backend's next :meth:`observe` or
         :meth:`observe_borrowed` call (observers read the episode's latest observation until then) and must not be
-        modified: the caller copies what it keeps. The native HTTP step uses this, as it copies every array into the reply or into the
-        client's shared-memory slot straight away, on the backend thread (one copy per array, as in-process callers
-        get from :meth:`observe`). By default it is :meth:`observe`; a backend whose :meth:`observe` copies from
-        buffers it keeps overrides it to skip that copy.
+        modified: the caller copies what it keeps. The native HTTP step uses this, as it copies every array into
+        the reply or into the client's shared-memory slot straight away, on the backend thread (one copy per array,
+        as in-process callers get from :meth:`observe`). By default it is :meth:`observe`; a backend whose
+        :meth:`observe` copies from buffers it keeps overrides it to skip that copy.
 
         Raises:
             KeyError: a name this backend cannot observe.

@@ -303,9 +303,9 @@ class TaichiSimBackend(RobotBackend):
         return self._observations(names, owned=True)
 
     def observe_borrowed(self, names: Sequence[str]) -> dict[str, Any]:
-        """As :meth:`observe`, but the images and the scan are this pose's cached arrays, not copies (see
-        :meth:`benchbot.core.robot.RobotBackend.observe_borrowed`; the renderer never writes into them again, so
-        they stay valid; callers must not modify them). The class image is converted to uint8, a new array.
+        """As :meth:`observe`, but the images and the scan are read-only views of this pose's cached arrays, not
+        copies (see :meth:`benchbot.core.robot.RobotBackend.observe_borrowed`; the renderer never writes into them
+        again, so they stay valid). The class image is converted to uint8, a new array.
 
         Raises:
             KeyError: a name this backend cannot observe. BackendError: no scene is loaded.
@@ -321,22 +321,22 @@ class TaichiSimBackend(RobotBackend):
         if "laser" in names and not self._cache and any(n in ("image_rgb", "image_depth", "image_segment")
                                                         for n in names):
             self._render(with_scan=True)  # one kernel launch for both
-        mine = np.copy if owned else np.asarray
+        hand_out = np.copy if owned else _read_only_view
         out: dict[str, Any] = {}
         for n in names:
             if n == "image_rgb":
-                out[n] = mine(self._render()["rgb"])
+                out[n] = hand_out(self._render()["rgb"])
             elif n == "image_depth":
-                out[n] = mine(self._render()["depth"])
+                out[n] = hand_out(self._render()["depth"])
             elif n in ("image_rgb_info", "image_depth_info"):
                 out[n] = self._info()
             elif n == "image_segment":
                 r = self._render()
                 out[n] = {"class_segment_img": r["class"].astype(np.uint8),
-                          "instance_segment_img": r["instance"].astype(np.int32, copy=owned),
+                          "instance_segment_img": hand_out(r["instance"].astype(np.int32, copy=False)),
                           "class_ids": dict(scene.class_ids)}
             elif n == "laser":
-                out[n] = {"scans": mine(self._scan()), "range_min": self.range_min, "range_max": self.range_max}
+                out[n] = {"scans": hand_out(self._scan()), "range_min": self.range_min, "range_max": self.range_max}
         return out
 
     def close(self) -> None:
@@ -347,6 +347,13 @@ class TaichiSimBackend(RobotBackend):
         if self._renderer is not None:
             self._renderer.close()
         self._renderer = None
+
+
+def _read_only_view(a: np.ndarray) -> np.ndarray:
+    """A view of ``a`` that cannot be written through (``a`` itself stays writable)."""
+    view = a.view()
+    view.flags.writeable = False
+    return view
 
 
 def create_backend(robot_spec: dict, options: dict) -> TaichiSimBackend:

@@ -99,6 +99,7 @@ def test_borrowed_observations_are_the_cached_arrays_with_the_same_values(bear_e
         assert not np.shares_memory(mine, lent), f"observe gives {name} as a copy the caller owns"
         if key != "class_segment_img":  # converted to uint8: a new array each time
             assert np.shares_memory(lent, lent_again), f"observe_borrowed gives {name} without a copy"
+            assert not lent.flags.writeable and mine.flags.writeable, "lent arrays cannot be written through"
     # the renderer never writes into a pose's arrays again: a new pose gets new ones
     b.move_to(se2_compose(b.base_pose(), np.array([0.0, 0.0, math.radians(30)])))
     moved = b.observe_borrowed(["image_rgb"])["image_rgb"]
