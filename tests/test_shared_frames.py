@@ -229,3 +229,39 @@ def test_native_steps_copy_borrowed_observations_before_the_backend_reuses_them(
         assert np.array_equal(got, lent_then), "each step kept the image of its own instant"
     assert not any(np.shares_memory(got, lent) for got in held)
     transport.close()
+
+
+def test_a_terminated_benchbot_run_removes_its_segments():
+    """SIGTERM stops `benchbot run` as Ctrl-C does: a segment its client never mapped (so never unlinked) is removed
+    too."""
+    import re
+    import secrets
+    import signal
+    import subprocess
+    import sys
+
+    import httpx
+
+    before = _segments()
+    proc = subprocess.Popen([sys.executable, "-m", "benchbot.cli", "run", "--env", "miniroom:1", "--port", "0",
+                             "--camera-size", "256x192"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            env=dict(os.environ, COLUMNS="300"))
+    try:
+        address = None
+        for line in proc.stderr:
+            found = re.search(r"backend ready at (http://127\.0\.0\.1:\d+/)", line)
+            if found:
+                address = found[1]
+                break
+        assert address, "benchbot run did not come up"
+        offer = {"client": secrets.token_hex(16), "segment": None, "slot": 0}
+        reply = httpx.post(address + "native/step", content=wire.pack({"action": None, "args": {}, "shm": offer}),
+                           headers={"content-type": wire.MSGPACK_TYPE}, timeout=60)
+        made = wire.unpack(reply.content)["shm_segment"]["name"]
+        assert made in _segments(), "the segment waits for its client to map it"
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=60) == 130 and "interrupted" in proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert _segments() == before

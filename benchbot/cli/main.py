@@ -42,9 +42,19 @@ def _root(
     """BenchBot."""
 
 
+def _stop_as_on_ctrl_c(signum: int, frame: object) -> None:
+    """SIGTERM (``kill``, a process manager, a container stop) ends a command as Ctrl-C does: its clean-up runs
+    (the server stops, the backend closes, a recording is finished, shared-memory segments are removed)."""
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     """Entry point of the ``benchbot`` script."""
+    import signal
+
     from benchbot.cli.common import registry
+
+    signal.signal(signal.SIGTERM, _stop_as_on_ctrl_c)
 
     try:
         registry().plugin_manager.hook.benchbot_commands(app=app)

@@ -38,7 +38,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Start a backend for one task, robot and environment on 127.0.0.1, validating the combination first.
 
-        A solution then connects with `benchbot submit` (or BenchBot(supervisor_address=...)). Ctrl-C stops it.
+        A solution then connects with `benchbot submit` (or BenchBot(supervisor_address=...)). Ctrl-C (or SIGTERM) stops it.
         """
         if token is not None and not token.strip():
             raise UsageError("--token is empty", "give a non-empty token or leave it out")
