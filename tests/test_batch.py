@@ -125,7 +125,7 @@ def test_containerised_batch_needs_a_dockerfile_and_an_engine(tmp_path):
     (tmp_path / "Dockerfile").write_text("FROM python:3.11-slim\n")
     reason = _engine_works()
     if reason is None:
-        pytest.skip("an engine works here: the real container run below covers it")
+        pytest.skip("an engine works here: test_containerised_batch_runs_a_container covers it (with a local base image)")
     proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1")
     assert proc.returncode == 2 and proc.stderr.startswith("error: ") and "engine" in proc.stderr
 
