@@ -45,3 +45,34 @@ def test_contract_check_reports_bad_plugin(tmp_path):
     mod.benchbot_tasks = hookimpl(lambda: [{"name": "x", "actions": "no"}])
     with pytest.raises(AssertionError, match="'observations' is a required property"):
         testing.check_content_plugin(mod)
+
+
+def test_a_plugin_whose_commands_fail_is_named_and_the_others_still_register(capsys):
+    import pluggy
+    import typer
+
+    from benchbot.cli.main import add_plugin_commands
+    from benchbot.core.hookspecs import HOOK_CLASSES, hookimpl
+
+    class Broken:
+        @hookimpl
+        def benchbot_commands(self, app):
+            raise RuntimeError("missing dependency")
+
+    class Working:
+        @hookimpl
+        def benchbot_commands(self, app):
+            @app.command("hello")
+            def hello() -> None:
+                """Say hello."""
+
+    manager = pluggy.PluginManager("benchbot")
+    for spec in HOOK_CLASSES:
+        manager.add_hookspecs(spec)
+    manager.register(Broken(), name="broken_plugin")
+    manager.register(Working(), name="working_plugin")
+    app = typer.Typer()
+    warnings = add_plugin_commands(manager, app)
+    assert warnings == ["plugin broken_plugin could not add its commands: RuntimeError('missing dependency')"]
+    assert "warning: plugin broken_plugin could not add its commands" in capsys.readouterr().err
+    assert [c.name for c in app.registered_commands] == ["hello"]

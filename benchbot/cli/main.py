@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
 
 from benchbot import __version__
@@ -55,9 +57,20 @@ def main() -> None:
     from benchbot.cli.common import registry
 
     signal.signal(signal.SIGTERM, _stop_as_on_ctrl_c)
-
-    try:
-        registry().plugin_manager.hook.benchbot_commands(app=app)
-    except Exception:  # a plugin's command must not break the CLI
-        pass
+    add_plugin_commands(registry().plugin_manager, app)
     app()
+
+
+def add_plugin_commands(plugin_manager: Any, cli_app: typer.Typer) -> list[str]:
+    """Call every plugin's ``benchbot_commands(app)``. A plugin whose hook raises does not break the CLI: its
+    commands are left out, with a one-line warning on stderr naming the plugin. Returns those warnings."""
+    from benchbot.cli.common import err
+
+    warnings = []
+    for impl in plugin_manager.hook.benchbot_commands.get_hookimpls():
+        try:
+            impl.function(app=cli_app)
+        except Exception as exc:
+            warnings.append(f"plugin {impl.plugin_name} could not add its commands: {exc!r}")
+            err.print(f"[yellow]warning:[/] {warnings[-1]}", highlight=False)
+    return warnings

@@ -205,8 +205,8 @@ class BehaviourHooks:
             Once, when the ``benchbot`` command starts, before it parses its arguments.
 
         Call policy:
-            every implementation is called; results are ignored; an exception in one is swallowed so the CLI
-            still starts.
+            every implementation is called; results are ignored; one that raises adds no commands and the CLI
+            still starts, with a one-line warning naming the plugin.
         """
 
 
