@@ -1,11 +1,13 @@
 """Cost of one step through the three client paths, side by side in one run.
 
 The episode (Taichi simulator, ``--width``×``--height``, default 640×480) observes RGB, depth, segmentation,
-laser and poses (``semantic_slam:active:ground_truth`` with ``image_segment`` added). ``--server thread`` (the
-default) serves it over HTTP from a thread of the benchmark's process, so every path renders with the same
-simulator and only the transport differs (client and server then share one GIL); ``--server process`` serves an
-identical backend from its own process, as ``benchbot run`` serves a submission (on a 2-core machine its renders
-then compete with the benchmark process's simulator threads). Each round
+laser and poses (``semantic_slam:active:ground_truth`` with ``image_segment`` added). ``--server process`` (the
+default) serves an identical backend over HTTP from its own process, as ``benchbot run`` serves a submission: the
+client and the backend then have a process, and a GIL, each, as in every real deployment (the renders are
+deterministic, so both processes see the same images; they never render at the same time). ``--server thread``
+serves it from a thread of the benchmark's process instead, so every path uses the very same simulator, but the
+HTTP client and server then share one GIL, which no deployment does (on the 2-core machine of docs/protocol.md that
+raised native − in-process by up to 0.5 ms). Each round
 resets the episode (untimed) and then times one step ``move_angle`` (``--angle`` degrees from the start pose, the
 same motion and the same images for every path) through:
 
@@ -26,7 +28,7 @@ interval of that median (``*_ci95_ms``, from the order statistics of the differe
 the interval says how far the median may be off).
 Requests are counted for real (an httpx event hook; the legacy client's counter).
 
-    python benchmarks/api_step.py [--rounds 101] [--width 640 --height 480] [--env miniroom:1] [--server thread|process] [--json]
+    python benchmarks/api_step.py [--rounds 301] [--width 640 --height 480] [--env miniroom:1] [--server process|thread] [--json]
 """
 
 from __future__ import annotations
@@ -72,15 +74,15 @@ def serve(args: argparse.Namespace, pipe) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rounds", type=int, default=101)
+    ap.add_argument("--rounds", type=int, default=301)
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--env", default="miniroom:1")
     ap.add_argument("--angle", type=float, default=10.0)
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
-    ap.add_argument("--server", choices=["thread", "process"], default="thread",
-                    help="HTTP backend on a thread of this process (default: same simulator for every path) or in "
-                         "its own process (as `benchbot run` serves a submission)")
+    ap.add_argument("--server", choices=["thread", "process"], default="process",
+                    help="HTTP backend in its own process (default: as `benchbot run` serves a submission) or on a "
+                         "thread of this process (the same simulator for every path; client and server share a GIL)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     if args.rounds < 1:
