@@ -43,6 +43,17 @@ def test_run_validates_the_combination():
     assert proc.returncode == 3 and "needs 2 scene(s)" in proc.stderr
 
 
+def test_run_refuses_bad_tls_files_in_one_line(tmp_path):
+    proc = cli("run", "--env", "miniroom:1", "--tls-cert", str(tmp_path / "missing.pem"))
+    assert proc.returncode == 2 and proc.stderr.startswith("error: --tls-cert/--tls-key: no file") \
+        and "Traceback" not in proc.stderr
+    (tmp_path / "not.pem").write_text("not a certificate\n")
+    proc = cli("run", "--env", "miniroom:1", "--tls-cert", str(tmp_path / "not.pem"))
+    assert proc.returncode == 2 and "not a PEM certificate with its private key" in proc.stderr
+    proc = cli("run", "--env", "miniroom:1", "--tls-key", str(tmp_path / "not.pem"))
+    assert proc.returncode == 2 and "--tls-key needs --tls-cert" in proc.stderr
+
+
 def test_batch_scores_the_ground_truth_example_one(tmp_path):
     proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1,house:1",
                "--camera-size", "64x48", "--output-dir", str(tmp_path), "--json")

@@ -117,3 +117,35 @@ def test_the_server_parses_http_with_httptools(served):
     _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
     assert server.server.config.http_protocol_class.__name__ == "HttpToolsProtocol"
     assert httpx.get(server.address, timeout=10).json() == "Hello, I am the BenchBot supervisor"
+
+
+def test_native_steps_and_json_routes_over_https(make_service, tmp_path):
+    """A backend served with a TLS certificate (``benchbot run --tls-cert``): the client trusts its authority through
+    ``ca_file`` and both the JSON routes (httpx) and the native step (http.client) go over TLS; a client that does
+    not trust it gets a ConnectionError."""
+    import trustme
+
+    from benchbot.api.benchbot import HttpTransport
+    from benchbot.core.server import ServerThread, build_app
+
+    authority = trustme.CA()
+    server_pem, ca_pem = tmp_path / "server.pem", tmp_path / "ca.pem"
+    authority.issue_cert("127.0.0.1").private_key_and_cert_chain_pem.write_to_path(str(server_pem))
+    authority.cert_pem.write_to_path(str(ca_pem))
+    service = make_service("semantic_slam:active:ground_truth", "miniroom:1")
+    server = ServerThread(build_app(service), tls_cert=server_pem).start()
+    try:
+        assert server.address.startswith("https://127.0.0.1:")
+        bot = BenchBot(transport=HttpTransport(server.address, ca_file=str(ca_pem)))
+        observations, result = bot.step("move_angle", angle=10.0)
+        assert result == ActionResult.SUCCESS and observations["image_rgb"].shape == (48, 64, 3)
+        assert bot.config["task"]["name"] == "semantic_slam:active:ground_truth"
+        bot.close()
+        untrusting = HttpTransport(server.address, ca_file=None)
+        with pytest.raises(ConnectionError, match="CERTIFICATE_VERIFY_FAILED|certificate verify failed"):
+            untrusting.step(None, {}, None)
+        untrusting.close()
+        with pytest.raises(ValueError, match="must start with http:// or https://"):
+            HttpTransport("ftp://127.0.0.1:1/")
+    finally:
+        server.stop()

@@ -7,7 +7,8 @@ the original supervisor's JSON routes. Every request has a timeout. The transpor
 the same results.
 
 Address: the ``supervisor_address`` argument, else ``$BENCHBOT_SUPERVISOR_ADDRESS`` (set by ``benchbot submit`` and
-``benchbot batch``), else ``http://127.0.0.1:10000/``. Token (for backends served beyond loopback):
+``benchbot batch``), else ``http://127.0.0.1:10000/``; ``https://`` addresses trust the authorities in
+``$BENCHBOT_CA_FILE``, else the system's. Token (for backends served beyond loopback):
 ``$BENCHBOT_TOKEN``, sent as the ``X-BenchBot-Token`` header. Results location: ``$BENCHBOT_RESULT_LOCATION``, else
 the original's ``/tmp/benchbot_result``.
 """
@@ -19,6 +20,7 @@ import json
 import http.client
 import os
 import secrets
+import ssl
 import threading
 import urllib.parse
 import time
@@ -48,6 +50,14 @@ class ActionResult(enum.Enum):
     COLLISION = 2
 
 
+def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | None:
+    """The TLS context a client uses for ``address``: None for ``http://``; for ``https://`` one that trusts the
+    certificate authorities in ``ca_file``, else in ``$BENCHBOT_CA_FILE``, else the system's."""
+    if urllib.parse.urlsplit(address).scheme != "https":
+        return None
+    return ssl.create_default_context(cafile=ca_file or os.environ.get("BENCHBOT_CA_FILE") or None)
+
+
 class HttpTransport:
     """The client's HTTP transport (httpx, keep-alive, per-request timeouts).
 
@@ -61,18 +71,27 @@ class HttpTransport:
             is on loopback and ``/dev/shm`` is usable, unless ``$BENCHBOT_SHARED_MEMORY=0``. If this process cannot
             map the backend's segment (e.g. it runs in another container), the transport turns the path off and
             carries on inline; :attr:`shared_memory_error` says why.
+        ca_file: for ``https://`` addresses (a backend behind a TLS proxy, or ``benchbot run --tls-cert``): a PEM
+            file of the certificate authorities to trust, else ``$BENCHBOT_CA_FILE``, else the system's.
+
+    Raises:
+        ValueError: the address is not ``http://`` or ``https://``.
     """
 
     def __init__(self, address: str, timeout_s: float = 120.0, token: str | None = None,
-                 event_hooks: dict | None = None, shared_memory: bool | None = None) -> None:
+                 event_hooks: dict | None = None, shared_memory: bool | None = None,
+                 ca_file: str | None = None) -> None:
         self.address = address
         self.timeout_s = timeout_s
         self.headers = {TOKEN_HEADER: token} if token else {}
-        self.http = httpx.Client(base_url=address, timeout=httpx.Timeout(timeout_s, connect=5.0), headers=self.headers,
-                                 event_hooks=event_hooks or {})
-        self.event_hooks = event_hooks or {}
         url = urllib.parse.urlsplit(address)
-        self._host, self._port = url.hostname or "127.0.0.1", url.port or 80
+        if url.scheme not in ("http", "https"):
+            raise ValueError(f"backend address {address!r} must start with http:// or https://")
+        self._tls = tls_context(address, ca_file)
+        self.http = httpx.Client(base_url=address, timeout=httpx.Timeout(timeout_s, connect=5.0), headers=self.headers,
+                                 event_hooks=event_hooks or {}, verify=self._tls or True)
+        self.event_hooks = event_hooks or {}
+        self._host, self._port = url.hostname or "127.0.0.1", url.port or (443 if self._tls else 80)
         self._base_path = url.path.rstrip("/")
         self._local = threading.local()
         if shared_memory is None:
@@ -139,8 +158,8 @@ class HttpTransport:
         return self._request(route, json_body=body).json()
 
     def _post_binary(self, route: str, body: bytes) -> tuple[int, bytes]:
-        """POST ``body`` on a kept-alive :mod:`http.client` connection (per thread): for multi-megabyte replies it
-        is several times faster than httpx. Connect timeout 5 s, then ``timeout_s`` per socket operation."""
+        """POST ``body`` on a kept-alive :mod:`http.client` connection (per thread; TLS for ``https://``): for
+        multi-megabyte replies it is several times faster than httpx. Connect timeout 5 s, then ``timeout_s`` per socket operation."""
         headers = {"content-type": wire.MSGPACK_TYPE, **self.headers}
         for hook in self.event_hooks.get("request", []):
             hook(httpx.Request("POST", self.address + route, headers=headers))
@@ -148,7 +167,10 @@ class HttpTransport:
             conn = getattr(self._local, "conn", None)
             reused = conn is not None
             if conn is None:
-                conn = http.client.HTTPConnection(self._host, self._port, timeout=5.0)
+                if self._tls is not None:
+                    conn = http.client.HTTPSConnection(self._host, self._port, timeout=5.0, context=self._tls)
+                else:
+                    conn = http.client.HTTPConnection(self._host, self._port, timeout=5.0)
                 conn.connect()
                 conn.sock.settimeout(self.timeout_s)
                 self._local.conn = conn

@@ -35,6 +35,8 @@ def register(app: typer.Typer) -> None:
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
         record: Optional[Path] = typer.Option(None, "--record", help="Record the episode as MCAP (ROS 2 messages) to this file; `benchbot replay` serves it."),
         tui: Optional[bool] = typer.Option(None, "--tui/--no-tui", help="Live view (state, pose, camera preview, log); default: when stderr is a terminal."),
+        tls_cert: Optional[Path] = typer.Option(None, "--tls-cert", help="Serve HTTPS with this PEM certificate (chain); clients trust its authority through BENCHBOT_CA_FILE or the system's store."),
+        tls_key: Optional[Path] = typer.Option(None, "--tls-key", help="The certificate's PEM private key (default: in the --tls-cert file)."),
     ) -> None:
         """Start a backend for one task, robot and environment on 127.0.0.1, validating the combination first.
 
@@ -45,12 +47,17 @@ def register(app: typer.Typer) -> None:
         if not is_loopback(host) and not token:
             token = secrets.token_urlsafe(24)
             err.print(f"serving beyond loopback: clients must send the token [bold]{token}[/] (export BENCHBOT_TOKEN={token})")
+        if tls_key is not None and tls_cert is None:
+            raise UsageError("--tls-key needs --tls-cert", "give the certificate with --tls-cert")
+        if tls_cert is not None:
+            check_tls_files(tls_cert, tls_key)
         reg = registry()
         spec = resolve_run(reg, task, robot, env)
         err.print(f"task {task} | robot {robot} | environment {env} | results format {spec.task.get('results_format') or 'none'}")
         service = start_service(reg, spec, seed=seed, options=backend_options(arch, camera_size))
         try:
-            server = ServerThread(build_app(service, token=token, action_timeout_s=action_timeout), host=host, port=port).start()
+            server = ServerThread(build_app(service, token=token, action_timeout_s=action_timeout), host=host, port=port,
+                                  tls_cert=tls_cert, tls_key=tls_key).start()
         except BaseException:
             service.close()
             raise
@@ -70,3 +77,20 @@ def register(app: typer.Typer) -> None:
             observers.close()  # finishes the recording
             server.stop()
             service.close()
+
+
+def check_tls_files(cert: Path, key: Path | None) -> None:
+    """Load ``cert`` (and ``key``) as a server certificate would be.
+
+    Raises:
+        UsageError: a file is missing, or is not a PEM certificate and its matching private key.
+    """
+    import ssl
+
+    try:
+        ssl.create_default_context(ssl.Purpose.CLIENT_AUTH).load_cert_chain(str(cert), str(key) if key else None)
+    except FileNotFoundError as exc:
+        raise UsageError(f"--tls-cert/--tls-key: no file {exc.filename}", "give PEM files that exist") from None
+    except (ssl.SSLError, OSError) as exc:
+        raise UsageError(f"--tls-cert {cert}: not a PEM certificate with its private key ({exc})",
+                         "give the certificate chain with --tls-cert and its key with --tls-key") from None

@@ -11,6 +11,7 @@ from typing import Optional
 import httpx
 import typer
 
+from benchbot.api.benchbot import tls_context
 from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.core import atomic
@@ -34,7 +35,7 @@ def _run_info(address: str) -> dict:
     token = os.environ.get("BENCHBOT_TOKEN")
     try:
         reply = httpx.get(address.rstrip("/") + "/robot/run_info", timeout=5.0,
-                          headers={"X-BenchBot-Token": token} if token else {})
+                          headers={"X-BenchBot-Token": token} if token else {}, verify=tls_context(address) or True)
         return reply.json() if reply.status_code == 200 else {}
     except (httpx.HTTPError, ValueError):
         return {}

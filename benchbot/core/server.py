@@ -525,16 +525,21 @@ class ServerThread:
         app: the ASGI app.
         host: bind address.
         port: TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
+        tls_cert, tls_key: serve HTTPS with this PEM certificate chain and private key (the key may be in the
+            certificate's file); plain HTTP when None.
 
     Raises:
         BackendError: (from start) the server did not come up within 10 s, e.g. the port is taken.
     """
 
-    def __init__(self, app: Any, host: str = "127.0.0.1", port: int = 0) -> None:
+    def __init__(self, app: Any, host: str = "127.0.0.1", port: int = 0, *, tls_cert: Any = None,
+                 tls_key: Any = None) -> None:
         self.host = host
         self.app = app
+        self.scheme = "https" if tls_cert else "http"
+        tls = {"ssl_certfile": str(tls_cert), "ssl_keyfile": str(tls_key) if tls_key else None} if tls_cert else {}
         self.server = uvicorn.Server(
-            uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off", access_log=False)
+            uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off", access_log=False, **tls)
         )
         self.thread = threading.Thread(target=self.server.run, name="benchbot-http", daemon=True)
         self.port = port
@@ -558,8 +563,8 @@ class ServerThread:
 
     @property
     def address(self) -> str:
-        """``http://host:port/``."""
-        return f"http://{self.host}:{self.port}/"
+        """``http://host:port/`` (``https://`` when serving TLS)."""
+        return f"{self.scheme}://{self.host}:{self.port}/"
 
     def stop(self) -> None:
         """Stop serving and wait for the thread."""
