@@ -13,9 +13,9 @@ import pytest
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 
 
-def cli(*args: str, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
+def cli(*args: str, cwd: Path | None = None, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([*BENCHBOT, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout,
-                          env=dict(os.environ, COLUMNS="200"))
+                          env=dict(os.environ, COLUMNS="200", **(env or {})))
 
 
 def test_list_plugins_json_names_distributions_and_content():
@@ -52,6 +52,9 @@ def test_run_refuses_bad_tls_files_in_one_line(tmp_path):
     assert proc.returncode == 2 and "not a PEM certificate with its private key" in proc.stderr
     proc = cli("run", "--env", "miniroom:1", "--tls-key", str(tmp_path / "not.pem"))
     assert proc.returncode == 2 and "--tls-key needs --tls-cert" in proc.stderr
+    proc = cli("submit", "--native", "true", "--address", "https://127.0.0.1:9/",
+               env={"BENCHBOT_CA_FILE": str(tmp_path / "missing.pem")})
+    assert proc.returncode == 2 and proc.stderr.startswith("error: BENCHBOT_CA_FILE=") and "Traceback" not in proc.stderr
 
 
 def test_batch_scores_the_ground_truth_example_one(tmp_path):

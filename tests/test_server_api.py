@@ -149,3 +149,16 @@ def test_native_steps_and_json_routes_over_https(make_service, tmp_path):
             HttpTransport("ftp://127.0.0.1:1/")
     finally:
         server.stop()
+
+
+def test_an_unusable_ca_file_is_a_one_line_error(tmp_path, monkeypatch):
+    from benchbot.api.benchbot import HttpTransport
+
+    (tmp_path / "empty.pem").write_text("no certificate here\n")
+    with pytest.raises(ValueError, match=r"ca_file=.*missing\.pem cannot be used as certificate authorities "
+                                         r"\(No such file or directory\)"):
+        HttpTransport("https://127.0.0.1:1/", ca_file=str(tmp_path / "missing.pem"))
+    monkeypatch.setenv("BENCHBOT_CA_FILE", str(tmp_path / "empty.pem"))
+    with pytest.raises(ValueError, match=r"BENCHBOT_CA_FILE=.*empty\.pem cannot be used as certificate authorities"):
+        HttpTransport("https://127.0.0.1:1/")
+    assert HttpTransport("http://127.0.0.1:1/")._tls is None, "plain HTTP never reads it"

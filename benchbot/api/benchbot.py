@@ -52,10 +52,19 @@ class ActionResult(enum.Enum):
 
 def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | None:
     """The TLS context a client uses for ``address``: None for ``http://``; for ``https://`` one that trusts the
-    certificate authorities in ``ca_file``, else in ``$BENCHBOT_CA_FILE``, else the system's."""
+    certificate authorities in ``ca_file``, else in ``$BENCHBOT_CA_FILE``, else the system's.
+
+    Raises:
+        ValueError: the authorities' file is missing or holds no PEM certificate (the message names it).
+    """
     if urllib.parse.urlsplit(address).scheme != "https":
         return None
-    return ssl.create_default_context(cafile=ca_file or os.environ.get("BENCHBOT_CA_FILE") or None)
+    source, path = ("ca_file", ca_file) if ca_file else ("BENCHBOT_CA_FILE", os.environ.get("BENCHBOT_CA_FILE") or None)
+    try:
+        return ssl.create_default_context(cafile=path)
+    except (OSError, ssl.SSLError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise ValueError(f"{source}={path} cannot be used as certificate authorities ({reason})") from None
 
 
 class HttpTransport:
@@ -75,7 +84,7 @@ class HttpTransport:
             file of the certificate authorities to trust, else ``$BENCHBOT_CA_FILE``, else the system's.
 
     Raises:
-        ValueError: the address is not ``http://`` or ``https://``.
+        ValueError: the address is not ``http://`` or ``https://``, or the authorities' file cannot be used.
     """
 
     def __init__(self, address: str, timeout_s: float = 120.0, token: str | None = None,
@@ -159,7 +168,8 @@ class HttpTransport:
 
     def _post_binary(self, route: str, body: bytes) -> tuple[int, bytes]:
         """POST ``body`` on a kept-alive :mod:`http.client` connection (per thread; TLS for ``https://``): for
-        multi-megabyte replies it is several times faster than httpx. Connect timeout 5 s, then ``timeout_s`` per socket operation."""
+        multi-megabyte replies it is several times faster than httpx. Connect timeout 5 s, then ``timeout_s`` per
+        socket operation."""
         headers = {"content-type": wire.MSGPACK_TYPE, **self.headers}
         for hook in self.event_hooks.get("request", []):
             hook(httpx.Request("POST", self.address + route, headers=headers))

@@ -87,10 +87,11 @@ def check_tls_files(cert: Path, key: Path | None) -> None:
     """
     import ssl
 
+    for path in (cert, key):
+        if path is not None and not path.is_file():  # ssl's FileNotFoundError does not name the file
+            raise UsageError(f"--tls-cert/--tls-key: no file {path}", "give PEM files that exist")
     try:
         ssl.create_default_context(ssl.Purpose.CLIENT_AUTH).load_cert_chain(str(cert), str(key) if key else None)
-    except FileNotFoundError as exc:
-        raise UsageError(f"--tls-cert/--tls-key: no file {exc.filename}", "give PEM files that exist") from None
     except (ssl.SSLError, OSError) as exc:
         raise UsageError(f"--tls-cert {cert}: not a PEM certificate with its private key ({exc})",
                          "give the certificate chain with --tls-cert and its key with --tls-key") from None

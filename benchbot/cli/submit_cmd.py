@@ -80,6 +80,11 @@ def register(app: typer.Typer) -> None:
             raise UsageError("--submission only packages: it cannot be combined with -e/-r", "submit natively to evaluate")
         if evaluate_with:
             reg.get("evaluators", evaluate_with)
+        try:
+            tls_context(address)  # a bad BENCHBOT_CA_FILE is said here, not in the solution's traceback
+        except ValueError as exc:
+            raise UsageError(str(exc), "give a PEM file of the authorities that signed the backend's certificate") \
+                from None
 
         if submission is not None:
             output = Path(args) if args else submission / ".." / "submission.tgz"
