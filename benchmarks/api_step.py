@@ -6,8 +6,8 @@ default) serves an identical backend over HTTP from its own process, as ``benchb
 client and the backend then have a process, and a GIL, each, as in every real deployment (the renders are
 deterministic, so both processes see the same images; they never render at the same time). ``--server thread``
 serves it from a thread of the benchmark's process instead, so every path uses the very same simulator, but the
-HTTP client and server then share one GIL, which no deployment does (on the 2-core machine of docs/protocol.md that
-raised native − in-process by up to 0.5 ms). Each round
+HTTP client and server then share one GIL, which no deployment does (docs/protocol.md compares the two modes).
+Each round
 resets the episode (untimed) and then times one step ``move_angle`` (``--angle`` degrees from the start pose, the
 same motion and the same images for every path) through:
 

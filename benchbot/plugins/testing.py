@@ -216,6 +216,10 @@ def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
         if set(a) != set(b):
             return f"{where or 'the top level'} (keys {sorted(set(a) ^ set(b))})"
         return next((d for k in a if (d := _first_difference(a[k], b[k], f"{where}['{k}']"))), None)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):  # may hold arrays: compared item by item
+        if len(a) != len(b):
+            return f"{where or 'the top level'} (lengths {len(a)} and {len(b)})"
+        return next((d for i, (x, y) in enumerate(zip(a, b)) if (d := _first_difference(x, y, f"{where}[{i}]"))), None)
     return None if a == b else where or "the top level"
 
 

@@ -19,6 +19,13 @@ def _reached(pose, goal):
     return math.hypot(e[0], e[1]) <= 0.01 + 1e-9 and abs(e[2]) <= math.radians(1.0) + 1e-9
 
 
+def _count_calls(monkeypatch, owner, name: str) -> list:
+    """Wrap ``owner.name`` so that each call appends to the returned list (the calls still happen)."""
+    calls, real = [], getattr(owner, name)
+    monkeypatch.setattr(owner, name, lambda *a, **k: calls.append(1) or real(*a, **k))
+    return calls
+
+
 def test_factory_and_start_pose(bear_envs, carter_spec):
     from benchbot_sim_taichi import plugin
 
@@ -48,9 +55,7 @@ def test_factory_and_start_pose(bear_envs, carter_spec):
 def test_observe_structures_and_cache(bear_envs, make_backend, monkeypatch):
     b = make_backend(40, 30)
     b.load_scene(bear_envs["miniroom:1"])
-    calls = []
-    real = b._renderer.render
-    monkeypatch.setattr(b._renderer, "render", lambda *a, **k: calls.append(1) or real(*a, **k))
+    calls = _count_calls(monkeypatch, b._renderer, "render")
     obs = b.observe(ALL)
     assert set(obs) == set(ALL)
     obs2 = b.observe(["image_depth", "image_segment", "image_rgb"])
@@ -204,9 +209,7 @@ def test_start_pose_in_collision_is_an_error(synthetic_env, make_backend):
 def test_images_and_laser_of_a_pose_come_from_one_launch_with_the_same_values(bear_envs, make_backend, monkeypatch):
     both = make_backend(40, 30)
     both.load_scene(bear_envs["house:1"])
-    launches = []
-    real = both._renderer._launch
-    monkeypatch.setattr(both._renderer, "_launch", lambda *a, **k: launches.append(1) or real(*a, **k))
+    launches = _count_calls(monkeypatch, both._renderer, "_launch")
     together = both.observe(["image_rgb", "image_depth", "image_segment", "laser"])
     assert len(launches) == 1
     apart = make_backend(40, 30)

@@ -39,3 +39,14 @@ def test_robot_backend_contract_catches_borrowed_observations_that_differ(carter
 
     with pytest.raises(AssertionError, match=r"observe_borrowed\(\) differs from observe\(\) at \['image_depth'\]"):
         testing.check_robot_backend(factory, carter_spec, bear_envs["miniroom:1"])
+
+
+def test_observation_differences_are_located_through_dicts_and_lists():
+    import numpy as np
+
+    same = {"a": [np.zeros(2), {"b": 1.0}], "c": "x"}
+    assert testing._first_difference(same, {"a": [np.zeros(2), {"b": 1.0}], "c": "x"}) is None
+    assert testing._first_difference(same, {"a": [np.ones(2), {"b": 1.0}], "c": "x"}) == "['a'][0]"
+    assert testing._first_difference(same, {"a": [np.zeros(2), {"b": 2.0}], "c": "x"}) == "['a'][1]['b']"
+    assert testing._first_difference(same, {"a": [np.zeros(2)], "c": "x"}) == "['a'] (lengths 2 and 1)"
+    assert testing._first_difference(same, {"a": []}) == "the top level (keys ['c'])"
