@@ -239,6 +239,7 @@ def test_a_terminated_benchbot_run_removes_its_segments():
     import signal
     import subprocess
     import sys
+    import threading
 
     import httpx
 
@@ -246,6 +247,8 @@ def test_a_terminated_benchbot_run_removes_its_segments():
     proc = subprocess.Popen([sys.executable, "-m", "benchbot.cli", "run", "--env", "miniroom:1", "--port", "0",
                              "--camera-size", "256x192"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                             env=dict(os.environ, COLUMNS="300"))
+    watchdog = threading.Timer(120, proc.kill)  # a backend that never comes up ends the wait for its output
+    watchdog.start()
     try:
         address = None
         for line in proc.stderr:
@@ -262,6 +265,7 @@ def test_a_terminated_benchbot_run_removes_its_segments():
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=60) == 130 and "interrupted" in proc.stderr.read()
     finally:
+        watchdog.cancel()
         if proc.poll() is None:
             proc.kill()
     assert _segments() == before
