@@ -99,12 +99,52 @@ async def _test_batch_app_follows_the_run_directory(tmp_path):
 
 
 def test_batch_app_exits_when_the_batch_ends(tmp_path):
-    asyncio.run(_test_batch_app_exits_when_the_batch_ends(tmp_path))
+    # The bound is on a real process (its exit), which the app cannot swallow as it could a cancelled coroutine.
+    run_dir = make_run_dir(tmp_path, finished=True)
+    code = ("import sys; from benchbot.tui.batch_app import BatchApp; "
+            "app = BatchApp(sys.argv[1], poll_s=0.05, is_done=lambda: True, linger_s=0.05); "
+            "app.run(headless=True, size=(100, 14)); sys.exit(app.return_code or 0)")
+    proc = subprocess.run([sys.executable, "-c", code, str(run_dir)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
 
 
-async def _test_batch_app_exits_when_the_batch_ends(tmp_path):
-    app = BatchApp(make_run_dir(tmp_path, finished=True), poll_s=0.05, is_done=lambda: True, linger_s=0.05)
-    await asyncio.wait_for(app.run_async(headless=True, size=(100, 14)), timeout=20)  # returns: the app exited
+def test_batch_app_keys_enter_opens_a_log_ctrl_c_interrupts(tmp_path):
+    asyncio.run(_test_batch_app_keys(tmp_path))
+
+
+async def _test_batch_app_keys(tmp_path):
+    run_dir = make_run_dir(tmp_path)
+    (run_dir / "logs").mkdir()
+    (run_dir / "logs" / "001.log").write_text("loading detector\nTraceback: boom\n")
+    app = BatchApp(run_dir, poll_s=0.05, clock=lambda: FROZEN)
+    async with app.run_test(size=(100, 20)) as pilot:
+        await pilot.pause(0.1)
+        await pilot.press("down", "enter")  # episode 1's log
+        await pilot.pause(0.2)
+        assert list(app.screen.query_one("#episode-log").lines) == ["loading detector", "Traceback: boom"]
+        await pilot.press("escape")
+        await pilot.pause(0.1)
+        assert app.screen.query("#episodes")
+        await pilot.press("ctrl+c")  # at once: no "press ctrl+q to quit" dialog
+    assert app.interrupted and app.return_code == 130
+
+
+def test_batch_app_columns_grow_to_their_final_values(tmp_path):
+    asyncio.run(_test_columns_grow(tmp_path))
+
+
+async def _test_columns_grow(tmp_path):
+    run_dir = make_run_dir(tmp_path)  # pending episodes: short cells first
+    app = BatchApp(run_dir, poll_s=0.05, clock=lambda: FROZEN)
+    async with app.run_test(size=(120, 20)) as pilot:
+        make_run_dir(run_dir, finished=True)
+        manifest = json.loads((run_dir / "manifest.json").read_text())
+        manifest["episodes"][3]["steps"] = 269
+        atomic.write_json(run_dir / "manifest.json", manifest)
+        await pilot.pause(0.3)
+        table = app.query_one("DataTable")
+        widths = {str(c.key.value): c.get_render_width(table) - 2 * table.cell_padding for c in table.columns.values()}
+        assert widths["OMQ"] >= len("0.9877") and widths["steps"] >= len("269/33")
 
 
 def test_batch_snapshot_running(snap_compare, tmp_path):

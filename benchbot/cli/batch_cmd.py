@@ -25,13 +25,13 @@ def register(app: typer.Typer) -> None:
     @app.command("batch")
     @handle_errors
     def batch(
-        envs: Optional[str] = typer.Option(None, "--envs", "-e", help="Comma list of environments, e.g. miniroom:1,house:1 (scene pairs: miniroom:1:2)."),
-        envs_batch: Optional[str] = typer.Option(None, "--envs-batch", "-E", help="A named batch of environments (`benchbot list batches`)."),
+        envs: Optional[str] = typer.Option(None, "--envs", "--env", "-e", help="Comma list of environments, e.g. miniroom:1,house:1 (scene pairs: miniroom:1:2)."),
+        envs_batch: Optional[str] = typer.Option(None, "--envs-batch", help="A named batch of environments (`benchbot list batches`)."),
         task: str = typer.Option(DEFAULT_TASK, "--task", "-t", help="Task name (`benchbot list tasks`)."),
         robot: str = typer.Option(DEFAULT_ROBOT, "--robot", "-r", help="Robot name (`benchbot list robots`)."),
         robots: Optional[str] = typer.Option(None, "--robots", help="Comma list of robots to sweep (instead of --robot)."),
         native: Optional[str] = typer.Option(None, "--native", "-n", help="A command to run as the solution, e.g. 'python my.py'."),
-        example: Optional[str] = typer.Option(None, "--example", help="An installed example as the solution (`benchbot list examples`)."),
+        example: Optional[str] = typer.Option(None, "--example", "-E", help="An installed example as the solution (`benchbot list examples`)."),
         containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman as the solution."),
         example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the --example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the solution's command."),
@@ -47,7 +47,7 @@ def register(app: typer.Typer) -> None:
         evaluate_with: str = typer.Option("auto", "--evaluate-with", help="Evaluation method; 'auto' picks one when every environment has a ground truth."),
         no_evaluate: bool = typer.Option(False, "--no-evaluate", help="Do not evaluate."),
         seed: int = typer.Option(0, "--seed", help="Seed of the first episode (episode i uses seed + i)."),
-        arch: str = typer.Option("auto", "--arch", help="Simulator device: auto (a GPU when present), cpu or gpu."),
+        arch: str = typer.Option("auto", "--arch", help="Simulator device: auto (a GPU when an NVIDIA device is present, else the CPU), cpu or gpu."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
         timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Kill a solution after this many seconds (the episode fails)."),
         as_json: bool = typer.Option(False, "--json", help="Print the outcome as JSON on stdout."),
@@ -99,9 +99,17 @@ def register(app: typer.Typer) -> None:
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
                  + (f" r{s.repeat}" if s.repeat else "") for s in specs}
         live = ProgressFile(run_dir, expected)
+
+        def print_line(record: EpisodeRecord) -> None:  # one line per finished episode, as it finishes
+            err.print(episode_line(record, label[record.index]), highlight=False)
+
+        started = time.monotonic()
         if is_tty() and not no_tui:
-            outcome = _run_with_tui(reg, run_dir, live, workers=workers, retries=retries, executor=executor,
-                                    ray_address=ray_address)
+            outcome = _run_with_tui(reg, run_dir, live, print_line, workers=workers, retries=retries,
+                                    executor=executor, ray_address=ray_address)
+        elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
+            outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
+                                ray_address=ray_address, on_event=live.event, on_record=print_line)
         else:
             with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
                           TimeElapsedColumn(), console=err) as progress:
@@ -121,6 +129,7 @@ def register(app: typer.Typer) -> None:
 
                 outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
                                     ray_address=ray_address, on_event=on_event, on_record=on_record)
+        err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
         for record in outcome.episodes:
             if record.status != "ok":
                 why = record.error or f"exit status {record.returncode}"
@@ -173,29 +182,94 @@ class ProgressFile:
             self.written_at = time.monotonic()
 
 
-def _run_with_tui(reg, run_dir: Path, live: ProgressFile, **kwargs):
+def episode_line(record: EpisodeRecord, label: str) -> str:
+    """One line (rich markup) for a finished episode: ``[2/4] house:1  ok  269 steps  1:12``."""
+    from benchbot.tui.batch_app import format_seconds
+
+    colour = "green" if record.status == "ok" else "red"
+    line = f"{label}  [{colour}]{record.status}[/]  {record.steps} step{'s' if record.steps != 1 else ''}"
+    line += f"  {format_seconds(record.wall_s)}"
+    if record.status != "ok":
+        line += f"  ({record.error or f'exit status {record.returncode}'})"
+    return line
+
+
+def batch_summary(outcome, elapsed_s: float) -> str:
+    """The closing line of a batch: episode counts by status, the time taken, the combined OMQ when scored."""
+    from benchbot.tui.batch_app import format_seconds
+
+    counts: dict[str, int] = {}
+    for record in outcome.episodes:
+        counts[record.status] = counts.get(record.status, 0) + 1
+    n = len(outcome.episodes)
+    text = f"{n} episode{'s' if n != 1 else ''}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+    text += f" in {format_seconds(elapsed_s)}"
+    combined = outcome.evaluation.combined if outcome.evaluation is not None else None
+    omq = (combined.get("scores", combined) if isinstance(combined, dict) else {}).get("OMQ")
+    if isinstance(omq, (int, float)):
+        text += f"; OMQ {omq:.4f}"
+    return text
+
+
+def _run_with_tui(reg, run_dir: Path, live: ProgressFile, on_record, **kwargs):
     """Run the batch (``run_batch(reg, run_dir, **kwargs)``) in a background thread and the episode table
     (:class:`benchbot.tui.batch_app.BatchApp`) in the foreground; the table closes itself when the batch ends.
-    Quitting it early lets the batch go on."""
+
+    ``q`` closes the table and the batch goes on, printing a line per finished episode (``on_record``); Ctrl-C in
+    the table stops the batch as Ctrl-C does without it (:func:`stop_batch_thread`), and raises KeyboardInterrupt.
+    """
     from benchbot.tui.batch_app import BatchApp
 
     result: dict = {}
+    view_open = threading.Event()
+    view_open.set()
+
+    def record(rec: EpisodeRecord) -> None:
+        if not view_open.is_set():
+            on_record(rec)
 
     def work() -> None:
         try:
-            result["outcome"] = run_batch(reg, run_dir, on_event=live.event, **kwargs)
+            result["outcome"] = run_batch(reg, run_dir, on_event=live.event, on_record=record, **kwargs)
         except BaseException as exc:  # re-raised in the main thread
             result["error"] = exc
 
     thread = threading.Thread(target=work, name="benchbot-batch", daemon=True)
     thread.start()
-    BatchApp(run_dir, is_done=lambda: not thread.is_alive()).run()
-    if thread.is_alive():
-        err.print(f"the table was closed; the batch goes on (watch it again: benchbot tui {run_dir})")
-        thread.join()
+    app = BatchApp(run_dir, is_done=lambda: not thread.is_alive())
+    app.run()
+    view_open.clear()
+    try:
+        if app.interrupted:
+            raise KeyboardInterrupt
+        if thread.is_alive():
+            err.print(f"the table was closed; the batch goes on (Ctrl-C stops it; watch it again: benchbot tui {run_dir})")
+            while thread.is_alive():
+                thread.join(0.2)
+    except KeyboardInterrupt:
+        stop_batch_thread(thread)
+        raise
     if "error" in result:
         raise result["error"]
     return result["outcome"]
+
+
+#: Seconds Ctrl-C waits for a batch thread to stop its episode (server, backend, solution) before exiting anyway.
+STOP_GRACE_S = 10.0
+
+
+def stop_batch_thread(thread: threading.Thread, grace_s: float = STOP_GRACE_S) -> None:
+    """Stop a batch running in ``thread`` as Ctrl-C stops one in the main thread: raise KeyboardInterrupt in it
+    (its episode's clean-up runs: the solution is ended, the server stopped, the backend closed) and wait up to
+    ``grace_s`` seconds. A second Ctrl-C while waiting exits at once (the thread is a daemon; solutions end with
+    the process)."""
+    import ctypes
+
+    if not thread.is_alive() or thread.ident is None:
+        return
+    err.print(f"stopping the batch (up to {grace_s:.0f} s; Ctrl-C again exits at once) …")
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread.ident), ctypes.py_object(KeyboardInterrupt))
+    thread.join(grace_s)
 
 
 def _expected_steps(reg, task: str, env: str) -> int | None:

@@ -9,18 +9,27 @@ batch`` runs it in a background thread) or in another one (``benchbot tui RUN_DI
 
 from __future__ import annotations
 
+import asyncio
 import json
+import signal
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable
 
+from rich.markup import escape
 from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.css.query import NoMatches
-from textual.widgets import DataTable, Footer, Static
+from textual.screen import Screen
+from textual.widgets import DataTable, Footer, Log, Static
 
 PROGRESS = "progress.json"
 COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "OMQ")
+#: Bytes of an episode's log that the log screen shows (its end).
+LOG_TAIL_BYTES = 256 * 1024
+#: Statuses of an episode that will not change any more in this batch.
+FINAL_STATUSES = ("ok", "failed", "no_results", "error", "bad_results")
 STATUS_STYLE = {"ok": "green", "running": "yellow", "pending": "dim", "failed": "red", "no_results": "red",
                 "error": "bold red"}
 
@@ -68,7 +77,9 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
 
     Returns:
         ``(summary, rows)``: ``summary`` has ``task``, ``episodes``, ``counts`` (``{status: n}``), ``finished``
-        (bool), ``evaluation_error``, ``combined_omq`` (or None); each row is ``(index, env, robot, repeat, status,
+        (bool), ``evaluation_error``, ``combined_omq`` (or None), ``done`` (episodes that ended), ``progress``
+        (0–1: ended episodes plus running ones' step fractions, over all), ``logs`` (``{index: log path relative
+        to run_dir}``); each row is ``(index, env, robot, repeat, status,
         steps text, wall text, OMQ text)``. Empty when there is no manifest yet.
     """
     manifest = read_json(run_dir / "manifest.json")
@@ -80,6 +91,8 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     expected = expected_steps(read_json(run_dir / "config.json"))
     omq = episode_omq(read_json(run_dir / "episode_scores.json"))
     counts: dict[str, int] = {}
+    logs: dict[int, str] = {}
+    progress_sum = 0.0
     rows = []
     for record in manifest.get("episodes", []):
         index = int(record["index"])
@@ -94,6 +107,11 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
         total = (p or {}).get("expected") if isinstance(p, dict) else None
         total = total if total is not None else expected.get(record["env"])
         steps_text = f"{steps}/{total}" if total else str(steps)
+        logs[index] = str(record.get("log", ""))
+        if status in FINAL_STATUSES:
+            progress_sum += 1.0
+        elif status == "running" and total:
+            progress_sum += min(1.0, float(steps) / float(total))
         rows.append((index, record["env"], record["robot"], record.get("repeat", 0), status, steps_text,
                      format_seconds(wall), f"{omq[index]:.4f}" if index in omq else ""))
     scores = read_json(run_dir / "scores.json")
@@ -103,20 +121,71 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
         combined = inner.get("OMQ")
     summary = {"task": manifest.get("task", ""), "episodes": len(rows), "counts": counts,
                "finished": "finished" in manifest, "evaluation_error": manifest.get("evaluation_error", ""),
-               "combined_omq": combined}
+               "combined_omq": combined, "logs": logs,
+               "done": sum(n for k, n in counts.items() if k in FINAL_STATUSES),
+               "progress": progress_sum / len(rows) if rows else 1.0}
     return summary, rows
+
+
+class EtaEstimator:
+    """Estimates the time left from the progress fraction seen over time by this view (so it works for a batch
+    watched from another process, or resumed): ``elapsed since first seen × (1 − p) / (p − p₀)``."""
+
+    def __init__(self) -> None:
+        self.first: tuple[float, float] | None = None
+
+    def update(self, summary: dict, now: float) -> float | None:
+        """Seconds left (None until progress has been seen to advance, 0 when finished)."""
+        p = float(summary.get("progress", 0.0))
+        if summary.get("finished") or p >= 1.0:
+            return 0.0
+        if self.first is None:
+            self.first = (now, p)
+            return None
+        t0, p0 = self.first
+        if p <= p0 or now <= t0:
+            return None
+        return (now - t0) * (1.0 - p) / (p - p0)
+
+
+def summary_text(summary: dict, eta_s: float | None) -> str:
+    """The view's header (rich markup): task, episode counts by status, the overall progress line, OMQ."""
+    counts = " · ".join(f"[{STATUS_STYLE.get(k, '')}]{k} {v}[/]" for k, v in sorted(summary["counts"].items()))
+    n = summary["episodes"]
+    state = "[green]finished[/]" if summary["finished"] else "[yellow]running[/]"
+    text = f"task [b]{escape(str(summary['task']))}[/b] · {n} episode{'s' if n != 1 else ''} · {counts} · {state}"
+    if summary["combined_omq"] is not None:
+        text += f" · OMQ [b]{summary['combined_omq']:.4f}[/b]"
+    done, width = summary.get("done", 0), 30
+    filled = int(round(width * float(summary.get("progress", 0.0))))
+    eta = "" if summary["finished"] else f" · ETA {format_seconds(eta_s)}" if eta_s is not None else " · ETA …"
+    text += f"\n[b]{done}/{n}[/b] episodes done [green]{'━' * filled}[/][dim]{'━' * (width - filled)}[/]" \
+            f" {100 * float(summary.get('progress', 0.0)):.0f}%{eta}"
+    if summary["evaluation_error"]:
+        text += f"\n[red]evaluation failed:[/] {escape(str(summary['evaluation_error']))}"
+    return text
 
 
 class PollingApp(App):
     """An app that re-reads files every ``poll_s`` seconds: subclasses set ``poll_s``, implement ``_refresh``
     (a :class:`~textual.css.query.NoMatches` it raises while the app is closing is ignored) and call
     :meth:`start_polling` from their ``on_mount`` (not ``super().on_mount()``: Textual already calls the handlers of
-    every class in the MRO)."""
+    every class in the MRO).
+
+    Keys: ``q`` quits the view; Ctrl-C (the key, or SIGINT/SIGTERM sent to the process) quits it at once with
+    :attr:`interrupted` set and return code 130, so the command that showed it stops its work as it would on Ctrl-C
+    without a view (Textual's own "press ctrl+q to quit" dialog is replaced).
+    """
 
     poll_s: float = 0.5
+    BINDINGS = [Binding("ctrl+c", "interrupt", "stop", priority=True, show=False)]
+
+    #: True when the view was closed by Ctrl-C (or SIGINT/SIGTERM) rather than by ``q`` or by itself.
+    interrupted: bool = False
 
     def start_polling(self) -> None:
-        """Refresh now, then every ``poll_s`` seconds."""
+        """Refresh now, then every ``poll_s`` seconds; route SIGINT and SIGTERM to :meth:`action_interrupt`."""
+        self._catch_signals()
         self.refresh_view()
         self.set_interval(self.poll_s, self.refresh_view)
 
@@ -130,9 +199,75 @@ class PollingApp(App):
     def _refresh(self) -> None:
         raise NotImplementedError
 
+    def action_interrupt(self) -> None:
+        """Ctrl-C: close the view now, marked :attr:`interrupted` (return code 130)."""
+        self.interrupted = True
+        self.exit(return_code=130)
+
+    def _catch_signals(self) -> None:
+        # In raw mode the terminal sends Ctrl-C as a key; `kill -INT`/`kill -TERM` still arrive as signals, and
+        # Python's handlers would raise inside Textual's event loop. Only the main thread can handle signals.
+        if threading.current_thread() is not threading.main_thread():
+            return
+        loop = asyncio.get_running_loop()
+        self._previous_handlers = {}
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._previous_handlers[signum] = signal.getsignal(signum)
+                loop.add_signal_handler(signum, self.action_interrupt)
+            except (RuntimeError, ValueError, NotImplementedError):  # no signals here (tests' loops, Windows)
+                self._previous_handlers.pop(signum, None)
+
+    def on_unmount(self) -> None:
+        loop = asyncio.get_running_loop()
+        for signum, handler in getattr(self, "_previous_handlers", {}).items():
+            loop.remove_signal_handler(signum)
+            signal.signal(signum, handler)
+
+
+class LogScreen(Screen):
+    """One episode's log (its last :data:`LOG_TAIL_BYTES`), followed while it grows; Escape or q goes back."""
+
+    BINDINGS = [Binding("escape", "app.pop_screen", "back"), Binding("q", "app.pop_screen", "back")]
+    DEFAULT_CSS = "LogScreen Log { height: 1fr; }"
+
+    def __init__(self, path: Path, title: str) -> None:
+        super().__init__()
+        self.path, self.title_text, self._log_size = path, title, -1
+
+    def compose(self) -> ComposeResult:
+        yield Static(f"[b]{escape(self.title_text)}[/b] · {escape(str(self.path))}", id="log-title")
+        yield Log(id="episode-log", auto_scroll=True)
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.follow()
+        self.set_interval(0.5, self.follow)
+
+    def follow(self) -> None:
+        """Re-read the log when its size changed."""
+        try:
+            size = self.path.stat().st_size
+        except OSError:
+            size = None
+        if size == self._log_size:
+            return
+        self._log_size = size
+        log = self.query_one(Log)
+        log.clear()
+        if size is None:
+            log.write_line("(no log yet: the episode has not started)")
+            return
+        with open(self.path, "rb") as f:
+            f.seek(max(0, size - LOG_TAIL_BYTES))
+            text = f.read().decode("utf-8", errors="replace")
+        if size > LOG_TAIL_BYTES:
+            log.write_line(f"[… the first {size - LOG_TAIL_BYTES} bytes are not shown]")
+        log.write_lines(text.splitlines())
+
 
 class BatchApp(PollingApp):
-    """A live table of a batch's episodes.
+    """A live table of a batch's episodes, with an overall progress line; Enter on a row opens its log.
 
     Args:
         run_dir: the run directory to watch.
@@ -147,14 +282,17 @@ class BatchApp(PollingApp):
     #summary { height: auto; padding: 0 1; }
     DataTable { height: 1fr; }
     """
-    BINDINGS = [Binding("q", "quit", "quit (the batch goes on)")]
+    BINDINGS = [Binding("q", "quit", "quit view (the batch goes on)"), Binding("enter", "open_log", "episode log"),
+                Binding("ctrl+c", "interrupt", "stop the batch", priority=True)]
 
     def __init__(self, run_dir: Path | str, *, poll_s: float = 0.5, is_done: Callable[[], bool] | None = None,
                  linger_s: float = 1.0, clock: Callable[[], float] = time.time) -> None:
         super().__init__()
         self.run_dir = Path(run_dir)
         self.poll_s, self.is_done, self.linger_s, self.clock = poll_s, is_done, linger_s, clock
-        self._closing = False
+        self._exit_scheduled = False  # not `_closing`: Textual's MessagePump uses that name
+        self._logs: dict[str, tuple[str, str]] = {}
+        self._eta = EtaEstimator()
 
     def compose(self) -> ComposeResult:
         yield Static(id="summary")
@@ -174,23 +312,33 @@ class BatchApp(PollingApp):
         if not summary:
             self.query_one("#summary", Static).update(f"waiting for {self.run_dir / 'manifest.json'} …")
             return
-        counts = " · ".join(f"[{STATUS_STYLE.get(k, '')}]{k} {v}[/]" for k, v in sorted(summary["counts"].items()))
-        state = "[green]finished[/]" if summary["finished"] else "[yellow]running[/]"
-        text = f"task [b]{summary['task']}[/b] · {summary['episodes']} episodes · {counts} · {state}"
-        if summary["combined_omq"] is not None:
-            text += f" · OMQ [b]{summary['combined_omq']:.4f}[/b]"
-        if summary["evaluation_error"]:
-            text += f"\n[red]evaluation failed:[/] {summary['evaluation_error']}"
-        self.query_one("#summary", Static).update(text)
+        self.query_one("#summary", Static).update(summary_text(summary, self._eta.update(summary, self.clock())))
         for row in rows:
             key = str(row[0])
+            self._logs[key] = (f"episode {row[0]} · {row[1]} · {row[2]} · repeat {row[3]}",
+                               summary["logs"].get(row[0], ""))
             cells = list(row)
             cells[4] = f"[{STATUS_STYLE.get(row[4], '')}]{row[4]}[/]"
             if key in table.rows:
                 for column, value in zip(COLUMNS, cells):
-                    table.update_cell(key, column, value)
+                    table.update_cell(key, column, value, update_width=True)
             else:
                 table.add_row(*cells, key=key)
-        if self.is_done is not None and not self._closing and self.is_done():
-            self._closing = True
+        if self.is_done is not None and not self._exit_scheduled and self.is_done():
+            self._exit_scheduled = True
             self.set_timer(self.linger_s, self.exit)
+
+    def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
+        self.open_log(event.row_key.value)
+
+    def action_open_log(self) -> None:
+        """Enter: the highlighted episode's log, followed live."""
+        table = self.query_one(DataTable)
+        if table.row_count:
+            self.open_log(table.coordinate_to_cell_key(table.cursor_coordinate).row_key.value)
+
+    def open_log(self, key: str | None) -> None:
+        """Show episode ``key``'s log (:class:`LogScreen`)."""
+        if key in self._logs and self._logs[key][1]:
+            title, log = self._logs[key]
+            self.push_screen(LogScreen(self.run_dir / log, title))

@@ -43,19 +43,23 @@ def half_blocks(rgb: np.ndarray, width: int | None = None) -> Text:
     return text
 
 
-def describe(state: dict) -> str:
-    """The status panel's text (rich markup) for a ``state.json``."""
+def describe(state: dict, address: str = "") -> str:
+    """The status panel's text (rich markup) for a ``state.json``; ``address`` is the backend's, shown first.
+
+    The supervisor's ``is_dirty`` flag (the robot has moved since the scene started, so ``next``/``reset`` must
+    return it first) is shown as "moved since the scene started"."""
     flags = state.get("state") or {}
     pose = state.get("pose") or [0.0, 0.0, 0.0]
     last = state.get("last_action")
     status = ("[bold red]COLLIDED[/]" if flags.get("is_collided") else "[green]finished[/]" if flags.get("is_finished")
               else "[yellow]running[/]" if flags.get("is_running") else "[dim]stopped[/]")
-    lines = [
+    lines = [f"[b]backend[/b]      {address}"] if address else []
+    lines += [
         f"[b]task[/b]         {state.get('task', '?')}",
         f"[b]robot[/b]        {state.get('robot', '?')}",
         f"[b]environment[/b]  {', '.join(state.get('environments') or [])}"
         f"  (scene {flags.get('scene_number', 0) + 1}/{flags.get('scene_count', 1)})",
-        f"[b]state[/b]        {status}" + ("  [yellow]dirty[/]" if flags.get("is_dirty") else ""),
+        f"[b]state[/b]        {status}" + ("  [yellow]moved since the scene started[/]" if flags.get("is_dirty") else ""),
         f"[b]pose[/b]         x {pose[0]:+.3f} m  y {pose[1]:+.3f} m  yaw {math.degrees(pose[2]):+.1f}°  (map)",
         f"[b]steps[/b]        {state.get('step', 0)}  ({state.get('rate_hz', 0.0):.2f} steps/s)",
     ]
@@ -85,7 +89,8 @@ class RunApp(PollingApp):
     #preview { width: auto; height: auto; padding: 0 1; }
     Log { height: 1fr; border-top: solid $primary; }
     """
-    BINDINGS = [Binding("q", "quit", "quit (stops the backend)")]
+    BINDINGS = [Binding("q", "quit", "quit (stops the backend)"),
+                Binding("ctrl+c", "interrupt", "stop the backend", priority=True)]
 
     def __init__(self, state_dir: Path | str, *, poll_s: float = 0.5, preview_width: int = 64,
                  address: str = "") -> None:
@@ -98,7 +103,7 @@ class RunApp(PollingApp):
     def compose(self) -> ComposeResult:
         with Vertical():
             with Horizontal(id="top"):
-                yield Static("waiting for the episode …", id="status")
+                yield Static("", id="status")
                 yield Static("", id="preview")
             yield Log(id="log", auto_scroll=True)
         yield Footer()
@@ -106,13 +111,16 @@ class RunApp(PollingApp):
     def on_mount(self) -> None:
         if self.address:
             self.sub_title = self.address
+        waiting = "waiting for a solution to connect (e.g. `benchbot submit --example hello_active`) …"
+        self.query_one("#status", Static).update(
+            (f"[b]backend[/b]      {self.address}\n" if self.address else "") + waiting)
         self.start_polling()
 
     def _refresh(self) -> None:
         state = read_json(self.state_dir / STATE)
         if not isinstance(state, dict):
             return
-        self.query_one("#status", Static).update(describe(state))
+        self.query_one("#status", Static).update(describe(state, self.address))
         preview = self.state_dir / PREVIEW
         if state.get("preview") and preview.is_file():
             mtime = preview.stat().st_mtime_ns

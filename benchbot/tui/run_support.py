@@ -66,11 +66,15 @@ class RunObservers:
                 return
 
     def wait(self) -> None:
-        """Block: the live view in the foreground (until it is quit), else until Ctrl-C."""
+        """Block: the live view in the foreground (until it is quit: q returns, Ctrl-C raises KeyboardInterrupt), else
+        until Ctrl-C."""
         if self.tui:
             from benchbot.tui.run_app import RunApp
 
-            RunApp(self.state_dir, address=self.address).run()
+            app = RunApp(self.state_dir, address=self.address)
+            app.run()
+            if app.interrupted:  # Ctrl-C in the view: stop as Ctrl-C without it does
+                raise KeyboardInterrupt
         else:
             threading.Event().wait()
 

@@ -1,0 +1,78 @@
+"""Commands as a person runs them: in a real pseudo-terminal (the live views), pressing q and Ctrl-C, and with
+stderr going to a log. Each test bounds its wait on the process itself, which the process cannot swallow."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from terminal import Terminal  # noqa: E402
+
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+SMALL = ["--camera-size", "64x48", "--arch", "cpu"]
+
+
+def _batch(tmp_path: Path, *envs: str) -> list[str]:
+    return [*BENCHBOT, "batch", "--example", "hello_passive", "--envs", ",".join(envs), *SMALL,
+            "--output-dir", str(tmp_path)]
+
+
+def test_batch_view_closes_itself_and_prints_the_scores(tmp_path):
+    with Terminal(_batch(tmp_path, "miniroom:4"), columns=160, rows=48) as term:
+        assert term.wait(300) == 0, term.text[-2000:]
+        assert "omq scores" in term.text and "results and scores in" in term.text
+        assert "1 episode: 1 ok" in term.text
+        assert "[Taichi]" not in term.text  # Taichi's banner is kept out of every command's output
+
+
+def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
+    with Terminal(_batch(tmp_path, "miniroom:4", "miniroom:1"), columns=80, rows=24) as term:
+        assert term.wait_for(r"episodes done", 120), term.text[-2000:]
+        term.press(b"\x03")
+        t0 = time.monotonic()
+        assert term.wait(20) == 130, term.text[-2000:]
+        assert time.monotonic() - t0 < 15
+        assert "interrupted" in term.text and "Do you want to quit" not in term.text
+
+
+def test_q_closes_the_batch_view_and_the_batch_goes_on(tmp_path):
+    with Terminal(_batch(tmp_path, "miniroom:4"), columns=100, rows=30) as term:
+        assert term.wait_for(r"episodes done", 120), term.text[-2000:]
+        term.press(b"q")
+        assert term.wait(300) == 0, term.text[-2000:]
+        assert "the table was closed; the batch goes on" in term.text
+        assert "[1/1] miniroom:4  ok  33 steps" in term.text  # the line printed when the view is gone
+
+
+def test_ctrl_c_stops_benchbot_run_in_its_live_view(tmp_path):
+    with Terminal([*BENCHBOT, "run", "--env", "miniroom:1", "--port", "0", *SMALL], columns=100, rows=30) as term:
+        assert term.wait_for(r"backend +http://127\.0\.0\.1:\d+/", 120), term.text[-2000:]  # the view shows it
+        term.press(b"\x03")
+        assert term.wait(15) == 130, term.text[-2000:]
+
+
+def test_batch_without_a_terminal_prints_each_episode_as_it_finishes(tmp_path):
+    proc = subprocess.Popen(_batch(tmp_path, "miniroom:4", "miniroom:1"), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            lines.append(line)
+            if line.startswith("[1/2] miniroom:4  ok"):
+                assert proc.poll() is None  # printed while the batch still runs, not at the end
+                break
+        assert any(l.startswith("[1/2] miniroom:4  ok  33 steps") for l in lines), lines
+        rest, _ = proc.communicate(timeout=300)[1], None
+        assert proc.returncode == 0, rest
+        assert "[2/2] miniroom:1  ok  48 steps" in rest and "2 episodes: 2 ok in " in rest
+        assert "━" not in "".join(lines) + rest  # no progress bars in a log
+    finally:
+        proc.kill()
+        proc.wait()
