@@ -24,6 +24,7 @@ light; one sample is a hard shadow towards the light's centre. The kernels live 
 """
 
 import contextlib
+import io
 import functools
 import math
 import os
@@ -35,14 +36,22 @@ import numpy as np
 
 from benchbot.core.errors import UsageError
 
-# Taichi prints its banner on stdout; stdout carries our programs' data (tables, --json), so it goes to stderr.
-with contextlib.redirect_stdout(sys.stderr):
+# Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
+# (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
+# doctor` shows the version). TI_ENABLE_PYBUF=0: Taichi would otherwise see the redirected sys.stdout, announce a
+# "graphical python shell" and buffer kernel prints.
+os.environ.setdefault("TI_ENABLE_PYBUF", "0")
+_banner = io.StringIO()
+with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GAMMA, GAMMA_STEPS, LAMP_RADIUS, POSE_LEN, SENSORS_ARGS, STACK, SUN_RADIUS, quality_kernel, reset_graph,
     sensors_graph, sensors_kernel,
 )
+
+#: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
+TAICHI_BANNER: list[str] = [line for line in _banner.getvalue().splitlines() if line.strip()]
 
 #: Render modes.
 MODES = ("fast", "quality")
@@ -106,7 +115,17 @@ class _ReleaseTaichiAtThreadExit:
 
 
 def _init(want: str) -> str:
-    """``ti.init`` for ``want`` (``cpu``/``gpu``/``cuda``); returns ``cpu``, ``cuda`` or ``cpu-fallback``."""
+    """``ti.init`` for ``want`` (``cpu``/``gpu``/``cuda``), its banner kept in :data:`TAICHI_BANNER`; returns
+    ``cpu``, ``cuda`` or ``cpu-fallback``."""
+    banner = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(banner):
+            return _init_quietly(want)
+    finally:
+        TAICHI_BANNER.extend(line for line in banner.getvalue().splitlines() if line.strip())
+
+
+def _init_quietly(want: str) -> str:
     if want == "cpu":
         ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN, **_cpu_threads())
         return "cpu"
