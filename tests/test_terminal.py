@@ -76,3 +76,18 @@ def test_batch_without_a_terminal_prints_each_episode_as_it_finishes(tmp_path):
     finally:
         proc.kill()
         proc.wait()
+
+
+def test_a_batch_that_cannot_start_leaves_no_run_directory(tmp_path):
+    proc = subprocess.run([*_batch(tmp_path, "miniroom:4"), "--evaluate-with", "nope"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 3 and "no evaluator named 'nope'" in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_that_scored_nothing_says_so(tmp_path):
+    proc = subprocess.run([*BENCHBOT, "batch", "--native", "false", "--envs", "miniroom:4", *SMALL, "--output-dir",
+                           str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode != 0
+    assert "nothing was scored (no episode produced results)" in proc.stderr
+    assert "results and scores in" not in proc.stderr

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import threading
 import time
 from pathlib import Path
@@ -91,8 +92,13 @@ def register(app: typer.Typer) -> None:
             )
             with writing(output_dir, "--output-dir"):
                 run_dir = new_run_dir(output_dir, prefix)
-            prepare_batch(reg, run_dir=run_dir, specs=specs, evaluate_with=None if no_evaluate else evaluate_with,
-                          prefix=prefix, zip_results=zip_results)
+            try:
+                prepare_batch(reg, run_dir=run_dir, specs=specs,
+                              evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
+                              zip_results=zip_results)
+            except BaseException:  # nothing ran: leave no empty run directory behind
+                shutil.rmtree(run_dir, ignore_errors=True)
+                raise
             err.print(f"run directory: {run_dir}")
         total = len(specs)
         expected = {s.index: _expected_steps(reg, s.task, s.env) for s in specs}
@@ -143,7 +149,13 @@ def register(app: typer.Typer) -> None:
             }, default=lambda o: o.tolist()))
         elif outcome.evaluation is not None:
             print_scores(outcome.evaluation)
-        err.print(f"results and scores in {run_dir}")
+        if outcome.evaluation is not None:
+            err.print(f"results and scores in {run_dir}")
+        else:
+            why = ("evaluation failed" if outcome.evaluation_error
+                   else "no episode produced results" if not any(e.status == "ok" for e in outcome.episodes)
+                   else "not evaluated: --no-evaluate, or an environment without ground truth")
+            err.print(f"nothing was scored ({why}); results, logs and the manifest are in {run_dir}")
         if not outcome.ok:
             raise typer.Exit(int(ExitCode.FAILURE))
 
