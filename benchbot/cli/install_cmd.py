@@ -89,9 +89,9 @@ def register(app: typer.Typer) -> None:
         for target in packs:
             try:
                 if dry_run:
-                    from benchbot.core.content_packs import scan_pack
+                    from benchbot.core.content_packs import verify_pack
 
-                    scan = scan_pack(target, name)
+                    scan = verify_pack(target, name)
                     if scan.errors:
                         raise PackError(f"pack '{scan.name}' has {len(scan.errors)} problem(s)", "fix the files listed above", scan.errors)
                     err.print(f"pack '{scan.name}' is valid ({len(scan.files)} files)" + (f"; contains code: {len(scan.code)} place(s)" if scan.code else ""))

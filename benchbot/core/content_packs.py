@@ -11,6 +11,11 @@ Security: symlinks leaving the pack, symlinked folders and special files are ref
 absolute (except Unreal ``/Game/...`` asset paths) nor leave the pack; nothing in a pack is imported or run unless
 it was installed with ``allow_code=True`` (``--allow-code``), which it must be when it declares Python functions
 that live in the pack (formats/evaluation methods) or examples (their ``native_command`` runs from the pack).
+A function a pack names that is not pack code must be in a module that an installed plugin's own formats or
+evaluators name (:func:`plugin_function_modules`, e.g. ``benchbot_eval_omq.omq``); the standard library and any
+other module never (``os:system`` would run shell commands through ``POST /results_functions/create``). This is
+checked when a pack is installed (:func:`verify_pack`) and again when the registry imports a pack's functions
+(:func:`installed_function_problem`), so a spec or manifest edited by hand after installation gains nothing.
 
 Pack code is imported under the synthetic package ``benchbot_packs.<pack>`` (never on ``sys.path``): the
 original's ``functions: {evaluate: "omq.evaluate"}`` next to ``evaluation_methods/omq.yaml`` becomes
@@ -56,6 +61,11 @@ NAMESPACE = "benchbot_packs"
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
 _IDENT_RE = re.compile(r"^[A-Za-z_]\w*$")
 _IGNORED = {".git", "__pycache__", ".venv", ".mypy_cache", ".pytest_cache", MANIFEST}
+_FUNCTION_RE = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*$")
+PLUGIN = "content_packs"
+"""The entry-point name of the built-in plugin that loads installed packs (``benchbot.plugins.content_packs``)."""
+LOAD_ERROR_KEY = "_load_error"
+"""A spec dict carrying this key is reported by the registry as that one-line problem instead of registered."""
 
 
 class PackError(BenchbotError):
@@ -211,9 +221,7 @@ def _adapt_functions(pf: PackFile, spec: dict, root: Path, pack: str) -> None:
         else:  # the original's "module.attr" relative to the YAML's folder
             module, _, attr = value.rpartition(".")
         if not module or not all(_IDENT_RE.match(p) for p in module.split(".")) or not _IDENT_RE.match(attr or ""):
-            if ":" not in value:
-                raise SpecError(f"{pf.rel}: $.functions.{fn_name}: '{value}' is not module.attr or module:attr", "")
-            continue
+            raise SpecError(f"{pf.rel}: $.functions.{fn_name}: '{value}' is not module.attr or module:attr", "")
         if module.split(".")[0] == NAMESPACE:
             raise SpecError(f"{pf.rel}: $.functions.{fn_name}: '{value}' may not name {NAMESPACE} directly",
                             "name the module relative to the spec's folder, e.g. omq.evaluate")
@@ -297,6 +305,115 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
     return scan
 
 
+def is_pack_entry(plugin: str, path: Path | None) -> bool:
+    """Whether a registry entry (its plugin's name and spec file) comes from an installed content pack."""
+    if plugin == PLUGIN:
+        return True
+    if path is None:
+        return False
+    try:
+        return Path(path).resolve().is_relative_to(packs_dir().resolve())
+    except (OSError, RuntimeError):
+        return False
+
+
+def plugin_function_modules(registry: "Registry") -> set[str]:
+    """The modules a pack may name functions from: every module named in the ``functions`` of a format or
+    evaluator that an installed plugin (not a pack) registers, e.g. ``benchbot_eval_omq.omq``,
+    ``benchbot_task_semslam.formats``."""
+    modules = set()
+    for kind in ("formats", "evaluators"):
+        for entry in registry.entries.get(kind, {}).values():
+            if is_pack_entry(entry.plugin, entry.path):
+                continue
+            for value in (entry.spec.get("functions") or {}).values():
+                if isinstance(value, str) and ":" in value:
+                    modules.add(value.partition(":")[0])
+    return modules
+
+
+def function_problem(value: Any, pack: str, allow_code: bool, allowed: set[str]) -> str | None:
+    """Why a pack may not name the (adapted) function path ``value``, or ``None`` when it may.
+
+    Allowed: ``benchbot_packs.<pack>.<module>:<attr>`` (the pack's own code) when ``allow_code``, and
+    ``<module>:<attr>`` when ``<module>`` is in ``allowed`` (:func:`plugin_function_modules`). Nothing else: not the
+    standard library, not another pack's code, not any other installed module.
+    """
+    if not isinstance(value, str) or not _FUNCTION_RE.match(value):
+        return f"'{value}' is not module:attr"
+    module = value.partition(":")[0]
+    if module.split(".")[0] == NAMESPACE:
+        if not module.startswith(f"{NAMESPACE}.{pack}."):
+            return f"'{value}' is the code of another pack"
+        if not allow_code:
+            return f"'{value}' is pack code, and the pack was installed without --allow-code"
+        return None
+    if module in allowed:
+        return None
+    return (f"'{value}' is neither code in the pack nor in a module of an installed plugin's formats/evaluators "
+            f"(allowed: {', '.join(sorted(allowed)) or 'none'})")
+
+
+def _function_errors(scan: PackScan, allow_code: bool, allowed: set[str]) -> list[str]:
+    """``<file>: $.functions.<fn>: <problem>`` for every function of the scanned formats/evaluators that a pack may
+    not name (pack code is judged allowed here: ``--allow-code`` is checked separately)."""
+    problems = []
+    for pf in scan.files:
+        functions = (pf.spec or {}).get("functions") if pf.kind in ("formats", "evaluators") and not pf.error else None
+        for fn_name, value in (functions or {}).items() if isinstance(functions, dict) else ():
+            problem = function_problem(value, scan.name, allow_code, allowed)
+            if problem:
+                problems.append(f"{pf.rel}: $.functions.{fn_name}: {problem}")
+    return problems
+
+
+def verify_pack(path: Path | str, name: str | None = None, registry: "Registry | None" = None) -> PackScan:
+    """:func:`scan_pack`, plus the functions check: every function that is not pack code must be in a module of an
+    installed plugin's formats/evaluators (:func:`function_problem`); problems are added to ``errors``.
+
+    Args:
+        registry: the installed content (default: a fresh ``Registry()``).
+
+    Raises:
+        PackError: ``path`` is not a folder, or the name is invalid.
+    """
+    scan = scan_pack(path, name)
+    if registry is None:
+        from benchbot.core.registry import Registry
+
+        registry = Registry()
+    scan.errors.extend(_function_errors(scan, True, plugin_function_modules(registry)))
+    return scan
+
+
+def installed_function_problem(spec_path: Path | None, value: str, registry: "Registry") -> str | None:
+    """Why the registry must not import ``value``, a function named by an installed pack's spec at ``spec_path``
+    (the pack is the folder of ``packs_dir()`` that holds it; its manifest says whether it may run code), or
+    ``None``. Checked when functions are imported, whatever the pack's files say now."""
+    pack, allow_code = "", False
+    if spec_path is not None:
+        try:
+            rel = Path(spec_path).resolve().relative_to(packs_dir().resolve())
+            pack = rel.parts[0]
+            allow_code = read_manifest(packs_dir() / pack).get("allow_code") is True
+        except (ValueError, IndexError, OSError):
+            pass
+    return function_problem(value, pack or "?", allow_code, plugin_function_modules(registry))
+
+
+def imported_function_problem(value: str, obj: Any) -> str | None:
+    """Why the object imported for a pack's function path ``value`` may not be called, or ``None``: a function
+    re-exported into an allowed plugin module from elsewhere (``from os import system``) is refused, judged by
+    its ``__module__``."""
+    module = value.partition(":")[0]
+    if module.split(".")[0] == NAMESPACE:
+        return None  # pack code installed with --allow-code: trusted as a whole
+    defined_in = getattr(obj, "__module__", None)
+    if not isinstance(defined_in, str) or defined_in.split(".")[0] != module.split(".")[0]:
+        return f"'{value}' is defined in {defined_in or 'an unknown module'}, not in {module.split('.')[0]}"
+    return None
+
+
 def read_manifest(pack_dir: Path) -> dict:
     """The manifest of an installed pack (``{}`` when missing or unreadable)."""
     try:
@@ -348,10 +465,15 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
         ``files`` (``{kind: [names]}``) and ``path``.
 
     Raises:
-        PackError: invalid or unsafe files (``details`` lists every one), code without ``allow_code``, clashing
-            names, a pack of that name already installed (without ``force``), or the copy failed.
+        PackError: invalid or unsafe files (``details`` lists every one, e.g. a function outside the pack and the
+            installed plugins' modules), code without ``allow_code``, clashing names, a pack of that name already
+            installed (without ``force``), or the copy failed.
     """
-    scan = scan_pack(path, name)
+    if registry is None:
+        from benchbot.core.registry import Registry
+
+        registry = Registry()
+    scan = verify_pack(path, name, registry)
     if scan.errors:
         raise PackError(f"pack '{scan.name}' ({scan.root}) has {len(scan.errors)} problem(s); nothing installed",
                         "fix the files listed above", scan.errors)
@@ -363,10 +485,6 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
     if dest.exists() and not force:
         raise PackError(f"a pack named '{scan.name}' is already installed ({dest})",
                         "pass --force to replace it, or --name to install under another name")
-    if registry is None:
-        from benchbot.core.registry import Registry
-
-        registry = Registry()
     clashes = _clashes(scan, registry, dest if dest.exists() else None)
     if clashes:
         raise PackError(f"pack '{scan.name}' clashes with installed content ({len(clashes)} name(s)); nothing installed",
@@ -448,7 +566,9 @@ def load_installed_specs() -> dict[str, list[Any]]:
     """``{kind: [spec dict or path]}`` of every installed pack, for the registry.
 
     Invalid files are returned as well (dicts with ``_file_path``, or the path when unparsable) so the registry
-    reports them naming the file. Code of a pack installed without ``--allow-code`` is never made importable.
+    reports them naming the file. Code of a pack installed without ``--allow-code`` is never made importable, and a
+    file that needs it (pack functions, examples) is returned as ``{_file_path, _load_error}`` for the registry to
+    report instead of registering it.
     """
     out: dict[str, list[Any]] = {}
     for manifest in installed_packs():
@@ -457,8 +577,14 @@ def load_installed_specs() -> dict[str, list[Any]]:
             scan = scan_pack(pack_dir, manifest["name"])
         except PackError:
             continue
-        if manifest.get("allow_code") is True:
+        allow_code = manifest.get("allow_code") is True
+        if allow_code:
             _register_namespace(scan.name, scan.root)
         for pf in scan.files:
+            if pf.code and not allow_code:  # the files changed since installation: never run the new code
+                out.setdefault(pf.kind, []).append({"_file_path": str(pf.path), LOAD_ERROR_KEY: (
+                    f"{pf.path}: {pf.code[0].partition(': ')[2]}, but pack '{scan.name}' was installed without "
+                    "--allow-code")})
+                continue
             out.setdefault(pf.kind, []).append(pf.spec if pf.spec is not None else pf.path)
     return out

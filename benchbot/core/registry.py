@@ -21,6 +21,9 @@ from typing import Any, Callable
 import jsonschema
 import yaml
 
+from benchbot.core.content_packs import (
+    LOAD_ERROR_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
+)
 from benchbot.core.errors import SpecError
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
 
@@ -183,6 +186,8 @@ class Registry:
                     spec = dict(raw)
                 except (TypeError, ValueError):
                     raise SpecError(f"{source}: expected a mapping or a file path, got {type(raw).__name__}", "") from None
+                if spec.get(LOAD_ERROR_KEY):  # the plugin read the file and refuses it (content_packs)
+                    raise SpecError(str(spec[LOAD_ERROR_KEY]), "")
             validate({k: v for k, v in spec.items() if k != "_file_path"}, schema_name, source)
         except SpecError as exc:
             self.problems[(kind, source)] = exc.message
@@ -263,19 +268,31 @@ class Registry:
     def functions(self, kind: str, name: str) -> dict[str, Callable]:
         """The ``functions`` of a format or evaluator spec, imported: ``{function name: callable}``.
 
+        The functions of a content pack's spec are checked before they are imported (only the pack's own code, when
+        installed with ``--allow-code``, or modules of installed plugins' formats/evaluators; see
+        :func:`benchbot.core.content_packs.function_problem`) and after (the object must be defined there).
+
         Raises:
-            SpecError: a function cannot be imported.
+            SpecError: a function cannot be imported, or a pack may not name it.
         """
-        spec = self.get(kind, name)
+        entry = self.entry(kind, name)
+        from_pack = is_pack_entry(entry.plugin, entry.path)
         out = {}
-        for fn_name, path in spec.get("functions", {}).items():
+        for fn_name, path in entry.spec.get("functions", {}).items():
+            where = f"{singular(kind)} '{name}' ({entry.path or entry.plugin}): functions.{fn_name}"
+            problem = installed_function_problem(entry.path, path, self) if from_pack else None
+            if problem:  # checked again here: the pack's files may have changed since `benchbot install`
+                raise SpecError(f"{where}: {problem}; refusing to import it", "a content pack may only name its own "
+                                "code (installed with --allow-code) or functions of installed plugins")
             try:
                 out[fn_name] = import_object(path)
             except Exception as exc:  # ImportError, AttributeError, or the module failing as it is imported
                 raise SpecError(
-                    f"{singular(kind)} '{name}': functions.{fn_name}: cannot import '{path}': {exc}",
-                    "check that the plugin providing it is installed",
+                    f"{where}: cannot import '{path}': {exc}", "check that the plugin providing it is installed",
                 ) from None
+            problem = imported_function_problem(path, out[fn_name]) if from_pack else None
+            if problem:
+                raise SpecError(f"{where}: {problem}; refusing to call it", "name the function where it is defined")
         return out
 
 
