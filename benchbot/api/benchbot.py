@@ -107,7 +107,9 @@ class HttpTransport:
             shared_memory = shared_frames.is_loopback(self._host) and shared_frames.available()
         self.shared_memory = bool(shared_memory)
         self.shared_memory_error: str | None = None
-        self._mappings: list[shared_frames.ClientMapping] = []  # every thread's, to unmap them on close
+        self._mappings: list[shared_frames.ClientMapping] = []  # every thread's, to let go of them on close
+        self._missed_maps = 0  # announced segments gone before this client could map them, in a row
+        self._closed = False
 
     def _shm_offer(self) -> dict:
         """This thread's ``shm`` field: its client id (one segment per thread, as requests of two threads may
@@ -120,22 +122,35 @@ class HttpTransport:
                 "slot": mapping.free_slot() if mapping else 0}
 
     def _map(self, announced: Any) -> None:
-        """Map the segment a reply announced (``shm_segment``), replacing this thread's; if that fails, the backend
-        cannot share memory with this process: turn the path off."""
+        """Map the segment a reply announced (``shm_segment``), replacing this thread's (arrays read from the old
+        one stay valid: :meth:`ClientMapping.close <benchbot.core.shared_frames.ClientMapping.close>`). If that
+        fails, the backend cannot share memory with this process: turn the path off. A segment missing from
+        ``/dev/shm`` may instead have been evicted by the backend (more clients than it keeps segments) between
+        its reply and this call: the next step asks for a new one, up to
+        :data:`~benchbot.core.shared_frames.MAP_ATTEMPTS` misses in a row."""
         old = self._local.mapping
         try:
             self._local.mapping = shared_frames.ClientMapping(announced.get("name"), announced.get("size"),
                                                               announced.get("slots", 1))
             self._mappings.append(self._local.mapping)
+            self._missed_maps = 0
         except (OSError, BenchbotError, AttributeError) as exc:
             self._local.mapping = None
-            self.shared_memory = False
-            self.shared_memory_error = f"cannot map the backend's segment: {exc}"
+            self._missed_maps += 1
+            if not isinstance(exc, FileNotFoundError) or self._missed_maps >= shared_frames.MAP_ATTEMPTS:
+                self.shared_memory = False
+                self.shared_memory_error = f"cannot map the backend's segment: {exc}"
         if old is not None:
             old.close()
             self._mappings.remove(old)
 
+    def _check_open(self, route: str) -> None:
+        if self._closed:
+            raise ConnectionError(f"cannot send /{route}: this connection to {self.address} was closed "
+                                  "(make a new BenchBot)")
+
     def _request(self, route: str, *, json_body: dict | None = None, content: bytes | None = None) -> httpx.Response:
+        self._check_open(route)
         try:
             if content is not None:
                 reply = self.http.post(route, content=content, headers={"content-type": wire.MSGPACK_TYPE})
@@ -208,6 +223,7 @@ class HttpTransport:
         Raises:
             ValueError: the action was refused (409). ConnectionError: any other failure or timeout.
         """
+        self._check_open("native/step")
         request: dict = {"action": action, "args": args}
         if observations is not None:
             request["observations"] = observations
@@ -241,7 +257,10 @@ class HttpTransport:
         return reply
 
     def close(self) -> None:
-        """Close the HTTP connections and unmap the shared-memory segments."""
+        """Close the HTTP connections and let go of the shared-memory segments (idempotent). Arrays that earlier
+        steps returned stay valid: a segment is unmapped when the last array read from it is gone. Later requests
+        raise ConnectionError."""
+        self._closed = True
         self.http.close()
         for mapping in self._mappings:
             mapping.close()

@@ -16,12 +16,22 @@ Handshake (no step's data can be lost on the way):
    bytes}`` in its place;
 3. otherwise (first step, the segment had to grow, was evicted) the reply carries every array inline, plus
    ``shm_segment: {"name", "size", "slots"}`` for the client to map before its next step. A client that cannot
-   map it (its ``/dev/shm`` is not the backend's, e.g. in a container) stops asking; a reply is never unreadable.
+   map it (its ``/dev/shm`` is not the backend's, e.g. in a container) stops asking (a segment missing from
+   ``/dev/shm`` is asked for again up to :data:`MAP_ATTEMPTS` times in a row: the backend may have evicted it
+   before the client mapped it); a reply is never unreadable.
 
 Only loopback clients are offered segments; the backend holds at most :data:`MAX_SEGMENTS` (the least recently used
 is removed), removes a segment's file as soon as its client has mapped it (so a killed backend leaves nothing in
 ``/dev/shm``) and the rest when it closes or exits. Only the backend's user can open them (0600). Linux only
 (``/dev/shm``); elsewhere :func:`available` is False and clients use the inline path.
+
+Lifetime of the arrays a client holds: they stay valid and unchanged for as long as the caller keeps them, across
+``BenchBot.close()`` and across an eviction. Each segment is its own file, so its memory is shared only by the
+backend and the one client it was made for; the backend never writes to a segment again once it has evicted or
+closed it, and unmaps its side; the client's mapping, whose ``mmap`` object is the base of every array read from
+it, is unmapped only when the last of those arrays is garbage-collected (:meth:`ClientMapping.close`). The price: a
+client that keeps arrays from an evicted segment keeps that segment's memory (``SLOTS`` × a step's arrays) until it
+drops them.
 """
 
 from __future__ import annotations
@@ -54,6 +64,9 @@ MAX_SEGMENTS = 8
 #: read-only views (no copy) and asks for a slot only when no array from it is alive; slot SLOTS-1 is its scratch
 #: slot, copied out, for when every other slot is still held.
 SLOTS = 4
+#: Announced segments a client may find gone from /dev/shm in a row (the backend evicted each before the client
+#: mapped it) before it stops asking; any other failure to map stops it at once (its /dev/shm is not the backend's).
+MAP_ATTEMPTS = 3
 #: Environment variable that turns the path off in clients (``0``).
 ENV_SWITCH = "BENCHBOT_SHARED_MEMORY"
 
@@ -95,8 +108,8 @@ def large_arrays(obj) -> list[np.ndarray]:
 
 def _release(view: mmap.mmap, fd: int, path: str | None) -> None:
     try:
-        view.close()
-    except BufferError:  # an array still borrows the mapping: it goes when that array does
+        view.close()  # the backend's side: it writes through slices, no array views it
+    except BufferError:
         pass
     os.close(fd)
     if path is not None:
@@ -228,7 +241,8 @@ class ClientMapping:
     Arrays of slots ``0 .. slots-2`` are handed out as read-only views of the mapping (no copy); each slot counts its
     live arrays (and their views, which keep them alive) and :meth:`free_slot` offers the backend only a slot with
     none alive, so an array is never overwritten while anything refers to it. The last slot is the scratch slot:
-    its arrays are copied out, for the steps when every other slot is still held.
+    its arrays are copied out, for the steps when every other slot is still held. The arrays outlive the mapping's
+    :meth:`close` (see there): the memory is unmapped only when the last of them is gone.
 
     Args:
         name: the segment name (``shm_segment.name`` of a reply). size: its size in bytes. slots: its slot count.
@@ -248,14 +262,13 @@ class ClientMapping:
             if os.fstat(fd).st_size < size:
                 raise OSError(f"{name} is smaller than announced")
             view = mmap.mmap(fd, size, prot=mmap.PROT_READ)
-        except OSError:
-            os.close(fd)
-            raise
-        self.name, self.size, self.view = name, size, view
+        finally:
+            os.close(fd)  # the mapping keeps the memory (and its own descriptor)
+        self.name, self.size = name, size
+        self.view: mmap.mmap | None = view
         self.slots, self.slot_size = slots, size // slots
         self._live = [0] * slots
         self._lock = threading.Lock()
-        self._finalizer = weakref.finalize(self, _release, view, fd, None)
 
     def free_slot(self) -> int:
         """The slot the backend may write next: the first view slot with no live array, else the scratch slot."""
@@ -284,23 +297,36 @@ class ClientMapping:
         except (TypeError, ValueError) as exc:
             raise BenchbotError(f"malformed shared-memory array descriptor: {exc}", "") from None
         end = offset + count * dt.itemsize
+        view = self.view  # this call's own reference: a concurrent close() cannot unmap it under us
+        if view is None:
+            raise BenchbotError(f"shared-memory segment {self.name} was closed", "the client was closed while this step was in flight")
         if offset < 0 or end > self.size:
             raise BenchbotError(f"shared-memory array [{offset}, {end}) lies outside the {self.size}-byte segment", "")
         slot = offset // self.slot_size
         if count == 0 or slot == self.slots - 1 or end > (slot + 1) * self.slot_size:
             out = np.empty(shape, dtype=dt)
             if count:
-                out[...] = np.ndarray(shape, dtype=dt, buffer=self.view, offset=offset)
+                out[...] = np.ndarray(shape, dtype=dt, buffer=view, offset=offset)
             out.flags.writeable = False
             return out
-        # The array's base is the mapping itself, so every view a caller takes of it keeps it alive (NumPy sets a
-        # view's base to it): the slot stays busy until the last of them is gone.
-        out = np.ndarray(shape, dtype=dt, buffer=self.view, offset=offset)
+        # The array's base is the mmap object, and every view a caller takes of it has the array as its base (NumPy
+        # stops the base chain at an array whose base is not an array): the slot stays busy, and the memory mapped,
+        # until the last of them is gone.
+        out = np.ndarray(shape, dtype=dt, buffer=view, offset=offset)
         with self._lock:
             self._live[slot] += 1
         weakref.finalize(out, self._released, slot)
         return out
 
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called (arrays read before may still hold the memory)."""
+        return self.view is None
+
     def close(self) -> None:
-        """Unmap (idempotent; a mapping that arrays still view stays until they are gone)."""
-        self._finalizer()
+        """Let go of the mapping (idempotent): it is unmapped as soon as no array read from it is alive, at once if
+        none is. Never earlier: NumPy 2 does not pin an ``mmap`` that an array views (``mmap.close()`` would
+        succeed and the array would then read unmapped memory, a SIGSEGV, or whatever is mapped there next), so
+        the mapping is never closed explicitly; the ``mmap`` object, the base of every array :meth:`read` hands
+        out, unmaps when the last of them is garbage-collected."""
+        self.view = None
