@@ -7,16 +7,22 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 import subprocess
 import sys
 import time
+import zipfile
+import zlib
 from pathlib import Path
+from unittest.mock import ANY
 
 import pytest
 
 from benchbot.core import content_packs as cp
-from benchbot.core.errors import SpecError
+from benchbot.core.errors import ResultsError, SpecError, UsageError
+from benchbot.core.evaluation import load_all
 from benchbot.core.registry import Registry
+from benchbot.core.safe_load import MAX_RESULTS_BYTES, parse_json, parse_yaml
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 MEASURE = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:]); "
@@ -27,6 +33,7 @@ EVIL_FORMAT = "name: evil_fmt\ndescription: shell\nfunctions:\n  create: \"{func
 TASK = ("name: evil:passive:ground_truth\nactions: [move_next]\nobservations: [poses]\nresults_format: evil_fmt\n"
         "description: A task whose results format runs shell commands.\n")
 ALLOWED = "benchbot_task_semslam.formats:create_object_map"
+TOO_DEEP = "lists/objects are nested more than 64 levels deep (set BENCHBOT_MAX_NESTING_DEPTH to raise it)"
 
 
 @pytest.fixture(autouse=True)
@@ -137,3 +144,157 @@ def test_code_added_to_a_pack_installed_without_allow_code_is_not_loaded(tmp_pat
            "without --allow-code" in problems
     assert "examples/e.yaml: example runs 'python run.py' from the pack, but pack 'plain' was installed " \
            "without --allow-code" in problems
+
+
+# --- 2. spec files: YAML bombs, encodings, nesting, integers, sizes ---------------------------------------------
+
+
+def alias_bomb(levels: int = 12) -> str:
+    """The billion-laughs YAML: ``levels`` anchors of 9 aliases each; ``actions`` (which the schema checks item by
+    item) is 9**levels strings from ~600 bytes."""
+    lines = ['a0: &a0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+    for i in range(1, levels):
+        lines.append(f"a{i}: &a{i} [" + ",".join([f"*a{i - 1}"] * 9) + "]")
+    return "name: bomb\nobservations: [poses]\n" + "\n".join(lines) + f"\nactions: *a{levels - 1}\n"
+
+
+def test_install_refuses_hostile_spec_files_each_in_one_line(tmp_path):
+    depth = 20_000
+    pack = make_pack(tmp_path / "hostile", {
+        "tasks/bomb.yaml": alias_bomb(),
+        "tasks/latin1.yaml": "name: caf\xe9\nactions: [move_next]\n".encode("latin-1"),
+        "tasks/deep.yaml": "name: deep\nx: " + "[" * depth + "]" * depth + "\n",
+        "batches/deep.json": '{"name": "deep", "x": ' + "[" * depth + "]" * depth + "}",
+        "batches/bigint.json": '{"name": "big", "environments": [], "x": ' + "9" * 5000 + "}",
+        "batches/bigint.yaml": "name: big2\nenvironments: []\nx: " + "9" * 5000 + "\n",
+        "batches/huge.yaml": "name: huge\nenvironments: []\n" + "# padding\n" * 7000,
+    })
+    proc, seconds, _ = cli("install", str(pack), env={"BENCHBOT_ONLY_PLUGINS": "content_packs",
+                                                      "BENCHBOT_MAX_SPEC_BYTES": "64K"})
+    assert proc.returncode == 3 and seconds < 30, (seconds, proc.stderr)  # the bomb alone took 49 s before
+    assert one_line_error(proc).startswith("error: pack 'hostile'") and "7 problem(s)" in proc.stderr
+    expected = [
+        "tasks/bomb.yaml: YAML aliases (*name) are not allowed in spec files (line 4)",
+        "tasks/latin1.yaml: not UTF-8 text (invalid byte 0xe9 at offset 9)",
+        f"tasks/deep.yaml: {TOO_DEEP}",
+        f"batches/deep.json: {TOO_DEEP}",
+        "batches/bigint.json: a number has more than 4300 digits",
+        "batches/bigint.yaml: a number has more than 4300 digits",
+        "batches/huge.yaml: the file is 68.4 KiB, more than the limit of 64 KiB (set BENCHBOT_MAX_SPEC_BYTES to "
+        "raise it)",
+    ]
+    details = [line.strip() for line in proc.stderr.splitlines() if line.startswith("  ")]
+    for text in expected:
+        assert text in details, (text, proc.stderr)
+
+
+def test_parsers_stay_fast_and_bounded():
+    start = time.monotonic()
+    with pytest.raises(SpecError, match="aliases"):
+        parse_yaml("bomb.yaml", alias_bomb(levels=30), SpecError)
+    assert time.monotonic() - start < 1.0
+    assert parse_yaml("ok.yaml", "a: &x 1\nb: [2, 3]\n", SpecError) == {"a": 1, "b": [2, 3]}  # an unused anchor
+    with pytest.raises(SpecError, match="nested more than 3 levels"):
+        os.environ["BENCHBOT_MAX_NESTING_DEPTH"] = "3"
+        try:
+            parse_json("d.json", b'{"a": [[{"b": 1}]]}', SpecError)
+        finally:
+            del os.environ["BENCHBOT_MAX_NESTING_DEPTH"]
+    with pytest.raises(ResultsError, match=r"d.json: not valid JSON \(line 1 column 7"):
+        parse_json("d.json", b'{"a": }', ResultsError)
+
+
+def test_bad_limit_variables_are_usage_errors(monkeypatch):
+    monkeypatch.setenv("BENCHBOT_MAX_RESULTS_BYTES", "lots")
+    with pytest.raises(UsageError, match="BENCHBOT_MAX_RESULTS_BYTES='lots' is not a positive whole number of bytes"):
+        MAX_RESULTS_BYTES.value()
+    monkeypatch.setenv("BENCHBOT_MAX_RESULTS_BYTES", "2M")
+    assert MAX_RESULTS_BYTES.value() == 2 << 20
+
+
+# --- 3. benchbot eval: zip bombs, large and deep results ---------------------------------------------------------
+
+
+def raw_zip(path: Path, name: str, size: int, declared: int | None = None) -> Path:
+    """A zip archive whose one deflated member ``name`` decompresses to ``size`` zero bytes (a ~1000:1 bomb, built
+    in a fraction of a second by repeating one fully flushed deflate block); the headers claim ``declared`` bytes
+    (default: the truth)."""
+    chunk = 1 << 24
+    assert size % chunk == 0
+    block = zlib.compressobj(9, zlib.DEFLATED, -15)
+    one = block.compress(b"\0" * chunk) + block.flush(zlib.Z_FULL_FLUSH)
+    data = one * (size // chunk) + zlib.compressobj(9, zlib.DEFLATED, -15).flush()
+    crc = 0
+    for _ in range(size // chunk):
+        crc = zlib.crc32(b"\0" * chunk, crc)
+    declared = size if declared is None else declared
+    fname = name.encode()
+    local = struct.pack("<4s5H3L2H", b"PK\x03\x04", 20, 0, 8, 0, 0, crc, len(data), declared, len(fname), 0)
+    central = struct.pack("<4s6H3L5H2L", b"PK\x01\x02", 20, 20, 0, 8, 0, 0, crc, len(data), declared, len(fname),
+                          0, 0, 0, 0, 0, 0)
+    offset = len(local) + len(fname) + len(data)
+    end = struct.pack("<4s4H2LH", b"PK\x05\x06", 0, 0, 1, 1, len(central) + len(fname), offset, 0)
+    path.write_bytes(local + fname + data + central + fname + end)
+    return path
+
+
+def test_eval_refuses_a_zip_bomb_before_decompressing(tmp_path):
+    bomb = raw_zip(tmp_path / "bomb.zip", "r.json", 1 << 30)
+    assert bomb.stat().st_size < 1_100_000
+    proc, seconds, rss = cli("eval", str(bomb), "-o", str(tmp_path / "s.json"), measure=True)
+    assert proc.returncode == 4, proc.stderr
+    line = one_line_error(proc)
+    assert line == (f"error: {bomb}:r.json: the member (decompressed) is 1 GiB, more than the limit of 64 MiB "
+                    "(set BENCHBOT_MAX_RESULTS_BYTES to raise it)")
+    assert rss < 300, rss  # 2.1 GB before
+    assert not (tmp_path / "s.json").exists()
+
+
+def test_eval_counts_decompressed_bytes_when_the_header_lies(tmp_path, monkeypatch):
+    liar = raw_zip(tmp_path / "liar.zip", "r.json", 1 << 30, declared=100)
+    proc, _, rss = cli("eval", str(liar), "-o", str(tmp_path / "s.json"), measure=True)
+    assert proc.returncode == 4 and f"error: {liar}" in one_line_error(proc)
+    assert rss < 300, rss  # 2 GB before: zipfile inflated all of it before cutting at the declared size
+    # the total of the members is capped too, and the number of members
+    many = tmp_path / "many.zip"
+    with zipfile.ZipFile(many, "w") as z:
+        for i in range(6):
+            z.writestr(f"r{i}.json", "{}")
+    monkeypatch.setenv("BENCHBOT_MAX_ZIP_MEMBERS", "5")
+    assert load_all([many]) == ([], [(str(many), ANY)])
+    assert load_all([many])[1][0][1].message == (f"{many}: the zip archive has 6 entries, more than the limit of 5 "
+                                                 "members (set BENCHBOT_MAX_ZIP_MEMBERS to raise it)")
+    monkeypatch.setenv("BENCHBOT_MAX_ZIP_MEMBERS", "6")
+    assert len(load_all([many])[0]) == 6
+    monkeypatch.setenv("BENCHBOT_MAX_ZIP_BYTES", "300")  # the archive is ~600 bytes on disk
+    assert "(set BENCHBOT_MAX_ZIP_BYTES to raise it)" in load_all([many])[1][0][1].message
+    monkeypatch.setenv("BENCHBOT_MAX_ZIP_BYTES", "1K")  # small enough on disk; 6 x 2 bytes decompressed
+    assert len(load_all([many])[0]) == 6
+
+
+def test_eval_refuses_a_huge_results_file_without_reading_it(tmp_path):
+    huge = tmp_path / "huge.json"
+    with open(huge, "wb") as f:
+        f.truncate(1 << 30)  # sparse: 1 GiB that costs no disk
+    proc, seconds, rss = cli("eval", str(huge), "-o", str(tmp_path / "s.json"), measure=True)
+    assert proc.returncode == 4
+    assert one_line_error(proc) == (f"error: {huge}: the results file is 1 GiB, more than the limit of 64 MiB "
+                                    "(set BENCHBOT_MAX_RESULTS_BYTES to raise it)")
+    assert rss < 300, rss  # 1.4 GB before (3.2 GB with the registry of a busier host)
+
+
+def test_eval_refuses_deep_nesting_and_huge_integers_in_one_line(tmp_path):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    bigint = tmp_path / "bigint.json"
+    bigint.write_text('{"task_details": ' + "7" * 5000 + "}")
+    archive = tmp_path / "deep.zip"
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("deep.json", '{"a": ' + "[" * 70 + "]" * 70 + "}")
+    proc, _, _ = cli("eval", "-V", str(deep), str(bigint), str(archive))
+    assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
+    assert [line for line in proc.stderr.splitlines() if not line.startswith("warning:")] == [
+        f"error: {deep}: {TOO_DEEP}",
+        f"error: {bigint}: a number has more than 4300 digits",
+        f"error: {archive}:deep.json: {TOO_DEEP}",
+    ]

@@ -415,12 +415,14 @@ def imported_function_problem(value: str, obj: Any) -> str | None:
 
 
 def read_manifest(pack_dir: Path) -> dict:
-    """The manifest of an installed pack (``{}`` when missing or unreadable)."""
+    """The manifest of an installed pack (``{}`` when missing, unreadable, or beyond the spec-file limits)."""
+    from benchbot.core.safe_load import MAX_SPEC_BYTES, load_data_file
+
     try:
-        data = json.loads((pack_dir / MANIFEST).read_text())
-        return data if isinstance(data, dict) else {}
-    except (OSError, ValueError):
+        data = load_data_file(pack_dir / MANIFEST, MAX_SPEC_BYTES, PackError)
+    except PackError:
         return {}
+    return data if isinstance(data, dict) else {}
 
 
 def installed_packs() -> list[dict]:

@@ -8,7 +8,6 @@ members are skipped, as in the original). Ground truths are found by each scene'
 from __future__ import annotations
 
 import inspect
-import json
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,6 +15,7 @@ from typing import Any, Callable
 
 from benchbot.core.errors import BenchbotError, ResultsError, SpecError, UsageError
 from benchbot.core.registry import Registry, json_path, validator
+from benchbot.core.safe_load import MAX_RESULTS_BYTES, parse_json, read_capped, zip_members
 
 
 @dataclass
@@ -33,10 +33,7 @@ class LoadedResult:
 
 
 def _parse(source: str, text: bytes | str) -> dict:
-    try:
-        data = json.loads(text)
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ResultsError(f"{source}: not valid JSON ({exc})", "fix the file or write it with json.dump") from None
+    data = parse_json(source, text, ResultsError)
     if not isinstance(data, dict):
         raise ResultsError(f"{source}: expected a JSON object at the top level", "")
     return data
@@ -89,39 +86,51 @@ PerFileError = tuple[str, BenchbotError]
 """``(source, error)`` of a results file (or archive member) that could not be loaded, validated or scored."""
 
 
+def _is_submission(member: str) -> bool:
+    """Folders and ``submission.json`` members of an archive are not results (as in the original)."""
+    return member.endswith("/") or Path(member).name == "submission.json"
+
+
 def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileError]]:
     """Load every results file and archive member, collecting per-file errors instead of stopping at the first.
 
+    Every file is read within the limits of :mod:`benchbot.core.safe_load`: a results file or a member (after
+    decompression, counted while reading) at most ``MAX_RESULTS_BYTES`` (``$BENCHBOT_MAX_RESULTS_BYTES``, 64 MiB),
+    an archive at most ``MAX_ZIP_BYTES`` on disk and decompressed in all and ``MAX_ZIP_MEMBERS`` entries, nesting at
+    most ``MAX_NESTING_DEPTH`` levels, integers within Python's digit limit. A file's size is checked before it is
+    read, and members are read and parsed one at a time, so memory stays bounded by one member.
+
     Returns:
         ``(results, errors)``: the parsed results in input order, and ``(source, ResultsError)`` for each file or
-        archive member that is not valid JSON or not a JSON object (``source`` is ``path`` or ``zip:member``).
+        archive member that cannot be read, is beyond a limit, is not valid JSON or not a JSON object (``source``
+        is ``path`` or ``path:member``; a whole archive is refused when it breaks an archive limit).
 
     Raises:
         ResultsError: a path does not exist (checked for every path before anything is read, as the original's
-            pre-checks), or a file or zip archive cannot be read.
+            pre-checks).
+        UsageError: a limit's environment variable is not a positive number.
     """
     _check_exist(paths)
     results: list[LoadedResult] = []
     errors: list[PerFileError] = []
     for path in map(Path, paths):
-        if zipfile.is_zipfile(path):
-            try:
-                with zipfile.ZipFile(path) as archive:
-                    members = [(m, archive.read(m)) for m in archive.namelist()
-                               if not m.endswith("/") and Path(m).name != "submission.json"]  # fmt: skip
-            except (zipfile.BadZipFile, OSError) as exc:
-                raise ResultsError(f"{path}: cannot read the zip archive ({exc})", "") from None
-            items = [(f"{path}:{m}", data) for m, data in members]
-        else:
-            try:
-                items = [(str(path), path.read_bytes())]
-            except OSError as exc:
-                raise ResultsError(f"{path}: cannot read the results file ({exc.strerror or exc})", "") from None
-        for source, data in items:
-            try:
-                results.append(LoadedResult(source, _parse(source, data)))
-            except ResultsError as exc:
-                errors.append((source, exc))
+        file_results: list[LoadedResult] = []
+        file_errors: list[PerFileError] = []
+        try:
+            if zipfile.is_zipfile(path):
+                for member, data in zip_members(path, ResultsError, skip=_is_submission):
+                    source = f"{path}:{member}"
+                    try:
+                        file_results.append(LoadedResult(source, _parse(source, data)))
+                    except ResultsError as exc:
+                        file_errors.append((source, exc))
+            else:
+                data = read_capped(path, MAX_RESULTS_BYTES, ResultsError, "the results file")
+                file_results.append(LoadedResult(str(path), _parse(str(path), data)))
+        except ResultsError as exc:  # the whole file or archive is refused
+            file_results, file_errors = [], [(str(path), exc)]
+        results += file_results
+        errors += file_errors
     return results, errors
 
 

@@ -19,13 +19,13 @@ from pathlib import Path
 from typing import Any, Callable
 
 import jsonschema
-import yaml
 
 from benchbot.core.content_packs import (
     LOAD_ERROR_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
 )
 from benchbot.core.errors import SpecError
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
+from benchbot.core.safe_load import MAX_SPEC_BYTES, load_data_file
 
 KIND_SCHEMAS = {
     "tasks": "task",
@@ -79,21 +79,14 @@ def validate(instance: Any, schema_name: str, source: str) -> None:
 
 
 def load_spec_file(path: Path) -> dict:
-    """Parse a YAML or JSON spec file into a dict.
+    """Parse a YAML or JSON spec file into a dict, within the limits of :mod:`benchbot.core.safe_load`
+    (:data:`~benchbot.core.safe_load.MAX_SPEC_BYTES`, no YAML aliases, bounded nesting and integers).
 
     Raises:
-        SpecError: the file is missing, unreadable, malformed, or not a mapping.
+        SpecError: the file is missing, unreadable, too large, not UTF-8, malformed, or not a mapping (one line
+            naming the file).
     """
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read: {exc.strerror}", "check the path") from None
-    try:
-        data = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
-    except (yaml.YAMLError, json.JSONDecodeError) as exc:
-        where = getattr(exc, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else (f" (line {exc.lineno})" if hasattr(exc, "lineno") else "")
-        raise SpecError(f"{path}: not valid {'JSON' if path.suffix == '.json' else 'YAML'}{line}", "fix the syntax") from None
+    data = load_data_file(Path(path), MAX_SPEC_BYTES, SpecError)
     if not isinstance(data, dict):
         raise SpecError(f"{path}: expected a mapping at the top level, got {type(data).__name__}", "")
     return data

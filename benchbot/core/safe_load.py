@@ -1,0 +1,368 @@
+"""Reading untrusted YAML, JSON and zip files with explicit limits: the one home of BenchBot's input-file limits.
+
+Spec files (content packs, plugins' spec files) and results files (``benchbot eval``) come from other people. Every
+reader here bounds what one file can cost before anything walks it:
+
+========================  =======================  ===========================================================
+limit                     default                  environment variable that overrides it
+========================  =======================  ===========================================================
+:data:`MAX_SPEC_BYTES`    4 MiB                    ``BENCHBOT_MAX_SPEC_BYTES`` (one YAML/JSON spec file)
+:data:`MAX_RESULTS_BYTES` 64 MiB                   ``BENCHBOT_MAX_RESULTS_BYTES`` (one results file or zip member,
+                                                   decompressed)
+:data:`MAX_ZIP_BYTES`     256 MiB                  ``BENCHBOT_MAX_ZIP_BYTES`` (a zip archive: its size on disk and
+                                                   the sum of its members, decompressed)
+:data:`MAX_ZIP_MEMBERS`   10000                    ``BENCHBOT_MAX_ZIP_MEMBERS`` (entries of one zip archive)
+:data:`MAX_NESTING_DEPTH` 64                       ``BENCHBOT_MAX_NESTING_DEPTH`` (lists/objects inside each other)
+========================  =======================  ===========================================================
+
+Byte limits accept a whole number of bytes or one with a binary suffix (``512K``, ``64M``, ``1G``). YAML aliases
+(``*name``, including ``<<: *name`` merges) are refused in spec files: a few hundred bytes of nested aliases
+expand to billions of nodes. Integers longer than Python's ``sys.get_int_max_str_digits()`` (4300 digits) and
+text that is not UTF-8 are refused too. Each refusal is one :class:`~benchbot.core.errors.BenchbotError` naming the
+file, the limit and how to raise it; nothing here lets a ``RecursionError``, ``ValueError`` or
+``UnicodeDecodeError`` escape.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator
+
+import yaml
+
+from benchbot.core.errors import BenchbotError, UsageError
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A size limit with an environment-variable override.
+
+    Attributes:
+        env: the environment variable that overrides ``default`` (e.g. ``BENCHBOT_MAX_RESULTS_BYTES``).
+        default: the value when the variable is unset or empty.
+        unit: ``"bytes"`` (the variable may use a ``K``/``M``/``G`` binary suffix) or a plural noun (``"members"``,
+            ``"levels"``), used in messages.
+    """
+
+    env: str
+    default: int
+    unit: str
+
+    def value(self) -> int:
+        """The limit in force: ``$env`` when set, else ``default``.
+
+        Raises:
+            UsageError: the variable is not a positive whole number (with an optional suffix for bytes).
+        """
+        raw = os.environ.get(self.env, "").strip()
+        if not raw:
+            return self.default
+        scale = 1
+        if self.unit == "bytes" and raw[-1:].upper() in _SUFFIXES:
+            raw, scale = raw[:-1], _SUFFIXES[raw[-1].upper()]
+        try:
+            number = int(raw) * scale
+        except ValueError:
+            number = 0
+        if number <= 0:
+            example = "64M" if self.unit == "bytes" else str(self.default)
+            raise UsageError(f"{self.env}='{os.environ[self.env]}' is not a positive whole number of {self.unit}",
+                             f"e.g. {self.env}={example}, or unset it for the default ({self.describe(self.default)})")
+        return number
+
+    def describe(self, number: int) -> str:
+        """``number`` in this limit's unit, for messages (``64 MiB``, ``10000 members``)."""
+        return human_bytes(number) if self.unit == "bytes" else f"{number} {self.unit}"
+
+    def raise_it(self) -> str:
+        """``set BENCHBOT_X to raise it``: how to raise the limit, inside a one-line message."""
+        return f"set {self.env} to raise it"
+
+    def hint(self) -> str:
+        """How to raise the limit, for an error's hint."""
+        return f"if the file is genuine, raise the limit with the environment variable {self.env} (e.g. {self.env}=" \
+               f"{self._example()})"
+
+    def _example(self) -> str:
+        twice = 2 * self.value()
+        if self.unit == "bytes":
+            return f"{max(1, twice >> 20)}M" if twice >= 1 << 20 else str(twice)
+        return str(twice)
+
+
+_SUFFIXES = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}
+
+MAX_SPEC_BYTES = Limit("BENCHBOT_MAX_SPEC_BYTES", 4 << 20, "bytes")
+"""Largest spec file (YAML or JSON: task, robot, environment, format, evaluator, example, batch, ground truth)
+read by the registry or ``benchbot install``. The largest shipped ground truth is ~110 KB."""
+
+MAX_RESULTS_BYTES = Limit("BENCHBOT_MAX_RESULTS_BYTES", 64 << 20, "bytes")
+"""Largest results file, or results member of a zip archive after decompression, read by ``benchbot eval``.
+A result of 1000 objects over 30 classes is under 1 MB; the parsed file takes roughly 4x its size in memory."""
+
+MAX_ZIP_BYTES = Limit("BENCHBOT_MAX_ZIP_BYTES", 256 << 20, "bytes")
+"""Largest zip archive of results: both its size on disk and the sum of its members' decompressed sizes."""
+
+MAX_ZIP_MEMBERS = Limit("BENCHBOT_MAX_ZIP_MEMBERS", 10_000, "members")
+"""Most entries (files and folders) in one zip archive of results."""
+
+MAX_NESTING_DEPTH = Limit("BENCHBOT_MAX_NESTING_DEPTH", 64, "levels")
+"""Deepest nesting of lists/objects in a spec or results file (a results file needs 6 levels)."""
+
+
+def human_bytes(number: int) -> str:
+    """``1536`` → ``1.5 KiB``; exact powers print without decimals (``64 MiB``)."""
+    for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if number >= size:
+            value = number / size
+            return f"{value:.0f} {unit}" if value == int(value) else f"{value:.1f} {unit}"
+    return f"{number} bytes"
+
+
+def _too_big(source: str, size: int | str, limit: Limit, what: str, error: type[BenchbotError]) -> BenchbotError:
+    size_text = human_bytes(size) if isinstance(size, int) else size
+    return error(f"{source}: {what} is {size_text}, more than the limit of {limit.describe(limit.value())} "
+                 f"({limit.raise_it()})", limit.hint())
+
+
+def read_capped(path: Path, limit: Limit, error: type[BenchbotError], what: str = "the file") -> bytes:
+    """The bytes of the regular file ``path``, refusing it (from its size, before reading) when it is larger than
+    ``limit``; at most ``limit + 1`` bytes are ever read, even if the file grows meanwhile.
+
+    Raises:
+        ``error``: the file is too large (naming the limit and its variable) or cannot be read.
+    """
+    cap = limit.value()
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size > cap:
+                raise _too_big(str(path), size, limit, what, error)
+            data = f.read(cap + 1)
+    except OSError as exc:
+        raise error(f"{path}: cannot read: {exc.strerror or exc}", "check the path and its permissions") from None
+    if len(data) > cap:
+        raise _too_big(str(path), f"over {human_bytes(cap)}", limit, what, error)
+    return data
+
+
+def check_depth(data: Any, source: str, error: type[BenchbotError]) -> None:
+    """Refuse ``data`` (parsed JSON/YAML) when lists/dicts nest deeper than :data:`MAX_NESTING_DEPTH`
+    (iterative: never recurses, whatever the depth; every node is visited once, so a shared node counts per
+    reference).
+
+    Raises:
+        ``error``: naming the source, the limit and its variable.
+    """
+    cap = MAX_NESTING_DEPTH.value()
+    stack: list[tuple[Any, int]] = [(data, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if isinstance(node, dict):
+            children = node.values()
+        elif isinstance(node, list):
+            children = node
+        else:
+            continue
+        if depth > cap:
+            raise _too_deep(source, error)
+        stack.extend((child, depth + 1) for child in children if isinstance(child, (dict, list)))
+
+
+def _too_deep(source: str, error: type[BenchbotError]) -> BenchbotError:
+    cap = MAX_NESTING_DEPTH.value()
+    return error(f"{source}: lists/objects are nested more than {cap} levels deep ({MAX_NESTING_DEPTH.raise_it()})",
+                 MAX_NESTING_DEPTH.hint())
+
+
+def _number_too_long(source: str, error: type[BenchbotError]) -> BenchbotError:
+    return error(f"{source}: a number has more than {sys.get_int_max_str_digits()} digits",
+                 "write it with fewer digits (or as a float)")
+
+
+def _decode(source: str, data: bytes, error: type[BenchbotError]) -> str:
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{source}: not UTF-8 text (invalid byte 0x{data[exc.start]:02x} at offset {exc.start})",
+                    "save the file as UTF-8") from None
+
+
+def parse_json(source: str, data: bytes | str, error: type[BenchbotError]) -> Any:
+    """Parse JSON text, refusing non-UTF-8 bytes, deep nesting and over-long integers with one-line errors.
+
+    Args:
+        source: names the file in messages (a path, or ``archive.zip:member``).
+        data: the file's bytes (UTF-8, a BOM allowed) or text.
+        error: the error class to raise (``SpecError`` for specs, ``ResultsError`` for results).
+
+    Raises:
+        ``error``: ``"<source>: not valid JSON (line L column C: ...)"``, not UTF-8, nested too deep, or a number
+            with too many digits.
+    """
+    text = _decode(source, data, error) if isinstance(data, (bytes, bytearray)) else data
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise error(f"{source}: not valid JSON (line {exc.lineno} column {exc.colno}: {exc.msg})",
+                    "fix the syntax, or write the file with json.dump") from None
+    except RecursionError:
+        raise _too_deep(source, error) from None
+    except ValueError as exc:  # int(...) over sys.get_int_max_str_digits()
+        if "digits" in str(exc):
+            raise _number_too_long(source, error) from None
+        raise error(f"{source}: not valid JSON ({str(exc).splitlines()[0]})", "fix the file") from None
+    check_depth(value, source, error)
+    return value
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader (pure Python: its composer recurses in Python, so depth is checked, never a C stack)
+    without aliases and with a nesting limit."""
+
+    def __init__(self, stream: str, max_depth: int) -> None:
+        super().__init__(stream)
+        self._max_depth = max_depth
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            mark = self.peek_event().start_mark
+            raise _AliasRefused(mark.line + 1)
+        self._depth += 1
+        try:
+            if self._depth > self._max_depth:
+                raise _DepthRefused()
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+class _AliasRefused(Exception):
+    def __init__(self, line: int) -> None:
+        super().__init__(line)
+        self.line = line
+
+
+class _DepthRefused(Exception):
+    pass
+
+
+def parse_yaml(source: str, data: bytes | str, error: type[BenchbotError]) -> Any:
+    """Parse one YAML document safely: no Python tags, no aliases, bounded nesting, bounded integers.
+
+    Args:
+        source: names the file in messages.
+        data: the file's bytes (UTF-8, a BOM allowed) or text.
+        error: the error class to raise.
+
+    Raises:
+        ``error``: ``"<source>: not valid YAML (line L)"``, an alias (``*name``) with its line, not UTF-8, nested
+            deeper than :data:`MAX_NESTING_DEPTH`, or a number with too many digits.
+    """
+    text = _decode(source, data, error) if isinstance(data, (bytes, bytearray)) else data
+    loader = _BoundedLoader(text, MAX_NESTING_DEPTH.value())
+    try:
+        return loader.get_single_data()
+    except _AliasRefused as exc:
+        raise error(f"{source}: YAML aliases (*name) are not allowed in spec files (line {exc.line})",
+                    "write the value out instead of referring to an anchor") from None
+    except (_DepthRefused, RecursionError):
+        raise _too_deep(source, error) from None
+    except yaml.YAMLError as exc:
+        where = getattr(exc, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        raise error(f"{source}: not valid YAML{line}", "fix the syntax") from None
+    except ValueError as exc:  # int(...) over sys.get_int_max_str_digits()
+        if "digits" in str(exc):
+            raise _number_too_long(source, error) from None
+        raise error(f"{source}: not valid YAML ({str(exc).splitlines()[0]})", "fix the file") from None
+    finally:
+        loader.dispose()
+
+
+def load_data_file(path: Path, limit: Limit, error: type[BenchbotError]) -> Any:
+    """Read and parse a ``.json`` file as JSON, anything else as YAML, within ``limit`` bytes.
+
+    Raises:
+        ``error``: see :func:`read_capped`, :func:`parse_json` and :func:`parse_yaml`.
+    """
+    data = read_capped(path, limit, error)
+    parse = parse_json if path.suffix == ".json" else parse_yaml
+    return parse(str(path), data, error)
+
+
+def zip_members(path: Path, error: type[BenchbotError], skip: Any = None) -> Iterator[tuple[str, bytes]]:
+    """``(member name, bytes)`` of each file in the zip archive ``path``, one at a time, within the limits.
+
+    Before anything is decompressed: the archive's size on disk must be within :data:`MAX_ZIP_BYTES`, its entry
+    count (from the end record, then the central directory) within :data:`MAX_ZIP_MEMBERS`, and each member's
+    declared size within :data:`MAX_RESULTS_BYTES`. While decompressing, the bytes actually produced are counted
+    too (a header may lie): a member stops at :data:`MAX_RESULTS_BYTES` + 1 bytes and the archive at
+    :data:`MAX_ZIP_BYTES` in all. Memory stays bounded by one member.
+
+    Args:
+        path: the archive.
+        error: the error class to raise.
+        skip: ``skip(name) -> bool`` for members not to read (folders are always skipped).
+
+    Raises:
+        ``error``: a limit is exceeded (naming it and its variable), or the archive is corrupt or unreadable.
+    """
+    total_cap, member_cap, count_cap = MAX_ZIP_BYTES.value(), MAX_RESULTS_BYTES.value(), MAX_ZIP_MEMBERS.value()
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise error(f"{path}: cannot read: {exc.strerror or exc}", "check the path") from None
+    if size > total_cap:
+        raise _too_big(str(path), size, MAX_ZIP_BYTES, "the zip archive", error)
+    try:
+        with open(path, "rb") as f:
+            end = zipfile._EndRecData(f)  # type: ignore[attr-defined]  # the entry count, before parsing entries
+        declared = end[zipfile._ECD_ENTRIES_TOTAL] if end else 0  # type: ignore[attr-defined]
+    except (OSError, AttributeError, IndexError, TypeError):
+        declared = 0
+    if declared > count_cap:
+        raise _too_many(path, declared, error)
+    produced = 0
+    try:
+        with zipfile.ZipFile(path) as archive:
+            infos = archive.infolist()
+            if len(infos) > count_cap:
+                raise _too_many(path, len(infos), error)
+            for info in infos:
+                if info.is_dir() or (skip is not None and skip(info.filename)):
+                    continue
+                source = f"{path}:{info.filename}"
+                if info.file_size > member_cap:
+                    raise _too_big(source, info.file_size, MAX_RESULTS_BYTES, "the member (decompressed)", error)
+                if produced + info.file_size > total_cap:
+                    raise _too_big(str(path), f"over {human_bytes(total_cap)} decompressed", MAX_ZIP_BYTES,
+                                   "the zip archive", error)
+                chunks, got = [], 0
+                with archive.open(info) as member:
+                    while chunk := member.read(min(1 << 20, member_cap + 1 - got)):
+                        chunks.append(chunk)
+                        got += len(chunk)
+                        if got > member_cap:  # the header lied about the size
+                            raise _too_big(source, f"over {human_bytes(member_cap)}", MAX_RESULTS_BYTES,
+                                           "the member (decompressed)", error)
+                        if produced + got > total_cap:
+                            raise _too_big(str(path), f"over {human_bytes(total_cap)} decompressed", MAX_ZIP_BYTES,
+                                           "the zip archive", error)
+                produced += got
+                yield info.filename, b"".join(chunks)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError, OSError, RuntimeError) as exc:
+        raise error(f"{path}: cannot read the zip archive ({exc})", "re-create it with zip or shutil.make_archive") \
+            from None
+
+
+def _too_many(path: Path, count: int, error: type[BenchbotError]) -> BenchbotError:
+    return error(f"{path}: the zip archive has {count} entries, more than the limit of "
+                 f"{MAX_ZIP_MEMBERS.describe(MAX_ZIP_MEMBERS.value())} ({MAX_ZIP_MEMBERS.raise_it()})",
+                 MAX_ZIP_MEMBERS.hint())
