@@ -10,9 +10,12 @@ episodes are Ray tasks on a local or existing Ray cluster.
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.connection
 import os
 import queue
+import signal
 import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable
 
@@ -41,19 +44,63 @@ def _drain(events: "queue.Queue | object", on_event: EventHandler, stop: threadi
 THREAD_VARIABLES = ("BENCHBOT_TAICHI_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def _share_cores(threads: int) -> None:
+_events = None  # in a worker process: the batch's event queue (set by _init_worker)
+_parent_gone = threading.Event()  # in a worker process: the batch process has died
+
+
+def _init_worker(threads: int, events: "multiprocessing.Queue") -> None:
     """Worker initialiser: cap each worker's simulator threads and its solutions' BLAS/OpenMP threads to the
     worker's share of the cores (unless the user set them), so N workers do not each start one thread per core —
-    oversubscribed BLAS threads spin and slow every episode down."""
+    oversubscribed BLAS threads spin and slow every episode down; keep the event queue; :func:`_end_with_parent`."""
+    global _events
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, str(threads))
+    _events = events
+    _end_with_parent()
+
+
+#: Seconds a worker whose batch process died has to stop its episode (solution group, server, backend) before it
+#: exits regardless; longer than the solution's SIGTERM grace.
+ORPHAN_EXIT_S = 15.0
+
+
+def _end_with_parent() -> None:
+    """In a worker process: when the batch process dies (``kill -9`` included), interrupt the episode in progress
+    as Ctrl-C would (its solution's group is stopped, its server and backend closed; :func:`_worker_episode` then
+    exits), and exit after at most :data:`ORPHAN_EXIT_S` seconds in any case. Without it a worker would run its
+    episode to the end for nobody and stay."""
+    parent = multiprocessing.parent_process()
+    if parent is None:
+        return
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # even if the batch was started with SIGINT ignored
+
+    def watch() -> None:
+        multiprocessing.connection.wait([parent.sentinel])
+        _parent_gone.set()
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(ORPHAN_EXIT_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="benchbot-parent-watch", daemon=True).start()
+
+
+def _worker_episode(spec: EpisodeSpec, run_dir: str) -> EpisodeRecord:
+    """:func:`run_episode` in a worker process, reporting to the batch's event queue; exits the worker at once
+    when its batch process has died (once the episode has cleaned up)."""
+    try:
+        return run_episode(spec, run_dir, _events)
+    except KeyboardInterrupt:
+        if _parent_gone.is_set():
+            os._exit(1)
+        raise
 
 
 def run_local(
     specs: list[EpisodeSpec], run_dir: str, *, workers: int, on_event: EventHandler,
     on_record: Callable[[EpisodeRecord], None],
 ) -> None:
-    """Run ``specs`` with ``workers`` parallel episodes; ``on_record`` is called (in this thread) as each ends."""
+    """Run ``specs`` with ``workers`` parallel episodes; ``on_record`` is called (in this thread) as each ends.
+    Worker processes end with the batch process, even when it is killed (:func:`_end_with_parent`)."""
     stop = threading.Event()
     if workers <= 1:
         events: queue.Queue = queue.Queue()
@@ -67,20 +114,20 @@ def run_local(
             drainer.join()
         return
     context = multiprocessing.get_context("spawn")
-    with context.Manager() as manager:
-        events = manager.Queue()
-        drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
-        drainer.start()
-        try:
-            threads = max(1, (os.cpu_count() or 1) // min(workers, len(specs)))
-            with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_share_cores,
-                                     initargs=(threads,)) as pool:
-                futures = [pool.submit(run_episode, spec, run_dir, events) for spec in specs]
-                for future in as_completed(futures):
-                    on_record(future.result())
-        finally:
-            stop.set()
-            drainer.join()
+    events = context.Queue()  # no manager process: it would outlive a killed batch
+    drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
+    drainer.start()
+    try:
+        threads = max(1, (os.cpu_count() or 1) // min(workers, len(specs)))
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
+                                 initargs=(threads, events)) as pool:
+            futures = [pool.submit(_worker_episode, spec, run_dir) for spec in specs]
+            for future in as_completed(futures):
+                on_record(future.result())
+    finally:
+        stop.set()
+        drainer.join()
+        events.close()
 
 
 def run_ray(

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import IO
 
 from benchbot.core.errors import BenchbotError, SpecError, UsageError
+from benchbot.core.process_group import ChildOutcome, run_child
 from benchbot.core.registry import Registry
 
 
@@ -68,36 +69,41 @@ def run_submission(
     log: IO[str] | None = None,
     timeout_s: float | None = None,
 ) -> int:
-    """Run the submission to completion and return its exit status.
+    """Run the submission to completion and return its exit status (-9 when the timeout stopped it); see
+    :func:`run_submission_child`."""
+    outcome = run_submission_child(submission, address=address, result_location=result_location, log=log,
+                                   timeout_s=timeout_s)
+    return -9 if outcome.timed_out else outcome.returncode
+
+
+def run_submission_child(
+    submission: Submission,
+    *,
+    address: str,
+    result_location: Path,
+    log: IO[str] | None = None,
+    timeout_s: float | None = None,
+) -> ChildOutcome:
+    """Run the submission to completion in its own process group (:func:`benchbot.core.process_group.run_child`):
+    when it ends, for any reason, every process it started is stopped too, and a watchdog stops them if this process
+    dies first.
 
     Args:
         address: the backend's ``http://127.0.0.1:PORT/``.
         result_location: where the API makes the agent save its results.
-        log: a text file for the child's stdout and stderr (inherited when None).
-        timeout_s: kill the child after this many seconds (exit status -9).
+        log: a file for the child's stdout and stderr, capped at ``BENCHBOT_MAX_LOG_BYTES`` (inherited when None).
+        timeout_s: stop the child's group after this many seconds (``timed_out`` in the outcome).
 
     Raises:
-        UsageError: the command cannot be started (not found, not executable).
+        UsageError: the command cannot be started (not found, not executable), or a bad ``BENCHBOT_MAX_LOG_BYTES``
+            / ``BENCHBOT_STOP_GRACE_S``.
     """
     env = dict(os.environ, BENCHBOT_SUPERVISOR_ADDRESS=address, BENCHBOT_RESULT_LOCATION=str(result_location))
     env["PYTHONUNBUFFERED"] = "1"
     try:
-        child = subprocess.Popen(
-            submission.argv, cwd=submission.cwd, env=env, stdin=subprocess.DEVNULL,
-            stdout=log, stderr=subprocess.STDOUT if log is not None else None, text=True,
-        )
+        return run_child(submission.argv, cwd=submission.cwd, env=env, log=log, timeout_s=timeout_s)
     except OSError as exc:
         raise UsageError(f"cannot start {submission.label}: {exc.strerror}: {submission.argv[0]}", "check the command") from None
-    try:
-        return child.wait(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        child.kill()
-        child.wait()
-        return -9
-    except BaseException:
-        child.kill()
-        child.wait()
-        raise
 
 
 # ------------------------------------------------------------------------------------------------- containers
