@@ -12,10 +12,21 @@ from typing import Any
 
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
 from benchbot.core.errors import BenchbotError
+from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
 from benchbot.core.server import ServerThread, build_app
 from benchbot.core.session import resolve_run, start_service
-from benchbot.core.submission import Submission, run_container_submission, run_submission
+from benchbot.core.submission import Submission, run_container_submission, run_submission_child
+
+
+def results_problem(path: Path) -> str:
+    """Why the results file at ``path`` cannot be scored at all (not readable, not JSON, not a JSON object), in one
+    line naming it; "" when it parses. (Its format is checked when the batch is evaluated.)"""
+    try:
+        load_results(path)
+    except BenchbotError as exc:
+        return exc.message
+    return ""
 
 
 def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
@@ -51,6 +62,7 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
                 recorder = attach_recorder(registry, service, run_spec, run / spec.recording, seed=spec.seed,
                                            options=spec.options)
             server = ServerThread(build_app(service)).start()
+            timed_out = False
             try:
                 with open(run / spec.log, "w") as log:
                     if spec.container:
@@ -58,14 +70,16 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
                         record.returncode = run_container_submission(
                             c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=server.address,
                             result_location=run / spec.results, args=c.get("args", ""),
-                            name_suffix=f"_{spec.index}", log=log,
+                            name_suffix=f"_{spec.index}", log=log, timeout_s=spec.timeout_s,
                         )
+                        timed_out = record.returncode == -9 and spec.timeout_s is not None
                     else:
                         submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
-                        record.returncode = run_submission(
+                        outcome = run_submission_child(
                             submission, address=server.address, result_location=run / spec.results, log=log,
                             timeout_s=spec.timeout_s,
                         )
+                        record.returncode, timed_out = outcome.returncode, outcome.timed_out
             finally:
                 server.stop()
             state = service.call(service.episode.state)
@@ -76,12 +90,16 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
 
                 detach_recorder(registry, service, recorder)
             service.close()
-        if record.returncode != 0:
+        if timed_out:
+            record.status = "timeout"
+            record.error = f"stopped after the episode timeout of {spec.timeout_s:g} s"
+        elif record.returncode != 0:
             record.status = "failed"
         elif not (run / spec.results).is_file():
             record.status = "no_results"
         else:
-            record.status = "ok"
+            record.error = results_problem(run / spec.results)
+            record.status = "bad_results" if record.error else "ok"
     except BenchbotError as exc:
         record.status, record.error = "error", exc.message
     record.wall_s = round(time.monotonic() - t0, 3)

@@ -6,12 +6,14 @@ any moment can be resumed).
 from __future__ import annotations
 
 import json
+import math
 import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
+from benchbot.core.registry import json_path, validator
 
 MANIFEST = "manifest.json"
 
@@ -26,7 +28,8 @@ class EpisodeSpec:
         repeat: repetition number (0-based). seed: the episode's seed (``base seed + index``).
         argv, cwd: the submission's command and folder.
         options: robot-backend options (``arch``, ``width``, ``height``).
-        timeout_s: kill the submission after this long (None: never).
+        timeout_s: stop the submission (its whole process group) after this many seconds (None: never); a new
+            batch fills it from the task (:func:`benchbot.batch.runner.default_timeout_s`) unless given.
         results, log: paths relative to the run directory.
         record: also record the episode as MCAP to ``recordings/NNN_<env>.mcap`` (:attr:`recording`).
         container: for containerised solutions, ``{engine, dockerfile, context, args}`` (``argv`` is then unused).
@@ -59,8 +62,9 @@ class EpisodeRecord:
 
     Attributes:
         status: ``pending``, ``running``, ``ok`` (results written), ``failed`` (the submission exited non-zero or
-            was killed), ``no_results`` (it exited 0 without results) or ``error`` (the backend failed: message in
-            ``error``).
+            was killed), ``timeout`` (stopped after ``timeout_s``), ``no_results`` (it exited 0 without results),
+            ``bad_results`` (its results file cannot be read or scored: why in ``error``; it is left out of the
+            scores) or ``error`` (the backend failed: message in ``error``).
         attempts: how many times it was run. steps: actions performed. collided: the robot collided.
         wall_s: seconds of the last attempt. returncode: the submission's exit status.
     """
@@ -91,15 +95,19 @@ def plan_episodes(
     options: dict, timeout_s: float | None, record: bool = False, container: dict | None = None,
 ) -> list[EpisodeSpec]:
     """Episodes for every robot × environment × repetition (in that nesting order); episode ``i`` gets seed
-    ``seed + i``. ``record``: every episode is recorded as MCAP.
+    ``seed + i``. ``record``: every episode is recorded as MCAP. ``timeout_s``: None leaves the task's default to
+    :func:`benchbot.batch.runner.prepare_batch`, 0 means no timeout.
 
     Raises:
-        UsageError: ``repeat`` < 1, or no robots or environments.
+        UsageError: ``repeat`` < 1, no robots or environments, or ``timeout_s`` negative or not finite.
     """
     if repeat < 1:
         raise UsageError(f"--repeat must be at least 1, got {repeat}", "")
     if not robots or not envs:
         raise UsageError("a batch needs at least one robot and one environment", "")
+    if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s >= 0):
+        raise UsageError(f"--episode-timeout must be a number of seconds ≥ 0, got {timeout_s}",
+                         "0 runs without a timeout; leave it out for the task's default")
     specs = []
     for robot in robots:
         for env in envs:
@@ -125,20 +133,68 @@ def write_manifest(run_dir: Path, manifest: dict) -> None:
 
 
 def read_manifest(run_dir: Path) -> dict:
-    """The manifest of a run directory.
+    """The manifest of a run directory, checked by :func:`check_manifest`.
 
     Raises:
-        UsageError: no run directory or no (readable) manifest there.
+        UsageError: no run directory or no (readable) manifest there, or a manifest that fails the check.
     """
     path = run_dir / MANIFEST
     if not path.is_file():
         raise UsageError(f"{run_dir} is not a batch run directory (no {MANIFEST})", "give the folder `benchbot batch` named")
     try:
-        return json.loads(path.read_text())
+        manifest = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
         raise UsageError(f"{path}: not valid JSON ({exc})", "the manifest is written atomically; was it edited?") from None
-    except OSError as exc:
-        raise UsageError(f"{path}: cannot read the manifest ({exc.strerror or exc})", "") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read the manifest ({getattr(exc, 'strerror', None) or exc})", "") from None
+    check_manifest(manifest, path, run_dir)
+    return manifest
+
+
+MANIFEST_HINT = "was it edited? fix the field (schemas/batch_manifest.schema.json) or start a new batch"
+
+
+def check_manifest(manifest: object, source: Path | str, run_dir: Path) -> None:
+    """Check a manifest before anything runs from it: against ``schemas/batch_manifest.schema.json``, then that
+    ``plan`` and ``episodes`` describe the same episodes in index order (0, 1, ...), that no two episodes share a
+    results or log file, and that every results, log and recording path stays inside ``run_dir`` (also through
+    symbolic links).
+
+    Raises:
+        UsageError: ``"<source>: <$.json.path>: <problem>"`` for the first problem found.
+    """
+    def fail(where: str, problem: str) -> None:
+        problem = " ".join(problem.split())
+        if len(problem) > 200:
+            problem = problem[:197] + "..."
+        raise UsageError(f"{source}: {where}: {problem}", MANIFEST_HINT)
+
+    errors = sorted(validator("batch_manifest").iter_errors(manifest), key=lambda e: list(map(str, e.absolute_path)))
+    if errors:
+        fail(json_path(errors[0].absolute_path), errors[0].message)
+    plan, episodes = manifest["plan"], manifest["episodes"]
+    if len(episodes) != len(plan):
+        fail("$.episodes", f"{len(episodes)} records for {len(plan)} planned episodes (they must match one to one)")
+    root = run_dir.resolve()
+    seen: dict[str, str] = {}
+    for i, (spec, record) in enumerate(zip(plan, episodes)):
+        for where, item in ((f"$.plan[{i}]", spec), (f"$.episodes[{i}]", record)):
+            if item["index"] != i:
+                fail(f"{where}.index", f"{item['index']}, expected {i} (episodes are listed in index order)")
+        for key in ("env", "robot", "repeat", "seed", "results", "log"):
+            if key in record and record[key] != spec[key]:
+                fail(f"$.episodes[{i}].{key}", f"{record[key]!r} differs from $.plan[{i}].{key} {spec[key]!r}")
+        for key in ("results", "log"):
+            rel = spec[key]
+            if rel in seen:
+                fail(f"$.plan[{i}].{key}", f"{rel} is also {seen[rel]}")
+            seen[rel] = f"$.plan[{i}].{key}"
+            target = (root / rel).resolve()
+            if not target.is_relative_to(root):
+                fail(f"$.plan[{i}].{key}", f"{rel} resolves to {target}, outside the run directory {root}")
+        recording = (root / EpisodeSpec(**spec).recording).resolve()
+        if not recording.is_relative_to(root):
+            fail(f"$.plan[{i}].results", f"its recording resolves to {recording}, outside the run directory {root}")
 
 
 def specs_from_manifest(manifest: dict) -> tuple[list[EpisodeSpec], list[EpisodeRecord]]:

@@ -9,7 +9,11 @@ A run directory holds::
     episode_scores.json  per-episode scores with environment, robot, repetition and seed
     PREFIX.zip           with --zip: the results files, flat, as the original made them
 
-``--resume RUN_DIR`` re-runs only the episodes whose record is not ``ok``; finished results are never redone.
+``--resume RUN_DIR`` checks the manifest (:func:`~benchbot.batch.plan.check_manifest`) and re-runs only the episodes
+whose record is not ``ok`` (or whose results file has since gone or stopped parsing); finished results are never
+redone. A results file that cannot be read or scored fails its own episode (``bad_results``); the others are scored.
+Every episode has a timeout (:func:`default_timeout_s` unless ``--episode-timeout`` is given) and its solution runs
+in its own process group, stopped whole when the episode ends (:mod:`benchbot.core.process_group`).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable
 
+from benchbot.batch.episode import results_problem
 from benchbot.batch.executors import EventHandler, run_local, run_ray
 from benchbot.batch.plan import (
     EpisodeRecord, EpisodeSpec, new_record, read_manifest, specs_from_manifest, to_json, write_manifest,
@@ -31,18 +36,21 @@ from benchbot.batch.plan import (
 from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import Evaluation, evaluate
+from benchbot.core.process_group import max_log_bytes, stop_grace_s
 from benchbot.core.registry import Registry
 from benchbot.core.session import RunSpec, resolve_run
 
 
 @dataclass
 class BatchOutcome:
-    """A batch's run directory, episode records and evaluation (None when not evaluated)."""
+    """A batch's run directory, episode records and evaluation (None when not evaluated); ``excluded`` lists the
+    episodes whose results are not in the scores (``{index, env, robot, repeat, status, reason}``)."""
 
     run_dir: Path
     episodes: list[EpisodeRecord] = field(default_factory=list)
     evaluation: Evaluation | None = None
     evaluation_error: str = ""
+    excluded: list[dict] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -99,11 +107,59 @@ def _versions(registry: Registry) -> dict:
     return out
 
 
+EPISODE_STARTUP_BUDGET_S = 300.0
+"""Seconds of a default episode timeout for the solution to start, load its models and save its results."""
+
+PASSIVE_STEP_BUDGET_S = 10.0
+"""Seconds per trajectory pose (per step) of a default passive-task episode timeout."""
+
+ACTIVE_SCENE_BUDGET_S = 3600.0
+"""Seconds per scene of a default active-task episode timeout (active tasks have no step count to go by)."""
+
+
+def default_timeout_s(registry: Registry, task: str, env: str) -> float:
+    """The default episode timeout (seconds) of ``task`` on ``env``: for a passive task (its only action is
+    ``move_next``) :data:`EPISODE_STARTUP_BUDGET_S` + :data:`PASSIVE_STEP_BUDGET_S` × the trajectory poses of the
+    environment's scenes (miniroom:1, 48 poses: 780 s); otherwise :data:`ACTIVE_SCENE_BUDGET_S` × its scenes.
+    ``benchbot batch --episode-timeout SECONDS`` replaces it (0: no timeout).
+
+    Raises:
+        SpecError: unknown task or environment.
+    """
+    scenes = registry.scenes(env)
+    if registry.get("tasks", task)["actions"] == ["move_next"]:
+        steps = sum(len(scene.get("trajectory_poses") or []) for scene in scenes)
+        if steps:
+            return EPISODE_STARTUP_BUDGET_S + PASSIVE_STEP_BUDGET_S * steps
+    return ACTIVE_SCENE_BUDGET_S * len(scenes)
+
+
+def apply_timeouts(registry: Registry, specs: list[EpisodeSpec]) -> dict:
+    """Give every spec whose ``timeout_s`` is None its :func:`default_timeout_s`; a ``timeout_s`` of 0 becomes None
+    (no timeout). Changes ``specs`` in place.
+
+    Returns:
+        the manifest's ``episode_timeout`` entry: ``{"source": "default" | "--episode-timeout", "rule": ...}``.
+    """
+    given = {s.timeout_s for s in specs if s.timeout_s is not None}
+    for spec in specs:
+        if spec.timeout_s is None:
+            spec.timeout_s = default_timeout_s(registry, spec.task, spec.env)
+        elif spec.timeout_s == 0:
+            spec.timeout_s = None
+    if given:
+        return {"source": "--episode-timeout", "seconds": None if given == {0} else max(given)}
+    return {"source": "default", "rule": (
+        f"passive tasks: {EPISODE_STARTUP_BUDGET_S:g} s + {PASSIVE_STEP_BUDGET_S:g} s per trajectory pose; "
+        f"active tasks: {ACTIVE_SCENE_BUDGET_S:g} s per scene; see each plan entry's timeout_s")}
+
+
 def prepare_batch(
     registry: Registry, *, run_dir: Path, specs: list[EpisodeSpec], evaluate_with: str | None, prefix: str,
     zip_results: bool,
 ) -> dict:
-    """Validate every combination of the plan, resolve the evaluation method, and write config + manifest.
+    """Validate every combination of the plan, resolve the evaluation method and the episode timeouts
+    (:func:`apply_timeouts`, in place), and write config + manifest.
 
     Returns:
         the manifest.
@@ -112,6 +168,7 @@ def prepare_batch(
         SpecError: a combination is invalid (nothing has run yet) or the named method does not exist.
     """
     runs = {(s.robot, s.env): resolve_run(registry, s.task, s.robot, s.env) for s in specs}
+    episode_timeout = apply_timeouts(registry, specs)
     first = next(iter(runs.values()))
     if evaluate_with == "auto":
         evaluate_with = default_evaluator(registry, first)
@@ -126,7 +183,7 @@ def prepare_batch(
         "command": sys.argv, "task": specs[0].task, "robots": sorted({s.robot for s in specs}),
         "environments": list(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
         "prefix": prefix, "zip": zip_results, "versions": _versions(registry),
-        "started": datetime.now(timezone.utc).isoformat(),
+        "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "plan": to_json(specs), "episodes": to_json([new_record(s) for s in specs]),
     }
     write_manifest(run_dir, manifest)
@@ -169,9 +226,14 @@ def run_batch(
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
     if executor not in ("local", "ray"):
         raise UsageError(f"unknown executor '{executor}'", "use local or ray")
+    max_log_bytes(), stop_grace_s()  # a bad BENCHBOT_MAX_LOG_BYTES / BENCHBOT_STOP_GRACE_S stops here, not per episode
     run_dir = run_dir.resolve()
     manifest = read_manifest(run_dir)
     specs, records = specs_from_manifest(manifest)
+    for record in records:  # results finished earlier but since removed or corrupted are done again
+        problem = results_problem(run_dir / record.results) if record.status == "ok" else ""
+        if problem:
+            record.status, record.error = "bad_results", problem
     by_index = {r.index: r for r in records}
     t0 = time.monotonic()
 
@@ -201,25 +263,54 @@ def run_batch(
     method = manifest.get("evaluate_with")
     if method and done:
         try:
-            outcome.evaluation = evaluate(
-                [run_dir / e.results for e in done], method, registry,
-                required_envs=manifest["environments"], required_task=manifest["task"],
-            )
-            atomic.write_json(run_dir / "scores.json", outcome.evaluation.to_json())
-            by_source = {str(run_dir / e.results): e for e in done}
-            atomic.write_json(run_dir / "episode_scores.json", [
-                {"index": by_source[src].index, "env": by_source[src].env, "robot": by_source[src].robot,
-                 "repeat": by_source[src].repeat, "seed": by_source[src].seed, **scores}
-                for src, scores in outcome.evaluation.per_result if src in by_source
-            ])
+            _evaluate(registry, run_dir, manifest, method, outcome)
         except BenchbotError as exc:
             outcome.evaluation_error = exc.message
+    outcome.excluded = _excluded(outcome.episodes)
     manifest["episodes"] = to_json(outcome.episodes)
     manifest["evaluation_error"] = outcome.evaluation_error
+    manifest["excluded"] = outcome.excluded
     manifest["wall_s"] = round(manifest.get("wall_s", 0.0) + time.monotonic() - t0, 3)
     manifest["finished"] = datetime.now(timezone.utc).isoformat()
     write_manifest(run_dir, manifest)
     return outcome
+
+
+def _excluded(episodes: list[EpisodeRecord]) -> list[dict]:
+    """``{index, env, robot, repeat, status, reason}`` of every episode that is not ``ok``."""
+    return [{"index": e.index, "env": e.env, "robot": e.robot, "repeat": e.repeat, "status": e.status,
+             "reason": e.error or (f"exit status {e.returncode}" if e.returncode else e.status)}
+            for e in episodes if e.status != "ok"]
+
+
+def _evaluate(registry: Registry, run_dir: Path, manifest: dict, method: str, outcome: BatchOutcome) -> None:
+    """Score the ``ok`` episodes' results with ``method``; a results file that cannot be loaded, validated or
+    scored turns its episode into ``bad_results`` (with the one-line reason) instead of failing the whole
+    evaluation, and the others are scored. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes
+    are not in it) and ``episode_scores.json``.
+
+    Raises:
+        BenchbotError: the evaluation as a whole cannot be done (unknown method, results of several tasks).
+    """
+    done = [e for e in outcome.episodes if e.status == "ok"]
+    by_source = {str(run_dir / e.results): e for e in done}
+    evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
+                          required_task=manifest["task"], keep_going=True)
+    for source, exc in evaluation.errors:  # a zip archive's members are named PATH:MEMBER
+        for path, record in by_source.items():
+            if source == path or source.startswith(path + ":"):
+                record.status, record.error = "bad_results", exc.message
+    excluded = _excluded(outcome.episodes)
+    outcome.evaluation = evaluation
+    scores = evaluation.to_json()
+    if excluded and isinstance(scores, dict):
+        scores = {**scores, "excluded_episodes": excluded}
+    atomic.write_json(run_dir / "scores.json", scores)
+    atomic.write_json(run_dir / "episode_scores.json", [
+        {"index": by_source[src].index, "env": by_source[src].env, "robot": by_source[src].robot,
+         "repeat": by_source[src].repeat, "seed": by_source[src].seed, **scores}
+        for src, scores in evaluation.per_result if src in by_source
+    ])
 
 
 def _zip_results(run_dir: Path, prefix: str, done: list[EpisodeRecord]) -> Path:

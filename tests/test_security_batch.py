@@ -1,0 +1,308 @@
+"""Batches against hostile or broken solutions and run directories: results files that do not parse, solutions that
+fork, hang, flood their output or outlive a killed batch, and hand-edited manifests on --resume."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+SMALL = ["--camera-size", "64x48"]
+
+
+def batch(*args, env=None, timeout=120):
+    return subprocess.run([*BENCHBOT, "batch", *args], capture_output=True, text=True, timeout=timeout,
+                          env=None if env is None else {**os.environ, **env})
+
+
+def manifest(run_dir: Path) -> dict:
+    return json.loads((run_dir / "manifest.json").read_text())
+
+
+def only_run_dir(output: Path) -> Path:
+    (run_dir,) = list(output.iterdir())
+    return run_dir
+
+
+def running(pid: int) -> bool:
+    """The process exists and is not a zombie (orphans may stay zombies where init does not reap them)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] not in ("Z", "X")
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+
+
+def wait_gone(pids: list[int], within_s: float) -> list[int]:
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline and any(map(running, pids)):
+        time.sleep(0.1)
+    return [p for p in pids if running(p)]
+
+
+def solution(tmp_path: Path, body: str) -> str:
+    """A native solution: ``body`` after a preamble that forks a child sleeping 120 s and writes
+    ``pids/<solution pid>`` (``<solution pid> <child pid>``) into tmp_path."""
+    (tmp_path / "pids").mkdir()
+    script = tmp_path / "solution.py"
+    script.write_text(
+        "import os, sys, time\n"
+        "child = os.fork()\n"
+        "if child == 0:\n"
+        "    time.sleep(120)\n"
+        "    os._exit(0)\n"
+        f"path = os.path.join({str(tmp_path / 'pids')!r}, str(os.getpid()))\n"
+        "with open(path + '.tmp', 'w') as f:\n"
+        "    f.write(f'{os.getpid()} {child}')\n"
+        "os.replace(path + '.tmp', path)\n" + body
+    )
+    return f"{sys.executable} {script}"
+
+
+def pids(tmp_path: Path, count: int = 1, within_s: float = 90) -> list[int]:
+    """The pids of ``count`` solutions and their forked children (waiting for them to start)."""
+    deadline = time.monotonic() + within_s
+    while len(files := [p for p in (tmp_path / "pids").iterdir() if p.suffix != ".tmp"]) < count:
+        assert time.monotonic() < deadline, "the solutions never started"
+        time.sleep(0.1)
+    return [int(pid) for path in files for pid in path.read_text().split()]
+
+
+def descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (children of all its threads, recursively)."""
+    out = []
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+    except FileNotFoundError:
+        return out
+    for task in tasks:
+        try:
+            children = Path(f"/proc/{pid}/task/{task}/children").read_text().split()
+        except FileNotFoundError:
+            continue
+        for child in map(int, children):
+            out += [child, *descendants(child)]
+    return out
+
+
+# ------------------------------------------------------------------------------------------------ processes
+def test_a_forked_child_ends_with_its_episode_and_episodes_get_a_default_timeout(tmp_path):
+    proc = batch("--native", solution(tmp_path, "sys.exit(0)\n"), "--envs", "miniroom:1", "--no-evaluate",
+                 "--output-dir", str(tmp_path / "runs"), *SMALL)
+    assert proc.returncode == 1, proc.stderr  # no results
+    assert wait_gone(pids(tmp_path), 2) == []  # before: the child slept on after the batch
+    m = manifest(only_run_dir(tmp_path / "runs"))
+    assert m["episodes"][0]["status"] == "no_results"
+    assert m["plan"][0]["timeout_s"] == 300 + 10 * 48  # startup + 10 s × 48 trajectory poses of miniroom:1
+    assert m["episode_timeout"]["source"] == "default"
+
+
+def test_episode_timeout_stops_the_whole_group(tmp_path):
+    t0 = time.monotonic()
+    proc = batch("--native", solution(tmp_path, "time.sleep(120)\n"), "--envs", "miniroom:1", "--no-evaluate",
+                 "--episode-timeout", "2", "--output-dir", str(tmp_path / "runs"), *SMALL)
+    assert time.monotonic() - t0 < 60
+    assert proc.returncode == 1
+    assert wait_gone(pids(tmp_path), 2) == []
+    m = manifest(only_run_dir(tmp_path / "runs"))
+    record = m["episodes"][0]
+    assert record["status"] == "timeout" and "timeout of 2 s" in record["error"], record
+    assert m["plan"][0]["timeout_s"] == 2 and m["episode_timeout"] == {"source": "--episode-timeout", "seconds": 2}
+    assert "timeout" in proc.stderr
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_kill_9_of_the_batch_ends_its_solutions(tmp_path, workers):
+    envs = "miniroom:1" if workers == 1 else "miniroom:1,miniroom:2"
+    batch_proc = subprocess.Popen(
+        [*BENCHBOT, "batch", "--native", solution(tmp_path, "time.sleep(120)\n"), "--envs", envs, "--no-evaluate",
+         "--workers", str(workers), "--output-dir", str(tmp_path / "runs"), "--no-tui", *SMALL],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        solution_pids = pids(tmp_path, workers)
+        below = descendants(batch_proc.pid)
+        assert set(solution_pids) <= set(below)
+        os.kill(batch_proc.pid, signal.SIGKILL)  # the batch alone: its solutions are in their own sessions
+        batch_proc.wait(10)
+        assert wait_gone(solution_pids, 10) == []  # before: they ran on (up to 63 s, or forever for the fork)
+        assert wait_gone(below, 20) == []  # worker processes, watchdogs, the manager
+    finally:
+        if batch_proc.poll() is None:
+            os.killpg(batch_proc.pid, signal.SIGKILL)
+            batch_proc.wait()
+
+
+def test_a_flood_of_output_is_capped_without_blocking_or_losing_the_exit_status(tmp_path):
+    script = tmp_path / "flood.py"
+    script.write_text("import sys\nblock = b'x' * (1 << 20)\nfor _ in range(64):\n    sys.stdout.buffer.write(block)\n"
+                      "sys.stdout.flush()\nsys.exit(5)\n")
+    t0 = time.monotonic()
+    proc = batch("--native", f"{sys.executable} {script}", "--envs", "miniroom:1", "--no-evaluate",
+                 "--episode-timeout", "60", "--output-dir", str(tmp_path / "runs"), *SMALL,
+                 env={"BENCHBOT_MAX_LOG_BYTES": "100000"})
+    assert time.monotonic() - t0 < 60
+    run_dir = only_run_dir(tmp_path / "runs")
+    record = manifest(run_dir)["episodes"][0]
+    assert (record["status"], record["returncode"]) == ("failed", 5), proc.stderr
+    log = (run_dir / record["log"]).read_bytes()
+    assert log.startswith(b"x" * 100000) and len(log) < 100000 + 200
+    assert b"[log truncated at 100000 bytes (67108864 written): raise with BENCHBOT_MAX_LOG_BYTES]" in log
+
+
+def test_a_bad_log_cap_is_a_one_line_error(tmp_path):
+    proc = batch("--native", "true", "--envs", "miniroom:1", "--output-dir", str(tmp_path), *SMALL,
+                 env={"BENCHBOT_MAX_LOG_BYTES": "lots"})
+    assert proc.returncode == 2 and "BENCHBOT_MAX_LOG_BYTES='lots' is not a whole number" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+# ------------------------------------------------------------------------------------------------ bad results
+RESULTS_SOLUTION = """
+import json, os, sys, urllib.request
+config = json.loads(urllib.request.urlopen(os.environ["BENCHBOT_SUPERVISOR_ADDRESS"] + "config/", timeout=10).read())
+scene = config["environments"][0]
+env = f"{scene['name']}:{scene['variant']}"
+corrupt = json.loads(open(sys.argv[1]).read())
+with open(os.environ["BENCHBOT_RESULT_LOCATION"], "w") as f:
+    if env in corrupt:
+        f.write(corrupt[env])
+    else:
+        json.dump({"task_details": config["task"], "environment_details": config["environments"],
+                   "results": {"objects": [], "class_list": ["bottle", "cup"]}}, f)
+"""
+
+
+def test_a_corrupt_results_file_fails_only_its_episode_also_on_resume(tmp_path):
+    script, corrupt = tmp_path / "solution.py", tmp_path / "corrupt.json"
+    script.write_text(RESULTS_SOLUTION)
+    corrupt.write_text(json.dumps({"miniroom:1": "{not json", "miniroom:3": json.dumps({"task_details": {}})}))
+    proc = batch("--native", f"{sys.executable} {script} {corrupt}", "--envs", "miniroom:1,miniroom:2,miniroom:3",
+                 "--output-dir", str(tmp_path / "runs"), *SMALL)
+    assert proc.returncode == 1
+    run_dir = only_run_dir(tmp_path / "runs")
+    episodes = manifest(run_dir)["episodes"]
+    assert [e["status"] for e in episodes] == ["bad_results", "ok", "bad_results"], proc.stderr
+    assert "not valid JSON" in episodes[0]["error"] and "\n" not in episodes[0]["error"]  # found by the episode
+    assert "environment_details" in episodes[2]["error"]  # found by the evaluation
+    scores = json.loads((run_dir / "scores.json").read_text())  # before: no scores at all
+    assert [e["index"] for e in scores["excluded_episodes"]] == [0, 2]
+    assert [e["env"] for e in json.loads((run_dir / "episode_scores.json").read_text())] == ["miniroom:2"]
+    assert [e["status"] for e in manifest(run_dir)["excluded"]] == ["bad_results", "bad_results"]
+    assert "bad_results" in proc.stderr and "not valid JSON" in proc.stderr
+
+    # on resume the bad ones run again, and so does a finished one whose results were damaged since
+    corrupt.write_text("{}")
+    (run_dir / episodes[1]["results"]).write_text("[truncated")
+    proc = batch("--resume", str(run_dir))
+    assert proc.returncode == 0, proc.stderr
+    episodes = manifest(run_dir)["episodes"]
+    assert [(e["status"], e["attempts"]) for e in episodes] == [("ok", 2), ("ok", 2), ("ok", 2)]
+    scores = json.loads((run_dir / "scores.json").read_text())
+    assert "excluded_episodes" not in scores and len(json.loads((run_dir / "episode_scores.json").read_text())) == 3
+
+
+# ------------------------------------------------------------------------------------------------ manifests
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory) -> Path:
+    """A finished 3-episode batch (no evaluation) whose manifest the tests below edit (each on a copy)."""
+    out = tmp_path_factory.mktemp("finished")
+    script = out / "ok.py"
+    script.write_text("import os\nopen(os.environ['BENCHBOT_RESULT_LOCATION'], 'w').write('{}')\n")
+    proc = batch("--native", f"{sys.executable} {script}", "--envs", "miniroom:1,miniroom:2,miniroom:3",
+                 "--no-evaluate", "--output-dir", str(out / "runs"), *SMALL)
+    assert proc.returncode == 0, proc.stderr
+    return only_run_dir(out / "runs")
+
+
+def edited(finished_run: Path, tmp_path: Path, edit) -> Path:
+    import shutil
+
+    run_dir = tmp_path / "run"
+    shutil.copytree(finished_run, run_dir)
+    m = manifest(run_dir)
+    for record in m["episodes"]:
+        record["status"] = "pending"
+    edit(m)
+    (run_dir / "manifest.json").write_text(json.dumps(m))
+    return run_dir
+
+
+def _set(path: str, value):
+    def edit(m):
+        node, keys = m, path.split(".")
+        for key in keys[:-1]:
+            node = node[int(key)] if key.isdigit() else node[key]
+        node[int(keys[-1]) if keys[-1].isdigit() else keys[-1]] = value
+    return edit
+
+
+@pytest.mark.parametrize("edit, message", [
+    (_set("plan", {}), "$.plan: {} is not of type 'array'"),
+    (lambda m: m["episodes"].pop(), "$.episodes: 2 records for 3 planned episodes"),
+    (_set("episodes.1.attempts", "2"), "$.episodes[1].attempts: '2' is not of type 'integer'"),
+    (_set("plan.0.seed", 1.5), "$.plan[0].seed: 1.5 is not of type 'integer'"),
+    (_set("plan.2.results", "results/../../escaped.json"), "$.plan[2].results: 'results/../../escaped.json' does not match"),
+    (_set("plan.2.log", "/tmp/escaped.log"), "$.plan[2].log: '/tmp/escaped.log' does not match"),
+    (_set("plan.1.index", 2), "$.plan[1].index: 2, expected 1"),
+    (_set("episodes.1.env", "house:1"), "$.episodes[1].env: 'house:1' differs from $.plan[1].env 'miniroom:2'"),
+    (lambda m: [_set(f"{key}.1.results", "results/000_miniroom_1.json")(m) for key in ("plan", "episodes")],
+     "$.plan[1].results: results/000_miniroom_1.json is also $.plan[0].results"),
+    (_set("plan.0.timeout_s", -1), "$.plan[0].timeout_s: -1 is less than or equal to the minimum of 0"),
+])
+def test_resume_refuses_a_bad_manifest_naming_the_field(finished_run, tmp_path, edit, message):
+    run_dir = edited(finished_run, tmp_path, edit)
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    proc = batch("--resume", str(run_dir))
+    assert proc.returncode == 2, proc.stderr
+    first = proc.stderr.splitlines()[0]
+    assert first.startswith(f"error: {run_dir / 'manifest.json'}: ") and message in first, proc.stderr
+    assert "Traceback" not in proc.stderr and "already done" not in proc.stderr
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before  # nothing ran, nothing written
+
+
+def test_resume_refuses_a_results_folder_linked_outside_the_run_directory(finished_run, tmp_path):
+    run_dir = edited(finished_run, tmp_path, lambda m: None)
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    import shutil
+
+    shutil.rmtree(run_dir / "results")
+    (run_dir / "results").symlink_to(outside)
+    proc = batch("--resume", str(run_dir))
+    assert proc.returncode == 2 and "outside the run directory" in proc.stderr, proc.stderr
+    assert list(outside.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------------------------ timeouts
+def test_default_episode_timeouts_follow_the_task_and_the_flag_replaces_them():
+    from benchbot.batch.plan import plan_episodes
+    from benchbot.batch.runner import apply_timeouts, default_timeout_s
+    from benchbot.core.errors import UsageError
+    from benchbot.core.registry import get_registry
+
+    registry = get_registry()
+    poses = [len(scene["trajectory_poses"]) for scene in registry.scenes("miniroom:1:2")]
+    assert default_timeout_s(registry, "semantic_slam:passive:ground_truth", "miniroom:1") == 300 + 10 * 48
+    assert default_timeout_s(registry, "scd:passive:ground_truth", "miniroom:1:2") == 300 + 10 * sum(poses)
+    assert default_timeout_s(registry, "semantic_slam:active:ground_truth", "miniroom:1") == 3600
+    assert default_timeout_s(registry, "scd:active:ground_truth", "miniroom:1:2") == 7200
+
+    def plan(timeout_s):
+        return plan_episodes(task="semantic_slam:active:ground_truth", robots=["carter"], envs=["miniroom:1"],
+                             repeat=1, seed=0, argv=["x"], cwd=".", options={}, timeout_s=timeout_s)
+
+    specs = plan(None)
+    assert apply_timeouts(registry, specs)["source"] == "default" and specs[0].timeout_s == 3600
+    specs = plan(0)
+    assert apply_timeouts(registry, specs) == {"source": "--episode-timeout", "seconds": None}
+    assert specs[0].timeout_s is None  # 0: no timeout
+    for bad in (-1, float("nan"), float("inf")):
+        with pytest.raises(UsageError, match="--episode-timeout must be a number of seconds ≥ 0"):
+            plan(bad)
