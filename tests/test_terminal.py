@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 sys.path.insert(0, str(Path(__file__).parent))
 from terminal import Terminal  # noqa: E402
 
@@ -78,11 +80,14 @@ def test_batch_without_a_terminal_prints_each_episode_as_it_finishes(tmp_path):
         proc.wait()
 
 
-def test_a_batch_that_cannot_start_leaves_no_run_directory(tmp_path):
-    proc = subprocess.run([*_batch(tmp_path, "miniroom:4"), "--evaluate-with", "nope"], capture_output=True,
-                          text=True, timeout=120)
-    assert proc.returncode == 3 and "no evaluator named 'nope'" in proc.stderr
-    assert list(tmp_path.iterdir()) == []
+@pytest.mark.parametrize("flags, code, message", [
+    (["--evaluate-with", "nope"], 3, "no evaluator named 'nope'"),
+    (["--prefix", "../escape"], 2, "--prefix '../escape' is not a name"),
+])
+def test_a_batch_that_cannot_start_leaves_no_run_directory(tmp_path, flags, code, message):
+    proc = subprocess.run([*_batch(tmp_path, "miniroom:4"), *flags], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == code and message in proc.stderr, proc.stderr
+    assert list(tmp_path.iterdir()) == [] and not (tmp_path.parent / "escape").exists()
 
 
 def test_a_batch_that_scored_nothing_says_so(tmp_path):

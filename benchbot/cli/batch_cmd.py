@@ -50,7 +50,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="Seed of the first episode (episode i uses seed + i)."),
         arch: str = typer.Option("auto", "--arch", help="Simulator device: auto (a GPU when an NVIDIA device is present, else the CPU), cpu or gpu."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
-        timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Kill a solution after this many seconds (the episode fails)."),
+        timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Stop a solution (its whole process group) after this many seconds; default from the task (passive: 300 s + 10 s per trajectory pose, active: 3600 s per scene); 0: none."),
         as_json: bool = typer.Option(False, "--json", help="Print the outcome as JSON on stdout."),
         record: bool = typer.Option(False, "--record", help="Record every episode as MCAP (ROS 2 messages) in RUN_DIR/recordings/NNN_<env>.mcap."),
         no_tui: bool = typer.Option(False, "--no-tui", help="Progress bars instead of the live episode table (the default when stderr is not a terminal)."),
@@ -76,6 +76,8 @@ def register(app: typer.Typer) -> None:
                                  "e.g. --example semslam_geometric")
             if example_containerised and not example:
                 raise UsageError("--example-containerised needs --example NAME", "")
+            if not prefix or any(c in prefix for c in "/\\") or prefix in (".", ".."):
+                raise UsageError(f"--prefix '{prefix}' is not a name", "give a plain name, e.g. --prefix ablation")
             env_list = parse_env_list(envs, envs_batch, reg)
             robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
             container = None
