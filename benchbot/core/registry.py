@@ -10,7 +10,6 @@ A spec that fails to load or validate, or whose name clashes with another, is ke
 
 from __future__ import annotations
 
-import difflib
 import functools
 import json
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ from benchbot.core.content_packs import (
     LOAD_ERROR_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
 )
 from benchbot.core.errors import SpecError
+from benchbot.core.names import close_names, did_you_mean
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
 from benchbot.core.safe_load import MAX_SPEC_BYTES, load_data_file
 
@@ -66,6 +66,8 @@ def json_path(path: "list[Any] | Any") -> str:
 def validate(instance: Any, schema_name: str, source: str) -> None:
     """Validate ``instance`` against ``schemas/<schema_name>.schema.json``.
 
+    A task's ``actions`` must also be actions the episode performs (:func:`check_task_actions`).
+
     Raises:
         SpecError: ``"<source>: <$.json.path>: <message>"`` for the first error (by path).
     """
@@ -76,6 +78,26 @@ def validate(instance: Any, schema_name: str, source: str) -> None:
             f"{source}: {json_path(err.absolute_path)}: {err.message}",
             f"fix the field to match schemas/{schema_name}.schema.json",
         )
+    if schema_name == "task":
+        check_task_actions(instance, source)
+
+
+def check_task_actions(task: dict, source: str) -> None:
+    """Every name in a task spec's ``actions`` must be one of :data:`benchbot.core.episode.ACTIONS` (else no robot
+    could perform it; checked when the registry loads the spec and when ``benchbot install`` scans a pack).
+
+    Raises:
+        SpecError: ``"<source>: $.actions[i]: unknown action 'x' (did you mean …?)"`` (the suggestion is in the
+            message, which ``benchbot install`` lists per file).
+    """
+    from benchbot.core.episode import ACTIONS
+
+    for i, action in enumerate(task.get("actions") or []):
+        if action not in ACTIONS:
+            close = close_names(action, list(ACTIONS))
+            guess = f" (did you mean {', '.join(close)}?)" if close else ""
+            raise SpecError(f"{source}: $.actions[{i}]: unknown action '{action}'{guess}",
+                            f"the actions are {', '.join(ACTIONS)}")
 
 
 def load_spec_file(path: Path) -> dict:
@@ -218,9 +240,7 @@ class Registry:
         try:
             return self.entries[kind][name]
         except KeyError:
-            close = difflib.get_close_matches(name, self.names(kind), n=3)
-            hint = f"did you mean {', '.join(close)}?" if close else f"see `benchbot list {kind}`"
-            raise SpecError(f"no {singular(kind)} named '{name}'", hint) from None
+            raise SpecError(f"no {singular(kind)} named '{name}'", did_you_mean(name, self.names(kind), kind)) from None
 
     def get(self, kind: str, name: str) -> dict:
         """The spec ``name`` of ``kind`` (see :meth:`entry`)."""
