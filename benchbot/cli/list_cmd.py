@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import enum
 import json
+import re
 from dataclasses import asdict
 
 import typer
+from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
 from benchbot.cli.common import handle_errors, out, registry
+from benchbot.core.names import close_names
 
 
 class Kind(str, enum.Enum):
@@ -24,6 +28,41 @@ class Kind(str, enum.Enum):
     batches = "batches"
     ground_truths = "ground_truths"
     plugins = "plugins"
+
+
+#: Other spellings of the kinds that ``benchbot list``/``show`` accept (singular forms and short names).
+KIND_ALIASES = {**{k.value[:-1]: k for k in Kind if k is not Kind.batches}, "batch": Kind.batches,
+                "ground-truths": Kind.ground_truths, "gt": Kind.ground_truths, "env": Kind.environments,
+                "envs": Kind.environments, "evaluation_methods": Kind.evaluators, "methods": Kind.evaluators}
+KINDS_HELP = ", ".join(k.value for k in Kind)
+
+
+def parse_kind(value: str) -> Kind:
+    """Argument callback: the :class:`Kind` named ``value`` (a plural as listed, or a singular such as ``task``).
+
+    Raises:
+        typer.BadParameter: no kind has that name (the message suggests close ones and lists every kind).
+    """
+    text = value.strip().lower()
+    if text in Kind.__members__:
+        return Kind(text)
+    if text in KIND_ALIASES:
+        return KIND_ALIASES[text]
+    close = close_names(text, [k.value for k in Kind])
+    guess = f"did you mean {', '.join(close)}? " if close else ""
+    raise typer.BadParameter(f"'{value}' is not a kind of spec; {guess}(kinds: {KINDS_HELP})")
+
+
+def first_sentence(text: str) -> str:
+    """The first sentence of a description, on one line, without its full stop. A sentence ends at '. ' before a
+    capital letter outside brackets, so abbreviations stay ("Hall et al. 2020", "e.g. a group")."""
+    flat = " ".join(str(text).split())
+    depth = 0
+    for i, ch in enumerate(flat):
+        depth += (ch in "([{") - (ch in ")]}")
+        if ch == "." and depth <= 0 and re.match(r"\.\s+[A-Z]", flat[i:i + 3]):
+            return flat[:i]
+    return flat.rstrip(".")
 
 
 def plugin_rows() -> list[dict]:
@@ -52,11 +91,13 @@ def print_plugins(as_json: bool) -> None:
         if p.get("packs"):
             what += ("; " if what else "") + "packs: " + ", ".join(pk["name"] for pk in p["packs"])
         if p["error"]:
-            what = f"[red]{p['error']}[/]"
+            what = f"[red]{escape(p['error'])}[/]"
+        else:
+            what = escape(what)
         for problem in p["problems"]:
-            what += f"\n[yellow]skipped:[/] {problem}"
+            what += f"\n[yellow]skipped:[/] {escape(problem)}"
         status = p["status"] + (f" ({len(p['problems'])} problem(s))" if p["problems"] else "")
-        table.add_row(p["name"], p["distribution"], p["version"], status, hooks, what)
+        table.add_row(*(Text(str(v)) for v in (p["name"], p["distribution"], p["version"], status, hooks)), what)
     out.print(table)
 
 
@@ -64,7 +105,7 @@ def register(app: typer.Typer) -> None:
     @app.command("list")
     @handle_errors
     def list_(
-        kind: Kind = typer.Argument(..., help="What to list."),
+        kind: str = typer.Argument(..., metavar="KIND", callback=parse_kind, help=f"What to list: {KINDS_HELP} (or a singular, e.g. task)."),
         as_json: bool = typer.Option(False, "--json", help="Print JSON (for machines)."),
     ) -> None:
         """List installed tasks, robots, environments, formats, evaluators, examples, batches, ground truths or
@@ -83,7 +124,6 @@ def register(app: typer.Typer) -> None:
             return
         table = Table("name", "plugin", "description")
         table.columns[0].no_wrap = True
-        for e in entries:
-            desc = " ".join(str(e.spec.get("description", "")).split())
-            table.add_row(e.name, e.plugin, desc.split(". ")[0].rstrip("."))
+        for e in entries:  # spec text is shown as written: Text, never markup ("centroid [x, y, z]" keeps its brackets)
+            table.add_row(Text(e.name), Text(e.plugin), Text(first_sentence(e.spec.get("description", ""))))
         out.print(table)

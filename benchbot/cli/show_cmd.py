@@ -8,7 +8,7 @@ import typer
 import yaml
 
 from benchbot.cli.common import handle_errors, out, registry
-from benchbot.cli.list_cmd import Kind
+from benchbot.cli.list_cmd import KINDS_HELP, Kind, parse_kind
 from benchbot.core.errors import UsageError
 from benchbot.core.registry import singular
 
@@ -17,7 +17,7 @@ def register(app: typer.Typer) -> None:
     @app.command("show")
     @handle_errors
     def show(
-        kind: Kind = typer.Argument(..., help="The kind of spec."),
+        kind: str = typer.Argument(..., metavar="KIND", callback=parse_kind, help=f"The kind of spec: {KINDS_HELP} (or a singular, e.g. robot)."),
         name: str = typer.Argument(..., help="Its name (environments: name:variant, e.g. miniroom:1)."),
         as_json: bool = typer.Option(False, "--json", help="Print JSON."),
     ) -> None:
@@ -29,7 +29,8 @@ def register(app: typer.Typer) -> None:
         if as_json:
             out.print_json(json.dumps(spec))
             return
-        out.print(f"# {singular(kind.value)} '{entry.name}' from plugin {entry.plugin}" + (f" ({entry.path})" if entry.path else ""), highlight=False)
+        # spec text is printed as written (markup=False): "[x, y, z]" in a description is not Rich markup
+        out.print(f"# {singular(kind.value)} '{entry.name}' from plugin {entry.plugin}" + (f" ({entry.path})" if entry.path else ""), markup=False, highlight=False)
         text = yaml.safe_dump(spec, sort_keys=False, width=110)
         lines = text.splitlines()
-        out.print("\n".join(lines[:60]) + (f"\n... ({len(lines) - 60} more lines; --json for all)" if len(lines) > 60 else ""), highlight=False)
+        out.print("\n".join(lines[:60]) + (f"\n... ({len(lines) - 60} more lines; --json for all)" if len(lines) > 60 else ""), markup=False, highlight=False)
