@@ -39,18 +39,29 @@ def _score_keys(entries: list[dict]) -> list[str]:
 def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
     """A table of the per-result scores and the combined scores on stdout (and, with ``per_class``, a table of
     the per-class scores of every result and of the combination); skipped results and missing environments on
-    stderr."""
+    stderr. Counts (TP, FP, FN) are integers; rows of one environment are labelled by their results file
+    (:mod:`benchbot.cli.tables`)."""
+    from rich.markup import escape
+
+    from benchbot.cli.tables import COUNT_KEYS, count_cell, plural, row_labels
+
+    def cell(key: str, value: object) -> str:
+        return count_cell(value) if key in COUNT_KEYS else _fmt(value)
+
     keys = _score_keys([s.get("scores", {}) for _, s in evaluation.per_result])
     mode = getattr(evaluation, "combine_mode", "mean")
     table = Table("environment", *[SHORT.get(k, k) for k in keys], title=f"{evaluation.method} scores")
-    for source, s in evaluation.per_result:
-        table.add_row(_env_name(source, s), *[_fmt(s["scores"].get(k, "")) for k in keys])
+    labels = row_labels([(source, _env_name(source, s)) for source, s in evaluation.per_result])
+    for label, (source, s) in zip(labels, evaluation.per_result):
+        table.add_row(escape(label), *[cell(k, s["scores"].get(k, "")) for k in keys])
     if evaluation.combined is not None and len(evaluation.per_result) + len(evaluation.missing) > 1:
         combined = evaluation.combined.get("scores", {})
-        table.add_row(f"[bold]combined[/] ({mode})", *[_fmt(combined.get(k, "")) for k in keys])
+        counted = plural(len(evaluation.per_result), "result") + (
+            f" + {len(evaluation.missing)} missing" if evaluation.missing else "")
+        table.add_row(f"[bold]combined[/] ({mode} of {counted})", *[cell(k, combined.get(k, "")) for k in keys])
     out.print(table)
     if per_class:
-        rows = [(_env_name(src, s), s["per_class"]) for src, s in evaluation.per_result if "per_class" in s]
+        rows = [(label, s["per_class"]) for label, (src, s) in zip(labels, evaluation.per_result) if "per_class" in s]
         if evaluation.combined is not None and "per_class" in evaluation.combined and len(rows) > 1:
             rows.append(("combined (pooled)", evaluation.combined["per_class"]))
         class_keys = _score_keys([c["scores"] for _, pc in rows for c in pc.values()])
@@ -58,12 +69,13 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
                          title=f"{evaluation.method} scores per class")  # fmt: skip
         for env, pc in rows:
             for cls, entry in pc.items():
-                pc_table.add_row(env, cls, *[_fmt(entry["scores"].get(k, "")) for k in class_keys])
+                pc_table.add_row(escape(env), escape(str(cls)), *[cell(k, entry["scores"].get(k, "")) for k in class_keys])
         out.print(pc_table)
     for source, why in evaluation.skipped:
-        err.print(f"[yellow]skipped[/] {source}: {why}", highlight=False)
+        err.print(f"[yellow]skipped[/] {escape(str(source))}: {escape(str(why))}", highlight=False)
     for env in evaluation.missing:
-        err.print(f"[yellow]missing[/] no results for required environment {env} (it counts as 0)", highlight=False)
+        err.print(f"[yellow]missing[/] no results for required environment {escape(str(env))} (it counts as 0)",
+                  highlight=False)
 
 
 def _print_errors(errors: list) -> None:
@@ -100,7 +112,7 @@ def register(app: typer.Typer) -> None:
     def eval_(
         files: list[Path] = typer.Argument(..., help="Results JSON files and/or .zip archives of them."),
         method: str = typer.Option("omq", "--method", "-m", help="Evaluation method (`benchbot list evaluators`)."),
-        output: Path = typer.Option(Path("scores.json"), "--output-location", "-o", help="Where to write the scores."),
+        output: Path = typer.Option(Path("scores.json"), "--output-location", "--output", "-o", help="Where to write the scores."),
         required_envs: Optional[str] = typer.Option(None, "--required-envs", help="Comma list of environments that must be covered, e.g. miniroom:1,house:1:2."),
         required_envs_batch: Optional[str] = typer.Option(None, "--required-envs-batch", help="Take the required environments from a batch (`benchbot list batches`)."),
         required_task: Optional[str] = typer.Option(None, "--required-task", help="Only score results of this task."),
