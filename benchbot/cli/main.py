@@ -23,10 +23,34 @@ Typical use:
 
   benchbot eval results.json        (score a results file with OMQ)
 
-See `benchbot list tasks|robots|environments|...` for what is installed.
+See `benchbot list tasks|robots|environments|...` for what is installed. A short flag means the same in every
+command: -e environment(s), -t task, -r robot, -n native, -c containerised, -E example, -a args, -o output
+(docs/cli.md).
 """
 
-app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich")
+
+def _no_type_on_flags() -> None:
+    """Typer's rich help shows ``<bool>`` after every flag (``--json <bool>``, even ``--help <bool>``), as if it
+    took a value; a flag takes none, so its type column is left empty (options that take a value keep theirs)."""
+    from typer.core import TyperOption
+
+    shown = TyperOption.display_type_rich
+    if getattr(shown, "_benchbot_flags_untyped", False):
+        return
+
+    def display_type_rich(self: TyperOption, ctx: Any) -> "str | None":
+        return None if self.is_flag or self.count else shown(self, ctx)
+
+    display_type_rich._benchbot_flags_untyped = True  # type: ignore[attr-defined]
+    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+
+
+_no_type_on_flags()
+
+#: -h is --help in every command (as in the original BenchBot); sub-commands and plugins' commands inherit it.
+CONTEXT = {"help_option_names": ["-h", "--help"]}
+app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
+                  context_settings=CONTEXT)
 for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd):
     module.register(app)
 

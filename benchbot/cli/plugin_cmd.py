@@ -27,7 +27,7 @@ def register(app: typer.Typer) -> None:
     def new(
         name: str = typer.Argument(..., help="Plugin name, e.g. 'mysim' (distribution benchbot-<kind>-<name>)."),
         kind: str = typer.Option(..., "--kind", "-k", help="sim, robot, task, eval or env."),
-        out_dir: Path = typer.Option(Path("."), "--out", "-o", help="Folder to create the project in."),
+        out_dir: Path = typer.Option(Path("."), "--output", "--out", "-o", help="Folder to create the project in."),
         force: bool = typer.Option(False, "--force", help="Write into an existing, non-empty project folder."),
     ) -> None:
         """Write a complete plugin project: pyproject (entry point), hook implementations, an example spec,

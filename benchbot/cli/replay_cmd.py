@@ -16,7 +16,7 @@ def register(app: typer.Typer) -> None:
     @handle_errors
     def replay(
         file: Path = typer.Argument(..., help="A recording written by `benchbot run/batch --record` (.mcap)."),
-        port: int = typer.Option(10000, "--port", "-p", min=0, max=65535, help="TCP port on 127.0.0.1 (0: any free port)."),
+        port: int = typer.Option(10000, "--port", min=0, max=65535, help="TCP port on 127.0.0.1 (0: any free port)."),
     ) -> None:
         """Serve a recorded episode on 127.0.0.1 as if it were the simulator: the same task, robot and environment,
         the recorded observations at every step. A solution of the passive task can be re-run and re-scored

@@ -34,6 +34,8 @@ def benchbot_commands(app: Any) -> None:
     """``benchbot ros2 serve-sim --env ENV``: the Taichi simulator served as a ROS 2 robot."""
     import typer
 
+    from benchbot.cli.options import ARCH_HELP, arch_value
+
     ros2 = typer.Typer(help="ROS 2 robots: serve the simulator as a ROS 2 robot.", no_args_is_help=True)
 
     @ros2.command("serve-sim")
@@ -41,7 +43,7 @@ def benchbot_commands(app: Any) -> None:
         env: str = typer.Option(..., "--env", "-e", help="Environment, e.g. miniroom:1."),
         domain_id: Optional[int] = typer.Option(None, "--domain-id", min=0, max=232, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID or 0)."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default 640x480)."),
-        arch: str = typer.Option("cpu", "--arch", help="Simulator device: cpu or gpu."),
+        arch: str = typer.Option("auto", "--arch", callback=arch_value, help=ARCH_HELP),
         time_scale: float = typer.Option(1.0, "--time-scale", min=0.01, help="Simulated seconds per wall second."),
         camera_hz: float = typer.Option(10.0, "--camera-hz", min=0.1, help="Camera rate (simulated time)."),
         transport: str = typer.Option("auto", "--transport", help="auto (rclpy if importable), rclpy or cyclonedds."),

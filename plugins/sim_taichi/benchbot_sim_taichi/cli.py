@@ -71,11 +71,12 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
            output: Path = typer.Option(..., "-o", "--output", help="PNG file to write"),
            pose: str = typer.Option(None, "--pose", help="camera x,y,z (m),yaw (deg); default: the start pose"),
            mode: str = typer.Option("fast", "--mode", help="fast or quality"),
-           width: int = typer.Option(640, "--width"), height: int = typer.Option(480, "--height"),
+           width: int = typer.Option(640, "--width", help="image width, pixels"),
+           height: int = typer.Option(480, "--height", help="image height, pixels"),
            spp: int = typer.Option(32, "--spp", help="samples per pixel in quality mode"),
            shadow_samples: int = typer.Option(8, "--shadow-samples", help="soft-shadow rays per light (fast mode)"),
            fov: float = typer.Option(90.0, "--fov", help="horizontal field of view, degrees"),
-           seed: int = typer.Option(0, "--seed")) -> None:
+           seed: int = typer.Option(0, "--seed", help="seed of the scene's colour variation and of the sampling")) -> None:
     """Render one RGB view of ENV to a PNG."""
 
     def go():
