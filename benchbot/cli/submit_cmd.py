@@ -14,10 +14,10 @@ import typer
 from benchbot.api.benchbot import tls_context
 from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.cli.eval_cmd import print_scores
-from benchbot.cli.options import native_words, refused
 from benchbot.core import atomic
-from benchbot.core.errors import ExitCode, UsageError
+from benchbot.core.errors import BackendError, ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
+from benchbot.core.result_files import ORIGINAL_RESULT_LOCATION, ResultWatch, submission_result_location
 from benchbot.core.submission import (
     container_engine,
     container_files,
@@ -42,28 +42,98 @@ def _run_info(address: str) -> dict:
         return {}
 
 
+#: Seconds ``benchbot submit`` gives the backend to accept a connection and answer ``GET /`` before running anything
+#: (a running backend answers in milliseconds); ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` overrides it.
+BACKEND_CHECK_TIMEOUT_S = 1.0
+#: Seconds ``benchbot submit`` waits for a backend that accepted the connection but has not answered yet (one still
+#: building its simulator, which takes seconds); ``$BENCHBOT_BACKEND_START_WAIT_S`` overrides it.
+BACKEND_START_WAIT_S = 60.0
+
+
+def env_seconds(name: str, default: float) -> float:
+    """``$name`` as a number of seconds, ``default`` when unset or empty.
+
+    Raises:
+        UsageError: the variable is not a positive number (naming it).
+    """
+    raw = os.environ.get(name, "").strip()
+    if not raw:
+        return default
+    try:
+        value = float(raw)
+    except ValueError:
+        value = -1.0
+    if not 0 < value < float("inf"):
+        raise UsageError(f"${name}={raw!r} is not a positive number of seconds", f"unset it for the default ({default:g} s)")
+    return value
+
+
+def check_backend(address: str) -> None:
+    """Make sure a BenchBot backend answers ``GET /`` at ``address`` (sending ``$BENCHBOT_TOKEN`` when set), so that
+    a submission never starts against nothing: nothing listening fails at once; a connection not accepted within
+    :data:`BACKEND_CHECK_TIMEOUT_S` fails then; a backend that accepted but is still starting is waited for (said on
+    stderr) up to :data:`BACKEND_START_WAIT_S`.
+
+    Raises:
+        BackendError: nothing listens there, it did not answer in time, it wants a token, or it answered with an
+            error status (one line naming the address, and the fix).
+        UsageError: a bad ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` or ``$BENCHBOT_BACKEND_START_WAIT_S``.
+    """
+    timeout = env_seconds("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", BACKEND_CHECK_TIMEOUT_S)
+    start_wait = env_seconds("BENCHBOT_BACKEND_START_WAIT_S", BACKEND_START_WAIT_S)
+    token = os.environ.get("BENCHBOT_TOKEN")
+    fix = "start one in another terminal: `benchbot run --env miniroom:1` (or give --address / " \
+          "BENCHBOT_SUPERVISOR_ADDRESS of a running one)"
+
+    def get(read_s: float) -> httpx.Response:
+        return httpx.get(address, timeout=httpx.Timeout(read_s, connect=timeout), verify=tls_context(address) or True,
+                         headers={"X-BenchBot-Token": token} if token else {})
+
+    try:
+        try:
+            reply = get(timeout)
+        except httpx.ReadTimeout:
+            err.print(f"the backend at {address} accepted the connection but has not answered yet; waiting up to "
+                      f"{start_wait:g} s for it to finish starting", highlight=False)
+            try:
+                reply = get(start_wait)
+            except httpx.ReadTimeout:
+                raise BackendError(f"the backend at {address} accepted the connection but did not answer within "
+                                   f"{timeout + start_wait:g} s", "is it stuck? restart `benchbot run`; "
+                                   "$BENCHBOT_BACKEND_START_WAIT_S waits longer") from None
+    except httpx.ConnectTimeout:
+        raise BackendError(f"nothing at {address} accepted a connection within {timeout:g} s",
+                           fix + "; $BENCHBOT_BACKEND_CHECK_TIMEOUT_S waits longer") from None
+    except httpx.HTTPError as exc:
+        raise BackendError(f"no BenchBot backend answers at {address} ({exc or type(exc).__name__})", fix) from None
+    if reply.status_code == 401:
+        raise BackendError(f"the backend at {address} wants a token (HTTP 401)",
+                           "export BENCHBOT_TOKEN=<the token `benchbot run` printed>")
+    if reply.status_code != 200:
+        raise BackendError(f"{address} answered GET / with HTTP {reply.status_code}: not a BenchBot backend?",
+                           "give --address of the `benchbot run` backend")
+
+
 def register(app: typer.Typer) -> None:
     @app.command("submit", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
     @handle_errors
     def submit(
-        command: Optional[list[str]] = typer.Argument(None, callback=native_words, help="With --native CMD: more words of the command (--native python my.py runs python my.py)."),
-        native: Optional[str] = typer.Option(None, "--native", "-n", help="Run CMD (and the words after it) on this machine, in this folder, e.g. --native python my.py."),
+        command: Optional[list[str]] = typer.Argument(None, help="With --native: the command and its arguments."),
+        native: bool = typer.Option(False, "--native", "-n", help="Run COMMAND on this machine, in this folder."),
         containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman; the build context is its folder."),
         submission: Optional[Path] = typer.Option(None, "--submission", "-s", help="Package DIR as a .tgz plus a manifest (--args: output path; default ../submission.tgz relative to DIR)."),
         example: Optional[str] = typer.Option(None, "--example", "-E", help="Run an installed example (`benchbot list examples`)."),
         example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the command (containers: the variable `args`; -s: output path)."),
-        evaluate_with: Optional[str] = typer.Option(None, "--evaluate-with", help="Evaluate the results afterwards (e.g. omq; the original's -e, which is --env in every command now)."),
-        results_location: Optional[Path] = typer.Option(None, "--results-location", help="Also copy the results here (the original's -r, which is --robot in every command now)."),
+        evaluate_with: Optional[str] = typer.Option(None, "--evaluate-with", "-e", help="Evaluate the results afterwards (e.g. omq)."),
+        results_location: Optional[Path] = typer.Option(None, "--results-location", "-r", help="Also copy the results here."),
         address: str = typer.Option(os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS", DEFAULT_ADDRESS), "--address", help="The backend (`benchbot run`)."),
-        scores: Path = typer.Option(Path("scores.json"), "--scores", "--output", "-o", help="Where --evaluate-with writes scores."),
+        scores: Path = typer.Option(Path("scores.json"), "--scores", "-o", help="Where --evaluate-with writes scores."),
         timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill the submission (native, or the container once built) after this many seconds."),
-        _env: Optional[str] = typer.Option(None, "--env", "-e", hidden=True, help="Refused: benchbot run chooses the environment.", callback=refused("-e", "submit runs against the environment `benchbot run --env` chose; to evaluate, use --evaluate-with METHOD (the original's -e)")),
-        _robot: Optional[str] = typer.Option(None, "--robot", "-r", hidden=True, help="Refused: benchbot run chooses the robot.", callback=refused("-r", "submit runs against the robot `benchbot run --robot` chose; to copy the results, use --results-location FILE (the original's -r)")),
     ) -> None:
         """Run a solution against the backend started by `benchbot run`.
 
-        Examples: `benchbot submit --native python my_solution.py`, `benchbot submit --example hello_passive --evaluate-with omq`,
+        Examples: `benchbot submit --native python my_solution.py`, `benchbot submit --example hello_passive -e omq`,
         `benchbot submit --containerised my_dir/`, `benchbot submit --submission my_dir/`.
         """
         reg = registry()
@@ -100,25 +170,45 @@ def register(app: typer.Typer) -> None:
             err.print(f"submission archive {archive}; manifest {manifest}")
             return
 
+        # the submission first (its files, the container engine), then the backend: each fails in one line
+        in_container = containerised is not None or example_containerised
+        if in_container:
+            dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
+            engine = container_engine()
+        else:
+            sub = example_submission(reg, example, args) if example else native_submission(command or [], args)
+        check_backend(address)
+        location = submission_result_location()
+        with writing(location, "BENCHBOT_RESULT_LOCATION"):
+            location.parent.mkdir(parents=True, exist_ok=True)
+        if in_container:
+            err.print(f"building and running {dockerfile} with {engine} against {address}")
+            watch = ResultWatch(location)  # the container writes its own /tmp/benchbot_result, copied to location
+            code = run_container_submission(engine, dockerfile, context, address=address, result_location=location,
+                                            args=args, token=os.environ.get("BENCHBOT_TOKEN"), timeout_s=timeout)
+        else:
+            err.print(f"running {sub.label} against {address}")
+            watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)
+            code = run_submission(sub, address=address, result_location=location, timeout_s=timeout)
+        result = watch.found()
+        if result == location:
+            err.print(f"results saved to {result}")
+        elif result is not None:
+            err.print(f"results saved to {result}, written by this submission in place of "
+                      f"BENCHBOT_RESULT_LOCATION={location} (an original benchbot_api client always writes "
+                      f"{ORIGINAL_RESULT_LOCATION}); that file is the one used", highlight=False)
+        if code != 0:
+            err.print(f"[red]the submission exited with status {code}[/]")
+            raise typer.Exit(code if 0 < code < 256 else int(ExitCode.FAILURE))
+        if result is None:
+            older = " (the file there is older than this submission: not used)" if watch.stale() else ""
+            if not (evaluate_with or results_location):
+                err.print(f"[yellow]warning:[/] the submission saved no results at {location}{older}")
+                return
+            err.print(f"[yellow]warning:[/] the submission saved no results at {location}{older}; using {{}}")
         with tempfile.TemporaryDirectory(prefix="benchbot-submit-") as tmp:
-            result = Path(tmp) / "result.json"
-            if containerised is not None or example_containerised:
-                dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
-                engine = container_engine()
-                err.print(f"building and running {dockerfile} with {engine} against {address}")
-                code = run_container_submission(engine, dockerfile, context, address=address, result_location=result,
-                                                args=args, token=os.environ.get("BENCHBOT_TOKEN"), timeout_s=timeout)
-            else:
-                sub = example_submission(reg, example, args) if example else native_submission(command or [], args)
-                err.print(f"running {sub.label} against {address}")
-                code = run_submission(sub, address=address, result_location=result, timeout_s=timeout)
-            if code != 0:
-                err.print(f"[red]the submission exited with status {code}[/]")
-                raise typer.Exit(code if 0 < code < 256 else int(ExitCode.FAILURE))
-            if not result.is_file():
-                if not (evaluate_with or results_location):
-                    return
-                err.print("[yellow]warning:[/] the submission saved no results; using {}")
+            if result is None:
+                result = Path(tmp) / "empty_result.json"
                 atomic.write_text(result, "{}")
             if results_location is not None:
                 with writing(results_location, "--results-location"):
@@ -129,4 +219,4 @@ def register(app: typer.Typer) -> None:
                 with writing(scores, "--scores"):
                     atomic.write_json(scores, evaluation.to_json())
                 print_scores(evaluation)
-                err.print(f"scores written to {scores}")
+                err.print(f"scores written to {scores} (from {result})")
