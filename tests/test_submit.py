@@ -41,7 +41,7 @@ def test_flag_validation_is_one_line():
         (["--native", "python", "x.py", "--example", "hello_passive"], "not both"),
         (["--native", "a", "--containerised", "."], "give one mode"),
         (["--example-containerised"], "needs --example"),
-        (["--submission", ".", "-e", "omq"], "cannot be combined"),
+        (["--submission", ".", "--evaluate-with", "omq"], "cannot be combined"),
     ]:
         proc = cli("submit", *args)
         assert proc.returncode == 2, (args, proc.stderr)
@@ -105,7 +105,7 @@ def test_containerised_submission_reaches_the_backend(served, tmp_path, containe
         "       'shm': os.environ.get('BENCHBOT_SHARED_MEMORY')}\n"
         "json.dump(out, open(os.environ['BENCHBOT_RESULT_LOCATION'], 'w'))\n")
     proc = cli("submit", "--containerised", str(tmp_path), "--address", server.address, "--args", "a b",
-               "-r", str(tmp_path / "copied.json"), env={"BENCHBOT_TOKEN": "t0ken"})
+               "--results-location", str(tmp_path / "copied.json"), env={"BENCHBOT_TOKEN": "t0ken"})
     assert proc.returncode == 0, proc.stderr + proc.stdout
     assert json.loads((tmp_path / "copied.json").read_text()) == {
         "greeting": SUPERVISOR_GREETING, "by_name": SUPERVISOR_GREETING, "args": "a b", "token": "t0ken", "shm": "0"}
@@ -162,7 +162,7 @@ def test_an_example_with_a_container_runs_in_it(served, tmp_path, container_engi
     installed = cli("install", str(pack), "--allow-code", env=env)
     assert installed.returncode == 0, installed.stderr
     proc = cli("submit", "--example", "boxed_hello", "--example-containerised", "--address", server.address,
-               "-r", str(tmp_path / "copied.json"), env=env)
+               "--results-location", str(tmp_path / "copied.json"), env=env)
     assert proc.returncode == 0, proc.stderr
     assert json.loads((tmp_path / "copied.json").read_text()) == {"greeting": SUPERVISOR_GREETING}
 

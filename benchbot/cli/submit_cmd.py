@@ -14,6 +14,7 @@ import typer
 from benchbot.api.benchbot import tls_context
 from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.cli.eval_cmd import print_scores
+from benchbot.cli.options import native_words, refused
 from benchbot.core import atomic
 from benchbot.core.errors import BackendError, ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
@@ -118,22 +119,24 @@ def register(app: typer.Typer) -> None:
     @app.command("submit", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
     @handle_errors
     def submit(
-        command: Optional[list[str]] = typer.Argument(None, help="With --native: the command and its arguments."),
-        native: bool = typer.Option(False, "--native", "-n", help="Run COMMAND on this machine, in this folder."),
+        command: Optional[list[str]] = typer.Argument(None, callback=native_words, help="With --native CMD: more words of the command (--native python my.py runs python my.py)."),
+        native: Optional[str] = typer.Option(None, "--native", "-n", help="Run CMD (and the words after it) on this machine, in this folder, e.g. --native python my.py."),
         containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman; the build context is its folder."),
         submission: Optional[Path] = typer.Option(None, "--submission", "-s", help="Package DIR as a .tgz plus a manifest (--args: output path; default ../submission.tgz relative to DIR)."),
         example: Optional[str] = typer.Option(None, "--example", "-E", help="Run an installed example (`benchbot list examples`)."),
         example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the command (containers: the variable `args`; -s: output path)."),
-        evaluate_with: Optional[str] = typer.Option(None, "--evaluate-with", "-e", help="Evaluate the results afterwards (e.g. omq)."),
-        results_location: Optional[Path] = typer.Option(None, "--results-location", "-r", help="Also copy the results here."),
+        evaluate_with: Optional[str] = typer.Option(None, "--evaluate-with", help="Evaluate the results afterwards (e.g. omq; the original's -e, which is --env in every command now)."),
+        results_location: Optional[Path] = typer.Option(None, "--results-location", help="Also copy the results here (the original's -r, which is --robot in every command now)."),
         address: str = typer.Option(os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS", DEFAULT_ADDRESS), "--address", help="The backend (`benchbot run`)."),
-        scores: Path = typer.Option(Path("scores.json"), "--scores", "-o", help="Where --evaluate-with writes scores."),
+        scores: Path = typer.Option(Path("scores.json"), "--scores", "--output", "-o", help="Where --evaluate-with writes scores."),
         timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill the submission (native, or the container once built) after this many seconds."),
+        _env: Optional[str] = typer.Option(None, "--env", "-e", hidden=True, help="Refused: benchbot run chooses the environment.", callback=refused("-e", "submit runs against the environment `benchbot run --env` chose; to evaluate, use --evaluate-with METHOD (the original's -e)")),
+        _robot: Optional[str] = typer.Option(None, "--robot", "-r", hidden=True, help="Refused: benchbot run chooses the robot.", callback=refused("-r", "submit runs against the robot `benchbot run --robot` chose; to copy the results, use --results-location FILE (the original's -r)")),
     ) -> None:
         """Run a solution against the backend started by `benchbot run`.
 
-        Examples: `benchbot submit --native python my_solution.py`, `benchbot submit --example hello_passive -e omq`,
+        Examples: `benchbot submit --native python my_solution.py`, `benchbot submit --example hello_passive --evaluate-with omq`,
         `benchbot submit --containerised my_dir/`, `benchbot submit --submission my_dir/`.
         """
         reg = registry()
