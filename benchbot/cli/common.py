@@ -13,6 +13,7 @@ from typing import Any, Callable, Iterator
 import typer
 from rich.console import Console
 
+from benchbot.core import limits
 from benchbot.core.errors import BenchbotError, ExitCode, UsageError
 from benchbot.core.registry import Registry, get_registry
 
@@ -66,15 +67,21 @@ def backend_options(arch: str, camera_size: str | None) -> dict:
     means a GPU when an NVIDIA device is present, else the CPU).
 
     Raises:
-        UsageError: ``camera_size`` is not ``WxH`` with positive integers.
+        UsageError: ``camera_size`` is not ``WxH`` with positive integers of at most
+            :data:`~benchbot.core.limits.MAX_CAMERA_SIDE` (8192) pixels each.
     """
     if arch == "auto":  # a GPU when the machine has an NVIDIA device, else the CPU
         arch = "gpu" if os.path.exists("/dev/nvidiactl") else "cpu"
     options: dict = {"arch": arch}
     if camera_size:
-        match = re.fullmatch(r"(\d+)[xX](\d+)", camera_size.strip())
-        if not match or int(match[1]) < 1 or int(match[2]) < 1:
-            raise UsageError(f"--camera-size '{camera_size}' is not WIDTHxHEIGHT", "e.g. --camera-size 320x240")
+        shown = camera_size if len(camera_size) <= 40 else camera_size[:37] + "..."
+        match = re.fullmatch(r"0*(\d+)[xX]0*(\d+)", camera_size.strip())
+        if not match or match[1] == "0" or match[2] == "0":
+            raise UsageError(f"--camera-size '{shown}' is not WIDTHxHEIGHT", "e.g. --camera-size 320x240")
+        side = int(limits.MAX_CAMERA_SIDE.value())
+        if max(len(match[1]), len(match[2])) > len(str(side)) or max(int(match[1]), int(match[2])) > side:
+            raise UsageError(f"--camera-size '{shown}': each side must be at most {side} pixels",
+                             f"e.g. --camera-size 640x480 (at most {side}x{side})")
         options.update(width=int(match[1]), height=int(match[2]))
     return options
 

@@ -17,11 +17,13 @@ All methods must be called from one thread (the backend server's worker thread).
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from benchbot.core import limits
 from benchbot.core.errors import ActionError, BackendError, BenchbotError
 from benchbot.core.geometry import (
     pose7_to_se2,
@@ -38,6 +40,54 @@ DIRTY_DISTANCE_M = 1.0  # reference §5.4: the simulator marks the robot dirty p
 DIRTY_ANGLE_RAD = math.radians(2.0)
 
 SUCCESS, FINISHED, COLLISION = "SUCCESS", "FINISHED", "COLLISION"
+
+#: The environment fields a client is served (``/config/environments``): what the original's environment YAMLs
+#: held, minus anything that names or holds ground truth. Every other field (``_file_path``, mesh ``objects`` with
+#: their poses, a plugin's own fields) stays on the backend's side; ``map_path`` is replaced
+#: (:func:`served_environment`).
+SERVED_ENVIRONMENT_FIELDS = ("name", "variant", "type", "map_path", "start_pose", "trajectory_poses",
+                             "object_labels", "robots", "description", "lighting", "source")
+
+
+class ActionArgumentError(ActionError):
+    """An action's argument is not a finite number within its bound (:data:`~benchbot.core.limits.MAX_MOVE_DISTANCE_M`,
+    :data:`~benchbot.core.limits.MAX_MOVE_ANGLE_DEG`): a malformed request (HTTP 400), not a refusal of the
+    episode."""
+
+
+def served_environment(env: dict) -> dict:
+    """The part of environment spec ``env`` that clients see: the fields of :data:`SERVED_ENVIRONMENT_FIELDS`, with
+    ``map_path`` replaced by the environment's ``name:variant``. A simulator's ``map_path`` is the file it builds
+    the scene from — for ``sim_taichi`` the ground-truth JSON itself — so it is never served; the original's was an
+    Unreal asset path that no client used."""
+    served = {k: copy.deepcopy(env[k]) for k in SERVED_ENVIRONMENT_FIELDS if k in env}
+    if "map_path" in served:
+        served["map_path"] = f"{env.get('name')}:{env.get('variant')}"
+    return served
+
+
+def motion_argument(action: str, key: str, value: Any, bound: limits.Limit, unit: str) -> float:
+    """``value`` as a float if it is a finite number within ``± bound`` (a missing argument means 0).
+
+    Raises:
+        ActionArgumentError: a non-number, NaN, ±inf, an integer too large for a float, or a value past the bound;
+            the message names the action, the argument, the bound and its environment variable.
+    """
+    limit = bound.value()
+    number = math.nan
+    if not isinstance(value, bool) and isinstance(value, (int, float)):
+        try:
+            number = float(value)
+        except OverflowError:  # an integer of hundreds of digits
+            number = math.inf
+    if math.isfinite(number) and abs(number) <= limit:
+        return number
+    shown = repr(value)
+    shown = shown if len(shown) <= 40 else shown[:37] + "..."
+    raise ActionArgumentError(
+        f"{action}: '{key}' must be a finite number within ±{limit:g} {unit}, got {shown}",
+        f"e.g. {{'{key}': 0.5}}; the bound is ${bound.env}",
+    )
 
 
 class OdometryNoise:
@@ -152,13 +202,13 @@ class Episode:
 
     @property
     def config(self) -> dict:
-        """The supervisor's config: ``{task, results, robot, environments}`` (reference §3)."""
-        return {
+        """The supervisor's config as clients are served it: ``{task, results, robot, environments}`` (reference
+        §3; a fresh copy), each environment cut to :func:`served_environment` (no ground truth, no file of it)."""
+        return copy.deepcopy({
             "task": self.task,
             "results": self.results_format,
             "robot": self.robot,
-            "environments": self.environments,
-        }
+        }) | {"environments": [served_environment(env) for env in self.environments]}
 
     @property
     def is_finished(self) -> bool:
@@ -234,7 +284,8 @@ class Episode:
 
         Raises:
             ActionError: the action is not allowed now (its message names why: COLLISION, FINISHED, not part of
-                the task, stopped) or an argument is not a finite number.
+                the task, stopped). ActionArgumentError: ``distance``/``angle`` is not a finite number within its
+                bound (:func:`motion_argument`).
         """
         args = dict(args or {})
         if not self.running:
@@ -259,11 +310,12 @@ class Episode:
             index = self.trajectory_next or 0
             goal = pose7_to_se2(trajectory[index])
         else:
-            key, unit = ("distance", 1.0) if action == "move_distance" else ("angle", math.pi / 180.0)
-            value = args.get(key, 0.0)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ActionError(f"{action}: '{key}' must be a finite number, got {value!r}", f"e.g. {{'{key}': 0.5}}")
-            delta = np.array([value, 0.0, 0.0]) if key == "distance" else np.array([0.0, 0.0, value * unit])
+            if action == "move_distance":
+                value = motion_argument(action, "distance", args.get("distance", 0.0), limits.MAX_MOVE_DISTANCE_M, "m")
+                delta = np.array([value, 0.0, 0.0])
+            else:
+                value = motion_argument(action, "angle", args.get("angle", 0.0), limits.MAX_MOVE_ANGLE_DEG, "degrees")
+                delta = np.array([0.0, 0.0, math.radians(value)])
             goal = se2_compose(current, delta)
         # In noisy localisation the robot steers by its estimate: the motion it makes is the one that would take
         # the estimate to the goal, applied from where it really is.

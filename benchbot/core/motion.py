@@ -46,10 +46,16 @@ class PoseController:
 
     Use: ``while (cmd := ctl.command(pose)) is not None: apply(cmd, 1 / gains.rate_hz)``; ``cmd`` is
     ``(v m/s, ω rad/s)``. ``phase`` is ``'drive'``, ``'rotate'`` or ``'done'``.
+
+    Raises:
+        ValueError: ``goal`` is not three finite numbers (a NaN or infinite goal would otherwise end at once,
+            reported as reached, or drive for the whole phase timeout).
     """
 
     def __init__(self, goal: np.ndarray, gains: ControllerGains = ControllerGains()) -> None:
         self.goal = np.asarray(goal, dtype=np.float64)
+        if self.goal.shape != (3,) or not np.all(np.isfinite(self.goal)):
+            raise ValueError(f"the pose controller's goal must be 3 finite numbers [x m, y m, yaw rad], got {goal!r}")
         self.gains = gains
         self.phase = "drive"
         self._elapsed = 0.0
