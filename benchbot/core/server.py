@@ -10,7 +10,8 @@ Routes (the original supervisor's, reference §3 and §5.1, plus the native prot
                                         jsonpickle text, NumPy arrays by ``jsonpickle.ext.numpy``)
 ``GET|POST /robot/<command>``           ``is_collided``, ``is_dirty``, ``is_finished``, ``is_running``, ``next``,
                                         ``reset``, ``restart``, ``stop``, ``selected_environment``, ``state``,
-                                        ``run_info`` (task, robot, environments, seed)
+                                        ``run_info`` (task, robot, environments, seed), ``release`` (give the
+                                        episode up: :class:`EpisodeOwnership`)
 ``GET|POST /results_functions/[fn]``    the results format's function names, or call one with
                                         ``{"args": [...], "kwargs": {...}}``
 ``POST /native/step``                   one round trip per step: MessagePack ``{action, args, observations?}``
@@ -19,21 +20,26 @@ Routes (the original supervisor's, reference §3 and §5.1, plus the native prot
                                         go through a shared-memory segment instead (shared_frames.py)
 ======================================  ======================================================================
 
-Errors are JSON ``{"error": message, "hint": hint}`` with 400 (bad request), 401 (missing/wrong token), 404
-(unknown route/key/connection), 405 (method), 409 (action refused); 500 is a backend failure (its message says
-which); 504 an action that ran past the action timeout (the motion still completes on the backend thread and the
-episode stays usable). Request bodies are only ever parsed as JSON or MessagePack: nothing a client sends is
-unpickled. Every episode call runs on one dedicated worker thread (Taichi and other simulators need a single
-thread), built in :class:`BackendService`; :class:`BackendApi` holds the protocol-independent operations that the
-routes and the in-process client (:mod:`benchbot.api`) share.
+Errors are JSON ``{"error": message, "hint": hint}`` with 400 (bad request, or an argument past its limit), 401
+(missing/wrong token), 404 (unknown route/key/connection), 405 (method), 409 (action refused, or the episode belongs
+to another client), 413 (body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES`); 500 is a backend failure (its
+message says which; paths of ground-truth files are blanked out); 504 an action or results function that ran past
+its timeout (the motion still completes on the backend thread and the episode stays usable). Request bodies are
+only ever parsed as JSON or MessagePack: nothing a client sends is unpickled. Every bound a request can reach is in
+:mod:`benchbot.core.limits`; request-sized work (parsing a large body, results functions, encoding observations)
+never runs on the event loop. Every episode call runs on one dedicated worker thread (Taichi and other simulators
+need a single thread), built in :class:`BackendService`; :class:`BackendApi` holds the protocol-independent
+operations that the routes and the in-process client (:mod:`benchbot.api`) share. The episode belongs to one client
+at a time (:class:`EpisodeOwnership`).
 """
 
 from __future__ import annotations
 
 import asyncio
-import copy
 import hmac
 import json
+import math
+import re
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -45,15 +51,26 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
-from benchbot.core import shared_frames, wire
+from benchbot.core import limits, shared_frames, wire
 from benchbot.core.shared_frames import is_loopback
-from benchbot.core.episode import ACTIONS, Episode
+from benchbot.core.episode import ACTIONS, ActionArgumentError, Episode
 from benchbot.core.errors import ActionError, BackendError, BenchbotError
 
 SUPERVISOR_GREETING = "Hello, I am the BenchBot supervisor"
 ROBOT_GREETING = "Hello, I am the BenchBot robot controller"
 MSGPACK = wire.MSGPACK_TYPE
 TOKEN_HEADER = "x-benchbot-token"
+#: The header naming a client (8–128 of ``A-Z a-z 0-9 _ . : -``, e.g. a random hex id): the episode belongs to one
+#: client at a time (:class:`EpisodeOwnership`).
+CLIENT_HEADER = "x-benchbot-client"
+CLIENT_ID_PATTERN = re.compile(r"[A-Za-z0-9_.:-]{8,128}")
+#: Request bodies at least this large are parsed on a worker thread, not on the event loop.
+PARSE_OFF_LOOP_BYTES = 64 * 1024
+#: Robot commands that only read the episode: any client may ask them, and asking does not claim the episode.
+READ_ONLY_COMMANDS = frozenset({"", "is_collided", "is_dirty", "is_finished", "selected_environment", "state",
+                                "run_info"})
+#: What a ground-truth path is replaced with in an error message.
+HIDDEN = "<hidden>"
 DEFAULT_ACTION_TIMEOUT_S = 120.0
 #: The original robot config's API-side callback for colour images (reference §4): clients import it from
 #: ``benchbot_api.api_callbacks``.
@@ -79,15 +96,20 @@ class BackendService:
     Args:
         build_episode: called once, on the worker thread, to build the episode (and its backend).
         results_functions: ``{name: callable}`` of the task's results format.
+        hidden: strings never to be served, e.g. the paths of the environments' ground-truth files (error
+            messages have them blanked out); the environments' own ``map_path``/``_file_path`` and mesh paths are
+            added.
 
     Raises:
         BenchbotError: whatever ``build_episode`` raises.
     """
 
-    def __init__(self, build_episode: Callable[[], Episode], results_functions: dict[str, Callable] | None = None):
+    def __init__(self, build_episode: Callable[[], Episode], results_functions: dict[str, Callable] | None = None,
+                 hidden: set[str] | None = None):
         self.executor = backend_worker()
         self.results_functions = results_functions or {}
         self.episode: Episode = self.executor.submit(build_episode).result()
+        self.hidden = set(hidden or ()) | ground_truth_strings(self.episode.environments)
 
     def call(self, fn: Callable, *args: Any) -> Any:
         """Run ``fn(*args)`` on the worker thread and wait for it."""
@@ -100,6 +122,28 @@ class BackendService:
     def close(self) -> None:
         """Close the robot backend (on the worker thread); the thread stays for the next service."""
         self.call(self.episode.backend.close)
+
+
+def ground_truth_strings(environments: list[dict]) -> set[str]:
+    """The strings of environment specs that name files holding (or building) ground truth: ``map_path``,
+    ``_file_path`` and each mesh object's ``mesh`` (at least 4 characters long, so that blanking them out of a
+    message cannot blank out ordinary words)."""
+    found: set[str] = set()
+    for env in environments:
+        values = [env.get("map_path"), env.get("_file_path")]
+        objects = env.get("objects")
+        if isinstance(objects, list):
+            values += [o.get("mesh") for o in objects if isinstance(o, dict)]
+        found |= {v for v in values if isinstance(v, str) and len(v) >= 4}
+    return found
+
+
+def redact(text: str, hidden: set[str]) -> str:
+    """``text`` with every string of ``hidden`` replaced by :data:`HIDDEN` (longest first)."""
+    for secret in sorted(hidden, key=len, reverse=True):
+        if secret in text:
+            text = text.replace(secret, HIDDEN)
+    return text
 
 
 # ------------------------------------------------------------------------------------------------- errors
@@ -119,13 +163,25 @@ class UnauthorizedError(BenchbotError):
     """A request without the server's token (HTTP 401)."""
 
 
+class EpisodeInUseError(BenchbotError):
+    """The episode belongs to another client (HTTP 409; :class:`EpisodeOwnership`)."""
+
+
+class PayloadTooLargeError(BenchbotError):
+    """A request body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES` (HTTP 413)."""
+
+
 def status_of(exc: BaseException) -> int:
     """The HTTP status of an error raised by :class:`BackendApi`."""
     if isinstance(exc, NotFoundError):
         return 404
     if isinstance(exc, UnauthorizedError):
         return 401
-    if isinstance(exc, ActionError):
+    if isinstance(exc, PayloadTooLargeError):
+        return 413
+    if isinstance(exc, ActionArgumentError):
+        return 400
+    if isinstance(exc, (ActionError, EpisodeInUseError)):
         return 409
     if isinstance(exc, ActionTimeoutError):
         return 504
@@ -136,9 +192,11 @@ def status_of(exc: BaseException) -> int:
     return 500
 
 
-def _error(status: int, exc: BaseException | str, hint: str = "") -> JSONResponse:
+def _error(status: int, exc: BaseException | str, hint: str = "", hidden: set[str] | None = None) -> JSONResponse:
     message = exc.message if isinstance(exc, BenchbotError) else str(exc)
     hint = exc.hint if isinstance(exc, BenchbotError) else hint
+    if hidden:
+        message, hint = redact(message, hidden), redact(hint, hidden)
     return JSONResponse({"error": message, "hint": hint}, status_code=status)
 
 
@@ -161,6 +219,51 @@ def parse_json_body(raw: bytes) -> dict:
     if not isinstance(body, dict):
         raise BadRequestError(f"request body must be a JSON object, got {type(body).__name__}", "e.g. {}")
     return body
+
+
+def _as_number(value: int | float | str) -> float | None:
+    """``value`` as a float (``inf`` for integers too large for one); a string only when it reads as a number
+    (a long string of digits counts as ``inf``); None otherwise."""
+    if isinstance(value, str):
+        text = value.strip()
+        if len(text) > 400:
+            return math.inf if text.lstrip("+-").replace("_", "").isdigit() else None
+        try:
+            return float(text)
+        except ValueError:
+            return None
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def check_results_arguments(args: Any, kwargs: Any) -> None:
+    """Refuse results-function arguments that ask for more than :data:`~benchbot.core.limits.MAX_RESULTS_ARG_NUMBER`:
+    every number, and every string that reads as one, must lie within its ± bound (the server cannot tell which
+    argument a function uses as a count). Walks the arguments without recursion (any nesting depth).
+
+    Raises:
+        BadRequestError: naming the first value past the bound and the variable that raises it.
+    """
+    bound = limits.MAX_RESULTS_ARG_NUMBER.value()
+    stack: list[Any] = [args, kwargs]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, dict):
+            stack.extend(node.keys())
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+        elif isinstance(node, (int, float, str)) and not isinstance(node, bool):
+            number = _as_number(node)
+            if number is not None and abs(number) > bound:
+                shown = repr(node) if len(repr(node)) <= 40 else repr(node)[:37] + "..."
+                raise BadRequestError(
+                    f"results function argument {shown} is past the limit of ±{bound:g}",
+                    f"arguments (counts included) must lie within ±{bound:g}; "
+                    f"${limits.MAX_RESULTS_ARG_NUMBER.env} on the backend raises it",
+                )
 
 
 # ------------------------------------------------------------------------------------------------- operations
@@ -238,8 +341,8 @@ class BackendApi:
         return node
 
     def full_config(self) -> dict:
-        """The served config (a copy)."""
-        config = copy.deepcopy(self.episode.config)
+        """The served config (a copy; no ground truth: :attr:`Episode.config`)."""
+        config = self.episode.config
         connections = config.get("robot", {}).get("connections", {})
         if isinstance(connections.get("image_rgb"), dict):
             connections["image_rgb"].setdefault("callback_api", RGB_CALLBACK)
@@ -261,17 +364,29 @@ class BackendApi:
         """The results format's function names (sorted)."""
         return sorted(self.service.results_functions)
 
-    def results_function(self, name: str, body: dict) -> Any:
-        """Call results function ``name`` with ``body['args']``/``body['kwargs']``.
-
-        Raises:
-            NotFoundError: unknown function. BadRequestError: bad arguments, or the function rejected them.
-        """
+    def check_results_function(self, name: str) -> None:
+        """Raises NotFoundError unless the results format has function ``name``."""
         if name not in self.service.results_functions:
             raise NotFoundError(f"the results format has no function '{name}'", "GET /results_functions/ lists them")
+
+    def results_function(self, name: str, body: dict) -> Any:
+        """Call results function ``name`` with ``body['args']``/``body['kwargs']`` (on the calling thread: the
+        server calls :meth:`results_function_json` on its results thread).
+
+        Raises:
+            NotFoundError: unknown function. BadRequestError: bad arguments, arguments past
+            :data:`~benchbot.core.limits.MAX_RESULTS_ARG_NUMBER`, a reply past
+            :data:`~benchbot.core.limits.MAX_RESULTS_REPLY_BYTES`, or the function rejected them.
+        """
+        return self.results_function_json(name, body)[0]
+
+    def results_function_json(self, name: str, body: dict) -> tuple[Any, str]:
+        """:meth:`results_function`'s value and its JSON text."""
+        self.check_results_function(name)
         args, kwargs = body.get("args", []), body.get("kwargs", {})
         if not isinstance(args, list) or not isinstance(kwargs, dict):
             raise BadRequestError("'args' must be a list and 'kwargs' an object", 'e.g. {"args": [], "kwargs": {}}')
+        check_results_arguments(args, kwargs)
         try:
             value = self.service.results_functions[name](*args, **kwargs)
         except BenchbotError as exc:
@@ -279,10 +394,14 @@ class BackendApi:
         except Exception as exc:  # the arguments came from the client: its mistake, not a backend failure
             raise BadRequestError(f"{name} failed on the given arguments: {exc!r}", "check the arguments") from None
         try:
-            json.dumps(value, allow_nan=False)
-        except (TypeError, ValueError):
+            text = json.dumps(value, allow_nan=False)
+        except (TypeError, ValueError, RecursionError):
             raise BadRequestError(f"{name} returned a value that is not JSON", "check the arguments") from None
-        return value
+        bound = limits.MAX_RESULTS_REPLY_BYTES.value()
+        if len(text) > bound:
+            raise BadRequestError(f"{name}'s reply of {len(text)} bytes is past the limit of {bound:g} bytes",
+                                  f"ask for less; ${limits.MAX_RESULTS_REPLY_BYTES.env} on the backend raises it")
+        return value, text
 
     def step(self, action: Any, args: Any, names: Any, *, borrowed: bool = False) -> dict:
         """*worker*. The native step: perform ``action`` (None: only observe), then observe. ``borrowed``: the
@@ -301,8 +420,15 @@ class BackendApi:
             args = {}
         if not isinstance(args, dict):
             raise BadRequestError(f"'args' must be a map, got {type(args).__name__}", "")
-        if names is not None and (not isinstance(names, list) or not all(isinstance(n, str) for n in names)):
-            raise BadRequestError("'observations' must be a list of names", "")
+        if names is not None:
+            bound = limits.MAX_OBSERVATION_NAMES.value()
+            if not isinstance(names, list):
+                raise BadRequestError("'observations' must be a list of names", "")
+            if len(names) > bound:
+                raise BadRequestError(f"'observations' names {len(names)} observations, past the limit of {bound:g}",
+                                      f"ask for the task's observations (${limits.MAX_OBSERVATION_NAMES.env})")
+            if not all(isinstance(n, str) for n in names):
+                raise BadRequestError("'observations' must be a list of names", "")
         ep = self.episode
         result = self._mutate(lambda: ep.act(action, args)) if action is not None else ep.result()
         return {"result": result, "observations": ep.observe(names, borrowed=borrowed), "state": ep.state()}
@@ -358,6 +484,106 @@ def encode_jsonpickle(value: Any) -> str:
     return jsonpickle.encode(value)
 
 
+# ------------------------------------------------------------------------------------------------- ownership
+class EpisodeOwnership:
+    """Which client the episode belongs to: one client at a time (docs/protocol.md, "One client at a time").
+
+    A client is named by its ``X-BenchBot-Client`` header (:data:`CLIENT_HEADER`), else it is the anonymous client
+    of its address: the original ``benchbot_api`` sends no header, so original clients on one host count as one
+    client, as they did in the original. The first client whose request uses the episode (an action, an
+    observation, a native step, a robot command other than :data:`READ_ONLY_COMMANDS`) owns it; until the owner
+    releases it (``/robot/release``) or sends no request for ``lease_s`` seconds (none in flight), every other
+    client's episode request is refused with :class:`EpisodeInUseError` (409). A client whose lease ran out and
+    whose episode another client then took is told so (409) on its next episode request: a client never carries on
+    in an episode that someone else has reset.
+
+    Args:
+        lease_s: idle seconds after which another client may take the episode.
+        clock: monotonic seconds (tests pass their own).
+
+    Use on the event loop only (not thread-safe).
+    """
+
+    #: Clients remembered as having lost the episode to another (older ones are forgotten).
+    MAX_LOST = 1024
+
+    def __init__(self, lease_s: float, clock: Callable[[], float] = time.monotonic) -> None:
+        self.lease_s, self.clock = lease_s, clock
+        self.owner: str | None = None
+        self.last_seen = 0.0
+        self.in_flight = 0
+        self._lost: dict[str, None] = {}
+
+    def _idle_s(self) -> float:
+        return self.clock() - self.last_seen
+
+    def held_by_other(self, client: str) -> bool:
+        """Whether another client holds the episode now."""
+        return (self.owner is not None and self.owner != client
+                and (self.in_flight > 0 or self._idle_s() < self.lease_s))
+
+    def acquire(self, client: str) -> None:
+        """Claim (or keep) the episode for one request of ``client``; pair with :meth:`done`.
+
+        Raises:
+            EpisodeInUseError: another client holds it (the message says for how long at most).
+        """
+        if self.held_by_other(client):
+            wait = "until its request ends" if self.in_flight else f"for at most {self.lease_s - self._idle_s():.0f} s"
+            if client in self._lost:
+                message = (f"the episode was handed to another client after yours sent no request for "
+                           f"{self.lease_s:g} s")
+            else:
+                message = "the episode belongs to another client"
+            raise EpisodeInUseError(
+                f"{message}; it holds it {wait} (then idle {self.lease_s:g} s frees it, or it sends /robot/release)",
+                f"one client per episode: start another backend for a second client "
+                f"(the idle time is ${limits.EPISODE_LEASE_S.env} on the backend)",
+            )
+        if self.owner != client:
+            if self.owner is not None:
+                self._lost[self.owner] = None
+                while len(self._lost) > self.MAX_LOST:
+                    self._lost.pop(next(iter(self._lost)))
+            self._lost.pop(client, None)
+            self.owner = client
+        self.in_flight += 1
+        self.last_seen = self.clock()
+
+    def done(self, client: str) -> None:
+        """The end of a request that :meth:`acquire` let through."""
+        if self.owner == client:
+            self.in_flight = max(0, self.in_flight - 1)
+            self.last_seen = self.clock()
+
+    def touch(self, client: str) -> None:
+        """Any other request of ``client``: the owner's renews its lease."""
+        if self.owner == client:
+            self.last_seen = self.clock()
+
+    def release(self, client: str) -> bool:
+        """Give the episode up; True when ``client`` held it and no other request of it is in flight."""
+        if self.owner != client or self.in_flight:
+            return False
+        self.owner = None
+        return True
+
+
+def client_identity(request: Request) -> str:
+    """The name of the client sending ``request``: ``id:<X-BenchBot-Client>``, else ``anonymous@<address>``.
+
+    Raises:
+        BadRequestError: the header is there but is not 8–128 of ``A-Z a-z 0-9 _ . : -``.
+    """
+    given = request.headers.get(CLIENT_HEADER)
+    if given is None:
+        return f"anonymous@{request.client.host if request.client else 'unknown'}"
+    if not CLIENT_ID_PATTERN.fullmatch(given):
+        raise BadRequestError("X-BenchBot-Client must be 8-128 characters of A-Z a-z 0-9 _ . : -",
+                              "send a random id, e.g. secrets.token_hex(16), with every request")
+    return f"id:{given}"
+
+
 # ------------------------------------------------------------------------------------------------- the app
 def build_app(
     service: BackendService,
@@ -365,6 +591,7 @@ def build_app(
     token: str | None = None,
     action_timeout_s: float = DEFAULT_ACTION_TIMEOUT_S,
     api: BackendApi | None = None,
+    lease_s: float | None = None,
 ) -> Starlette:
     """The Starlette application serving ``service``'s episode.
 
@@ -375,17 +602,46 @@ def build_app(
         action_timeout_s: an action (native or original protocol) still running after this many seconds answers
             504; the motion completes on the backend thread and later requests queue behind it.
         api: the operations object (one is built when None).
+        lease_s: :class:`EpisodeOwnership`'s idle time; None: :data:`~benchbot.core.limits.EPISODE_LEASE_S`.
+
+    Raises:
+        UsageError: a limit's environment variable (:mod:`benchbot.core.limits`) is not a positive number.
     """
     api = api or BackendApi(service)
     segments = shared_frames.SegmentPool()  # same-host clients' shared-memory segments (used on the backend thread)
+    ownership = EpisodeOwnership(limits.EPISODE_LEASE_S.value() if lease_s is None else lease_s)
+    max_body = int(limits.MAX_REQUEST_BYTES.value())
+    results_timeout_s = limits.RESULTS_FUNCTION_TIMEOUT_S.value()
+    for limit in (limits.MAX_OBSERVATION_NAMES, limits.MAX_RESULTS_ARG_NUMBER, limits.MAX_RESULTS_REPLY_BYTES,
+                  limits.MAX_MOVE_DISTANCE_M, limits.MAX_MOVE_ANGLE_DEG):
+        limit.value()  # a bad variable is a one-line error now, not a 500 on the first request
+    # Results functions run one at a time on their own thread: never on the event loop, never on the backend thread.
+    results_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="benchbot-results")
+    # Large request bodies are parsed, and observation replies encoded, on these threads.
+    request_workers = ThreadPoolExecutor(max_workers=2, thread_name_prefix="benchbot-request")
 
-    async def guarded(request: Request, handler: Callable) -> Response:
+    async def off_loop(executor: ThreadPoolExecutor, fn: Callable, *args: Any) -> Any:
+        return await asyncio.wrap_future(executor.submit(fn, *args))
+
+    async def guarded(request: Request, handler: Callable, claims: Callable[[Request], bool]) -> Response:
+        client = None
+        claimed = False
         try:
+            client = client_identity(request)
+            if claims(request):
+                ownership.acquire(client)
+                claimed = True
+            else:
+                ownership.touch(client)
             return await handler(request)
         except BenchbotError as exc:
-            return _error(status_of(exc), exc)
+            return _error(status_of(exc), exc, hidden=service.hidden)
         except Exception as exc:  # never crash the server: a documented 500 naming the failure
-            return _error(500, f"backend failure: {exc!r}", "see the backend's log; BENCHBOT_DEBUG=1 for details")
+            return _error(500, f"backend failure: {exc!r}", "see the backend's log; BENCHBOT_DEBUG=1 for details",
+                          hidden=service.hidden)
+        finally:
+            if claimed:
+                ownership.done(client)
 
     async def with_timeout(fn: Callable, *args: Any) -> Any:
         future = service.executor.submit(fn, *args)
@@ -397,6 +653,12 @@ def build_app(
                 "the motion completes in the background; query /robot/state, then go on",
             ) from None
 
+    async def body_json(request: Request) -> dict:
+        raw = await request.body()
+        if len(raw) >= PARSE_OFF_LOOP_BYTES:
+            return await off_loop(request_workers, parse_json_body, raw)
+        return parse_json_body(raw)
+
     async def root(request: Request) -> Response:
         return JSONResponse(SUPERVISOR_GREETING)
 
@@ -406,6 +668,8 @@ def build_app(
 
     async def robot(request: Request) -> Response:
         command = request.path_params.get("command", "")
+        if command == "release":
+            return JSONResponse({"release_success": ownership.release(client_identity(request))})
         if command and command not in api.robot_commands:
             api.robot(command)  # raises NotFoundError without touching the worker
         return JSONResponse(await service.acall(api.robot, command))
@@ -414,23 +678,37 @@ def build_app(
         name = request.path_params.get("fn", "")
         if not name:
             return JSONResponse(api.results_function_names())
-        body = parse_json_body(await request.body())
-        return JSONResponse(api.results_function(name, body))
+        api.check_results_function(name)
+        body = await body_json(request)
+        try:
+            _, text = await asyncio.wait_for(
+                asyncio.shield(off_loop(results_worker, api.results_function_json, name, body)), results_timeout_s)
+        except asyncio.TimeoutError:
+            raise ActionTimeoutError(
+                f"results function '{name}' did not finish within {results_timeout_s:g} s",
+                f"ask for less (${limits.RESULTS_FUNCTION_TIMEOUT_S.env} on the backend raises the limit)",
+            ) from None
+        return Response(text, media_type="application/json")
 
     async def connections(request: Request) -> Response:
         name = request.path_params["name"]
-        body = parse_json_body(await request.body())
+        body = await body_json(request)
         value = await with_timeout(api.connection, name, body)
-        return Response(encode_jsonpickle(value), media_type="application/json")
+        return Response(await off_loop(request_workers, encode_jsonpickle, value), media_type="application/json")
 
-    async def native_step(request: Request) -> Response:
-        raw = await request.body()
+    def unpack_step(raw: bytes) -> dict:
         try:
             body = wire.unpack(raw) if raw else {}
         except BenchbotError as exc:
             raise BadRequestError(exc.message, exc.hint) from None
         if not isinstance(body, dict):
             raise BadRequestError("step request must be a map", "send {action, args}")
+        return body
+
+    async def native_step(request: Request) -> Response:
+        raw = await request.body()
+        body = await off_loop(request_workers, unpack_step, raw) if len(raw) >= PARSE_OFF_LOOP_BYTES \
+            else unpack_step(raw)
         offer = None
         if body.get("shm") is not None:
             try:
@@ -451,9 +729,19 @@ def build_app(
 
         return Response(await with_timeout(step_and_pack), media_type=MSGPACK)
 
-    def route(path: str, handler: Callable, methods: list[str]) -> Route:
+    def always(request: Request) -> bool:
+        return True
+
+    def never(request: Request) -> bool:
+        return False
+
+    def mutating_command(request: Request) -> bool:
+        command = request.path_params.get("command", "")
+        return command not in READ_ONLY_COMMANDS and command != "release" and command in api.robot_commands
+
+    def route(path: str, handler: Callable, methods: list[str], claims: Callable[[Request], bool] = never) -> Route:
         async def endpoint(request: Request) -> Response:
-            return await guarded(request, handler)
+            return await guarded(request, handler, claims)
 
         return Route(path, endpoint, methods=methods)
 
@@ -463,19 +751,86 @@ def build_app(
             route("/", root, methods),
             route("/config/", config, methods),
             route("/config/{path:path}", config, methods),
-            route("/connections/{name}", connections, methods),
+            route("/connections/{name}", connections, methods, always),
             route("/robot/", robot, methods),
-            route("/robot/{command}", robot, methods),
+            route("/robot/{command}", robot, methods, mutating_command),
             route("/results_functions/", results_functions, methods),
             route("/results_functions/{fn}", results_functions, methods),
-            route("/native/step", native_step, ["POST"]),
+            route("/native/step", native_step, ["POST"], always),
         ]
     )
     app.state.api = api
-    guarded_app: Any = TokenGuard(app, token) if token else app
+    app.state.ownership = ownership
+    limited = BodyLimit(app, max_body)
+    guarded_app: Any = TokenGuard(limited, token) if token else limited
     served = MergeSlashes(guarded_app)
     served.segments = segments  # ServerThread.stop removes them
+    served.executors = (results_worker, request_workers)  # ServerThread.stop shuts them down
     return served  # type: ignore[return-value]
+
+
+class BodyLimit:
+    """ASGI middleware: a request body past ``max_bytes`` is answered 413 — at once when ``Content-Length`` says so
+    (nothing of the body is read), else as soon as the bytes received pass the bound. The app gets the body in one
+    piece.
+
+    Args:
+        app: the ASGI app. max_bytes: the bound (:data:`~benchbot.core.limits.MAX_REQUEST_BYTES`).
+    """
+
+    def __init__(self, app: Any, max_bytes: int) -> None:
+        self.app, self.max_bytes = app, max_bytes
+        self.state = getattr(app, "state", None)
+
+    async def _refuse(self, scope: dict, receive: Callable, send: Callable, size: str) -> None:
+        response = _error(413, PayloadTooLargeError(
+            f"request body of {size} bytes is past the limit of {self.max_bytes} bytes",
+            f"send less; ${limits.MAX_REQUEST_BYTES.env} on the backend raises the limit"))
+        response.headers["connection"] = "close"
+        await response(scope, receive, send)
+
+    async def __call__(self, scope: dict, receive: Callable, send: Callable) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        declared = dict(scope.get("headers") or []).get(b"content-length")
+        if declared is not None:
+            try:
+                length = int(declared)
+            except ValueError:
+                length = -1
+            if length < 0:
+                response = _error(400, "Content-Length is not a whole number of bytes", "send a valid request")
+                await response(scope, receive, send)
+                return
+            if length > self.max_bytes:
+                await self._refuse(scope, receive, send, str(length))
+                return
+        chunks: list[bytes] = []
+        size = 0
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.max_bytes:
+                await self._refuse(scope, receive, send, f"more than {self.max_bytes}")
+                return
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                break
+        body = b"".join(chunks)
+        delivered = False
+
+        async def replay() -> dict:
+            nonlocal delivered
+            if not delivered:
+                delivered = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)
 
 
 class MergeSlashes:
@@ -527,13 +882,15 @@ class ServerThread:
         port: TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
         tls_cert, tls_key: serve HTTPS with this PEM certificate chain and private key (the key may be in the
             certificate's file); plain HTTP when None.
+        sock: a socket already bound to ``host:port`` (e.g. reserved before a long start-up, so that a taken port is
+            said first); the server listens on it and closes it when it stops. None: bind ``host:port`` at start.
 
     Raises:
         BackendError: (from start) the server did not come up within 10 s, e.g. the port is taken.
     """
 
     def __init__(self, app: Any, host: str = "127.0.0.1", port: int = 0, *, tls_cert: Any = None,
-                 tls_key: Any = None) -> None:
+                 tls_key: Any = None, sock: Any = None) -> None:
         self.host = host
         self.app = app
         self.scheme = "https" if tls_cert else "http"
@@ -541,7 +898,8 @@ class ServerThread:
         self.server = uvicorn.Server(
             uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off", access_log=False, **tls)
         )
-        self.thread = threading.Thread(target=self.server.run, name="benchbot-http", daemon=True)
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [sock]} if sock else {},
+                                       name="benchbot-http", daemon=True)
         self.port = port
 
     def start(self) -> "ServerThread":
@@ -573,3 +931,5 @@ class ServerThread:
         segments = getattr(self.app, "segments", None)
         if segments is not None:
             segments.close()
+        for executor in getattr(self.app, "executors", ()):
+            executor.shutdown(wait=False, cancel_futures=True)

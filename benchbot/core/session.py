@@ -86,7 +86,8 @@ def start_service(
     ``factory(robot_spec, options)`` builds the backend; by default the one registered for the robot's ``type``
     (the replay of a recording passes its own).
 
-    Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``.
+    Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``. The
+    ground-truth files of the environments are the service's ``hidden`` strings (:func:`ground_truth_paths`).
 
     Raises:
         SpecError, BackendError: the backend or the first scene cannot be built.
@@ -115,4 +116,18 @@ def start_service(
         return episode
 
     functions = registry.functions("formats", run.task["results_format"]) if run.task.get("results_format") else {}
-    return BackendService(build, functions)
+    return BackendService(build, functions, hidden=ground_truth_paths(registry, run.environments))
+
+
+def ground_truth_paths(registry: Registry, environments: list[dict]) -> set[str]:
+    """The files of the environments' ground truths (``name:variant`` in the registry) that the registry knows of:
+    the server blanks them out of anything it serves."""
+    found: set[str] = set()
+    for env in environments:
+        entry = registry.entries.get("ground_truths", {}).get(f"{env['name']}:{env['variant']}")
+        if entry is None:
+            continue
+        for path in (entry.path, entry.spec.get("_file_path")):
+            if path:
+                found.add(str(path))
+    return found
