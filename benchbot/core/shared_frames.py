@@ -36,11 +36,13 @@ drops them.
 
 from __future__ import annotations
 
+import ipaddress
 import math
 import mmap
 import os
 import re
 import secrets
+import socket
 import threading
 import weakref
 from collections import OrderedDict
@@ -80,8 +82,33 @@ def available() -> bool:
 
 
 def is_loopback(host: str) -> bool:
-    """True for 127.0.0.0/8, ::1 and localhost."""
-    return host in ("localhost", "::1") or host.startswith("127.")
+    """True when ``host`` is a loopback address: an IP address in 127.0.0.0/8 or ``::1`` (also IPv4-mapped, in
+    brackets, or with a zone), or the name ``localhost`` when every address it resolves to (``getaddrinfo``) is one.
+    Decided by the parsed address, never by the text: ``127.evil.example`` is a name, not an address, and any name
+    other than ``localhost`` is not loopback."""
+    text = host.strip()
+    if text.startswith("[") and text.endswith("]"):
+        text = text[1:-1]
+    address = _loopback_address(text)
+    if address is not None:
+        return address
+    if text.lower().rstrip(".") != "localhost":
+        return False
+    try:
+        resolved = {info[4][0] for info in socket.getaddrinfo(text, None)}
+    except (OSError, UnicodeError):
+        return False
+    return bool(resolved) and all(_loopback_address(str(a)) is True for a in resolved)
+
+
+def _loopback_address(text: str) -> bool | None:
+    """Whether IP address ``text`` is loopback; None when ``text`` is not an IP address."""
+    try:
+        address = ipaddress.ip_address(text.split("%", 1)[0])
+    except ValueError:
+        return None
+    mapped = getattr(address, "ipv4_mapped", None)
+    return bool((mapped or address).is_loopback)
 
 
 def aligned(n: int) -> int:
