@@ -4,6 +4,8 @@ and no ground truth through the API."""
 from __future__ import annotations
 
 import json
+import random
+import socket
 import string
 import threading
 import time
@@ -13,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from benchbot.api import BenchBot
+from benchbot.core import wire
 from benchbot.core.server import ServerThread, build_app
 
 PASSIVE = "semantic_slam:passive:ground_truth"
@@ -63,6 +66,100 @@ def test_random_requests_never_crash_the_server(served):
     check()
     assert http.get("/").json() == "Hello, I am the BenchBot supervisor"
     assert "is_running" in http.get("/robot/state").json()
+    http.close()
+
+
+#: The hostile fuzz: how many requests, and the wall time they may take in all (a 2-core CI machine).
+HOSTILE_REQUESTS = 300
+HOSTILE_BUDGET_S = 20.0
+HOSTILE_ROUTES = ["/", "/config/", "/config/task/observations", "/config/environments", "/robot/state",
+                  "/robot/is_running", "/robot/reset", "/robot/next", "/robot/restart", "/robot/stop", "/robot/release",
+                  "/robot/run_info", "/connections/move_distance", "/connections/move_angle", "/connections/move_next",
+                  "/connections/image_rgb", "/connections/laser", "/connections/poses", "/results_functions/",
+                  "/results_functions/create", "/results_functions/create_object", "/results_functions/validate",
+                  "/native/step", "/native/", "/robot/" + "a" * 300, "/config/" + "x/" * 200, "/%ff%fe", "/..%2f.."]
+
+
+#: The large hostile bodies, made once: past the size limit, deep nesting, long lists, observation lists past the limit.
+LARGE_BODIES = [
+    b" " * (1024 * 1024 + 1), b"[" * 100_000 + b"]" * 100_000, b'{"a":' * 50_000 + b"1" + b"}" * 50_000,
+    json.dumps({"args": [[0.5] * 50_000]}).encode(),
+    wire.pack({"action": None, "observations": ["laser"] * 60_000}),
+]
+
+
+def hostile_body(rng: random.Random) -> bytes:
+    """A body an attacker would try: huge and non-finite numbers, deep nesting, long lists, counts past every
+    limit, bodies past the size limit, junk."""
+    huge_int = "9" * rng.choice([20, 400, 4000])
+    number = rng.choice([huge_int, "-" + huge_int, "1e308", "-1e308", "1e9", "NaN", "Infinity", "1e-320", "0",
+                         str(rng.uniform(-200, 200)), "1e400"])
+    makers = [
+        lambda: rng.choice([b"", b"null", b"[]", b"{}", b"\xff\xfe\x00"]),
+        lambda: rng.randbytes(rng.randint(1, 200)),
+        lambda: f'{{"distance": {number}}}'.encode(), lambda: f'{{"angle": {number}}}'.encode(),
+        lambda: f'{{"args": [{number}]}}'.encode(), lambda: f'{{"kwargs": {{"num_classes": {number}}}}}'.encode(),
+        lambda: f'{{"args": ["{huge_int}"]}}'.encode(),
+        lambda: rng.choice(LARGE_BODIES),
+        lambda: wire.pack({"action": rng.choice([None, "move_distance", "move_angle", "move_next", "fly", 7]),
+                           "args": {"distance": rng.choice([1e308, -1e308, 1e9, 2**64 - 1, -(2**63), float("nan"),
+                                                            0.1, "x", None]),
+                                    "angle": rng.choice([1e300, float("inf"), 720, 10, [], None])}}),
+        lambda: wire.pack({"action": None, "observations": ["laser"] * rng.choice([65, 1000])}),
+        lambda: wire.pack({"action": None, "observations": [rng.randbytes(8).hex() for _ in range(3)]}),
+        lambda: wire.pack({"action": None, "shm": {"client": "0" * 32, "segment": "../../etc/passwd",
+                                                   "slot": 2**64 - 1}}),
+        lambda: wire.pack(rng.choice([[1, 2, 3], {"action": "move_angle", "args": [1, 2]}])),
+    ]
+    return rng.choice(makers)()
+
+
+def test_hostile_requests_never_crash_or_stall_the_server(served):
+    """A bounded, seeded fuzz (:data:`HOSTILE_REQUESTS` requests in under :data:`HOSTILE_BUDGET_S` s) of hostile
+    requests on every route: no 5xx, no request past a few seconds, and the server still answers after."""
+    _, server = served(ACTIVE, "miniroom:1")
+    rng = random.Random(14)
+    http = httpx.Client(base_url=server.address, timeout=10)
+    started = time.monotonic()
+    statuses: dict[int, int] = {}
+    for i in range(HOSTILE_REQUESTS):
+        method = rng.choice(["GET", "POST", "POST", "PUT", "DELETE"])
+        path = rng.choice(HOSTILE_ROUTES)
+        body = hostile_body(rng)
+        headers = {"content-type": rng.choice(["application/json", wire.MSGPACK_TYPE, "text/plain"])}
+        if rng.random() < 0.2:
+            headers["X-BenchBot-Client"] = rng.choice(["", "x", "a" * 500, "ok-client-" + str(i % 3) * 8,
+                                                       "\xe9".encode("latin-1") * 10])
+        t0 = time.monotonic()
+        try:
+            reply = http.request(method, path, content=body, headers=headers)
+        except httpx.RemoteProtocolError:  # the server closed a connection it refused (a 413 before the body)
+            http.close()
+            http = httpx.Client(base_url=server.address, timeout=10)
+            continue
+        took = time.monotonic() - t0
+        statuses[reply.status_code] = statuses.get(reply.status_code, 0) + 1
+        assert reply.status_code < 500, (method, path, body[:80], reply.status_code, reply.text[:300])
+        assert took < 5.0, (method, path, body[:80], took)
+    # raw HTTP an ordinary client would never send: lying lengths, endless chunks, junk request lines
+    for raw in (b"POST /native/step HTTP/1.1\r\nHost: x\r\nContent-Length: 99999999999\r\n\r\n{",
+                b"POST /robot/reset HTTP/1.1\r\nHost: x\r\nContent-Length: -5\r\n\r\n",
+                b"POST /results_functions/create HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"
+                + b"100000\r\n" + b"a" * 0x100000 + b"\r\n" + b"10\r\n" + b"a" * 16 + b"\r\n",
+                b"GET /" + b"a" * 70_000 + b" HTTP/1.1\r\nHost: x\r\n\r\n",
+                b"\x16\x03\x01\x00\x05hello\r\n\r\n"):
+        with socket.create_connection(("127.0.0.1", server.port), timeout=5) as sock:
+            try:
+                sock.sendall(raw)
+                head = sock.recv(64)
+            except (ConnectionResetError, BrokenPipeError, socket.timeout):
+                head = b""
+        assert not head.startswith(b"HTTP/1.1 5"), (raw[:60], head)
+    elapsed = time.monotonic() - started
+    assert elapsed < HOSTILE_BUDGET_S, f"{HOSTILE_REQUESTS} hostile requests took {elapsed:.1f} s"
+    assert http.get("/").json() == "Hello, I am the BenchBot supervisor"
+    assert http.post("/robot/reset").json() == {"reset_success": True}
+    assert statuses.get(413, 0) > 0 and statuses.get(400, 0) > 0, statuses
     http.close()
 
 
