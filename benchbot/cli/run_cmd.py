@@ -3,13 +3,16 @@ episode: each new client's start resets the episode."""
 
 from __future__ import annotations
 
+import errno
 import secrets
+import socket
+import tempfile
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from benchbot.cli.common import backend_options, err, handle_errors, registry
+from benchbot.cli.common import backend_options, err, handle_errors, registry, writing
 from benchbot.core.errors import UsageError
 from benchbot.core.server import DEFAULT_ACTION_TIMEOUT_S, ServerThread, build_app
 from benchbot.core.shared_frames import is_loopback
@@ -17,6 +20,8 @@ from benchbot.core.session import resolve_run, start_service
 
 DEFAULT_TASK = "semantic_slam:passive:ground_truth"
 DEFAULT_ROBOT = "carter"
+#: Connections the reserved port queues while the backend starts (uvicorn's default).
+LISTEN_BACKLOG = 2048
 
 
 def register(app: typer.Typer) -> None:
@@ -42,23 +47,33 @@ def register(app: typer.Typer) -> None:
 
         A solution then connects with `benchbot submit` (or BenchBot(supervisor_address=...)). Ctrl-C (or SIGTERM) stops it.
         """
+        # every check of the input comes before the simulator is built (seconds), cheapest first
         if token is not None and not token.strip():
             raise UsageError("--token is empty", "give a non-empty token or leave it out")
-        if not is_loopback(host) and not token:
-            token = secrets.token_urlsafe(24)
-            err.print(f"serving beyond loopback: clients must send the token [bold]{token}[/] (export BENCHBOT_TOKEN={token})")
         if tls_key is not None and tls_cert is None:
             raise UsageError("--tls-key needs --tls-cert", "give the certificate with --tls-cert")
         if tls_cert is not None:
             check_tls_files(tls_cert, tls_key)
-        reg = registry()
-        spec = resolve_run(reg, task, robot, env)
-        err.print(f"task {task} | robot {robot} | environment {env} | results format {spec.task.get('results_format') or 'none'}")
-        service = start_service(reg, spec, seed=seed, options=backend_options(arch, camera_size))
+        options = backend_options(arch, camera_size)
+        if record is not None:
+            check_record_path(record)
+        sock = reserve_port(host, port)
+        try:
+            reg = registry()
+            spec = resolve_run(reg, task, robot, env)
+            if not is_loopback(host) and not token:
+                token = secrets.token_urlsafe(24)
+                err.print(f"serving beyond loopback: clients must send the token [bold]{token}[/] (export BENCHBOT_TOKEN={token})")
+            err.print(f"task {task} | robot {robot} | environment {env} | results format {spec.task.get('results_format') or 'none'}")
+            service = start_service(reg, spec, seed=seed, options=options)
+        except BaseException:
+            sock.close()
+            raise
         try:
             server = ServerThread(build_app(service, token=token, action_timeout_s=action_timeout), host=host, port=port,
-                                  tls_cert=tls_cert, tls_key=tls_key).start()
+                                  tls_cert=tls_cert, tls_key=tls_key, sock=sock).start()
         except BaseException:
+            sock.close()
             service.close()
             raise
         err.print(f"[green]backend ready[/] at {server.address}  (BENCHBOT_SUPERVISOR_ADDRESS={server.address}); Ctrl-C stops it")
@@ -66,7 +81,7 @@ def register(app: typer.Typer) -> None:
 
         try:
             observers = RunObservers(reg, service, spec, record=record, tui=tui, seed=seed,
-                                     options=backend_options(arch, camera_size), address=server.address)
+                                     options=options, address=server.address)
         except BaseException:
             server.stop()
             service.close()
@@ -77,6 +92,52 @@ def register(app: typer.Typer) -> None:
             observers.close()  # finishes the recording
             server.stop()
             service.close()
+
+
+def reserve_port(host: str, port: int) -> socket.socket:
+    """A TCP socket bound to ``host:port`` and listening, taken before the backend is built so that a taken port is
+    said at once (clients that connect meanwhile wait until the backend serves). ``port`` 0 picks a free one.
+
+    Raises:
+        UsageError: the port is in use, needs privileges, or ``host`` is not an address of this machine (one line
+            naming the port and host, and the fix).
+    """
+    try:
+        family, kind, proto, _, sockaddr = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM,
+                                                              flags=socket.AI_PASSIVE)[0]
+    except (socket.gaierror, UnicodeError) as exc:
+        raise UsageError(f"--host {host}: not a known address ({exc})", "e.g. --host 127.0.0.1") from None
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn: a port in TIME_WAIT is free
+        if family == socket.AF_INET6:
+            sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+        sock.bind(sockaddr)
+        sock.listen(LISTEN_BACKLOG)
+    except OSError as exc:
+        sock.close()
+        if exc.errno == errno.EADDRINUSE:
+            raise UsageError(f"port {port} on {host} is in use",
+                             "--port 0 picks a free one, or stop the other backend") from None
+        if exc.errno == errno.EACCES:
+            raise UsageError(f"port {port} on {host} needs privileges", "use a port of 1024 or more") from None
+        raise UsageError(f"cannot listen on {host}:{port} ({exc.strerror or exc})",
+                         "give an address of this machine with --host (default 127.0.0.1)") from None
+    return sock
+
+
+def check_record_path(record: Path) -> None:
+    """Make sure the recording can be written to ``record`` (its folder is created), before anything starts.
+
+    Raises:
+        UsageError: ``record`` is a folder, or no file can be written where it lies.
+    """
+    if record.is_dir():
+        raise UsageError(f"--record {record} is a folder", "give a file, e.g. --record episode.mcap")
+    with writing(record, "--record"):
+        record.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=record.parent, prefix=".benchbot-record-check-"):
+            pass
 
 
 def check_tls_files(cert: Path, key: Path | None) -> None:
