@@ -62,10 +62,17 @@ def test_original_client_runs_a_passive_episode_and_its_results_score(served, re
     assert second.actions == ["move_next"]
     obs, result = second.step("move_next")
     assert result is LegacyResult.SUCCESS and obs["scene_number"] == 0
-    # and then a native client
+    # a native client names itself (X-BenchBot-Client): the episode is still the original clients', so it is refused
+    with pytest.raises(ValueError, match="the episode belongs to another client"):
+        BenchBot(supervisor_address=server.address)  # its start resets the episode: refused
+    # until the original clients' episode is released (original clients of one host are one anonymous client)
+    assert requests.post(server.address + "robot/release").json() == {"release_success": True}
     native = BenchBot(supervisor_address=server.address)
-    assert native.actions == ["move_next"] and native.step("move_next")[1] is ActionResult.SUCCESS
+    assert native.step("move_next")[1] is ActionResult.SUCCESS
     native.close()
+    # close() released it: an original client may start again at once
+    third = LegacyBenchBot(supervisor_address=server.address, result_location=str(target), poll_s=0.1)
+    assert third.step("move_next")[1] is LegacyResult.SUCCESS
 
 
 def test_original_client_active_pattern_and_refusals(served, tmp_path):
@@ -97,9 +104,11 @@ def test_original_wire_format(served):
     laser = jsonpickle.decode(requests.get(base + "connections/laser", json={}).content)
     assert laser["scans"].dtype == np.float64 and laser["scans"].shape[1] == 2
     # the same instant as the native protocol
+    requests.post(base + "robot/release")  # the anonymous original client lets a named one use the episode
     native = BenchBot(supervisor_address=base, auto_start=False)
     obs, _ = native.step(None)
     assert np.array_equal(obs["image_rgb"], rgb["data"])
+    native.close()  # and gives it back
     # errors: unknown connection 404, refused action 409, bad body 400; GT never served
     assert requests.get(base + "connections/nothing", json={}).status_code == 404
     assert requests.get(base + "connections/move_angle", json={"angle": 3}).status_code == 409
@@ -110,7 +119,6 @@ def test_original_wire_format(served):
     assert requests.get(base + "robot/state", json={}).json()["step"] == 1
     config_text = requests.get(base + "config/", json={}).text
     assert "ground_truth\": {" not in config_text and "\"objects\"" not in config_text
-    native.close()
 
 
 def _normalise(value):

@@ -16,7 +16,7 @@ import httpx
 import numpy as np
 import pytest
 
-from benchbot.api import BenchBot
+from benchbot.api import ActionResult, BenchBot
 from benchbot.api.benchbot import HttpTransport
 from benchbot.core import limits, wire
 from benchbot.core.episode import ActionArgumentError, served_environment
@@ -407,3 +407,28 @@ def test_localhost_must_resolve_to_loopback_only(monkeypatch):
     assert is_loopback("localhost")
     monkeypatch.setattr(sf.socket, "getaddrinfo", resolve([]))
     assert not is_loopback("localhost")
+
+
+def test_our_clients_name_themselves_and_release_on_close(serve):
+    service, server = serve(PASSIVE, "miniroom:1")
+    first = BenchBot(supervisor_address=server.address)  # a random X-BenchBot-Client of its own
+    first.step("move_next")
+    with pytest.raises(ValueError, match="the episode belongs to another client"):
+        BenchBot(supervisor_address=server.address)
+    first.close()  # releases the episode: the next client need not wait for the idle lease
+    second = BenchBot(supervisor_address=server.address)
+    assert second.step("move_next")[1] is ActionResult.SUCCESS
+    second.close()
+
+
+def test_a_solution_that_exits_on_ctrl_c_frees_its_episode(serve, tmp_path):
+    _, server = serve(PASSIVE, "miniroom:1")
+    script = tmp_path / "solution.py"
+    script.write_text("import sys\nfrom benchbot.api import BenchBot\n"
+                      "bot = BenchBot(supervisor_address=sys.argv[1])\nbot.step('move_next')\n"
+                      "raise KeyboardInterrupt\n")  # never closes: the exit releases it
+    proc = subprocess.run([sys.executable, str(script), server.address], capture_output=True, text=True, timeout=120)
+    assert "KeyboardInterrupt" in proc.stderr
+    bot = BenchBot(supervisor_address=server.address)
+    assert bot.step("move_next")[1] is ActionResult.SUCCESS
+    bot.close()

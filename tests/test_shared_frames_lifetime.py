@@ -25,7 +25,8 @@ CLIENT_TIMEOUT_S = 90
 
 #: Helpers every client script starts with: `held(bot_or_transport)` steps and keeps the arrays, `check` reads them.
 PRELUDE = r"""
-import gc, mmap, sys
+import gc, mmap, os, sys
+os.environ["BENCHBOT_CLIENT_ID"] = "shared-frames-test"  # one solution of many connections: one episode owner
 import numpy as np
 from benchbot.api import BenchBot
 from benchbot.api.benchbot import HttpTransport
@@ -62,6 +63,12 @@ def mapped_segments():
     with open("/proc/self/maps") as maps:
         return {line.split()[-2].rsplit("/", 1)[-1] for line in maps if "/benchbot-" in line and "(deleted)" in line}
 """
+
+
+@pytest.fixture(autouse=True)
+def one_client_id(monkeypatch):
+    """The in-process transports are one solution's connections (one owner of the episode)."""
+    monkeypatch.setenv("BENCHBOT_CLIENT_ID", "shared-frames-test")
 
 
 def _run_client(script: str, address: str) -> subprocess.CompletedProcess:

@@ -15,6 +15,7 @@ the original's ``/tmp/benchbot_result``.
 
 from __future__ import annotations
 
+import atexit
 import enum
 import json
 import http.client
@@ -24,6 +25,7 @@ import ssl
 import threading
 import urllib.parse
 import time
+import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -39,6 +41,8 @@ if TYPE_CHECKING:
 RESULT_LOCATION = os.environ.get("BENCHBOT_RESULT_LOCATION", "/tmp/benchbot_result")
 DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
 TOKEN_HEADER = "X-BenchBot-Token"
+#: The header naming this client to the backend (one client owns an episode at a time: docs/protocol.md).
+CLIENT_HEADER = "X-BenchBot-Client"
 
 
 class ActionResult(enum.Enum):
@@ -93,6 +97,10 @@ class HttpTransport:
         self.address = address
         self.timeout_s = timeout_s
         self.headers = {TOKEN_HEADER: token} if token else {}
+        # the episode is this client's until close() releases it; a solution of several processes or connections
+        # names itself once with BENCHBOT_CLIENT_ID (8-128 of A-Z a-z 0-9 _ . : -)
+        self.client_id = os.environ.get("BENCHBOT_CLIENT_ID") or secrets.token_hex(16)
+        self.headers[CLIENT_HEADER] = self.client_id
         url = urllib.parse.urlsplit(address)
         if url.scheme not in ("http", "https"):
             raise ValueError(f"backend address {address!r} must start with http:// or https://")
@@ -110,6 +118,7 @@ class HttpTransport:
         self._mappings: list[shared_frames.ClientMapping] = []  # every thread's, to let go of them on close
         self._missed_maps = 0  # announced segments gone before this client could map them, in a row
         self._closed = False
+        atexit.register(_release_at_exit, weakref.ref(self))  # a solution ended by Ctrl-C frees its episode too
 
     def _shm_offer(self) -> dict:
         """This thread's ``shm`` field: its client id (one segment per thread, as requests of two threads may
@@ -259,7 +268,14 @@ class HttpTransport:
     def close(self) -> None:
         """Close the HTTP connections and let go of the shared-memory segments (idempotent). Arrays that earlier
         steps returned stay valid: a segment is unmapped when the last array read from it is gone. Later requests
-        raise ConnectionError."""
+        raise ConnectionError. The episode is released (``/robot/release``) so that another client may use it at
+        once rather than after the backend's idle lease."""
+        if self._closed:
+            return
+        try:
+            self.http.post("robot/release", timeout=2.0)
+        except (httpx.HTTPError, OSError):  # the backend is gone: nothing to release
+            pass
         self._closed = True
         self.http.close()
         for mapping in self._mappings:
@@ -268,6 +284,12 @@ class HttpTransport:
         conn = getattr(self._local, "conn", None)
         if conn is not None:
             conn.close()
+
+
+def _release_at_exit(ref: "weakref.ref[HttpTransport]") -> None:
+    transport = ref()
+    if transport is not None:
+        transport.close()
 
 
 def _read_only(obj: Any) -> Any:
