@@ -21,8 +21,9 @@ import pytest
 from benchbot.core import content_packs as cp
 from benchbot.core.errors import ResultsError, SpecError, UsageError
 from benchbot.core.evaluation import load_all
+from benchbot.core.limits import MAX_RESULTS_BYTES
 from benchbot.core.registry import Registry
-from benchbot.core.safe_load import MAX_RESULTS_BYTES, parse_json, parse_yaml
+from benchbot.core.safe_load import parse_json, parse_yaml
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 MEASURE = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:]); "

@@ -36,7 +36,7 @@ from benchbot.batch.plan import (
 from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import Evaluation, evaluate
-from benchbot.core.process_group import max_log_bytes, stop_grace_s
+from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
 from benchbot.core.registry import Registry
 from benchbot.core.session import RunSpec, resolve_run
 
@@ -226,7 +226,7 @@ def run_batch(
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
     if executor not in ("local", "ray"):
         raise UsageError(f"unknown executor '{executor}'", "use local or ray")
-    max_log_bytes(), stop_grace_s()  # a bad BENCHBOT_MAX_LOG_BYTES / BENCHBOT_STOP_GRACE_S stops here, not per episode
+    MAX_LOG_BYTES.value(), STOP_GRACE_S.value()  # a bad variable stops here, not once per episode
     run_dir = run_dir.resolve()
     manifest = read_manifest(run_dir)
     specs, records = specs_from_manifest(manifest)

@@ -416,7 +416,8 @@ def imported_function_problem(value: str, obj: Any) -> str | None:
 
 def read_manifest(pack_dir: Path) -> dict:
     """The manifest of an installed pack (``{}`` when missing, unreadable, or beyond the spec-file limits)."""
-    from benchbot.core.safe_load import MAX_SPEC_BYTES, load_data_file
+    from benchbot.core.limits import MAX_SPEC_BYTES
+    from benchbot.core.safe_load import load_data_file
 
     try:
         data = load_data_file(pack_dir / MANIFEST, MAX_SPEC_BYTES, PackError)

@@ -15,7 +15,8 @@ from typing import Any, Callable
 
 from benchbot.core.errors import BenchbotError, ResultsError, SpecError, UsageError
 from benchbot.core.registry import Registry, json_path, validator
-from benchbot.core.safe_load import MAX_RESULTS_BYTES, parse_json, read_capped, zip_members
+from benchbot.core.limits import MAX_RESULTS_BYTES
+from benchbot.core.safe_load import parse_json, read_capped, zip_members
 
 
 @dataclass
@@ -94,7 +95,7 @@ def _is_submission(member: str) -> bool:
 def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileError]]:
     """Load every results file and archive member, collecting per-file errors instead of stopping at the first.
 
-    Every file is read within the limits of :mod:`benchbot.core.safe_load`: a results file or a member (after
+    Every file is read within the limits of :mod:`benchbot.core.limits`: a results file or a member (after
     decompression, counted while reading) at most ``MAX_RESULTS_BYTES`` (``$BENCHBOT_MAX_RESULTS_BYTES``, 64 MiB),
     an archive at most ``MAX_ZIP_BYTES`` on disk and decompressed in all and ``MAX_ZIP_MEMBERS`` entries, nesting at
     most ``MAX_NESTING_DEPTH`` levels, integers within Python's digit limit. A file's size is checked before it is

@@ -1,24 +1,37 @@
-"""The backend's limits on what one request may ask for: one home for every bound the server and the episode
-enforce, each with its default, its environment variable and the error a client sees.
+"""Every resource limit of BenchBot, in one place: what one request, one input file or one child process may cost.
 
-======================================  ===========  ======================================  ======================
-limit                                   default      environment variable                    a client over it gets
-======================================  ===========  ======================================  ======================
-:data:`MAX_REQUEST_BYTES`               1 MiB        ``BENCHBOT_MAX_REQUEST_BYTES``          413, before the body
-                                                                                             is read
-:data:`MAX_OBSERVATION_NAMES`           64           ``BENCHBOT_MAX_OBSERVATION_NAMES``      400
-:data:`MAX_RESULTS_ARG_NUMBER`          100000       ``BENCHBOT_MAX_RESULTS_ARG_NUMBER``     400
-:data:`MAX_RESULTS_REPLY_BYTES`         8 MiB        ``BENCHBOT_MAX_RESULTS_REPLY_BYTES``    400
-:data:`RESULTS_FUNCTION_TIMEOUT_S`      10 s         ``BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S`` 504
-:data:`EPISODE_LEASE_S`                 60 s         ``BENCHBOT_EPISODE_LEASE_S``            409 (to other
-                                                                                             clients)
-:data:`MAX_MOVE_DISTANCE_M`             100 m        ``BENCHBOT_MAX_MOVE_DISTANCE_M``        400
-:data:`MAX_MOVE_ANGLE_DEG`              360°         ``BENCHBOT_MAX_MOVE_ANGLE_DEG``         400
-:data:`MAX_CAMERA_SIDE`                 8192 px      (none: a flag's bound)                  usage error (exit 2)
-======================================  ===========  ======================================  ======================
+Each limit is a :class:`Limit` with its default and the environment variable that overrides it; values are read
+from the environment when used (:meth:`Limit.value`), so a variable set for one command applies to it alone.
 
-Values are read from the environment when used (:meth:`Limit.value`); a variable that is not a positive number is
-a one-line :class:`~benchbot.core.errors.UsageError` naming it.
+==========================  =======================  ===================================  ==============================
+limit                       default                  environment variable                 what the user sees past it
+==========================  =======================  ===================================  ==============================
+**server, episode**
+MAX_REQUEST_BYTES           1 MiB                    BENCHBOT_MAX_REQUEST_BYTES           HTTP 413 (body not read)
+MAX_OBSERVATION_NAMES       64 names                 BENCHBOT_MAX_OBSERVATION_NAMES       HTTP 400
+MAX_RESULTS_ARG_NUMBER      100000                   BENCHBOT_MAX_RESULTS_ARG_NUMBER      HTTP 400
+MAX_RESULTS_REPLY_BYTES     8 MiB                    BENCHBOT_MAX_RESULTS_REPLY_BYTES     HTTP 400
+RESULTS_FUNCTION_TIMEOUT_S  10 seconds               BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S  HTTP 504
+EPISODE_LEASE_S             60 seconds               BENCHBOT_EPISODE_LEASE_S             HTTP 409 to other clients
+MAX_MOVE_DISTANCE_M         100 metres               BENCHBOT_MAX_MOVE_DISTANCE_M         HTTP 400
+MAX_MOVE_ANGLE_DEG          360 degrees              BENCHBOT_MAX_MOVE_ANGLE_DEG          HTTP 400
+MAX_CAMERA_SIDE             8192 pixels              (none: --camera-size)                usage error (exit 2)
+**input files**
+MAX_SPEC_BYTES              4 MiB                    BENCHBOT_MAX_SPEC_BYTES              spec error (exit 3)
+MAX_RESULTS_BYTES           64 MiB                   BENCHBOT_MAX_RESULTS_BYTES           results error (exit 4)
+MAX_ZIP_BYTES               256 MiB                  BENCHBOT_MAX_ZIP_BYTES               results error (exit 4)
+MAX_ZIP_MEMBERS             10000 members            BENCHBOT_MAX_ZIP_MEMBERS             results error (exit 4)
+MAX_NESTING_DEPTH           64 levels                BENCHBOT_MAX_NESTING_DEPTH           spec/results error (3/4)
+**child processes**
+MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
+STOP_GRACE_S                5 seconds (0: no grace)  BENCHBOT_STOP_GRACE_S                SIGKILL after SIGTERM
+==========================  =======================  ===================================  ==============================
+
+Every error past a limit is one line naming the limit and how to raise it (:meth:`Limit.raise_hint`). A variable
+that is not a valid value is a one-line :class:`~benchbot.core.errors.UsageError` naming it (exit 2), e.g.
+``BENCHBOT_MAX_RESULTS_BYTES='lots' is not a positive whole number of bytes``. Byte limits accept a whole number
+of bytes or one with a binary suffix (``512K``, ``64M``, ``1G``); a limit whose ``0`` has a meaning (no cap, no
+grace) says so in the table, every other limit must be positive.
 """
 
 from __future__ import annotations
@@ -29,64 +42,178 @@ from dataclasses import dataclass
 
 from benchbot.core.errors import UsageError
 
+_SUFFIXES = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}
+
 
 @dataclass(frozen=True)
 class Limit:
-    """A positive bound with a default and an environment variable that overrides it.
+    """A bound with a default and the environment variable that overrides it.
 
     Attributes:
-        default: the bound when the variable is unset or empty.
+        default: the bound when the variable is unset or empty (in :attr:`unit`).
         env: the environment variable (``None``: not overridable).
+        unit: a plural noun for messages (``"bytes"``, ``"seconds"``, ``"members"``; ``""``: a bare number). A
+            ``"bytes"`` variable may carry a binary suffix ``K``/``M``/``G`` (``64M``).
         integer: the bound is a whole number (bytes, counts).
+        zero_means: what ``0`` means where it is allowed (``"no cap"``); ``None``: the bound must be positive.
     """
 
     default: float
     env: str | None = None
+    unit: str = ""
     integer: bool = False
+    zero_means: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.unit == "bytes" and not self.integer:
+            raise ValueError("a byte limit is a whole number: pass integer=True")
 
     def value(self) -> float:
-        """The bound now: ``$env`` when set and non-empty, else :attr:`default`.
+        """The bound now: ``$env`` when set and non-empty, else :attr:`default` (an ``int`` for :attr:`integer`
+        limits, else a ``float``).
 
         Raises:
-            UsageError: ``$env`` is not a positive (whole, for :attr:`integer` limits) finite number.
+            UsageError: ``$env`` is not a finite number (whole for :attr:`integer` limits, with an optional ``K``/
+                ``M``/``G`` suffix for bytes) that is positive, or 0 where :attr:`zero_means` allows it.
         """
         raw = os.environ.get(self.env, "").strip() if self.env else ""
         if not raw:
             return self.default
-        try:
-            number = int(raw) if self.integer else float(raw)
-        except ValueError:
-            number = -1
-        if not (math.isfinite(number) and number > 0):
-            kind = "positive whole number" if self.integer else "positive number"
-            raise UsageError(f"${self.env}={raw!r} is not a {kind}", f"unset it for the default ({self.default:g})")
+        number = self._parse(raw)
+        if number is None or not (number > 0 or (number == 0 and self.zero_means is not None)):
+            raise UsageError(f"{self.env}={raw!r} is not {self.kind()}", self._fix_hint())
         return number
 
-    def __str__(self) -> str:
-        where = f" (${self.env})" if self.env else ""
-        return f"{self.value():g}{where}"
+    def _parse(self, raw: str) -> float | None:
+        scale = 1
+        if self.unit == "bytes" and raw[-1:].upper() in _SUFFIXES:
+            raw, scale = raw[:-1], _SUFFIXES[raw[-1].upper()]
+        try:
+            number = int(raw) * scale if self.integer else float(raw)
+        except ValueError:  # not a number, or an integer of more than sys.get_int_max_str_digits() digits
+            return None
+        return number if math.isfinite(number) else None
+
+    def kind(self) -> str:
+        """What a valid value is, for messages: ``a positive whole number of bytes``, ``a number of seconds ≥ 0``."""
+        number = "whole number" if self.integer else "number"
+        of_unit = f" of {self.unit}" if self.unit else ""
+        if self.zero_means is not None:
+            return f"a {number}{of_unit} ≥ 0"
+        return f"a positive {number}{of_unit}"
+
+    def _fix_hint(self) -> str:
+        zero = f" (0: {self.zero_means})" if self.zero_means is not None else ""
+        return (f"e.g. {self.env}={self.example(2 * self.default)}{zero}, or unset it for the default "
+                f"({self.describe(self.default)})")
+
+    def describe(self, number: float | None = None) -> str:
+        """``number`` (default: :meth:`value`) in this limit's unit, for messages: ``64 MiB``, ``10000 members``,
+        ``10 seconds``, ``0 (no cap)``."""
+        number = self.value() if number is None else number
+        if number == 0 and self.zero_means is not None:
+            return f"0 ({self.zero_means})"
+        if self.unit == "bytes":
+            return human_bytes(int(number))
+        unit = self.unit[:-1] if number == 1 and self.unit.endswith("s") else self.unit
+        return f"{_plain(number)} {unit}".rstrip()
+
+    def example(self, number: float) -> str:
+        """``number`` written as a value of this limit's variable (``8M`` for 8 MiB of bytes, ``20``)."""
+        if self.unit == "bytes" and number >= 1 << 20:
+            return f"{max(1, int(number) >> 20)}M"
+        return _plain(number)
+
+    def raise_hint(self) -> str:
+        """``set BENCHBOT_X to raise it``: how to raise the limit, to end a one-line message (in parentheses)."""
+        return f"set {self.env} to raise it" if self.env else "a fixed limit"
+
+    def hint(self) -> str:
+        """How to raise the limit, for an error's hint: ``raise the limit with the environment variable
+        BENCHBOT_X (e.g. BENCHBOT_X=8M)`` (twice its current value)."""
+        if not self.env:
+            return "the limit is fixed"
+        return f"raise the limit with the environment variable {self.env} (e.g. {self.env}=" \
+               f"{self.example(2 * self.value())})"
+
+def human_bytes(number: int) -> str:
+    """``1536`` → ``1.5 KiB``; exact powers print without decimals (``64 MiB``); under 1 KiB: ``300 bytes``."""
+    for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if number >= size:
+            value = number / size
+            return f"{value:.0f} {unit}" if value == int(value) else f"{value:.1f} {unit}"
+    return f"{number} bytes"
 
 
-#: Request bodies larger than this are answered 413 without being read (``Content-Length`` is checked first;
-#: a chunked body is cut off as soon as it passes the bound).
-MAX_REQUEST_BYTES = Limit(1024 * 1024, "BENCHBOT_MAX_REQUEST_BYTES", integer=True)
-#: Observation names one native step may ask for (a task observes fewer than ten).
-MAX_OBSERVATION_NAMES = Limit(64, "BENCHBOT_MAX_OBSERVATION_NAMES", integer=True)
-#: Every number in a results function's ``args``/``kwargs`` — and every string that reads as a number — must lie
-#: within ± this. The server cannot tell which argument is a count (``create_object(num_classes)``), so one bound
-#: covers counts and coordinates alike (map coordinates are metres; label probabilities lie in [0, 1]).
+def _plain(number: float) -> str:
+    """``100000.0`` → ``100000``, ``1.5`` → ``1.5`` (never ``1e+05``)."""
+    return str(int(number)) if number == int(number) else f"{number:g}"
+
+
+def all_limits() -> dict[str, Limit]:
+    """Every limit of this module by its name (``{'MAX_REQUEST_BYTES': Limit(...), ...}``), in definition order."""
+    return {name: value for name, value in globals().items() if isinstance(value, Limit)}
+
+
+# --- backend server and episode ----------------------------------------------------------------------------------
+
+MAX_REQUEST_BYTES = Limit(1 << 20, "BENCHBOT_MAX_REQUEST_BYTES", "bytes", integer=True)
+"""Request bodies larger than this are answered 413 without being read (``Content-Length`` is checked first; a
+chunked body is cut off as soon as it passes the bound)."""
+
+MAX_OBSERVATION_NAMES = Limit(64, "BENCHBOT_MAX_OBSERVATION_NAMES", "names", integer=True)
+"""Observation names one native step may ask for (a task observes fewer than ten); past it: 400."""
+
 MAX_RESULTS_ARG_NUMBER = Limit(100_000, "BENCHBOT_MAX_RESULTS_ARG_NUMBER")
-#: The JSON reply of one results-function call.
-MAX_RESULTS_REPLY_BYTES = Limit(8 * 1024 * 1024, "BENCHBOT_MAX_RESULTS_REPLY_BYTES", integer=True)
-#: A results function still running after this answers 504; results functions run one at a time on their own
-#: thread, never on the server's event loop or the backend thread.
-RESULTS_FUNCTION_TIMEOUT_S = Limit(10.0, "BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S")
-#: An episode belongs to the client that started it until that client releases it (``/robot/release``) or sends
-#: no request for this long; until then other clients get 409 (docs/protocol.md, "One client at a time").
-EPISODE_LEASE_S = Limit(60.0, "BENCHBOT_EPISODE_LEASE_S")
-#: ``move_distance``'s ``distance`` must lie within ± this (metres).
-MAX_MOVE_DISTANCE_M = Limit(100.0, "BENCHBOT_MAX_MOVE_DISTANCE_M")
-#: ``move_angle``'s ``angle`` must lie within ± this (degrees).
-MAX_MOVE_ANGLE_DEG = Limit(360.0, "BENCHBOT_MAX_MOVE_ANGLE_DEG")
-#: ``--camera-size WxH``: each side at most this many pixels.
-MAX_CAMERA_SIDE = Limit(8192, integer=True)
+"""Every number in a results function's ``args``/``kwargs`` — and every string that reads as a number — must lie
+within ± this. The server cannot tell which argument is a count (``create_object(num_classes)``), so one bound
+covers counts and coordinates alike (map coordinates are metres; label probabilities lie in [0, 1]); past it: 400."""
+
+MAX_RESULTS_REPLY_BYTES = Limit(8 << 20, "BENCHBOT_MAX_RESULTS_REPLY_BYTES", "bytes", integer=True)
+"""The JSON reply of one results-function call; past it: 400."""
+
+RESULTS_FUNCTION_TIMEOUT_S = Limit(10.0, "BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S", "seconds")
+"""A results function still running after this answers 504; results functions run one at a time on their own
+thread, never on the server's event loop or the backend thread."""
+
+EPISODE_LEASE_S = Limit(60.0, "BENCHBOT_EPISODE_LEASE_S", "seconds")
+"""An episode belongs to the client that started it until that client releases it (``/robot/release``) or sends
+no request for this long; until then other clients get 409 (docs/protocol.md, "One client at a time")."""
+
+MAX_MOVE_DISTANCE_M = Limit(100.0, "BENCHBOT_MAX_MOVE_DISTANCE_M", "metres")
+"""``move_distance``'s ``distance`` must lie within ± this (metres); past it: 400."""
+
+MAX_MOVE_ANGLE_DEG = Limit(360.0, "BENCHBOT_MAX_MOVE_ANGLE_DEG", "degrees")
+"""``move_angle``'s ``angle`` must lie within ± this (degrees); past it: 400."""
+
+MAX_CAMERA_SIDE = Limit(8192, None, "pixels", integer=True)
+"""``--camera-size WxH``: each side at most this many pixels (a larger camera fails at its first observation)."""
+
+# --- input files (benchbot.core.safe_load) ------------------------------------------------------------------------
+
+MAX_SPEC_BYTES = Limit(4 << 20, "BENCHBOT_MAX_SPEC_BYTES", "bytes", integer=True)
+"""Largest spec file (YAML or JSON: task, robot, environment, format, evaluator, example, batch, ground truth,
+pack manifest) read by the registry or ``benchbot install``. The largest shipped ground truth is ~110 KB."""
+
+MAX_RESULTS_BYTES = Limit(64 << 20, "BENCHBOT_MAX_RESULTS_BYTES", "bytes", integer=True)
+"""Largest results file, or results member of a zip archive after decompression, read by ``benchbot eval``.
+A result of 1000 objects over 30 classes is under 1 MB; the parsed file takes roughly 4x its size in memory."""
+
+MAX_ZIP_BYTES = Limit(256 << 20, "BENCHBOT_MAX_ZIP_BYTES", "bytes", integer=True)
+"""Largest zip archive of results: both its size on disk and the sum of its members' decompressed sizes."""
+
+MAX_ZIP_MEMBERS = Limit(10_000, "BENCHBOT_MAX_ZIP_MEMBERS", "members", integer=True)
+"""Most entries (files and folders) in one zip archive of results."""
+
+MAX_NESTING_DEPTH = Limit(64, "BENCHBOT_MAX_NESTING_DEPTH", "levels", integer=True)
+"""Deepest nesting of lists/objects in a spec or results file (a results file needs 6 levels)."""
+
+# --- child processes (benchbot.core.process_group) ----------------------------------------------------------------
+
+MAX_LOG_BYTES = Limit(16 << 20, "BENCHBOT_MAX_LOG_BYTES", "bytes", integer=True, zero_means="no cap")
+"""Bytes of a child's output (a submission's stdout and stderr) kept in its log; the rest is counted and dropped,
+with a last line saying so. 0: no cap."""
+
+STOP_GRACE_S = Limit(5.0, "BENCHBOT_STOP_GRACE_S", "seconds", zero_means="no grace")
+"""Seconds a child's process group has between SIGTERM and SIGKILL when its episode ends. 0: no grace (SIGKILL
+right after SIGTERM)."""

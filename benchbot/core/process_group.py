@@ -2,13 +2,13 @@
 
 :func:`run_child` starts a command in a new session (so it leads a new process group that its forked children
 join), and, whatever way the run ends — the command exits, the timeout passes, the caller is interrupted — stops
-every process still in that group: SIGTERM, up to :func:`stop_grace_s` seconds, then SIGKILL. A watchdog process
-(:mod:`benchbot.core.group_watchdog`) does the same if the calling process dies without doing it (``kill -9``).
-A process that leaves the group on purpose (``setsid``) escapes both.
+every process still in that group: SIGTERM, up to :data:`~benchbot.core.limits.STOP_GRACE_S` seconds, then
+SIGKILL. A watchdog process (:mod:`benchbot.core.group_watchdog`) does the same if the calling process dies without
+doing it (``kill -9``). A process that leaves the group on purpose (``setsid``) escapes both.
 
 With a ``log``, the command's stdout and stderr go through a pipe that is always drained (the command never blocks
-on a full pipe); the first :func:`max_log_bytes` bytes are kept and the rest counted and dropped, with a last line
-saying so.
+on a full pipe); the first :data:`~benchbot.core.limits.MAX_LOG_BYTES` bytes are kept and the rest counted and
+dropped, with a last line saying so.
 """
 
 from __future__ import annotations
@@ -24,51 +24,13 @@ from pathlib import Path
 from typing import IO
 
 from benchbot.core import group_watchdog
-from benchbot.core.errors import UsageError
-
-DEFAULT_MAX_LOG_BYTES = 16 * 1024 * 1024
-"""Bytes of a child's output kept in its log (16 MiB); override with ``BENCHBOT_MAX_LOG_BYTES`` (0: no cap)."""
-
-DEFAULT_STOP_GRACE_S = 5.0
-"""Seconds a child's process group has between SIGTERM and SIGKILL; override with ``BENCHBOT_STOP_GRACE_S``."""
+from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
 
 FINAL_DRAIN_S = 2.0
 """Seconds spent reading output still buffered in the pipe after the group has been stopped (bounded, in case a
 process that left the group keeps the pipe open)."""
 
 _CHUNK = 1 << 20
-
-
-def _env_number(name: str, default: float, kind: type, what: str, example: str) -> float:
-    raw = os.environ.get(name)
-    if raw is None or raw.strip() == "":
-        return default
-    try:
-        value = kind(raw)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise UsageError(f"{name}={raw!r} is not {what}", f"e.g. {name}={example}, or unset it")
-    return value
-
-
-def max_log_bytes() -> int:
-    """The log cap in bytes: ``BENCHBOT_MAX_LOG_BYTES`` or :data:`DEFAULT_MAX_LOG_BYTES`; 0 means no cap.
-
-    Raises:
-        UsageError: the variable is not a whole number ≥ 0.
-    """
-    return int(_env_number("BENCHBOT_MAX_LOG_BYTES", DEFAULT_MAX_LOG_BYTES, int, "a whole number of bytes ≥ 0",
-                           "67108864 (64 MiB; 0: no cap)"))
-
-
-def stop_grace_s() -> float:
-    """Seconds between SIGTERM and SIGKILL: ``BENCHBOT_STOP_GRACE_S`` or :data:`DEFAULT_STOP_GRACE_S`.
-
-    Raises:
-        UsageError: the variable is not a number ≥ 0.
-    """
-    return float(_env_number("BENCHBOT_STOP_GRACE_S", DEFAULT_STOP_GRACE_S, float, "a number of seconds ≥ 0", "10"))
 
 
 @dataclass
@@ -79,7 +41,7 @@ class ChildOutcome:
         returncode: its exit status (negative: the signal that ended it).
         timed_out: it was stopped because the timeout passed.
         output_bytes: bytes it wrote to the log pipe (0 without a log).
-        log_truncated: the log kept only the first ``max_log_bytes`` of them.
+        log_truncated: the log kept only the first ``MAX_LOG_BYTES`` of them.
     """
 
     returncode: int
@@ -159,7 +121,7 @@ class _LogPump:
             self.pump(min(0.05, max(0.0, deadline - time.monotonic())))
         if self.truncated:
             self._write(f"\n[log truncated at {self.cap} bytes ({self.total} written): raise with "
-                        f"BENCHBOT_MAX_LOG_BYTES]\n".encode())
+                        f"{MAX_LOG_BYTES.env}]\n".encode())
         self.pipe.close()
 
     @property
@@ -180,7 +142,7 @@ def run_child(
     Args:
         argv, cwd, env: the command, its folder and its whole environment.
         log: a file (opened for writing; its descriptor is used) for stdout and stderr, capped at
-            :func:`max_log_bytes`; None: they are inherited.
+            :data:`~benchbot.core.limits.MAX_LOG_BYTES`; None: they are inherited.
         timeout_s: stop the group after this many seconds (``timed_out`` is then set).
 
     Raises:
@@ -188,7 +150,7 @@ def run_child(
             ``BENCHBOT_STOP_GRACE_S``. Whatever interrupts the wait (KeyboardInterrupt) is re-raised after the group
             has been stopped.
     """
-    grace, cap = stop_grace_s(), max_log_bytes()
+    grace, cap = STOP_GRACE_S.value(), MAX_LOG_BYTES.value()
     output = {"stdout": subprocess.PIPE, "stderr": subprocess.STDOUT} if log is not None else {}
     child = subprocess.Popen(argv, cwd=cwd, env=env, stdin=subprocess.DEVNULL, start_new_session=True, **output)
     pump = None

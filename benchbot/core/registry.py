@@ -25,7 +25,8 @@ from benchbot.core.content_packs import (
 from benchbot.core.errors import SpecError
 from benchbot.core.names import close_names, did_you_mean
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
-from benchbot.core.safe_load import MAX_SPEC_BYTES, load_data_file
+from benchbot.core.limits import MAX_SPEC_BYTES
+from benchbot.core.safe_load import load_data_file
 
 KIND_SCHEMAS = {
     "tasks": "task",
@@ -101,8 +102,8 @@ def check_task_actions(task: dict, source: str) -> None:
 
 
 def load_spec_file(path: Path) -> dict:
-    """Parse a YAML or JSON spec file into a dict, within the limits of :mod:`benchbot.core.safe_load`
-    (:data:`~benchbot.core.safe_load.MAX_SPEC_BYTES`, no YAML aliases, bounded nesting and integers).
+    """Parse a YAML or JSON spec file into a dict, read by :mod:`benchbot.core.safe_load`
+    (within :data:`~benchbot.core.limits.MAX_SPEC_BYTES`, no YAML aliases, bounded nesting and integers).
 
     Raises:
         SpecError: the file is missing, unreadable, too large, not UTF-8, malformed, or not a mapping (one line

@@ -1,24 +1,15 @@
-"""Reading untrusted YAML, JSON and zip files with explicit limits: the one home of BenchBot's input-file limits.
+"""Reading untrusted YAML, JSON and zip files within explicit limits.
 
 Spec files (content packs, plugins' spec files) and results files (``benchbot eval``) come from other people. Every
-reader here bounds what one file can cost before anything walks it:
+reader here bounds what one file can cost before anything walks it, within the limits of
+:mod:`benchbot.core.limits` (:data:`~benchbot.core.limits.MAX_SPEC_BYTES`,
+:data:`~benchbot.core.limits.MAX_RESULTS_BYTES`, :data:`~benchbot.core.limits.MAX_ZIP_BYTES`,
+:data:`~benchbot.core.limits.MAX_ZIP_MEMBERS`, :data:`~benchbot.core.limits.MAX_NESTING_DEPTH`: defaults, variables
+and byte suffixes there).
 
-========================  =======================  ===========================================================
-limit                     default                  environment variable that overrides it
-========================  =======================  ===========================================================
-:data:`MAX_SPEC_BYTES`    4 MiB                    ``BENCHBOT_MAX_SPEC_BYTES`` (one YAML/JSON spec file)
-:data:`MAX_RESULTS_BYTES` 64 MiB                   ``BENCHBOT_MAX_RESULTS_BYTES`` (one results file or zip member,
-                                                   decompressed)
-:data:`MAX_ZIP_BYTES`     256 MiB                  ``BENCHBOT_MAX_ZIP_BYTES`` (a zip archive: its size on disk and
-                                                   the sum of its members, decompressed)
-:data:`MAX_ZIP_MEMBERS`   10000                    ``BENCHBOT_MAX_ZIP_MEMBERS`` (entries of one zip archive)
-:data:`MAX_NESTING_DEPTH` 64                       ``BENCHBOT_MAX_NESTING_DEPTH`` (lists/objects inside each other)
-========================  =======================  ===========================================================
-
-Byte limits accept a whole number of bytes or one with a binary suffix (``512K``, ``64M``, ``1G``). YAML aliases
-(``*name``, including ``<<: *name`` merges) are refused in spec files: a few hundred bytes of nested aliases
-expand to billions of nodes. Integers longer than Python's ``sys.get_int_max_str_digits()`` (4300 digits) and
-text that is not UTF-8 are refused too. Each refusal is one :class:`~benchbot.core.errors.BenchbotError` naming the
+YAML aliases (``*name``, including ``<<: *name`` merges) are refused in spec files: a few hundred bytes of nested
+aliases expand to billions of nodes. Integers longer than Python's ``sys.get_int_max_str_digits()`` (4300 digits)
+and text that is not UTF-8 are refused too. Each refusal is one :class:`~benchbot.core.errors.BenchbotError` naming the
 file, the limit and how to raise it; nothing here lets a ``RecursionError``, ``ValueError`` or
 ``UnicodeDecodeError`` escape.
 """
@@ -29,105 +20,25 @@ import json
 import os
 import sys
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
 
 import yaml
 
-from benchbot.core.errors import BenchbotError, UsageError
+from benchbot.core.errors import BenchbotError
+from benchbot.core.limits import (
+    MAX_NESTING_DEPTH, MAX_RESULTS_BYTES, MAX_ZIP_BYTES, MAX_ZIP_MEMBERS, Limit, human_bytes,
+)
 
 
-@dataclass(frozen=True)
-class Limit:
-    """A size limit with an environment-variable override.
-
-    Attributes:
-        env: the environment variable that overrides ``default`` (e.g. ``BENCHBOT_MAX_RESULTS_BYTES``).
-        default: the value when the variable is unset or empty.
-        unit: ``"bytes"`` (the variable may use a ``K``/``M``/``G`` binary suffix) or a plural noun (``"members"``,
-            ``"levels"``), used in messages.
-    """
-
-    env: str
-    default: int
-    unit: str
-
-    def value(self) -> int:
-        """The limit in force: ``$env`` when set, else ``default``.
-
-        Raises:
-            UsageError: the variable is not a positive whole number (with an optional suffix for bytes).
-        """
-        raw = os.environ.get(self.env, "").strip()
-        if not raw:
-            return self.default
-        scale = 1
-        if self.unit == "bytes" and raw[-1:].upper() in _SUFFIXES:
-            raw, scale = raw[:-1], _SUFFIXES[raw[-1].upper()]
-        try:
-            number = int(raw) * scale
-        except ValueError:
-            number = 0
-        if number <= 0:
-            example = "64M" if self.unit == "bytes" else str(self.default)
-            raise UsageError(f"{self.env}='{os.environ[self.env]}' is not a positive whole number of {self.unit}",
-                             f"e.g. {self.env}={example}, or unset it for the default ({self.describe(self.default)})")
-        return number
-
-    def describe(self, number: int) -> str:
-        """``number`` in this limit's unit, for messages (``64 MiB``, ``10000 members``)."""
-        return human_bytes(number) if self.unit == "bytes" else f"{number} {self.unit}"
-
-    def raise_it(self) -> str:
-        """``set BENCHBOT_X to raise it``: how to raise the limit, inside a one-line message."""
-        return f"set {self.env} to raise it"
-
-    def hint(self) -> str:
-        """How to raise the limit, for an error's hint."""
-        return f"if the file is genuine, raise the limit with the environment variable {self.env} (e.g. {self.env}=" \
-               f"{self._example()})"
-
-    def _example(self) -> str:
-        twice = 2 * self.value()
-        if self.unit == "bytes":
-            return f"{max(1, twice >> 20)}M" if twice >= 1 << 20 else str(twice)
-        return str(twice)
-
-
-_SUFFIXES = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}
-
-MAX_SPEC_BYTES = Limit("BENCHBOT_MAX_SPEC_BYTES", 4 << 20, "bytes")
-"""Largest spec file (YAML or JSON: task, robot, environment, format, evaluator, example, batch, ground truth)
-read by the registry or ``benchbot install``. The largest shipped ground truth is ~110 KB."""
-
-MAX_RESULTS_BYTES = Limit("BENCHBOT_MAX_RESULTS_BYTES", 64 << 20, "bytes")
-"""Largest results file, or results member of a zip archive after decompression, read by ``benchbot eval``.
-A result of 1000 objects over 30 classes is under 1 MB; the parsed file takes roughly 4x its size in memory."""
-
-MAX_ZIP_BYTES = Limit("BENCHBOT_MAX_ZIP_BYTES", 256 << 20, "bytes")
-"""Largest zip archive of results: both its size on disk and the sum of its members' decompressed sizes."""
-
-MAX_ZIP_MEMBERS = Limit("BENCHBOT_MAX_ZIP_MEMBERS", 10_000, "members")
-"""Most entries (files and folders) in one zip archive of results."""
-
-MAX_NESTING_DEPTH = Limit("BENCHBOT_MAX_NESTING_DEPTH", 64, "levels")
-"""Deepest nesting of lists/objects in a spec or results file (a results file needs 6 levels)."""
-
-
-def human_bytes(number: int) -> str:
-    """``1536`` → ``1.5 KiB``; exact powers print without decimals (``64 MiB``)."""
-    for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
-        if number >= size:
-            value = number / size
-            return f"{value:.0f} {unit}" if value == int(value) else f"{value:.1f} {unit}"
-    return f"{number} bytes"
+def _file_hint(limit: Limit) -> str:
+    return f"if the file is genuine, {limit.hint()}"
 
 
 def _too_big(source: str, size: int | str, limit: Limit, what: str, error: type[BenchbotError]) -> BenchbotError:
     size_text = human_bytes(size) if isinstance(size, int) else size
-    return error(f"{source}: {what} is {size_text}, more than the limit of {limit.describe(limit.value())} "
-                 f"({limit.raise_it()})", limit.hint())
+    return error(f"{source}: {what} is {size_text}, more than the limit of {limit.describe()} "
+                 f"({limit.raise_hint()})", _file_hint(limit))
 
 
 def read_capped(path: Path, limit: Limit, error: type[BenchbotError], what: str = "the file") -> bytes:
@@ -176,8 +87,8 @@ def check_depth(data: Any, source: str, error: type[BenchbotError]) -> None:
 
 def _too_deep(source: str, error: type[BenchbotError]) -> BenchbotError:
     cap = MAX_NESTING_DEPTH.value()
-    return error(f"{source}: lists/objects are nested more than {cap} levels deep ({MAX_NESTING_DEPTH.raise_it()})",
-                 MAX_NESTING_DEPTH.hint())
+    return error(f"{source}: lists/objects are nested more than {cap} levels deep ({MAX_NESTING_DEPTH.raise_hint()})",
+                 _file_hint(MAX_NESTING_DEPTH))
 
 
 def _number_too_long(source: str, error: type[BenchbotError]) -> BenchbotError:
@@ -364,5 +275,4 @@ def zip_members(path: Path, error: type[BenchbotError], skip: Any = None) -> Ite
 
 def _too_many(path: Path, count: int, error: type[BenchbotError]) -> BenchbotError:
     return error(f"{path}: the zip archive has {count} entries, more than the limit of "
-                 f"{MAX_ZIP_MEMBERS.describe(MAX_ZIP_MEMBERS.value())} ({MAX_ZIP_MEMBERS.raise_it()})",
-                 MAX_ZIP_MEMBERS.hint())
+                 f"{MAX_ZIP_MEMBERS.describe()} ({MAX_ZIP_MEMBERS.raise_hint()})", _file_hint(MAX_ZIP_MEMBERS))
