@@ -223,3 +223,30 @@ def test_score_tables_show_integer_counts_and_label_repeats(app, registry, tmp_p
     assert rows["combined (mean of 3 results)"][-3:] == ["30.67", "0", "0"]  # (18 + 18 + 56) / 3
     proc = invoke(app, "eval", str(files[0]), "--required-envs", "miniroom:1,house:1", "-o", str(tmp_path / "s.json"))
     assert "combined (mean of 1 result + 1 missing)" in proc.stdout and "│ 9  " in proc.stdout, proc.stdout
+
+
+def test_a_batch_s_repeats_are_labelled_by_episode_and_never_cut_at_80_columns(monkeypatch):
+    from rich.console import Console
+
+    from benchbot.cli import eval_cmd
+    from benchbot.cli.tables import row_labels
+    from benchbot.core.evaluation import Evaluation
+
+    sources = [f"runs/b/results/{i:03d}_miniroom_{1 + i // 2}.json" for i in range(4)]
+    assert row_labels([(s, f"miniroom:{1 + i // 2}") for i, s in enumerate(sources)]) == \
+        ["miniroom:1 #0", "miniroom:1 #1", "miniroom:2 #2", "miniroom:2 #3"]
+    scores = {"OMQ": 0.1601, "avg_pairwise": 0.2374, "avg_label": 0.1876, "avg_spatial": 0.495,
+              "avg_fp_quality": 0.4686, "TP": 15, "FP": 8, "FN": 3}
+    evaluation = Evaluation(method="omq")
+    evaluation.per_result = [(s, {"environment_details": [{"name": "miniroom", "variant": 1 + i // 2}],
+                                  "scores": dict(scores)}) for i, s in enumerate(sources)]
+    evaluation.combined = {"scores": dict(scores)}
+    console = Console(width=80, record=True, force_terminal=False)
+    monkeypatch.setattr(eval_cmd, "out", console)
+    eval_cmd.print_scores(evaluation)
+    text = console.export_text()
+    assert max(map(len, text.splitlines())) <= 80 and "…" not in text, text
+    rows = [line.split() for line in text.splitlines() if line.startswith(("miniroom", "combined"))]
+    assert [r[:2] for r in rows[:4]] == [["miniroom:1", "#0"], ["miniroom:1", "#1"], ["miniroom:2", "#2"],
+                                         ["miniroom:2", "#3"]], text
+    assert all(r[-8:] == ["0.1601", "0.2374", "0.1876", "0.4950", "0.4686", "15", "8", "3"] for r in rows), text

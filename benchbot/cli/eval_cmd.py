@@ -43,23 +43,32 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
     (:mod:`benchbot.cli.tables`)."""
     from rich.markup import escape
 
-    from benchbot.cli.tables import COUNT_KEYS, count_cell, plural, row_labels
+    from benchbot.cli.tables import COUNT_KEYS, count_cell, fit, plural, row_labels
 
     def cell(key: str, value: object) -> str:
         return count_cell(value) if key in COUNT_KEYS else _fmt(value)
 
     keys = _score_keys([s.get("scores", {}) for _, s in evaluation.per_result])
     mode = getattr(evaluation, "combine_mode", "mean")
-    table = Table("environment", *[SHORT.get(k, k) for k in keys], title=f"{evaluation.method} scores")
     labels = row_labels([(source, _env_name(source, s)) for source, s in evaluation.per_result])
+    table = Table(title=f"{evaluation.method} scores")
+    # the row names never wrap or shrink (a narrow terminal abbreviates the score headers instead)
+    with_combined = evaluation.combined is not None and len(evaluation.per_result) + len(evaluation.missing) > 1
+    counted = plural(len(evaluation.per_result), "result") + (
+        f" + {len(evaluation.missing)} missing" if evaluation.missing else "")
+    # environment names and numbers are never cut; a narrow terminal abbreviates the headers and wraps the
+    # combined row's label instead
+    table.add_column("environment", min_width=max([len("environment"), *map(len, labels)]))
+    values = [s["scores"] for _, s in evaluation.per_result] + ([evaluation.combined.get("scores", {})] if with_combined else [])
+    for k in keys:
+        table.add_column(SHORT.get(k, k), overflow="ellipsis", no_wrap=True,
+                         min_width=max([1, *(len(cell(k, v.get(k, ""))) for v in values)]))
     for label, (source, s) in zip(labels, evaluation.per_result):
         table.add_row(escape(label), *[cell(k, s["scores"].get(k, "")) for k in keys])
-    if evaluation.combined is not None and len(evaluation.per_result) + len(evaluation.missing) > 1:
+    if with_combined:
         combined = evaluation.combined.get("scores", {})
-        counted = plural(len(evaluation.per_result), "result") + (
-            f" + {len(evaluation.missing)} missing" if evaluation.missing else "")
         table.add_row(f"[bold]combined[/] ({mode} of {counted})", *[cell(k, combined.get(k, "")) for k in keys])
-    out.print(table)
+    out.print(fit(table, out))
     if per_class:
         rows = [(label, s["per_class"]) for label, (src, s) in zip(labels, evaluation.per_result) if "per_class" in s]
         if evaluation.combined is not None and "per_class" in evaluation.combined and len(rows) > 1:
@@ -70,7 +79,7 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
         for env, pc in rows:
             for cls, entry in pc.items():
                 pc_table.add_row(escape(env), escape(str(cls)), *[cell(k, entry["scores"].get(k, "")) for k in class_keys])
-        out.print(pc_table)
+        out.print(fit(pc_table, out))
     for source, why in evaluation.skipped:
         err.print(f"[yellow]skipped[/] {escape(str(source))}: {escape(str(why))}", highlight=False)
     for env in evaluation.missing:

@@ -147,13 +147,16 @@ def register(app: typer.Typer) -> None:
         if example_containerised and not example:
             raise UsageError("--example-containerised needs --example NAME", "e.g. --example hello_passive --example-containerised")
         if len(modes) > 1:
-            raise UsageError(f"give one mode, not {' and '.join(modes)}", "one of --native, --containerised, --submission")
+            hint = "one of --native, --containerised, --submission"
+            if native is not None:  # `--native python -c CODE`: the solution's own flags were read as benchbot's
+                hint += "; quote a command whose words start with -, e.g. --native 'python -c \"...\"'"
+            raise UsageError(f"give one mode, not {' and '.join(modes)}", hint)
         if not modes and not example:
             raise UsageError("give exactly one of --native COMMAND..., --containerised DIR, --submission DIR or --example NAME", "e.g. --native python my.py")
         if command and not native:
             raise UsageError(f"unexpected arguments: {' '.join(command)}", "use --args to pass arguments")
         if submission is not None and (evaluate_with or results_location):
-            raise UsageError("--submission only packages: it cannot be combined with -e/-r", "submit natively to evaluate")
+            raise UsageError("--submission only packages: it cannot be combined with --evaluate-with/--results-location", "submit natively to evaluate")
         if evaluate_with:
             reg.get("evaluators", evaluate_with)
         try:
