@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchbot.batch.plan import new_record, plan_episodes, to_json
 from benchbot.batch.report import bootstrap_ci, compare, load_run, render_html
 
 
@@ -23,8 +24,15 @@ def fake_run(root: Path, name: str, omq_by_env: dict[str, list[float]], robot: s
             rows.append({"index": i, "env": env, "robot": robot, "repeat": r, "seed": i,
                          "scores": {"OMQ": v, "avg_pairwise": v, "avg_label": v, "avg_spatial": v, "avg_fp_quality": 1.0}})
             i += 1
+    specs = plan_episodes(task="semantic_slam:passive:ground_truth", robots=[robot], envs=list(omq_by_env),
+                          repeat=max(map(len, omq_by_env.values())), seed=0, argv=["true"], cwd=str(root),
+                          options={}, timeout_s=None)
+    records = [new_record(spec) for spec in specs]
+    for record in records:
+        record.status = "ok"
     (run / "manifest.json").write_text(json.dumps({"task": "semantic_slam:passive:ground_truth", "robots": [robot],
-                                                   "plan": [], "episodes": [], "wall_s": 1.0}))
+                                                   "environments": list(omq_by_env), "plan": to_json(specs),
+                                                   "episodes": to_json(records), "wall_s": 1.0}))
     (run / "config.json").write_text(json.dumps({"environments": {e: [{"lighting": "night" if "2" in e else "base"}] for e in omq_by_env}}))
     (run / "episode_scores.json").write_text(json.dumps(rows))
     return run
