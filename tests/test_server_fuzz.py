@@ -205,6 +205,7 @@ def test_slow_action_answers_504_and_the_episode_stays_usable(make_service):
         release.set()
         assert http.get("/robot/state").json()["step"] == 1  # queued behind the finished motion
         backend.move_to = original
+        http.post("/robot/release")  # the anonymous client lets the next one have the episode
         bot = BenchBot(supervisor_address=server.address)
         assert bot.step("move_angle", angle=5)[1].name == "SUCCESS"
         bot.close()

@@ -58,7 +58,8 @@ def _segments() -> set[str]:
     return {n for n in os.listdir(shared_frames.SHM_DIR) if shared_frames.NAME_PATTERN.fullmatch(n)}
 
 
-def test_shared_memory_steps_equal_the_inline_and_in_process_steps(served, reads):
+def test_shared_memory_steps_equal_the_inline_and_in_process_steps(served, reads, monkeypatch):
+    monkeypatch.setenv("BENCHBOT_CLIENT_ID", "one-solution-two-connections")  # one owner of the episode
     before = _segments()
     service, server = served(ACTIVE, "miniroom:1", **CAMERA)
     shared = BenchBot(transport=HttpTransport(server.address))
