@@ -269,7 +269,10 @@ def zip_members(path: Path, error: type[BenchbotError], skip: Any = None) -> Ite
                 produced += got
                 yield info.filename, b"".join(chunks)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError, OSError, RuntimeError) as exc:
-        raise error(f"{path}: cannot read the zip archive ({exc})", "re-create it with zip or shutil.make_archive") \
+        why = str(exc)
+        if "CRC" in why:  # zipfile inflates no further than the header's size, so a lying header ends in a bad CRC
+            why += ": a member's content does not match its header (a damaged or crafted archive)"
+        raise error(f"{path}: cannot read the zip archive ({why})", "re-create it with zip or shutil.make_archive") \
             from None
 
 
