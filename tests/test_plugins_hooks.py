@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import types
 from pathlib import Path
 
@@ -76,3 +79,20 @@ def test_a_plugin_whose_commands_fail_is_named_and_the_others_still_register(cap
     assert warnings == ["plugin broken_plugin could not add its commands: RuntimeError('missing dependency')"]
     assert "warning: plugin broken_plugin could not add its commands" in capsys.readouterr().err
     assert [c.name for c in app.registered_commands] == ["hello"]
+
+
+def test_a_misspelt_hook_names_the_plugin_and_the_hook_and_the_others_load(tmp_path):
+    # a real third-party plugin found through its entry point: a module and a .dist-info on PYTHONPATH
+    (tmp_path / "typo_plugin.py").write_text(
+        "from benchbot.core.hookspecs import hookimpl\n\n@hookimpl\ndef benchbot_task():\n    return []\n")
+    dist = tmp_path / "benchbot_typo-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: benchbot-typo\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text("[benchbot]\ntypo = typo_plugin\n")
+    env = dict(os.environ, PYTHONPATH=str(tmp_path),
+               BENCHBOT_ONLY_PLUGINS=os.environ["BENCHBOT_ONLY_PLUGINS"] + ",typo")
+    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "list", "tasks"], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert proc.returncode == 0 and "semantic_slam:passive:ground_truth" in proc.stdout  # the others still load
+    warning = [line for line in proc.stderr.splitlines() if "typo" in line]
+    assert len(warning) == 1 and "implements unknown hook benchbot_task (did you mean benchbot_tasks?)" in warning[0]

@@ -88,13 +88,42 @@ def build_plugin_manager(extra_plugins: dict[str, ModuleType | object] | None = 
         try:
             plugin = ep.load()
             pm.register(plugin, name=ep.name)
+            unknown_hooks_check(pm, plugin, ep.name)
             info.hooks = _hook_names(pm, plugin)
         except Exception as exc:  # a broken third-party plugin must not break the others
             info.status, info.error = "failed", f"{type(exc).__name__}: {exc}".splitlines()[0]
     for name, plugin in (extra_plugins or {}).items():
         pm.register(plugin, name=name)
+        unknown_hooks_check(pm, plugin, name)
         infos.append(PluginInfo(name=name, module=getattr(plugin, "__name__", repr(plugin)), hooks=_hook_names(pm, plugin)))
+    pm.check_pending()  # every implementation now has its hookspec (pluggy's own check, as a last guard)
     return pm, infos
+
+
+class UnknownHookError(Exception):
+    """A plugin implements a hook that no hookspec declares (usually a misspelt name)."""
+
+
+def unknown_hooks_check(pm: pluggy.PluginManager, plugin: object, name: str) -> None:
+    """Unregister ``plugin`` and raise when it implements a hook that BenchBot does not declare: a misspelt hook
+    (``benchbot_task`` for ``benchbot_tasks``) would otherwise never be called, silently. Hooks marked
+    ``optionalhook=True`` are allowed (they are meant for hookspecs another plugin may add).
+
+    Raises:
+        UnknownHookError: ``"plugin NAME implements unknown hook benchbot_task (did you mean benchbot_tasks?)"``.
+    """
+    from benchbot.core.names import close_names
+
+    known = [h for h in dir(pm.hook) if h.startswith(hookspecs.PROJECT_NAME + "_") and getattr(pm.hook, h).has_spec()]
+    unknown = sorted(caller.name for caller in (pm.get_hookcallers(plugin) or [])
+                     if not caller.has_spec() and not all(i.optionalhook for i in caller.get_hookimpls()
+                                                          if i.plugin is plugin))
+    if unknown:
+        pm.unregister(plugin)
+        hook = unknown[0]
+        close = close_names(hook, known)
+        suggestion = f" (did you mean {', '.join(close)}?)" if close else " (the hooks are listed in docs/hooks.md)"
+        raise UnknownHookError(f"plugin {name} implements unknown hook {hook}{suggestion}")
 
 
 def _hook_names(pm: pluggy.PluginManager, plugin: object) -> list[str]:
