@@ -96,3 +96,35 @@ def test_a_misspelt_hook_names_the_plugin_and_the_hook_and_the_others_load(tmp_p
     assert proc.returncode == 0 and "semantic_slam:passive:ground_truth" in proc.stdout  # the others still load
     warning = [line for line in proc.stderr.splitlines() if "typo" in line]
     assert len(warning) == 1 and "implements unknown hook benchbot_task (did you mean benchbot_tasks?)" in warning[0]
+
+
+def test_every_hookspec_is_called_by_the_core():
+    # datasette's habit: a hook nobody calls is a promise nobody keeps
+    from benchbot.core.registry import KIND_SCHEMAS
+
+    sources = "\n".join(p.read_text() for p in (ROOT / "benchbot").rglob("*.py")
+                        if p.name not in ("hookspecs.py", "hookdoc.py", "testing.py"))
+    assert 'getattr(self.plugin_manager.hook, f"benchbot_{kind}")' in sources  # the registry calls the content hooks
+    for _, name, _ in hookdoc.hooks():
+        called = f"hook.{name}(" in sources or f"hook.{name}.get_hookimpls()" in sources
+        assert called or name.removeprefix("benchbot_") in KIND_SCHEMAS, f"{name} is never called by the core"
+
+
+def test_episode_finished_is_called_once_when_the_service_closes(make_service, registry):
+    calls = []
+
+    class Spy:
+        @hookimpl
+        def benchbot_episode_finished(self, info):
+            calls.append(info)
+
+    spy = Spy()
+    registry.plugin_manager.register(spy)
+    try:
+        service = make_service("semantic_slam:passive:ground_truth", "miniroom:1")
+        service.call(service.episode.act, "move_next", {})
+        service.close()
+        service.close()  # idempotent for the hook
+    finally:
+        registry.plugin_manager.unregister(spy)
+    assert calls == [{"steps": 1, "collided": False, "finished": False}]

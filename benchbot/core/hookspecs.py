@@ -261,7 +261,8 @@ class ObserverHooks:
             Nothing (results are ignored).
 
         Called:
-            When the episode ends (trajectory finished, collision, or the service is closed).
+            On the backend thread when the episode's service closes: a batch episode's end, ``benchbot run`` or
+            ``benchbot replay`` stopping, ``BackendService.close()``; once per service.
 
         Call policy:
             every implementation is called; results are ignored; it must return quickly.

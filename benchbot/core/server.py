@@ -99,17 +99,20 @@ class BackendService:
         hidden: strings never to be served, e.g. the paths of the environments' ground-truth files (error
             messages have them blanked out); the environments' own ``map_path``/``_file_path`` and mesh paths are
             added.
+        on_close: called once, on the worker thread, with the episode when the service closes (before the backend
+            closes): :func:`benchbot.core.session.start_service` calls the ``benchbot_episode_finished`` hook there.
 
     Raises:
         BenchbotError: whatever ``build_episode`` raises.
     """
 
     def __init__(self, build_episode: Callable[[], Episode], results_functions: dict[str, Callable] | None = None,
-                 hidden: set[str] | None = None):
+                 hidden: set[str] | None = None, on_close: Callable[[Episode], None] | None = None):
         self.executor = backend_worker()
         self.results_functions = results_functions or {}
         self.episode: Episode = self.executor.submit(build_episode).result()
         self.hidden = set(hidden or ()) | ground_truth_strings(self.episode.environments)
+        self._on_close, self._closed = on_close, False
 
     def call(self, fn: Callable, *args: Any) -> Any:
         """Run ``fn(*args)`` on the worker thread and wait for it."""
@@ -120,7 +123,16 @@ class BackendService:
         return await asyncio.wrap_future(self.executor.submit(fn, *args))
 
     def close(self) -> None:
-        """Close the robot backend (on the worker thread); the thread stays for the next service."""
+        """Call ``on_close`` (once), then close the robot backend, on the worker thread; the thread stays for the
+        next service."""
+        if not self._closed and self._on_close is not None:
+            self._closed = True
+            try:
+                self.call(self._on_close, self.episode)
+            finally:
+                self.call(self.episode.backend.close)
+            return
+        self._closed = True
         self.call(self.episode.backend.close)
 
 

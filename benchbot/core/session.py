@@ -86,7 +86,8 @@ def start_service(
     ``factory(robot_spec, options)`` builds the backend; by default the one registered for the robot's ``type``
     (the replay of a recording passes its own).
 
-    Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``. The
+    Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``, and
+    ``benchbot_episode_finished`` when the service closes. The
     ground-truth files of the environments are the service's ``hidden`` strings (:func:`ground_truth_paths`).
 
     Raises:
@@ -115,8 +116,13 @@ def start_service(
         )
         return episode
 
+    def finished(episode: Episode) -> None:
+        state = episode.state()
+        hook.benchbot_episode_finished(info={"steps": int(state["step"]), "collided": bool(state["is_collided"]),
+                                             "finished": bool(state["is_finished"])})
+
     functions = registry.functions("formats", run.task["results_format"]) if run.task.get("results_format") else {}
-    return BackendService(build, functions, hidden=ground_truth_paths(registry, run.environments))
+    return BackendService(build, functions, hidden=ground_truth_paths(registry, run.environments), on_close=finished)
 
 
 def ground_truth_paths(registry: Registry, environments: list[dict]) -> set[str]:
