@@ -95,7 +95,7 @@ def polygon_area(poly):
 
 
 def per_pair_omq(results: dict, gt: dict, polygons: bool = True) -> dict:
-    """Semantic SLAM OMQ computed pair by pair in plain Python (the reference's algorithm, §7.2), for comparison.
+    """Semantic SLAM OMQ computed pair by pair in plain Python (the algorithm as docs/evaluation.md gives it), for comparison.
 
     With ``polygons`` (as the original, which intersected shapely polygons per pair) each pair's footprint
     intersection is a Sutherland–Hodgman polygon clip; without, the per-axis min/max overlap.

@@ -1,4 +1,4 @@
-"""The episode state machine on the real Taichi simulator (reference §3–§5, with the listed bugs fixed)."""
+"""The episode state machine on the real Taichi simulator (docs/protocol.md, with the listed bugs fixed)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Poses and the original pose controller (reference §5.4), on plain numbers."""
+"""Poses and the original pose controller (docs/observations.md), on plain numbers."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from benchbot.core.motion import ControllerGains, PoseController
 
 
 def test_unnormalised_start_pose_is_normalised():
-    # house start pose [1,0,0,0.8,...] is yaw 77.3 degrees once normalised (reference §9)
+    # house start pose [1,0,0,0.8,...] is yaw 77.3 degrees once normalised (docs/simulator.md)
     x, y, yaw = pose7_to_se2([1, 0, 0, 0.8, -1.8, -2.5, 0.3])
     assert (x, y) == (-1.8, -2.5)
     assert math.degrees(yaw) == pytest.approx(77.32, abs=0.01)

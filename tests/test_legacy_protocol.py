@@ -1,4 +1,4 @@
-"""The original protocol (reference §3, §4, §5.1) served to the original client's request sequence
+"""The original protocol (docs/protocol.md) served to the original client's request sequence
 (tests/legacy_client.py), and the in-process client against the HTTP one."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The abstract agent a solution implements (reference §4)."""
+"""The abstract agent a solution implements (docs/observations.md)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ class Agent(abc.ABC):
 
     @abc.abstractmethod
     def pick_action(self, observations: dict, action_list: list[str]) -> tuple[str, dict]:
-        """The next action ``(name, kwargs)`` given the observations (reference §4 structures) and the actions
+        """The next action ``(name, kwargs)`` given the observations (docs/observations.md structures) and the actions
         allowed now."""
 
     @abc.abstractmethod

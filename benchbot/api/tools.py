@@ -1,4 +1,4 @@
-"""Tools for solutions: :class:`ObservationVisualiser`, like the original's ``benchbot_api.tools`` (reference §4).
+"""Tools for solutions: :class:`ObservationVisualiser`, like the original's ``benchbot_api.tools`` (docs/observations.md).
 
 matplotlib is imported on first use (``pip install benchbot[vis]``), so ``import benchbot.api`` stays light.
 With a display the figure is shown in a window; without one (no ``DISPLAY``/``WAYLAND_DISPLAY`` on Linux, or a

@@ -1,4 +1,4 @@
-"""Batches: plan, run (resumably), evaluate (reference §8, without Docker, with parallel episodes).
+"""Batches: plan, run (resumably), evaluate (docs/cli.md, without Docker, with parallel episodes).
 
 A run directory holds::
 

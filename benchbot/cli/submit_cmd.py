@@ -1,4 +1,4 @@
-"""``benchbot submit``: run a solution against a running backend (reference §1.3)."""
+"""``benchbot submit``: run a solution against a running backend (docs/cli.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Content packs: folders in the original BenchBot add-on layout (reference §2.1–§2.4), installed by path.
+"""Content packs: folders in the original BenchBot add-on layout (docs/plugin-guide.md), installed by path.
 
 A pack holds spec files in type folders — ``tasks/``, ``robots/``, ``environments/``, ``formats/``,
 ``evaluation_methods/`` (our kind ``evaluators``), ``ground_truths/`` (JSON), ``examples/``, ``batches/`` — each
@@ -295,7 +295,7 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
         pf.spec = spec
     if not scan.files:
         scan.errors.append(f"no spec files found: expected {', '.join(sorted(set(FOLDER_KINDS) - {'evaluators'}))}/ "
-                           "folders with YAML/JSON files (reference §2.1)")
+                           "folders with YAML/JSON files (docs/plugin-guide.md)")
     seen: dict[tuple[str, str], str] = {}
     for pf in scan.files:
         if pf.name and (pf.kind, pf.name) in seen:

@@ -1,7 +1,7 @@
 """The episode: the supervisor's state machine for one task, one robot and one or more scenes.
 
-Semantics follow the original BenchBot supervisor and robot controller (docs/benchbot-reference.md §3–§5), with
-its state-machine bugs fixed (§10.4):
+Semantics follow the original BenchBot supervisor and robot controller (routes: docs/protocol.md; actions,
+frames and localisation: docs/observations.md), with its state-machine bugs fixed (docs/architecture.md lists them):
 
 * ``reset`` really returns to scene 0 (the original reloaded the current scene while reporting 0);
 * ``next`` clears ``initial_pose`` along with the trajectory progress (the original kept scene 1's);
@@ -36,7 +36,7 @@ from benchbot.core.geometry import (
 from benchbot.core.robot import RobotBackend
 
 ACTIONS = ("move_next", "move_distance", "move_angle")
-DIRTY_DISTANCE_M = 1.0  # reference §5.4: the simulator marks the robot dirty past 1 m or 2° from the start pose
+DIRTY_DISTANCE_M = 1.0  # docs/observations.md: the simulator marks the robot dirty past 1 m or 2° from the start pose
 DIRTY_ANGLE_RAD = math.radians(2.0)
 
 SUCCESS, FINISHED, COLLISION = "SUCCESS", "FINISHED", "COLLISION"
@@ -97,7 +97,7 @@ class OdometryNoise:
 
     * ``zero_mean``: the increment (dx, dy, dyaw) in the robot frame becomes (dx·(1+n₁), dy·(1+n₁), dyaw·(1+n₂))
       with nᵢ ~ Normal(0, σ).
-    * ``original``: the original BenchBot's ``noisify_odom`` (reference §5.6): the forward speed and the turn rate
+    * ``original``: the original BenchBot's ``noisify_odom`` (docs/observations.md): the forward speed and the turn rate
       are scaled by (1+n₁), (1+n₂) with nᵢ ~ Normal(**mean = σ**, std = σ) — a positive bias: on average the robot
       "thinks it went 10 % further" — and sideways motion is ignored (dy = 0 before the increment is re-integrated
       as a constant-(v, ω) arc).
@@ -202,8 +202,9 @@ class Episode:
 
     @property
     def config(self) -> dict:
-        """The supervisor's config as clients are served it: ``{task, results, robot, environments}`` (reference
-        §3; a fresh copy), each environment cut to :func:`served_environment` (no ground truth, no file of it)."""
+        """The supervisor's config as clients are served it: ``{task, results, robot, environments}``
+        (docs/protocol.md; a fresh copy), each environment cut to :func:`served_environment` (no ground truth, no
+        file of it)."""
         return copy.deepcopy({
             "task": self.task,
             "results": self.results_format,
@@ -345,7 +346,7 @@ class Episode:
 
     # ----------------------------------------------------------------------------------------- observations
     def observe(self, names: Sequence[str] | None = None, *, borrowed: bool = False) -> dict[str, Any]:
-        """The observations ``names`` (default: the task's) in the structures of reference §4, plus
+        """The observations ``names`` (default: the task's) in the structures of docs/observations.md, plus
         ``scene_number`` (int, 0-based). ``borrowed``: the sensor arrays may be the backend's own
         (:meth:`~benchbot.core.robot.RobotBackend.observe_borrowed`), for a caller that copies them at once and
         modifies none.

@@ -1,4 +1,4 @@
-"""Loading, validating and scoring results files with an evaluation method (reference §1.4, §7.1).
+"""Loading, validating and scoring results files with an evaluation method (docs/cli.md).
 
 A results file is ``{task_details: {name, results_format, ...}, environment_details: [{name, variant, ...}, ...],
 results: <an instance of the results format>}``; a ``.zip`` archive holds such JSON files (``submission.json``
@@ -28,7 +28,7 @@ class LoadedResult:
 
     @property
     def env_string(self) -> str:
-        """``name:v1[:v2...]`` of its scenes (reference §2.2)."""
+        """``name:v1[:v2...]`` of its scenes (docs/plugin-guide.md)."""
         envs = self.data["environment_details"]
         return f"{envs[0]['name']}:" + ":".join(str(e["variant"]) for e in envs)
 
@@ -209,7 +209,7 @@ def evaluate(
     options: dict[str, Any] | None = None,
     keep_going: bool = False,
 ) -> Evaluation:
-    """Validate and score results files (reference §1.4, §7.1).
+    """Validate and score results files (docs/cli.md).
 
     Args:
         paths: JSON files and/or zip archives.

@@ -112,7 +112,7 @@ def se2_relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def pose_observation(T_parent_frame: np.ndarray, parent_frame: str) -> dict:
-    """One entry of the ``poses`` observation (reference §4) from ``T_parent_frame`` (4, 4).
+    """One entry of the ``poses`` observation (docs/observations.md) from ``T_parent_frame`` (4, 4).
 
     Returns:
         ``{'parent_frame': str, 'translation_xyz': (3,) float64 metres, 'rotation_rpy': (roll, pitch, yaw)

@@ -1,11 +1,11 @@
-"""The original BenchBot's pose controller (reference §5.4), as a pure, steppable state machine.
+"""The original BenchBot's pose controller (docs/observations.md, "Actions"), as a pure, steppable state machine.
 
 Robot backends call :meth:`PoseController.command` at ``rate_hz`` with the robot's current SE(2) pose and apply the
 returned velocity command (simulators integrate it; real robots publish it as a Twist) until it returns ``None``.
 
-Source of the law and constants: benchbot_robot_controller v2.4.1 ``robot_callbacks`` (described in
-docs/benchbot-reference.md §5.4): a drive phase with the polar-coordinates law v = K_rho·ρ, ω = K_alpha·α + K_beta·β
-(backwards when the goal lies behind), then a rotate-in-place phase ω = K_angle·γ; both phases time out after 30 s.
+Source of the law and constants: the original benchbot_robot_controller v2.4.1 ``robot_callbacks``: a drive
+phase with the polar-coordinates law v = K_rho·ρ, ω = K_alpha·α + K_beta·β (backwards when the goal lies behind),
+then a rotate-in-place phase ω = K_angle·γ; both phases time out after 30 s.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from benchbot.core.geometry import se2_relative, wrap_angle
 
 @dataclass(frozen=True)
 class ControllerGains:
-    """Gains, tolerances and limits of the pose controller (defaults: the original's, reference §5.4)."""
+    """Gains, tolerances and limits of the pose controller (defaults: the original's, docs/observations.md)."""
 
     rate_hz: float = 20.0
     position_tolerance_m: float = 0.01

@@ -2,7 +2,7 @@
 
 A plugin offers backends through the hook ``benchbot_robot_backends`` as ``{robot type: factory}``; the episode
 builds one with ``factory(robot_spec, options)`` and drives it through the methods below. Backends know nothing of
-tasks, scenes or the HTTP protocol: the episode keeps that state (reference §3–§5).
+tasks, scenes or the HTTP protocol: the episode keeps that state (docs/protocol.md).
 
 Frames: ``map`` is the environment's world frame (z up, metres). The robot frame (``robot_spec['robot_frame']``)
 is x forward, y left, z up, at floor level under the robot's centre. The camera frame (``camera``) is the optical
@@ -66,7 +66,7 @@ class RobotBackend(abc.ABC):
 
     @abc.abstractmethod
     def observe(self, names: Sequence[str]) -> dict[str, Any]:
-        """Sensor observations in the structures of reference §4, for the names among ``image_rgb``,
+        """Sensor observations in the structures of docs/observations.md, for the names among ``image_rgb``,
         ``image_depth``, ``image_rgb_info``, ``image_depth_info``, ``laser``, ``image_segment`` that this robot
         has (``poses`` is built by the episode from :meth:`frame_transforms`).
 

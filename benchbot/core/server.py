@@ -1,6 +1,6 @@
 """The backend server: an :class:`~benchbot.core.episode.Episode` behind HTTP (127.0.0.1 by default).
 
-Routes (the original supervisor's, reference §3 and §5.1, plus the native protocol; ``docs/protocol.md``):
+Routes (the original supervisor's, docs/protocol.md, plus the native protocol; ``docs/protocol.md``):
 
 ======================================  ======================================================================
 ``GET /``                               greeting (JSON string)
@@ -72,7 +72,7 @@ READ_ONLY_COMMANDS = frozenset({"", "is_collided", "is_dirty", "is_finished", "s
 #: What a ground-truth path is replaced with in an error message.
 HIDDEN = "<hidden>"
 DEFAULT_ACTION_TIMEOUT_S = 120.0
-#: The original robot config's API-side callback for colour images (reference §4): clients import it from
+#: The original robot config's API-side callback for colour images (docs/observations.md): clients import it from
 #: ``benchbot_api.api_callbacks``.
 RGB_CALLBACK = "api_callbacks.convert_to_rgb"
 
@@ -328,7 +328,7 @@ class BackendApi:
         return (self._generation, ep.scene_index, ep.step_count, ep.trajectory_next, ep.collided, id(ep.initial_pose))
 
     def _is_running(self) -> dict:
-        """*worker*. ``is_running`` is the original client's start handshake (reference §4: it is only queried by
+        """*worker*. ``is_running`` is the original client's start handshake (docs/observations.md: it is only queried by
         ``BenchBot.start``): an episode that a previous client used is returned to a fresh scene 0 first, so
         ``benchbot run`` serves episode after episode to original clients as well."""
         ep = self.episode
@@ -339,7 +339,7 @@ class BackendApi:
     def config(self, keys: list[str] | None = None) -> Any:
         """The config ``{task, results, robot, environments}`` or the value at nested ``keys``.
 
-        The robot's ``image_rgb`` connection carries the original's ``callback_api`` (reference §4) so original
+        The robot's ``image_rgb`` connection carries the original's ``callback_api`` (docs/observations.md) so original
         clients convert ``{encoding, data}`` to an array. Ground truth is never part of the config.
 
         Raises:

@@ -36,7 +36,7 @@ def _python_first(argv: list[str]) -> list[str]:
 
 def native_submission(command: list[str], args: str = "") -> Submission:
     """A native command (run in the current folder). A single word with spaces is split like a shell would;
-    ``args`` are appended (reference §1.3); a leading ``python`` is the current interpreter.
+    ``args`` are appended (docs/cli.md); a leading ``python`` is the current interpreter.
 
     Raises:
         UsageError: the command is empty.
@@ -135,7 +135,7 @@ def container_engine() -> str:
 
 def container_files(registry: Registry, *, path: Path | None = None, example: str | None = None) -> tuple[Path, Path]:
     """(Dockerfile, build context) of ``--containerised PATH`` (a folder means ``PATH/Dockerfile``; the context is
-    the Dockerfile's folder) or of an example's ``container_directory``/``container_filename`` (reference §1.3).
+    the Dockerfile's folder) or of an example's ``container_directory``/``container_filename`` (docs/cli.md).
 
     Raises:
         UsageError: no Dockerfile there. SpecError: unknown example.

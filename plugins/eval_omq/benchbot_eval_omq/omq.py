@@ -1,7 +1,7 @@
 """Object Map Quality (OMQ): the evaluation method of BenchBot's semantic SLAM and scene change detection tasks.
 
 Formula: D. Hall et al., "The Robotic Vision Scene Understanding Challenge", arXiv:2009.05246 (2020), and QUT's
-``benchbot_eval`` OMQ add-on (``eval_omq``), re-implemented as described in the BenchBot reference §7.2, with the
+``benchbot_eval`` OMQ add-on (``eval_omq``), re-implemented as described in the BenchBot docs/evaluation.md, with the
 bugs listed there fixed (see the package README):
 
 1. Class list = sorted unique union of the ground truths' class lists, ``background`` moved (or appended) last.
@@ -538,7 +538,7 @@ def _new_totals() -> dict:
 
 
 def scores_from_totals(totals: dict, scd: bool) -> dict:
-    """The OMQ scores from counts and sums (reference §7.2):
+    """The OMQ scores from counts and sums (docs/evaluation.md):
     ``OMQ = Σoverall / (TP + ΣFPcost + FN)`` (0 if the denominator is 0); ``avg_pairwise/label/spatial
     [/state_quality] = Σ/TP`` (0 if TP = 0); ``avg_fp_quality = (FP − ΣFPcost)/FP`` (1.0 if FP = 0).
 

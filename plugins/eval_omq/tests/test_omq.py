@@ -1,4 +1,4 @@
-"""Tests of the OMQ evaluator: the reference cases of the BenchBot reference §7.2, synonyms, groups, SCD, combine,
+"""Tests of the OMQ evaluator: the reference cases of the BenchBot docs/evaluation.md, synonyms, groups, SCD, combine,
 error paths, and two hypothesis properties."""
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ def test_plugin_registers_omq_yaml():
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# reference cases (§7.2)
+# reference cases (docs/evaluation.md)
 # ---------------------------------------------------------------------------------------------------------------------
 def test_perfect_copy_scores_one(gt1):
     out = omq.evaluate(perfect(gt1), [gt1])

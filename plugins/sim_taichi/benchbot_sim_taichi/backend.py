@@ -288,7 +288,7 @@ class TaichiSimBackend(RobotBackend):
                 "matrix_intrinsics": self.K.copy(), "matrix_projection": P}
 
     def observe(self, names: Sequence[str]) -> dict[str, Any]:
-        """Observations (reference §4) for ``names`` among :data:`OBSERVATIONS`; rendered once per pose (images and
+        """Observations (docs/observations.md) for ``names`` among :data:`OBSERVATIONS`; rendered once per pose (images and
         laser in one kernel launch when both are asked for) and cached.
 
         Returns per name: ``image_rgb`` (H, W, 3) uint8 RGB; ``image_depth`` (H, W) float32 z-depth metres (0: no

@@ -34,7 +34,7 @@ except ImportError:  # offline use only (no BenchBot API installed)
     class Agent:  # minimal stand-in with the reference interface
         pass
 
-#: The default object_map class list (reference §6), used offline.
+#: The default object_map class list (docs/evaluation.md), used offline.
 DEFAULT_CLASS_LIST = ["bottle", "cup", "knife", "bowl", "wine glass", "fork", "spoon", "banana", "apple", "orange",
                       "cake", "potted plant", "mouse", "keyboard", "laptop", "cell phone", "book", "clock", "chair",
                       "table", "couch", "bed", "toilet", "tv", "microwave", "toaster", "refrigerator", "oven",

@@ -1,0 +1,32 @@
+"""The repository's docs stand alone: every ``docs/NAME.md`` its files cite exists, and nothing cites a reference
+document or a ``../shared`` folder that users of the repository do not have."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CITED = re.compile(r"docs/([A-Za-z0-9_-]+\.md)")
+SOURCES = ("benchbot", "plugins", "docs", "tests", "benchmarks", "schemas")
+
+
+def _texts():
+    for top in SOURCES:
+        for path in (ROOT / top).rglob("*"):
+            if path.suffix in (".py", ".md", ".yaml", ".json", ".toml") and ".venv" not in path.parts:
+                yield path, path.read_text(errors="replace")
+    yield ROOT / "README.md", (ROOT / "README.md").read_text()
+
+
+def test_every_cited_doc_exists_and_no_file_cites_what_users_lack():
+    missing, outside = [], []
+    this = Path(__file__).resolve()
+    for path, text in _texts():
+        if path.resolve() == this:
+            continue
+        missing += [f"{path.relative_to(ROOT)}: docs/{name}" for name in CITED.findall(text)
+                    if not (ROOT / "docs" / name).is_file()]
+        outside += [f"{path.relative_to(ROOT)}" for marker in ("../shared", "benchbot-reference", "reference §")
+                    if marker in text]
+    assert missing == [] and outside == [], (missing, outside)
