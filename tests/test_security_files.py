@@ -7,12 +7,10 @@ from __future__ import annotations
 
 import json
 import os
-import struct
 import subprocess
 import sys
 import time
 import zipfile
-import zlib
 from pathlib import Path
 from unittest.mock import ANY
 
@@ -24,6 +22,9 @@ from benchbot.core.evaluation import load_all
 from benchbot.core.limits import MAX_RESULTS_BYTES
 from benchbot.core.registry import Registry
 from benchbot.core.safe_load import parse_json, parse_yaml
+
+sys.path.insert(0, str(Path(__file__).parent))
+from hostile_files import alias_bomb, zip_bomb as raw_zip  # noqa: E402
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 MEASURE = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:]); "
@@ -150,15 +151,6 @@ def test_code_added_to_a_pack_installed_without_allow_code_is_not_loaded(tmp_pat
 # --- 2. spec files: YAML bombs, encodings, nesting, integers, sizes ---------------------------------------------
 
 
-def alias_bomb(levels: int = 12) -> str:
-    """The billion-laughs YAML: ``levels`` anchors of 9 aliases each; ``actions`` (which the schema checks item by
-    item) is 9**levels strings from ~600 bytes."""
-    lines = ['a0: &a0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
-    for i in range(1, levels):
-        lines.append(f"a{i}: &a{i} [" + ",".join([f"*a{i - 1}"] * 9) + "]")
-    return "name: bomb\nobservations: [poses]\n" + "\n".join(lines) + f"\nactions: *a{levels - 1}\n"
-
-
 def test_install_refuses_hostile_spec_files_each_in_one_line(tmp_path):
     depth = 20_000
     pack = make_pack(tmp_path / "hostile", {
@@ -214,29 +206,6 @@ def test_bad_limit_variables_are_usage_errors(monkeypatch):
 
 
 # --- 3. benchbot eval: zip bombs, large and deep results ---------------------------------------------------------
-
-
-def raw_zip(path: Path, name: str, size: int, declared: int | None = None) -> Path:
-    """A zip archive whose one deflated member ``name`` decompresses to ``size`` zero bytes (a ~1000:1 bomb, built
-    in a fraction of a second by repeating one fully flushed deflate block); the headers claim ``declared`` bytes
-    (default: the truth)."""
-    chunk = 1 << 24
-    assert size % chunk == 0
-    block = zlib.compressobj(9, zlib.DEFLATED, -15)
-    one = block.compress(b"\0" * chunk) + block.flush(zlib.Z_FULL_FLUSH)
-    data = one * (size // chunk) + zlib.compressobj(9, zlib.DEFLATED, -15).flush()
-    crc = 0
-    for _ in range(size // chunk):
-        crc = zlib.crc32(b"\0" * chunk, crc)
-    declared = size if declared is None else declared
-    fname = name.encode()
-    local = struct.pack("<4s5H3L2H", b"PK\x03\x04", 20, 0, 8, 0, 0, crc, len(data), declared, len(fname), 0)
-    central = struct.pack("<4s6H3L5H2L", b"PK\x01\x02", 20, 20, 0, 8, 0, 0, crc, len(data), declared, len(fname),
-                          0, 0, 0, 0, 0, 0)
-    offset = len(local) + len(fname) + len(data)
-    end = struct.pack("<4s4H2LH", b"PK\x05\x06", 0, 0, 1, 1, len(central) + len(fname), offset, 0)
-    path.write_bytes(local + fname + data + central + fname + end)
-    return path
 
 
 def test_eval_refuses_a_zip_bomb_before_decompressing(tmp_path):
