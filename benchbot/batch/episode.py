@@ -16,7 +16,7 @@ from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
 from benchbot.core.server import ServerThread, build_app
 from benchbot.core.session import resolve_run, start_service
-from benchbot.core.submission import Submission, run_container_submission, run_submission_child
+from benchbot.core.submission import Submission, run_container_submission, run_submission
 
 
 def results_problem(path: Path) -> str:
@@ -75,7 +75,7 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
                         timed_out = record.returncode == -9 and spec.timeout_s is not None
                     else:
                         submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
-                        outcome = run_submission_child(
+                        outcome = run_submission(
                             submission, address=server.address, result_location=run / spec.results, log=log,
                             timeout_s=spec.timeout_s,
                         )

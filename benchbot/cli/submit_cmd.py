@@ -195,7 +195,8 @@ def register(app: typer.Typer) -> None:
         else:
             err.print(f"running {sub.label} against {address}")
             watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)
-            code = run_submission(sub, address=address, result_location=location, timeout_s=timeout)
+            outcome = run_submission(sub, address=address, result_location=location, timeout_s=timeout)
+            code = -9 if outcome.timed_out else outcome.returncode
         result = watch.found()
         if result == location:
             err.print(f"results saved to {result}")

@@ -68,21 +68,6 @@ def run_submission(
     result_location: Path,
     log: IO[str] | None = None,
     timeout_s: float | None = None,
-) -> int:
-    """Run the submission to completion and return its exit status (-9 when the timeout stopped it); see
-    :func:`run_submission_child`."""
-    outcome = run_submission_child(submission, address=address, result_location=result_location, log=log,
-                                   timeout_s=timeout_s)
-    return -9 if outcome.timed_out else outcome.returncode
-
-
-def run_submission_child(
-    submission: Submission,
-    *,
-    address: str,
-    result_location: Path,
-    log: IO[str] | None = None,
-    timeout_s: float | None = None,
 ) -> ChildOutcome:
     """Run the submission to completion in its own process group (:func:`benchbot.core.process_group.run_child`):
     when it ends, for any reason, every process it started is stopped too, and a watchdog stops them if this process
@@ -93,6 +78,9 @@ def run_submission_child(
         result_location: where the API makes the agent save its results.
         log: a file for the child's stdout and stderr, capped at ``BENCHBOT_MAX_LOG_BYTES`` (inherited when None).
         timeout_s: stop the child's group after this many seconds (``timed_out`` in the outcome).
+
+    Returns:
+        The :class:`~benchbot.core.process_group.ChildOutcome`: ``returncode``, ``timed_out``, ``output_bytes``, ``log_truncated``.
 
     Raises:
         UsageError: the command cannot be started (not found, not executable), or a bad ``BENCHBOT_MAX_LOG_BYTES``
