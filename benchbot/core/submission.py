@@ -80,7 +80,8 @@ def run_submission(
         timeout_s: stop the child's group after this many seconds (``timed_out`` in the outcome).
 
     Returns:
-        The :class:`~benchbot.core.process_group.ChildOutcome`: ``returncode``, ``timed_out``, ``output_bytes``, ``log_truncated``.
+        The :class:`~benchbot.core.process_group.ChildOutcome`: ``returncode``, ``timed_out``, ``output_bytes``,
+        ``log_truncated``.
 
     Raises:
         UsageError: the command cannot be started (not found, not executable), or a bad ``BENCHBOT_MAX_LOG_BYTES``
