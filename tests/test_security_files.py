@@ -197,6 +197,15 @@ def test_parsers_stay_fast_and_bounded():
         parse_json("d.json", b'{"a": }', ResultsError)
 
 
+def test_yaml_and_json_count_nesting_levels_alike():
+    # 64 lists around a number is within MAX_NESTING_DEPTH (64) in both formats; YAML counted the number as a level
+    within, past = "[" * 64 + "1" + "]" * 64, "[" * 65 + "1" + "]" * 65
+    assert parse_yaml("ok.yaml", within, SpecError) == parse_json("ok.json", within, SpecError)
+    for parse in (parse_yaml, parse_json):
+        with pytest.raises(SpecError, match="nested more than 64 levels"):
+            parse("deep", past, SpecError)
+
+
 def test_bad_limit_variables_are_usage_errors(monkeypatch):
     monkeypatch.setenv("BENCHBOT_MAX_RESULTS_BYTES", "lots")
     with pytest.raises(UsageError, match="BENCHBOT_MAX_RESULTS_BYTES='lots' is not a positive whole number of bytes"):

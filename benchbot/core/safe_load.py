@@ -145,6 +145,8 @@ class _BoundedLoader(yaml.SafeLoader):
         if self.check_event(yaml.AliasEvent):
             mark = self.peek_event().start_mark
             raise _AliasRefused(mark.line + 1)
+        if self.check_event(yaml.ScalarEvent):  # a leaf: only lists/mappings are levels, as in check_depth
+            return super().compose_node(parent, index)
         self._depth += 1
         try:
             if self._depth > self._max_depth:
