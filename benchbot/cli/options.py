@@ -22,7 +22,8 @@ ARCH_HELP = "Simulator device: auto (a GPU when an NVIDIA device is present, els
 
 def arch_value(value: str) -> str:
     """Option callback of ``--arch``: ``auto`` becomes ``gpu`` or ``cpu`` (see
-    :func:`benchbot.cli.common.backend_options`); other values are checked where the simulator starts."""
+    :func:`benchbot.cli.common.backend_options`); other values are checked where the simulator starts. Raises
+    nothing."""
     from benchbot.cli.common import backend_options
 
     return backend_options(value, None)["arch"] if value == "auto" else value

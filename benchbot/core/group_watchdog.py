@@ -63,7 +63,17 @@ def stop_group(pgid: int, grace_s: float) -> None:
 
 
 def main(argv: list[str]) -> int:
-    """``PGID GRACE_S``; waits on stdin as described in the module docstring."""
+    """The script's entry point; waits on stdin as described in the module docstring.
+
+    Args:
+        argv: ``[PGID, GRACE_S]``: the process group to stop (an integer) and its grace in seconds (a float).
+
+    Returns:
+        The exit status: always 0.
+
+    Raises:
+        ValueError, IndexError: ``argv`` is not two numbers (the starter always passes them).
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     pgid, grace_s = int(argv[0]), float(argv[1])
     try:

@@ -56,6 +56,9 @@ class Limit:
             ``"bytes"`` variable may carry a binary suffix ``K``/``M``/``G`` (``64M``).
         integer: the bound is a whole number (bytes, counts).
         zero_means: what ``0`` means where it is allowed (``"no cap"``); ``None``: the bound must be positive.
+
+    Raises:
+        ValueError: a ``"bytes"`` limit without ``integer=True`` (a programming error, at import).
     """
 
     default: float
@@ -109,7 +112,11 @@ class Limit:
 
     def describe(self, number: float | None = None) -> str:
         """``number`` (default: :meth:`value`) in this limit's unit, for messages: ``64 MiB``, ``10000 members``,
-        ``10 seconds``, ``0 (no cap)``."""
+        ``10 seconds``, ``0 (no cap)``.
+
+        Raises:
+            UsageError: ``number`` is None and ``$env`` is not a valid value (see :meth:`value`).
+        """
         number = self.value() if number is None else number
         if number == 0 and self.zero_means is not None:
             return f"0 ({self.zero_means})"
@@ -130,11 +137,16 @@ class Limit:
 
     def hint(self) -> str:
         """How to raise the limit, for an error's hint: ``raise the limit with the environment variable
-        BENCHBOT_X (e.g. BENCHBOT_X=8M)`` (twice its current value)."""
+        BENCHBOT_X (e.g. BENCHBOT_X=8M)`` (twice its current value); ``the limit is fixed`` without a variable.
+
+        Raises:
+            UsageError: ``$env`` is not a valid value (see :meth:`value`).
+        """
         if not self.env:
             return "the limit is fixed"
         return f"raise the limit with the environment variable {self.env} (e.g. {self.env}=" \
                f"{self.example(2 * self.value())})"
+
 
 def human_bytes(number: int) -> str:
     """``1536`` → ``1.5 KiB``; exact powers print without decimals (``64 MiB``); under 1 KiB: ``300 bytes``."""

@@ -33,7 +33,8 @@ def _similarity(query: str, candidate: str) -> float:
 
 def close_names(name: str, candidates: list[str], limit: int = MAX_SUGGESTED) -> list[str]:
     """Up to ``limit`` of ``candidates`` close to ``name`` (case-insensitive), closest first (ties by name); only
-    those within :data:`CLOSE_MARGIN` of the closest."""
+    those within :data:`CLOSE_MARGIN` of the closest. ``name`` itself is never suggested; ``[]`` when nothing is
+    close. Raises nothing."""
     scored = [(s, c) for c in candidates if c != name and (s := _similarity(name, c)) >= CLOSE_RATIO]
     best = max((s for s, _ in scored), default=0.0)
     return [c for s, c in sorted(scored, key=lambda sc: (-sc[0], sc[1])) if s >= best - CLOSE_MARGIN][:limit]

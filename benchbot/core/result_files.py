@@ -54,7 +54,11 @@ class ResultWatch:
         self._since = {path: clock_mark(path.parent) for path in (self.expected, self.fallback) if path is not None}
 
     def written(self, path: Path) -> bool:
-        """``path`` is a file modified since the mark (by this submission)."""
+        """``path`` is a file modified since the mark (by this submission); False when it is missing or unreadable.
+
+        Raises:
+            KeyError: ``path`` is neither :attr:`expected` nor :attr:`fallback`.
+        """
         try:
             return path.is_file() and path.stat().st_mtime_ns >= self._since[path]
         except OSError:

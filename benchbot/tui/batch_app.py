@@ -52,7 +52,9 @@ def expected_steps(config: dict | None) -> dict[str, int]:
 
 
 def episode_omq(scores: Any) -> dict[int, float]:
-    """``{episode index: OMQ}`` from ``episode_scores.json``."""
+    """``{episode index: OMQ}`` from ``episode_scores.json``'s parsed content: a list of
+    ``{"index": i, "OMQ": x}`` or ``{"index": i, "scores": {"OMQ": x}}``; entries without both are skipped,
+    anything but a list gives ``{}``."""
     out: dict[int, float] = {}
     for entry in scores if isinstance(scores, list) else []:
         inner = entry.get("scores") if isinstance(entry.get("scores"), dict) else entry
@@ -220,6 +222,7 @@ class PollingApp(App):
                 self._previous_handlers.pop(signum, None)
 
     def on_unmount(self) -> None:
+        """Give SIGINT and SIGTERM back to the handlers they had before :meth:`start_polling`."""
         loop = asyncio.get_running_loop()
         for signum, handler in getattr(self, "_previous_handlers", {}).items():
             loop.remove_signal_handler(signum)
@@ -275,6 +278,7 @@ class BatchApp(PollingApp):
         poll_s: seconds between reads of its files.
         is_done: optional callable; when it returns True (the batch thread ended) the app shows the final state
             and exits after ``linger_s`` seconds.
+        linger_s: seconds the final state stays on screen once ``is_done()`` is True.
         clock: the current Unix time (tests freeze it).
     """
 
