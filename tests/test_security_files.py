@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 import zipfile
 from pathlib import Path
@@ -278,3 +279,24 @@ def test_eval_refuses_deep_nesting_and_huge_integers_in_one_line(tmp_path):
         f"error: {bigint}: a number has more than 4300 digits",
         f"error: {archive}:deep.json: {TOO_DEEP}",
     ]
+
+
+def test_a_named_pipe_is_refused_not_waited_on(tmp_path):
+    from benchbot.core.limits import MAX_SPEC_BYTES
+    from benchbot.core.safe_load import read_capped
+
+    fifo = tmp_path / "task.yaml"
+    os.mkfifo(fifo)  # nobody ever writes it: opening it normally would block forever
+    result: list = []
+    reader = threading.Thread(target=lambda: result.append(_refusal(read_capped, fifo, MAX_SPEC_BYTES)), daemon=True)
+    reader.start()
+    reader.join(10)
+    assert not reader.is_alive() and "not a regular file" in result[0]
+
+
+def _refusal(fn, *args) -> str:
+    try:
+        fn(*args, SpecError)
+    except SpecError as exc:
+        return exc.message
+    return "accepted"

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import sys
 import zipfile
 from pathlib import Path
@@ -50,8 +51,13 @@ def read_capped(path: Path, limit: Limit, error: type[BenchbotError], what: str 
     """
     cap = limit.value()
     try:
-        with open(path, "rb") as f:
-            size = os.fstat(f.fileno()).st_size
+        # O_NONBLOCK: opening a FIFO (say, one in a content pack) must not wait for a writer; it is refused below
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as f:
+            info = os.fstat(f.fileno())
+            if not stat.S_ISREG(info.st_mode):
+                raise error(f"{path}: not a regular file", "give a file (not a pipe, device or folder)")
+            size = info.st_size
             if size > cap:
                 raise _too_big(str(path), size, limit, what, error)
             data = f.read(cap + 1)
