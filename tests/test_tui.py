@@ -228,3 +228,20 @@ def test_batch_records_and_writes_progress_without_a_terminal(tmp_path):
     from benchbot.plugins.replay import Recording
 
     assert len(Recording(run_dir / "recordings" / "000_miniroom_4.mcap").steps) == 33
+
+
+def test_batch_view_shows_what_it_can_of_files_of_the_wrong_shape(tmp_path):
+    run_dir = make_run_dir(tmp_path, finished=True)
+    atomic.write_json(run_dir / "config.json", ["not", "a", "config"])
+    atomic.write_json(run_dir / "episode_scores.json", [{"index": 0, "OMQ": None}, "junk"])
+    summary, rows = batch_rows(run_dir, now=FROZEN)
+    assert summary["episodes"] == 4 and rows[0][5] == "33" and rows[0][7] == ""  # no expected steps, no OMQ
+    atomic.write_json(run_dir / "manifest.json", {"episodes": [{"index": "x"}]})
+    asyncio.run(_shows_a_one_line_problem(run_dir))
+
+
+async def _shows_a_one_line_problem(run_dir):
+    app = BatchApp(run_dir, poll_s=3600, clock=lambda: FROZEN)
+    async with app.run_test() as pilot:
+        await pilot.pause(0.1)
+        assert "is not a batch manifest" in str(app.query_one("#summary").render())

@@ -63,6 +63,14 @@ def episode_omq(scores: Any) -> dict[int, float]:
     return out
 
 
+def _or_empty(read: Callable[[Any], dict], content: Any) -> dict:
+    """``read(content)``, or ``{}`` when the file has valid JSON of another shape (the view shows what it can)."""
+    try:
+        return read(content)
+    except (AttributeError, KeyError, TypeError, ValueError):
+        return {}
+
+
 def format_seconds(seconds: float | None) -> str:
     """``m:ss`` (``h:mm:ss`` past an hour); ``""`` for None."""
     if seconds is None:
@@ -91,8 +99,8 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     now = time.time() if now is None else now
     progress = read_json(run_dir / PROGRESS) or {}
     live = progress.get("episodes", {}) if isinstance(progress, dict) else {}
-    expected = expected_steps(read_json(run_dir / "config.json"))
-    omq = episode_omq(read_json(run_dir / "episode_scores.json"))
+    expected = _or_empty(expected_steps, read_json(run_dir / "config.json"))
+    omq = _or_empty(episode_omq, read_json(run_dir / "episode_scores.json"))
     counts: dict[str, int] = {}
     logs: dict[int, str] = {}
     progress_sum = 0.0
@@ -262,12 +270,23 @@ class LogScreen(Screen):
         if size is None:
             log.write_line("(no log yet: the episode has not started)")
             return
-        with open(self.path, "rb") as f:
-            f.seek(max(0, size - LOG_TAIL_BYTES))
-            text = f.read().decode("utf-8", errors="replace")
+        try:
+            with open(self.path, "rb") as f:
+                f.seek(max(0, size - LOG_TAIL_BYTES))
+                text = f.read().decode("utf-8", errors="replace")
+        except OSError as exc:  # removed or replaced since its size was read
+            log.write_line(f"(cannot read the log: {exc.strerror or exc})")
+            return
         if size > LOG_TAIL_BYTES:
             log.write_line(f"[… the first {size - LOG_TAIL_BYTES} bytes are not shown]")
         log.write_lines(text.splitlines())
+
+
+class EpisodeTable(DataTable):
+    """The episode table: a row-cursor :class:`~textual.widgets.DataTable` whose Enter (open the episode's log) is
+    shown in the footer."""
+
+    BINDINGS = [Binding("enter", "select_cursor", "episode log")]
 
 
 class BatchApp(PollingApp):
@@ -287,7 +306,7 @@ class BatchApp(PollingApp):
     #summary { height: auto; padding: 0 1; }
     DataTable { height: 1fr; }
     """
-    BINDINGS = [Binding("q", "quit", "quit view (the batch goes on)"), Binding("enter", "open_log", "episode log"),
+    BINDINGS = [Binding("q", "quit", "quit view (the batch goes on)"),
                 Binding("ctrl+c", "interrupt", "stop the batch", priority=True)]
 
     def __init__(self, run_dir: Path | str, *, poll_s: float = 0.5, is_done: Callable[[], bool] | None = None,
@@ -301,7 +320,7 @@ class BatchApp(PollingApp):
 
     def compose(self) -> ComposeResult:
         yield Static(id="summary")
-        yield DataTable(id="episodes", cursor_type="row", zebra_stripes=True)
+        yield EpisodeTable(id="episodes", cursor_type="row", zebra_stripes=True)
         yield Footer()
 
     def on_mount(self) -> None:
@@ -312,7 +331,12 @@ class BatchApp(PollingApp):
         self.start_polling()
 
     def _refresh(self) -> None:
-        summary, rows = batch_rows(self.run_dir, self.clock())
+        try:
+            summary, rows = batch_rows(self.run_dir, self.clock())
+        except (AttributeError, KeyError, TypeError, ValueError) as exc:  # a manifest edited by hand, not ours
+            self.query_one("#summary", Static).update(
+                f"[red]{escape(str(self.run_dir / 'manifest.json'))} is not a batch manifest[/] ({escape(repr(exc))})")
+            return
         table = self.query_one(DataTable)
         if not summary:
             self.query_one("#summary", Static).update(f"waiting for {self.run_dir / 'manifest.json'} …")
@@ -335,12 +359,6 @@ class BatchApp(PollingApp):
 
     def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
         self.open_log(event.row_key.value)
-
-    def action_open_log(self) -> None:
-        """Enter: the highlighted episode's log, followed live."""
-        table = self.query_one(DataTable)
-        if table.row_count:
-            self.open_log(table.coordinate_to_cell_key(table.cursor_coordinate).row_key.value)
 
     def open_log(self, key: str | None) -> None:
         """Show episode ``key``'s log (:class:`LogScreen`)."""
