@@ -29,7 +29,7 @@ Spec = Union[str, Path, dict]
 
 class ContentHooks:
     """Hooks returning content specs. Call policy: every implementation is called once, when the registry is
-    built; the results of all plugins are concatenated."""
+    built (asset packs: when the asset library is first used); the results of all plugins are concatenated."""
 
     @hookspec
     def benchbot_tasks(self) -> list[Spec]:
@@ -167,6 +167,30 @@ class ContentHooks:
         Call policy:
             every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
             invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
+        """
+
+
+    @hookspec
+    def benchbot_asset_packs(self) -> list[Path]:
+        """Asset packs: 3D models (GLB) that simulators draw ground-truth objects and furniture with.
+
+        A pack is a folder with ``manifest.json`` (schema ``asset_manifest``), the ``*.glb`` files it lists
+        (glTF 2.0: metres, +Y up, front +Z, origin at the centre of the bottom of the bounds) and
+        ``ATTRIBUTION.md``. Each asset has an ``id``, a ``class`` (a ground-truth class, or null for furniture that
+        is never an object), a ``kind``, a ``role`` (``object``/``distractor``/``structure``), its size, licence
+        and creator (see ``benchbot.core.assets``).
+
+        Returns:
+            A list of paths (``str``/``Path``) of ``manifest.json`` files.
+
+        Called:
+            Once per process, by ``benchbot.core.assets.asset_library()``, when a simulator first needs models
+            (not when the registry is built).
+
+        Call policy:
+            every implementation is called; the packs are merged into one library. An invalid manifest, or a hook
+            that raises, leaves that pack out (reported in ``AssetLibrary.problems``); an asset id already used by
+            another pack leaves that asset out. The other packs still load.
         """
 
 
