@@ -1,0 +1,422 @@
+"""Furnishing (benchbot_sim_taichi.furnish): exact fits, model choice by proportion, facing, book rows, supports,
+distractors, openings, determinism — on small hand-built libraries and plans (no Taichi)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchbot.core.assets import AssetInfo, AssetLibrary
+from benchbot_sim_taichi import furnish as F
+
+
+# ------------------------------------------------------------------------------------------------ fakes
+def asset(aid, kind, size, cls=None, role=None, mount=None):
+    role = role or ("object" if cls else ("structure" if kind in ("door", "door_frame", "window") else "distractor"))
+    return AssetInfo(id=aid, file=f"{aid}.glb", cls=cls, kind=kind, role=role, size_m=tuple(float(v) for v in size),
+                     triangles=100, textures=(), library="test", model=aid, creator="test", licence="CC0-1.0",
+                     sha256="0" * 64, path=Path(f"/nonexistent/{aid}.glb"), pack="test", mount=mount)
+
+
+def obj_asset(aid, cls, size):
+    return asset(aid, cls, size, cls=cls)
+
+
+@dataclass
+class Room:
+    index: int
+    lo: np.ndarray
+    hi: np.ndarray
+    kind: str
+
+
+@dataclass
+class Wall:
+    lo: np.ndarray
+    hi: np.ndarray
+    exterior: bool = True
+    rooms: tuple = (0, -1)
+
+
+@dataclass
+class Opening:
+    kind: str
+    lo: np.ndarray
+    hi: np.ndarray
+    wall: int
+    outward: np.ndarray
+
+
+@dataclass
+class WallSpan:
+    room: int
+    a: np.ndarray
+    b: np.ndarray
+    inward: np.ndarray
+
+
+@dataclass
+class Plan:
+    """A stand-in with the FloorPlan interface: one rectangular room [0, W] x [0, D], walls outside it."""
+
+    outer_lo: np.ndarray
+    outer_hi: np.ndarray
+    wall_height: float
+    wall_thickness: float
+    rooms: list
+    walls: list
+    openings: list
+    lights: list
+    wall_spans: list
+    paths: list = field(default_factory=list)
+    robot_radius_m: float = 0.35
+
+    def blocked(self, lo_xy, hi_xy) -> bool:
+        lo_xy, hi_xy = np.asarray(lo_xy, float), np.asarray(hi_xy, float)
+        for path in self.paths:
+            for p, q in zip(path[:-1], path[1:]):
+                for t in np.linspace(0.0, 1.0, 200):
+                    pt = p + (q - p) * t
+                    d = np.linalg.norm(np.maximum(np.maximum(lo_xy - pt, pt - hi_xy), 0.0))
+                    if d <= self.robot_radius_m:
+                        return True
+        return False
+
+
+def one_room_plan(W=6.0, D=5.0, kind="living_room", paths=(), windows=(), doors=(), H=2.6, t=0.1):
+    """A room [0, W] x [0, D]; walls are boxes just outside it; windows/doors: (wall 'S'|'N'|'W'|'E', a, b)."""
+    A = np.array
+    walls = [Wall(A([-t, -t, 0]), A([W + t, 0, H])), Wall(A([-t, D, 0]), A([W + t, D + t, H])),
+             Wall(A([-t, 0, 0]), A([0, D, H])), Wall(A([W, 0, 0]), A([W + t, D, H]))]
+    outward = {"S": A([0.0, -1.0]), "N": A([0.0, 1.0]), "W": A([-1.0, 0.0]), "E": A([1.0, 0.0])}
+    openings = []
+
+    def hole(side, a, b, z0, z1):
+        if side == "S":
+            return A([a, -t, z0]), A([b, 0, z1])
+        if side == "N":
+            return A([a, D, z0]), A([b, D + t, z1])
+        if side == "W":
+            return A([-t, a, z0]), A([0, b, z1])
+        return A([W, a, z0]), A([W + t, b, z1])
+
+    for kind_, specs, z in (("window", windows, (0.9, 2.1)), ("door", doors, (0.0, 2.1))):
+        for side, a, b in specs:
+            lo, hi = hole(side, a, b, *z)
+            openings.append(Opening(kind_, lo, hi, "SNWE".index(side), outward[side]))
+    # (the hole is not cut out of the wall boxes here; the furnishing never needs it)
+    spans = [WallSpan(0, A([0.0, 0.0]), A([W, 0.0]), A([0.0, 1.0])), WallSpan(0, A([W, D]), A([0.0, D]), A([0.0, -1.0])),
+             WallSpan(0, A([0.0, D]), A([0.0, 0.0]), A([1.0, 0.0])), WallSpan(0, A([W, 0.0]), A([W, D]), A([-1.0, 0.0]))]
+    return Plan(A([-t, -t]), A([W + t, D + t]), H, t, [Room(0, A([0.0, 0.0]), A([W, D]), kind)], walls, openings,
+                [A([W / 2, D / 2, H - 0.15])], spans, [np.asarray(p, float) for p in paths])
+
+
+def gt(cls, lo, hi, name=None, isgroup=False):
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    return {"class": cls, "ID_name": name or f"{cls}_{lo[0]:.2f}_{lo[1]:.2f}", "centroid": ((lo + hi) / 2).tolist(),
+            "extent": (hi - lo).tolist(), "isgroup": isgroup}
+
+
+def box_of(o):
+    c, e = np.asarray(o["centroid"], float), np.asarray(o["extent"], float)
+    return c - e / 2, c + e / 2
+
+
+def placed_box(library, p):
+    return F.transformed_bounds(p.transform, F.asset_bounds(library.get(p.asset_id)))
+
+
+def inter(a, b, eps=1e-6):
+    return bool(np.all(a[0] < b[1] - eps) and np.all(b[0] < a[1] - eps))
+
+
+FULL_LIB = [
+    obj_asset("chair_tall", "chair", (0.5, 0.5, 0.95)), obj_asset("chair_squat", "chair", (0.55, 0.55, 0.42)),
+    obj_asset("chair_mid", "chair", (0.45, 0.5, 0.8)),
+    obj_asset("table_a", "table", (1.2, 0.8, 0.75)), obj_asset("couch_a", "couch", (2.0, 0.9, 0.85)),
+    obj_asset("bowl_a", "bowl", (0.2, 0.2, 0.08)), obj_asset("cup_a", "cup", (0.1, 0.08, 0.1)),
+    obj_asset("clock_a", "clock", (0.3, 0.05, 0.3)), obj_asset("tv_a", "tv", (1.0, 0.2, 0.65)),
+    obj_asset("book_stand", "book", (0.03, 0.17, 0.24)), obj_asset("book_stand2", "book", (0.025, 0.15, 0.21)),
+    obj_asset("book_lying", "book", (0.17, 0.24, 0.03)),
+    asset("counter_a", "counter", (0.6, 0.6, 0.9)), asset("cabinet_a", "cabinet", (0.8, 0.45, 0.8)),
+    asset("shelf_a", "shelf", (0.8, 0.25, 0.03)), asset("plant_stand_a", "plant_stand", (0.3, 0.3, 0.8)),
+    asset("bookcase_a", "bookcase", (0.9, 0.35, 1.9)), asset("floor_lamp_a", "floor_lamp", (0.35, 0.35, 1.6)),
+    asset("picture_a", "picture", (0.6, 0.03, 0.45), mount="wall"), asset("radiator_a", "radiator", (0.8, 0.1, 0.55)),
+    asset("curtain_a", "curtain", (0.4, 0.1, 2.2)), asset("window_a", "window", (1.0, 0.1, 1.2)),
+    asset("door_a", "door", (0.9, 0.1, 2.05)), asset("door_frame_a", "door_frame", (0.9, 0.12, 2.05)),
+    asset("lamp_a", "ceiling_lamp", (0.4, 0.4, 0.3)),
+]
+
+
+@pytest.fixture(scope="module")
+def lib():
+    return AssetLibrary(FULL_LIB)
+
+
+# ------------------------------------------------------------------------------------------------ fitting
+def test_fit_to_cuboid_bounds_equal_the_box_for_every_turn():
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        a = asset("x", "cabinet", rng.uniform(0.05, 2.0, 3))
+        lo = rng.uniform(-5, 5, 3)
+        hi = lo + rng.uniform(0.01, 3.0, 3)
+        # true bounds that are not centred (as a mesh's may be): given explicitly
+        off = np.array([[-0.3, -0.2, 0.01], [0.5, 0.25, 0.9]]) * rng.uniform(0.5, 2.0)
+        for k in range(-1, 6):
+            for bounds in (None, off):
+                T = F.fit_to_cuboid(a, lo, hi, k, bounds=bounds)
+                b = F.asset_bounds(a) if bounds is None else off
+                got = F.transformed_bounds(T, b)
+                assert np.abs(got[0] - lo).max() < 1e-9 and np.abs(got[1] - hi).max() < 1e-9
+                # the model's front (-y) faces front_of(k); z stays up
+                front = T[:3, :3] @ np.array([0.0, -1.0, 0.0])
+                assert np.allclose(front[:2] / np.linalg.norm(front[:2]), F.front_of(k)) and abs(front[2]) < 1e-12
+                assert T[2, 2] > 0 and np.allclose(T[3], [0, 0, 0, 1])
+
+
+def test_fit_swaps_extents_on_odd_turns():
+    a = asset("couch", "x", (2.0, 1.0, 0.8))
+    T = F.fit_to_cuboid(a, [0, 0, 0], [1.0, 2.0, 0.8], 1)
+    assert np.allclose(np.abs(np.linalg.svd(T[:3, :3])[1]), 1.0)  # a uniform (unit) scale: proportions kept
+
+
+def test_fit_refuses_flat_boxes_and_assets():
+    with pytest.raises(ValueError, match="positive"):
+        F.fit_to_cuboid(asset("a", "x", (1, 1, 1)), [0, 0, 0], [1, 1, 0], 0)
+    with pytest.raises(ValueError, match="size_m"):
+        F.fit_to_cuboid(asset("flat", "x", (1.0, 1.0, 0.0)), [0, 0, 0], [1, 1, 1], 0)
+
+
+def test_distortion_picks_the_squat_model_for_a_squat_cuboid(lib):
+    ext = np.array([0.52, 0.51, 0.39])  # BEAR's typical chair: 0.39 m tall
+    assert F.distortion((0.55, 0.55, 0.42), ext, 0) < F.distortion((0.5, 0.5, 0.95), ext, 0)
+    chosen = {F.choose_model(lib.by_class("chair"), ext, None, 0.0, np.random.default_rng(s))[0].id for s in range(30)}
+    assert chosen == {"chair_squat"}
+    # a tall cuboid takes the tall models (seeded among the close ones), never the squat one
+    chosen = {F.choose_model(lib.by_class("chair"), [0.5, 0.5, 1.0], None, 0.0, np.random.default_rng(s))[0].id
+              for s in range(30)}
+    assert "chair_squat" not in chosen and "chair_tall" in chosen
+
+
+def test_proportions_outweigh_facing_when_they_disagree_strongly():
+    couch = [obj_asset("c", "couch", (2.0, 0.9, 0.85))]
+    rng = np.random.default_rng(0)
+    # the cuboid runs along y: only odd turns keep the proportions; facing -y wanted: it yields to +x or -x
+    _, k = F.choose_model(couch, [0.9, 2.0, 0.85], np.array([0.0, -1.0]), F.FACING_WEIGHT, rng)
+    assert k % 2 == 1
+    # with proportions alike (both odd turns), facing decides
+    _, k = F.choose_model(couch, [0.9, 2.0, 0.85], np.array([-1.0, 0.0]), F.FACING_WEIGHT, rng)
+    assert k == 3
+
+
+# ------------------------------------------------------------------------------------------------ facing
+def _placement_of(res, i):
+    (p,) = [p for p in res.placements if p.object_index == i]
+    return p
+
+
+def _front(p):
+    f = p.transform[:3, :3] @ np.array([0.0, -1.0, 0.0])
+    return f[:2] / np.linalg.norm(f[:2])
+
+
+def test_chairs_face_the_table_and_couch_backs_onto_the_wall(lib):
+    plan = one_room_plan()
+    objs = [gt("table", [2.5, 2.0, 0], [3.5, 3.0, 0.75]),
+            gt("chair", [2.75, 1.3, 0], [3.25, 1.8, 0.85], "c_s"), gt("chair", [2.75, 3.2, 0], [3.25, 3.7, 0.85], "c_n"),
+            gt("chair", [1.8, 2.25, 0], [2.3, 2.75, 0.85], "c_w"), gt("chair", [3.7, 2.25, 0], [4.2, 2.75, 0.85], "c_e"),
+            gt("couch", [0.05, 1.0, 0], [0.95, 3.0, 0.8]),  # against the west wall: faces +x
+            gt("couch", [2.0, 4.05, 0], [4.0, 4.95, 0.8], "couch_n"),  # against the north wall: faces -y
+            gt("tv", [5.8, 2.0, 0.9], [5.95, 3.0, 1.5])]  # hung on the east wall: faces -x
+    for seed in range(3):
+        res = F.furnish_home(objs, plan, lib, seed=seed)
+        for i, want in ((1, (0, 1)), (2, (0, -1)), (3, (1, 0)), (4, (-1, 0)), (5, (1, 0)), (6, (0, -1)), (7, (-1, 0))):
+            assert np.allclose(_front(_placement_of(res, i)), want), (seed, i, objs[i]["class"])
+        assert res.hanging == [7] and res.unsupported == []
+
+
+# ------------------------------------------------------------------------------------------------ book rows
+def test_book_rows_fill_the_cuboid_exactly(lib):
+    plan = one_room_plan()
+    row = gt("book", [1.0, 4.7, 0.9], [1.6, 4.95, 1.15], "row", isgroup=True)  # a shelf row against the north wall
+    stack = gt("book", [3.0, 3.0, 0.75], [3.3, 3.25, 0.85], "stack", isgroup=True)  # lying books on a table
+    table = gt("table", [2.8, 2.8, 0], [3.6, 3.5, 0.75])
+    res = F.furnish_home([row, stack, table], plan, lib, seed=0)
+    for i, o in ((0, row), (1, stack)):
+        books = [p for p in res.placements if p.object_index == i]
+        assert len(books) >= 3
+        bs = np.array([placed_box(lib, p) for p in books])
+        lo, hi = box_of(o)
+        assert np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-9 and np.abs(bs[:, 1].max(axis=0) - hi).max() < 1e-9
+        for x in range(len(bs)):  # no two books overlap
+            for y in range(x + 1, len(bs)):
+                assert not inter(bs[x], bs[y])
+    row_books = [p for p in res.placements if p.object_index == 0]
+    assert {p.asset_id for p in row_books} <= {"book_stand", "book_stand2"}  # standing models in a row
+    assert all(np.allclose(_front(p), (0, -1)) for p in row_books)  # spines toward the room
+    assert {p.asset_id for p in res.placements if p.object_index == 1} == {"book_lying"}
+
+
+# ------------------------------------------------------------------------------------------------ supports
+def _supports(res, lib):
+    return [placed_box(lib, p) for p in res.placements if p.role == "support"]
+
+
+def test_floating_objects_get_one_support_with_its_top_at_their_bottom(lib):
+    plan = one_room_plan(kind="kitchen", paths=[[[1.0, 2.5], [5.0, 2.5]]])
+    objs = [gt("bowl", [5.3, 1.0, 0.9], [5.5, 1.2, 0.98], "b1"), gt("cup", [5.35, 1.5, 0.905], [5.45, 1.6, 1.0], "c1"),
+            gt("cup", [5.6, 1.1, 0.9], [5.7, 1.2, 0.99], "c2"),  # three neighbours near the east wall: one counter
+            gt("chair", [4.5, 1.0, 0], [5.0, 1.5, 0.85])]
+    res = F.furnish_home(objs, plan, lib, seed=0)
+    sup = _supports(res, lib)
+    assert res.unsupported == [] and len(res.boxes["support"]) == 1 and len(sup) >= 1
+    slo = np.min([b[0] for b in sup], axis=0)
+    shi = np.max([b[1] for b in sup], axis=0)
+    assert abs(shi[2] - 0.9) < 1e-9 and abs(slo[2]) < 1e-9  # top exactly at the lowest bottom, on the floor
+    assert abs(shi[0] - 6.0) < 1e-9  # backed onto the east wall
+    for o in objs[:3]:
+        lo, hi = box_of(o)
+        assert np.all(slo[:2] <= lo[:2] - F.SUPPORT_MARGIN_M + 1e-9) and np.all(shi[:2] >= hi[:2] + F.SUPPORT_MARGIN_M - 1e-9)
+        assert lo[2] - shi[2] <= F.REST_TOL_M
+    for o in objs:
+        assert not inter((slo, shi), box_of(o))
+    assert not plan.blocked(slo[:2], shi[:2])
+    assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"counter"}
+
+
+def library_kind(lib, p):
+    return lib.get(p.asset_id).kind
+
+
+def test_objects_resting_on_gt_or_hanging_need_no_support(lib):
+    plan = one_room_plan()
+    objs = [gt("table", [2.0, 2.0, 0], [3.0, 3.0, 0.75]), gt("bowl", [2.4, 2.4, 0.76], [2.6, 2.6, 0.85]),  # on it
+            gt("clock", [2.0, 4.9, 1.3], [2.3, 4.98, 1.6]),  # on the north wall
+            gt("clock", [2.0, 3.9, 1.3], [2.3, 3.98, 1.6], "free_clock")]  # 1 m off the wall: needs a support
+    res = F.furnish_home(objs, plan, lib, seed=0)
+    assert res.hanging == [2]
+    sup = res.boxes.get("support", [])
+    assert len(sup) == 1 and abs(sup[0][1][2] - 1.3) < 1e-9
+    assert not any(inter(s, box_of(o)) for s in sup for o in objs)
+
+
+def test_support_over_the_corridor_becomes_a_wall_shelf_or_is_reported(lib):
+    # the path runs along the north wall, under a bowl 0.3 m from it: no floor unit; a wall shelf at 0.8 m would
+    # overhang the corridor below the robot's height -> reported with why
+    plan = one_room_plan(paths=[[[0.5, 4.5], [5.5, 4.5]]])
+    low = gt("bowl", [2.0, 4.55, 0.8], [2.3, 4.85, 0.9], "low")
+    res = F.furnish_home([low], plan, lib, seed=0)
+    assert res.boxes.get("support", []) == []
+    assert len(res.unsupported) == 1 and "corridor" in res.unsupported[0][1]
+    # high up (above OVERHEAD_CLEAR_Z_M), a wall shelf may overhang the path
+    high = gt("bowl", [2.0, 4.55, 1.5], [2.3, 4.85, 1.6], "high")
+    res = F.furnish_home([high], plan, lib, seed=0)
+    (s,) = res.boxes["support"]
+    assert res.unsupported == [] and abs(s[1][2] - 1.5) < 1e-9 and abs(s[1][1] - 5.0) < 1e-9
+    assert s[1][2] - s[0][2] == pytest.approx(F.WALL_SHELF_THICKNESS_M)
+    assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"shelf"}
+
+
+# ------------------------------------------------------------------------------------------------ distractors
+def _check_scene(res, lib, objs, plan, roles=("support", "distractor")):
+    """No distractor of a GT class; no support/distractor box intersecting a GT cuboid, a wall or another one; the
+    floor-standing ones clear of the corridor."""
+    boxes = [(p, placed_box(lib, p)) for p in res.placements if p.role in roles]
+    for p, b in boxes:
+        a = lib.get(p.asset_id)
+        assert a.cls is None and a.kind not in F.GT_CLASSES
+        for o in objs:
+            assert not inter(b, box_of(o)), (a.id, o["class"])
+        for w in plan.walls:
+            assert not inter(b, (w.lo, w.hi), 1e-3), a.id
+        if p.role == "distractor" and b[0][2] < F.OVERHEAD_CLEAR_Z_M:
+            assert not plan.blocked(b[0][:2], b[1][:2]), a.id
+    runs = res.boxes.get("support", []) + res.boxes.get("distractor", [])
+    for x in range(len(runs)):
+        for y in range(x + 1, len(runs)):
+            assert not inter(runs[x], runs[y])
+    return boxes
+
+
+def test_distractors_along_walls_avoid_gt_supports_corridor_and_each_other(lib):
+    plan = one_room_plan(W=7.0, D=6.0, paths=[[[-1.0, 3.0], [6.5, 3.0], [6.5, 5.5]]],
+                         windows=[("S", 2.0, 3.2)], doors=[("W", 2.5, 3.4)])
+    objs = [gt("couch", [0.05, 4.0, 0], [0.95, 5.8, 0.8]), gt("table", [2.0, 4.2, 0], [3.0, 5.0, 0.45]),
+            gt("chair", [4.0, 0.1, 0], [4.5, 0.6, 0.9]), gt("bowl", [5.2, 0.1, 0.7], [5.5, 0.4, 0.8]),
+            gt("clock", [3.5, 5.9, 1.4], [3.8, 5.98, 1.7])]
+    res = F.furnish_home(objs, plan, lib, seed=3)
+    counts = res.counts()
+    assert counts["object"] == 5 and counts["support"] >= 1 and counts["distractor"] >= 3
+    assert counts["window"] == 1 and counts["door"] == 1 and counts["light"] == 1
+    boxes = _check_scene(res, lib, objs, plan)
+    kinds = {lib.get(p.asset_id).kind for p, _ in boxes}
+    assert {"radiator", "curtain"} <= kinds
+    # the doorway (on the path) gets a frame, not a closed door; both fitted exactly to their holes
+    for o in plan.openings:
+        (p,) = [p for p in res.placements if p.role == o.kind]
+        b = placed_box(lib, p)
+        assert np.abs(b[0] - o.lo).max() < 1e-9 and np.abs(b[1] - o.hi).max() < 1e-9
+        if o.kind == "door":
+            assert p.asset_id == "door_frame_a"
+    # floor furniture keeps the doorway free; pictures hang above the robot, not over the window
+    for p, b in boxes:
+        if b[0][2] < 0.5:
+            assert not (b[0][0] < 0.0 + F.DOOR_CLEARANCE_M and b[1][1] > 2.5 and b[0][1] < 3.4)
+        if lib.get(p.asset_id).kind == "picture":
+            assert b[0][2] >= F.OVERHEAD_CLEAR_Z_M and not (b[0][1] < 0.2 and b[1][0] > 2.0 and b[0][0] < 3.2)
+
+
+def test_room_kinds_choose_distractor_kinds(lib):
+    lib2 = AssetLibrary(FULL_LIB + [asset("bathtub_a", "bathtub", (1.7, 0.75, 0.6)),
+                                    asset("wardrobe_a", "wardrobe", (1.2, 0.6, 2.0))])
+    kinds = {}
+    for room in ("bathroom", "bedroom"):
+        plan = one_room_plan(kind=room)
+        res = F.furnish_home([], plan, lib2, seed=0)
+        kinds[room] = {lib2.get(p.asset_id).kind for p in res.placements if p.role == "distractor"}
+    assert "bathtub" in kinds["bathroom"] and "wardrobe" not in kinds["bathroom"]
+    assert "wardrobe" in kinds["bedroom"] and "bathtub" not in kinds["bedroom"]
+
+
+def test_a_class_without_models_is_reported_not_placed():
+    library = AssetLibrary([obj_asset("chair_a", "chair", (0.5, 0.5, 0.9))])
+    objs = [gt("chair", [1, 1, 0], [1.5, 1.5, 0.9]), gt("toaster", [3, 3, 0], [3.3, 3.2, 0.2])]
+    res = F.furnish_home(objs, one_room_plan(), library)
+    assert res.without_model == [1] and [p.object_index for p in res.placements] == [0]
+
+
+# ------------------------------------------------------------------------------------------------ determinism
+def _scene_objs():
+    return [gt("table", [2.0, 2.0, 0], [3.0, 3.0, 0.75]), gt("chair", [2.2, 1.3, 0], [2.7, 1.8, 0.85]),
+            gt("book", [1.0, 4.7, 0.9], [1.6, 4.95, 1.15], "row", isgroup=True),
+            gt("bowl", [5.3, 1.0, 0.9], [5.5, 1.2, 0.98])]
+
+
+def test_deterministic_per_seed(lib):
+    plan = one_room_plan(paths=[[[1.0, 2.5], [5.0, 2.5]]], windows=[("S", 2.0, 3.2)])
+    sig = []
+    for seed in (0, 0, 1):
+        res = F.furnish_home(_scene_objs(), plan, lib, seed=seed)
+        sig.append([(p.asset_id, p.object_index, p.role, np.round(p.transform, 9).tobytes()) for p in res.placements])
+    assert sig[0] == sig[1] and sig[0] != sig[2]
+
+
+def test_variants_share_supports_and_distractors(lib):
+    """With context_objects (the home's union), two variants that differ in one object get the same furniture."""
+    plan = one_room_plan(paths=[[[1.0, 2.5], [5.0, 2.5]]])
+    base = _scene_objs()
+    extra = gt("cup", [5.8, 4.0, 1.0], [5.9, 4.1, 1.1], "only_in_v2")
+    union = base + [extra]
+    v1 = F.furnish_home(base, plan, lib, seed=0, context_objects=union)
+    v2 = F.furnish_home(base + [extra], plan, lib, seed=0, context_objects=union)
+
+    def furniture(res):
+        return [(p.asset_id, p.role, np.round(p.transform, 9).tobytes()) for p in res.placements if p.object_index < 0]
+
+    assert furniture(v1) == furniture(v2)
+    assert [p.asset_id for p in v1.placements if p.object_index >= 0] == \
+        [p.asset_id for p in v2.placements if 0 <= p.object_index < len(base)]
+    assert v2.unsupported == [] and any(abs(b[1][2] - 1.0) < 1e-9 for b in v2.boxes["support"])
