@@ -82,8 +82,11 @@ FLOAT_MIN_Z_M = 0.05
 REST_TOL_M = 0.02
 #: ... and their footprints overlap by at least this fraction of the object's footprint.
 REST_MIN_OVERLAP = 0.3
-#: Classes that may hang on a wall (no support) when one of their sides is within HANG_WALL_DIST_M of a wall face.
-HANGING_CLASSES = frozenset(("clock", "tv", "sink", "toilet"))
+#: ... or sinks into it by at most this much (m): a bowl in a basin, a clock on a bed's headboard.
+REST_SINK_M = 0.08
+#: Classes that may hang on a wall (no support) when one of their sides is within HANG_WALL_DIST_M of a wall face,
+#: with the most depth (m, across the wall) they may have for that (a monitor on its stand stands on a desk).
+HANGING_CLASSES = {"clock": 0.15, "tv": 0.12, "sink": math.inf, "toilet": math.inf}
 #: See HANGING_CLASSES (m).
 HANG_WALL_DIST_M = 0.15
 #: Floating objects this close (xy gap, m) at similar heights share one support.
@@ -92,14 +95,33 @@ SUPPORT_GROUP_GAP_M = 0.5
 SUPPORT_MARGIN_M = 0.04
 #: A floor support is extended back to a wall face at most this far (m) from the objects.
 SUPPORT_TO_WALL_M = 0.6
+#: Narrowest side (m) of a support (it is trimmed around GT cuboids that stand in its way, down to this).
+SUPPORT_MIN_SIDE_M = 0.1
+#: Free floor (m) a floor support keeps on both sides of a doorway (less than DOOR_CLEARANCE_M: it stands under
+#: a GT object that is there anyway).
+SUPPORT_DOOR_CLEARANCE_M = 0.3
+#: Objects at most this high (m) get a rug or plinth of that thickness instead (LOW_SUPPORT_KINDS), reaching
+#: LOW_SUPPORT_MARGIN_M around them.
+LOW_SUPPORT_Z_M = 0.15
+LOW_SUPPORT_MARGIN_M = 0.12
+LOW_SUPPORT_KINDS = ("rug", "plinth", "cabinet")
+#: Kinds of wall shelves and boards, and of pedestals.
+SHELF_KINDS = ("wall_shelf", "shelf")
+PEDESTAL_KINDS = ("pedestal", "plant_stand", "nightstand", "cabinet")
+#: A floor support trimmed to less than this fraction of its area ranks below a wall shelf.
+TRIMMED_FLOOR_AREA = 0.7
+#: Kinds of a riser: a unit standing on a GT object or support under the objects (a thin one is a board).
+RISER_KINDS = ("shelf", "bookcase", "cabinet")
 #: Smallest depth (m) of a floor support backed onto a wall.
 SUPPORT_MIN_DEPTH_M = 0.35
 #: A wall shelf is used when a wall face is at most this far (m) from the objects.
 WALL_SHELF_REACH_M = 0.6
 #: Thickness (m) of a wall shelf.
 WALL_SHELF_THICKNESS_M = 0.04
-#: Things whose underside is at least this high (m) may overhang the robot corridor (the robots are ≤ 1.0 m tall).
-OVERHEAD_CLEAR_Z_M = 1.2
+#: The tallest robot (m): carter's ``max_height_m``.
+ROBOT_HEIGHT_M = 1.0
+#: Things whose underside is at least this high (m) may overhang the robot corridor.
+OVERHEAD_CLEAR_Z_M = ROBOT_HEIGHT_M + 0.2
 #: Most units (side by side) in one counter/cabinet run.
 MAX_SUPPORT_UNITS = 8
 #: Kinds of units that are tiled side by side along a long support.
@@ -323,8 +345,9 @@ def _rect_gap(alo, ahi, blo, bhi) -> float:
 class _Space:
     """Occupied boxes (GT cuboids, walls, supports, distractors) and the keep-out zones of a plan."""
 
-    def __init__(self, plan: Any, gt_boxes: list[tuple[np.ndarray, np.ndarray]]):
+    def __init__(self, plan: Any, gt_boxes: list[tuple[np.ndarray, np.ndarray]], gt_names: Sequence[str] = ()):
         self.plan = plan
+        self.gt_names = list(gt_names)
         self.gt_lo = np.array([b[0] for b in gt_boxes]).reshape(-1, 3)
         self.gt_hi = np.array([b[1] for b in gt_boxes]).reshape(-1, 3)
         walls = list(getattr(plan, "walls", []) or [])
@@ -339,10 +362,9 @@ class _Space:
             if o.kind == "door":
                 ax = int(np.argmax(np.abs(np.asarray(o.outward, dtype=np.float64)[:2])))
                 zlo, zhi = olo.copy(), ohi.copy()
-                zlo[ax] -= DOOR_CLEARANCE_M
-                zhi[ax] += DOOR_CLEARANCE_M
                 zlo[2], zhi[2] = 0.0, max(ohi[2], 2.0)
-                doors.append((zlo, zhi))
+                doors.append((zlo, zhi, ax))
+        self.door_axis = np.array([d[2] for d in doors], dtype=int)
         self.door_lo = np.array([d[0] for d in doors]).reshape(-1, 3)
         self.door_hi = np.array([d[1] for d in doors]).reshape(-1, 3)
         self.hole_lo = np.array([w[0] for w in holes]).reshape(-1, 3)
@@ -357,19 +379,25 @@ class _Space:
         self.placed_hi = np.vstack([self.placed_hi, hi[None]])
 
     def why_not(self, lo: np.ndarray, hi: np.ndarray, *, gt_margin: float = 0.0, placed_margin: float = 0.0,
-                corridor: bool = True, doors: bool = True, openings: bool = False) -> str | None:
+                corridor: bool = True, doors: float | bool = True, openings: bool = False) -> str | None:
         """None if the box lo..hi is free, else a short reason. ``gt_margin``/``placed_margin``: clearance kept from
         GT cuboids / supports and distractors; ``doors``: stay out of the free floor at doorways; ``openings``: do
-        not stand in front of a window or door hole (a low item under a window sill is fine)."""
+        not stand in front of a window or door hole (a low item under a window sill is fine); ``doors`` True means
+        DOOR_CLEARANCE_M, a number that clearance."""
         hit = _boxes_hit(lo, hi, self.gt_lo, self.gt_hi, gt_margin)
         if hit.any():
-            return f"it would intersect GT object {int(np.flatnonzero(hit)[0])}"
+            j = int(np.flatnonzero(hit)[0])
+            return f"it would intersect GT object {self.gt_names[j] if j < len(self.gt_names) else j}"
         if _boxes_hit(lo, hi, self.wall_lo, self.wall_hi, -1e-4).any():
             return "it would cut a wall"
         if _boxes_hit(lo, hi, self.placed_lo, self.placed_hi, placed_margin - 1e-6).any():
             return "it would intersect a support or distractor"
-        if doors and _boxes_hit(lo, hi, self.door_lo, self.door_hi, -1e-4).any():
-            return "it would stand in a doorway"
+        if doors is not False and len(self.door_lo):
+            clear = DOOR_CLEARANCE_M if doors is True else float(doors)
+            m = np.zeros((len(self.door_lo), 3))
+            m[np.arange(len(self.door_lo)), self.door_axis] = clear
+            if np.all((lo < self.door_hi + m - 1e-4) & (self.door_lo - m < hi - 1e-4), axis=1).any():
+                return "it would stand in a doorway"
         if openings and _boxes_hit(lo, hi, self.hole_lo, self.hole_hi, np.array([0.06, 0.06, 0.0])).any():
             return "it would cover a window or door"
         if corridor and self.blocked(lo, hi):
@@ -561,10 +589,13 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
 
 # ------------------------------------------------------------------------------------------------------ supports
 def _rests_on(i: int, boxes) -> bool:
+    """Whether GT box ``i`` rests on another one: that one starts lower, its top is within REST_TOL_M below to
+    REST_SINK_M above box i's bottom, and it carries at least REST_MIN_OVERLAP of box i's footprint."""
     lo, hi = boxes[i]
     area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 1e-12)
     for j, (blo, bhi) in enumerate(boxes):
-        if j != i and abs(bhi[2] - lo[2]) <= REST_TOL_M and _overlap_area(lo, hi, blo, bhi) >= REST_MIN_OVERLAP * area:
+        if (j != i and blo[2] < lo[2] - 1e-6 and lo[2] - REST_TOL_M <= bhi[2] <= lo[2] + REST_SINK_M
+                and _overlap_area(lo, hi, blo, bhi) >= REST_MIN_OVERLAP * area):
             return True
     return False
 
@@ -574,7 +605,9 @@ def _hangs(obj: dict, box, space: _Space) -> bool:
         return False
     lo, hi = box
     faces = _wall_faces(space, lo, hi, (lo[2], hi[2]))
-    return bool(faces) and faces[0][0] <= HANG_WALL_DIST_M
+    if not faces or faces[0][0] > HANG_WALL_DIST_M:
+        return False
+    return float((hi - lo)[faces[0][2]]) <= HANGING_CLASSES[str(obj.get("class", ""))]
 
 
 def _support_kinds(room_kind: str | None, top: float) -> tuple[str, ...]:
@@ -645,8 +678,42 @@ def _group_floating(objects, boxes, need: list[int], plan) -> list[list[int]]:
     return sorted(groups.values())
 
 
-def _support_group(group, boxes, space: _Space, library, plan, rng, bounds_of, out: Furnishing) -> str | None:
-    """Place one support under ``group`` (object indices); None on success, else why not."""
+def _trim(lo: np.ndarray, hi: np.ndarray, space: _Space, keep: Callable[[np.ndarray, np.ndarray], float]):
+    """Shrink the box lo..hi until it intersects no GT cuboid and no support/distractor, each time cutting the side
+    that keeps the most ``keep(lo, hi)`` (then area). None if that leaves a sliver (< SUPPORT_MIN_SIDE_M)."""
+    lo, hi = lo.copy(), hi.copy()
+    olo = np.vstack([space.gt_lo, space.placed_lo])
+    ohi = np.vstack([space.gt_hi, space.placed_hi])
+    for _ in range(24):
+        hit = np.flatnonzero(_boxes_hit(lo, hi, olo, ohi, -1e-6))
+        if not len(hit):
+            return lo, hi
+        g = int(hit[0])
+        options = []
+        for ax in (0, 1):
+            if olo[g, ax] > lo[ax] + SUPPORT_MIN_SIDE_M:
+                h2 = hi.copy()
+                h2[ax] = olo[g, ax]
+                options.append((lo.copy(), h2))
+            if ohi[g, ax] < hi[ax] - SUPPORT_MIN_SIDE_M:
+                l2 = lo.copy()
+                l2[ax] = ohi[g, ax]
+                options.append((l2, hi.copy()))
+        if not options:
+            return None
+        lo, hi = max(options, key=lambda o: (round(keep(*o), 9), float(np.prod((o[1] - o[0])[:2]))))
+    return None
+
+
+def _support_attempt(group, boxes, names, space: _Space, library, plan, rng, bounds_of, out: Furnishing):
+    """Try to place one support under the objects ``group``: (indices it carries, reasons for what failed).
+
+    Candidates (each trimmed around GT cuboids and placed furniture in its way): a floor unit backed onto a wall
+    within SUPPORT_TO_WALL_M, a floor unit just under the objects, a wall shelf, a slim pedestal, and last a riser
+    standing on whatever is under them (a GT object or a support). The candidate carrying the
+    most objects wins; among equals: an untrimmed floor unit, a wall shelf, a floor unit trimmed to less than
+    TRIMMED_FLOOR_AREA of itself, a pedestal, a riser. Objects at most LOW_SUPPORT_Z_M up get a rug or plinth.
+    A support within a single object's footprint below ROBOT_HEIGHT_M skips the corridor and doorway tests."""
     glo = np.min([boxes[i][0] for i in group], axis=0)
     ghi = np.max([boxes[i][1] for i in group], axis=0)
     top = float(glo[2])
@@ -656,71 +723,151 @@ def _support_group(group, boxes, space: _Space, library, plan, rng, bounds_of, o
     flo[:2] -= SUPPORT_MARGIN_M
     fhi[:2] += SUPPORT_MARGIN_M
     flo[2], fhi[2] = 0.0, top
-    faces = _wall_faces(space, flo, fhi)
-    reasons = []
-    kinds_assets = _library_kind(library, _support_kinds(room_kind, top))
-    candidates = []  # (lo, hi, away, kind of unit)
-    if faces and faces[0][0] <= SUPPORT_TO_WALL_M:
-        gap, away, ax, face = faces[0]
-        blo, bhi = flo.copy(), fhi.copy()
-        if away[ax] > 0:
-            blo[ax] = face
-            bhi[ax] = max(bhi[ax], face + SUPPORT_MIN_DEPTH_M)
-        else:
-            bhi[ax] = face
-            blo[ax] = min(blo[ax], face - SUPPORT_MIN_DEPTH_M)
-        candidates.append((blo, bhi, away))
-    candidates.append((flo.copy(), fhi.copy(), _nearest_wall_away(space, flo, fhi)))
-    if kinds_assets and top > 0.0:
-        for blo, bhi, away in candidates:
-            why = space.why_not(blo, bhi)
-            if why is None:
-                tiled = kinds_assets[0].kind in TILED_KINDS
-                _place_unit_run(library, kinds_assets, blo, bhi, away, rng, bounds_of, out, "support", tiled)
-                space.add(blo, bhi)
-                out.boxes.setdefault("support", []).append((blo, bhi))
-                return None
-            reasons.append(why)
-    elif not kinds_assets:
-        reasons.append("the library has no cabinet/counter/shelf model")
-    # a thin shelf on the nearest wall face at that height
-    shelves = _library_kind(library, ("wall_shelf", "shelf"))
+
+    def carried(lo, hi) -> list[int]:
+        got = []
+        for i in group:
+            blo, bhi = boxes[i]
+            area = max((bhi[0] - blo[0]) * (bhi[1] - blo[1]), 1e-12)
+            if blo[2] - hi[2] <= REST_TOL_M and _overlap_area(lo, hi, blo, bhi) >= REST_MIN_OVERLAP * area:
+                got.append(i)
+        return got
+
+    def keep(lo, hi) -> float:
+        return sum(_overlap_area(lo, hi, *boxes[i]) for i in group)
+
+    floor_kw = {"doors": SUPPORT_DOOR_CLEARANCE_M}
+    candidates = []  # (label, rank, lo, hi, kinds, away, why_not kwargs)
+    if top <= LOW_SUPPORT_Z_M:
+        rlo, rhi = flo.copy(), fhi.copy()
+        rlo[:2] -= LOW_SUPPORT_MARGIN_M - SUPPORT_MARGIN_M
+        rhi[:2] += LOW_SUPPORT_MARGIN_M - SUPPORT_MARGIN_M
+        candidates.append(("rug", 0.0, rlo, rhi, LOW_SUPPORT_KINDS, None, floor_kw))
+        candidates.append(("rug", 0.5, flo.copy(), fhi.copy(), LOW_SUPPORT_KINDS, None, floor_kw))
+    else:
+        kinds = _support_kinds(room_kind, top)
+        faces = _wall_faces(space, flo, fhi)
+        if faces and faces[0][0] <= SUPPORT_TO_WALL_M:
+            _, away, ax, face = faces[0]
+            blo, bhi = flo.copy(), fhi.copy()
+            if away[ax] > 0:
+                blo[ax], bhi[ax] = face, max(bhi[ax], face + SUPPORT_MIN_DEPTH_M)
+            else:
+                bhi[ax], blo[ax] = face, min(blo[ax], face - SUPPORT_MIN_DEPTH_M)
+            candidates.append(("floor unit", 0.0, blo, bhi, kinds, away, floor_kw))
+        candidates.append(("floor unit", 0.1, flo.copy(), fhi.copy(), kinds, None, floor_kw))
+        if len(group) == 1:
+            candidates.append(("floor unit", 2.5, glo * [1, 1, 0], ghi * [1, 1, 0] + [0, 0, top], kinds, None,
+                               floor_kw))
     zr = (top - WALL_SHELF_THICKNESS_M, top)
+    shelf_kw = {"corridor": zr[0] < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}
     wfaces = [f for f in _wall_faces(space, flo, fhi, zr) if f[0] <= WALL_SHELF_REACH_M]
-    if shelves and wfaces and zr[0] > 0.0:
-        gap, away, ax, face = wfaces[0]
+    if wfaces and zr[0] > LOW_SUPPORT_Z_M:
+        _, away, ax, face = wfaces[0]
         blo, bhi = flo.copy(), fhi.copy()
         blo[2], bhi[2] = zr
         if away[ax] > 0:
             blo[ax] = face
         else:
             bhi[ax] = face
-        why = space.why_not(blo, bhi, corridor=zr[0] < OVERHEAD_CLEAR_Z_M, doors=zr[0] < 2.0)
-        if why is None:
-            _place_unit_run(library, shelves, blo, bhi, away, rng, bounds_of, out, "support", False)
-            space.add(blo, bhi)
-            out.boxes.setdefault("support", []).append((blo, bhi))
-            return None
-        reasons.append("wall shelf: " + why)
-    elif not wfaces:
-        reasons.append(f"no wall within {WALL_SHELF_REACH_M} m for a shelf")
-    # a slim pedestal right under the objects
-    pedestals = _library_kind(library, ("pedestal", "plant_stand", "nightstand", "cabinet"))
-    if pedestals and top > 0.0:
-        plo, phi = glo.copy(), ghi.copy()
+        candidates.append(("wall shelf", 1.0, blo, bhi, SHELF_KINDS, away, shelf_kw))
+    if top > LOW_SUPPORT_Z_M:
+        plo, phi = flo.copy(), fhi.copy()
         c = (glo[:2] + ghi[:2]) / 2
-        half = np.maximum((ghi[:2] - glo[:2]) * 0.35, 0.06)
+        half = np.maximum((ghi[:2] - glo[:2]) * 0.35, SUPPORT_MIN_SIDE_M / 2)
         plo[:2], phi[:2] = c - half, c + half
-        plo[2], phi[2] = 0.0, top
-        why = space.why_not(plo, phi)
-        if why is None:
-            _place_unit_run(library, pedestals, plo, phi, _nearest_wall_away(space, plo, phi), rng, bounds_of, out,
-                            "support", False)
-            space.add(plo, phi)
-            out.boxes.setdefault("support", []).append((plo, phi))
-            return None
-        reasons.append("pedestal: " + why)
-    return "; ".join(dict.fromkeys(reasons)) or "no support model"
+        candidates.append(("pedestal", 3.0, plo, phi, PEDESTAL_KINDS, None, floor_kw))
+    for fl, fh in ((flo, fhi), (glo, ghi)):  # a riser (or board) on whatever is under the objects
+        base = _base_under(fl, fh, top, space)
+        if base > LOW_SUPPORT_Z_M:
+            blo, bhi = fl.copy(), fh.copy()
+            blo[2], bhi[2] = base, top
+            candidates.append(("riser", 3.5, blo, bhi, SHELF_KINDS if top - base < 0.1 else RISER_KINDS, None,
+                               {"corridor": base < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}))
+
+    reasons: list[str] = []
+    best = None
+    for label, rank, blo, bhi, kinds, away, kw in candidates:
+        assets = _library_kind(library, kinds)
+        if not assets:
+            reasons.append(f"{label}: no model of kind {'/'.join(kinds)}")
+            continue
+        trimmed = _trim(blo, bhi, space, keep)
+        if trimmed is None:
+            reasons.append(f"{label}: {space.why_not(blo, bhi) or 'no room'}")
+            continue
+        tlo, thi = trimmed
+        if len(group) == 1 and top < ROBOT_HEIGHT_M and np.all(tlo[:2] >= glo[:2] - 1e-9) \
+                and np.all(thi[:2] <= ghi[:2] + 1e-9):
+            # within the object's own footprint, below the robot's height: it takes no floor the robot could
+            # use (the object is already there), so the corridor and doorway tests do not apply
+            kw = {**kw, "corridor": False, "doors": False}
+        why = space.why_not(tlo, thi, **kw)
+        if why is not None:
+            reasons.append(f"{label}: {why}")
+            continue
+        if label == "riser" and not _rests_on_something(tlo, thi, space):
+            reasons.append("riser: what is left does not rest on anything")
+            continue
+        got = carried(tlo, thi)
+        if not got:
+            reasons.append(f"{label}: what is left between the other objects carries too little")
+            continue
+        area0 = float(np.prod((bhi - blo)[:2]))
+        if label in ("floor unit", "rug") and float(np.prod((thi - tlo)[:2])) < TRIMMED_FLOOR_AREA * area0:
+            rank = 2.0
+        key = (len(got), -rank)
+        if best is None or key > best[0]:
+            best = (key, got, label, tlo, thi, assets, away)
+    if best is None:
+        return [], reasons
+    _, got, label, tlo, thi, assets, away = best
+    if away is None:
+        away = _nearest_wall_away(space, tlo, thi)
+    tiled = label == "floor unit" and assets[0].kind in TILED_KINDS
+    _place_unit_run(library, assets, tlo, thi, away, rng, bounds_of, out, "support", tiled)
+    space.add(tlo, thi)
+    out.boxes.setdefault("support", []).append((tlo, thi))
+    return got, reasons
+
+
+def _base_under(lo: np.ndarray, hi: np.ndarray, top: float, space: _Space) -> float:
+    """The highest top (m) of a GT cuboid or placed box overlapping the footprint lo..hi below ``top`` (0: floor)."""
+    base = 0.0
+    for blo, bhi in ((space.gt_lo, space.gt_hi), (space.placed_lo, space.placed_hi)):
+        for b0, b1 in zip(blo, bhi):
+            if b1[2] <= top + 1e-9 and _overlap_area(lo, hi, b0, b1) > 1e-6:
+                base = max(base, float(b1[2]))
+    return base
+
+
+def _rests_on_something(lo: np.ndarray, hi: np.ndarray, space: _Space) -> bool:
+    """Whether a box lo..hi stands on GT cuboids / placed boxes (tops within 1 mm of its bottom) carrying at least
+    half of its footprint."""
+    area = 0.0
+    for blo, bhi in ((space.gt_lo, space.gt_hi), (space.placed_lo, space.placed_hi)):
+        for b0, b1 in zip(blo, bhi):
+            if abs(b1[2] - lo[2]) <= 1e-3:
+                area += _overlap_area(lo, hi, b0, b1)
+    return area >= 0.5 * float(np.prod((hi - lo)[:2]))
+
+
+def _support_group(group, boxes, names, space: _Space, library, plan, seed, bounds_of, out: Furnishing) -> dict:
+    """Supports under ``group``: one for all if possible, then one per object left; {index: why} of those left."""
+    rng = _rng(seed, "support", *(names[i] for i in group))
+    got, reasons = _support_attempt(group, boxes, names, space, library, plan, rng, bounds_of, out)
+    left = {}
+    for i in group:
+        if i in got:
+            continue
+        if len(group) == 1:
+            left[i] = "; ".join(reasons)
+            continue
+        g1, r1 = _support_attempt([i], boxes, names, space, library, plan, _rng(seed, "support1", names[i]),
+                                  bounds_of, out)
+        if not g1:
+            left[i] = "; ".join(dict.fromkeys(r1))
+    return left
 
 
 def _place_supports(objects, boxes, present: set[int], space: _Space, library, plan, seed, bounds_of,
@@ -735,11 +882,10 @@ def _place_supports(objects, boxes, present: set[int], space: _Space, library, p
                 out.hanging.append(i)
             continue
         need.append(i)
+    names = [f"{o.get('class')} {o.get('ID_name', i)}" for i, o in enumerate(objects)]
     for group in _group_floating(objects, boxes, need, plan):
-        rng = _rng(seed, "support", *(objects[i].get("ID_name", i) for i in group))
-        why = _support_group(group, boxes, space, library, plan, rng, bounds_of, out)
-        if why is not None:
-            out.unsupported.extend((i, why) for i in group if i in present)
+        left = _support_group(group, boxes, names, space, library, plan, seed, bounds_of, out)
+        out.unsupported.extend((i, why) for i, why in sorted(left.items()) if i in present)
 
 
 # ------------------------------------------------------------------------------------------------------ distractors
@@ -782,6 +928,7 @@ def _place_span(span, idx: int, space: _Space, library, plan, seed, bounds_of, o
     if room is None:
         room = _room_of(plan, (a + b) / 2 + n * 0.1)
     table = ROOM_DISTRACTORS.get(getattr(room, "kind", "hall"), ROOM_DISTRACTORS["hall"])
+    max_h = float(getattr(span, "max_height", math.inf))  # under a window: its sill
     s = float(rng.uniform(0.05, 0.4))
     while s < length - 0.3:
         if rng.random() > DISTRACTOR_FILL:
@@ -792,7 +939,7 @@ def _place_span(span, idx: int, space: _Space, library, plan, seed, bounds_of, o
             break
         asset = assets[int(rng.integers(len(assets)))]
         lo, hi, w = _natural_box(asset, a, t, n, s, 0.0, float(rng.uniform(0.95, 1.05)))
-        if s + w <= length and space.why_not(lo, hi, gt_margin=DISTRACTOR_CLEARANCE_M,
+        if s + w <= length and hi[2] <= max_h and space.why_not(lo, hi, gt_margin=DISTRACTOR_CLEARANCE_M,
                                              placed_margin=DISTRACTOR_CLEARANCE_M, openings=True) is None:
             _add(out, space, asset, lo, hi, k, "distractor", bounds_of)
             s += w + float(rng.uniform(0.05, 0.5))
@@ -824,6 +971,8 @@ def _place_openings(space: _Space, library, plan, seed, bounds_of, out: Furnishi
         outward = np.asarray(o.outward, dtype=np.float64)[:2]
         rng = _rng(seed, "opening", idx)
         if o.kind == "door":
+            if not getattr(o, "leaf", True):
+                continue  # an open passage (open plan): no door model
             ax = int(np.argmax(np.abs(outward)))
             zlo, zhi = lo.copy(), hi.copy()
             zlo[ax] -= 0.5
@@ -935,7 +1084,7 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
     objects = list(objects)
     context = _dedupe(list(context_objects or []) + objects) if context_objects is not None else list(objects)
     ctx_boxes = [_gt_box(o) for o in context]
-    space = _Space(plan, ctx_boxes)
+    space = _Space(plan, ctx_boxes, [f"{o.get('class')} {o.get('ID_name', '')}".strip() for o in context])
     out = Furnishing()
     boxes = [_gt_box(o) for o in objects]
     _place_objects(objects, boxes, space, library, seed, bounds_of, out)

@@ -303,21 +303,42 @@ def test_objects_resting_on_gt_or_hanging_need_no_support(lib):
     assert not any(inter(s, box_of(o)) for s in sup for o in objs)
 
 
-def test_support_over_the_corridor_becomes_a_wall_shelf_or_is_reported(lib):
-    # the path runs along the north wall, under a bowl 0.3 m from it: no floor unit; a wall shelf at 0.8 m would
-    # overhang the corridor below the robot's height -> reported with why
+def test_support_over_the_corridor_stays_under_the_object_or_goes_on_the_wall(lib):
+    # the path runs along the north wall, 0.3 m from a bowl at 0.8 m: no counter reaching out into the corridor;
+    # a support exactly under the bowl takes no floor the robot could use (the bowl, below its height, is there)
     plan = one_room_plan(paths=[[[0.5, 4.5], [5.5, 4.5]]])
     low = gt("bowl", [2.0, 4.55, 0.8], [2.3, 4.85, 0.9], "low")
     res = F.furnish_home([low], plan, lib, seed=0)
-    assert res.boxes.get("support", []) == []
-    assert len(res.unsupported) == 1 and "corridor" in res.unsupported[0][1]
-    # high up (above OVERHEAD_CLEAR_Z_M), a wall shelf may overhang the path
+    (s,) = res.boxes["support"]
+    lo, hi = box_of(low)
+    assert res.unsupported == [] and abs(s[1][2] - 0.8) < 1e-9 and s[0][2] == 0.0
+    assert np.all(s[0][:2] >= lo[:2] - 1e-9) and np.all(s[1][:2] <= hi[:2] + 1e-9)
+    # above the robot's height a floor unit would be new in its way: a wall shelf that overhangs the path
     high = gt("bowl", [2.0, 4.55, 1.5], [2.3, 4.85, 1.6], "high")
     res = F.furnish_home([high], plan, lib, seed=0)
     (s,) = res.boxes["support"]
     assert res.unsupported == [] and abs(s[1][2] - 1.5) < 1e-9 and abs(s[1][1] - 5.0) < 1e-9
     assert s[1][2] - s[0][2] == pytest.approx(F.WALL_SHELF_THICKNESS_M)
     assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"shelf"}
+    # 1.1 m up, below the robot's reach and not under the shelf limit: neither fits -> reported with why
+    mid = gt("bowl", [2.0, 4.55, 1.1], [2.3, 4.85, 1.2], "mid")
+    res = F.furnish_home([mid], plan, lib, seed=0)
+    assert res.boxes.get("support", []) == [] and len(res.unsupported) == 1
+    assert "corridor" in res.unsupported[0][1]
+
+
+def test_a_riser_stands_on_what_is_under_the_object(lib):
+    # a toaster 5 cm above a sink in the middle of the room: nothing can stand on the floor under it (the sink is
+    # there), so a board/riser rests on the sink
+    plan = one_room_plan()
+    sink = gt("sink", [2.0, 2.0, 0.0], [2.5, 2.5, 0.83])
+    toaster = gt("toaster", [2.1, 2.1, 0.88], [2.3, 2.4, 1.08])
+    library = AssetLibrary(FULL_LIB + [obj_asset("toaster_a", "toaster", (0.3, 0.2, 0.2)),
+                                       obj_asset("sink_a", "sink", (0.5, 0.5, 0.85))])
+    res = F.furnish_home([sink, toaster], plan, library, seed=0)
+    (s,) = res.boxes["support"]
+    assert res.unsupported == [] and abs(s[0][2] - 0.83) < 1e-9 and abs(s[1][2] - 0.88) < 1e-9
+    assert not inter(s, box_of(sink)) and not inter(s, box_of(toaster))
 
 
 # ------------------------------------------------------------------------------------------------ distractors
