@@ -230,7 +230,7 @@ def test_chairs_face_the_table_and_couch_backs_onto_the_wall(lib):
             gt("chair", [1.8, 2.25, 0], [2.3, 2.75, 0.85], "c_w"), gt("chair", [3.7, 2.25, 0], [4.2, 2.75, 0.85], "c_e"),
             gt("couch", [0.05, 1.0, 0], [0.95, 3.0, 0.8]),  # against the west wall: faces +x
             gt("couch", [2.0, 4.05, 0], [4.0, 4.95, 0.8], "couch_n"),  # against the north wall: faces -y
-            gt("tv", [5.8, 2.0, 0.9], [5.95, 3.0, 1.5])]  # hung on the east wall: faces -x
+            gt("tv", [5.85, 2.0, 0.9], [5.95, 3.0, 1.5])]  # hung on the east wall: faces -x
     for seed in range(3):
         res = F.furnish_home(objs, plan, lib, seed=seed)
         for i, want in ((1, (0, 1)), (2, (0, -1)), (3, (1, 0)), (4, (-1, 0)), (5, (1, 0)), (6, (0, -1)), (7, (-1, 0))):
