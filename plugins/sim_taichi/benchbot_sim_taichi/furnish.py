@@ -370,9 +370,20 @@ class _Space:
         self.hole_lo = np.array([w[0] for w in holes]).reshape(-1, 3)
         self.hole_hi = np.array([w[1] for w in holes]).reshape(-1, 3)
         self._blocked = corridor_test(plan)
+        c = getattr(plan, "corridor", None)
+        self._seg_lo = self._seg_hi = None
+        if all(hasattr(c, k) for k in ("p0", "p1", "radius")):
+            p0 = np.asarray(c.p0, dtype=np.float64).reshape(-1, 2)
+            p1 = np.asarray(c.p1, dtype=np.float64).reshape(-1, 2)
+            r = float(c.radius) + 1e-6
+            self._seg_lo, self._seg_hi = np.minimum(p0, p1) - r, np.maximum(p0, p1) + r
 
     def blocked(self, lo: np.ndarray, hi: np.ndarray) -> bool:
-        return bool(self._blocked(np.asarray(lo[:2], dtype=np.float64), np.asarray(hi[:2], dtype=np.float64)))
+        lo2, hi2 = np.asarray(lo[:2], dtype=np.float64), np.asarray(hi[:2], dtype=np.float64)
+        if self._seg_lo is not None:  # no segment's box, grown by the radius, reaches the box: not blocked
+            if not np.all((self._seg_lo < hi2) & (lo2 < self._seg_hi), axis=1).any():
+                return False
+        return bool(self._blocked(lo2, hi2))
 
     def add(self, lo: np.ndarray, hi: np.ndarray) -> None:
         self.placed_lo = np.vstack([self.placed_lo, lo[None]])
@@ -641,8 +652,8 @@ def _place_unit_run(library, assets, lo, hi, away: np.ndarray | None, rng, bound
         along = 0 if ext[0] >= ext[1] else 1
     n = 1
     if tiled:
-        widths = [float(a.size_m[0]) for a in assets]
-        n = int(np.clip(round(ext[along] / max(float(np.median(widths)), 0.2)), 1, MAX_SUPPORT_UNITS))
+        widths = sorted(float(a.size_m[0]) for a in assets)
+        n = int(np.clip(round(ext[along] / max(widths[len(widths) // 2], 0.2)), 1, MAX_SUPPORT_UNITS))
     edges = lo[along] + ext[along] * np.arange(n + 1) / n
     edges[-1] = hi[along]
     unit = ext.copy()

@@ -75,14 +75,15 @@ class Plan:
     robot_radius_m: float = 0.35
 
     def blocked(self, lo_xy, hi_xy) -> bool:
+        """Whether the xy box comes within the radius of a path (sampled every 5 mm)."""
         lo_xy, hi_xy = np.asarray(lo_xy, float), np.asarray(hi_xy, float)
         for path in self.paths:
             for p, q in zip(path[:-1], path[1:]):
-                for t in np.linspace(0.0, 1.0, 200):
-                    pt = p + (q - p) * t
-                    d = np.linalg.norm(np.maximum(np.maximum(lo_xy - pt, pt - hi_xy), 0.0))
-                    if d <= self.robot_radius_m:
-                        return True
+                t = np.linspace(0.0, 1.0, max(2, int(np.linalg.norm(q - p) / 0.005)))[:, None]
+                pts = p + (q - p) * t
+                d = np.linalg.norm(np.maximum(np.maximum(lo_xy - pts, pts - hi_xy), 0.0), axis=1)
+                if d.min() < self.robot_radius_m:
+                    return True
         return False
 
 
