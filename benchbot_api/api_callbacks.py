@@ -1,5 +1,6 @@
-"""The original API-side connection callbacks (reference §4), importable as ``benchbot_api.api_callbacks`` because
-original clients import the robot config's ``callback_api`` entries from ``benchbot_api.<module>``.
+"""The original API-side connection callbacks (docs/original-benchbot.md, section 5), importable as
+``benchbot_api.api_callbacks`` because original clients import the robot config's ``callback_api`` entries from
+``benchbot_api.<module>``.
 
 No OpenCV or jsonpickle is needed to import this module.
 """

@@ -1,6 +1,6 @@
 """A stand-in for the original ``benchbot_api`` client (QUT, 2020), which cannot be installed here.
 
-It performs the original client's exact request sequence (docs/observations.md): every query is a
+It performs the original client's exact request sequence (docs/original-benchbot.md, section 5): every query is a
 ``requests.get`` with a JSON body (``{}`` when there is no data), the reply is decoded with ``jsonpickle.decode``,
 status ≥ 300 or any failure becomes ``requests.ConnectionError``; ``start`` polls ``/`` then ``robot/is_running``,
 imports the robot's ``callback_api`` functions from ``benchbot_api.<module>``, then restarts (scene ≠ 0) or resets;
@@ -36,7 +36,7 @@ class ActionResult(Enum):
 
 
 class LegacyBenchBot:
-    """The original client's behaviour (docs/observations.md), request for request."""
+    """The original client's behaviour (docs/original-benchbot.md, section 5), request for request."""
 
     def __init__(self, agent=None, supervisor_address="http://benchbot_supervisor:10000/", auto_start=True,
                  result_location: str = RESULT_LOCATION, poll_s: float = 3.0):

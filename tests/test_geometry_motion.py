@@ -1,4 +1,4 @@
-"""Poses and the original pose controller (docs/observations.md), on plain numbers."""
+"""Poses and the original pose controller (docs/original-benchbot.md, section 6), on plain numbers."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The client API a solution uses: :class:`BenchBot`, :class:`Agent`, :class:`ActionResult`, ``RESULT_LOCATION``.
 
-Semantics follow the original ``benchbot_api`` (docs/protocol.md, docs/observations.md); ``import benchbot_api``
+Semantics follow the original ``benchbot_api`` (docs/original-benchbot.md, docs/protocol.md); ``import benchbot_api``
 gives the same names so submissions written for the original run unchanged. :func:`InProcessBenchBot` drives a backend in
 the same process (no HTTP). ``benchbot.api.tools`` (the observation visualiser) imports matplotlib only when used.
 """

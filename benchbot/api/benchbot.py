@@ -412,7 +412,7 @@ class BenchBot:
     # --------------------------------------------------------------------------------------- lifecycle
     def start(self, wait_s: float = 60.0) -> None:
         """Wait up to ``wait_s`` for the backend, then :meth:`reset` to scene 0 (the original restarted the
-        current scene instead, docs/observations.md)."""
+        current scene instead, docs/original-benchbot.md)."""
         deadline = time.monotonic() + wait_s
         while not self.transport.ping():
             if time.monotonic() > deadline:

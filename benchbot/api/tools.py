@@ -1,4 +1,5 @@
-"""Tools for solutions: :class:`ObservationVisualiser`, like the original's ``benchbot_api.tools`` (docs/observations.md).
+"""Tools for solutions: :class:`ObservationVisualiser`, like the original's ``benchbot_api.tools``
+(docs/original-benchbot.md, section 5).
 
 matplotlib is imported on first use (``pip install benchbot[vis]``), so ``import benchbot.api`` stays light.
 With a display the figure is shown in a window; without one (no ``DISPLAY``/``WAYLAND_DISPLAY`` on Linux, or a

@@ -1,7 +1,8 @@
 """The episode: the supervisor's state machine for one task, one robot and one or more scenes.
 
 Semantics follow the original BenchBot supervisor and robot controller (routes: docs/protocol.md; actions,
-frames and localisation: docs/observations.md), with its state-machine bugs fixed (docs/architecture.md lists them):
+frames and localisation: docs/observations.md), with its state-machine bugs fixed (docs/original-benchbot.md,
+section 11, lists them):
 
 * ``reset`` really returns to scene 0 (the original reloaded the current scene while reporting 0);
 * ``next`` clears ``initial_pose`` along with the trajectory progress (the original kept scene 1's);
@@ -36,7 +37,8 @@ from benchbot.core.geometry import (
 from benchbot.core.robot import RobotBackend
 
 ACTIONS = ("move_next", "move_distance", "move_angle")
-DIRTY_DISTANCE_M = 1.0  # docs/observations.md: the simulator marks the robot dirty past 1 m or 2° from the start pose
+# The original's simulator marked the robot dirty past 1 m or 2° from the start pose (docs/original-benchbot.md, 6)
+DIRTY_DISTANCE_M = 1.0
 DIRTY_ANGLE_RAD = math.radians(2.0)
 
 SUCCESS, FINISHED, COLLISION = "SUCCESS", "FINISHED", "COLLISION"
@@ -97,10 +99,10 @@ class OdometryNoise:
 
     * ``zero_mean``: the increment (dx, dy, dyaw) in the robot frame becomes (dx·(1+n₁), dy·(1+n₁), dyaw·(1+n₂))
       with nᵢ ~ Normal(0, σ).
-    * ``original``: the original BenchBot's ``noisify_odom`` (docs/observations.md): the forward speed and the turn rate
-      are scaled by (1+n₁), (1+n₂) with nᵢ ~ Normal(**mean = σ**, std = σ) — a positive bias: on average the robot
-      "thinks it went 10 % further" — and sideways motion is ignored (dy = 0 before the increment is re-integrated
-      as a constant-(v, ω) arc).
+    * ``original``: the original BenchBot's ``noisify_odom`` (docs/original-benchbot.md, section 6): the forward
+      speed and the turn rate are scaled by (1+n₁), (1+n₂) with nᵢ ~ Normal(**mean = σ**, std = σ) — a positive
+      bias: on average the robot "thinks it went 10 % further" — and sideways motion is ignored (dy = 0 before the
+      increment is re-integrated as a constant-(v, ω) arc).
 
     nᵢ are drawn from ``numpy.random.default_rng(seed)``; σ defaults to the original's 0.1 on both.
 

@@ -1,4 +1,4 @@
-"""The original BenchBot's pose controller (docs/observations.md, "Actions"), as a pure, steppable state machine.
+"""The original BenchBot's pose controller (docs/original-benchbot.md, section 6), as a pure, steppable state machine.
 
 Robot backends call :meth:`PoseController.command` at ``rate_hz`` with the robot's current SE(2) pose and apply the
 returned velocity command (simulators integrate it; real robots publish it as a Twist) until it returns ``None``.
@@ -20,7 +20,7 @@ from benchbot.core.geometry import se2_relative, wrap_angle
 
 @dataclass(frozen=True)
 class ControllerGains:
-    """Gains, tolerances and limits of the pose controller (defaults: the original's, docs/observations.md)."""
+    """Gains, tolerances and limits of the pose controller (defaults: the original's, docs/original-benchbot.md)."""
 
     rate_hz: float = 20.0
     position_tolerance_m: float = 0.01

@@ -249,7 +249,7 @@ class Registry:
 
     def scenes(self, env_string: str) -> list[dict]:
         """The environment specs of an environment string: ``miniroom:1`` → one, ``miniroom:1:2`` → two
-        (the name is everything before the first ':'; every later field is a variant, docs/cli.md).
+        (the name is everything before the first ':'; every later field is a variant, docs/original-benchbot.md).
 
         Raises:
             SpecError: malformed string or unknown environment.

@@ -72,8 +72,8 @@ READ_ONLY_COMMANDS = frozenset({"", "is_collided", "is_dirty", "is_finished", "s
 #: What a ground-truth path is replaced with in an error message.
 HIDDEN = "<hidden>"
 DEFAULT_ACTION_TIMEOUT_S = 120.0
-#: The original robot config's API-side callback for colour images (docs/observations.md): clients import it from
-#: ``benchbot_api.api_callbacks``.
+#: The original robot config's API-side callback for colour images (docs/original-benchbot.md): clients import it
+#: from ``benchbot_api.api_callbacks``.
 RGB_CALLBACK = "api_callbacks.convert_to_rgb"
 
 
@@ -328,9 +328,9 @@ class BackendApi:
         return (self._generation, ep.scene_index, ep.step_count, ep.trajectory_next, ep.collided, id(ep.initial_pose))
 
     def _is_running(self) -> dict:
-        """*worker*. ``is_running`` is the original client's start handshake (docs/observations.md: it is only queried by
-        ``BenchBot.start``): an episode that a previous client used is returned to a fresh scene 0 first, so
-        ``benchbot run`` serves episode after episode to original clients as well."""
+        """*worker*. ``is_running`` is the original client's start handshake (only its ``BenchBot.start`` asks it:
+        docs/original-benchbot.md, section 5): an episode that a previous client used is returned to a fresh scene 0
+        first, so ``benchbot run`` serves episode after episode to original clients as well."""
         ep = self.episode
         if ep.step_count != self._fresh_at or ep.scene_index != 0 or not ep.running:
             self._reset()
@@ -339,8 +339,8 @@ class BackendApi:
     def config(self, keys: list[str] | None = None) -> Any:
         """The config ``{task, results, robot, environments}`` or the value at nested ``keys``.
 
-        The robot's ``image_rgb`` connection carries the original's ``callback_api`` (docs/observations.md) so original
-        clients convert ``{encoding, data}`` to an array. Ground truth is never part of the config.
+        The robot's ``image_rgb`` connection carries the original's ``callback_api`` (docs/original-benchbot.md) so
+        original clients convert ``{encoding, data}`` to an array. Ground truth is never part of the config.
 
         Raises:
             NotFoundError: a key is missing (list indices are not supported, as in the original).

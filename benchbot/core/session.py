@@ -1,6 +1,7 @@
 """Resolving and starting a run: task + robot + environment(s) → a validated combination → a backend service.
 
-Validation follows the original ``benchbot_run`` (docs/cli.md), in order, with its unchecked cases checked:
+Validation follows the original ``benchbot_run`` (docs/original-benchbot.md, section 2.2), in order, with its
+unchecked cases checked:
 the robot exists; the task exists; the task's results format exists; every scene exists; every scene's type is one
 the robot works in (its ``environment_types``, by default just its own ``type``: a ROS 2 robot bridged to the
 simulator lists ``sim_taichi``); a plugin provides a backend for that type (the original's check never failed); the number of

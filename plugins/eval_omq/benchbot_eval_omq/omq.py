@@ -1,8 +1,8 @@
 """Object Map Quality (OMQ): the evaluation method of BenchBot's semantic SLAM and scene change detection tasks.
 
 Formula: D. Hall et al., "The Robotic Vision Scene Understanding Challenge", arXiv:2009.05246 (2020), and QUT's
-``benchbot_eval`` OMQ add-on (``eval_omq``), re-implemented as described in the BenchBot docs/evaluation.md, with the
-bugs listed there fixed (see the package README):
+``benchbot_eval`` OMQ add-on (``eval_omq``), re-implemented as described in docs/original-benchbot.md (section 8.2)
+and docs/evaluation.md, with the bugs listed there fixed (see the package README):
 
 1. Class list = sorted unique union of the ground truths' class lists, ``background`` moved (or appended) last.
 2. Synonyms = the merged synonyms of ALL ground truths plus ``none``/``bg``/``__background__`` → ``background``;

@@ -1,6 +1,7 @@
 """``Ros2RobotBackend``: a :class:`~benchbot.core.robot.RobotBackend` for any robot reachable over ROS 2.
 
-The robot spec (type ``ros2``) declares its connections like the original BenchBot's robot YAML (docs/plugin-guide.md):
+The robot spec (type ``ros2``) declares its connections like the original BenchBot's robot YAML
+(docs/original-benchbot.md, section 3):
 ``ros_to_api`` connections (``ros_topic``, ``ros_type``, optional ``callback_robot: module:function`` turning the
 message into the observation) are subscribed; the ``api_to_ros`` actions publish ``geometry_msgs/msg/Twist`` on their
 ``ros_topic`` (``/cmd_vel``). The ``ros2`` block configures the rest (defaults in :data:`DEFAULTS`, documented in

@@ -1,6 +1,6 @@
 """The object-map results formats of the semantic SLAM and scene change detection (SCD) tasks.
 
-Three formats, re-built from QUT's ``formats_object_map`` add-on (BenchBot 2020, docs/evaluation.md):
+Three formats, re-built from QUT's ``formats_object_map`` add-on (BenchBot 2020, docs/original-benchbot.md, section 7):
 
 * ``object_map`` (results of ``semantic_slam:*`` tasks)::
 
