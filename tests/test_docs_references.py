@@ -8,7 +8,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CITED = re.compile(r"docs/([A-Za-z0-9_-]+\.md)")
-SOURCES = ("benchbot", "plugins", "docs", "tests", "benchmarks", "schemas")
+SOURCES = ("benchbot", "benchbot_api", "plugins", "docs", "tests", "benchmarks", "schemas")
+#: A citation of a numbered section of a reference users do not have ("reference 5.6", "reference §4").
+SECTION_OF_REFERENCE = re.compile(r"\breference (§ ?)?\d+(\.\d+)*\b")
 
 
 def _texts():
@@ -29,4 +31,5 @@ def test_every_cited_doc_exists_and_no_file_cites_what_users_lack():
                     if not (ROOT / "docs" / name).is_file()]
         outside += [f"{path.relative_to(ROOT)}" for marker in ("../shared", "benchbot-reference", "reference §")
                     if marker in text]
+        outside += [f"{path.relative_to(ROOT)}: {m.group(0)}" for m in SECTION_OF_REFERENCE.finditer(text)]
     assert missing == [] and outside == [], (missing, outside)
