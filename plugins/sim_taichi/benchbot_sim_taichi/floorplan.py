@@ -503,7 +503,13 @@ class _Planner:
         valid &= (ihi > span[0]) & (ilo < span[1])
         for k in np.nonzero(valid.any(axis=1))[0]:
             m = valid[k]
-            out[k] = list(zip(ilo[k, m].tolist(), ihi[k, m].tolist()))
+            a, b = ilo[k, m], ihi[k, m]
+            order = np.argsort(a, kind="stable")
+            a, b = a[order], b[order]
+            new = np.ones(len(a), dtype=bool)
+            new[1:] = a[1:] > np.maximum.accumulate(b)[:-1] + DOOR_MERGE_GAP_M
+            starts = np.nonzero(new)[0]
+            out[k] = list(zip(a[starts].tolist(), np.maximum.reduceat(b, starts).tolist()))  # merged
         return out
 
     @staticmethod

@@ -206,6 +206,16 @@ def test_a_wall_no_path_crosses_still_gets_a_doorway():
     assert [op.leaf for op in plan.openings if op.kind == "door"] == [True]
 
 
+def test_no_wall_where_its_rooms_could_not_be_connected():
+    # bedroom and bathroom fixtures 1.2 m apart along their whole length: no doorway has clear floor on both sides,
+    # and the robot never leaves the bedroom; a wall between them would leave the bathroom unreachable
+    objects = [_obj("bed", (0.0, 0.0, 0.3), (2.0, 5.0, 0.6)), _obj("toilet", (3.6, 0.0, 0.3), (2.8, 5.0, 0.6))]
+    path = np.array([[-0.5, 3.0], [0.5, 3.0]])
+    plan = fp.derive_floor_plan(objects, [path])
+    _check_plan(plan, objects, [path])
+    assert len(plan.rooms) == 1
+
+
 def test_a_path_along_the_only_gap_rules_the_wall_out():
     # the robot drives up and down the only gap between the clusters: a wall there would need a 6 m opening
     objects = [_obj("bed", (0.0, 0.0, 0.3), (2.0, 6.0, 0.6)), _obj("toilet", (3.0, 0.0, 0.3), (2.0, 6.0, 0.6))]
