@@ -343,23 +343,32 @@ def test_a_riser_stands_on_what_is_under_the_object(lib):
 
 
 # ------------------------------------------------------------------------------------------------ distractors
+def _hits(b, los, his, eps=1e-6):
+    """(N,) which boxes los/his (N, 3) the box b = (lo, hi) overlaps with positive volume (beyond eps)."""
+    los, his = np.asarray(los, float).reshape(-1, 3), np.asarray(his, float).reshape(-1, 3)
+    return np.all((b[0] < his - eps) & (los < b[1] - eps), axis=1)
+
+
 def _check_scene(res, lib, objs, plan, roles=("support", "distractor")):
     """No distractor of a GT class; no support/distractor box intersecting a GT cuboid, a wall or another one; the
-    floor-standing ones clear of the corridor."""
+    floor-standing distractors clear of the corridor. Returns [(placement, box)]."""
     boxes = [(p, placed_box(lib, p)) for p in res.placements if p.role in roles]
+    gl = np.array([box_of(o)[0] for o in objs]).reshape(-1, 3)
+    gh = np.array([box_of(o)[1] for o in objs]).reshape(-1, 3)
+    wl = np.array([w.lo for w in plan.walls]).reshape(-1, 3)
+    wh = np.array([w.hi for w in plan.walls]).reshape(-1, 3)
     for p, b in boxes:
         a = lib.get(p.asset_id)
         assert a.cls is None and a.kind not in F.GT_CLASSES
-        for o in objs:
-            assert not inter(b, box_of(o)), (a.id, o["class"])
-        for w in plan.walls:
-            assert not inter(b, (w.lo, w.hi), 1e-3), a.id
+        assert not _hits(b, gl, gh).any(), (a.id, [objs[j]["class"] for j in np.flatnonzero(_hits(b, gl, gh))])
+        assert not _hits(b, wl, wh, 1e-3).any(), a.id
         if p.role == "distractor" and b[0][2] < F.OVERHEAD_CLEAR_Z_M:
             assert not plan.blocked(b[0][:2], b[1][:2]), a.id
-    runs = res.boxes.get("support", []) + res.boxes.get("distractor", [])
+    runs = res.boxes.get("support", []) + res.boxes.get("distractor", []) + res.boxes.get("light", [])
+    rl = np.array([r[0] for r in runs]).reshape(-1, 3)
+    rh = np.array([r[1] for r in runs]).reshape(-1, 3)
     for x in range(len(runs)):
-        for y in range(x + 1, len(runs)):
-            assert not inter(runs[x], runs[y])
+        assert not _hits(runs[x], rl[x + 1:], rh[x + 1:]).any()
     return boxes
 
 
@@ -442,3 +451,82 @@ def test_variants_share_supports_and_distractors(lib):
     assert [p.asset_id for p in v1.placements if p.object_index >= 0] == \
         [p.asset_id for p in v2.placements if 0 <= p.object_index < len(base)]
     assert v2.unsupported == [] and any(abs(b[1][2] - 1.0) < 1e-9 for b in v2.boxes["support"])
+
+
+# ------------------------------------------------------------------------------------------------ BEAR homes
+BEAR_DIR = Path(__file__).resolve().parents[1] / "benchbot_sim_taichi" / "data" / "bear"
+
+
+def synthetic_library():
+    """A model of every BEAR class (cubes of 0.4 m, and the hand-made ones above) and of every furniture kind."""
+    have = {a.cls for a in FULL_LIB if a.cls}
+    extra = [obj_asset(f"{c.replace(' ', '_')}_cube", c, (0.4, 0.4, 0.4)) for c in sorted(F.GT_CLASSES - have)]
+    kinds = {"wardrobe": (1.2, 0.6, 2.0), "bathtub": (1.7, 0.75, 0.6), "washing_machine": (0.6, 0.6, 0.85),
+             "dresser": (1.0, 0.5, 0.8), "nightstand": (0.45, 0.4, 0.55), "rug": (2.0, 1.4, 0.01)}
+    return AssetLibrary(FULL_LIB + extra + [asset(f"{k}_a", k, v) for k, v in kinds.items()])
+
+
+@pytest.fixture(scope="module")
+def bear_homes():
+    """{home: (plan, union objects, [variant dicts])} for miniroom and house."""
+    import json
+
+    from benchbot_sim_taichi import floorplan as FP
+
+    out = {}
+    for home in ("miniroom", "house"):
+        files = [BEAR_DIR / f"{home}_{v}.json" for v in range(1, 6)]
+        dicts = [json.loads(f.read_text()) for f in files]
+        union, _ = FP.home_inputs(dicts)
+        out[home] = (FP.plan_for_files(files), union, dicts)
+    return out
+
+
+def _floats(i, boxes):
+    lo, hi = boxes[i]
+    return lo[2] > F.FLOAT_MIN_Z_M and not F._rests_on(i, boxes)
+
+
+def test_bear_homes_fit_support_and_keep_clear(bear_homes):
+    lib = synthetic_library()
+    for home, (plan, union, dicts) in bear_homes.items():
+        ubox = [box_of(o) for o in union]
+        furniture = None
+        for v, data in enumerate(dicts, 1):
+            objs = data["ground_truth"]["objects"]
+            res = F.furnish_home(objs, plan, lib, seed=0, context_objects=union)
+            where = f"{home}:{v}"
+            # every object drawn, its placements' bounds exactly its cuboid (8 corners of each model transformed)
+            assert res.without_model == [], where
+            for i, o in enumerate(objs):
+                bs = np.array([placed_box(lib, p) for p in res.placements if p.object_index == i])
+                lo, hi = box_of(o)
+                assert len(bs) and np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-6, (where, i)
+                assert np.abs(bs[:, 1].max(axis=0) - hi).max() < 1e-6, (where, i)
+            # nothing floats: on a GT object, on a wall, on a support whose top is its bottom (or within the
+            # resting tolerance for its neighbours), or reported
+            sup = res.boxes.get("support", [])
+            boxes = [box_of(o) for o in objs]
+            reported = {i for i, _ in res.unsupported}
+            for i in range(len(objs)):
+                if not _floats(i, boxes) or i in res.hanging or i in reported:
+                    continue
+                lo, hi = boxes[i]
+                area = (hi[0] - lo[0]) * (hi[1] - lo[1])
+                assert any(0.0 <= lo[2] - s[1][2] <= F.REST_TOL_M
+                           and F._overlap_area(lo, hi, *s) >= F.REST_MIN_OVERLAP * area for s in sup), (where, i)
+            for s in sup:  # each support's top is exactly some object's bottom
+                assert min(abs(s[1][2] - b[0][2]) for b in ubox) < 1e-9, where
+            # supports, distractors, lamps: no GT cuboid (of any variant), wall or each other; clear of the corridor
+            checked = _check_scene(res, lib, union, plan, roles=("support", "distractor", "light"))
+            for p, b in checked:
+                if p.role == "support" and b[0][2] < F.OVERHEAD_CLEAR_Z_M and plan.blocked(b[0][:2], b[1][:2]):
+                    # only right under one object below the robot's height (the object is in the way already)
+                    assert any(np.all(b[0][:2] >= bl[0][:2] - 1e-9) and np.all(b[1][:2] <= bl[1][:2] + 1e-9)
+                               and bl[0][2] < F.ROBOT_HEIGHT_M for bl in ubox), (where, p.asset_id)
+            # the variants of a home share their distractors, doors, windows and lamps
+            fixed = [(p.asset_id, p.role, np.round(p.transform, 9).tobytes()) for p in res.placements
+                     if p.role in ("distractor", "door", "window", "light")]
+            assert furniture is None or fixed == furniture, where
+            furniture = fixed
+            assert len(fixed) > 20, where
