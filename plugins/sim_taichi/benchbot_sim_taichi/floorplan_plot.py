@@ -16,8 +16,9 @@ ROOM_COLOURS = {"kitchen": "#f6e7c8", "bathroom": "#d5ecf2", "bedroom": "#e8dcf0
 
 def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title: str | None = None,
                      dpi: int = 110) -> Path:
-    """Draw ``plan`` with the ground-truth ``objects`` (dicts with class, centroid, extent) and ``paths`` ((M, 2) xy)
-    to ``out_path`` (.png, .svg or .pdf: matplotlib picks the format from the suffix); returns the path.
+    """Draw ``plan`` with the ground-truth ``objects`` (dicts with class, centroid, extent) and ``paths`` ((M, 2) xy;
+    a dot marks each start) to ``out_path`` (.png, .svg or .pdf: matplotlib picks the format from the suffix);
+    returns the path.
 
     Raises:
         UsageError: matplotlib is not installed (install the ``vis`` extra).
@@ -34,12 +35,16 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
     size = plan.outer_hi - plan.outer_lo + 2 * plan.wall_thickness
     scale = 9.0 / max(size)
     fig, ax = plt.subplots(figsize=(max(4.0, size[0] * scale + 1.5), max(4.0, size[1] * scale + 0.8)))
+    boxes = [(np.asarray(o["centroid"], float)[:2] - np.asarray(o["extent"], float)[:2] / 2,
+              np.asarray(o["centroid"], float)[:2] + np.asarray(o["extent"], float)[:2] / 2) for o in objects]
+    pts = np.concatenate([np.asarray(p, float).reshape(-1, 2) for p in paths]) if paths else np.zeros((0, 2))
     for r in plan.rooms:
         ax.add_patch(Rectangle(r.lo, *(r.hi - r.lo), facecolor=ROOM_COLOURS.get(r.kind, "#eeeeee"),
                                edgecolor="none", zorder=0))
-        c = (r.lo + r.hi) / 2
+        c = _label_spot(r, boxes, pts)
         ax.text(c[0], c[1], f"{r.index}: {r.kind.replace('_', ' ')}", ha="center", va="center", fontsize=9,
-                color="#555555", zorder=5, fontweight="bold", alpha=0.8)
+                color="#444444", zorder=7, fontweight="bold",
+                bbox={"facecolor": "white", "alpha": 0.6, "edgecolor": "none", "pad": 1.0})
     for w in plan.walls:
         if w.lo[2] > 0.0:  # lintels and window heads: drawn as the opening
             continue
@@ -47,9 +52,9 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
         ax.add_patch(Rectangle(w.lo[:2], *(w.hi[:2] - w.lo[:2]), facecolor="#7fb2d9" if low else "#333333",
                                edgecolor="none", zorder=3))
     for op in plan.openings:
-        if op.kind == "door":
-            ax.add_patch(Rectangle(op.lo[:2], *(op.hi[:2] - op.lo[:2]), facecolor="#c0392b", edgecolor="none",
-                                   alpha=0.5, zorder=3))
+        if op.kind == "door":  # doorways with a door: red; open passages: pale orange
+            ax.add_patch(Rectangle(op.lo[:2], *(op.hi[:2] - op.lo[:2]), facecolor="#c0392b" if op.leaf else "#f0b27a",
+                                   edgecolor="none", alpha=0.8, zorder=3))
     for o in objects:
         c = np.asarray(o["centroid"], dtype=float)
         e = np.asarray(o["extent"], dtype=float)
@@ -70,9 +75,27 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
     ax.tick_params(labelsize=7)
     if paths:
         ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    ax.set_title(title or f"{len(plan.rooms)} rooms, {sum(o.kind == 'door' for o in plan.openings)} doorways, "
-                 f"{sum(o.kind == 'window' for o in plan.openings)} windows", fontsize=9)
+    n_doors = sum(o.kind == "door" and o.leaf for o in plan.openings)
+    n_open = sum(o.kind == "door" and not o.leaf for o in plan.openings)
+    n_windows = sum(o.kind == "window" for o in plan.openings)
+    summary = (f"{len(plan.rooms)} rooms, {n_doors} doors (red), {n_open} open passages (orange), {n_windows} windows "
+               f"(blue), {len(plan.lights)} lamps (stars)")
+    ax.set_title(f"{title}\n{summary}" if title else summary, fontsize=9)
     out = Path(out_path)
     fig.savefig(out, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
     return out
+
+
+def _label_spot(room, boxes, pts) -> np.ndarray:
+    """The point of a 9×9 grid over ``room`` farthest from the ground-truth boxes and path points (for its label)."""
+    g = np.linspace(0.2, 0.8, 9)
+    cand = room.lo + np.stack(np.meshgrid(g, g), -1).reshape(-1, 2) * (room.hi - room.lo)
+    d = np.full(len(cand), 3.0)
+    for lo, hi in boxes:
+        e = np.maximum(np.maximum(lo - cand, cand - hi), 0.0)
+        d = np.minimum(d, np.hypot(e[:, 0], e[:, 1]))
+    if len(pts):
+        d = np.minimum(d, np.min(np.linalg.norm(cand[:, None, :] - pts[None, :, :], axis=2), axis=1))
+    centre = (room.lo + room.hi) / 2
+    return cand[int(np.argmax(d - 0.05 * np.linalg.norm(cand - centre, axis=1)))]
