@@ -386,12 +386,12 @@ def sah_cost(nodes_f: np.ndarray, nodes_i: np.ndarray) -> float:
 
 
 def bvh_depth(nodes_i: np.ndarray) -> int:
-    """Depth of a flattened BVH (the root has depth 1)."""
-    depth = 0
-    stack = [(0, 1)]
-    while stack:
-        n, d = stack.pop()
-        depth = max(depth, d)
-        if nodes_i[n, 0] == 0 and nodes_i[n, 1] > 0:
-            stack += [(n + 1, d + 1), (int(nodes_i[n, 1]), d + 1)]
+    """Depth of a flattened BVH (the root has depth 1), walked level by level (vectorised)."""
+    links = np.asarray(nodes_i)[:, :2].astype(np.int64)
+    inner = (links[:, 0] == 0) & (links[:, 1] > 0)
+    depth, level = 0, np.zeros(1, np.int64)
+    while level.size and depth <= links.shape[0]:  # a well-formed tree ends; a cyclic one stops here
+        depth += 1
+        level = level[inner[level]]
+        level = np.concatenate([level + 1, links[level, 1]])
     return depth

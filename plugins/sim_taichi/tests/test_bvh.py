@@ -65,8 +65,8 @@ def check_invariants(nodes_f, nodes_i, order, lo, hi) -> int:
 
 
 CASES = {
-    "random boxes": lambda: boxes(1500, 1),
-    "triangle soup": lambda: tri_bounds(soup(2000, 2)),
+    "random boxes": lambda: boxes(1000, 1),
+    "triangle soup": lambda: tri_bounds(soup(1500, 2)),
     "float32 soup": lambda: tri_bounds(soup(1000, 3, dtype=np.float32)),
     "flat (z = 0)": lambda: tuple(a * [1, 1, 0] for a in tri_bounds(soup(1000, 4))),
     "duplicates": lambda: tuple(np.repeat(a, 7, axis=0) for a in tri_bounds(soup(150, 5))),
