@@ -24,10 +24,11 @@ BINS = 12
 TRAVERSAL_COST = 1.0
 #: Deepest tree :func:`build_bvh` makes (the root has depth 1), below the kernels' traversal stack (``STACK`` = 64
 #: in :mod:`benchbot_sim_taichi.kernels`). Where an SAH split could not finish within it by halving, a node is cut
-#: at its centroid median instead. Holds for up to ``MAX_LEAF · 2**(MAX_DEPTH - 2)`` primitives.
+#: at its centroid median instead. Holds for up to ``MAX_LEAF · 2**(MAX_DEPTH - 1)`` primitives.
 MAX_DEPTH = 48
-#: Nodes binned together in one vectorised pass (bounds memory ~ ``NODE_CHUNK · BINS · 18 · 8`` bytes, 28 MB).
-NODE_CHUNK = 16384
+#: Nodes binned together in one vectorised pass (each per-bin bounds array is ``NODE_CHUNK · BINS · 9`` float64,
+#: 3.5 MB; a handful live at once).
+NODE_CHUNK = 4096
 #: Centroid extent (metres) below which an axis is not split by SAH.
 MIN_EXTENT = 1e-9
 
@@ -189,10 +190,10 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     Raises:
         ValueError: ``lo``/``hi`` do not have the same (N, 3) shape, or hold NaN or infinite values.
     """
-    lo = np.asarray(lo, dtype=np.float64).reshape(-1, 3)
-    hi = np.asarray(hi, dtype=np.float64).reshape(-1, 3)
-    if lo.shape != hi.shape:
-        raise ValueError(f"build_bvh: lo {lo.shape} and hi {hi.shape} must both be (N, 3)")
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    if lo.size != hi.size or lo.size % 3:
+        raise ValueError(f"build_bvh: lo {lo.shape} and hi {hi.shape} must both be (N, 3) bounds of the same N boxes")
+    lo, hi = lo.reshape(-1, 3), hi.reshape(-1, 3)
     n = lo.shape[0]
     if n == 0:
         return _empty()

@@ -88,6 +88,13 @@ def test_same_tree_as_the_recursive_reference_builder(case):
     check_invariants(*fast, np.asarray(lo, np.float64), np.asarray(hi, np.float64))
 
 
+def test_nodes_binned_in_chunks_give_the_same_tree(monkeypatch):
+    lo, hi = tri_bounds(soup(800, 13))
+    monkeypatch.setattr(bvh, "NODE_CHUNK", 7)  # every level of more than 7 nodes is binned in several passes
+    fast, ref = bvh.build_bvh(lo, hi), bvh.build_bvh_reference(lo, hi)
+    assert all(np.array_equal(a, b) for a, b in zip(fast, ref))
+
+
 def test_empty_input_is_one_empty_leaf():
     f, i, o = bvh.build_bvh(np.zeros((0, 3)), np.zeros((0, 3)))
     assert f.shape == (1, 6) and i.tolist() == [[0, -1, 1]] and o.shape == (0,) and o.dtype == np.int32
@@ -99,8 +106,9 @@ def test_bad_bounds_are_refused_with_a_clear_error():
     lo[3, 1] = np.nan
     with pytest.raises(ValueError, match="NaN or infinite"):
         bvh.build_bvh(lo, hi)
-    with pytest.raises(ValueError, match=r"must both be \(N, 3\)"):
-        bvh.build_bvh(np.zeros((4, 3)), np.zeros((5, 3)))
+    for bad_lo, bad_hi in ((np.zeros((4, 3)), np.zeros((5, 3))), (np.zeros(10), np.zeros(10))):
+        with pytest.raises(ValueError, match=r"must both be \(N, 3\)"):
+            bvh.build_bvh(bad_lo, bad_hi)
 
 
 def test_structure_of_a_large_random_soup():
