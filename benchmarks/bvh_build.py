@@ -40,7 +40,7 @@ def soup(n: int, seed: int = 0) -> np.ndarray:
 
 def ellipsoid(tris: int) -> np.ndarray:
     """(≈tris, 3, 3) triangles of a unit-diameter sphere centred at the origin (a UV grid, no degenerate ones)."""
-    rings = max(2, int(round(np.sqrt(tris / 4.0))) + 1)
+    rings = max(2, int(np.sqrt(tris / 4.0) + 0.5) + 1)
     seg = 2 * rings
     th, ph = np.meshgrid(np.linspace(0, np.pi, rings + 1), np.linspace(0, 2 * np.pi, seg + 1), indexing="ij")
     p = 0.5 * np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], axis=-1)

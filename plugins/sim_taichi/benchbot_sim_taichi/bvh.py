@@ -113,7 +113,8 @@ def _sah_splits(cen, lo, hi, count, node_lo, node_hi, cen_lo, cen_hi):
             op(out[:, :, j + (1 if reverse else -1)], out[:, :, j], out=out[:, :, j])
         return out
 
-    pre_lo, pre_hi = scan(bmin, np.minimum, False, np.empty_like(bmin)), scan(bmax, np.maximum, False, bmin.copy())
+    pre_lo = scan(bmin, np.minimum, False, np.empty_like(bmin))
+    pre_hi = scan(bmax, np.maximum, False, np.empty_like(bmax))
     suf_lo, suf_hi = scan(bmin, np.minimum, True, bmin), scan(bmax, np.maximum, True, bmax)
     a_left = area(pre_lo[:, :, :-1], pre_hi[:, :, :-1])
     a_right = area(suf_lo[:, :, 1:], suf_hi[:, :, 1:])
@@ -133,7 +134,8 @@ def _sah_splits(cen, lo, hi, count, node_lo, node_hi, cen_lo, cen_hi):
     axis, cut = best // (BINS - 1), best % (BINS - 1) + 1
     go_left = np.take(bins.reshape(-1), np.repeat(axis * m, count) + np.arange(m)) < np.repeat(cut, count)
     nodes = np.arange(k)
-    children = [b[axis, :, j, nodes].T for b, j in ((pre_lo, cut - 1), (pre_hi, cut - 1), (suf_lo, cut), (suf_hi, cut))]
+    children = [b[axis, :, j, nodes].T
+                for b, j in ((pre_lo, cut - 1), (pre_hi, cut - 1), (suf_lo, cut), (suf_hi, cut))]
     return split, go_left, children
 
 
