@@ -5,8 +5,9 @@ For each scene and triangle count, ``build_bvh`` (level-by-level, vectorised) an
 in its own child process so that its peak RSS is its own. Scenes:
 
 * ``soup``: random thin triangles (edges ~5 cm) in a 20 × 20 × 3 m room;
-* ``house1``: house:1's object primitives, each replaced by a tessellated ellipsoid filling its box (the scene's
-  clustering: dense furniture, empty floor), the triangle budget shared by area;
+* ``house1``: house:1's 56 ground-truth cuboids (the BEAR JSON shipped with the plugin), each a tessellated
+  ellipsoid filling it, the triangle budget shared by area, inside the room's shell (12 large triangles): a home's
+  clustering (dense furniture, empty floor), from fixed data;
 * ``mesh:PATH``: a real mesh file (``--mesh PATH``, anything trimesh reads; its own triangle count).
 
     python benchmarks/bvh_build.py [--sizes 10000,100000,1000000] [--old-max 100000] [--scenes soup,house1]
@@ -50,18 +51,29 @@ def ellipsoid(tris: int) -> np.ndarray:
     return np.concatenate([lower, upper])
 
 
-def house1(n: int) -> np.ndarray:
-    """(≈n, 3, 3) float32: house:1's primitives as tessellated ellipsoids (budget shared by surface area)."""
-    from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.scene import build_scene
+def box_shell(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(12, 3, 3): the six faces of the box ``lo..hi`` as two triangles each (a room's floor, walls, ceiling)."""
+    c = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float) * (hi - lo) + lo
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return np.array([c[[q[0], q[1], q[2]]] for q in quads] + [c[[q[0], q[2], q[3]]] for q in quads])
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
-    scene = build_scene(envs["house:1"])
-    lo, hi = scene.prim_min.astype(np.float64), scene.prim_max.astype(np.float64)
-    ext = np.maximum(hi - lo, 1e-3)
+
+def house1(n: int) -> np.ndarray:
+    """(≈n, 3, 3) float32: house:1's ground-truth objects (the BEAR JSON shipped with the plugin, 56 cuboids) as
+    tessellated ellipsoids filling their cuboids, the budget shared by surface area, inside the room's shell."""
+    from pathlib import Path
+
+    import benchbot_sim_taichi
+
+    path = Path(benchbot_sim_taichi.__file__).parent / "data" / "bear" / "house_1.json"
+    objects = json.loads(path.read_text(encoding="utf-8"))["ground_truth"]["objects"]
+    cen = np.array([o["centroid"] for o in objects], float)
+    ext = np.maximum(np.array([o["extent"] for o in objects], float), 1e-3)
     area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
     budget = np.maximum(8, n * area / area.sum())
-    parts = [ellipsoid(int(t)) * e + (b_lo + e / 2) for b_lo, e, t in zip(lo, ext, budget)]
+    parts = [ellipsoid(int(t)) * e + c for c, e, t in zip(cen, ext, budget)]
+    lo, hi = (cen - ext / 2).min(axis=0), (cen + ext / 2).max(axis=0)
+    parts.append(box_shell(np.array([lo[0] - 1, lo[1] - 1, 0.0]), np.array([hi[0] + 1, hi[1] + 1, 3.0])))
     return np.concatenate(parts).astype(np.float32)
 
 
