@@ -1,5 +1,6 @@
 """The Taichi kernels of the ray tracer (see :mod:`benchbot_sim_taichi.renderer`, which prepares their arguments
-and launches them): BVH traversal, primitive intersection, shading with shadow rays, the all-sensors kernel
+and launches them): BVH traversal, primitive intersection, shading with shadow rays (on triangles: interpolated
+vertex normals and mip-mapped, bilinearly filtered textures), the all-sensors kernel
 (:func:`sensors_kernel`: camera pixels and laser beams in one launch), the path-traced ``quality`` kernel, and
 :func:`sensors_graph`, the all-sensors kernel compiled as a ``ti.graph``.
 
@@ -30,6 +31,12 @@ STACK = 64
 #: Default angular radius (rad) of the sun and radius (m) of the lamps, for soft shadows.
 SUN_RADIUS = 0.035
 LAMP_RADIUS = 0.15
+
+#: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
+#: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
+SHADE_COLS = 17
+#: Spread (rad) of the ray cone of a diffuse bounce in quality mode, for its texture level of detail.
+BOUNCE_SPREAD = 0.1
 
 #: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
 POSE_LEN = 16
@@ -246,9 +253,75 @@ def _frame(n):
 
 
 @ti.func
-def _shade_hit(o, d, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(),
-               tris: ti.template(), world: ti.template()):
-    """First surface along the ray (objects, else the room shell): (hit, t, normal, albedo, class, instance)."""
+def _texel(texels: ti.template(), lut: ti.template(), i):
+    """Linear RGB of packed sRGB texel i (``r | g << 8 | b << 16``)."""
+    c = texels[i]
+    return ti.Vector([lut[c & 255], lut[(c >> 8) & 255], lut[(c >> 16) & 255]])
+
+
+@ti.func
+def _bilinear(texels: ti.template(), lut: ti.template(), base, w, h, u, v):
+    """Bilinear sample (linear light, repeating) of the w × h level starting at texel ``base``; u, v in [0, 1],
+    v = 0 the bottom row."""
+    x = u * w - 0.5
+    y = (1.0 - v) * h - 0.5
+    xf = ti.floor(x)
+    yf = ti.floor(y)
+    fx = x - xf
+    fy = y - yf
+    x0 = ti.cast(xf, ti.i32)
+    y0 = ti.cast(yf, ti.i32)
+    if x0 < 0:
+        x0 += w
+    if y0 < 0:
+        y0 += h
+    x0 = ti.min(x0, w - 1)
+    y0 = ti.min(y0, h - 1)
+    x1 = x0 + 1
+    y1 = y0 + 1
+    if x1 >= w:
+        x1 -= w
+    if y1 >= h:
+        y1 -= h
+    r0 = base + y0 * w
+    r1 = base + y1 * w
+    top = _texel(texels, lut, r0 + x0) * (1.0 - fx) + _texel(texels, lut, r0 + x1) * fx
+    bot = _texel(texels, lut, r1 + x0) * (1.0 - fx) + _texel(texels, lut, r1 + x1) * fx
+    return top * (1.0 - fy) + bot * fy
+
+
+@ti.func
+def _texture(texels: ti.template(), tex_info: ti.template(), lut: ti.template(), tex, u, v, lod):
+    """Trilinear (mip-mapped) sample of texture ``tex`` at (u, v) (repeating) and level of detail ``lod``."""
+    base = tex_info[tex, 0]
+    w = tex_info[tex, 1]
+    h = tex_info[tex, 2]
+    levels = tex_info[tex, 3]
+    uu = u - ti.floor(u)
+    vv = v - ti.floor(v)
+    lam = ti.min(ti.max(lod, 0.0), ti.cast(levels - 1, ti.f32))
+    l0 = ti.cast(ti.floor(lam), ti.i32)
+    f = lam - ti.cast(l0, ti.f32)
+    for _ in range(l0):
+        base += w * h
+        w = ti.max(1, w >> 1)
+        h = ti.max(1, h >> 1)
+    c = _bilinear(texels, lut, base, w, h, uu, vv)
+    if f > 1e-3 and l0 + 1 < levels:
+        c = c * (1.0 - f) + _bilinear(texels, lut, base + w * h, ti.max(1, w >> 1), ti.max(1, h >> 1), uu, vv) * f
+    return c
+
+
+@ti.func
+def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
+               pi: ti.template(), tris: ti.template(), shade: ti.template(), texels: ti.template(),
+               tex_info: ti.template(), lut: ti.template(), world: ti.template()):
+    """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
+    albedo, class, instance, shadow-ray origin). Both normals face the ray. On a triangle the shading normal
+    interpolates its vertex normals, the albedo is multiplied by its texture, sampled at the mip level of the ray
+    footprint (``spread`` · t wide, widened by the obliquity), and the shadow-ray origin is the hit point moved
+    onto the vertices' tangent planes (Hanika's shadow-terminator fix) so that smooth low-poly surfaces do not
+    shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point."""
     best, k, nb = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
     inv = _safe_inv(d)
     t_exit = 1e30
@@ -263,6 +336,8 @@ def _shade_hit(o, d, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf
             exit_axis = q
     albedo = ti.Vector([0.0, 0.0, 0.0])
     n = ti.Vector([0.0, 0.0, 0.0])
+    ns = ti.Vector([0.0, 0.0, 0.0])
+    ps = ti.Vector([0.0, 0.0, 0.0])
     t = 0.0
     c_id = ti.cast(world[18], ti.i32)
     i_id = 0
@@ -271,15 +346,59 @@ def _shade_hit(o, d, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf
         hit = 1
         t = best
         n = nb
+        ns = nb
+        ps = o + t * d
         albedo = _v3(pf, k, 6)
         c_id = pi[k, 2]
         i_id = pi[k, 3]
+        if pi[k, 0] == 3:  # triangle: barycentrics of the hit (the traversal's own test, repeated once)
+            j = pi[k, 1]
+            v0 = _v3(tris, j, 0)
+            v1 = _v3(tris, j, 3)
+            v2 = _v3(tris, j, 6)
+            e1 = v1 - v0
+            e2 = v2 - v0
+            pv = d.cross(e2)
+            idet = 1.0 / e1.dot(pv)
+            sv = o - v0
+            b1 = sv.dot(pv) * idet
+            b2 = d.dot(sv.cross(e1)) * idet
+            b0 = 1.0 - b1 - b2
+            n0 = _v3(shade, j, 0)
+            n1 = _v3(shade, j, 3)
+            n2 = _v3(shade, j, 6)
+            sn = b0 * n0 + b1 * n1 + b2 * n2
+            sgn = 1.0
+            if sn.dot(nb) < 0.0:  # the vertex normals point to the other side: the ray hit the back
+                sgn = -1.0
+            ln = sn.norm()
+            if ln > 1e-12:
+                ns = sgn * sn / ln
+            dl = d.norm()
+            cos_v = ns.dot(d) / dl
+            if cos_v > -0.02:  # a shading normal turned away from the eye: bend it back towards the eye
+                ns = (ns - (cos_v + 0.02) * d / dl).normalized()
+            # shadow-terminator offset: project the hit onto each vertex's tangent plane (only outwards)
+            q0 = ps - v0
+            q1 = ps - v1
+            q2 = ps - v2
+            ps = ps - sgn * (b0 * ti.min(0.0, sgn * q0.dot(n0)) * n0 + b1 * ti.min(0.0, sgn * q1.dot(n1)) * n1
+                             + b2 * ti.min(0.0, sgn * q2.dot(n2)) * n2)
+            tex = ti.cast(shade[j, 15], ti.i32)
+            if tex >= 0:
+                u = b0 * shade[j, 9] + b1 * shade[j, 11] + b2 * shade[j, 13]
+                v = b0 * shade[j, 10] + b1 * shade[j, 12] + b2 * shade[j, 14]
+                cos_g = ti.max(ti.abs(nb.dot(d)) / dl, 1e-3)
+                lod = shade[j, 16] + ti.log(ti.max(t * spread, 1e-12) / ti.sqrt(cos_g)) * 1.4426950408889634
+                albedo *= _texture(texels, tex_info, lut, tex, u, v, lod)
     elif inside == 1 and t_exit > T_EPS:
         hit = 1
         t = t_exit
         for q in ti.static(range(3)):
             if q == exit_axis:
                 n[q] = -1.0 if d[q] > 0 else 1.0
+        ns = n
+        ps = o + t * d
         surf = 1
         if exit_axis == 2:
             surf = 0 if d[2] < 0 else 2
@@ -289,16 +408,17 @@ def _shade_hit(o, d, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf
             py = o[1] + t * d[1]
             parity = (ti.cast(ti.floor(px / TILE_M), ti.i32) + ti.cast(ti.floor(py / TILE_M), ti.i32)) & 1
             albedo *= 1.0 + TILE_CONTRAST * (2.0 * parity - 1.0)
-    return hit, t, n, albedo, c_id, i_id
+    return hit, t, n, ns, albedo, c_id, i_id, ps
 
 
 @ti.func
-def _direct(p, n, key, ns, s0, params: ti.template(), lights: ti.template(), n_lights, n_prims,
+def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(), n_lights, n_prims,
             nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template()):
-    """Σ lights colour · n·l · attenuation · visibility at p (normal n); visibility from ``ns`` shadow rays
-    (strata s0 .. s0+ns-1 of ``params[0]``), hashed from ``key``."""
+    """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
+    along the geometric normal ng); visibility from ``ns`` shadow rays (strata s0 .. s0+ns-1 of ``params[0]``),
+    hashed from ``key``."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
-    po = p + n * SHADOW_OFFSET
+    po = p + ng * SHADOW_OFFSET
     total = ti.cast(params[0], ti.i32)
     for j in range(n_lights):
         L = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
@@ -384,6 +504,10 @@ def sensors_kernel(
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
     n_prims: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
@@ -412,12 +536,12 @@ def sensors_kernel(
                        consts[27], consts[28], consts[29], consts[30]])
         params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
         o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
-        hit, t, n, albedo, c_id, i_id = _shade_hit(o, d, n_prims, nodes_f, nodes_i, pf, pi, tris, consts)
+        hit, t, n, ns, albedo, c_id, i_id, p = _shade_hit(o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf, pi,
+                                                          tris, shade, texels, tex_info, tex_lut, consts)
         if hit == 1:
-            p = o + t * d
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
-            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * n[2])
-            radiance += _direct(p, n, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
+            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
+            radiance += _direct(p, n, ns, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
                                 nodes_f, nodes_i, pf, pi, tris)
             col = albedo * radiance
             for k in ti.static(range(3)):
@@ -448,6 +572,10 @@ def quality_kernel(
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
     n_prims: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
@@ -469,26 +597,30 @@ def quality_kernel(
         for s in range(spp):
             key = base * 131 + s * 7
             o, d = _ray(cam, ti.cast(u, ti.f32) + _rand(key + 1) - 0.5, ti.cast(v, ti.f32) + _rand(key + 2) - 0.5)
-            hit, t, n, albedo, c_id, i_id = _shade_hit(o, d, n_prims, nodes_f, nodes_i, pf, pi, tris, world)
+            hit, t, n, ns, albedo, c_id, i_id, p = _shade_hit(o, d, 1.0 / cam[12], n_prims, nodes_f, nodes_i, pf,
+                                                              pi, tris, shade, texels, tex_info, tex_lut, world)
             if hit == 1:
-                p = o + t * d
-                amb = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * n[2])
-                rad = amb * (1.0 - 0.5 * params[5]) + _direct(p, n, base, 1, s % ti.max(1, ti.cast(params[0], ti.i32)),
+                amb = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * ns[2])
+                rad = amb * (1.0 - 0.5 * params[5]) + _direct(p, n, ns, base, 1,
+                                                              s % ti.max(1, ti.cast(params[0], ti.i32)),
                                                               params, lights, n_lights, n_prims, nodes_f, nodes_i,
                                                               pf, pi, tris)
-                # one diffuse bounce (cosine-weighted hemisphere)
-                t1, t2 = _frame(n)
+                # one diffuse bounce (cosine-weighted hemisphere about the shading normal, kept above the surface)
+                t1, t2 = _frame(ns)
                 r1 = _rand(key + 3)
                 r2 = _rand(key + 4)
                 rr = ti.sqrt(r1)
                 dn = (rr * ti.cos(6.2831853 * r2) * t1 + rr * ti.sin(6.2831853 * r2) * t2
-                      + ti.sqrt(ti.max(0.0, 1.0 - r1)) * n)
+                      + ti.sqrt(ti.max(0.0, 1.0 - r1)) * ns)
+                if dn.dot(n) < 0.0:
+                    dn -= 2.0 * dn.dot(n) * n
                 po = p + n * SHADOW_OFFSET
-                h2, t_2, n2, alb2, c2, i2 = _shade_hit(po, dn, n_prims, nodes_f, nodes_i, pf, pi, tris, world)
+                h2, t_2, n2, ns2, alb2, c2, i2, p2 = _shade_hit(po, dn, BOUNCE_SPREAD, n_prims, nodes_f, nodes_i, pf,
+                                                                pi, tris, shade, texels, tex_info, tex_lut, world)
                 if h2 == 1:
-                    p2 = po + t_2 * dn
-                    amb2 = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * n2[2])
-                    rad += params[5] * alb2 * (amb2 + _direct(p2, n2, key + 5, 1, s % ti.max(1, ti.cast(params[0], ti.i32)),
+                    amb2 = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * ns2[2])
+                    rad += params[5] * alb2 * (amb2 + _direct(p2, n2, ns2, key + 5, 1,
+                                                              s % ti.max(1, ti.cast(params[0], ti.i32)),
                                                               params, lights, n_lights, n_prims, nodes_f, nodes_i,
                                                               pf, pi, tris))
                 acc += albedo * rad
@@ -502,7 +634,8 @@ def quality_kernel(
 SENSORS_ARGS = (
     ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
     ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes_f", "nd", "f32", 2), ("nodes_i", "nd", "i32", 2),
-    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("n_prims", "sc", "i32", 0),
+    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
+    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1), ("n_prims", "sc", "i32", 0),
     ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("consts", "nd", "f32", 1), ("rgb", "nd", "u8", 4),
     ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
 )

@@ -21,6 +21,14 @@ attenuation), then clamped and gamma-encoded (1/2.2) to uint8 through a table (:
 is the fraction of ``shadow_samples`` shadow rays (stratified over the light's disc — the sun's angular radius, a
 lamp's radius — with a per-pixel rotation from a seeded integer hash, so renders are deterministic) that reach the
 light; one sample is a hard shadow towards the light's centre. The kernels live in :mod:`benchbot_sim_taichi.kernels`.
+
+Triangles (meshes, :mod:`benchbot_sim_taichi.meshes`) are shaded with their interpolated vertex normals (n above;
+shadow rays leave from the hit point offset along the geometric normal, moved onto the vertices' tangent planes so
+low-poly curved surfaces do not shadow themselves in facets) and, with a textured material, albedo = material albedo ×
+texture: sRGB texels turned linear through a 256-entry table, bilinearly filtered, repeating, at a mip level chosen
+from the ray's footprint (``t / fx`` metres per pixel, widened by 1/√cos of the incidence angle) against the
+triangle's texel density, and blended between the two nearest levels (trilinear), so distant surfaces do not alias.
+Depth, segmentation and laser ranges use the triangles themselves.
 """
 
 import contextlib
@@ -46,8 +54,8 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
-    GAMMA, GAMMA_STEPS, LAMP_RADIUS, POSE_LEN, SENSORS_ARGS, STACK, SUN_RADIUS, quality_kernel, reset_graph,
-    sensors_graph, sensors_kernel,
+    GAMMA, GAMMA_STEPS, LAMP_RADIUS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS, quality_kernel,
+    reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -168,30 +176,81 @@ def pack_scene(scene) -> dict:
     """The scene as the flat float32/int32 arrays the kernels read (primitives in BVH order).
 
     Returns:
-        ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 2) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
+        ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
         ``pf`` (max(P,1), 9) float32 [min xyz, max xyz, linear albedo rgb]; ``pi`` (max(P,1), 4) int32 [kind, axis or
-        triangle index, class, instance]; ``tris`` (max(T,1), 9) float32; ``lights`` (max(L,1), 8) float32 [kind,
+        triangle index, class, instance]; ``tris`` (max(T,1), 9) float32; ``shade`` (max(T,1), SHADE_COLS) float32
+        per triangle [vertex normals (9), UVs (6), texture index (−1: none), texture LOD offset]; ``texels``
+        (max(N,1),) int32 packed sRGB ``r | g << 8 | b << 16``; ``tex_info`` (max(X,1), 4) int32 (as
+        ``Scene.tex_info``); ``tex_lut`` (256,) float32 sRGB byte → linear; ``lights`` (max(L,1), 8) float32 [kind,
         vec xyz, colour rgb, range]; ``world`` (19,) float32 [room min xyz, room max xyz, floor/wall/ceiling albedo
         (9), ambient rgb, background class]; ``n_prims``, ``n_lights`` ints; ``order`` (P,) the scene's primitive
         index of each packed primitive.
+
+    Raises:
+        ValueError: the BVH is deeper than the kernels' stack.
     """
     from benchbot_sim_taichi.bvh import build_bvh, bvh_depth
+    from benchbot_sim_taichi.meshes import face_normals
 
     n, nl = int(scene.prim_type.shape[0]), int(scene.light_kind.shape[0])
     nodes_f, nodes_i, order = build_bvh(scene.prim_min, scene.prim_max)
     if bvh_depth(nodes_i) >= STACK:
         raise ValueError(f"BVH too deep ({bvh_depth(nodes_i)} levels, the kernels' stack holds {STACK})")
+    nt = int(scene.tri_v.shape[0])
+    tri_mat = np.asarray(scene.tri_material, np.int64).reshape(-1)
+    if tri_mat.shape[0] != nt:
+        tri_mat = np.full(nt, -1, np.int64)
+    mat_albedo = np.asarray(scene.mat_albedo, np.float32).reshape(-1, 3)
     pf = np.zeros((max(n, 1), 9), dtype=np.float32)
     pi = np.zeros((max(n, 1), 4), dtype=np.int32)
     if n:
         obj = scene.prim_object[order]
-        pf[:n, 0:3], pf[:n, 3:6], pf[:n, 6:9] = scene.prim_min[order], scene.prim_max[order], scene.prim_albedo[order]
-        pi[:n, 0], pi[:n, 1] = scene.prim_type[order], scene.prim_axis[order]
-        pi[:n, 2], pi[:n, 3] = scene.box_class[obj], scene.box_instance[obj]
-    nt = int(scene.tri_v.shape[0])
+        albedo = scene.prim_albedo[order].astype(np.float32)
+        kind, axis = scene.prim_type[order], scene.prim_axis[order]
+        if nt and mat_albedo.shape[0]:  # a triangle with a material takes the material's colour
+            tri = kind == 3
+            m = np.full(n, -1, np.int64)
+            m[tri] = tri_mat[axis[tri]]
+            albedo[m >= 0] = mat_albedo[m[m >= 0]]
+        pf[:n, 0:3], pf[:n, 3:6], pf[:n, 6:9] = scene.prim_min[order], scene.prim_max[order], albedo
+        pi[:n, 0], pi[:n, 1] = kind, axis
+        is_obj = obj >= 0
+        safe = np.where(is_obj, obj, 0)
+        pi[:n, 2] = np.where(is_obj, scene.box_class[safe] if scene.n_boxes else 0, scene.background_class)
+        pi[:n, 3] = np.where(is_obj, scene.box_instance[safe] if scene.n_boxes else 0, 0)
     tris = np.zeros((max(nt, 1), 9), dtype=np.float32)
+    shade = np.zeros((max(nt, 1), SHADE_COLS), dtype=np.float32)
+    shade[:, 15] = -1.0
+    tex_info = np.asarray(scene.tex_info, np.int32).reshape(-1, 4)
     if nt:
-        tris[:nt] = scene.tri_v.reshape(nt, 9)
+        tv = scene.tri_v.reshape(nt, 3, 3).astype(np.float64)
+        tris[:nt] = tv.reshape(nt, 9)
+        tn = np.asarray(scene.tri_n, np.float32)
+        if tn.shape != (nt, 3, 3):
+            tn = np.repeat(face_normals(tv)[:, None, :], 3, axis=1)
+        shade[:nt, 0:9] = tn.reshape(nt, 9)
+        uv = np.asarray(scene.tri_uv, np.float32)
+        if uv.shape == (nt, 3, 2):
+            shade[:nt, 9:15] = uv.reshape(nt, 6)
+        mat_tex = np.asarray(scene.mat_texture, np.int64).reshape(-1)
+        if mat_tex.shape[0] and tex_info.shape[0]:
+            has = tri_mat >= 0
+            tex = np.full(nt, -1, np.int64)
+            tex[has] = mat_tex[tri_mat[has]]
+            shade[:nt, 15] = tex
+            t = np.flatnonzero(tex >= 0)
+            if t.size:  # LOD offset: 0.5·log2(texels per unit of world area) of each textured triangle
+                area = 0.5 * np.linalg.norm(np.cross(tv[t, 1] - tv[t, 0], tv[t, 2] - tv[t, 0]), axis=1)
+                uvt = uv[t].astype(np.float64)
+                e1, e2 = uvt[:, 1] - uvt[:, 0], uvt[:, 2] - uvt[:, 0]
+                uv_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+                wh = tex_info[tex[t], 1].astype(np.float64) * tex_info[tex[t], 2]
+                shade[t, 16] = 0.5 * np.log2(np.maximum(wh * uv_area, 1e-30) / np.maximum(area, 1e-30))
+    texels8 = np.asarray(scene.tex_texels, np.uint8).reshape(-1, 3).astype(np.int32)
+    texels = np.zeros(max(texels8.shape[0], 1), dtype=np.int32)
+    texels[:texels8.shape[0]] = texels8[:, 0] | (texels8[:, 1] << 8) | (texels8[:, 2] << 16)
+    info = np.zeros((max(tex_info.shape[0], 1), 4), dtype=np.int32)
+    info[:tex_info.shape[0]] = tex_info
     lights = np.zeros((max(nl, 1), 8), dtype=np.float32)
     if nl:
         lights[:nl, 0] = scene.light_kind
@@ -199,7 +258,15 @@ def pack_scene(scene) -> dict:
     world = np.concatenate([scene.room_min, scene.room_max, scene.shell_albedo.reshape(-1), scene.ambient,
                             [scene.background_class]]).astype(np.float32)
     return {"nodes_f": np.ascontiguousarray(nodes_f), "nodes_i": np.ascontiguousarray(nodes_i), "pf": pf, "pi": pi,
-            "tris": tris, "lights": lights, "world": world, "n_prims": n, "n_lights": nl, "order": order}
+            "tris": tris, "shade": shade, "texels": texels, "tex_info": info, "tex_lut": texture_lut(),
+            "lights": lights, "world": world, "n_prims": n, "n_lights": nl, "order": order}
+
+
+@functools.lru_cache(maxsize=1)
+def texture_lut() -> np.ndarray:
+    """(256,) float32 (cached: do not modify): linear value of each sRGB byte, ``(i / 255) ** 2.2`` (the gamma of
+    :func:`benchbot_sim_taichi.scene.srgb_to_linear`)."""
+    return np.power(np.arange(256, dtype=np.float64) / 255.0, 2.2).astype(np.float32)
 
 
 def render_params(shadow_samples: int = 1, seed: int = 0, sun_radius: float = SUN_RADIUS,
@@ -253,7 +320,7 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None)
 
 # ---------------------------------------------------------------------------------------------------------- renderer
 #: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
-_SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "lights", "world")
+_SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world")
 
 
 # Taichi ndarrays must be freed on Taichi's thread: on CUDA the context is current only there, and freeing GPU
@@ -365,6 +432,7 @@ class Renderer:
                 arrays[k].from_numpy(np.ascontiguousarray(a))
         self._scene_arrays = [arrays[k] for k in _SCENE_ARRAYS] if self.device_buffers else []
         self._scene_args = (arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
+                            arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
                             self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"])
 
     def _need_scene(self) -> dict:
@@ -490,8 +558,8 @@ class Renderer:
                              cached=True)
         consts = self._frame_constants(K)
         s = self._args()
-        values = (table, pose0, one, int(images), beams, n_beams, s[0], s[1], s[2], s[3], s[4], s[5], s[6],
-                  s[7] if lit else 0, consts, out["rgb"], out["depth"], out["class"], out["instance"], ranges)
+        values = (table, pose0, one, int(images), beams, n_beams, *s[:11], s[11] if lit else 0, consts, out["rgb"],
+                  out["depth"], out["class"], out["instance"], ranges)
         if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
             values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(SENSORS_ARGS, values))
             sensors_graph().run(dict(zip((a[0] for a in SENSORS_ARGS), values)))

@@ -19,6 +19,7 @@ import numpy as np
 
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2
+from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
 
 #: Light kinds in :attr:`Scene.light_kind`.
 LIGHT_DIRECTIONAL = 0
@@ -115,7 +116,21 @@ class Scene:
         start_se2: (3,) float64 normalised start pose ``[x, y, yaw]``; trajectory_se2: (M, 3) float64.
         prim_type, prim_axis, prim_min, prim_max, prim_albedo, prim_object: the primitives drawn (see
             :data:`PRIM_BOX` …; ``prim_object`` indexes the per-object arrays ``box_*``, whose boxes are each object's
-            cuboid, i.e. the AABB of its primitives); tri_v: (T, 3, 3) float32 triangle vertices.
+            cuboid, i.e. the AABB of its primitives; −1: not an object — class ``background``, instance 0);
+            ``prim_albedo`` (linear) of a triangle with a material is ``mat_albedo[tri_material]``.
+        tri_v: (T, 3, 3) float32 triangle vertices (a triangle primitive's ``prim_axis`` indexes them).
+        tri_n: (T, 3, 3) float32 unit per-vertex shading normals (interpolated across the triangle).
+        tri_uv: (T, 3, 2) float32 per-vertex texture coordinates (``v = 0``: the texture's bottom row).
+        tri_material: (T,) int32 index into ``mat_*`` (−1: none, the primitive's albedo, no texture).
+            Scenes whose ``tri_n``/``tri_uv``/``tri_material`` do not cover every triangle are drawn with face
+            normals and no texture (see :func:`benchbot_sim_taichi.meshes.ensure_triangle_attributes`).
+        mat_albedo: (K, 3) float32 linear base colour; mat_texture: (K,) int32 index into ``tex_info`` (−1: none);
+            mat_roughness, mat_metallic: (K,) float32 glTF factors.
+        tex_texels: (N, 3) uint8 sRGB texels of every texture and its mip-maps; tex_info: (X, 4) int32
+            ``[offset, width, height, levels]`` per texture, level l (``max(1, width >> l)`` ×
+            ``max(1, height >> l)``, row-major, top row first) stored right after level l − 1
+            (:func:`benchbot_sim_taichi.meshes.texture_atlas`).
+        Mesh instances are added with :func:`benchbot_sim_taichi.meshes.add_mesh_instances`.
     """
 
     box_min: np.ndarray  # per object: its cuboid (AABB of its primitives)
@@ -145,6 +160,15 @@ class Scene:
     prim_albedo: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
     prim_object: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     tri_v: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+    tri_n: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+    tri_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2), np.float32))
+    tri_material: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    mat_albedo: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    mat_texture: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    mat_roughness: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
+    mat_metallic: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
+    tex_texels: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.uint8))
+    tex_info: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int32))
 
     @property
     def n_boxes(self) -> int:
@@ -466,45 +490,52 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     procedural = bool(environment.get("procedural", True))
     mins, maxs, albedo, cls_ids, inst_ids, names = [], [], [], [], [], []
     p_type, p_axis, p_min, p_max, p_alb, p_obj, tris = [], [], [], [], [], [], []
+    instances: list[MeshInstance] = []  # mesh objects: their triangles are added after the primitives
     counters: dict[int, int] = {}
     for obj in gt["objects"]:
         cname = str(obj["class"])
         cid = class_ids.get(cname)
         if cid is None:
-            src = f"the scene file {map_path}" if obj.get("_tris") is None else \
+            src = f"the scene file {map_path}" if obj.get("_tris") is None and obj.get("_mesh") is None else \
                 f"environment {environment.get('name')}:{environment.get('variant')}: mesh object {obj.get('ID_name')}"
             raise BackendError(f"{src}: object class {cname!r} is not in class_list",
                                "every object's class must appear in ground_truth.class_list")
         counters[cid] = counters.get(cid, 0) + 1
         colour = object_colour(cname, str(obj.get("ID_name", "")), seed)
-        parts = object_geometry(obj, procedural=procedural)
         k = len(mins)
-        for part in parts:
-            if part.colour is None:
-                col = colour
-            elif isinstance(part.colour, float):
-                col = np.clip(colour * part.colour, 0.0, 1.0)
-            else:
-                col = np.asarray(part.colour, dtype=np.float32)
-            if part.kind == "mesh":
-                t = np.asarray(part.tris, dtype=np.float64).reshape(-1, 3, 3)
-                for tri in t:
-                    p_type.append(PRIM_TRIANGLE)
-                    p_axis.append(len(tris))
-                    tris.append(tri)
-                    p_min.append(tri.min(axis=0))
-                    p_max.append(tri.max(axis=0))
+        if obj.get("_mesh") is not None:  # a mesh object: its file's materials (the class colour where it has none)
+            inst = MeshInstance(with_albedo(obj["_mesh"], srgb_to_linear(colour)), obj["_transform"], k)
+            instances.append(inst)
+            bounds = instance_bounds(inst)
+            mins.append(bounds[0])
+            maxs.append(bounds[1])
+        else:
+            parts = object_geometry(obj, procedural=procedural)
+            for part in parts:
+                if part.colour is None:
+                    col = colour
+                elif isinstance(part.colour, float):
+                    col = np.clip(colour * part.colour, 0.0, 1.0)
+                else:
+                    col = np.asarray(part.colour, dtype=np.float32)
+                if part.kind == "mesh":
+                    t = np.asarray(part.tris, dtype=np.float64).reshape(-1, 3, 3)
+                    p_type.extend([PRIM_TRIANGLE] * len(t))
+                    p_axis.extend(range(len(tris), len(tris) + len(t)))
+                    tris.extend(t)
+                    p_min.extend(t.min(axis=1))
+                    p_max.extend(t.max(axis=1))
+                    p_alb.extend([col] * len(t))
+                    p_obj.extend([k] * len(t))
+                else:
+                    p_type.append(_KIND[part.kind])
+                    p_axis.append(int(part.axis))
+                    p_min.append(part.lo)
+                    p_max.append(part.hi)
                     p_alb.append(col)
                     p_obj.append(k)
-            else:
-                p_type.append(_KIND[part.kind])
-                p_axis.append(int(part.axis))
-                p_min.append(part.lo)
-                p_max.append(part.hi)
-                p_alb.append(col)
-                p_obj.append(k)
-        mins.append(np.min([p.lo for p in parts], axis=0))
-        maxs.append(np.max([p.hi for p in parts], axis=0))
+            mins.append(np.min([p.lo for p in parts], axis=0))
+            maxs.append(np.max([p.hi for p in parts], axis=0))
         albedo.append(colour)
         cls_ids.append(cid)
         inst_ids.append(cid * 1000 + counters[cid])
@@ -541,7 +572,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     if lighting not in _LIGHTINGS:
         lighting = "base"
     ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max)
-    return Scene(
+    scene = Scene(
         box_min=box_min,
         box_max=box_max,
         box_albedo=srgb_to_linear(np.asarray(albedo, dtype=np.float32).reshape(-1, 3)),
@@ -570,6 +601,9 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         prim_object=np.asarray(p_obj, dtype=np.int32),
         tri_v=np.asarray(tris, dtype=np.float32).reshape(-1, 3, 3),
     )
+    if instances:
+        add_mesh_instances(scene, instances)
+    return scene
 
 
 #: The BEAR class list (30 classes, ``background`` last): the class list of environments without a map_path.
@@ -603,13 +637,17 @@ def _rotation(pose: list) -> tuple[np.ndarray, np.ndarray]:
 
 def load_mesh_objects(environment: dict) -> list[dict]:
     """The environment's mesh objects as ground-truth-like objects (``class``, ``ID_name``, ``centroid``,
-    ``extent`` = the axis-aligned bounds of the placed mesh, ``isgroup: False``, and ``_tris`` (T, 3, 3) map-frame
-    triangles).
+    ``extent`` = the axis-aligned bounds of the placed mesh, ``isgroup: False``, ``_mesh`` the
+    :class:`~benchbot_sim_taichi.meshes.MeshData` (with its file's materials and textures) and ``_transform``
+    (4, 4) mesh → map).
 
     The environment field ``objects`` is a list of ``{mesh: PATH, class: NAME, pose: [x, y, z, yaw_deg] or
     [qw, qx, qy, qz, x, y, z] (default [0, 0, 0, 0]), scale: s or [sx, sy, sz] (default 1), name: ID (optional)}``;
-    PATH (OBJ, GLB/glTF, PLY, STL, … — anything trimesh reads; a scene is flattened) is absolute or relative to the
-    environment file. The mesh's vertices are scaled, rotated, then translated: ``p_map = R · (s ⊙ p_mesh) + t``.
+    PATH (OBJ, GLB/glTF, PLY, STL, … — anything trimesh reads; every node of a scene file with its transform) is
+    absolute or relative to the environment file. GLB/glTF files are converted from glTF's +Y up to the map's z up
+    (:func:`~benchbot_sim_taichi.meshes.load_mesh`); other formats are taken as z up. The mesh's vertices are
+    scaled, rotated, then translated: ``p_map = R · (s ⊙ p_mesh) + t``. A mesh whose file has no material takes
+    its class colour.
 
     Raises:
         BackendError: ``objects`` is not a list, an entry lacks ``mesh``/``class`` or has a malformed ``pose`` or
@@ -644,20 +682,16 @@ def load_mesh_objects(environment: dict) -> list[dict]:
             raise BackendError(f"{where}: objects[{i}].mesh {path} does not exist",
                                "mesh paths are absolute or relative to the environment file")
         try:
-            import trimesh
-
-            loaded = trimesh.load(str(path), force="mesh", process=False)
-            tris = np.asarray(loaded.triangles, dtype=np.float64)
-        except Exception as e:  # noqa: BLE001 - trimesh raises many kinds
-            raise BackendError(f"{where}: cannot read the mesh {path}: {e}",
-                               "use an OBJ, GLB/glTF, PLY or STL file that trimesh can read") from e
-        if tris.size == 0:
-            raise BackendError(f"{where}: the mesh {path} has no triangles", "use a triangle mesh")
-        tris = (tris * sc) @ R.T + t
-        lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+            mesh = load_mesh(path)
+        except BackendError as e:
+            raise BackendError(f"{where}: {e.message}", e.hint) from e
+        transform = np.eye(4)
+        transform[:3, :3] = R * sc[None, :]
+        transform[:3, 3] = t
+        lo, hi = instance_bounds(MeshInstance(mesh, transform))
         out.append({"class": o["class"], "ID_name": str(o.get("name") or f"{o['class']}_mesh_{i}"),
                     "centroid": ((lo + hi) / 2).tolist(), "extent": (hi - lo).tolist(), "isgroup": False,
-                    "_tris": tris})
+                    "_mesh": mesh, "_transform": transform})
     return out
 
 

@@ -10,7 +10,10 @@ import numpy as np
 import pytest
 
 from benchbot.core.assets import AssetInfo, AssetLibrary
+from benchbot_sim_taichi import fitting as FIT
 from benchbot_sim_taichi import furnish as F
+from benchbot_sim_taichi import furnish_space as SP
+from benchbot_sim_taichi import furnish_supports as S
 
 
 # ------------------------------------------------------------------------------------------------ fakes
@@ -109,8 +112,10 @@ def one_room_plan(W=6.0, D=5.0, kind="living_room", paths=(), windows=(), doors=
             lo, hi = hole(side, a, b, *z)
             openings.append(Opening(kind_, lo, hi, "SNWE".index(side), outward[side]))
     # (the hole is not cut out of the wall boxes here; the furnishing never needs it)
-    spans = [WallSpan(0, A([0.0, 0.0]), A([W, 0.0]), A([0.0, 1.0])), WallSpan(0, A([W, D]), A([0.0, D]), A([0.0, -1.0])),
-             WallSpan(0, A([0.0, D]), A([0.0, 0.0]), A([1.0, 0.0])), WallSpan(0, A([W, 0.0]), A([W, D]), A([-1.0, 0.0]))]
+    spans = [WallSpan(0, A([0.0, 0.0]), A([W, 0.0]), A([0.0, 1.0])),
+             WallSpan(0, A([W, D]), A([0.0, D]), A([0.0, -1.0])),
+             WallSpan(0, A([0.0, D]), A([0.0, 0.0]), A([1.0, 0.0])),
+             WallSpan(0, A([W, 0.0]), A([W, D]), A([-1.0, 0.0]))]
     return Plan(A([-t, -t]), A([W + t, D + t]), H, t, [Room(0, A([0.0, 0.0]), A([W, D]), kind)], walls, openings,
                 [A([W / 2, D / 2, H - 0.15])], spans, [np.asarray(p, float) for p in paths])
 
@@ -127,7 +132,7 @@ def box_of(o):
 
 
 def placed_box(library, p):
-    return F.transformed_bounds(p.transform, F.asset_bounds(library.get(p.asset_id)))
+    return FIT.transformed_bounds(p.transform, FIT.asset_bounds(library.get(p.asset_id)))
 
 
 def inter(a, b, eps=1e-6):
@@ -168,36 +173,37 @@ def test_fit_to_cuboid_bounds_equal_the_box_for_every_turn():
         off = np.array([[-0.3, -0.2, 0.01], [0.5, 0.25, 0.9]]) * rng.uniform(0.5, 2.0)
         for k in range(-1, 6):
             for bounds in (None, off):
-                T = F.fit_to_cuboid(a, lo, hi, k, bounds=bounds)
-                b = F.asset_bounds(a) if bounds is None else off
-                got = F.transformed_bounds(T, b)
+                T = FIT.fit_to_cuboid(a, lo, hi, k, bounds=bounds)
+                b = FIT.asset_bounds(a) if bounds is None else off
+                got = FIT.transformed_bounds(T, b)
                 assert np.abs(got[0] - lo).max() < 1e-9 and np.abs(got[1] - hi).max() < 1e-9
                 # the model's front (-y) faces front_of(k); z stays up
                 front = T[:3, :3] @ np.array([0.0, -1.0, 0.0])
-                assert np.allclose(front[:2] / np.linalg.norm(front[:2]), F.front_of(k)) and abs(front[2]) < 1e-12
+                assert np.allclose(front[:2] / np.linalg.norm(front[:2]), FIT.front_of(k)) and abs(front[2]) < 1e-12
                 assert T[2, 2] > 0 and np.allclose(T[3], [0, 0, 0, 1])
 
 
 def test_fit_swaps_extents_on_odd_turns():
     a = asset("couch", "x", (2.0, 1.0, 0.8))
-    T = F.fit_to_cuboid(a, [0, 0, 0], [1.0, 2.0, 0.8], 1)
+    T = FIT.fit_to_cuboid(a, [0, 0, 0], [1.0, 2.0, 0.8], 1)
     assert np.allclose(np.abs(np.linalg.svd(T[:3, :3])[1]), 1.0)  # a uniform (unit) scale: proportions kept
 
 
 def test_fit_refuses_flat_boxes_and_assets():
     with pytest.raises(ValueError, match="positive"):
-        F.fit_to_cuboid(asset("a", "x", (1, 1, 1)), [0, 0, 0], [1, 1, 0], 0)
+        FIT.fit_to_cuboid(asset("a", "x", (1, 1, 1)), [0, 0, 0], [1, 1, 0], 0)
     with pytest.raises(ValueError, match="size_m"):
-        F.fit_to_cuboid(asset("flat", "x", (1.0, 1.0, 0.0)), [0, 0, 0], [1, 1, 1], 0)
+        FIT.fit_to_cuboid(asset("flat", "x", (1.0, 1.0, 0.0)), [0, 0, 0], [1, 1, 1], 0)
 
 
 def test_distortion_picks_the_squat_model_for_a_squat_cuboid(lib):
     ext = np.array([0.52, 0.51, 0.39])  # BEAR's typical chair: 0.39 m tall
-    assert F.distortion((0.55, 0.55, 0.42), ext, 0) < F.distortion((0.5, 0.5, 0.95), ext, 0)
-    chosen = {F.choose_model(lib.by_class("chair"), ext, None, 0.0, np.random.default_rng(s))[0].id for s in range(30)}
+    assert FIT.distortion((0.55, 0.55, 0.42), ext, 0) < FIT.distortion((0.5, 0.5, 0.95), ext, 0)
+    chairs = lib.by_class("chair")
+    chosen = {FIT.choose_model(chairs, ext, None, 0.0, np.random.default_rng(s))[0].id for s in range(30)}
     assert chosen == {"chair_squat"}
     # a tall cuboid takes the tall models (seeded among the close ones), never the squat one
-    chosen = {F.choose_model(lib.by_class("chair"), [0.5, 0.5, 1.0], None, 0.0, np.random.default_rng(s))[0].id
+    chosen = {FIT.choose_model(lib.by_class("chair"), [0.5, 0.5, 1.0], None, 0.0, np.random.default_rng(s))[0].id
               for s in range(30)}
     assert "chair_squat" not in chosen and "chair_tall" in chosen
 
@@ -206,10 +212,10 @@ def test_proportions_outweigh_facing_when_they_disagree_strongly():
     couch = [obj_asset("c", "couch", (2.0, 0.9, 0.85))]
     rng = np.random.default_rng(0)
     # the cuboid runs along y: only odd turns keep the proportions; facing -y wanted: it yields to +x or -x
-    _, k = F.choose_model(couch, [0.9, 2.0, 0.85], np.array([0.0, -1.0]), F.FACING_WEIGHT, rng)
+    _, k = FIT.choose_model(couch, [0.9, 2.0, 0.85], np.array([0.0, -1.0]), FIT.FACING_WEIGHT, rng)
     assert k % 2 == 1
     # with proportions alike (both odd turns), facing decides
-    _, k = F.choose_model(couch, [0.9, 2.0, 0.85], np.array([-1.0, 0.0]), F.FACING_WEIGHT, rng)
+    _, k = FIT.choose_model(couch, [0.9, 2.0, 0.85], np.array([-1.0, 0.0]), FIT.FACING_WEIGHT, rng)
     assert k == 3
 
 
@@ -227,8 +233,10 @@ def _front(p):
 def test_chairs_face_the_table_and_couch_backs_onto_the_wall(lib):
     plan = one_room_plan()
     objs = [gt("table", [2.5, 2.0, 0], [3.5, 3.0, 0.75]),
-            gt("chair", [2.75, 1.3, 0], [3.25, 1.8, 0.85], "c_s"), gt("chair", [2.75, 3.2, 0], [3.25, 3.7, 0.85], "c_n"),
-            gt("chair", [1.8, 2.25, 0], [2.3, 2.75, 0.85], "c_w"), gt("chair", [3.7, 2.25, 0], [4.2, 2.75, 0.85], "c_e"),
+            gt("chair", [2.75, 1.3, 0], [3.25, 1.8, 0.85], "c_s"),
+            gt("chair", [2.75, 3.2, 0], [3.25, 3.7, 0.85], "c_n"),
+            gt("chair", [1.8, 2.25, 0], [2.3, 2.75, 0.85], "c_w"),
+            gt("chair", [3.7, 2.25, 0], [4.2, 2.75, 0.85], "c_e"),
             gt("couch", [0.05, 1.0, 0], [0.95, 3.0, 0.8]),  # against the west wall: faces +x
             gt("couch", [2.0, 4.05, 0], [4.0, 4.95, 0.8], "couch_n"),  # against the north wall: faces -y
             gt("tv", [5.85, 2.0, 0.9], [5.95, 3.0, 1.5])]  # hung on the east wall: faces -x
@@ -280,8 +288,9 @@ def test_floating_objects_get_one_support_with_its_top_at_their_bottom(lib):
     assert abs(shi[0] - 6.0) < 1e-9  # backed onto the east wall
     for o in objs[:3]:
         lo, hi = box_of(o)
-        assert np.all(slo[:2] <= lo[:2] - F.SUPPORT_MARGIN_M + 1e-9) and np.all(shi[:2] >= hi[:2] + F.SUPPORT_MARGIN_M - 1e-9)
-        assert lo[2] - shi[2] <= F.REST_TOL_M
+        assert np.all(slo[:2] <= lo[:2] - S.SUPPORT_MARGIN_M + 1e-9)
+        assert np.all(shi[:2] >= hi[:2] + S.SUPPORT_MARGIN_M - 1e-9)
+        assert lo[2] - shi[2] <= S.REST_TOL_M
     for o in objs:
         assert not inter((slo, shi), box_of(o))
     assert not plan.blocked(slo[:2], shi[:2])
@@ -319,7 +328,7 @@ def test_support_over_the_corridor_stays_under_the_object_or_goes_on_the_wall(li
     res = F.furnish_home([high], plan, lib, seed=0)
     (s,) = res.boxes["support"]
     assert res.unsupported == [] and abs(s[1][2] - 1.5) < 1e-9 and abs(s[1][1] - 5.0) < 1e-9
-    assert s[1][2] - s[0][2] == pytest.approx(F.WALL_SHELF_THICKNESS_M)
+    assert s[1][2] - s[0][2] == pytest.approx(S.WALL_SHELF_THICKNESS_M)
     assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"shelf"}
     # 1.1 m up, below the robot's reach and not under the shelf limit: neither fits -> reported with why
     mid = gt("bowl", [2.0, 4.55, 1.1], [2.3, 4.85, 1.2], "mid")
@@ -359,10 +368,10 @@ def _check_scene(res, lib, objs, plan, roles=("support", "distractor")):
     wh = np.array([w.hi for w in plan.walls]).reshape(-1, 3)
     for p, b in boxes:
         a = lib.get(p.asset_id)
-        assert a.cls is None and a.kind not in F.GT_CLASSES
+        assert a.cls is None and a.kind not in SP.GT_CLASSES
         assert not _hits(b, gl, gh).any(), (a.id, [objs[j]["class"] for j in np.flatnonzero(_hits(b, gl, gh))])
         assert not _hits(b, wl, wh, 1e-3).any(), a.id
-        if p.role == "distractor" and b[0][2] < F.OVERHEAD_CLEAR_Z_M:
+        if p.role == "distractor" and b[0][2] < SP.OVERHEAD_CLEAR_Z_M:
             assert not plan.blocked(b[0][:2], b[1][:2]), a.id
     runs = res.boxes.get("support", []) + res.boxes.get("distractor", []) + res.boxes.get("light", [])
     rl = np.array([r[0] for r in runs]).reshape(-1, 3)
@@ -395,9 +404,9 @@ def test_distractors_along_walls_avoid_gt_supports_corridor_and_each_other(lib):
     # floor furniture keeps the doorway free; pictures hang above the robot, not over the window
     for p, b in boxes:
         if b[0][2] < 0.5:
-            assert not (b[0][0] < 0.0 + F.DOOR_CLEARANCE_M and b[1][1] > 2.5 and b[0][1] < 3.4)
+            assert not (b[0][0] < 0.0 + SP.DOOR_CLEARANCE_M and b[1][1] > 2.5 and b[0][1] < 3.4)
         if lib.get(p.asset_id).kind == "picture":
-            assert b[0][2] >= F.OVERHEAD_CLEAR_Z_M and not (b[0][1] < 0.2 and b[1][0] > 2.0 and b[0][0] < 3.2)
+            assert b[0][2] >= SP.OVERHEAD_CLEAR_Z_M and not (b[0][1] < 0.2 and b[1][0] > 2.0 and b[0][0] < 3.2)
 
 
 def test_room_kinds_choose_distractor_kinds(lib):
@@ -460,7 +469,7 @@ BEAR_DIR = Path(__file__).resolve().parents[1] / "benchbot_sim_taichi" / "data" 
 def synthetic_library():
     """A model of every BEAR class (cubes of 0.4 m, and the hand-made ones above) and of every furniture kind."""
     have = {a.cls for a in FULL_LIB if a.cls}
-    extra = [obj_asset(f"{c.replace(' ', '_')}_cube", c, (0.4, 0.4, 0.4)) for c in sorted(F.GT_CLASSES - have)]
+    extra = [obj_asset(f"{c.replace(' ', '_')}_cube", c, (0.4, 0.4, 0.4)) for c in sorted(SP.GT_CLASSES - have)]
     kinds = {"wardrobe": (1.2, 0.6, 2.0), "bathtub": (1.7, 0.75, 0.6), "washing_machine": (0.6, 0.6, 0.85),
              "dresser": (1.0, 0.5, 0.8), "nightstand": (0.45, 0.4, 0.55), "rug": (2.0, 1.4, 0.01)}
     return AssetLibrary(FULL_LIB + extra + [asset(f"{k}_a", k, v) for k, v in kinds.items()])
@@ -484,7 +493,7 @@ def bear_homes():
 
 def _floats(i, boxes):
     lo, hi = boxes[i]
-    return lo[2] > F.FLOAT_MIN_Z_M and not F._rests_on(i, boxes)
+    return lo[2] > S.FLOAT_MIN_Z_M and not S.rests_on(i, boxes)
 
 
 def test_bear_homes_fit_support_and_keep_clear(bear_homes):
@@ -513,17 +522,17 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes):
                     continue
                 lo, hi = boxes[i]
                 area = (hi[0] - lo[0]) * (hi[1] - lo[1])
-                assert any(0.0 <= lo[2] - s[1][2] <= F.REST_TOL_M
-                           and F._overlap_area(lo, hi, *s) >= F.REST_MIN_OVERLAP * area for s in sup), (where, i)
+                assert any(0.0 <= lo[2] - s[1][2] <= S.REST_TOL_M
+                           and SP.overlap_area(lo, hi, *s) >= S.REST_MIN_OVERLAP * area for s in sup), (where, i)
             for s in sup:  # each support's top is exactly some object's bottom
                 assert min(abs(s[1][2] - b[0][2]) for b in ubox) < 1e-9, where
             # supports, distractors, lamps: no GT cuboid (of any variant), wall or each other; clear of the corridor
             checked = _check_scene(res, lib, union, plan, roles=("support", "distractor", "light"))
             for p, b in checked:
-                if p.role == "support" and b[0][2] < F.OVERHEAD_CLEAR_Z_M and plan.blocked(b[0][:2], b[1][:2]):
+                if p.role == "support" and b[0][2] < SP.OVERHEAD_CLEAR_Z_M and plan.blocked(b[0][:2], b[1][:2]):
                     # only right under one object below the robot's height (the object is in the way already)
                     assert any(np.all(b[0][:2] >= bl[0][:2] - 1e-9) and np.all(b[1][:2] <= bl[1][:2] + 1e-9)
-                               and bl[0][2] < F.ROBOT_HEIGHT_M for bl in ubox), (where, p.asset_id)
+                               and bl[0][2] < SP.ROBOT_HEIGHT_M for bl in ubox), (where, p.asset_id)
             # the variants of a home share their distractors, doors, windows and lamps
             fixed = [(p.asset_id, p.role, np.round(p.transform, 9).tobytes()) for p in res.placements
                      if p.role in ("distractor", "door", "window", "light")]

@@ -1,0 +1,199 @@
+"""Mesh loading (GLB/glTF to the map frame, materials, textures, normals), instancing, the texture atlas and the
+textured scene export. Test meshes are made here with trimesh (no binaries in the repository)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchbot.core.errors import BackendError
+
+
+def _quadrant_image():
+    """4 × 4 RGB image, top-left red, top-right green, bottom-left blue, bottom-right white (rows top first)."""
+    img = np.zeros((4, 4, 3), np.uint8)
+    img[:2, :2] = (255, 0, 0)
+    img[:2, 2:] = (0, 255, 0)
+    img[2:, :2] = (0, 0, 255)
+    img[2:, 2:] = (255, 255, 255)
+    return img
+
+
+def write_textured_quad_glb(path, image=None, factor=(255, 255, 255, 255)):
+    """A 1 m × 1 m quad in glTF coordinates facing +Z (its front), bottom edge at y = 0, centred on x = 0, with
+    ``image`` (default :func:`_quadrant_image`) as its baseColorTexture mapped upright (u right, v up)."""
+    import trimesh
+    from PIL import Image
+
+    v = np.array([[-0.5, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 1.0, 0.0], [-0.5, 1.0, 0.0]])
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])  # trimesh's convention: v = 0 at the bottom
+    m = trimesh.Trimesh(v, f, process=False)
+    img = Image.fromarray(_quadrant_image() if image is None else image)
+    mat = trimesh.visual.material.PBRMaterial(baseColorTexture=img, baseColorFactor=list(factor), metallicFactor=0.0,
+                                              roughnessFactor=0.5)
+    m.visual = trimesh.visual.TextureVisuals(uv=uv, material=mat)
+    m.export(str(path))
+    return path
+
+
+def test_glb_quad_loads_in_the_map_frame_with_its_texture(tmp_path):
+    from benchbot_sim_taichi.meshes import load_mesh
+
+    mesh = load_mesh(write_textured_quad_glb(tmp_path / "quad.glb", factor=(255, 128, 64, 255)))
+    # glTF (x, y, z) → map (x, −z, y): the quad stands in the plane y = 0, z from 0 to 1, front facing −y
+    np.testing.assert_allclose(mesh.bounds, [[-0.5, 0.0, 0.0], [0.5, 0.0, 1.0]], atol=1e-6)
+    np.testing.assert_allclose(mesh.n, np.tile([0.0, -1.0, 0.0], (len(mesh.n), 1)), atol=1e-6)
+    fn = np.cross(mesh.v[mesh.f[:, 1]] - mesh.v[mesh.f[:, 0]], mesh.v[mesh.f[:, 2]] - mesh.v[mesh.f[:, 0]])
+    assert np.all(fn[:, 1] < 0)  # the winding still agrees with the normals
+    (mat,) = mesh.materials
+    assert mat.texture.shape == (4, 4, 3) and mat.texture.dtype == np.uint8
+    np.testing.assert_array_equal(mat.texture, _quadrant_image())
+    np.testing.assert_allclose(mat.albedo, [1.0, 128 / 255, 64 / 255], atol=1e-6)  # glTF factors are linear
+    assert mat.metallic == 0.0 and mat.roughness == pytest.approx(0.5)
+    # the top-left corner (map x = -0.5, z = 1) carries uv (0, 1): the image's top-left texel (red)
+    tl = int(np.argmin(np.abs(mesh.v - [-0.5, 0.0, 1.0]).sum(axis=1)))
+    np.testing.assert_allclose(mesh.uv[tl], [0.0, 1.0], atol=1e-6)
+    assert load_mesh(tmp_path / "quad.glb") is mesh  # cached
+    with pytest.raises(ValueError):
+        mesh.v[0, 0] = 1.0  # cached arrays are read-only
+
+
+def test_scene_file_nodes_materials_and_computed_normals(tmp_path):
+    import trimesh
+
+    from benchbot_sim_taichi.meshes import load_mesh
+
+    sc = trimesh.Scene()
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    box.visual = trimesh.visual.TextureVisuals(
+        material=trimesh.visual.material.PBRMaterial(baseColorFactor=[255, 0, 0, 255]))
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=0.5)
+    ball.visual = trimesh.visual.TextureVisuals(
+        material=trimesh.visual.material.PBRMaterial(baseColorFactor=[0, 0, 255, 255]))
+    sc.add_geometry(box, node_name="box", transform=trimesh.transformations.translation_matrix([3.0, 0.0, 0.0]))
+    sc.add_geometry(ball, node_name="ball", transform=trimesh.transformations.translation_matrix([0.0, 2.0, 0.0]))
+    sc.export(str(tmp_path / "two.glb"))
+    mesh = load_mesh(tmp_path / "two.glb")
+    assert mesh.n_triangles == len(box.faces) + len(ball.faces)
+    assert sorted(tuple(np.round(m.albedo, 3)) for m in mesh.materials) == [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0)]
+    red = [i for i, m in enumerate(mesh.materials) if m.albedo[0] > 0.5][0]
+    box_v = mesh.v[np.unique(mesh.f[mesh.f_material == red])]
+    # node transform applied, then glTF → map: glTF (3, 0, 0) ± (0.5, 1, 1.5) → map x 2.5..3.5, y -1.5..1.5, z -1..1
+    np.testing.assert_allclose(box_v.min(axis=0), [2.5, -1.5, -1.0], atol=1e-6)
+    np.testing.assert_allclose(box_v.max(axis=0), [3.5, 1.5, 1.0], atol=1e-6)
+    # the ball's centre, glTF (0, 2, 0), is map (0, 0, 2); its normals (from the file) point out of it
+    ball_i = np.unique(mesh.f[mesh.f_material != red])
+    p = mesh.v[ball_i] - [0.0, 0.0, 2.0]
+    np.testing.assert_allclose(np.linalg.norm(p, axis=1), 0.5, atol=1e-5)
+    assert np.all(np.einsum("ij,ij->i", mesh.n[ball_i], p / 0.5) > 0.95)
+
+
+def test_smooth_normals_round_curves_and_keep_creases(tmp_path):
+    import trimesh
+
+    from benchbot_sim_taichi.meshes import load_mesh, make_mesh
+
+    # an icosphere written as STL (no normals, no shared vertices): welded for the averaging, so the normals are
+    # the radial direction, not the faces' (which differ from it by up to ~10° here)
+    trimesh.creation.icosphere(subdivisions=2, radius=1.0).export(str(tmp_path / "ball.stl"))
+    ball = load_mesh(tmp_path / "ball.stl")
+    assert ball.v.shape[0] == 3 * ball.n_triangles
+    radial = ball.v / np.linalg.norm(ball.v, axis=1, keepdims=True)
+    assert np.min(np.einsum("ij,ij->i", ball.n, radial)) > 0.995
+    # a box keeps flat faces: every corner normal is its face's normal (24 vertices)
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    m = make_mesh(box.vertices, box.faces)
+    assert m.v.shape[0] == 24
+    fn = np.cross(m.v[m.f[:, 1]] - m.v[m.f[:, 0]], m.v[m.f[:, 2]] - m.v[m.f[:, 0]])
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    for c in range(3):
+        np.testing.assert_allclose(m.n[m.f[:, c]], fn, atol=1e-6)
+    # an OBJ without materials: one default material (the scene gives it the class colour)
+    box.export(str(tmp_path / "box.obj"))
+    assert [mat.from_file for mat in load_mesh(tmp_path / "box.obj").materials] == [False]
+
+
+def test_instances_flatten_with_inverse_transpose_normals():
+    import trimesh
+
+    from benchbot_sim_taichi.meshes import Material, MeshInstance, flatten_instances, make_mesh
+
+    s = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    red = Material(np.array([1.0, 0.0, 0.0], np.float32))
+    mesh = make_mesh(s.vertices, s.faces, n=s.vertices, materials=[red])
+    M = np.diag([2.0, 1.0, 0.5, 1.0])
+    M[:3, 3] = (1.0, 2.0, 3.0)
+    flat = flatten_instances([MeshInstance(mesh, M, 4), MeshInstance(mesh, np.eye(4), -1)])
+    T = len(s.faces)
+    assert flat["tri_v"].shape == (2 * T, 3, 3) and flat["tri_uv"].shape == (2 * T, 3, 2)
+    assert flat["materials"] == [red] and np.all(flat["tri_material"] == 0)
+    np.testing.assert_array_equal(flat["tri_object"], [4] * T + [-1] * T)
+    # the ellipsoid x²/4 + y² + z²/0.25 = 1: its normal is the gradient (x/4, y, z/0.25), normalised
+    p = flat["tri_v"][:T].reshape(-1, 3).astype(np.float64) - (1.0, 2.0, 3.0)
+    g = p / np.array([4.0, 1.0, 0.25])
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    np.testing.assert_allclose(flat["tri_n"][:T].reshape(-1, 3), g, atol=1e-5)
+    with pytest.raises(ValueError, match="singular"):
+        flatten_instances([MeshInstance(mesh, np.diag([1.0, 0.0, 1.0, 1.0]))])
+
+
+def test_mip_chain_and_atlas_layout():
+    from benchbot_sim_taichi.meshes import mip_chain, texture_atlas
+
+    checker = np.zeros((8, 6, 3), np.uint8)
+    checker[(np.arange(8)[:, None] + np.arange(6)[None, :]) % 2 == 1] = 255
+    levels = mip_chain(checker)
+    assert [lv.shape[:2] for lv in levels] == [(8, 6), (4, 3), (2, 1), (1, 1)]
+    # black/white averaged in linear light is 0.5, i.e. sRGB 186 (not 128)
+    assert np.all(levels[1] == 186) and np.all(levels[3] == 186)
+    other = np.full((2, 2, 3), 7, np.uint8)
+    texels, info = texture_atlas([checker, other])
+    np.testing.assert_array_equal(info, [[0, 6, 8, 4], [48 + 12 + 2 + 1, 2, 2, 2]])
+    assert texels.shape == (48 + 12 + 2 + 1 + 4 + 1, 3)
+    np.testing.assert_array_equal(texels[48:60].reshape(4, 3, 3), levels[1])
+
+
+def test_add_mesh_instances_to_a_scene_and_bad_object_index(synthetic_env):
+    import trimesh
+
+    from benchbot_sim_taichi.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_sim_taichi.scene import PRIM_TRIANGLE, build_scene
+
+    env = synthetic_env([("chair", (2.5, 0.0, 0.5), (1.0, 1.0, 1.0))])
+    env["style"] = "primitives"  # one room shell, no furnished house: only the meshes added here are textured
+    scene = build_scene(env)
+    n_prims = scene.prim_type.shape[0]
+    tex = np.full((4, 4, 3), 200, np.uint8)
+    mats = [Material(np.array([0.2, 0.4, 0.6], np.float32), texture=tex), Material(np.ones(3, np.float32))]
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    mesh = make_mesh(box.vertices, box.faces, f_material=np.arange(12) % 2, materials=mats)
+    first, end = add_mesh_instances(scene, [MeshInstance(mesh, np.eye(4), 0), MeshInstance(mesh, np.eye(4), -1)])
+    assert (first, end) == (0, 24) and scene.tri_v.shape == (24, 3, 3) and scene.tri_n.shape == (24, 3, 3)
+    assert scene.prim_type.shape[0] == n_prims + 24 and np.all(scene.prim_type[n_prims:] == PRIM_TRIANGLE)
+    np.testing.assert_array_equal(scene.prim_object[n_prims:], [0] * 12 + [-1] * 12)
+    np.testing.assert_array_equal(scene.mat_texture, [0, -1])  # one texture, shared by both instances
+    assert scene.tex_info.shape == (1, 4) and scene.tex_texels.shape == (16 + 4 + 1, 3)
+    np.testing.assert_allclose(scene.prim_albedo[n_prims::2], np.tile([0.2, 0.4, 0.6], (12, 1)))
+    # a second call appends materials and textures after the first ones
+    add_mesh_instances(scene, [MeshInstance(make_mesh(box.vertices, box.faces, materials=[
+        Material(np.ones(3, np.float32), texture=np.zeros((2, 2, 3), np.uint8))]), np.eye(4), 0)])
+    np.testing.assert_array_equal(scene.mat_texture, [0, -1, 1])
+    np.testing.assert_array_equal(scene.tex_info[1], [21, 2, 2, 2])
+    np.testing.assert_array_equal(scene.tri_material[24:], [2] * 12)
+    with pytest.raises(ValueError, match="object_index 5"):
+        add_mesh_instances(scene, [MeshInstance(mesh, np.eye(4), 5)])
+
+
+def test_unreadable_and_empty_meshes_are_one_line_errors(tmp_path):
+    from benchbot_sim_taichi.meshes import load_mesh
+
+    with pytest.raises(BackendError, match="cannot read the mesh .*nope.glb"):
+        load_mesh(tmp_path / "nope.glb")
+    (tmp_path / "junk.glb").write_bytes(b"glTF not really")
+    with pytest.raises(BackendError, match="junk.glb"):
+        load_mesh(tmp_path / "junk.glb")
+    (tmp_path / "empty.obj").write_text("v 0 0 0\n")
+    with pytest.raises(BackendError, match="has no triangles"):
+        load_mesh(tmp_path / "empty.obj")
+
