@@ -2,7 +2,8 @@
 ``benchbot_commands`` hook). ENV is ``name:variant`` of a registered environment or the path of an environment YAML.
 
 * ``benchbot sim render ENV [--pose x,y,z,yaw_deg] [--mode fast|quality] [--width W --height H] -o FILE.png``
-* ``benchbot sim export ENV -o FILE.glb`` (the whole scene as one mesh; any format trimesh writes)
+* ``benchbot sim export ENV -o FILE.glb`` (the whole scene with its materials and textures; other formats trimesh
+  writes: one mesh with face colours)
 * ``benchbot sim ground-truth ENV -o FILE.json`` (the ground truth derived from the scene: per object the
   axis-aligned bounds of its geometry; for environments with mesh ``objects``)
 """
@@ -112,15 +113,24 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
 @app.command("export")
 def export(env: str = typer.Argument(..., help="name:variant or an environment YAML"),
            output: Path = typer.Option(..., "-o", "--output", help="mesh file (.glb, .obj, .ply, …)")) -> None:
-    """Export the whole scene of ENV (objects and room shell) as one triangle mesh."""
+    """Export the whole scene of ENV (objects and room shell) as triangles: a .glb keeps the materials, textures and
+    normals (for a reference renderer); other formats get one mesh with face colours."""
 
     def go():
-        from benchbot_sim_taichi.export import scene_mesh
+        from benchbot_sim_taichi.export import export_scene, scene_mesh
         from benchbot_sim_taichi.scene import build_scene
 
         from benchbot.core.errors import UsageError
 
-        mesh = scene_mesh(build_scene(_environment(env)))
+        scene = build_scene(_environment(env))
+        if output.suffix.lower() == ".glb":
+            try:
+                written = export_scene(scene, output)
+            except OSError as e:
+                raise UsageError(f"cannot write the mesh {output}: {e.strerror or e}", "use a writable path") from e
+            typer.echo(f"{output} ({sum(len(g.faces) for g in written.geometry.values())} triangles)")
+            return
+        mesh = scene_mesh(scene)
         mesh.metadata.pop("face_instance", None)
         output.parent.mkdir(parents=True, exist_ok=True)
         try:

@@ -197,3 +197,66 @@ def test_unreadable_and_empty_meshes_are_one_line_errors(tmp_path):
     with pytest.raises(BackendError, match="has no triangles"):
         load_mesh(tmp_path / "empty.obj")
 
+
+def test_textured_scene_exports_to_glb_and_loads_back_in_the_map_frame(synthetic_env, tmp_path):
+    import json
+
+    import trimesh
+
+    from benchbot_sim_taichi.export import export_scene
+    from benchbot_sim_taichi.meshes import Material, MeshInstance, add_mesh_instances, load_mesh, make_mesh
+    from benchbot_sim_taichi.scene import build_scene
+
+    env = synthetic_env([("chair", (2.5, 0.0, 0.5), (1.0, 1.0, 1.0))])
+    env["style"] = "primitives"  # one room shell, no furnished house: only the meshes added here are textured
+    scene = build_scene(env)
+    tex = _quadrant_image()
+    quad_v = np.array([[1.0, 1.0, 0.0], [1.0, 2.0, 0.0], [1.0, 2.0, 1.0], [1.0, 1.0, 1.0]])
+    mat = Material(np.array([0.25, 0.5, 1.0], np.float32), texture=tex, roughness=0.3, metallic=0.0)
+    mesh = make_mesh(quad_v, [[0, 1, 2], [0, 2, 3]], uv=[[0, 0], [1, 0], [1, 1], [0, 1]], materials=[mat])
+    add_mesh_instances(scene, [MeshInstance(mesh, np.eye(4), 0)])
+    written = export_scene(scene, tmp_path / "scene.glb")
+    assert any(name.startswith(f"i{scene.box_instance[0]}_c0_") for name in written.graph.nodes_geometry)
+    back = load_mesh(tmp_path / "scene.glb")
+    textured = [k for k, m in enumerate(back.materials) if m.texture is not None]
+    assert len(textured) == 1
+    m = back.materials[textured[0]]
+    np.testing.assert_array_equal(m.texture, tex)
+    np.testing.assert_allclose(m.albedo, mat.albedo, atol=1 / 255)
+    assert m.roughness == pytest.approx(0.3, abs=1e-6)
+    f = back.f[back.f_material == textured[0]]
+    got = back.v[f]  # the quad's two triangles, back in map coordinates, with their UVs
+    assert got.shape == (2, 3, 3)
+    np.testing.assert_allclose(np.sort(got.reshape(-1, 3), axis=0), np.sort(quad_v[[0, 1, 2, 0, 2, 3]], axis=0),
+                               atol=1e-6)
+    for tri, uvs in zip(got, back.uv[f]):
+        for p, uv in zip(tri, uvs):
+            np.testing.assert_allclose(uv, [p[1] - 1.0, p[2]], atol=1e-6)  # u along +y, v up, as given
+    # every primitive and the room shell are there too, and the lights travel in the extras
+    assert back.n_triangles > 2 + 12 + 12
+    assert np.all(back.bounds[0] <= scene.room_min + 1e-5) and np.all(back.bounds[1] >= scene.room_max - 1e-5)
+    gltf = trimesh.load_scene(str(tmp_path / "scene.glb"))
+    extras = gltf.metadata.get("benchbot") or json.loads(json.dumps(gltf.metadata)).get("benchbot")
+    assert extras is not None and len(extras["lights"]) == scene.light_kind.shape[0]
+    with pytest.raises(ValueError, match=r"\.glb"):
+        export_scene(scene, tmp_path / "scene.obj")
+
+
+def test_sim_export_cli_writes_a_textured_glb_for_an_environment_with_mesh_objects(tmp_path):
+    import yaml
+    from typer.testing import CliRunner
+
+    from benchbot_sim_taichi.cli import app
+    from benchbot_sim_taichi.meshes import load_mesh
+
+    write_textured_quad_glb(tmp_path / "quad.glb")
+    (tmp_path / "env.yaml").write_text(yaml.safe_dump({
+        "name": "quad_room", "variant": 1, "style": "primitives", "start_pose": [1, 0, 0, 0, -2.0, 0, 0],
+        "objects": [{"mesh": "quad.glb", "class": "chair", "pose": [0.0, 0.0, 0.3, 0.0]}]}))
+    res = CliRunner().invoke(app, ["export", str(tmp_path / "env.yaml"), "-o", str(tmp_path / "out" / "scene.glb")])
+    assert res.exit_code == 0, res.output
+    assert "scene.glb" in res.output and "triangles" in res.output
+    back = load_mesh(tmp_path / "out" / "scene.glb")
+    assert [m.texture.shape for m in back.materials if m.texture is not None] == [(4, 4, 3)]
+    res = CliRunner().invoke(app, ["export", str(tmp_path / "env.yaml"), "-o", str(tmp_path / "scene.ply")])
+    assert res.exit_code == 0 and (tmp_path / "scene.ply").stat().st_size > 0  # other formats: one coloured mesh
