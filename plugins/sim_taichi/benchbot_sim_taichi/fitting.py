@@ -122,6 +122,21 @@ def distortion(size: Sequence[float], ext: Sequence[float], k: int) -> float:
     return float(np.abs(ls - ls.mean()).sum())
 
 
+def best_score(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float) -> float:
+    """The lowest :func:`choose_model` score over ``assets`` and the 4 turns for a box of extents ``ext`` (3,)
+    (``inf`` without assets)."""
+    ext = np.asarray(ext, dtype=np.float64)
+    best = np.inf
+    for a in assets:
+        size = np.asarray(a.size_m, dtype=np.float64)
+        for k in range(4):
+            sc = distortion(size, ext, k)
+            if prefer is not None:
+                sc += weight * (1.0 - float(front_of(k) @ prefer)) / 2.0
+            best = min(best, sc)
+    return float(best)
+
+
 def choose_model(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float,
                  rng: np.random.Generator) -> tuple[Any, int] | None:
     """Seeded choice of (asset, quarter turns) for a box of extents ``ext`` (3,), ``prefer`` the wanted facing (2,)

@@ -39,7 +39,8 @@ from typing import Any
 import numpy as np
 
 from benchbot_sim_taichi.fitting import (
-    FACING_WEIGHT, RANDOM_FACING_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of, transformed_bounds)
+    FACING_WEIGHT, RANDOM_FACING_WEIGHT, asset_bounds, best_score, choose_model, fit_to_cuboid, front_of,
+    transformed_bounds)
 from benchbot_sim_taichi.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
 from benchbot_sim_taichi.furnish_supports import FLOAT_MIN_Z_M, place_supports, rests_on, supported_by
@@ -60,8 +61,8 @@ BACK_TO_WALL = frozenset(("couch", "bed", "toilet", "refrigerator", "oven", "tv"
 #: Classes drawn facing the room centre.
 FACE_ROOM = frozenset(("person",))
 
-#: Mean thickness (m) of a book in a row (or of a lying book in a stack): a row of length L has about L / this.
-BOOK_THICKNESS_M = 0.035
+#: Thinnest part (m) of a book row or stack (a single book) considered when splitting an ``isgroup`` cuboid.
+BOOK_MIN_THICKNESS_M = 0.015
 #: The most books in one row or stack.
 MAX_BOOKS_PER_GROUP = 40
 
@@ -97,14 +98,35 @@ def _facing(i: int, obj: dict, box, space: Space, tables: list, rng: np.random.G
     return front_of(int(rng.integers(4))), RANDOM_FACING_WEIGHT
 
 
-def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_sign: float) -> list:
-    """Boxes of the books of an ``isgroup`` book cuboid: a row of standing books along its long horizontal axis,
-    or a stack of lying ones when it is flat (height < 0.6 × its shorter side). Union = the cuboid."""
+def _book_layout(lo: np.ndarray, hi: np.ndarray, assets: list, prefer: np.ndarray, weight: float) -> tuple[str, int]:
+    """How an ``isgroup`` book cuboid is split: (``"row"`` along its long horizontal axis | ``"stack"`` in height,
+    number of parts), the one whose equal parts the book models fit with the least distortion (one part: a single
+    model, e.g. a row-of-books model, fills the cuboid)."""
+    ext = hi - lo
+    u = 0 if ext[0] >= ext[1] else 1
+    best = (np.inf, "row", 1)
+    for mode, ax in (("row", u), ("stack", 2)):
+        nmax = int(np.clip(ext[ax] / BOOK_MIN_THICKNESS_M, 1, MAX_BOOKS_PER_GROUP))
+        for n in range(1, nmax + 1):
+            slot = ext.copy()
+            slot[ax] /= n
+            sc = best_score(assets, slot, prefer, weight)
+            if sc < best[0] - 1e-9:
+                best = (sc, mode, n)
+    return best[1], best[2]
+
+
+def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_sign: float, mode: str,
+                n: int) -> list:
+    """Boxes of the ``n`` parts of an ``isgroup`` book cuboid (see :func:`_book_layout`): a row along its long
+    horizontal axis (seeded widths, heights and depths, spines flush at the front ``front_sign``) or a stack of
+    lying books (seeded thicknesses and footprints). Union = the cuboid."""
     ext = hi - lo
     u = 0 if ext[0] >= ext[1] else 1
     w = 1 - u
-    if ext[2] < 0.6 * min(ext[0], ext[1]):  # a stack
-        n = int(np.clip(round(ext[2] / BOOK_THICKNESS_M), 1, MAX_BOOKS_PER_GROUP))
+    if n == 1:
+        return [(lo.copy(), hi.copy())]
+    if mode == "stack":
         t = rng.uniform(0.7, 1.3, n)
         edges = lo[2] + ext[2] * np.concatenate([[0.0], np.cumsum(t) / t.sum()])
         edges[-1] = hi[2]
@@ -121,7 +143,6 @@ def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_
             blo[2], bhi[2] = edges[i], edges[i + 1]
             out.append((blo, bhi))
         return out
-    n = int(np.clip(round(ext[u] / BOOK_THICKNESS_M), 1, MAX_BOOKS_PER_GROUP))
     t = rng.uniform(0.7, 1.3, n)
     edges = lo[u] + ext[u] * np.concatenate([[0.0], np.cumsum(t) / t.sum()])
     edges[-1] = hi[u]
@@ -163,7 +184,8 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             else:
                 prefer = np.zeros(2)
                 prefer[w] = 1.0 if rng.random() < 0.5 else -1.0
-            for blo, bhi in _book_boxes(lo, hi, rng, float(np.sign(prefer[w]))):
+            mode, n = _book_layout(lo, hi, assets, prefer, weight)
+            for blo, bhi in _book_boxes(lo, hi, rng, float(np.sign(prefer[w])), mode, n):
                 pick = choose_model(assets, bhi - blo, prefer, weight, rng)
                 a, k = pick
                 out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))

@@ -269,6 +269,22 @@ def test_book_rows_fill_the_cuboid_exactly(lib):
     assert {p.asset_id for p in res.placements if p.object_index == 1} == {"book_lying"}
 
 
+def test_book_rows_use_row_models_when_they_fit_better():
+    # the books of the real pack: rows of books and a lying book (no standing single book)
+    library = AssetLibrary([a for a in FULL_LIB if a.cls != "book"]
+                           + [obj_asset("books_row", "book", (0.85, 0.18, 0.26)),
+                              obj_asset("book_lying", "book", (0.17, 0.24, 0.03))])
+    plan = one_room_plan()
+    short = gt("book", [1.0, 4.75, 0.9], [1.8, 4.95, 1.15], "short", isgroup=True)  # one row model
+    long = gt("book", [2.0, 4.75, 0.9], [3.7, 4.95, 1.15], "long", isgroup=True)  # two of them side by side
+    res = F.furnish_home([short, long], plan, library, seed=0)
+    assert [p.asset_id for p in res.placements if p.object_index == 0] == ["books_row"]
+    assert [p.asset_id for p in res.placements if p.object_index == 1] == ["books_row", "books_row"]
+    bs = np.array([placed_box(library, p) for p in res.placements if p.object_index == 1])
+    assert np.abs(bs[:, 0].min(axis=0) - box_of(long)[0]).max() < 1e-9
+    assert np.abs(bs[:, 1].max(axis=0) - box_of(long)[1]).max() < 1e-9
+
+
 # ------------------------------------------------------------------------------------------------ supports
 def _supports(res, lib):
     return [placed_box(lib, p) for p in res.placements if p.role == "support"]
