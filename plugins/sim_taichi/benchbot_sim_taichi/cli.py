@@ -61,6 +61,11 @@ def _T_camera(scene, pose: str | None) -> "object":
     return T @ Tc
 
 
+def _styled(environment: dict, style: str | None) -> dict:
+    """The environment with ``style`` set (``--style``); a style it does not know is refused by build_scene."""
+    return environment if style is None else {**environment, "style": style}
+
+
 def _run(fn):
     from benchbot.cli.common import handle_errors
 
@@ -77,7 +82,11 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
            spp: int = typer.Option(32, "--spp", help="samples per pixel in quality mode"),
            shadow_samples: int = typer.Option(8, "--shadow-samples", help="soft-shadow rays per light (fast mode)"),
            fov: float = typer.Option(90.0, "--fov", help="horizontal field of view, degrees"),
-           seed: int = typer.Option(0, "--seed", help="seed of the scene's colour variation and of the sampling")) -> None:
+           seed: int = typer.Option(0, "--seed", help="seed of the scene's colour variation and of the sampling"),
+           style: str = typer.Option(None, "--style",
+                                     help="furnished (a house: rooms, walls, textured models) or primitives; "
+                                          "default: the environment's own, else primitives"),
+           ) -> None:
     """Render one RGB view of ENV to a PNG."""
 
     def go():
@@ -94,7 +103,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
                              "e.g. --width 640 --height 480 --spp 32 --shadow-samples 8")
         if not 0.0 < fov < 180.0:
             raise UsageError(f"--fov {fov} is not between 0 and 180 degrees", "e.g. --fov 90")
-        scene = build_scene(_environment(env), seed=seed)
+        scene = build_scene(_styled(_environment(env), style), seed=seed)
         r = Renderer(None, shadow_samples=shadow_samples, seed=seed)
         r.set_scene(scene)
         out = r.render(intrinsics(width, height, fov), _T_camera(scene, pose), width, height, mode=mode, spp=spp)
@@ -112,7 +121,11 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
 
 @app.command("export")
 def export(env: str = typer.Argument(..., help="name:variant or an environment YAML"),
-           output: Path = typer.Option(..., "-o", "--output", help="mesh file (.glb, .obj, .ply, …)")) -> None:
+           output: Path = typer.Option(..., "-o", "--output", help="mesh file (.glb, .obj, .ply, …)"),
+           style: str = typer.Option(None, "--style",
+                                     help="furnished (a house: rooms, walls, textured models) or primitives; "
+                                          "default: the environment's own, else primitives"),
+           ) -> None:
     """Export the whole scene of ENV (objects and room shell) as triangles: a .glb keeps the materials, textures and
     normals (for a reference renderer); other formats get one mesh with face colours."""
 
@@ -122,7 +135,7 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
 
         from benchbot.core.errors import UsageError
 
-        scene = build_scene(_environment(env))
+        scene = build_scene(_styled(_environment(env), style))
         if output.suffix.lower() == ".glb":
             try:
                 written = export_scene(scene, output)

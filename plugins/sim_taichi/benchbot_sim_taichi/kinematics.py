@@ -52,12 +52,16 @@ class Obstacles:
     @classmethod
     def from_scene(cls, scene, radius: float, max_height: float) -> "Obstacles":
         """Obstacles of a :class:`~benchbot_sim_taichi.scene.Scene` for a robot of footprint ``radius`` (m) and
-        height ``max_height`` (m): every object box with ``min z < max_height``, and the four walls."""
+        height ``max_height`` (m): every object box with ``min z < max_height``, the scene's other obstacle rectangles
+        with ``obstacle_bottom < max_height`` (a furnished home's walls and furniture), and the shell's four walls."""
         keep = scene.box_min[:, 2].astype(np.float64) < max_height
+        low = np.asarray(scene.obstacle_bottom, np.float64) < max_height
+        extra_min = np.asarray(scene.obstacle_min, np.float64).reshape(-1, 2)[low]
+        extra_max = np.asarray(scene.obstacle_max, np.float64).reshape(-1, 2)[low]
         return cls(
-            rect_min=scene.box_min[keep, :2].astype(np.float64),
-            rect_max=scene.box_max[keep, :2].astype(np.float64),
-            names=[n for n, k in zip(scene.box_names, keep) if k],
+            rect_min=np.concatenate([scene.box_min[keep, :2].astype(np.float64), extra_min]),
+            rect_max=np.concatenate([scene.box_max[keep, :2].astype(np.float64), extra_max]),
+            names=[n for n, k in zip(scene.box_names, keep) if k] + [n for n, k in zip(scene.obstacle_names, low) if k],
             room_min=scene.room_min[:2].astype(np.float64),
             room_max=scene.room_max[:2].astype(np.float64),
             radius=float(radius),

@@ -75,6 +75,22 @@ _DEFAULT_COLOUR = (0.6, 0.6, 0.6)
 _SHELL_COLOURS = ((0.62, 0.48, 0.33), (0.86, 0.84, 0.78), (0.95, 0.95, 0.94))
 
 _LIGHTINGS = ("base", "day", "night", "day_extra", "night_extra")
+#: The styles of :func:`build_scene` (environment field ``style``): ``furnished`` — a house with rooms, walls,
+#: doors and windows, textured models fitted to the cuboids, supports and distractor furniture
+#: (:mod:`benchbot_sim_taichi.furnished`); ``primitives`` — procedural primitives in one room shell.
+STYLES = ("furnished", "primitives")
+#: The style of an environment that names none. Still ``primitives``: the furnished homes become the default once
+#: their episodes are checked end to end (scores, speed, the whole test suite).
+DEFAULT_STYLE = "primitives"
+#: Furnished homes: the outdoors (ground, sky) lies this far (m) beyond the outer walls; sRGB ground, sky, sky.
+OUTDOOR_MARGIN_M = 6.0
+_OUTDOOR_COLOURS = ((0.36, 0.40, 0.26), (0.62, 0.74, 0.90), (0.70, 0.80, 0.94))
+#: Furnished homes: ceiling lamps (one or more per room) are this much brighter than a lamp of the grid, and
+#: light this far (m).
+LAMP_GAIN = 0.8
+#: Furnished homes: the ambient term stands in for the daylight that windows let in and walls bounce around.
+INDOOR_AMBIENT_GAIN = 1.5
+LAMP_RANGE_M = 6.0
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -130,6 +146,10 @@ class Scene:
             ``[offset, width, height, levels]`` per texture, level l (``max(1, width >> l)`` ×
             ``max(1, height >> l)``, row-major, top row first) stored right after level l − 1
             (:func:`benchbot_sim_taichi.meshes.texture_atlas`).
+        style: the style it was built in (:data:`STYLES`).
+        obstacle_min, obstacle_max, obstacle_bottom, obstacle_names: (Q, 2) float64 xy rectangles besides the
+            objects' cuboids that the robot's footprint may not touch if it is taller than their (Q,) bottom heights
+            (m) — a furnished home's walls, supports and distractor furniture — and their names.
         Mesh instances are added with :func:`benchbot_sim_taichi.meshes.add_mesh_instances`.
     """
 
@@ -169,6 +189,11 @@ class Scene:
     mat_metallic: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
     tex_texels: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.uint8))
     tex_info: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int32))
+    style: str = "primitives"
+    obstacle_min: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float64))
+    obstacle_max: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float64))
+    obstacle_bottom: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float64))
+    obstacle_names: list[str] = field(default_factory=list)
 
     @property
     def n_boxes(self) -> int:
@@ -409,8 +434,9 @@ def object_colour(cls: str, id_name: str, seed: int) -> np.ndarray:
     return np.clip(np.asarray(base, dtype=np.float64) + jitter, 0.02, 0.98).astype(np.float32)
 
 
-def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray):
-    """(ambient, kind, vec, colour, range) for a lighting name and a room."""
+def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None):
+    """(ambient, kind, vec, colour, range) for a lighting name and a room; ``lamps`` (K, 3): the ceiling lights'
+    positions (furnished homes), else a grid under the room's ceiling."""
     h = float(room_max[2])
     sun_dir = np.array([0.45, 0.30, 0.84], dtype=np.float64)
     sun_dir /= np.linalg.norm(sun_dir)
@@ -423,6 +449,13 @@ def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray):
         ranges.append(0.0)
 
     def ceiling(intensity, spacing):
+        if lamps is not None:
+            for p in np.asarray(lamps, dtype=np.float64).reshape(-1, 3):
+                kinds.append(LIGHT_POINT)
+                vecs.append(p)
+                cols.append(np.array([1.0, 0.82, 0.60]) * intensity * LAMP_GAIN)
+                ranges.append(LAMP_RANGE_M)
+            return
         nx = max(1, int(math.ceil((room_max[0] - room_min[0]) / spacing)))
         ny = max(1, int(math.ceil((room_max[1] - room_min[1]) / spacing)))
         for i in range(nx):
@@ -488,6 +521,16 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     background = class_ids.get("background", len(class_list) - 1)
 
     procedural = bool(environment.get("procedural", True))
+    style = environment.get("style", DEFAULT_STYLE)
+    if style not in STYLES:
+        raise BackendError(f"environment {environment.get('name')}:{environment.get('variant')}: unknown style "
+                           f"{style!r}", f"style is one of: {', '.join(STYLES)}")
+    home = None
+    if style == "furnished" and gt["objects"]:
+        home = _furnished_home(environment, file_env, gt["objects"][: len(gt["objects"]) - len(mesh_objs)],
+                               map_path, seed)
+    modelled = set() if home is None else \
+        {i.object_index for i in home.instances if i.object_index >= 0}
     mins, maxs, albedo, cls_ids, inst_ids, names = [], [], [], [], [], []
     p_type, p_axis, p_min, p_max, p_alb, p_obj, tris = [], [], [], [], [], [], []
     instances: list[MeshInstance] = []  # mesh objects: their triangles are added after the primitives
@@ -509,6 +552,10 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
             bounds = instance_bounds(inst)
             mins.append(bounds[0])
             maxs.append(bounds[1])
+        elif k in modelled:  # furnished: its models are fitted exactly to the cuboid
+            c, e = np.asarray(obj["centroid"], np.float64), np.asarray(obj["extent"], np.float64)
+            mins.append(c - e / 2)
+            maxs.append(c + e / 2)
         else:
             parts = object_geometry(obj, procedural=procedural)
             for part in parts:
@@ -571,7 +618,16 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     lighting = environment.get("lighting") or lighting_of_map_path(file_env.get("map_path", ""))
     if lighting not in _LIGHTINGS:
         lighting = "base"
-    ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max)
+    shell = _SHELL_COLOURS
+    if home is not None:  # the shell becomes the outdoors seen through the windows: ground and sky
+        room_min = np.array([*(home.outer_lo - OUTDOOR_MARGIN_M), 0.0], dtype=np.float32)
+        room_max = np.array([*(home.outer_hi + OUTDOOR_MARGIN_M), home.wall_height + OUTDOOR_MARGIN_M], np.float32)
+        shell = _OUTDOOR_COLOURS
+    ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max,
+                                           lamps=None if home is None else home.lamps)
+    if home is not None:  # walls and ceilings keep the sun out but for the windows: light bounced indoors
+        ambient = (ambient * INDOOR_AMBIENT_GAIN).astype(np.float32)
+    obstacles = [] if home is None else home.obstacles
     scene = Scene(
         box_min=box_min,
         box_max=box_max,
@@ -581,7 +637,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         box_names=names,
         room_min=room_min,
         room_max=room_max,
-        shell_albedo=srgb_to_linear(np.asarray(_SHELL_COLOURS, dtype=np.float32)),
+        shell_albedo=srgb_to_linear(np.asarray(shell, dtype=np.float32)),
         background_class=int(background),
         class_list=class_list,
         class_ids=class_ids,
@@ -600,10 +656,34 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         prim_albedo=srgb_to_linear(np.asarray(p_alb, dtype=np.float32).reshape(-1, 3)),
         prim_object=np.asarray(p_obj, dtype=np.int32),
         tri_v=np.asarray(tris, dtype=np.float32).reshape(-1, 3, 3),
+        style=style,
+        obstacle_min=np.asarray([o[0] for o in obstacles], dtype=np.float64).reshape(-1, 2),
+        obstacle_max=np.asarray([o[1] for o in obstacles], dtype=np.float64).reshape(-1, 2),
+        obstacle_bottom=np.asarray([o[2] for o in obstacles], dtype=np.float64),
+        obstacle_names=[o[3] for o in obstacles],
     )
+    if home is not None:
+        instances = home.instances + instances
     if instances:
         add_mesh_instances(scene, instances)
     return scene
+
+
+def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, seed: int):
+    """The :class:`~benchbot_sim_taichi.furnished.FurnishedHome` of an environment (its home's plan is derived
+    from every variant's file beside ``map_path``, or from this environment's own poses)."""
+    from benchbot_sim_taichi.furnished import furnish_environment
+
+    paths = []
+    for key in ("start_pose", "trajectory_poses"):
+        v = environment.get(key, file_env.get(key))
+        poses = [v] if key == "start_pose" and v is not None else (v or [])
+        try:
+            paths.append(np.array([pose7_to_se2(p)[:2] for p in poses], dtype=np.float64).reshape(-1, 2))
+        except (ValueError, TypeError):
+            continue  # a bad pose is reported by build_scene with its own message
+    paths = [np.concatenate(paths, axis=0)] if paths else []
+    return furnish_environment(objects, map_path, paths, seed=seed)
 
 
 #: The BEAR class list (30 classes, ``background`` last): the class list of environments without a map_path.

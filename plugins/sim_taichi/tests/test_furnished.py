@@ -1,0 +1,77 @@
+"""Furnished homes end to end (benchbot_sim_taichi.furnished + scene.build_scene, style ``furnished``) on the ten BEAR
+environments with the installed asset packs: the passive trajectories are collision-free with the added walls and
+furniture, the variants of a home share their house, a seed gives one house, and the primitive style is still the
+default. No Taichi."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from benchbot.core.errors import BackendError
+from benchbot_sim_taichi.kinematics import Obstacles
+from benchbot_sim_taichi.plugin import DATA_DIR
+from benchbot_sim_taichi.scene import build_scene
+
+ENVS = [f"{home}_{v}" for home in ("miniroom", "house") for v in range(1, 6)]
+#: carter's footprint radius and height (robots/carter.yaml).
+CARTER_RADIUS_M, CARTER_HEIGHT_M = 0.25, 1.0
+
+
+def _environment(name: str, **extra) -> dict:
+    path = DATA_DIR / f"{name}.json"
+    env = dict(json.loads(path.read_text())["environment"])
+    env["map_path"] = str(path)
+    env.update(extra)
+    return env
+
+
+@pytest.fixture(scope="module")
+def scenes() -> dict:
+    return {name: build_scene(_environment(name, style="furnished"), seed=0) for name in ENVS}
+
+
+@pytest.mark.parametrize("name", ENVS)
+def test_passive_trajectory_is_collision_free(name, scenes):
+    """The house adds walls and furniture: none of them may block the passive trajectory (carter's footprint)."""
+    scene = scenes[name]
+    low = scene.obstacle_bottom < CARTER_HEIGHT_M
+    assert low.sum() >= 4
+    added = Obstacles(rect_min=scene.obstacle_min[low], rect_max=scene.obstacle_max[low],
+                      names=[n for n, k in zip(scene.obstacle_names, low) if k],
+                      room_min=scene.room_min[:2].astype(np.float64), room_max=scene.room_max[:2].astype(np.float64),
+                      radius=CARTER_RADIUS_M)
+    poses = np.concatenate([scene.start_se2[None], scene.trajectory_se2])
+    for a, b in zip(poses[:-1], poses[1:]):  # the straight segments between poses, every 5 cm
+        steps = max(2, int(np.hypot(*(b[:2] - a[:2])) / 0.05) + 1)
+        for t in np.linspace(0.0, 1.0, steps):
+            p = a[:2] + t * (b[:2] - a[:2])
+            clearance, what = added.clearance(p)
+            assert clearance > 0.0, f"{name}: the trajectory at {p.round(3)} touches {what} ({clearance:.3f} m)"
+    # and the robot's own obstacles include them
+    assert set(added.names) <= set(Obstacles.from_scene(scene, CARTER_RADIUS_M, CARTER_HEIGHT_M).names)
+
+
+def test_variants_share_their_house(scenes):
+    for home in ("miniroom", "house"):
+        walls = [scenes[f"{home}_{v}"].obstacle_min[[n == "wall" for n in scenes[f"{home}_{v}"].obstacle_names]]
+                 for v in range(1, 6)]
+        for w in walls[1:]:
+            np.testing.assert_array_equal(w, walls[0])
+
+
+def test_same_seed_same_house_other_seed_may_differ():
+    a = build_scene(_environment("miniroom_1", style="furnished"), seed=3)
+    b = build_scene(_environment("miniroom_1", style="furnished"), seed=3)
+    np.testing.assert_array_equal(a.tri_v, b.tri_v)
+    np.testing.assert_array_equal(a.tex_texels, b.tex_texels)
+
+
+def test_primitive_style_is_still_available_and_unknown_style_is_one_line():
+    scene = build_scene(_environment("miniroom_1"), seed=0)  # the default
+    assert scene.style == "primitives" and scene.obstacle_min.shape == (0, 2)
+    with pytest.raises(BackendError, match="unknown style 'photo'") as e:
+        build_scene(_environment("miniroom_1", style="photo"), seed=0)
+    assert "furnished, primitives" in str(e.value.hint)
