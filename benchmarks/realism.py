@@ -1,0 +1,954 @@
+"""Realism of the Taichi simulator's images, judged two ways on the same frames: a COCO detector trained on real
+photos, and a physically based reference renderer (Blender Cycles) on the same exported scene.
+
+    python benchmarks/realism.py [--env miniroom:1 --env house:1] [--frames 16] [--quality-frames 4]
+        [--reference-frames 1] [--reference-spp 64] [--ladder 1,4,16] [--style furnished|primitives]
+        [--out runs/realism] [--arch cpu|cuda]
+
+Per environment it renders ``--frames`` camera frames spread evenly along the trajectory (``--every K``: every
+K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also in ``quality`` mode, and:
+
+- **Detector.** CenterNet (MobileNetV3 backbone, trained on MS-COCO photos) from the npm package
+  ``@vladmandic/human`` 3.3.6, run by TF.js on WebAssembly through Node.js (``benchmarks/realism/detect.mjs``;
+  installed with ``npm ci`` from ``benchmarks/realism/package-lock.json`` into ``--detector-dir``, nothing downloaded
+  from a model hub). A ground-truth object is *visible* in a frame when its instance mask has at least
+  ``--min-pixels`` pixels and at least ``1 − --max-truncation`` of its cuboid projects inside the image; its box is
+  the mask's bounding box. Detections (class-agnostic NMS at IoU 0.4, as the package itself applies) of score ≥ each
+  threshold are matched greedily, best score first, to boxes of the same class (COCO names mapped to BEAR's:
+  ``dining table`` → ``table``) at IoU ≥ ``--iou``. Per class: visible objects, objects detected; per frame: false
+  positives (detections matching no object, visible or not; those matching an object too small or truncated are
+  ignored). ``localised`` counts visible objects hit by a box of any class.
+- **Reference.** The first ``--reference-frames`` frames are rendered by Blender Cycles (``bpy``, in its own
+  environment: ``uv run --no-project --python 3.11 --with bpy==5.0.1``) from the scene exported by
+  ``benchbot_sim_taichi.export.export_scene`` (glTF, PBR materials with their textures, shading normals), the
+  same camera (intrinsics and pose) and the same lights (sun, lamps, ambient as a sky), path traced at
+  ``--reference-spp`` samples per pixel with no denoiser, and at each ``--ladder`` count (timed: Cycles' time to a
+  given error). Images are encoded as ours are (clamp, gamma 1/2.2, 8 bits); PSNR (dB) and SSIM (luma, 11×11
+  Gaussian window, σ 1.5) of ours fast and quality against the reference, and of each ladder rung;
+  ``reference_psnr_est_db`` estimates the reference's own noise from its largest rung (the rung's MSE against it is
+  σ²/s + σ²/S for s and S samples). The
+  detector also runs on the reference frames. Side-by-side PNGs: ours fast | ours quality | reference.
+
+Writes ``<out>/realism.json`` and PNGs (annotated frames: green = detected visible object, red = missed visible
+object, grey = ignored object, yellow = detection, with class and score), and prints a per-class table. Exit code 2
+with one line on bad flags or a missing tool (Node.js/npm, uv). Limits: the module constants below (``--help``).
+Re-run it after the simulator changes: it renders whatever ``build_scene`` builds (``--style`` sets
+``environment['style']`` for simulators that read it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import select
+import shutil
+import struct
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ASSETS = HERE / "realism"
+
+#: Environments judged by default.
+DEFAULT_ENVS = ("miniroom:1", "house:1")
+#: Frames per environment (spread evenly along its trajectory), and how many of them are also rendered in quality
+#: mode and by the reference renderer. ``--frames``, ``--quality-frames``, ``--reference-frames``.
+FRAMES_PER_ENV = 16
+QUALITY_FRAMES_PER_ENV = 4
+REFERENCE_FRAMES_PER_ENV = 1
+#: Samples per pixel of our quality mode (``--quality-spp``; the renderer's default).
+QUALITY_SPP = 16
+#: Detection score thresholds reported (the first is the headline figure).
+SCORE_THRESHOLDS = (0.3, 0.1)
+#: IoU for a detection to match an object's box (``--iou``); IoU of the detector's own NMS (as @vladmandic/human).
+MATCH_IOU = 0.5
+NMS_IOU = 0.4
+#: A visible object: at least this many mask pixels (``--min-pixels``) and at most this fraction of its cuboid
+#: outside the image (``--max-truncation``).
+MIN_PIXELS = 400
+MAX_TRUNCATION = 0.5
+#: Lowest detection score the detector reports (below every threshold).
+DETECTOR_MIN_SCORE = 0.05
+#: Seconds allowed for ``npm ci``, for the detector's first answer (it compiles WebAssembly) and for each later one
+#: (``--detector-timeout``).
+NPM_TIMEOUT_S = 900
+DETECTOR_TIMEOUT_S = 120.0
+#: Cycles: samples per pixel of the converged reference (``--reference-spp``), the timed lower counts
+#: (``--ladder``), the bpy requirement (``--bpy``), the time allowed for one reference job (``--reference-timeout``).
+REFERENCE_SPP = 64
+REFERENCE_LADDER = (1, 4, 16)
+BPY_REQUIREMENT = "bpy==5.0.1"
+REFERENCE_TIMEOUT_S = 3600
+#: Annotated PNGs written per environment and mode (``--pngs``).
+PNGS_PER_ENV = 3
+
+#: The 80 COCO classes in the detector's order (its class index).
+COCO80 = (
+    "person", "bicycle", "car", "motorcycle", "airplane", "bus", "train", "truck", "boat", "traffic light",
+    "fire hydrant", "stop sign", "parking meter", "bench", "bird", "cat", "dog", "horse", "sheep", "cow", "elephant",
+    "bear", "zebra", "giraffe", "backpack", "umbrella", "handbag", "tie", "suitcase", "frisbee", "skis", "snowboard",
+    "sports ball", "kite", "baseball bat", "baseball glove", "skateboard", "surfboard", "tennis racket", "bottle",
+    "wine glass", "cup", "fork", "knife", "spoon", "bowl", "banana", "apple", "sandwich", "orange", "broccoli",
+    "carrot", "hot dog", "pizza", "donut", "cake", "chair", "couch", "potted plant", "bed", "dining table", "toilet",
+    "tv", "laptop", "mouse", "remote", "keyboard", "cell phone", "microwave", "oven", "toaster", "sink",
+    "refrigerator", "book", "clock", "vase", "scissors", "teddy bear", "hair drier", "toothbrush",
+)
+#: COCO names that BEAR spells differently (every other BEAR class is a COCO name).
+COCO_TO_BEAR = {"dining table": "table"}
+
+#: The detector's control photos: files shipped in registry packages (the scikit-image wheel's ``skimage/data``,
+#: Debian's ``darknet`` package's ``/usr/share/darknet/data``) and the COCO class of each one's main object.
+CONTROL_PHOTOS = {
+    "astronaut.png": "person", "chelsea.png": "cat", "coffee.png": "cup", "motorcycle_left.png": "motorcycle",
+    "dog.jpg": "dog", "eagle.jpg": "bird", "giraffe.jpg": "giraffe", "horses.jpg": "horse", "kite.jpg": "kite",
+    "person.jpg": "person",
+}
+
+
+class RealismError(Exception):
+    """A bad flag or a missing tool: one line ``message`` and a ``hint``; exit code 2."""
+
+    def __init__(self, message: str, hint: str = "") -> None:
+        super().__init__(message)
+        self.message, self.hint = message, hint
+
+
+def bear_name(coco_class: int) -> str:
+    """The BEAR class name of a COCO class index (0..79); COCO names BEAR lacks are returned as they are."""
+    name = COCO80[int(coco_class)]
+    return COCO_TO_BEAR.get(name, name)
+
+
+# ----------------------------------------------------------------------------------------------------- box geometry
+def box_iou(a, b) -> float:
+    """IoU of two boxes ``[x1, y1, x2, y2]`` (pixels, x2 > x1 for a non-empty box); 0 for empty ones."""
+    ix = min(a[2], b[2]) - max(a[0], b[0])
+    iy = min(a[3], b[3]) - max(a[1], b[1])
+    if ix <= 0 or iy <= 0:
+        return 0.0
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return float(inter / union) if union > 0 else 0.0
+
+
+def nms(detections: list, iou: float = NMS_IOU) -> list:
+    """Class-agnostic non-maximum suppression: ``detections`` rows ``[x1, y1, x2, y2, score, class]``, kept best
+    score first; a row overlapping a kept one at IoU > ``iou`` is dropped."""
+    kept: list = []
+    for d in sorted(detections, key=lambda r: -r[4]):
+        if all(box_iou(d, k) <= iou for k in kept):
+            kept.append(d)
+    return kept
+
+
+def cuboid_truncation(lo, hi, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
+                      samples: int = 5) -> float:
+    """Fraction (0..1) of an axis-aligned cuboid (``lo``, ``hi`` (3,) metres, map frame) that falls outside the image
+    or behind the camera, estimated on a ``samples``³ grid of points filling it (camera: OPTICAL frame pose,
+    pinhole ``K``; pixels with integer centres, so the image spans [-0.5, W-0.5] × [-0.5, H-0.5])."""
+    g = [np.linspace(lo[k], hi[k], samples) for k in range(3)]
+    pts = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
+    T = np.asarray(T_map_camera, dtype=np.float64)
+    pc = (pts - T[:3, 3]) @ T[:3, :3]
+    front = pc[:, 2] > 1e-3
+    z = np.where(front, pc[:, 2], 1.0)
+    u = K[0, 0] * pc[:, 0] / z + K[0, 2]
+    v = K[1, 1] * pc[:, 1] / z + K[1, 2]
+    inside = front & (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
+    return float(1.0 - inside.mean())
+
+
+@dataclass
+class Truth:
+    """One ground-truth object seen in a frame: ``instance`` id (class·1000 + n), BEAR ``cls``, mask ``box``
+    ``[x1, y1, x2, y2]`` (pixels, exclusive max), mask ``pixels``, ``truncation`` (0..1) and ``visible`` (counted)."""
+
+    instance: int
+    cls: str
+    box: list
+    pixels: int
+    truncation: float
+    visible: bool
+
+
+def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: np.ndarray,
+                 min_pixels: int = MIN_PIXELS, max_truncation: float = MAX_TRUNCATION) -> list[Truth]:
+    """The ground-truth objects with at least one pixel in ``instance_img`` ((H, W) int32 ``class*1000+n`` ids, 0 =
+    background) of a frame rendered from ``T_map_camera``; ``scene`` gives each instance's class name
+    (``class_list``) and cuboid (``box_min``/``box_max``/``box_instance``)."""
+    H, W = instance_img.shape
+    ids, counts = np.unique(instance_img, return_counts=True)
+    index = {int(i): k for k, i in enumerate(np.asarray(scene.box_instance).tolist())}
+    out = []
+    for iid, n in zip(ids.tolist(), counts.tolist()):
+        if iid <= 0 or iid not in index:
+            continue
+        k = index[iid]
+        ys, xs = np.nonzero(instance_img == iid)
+        box = [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1]
+        trunc = cuboid_truncation(scene.box_min[k], scene.box_max[k], K, T_map_camera, W, H)
+        cls = str(scene.class_list[iid // 1000])
+        out.append(Truth(iid, cls, box, int(n), trunc, n >= min_pixels and trunc <= max_truncation))
+    return out
+
+
+@dataclass
+class FrameScore:
+    """Matching of one frame's detections at one score threshold: ``hits`` instance → matched (visible objects
+    only), ``localised`` instance → hit by a box of any class, ``false_positives`` detections matching nothing."""
+
+    hits: dict = field(default_factory=dict)
+    localised: dict = field(default_factory=dict)
+    false_positives: list = field(default_factory=list)
+
+
+def score_frame(truths: list[Truth], detections: list, threshold: float, iou: float = MATCH_IOU) -> FrameScore:
+    """Greedy matching (best score first) of ``detections`` (rows ``[x1, y1, x2, y2, score, coco_class]``) of score
+    ≥ ``threshold`` to ``truths`` of the same class (BEAR names) at IoU ≥ ``iou``, one detection per object; a
+    detection on an object that is not visible (too small, truncated) is ignored; any other unmatched detection
+    (a wrong class, a box on nothing, a second box on a matched object) is a false positive."""
+    res = FrameScore()
+    taken: set[int] = set()
+    dets = [d for d in sorted(detections, key=lambda r: -r[4]) if d[4] >= threshold]
+    for t in truths:
+        if t.visible:
+            res.hits[t.instance] = False
+            res.localised[t.instance] = any(box_iou(d, t.box) >= iou for d in dets)
+    for d in dets:
+        name = bear_name(d[5])
+        best, best_iou = None, iou
+        for t in truths:
+            if t.cls != name or t.instance in taken:
+                continue
+            o = box_iou(d, t.box)
+            if o >= best_iou:
+                best, best_iou = t, o
+        if best is None:  # a duplicate, or a box on nothing of its class: false positive (unless on an ignored one)
+            if not any(t.cls == name and not t.visible and box_iou(d, t.box) >= iou for t in truths):
+                res.false_positives.append(d)
+            continue
+        taken.add(best.instance)
+        if best.visible:
+            res.hits[best.instance] = True
+    return res
+
+
+# ---------------------------------------------------------------------------------------------------- image metrics
+def _gauss_blur(img: np.ndarray, sigma: float = 1.5, radius: int = 5) -> np.ndarray:
+    x = np.arange(-radius, radius + 1, dtype=np.float64)
+    k = np.exp(-0.5 * (x / sigma) ** 2)
+    k /= k.sum()
+    out = img.astype(np.float64)
+    for axis in (0, 1):
+        pad = [(0, 0)] * out.ndim
+        pad[axis] = (radius, radius)
+        p = np.pad(out, pad, mode="reflect")
+        acc = np.zeros_like(out)
+        for i, w in enumerate(k):
+            sl = [slice(None)] * out.ndim
+            sl[axis] = slice(i, i + out.shape[axis])
+            acc += w * p[tuple(sl)]
+        out = acc
+    return out
+
+
+def luma(rgb: np.ndarray) -> np.ndarray:
+    """Rec. 601 luma (H, W) float64 0..255 of an (H, W, 3) uint8 image."""
+    return rgb.astype(np.float64) @ np.array([0.299, 0.587, 0.114])
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    """PSNR (dB) between two uint8 images of one shape (all channels); ``inf`` when equal."""
+    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
+    return math.inf if mse == 0 else 10.0 * math.log10(255.0 ** 2 / mse)
+
+
+def ssim(a: np.ndarray, b: np.ndarray) -> float:
+    """Mean SSIM of the luma of two (H, W, 3) uint8 images (Gaussian window σ 1.5, K1 0.01, K2 0.03, L 255)."""
+    x, y = luma(a), luma(b)
+    c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
+    mx, my = _gauss_blur(x), _gauss_blur(y)
+    sxx = _gauss_blur(x * x) - mx * mx
+    syy = _gauss_blur(y * y) - my * my
+    sxy = _gauss_blur(x * y) - mx * my
+    s = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+    return float(s.mean())
+
+
+def encode_like_ours(linear: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 of linear radiance, encoded as our renderer encodes it: clamp to [0, 1], ``x^(1/2.2)``,
+    8 bits (``benchbot_sim_taichi.kernels.GAMMA``). Change it with the renderer's camera model."""
+    gamma = 1.0 / 2.2
+    try:
+        from benchbot_sim_taichi.kernels import GAMMA as gamma
+    except ImportError:
+        pass
+    return np.floor(np.power(np.clip(linear, 0.0, 1.0), gamma) * 255.0 + 0.5).astype(np.uint8)
+
+
+# ------------------------------------------------------------------------------------------------------- detector
+def _which(tool: str, hint: str) -> str:
+    path = shutil.which(tool)
+    if path is None:
+        raise RealismError(f"{tool} is not on PATH (needed by the detector or the reference renderer)", hint)
+    return path
+
+
+def install_detector(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> Path:
+    """Install the detector (``package.json``, ``package-lock.json``, ``detect.mjs`` of ``benchmarks/realism``)
+    into ``directory`` with ``npm ci --ignore-scripts``, unless the same lock file is installed there already;
+    returns the path of ``detect.mjs`` there.
+
+    Raises:
+        RealismError: npm is missing, or ``npm ci`` fails or takes longer than ``timeout_s``.
+    """
+    npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
+    directory.mkdir(parents=True, exist_ok=True)
+    lock = (ASSETS / "package-lock.json").read_bytes()
+    stamp = directory / ".installed-lock"
+    for name in ("package.json", "package-lock.json", "detect.mjs"):
+        src = (ASSETS / name).read_bytes()
+        if not (directory / name).is_file() or (directory / name).read_bytes() != src:
+            (directory / name).write_bytes(src)
+    if not (stamp.is_file() and stamp.read_bytes() == lock and (directory / "node_modules").is_dir()):
+        try:
+            proc = subprocess.run([npm, "ci", "--no-audit", "--no-fund", "--ignore-scripts"], cwd=directory,
+                                  capture_output=True, text=True, timeout=timeout_s, check=False)
+        except subprocess.TimeoutExpired:
+            raise RealismError(f"npm ci in {directory} took more than {timeout_s:.0f} s",
+                               "check the network to the npm registry, or pass --no-detector") from None
+        if proc.returncode != 0:
+            last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
+            raise RealismError(f"npm ci in {directory} failed: {last}",
+                               "check the network to the npm registry, or pass --no-detector")
+        stamp.write_bytes(lock)
+    return directory / "detect.mjs"
+
+
+class Detector:
+    """The COCO detector in a Node.js child process (see ``benchmarks/realism/detect.mjs``).
+
+    Args:
+        script: path of the installed ``detect.mjs``. timeout_s: seconds allowed per answer (the first, which
+            loads the model and compiles WebAssembly, gets twice as long).
+
+    Raises:
+        RealismError: Node.js is missing, or the child dies or does not answer in time.
+    """
+
+    def __init__(self, script: Path, timeout_s: float = DETECTOR_TIMEOUT_S) -> None:
+        node = _which("node", "install Node.js (Debian: apt-get install nodejs), or pass --no-detector")
+        self.timeout_s = timeout_s
+        self._log = open(script.parent / "detect.log", "ab")  # noqa: SIM115 - the child's stderr while it lives
+        self._proc = subprocess.Popen([node, str(script), str(DETECTOR_MIN_SCORE)], stdin=subprocess.PIPE,
+                                      stdout=subprocess.PIPE, stderr=self._log, cwd=script.parent)
+        self._buf = b""
+        self.info = json.loads(self._readline(2 * timeout_s))
+        self.seconds = 0.0
+        self.frames = 0
+
+    def _readline(self, timeout_s: float) -> bytes:
+        fd = self._proc.stdout.fileno()
+        deadline = time.monotonic() + timeout_s
+        while b"\n" not in self._buf:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([fd], [], [], left)[0]:
+                self._abort()
+                raise RealismError(f"the detector did not answer within {timeout_s:.0f} s",
+                                   "raise --detector-timeout, or see detect.log in --detector-dir")
+            chunk = os.read(fd, 1 << 16)
+            if not chunk:
+                code = self._abort()
+                raise RealismError(f"the detector exited (code {code})", "see detect.log in --detector-dir")
+            self._buf += chunk
+        line, self._buf = self._buf.split(b"\n", 1)
+        return line
+
+    def detect(self, rgb: np.ndarray) -> list:
+        """Detections of an (H, W, 3) uint8 RGB image: rows ``[x1, y1, x2, y2, score, coco_class]`` (pixels), score
+        ≥ :data:`DETECTOR_MIN_SCORE`, best first, after class-agnostic NMS at :data:`NMS_IOU`."""
+        rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
+        t0 = time.perf_counter()
+        try:
+            self._proc.stdin.write(struct.pack("<II", rgb.shape[0], rgb.shape[1]) + rgb.tobytes())
+            self._proc.stdin.flush()
+        except (BrokenPipeError, ValueError):  # ValueError: written after an earlier failure closed the pipe
+            raise RealismError(f"the detector exited (code {self._abort()})", "see detect.log in --detector-dir") \
+                from None
+        rows = json.loads(self._readline(self.timeout_s))["detections"]
+        self.seconds += time.perf_counter() - t0
+        self.frames += 1
+        return nms([[float(v) for v in r[:5]] + [int(r[5])] for r in rows])
+
+    def _abort(self) -> int:
+        """Kill the child (if still running) and return its exit code."""
+        if self._proc.poll() is None:
+            self._proc.kill()
+        code = self._proc.wait()
+        for f in (self._proc.stdin, self._proc.stdout, self._log):
+            try:
+                f.close()
+            except OSError:
+                pass
+        return code
+
+    def close(self) -> None:
+        """End the child (closing its input; killed after 5 s)."""
+        if self._proc.poll() is None:
+            try:
+                self._proc.stdin.close()
+                self._proc.wait(timeout=5)
+            except (OSError, ValueError, subprocess.TimeoutExpired):
+                pass
+        self._abort()
+
+
+# -------------------------------------------------------------------------------------------------------- reference
+#: map (x, y, z; z up) → glTF (x, y, z; +Y up): (x, z, −y); Blender's importer maps it back.
+MAP_TO_GLTF = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, -1.0, 0, 0], [0, 0, 0, 1.0]])
+
+
+def _flat_material(linear_rgb, name: str):
+    import trimesh
+
+    rgba = np.concatenate([np.clip(np.asarray(linear_rgb, dtype=np.float64), 0, 1), [1.0]])
+    return trimesh.visual.material.PBRMaterial(name=name, baseColorFactor=rgba, metallicFactor=0.0,
+                                               roughnessFactor=1.0, doubleSided=True)
+
+
+def _shell_meshes(scene) -> list:
+    """The room shell (floor tiled as our renderer tiles it, walls, ceiling) as named flat-coloured meshes."""
+    import trimesh
+
+    lo, hi = np.asarray(scene.room_min, np.float64), np.asarray(scene.room_max, np.float64)
+    alb = np.asarray(scene.shell_albedo, np.float64)
+    try:
+        from benchbot_sim_taichi.kernels import TILE_CONTRAST, TILE_M
+    except ImportError:
+        TILE_M, TILE_CONTRAST = 1.0, 0.0
+    edges = [np.unique(np.concatenate([[lo[k]], np.arange(math.ceil(lo[k] / TILE_M), math.floor(hi[k] / TILE_M) + 1)
+                                       * TILE_M, [hi[k]]])) for k in (0, 1)]
+    tiles = {0: [], 1: []}
+    for i in range(len(edges[0]) - 1):
+        for j in range(len(edges[1]) - 1):
+            x0, x1, y0, y1 = edges[0][i], edges[0][i + 1], edges[1][j], edges[1][j + 1]
+            if x1 - x0 < 1e-6 or y1 - y0 < 1e-6:
+                continue
+            parity = (math.floor((x0 + x1) / 2 / TILE_M) + math.floor((y0 + y1) / 2 / TILE_M)) & 1
+            tiles[parity].append([[x0, y0, lo[2]], [x1, y0, lo[2]], [x1, y1, lo[2]], [x0, y1, lo[2]]])
+    out = []
+    for parity, quads in tiles.items():
+        if quads:
+            v = np.asarray(quads, dtype=np.float64).reshape(-1, 3)
+            f = np.array([[4 * q, 4 * q + 1, 4 * q + 2] for q in range(len(quads))]
+                         + [[4 * q, 4 * q + 2, 4 * q + 3] for q in range(len(quads))])
+            m = trimesh.Trimesh(v, f, process=False)
+            m.visual = trimesh.visual.TextureVisuals(
+                material=_flat_material(alb[0] * (1.0 + TILE_CONTRAST * (2.0 * parity - 1.0)), f"floor{parity}"))
+            out.append((f"shell_floor{parity}", m))
+    box = trimesh.creation.box(bounds=np.stack([lo, hi]))
+    box.invert()
+    cz = box.triangles_center[:, 2]
+    for name, sel, a in (("shell_walls", (cz > lo[2] + 1e-6) & (cz < hi[2] - 1e-6), alb[1]),
+                         ("shell_ceiling", cz >= hi[2] - 1e-6, alb[2])):
+        m = box.submesh([np.nonzero(sel)[0]], append=True)
+        m.visual = trimesh.visual.TextureVisuals(material=_flat_material(a, name))
+        out.append((name, m))
+    return out
+
+
+def export_reference_glb(scene, path: Path, *, shell: bool = True) -> dict:
+    """Write the scene as glTF binary (+Y up) for the reference renderer: ``export.export_scene(scene, shell=False)``
+    (PBR materials with their textures, vertex normals, UVs) plus, with ``shell``, the room shell as nodes
+    ``shell_*`` (the floor tiled as our renderer tiles it, which the export leaves out).
+
+    Returns:
+        ``{'triangles': int, 'meshes': int, 'textured_meshes': int}``.
+    """
+    from benchbot_sim_taichi.export import export_scene
+
+    exported = export_scene(scene, path, shell=False)  # in glTF coordinates
+    for name, mesh in _shell_meshes(scene) if shell else []:
+        m = mesh.copy()
+        m.apply_transform(MAP_TO_GLTF)
+        exported.add_geometry(m, node_name=name, geom_name=name)
+    path.write_bytes(exported.export(file_type="glb"))
+    geoms = list(exported.geometry.values())
+    textured = sum(1 for g in geoms if getattr(getattr(g.visual, "material", None), "baseColorTexture", None)
+                   is not None)
+    return {"triangles": int(sum(len(g.faces) for g in geoms)), "meshes": len(geoms), "textured_meshes": textured}
+
+
+def blender_camera(K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
+                   sensor_mm: float = 36.0) -> dict:
+    """Blender camera settings of a pinhole camera: ``K`` (3, 3) pixels (square pixels; principal point anywhere),
+    ``T_map_camera`` (4, 4) its OPTICAL frame (z forward, x right, y down) in the map (= Blender world) frame.
+    Returns ``{width, height, lens_mm, sensor_mm, shift_x, shift_y, matrix_world}`` (Blender cameras look down −z
+    with +y up, a horizontal sensor fit, shifts in units of the width)."""
+    M = np.asarray(T_map_camera, dtype=np.float64) @ np.diag([1.0, -1.0, -1.0, 1.0])
+    return {"width": int(width), "height": int(height), "sensor_mm": sensor_mm,
+            "lens_mm": float(K[0, 0]) * sensor_mm / width,
+            "shift_x": -(float(K[0, 2]) - (width - 1) / 2.0) / width,
+            "shift_y": (float(K[1, 2]) - (height - 1) / 2.0) / width,
+            "matrix_world": M.tolist()}
+
+
+def reference_lights(scene) -> dict:
+    """The scene's lights for the reference: ``ambient`` (3,), ``suns`` and ``points`` (see
+    ``benchmarks/realism/cycles_reference.py``), with the sun's angular radius and the lamps' radius of our
+    renderer's soft shadows."""
+    from benchbot_sim_taichi.kernels import LAMP_RADIUS, SUN_RADIUS
+    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL
+
+    suns, points = [], []
+    for kind, vec, col in zip(np.asarray(scene.light_kind).tolist(), np.asarray(scene.light_vec, np.float64),
+                              np.asarray(scene.light_colour, np.float64)):
+        if kind == LIGHT_DIRECTIONAL:
+            suns.append({"direction": (vec / np.linalg.norm(vec)).tolist(), "colour": col.tolist(),
+                         "angle_rad": 2.0 * SUN_RADIUS})
+        else:
+            points.append({"position": vec.tolist(), "colour": col.tolist(), "radius": LAMP_RADIUS})
+    return {"ambient": np.asarray(scene.ambient, np.float64).tolist(), "suns": suns, "points": points}
+
+
+def run_cycles(job: dict, job_path: Path, bpy_requirement: str = BPY_REQUIREMENT,
+               timeout_s: float = REFERENCE_TIMEOUT_S) -> dict:
+    """Run ``benchmarks/realism/cycles_reference.py`` on ``job`` (written to ``job_path``) in an environment with
+    ``bpy`` (``uv run --no-project --python 3.11 --with <bpy_requirement>``); returns its ``timings.json``.
+
+    Raises:
+        RealismError: uv is missing, the render fails or takes longer than ``timeout_s``.
+    """
+    uv = _which("uv", "install uv (https://docs.astral.sh/uv/), or pass --reference-frames 0")
+    job_path.write_text(json.dumps(job))
+    cmd = [uv, "run", "--no-project", "--python", "3.11", "--with", bpy_requirement, "python",
+           str(ASSETS / "cycles_reference.py"), str(job_path)]
+    log = Path(job["out_dir"]) / "cycles.log"
+    with open(log, "w") as f:
+        try:
+            proc = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=timeout_s, check=False)
+        except subprocess.TimeoutExpired:
+            raise RealismError(f"the Cycles reference took more than {timeout_s:.0f} s",
+                               "lower --reference-spp or --reference-frames, or raise --reference-timeout") from None
+    if proc.returncode != 0:
+        raise RealismError(f"the Cycles reference failed (exit {proc.returncode})", f"see {log}")
+    return json.loads((Path(job["out_dir"]) / "timings.json").read_text())
+
+
+# -------------------------------------------------------------------------------------------------------- drawing
+def annotate(rgb: np.ndarray, truths: list[Truth], detections: list, score: FrameScore, threshold: float,
+             title: str = ""):
+    """A PIL image of ``rgb`` with the objects' mask boxes (green: detected, red: missed, grey: not counted) and
+    the detections of score ≥ ``threshold`` (yellow, ``class score``)."""
+    from PIL import Image, ImageDraw
+
+    img = Image.fromarray(rgb)
+    d = ImageDraw.Draw(img)
+    for t in truths:
+        colour = (140, 140, 140) if not t.visible else (40, 220, 40) if score.hits.get(t.instance) else (230, 40, 40)
+        d.rectangle([t.box[0], t.box[1], t.box[2] - 1, t.box[3] - 1], outline=colour, width=2)
+        d.text((t.box[0] + 3, t.box[3] - 13), t.cls, fill=colour)
+    for det in detections:
+        if det[4] >= threshold:
+            d.rectangle(det[:4], outline=(250, 220, 0), width=1)
+            d.text((det[0] + 2, det[1] + 1), f"{COCO80[det[5]]} {det[4]:.2f}", fill=(250, 220, 0))
+    if title:
+        d.text((4, 4), title, fill=(255, 255, 255))
+    return img
+
+
+def side_by_side(images: list, labels: list):
+    """The images (each (H, W, 3) uint8, one size) in a row, labelled at the top left."""
+    from PIL import Image, ImageDraw
+
+    h, w = images[0].shape[:2]
+    canvas = Image.new("RGB", (w * len(images), h))
+    d = ImageDraw.Draw(canvas)
+    for k, (img, label) in enumerate(zip(images, labels)):
+        canvas.paste(Image.fromarray(img), (k * w, 0))
+        d.text((k * w + 4, 4), label, fill=(255, 255, 255))
+    return canvas
+
+
+# -------------------------------------------------------------------------------------------------------- running
+def select_frames(n_poses: int, frames: int, every: int | None = None) -> list[int]:
+    """Pose indices: every ``every``-th pose, else ``frames`` indices spread evenly over ``n_poses`` (all of them
+    when there are fewer)."""
+    if n_poses <= 0:
+        return []
+    if every:
+        return list(range(0, n_poses, every))
+    if frames >= n_poses:
+        return list(range(n_poses))
+    return sorted({round(i * (n_poses - 1) / max(frames - 1, 1)) for i in range(frames)})
+
+
+def camera_setup(width: int, height: int):
+    """(K, T_robot_camera) of the robot's default camera (``DEFAULT_SENSORS``) at ``width`` × ``height``."""
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.renderer import intrinsics
+
+    cam = DEFAULT_SENSORS["camera"]
+    Tc = np.eye(4)
+    Tc[:3, :3] = R_BODY_OPTICAL
+    Tc[:3, 3] = cam["mount_xyz"]
+    return intrinsics(width, height, float(cam["horizontal_fov_deg"])), Tc
+
+
+class Tally:
+    """Per-class counts over frames for one image source (fast, quality, reference) at each threshold."""
+
+    def __init__(self, thresholds) -> None:
+        self.thresholds = tuple(thresholds)
+        self.visible: dict[str, int] = {}
+        self.detected = {t: {} for t in self.thresholds}
+        self.localised = {t: {} for t in self.thresholds}
+        self.fp = {t: 0 for t in self.thresholds}
+        self.fp_classes = {t: {} for t in self.thresholds}
+        self.frames = 0
+
+    def add(self, truths: list[Truth], scores: dict) -> None:
+        """Count one frame: its truths and its :class:`FrameScore` per threshold."""
+        self.frames += 1
+        cls_of = {t.instance: t.cls for t in truths}
+        for t in truths:
+            if t.visible:
+                self.visible[t.cls] = self.visible.get(t.cls, 0) + 1
+        for thr, s in scores.items():
+            for iid, hit in s.hits.items():
+                self.detected[thr][cls_of[iid]] = self.detected[thr].get(cls_of[iid], 0) + int(hit)
+            for iid, hit in s.localised.items():
+                self.localised[thr][cls_of[iid]] = self.localised[thr].get(cls_of[iid], 0) + int(hit)
+            self.fp[thr] += len(s.false_positives)
+            for d in s.false_positives:
+                self.fp_classes[thr][COCO80[d[5]]] = self.fp_classes[thr].get(COCO80[d[5]], 0) + 1
+
+    def merge(self, other: Tally) -> None:
+        """Add another tally's counts (same thresholds)."""
+        self.frames += other.frames
+        for c, n in other.visible.items():
+            self.visible[c] = self.visible.get(c, 0) + n
+        for thr in self.thresholds:
+            for src, dst in ((other.detected[thr], self.detected[thr]), (other.localised[thr], self.localised[thr]),
+                             (other.fp_classes[thr], self.fp_classes[thr])):
+                for c, n in src.items():
+                    dst[c] = dst.get(c, 0) + n
+            self.fp[thr] += other.fp[thr]
+
+    def as_dict(self) -> dict:
+        """JSON-ready: frames, visible per class, and per threshold detected/localised per class, recall,
+        false positives per frame and their COCO classes."""
+        vis = sum(self.visible.values())
+        out = {"frames": self.frames, "visible": dict(sorted(self.visible.items())), "visible_total": vis}
+        for thr in self.thresholds:
+            det = sum(self.detected[thr].values())
+            out[f"score>={thr}"] = {
+                "detected": dict(sorted(self.detected[thr].items())), "detected_total": det,
+                "recall": det / vis if vis else None,
+                "localised_total": sum(self.localised[thr].values()),
+                "false_positives_per_frame": self.fp[thr] / self.frames if self.frames else None,
+                "false_positive_classes": dict(sorted(self.fp_classes[thr].items(), key=lambda kv: -kv[1])),
+            }
+        return out
+
+
+def _env_spec(name: str, style: str | None) -> dict:
+    from benchbot_sim_taichi import plugin
+
+    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    if name not in envs:
+        raise RealismError(f"unknown environment {name!r}", f"use one of {', '.join(sorted(envs))}")
+    env = dict(envs[name])
+    if style:
+        env["style"] = style
+    return env
+
+
+def judge_environment(name: str, args, detector: Detector | None, out_dir: Path, thresholds) -> dict:
+    """Render, detect, compare for one environment; returns its JSON section and fills PNGs under ``out_dir``."""
+    env = _env_spec(name, args.style)
+    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.scene import build_scene
+
+    from benchbot.core.geometry import se2_to_matrix
+
+    t0 = time.perf_counter()
+    scene = build_scene(env)
+    build_s = time.perf_counter() - t0
+    W, H = args.width, args.height
+    K, Tc = camera_setup(W, H)
+    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
+    idx = select_frames(len(poses), args.frames, args.every)
+    t0 = time.perf_counter()
+    r = Renderer(args.arch)
+    r.set_scene(scene)
+    setup_s = time.perf_counter() - t0
+    env_dir = out_dir / name.replace(":", "_")
+    env_dir.mkdir(parents=True, exist_ok=True)
+    modes = {"fast": Tally(thresholds), "quality": Tally(thresholds), "reference": Tally(thresholds)}
+    times = {"fast": [], "quality": []}
+    frames_json, images = [], {}
+    for n, i in enumerate(idx):
+        T = se2_to_matrix(*poses[i]) @ Tc
+        outs = {}
+        for mode in ("fast", "quality"):
+            if mode == "quality" and n >= args.quality_frames:
+                continue
+            if n == 0:  # compile the mode's kernels outside the timing (kernels do not depend on the image size)
+                r.render(camera_setup(8, 8)[0], T, 8, 8, mode=mode, spp=args.quality_spp)
+            t1 = time.perf_counter()
+            outs[mode] = r.render(K, T, W, H, mode=mode, spp=args.quality_spp)
+            times[mode].append(time.perf_counter() - t1)
+        truths = frame_truths(outs["fast"]["instance"], scene, K, T, args.min_pixels, args.max_truncation)
+        fj = {"pose_index": i, "objects": [t.__dict__ for t in truths]}
+        images[n] = {"T": T, "pose_index": i, "truths": truths, **{m: o["rgb"] for m, o in outs.items()}}
+        if detector is not None:
+            for mode, o in outs.items():
+                dets = detector.detect(o["rgb"])
+                scores = {thr: score_frame(truths, dets, thr, args.iou) for thr in thresholds}
+                modes[mode].add(truths, scores)
+                fj[f"detections_{mode}"] = dets
+                images[n][f"dets_{mode}"] = (dets, scores)
+                if n < args.pngs:
+                    annotate(o["rgb"], truths, dets, scores[thresholds[0]], thresholds[0],
+                             f"{name} pose {i} {mode}").save(env_dir / f"pose{i:03d}_{mode}.png")
+        elif n < args.pngs:
+            for mode, o in outs.items():
+                from PIL import Image
+                Image.fromarray(o["rgb"]).save(env_dir / f"pose{i:03d}_{mode}.png")
+        frames_json.append(fj)
+    section = {"style": env.get("style"), "lighting": scene.lighting, "poses": len(poses), "pose_indices": idx,
+               "build_scene_s": build_s, "renderer_setup_s": setup_s,
+               "primitives": int(np.asarray(scene.prim_type).shape[0]),
+               "triangles": int(np.asarray(scene.tri_v).shape[0]),
+               "ms_per_frame": {m: 1e3 * float(np.mean(v)) for m, v in times.items() if v},
+               "quality_spp": args.quality_spp, "frames": frames_json}
+    if detector is not None:
+        section["detector"] = {m: t.as_dict() for m, t in modes.items() if t.frames}
+    n_ref = min(args.reference_frames, args.quality_frames, len(idx))
+    if n_ref > 0:
+        section["reference"] = reference_section(name, scene, K, W, H, images, n_ref, args, detector, modes,
+                                                 thresholds, env_dir)
+        if detector is not None and modes["reference"].frames:
+            section["detector"]["reference"] = modes["reference"].as_dict()
+    section["_tallies"] = modes
+    return section
+
+
+def reference_section(name: str, scene, K, W: int, H: int, images: dict, n_ref: int, args, detector, modes,
+                      thresholds, env_dir: Path) -> dict:
+    """Render the first ``n_ref`` frames with Cycles; PSNR/SSIM of ours against them; ladder; side-by-sides."""
+    from PIL import Image
+
+    ref_dir = env_dir / "reference"
+    ref_dir.mkdir(exist_ok=True)
+    t0 = time.perf_counter()
+    glb = export_reference_glb(scene, ref_dir / "scene.glb", shell=args.shell != "none")
+    export_s = time.perf_counter() - t0
+    ladder = [s for s in args.ladder if s < args.reference_spp]
+    frames = []
+    for n in range(n_ref):
+        cam = blender_camera(K, images[n]["T"], W, H)
+        cam["name"] = f"frame{n}"
+        frames.append(cam)
+    job = {"glb": str(ref_dir / "scene.glb"), "shell": "solid" if args.shell == "solid" else "camera-only",
+           "lights": reference_lights(scene), "frames": frames, "spp": args.reference_spp, "ladder": ladder,
+           "seed": args.seed, "out_dir": str(ref_dir)}
+    t0 = time.perf_counter()
+    timings = run_cycles(job, ref_dir / "job.json", args.bpy, args.reference_timeout)
+    wall_s = time.perf_counter() - t0
+    out = {"export": {**glb, "seconds": export_s}, "spp": args.reference_spp, "ladder": ladder,
+           "shell": job["shell"], "blender": timings.get("blender"), "import_s": timings.get("import_s"),
+           "wall_s": wall_s, "frames": []}
+    for n in range(n_ref):
+        per = timings["frames"][f"frame{n}"]
+        ref = encode_like_ours(np.load(ref_dir / f"frame{n}_spp{args.reference_spp}.npy"))
+        Image.fromarray(ref).save(ref_dir / f"frame{n}_reference.png")
+        fr = {"pose_index": images[n]["pose_index"], "reference_s": per[str(args.reference_spp)], "ours": {},
+              "ladder": {}}
+        for mode in ("fast", "quality"):
+            if mode in images[n]:
+                fr["ours"][mode] = {"psnr_db": psnr(images[n][mode], ref), "ssim": ssim(images[n][mode], ref)}
+        for s in ladder:
+            img = encode_like_ours(np.load(ref_dir / f"frame{n}_spp{s}.npy"))
+            fr["ladder"][str(s)] = {"seconds": per[str(s)], "psnr_db": psnr(img, ref), "ssim": ssim(img, ref)}
+        if ladder:
+            top = fr["ladder"][str(ladder[-1])]["psnr_db"]
+            fr["reference_psnr_est_db"] = top + 10 * math.log10(args.reference_spp / ladder[-1] + 1.0)
+        imgs = [images[n].get("fast"), images[n].get("quality"), ref]
+        labels = ["ours fast", f"ours quality ({args.quality_spp} spp)", f"Cycles {args.reference_spp} spp"]
+        pairs = [(i, lab) for i, lab in zip(imgs, labels) if i is not None]
+        side_by_side([p[0] for p in pairs], [p[1] for p in pairs]).save(ref_dir / f"side_by_side_{n}.png")
+        if detector is not None:
+            dets = detector.detect(ref)
+            truths = images[n]["truths"]
+            scores = {thr: score_frame(truths, dets, thr, args.iou) for thr in thresholds}
+            modes["reference"].add(truths, scores)
+            annotate(ref, truths, dets, scores[thresholds[0]], thresholds[0],
+                     f"{name} Cycles").save(ref_dir / f"frame{n}_detections.png")
+        out["frames"].append(fr)
+    return out
+
+
+def control_check(detector: Detector, folder: Path) -> dict:
+    """Run the detector on the control photos found in ``folder`` (:data:`CONTROL_PHOTOS`): per photo, whether a
+    detection of score ≥ 0.3 has the main object's class, and the top detections."""
+    from PIL import Image
+
+    res = {}
+    for fname, want in CONTROL_PHOTOS.items():
+        p = folder / fname
+        if not p.is_file():
+            continue
+        rgb = np.asarray(Image.open(p).convert("RGB"))
+        dets = detector.detect(rgb)
+        res[fname] = {"main_object": want, "found": any(COCO80[d[5]] == want and d[4] >= 0.3 for d in dets),
+                      "top": [(COCO80[d[5]], round(d[4], 2)) for d in dets[:5]]}
+    return res
+
+
+def print_table(title: str, tallies: dict, thresholds) -> None:
+    """Per-class table: visible objects and detections (at the first threshold) per image source."""
+    sources = [m for m in ("fast", "quality", "reference") if tallies.get(m) and tallies[m].frames]
+    if not sources:
+        return
+    thr = thresholds[0]
+    classes = sorted(set().union(*[tallies[m].visible for m in sources]))
+    print(f"\n{title}: objects detected at score ≥ {thr} / visible")
+    print(f"{'class':<14}" + "".join(f"{m:>18}" for m in sources))
+    for c in classes:
+        print(f"{c:<14}" + "".join(f"{tallies[m].detected[thr].get(c, 0)}/{tallies[m].visible.get(c, 0)}".rjust(18)
+                                   for m in sources))
+    for label, fn in (("recall", lambda t, th: (sum(t.detected[th].values()) / max(1, sum(t.visible.values())))),
+                      ("FP/frame", lambda t, th: t.fp[th] / max(1, t.frames))):
+        for th in thresholds:
+            print(f"{label + ' ≥' + str(th):<14}" + "".join(f"{fn(tallies[m], th):>18.3f}" for m in sources))
+    print(f"{'frames':<14}" + "".join(f"{tallies[m].frames:>18}" for m in sources))
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        vals = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of whole numbers") from None
+    if any(v <= 0 for v in vals):
+        raise argparse.ArgumentTypeError(f"{text!r}: sample counts must be positive")
+    return vals
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command line (see the module docstring)."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--env", action="append", help=f"environment name:variant, repeatable (default {DEFAULT_ENVS})")
+    ap.add_argument("--style", default=None, help="environment['style'] for the scene builder (default: its own)")
+    ap.add_argument("--frames", type=int, default=FRAMES_PER_ENV, help="frames per environment")
+    ap.add_argument("--every", type=int, default=None, help="every K-th trajectory pose instead of --frames")
+    ap.add_argument("--quality-frames", type=int, default=QUALITY_FRAMES_PER_ENV)
+    ap.add_argument("--quality-spp", type=int, default=QUALITY_SPP)
+    ap.add_argument("--reference-frames", type=int, default=REFERENCE_FRAMES_PER_ENV,
+                    help="frames per environment rendered by Cycles (0: none); at most --quality-frames")
+    ap.add_argument("--reference-spp", type=int, default=REFERENCE_SPP)
+    ap.add_argument("--ladder", type=_int_list, default=list(REFERENCE_LADDER), help="e.g. 1,4,16")
+    ap.add_argument("--reference-timeout", type=float, default=REFERENCE_TIMEOUT_S, help="seconds")
+    ap.add_argument("--bpy", default=BPY_REQUIREMENT, help="the bpy requirement for uv")
+    ap.add_argument("--shell", choices=("camera-only", "solid", "none"), default="camera-only",
+                    help="the room shell in the reference: seen by the camera only (as our renderer, whose shell "
+                         "casts no shadows), solid, or left out")
+    ap.add_argument("--width", type=int, default=640)
+    ap.add_argument("--height", type=int, default=480)
+    ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--min-pixels", type=int, default=MIN_PIXELS)
+    ap.add_argument("--max-truncation", type=float, default=MAX_TRUNCATION)
+    ap.add_argument("--iou", type=float, default=MATCH_IOU)
+    ap.add_argument("--no-detector", action="store_true", help="skip the detector (no Node.js needed)")
+    ap.add_argument("--detector-dir", type=Path,
+                    default=Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "benchbot" /
+                    "realism-detector", help="where npm installs the detector")
+    ap.add_argument("--detector-timeout", type=float, default=DETECTOR_TIMEOUT_S, help="seconds per frame")
+    ap.add_argument("--control-photos", type=Path, default=None,
+                    help="folder with the control photos (astronaut.png, coffee.png, dog.jpg, ...): check the "
+                         "detector on real photos first")
+    ap.add_argument("--pngs", type=int, default=PNGS_PER_ENV, help="annotated PNGs per environment and mode")
+    ap.add_argument("--out", type=Path, default=Path("runs") / "realism")
+    args = ap.parse_args(argv)
+    for flag in ("frames", "quality_spp", "reference_spp", "width", "height", "min_pixels"):
+        if getattr(args, flag) <= 0:
+            ap.error(f"--{flag.replace('_', '-')} must be positive")
+    for flag in ("quality_frames", "reference_frames", "pngs"):
+        if getattr(args, flag) < 0:
+            ap.error(f"--{flag.replace('_', '-')} must be 0 or more")
+    if args.every is not None and args.every <= 0:
+        ap.error("--every must be positive")
+    if not 0.0 <= args.max_truncation <= 1.0 or not 0.0 < args.iou <= 1.0:
+        ap.error("--max-truncation must be in [0, 1] and --iou in (0, 1]")
+    args.env = args.env or list(DEFAULT_ENVS)
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark; 0 on success, 2 on a bad flag or a missing tool (one line on stderr)."""
+    args = parse_args(argv)
+    try:
+        return _run(args)
+    except RealismError as exc:
+        print(f"error: {exc.message}", file=sys.stderr)
+        if exc.hint:
+            print(f"hint: {exc.hint}", file=sys.stderr)
+        return 2
+
+
+def _run(args) -> int:
+    thresholds = SCORE_THRESHOLDS
+    args.out.mkdir(parents=True, exist_ok=True)
+    t_start = time.perf_counter()
+    detector = None
+    report: dict = {"command": " ".join([Path(sys.argv[0]).name] + sys.argv[1:]),
+                    "machine": {"processor": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()},
+                    "settings": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
+                    "thresholds": list(thresholds), "environments": {}}
+    try:
+        if not args.no_detector:
+            detector = Detector(install_detector(args.detector_dir), args.detector_timeout)
+            report["detector"] = {"package": "@vladmandic/human@3.3.6 (npm, MIT)", "model": "centernet",
+                                  "architecture": "CenterNet, MobileNetV3 backbone, 512x512, MS-COCO (80 classes)",
+                                  "runtime": detector.info}
+            if args.control_photos:
+                report["detector"]["control"] = control_check(detector, args.control_photos)
+                found = [v["found"] for v in report["detector"]["control"].values()]
+                print(f"control photos: main object found in {sum(found)} of {len(found)}")
+        overall = {m: Tally(thresholds) for m in ("fast", "quality", "reference")}
+        for name in args.env:
+            section = judge_environment(name, args, detector, args.out, thresholds)
+            tallies = section.pop("_tallies")
+            report["environments"][name] = section
+            if detector is not None:
+                print_table(name, tallies, thresholds)
+                for m, t in tallies.items():
+                    overall[m].merge(t)
+            for fr in section.get("reference", {}).get("frames", []):
+                ours = ", ".join(f"{m} {v['psnr_db']:.2f} dB SSIM {v['ssim']:.3f}" for m, v in fr["ours"].items())
+                print(f"{name}: vs Cycles {args.reference_spp} spp ({fr['reference_s']:.0f} s): {ours}")
+        if detector is not None and len(args.env) > 1:
+            print_table("all environments", overall, thresholds)
+            report["detector"]["overall"] = {m: t.as_dict() for m, t in overall.items() if t.frames}
+    finally:
+        if detector is not None:
+            report.setdefault("detector", {})["seconds_per_frame"] = detector.seconds / max(1, detector.frames)
+            detector.close()
+    report["total_s"] = time.perf_counter() - t_start
+    (args.out / "realism.json").write_text(json.dumps(report, indent=1, default=float))
+    print(f"\nwrote {args.out / 'realism.json'} ({report['total_s']:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,237 @@
+"""benchmarks/realism.py's own logic, without Node.js, Blender or a render: box matching and visibility, image metrics,
+the Blender camera, the glTF export for the reference renderer, and the detector child's protocol and failures
+(a fake ``node`` on PATH speaking the protocol, or hanging)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import stat
+import sys
+import textwrap
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def realism():
+    spec = importlib.util.spec_from_file_location("realism_benchmark", ROOT / "benchmarks" / "realism.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["realism_benchmark"] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    yield mod
+    sys.modules.pop("realism_benchmark", None)
+
+
+def truth(realism, iid, cls, box, visible=True):
+    return realism.Truth(iid, cls, list(box), 1000, 0.0, visible)
+
+
+def det(realism, box, score, name):
+    return list(map(float, box)) + [score, realism.COCO80.index(name)]
+
+
+def test_iou_and_nms(realism):
+    assert realism.box_iou([0, 0, 10, 10], [0, 0, 10, 10]) == 1.0
+    assert realism.box_iou([0, 0, 10, 10], [10, 0, 20, 10]) == 0.0
+    assert realism.box_iou([0, 0, 10, 10], [5, 0, 15, 10]) == pytest.approx(50 / 150)
+    kept = realism.nms([[0, 0, 10, 10, 0.5, 1], [1, 0, 11, 10, 0.9, 2], [50, 50, 60, 60, 0.2, 3]])
+    assert [k[5] for k in kept] == [2, 3]  # class-agnostic, best first
+
+
+def test_matching_maps_coco_names_ignores_hidden_objects_and_counts_false_positives(realism):
+    table = truth(realism, 19001, "table", (100, 100, 200, 160))
+    chair = truth(realism, 18001, "chair", (300, 100, 340, 200))
+    tiny = truth(realism, 18002, "chair", (400, 100, 410, 110), visible=False)
+    dets = [det(realism, (102, 98, 198, 162), 0.8, "dining table"),   # the table, in COCO's name
+            det(realism, (104, 100, 200, 160), 0.5, "dining table"),  # a second box on it: a false positive
+            det(realism, (300, 100, 340, 200), 0.35, "couch"),        # on the chair, wrong class: false positive
+            det(realism, (400, 100, 410, 110), 0.9, "chair"),         # on the hidden chair: ignored
+            det(realism, (500, 300, 600, 400), 0.2, "tv")]            # below the threshold
+    s = realism.score_frame([table, chair, tiny], dets, 0.3)
+    assert s.hits == {19001: True, 18001: False}
+    assert s.localised == {19001: True, 18001: True}
+    assert [realism.COCO80[d[5]] for d in s.false_positives] == ["dining table", "couch"]
+    low = realism.score_frame([table, chair, tiny], dets, 0.1)
+    assert [realism.COCO80[d[5]] for d in low.false_positives] == ["dining table", "couch", "tv"]
+
+
+def test_truncation_and_frame_truths(realism):
+    W, H = 64, 48
+    K = np.array([[32.0, 0, (W - 1) / 2], [0, 32.0, (H - 1) / 2], [0, 0, 1]])
+    T = np.eye(4)  # optical frame = map frame: z forward
+    assert realism.cuboid_truncation([-0.1, -0.1, 2], [0.1, 0.1, 2.2], K, T, W, H) == 0.0
+    assert realism.cuboid_truncation([-0.1, -0.1, -3], [0.1, 0.1, -2], K, T, W, H) == 1.0
+    # x from 0 to 4 m at 1..1.2 m (the image edge at x = z): of the grid's x = 0, 1, 2, 3, 4 only 0 and 1 are inside
+    assert realism.cuboid_truncation([0.0, -0.1, 1.0], [4.0, 0.1, 1.2], K, T, W, H) == pytest.approx(0.6)
+    img = np.zeros((H, W), np.int32)
+    img[10:30, 20:44] = 19001  # 480 pixels, in view
+    img[0:5, 0:5] = 18001      # 25 pixels: too small
+    scene = SimpleNamespace(box_instance=np.array([19001, 18001]), box_min=np.array([[-0.2, -0.1, 2], [-1, -1, 2]]),
+                            box_max=np.array([[0.2, 0.1, 2.2], [-0.9, -0.9, 2.1]]),
+                            class_list=["x"] * 18 + ["chair", "table"])
+    got = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=400)}
+    assert got[19001].cls == "table" and got[19001].box == [20, 10, 44, 30] and got[19001].visible
+    assert got[18001].cls == "chair" and got[18001].pixels == 25 and not got[18001].visible
+
+
+def test_psnr_ssim(realism):
+    rng = np.random.default_rng(0)
+    a = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
+    assert realism.psnr(a, a) == math.inf and realism.ssim(a, a) == pytest.approx(1.0)
+    b = np.clip(a.astype(int) + 10, 0, 255).astype(np.uint8)
+    assert 25 < realism.psnr(a, b) < 29
+    noisy = np.clip(a + rng.normal(0, 40, a.shape), 0, 255).astype(np.uint8)
+    assert realism.ssim(a, noisy) < realism.ssim(a, b) < 1.0
+    lin = np.array([[[0.0, 0.5, 2.0]]])
+    assert realism.encode_like_ours(lin).tolist() == [[[0, round(255 * 0.5 ** (1 / 2.2)), 255]]]
+
+
+def blender_project(cam: dict, p: np.ndarray) -> tuple[float, float]:
+    """Blender's pinhole (horizontal sensor fit) in our pixel convention (integer pixel centres, v down)."""
+    M = np.asarray(cam["matrix_world"])
+    q = np.linalg.inv(M) @ np.append(p, 1.0)  # camera looks down −z, +y up
+    W, H = cam["width"], cam["height"]
+    f = cam["lens_mm"] / cam["sensor_mm"] * W  # pixels
+    # a positive shift moves the view window right (up), so the scene moves left (down) in the image
+    u = W / 2 + f * q[0] / -q[2] - cam["shift_x"] * W - 0.5
+    v = H / 2 - f * q[1] / -q[2] + cam["shift_y"] * W - 0.5
+    return u, v
+
+
+def test_blender_camera_projects_as_ours(realism):
+    W, H = 640, 480
+    K = np.array([[320.0, 0, 300.0], [0, 320.0, 250.0], [0, 0, 1]])  # principal point off centre
+    c, s = math.cos(0.7), math.sin(0.7)
+    T = np.eye(4)
+    T[:3, :3] = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ np.array([[0, 0, 1.0], [-1, 0, 0], [0, -1, 0]]).T
+    T[:3, 3] = [1.0, 2.0, 0.8]
+    cam = realism.blender_camera(K, T, W, H)
+    for p in np.random.default_rng(1).normal(0, 3, (20, 3)):
+        pc = (p - T[:3, 3]) @ T[:3, :3]
+        if pc[2] < 0.1:
+            continue
+        ours = (K[0, 0] * pc[0] / pc[2] + K[0, 2], K[1, 1] * pc[1] / pc[2] + K[1, 2])
+        assert blender_project(cam, p) == pytest.approx(ours, abs=1e-6)
+
+
+def test_reference_export_is_gltf_y_up_with_flat_materials_and_shell(realism):
+    trimesh = pytest.importorskip("trimesh")
+    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi.scene import build_scene
+
+    env = next(e for e in plugin.environment_specs() if e["name"] == "miniroom" and e["variant"] == 1)
+    scene = build_scene(env)
+    path = Path(os.environ.get("TMPDIR", "/tmp")) / f"realism-test-{os.getpid()}.glb"
+    try:
+        info = realism.export_reference_glb(scene, path)
+        loaded = trimesh.load(path, force="scene")
+    finally:
+        path.unlink(missing_ok=True)
+    names = set(loaded.graph.nodes_geometry)
+    assert {"shell_walls", "shell_ceiling", "shell_floor0", "shell_floor1"} <= names
+    assert info["meshes"] == len(names) and info["textured_meshes"] == 0
+    lo, hi = loaded.geometry["shell_walls"].bounds  # glTF: (x, z, −y) of the map
+    assert lo == pytest.approx([scene.room_min[0], scene.room_min[2], -scene.room_max[1]], abs=1e-5)
+    assert hi == pytest.approx([scene.room_max[0], scene.room_max[2], -scene.room_min[1]], abs=1e-5)
+    for name in names:
+        mat = loaded.geometry[name].visual.material
+        assert mat.metallicFactor == 0.0 and mat.roughnessFactor == 1.0
+    walls = np.asarray(loaded.geometry["shell_walls"].visual.material.baseColorFactor[:3], float)
+    assert walls / 255.0 == pytest.approx(scene.shell_albedo[1], abs=2 / 255)  # linear, as glTF wants
+    lights = realism.reference_lights(scene)
+    assert lights["ambient"] == pytest.approx(scene.ambient.tolist())
+    assert len(lights["suns"]) + len(lights["points"]) == len(scene.light_kind)
+
+
+def fake_node(tmp_path: Path, body: str) -> Path:
+    """A ``node`` on PATH: a Python script with ``body`` (the detector's protocol, or not)."""
+    exe = tmp_path / "bin" / "node"
+    exe.parent.mkdir()
+    exe.write_text(f"#!{sys.executable}\n" + textwrap.dedent(body))
+    exe.chmod(exe.stat().st_mode | stat.S_IXUSR)
+    return exe
+
+
+SPEAKS = """
+import json, struct, sys
+out = sys.stdout
+out.write(json.dumps({"ready": True, "backend": "fake"}) + "\\n"); out.flush()
+inp = sys.stdin.buffer
+while True:
+    head = inp.read(8)
+    if len(head) < 8:
+        break
+    h, w = struct.unpack("<II", head)
+    if h == 0:
+        break
+    px = inp.read(h * w * 3)
+    mean = sum(px) / len(px)
+    out.write(json.dumps({"detections": [[1, 2, w - 1, h - 2, 0.9, 62], [1, 2, w - 2, h - 2, 0.5, 56],
+                                         [0, 0, 3, 3, mean / 255, 0]]}) + "\\n")
+    out.flush()
+"""
+
+
+def test_detector_protocol_with_a_fake_node(realism, tmp_path, monkeypatch):
+    fake_node(tmp_path, SPEAKS)
+    monkeypatch.setenv("PATH", f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}")
+    script = tmp_path / "detect.mjs"
+    script.write_text("// fake")
+    d = realism.Detector(script, timeout_s=10)
+    try:
+        assert d.info["backend"] == "fake"
+        img = np.full((6, 8, 3), 51, np.uint8)
+        rows = d.detect(img)
+        assert [r[5] for r in rows] == [62, 0]  # the chair under the tv box suppressed (IoU > 0.4)
+        assert rows[0][:4] == [1.0, 2.0, 7.0, 4.0] and rows[1][4] == pytest.approx(0.2)
+        assert realism.bear_name(rows[0][5]) == "tv" and realism.bear_name(60) == "table"
+    finally:
+        d.close()
+
+
+def test_detector_that_hangs_or_dies_is_one_error(realism, tmp_path, monkeypatch):
+    fake_node(tmp_path, "import time\ntime.sleep(60)\n")
+    monkeypatch.setenv("PATH", f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}")
+    script = tmp_path / "detect.mjs"
+    script.write_text("// fake")
+    with pytest.raises(realism.RealismError, match="did not answer within 1 s"):
+        realism.Detector(script, timeout_s=0.5)
+    (tmp_path / "bin" / "node").write_text(f"#!{sys.executable}\nimport sys\nsys.exit(3)\n")
+    with pytest.raises(realism.RealismError, match=r"exited \(code 3\)"):
+        realism.Detector(script, timeout_s=5)
+
+
+def test_missing_tools_are_one_line_errors(realism, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("PATH", str(tmp_path))
+    with pytest.raises(realism.RealismError, match="npm is not on PATH"):
+        realism.install_detector(tmp_path / "det")
+    assert realism.main(["--env", "nowhere:1", "--no-detector", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("error: unknown environment 'nowhere:1'") and err[1].startswith("hint: use one of")
+
+
+def test_select_frames(realism):
+    assert realism.select_frames(48, 4) == [0, 16, 31, 47]
+    assert realism.select_frames(3, 16) == [0, 1, 2]
+    assert realism.select_frames(10, 16, every=4) == [0, 4, 8]
+    assert realism.select_frames(0, 4) == []
+
+
+def test_tally_counts_and_merges(realism):
+    t1, t2 = realism.Tally((0.3,)), realism.Tally((0.3,))
+    tr = [truth(realism, 19001, "table", (0, 0, 10, 10))]
+    t1.add(tr, {0.3: realism.score_frame(tr, [det(realism, (0, 0, 10, 10), 0.9, "dining table")], 0.3)})
+    t2.add(tr, {0.3: realism.score_frame(tr, [det(realism, (50, 50, 60, 60), 0.9, "cup")], 0.3)})
+    t1.merge(t2)
+    d = t1.as_dict()
+    assert d["visible"] == {"table": 2} and d["score>=0.3"]["detected"] == {"table": 1}
+    assert d["score>=0.3"]["recall"] == 0.5 and d["score>=0.3"]["false_positives_per_frame"] == 0.5
+    assert json.loads(json.dumps(d)) == d
