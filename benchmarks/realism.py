@@ -733,7 +733,7 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
                "quality_spp": args.quality_spp, "frames": frames_json}
     if detector is not None:
         section["detector"] = {m: t.as_dict() for m, t in modes.items() if t.frames}
-    n_ref = min(args.reference_frames, args.quality_frames, len(idx))
+    n_ref = min(args.reference_frames, len(idx))
     if n_ref > 0:
         section["reference"] = reference_section(name, scene, K, W, H, images, n_ref, args, detector, modes,
                                                  thresholds, env_dir)
@@ -854,7 +854,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--quality-frames", type=int, default=QUALITY_FRAMES_PER_ENV)
     ap.add_argument("--quality-spp", type=int, default=QUALITY_SPP)
     ap.add_argument("--reference-frames", type=int, default=REFERENCE_FRAMES_PER_ENV,
-                    help="frames per environment rendered by Cycles (0: none); at most --quality-frames")
+                    help="frames per environment rendered by Cycles (0: none): the first ones")
     ap.add_argument("--reference-spp", type=int, default=REFERENCE_SPP)
     ap.add_argument("--ladder", type=_int_list, default=list(REFERENCE_LADDER), help="e.g. 1,4,16")
     ap.add_argument("--reference-timeout", type=float, default=REFERENCE_TIMEOUT_S, help="seconds")
