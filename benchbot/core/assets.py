@@ -51,6 +51,8 @@ class AssetInfo:
         mount: where it goes: ``floor``, ``wall``, ``ceiling`` or ``surface`` (on a table/counter), or ``None``
             when the manifest does not say.
         licence_url: the licence's URL, or ``""``.
+        tags: free words about the model (e.g. ``row`` for a row of books, ``closed`` for a shut laptop,
+            ``upright`` for cutlery standing on its end).
     """
 
     id: str
@@ -70,6 +72,7 @@ class AssetInfo:
     pack: str
     mount: str | None = None
     licence_url: str = ""
+    tags: tuple[str, ...] = ()
 
     @property
     def class_name(self) -> str | None:
@@ -173,7 +176,7 @@ def _asset(entry: dict[str, Any], glb: Path, pack: str) -> AssetInfo:
         size_m=tuple(float(v) for v in entry["size_m"]), triangles=int(entry["triangles"]),
         textures=tuple(dict(t) for t in entry["textures"]), library=entry["library"], model=entry["model"],
         creator=entry["creator"], licence=entry["licence"], sha256=entry["sha256"], path=glb, pack=pack,
-        mount=entry.get("mount"), licence_url=entry.get("licence_url", ""),
+        mount=entry.get("mount"), licence_url=entry.get("licence_url", ""), tags=tuple(entry.get("tags", ())),
     )
 
 
