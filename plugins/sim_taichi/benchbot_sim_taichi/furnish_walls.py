@@ -28,17 +28,24 @@ DISTRACTOR_FILL = 0.7
 
 #: Distractor kinds per room kind: (kind, weight). Never a GT class (checked).
 ROOM_DISTRACTORS: dict[str, tuple[tuple[str, float], ...]] = {
-    "kitchen": (("counter", 3.0), ("cabinet", 2.0), ("kitchen_cabinet", 2.0), ("shelf", 1.0)),
-    "bathroom": (("bathtub", 2.0), ("shower", 1.0), ("washing_machine", 1.5), ("cabinet", 1.5)),
-    "bedroom": (("wardrobe", 2.0), ("dresser", 2.0), ("nightstand", 1.0), ("bookcase", 1.0)),
-    "living_room": (("bookcase", 2.0), ("cabinet", 2.0), ("floor_lamp", 1.0), ("plant_stand", 0.5),
-                    ("dresser", 0.5)),
-    "office": (("bookcase", 2.0), ("shelf", 2.0), ("cabinet", 1.0), ("floor_lamp", 0.5)),
-    "hall": (("cabinet", 1.0), ("shelf", 1.0), ("coat_rack", 1.0)),
+    "kitchen": (("counter", 3.0), ("cabinet", 2.0), ("shelf", 0.5), ("trash_can", 0.5)),
+    "bathroom": (("bathtub", 2.0), ("shower", 1.0), ("washing_machine", 1.5), ("dryer", 0.5), ("cabinet", 1.0),
+                 ("laundry_basket", 0.5), ("trash_can", 0.3)),
+    "bedroom": (("wardrobe", 2.0), ("dresser", 2.0), ("nightstand", 1.0), ("bookcase", 0.5),
+                ("laundry_basket", 0.3)),
+    "living_room": (("bookcase", 2.0), ("cabinet", 2.0), ("floor_lamp", 1.0), ("dresser", 0.5), ("piano", 0.5),
+                    ("fireplace", 0.5), ("speaker", 0.5)),
+    "office": (("bookcase", 2.0), ("shelf", 2.0), ("cabinet", 1.0), ("floor_lamp", 0.5), ("trash_can", 0.5)),
+    "hall": (("cabinet", 1.0), ("shelf", 1.0), ("floor_lamp", 0.5), ("trash_can", 0.3)),
 }
 
+#: What goes with a distractor: {its kind: (the kind added, probability)} — a table lamp on top, a wall cabinet
+#: WALL_CABINET_GAP_M above a kitchen counter.
+TOPPERS = {"nightstand": ("table_lamp", 0.6), "dresser": ("table_lamp", 0.4), "counter": ("wall_cabinet", 0.7)}
+#: Gap (m) between a kitchen counter's top and the wall cabinet above it.
+WALL_CABINET_GAP_M = 0.55
 #: Wall-hung distractor kinds (in every room).
-WALL_DISTRACTORS = ("picture", "mirror")
+WALL_DISTRACTORS = ("picture",)
 #: Range (m) of the height of a wall-hung distractor's centre (its bottom stays above OVERHEAD_CLEAR_Z_M).
 PICTURE_CENTRE_Z_M = (1.45, 1.75)
 
@@ -95,6 +102,7 @@ def place_span(span, idx: int, space: Space, library, plan, seed, bounds_of, out
         if s + w <= length and hi[2] <= max_h and space.why_not(lo, hi, gt_margin=DISTRACTOR_CLEARANCE_M,
                                              placed_margin=DISTRACTOR_CLEARANCE_M, openings=True) is None:
             add_placement(out, space, asset, lo, hi, k, "distractor", bounds_of)
+            _add_topper(asset, lo, hi, a, t, n, s, k, space, library, plan, rng, bounds_of, out)
             s += w + float(rng.uniform(0.05, 0.5))
         else:
             s += 0.2
@@ -115,6 +123,39 @@ def place_span(span, idx: int, space: Space, library, plan, seed, bounds_of, out
             s += w + float(rng.uniform(0.8, 2.0))
         else:
             s += 0.3
+
+
+def _add_topper(unit, lo, hi, a, t, n, s, k, space: Space, library, plan, rng, bounds_of, out: Furnishing) -> None:
+    """What goes with a distractor just placed (TOPPERS): a table lamp on a nightstand or dresser (at random), a
+    wall cabinet above a kitchen counter (aligned with it)."""
+    kind, p = TOPPERS.get(unit.kind, (None, 0.0))
+    if kind is None or rng.random() >= p:
+        return
+    assets = furniture_of_kinds(library, (kind,))
+    if not assets:
+        return
+    asset = assets[int(rng.integers(len(assets)))]
+    w0, d0, h0 = (float(v) for v in asset.size_m)
+    if kind == "wall_cabinet":
+        sc = float(np.clip(np.dot(hi[:2] - lo[:2], np.abs(t)) / w0, 0.8, 1.2))
+        z0 = float(hi[2]) + WALL_CABINET_GAP_M
+        along = float(np.dot(hi[:2] - lo[:2], np.abs(t)))
+        tlo, thi, _ = _natural_box(asset, a, t, n, s + (along - w0 * sc) / 2, z0, sc)
+        if thi[2] > float(getattr(plan, "wall_height", 2.6)) - 0.02:
+            return
+        kw = {"corridor": z0 < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}
+    else:  # on top, centred
+        sc = float(min(1.0, 0.6 * float(np.min(hi[:2] - lo[:2])) / max(w0, d0)))
+        c = (lo[:2] + hi[:2]) / 2
+        tlo = np.array([c[0] - w0 * sc / 2, c[1] - w0 * sc / 2, hi[2]])
+        thi = np.array([c[0] + w0 * sc / 2, c[1] + w0 * sc / 2, hi[2] + h0 * sc])
+        if k % 2 == 0:
+            tlo[1], thi[1] = c[1] - d0 * sc / 2, c[1] + d0 * sc / 2
+        else:
+            tlo[0], thi[0] = c[0] - d0 * sc / 2, c[0] + d0 * sc / 2
+        kw = {"corridor": False, "doors": False}
+    if space.why_not(tlo, thi, gt_margin=DISTRACTOR_CLEARANCE_M, **kw) is None:
+        add_placement(out, space, asset, tlo, thi, k, "distractor", bounds_of)
 
 
 def place_openings(space: Space, library, plan, seed, bounds_of, out: Furnishing) -> None:

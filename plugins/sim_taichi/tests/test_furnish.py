@@ -437,6 +437,27 @@ def test_room_kinds_choose_distractor_kinds(lib):
     assert "wardrobe" in kinds["bedroom"] and "bathtub" not in kinds["bedroom"]
 
 
+def test_kitchen_counters_get_wall_cabinets_and_nightstands_lamps():
+    library = AssetLibrary([asset("counter_a", "counter", (0.6, 0.6, 0.9)),
+                            asset("wall_cabinet_a", "wall_cabinet", (0.6, 0.35, 0.7), mount="wall"),
+                            asset("nightstand_a", "nightstand", (0.45, 0.4, 0.55)),
+                            asset("table_lamp_a", "table_lamp", (0.25, 0.25, 0.45))])
+    res = F.furnish_home([], one_room_plan(kind="kitchen"), library, seed=0)
+    boxes = {k: [placed_box(library, p) for p in res.placements if p.asset_id == k]
+             for k in ("counter_a", "wall_cabinet_a")}
+    assert len(boxes["counter_a"]) >= 3 and len(boxes["wall_cabinet_a"]) >= 1
+    for cab in boxes["wall_cabinet_a"]:  # over a counter's footprint, 0.55 m above its top
+        assert any(np.all(cab[0][:2] >= c[0][:2] - 1e-9) and np.all(cab[1][:2] <= c[1][:2] + 1e-9)
+                   and abs(cab[0][2] - c[1][2] - 0.55) < 1e-9 for c in boxes["counter_a"])
+    res = F.furnish_home([], one_room_plan(kind="bedroom"), library, seed=0)
+    stands = [placed_box(library, p) for p in res.placements if p.asset_id == "nightstand_a"]
+    lamps = [placed_box(library, p) for p in res.placements if p.asset_id == "table_lamp_a"]
+    assert stands and lamps
+    for lamp in lamps:  # on top of a nightstand, within its footprint
+        assert any(abs(lamp[0][2] - st[1][2]) < 1e-9 and np.all(lamp[0][:2] >= st[0][:2])
+                   and np.all(lamp[1][:2] <= st[1][:2]) for st in stands)
+
+
 def test_a_class_without_models_is_reported_not_placed():
     library = AssetLibrary([obj_asset("chair_a", "chair", (0.5, 0.5, 0.9))])
     objs = [gt("chair", [1, 1, 0], [1.5, 1.5, 0.9]), gt("toaster", [3, 3, 0], [3.3, 3.2, 0.2])]
