@@ -24,10 +24,11 @@ K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also
   same camera (intrinsics and pose) and the same lights (sun, lamps, ambient as a sky), path traced at
   ``--reference-spp`` samples per pixel with no denoiser, and at each ``--ladder`` count (timed: Cycles' time to a
   given error). Images are encoded as ours are (clamp, gamma 1/2.2, 8 bits); PSNR (dB) and SSIM (luma, 11×11
-  Gaussian window, σ 1.5) of ours fast and quality against the reference, and of each ladder rung;
-  ``reference_psnr_est_db`` estimates the reference's own noise from its largest rung (the rung's MSE against it is
-  σ²/s + σ²/S for s and S samples). The
-  detector also runs on the reference frames. Side-by-side PNGs: ours fast | ours quality | reference.
+  Gaussian window, σ 1.5) of ours fast and quality against the reference, also with the reference's exposure
+  matched to ours (``exposure_gain``, one scalar), and of each ladder rung (``cycles_s_to_same_psnr``: Cycles'
+  time to our error, interpolated); ``reference_psnr_est_db`` estimates the reference's own noise from its largest
+  rung (the rung's MSE against it is σ²/s + σ²/S for s and S samples). The detector also runs on the reference
+  frames. Side-by-side PNGs: ours fast | ours quality | reference.
 
 Writes ``<out>/realism.json`` and PNGs (annotated frames: green = detected visible object, red = missed visible
 object, grey = ignored object, yellow = detection, with class and score), and prints a per-class table. Exit code 2
@@ -39,6 +40,7 @@ Re-run it after the simulator changes: it renders whatever ``build_scene`` build
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import os
@@ -294,6 +296,16 @@ def encode_like_ours(linear: np.ndarray) -> np.ndarray:
     return np.floor(np.power(np.clip(linear, 0.0, 1.0), gamma) * 255.0 + 0.5).astype(np.uint8)
 
 
+def exposure_gain(ours: np.ndarray, reference_linear: np.ndarray) -> float:
+    """The scalar g for which ``g · reference_linear`` has the linear radiance of ``ours`` ((H, W, 3) uint8, decoded
+    with our gamma) summed over the pixels ours has not clipped (all channels < 250): a camera's exposure, so that
+    PSNR/SSIM can also be read with the overall brightness factored out. 1 when nothing is left to compare."""
+    decoded = np.power(ours.astype(np.float64) / 255.0, 2.2)
+    keep = ours.max(axis=2) < 250
+    den = float(np.asarray(reference_linear, np.float64)[keep].sum())
+    return float(decoded[keep].sum() / den) if den > 1e-12 else 1.0
+
+
 # ------------------------------------------------------------------------------------------------------- detector
 def _which(tool: str, hint: str) -> str:
     path = shutil.which(tool)
@@ -485,6 +497,22 @@ def export_reference_glb(scene, path: Path, *, shell: bool = True) -> dict:
     textured = sum(1 for g in geoms if getattr(getattr(g.visual, "material", None), "baseColorTexture", None)
                    is not None)
     return {"triangles": int(sum(len(g.faces) for g in geoms)), "meshes": len(geoms), "textured_meshes": textured}
+
+
+def seconds_to_reach(ladder: dict, target_db: float) -> dict:
+    """Cycles' time to reach ``target_db`` PSNR against the reference, from the ladder (``{spp: {seconds,
+    psnr_db}}``): interpolated linearly in PSNR between the rungs around it → ``{'seconds': s, 'bound': '='}``; below
+    the lowest rung ``{'seconds': that rung's, 'bound': '<'}``, above the highest ``'>'``; ``{}`` without rungs."""
+    rungs = sorted((int(k), v["seconds"], v["psnr_db"]) for k, v in ladder.items())
+    if not rungs:
+        return {}
+    if target_db <= rungs[0][2]:
+        return {"seconds": rungs[0][1], "bound": "<"}
+    for (_, s0, p0), (_, s1, p1) in itertools.pairwise(rungs):
+        if p0 <= target_db <= p1:
+            f = (target_db - p0) / (p1 - p0) if p1 > p0 else 1.0
+            return {"seconds": s0 + f * (s1 - s0), "bound": "="}
+    return {"seconds": rungs[-1][1], "bound": ">"}
 
 
 def blender_camera(K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
@@ -770,19 +798,27 @@ def reference_section(name: str, scene, K, W: int, H: int, images: dict, n_ref: 
            "wall_s": wall_s, "frames": []}
     for n in range(n_ref):
         per = timings["frames"][f"frame{n}"]
-        ref = encode_like_ours(np.load(ref_dir / f"frame{n}_spp{args.reference_spp}.npy"))
+        ref_linear = np.load(ref_dir / f"frame{n}_spp{args.reference_spp}.npy")
+        ref = encode_like_ours(ref_linear)
         Image.fromarray(ref).save(ref_dir / f"frame{n}_reference.png")
         fr = {"pose_index": images[n]["pose_index"], "reference_s": per[str(args.reference_spp)], "ours": {},
               "ladder": {}}
         for mode in ("fast", "quality"):
             if mode in images[n]:
-                fr["ours"][mode] = {"psnr_db": psnr(images[n][mode], ref), "ssim": ssim(images[n][mode], ref)}
+                ours = images[n][mode]
+                gain = exposure_gain(ours, ref_linear)
+                matched = encode_like_ours(gain * ref_linear)
+                fr["ours"][mode] = {"psnr_db": psnr(ours, ref), "ssim": ssim(ours, ref), "exposure_gain": gain,
+                                    "psnr_db_exposure_matched": psnr(ours, matched),
+                                    "ssim_exposure_matched": ssim(ours, matched)}
         for s in ladder:
             img = encode_like_ours(np.load(ref_dir / f"frame{n}_spp{s}.npy"))
             fr["ladder"][str(s)] = {"seconds": per[str(s)], "psnr_db": psnr(img, ref), "ssim": ssim(img, ref)}
         if ladder:
             top = fr["ladder"][str(ladder[-1])]["psnr_db"]
             fr["reference_psnr_est_db"] = top + 10 * math.log10(args.reference_spp / ladder[-1] + 1.0)
+            for mode, v in fr["ours"].items():
+                v["cycles_s_to_same_psnr"] = seconds_to_reach(fr["ladder"], v["psnr_db"])
         imgs = [images[n].get("fast"), images[n].get("quality"), ref]
         labels = ["ours fast", f"ours quality ({args.quality_spp} spp)", f"Cycles {args.reference_spp} spp"]
         pairs = [(i, lab) for i, lab in zip(imgs, labels) if i is not None]
@@ -935,7 +971,10 @@ def _run(args) -> int:
                 for m, t in tallies.items():
                     overall[m].merge(t)
             for fr in section.get("reference", {}).get("frames", []):
-                ours = ", ".join(f"{m} {v['psnr_db']:.2f} dB SSIM {v['ssim']:.3f}" for m, v in fr["ours"].items())
+                ours = ", ".join(f"{m} {v['psnr_db']:.2f} dB SSIM {v['ssim']:.3f} (Cycles "
+                                 f"{v['cycles_s_to_same_psnr'].get('bound', '')}"
+                                 f"{v['cycles_s_to_same_psnr'].get('seconds', math.nan):.0f} s to match)"
+                                 for m, v in fr["ours"].items())
                 print(f"{name}: vs Cycles {args.reference_spp} spp ({fr['reference_s']:.0f} s): {ours}")
         if detector is not None and len(args.env) > 1:
             print_table("all environments", overall, thresholds)

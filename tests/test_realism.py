@@ -235,3 +235,22 @@ def test_tally_counts_and_merges(realism):
     assert d["visible"] == {"table": 2} and d["score>=0.3"]["detected"] == {"table": 1}
     assert d["score>=0.3"]["recall"] == 0.5 and d["score>=0.3"]["false_positives_per_frame"] == 0.5
     assert json.loads(json.dumps(d)) == d
+
+
+def test_seconds_to_reach(realism):
+    ladder = {"1": {"seconds": 5.0, "psnr_db": 22.0}, "4": {"seconds": 15.0, "psnr_db": 30.0},
+              "16": {"seconds": 50.0, "psnr_db": 38.0}}
+    assert realism.seconds_to_reach(ladder, 34.0) == {"seconds": 32.5, "bound": "="}
+    assert realism.seconds_to_reach(ladder, 20.0) == {"seconds": 5.0, "bound": "<"}
+    assert realism.seconds_to_reach(ladder, 45.0) == {"seconds": 50.0, "bound": ">"}
+    assert realism.seconds_to_reach({}, 30.0) == {}
+
+
+def test_exposure_gain_recovers_a_brightness_factor(realism):
+    rng = np.random.default_rng(2)
+    lin = rng.uniform(0.0, 0.5, (30, 40, 3))
+    ours = realism.encode_like_ours(lin)
+    g = realism.exposure_gain(ours, lin / 4.0)  # a reference four times darker
+    assert g == pytest.approx(4.0, rel=0.02)
+    assert realism.psnr(ours, realism.encode_like_ours(g * lin / 4.0)) > 40
+    assert realism.exposure_gain(np.full((2, 2, 3), 255, np.uint8), np.ones((2, 2, 3))) == 1.0
