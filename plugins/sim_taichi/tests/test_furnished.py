@@ -1,7 +1,7 @@
 """Furnished homes end to end (benchbot_sim_taichi.furnished + scene.build_scene, style ``furnished``) on the ten BEAR
-environments with the installed asset packs: the passive trajectories are collision-free with the added walls and
-furniture, the variants of a home share their house, a seed gives one house, and the primitive style is still the
-default. No Taichi."""
+environments with the installed asset packs: the ground truth is unchanged, the models of every object bound exactly
+its cuboid, the passive trajectories are collision-free with the added walls and furniture, the variants of a home
+share their house, a seed gives one house, and the primitive style is still the default. No Taichi."""
 
 from __future__ import annotations
 
@@ -10,8 +10,11 @@ import json
 import numpy as np
 import pytest
 
+from benchbot.core.assets import asset_library
 from benchbot.core.errors import BackendError
+from benchbot_sim_taichi.furnished import furnish_environment
 from benchbot_sim_taichi.kinematics import Obstacles
+from benchbot_sim_taichi.meshes import instance_bounds
 from benchbot_sim_taichi.plugin import DATA_DIR
 from benchbot_sim_taichi.scene import build_scene
 
@@ -31,6 +34,39 @@ def _environment(name: str, **extra) -> dict:
 @pytest.fixture(scope="module")
 def scenes() -> dict:
     return {name: build_scene(_environment(name, style="furnished"), seed=0) for name in ENVS}
+
+
+def test_furnished_homes_draw_textured_models(scenes):
+    lib = asset_library()
+    assert lib.all(), "no asset pack is installed (benchbot-assets-sh3d provides one)"
+    for name, scene in scenes.items():
+        assert scene.style == "furnished"
+        textured = int((scene.mat_texture >= 0).sum())
+        assert scene.tri_v.shape[0] > 5000 and textured > 5, (name, scene.tri_v.shape, textured)
+
+
+@pytest.mark.parametrize("name", ENVS)
+def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
+    scene = scenes[name]
+    objects = json.loads((DATA_DIR / f"{name}.json").read_text())["ground_truth"]["objects"]
+    assert scene.n_boxes == len(objects)
+    for i, o in enumerate(objects):
+        c, e = np.asarray(o["centroid"]), np.asarray(o["extent"])
+        np.testing.assert_allclose(scene.box_min[i], c - e / 2, atol=1e-5)
+        np.testing.assert_allclose(scene.box_max[i], c + e / 2, atol=1e-5)
+    home = furnish_environment(objects, str(DATA_DIR / f"{name}.json"), [], seed=0)
+    by_object: dict[int, list] = {}
+    for inst in home.instances:
+        if inst.object_index >= 0:
+            by_object.setdefault(inst.object_index, []).append(instance_bounds(inst))
+    modelled = set(by_object)
+    assert len(modelled) >= 0.9 * len(objects), f"{name}: only {len(modelled)} of {len(objects)} objects have models"
+    for i, bounds in by_object.items():
+        lo = np.min([b[0] for b in bounds], axis=0)
+        hi = np.max([b[1] for b in bounds], axis=0)
+        c, e = np.asarray(objects[i]["centroid"]), np.asarray(objects[i]["extent"])
+        np.testing.assert_allclose(lo, c - e / 2, atol=1e-4, err_msg=f"{name} object {i} {objects[i]['class']}")
+        np.testing.assert_allclose(hi, c + e / 2, atol=1e-4, err_msg=f"{name} object {i} {objects[i]['class']}")
 
 
 @pytest.mark.parametrize("name", ENVS)
