@@ -121,6 +121,7 @@ class Space:
         walls = list(getattr(plan, "walls", []) or [])
         self.wall_lo = np.array([np.asarray(w.lo, dtype=np.float64) for w in walls]).reshape(-1, 3)
         self.wall_hi = np.array([np.asarray(w.hi, dtype=np.float64) for w in walls]).reshape(-1, 3)
+        self.counts: dict = {}  # what the steps count, e.g. (room, kind) -> wall-hung distractors
         self.placed_lo = np.zeros((0, 3))
         self.placed_hi = np.zeros((0, 3))
         doors, holes = [], []

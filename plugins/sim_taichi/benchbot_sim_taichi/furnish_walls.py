@@ -39,15 +39,23 @@ ROOM_DISTRACTORS: dict[str, tuple[tuple[str, float], ...]] = {
     "hall": (("cabinet", 1.0), ("shelf", 1.0), ("floor_lamp", 0.5), ("trash_can", 0.3)),
 }
 
-#: What goes with a distractor: {its kind: (the kind added, probability)} — a table lamp on top, a wall cabinet
-#: WALL_CABINET_GAP_M above a kitchen counter.
-TOPPERS = {"nightstand": ("table_lamp", 0.6), "dresser": ("table_lamp", 0.4), "counter": ("wall_cabinet", 0.7)}
+#: What goes with a distractor: {its kind: ((kind added, probability), ...)} — things on its top (models mounted
+#: on a ``surface``: a table lamp, a photo frame), a wall cabinet WALL_CABINET_GAP_M above a kitchen counter.
+TOPPERS: dict[str, tuple[tuple[str, float], ...]] = {
+    "nightstand": (("table_lamp", 0.6), ("picture", 0.3)),
+    "dresser": (("table_lamp", 0.4), ("picture", 0.5)),
+    "cabinet": (("picture", 0.3),),
+    "shelf": (("picture", 0.3),),
+    "counter": (("wall_cabinet", 0.7),),
+}
 #: Gap (m) between a kitchen counter's top and the wall cabinet above it.
 WALL_CABINET_GAP_M = 0.55
-#: Wall-hung distractor kinds (in every room).
-WALL_DISTRACTORS = ("picture",)
-#: Range (m) of the height of a wall-hung distractor's centre (its bottom stays above OVERHEAD_CLEAR_Z_M).
-PICTURE_CENTRE_Z_M = (1.45, 1.75)
+#: Wall-hung distractors (models mounted on a ``wall``, in every room): {kind: range (m) of the height of its
+#: centre} (its bottom stays above OVERHEAD_CLEAR_Z_M, its top under the ceiling).
+WALL_DISTRACTORS: dict[str, tuple[float, float]] = {"picture": (1.45, 1.75), "mirror": (1.4, 1.6),
+                                                    "air_conditioner": (2.05, 2.3)}
+#: The most wall-hung distractors of a kind per room (kinds not listed: no limit).
+WALL_DISTRACTORS_PER_ROOM = {"air_conditioner": 1, "mirror": 1}
 
 #: Tallest ceiling lamp (m); bigger models are scaled down uniformly.
 LAMP_MAX_DROP_M = 0.5
@@ -102,16 +110,19 @@ def place_span(span, idx: int, space: Space, library, plan, seed, bounds_of, out
         if s + w <= length and hi[2] <= max_h and space.why_not(lo, hi, gt_margin=DISTRACTOR_CLEARANCE_M,
                                              placed_margin=DISTRACTOR_CLEARANCE_M, openings=True) is None:
             add_placement(out, space, asset, lo, hi, k, "distractor", bounds_of)
-            _add_topper(asset, lo, hi, a, t, n, s, k, space, library, plan, rng, bounds_of, out)
+            _add_toppers(asset, lo, hi, a, t, n, s, k, space, library, plan, rng, bounds_of, out)
             s += w + float(rng.uniform(0.05, 0.5))
         else:
             s += 0.2
-    # pictures / mirrors on the wall above the robot
-    pics = furniture_of_kinds(library, WALL_DISTRACTORS)
+    # pictures, mirrors, air conditioners on the wall above the robot
+    hung = [x for kd in WALL_DISTRACTORS for x in furniture_of_kinds(library, (kd,)) if x.mount == "wall"]
     s = float(rng.uniform(0.2, 0.8))
-    while pics and s < length - 0.3:
-        asset = pics[int(rng.integers(len(pics)))]
-        zc = float(rng.uniform(*PICTURE_CENTRE_Z_M))
+    while hung and s < length - 0.3:
+        asset = hung[int(rng.integers(len(hung)))]
+        if space.counts.get((span.room, asset.kind), 0) >= WALL_DISTRACTORS_PER_ROOM.get(asset.kind, math.inf):
+            hung = [x for x in hung if x.kind != asset.kind]
+            continue
+        zc = float(rng.uniform(*WALL_DISTRACTORS[asset.kind]))
         sc = float(rng.uniform(0.9, 1.1))
         h = float(asset.size_m[2]) * sc
         z0 = max(zc - h / 2, OVERHEAD_CLEAR_Z_M)
@@ -120,42 +131,45 @@ def place_span(span, idx: int, space: Space, library, plan, seed, bounds_of, out
                 and space.why_not(lo, hi, gt_margin=DISTRACTOR_CLEARANCE_M, placed_margin=DISTRACTOR_CLEARANCE_M,
                                   corridor=False, doors=False, openings=True) is None):
             add_placement(out, space, asset, lo, hi, k, "distractor", bounds_of)
+            space.counts[(span.room, asset.kind)] = space.counts.get((span.room, asset.kind), 0) + 1
             s += w + float(rng.uniform(0.8, 2.0))
         else:
             s += 0.3
 
 
-def _add_topper(unit, lo, hi, a, t, n, s, k, space: Space, library, plan, rng, bounds_of, out: Furnishing) -> None:
-    """What goes with a distractor just placed (TOPPERS): a table lamp on a nightstand or dresser (at random), a
-    wall cabinet above a kitchen counter (aligned with it)."""
-    kind, p = TOPPERS.get(unit.kind, (None, 0.0))
-    if kind is None or rng.random() >= p:
-        return
-    assets = furniture_of_kinds(library, (kind,))
-    if not assets:
-        return
-    asset = assets[int(rng.integers(len(assets)))]
-    w0, d0, h0 = (float(v) for v in asset.size_m)
-    if kind == "wall_cabinet":
-        sc = float(np.clip(np.dot(hi[:2] - lo[:2], np.abs(t)) / w0, 0.8, 1.2))
-        z0 = float(hi[2]) + WALL_CABINET_GAP_M
-        along = float(np.dot(hi[:2] - lo[:2], np.abs(t)))
-        tlo, thi, _ = _natural_box(asset, a, t, n, s + (along - w0 * sc) / 2, z0, sc)
-        if thi[2] > float(getattr(plan, "wall_height", 2.6)) - 0.02:
-            return
-        kw = {"corridor": z0 < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}
-    else:  # on top, centred
-        sc = float(min(1.0, 0.6 * float(np.min(hi[:2] - lo[:2])) / max(w0, d0)))
-        c = (lo[:2] + hi[:2]) / 2
-        tlo = np.array([c[0] - w0 * sc / 2, c[1] - w0 * sc / 2, hi[2]])
-        thi = np.array([c[0] + w0 * sc / 2, c[1] + w0 * sc / 2, hi[2] + h0 * sc])
-        if k % 2 == 0:
-            tlo[1], thi[1] = c[1] - d0 * sc / 2, c[1] + d0 * sc / 2
+def _add_toppers(unit, lo, hi, a, t, n, s, k, space: Space, library, plan, rng, bounds_of, out: Furnishing) -> None:
+    """What goes with a distractor just placed at ``s`` along its wall span (TOPPERS): things standing on its top
+    (a table lamp, a photo frame: models whose mount is ``surface``), side by side; a wall cabinet above a kitchen
+    counter (aligned with it)."""
+    along = float(np.dot(hi[:2] - lo[:2], np.abs(t)))  # the unit's width along the wall ...
+    depth = float(np.dot(hi[:2] - lo[:2], np.abs(n)))  # ... and its depth
+    slots = [0.0, 0.5]  # on top: the first thing in the left half, the next in the right half
+    for kind, p in TOPPERS.get(unit.kind, ()):
+        if rng.random() >= p:
+            continue
+        wall = kind == "wall_cabinet"
+        assets = [x for x in furniture_of_kinds(library, (kind,))
+                  if (x.mount == "wall") == wall and (wall or x.mount in ("surface", None))]
+        if not assets:
+            continue
+        asset = assets[int(rng.integers(len(assets)))]
+        w0, d0, h0 = (float(v) for v in asset.size_m)
+        if wall:
+            sc = float(np.clip(along / w0, 0.8, 1.2))
+            z0 = float(hi[2]) + WALL_CABINET_GAP_M
+            blo, bhi, _ = _natural_box(asset, a, t, n, s + (along - w0 * sc) / 2, z0, sc)
+            if bhi[2] > float(getattr(plan, "wall_height", 2.6)) - 0.02:
+                continue
+            kw = {"corridor": z0 < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}
         else:
-            tlo[0], thi[0] = c[0] - d0 * sc / 2, c[0] + d0 * sc / 2
-        kw = {"corridor": False, "doors": False}
-    if space.why_not(tlo, thi, gt_margin=DISTRACTOR_CLEARANCE_M, **kw) is None:
-        add_placement(out, space, asset, tlo, thi, k, "distractor", bounds_of)
+            if not slots:
+                break
+            sc = min(1.0, 0.8 * depth / d0, 0.45 * along / w0)
+            start = slots.pop(0) * along + float(rng.uniform(0.05, 0.95)) * max(0.5 * along - w0 * sc, 0.0)
+            blo, bhi, _ = _natural_box(asset, a + n * (depth - d0 * sc) / 2, t, n, s + start, float(hi[2]), sc)
+            kw = {"corridor": False, "doors": False}
+        if space.why_not(blo, bhi, gt_margin=DISTRACTOR_CLEARANCE_M, **kw) is None:
+            add_placement(out, space, asset, blo, bhi, k, "distractor", bounds_of)
 
 
 def place_openings(space: Space, library, plan, seed, bounds_of, out: Furnishing) -> None:
