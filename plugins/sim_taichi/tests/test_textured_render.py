@@ -195,22 +195,24 @@ def test_smooth_vertex_normals_shade_a_low_poly_sphere_like_the_true_sphere():
     assert jumps[True] < 0.04 < 0.15 < jumps[False], jumps
 
 
-def _ray_triangles(o, d, tris):
-    """Closest hit t (R,) (inf: none) of rays o (3,) / d (R, 3) with triangles (T, 3, 3), float64 Möller–Trumbore."""
+def _ray_triangles(o, d, tris, chunk=256):
+    """Closest hit t (R,) (inf: none) of rays o (3,) / d (R, 3) with triangles (T, 3, 3), float64 Möller–Trumbore
+    (vectorised over chunks of triangles)."""
     best = np.full(d.shape[0], np.inf)
-    for tri in tris:
-        e1, e2 = tri[1] - tri[0], tri[2] - tri[0]
-        p = np.cross(d, e2)
-        det = p @ e1
+    tris = np.asarray(tris, dtype=np.float64)
+    for c in range(0, len(tris), chunk):
+        v0, e1, e2 = tris[c:c + chunk, 0], tris[c:c + chunk, 1] - tris[c:c + chunk, 0], tris[c:c + chunk, 2] - tris[c:c + chunk, 0]
+        p = np.cross(d[:, None, :], e2[None])  # (R, C, 3)
+        det = np.einsum("rck,ck->rc", p, e1)
         ok = np.abs(det) > 1e-15
         inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        s = o - tri[0]
-        u = (p @ s) * inv
-        q = np.cross(s, e1)
-        w = (d @ q) * inv
-        t = (q @ e2) * inv
-        hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 1e-4)
-        best = np.where(hit & (t < best), t, best)
+        s = o - v0  # (C, 3)
+        u = np.einsum("rck,ck->rc", p, s) * inv
+        q = np.cross(s, e1)  # (C, 3)
+        w = (d @ q.T) * inv
+        t = (q * e2).sum(axis=1)[None, :] * inv
+        t = np.where(ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 1e-4), t, np.inf)
+        best = np.minimum(best, t.min(axis=1))
     return best
 
 
@@ -331,3 +333,55 @@ def test_quality_mode_draws_the_texture(synthetic_env, tmp_path):
         quadrant = (a[:, c] > a[:, others[0]] + 20) & (a[:, c] > a[:, others[1]] + 20)
         assert quadrant.sum() > 30
         assert np.all(b[quadrant][:, c].mean() > b[quadrant][:, others].mean(axis=0) + 10)
+
+
+def test_closest_hits_in_a_large_triangle_scene_match_a_numpy_ray_cast():
+    """Past ORDERED_MIN_PRIMS primitives, closest hits use the ordered (nearest child first) traversal: depth,
+    instance ids and laser ranges of overlapping ellipsoids of 1280 triangles each equal a float64 ray cast."""
+    import trimesh
+
+    from benchbot_sim_taichi.kernels import ORDERED_MIN_PRIMS
+    from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+
+    s = trimesh.creation.icosphere(subdivisions=3, radius=0.4)
+    mesh = make_mesh(s.vertices, s.faces, n=s.vertices)
+    centres = [(2.0, 0.3, 0.8), (2.4, -0.2, 0.9), (2.9, 0.1, 0.6), (1.7, -0.5, 0.5)]
+    scene = _bare_scene(len(centres))
+    instances = []
+    for k, c in enumerate(centres):
+        M = np.diag([1.0, 1.3, 0.9, 1.0])
+        M[:3, 3] = c
+        instances.append(MeshInstance(mesh, M, k))
+    add_mesh_instances(scene, instances)
+    assert scene.prim_type.shape[0] >= ORDERED_MIN_PRIMS
+    W, H = 48, 36
+    K = intrinsics(W, H, 70.0)
+    T = _cam(0.0, 0.0, 0.0)
+    r = Renderer("cpu")
+    r.set_scene(scene)
+    out = r.render(K, T, W, H)
+    o, d = _rays(K, T, W, H)
+    best = np.full(W * H, np.inf)
+    inst = np.zeros(W * H, np.int32)
+    tv = scene.tri_v.astype(np.float64)
+    per = len(s.faces)
+    dn = d / np.linalg.norm(d, axis=1, keepdims=True)
+    for k, c in enumerate(centres):
+        near = np.linalg.norm(np.cross(dn, np.asarray(c) - o), axis=1) < 0.6  # rays passing the bounding sphere
+        t = np.full(W * H, np.inf)
+        t[near] = _ray_triangles(o, d[near], tv[k * per:(k + 1) * per])
+        closer = t < best
+        best[closer], inst[closer] = t[closer], k + 1
+    hit = np.isfinite(best)
+    assert hit.sum() > 300 and len(np.unique(inst[hit])) == 4
+    assert (out["instance"].reshape(-1) != inst).sum() <= 3
+    agree = hit & (out["instance"].reshape(-1) == inst)
+    np.testing.assert_allclose(out["depth"].reshape(-1)[agree], best[agree], rtol=1e-5, atol=1e-5)
+    angles = np.radians(np.linspace(-40, 40, 81))
+    ranges = r.scan(se2_to_matrix(0.0, 0.0, 0.0, z=0.7), angles)
+    dl = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+    ref = _ray_triangles(np.array([0.0, 0.0, 0.7]), dl, tv)
+    seen = np.isfinite(ref)
+    assert seen.sum() > 20
+    np.testing.assert_allclose(ranges[seen], ref[seen], rtol=1e-5, atol=1e-5)
