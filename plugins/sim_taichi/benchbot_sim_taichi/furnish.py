@@ -236,7 +236,8 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
     objects = list(objects)
     context = _dedupe(list(context_objects or []) + objects) if context_objects is not None else list(objects)
     ctx_boxes = [gt_box(o) for o in context]
-    space = Space(plan, ctx_boxes, [f"{o.get('class')} {o.get('ID_name', '')}".strip() for o in context])
+    space = Space(plan, ctx_boxes, [f"{o.get('class')} {o.get('ID_name', '')}".strip() for o in context],
+                  [str(o.get("class", "")) for o in context])
     out = Furnishing()
     boxes = [gt_box(o) for o in objects]
     _place_objects(objects, boxes, space, library, seed, bounds_of, out)

@@ -28,6 +28,8 @@ OVERHEAD_CLEAR_Z_M = ROBOT_HEIGHT_M + 0.2
 #: Free floor (m) kept on both sides of a doorway (no floor furniture there).
 DOOR_CLEARANCE_M = 0.7
 
+#: Something is "in front of" a window or door hole when it is within this (m) of it across the wall.
+OPENING_FRONT_M = 0.06
 #: The roles of a Placement.
 ROLES = ("object", "support", "distractor", "door", "window", "light")
 
@@ -113,9 +115,11 @@ def gt_box(obj: dict) -> tuple[np.ndarray, np.ndarray]:
 class Space:
     """Occupied boxes (GT cuboids, walls, supports, distractors) and the keep-out zones of a plan."""
 
-    def __init__(self, plan: Any, gt_boxes: list[tuple[np.ndarray, np.ndarray]], gt_names: Sequence[str] = ()):
+    def __init__(self, plan: Any, gt_boxes: list[tuple[np.ndarray, np.ndarray]], gt_names: Sequence[str] = (),
+                 gt_classes: Sequence[str] = ()):
         self.plan = plan
         self.gt_names = list(gt_names)
+        self.gt_classes = list(gt_classes)
         self.gt_lo = np.array([b[0] for b in gt_boxes]).reshape(-1, 3)
         self.gt_hi = np.array([b[1] for b in gt_boxes]).reshape(-1, 3)
         walls = list(getattr(plan, "walls", []) or [])
@@ -138,6 +142,11 @@ class Space:
         self.door_hi = np.array([d[1] for d in doors]).reshape(-1, 3)
         self.hole_lo = np.array([w[0] for w in holes]).reshape(-1, 3)
         self.hole_hi = np.array([w[1] for w in holes]).reshape(-1, 3)
+        # "in front of a hole": within OPENING_FRONT_M of it across its wall (its thinnest horizontal side)
+        self.hole_margin = np.zeros((len(holes), 3))
+        if len(holes):
+            thin = np.argmin((self.hole_hi - self.hole_lo)[:, :2], axis=1)
+            self.hole_margin[np.arange(len(holes)), thin] = OPENING_FRONT_M
         self._blocked = corridor_test(plan)
         c = getattr(plan, "corridor", None)
         self._seg_lo = self._seg_hi = None
@@ -154,16 +163,39 @@ class Space:
                 return False
         return bool(self._blocked(lo2, hi2))
 
+    def blocked_beyond_gt(self, lo: np.ndarray, hi: np.ndarray) -> bool:
+        """Whether the part of the footprint lo..hi that no GT cuboid the robot must already avoid covers (one whose
+        bottom is below ROBOT_HEIGHT_M) comes within the corridor: furniture there takes no floor the robot could
+        use. Exact: the footprint is cut along the covering cuboids' edges and each uncovered cell is tested."""
+        if not self.blocked(lo, hi):
+            return False
+        lo2, hi2 = np.asarray(lo[:2], dtype=np.float64), np.asarray(hi[:2], dtype=np.float64)
+        m = (self.gt_lo[:, 2] < ROBOT_HEIGHT_M) & np.all((self.gt_lo[:, :2] < hi2) & (lo2 < self.gt_hi[:, :2]), axis=1)
+        cl, ch = self.gt_lo[m, :2], self.gt_hi[m, :2]
+        if not len(cl):
+            return True
+        xs = np.unique(np.clip(np.concatenate([[lo2[0], hi2[0]], cl[:, 0], ch[:, 0]]), lo2[0], hi2[0]))
+        ys = np.unique(np.clip(np.concatenate([[lo2[1], hi2[1]], cl[:, 1], ch[:, 1]]), lo2[1], hi2[1]))
+        for x0, x1 in zip(xs[:-1], xs[1:]):
+            for y0, y1 in zip(ys[:-1], ys[1:]):
+                c = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+                if np.all((cl <= c) & (c <= ch), axis=1).any():
+                    continue
+                if self.blocked(np.array([x0, y0]), np.array([x1, y1])):
+                    return True
+        return False
+
     def add(self, lo: np.ndarray, hi: np.ndarray) -> None:
         self.placed_lo = np.vstack([self.placed_lo, lo[None]])
         self.placed_hi = np.vstack([self.placed_hi, hi[None]])
 
     def why_not(self, lo: np.ndarray, hi: np.ndarray, *, gt_margin: float = 0.0, placed_margin: float = 0.0,
-                corridor: bool = True, doors: float | bool = True, openings: bool = False) -> str | None:
+                corridor: bool | str = True, doors: float | bool = True, openings: bool = False) -> str | None:
         """None if the box lo..hi is free, else a short reason. ``gt_margin``/``placed_margin``: clearance kept from
         GT cuboids / supports and distractors; ``doors``: stay out of the free floor at doorways; ``openings``: do
         not stand in front of a window or door hole (a low item under a window sill is fine); ``doors`` True means
-        DOOR_CLEARANCE_M, a number that clearance."""
+        DOOR_CLEARANCE_M, a number that clearance; ``corridor``: keep clear of the robot corridor (``"beyond_gt"``:
+        only where no GT cuboid is in the robot's way already, :meth:`blocked_beyond_gt`)."""
         hit = boxes_hit(lo, hi, self.gt_lo, self.gt_hi, gt_margin)
         if hit.any():
             j = int(np.flatnonzero(hit)[0])
@@ -178,9 +210,13 @@ class Space:
             m[np.arange(len(self.door_lo)), self.door_axis] = clear
             if np.all((lo < self.door_hi + m - 1e-4) & (self.door_lo - m < hi - 1e-4), axis=1).any():
                 return "it would stand in a doorway"
-        if openings and boxes_hit(lo, hi, self.hole_lo, self.hole_hi, np.array([0.06, 0.06, 0.0])).any():
+        if openings and len(self.hole_lo) and np.all((lo - self.hole_margin < self.hole_hi - 1e-6)
+                                                     & (self.hole_lo - self.hole_margin < hi - 1e-6), axis=1).any():
             return "it would cover a window or door"
-        if corridor and self.blocked(lo, hi):
+        if corridor == "beyond_gt":
+            if self.blocked_beyond_gt(lo, hi):
+                return "the floor there is in the robot corridor"
+        elif corridor and self.blocked(lo, hi):
             return "the floor there is in the robot corridor"
         return None
 

@@ -74,9 +74,19 @@ SHELF_KINDS = ("wall_shelf", "shelf")
 #: Kinds of pedestals (the first the library has).
 PEDESTAL_KINDS = ("pedestal", "plant_stand", "nightstand", "cabinet")
 
-#: A floor support trimmed to less than this fraction of its area ranks below a wall shelf.
+#: A floor support trimmed to less than this fraction of its area ranks below a wall shelf ...
 TRIMMED_FLOOR_AREA = 0.7
+#: ... and so does one with a side narrower than this (m) ...
+SLIM_UNIT_SIDE_M = 0.25
+#: ... or lower than this (m).
+LOW_UNIT_TOP_M = 0.3
 
+#: GT classes with a flat top a riser may stand on (besides supports and distractors).
+FLAT_TOP_CLASSES = frozenset(("table", "refrigerator", "oven", "microwave", "sink"))
+#: GT classes that stand on the floor: a few centimetres up, they get a rug or plinth (LOW_SUPPORT_KINDS); other
+#: objects that low get the usual candidates (a low wall shelf: the bottom board of a shelving unit).
+FLOOR_CLASSES = frozenset(("chair", "table", "couch", "bed", "toilet", "refrigerator", "oven", "person",
+                           "potted plant", "sink"))
 #: Kinds of a riser: a unit standing on a GT object or support under the objects (a thin one is a board).
 RISER_KINDS = ("shelf", "bookcase", "cabinet")
 
@@ -205,14 +215,15 @@ def _trim(lo: np.ndarray, hi: np.ndarray, space: Space, keep: Callable[[np.ndarr
     return None
 
 
-def _support_attempt(group, boxes, names, space: Space, library, plan, rng, bounds_of, out: Furnishing):
+def _support_attempt(group, boxes, names, classes, space: Space, library, plan, rng, bounds_of, out: Furnishing):
     """Try to place one support under the objects ``group``: (indices it carries, reasons for what failed).
 
     Candidates (each trimmed around GT cuboids and placed furniture in its way): a floor unit backed onto a wall
     within SUPPORT_TO_WALL_M, a floor unit just under the objects, a wall shelf, a slim pedestal, and last a riser
     standing on whatever is under them (a GT object or a support). The candidate carrying the
     most objects wins; among equals: an untrimmed floor unit, a wall shelf, a floor unit trimmed to less than
-    TRIMMED_FLOOR_AREA of itself, a pedestal, a riser. Objects at most LOW_SUPPORT_Z_M up get a rug or plinth.
+    TRIMMED_FLOOR_AREA of itself (or slimmer than SLIM_UNIT_SIDE_M, or lower than LOW_UNIT_TOP_M), a pedestal, a
+    riser. Objects at most LOW_SUPPORT_Z_M up get a rug or plinth.
     A support within a single object's footprint below ROBOT_HEIGHT_M skips the corridor and doorway tests."""
     glo = np.min([boxes[i][0] for i in group], axis=0)
     ghi = np.max([boxes[i][1] for i in group], axis=0)
@@ -236,9 +247,10 @@ def _support_attempt(group, boxes, names, space: Space, library, plan, rng, boun
     def keep(lo, hi) -> float:
         return sum(overlap_area(lo, hi, *boxes[i]) for i in group)
 
-    floor_kw = {"doors": SUPPORT_DOOR_CLEARANCE_M}
+    floor_kw = {"doors": SUPPORT_DOOR_CLEARANCE_M, "corridor": "beyond_gt"}
     candidates = []  # (label, rank, lo, hi, kinds, away, why_not kwargs)
-    if top <= LOW_SUPPORT_Z_M:
+    low = top <= LOW_SUPPORT_Z_M
+    if low and all(str(classes[i]) in FLOOR_CLASSES for i in group):
         rlo, rhi = flo.copy(), fhi.copy()
         rlo[:2] -= LOW_SUPPORT_MARGIN_M - SUPPORT_MARGIN_M
         rhi[:2] += LOW_SUPPORT_MARGIN_M - SUPPORT_MARGIN_M
@@ -260,18 +272,19 @@ def _support_attempt(group, boxes, names, space: Space, library, plan, rng, boun
             candidates.append(("floor unit", 2.5, glo * [1, 1, 0], ghi * [1, 1, 0] + [0, 0, top], kinds, None,
                                floor_kw))
     zr = (top - WALL_SHELF_THICKNESS_M, top)
-    shelf_kw = {"corridor": zr[0] < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}
+    shelf_kw = {"corridor": "beyond_gt" if zr[0] < OVERHEAD_CLEAR_Z_M else False, "doors": False, "openings": True}
     wfaces = [f for f in wall_faces(space, flo, fhi, zr) if f[0] <= WALL_SHELF_REACH_M]
-    if wfaces and zr[0] > LOW_SUPPORT_Z_M:
+    if wfaces and zr[0] > 0.0:
         _, away, ax, face = wfaces[0]
-        blo, bhi = flo.copy(), fhi.copy()
-        blo[2], bhi[2] = zr
-        if away[ax] > 0:
-            blo[ax] = face
-        else:
-            bhi[ax] = face
-        candidates.append(("wall shelf", 1.0, blo, bhi, SHELF_KINDS, away, shelf_kw))
-    if top > LOW_SUPPORT_Z_M:
+        for rank, (fl, fh) in ((1.0, (flo, fhi)), (1.2, (glo, ghi))):  # with the margin, and without
+            blo, bhi = fl.copy(), fh.copy()
+            blo[2], bhi[2] = zr
+            if away[ax] > 0:
+                blo[ax] = face
+            else:
+                bhi[ax] = face
+            candidates.append(("wall shelf", rank, blo, bhi, SHELF_KINDS, away, shelf_kw))
+    if not low:
         plo, phi = flo.copy(), fhi.copy()
         c = (glo[:2] + ghi[:2]) / 2
         half = np.maximum((ghi[:2] - glo[:2]) * 0.35, SUPPORT_MIN_SIDE_M / 2)
@@ -283,7 +296,7 @@ def _support_attempt(group, boxes, names, space: Space, library, plan, rng, boun
             blo, bhi = fl.copy(), fh.copy()
             blo[2], bhi[2] = base, top
             candidates.append(("riser", 3.5, blo, bhi, SHELF_KINDS if top - base < 0.1 else RISER_KINDS, None,
-                               {"corridor": base < OVERHEAD_CLEAR_Z_M, "doors": False, "openings": True}))
+                               {**shelf_kw, "corridor": "beyond_gt" if base < OVERHEAD_CLEAR_Z_M else False}))
 
     reasons: list[str] = []
     best = None
@@ -300,8 +313,8 @@ def _support_attempt(group, boxes, names, space: Space, library, plan, rng, boun
         if len(group) == 1 and top < ROBOT_HEIGHT_M and np.all(tlo[:2] >= glo[:2] - 1e-9) \
                 and np.all(thi[:2] <= ghi[:2] + 1e-9):
             # within the object's own footprint, below the robot's height: it takes no floor the robot could
-            # use (the object is already there), so the corridor and doorway tests do not apply
-            kw = {**kw, "corridor": False, "doors": False}
+            # use (the object is already there), so the doorway test does not apply
+            kw = {**kw, "doors": False}
         why = space.why_not(tlo, thi, **kw)
         if why is not None:
             reasons.append(f"{label}: {why}")
@@ -316,6 +329,8 @@ def _support_attempt(group, boxes, names, space: Space, library, plan, rng, boun
         area0 = float(np.prod((bhi - blo)[:2]))
         if label in ("floor unit", "rug") and float(np.prod((thi - tlo)[:2])) < TRIMMED_FLOOR_AREA * area0:
             rank = 2.0
+        if label == "floor unit" and (float(np.min((thi - tlo)[:2])) < SLIM_UNIT_SIDE_M or top < LOW_UNIT_TOP_M):
+            rank = max(rank, 2.0)  # a sliver or a squashed cabinet looks worse than a shelf board
         key = (len(got), -rank)
         if best is None or key > best[0]:
             best = (key, got, label, tlo, thi, assets, away)
@@ -331,10 +346,18 @@ def _support_attempt(group, boxes, names, space: Space, library, plan, rng, boun
     return got, reasons
 
 
+def _flat_gt(space: Space) -> np.ndarray:
+    """(N,) which GT cuboids of ``space`` have a flat top something may stand on (FLAT_TOP_CLASSES)."""
+    flat = [c in FLAT_TOP_CLASSES for c in space.gt_classes]
+    return np.array(flat + [False] * (len(space.gt_lo) - len(flat)), dtype=bool)
+
+
 def _base_under(lo: np.ndarray, hi: np.ndarray, top: float, space: Space) -> float:
-    """The highest top (m) of a GT cuboid or placed box overlapping the footprint lo..hi below ``top`` (0: floor)."""
+    """The highest top (m) under ``top`` of a flat-topped GT cuboid or a placed box overlapping the footprint lo..hi
+    (0: the floor)."""
     base = 0.0
-    for blo, bhi in ((space.gt_lo, space.gt_hi), (space.placed_lo, space.placed_hi)):
+    flat = _flat_gt(space)
+    for blo, bhi in ((space.gt_lo[flat], space.gt_hi[flat]), (space.placed_lo, space.placed_hi)):
         for b0, b1 in zip(blo, bhi):
             if b1[2] <= top + 1e-9 and overlap_area(lo, hi, b0, b1) > 1e-6:
                 base = max(base, float(b1[2]))
@@ -345,17 +368,19 @@ def _rests_on_something(lo: np.ndarray, hi: np.ndarray, space: Space) -> bool:
     """Whether a box lo..hi stands on GT cuboids / placed boxes (tops within 1 mm of its bottom) carrying at least
     half of its footprint."""
     area = 0.0
-    for blo, bhi in ((space.gt_lo, space.gt_hi), (space.placed_lo, space.placed_hi)):
+    flat = _flat_gt(space)
+    for blo, bhi in ((space.gt_lo[flat], space.gt_hi[flat]), (space.placed_lo, space.placed_hi)):
         for b0, b1 in zip(blo, bhi):
             if abs(b1[2] - lo[2]) <= 1e-3:
                 area += overlap_area(lo, hi, b0, b1)
     return area >= 0.5 * float(np.prod((hi - lo)[:2]))
 
 
-def _support_group(group, boxes, names, space: Space, library, plan, seed, bounds_of, out: Furnishing) -> dict:
+def _support_group(group, boxes, names, classes, space: Space, library, plan, seed, bounds_of,
+                   out: Furnishing) -> dict:
     """Supports under ``group``: one for all if possible, then one per object left; {index: why} of those left."""
     rng = seeded_rng(seed, "support", *(names[i] for i in group))
-    got, reasons = _support_attempt(group, boxes, names, space, library, plan, rng, bounds_of, out)
+    got, reasons = _support_attempt(group, boxes, names, classes, space, library, plan, rng, bounds_of, out)
     left = {}
     for i in group:
         if i in got:
@@ -363,8 +388,8 @@ def _support_group(group, boxes, names, space: Space, library, plan, seed, bound
         if len(group) == 1:
             left[i] = "; ".join(reasons)
             continue
-        g1, r1 = _support_attempt([i], boxes, names, space, library, plan, seeded_rng(seed, "support1", names[i]),
-                                  bounds_of, out)
+        g1, r1 = _support_attempt([i], boxes, names, classes, space, library, plan,
+                                  seeded_rng(seed, "support1", names[i]), bounds_of, out)
         if not g1:
             left[i] = "; ".join(dict.fromkeys(r1))
     return left
@@ -385,8 +410,10 @@ def place_supports(objects: list[dict], boxes: list, space: Space, library, plan
             continue
         need.append(i)
     names = [f"{o.get('class')} {o.get('ID_name', i)}" for i, o in enumerate(objects)]
-    for group in _group_floating(objects, boxes, need, plan):
-        left = _support_group(group, boxes, names, space, library, plan, seed, bounds_of, out)
+    classes = [str(o.get("class", "")) for o in objects]
+    # lowest first: furniture under the lower objects of a shelving column is placed before the boards above them
+    for group in sorted(_group_floating(objects, boxes, need, plan), key=lambda g: min(boxes[i][0][2] for i in g)):
+        left = _support_group(group, boxes, names, classes, space, library, plan, seed, bounds_of, out)
         out.unsupported.extend(sorted(left.items()))
 
 

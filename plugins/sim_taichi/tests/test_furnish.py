@@ -533,6 +533,29 @@ def _floats(i, boxes):
     return lo[2] > S.FLOAT_MIN_Z_M and not S.rests_on(i, boxes)
 
 
+def _free_floor_in_corridor(plan, box, gl, gh, step=0.02):
+    """Whether a point of the footprint of ``box`` (a 2 cm grid) outside every box gl/gh (N, 2) is closer than the
+    robot radius to a path segment of the plan's corridor."""
+    lo, hi = box[0][:2], box[1][:2]
+    xs = np.linspace(lo[0], hi[0], max(2, int((hi[0] - lo[0]) / step) + 1))
+    ys = np.linspace(lo[1], hi[1], max(2, int((hi[1] - lo[1]) / step) + 1))
+    pts = np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2)
+    covered = np.zeros(len(pts), bool)
+    for a, b in zip(gl, gh):
+        covered |= np.all((pts >= a - 1e-9) & (pts <= b + 1e-9), axis=1)
+    pts = pts[~covered]
+    c = plan.corridor
+    p0, p1 = np.asarray(c.p0, float), np.asarray(c.p1, float)
+    near = np.all((np.minimum(p0, p1) - c.radius < hi) & (lo < np.maximum(p0, p1) + c.radius), axis=1)
+    p0, p1 = p0[near], p1[near]
+    if not len(p0):
+        return False
+    d = p1 - p0
+    t = np.clip(np.einsum("psk,sk->ps", pts[:, None, :] - p0[None], d) / np.maximum((d * d).sum(1), 1e-12), 0, 1)
+    dist = np.linalg.norm(pts[:, None, :] - (p0[None] + t[..., None] * d[None]), axis=2)
+    return bool(len(pts)) and bool(dist.min() < c.radius - 1e-6)
+
+
 def test_bear_homes_fit_support_and_keep_clear(bear_homes):
     lib = synthetic_library()
     for home, (plan, union, dicts) in bear_homes.items():
@@ -565,11 +588,12 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes):
                 assert min(abs(s[1][2] - b[0][2]) for b in ubox) < 1e-9, where
             # supports, distractors, lamps: no GT cuboid (of any variant), wall or each other; clear of the corridor
             checked = _check_scene(res, lib, union, plan, roles=("support", "distractor", "light"))
+            low = np.array([bl[0][2] < SP.ROBOT_HEIGHT_M for bl in ubox])
+            gl, gh = np.array([bl[0] for bl in ubox])[low, :2], np.array([bl[1] for bl in ubox])[low, :2]
             for p, b in checked:
-                if p.role == "support" and b[0][2] < SP.OVERHEAD_CLEAR_Z_M and plan.blocked(b[0][:2], b[1][:2]):
-                    # only right under one object below the robot's height (the object is in the way already)
-                    assert any(np.all(b[0][:2] >= bl[0][:2] - 1e-9) and np.all(b[1][:2] <= bl[1][:2] + 1e-9)
-                               and bl[0][2] < SP.ROBOT_HEIGHT_M for bl in ubox), (where, p.asset_id)
+                if p.role == "support" and b[0][2] < SP.OVERHEAD_CLEAR_Z_M:
+                    # in the corridor only where GT objects below the robot's height are in its way already
+                    assert not _free_floor_in_corridor(plan, b, gl, gh), (where, p.asset_id, b)
             # the variants of a home share their distractors, doors, windows and lamps
             fixed = [(p.asset_id, p.role, np.round(p.transform, 9).tobytes()) for p in res.placements
                      if p.role in ("distractor", "door", "window", "light")]
