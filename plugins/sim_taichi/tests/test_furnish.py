@@ -353,6 +353,38 @@ def test_support_over_the_corridor_stays_under_the_object_or_goes_on_the_wall(li
     assert "corridor" in res.unsupported[0][1]
 
 
+def test_blocked_beyond_gt_ignores_floor_that_gt_objects_already_take():
+    plan = one_room_plan(paths=[[[1.0, 0.5], [1.0, 4.5]]])  # corridor: x in (0.65, 1.35)
+    chair = (np.array([0.5, 2.0, 0.0]), np.array([0.9, 2.4, 0.9]))
+    high = (np.array([0.5, 2.0, 1.3]), np.array([0.9, 2.4, 1.5]))  # above the robot: not in its way
+    space = SP.Space(plan, [chair, high])
+    under = (np.array([0.3, 2.0, 0.0]), np.array([0.9, 2.4, 0.5]))  # in the corridor only where the chair is
+    assert space.blocked(*under) and not space.blocked_beyond_gt(*under)
+    wider = (np.array([0.3, 1.9, 0.0]), np.array([0.9, 2.4, 0.5]))  # 10 cm more, in the corridor, beside it
+    assert space.blocked_beyond_gt(*wider)
+    space = SP.Space(plan, [high])
+    assert space.blocked_beyond_gt(*under)
+
+
+def test_a_shelving_column_by_the_path_becomes_wall_boards(lib):
+    # objects above one another by the west wall (as on the shelves of a bookcase), the path 0.7 m from the wall:
+    # the floor under them is the robot's only where they already are; boards on the wall carry them
+    plan = one_room_plan(paths=[[[0.7, 0.5], [0.7, 4.5]]])
+    objs = [gt("book", [0.1, 2.0, 0.12], [0.45, 2.3, 0.3], "l0"), gt("bottle", [0.1, 2.0, 0.46], [0.2, 2.1, 0.8], "l1"),
+            gt("book", [0.1, 2.0, 0.96], [0.45, 2.4, 1.15], "l2"), gt("bowl", [0.1, 2.0, 1.5], [0.4, 2.3, 1.6], "l3")]
+    res = F.furnish_home(objs, plan, lib, seed=0)
+    assert res.unsupported == []
+    sup = res.boxes["support"]
+    tops = sorted(round(float(s[1][2]), 6) for s in sup)
+    assert tops == [0.12, 0.46, 0.96, 1.5]
+    assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"shelf"}
+    space = SP.Space(plan, [box_of(o) for o in objs])
+    for s in sup:
+        assert abs(s[0][0]) < 1e-9 and s[1][2] - s[0][2] == pytest.approx(S.WALL_SHELF_THICKNESS_M)  # on the wall
+        assert not any(inter(s, box_of(o)) for o in objs)
+        assert s[0][2] >= SP.OVERHEAD_CLEAR_Z_M or not space.blocked_beyond_gt(*s)  # above the robot: may overhang
+
+
 def test_a_riser_stands_on_what_is_under_the_object(lib):
     # a toaster 5 cm above a sink in the middle of the room: nothing can stand on the floor under it (the sink is
     # there), so a board/riser rests on the sink
