@@ -588,8 +588,17 @@ def _free_floor_in_corridor(plan, box, gl, gh, step=0.02):
     return bool(len(pts)) and bool(dist.min() < c.radius - 1e-6)
 
 
-def test_bear_homes_fit_support_and_keep_clear(bear_homes):
-    lib = synthetic_library()
+@pytest.mark.parametrize("which", ["synthetic", "shipped"])
+def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
+    """On the ten BEAR environments, with a model of every class and kind (synthetic) and with the shipped pack
+    (models' bounds from their size_m: the exact fit to their meshes is test_furnished's)."""
+    if which == "synthetic":
+        lib = synthetic_library()
+    else:
+        from benchbot.core.assets import asset_library
+
+        lib = asset_library()
+        assert len(lib) > 100, "the shipped asset pack (benchbot-assets-sh3d) is not installed"
     for home, (plan, union, dicts) in bear_homes.items():
         ubox = [box_of(o) for o in union]
         furniture = None
@@ -598,8 +607,10 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes):
             res = F.furnish_home(objs, plan, lib, seed=0, context_objects=union)
             where = f"{home}:{v}"
             # every object drawn, its placements' bounds exactly its cuboid (8 corners of each model transformed)
-            assert res.without_model == [], where
+            assert res.without_model == [i for i, o in enumerate(objs) if not lib.by_class(o["class"])], where
             for i, o in enumerate(objs):
+                if i in res.without_model:
+                    continue
                 bs = np.array([placed_box(lib, p) for p in res.placements if p.object_index == i])
                 lo, hi = box_of(o)
                 assert len(bs) and np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-6, (where, i)
@@ -631,4 +642,4 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes):
                      if p.role in ("distractor", "door", "window", "light")]
             assert furniture is None or fixed == furniture, where
             furniture = fixed
-            assert len(fixed) > 20, where
+            assert len(fixed) >= 10, where
