@@ -3,17 +3,18 @@
 A GT object whose bottom is above :data:`FLOAT_MIN_Z_M` that does not rest on another GT object (:func:`rests_on`)
 and does not hang on a wall (:data:`HANGING_CLASSES`) gets a support. Neighbouring floating objects (gap ≤
 :data:`SUPPORT_GROUP_GAP_M`, bottoms within :data:`REST_TOL_M`, same room) share one, its top at their lowest bottom
-(exactly that object's bottom; the others rest within :data:`REST_TOL_M`). Candidates, each trimmed around GT cuboids
-and furniture in its way: a floor unit (kinds by room and height, :func:`support_kinds`) backed onto a wall within
-:data:`SUPPORT_TO_WALL_M`; a floor unit just under the objects (+ :data:`SUPPORT_MARGIN_M`); one exactly under a
-single object; a thin wall shelf against a wall within :data:`WALL_SHELF_REACH_M`; a slim pedestal; a riser
-standing on what is under them (a GT object or another support). The one carrying the most objects wins; among
-equals an untrimmed floor unit, a wall shelf, a much-trimmed floor unit, a pedestal, a riser. Objects at most
-:data:`LOW_SUPPORT_Z_M` up get a rug or plinth. Each support avoids every GT cuboid, wall, other furniture and the
-doorways (:data:`SUPPORT_DOOR_CLEARANCE_M`) and keeps clear of the robot corridor — except one that lies within a
-single object's footprint below the robot's height (it takes no floor the robot could use: the object is there)
-and a shelf whose underside is above :data:`~benchbot_sim_taichi.furnish_space.OVERHEAD_CLEAR_Z_M`. Objects left
-without one are reported with why.
+(exactly that object's bottom; the others rest within :data:`REST_TOL_M`); groups are served lowest first. The
+candidates, each trimmed around GT cuboids and furniture in its way: a floor unit (kinds by room and height) backed
+onto a wall within :data:`SUPPORT_TO_WALL_M`; a floor unit just under the objects (+ :data:`SUPPORT_MARGIN_M`); one
+exactly under a single object; a thin wall shelf against a wall within :data:`WALL_SHELF_REACH_M`; a slim pedestal;
+a riser standing on a support or a flat-topped GT object under them (:data:`FLAT_TOP_CLASSES`). The one carrying the
+most objects wins; among equals an untrimmed floor unit, a wall shelf, a much-trimmed, slim or low floor unit, a
+pedestal, a riser. Floor furniture (:data:`FLOOR_CLASSES`) at most :data:`LOW_SUPPORT_Z_M` up gets a rug or plinth.
+Each support avoids every GT cuboid, wall, other furniture, window and door hole and the doorways
+(:data:`SUPPORT_DOOR_CLEARANCE_M`; not for one inside a single object's footprint), and stays out of the robot
+corridor except where GT objects below the robot's height already take the floor
+(:meth:`~benchbot_sim_taichi.furnish_space.Space.blocked_beyond_gt`), or, for a shelf, when its underside is above
+:data:`~benchbot_sim_taichi.furnish_space.OVERHEAD_CLEAR_Z_M`. Objects left without one are reported with why.
 """
 
 from __future__ import annotations
@@ -223,8 +224,8 @@ def _support_attempt(group, boxes, names, classes, space: Space, library, plan, 
     standing on whatever is under them (a GT object or a support). The candidate carrying the
     most objects wins; among equals: an untrimmed floor unit, a wall shelf, a floor unit trimmed to less than
     TRIMMED_FLOOR_AREA of itself (or slimmer than SLIM_UNIT_SIDE_M, or lower than LOW_UNIT_TOP_M), a pedestal, a
-    riser. Objects at most LOW_SUPPORT_Z_M up get a rug or plinth.
-    A support within a single object's footprint below ROBOT_HEIGHT_M skips the corridor and doorway tests."""
+    riser. Floor furniture at most LOW_SUPPORT_Z_M up gets a rug or plinth. A support within a single object's
+    footprint below ROBOT_HEIGHT_M skips the doorway test."""
     glo = np.min([boxes[i][0] for i in group], axis=0)
     ghi = np.max([boxes[i][1] for i in group], axis=0)
     top = float(glo[2])
