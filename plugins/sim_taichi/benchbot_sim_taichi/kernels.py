@@ -26,12 +26,8 @@ TILE_M = 0.6
 TILE_CONTRAST = 0.06
 GAMMA = 1.0 / 2.2
 
-#: Deepest BVH the renderer accepts (``renderer.pack_scene``; the traversals themselves are stackless).
+#: Deepest BVH the renderer accepts (``renderer.pack_scene``; the traversal itself is stackless).
 STACK = 64
-#: Scenes of at least this many primitives are traversed nearest child first for closest hits (parent links, see
-#: :func:`_trace`; much less time per ray on 100k+ triangles); smaller ones with skip pointers (cheaper per node,
-#: faster on the primitive-style rooms of a few hundred primitives).
-ORDERED_MIN_PRIMS = 4096
 #: Default angular radius (rad) of the sun and radius (m) of the lamps, for soft shadows.
 SUN_RADIUS = 0.035
 LAMP_RADIUS = 0.15
@@ -199,52 +195,28 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
 
 
 @ti.func
-def _near_child(nodes_i: ti.template(), node, d):
-    """The child of interior ``node`` that the ray meets first along the node's split axis (``nodes_i[node, 3]``,
-    see ``renderer.pack_scene``), and the other one."""
-    info = nodes_i[node, 3]
-    axis = (info >> 1) & 3
-    left_high = info & 1
-    dax = d[0]
-    if axis == 1:
-        dax = d[1]
-    elif axis == 2:
-        dax = d[2]
-    near = node + 1
-    far = nodes_i[node, 1]
-    if (dax < 0.0) != (left_high == 1):
-        near = far
-        far = node + 1
-    return near, far
-
-
-@ti.func
-def _leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), node, nodes_i: ti.template(), best,
-          best_k, best_n):
-    """The closest of leaf ``node``'s primitives nearer than ``best``: updated (best, best_k, best_n)."""
-    first = nodes_i[node, 1]
-    for k in range(first, first + nodes_i[node, 0]):
-        t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best)
-        if t < best:
-            best = t
-            best_k = k
-            best_n = n
-    return best, best_k, best_n
-
-
-@ti.func
-def _skip_walk(o, d, inv, tmax, n_nodes, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
-               pi: ti.template(), tris: ti.template(), any_hit: ti.template()):
-    """:func:`_trace` with skip pointers: every node in depth-first order, left child first, a missed subtree skipped."""
+def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
+           pi: ti.template(), tris: ti.template(), any_hit: ti.template()):
+    """Closest (or, with ``any_hit``, any) primitive hit with T_EPS < t < tmax: (t, k, normal); k = -1: none.
+    Stackless traversal of the BVH with skip pointers."""
+    inv = _safe_inv(d)
     best = tmax
     best_k = -1
     best_n = ti.Vector([0.0, 0.0, 0.0])
+    n_nodes = nodes_i.shape[0] if n_prims > 0 else 0
     node = 0
     while node < n_nodes:
         a0, a1 = _slab(o, inv, _v3(nodes_f, node, 0), _v3(nodes_f, node, 3))
         if a0 <= a1 and a1 > 0.0 and a0 < best:
-            if nodes_i[node, 0] > 0:
-                best, best_k, best_n = _leaf(o, d, inv, pf, pi, tris, node, nodes_i, best, best_k, best_n)
+            cnt = nodes_i[node, 0]
+            if cnt > 0:
+                first = nodes_i[node, 1]
+                for k in range(first, first + cnt):
+                    t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best)
+                    if t < best:
+                        best = t
+                        best_k = k
+                        best_n = n
                 if ti.static(any_hit):
                     if best_k >= 0:
                         break
@@ -253,62 +225,6 @@ def _skip_walk(o, d, inv, tmax, n_nodes, nodes_f: ti.template(), nodes_i: ti.tem
                 node += 1
         else:
             node = nodes_i[node, 2]
-    return best, best_k, best_n
-
-
-@ti.func
-def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
-           pi: ti.template(), tris: ti.template(), any_hit: ti.template()):
-    """Closest (or, with ``any_hit``, any) primitive hit with T_EPS < t < tmax: (t, k, normal); k = -1: none.
-
-    Any hit, and closest hit among fewer than ORDERED_MIN_PRIMS primitives: stackless traversal of the BVH with skip
-    pointers (the left child first). Closest hit in larger scenes: ordered stackless traversal (Hapala et al. 2011):
-    the child nearer along the ray's direction on the node's split axis first, moving between siblings and up to
-    parents (``nodes_i[:, 3]``) instead of popping a stack, so that near surfaces hide far subtrees early."""
-    inv = _safe_inv(d)
-    best = tmax
-    best_k = -1
-    best_n = ti.Vector([0.0, 0.0, 0.0])
-    n_nodes = nodes_i.shape[0] if n_prims > 0 else 0
-    if ti.static(any_hit):
-        best, best_k, best_n = _skip_walk(o, d, inv, tmax, n_nodes, nodes_f, nodes_i, pf, pi, tris, True)
-    elif n_prims < ORDERED_MIN_PRIMS:
-        best, best_k, best_n = _skip_walk(o, d, inv, tmax, n_nodes, nodes_f, nodes_i, pf, pi, tris, False)
-    else:
-        node = 0 if n_nodes > 0 else -1
-        state = 0  # 0 entered from the parent, 1 from the sibling, 2 coming back from a child
-        while node >= 0:
-            nxt = -1
-            if state == 2:
-                if node != 0:
-                    parent = (nodes_i[node, 3] >> 3) - 1
-                    near, far = _near_child(nodes_i, parent, d)
-                    if node == near:
-                        nxt = far
-                        state = 1
-                    else:
-                        nxt = parent
-            else:
-                a0, a1 = _slab(o, inv, _v3(nodes_f, node, 0), _v3(nodes_f, node, 3))
-                enter = a0 <= a1 and a1 > 0.0 and a0 < best
-                cnt = nodes_i[node, 0]
-                if enter and cnt == 0:
-                    nxt = _near_child(nodes_i, node, d)[0]
-                    state = 0
-                else:
-                    if enter:
-                        best, best_k, best_n = _leaf(o, d, inv, pf, pi, tris, node, nodes_i, best, best_k, best_n)
-                    if state == 0:  # to the sibling (the root has none: done)
-                        if node != 0:
-                            parent = (nodes_i[node, 3] >> 3) - 1
-                            nxt = parent + 1
-                            if node == parent + 1:
-                                nxt = nodes_i[parent, 1]
-                            state = 1
-                    else:  # both children of the parent done: up
-                        nxt = (nodes_i[node, 3] >> 3) - 1
-                        state = 2
-            node = nxt
     return best, best_k, best_n
 
 
@@ -527,29 +443,28 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
             ndl = n.dot(L)
             if ndl > 0:
                 vis = 0.0
-                t1 = ti.Vector([0.0, 0.0, 0.0])
-                t2 = ti.Vector([0.0, 0.0, 0.0])
-                rot = 0.0
-                if total > 1:
+                if total <= 1:
+                    if _trace(po, L, dist, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                        vis = 1.0
+                else:
                     t1, t2 = _frame(L)
                     rot = _rand(key * 977 + j * 131 + 7)
-                for s in range(s0, s0 + ns):  # one call site of the traversal (compile time)
-                    Ls = L
-                    ds = dist
-                    if total > 1:  # soft shadows: a stratified point of the light's disc; else its centre
+                    for s in range(s0, s0 + ns):
                         rr = ti.sqrt((ti.cast(s, ti.f32) + _rand(key * 31 + j * 7919 + s * 104729 + 3))
                                      / ti.cast(total, ti.f32))
                         th = 6.2831853 * (rot + ti.cast(s, ti.f32) * 0.6180340)
                         off = rr * (ti.cos(th) * t1 + ti.sin(th) * t2)
+                        Ls = L
+                        ds = dist
                         if point:
                             q = L * dist + off * params[2]  # towards a point of the lamp's disc
                             ds = q.norm()
                             Ls = q / ds
                         else:
                             Ls = (L + off * params[1]).normalized()
-                    if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
-                        vis += 1.0
-                vis /= ti.cast(ns, ti.f32)
+                        if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                            vis += 1.0
+                    vis /= ti.cast(ns, ti.f32)
                 radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten * vis)
     return radiance
 

@@ -176,8 +176,7 @@ def pack_scene(scene) -> dict:
     """The scene as the flat float32/int32 arrays the kernels read (primitives in BVH order).
 
     Returns:
-        ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 4) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`; column 3
-        links each node to its parent and split axis, :func:`_node_links`);
+        ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
         ``pf`` (max(P,1), 9) float32 [min xyz, max xyz, linear albedo rgb]; ``pi`` (max(P,1), 4) int32 [kind, axis or
         packed triangle index, class, instance]; ``tris`` (max(T,1), 9) float32 vertices, in BVH order (row
         ``pi[k, 1]`` is primitive k's); ``shade`` (max(T,1), SHADE_COLS) float32 (rows as ``tris``)
@@ -198,7 +197,6 @@ def pack_scene(scene) -> dict:
     nodes_f, nodes_i, order = build_bvh(scene.prim_min, scene.prim_max)
     if bvh_depth(nodes_i) >= STACK:
         raise ValueError(f"BVH too deep ({bvh_depth(nodes_i)} levels, the kernels' stack holds {STACK})")
-    nodes_i = np.concatenate([nodes_i, _node_links(nodes_f, nodes_i)[:, None]], axis=1)
     nt = int(scene.tri_v.shape[0])
     tri_mat = np.asarray(scene.tri_material, np.int64).reshape(-1)
     if tri_mat.shape[0] != nt:
@@ -270,26 +268,6 @@ def pack_scene(scene) -> dict:
     return {"nodes_f": np.ascontiguousarray(nodes_f), "nodes_i": np.ascontiguousarray(nodes_i), "pf": pf, "pi": pi,
             "tris": tris, "shade": shade, "texels": texels, "tex_info": info, "tex_lut": texture_lut(),
             "lights": lights, "world": world, "n_prims": n, "n_lights": nl, "order": order}
-
-
-def _node_links(nodes_f: np.ndarray, nodes_i: np.ndarray) -> np.ndarray:
-    """(M,) int32 per BVH node ``(parent + 1) << 3 | split_axis << 1 | left_high`` for the kernels' ordered
-    stackless traversal: the parent (−1 for the root), and for an interior node the axis along which its children's
-    box centres lie furthest apart and whether the left child is the higher one on it."""
-    M = nodes_i.shape[0]
-    parent = np.full(M, -1, np.int64)
-    inner = np.flatnonzero(nodes_i[:, 0] == 0)
-    inner = inner[(nodes_i[inner, 1] > 0) & (nodes_i[inner, 1] < M)]  # an empty BVH's root has no children
-    left, right = inner + 1, nodes_i[inner, 1].astype(np.int64)
-    parent[left] = inner
-    parent[right] = inner
-    c = (nodes_f[:, :3].astype(np.float64) + nodes_f[:, 3:6]) / 2
-    gap = c[right] - c[left]
-    axis = np.zeros(M, np.int64)
-    high = np.zeros(M, np.int64)
-    axis[inner] = np.argmax(np.abs(gap), axis=1)
-    high[inner] = gap[np.arange(inner.size), axis[inner]] < 0
-    return (((parent + 1) << 3) | (axis << 1) | high).astype(np.int32)
 
 
 @functools.lru_cache(maxsize=1)

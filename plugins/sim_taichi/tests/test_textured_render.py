@@ -336,11 +336,10 @@ def test_quality_mode_draws_the_texture(synthetic_env, tmp_path):
 
 
 def test_closest_hits_in_a_large_triangle_scene_match_a_numpy_ray_cast():
-    """Past ORDERED_MIN_PRIMS primitives, closest hits use the ordered (nearest child first) traversal: depth,
-    instance ids and laser ranges of overlapping ellipsoids of 1280 triangles each equal a float64 ray cast."""
+    """Depth, instance ids and laser ranges of overlapping ellipsoids of 1280 triangles each (a BVH of thousands of
+    nodes, triangles packed in its order) equal a float64 ray cast."""
     import trimesh
 
-    from benchbot_sim_taichi.kernels import ORDERED_MIN_PRIMS
     from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, make_mesh
     from benchbot_sim_taichi.renderer import Renderer, intrinsics
 
@@ -354,7 +353,7 @@ def test_closest_hits_in_a_large_triangle_scene_match_a_numpy_ray_cast():
         M[:3, 3] = c
         instances.append(MeshInstance(mesh, M, k))
     add_mesh_instances(scene, instances)
-    assert scene.prim_type.shape[0] >= ORDERED_MIN_PRIMS
+    assert scene.prim_type.shape[0] == 4 * 1280
     W, H = 48, 36
     K = intrinsics(W, H, 70.0)
     T = _cam(0.0, 0.0, 0.0)
