@@ -26,6 +26,9 @@ TILE_M = 0.6
 TILE_CONTRAST = 0.06
 GAMMA = 1.0 / 2.2
 
+#: Relative margin by which a primitive beats the room shell at equal distance (a furnished floor at z = 0 lies on
+#: the shell's floor; float32 rounding would otherwise show the shell in rows of pixels).
+SHELL_TIE = 1e-5
 #: Deepest BVH the renderer accepts (``renderer.pack_scene``; the traversal itself is stackless).
 STACK = 64
 #: Default angular radius (rad) of the sun and radius (m) of the lamps, for soft shadows.
@@ -322,7 +325,8 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
     """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
     albedo, class, instance, shadow-ray origin). Both normals face the ray. On a triangle the shading normal
     interpolates its vertex normals, the albedo is multiplied by its texture, sampled at the mip level of the ray
-    footprint (``spread`` · t wide, widened by the obliquity), and the shadow-ray origin is the hit point moved
+    footprint (``spread`` · t wide, divided by the cosine of incidence: the long axis of the footprint on the
+    surface, so grazing surfaces blur rather than alias), and the shadow-ray origin is the hit point moved
     onto the vertices' tangent planes (Hanika's shadow-terminator fix) so that smooth low-poly surfaces do not
     shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point."""
     best, k, nb = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
@@ -345,7 +349,7 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
     c_id = ti.cast(world[18], ti.i32)
     i_id = 0
     hit = 0
-    if k >= 0 and (inside == 0 or best < t_exit):
+    if k >= 0 and (inside == 0 or best < t_exit * (1.0 + SHELL_TIE)):  # geometry on the shell's faces wins
         hit = 1
         t = best
         n = nb
@@ -392,7 +396,7 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
                 u = b0 * shade[j, 9] + b1 * shade[j, 11] + b2 * shade[j, 13]
                 v = b0 * shade[j, 10] + b1 * shade[j, 12] + b2 * shade[j, 14]
                 cos_g = ti.max(ti.abs(nb.dot(d)) / dl, 1e-3)
-                lod = shade[j, 16] + ti.log(ti.max(t * spread, 1e-12) / ti.sqrt(cos_g)) * 1.4426950408889634
+                lod = shade[j, 16] + ti.log(ti.max(t * spread, 1e-12) / cos_g) * 1.4426950408889634
                 albedo *= _texture(texels, tex_info, lut, tex, u, v, lod)
     elif inside == 1 and t_exit > T_EPS:
         hit = 1

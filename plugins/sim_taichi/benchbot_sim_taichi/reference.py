@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.kernels import DIR_EPS, GAMMA, SHADOW_OFFSET, T_EPS, TILE_CONTRAST, TILE_M
+from benchbot_sim_taichi.kernels import DIR_EPS, GAMMA, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST, TILE_M
 from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
 
 _INF = 1e30
@@ -135,7 +135,7 @@ def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int,
     exit_axis = np.argmin(th, axis=1)
     t_exit = th.min(axis=1)
     inside = bool(np.all(o >= room_min) and np.all(o <= room_max))
-    use_box = (best_i >= 0) & ((not inside) | (best < t_exit))
+    use_box = (best_i >= 0) & ((not inside) | (best < t_exit * (1.0 + SHELL_TIE)))
     use_shell = (~use_box) & inside & (t_exit > T_EPS)
     hit = use_box | use_shell
     t = np.where(use_box, best, np.where(use_shell, t_exit, 0.0))

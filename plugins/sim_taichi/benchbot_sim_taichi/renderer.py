@@ -26,7 +26,7 @@ Triangles (meshes, :mod:`benchbot_sim_taichi.meshes`) are shaded with their inte
 shadow rays leave from the hit point offset along the geometric normal, moved onto the vertices' tangent planes so
 low-poly curved surfaces do not shadow themselves in facets) and, with a textured material, albedo = material albedo ×
 texture: sRGB texels turned linear through a 256-entry table, bilinearly filtered, repeating, at a mip level chosen
-from the ray's footprint (``t / fx`` metres per pixel, widened by 1/√cos of the incidence angle) against the
+from the ray's footprint (``t / fx`` metres per pixel, divided by the cosine of incidence) against the
 triangle's texel density, and blended between the two nearest levels (trilinear), so distant surfaces do not alias.
 Depth, segmentation and laser ranges use the triangles themselves.
 """

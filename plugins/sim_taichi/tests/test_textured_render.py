@@ -384,3 +384,26 @@ def test_closest_hits_in_a_large_triangle_scene_match_a_numpy_ray_cast():
     seen = np.isfinite(ref)
     assert seen.sum() > 20
     np.testing.assert_allclose(ranges[seen], ref[seen], rtol=1e-5, atol=1e-5)
+
+
+def test_a_floor_lying_on_the_shell_floor_wins_every_pixel():
+    """Geometry on a face of the room shell (a furnished home's floor at z = 0) is drawn, not the shell: at equal
+    distance float32 rounding used to pick the shell in whole rows of pixels."""
+    from benchbot_sim_taichi.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+
+    scene = _bare_scene(1, room=((-1.0, -6.0, 0.0), (12.0, 6.0, 3.0)))
+    v = np.array([[-1.0, -6.0, 0.0], [12.0, -6.0, 0.0], [12.0, 6.0, 0.0], [-1.0, 6.0, 0.0]])
+    add_mesh_instances(scene, [MeshInstance(make_mesh(v, [[0, 1, 2], [0, 2, 3]], materials=[
+        Material(np.array([0.9, 0.1, 0.1], np.float32))]), np.eye(4), 0)])
+    W, H = 64, 48
+    r = Renderer("cpu")
+    r.set_scene(scene)
+    K, T = intrinsics(W, H, 90.0), _cam(0.0, 0.0, 0.0, h=1.2)
+    out = r.render(K, T, W, H)
+    o, d = _rays(K, T, W, H)
+    t = np.where(d[:, 2] < 0, -o[2] / np.minimum(d[:, 2], -1e-12), np.inf)
+    p = o + t[:, None] * d
+    on_floor = (d[:, 2] < 0) & (p[:, 0] < 12.0 - 0.05) & (np.abs(p[:, 1]) < 6.0 - 0.05)  # not at the far walls
+    assert on_floor.sum() > 1000
+    assert np.all(out["instance"].reshape(-1)[on_floor] == 1), (out["instance"].reshape(-1)[on_floor] != 1).sum()
