@@ -310,7 +310,7 @@ def test_counts_a_request_asks_for_are_bounded(serve):
 
 
 def test_results_functions_never_block_the_event_loop(serve, monkeypatch):
-    monkeypatch.setenv("BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S", "1.5")
+    monkeypatch.setenv("BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S", "4")
     monkeypatch.setenv("BENCHBOT_MAX_RESULTS_REPLY_BYTES", "1000")
     service, server = serve(PASSIVE, "miniroom:1")
     release = threading.Event()
@@ -323,12 +323,13 @@ def test_results_functions_never_block_the_event_loop(serve, monkeypatch):
     caller = threading.Thread(target=call_slow)
     caller.start()
     time.sleep(0.2)
-    started = time.monotonic()
-    assert httpx.get(server.address, timeout=5).status_code == 200  # the server answers while the function runs
+    # the server answers while the function runs: both replies come before the slow call's (no wall-clock bound,
+    # which a loaded machine could break; the function holds its request for the whole 4 s timeout)
+    assert httpx.get(server.address, timeout=5).status_code == 200
     assert httpx.get(server.address + "robot/state", timeout=5).status_code == 200
-    assert time.monotonic() - started < 1.0
-    caller.join(10)
-    assert replies["slow"].status_code == 504 and "did not finish within 1.5 s" in replies["slow"].json()["error"]
+    assert "slow" not in replies
+    caller.join(15)
+    assert replies["slow"].status_code == 504 and "did not finish within 4 s" in replies["slow"].json()["error"]
     release.set()
     large = httpx.post(server.address + "results_functions/create_object", json={"args": [1000]}, timeout=10)
     assert large.status_code == 400 and "past the limit of 1000 bytes" in large.json()["error"]
