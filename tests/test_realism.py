@@ -128,7 +128,7 @@ def test_reference_export_is_gltf_y_up_with_flat_materials_and_shell(realism):
     from benchbot_sim_taichi.scene import build_scene
 
     env = next(e for e in plugin.environment_specs() if e["name"] == "miniroom" and e["variant"] == 1)
-    scene = build_scene(env)
+    scene = build_scene({**env, "style": "primitives"})
     path = Path(os.environ.get("TMPDIR", "/tmp")) / f"realism-test-{os.getpid()}.glb"
     try:
         info = realism.export_reference_glb(scene, path)

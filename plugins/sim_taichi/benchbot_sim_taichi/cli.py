@@ -4,6 +4,8 @@
 * ``benchbot sim render ENV [--pose x,y,z,yaw_deg] [--mode fast|quality] [--width W --height H] -o FILE.png``
 * ``benchbot sim export ENV -o FILE.glb`` (the whole scene with its materials and textures; other formats trimesh
   writes: one mesh with face colours)
+* ``benchbot sim plan ENV -o FILE.png`` (top-down floor plan of a furnished home: rooms, walls, doors, windows,
+  the ground-truth boxes and the robot's path)
 * ``benchbot sim ground-truth ENV -o FILE.json`` (the ground truth derived from the scene: per object the
   axis-aligned bounds of its geometry; for environments with mesh ``objects``)
 """
@@ -85,7 +87,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
            seed: int = typer.Option(0, "--seed", help="seed of the scene's colour variation and of the sampling"),
            style: str = typer.Option(None, "--style",
                                      help="furnished (a house: rooms, walls, textured models) or primitives; "
-                                          "default: the environment's own, else primitives"),
+                                          "default: the environment's own, else furnished"),
            ) -> None:
     """Render one RGB view of ENV to a PNG."""
 
@@ -124,7 +126,7 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
            output: Path = typer.Option(..., "-o", "--output", help="mesh file (.glb, .obj, .ply, …)"),
            style: str = typer.Option(None, "--style",
                                      help="furnished (a house: rooms, walls, textured models) or primitives; "
-                                          "default: the environment's own, else primitives"),
+                                          "default: the environment's own, else furnished"),
            ) -> None:
     """Export the whole scene of ENV (objects and room shell) as triangles: a .glb keeps the materials, textures and
     normals (for a reference renderer); other formats get one mesh with face colours."""
@@ -153,6 +155,38 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
             raise UsageError(f"cannot write the mesh {output}: {why}",
                              "use a writable path ending in .glb, .gltf, .obj, .ply or .stl") from e
         typer.echo(f"{output} ({len(mesh.faces)} triangles)")
+
+    _run(go)
+
+
+@app.command("plan")
+def plan(env: str = typer.Argument(..., help="name:variant or an environment YAML"),
+         output: Path = typer.Option(..., "-o", "--output", help="image file to write (.png, .svg or .pdf)")) -> None:
+    """Draw the floor plan of ENV's furnished home from above: rooms by kind, walls, doors and open passages,
+    windows, ENV's ground-truth boxes and its robot path (start dot, then the trajectory)."""
+
+    def go():
+        from benchbot.core.errors import UsageError
+        from benchbot_sim_taichi.floorplan_plot import save_plan_figure
+        from benchbot_sim_taichi.scene import build_scene
+
+        environment = _environment(env)
+        scene = build_scene(_styled(environment, "furnished"))
+        if scene.plan is None:
+            raise UsageError(f"{env} has no ground-truth objects, so no floor plan is derived for it",
+                             "give an environment with a map_path (BEAR ground truth)")
+        objects = [{"class": scene.class_list[int(c)], "centroid": ((lo + hi) / 2).tolist(),
+                    "extent": (hi - lo).tolist()} for c, lo, hi in zip(scene.box_class, scene.box_min, scene.box_max)]
+        path = [scene.start_se2[None, :2], scene.trajectory_se2[:, :2]]
+        import numpy as np
+
+        output.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            save_plan_figure(scene.plan, objects, [np.concatenate(path)], output,
+                             title=f"{env}: {len(scene.plan.rooms)} rooms, {len(objects)} ground-truth objects")
+        except (OSError, ValueError) as e:
+            raise UsageError(f"cannot write the plan {output}: {e}", "use a writable path ending in .png, .svg or .pdf")
+        typer.echo(str(output))
 
     _run(go)
 

@@ -63,7 +63,8 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
         ax.text(c[0], c[1], str(o["class"]), fontsize=4.5, ha="center", va="center", color="#1b4d27", zorder=6)
     for k, p in enumerate(paths):
         p = np.asarray(p, dtype=float)
-        ax.plot(p[:, 0], p[:, 1], lw=0.7, alpha=0.7, zorder=4, label=f"path {k + 1}")
+        label = "robot path" if len(paths) == 1 else f"path {k + 1}"
+        ax.plot(p[:, 0], p[:, 1], lw=0.7, alpha=0.7, zorder=4, label=label)
         ax.plot(p[0, 0], p[0, 1], "o", ms=3, color=ax.lines[-1].get_color(), zorder=4)
     for q in plan.lights:
         ax.plot(q[0], q[1], "*", ms=6, color="#e6b800", zorder=5)

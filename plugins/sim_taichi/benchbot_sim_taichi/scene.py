@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -79,9 +80,11 @@ _LIGHTINGS = ("base", "day", "night", "day_extra", "night_extra")
 #: doors and windows, textured models fitted to the cuboids, supports and distractor furniture
 #: (:mod:`benchbot_sim_taichi.furnished`); ``primitives`` — procedural primitives in one room shell.
 STYLES = ("furnished", "primitives")
-#: The style of an environment that names none. Still ``primitives``: the furnished homes become the default once
-#: their episodes are checked end to end (scores, speed, the whole test suite).
-DEFAULT_STYLE = "primitives"
+#: The style of an environment that names none, unless :data:`STYLE_VARIABLE` says otherwise.
+DEFAULT_STYLE = "furnished"
+#: The environment variable that sets the style of environments naming none, for a whole run and the processes it
+#: starts (e.g. ``BENCHBOT_SIM_STYLE=primitives benchbot batch …`` for speed; the test suite sets it).
+STYLE_VARIABLE = "BENCHBOT_SIM_STYLE"
 #: Furnished homes: the outdoors (ground, sky) lies this far (m) beyond the outer walls; sRGB ground, sky, sky.
 OUTDOOR_MARGIN_M = 6.0
 _OUTDOOR_COLOURS = ((0.36, 0.40, 0.26), (0.62, 0.74, 0.90), (0.70, 0.80, 0.94))
@@ -150,6 +153,8 @@ class Scene:
         obstacle_min, obstacle_max, obstacle_bottom, obstacle_names: (Q, 2) float64 xy rectangles besides the
             objects' cuboids that the robot's footprint may not touch if it is taller than their (Q,) bottom heights
             (m) — a furnished home's walls, supports and distractor furniture — and their names.
+        plan: the furnished home's :class:`~benchbot_sim_taichi.floorplan.FloorPlan` (rooms, walls, openings,
+            lamps); ``None`` in the primitives style.
         Mesh instances are added with :func:`benchbot_sim_taichi.meshes.add_mesh_instances`.
     """
 
@@ -194,6 +199,7 @@ class Scene:
     obstacle_max: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float64))
     obstacle_bottom: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float64))
     obstacle_names: list[str] = field(default_factory=list)
+    plan: object | None = None
 
     @property
     def n_boxes(self) -> int:
@@ -492,17 +498,33 @@ def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np
     )
 
 
+def default_style() -> str:
+    """The style of environments whose spec names none: ``$BENCHBOT_SIM_STYLE`` (:data:`STYLE_VARIABLE`) when set,
+    else :data:`DEFAULT_STYLE`.
+
+    Raises:
+        BackendError: the variable is set to a name not in :data:`STYLES`.
+    """
+    style = os.environ.get(STYLE_VARIABLE, "").strip() or DEFAULT_STYLE
+    if style not in STYLES:
+        raise BackendError(f"the environment variable {STYLE_VARIABLE}={style[:40]!r} names no style",
+                           f"set it to one of: {', '.join(STYLES)} (or unset it for {DEFAULT_STYLE})")
+    return style
+
+
 def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     """Build the :class:`Scene` of an environment spec.
 
     Args:
         environment: an environment spec; ``map_path`` names a BEAR ground-truth JSON (objects, class list);
             ``start_pose``/``trajectory_poses`` (``[qw,qx,qy,qz,x,y,z]``) are taken from the spec, else from the
-            JSON; ``lighting`` from the spec, else from the JSON's original Unreal ``map_path``.
-        seed: seeds the per-instance colour variation.
+            JSON; ``lighting`` from the spec, else from the JSON's original Unreal ``map_path``; ``style`` (one of
+            :data:`STYLES`) from the spec, else :func:`default_style`.
+        seed: seeds the per-instance colour variation (and the furnished home's choices).
 
     Raises:
-        BackendError: ``map_path`` is missing, unreadable or malformed, or a pose is malformed.
+        BackendError: ``map_path`` is missing, unreadable or malformed, a pose is malformed, or the style is
+            unknown.
     """
     map_path = environment.get("map_path")
     mesh_objs = load_mesh_objects(environment)
@@ -521,14 +543,14 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     background = class_ids.get("background", len(class_list) - 1)
 
     procedural = bool(environment.get("procedural", True))
-    style = environment.get("style", DEFAULT_STYLE)
+    style = environment.get("style") or default_style()
     if style not in STYLES:
         raise BackendError(f"environment {environment.get('name')}:{environment.get('variant')}: unknown style "
                            f"{style!r}", f"style is one of: {', '.join(STYLES)}")
     home = None
-    if style == "furnished" and gt["objects"]:
-        home = _furnished_home(environment, file_env, gt["objects"][: len(gt["objects"]) - len(mesh_objs)],
-                               map_path, seed)
+    map_objects = gt["objects"][: len(gt["objects"]) - len(mesh_objs)]
+    if style == "furnished" and map_objects:  # the plan is derived from the map's cuboids: without any, a room shell
+        home = _furnished_home(environment, file_env, map_objects, map_path, seed)
     modelled = set() if home is None else \
         {i.object_index for i in home.instances if i.object_index >= 0}
     mins, maxs, albedo, cls_ids, inst_ids, names = [], [], [], [], [], []
@@ -661,6 +683,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         obstacle_max=np.asarray([o[1] for o in obstacles], dtype=np.float64).reshape(-1, 2),
         obstacle_bottom=np.asarray([o[2] for o in obstacles], dtype=np.float64),
         obstacle_names=[o[3] for o in obstacles],
+        plan=None if home is None else home.plan,
     )
     if home is not None:
         instances = home.instances + instances

@@ -1,7 +1,8 @@
 """Furnished homes end to end (benchbot_sim_taichi.furnished + scene.build_scene, style ``furnished``) on the ten BEAR
 environments with the installed asset packs: the ground truth is unchanged, the models of every object bound exactly
 its cuboid, the passive trajectories are collision-free with the added walls and furniture, the variants of a home
-share their house, a seed gives one house, and the primitive style is still the default. No Taichi."""
+share their house, a seed gives one house, the furnished style is the default and the primitive style stays
+available, and `benchbot sim plan` draws a home's plan. No Taichi."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from benchbot_sim_taichi.furnished import furnish_environment
 from benchbot_sim_taichi.kinematics import Obstacles
 from benchbot_sim_taichi.meshes import instance_bounds
 from benchbot_sim_taichi.plugin import DATA_DIR
-from benchbot_sim_taichi.scene import build_scene
+from benchbot_sim_taichi.scene import STYLE_VARIABLE, build_scene
 
 ENVS = [f"{home}_{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 #: carter's footprint radius and height (robots/carter.yaml).
@@ -105,9 +106,38 @@ def test_same_seed_same_house_other_seed_may_differ():
     np.testing.assert_array_equal(a.tex_texels, b.tex_texels)
 
 
-def test_primitive_style_is_still_available_and_unknown_style_is_one_line():
-    scene = build_scene(_environment("miniroom_1"), seed=0)  # the default
-    assert scene.style == "primitives" and scene.obstacle_min.shape == (0, 2)
+def test_furnished_is_the_default_primitives_stay_available_and_unknown_style_is_one_line(monkeypatch):
+    monkeypatch.delenv(STYLE_VARIABLE, raising=False)  # the test suite's conftest sets primitives
+    default = build_scene(_environment("miniroom_1"), seed=0)
+    assert default.style == "furnished" and default.plan is not None and default.obstacle_min.shape[0] > 0
+    monkeypatch.setenv(STYLE_VARIABLE, "primitives")
+    assert build_scene(_environment("miniroom_1"), seed=0).style == "primitives"
+    assert build_scene(_environment("miniroom_1", style="furnished"), seed=0).style == "furnished"  # the spec wins
+    monkeypatch.setenv(STYLE_VARIABLE, "photoreal")
+    with pytest.raises(BackendError, match="BENCHBOT_SIM_STYLE='photoreal' names no style") as e:
+        build_scene(_environment("miniroom_1"), seed=0)
+    assert "furnished, primitives" in str(e.value.hint)
+    monkeypatch.delenv(STYLE_VARIABLE)
+    scene = build_scene(_environment("miniroom_1", style="primitives"), seed=0)
+    assert scene.style == "primitives" and scene.obstacle_min.shape == (0, 2) and scene.plan is None
     with pytest.raises(BackendError, match="unknown style 'photo'") as e:
         build_scene(_environment("miniroom_1", style="photo"), seed=0)
     assert "furnished, primitives" in str(e.value.hint)
+
+
+def test_sim_plan_draws_the_plan_of_a_home(tmp_path):
+    from typer.testing import CliRunner
+
+    from benchbot_sim_taichi.cli import app
+
+    out = tmp_path / "plans" / "house_3.png"
+    result = CliRunner().invoke(app, ["plan", "house:3", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    import cv2
+
+    image = cv2.imread(str(out))
+    assert image is not None and min(image.shape[:2]) > 400, None if image is None else image.shape
+    # a drawn plan, not a blank page: walls (near black), room tints, boxes and labels
+    assert (image.max(axis=2) < 80).mean() > 0.02 and len(np.unique(image.reshape(-1, 3), axis=0)) > 50
+    bad = CliRunner().invoke(app, ["plan", "house:3", "-o", str(tmp_path / "no_such_dir_file" / "x.unknownext")])
+    assert bad.exit_code != 0 and "Traceback" not in bad.output
