@@ -52,7 +52,9 @@ def main(argv: list[str] | None = None) -> int:
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
-    scene = build_scene(envs[args.env])
+    t0 = time.perf_counter()
+    scene = build_scene(envs[args.env])  # the default style, or $BENCHBOT_SIM_STYLE (furnished | primitives)
+    t_build = time.perf_counter() - t0
     W, H, B = args.width, args.height, max(1, args.batch)
     t0 = time.perf_counter()
     r = Renderer(args.arch, shadow_samples=args.shadow_samples)
@@ -90,6 +92,7 @@ def main(argv: list[str] | None = None) -> int:
            "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
            "mrays_per_s": W * H * fps / 1e6, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
+           "style": scene.style, "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
            "setup_s": t_setup, "fps_with_host_copy": fps_host, "device_buffers": r.device_buffers,
            "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
            "outputs": "rgb+depth+class+instance+laser(360)"}
@@ -120,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(f"{args.env} {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
+        print(f"{args.env} ({scene.style}, {out['triangles']} triangles) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
               f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host:.1f} fps with host copies; "
               f"embree {out.get('embree_mrays_per_s', float('nan')):.2f} "
               f"Mrays/s on {out.get('embree_triangles', 0)} triangles")

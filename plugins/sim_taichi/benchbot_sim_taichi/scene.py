@@ -92,7 +92,9 @@ _OUTDOOR_COLOURS = ((0.36, 0.40, 0.26), (0.62, 0.74, 0.90), (0.70, 0.80, 0.94))
 #: light this far (m).
 LAMP_GAIN = 0.8
 #: Furnished homes: the ambient term stands in for the daylight that windows let in and walls bounce around.
-INDOOR_AMBIENT_GAIN = 1.5
+INDOOR_AMBIENT_GAIN = 1.75
+#: Furnished homes, lighting ``base``: the ceiling lamps' intensity (before :data:`LAMP_GAIN`).
+BASE_LAMP_INTENSITY = 0.9
 LAMP_RANGE_M = 6.0
 
 
@@ -489,6 +491,8 @@ def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np
     else:  # base: warm interior light
         ambient = np.array([0.26, 0.24, 0.21])
         sun(0.75)
+        if lamps is not None:  # a furnished home: the sun reaches in only through windows; the lamps are on
+            ceiling(BASE_LAMP_INTENSITY, 4.0)
     return (
         ambient.astype(np.float32),
         np.asarray(kinds, dtype=np.int32),
