@@ -71,6 +71,8 @@ class Material:
         roughness, metallic: glTF metallic-roughness factors (0..1).
         name: the file's material name, if any.
         from_file: False for the default material given to a mesh whose file has none.
+        opacity: 0..1, the glTF base colour's alpha where the material blends (``alphaMode: BLEND``), else 1. The
+            renderer draws every surface opaque; :func:`without_glass` drops glass (below :data:`GLASS_OPACITY`).
     """
 
     albedo: np.ndarray
@@ -79,6 +81,7 @@ class Material:
     metallic: float = 0.0
     name: str = ""
     from_file: bool = True
+    opacity: float = 1.0
 
 
 @dataclass(eq=False)
@@ -279,12 +282,15 @@ def _material_of(tm_material) -> Material:
 
     name = str(getattr(tm_material, "name", "") or "")
     if isinstance(tm_material, PBRMaterial):
-        base = _factor(tm_material.baseColorFactor, (1.0, 1.0, 1.0, 1.0))[:3]  # glTF: linear already
+        rgba = _factor(tm_material.baseColorFactor, (1.0, 1.0, 1.0, 1.0))  # glTF: linear already
+        base = rgba[:3]
+        blends = str(getattr(tm_material, "alphaMode", None) or "OPAQUE").upper() == "BLEND"
         rough = tm_material.roughnessFactor
         metal = tm_material.metallicFactor
         return Material(albedo=base.astype(np.float32), texture=_texture_array(tm_material.baseColorTexture),
                         roughness=float(1.0 if rough is None else rough),
-                        metallic=float(1.0 if metal is None else metal), name=name)  # glTF's defaults: 1, 1
+                        metallic=float(1.0 if metal is None else metal), name=name,  # glTF's defaults: 1, 1
+                        opacity=float(rgba[3]) if blends and len(rgba) > 3 else 1.0)
     if isinstance(tm_material, SimpleMaterial):
         diffuse = _factor(getattr(tm_material, "diffuse", None), (1.0, 1.0, 1.0, 1.0))[:3]  # MTL Kd: sRGB
         gloss = getattr(tm_material, "glossiness", None)
@@ -431,6 +437,23 @@ def with_albedo(mesh: MeshData, albedo_linear) -> MeshData:
 
 
 # ------------------------------------------------------------------------------------------------------ flattening
+#: Materials less opaque than this are glass (see :func:`without_glass`): the packaged window panes are 0.35–0.50,
+#: sheer curtains 0.66.
+GLASS_OPACITY = 0.6
+
+
+def without_glass(mesh: MeshData) -> MeshData:
+    """``mesh`` without the faces whose material is glass (``opacity`` < :data:`GLASS_OPACITY`): what a window keeps,
+    so that the camera sees, and the sun shines, through its panes (every drawn surface is opaque). The vertices,
+    materials and ``bounds`` stay as they are (a pane lies inside its frame's bounds). Returns ``mesh`` itself when
+    it has no glass."""
+    glass = np.array([m.opacity < GLASS_OPACITY for m in mesh.materials], dtype=bool)
+    keep = ~glass[mesh.f_material]
+    if keep.all():
+        return mesh
+    return dataclasses.replace(mesh, f=mesh.f[keep], f_material=mesh.f_material[keep])
+
+
 def instance_bounds(inst: MeshInstance) -> np.ndarray:
     """(2, 3) float64 map-frame axis-aligned bounds of a placed mesh (of its transformed vertices)."""
     M = np.asarray(inst.transform, dtype=np.float64)

@@ -141,3 +141,25 @@ def test_sim_plan_draws_the_plan_of_a_home(tmp_path):
     assert (image.max(axis=2) < 80).mean() > 0.02 and len(np.unique(image.reshape(-1, 3), axis=0)) > 50
     bad = CliRunner().invoke(app, ["plan", "house:3", "-o", str(tmp_path / "no_such_dir_file" / "x.unknownext")])
     assert bad.exit_code != 0 and "Traceback" not in bad.output
+
+
+def test_windows_are_open_panes_the_outdoors_is_seen_through():
+    from benchbot_sim_taichi.meshes import GLASS_OPACITY, load_mesh
+
+    env = _environment("miniroom_1")
+    data = json.loads((DATA_DIR / "miniroom_1.json").read_text())
+    home = furnish_environment(data["ground_truth"]["objects"], env["map_path"], [np.zeros((1, 2))], seed=0)
+    lib = asset_library()
+    placed = list(zip(home.furnishing.placements, home.instances[1:]))  # instances[0]: floors, walls, ceilings
+    windows = [(p, inst) for p, inst in placed if p.role == "window"]
+    assert len(windows) >= 2
+    for p, inst in windows:
+        model = load_mesh(lib.get(p.asset_id).path)
+        assert any(m.opacity < GLASS_OPACITY for m in model.materials)  # the packaged window has panes…
+        drawn = {inst.mesh.materials[k].name for k in np.unique(inst.mesh.f_material)}
+        glass = {m.name for m in model.materials if m.opacity < GLASS_OPACITY}
+        assert drawn and not drawn & glass, (drawn, glass)  # …which the scene leaves out, keeping the frame
+    others = [inst for p, inst in placed if p.role != "window"]
+    assert all(inst.mesh is load_mesh(lib.get(p.asset_id).path) for (p, inst) in placed if p.role != "window"), \
+        "only windows lose their glass"
+    assert others

@@ -89,6 +89,32 @@ def test_scene_file_nodes_materials_and_computed_normals(tmp_path):
     assert np.all(np.einsum("ij,ij->i", mesh.n[ball_i], p / 0.5) > 0.95)
 
 
+def test_blended_materials_keep_their_opacity_and_glass_can_be_dropped(tmp_path):
+    import trimesh
+
+    from benchbot_sim_taichi.meshes import GLASS_OPACITY, load_mesh, without_glass
+
+    sc = trimesh.Scene()
+    for name, rgba, mode, x in [("frame", [200, 200, 200, 255], None, 0.0), ("pane", [165, 165, 165, 128], "BLEND", 2.0),
+                                ("curtain", [230, 230, 230, 168], "BLEND", 4.0),
+                                ("masked", [90, 90, 90, 40], "MASK", 6.0)]:
+        box = trimesh.creation.box(extents=(1.0, 0.1, 1.0))
+        box.visual = trimesh.visual.TextureVisuals(
+            material=trimesh.visual.material.PBRMaterial(name=name, baseColorFactor=rgba, alphaMode=mode))
+        sc.add_geometry(box, node_name=name, transform=trimesh.transformations.translation_matrix([x, 0.0, 0.0]))
+    sc.export(str(tmp_path / "window.glb"))
+    mesh = load_mesh(tmp_path / "window.glb")
+    opacity = {m.name: round(m.opacity, 3) for m in mesh.materials}
+    # only BLEND materials are see-through; MASK (cut-outs) and OPAQUE keep opacity 1
+    assert opacity == {"frame": 1.0, "pane": 0.502, "curtain": 0.659, "masked": 1.0}, opacity
+    assert 0.502 < GLASS_OPACITY < 0.659
+    kept = without_glass(mesh)
+    names = {kept.materials[i].name for i in np.unique(kept.f_material)}
+    assert names == {"frame", "curtain", "masked"} and kept.n_triangles == mesh.n_triangles - 12
+    np.testing.assert_array_equal(kept.bounds, mesh.bounds)  # the frame's fit is unchanged
+    assert without_glass(kept) is kept  # nothing left to drop: the same mesh
+
+
 def test_smooth_normals_round_curves_and_keep_creases(tmp_path):
     import trimesh
 
