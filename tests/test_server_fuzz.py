@@ -8,7 +8,6 @@ import random
 import socket
 import string
 import threading
-import time
 
 import httpx
 from hypothesis import HealthCheck, given, settings
@@ -69,9 +68,10 @@ def test_random_requests_never_crash_the_server(served):
     http.close()
 
 
-#: The hostile fuzz: how many requests, and the wall time they may take in all (a 2-core CI machine).
+#: The hostile fuzz: how many requests, and how long one may take before it counts as a stalled server (a bound
+#: for hangs, far above any load: how fast the server refuses is measured by benchmarks/hostile_inputs.py).
 HOSTILE_REQUESTS = 300
-HOSTILE_BUDGET_S = 20.0
+HOSTILE_STALL_S = 30.0
 HOSTILE_ROUTES = ["/", "/config/", "/config/task/observations", "/config/environments", "/robot/state",
                   "/robot/is_running", "/robot/reset", "/robot/next", "/robot/restart", "/robot/stop", "/robot/release",
                   "/robot/run_info", "/connections/move_distance", "/connections/move_angle", "/connections/move_next",
@@ -115,12 +115,11 @@ def hostile_body(rng: random.Random) -> bytes:
 
 
 def test_hostile_requests_never_crash_or_stall_the_server(served):
-    """A bounded, seeded fuzz (:data:`HOSTILE_REQUESTS` requests in under :data:`HOSTILE_BUDGET_S` s) of hostile
-    requests on every route: no 5xx, no request past a few seconds, and the server still answers after."""
+    """A bounded, seeded fuzz (:data:`HOSTILE_REQUESTS` requests) of hostile requests on every route: no 5xx, no
+    request stalls (:data:`HOSTILE_STALL_S`: the client's timeout), and the server still answers after."""
     _, server = served(ACTIVE, "miniroom:1")
     rng = random.Random(14)
-    http = httpx.Client(base_url=server.address, timeout=10)
-    started = time.monotonic()
+    http = httpx.Client(base_url=server.address, timeout=HOSTILE_STALL_S)
     statuses: dict[int, int] = {}
     for i in range(HOSTILE_REQUESTS):
         method = rng.choice(["GET", "POST", "POST", "PUT", "DELETE"])
@@ -130,17 +129,14 @@ def test_hostile_requests_never_crash_or_stall_the_server(served):
         if rng.random() < 0.2:
             headers["X-BenchBot-Client"] = rng.choice(["", "x", "a" * 500, "ok-client-" + str(i % 3) * 8,
                                                        "\xe9".encode("latin-1") * 10])
-        t0 = time.monotonic()
         try:
             reply = http.request(method, path, content=body, headers=headers)
         except httpx.RemoteProtocolError:  # the server closed a connection it refused (a 413 before the body)
             http.close()
-            http = httpx.Client(base_url=server.address, timeout=10)
+            http = httpx.Client(base_url=server.address, timeout=HOSTILE_STALL_S)
             continue
-        took = time.monotonic() - t0
         statuses[reply.status_code] = statuses.get(reply.status_code, 0) + 1
         assert reply.status_code < 500, (method, path, body[:80], reply.status_code, reply.text[:300])
-        assert took < 5.0, (method, path, body[:80], took)
     # raw HTTP an ordinary client would never send: lying lengths, endless chunks, junk request lines
     for raw in (b"POST /native/step HTTP/1.1\r\nHost: x\r\nContent-Length: 99999999999\r\n\r\n{",
                 b"POST /robot/reset HTTP/1.1\r\nHost: x\r\nContent-Length: -5\r\n\r\n",
@@ -155,8 +151,6 @@ def test_hostile_requests_never_crash_or_stall_the_server(served):
             except (ConnectionResetError, BrokenPipeError, socket.timeout):
                 head = b""
         assert not head.startswith(b"HTTP/1.1 5"), (raw[:60], head)
-    elapsed = time.monotonic() - started
-    assert elapsed < HOSTILE_BUDGET_S, f"{HOSTILE_REQUESTS} hostile requests took {elapsed:.1f} s"
     assert http.get("/").json() == "Hello, I am the BenchBot supervisor"
     assert http.post("/robot/reset").json() == {"reset_success": True}
     assert statuses.get(413, 0) > 0 and statuses.get(400, 0) > 0, statuses
@@ -198,10 +192,9 @@ def test_slow_action_answers_504_and_the_episode_stays_usable(make_service):
     server = ServerThread(build_app(service, action_timeout_s=0.3)).start()
     try:
         http = httpx.Client(base_url=server.address, timeout=30)
-        started = time.monotonic()
         reply = http.post("/connections/move_angle", json={"angle": 10})
+        # the motion blocks until release is set below, so a 504 now shows the server did not wait for it
         assert reply.status_code == 504 and "did not finish within 0.3 s" in reply.json()["error"]
-        assert time.monotonic() - started < 3.0
         release.set()
         assert http.get("/robot/state").json()["step"] == 1  # queued behind the finished motion
         backend.move_to = original
