@@ -34,6 +34,10 @@ STACK = 64
 #: Default angular radius (rad) of the sun and radius (m) of the lamps, for soft shadows.
 SUN_RADIUS = 0.035
 LAMP_RADIUS = 0.15
+#: Shadow rays towards a point light stop this far (m) short of it: a lamp's own fixture (a ceiling lamp model is at
+#: most 0.5 m tall, its bottom 5 cm above its light) casts no shadow, so a shade does not black out the ceiling
+#: around it. A hanging lamp has nothing else that close.
+LAMP_FIXTURE_M = 0.6
 
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
@@ -447,8 +451,11 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
             ndl = n.dot(L)
             if ndl > 0:
                 vis = 0.0
+                reach = dist
+                if point:
+                    reach = ti.max(dist - LAMP_FIXTURE_M, 0.0)
                 if total <= 1:
-                    if _trace(po, L, dist, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                    if _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
                         vis = 1.0
                 else:
                     t1, t2 = _frame(L)
@@ -464,6 +471,7 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
                             q = L * dist + off * params[2]  # towards a point of the lamp's disc
                             ds = q.norm()
                             Ls = q / ds
+                            ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
                         else:
                             Ls = (L + off * params[1]).normalized()
                         if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:

@@ -9,7 +9,8 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.kernels import DIR_EPS, GAMMA, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST, TILE_M
+from benchbot_sim_taichi.kernels import (DIR_EPS, GAMMA, LAMP_FIXTURE_M, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST,
+                                        TILE_M)
 from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
 
 _INF = 1e30
@@ -175,7 +176,8 @@ def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int,
         lit = ok & (ndl > 0) & hit
         idx = np.nonzero(lit)[0]
         if idx.size:
-            _, k, _ = trace_reference(scene, po[idx], L[idx], dist[idx])
+            reach = dist[idx] - LAMP_FIXTURE_M if scene.light_kind[j] == 1 else dist[idx]
+            _, k, _ = trace_reference(scene, po[idx], L[idx], np.maximum(reach, 0.0))
             lit[idx[k >= 0]] = False
         radiance = radiance + np.where(lit, ndl * atten, 0.0)[:, None] * col[None, :]
     c = np.clip(albedo * radiance, 0.0, 1.0)

@@ -211,3 +211,40 @@ def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector
     finally:
         gc.enable()
     assert stray == []
+
+
+def test_a_lamps_own_shade_does_not_shadow_the_ceiling_around_it(synthetic_env):
+    """A point light 5 cm under a 0.6 m wide shade (a ceiling lamp): the ceiling around the shade is lit (shadow rays
+    stop LAMP_FIXTURE_M short of a point light), in the kernels and in the NumPy reference alike; shadows of
+    anything farther from the light stay."""
+    from benchbot_sim_taichi.kernels import LAMP_FIXTURE_M
+    from benchbot_sim_taichi.reference import render_reference
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import LIGHT_POINT, build_scene
+
+    env = synthetic_env([("table", (3.0, 0.0, 2.15), (0.6, 0.6, 0.1)), ("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
+    scene = build_scene({**env, "procedural": False})  # the shade: one box
+    assert abs(float(scene.room_max[2]) - 2.6) < 1e-6 and LAMP_FIXTURE_M > 2.6 - 2.05  # ceiling within reach
+    scene.ambient = np.zeros(3, np.float32)
+    scene.light_kind = np.array([LIGHT_POINT], np.int32)
+    scene.light_vec = np.array([[3.0, 0.0, 2.05]], np.float32)
+    scene.light_colour = np.array([[1.0, 1.0, 1.0]], np.float32)
+    scene.light_range = np.array([6.0], np.float32)
+    r = Renderer("cpu")
+    r.set_scene(scene)
+    W, H = 48, 48
+    K = intrinsics(W, H, 90.0)
+    up = np.eye(4)  # optical z (forward) = map +z: looking straight up from 0.3 m under the lamp
+    up[:3, 3] = (3.0, 0.0, 0.3)
+    got = r.render(K, up, W, H)
+    ref = render_reference(scene, K, up, W, H)
+    ceiling = np.isclose(got["depth"], 2.3, atol=1e-3)  # the ceiling seen around the shade
+    assert ceiling.sum() > 0.3 * W * H
+    assert got["rgb"][ceiling].min() > 20, "the shade shadows the ceiling"
+    diff = np.abs(got["rgb"].astype(int) - ref["rgb"].astype(int)).max(axis=2)
+    assert (diff > 2).sum() <= 8
+    down = np.diag([1.0, -1.0, -1.0, 1.0])  # looking straight down at the floor
+    down[:3, 3] = (3.0, 0.0, 1.5)  # under the lamp: lit (a pendant lamp shines down; its fixture casts no shadow)
+    assert r.render(K, down, W, H)["rgb"][H // 2, W // 2].min() > 20
+    down[:3, 3] = (0.07, 3.51, 1.0)  # behind the chair, seen from the lamp: the chair's shadow stays
+    assert r.render(K, down, W, H)["rgb"][H // 2 - 1:H // 2 + 1, W // 2 - 1:W // 2 + 1].max() == 0
