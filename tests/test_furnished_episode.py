@@ -1,6 +1,6 @@
 """README's main job on the default scene style: ``benchbot batch --example semslam_geometric --envs miniroom:1``
 runs on the furnished home (the test suite's conftest sets ``BENCHBOT_SIM_STYLE=primitives``; here it is unset),
-and ``BENCHBOT_SIM_STYLE`` reaches the batch's episodes (the same batch in the primitives style scores otherwise)."""
+and ``BENCHBOT_SIM_STYLE`` reaches the batch's episodes; both scores are README's figures (pinned here)."""
 
 from __future__ import annotations
 
@@ -26,10 +26,18 @@ def run_main_job(out: Path, style: str | None) -> dict:
     return json.loads((run_dir / "scores.json").read_text())["scores"]
 
 
+#: README's figures for its command 1 (the table "Figures"): OMQ of ``semslam_geometric`` on miniroom:1.
+README_OMQ = {"furnished": 0.107, "primitives": 0.160}
+#: Why a tolerance at all: the images are rendered in float32 by Taichi's CPU backend, whose vectorised code may
+#: round differently on another CPU; a few depth pixels that differ move the baseline's boxes by millimetres, i.e.
+#: OMQ by a few 1e-4 (runs on this project's machines agree to all four printed digits). Anything beyond 0.005 is
+#: a change of the simulator or the baseline: update README's figure with it.
+README_OMQ_TOLERANCE = 0.005
+
+
 def test_main_job_runs_on_the_furnished_default_and_the_style_variable_reaches_episodes(tmp_path):
     furnished = run_main_job(tmp_path / "furnished", None)
     primitives = run_main_job(tmp_path / "primitives", "primitives")
-    for scores in (furnished, primitives):  # the geometric example maps objects in either style
-        assert 0.05 < scores["OMQ"] < 1.0 and scores["avg_pairwise"] > 0.1, scores
-    # the example sees different images: its maps, hence its scores, differ (each style alone is deterministic)
-    assert furnished["OMQ"] != primitives["OMQ"], (furnished, primitives)
+    for style, scores in (("furnished", furnished), ("primitives", primitives)):
+        assert scores["avg_pairwise"] > 0.1, scores  # the geometric example maps objects in either style
+        assert abs(scores["OMQ"] - README_OMQ[style]) < README_OMQ_TOLERANCE, (style, scores["OMQ"], README_OMQ)
