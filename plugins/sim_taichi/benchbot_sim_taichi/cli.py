@@ -166,6 +166,8 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
     windows, ENV's ground-truth boxes and its robot path (start dot, then the trajectory)."""
 
     def go():
+        import numpy as np
+
         from benchbot.core.errors import UsageError
         from benchbot_sim_taichi.floorplan_plot import save_plan_figure
         from benchbot_sim_taichi.scene import build_scene
@@ -177,12 +179,10 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
                              "give an environment with a map_path (BEAR ground truth)")
         objects = [{"class": scene.class_list[int(c)], "centroid": ((lo + hi) / 2).tolist(),
                     "extent": (hi - lo).tolist()} for c, lo, hi in zip(scene.box_class, scene.box_min, scene.box_max)]
-        path = [scene.start_se2[None, :2], scene.trajectory_se2[:, :2]]
-        import numpy as np
-
+        path = np.concatenate([scene.start_se2[None, :2], scene.trajectory_se2[:, :2]])
         output.parent.mkdir(parents=True, exist_ok=True)
         try:
-            save_plan_figure(scene.plan, objects, [np.concatenate(path)], output,
+            save_plan_figure(scene.plan, objects, [path], output,
                              title=f"{env}: {len(scene.plan.rooms)} rooms, {len(objects)} ground-truth objects")
         except (OSError, ValueError) as e:
             raise UsageError(f"cannot write the plan {output}: {e}", "use a writable path ending in .png, .svg or .pdf")
