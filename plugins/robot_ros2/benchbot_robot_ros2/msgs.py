@@ -32,6 +32,11 @@ class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
 
 
 @dataclass
+class Clock(IdlStruct, typename="rosgraph_msgs::msg::dds_::Clock_"):
+    clock: Time = field(default_factory=Time)
+
+
+@dataclass
 class Header(IdlStruct, typename=_ros("std_msgs", "Header")):
     stamp: Time = field(default_factory=Time)
     frame_id: str = ""
@@ -136,6 +141,31 @@ class CameraInfo(IdlStruct, typename=_ros("sensor_msgs", "CameraInfo")):
     binning_x: t.uint32 = 0
     binning_y: t.uint32 = 0
     roi: RegionOfInterest = field(default_factory=RegionOfInterest)
+
+
+# ------------------------------------------------------------------------------------------ ROS graph discovery
+@dataclass
+class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
+    """A DDS entity's GUID as rmw names it (``char[16] data`` in Jazzy)."""
+
+    data: t.array[t.uint8, 16] = field(default_factory=lambda: [0] * 16)
+
+
+@dataclass
+class NodeEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::NodeEntitiesInfo_"):
+    node_namespace: t.bounded_str[256] = "/"
+    node_name: t.bounded_str[256] = ""
+    reader_gid_seq: t.sequence[Gid] = field(default_factory=list)
+    writer_gid_seq: t.sequence[Gid] = field(default_factory=list)
+
+
+@dataclass
+class ParticipantEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_"):
+    """What rmw publishes on the DDS topic ``ros_discovery_info``: the nodes of one participant and their
+    endpoints (how ``ros2 node list`` finds nodes)."""
+
+    gid: Gid = field(default_factory=Gid)
+    node_entities_info_seq: t.sequence[NodeEntitiesInfo] = field(default_factory=list)
 
 
 # ------------------------------------------------------------------------------------------ fast XCDR1 codec
@@ -326,6 +356,39 @@ TYPES: dict[str, type] = {
     "sensor_msgs/msg/CameraInfo": CameraInfo,
     "sensor_msgs/msg/Image": Image,
     "sensor_msgs/msg/LaserScan": LaserScan,
+    "rosgraph_msgs/msg/Clock": Clock,
+    "rmw_dds_common/msg/Gid": Gid,
+    "rmw_dds_common/msg/NodeEntitiesInfo": NodeEntitiesInfo,
+    "rmw_dds_common/msg/ParticipantEntitiesInfo": ParticipantEntitiesInfo,
+}
+
+#: ROS 2 Jazzy's type hash (REP 2011 ``RIHS01_<sha256>``) of every type in :data:`TYPES`, as rmw announces it in an
+#: endpoint's USER_DATA (``typehash=...;``) and ``ros2 topic info -v`` shows it. Checked against an independent
+#: implementation (``rosbags``) by the tests.
+TYPE_HASHES: dict[str, str] = {
+    "builtin_interfaces/msg/Time": "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
+    "std_msgs/msg/Header": "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
+    "std_msgs/msg/String": "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
+    "geometry_msgs/msg/Vector3": "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
+    "geometry_msgs/msg/Point": "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881",
+    "geometry_msgs/msg/Quaternion": "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684",
+    "geometry_msgs/msg/Pose": "RIHS01_d501954e9476cea2996984e812054b68026ae0bfae789d9a10b23daf35cc90fa",
+    "geometry_msgs/msg/PoseWithCovariance": "RIHS01_9a7c0fd234b7f45c6098745ecccd773ca1085670e64107135397aee31c02e1bb",
+    "geometry_msgs/msg/Twist": "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
+    "geometry_msgs/msg/TwistWithCovariance": "RIHS01_49f574f033f095d8b6cd1beaca5ca7925e296e84af1716d16c89d38b059c8c18",
+    "geometry_msgs/msg/Transform": "RIHS01_beb83fbe698636351461f6f35d1abb20010c43d55374d81bd041f1ba2581fddc",
+    "geometry_msgs/msg/TransformStamped": "RIHS01_0a241f87d04668d94099cbb5ba11691d5ad32c2f29682e4eb5653424bd275206",
+    "tf2_msgs/msg/TFMessage": "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087",
+    "nav_msgs/msg/Odometry": "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0",
+    "sensor_msgs/msg/RegionOfInterest": "RIHS01_ad16bcba5f9131dcdba6fbded19f726f5440e3c513b4fb586dd3027eeed8abb1",
+    "sensor_msgs/msg/CameraInfo": "RIHS01_b3dfd68ff46c9d56c80fd3bd4ed22c7a4ddce8c8348f2f59c299e73118e7e275",
+    "sensor_msgs/msg/Image": "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
+    "sensor_msgs/msg/LaserScan": "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828",
+    "rosgraph_msgs/msg/Clock": "RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564",
+    "rmw_dds_common/msg/Gid": "RIHS01_a8e2f2bd4b156011c7ed7618c1db625ac341c2dc3ff09b8dd107f33f20dcec07",
+    "rmw_dds_common/msg/NodeEntitiesInfo": "RIHS01_8ecbfcad87fa92b9c1458f525b5faf5bf7cab9427a92524d72a394112992b5ab",
+    "rmw_dds_common/msg/ParticipantEntitiesInfo":
+        "RIHS01_e725f4a506958c79f95dd693b965722c57b19cd18e7eff984f49561b93dc985d",
 }
 
 

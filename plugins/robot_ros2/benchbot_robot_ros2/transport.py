@@ -15,6 +15,13 @@ QoS: publishers are reliable, keep-last 10 (latched topics such as ``/tf_static`
 are best-effort keep-last 10 (they match reliable and best-effort publishers alike), or reliable/transient-local
 where asked (``reliable=True`` for commands, ``latched=True`` for ``/tf_static``).
 
+ROS graph: :class:`CycloneTransport` announces itself as rmw_cyclonedds_cpp (Jazzy) does, so ROS 2 tools see one
+node (``ros2 node list``, ``ros2 node info``, ``ros2 topic info -v``): the participant's USER_DATA is
+``enclave=/;``, every reader's and writer's USER_DATA is ``typehash=RIHS01_<hex>;`` (the type's REP 2011 hash), and
+a ``rmw_dds_common/msg/ParticipantEntitiesInfo`` on the DDS topic ``ros_discovery_info`` (reliable,
+transient-local, keep-last 1) lists the node (namespace ``/``, ``node_name``) with the GIDs (DDS GUIDs) of its
+readers and writers, re-published whenever one is created.
+
 Network: ``network='loopback'`` confines Cyclone DDS to the ``lo`` interface (multicast off, peer 127.0.0.1) by
 setting ``CYCLONEDDS_URI`` before the first participant — unless the user has set ``CYCLONEDDS_URI`` already, which
 always wins. ``network='system'`` leaves DDS configuration to the environment (a real robot on a LAN).
@@ -26,6 +33,7 @@ import abc
 import importlib
 import logging
 import os
+import re
 import threading
 from typing import Any, Callable
 
@@ -115,26 +123,87 @@ class _CyclonePublisher(Publisher):
         self.writer.write(msg)
 
 
+DEFAULT_NODE_NAME = "benchbot_robot_ros2"
+_NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,254}")
+
+
+def check_node_name(node_name: str) -> str:
+    """``node_name`` if it is a valid ROS 2 node name (letters, digits, underscores; not starting with a digit).
+
+    Raises:
+        ValueError: it is not.
+    """
+    if not isinstance(node_name, str) or not _NODE_NAME.fullmatch(node_name):
+        raise ValueError(f"ROS 2 node name {node_name!r} is not valid (letters, digits and '_', not starting with "
+                         "a digit)")
+    return node_name
+
+
+def type_hash_user_data(ros_type: str) -> bytes:
+    """The USER_DATA rmw_cyclonedds_cpp gives a reader or writer of ``ros_type``: ``b'typehash=RIHS01_<hex>;'``.
+
+    Raises:
+        KeyError: a type this transport does not know.
+    """
+    from benchbot_robot_ros2.msgs import TYPE_HASHES, normalise_type
+
+    return f"typehash={TYPE_HASHES[normalise_type(ros_type)]};".encode()
+
+
 class CycloneTransport(Transport):
-    """:class:`Transport` over one Cyclone DDS domain participant.
+    """:class:`Transport` over one Cyclone DDS domain participant, announced to ROS 2 as one node (module doc).
 
     Args:
         domain_id: the DDS domain (ROS_DOMAIN_ID), 0..232.
         network: ``'loopback'`` (default) or ``'system'`` (see the module doc).
+        node_name: the ROS 2 node name the participant announces (namespace ``/``).
+
+    Attributes:
+        node_name: as given. reader_gids, writer_gids: the 16-byte GIDs of this node's readers and writers.
+
+    Raises:
+        ValueError: ``network`` or ``node_name`` is not valid.
     """
 
     name = "cyclonedds"
 
-    def __init__(self, domain_id: int = 0, network: str = "loopback") -> None:
+    def __init__(self, domain_id: int = 0, network: str = "loopback", node_name: str = DEFAULT_NODE_NAME) -> None:
         super().__init__()
         configure_network(network)
+        self.node_name = check_node_name(node_name)
+        from cyclonedds.core import Policy, Qos
         from cyclonedds.domain import DomainParticipant
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.topic import Topic
+
+        from benchbot_robot_ros2.msgs import ParticipantEntitiesInfo
 
         self.domain_id = int(domain_id)
-        self.participant = DomainParticipant(self.domain_id)
+        self.participant = DomainParticipant(self.domain_id, qos=Qos(Policy.Userdata(data=b"enclave=/;")))
         self._topics: dict[str, Any] = {}
         self._keep: list[Any] = []
         self._lock = threading.Lock()
+        self.reader_gids: list[bytes] = []
+        self.writer_gids: list[bytes] = []
+        info_qos = Qos(
+            Policy.Reliability.Reliable(max_blocking_time=100_000_000), Policy.History.KeepLast(1),
+            Policy.Durability.TransientLocal, Policy.DataRepresentation(use_cdrv0_representation=True),
+            Policy.Userdata(data=type_hash_user_data("rmw_dds_common/msg/ParticipantEntitiesInfo")))
+        self._discovery = DataWriter(self.participant, Topic(self.participant, "ros_discovery_info",
+                                                             ParticipantEntitiesInfo), qos=info_qos)
+        self._announce()
+
+    def _announce(self) -> None:
+        """Publish this participant's node and its endpoints on ``ros_discovery_info``."""
+        from benchbot_robot_ros2.msgs import Gid, NodeEntitiesInfo, ParticipantEntitiesInfo
+
+        with self._lock:
+            node = NodeEntitiesInfo(node_namespace="/", node_name=self.node_name,
+                                    reader_gid_seq=[Gid(data=list(g)) for g in self.reader_gids],
+                                    writer_gid_seq=[Gid(data=list(g)) for g in self.writer_gids])
+            info = ParticipantEntitiesInfo(gid=Gid(data=list(self.participant.guid.bytes)),
+                                           node_entities_info_seq=[node])
+            self._discovery.write(info)
 
     def message(self, ros_type: str) -> Any:
         from benchbot_robot_ros2.msgs import message_class
@@ -166,9 +235,13 @@ class CycloneTransport(Transport):
             Policy.History.KeepLast(1 if latched else 10),
             Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
             Policy.DataRepresentation(use_cdrv0_representation=True),
+            Policy.Userdata(data=type_hash_user_data(ros_type)),
         )
         writer = DataWriter(self.participant, dds_topic_obj, qos=qos)
         self._keep.append(writer)
+        with self._lock:
+            self.writer_gids.append(writer.guid.bytes)
+        self._announce()
         return _CyclonePublisher(writer, cls)
 
     def subscribe(self, topic: str, ros_type: str, callback: Callable[[Any], None], *, latched: bool = False,
@@ -198,16 +271,21 @@ class CycloneTransport(Transport):
             Policy.History.KeepLast(10),
             Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
             Policy.DataRepresentation(use_cdrv0_representation=True, use_xcdrv2_representation=True),
+            Policy.Userdata(data=type_hash_user_data(ros_type)),
         ]
         reader = DataReader(self.participant, dds_topic_obj, qos=Qos(*policies),
                             listener=Listener(on_data_available=on_data_available))
         self._keep.append(reader)
+        with self._lock:
+            self.reader_gids.append(reader.guid.bytes)
+        self._announce()
         on_data_available(reader)  # samples that arrived while the reader was being built (latched topics)
         return reader
 
     def close(self) -> None:
         self._keep.clear()
         self._topics.clear()
+        self._discovery = None
         self.participant = None
 
 
@@ -225,23 +303,25 @@ class RclpyTransport(Transport):
     Args:
         domain_id: ROS_DOMAIN_ID of the node.
         network: as for :class:`CycloneTransport` (applies when the RMW is rmw_cyclonedds_cpp).
+        node_name: the node's name.
 
     Raises:
-        ImportError: rclpy or a message package is not importable.
+        ImportError: rclpy or a message package is not importable. ValueError: an invalid ``node_name``.
     """
 
     name = "rclpy"
 
-    def __init__(self, domain_id: int = 0, network: str = "loopback") -> None:
+    def __init__(self, domain_id: int = 0, network: str = "loopback", node_name: str = DEFAULT_NODE_NAME) -> None:
         super().__init__()
         configure_network(network)
+        check_node_name(node_name)
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
         self._rclpy = rclpy
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=int(domain_id))
-        self.node = rclpy.create_node("benchbot_robot_ros2", context=self.context)
+        self.node = rclpy.create_node(node_name, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name="benchbot-rclpy", daemon=True)
@@ -290,9 +370,10 @@ class RclpyTransport(Transport):
             pass
 
 
-def make_transport(kind: str = "auto", domain_id: int = 0, network: str = "loopback") -> Transport:
+def make_transport(kind: str = "auto", domain_id: int = 0, network: str = "loopback",
+                   node_name: str = DEFAULT_NODE_NAME) -> Transport:
     """The transport ``kind``: ``'auto'`` (rclpy when importable, else Cyclone DDS), ``'rclpy'`` or
-    ``'cyclonedds'``.
+    ``'cyclonedds'``, as the ROS 2 node ``node_name``.
 
     Raises:
         benchbot.core.errors.BackendError: the transport cannot be started (names the missing package).
@@ -303,8 +384,8 @@ def make_transport(kind: str = "auto", domain_id: int = 0, network: str = "loopb
         raise BackendError(f"unknown ROS 2 transport {kind!r}", "use ros2.transport: auto, rclpy or cyclonedds")
     try:
         if kind == "rclpy" or (kind == "auto" and rclpy_available()):
-            return RclpyTransport(domain_id, network)
-        return CycloneTransport(domain_id, network)
+            return RclpyTransport(domain_id, network, node_name)
+        return CycloneTransport(domain_id, network, node_name)
     except ImportError as exc:
         raise BackendError(f"ROS 2 transport {kind!r} cannot start: {exc}",
                            "source a ROS 2 Jazzy install for rclpy, or install the cyclonedds package") from exc
