@@ -132,3 +132,21 @@ def test_gt_command(registry, tmp_path):
     for env, text in (("miniroom:9", "no environment named"), ("miniroom:1:2", "one scene"), ("miniroom", "NAME:VARIANT")):
         proc = cli("gt", env)
         assert proc.returncode == 3 and text in proc.stderr, proc.stderr
+
+
+def test_gt_command_writes_the_original_layout(registry, tmp_path):
+    """--layout original: the original's ground-truth file {environment, format, ground_truth}, valid as a ground
+    truth spec (the layout of a content pack's ground_truths/ files)."""
+    from benchbot.core.registry import validate
+
+    out = tmp_path / "miniroom_1.json"
+    proc = cli("gt", "miniroom:1", "--layout", "original", "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads(out.read_text())
+    registered = registry.ground_truth("miniroom:1")
+    assert list(data) == ["environment", "format", "ground_truth"]
+    assert data == {k: registered[k] for k in data}
+    assert data["environment"]["name"] == "miniroom" and data["format"]["name"] == "object_map_ground_truth"
+    assert len(data["ground_truth"]["objects"]) == 18 and validate(data, "ground_truth", str(out)) is None
+    proc = cli("gt", "miniroom:1", "--layout", "full")
+    assert proc.returncode == 2 and "--layout 'full'" in proc.stderr, proc.stderr
