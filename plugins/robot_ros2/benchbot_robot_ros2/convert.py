@@ -27,8 +27,12 @@ def stamp_to_s(stamp: Any) -> float:
     return float(stamp.sec) + float(stamp.nanosec) * 1e-9
 
 
-def set_stamp(stamp: Any, t_s: float | None = None) -> None:
-    """Write ``t_s`` (default: now, wall clock) into a ``builtin_interfaces/Time``."""
+def set_stamp(stamp: Any, t_s: float | None = None, *, t_ns: int | None = None) -> None:
+    """Write a time into a ``builtin_interfaces/Time``: ``t_ns`` (integer nanoseconds, exact) if given, else ``t_s``
+    (float seconds), else now (wall clock)."""
+    if t_ns is not None:
+        stamp.sec, stamp.nanosec = int(t_ns) // 1_000_000_000, int(t_ns) % 1_000_000_000
+        return
     t_s = time.time() if t_s is None else t_s
     sec = int(math.floor(t_s))
     stamp.sec = sec
@@ -192,9 +196,18 @@ def camera_info(msg: Any) -> dict:
             "matrix_intrinsics": k.reshape(3, 3), "matrix_projection": p.reshape(3, 4)}
 
 
+def wrap_angles(angles: np.ndarray) -> np.ndarray:
+    """Angles (rad, any shape) → float64 wrapped to [-π, π). An angle within 1e-6 rad below +π becomes -π: that is
+    -π rounded to float32 (``LaserScan`` angles are float32, and float32(-π) < -π) wrapped around."""
+    a = (np.asarray(angles, dtype=np.float64) + math.pi) % (2 * math.pi) - math.pi
+    a = np.where(a >= math.pi - 1e-6, -math.pi, a)
+    return np.maximum(a, -math.pi)
+
+
 def laser(msg: Any) -> dict:
     """``sensor_msgs/LaserScan`` → ``{'scans': (N, 2) float64 [range m, angle rad wrapped to [-π, π)],
-    'range_min', 'range_max'}``; NaN and readings beyond ``range_max`` (no return) become ``range_max``, negatives 0.
+    'range_min', 'range_max'}`` (BenchBot's observation, docs/observations.md). REP 117 readings: NaN (invalid) and
+    +Inf or anything beyond ``range_max`` (no return) become ``range_max``, -Inf (too close) and negatives 0.
 
     Raises:
         ValueError: non-finite or inverted limits.
@@ -206,7 +219,7 @@ def laser(msg: Any) -> dict:
         raise ValueError(f"laser scan with invalid limits (angle_min {a0}, increment {inc}, range {rmin}..{rmax})")
     r = np.where(np.isnan(r) | (r > rmax), rmax, r)
     r = np.clip(r, 0.0, rmax)
-    angles = (a0 + inc * np.arange(r.size, dtype=np.float64) + math.pi) % (2 * math.pi) - math.pi
+    angles = wrap_angles(a0 + inc * np.arange(r.size, dtype=np.float64))
     return {"scans": np.stack([r, angles], axis=1), "range_min": rmin, "range_max": rmax}
 
 
@@ -220,6 +233,22 @@ def odometry_se2(msg: Any) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------ writers
+def ros_ranges(ranges: np.ndarray, range_max: float) -> np.ndarray:
+    """BenchBot laser ranges (N,) metres, where no return reads ``range_max`` → float32 ranges for a
+    ``sensor_msgs/LaserScan`` after REP 117: no return (``>= range_max``, or NaN) is +Inf."""
+    r = np.asarray(ranges, dtype=np.float32).reshape(-1).copy()
+    r[~(r < np.float32(range_max))] = np.inf
+    return r
+
+
+def ros_depth(depth: np.ndarray) -> np.ndarray:
+    """BenchBot depth (H, W) metres, 0.0 where nothing is hit → float32 for a ``32FC1`` ``sensor_msgs/Image`` after
+    REP 118: no hit (0.0, negative or non-finite) is NaN."""
+    d = np.asarray(depth, dtype=np.float32).copy()
+    d[~(d > 0) | ~np.isfinite(d)] = np.nan
+    return d
+
+
 def fill_twist(msg: Any, v: float, w: float) -> Any:
     """Set a ``geometry_msgs/Twist`` to forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s); returns it."""
     msg.linear.x, msg.linear.y, msg.linear.z = float(v), 0.0, 0.0
@@ -227,11 +256,13 @@ def fill_twist(msg: Any, v: float, w: float) -> Any:
     return msg
 
 
-def fill_image(msg: Any, arr: np.ndarray, encoding: str, frame_id: str, t_s: float) -> Any:
+def fill_image(msg: Any, arr: np.ndarray, encoding: str, frame_id: str, t_s: float, *,
+               t_ns: int | None = None) -> Any:
     """Fill a ``sensor_msgs/Image`` from ``arr`` ((H, W, 3) uint8 for ``rgb8``, (H, W) float32 for ``32FC1``,
-    (H, W) uint8 for ``mono8``, (H, W) int32 for ``32SC1``), little-endian; returns it."""
+    (H, W) uint8 for ``mono8``, (H, W) int32 for ``32SC1``), little-endian, stamped ``t_ns`` (int ns) or ``t_s``
+    (s); returns it."""
     arr = np.ascontiguousarray(arr)
-    set_stamp(msg.header.stamp, t_s)
+    set_stamp(msg.header.stamp, t_s, t_ns=t_ns)
     msg.header.frame_id = frame_id
     msg.height, msg.width = int(arr.shape[0]), int(arr.shape[1])
     msg.encoding = encoding
@@ -241,9 +272,11 @@ def fill_image(msg: Any, arr: np.ndarray, encoding: str, frame_id: str, t_s: flo
     return msg
 
 
-def fill_camera_info(msg: Any, K: np.ndarray, width: int, height: int, frame_id: str, t_s: float) -> Any:
-    """Fill a ``sensor_msgs/CameraInfo`` of a pinhole camera without distortion (P = [K|0]); returns it."""
-    set_stamp(msg.header.stamp, t_s)
+def fill_camera_info(msg: Any, K: np.ndarray, width: int, height: int, frame_id: str, t_s: float, *,
+                     t_ns: int | None = None) -> Any:
+    """Fill a ``sensor_msgs/CameraInfo`` of a pinhole camera without distortion (P = [K|0]), stamped ``t_ns`` (int
+    ns) or ``t_s`` (s); returns it."""
+    set_stamp(msg.header.stamp, t_s, t_ns=t_ns)
     msg.header.frame_id = frame_id
     msg.height, msg.width = int(height), int(width)
     msg.distortion_model = "plumb_bob"
@@ -257,9 +290,11 @@ def fill_camera_info(msg: Any, K: np.ndarray, width: int, height: int, frame_id:
 
 
 def fill_laser(msg: Any, ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float,
-               range_max: float, frame_id: str, t_s: float) -> Any:
-    """Fill a ``sensor_msgs/LaserScan`` (ranges in metres, float32 on the wire); returns it."""
-    set_stamp(msg.header.stamp, t_s)
+               range_max: float, frame_id: str, t_s: float, *, t_ns: int | None = None) -> Any:
+    """Fill a ``sensor_msgs/LaserScan`` (ranges in metres, float32 on the wire, as given: see :func:`ros_ranges`
+    for REP 117's +Inf), stamped ``t_ns`` (int ns) or ``t_s`` (s); returns it. ``angle_max`` is
+    ``angle_min + (N - 1) · angle_increment``."""
+    set_stamp(msg.header.stamp, t_s, t_ns=t_ns)
     msg.header.frame_id = frame_id
     n = len(ranges)
     msg.angle_min = float(angle_min)

@@ -39,6 +39,14 @@ def test_type_names_and_topics_follow_ros2_conventions():
         message_class("foo_msgs/msg/Bar")
 
 
+def test_rep117_and_rep118_writers():
+    """BenchBot's no return (range_max) and no hit (depth 0.0) become REP 117's +Inf and REP 118's NaN."""
+    np.testing.assert_array_equal(convert.ros_ranges(np.array([1.0, 20.0, 25.0, 2.0]), 20.0),
+                                  np.array([1.0, np.inf, np.inf, 2.0], np.float32))
+    d = convert.ros_depth(np.array([[0.0, 1.5], [-1.0, np.inf]], np.float32))
+    assert d.dtype == np.float32 and d[0, 1] == 1.5 and np.isnan(d[0, 0]) and np.isnan(d[1]).all()
+
+
 def test_fast_codec_is_byte_identical_to_cyclonedds():
     from cyclonedds.idl import IdlStruct
 
@@ -54,7 +62,7 @@ def test_fast_codec_is_byte_identical_to_cyclonedds():
     assert np.allclose(LaserScan.deserialize(IdlStruct.serialize(scan)).ranges, [1.0, 2.5, 3.0])
 
 
-@pytest.mark.parametrize("kind", ["image", "depth", "info", "scan", "odom", "tf", "twist"])
+@pytest.mark.parametrize("kind", ["image", "depth", "info", "scan", "scan_rep117", "odom", "tf", "twist"])
 def test_messages_roundtrip_through_dds(domain_id, kind):
     rng = np.random.default_rng(1)
     rgb = rng.integers(0, 255, (6, 8, 3), dtype=np.uint8)
@@ -73,6 +81,12 @@ def test_messages_roundtrip_through_dds(domain_id, kind):
         "scan": ("/t/scan", "sensor_msgs/msg/LaserScan",
                  lambda m: convert.fill_laser(m, np.array([1.0, 2.0, 3.0]), -math.pi, 0.1, 0.1, 20.0, "lidar", 1.0),
                  lambda m: np.testing.assert_allclose(convert.laser(m)["scans"][:, 0], [1, 2, 3])),
+        # REP 117 on the wire (+Inf no return, NaN invalid, -Inf too close); angle_min -π arrives as float32(-π),
+        # which is below -π: the observation's first angle is still -π, not +π
+        "scan_rep117": ("/t/scan117", "sensor_msgs/msg/LaserScan",
+                        lambda m: convert.fill_laser(m, np.array([1.0, np.inf, np.nan, -np.inf]), -math.pi,
+                                                     2 * math.pi / 4, 0.1, 20.0, "lidar", 1.0),
+                        lambda m: (_check_rep117(m), None)[1]),
         "odom": ("/t/odom", "nav_msgs/msg/Odometry", lambda m: (convert.fill_pose(m.pose.pose, T), m)[1],
                  lambda m: np.testing.assert_allclose(convert.odometry_se2(m), [1.0, -2.0, 0.6])),
         "tf": ("/t/tf", "tf2_msgs/msg/TFMessage", lambda m: _tf(m, T),
@@ -84,6 +98,14 @@ def test_messages_roundtrip_through_dds(domain_id, kind):
     topic, ros_type, fill, check = cases[kind]
     _, got = _roundtrip(domain_id, topic, ros_type, fill)
     check(got)
+
+
+def _check_rep117(m):
+    assert np.float32(m.angle_min) == np.float32(-math.pi)
+    scans = convert.laser(m)["scans"]
+    np.testing.assert_array_equal(scans[:, 0], [1.0, 20.0, 20.0, 0.0])  # the API's no return: range_max
+    assert scans[0, 1] == -math.pi
+    assert np.all(scans[:, 1] >= -math.pi) and np.all(scans[:, 1] < math.pi) and np.all(np.diff(scans[:, 1]) > 0)
 
 
 def _tf(m, T):
