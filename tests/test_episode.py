@@ -56,6 +56,29 @@ def test_observations_have_the_reference_structures(make_service):
         service.call(ep.observe, ["image_segment"])
 
 
+def test_initial_pose_is_reported_at_the_robot_frames_height(registry):
+    """The robot frame's height (sim_taichi's ``sensors.robot_frame_height_m``) is that of ``robot`` and of
+    ``initial_pose`` alike, before and after a motion, in both localisation modes."""
+    from benchbot.core.episode import Episode
+    from benchbot_sim_taichi.backend import create_backend
+
+    robot = dict(registry.get("robots", "carter"))
+    robot["sensors"] = {**robot.get("sensors", {}), "robot_frame_height_m": 0.3}
+    for task in (ACTIVE, DEAD_RECKONING):
+        ep = Episode(registry.get("tasks", task), robot, registry.scenes("miniroom:1"),
+                     create_backend(robot, {"width": 32, "height": 24, "arch": "cpu"}))
+        try:
+            before = ep.observe(["poses"])["poses"]
+            assert ep.act("move_angle", {"angle": 20}) == "SUCCESS"
+            after = ep.observe(["poses"])["poses"]
+            for poses in (before, after):
+                assert poses["robot"]["translation_xyz"][2] == pytest.approx(0.3)
+                assert poses["initial_pose"]["translation_xyz"][2] == pytest.approx(0.3)
+            np.testing.assert_allclose(after["initial_pose"]["translation_xyz"], before["robot"]["translation_xyz"])
+        finally:
+            ep.backend.close()
+
+
 def test_moving_makes_dirty_and_collision_ends_actions(make_service):
     service = make_service(ACTIVE, "miniroom:1")
     ep = service.episode

@@ -11,7 +11,8 @@ section 11, lists them):
 
 States: ``scene_index`` (0-based), ``trajectory_next`` (index of the next ``move_next`` pose, ``None`` before the
 first), ``collided`` (latched until the scene is reloaded), ``dirty`` (latched once the robot is more than 1 m or
-2° from the scene's start pose), ``initial_pose`` (``T_map_robot`` captured before the first motion).
+2° from the scene's start pose), ``initial_pose`` (``T_map_robot`` captured before the first motion, reported at the
+robot frame's height).
 
 All methods must be called from one thread (the backend server's worker thread).
 """
@@ -382,10 +383,14 @@ class Episode:
             correction = T_believed @ np.linalg.inv(T_true)
             frames = {name: correction @ T for name, T in frames.items()}
         out = {}
+        robot_frame = frames.get(self.robot.get("robot_frame", "robot"))
         for name in self.robot.get("poses", list(frames)):
             if name == "initial_pose":
                 if self.initial_pose is not None:
-                    out[name] = pose_observation(self.initial_pose, parent)
+                    initial = self.initial_pose.copy()
+                    if robot_frame is not None:  # at the robot frame's height, as the original's TF lookup was
+                        initial[2, 3] = robot_frame[2, 3]
+                    out[name] = pose_observation(initial, parent)
             elif name in frames:
                 out["camera" if "camera_left" in name else name] = pose_observation(frames[name], parent)
         return out

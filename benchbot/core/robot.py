@@ -5,7 +5,8 @@ builds one with ``factory(robot_spec, options)`` and drives it through the metho
 tasks, scenes or the HTTP protocol: the episode keeps that state (docs/protocol.md).
 
 Frames: ``map`` is the environment's world frame (z up, metres). The robot frame (``robot_spec['robot_frame']``)
-is x forward, y left, z up, at floor level under the robot's centre. The camera frame (``camera``) is the optical
+is x forward, y left, z up, above the floor point under the robot's centre at a height of the backend's (0 = on the
+floor; :meth:`RobotBackend.base_pose` is its planar part). The camera frame (``camera``) is the optical
 frame of the RGB-D camera: z forward along the optical axis, x right, y down in the image, so a pixel (u, v) with
 depth d (metres, along z) is ``d · K⁻¹ [u, v, 1]ᵀ`` in that frame.
 """
@@ -62,7 +63,7 @@ class RobotBackend(abc.ABC):
     @abc.abstractmethod
     def frame_transforms(self) -> dict[str, np.ndarray]:
         """Ground-truth ``T_map_<frame>`` (4, 4) float64 for every frame the robot spec's ``poses`` lists (except
-        the special ``initial_pose``)."""
+        the special ``initial_pose``, which the episode reports at the height of the robot frame given here)."""
 
     @abc.abstractmethod
     def observe(self, names: Sequence[str]) -> dict[str, Any]:

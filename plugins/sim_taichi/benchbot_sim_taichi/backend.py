@@ -5,9 +5,12 @@ The robot is a differential-drive base with a circular footprint moving on the f
 its RGB-D camera, segmentation and planar laser are ray cast with Taichi (:mod:`benchbot_sim_taichi.renderer`,
 imported on first use). Use from one thread.
 
-Frames (all ``T_map_<frame>`` (4, 4) float64): ``robot`` (x forward, y left, z up, on the floor under the base
-centre); ``camera`` (OPTICAL frame: z forward, x right, y down) at the mount of ``sensors.camera``; ``lidar``
-(x forward, z up) at ``sensors.laser.mount_xyz``.
+Frames (all ``T_map_<frame>`` (4, 4) float64): ``robot`` (x forward, y left, z up, ``sensors.robot_frame_height_m``
+above the floor under the base centre: carter's 0.244 m is the height of the original BenchBot's robot frame);
+``camera`` (OPTICAL frame: z forward, x right, y down) at the mount of ``sensors.camera``; ``lidar`` (x forward,
+z up) at ``sensors.laser.mount_xyz``. Mounts are given from the robot's *footprint*: the robot frame lowered to the
+floor (the point on the floor under the base centre, the robot's axes), so a sensor's height is its height above the
+floor whatever the robot frame's height.
 """
 
 from __future__ import annotations
@@ -33,10 +36,15 @@ DEFAULT_SENSORS: dict[str, Any] = {
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
     "max_height_m": 1.0,
+    # the robot frame's height above the floor (m, >= 0); the original BenchBot's carter reported 0.244
+    "robot_frame_height_m": 0.0,
     # seeded sensor noise, off by default: rgb_sigma (0..255 levels, Gaussian), depth_sigma (m, Gaussian, scaled by
     # depth), depth_dropout (fraction of pixels set to 0), laser_sigma (m, Gaussian)
     "noise": {"rgb_sigma": 0.0, "depth_sigma": 0.0, "depth_dropout": 0.0, "laser_sigma": 0.0},
 }
+
+#: Scalars of :data:`DEFAULT_SENSORS` that may be 0 (the others must be positive).
+NON_NEGATIVE = frozenset({"robot_frame_height_m"})
 
 #: Rotation (3, 3) of the camera OPTICAL frame in the camera body frame (x forward, y left, z up).
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -59,8 +67,8 @@ def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, An
 
     Raises:
         BackendError: a malformed block (a sub-block that is not a mapping, a value that is not a number of the
-            default's kind, a non-positive size, beam count or footprint, a field of view outside (0°, 180°), or
-            ``range_max`` ≤ ``range_min``), naming the field.
+            default's kind, a non-positive size, beam count or footprint, a negative ``robot_frame_height_m``, a
+            field of view outside (0°, 180°), or ``range_max`` ≤ ``range_min``), naming the field.
     """
     name = robot_spec.get("name", "?")
 
@@ -87,7 +95,10 @@ def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, An
                     raise bad(f"{key}.{field}", f"expected a number, got {value!r}")
         else:
             value = src.get(key, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            if key in NON_NEGATIVE:
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
+                    raise bad(key, f"expected a number >= 0, got {value!r}")
+            elif isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise bad(key, f"expected a positive number, got {value!r}")
             cfg[key] = float(value)
     options = options or {}
@@ -134,10 +145,17 @@ class TaichiSimBackend(RobotBackend):
         T = np.eye(4)
         T[:3, :3] = _rpy_matrix(*np.radians(np.asarray(cam["mount_rpy_deg"], dtype=np.float64))) @ R_BODY_OPTICAL
         T[:3, 3] = np.asarray(cam["mount_xyz"], dtype=np.float64)
-        self.T_robot_camera = T
+        #: (4, 4) the camera's optical frame in the robot's footprint frame (the robot frame lowered to the floor)
+        self.T_footprint_camera = T
         las = self.sensors["laser"]
-        self.T_robot_lidar = np.eye(4)
-        self.T_robot_lidar[:3, 3] = np.asarray(las["mount_xyz"], dtype=np.float64)
+        #: (4, 4) the lidar frame in the robot's footprint frame
+        self.T_footprint_lidar = np.eye(4)
+        self.T_footprint_lidar[:3, 3] = np.asarray(las["mount_xyz"], dtype=np.float64)
+        #: the robot frame's height above the floor, metres
+        self.robot_frame_height = float(self.sensors["robot_frame_height_m"])
+        #: (4, 4) the robot frame in its footprint frame: ``robot_frame_height`` straight up
+        self.T_footprint_robot = np.eye(4)
+        self.T_footprint_robot[2, 3] = self.robot_frame_height
         a0, a1, nb = math.radians(float(las["angle_min_deg"])), math.radians(float(las["angle_max_deg"])), int(las["beams"])
         full = abs((a1 - a0) - 2.0 * math.pi) < 1e-9
         inc = (a1 - a0) / nb if full else ((a1 - a0) / (nb - 1) if nb > 1 else 0.0)
@@ -224,11 +242,26 @@ class TaichiSimBackend(RobotBackend):
             self._frame += 1
         self._pose = pose
 
+    @property
+    def T_robot_camera(self) -> np.ndarray:
+        """(4, 4) :attr:`T_footprint_camera`: the camera from the robot's footprint on the floor (the base frame of a
+        bridge that publishes its robot on the floor, as ``benchbot ros2 serve-sim`` does), not from the robot frame
+        when ``robot_frame_height_m`` > 0."""
+        return self.T_footprint_camera
+
+    @property
+    def T_robot_lidar(self) -> np.ndarray:
+        """(4, 4) :attr:`T_footprint_lidar` (see :attr:`T_robot_camera`)."""
+        return self.T_footprint_lidar
+
     def frame_transforms(self) -> dict[str, np.ndarray]:
         """``{'robot': T_map_robot, 'camera': T_map_camera (optical), 'lidar': T_map_lidar}``, (4, 4) float64 each,
-        plus the robot spec's ``robot_frame`` name if it is not ``robot``."""
-        T_map_robot = se2_to_matrix(*self._pose)
-        out = {"robot": T_map_robot, "camera": T_map_robot @ self.T_robot_camera, "lidar": T_map_robot @ self.T_robot_lidar}
+        plus the robot spec's ``robot_frame`` name if it is not ``robot``. The robot frame is
+        ``robot_frame_height_m`` above the floor; the sensors are where their mounts put them above the floor."""
+        T_map_footprint = se2_to_matrix(*self._pose)
+        T_map_robot = se2_to_matrix(*self._pose, z=self.robot_frame_height)
+        out = {"robot": T_map_robot, "camera": T_map_footprint @ self.T_footprint_camera,
+               "lidar": T_map_footprint @ self.T_footprint_lidar}
         rf = self.robot_spec.get("robot_frame")
         if rf and rf not in out:
             out[rf] = T_map_robot.copy()
@@ -237,9 +270,9 @@ class TaichiSimBackend(RobotBackend):
     def _render(self, with_scan: bool = False) -> dict[str, np.ndarray]:
         """This pose's camera images (cached); ``with_scan``: its laser scan too, from the same kernel launch."""
         if "render" not in self._cache:
-            T_map_robot = se2_to_matrix(*self._pose)
-            lidar = (T_map_robot @ self.T_robot_lidar) if with_scan else None
-            out = self._renderer.render(self.K, T_map_robot @ self.T_robot_camera, self.width, self.height,
+            T_map_footprint = se2_to_matrix(*self._pose)
+            lidar = (T_map_footprint @ self.T_footprint_lidar) if with_scan else None
+            out = self._renderer.render(self.K, T_map_footprint @ self.T_footprint_camera, self.width, self.height,
                                         mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles)
             if with_scan:
                 self._cache_scan(out.pop("ranges"))
@@ -248,7 +281,7 @@ class TaichiSimBackend(RobotBackend):
 
     def _scan(self) -> np.ndarray:
         if "laser" not in self._cache:
-            T = se2_to_matrix(*self._pose) @ self.T_robot_lidar
+            T = se2_to_matrix(*self._pose) @ self.T_footprint_lidar
             self._cache_scan(self._renderer.scan(T, self.laser_angles))
         return self._cache["laser"]
 

@@ -199,6 +199,34 @@ def test_backend_trajectory_and_determinism(bear_envs, make_backend):
     assert np.array_equal(o["image_depth"], b2.observe(["image_depth"])["image_depth"])
 
 
+def test_robot_frame_height_lifts_the_robot_frame_only(bear_envs, carter_spec):
+    """``sensors.robot_frame_height_m`` puts the robot frame that high above the floor (the original's carter: 0.244 m);
+    the sensors stay where their mounts (from the footprint on the floor) put them: the same camera and lidar
+    transforms, bit for bit, and the same images."""
+    from benchbot_sim_taichi.backend import TaichiSimBackend
+
+    def backend(height):
+        spec = {**carter_spec, "sensors": {**carter_spec.get("sensors", {}), "robot_frame_height_m": height}}
+        b = TaichiSimBackend(spec, {"arch": "cpu", "width": 32, "height": 24})
+        b.load_scene(bear_envs["miniroom:1"])
+        b.move_to(pose7_to_se2(bear_envs["miniroom:1"]["trajectory_poses"][0]))
+        return b
+
+    low, high = backend(0.0), backend(0.244)
+    tf_low, tf_high = low.frame_transforms(), high.frame_transforms()
+    assert tf_low["robot"][2, 3] == 0.0 and tf_high["robot"][2, 3] == 0.244
+    np.testing.assert_array_equal(tf_high["robot"][:2], tf_low["robot"][:2])
+    for frame in ("camera", "lidar"):
+        np.testing.assert_array_equal(tf_high[frame], tf_low[frame])
+    assert np.array_equal(high.observe(["image_depth"])["image_depth"], low.observe(["image_depth"])["image_depth"])
+    low.close(), high.close()
+    for bad in (-0.1, "high", True):
+        spec = {**carter_spec, "sensors": {**carter_spec.get("sensors", {}), "robot_frame_height_m": bad}}
+        with pytest.raises(BackendError) as e:
+            TaichiSimBackend(spec, {"arch": "cpu"})
+        assert "sensors.robot_frame_height_m" in e.value.message and "\n" not in e.value.message
+
+
 def test_start_pose_in_collision_is_an_error(synthetic_env, make_backend):
     env = synthetic_env([("chair", (0.1, 0.0, 0.4), (0.4, 0.4, 0.8))])
     with pytest.raises(BackendError) as e:
