@@ -5,7 +5,7 @@ environment's trajectory poses (fast mode), and, in the same run, Embree (``embr
 same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.export``).
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
-        [--shadow-samples 1] [--json]
+        [--shadow-samples 1] [--lamp-maps auto|on|off] [--json]
 
 Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
 (``Renderer.render_sensors``). On CUDA the scene and the outputs stay in GPU memory
@@ -39,6 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--warmup", type=int, default=2)
     ap.add_argument("--shadow-samples", type=int, default=1)
+    ap.add_argument("--lamp-maps", choices=("auto", "on", "off"), default="auto",
+                    help="lamp shadows from cube shadow maps (auto: in furnished scenes) or shadow rays")
     ap.add_argument("--no-embree", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -57,7 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     t_build = time.perf_counter() - t0
     W, H, B = args.width, args.height, max(1, args.batch)
     t0 = time.perf_counter()
-    r = Renderer(args.arch, shadow_samples=args.shadow_samples)
+    r = Renderer(args.arch, shadow_samples=args.shadow_samples,
+                 lamp_maps={"auto": None, "on": True, "off": False}[args.lamp_maps])
     r.set_scene(scene)
     t_setup = time.perf_counter() - t0
     K = intrinsics(W, H, 90.0)
@@ -92,7 +95,8 @@ def main(argv: list[str] | None = None) -> int:
            "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
            "mrays_per_s": W * H * fps / 1e6, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
-           "style": scene.style, "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
+           "style": scene.style, "lamps_with_maps": r.lamps_with_maps,
+           "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
            "setup_s": t_setup, "fps_with_host_copy": fps_host, "device_buffers": r.device_buffers,
            "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
            "outputs": "rgb+depth+class+instance+laser(360)"}
@@ -123,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(f"{args.env} ({scene.style}, {out['triangles']} triangles) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
+        print(f"{args.env} ({scene.style}, {out['triangles']} triangles, {out['lamps_with_maps']} of {out['lights']} lights with lamp maps) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
               f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host:.1f} fps with host copies; "
               f"embree {out.get('embree_mrays_per_s', float('nan')):.2f} "
               f"Mrays/s on {out.get('embree_triangles', 0)} triangles")

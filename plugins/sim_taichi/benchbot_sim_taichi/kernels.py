@@ -38,6 +38,15 @@ LAMP_RADIUS = 0.15
 #: most 0.5 m tall, its bottom 5 cm above its light) casts no shadow, so a shade does not black out the ceiling
 #: around it. A hanging lamp has nothing else that close.
 LAMP_FIXTURE_M = 0.6
+#: Lamp shadow maps (fast mode, one shadow sample, scenes that ask for them: ``Renderer.lamp_maps``): texels per
+#: cube-face side; the lookup point leaves the surface along its normal by ``LAMP_MAP_NORMAL_OFFSET`` texel
+#: footprints, and a texel's depth may be exceeded by ``LAMP_MAP_BIAS_M`` (m), so a lit surface does not shadow
+#: itself ("shadow acne").
+LAMP_MAP_RES = 256
+LAMP_MAP_NORMAL_OFFSET = 1.5
+LAMP_MAP_BIAS_M = 0.01
+#: Columns of a packed light row: kind, vector xyz, colour rgb, range, lamp-map slot (−1: shadow rays).
+LIGHT_COLS = 9
 
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
@@ -423,11 +432,45 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
 
 
 @ti.func
+def _lamp_map_visibility(maps: ti.template(), slot, L, q):
+    """Fraction (0..1) of the four nearest texels of lamp-map ``slot`` (bilinear weights) whose depth (distance
+    from the lamp L to the first occluder) reaches the point q: percentage-closer filtering of a cube shadow map."""
+    R = maps.shape[1]
+    w = q - L
+    aw = ti.abs(w)
+    ax = 0
+    if aw[1] > aw[0] and aw[1] >= aw[2]:
+        ax = 1
+    elif aw[2] > aw[0] and aw[2] > aw[1]:
+        ax = 2
+    pw = _perm(w, ax)  # (u, v, major)
+    m = ti.max(ti.abs(pw[2]), 1e-12)
+    face = slot * 6 + 2 * ax + (1 if pw[2] < 0.0 else 0)
+    fx = (pw[0] / m + 1.0) * 0.5 * R - 0.5
+    fy = (pw[1] / m + 1.0) * 0.5 * R - 0.5
+    x0 = ti.cast(ti.floor(fx), ti.i32)
+    y0 = ti.cast(ti.floor(fy), ti.i32)
+    ax_ = fx - x0
+    ay_ = fy - y0
+    dist = w.norm() - LAMP_MAP_BIAS_M
+    vis = 0.0
+    for k in ti.static(range(4)):
+        xi = ti.min(ti.max(x0 + (k & 1), 0), R - 1)
+        yi = ti.min(ti.max(y0 + (k >> 1), 0), R - 1)
+        wgt = (ax_ if (k & 1) else 1.0 - ax_) * (ay_ if (k >> 1) else 1.0 - ay_)
+        if dist <= maps[face, yi, xi]:
+            vis += wgt
+    return vis
+
+
+@ti.func
 def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(), n_lights, n_prims,
-            nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template()):
+            nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
+            maps: ti.template(), use_maps: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
     along the geometric normal ng); visibility from ``ns`` shadow rays (strata s0 .. s0+ns-1 of ``params[0]``),
-    hashed from ``key``."""
+    hashed from ``key`` — or, with ``use_maps``, one sample in all, and a lamp with a map slot: from its cube
+    shadow map (:func:`_lamp_map_visibility`)."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
     total = ti.cast(params[0], ti.i32)
@@ -454,29 +497,38 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
                 reach = dist
                 if point:
                     reach = ti.max(dist - LAMP_FIXTURE_M, 0.0)
-                if total <= 1:
-                    if _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
-                        vis = 1.0
-                else:
-                    t1, t2 = _frame(L)
-                    rot = _rand(key * 977 + j * 131 + 7)
-                    for s in range(s0, s0 + ns):
-                        rr = ti.sqrt((ti.cast(s, ti.f32) + _rand(key * 31 + j * 7919 + s * 104729 + 3))
-                                     / ti.cast(total, ti.f32))
-                        th = 6.2831853 * (rot + ti.cast(s, ti.f32) * 0.6180340)
-                        off = rr * (ti.cos(th) * t1 + ti.sin(th) * t2)
-                        Ls = L
-                        ds = dist
-                        if point:
-                            q = L * dist + off * params[2]  # towards a point of the lamp's disc
-                            ds = q.norm()
-                            Ls = q / ds
-                            ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
-                        else:
-                            Ls = (L + off * params[1]).normalized()
-                        if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
-                            vis += 1.0
-                    vis /= ti.cast(ns, ti.f32)
+                slot = -1
+                if ti.static(use_maps):
+                    if point and total <= 1:
+                        slot = ti.cast(lights[j, 8], ti.i32)
+                    if slot >= 0:
+                        texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
+                        vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
+                                                   po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
+                if slot < 0:  # shadow rays
+                    if total <= 1:
+                        if _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                            vis = 1.0
+                    else:
+                        t1, t2 = _frame(L)
+                        rot = _rand(key * 977 + j * 131 + 7)
+                        for s in range(s0, s0 + ns):
+                            rr = ti.sqrt((ti.cast(s, ti.f32) + _rand(key * 31 + j * 7919 + s * 104729 + 3))
+                                         / ti.cast(total, ti.f32))
+                            th = 6.2831853 * (rot + ti.cast(s, ti.f32) * 0.6180340)
+                            off = rr * (ti.cos(th) * t1 + ti.sin(th) * t2)
+                            Ls = L
+                            ds = dist
+                            if point:
+                                q = L * dist + off * params[2]  # towards a point of the lamp's disc
+                                ds = q.norm()
+                                Ls = q / ds
+                                ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
+                            else:
+                                Ls = (L + off * params[1]).normalized()
+                            if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                                vis += 1.0
+                        vis /= ti.cast(ns, ti.f32)
                 radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten * vis)
     return radiance
 
@@ -526,6 +578,7 @@ def sensors_kernel(
     n_prims: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
     consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
     rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
     depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
@@ -538,7 +591,8 @@ def sensors_kernel(
     int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame
     angle ``beams[j]`` (rad) + the lidar's yaw. Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value: no
     upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
-    the scene arrays are ``renderer.pack_scene``'s."""
+    the scene arrays are ``renderer.pack_scene``'s; ``lamp_maps`` (6·S, R, R) the lamps' cube shadow maps
+    (:func:`lamp_map_kernel`; used by lights whose row has a slot ≥ 0)."""
     B = depth.shape[0]
     H = depth.shape[1]
     W = depth.shape[2]
@@ -557,7 +611,7 @@ def sensors_kernel(
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
             radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
             radiance += _direct(p, n, ns, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
-                                nodes_f, nodes_i, pf, pi, tris)
+                                nodes_f, nodes_i, pf, pi, tris, lamp_maps, True)
             col = albedo * radiance
             for k in ti.static(range(3)):
                 x = ti.min(ti.max(col[k], 0.0), 1.0)
@@ -627,7 +681,7 @@ def quality_kernel(
                 else:
                     dkey = key + 5
                 acc += weight * albedo * (amb + _direct(p, n, ns, dkey, 1, stratum, params, lights, n_lights, n_prims,
-                                                        nodes_f, nodes_i, pf, pi, tris))
+                                                        nodes_f, nodes_i, pf, pi, tris, lights, False))
                 # the bounce: cosine-weighted about the shading normal, kept above the surface
                 weight *= albedo * params[5]
                 t1, t2 = _frame(ns)
@@ -645,6 +699,40 @@ def quality_kernel(
             out[b, v, u, k] = acc[k]
 
 
+@ti.kernel
+def lamp_map_kernel(
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    n_prims: ti.i32,
+    maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+):
+    """Cube shadow maps of point lights into ``maps`` (6·S, R, R) float32: texel (x, y) of face 2·a + (0: +a,
+    1: −a) of slot s (light ``light_of_slot[s]``) holds the distance (m) from the light to the first primitive along
+    the direction whose components are ``(2(x + ½)/R − 1, 2(y + ½)/R − 1, ±1)`` on the axes (a+1, a+2, a) (mod 3),
+    counting only primitives beyond ``LAMP_FIXTURE_M`` (a lamp's own fixture casts no shadow, as with shadow rays)
+    and within the light's range; 1e30 where there is none. The room shell casts no shadow (as with shadow rays)."""
+    R = maps.shape[1]
+    for z, y, x in ti.ndrange(maps.shape[0], R, R):
+        j = light_of_slot[z // 6]
+        face = z % 6
+        ax = face // 2
+        sign = 1.0 - 2.0 * ti.cast(face % 2, ti.f32)
+        d = _unperm(ti.Vector([(2.0 * x + 1.0) / R - 1.0, (2.0 * y + 1.0) / R - 1.0, sign]), ax).normalized()
+        L = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
+        reach = lights[j, 7] - LAMP_FIXTURE_M
+        depth = 1e30
+        if reach > 0.0:
+            t, k, nrm = _trace(L + d * LAMP_FIXTURE_M, d, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
+            if k >= 0:
+                depth = LAMP_FIXTURE_M + t
+        maps[z, y, x] = depth
+
+
 #: Parameters of :func:`sensors_kernel`, in order: (name, kind, dtype, ndim) with kind ``nd`` (ndarray), ``sc``
 #: (scalar) or ``vec`` (by-value vector of POSE_LEN).
 SENSORS_ARGS = (
@@ -652,7 +740,8 @@ SENSORS_ARGS = (
     ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes_f", "nd", "f32", 2), ("nodes_i", "nd", "i32", 2),
     ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
     ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1), ("n_prims", "sc", "i32", 0),
-    ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("consts", "nd", "f32", 1), ("rgb", "nd", "u8", 4),
+    ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("lamp_maps", "nd", "f32", 3), ("consts", "nd", "f32", 1),
+    ("rgb", "nd", "u8", 4),
     ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
 )
 _SENSORS_GRAPH = None

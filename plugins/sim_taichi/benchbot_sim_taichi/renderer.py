@@ -20,7 +20,12 @@ Lighting: linear radiance = albedo · (ambient·(0.8 + 0.2·n_z) + Σ_lights vis
 attenuation), then clamped and gamma-encoded (1/2.2) to uint8 through a table (:func:`gamma_table`). Visibility
 is the fraction of ``shadow_samples`` shadow rays (stratified over the light's disc — the sun's angular radius, a
 lamp's radius — with a per-pixel rotation from a seeded integer hash, so renders are deterministic) that reach the
-light; one sample is a hard shadow towards the light's centre. The kernels live in :mod:`benchbot_sim_taichi.kernels`.
+light; one sample is a hard shadow towards the light's centre. With one sample in a furnished scene (``Renderer``'s
+``lamp_maps``), a lamp's visibility comes instead from its cube shadow map, traced once per scene: the distance from
+the lamp to the first occluder for each of 6 × 256² directions, compared with the point's distance (offset along
+its normal by 1.5 texel footprints; 2 × 2 texels, bilinearly weighted). The images agree with shadow rays but for
+a rim of a texel or two along shadow edges, and a frame costs about a third of the rays' (many lamps: house:1 has
+29). The kernels live in :mod:`benchbot_sim_taichi.kernels`.
 
 Triangles (meshes, :mod:`benchbot_sim_taichi.meshes`) are shaded with their interpolated vertex normals (n above;
 shadow rays leave from the hit point offset along the geometric normal, moved onto the vertices' tangent planes so
@@ -54,8 +59,8 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
-    GAMMA, GAMMA_STEPS, LAMP_RADIUS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS, quality_kernel,
-    reset_graph, sensors_graph, sensors_kernel,
+    GAMMA, GAMMA_STEPS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
+    lamp_map_kernel, quality_kernel, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -182,8 +187,9 @@ def pack_scene(scene) -> dict:
         ``pi[k, 1]`` is primitive k's); ``shade`` (max(T,1), SHADE_COLS) float32 (rows as ``tris``)
         per triangle [vertex normals (9), UVs (6), texture index (−1: none), texture LOD offset]; ``texels``
         (max(N,1),) int32 packed sRGB ``r | g << 8 | b << 16``; ``tex_info`` (max(X,1), 4) int32 (as
-        ``Scene.tex_info``); ``tex_lut`` (256,) float32 sRGB byte → linear; ``lights`` (max(L,1), 8) float32 [kind,
-        vec xyz, colour rgb, range]; ``world`` (19,) float32 [room min xyz, room max xyz, floor/wall/ceiling albedo
+        ``Scene.tex_info``); ``tex_lut`` (256,) float32 sRGB byte → linear; ``lights`` (max(L,1), LIGHT_COLS)
+        float32 [kind, vec xyz, colour rgb, range, lamp-map slot (−1 here; :meth:`Renderer.set_scene` assigns
+        slots)]; ``world`` (19,) float32 [room min xyz, room max xyz, floor/wall/ceiling albedo
         (9), ambient rgb, background class]; ``n_prims``, ``n_lights`` ints; ``order`` (P,) the scene's primitive
         index of each packed primitive.
 
@@ -259,7 +265,8 @@ def pack_scene(scene) -> dict:
     texels[:texels8.shape[0]] = texels8[:, 0] | (texels8[:, 1] << 8) | (texels8[:, 2] << 16)
     info = np.zeros((max(tex_info.shape[0], 1), 4), dtype=np.int32)
     info[:tex_info.shape[0]] = tex_info
-    lights = np.zeros((max(nl, 1), 8), dtype=np.float32)
+    lights = np.zeros((max(nl, 1), LIGHT_COLS), dtype=np.float32)
+    lights[:, 8] = -1.0
     if nl:
         lights[:nl, 0] = scene.light_kind
         lights[:nl, 1:4], lights[:nl, 4:7], lights[:nl, 7] = scene.light_vec, scene.light_colour, scene.light_range
@@ -328,7 +335,8 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None)
 
 # ---------------------------------------------------------------------------------------------------------- renderer
 #: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
-_SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world")
+_SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
+                 "lamp_maps")
 
 
 # Taichi ndarrays must be freed on Taichi's thread: on CUDA the context is current only there, and freeing GPU
@@ -396,10 +404,16 @@ class Renderer:
         device_buffers: keep the scene and the output images in Taichi ndarrays, i.e. in GPU memory on CUDA, so a
             launch copies nothing between host and device (``None``: on CUDA only). On the CPU, NumPy arrays are
             already shared with the kernels, so the default there passes them directly.
+        lamp_maps: with one shadow sample in ``fast`` mode, take the lamps' (point lights') shadows from cube shadow
+            maps (``kernels.LAMP_MAP_RES``² texels a face, traced once per scene in :meth:`set_scene`) instead of
+            one shadow ray per lamp and pixel. ``None`` (default): for furnished scenes (``scene.style ==
+            'furnished'``: many lamps and triangles, where those rays cost most of a frame), not for primitive
+            scenes (whose shadows stay exact, ray for ray). The sun and soft shadows (``shadow_samples`` > 1)
+            always use rays, and so does ``quality`` mode.
     """
 
     def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
-                 device_buffers: bool | None = None) -> None:
+                 device_buffers: bool | None = None, lamp_maps: bool | None = None) -> None:
         self.arch = ensure_taichi(arch)
         self._packed: dict | None = None
         self._scene_args: tuple | None = None
@@ -411,6 +425,7 @@ class Renderer:
         self._consts_key: tuple | None = None
         self._consts = None
         self._scene_arrays: list = []
+        self.lamp_maps = lamp_maps
 
     def __del__(self) -> None:
         # may run on any thread: the device arrays are only retired here, and freed later on Taichi's thread
@@ -431,7 +446,13 @@ class Renderer:
         """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
         use it. With device buffers, this is the only host-to-device copy of the scene."""
         _free_retired()
-        self._packed = pack_scene(scene)
+        packed = pack_scene(scene)
+        use_maps = (getattr(scene, "style", "") == "furnished") if self.lamp_maps is None else bool(self.lamp_maps)
+        lamps = np.flatnonzero(packed["lights"][:packed["n_lights"], 0] == 1) if use_maps else np.zeros(0, np.int64)
+        packed["lights"][lamps, 8] = np.arange(lamps.size)
+        res = LAMP_MAP_RES if lamps.size else 1
+        packed["lamp_maps"] = np.zeros((6 * max(lamps.size, 1), res, res), np.float32)
+        self._packed = packed
         _retire(self._scene_arrays)
         arrays = {k: self._packed[k] for k in _SCENE_ARRAYS}
         if self.device_buffers:
@@ -439,9 +460,20 @@ class Renderer:
                 arrays[k] = _new_device_array(a.dtype, a.shape)
                 arrays[k].from_numpy(np.ascontiguousarray(a))
         self._scene_arrays = [arrays[k] for k in _SCENE_ARRAYS] if self.device_buffers else []
+        if lamps.size:  # the lamps' shadow maps, traced once per scene, where the kernels read them
+            lamp_map_kernel(arrays["lights"], self._upload("light_of_slot", lamps.astype(np.int32)),
+                            arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
+                            self._packed["n_prims"], arrays["lamp_maps"])
         self._scene_args = (arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
                             arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
-                            self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"])
+                            self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"],
+                            arrays["lamp_maps"])
+
+    @property
+    def lamps_with_maps(self) -> int:
+        """How many of the current scene's lamps take their shadows from cube shadow maps (0 before
+        :meth:`set_scene`)."""
+        return 0 if self._packed is None else int((self._packed["lights"][:, 8] >= 0).sum())
 
     def _need_scene(self) -> dict:
         if self._packed is None:
@@ -566,8 +598,8 @@ class Renderer:
                              cached=True)
         consts = self._frame_constants(K)
         s = self._args()
-        values = (table, pose0, one, int(images), beams, n_beams, *s[:11], s[11] if lit else 0, consts, out["rgb"],
-                  out["depth"], out["class"], out["instance"], ranges)
+        values = (table, pose0, one, int(images), beams, n_beams, *s[:11], s[11] if lit else 0, s[13], consts,
+                  out["rgb"], out["depth"], out["class"], out["instance"], ranges)
         if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
             values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(SENSORS_ARGS, values))
             sensors_graph().run(dict(zip((a[0] for a in SENSORS_ARGS), values)))
@@ -620,7 +652,7 @@ class Renderer:
             H, W = int(height), int(width)
             lin = self._buffer("quality", (1, H, W, 3), np.float32)
             params = render_params(max(spp, 1), self.seed, spp=spp, bounce_gain=0.6)
-            quality_kernel(camera_params(K, T_map_camera), *self._args(), params, lin)
+            quality_kernel(camera_params(K, T_map_camera), *self._args()[:13], params, lin)
             lin = lin.to_numpy() if self.device_buffers else lin
             img = np.floor(np.power(np.clip(lin[0], 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
             if denoise:
