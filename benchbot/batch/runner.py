@@ -3,7 +3,8 @@
 A run directory holds::
 
     config.json          the resolved task, robots and environments
-    manifest.json        command, versions, seeds, the plan, and every episode's record (atomic, after each change)
+    manifest.json        command, versions, provenance (git revisions, machine), seeds, the plan, and every
+                         episode's record (atomic, after each change)
     results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
     scores.json          the evaluation in the original's format (the combined scores)
     episode_scores.json  per-episode scores with environment, robot, repetition and seed
@@ -30,6 +31,7 @@ from typing import Callable
 
 from benchbot.batch.episode import results_problem
 from benchbot.batch.executors import EventHandler, run_local, run_ray
+from benchbot.batch import provenance
 from benchbot.batch.plan import (
     EpisodeRecord, EpisodeSpec, new_record, read_manifest, specs_from_manifest, to_json, write_manifest,
 )
@@ -183,6 +185,7 @@ def prepare_batch(
         "command": sys.argv, "task": specs[0].task, "robots": sorted({s.robot for s in specs}),
         "environments": list(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
         "prefix": prefix, "zip": zip_results, "versions": _versions(registry),
+        "provenance": provenance.collect([s.cwd for s in specs]),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "plan": to_json(specs), "episodes": to_json([new_record(s) for s in specs]),
     }

@@ -1,0 +1,53 @@
+"""The manifest's provenance: git revisions of BenchBot and the solution, and the machine (no host name)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+from benchbot.batch import provenance
+from benchbot.batch.plan import plan_episodes
+from benchbot.batch.runner import prepare_batch
+from benchbot.core.registry import get_registry
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_git_revision_of_a_work_tree_and_of_a_plain_folder(tmp_path):
+    head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    revision = provenance.git_revision(ROOT / "benchbot")
+    assert revision is not None and revision.split("+")[0] == head
+    assert provenance.git_revision(tmp_path) is None
+
+
+def test_git_revision_marks_a_dirty_work_tree(tmp_path):
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                       check=True, capture_output=True)
+
+    git("init", "-q")
+    (tmp_path / "f.txt").write_text("a")
+    git("add", "f.txt")
+    git("commit", "-q", "-m", "one")
+    clean = provenance.git_revision(tmp_path)
+    assert clean is not None and len(clean) == 40
+    (tmp_path / "f.txt").write_text("b")
+    assert provenance.git_revision(tmp_path) == clean + "+dirty"
+
+
+def test_machine_names_no_host():
+    info = provenance.machine()
+    assert set(info) == {"system", "architecture", "cpu", "cpus", "memory_gib"}  # no host name: manifests get published
+
+
+def test_prepare_batch_records_provenance(tmp_path):
+    specs = plan_episodes(task="semantic_slam:passive:ground_truth", robots=["carter"], envs=["miniroom:1"],
+                          repeat=1, seed=0, argv=["true"], cwd=str(tmp_path), options={}, timeout_s=None)
+    manifest = prepare_batch(get_registry(), run_dir=tmp_path, specs=specs, evaluate_with=None, prefix="batch",
+                             zip_results=False)
+    written = json.loads((tmp_path / "manifest.json").read_text())
+    assert written["provenance"] == manifest["provenance"]
+    assert written["provenance"]["solution_git"] == {str(tmp_path): None}
+    assert written["provenance"]["benchbot_git"]
+    assert written["provenance"]["machine"]["cpus"] >= 1
