@@ -121,6 +121,28 @@ def test_original_wire_format(served):
     assert "ground_truth\": {" not in config_text and "\"objects\"" not in config_text
 
 
+def test_pose_arrays_are_one_type_in_process_natively_and_over_the_original_routes(served):
+    """Every pose's ``translation_xyz``, ``rotation_rpy`` and ``rotation_xyzw`` is a float64 ndarray, as the original
+    API documented, whichever way the observation travels (``rotation_rpy`` was a tuple in process, a list over the
+    native protocol)."""
+    service, server = served(PASSIVE, "miniroom:1")
+
+    def check(poses):
+        assert set(poses) == {"camera", "lidar", "robot", "initial_pose"}
+        for pose in poses.values():
+            for key, shape in (("translation_xyz", (3,)), ("rotation_rpy", (3,)), ("rotation_xyzw", (4,))):
+                assert isinstance(pose[key], np.ndarray) and pose[key].dtype == np.float64, (key, type(pose[key]))
+                assert pose[key].shape == shape
+
+    in_process = InProcessBenchBot(service)
+    check(in_process.step(None)[0]["poses"])
+    in_process.close()
+    native = BenchBot(supervisor_address=server.address, auto_start=False)
+    check(native.step(None)[0]["poses"])
+    native.close()
+    check(jsonpickle.decode(requests.get(server.address + "connections/poses", json={}).content))
+
+
 def _normalise(value):
     if isinstance(value, dict):
         return {k: _normalise(v) for k, v in value.items()}

@@ -115,13 +115,14 @@ def pose_observation(T_parent_frame: np.ndarray, parent_frame: str) -> dict:
     """One entry of the ``poses`` observation (docs/observations.md) from ``T_parent_frame`` (4, 4).
 
     Returns:
-        ``{'parent_frame': str, 'translation_xyz': (3,) float64 metres, 'rotation_rpy': (roll, pitch, yaw)
-        radians (static xyz), 'rotation_xyzw': (4,) float64 unit quaternion [x, y, z, w]}``.
+        ``{'parent_frame': str, 'translation_xyz': (3,) float64 metres, 'rotation_rpy': (3,) float64 [roll, pitch,
+        yaw] radians (static xyz), 'rotation_xyzw': (4,) float64 unit quaternion [x, y, z, w]}``: the three arrays
+        are NumPy arrays, as the original API documented, in process and over either protocol alike.
     """
     T = np.asarray(T_parent_frame, dtype=np.float64)
     return {
         "parent_frame": parent_frame,
         "translation_xyz": T[:3, 3].copy(),
-        "rotation_rpy": matrix_to_rpy(T[:3, :3]),
+        "rotation_rpy": np.array(matrix_to_rpy(T[:3, :3]), dtype=np.float64),
         "rotation_xyzw": matrix_to_quaternion_xyzw(T[:3, :3]),
     }
