@@ -401,7 +401,10 @@ def _geometric_mean(*qualities: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------------------------------------------------
 # evaluate / combine
 # --------------------------------------------------------------------------------------------------------------------
-def evaluate(results: dict, ground_truths: list[dict], *, per_class: bool = False, oriented: bool = False) -> dict:
+def evaluate(
+    results: dict, ground_truths: list[dict], *, per_class: bool = False, oriented: bool = False,
+    matches: bool = False,
+) -> dict:  # fmt: skip
     """Score one submitted results file with OMQ (Hall et al. 2020, arXiv:2009.05246; benchbot_eval's OMQ add-on).
 
     Args:
@@ -417,6 +420,8 @@ def evaluate(results: dict, ground_truths: list[dict], *, per_class: bool = Fals
         oriented: the oriented-cuboid extension: a proposal's optional ``yaw`` (radians about +z, map frame; also
             read on ground-truth objects, default 0) rotates its footprint in the IoU (:func:`pairwise_iou`). Off
             (the default, as the original), ``yaw`` is ignored.
+        matches: also return the assignment object by object (key ``matches``, see below). It only reports what
+            the scoring decided; no score changes.
 
     Returns:
         ``{"task_details", "environment_details", "scores": {"OMQ", "avg_pairwise", "avg_label", "avg_spatial",
@@ -427,6 +432,13 @@ def evaluate(results: dict, ground_truths: list[dict], *, per_class: bool = Fals
         that has a ground-truth object or a false positive: TP pairs and FNs count for their GT object's class,
         an FP for its argmax non-background class (``background`` when all those are 0); per-class counts and sums
         add up to the totals.
+        ``matches`` = ``{"class_list": [...], "ground_truth": [...], "proposals": [...]}``: one entry per scored
+        ground-truth object (for SCD, per changed object, removed ones first, with its ``state``) ``{index, class,
+        ID_name, centroid, extent, status: "TP" | "FN", proposal: index or None, quality, label, spatial}`` and one
+        per proposal ``{index, class (argmax non-background, or "background"), centroid, extent, status: "TP" |
+        "FP" | "group" (inside a group GT box: neither TP nor FP), ground_truth: index or None, quality, label,
+        spatial, fp_cost}``; indices are positions in ``results.objects`` and in the ``ground_truth`` list,
+        qualities are those of the pair (None when unmatched), ``fp_cost`` is 0 unless the status is ``FP``.
 
     Raises:
         benchbot.core.errors.ResultsError: the results cannot be scored (missing parts, ``label_probs`` /
@@ -499,8 +511,10 @@ def evaluate(results: dict, ground_truths: list[dict], *, per_class: bool = Fals
     if oriented:
         gt_yaw = _yaws(gt_objects, "ground truth objects", SpecError)
         prop_yaw = _yaws(objects, "results.objects", ResultsError)
+    detail: Optional[dict] = {} if matches else None
     totals, by_class = _score(
-        gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e, gt_yaw, prop_yaw, per_class
+        gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e, gt_yaw, prop_yaw, per_class,
+        detail,
     )
     out = {
         "task_details": results.get("task_details"),
@@ -512,7 +526,35 @@ def evaluate(results: dict, ground_truths: list[dict], *, per_class: bool = Fals
         out["per_class"] = {
             class_list[k]: {"scores": scores_from_totals(t, scd), "totals": t} for k, t in sorted(by_class.items())
         }
+    if detail is not None:
+        out["matches"] = _matches(detail, class_list, gt_objects, gt_class, gt_states, gt_c, gt_e, labels, prop_c,
+                                  prop_e)  # fmt: skip
     return out
+
+
+def _matches(detail, class_list, gt_objects, gt_class, gt_states, gt_c, gt_e, labels, prop_c, prop_e) -> dict:
+    """The ``matches`` entry of :func:`evaluate` from the assignment ``_score`` recorded in ``detail``."""
+    bg = len(class_list) - 1
+    pairs = detail["pairs"]  # {gt row: (proposal column, overall, label, spatial)}
+    by_col = {c: (r, q, lab, sp) for r, (c, q, lab, sp) in pairs.items()}
+    fp_cost = detail["fp_cost"]  # {proposal column: cost}
+    gt_out = []
+    for i, obj in enumerate(gt_objects):
+        c, q, lab, sp = pairs.get(i, (None, None, None, None))
+        entry = {"index": i, "class": class_list[int(gt_class[i])], "ID_name": obj.get("ID_name"),
+                 "centroid": gt_c[i].tolist(), "extent": gt_e[i].tolist(), "status": "TP" if c is not None else "FN",
+                 "proposal": c, "quality": q, "label": lab, "spatial": sp}  # fmt: skip
+        if gt_states is not None:
+            entry["state"] = SCD_STATE_LIST[int(gt_states[i])]
+        gt_out.append(entry)
+    prop_out = []
+    for j in range(labels.shape[0]):
+        r, q, lab, sp = by_col.get(j, (None, None, None, None))
+        status = "TP" if r is not None else ("FP" if j in fp_cost else "group")
+        prop_out.append({"index": j, "class": class_list[_fp_class(labels, j, bg)], "centroid": prop_c[j].tolist(),
+                         "extent": prop_e[j].tolist(), "status": status, "ground_truth": r, "quality": q,
+                         "label": lab, "spatial": sp, "fp_cost": fp_cost.get(j, 0.0)})  # fmt: skip
+    return {"class_list": list(class_list), "ground_truth": gt_out, "proposals": prop_out}
 
 
 def _yaws(objects: Sequence[dict], prefix: str, err: type) -> np.ndarray:
@@ -578,9 +620,12 @@ def _fp_class(labels: np.ndarray, j: int, bg: int) -> int:
 
 def _score(
     gt_class, gt_group, gt_c, gt_e, gt_states, labels, states, prop_c, prop_e, gt_yaw=None, prop_yaw=None,
-    per_class=False,
+    per_class=False, detail=None,
 ) -> tuple[dict, dict]:  # fmt: skip
-    """Assignment and sums. Returns ``(totals, {class id: totals})`` (the second empty unless ``per_class``)."""
+    """Assignment and sums. Returns ``(totals, {class id: totals})`` (the second empty unless ``per_class``).
+
+    ``detail`` (a dict, or None) receives what was decided, for :func:`_matches`: ``pairs`` ``{gt row: (proposal
+    column, overall, label, spatial)}`` of the TPs and ``fp_cost`` ``{proposal column: cost}`` of the FPs."""
     from scipy.optimize import linear_sum_assignment
 
     scd = states is not None
@@ -595,11 +640,15 @@ def _score(
                 for k, v in values.items():
                     target[k] += v
 
+    if detail is not None:
+        detail.update(pairs={}, fp_cost={})
     if g == 0 or p == 0:  # special case: nothing to match
         for i in range(g):
             add(int(gt_class[i]), FN=1)
         for j in range(p):
             add(_fp_class(labels, j, bg), FP=1, sum_fp_cost=_fp_label_cost(labels, j))
+            if detail is not None:
+                detail["fp_cost"][j] = _fp_label_cost(labels, j)
         return totals, by_class
 
     spatial, inter = pairwise_iou(gt_c, gt_e, prop_c, prop_e, gt_yaw, prop_yaw)  # (g, p)
@@ -640,6 +689,10 @@ def _score(
         fp_costs = label_cost
     totals["FP"] += int(len(cols_fp))
     totals["sum_fp_cost"] += float(fp_costs.sum())
+    if detail is not None:
+        detail["pairs"] = {int(r): (int(c), float(overall[r, c]), float(label_q[r, c]), float(spatial[r, c]))
+                           for r, c in zip(tp_rows, tp_cols)}  # fmt: skip
+        detail["fp_cost"] = {int(c): float(cost) for c, cost in zip(cols_fp, fp_costs)}
     if per_class:
         fp_cls = np.where(label_cost > 0, np.argmax(nonbg, axis=1) if len(cols_fp) else 0, bg)
         for k in np.unique(fp_cls):

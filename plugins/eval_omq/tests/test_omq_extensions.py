@@ -273,3 +273,69 @@ def test_property_permutation_and_synonyms_change_nothing(specs, rnd):
                 "chair": "stool", "background": "bg"}  # fmt: skip
     renamed = [synonyms.get(c, c) if rnd.random() < 0.7 else c.upper() for c in CL]
     assert omq.evaluate(results(objs, class_list=renamed), [GT1])["scores"] == pytest.approx(base, abs=1e-9)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# matches: the assignment object by object (for the report's top-down maps)
+# ---------------------------------------------------------------------------------------------------------------------
+def _check_matches(out: dict, n_gt: int, n_prop: int) -> None:
+    """``matches`` agrees with the totals it explains: counts, quality sums, FP costs, both directions of a pair."""
+    m, t = out["matches"], out["totals"]
+    gt, props = m["ground_truth"], m["proposals"]
+    assert len(gt) == n_gt and len(props) == n_prop
+    assert sum(e["status"] == "TP" for e in gt) == sum(e["status"] == "TP" for e in props) == t["TP"]
+    assert sum(e["status"] == "FN" for e in gt) == t["FN"]
+    assert sum(e["status"] == "FP" for e in props) == t["FP"]
+    assert math.fsum(e["quality"] for e in gt if e["status"] == "TP") == pytest.approx(t["sum_overall"], abs=1e-12)
+    assert math.fsum(e["spatial"] for e in props if e["status"] == "TP") == pytest.approx(t["sum_spatial"], abs=1e-12)
+    assert math.fsum(e["fp_cost"] for e in props) == pytest.approx(t["sum_fp_cost"], abs=1e-12)
+    for e in gt:
+        if e["status"] == "TP":
+            assert props[e["proposal"]]["ground_truth"] == e["index"] and props[e["proposal"]]["quality"] == e["quality"]
+        else:
+            assert e["proposal"] is None and e["quality"] is None
+    assert all(e["status"] in ("TP", "FP", "group") for e in props)
+
+
+def test_matches_change_no_score_and_explain_the_totals():
+    objs = [obj(o, shift=(0.25, 0.0, 0.0)) for o in GT_OBJECTS[:10]] + [obj(o, conf=0.5) for o in GT_OBJECTS[10:14]]
+    objs += [far_fp(0.8, cls=2), far_fp(0.3, cls=0)]
+    plain = omq.evaluate(results(objs), [GT1])
+    out = omq.evaluate(results(objs), [GT1], matches=True, per_class=True)
+    assert out["scores"] == plain["scores"] and out["totals"] == plain["totals"]  # bit for bit
+    _check_matches(out, len(GT_OBJECTS), len(objs))
+    fps = [e for e in out["matches"]["proposals"] if e["status"] == "FP"]
+    assert [(e["index"], e["class"], e["fp_cost"]) for e in fps] == [(14, CL[2], 0.8), (15, CL[0], 0.3)]
+    first = out["matches"]["ground_truth"][0]
+    assert (first["class"], first["ID_name"], first["proposal"]) == (GT_OBJECTS[0]["class"], GT_OBJECTS[0]["ID_name"], 0)
+    assert first["spatial"] == pytest.approx(0.75 / 1.25)  # a quarter-extent shift along x: IoU 0.75 / 1.25
+    assert out["matches"]["ground_truth"][-1]["status"] == "FN"
+
+
+def test_matches_group_exemption_empty_maps_and_scd():
+    group = next(i for i, o in enumerate(GT_OBJECTS) if o.get("isgroup"))
+    inside = obj(GT_OBJECTS[group], extent=[e / 4 for e in GT_OBJECTS[group]["extent"]])
+    out = omq.evaluate(results([obj(o) for o in GT_OBJECTS] + [inside]), [GT1], matches=True)
+    assert out["matches"]["proposals"][-1]["status"] == "group" and out["scores"]["FP"] == 0
+    _check_matches(out, len(GT_OBJECTS), len(GT_OBJECTS) + 1)
+    empty = omq.evaluate(results([]), [GT1], matches=True)
+    assert {e["status"] for e in empty["matches"]["ground_truth"]} == {"FN"} and empty["matches"]["proposals"] == []
+    no_gt = copy.deepcopy(GT1)
+    no_gt["ground_truth"]["objects"] = []
+    only_fp = omq.evaluate(results([far_fp(0.7, cls=1)]), [no_gt], matches=True)
+    _check_matches(only_fp, 0, 1)
+    changes = omq.scd_ground_truth(GT1["ground_truth"]["objects"], GT2["ground_truth"]["objects"])
+    scd = results([obj(o, states=[1.0, 0.0, 0.0] if s == 0 else [0.0, 1.0, 0.0]) for o, s in changes], scd=True)
+    out = omq.evaluate(scd, [GT1, GT2], matches=True)
+    assert out["scores"] == omq.evaluate(scd, [GT1, GT2])["scores"]
+    assert [e["state"] for e in out["matches"]["ground_truth"]] == ["removed" if s == 1 else "added" for _, s in changes]
+    _check_matches(out, len(changes), len(changes))
+
+
+@SETTINGS
+@given(st.lists(_prop, max_size=20), st.floats(0.0, 1.0))
+def test_property_matches_never_change_a_score(specs, fp_conf):
+    objs = [_build(s) for s in specs] + [far_fp(fp_conf, cls=1)]
+    out = omq.evaluate(results(objs), [GT1], matches=True)
+    assert out["scores"] == omq.evaluate(results(objs), [GT1])["scores"]
+    _check_matches(out, len(GT_OBJECTS), len(objs))
