@@ -12,6 +12,7 @@ from typing import Any, Callable, Iterator
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from benchbot.core import limits
 from benchbot.core.errors import BenchbotError, ExitCode, UsageError
@@ -36,10 +37,11 @@ def registry() -> Registry:
 
 
 def report(exc: BenchbotError) -> None:
-    """Print an error as one line (and its hint) on stderr."""
-    err.print(f"[bold red]error:[/] {exc.message}", highlight=False)
+    """Print an error as one line (and its hint) on stderr; brackets in them (a file named ``[/x].yaml``, a URL)
+    are printed as they are, never read as Rich markup."""
+    err.print(f"[bold red]error:[/] {escape(exc.message)}", highlight=False)
     if exc.hint:
-        err.print(f"[dim]hint:[/] {exc.hint}", highlight=False)
+        err.print(f"[dim]hint:[/] {escape(exc.hint)}", highlight=False)
 
 
 def handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:

@@ -72,7 +72,7 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
 
     from benchbot.core import hookspecs
     from benchbot.core.errors import SpecError
-    from benchbot.core.registry import KIND_SCHEMAS, entry_name, validate
+    from benchbot.core.registry import KIND_SCHEMAS, entry_name, singular, validate
 
     pm = pluggy.PluginManager(hookspecs.PROJECT_NAME)
     for hook_class in hookspecs.HOOK_CLASSES:
@@ -108,7 +108,7 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
                     problems.append(str(exc))
                     continue
                 if name in registers.get(kind, []):
-                    problems.append(f"{kind[:-1]} '{name}' is returned twice")
+                    problems.append(f"{singular(kind)} '{name}' is returned twice")
                 registers.setdefault(kind, []).append(name)
                 if kind in ("formats", "evaluators"):
                     from benchbot.core.plugin_manager import import_object
