@@ -13,7 +13,10 @@ from typing import Optional
 import typer
 
 from benchbot.cli.common import err, handle_errors
-from benchbot.core.content_packs import FOLDER_KINDS, PackError, install_pack, installed_packs, pack_name, uninstall_pack
+from rich.markup import escape
+
+from benchbot.core.content_packs import PackError, install_pack, installed_packs, pack_name, uninstall_pack
+from benchbot.core.original_addons import is_addon_folder
 from benchbot.core.errors import BenchbotError, UsageError
 
 PROTECTED = {"benchbot"}
@@ -44,11 +47,9 @@ def installer_command(action: str, targets: list[str]) -> list[str]:
 
 
 def is_content_pack(target: str) -> bool:
-    """A local folder holding add-on type folders and no Python project file."""
-    path = Path(target).expanduser()
-    if not path.is_dir() or any((path / f).exists() for f in ("pyproject.toml", "setup.py", "setup.cfg")):
-        return False
-    return any(p.is_dir() for p in path.rglob("*") if p.name in FOLDER_KINDS)
+    """A local folder without a Python project file that holds add-on type folders or an original add-on's
+    ``.remote``/``.dependencies`` (:func:`benchbot.core.original_addons.is_addon_folder`): never handed to pip."""
+    return is_addon_folder(target)
 
 
 def _run_installer(action: str, targets: list[str], dry_run: bool) -> None:
@@ -64,7 +65,26 @@ def _run_installer(action: str, targets: list[str], dry_run: bool) -> None:
 
 def _print_details(exc: PackError) -> None:
     for line in exc.details:
-        err.print(f"  {line}", highlight=False)
+        err.print(f"  {escape(line)}", highlight=False)
+
+
+def _print_pack(manifest: dict) -> None:
+    """What installing a pack did (or, for --dry-run, would do): specs already provided, overrides, notes."""
+    for line in manifest["provided"]:
+        err.print(f"  {escape(line)}", highlight=False)
+    for line in manifest["overridden"]:
+        err.print(f"  [yellow]override:[/] {escape(line)}", highlight=False)
+    for line in manifest["notes"]:
+        err.print(f"  [dim]note:[/] {escape(line)}", highlight=False)
+    what = escape("; ".join(f"{k}: {', '.join(v)}" for k, v in manifest["files"].items()))
+    where = f"content pack '{manifest['name']}' into {escape(manifest['path'])} ({what})"
+    if manifest["dry_run"]:
+        err.print(f"[green]would install[/] {where}; --dry-run: nothing changed", highlight=False)
+    else:
+        err.print(f"[green]installed[/] {where}", highlight=False)
+    allowed = "code would be allowed:" if manifest["dry_run"] else "code allowed:"
+    for line in manifest["code"]:
+        err.print(f"  [yellow]{allowed}[/] {escape(line)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:
@@ -75,10 +95,18 @@ def register(app: typer.Typer) -> None:
         allow_code: bool = typer.Option(False, "--allow-code", help="Allow content packs that contain Python functions or examples."),
         name: Optional[str] = typer.Option(None, "--name", help="Install a content pack under this name (one pack only)."),
         force: bool = typer.Option(False, "--force", help="Replace an installed content pack of the same name."),
-        dry_run: bool = typer.Option(False, "--dry-run", help="Validate packs and print the installer command; change nothing."),
+        override: bool = typer.Option(False, "--override", help="Let a content pack's specs replace installed specs "
+                                      "of the same name that differ (until the pack is uninstalled)."),
+        dry_run: bool = typer.Option(False, "--dry-run", help="Run every check of the install and print the installer "
+                                     "command; change nothing (same exit code as the install)."),
     ) -> None:
         """Install plugins (into benchbot's own environment, with uv or pip) or content packs (folders with
-        tasks/, robots/, environments/, formats/, evaluation_methods/, ground_truths/, examples/, batches/).
+        tasks/, robots/, environments/, formats/, evaluation_methods/, ground_truths/, examples/, batches/,
+        such as the original BenchBot add-ons).
+
+        A spec identical in meaning to an installed one is reported as already provided; one that differs is a
+        clash (exit 3) unless --override. An add-on whose content is a download (.remote) is explained, not
+        installed (exit 3).
 
         Example: benchbot install benchbot-sim-foo ./my_pack
         """
@@ -86,24 +114,23 @@ def register(app: typer.Typer) -> None:
         dists = [t for t in targets if t not in packs]
         if name and len(packs) != 1:
             raise UsageError("--name needs exactly one content pack", "install packs one at a time with --name")
+        if override and not packs:
+            raise UsageError("--override applies to content packs only", "give the folder of a content pack")
+        # --dry-run takes the same path: every check, the same errors and exit code, nothing copied; one registry
+        # for all its packs, into which each checked pack is staged as the real install would have installed it
+        staging = None
+        if dry_run and packs:
+            from benchbot.core.registry import Registry
+
+            staging = Registry()
         for target in packs:
             try:
-                if dry_run:
-                    from benchbot.core.content_packs import verify_pack
-
-                    scan = verify_pack(target, name)
-                    if scan.errors:
-                        raise PackError(f"pack '{scan.name}' has {len(scan.errors)} problem(s)", "fix the files listed above", scan.errors)
-                    err.print(f"pack '{scan.name}' is valid ({len(scan.files)} files)" + (f"; contains code: {len(scan.code)} place(s)" if scan.code else ""))
-                    continue
-                manifest = install_pack(target, name=name, allow_code=allow_code, force=force)
+                manifest = install_pack(target, name=name, allow_code=allow_code, force=force, override=override,
+                                        dry_run=dry_run, registry=staging)
             except PackError as exc:
                 _print_details(exc)
                 raise
-            what = "; ".join(f"{k}: {', '.join(v)}" for k, v in manifest["files"].items())
-            err.print(f"[green]installed[/] content pack '{manifest['name']}' into {manifest['path']} ({what})", highlight=False)
-            for line in manifest["code"]:
-                err.print(f"  [yellow]code allowed:[/] {line}", highlight=False)
+            _print_pack(manifest)
         if dists:
             _run_installer("install", dists, dry_run)
             if not dry_run:

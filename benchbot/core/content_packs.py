@@ -6,6 +6,20 @@ file directly inside a folder of that name, anywhere in the pack (the original's
 sub-folders of a type folder are ignored). ``benchbot install ./my_pack`` validates every file, refuses names that
 clash with installed content, and copies the pack atomically to ``<data dir>/packs/<name>/`` with a manifest
 ``.benchbot-pack.json``; the built-in plugin ``benchbot.plugins.content_packs`` loads the installed packs.
+``benchbot install --dry-run`` runs :func:`install_pack` with ``dry_run=True``: every check of a real install,
+the same errors and exit code, and nothing copied.
+
+A spec whose name is already installed is no clash when the two are identical in meaning
+(:mod:`benchbot.core.spec_meaning`): it is reported as already provided and the installed copy is used. A real
+clash is refused naming both sources, unless the pack is installed with ``override=True`` (``--override``): its
+spec then replaces the other source's while the pack is installed (the manifest's ``overrides``).
+
+An original add-on whose content lives elsewhere — a ``.remote`` file naming a URL to download and a folder to
+unzip it into (the original's environments and Omniverse robots) — is recognised by its markers
+(:data:`benchbot.core.original_addons.ADDON_MARKERS`); BenchBot downloads nothing, so installing it is refused with
+an explanation: what it would download, and which installed content corresponds
+(:data:`benchbot.core.original_addons.KNOWN_REMOTES`). ``.dependencies`` and ``.dependencies-python`` are
+reported, never installed.
 
 Security: symlinks leaving the pack, symlinked folders and special files are refused; ``map_path`` may not be
 absolute (except Unreal ``/Game/...`` asset paths) nor leave the pack; nothing in a pack is imported or run unless
@@ -66,6 +80,9 @@ PLUGIN = "content_packs"
 """The entry-point name of the built-in plugin that loads installed packs (``benchbot.plugins.content_packs``)."""
 LOAD_ERROR_KEY = "_load_error"
 """A spec dict carrying this key is reported by the registry as that one-line problem instead of registered."""
+OVERRIDE_KEY = "_benchbot_override"
+"""Set (only) by :func:`load_installed_specs` on a spec that its pack's manifest lists in ``overrides``: the
+registry lets it replace another source's spec of the same name. Removed from every spec file a pack holds."""
 
 
 class PackError(BenchbotError):
@@ -265,7 +282,7 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
     Raises:
         PackError: ``path`` is not a folder, or the name is invalid.
     """
-    from benchbot.core.registry import KIND_SCHEMAS, entry_name, load_spec_file, validate
+    from benchbot.core.registry import KIND_SCHEMAS, entry_name, load_spec_file, singular, validate
 
     given = Path(path).expanduser()
     if not given.is_dir():
@@ -280,6 +297,7 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
         try:
             spec = load_spec_file(file)
             spec.pop("_file_path", None)
+            spec.pop(OVERRIDE_KEY, None)  # only the manifest (the user's --override) may say so
             if kind in ("formats", "evaluators"):
                 _adapt_functions(pf, spec, root, scan.name)
             _adapt_paths(pf, spec, root)
@@ -299,7 +317,8 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
     seen: dict[tuple[str, str], str] = {}
     for pf in scan.files:
         if pf.name and (pf.kind, pf.name) in seen:
-            scan.errors.append(f"{pf.rel}: {pf.kind[:-1]} '{pf.name}' is also defined by {seen[(pf.kind, pf.name)]}")
+            scan.errors.append(f"{pf.rel}: {singular(pf.kind)} '{pf.name}' is also defined by "
+                               f"{seen[(pf.kind, pf.name)]}")
         elif pf.name:
             seen[(pf.kind, pf.name)] = pf.rel
     return scan
@@ -437,45 +456,159 @@ def installed_packs() -> list[dict]:
     return out
 
 
-def _clashes(scan: PackScan, registry: "Registry", replacing: Path | None) -> list[str]:
-    problems = []
+@dataclass
+class _Classified:
+    provided: list[str] = field(default_factory=list)  # identical in meaning: one line each
+    clashes: list[str] = field(default_factory=list)  # real clashes: one line each
+    overrides: dict[str, list[str]] = field(default_factory=dict)  # kind -> names that would replace another's
+    refused: list[str] = field(default_factory=list)  # clashes that --override cannot settle
+
+
+def _classify(scan: PackScan, registry: "Registry", replacing: Path | None) -> _Classified:
+    """Each pack file whose name is already installed: identical in meaning (provided) or a real clash."""
+    from benchbot.core.registry import singular
+    from benchbot.core.spec_meaning import differences
+
+    out = _Classified()
+    replacing = replacing.resolve() if replacing is not None else None
     for pf in scan.files:
-        if not pf.name:
+        if not pf.name or pf.spec is None:
             continue
         entry = registry.entries.get(pf.kind, {}).get(pf.name)
         if entry is None:
             continue
-        if replacing is not None and entry.path is not None and entry.path.resolve().is_relative_to(replacing.resolve()):
-            continue  # the previous version of this pack
-        where = f"plugin '{entry.plugin}'" + (f" ({entry.path})" if entry.path else "")
-        problems.append(f"{pf.rel}: {pf.kind[:-1]} '{pf.name}' is already installed by {where}")
-    return problems
+        if replacing is not None and entry.path is not None and entry.path.resolve().is_relative_to(replacing):
+            # the previous version of this pack: compare with what it overrode, if anything
+            entry = getattr(registry, "overridden", {}).get((pf.kind, pf.name))
+            if entry is None:
+                continue
+        what = f"{singular(pf.kind)} '{pf.name}'"
+        diff = differences(pf.kind, pf.spec, entry.spec)
+        if not diff:
+            out.provided.append(f"{pf.rel}: {what} is already provided by {_source(entry, with_path=False)} "
+                                "(identical in meaning; that copy is used)")
+            continue
+        how = (f"differs only in functions (the pack's own code, not that of {_source(entry, with_path=False)})"
+               if diff == ["functions"] else f"differs in {', '.join(diff)}")
+        out.clashes.append(f"{pf.rel}: {what} is already installed by {_source(entry)} and {how}")
+        out.overrides.setdefault(pf.kind, []).append(pf.name)
+        if getattr(entry, "override", False):
+            out.refused.append(f"{pf.rel}: {what} of {_source(entry)} is itself an override")
+    return out
+
+
+def _source(entry: Any, with_path: bool = True) -> str:
+    """``pack 'x' (path)`` or ``plugin 'x' (path)`` for a registry entry (the path only with ``with_path``)."""
+    path = f" ({entry.path})" if with_path and entry.path else ""
+    if is_pack_entry(entry.plugin, entry.path) and entry.path is not None:
+        try:
+            pack = Path(entry.path).resolve().relative_to(packs_dir().resolve()).parts[0]
+            return f"pack '{pack}'{path}"
+        except (ValueError, IndexError, OSError):
+            pass
+    return f"plugin '{entry.plugin}'{path}"
+
+
+def _usability_notes(scan: PackScan, registry: "Registry", overrides: dict[str, list[str]]) -> list[str]:
+    """Notes on content that installs but cannot be used here: robots of a type no plugin runs, batches naming
+    environments that are not installed."""
+    from benchbot.core.original_addons import compact_names, shown
+    from benchbot.core.registry import singular
+
+    notes = []
+    envs = set(registry.entries.get("environments", {}))
+    envs |= {pf.name for pf in scan.files if pf.kind == "environments" and pf.name}
+    for pf in scan.files:
+        if pf.error or pf.spec is None:
+            continue
+        if pf.kind == "robots" and pf.spec.get("type") not in registry.backend_factories:
+            if pf.name in registry.entries["robots"] and pf.name not in overrides.get("robots", []):
+                continue  # not registered from this pack (provided, or a refused clash)
+            types = ", ".join(sorted(registry.backend_factories)) or "none"
+            notes.append(f"{pf.rel}: {singular(pf.kind)} '{pf.name}' has type '{shown(str(pf.spec.get('type')), 40)}', "
+                         f"which no installed plugin runs (types: {types})")
+        if pf.kind == "batches":
+            missing: list[str] = []
+            for env in pf.spec.get("environments") or []:
+                base, _, variants = str(env).partition(":")
+                scenes = (f"{base}:{v}" for v in variants.split(":"))
+                missing.extend(s for s in scenes if s not in envs and s not in missing)
+            if missing:
+                notes.append(f"{pf.rel}: batch '{pf.name}' names environments that are not installed: "
+                             f"{compact_names(missing)}")
+    return notes
+
+
+STAGED_ATTR = "_dry_run_packs"
+"""The attribute of a registry naming the packs a dry run has staged into it (:func:`_stage`)."""
+
+
+def _stage(registry: "Registry", scan: PackScan, dest: Path, overrides: dict[str, list[str]]) -> None:
+    """Add the specs of a pack that a dry run found installable to ``registry`` as the real install would (as
+    entries of the pack's future folder), so the next pack of the same ``benchbot install --dry-run`` is checked
+    against it as a real install checks it against the installed pack."""
+    from benchbot.core.registry import Entry
+    from benchbot.core.spec_meaning import same_meaning
+
+    for pf in scan.files:
+        if not pf.name or pf.spec is None:
+            continue
+        entries = registry.entries.setdefault(pf.kind, {})
+        override = pf.name in overrides.get(pf.kind, [])
+        first = entries.get(pf.name)
+        if first is not None and not override:
+            same = same_meaning(pf.kind, first.spec, pf.spec)
+            if same or first.override:
+                continue
+        if first is not None and override and hasattr(registry, "overridden"):
+            registry.overridden[(pf.kind, pf.name)] = first
+        entries[pf.name] = Entry(pf.kind, pf.name, pf.spec, PLUGIN, dest / pf.rel, override)
+    setattr(registry, STAGED_ATTR, getattr(registry, STAGED_ATTR, set()) | {scan.name})
 
 
 def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool = False, force: bool = False,
-                 registry: "Registry | None" = None) -> dict:
+                 override: bool = False, dry_run: bool = False, registry: "Registry | None" = None) -> dict:
     """Validate the pack at ``path`` and copy it atomically to ``<data dir>/packs/<name>/``.
 
+    ``dry_run=True`` runs every check of a real install (the same errors, so the same exit code) and copies
+    nothing: ``benchbot install --dry-run`` and ``benchbot install`` share this one code path.
+
     Args:
-        path: the pack folder.
+        path: the pack folder (an original add-on's folder as it is, ``.remote`` and ``.dependencies`` included).
         name: the pack name (default: the folder's name, normalised by :func:`pack_name`).
         allow_code: allow Python functions and examples that live in the pack (``--allow-code``).
         force: replace an installed pack of the same name.
+        override: let the pack's specs replace installed specs of the same name that differ in meaning
+            (``--override``; recorded in the manifest's ``overrides``, undone by uninstalling the pack).
+        dry_run: check everything, change nothing.
         registry: the installed content to check clashes against (default: a fresh ``Registry()``).
 
     Returns:
-        The manifest written: ``name``, ``source``, ``allow_code``, ``code`` (reasons), ``installed_at`` (Unix s),
-        ``files`` (``{kind: [names]}``) and ``path``.
+        The manifest (written, or that would be written): ``name``, ``source``, ``allow_code``, ``code``
+        (reasons), ``installed_at`` (Unix s), ``files`` (``{kind: [names]}``), ``overrides`` (``{kind: [names]}``),
+        plus ``path``, ``provided`` (specs identical in meaning to installed ones, one line each, whose installed
+        copy is used), ``overridden`` (one line each), ``notes`` (content that installs but cannot be used here,
+        the add-on's ``.dependencies``) and ``dry_run``.
 
     Raises:
-        PackError: invalid or unsafe files (``details`` lists every one, e.g. a function outside the pack and the
-            installed plugins' modules), code without ``allow_code``, clashing names, a pack of that name already
-            installed (without ``force``), or the copy failed.
+        PackError: the folder is an original add-on whose content is a download (``.remote``: what it would
+            download and which installed content corresponds) or only a list of other add-ons; invalid or unsafe
+            files (``details`` lists every one, e.g. a function outside the pack and the installed plugins'
+            modules); code without ``allow_code``; a pack of that name already installed (without ``force``);
+            names clashing with installed specs that differ in meaning (without ``override``, naming both
+            sources and the fields that differ); or the copy failed.
     """
     if registry is None:
         from benchbot.core.registry import Registry
 
         registry = Registry()
+    from benchbot.core.original_addons import addon_notes, addon_problem
+
+    given = Path(path).expanduser()
+    if given.is_dir():
+        problem = addon_problem(given.resolve(), registry)
+        if problem is not None:
+            raise problem
     scan = verify_pack(path, name, registry)
     if scan.errors:
         raise PackError(f"pack '{scan.name}' ({scan.root}) has {len(scan.errors)} problem(s); nothing installed",
@@ -485,25 +618,43 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
                         "nothing installed", "read the code, then install again with --allow-code", scan.code)
     base = packs_dir()
     dest = base / scan.name
-    if dest.exists() and not force:
+    staged = getattr(registry, STAGED_ATTR, set())
+    exists = dest.exists() or scan.name in staged
+    if exists and not force:
         raise PackError(f"a pack named '{scan.name}' is already installed ({dest})",
                         "pass --force to replace it, or --name to install under another name")
-    clashes = _clashes(scan, registry, dest if dest.exists() else None)
-    if clashes:
-        raise PackError(f"pack '{scan.name}' clashes with installed content ({len(clashes)} name(s)); nothing installed",
-                        "rename the specs in the pack, or uninstall the other source", clashes)
+    found = _classify(scan, registry, dest if exists else None)
+    if found.refused and override:
+        raise PackError(f"pack '{scan.name}' would override an override: {found.refused[0]}; nothing installed",
+                        "uninstall the pack that overrides it, then install again", found.refused)
+    if found.clashes and not override:
+        first = found.clashes[0]
+        more = f" (and {len(found.clashes) - 1} more, listed above)" if len(found.clashes) > 1 else ""
+        raise PackError(f"pack '{scan.name}' clashes with installed content: {first}{more}; nothing installed",
+                        "install with --override to use the pack's version instead (uninstalling the pack restores "
+                        "the other), rename the spec in the pack, or uninstall the other source",
+                        found.provided + found.clashes)
     if base.resolve().is_relative_to(scan.root):
         raise PackError(f"the data directory {base} is inside the pack", "install from another folder")
-    manifest = {
+    overrides = found.overrides if override else {}
+    manifest: dict[str, Any] = {
         "name": scan.name,
         "source": str(scan.root),
         "allow_code": bool(allow_code),
         "code": scan.code,
         "installed_at": time.time(),
         "files": {},
+        "overrides": overrides,
     }
     for pf in scan.files:
         manifest["files"].setdefault(pf.kind, []).append(pf.name)
+    report = {"path": str(dest), "provided": found.provided, "dry_run": dry_run,
+              "overridden": [c.replace(" is already installed by ", " overrides the one of ", 1) for c in found.clashes]
+              if override else [],
+              "notes": addon_notes(scan.root) + _usability_notes(scan, registry, overrides)}
+    if dry_run:
+        _stage(registry, scan, dest, overrides)
+        return {**manifest, **report}
     base.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=base, prefix=f".tmp-{scan.name}-"))
     old: Path | None = None
@@ -523,7 +674,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
                         "check that the data directory is writable (BENCHBOT_DATA_DIR)") from None
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
-    return {**manifest, "path": str(dest)}
+    return {**manifest, **report}
 
 
 def uninstall_pack(name: str) -> Path:
@@ -571,7 +722,8 @@ def load_installed_specs() -> dict[str, list[Any]]:
     Invalid files are returned as well (dicts with ``_file_path``, or the path when unparsable) so the registry
     reports them naming the file. Code of a pack installed without ``--allow-code`` is never made importable, and a
     file that needs it (pack functions, examples) is returned as ``{_file_path, _load_error}`` for the registry to
-    report instead of registering it.
+    report instead of registering it. A spec that the pack's manifest lists in ``overrides`` (installed with
+    ``--override``) carries :data:`OVERRIDE_KEY`.
     """
     out: dict[str, list[Any]] = {}
     for manifest in installed_packs():
@@ -583,11 +735,15 @@ def load_installed_specs() -> dict[str, list[Any]]:
         allow_code = manifest.get("allow_code") is True
         if allow_code:
             _register_namespace(scan.name, scan.root)
+        overrides = manifest.get("overrides") if isinstance(manifest.get("overrides"), dict) else {}
         for pf in scan.files:
             if pf.code and not allow_code:  # the files changed since installation: never run the new code
                 out.setdefault(pf.kind, []).append({"_file_path": str(pf.path), LOAD_ERROR_KEY: (
                     f"{pf.path}: {pf.code[0].partition(': ')[2]}, but pack '{scan.name}' was installed without "
                     "--allow-code")})
                 continue
+            names = overrides.get(pf.kind)
+            if pf.spec is not None and pf.name and isinstance(names, list) and pf.name in names:
+                pf.spec[OVERRIDE_KEY] = True  # installed with --override: replaces another source's spec
             out.setdefault(pf.kind, []).append(pf.spec if pf.spec is not None else pf.path)
     return out

@@ -5,7 +5,10 @@ Kinds and their schemas: tasks (``task``), robots (``robot``), environments (``e
 ground_truths (``ground_truth``, indexed by its environment's ``name:variant``).
 
 A spec that fails to load or validate, or whose name clashes with another, is kept out and recorded in
-:attr:`Registry.problems`; asking for it raises :class:`~benchbot.core.errors.SpecError` with that problem.
+:attr:`Registry.problems`; asking for it raises :class:`~benchbot.core.errors.SpecError` with that problem. A spec
+of a name already registered is not a clash when the two are identical in meaning
+(:mod:`benchbot.core.spec_meaning`; a plugin's copy is kept over a content pack's), nor when it comes from a
+content pack installed with ``--override``; both are recorded in :attr:`Registry.notes`.
 """
 
 from __future__ import annotations
@@ -20,13 +23,14 @@ from typing import Any, Callable
 import jsonschema
 
 from benchbot.core.content_packs import (
-    LOAD_ERROR_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
+    LOAD_ERROR_KEY, OVERRIDE_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
 )
 from benchbot.core.errors import SpecError
 from benchbot.core.names import close_names, did_you_mean
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
 from benchbot.core.limits import MAX_SPEC_BYTES
 from benchbot.core.safe_load import load_data_file
+from benchbot.core.spec_meaning import same_meaning
 
 KIND_SCHEMAS = {
     "tasks": "task",
@@ -125,6 +129,8 @@ class Entry:
         spec: the validated spec (dict). File specs get ``_file_path`` (absolute path) as in the original.
         plugin: the name of the plugin that contributed it.
         path: the spec's file, or ``None`` when a plugin gave a dict.
+        override: it comes from a content pack installed with ``--override`` and replaces another source's spec of
+            the same name.
     """
 
     kind: str
@@ -132,6 +138,7 @@ class Entry:
     spec: dict
     plugin: str
     path: Path | None
+    override: bool = False
 
 
 def singular(kind: str) -> str:
@@ -153,14 +160,23 @@ class Registry:
 
     Args:
         extra_plugins: plugins registered in addition to the entry points (see ``build_plugin_manager``).
+
+    Attributes:
+        entries: ``{kind: {name: Entry}}`` of every valid spec.
+        problems: ``{(kind, name or source): one line}`` of every spec kept out (invalid, or a clash).
+        notes: ``{(kind, name): one line}`` of every second source of a name that is no clash (identical in meaning,
+            or replaced by a pack's ``--override``).
+        overridden: ``{(kind, name): Entry}`` of every spec a pack's ``--override`` replaced.
     """
 
     def __init__(self, extra_plugins: dict | None = None) -> None:
         self.plugin_manager, self.plugins = build_plugin_manager(extra_plugins)
         self.entries: dict[str, dict[str, Entry]] = {kind: {} for kind in KIND_SCHEMAS}
         self.problems: dict[tuple[str, str], str] = {}  # (kind, name or source) -> one-line problem
+        self.notes: dict[tuple[str, str], str] = {}  # (kind, name) -> a second source that is no clash, one line
+        self.overridden: dict[tuple[str, str], Entry] = {}  # (kind, name) -> the entry a pack's --override replaced
         self.backend_factories: dict[str, tuple[str, Callable]] = {}
-        infos = {p.name: p for p in self.plugins}
+        infos = self._infos = {p.name: p for p in self.plugins}
         for kind, schema_name in KIND_SCHEMAS.items():
             hook = getattr(self.plugin_manager.hook, f"benchbot_{kind}")
             for impl in hook.get_hookimpls():
@@ -204,6 +220,7 @@ class Registry:
                     raise SpecError(f"{source}: expected a mapping or a file path, got {type(raw).__name__}", "") from None
                 if spec.get(LOAD_ERROR_KEY):  # the plugin read the file and refuses it (content_packs)
                     raise SpecError(str(spec[LOAD_ERROR_KEY]), "")
+            override = bool(spec.pop(OVERRIDE_KEY, False)) and is_pack_entry(plugin, path)
             validate({k: v for k, v in spec.items() if k != "_file_path"}, schema_name, source)
         except SpecError as exc:
             self.problems[(kind, source)] = exc.message
@@ -213,18 +230,51 @@ class Registry:
         if path:
             spec["_file_path"] = str(path)
         name = entry_name(kind, spec)
+        entry = Entry(kind, name, spec, plugin, path, override)
         if name in self.entries[kind]:
             first = self.entries[kind][name]
-            self.problems[(kind, name)] = (
-                f"{singular(kind)} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
-                f"and by plugin '{plugin}' ({path or 'dict'})"
-            )
-            if info is not None:
-                info.problems.append(self.problems[(kind, name)])
-            return
-        self.entries[kind][name] = Entry(kind, name, spec, plugin, path)
+            kept = self._second_source(first, entry)
+            if kept is None:
+                self.problems[(kind, name)] = (
+                    f"{singular(kind)} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
+                    f"and by plugin '{plugin}' ({path or 'dict'})"
+                )
+                if info is not None:
+                    info.problems.append(self.problems[(kind, name)])
+                return
+            if kept is first:
+                return
+            first_info = self._infos.get(first.plugin)
+            if first_info is not None and name in first_info.registers.get(kind, []):
+                first_info.registers[kind].remove(name)
+        self.entries[kind][name] = entry
         if info is not None:
             info.registers.setdefault(kind, []).append(name)
+
+    def _second_source(self, first: Entry, second: Entry) -> Entry | None:
+        """Which of two entries of one name to keep (noting why in :attr:`notes`), or ``None`` for a clash.
+
+        An override (a pack installed with ``--override``) wins over a spec that is not one; of two specs identical
+        in meaning a plugin's is kept over a pack's, else the first.
+        """
+        key = (first.kind, first.name)
+        what = f"{singular(first.kind)} '{first.name}'"
+
+        def source(e: Entry) -> str:
+            return f"plugin '{e.plugin}' ({e.path or 'dict'})"
+
+        if first.override != second.override:
+            kept, other = (first, second) if first.override else (second, first)
+            self.notes[key] = f"{what} of {source(kept)} overrides the one of {source(other)} (--override)"
+            self.overridden[key] = other
+            return kept
+        if not first.override and same_meaning(first.kind, first.spec, second.spec):
+            plugin_second = is_pack_entry(first.plugin, first.path) and not is_pack_entry(second.plugin, second.path)
+            kept, other = (second, first) if plugin_second else (first, second)
+            self.notes[key] = (f"{what} of {source(other)} is identical in meaning to the one of {source(kept)}, "
+                               "which is used")
+            return kept
+        return None
 
     def names(self, kind: str) -> list[str]:
         """Sorted names of every valid entry of ``kind``."""
