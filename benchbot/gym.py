@@ -1,5 +1,13 @@
 """A Gymnasium environment over a BenchBot backend (``pip install benchbot[gym]``).
 
+Importing this module registers two Gymnasium ids (so does importing ``benchbot`` when ``gymnasium`` is already
+imported; the id ``"benchbot.gym:BenchBot-v0"`` imports this module itself):
+
+* ``BenchBot-v0``: an in-process simulator, ``gym.make("BenchBot-v0", task=..., env=..., robot=..., seed=...,
+  options={"width": 160, "height": 120})``; defaults ``semantic_slam:active:ground_truth``, ``miniroom:1``, ``carter``.
+* ``BenchBotRemote-v0``: a backend served over HTTP (``benchbot run``), ``gym.make("BenchBotRemote-v0",
+  address="http://127.0.0.1:10000/")`` (default: ``BENCHBOT_SUPERVISOR_ADDRESS``, else that address).
+
 Observations (``gymnasium.spaces.Dict``): ``image_rgb`` Box (H, W, 3) uint8; ``image_depth`` Box (H, W) float32
 metres (0 where nothing is hit); ``laser`` Box (N,) float64 ranges in metres (the scan's angles are fixed:
 ``laser['scans'][:, 1]`` of the API); ``pose`` Box (3,) float64 ``[x m, y m, yaw rad]`` of the robot in the map frame.
@@ -7,7 +15,8 @@ Entries the task does not observe are left out.
 
 Actions: active tasks ``Discrete(4)``: 0 forward ``step_m``, 1 backward ``step_m``, 2 turn left ``turn_deg``,
 3 turn right ``turn_deg``; passive tasks ``Discrete(1)`` (``move_next``). Reward 0 (BenchBot scores results, not
-steps). ``terminated``: collision or trajectory finished; ``truncated``: ``max_steps`` reached.
+steps). ``terminated``: the robot collided (``info['result'] == 'COLLISION'``) or the passive trajectory is used up
+(``'FINISHED'``); ``truncated``: ``max_steps`` steps since the last reset.
 """
 
 from __future__ import annotations
@@ -16,7 +25,16 @@ from typing import Any
 
 import numpy as np
 
-from benchbot.api.benchbot import ActionResult, BenchBot
+#: The in-process environment's defaults (``BenchBot-v0``).
+DEFAULT_TASK = "semantic_slam:active:ground_truth"
+DEFAULT_ENV = "miniroom:1"
+DEFAULT_ROBOT = "carter"
+
+#: Gymnasium id → the keyword arguments it adds to the caller's.
+ENV_IDS: dict[str, dict[str, Any]] = {
+    "BenchBot-v0": {"task": DEFAULT_TASK, "env": DEFAULT_ENV, "robot": DEFAULT_ROBOT},
+    "BenchBotRemote-v0": {},
+}
 
 
 def _gym() -> Any:
@@ -27,35 +45,94 @@ def _gym() -> Any:
     return gymnasium
 
 
+def register_envs() -> None:
+    """Register :data:`ENV_IDS` with Gymnasium (entry point ``benchbot.gym:BenchBotEnv``, no time limit wrapper:
+    the environment truncates itself at ``max_steps``). Idempotent.
+
+    Raises:
+        ImportError: gymnasium is not installed.
+    """
+    gymnasium = _gym()
+    for env_id, kwargs in ENV_IDS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point="benchbot.gym:BenchBotEnv", kwargs=dict(kwargs))
+
+
 def _yaw(rpy: Any) -> float:
     return float(rpy[2])
 
 
 def make_env_class() -> type:
-    """The :class:`BenchBotEnv` class (built lazily so importing this module does not import gymnasium)."""
+    """The :class:`BenchBotEnv` class (built lazily so importing this module does not define it before gymnasium)."""
     gymnasium = _gym()
     spaces = gymnasium.spaces
+    from benchbot.api.benchbot import ActionResult, BenchBot
 
     class BenchBotEnv(gymnasium.Env):
-        """BenchBot as a ``gymnasium.Env``.
+        """BenchBot as a ``gymnasium.Env`` (the module docstring gives the spaces and the episode contract).
+
+        Three ways to reach a backend, exactly one of them:
+
+        * ``task``/``env``/``robot`` (any of them; the others default to :data:`DEFAULT_TASK`, :data:`DEFAULT_ENV`,
+          :data:`DEFAULT_ROBOT`): an in-process simulator that this environment builds (``seed``, ``options``) and
+          closes;
+        * ``backend``: a :class:`~benchbot.core.server.BackendService` of this process (the caller closes it);
+        * neither: HTTP to ``address`` (default ``BENCHBOT_SUPERVISOR_ADDRESS``, else ``http://127.0.0.1:10000/``).
 
         Args:
-            backend: a :class:`~benchbot.core.server.BackendService` in this process, or None to connect over HTTP.
-            address: the backend's ``http://host:port/`` (with ``backend=None``; default as :class:`BenchBot`).
-            max_steps: episode length before ``truncated``.
-            step_m: metres per forward/backward action. turn_deg: degrees per turn action.
+            backend: a ``BackendService`` in this process, or None.
+            address: the backend's ``http://host:port/`` (with no backend and no task/env/robot).
+            max_steps: steps after a reset before ``truncated`` (≥ 1).
+            step_m: metres per forward/backward action (> 0). turn_deg: degrees per turn action (> 0).
+            render_mode: None or ``'rgb_array'`` (:meth:`render` returns the last colour image either way).
+            task, env, robot: the task name, the environment ``name:variant`` and the robot name of an in-process
+                simulator (``benchbot list tasks|environments|robots``).
+            seed: the in-process simulator's seed (colour variation, sensor and odometry noise); ``reset(seed=s)``
+                reseeds it.
+            options: backend options of the in-process simulator, e.g. ``{'width': 160, 'height': 120, 'arch':
+                'cpu'}`` (camera size in pixels; default 640×480).
 
         Raises:
-            ConnectionError: no backend answers.
+            ValueError: both an in-process simulator and a backend or address are asked for, or a bad
+                ``max_steps``/``step_m``/``turn_deg``/``render_mode``.
+            benchbot.core.errors.SpecError: an unknown task, environment or robot, or a combination the task
+                refuses (one line naming it, with a hint).
+            ConnectionError: no backend answers at ``address``.
         """
 
         metadata = {"render_modes": ["rgb_array"]}
 
         def __init__(self, backend: Any = None, address: str | None = None, max_steps: int = 200,
-                     step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None) -> None:
-            self.bot = BenchBot(backend=backend, supervisor_address=address, auto_start=False)
-            self.bot.start()
-            self.max_steps, self.step_m, self.turn_deg = max_steps, step_m, turn_deg
+                     step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None, *,
+                     task: str | None = None, env: str | None = None, robot: str | None = None, seed: int = 0,
+                     options: dict | None = None) -> None:
+            if render_mode not in (None, "rgb_array"):
+                raise ValueError(f"render_mode {render_mode!r} is not supported: use None or 'rgb_array'")
+            if not (isinstance(max_steps, int) and max_steps >= 1):
+                raise ValueError(f"max_steps must be an integer >= 1, got {max_steps!r}")
+            for name, value in (("step_m", step_m), ("turn_deg", turn_deg)):
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
+                    raise ValueError(f"{name} must be a positive number, got {value!r}")
+            self._owned = None  # the in-process service this environment built, closed by close()
+            if task is not None or env is not None or robot is not None:
+                if backend is not None or address is not None:
+                    raise ValueError("give task/env/robot (an in-process simulator) or backend or address, not both")
+                from benchbot.core.registry import get_registry
+                from benchbot.core.session import resolve_run, start_service
+
+                registry = get_registry()
+                run = resolve_run(registry, task or DEFAULT_TASK, robot or DEFAULT_ROBOT, env or DEFAULT_ENV)
+                backend = self._owned = start_service(registry, run, seed=int(seed), options=dict(options or {}))
+            elif options is not None or seed != 0:
+                raise ValueError("seed and options configure an in-process simulator: give task/env/robot too")
+            try:
+                self.bot = BenchBot(backend=backend, supervisor_address=address, auto_start=False)
+                self.bot.start()
+            except BaseException:
+                if self._owned is not None:
+                    self._owned.close()
+                raise
+            self.max_steps, self.step_m, self.turn_deg = max_steps, float(step_m), float(turn_deg)
             self.render_mode = render_mode
             task_actions = self.bot.config["task"]["actions"]
             self.active = "move_distance" in task_actions and "move_angle" in task_actions
@@ -91,20 +168,24 @@ def make_env_class() -> type:
             return out
 
         def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-            """Back to a fresh scene 0 (robot at its start pose); returns ``(observation, {'scene_number': int})``."""
+            """Back to a fresh scene 0, the robot at its start pose; returns ``(observation, {'scene_number': int})``.
+
+            ``seed`` seeds :attr:`np_random` and, for an in-process simulator this environment built, the simulator
+            (colour variation, sensor and odometry noise) from this reset on; a backend given or reached over HTTP
+            keeps the seed it was started with.
+            """
             super().reset(seed=seed)
-            obs, _ = self._hard_reset()  # always a fresh scene 0: the robot at its start pose
+            if seed is not None and self._owned is not None:
+                self._owned.call(setattr, self._owned.episode, "seed", int(seed))
+            self.bot._get("robot/reset")  # always a fresh scene 0, even when the robot has not moved
+            self.bot._state = self.bot._get("robot/state")
+            obs, _ = self.bot.step(None)
             self._steps = 0
             return self._convert(obs), {"scene_number": obs["scene_number"]}
 
-        def _hard_reset(self) -> tuple[dict, ActionResult]:
-            self.bot._get("robot/reset")
-            self.bot._state = self.bot._get("robot/state")
-            return self.bot.step(None)
-
         def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
-            """Perform action ``action`` (an int of :attr:`action_space`); returns ``(observation, 0.0, terminated,
-            truncated, {'result': ActionResult name, 'scene_number': int})``.
+            """Perform ``action`` (an int of :attr:`action_space`); returns ``(observation, 0.0, terminated,
+            truncated, info)`` with ``info = {'result': 'SUCCESS' | 'COLLISION' | 'FINISHED', 'scene_number': int}``.
 
             Raises:
                 ValueError: ``action`` is not in the action space. ConnectionError: the backend failed.
@@ -129,8 +210,13 @@ def make_env_class() -> type:
             return self._last_rgb
 
         def close(self) -> None:
-            """Close the connection to the backend."""
-            self.bot.close()
+            """Close the connection to the backend, and the in-process simulator this environment built."""
+            bot, self.bot = getattr(self, "bot", None), None
+            if bot is not None:
+                bot.close()
+            owned, self._owned = getattr(self, "_owned", None), None
+            if owned is not None:
+                owned.close()
 
     return BenchBotEnv
 
@@ -143,4 +229,9 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(name)
 
 
-__all__ = ["BenchBotEnv", "make_env_class"]
+try:
+    register_envs()
+except ImportError:  # gymnasium missing: BenchBotEnv says how to install it when first used
+    pass
+
+__all__ = ["BenchBotEnv", "DEFAULT_ENV", "DEFAULT_ROBOT", "DEFAULT_TASK", "ENV_IDS", "make_env_class", "register_envs"]

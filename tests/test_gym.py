@@ -1,4 +1,5 @@
-"""benchbot.gym: a gymnasium.Env over the backend, in-process and over HTTP."""
+"""benchbot.gym: a gymnasium.Env over the backend, in-process and over HTTP; registered ids, Gymnasium's checker, the
+terminated/truncated contract."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ import pytest
 gymnasium = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
+from benchbot.core.errors import SpecError  # noqa: E402
 from benchbot.gym import BenchBotEnv  # noqa: E402
+
+SMALL = {"width": 64, "height": 48}
 
 
 def test_active_env_passes_the_checker_in_process(make_service):
@@ -39,3 +43,54 @@ def test_passive_env_over_http_terminates_when_finished(served):
     obs, _ = env.reset()
     assert np.all(obs["laser"] >= 0)
     env.close()
+
+
+def test_gym_make_builds_an_in_process_simulator_and_passes_the_checker():
+    """``import benchbot`` (after gymnasium) registers the ids; ``gym.make`` takes task, env, robot, seed, options;
+    the built environment passes Gymnasium's checker, render included, and owns its simulator."""
+    import benchbot  # noqa: F401
+
+    assert {"BenchBot-v0", "BenchBotRemote-v0"} <= set(gymnasium.registry)
+    env = gymnasium.make("BenchBot-v0", task="semantic_slam:passive:ground_truth", env="miniroom:4", robot="carter",
+                         options=SMALL, render_mode="rgb_array", max_steps=5)
+    inner = env.unwrapped
+    assert isinstance(inner, BenchBotEnv) and inner.action_space.n == 1 and inner._owned is not None
+    assert inner.bot.config["environments"][0]["name"] == "miniroom"
+    check_env(inner)
+    obs, _ = env.reset(seed=2)
+    assert env.observation_space.contains(obs) and env.render().shape == (48, 64, 3)
+    owned = inner._owned
+    env.close()
+    assert owned._closed
+
+
+def test_reset_seed_reseeds_the_simulator():
+    env = BenchBotEnv(task="semantic_slam:active:ground_truth", env="miniroom:1", options=SMALL)
+    first, _ = env.reset(seed=5)
+    again, _ = env.reset(seed=5)
+    other, _ = env.reset(seed=6)
+    kept, _ = env.reset()  # no seed: the simulator keeps seed 6
+    assert np.array_equal(first["image_rgb"], again["image_rgb"])
+    assert not np.array_equal(first["image_rgb"], other["image_rgb"])  # object colours vary with the seed
+    assert np.array_equal(first["image_depth"], other["image_depth"])  # geometry does not
+    assert np.array_equal(kept["image_rgb"], other["image_rgb"])
+    env.close()
+
+
+def test_bad_arguments_are_one_line_errors(make_service):
+    with pytest.raises(ValueError, match="not both"):
+        BenchBotEnv(backend=make_service("semantic_slam:active:ground_truth", "miniroom:1"), task="semantic_slam:active:ground_truth")
+    with pytest.raises(ValueError, match="in-process simulator"):
+        BenchBotEnv(address="http://127.0.0.1:1/", seed=3)
+    with pytest.raises(ValueError, match="render_mode"):
+        BenchBotEnv(task="semantic_slam:active:ground_truth", render_mode="human")
+    with pytest.raises(ValueError, match="max_steps"):
+        BenchBotEnv(task="semantic_slam:active:ground_truth", max_steps=0)
+    with pytest.raises(SpecError) as e:
+        gymnasium.make("BenchBot-v0", env="miniroom:9", options=SMALL)
+    assert "miniroom:9" in e.value.message and "\n" not in e.value.message
+    env = BenchBotEnv(task="semantic_slam:active:ground_truth", options=SMALL)
+    with pytest.raises(ValueError, match="not in Discrete"):
+        env.step(7)
+    env.close()
+
