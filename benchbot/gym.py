@@ -16,7 +16,8 @@ Entries the task does not observe are left out.
 Actions: active tasks ``Discrete(4)``: 0 forward ``step_m``, 1 backward ``step_m``, 2 turn left ``turn_deg``,
 3 turn right ``turn_deg``; passive tasks ``Discrete(1)`` (``move_next``). Reward 0 (BenchBot scores results, not
 steps). ``terminated``: the robot collided (``info['result'] == 'COLLISION'``) or the passive trajectory is used up
-(``'FINISHED'``); ``truncated``: ``max_steps`` steps since the last reset.
+(``'FINISHED'``); ``truncated``: ``max_steps`` steps since the last reset. A ``step`` after ``terminated`` warns and
+returns the terminal observation again with ``terminated=True`` (the backend refuses every action until a reset).
 """
 
 from __future__ import annotations
@@ -151,6 +152,7 @@ def make_env_class() -> type:
                 entries["pose"] = spaces.Box(-np.inf, np.inf, (3,), np.float64)
             self.observation_space = spaces.Dict(entries)
             self._steps = 0
+            self._terminal: tuple[dict, dict] | None = None  # (observation, info) once terminated
 
         def _convert(self, obs: dict) -> dict:
             out: dict[str, Any] = {}
@@ -181,17 +183,29 @@ def make_env_class() -> type:
             self.bot._state = self.bot._get("robot/state")
             obs, _ = self.bot.step(None)
             self._steps = 0
+            self._terminal = None
             return self._convert(obs), {"scene_number": obs["scene_number"]}
 
         def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
             """Perform ``action`` (an int of :attr:`action_space`); returns ``(observation, 0.0, terminated,
             truncated, info)`` with ``info = {'result': 'SUCCESS' | 'COLLISION' | 'FINISHED', 'scene_number': int}``.
 
+            After ``terminated`` (a collision, or a passive trajectory used up) the backend accepts no action until
+            :meth:`reset`: a further ``step`` warns (``gymnasium.logger``) and returns the terminal observation and
+            ``terminated=True`` again, with ``info['after_terminal'] = True``, without moving.
+
             Raises:
                 ValueError: ``action`` is not in the action space. ConnectionError: the backend failed.
             """
             if not self.action_space.contains(action):
                 raise ValueError(f"action {action!r} is not in {self.action_space}")
+            if self._terminal is not None:
+                gymnasium.logger.warn(
+                    "BenchBotEnv.step() called after terminated=True (the robot "
+                    f"{'collided' if self._terminal[1]['result'] == 'COLLISION' else 'finished its trajectory'}); "
+                    "call reset() first")
+                obs, info = self._terminal
+                return {k: v.copy() for k, v in obs.items()}, 0.0, True, False, {**info, "after_terminal": True}
             action = int(action)
             if self.active:
                 name, kwargs = [("move_distance", {"distance": self.step_m}), ("move_distance", {"distance": -self.step_m}),
@@ -203,7 +217,10 @@ def make_env_class() -> type:
             terminated = result is not ActionResult.SUCCESS
             truncated = not terminated and self._steps >= self.max_steps
             info = {"result": result.name, "scene_number": obs["scene_number"]}
-            return self._convert(obs), 0.0, terminated, truncated, info
+            converted = self._convert(obs)
+            if terminated:
+                self._terminal = ({k: v.copy() for k, v in converted.items()}, dict(info))
+            return converted, 0.0, terminated, truncated, info
 
         def render(self) -> Any:
             """The last colour image, (H, W, 3) uint8 (None when the task observes none)."""

@@ -77,6 +77,27 @@ def test_reset_seed_reseeds_the_simulator():
     env.close()
 
 
+def test_a_collision_terminates_and_stepping_on_warns_instead_of_raising():
+    env = BenchBotEnv(task="semantic_slam:active:ground_truth", env="miniroom:1", options=SMALL, step_m=1.0,
+                      max_steps=100)
+    env.reset()
+    terminated, steps, info = False, 0, {}
+    while not terminated:  # straight ahead until a wall or an object stops the robot
+        obs, reward, terminated, truncated, info = env.step(0)
+        steps += 1
+        assert steps < 20 and not truncated
+    assert info["result"] == "COLLISION"
+    with pytest.warns(UserWarning, match="after terminated=True"):
+        again, reward, terminated, truncated, info_again = env.step(2)
+    assert terminated and not truncated and reward == 0.0
+    assert info_again["result"] == "COLLISION" and info_again["after_terminal"]
+    assert all(np.array_equal(again[k], obs[k]) for k in obs)
+    obs, info = env.reset()
+    obs, _, terminated, _, info = env.step(2)  # usable again after a reset
+    assert not terminated and info["result"] == "SUCCESS"
+    env.close()
+
+
 def test_bad_arguments_are_one_line_errors(make_service):
     with pytest.raises(ValueError, match="not both"):
         BenchBotEnv(backend=make_service("semantic_slam:active:ground_truth", "miniroom:1"), task="semantic_slam:active:ground_truth")
