@@ -10,5 +10,5 @@ __version__ = "0.1.0"
 import importlib as _importlib
 import sys as _sys
 
-if "gymnasium" in _sys.modules:  # registers BenchBot-v0 and BenchBotRemote-v0; never imports gymnasium
+if "gymnasium" in _sys.modules:  # registers BenchBot-v0 and BenchBotRemote-v0 (docs/gym.md); never imports gymnasium
     _importlib.import_module("benchbot.gym")

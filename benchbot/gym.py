@@ -1,4 +1,4 @@
-"""A Gymnasium environment over a BenchBot backend (``pip install benchbot[gym]``).
+"""A Gymnasium environment over a BenchBot backend (``pip install benchbot[gym]``; docs/gym.md).
 
 Importing this module registers two Gymnasium ids (so does importing ``benchbot`` when ``gymnasium`` is already
 imported; the id ``"benchbot.gym:BenchBot-v0"`` imports this module itself):

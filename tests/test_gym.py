@@ -1,7 +1,11 @@
 """benchbot.gym: a gymnasium.Env over the backend, in-process and over HTTP; registered ids, Gymnasium's checker, the
-terminated/truncated contract."""
+terminated/truncated contract and a vector environment (docs/gym.md)."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +16,7 @@ from gymnasium.utils.env_checker import check_env  # noqa: E402
 from benchbot.core.errors import SpecError  # noqa: E402
 from benchbot.gym import BenchBotEnv  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
 SMALL = {"width": 64, "height": 48}
 
 
@@ -115,3 +120,12 @@ def test_bad_arguments_are_one_line_errors(make_service):
         env.step(7)
     env.close()
 
+
+def test_the_vector_env_example_runs(tmp_path):
+    """examples/gym_vector_env.py (docs/gym.md): two simulators stepped together by gym.make_vec, run as a user
+    would."""
+    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "gym_vector_env.py"), "--num-envs", "2",
+                           "--steps", "3", "--width", "32", "--height", "24"],
+                          capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "2 environments, 3 steps" in proc.stdout and "image_rgb (2, 24, 32, 3)" in proc.stdout, proc.stdout
