@@ -345,3 +345,14 @@ def test_kind_names_are_spelt_right(tmp_path):
     Twice.benchbot_batches = hookimpl(Twice.benchbot_batches)
     with pytest.raises(AssertionError, match="batch 'same' is returned twice"):
         check_content_plugin(Twice, light_import=False)
+
+
+def test_a_mistyped_path_is_a_usage_error_not_sent_to_pip(app, data_dir, tmp_path):
+    missing = str(tmp_path / "tasks_ssuu")
+    for target in (missing, "./tasks_ssuu"):
+        dry, real = dry_then_real(app, data_dir, target)
+        for result in (dry, real):
+            assert result.exit_code == 2 and f"error: no such file or folder: {target}" in result.stderr
+            assert "would run" not in result.stderr and "running:" not in result.stderr
+    dry = install(app, "benchbot-sim-example", "--dry-run")  # a requirement still goes to the installer
+    assert dry.exit_code == 0 and "would run:" in dry.stderr and "benchbot-sim-example" in dry.stderr

@@ -52,6 +52,14 @@ def is_content_pack(target: str) -> bool:
     return is_addon_folder(target)
 
 
+def _looks_like_a_path(target: str) -> bool:
+    """True for a target written as a local path (``./x``, ``../x``, ``/x``, ``~/x``, ``a/b``), not a requirement,
+    URL or VCS reference (``name``, ``name==1.0``, ``https://…``, ``git+…``, ``name @ url``)."""
+    if "://" in target or "@" in target or target.startswith("git+"):
+        return False
+    return target.startswith((".", "/", "~")) or "/" in target or "\\" in target
+
+
 def _run_installer(action: str, targets: list[str], dry_run: bool) -> None:
     cmd = installer_command(action, targets)
     err.print(("would run: " if dry_run else "running: ") + " ".join(cmd), highlight=False)
@@ -112,6 +120,10 @@ def register(app: typer.Typer) -> None:
         """
         packs = [t for t in targets if is_content_pack(t)]
         dists = [t for t in targets if t not in packs]
+        for target in dists:
+            if _looks_like_a_path(target) and not Path(target).expanduser().exists():
+                raise UsageError(f"no such file or folder: {target}",
+                                 "check the path (a PyPI name has no '/'; a URL starts with https://)")
         if name and len(packs) != 1:
             raise UsageError("--name needs exactly one content pack", "install packs one at a time with --name")
         if override and not packs:
