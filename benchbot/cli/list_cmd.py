@@ -99,6 +99,8 @@ def print_plugins(as_json: bool) -> None:
         status = p["status"] + (f" ({len(p['problems'])} problem(s))" if p["problems"] else "")
         table.add_row(*(Text(str(v)) for v in (p["name"], p["distribution"], p["version"], status, hooks)), what)
     out.print(table)
+    for _, note in sorted(registry().notes.items()):  # second sources of a name that are no clash
+        out.print(f"[dim]note:[/] {escape(note)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:
