@@ -26,6 +26,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from benchbot.core import limits
+from benchbot.core import noise as noise_models
 from benchbot.core.errors import ActionError, BackendError, BenchbotError
 from benchbot.core.geometry import (
     pose7_to_se2,
@@ -155,11 +156,16 @@ class Episode:
         environments: validated environment specs, one per scene (``len == task.scene_count``).
         backend: the robot backend (already built).
         results_format: the task's results-format spec, or ``{}`` when the task has none.
-        seed: seeds the backend's scenes and the odometry noise.
+        seed: seeds the backend's scenes, the odometry noise and the actuation noise.
         on_step: optional callback ``on_step(info: dict)`` after every action (observer hooks).
+        noise: a preset of :mod:`benchbot.core.noise` (default ``none``: nothing changes). Other presets make every
+            motion execute a noisy version of the one commanded (actuation noise, drawn from
+            ``numpy.random.default_rng([seed, scene, 14])``) and, in ``noisy`` localisation, set the odometry
+            noise's σ; the backend applies the sensor models (it must have ``noise_presets``).
 
     Raises:
-        BackendError: the first scene cannot be loaded.
+        BackendError: the first scene cannot be loaded, or ``noise`` is not ``none`` and the backend does not apply
+            noise presets. UsageError: an unknown preset.
     """
 
     def __init__(
@@ -172,8 +178,15 @@ class Episode:
         results_format: dict | None = None,
         seed: int = 0,
         on_step: Callable[[dict], None] | None = None,
+        noise: str = "none",
     ) -> None:
         self.task, self.robot, self.environments = task, robot, list(environments)
+        self.noise_preset_name = noise or "none"
+        self.noise_preset = noise_models.get_preset(self.noise_preset_name, flag="noise")
+        if not noise_models.is_none(self.noise_preset_name) and not getattr(backend, "noise_presets", False):
+            raise BackendError(
+                f"noise preset '{noise}' asked for, but robot type '{robot.get('type')}' does not apply noise presets",
+                "use --noise none with this robot (a real robot's noise is its own)")
         self.results_format = results_format or {}
         self.backend, self.seed, self.on_step = backend, seed, on_step
         self.localisation = task.get("localisation", "ground_truth")
@@ -195,7 +208,11 @@ class Episode:
         self.dirty = False
         self.initial_pose: np.ndarray | None = None
         self.odometry = self.backend.base_pose()  # the estimate reported in noisy localisation
-        self.noise = OdometryNoise(self.seed * 1000 + scene_index, model=odometry_noise_model(self.task, self.robot))
+        odometry = self.noise_preset["odometry"] or {}
+        self.noise = OdometryNoise(self.seed * 1000 + scene_index, model=odometry_noise_model(self.task, self.robot),
+                                   **odometry)
+        self.actuation_rng = (None if noise_models.is_none(self.noise_preset_name)
+                              else np.random.default_rng([self.seed, scene_index, noise_models.STREAM_ACTUATION]))
         self.running = True
 
     @property
@@ -324,6 +341,10 @@ class Episode:
         # In noisy localisation the robot steers by its estimate: the motion it makes is the one that would take
         # the estimate to the goal, applied from where it really is.
         truth_goal = goal if self.localisation != "noisy" else se2_compose(before, se2_relative(current, goal))
+        if self.actuation_rng is not None:  # the motion executed differs from the one commanded (noise preset)
+            executed = noise_models.sample_actuation(se2_relative(before, truth_goal), self.noise_preset["actuation"],
+                                                     self.actuation_rng)
+            truth_goal = se2_compose(before, executed)
         try:
             outcome = self.backend.move_to(truth_goal)
         except BenchbotError:

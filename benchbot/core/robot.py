@@ -42,6 +42,10 @@ class RobotBackend(abc.ABC):
             are ignored.
     """
 
+    #: True when the backend applies the sensor models of a ``noise`` option (:mod:`benchbot.core.noise`); the
+    #: episode refuses a preset other than ``none`` on a backend that does not (a real robot's noise is its own).
+    noise_presets: bool = False
+
     @abc.abstractmethod
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
         """Load ``environment`` (a validated environment spec) and place the robot at its normalised

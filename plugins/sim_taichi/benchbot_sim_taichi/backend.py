@@ -20,7 +20,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from benchbot.core.errors import BackendError
+from benchbot.core import noise as noise_models
+from benchbot.core.errors import BackendError, UsageError
 from benchbot.core.geometry import se2_to_matrix
 from benchbot.core.motion import ControllerGains
 from benchbot.core.robot import MotionOutcome, RobotBackend
@@ -128,11 +129,21 @@ class TaichiSimBackend(RobotBackend):
         options: ``seed`` (int, default 0: colour variation, sampling and noise), ``arch`` (``'cpu'``/``'gpu'``/
             ``'cuda'``; default env ``BENCHBOT_TAICHI_ARCH`` or cpu), ``width``/``height`` (camera size override,
             pixels), ``mode`` (``fast`` default / ``quality``), ``shadow_samples`` (shadow rays per light and pixel
-            in fast mode, default 1 = hard shadows); others ignored.
+            in fast mode, default 1 = hard shadows), ``noise`` (a preset of :mod:`benchbot.core.noise`, default
+            ``none``); others ignored.
 
-    Sensor noise (robot spec ``sensors.noise``, all 0 = off by default): ``rgb_sigma``, ``depth_sigma`` (relative),
-    ``depth_dropout``, ``laser_sigma`` (m); drawn from ``numpy.random.default_rng([seed, frame, sensor])``.
+    Sensor noise, drawn from ``numpy.random.default_rng([seed, frame, stream])`` so the same seed gives
+    bit-identical observations: first the ``noise`` preset's physical models (range-dependent depth error and
+    dropout, Poisson-Gaussian RGB noise, laser range noise; docs/noise.md), then the robot spec's own
+    ``sensors.noise`` (all 0 = off by default): ``rgb_sigma``, ``depth_sigma`` (relative), ``depth_dropout``,
+    ``laser_sigma`` (m). Segmentation and poses never get noise.
+
+    Raises:
+        BackendError: a malformed ``sensors`` block, an unknown render mode or noise preset.
     """
+
+    #: this backend applies :mod:`benchbot.core.noise` presets to its observations
+    noise_presets = True
 
     def __init__(self, robot_spec: dict, options: dict | None = None) -> None:
         self.robot_spec = dict(robot_spec)
@@ -170,6 +181,13 @@ class TaichiSimBackend(RobotBackend):
             if k not in DEFAULT_SENSORS["noise"] or not (v >= 0.0) or (k == "depth_dropout" and v > 1.0):
                 raise BackendError(f"sensors.noise.{k} = {v} is not valid",
                                    f"use rgb_sigma, depth_sigma, laser_sigma ≥ 0 and 0 ≤ depth_dropout ≤ 1")
+        name = str(self.options.get("noise") or "none")
+        try:
+            #: the ``noise`` option's preset (:data:`benchbot.core.noise.PRESETS`)
+            self.noise_preset = noise_models.get_preset(name, flag="options.noise")
+        except UsageError as exc:
+            raise BackendError(exc.message, exc.hint) from None
+        self.noise_preset_name = name
         self.mode = str(self.options.get("mode", "fast"))
         if self.mode not in ("fast", "quality"):
             raise BackendError(f"unknown render mode {self.mode!r}", "use options mode: fast (default) or quality")
@@ -286,11 +304,16 @@ class TaichiSimBackend(RobotBackend):
         return self._cache["laser"]
 
     def _cache_images(self, out: dict[str, np.ndarray]) -> None:
+        if not noise_models.is_none(self.noise_preset_name):
+            out = self._add_preset_image_noise(out)
         if any(self.noise[k] > 0 for k in ("rgb_sigma", "depth_sigma", "depth_dropout")):
             out = self._add_image_noise(out)
         self._cache["render"] = out
 
     def _cache_scan(self, ranges: np.ndarray) -> None:
+        if not noise_models.is_none(self.noise_preset_name):
+            ranges = noise_models.add_laser_noise(ranges, self.noise_preset["laser"], self.range_max,
+                                                  self._rng(noise_models.STREAM_LASER))
         if self.noise["laser_sigma"] > 0:
             ranges = ranges + self._rng(3).normal(0.0, self.noise["laser_sigma"], ranges.shape)
         ranges = np.clip(ranges, 0.0, self.range_max)
@@ -299,6 +322,17 @@ class TaichiSimBackend(RobotBackend):
     def _rng(self, what: int) -> np.random.Generator:
         """Noise generator of this frame: seeded by (seed, frame count, sensor) so reruns are bit-identical."""
         return np.random.default_rng([self._seed, self._frame, what])
+
+    def _add_preset_image_noise(self, out: dict) -> dict:
+        """The ``noise`` preset's RGB and depth models (:mod:`benchbot.core.noise`) on a render's ``rgb`` and
+        ``depth``; the segmentation images are left as they are."""
+        out = dict(out)
+        preset = self.noise_preset
+        if preset["rgb"] is not None:
+            out["rgb"] = noise_models.add_rgb_noise(out["rgb"], preset["rgb"], self._rng(noise_models.STREAM_RGB))
+        out["depth"] = noise_models.add_depth_noise(out["depth"], preset["depth"],
+                                                    self._rng(noise_models.STREAM_DEPTH))
+        return out
 
     def _add_image_noise(self, out: dict) -> dict:
         out = dict(out)
