@@ -164,3 +164,49 @@ def test_parallel_workers_share_the_cores(tmp_path):
     for record in manifest(run_dir)["episodes"]:
         log = (run_dir / record["log"]).read_text()
         assert f"threads {share} {share} {share}" in log, (log, proc.stderr)
+
+
+def test_noise_sweep_records_the_presets_and_the_noise_reaches_the_solution(tmp_path):
+    """``--sweep noise=none,low`` runs both levels with the same seed, records the presets in the manifest and plan,
+    and writes the robustness summary and plot; ``--noise low`` alone, with that seed, gives bit-identical results
+    to the sweep's ``low`` episode, and different ones from ``none`` (the solution saw the noise)."""
+    sweep = cli("batch", "--example", "semslam_geometric", "--envs", "miniroom:1", "--sweep", "noise=none,low",
+                "--output-dir", str(tmp_path / "sweep"), "--json", *SMALL)
+    assert sweep.returncode == 0, sweep.stderr
+    out = json.loads(sweep.stdout)
+    run_dir = Path(out["run_dir"])
+    m = manifest(run_dir)
+    assert [(p["noise"], p["seed"]) for p in m["plan"]] == [("none", 0), ("low", 0)]
+    assert m["sweep"] == {"factor": "noise", "levels": ["none", "low"], "level_of": {"0": "none", "1": "low"}}
+    assert set(m["noise"]) == {"none", "low"} and m["noise"]["low"]["laser"]["sigma_m"] == 0.005
+    assert [e["noise"] for e in json.loads((run_dir / "episode_scores.json").read_text())] == ["none", "low"]
+    robustness = json.loads((run_dir / "robustness.json").read_text())
+    assert robustness == {**out["robustness"]}
+    assert [lv["n"] for lv in robustness["levels"]] == [1, 1] and robustness["levels"][0]["low"] is None
+    assert "n = 1 < 3" in robustness["levels"][0]["note"]
+    assert (run_dir / "robustness.png").is_file() and (run_dir / "robustness.svg").is_file()
+    none, low = (json.loads((run_dir / p["results"]).read_text()) for p in m["plan"])
+    assert none != low
+
+    single = cli("batch", "--example", "semslam_geometric", "--envs", "miniroom:1", "--noise", "low",
+                 "--output-dir", str(tmp_path / "single"), "--json", *SMALL)
+    assert single.returncode == 0, single.stderr
+    single_dir = Path(json.loads(single.stdout)["run_dir"])
+    m1 = manifest(single_dir)
+    assert m1["plan"][0]["noise"] == "low" and m1["sweep"] is None and list(m1["noise"]) == ["low"]
+    assert not (single_dir / "robustness.json").exists()
+    assert json.loads((single_dir / m1["plan"][0]["results"]).read_text()) == low
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--noise", "loud"], "error: --noise 'loud' is not a noise preset"),
+    (["--sweep", "noise"], "error: --sweep 'noise' is not FACTOR=LEVEL,LEVEL,..."),
+    (["--sweep", "noise=low,loud"], "error: --sweep noise level 'loud' is not a noise preset"),
+    (["--sweep", "noise=none,low", "--noise", "low"], "error: --noise and --sweep noise=... both set the noise"),
+    (["--sweep", "robot=carter,carter"], "error: --sweep 'robot=carter,carter' gives level 'carter' twice"),
+])
+def test_bad_noise_or_sweep_flags_are_one_line_usage_errors(tmp_path, args, message):
+    proc = cli("batch", "--example", "hello_passive", "--envs", "miniroom:1", "--output-dir", str(tmp_path), *args)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.splitlines()[0] == message and proc.stderr.splitlines()[1].startswith("hint: ")
+    assert not list(tmp_path.iterdir())

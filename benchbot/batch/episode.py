@@ -53,14 +53,15 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
             if events is not None:
                 events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
 
-        service = start_service(registry, run_spec, seed=spec.seed, options=spec.options, on_step=on_step)
+        options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
+        service = start_service(registry, run_spec, seed=spec.seed, options=options, on_step=on_step)
         recorder = None
         try:
             if spec.record:
                 from benchbot.plugins.recorder import attach_recorder
 
                 recorder = attach_recorder(registry, service, run_spec, run / spec.recording, seed=spec.seed,
-                                           options=spec.options)
+                                           options=options)
             server = ServerThread(build_app(service)).start()
             timed_out = False
             try:

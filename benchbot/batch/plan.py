@@ -33,6 +33,8 @@ class EpisodeSpec:
         results, log: paths relative to the run directory.
         record: also record the episode as MCAP to ``recordings/NNN_<env>.mcap`` (:attr:`recording`).
         container: for containerised solutions, ``{engine, dockerfile, context, args}`` (``argv`` is then unused).
+        noise: the sensor and motion noise preset of the episode (:mod:`benchbot.core.noise`; ``none``: no noise
+            beyond the robot's and the task's own).
     """
 
     index: int
@@ -49,6 +51,7 @@ class EpisodeSpec:
     log: str = ""
     record: bool = False
     container: dict | None = None
+    noise: str = "none"
 
     @property
     def recording(self) -> str:
@@ -93,10 +96,15 @@ def slug(text: str) -> str:
 def plan_episodes(
     *, task: str, robots: list[str], envs: list[str], repeat: int, seed: int, argv: list[str], cwd: str,
     options: dict, timeout_s: float | None, record: bool = False, container: dict | None = None,
+    noise: str = "none", start: int = 0, tag: str = "",
 ) -> list[EpisodeSpec]:
     """Episodes for every robot × environment × repetition (in that nesting order); episode ``i`` gets seed
     ``seed + i``. ``record``: every episode is recorded as MCAP. ``timeout_s``: None leaves the task's default to
-    :func:`benchbot.batch.runner.prepare_batch`, 0 means no timeout.
+    :func:`benchbot.batch.runner.prepare_batch`, 0 means no timeout. ``noise``: every episode's noise preset.
+
+    ``start`` and ``tag`` serve sweeps (:func:`benchbot.batch.sweep.plan_sweep`): the episodes are numbered from
+    ``start`` (episode ``start + j`` still gets seed ``seed + j``, so every level of a sweep reuses the same seeds)
+    and ``tag`` is added to their file names.
 
     Raises:
         UsageError: ``repeat`` < 1, no robots or environments, or ``timeout_s`` negative or not finite.
@@ -112,12 +120,14 @@ def plan_episodes(
     for robot in robots:
         for env in envs:
             for r in range(repeat):
-                i = len(specs)
-                name = f"{i:03d}_{slug(env)}" + (f"_{slug(robot)}" if len(robots) > 1 else "") + (f"_r{r}" if repeat > 1 else "")
+                j = len(specs)
+                i = start + j
+                name = (f"{i:03d}_{slug(env)}" + (f"_{slug(robot)}" if len(robots) > 1 else "")
+                        + (f"_{slug(tag)}" if tag else "") + (f"_r{r}" if repeat > 1 else ""))
                 specs.append(EpisodeSpec(
-                    index=i, task=task, robot=robot, env=env, repeat=r, seed=seed + i, argv=argv, cwd=cwd,
+                    index=i, task=task, robot=robot, env=env, repeat=r, seed=seed + j, argv=argv, cwd=cwd,
                     options=options, timeout_s=timeout_s, results=f"results/{name}.json", log=f"logs/{name}.log",
-                    record=record, container=container,
+                    record=record, container=container, noise=noise,
                 ))
     return specs
 

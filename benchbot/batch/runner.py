@@ -7,7 +7,8 @@ A run directory holds::
                          episode's record (atomic, after each change)
     results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
     scores.json          the evaluation in the original's format (the combined scores)
-    episode_scores.json  per-episode scores with environment, robot, repetition and seed
+    episode_scores.json  per-episode scores with environment, robot, repetition, seed and noise preset
+    robustness.json, robustness.png/.svg   a --sweep batch's score against the factor (benchbot.batch.sweep)
     PREFIX.zip           with --zip: the results files, flat, as the original made them
 
 ``--resume RUN_DIR`` checks the manifest (:func:`~benchbot.batch.plan.check_manifest`) and re-runs only the episodes
@@ -39,6 +40,7 @@ from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import Evaluation, evaluate
 from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
+from benchbot.core.noise import get_preset
 from benchbot.core.registry import Registry
 from benchbot.core.session import RunSpec, resolve_run
 
@@ -46,13 +48,15 @@ from benchbot.core.session import RunSpec, resolve_run
 @dataclass
 class BatchOutcome:
     """A batch's run directory, episode records and evaluation (None when not evaluated); ``excluded`` lists the
-    episodes whose results are not in the scores (``{index, env, robot, repeat, status, reason}``)."""
+    episodes whose results are not in the scores (``{index, env, robot, repeat, status, reason}``); ``robustness``
+    is a sweep's :func:`benchbot.batch.sweep.robustness` summary (None otherwise)."""
 
     run_dir: Path
     episodes: list[EpisodeRecord] = field(default_factory=list)
     evaluation: Evaluation | None = None
     evaluation_error: str = ""
     excluded: list[dict] = field(default_factory=list)
+    robustness: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -158,10 +162,12 @@ def apply_timeouts(registry: Registry, specs: list[EpisodeSpec]) -> dict:
 
 def prepare_batch(
     registry: Registry, *, run_dir: Path, specs: list[EpisodeSpec], evaluate_with: str | None, prefix: str,
-    zip_results: bool,
+    zip_results: bool, sweep: dict | None = None,
 ) -> dict:
     """Validate every combination of the plan, resolve the evaluation method and the episode timeouts
-    (:func:`apply_timeouts`, in place), and write config + manifest.
+    (:func:`apply_timeouts`, in place), and write config + manifest. The manifest records the parameters of every
+    noise preset the plan uses (``noise``: ``{name: parameters}``, docs/noise.md) and ``sweep`` (``{factor, levels,
+    level_of: {index: level}}`` of a ``--sweep`` batch, else None).
 
     Returns:
         the manifest.
@@ -187,6 +193,7 @@ def prepare_batch(
         "prefix": prefix, "zip": zip_results, "versions": _versions(registry),
         "provenance": provenance.collect([s.cwd for s in specs]),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
+        "noise": {name: get_preset(name) for name in dict.fromkeys(s.noise for s in specs)}, "sweep": sweep,
         "plan": to_json(specs), "episodes": to_json([new_record(s) for s in specs]),
     }
     write_manifest(run_dir, manifest)
@@ -270,6 +277,13 @@ def run_batch(
         except BenchbotError as exc:
             outcome.evaluation_error = exc.message
     outcome.excluded = _excluded(outcome.episodes)
+    if manifest.get("sweep") and outcome.evaluation is not None:
+        from benchbot.batch.sweep import write_robustness
+
+        try:
+            outcome.robustness = write_robustness(run_dir)
+        except BenchbotError as exc:  # the scores stand; only the curve is missing
+            outcome.evaluation_error = f"robustness summary: {exc.message}"
     manifest["episodes"] = to_json(outcome.episodes)
     manifest["evaluation_error"] = outcome.evaluation_error
     manifest["excluded"] = outcome.excluded
@@ -297,6 +311,7 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, method: str, ou
     """
     done = [e for e in outcome.episodes if e.status == "ok"]
     by_source = {str(run_dir / e.results): e for e in done}
+    noise = {p["index"]: p.get("noise", "none") for p in manifest["plan"]}
     evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
                           required_task=manifest["task"], keep_going=True)
     for source, exc in evaluation.errors:  # a zip archive's members are named PATH:MEMBER
@@ -311,7 +326,8 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, method: str, ou
     atomic.write_json(run_dir / "scores.json", scores)
     atomic.write_json(run_dir / "episode_scores.json", [
         {"index": by_source[src].index, "env": by_source[src].env, "robot": by_source[src].robot,
-         "repeat": by_source[src].repeat, "seed": by_source[src].seed, **scores}
+         "repeat": by_source[src].repeat, "seed": by_source[src].seed, "noise": noise[by_source[src].index],
+         **scores}
         for src, scores in evaluation.per_result if src in by_source
     ])
 

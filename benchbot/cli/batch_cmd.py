@@ -14,11 +14,13 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from benchbot.batch.plan import EpisodeRecord, plan_episodes, read_manifest, specs_from_manifest
 from benchbot.batch.runner import new_run_dir, parse_env_list, prepare_batch, run_batch
+from benchbot.batch.sweep import parse_sweep, plan_sweep
 from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, UsageError
+from benchbot.core.noise import get_preset
 from benchbot.core.submission import container_engine, container_files, example_submission, native_submission
 
 
@@ -54,6 +56,8 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the outcome as JSON on stdout."),
         record: bool = typer.Option(False, "--record", help="Record every episode as MCAP (ROS 2 messages) in RUN_DIR/recordings/NNN_<env>.mcap."),
         no_tui: bool = typer.Option(False, "--no-tui", help="Progress bars instead of the live episode table (the default when stderr is not a terminal)."),
+        noise: Optional[str] = typer.Option(None, "--noise", help="Sensor and motion noise preset: none (default), low, realistic or high (docs/noise.md); recorded in the manifest."),
+        sweep: Optional[str] = typer.Option(None, "--sweep", help="Run the batch at every level of one factor and plot the score against it: noise=none,low,realistic,high, robot=A,B, variant=1,2,3 or lighting=day,night (docs/noise.md)."),
     ) -> None:
         """Run a solution on every environment, each episode with its own backend on 127.0.0.1, then score it.
 
@@ -78,6 +82,13 @@ def register(app: typer.Typer) -> None:
                 raise UsageError("--example-containerised needs --example NAME", "")
             if not prefix or any(c in prefix for c in "/\\") or prefix in (".", ".."):
                 raise UsageError(f"--prefix '{prefix}' is not a name", "give a plain name, e.g. --prefix ablation")
+            if noise is not None:
+                get_preset(noise, flag="--noise")
+            parsed_sweep = parse_sweep(sweep) if sweep is not None else None
+            if parsed_sweep and parsed_sweep.factor == "noise" and noise is not None:
+                raise UsageError("--noise and --sweep noise=... both set the noise", "give one of them")
+            if parsed_sweep and parsed_sweep.factor == "robot" and robots:
+                raise UsageError("--robots and --sweep robot=... both set the robots", "give one of them")
             env_list = parse_env_list(envs, envs_batch, reg)
             robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
             container = None
@@ -87,17 +98,23 @@ def register(app: typer.Typer) -> None:
                 submission = native_submission(["true"])  # unused: the container runs instead
             else:
                 submission = example_submission(reg, example, args) if example else native_submission([native], args)
-            specs = plan_episodes(
-                task=task, robots=robot_list, envs=env_list, repeat=repeat, seed=seed, argv=submission.argv,
-                cwd=str(submission.cwd), options=backend_options(arch, camera_size), timeout_s=timeout,
-                container=container, record=record,
-            )
+            plan = dict(task=task, repeat=repeat, seed=seed, argv=submission.argv, cwd=str(submission.cwd),
+                        options=backend_options(arch, camera_size), timeout_s=timeout, container=container,
+                        record=record)
+            sweep_record = None
+            if parsed_sweep is None:
+                specs = plan_episodes(robots=robot_list, envs=env_list, noise=noise or "none", **plan)
+            else:
+                specs, level_of = plan_sweep(parsed_sweep, robots=robot_list, envs=env_list, noise=noise or "none",
+                                             registry=reg, **plan)
+                sweep_record = {"factor": parsed_sweep.factor, "levels": list(parsed_sweep.levels),
+                                "level_of": level_of}
             with writing(output_dir, "--output-dir"):
                 run_dir = new_run_dir(output_dir, prefix)
             try:
                 prepare_batch(reg, run_dir=run_dir, specs=specs,
                               evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
-                              zip_results=zip_results)
+                              zip_results=zip_results, sweep=sweep_record)
             except BaseException:  # nothing ran: leave no empty run directory behind
                 shutil.rmtree(run_dir, ignore_errors=True)
                 raise
@@ -105,6 +122,7 @@ def register(app: typer.Typer) -> None:
         total = len(specs)
         expected = {s.index: _expected_steps(reg, s.task, s.env) for s in specs}
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
+                 + (f" noise={s.noise}" if len({x.noise for x in specs}) > 1 else "")
                  + (f" r{s.repeat}" if s.repeat else "") for s in specs}
         live = ProgressFile(run_dir, expected)
 
@@ -148,9 +166,12 @@ def register(app: typer.Typer) -> None:
             out.print_json(json.dumps({
                 "run_dir": str(run_dir), "episodes": [vars(e) for e in outcome.episodes],
                 "scores": outcome.evaluation.to_json() if outcome.evaluation else None,
+                "robustness": outcome.robustness,
             }, default=lambda o: o.tolist()))
         elif outcome.evaluation is not None:
             print_scores(outcome.evaluation)
+            if outcome.robustness is not None:
+                print_robustness(outcome.robustness, run_dir)
         if outcome.evaluation is not None:
             err.print(f"results and scores in {run_dir}")
         else:
@@ -160,6 +181,32 @@ def register(app: typer.Typer) -> None:
             err.print(f"nothing was scored ({why}); results, logs and the manifest are in {run_dir}")
         if not outcome.ok:
             raise typer.Exit(int(ExitCode.FAILURE))
+
+
+def print_robustness(summary: dict, run_dir: Path) -> None:
+    """A sweep's robustness summary (:func:`benchbot.batch.sweep.robustness`) as a table on stdout, and where its
+    plot is on stderr."""
+    from rich.table import Table
+
+    pct = round(summary["confidence"] * 100)
+    table = Table(title=f"{summary['score']} vs {summary['factor']} (mean, {pct} % t interval)")
+    for column in (summary["factor"], "n", "mean", "interval", f"Δ vs {summary['levels'][0]['level']}", "note"):
+        table.add_column(column)
+    diffs = {d["level"]: d for d in summary["differences"]}
+
+    def span(d: dict) -> str:
+        return "—" if d["low"] is None else f"[{d['low']:.4f}, {d['high']:.4f}]"
+
+    for lv in summary["levels"]:
+        d = diffs.get(lv["level"])
+        delta = "" if d is None or d["mean"] is None else f"{d['mean']:+.4f} {span(d)}"
+        table.add_row(lv["level"], str(lv["n"]), "—" if lv["mean"] is None else f"{lv['mean']:.4f}", span(lv),
+                      delta, lv["note"])
+    out.print(table)
+    if summary.get("plots"):
+        err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
+    elif summary.get("plot_error"):
+        err.print(f"no robustness plot: {summary['plot_error']}")
 
 
 class ProgressFile:
