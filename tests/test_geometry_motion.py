@@ -8,9 +8,35 @@ import numpy as np
 import pytest
 
 from benchbot.core.geometry import (
-    matrix_to_quaternion_xyzw, matrix_to_rpy, pose7_to_matrix, pose7_to_se2, se2_compose, se2_relative, wrap_angle,
+    matrix_to_quaternion_xyzw, matrix_to_rpy, pose7_to_matrix, pose7_to_se2, quaternion_wxyz_to_matrix,
+    quaternion_xyzw_to_matrix, rpy_to_matrix, se2_compose, se2_relative, wrap_angle,
 )
 from benchbot.core.motion import ControllerGains, PoseController
+
+
+def test_euler_angles_are_static_xyz_and_round_trip():
+    roll, pitch, yaw = 0.2, -0.4, 2.5
+    Rx = np.array([[1, 0, 0], [0, math.cos(roll), -math.sin(roll)], [0, math.sin(roll), math.cos(roll)]])
+    Ry = np.array([[math.cos(pitch), 0, math.sin(pitch)], [0, 1, 0], [-math.sin(pitch), 0, math.cos(pitch)]])
+    Rz = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]])
+    assert np.allclose(rpy_to_matrix(roll, pitch, yaw), Rz @ Ry @ Rx, atol=1e-12)
+    assert matrix_to_rpy(Rz @ Ry @ Rx) == pytest.approx((roll, pitch, yaw), abs=1e-12)
+
+
+def test_gimbal_lock_gives_angles_of_the_same_rotation_without_a_warning(recwarn):
+    R = rpy_to_matrix(0.3, math.pi / 2, -0.5)  # pitch straight up: roll and yaw turn about the same axis
+    angles = matrix_to_rpy(R)
+    assert np.allclose(rpy_to_matrix(*angles), R, atol=1e-9) and not recwarn.list
+
+
+def test_quaternion_orders_and_bad_quaternions():
+    w, x, y, z = 0.7, 0.1, -0.2, 0.3
+    assert np.allclose(quaternion_wxyz_to_matrix([w, x, y, z]), quaternion_xyzw_to_matrix([x, y, z, w]))
+    q = matrix_to_quaternion_xyzw(quaternion_xyzw_to_matrix([x, y, z, -w]))  # w ≥ 0, unit length
+    assert q[3] >= 0 and np.linalg.norm(q) == pytest.approx(1.0)
+    for bad in ([0, 0, 0, 0], [1, 0, float("nan"), 0], [1, 0, 0]):
+        with pytest.raises(ValueError, match="quaternion"):
+            quaternion_xyzw_to_matrix(bad)
 
 
 def test_unnormalised_start_pose_is_normalised():

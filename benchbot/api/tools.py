@@ -38,15 +38,6 @@ def _pyplot() -> Any:
     return plt
 
 
-def _quat_matrix(xyzw: Sequence[float]) -> np.ndarray:
-    x, y, z, w = (float(v) for v in xyzw)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
-
-
 class ObservationVisualiser:
     """Draws observations on a grid of 2 rows × ceil(n/2) columns, filled column by column.
 
@@ -124,9 +115,11 @@ class ObservationVisualiser:
         ax.set_title("laser (robot frame, m)")
 
     def _draw_poses(self, ax: Any, obs: dict) -> None:
+        from benchbot.core.geometry import quaternion_xyzw_to_matrix  # SciPy: loaded on first use
+
         for frame, pose in obs["poses"].items():
             origin = np.asarray(pose["translation_xyz"], dtype=float)
-            R = _quat_matrix(pose["rotation_xyzw"])
+            R = quaternion_xyzw_to_matrix(pose["rotation_xyzw"])
             for axis, colour in zip(R.T, "rgb"):
                 end = origin + AXIS_LENGTH_M * axis
                 ax.plot([origin[0], end[0]], [origin[1], end[1]], [origin[2], end[2]], colour)

@@ -3,14 +3,18 @@
 Conventions: metres and radians; a 7-number pose is ``[qw, qx, qy, qz, x, y, z]`` (the original BenchBot's order,
 quaternion first, not always unit length: it is normalised here); an SE(2) pose is ``(x, y, yaw)``; a transform
 ``T_a_b`` is a (4, 4) float64 homogeneous matrix mapping points of frame ``b`` into frame ``a``; Euler angles are
-static-axis x, y, z (roll, pitch, yaw; R = Rz·Ry·Rx), as ROS ``tf.transformations`` ``sxyz``.
+static-axis x, y, z (roll, pitch, yaw; R = Rz·Ry·Rx), as ROS ``tf.transformations`` ``sxyz``. Rotations are
+SciPy's (``scipy.spatial.transform.Rotation``); this module is the project's one home for them.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
+from typing import Sequence
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 
 def wrap_angle(angle: float) -> float:
@@ -18,54 +22,59 @@ def wrap_angle(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def quaternion_wxyz_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix (3, 3) float64 of the quaternion ``q`` = (w, x, y, z), normalised first.
+def _unit_quaternion_xyzw(q: "Sequence[float] | np.ndarray", order: str) -> np.ndarray:
+    """(4,) float64 ``[x, y, z, w]`` of ``q`` given in ``order`` (``'wxyz'`` or ``'xyzw'``), checked.
 
     Raises:
-        ValueError: if ``q`` has zero length.
+        ValueError: ``q`` does not have 4 finite numbers, or has zero length.
     """
-    w, x, y, z = np.asarray(q, dtype=np.float64)
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    if n == 0.0:
+    a = np.asarray(q, dtype=np.float64).reshape(-1)
+    if a.shape != (4,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"a quaternion needs 4 finite numbers ({order}), got {a.tolist()}")
+    if np.linalg.norm(a) == 0.0:
         raise ValueError("quaternion has zero length")
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    return a[[1, 2, 3, 0]] if order == "wxyz" else a
+
+
+def quaternion_wxyz_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) float64 of the quaternion ``q`` = (w, x, y, z) (the original's pose order), normalised
+    first (SciPy's ``Rotation``).
+
+    Raises:
+        ValueError: ``q`` does not have 4 finite numbers, or has zero length.
+    """
+    return Rotation.from_quat(_unit_quaternion_xyzw(q, "wxyz")).as_matrix()
+
+
+def quaternion_xyzw_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) float64 of the quaternion ``q`` = (x, y, z, w) (ROS order, the ``poses``
+    observation's ``rotation_xyzw``), normalised first (SciPy's ``Rotation``).
+
+    Raises:
+        ValueError: ``q`` does not have 4 finite numbers, or has zero length.
+    """
+    return Rotation.from_quat(_unit_quaternion_xyzw(q, "xyzw")).as_matrix()
 
 
 def matrix_to_quaternion_xyzw(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion (4,) float64 ``[x, y, z, w]`` (ROS order) of the rotation matrix ``R`` (3, 3), w ≥ 0."""
-    R = np.asarray(R, dtype=np.float64)
-    t = np.trace(R)
-    if t > 0:
-        s = math.sqrt(t + 1.0) * 2
-        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2
-        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s
-    elif R[1, 1] > R[2, 2]:
-        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2
-        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s
-    else:
-        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
-        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s
-    q = np.array([x, y, z, w])
-    q /= np.linalg.norm(q)
+    """Unit quaternion (4,) float64 ``[x, y, z, w]`` (ROS order) of the rotation matrix ``R`` (3, 3), w ≥ 0 (SciPy's
+    ``Rotation``; a matrix that is not quite orthonormal is taken as its nearest rotation)."""
+    q = Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_quat()
     return -q if q[3] < 0 else q
 
 
+def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Rotation (3, 3) float64 of static-axis (x, y, z) Euler angles in radians: R = Rz(yaw)·Ry(pitch)·Rx(roll)."""
+    return Rotation.from_euler("xyz", [roll, pitch, yaw]).as_matrix()
+
+
 def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
-    """Static-axis (x, y, z) Euler angles ``(roll, pitch, yaw)`` in radians of ``R`` (3, 3), R = Rz·Ry·Rx."""
-    R = np.asarray(R, dtype=np.float64)
-    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    roll = math.atan2(R[2, 1], R[2, 2])
-    yaw = math.atan2(R[1, 0], R[0, 0])
-    return (roll, pitch, yaw)
+    """Static-axis (x, y, z) Euler angles ``(roll, pitch, yaw)`` in radians of ``R`` (3, 3), R = Rz·Ry·Rx (SciPy's
+    ``Rotation.as_euler('xyz')``; at gimbal lock, pitch ±π/2, yaw is 0 and roll takes the whole turn)."""
+    with warnings.catch_warnings():  # gimbal lock is a property of the angles, not an error of the caller's
+        warnings.simplefilter("ignore", UserWarning)
+        roll, pitch, yaw = Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_euler("xyz")
+    return (float(roll), float(pitch), float(yaw))
 
 
 def pose7_to_matrix(pose: "list[float] | np.ndarray") -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 
 from benchbot.core import noise as noise_models
 from benchbot.core.errors import BackendError, UsageError
-from benchbot.core.geometry import se2_to_matrix
+from benchbot.core.geometry import rpy_to_matrix, se2_to_matrix
 from benchbot.core.motion import ControllerGains
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
@@ -51,15 +51,6 @@ NON_NEGATIVE = frozenset({"robot_frame_height_m"})
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
-
-
-def _rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw),
-                              math.sin(yaw))
-    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1.0]])
-    Ry = np.array([[cp, 0, sp], [0, 1.0, 0], [-sp, 0, cp]])
-    Rx = np.array([[1.0, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    return Rz @ Ry @ Rx
 
 
 def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]:
@@ -154,7 +145,7 @@ class TaichiSimBackend(RobotBackend):
         fx = (self.width / 2.0) / math.tan(math.radians(float(cam["horizontal_fov_deg"])) / 2.0)
         self.K = np.array([[fx, 0.0, (self.width - 1) / 2.0], [0.0, fx, (self.height - 1) / 2.0], [0.0, 0.0, 1.0]])
         T = np.eye(4)
-        T[:3, :3] = _rpy_matrix(*np.radians(np.asarray(cam["mount_rpy_deg"], dtype=np.float64))) @ R_BODY_OPTICAL
+        T[:3, :3] = rpy_to_matrix(*np.radians(np.asarray(cam["mount_rpy_deg"], dtype=np.float64))) @ R_BODY_OPTICAL
         T[:3, 3] = np.asarray(cam["mount_xyz"], dtype=np.float64)
         #: (4, 4) the camera's optical frame in the robot's footprint frame (the robot frame lowered to the floor)
         self.T_footprint_camera = T
@@ -180,7 +171,7 @@ class TaichiSimBackend(RobotBackend):
         for k, v in self.noise.items():
             if k not in DEFAULT_SENSORS["noise"] or not (v >= 0.0) or (k == "depth_dropout" and v > 1.0):
                 raise BackendError(f"sensors.noise.{k} = {v} is not valid",
-                                   f"use rgb_sigma, depth_sigma, laser_sigma ≥ 0 and 0 ≤ depth_dropout ≤ 1")
+                                   "use rgb_sigma, depth_sigma, laser_sigma ≥ 0 and 0 ≤ depth_dropout ≤ 1")
         name = str(self.options.get("noise") or "none")
         try:
             #: the ``noise`` option's preset (:data:`benchbot.core.noise.PRESETS`)

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from benchbot.core.errors import BackendError
-from benchbot.core.geometry import pose7_to_se2
+from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix
 from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
 
 #: Light kinds in :attr:`Scene.light_kind`.
@@ -731,15 +731,8 @@ def _rotation(pose: list) -> tuple[np.ndarray, np.ndarray]:
         x, y, z, yaw = (float(v) for v in pose)
         c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array([x, y, z])
-    qw, qx, qy, qz, x, y, z = (float(v) for v in pose)
-    n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    if n < 1e-12:
-        raise ValueError("zero quaternion")
-    qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
-    R = np.array([[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                  [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                  [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]])
-    return R, np.array([x, y, z])
+    p = np.asarray(pose, dtype=np.float64)
+    return quaternion_wxyz_to_matrix(p[:4]), p[4:]
 
 
 def load_mesh_objects(environment: dict) -> list[dict]:

@@ -24,6 +24,7 @@ from typing import Sequence
 import cv2
 import numpy as np
 from scipy import ndimage
+from scipy.spatial.transform import Rotation
 
 # --------------------------------------------------------------------------------------------------------------
 # Pose helpers
@@ -32,18 +33,17 @@ from scipy import ndimage
 
 def pose_to_matrix(translation_xyz: Sequence[float], rotation_xyzw: Sequence[float]) -> np.ndarray:
     """Homogeneous transform (4, 4) float64 from a translation (3,) in metres and a quaternion (4,) ``[x, y, z, w]``
-    (ROS order; normalised here). With a BenchBot ``poses['camera']`` entry this is ``T_map_camera``."""
-    x, y, z, w = np.asarray(rotation_xyzw, dtype=np.float64)
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if n == 0.0:
+    (ROS order; normalised here, by SciPy's ``Rotation``). With a BenchBot ``poses['camera']`` entry this is
+    ``T_map_camera``.
+
+    Raises:
+        ValueError: the quaternion has zero length.
+    """
+    q = np.asarray(rotation_xyzw, dtype=np.float64)
+    if not np.any(q):
         raise ValueError("quaternion has zero length")
-    x, y, z, w = x / n, y / n, z / n, w / n
     T = np.eye(4)
-    T[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
+    T[:3, :3] = Rotation.from_quat(q).as_matrix()
     T[:3, 3] = np.asarray(translation_xyz, dtype=np.float64)
     return T
 
