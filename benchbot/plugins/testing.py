@@ -224,12 +224,15 @@ def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
 
 
 def _yaw_of(start_pose: list[float]) -> float:
-    qw, qx, qy, qz = start_pose[:4]
-    return math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+    from benchbot.core.geometry import pose7_to_se2  # SciPy: loaded when a check runs, not with pytest
+
+    return float(pose7_to_se2(start_pose)[2])
 
 
 def _angle_diff(a: float, b: float) -> float:
-    return (a - b + math.pi) % (2 * math.pi) - math.pi
+    from benchbot.core.geometry import wrap_angle
+
+    return wrap_angle(a - b)
 
 
 def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, *, options: dict | None = None,
