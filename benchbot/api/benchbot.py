@@ -32,14 +32,14 @@ from typing import TYPE_CHECKING, Any, Callable
 import httpx
 import numpy as np
 
-from benchbot.core import shared_frames, wire
+from benchbot.core import settings, shared_frames, wire
 from benchbot.core.errors import BenchbotError
 
 if TYPE_CHECKING:
     from benchbot.core.server import BackendService
 
-RESULT_LOCATION = os.environ.get("BENCHBOT_RESULT_LOCATION", "/tmp/benchbot_result")
-DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
+RESULT_LOCATION = settings.get("BENCHBOT_RESULT_LOCATION")
+DEFAULT_ADDRESS = settings.default("BENCHBOT_SUPERVISOR_ADDRESS")
 TOKEN_HEADER = "X-BenchBot-Token"
 #: The header naming this client to the backend (one client owns an episode at a time: docs/protocol.md).
 CLIENT_HEADER = "X-BenchBot-Client"
@@ -63,7 +63,7 @@ def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | No
     """
     if urllib.parse.urlsplit(address).scheme != "https":
         return None
-    source, path = ("ca_file", ca_file) if ca_file else ("BENCHBOT_CA_FILE", os.environ.get("BENCHBOT_CA_FILE") or None)
+    source, path = ("ca_file", ca_file) if ca_file else ("BENCHBOT_CA_FILE", settings.get("BENCHBOT_CA_FILE"))
     try:
         return ssl.create_default_context(cafile=path)
     except (OSError, ssl.SSLError) as exc:
@@ -99,7 +99,7 @@ class HttpTransport:
         self.headers = {TOKEN_HEADER: token} if token else {}
         # the episode is this client's until close() releases it; a solution of several processes or connections
         # names itself once with BENCHBOT_CLIENT_ID (8-128 of A-Z a-z 0-9 _ . : -)
-        self.client_id = os.environ.get("BENCHBOT_CLIENT_ID") or secrets.token_hex(16)
+        self.client_id = settings.get("BENCHBOT_CLIENT_ID") or secrets.token_hex(16)
         self.headers[CLIENT_HEADER] = self.client_id
         url = urllib.parse.urlsplit(address)
         if url.scheme not in ("http", "https"):
@@ -396,9 +396,9 @@ class BenchBot:
         if transport is None and backend is not None:
             transport = InProcessTransport(backend)
         if transport is None:
-            address = supervisor_address or os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS") or DEFAULT_ADDRESS
+            address = supervisor_address or settings.get("BENCHBOT_SUPERVISOR_ADDRESS")
             address = address if "://" in address else f"http://{address}"
-            transport = HttpTransport(address.rstrip("/") + "/", timeout_s, os.environ.get("BENCHBOT_TOKEN"))
+            transport = HttpTransport(address.rstrip("/") + "/", timeout_s, settings.get("BENCHBOT_TOKEN"))
         self.transport = transport
         self.address = transport.address
         self._state: dict = {}

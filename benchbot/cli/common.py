@@ -14,7 +14,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from benchbot.core import limits
+from benchbot.core import limits, settings
 from benchbot.core.errors import BenchbotError, ExitCode, UsageError
 from benchbot.core.registry import Registry, get_registry
 
@@ -53,7 +53,7 @@ def handle_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
         try:
             return fn(*args, **kwargs)
         except BenchbotError as exc:
-            if os.environ.get("BENCHBOT_DEBUG") == "1":
+            if settings.get("BENCHBOT_DEBUG") == "1":
                 traceback.print_exc()
             report(exc)
             raise typer.Exit(int(exc.exit_code)) from None

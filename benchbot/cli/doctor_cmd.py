@@ -17,8 +17,10 @@ from dataclasses import asdict, dataclass
 
 import typer
 from rich.table import Table
+from rich.text import Text
 
 from benchbot.cli.common import handle_errors, out
+from benchbot.core import settings
 
 MAIN_JOB = {"tasks": "semantic_slam:passive:ground_truth", "robots": "carter", "environments": "miniroom:1",
             "evaluators": "omq", "examples": "semslam_geometric", "ground_truths": "miniroom:1"}
@@ -222,22 +224,31 @@ def register(app: typer.Typer) -> None:
     @app.command("doctor")
     @handle_errors
     def doctor(
-        as_json: bool = typer.Option(False, "--json", help="Print JSON: {ok, checks: [{name, ok, required, detail, fix}]}."),
+        as_json: bool = typer.Option(False, "--json", help="Print JSON: {ok, checks: [{name, ok, required, detail, fix}], "
+                                     "settings: [{name, value, source, owner, meaning}]}."),
         render: bool = typer.Option(True, "--render/--no-render", help="Render one frame per Taichi backend (subprocesses)."),
         timeout: float = typer.Option(180.0, "--timeout", min=1.0, help="Seconds each render may take."),
     ) -> None:
         """Check this machine: Python and packages, plugins, Taichi backends (one rendered frame each), GPU, ROS,
-        Docker/Podman, Ray, port 10000, the data directory. Exit code 0 when the default main job can run."""
+        Docker/Podman, Ray, port 10000, the data directory; and show BenchBot's settings (environment variables)
+        with their effective values and where each comes from. Exit code 0 when the default main job can run."""
         checks = run_checks(render, timeout)
         ok = all(c.ok for c in checks if c.required)
         if as_json:
-            out.print_json(json.dumps({"ok": ok, "checks": [asdict(c) for c in checks]}))
+            out.print_json(json.dumps({"ok": ok, "checks": [asdict(c) for c in checks],
+                                       "settings": settings.effective()}))
         else:
             table = Table("check", "", "detail", "fix")
             for c in checks:
                 mark = "[green]ok[/]" if c.ok else ("[red]FAIL[/]" if c.required else "[yellow]no[/]")
                 table.add_row(c.name, mark, c.detail, c.fix)
             out.print(table)
+            shown = Table("setting", "value", "from", "read by", "meaning")
+            for row in settings.effective():
+                value = "" if row["value"] is None else row["value"]
+                shown.add_row(*(Text(str(v)) for v in (row["name"], value, row["source"], row["owner"],
+                                                        row["meaning"])))
+            out.print(shown)
             out.print("[green]the main job can run here[/]" if ok else "[red]the main job cannot run here: see the FAIL rows[/]")
         if not ok:
             raise typer.Exit(1)

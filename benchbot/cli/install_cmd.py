@@ -12,6 +12,7 @@ from typing import Optional
 
 import typer
 
+from benchbot.core import settings
 from benchbot.cli.common import err, handle_errors
 from rich.markup import escape
 
@@ -36,7 +37,7 @@ def installer_command(action: str, targets: list[str]) -> list[str]:
         action: ``install`` or ``uninstall``.
         targets: requirement strings, paths or URLs.
     """
-    choice = os.environ.get("BENCHBOT_INSTALLER", "").strip().lower()
+    choice = (settings.get("BENCHBOT_INSTALLER") or "").lower()
     uv = shutil.which("uv") if choice != "pip" else None
     if uv:
         return [uv, "pip", action, "--python", sys.executable, *targets]

@@ -11,6 +11,7 @@ from typing import Optional
 import httpx
 import typer
 
+from benchbot.core import settings
 from benchbot.api.benchbot import tls_context
 from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.cli.eval_cmd import print_scores
@@ -34,7 +35,7 @@ DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
 
 def _run_info(address: str) -> dict:
     """Task, robot, environments and seed of the backend, or ``{}`` when none answers."""
-    token = os.environ.get("BENCHBOT_TOKEN")
+    token = settings.get("BENCHBOT_TOKEN")
     try:
         reply = httpx.get(address.rstrip("/") + "/robot/run_info", timeout=5.0,
                           headers={"X-BenchBot-Token": token} if token else {}, verify=tls_context(address) or True)
@@ -82,7 +83,7 @@ def check_backend(address: str) -> None:
     """
     timeout = env_seconds("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", BACKEND_CHECK_TIMEOUT_S)
     start_wait = env_seconds("BENCHBOT_BACKEND_START_WAIT_S", BACKEND_START_WAIT_S)
-    token = os.environ.get("BENCHBOT_TOKEN")
+    token = settings.get("BENCHBOT_TOKEN")
     fix = "start one in another terminal: `benchbot run --env miniroom:1` (or give --address / " \
           "BENCHBOT_SUPERVISOR_ADDRESS of a running one)"
 
@@ -128,7 +129,7 @@ def register(app: typer.Typer) -> None:
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the command (containers: the variable `args`; -s: output path)."),
         evaluate_with: Optional[str] = typer.Option(None, "--evaluate-with", help="Evaluate the results afterwards (e.g. omq; the original's -e, which is --env in every command now)."),
         results_location: Optional[Path] = typer.Option(None, "--results-location", help="Also copy the results here (the original's -r, which is --robot in every command now)."),
-        address: str = typer.Option(os.environ.get("BENCHBOT_SUPERVISOR_ADDRESS", DEFAULT_ADDRESS), "--address", help="The backend (`benchbot run`)."),
+        address: str = typer.Option(settings.get("BENCHBOT_SUPERVISOR_ADDRESS"), "--address", help="The backend (`benchbot run`)."),
         scores: Path = typer.Option(Path("scores.json"), "--scores", "--output", "-o", help="Where --evaluate-with writes scores."),
         timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill the submission (native, or the container once built) after this many seconds."),
         _env: Optional[str] = typer.Option(None, "--env", "-e", hidden=True, help="Refused: benchbot run chooses the environment.", callback=refused("-e", "submit runs against the environment `benchbot run --env` chose; to evaluate, use --evaluate-with METHOD (the original's -e)")),
@@ -191,7 +192,7 @@ def register(app: typer.Typer) -> None:
             err.print(f"building and running {dockerfile} with {engine} against {address}")
             watch = ResultWatch(location)  # the container writes its own /tmp/benchbot_result, copied to location
             code = run_container_submission(engine, dockerfile, context, address=address, result_location=location,
-                                            args=args, token=os.environ.get("BENCHBOT_TOKEN"), timeout_s=timeout)
+                                            args=args, token=settings.get("BENCHBOT_TOKEN"), timeout_s=timeout)
         else:
             err.print(f"running {sub.label} against {address}")
             watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from benchbot.core import settings
 from benchbot.core.errors import BenchbotError, ExitCode, SpecError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -102,9 +103,9 @@ class PackError(BenchbotError):
 def data_dir() -> Path:
     """BenchBot's data directory: ``$BENCHBOT_DATA_DIR``, else ``$XDG_DATA_HOME/benchbot``, else
     ``~/.local/share/benchbot`` (not created)."""
-    if os.environ.get("BENCHBOT_DATA_DIR"):
-        return Path(os.environ["BENCHBOT_DATA_DIR"]).expanduser()
-    xdg = os.environ.get("XDG_DATA_HOME")
+    if settings.get("BENCHBOT_DATA_DIR"):
+        return Path(settings.get("BENCHBOT_DATA_DIR")).expanduser()
+    xdg = settings.get("XDG_DATA_HOME")
     return (Path(xdg).expanduser() if xdg else Path.home() / ".local" / "share") / "benchbot"
 
 

@@ -14,16 +14,17 @@ import tempfile
 import time
 from pathlib import Path
 
+from benchbot.core import settings
+
 #: Where an original ``benchbot_api`` client always writes its results, and where ``benchbot submit`` keeps them
 #: unless ``$BENCHBOT_RESULT_LOCATION`` names another file.
-ORIGINAL_RESULT_LOCATION = Path("/tmp/benchbot_result")
+ORIGINAL_RESULT_LOCATION = Path(settings.default("BENCHBOT_RESULT_LOCATION"))
 
 
 def submission_result_location() -> Path:
     """The results file a submission is told to write: ``$BENCHBOT_RESULT_LOCATION`` when set and not empty, else
     :data:`ORIGINAL_RESULT_LOCATION` (both absolute: relative paths are taken from the current folder)."""
-    given = os.environ.get("BENCHBOT_RESULT_LOCATION", "").strip()
-    return Path(given).absolute() if given else ORIGINAL_RESULT_LOCATION
+    return Path(settings.get("BENCHBOT_RESULT_LOCATION")).absolute()
 
 
 def clock_mark(folder: Path) -> int:

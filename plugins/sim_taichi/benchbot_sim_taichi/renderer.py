@@ -47,6 +47,7 @@ import warnings
 
 import numpy as np
 
+from benchbot.core import settings
 from benchbot.core.errors import UsageError
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
@@ -91,7 +92,7 @@ def ensure_taichi(arch: str | None = None) -> str:
             positive integer.
     """
     global _INIT_ARCH
-    want = (arch or os.environ.get("BENCHBOT_TAICHI_ARCH") or "cpu").strip().lower()
+    want = (arch or settings.get("BENCHBOT_TAICHI_ARCH")).strip().lower()
     if want not in ("cpu", "gpu", "cuda"):
         raise TaichiSettingError(f"unknown Taichi arch {want!r}",
                                  "use cpu, gpu or cuda (--arch, or BENCHBOT_TAICHI_ARCH)")
@@ -157,7 +158,7 @@ def _init_quietly(want: str) -> str:
 def _cpu_threads() -> dict:
     """``{'cpu_max_num_threads': n}`` from ``BENCHBOT_TAICHI_THREADS`` (set by batch workers so that N parallel
     episodes share the cores instead of each starting one thread per core), else ``{}`` (Taichi's default: all)."""
-    value = os.environ.get("BENCHBOT_TAICHI_THREADS", "").strip()
+    value = settings.get("BENCHBOT_TAICHI_THREADS") or ""
     if not value:
         return {}
     try:

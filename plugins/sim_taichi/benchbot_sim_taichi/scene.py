@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix
 from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
@@ -81,7 +82,7 @@ _LIGHTINGS = ("base", "day", "night", "day_extra", "night_extra")
 #: (:mod:`benchbot_sim_taichi.furnished`); ``primitives`` — procedural primitives in one room shell.
 STYLES = ("furnished", "primitives")
 #: The style of an environment that names none, unless :data:`STYLE_VARIABLE` says otherwise.
-DEFAULT_STYLE = "furnished"
+DEFAULT_STYLE = settings.default("BENCHBOT_SIM_STYLE")
 #: The environment variable that sets the style of environments naming none, for a whole run and the processes it
 #: starts (e.g. ``BENCHBOT_SIM_STYLE=primitives benchbot batch …`` for speed; the test suite sets it).
 STYLE_VARIABLE = "BENCHBOT_SIM_STYLE"
@@ -509,7 +510,7 @@ def default_style() -> str:
     Raises:
         BackendError: the variable is set to a name not in :data:`STYLES`.
     """
-    style = os.environ.get(STYLE_VARIABLE, "").strip() or DEFAULT_STYLE
+    style = settings.get(STYLE_VARIABLE)
     if style not in STYLES:
         raise BackendError(f"the environment variable {STYLE_VARIABLE}={style[:40]!r} names no style",
                            f"set it to one of: {', '.join(STYLES)} (or unset it for {DEFAULT_STYLE})")

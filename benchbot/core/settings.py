@@ -1,0 +1,101 @@
+"""BenchBot's settings from the environment: every environment variable that BenchBot and its first-party plugins
+read, in one table, read through one function (:func:`get`), shown with its effective value and where the value
+came from by ``benchbot doctor`` (:func:`effective`).
+
+Command-line flags and spec fields win over these where both exist (e.g. ``--address`` over
+``BENCHBOT_SUPERVISOR_ADDRESS``); a setting only gives the value when nothing more specific does. An empty or blank
+value counts as unset.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One environment variable: its ``name``, its ``default`` when unset (``None``: no value), what it means, and
+    the part of BenchBot that reads it (``owner``: ``core``, ``api``, ``cli``, or a plugin's name)."""
+
+    name: str
+    default: str | None
+    meaning: str
+    owner: str
+    secret: bool = False
+
+
+#: Every setting, in the order ``benchbot doctor`` shows them.
+SETTINGS: tuple[Setting, ...] = (
+    Setting("BENCHBOT_DATA_DIR", None, "data directory (installed content packs); else $XDG_DATA_HOME/benchbot, "
+            "else ~/.local/share/benchbot", "core"),
+    Setting("XDG_DATA_HOME", None, "base of the data directory when BENCHBOT_DATA_DIR is unset", "core"),
+    Setting("BENCHBOT_RESULT_LOCATION", "/tmp/benchbot_result", "the results file a solution writes (the "
+            "original's fixed path by default)", "api"),
+    Setting("BENCHBOT_SUPERVISOR_ADDRESS", "http://127.0.0.1:10000/", "the backend a solution's BenchBot() and "
+            "`benchbot submit` connect to (--address wins)", "api"),
+    Setting("BENCHBOT_TOKEN", None, "the backend's access token, sent by clients (docs/security.md)", "api",
+            secret=True),
+    Setting("BENCHBOT_CA_FILE", None, "PEM certificate authorities for an https:// backend", "api"),
+    Setting("BENCHBOT_CLIENT_ID", None, "names one solution's connections as one owner of the episode (else a "
+            "random id per client)", "api"),
+    Setting("BENCHBOT_DEBUG", None, "1: print the traceback behind a one-line error", "cli"),
+    Setting("BENCHBOT_INSTALLER", None, "uv or pip: the installer of `benchbot install` (default: uv when on "
+            "PATH)", "cli"),
+    Setting("BENCHBOT_SIM_STYLE", "furnished", "scene style of environments naming none: furnished or "
+            "primitives", "sim_taichi"),
+    Setting("BENCHBOT_TAICHI_ARCH", "cpu", "Taichi arch of the simulator: cpu, gpu or cuda (--arch wins)",
+            "sim_taichi"),
+    Setting("BENCHBOT_TAICHI_THREADS", None, "CPU threads per simulator process (default: one per core; batch "
+            "workers set it)", "sim_taichi"),
+    Setting("ROS_DOMAIN_ID", "0", "DDS domain of ROS 2 robots and `benchbot ros2 serve-sim`", "robot_ros2"),
+    Setting("CYCLONEDDS_URI", None, "Cyclone DDS configuration (default: discovery on loopback only)",
+            "robot_ros2"),
+    Setting("BENCHBOT_ROS2_TIME_SCALE", None, "simulated seconds per wall second of ROS 2 robots (the robot "
+            "spec's time_scale by default)", "robot_ros2"),
+)
+
+_BY_NAME = {s.name: s for s in SETTINGS}
+
+
+def get(name: str) -> str | None:
+    """The value of setting ``name``: the environment variable, stripped, when set and not blank; else its
+    default (``None`` when it has none).
+
+    Raises:
+        KeyError: ``name`` is not in :data:`SETTINGS` (a programming error: add the setting there first).
+    """
+    setting = _BY_NAME[name]
+    value = os.environ.get(name, "").strip()
+    return value if value else setting.default
+
+
+def default(name: str) -> str | None:
+    """The default of setting ``name`` (its value when the variable is unset).
+
+    Raises:
+        KeyError: ``name`` is not in :data:`SETTINGS`.
+    """
+    return _BY_NAME[name].default
+
+
+def source(name: str) -> str:
+    """Where :func:`get`'s value comes from: ``'environment'``, ``'default'`` or ``'unset'`` (no default).
+
+    Raises:
+        KeyError: ``name`` is not in :data:`SETTINGS`.
+    """
+    setting = _BY_NAME[name]
+    if os.environ.get(name, "").strip():
+        return "environment"
+    return "default" if setting.default is not None else "unset"
+
+
+def effective() -> list[dict]:
+    """Every setting as ``{'name', 'value', 'source', 'owner', 'meaning'}`` (secret values shown as ``'***'``)."""
+    rows = []
+    for s in SETTINGS:
+        value = get(s.name)
+        rows.append({"name": s.name, "value": "***" if (s.secret and value) else value, "source": source(s.name),
+                     "owner": s.owner, "meaning": s.meaning})
+    return rows
