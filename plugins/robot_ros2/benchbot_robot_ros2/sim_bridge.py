@@ -1,25 +1,40 @@
 """The Taichi simulator served as a ROS 2 robot (``benchbot ros2 serve-sim --env ENV``).
 
-Runs the ``carter`` robot of ``benchbot_sim_taichi`` in one environment and, over ROS 2 (rclpy or Cyclone DDS):
+Runs the ``carter`` robot of ``benchbot_sim_taichi`` in one environment and, over ROS 2 (rclpy or Cyclone DDS, as
+the node ``benchbot_sim``), publishes what the robot ``carter_ros2`` reads:
 
 =============================  ==============================  ==============================================
 topic                          type                            content
 =============================  ==============================  ==============================================
-``/camera/color/image_raw``    ``sensor_msgs/msg/Image``       ``rgb8``, frame ``camera`` (optical)
-``/camera/color/camera_info``  ``sensor_msgs/msg/CameraInfo``  K, P = [K|0], no distortion
-``/camera/depth/image_raw``    ``sensor_msgs/msg/Image``       ``32FC1`` metres along the optical axis, 0 = none
+``/clock``                     ``rosgraph_msgs/msg/Clock``     simulated time, every tick (1/20 s simulated)
+``/camera/color/image_raw``    ``sensor_msgs/msg/Image``       ``rgb8``, frame: the camera's (optical)
+``/camera/color/camera_info``  ``sensor_msgs/msg/CameraInfo``  K, P = [K|0], no distortion, the same frame
+``/camera/depth/image_raw``    ``sensor_msgs/msg/Image``       ``32FC1`` metres along the optical axis; NaN where
+                                                               nothing is hit (REP 118)
 ``/camera/depth/camera_info``  ``sensor_msgs/msg/CameraInfo``  as the colour camera's
-``/scan``                      ``sensor_msgs/msg/LaserScan``   frame ``lidar``, 360 beams from -π
-``/odom``                      ``nav_msgs/msg/Odometry``       ``odom`` → ``base_link`` (odom = the start pose)
-``/tf``                        ``tf2_msgs/msg/TFMessage``      ``map`` → ``odom``, ``odom`` → ``base_link``
-``/tf_static``                 ``tf2_msgs/msg/TFMessage``      ``base_link`` → ``camera``, ``base_link`` → ``lidar``
+``/scan``                      ``sensor_msgs/msg/LaserScan``   frame: the laser's; 360 beams, ``angle_min`` -π,
+                                                               +Inf where nothing is in range (REP 117)
+``/odom``                      ``nav_msgs/msg/Odometry``       odom → base (odom = the start pose); twist: the
+                                                               motion made in the last tick (0 when refused)
+``/tf``                        ``tf2_msgs/msg/TFMessage``      map → odom, odom → base
+``/tf_static``                 ``tf2_msgs/msg/TFMessage``      base → camera (optical), base → laser
 ``/benchbot/reset_done``       ``std_msgs/msg/String``         JSON ``{"id", "ok", "error", "environment"}``
 =============================  ==============================  ==============================================
 
-It obeys ``/cmd_vel`` (``geometry_msgs/msg/Twist``: ``linear.x`` m/s, ``angular.z`` rad/s) in real time (or
-``time_scale`` times faster): every tick of 1/20 s of simulated time it integrates the newest command exactly
-(unicycle) and refuses a step that would bring the footprint into the scene (the robot stays; as the direct
-simulator). A command older than 0.5 s (wall) counts as zero — a dead controller cannot run the robot away.
+Frame names come from one place, the ROS robot definition served (``carter_ros2``): ``global_frame`` (``map``),
+``ros2.frames.robot`` or ``ros2.base_frame`` (``base_link``), ``ros2.frames.camera`` (``camera``) and
+``ros2.frames.lidar`` (``lidar``); the odometry frame is ``odom``. The same names are in the images, camera infos,
+scans, odometry and TF.
+
+Time: every message is stamped with the simulated time, published on ``/clock`` (ROS's ``use_sim_time``
+convention): it starts at the wall-clock time the bridge started and advances 1/20 s per tick, ``time_scale`` ticks
+of 1/20 s per 1/20 wall second (fewer when rendering cannot keep up). ROS nodes must run with
+``use_sim_time:=true`` to see velocities and timeouts right when ``time_scale`` ≠ 1 (or the simulation lags).
+
+It obeys ``/cmd_vel`` (``geometry_msgs/msg/Twist``: ``linear.x`` m/s, ``angular.z`` rad/s) in simulated time: every
+tick it integrates the newest command exactly (unicycle) and refuses a step that would bring the footprint into
+the scene (the robot stays; as the direct simulator). A command older than 0.5 s (wall) counts as zero — a dead
+controller cannot run the robot away.
 ``/benchbot/reset`` (``std_msgs/msg/String``, JSON ``{"id": ..., "environment": "name:variant", "seed": 0}``, every
 field optional) reloads the scene (or another BEAR environment) and puts the robot at its start pose; the answer
 comes on ``/benchbot/reset_done``. From a ROS 2 shell::
@@ -43,7 +58,35 @@ from typing import Any
 import numpy as np
 
 TICK_S = 0.05  # simulated seconds per integration step (the controller's rate)
+TICK_NS = 50_000_000
 CMD_TIMEOUT_S = 0.5
+NODE_NAME = "benchbot_sim"
+ODOM_FRAME = "odom"
+
+
+def ros_frames(ros_robot: dict) -> dict[str, str]:
+    """TF frame names of a ROS robot definition (type ``ros2``): ``{'map', 'robot', 'camera', 'lidar'}`` from
+    ``global_frame``, ``ros2.frames.robot`` (else ``ros2.base_frame``, else ``base_link``), ``ros2.frames.camera``
+    and ``ros2.frames.lidar`` (else ``camera``/``lidar``).
+
+    Raises:
+        benchbot.core.errors.UsageError: a frame name that is empty or not a string, or two names the same.
+    """
+    from benchbot.core.errors import UsageError
+
+    ros2 = ros_robot.get("ros2") or {}
+    frames = ros2.get("frames") or {}
+    out = {"map": ros_robot.get("global_frame", "map"),
+           "robot": frames.get("robot", ros2.get("base_frame", "base_link")),
+           "camera": frames.get("camera", "camera"), "lidar": frames.get("lidar", "lidar")}
+    for key, name in out.items():
+        if not isinstance(name, str) or not name.strip("/"):
+            raise UsageError(f"robot '{ros_robot.get('name')}': frame {key} is {name!r}", "give TF frame names")
+        out[key] = name.strip("/")
+    if len(set(out.values()) | {ODOM_FRAME}) != 5:
+        raise UsageError(f"robot '{ros_robot.get('name')}': frames {out} are not distinct (nor from '{ODOM_FRAME}')",
+                         "give each frame its own name")
+    return out
 
 
 def _set_pose(sim: Any, pose: np.ndarray) -> None:
@@ -64,6 +107,11 @@ class SimBridge:
         camera_hz, laser_hz: publication rates (simulated time); odometry and TF go out every tick (20 Hz).
         transport: ``auto``/``cyclonedds``/``rclpy``. network: ``loopback``/``system``.
         seed: scene seed.
+        ros_robot: the ROS robot definition served (a robot name, or a spec dict): its frame names are used
+            (:func:`ros_frames`).
+
+    Attributes:
+        frames: ``{'map', 'robot', 'camera', 'lidar'}`` → TF frame name. clock_ns: the simulated time (int ns).
 
     Raises:
         benchbot.core.errors.BenchbotError: unknown environment/robot, or the transport/simulator cannot start.
@@ -71,7 +119,8 @@ class SimBridge:
 
     def __init__(self, env: str, *, robot: str = "carter", domain_id: int = 0, width: int | None = None,
                  height: int | None = None, arch: str = "cpu", time_scale: float = 1.0, camera_hz: float = 10.0,
-                 laser_hz: float = 10.0, transport: str = "auto", network: str = "loopback", seed: int = 0) -> None:
+                 laser_hz: float = 10.0, transport: str = "auto", network: str = "loopback", seed: int = 0,
+                 ros_robot: str | dict = "carter_ros2") -> None:
         from benchbot.core.registry import get_registry
         from benchbot_sim_taichi.backend import create_backend
 
@@ -79,6 +128,8 @@ class SimBridge:
 
         self.registry = get_registry()
         self.robot_spec = self.registry.get("robots", robot)
+        self.frames = ros_frames(ros_robot if isinstance(ros_robot, dict) else self.registry.get("robots", ros_robot))
+        self.clock_ns = time.time_ns() // 1_000_000 * 1_000_000  # simulated time starts at the wall clock (ms)
         options: dict[str, Any] = {"arch": arch, "seed": seed}
         if width and height:
             options.update(width=int(width), height=int(height))
@@ -88,9 +139,10 @@ class SimBridge:
         self.laser_period = 1.0 / float(laser_hz)
         self.seed = seed
         self.env_string = env
-        self.tr = make_transport(transport, domain_id, network)
+        self.tr = make_transport(transport, domain_id, network, NODE_NAME)
         p = self.tr.publisher
         self.pub = {
+            "clock": p("/clock", "rosgraph_msgs/msg/Clock"),
             "rgb": p("/camera/color/image_raw", "sensor_msgs/msg/Image"),
             "rgb_info": p("/camera/color/camera_info", "sensor_msgs/msg/CameraInfo"),
             "depth": p("/camera/depth/image_raw", "sensor_msgs/msg/Image"),
@@ -102,6 +154,7 @@ class SimBridge:
             "reset_done": p("/benchbot/reset_done", "std_msgs/msg/String"),
         }
         self._cmd = (0.0, 0.0, -math.inf)  # v, w, wall receipt time
+        self._twist = (0.0, 0.0)  # the motion made in the last tick: v m/s, w rad/s
         self._resets: queue.Queue = queue.Queue()
         self.tr.subscribe("/cmd_vel", "geometry_msgs/msg/Twist", self._on_cmd, reliable=True)
         self.tr.subscribe("/benchbot/reset", "std_msgs/msg/String", self._on_reset, reliable=True)
@@ -131,6 +184,7 @@ class SimBridge:
         self.env_string = env
         self.start = self.sim.base_pose()
         self._cmd = (0.0, 0.0, -math.inf)
+        self._twist = (0.0, 0.0)
         self._last_camera = self._last_laser = -math.inf
         self._publish_static()
 
@@ -151,8 +205,11 @@ class SimBridge:
         self.pub["reset_done"].publish(msg)
 
     def _step(self) -> None:
+        """Integrate the newest fresh command for one tick; :attr:`_twist` becomes the motion made (exact unicycle
+        integration: the command, or zero when the step is refused)."""
         from benchbot_sim_taichi.kinematics import integrate_unicycle
 
+        self._twist = (0.0, 0.0)
         v, w, t = self._cmd
         if time.monotonic() - t > CMD_TIMEOUT_S:
             v = w = 0.0
@@ -164,66 +221,75 @@ class SimBridge:
             self.blocked_steps += 1
             return
         _set_pose(self.sim, nxt)
+        self._twist = (v, w)
 
     # ------------------------------------------------------------------------------------------ publishing
-    def _tf(self, parent: str, child: str, T: np.ndarray, t_s: float) -> Any:
+    def _tf(self, parent: str, child: str, T: np.ndarray, t_ns: int) -> Any:
         from benchbot_robot_ros2.convert import fill_transform, set_stamp
 
         ts = self.tr.message("geometry_msgs/msg/TransformStamped")
-        set_stamp(ts.header.stamp, t_s)
+        set_stamp(ts.header.stamp, t_ns=t_ns)
         ts.header.frame_id, ts.child_frame_id = parent, child
         fill_transform(ts.transform, T)
         return ts
 
     def _publish_static(self) -> None:
-        now = time.time()
+        f = self.frames
         msg = self.tr.message("tf2_msgs/msg/TFMessage")
-        msg.transforms = [self._tf("base_link", "camera", self.sim.T_robot_camera, now),
-                          self._tf("base_link", "lidar", self.sim.T_robot_lidar, now)]
+        msg.transforms = [self._tf(f["robot"], f["camera"], self.sim.T_robot_camera, self.clock_ns),
+                          self._tf(f["robot"], f["lidar"], self.sim.T_robot_lidar, self.clock_ns)]
         self.pub["tf_static"].publish(msg)
 
-    def _publish_odom(self, now: float) -> None:
+    def _publish_clock(self) -> None:
+        from benchbot_robot_ros2.convert import set_stamp
+
+        msg = self.tr.message("rosgraph_msgs/msg/Clock")
+        set_stamp(msg.clock, t_ns=self.clock_ns)
+        self.pub["clock"].publish(msg)
+
+    def _publish_odom(self) -> None:
         from benchbot.core.geometry import se2_to_matrix
 
         from benchbot_robot_ros2.convert import fill_pose, set_stamp
 
+        f, now = self.frames, self.clock_ns
         T_map_odom = se2_to_matrix(*self.start)
         T_map_base = se2_to_matrix(*self.sim.base_pose())
         T_odom_base = np.linalg.inv(T_map_odom) @ T_map_base
         odom = self.tr.message("nav_msgs/msg/Odometry")
-        set_stamp(odom.header.stamp, now)
-        odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
+        set_stamp(odom.header.stamp, t_ns=now)
+        odom.header.frame_id, odom.child_frame_id = ODOM_FRAME, f["robot"]
         fill_pose(odom.pose.pose, T_odom_base)
-        v, w, t = self._cmd
-        if time.monotonic() - t <= CMD_TIMEOUT_S:
-            odom.twist.twist.linear.x, odom.twist.twist.angular.z = float(v), float(w)
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = (float(v) for v in self._twist)
         self.pub["odom"].publish(odom)
         tf = self.tr.message("tf2_msgs/msg/TFMessage")
-        tf.transforms = [self._tf("map", "odom", T_map_odom, now), self._tf("odom", "base_link", T_odom_base, now)]
+        tf.transforms = [self._tf(f["map"], ODOM_FRAME, T_map_odom, now),
+                         self._tf(ODOM_FRAME, f["robot"], T_odom_base, now)]
         self.pub["tf"].publish(tf)
 
-    def _publish_laser(self, now: float) -> None:
-        from benchbot_robot_ros2.convert import fill_laser
+    def _publish_laser(self) -> None:
+        from benchbot_robot_ros2.convert import fill_laser, ros_ranges, wrap_angles
 
         scan = self.sim.observe(["laser"])["laser"]
         sim = self.sim
         inc = float(sim.laser_angles[1] - sim.laser_angles[0]) if len(sim.laser_angles) > 1 else 0.0
-        msg = fill_laser(self.tr.message("sensor_msgs/msg/LaserScan"), scan["scans"][:, 0], float(sim.laser_angles[0]),
-                         inc, scan["range_min"], scan["range_max"], "lidar", now)
+        msg = fill_laser(self.tr.message("sensor_msgs/msg/LaserScan"),
+                         ros_ranges(scan["scans"][:, 0], scan["range_max"]), float(wrap_angles(sim.laser_angles[0])),
+                         inc, scan["range_min"], scan["range_max"], self.frames["lidar"], 0.0, t_ns=self.clock_ns)
         self.pub["scan"].publish(msg)
 
-    def _publish_camera(self, now: float) -> None:
-        from benchbot_robot_ros2.convert import fill_camera_info, fill_image
+    def _publish_camera(self) -> None:
+        from benchbot_robot_ros2.convert import fill_camera_info, fill_image, ros_depth
 
         obs = self.sim.observe(["image_rgb", "image_depth"])
-        K, w, h = self.sim.K, self.sim.width, self.sim.height
+        K, w, h, cam, now = self.sim.K, self.sim.width, self.sim.height, self.frames["camera"], self.clock_ns
         self.pub["rgb"].publish(fill_image(self.tr.message("sensor_msgs/msg/Image"), obs["image_rgb"], "rgb8",
-                                           "camera", now))
-        self.pub["depth"].publish(fill_image(self.tr.message("sensor_msgs/msg/Image"), obs["image_depth"], "32FC1",
-                                             "camera", now))
+                                           cam, 0.0, t_ns=now))
+        self.pub["depth"].publish(fill_image(self.tr.message("sensor_msgs/msg/Image"), ros_depth(obs["image_depth"]),
+                                             "32FC1", cam, 0.0, t_ns=now))
         for key in ("rgb_info", "depth_info"):
-            self.pub[key].publish(fill_camera_info(self.tr.message("sensor_msgs/msg/CameraInfo"), K, w, h, "camera",
-                                                   now))
+            self.pub[key].publish(fill_camera_info(self.tr.message("sensor_msgs/msg/CameraInfo"), K, w, h, cam, 0.0,
+                                                   t_ns=now))
 
     def run(self, duration_s: float | None = None) -> None:
         """Serve until :attr:`stop_event` is set (or ``duration_s`` wall seconds pass). Call from the thread that
@@ -238,13 +304,14 @@ class SimBridge:
                 self._handle_reset(self._resets.get_nowait())
             self._step()
             self.sim_time += TICK_S
-            now = time.time()
-            self._publish_odom(now)
+            self.clock_ns += TICK_NS
+            self._publish_clock()
+            self._publish_odom()
             if self.sim_time - self._last_laser >= self.laser_period - 1e-9:
-                self._publish_laser(now)
+                self._publish_laser()
                 self._last_laser = self.sim_time
             if self.sim_time - self._last_camera >= self.camera_period - 1e-9:
-                self._publish_camera(now)
+                self._publish_camera()
                 self._last_camera = self.sim_time
             tick += 1
             if tick % static_every == 0:

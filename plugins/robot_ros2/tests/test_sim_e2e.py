@@ -52,6 +52,11 @@ def test_carter_ros2_observations_match_carter(sim_bridge, monkeypatch):
             np.testing.assert_allclose(o_ros["image_rgb_info"]["matrix_intrinsics"],
                                        o_sim["image_rgb_info"]["matrix_intrinsics"])
             assert np.mean(np.abs(o_ros["image_depth"] - o_sim["image_depth"]) < 0.1) > 0.9
+            # the same beam angles, from -π (a float32 -π on the wire must not become +π)
+            np.testing.assert_allclose(o_ros["laser"]["scans"][:, 1], o_sim["laser"]["scans"][:, 1], atol=1e-6)
+            assert o_ros["laser"]["range_max"] == o_sim["laser"]["range_max"]
+            assert np.all(o_ros["laser"]["scans"][:, 0] <= o_ros["laser"]["range_max"])  # REP 117's +Inf: range_max
+            assert np.isfinite(o_ros["image_depth"]).all()  # REP 118's NaN: the API's 0.0
         ros.reset()
         assert np.allclose(ros.backend.base_pose(), sim.start_se2, atol=1e-6)
         assert not ros.dirty and ros.scene_index == 0
