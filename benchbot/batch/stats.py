@@ -1,0 +1,320 @@
+"""The statistics of ``benchbot report``: intervals, paired tests, effect sizes, corrections and sim-vs-real
+predictivity, each refused (with the reason) below a stated minimum sample size (docs/report.md, "Statistics").
+
+Every interval and test comes from SciPy (``scipy.stats.bootstrap``, ``ttest_rel``, ``wilcoxon``, ``pearsonr``,
+``spearmanr``); what SciPy does not provide is written out here from its published definition: the Holm–Bonferroni
+adjustment (Holm 1979), the matched-pairs rank-biserial correlation (Kerby 2014), the Bonett–Wright interval of
+Spearman's ρ (Bonett & Wright 2000) and the mean maximum rank violation (Li et al. 2024). Resampling is seeded
+(:data:`SEED`), so a report is the same every time it is made.
+
+Every function returns plain floats (or None with a ``reason``), never NumPy scalars.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import asdict, dataclass
+from typing import Sequence
+
+import numpy as np
+
+CONFIDENCE = 0.95
+"""Confidence level of every interval."""
+
+BOOTSTRAP_RESAMPLES = 10_000
+"""Resamples of every bootstrap interval."""
+
+SEED = 0
+"""Seed of every bootstrap (``numpy.random.default_rng(SEED)``): the same data give the same interval."""
+
+MIN_CI_N = 5
+"""No confidence interval of a mean from fewer values: with n values a bootstrap can only draw C(2n−1, n) distinct
+resamples (n = 2: 3, n = 3: 10, n = 4: 35; n = 5: 126), so the interval is made of a handful of values and covers
+the true mean far less often than it claims."""
+
+MIN_TEST_PAIRS = 6
+"""No paired test from fewer pairs: the smallest two-sided p-value the Wilcoxon signed-rank test can give with n
+pairs is 2/2ⁿ (n = 5: 0.0625), so below 6 pairs it cannot reach 0.05 whatever the data; the t-test with so few
+pairs rests on a normality of the differences that nothing can check."""
+
+MIN_CORRELATION_N = 5
+"""No interval or p-value of a correlation (or of MMRV) from fewer paired units: Fisher's z interval needs n > 3,
+and with 4 units the smallest two-sided permutation p-value of a rank correlation is 2/4! ≈ 0.083."""
+
+MIN_RANK_N = 3
+"""No correlation at all from fewer paired units: with 2 points any correlation is ±1 by construction."""
+
+
+@dataclass
+class Estimate:
+    """A statistic with its interval, or the reason it has none.
+
+    Attributes:
+        n: the number of values (or pairs, or units) it was computed from.
+        value: the point estimate (None when it cannot be computed at all).
+        low, high: the ``CONFIDENCE`` interval, or None (then ``reason`` says why).
+        reason: why there is no interval (or no value), in words; "" when there is one.
+        method: how the interval was made, in words.
+    """
+
+    n: int
+    value: float | None
+    low: float | None = None
+    high: float | None = None
+    reason: str = ""
+    method: str = ""
+
+    def to_json(self) -> dict:
+        """The fields as a dict."""
+        return asdict(self)
+
+
+def _float(x) -> float | None:
+    return None if x is None or not math.isfinite(float(x)) else float(x)
+
+
+def _too_few(n: int, minimum: int, what: str) -> str:
+    return f"n = {n} < {minimum}: no {what}"
+
+
+def _bootstrap(data: tuple, statistic, *, paired: bool = False, method: str = "BCa",
+               vectorized: bool = False) -> tuple[float | None, float | None, str]:
+    """``scipy.stats.bootstrap`` with this module's settings → ``(low, high, reason)``."""
+    from scipy import stats
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # degenerate data: reported as a reason below
+        try:
+            res = stats.bootstrap(data, statistic, n_resamples=BOOTSTRAP_RESAMPLES, confidence_level=CONFIDENCE,
+                                  method=method, paired=paired, vectorized=vectorized,
+                                  rng=np.random.default_rng(SEED))
+        except ValueError as exc:
+            return None, None, f"no interval: {exc}"
+    low, high = _float(res.confidence_interval.low), _float(res.confidence_interval.high)
+    if low is None or high is None:
+        return None, None, "no interval: the resamples do not vary (every value is equal)"
+    return low, high, ""
+
+
+def mean_ci(values: Sequence[float]) -> Estimate:
+    """The mean of ``values`` with its bias-corrected and accelerated (BCa) bootstrap interval
+    (``scipy.stats.bootstrap``, :data:`BOOTSTRAP_RESAMPLES` resamples, seed :data:`SEED`).
+
+    Args:
+        values: ``(n,)`` finite numbers (scores in [0, 1] here).
+
+    Returns:
+        an :class:`Estimate`; no interval when n < :data:`MIN_CI_N` or every value is equal (the reason says which);
+        ``value`` None when there are no values.
+    """
+    x = np.asarray(values, dtype=np.float64)
+    if x.size == 0:
+        return Estimate(0, None, reason="no values")
+    est = Estimate(int(x.size), float(x.mean()), method=f"BCa bootstrap, {BOOTSTRAP_RESAMPLES} resamples")
+    if x.size < MIN_CI_N:
+        est.reason = _too_few(int(x.size), MIN_CI_N, "confidence interval")
+        return est
+    if np.all(x == x[0]):
+        est.low = est.high = float(x[0])
+        est.reason = "every value is equal: the interval is the value itself"
+        return est
+    est.low, est.high, est.reason = _bootstrap((x,), np.mean, vectorized=True)
+    return est
+
+
+def holm(pvalues: Sequence[float | None]) -> list[float | None]:
+    """Holm–Bonferroni adjusted p-values (Holm 1979, "A simple sequentially rejective multiple test procedure"):
+    with the m p-values sorted ascending, the i-th (1-based) becomes ``max over j ≤ i of min(1, (m − j + 1) p_(j))``.
+    Rejecting where the adjusted p < α controls the family-wise error rate at α. ``None`` entries (tests not run)
+    are kept as None and are not counted in m.
+
+    Args:
+        pvalues: one p-value (or None) per comparison of the family.
+
+    Returns:
+        the adjusted p-values, in the input order.
+    """
+    index = [i for i, p in enumerate(pvalues) if p is not None]
+    order = sorted(index, key=lambda i: pvalues[i])
+    m = len(order)
+    out: list[float | None] = [None] * len(pvalues)
+    running = 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (m - rank) * float(pvalues[i])))
+        out[i] = running
+    return out
+
+
+def rank_biserial(differences: Sequence[float]) -> float | None:
+    """The matched-pairs rank-biserial correlation of paired differences (Kerby 2014, "The simple difference
+    formula"): ``(R+ − R−) / (R+ + R−)``, the rank sums (average ranks of |d|) of the positive and the negative
+    differences, zeros dropped as in the Wilcoxon test. In [−1, 1]; None when every difference is 0."""
+    from scipy.stats import rankdata
+
+    d = np.asarray(differences, dtype=np.float64)
+    d = d[d != 0]
+    if d.size == 0:
+        return None
+    ranks = rankdata(np.abs(d))
+    plus, minus = ranks[d > 0].sum(), ranks[d < 0].sum()
+    return float((plus - minus) / (plus + minus))
+
+
+def paired_test(a: Sequence[float], b: Sequence[float]) -> dict:
+    """Compare paired values ``b`` against ``a`` (pair i is ``a[i]``, ``b[i]``: the same environment and seed).
+
+    Returns:
+        ``{n, difference: Estimate (mean of b − a, BCa interval), cohens_dz, rank_biserial, ttest_p, wilcoxon_p,
+        reason}``: ``cohens_dz`` = mean(d) / sd(d) (the standardised mean difference of paired data, Cohen 1988;
+        None when sd = 0), ``ttest_p`` from ``scipy.stats.ttest_rel``, ``wilcoxon_p`` from
+        ``scipy.stats.wilcoxon`` (zeros dropped; exact for small n without ties). Below :data:`MIN_TEST_PAIRS`
+        pairs no test and no interval are made and ``reason`` says why; the mean difference is still given.
+
+    Raises:
+        ValueError: ``a`` and ``b`` differ in length.
+    """
+    from scipy import stats
+
+    xa, xb = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if xa.shape != xb.shape:
+        raise ValueError(f"paired values differ in length: {xa.size} and {xb.size}")
+    d = xb - xa
+    n = int(d.size)
+    out = {"n": n, "difference": Estimate(n, float(d.mean()) if n else None), "cohens_dz": None,
+           "rank_biserial": None, "ttest_p": None, "wilcoxon_p": None, "reason": ""}
+    if n < MIN_TEST_PAIRS:
+        out["reason"] = _too_few(n, MIN_TEST_PAIRS, "paired test")
+        out["difference"].reason = out["reason"]
+        return out
+    out["difference"] = mean_ci(d)
+    sd = float(d.std(ddof=1))
+    out["cohens_dz"] = float(d.mean() / sd) if sd > 0 else None
+    out["rank_biserial"] = rank_biserial(d)
+    if np.all(d == 0):
+        out["ttest_p"] = out["wilcoxon_p"] = 1.0
+        out["reason"] = "every difference is 0"
+        return out
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # exact-distribution notes on ties
+        out["ttest_p"] = _float(stats.ttest_rel(xb, xa).pvalue) if sd > 0 else None
+        out["wilcoxon_p"] = _float(stats.wilcoxon(xb, xa).pvalue)
+    return out
+
+
+def mmrv(sim: Sequence[float], real: Sequence[float]) -> float:
+    """Mean maximum rank violation (Li et al. 2024, "Evaluating Real-World Robot Manipulation Policies in
+    Simulation", SimplerEnv, arXiv:2405.05941), exactly as defined there::
+
+        RV(i, j) = |R_i − R_j| · 1[(S_i > S_j) ≠ (R_i > R_j)]
+        MMRV     = (1/N) Σ_i max_j RV(i, j)
+
+    where S is the performance in the first setting (simulation) and R in the second (the real robot) of N paired
+    units (policies, solutions, environments). Each unit contributes its worst ordering mistake, weighted by how far
+    apart the two units really are; 0 when simulation orders every pair as reality does. The comparisons are
+    strict, so a tie in one setting against an order in the other counts as a violation (for one unit of the pair).
+
+    Args:
+        sim, real: ``(N,)`` performances (same scale in both, e.g. OMQ in [0, 1]).
+
+    Returns:
+        MMRV in the units of ``real`` (0 ≤ MMRV ≤ max(real) − min(real)).
+
+    Raises:
+        ValueError: different lengths, or fewer than 2 units.
+    """
+    s, r = np.asarray(sim, dtype=np.float64), np.asarray(real, dtype=np.float64)
+    if s.shape != r.shape or s.ndim != 1:
+        raise ValueError(f"sim and real must be paired 1-D sequences, got {s.shape} and {r.shape}")
+    if s.size < 2:
+        raise ValueError("MMRV needs at least 2 paired units")
+    violated = (s[:, None] > s[None, :]) != (r[:, None] > r[None, :])
+    rv = np.abs(r[:, None] - r[None, :]) * violated
+    return float(rv.max(axis=1).mean())
+
+
+def _mmrv_statistic(s: np.ndarray, r: np.ndarray) -> float:
+    return mmrv(s, r)
+
+
+def spearman_ci(rho: float, n: int) -> tuple[float | None, float | None]:
+    """The Bonett–Wright interval of Spearman's ρ (Bonett & Wright 2000, "Sample size requirements for estimating
+    Pearson, Kendall and Spearman correlations"): Fisher's z = atanh(ρ) ± z_{α/2} · sqrt((1 + ρ²/2) / (n − 3)),
+    transformed back with tanh. ``(None, None)`` for n ≤ 3 or |ρ| = 1."""
+    from scipy.stats import norm
+
+    if n <= 3 or abs(rho) >= 1:
+        return None, None
+    half = norm.ppf(0.5 + CONFIDENCE / 2) * math.sqrt((1 + rho * rho / 2) / (n - 3))
+    z = math.atanh(rho)
+    return math.tanh(z - half), math.tanh(z + half)
+
+
+def predictivity(sim: Sequence[float], real: Sequence[float]) -> dict:
+    """How well the first setting (simulation) predicts the second (the real robot) over N paired units.
+
+    * ``spearman``: Spearman's rank correlation ρ (``scipy.stats.spearmanr``), Bonett–Wright interval
+      (:func:`spearman_ci`), p-value of ρ = 0 (t approximation).
+    * ``pearson``: Pearson's r (``scipy.stats.pearsonr``), Fisher z interval, p-value of r = 0. Pearson's r over
+      paired sim and real performances is the "Sim-vs-Real Correlation Coefficient" (SRCC) of Kadian et al. 2020,
+      "Sim2Real Predictivity: Does Evaluation in Simulation Predict Real-World Performance?" (IEEE RA-L 5(4),
+      arXiv:1912.06321).
+    * ``mmrv``: :func:`mmrv`, with a percentile bootstrap interval over the units (``scipy.stats.bootstrap``,
+      paired resampling).
+
+    No correlation below :data:`MIN_RANK_N` units, no interval or p-value below :data:`MIN_CORRELATION_N`; a
+    setting whose values are all equal has no correlation (its ``reason`` says so).
+
+    Args:
+        sim, real: ``(N,)`` paired performances.
+
+    Returns:
+        ``{n, spearman: Estimate + p, pearson: Estimate + p, mmrv: Estimate}`` as dicts (``p`` None where refused).
+
+    Raises:
+        ValueError: ``sim`` and ``real`` differ in length.
+    """
+    from scipy import stats
+
+    s, r = np.asarray(sim, dtype=np.float64), np.asarray(real, dtype=np.float64)
+    if s.shape != r.shape:
+        raise ValueError(f"sim and real differ in length: {s.size} and {r.size}")
+    n = int(s.size)
+    out: dict = {"n": n}
+    for key in ("spearman", "pearson"):
+        est = {**Estimate(n, None).to_json(), "p": None}
+        if n < MIN_RANK_N:
+            est["reason"] = _too_few(n, MIN_RANK_N, "correlation")
+        elif np.all(s == s[0]) or np.all(r == r[0]):
+            est["reason"] = "one setting gives every unit the same value: no correlation"
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = stats.spearmanr(s, r) if key == "spearman" else stats.pearsonr(s, r)
+            est["value"] = _float(res.statistic)
+            if n < MIN_CORRELATION_N:
+                est["reason"] = _too_few(n, MIN_CORRELATION_N, "interval or p-value")
+            else:
+                est["p"] = _float(res.pvalue)
+                if key == "spearman":
+                    est["low"], est["high"] = spearman_ci(est["value"], n)
+                    est["method"] = "Bonett–Wright (Fisher z) interval"
+                else:
+                    ci = res.confidence_interval(confidence_level=CONFIDENCE)
+                    est["low"], est["high"] = _float(ci.low), _float(ci.high)
+                    est["method"] = "Fisher z interval"
+                if est["low"] is None:
+                    est["reason"] = "no interval for a perfect correlation (|value| = 1)"
+        out[key] = est
+    m = Estimate(n, None)
+    if n < 2:
+        m.reason = _too_few(n, 2, "rank violation")
+    else:
+        m.value = mmrv(s, r)
+        if n < MIN_CORRELATION_N:
+            m.reason = _too_few(n, MIN_CORRELATION_N, "interval")
+        else:
+            m.method = f"percentile bootstrap over units, {BOOTSTRAP_RESAMPLES} resamples"
+            m.low, m.high, m.reason = _bootstrap((s, r), _mmrv_statistic, paired=True, method="percentile")
+    out["mmrv"] = m.to_json()
+    return out
