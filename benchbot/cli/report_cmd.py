@@ -1,4 +1,4 @@
-"""``benchbot report``: the performance profile of one batch run, or two side by side."""
+"""``benchbot report``: the performance profile of batch runs, compared with the first (docs/report.md)."""
 
 from __future__ import annotations
 
@@ -9,48 +9,67 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from benchbot.batch.report import bootstrap_ci, compare, group, load_run, render_html, summary
-from benchbot.cli.common import err, handle_errors, out, writing
-from benchbot.core import atomic
-from benchbot.core.errors import UsageError
+from benchbot.batch import stats
+from benchbot.batch.figures import fmt
+from benchbot.batch.report import analyse, assets_dir, assign_labels, load_run, write_report
+from benchbot.cli.common import err, handle_errors, out, registry
+
+
+def _interval(e: dict) -> str:
+    """``[low, high]`` of an estimate dict, or why it has none."""
+    if e.get("low") is not None and e.get("high") is not None:
+        return f"[{fmt(e['low'])}, {fmt(e['high'])}]"
+    return e.get("reason") or "–"
+
+
+def _print_report(result: dict) -> None:
+    for r in result["runs"]:
+        table = Table("environment", "n", "mean OMQ", f"{int(stats.CONFIDENCE * 100)} % CI",
+                      title=f"{r['label']} ({r['run_dir']})", title_justify="left")
+        for env, e in r["environments"].items():
+            table.add_row(env, str(e["n"]), fmt(e["value"]), _interval(e))
+        for score, e in r["summary"].items():
+            table.add_row(f"[bold]all: {score}[/]", str(e["n"]), fmt(e["value"]), _interval(e))
+        out.print(table)
+        if r["objects_note"]:
+            err.print(f"note: {r['label']}: {r['objects_note']}", highlight=False)
+    for c in result["comparisons"]:
+        d = c["difference"]
+        line = (f"{c['b']} − {c['a']} ({c['score']}, {c['n']} pairs by {c['pairing']}): mean difference "
+                f"{fmt(d['value'])}")
+        if c["reason"]:
+            line += f"; {c['reason']}"
+        else:
+            line += (f" {_interval(d)}, Cohen's d_z = {fmt(c['cohens_dz'])}; paired t-test p = {fmt(c['ttest_p'])} "
+                     f"(Holm {fmt(c['ttest_p_holm'])}), Wilcoxon p = {fmt(c['wilcoxon_p'])} (Holm "
+                     f"{fmt(c['wilcoxon_p_holm'])}), rank-biserial r = {fmt(c['rank_biserial'])}")
+        out.print(line, highlight=False, markup=False)
 
 
 def register(app: typer.Typer) -> None:
     @app.command("report")
     @handle_errors
     def report(
-        runs: list[Path] = typer.Argument(..., help="One run directory, or two to compare (A then B)."),
-        output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write an HTML report with plots here."),
-        as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON on stdout."),
+        runs: list[Path] = typer.Argument(..., help="Run directories; the first is the baseline the others are "
+                                                    "compared with."),
+        output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the HTML report here, with its "
+                                              "figures (PNG, SVG, PDF) and tables (CSV, LaTeX) in <stem>_files/."),
+        as_json: bool = typer.Option(False, "--json", help="Print the analysis as JSON on stdout."),
+        label: Optional[list[str]] = typer.Option(None, "--label", help="A name for each run, in order (repeat "
+                                                  "the flag); default: the solution's name."),
     ) -> None:
-        """Summarise batch runs: per-environment tables, summary scores with 95% bootstrap confidence intervals,
-        and (with -o) an HTML page with plots per environment, lighting variant, robot and repetition. Two runs are
-        compared on their shared environments with a paired t-test and a Wilcoxon signed-rank test."""
-        if len(runs) > 2:
-            raise UsageError("give one run directory, or two to compare", "")
+        """Summarise batch runs: scores per environment and overall with 95 % bootstrap intervals (none below
+        5 episodes), runs compared with the first on episodes paired by environment and seed (tests from 6 pairs,
+        effect sizes, Holm-corrected), per-class results and, with -o, an HTML page with top-down maps of what was
+        mapped, figures as PNG/SVG/PDF and tables as CSV/LaTeX."""
         data = [load_run(r.resolve()) for r in runs]
-        result = {
-            "runs": [{"run_dir": str(d.run_dir), "summary": {k: dict(zip(("mean", "ci_low", "ci_high"), v)) for k, v in summary(d).items()},
-                      "environments": {e: dict(zip(("mean", "ci_low", "ci_high"), bootstrap_ci(v))) for e, v in group(d.rows, "env").items()}}
-                     for d in data],
-            "comparison": compare(*data) if len(data) == 2 else None,
-        }
+        assign_labels(data, label)
+        reg = registry()
+        result = analyse(data, reg)
         if as_json:
             out.print_json(json.dumps(result))
         else:
-            for d, r in zip(data, result["runs"]):
-                table = Table("environment", "mean OMQ", "95% CI", title=d.name)
-                for env, s in r["environments"].items():
-                    table.add_row(env, f"{s['mean']:.4f}", f"[{s['ci_low']:.4f}, {s['ci_high']:.4f}]")
-                for score, s in r["summary"].items():
-                    table.add_row(f"[bold]all: {score}[/]", f"{s['mean']:.4f}", f"[{s['ci_low']:.4f}, {s['ci_high']:.4f}]")
-                out.print(table)
-            if result["comparison"]:
-                c = result["comparison"]
-                out.print(f"B − A on {len(c['environments'])} shared environments: {c['mean_difference']}; "
-                          f"paired t-test p = {c['ttest_p']}, Wilcoxon p = {c['wilcoxon_p']}", highlight=False)
+            _print_report(result)
         if output is not None:
-            html = render_html(data)
-            with writing(output, "--output"):
-                atomic.write_text(output, html)
-            err.print(f"report written to {output}")
+            write_report(data, output, reg, result)
+            err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")

@@ -11,6 +11,15 @@ from typing import Any
 
 def write_text(path: Path | str, text: str) -> None:
     """Write ``text`` to ``path`` atomically (readers see the old file or the new one, never a half)."""
+    _write(path, text, "w")
+
+
+def write_bytes(path: Path | str, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (an image, a PDF): the binary twin of :func:`write_text`."""
+    _write(path, data, "wb")
+
+
+def _write(path: Path | str, data: str | bytes, mode: str) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -18,8 +27,8 @@ def write_text(path: Path | str, text: str) -> None:
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
     try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
+        with os.fdopen(fd, mode) as f:
+            f.write(data)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
