@@ -1,4 +1,5 @@
-"""``benchbot report``: the performance profile of batch runs, compared with the first (docs/report.md)."""
+"""``benchbot report``: the performance profile of batch runs, compared with the first; or, with
+``--predictivity``, how well one setting's runs predict another's (docs/report.md)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,12 @@ from typing import Optional
 import typer
 from rich.table import Table
 
+from benchbot.batch import predictivity as pred
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
 from benchbot.batch.report import analyse, assets_dir, assign_labels, load_run, write_report
 from benchbot.cli.common import err, handle_errors, out, registry
+from benchbot.core.errors import UsageError
 
 
 def _interval(e: dict) -> str:
@@ -46,23 +49,68 @@ def _print_report(result: dict) -> None:
         out.print(line, highlight=False, markup=False)
 
 
+def _print_predictivity(result: dict) -> None:
+    sim_name, real_name = result["settings"]
+    table = Table(result["across"][:-1] if result["across"].endswith("s") else result["across"], sim_name, real_name,
+                  title=f"{result['score']} per paired {result['across'][:-1]}", title_justify="left")
+    for u, s, r in zip(result["units"], result["sim"], result["real"]):
+        table.add_row(u, fmt(s), fmt(r))
+    out.print(table)
+    st = result["statistics"]
+    for key, name in (("spearman", "Spearman ρ"), ("pearson", "Pearson r (SRCC)"), ("mmrv", "MMRV")):
+        e = st[key]
+        p = f", p = {fmt(e['p'])}" if e.get("p") is not None else ""
+        out.print(f"{name} = {fmt(e['value'])} {_interval(e)}{p} (n = {st['n']})", highlight=False, markup=False)
+    for note in result["notes"]:
+        err.print(f"note: {note}", highlight=False)
+
+
 def register(app: typer.Typer) -> None:
     @app.command("report")
     @handle_errors
     def report(
         runs: list[Path] = typer.Argument(..., help="Run directories; the first is the baseline the others are "
-                                                    "compared with."),
+                                                    "compared with. With --predictivity: the first setting's runs, "
+                                                    "then the second's, in the same order."),
         output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the HTML report here, with its "
                                               "figures (PNG, SVG, PDF) and tables (CSV, LaTeX) in <stem>_files/."),
         as_json: bool = typer.Option(False, "--json", help="Print the analysis as JSON on stdout."),
         label: Optional[list[str]] = typer.Option(None, "--label", help="A name for each run, in order (repeat "
-                                                  "the flag); default: the solution's name."),
+                                                  "the flag); default: the solution's name. With --predictivity: "
+                                                  "one per pair, or one per run."),
+        predictivity: bool = typer.Option(False, "--predictivity", help="How well the first half of the runs (e.g. "
+                                          "simulation) predicts the second half (e.g. the real robot): Spearman ρ, "
+                                          "Pearson r (SRCC), MMRV."),
+        across: str = typer.Option("auto", "--across", help="With --predictivity, the paired units: solutions (one "
+                                   "per pair of runs), environments, or auto (solutions from 2 pairs on)."),
+        settings: str = typer.Option("sim,real", "--settings", help="With --predictivity, the two settings' names."),
     ) -> None:
         """Summarise batch runs: scores per environment and overall with 95 % bootstrap intervals (none below
         5 episodes), runs compared with the first on episodes paired by environment and seed (tests from 6 pairs,
         effect sizes, Holm-corrected), per-class results and, with -o, an HTML page with top-down maps of what was
-        mapped, figures as PNG/SVG/PDF and tables as CSV/LaTeX."""
+        mapped, figures as PNG/SVG/PDF and tables as CSV/LaTeX. --predictivity measures how well one setting's
+        runs predict another's."""
         data = [load_run(r.resolve()) for r in runs]
+        if predictivity:
+            names = tuple(n.strip() for n in settings.split(","))
+            if len(names) != 2 or not all(names):
+                raise UsageError(f"--settings: '{settings}' is not two names separated by a comma", "e.g. --settings sim,real")
+            sim, real = pred.split_halves(data)
+            labels = list(label or [])
+            if labels and len(labels) not in (len(sim), len(data)):
+                raise UsageError(f"--label: {len(labels)} labels for {len(sim)} pairs of run directories",
+                                 "give one --label per pair (the solution), or one per run directory")
+            assign_labels(sim, labels[: len(sim)] or None)
+            assign_labels(real, (labels[len(sim):] or labels) or None)
+            result = pred.analyse(sim, real, across, names)
+            if as_json:
+                out.print_json(json.dumps(result))
+            else:
+                _print_predictivity(result)
+            if output is not None:
+                pred.write_report(sim, real, output, result)
+                err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")
+            return
         assign_labels(data, label)
         reg = registry()
         result = analyse(data, reg)
