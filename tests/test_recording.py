@@ -110,11 +110,14 @@ def test_recording_has_ros2_messages_and_metadata(recorded):
     assert decoded["/camera/depth/image_raw"].encoding == "32FC1"
     assert decoded["/camera/color/image_raw"].encoding == "rgb8"
     assert (decoded["/camera/color/image_raw"].height, decoded["/camera/color/image_raw"].width) == (48, 64)
-    assert {t.child_frame_id for t in decoded["/tf"].transforms} == {"robot", "camera", "lidar"}
+    assert {t.child_frame_id for t in decoded["/tf"].transforms} == {"robot"}
+    assert {(t.header.frame_id, t.child_frame_id) for t in decoded["/tf_static"].transforms} == \
+        {("robot", "camera"), ("robot", "lidar")}
+    assert counts["/tf_static"] == 1  # the sensors are fixed on the robot
     rec = Recording(path)
     assert rec.run["task"]["name"] == TASK and len(rec.steps) == 33
     times = [s["time_ns"] for s in rec.steps]
-    assert times == sorted(times) and times[0] > 0
+    assert times == sorted(times) and times[0] > rec.start_ns > 0
 
 
 def test_replay_gives_identical_observations_and_the_same_omq(recorded):

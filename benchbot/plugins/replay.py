@@ -3,7 +3,10 @@
 :class:`ReplayBackend` serves the recorded observations instead of simulating: ``load_scene`` goes to the first
 recorded frame of that scene, every ``move_to`` advances to the next recorded step (whatever the goal: the
 recording decides where the robot goes), ``observe`` decodes the recorded ROS 2 messages back into the reference
-structures (docs/observations.md) and ``frame_transforms`` comes from the recorded ``/tf``. It plugs into the same
+structures (docs/observations.md: REP 118's NaN depth back to 0.0, REP 117's +Inf ranges back to ``range_max``)
+and ``frame_transforms`` comes from the recorded ``/tf`` and ``/tf_static`` (frame names as
+:func:`~benchbot.plugins.recorder.tf_frames`; recordings made before ``/tf_static`` and those names have every
+frame on ``/tf`` under its BenchBot name, and replay as well). It plugs into the same
 :class:`~benchbot.core.episode.Episode` / :class:`~benchbot.core.server.BackendService` / ``ServerThread``
 machinery as a simulator (:func:`start_replay_service`), so a solution of a *passive* task can be re-run and
 re-scored without a simulator. Precision: images, depth, camera matrices are exact; laser ranges are float32
@@ -23,7 +26,7 @@ import numpy as np
 from benchbot.core.errors import BackendError, BenchbotError, ExitCode
 from benchbot.core.geometry import quaternion_wxyz_to_matrix
 from benchbot.core.robot import MotionOutcome, RobotBackend
-from benchbot.plugins.recorder import TOPICS
+from benchbot.plugins.recorder import TF_STATIC, TOPICS, tf_frames
 
 
 class RecordingError(BenchbotError):
@@ -58,6 +61,7 @@ class Recording:
     Attributes:
         run: the ``benchbot.run`` metadata (``task``, ``robot``, ``environments``, ``results_format``, ``seed``,
             ``options``, ``env_string``). steps: the ``benchbot.steps`` metadata. frames: ``benchbot.frames``.
+        start_ns: the time of the start (``benchbot.clock``; 0 in recordings made before it).
         messages: ``{topic: [(log_time_ns, decoded message)]}`` in time order.
 
     Raises:
@@ -88,7 +92,9 @@ class Recording:
             self.run = json.loads(meta["benchbot.run"]["json"])
             self.steps = json.loads(meta["benchbot.steps"]["json"])
             self.frames = json.loads(meta["benchbot.frames"]["json"])
-        except (KeyError, json.JSONDecodeError):
+            clock = json.loads(meta["benchbot.clock"]["json"]) if "benchbot.clock" in meta else {}
+            self.start_ns = int(clock.get("start_ns", 0)) if isinstance(clock, dict) else 0
+        except (KeyError, json.JSONDecodeError, TypeError, ValueError):
             raise RecordingError(f"{self.path}: no BenchBot metadata (benchbot.run/steps/frames)",
                                  "only files written by `--record` can be replayed") from None
         run_ok = isinstance(self.run, dict) and all(k in self.run for k in ("task", "robot", "environments"))
@@ -129,7 +135,7 @@ class ReplayBackend(RobotBackend):
 
     def _time(self) -> int:
         if self.moves == 0:
-            return 0
+            return self.recording.start_ns
         if self.moves > len(self.recording.steps):
             raise BackendError(
                 f"the recording has {len(self.recording.steps)} steps; step {self.moves} was not recorded",
@@ -149,20 +155,32 @@ class ReplayBackend(RobotBackend):
         self.loaded = True
 
     def _robot_transform(self) -> dict[str, np.ndarray]:
-        tf = self.recording.latest(TOPICS["tf"][0], self._time())
+        t = self._time()
+        tf = self.recording.latest(TOPICS["tf"][0], t)
         if tf is None:
             raise BackendError("the recording has no /tf before this step", "was it written by --record?")
-        robot = self.robot_spec.get("robot_frame", "robot")
-        by_child = {t.child_frame_id: _transform(t) for t in tf.transforms}
-        if robot not in by_child:
-            raise BackendError(f"the recorded /tf has no '{robot}' frame", "was it written by --record?")
-        T_map_robot = by_child[robot]
+        static = self.recording.latest(TF_STATIC[0], t)
+        by_child = {s.child_frame_id: _transform(s) for s in (static.transforms if static is not None else [])}
+        by_child.update({s.child_frame_id: _transform(s) for s in tf.transforms})
+        names = tf_frames(self.robot_spec)
+        robot_frame = self.robot_spec.get("robot_frame", "robot")
+
+        def edge(name: str, *fallbacks: str) -> np.ndarray | None:
+            for child in (names[name], *fallbacks):
+                if child in by_child:
+                    return by_child[child]
+            return None
+
+        T_map_robot = edge("robot", robot_frame)
+        if T_map_robot is None:
+            raise BackendError(f"the recorded /tf has no '{names['robot']}' frame", "was it written by --record?")
         out = {"robot": T_map_robot}
         for name in ("camera", "lidar"):
-            if name in by_child:
-                out[name] = T_map_robot @ by_child[name]
-        if robot not in out:
-            out[robot] = T_map_robot.copy()
+            T_robot_sensor = edge(name, name)
+            if T_robot_sensor is not None:
+                out[name] = T_map_robot @ T_robot_sensor
+        if robot_frame not in out:
+            out[robot_frame] = T_map_robot.copy()
         return out
 
     def base_pose(self) -> np.ndarray:
@@ -207,16 +225,21 @@ class ReplayBackend(RobotBackend):
         for name in names:
             if frame is None or name not in frame["names"]:
                 raise KeyError(name)
-            if name in ("image_rgb", "image_depth"):
+            if name == "image_rgb":
                 out[name] = _encoding_array(self._message(name, t))
+            elif name == "image_depth":  # REP 118: NaN (no hit) is the API's 0.0
+                depth = _encoding_array(self._message(name, t))
+                out[name] = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(0.0)).astype(np.float32)
             elif name in ("image_rgb_info", "image_depth_info"):
                 msg = self._message(name, t)
-                out[name] = {"frame_id": msg.header.frame_id, "height": int(msg.height), "width": int(msg.width),
+                frame_id = (frame.get("info_frame_ids") or {}).get(name, msg.header.frame_id)
+                out[name] = {"frame_id": frame_id, "height": int(msg.height), "width": int(msg.width),
                              "matrix_intrinsics": np.asarray(msg.k, dtype=np.float64).reshape(3, 3),
                              "matrix_projection": np.asarray(msg.p, dtype=np.float64).reshape(3, 4)}
             elif name == "laser":
                 msg = self._message("laser", t)
                 ranges = np.asarray(msg.ranges, dtype=np.float32).astype(np.float64)
+                ranges[~(ranges <= msg.range_max)] = float(msg.range_max)  # REP 117: +Inf (no return) is range_max
                 angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges), dtype=np.float64)
                 angles = (angles + math.pi) % (2.0 * math.pi) - math.pi
                 angles[angles >= math.pi - 1e-6] -= 2.0 * math.pi  # float32 rounding of −π must not wrap to +π

@@ -251,3 +251,56 @@ def test_the_bridge_is_a_ros_node(bridge):
     writers = {bytes(g.data) for g in entry.node_entities_info_seq[0].writer_gid_seq}
     assert {p["gid"] for t, p in topics.items() if t != "ros_discovery_info"} == writers
     assert all(p["user_data"].startswith(b"typehash=RIHS01_") for p in topics.values())
+
+
+def test_recording_from_a_ros2_robot_names_its_frames(bridge, monkeypatch, tmp_path):
+    """An episode of the renamed robot recorded through ROS 2: the images, camera infos and scans carry the robot's
+    TF frames, which /tf (map → base) and /tf_static (base → sensors) name; the scan starts at -π; the recording
+    replays with the robot's own camera frame id."""
+    import dataclasses
+
+    from rosbags.rosbag2 import Reader
+
+    from benchbot.api.benchbot import BenchBot
+    from benchbot.core.session import resolve_run, start_service
+    from benchbot.plugins.recorder import attach_recorder, detach_recorder
+    from benchbot.plugins.replay import start_replay_service
+    from ros2_independent import TYPESTORE
+
+    monkeypatch.setenv("BENCHBOT_ROS2_TIME_SCALE", str(TIME_SCALE))
+    reg = get_registry()
+    run = dataclasses.replace(resolve_run(reg, "semantic_slam:passive:ground_truth", "carter_ros2", "miniroom:4"),
+                              robot=_spec())
+    options = {"ros2_domain_id": bridge}
+    path = tmp_path / "ros2.mcap"
+    service = start_service(reg, run, seed=0, options=options)
+    try:
+        recorder = attach_recorder(reg, service, run, path, seed=0, options=options)
+        bot = BenchBot(backend=service)
+        observations = [bot.reset()[0]] + [bot.step("move_next")[0] for _ in range(2)]
+        detach_recorder(reg, service, recorder)
+    finally:
+        service.close()
+    assert observations[-1]["image_rgb_info"]["frame_id"] == FRAMES["camera"]  # the robot's, passed through
+    messages: dict = {}
+    with Reader(path) as reader:
+        for conn, _, raw in reader.messages():
+            messages.setdefault(conn.topic, []).append(TYPESTORE.deserialize_cdr(raw, conn.msgtype))
+    for topic in ("/camera/color/image_raw", "/camera/depth/image_raw", "/camera/color/camera_info",
+                  "/camera/depth/camera_info"):
+        assert {m.header.frame_id for m in messages[topic]} == {FRAMES["camera"]}, topic
+    assert {m.header.frame_id for m in messages["/scan"]} == {FRAMES["lidar"]}
+    assert all(np.float32(m.angle_min) == np.float32(-math.pi) and m.angle_max < math.pi for m in messages["/scan"])
+    assert {(t.header.frame_id, t.child_frame_id) for m in messages["/tf"] for t in m.transforms} == \
+        {("map", FRAMES["robot"])}
+    assert {(t.header.frame_id, t.child_frame_id) for m in messages["/tf_static"] for t in m.transforms} == \
+        {(FRAMES["robot"], FRAMES["camera"]), (FRAMES["robot"], FRAMES["lidar"])}
+    replay, _ = start_replay_service(path, reg)
+    try:
+        bot = BenchBot(backend=replay)
+        first, _ = bot.reset()
+        assert first["image_rgb_info"]["frame_id"] == FRAMES["camera"]
+        np.testing.assert_allclose(first["poses"]["camera"]["translation_xyz"],
+                                   observations[0]["poses"]["camera"]["translation_xyz"], atol=1e-9)
+    finally:
+        replay.close()
