@@ -9,7 +9,8 @@ import typer
 
 from benchbot import __version__
 from benchbot.cli import (
-    batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, list_cmd, plugin_cmd, report_cmd, run_cmd, show_cmd, submit_cmd,
+    batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, leaderboard_cmd, list_cmd, plugin_cmd, report_cmd, run_cmd,
+    show_cmd, submit_cmd,
 )
 from benchbot.cli import replay_cmd, tui_cmd
 
@@ -51,7 +52,7 @@ _no_type_on_flags()
 CONTEXT = {"help_option_names": ["-h", "--help"]}
 app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
                   context_settings=CONTEXT)
-for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd):
+for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, leaderboard_cmd, install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd):
     module.register(app)
 
 
