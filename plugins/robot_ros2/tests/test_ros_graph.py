@@ -67,3 +67,11 @@ def test_node_names_are_checked():
     for bad in ("", "1robot", "my-robot", "a/b"):
         with pytest.raises(ValueError, match="node name"):
             check_node_name(bad)
+
+
+def test_docs_give_the_loopback_configuration_verbatim():
+    """docs/ros2.md tells ROS 2 users to export exactly the configuration serve-sim and carter_ros2 use."""
+    from benchbot_robot_ros2.transport import LOOPBACK_URI
+
+    docs = (Path(__file__).resolve().parents[3] / "docs" / "ros2.md").read_text()
+    assert f"export CYCLONEDDS_URI='{LOOPBACK_URI}'" in docs
