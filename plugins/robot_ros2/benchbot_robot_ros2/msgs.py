@@ -2,7 +2,9 @@
 
 Each class carries ROS 2's DDS type name ``<pkg>::msg::dds_::<Name>_`` and its fields in ROS order and ROS types,
 so samples are byte-compatible (CDR, XCDR1 little-endian, final extensibility) with ROS 2 nodes. Topic names get the
-``rt/`` prefix (:func:`dds_topic`). Importing this module imports ``cyclonedds``: do it lazily.
+``rt/`` prefix (:func:`dds_topic`). :data:`TYPE_HASHES` holds each type's ROS 2 Jazzy type hash (RIHS01), which
+the transport announces; ``rmw_dds_common`` types carry the ROS graph (``ros_discovery_info``), ``rosgraph_msgs/Clock``
+simulated time. Importing this module imports ``cyclonedds``: do it lazily.
 
 The two bulky messages (``sensor_msgs/msg/Image`` and ``sensor_msgs/msg/LaserScan``) have a NumPy codec for XCDR1
 (cyclonedds' generic one takes ~0.2 s per 640×480 image); their ``data``/``ranges``/``intensities`` fields come
