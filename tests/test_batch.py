@@ -183,7 +183,8 @@ def test_noise_sweep_records_the_presets_and_the_noise_reaches_the_solution(tmp_
     robustness = json.loads((run_dir / "robustness.json").read_text())
     assert robustness == {**out["robustness"]}
     assert [lv["n"] for lv in robustness["levels"]] == [1, 1] and robustness["levels"][0]["low"] is None
-    assert "n = 1 < 3" in robustness["levels"][0]["note"]
+    assert robustness["levels"][0]["reason"] == "n = 1 < 5: no confidence interval"
+    assert robustness["differences"][0]["reason"] == "n = 1 < 6: no paired test"
     assert (run_dir / "robustness.png").is_file() and (run_dir / "robustness.svg").is_file()
     none, low = (json.loads((run_dir / p["results"]).read_text()) for p in m["plan"])
     assert none != low

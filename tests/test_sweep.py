@@ -1,21 +1,19 @@
-"""Sweeps (benchbot.batch.sweep): parsing, plans with shared seeds, and the robustness numbers on constructed data
-whose answers are known by hand."""
+"""Sweeps (benchbot.batch.sweep): parsing, plans with shared seeds, and the robustness numbers on constructed data:
+means, counts and pairings known by hand; intervals and tests those of benchbot.batch.stats (checked against SciPy
+called directly), refused below 5 values / 6 pairs; Holm's adjustment over the levels."""
 
 from __future__ import annotations
 
 import json
-import math
 
+import numpy as np
 import pytest
 
+from benchbot.batch import stats
 from benchbot.batch.sweep import (
-    MIN_N, Sweep, mean_interval, parse_sweep, plan_sweep, plot_robustness, robustness, robustness_from_run,
-    write_robustness,
+    Sweep, parse_sweep, plan_sweep, plot_robustness, robustness, robustness_from_run, write_robustness,
 )
 from benchbot.core.errors import UsageError
-
-#: t quantiles (0.975) by degrees of freedom, from tables (e.g. NIST/SEMATECH e-Handbook, table 1.3.6.7.2)
-T975 = {2: 4.302653, 3: 3.182446, 4: 2.776445}
 
 
 def test_parse_sweep():
@@ -56,26 +54,93 @@ def test_variant_and_lighting_levels_pick_environments(registry):
         plan(Sweep("lighting", ("night", "dusk")), registry)
 
 
-def test_mean_interval_by_hand():
-    # 1, 2, 3: mean 2, sd 1, half-width t(0.975, 2) / √3
-    r = mean_interval([1.0, 2.0, 3.0])
-    assert (r["n"], r["mean"], r["sd"]) == (3, 2.0, 1.0)
-    assert r["low"] == pytest.approx(2 - T975[2] / math.sqrt(3), abs=1e-6)
-    assert r["high"] == pytest.approx(2 + T975[2] / math.sqrt(3), abs=1e-6)
-    # 0.2, 0.4, 0.4, 0.6, 0.4: mean 0.4, sd √0.02, half-width t(0.975, 4) · √0.02 / √5
-    r = mean_interval([0.2, 0.4, 0.4, 0.6, 0.4])
-    assert r["mean"] == pytest.approx(0.4) and r["sd"] == pytest.approx(math.sqrt(0.02))
-    assert r["high"] - r["mean"] == pytest.approx(T975[4] * math.sqrt(0.02 / 5), abs=1e-6)
+def noise_rows(levels: dict[str, list[float]], robot: str = "r") -> list[dict]:
+    """One row per value: level ``lv``'s i-th value is environment ``e``, repetition i (so levels pair by i)."""
+    return [{"level": lv, "score": v, "env": "e", "repeat": i, "robot": robot, "noise": lv}
+            for lv, values in levels.items() for i, v in enumerate(values)]
 
 
-def test_no_interval_below_the_minimum_n_and_none_needed_without_spread():
-    assert MIN_N == 3
-    for values in ([], [0.5], [0.5, 0.7]):
-        r = mean_interval(values)
-        assert r["low"] is None and r["high"] is None and f"< {MIN_N}" in r["note"] and "--repeat" in r["note"]
-    assert mean_interval([0.5, 0.7])["mean"] == pytest.approx(0.6)
-    r = mean_interval([0.3] * 4)
-    assert (r["low"], r["high"], r["sd"]) == (0.3, 0.3, 0.0) and "all 4 values equal" in r["note"]
+def test_levels_are_means_with_the_report_s_bca_interval():
+    """A level's mean and interval are :func:`benchbot.batch.stats.mean_ci`'s, i.e. SciPy's BCa bootstrap with the
+    report's settings (10,000 resamples, seed 0, 95 %)."""
+    from scipy.stats import bootstrap
+
+    values = [0.41, 0.52, 0.38, 0.60, 0.47, 0.55]
+    s = robustness(noise_rows({"none": values, "low": [v - 0.1 for v in values]}), "noise", ["none", "low"])
+    none = s["levels"][0]
+    assert none == {"level": "none", **stats.mean_ci(values).to_json()}
+    ref = bootstrap((np.asarray(values),), np.mean, n_resamples=10_000, confidence_level=0.95, method="BCa",
+                    rng=np.random.default_rng(0)).confidence_interval
+    assert (none["n"], none["value"]) == (6, pytest.approx(sum(values) / 6))
+    assert (none["low"], none["high"]) == (pytest.approx(ref.low, abs=1e-12), pytest.approx(ref.high, abs=1e-12))
+    assert none["low"] < none["value"] < none["high"] and none["reason"] == "" and "BCa" in none["method"]
+    assert s["policy"] == {**s["policy"], "confidence": stats.CONFIDENCE, "min_ci_n": stats.MIN_CI_N,
+                           "min_test_pairs": stats.MIN_TEST_PAIRS, "seed": stats.SEED,
+                           "bootstrap_resamples": stats.BOOTSTRAP_RESAMPLES}
+
+
+def test_no_interval_below_5_values_and_none_needed_without_spread():
+    assert stats.MIN_CI_N == 5
+    s = robustness(noise_rows({"a": [], "b": [0.5], "c": [0.5, 0.7, 0.6, 0.8], "d": [0.5, 0.7, 0.6, 0.8, 0.4],
+                               "e": [0.3] * 5}), "variant", list("abcde"))
+    a, b, c, d, e = s["levels"]
+    assert (a["n"], a["value"], a["low"], a["reason"]) == (0, None, None, "no values")
+    for lv in (b, c):
+        assert lv["low"] is None and lv["high"] is None and f"n = {lv['n']} < 5: no confidence interval" == lv["reason"]
+    assert c["value"] == pytest.approx(0.65)
+    assert d["low"] is not None and d["low"] < 0.6 < d["high"] and d["reason"] == ""
+    assert (e["low"], e["high"]) == (0.3, 0.3) and "every value is equal" in e["reason"]
+
+
+def test_differences_are_the_report_s_paired_test():
+    """Each level against the baseline is :func:`benchbot.batch.stats.paired_test` on the paired episodes:
+    below 6 pairs only the mean difference, with the reason; from 6 pairs the interval, d_z, rank-biserial r and
+    both p-values, which match SciPy called directly."""
+    from scipy.stats import ttest_rel, wilcoxon
+
+    base = [0.8, 0.7, 0.6, 0.5, 0.75, 0.65]
+    drop = [0.10, 0.12, 0.08, 0.20, 0.05, 0.11]
+    low = [b - d for b, d in zip(base, drop)]
+    s = robustness(noise_rows({"none": base, "low": low, "high": [b - 0.3 for b in base[:5]]}), "noise",
+                   ["none", "low", "high"])
+    d_low, d_high = s["differences"]
+    ref = stats.paired_test(base, low)
+    assert d_low["difference"] == ref["difference"].to_json()
+    assert (d_low["level"], d_low["baseline"], d_low["n"], d_low["unpaired"], d_low["reason"]) == (
+        "low", "none", 6, 0, "")
+    d = np.asarray(low) - np.asarray(base)
+    assert d_low["difference"]["value"] == pytest.approx(-np.mean(drop))
+    assert d_low["difference"]["low"] < d_low["difference"]["value"] < d_low["difference"]["high"] < 0
+    assert d_low["cohens_dz"] == pytest.approx(d.mean() / d.std(ddof=1))
+    assert d_low["rank_biserial"] == -1.0  # every difference negative
+    assert d_low["ttest_p"] == pytest.approx(ttest_rel(low, base).pvalue)
+    assert d_low["wilcoxon_p"] == pytest.approx(wilcoxon(low, base).pvalue) == pytest.approx(2 / 2 ** 6)
+    # 5 pairs (high has one episode fewer): no test, no interval, the reason; the mean difference still given
+    assert (d_high["n"], d_high["unpaired"]) == (5, 1)
+    assert d_high["difference"]["value"] == pytest.approx(-0.3) and d_high["difference"]["low"] is None
+    assert d_high["reason"] == "n = 5 < 6: no paired test" == d_high["difference"]["reason"]
+    assert d_high["ttest_p"] is d_high["wilcoxon_p"] is d_high["cohens_dz"] is d_high["ttest_p_holm"] is None
+    # one test in the family: Holm leaves its p-values as they are
+    assert (d_low["ttest_p_holm"], d_low["wilcoxon_p_holm"]) == (d_low["ttest_p"], d_low["wilcoxon_p"])
+
+
+def test_holm_across_the_levels(monkeypatch):
+    """The p-values are Holm-adjusted over the levels compared with the baseline; a level without a test is not
+    counted. Constructed p-values 0.01, 0.04, 0.03 (and none): ×3, ×2, ×1 in ascending order, kept monotone →
+    0.03, 0.06, 0.06."""
+    raw = iter([0.01, 0.04, 0.03, None])
+
+    def fake(a, b):
+        p = next(raw)
+        return {"n": len(a), "difference": stats.Estimate(len(a), 0.0), "cohens_dz": None, "rank_biserial": None,
+                "ttest_p": p, "wilcoxon_p": None if p is None else p / 2, "reason": "" if p else "refused"}
+
+    monkeypatch.setattr(stats, "paired_test", fake)
+    s = robustness(noise_rows({lv: [0.5] * 6 for lv in ("none", "a", "b", "c", "d")}), "noise",
+                   ["none", "a", "b", "c", "d"])
+    assert [d["ttest_p"] for d in s["differences"]] == [0.01, 0.04, 0.03, None]
+    assert [d["ttest_p_holm"] for d in s["differences"]] == pytest.approx([0.03, 0.06, 0.06, None])
+    assert [d["wilcoxon_p_holm"] for d in s["differences"]] == pytest.approx([0.015, 0.03, 0.03, None])
 
 
 def rows():
@@ -90,6 +155,7 @@ def rows():
                     "noise": "low"})
         if (env, rep) != ("b", 1):
             out.append({"level": "high", "score": v - 0.3, "env": env, "repeat": rep, "robot": "r", "noise": "high"})
+    out.append({"level": "high", "score": float("nan"), "env": "b", "repeat": 1, "robot": "r", "noise": "high"})
     return out
 
 
@@ -97,21 +163,17 @@ def test_robustness_by_hand():
     s = robustness(rows(), "noise", ["none", "low", "high"])
     none, low, high = s["levels"]
     assert [lv["level"] for lv in s["levels"]] == ["none", "low", "high"]
-    assert (none["n"], low["n"], high["n"]) == (4, 4, 3)
-    assert none["mean"] == pytest.approx(0.65) and low["mean"] == pytest.approx(0.525)
-    assert high["mean"] == pytest.approx((0.5 + 0.4 + 0.3) / 3)
-    # none: 0.8, 0.7, 0.6, 0.5 → sd √(0.05/3); half-width t(0.975, 3) · sd / 2
-    assert none["high"] - none["mean"] == pytest.approx(T975[3] * math.sqrt(0.05 / 3) / 2, abs=1e-6)
+    assert (none["n"], low["n"], high["n"]) == (4, 4, 3)  # the NaN score is left out
+    assert none["value"] == pytest.approx(0.65) and low["value"] == pytest.approx(0.525)
+    assert high["value"] == pytest.approx((0.5 + 0.4 + 0.3) / 3)
+    assert all(lv["low"] is None and "< 5" in lv["reason"] for lv in s["levels"])
     d_low, d_high = s["differences"]
-    # low − none pair by pair: −0.1, −0.1, −0.1, −0.2 → mean −0.125, sd 0.05
-    assert (d_low["level"], d_low["baseline"], d_low["pairs"]) == ("low", "none", 4)
-    assert d_low["mean"] == pytest.approx(-0.125) and d_low["sd"] == pytest.approx(0.05)
-    assert d_low["high"] == pytest.approx(-0.125 + T975[3] * 0.05 / 2, abs=1e-6)
-    # t = −0.125 / (0.05 / 2) = −5 with 3 degrees of freedom: two-sided p = 0.015392
-    assert d_low["p_value"] == pytest.approx(0.015392, abs=1e-5)
-    # high − none: −0.3 on the 3 pairs that exist: no spread, so no p-value
-    assert d_high["pairs"] == 3 and d_high["mean"] == pytest.approx(-0.3) and d_high["p_value"] is None
-    assert "all 3 values equal" in d_high["note"]
+    # low − none pair by pair: −0.1, −0.1, −0.1, −0.2 → mean −0.125; 4 pairs: no test
+    assert (d_low["level"], d_low["baseline"], d_low["n"], d_low["unpaired"]) == ("low", "none", 4, 0)
+    assert d_low["difference"]["value"] == pytest.approx(-0.125) and d_low["reason"] == "n = 4 < 6: no paired test"
+    # high − none: −0.3 on the 3 pairs that exist, the baseline's fourth episode unpaired
+    assert (d_high["n"], d_high["unpaired"]) == (3, 1) and d_high["difference"]["value"] == pytest.approx(-0.3)
+    assert d_high["ttest_p"] is None and d_high["ttest_p_holm"] is None
 
 
 def test_environment_factors_have_no_pairs():
@@ -124,23 +186,31 @@ def test_environment_factors_have_no_pairs():
 def test_plot_and_run_directory(tmp_path):
     from benchbot.batch.plan import new_record, plan_episodes, to_json, write_manifest
 
-    specs, level_of = plan(Sweep("noise", ("none", "low")), repeat=3)
+    specs, level_of = plan(Sweep("noise", ("none", "low")), repeat=6)
     write_manifest(tmp_path, {"task": "t", "environments": ["miniroom:1"], "plan": to_json(specs),
                               "episodes": to_json([new_record(s) for s in specs]),
                               "sweep": {"factor": "noise", "levels": ["none", "low"], "level_of": level_of}})
     with pytest.raises(UsageError, match="no episode_scores.json"):
         robustness_from_run(tmp_path)
-    scores = [0.5, 0.6, 0.7, 0.4, 0.5, 0.5]
+    none, low = [0.5, 0.6, 0.7, 0.55, 0.65, 0.6], [0.4, 0.5, 0.5, 0.45, 0.5, 0.55]
     (tmp_path / "episode_scores.json").write_text(json.dumps([
         {"index": s.index, "env": s.env, "robot": s.robot, "repeat": s.repeat, "seed": s.seed, "noise": s.noise,
-         "scores": {"OMQ": v}} for s, v in zip(specs, scores)]))
+         "scores": {"OMQ": v}} for s, v in zip(specs, none + low)]))
     summary = write_robustness(tmp_path)
     assert summary["plots"] == ["robustness.png", "robustness.svg"]
     assert (tmp_path / "robustness.png").stat().st_size > 1000 and (tmp_path / "robustness.svg").is_file()
     saved = json.loads((tmp_path / "robustness.json").read_text())
-    assert [lv["mean"] for lv in saved["levels"]] == pytest.approx([0.6, 14 / 30])
-    assert saved["differences"][0]["mean"] == pytest.approx(-0.4 / 3)
+    assert saved == json.loads(json.dumps(summary))
+    assert [lv["value"] for lv in saved["levels"]] == pytest.approx([0.6, 29 / 60])
+    assert [lv["low"] is not None for lv in saved["levels"]] == [True, True]
+    assert saved["levels"][0] == {"level": "none", **stats.mean_ci(none).to_json()}
+    diff = saved["differences"][0]
+    assert diff["n"] == 6 and diff["difference"]["value"] == pytest.approx(-0.7 / 6)
+    assert diff["ttest_p"] == pytest.approx(stats.paired_test(none, low)["ttest_p"]) == diff["ttest_p_holm"]
     assert plot_robustness(summary, tmp_path / "again")[0].name == "again.png"
+    # levels without an interval (n < 5) and one without episodes plot too
+    few = robustness(rows(), "noise", ["none", "low", "high", "absent"])
+    assert [p.name for p in plot_robustness(few, tmp_path / "few", rows())] == ["few.png", "few.svg"]
     not_a_sweep = tmp_path / "plain"
     not_a_sweep.mkdir()
     plain = plan_episodes(task="t", robots=["r"], envs=["miniroom:1"], repeat=1, seed=0, argv=["x"], cwd=".",
@@ -149,3 +219,24 @@ def test_plot_and_run_directory(tmp_path):
                                  "episodes": to_json([new_record(s) for s in plain])})
     with pytest.raises(UsageError, match="is not a sweep"):
         robustness_from_run(not_a_sweep)
+
+
+def test_printout_rounds_and_gives_the_reasons(tmp_path, capsys):
+    """``benchbot batch --sweep`` prints 4 significant digits, and the reason where there is no interval or test."""
+    from benchbot.cli.batch_cmd import print_robustness
+
+    base = [0.8123456, 0.7, 0.6, 0.5, 0.75, 0.65]
+    levels = {"none": base, "low": [b - d for b, d in zip(base, [0.10, 0.12, 0.08, 0.20, 0.05, 0.11])],
+              "high": [0.5, 0.4, 0.3]}
+    summary = robustness(noise_rows(levels), "noise", list(levels))
+    print_robustness(summary, tmp_path)
+    text = capsys.readouterr().out
+    assert "0.6687" in text and "0.66872" not in text  # the baseline's mean 4.0123456 / 6, 4 significant digits
+    assert "n = 3 < 5: no confidence interval" in text
+    lo, hi = summary["levels"][0]["low"], summary["levels"][0]["high"]
+    assert f"[{lo:.4g}, {hi:.4g}]" in text
+    # high − none on the first 3 pairs: −0.3123456, −0.3, −0.3 → −0.3041152
+    assert "high − none (OMQ, 3 pairs, 3 episodes unpaired): mean difference -0.3041; n = 3 < 6: no paired test" in text
+    d = summary["differences"][0]
+    assert f"paired t-test p = {d['ttest_p']:.4g} (Holm {d['ttest_p_holm']:.4g})" in text
+    assert "Cohen's d_z = " in text and "rank-biserial r = -1" in text

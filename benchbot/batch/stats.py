@@ -1,5 +1,7 @@
 """The statistics of ``benchbot report``: intervals, paired tests, effect sizes, corrections and sim-vs-real
 predictivity, each refused (with the reason) below a stated minimum sample size (docs/report.md, "Statistics").
+The project's one statistics policy: sweeps' robustness curves (:mod:`benchbot.batch.sweep`) and the leaderboard
+use these functions too.
 
 Every interval and test comes from SciPy (``scipy.stats.bootstrap``, ``ttest_rel``, ``wilcoxon``, ``pearsonr``,
 ``spearmanr``); what SciPy does not provide is written out here from its published definition: the Holm–Bonferroni

@@ -7,10 +7,12 @@ level). Every level runs the whole batch (robots × environments × repetitions)
 random numbers: level k's j-th episode has seed ``--seed + j`` whatever k), so two levels differ only by the factor
 and their episodes pair up.
 
-Statistics (:func:`robustness`): per level, the mean score over its scored episodes and the Student t interval of
-the mean (``scipy.stats.t.interval``), refused below :data:`MIN_N` episodes; for ``noise`` and ``robot``, each
-level's paired differences from the first level (matched by robot or noise, environment and repetition) with
-their t interval and the p-value of the one-sample t test of mean difference 0 (``scipy.stats.ttest_1samp``).
+Statistics (:func:`robustness`): those of ``benchbot report``, from :mod:`benchbot.batch.stats` (docs/report.md,
+*Statistics*). Per level, the mean score with its BCa bootstrap interval (:func:`~benchbot.batch.stats.mean_ci`,
+none below :data:`~benchbot.batch.stats.MIN_CI_N` episodes); for ``noise`` and ``robot``, each level against the
+first over paired episodes (matched by robot or noise, environment and repetition) with
+:func:`~benchbot.batch.stats.paired_test` (none below :data:`~benchbot.batch.stats.MIN_TEST_PAIRS` pairs), the
+p-values Holm-adjusted over the levels (:func:`~benchbot.batch.stats.holm`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchbot.batch import stats
 from benchbot.batch.plan import EpisodeSpec, plan_episodes, read_manifest
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
@@ -30,17 +33,6 @@ from benchbot.core.noise import get_preset
 
 #: What ``--sweep`` can vary.
 FACTORS = ("noise", "robot", "variant", "lighting")
-
-#: Fewest values a confidence interval is computed from. With 2 values the 95 % t interval is ±12.7 standard
-#: errors (t₀.₉₇₅ with 1 degree of freedom) around a mean whose spread is itself estimated from 2 numbers: wider
-#: than a score's whole range, so it would say nothing; with 3 it is ±4.3 standard errors.
-MIN_N = 3
-
-#: Relative spread below which values count as all equal (rounding, not variation).
-SPREAD_EPS = 1e-12
-
-#: Confidence level of every interval.
-CONFIDENCE = 0.95
 
 #: Files a sweep's run directory gets besides the batch's own.
 ROBUSTNESS_JSON, ROBUSTNESS_PLOT = "robustness.json", "robustness"
@@ -132,72 +124,67 @@ def plan_sweep(sweep: Sweep, *, robots: list[str], envs: list[str], noise: str, 
 
 
 # ------------------------------------------------------------------------------------------------------ statistics
-def mean_interval(values, confidence: float = CONFIDENCE, min_n: int = MIN_N) -> dict:
-    """``{n, mean, sd, low, high, note}`` of ``values``: the mean, the sample standard deviation (ddof 1) and the
-    Student t interval of the mean, ``mean ± t_{(1+confidence)/2, n-1} · sd/√n``.
-
-    ``low``/``high`` are None (and ``note`` says why) with fewer than ``min_n`` values; with every value equal (up
-    to :data:`SPREAD_EPS` relative) ``sd`` is 0, the interval is the mean itself and ``note`` says the values do not
-    vary. NaN values are dropped.
-    """
-    from scipy import stats
-
-    x = np.asarray([v for v in values if v is not None and not math.isnan(v)], dtype=np.float64)
-    n = int(x.size)
-    out = {"n": n, "mean": float(x.mean()) if n else None, "sd": float(x.std(ddof=1)) if n > 1 else None,
-           "low": None, "high": None, "note": ""}
-    if n < min_n:
-        out["note"] = (f"n = {n} < {min_n}: no interval (a t interval from fewer than {min_n} values is too wide to "
-                       "say anything, and their spread is no estimate); run more repetitions (--repeat)")
-        return out
-    if out["sd"] <= SPREAD_EPS * max(1.0, abs(out["mean"])):  # equal up to rounding (differences of equal sums)
-        out["sd"] = 0.0
-        out["low"] = out["high"] = out["mean"]
-        out["note"] = f"all {n} values equal: the repetitions vary nothing this score sees"
-        return out
-    low, high = stats.t.interval(confidence, n - 1, loc=out["mean"], scale=out["sd"] / math.sqrt(n))
-    out["low"], out["high"] = float(low), float(high)
-    return out
+def policy() -> dict:
+    """The statistics' settings and minimums (those of :mod:`benchbot.batch.stats`, as ``benchbot report`` states
+    them), for ``robustness.json``."""
+    return {"confidence": stats.CONFIDENCE, "bootstrap_resamples": stats.BOOTSTRAP_RESAMPLES, "seed": stats.SEED,
+            "min_ci_n": stats.MIN_CI_N, "min_test_pairs": stats.MIN_TEST_PAIRS,
+            "interval": "BCa bootstrap of the mean (benchbot.batch.stats.mean_ci)",
+            "test": "paired t-test and Wilcoxon signed-rank test (benchbot.batch.stats.paired_test)",
+            "correction": "Holm, over the levels compared with the baseline"}
 
 
-def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str = "OMQ",
-               confidence: float = CONFIDENCE, min_n: int = MIN_N) -> dict:
-    """A robustness curve: ``score`` against the ``levels`` of ``factor``.
+def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str = "OMQ") -> dict:
+    """A robustness curve: ``score`` against the ``levels`` of ``factor``, with the statistics of
+    :mod:`benchbot.batch.stats` (the same as ``benchbot report``'s, docs/report.md, *Statistics*).
 
     Args:
-        rows: one per scored episode: ``level`` (str), ``score`` (float), and ``robot``, ``env``, ``repeat``,
-            ``noise`` (what pairs episodes across levels).
+        rows: one per scored episode: ``level`` (str), ``score`` (float; None or NaN rows are left out), and
+            ``robot``, ``env``, ``repeat``, ``noise`` (what pairs episodes across levels).
         factor: one of :data:`FACTORS`. levels: in plot order; the first is the baseline of the differences.
 
     Returns:
-        ``{factor, score, confidence, min_n, interval, levels: [{level, n, mean, sd, low, high, note}],
-        differences: [{level, baseline, pairs, mean, sd, low, high, p_value, note}]}``. ``differences`` is empty
-        for ``variant`` and ``lighting`` (their levels are different environments, so no episodes pair up);
-        otherwise each level's episodes are paired with the baseline's of the same robot (or noise), environment
-        and repetition, and ``mean`` is level − baseline.
-    """
-    from scipy import stats
+        ``{factor, score, policy, levels, differences}``:
 
-    out = {"factor": factor, "score": score, "confidence": confidence, "min_n": min_n,
-           "interval": "Student t interval of the mean (scipy.stats.t.interval)", "levels": [], "differences": []}
+        * ``policy``: :func:`policy`.
+        * ``levels``: per level, ``{level, n, value, low, high, reason, method}``: the mean score over its ``n``
+          episodes with its BCa bootstrap interval (:func:`benchbot.batch.stats.mean_ci`, an
+          :class:`~benchbot.batch.stats.Estimate` dict); ``low``/``high`` None and ``reason`` saying why below
+          :data:`~benchbot.batch.stats.MIN_CI_N` episodes.
+        * ``differences``: for ``noise`` and ``robot``, per level after the first, ``{level, baseline, n, unpaired,
+          difference, cohens_dz, rank_biserial, ttest_p, ttest_p_holm, wilcoxon_p, wilcoxon_p_holm, reason}``:
+          the level's episodes paired with the baseline's of the same robot (or noise), environment and
+          repetition (``n`` pairs; ``unpaired`` episodes of the two levels without a partner), compared with
+          :func:`benchbot.batch.stats.paired_test` (``difference``: the mean of level − baseline, an Estimate
+          dict; Cohen's d_z; matched-pairs rank-biserial r; p-values), the p-values Holm-adjusted
+          (:func:`benchbot.batch.stats.holm`) over the levels; below :data:`~benchbot.batch.stats.MIN_TEST_PAIRS`
+          pairs no test, no interval and ``reason`` says why. Empty for ``variant`` and ``lighting``: their
+          levels are different environments, so no episodes pair up.
+    """
+    out = {"factor": factor, "score": score, "policy": policy(), "levels": [], "differences": []}
     by_level: dict[str, list[dict]] = {lv: [] for lv in levels}
     for row in rows:
-        if row.get("level") in by_level and row.get("score") is not None:
+        value = row.get("score")
+        if row.get("level") in by_level and value is not None and math.isfinite(value):
             by_level[row["level"]].append(row)
     for lv in levels:
-        out["levels"].append({"level": lv, **mean_interval([r["score"] for r in by_level[lv]], confidence, min_n)})
+        out["levels"].append({"level": lv, **stats.mean_ci([r["score"] for r in by_level[lv]]).to_json()})
     if factor not in ("noise", "robot") or not levels:
         return out
     keys = ("env", "repeat", "noise" if factor == "robot" else "robot")
     base = {tuple(r.get(k) for k in keys): r["score"] for r in by_level[levels[0]]}
     for lv in levels[1:]:
-        d = [r["score"] - base[key] for r in by_level[lv] if (key := tuple(r.get(k) for k in keys)) in base]
-        diff = mean_interval(d, confidence, min_n)
-        diff["pairs"] = diff.pop("n")
-        diff["p_value"] = None
-        if diff["pairs"] >= min_n and diff["sd"]:
-            diff["p_value"] = float(stats.ttest_1samp(d, 0.0).pvalue)
-        out["differences"].append({"level": lv, "baseline": levels[0], **diff})
+        pairs = [(base[key], r["score"]) for r in by_level[lv] if (key := tuple(r.get(k) for k in keys)) in base]
+        test = stats.paired_test([a for a, _ in pairs], [b for _, b in pairs])
+        out["differences"].append({
+            "level": lv, "baseline": levels[0], "n": test["n"],
+            "unpaired": len(by_level[lv]) + len(by_level[levels[0]]) - 2 * test["n"],
+            "difference": test["difference"].to_json(), "cohens_dz": test["cohens_dz"],
+            "rank_biserial": test["rank_biserial"], "ttest_p": test["ttest_p"], "wilcoxon_p": test["wilcoxon_p"],
+            "reason": test["reason"]})
+    for name in ("ttest_p", "wilcoxon_p"):
+        for d, p in zip(out["differences"], stats.holm([d[name] for d in out["differences"]])):
+            d[f"{name}_holm"] = p
     return out
 
 
@@ -242,8 +229,8 @@ def robustness_from_run(run_dir: Path, score: str = "OMQ") -> dict:
 
 def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -> list[Path]:
     """Plot ``summary`` (:func:`robustness`) as ``STEM.png`` and ``STEM.svg``: the mean score per level with its
-    interval as an error bar (a hollow marker where there is no interval), ``rows``' episodes as dots, n under each
-    level.
+    interval as an error bar where it has one (a hollow marker where it has none, below
+    :data:`~benchbot.batch.stats.MIN_CI_N` episodes), ``rows``' episodes as dots, n under each level.
 
     Raises:
         UsageError: matplotlib is not installed.
@@ -263,21 +250,22 @@ def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -
             ys = [r["score"] for r in rows if r["level"] == lv["level"]]
             jitter = np.linspace(-0.12, 0.12, len(ys)) if len(ys) > 1 else np.zeros(len(ys))
             ax.plot(x + jitter, ys, ".", color="0.6", zorder=1)
-        if lv["mean"] is None:
+        if lv["value"] is None:
             continue
-        if lv["low"] is not None:
-            ax.errorbar(x, lv["mean"], yerr=[[lv["mean"] - lv["low"]], [lv["high"] - lv["mean"]]], fmt="o",
+        if lv["low"] is not None and lv["high"] is not None:
+            ax.errorbar(x, lv["value"], yerr=[[lv["value"] - lv["low"]], [lv["high"] - lv["value"]]], fmt="o",
                         color="C0", capsize=5, zorder=2)
         else:
-            ax.plot(x, lv["mean"], "o", mfc="none", color="C0", zorder=2)
-    means = [lv["mean"] if lv["mean"] is not None else np.nan for lv in levels]
+            ax.plot(x, lv["value"], "o", mfc="none", color="C0", zorder=2)
+    means = [lv["value"] if lv["value"] is not None else np.nan for lv in levels]
     ax.plot(xs, means, "-", color="C0", alpha=0.5, zorder=1)
     ax.set_xticks(xs, [f"{lv['level']}\nn={lv['n']}" for lv in levels])
     ax.set_xlabel(summary["factor"])
     ax.set_ylabel(summary["score"])
-    pct = round(summary["confidence"] * 100)
-    ax.set_title(f"{summary['score']} vs {summary['factor']}: mean, {pct} % t interval (none below n={summary['min_n']})",
-                 fontsize=9)
+    policy = summary["policy"]
+    pct = round(policy["confidence"] * 100)
+    ax.set_title(f"{summary['score']} vs {summary['factor']}: mean, {pct} % BCa bootstrap interval "
+                 f"(none below n={policy['min_ci_n']}: hollow marker)", fontsize=9)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]

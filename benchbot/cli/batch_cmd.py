@@ -184,25 +184,37 @@ def register(app: typer.Typer) -> None:
 
 
 def print_robustness(summary: dict, run_dir: Path) -> None:
-    """A sweep's robustness summary (:func:`benchbot.batch.sweep.robustness`) as a table on stdout, and where its
-    plot is on stderr."""
+    """A sweep's robustness summary (:func:`benchbot.batch.sweep.robustness`) on stdout, as ``benchbot report``
+    prints its numbers: a table of the levels (mean and interval, or why there is none), then one line per level
+    compared with the baseline (the mean difference, then its interval, d_z, p-values and their Holm adjustment,
+    rank-biserial r, or why there is no test); 4 significant digits. Where its plot is goes to stderr."""
     from rich.table import Table
 
-    pct = round(summary["confidence"] * 100)
-    table = Table(title=f"{summary['score']} vs {summary['factor']} (mean, {pct} % t interval)")
-    for column in (summary["factor"], "n", "mean", "interval", f"Δ vs {summary['levels'][0]['level']}", "note"):
-        table.add_column(column)
-    diffs = {d["level"]: d for d in summary["differences"]}
+    from benchbot.batch.figures import fmt
 
-    def span(d: dict) -> str:
-        return "—" if d["low"] is None else f"[{d['low']:.4f}, {d['high']:.4f}]"
+    def interval(e: dict) -> str:
+        if e.get("low") is not None and e.get("high") is not None:
+            return f"[{fmt(e['low'])}, {fmt(e['high'])}]"
+        return e.get("reason") or "–"
 
+    pct = round(summary["policy"]["confidence"] * 100)
+    table = Table(summary["factor"], "n", f"mean {summary['score']}", f"{pct} % CI",
+                  title=f"{summary['score']} vs {summary['factor']}", title_justify="left")
     for lv in summary["levels"]:
-        d = diffs.get(lv["level"])
-        delta = "" if d is None or d["mean"] is None else f"{d['mean']:+.4f} {span(d)}"
-        table.add_row(lv["level"], str(lv["n"]), "—" if lv["mean"] is None else f"{lv['mean']:.4f}", span(lv),
-                      delta, lv["note"])
+        table.add_row(lv["level"], str(lv["n"]), fmt(lv["value"]), interval(lv))
     out.print(table)
+    for c in summary["differences"]:
+        d = c["difference"]
+        unpaired = f", {c['unpaired']} episodes unpaired" if c["unpaired"] else ""
+        line = (f"{c['level']} − {c['baseline']} ({summary['score']}, {c['n']} pairs{unpaired}): mean difference "
+                f"{fmt(d['value'])}")
+        if c["reason"]:
+            line += f"; {c['reason']}"
+        else:
+            line += (f" {interval(d)}, Cohen's d_z = {fmt(c['cohens_dz'])}; paired t-test p = {fmt(c['ttest_p'])} "
+                     f"(Holm {fmt(c['ttest_p_holm'])}), Wilcoxon p = {fmt(c['wilcoxon_p'])} (Holm "
+                     f"{fmt(c['wilcoxon_p_holm'])}), rank-biserial r = {fmt(c['rank_biserial'])}")
+        out.print(line, highlight=False, markup=False)
     if summary.get("plots"):
         err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
     elif summary.get("plot_error"):
