@@ -236,8 +236,11 @@ class SimBridge:
     def _publish_static(self) -> None:
         f = self.frames
         msg = self.tr.message("tf2_msgs/msg/TFMessage")
-        msg.transforms = [self._tf(f["robot"], f["camera"], self.sim.T_robot_camera, self.clock_ns),
-                          self._tf(f["robot"], f["lidar"], self.sim.T_robot_lidar, self.clock_ns)]
+        T_robot_footprint = np.linalg.inv(self.sim.T_footprint_robot)  # the base frame is the robot frame's height up
+        msg.transforms = [self._tf(f["robot"], f["camera"], T_robot_footprint @ self.sim.T_footprint_camera,
+                                   self.clock_ns),
+                          self._tf(f["robot"], f["lidar"], T_robot_footprint @ self.sim.T_footprint_lidar,
+                                   self.clock_ns)]
         self.pub["tf_static"].publish(msg)
 
     def _publish_clock(self) -> None:
@@ -254,7 +257,7 @@ class SimBridge:
 
         f, now = self.frames, self.clock_ns
         T_map_odom = se2_to_matrix(*self.start)
-        T_map_base = se2_to_matrix(*self.sim.base_pose())
+        T_map_base = se2_to_matrix(*self.sim.base_pose(), z=self.sim.robot_frame_height)
         T_odom_base = np.linalg.inv(T_map_odom) @ T_map_base
         odom = self.tr.message("nav_msgs/msg/Odometry")
         set_stamp(odom.header.stamp, t_ns=now)

@@ -6,7 +6,7 @@ its RGB-D camera, segmentation and planar laser are ray cast with Taichi (:mod:`
 imported on first use). Use from one thread.
 
 Frames (all ``T_map_<frame>`` (4, 4) float64): ``robot`` (x forward, y left, z up, ``sensors.robot_frame_height_m``
-above the floor under the base centre; the original BenchBot's carter reported 0.244 m, this carter 0);
+above the floor under the base centre; carter's is 0.244 m, as the original BenchBot's carter reported);
 ``camera`` (OPTICAL frame: z forward, x right, y down) at the mount of ``sensors.camera``; ``lidar`` (x forward,
 z up) at ``sensors.laser.mount_xyz``. Mounts are given from the robot's *footprint*: the robot frame lowered to the
 floor (the point on the floor under the base centre, the robot's axes), so a sensor's height is its height above the

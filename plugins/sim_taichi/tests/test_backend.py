@@ -41,7 +41,7 @@ def test_factory_and_start_pose(bear_envs, carter_spec):
     assert math.degrees(p[2]) == pytest.approx(77.32, abs=0.01)
     tf = b.frame_transforms()
     assert set(tf) >= {"robot", "camera", "lidar"}
-    assert tf["robot"][2, 3] == 0.0
+    assert tf["robot"][2, 3] == pytest.approx(0.244)  # carter's robot frame, as the original's (its rigid body)
     cam = tf["camera"]
     # optical frame: z forward (= robot +x), x right (= robot -y), y down; ~0.8 m high
     R_robot = tf["robot"][:3, :3]
