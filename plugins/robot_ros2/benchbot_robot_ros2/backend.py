@@ -24,7 +24,6 @@ from __future__ import annotations
 import importlib
 import json
 import math
-import os
 import threading
 import time
 import uuid
@@ -33,6 +32,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, se2_relative, se2_to_matrix
 from benchbot.core.motion import ControllerGains, PoseController
@@ -97,12 +97,12 @@ def ros2_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]
     (environment) and ``options['ros2_domain_id']`` override. Raises BackendError for invalid values."""
     cfg = {**DEFAULTS, **(robot_spec.get("ros2") or {})}
     options = options or {}
-    if os.environ.get("ROS_DOMAIN_ID", "").strip():
-        cfg["domain_id"] = os.environ["ROS_DOMAIN_ID"].strip()
+    if settings.source("ROS_DOMAIN_ID") == "environment":
+        cfg["domain_id"] = settings.get("ROS_DOMAIN_ID")
     if options.get("ros2_domain_id") is not None:
         cfg["domain_id"] = options["ros2_domain_id"]
-    if os.environ.get("BENCHBOT_ROS2_TIME_SCALE", "").strip():
-        cfg["time_scale"] = os.environ["BENCHBOT_ROS2_TIME_SCALE"].strip()
+    if settings.get("BENCHBOT_ROS2_TIME_SCALE"):
+        cfg["time_scale"] = settings.get("BENCHBOT_ROS2_TIME_SCALE")
     try:
         cfg["domain_id"] = int(cfg["domain_id"])
         for k in ("rate_hz", "time_scale", "settle_s", "sensor_timeout_s", "observation_timeout_s",

@@ -52,8 +52,6 @@ def benchbot_commands(app: Any) -> None:
     ) -> None:
         """Publish the simulated carter's camera, depth, laser, odometry and TF over ROS 2 and obey /cmd_vel in
         real time; /benchbot/reset (std_msgs/String JSON) reloads the scene. Ctrl-C stops."""
-        import os
-
         from benchbot.cli.common import handle_errors
         from benchbot.core.errors import UsageError
 
@@ -63,7 +61,9 @@ def benchbot_commands(app: Any) -> None:
         def _run() -> None:
             domain = domain_id
             if domain is None:
-                raw = os.environ.get("ROS_DOMAIN_ID", "").strip() or "0"
+                from benchbot.core import settings
+
+                raw = settings.get("ROS_DOMAIN_ID")
                 if not raw.isdigit() or int(raw) > 232:
                     raise UsageError(f"ROS_DOMAIN_ID '{raw}' is not a domain id", "use an integer 0..232, or --domain-id")
                 domain = int(raw)

@@ -377,9 +377,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--network", default="loopback")
     ap.add_argument("--seed", type=int, default=0)
     a = ap.parse_args(argv)
-    import os
+    from benchbot.core import settings
 
-    domain = a.domain_id if a.domain_id is not None else int(os.environ.get("ROS_DOMAIN_ID", "0") or 0)
+    domain = a.domain_id if a.domain_id is not None else int(settings.get("ROS_DOMAIN_ID"))
     w, h = parse_size(a.camera_size)
     serve(a.env, robot=a.robot, domain_id=domain, width=w, height=h, arch=a.arch, time_scale=a.time_scale,
           camera_hz=a.camera_hz, transport=a.transport, network=a.network, seed=a.seed)

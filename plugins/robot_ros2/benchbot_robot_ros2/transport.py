@@ -37,6 +37,8 @@ import re
 import threading
 from typing import Any, Callable
 
+from benchbot.core import settings
+
 log = logging.getLogger(__name__)
 
 LOOPBACK_URI = (
@@ -55,7 +57,7 @@ def configure_network(network: str = "loopback") -> None:
     """
     if network not in ("loopback", "system"):
         raise ValueError(f"ros2.network must be 'loopback' or 'system', got {network!r}")
-    if network == "loopback" and not os.environ.get("CYCLONEDDS_URI"):
+    if network == "loopback" and not settings.get("CYCLONEDDS_URI"):
         os.environ["CYCLONEDDS_URI"] = LOOPBACK_URI
 
 
