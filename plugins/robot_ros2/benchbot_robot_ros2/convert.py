@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from benchbot.core.geometry import wrap_angle
+from benchbot.core.geometry import matrix_to_quaternion_xyzw, quaternion_xyzw_to_matrix, wrap_angle
 
 #: bytes per pixel and channel count of the image encodings we read/write
 ENCODINGS = {"rgb8": (3, 3), "bgr8": (3, 3), "rgba8": (4, 4), "bgra8": (4, 4), "mono8": (1, 1), "8UC1": (1, 1),
@@ -39,43 +39,9 @@ def set_stamp(stamp: Any, t_s: float | None = None, *, t_ns: int | None = None) 
     stamp.nanosec = min(int((t_s - sec) * 1e9), 999_999_999)
 
 
-def quat_to_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
-    """Unit quaternion → (3, 3) rotation. Raises ValueError for a non-finite or zero quaternion."""
-    q = np.array([x, y, z, w], dtype=np.float64)
-    n = float(np.linalg.norm(q))
-    if not np.all(np.isfinite(q)) or n < 1e-9:
-        raise ValueError(f"invalid quaternion {q.tolist()}")
-    x, y, z, w = q / n
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
-
-
-def matrix_to_quat(R: np.ndarray) -> np.ndarray:
-    """(3, 3) rotation → (4,) ``[x, y, z, w]`` with w ≥ 0."""
-    R = np.asarray(R, dtype=np.float64)
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    if tr > 0:
-        s = math.sqrt(tr + 1.0) * 2
-        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2
-        q = [0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s]
-    elif R[1, 1] > R[2, 2]:
-        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2
-        q = [(R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s]
-    else:
-        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
-        q = [(R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s, (R[1, 0] - R[0, 1]) / s]
-    q = np.array(q)
-    return -q if q[3] < 0 else q
-
-
 def _matrix(t: Any, q: Any) -> np.ndarray:
     T = np.eye(4)
-    T[:3, :3] = quat_to_matrix(q.x, q.y, q.z, q.w)
+    T[:3, :3] = quaternion_xyzw_to_matrix([q.x, q.y, q.z, q.w])  # ValueError: not 4 finite numbers, or 0
     T[:3, 3] = [float(t.x), float(t.y), float(t.z)]
     if not np.all(np.isfinite(T)):
         raise ValueError("non-finite translation")
@@ -99,14 +65,14 @@ def matrix_to_se2(T: np.ndarray) -> np.ndarray:
 
 def fill_transform(tr: Any, T: np.ndarray) -> None:
     """Write (4, 4) ``T`` into a ``geometry_msgs/Transform``."""
-    q = matrix_to_quat(T[:3, :3])
+    q = matrix_to_quaternion_xyzw(T[:3, :3])
     tr.translation.x, tr.translation.y, tr.translation.z = (float(v) for v in T[:3, 3])
     tr.rotation.x, tr.rotation.y, tr.rotation.z, tr.rotation.w = (float(v) for v in q)
 
 
 def fill_pose(pose: Any, T: np.ndarray) -> None:
     """Write (4, 4) ``T`` into a ``geometry_msgs/Pose``."""
-    q = matrix_to_quat(T[:3, :3])
+    q = matrix_to_quaternion_xyzw(T[:3, :3])
     pose.position.x, pose.position.y, pose.position.z = (float(v) for v in T[:3, 3])
     pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in q)
 

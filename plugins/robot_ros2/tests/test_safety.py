@@ -100,7 +100,6 @@ _finite = st.floats(allow_nan=True, allow_infinity=True, width=32)
        n=st.integers(0, 40))
 def test_malformed_messages_never_crash_the_backend(shared_backend, raw, values, h, w, enc, n):
     b, tr, pubs, fakes = shared_backend
-    from benchbot_robot_ros2 import convert
 
     img = tr.message("sensor_msgs/msg/Image")
     img.height, img.width, img.encoding, img.step, img.data = max(h, 0), max(w, 0), enc, max(w, 0) * 3, raw

@@ -9,6 +9,7 @@ import time
 import numpy as np
 import pytest
 
+from benchbot.core.geometry import quaternion_xyzw_to_matrix
 from benchbot_robot_ros2 import convert
 from benchbot_robot_ros2.transport import CycloneTransport, rclpy_available
 
@@ -69,7 +70,7 @@ def test_messages_roundtrip_through_dds(domain_id, kind):
     depth = rng.random((6, 8)).astype(np.float32)
     K = np.array([[4.0, 0, 3.5], [0, 4.0, 2.5], [0, 0, 1]])
     T = np.eye(4)
-    T[:3, :3] = convert.quat_to_matrix(0, 0, math.sin(0.3), math.cos(0.3))
+    T[:3, :3] = quaternion_xyzw_to_matrix([0, 0, math.sin(0.3), math.cos(0.3)])
     T[:3, 3] = [1.0, -2.0, 0.5]
     cases = {
         "image": ("/t/img", "sensor_msgs/msg/Image", lambda m: convert.fill_image(m, rgb, "rgb8", "camera", 1.0),
@@ -145,3 +146,32 @@ def test_plugin_contract_and_command(benchbot_contract):
     proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "ros2", "serve-sim", "--help"], capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 0 and "--env" in proc.stdout, proc.stderr
+
+
+def test_close_while_a_callback_runs_returns(domain_id):
+    """Closing a transport while a subscriber's callback is running returns once the callback is done. Before, the
+    listener thread held the last reference to its reader and deleted it from inside its own callback, and
+    closing hung for ever."""
+    tr = CycloneTransport(domain_id + 7, "loopback")
+    running, release = threading.Event(), threading.Event()
+
+    def slow(_msg):
+        running.set()
+        release.wait(5.0)
+
+    tr.subscribe("/close_test", "std_msgs/msg/String", slow, reliable=True)
+    pub = tr.publisher("/close_test", "std_msgs/msg/String")
+    msg = tr.message("std_msgs/msg/String")
+    msg.data = "x"
+    deadline = time.monotonic() + 20.0
+    while not running.is_set() and time.monotonic() < deadline:
+        pub.publish(msg)
+        running.wait(0.05)
+    assert running.is_set(), "the callback never ran"
+    del pub
+    closer = threading.Thread(target=tr.close, daemon=True)
+    closer.start()
+    time.sleep(0.3)  # close is now waiting for the callback in progress
+    release.set()
+    closer.join(20.0)
+    assert not closer.is_alive(), "close() hung while a callback was running"
