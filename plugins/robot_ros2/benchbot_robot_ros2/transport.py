@@ -285,6 +285,18 @@ class CycloneTransport(Transport):
         return reader
 
     def close(self) -> None:
+        """Delete the readers, writers, topics and the participant. The readers' listeners are removed first, on
+        this thread: Cyclone DDS waits for a callback in progress to finish, and none starts afterwards. Otherwise a
+        listener thread could drop the last reference to its own reader (cyclonedds hands the callback a strong
+        reference) and delete it from inside its own callback, which never returns (seen as a hang in close)."""
+        from cyclonedds.sub import DataReader
+
+        for entity in self._keep:
+            if isinstance(entity, DataReader):
+                try:
+                    entity.set_listener(None)
+                except Exception:  # noqa: BLE001 - an entity already deleted with its participant: nothing to stop
+                    pass
         self._keep.clear()
         self._topics.clear()
         self._discovery = None
