@@ -12,13 +12,19 @@ import pytest
 
 from benchbot_robot_ros2.transport import LOOPBACK_URI
 
+sys.path.insert(0, str(Path(__file__).parent))
+from dds_domains import claim_domain_block  # noqa: E402
+
 os.environ.setdefault("CYCLONEDDS_URI", LOOPBACK_URI)
-_BASE_DOMAIN = 100 + (os.getpid() % 50) * 2  # per test process: no cross-talk with other runs
 
 
 @pytest.fixture(scope="session")
 def domain_id() -> int:
-    return _BASE_DOMAIN
+    """The first DDS domain of this test run's block (:func:`dds_domains.claim_domain_block`); tests add offsets
+    below ``dds_domains.DOMAIN_BLOCK``."""
+    base, lock = claim_domain_block()
+    yield base
+    lock.close()
 
 
 @pytest.fixture()
