@@ -371,3 +371,25 @@ def fmt(x, digits: int = 4) -> str:
 
 SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 """Exponents as superscripts: 1.489×10⁻¹⁰."""
+
+
+def interval_text(estimate: dict) -> str:
+    """``[low, high]`` of an estimate (``stats.Estimate.to_json()``), in :func:`fmt`'s digits, or the reason it has
+    none."""
+    if estimate.get("low") is not None and estimate.get("high") is not None:
+        return f"[{fmt(estimate['low'])}, {fmt(estimate['high'])}]"
+    return estimate.get("reason") or "–"
+
+
+def comparison_text(comparison: dict) -> str:
+    """A paired comparison in words (what ``benchbot report`` and a sweep print after naming the two sides):
+    ``mean difference X [low, high], Cohen's d_z, the paired t-test and Wilcoxon p with their Holm adjustments,
+    rank-biserial r`` — or the mean difference and why there is no test. ``comparison`` has the keys of
+    ``stats.paired_test`` plus ``ttest_p_holm`` and ``wilcoxon_p_holm``."""
+    c, d = comparison, comparison["difference"]
+    text = f"mean difference {fmt(d['value'])}"
+    if c["reason"]:
+        return f"{text}; {c['reason']}"
+    return (f"{text} {interval_text(d)}, Cohen's d_z = {fmt(c['cohens_dz'])}; paired t-test p = {fmt(c['ttest_p'])} "
+            f"(Holm {fmt(c['ttest_p_holm'])}), Wilcoxon p = {fmt(c['wilcoxon_p'])} (Holm {fmt(c['wilcoxon_p_holm'])}), "
+            f"rank-biserial r = {fmt(c['rank_biserial'])}")

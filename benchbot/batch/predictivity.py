@@ -26,9 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from benchbot.batch import figures, stats
-from benchbot.batch.figures import fmt
 from benchbot.batch.paper import Table, to_csv, to_html, to_latex
-from benchbot.batch.report import CSS, MAIN_SCORE, RunData, assets_dir, group, png_size, provenance, solution
+from benchbot.batch.report import CSS, MAIN_SCORE, RunData, group, make_assets_dir, png_size, provenance, solution
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 
@@ -132,12 +131,7 @@ def write_report(sim: list[RunData], real: list[RunData], output: Path, result: 
     """
     esc = html.escape
     sim_name, real_name = result["settings"]
-    folder = assets_dir(output)
-    try:  # fail before the slow part when the place cannot be written
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"--output: cannot write {output} or {folder} ({exc.strerror or exc})",
-                         "choose a writable path") from None
+    folder = make_assets_dir(output)
     tabs = tables(result)
     fig = figures.render(figures.scatter_predictivity(result["units"], result["sim"], result["real"],
                                                       result["statistics"], sim_name, real_name, result["score"]))

@@ -792,6 +792,21 @@ def assets_dir(output: Path) -> Path:
     return output.with_name(output.stem + "_files")
 
 
+def make_assets_dir(output: Path) -> Path:
+    """Make :func:`assets_dir` of ``output`` (before the slow part, so that an unwritable place fails first).
+
+    Raises:
+        UsageError: the folder cannot be made.
+    """
+    folder = assets_dir(output)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--output: cannot write {output} or {folder} ({exc.strerror or exc})",
+                         "choose a writable path") from None
+    return folder
+
+
 def write_report(runs: list[RunData], output: Path, registry=None, result: dict | None = None) -> dict:
     """Analyse ``runs`` and write the report: ``output`` (HTML) and its assets folder (:func:`assets_dir`) with
     every figure as PNG, SVG and PDF, every table as CSV and LaTeX, and ``report.json`` (the analysis); each file
@@ -803,12 +818,7 @@ def write_report(runs: list[RunData], output: Path, registry=None, result: dict 
     Raises:
         UsageError: matplotlib is missing, or a file cannot be written.
     """
-    folder = assets_dir(output)
-    try:  # fail before the slow part when the place cannot be written
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"--output: cannot write {output} or {folder} ({exc.strerror or exc})",
-                         "choose a writable path") from None
+    folder = make_assets_dir(output)
     result = result or analyse(runs, registry)
     tables_ = tables(runs, result)
     figures_ = make_figures(runs, result, registry)

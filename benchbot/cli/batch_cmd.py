@@ -190,31 +190,18 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
     rank-biserial r, or why there is no test); 4 significant digits. Where its plot is goes to stderr."""
     from rich.table import Table
 
-    from benchbot.batch.figures import fmt
-
-    def interval(e: dict) -> str:
-        if e.get("low") is not None and e.get("high") is not None:
-            return f"[{fmt(e['low'])}, {fmt(e['high'])}]"
-        return e.get("reason") or "–"
+    from benchbot.batch.figures import comparison_text, fmt, interval_text
 
     pct = round(summary["policy"]["confidence"] * 100)
     table = Table(summary["factor"], "n", f"mean {summary['score']}", f"{pct} % CI",
                   title=f"{summary['score']} vs {summary['factor']}", title_justify="left")
     for lv in summary["levels"]:
-        table.add_row(lv["level"], str(lv["n"]), fmt(lv["value"]), interval(lv))
+        table.add_row(lv["level"], str(lv["n"]), fmt(lv["value"]), interval_text(lv))
     out.print(table)
     for c in summary["differences"]:
-        d = c["difference"]
         unpaired = f", {c['unpaired']} episodes unpaired" if c["unpaired"] else ""
-        line = (f"{c['level']} − {c['baseline']} ({summary['score']}, {c['n']} pairs{unpaired}): mean difference "
-                f"{fmt(d['value'])}")
-        if c["reason"]:
-            line += f"; {c['reason']}"
-        else:
-            line += (f" {interval(d)}, Cohen's d_z = {fmt(c['cohens_dz'])}; paired t-test p = {fmt(c['ttest_p'])} "
-                     f"(Holm {fmt(c['ttest_p_holm'])}), Wilcoxon p = {fmt(c['wilcoxon_p'])} (Holm "
-                     f"{fmt(c['wilcoxon_p_holm'])}), rank-biserial r = {fmt(c['rank_biserial'])}")
-        out.print(line, highlight=False, markup=False)
+        out.print(f"{c['level']} − {c['baseline']} ({summary['score']}, {c['n']} pairs{unpaired}): "
+                  f"{comparison_text(c)}", highlight=False, markup=False)
     if summary.get("plots"):
         err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
     elif summary.get("plot_error"):

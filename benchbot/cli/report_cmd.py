@@ -12,17 +12,10 @@ from rich.table import Table
 
 from benchbot.batch import predictivity as pred
 from benchbot.batch import stats
-from benchbot.batch.figures import fmt
+from benchbot.batch.figures import comparison_text, fmt, interval_text
 from benchbot.batch.report import analyse, assets_dir, assign_labels, load_run, write_report
 from benchbot.cli.common import err, handle_errors, out, registry
 from benchbot.core.errors import UsageError
-
-
-def _interval(e: dict) -> str:
-    """``[low, high]`` of an estimate dict, or why it has none."""
-    if e.get("low") is not None and e.get("high") is not None:
-        return f"[{fmt(e['low'])}, {fmt(e['high'])}]"
-    return e.get("reason") or "–"
 
 
 def _print_report(result: dict) -> None:
@@ -30,23 +23,15 @@ def _print_report(result: dict) -> None:
         table = Table("environment", "n", "mean OMQ", f"{int(stats.CONFIDENCE * 100)} % CI",
                       title=f"{r['label']} ({r['run_dir']})", title_justify="left")
         for env, e in r["environments"].items():
-            table.add_row(env, str(e["n"]), fmt(e["value"]), _interval(e))
+            table.add_row(env, str(e["n"]), fmt(e["value"]), interval_text(e))
         for score, e in r["summary"].items():
-            table.add_row(f"[bold]all: {score}[/]", str(e["n"]), fmt(e["value"]), _interval(e))
+            table.add_row(f"[bold]all: {score}[/]", str(e["n"]), fmt(e["value"]), interval_text(e))
         out.print(table)
         if r["objects_note"]:
             err.print(f"note: {r['label']}: {r['objects_note']}", highlight=False)
     for c in result["comparisons"]:
-        d = c["difference"]
-        line = (f"{c['b']} − {c['a']} ({c['score']}, {c['n']} pairs by {c['pairing']}): mean difference "
-                f"{fmt(d['value'])}")
-        if c["reason"]:
-            line += f"; {c['reason']}"
-        else:
-            line += (f" {_interval(d)}, Cohen's d_z = {fmt(c['cohens_dz'])}; paired t-test p = {fmt(c['ttest_p'])} "
-                     f"(Holm {fmt(c['ttest_p_holm'])}), Wilcoxon p = {fmt(c['wilcoxon_p'])} (Holm "
-                     f"{fmt(c['wilcoxon_p_holm'])}), rank-biserial r = {fmt(c['rank_biserial'])}")
-        out.print(line, highlight=False, markup=False)
+        out.print(f"{c['b']} − {c['a']} ({c['score']}, {c['n']} pairs by {c['pairing']}): {comparison_text(c)}",
+                  highlight=False, markup=False)
 
 
 def _print_predictivity(result: dict) -> None:
@@ -60,7 +45,7 @@ def _print_predictivity(result: dict) -> None:
     for key, name in (("spearman", "Spearman ρ"), ("pearson", "Pearson r (SRCC)"), ("mmrv", "MMRV")):
         e = st[key]
         p = f", p = {fmt(e['p'])}" if e.get("p") is not None else ""
-        out.print(f"{name} = {fmt(e['value'])} {_interval(e)}{p} (n = {st['n']})", highlight=False, markup=False)
+        out.print(f"{name} = {fmt(e['value'])} {interval_text(e)}{p} (n = {st['n']})", highlight=False, markup=False)
     for note in result["notes"]:
         err.print(f"note: {note}", highlight=False)
 
