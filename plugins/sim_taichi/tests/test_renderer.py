@@ -163,7 +163,11 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
     scene = build_scene(bear_envs["miniroom:1"])
     K = rmod.intrinsics(16, 12, 90.0)
     cam = _cam(*scene.trajectory_se2[0])
+    import gc
+
+    gc.collect()  # renderers of earlier tests left in reference cycles are retired now, not during this test
     rmod._free_retired()
+    assert not rmod._RETIRED, "an earlier test still holds device arrays of a dropped renderer"
     held_before = len(rmod._DEVICE_ARRAYS)
     owner = rmod.Renderer("cpu", device_buffers=True)
     owner.set_scene(scene)
@@ -204,6 +208,8 @@ def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector
 
     rmod.ensure_taichi("cpu")
     kernels.reset_graph()
+    gc.collect()  # ndarrays of earlier tests' renderers, freed now: only the compiler's own may count below
+    rmod._free_retired()
     gc.disable()  # so that nothing but the compiler's own collect runs during the compile
     try:
         kernels.sensors_graph()
