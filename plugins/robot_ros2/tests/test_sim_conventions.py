@@ -53,15 +53,26 @@ def bridge(domain_id):
     """The bridge on its own domain; yields the domain id."""
     dom = domain_id + 5
     env = dict(os.environ, CYCLONEDDS_URI=os.environ["CYCLONEDDS_URI"])
-    log = open(Path(os.environ.get("TMPDIR", "/tmp")) / f"benchbot_conventions_{dom}.log", "w")
-    proc = subprocess.Popen([sys.executable, "-c", _SCRIPT, str(dom), str(TIME_SCALE), json.dumps(_spec()),
-                             str(RANGE_MAX)], env=env, stdout=log, stderr=subprocess.STDOUT)
+    log_path = Path(os.environ.get("TMPDIR", "/tmp")) / f"benchbot_conventions_{dom}.log"
+    log = open(log_path, "w")
+    proc = subprocess.Popen([sys.executable, "-X", "faulthandler", "-c", _SCRIPT, str(dom), str(TIME_SCALE),
+                             json.dumps(_spec()), str(RANGE_MAX)], env=env, stdout=log, stderr=subprocess.STDOUT)
     odom = RawListener(dom, "/odom", "nav_msgs/msg/Odometry")
     try:
         odom.wait(lambda ms: len(ms) > 0, timeout=180)  # Taichi compiles its kernels first
-    except AssertionError:
+    except AssertionError as exc:
+        state = f"exited with {proc.returncode}" if proc.poll() is not None else "still running"
+        if proc.poll() is None:  # where it is stuck: faulthandler prints every thread's stack on SIGABRT
+            import signal
+
+            proc.send_signal(signal.SIGABRT)
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                pass
         proc.kill()
-        raise
+        raise AssertionError(f"{exc}; the bridge (domain {dom}) {state}; its log:\n"
+                             f"{log_path.read_text(errors='replace')[-3000:]}") from None
     finally:
         odom.close()
     yield dom
