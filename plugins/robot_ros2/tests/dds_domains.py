@@ -8,9 +8,11 @@ from pathlib import Path
 
 #: DDS domains of one test run: ``domain_id`` + 0 … DOMAIN_BLOCK − 1 (the tests use offsets 0 to 30).
 DOMAIN_BLOCK = 32
-#: The blocks' first domains: 8, 40, …, 200 (the last block ends at 231; Cyclone DDS takes 0 … 232; domain 0, ROS's
-#: default, is left to real robots on the host).
-DOMAIN_BASES = tuple(range(8, 233 - DOMAIN_BLOCK + 1, DOMAIN_BLOCK))
+#: Highest domain whose ports (7400 + 250 · domain + …) stay below Linux's ephemeral ports (32768 and up): above
+#: it, a socket any test opened on port 0 can take a DDS port and discovery fails (ROS 2 advises 0 … 101 on Linux).
+MAX_DOMAIN = 101
+#: The blocks' first domains: 2, 34, 66 (the last block ends at 97; domains 0 and 1 are left to real robots).
+DOMAIN_BASES = tuple(range(2, MAX_DOMAIN - DOMAIN_BLOCK + 2, DOMAIN_BLOCK))
 
 
 def claim_domain_block() -> tuple[int, object]:

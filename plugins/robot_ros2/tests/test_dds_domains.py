@@ -7,11 +7,14 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from dds_domains import DOMAIN_BASES, DOMAIN_BLOCK, claim_domain_block  # noqa: E402
+from dds_domains import DOMAIN_BASES, DOMAIN_BLOCK, MAX_DOMAIN, claim_domain_block  # noqa: E402
 
 
 def test_blocks_are_valid_domains_and_the_tests_offsets_fit():
-    assert DOMAIN_BASES[0] > 0 and DOMAIN_BASES[-1] + DOMAIN_BLOCK - 1 <= 232
+    # below the ephemeral ports: a full run's HTTP sockets once took the DDS ports of domain 109
+    assert DOMAIN_BASES[0] > 0 and DOMAIN_BASES[-1] + DOMAIN_BLOCK - 1 <= MAX_DOMAIN
+    # RTPS ports: 7400 + 250·domain, unicast + 10/11 + 2·participant index (at most 50 in our loopback profile)
+    assert 7400 + 250 * MAX_DOMAIN + 11 + 2 * 50 < 32768
     offsets = set()
     for path in Path(__file__).parent.glob("test_*.py"):
         import re
