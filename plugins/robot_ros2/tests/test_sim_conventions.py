@@ -26,6 +26,13 @@ from benchbot.core.registry import get_registry
 sys.path.insert(0, str(Path(__file__).parent))
 from ros2_independent import RawListener, discovered  # noqa: E402
 
+#: These tests run in a fresh interpreter (``test_sim_conventions_process.py`` starts it with this variable set):
+#: after the rest of the suite in one process, this process's DDS listeners heard nothing from the bridge in three
+#: full runs out of three, while the module alone passes every time (cause not found).
+CHILD_VARIABLE = "BENCHBOT_ROS2_CONVENTIONS_CHILD"
+pytestmark = pytest.mark.skipif(os.environ.get(CHILD_VARIABLE) != "1",
+                                reason="run in a fresh process by test_sim_conventions_process.py")
+
 FRAMES = {"robot": "base_link", "camera": "front_camera_color_optical_frame", "lidar": "front_laser"}
 RANGE_MAX = 1.5
 TIME_SCALE = 4.0
