@@ -92,7 +92,11 @@ class RawListener:
             return [m for _, m in self.messages]
 
     def close(self) -> None:
-        """Drop the participant (and its reader)."""
+        """Drop the participant (and its reader). The listener goes first, on this thread (Cyclone DDS waits for a
+        callback in progress): a listener thread must never drop the last reference to its own reader, which deletes
+        it inside its callback and hangs (as ``CycloneTransport.close`` once did)."""
+        if self.reader is not None:
+            self.reader.set_listener(None)
         self.reader = self.topic = self.participant = None
 
 
