@@ -1,5 +1,6 @@
-"""Executors: where a batch's episodes run. Every executor runs :func:`~benchbot.batch.episode.run_episode`, reports
-the same events and returns the same records, so results do not depend on the executor.
+"""Executors: where a batch's episodes run. Every executor runs
+:func:`~benchbot.batch.episode_runner.run_episode`, reports the same events and returns the same records, so results
+do not depend on the executor.
 
 ``local``: ``workers == 1`` runs episodes one after another in this process (the simulator starts once);
 ``workers > 1`` runs them in that many worker processes (spawned; each has its own simulator thread and its own
@@ -19,7 +20,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable
 
-from benchbot.batch.episode import run_episode
+from benchbot.batch.episode_runner import run_episode
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec
 from benchbot.core.errors import UsageError
 

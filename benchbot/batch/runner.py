@@ -30,7 +30,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable
 
-from benchbot.batch.episode import results_problem
+from benchbot.batch.episode_runner import results_problem
 from benchbot.batch.executors import EventHandler, run_local, run_ray
 from benchbot.batch import provenance
 from benchbot.batch.plan import (
