@@ -30,7 +30,8 @@ ORIGINAL = DOCS / "original-benchbot.md"
 PROJECT_DIRS = ("benchbot", "benchbot_api", "plugins", "docs", "schemas", "tests", "benchmarks")
 PROJECT_FILES = ("README.md", "pyproject.toml", "conftest.py", "uv.lock")
 #: Core packages whose every module architecture.md must name.
-MAPPED_PACKAGES = ("benchbot/core", "benchbot/batch", "benchbot/api", "benchbot/tui", "benchbot/plugins")
+MAPPED_PACKAGES = ("benchbot/core", "benchbot/core/server", "benchbot/batch", "benchbot/api", "benchbot/tui",
+                   "benchbot/plugins")
 
 SPAN = re.compile(r"`([^`\n]+)`")
 LINK = re.compile(r"\]\(([^)#\s]+\.md)(?:#[^)]*)?\)")

@@ -1,0 +1,81 @@
+"""The server's errors and their HTTP statuses: every error is JSON ``{"error": message, "hint": hint}``.
+
+400: a bad request, or an argument past its limit; 401: a missing or wrong token; 404: an unknown route, key,
+connection or results function; 405: a method the route does not take; 409: an action refused, or the episode
+belongs to another client; 413: a body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES`; 500: a backend failure
+(its message says which; paths of ground-truth files are blanked out, :mod:`benchbot.core.server.redaction`); 504:
+an action or results function that ran past its timeout (the motion still completes on the backend thread and the
+episode stays usable).
+"""
+
+from __future__ import annotations
+
+from starlette.responses import JSONResponse
+
+from benchbot.core.episode import ActionArgumentError
+from benchbot.core.errors import ActionError, BackendError, BenchbotError
+from benchbot.core.server.redaction import redact
+
+
+class NotFoundError(BenchbotError):
+    """An unknown route, config key, robot command, connection or results function (HTTP 404)."""
+
+
+class BadRequestError(BenchbotError):
+    """A malformed request body or argument (HTTP 400)."""
+
+
+class ActionTimeoutError(BackendError):
+    """An action ran past the server's action timeout (HTTP 504)."""
+
+
+class UnauthorizedError(BenchbotError):
+    """A request without the server's token (HTTP 401)."""
+
+
+class EpisodeInUseError(BenchbotError):
+    """The episode belongs to another client (HTTP 409; :class:`~benchbot.core.server.ownership.EpisodeOwnership`)."""
+
+
+class PayloadTooLargeError(BenchbotError):
+    """A request body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES` (HTTP 413)."""
+
+
+def status_of(exc: BaseException) -> int:
+    """The HTTP status of an error raised by :class:`~benchbot.core.server.operations.BackendApi` (an ``int``; 500
+    for anything that is not a :class:`~benchbot.core.errors.BenchbotError`; never raises)."""
+    if isinstance(exc, NotFoundError):
+        return 404
+    if isinstance(exc, UnauthorizedError):
+        return 401
+    if isinstance(exc, PayloadTooLargeError):
+        return 413
+    if isinstance(exc, ActionArgumentError):
+        return 400
+    if isinstance(exc, (ActionError, EpisodeInUseError)):
+        return 409
+    if isinstance(exc, ActionTimeoutError):
+        return 504
+    if isinstance(exc, BackendError):
+        return 500
+    if isinstance(exc, BenchbotError):
+        return 400
+    return 500
+
+
+def error_response(status: int, exc: BaseException | str, hint: str = "",
+                   hidden: set[str] | None = None) -> JSONResponse:
+    """The JSON error reply ``{"error": message, "hint": hint}`` with HTTP ``status``.
+
+    Args:
+        status: the HTTP status code.
+        exc: the error (a :class:`~benchbot.core.errors.BenchbotError` gives its own message and hint), or the
+            message itself.
+        hint: the hint when ``exc`` is not a :class:`~benchbot.core.errors.BenchbotError`.
+        hidden: strings blanked out of the message and hint (:func:`~benchbot.core.server.redaction.redact`).
+    """
+    message = exc.message if isinstance(exc, BenchbotError) else str(exc)
+    hint = exc.hint if isinstance(exc, BenchbotError) else hint
+    if hidden:
+        message, hint = redact(message, hidden), redact(hint, hidden)
+    return JSONResponse({"error": message, "hint": hint}, status_code=status)

@@ -1,0 +1,236 @@
+"""The HTTP routes: :func:`build_app` puts a :class:`~benchbot.core.server.service.BackendService`'s episode behind
+them (the original supervisor's, plus the native protocol; docs/protocol.md).
+
+======================================  ======================================================================
+``GET /``                               greeting (JSON string)
+``GET /config/[key/...]``               the config ``{task, results, robot, environments}`` or a nested key (404)
+``GET|POST /connections/<name>``        the original protocol: an action (JSON body = its arguments; blocks
+                                        until the motion ends; reply ``null``) or one observation (reply:
+                                        jsonpickle text, NumPy arrays by ``jsonpickle.ext.numpy``)
+``GET|POST /robot/<command>``           ``is_collided``, ``is_dirty``, ``is_finished``, ``is_running``, ``next``,
+                                        ``reset``, ``restart``, ``stop``, ``selected_environment``, ``state``,
+                                        ``run_info`` (task, robot, environments, seed), ``release`` (give the
+                                        episode up: :class:`~benchbot.core.server.ownership.EpisodeOwnership`)
+``GET|POST /results_functions/[fn]``    the results format's function names, or call one with
+                                        ``{"args": [...], "kwargs": {...}}``
+``POST /native/step``                   one round trip per step: MessagePack ``{action, args, observations?}``
+                                        → ``{result, observations, state}`` (arrays as raw bytes, wire.py);
+                                        with ``shm: {client, segment, slot}`` from a loopback client, large arrays
+                                        go through a shared-memory segment instead (shared_frames.py)
+======================================  ======================================================================
+
+Errors and their statuses: :mod:`benchbot.core.server.http_errors`. Request-sized work (parsing a large body,
+results functions, encoding observations) never runs on the event loop; every episode call runs on the backend
+thread.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route
+
+from benchbot.core import limits, shared_frames, wire
+from benchbot.core.errors import BenchbotError
+from benchbot.core.server.http_errors import ActionTimeoutError, BadRequestError, error_response, status_of
+from benchbot.core.server.middleware import BodyLimit, MergeSlashes, TokenGuard
+from benchbot.core.server.operations import BackendApi
+from benchbot.core.server.ownership import READ_ONLY_COMMANDS, EpisodeOwnership, client_identity
+from benchbot.core.server.request_decoding import PARSE_OFF_LOOP_BYTES, parse_json_body, parse_step_body
+from benchbot.core.server.service import BackendService
+from benchbot.core.shared_frames import is_loopback
+
+SUPERVISOR_GREETING = "Hello, I am the BenchBot supervisor"
+MSGPACK = wire.MSGPACK_TYPE
+DEFAULT_ACTION_TIMEOUT_S = 120.0
+
+
+def encode_jsonpickle(value: Any) -> str:
+    """jsonpickle text of ``value`` with NumPy arrays (``jsonpickle.ext.numpy``), as the original controller sent.
+    The server only encodes; it never decodes jsonpickle."""
+    import jsonpickle
+    import jsonpickle.ext.numpy as jsonpickle_numpy
+
+    jsonpickle_numpy.register_handlers()
+    return jsonpickle.encode(value)
+
+
+
+def build_app(
+    service: BackendService,
+    *,
+    token: str | None = None,
+    action_timeout_s: float = DEFAULT_ACTION_TIMEOUT_S,
+    api: BackendApi | None = None,
+    lease_s: float | None = None,
+) -> Starlette:
+    """The Starlette application serving ``service``'s episode.
+
+    Args:
+        service: the backend service.
+        token: when set, every request must carry it in the ``X-BenchBot-Token`` header (or ``Authorization:
+            Bearer <token>``); otherwise → 401. Required when serving on an address other than loopback.
+        action_timeout_s: an action (native or original protocol) still running after this many seconds answers
+            504; the motion completes on the backend thread and later requests queue behind it.
+        api: the operations object (one is built when None).
+        lease_s: :class:`EpisodeOwnership`'s idle time; None: :data:`~benchbot.core.limits.EPISODE_LEASE_S`.
+
+    Raises:
+        UsageError: a limit's environment variable (:mod:`benchbot.core.limits`) is not a positive number.
+    """
+    api = api or BackendApi(service)
+    segments = shared_frames.SegmentPool()  # same-host clients' shared-memory segments (used on the backend thread)
+    ownership = EpisodeOwnership(limits.EPISODE_LEASE_S.value() if lease_s is None else lease_s)
+    max_body = int(limits.MAX_REQUEST_BYTES.value())
+    results_timeout_s = limits.RESULTS_FUNCTION_TIMEOUT_S.value()
+    for limit in (limits.MAX_OBSERVATION_NAMES, limits.MAX_RESULTS_ARG_NUMBER, limits.MAX_RESULTS_REPLY_BYTES,
+                  limits.MAX_MOVE_DISTANCE_M, limits.MAX_MOVE_ANGLE_DEG):
+        limit.value()  # a bad variable is a one-line error now, not a 500 on the first request
+    # Results functions run one at a time on their own thread: never on the event loop, never on the backend thread.
+    results_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="benchbot-results")
+    # Large request bodies are parsed, and observation replies encoded, on these threads.
+    request_workers = ThreadPoolExecutor(max_workers=2, thread_name_prefix="benchbot-request")
+
+    async def off_loop(executor: ThreadPoolExecutor, fn: Callable, *args: Any) -> Any:
+        return await asyncio.wrap_future(executor.submit(fn, *args))
+
+    async def guarded(request: Request, handler: Callable, claims: Callable[[Request], bool]) -> Response:
+        client = None
+        claimed = False
+        try:
+            client = client_identity(request)
+            if claims(request):
+                ownership.acquire(client)
+                claimed = True
+            else:
+                ownership.touch(client)
+            return await handler(request)
+        except BenchbotError as exc:
+            return error_response(status_of(exc), exc, hidden=service.hidden)
+        except Exception as exc:  # never crash the server: a documented 500 naming the failure
+            return error_response(500, f"backend failure: {exc!r}",
+                                  "see the backend's log; BENCHBOT_DEBUG=1 for details", hidden=service.hidden)
+        finally:
+            if claimed:
+                ownership.done(client)
+
+    async def with_timeout(fn: Callable, *args: Any) -> Any:
+        future = service.executor.submit(fn, *args)
+        try:
+            return await asyncio.wait_for(asyncio.shield(asyncio.wrap_future(future)), timeout=action_timeout_s)
+        except asyncio.TimeoutError:
+            raise ActionTimeoutError(
+                f"the action did not finish within {action_timeout_s:g} s",
+                "the motion completes in the background; query /robot/state, then go on",
+            ) from None
+
+    async def body_json(request: Request) -> dict:
+        raw = await request.body()
+        if len(raw) >= PARSE_OFF_LOOP_BYTES:
+            return await off_loop(request_workers, parse_json_body, raw)
+        return parse_json_body(raw)
+
+    async def root(request: Request) -> Response:
+        return JSONResponse(SUPERVISOR_GREETING)
+
+    async def config(request: Request) -> Response:
+        keys = [k for k in request.path_params.get("path", "").split("/") if k]
+        return JSONResponse(api.config(keys))
+
+    async def robot(request: Request) -> Response:
+        command = request.path_params.get("command", "")
+        if command == "release":
+            return JSONResponse({"release_success": ownership.release(client_identity(request))})
+        if command and command not in api.robot_commands:
+            api.robot(command)  # raises NotFoundError without touching the worker
+        return JSONResponse(await service.acall(api.robot, command))
+
+    async def results_functions(request: Request) -> Response:
+        name = request.path_params.get("fn", "")
+        if not name:
+            return JSONResponse(api.results_function_names())
+        api.check_results_function(name)
+        body = await body_json(request)
+        try:
+            _, text = await asyncio.wait_for(
+                asyncio.shield(off_loop(results_worker, api.results_function_json, name, body)), results_timeout_s)
+        except asyncio.TimeoutError:
+            raise ActionTimeoutError(
+                f"results function '{name}' did not finish within {results_timeout_s:g} s",
+                f"ask for less (${limits.RESULTS_FUNCTION_TIMEOUT_S.env} on the backend raises the limit)",
+            ) from None
+        return Response(text, media_type="application/json")
+
+    async def connections(request: Request) -> Response:
+        name = request.path_params["name"]
+        body = await body_json(request)
+        value = await with_timeout(api.connection, name, body)
+        return Response(await off_loop(request_workers, encode_jsonpickle, value), media_type="application/json")
+
+    async def native_step(request: Request) -> Response:
+        raw = await request.body()
+        body = await off_loop(request_workers, parse_step_body, raw) if len(raw) >= PARSE_OFF_LOOP_BYTES \
+            else parse_step_body(raw)
+        offer = None
+        if body.get("shm") is not None:
+            try:
+                offer = shared_frames.check_offer(body["shm"])
+            except BenchbotError as exc:
+                raise BadRequestError(exc.message, exc.hint) from None
+        refused = offer is not None and (request.client is None or not is_loopback(request.client.host))
+
+        def step_and_pack() -> bytes:
+            # On the backend thread: the observations are borrowed from the backend and copied once, into the
+            # reply or into the client's slot, before any other episode call can change them.
+            reply = api.step(body.get("action"), body.get("args"), body.get("observations"), borrowed=True)
+            if refused:
+                reply["shm_error"] = "shared memory is for clients on the backend's host (loopback) only"
+            if offer is None or refused:
+                return wire.pack(reply)
+            return segments.pack(reply, offer)
+
+        return Response(await with_timeout(step_and_pack), media_type=MSGPACK)
+
+    def always(request: Request) -> bool:
+        return True
+
+    def never(request: Request) -> bool:
+        return False
+
+    def mutating_command(request: Request) -> bool:
+        command = request.path_params.get("command", "")
+        return command not in READ_ONLY_COMMANDS and command != "release" and command in api.robot_commands
+
+    def route(path: str, handler: Callable, methods: list[str], claims: Callable[[Request], bool] = never) -> Route:
+        async def endpoint(request: Request) -> Response:
+            return await guarded(request, handler, claims)
+
+        return Route(path, endpoint, methods=methods)
+
+    methods = ["GET", "POST"]
+    app = Starlette(
+        routes=[
+            route("/", root, methods),
+            route("/config/", config, methods),
+            route("/config/{path:path}", config, methods),
+            route("/connections/{name}", connections, methods, always),
+            route("/robot/", robot, methods),
+            route("/robot/{command}", robot, methods, mutating_command),
+            route("/results_functions/", results_functions, methods),
+            route("/results_functions/{fn}", results_functions, methods),
+            route("/native/step", native_step, ["POST"], always),
+        ]
+    )
+    app.state.api = api
+    app.state.ownership = ownership
+    limited = BodyLimit(app, max_body)
+    guarded_app: Any = TokenGuard(limited, token) if token else limited
+    served = MergeSlashes(guarded_app)
+    served.segments = segments  # ServerThread.stop removes them
+    served.executors = (results_worker, request_workers)  # ServerThread.stop shuts them down
+    return served  # type: ignore[return-value]
