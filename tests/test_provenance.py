@@ -45,7 +45,7 @@ def test_prepare_batch_records_provenance(tmp_path):
     specs = plan_episodes(task="semantic_slam:passive:ground_truth", robots=["carter"], envs=["miniroom:1"],
                           repeat=1, seed=0, argv=["true"], cwd=str(tmp_path), options={}, timeout_s=None)
     manifest = prepare_batch(get_registry(), run_dir=tmp_path, specs=specs, evaluate_with=None, prefix="batch",
-                             zip_results=False)
+                             zip_results=False).manifest
     written = json.loads((tmp_path / "manifest.json").read_text())
     assert written["provenance"] == manifest["provenance"]
     assert written["provenance"]["solution_git"] == {str(tmp_path): None}

@@ -64,6 +64,24 @@ class BatchOutcome:
         return all(e.status == "ok" for e in self.episodes) and not self.evaluation_error
 
 
+@dataclass
+class Batch:
+    """A batch in memory: what :func:`run_batch` runs. :func:`prepare_batch` makes it for a new batch (its plan
+    as planned, its manifest as written); :func:`load_batch` reads it back from a run directory's manifest for
+    ``--resume``. The manifest is written after every change, never read back while the batch runs.
+
+    Attributes:
+        run_dir: the run directory (absolute).
+        manifest: the manifest (``manifest.json``'s content; :func:`run_batch` updates it and writes it).
+        specs: the plan, in index order. records: each episode's record, in the same order.
+    """
+
+    run_dir: Path
+    manifest: dict
+    specs: list[EpisodeSpec]
+    records: list[EpisodeRecord]
+
+
 def default_evaluator(registry: Registry, run: RunSpec) -> str | None:
     """The method used when none is named: the first (by name) that scores the task's results format, provided
     every scene has a ground truth; otherwise None."""
@@ -163,20 +181,21 @@ def apply_timeouts(registry: Registry, specs: list[EpisodeSpec]) -> dict:
 def prepare_batch(
     registry: Registry, *, run_dir: Path, specs: list[EpisodeSpec], evaluate_with: str | None, prefix: str,
     zip_results: bool, sweep: dict | None = None,
-) -> dict:
+) -> Batch:
     """Validate every combination of the plan, resolve the evaluation method and the episode timeouts
     (:func:`apply_timeouts`, in place), and write config + manifest. The manifest records the parameters of every
     noise preset the plan uses (``noise``: ``{name: parameters}``, docs/noise.md) and ``sweep`` (``{factor, levels,
     level_of: {index: level}}`` of a ``--sweep`` batch, else None).
 
     Returns:
-        the manifest.
+        the batch in memory (``specs`` itself, pending records, the manifest as written), for :func:`run_batch`.
 
     Raises:
         SpecError: a combination is invalid (nothing has run yet) or the named method does not exist.
     """
     runs = {(s.robot, s.env): resolve_run(registry, s.task, s.robot, s.env) for s in specs}
     episode_timeout = apply_timeouts(registry, specs)
+    records = [new_record(s) for s in specs]
     first = next(iter(runs.values()))
     if evaluate_with == "auto":
         evaluate_with = default_evaluator(registry, first)
@@ -194,10 +213,26 @@ def prepare_batch(
         "provenance": provenance.collect([s.cwd for s in specs]),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "noise": {name: get_preset(name) for name in dict.fromkeys(s.noise for s in specs)}, "sweep": sweep,
-        "plan": to_json(specs), "episodes": to_json([new_record(s) for s in specs]),
+        "plan": to_json(specs), "episodes": to_json(records),
     }
     write_manifest(run_dir, manifest)
-    return manifest
+    return Batch(run_dir.resolve(), manifest, specs, records)
+
+
+def load_batch(run_dir: Path) -> Batch:
+    """The batch of an existing run directory, from its manifest (for ``--resume``).
+
+    Args:
+        run_dir: the run directory (made absolute).
+
+    Raises:
+        UsageError: no run directory or no (readable) manifest there, or a manifest that fails
+            :func:`~benchbot.batch.plan.check_manifest`.
+    """
+    run_dir = run_dir.resolve()
+    manifest = read_manifest(run_dir)
+    specs, records = specs_from_manifest(manifest)
+    return Batch(run_dir, manifest, specs, records)
 
 
 def longest_first(specs: list[EpisodeSpec], registry: Registry) -> list[EpisodeSpec]:
@@ -216,11 +251,11 @@ def longest_first(specs: list[EpisodeSpec], registry: Registry) -> list[EpisodeS
 
 
 def run_batch(
-    registry: Registry, run_dir: Path, *, workers: int = 1, retries: int = 0, executor: str = "local",
+    registry: Registry, batch: Batch, *, workers: int = 1, retries: int = 0, executor: str = "local",
     ray_address: str | None = None, on_event: EventHandler | None = None,
     on_record: Callable[[EpisodeRecord], None] | None = None,
 ) -> BatchOutcome:
-    """Run (or resume) the batch planned in ``run_dir``'s manifest, then evaluate.
+    """Run (or resume) ``batch`` (from :func:`prepare_batch` or :func:`load_batch`), then evaluate.
 
     Episodes whose record is ``ok`` are skipped; the others run, and failed ones are retried up to ``retries``
     times. The manifest is rewritten atomically after every episode.
@@ -230,16 +265,14 @@ def run_batch(
             an existing cluster, else a local one with ``workers`` CPUs is started).
 
     Raises:
-        UsageError: no manifest in ``run_dir``; ``workers`` < 1; unknown executor.
+        UsageError: ``workers`` < 1; unknown executor; a bad ``BENCHBOT_*`` limit variable.
     """
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
     if executor not in ("local", "ray"):
         raise UsageError(f"unknown executor '{executor}'", "use local or ray")
     MAX_LOG_BYTES.value(), STOP_GRACE_S.value()  # a bad variable stops here, not once per episode
-    run_dir = run_dir.resolve()
-    manifest = read_manifest(run_dir)
-    specs, records = specs_from_manifest(manifest)
+    run_dir, manifest, specs, records = batch.run_dir, batch.manifest, batch.specs, batch.records
     for record in records:  # results finished earlier but since removed or corrupted are done again
         problem = results_problem(run_dir / record.results) if record.status == "ok" else ""
         if problem:
@@ -273,7 +306,7 @@ def run_batch(
     method = manifest.get("evaluate_with")
     if method and done:
         try:
-            _evaluate(registry, run_dir, manifest, method, outcome)
+            _evaluate(registry, run_dir, manifest, specs, method, outcome)
         except BenchbotError as exc:
             outcome.evaluation_error = exc.message
     outcome.excluded = _excluded(outcome.episodes)
@@ -300,7 +333,8 @@ def _excluded(episodes: list[EpisodeRecord]) -> list[dict]:
             for e in episodes if e.status != "ok"]
 
 
-def _evaluate(registry: Registry, run_dir: Path, manifest: dict, method: str, outcome: BatchOutcome) -> None:
+def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[EpisodeSpec], method: str,
+              outcome: BatchOutcome) -> None:
     """Score the ``ok`` episodes' results with ``method``; a results file that cannot be loaded, validated or
     scored turns its episode into ``bad_results`` (with the one-line reason) instead of failing the whole
     evaluation, and the others are scored. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes
@@ -311,7 +345,7 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, method: str, ou
     """
     done = [e for e in outcome.episodes if e.status == "ok"]
     by_source = {str(run_dir / e.results): e for e in done}
-    noise = {p["index"]: p.get("noise", "none") for p in manifest["plan"]}
+    noise = {s.index: s.noise for s in specs}
     evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
                           required_task=manifest["task"], keep_going=True)
     for source, exc in evaluation.errors:  # a zip archive's members are named PATH:MEMBER

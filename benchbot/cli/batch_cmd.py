@@ -12,8 +12,8 @@ from typing import Optional
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from benchbot.batch.plan import EpisodeRecord, plan_episodes, read_manifest, specs_from_manifest
-from benchbot.batch.runner import new_run_dir, parse_env_list, prepare_batch, run_batch
+from benchbot.batch.plan import EpisodeRecord, plan_episodes
+from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
 from benchbot.batch.sweep import parse_sweep, plan_sweep
 from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
 from benchbot.cli.eval_cmd import print_scores
@@ -69,10 +69,9 @@ def register(app: typer.Typer) -> None:
         if executor not in ("local", "ray"):
             raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
         if resume is not None:
-            run_dir = resume.resolve()
-            specs, records = specs_from_manifest(read_manifest(run_dir))
-            done = sum(r.status == "ok" for r in records)
-            err.print(f"resuming {run_dir}: {done} of {len(specs)} episodes already done")
+            batch = load_batch(resume)
+            done = sum(r.status == "ok" for r in batch.records)
+            err.print(f"resuming {batch.run_dir}: {done} of {len(batch.specs)} episodes already done")
         else:
             modes = [m for m, on in (("--native", native), ("--example", example), ("--containerised", containerised)) if on]
             if len(modes) != 1:
@@ -112,13 +111,14 @@ def register(app: typer.Typer) -> None:
             with writing(output_dir, "--output-dir"):
                 run_dir = new_run_dir(output_dir, prefix)
             try:
-                prepare_batch(reg, run_dir=run_dir, specs=specs,
-                              evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
-                              zip_results=zip_results, sweep=sweep_record)
+                batch = prepare_batch(reg, run_dir=run_dir, specs=specs,
+                                      evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
+                                      zip_results=zip_results, sweep=sweep_record)
             except BaseException:  # nothing ran: leave no empty run directory behind
                 shutil.rmtree(run_dir, ignore_errors=True)
                 raise
             err.print(f"run directory: {run_dir}")
+        run_dir, specs = batch.run_dir, batch.specs
         total = len(specs)
         expected = {s.index: _expected_steps(reg, s.task, s.env) for s in specs}
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
@@ -131,10 +131,10 @@ def register(app: typer.Typer) -> None:
 
         started = time.monotonic()
         if is_tty() and not no_tui:
-            outcome = _run_with_tui(reg, run_dir, live, print_line, workers=workers, retries=retries,
+            outcome = _run_with_tui(reg, batch, live, print_line, workers=workers, retries=retries,
                                     executor=executor, ray_address=ray_address)
         elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
-            outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
+            outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
                                 ray_address=ray_address, on_event=live.event, on_record=print_line)
         else:
             with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
@@ -153,7 +153,7 @@ def register(app: typer.Typer) -> None:
                     if record.index in rows:
                         progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
 
-                outcome = run_batch(reg, run_dir, workers=workers, retries=retries, executor=executor,
+                outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
                                     ray_address=ray_address, on_event=on_event, on_record=on_record)
         err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
         for record in outcome.episodes:
@@ -271,8 +271,8 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     return text
 
 
-def _run_with_tui(reg, run_dir: Path, live: ProgressFile, on_record, **kwargs):
-    """Run the batch (``run_batch(reg, run_dir, **kwargs)``) in a background thread and the episode table
+def _run_with_tui(reg, batch, live: ProgressFile, on_record, **kwargs):
+    """Run the batch (``run_batch(reg, batch, **kwargs)``) in a background thread and the episode table
     (:class:`benchbot.tui.batch_app.BatchApp`) in the foreground; the table closes itself when the batch ends.
 
     ``q`` closes the table and the batch goes on, printing a line per finished episode (``on_record``); Ctrl-C in
@@ -290,12 +290,13 @@ def _run_with_tui(reg, run_dir: Path, live: ProgressFile, on_record, **kwargs):
 
     def work() -> None:
         try:
-            result["outcome"] = run_batch(reg, run_dir, on_event=live.event, on_record=record, **kwargs)
+            result["outcome"] = run_batch(reg, batch, on_event=live.event, on_record=record, **kwargs)
         except BaseException as exc:  # re-raised in the main thread
             result["error"] = exc
 
     thread = threading.Thread(target=work, name="benchbot-batch", daemon=True)
     thread.start()
+    run_dir = batch.run_dir
     app = BatchApp(run_dir, is_done=lambda: not thread.is_alive())
     app.run()
     view_open.clear()
