@@ -53,9 +53,16 @@ def schema_dir() -> Path:
 
 
 @functools.lru_cache(maxsize=None)
-def validator(schema_name: str) -> jsonschema.Draft202012Validator:
-    """The Draft 2020-12 validator of ``schemas/<schema_name>.schema.json``."""
-    schema = json.loads((schema_dir() / f"{schema_name}.schema.json").read_text())
+def validator(schema_name: "str | Path") -> jsonschema.Draft202012Validator:
+    """The Draft 2020-12 validator of ``schemas/<schema_name>.schema.json``, or, when ``schema_name`` is a
+    :class:`~pathlib.Path`, of that schema file (a plugin's schema of the fields its robot backend reads, shipped in
+    the plugin's package: ``benchbot_<plugin>/schemas/``).
+
+    Raises:
+        OSError: the schema file cannot be read. jsonschema.SchemaError: it is not a valid Draft 2020-12 schema.
+    """
+    path = schema_name if isinstance(schema_name, Path) else schema_dir() / f"{schema_name}.schema.json"
+    schema = json.loads(path.read_text(encoding="utf-8"))
     jsonschema.Draft202012Validator.check_schema(schema)
     return jsonschema.Draft202012Validator(schema)
 
@@ -68,6 +75,21 @@ def json_path(path: "list[Any] | Any") -> str:
     return out
 
 
+def first_error(instance: Any, schema_name: "str | Path") -> "tuple[str, str] | None":
+    """The first error (by path) of ``instance`` against a schema (``schema_name`` as for :func:`validator`), as
+    ``(<$.json.path>, <message>)``, or ``None`` when it is valid. The message is jsonschema's, one line; where an
+    ``anyOf``/``oneOf`` fails and its schema has a ``description``, the description is added as what was expected
+    (jsonschema's own message names no alternative)."""
+    errors = sorted(validator(schema_name).iter_errors(instance), key=lambda e: list(map(str, e.absolute_path)))
+    if not errors:
+        return None
+    err = errors[0]
+    message = err.message
+    if err.validator in ("anyOf", "oneOf") and isinstance(err.schema, dict) and err.schema.get("description"):
+        message += f" (expected {err.schema['description']})"
+    return json_path(err.absolute_path), message
+
+
 def validate(instance: Any, schema_name: str, source: str) -> None:
     """Validate ``instance`` against ``schemas/<schema_name>.schema.json``.
 
@@ -76,13 +98,10 @@ def validate(instance: Any, schema_name: str, source: str) -> None:
     Raises:
         SpecError: ``"<source>: <$.json.path>: <message>"`` for the first error (by path).
     """
-    errors = sorted(validator(schema_name).iter_errors(instance), key=lambda e: list(map(str, e.absolute_path)))
-    if errors:
-        err = errors[0]
-        raise SpecError(
-            f"{source}: {json_path(err.absolute_path)}: {err.message}",
-            f"fix the field to match schemas/{schema_name}.schema.json",
-        )
+    error = first_error(instance, schema_name)
+    if error:
+        raise SpecError(f"{source}: {error[0]}: {error[1]}",
+                        f"fix the field to match schemas/{schema_name}.schema.json")
     if schema_name == "task":
         check_task_actions(instance, source)
 
