@@ -16,6 +16,7 @@ floor whatever the robot frame's height.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -24,6 +25,7 @@ from benchbot.core import noise as noise_models
 from benchbot.core.errors import BackendError, UsageError
 from benchbot.core.geometry import rpy_to_matrix, se2_to_matrix
 from benchbot.core.motion import ControllerGains
+from benchbot.core.registry import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
 from benchbot_sim_taichi.kinematics import Obstacles, drive
@@ -44,8 +46,11 @@ DEFAULT_SENSORS: dict[str, Any] = {
     "noise": {"rgb_sigma": 0.0, "depth_sigma": 0.0, "depth_dropout": 0.0, "laser_sigma": 0.0},
 }
 
-#: Scalars of :data:`DEFAULT_SENSORS` that may be 0 (the others must be positive).
-NON_NEGATIVE = frozenset({"robot_frame_height_m"})
+#: The schemas of what this backend reads beyond ``schemas/``: the robot spec's ``sensors`` block and the options
+#: (package data, validated by :func:`benchbot.core.registry.first_error`).
+SCHEMA_DIR = Path(__file__).resolve().parent / "schemas"
+ROBOT_SCHEMA = SCHEMA_DIR / "robot.schema.json"
+OPTIONS_SCHEMA = SCHEMA_DIR / "options.schema.json"
 
 #: Rotation (3, 3) of the camera OPTICAL frame in the camera body frame (x forward, y left, z up).
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -53,61 +58,69 @@ R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
 
 
+def _over_defaults(defaults: dict, given: Any) -> Any:
+    """``given`` (a ``sensors`` block) over ``defaults``, one level of sub-blocks deep (a ``None`` sub-block is its
+    defaults); a block that is not a mapping is returned as it is, for the schema to refuse."""
+    if not isinstance(given, dict):
+        return given
+    out = {**defaults, **given}
+    for key, default in defaults.items():
+        if isinstance(default, dict):
+            block = given.get(key)
+            out[key] = dict(default) if block is None else {**default, **block} if isinstance(block, dict) else block
+    return out
+
+
+def _numbers(value: Any, path: str):
+    """``(path, number)`` of every number in a config (nested mappings and lists), booleans left out."""
+    if isinstance(value, dict):
+        for key, v in value.items():
+            yield from _numbers(v, f"{path}.{key}")
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            yield from _numbers(v, f"{path}[{i}]")
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        yield path, value
+
+
 def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]:
     """The robot spec's ``sensors`` block merged over :data:`DEFAULT_SENSORS`; ``options['width'/'height']``
-    override the camera size.
+    (pixels) override the camera size. Units: pixels (camera size), metres (mounts, ranges, radii, heights),
+    degrees (angles); this package's ``schemas/robot.schema.json`` (:data:`ROBOT_SCHEMA`) gives each field.
 
     Raises:
-        BackendError: a malformed block (a sub-block that is not a mapping, a value that is not a number of the
-            default's kind, a non-positive size, beam count or footprint, a negative ``robot_frame_height_m``, a
-            field of view outside (0°, 180°), or ``range_max`` ≤ ``range_min``), naming the field.
+        BackendError: one line ``robot '<name>': sensors.<field>: <problem>``: the merged block does not match
+            :data:`ROBOT_SCHEMA` (a block that is not a mapping, a value that is not a number or integer, a
+            non-positive size, beam count, footprint or range, a negative ``robot_frame_height_m``, a field of view
+            outside (0°, 180°), an unknown or negative noise field, a ``depth_dropout`` above 1), a number is not
+            finite, or ``range_max`` ≤ ``range_min``.
     """
     name = robot_spec.get("name", "?")
 
     def bad(field: str, why: str) -> BackendError:
-        return BackendError(f"robot '{name}': sensors.{field}: {why}", "see plugins/sim_taichi/README.md (Sensors)")
+        return BackendError(f"robot '{name}': {field}: {why}", "fix the field (plugins/sim_taichi/README.md, Sensors; "
+                            "benchbot_sim_taichi/schemas/robot.schema.json)")
 
-    src = robot_spec.get("sensors") or {}
-    if not isinstance(src, dict):
-        raise bad("", "expected a mapping")
-    cfg: dict[str, Any] = {}
-    for key, default in DEFAULT_SENSORS.items():
-        if isinstance(default, dict):
-            block = src.get(key) or {}
-            if not isinstance(block, dict):
-                raise bad(key, "expected a mapping")
-            cfg[key] = {**default, **block}
-            for field, value in cfg[key].items():
-                want = default.get(field)
-                if isinstance(want, list) and (not isinstance(value, list) or len(value) != len(want)
-                                               or not all(isinstance(v, (int, float)) for v in value)):
-                    raise bad(f"{key}.{field}", f"expected {len(want)} numbers, got {value!r}")
-                if isinstance(want, (int, float)) and (isinstance(value, bool) or not isinstance(value, (int, float))
-                                                       or not math.isfinite(value)):
-                    raise bad(f"{key}.{field}", f"expected a number, got {value!r}")
-        else:
-            value = src.get(key, default)
-            if key in NON_NEGATIVE:
-                if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
-                    raise bad(key, f"expected a number >= 0, got {value!r}")
-            elif isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise bad(key, f"expected a positive number, got {value!r}")
-            cfg[key] = float(value)
+    src = robot_spec.get("sensors")
+    cfg = _over_defaults(DEFAULT_SENSORS, {} if src is None else src)
     options = options or {}
-    if options.get("width"):
-        cfg["camera"]["width"] = int(options["width"])
-    if options.get("height"):
-        cfg["camera"]["height"] = int(options["height"])
-    cam, laser = cfg["camera"], cfg["laser"]
-    for field in ("width", "height"):
-        if int(cam[field]) != cam[field] or cam[field] < 1:
-            raise bad(f"camera.{field}", f"expected a positive integer, got {cam[field]!r}")
-    if not 0 < cam["horizontal_fov_deg"] < 180:
-        raise bad("camera.horizontal_fov_deg", "expected degrees in (0, 180)")
-    if int(laser["beams"]) != laser["beams"] or laser["beams"] < 1:
-        raise bad("laser.beams", f"expected a positive integer, got {laser['beams']!r}")
-    if not 0 <= laser["range_min"] < laser["range_max"]:
-        raise bad("laser.range_max", "expected 0 <= range_min < range_max")
+    if isinstance(cfg, dict) and isinstance(cfg.get("camera"), dict):
+        for field in ("width", "height"):
+            if options.get(field):
+                cfg["camera"][field] = int(options[field])
+    error = first_error({"sensors": cfg}, ROBOT_SCHEMA)
+    if error:
+        raise bad(error[0].removeprefix("$."), error[1])
+    # What JSON Schema cannot express: finite numbers (NaN passes every bound) and a range across two fields.
+    for path, value in _numbers(cfg, "sensors"):
+        if not math.isfinite(value):
+            raise bad(path, f"expected a finite number, got {value!r}")
+    if not cfg["laser"]["range_min"] < cfg["laser"]["range_max"]:
+        raise bad("sensors.laser.range_max", f"expected range_min < range_max, got {cfg['laser']['range_min']!r} and "
+                  f"{cfg['laser']['range_max']!r}")
+    for key, default in DEFAULT_SENSORS.items():
+        if not isinstance(default, dict):
+            cfg[key] = float(cfg[key])
     return cfg
 
 
@@ -168,10 +181,10 @@ class TaichiSimBackend(RobotBackend):
         self.max_height = float(self.sensors["max_height_m"])
         self.gains = ControllerGains(speed_factor=float(self.robot_spec.get("speed_factor", 1.0) or 1.0))
         self.noise = {k: float(v) for k, v in self.sensors["noise"].items()}
-        for k, v in self.noise.items():
-            if k not in DEFAULT_SENSORS["noise"] or not (v >= 0.0) or (k == "depth_dropout" and v > 1.0):
-                raise BackendError(f"sensors.noise.{k} = {v} is not valid",
-                                   "use rgb_sigma, depth_sigma, laser_sigma ≥ 0 and 0 ≤ depth_dropout ≤ 1")
+        error = first_error(self.options, OPTIONS_SCHEMA)
+        if error:
+            raise BackendError(f"options{error[0].removeprefix('$')}: {error[1]}",
+                               "see benchbot_sim_taichi/schemas/options.schema.json (mode: fast or quality)")
         name = str(self.options.get("noise") or "none")
         try:
             #: the ``noise`` option's preset (:data:`benchbot.core.noise.PRESETS`)
@@ -180,8 +193,6 @@ class TaichiSimBackend(RobotBackend):
             raise BackendError(exc.message, exc.hint) from None
         self.noise_preset_name = name
         self.mode = str(self.options.get("mode", "fast"))
-        if self.mode not in ("fast", "quality"):
-            raise BackendError(f"unknown render mode {self.mode!r}", "use options mode: fast (default) or quality")
         self.shadow_samples = int(self.options.get("shadow_samples", 1))
         self._seed = int(self.options.get("seed", 0))
         self._frame = 0

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +20,7 @@ import numpy as np
 from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix
+from benchbot.core.registry import first_error
 from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
 
 #: Light kinds in :attr:`Scene.light_kind`.
@@ -77,6 +77,9 @@ _DEFAULT_COLOUR = (0.6, 0.6, 0.6)
 _SHELL_COLOURS = ((0.62, 0.48, 0.33), (0.86, 0.84, 0.78), (0.95, 0.95, 0.94))
 
 _LIGHTINGS = ("base", "day", "night", "day_extra", "night_extra")
+#: The schema of the environment fields this package reads beyond ``schemas/`` (mesh ``objects``; package data).
+ENVIRONMENT_SCHEMA = Path(__file__).resolve().parent / "schemas" / "environment.schema.json"
+
 #: The styles of :func:`build_scene` (environment field ``style``): ``furnished`` — a house with rooms, walls,
 #: doors and windows, textured models fitted to the cuboids, supports and distractor furniture
 #: (:mod:`benchbot_sim_taichi.furnished`); ``primitives`` — procedural primitives in one room shell.
@@ -751,30 +754,28 @@ def load_mesh_objects(environment: dict) -> list[dict]:
     its class colour.
 
     Raises:
-        BackendError: ``objects`` is not a list, an entry lacks ``mesh``/``class`` or has a malformed ``pose`` or
-            ``scale``, a mesh file is missing, unreadable or has no triangles.
+        BackendError: one line naming the field: ``objects`` does not match :data:`ENVIRONMENT_SCHEMA` (not a list, an
+            entry without ``mesh``/``class``, a ``pose`` not of 4 or 7 numbers, a ``scale`` not positive), a pose or
+            scale is not finite or a quaternion is zero, a mesh file is missing, unreadable or has no triangles.
     """
     objs = environment.get("objects")
     if objs is None:
         return []
     where = f"environment {environment.get('name')}:{environment.get('variant')}"
     form = "objects: [{mesh: PATH, class: NAME, pose: [x, y, z, yaw_deg] | [qw,qx,qy,qz,x,y,z], scale: s | [sx,sy,sz]}]"
-    if not isinstance(objs, list):
-        raise BackendError(f"{where}: 'objects' must be a list", form)
+    error = first_error({"objects": objs}, ENVIRONMENT_SCHEMA)
+    if error:
+        raise BackendError(f"{where}: {error[0].removeprefix('$.')}: {error[1]}", form)
     out = []
     for i, o in enumerate(objs):
-        if not isinstance(o, dict) or not isinstance(o.get("mesh"), str) or not isinstance(o.get("class"), str):
-            raise BackendError(f"{where}: objects[{i}] needs a 'mesh' path and a 'class' name", form)
-        pose = o.get("pose", [0, 0, 0, 0])
-        scale = o.get("scale", 1.0)
+        # What JSON Schema cannot express: a finite pose with a non-zero quaternion, a finite scale (NaN passes every
+        # bound); the mesh file's existence below.
         try:
-            if not isinstance(pose, (list, tuple)) or len(pose) not in (4, 7):
-                raise ValueError("pose must have 4 or 7 numbers")
-            R, t = _rotation(list(pose))
-            sc = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,)).copy()
-            if not (np.all(np.isfinite(sc)) and np.all(sc > 0) and np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
-                raise ValueError("scale must be positive and pose finite")
-        except (TypeError, ValueError) as e:
+            R, t = _rotation(list(o.get("pose", [0, 0, 0, 0])))
+            sc = np.broadcast_to(np.asarray(o.get("scale", 1.0), dtype=np.float64), (3,)).copy()
+            if not (np.all(np.isfinite(sc)) and np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+                raise ValueError("scale and pose must be finite")
+        except ValueError as e:  # also a zero quaternion (quaternion_wxyz_to_matrix)
             raise BackendError(f"{where}: objects[{i}] has a bad pose or scale ({e})", form) from e
         path = Path(o["mesh"]).expanduser()
         if not path.is_absolute():

@@ -98,16 +98,23 @@ def test_mesh_objects_and_derived_ground_truth(synthetic_env, tmp_path):
     r.set_scene(scene)
     out = r.render(intrinsics(32, 24, 60.0), _cam(0.0, 0.0, 0.0), 32, 24)
     assert out["instance"][12, 16] == 1 and out["depth"][12, 16] == pytest.approx(2.0, abs=0.02)
-    # clear errors
-    for bad, msg in [({"mesh": "nope.obj", "class": "chair"}, "does not exist"),
-                     ({"mesh": "ball.obj"}, "needs a 'mesh' path and a 'class'"),
-                     ({"mesh": "ball.obj", "class": "chair", "pose": [1, 2]}, "bad pose or scale"),
-                     ({"mesh": "ball.obj", "class": "chair", "scale": -1}, "bad pose or scale")]:
+    # clear errors, one line naming the field (the schema benchbot_sim_taichi/schemas/environment.schema.json, then
+    # what it cannot express: finite poses, non-zero quaternions, existing files)
+    for bad, msg in [({"mesh": "nope.obj", "class": "chair"}, r"objects\[0\]\.mesh .*nope.obj does not exist"),
+                     ({"mesh": "ball.obj"}, r"objects\[0\]: 'class' is a required property"),
+                     ({"mesh": "ball.obj", "class": "chair", "pose": [1, 2]},
+                      r"objects\[0\]\.pose: \[1, 2\] .*expected \[x, y, z, yaw_deg\] or \[qw, qx, qy, qz, x, y, z\]"),
+                     ({"mesh": "ball.obj", "class": "chair", "scale": -1}, r"objects\[0\]\.scale: -1 .*positive"),
+                     ({"mesh": "ball.obj", "class": "chair", "pose": [0, 0, 0, 0, 1, 2, 3]},
+                      r"objects\[0\] has a bad pose or scale \(quaternion has zero length\)"),
+                     ({"mesh": "ball.obj", "class": "chair", "scale": float("nan")},
+                      r"objects\[0\] has a bad pose or scale \(scale and pose must be finite\)")]:
         env["objects"] = [{**bad, "mesh": str(tmp_path / bad["mesh"])} if "mesh" in bad else bad]
-        with pytest.raises(BackendError, match=msg):
+        with pytest.raises(BackendError, match=msg) as e:
             build_scene(env)
+        assert "\n" not in e.value.message and e.value.hint
     env["objects"] = {"mesh": "x"}
-    with pytest.raises(BackendError, match="must be a list"):
+    with pytest.raises(BackendError, match=r"objects: .* is not of type 'array'"):
         build_scene(env)
     (tmp_path / "junk.obj").write_text("this is not a mesh\n")
     env["objects"] = [{"mesh": "junk.obj", "class": "chair"}]
