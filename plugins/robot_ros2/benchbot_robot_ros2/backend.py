@@ -28,6 +28,7 @@ import threading
 import time
 import uuid
 from dataclasses import replace
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -36,6 +37,7 @@ from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, se2_relative, se2_to_matrix
 from benchbot.core.motion import ControllerGains, PoseController
+from benchbot.core.registry import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
 #: Defaults of the robot spec's ``ros2`` block (see docs/ros2.md).
@@ -61,6 +63,10 @@ DEFAULTS: dict[str, Any] = {
     "reset_topic": "/benchbot/reset",
     "reset_done_topic": "/benchbot/reset_done",
 }
+
+#: The schema of what this backend reads of a robot spec beyond ``schemas/``: its ``connections`` and ``ros2`` block
+#: (package data, validated by :func:`benchbot.core.registry.first_error`).
+ROBOT_SCHEMA = Path(__file__).resolve().parent / "schemas" / "robot.schema.json"
 
 _DEFAULT_CONVERTERS = {
     "image_rgb": "benchbot_robot_ros2.convert:image_rgb",
@@ -92,33 +98,62 @@ def _import_callable(path: str) -> Callable:
                            "give callback_robot as 'package.module:function'") from exc
 
 
+def _override(cfg: dict, field: str, value: Any, source: str, convert: Callable[[Any], Any], hint: str) -> None:
+    """Set ``cfg[field]`` to ``convert(value)``, a value from outside the robot spec (``source``: an environment
+    variable or an option), checked against the field's schema in :data:`ROBOT_SCHEMA`.
+
+    Raises:
+        BackendError: ``"<source> = <value>: <problem>"`` (one line): it does not convert or does not match.
+    """
+    try:
+        converted = convert(value)
+    except (TypeError, ValueError) as exc:
+        kind = "an integer" if convert is int else "a number"
+        raise BackendError(f"{source} = {value!r}: expected {kind} ({exc})", hint) from None
+    error = first_error({"ros2": {field: converted}}, ROBOT_SCHEMA)
+    if error:
+        raise BackendError(f"{source} = {value!r}: {error[1]}", hint)
+    cfg[field] = converted
+
+
 def ros2_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]:
     """The robot spec's ``ros2`` block over :data:`DEFAULTS`; ``ROS_DOMAIN_ID`` and ``BENCHBOT_ROS2_TIME_SCALE``
-    (environment) and ``options['ros2_domain_id']`` override. Raises BackendError for invalid values."""
+    (environment) and ``options['ros2_domain_id']`` override. Units as in :data:`DEFAULTS`: seconds, metres, hertz;
+    ``domain_id`` an int, the others floats or strings.
+
+    The spec (its ``connections`` and ``ros2`` block) is checked against :data:`ROBOT_SCHEMA`, the overrides against
+    the same schema's fields.
+
+    Raises:
+        BackendError: one line naming the field (``robot '<name>': ros2.<field>: <problem>``, or the environment
+            variable or option): a field that does not match :data:`ROBOT_SCHEMA` (a value of the wrong type, a
+            domain id outside 0..232, a ``rate_hz`` or ``time_scale`` not positive, an unknown ``transport``,
+            ``network``, ``ground_truth`` or ``reset``; an action connection publishing anything but a Twist, an
+            observation connection with a ``ros_topic`` but no ``ros_type``), or an override that is not one.
+    """
+    error = first_error(robot_spec, ROBOT_SCHEMA)
+    if error:
+        field = error[0].removeprefix("$.")
+        hint = ("an observation's ros_topic needs its ros_type (e.g. sensor_msgs/msg/Image); the actions publish "
+                "geometry_msgs/msg/Twist" if field.startswith("connections.") else
+                "see docs/ros2.md (Writing a robot YAML) for the ros2 block")
+        raise BackendError(f"robot '{robot_spec.get('name')}': {field}: {error[1]}",
+                           f"{hint}; schema benchbot_robot_ros2/schemas/robot.schema.json")
     cfg = {**DEFAULTS, **(robot_spec.get("ros2") or {})}
     options = options or {}
+    # Values from outside the spec: converted and checked here, against the schema's fields, naming their source.
+    domain_hint = "use a domain id 0..232"
     if settings.source("ROS_DOMAIN_ID") == "environment":
-        cfg["domain_id"] = settings.get("ROS_DOMAIN_ID")
+        _override(cfg, "domain_id", settings.get("ROS_DOMAIN_ID"), "ROS_DOMAIN_ID", int, domain_hint)
     if options.get("ros2_domain_id") is not None:
-        cfg["domain_id"] = options["ros2_domain_id"]
+        _override(cfg, "domain_id", options["ros2_domain_id"], "options.ros2_domain_id", int, domain_hint)
     if settings.get("BENCHBOT_ROS2_TIME_SCALE"):
-        cfg["time_scale"] = settings.get("BENCHBOT_ROS2_TIME_SCALE")
-    try:
-        cfg["domain_id"] = int(cfg["domain_id"])
-        for k in ("rate_hz", "time_scale", "settle_s", "sensor_timeout_s", "observation_timeout_s",
-                  "startup_timeout_s", "footprint_radius_m", "safety_distance_m"):
-            cfg[k] = float(cfg[k])
-    except (TypeError, ValueError) as exc:
-        raise BackendError(f"robot '{robot_spec.get('name')}': invalid ros2 setting ({exc})",
-                           "see docs/ros2.md for the ros2 block") from exc
-    if not 0 <= cfg["domain_id"] <= 232:
-        raise BackendError(f"ROS 2 domain id {cfg['domain_id']} is out of range", "use 0..232 (ROS_DOMAIN_ID)")
-    if cfg["time_scale"] <= 0 or cfg["rate_hz"] <= 0:
-        raise BackendError("ros2.time_scale and ros2.rate_hz must be positive", "e.g. time_scale: 1.0")
-    if cfg["reset"] not in ("drive", "topic"):
-        raise BackendError(f"ros2.reset must be 'drive' or 'topic', got {cfg['reset']!r}", "")
-    if cfg["ground_truth"] not in ("tf", "odometry"):
-        raise BackendError(f"ros2.ground_truth must be 'tf' or 'odometry', got {cfg['ground_truth']!r}", "")
+        _override(cfg, "time_scale", settings.get("BENCHBOT_ROS2_TIME_SCALE"), "BENCHBOT_ROS2_TIME_SCALE", float,
+                  "simulated seconds per wall second, > 0 (e.g. 1.0)")
+    cfg["domain_id"] = int(cfg["domain_id"])
+    for k in ("rate_hz", "time_scale", "settle_s", "sensor_timeout_s", "observation_timeout_s", "startup_timeout_s",
+              "footprint_radius_m", "safety_distance_m"):
+        cfg[k] = float(cfg[k])
     return cfg
 
 
@@ -187,14 +222,11 @@ class Ros2RobotBackend(RobotBackend):
         self._reset_acks: dict[str, dict] = {}
         self._reset_cond = threading.Condition()
 
-        # actions: Twist publisher on the actions' topic
+        # actions: Twist publisher on the actions' topic (ros2_config checked that they publish Twists)
         cmd_topic = None
         for name in ("move_next", "move_distance", "move_angle"):
             conn = (self.robot_spec.get("connections") or {}).get(name)
             if conn and conn.get("ros_topic"):
-                if conn.get("ros_type") and normalise_type(conn["ros_type"]) != "geometry_msgs/msg/Twist":
-                    raise BackendError(f"robot '{self.robot_spec.get('name')}': action {name} must publish "
-                                       f"geometry_msgs/msg/Twist, not {conn['ros_type']}", "set ros_type accordingly")
                 cmd_topic = cmd_topic or conn["ros_topic"]
         self.cmd_topic = cmd_topic or "/cmd_vel"
         try:
@@ -203,10 +235,8 @@ class Ros2RobotBackend(RobotBackend):
             for name, conn in (self.robot_spec.get("connections") or {}).items():
                 if conn.get("connection") not in ("ros_to_api", "roscache_to_api") or not conn.get("ros_topic"):
                     continue
-                if not conn.get("ros_type"):
-                    raise BackendError(f"connection '{name}' has a ros_topic but no ros_type",
-                                       "e.g. ros_type: sensor_msgs/msg/Image")
-                ros_type = normalise_type(conn["ros_type"])
+                ros_type = normalise_type(conn["ros_type"])  # ros2_config checked that a topic has its type
+                # Not in the schema: which translation a connection needs depends on this package's tables.
                 path = conn.get("callback_robot") or _DEFAULT_CONVERTERS.get(name) or _BY_TYPE.get(ros_type)
                 if path is None:
                     raise BackendError(f"connection '{name}' ({ros_type}) needs a callback_robot translation",
