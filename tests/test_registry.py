@@ -64,6 +64,21 @@ def test_invalid_spec_is_skipped_with_file_and_json_path(tmp_path):
     assert len(reg.names("tasks")) == 6  # the rest keep working
 
 
+def test_a_folder_stands_for_the_spec_files_in_it(tmp_path):
+    tasks, empty = tmp_path / "tasks", tmp_path / "empty"
+    tasks.mkdir(), empty.mkdir()
+    (tasks / "b_task.yml").write_text("name: b_task\nactions: [move_next]\nobservations: [poses]\n")
+    (tasks / "a_task.json").write_text('{"name": "a_task", "actions": [], "observations": ["poses"]}')
+    (tasks / "notes.txt").write_text("not a spec")
+    (tasks / "nested").mkdir()
+    (tasks / "nested" / "c_task.yaml").write_text("name: c_task\nactions: []\nobservations: [poses]\n")
+    reg = Registry(extra_plugins={"mine": _plugin(benchbot_tasks=[tasks, str(empty)])})
+    mine = next(p for p in reg.plugins if p.name == "mine")
+    assert mine.registers["tasks"] == ["a_task", "b_task"]  # by file name; not recursive; other suffixes ignored
+    assert reg.entry("tasks", "b_task").path == (tasks / "b_task.yml").resolve()
+    assert mine.problems == [f"{empty}: a folder with no spec files (.yaml, .yml, .json) in it"]
+
+
 def test_duplicate_name_names_both_plugins():
     dup = {"name": "semantic_slam:passive:ground_truth", "actions": ["move_next"], "observations": ["poses"]}
     reg = Registry(extra_plugins={"copycat": _plugin(benchbot_tasks=[dup])})

@@ -1,7 +1,7 @@
 """The hooks through which plugins extend BenchBot (pluggy project name ``benchbot``).
 
 A plugin is a module registered under the entry-point group ``benchbot``; it implements any of these hooks with
-the :data:`hookimpl` marker. Content hooks return *specs*: either a path to a YAML/JSON file or a dict. The core
+the :data:`hookimpl` marker. Content hooks return *specs*: a path to a YAML/JSON file, a dict, or a folder of spec files. The core
 validates every spec against ``schemas/<kind>.schema.json`` and indexes it by name (environments by
 ``name:variant``); a duplicate name is an error naming both plugins.
 
@@ -10,6 +10,7 @@ Plugin modules must import nothing heavy (taichi, rclpy, ray) at import time: do
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Union
 
@@ -26,149 +27,81 @@ hookimpl = pluggy.HookimplMarker(PROJECT_NAME)
 
 Spec = Union[str, Path, dict]
 
+SPEC_HOOK_SECTIONS = """Returns:
+    A list of specs. Each is a dict; or a path (``str``/``Path``) of a YAML/JSON file (its folder is the spec's
+    folder, recorded as ``_file_path``); or a path of a folder, standing for every ``.yaml``, ``.yml`` and ``.json``
+    file directly in it, by name (``return [Path(__file__).parent / "tasks"]``).
+
+Called:
+    Once per process, when the registry is built (first use of any content).
+
+Call policy:
+    every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
+    invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load."""
+
+
+def spec_hook(function: Callable) -> Callable:
+    """Declare a content hook returning specs: ``function``'s docstring (what its specs hold) gets the sections
+    every such hook shares (:data:`SPEC_HOOK_SECTIONS`), and it becomes a hookspec."""
+    function.__doc__ = inspect.cleandoc(function.__doc__ or "") + "\n\n" + SPEC_HOOK_SECTIONS
+    return hookspec(function)
+
 
 class ContentHooks:
     """Hooks returning content specs. Call policy: every implementation is called once, when the registry is
     built (asset packs: when the asset library is first used); the results of all plugins are concatenated."""
 
-    @hookspec
+    @spec_hook
     def benchbot_tasks(self) -> list[Spec]:
         """Task specs (schema ``task``): ``name``, ``actions``, ``observations``, ``localisation``,
-        ``results_format``, ``scene_count``, ``description``.
+        ``results_format``, ``scene_count``, ``description``."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
-    @hookspec
+    @spec_hook
     def benchbot_robots(self) -> list[Spec]:
         """Robot specs (schema ``robot``): ``name``, ``type`` (selects the robot backend), ``global_frame``,
-        ``robot_frame``, ``poses``, ``connections``.
+        ``robot_frame``, ``poses``, ``connections``."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
-    @hookspec
+    @spec_hook
     def benchbot_environments(self) -> list[Spec]:
         """Environment specs (schema ``environment``): ``name``, ``variant``, ``type``, ``map_path``,
         ``start_pose`` ``[qw,qx,qy,qz,x,y,z]`` (map frame, metres), ``trajectory_poses``, ``object_labels``.
-        Indexed as ``name:variant``.
+        Indexed as ``name:variant``."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
-    @hookspec
+    @spec_hook
     def benchbot_formats(self) -> list[Spec]:
         """Results-format specs (schema ``format``): ``name`` and ``functions`` (``create``,
-        ``create_object``, ``validate`` as ``"module:attr"`` import paths).
+        ``create_object``, ``validate`` as ``"module:attr"`` import paths)."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
-    @hookspec
+    @spec_hook
     def benchbot_evaluators(self) -> list[Spec]:
         """Evaluation-method specs (schema ``evaluator``): ``name``, ``valid_result_formats``,
         ``valid_ground_truth_formats``, ``functions`` (``evaluate(results, ground_truths) -> dict``, optional
-        ``combine(list) -> dict``).
+        ``combine(list) -> dict``)."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
-    @hookspec
+    @spec_hook
     def benchbot_examples(self) -> list[Spec]:
         """Example-solution specs (schema ``example``): ``name``, ``native_command`` (run from the spec's
-        folder), ``description``.
+        folder, so give files, not dicts), ``description``.
 
         Returns:
             A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
             recorded as ``_file_path``) or a dict.
-            Give file paths: the command runs from the file's folder.
 
         Called:
             Once per process, when the registry is built (first use of any content).
 
         Call policy:
             every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
+            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load."""
 
-    @hookspec
+    @spec_hook
     def benchbot_batches(self) -> list[Spec]:
-        """Batch specs (schema ``batch``): ``name`` and ``environments`` (a list of environment strings).
+        """Batch specs (schema ``batch``): ``name`` and ``environments`` (a list of environment strings)."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
-    @hookspec
+    @spec_hook
     def benchbot_ground_truths(self) -> list[Spec]:
         """Ground-truth specs (schema ``ground_truth``): ``{environment, format, ground_truth}`` as in the
-        original BenchBot's ground-truth JSON files; found by the environment's ``name:variant``.
-
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load.
-        """
-
+        original BenchBot's ground-truth JSON files; found by the environment's ``name:variant``."""
 
     @hookspec
     def benchbot_asset_packs(self) -> list[Path]:

@@ -124,6 +124,30 @@ def check_task_actions(task: dict, source: str) -> None:
                             f"the actions are {', '.join(ACTIONS)}")
 
 
+SPEC_SUFFIXES = (".yaml", ".yml", ".json")
+"""The file suffixes of spec files that a folder returned by a content hook contributes."""
+
+
+def expand_spec_folders(specs: list) -> list:
+    """A content hook's list with every folder replaced by the spec files directly inside it.
+
+    Args:
+        specs: what a content hook returned: dicts, and paths (``str``/``Path``) of spec files or of folders.
+
+    Returns:
+        The same items in order, a folder replaced by its files whose suffix is in :data:`SPEC_SUFFIXES`, sorted by
+        name (not recursive); a folder with none stays as it is, so that loading it reports the folder by name.
+    """
+    out: list = []
+    for raw in specs:
+        if isinstance(raw, (str, Path)) and Path(raw).is_dir():
+            files = sorted(p for p in Path(raw).iterdir() if p.suffix in SPEC_SUFFIXES and p.is_file())
+            out.extend(files or [raw])
+        else:
+            out.append(raw)
+    return out
+
+
 def load_spec_file(path: Path) -> dict:
     """Parse a YAML or JSON spec file into a dict, read by :mod:`benchbot.core.safe_load`
     (within :data:`~benchbot.core.limits.MAX_SPEC_BYTES`, no YAML aliases, bounded nesting and integers).
@@ -207,7 +231,7 @@ class Registry:
                     if impl.plugin_name in infos:
                         infos[impl.plugin_name].problems.append(problem)
                     continue
-                for raw in specs:
+                for raw in expand_spec_folders(specs):
                     self._add(kind, schema_name, raw, impl.plugin_name, infos.get(impl.plugin_name))
         for impl in self.plugin_manager.hook.benchbot_robot_backends.get_hookimpls():
             for type_name, factory in (impl.function() or {}).items():
@@ -230,6 +254,8 @@ class Registry:
             path = Path(raw["_file_path"])  # a dict spec read (and adapted) from a file by its plugin
         source = str(path) if path else f"plugin {plugin} ({kind})"
         try:
+            if not from_dict and path.is_dir():
+                raise SpecError(f"{path}: a folder with no spec files ({', '.join(SPEC_SUFFIXES)}) in it", "")
             if not from_dict:
                 spec = load_spec_file(path)
             else:

@@ -72,7 +72,7 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
 
     from benchbot.core import hookspecs
     from benchbot.core.errors import SpecError
-    from benchbot.core.registry import KIND_SCHEMAS, entry_name, singular, validate
+    from benchbot.core.registry import KIND_SCHEMAS, entry_name, expand_spec_folders, singular, validate
 
     pm = pluggy.PluginManager(hookspecs.PROJECT_NAME)
     for hook_class in hookspecs.HOOK_CLASSES:
@@ -99,7 +99,7 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
             if not isinstance(result, (list, tuple)):
                 problems.append(f"benchbot_{kind}() must return a list, got {type(result).__name__}")
                 continue
-            for raw in result:
+            for raw in expand_spec_folders(list(result)):
                 try:
                     spec = _load(raw)
                     validate({k: v for k, v in spec.items() if k != "_file_path"}, schema, str(raw) if not isinstance(raw, dict) else f"benchbot_{kind}()")

@@ -12,9 +12,9 @@ ROBOTS_DIR = Path(__file__).resolve().parent / "robots"
 
 
 @hookimpl
-def benchbot_robots() -> list[str]:
-    """``carter_ros2`` (the simulator behind ROS 2) and ``turtlebot4`` (YAML paths)."""
-    return [str(p) for p in sorted(ROBOTS_DIR.glob("*.yaml"))]
+def benchbot_robots() -> list[Path]:
+    """``carter_ros2`` (the simulator behind ROS 2) and ``turtlebot4`` (the YAML files in ``robots/``)."""
+    return [ROBOTS_DIR]
 
 
 def _factory(robot_spec: dict, options: dict):

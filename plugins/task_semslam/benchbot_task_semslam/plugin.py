@@ -12,21 +12,17 @@ TASKS_DIR = _HERE / "tasks"
 FORMATS_DIR = _HERE / "formats"
 
 
-def _yaml_files(folder: Path) -> list[Path]:
-    return sorted(p for p in folder.iterdir() if p.suffix in (".yaml", ".yml") and p.is_file())
-
-
 @hookimpl
 def benchbot_tasks() -> list[Path]:
-    """Return the paths of the six task specs (``semantic_slam:*``, ``scd:*``) in ``tasks/``."""
-    return _yaml_files(TASKS_DIR)
+    """Return the folder of the six task specs (``semantic_slam:*``, ``scd:*``) in ``tasks/``."""
+    return [TASKS_DIR]
 
 
 @hookimpl
 def benchbot_formats() -> list[Path]:
-    """Return the paths of the ``object_map``, ``object_map_with_states`` and ``object_map_ground_truth`` format
+    """Return the folder of the ``object_map``, ``object_map_with_states`` and ``object_map_ground_truth`` format
     specs in ``formats/``."""
-    return _yaml_files(FORMATS_DIR)
+    return [FORMATS_DIR]
 
 
 EXAMPLES_DIR = Path(__file__).parent / "examples"
@@ -34,5 +30,5 @@ EXAMPLES_DIR = Path(__file__).parent / "examples"
 
 @hookimpl
 def benchbot_examples() -> list[Path]:
-    """Return the paths of the example specs in ``examples/`` (``semslam_geometric``)."""
-    return _yaml_files(EXAMPLES_DIR)
+    """Return the folder of the example specs in ``examples/`` (``semslam_geometric``)."""
+    return [EXAMPLES_DIR]

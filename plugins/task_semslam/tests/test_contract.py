@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from benchbot.core.registry import expand_spec_folders
 from benchbot.plugins import testing
 
 
@@ -17,7 +18,7 @@ def test_tasks_and_formats_contract():
     from benchbot_task_semslam import plugin
 
     reg = get_registry()
-    for path in plugin.benchbot_tasks():
+    for path in expand_spec_folders(plugin.benchbot_tasks()):
         testing.check_task(path, registry=reg, robots=["carter"] if "carter" in reg.entries["robots"] else [])
-    for path in plugin.benchbot_formats():
+    for path in expand_spec_folders(plugin.benchbot_formats()):
         assert isinstance(testing.check_format(path), dict)

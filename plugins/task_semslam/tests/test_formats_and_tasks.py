@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from benchbot.core.errors import ResultsError
+from benchbot.core.registry import expand_spec_folders
 from benchbot_task_semslam import formats, plugin
 
 GT_DIR = Path("/work/shared/data/bear/ground_truths")
@@ -27,7 +28,7 @@ def resolve(ref: str):
 # specs
 # ---------------------------------------------------------------------------------------------------------------------
 def test_tasks():
-    paths = plugin.benchbot_tasks()
+    paths = expand_spec_folders(plugin.benchbot_tasks())
     assert all(isinstance(p, Path) and p.is_file() and ":" not in p.name for p in paths)
     tasks = {t["name"]: t for t in (yaml.safe_load(p.read_text()) for p in paths)}
     assert set(tasks) == {
@@ -46,7 +47,7 @@ def test_tasks():
 
 
 def test_formats_specs_resolve():
-    specs = {f["name"]: f for f in (yaml.safe_load(p.read_text()) for p in plugin.benchbot_formats())}
+    specs = {f["name"]: f for f in (yaml.safe_load(p.read_text()) for p in expand_spec_folders(plugin.benchbot_formats()))}
     assert set(specs) == {"object_map", "object_map_with_states", "object_map_ground_truth"}
     for spec in specs.values():
         assert spec["description"]
