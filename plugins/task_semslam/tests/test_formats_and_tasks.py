@@ -15,7 +15,9 @@ from benchbot.core.errors import ResultsError
 from benchbot.core.registry import expand_spec_folders
 from benchbot_task_semslam import formats, plugin
 
-GT_DIR = Path("/work/shared/data/bear/ground_truths")
+#: Unmodified ground-truth files of the original's ``ground_truths_isaac_develop`` add-on (tests/data: MANIFEST.json).
+ORIGINAL_GT_DIR = (Path(__file__).resolve().parents[3] / "tests" / "data" / "original_addons"
+                   / "ground_truths_isaac_develop" / "ground_truths")
 OBSERVATIONS = ["image_depth", "image_depth_info", "image_rgb", "image_rgb_info", "laser", "poses"]
 
 
@@ -101,11 +103,19 @@ def test_ground_truth_round_trip():
     formats.validate_object_map_ground_truth(inst)
 
 
-@pytest.mark.parametrize("path", sorted(GT_DIR.glob("*.json")), ids=lambda p: p.stem)
-def test_real_bear_ground_truths_validate(path):
-    if not path.exists():  # pragma: no cover
-        pytest.skip("BEAR data not available")
+@pytest.mark.parametrize("path", sorted(ORIGINAL_GT_DIR.glob("*.json")), ids=lambda p: p.stem)
+def test_the_original_ground_truth_files_validate(path):
     formats.validate_object_map_ground_truth(json.loads(path.read_text())["ground_truth"])
+
+
+def test_every_registered_bear_ground_truth_validates():
+    from benchbot.core.registry import get_registry
+
+    registry = get_registry()
+    names = registry.names("ground_truths")
+    assert len(names) >= 10  # miniroom:1..5, house:1..5 (sim_taichi, from BEAR's layouts)
+    for name in names:
+        formats.validate_object_map_ground_truth(registry.ground_truth(name)["ground_truth"])
 
 
 def test_numbers_may_be_ints():
