@@ -59,6 +59,70 @@ def test_failing_solution_is_reported_and_retried(tmp_path):
     assert "miniroom:1: failed (exit status 3)" in proc.stderr
 
 
+def _fake_executor(handed: list):
+    """A ``run_local`` that runs nothing: it keeps what it is handed and fails every episode."""
+    from benchbot.batch.plan import new_record
+
+    def run_local(episodes, run_dir, *, workers, on_event, on_record):
+        for spec, run in episodes:
+            handed.append((spec, run))
+            record = new_record(spec)
+            record.status = "failed"
+            on_record(record)
+
+    return run_local
+
+
+def test_each_combination_is_resolved_once_and_its_episodes_get_that_run_spec(tmp_path, monkeypatch):
+    import pickle
+
+    from benchbot.batch import runner
+    from benchbot.core.registry import get_registry
+
+    resolved, real = [], runner.resolve_run
+    monkeypatch.setattr(runner, "resolve_run", lambda reg, *names: resolved.append(names) or real(reg, *names))
+    handed: list = []
+    monkeypatch.setattr(runner, "run_local", _fake_executor(handed))
+    specs = plan_episodes(task="semantic_slam:passive:ground_truth", robots=["carter"], envs=["miniroom:1", "house:1"],
+                          repeat=2, seed=0, argv=["x"], cwd=str(tmp_path), options={}, timeout_s=None)
+    batch = runner.prepare_batch(get_registry(), run_dir=tmp_path, specs=specs, evaluate_with=None, prefix="batch",
+                                 zip_results=False)
+    outcome = runner.run_batch(get_registry(), batch)
+    assert sorted(resolved) == [("semantic_slam:passive:ground_truth", "carter", env) for env in ("house:1", "miniroom:1")]
+    assert [spec.index for spec, _ in handed] == [0, 1, 2, 3]
+    assert all(run is batch.runs[(spec.robot, spec.env)] and run.env_string == spec.env for spec, run in handed)
+    assert pickle.loads(pickle.dumps(handed[0][1])) == handed[0][1]  # it travels to worker processes and Ray as is
+    assert [e.status for e in outcome.episodes] == ["failed"] * 4
+
+
+def test_a_resumed_combination_that_no_longer_resolves_fails_only_its_episodes(tmp_path, monkeypatch):
+    from benchbot.batch import runner
+    from benchbot.core.errors import SpecError
+    from benchbot.core.registry import get_registry
+
+    specs = plan_episodes(task="semantic_slam:passive:ground_truth", robots=["carter"], envs=["miniroom:1", "house:1"],
+                          repeat=1, seed=0, argv=["x"], cwd=str(tmp_path), options={}, timeout_s=None)
+    runner.prepare_batch(get_registry(), run_dir=tmp_path, specs=specs, evaluate_with=None, prefix="batch",
+                         zip_results=False)
+    real = runner.resolve_run
+
+    def resolve_run(reg, task, robot, env):
+        if env == "house:1":
+            raise SpecError("no environment named 'house:1'", "")
+        return real(reg, task, robot, env)
+
+    monkeypatch.setattr(runner, "resolve_run", resolve_run)
+    handed: list = []
+    monkeypatch.setattr(runner, "run_local", _fake_executor(handed))
+    batch = runner.load_batch(get_registry(), tmp_path)
+    assert list(batch.runs) == [("carter", "miniroom:1")] and list(batch.unresolved) == [("carter", "house:1")]
+    outcome = runner.run_batch(get_registry(), batch, retries=1)
+    assert [spec.env for spec, _ in handed] == ["miniroom:1", "miniroom:1"]
+    house = outcome.episodes[1]
+    assert (house.status, house.error, house.attempts) == ("error", "no environment named 'house:1'", 2)
+    assert manifest(tmp_path)["episodes"][1]["status"] == "error"
+
+
 def test_killed_batch_resumes_without_redoing_finished_episodes(tmp_path):
     args = [*BENCHBOT, "batch", "--example", "hello_passive", "--envs", "miniroom:4,miniroom:1,house:1",
             "--output-dir", str(tmp_path), *SMALL]

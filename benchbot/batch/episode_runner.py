@@ -15,7 +15,7 @@ from benchbot.core.errors import BenchbotError
 from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
 from benchbot.core.server import ServerThread, build_app
-from benchbot.core.session import resolve_run, start_service
+from benchbot.core.session import RunSpec, start_service
 from benchbot.core.submission import Submission, run_container_submission, run_submission
 
 
@@ -29,55 +29,57 @@ def results_problem(path: Path) -> str:
     return ""
 
 
-def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
+def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
     Args:
         spec: the episode.
+        run: its task, robot and environment resolved (:func:`benchbot.core.session.resolve_run`), once per
+            combination by the batch process (:class:`benchbot.batch.runner.Batch`); plain data, it is pickled
+            to worker processes and Ray tasks with ``spec``.
         run_dir: absolute path of the run directory (results and logs go there).
         events: a queue receiving ``("start", index, None)``, ``("step", index, info)`` and ``("end", index, None)``.
     """
     record = new_record(spec)
-    run = Path(run_dir)
-    (run / "results").mkdir(exist_ok=True)
-    (run / "logs").mkdir(exist_ok=True)
-    (run / spec.results).unlink(missing_ok=True)  # a stale file from a killed attempt must not count
+    folder = Path(run_dir)
+    (folder / "results").mkdir(exist_ok=True)
+    (folder / "logs").mkdir(exist_ok=True)
+    (folder / spec.results).unlink(missing_ok=True)  # a stale file from a killed attempt must not count
     if events is not None:
         events.put(("start", spec.index, None))
     t0 = time.monotonic()
     try:
         registry = get_registry()
-        run_spec = resolve_run(registry, spec.task, spec.robot, spec.env)
 
         def on_step(info: dict) -> None:
             if events is not None:
                 events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
 
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
-        service = start_service(registry, run_spec, seed=spec.seed, options=options, on_step=on_step)
+        service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step)
         recorder = None
         try:
             if spec.record:
                 from benchbot.plugins.recorder import attach_recorder
 
-                recorder = attach_recorder(registry, service, run_spec, run / spec.recording, seed=spec.seed,
+                recorder = attach_recorder(registry, service, run, folder / spec.recording, seed=spec.seed,
                                            options=options)
             server = ServerThread(build_app(service)).start()
             timed_out = False
             try:
-                with open(run / spec.log, "w") as log:
+                with open(folder / spec.log, "w") as log:
                     if spec.container:
                         c = spec.container
                         record.returncode = run_container_submission(
                             c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=server.address,
-                            result_location=run / spec.results, args=c.get("args", ""),
+                            result_location=folder / spec.results, args=c.get("args", ""),
                             name_suffix=f"_{spec.index}", log=log, timeout_s=spec.timeout_s,
                         )
                         timed_out = record.returncode == -9 and spec.timeout_s is not None
                     else:
                         submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
                         outcome = run_submission(
-                            submission, address=server.address, result_location=run / spec.results, log=log,
+                            submission, address=server.address, result_location=folder / spec.results, log=log,
                             timeout_s=spec.timeout_s,
                         )
                         record.returncode, timed_out = outcome.returncode, outcome.timed_out
@@ -96,10 +98,10 @@ def run_episode(spec: EpisodeSpec, run_dir: str, events: Any = None) -> EpisodeR
             record.error = f"stopped after the episode timeout of {spec.timeout_s:g} s"
         elif record.returncode != 0:
             record.status = "failed"
-        elif not (run / spec.results).is_file():
+        elif not (folder / spec.results).is_file():
             record.status = "no_results"
         else:
-            record.error = results_problem(run / spec.results)
+            record.error = results_problem(folder / spec.results)
             record.status = "bad_results" if record.error else "ok"
     except BenchbotError as exc:
         record.status, record.error = "error", exc.message

@@ -23,8 +23,11 @@ from typing import Callable
 from benchbot.batch.episode_runner import run_episode
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec
 from benchbot.core.errors import UsageError
+from benchbot.core.session import RunSpec
 
 EventHandler = Callable[[str, int, dict | None], None]
+#: An episode to run: its spec and its combination, resolved once by the batch process.
+Episode = tuple[EpisodeSpec, RunSpec]
 
 
 def _drain(events: "queue.Queue | object", on_event: EventHandler, stop: threading.Event) -> None:
@@ -85,11 +88,11 @@ def _end_with_parent() -> None:
     threading.Thread(target=watch, name="benchbot-parent-watch", daemon=True).start()
 
 
-def _worker_episode(spec: EpisodeSpec, run_dir: str) -> EpisodeRecord:
+def _worker_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str) -> EpisodeRecord:
     """:func:`run_episode` in a worker process, reporting to the batch's event queue; exits the worker at once
     when its batch process has died (once the episode has cleaned up)."""
     try:
-        return run_episode(spec, run_dir, _events)
+        return run_episode(spec, run, run_dir, _events)
     except KeyboardInterrupt:
         if _parent_gone.is_set():
             os._exit(1)
@@ -97,19 +100,20 @@ def _worker_episode(spec: EpisodeSpec, run_dir: str) -> EpisodeRecord:
 
 
 def run_local(
-    specs: list[EpisodeSpec], run_dir: str, *, workers: int, on_event: EventHandler,
+    episodes: list[Episode], run_dir: str, *, workers: int, on_event: EventHandler,
     on_record: Callable[[EpisodeRecord], None],
 ) -> None:
-    """Run ``specs`` with ``workers`` parallel episodes; ``on_record`` is called (in this thread) as each ends.
-    Worker processes end with the batch process, even when it is killed (:func:`_end_with_parent`)."""
+    """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
+    thread) as each ends. Worker processes end with the batch process, even when it is killed
+    (:func:`_end_with_parent`)."""
     stop = threading.Event()
     if workers <= 1:
         events: queue.Queue = queue.Queue()
         drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
         drainer.start()
         try:
-            for spec in specs:
-                on_record(run_episode(spec, run_dir, events))
+            for spec, run in episodes:
+                on_record(run_episode(spec, run, run_dir, events))
         finally:
             stop.set()
             drainer.join()
@@ -119,10 +123,10 @@ def run_local(
     drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
     drainer.start()
     try:
-        threads = max(1, (os.cpu_count() or 1) // min(workers, len(specs)))
+        threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
         with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
                                  initargs=(threads, events)) as pool:
-            futures = [pool.submit(_worker_episode, spec, run_dir) for spec in specs]
+            futures = [pool.submit(_worker_episode, spec, run, run_dir) for spec, run in episodes]
             for future in as_completed(futures):
                 on_record(future.result())
     finally:
@@ -132,10 +136,10 @@ def run_local(
 
 
 def run_ray(
-    specs: list[EpisodeSpec], run_dir: str, *, address: str | None, workers: int, on_event: EventHandler,
+    episodes: list[Episode], run_dir: str, *, address: str | None, workers: int, on_event: EventHandler,
     on_record: Callable[[EpisodeRecord], None],
 ) -> None:
-    """Run ``specs`` as Ray tasks (one CPU each) and call ``on_record`` as each ends.
+    """Run ``episodes`` as Ray tasks (one CPU each) and call ``on_record`` as each ends.
 
     Args:
         address: an existing cluster's address (``ray://host:10001`` or ``host:6379``); None starts a local Ray
@@ -169,7 +173,7 @@ def run_ray(
     drainer.start()
     try:
         remote_episode = ray.remote(num_cpus=1, max_retries=0)(run_episode)
-        pending = [remote_episode.remote(spec, run_dir, events) for spec in specs]
+        pending = [remote_episode.remote(spec, run, run_dir, events) for spec, run in episodes]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             on_record(ray.get(done[0]))

@@ -74,12 +74,20 @@ class Batch:
         run_dir: the run directory (absolute).
         manifest: the manifest (``manifest.json``'s content; :func:`run_batch` updates it and writes it).
         specs: the plan, in index order. records: each episode's record, in the same order.
+        runs: ``{(robot, env): RunSpec}``, every combination of the plan resolved once
+            (:func:`benchbot.core.session.resolve_run`), here in the batch process; each episode is run with its
+            combination's (it is plain data, so it travels to worker processes and Ray tasks as it is).
+        unresolved: ``{(robot, env): why}`` for the combinations of a resumed batch that no longer resolve (a
+            plugin removed since, say): their episodes end as ``error`` with that message, as they would have
+            before they ran; empty for a new batch, which :func:`prepare_batch` refuses instead.
     """
 
     run_dir: Path
     manifest: dict
     specs: list[EpisodeSpec]
     records: list[EpisodeRecord]
+    runs: dict[tuple[str, str], RunSpec] = field(default_factory=dict)
+    unresolved: dict[tuple[str, str], str] = field(default_factory=dict)
 
 
 def default_evaluator(registry: Registry, run: RunSpec) -> str | None:
@@ -193,7 +201,7 @@ def prepare_batch(
     Raises:
         SpecError: a combination is invalid (nothing has run yet) or the named method does not exist.
     """
-    runs = {(s.robot, s.env): resolve_run(registry, s.task, s.robot, s.env) for s in specs}
+    runs = _resolve_runs(registry, specs)
     episode_timeout = apply_timeouts(registry, specs)
     records = [new_record(s) for s in specs]
     first = next(iter(runs.values()))
@@ -216,11 +224,12 @@ def prepare_batch(
         "plan": to_json(specs), "episodes": to_json(records),
     }
     write_manifest(run_dir, manifest)
-    return Batch(run_dir.resolve(), manifest, specs, records)
+    return Batch(run_dir.resolve(), manifest, specs, records, runs)
 
 
-def load_batch(run_dir: Path) -> Batch:
-    """The batch of an existing run directory, from its manifest (for ``--resume``).
+def load_batch(registry: Registry, run_dir: Path) -> Batch:
+    """The batch of an existing run directory, from its manifest (for ``--resume``), its combinations resolved
+    against ``registry`` now (those that no longer resolve are :attr:`Batch.unresolved`, not an error).
 
     Args:
         run_dir: the run directory (made absolute).
@@ -232,7 +241,31 @@ def load_batch(run_dir: Path) -> Batch:
     run_dir = run_dir.resolve()
     manifest = read_manifest(run_dir)
     specs, records = specs_from_manifest(manifest)
-    return Batch(run_dir, manifest, specs, records)
+    unresolved: dict[tuple[str, str], str] = {}
+    runs = _resolve_runs(registry, specs, unresolved)
+    return Batch(run_dir, manifest, specs, records, runs, unresolved)
+
+
+def _resolve_runs(registry: Registry, specs: list[EpisodeSpec],
+                  unresolved: dict[tuple[str, str], str] | None = None) -> dict[tuple[str, str], RunSpec]:
+    """``{(robot, env): RunSpec}``: each combination of ``specs`` resolved once, in plan order. With ``unresolved``
+    given, a combination that does not resolve goes there (``{(robot, env): message}``) instead of raising.
+
+    Raises:
+        SpecError: a combination does not resolve (``unresolved`` not given).
+    """
+    runs: dict[tuple[str, str], RunSpec] = {}
+    for spec in specs:
+        key = (spec.robot, spec.env)
+        if key in runs or (unresolved is not None and key in unresolved):
+            continue
+        try:
+            runs[key] = resolve_run(registry, spec.task, spec.robot, spec.env)
+        except BenchbotError as exc:
+            if unresolved is None:
+                raise
+            unresolved[key] = exc.message
+    return runs
 
 
 def longest_first(specs: list[EpisodeSpec], registry: Registry) -> list[EpisodeSpec]:
@@ -292,13 +325,23 @@ def run_batch(
         todo = [s for s in specs if by_index[s.index].status != "ok"]
         if not todo:
             break
+        for spec in todo:
+            if (spec.robot, spec.env) in batch.unresolved:
+                record = new_record(spec)
+                record.status, record.error = "error", batch.unresolved[(spec.robot, spec.env)]
+                record_done(record)
+        todo = [s for s in todo if (s.robot, s.env) in batch.runs]
         if workers > 1 or executor == "ray":
             todo = longest_first(todo, registry)
+        episodes = [(s, batch.runs[(s.robot, s.env)]) for s in todo]
         handler = on_event or (lambda *a: None)
+        if not episodes:
+            continue
         if executor == "ray":
-            run_ray(todo, str(run_dir), address=ray_address, workers=workers, on_event=handler, on_record=record_done)
+            run_ray(episodes, str(run_dir), address=ray_address, workers=workers, on_event=handler,
+                    on_record=record_done)
         else:
-            run_local(todo, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
+            run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
     outcome = BatchOutcome(run_dir, [by_index[s.index] for s in specs])
     done = [e for e in outcome.episodes if e.status == "ok"]
     if manifest.get("zip") and done:

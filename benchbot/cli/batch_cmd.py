@@ -69,7 +69,7 @@ def register(app: typer.Typer) -> None:
         if executor not in ("local", "ray"):
             raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
         if resume is not None:
-            batch = load_batch(resume)
+            batch = load_batch(reg, resume)
             done = sum(r.status == "ok" for r in batch.records)
             err.print(f"resuming {batch.run_dir}: {done} of {len(batch.specs)} episodes already done")
         else:
