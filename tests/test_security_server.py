@@ -182,7 +182,6 @@ def _client(address: str, client_id: str | None) -> BenchBot:
     transport = HttpTransport(address, 60.0)
     if client_id is not None:
         transport.headers["X-BenchBot-Client"] = client_id
-        transport.http.headers["X-BenchBot-Client"] = client_id
     return BenchBot(transport=transport)
 
 

@@ -121,8 +121,8 @@ def test_the_server_parses_http_with_httptools(served):
 
 def test_native_steps_and_json_routes_over_https(make_service, tmp_path):
     """A backend served with a TLS certificate (``benchbot run --tls-cert``): the client trusts its authority through
-    ``ca_file`` and both the JSON routes (httpx) and the native step (http.client) go over TLS; a client that does
-    not trust it gets a ConnectionError."""
+    ``ca_file`` and both the JSON routes and the native step go over TLS; a client that does not trust it gets a
+    ConnectionError."""
     import trustme
 
     from benchbot.api.benchbot import HttpTransport

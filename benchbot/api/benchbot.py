@@ -19,7 +19,6 @@ import atexit
 import enum
 import json
 import http.client
-import os
 import secrets
 import ssl
 import threading
@@ -29,7 +28,6 @@ import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
-import httpx
 import numpy as np
 
 from benchbot.core import settings, shared_frames, wire
@@ -71,14 +69,75 @@ def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | No
         raise ValueError(f"{source}={path} cannot be used as certificate authorities ({reason})") from None
 
 
+def _refusal(route: str, status: int, error: Any, hint: Any = None) -> ValueError | ConnectionError:
+    """The exception for the backend's refusal of ``/route`` with HTTP ``status`` and the error ``{"error": error,
+    "hint": hint}`` (docs/protocol.md): ``ValueError("<error> (<hint>)")`` for 409 (an action refused, or the episode
+    owned by another client), else ``ConnectionError("BenchBot backend refused /<route> (<status>): <error>
+    (<hint>)")``; `` (<hint>)`` is left out when there is no hint. Both transports raise their refusals through it."""
+    detail = f"{error} ({hint})" if hint else error
+    if status == 409:
+        return ValueError(detail)
+    return ConnectionError(f"BenchBot backend refused /{route} ({status}): {detail}")
+
+
+def _reply_refusal(route: str, status: int, content: bytes) -> ValueError | ConnectionError:
+    """:func:`_refusal` for an HTTP reply of ``status`` whose body is ``content``: the error and hint of its JSON
+    body, else (a body that is not such JSON) its first 200 bytes."""
+    try:
+        body = json.loads(content)
+        error, hint = body.get("error"), body.get("hint")
+    except Exception:
+        error, hint = content[:200].decode("utf-8", "replace"), None
+    return _refusal(route, status, error, hint)
+
+
+class HttpRequest:
+    """What an ``event_hooks["request"]`` hook is given, before the request is sent.
+
+    Attributes:
+        method: ``"GET"`` or ``"POST"``.
+        url: the full URL (str).
+        headers: the headers sent (dict of str; ``Host`` and ``Content-Length`` are added by :mod:`http.client`).
+    """
+
+    __slots__ = ("method", "url", "headers")
+
+    def __init__(self, method: str, url: str, headers: dict[str, str]) -> None:
+        self.method, self.url, self.headers = method, url, headers
+
+
+class HttpResponse:
+    """What an ``event_hooks["response"]`` hook is given, once the reply is read.
+
+    Attributes:
+        request: the :class:`HttpRequest` it answers.
+        status_code: the HTTP status (int).
+        content: the body (bytes).
+    """
+
+    __slots__ = ("request", "status_code", "content")
+
+    def __init__(self, request: HttpRequest, status_code: int, content: bytes) -> None:
+        self.request, self.status_code, self.content = request, status_code, content
+
+
 class HttpTransport:
-    """The client's HTTP transport (httpx, keep-alive, per-request timeouts).
+    """The client's HTTP transport: the standard library's :mod:`http.client`, one kept-alive connection per
+    thread, a timeout on every request.
+
+    Every route (the native step's MessagePack and the JSON routes) goes over the calling thread's connection:
+    :mod:`http.client` takes ~1 ms less than httpx per request on loopback, more for multi-megabyte replies. A
+    connection that the backend closed while idle is replaced, and the request sent again on the new one, once; a
+    request that failed on a fresh connection is never sent again, so an action cannot run twice.
 
     Args:
-        address: ``http://host:port/``.
-        timeout_s: per-request read timeout in seconds (an action may take this long); connect timeout 5 s.
+        address: ``http://host:port/`` or ``https://host:port/`` (a path after the port prefixes every route).
+        timeout_s: per-request timeout in seconds for each socket operation (an action may take this long);
+            connecting times out after 5 s.
         token: sent as ``X-BenchBot-Token`` when set.
-        event_hooks: httpx event hooks (e.g. to count requests).
+        event_hooks: ``{"request": [fn, ...], "response": [fn, ...]}``: each ``fn`` is called with an
+            :class:`HttpRequest` before every request is sent, or an :class:`HttpResponse` once its reply is read
+            (e.g. to count requests); other keys are ignored.
         shared_memory: receive a step's large arrays through a shared-memory file instead of the HTTP reply
             (:mod:`benchbot.core.shared_frames`; same results, fewer copies). ``None`` (default): when the backend
             is on loopback and ``/dev/shm`` is usable, unless ``$BENCHBOT_SHARED_MEMORY=0``. If this process cannot
@@ -87,9 +146,15 @@ class HttpTransport:
         ca_file: for ``https://`` addresses (a backend behind a TLS proxy, or ``benchbot run --tls-cert``): a PEM
             file of the certificate authorities to trust, else ``$BENCHBOT_CA_FILE``, else the system's.
 
+    Attributes:
+        headers: sent with every request (``X-BenchBot-Client``, and ``X-BenchBot-Token`` when set); changing an
+            entry changes every later request.
+
     Raises:
         ValueError: the address is not ``http://`` or ``https://``, or the authorities' file cannot be used.
     """
+
+    CONNECT_TIMEOUT_S = 5.0
 
     def __init__(self, address: str, timeout_s: float = 120.0, token: str | None = None,
                  event_hooks: dict | None = None, shared_memory: bool | None = None,
@@ -105,12 +170,13 @@ class HttpTransport:
         if url.scheme not in ("http", "https"):
             raise ValueError(f"backend address {address!r} must start with http:// or https://")
         self._tls = tls_context(address, ca_file)
-        self.http = httpx.Client(base_url=address, timeout=httpx.Timeout(timeout_s, connect=5.0), headers=self.headers,
-                                 event_hooks=event_hooks or {}, verify=self._tls or True)
         self.event_hooks = event_hooks or {}
         self._host, self._port = url.hostname or "127.0.0.1", url.port or (443 if self._tls else 80)
         self._base_path = url.path.rstrip("/")
         self._local = threading.local()
+        # every thread's connection, to close them all on close (a thread that ends takes its own with it)
+        self._connections: weakref.WeakSet[http.client.HTTPConnection] = weakref.WeakSet()
+        self._connections_lock = threading.Lock()
         if shared_memory is None:
             shared_memory = shared_frames.is_loopback(self._host) and shared_frames.available()
         self.shared_memory = bool(shared_memory)
@@ -158,73 +224,115 @@ class HttpTransport:
             raise ConnectionError(f"cannot send /{route}: this connection to {self.address} was closed "
                                   "(make a new BenchBot)")
 
-    def _request(self, route: str, *, json_body: dict | None = None, content: bytes | None = None) -> httpx.Response:
-        self._check_open(route)
-        try:
-            if content is not None:
-                reply = self.http.post(route, content=content, headers={"content-type": wire.MSGPACK_TYPE})
+    def _connection(self, timeout_s: float) -> tuple[http.client.HTTPConnection, bool]:
+        """This thread's connection, opened now (connect timeout :attr:`CONNECT_TIMEOUT_S`, TLS for ``https://``)
+        when it has none, with ``timeout_s`` for each socket operation; and whether it was already open."""
+        conn = getattr(self._local, "conn", None)
+        reused = conn is not None and conn.sock is not None
+        if conn is None:
+            if self._tls is not None:
+                conn = http.client.HTTPSConnection(self._host, self._port, context=self._tls)
             else:
-                reply = self.http.post(route, json=json_body or {})
-        except httpx.HTTPError as exc:
-            raise ConnectionError(f"communication with the BenchBot backend at {self.address} failed on /{route}: {exc}") from None
-        if reply.status_code >= 300:
-            try:
-                err = reply.json()
-                detail = f"{err.get('error')} ({err.get('hint')})" if err.get("hint") else err.get("error")
-            except Exception:
-                detail = reply.text[:200]
-            if reply.status_code == 409:
-                raise ValueError(detail)
-            raise ConnectionError(f"BenchBot backend refused /{route} ({reply.status_code}): {detail}")
-        return reply
+                conn = http.client.HTTPConnection(self._host, self._port)
+            self._local.conn = conn
+            with self._connections_lock:
+                self._connections.add(conn)
+        if conn.sock is None:  # new, or closed by http.client after a reply that ended the connection
+            conn.timeout = min(self.CONNECT_TIMEOUT_S, timeout_s)
+            conn.connect()
+        if conn.sock.gettimeout() != timeout_s:
+            conn.sock.settimeout(timeout_s)
+        return conn, reused
 
-    def ping(self) -> bool:
-        """True when the backend answers ``GET /``."""
-        try:
-            self.http.get("", timeout=2.0).raise_for_status()
-            return True
-        except httpx.HTTPError:
-            return False
+    def _drop_connection(self, conn: http.client.HTTPConnection) -> None:
+        conn.close()
+        self._local.conn = None
+        with self._connections_lock:
+            self._connections.discard(conn)
 
-    def get(self, route: str, body: dict | None = None) -> Any:
-        """The JSON reply of a JSON route (``config/...``, ``robot/...``, ``results_functions/...``)."""
-        return self._request(route, json_body=body).json()
+    def _send(self, method: str, route: str, body: bytes | None = None, content_type: str | None = None,
+              timeout_s: float | None = None) -> tuple[int, bytes]:
+        """Send one request on this thread's kept-alive connection and read the whole reply.
 
-    def _post_binary(self, route: str, body: bytes) -> tuple[int, bytes]:
-        """POST ``body`` on a kept-alive :mod:`http.client` connection (per thread; TLS for ``https://``): for
-        multi-megabyte replies it is several times faster than httpx. Connect timeout 5 s, then ``timeout_s`` per
-        socket operation."""
-        headers = {"content-type": wire.MSGPACK_TYPE, **self.headers}
-        for hook in self.event_hooks.get("request", []):
-            hook(httpx.Request("POST", self.address + route, headers=headers))
+        Args:
+            method: ``"GET"`` or ``"POST"``.
+            route: the route after the address (``native/step``, ``robot/reset``, ``""`` for ``/``).
+            body: the request body (bytes), if any, of type ``content_type``.
+            timeout_s: this request's timeout in seconds (default :attr:`timeout_s`).
+
+        Returns:
+            ``(status, body)`` of the reply (int, bytes), whatever the status.
+
+        Raises:
+            OSError, http.client.HTTPException: the connection failed or timed out (the request may have reached
+                the backend unless it was retried).
+        """
+        timeout_s = self.timeout_s if timeout_s is None else timeout_s
+        headers = {"content-type": content_type, **self.headers} if content_type else dict(self.headers)
+        hooks_in, hooks_out = self.event_hooks.get("request", ()), self.event_hooks.get("response", ())
+        request = HttpRequest(method, self.address + route, headers) if hooks_in or hooks_out else None
+        for hook in hooks_in:
+            hook(request)
         for attempt in (0, 1):
-            conn = getattr(self._local, "conn", None)
-            reused = conn is not None
-            if conn is None:
-                if self._tls is not None:
-                    conn = http.client.HTTPSConnection(self._host, self._port, timeout=5.0, context=self._tls)
-                else:
-                    conn = http.client.HTTPConnection(self._host, self._port, timeout=5.0)
-                conn.connect()
-                conn.sock.settimeout(self.timeout_s)
-                self._local.conn = conn
+            conn, reused = self._connection(timeout_s)
             try:
-                conn.request("POST", f"{self._base_path}/{route}", body=body, headers=headers)
+                conn.request(method, f"{self._base_path}/{route}", body=body, headers=headers)
                 reply = conn.getresponse()
-                return reply.status, reply.read()
+                status, content = reply.status, reply.read()
+                break
             except (http.client.RemoteDisconnected, BrokenPipeError, ConnectionResetError):
-                conn.close()
-                self._local.conn = None
+                self._drop_connection(conn)
                 # Only a kept-alive connection that the server closed while idle is retried (once, on a fresh
                 # one): the request never reached it. A fresh connection failing is an error, never re-sent, so an
                 # action cannot run twice.
                 if attempt or not reused:
                     raise
             except BaseException:
-                conn.close()
-                self._local.conn = None
+                self._drop_connection(conn)
                 raise
-        raise AssertionError("unreachable")
+        for hook in hooks_out:
+            hook(HttpResponse(request, status, content))
+        return status, content
+
+    def _post(self, route: str, body: bytes, content_type: str) -> bytes:
+        """POST ``body`` to ``route``; the reply's body when it succeeded (status below 300).
+
+        Raises:
+            ValueError: refused with 409. ConnectionError: the connection failed or timed out, any other refusal,
+                or this transport is closed.
+        """
+        self._check_open(route)
+        try:
+            status, content = self._send("POST", route, body, content_type)
+        except (OSError, http.client.HTTPException) as exc:
+            raise ConnectionError(f"communication with the BenchBot backend at {self.address} failed on /{route}: "
+                                  f"{exc!r}") from None
+        if status >= 300:
+            raise _reply_refusal(route, status, content)
+        return content
+
+    def ping(self) -> bool:
+        """True when the backend answers ``GET /`` with a success (2xx) within 2 s."""
+        try:
+            status, _ = self._send("GET", "", timeout_s=2.0)
+        except (OSError, http.client.HTTPException):
+            return False
+        return 200 <= status < 300
+
+    def get(self, route: str, body: dict | None = None) -> Any:
+        """The JSON reply of a JSON route (``config/...``, ``robot/...``, ``results_functions/...``), POSTed
+        ``body`` (a JSON-serialisable dict; default ``{}``).
+
+        Raises:
+            ValueError: refused with 409. ConnectionError: any other failure or timeout, or a reply that is not
+                JSON.
+        """
+        content = self._post(route, json.dumps(body or {}).encode(), "application/json")
+        try:
+            return json.loads(content)
+        except ValueError as exc:
+            raise ConnectionError(f"the BenchBot backend at {self.address} sent a malformed /{route} reply: "
+                                  f"{exc}") from None
 
     def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
         """One native step: ``{result, observations, state}``.
@@ -232,7 +340,8 @@ class HttpTransport:
         Raises:
             ValueError: the action was refused (409). ConnectionError: any other failure or timeout.
         """
-        self._check_open("native/step")
+        route = "native/step"
+        self._check_open(route)
         request: dict = {"action": action, "args": args}
         if observations is not None:
             request["observations"] = observations
@@ -240,20 +349,7 @@ class HttpTransport:
         if self.shared_memory:
             request["shm"] = self._shm_offer()
             mapping = self._local.mapping
-        route = "native/step"
-        try:
-            status, content = self._post_binary(route, wire.pack(request))
-        except (OSError, http.client.HTTPException) as exc:
-            raise ConnectionError(f"communication with the BenchBot backend at {self.address} failed on /{route}: {exc!r}") from None
-        if status >= 300:
-            try:
-                err = json.loads(content)
-                detail = f"{err.get('error')} ({err.get('hint')})" if err.get("hint") else err.get("error")
-            except Exception:
-                detail = content[:200].decode("utf-8", "replace")
-            if status == 409:
-                raise ValueError(detail)
-            raise ConnectionError(f"BenchBot backend refused /{route} ({status}): {detail}")
+        content = self._post(route, wire.pack(request), wire.MSGPACK_TYPE)
         try:
             reply = wire.unpack(content, mapping.read if mapping is not None else None)
         except BenchbotError as exc:
@@ -266,24 +362,25 @@ class HttpTransport:
         return reply
 
     def close(self) -> None:
-        """Close the HTTP connections and let go of the shared-memory segments (idempotent). Arrays that earlier
-        steps returned stay valid: a segment is unmapped when the last array read from it is gone. Later requests
-        raise ConnectionError. The episode is released (``/robot/release``) so that another client may use it at
-        once rather than after the backend's idle lease."""
+        """Close the HTTP connections (every thread's) and let go of the shared-memory segments (idempotent).
+        Arrays that earlier steps returned stay valid: a segment is unmapped when the last array read from it is
+        gone. Later requests raise ConnectionError. The episode is released (``/robot/release``, 2 s timeout) so
+        that another client may use it at once rather than after the backend's idle lease."""
         if self._closed:
             return
         try:
-            self.http.post("robot/release", timeout=2.0)
-        except (httpx.HTTPError, OSError):  # the backend is gone: nothing to release
+            self._send("POST", "robot/release", b"{}", "application/json", timeout_s=2.0)
+        except (OSError, http.client.HTTPException):  # the backend is gone: nothing to release
             pass
         self._closed = True
-        self.http.close()
+        with self._connections_lock:
+            connections = list(self._connections)
+            self._connections.clear()
+        for conn in connections:
+            conn.close()
         for mapping in self._mappings:
             mapping.close()
         self._mappings.clear()
-        conn = getattr(self._local, "conn", None)
-        if conn is not None:
-            conn.close()
 
 
 def _release_at_exit(ref: "weakref.ref[HttpTransport]") -> None:
@@ -327,11 +424,10 @@ class InProcessTransport:
 
         try:
             return fn(*args)
-        except ActionError as exc:
-            raise ValueError(f"{exc.message} ({exc.hint})" if exc.hint else exc.message) from None
+        except ActionError as exc:  # a refused action, whatever its HTTP status (an argument past its limit: 400)
+            raise _refusal(route, 409, exc.message, exc.hint) from None
         except BenchbotError as exc:
-            detail = f"{exc.message} ({exc.hint})" if exc.hint else exc.message
-            raise ConnectionError(f"BenchBot backend refused /{route} ({status_of(exc)}): {detail}") from None
+            raise _refusal(route, status_of(exc), exc.message, exc.hint) from None
 
     def ping(self) -> bool:
         """Always True: the service is in this process."""
