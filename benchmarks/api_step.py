@@ -26,7 +26,7 @@ and the ``*_minus_inprocess_ms`` figures are medians of the per-round difference
 round's native step against the same round's in-process step), each with a distribution-free 95% confidence
 interval of that median (``*_ci95_ms``, from the order statistics of the differences: this machine's load drifts, and
 the interval says how far the median may be off).
-Requests are counted for real (an httpx event hook; the legacy client's counter).
+Requests are counted for real (an ``HttpTransport`` event hook; the legacy client's counter).
 
     python benchmarks/api_step.py [--rounds 301] [--width 640 --height 480] [--env miniroom:1] [--server process|thread] [--json]
 """
