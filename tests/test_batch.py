@@ -214,6 +214,18 @@ def test_parallel_workers_start_the_longest_episodes_first():
     assert order == ["house:1", "miniroom:3", "miniroom:1", "nowhere:1"]  # 269, 56, 48 poses; unknown last
 
 
+def test_expected_steps_are_the_trajectory_poses_of_a_passive_task():
+    from benchbot.batch.plan import expected_steps, trajectory_length
+    from benchbot.core.registry import get_registry
+
+    registry = get_registry()
+    passive, active = (registry.get("tasks", f"scd:{c}:ground_truth") for c in ("passive", "active"))
+    pair = registry.scenes("miniroom:1:2")
+    assert trajectory_length(pair) == sum(len(s["trajectory_poses"]) for s in pair) > 48
+    assert expected_steps(passive, pair) == trajectory_length(pair) and expected_steps(active, pair) is None
+    assert trajectory_length([{"name": "empty"}]) == 0
+
+
 def test_parallel_workers_share_the_cores(tmp_path):
     """Each of N workers caps its simulator threads and its solutions' BLAS/OpenMP threads at cores / N."""
     report = ("import os; print('threads', os.environ.get('BENCHBOT_TAICHI_THREADS'), "

@@ -132,6 +132,37 @@ def plan_episodes(
     return specs
 
 
+def trajectory_length(scenes: list[dict]) -> int:
+    """The number of poses of the scenes' trajectories (their ``trajectory_poses``, summed; 0 when none has one):
+    the steps of a passive episode on them, one ``move_next`` per pose. The one place this is counted: the batch's
+    expected steps (:func:`expected_steps`), its default timeouts and its longest-first order use it.
+
+    Args:
+        scenes: environment specs (``registry.scenes(env)``, a ``RunSpec``'s ``environments``, or ``config.json``'s).
+
+    Raises:
+        AttributeError, TypeError: ``scenes`` is not a list of dicts (each a file's content the caller checks).
+    """
+    return sum(len(scene.get("trajectory_poses") or []) for scene in scenes)
+
+
+def expected_steps(task: dict, scenes: list[dict]) -> int | None:
+    """The number of steps an episode of ``task`` on ``scenes`` will take, where it is known beforehand: for a
+    passive task (its only action is ``move_next``) the :func:`trajectory_length` of the scenes; None for any other
+    task (an active one: the solution decides when to stop).
+
+    Args:
+        task: a task spec (``registry.get("tasks", name)``, a ``RunSpec``'s ``task``, or ``config.json``'s).
+        scenes: the episode's environment specs.
+
+    Raises:
+        AttributeError, TypeError: ``task`` is not a dict or ``scenes`` not a list of dicts.
+    """
+    if task.get("actions") != ["move_next"]:
+        return None
+    return trajectory_length(scenes)
+
+
 def new_record(spec: EpisodeSpec) -> EpisodeRecord:
     """A pending record for ``spec``."""
     return EpisodeRecord(spec.index, spec.env, spec.robot, spec.repeat, spec.seed, results=spec.results, log=spec.log)

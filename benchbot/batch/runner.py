@@ -34,7 +34,8 @@ from benchbot.batch.episode_runner import results_problem
 from benchbot.batch.executors import EventHandler, run_local, run_ray
 from benchbot.batch import provenance
 from benchbot.batch.plan import (
-    EpisodeRecord, EpisodeSpec, new_record, read_manifest, specs_from_manifest, to_json, write_manifest,
+    EpisodeRecord, EpisodeSpec, expected_steps, new_record, read_manifest, specs_from_manifest, to_json,
+    trajectory_length, write_manifest,
 )
 from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
@@ -159,10 +160,9 @@ def default_timeout_s(registry: Registry, task: str, env: str) -> float:
         SpecError: unknown task or environment.
     """
     scenes = registry.scenes(env)
-    if registry.get("tasks", task)["actions"] == ["move_next"]:
-        steps = sum(len(scene.get("trajectory_poses") or []) for scene in scenes)
-        if steps:
-            return EPISODE_STARTUP_BUDGET_S + PASSIVE_STEP_BUDGET_S * steps
+    steps = expected_steps(registry.get("tasks", task), scenes)
+    if steps:
+        return EPISODE_STARTUP_BUDGET_S + PASSIVE_STEP_BUDGET_S * steps
     return ACTIVE_SCENE_BUDGET_S * len(scenes)
 
 
@@ -269,14 +269,15 @@ def _resolve_runs(registry: Registry, specs: list[EpisodeSpec],
 
 
 def longest_first(specs: list[EpisodeSpec], registry: Registry) -> list[EpisodeSpec]:
-    """``specs`` in the order parallel workers should start them: longest expected episode first (the number of
-    trajectory poses of its scenes, which is the number of steps of a passive episode), so that no long episode
-    starts last and holds up the end of the batch (longest-processing-time-first scheduling). Ties and episodes
-    without trajectories keep their batch order. Results do not depend on the order."""
+    """``specs`` in the order parallel workers should start them: longest expected episode first (the
+    :func:`~benchbot.batch.plan.trajectory_length` of its scenes, which is the number of steps of a passive episode
+    and stands for the size of the scenes of an active one), so that no long episode starts last and holds up the
+    end of the batch (longest-processing-time-first scheduling). Ties and episodes without trajectories (or with an
+    unknown environment) keep their batch order. Results do not depend on the order."""
 
     def steps(spec: EpisodeSpec) -> int:
         try:
-            return sum(len(scene.get("trajectory_poses") or []) for scene in registry.scenes(spec.env))
+            return trajectory_length(registry.scenes(spec.env))
         except BenchbotError:
             return 0
 

@@ -12,7 +12,7 @@ from typing import Optional
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from benchbot.batch.plan import EpisodeRecord, plan_episodes
+from benchbot.batch.plan import EpisodeRecord, expected_steps, plan_episodes
 from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
 from benchbot.batch.sweep import parse_sweep, plan_sweep
 from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
@@ -120,7 +120,8 @@ def register(app: typer.Typer) -> None:
             err.print(f"run directory: {run_dir}")
         run_dir, specs = batch.run_dir, batch.specs
         total = len(specs)
-        expected = {s.index: _expected_steps(reg, s.task, s.env) for s in specs}
+        runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
+        expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
                  + (f" noise={s.noise}" if len({x.noise for x in specs}) > 1 else "")
                  + (f" r{s.repeat}" if s.repeat else "") for s in specs}
@@ -332,9 +333,3 @@ def stop_batch_thread(thread: threading.Thread, grace_s: float = STOP_GRACE_S) -
     ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread.ident), ctypes.py_object(KeyboardInterrupt))
     thread.join(grace_s)
 
-
-def _expected_steps(reg, task: str, env: str) -> int | None:
-    """The number of steps of a passive episode (its trajectories' lengths); None for active tasks."""
-    if reg.get("tasks", task)["actions"] != ["move_next"]:
-        return None
-    return sum(len(e.get("trajectory_poses") or []) for e in reg.scenes(env))

@@ -24,6 +24,8 @@ from textual.css.query import NoMatches
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Log, Static
 
+from benchbot.batch.plan import expected_steps
+
 PROGRESS = "progress.json"
 COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "OMQ")
 #: Bytes of an episode's log that the log screen shows (its end).
@@ -43,12 +45,18 @@ def read_json(path: Path) -> Any:
         return None
 
 
-def expected_steps(config: dict | None) -> dict[str, int]:
-    """``{environment string: steps}`` of a passive task (the trajectories' lengths); ``{}`` for active tasks."""
-    if not config or (config.get("task") or {}).get("actions") != ["move_next"]:
+def expected_steps_by_env(config: dict | None) -> dict[str, int]:
+    """``{environment string: steps}`` from ``config.json``'s content, by
+    :func:`benchbot.batch.plan.expected_steps`: a passive task's trajectory lengths; ``{}`` for active tasks.
+
+    Raises:
+        AttributeError, TypeError: ``config`` is not of ``config.json``'s shape (:func:`_or_empty` catches them).
+    """
+    if not config:
         return {}
-    return {env: sum(len(s.get("trajectory_poses") or []) for s in scenes)
-            for env, scenes in (config.get("environments") or {}).items()}
+    task = config.get("task") or {}
+    return {env: steps for env, scenes in (config.get("environments") or {}).items()
+            if (steps := expected_steps(task, scenes)) is not None}
 
 
 def episode_omq(scores: Any) -> dict[int, float]:
@@ -99,7 +107,7 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     now = time.time() if now is None else now
     progress = read_json(run_dir / PROGRESS) or {}
     live = progress.get("episodes", {}) if isinstance(progress, dict) else {}
-    expected = _or_empty(expected_steps, read_json(run_dir / "config.json"))
+    expected = _or_empty(expected_steps_by_env, read_json(run_dir / "config.json"))
     omq = _or_empty(episode_omq, read_json(run_dir / "episode_scores.json"))
     counts: dict[str, int] = {}
     logs: dict[int, str] = {}
