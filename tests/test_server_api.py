@@ -97,7 +97,7 @@ def test_original_routes_and_errors(served):
 
 def test_client_reports_missing_backend_clearly():
     with pytest.raises(ConnectionError, match="no BenchBot backend answered"):
-        BenchBot(supervisor_address="http://127.0.0.1:9/").start(wait_s=0.5)
+        BenchBot(supervisor_address="http://127.0.0.1:9/", auto_start=False).start(wait_s=0.5)
 
 
 def test_in_process_observations_are_read_only_views_like_the_native_ones(make_service):
