@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from benchbot.api.benchbot import BenchBot
 from benchbot.core import atomic
@@ -48,7 +47,7 @@ def make_run_dir(path: Path, finished: bool = False) -> Path:
         atomic.write_json(path / "scores.json", {"scores": {"OMQ": 0.6543}})
     else:
         atomic.write_json(path / "progress.json", {"episodes": {
-            "2": {"state": "running", "step": 17, "expected": 33, "started": FROZEN - 65.0}}})
+            "2": {"state": "running", "step": 17, "started": FROZEN - 65.0}}})
     atomic.write_json(path / "manifest.json", manifest)
     return path
 
@@ -224,10 +223,25 @@ def test_batch_records_and_writes_progress_without_a_terminal(tmp_path):
     run_dir = next(tmp_path.iterdir())
     assert (run_dir / "recordings" / "000_miniroom_4.mcap").is_file()
     progress = json.loads((run_dir / "progress.json").read_text())
-    assert progress["episodes"]["0"]["state"] == "ended" and progress["episodes"]["0"]["expected"] == 33
+    assert progress["episodes"]["0"]["state"] == "ended" and progress["episodes"]["0"]["step"] == 33
     from benchbot.plugins.replay import Recording
 
     assert len(Recording(run_dir / "recordings" / "000_miniroom_4.mcap").steps) == 33
+
+
+def test_progress_file_keeps_the_last_step_and_reads_back_whatever_is_there(tmp_path):
+    from benchbot.batch.progress import ProgressFile, read_progress
+
+    assert read_progress(tmp_path) == {}
+    live = ProgressFile(tmp_path)
+    live.event("start", 3, None)
+    assert read_progress(tmp_path)["3"]["state"] == "running"
+    for n in range(1, 50):
+        live.event("step", 3, {"step": n})  # written at most 4 times a second
+    live.event("end", 3, None)  # always written, with the last step
+    assert {k: v for k, v in read_progress(tmp_path)["3"].items() if k != "started"} == {"state": "ended", "step": 49}
+    atomic.write_json(tmp_path / "progress.json", {"episodes": ["not", "a", "map"]})
+    assert read_progress(tmp_path) == {}
 
 
 def test_batch_view_shows_what_it_can_of_files_of_the_wrong_shape(tmp_path):

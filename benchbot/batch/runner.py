@@ -5,6 +5,7 @@ A run directory holds::
     config.json          the resolved task, robots and environments
     manifest.json        command, versions, provenance (git revisions, machine), seeds, the plan, and every
                          episode's record (atomic, after each change)
+    progress.json        the running episodes' step counts, for live views (benchbot.batch.progress)
     results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
     scores.json          the evaluation in the original's format (the combined scores)
     episode_scores.json  per-episode scores with environment, robot, repetition, seed and noise preset
@@ -33,6 +34,7 @@ from typing import Callable
 from benchbot.batch.episode_runner import results_problem
 from benchbot.batch.executors import EventHandler, run_local, run_ray
 from benchbot.batch import provenance
+from benchbot.batch.progress import ProgressFile
 from benchbot.batch.plan import (
     EpisodeRecord, EpisodeSpec, expected_steps, new_record, read_manifest, specs_from_manifest, to_json,
     trajectory_length, write_manifest,
@@ -292,9 +294,13 @@ def run_batch(
     """Run (or resume) ``batch`` (from :func:`prepare_batch` or :func:`load_batch`), then evaluate.
 
     Episodes whose record is ``ok`` are skipped; the others run, and failed ones are retried up to ``retries``
-    times. The manifest is rewritten atomically after every episode.
+    times. The manifest is rewritten atomically after every episode, ``progress.json`` as episodes start, step
+    and end (:class:`~benchbot.batch.progress.ProgressFile`).
 
     Args:
+        on_event: called with every executor event (``start``/``step``/``end``, index, info), in the thread that
+            drains the executor's event queue, after ``progress.json`` has taken it.
+        on_record: called with every episode's record as it ends, after the manifest has been written.
         executor: ``local`` (this process, or ``workers`` processes) or ``ray`` (Ray tasks; ``ray_address`` names
             an existing cluster, else a local one with ``workers`` CPUs is started).
 
@@ -313,6 +319,12 @@ def run_batch(
             record.status, record.error = "bad_results", problem
     by_index = {r.index: r for r in records}
     t0 = time.monotonic()
+    progress = ProgressFile(run_dir)
+
+    def handler(kind: str, index: int, info: dict | None) -> None:
+        progress.event(kind, index, info)
+        if on_event is not None:
+            on_event(kind, index, info)
 
     def record_done(record: EpisodeRecord) -> None:
         record.attempts = by_index[record.index].attempts + 1
@@ -335,7 +347,6 @@ def run_batch(
         if workers > 1 or executor == "ray":
             todo = longest_first(todo, registry)
         episodes = [(s, batch.runs[(s.robot, s.env)]) for s in todo]
-        handler = on_event or (lambda *a: None)
         if not episodes:
             continue
         if executor == "ray":

@@ -18,7 +18,6 @@ from benchbot.batch.sweep import parse_sweep, plan_sweep
 from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
-from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.noise import get_preset
 from benchbot.core.submission import container_engine, container_files, example_submission, native_submission
@@ -120,30 +119,28 @@ def register(app: typer.Typer) -> None:
             err.print(f"run directory: {run_dir}")
         run_dir, specs = batch.run_dir, batch.specs
         total = len(specs)
-        runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
-        expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
                  + (f" noise={s.noise}" if len({x.noise for x in specs}) > 1 else "")
                  + (f" r{s.repeat}" if s.repeat else "") for s in specs}
-        live = ProgressFile(run_dir, expected)
 
         def print_line(record: EpisodeRecord) -> None:  # one line per finished episode, as it finishes
             err.print(episode_line(record, label[record.index]), highlight=False)
 
         started = time.monotonic()
         if is_tty() and not no_tui:
-            outcome = _run_with_tui(reg, batch, live, print_line, workers=workers, retries=retries,
+            outcome = _run_with_tui(reg, batch, print_line, workers=workers, retries=retries,
                                     executor=executor, ray_address=ray_address)
         elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
             outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                ray_address=ray_address, on_event=live.event, on_record=print_line)
+                                ray_address=ray_address, on_record=print_line)
         else:
+            runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
+            expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
             with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
                           TimeElapsedColumn(), console=err) as progress:
                 rows: dict[int, int] = {}
 
                 def on_event(kind: str, index: int, info: dict | None) -> None:
-                    live.event(kind, index, info)
                     if kind == "start":
                         rows[index] = progress.add_task(label[index], total=expected[index])
                     elif kind == "step" and index in rows:
@@ -209,40 +206,6 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
         err.print(f"no robustness plot: {summary['plot_error']}")
 
 
-class ProgressFile:
-    """``RUN_DIR/progress.json``: live step counts for the TUI, ``{'episodes': {index: {state, step, expected,
-    started (Unix s)}}}``, replaced atomically on every episode start and end and at most ``max_rate_hz`` times a
-    second on steps.
-
-    Args:
-        run_dir: the run directory. expected: ``{index: expected steps or None}``.
-    """
-
-    def __init__(self, run_dir: Path, expected: dict[int, int | None], max_rate_hz: float = 4.0) -> None:
-        self.path, self.expected = run_dir / "progress.json", expected
-        self.episodes: dict[str, dict] = {}
-        self.min_interval, self.written_at = 1.0 / max_rate_hz, 0.0
-        self.lock = threading.Lock()
-
-    def event(self, kind: str, index: int, info: dict | None) -> None:
-        """An executor event (``start``/``step``/``end``)."""
-        with self.lock:
-            key = str(index)
-            if kind == "start":
-                self.episodes[key] = {"state": "running", "step": 0, "expected": self.expected.get(index),
-                                      "started": time.time()}
-            elif kind == "step" and key in self.episodes:
-                self.episodes[key]["step"] = info["step"]
-                if time.monotonic() - self.written_at < self.min_interval:
-                    return
-            elif kind == "end" and key in self.episodes:
-                self.episodes[key]["state"] = "ended"
-            else:
-                return
-            atomic.write_json(self.path, {"episodes": self.episodes})
-            self.written_at = time.monotonic()
-
-
 def episode_line(record: EpisodeRecord, label: str) -> str:
     """One line (rich markup) for a finished episode: ``[2/4] house:1  ok  269 steps  1:12``."""
     from benchbot.tui.batch_app import format_seconds
@@ -272,7 +235,7 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     return text
 
 
-def _run_with_tui(reg, batch, live: ProgressFile, on_record, **kwargs):
+def _run_with_tui(reg, batch, on_record, **kwargs):
     """Run the batch (``run_batch(reg, batch, **kwargs)``) in a background thread and the episode table
     (:class:`benchbot.tui.batch_app.BatchApp`) in the foreground; the table closes itself when the batch ends.
 
@@ -291,7 +254,7 @@ def _run_with_tui(reg, batch, live: ProgressFile, on_record, **kwargs):
 
     def work() -> None:
         try:
-            result["outcome"] = run_batch(reg, batch, on_event=live.event, on_record=record, **kwargs)
+            result["outcome"] = run_batch(reg, batch, on_record=record, **kwargs)
         except BaseException as exc:  # re-raised in the main thread
             result["error"] = exc
 

@@ -2,9 +2,11 @@
 
 :class:`BatchApp` polls the run directory every ``poll_s`` seconds and reads ``manifest.json`` (the plan and every
 episode's record, written atomically by the batch after each episode), ``progress.json`` (live step counts, written
-by ``benchbot batch`` at most 4 times a second), ``config.json`` (the expected steps of passive tasks) and
-``episode_scores.json`` (OMQ, once the batch is evaluated). It works for a batch running in this process (``benchbot
-batch`` runs it in a background thread) or in another one (``benchbot tui RUN_DIR``), and for a finished one.
+by the batch at most 4 times a second: :mod:`benchbot.batch.progress`), ``config.json`` (the expected steps of
+passive tasks) and ``episode_scores.json`` (OMQ, once the batch is evaluated). It works for a batch running in this
+process (``benchbot batch`` runs it in a background thread) or in another one (``benchbot tui RUN_DIR``), and for a
+finished one: one way in for all three, since the files are written for the other process and the finished batch
+anyway.
 """
 
 from __future__ import annotations
@@ -25,8 +27,8 @@ from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Log, Static
 
 from benchbot.batch.plan import expected_steps
+from benchbot.batch.progress import read_progress
 
-PROGRESS = "progress.json"
 COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "OMQ")
 #: Bytes of an episode's log that the log screen shows (its end).
 LOG_TAIL_BYTES = 256 * 1024
@@ -105,8 +107,7 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     if not isinstance(manifest, dict):
         return {}, []
     now = time.time() if now is None else now
-    progress = read_json(run_dir / PROGRESS) or {}
-    live = progress.get("episodes", {}) if isinstance(progress, dict) else {}
+    live = read_progress(run_dir)
     expected = _or_empty(expected_steps_by_env, read_json(run_dir / "config.json"))
     omq = _or_empty(episode_omq, read_json(run_dir / "episode_scores.json"))
     counts: dict[str, int] = {}
@@ -123,8 +124,7 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
         elif status == "pending":
             wall = None
         counts[status] = counts.get(status, 0) + 1
-        total = (p or {}).get("expected") if isinstance(p, dict) else None
-        total = total if total is not None else expected.get(record["env"])
+        total = expected.get(record["env"])
         steps_text = f"{steps}/{total}" if total else str(steps)
         logs[index] = str(record.get("log", ""))
         if status in FINAL_STATUSES:

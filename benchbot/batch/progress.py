@@ -1,0 +1,72 @@
+"""``RUN_DIR/progress.json``: the live step counts of a batch's running episodes, for views in any process.
+
+:func:`benchbot.batch.runner.run_batch` writes it (:class:`ProgressFile`) from the executors' ``start``/``step``/
+``end`` events; the batch view (:mod:`benchbot.tui.batch_app`) reads it (:func:`read_progress`) alongside the
+manifest, whether it runs in the batch's process (``benchbot batch`` in a terminal) or in another one
+(``benchbot tui RUN_DIR``). The format (docs/tui.md)::
+
+    {"episodes": {"<index>": {"state": "running" | "ended", "step": <steps so far>, "started": <Unix s>}}}
+
+An episode's expected steps are not in it: the view takes them from ``config.json``
+(:func:`benchbot.batch.plan.expected_steps`).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from pathlib import Path
+
+from benchbot.core import atomic
+
+PROGRESS = "progress.json"
+
+
+class ProgressFile:
+    """The writer of ``RUN_DIR/progress.json``: replaced atomically on every episode start and end, and at most
+    ``max_rate_hz`` times a second on steps (each step still updates the count it writes next).
+
+    Args:
+        run_dir: the run directory.
+        max_rate_hz: the most writes per second on steps (Hz).
+    """
+
+    def __init__(self, run_dir: Path, max_rate_hz: float = 4.0) -> None:
+        self.path = run_dir / PROGRESS
+        self.episodes: dict[str, dict] = {}
+        self.min_interval, self.written_at = 1.0 / max_rate_hz, 0.0
+        self.lock = threading.Lock()
+
+    def event(self, kind: str, index: int, info: dict | None) -> None:
+        """An executor event: ``("start", index, None)``, ``("step", index, {"step": n, ...})`` or
+        ``("end", index, None)``; others are ignored.
+
+        Raises:
+            OSError: the file cannot be written.
+        """
+        with self.lock:
+            key = str(index)
+            if kind == "start":
+                self.episodes[key] = {"state": "running", "step": 0, "started": time.time()}
+            elif kind == "step" and key in self.episodes:
+                self.episodes[key]["step"] = info["step"]
+                if time.monotonic() - self.written_at < self.min_interval:
+                    return
+            elif kind == "end" and key in self.episodes:
+                self.episodes[key]["state"] = "ended"
+            else:
+                return
+            atomic.write_json(self.path, {"episodes": self.episodes})
+            self.written_at = time.monotonic()
+
+
+def read_progress(run_dir: Path) -> dict[str, dict]:
+    """``{episode index as a string: {state, step, started}}`` from ``run_dir``'s ``progress.json``; ``{}`` when it
+    is missing, unreadable or of another shape (it is replaced atomically, so never read half-written)."""
+    try:
+        progress = json.loads((run_dir / PROGRESS).read_text())
+    except (OSError, ValueError):
+        return {}
+    episodes = progress.get("episodes") if isinstance(progress, dict) else None
+    return episodes if isinstance(episodes, dict) else {}
