@@ -57,7 +57,7 @@ def encode_jsonpickle(value: Any) -> str:
     import jsonpickle.ext.numpy as jsonpickle_numpy
 
     jsonpickle_numpy.register_handlers()
-    return jsonpickle.encode(value)
+    return jsonpickle.encode(value, keys=False)  # the default of jsonpickle < 5, which the original client decodes
 
 
 
