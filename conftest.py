@@ -6,6 +6,50 @@ drawn in sim_taichi's ``primitives`` style (fast to build); the tests of the fur
 import os
 import tempfile
 
+pytest_plugins = ["pytester"]  # tests/test_fast_loop.py runs pytest on this conftest
+
 os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,sim_taichi,eval_omq,task_semslam,robot_ros2,assets_sh3d"
 os.environ["BENCHBOT_DATA_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-data-")
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# The default run is the fast loop: tests marked ``slow`` (more than about 2 s each on a 2-core machine: whole batches,
+# real terminals, Ray, ROS 2 end to end) are left out when pytest is run with no path and no ``-m``. `uv run pytest
+# -m slow` runs only them, `uv run pytest --run-slow` runs everything, and naming a file or test runs all of it.
+# CI (.ci/run) runs the default command and then `uv run pytest -m slow`, so every test runs there.
+# ---------------------------------------------------------------------------------------------------------------------
+def pytest_addoption(parser):
+    parser.addoption("--run-slow", action="store_true", default=False,
+                     help="also run the tests marked slow (the default run, with no path and no -m, leaves them out)")
+
+
+def _leaves_out_slow(config) -> bool:
+    import pytest
+
+    return (not config.getoption("--run-slow") and not config.option.markexpr
+            and config.args_source == pytest.Config.ArgsSource.TESTPATHS)
+
+
+def pytest_collection_modifyitems(config, items):
+    if not _leaves_out_slow(config):
+        return
+    slow = [item for item in items if item.get_closest_marker("slow")]
+    if slow:
+        config.hook.pytest_deselected(items=slow)
+        items[:] = [item for item in items if not item.get_closest_marker("slow")]
+        config._benchbot_slow_left_out = len(slow)
+
+
+def pytest_report_header(config):
+    if _leaves_out_slow(config):
+        return ("the fast loop: tests marked slow are left out (`uv run pytest --run-slow` runs all, "
+                "`-m slow` only them; CI runs both)")
+    return None
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    left_out = getattr(config, "_benchbot_slow_left_out", 0)
+    if left_out:
+        terminalreporter.write_line(f"{left_out} slow tests left out of this fast run: `uv run pytest -m slow` "
+                                    "runs them (CI does)")

@@ -37,6 +37,7 @@ def test_plan_gives_each_episode_a_recorded_seed():
         plan_episodes(task="t", robots=["a"], envs=["e:1"], repeat=0, seed=0, argv=["x"], cwd=".", options={}, timeout_s=None)
 
 
+@pytest.mark.slow
 def test_repeats_on_two_workers(tmp_path):
     proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1", "--repeat", "2",
                "--workers", "2", "--output-dir", str(tmp_path), "--json", "--zip", *SMALL)
@@ -49,6 +50,7 @@ def test_repeats_on_two_workers(tmp_path):
     assert (run_dir / "batch.zip").is_file()
 
 
+@pytest.mark.slow
 def test_failing_solution_is_reported_and_retried(tmp_path):
     proc = cli("batch", "--native", f"{sys.executable} -c 'import sys; sys.exit(3)'", "--envs", "miniroom:1",
                "--retries", "1", "--output-dir", str(tmp_path), *SMALL)
@@ -123,6 +125,7 @@ def test_a_resumed_combination_that_no_longer_resolves_fails_only_its_episodes(t
     assert manifest(tmp_path)["episodes"][1]["status"] == "error"
 
 
+@pytest.mark.slow
 def test_killed_batch_resumes_without_redoing_finished_episodes(tmp_path):
     args = [*BENCHBOT, "batch", "--example", "hello_passive", "--envs", "miniroom:4,miniroom:1,house:1",
             "--output-dir", str(tmp_path), *SMALL]
@@ -183,6 +186,7 @@ def _engine_works() -> str | None:
         return exc.message
 
 
+@pytest.mark.slow
 def test_containerised_batch_needs_a_dockerfile_and_an_engine(tmp_path):
     proc = cli("batch", "--containerised", str(tmp_path), "--envs", "miniroom:1")
     assert proc.returncode == 2 and "no Dockerfile at" in proc.stderr
@@ -226,6 +230,7 @@ def test_expected_steps_are_the_trajectory_poses_of_a_passive_task():
     assert trajectory_length([{"name": "empty"}]) == 0
 
 
+@pytest.mark.slow
 def test_parallel_workers_share_the_cores(tmp_path):
     """Each of N workers caps its simulator threads and its solutions' BLAS/OpenMP threads at cores / N."""
     report = ("import os; print('threads', os.environ.get('BENCHBOT_TAICHI_THREADS'), "
@@ -242,6 +247,7 @@ def test_parallel_workers_share_the_cores(tmp_path):
         assert f"threads {share} {share} {share}" in log, (log, proc.stderr)
 
 
+@pytest.mark.slow
 def test_noise_sweep_records_the_presets_and_the_noise_reaches_the_solution(tmp_path):
     """``--sweep noise=none,low`` runs both levels with the same seed, records the presets in the manifest and plan,
     and writes the robustness summary and plot; ``--noise low`` alone, with that seed, gives bit-identical results
@@ -282,6 +288,7 @@ def test_noise_sweep_records_the_presets_and_the_noise_reaches_the_solution(tmp_
     (["--sweep", "noise=none,low", "--noise", "low"], "error: --noise and --sweep noise=... both set the noise"),
     (["--sweep", "robot=carter,carter"], "error: --sweep 'robot=carter,carter' gives level 'carter' twice"),
 ])
+@pytest.mark.slow
 def test_bad_noise_or_sweep_flags_are_one_line_usage_errors(tmp_path, args, message):
     proc = cli("batch", "--example", "hello_passive", "--envs", "miniroom:1", "--output-dir", str(tmp_path), *args)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr

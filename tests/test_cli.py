@@ -27,6 +27,7 @@ def test_list_plugins_json_names_distributions_and_content():
     assert plugins["eval_omq"]["registers"]["evaluators"] == ["omq"]
 
 
+@pytest.mark.slow
 def test_show_and_unknown_names():
     proc = cli("show", "environments", "miniroom:1")
     assert proc.returncode == 0 and "start_pose" in proc.stdout
@@ -36,6 +37,7 @@ def test_show_and_unknown_names():
     assert "carter" in proc.stderr and "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_run_validates_the_combination():
     proc = cli("run", "--env", "miniroom:1:2")
     assert proc.returncode == 3 and "needs 1 scene(s)" in proc.stderr
@@ -43,6 +45,7 @@ def test_run_validates_the_combination():
     assert proc.returncode == 3 and "needs 2 scene(s)" in proc.stderr
 
 
+@pytest.mark.slow
 def test_run_refuses_bad_tls_files_in_one_line(tmp_path):
     proc = cli("run", "--env", "miniroom:1", "--tls-cert", str(tmp_path / "missing.pem"))
     assert proc.returncode == 2 and proc.stderr.startswith("error: --tls-cert/--tls-key: no file") \
@@ -57,6 +60,7 @@ def test_run_refuses_bad_tls_files_in_one_line(tmp_path):
     assert proc.returncode == 2 and proc.stderr.startswith("error: BENCHBOT_CA_FILE=") and "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_batch_scores_the_ground_truth_example_one(tmp_path):
     proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1,house:1",
                "--camera-size", "64x48", "--output-dir", str(tmp_path), "--json")
@@ -72,7 +76,6 @@ def test_batch_scores_the_ground_truth_example_one(tmp_path):
     assert sorted(p.name for p in (run_dir / "results").glob("*.json")) == ["000_miniroom_1.json", "001_house_1.json"]
 
 
-@pytest.mark.slow
 def test_readme_main_job_with_the_baseline(tmp_path):
     """README command 1 (smaller camera so the test stays quick)."""
     proc = cli("batch", "--example", "semslam_geometric", "--envs", "miniroom:1", "--camera-size", "320x240",
@@ -84,6 +87,7 @@ def test_readme_main_job_with_the_baseline(tmp_path):
     assert 0.0 < omq < 1.0  # an honest baseline: it finds objects, and it is not the ground truth
 
 
+@pytest.mark.slow
 def test_eval_errors_are_one_line(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text("[1, 2")
@@ -93,6 +97,7 @@ def test_eval_errors_are_one_line(tmp_path):
     assert not (tmp_path / "s.json").exists()
 
 
+@pytest.mark.slow
 def test_submit_needs_exactly_one_mode():
     proc = cli("submit")
     assert proc.returncode == 2 and "exactly one of --native" in proc.stderr

@@ -118,6 +118,7 @@ def test_every_option_has_help_and_help_shows_no_bool(app):
     assert any(path == "benchbot sim render" for path, _ in commands(app))  # plugin commands were walked
 
 
+@pytest.mark.slow
 def test_submit_runs_the_words_after_native_as_the_command(served, tmp_path):
     _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
     script = tmp_path / "echo_args.py"
@@ -166,6 +167,7 @@ def test_list_and_show_print_spec_text_as_written(app):
     assert "centroid [x, y, z] and extent [dx," in shown.stdout
 
 
+@pytest.mark.slow
 def test_an_unknown_name_gets_a_suggestion_in_every_command(app, tmp_path):
     proc = cli("sim", "render", "kitchen:1", "-o", "x.png", cwd=tmp_path)  # a plugin's command, as a user runs it
     assert proc.returncode == 3 and "Traceback" not in proc.stderr, proc.stderr
@@ -196,6 +198,7 @@ def test_close_names_for_every_kind(registry):
         assert expected in exc.value.hint, (kind, exc.value.hint)
 
 
+@pytest.mark.slow
 def test_unknown_action_in_a_content_pack_is_refused_at_install(tmp_path):
     pack = tmp_path / "typo_pack"
     (pack / "tasks").mkdir(parents=True)

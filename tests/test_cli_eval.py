@@ -42,6 +42,7 @@ def files(registry, tmp_path):
     }  # fmt: skip
 
 
+@pytest.mark.slow
 def test_eval_original_file_table_json_and_scores_file(registry, tmp_path):
     orig = write(tmp_path / "orig.json", original_results_file(registry))
     proc = cli("eval", orig, "-o", str(tmp_path / "s.json"))
@@ -58,6 +59,7 @@ def test_eval_original_file_table_json_and_scores_file(registry, tmp_path):
     assert scores["combine"] == "pooled" and scores["per_class"]["table"]["scores"]["OMQ"] == 1.0
 
 
+@pytest.mark.slow
 def test_eval_mixed_good_and_bad_files_scores_the_good_and_exits_4(files, tmp_path):
     out = tmp_path / "scores.json"
     proc = cli("eval", files["good"], files["bad"], "--required-envs", "miniroom:1,house:1", "-o", str(out))
@@ -70,6 +72,7 @@ def test_eval_mixed_good_and_bad_files_scores_the_good_and_exits_4(files, tmp_pa
     assert "good.json" in proc.stdout or "miniroom:1" in proc.stdout
 
 
+@pytest.mark.slow
 def test_eval_error_paths(files, tmp_path):
     out = str(tmp_path / "s.json")
     cases = [
@@ -92,6 +95,7 @@ def test_eval_error_paths(files, tmp_path):
     assert not Path(out).exists()  # nothing was scored
 
 
+@pytest.mark.slow
 def test_eval_validate_only_zip_and_batch(registry, files, tmp_path):
     archive = tmp_path / "batch.zip"
     with zipfile.ZipFile(archive, "w") as z:
@@ -113,6 +117,7 @@ def test_eval_validate_only_zip_and_batch(registry, files, tmp_path):
     assert sum(line.startswith("missing ") for line in proc.stderr.splitlines()) == 2
 
 
+@pytest.mark.slow
 def test_eval_scd_and_per_class_table(registry, tmp_path):
     path = write(tmp_path / "scd.json", scd_results(registry, "miniroom:1:2"))
     proc = cli("eval", path, "--per-class", "-o", str(tmp_path / "s.json"))
@@ -121,6 +126,7 @@ def test_eval_scd_and_per_class_table(registry, tmp_path):
     assert json.loads((tmp_path / "s.json").read_text())["scores"]["avg_state_quality"] == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 def test_gt_command(registry, tmp_path):
     proc = cli("gt", "miniroom:1")
     assert proc.returncode == 0, proc.stderr
@@ -134,6 +140,7 @@ def test_gt_command(registry, tmp_path):
         assert proc.returncode == 3 and text in proc.stderr, proc.stderr
 
 
+@pytest.mark.slow
 def test_gt_command_writes_the_original_layout(registry, tmp_path):
     """--layout original: the original's ground-truth file {environment, format, ground_truth}, valid as a ground
     truth spec (the layout of a content pack's ground_truths/ files)."""

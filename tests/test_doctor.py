@@ -7,6 +7,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 REQUIRED = {"python", "packages", "main-job content", "taichi cpu"}
 
 
@@ -15,6 +17,7 @@ def doctor(*args, env=None):
                           text=True, timeout=400, env={**os.environ, **(env or {})})
 
 
+@pytest.mark.slow
 def test_doctor_json_and_exit_code(tmp_path):
     proc = doctor("--timeout", "240", env={"BENCHBOT_DATA_DIR": str(tmp_path / "data")})
     report = json.loads(proc.stdout)

@@ -38,6 +38,7 @@ def test_actions_outside_the_task_are_refused(make_service):
         active.act("move_distance", {"distance": "far"})
 
 
+@pytest.mark.slow
 def test_observations_have_the_reference_structures(make_service):
     service = make_service(PASSIVE, "miniroom:1")
     ep = service.episode

@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 
 
@@ -35,6 +37,7 @@ README_OMQ = {"furnished": 0.107, "primitives": 0.160}
 README_OMQ_TOLERANCE = 0.005
 
 
+@pytest.mark.slow
 def test_main_job_runs_on_the_furnished_default_and_the_style_variable_reaches_episodes(tmp_path):
     furnished = run_main_job(tmp_path / "furnished", None)
     primitives = run_main_job(tmp_path / "primitives", "primitives")

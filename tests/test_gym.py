@@ -121,6 +121,7 @@ def test_bad_arguments_are_one_line_errors(make_service):
     env.close()
 
 
+@pytest.mark.slow
 def test_the_vector_env_example_runs(tmp_path):
     """examples/gym_vector_env.py (docs/gym.md): two simulators stepped together by gym.make_vec, run as a user
     would."""

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from benchbot.batch.leaderboard import entries, slug, write_site
 from benchbot.batch.report import assign_labels, load_run
 
@@ -66,6 +68,7 @@ def test_entries_are_ranked_on_one_set_of_environments(tmp_path):
     assert [(e["label"], e["rank"]) for e in rows if e["rank"]] == [("c", 1), ("d", 2)]
 
 
+@pytest.mark.slow
 def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     a = make_run(tmp_path, "a", {"miniroom:1": [0.9]})
     b = scores_only_run(tmp_path, "b", {"miniroom:1": [0.3]}, example="other")

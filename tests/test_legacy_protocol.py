@@ -47,6 +47,7 @@ class HelloPassive(Agent):
             json.dump(empty_results, f)
 
 
+@pytest.mark.slow
 def test_original_client_runs_a_passive_episode_and_its_results_score(served, registry, tmp_path):
     _, server = served(PASSIVE, "miniroom:4")
     target = tmp_path / "result.json"

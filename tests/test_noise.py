@@ -164,6 +164,7 @@ def sample(increment, preset="realistic", n=200_000, seed=6):
     return a, np.array([noise.sample_actuation(np.array(increment), a, g) for _ in range(n)])
 
 
+@pytest.mark.slow
 def test_actuation_of_a_straight_move_has_the_stated_variances():
     """Commanded (d, 0, 0): δ_rot1 = δ_rot2 = 0, δ_trans = d, so the executed translation is d + N(0, α₃d²) and the
     heading change the sum of two N(0, α₂d²) (Thrun et al. 2005, table 5.6)."""

@@ -94,6 +94,7 @@ def test_copies_are_the_original_files_unmodified():
     assert "BSD 3-Clause" in attribution and "Queensland University of Technology" in attribution
 
 
+@pytest.mark.slow
 def test_tasks_ssu_is_already_provided_by_task_semslam(app, data_dir):
     dry, real = dry_then_real(app, data_dir, str(ADDONS / "tasks_ssu"))
     assert real.exit_code == 0 and installed(data_dir) == ["tasks_ssu"]
@@ -135,6 +136,7 @@ def test_ground_truths_isaac_develop_are_the_shipped_ones(app, data_dir):
     assert Registry().entry("ground_truths", "miniroom:1").plugin == "sim_taichi"
 
 
+@pytest.mark.slow
 def test_robots_isaac_carter_is_a_real_clash_and_override_replaces_it(app, data_dir):
     dry, real = dry_then_real(app, data_dir, str(ADDONS / "robots_isaac"))
     assert real.exit_code == 3 and installed(data_dir) == []
@@ -182,6 +184,7 @@ def test_envs_isaac_challenge_has_no_counterpart_here(app, data_dir):
     assert "hint: no installed environments correspond" in real.stderr
 
 
+@pytest.mark.slow
 def test_the_cli_process_exits_as_in_process(data_dir):
     env = dict(os.environ, COLUMNS="400", BENCHBOT_INSTALLER="pip")
     for addon, code in (("envs_isaac_develop", 3), ("robots_isaac", 3)):
@@ -208,6 +211,7 @@ def copy_with_placeholder_modules(addon: str, tmp: Path) -> Path:
     return dest
 
 
+@pytest.mark.slow
 def test_formats_and_evaluation_methods_name_their_own_code(app, data_dir, tmp_path):
     for addon, plugin in (("formats_object_map", "task_semslam"), ("eval_omq", "eval_omq")):
         dry, real = dry_then_real(app, data_dir, str(ADDONS / addon))  # as copied: YAML only, no modules
@@ -237,6 +241,7 @@ def test_dry_run_of_several_packs_checks_each_against_the_ones_before(app, data_
         assert "differs in environments" in result.stderr
 
 
+@pytest.mark.slow
 def test_a_pack_cannot_override_another_packs_override(app, data_dir, tmp_path):
     assert install(app, str(ADDONS / "robots_isaac"), "--override").exit_code == 0
     same = tmp_path / "same_robots"

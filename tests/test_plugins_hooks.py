@@ -9,6 +9,8 @@ import sys
 import types
 from pathlib import Path
 
+import pytest
+
 from benchbot.core import hookdoc
 from benchbot.core.hookspecs import hookimpl
 from benchbot.core.registry import Registry
@@ -81,6 +83,7 @@ def test_a_plugin_whose_commands_fail_is_named_and_the_others_still_register(cap
     assert [c.name for c in app.registered_commands] == ["hello"]
 
 
+@pytest.mark.slow
 def test_a_misspelt_hook_names_the_plugin_and_the_hook_and_the_others_load(tmp_path):
     # a real third-party plugin found through its entry point: a module and a .dist-info on PYTHONPATH
     (tmp_path / "typo_plugin.py").write_text(

@@ -44,6 +44,7 @@ def test_data_dir_respects_xdg(monkeypatch, tmp_path):
     assert cp.data_dir() == tmp_path / "xdg" / "benchbot"
 
 
+@pytest.mark.slow
 def test_install_pack_with_code_and_original_function_paths(tmp_path, data_dir):
     pack = make_pack(tmp_path / "my-pack", {"tasks/count.yaml": TASK, "evaluation_methods/countq.yaml": EVAL,
                                             "evaluation_methods/countq.py": EVAL_PY,
@@ -113,6 +114,7 @@ def test_symlink_escape_and_path_traversal_rejected(tmp_path, data_dir):
     assert "absolute path '/etc/passwd' is not allowed" in exc.value.details[0]
 
 
+@pytest.mark.slow
 def test_examples_need_allow_code(tmp_path):
     pack = make_pack(tmp_path / "ex", {"examples/e.yaml": "name: pack_hello\nnative_command: python hello.py\n",
                                        "examples/hello.py": "print('hi')\n"})
@@ -123,6 +125,7 @@ def test_examples_need_allow_code(tmp_path):
     assert entry.path.parent.name == "examples" and "packs" in entry.path.parts
 
 
+@pytest.mark.slow
 def test_cli_install_reports_each_invalid_file(tmp_path):
     pack = make_pack(tmp_path / "bad_cli", {"tasks/t.yaml": "name: t\nactions: 3\nobservations: []\n"})
     proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "install", str(pack)], capture_output=True, text=True,

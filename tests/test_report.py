@@ -125,6 +125,7 @@ def test_per_class_and_per_object_views_from_rescored_results(tmp_path):
     assert len(matches["ground_truth"]) == len(gt) and {p["status"] for p in matches["proposals"]} <= {"TP", "FP", "group"}
 
 
+@pytest.mark.slow
 def test_report_files_for_papers(tmp_path):
     a = load_run(make_run(tmp_path, "batch-20261122-100000", {"miniroom:1": [0.9, 0.85], "miniroom:2": [0.8]}))
     b = load_run(make_run(tmp_path, "batch-20261122-110000", {"miniroom:1": [0.6, 0.65], "miniroom:2": [0.7]},
@@ -158,6 +159,7 @@ def test_report_files_for_papers(tmp_path):
     assert too_precise(re.sub(r"data:image/png;base64,[^']*", "", page)) == []
 
 
+@pytest.mark.slow
 def test_cli_prints_rounded_numbers_and_refusals(tmp_path):
     a = scores_only_run(tmp_path, "a", {"miniroom:1": [0.16012345678], "miniroom:2": [0.3]})
     b = scores_only_run(tmp_path, "b", {"miniroom:1": [0.1578656], "miniroom:2": [0.3001]})
@@ -173,6 +175,7 @@ def test_cli_prints_rounded_numbers_and_refusals(tmp_path):
     assert result["comparisons"][0]["ttest_p"] is None
 
 
+@pytest.mark.slow
 def test_report_errors_are_one_line(tmp_path):
     proc = cli("report", str(tmp_path))
     assert proc.returncode == 2 and "is not a batch run directory" in proc.stderr and "Traceback" not in proc.stderr

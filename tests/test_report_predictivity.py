@@ -81,6 +81,7 @@ def test_pairing_problems_are_reported(tmp_path):
         pred.analyse([a], [c], "environments")
 
 
+@pytest.mark.slow
 def test_cli_predictivity_page_and_errors(tmp_path):
     sim = scores_only_run(tmp_path, "sim", {e: [0.1 * (k + 1)] for k, e in enumerate(ENVS)})
     real = scores_only_run(tmp_path, "real", {e: [m] for e, m in zip(ENVS, [0.2, 0.1, 0.4, 0.3, 0.5])})

@@ -13,6 +13,7 @@ import threading
 import time
 
 import httpx
+import pytest
 
 from benchbot.core.server import SUPERVISOR_GREETING
 
@@ -49,6 +50,7 @@ def test_a_folder_as_record_fails_before_the_simulator(tmp_path):
     assert SIMULATOR_STARTED not in proc.stderr and "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_an_address_of_another_machine_fails_before_the_simulator():
     """Before: a token was generated and printed, the simulator built, then uvicorn's bind error came."""
     proc = cli("run", "--env", "miniroom:1", "--host", "192.0.2.1", "--port", "0", "--no-tui")  # TEST-NET-1
@@ -57,6 +59,7 @@ def test_an_address_of_another_machine_fails_before_the_simulator():
     assert SIMULATOR_STARTED not in proc.stderr and "token" not in proc.stderr and len(proc.stderr.splitlines()) == 2
 
 
+@pytest.mark.slow
 def test_the_port_is_taken_first_and_early_clients_are_served():
     """The port listens before the backend is built (seconds before 'backend ready'; before: only once it was
     built); a client that connects meanwhile gets its answer once the backend is ready; after SIGTERM the port is

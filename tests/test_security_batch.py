@@ -93,6 +93,7 @@ def descendants(pid: int) -> list[int]:
 
 
 # ------------------------------------------------------------------------------------------------ processes
+@pytest.mark.slow
 def test_a_forked_child_ends_with_its_episode_and_episodes_get_a_default_timeout(tmp_path):
     proc = batch("--native", solution(tmp_path, "sys.exit(0)\n"), "--envs", "miniroom:1", "--no-evaluate",
                  "--output-dir", str(tmp_path / "runs"), *SMALL)
@@ -104,6 +105,7 @@ def test_a_forked_child_ends_with_its_episode_and_episodes_get_a_default_timeout
     assert m["episode_timeout"]["source"] == "default"
 
 
+@pytest.mark.slow
 def test_episode_timeout_stops_the_whole_group(tmp_path):
     t0 = time.monotonic()
     proc = batch("--native", solution(tmp_path, "time.sleep(120)\n"), "--envs", "miniroom:1", "--no-evaluate",
@@ -119,6 +121,7 @@ def test_episode_timeout_stops_the_whole_group(tmp_path):
 
 
 @pytest.mark.parametrize("workers", [1, 2])
+@pytest.mark.slow
 def test_kill_9_of_the_batch_ends_its_solutions(tmp_path, workers):
     envs = "miniroom:1" if workers == 1 else "miniroom:1,miniroom:2"
     batch_proc = subprocess.Popen(
@@ -139,6 +142,7 @@ def test_kill_9_of_the_batch_ends_its_solutions(tmp_path, workers):
             batch_proc.wait()
 
 
+@pytest.mark.slow
 def test_a_flood_of_output_is_capped_without_blocking_or_losing_the_exit_status(tmp_path):
     script = tmp_path / "flood.py"
     script.write_text("import sys\nblock = b'x' * (1 << 20)\nfor _ in range(64):\n    sys.stdout.buffer.write(block)\n"
@@ -156,6 +160,7 @@ def test_a_flood_of_output_is_capped_without_blocking_or_losing_the_exit_status(
     assert b"[log truncated at 100000 bytes (67108864 written): raise with BENCHBOT_MAX_LOG_BYTES]" in log
 
 
+@pytest.mark.slow
 def test_a_bad_log_cap_is_a_one_line_error(tmp_path):
     proc = batch("--native", "true", "--envs", "miniroom:1", "--output-dir", str(tmp_path), *SMALL,
                  env={"BENCHBOT_MAX_LOG_BYTES": "lots"})
@@ -179,6 +184,7 @@ with open(os.environ["BENCHBOT_RESULT_LOCATION"], "w") as f:
 """
 
 
+@pytest.mark.slow
 def test_a_corrupt_results_file_fails_only_its_episode_also_on_resume(tmp_path):
     script, corrupt = tmp_path / "solution.py", tmp_path / "corrupt.json"
     script.write_text(RESULTS_SOLUTION)
@@ -256,6 +262,7 @@ def _set(path: str, value):
      "$.plan[1].results: results/000_miniroom_1.json is also $.plan[0].results"),
     (_set("plan.0.timeout_s", -1), "$.plan[0].timeout_s: -1 is less than or equal to the minimum of 0"),
 ])
+@pytest.mark.slow
 def test_resume_refuses_a_bad_manifest_naming_the_field(finished_run, tmp_path, edit, message):
     run_dir = edited(finished_run, tmp_path, edit)
     before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
@@ -267,6 +274,7 @@ def test_resume_refuses_a_bad_manifest_naming_the_field(finished_run, tmp_path, 
     assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before  # nothing ran, nothing written
 
 
+@pytest.mark.slow
 def test_resume_refuses_a_results_folder_linked_outside_the_run_directory(finished_run, tmp_path):
     run_dir = edited(finished_run, tmp_path, lambda m: None)
     outside = tmp_path / "outside"

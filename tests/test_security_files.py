@@ -81,6 +81,7 @@ def one_line_error(proc: subprocess.CompletedProcess) -> str:
 # --- 1. functions named by packs -------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_install_refuses_a_format_that_names_os_system(tmp_path, data_dir):
     marker = tmp_path / "ran"
     pack = make_pack(tmp_path / "evil", {"formats/f.yaml": EVIL_FORMAT.format(function="os:system"),
@@ -152,6 +153,7 @@ def test_code_added_to_a_pack_installed_without_allow_code_is_not_loaded(tmp_pat
 # --- 2. spec files: YAML bombs, encodings, nesting, integers, sizes ---------------------------------------------
 
 
+@pytest.mark.slow
 def test_install_refuses_hostile_spec_files_each_in_one_line(tmp_path):
     depth = 20_000
     pack = make_pack(tmp_path / "hostile", {
@@ -218,6 +220,7 @@ def test_bad_limit_variables_are_usage_errors(monkeypatch):
 # --- 3. benchbot eval: zip bombs, large and deep results ---------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_eval_refuses_a_zip_bomb_before_decompressing(tmp_path):
     bomb = raw_zip(tmp_path / "bomb.zip", "r.json", 1 << 30)
     assert bomb.stat().st_size < 1_100_000
@@ -230,6 +233,7 @@ def test_eval_refuses_a_zip_bomb_before_decompressing(tmp_path):
     assert not (tmp_path / "s.json").exists()
 
 
+@pytest.mark.slow
 def test_eval_counts_decompressed_bytes_when_the_header_lies(tmp_path, monkeypatch):
     liar = raw_zip(tmp_path / "liar.zip", "r.json", 1 << 30, declared=100)
     proc, _, rss = cli("eval", str(liar), "-o", str(tmp_path / "s.json"), measure=True)
@@ -253,6 +257,7 @@ def test_eval_counts_decompressed_bytes_when_the_header_lies(tmp_path, monkeypat
     assert len(load_all([many])[0]) == 6
 
 
+@pytest.mark.slow
 def test_eval_refuses_a_huge_results_file_without_reading_it(tmp_path):
     huge = tmp_path / "huge.json"
     with open(huge, "wb") as f:

@@ -307,6 +307,7 @@ def test_counts_a_request_asks_for_are_bounded(serve):
     http.close()
 
 
+@pytest.mark.slow
 def test_results_functions_never_block_the_event_loop(serve, monkeypatch):
     monkeypatch.setenv("BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S", "4")
     monkeypatch.setenv("BENCHBOT_MAX_RESULTS_REPLY_BYTES", "1000")
@@ -334,6 +335,7 @@ def test_results_functions_never_block_the_event_loop(serve, monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------------ 4. camera size
+@pytest.mark.slow
 def test_an_absurd_camera_size_is_a_usage_error():
     proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "run", "--env", "miniroom:1", "--port", "0",
                            "--no-tui", "--camera-size", "99999999x99999999"],

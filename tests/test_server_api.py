@@ -95,6 +95,7 @@ def test_original_routes_and_errors(served):
         assert isinstance(ok["observations"]["image_depth"], np.ndarray)
 
 
+@pytest.mark.slow
 def test_client_reports_missing_backend_clearly():
     with pytest.raises(ConnectionError, match="no BenchBot backend answered"):
         BenchBot(supervisor_address="http://127.0.0.1:9/", auto_start=False).start(wait_s=0.5)

@@ -245,6 +245,7 @@ def test_native_steps_copy_borrowed_observations_before_the_backend_reuses_them(
     transport.close()
 
 
+@pytest.mark.slow
 def test_a_terminated_benchbot_run_removes_its_segments():
     """SIGTERM stops `benchbot run` as Ctrl-C does: a segment its client never mapped (so never unlinked) is removed
     too."""

@@ -169,6 +169,7 @@ def test_a_segment_evicted_before_its_client_mapped_it_is_replaced(served, monke
         transport.step(None, {}, None)
 
 
+@pytest.mark.slow
 def test_more_concurrent_clients_than_segments_all_exit_cleanly(served, tmp_path):
     """12 clients (3 processes of 4 threads, each thread its own BenchBot), more than the backend keeps segments,
     step at once and keep every observation; in between, one client per process steps alone, so that it surely

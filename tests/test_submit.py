@@ -36,6 +36,7 @@ def _engine() -> str | None:
         return "skip:" + exc.message
 
 
+@pytest.mark.slow
 def test_flag_validation_is_one_line():
     for args, text in [
         (["--native", "python", "x.py", "--example", "hello_passive"], "not both"),
@@ -48,6 +49,7 @@ def test_flag_validation_is_one_line():
         assert proc.stderr.startswith("error:") and text in proc.stderr and len(proc.stderr.splitlines()) <= 2
 
 
+@pytest.mark.slow
 def test_submission_archive_and_manifest(tmp_path):
     folder = tmp_path / "solution"
     (folder / "pkg").mkdir(parents=True)
@@ -65,6 +67,7 @@ def test_submission_archive_and_manifest(tmp_path):
     assert default.returncode == 0 and (tmp_path / "submission.tgz").is_file()
 
 
+@pytest.mark.slow
 def test_submission_manifest_names_the_running_backend(served, tmp_path):
     _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
     folder = tmp_path / "s"
@@ -77,6 +80,7 @@ def test_submission_manifest_names_the_running_backend(served, tmp_path):
     assert manifest["environments"] == ["miniroom:1"] and manifest["seeds"] == [0]
 
 
+@pytest.mark.slow
 def test_containerised_without_an_engine_says_so(tmp_path):
     engine = _engine()
     if engine and not engine.startswith("skip:"):
@@ -133,6 +137,7 @@ def test_containerised_timeout_kills_and_removes_the_container(tmp_path, contain
     assert left.stdout.strip() == ""
 
 
+@pytest.mark.slow
 def test_an_example_without_a_container_says_how_to_run_it():
     proc = cli("submit", "--example", "hello_passive", "--example-containerised")
     assert proc.returncode == 2
@@ -211,6 +216,7 @@ def greeter():
         server.server_close()
 
 
+@pytest.mark.slow
 def test_no_backend_fails_at_once_naming_the_address_and_the_fix(tmp_path):
     """Before: the solution waited 60 s for a backend, then printed its traceback."""
     port = _free_port()
@@ -226,6 +232,7 @@ def test_no_backend_fails_at_once_naming_the_address_and_the_fix(tmp_path):
 
 
 @pytest.mark.parametrize("status, text", [(401, "wants a token"), (404, "answered GET / with HTTP 404")])
+@pytest.mark.slow
 def test_a_backend_that_refuses_is_one_line(greeter, tmp_path, status, text):
     marker = tmp_path / "started"
     solution = _script(tmp_path, f"open({str(marker)!r}, 'w').close()")
@@ -234,6 +241,7 @@ def test_a_backend_that_refuses_is_one_line(greeter, tmp_path, status, text):
     assert not marker.exists()
 
 
+@pytest.mark.slow
 def test_a_backend_still_starting_is_waited_for(tmp_path):
     """A socket that accepts connections but answers only later (``benchbot run`` building its simulator): the
     check says it waits, then the submission runs."""
@@ -307,6 +315,7 @@ def _without_result_location() -> dict:
     return {k: v for k, v in os.environ.items() if k != "BENCHBOT_RESULT_LOCATION"}
 
 
+@pytest.mark.slow
 def test_results_stay_where_the_readme_says(served, original_location):
     """Before: without -r they were saved in a temporary folder removed on exit (the path the solution printed no
     longer existed)."""
@@ -348,6 +357,7 @@ LegacyBenchBot(GroundTruth(), supervisor_address=os.environ["BENCHBOT_SUPERVISOR
 """
 
 
+@pytest.mark.slow
 def test_an_original_client_s_results_are_found_and_scored(served, original_location, tmp_path):
     """An original benchbot_api client writes /tmp/benchbot_result even when BENCHBOT_RESULT_LOCATION names another
     file. Before: "saved no results" and the evaluation of {} failed."""
@@ -365,6 +375,7 @@ def test_an_original_client_s_results_are_found_and_scored(served, original_loca
     assert json.loads(scores.read_text())["scores"]["OMQ"] == 1.0
 
 
+@pytest.mark.slow
 def test_a_stale_results_file_is_never_scored(greeter, original_location, tmp_path):
     """A /tmp/benchbot_result (or a BENCHBOT_RESULT_LOCATION file) older than the submission is not its results."""
     perfect = {"task_details": {}, "environment_details": [], "results": {"objects": []}}

@@ -22,6 +22,7 @@ def _batch(tmp_path: Path, *envs: str) -> list[str]:
             "--output-dir", str(tmp_path)]
 
 
+@pytest.mark.slow
 def test_batch_view_closes_itself_and_prints_the_scores(tmp_path):
     with Terminal(_batch(tmp_path, "miniroom:4"), columns=160, rows=48) as term:
         assert term.wait(300) == 0, term.text[-2000:]
@@ -40,6 +41,7 @@ def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
         assert "interrupted" in term.text and "Do you want to quit" not in term.text
 
 
+@pytest.mark.slow
 def test_q_closes_the_batch_view_and_the_batch_goes_on(tmp_path):
     with Terminal(_batch(tmp_path, "miniroom:4"), columns=100, rows=30) as term:
         assert term.wait_for(r"episodes done", 120), term.text[-2000:]
@@ -49,6 +51,7 @@ def test_q_closes_the_batch_view_and_the_batch_goes_on(tmp_path):
         assert "[1/1] miniroom:4  ok  33 steps" in term.text  # the line printed when the view is gone
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_benchbot_run_in_its_live_view(tmp_path):
     with Terminal([*BENCHBOT, "run", "--env", "miniroom:1", "--port", "0", *SMALL], columns=100, rows=30) as term:
         assert term.wait_for(r"backend +http://127\.0\.0\.1:\d+/", 120), term.text[-2000:]  # the view shows it
@@ -56,6 +59,7 @@ def test_ctrl_c_stops_benchbot_run_in_its_live_view(tmp_path):
         assert term.wait(15) == 130, term.text[-2000:]
 
 
+@pytest.mark.slow
 def test_batch_without_a_terminal_prints_each_episode_as_it_finishes(tmp_path):
     proc = subprocess.Popen(_batch(tmp_path, "miniroom:4", "miniroom:1"), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
@@ -84,12 +88,14 @@ def test_batch_without_a_terminal_prints_each_episode_as_it_finishes(tmp_path):
     (["--evaluate-with", "nope"], 3, "no evaluator named 'nope'"),
     (["--prefix", "../escape"], 2, "--prefix '../escape' is not a name"),
 ])
+@pytest.mark.slow
 def test_a_batch_that_cannot_start_leaves_no_run_directory(tmp_path, flags, code, message):
     proc = subprocess.run([*_batch(tmp_path, "miniroom:4"), *flags], capture_output=True, text=True, timeout=120)
     assert proc.returncode == code and message in proc.stderr, proc.stderr
     assert list(tmp_path.iterdir()) == [] and not (tmp_path.parent / "escape").exists()
 
 
+@pytest.mark.slow
 def test_a_batch_that_scored_nothing_says_so(tmp_path):
     proc = subprocess.run([*BENCHBOT, "batch", "--native", "false", "--envs", "miniroom:4", *SMALL, "--output-dir",
                            str(tmp_path)], capture_output=True, text=True, timeout=300)

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from benchbot.api.benchbot import BenchBot
 from benchbot.core import atomic
@@ -107,6 +108,7 @@ def test_batch_app_exits_when_the_batch_ends(tmp_path):
     assert proc.returncode == 0, proc.stderr
 
 
+@pytest.mark.slow
 def test_batch_app_keys_enter_opens_a_log_ctrl_c_interrupts(tmp_path):
     asyncio.run(_test_batch_app_keys(tmp_path))
 
@@ -210,11 +212,13 @@ def test_live_state_writer_follows_a_real_episode(make_service, registry, tmp_pa
 
 
 # --------------------------------------------------------------------------------------------- CLI
+@pytest.mark.slow
 def test_tui_command_needs_a_run_directory(tmp_path):
     proc = subprocess.run([*BENCHBOT, "tui", str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "neither manifest.json nor state.json" in proc.stderr
 
 
+@pytest.mark.slow
 def test_batch_records_and_writes_progress_without_a_terminal(tmp_path):
     proc = subprocess.run([*BENCHBOT, "batch", "--example", "hello_passive", "--envs", "miniroom:4", "--record",
                            "--camera-size", "64x48", "--arch", "cpu", "--no-evaluate", "--output-dir", str(tmp_path)],

@@ -28,6 +28,7 @@ def test_type_hashes_match_an_independent_implementation():
     assert type_hash_user_data("sensor_msgs/Image") == f"typehash={TYPE_HASHES['sensor_msgs/msg/Image']};".encode()
 
 
+@pytest.mark.slow
 def test_node_is_announced_as_rmw_does(domain_id):
     dom = domain_id + 30
     tr = CycloneTransport(dom, "loopback", node_name="benchbot_probe")

@@ -64,6 +64,7 @@ def test_lost_tf_stops_the_robot_with_a_clear_error(transport):
         b.close()
 
 
+@pytest.mark.slow
 def test_obstacle_in_the_laser_stops_before_contact(transport):
     with FakeRobot(transport, wall_x=1.0) as robot:
         b = _backend(transport)

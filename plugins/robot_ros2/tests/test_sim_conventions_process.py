@@ -8,7 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 
+
+@pytest.mark.slow
 def test_ros2_conventions_in_a_fresh_process():
     module = Path(__file__).with_name("test_sim_conventions.py")
     env = {**os.environ, "BENCHBOT_ROS2_CONVENTIONS_CHILD": "1"}

@@ -28,6 +28,7 @@ def _structure(v):
     return type(v).__name__
 
 
+@pytest.mark.slow
 def test_carter_ros2_observations_match_carter(sim_bridge, monkeypatch):
     from benchbot_sim_taichi.backend import create_backend
 

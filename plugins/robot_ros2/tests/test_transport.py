@@ -136,6 +136,7 @@ def test_rclpy_transport_talks_to_cyclone_transport(domain_id):
     assert got and got[0].linear.x == 0.5
 
 
+@pytest.mark.slow
 def test_plugin_contract_and_command(benchbot_contract):
     import subprocess
     import sys
@@ -148,6 +149,7 @@ def test_plugin_contract_and_command(benchbot_contract):
     assert proc.returncode == 0 and "--env" in proc.stdout, proc.stderr
 
 
+@pytest.mark.slow
 def test_close_while_a_callback_runs_returns(domain_id):
     """Closing a transport while a subscriber's callback is running returns once the callback is done. Before, the
     listener thread held the last reference to its reader and deleted it from inside its own callback, and

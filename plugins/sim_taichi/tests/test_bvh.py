@@ -124,6 +124,7 @@ def test_coincident_centroids_still_give_small_leaves():
     assert check_invariants(nodes_f, nodes_i, order, lo, hi) <= 1 + int(np.ceil(np.log2(5000 / bvh.MAX_LEAF)))
 
 
+@pytest.mark.slow
 def test_a_million_thin_triangles_stay_within_the_kernels_stack():
     from benchbot_sim_taichi.kernels import STACK
 

@@ -589,6 +589,7 @@ def _free_floor_in_corridor(plan, box, gl, gh, step=0.02):
 
 
 @pytest.mark.parametrize("which", ["synthetic", "shipped"])
+@pytest.mark.slow
 def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
     """On the ten BEAR environments, with a model of every class and kind (synthetic) and with the shipped pack
     (models' bounds from their size_m: the exact fit to their meshes is test_furnished's)."""

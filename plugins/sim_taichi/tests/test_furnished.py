@@ -37,6 +37,7 @@ def scenes() -> dict:
     return {name: build_scene(_environment(name, style="furnished"), seed=0) for name in ENVS}
 
 
+@pytest.mark.slow
 def test_furnished_homes_draw_textured_models(scenes):
     lib = asset_library()
     assert lib.all(), "no asset pack is installed (benchbot-assets-sh3d provides one)"
@@ -128,6 +129,7 @@ def test_furnished_is_the_default_primitives_stay_available_and_unknown_style_is
     assert "furnished, primitives" in str(e.value.hint)
 
 
+@pytest.mark.slow
 def test_sim_plan_draws_the_plan_of_a_home(tmp_path):
     from typer.testing import CliRunner
 

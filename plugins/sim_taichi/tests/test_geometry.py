@@ -142,6 +142,7 @@ def test_batch_equals_single_and_soft_shadows_deterministic(bear_envs):
     assert q["rgb"].shape == (30, 40, 3) and np.array_equal(q["depth"], batch["depth"][0])
 
 
+@pytest.mark.slow
 def test_object_centres_hit_their_instance(bear_envs):
     """From trajectory poses that see it, the ray through the centre of an object's largest primitive hits that
     object's instance (visibility decided by the NumPy reference)."""

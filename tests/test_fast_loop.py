@@ -1,0 +1,38 @@
+"""The fast loop (root conftest.py): the default run leaves out tests marked slow and says so; ``-m slow``,
+``--run-slow`` and a named file run them. Checked with pytest itself on a two-test project that uses this
+repository's conftest, in a subprocess (the conftest sets environment variables when imported)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def project(pytester, monkeypatch):
+    monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")  # only pytest and this conftest: seconds faster
+    pytester.makeconftest((ROOT / "conftest.py").read_text())
+    pytester.makeini("[pytest]\ntestpaths = suite\nmarkers =\n    slow: slow\n")
+    suite = pytester.mkdir("suite")
+    (suite / "test_two.py").write_text(
+        "import pytest\n\n\ndef test_quick():\n    pass\n\n\n@pytest.mark.slow\ndef test_long():\n    pass\n")
+    return pytester
+
+
+@pytest.mark.parametrize("args, passed, deselected", [
+    ((), ["test_quick"], 1),                       # the default run: the fast loop
+    (("-m", "slow"), ["test_long"], 1),             # CI's second step
+    (("--run-slow",), ["test_quick", "test_long"], 0),
+    (("suite/test_two.py",), ["test_quick", "test_long"], 0),  # a named file runs all of it
+])
+def test_the_default_run_leaves_out_slow_tests(project, args, passed, deselected):
+    result = project.runpytest_subprocess("-v", "-p", "no:cacheprovider", *args)
+    outcomes = result.parseoutcomes()
+    assert outcomes.get("passed") == len(passed) and outcomes.get("deselected", 0) == deselected, result.stdout.str()
+    for name in passed:
+        result.stdout.fnmatch_lines([f"*::{name} PASSED*"])
+    if not args:
+        result.stdout.fnmatch_lines(["*tests marked slow are left out*", "1 slow tests left out of this fast run*"])
