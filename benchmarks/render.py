@@ -5,15 +5,24 @@ environment's trajectory poses (fast mode), and, in the same run, Embree (``embr
 same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.export``).
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
-        [--shadow-samples 1] [--lamp-maps auto|on|off] [--json]
+        [--shadow-samples 1] [--lamp-maps auto|on|off] [--lights on|off] [--host-copy taichi[,reused,pinned]|none]
+        [--json]
 
 Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
 (``Renderer.render_sensors``). On CUDA the scene and the outputs stay in GPU memory
 (``device_buffers``): ``fps`` counts frames finished in GPU memory (the timing ends with a device synchronisation),
-``fps_with_host_copy`` the same frames copied into NumPy arrays; on the CPU both are the same figure. JSON keys:
-``fps`` (sensor frames per second), ``fps_with_host_copy``, ``mrays_per_s`` (primary camera rays, millions per
-second, counted from the same timing: W·H·fps), ``embree_mrays_per_s`` (primary rays only, closest hit),
-``ms_per_frame``, ``prims``, ``bvh_nodes``, ``embree_triangles``, …
+``fps_with_host_copy`` the same frames copied into NumPy arrays by the renderer (``to_host=True``: Taichi's
+``Ndarray.to_numpy``, new arrays each call); on the CPU both are the same figure. On CUDA, ``--host-copy`` adds
+the benchmark's own copies (``gpu_host.HostCopier``: one ``cuMemcpyDtoHAsync`` per output into NumPy arrays made once
+and reused, checked equal to ``to_numpy``'s): ``reused`` (ordinary memory) → ``fps_host_reused``, ``pinned``
+(page-locked) → ``fps_host_pinned``. JSON keys: ``fps`` (sensor frames per second), ``fps_with_host_copy``,
+``mrays_per_s`` (primary camera rays, millions per second, counted from the same timing: W·H·fps),
+``embree_mrays_per_s`` (primary rays only, closest hit), ``ms_per_frame``, ``prims``, ``triangles``, ``bvh_nodes``,
+``lights`` (how many), ``lights_on`` (false with ``--lights off``: ambient light only, the renderer's unlit launch),
+``bvh_build_s`` (``bvh.build_bvh`` inside ``set_scene``, on the host CPU), ``setup_s`` (renderer start and
+``set_scene``: BVH, packing, upload, lamp maps), ``scene_mb`` (the packed scene arrays the kernels read: on CUDA
+what ``set_scene`` uploads), ``bvh_mb`` (its nodes), ``peak_rss_mb`` (host), on CUDA ``gpu``, ``gpu_mem_used_mb``
+(device memory in use after the timings, the whole device), ``embree_triangles``, …
 """
 
 from __future__ import annotations
@@ -23,6 +32,7 @@ import json
 import math
 import os
 import platform
+import resource
 import sys
 import time
 
@@ -41,15 +51,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--shadow-samples", type=int, default=1)
     ap.add_argument("--lamp-maps", choices=("auto", "on", "off"), default="auto",
                     help="lamp shadows from cube shadow maps (auto: in furnished scenes) or shadow rays")
+    ap.add_argument("--lights", choices=("on", "off"), default="on",
+                    help="off: ambient light only (no shadow rays, no lamp maps): what primary rays, shading and "
+                         "the laser cost without the lights")
+    ap.add_argument("--host-copy", default="taichi",
+                    help="comma list of host-copy timings on CUDA: taichi (the renderer's to_host), reused, pinned; "
+                         "none")
     ap.add_argument("--no-embree", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bvh, plugin
     from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
+
+    build_bvh, bvh_s = bvh.build_bvh, []
+
+    def timed_build_bvh(*a, **k):  # pack_scene imports bvh.build_bvh when called: time the BVH inside set_scene
+        t = time.perf_counter()
+        try:
+            return build_bvh(*a, **k)
+        finally:
+            bvh_s.append(time.perf_counter() - t)
+
+    bvh.build_bvh = timed_build_bvh
 
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:
@@ -58,10 +85,12 @@ def main(argv: list[str] | None = None) -> int:
     scene = build_scene(envs[args.env])  # the default style, or $BENCHBOT_SIM_STYLE (furnished | primitives)
     t_build = time.perf_counter() - t0
     W, H, B = args.width, args.height, max(1, args.batch)
+    bvh_s.clear()
     t0 = time.perf_counter()
     r = Renderer(args.arch, shadow_samples=args.shadow_samples,
                  lamp_maps={"auto": None, "on": True, "off": False}[args.lamp_maps])
     r.set_scene(scene)
+    r.sync()  # the lamp maps' kernel
     t_setup = time.perf_counter() - t0
     K = intrinsics(W, H, 90.0)
     Tc = np.eye(4)
@@ -75,29 +104,57 @@ def main(argv: list[str] | None = None) -> int:
 
     def run(i, to_host):
         idx = [(i * B + b) % len(cams) for b in range(B)]
-        return r.render_sensors(K, np.stack([cams[k] for k in idx]), W, H, np.stack([lidars[k] for k in idx]),
-                                angles, to_host=to_host)
+        Ts, Tl = np.stack([cams[k] for k in idx]), np.stack([lidars[k] for k in idx])
+        if args.lights == "on":
+            return r.render_sensors(K, Ts, W, H, Tl, angles, to_host=to_host)
+        out = r._launch(K, Ts, W, H, Tl, angles, lit=False)  # the renderer's unlit launch (depth/segmentation use)
+        return {k: v.to_numpy() if to_host and not isinstance(v, np.ndarray) else v for k, v in out.items()}
 
-    def timed(to_host):
+    def timed(to_host, fetch=None):
         for i in range(args.warmup):
-            run(i, to_host)
+            out = run(i, to_host)
+            if fetch:
+                fetch(out)
         r.sync()
         t0 = time.perf_counter()
         for i in range(n_batches):
-            run(i, to_host)
+            out = run(i, to_host)
+            if fetch:
+                fetch(out)
         r.sync()
         return n_batches * B / (time.perf_counter() - t0)
 
+    copies = [c for c in args.host_copy.split(",") if c and c != "none"]
+    if set(copies) - {"taichi", "reused", "pinned"}:
+        ap.error(f"--host-copy: unknown {sorted(set(copies) - {'taichi', 'reused', 'pinned'})}")
     fps = timed(to_host=not r.device_buffers)  # frames in the renderer's memory (GPU memory on CUDA)
-    fps_host = timed(to_host=True) if r.device_buffers else fps  # and copied to NumPy arrays
+    # and copied to NumPy arrays by the renderer
+    fps_host = (timed(to_host=True) if "taichi" in copies else None) if r.device_buffers else fps
+    extra = {}
+    if r.device_buffers:
+        import gpu_host  # this folder is on sys.path when a script here runs
+
+        for mode in [c for c in copies if c != "taichi"]:
+            copier = gpu_host.HostCopier(pinned=mode == "pinned")
+            got, want = copier.copy(run(0, False)), run(0, True)
+            if any(not np.array_equal(got[k], want[k]) for k in want):
+                raise SystemExit(f"--host-copy {mode}: the copies differ from to_numpy's")
+            extra[f"fps_host_{mode}"] = timed(to_host=False, fetch=copier.copy)
+            copier.close()
+        extra.update(gpu_host.device_info())
     frames = n_batches * B
     out = {"env": args.env, "width": W, "height": H, "arch": r.arch, "batch": B, "frames": frames,
            "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
            "mrays_per_s": W * H * fps / 1e6, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
+           "lights_on": args.lights == "on",
            "style": scene.style, "lamps_with_maps": r.lamps_with_maps,
            "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
-           "setup_s": t_setup, "fps_with_host_copy": fps_host, "device_buffers": r.device_buffers,
+           "setup_s": t_setup, "bvh_build_s": sum(bvh_s), "fps_with_host_copy": fps_host,
+           "scene_mb": sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20,
+           "bvh_mb": (r._packed["nodes_f"].nbytes + r._packed["nodes_i"].nbytes) / 2**20,
+           "device_buffers": r.device_buffers, **extra,
+           "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
            "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
            "outputs": "rgb+depth+class+instance+laser(360)"}
     if not args.no_embree:
@@ -128,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         print(f"{args.env} ({scene.style}, {out['triangles']} triangles, {out['lamps_with_maps']} of {out['lights']} lights with lamp maps) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
-              f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host:.1f} fps with host copies; "
+              f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host or float('nan'):.1f} fps with host copies; "
               f"embree {out.get('embree_mrays_per_s', float('nan')):.2f} "
               f"Mrays/s on {out.get('embree_triangles', 0)} triangles")
     return 0

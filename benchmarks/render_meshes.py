@@ -3,15 +3,20 @@
 A room (the primitive style's shell, no ground-truth objects) holds a grid of ``--count`` instances of one mesh: a
 GLB/OBJ given with ``--mesh``, else a generated textured sphere of about ``--triangles`` triangles. Each frame is
 RGB + depth + class/instance segmentation + a 360-beam laser scan (``Renderer.render_sensors``, fast mode) from
-poses circling the room's centre. The same scene is timed twice: with its textures and with them removed
-(``mat_texture = −1``), which isolates the texture sampling's cost.
+poses circling the room's centre, ``--batch N`` cameras (and scans) per kernel launch. The same scene is timed twice:
+with its textures and with them removed (``mat_texture = −1``), which isolates the texture sampling's cost.
 
     python benchmarks/render_meshes.py [--mesh FILE.glb] [--count 100] [--triangles 2000] [--width 640]
-        [--height 480] [--frames 20] [--arch cpu|cuda] [--json]
+        [--height 480] [--frames 20] [--batch 1] [--arch cpu|cuda] [--json]
 
 JSON keys: ``triangles``, ``textures``, ``bvh_nodes``, ``build_scene_s`` (instances flattened into the scene),
-``set_scene_s`` (BVH build and packing), ``fps_textured``, ``fps_untextured``, ``mrays_per_s`` (primary rays,
-textured), ``machine``, ``cpu_count``.
+``set_scene_s`` (BVH build, packing and, on CUDA, upload), ``bvh_build_s`` (``bvh.build_bvh`` alone, inside the
+first ``set_scene``, on the host CPU), ``scene_mb`` (the packed scene arrays the kernels read: on CUDA what
+``set_scene`` uploads), ``bvh_mb`` (its nodes), ``fps_textured``, ``fps_untextured`` (frames in the renderer's
+memory: GPU memory on CUDA, the timing ending with a device synchronisation), on CUDA
+``fps_textured_with_host_copy`` (the renderer's ``to_host=True``), ``gpu``, ``gpu_mem_used_mb`` (device memory in
+use after the timings, the whole device), ``mrays_per_s`` (primary rays, textured), ``peak_rss_mb`` (host),
+``machine``, ``cpu_count``.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import json
 import math
 import os
 import platform
+import resource
 import sys
 import tempfile
 import time
@@ -53,15 +59,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--batch", type=int, default=1, help="cameras per kernel launch")
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
     from benchbot.core.geometry import se2_to_matrix
+    from benchbot_sim_taichi import bvh
     from benchbot_sim_taichi.backend import R_BODY_OPTICAL
     from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, load_mesh
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import BEAR_CLASS_LIST, build_scene
+
+    build_bvh, bvh_s = bvh.build_bvh, []
+
+    def timed_build_bvh(*a, **k):  # pack_scene imports bvh.build_bvh when called: time the BVH inside set_scene
+        t = time.perf_counter()
+        try:
+            return build_bvh(*a, **k)
+        finally:
+            bvh_s.append(time.perf_counter() - t)
+
+    bvh.build_bvh = timed_build_bvh
 
     mesh = load_mesh(args.mesh) if args.mesh else _sphere(args.triangles)
     side = max(1, math.ceil(math.sqrt(args.count)))
@@ -86,9 +105,14 @@ def main(argv: list[str] | None = None) -> int:
     add_mesh_instances(scene, instances)
     t_build = time.perf_counter() - t0
     r = Renderer(args.arch)
+    bvh_s.clear()
     t0 = time.perf_counter()
     r.set_scene(scene)
+    r.sync()
     t_set = time.perf_counter() - t0
+    t_bvh = sum(bvh_s)
+    scene_mb = sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20
+    bvh_mb = (r._packed["nodes_f"].nbytes + r._packed["nodes_i"].nbytes) / 2**20
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
     Tc = np.eye(4)
@@ -101,25 +125,42 @@ def main(argv: list[str] | None = None) -> int:
     lidars = [se2_to_matrix(*p, z=0.3) for p in poses]
     angles = np.radians(np.arange(-180.0, 180.0, 1.0))
 
-    def timed() -> float:
+    B = max(1, args.batch)
+    n_launches = max(1, math.ceil(args.frames / B))
+
+    def launch(i: int, to_host: bool):
+        idx = [(i * B + b) % len(cams) for b in range(B)]
+        return r.render_sensors(K, np.stack([cams[k] for k in idx]), W, H, np.stack([lidars[k] for k in idx]),
+                                angles, to_host=to_host)
+
+    def timed(to_host: bool) -> float:
         for i in range(2):
-            r.render_sensors(K, cams[i][None], W, H, lidars[i][None], angles)
+            launch(i, to_host)
         r.sync()
         t = time.perf_counter()
-        for i in range(args.frames):
-            r.render_sensors(K, cams[i % len(cams)][None], W, H, lidars[i % len(cams)][None], angles)
+        for i in range(n_launches):
+            launch(i, to_host)
         r.sync()
-        return args.frames / (time.perf_counter() - t)
+        return n_launches * B / (time.perf_counter() - t)
 
-    fps_tex = timed()
+    fps_tex = timed(to_host=not r.device_buffers)
+    extra = {}
+    if r.device_buffers:
+        import gpu_host  # this folder is on sys.path when a script here runs
+
+        extra["fps_textured_with_host_copy"] = timed(to_host=True)
+        extra.update(gpu_host.device_info())
     scene.mat_texture = np.full_like(scene.mat_texture, -1)
     r.set_scene(scene)
-    fps_plain = timed()
+    fps_plain = timed(to_host=not r.device_buffers)
     out = {"mesh": args.mesh or f"textured sphere ({mesh.n_triangles} triangles)", "count": args.count,
            "triangles": int(scene.tri_v.shape[0]), "textures": int(scene.tex_info.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "build_scene_s": t_build, "set_scene_s": t_set,
-           "width": W, "height": H, "arch": r.arch, "fps_textured": fps_tex, "fps_untextured": fps_plain,
-           "mrays_per_s": W * H * fps_tex / 1e6, "machine": platform.processor() or platform.machine(),
+           "bvh_build_s": t_bvh, "scene_mb": scene_mb, "bvh_mb": bvh_mb, "batch": B, "frames": n_launches * B,
+           "width": W, "height": H, "arch": r.arch, "fps_textured": fps_tex, "fps_untextured": fps_plain, **extra,
+           "mrays_per_s": W * H * fps_tex / 1e6,
+           "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+           "machine": platform.processor() or platform.machine(),
            "cpu_count": os.cpu_count(),
            "outputs": "rgb+depth+class+instance+laser(360)"}
     if args.json:
