@@ -71,6 +71,7 @@ TAICHI_BANNER: list[str] = [line for line in _banner.getvalue().splitlines() if 
 MODES = ("fast", "quality")
 
 _INIT_ARCH: str | None = None
+_INIT_THREAD: threading.Thread | None = None  # the thread that ran ti.init
 
 
 class TaichiSettingError(UsageError, ValueError):
@@ -91,7 +92,7 @@ def ensure_taichi(arch: str | None = None) -> str:
         TaichiSettingError: (a ``ValueError``) an unknown arch name, or a ``BENCHBOT_TAICHI_THREADS`` that is not a
             positive integer.
     """
-    global _INIT_ARCH
+    global _INIT_ARCH, _INIT_THREAD
     want = (arch or settings.get("BENCHBOT_TAICHI_ARCH")).strip().lower()
     if want not in ("cpu", "gpu", "cuda"):
         raise TaichiSettingError(f"unknown Taichi arch {want!r}",
@@ -103,6 +104,7 @@ def ensure_taichi(arch: str | None = None) -> str:
         return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
     with contextlib.redirect_stdout(sys.stderr):  # "[Taichi] Starting on arch=..." is printed on stdout
         _INIT_ARCH = _init(want)
+    _INIT_THREAD = threading.current_thread()
     if _INIT_ARCH == "cuda" and threading.current_thread() is not threading.main_thread():
         # The CUDA context is current only on this thread: release Taichi here when this thread ends, or the
         # interpreter's exit (on the main thread) would synchronise a context it does not hold and abort.
@@ -117,15 +119,30 @@ class _ReleaseTaichiAtThreadExit:
     """Held in the Taichi thread's thread-local storage; Python drops it on that thread as the thread ends."""
 
     def __del__(self) -> None:
-        global _INIT_ARCH
-        try:
-            ti.reset()  # frees every ndarray; after it, dropping an ndarray frees nothing, on any thread
-        finally:
-            _INIT_ARCH = None
-            reset_graph()
-            with _RETIRE_LOCK:
-                _DEVICE_ARRAYS.clear()
-                _RETIRED.clear()
+        release_taichi()
+
+
+def release_taichi() -> None:
+    """Reset Taichi (``ti.reset``: every field, ndarray and compiled kernel is freed; after it, dropping an ndarray
+    frees nothing, on any thread) and forget the arch, so that the next :func:`ensure_taichi` initialises it again on
+    the calling thread. Every :class:`Renderer` made before is unusable. Called on a non-main Taichi thread as it
+    ends (CUDA), and by the tests between the backend thread's episodes and the main thread's renders (CPU)."""
+    global _INIT_ARCH, _INIT_THREAD
+    try:
+        ti.reset()
+    finally:
+        _INIT_ARCH, _INIT_THREAD = None, None
+        reset_graph()
+        with _RETIRE_LOCK:
+            _DEVICE_ARRAYS.clear()
+            _RETIRED.clear()
+
+
+def initialised_on_another_thread() -> bool:
+    """Whether Taichi was initialised on a thread other than the calling one (Taichi's LLVM context then refuses to
+    build fields on this thread: "Assertion failure: std::this_thread::get_id() == main_thread_id_"; call
+    :func:`release_taichi` first when that thread no longer uses Taichi)."""
+    return _INIT_ARCH is not None and _INIT_THREAD is not threading.current_thread()
 
 
 def _init(want: str) -> str:

@@ -12,6 +12,19 @@ os.environ.setdefault("BENCHBOT_TAICHI_ARCH", "cpu")
 CLASS_LIST = ["chair", "table", "background"]
 
 
+@pytest.fixture(autouse=True)
+def taichi_on_a_live_thread():
+    """Taichi builds fields only on the thread that initialised it: when an earlier test of the run initialised it on
+    the process's backend thread (a served episode of tests/), reset it so that this test's renders initialise it
+    here, on the main thread. (The tests of this folder use Taichi on the main thread only.)"""
+    import sys
+
+    renderer = sys.modules.get("benchbot_sim_taichi.renderer")
+    if renderer is not None and renderer.initialised_on_another_thread():
+        renderer.release_taichi()
+    yield
+
+
 @pytest.fixture(scope="session")
 def bear_envs():
     """The plugin's ten environment specs, keyed 'name:variant'."""
