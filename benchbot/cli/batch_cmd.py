@@ -13,7 +13,6 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from benchbot.batch.plan import EpisodeRecord, expected_steps, plan_episodes
-from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
 from benchbot.batch.sweep import parse_sweep, plan_sweep
 from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
 from benchbot.cli.eval_cmd import print_scores
@@ -64,6 +63,8 @@ def register(app: typer.Typer) -> None:
         directory under --output-dir, named on stderr; a batch stopped at any moment continues with --resume.
         Exit status 0 when every episode produced results.
         """
+        from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
+
         reg = registry()
         if executor not in ("local", "ray"):
             raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
@@ -242,6 +243,7 @@ def _run_with_tui(reg, batch, on_record, **kwargs):
     ``q`` closes the table and the batch goes on, printing a line per finished episode (``on_record``); Ctrl-C in
     the table stops the batch as Ctrl-C does without it (:func:`stop_batch_thread`), and raises KeyboardInterrupt.
     """
+    from benchbot.batch.runner import run_batch
     from benchbot.tui.batch_app import BatchApp
 
     result: dict = {}

@@ -14,7 +14,14 @@ import warnings
 from typing import Sequence
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+
+def _rotation():
+    """SciPy's ``Rotation`` class, imported on first use: ``scipy.spatial`` takes ~0.4 s to import, and commands
+    that never rotate anything (``benchbot --help``, ``list``, ``show``) import this module."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
 
 
 def wrap_angle(angle: float) -> float:
@@ -43,7 +50,7 @@ def quaternion_wxyz_to_matrix(q: np.ndarray) -> np.ndarray:
     Raises:
         ValueError: ``q`` does not have 4 finite numbers, or has zero length.
     """
-    return Rotation.from_quat(_unit_quaternion_xyzw(q, "wxyz")).as_matrix()
+    return _rotation().from_quat(_unit_quaternion_xyzw(q, "wxyz")).as_matrix()
 
 
 def quaternion_xyzw_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -53,19 +60,19 @@ def quaternion_xyzw_to_matrix(q: np.ndarray) -> np.ndarray:
     Raises:
         ValueError: ``q`` does not have 4 finite numbers, or has zero length.
     """
-    return Rotation.from_quat(_unit_quaternion_xyzw(q, "xyzw")).as_matrix()
+    return _rotation().from_quat(_unit_quaternion_xyzw(q, "xyzw")).as_matrix()
 
 
 def matrix_to_quaternion_xyzw(R: np.ndarray) -> np.ndarray:
     """Unit quaternion (4,) float64 ``[x, y, z, w]`` (ROS order) of the rotation matrix ``R`` (3, 3), w ≥ 0 (SciPy's
     ``Rotation``; a matrix that is not quite orthonormal is taken as its nearest rotation)."""
-    q = Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_quat()
+    q = _rotation().from_matrix(np.asarray(R, dtype=np.float64)).as_quat()
     return -q if q[3] < 0 else q
 
 
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Rotation (3, 3) float64 of static-axis (x, y, z) Euler angles in radians: R = Rz(yaw)·Ry(pitch)·Rx(roll)."""
-    return Rotation.from_euler("xyz", [roll, pitch, yaw]).as_matrix()
+    return _rotation().from_euler("xyz", [roll, pitch, yaw]).as_matrix()
 
 
 def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
@@ -73,7 +80,7 @@ def matrix_to_rpy(R: np.ndarray) -> tuple[float, float, float]:
     ``Rotation.as_euler('xyz')``; at gimbal lock, pitch ±π/2, yaw is 0 and roll takes the whole turn)."""
     with warnings.catch_warnings():  # gimbal lock is a property of the angles, not an error of the caller's
         warnings.simplefilter("ignore", UserWarning)
-        roll, pitch, yaw = Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_euler("xyz")
+        roll, pitch, yaw = _rotation().from_matrix(np.asarray(R, dtype=np.float64)).as_euler("xyz")
     return (float(roll), float(pitch), float(yaw))
 
 

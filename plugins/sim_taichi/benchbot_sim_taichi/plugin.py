@@ -23,10 +23,15 @@ def _load(name: str) -> dict:
         return json.load(f)
 
 
-def _lighting(map_path: str) -> str:
-    from benchbot_sim_taichi.scene import lighting_of_map_path
-
-    return lighting_of_map_path(map_path)
+def lighting_of_map_path(map_path: str) -> str:
+    """The lighting name (``base``, ``day``, ``night``, ``day_extra``, ``night_extra``) encoded in an original
+    Unreal ``map_path`` such as ``/Game/AI_vol3_03_base/Maps/AI_vol3_scene_03``; ``base`` if none is found."""
+    first = [p for p in str(map_path).split("/") if p][1:2] or [str(map_path)]
+    name = first[0]
+    for suffix in ("night_extra", "day_extra", "night", "day", "base"):
+        if name.endswith("_" + suffix):
+            return suffix
+    return "base"
 
 
 def environment_specs() -> list[dict]:
@@ -44,7 +49,7 @@ def environment_specs() -> list[dict]:
             "object_labels": list(env["object_labels"]),
             "description": env.get("description", "").strip(),
             "robots": ["carter"],
-            "lighting": _lighting(env.get("map_path", "")),
+            "lighting": lighting_of_map_path(env.get("map_path", "")),
             "source": SOURCE,
         })
     return out

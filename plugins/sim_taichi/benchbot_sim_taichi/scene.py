@@ -22,6 +22,7 @@ from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix
 from benchbot.core.registry import first_error
 from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
+from benchbot_sim_taichi.plugin import lighting_of_map_path
 
 #: Light kinds in :attr:`Scene.light_kind`.
 LIGHT_DIRECTIONAL = 0
@@ -105,17 +106,6 @@ LAMP_RANGE_M = 6.0
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     """sRGB (0..1) → linear (0..1), a plain 2.2 gamma (float32, same shape)."""
     return np.power(np.clip(np.asarray(c, dtype=np.float32), 0.0, 1.0), np.float32(2.2)).astype(np.float32)
-
-
-def lighting_of_map_path(map_path: str) -> str:
-    """The lighting name (``base``, ``day``, ``night``, ``day_extra``, ``night_extra``) encoded in an original
-    Unreal ``map_path`` such as ``/Game/AI_vol3_03_base/Maps/AI_vol3_scene_03``; ``base`` if none is found."""
-    first = [p for p in str(map_path).split("/") if p][1:2] or [str(map_path)]
-    name = first[0]
-    for suffix in ("night_extra", "day_extra", "night", "day", "base"):
-        if name.endswith("_" + suffix):
-            return suffix
-    return "base"
 
 
 @dataclass

@@ -127,7 +127,7 @@ def test_bad_map_path_and_json(tmp_path, synthetic_env):
 
 
 def test_lighting_parse():
-    from benchbot_sim_taichi.scene import lighting_of_map_path
+    from benchbot_sim_taichi.plugin import lighting_of_map_path
 
     assert lighting_of_map_path("/Game/AI_vol3_03_base/Maps/AI_vol3_scene_03") == "base"
     assert lighting_of_map_path("/Game/AIUE_V02_002_night_extra/Maps/AIUE_V02_002") == "night_extra"
