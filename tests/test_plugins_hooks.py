@@ -107,9 +107,10 @@ def test_every_hookspec_is_called_by_the_core():
 
     sources = "\n".join(p.read_text() for p in (ROOT / "benchbot").rglob("*.py")
                         if p.name not in ("hookspecs.py", "hookdoc.py", "testing.py"))
-    assert 'getattr(self.plugin_manager.hook, f"benchbot_{kind}")' in sources  # the registry calls the content hooks
+    assert 'call_each_plugin(self.plugin_manager, f"benchbot_{kind}")' in sources  # the registry's content hooks
     for _, name, _ in hookdoc.hooks():
-        called = f"hook.{name}(" in sources or f"hook.{name}.get_hookimpls()" in sources
+        called = f"hook.{name}(" in sources or f'call_each_plugin(plugin_manager, "{name}"' in sources \
+            or f'call_each_plugin(self.plugin_manager, "{name}")' in sources or f"HOOK = \"{name}\"" in sources
         assert called or name.removeprefix("benchbot_") in KIND_SCHEMAS, f"{name} is never called by the core"
 
 
@@ -131,3 +132,28 @@ def test_episode_finished_is_called_once_when_the_service_closes(make_service, r
     finally:
         registry.plugin_manager.unregister(spy)
     assert calls == [{"steps": 1, "collided": False, "finished": False}]
+
+
+def test_hooks_are_called_through_pluggy_once_per_plugin_with_wrappers_applied():
+    """The registry calls each plugin's content hook through pluggy (plugin_manager.call_each_plugin): a hook
+    wrapper sees every call, one per implementing plugin, and each plugin's specs stay attributed to it."""
+    calls = []
+
+    class Watcher:
+        @hookimpl(wrapper=True)
+        def benchbot_tasks(self):
+            results = yield
+            calls.append(list(results))
+            return results
+
+    class Mine:
+        @hookimpl
+        def benchbot_tasks(self):
+            return [{"name": "mine_task", "actions": [], "observations": ["poses"]}]
+
+    reg = Registry(extra_plugins={"mine": Mine(), "watcher": Watcher()})
+    implementing = [i.plugin_name for i in reg.plugin_manager.hook.benchbot_tasks.get_hookimpls() if not i.wrapper]
+    assert len(calls) == len(implementing) and "mine" in implementing and len(implementing) >= 2
+    assert [{"name": "mine_task", "actions": [], "observations": ["poses"]}] in [c[0] for c in calls if c]
+    assert reg.entry("tasks", "mine_task").plugin == "mine"
+    assert next(p for p in reg.plugins if p.name == "mine").registers == {"tasks": ["mine_task"]}

@@ -45,7 +45,7 @@ def test_environment_strings(registry):
 
 
 def _plugin(**hooks):
-    module = types.SimpleNamespace()
+    module = types.ModuleType("test_plugin")  # a plugin as entry points give them: a module (hashable)
     for name, value in hooks.items():
         setattr(module, name, hookimpl(lambda value=value: value))
     return module

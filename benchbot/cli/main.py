@@ -91,11 +91,11 @@ def add_plugin_commands(plugin_manager: Any, cli_app: typer.Typer) -> list[str]:
     commands are left out, with a one-line warning on stderr naming the plugin. Returns those warnings."""
     from benchbot.cli.common import err
 
+    from benchbot.core.plugin_manager import call_each_plugin
+
     warnings = []
-    for impl in plugin_manager.hook.benchbot_commands.get_hookimpls():
-        try:
-            impl.function(app=cli_app)
-        except Exception as exc:
-            warnings.append(f"plugin {impl.plugin_name} could not add its commands: {exc!r}")
+    for plugin_name, _, exc in call_each_plugin(plugin_manager, "benchbot_commands", app=cli_app):
+        if exc is not None:
+            warnings.append(f"plugin {plugin_name} could not add its commands: {exc!r}")
             err.print(f"[yellow]warning:[/] {warnings[-1]}", highlight=False)
     return warnings

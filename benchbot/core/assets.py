@@ -18,6 +18,7 @@ from typing import Any
 
 from benchbot.core.errors import SpecError
 from benchbot.core.limits import MAX_SPEC_BYTES
+from benchbot.core.plugin_manager import call_each_plugin
 from benchbot.core.safe_load import load_data_file
 
 SCHEMA = "asset_manifest"
@@ -220,24 +221,26 @@ def _build(pm: Any, *, strict: bool) -> AssetLibrary:
             raise SpecError(line, hint)
         problems.append(line)
 
-    for impl in pm.hook.benchbot_asset_packs.get_hookimpls():
-        try:
-            paths = impl.function() or []
-            paths = [Path(p) for p in paths]
-        except Exception as exc:  # a broken third-party pack must not break the others
-            problem(f"plugin {impl.plugin_name}: {HOOK}() raised {exc!r}".splitlines()[0],
+    for plugin_name, returned, exc in call_each_plugin(pm, HOOK):
+        if exc is None:
+            try:
+                paths = [Path(p) for p in returned or []]
+            except TypeError as not_paths:
+                exc = not_paths
+        if exc is not None:  # a broken third-party pack must not break the others
+            problem(f"plugin {plugin_name}: {HOOK}() raised {exc!r}".splitlines()[0],
                     "fix or disable that plugin (BENCHBOT_DISABLE_PLUGINS)")
             continue
         for manifest in paths:
             try:
                 pack_assets = load_asset_manifest(manifest)
             except SpecError as exc:
-                problem(f"plugin {impl.plugin_name}: {exc.message}", exc.hint)
+                problem(f"plugin {plugin_name}: {exc.message}", exc.hint)
                 continue
             for asset in pack_assets:
                 if asset.id in assets:
                     other = assets[asset.id]
-                    problem(f"plugin {impl.plugin_name}: {manifest}: asset id {asset.id!r} is already used by pack "
+                    problem(f"plugin {plugin_name}: {manifest}: asset id {asset.id!r} is already used by pack "
                             f"{other.pack!r}; left out", "give the asset an id of its own")
                     continue
                 assets[asset.id] = asset

@@ -13,6 +13,7 @@ import importlib.metadata as md
 import os
 from dataclasses import dataclass, field
 from types import ModuleType
+from typing import Any, Iterator
 
 import pluggy
 
@@ -140,3 +141,38 @@ def import_object(path: str) -> object:
     module_name, _, attr = path.partition(":")
     module = importlib.import_module(module_name)
     return getattr(module, attr) if attr else module
+
+
+def call_each_plugin(pm: pluggy.PluginManager, hook_name: str, **kwargs: Any) -> Iterator[
+    tuple[str, Any, Exception | None]
+]:
+    """Call the hook ``hook_name`` once per plugin implementing it, through pluggy, so that each plugin's result, or
+    its failure, is known to be that plugin's: the registry attributes specs and problems to plugins, and a broken
+    plugin must not stop the others. Each call goes through ``pm.subset_hook_caller`` (the hook with every other
+    implementing plugin removed), so pluggy's hook-call monitoring, tracing and hook wrappers apply as to ``pm.hook``.
+
+    Args:
+        pm: the plugin manager (:func:`build_plugin_manager`).
+        hook_name: e.g. ``"benchbot_tasks"``.
+        **kwargs: the hook's arguments, by name.
+
+    Yields:
+        ``(plugin_name, result, exception)`` in registration order (the order the registry keeps the first of two
+        specs of one name by): ``result`` is what the plugin returned (``None`` when it raised, or returned
+        ``None``), ``exception`` what it raised, else ``None``.
+
+    Raises:
+        TypeError: a registered plugin object is unhashable (``subset_hook_caller`` keeps a set of plugins; modules,
+            as entry points give them, and instances of ordinary classes are hashable).
+    """
+    caller = getattr(pm.hook, hook_name)
+    impls = [i for i in caller.get_hookimpls() if not (i.hookwrapper or i.wrapper)]
+    for impl in impls:
+        single = pm.subset_hook_caller(hook_name, remove_plugins=[i.plugin for i in impls if i is not impl])
+        try:
+            results = single(**kwargs)
+        except Exception as exc:  # noqa: BLE001 - reported against this plugin by the caller
+            yield impl.plugin_name, None, exc
+            continue
+        yield impl.plugin_name, (results[0] if results else None), None
+

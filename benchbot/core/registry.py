@@ -27,7 +27,7 @@ from benchbot.core.content_packs import (
 )
 from benchbot.core.errors import SpecError
 from benchbot.core.names import close_names, did_you_mean
-from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, import_object
+from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, call_each_plugin, import_object
 from benchbot.core.limits import MAX_SPEC_BYTES
 from benchbot.core.safe_load import load_data_file
 from benchbot.core.spec_meaning import same_meaning
@@ -221,31 +221,30 @@ class Registry:
         self.backend_factories: dict[str, tuple[str, Callable]] = {}
         infos = self._infos = {p.name: p for p in self.plugins}
         for kind, schema_name in KIND_SCHEMAS.items():
-            hook = getattr(self.plugin_manager.hook, f"benchbot_{kind}")
-            for impl in hook.get_hookimpls():
-                try:
-                    specs = impl.function() or []
-                except Exception as exc:
-                    problem = f"plugin {impl.plugin_name}: benchbot_{kind}() raised {exc!r}"
-                    self.problems[(kind, impl.plugin_name)] = problem
-                    if impl.plugin_name in infos:
-                        infos[impl.plugin_name].problems.append(problem)
+            for plugin, specs, exc in call_each_plugin(self.plugin_manager, f"benchbot_{kind}"):
+                if exc is not None:
+                    problem = f"plugin {plugin}: benchbot_{kind}() raised {exc!r}"
+                    self.problems[(kind, plugin)] = problem
+                    if plugin in infos:
+                        infos[plugin].problems.append(problem)
                     continue
-                for raw in expand_spec_folders(specs):
-                    self._add(kind, schema_name, raw, impl.plugin_name, infos.get(impl.plugin_name))
-        for impl in self.plugin_manager.hook.benchbot_robot_backends.get_hookimpls():
-            for type_name, factory in (impl.function() or {}).items():
+                for raw in expand_spec_folders(specs or []):
+                    self._add(kind, schema_name, raw, plugin, infos.get(plugin))
+        for plugin_name, factories, exc in call_each_plugin(self.plugin_manager, "benchbot_robot_backends"):
+            if exc is not None:
+                raise exc
+            for type_name, factory in (factories or {}).items():
                 if type_name in self.backend_factories:
                     other = self.backend_factories[type_name][0]
                     self.problems[("robot_backends", type_name)] = (
-                        f"robot type '{type_name}' is offered by plugins '{other}' and '{impl.plugin_name}'"
+                        f"robot type '{type_name}' is offered by plugins '{other}' and '{plugin_name}'"
                     )
-                    if impl.plugin_name in infos:
-                        infos[impl.plugin_name].problems.append(self.problems[("robot_backends", type_name)])
+                    if plugin_name in infos:
+                        infos[plugin_name].problems.append(self.problems[("robot_backends", type_name)])
                     continue
-                self.backend_factories[type_name] = (impl.plugin_name, factory)
-                if impl.plugin_name in infos:
-                    infos[impl.plugin_name].registers.setdefault("robot_backends", []).append(type_name)
+                self.backend_factories[type_name] = (plugin_name, factory)
+                if plugin_name in infos:
+                    infos[plugin_name].registers.setdefault("robot_backends", []).append(type_name)
 
     def _add(self, kind: str, schema_name: str, raw: Any, plugin: str, info: PluginInfo | None) -> None:
         path = Path(raw).resolve() if isinstance(raw, (str, Path)) else None
