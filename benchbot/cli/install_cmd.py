@@ -3,7 +3,6 @@ environment) and content packs (folders in the original add-on layout, copied in
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
