@@ -3,7 +3,6 @@ unsafe, clashing or code-carrying packs with clear errors."""
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys

@@ -5,7 +5,6 @@ labels and provenance, lighting's confounding, rounded CLI numbers and one-line 
 from __future__ import annotations
 
 import csv
-import io
 import json
 import re
 import subprocess
