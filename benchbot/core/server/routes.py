@@ -57,7 +57,9 @@ def encode_jsonpickle(value: Any) -> str:
     import jsonpickle.ext.numpy as jsonpickle_numpy
 
     jsonpickle_numpy.register_handlers()
-    return jsonpickle.encode(value, keys=False)  # the default of jsonpickle < 5, which the original client decodes
+    # keys=False pinned: the original client decodes this, and jsonpickle 5 flips the default (jsonpickle 4.x warns
+    # on every call with keys=False all the same).
+    return jsonpickle.encode(value, keys=False)
 
 
 
