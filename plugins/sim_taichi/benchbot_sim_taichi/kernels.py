@@ -651,17 +651,22 @@ def quality_kernel(
     world: ti.types.ndarray(dtype=ti.f32, ndim=1),
     params: ti.types.vector(8, ti.f32),
     out: ti.types.ndarray(dtype=ti.f32, ndim=4),
+    aux: ti.types.ndarray(dtype=ti.f32, ndim=4),
 ):
     """Path-traced linear radiance into ``out`` (B, H, W, 3) float32 (B = 1) for camera ``cam``
     (``renderer.camera_params``: optical frame in ``map``, pixels): ``params[4]`` samples per pixel (jittered in
     the pixel), each with one stratum of the soft-shadow samples per light, and one cosine-sampled diffuse bounce
-    (direct light and ambient at the bounce point, scaled by ``params[5]``)."""
+    (direct light and ambient at the bounce point, scaled by ``params[5]``). ``aux`` (B, H, W, 6) float32 receives
+    the denoiser's guides, averaged over the samples: the albedo at the camera's hit (0..1) and its shading normal
+    (``map`` frame, unit length before averaging); zero where a sample hits nothing."""
     B = out.shape[0]
     H = out.shape[1]
     W = out.shape[2]
     spp = ti.cast(params[4], ti.i32)
     for b, v, u in ti.ndrange(B, H, W):
         acc = ti.Vector([0.0, 0.0, 0.0])
+        guide_albedo = ti.Vector([0.0, 0.0, 0.0])
+        guide_normal = ti.Vector([0.0, 0.0, 0.0])
         base = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
         for s in range(spp):
             key = base * 131 + s * 7
@@ -677,6 +682,8 @@ def quality_kernel(
                 amb = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * ns[2])
                 dkey = base
                 if bounce == 0:
+                    guide_albedo += albedo
+                    guide_normal += ns
                     amb *= 1.0 - 0.5 * params[5]
                 else:
                     dkey = key + 5
@@ -697,6 +704,8 @@ def quality_kernel(
         acc /= ti.cast(spp, ti.f32)
         for k in ti.static(range(3)):
             out[b, v, u, k] = acc[k]
+            aux[b, v, u, k] = guide_albedo[k] / ti.cast(spp, ti.f32)
+            aux[b, v, u, 3 + k] = guide_normal[k] / ti.cast(spp, ti.f32)
 
 
 @ti.kernel
