@@ -287,13 +287,10 @@ def ssim(a: np.ndarray, b: np.ndarray) -> float:
 
 def encode_like_ours(linear: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8 of linear radiance, encoded as our renderer encodes it: clamp to [0, 1], ``x^(1/2.2)``,
-    8 bits (``benchbot_sim_taichi.kernels.GAMMA``). Change it with the renderer's camera model."""
-    gamma = 1.0 / 2.2
-    try:
-        from benchbot_sim_taichi.kernels import GAMMA as gamma
-    except ImportError:
-        pass
-    return np.floor(np.power(np.clip(linear, 0.0, 1.0), gamma) * 255.0 + 0.5).astype(np.uint8)
+    8 bits (``benchbot_sim_taichi.camera_model.GAMMA``). Change it with the renderer's camera model."""
+    from benchbot_sim_taichi.camera_model import GAMMA
+
+    return np.floor(np.power(np.clip(linear, 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
 
 
 def exposure_gain(ours: np.ndarray, reference_linear: np.ndarray) -> float:

@@ -28,13 +28,16 @@ from benchbot.core.motion import ControllerGains
 from benchbot.core.registry import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
+from benchbot_sim_taichi.camera_model import CameraModel
 from benchbot_sim_taichi.kinematics import Obstacles, drive
 from benchbot_sim_taichi.scene import Scene, build_scene
 
 #: Defaults of the robot spec's ``sensors`` block.
 DEFAULT_SENSORS: dict[str, Any] = {
     "camera": {"width": 640, "height": 480, "horizontal_fov_deg": 90.0, "mount_xyz": [0.08, 0.0, 0.8],
-               "mount_rpy_deg": [0.0, 0.0, 0.0]},
+               "mount_rpy_deg": [0.0, 0.0, 0.0],
+               # the camera model (camera_model.py), off by default: the image as rendered
+               "exposure_ev": 0.0, "tone_curve": "clip", "vignetting": 0.0},
     "laser": {"mount_xyz": [0.0, 0.0, 0.3], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
@@ -215,7 +218,10 @@ class TaichiSimBackend(RobotBackend):
         if self._renderer is None:
             from benchbot_sim_taichi.renderer import Renderer  # Taichi is imported and initialised here
 
-            self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed)
+            cam = self.sensors["camera"]
+            camera = CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
+            self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
+                                      camera=camera)
         self._renderer.seed = seed
         self._renderer.set_scene(scene)
         self._seed = seed

@@ -16,6 +16,8 @@ import sys
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
+from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402 - after Taichi's banner is redirected
+
 #: Tiny direction component substituted for zero before inverting (avoids 0·inf).
 DIR_EPS = 1e-12
 #: Minimum hit distance of primary rays and offset of shadow-ray origins (metres).
@@ -24,7 +26,6 @@ SHADOW_OFFSET = 1e-3
 #: Floor tiles (metres) and their albedo modulation.
 TILE_M = 0.6
 TILE_CONTRAST = 0.06
-GAMMA = 1.0 / 2.2
 
 #: Relative margin by which a primitive beats the room shell at equal distance (a furnished floor at z = 0 lies on
 #: the shell's floor; float32 rounding would otherwise show the shell in rows of pixels).
@@ -56,9 +57,11 @@ BOUNCE_SPREAD = 0.1
 
 #: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
 POSE_LEN = 16
-#: Entries of the gamma-encoding table and where it starts in the frame constants (``renderer.frame_constants``).
-GAMMA_STEPS = 4096
-FRAME_CONSTS = 31
+#: Entries of the tone table (``camera_model.tone_table``) and where it starts in the frame constants
+#: (``renderer.frame_constants``: world 19, render params 8, fx fy cx cy, then the camera model's 1/radiance_max and
+#: vignetting at 31 and 32).
+GAMMA_STEPS = TABLE_STEPS
+FRAME_CONSTS = 33
 
 
 @ti.func
@@ -613,6 +616,12 @@ def sensors_kernel(
             radiance += _direct(p, n, ns, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
                                 nodes_f, nodes_i, pf, pi, tris, lamp_maps, True)
             col = albedo * radiance
+            if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
+                xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
+                yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
+                cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
+                col *= 1.0 - consts[32] * (1.0 - cos2 * cos2)
+            col *= consts[31]  # radiance / radiance_max: exposure and tone curve are in the table
             for k in ti.static(range(3)):
                 x = ti.min(ti.max(col[k], 0.0), 1.0)
                 rgb[b, v, u, k] = ti.cast(consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)],

@@ -9,7 +9,8 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.kernels import (DIR_EPS, GAMMA, LAMP_FIXTURE_M, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST,
+from benchbot_sim_taichi.camera_model import GAMMA
+from benchbot_sim_taichi.kernels import (DIR_EPS, LAMP_FIXTURE_M, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST,
                                         TILE_M)
 from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
 

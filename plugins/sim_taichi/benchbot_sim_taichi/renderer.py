@@ -17,7 +17,8 @@ The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and tr
 Conventions: ``map`` frame, metres. Cameras use the OPTICAL frame (z forward, x right, y down); the ray of pixel
 (u, v) (column, row; integer pixel centres) is ``R · K⁻¹ [u, v, 1]ᵀ`` so its parameter t is the z-depth.
 Lighting: linear radiance = albedo · (ambient·(0.8 + 0.2·n_z) + Σ_lights visibility · colour · max(0, n·l) ·
-attenuation), then clamped and gamma-encoded (1/2.2) to uint8 through a table (:func:`gamma_table`). Visibility
+attenuation), then through the camera model (:mod:`benchbot_sim_taichi.camera_model`: vignetting, exposure, tone
+curve, gamma 2.2; by default clamped and gamma-encoded, as always) to uint8 through a table. Visibility
 is the fraction of ``shadow_samples`` shadow rays (stratified over the light's disc — the sun's angular radius, a
 lamp's radius — with a per-pixel rotation from a seeded integer hash, so renders are deterministic) that reach the
 light; one sample is a hard shadow towards the light's centre. With one sample in a furnished scene (``Renderer``'s
@@ -49,6 +50,7 @@ import numpy as np
 
 from benchbot.core import settings
 from benchbot.core.errors import UsageError
+from benchbot_sim_taichi.camera_model import CameraModel, tone_table
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
 # (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
@@ -60,7 +62,7 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
-    GAMMA, GAMMA_STEPS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
+    LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
     lamp_map_kernel, quality_kernel, reset_graph, sensors_graph, sensors_kernel,
 )
 
@@ -69,6 +71,8 @@ TAICHI_BANNER: list[str] = [line for line in _banner.getvalue().splitlines() if 
 
 #: Render modes.
 MODES = ("fast", "quality")
+#: The camera model of a Renderer that is given none: the image as it always was.
+DEFAULT_CAMERA = CameraModel()
 
 _INIT_ARCH: str | None = None
 _INIT_THREAD: threading.Thread | None = None  # the thread that ran ti.init
@@ -333,21 +337,14 @@ def sensor_pose(T_map_camera: np.ndarray | None, T_map_lidar: np.ndarray | None)
 
 
 
-@functools.lru_cache(maxsize=1)
-def gamma_table() -> np.ndarray:
-    """(GAMMA_STEPS,) float64 (cached: do not modify): entry i is the 8-bit value of linear radiance (i / (GAMMA_STEPS − 1))², i.e. the
-    table is indexed by the square root of the radiance (nearly linear in the output, so the nearest entry is
-    within one 8-bit level of ``round(255 · x^(1/2.2))``; a table lookup costs far less than ``pow`` per channel)."""
-    s = np.linspace(0.0, 1.0, GAMMA_STEPS)
-    return np.floor(np.power(s * s, GAMMA) * 255.0 + 0.5)
-
-
-def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None) -> np.ndarray:
-    """(31 + GAMMA_STEPS,) float32 [world (19, see :func:`pack_scene`), render params (8, see
-    :func:`render_params`), fx, fy, cx, cy, gamma table (see :func:`gamma_table`)] — what :func:`~benchbot_sim_taichi.kernels.sensors_kernel`
+def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
+                    camera: CameraModel = DEFAULT_CAMERA) -> np.ndarray:
+    """(33 + GAMMA_STEPS,) float32 [world (19, see :func:`pack_scene`), render params (8, see :func:`render_params`),
+    fx, fy, cx, cy, the camera model's 1/radiance_max and vignetting, its tone table
+    (:func:`~benchbot_sim_taichi.camera_model.tone_table`)] — what :func:`~benchbot_sim_taichi.kernels.sensors_kernel`
     reads besides the scene and the poses (zeros for K when None)."""
     k = np.zeros(4) if K is None else np.asarray(K, dtype=np.float64)[[0, 1, 0, 1], [0, 1, 2, 2]]
-    return np.concatenate([world, params, k, gamma_table()]).astype(np.float32)
+    return np.concatenate([world, params, k, camera.frame_constants(), tone_table(camera)]).astype(np.float32)
 
 
 
@@ -451,11 +448,15 @@ class Renderer:
             'furnished'``: many lamps and triangles, where those rays cost most of a frame), not for primitive
             scenes (whose shadows stay exact, ray for ray). The sun and soft shadows (``shadow_samples`` > 1)
             always use rays, and so does ``quality`` mode.
+        camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.camera_model.CameraModel`);
+            the default is the image as it always was.
     """
 
     def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
-                 device_buffers: bool | None = None, lamp_maps: bool | None = None) -> None:
+                 device_buffers: bool | None = None, lamp_maps: bool | None = None,
+                 camera: CameraModel = DEFAULT_CAMERA) -> None:
         self.arch = ensure_taichi(arch)
+        self.camera = camera
         self._packed: dict | None = None
         self._scene_args: tuple | None = None
         self.shadow_samples = int(shadow_samples)
@@ -552,10 +553,10 @@ class Renderer:
         """:func:`frame_constants` for ``K`` and the current render settings, rebuilt (and uploaded) only when they
         change."""
         key = (None if K is None else np.asarray(K, dtype=np.float64).tobytes(), self.shadow_samples, self.seed,
-               id(self._packed))
+               id(self._packed), self.camera)
         if self._consts_key != key:
             params = render_params(self.shadow_samples, self.seed)
-            self._consts = self._upload("consts", frame_constants(self._packed["world"], params, K))
+            self._consts = self._upload("consts", frame_constants(self._packed["world"], params, K, self.camera))
             self._consts_key = key
         return self._consts
 
@@ -699,7 +700,7 @@ class Renderer:
             if denoise:
                 guides = (aux.to_numpy() if self.device_buffers else aux)[0]
                 lin = denoise_radiance(lin, guides[..., :3], guides[..., 3:])
-            out["rgb"] = np.floor(np.power(np.clip(lin, 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
+            out["rgb"] = self.camera.encode(lin, np.asarray(K, dtype=np.float64))
         return out
 
     def scan(self, T_map_lidar: np.ndarray, angles: np.ndarray) -> np.ndarray:

@@ -1,0 +1,88 @@
+"""The camera model (camera_model.py): the default is the renderer's image as it always was; exposure, the filmic
+tone curve and vignetting in the fast kernel agree with the NumPy model; the robot spec's camera fields reach the
+renderer."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from benchbot_sim_taichi.camera_model import CameraModel, aces_filmic, tone_table
+
+W, H = 64, 48
+
+
+def test_the_default_table_is_the_renderers_old_gamma_table():
+    s = np.linspace(0.0, 1.0, 4096)
+    assert np.array_equal(tone_table(CameraModel()), np.floor(np.power(s * s, 1.0 / 2.2) * 255.0 + 0.5))
+    assert CameraModel().radiance_max == 1.0 and list(CameraModel().frame_constants()) == [1.0, 0.0]
+
+
+def test_numpy_model():
+    K = np.array([[32.0, 0, 31.5], [0, 32.0, 23.5], [0, 0, 1]])
+    lin = np.full((H, W, 3), 0.25)
+    assert np.all(CameraModel().encode(lin, K) == round(255 * 0.25 ** (1 / 2.2)))
+    assert np.all(CameraModel(exposure_ev=2).encode(lin, K) == 255)  # 4 × 0.25 = 1: white, clipped
+    filmic = CameraModel(tone_curve="filmic").encode(np.full((H, W, 3), 4.0), K)
+    assert np.all(filmic < 255) and np.all(filmic > 240)  # a highlight rolls off instead of clipping
+    assert aces_filmic(np.array([0.0]))[0] == 0.0 and np.all(np.diff(aces_filmic(np.linspace(0, 16, 100))) >= 0)
+    vignetted = CameraModel(vignetting=1.0).encode(lin, K)
+    assert vignetted[H // 2, W // 2, 0] >= vignetted[0, 0, 0] + 20  # the corners darker (cos^4 of ~48°)
+    with pytest.raises(ValueError, match="tone_curve"):
+        CameraModel(tone_curve="linear")
+
+
+@pytest.fixture(scope="module")
+def default_and_scene(bear_envs):
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import build_scene
+    from benchbot.core.geometry import se2_to_matrix
+    from benchbot_sim_taichi.backend import R_BODY_OPTICAL
+
+    scene = build_scene(bear_envs["miniroom:1"])
+    mount = np.eye(4)
+    mount[:3, :3], mount[:3, 3] = R_BODY_OPTICAL, (0.0, 0.0, 0.8)
+    K, T = intrinsics(W, H, 90.0), se2_to_matrix(*scene.trajectory_se2[2]) @ mount
+    r = Renderer("cpu")
+    r.set_scene(scene)
+    return r, K, T, r.render(K, T, W, H)["rgb"]
+
+
+@pytest.mark.parametrize("camera", [CameraModel(exposure_ev=1.0), CameraModel(exposure_ev=-0.5, tone_curve="filmic"),
+                                    CameraModel(vignetting=0.8), CameraModel(0.7, "filmic", 0.5)],
+                         ids=["ev+1", "filmic-0.5", "vignetting", "all"])
+def test_the_kernel_applies_the_model_as_numpy_does(default_and_scene, camera):
+    r, K, T, default = default_and_scene
+    r.camera = camera
+    try:
+        got = r.render(K, T, W, H)["rgb"].astype(int)
+    finally:
+        r.camera = CameraModel()
+    lit = (default > 8) & (default < 250)  # the default image's radiance is known there to within its 8-bit step
+    expected = camera.encode((default / 255.0) ** 2.2, K).astype(int)
+    err = np.abs(got - expected)[lit]
+    assert lit.sum() > 1000 and np.percentile(err, 99) <= 3 and err.max() <= 6, (np.percentile(err, 99), err.max())
+    assert not np.array_equal(got, default)
+
+
+def test_the_robot_specs_camera_fields_reach_the_renderer(carter_spec):
+    from benchbot_sim_taichi.backend import TaichiSimBackend
+
+    spec = copy.deepcopy(carter_spec)
+    spec.setdefault("sensors", {}).setdefault("camera", {}).update(
+        {"exposure_ev": 0.5, "tone_curve": "filmic", "vignetting": 0.3})
+    backend = TaichiSimBackend(spec, {"arch": "cpu", "width": W, "height": H})
+    try:
+        backend.load_scene({"name": "miniroom", "variant": 1, **_env_file("miniroom_1.json")})
+        assert backend._renderer.camera == CameraModel(0.5, "filmic", 0.3)
+    finally:
+        backend.close()
+
+
+def _env_file(name: str) -> dict:
+    from benchbot_sim_taichi import plugin
+
+    env = next(e for e in plugin.environment_specs() if e["map_path"].endswith(name))
+    return {k: v for k, v in env.items() if k not in ("name", "variant")}
