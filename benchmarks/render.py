@@ -17,7 +17,8 @@ the benchmark's own copies (``gpu_host.HostCopier``: one ``cuMemcpyDtoHAsync`` p
 and reused, checked equal to ``to_numpy``'s): ``reused`` (ordinary memory) → ``fps_host_reused``, ``pinned``
 (page-locked) → ``fps_host_pinned``. JSON keys: ``fps`` (sensor frames per second), ``fps_with_host_copy``,
 ``mrays_per_s`` (primary camera rays, millions per second, counted from the same timing: W·H·fps),
-``embree_mrays_per_s`` (primary rays only, closest hit), ``ms_per_frame``, ``prims``, ``triangles``, ``bvh_nodes``,
+``primary_mrays_per_s`` (Taichi's primary rays alone: the unlit launch of camera rays, closest hit, depth,
+segmentation and the textured albedo under ambient light, no lights or laser; the figure to set beside Embree's), ``embree_mrays_per_s`` (primary rays only, closest hit), ``ms_per_frame``, ``prims``, ``triangles``, ``bvh_nodes``,
 ``lights`` (how many), ``lights_on`` (false with ``--lights off``: ambient light only, the renderer's unlit launch),
 ``bvh_build_s`` (``bvh.build_bvh`` inside ``set_scene``, on the host CPU), ``setup_s`` (renderer start and
 ``set_scene``: BVH, packing, upload, lamp maps), ``scene_mb`` (the packed scene arrays the kernels read: on CUDA
@@ -37,6 +38,24 @@ import sys
 import time
 
 import numpy as np
+
+
+def time_bvh_builds() -> list[float]:
+    """Time every ``bvh.build_bvh`` from now on (``pack_scene`` imports it when called, so the BVH built inside
+    ``Renderer.set_scene`` is timed): returns the list that each build's seconds are appended to."""
+    from benchbot_sim_taichi import bvh
+
+    build_bvh, seconds = bvh.build_bvh, []
+
+    def timed_build_bvh(*a, **k):
+        t = time.perf_counter()
+        try:
+            return build_bvh(*a, **k)
+        finally:
+            seconds.append(time.perf_counter() - t)
+
+    bvh.build_bvh = timed_build_bvh
+    return seconds
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -62,21 +81,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi import bvh, plugin
+    from benchbot_sim_taichi import plugin
     from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
     from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
 
-    build_bvh, bvh_s = bvh.build_bvh, []
-
-    def timed_build_bvh(*a, **k):  # pack_scene imports bvh.build_bvh when called: time the BVH inside set_scene
-        t = time.perf_counter()
-        try:
-            return build_bvh(*a, **k)
-        finally:
-            bvh_s.append(time.perf_counter() - t)
-
-    bvh.build_bvh = timed_build_bvh
+    bvh_s = time_bvh_builds()
 
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:
@@ -142,10 +152,20 @@ def main(argv: list[str] | None = None) -> int:
             extra[f"fps_host_{mode}"] = timed(to_host=False, fetch=copier.copy)
             copier.close()
         extra.update(gpu_host.device_info())
+    # Taichi's primary rays alone: the renderer's unlit launch of camera rays only (closest hit, depth, segmentation
+    # and the textured albedo under ambient light; no lights, no laser), to set beside Embree's primary rays below
+    for i in range(args.warmup):
+        r._launch(K, np.stack([cams[(i * B + b) % len(cams)] for b in range(B)]), W, H, None, None, lit=False)
+    r.sync()
+    t_primary = time.perf_counter()
+    for i in range(n_batches):
+        r._launch(K, np.stack([cams[(i * B + b) % len(cams)] for b in range(B)]), W, H, None, None, lit=False)
+    r.sync()
+    primary_mrays = W * H * n_batches * B / (time.perf_counter() - t_primary) / 1e6
     frames = n_batches * B
     out = {"env": args.env, "width": W, "height": H, "arch": r.arch, "batch": B, "frames": frames,
            "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
-           "mrays_per_s": W * H * fps / 1e6, "prims": int(scene.prim_type.shape[0]),
+           "mrays_per_s": W * H * fps / 1e6, "primary_mrays_per_s": primary_mrays, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
            "lights_on": args.lights == "on",
            "style": scene.style, "lamps_with_maps": r.lamps_with_maps,
@@ -185,7 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         print(f"{args.env} ({scene.style}, {out['triangles']} triangles, {out['lamps_with_maps']} of {out['lights']} lights with lamp maps) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
-              f"{out['mrays_per_s']:.2f} Mrays/s primary; {fps_host or float('nan'):.1f} fps with host copies; "
+              f"{out['mrays_per_s']:.2f} Mrays/s primary in whole frames, {primary_mrays:.2f} alone; "
+              f"{fps_host or float('nan'):.1f} fps with host copies; "
               f"embree {out.get('embree_mrays_per_s', float('nan')):.2f} "
               f"Mrays/s on {out.get('embree_triangles', 0)} triangles")
     return 0

@@ -65,22 +65,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi import bvh
+    from render import time_bvh_builds  # this folder is on sys.path when a script here runs
     from benchbot_sim_taichi.backend import R_BODY_OPTICAL
     from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, load_mesh
     from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import BEAR_CLASS_LIST, build_scene
 
-    build_bvh, bvh_s = bvh.build_bvh, []
-
-    def timed_build_bvh(*a, **k):  # pack_scene imports bvh.build_bvh when called: time the BVH inside set_scene
-        t = time.perf_counter()
-        try:
-            return build_bvh(*a, **k)
-        finally:
-            bvh_s.append(time.perf_counter() - t)
-
-    bvh.build_bvh = timed_build_bvh
+    bvh_s = time_bvh_builds()
 
     mesh = load_mesh(args.mesh) if args.mesh else _sphere(args.triangles)
     side = max(1, math.ceil(math.sqrt(args.count)))
