@@ -12,7 +12,9 @@ and instance ids) and the laser beams are two parallel loops of :func:`~benchbot
 kernels (compiled once per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
 ``ti.ndarray`` and the outputs stay in reused device buffers; each launch goes through a compiled ``ti.graph`` with the
 camera and lidar pose passed by value, so the per-frame cost is one launch plus, when wanted, one copy to the host.
-The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and traversed stacklessly (skip pointers).
+The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy; rays traverse it stacklessly (skip
+pointers) on the CPU, and closest-hit rays nearer child first with a per-ray stack on CUDA
+(:data:`~benchbot_sim_taichi.kernels.ORDERED_TRAVERSAL`).
 
 Conventions: ``map`` frame, metres. Cameras use the OPTICAL frame (z forward, x right, y down); the ray of pixel
 (u, v) (column, row; integer pixel centres) is ``R · K⁻¹ [u, v, 1]ᵀ`` so its parameter t is the z-depth.
@@ -61,6 +63,7 @@ _banner = io.StringIO()
 with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
+from benchbot_sim_taichi import kernels  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
     lamp_map_kernel, quality_kernel, reset_graph, sensors_graph, sensors_kernel,
@@ -108,6 +111,7 @@ def ensure_taichi(arch: str | None = None) -> str:
         return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
     with contextlib.redirect_stdout(sys.stderr):  # "[Taichi] Starting on arch=..." is printed on stdout
         _INIT_ARCH = _init(want)
+    kernels.ORDERED_TRAVERSAL = _INIT_ARCH == "cuda"  # read when the kernels compile, i.e. after this
     _INIT_THREAD = threading.current_thread()
     if _INIT_ARCH == "cuda" and threading.current_thread() is not threading.main_thread():
         # The CUDA context is current only on this thread: release Taichi here when this thread ends, or the

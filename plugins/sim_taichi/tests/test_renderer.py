@@ -255,3 +255,43 @@ def test_a_lamps_own_shade_does_not_shadow_the_ceiling_around_it(synthetic_env):
     assert r.render(K, down, W, H)["rgb"][H // 2, W // 2].min() > 20
     down[:3, 3] = (0.07, 3.51, 1.0)  # behind the chair, seen from the lamp: the chair's shadow stays
     assert r.render(K, down, W, H)["rgb"][H // 2 - 1:H // 2 + 1, W // 2 - 1:W // 2 + 1].max() == 0
+
+
+ORDERED_RENDER = """
+import sys, numpy as np
+from benchbot_sim_taichi import kernels, plugin
+from benchbot_sim_taichi.renderer import Renderer, intrinsics
+from benchbot_sim_taichi.scene import build_scene
+env = next(e for e in plugin.environment_specs() if (e["name"], int(e["variant"])) == ("miniroom", 1))
+scene = build_scene({**env, "style": "furnished"})
+r = Renderer("cpu", lamp_maps=False)
+kernels.ORDERED_TRAVERSAL = True  # as on CUDA; set before the first kernel compiles
+r.set_scene(scene)
+Ts = np.load(sys.argv[1])
+out = r.render_batch(intrinsics(64, 48, 90.0), Ts, 64, 48)
+np.savez(sys.argv[2], depth=out["depth"], instance=out["instance"])
+"""
+
+
+@pytest.mark.slow  # a fresh process compiles the kernels (tens of seconds on 2 cores)
+def test_the_ordered_traversal_finds_the_same_closest_hits(bear_envs, tmp_path):
+    """CUDA's closest-hit traversal (nearer child first, kernels.ORDERED_TRAVERSAL), run on the CPU in a fresh
+    process on the furnished miniroom:1 (117k triangles), gives the depth and instance images of the stackless one."""
+    import subprocess
+    import sys
+
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import build_scene
+
+    scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
+    Ts = np.stack([_cam(*scene.trajectory_se2[i]) for i in range(0, len(scene.trajectory_se2), 6)])
+    np.save(tmp_path / "poses.npy", Ts)
+    proc = subprocess.run([sys.executable, "-c", ORDERED_RENDER, str(tmp_path / "poses.npy"), str(tmp_path / "o.npz")],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    ordered = np.load(tmp_path / "o.npz")
+    r = Renderer("cpu", lamp_maps=False)
+    r.set_scene(scene)
+    stackless = r.render_batch(intrinsics(64, 48, 90.0), Ts, 64, 48)
+    assert np.array_equal(ordered["instance"], stackless["instance"])
+    assert np.array_equal(ordered["depth"], stackless["depth"])
