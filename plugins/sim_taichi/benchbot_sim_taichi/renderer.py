@@ -472,6 +472,7 @@ class Renderer:
         self._consts = None
         self._scene_arrays: list = []
         self.lamp_maps = lamp_maps
+        self._pinned_copier = None  # render_sensors(to_host="pinned"): page-locked host arrays, made on first use
 
     def __del__(self) -> None:
         # may run on any thread: the device arrays are only retired here, and freed later on Taichi's thread
@@ -487,6 +488,9 @@ class Renderer:
         self._buffers, self._uploaded, self._scene_arrays = {}, {}, []
         self._packed = self._scene_args = self._consts = self._consts_key = None
         _free_retired()
+        if self._pinned_copier is not None:
+            self._pinned_copier.close()
+            self._pinned_copier = None
 
     def set_scene(self, scene) -> None:
         """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
@@ -570,7 +574,7 @@ class Renderer:
         ti.sync()
 
     def render_sensors(self, K: np.ndarray, T_map_cameras, width: int, height: int, T_map_lidars=None,
-                       angles: np.ndarray | None = None, *, to_host: bool = True) -> dict:
+                       angles: np.ndarray | None = None, *, to_host: bool | str = True) -> dict:
         """Render B camera views (``fast`` mode) and, optionally, B planar laser scans, all in ONE kernel launch.
 
         Args:
@@ -578,18 +582,26 @@ class Renderer:
             width, height: image size, pixels.
             T_map_lidars: (B, 4, 4) lidar poses (x forward, z up, assumed level), or ``None`` for no scans.
             angles: (N,) beam angles (rad, about each lidar's z from its +x); required with ``T_map_lidars``.
-            to_host: return NumPy arrays (copied from the GPU on CUDA). ``False`` leaves the outputs where the
-                kernel wrote them — Taichi ndarrays in GPU memory with device buffers (``.to_numpy()`` copies one),
-                NumPy arrays otherwise — and returns without waiting for the GPU (see :meth:`sync`); such device
-                outputs are overwritten by the next call of the same sizes.
+            to_host: ``True``: return new NumPy arrays (copied from the GPU on CUDA by Taichi's ``to_numpy``).
+                ``"pinned"``: on CUDA, copy into page-locked NumPy arrays that the renderer makes once and reuses
+                (:class:`~benchbot_sim_taichi.host_copy.HostCopier`: several times faster), valid until the next
+                ``"pinned"`` call of the same sizes overwrites them — copy what you keep; on the CPU the same as
+                ``True``. ``False`` leaves the outputs where the kernel wrote them — Taichi ndarrays in
+                GPU memory with device buffers (``.to_numpy()`` copies one), NumPy arrays otherwise — and returns
+                without waiting for the GPU (see :meth:`sync`); such device outputs are overwritten by the next
+                call of the same sizes.
 
         Returns:
             ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``class``/``instance``
             (B, H, W) int32 (as :meth:`render`), and with lidars ``ranges`` (B, N) float32 metres.
 
         Raises:
-            ValueError: lidars without angles, or a lidar count different from the camera count.
+            ValueError: lidars without angles, a lidar count different from the camera count, or an unknown
+                ``to_host``.
+            RuntimeError: a CUDA driver call of the ``"pinned"`` copy failed (its name and error).
         """
+        if to_host not in (True, False, "pinned"):
+            raise ValueError(f"render_sensors: to_host must be True, False or 'pinned', got {to_host!r}")
         Ts = np.asarray(T_map_cameras, dtype=np.float64).reshape(-1, 4, 4)
         Tl = None
         if T_map_lidars is not None:
@@ -599,6 +611,12 @@ class Renderer:
             if Tl.shape[0] != Ts.shape[0]:
                 raise ValueError(f"render_sensors: {Tl.shape[0]} lidar poses for {Ts.shape[0]} camera poses")
         out = self._launch(K, Ts, int(width), int(height), Tl, angles, lit=True)
+        if to_host == "pinned" and self.device_buffers and self.arch == "cuda":
+            if self._pinned_copier is None:
+                from benchbot_sim_taichi.host_copy import HostCopier
+
+                self._pinned_copier = HostCopier(pinned=True)
+            return self._pinned_copier.copy(out)
         if to_host and self.device_buffers:
             out = {k: (v if isinstance(v, np.ndarray) else v.to_numpy()) for k, v in out.items()}
         return out

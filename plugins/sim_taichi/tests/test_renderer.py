@@ -138,6 +138,10 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
     assert set(a) == set(b) == {"rgb", "depth", "class", "instance", "ranges"}
     for k in a:
         assert isinstance(b[k], np.ndarray) and np.array_equal(a[k], b[k]), k
+    pinned = dev.render_sensors(K, cams, W, H, lidars, angles, to_host="pinned")  # CUDA's reused host arrays
+    assert all(np.array_equal(a[k], pinned[k]) for k in a)
+    with pytest.raises(ValueError, match="to_host must be"):
+        dev.render_sensors(K, cams, W, H, lidars, angles, to_host="gpu")
     kept = dev.render_sensors(K, cams, W, H, lidars, angles, to_host=False)
     dev.sync()
     assert not isinstance(kept["rgb"], np.ndarray) and np.array_equal(kept["rgb"].to_numpy(), a["rgb"])
