@@ -219,6 +219,19 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
 
 
 @ti.func
+def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, best, best_k, best_n):
+    """The closest of a leaf's primitives ``first .. first + cnt - 1`` nearer than ``best``: the updated
+    ``(best, best_k, best_n)`` (unchanged when none is)."""
+    for k in range(first, first + cnt):
+        t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best)
+        if t < best:
+            best = t
+            best_k = k
+            best_n = n
+    return best, best_k, best_n
+
+
+@ti.func
 def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
            pi: ti.template(), tris: ti.template(), any_hit: ti.template()):
     """Closest (or, with ``any_hit``, any) primitive hit with T_EPS < t < tmax: (t, k, normal); k = -1: none.
@@ -240,13 +253,8 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
             if a0 <= a1 and a1 > 0.0 and a0 < best:
                 cnt = nodes_i[node, 0]
                 if cnt > 0:
-                    first = nodes_i[node, 1]
-                    for k in range(first, first + cnt):
-                        t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best)
-                        if t < best:
-                            best = t
-                            best_k = k
-                            best_n = n
+                    best, best_k, best_n = _hit_leaf(o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k,
+                                                     best_n)
                     if ti.static(any_hit):
                         if best_k >= 0:
                             break
@@ -268,13 +276,7 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
             nxt = -1
             cnt = nodes_i[node, 0]
             if cnt > 0:
-                first = nodes_i[node, 1]
-                for k in range(first, first + cnt):
-                    t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best)
-                    if t < best:
-                        best = t
-                        best_k = k
-                        best_n = n
+                best, best_k, best_n = _hit_leaf(o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, best_n)
             else:
                 left = node + 1
                 right = nodes_i[node, 1]
