@@ -41,26 +41,25 @@ class PayloadTooLargeError(BenchbotError):
     """A request body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES` (HTTP 413)."""
 
 
+#: ``(error classes, HTTP status)``, most specific first: the first row whose classes match an error gives its status
+#: (``ActionArgumentError`` is an ``ActionError``, ``ActionTimeoutError`` a ``BackendError``, all a ``BenchbotError``).
+STATUS_BY_ERROR: tuple[tuple[tuple[type, ...], int], ...] = (
+    ((NotFoundError,), 404),
+    ((UnauthorizedError,), 401),
+    ((PayloadTooLargeError,), 413),
+    ((ActionArgumentError,), 400),
+    ((ActionError, EpisodeInUseError), 409),
+    ((ActionTimeoutError,), 504),
+    ((BackendError,), 500),
+    ((BenchbotError,), 400),
+)
+
+
 def status_of(exc: BaseException) -> int:
-    """The HTTP status of an error raised by :class:`~benchbot.core.server.operations.BackendApi` (an ``int``; 500
-    for anything that is not a :class:`~benchbot.core.errors.BenchbotError`; never raises)."""
-    if isinstance(exc, NotFoundError):
-        return 404
-    if isinstance(exc, UnauthorizedError):
-        return 401
-    if isinstance(exc, PayloadTooLargeError):
-        return 413
-    if isinstance(exc, ActionArgumentError):
-        return 400
-    if isinstance(exc, (ActionError, EpisodeInUseError)):
-        return 409
-    if isinstance(exc, ActionTimeoutError):
-        return 504
-    if isinstance(exc, BackendError):
-        return 500
-    if isinstance(exc, BenchbotError):
-        return 400
-    return 500
+    """The HTTP status of an error raised by :class:`~benchbot.core.server.operations.BackendApi` (an ``int``, from
+    :data:`STATUS_BY_ERROR`; 500 for anything that is not a :class:`~benchbot.core.errors.BenchbotError`; never
+    raises)."""
+    return next((status for classes, status in STATUS_BY_ERROR if isinstance(exc, classes)), 500)
 
 
 def error_response(status: int, exc: BaseException | str, hint: str = "",
