@@ -1,6 +1,7 @@
 """Quality mode's denoiser: Intel Open Image Denoise (pyoidn) with the path tracer's albedo and normal guides, on the
 real renderer (CPU): it brings a 4-sample image closer to a 64-sample one, is deterministic, and leaves a clean
-image as it is."""
+image as it is. The module ``denoiser`` (CPU here; CUDA only where a GPU is) gives pyoidn's own result, reuses its
+filter across calls, and says in one line why a device it cannot create is missing."""
 
 from __future__ import annotations
 
@@ -54,3 +55,59 @@ def test_a_clean_image_stays_as_it_is():
     error = np.abs(out - radiance)
     assert out.shape == radiance.shape and out.dtype == np.float32
     assert error.mean() < 0.005 and np.percentile(error, 99) < 0.05, (error.mean(), np.percentile(error, 99))
+
+
+def _noisy_frame(h: int = H, w: int = W, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    radiance = rng.random((h, w, 3), dtype=np.float32) * 2.0
+    albedo = rng.random((h, w, 3), dtype=np.float32)
+    normal = rng.random((h, w, 3), dtype=np.float32) * 2.0 - 1.0
+    return radiance, albedo, normal
+
+
+def test_the_denoiser_module_gives_pyoidns_own_result_on_the_cpu():
+    import pyoidn
+    from benchbot_sim_taichi.denoiser import denoise_radiance
+
+    radiance, albedo, normal = _noisy_frame()
+    expected = pyoidn.denoise(radiance, albedo, normal, hdr=True, quality="high")  # the renderer's call before
+    out = denoise_radiance(radiance, albedo, normal, device="cpu")
+    assert out.shape == (H, W, 3) and out.dtype == np.float32 and out.min() >= 0.0
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-5)
+
+
+def test_a_cached_denoiser_is_reused_and_rewrites_its_inputs():
+    from benchbot_sim_taichi.denoiser import cached_denoiser, denoise_radiance
+
+    a, b = _noisy_frame(seed=1), _noisy_frame(seed=2)
+    first = denoise_radiance(*a)
+    denoiser = cached_denoiser("cpu", H, W, "high")
+    other = denoise_radiance(*b)
+    again = denoise_radiance(*a)
+    assert cached_denoiser("cpu", H, W, "high") is denoiser
+    assert np.array_equal(again, first) and not np.array_equal(other, first)
+    assert denoise_radiance(*_noisy_frame(24, 32)).shape == (24, 32, 3)  # another size: its own denoiser
+
+
+def test_bad_arguments_are_refused():
+    from benchbot_sim_taichi.denoiser import denoise_radiance
+
+    radiance, albedo, normal = _noisy_frame()
+    with pytest.raises(ValueError, match="albedo"):
+        denoise_radiance(radiance, albedo[:-1], normal)
+    with pytest.raises(ValueError, match="device"):
+        denoise_radiance(radiance, albedo, normal, device="metal")
+    with pytest.raises(ValueError, match="quality"):
+        denoise_radiance(radiance, albedo, normal, quality="best")
+
+
+def test_a_missing_cuda_device_is_a_one_line_runtime_error():
+    import pyoidn
+    from benchbot_sim_taichi.denoiser import denoise_radiance
+
+    if pyoidn.Device.is_cuda_available(0):
+        pytest.skip("this machine has a CUDA GPU that OIDN can use")
+    with pytest.raises(RuntimeError) as e:
+        denoise_radiance(*_noisy_frame(), device="cuda")
+    message = str(e.value)
+    assert "'cuda' cannot be created" in message and "\n" not in message, message
