@@ -1,7 +1,7 @@
 """The Taichi kernels of the ray tracer (see :mod:`benchbot_sim_taichi.renderer`, which prepares their arguments
 and launches them): BVH traversal, primitive intersection, shading with shadow rays (on triangles: interpolated
 vertex normals and mip-mapped, bilinearly filtered textures), the all-sensors kernel
-(:func:`sensors_kernel`: camera pixels and laser beams in one launch), the path-traced ``quality`` kernel, and
+(:func:`sensors_kernel`: camera pixels and laser beams in one launch), the lamps' shadow maps, and
 :func:`sensors_graph`, the all-sensors kernel compiled as a ``ti.graph``.
 
 Conventions and formulas: see the renderer's module docstring. Kernels take ``ti.types.ndarray`` arguments (NumPy
@@ -57,8 +57,6 @@ LIGHT_COLS = 9
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
 SHADE_COLS = 17
-#: Spread (rad) of the ray cone of a diffuse bounce in quality mode, for its texture level of detail.
-BOUNCE_SPREAD = 0.1
 
 #: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
 POSE_LEN = 16
@@ -396,7 +394,7 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
                pi: ti.template(), tris: ti.template(), shade: ti.template(), texels: ti.template(),
                tex_info: ti.template(), lut: ti.template(), world: ti.template()):
     """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
-    albedo, class, instance, shadow-ray origin). Both normals face the ray. On a triangle the shading normal
+    albedo, class, instance, shadow-ray origin, primitive index: −1 for the shell). Both normals face the ray. On a triangle the shading normal
     interpolates its vertex normals, the albedo is multiplied by its texture, sampled at the mip level of the ray
     footprint (``spread`` · t wide, divided by the cosine of incidence: the long axis of the footprint on the
     surface, so grazing surfaces blur rather than alias), and the shadow-ray origin is the hit point moved
@@ -422,8 +420,10 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
     c_id = ti.cast(world[18], ti.i32)
     i_id = 0
     hit = 0
+    prim = -1
     if k >= 0 and (inside == 0 or best < t_exit * (1.0 + SHELL_TIE)):  # geometry on the shell's faces wins
         hit = 1
+        prim = k
         t = best
         n = nb
         ns = nb
@@ -488,7 +488,7 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
             py = o[1] + t * d[1]
             parity = (ti.cast(ti.floor(px / TILE_M), ti.i32) + ti.cast(ti.floor(py / TILE_M), ti.i32)) & 1
             albedo *= 1.0 + TILE_CONTRAST * (2.0 * parity - 1.0)
-    return hit, t, n, ns, albedo, c_id, i_id, ps
+    return hit, t, n, ns, albedo, c_id, i_id, ps, prim
 
 
 @ti.func
@@ -665,8 +665,8 @@ def sensors_kernel(
                        consts[27], consts[28], consts[29], consts[30]])
         params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
         o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
-        hit, t, n, ns, albedo, c_id, i_id, p = _shade_hit(o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf, pi,
-                                                          tris, shade, texels, tex_info, tex_lut, consts)
+        hit, t, n, ns, albedo, c_id, i_id, p, _k = _shade_hit(o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf,
+                                                              pi, tris, shade, texels, tex_info, tex_lut, consts)
         if hit == 1:
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
             radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
@@ -697,81 +697,6 @@ def sensors_kernel(
                 q[m] = table[b, m]
         ranges[b, k] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[k] + q[15], n_prims, nodes_f, nodes_i,
                                   pf, pi, tris, consts)
-
-
-@ti.kernel
-def quality_kernel(
-    cam: ti.types.vector(16, ti.f32),
-    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_prims: ti.i32,
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    n_lights: ti.i32,
-    world: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    params: ti.types.vector(8, ti.f32),
-    out: ti.types.ndarray(dtype=ti.f32, ndim=4),
-    aux: ti.types.ndarray(dtype=ti.f32, ndim=4),
-):
-    """Path-traced linear radiance into ``out`` (B, H, W, 3) float32 (B = 1) for camera ``cam``
-    (``renderer.camera_params``: optical frame in ``map``, pixels): ``params[4]`` samples per pixel (jittered in
-    the pixel), each with one stratum of the soft-shadow samples per light, and one cosine-sampled diffuse bounce
-    (direct light and ambient at the bounce point, scaled by ``params[5]``). ``aux`` (B, H, W, 6) float32 receives
-    the denoiser's guides, averaged over the samples: the albedo at the camera's hit (0..1) and its shading normal
-    (``map`` frame, unit length before averaging); zero where a sample hits nothing."""
-    B = out.shape[0]
-    H = out.shape[1]
-    W = out.shape[2]
-    spp = ti.cast(params[4], ti.i32)
-    for b, v, u in ti.ndrange(B, H, W):
-        acc = ti.Vector([0.0, 0.0, 0.0])
-        guide_albedo = ti.Vector([0.0, 0.0, 0.0])
-        guide_normal = ti.Vector([0.0, 0.0, 0.0])
-        base = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
-        for s in range(spp):
-            key = base * 131 + s * 7
-            o, d = _ray(cam, ti.cast(u, ti.f32) + _rand(key + 1) - 0.5, ti.cast(v, ti.f32) + _rand(key + 2) - 0.5)
-            spread = 1.0 / cam[12]
-            weight = ti.Vector([1.0, 1.0, 1.0])
-            stratum = s % ti.max(1, ti.cast(params[0], ti.i32))
-            for bounce in range(2):  # the camera's hit, then one diffuse bounce (one call site of each function)
-                hit, t, n, ns, albedo, c_id, i_id, p = _shade_hit(o, d, spread, n_prims, nodes_f, nodes_i, pf, pi,
-                                                                  tris, shade, texels, tex_info, tex_lut, world)
-                if hit == 0:
-                    break
-                amb = ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.2 * ns[2])
-                dkey = base
-                if bounce == 0:
-                    guide_albedo += albedo
-                    guide_normal += ns
-                    amb *= 1.0 - 0.5 * params[5]
-                else:
-                    dkey = key + 5
-                acc += weight * albedo * (amb + _direct(p, n, ns, dkey, 1, stratum, params, lights, n_lights, n_prims,
-                                                        nodes_f, nodes_i, pf, pi, tris, lights, False))
-                # the bounce: cosine-weighted about the shading normal, kept above the surface
-                weight *= albedo * params[5]
-                t1, t2 = _frame(ns)
-                r1 = _rand(key + 3)
-                r2 = _rand(key + 4)
-                rr = ti.sqrt(r1)
-                d = (rr * ti.cos(6.2831853 * r2) * t1 + rr * ti.sin(6.2831853 * r2) * t2
-                     + ti.sqrt(ti.max(0.0, 1.0 - r1)) * ns)
-                if d.dot(n) < 0.0:
-                    d -= 2.0 * d.dot(n) * n
-                o = p + n * SHADOW_OFFSET
-                spread = BOUNCE_SPREAD
-        acc /= ti.cast(spp, ti.f32)
-        for k in ti.static(range(3)):
-            out[b, v, u, k] = acc[k]
-            aux[b, v, u, k] = guide_albedo[k] / ti.cast(spp, ti.f32)
-            aux[b, v, u, 3 + k] = guide_normal[k] / ti.cast(spp, ti.f32)
 
 
 @ti.kernel

@@ -1,7 +1,8 @@
 """Taichi ray tracing of a :class:`~benchbot_sim_taichi.scene.Scene` (boxes, ellipsoids, cylinders and triangles in a
 BVH, inside a room shell): RGB-D + segmentation images, planar laser scans, batched rendering of many cameras in one
-kernel launch, and two modes: ``fast`` (direct lighting, shadow rays) and ``quality`` (path traced, several samples
-per pixel, one diffuse bounce, Intel Open Image Denoise with albedo and normal guides).
+kernel launch, and two modes: ``fast`` (direct lighting, shadow rays) and ``quality`` (path traced: physically based
+materials, next-event estimation with multiple importance sampling, several bounces with Russian roulette —
+:mod:`benchbot_sim_taichi.pathtrace` — then Intel Open Image Denoise with albedo and normal guides).
 
 Importing this module imports Taichi but does not initialise it; :func:`ensure_taichi` (called by
 :class:`Renderer`) runs ``ti.init`` once per process. Taichi must be used from one thread per process.
@@ -64,9 +65,11 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi import kernels  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.denoiser import denoise_radiance  # noqa: E402
+from benchbot_sim_taichi.pathtrace import quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
-    lamp_map_kernel, quality_kernel, reset_graph, sensors_graph, sensors_kernel,
+    lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -74,6 +77,8 @@ TAICHI_BANNER: list[str] = [line for line in _banner.getvalue().splitlines() if 
 
 #: Render modes.
 MODES = ("fast", "quality")
+#: Default longest path of ``quality`` mode, in bounces (the reference renders of ``docs/realism.md`` use 8).
+QUALITY_BOUNCES = 8
 #: The camera model of a Renderer that is given none: the image as it always was.
 DEFAULT_CAMERA = CameraModel()
 
@@ -208,7 +213,8 @@ def pack_scene(scene) -> dict:
 
     Returns:
         ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
-        ``pf`` (max(P,1), 9) float32 [min xyz, max xyz, linear albedo rgb]; ``pi`` (max(P,1), 4) int32 [kind, axis or
+        ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
+        primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind, axis or
         packed triangle index, class, instance]; ``tris`` (max(T,1), 9) float32 vertices, in BVH order (row
         ``pi[k, 1]`` is primitive k's); ``shade`` (max(T,1), SHADE_COLS) float32 (rows as ``tris``)
         per triangle [vertex normals (9), UVs (6), texture index (−1: none), texture LOD offset]; ``texels``
@@ -234,7 +240,8 @@ def pack_scene(scene) -> dict:
     if tri_mat.shape[0] != nt:
         tri_mat = np.full(nt, -1, np.int64)
     mat_albedo = np.asarray(scene.mat_albedo, np.float32).reshape(-1, 3)
-    pf = np.zeros((max(n, 1), 9), dtype=np.float32)
+    pf = np.zeros((max(n, 1), 11), dtype=np.float32)
+    pf[:, 9] = 1.0
     pi = np.zeros((max(n, 1), 4), dtype=np.int32)
     if n:
         obj = scene.prim_object[order]
@@ -245,6 +252,11 @@ def pack_scene(scene) -> dict:
             m = np.full(n, -1, np.int64)
             m[tri] = tri_mat[axis[tri]]
             albedo[m >= 0] = mat_albedo[m[m >= 0]]
+            has = m >= 0
+            for col, factors in ((9, scene.mat_roughness), (10, scene.mat_metallic)):
+                factors = np.asarray(factors, np.float32).reshape(-1)
+                if factors.shape[0] == mat_albedo.shape[0]:
+                    pf[:n, col][has] = np.clip(factors[m[has]], 0.0, 1.0)
         pf[:n, 0:3], pf[:n, 3:6], pf[:n, 6:9] = scene.prim_min[order], scene.prim_max[order], albedo
         pi[:n, 0], pi[:n, 1] = kind, axis
         is_obj = obj >= 0
@@ -311,10 +323,13 @@ def texture_lut() -> np.ndarray:
 
 
 def render_params(shadow_samples: int = 1, seed: int = 0, sun_radius: float = SUN_RADIUS,
-                  lamp_radius: float = LAMP_RADIUS, spp: int = 1, bounce_gain: float = 0.0) -> np.ndarray:
-    """(8,) float32 [shadow samples, sun angular radius rad, lamp radius m, seed, spp, bounce gain, 0, 0]."""
+                  lamp_radius: float = LAMP_RADIUS, spp: int = 1, bounces: int = 0,
+                  roulette_from: int = 3) -> np.ndarray:
+    """(8,) float32 [shadow samples, sun angular radius rad, lamp radius m, seed, spp, most bounces of a path,
+    first bounce of Russian roulette, 0] (the last three for ``quality`` mode:
+    :func:`~benchbot_sim_taichi.pathtrace.quality_kernel`)."""
     return np.array([max(1, int(shadow_samples)), sun_radius, lamp_radius, int(seed) % (1 << 24), max(1, int(spp)),
-                     bounce_gain, 0, 0], dtype=np.float32)
+                     max(0, int(bounces)), max(1, int(roulette_from)), 0], dtype=np.float32)
 
 
 def camera_params(K: np.ndarray, T_map_camera: np.ndarray) -> np.ndarray:
@@ -412,29 +427,6 @@ def _empty_outputs(B: int, H: int, W: int) -> dict:
             "class": np.zeros((B, H, W), np.int32), "instance": np.zeros((B, H, W), np.int32)}
 
 
-def denoise_radiance(radiance: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """Intel Open Image Denoise (``pyoidn``: its ``RT`` filter, high quality, on the CPU) of a path-traced image.
-
-    Args:
-        radiance: (H, W, 3) float32 linear radiance (HDR: values above 1 are kept).
-        albedo: (H, W, 3) float32 albedo at the camera's hits, 0..1 (the guide that keeps textures sharp).
-        normal: (H, W, 3) float32 shading normals at those hits, any frame, components in −1..1 (keeps edges).
-
-    Returns:
-        (H, W, 3) float32 denoised linear radiance, non-negative.
-
-    Raises:
-        RuntimeError: Open Image Denoise failed (its message).
-    """
-    import pyoidn
-
-    def f32(a: np.ndarray) -> np.ndarray:
-        return np.ascontiguousarray(a, dtype=np.float32)
-
-    return pyoidn.denoise(f32(np.maximum(radiance, 0.0)), f32(np.clip(albedo, 0.0, 1.0)),
-                          f32(np.clip(normal, -1.0, 1.0)), hdr=True, quality="high")
-
-
 class Renderer:
     """Renders one scene at a time with Taichi. Use from a single thread.
 
@@ -454,12 +446,15 @@ class Renderer:
             always use rays, and so does ``quality`` mode.
         camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.camera_model.CameraModel`);
             the default is the image as it always was.
+        denoise_device: where ``quality`` mode's denoiser runs (:func:`~benchbot_sim_taichi.denoiser.denoise_radiance`):
+            ``'cpu'`` or ``'cuda'``; ``None`` (default): ``'cuda'`` when rendering on CUDA, else ``'cpu'``.
     """
 
     def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
                  device_buffers: bool | None = None, lamp_maps: bool | None = None,
-                 camera: CameraModel = DEFAULT_CAMERA) -> None:
+                 camera: CameraModel = DEFAULT_CAMERA, denoise_device: str | None = None) -> None:
         self.arch = ensure_taichi(arch)
+        self.denoise_device = denoise_device or ("cuda" if self.arch == "cuda" else "cpu")
         self.camera = camera
         self._packed: dict | None = None
         self._scene_args: tuple | None = None
@@ -677,22 +672,23 @@ class Renderer:
 
     def render(self, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
                mode: str = "fast", spp: int = 16, denoise: bool = True, T_map_lidar: np.ndarray | None = None,
-               angles: np.ndarray | None = None) -> dict[str, np.ndarray]:
+               angles: np.ndarray | None = None, bounces: int = QUALITY_BOUNCES) -> dict[str, np.ndarray]:
         """Render one view and, with ``T_map_lidar``, the laser scan of the same instant in the same kernel launch.
 
         Args:
             K: (3, 3) pinhole intrinsics (pixels). T_map_camera: (4, 4) pose of the camera's OPTICAL frame in ``map``.
             width, height: image size in pixels.
-            mode: ``'fast'`` (default) or ``'quality'`` (RGB path traced with ``spp`` samples per pixel, soft
-                shadows, one diffuse bounce, then Open Image Denoise if ``denoise``: :func:`denoise_radiance`; depth and
-                segmentation as in ``fast``).
+            mode: ``'fast'`` (default) or ``'quality'`` (RGB path traced with ``spp`` samples per pixel and paths
+                of up to ``bounces`` bounces (:mod:`~benchbot_sim_taichi.pathtrace`), then Open Image Denoise if
+                ``denoise``: :func:`denoise_radiance`; depth and segmentation as in ``fast``).
             T_map_lidar, angles: as :meth:`scan`; ``None`` (default) for no scan.
 
         Returns:
             ``{'rgb': (H, W, 3) uint8 RGB, 'depth': (H, W) float32 z-depth metres (0 = no hit), 'class': (H, W)
             int32 class ids (background where the shell or nothing is hit), 'instance': (H, W) int32
             ``class*1000+instance`` ids (0 = background)}``, plus ``'ranges'`` (N,) float64 metres (as :meth:`scan`)
-            with a lidar.
+            with a lidar, and in ``quality`` mode ``'radiance'`` (H, W, 3) float32, the linear radiance that ``rgb``
+            encodes (denoised if ``denoise``).
 
         Raises:
             ValueError: an unknown mode, or a lidar pose without angles.
@@ -716,12 +712,13 @@ class Renderer:
             H, W = int(height), int(width)
             lin = self._buffer("quality", (1, H, W, 3), np.float32)
             aux = self._buffer("quality_guides", (1, H, W, 6), np.float32)
-            params = render_params(max(spp, 1), self.seed, spp=spp, bounce_gain=0.6)
+            params = render_params(seed=self.seed, spp=spp, bounces=bounces)
             quality_kernel(camera_params(K, T_map_camera), *self._args()[:13], params, lin, aux)
             lin = (lin.to_numpy() if self.device_buffers else lin)[0]
             if denoise:
                 guides = (aux.to_numpy() if self.device_buffers else aux)[0]
-                lin = denoise_radiance(lin, guides[..., :3], guides[..., 3:])
+                lin = denoise_radiance(lin, guides[..., :3], guides[..., 3:], device=self.denoise_device)
+            out["radiance"] = np.ascontiguousarray(lin, dtype=np.float32)
             out["rgb"] = self.camera.encode(lin, np.asarray(K, dtype=np.float64))
         return out
 

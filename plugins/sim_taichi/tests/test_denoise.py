@@ -44,7 +44,7 @@ def test_the_denoised_image_is_closer_to_the_converged_one_than_the_noisy_one(vi
 
 
 def test_a_clean_image_stays_as_it_is():
-    from benchbot_sim_taichi.renderer import denoise_radiance
+    from benchbot_sim_taichi.denoiser import denoise_radiance
 
     y, x = np.mgrid[0:H, 0:W].astype(np.float32)
     radiance = np.stack([0.2 + 0.5 * x / W, 0.3 + 0.2 * y / H, np.full_like(x, 0.4)], axis=-1)

@@ -1,0 +1,107 @@
+"""Frames per second of the Taichi simulator's ``quality`` mode (path tracing, ``benchbot_sim_taichi.pathtrace``, then
+Open Image Denoise, ``benchbot_sim_taichi.denoiser``) on one environment, along its trajectory poses.
+
+    python benchmarks/render_quality.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--spp 4]
+        [--bounces 8] [--frames 20] [--denoise-device cpu|cuda] [--json [PATH]]
+
+Each frame is ``Renderer.render(mode='quality')``: a fast-mode launch for depth and segmentation, the path tracer's
+launch, the copy of its radiance and guides to the host, the denoiser (``--denoise-device``; default: the
+renderer's, ``cuda`` on CUDA) and the camera model's 8-bit encoding. Printed/JSON keys: ``fps`` (frames per second,
+denoised, as returned to the caller), ``fps_no_denoise`` (``denoise=False``), ``ms_path_trace`` (the same frame
+without denoising: launches and copies), ``ms_denoise`` (the difference), ``spp``, ``bounces``, ``triangles``,
+``lights``, ``arch``, ``denoise_device``, ``gpu`` (on CUDA), ``first_frame_s`` (compiling the kernels and starting
+the denoiser included).
+"""
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--env", default="house:1")
+    ap.add_argument("--width", type=int, default=640)
+    ap.add_argument("--height", type=int, default=480)
+    ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
+    ap.add_argument("--spp", type=int, default=4)
+    ap.add_argument("--bounces", type=int, default=8)
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--denoise-device", choices=("cpu", "cuda"), default=None)
+    ap.add_argument("--json", nargs="?", const="-", default=None, help="print JSON (or write it to PATH)")
+    args = ap.parse_args(argv)
+    if min(args.width, args.height, args.spp, args.frames) < 1 or args.bounces < 0:
+        ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
+
+    from benchbot.core.geometry import se2_to_matrix
+    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import build_scene
+
+    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    if args.env not in envs:
+        ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
+    scene = build_scene(envs[args.env])
+    r = Renderer(args.arch, denoise_device=args.denoise_device)
+    r.set_scene(scene)
+    W, H = args.width, args.height
+    K = intrinsics(W, H, 90.0)
+    Tc = np.eye(4)
+    Tc[:3, :3] = R_BODY_OPTICAL
+    Tc[:3, 3] = DEFAULT_SENSORS["camera"]["mount_xyz"]
+    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
+    cams = [se2_to_matrix(*p) @ Tc for p in poses]
+
+    def frame(i: int, denoise: bool) -> None:
+        r.render(K, cams[i % len(cams)], W, H, mode="quality", spp=args.spp, bounces=args.bounces, denoise=denoise)
+
+    t0 = time.perf_counter()
+    frame(0, True)
+    first = time.perf_counter() - t0
+    frame(1, False)
+
+    def timed(denoise: bool) -> float:
+        t = time.perf_counter()
+        for i in range(args.frames):
+            frame(i, denoise)
+        return (time.perf_counter() - t) / args.frames
+
+    s_plain = timed(False)
+    s_denoised = timed(True)
+    out = {"env": args.env, "width": W, "height": H, "arch": r.arch, "spp": args.spp, "bounces": args.bounces,
+           "frames": args.frames, "denoise_device": r.denoise_device, "fps": 1.0 / s_denoised,
+           "fps_no_denoise": 1.0 / s_plain, "ms_path_trace": 1e3 * s_plain,
+           "ms_denoise": 1e3 * (s_denoised - s_plain), "first_frame_s": first,
+           "triangles": int(scene.tri_v.shape[0]), "prims": int(scene.prim_type.shape[0]),
+           "lights": int(scene.light_kind.shape[0]), "machine": platform.machine(), "cpus": os.cpu_count()}
+    if r.arch == "cuda":
+        try:
+            import subprocess
+
+            out["gpu"] = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
+                                        capture_output=True, text=True, timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            out["gpu"] = "unknown"
+    if args.json is not None:
+        text = json.dumps(out, indent=1)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    if args.json != "-":
+        print(f"{args.env} {W}x{H} quality {args.spp} spp, ≤{args.bounces} bounces on {r.arch} "
+              f"(denoiser on {r.denoise_device}): {out['fps']:.2f} fps denoised, {out['fps_no_denoise']:.2f} fps "
+              f"without ({out['ms_path_trace']:.1f} ms path tracing + {out['ms_denoise']:.1f} ms denoising); "
+              f"{out['triangles']:,} triangles, {out['lights']} lights; first frame {first:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

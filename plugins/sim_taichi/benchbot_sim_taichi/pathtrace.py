@@ -1,0 +1,281 @@
+"""The path tracer of ``quality`` mode: :func:`quality_kernel` (launched by ``Renderer.render(mode='quality')``).
+
+Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering events each, with:
+
+- **the BSDF** of :mod:`benchbot_sim_taichi.bsdf` (Lambertian + GGX, glTF metallic–roughness; each primitive's
+  roughness and metallic in ``pf`` columns 9–10, see ``renderer.pack_scene``), textures and shading normals as in
+  ``fast`` mode (``kernels._shade_hit``);
+- **the lights as emitters of finite size**: the sun a disc of angular radius ``params[1]`` and radiance
+  ``π · colour / Ω`` (Ω its solid angle), each lamp a sphere of radius ``params[2]`` and radiance
+  ``colour / radius²``, falling off as 1/d² (no range cut-off) — the same light as ``fast`` mode's
+  ``colour · n·l`` (sun) and ``colour · n·l / d²`` (lamp) on a Lambertian surface, and as the reference renders of
+  ``docs/realism.md``; the sky, ``ambient · (0.8 + 0.3 ω_z)`` (the direction's z component), is what a path that
+  leaves the scene sees;
+- **the room shell** seen by camera rays only (as in the reference renders): a path that reaches it after a bounce
+  has left the scene;
+- **next-event estimation**: at each vertex one light, chosen with probability proportional to its unshadowed
+  contribution (luminance of its colour over the squared distance, zero when it lies wholly below the surface), is
+  sampled uniformly in the cone it subtends and tested with one shadow ray (lamps: ending ``LAMP_FIXTURE_M`` short
+  of the lamp, as in ``fast`` mode);
+- **multiple importance sampling** (Veach 1997, power heuristic, β = 2) between that light sample and the BSDF sample
+  that hits the same sun or lamp (at a path's last vertex, where no BSDF sample follows, the light sample counts
+  fully);
+- **Russian roulette** from bounce ``params[6]`` on: a path continues with probability
+  ``min(0.95, max(throughput))`` and is reweighted by its inverse.
+
+Random numbers come from a hash of (pixel, sample, seed) advanced per draw (:func:`_rng`), so an image is a pure
+function of the scene, the camera and the seed (deterministic per seed, on any arch and thread count).
+"""
+
+import contextlib
+import sys
+
+with contextlib.redirect_stdout(sys.stderr):
+    import taichi as ti
+
+from benchbot_sim_taichi import bsdf  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.kernels import (  # noqa: E402
+    LAMP_FIXTURE_M, SHADOW_OFFSET, _frame, _hash, _ray, _shade_hit, _trace,
+)
+
+#: Spread (rad) of the ray cone of a diffuse bounce, for its texture level of detail.
+BOUNCE_SPREAD = 0.1
+#: Highest continuation probability of Russian roulette.
+RR_MAX = 0.95
+TWO_PI = 6.283185307179586
+
+
+@ti.func
+def _rng(state):
+    """(next state, uniform float in [0, 1)) from a u32 state (24 bits of a hash)."""
+    s = _hash(state + ti.u32(0x9E3779B9))
+    return s, ti.cast(s >> ti.u32(8), ti.f32) * (1.0 / 16777216.0)
+
+
+@ti.func
+def _sky(world: ti.template(), d):
+    """Linear radiance of the sky in unit direction d."""
+    return ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.3 * d[2])
+
+
+@ti.func
+def _one_minus_cos_cone(sin2):
+    """1 − cos θ for sin²θ = ``sin2`` (accurate for small cones)."""
+    s2 = ti.min(ti.max(sin2, 0.0), 1.0)
+    return s2 / (1.0 + ti.sqrt(1.0 - s2))
+
+
+@ti.func
+def _light_geometry(lights: ti.template(), j, p, params):
+    """Of light j seen from p: (unit direction to its centre, distance (1e30 for the sun), 1 − cos of the half-angle
+    of the cone it subtends (0: p is inside a lamp), its radiance (RGB))."""
+    col = ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]])
+    axis = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
+    dist = 1e30
+    omc = 0.0
+    radiance = ti.Vector([0.0, 0.0, 0.0])
+    if lights[j, 0] > 0.5:  # lamp: a sphere of radius params[2]
+        r = params[2]
+        axis -= p
+        dist = axis.norm()
+        if dist > r:
+            axis /= dist
+            omc = _one_minus_cos_cone(r * r / (dist * dist))
+            radiance = col / (r * r)
+    else:  # sun: a disc of angular radius params[1]
+        axis = axis.normalized()
+        sh = ti.sin(0.5 * params[1])
+        omc = 2.0 * sh * sh
+        radiance = col * (bsdf.PI / (TWO_PI * omc))
+    return axis, dist, omc, radiance
+
+
+@ti.func
+def _light_weight(lights: ti.template(), j, p, ns, params):
+    """Unnormalised probability of choosing light j at p (shading normal ns) for next-event estimation: the
+    luminance of its colour over the squared distance (lamps), zero when it lies wholly below the surface."""
+    axis, dist, omc, radiance = _light_geometry(lights, j, p, params)
+    w = 0.0
+    if omc > 0.0:
+        sin_half = ti.sqrt(ti.max(0.0, omc * (2.0 - omc)))  # sin of the cone's half-angle
+        reach = ns.dot(axis) + sin_half
+        if reach > 0.0:
+            col = bsdf.luminance(ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]))
+            if lights[j, 0] > 0.5:
+                col /= dist * dist
+            w = col * ti.min(reach, 1.0)
+    return w
+
+
+@ti.func
+def _cone_hit(lights: ti.template(), j, o, d, tmax, params):
+    """1 when the unit ray (o, d), whose first surface is at tmax (1e30: none), reaches light j, else 0. A lamp: the
+    ray meets its sphere and no surface lies nearer than ``LAMP_FIXTURE_M`` short of its centre (the rule of the
+    shadow rays of next-event estimation, so that both estimators see the same light). The sun: the ray escapes
+    within its disc."""
+    hit = 0
+    if lights[j, 0] > 0.5:
+        c = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]) - o
+        r = params[2]
+        b = c.dot(d)
+        cc = c.dot(c)
+        if b > 0.0 and b * b - (cc - r * r) >= 0.0 and tmax >= ti.sqrt(cc) - LAMP_FIXTURE_M:
+            hit = 1
+    elif tmax >= 1e29:
+        axis = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]).normalized()
+        sh = ti.sin(0.5 * params[1])
+        if 1.0 - d.dot(axis) <= 2.0 * sh * sh:
+            hit = 1
+    return hit
+
+
+@ti.kernel
+def quality_kernel(
+    cam: ti.types.vector(16, ti.f32),
+    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_prims: ti.i32,
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    n_lights: ti.i32,
+    world: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    params: ti.types.vector(8, ti.f32),
+    out: ti.types.ndarray(dtype=ti.f32, ndim=4),
+    aux: ti.types.ndarray(dtype=ti.f32, ndim=4),
+):
+    """Path-traced linear radiance into ``out`` (B, H, W, 3) float32 (B = 1) for camera ``cam``
+    (``renderer.camera_params``: optical frame in ``map``, pixels), as the module docstring describes.
+    ``params`` is ``renderer.render_params``: [1] the sun's angular radius (rad), [2] the lamps' radius (m), [3] the
+    seed, [4] samples per pixel, [5] the most bounces of a path, [6] the bounce from which Russian roulette applies.
+    ``aux`` (B, H, W, 6) float32 receives the denoiser's guides averaged over the samples: the albedo at the camera's
+    hit (0..1) and its shading normal (``map`` frame, unit before averaging); zero where a sample hits nothing."""
+    B = out.shape[0]
+    H = out.shape[1]
+    W = out.shape[2]
+    spp = ti.cast(params[4], ti.i32)
+    max_bounces = ti.cast(params[5], ti.i32)
+    rr_start = ti.cast(params[6], ti.i32)
+    seed_hash = _hash(ti.cast(params[3], ti.i32) * 7919 + 17)
+    for b, v, u in ti.ndrange(B, H, W):
+        acc = ti.Vector([0.0, 0.0, 0.0])
+        guide_albedo = ti.Vector([0.0, 0.0, 0.0])
+        guide_normal = ti.Vector([0.0, 0.0, 0.0])
+        pixel = ti.cast((b * H + v) * W + u, ti.u32)
+        for s in range(spp):
+            state = _hash(pixel * ti.u32(0x27D4EB2F) ^ _hash(seed_hash + ti.cast(s, ti.u32) * ti.u32(0x165667B1)))
+            state, jx = _rng(state)
+            state, jy = _rng(state)
+            o, d = _ray(cam, ti.cast(u, ti.f32) + jx - 0.5, ti.cast(v, ti.f32) + jy - 0.5)
+            spread = 1.0 / cam[12]
+            d = d.normalized()
+            throughput = ti.Vector([1.0, 1.0, 1.0])
+            # the previous vertex, for the MIS weight of a BSDF sample that reaches a light
+            prev_p = o
+            prev_ns = d
+            prev_pdf = 0.0
+            prev_total = 0.0
+            for bounce in range(max_bounces + 1):
+                hit, t, n, ns, albedo, c_id, i_id, p, k = _shade_hit(o, d, spread, n_prims, nodes_f, nodes_i, pf,
+                                                                     pi, tris, shade, texels, tex_info, tex_lut,
+                                                                     world)
+                escaped = hit == 0 or (k < 0 and bounce > 0)  # the shell is seen by camera rays only
+                if bounce > 0:  # lights reached by the BSDF sample, weighted against next-event estimation
+                    t_lim = 1e30
+                    if not escaped:
+                        t_lim = t
+                    for j in range(n_lights):
+                        if _cone_hit(lights, j, o, d, t_lim, params) == 1:
+                            axis, dist, omc, radiance = _light_geometry(lights, j, prev_p, params)
+                            p_light = 0.0
+                            if prev_total > 0.0 and omc > 0.0:
+                                p_light = (_light_weight(lights, j, prev_p, prev_ns, params) / prev_total
+                                           / (TWO_PI * omc))
+                            acc += throughput * radiance * (prev_pdf * prev_pdf
+                                                            / (prev_pdf * prev_pdf + p_light * p_light))
+                    if escaped:
+                        acc += throughput * _sky(world, d)
+                if escaped:
+                    break
+                if bounce == 0:
+                    guide_albedo += albedo
+                    guide_normal += ns
+                rough = 1.0
+                metal = 0.0
+                if k >= 0:
+                    rough = pf[k, 9]
+                    metal = pf[k, 10]
+                t1, t2 = _frame(ns)
+                wo = ti.Vector([-d.dot(t1), -d.dot(t2), -d.dot(ns)])
+                po = p + n * SHADOW_OFFSET
+                # next-event estimation: one light, chosen in proportion to its unshadowed contribution
+                total = 0.0
+                for j in range(n_lights):
+                    total += _light_weight(lights, j, p, ns, params)
+                state, u_pick = _rng(state)
+                state, u1 = _rng(state)
+                state, u2 = _rng(state)
+                if total > 0.0:
+                    target = u_pick * total
+                    chosen = -1
+                    w_chosen = 0.0
+                    for j in range(n_lights):
+                        if chosen < 0:
+                            w = _light_weight(lights, j, p, ns, params)
+                            if w > 0.0 and (target < w or j == n_lights - 1):
+                                chosen = j
+                                w_chosen = w
+                            target -= w
+                    if chosen >= 0 and w_chosen > 0.0:
+                        axis, dist, omc, radiance = _light_geometry(lights, chosen, p, params)
+                        a1, a2 = _frame(axis)
+                        cos_t = 1.0 - u1 * omc
+                        sin_t = ti.sqrt(ti.max(0.0, 1.0 - cos_t * cos_t))
+                        wl = (sin_t * ti.cos(TWO_PI * u2)) * a1 + (sin_t * ti.sin(TWO_PI * u2)) * a2 + cos_t * axis
+                        if wl.dot(n) > 0.0:
+                            f, p_bsdf = bsdf.evaluate(albedo, rough, metal, wo,
+                                                      ti.Vector([wl.dot(t1), wl.dot(t2), wl.dot(ns)]))
+                            if p_bsdf > 0.0:
+                                reach = dist
+                                if lights[chosen, 0] > 0.5:
+                                    reach = ti.max(dist - LAMP_FIXTURE_M, 0.0)
+                                if _trace(po, wl, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                                    p_light = w_chosen / total / (TWO_PI * omc)
+                                    mis = 1.0  # the path ends here: no BSDF sample will reach the light
+                                    if bounce < max_bounces:
+                                        mis = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf)
+                                    acc += throughput * f * radiance * (wl.dot(ns) * mis / p_light)
+                if bounce == max_bounces:
+                    break
+                # the BSDF sample that continues the path
+                state, u0 = _rng(state)
+                state, u1 = _rng(state)
+                state, u2 = _rng(state)
+                wi, f, pdf = bsdf.sample(albedo, rough, metal, wo, u0, u1, u2)
+                d_new = wi[0] * t1 + wi[1] * t2 + wi[2] * ns
+                if pdf <= 0.0 or d_new.dot(n) <= 0.0:
+                    break
+                throughput *= f * (wi[2] / pdf)
+                if bounce + 1 >= rr_start:
+                    q = ti.min(RR_MAX, ti.max(throughput[0], ti.max(throughput[1], throughput[2])))
+                    state, u_rr = _rng(state)
+                    if u_rr >= q:
+                        break
+                    throughput /= q
+                prev_p = p
+                prev_ns = ns
+                prev_pdf = pdf
+                prev_total = total
+                o = po
+                d = d_new.normalized()
+                spread = ti.max(BOUNCE_SPREAD * rough, spread)
+        acc /= ti.cast(spp, ti.f32)
+        for k in ti.static(range(3)):
+            out[b, v, u, k] = acc[k]
+            aux[b, v, u, k] = guide_albedo[k] / ti.cast(spp, ti.f32)
+            aux[b, v, u, 3 + k] = guide_normal[k] / ti.cast(spp, ti.f32)
