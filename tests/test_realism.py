@@ -254,3 +254,43 @@ def test_exposure_gain_recovers_a_brightness_factor(realism):
     assert g == pytest.approx(4.0, rel=0.02)
     assert realism.psnr(ours, realism.encode_like_ours(g * lin / 4.0)) > 40
     assert realism.exposure_gain(np.full((2, 2, 3), 255, np.uint8), np.ones((2, 2, 3))) == 1.0
+
+
+@pytest.mark.slow
+def test_quality_vs_reference_compares_ours_with_an_earlier_reference(realism, tmp_path):
+    """``benchmarks/quality_vs_reference.py --reference-from``: our quality mode timed and compared with a reference
+    rendered earlier (here a made-up one, so no Blender is needed), the ladder's figures read from the earlier run's
+    JSON; a reference of other settings is refused in one line."""
+    import subprocess
+
+    from benchbot.core.geometry import se2_to_matrix
+    from benchbot_sim_taichi.scene import build_scene
+
+    W, H = 32, 24
+    scene = build_scene(realism._env_spec("miniroom:1", None))
+    K, Tc = realism.camera_setup(W, H)
+    T = se2_to_matrix(*scene.trajectory_se2[0]) @ Tc
+    ref_dir = tmp_path / "earlier" / "reference"
+    ref_dir.mkdir(parents=True)
+    cam = realism.blender_camera(K, T, W, H)
+    (ref_dir / "job.json").write_text(json.dumps({"spp": 8, "ladder": [1, 4], "frames": [cam]}))
+    (ref_dir / "timings.json").write_text(json.dumps({"frames": {"frame0": {"1": 1.0, "4": 3.0, "8": 6.0}}}))
+    np.save(ref_dir / "frame0_spp8.npy", np.full((H, W, 3), 0.3, np.float16))
+    ladder = {"1": {"seconds": 1.0, "psnr_db": 5.0, "ssim": 0.1}, "4": {"seconds": 3.0, "psnr_db": 40.0, "ssim": 0.9}}
+    (tmp_path / "earlier" / "quality_vs_reference.json").write_text(json.dumps({"cycles": ladder}))
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "quality_vs_reference.py"), "--width", str(W), "--height", str(H),
+           "--reference-spp", "8", "--ladder", "1,4", "--ours-spp", "1,2", "--repeats", "1",
+           "--reference-from", str(ref_dir), "--out", str(tmp_path / "out")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads((tmp_path / "out" / "quality_vs_reference.json").read_text())
+    assert out["cycles"] == ladder and out["reference_s"] == 6.0 and set(out["ours"]) == {"1", "2"}
+    for entry in out["ours"].values():
+        d = entry["denoised"]
+        assert d["seconds"] > 0 and math.isfinite(d["psnr_db"]) and -1.0 <= d["ssim"] <= 1.0
+        reach = d["cycles_s_to_same_psnr"]
+        assert reach["bound"] in "<=>" and 1.0 <= reach["seconds"] <= 3.0
+    assert (tmp_path / "out" / "side_by_side.png").stat().st_size > 0
+    other = subprocess.run(cmd[:2] + ["--width", "40"] + cmd[4:], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert other.returncode == 2 and "rendered with other settings" in other.stderr
+    assert "Traceback" not in other.stderr

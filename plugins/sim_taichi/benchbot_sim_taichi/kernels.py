@@ -526,10 +526,10 @@ def _lamp_map_visibility(maps: ti.template(), slot, L, q):
 @ti.func
 def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(), n_lights, n_prims,
             nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
-            maps: ti.template(), use_maps: ti.template()):
+            maps: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
     along the geometric normal ng); visibility from ``ns`` shadow rays (strata s0 .. s0+ns-1 of ``params[0]``),
-    hashed from ``key`` — or, with ``use_maps``, one sample in all, and a lamp with a map slot: from its cube
+    hashed from ``key`` — or, with one sample in all and a lamp with a map slot: from its cube
     shadow map (:func:`_lamp_map_visibility`)."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
@@ -558,13 +558,12 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
                 if point:
                     reach = ti.max(dist - LAMP_FIXTURE_M, 0.0)
                 slot = -1
-                if ti.static(use_maps):
-                    if point and total <= 1:
-                        slot = ti.cast(lights[j, 8], ti.i32)
-                    if slot >= 0:
-                        texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
-                        vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
-                                                   po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
+                if point and total <= 1:
+                    slot = ti.cast(lights[j, 8], ti.i32)
+                if slot >= 0:
+                    texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
+                    vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
+                                               po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
                 if slot < 0:  # shadow rays
                     if total <= 1:
                         if _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
@@ -671,7 +670,7 @@ def sensors_kernel(
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
             radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
             radiance += _direct(p, n, ns, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
-                                nodes_f, nodes_i, pf, pi, tris, lamp_maps, True)
+                                nodes_f, nodes_i, pf, pi, tris, lamp_maps)
             col = albedo * radiance
             if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
                 xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]

@@ -205,3 +205,20 @@ def test_quality_images_are_deterministic_per_seed():
         images.append(r.render(K, T, W, H, mode="quality", spp=4, denoise=False)["radiance"])
     assert np.array_equal(images[0], images[1])
     assert not np.array_equal(images[0], images[2])
+
+
+@pytest.mark.slow
+def test_the_quality_benchmark_runs_and_reports_its_figures():
+    """``benchmarks/render_quality.py`` (the quality-mode fps of the docs) on a BEAR environment (in the tests'
+    scene style), tiny and short."""
+    import json
+    import subprocess
+
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "render_quality.py"), "--env", "miniroom:1",
+                           "--width", "32", "--height", "24", "--spp", "2", "--frames", "2", "--json"],
+                          capture_output=True, text=True, timeout=600, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    assert out["arch"] == "cpu" and out["denoise_device"] == "cpu" and out["spp"] == 2 and out["bounces"] == 8
+    assert out["fps"] > 0 and out["fps_no_denoise"] >= out["fps"] * 0.5 and out["prims"] > 10

@@ -1,0 +1,195 @@
+"""Quality mode against a converged Blender Cycles reference, error against time, on the same machine.
+
+    uv run --extra realism python benchmarks/quality_vs_reference.py [--env miniroom:1] [--pose 0]
+        [--width 320 --height 240] [--reference-spp 1024] [--ladder 1,4,16,64,256] [--ours-spp 1,4,16,64]
+        [--arch cpu] [--out runs/quality_vs_reference]
+
+One frame (the environment's trajectory pose ``--pose``, the robot's default camera) is rendered:
+
+- by **Cycles** (the reference renderer of ``docs/realism.md``, same exported scene, camera and lights, through
+  ``benchmarks/realism.py``'s job) at ``--reference-spp`` samples per pixel — the "converged" reference — and at the
+  timed ``--ladder`` of lower sample counts;
+- by **our quality mode** (path tracer + Open Image Denoise) at each ``--ours-spp``, each timed as a caller gets the
+  frame (``Renderer.render(mode='quality')``, kernels already compiled; the median of ``--repeats``), and without the
+  denoiser.
+
+Every image is encoded as ours (``realism.encode_like_ours``) and compared with the reference: PSNR (all channels)
+and SSIM (luma). For each of our sample counts, ``cycles_s_to_same_psnr`` is the time Cycles needs to reach the
+same PSNR, interpolated on its ladder (``<``/``>``: outside it). The reference's own noise is estimated from the
+ladder's largest rung as in ``realism.py``. Writes ``<out>/quality_vs_reference.json`` and
+``<out>/side_by_side.png`` (ours fast | ours quality at each spp | Cycles reference) and prints a table.
+
+Needs what the reference half of ``realism.py`` needs: uv and Python 3.11 for ``bpy`` (fetched by uv on the first
+run). Both renderers run on this machine's CPU (``--arch cpu``); with ``--arch cuda`` ours runs on the GPU (with
+``--reference-from`` an earlier run's Cycles renders, e.g. made on a CPU machine, are reused), and the two
+renderers' times are then of different machines (say so when quoting them).
+"""
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import realism  # noqa: E402 - benchmarks/realism.py, beside this file
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(f"expected integers ≥ 1, got {text!r}")
+    return values
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--env", default="miniroom:1")
+    ap.add_argument("--pose", type=int, default=0, help="trajectory pose index")
+    ap.add_argument("--width", type=int, default=320)
+    ap.add_argument("--height", type=int, default=240)
+    ap.add_argument("--reference-spp", type=int, default=1024)
+    ap.add_argument("--ladder", type=_int_list, default=[1, 4, 16, 64, 256])
+    ap.add_argument("--ours-spp", type=_int_list, default=[1, 4, 16, 64])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--arch", default="cpu")
+    ap.add_argument("--bpy", default=realism.BPY_REQUIREMENT)
+    ap.add_argument("--reference-timeout", type=float, default=realism.REFERENCE_TIMEOUT_S)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=Path("runs") / "quality_vs_reference")
+    ap.add_argument("--reference-from", type=Path, default=None,
+                    help="reuse the Cycles renders of an earlier run's <out>/reference folder (same env, pose, size, "
+                         "spp and ladder) instead of rendering them again, e.g. to time ours on another machine; "
+                         "without the ladder's .npy files there, the ladder's figures are read from the earlier "
+                         "run's quality_vs_reference.json beside it")
+    args = ap.parse_args(argv)
+
+    from PIL import Image
+
+    from benchbot.core.geometry import se2_to_matrix
+    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.scene import build_scene
+
+    try:
+        scene = build_scene(realism._env_spec(args.env, None))
+    except realism.RealismError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    W, H = args.width, args.height
+    K, Tc = realism.camera_setup(W, H)
+    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
+    if not 0 <= args.pose < len(poses):
+        print(f"error: --pose {args.pose} is outside the trajectory's 0..{len(poses) - 1}", file=sys.stderr)
+        return 2
+    T = se2_to_matrix(*poses[args.pose]) @ Tc
+    out_dir = args.out
+    ref_dir = out_dir / "reference"
+    ref_dir.mkdir(parents=True, exist_ok=True)
+
+    # the reference and its ladder
+    glb = realism.export_reference_glb(scene, ref_dir / "scene.glb")
+    cam = realism.blender_camera(K, T, W, H)
+    cam["name"] = "frame0"
+    ladder = [s for s in args.ladder if s < args.reference_spp]
+    job = {"glb": str(ref_dir / "scene.glb"), "shell": "camera-only", "lights": realism.reference_lights(scene),
+           "frames": [cam], "spp": args.reference_spp, "ladder": ladder, "seed": args.seed, "out_dir": str(ref_dir)}
+    if args.reference_from is not None:
+        src = args.reference_from
+        try:
+            timings = json.loads((src / "timings.json").read_text())
+            earlier = json.loads((src / "job.json").read_text())
+        except (OSError, ValueError) as e:
+            print(f"error: --reference-from {src}: cannot read its timings.json/job.json ({e})", file=sys.stderr)
+            return 2
+        if (earlier.get("spp"), earlier.get("ladder"), earlier["frames"][0].get("matrix_world"),
+                earlier["frames"][0].get("width"), earlier["frames"][0].get("height")) != (
+                args.reference_spp, ladder, cam["matrix_world"], W, H):
+            print(f"error: --reference-from {src} was rendered with other settings (spp, ladder, pose or size)",
+                  file=sys.stderr)
+            return 2
+        ref_dir = src
+    else:
+        print(f"Cycles: {args.reference_spp} spp reference and ladder {ladder} at {W}x{H} …", flush=True)
+        try:
+            timings = realism.run_cycles(job, ref_dir / "job.json", args.bpy, args.reference_timeout)
+        except realism.RealismError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
+    per = timings["frames"]["frame0"]
+    ref_linear = np.load(ref_dir / f"frame0_spp{args.reference_spp}.npy").astype(np.float32)
+    ref = realism.encode_like_ours(ref_linear)
+    cycles = {}
+    for s in ladder:
+        rung = ref_dir / f"frame0_spp{s}.npy"
+        if not rung.exists() and args.reference_from is not None:  # a trimmed copy: the earlier run's figures
+            try:
+                cycles = json.loads((ref_dir.parent / "quality_vs_reference.json").read_text())["cycles"]
+            except (OSError, ValueError, KeyError) as e:
+                print(f"error: --reference-from {ref_dir}: no {rung.name} and no earlier quality_vs_reference.json "
+                      f"beside it ({e})", file=sys.stderr)
+                return 2
+            break
+        img = realism.encode_like_ours(np.load(rung))
+        cycles[str(s)] = {"seconds": per[str(s)], "psnr_db": realism.psnr(img, ref), "ssim": realism.ssim(img, ref)}
+
+    # ours
+    r = Renderer(args.arch, seed=args.seed)
+    r.set_scene(scene)
+    fast = r.render(K, T, W, H)["rgb"]
+    r.render(K, T, W, H, mode="quality", spp=1)  # compiles the kernels and starts the denoiser
+    ours, pictures = {}, [fast]
+    for spp in args.ours_spp:
+        entry = {}
+        for denoise in (True, False):
+            seconds = []
+            for _ in range(max(1, args.repeats)):
+                t = time.perf_counter()
+                img = r.render(K, T, W, H, mode="quality", spp=spp, denoise=denoise)["rgb"]
+                seconds.append(time.perf_counter() - t)
+            key = "denoised" if denoise else "raw"
+            entry[key] = {"seconds": float(np.median(seconds)), "psnr_db": realism.psnr(img, ref),
+                          "ssim": realism.ssim(img, ref)}
+            if denoise:
+                entry[key]["exposure_gain"] = realism.exposure_gain(img, ref_linear)
+                entry[key]["cycles_s_to_same_psnr"] = realism.seconds_to_reach(cycles, entry[key]["psnr_db"])
+                pictures.append(img)
+        ours[str(spp)] = entry
+    pictures.append(ref)
+    labels = ["ours fast"] + [f"ours quality {s} spp" for s in args.ours_spp] + [f"Cycles {args.reference_spp} spp"]
+    realism.side_by_side(pictures, labels).save(out_dir / "side_by_side.png")
+    Image.fromarray(ref).save(out_dir / "reference.png")
+
+    top = max(ladder) if ladder else None
+    result = {"env": args.env, "pose": args.pose, "width": W, "height": H, "arch": r.arch,
+              "reference_spp": args.reference_spp, "reference_s": per[str(args.reference_spp)],
+              "reference_psnr_est_db": (cycles[str(top)]["psnr_db"] + 10 * math.log10(args.reference_spp / top + 1.0)
+                                        if top else None),
+              "cycles": cycles, "ours": ours, "export": glb, "blender": timings.get("blender"),
+              "fast": {"psnr_db": realism.psnr(fast, ref), "ssim": realism.ssim(fast, ref)}}
+    (out_dir / "quality_vs_reference.json").write_text(json.dumps(result, indent=1) + "\n")
+
+    print(f"\n{args.env} pose {args.pose}, {W}x{H}, against Cycles {args.reference_spp} spp "
+          f"({result['reference_s']:.0f} s; its own noise ≈ {result['reference_psnr_est_db'] or float('nan'):.1f} dB)")
+    print(f"{'renderer':<26}{'seconds':>10}{'PSNR dB':>10}{'SSIM':>8}   Cycles to the same PSNR")
+    for s, v in cycles.items():
+        print(f"{'Cycles ' + s + ' spp':<26}{v['seconds']:>10.2f}{v['psnr_db']:>10.2f}{v['ssim']:>8.3f}")
+    f = result["fast"]
+    print(f"{'ours fast':<26}{'':>10}{f['psnr_db']:>10.2f}{f['ssim']:>8.3f}")
+    for s, e in ours.items():
+        d, raw = e["denoised"], e["raw"]
+        reach = d["cycles_s_to_same_psnr"]
+        same = f"{reach.get('bound', '')}{reach.get('seconds', float('nan')):.1f} s" if reach else "–"
+        print(f"{'ours quality ' + s + ' spp':<26}{d['seconds']:>10.2f}{d['psnr_db']:>10.2f}{d['ssim']:>8.3f}   {same}")
+        print(f"{'  (not denoised)':<26}{raw['seconds']:>10.2f}{raw['psnr_db']:>10.2f}{raw['ssim']:>8.3f}")
+    print(f"\nwrote {out_dir / 'quality_vs_reference.json'} and {out_dir / 'side_by_side.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
