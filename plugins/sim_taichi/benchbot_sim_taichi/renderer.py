@@ -451,7 +451,8 @@ class Renderer:
         camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.camera_model.CameraModel`);
             the default is the image as it always was.
         denoise_device: where ``quality`` mode's denoiser runs (:func:`~benchbot_sim_taichi.denoiser.denoise_radiance`):
-            ``'cpu'`` or ``'cuda'``; ``None`` (default): ``'cuda'`` when rendering on CUDA, else ``'cpu'``.
+            ``'cpu'`` or ``'cuda'``; ``None`` (default): ``'cuda'`` when rendering on CUDA (falling back to the CPU,
+            with a warning, if Open Image Denoise cannot start there), else ``'cpu'``.
     """
 
     def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
@@ -459,6 +460,7 @@ class Renderer:
                  camera: CameraModel = DEFAULT_CAMERA, denoise_device: str | None = None) -> None:
         self.arch = ensure_taichi(arch)
         self.denoise_device = denoise_device or ("cuda" if self.arch == "cuda" else "cpu")
+        self._denoise_device_chosen = denoise_device is None
         self.camera = camera
         self._packed: dict | None = None
         self._scene_args: tuple | None = None
@@ -721,10 +723,23 @@ class Renderer:
             lin = (lin.to_numpy() if self.device_buffers else lin)[0]
             if denoise:
                 guides = (aux.to_numpy() if self.device_buffers else aux)[0]
-                lin = denoise_radiance(lin, guides[..., :3], guides[..., 3:], device=self.denoise_device)
+                lin = self._denoise(lin, guides[..., :3], guides[..., 3:])
             out["radiance"] = np.ascontiguousarray(lin, dtype=np.float32)
             out["rgb"] = self.camera.encode(lin, np.asarray(K, dtype=np.float64))
         return out
+
+    def _denoise(self, radiance: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """:func:`denoise_radiance` on :attr:`denoise_device`. A GPU denoiser that the renderer chose by itself (CUDA
+        rendering, ``denoise_device=None``) and that cannot start falls back to the CPU, once, with a warning; one
+        asked for explicitly raises its ``RuntimeError``."""
+        try:
+            return denoise_radiance(radiance, albedo, normal, device=self.denoise_device)
+        except RuntimeError as e:
+            if not (self._denoise_device_chosen and self.denoise_device != "cpu"):
+                raise
+            warnings.warn(f"quality mode: {e}; denoising on the CPU instead", RuntimeWarning, stacklevel=3)
+            self.denoise_device = "cpu"
+            return denoise_radiance(radiance, albedo, normal, device="cpu")
 
     def scan(self, T_map_lidar: np.ndarray, angles: np.ndarray) -> np.ndarray:
         """Planar laser ranges.

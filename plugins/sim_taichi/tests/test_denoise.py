@@ -111,3 +111,22 @@ def test_a_missing_cuda_device_is_a_one_line_runtime_error():
         denoise_radiance(*_noisy_frame(), device="cuda")
     message = str(e.value)
     assert "'cuda' cannot be created" in message and "\n" not in message, message
+
+
+def test_a_gpu_denoiser_the_renderer_chose_falls_back_to_the_cpu_once():
+    """Rendering on CUDA picks the GPU denoiser; where Open Image Denoise cannot start there, quality mode still
+    denoises (on the CPU) and says so once; a device asked for by name is not replaced."""
+    import pyoidn
+    from benchbot_sim_taichi.renderer import Renderer
+
+    if pyoidn.Device.is_cuda_available(0):
+        pytest.skip("this machine has a CUDA GPU that OIDN can use")
+    radiance, albedo, normal = _noisy_frame(12, 16)
+    r = Renderer("cpu")
+    r.denoise_device, r._denoise_device_chosen = "cuda", True  # as the renderer chooses when rendering on CUDA
+    with pytest.warns(RuntimeWarning, match="denoising on the CPU instead"):
+        out = r._denoise(radiance, albedo, normal)
+    assert out.shape == radiance.shape and r.denoise_device == "cpu"
+    explicit = Renderer("cpu", denoise_device="cuda")
+    with pytest.raises(RuntimeError, match="cannot be created"):
+        explicit._denoise(radiance, albedo, normal)
