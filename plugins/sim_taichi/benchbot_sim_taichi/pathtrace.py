@@ -15,8 +15,11 @@ Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering
   has left the scene;
 - **next-event estimation**: at each vertex one light, chosen with probability proportional to its unshadowed
   contribution (luminance of its colour over the squared distance, zero when it lies wholly below the surface), is
-  sampled uniformly in the cone it subtends and tested with one shadow ray (lamps: ending ``LAMP_FIXTURE_M`` short
-  of the lamp, as in ``fast`` mode);
+  sampled uniformly in the cone it subtends and tested with one shadow ray as long as its centre's distance.
+  Unlike ``fast`` mode (``kernels.LAMP_FIXTURE_M``), a lamp's own fixture does occlude it, as in the reference
+  renderer: light that bounces off the walls lights the ceiling above a shade, which ``fast`` mode has no other
+  way to do. (With the fixture let through, quality mode was 9–12 % brighter than Cycles and about 1 dB further
+  from it: ``docs/realism.md``.)
 - **multiple importance sampling** (Veach 1997, power heuristic, β = 2) between that light sample and the BSDF sample
   that hits the same sun or lamp (at a path's last vertex, where no BSDF sample follows, the light sample counts
   fully);
@@ -35,7 +38,7 @@ with contextlib.redirect_stdout(sys.stderr):
 
 from benchbot_sim_taichi import bsdf  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.kernels import (  # noqa: E402
-    LAMP_FIXTURE_M, SHADOW_OFFSET, _frame, _hash, _ray, _shade_hit, _trace,
+    SHADOW_OFFSET, _frame, _hash, _ray, _shade_hit, _trace,
 )
 
 #: Spread (rad) of the ray cone of a diffuse bounce, for its texture level of detail.
@@ -110,16 +113,15 @@ def _light_weight(lights: ti.template(), j, p, ns, params):
 @ti.func
 def _cone_hit(lights: ti.template(), j, o, d, tmax, params):
     """1 when the unit ray (o, d), whose first surface is at tmax (1e30: none), reaches light j, else 0. A lamp: the
-    ray meets its sphere and no surface lies nearer than ``LAMP_FIXTURE_M`` short of its centre (the rule of the
-    shadow rays of next-event estimation, so that both estimators see the same light). The sun: the ray escapes
-    within its disc."""
+    ray meets its sphere and no surface lies nearer than its centre (the rule of the shadow rays of next-event
+    estimation, so that both estimators see the same light). The sun: the ray escapes within its disc."""
     hit = 0
     if lights[j, 0] > 0.5:
         c = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]) - o
         r = params[2]
         b = c.dot(d)
         cc = c.dot(c)
-        if b > 0.0 and b * b - (cc - r * r) >= 0.0 and tmax >= ti.sqrt(cc) - LAMP_FIXTURE_M:
+        if b > 0.0 and b * b - (cc - r * r) >= 0.0 and tmax >= ti.sqrt(cc):
             hit = 1
     elif tmax >= 1e29:
         axis = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]).normalized()
@@ -241,10 +243,7 @@ def quality_kernel(
                             f, p_bsdf = bsdf.evaluate(albedo, rough, metal, wo,
                                                       ti.Vector([wl.dot(t1), wl.dot(t2), wl.dot(ns)]))
                             if p_bsdf > 0.0:
-                                reach = dist
-                                if lights[chosen, 0] > 0.5:
-                                    reach = ti.max(dist - LAMP_FIXTURE_M, 0.0)
-                                if _trace(po, wl, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                                if _trace(po, wl, dist, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
                                     p_light = w_chosen / total / (TWO_PI * omc)
                                     mis = 1.0  # the path ends here: no BSDF sample will reach the light
                                     if bounce < max_bounces:
