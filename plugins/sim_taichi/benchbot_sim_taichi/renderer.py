@@ -79,9 +79,10 @@ TAICHI_BANNER: list[str] = [line for line in _banner.getvalue().splitlines() if 
 MODES = ("fast", "quality")
 #: Default longest path of ``quality`` mode, in bounces (the reference renders of ``docs/realism.md`` use 8).
 QUALITY_BOUNCES = 8
-#: Default samples per pixel of ``quality`` mode. Denoised, 1, 4, 16 and 64 spp are equally close to a converged
-#: Cycles reference (24.7, 24.6, 24.5, 24.5 dB PSNR; SSIM 0.80, 0.815, 0.82, 0.83: ``benchmarks/quality_vs_reference.py``,
-#: ``docs/realism.md``) at 4× the cost each; 4 keeps the better SSIM of more samples for a quarter of 16's time.
+#: Default samples per pixel of ``quality`` mode. Denoised, 1, 4, 16 and 64 spp are nearly equally close to a
+#: converged Cycles reference (25.3, 25.7, 25.9, 26.0 dB PSNR; SSIM 0.80, 0.816, 0.825, 0.83:
+#: ``benchmarks/quality_vs_reference.py``, ``docs/realism.md``) at 4× the cost each; 4 gets most of the gain for a
+#: quarter of 16's time.
 QUALITY_SPP = 4
 #: The camera model of a Renderer that is given none: the image as it always was.
 DEFAULT_CAMERA = CameraModel()
