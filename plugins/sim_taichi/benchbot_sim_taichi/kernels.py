@@ -394,12 +394,12 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
                pi: ti.template(), tris: ti.template(), shade: ti.template(), texels: ti.template(),
                tex_info: ti.template(), lut: ti.template(), world: ti.template()):
     """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
-    albedo, class, instance, shadow-ray origin, primitive index: −1 for the shell). Both normals face the ray. On a triangle the shading normal
-    interpolates its vertex normals, the albedo is multiplied by its texture, sampled at the mip level of the ray
-    footprint (``spread`` · t wide, divided by the cosine of incidence: the long axis of the footprint on the
-    surface, so grazing surfaces blur rather than alias), and the shadow-ray origin is the hit point moved
-    onto the vertices' tangent planes (Hanika's shadow-terminator fix) so that smooth low-poly surfaces do not
-    shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point."""
+    albedo, class, instance, shadow-ray origin, primitive index: −1 for the shell). Both normals face the ray. On a
+    triangle the shading normal interpolates its vertex normals, the albedo is multiplied by its texture, sampled
+    at the mip level of the ray footprint (``spread`` · t wide, divided by the cosine of incidence: the long axis of
+    the footprint on the surface, so grazing surfaces blur rather than alias), and the shadow-ray origin is the hit
+    point moved onto the vertices' tangent planes (Hanika's shadow-terminator fix) so that smooth low-poly surfaces
+    do not shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point."""
     best, k, nb = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
     inv = _safe_inv(d)
     t_exit = 1e30
@@ -524,13 +524,13 @@ def _lamp_map_visibility(maps: ti.template(), slot, L, q):
 
 
 @ti.func
-def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(), n_lights, n_prims,
+def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_lights, n_prims,
             nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
             maps: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
-    along the geometric normal ng); visibility from ``ns`` shadow rays (strata s0 .. s0+ns-1 of ``params[0]``),
-    hashed from ``key`` — or, with one sample in all and a lamp with a map slot: from its cube
-    shadow map (:func:`_lamp_map_visibility`)."""
+    along the geometric normal ng); visibility from ``params[0]`` shadow rays (stratified over the light's disc),
+    hashed from ``key`` — or, with one sample and a lamp with a map slot: from its cube shadow map
+    (:func:`_lamp_map_visibility`)."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
     total = ti.cast(params[0], ti.i32)
@@ -571,7 +571,7 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
                     else:
                         t1, t2 = _frame(L)
                         rot = _rand(key * 977 + j * 131 + 7)
-                        for s in range(s0, s0 + ns):
+                        for s in range(total):
                             rr = ti.sqrt((ti.cast(s, ti.f32) + _rand(key * 31 + j * 7919 + s * 104729 + 3))
                                          / ti.cast(total, ti.f32))
                             th = 6.2831853 * (rot + ti.cast(s, ti.f32) * 0.6180340)
@@ -587,7 +587,7 @@ def _direct(p, ng, n, key, ns, s0, params: ti.template(), lights: ti.template(),
                                 Ls = (L + off * params[1]).normalized()
                             if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
                                 vis += 1.0
-                        vis /= ti.cast(ns, ti.f32)
+                        vis /= ti.cast(total, ti.f32)
                 radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten * vis)
     return radiance
 
@@ -669,8 +669,8 @@ def sensors_kernel(
         if hit == 1:
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
             radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
-            radiance += _direct(p, n, ns, key, ti.cast(params[0], ti.i32), 0, params, lights, n_lights, n_prims,
-                                nodes_f, nodes_i, pf, pi, tris, lamp_maps)
+            radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi, tris,
+                                lamp_maps)
             col = albedo * radiance
             if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
                 xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
