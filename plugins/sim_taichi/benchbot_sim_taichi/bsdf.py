@@ -50,19 +50,18 @@ def is_lambertian(roughness, metallic):
 
 
 @ti.func
-def fresnel_schlick(f0, cos_theta):
-    """Schlick's Fresnel reflectance (RGB) at incidence cosine ``cos_theta``."""
-    m = ti.max(0.0, 1.0 - cos_theta)
-    m2 = m * m
-    return f0 + (1.0 - f0) * (m2 * m2 * m)
+def base_reflectance(albedo, metallic):
+    """F0 (RGB) of the glTF metallic–roughness model: the dielectric's 0.04 blended with the albedo by
+    ``metallic``."""
+    return DIELECTRIC_F0 * (1.0 - metallic) + albedo * metallic
 
 
 @ti.func
-def _fresnel_dielectric(cos_theta):
-    """Schlick's Fresnel reflectance of the dielectric (F0 = 0.04) at incidence cosine ``cos_theta``."""
+def fresnel_schlick(f0, cos_theta):
+    """Schlick's Fresnel reflectance at incidence cosine ``cos_theta`` for F0 ``f0`` (RGB vector or scalar)."""
     m = ti.max(0.0, 1.0 - cos_theta)
     m2 = m * m
-    return DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * (m2 * m2 * m)
+    return f0 + (1.0 - f0) * (m2 * m2 * m)
 
 
 @ti.func
@@ -98,8 +97,7 @@ def specular_probability(albedo, roughness, metallic, cos_v):
     0.1 and at most 0.9 when both lobes exist (1 for a metal, 0 for a Lambertian material)."""
     p = 0.0
     if is_lambertian(roughness, metallic) == 0:
-        f0 = DIELECTRIC_F0 * (1.0 - metallic) + albedo * metallic
-        ws = luminance(fresnel_schlick(f0, cos_v))
+        ws = luminance(fresnel_schlick(base_reflectance(albedo, metallic), cos_v))
         wd = luminance(albedo) * (1.0 - metallic)
         p = 1.0
         if wd > 0.0:
@@ -120,10 +118,10 @@ def evaluate(albedo, roughness, metallic, v, l):
         else:
             alpha = ti.max(roughness * roughness, MIN_ALPHA)
             h = (v + l).normalized()
-            f0 = DIELECTRIC_F0 * (1.0 - metallic) + albedo * metallic
+            f0 = base_reflectance(albedo, metallic)
             d = ggx_d(alpha, h[2])
             spec = fresnel_schlick(f0, v.dot(h)) * (d * smith_g2(alpha, v[2], l[2]) / (4.0 * v[2] * l[2]))
-            diff = albedo * ((1.0 - metallic) * INV_PI * (1.0 - _fresnel_dielectric(v[2])))
+            diff = albedo * ((1.0 - metallic) * INV_PI * (1.0 - fresnel_schlick(DIELECTRIC_F0, v[2])))
             f = spec + diff
             ps = specular_probability(albedo, roughness, metallic, v[2])
             pdf = ps * smith_g1(alpha, v[2]) * d / (4.0 * v[2]) + (1.0 - ps) * l[2] * INV_PI
