@@ -258,10 +258,10 @@ def pack_scene(scene) -> dict:
             m[tri] = tri_mat[axis[tri]]
             albedo[m >= 0] = mat_albedo[m[m >= 0]]
             has = m >= 0
-            for col, factors in ((9, scene.mat_roughness), (10, scene.mat_metallic)):
+            for col, factors, default in ((9, scene.mat_roughness, 1.0), (10, scene.mat_metallic, 0.0)):
                 factors = np.asarray(factors, np.float32).reshape(-1)
-                if factors.shape[0] == mat_albedo.shape[0]:
-                    pf[:n, col][has] = np.clip(factors[m[has]], 0.0, 1.0)
+                if factors.shape[0] == mat_albedo.shape[0]:  # NaN (a malformed asset) reads as the default
+                    pf[:n, col][has] = np.clip(np.nan_to_num(factors[m[has]], nan=default), 0.0, 1.0)
         pf[:n, 0:3], pf[:n, 3:6], pf[:n, 6:9] = scene.prim_min[order], scene.prim_max[order], albedo
         pi[:n, 0], pi[:n, 1] = kind, axis
         is_obj = obj >= 0

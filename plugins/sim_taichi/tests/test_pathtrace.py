@@ -163,8 +163,9 @@ def test_direct_light_equals_fast_modes(kind):
     r = Renderer("cpu", seed=2)
     r.set_scene(scene)
     q = r.render(K, T, W, H, mode="quality", spp=64, denoise=False, bounces=0)
-    fast = _decode(r.render(K, T, W, H)["rgb"])
-    floor = np.abs(q["depth"] - r.render(K, T, W, H)["depth"]) < 1e-6
+    fast_out = r.render(K, T, W, H)
+    fast = _decode(fast_out["rgb"])
+    floor = np.abs(q["depth"] - fast_out["depth"]) < 1e-6
     floor &= q["depth"] > 0
     lin = q["radiance"][floor]
     ok = (lin > 0.05) & (lin < 0.95)  # fast mode's 8 bits: compare where they are not clipped
@@ -190,6 +191,18 @@ def test_multiple_importance_sampling_neither_loses_nor_adds_light(roughness, me
     one = r.render(K, T, W, H, mode="quality", spp=256, denoise=False, bounces=1)["radiance"]
     assert direct.mean() > 0.01
     assert one.mean() == pytest.approx(direct.mean(), rel=0.03), (one.mean(), direct.mean())
+
+
+def test_a_material_with_nan_factors_is_drawn_with_the_defaults():
+    """A malformed asset's NaN roughness or metallic must not reach the kernels (NaN radiance): it reads as glTF's
+    default of a flat colour, roughness 1 and metallic 0."""
+    from benchbot_sim_taichi.renderer import pack_scene
+
+    packed = pack_scene(_lit_floor_scene("lamp", roughness=float("nan"), metallic=float("nan")))
+    tri = packed["pi"][:packed["n_prims"], 0] == 3
+    assert tri.sum() == 2
+    pf = packed["pf"][:packed["n_prims"]]
+    assert np.all(pf[tri, 9] == 1.0) and np.all(pf[tri, 10] == 0.0)
 
 
 def test_quality_images_are_deterministic_per_seed():
