@@ -48,6 +48,54 @@ def _int_list(text: str) -> list[int]:
     return values
 
 
+def earlier_reference(ref_dir: Path, cam: dict, spp: int,
+                      ladder: list[int]) -> tuple[dict, np.ndarray, dict | None]:
+    """The Cycles renders of an earlier run's ``<out>/reference`` folder, checked against this run's settings.
+
+    Args:
+        ref_dir: the folder (``job.json``, ``timings.json``, ``frame0_spp<N>.npy``: (H, W, 3) linear radiance, any
+            float dtype).
+        cam: this run's Blender camera (``realism.blender_camera``); spp, ladder: this run's sample counts.
+
+    Returns:
+        (its ``timings.json``: ``{'frames': {'frame0': {str(spp): seconds}}, …}``, the reference's (H, W, 3) float32
+        linear radiance, the ladder's figures read from the earlier run's ``quality_vs_reference.json`` beside the
+        folder when the ladder's renders are not in it, else None: compute them from the renders).
+
+    Raises:
+        realism.RealismError: a missing or malformed file, or renders made with other settings (one line each).
+    """
+    def refuse(why: str) -> realism.RealismError:
+        return realism.RealismError(f"--reference-from {ref_dir}: {why}",
+                                    "point it at the reference folder of a run with the same settings")
+
+    try:
+        timings = json.loads((ref_dir / "timings.json").read_text())
+        rendered = all((ref_dir / f"frame0_spp{s}.npy").exists() for s in ladder)
+        for s in [spp] + (ladder if rendered else []):
+            float(timings["frames"]["frame0"][str(s)])
+        frame = json.loads((ref_dir / "job.json").read_text())
+        settings = (frame.get("spp"), frame.get("ladder"), frame["frames"][0].get("matrix_world"),
+                    frame["frames"][0].get("width"), frame["frames"][0].get("height"))
+    except (OSError, ValueError, KeyError, IndexError, TypeError, AttributeError) as e:
+        raise refuse(f"cannot read its timings.json/job.json ({type(e).__name__}: {e})") from None
+    if settings != (spp, ladder, cam["matrix_world"], cam["width"], cam["height"]):
+        raise refuse("it was rendered with other settings (spp, ladder, pose or size)")
+    try:
+        ref_linear = np.load(ref_dir / f"frame0_spp{spp}.npy").astype(np.float32)
+    except (OSError, ValueError) as e:
+        raise refuse(f"cannot read frame0_spp{spp}.npy ({e})") from None
+    if ref_linear.shape != (cam["height"], cam["width"], 3):
+        raise refuse(f"frame0_spp{spp}.npy has shape {ref_linear.shape}, not ({cam['height']}, {cam['width']}, 3)")
+    if rendered:
+        return timings, ref_linear, None
+    try:  # a trimmed copy: the earlier run's figures of the ladder
+        return timings, ref_linear, json.loads((ref_dir.parent / "quality_vs_reference.json").read_text())["cycles"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise refuse(f"the ladder's renders are missing and so is an earlier quality_vs_reference.json beside it "
+                     f"({type(e).__name__}: {e})") from None
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--env", default="miniroom:1")
@@ -99,47 +147,33 @@ def main(argv: list[str] | None = None) -> int:
     ladder = [s for s in args.ladder if s < args.reference_spp]
     job = {"glb": str(ref_dir / "scene.glb"), "shell": "camera-only", "lights": realism.reference_lights(scene),
            "frames": [cam], "spp": args.reference_spp, "ladder": ladder, "seed": args.seed, "out_dir": str(ref_dir)}
-    if args.reference_from is not None:
-        src = args.reference_from
-        try:
-            timings = json.loads((src / "timings.json").read_text())
-            earlier = json.loads((src / "job.json").read_text())
-        except (OSError, ValueError) as e:
-            print(f"error: --reference-from {src}: cannot read its timings.json/job.json ({e})", file=sys.stderr)
-            return 2
-        if (earlier.get("spp"), earlier.get("ladder"), earlier["frames"][0].get("matrix_world"),
-                earlier["frames"][0].get("width"), earlier["frames"][0].get("height")) != (
-                args.reference_spp, ladder, cam["matrix_world"], W, H):
-            print(f"error: --reference-from {src} was rendered with other settings (spp, ladder, pose or size)",
-                  file=sys.stderr)
-            return 2
-        ref_dir = src
-    else:
-        print(f"Cycles: {args.reference_spp} spp reference and ladder {ladder} at {W}x{H} …", flush=True)
-        try:
+    try:
+        if args.reference_from is not None:
+            ref_dir = args.reference_from
+            timings, ref_linear, cycles = earlier_reference(ref_dir, cam, args.reference_spp, ladder)
+        else:
+            print(f"Cycles: {args.reference_spp} spp reference and ladder {ladder} at {W}x{H} …", flush=True)
             timings = realism.run_cycles(job, ref_dir / "job.json", args.bpy, args.reference_timeout)
-        except realism.RealismError as e:
-            print(f"error: {e}", file=sys.stderr)
-            return 1
+            ref_linear = np.load(ref_dir / f"frame0_spp{args.reference_spp}.npy").astype(np.float32)
+            cycles = None
+    except realism.RealismError as e:
+        print(f"error: {e.message}" + (f"; {e.hint}" if e.hint else ""), file=sys.stderr)
+        return 2 if args.reference_from is not None else 1
     per = timings["frames"]["frame0"]
-    ref_linear = np.load(ref_dir / f"frame0_spp{args.reference_spp}.npy").astype(np.float32)
     ref = realism.encode_like_ours(ref_linear)
-    cycles = {}
-    for s in ladder:
-        rung = ref_dir / f"frame0_spp{s}.npy"
-        if not rung.exists() and args.reference_from is not None:  # a trimmed copy: the earlier run's figures
-            try:
-                cycles = json.loads((ref_dir.parent / "quality_vs_reference.json").read_text())["cycles"]
-            except (OSError, ValueError, KeyError) as e:
-                print(f"error: --reference-from {ref_dir}: no {rung.name} and no earlier quality_vs_reference.json "
-                      f"beside it ({e})", file=sys.stderr)
-                return 2
-            break
-        img = realism.encode_like_ours(np.load(rung))
-        cycles[str(s)] = {"seconds": per[str(s)], "psnr_db": realism.psnr(img, ref), "ssim": realism.ssim(img, ref)}
+    if cycles is None:
+        cycles = {}
+        for s in ladder:
+            img = realism.encode_like_ours(np.load(ref_dir / f"frame0_spp{s}.npy"))
+            cycles[str(s)] = {"seconds": per[str(s)], "psnr_db": realism.psnr(img, ref),
+                              "ssim": realism.ssim(img, ref)}
 
     # ours
-    r = Renderer(args.arch, seed=args.seed)
+    try:
+        r = Renderer(args.arch, seed=args.seed)
+    except ValueError as e:
+        print(f"error: --arch {args.arch}: {e}", file=sys.stderr)
+        return 2
     r.set_scene(scene)
     fast = r.render(K, T, W, H)["rgb"]
     r.render(K, T, W, H, mode="quality", spp=1)  # compiles the kernels and starts the denoiser

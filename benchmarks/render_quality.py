@@ -49,7 +49,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])
-    r = Renderer(args.arch, denoise_device=args.denoise_device)
+    try:
+        r = Renderer(args.arch, denoise_device=args.denoise_device)
+    except ValueError as e:
+        ap.error(f"--arch {args.arch}: {e}")
     r.set_scene(scene)
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
@@ -63,7 +66,11 @@ def main(argv: list[str] | None = None) -> int:
         r.render(K, cams[i % len(cams)], W, H, mode="quality", spp=args.spp, bounces=args.bounces, denoise=denoise)
 
     t0 = time.perf_counter()
-    frame(0, True)
+    try:
+        frame(0, True)
+    except RuntimeError as e:  # the denoiser's device cannot start (one line, naming it and why)
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     first = time.perf_counter() - t0
     frame(1, False)
 
