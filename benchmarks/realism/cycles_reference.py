@@ -20,7 +20,8 @@ of BenchBot. The job (JSON, written by ``realism.py``) names:
 Writes ``<out_dir>/<frame>_spp<N>.npy`` (H, W, 3) float32 linear radiance (no tone mapping, no clamping), and
 ``<out_dir>/timings.json`` {frame: {spp: seconds}} plus ``import_s``. Materials: glTF metallic-roughness as imported
 (Principled BSDF); a material with roughness 1 and metallic 0 (what the exporter writes for flat colours) is made
-purely diffuse, as our renderer's surfaces are. No denoising, no adaptive sampling, a 1-pixel box filter.
+purely diffuse, as our renderer's surfaces are; a window pane (a material named ``glass_*``) is the renderer's thin
+glass (``_thin_glass``). No denoising, no adaptive sampling, a 1-pixel box filter.
 """
 
 import json
@@ -78,6 +79,9 @@ def _import_scene(job: dict) -> None:
     for mat in bpy.data.materials:
         if not mat.use_nodes:
             continue
+        if mat.name.startswith("glass_"):
+            _thin_glass(mat)
+            continue
         for node in mat.node_tree.nodes:
             if node.type == "BSDF_PRINCIPLED":
                 rough = node.inputs["Roughness"]
@@ -85,6 +89,43 @@ def _import_scene(job: dict) -> None:
                 if (not rough.is_linked and not metal.is_linked and rough.default_value >= 0.999
                         and metal.default_value <= 1e-6):
                     node.inputs["Specular IOR Level"].default_value = 0.0  # Lambertian, like our renderer
+
+
+def _thin_glass(mat) -> None:
+    """A window pane as our renderer draws it: at each face, a mirror weighted by Schlick's reflectance
+    F = 0.04 + 0.96 (1 − |n·ω|)⁵ and a Transparent BSDF (straight through, and letting shadow rays through) with the
+    rest — no refraction, no tint."""
+    nt = mat.node_tree
+    nt.nodes.clear()
+    geo = nt.nodes.new("ShaderNodeNewGeometry")
+    dot = nt.nodes.new("ShaderNodeVectorMath")
+    dot.operation = "DOT_PRODUCT"
+    nt.links.new(geo.outputs["Incoming"], dot.inputs[0])
+    nt.links.new(geo.outputs["Normal"], dot.inputs[1])
+    value = dot.outputs["Value"]
+    for op, arg in (("ABSOLUTE", None), ("SUBTRACT", None), ("POWER", 5.0), ("MULTIPLY_ADD", (0.96, 0.04))):
+        node = nt.nodes.new("ShaderNodeMath")
+        node.operation = op
+        node.use_clamp = True
+        if op == "SUBTRACT":  # 1 − |cos|
+            node.inputs[0].default_value = 1.0
+            nt.links.new(value, node.inputs[1])
+        else:
+            nt.links.new(value, node.inputs[0])
+            if op == "POWER":
+                node.inputs[1].default_value = arg
+            elif op == "MULTIPLY_ADD":
+                node.inputs[1].default_value, node.inputs[2].default_value = arg
+        value = node.outputs[0]
+    clear = nt.nodes.new("ShaderNodeBsdfTransparent")
+    mirror = nt.nodes.new("ShaderNodeBsdfGlossy")
+    mirror.inputs["Roughness"].default_value = 0.0
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    nt.links.new(value, mix.inputs["Fac"])
+    nt.links.new(clear.outputs[0], mix.inputs[1])
+    nt.links.new(mirror.outputs[0], mix.inputs[2])
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(mix.outputs[0], out.inputs["Surface"])
 
 
 def _world(ambient) -> None:

@@ -7,7 +7,10 @@ shell (floor, walls, ceiling facing inwards). Face colours are the sRGB albedos;
 comparison of ``benchmarks/render.py``.
 
 :func:`export_scene`: a glTF binary with the materials (PBR factors, textures), vertex normals and UVs, one node per
-material and object, so that a reference renderer (Blender Cycles, Mitsuba) draws the same scene."""
+material and object, so that a reference renderer (Blender Cycles, Mitsuba) draws the same scene. Window panes
+(``Scene.mat_glass``) are materials named ``glass_<k>`` (white, roughness 0, alpha-blended at 0.1): a reference
+renderer should give them the renderer's thin-glass model (Fresnel reflection, the rest passed straight through).
+"""
 
 from __future__ import annotations
 
@@ -16,6 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID, PRIM_TRIANGLE
+
+#: Name prefix of the exported materials of window panes.
+GLASS_MATERIAL_PREFIX = "glass_"
 
 
 def _unit_parts(subdivisions: int, sections: int):
@@ -198,10 +204,16 @@ def export_scene(scene, path, *, subdivisions: int = 2, sections: int = 24, shel
                 x = int(scene.mat_texture[k]) if k < scene.mat_texture.shape[0] else -1
                 if x >= 0 and x not in textures:
                     textures[x] = Image.fromarray(_level0(scene, x))
-                materials[mk] = trimesh.visual.material.PBRMaterial(
-                    name=f"material_{k}", baseColorFactor=[*np.clip(scene.mat_albedo[k], 0, 1).tolist(), 1.0],
-                    baseColorTexture=textures.get(x) if x >= 0 else None,
-                    metallicFactor=float(scene.mat_metallic[k]), roughnessFactor=float(scene.mat_roughness[k]))
+                glass = k < len(scene.mat_glass) and bool(scene.mat_glass[k])
+                if glass:  # a window pane: clear glass, named glass_* for the reference renderer
+                    materials[mk] = trimesh.visual.material.PBRMaterial(
+                        name=f"{GLASS_MATERIAL_PREFIX}{k}", baseColorFactor=[1.0, 1.0, 1.0, 0.1], alphaMode="BLEND",
+                        metallicFactor=0.0, roughnessFactor=0.0)
+                else:
+                    materials[mk] = trimesh.visual.material.PBRMaterial(
+                        name=f"material_{k}", baseColorFactor=[*np.clip(scene.mat_albedo[k], 0, 1).tolist(), 1.0],
+                        baseColorTexture=textures.get(x) if x >= 0 else None,
+                        metallicFactor=float(scene.mat_metallic[k]), roughnessFactor=float(scene.mat_roughness[k]))
             else:
                 materials[mk] = trimesh.visual.material.PBRMaterial(
                     name=f"albedo_{len(materials)}", baseColorFactor=[*np.clip(mk[1], 0, 1), 1.0], metallicFactor=0.0,

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchbot_sim_taichi.meshes import Material, MeshInstance, load_mesh, make_mesh, without_glass
+from benchbot_sim_taichi.meshes import Material, MeshInstance, load_mesh, make_mesh, with_glass_panes
 from benchbot_sim_taichi.surfaces import TILE_SIZE_M, room_materials, surface_texture
 
 #: Roles of placements that stand in the robot's way (when their bottom is below its height).
@@ -196,8 +196,8 @@ def furnish_environment(objects: list[dict], map_path: str | None, paths: list[n
     lamps = []
     for p in furnishing.placements:
         mesh = load_mesh(library.get(p.asset_id).path)
-        if p.role == "window":  # open panes: the outdoors is seen and the sun shines in through them
-            mesh = without_glass(mesh)
+        if p.role in ("window", "door"):  # glass panes: the outdoors is seen and the sun shines in through them
+            mesh = with_glass_panes(mesh)
         T = np.asarray(p.transform, dtype=np.float64)
         home.instances.append(MeshInstance(mesh, T, int(p.object_index) if p.role == "object" else -1))
         lo, hi = _transformed_bounds(T, mesh.bounds)

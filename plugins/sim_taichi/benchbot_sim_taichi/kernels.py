@@ -54,6 +54,15 @@ LAMP_MAP_BIAS_M = 0.01
 #: Columns of a packed light row: kind, vector xyz, colour rgb, range, lamp-map slot (−1: shadow rays).
 LIGHT_COLS = 9
 
+#: ``pi`` kind of a window pane: a triangle of clear glass (see the renderer's module docstring). The scene's own
+#: kinds are 0 box, 1 ellipsoid, 2 cylinder, 3 triangle.
+GLASS = 4
+#: Reflectance of glass (index 1.5) at normal incidence, for Schlick's approximation.
+GLASS_F0 = 0.04
+#: Glass faces a camera ray goes through (two panes of a double-glazed window have four); beyond them panes are not
+#: seen (the ray goes on as if they were not there).
+MAX_GLASS_LAYERS = 4
+
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
 SHADE_COLS = 17
@@ -112,14 +121,25 @@ def _unperm(v, ax):
 
 
 @ti.func
-def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), k, tmax):
-    """(t, normal) of the ray's entry into primitive k if T_EPS < t < tmax, else (tmax, 0)."""
+def _glass_reflectance(cos_i):
+    """Schlick's reflectance of one air–glass interface at incidence cosine ``cos_i`` (0..1)."""
+    c = 1.0 - ti.min(ti.max(cos_i, 0.0), 1.0)
+    c2 = c * c
+    return GLASS_F0 + (1.0 - GLASS_F0) * c2 * c2 * c
+
+
+@ti.func
+def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), k, tmax, see_glass):
+    """(t, normal) of the ray's entry into primitive k if T_EPS < t < tmax, else (tmax, 0). A pane (kind GLASS) is
+    missed when ``see_glass`` is 0."""
     kind = pi[k, 0]
+    if kind == GLASS and see_glass == 0:
+        kind = -1
     t = tmax
     n = ti.Vector([0.0, 0.0, 0.0])
     lo = ti.Vector([0.0, 0.0, 0.0])
     hi = ti.Vector([0.0, 0.0, 0.0])
-    if kind != 3:  # a triangle reads its vertices only
+    if kind < 3:  # a triangle reads its vertices only
         lo = _v3(pf, k, 0)
         hi = _v3(pf, k, 3)
     if kind == 0:  # box
@@ -192,7 +212,7 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
                 q = O + tn * D
                 nl = ti.Vector([q[0] / R[0], q[1] / R[1], 0.0])
             n = _unperm(nl, ax).normalized()
-    else:  # triangle
+    elif kind >= 3:  # triangle or pane
         j = pi[k, 1]
         v0 = _v3(tris, j, 0)
         e1 = _v3(tris, j, 3) - v0
@@ -217,22 +237,34 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
 
 
 @ti.func
-def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, best, best_k, best_n):
+def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, best, best_k, best_n,
+              see_glass, trans, any_hit: ti.template()):
     """The closest of a leaf's primitives ``first .. first + cnt - 1`` nearer than ``best``: the updated
-    ``(best, best_k, best_n)`` (unchanged when none is)."""
+    ``(best, best_k, best_n, trans)`` (unchanged when none is). Panes count as surfaces when ``see_glass`` is 1,
+    are missed when it is 0; an ``any_hit`` ray (``see_glass`` 1) goes through them, its transmittance ``trans``
+    multiplied by each one's 1 − F."""
     for k in range(first, first + cnt):
-        t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best)
+        t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best, see_glass)
         if t < best:
-            best = t
-            best_k = k
-            best_n = n
-    return best, best_k, best_n
+            through = 0
+            if ti.static(any_hit):
+                if pi[k, 0] == GLASS:
+                    through = 1
+                    trans *= 1.0 - _glass_reflectance(ti.abs(n.dot(d)) / d.norm())
+            if through == 0:
+                best = t
+                best_k = k
+                best_n = n
+    return best, best_k, best_n, trans
 
 
 @ti.func
 def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
-           pi: ti.template(), tris: ti.template(), any_hit: ti.template()):
-    """Closest (or, with ``any_hit``, any) primitive hit with T_EPS < t < tmax: (t, k, normal); k = -1: none.
+           pi: ti.template(), tris: ti.template(), any_hit: ti.template(), see_glass):
+    """Closest (or, with ``any_hit``, any) primitive hit with T_EPS < t < tmax: (t, k, normal, transmittance);
+    k = -1: none. Window panes (kind GLASS) are surfaces to a closest-hit ray when ``see_glass`` is 1 and invisible
+    when it is 0; an any-hit ray (a shadow ray: pass ``see_glass`` 1) goes through them, and the transmittance
+    (1 without panes) is the product of their 1 − F — exact, since such a ray tests every primitive before tmax.
 
     Any-hit rays, and every ray when :data:`ORDERED_TRAVERSAL` is off (the CPU), traverse the BVH stacklessly with
     skip pointers, left child first. With it on (CUDA), closest-hit rays traverse it nearer child first: at an
@@ -243,6 +275,7 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
     best = tmax
     best_k = -1
     best_n = ti.Vector([0.0, 0.0, 0.0])
+    trans = 1.0
     n_nodes = nodes_i.shape[0] if n_prims > 0 else 0
     if ti.static(any_hit or not ORDERED_TRAVERSAL):
         node = 0
@@ -251,8 +284,8 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
             if a0 <= a1 and a1 > 0.0 and a0 < best:
                 cnt = nodes_i[node, 0]
                 if cnt > 0:
-                    best, best_k, best_n = _hit_leaf(o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k,
-                                                     best_n)
+                    best, best_k, best_n, trans = _hit_leaf(o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best,
+                                                            best_k, best_n, see_glass, trans, any_hit)
                     if ti.static(any_hit):
                         if best_k >= 0:
                             break
@@ -274,7 +307,8 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
             nxt = -1
             cnt = nodes_i[node, 0]
             if cnt > 0:
-                best, best_k, best_n = _hit_leaf(o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, best_n)
+                best, best_k, best_n, trans = _hit_leaf(o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k,
+                                                        best_n, see_glass, trans, False)
             else:
                 left = node + 1
                 right = nodes_i[node, 1]
@@ -299,7 +333,7 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
                 if entry[sp] < best:
                     nxt = stack[sp]
             node = nxt
-    return best, best_k, best_n
+    return best, best_k, best_n, trans
 
 
 @ti.func
@@ -392,15 +426,17 @@ def _texture(texels: ti.template(), tex_info: ti.template(), lut: ti.template(),
 @ti.func
 def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
                pi: ti.template(), tris: ti.template(), shade: ti.template(), texels: ti.template(),
-               tex_info: ti.template(), lut: ti.template(), world: ti.template()):
+               tex_info: ti.template(), lut: ti.template(), world: ti.template(), see_glass):
     """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
     albedo, class, instance, shadow-ray origin, primitive index: −1 for the shell). Both normals face the ray. On a
     triangle the shading normal interpolates its vertex normals, the albedo is multiplied by its texture, sampled
     at the mip level of the ray footprint (``spread`` · t wide, divided by the cosine of incidence: the long axis of
     the footprint on the surface, so grazing surfaces blur rather than alias), and the shadow-ray origin is the hit
     point moved onto the vertices' tangent planes (Hanika's shadow-terminator fix) so that smooth low-poly surfaces
-    do not shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point."""
-    best, k, nb = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
+    do not shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point. Window
+    panes are surfaces when ``see_glass`` is 1 (a pane's hit is returned unshaded: its normals, its primitive
+    index), invisible when it is 0."""
+    best, k, nb, _tr = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False, see_glass)
     inv = _safe_inv(d)
     t_exit = 1e30
     exit_axis = 0
@@ -564,10 +600,11 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                     texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
                     vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
                                                po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
-                if slot < 0:  # shadow rays
+                if slot < 0:  # shadow rays (through panes, weighted by their transmittance)
                     if total <= 1:
-                        if _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
-                            vis = 1.0
+                        _t, k_sh, _n, tr = _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, True, 1)
+                        if k_sh < 0:
+                            vis = tr
                     else:
                         t1, t2 = _frame(L)
                         rot = _rand(key * 977 + j * 131 + 7)
@@ -585,8 +622,9 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                                 ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
                             else:
                                 Ls = (L + off * params[1]).normalized()
-                            if _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
-                                vis += 1.0
+                            _t, k_sh, _n, tr = _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris, True, 1)
+                            if k_sh < 0:
+                                vis += tr
                         vis /= ti.cast(total, ti.f32)
                 radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten * vis)
     return radiance
@@ -608,9 +646,10 @@ def _ray(c, x, y):
 @ti.func
 def _scan_beam(o, a, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(),
                tris: ti.template(), world: ti.template()):
-    """Range (m) along the horizontal beam from o at map-frame angle a to the first primitive or wall."""
+    """Range (m) along the horizontal beam from o at map-frame angle a to the first primitive or wall (through
+    window panes)."""
     d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
-    best, k, n = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
+    best, k, n, _tr = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False, 0)
     inv = _safe_inv(d)
     tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
     ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
@@ -664,14 +703,57 @@ def sensors_kernel(
                        consts[27], consts[28], consts[29], consts[30]])
         params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
         o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
-        hit, t, n, ns, albedo, c_id, i_id, p, _k = _shade_hit(o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf,
-                                                              pi, tris, shade, texels, tex_info, tex_lut, consts)
-        if hit == 1:
-            key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
-            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
-            radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi, tris,
-                                lamp_maps)
-            col = albedo * radiance
+        key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
+        # Segments: the camera ray through up to MAX_GLASS_LAYERS pane faces (each weighted by its 1 − F) to the
+        # surface that depth and segmentation report, then, if it met a pane, that first face's reflection.
+        col = ti.Vector([0.0, 0.0, 0.0])
+        weight = 1.0
+        depth_t = 0.0
+        hit0 = 0
+        c_id = 0
+        i_id = 0
+        layers = 0
+        reflecting = 0
+        r_o = o
+        r_d = d
+        r_w = 0.0
+        for _seg in range(MAX_GLASS_LAYERS + 2):
+            see = 1 if (reflecting == 0 and layers < MAX_GLASS_LAYERS) else 0
+            hit, t, n, ns, albedo, cs, is_, p, k = _shade_hit(o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf,
+                                                               pi, tris, shade, texels, tex_info, tex_lut, consts, see)
+            pane = 0
+            if hit == 1 and k >= 0:
+                if pi[k, 0] == GLASS:
+                    pane = 1
+            if pane == 1:
+                f = _glass_reflectance(ti.abs(n.dot(d)) / d.norm())
+                if layers == 0:
+                    r_w = f
+                    r_d = d - 2.0 * n.dot(d) * n
+                    r_o = p + n * SHADOW_OFFSET
+                weight *= 1.0 - f
+                depth_t += t
+                o = p
+                layers += 1
+            else:
+                if reflecting == 0:
+                    hit0 = hit
+                    depth_t += t
+                    c_id = cs
+                    i_id = is_
+                if hit == 1:
+                    radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
+                    radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi,
+                                        tris, lamp_maps)
+                    col += weight * albedo * radiance
+                if reflecting == 0 and r_w > 0.0:
+                    reflecting = 1
+                    o = r_o
+                    d = r_d
+                    weight = r_w
+                else:
+                    break
+        if hit0 == 1:
             if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
                 xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
                 yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
@@ -682,7 +764,7 @@ def sensors_kernel(
                 x = ti.min(ti.max(col[k], 0.0), 1.0)
                 rgb[b, v, u, k] = ti.cast(consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)],
                                           ti.u8)
-            depth[b, v, u] = t
+            depth[b, v, u] = depth_t
         else:
             for k in ti.static(range(3)):
                 rgb[b, v, u, k] = ti.cast(0, ti.u8)
@@ -714,7 +796,7 @@ def lamp_map_kernel(
     1: −a) of slot s (light ``light_of_slot[s]``) holds the distance (m) from the light to the first primitive along
     the direction whose components are ``(2(x + ½)/R − 1, 2(y + ½)/R − 1, ±1)`` on the axes (a+1, a+2, a) (mod 3),
     counting only primitives beyond ``LAMP_FIXTURE_M`` (a lamp's own fixture casts no shadow, as with shadow rays)
-    and within the light's range; 1e30 where there is none. The room shell casts no shadow (as with shadow rays)."""
+    and within the light's range; 1e30 where there is none. The room shell and window panes cast no shadow."""
     R = maps.shape[1]
     for z, y, x in ti.ndrange(maps.shape[0], R, R):
         j = light_of_slot[z // 6]
@@ -726,7 +808,8 @@ def lamp_map_kernel(
         reach = lights[j, 7] - LAMP_FIXTURE_M
         depth = 1e30
         if reach > 0.0:
-            t, k, nrm = _trace(L + d * LAMP_FIXTURE_M, d, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, False)
+            t, k, nrm, _tr = _trace(L + d * LAMP_FIXTURE_M, d, reach, n_prims, nodes_f, nodes_i, pf, pi, tris, False,
+                                    0)
             if k >= 0:
                 depth = LAMP_FIXTURE_M + t
         maps[z, y, x] = depth

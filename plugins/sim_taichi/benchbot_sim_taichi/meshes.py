@@ -71,8 +71,10 @@ class Material:
         roughness, metallic: glTF metallic-roughness factors (0..1).
         name: the file's material name, if any.
         from_file: False for the default material given to a mesh whose file has none.
-        opacity: 0..1, the glTF base colour's alpha where the material blends (``alphaMode: BLEND``), else 1. The
-            renderer draws every surface opaque; :func:`without_glass` drops glass (below :data:`GLASS_OPACITY`).
+        opacity: 0..1, the glTF base colour's alpha where the material blends (``alphaMode: BLEND``), else 1.
+        glass: a window pane: a clear, thin sheet of glass (index 1.5) that the camera sees through and reflects in,
+            that lets light through and that depth, segmentation and the laser do not see (see the renderer's module
+            docstring); :func:`with_glass_panes` sets it. Other surfaces are opaque, whatever their opacity.
     """
 
     albedo: np.ndarray
@@ -82,6 +84,7 @@ class Material:
     name: str = ""
     from_file: bool = True
     opacity: float = 1.0
+    glass: bool = False
 
 
 @dataclass(eq=False)
@@ -437,21 +440,19 @@ def with_albedo(mesh: MeshData, albedo_linear) -> MeshData:
 
 
 # ------------------------------------------------------------------------------------------------------ flattening
-#: Materials less opaque than this are glass (see :func:`without_glass`): the packaged window panes are 0.35–0.50,
+#: Materials less opaque than this are glass (see :func:`with_glass_panes`): the packaged window panes are 0.35–0.50,
 #: sheer curtains 0.66.
 GLASS_OPACITY = 0.6
 
 
-def without_glass(mesh: MeshData) -> MeshData:
-    """``mesh`` without the faces whose material is glass (``opacity`` < :data:`GLASS_OPACITY`): what a window keeps,
-    so that the camera sees, and the sun shines, through its panes (every drawn surface is opaque). The vertices,
-    materials and ``bounds`` stay as they are (a pane lies inside its frame's bounds). Returns ``mesh`` itself when
-    it has no glass."""
-    glass = np.array([m.opacity < GLASS_OPACITY for m in mesh.materials], dtype=bool)
-    keep = ~glass[mesh.f_material]
-    if keep.all():
+def with_glass_panes(mesh: MeshData) -> MeshData:
+    """``mesh`` (sharing its arrays) with its glass materials (``opacity`` < :data:`GLASS_OPACITY`) marked as window
+    panes (``Material.glass``): what a window or glazed door becomes, so that the camera sees, and the sun shines,
+    through its panes. Returns ``mesh`` itself when it has no glass."""
+    if not any(m.opacity < GLASS_OPACITY for m in mesh.materials):
         return mesh
-    return dataclasses.replace(mesh, f=mesh.f[keep], f_material=mesh.f_material[keep])
+    mats = [dataclasses.replace(m, glass=True) if m.opacity < GLASS_OPACITY else m for m in mesh.materials]
+    return dataclasses.replace(mesh, materials=mats)
 
 
 def instance_bounds(inst: MeshInstance) -> np.ndarray:
@@ -634,6 +635,8 @@ def add_mesh_instances(scene, instances) -> tuple[int, int]:
                                           np.asarray([m.roughness for m in mats], np.float32)]).astype(np.float32)
     scene.mat_metallic = np.concatenate([scene.mat_metallic,
                                          np.asarray([m.metallic for m in mats], np.float32)]).astype(np.float32)
+    scene.mat_glass = np.concatenate([np.asarray(scene.mat_glass, bool).reshape(-1),
+                                      np.asarray([m.glass for m in mats], bool)])
     tri_mat = flat["tri_material"] + K0
     scene.tri_v = np.concatenate([scene.tri_v.reshape(-1, 3, 3), flat["tri_v"]]).astype(np.float32)
     scene.tri_n = np.concatenate([scene.tri_n.reshape(-1, 3, 3), flat["tri_n"]]).astype(np.float32)

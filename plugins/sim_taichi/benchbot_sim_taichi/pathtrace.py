@@ -23,6 +23,12 @@ Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering
 - **multiple importance sampling** (Veach 1997, power heuristic, β = 2) between that light sample and the BSDF sample
   that hits the same sun or lamp (at a path's last vertex, where no BSDF sample follows, the light sample counts
   fully);
+- **window panes** (``kernels.GLASS``): at each face a path reflects with probability F (Schlick, index 1.5) or goes
+  straight on with 1 − F, with its throughput unchanged (what it estimates is F · reflected + (1 − F) · transmitted
+  light); a face is not a bounce (at most ``kernels.MAX_GLASS_LAYERS`` per path, then panes are invisible to it),
+  has no next-event estimation (a specular event), and a light reached after a reflection counts fully. Shadow rays
+  go through panes weighted by their 1 − F. The camera's view through panes sees the room shell and writes the
+  denoiser's guides, like a camera hit;
 - **Russian roulette** from bounce ``params[6]`` on: a path continues with probability
   ``min(0.95, max(throughput))`` and is reweighted by its inverse.
 
@@ -38,7 +44,7 @@ with contextlib.redirect_stdout(sys.stderr):
 
 from benchbot_sim_taichi import bsdf  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.kernels import (  # noqa: E402
-    SHADOW_OFFSET, _frame, _hash, _ray, _shade_hit, _trace,
+    GLASS, MAX_GLASS_LAYERS, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
 )
 
 #: Spread (rad) of the ray cone of a diffuse bounce, for its texture level of detail.
@@ -182,12 +188,17 @@ def quality_kernel(
             prev_ns = d
             prev_pdf = 0.0
             prev_total = 0.0
-            for bounce in range(max_bounces + 1):
+            prev_delta = 0  # the last event was a pane's reflection: no light sample could reach what follows
+            camera_view = 1  # still the camera's ray (through panes): it sees the shell and writes the guides
+            panes = 0
+            bounce = 0
+            for _event in range(max_bounces + 1 + MAX_GLASS_LAYERS):
+                see = 1 if panes < MAX_GLASS_LAYERS else 0
                 hit, t, n, ns, albedo, c_id, i_id, p, k = _shade_hit(o, d, spread, n_prims, nodes_f, nodes_i, pf,
                                                                      pi, tris, shade, texels, tex_info, tex_lut,
-                                                                     world)
-                escaped = hit == 0 or (k < 0 and bounce > 0)  # the shell is seen by camera rays only
-                if bounce > 0:  # lights reached by the BSDF sample, weighted against next-event estimation
+                                                                     world, see)
+                escaped = hit == 0 or (k < 0 and camera_view == 0)  # the shell is seen by camera rays only
+                if camera_view == 0:  # lights reached by the BSDF sample, weighted against next-event estimation
                     t_lim = 1e30
                     if not escaped:
                         t_lim = t
@@ -195,7 +206,7 @@ def quality_kernel(
                         if _cone_hit(lights, j, o, d, t_lim, params) == 1:
                             axis, dist, omc, radiance = _light_geometry(lights, j, prev_p, params)
                             p_light = 0.0
-                            if prev_total > 0.0 and omc > 0.0:
+                            if prev_delta == 0 and prev_total > 0.0 and omc > 0.0:
                                 p_light = (_light_weight(lights, j, prev_p, prev_ns, params) / prev_total
                                            / (TWO_PI * omc))
                             acc += throughput * radiance * (prev_pdf * prev_pdf
@@ -204,7 +215,22 @@ def quality_kernel(
                         acc += throughput * _sky(world, d)
                 if escaped:
                     break
-                if bounce == 0:
+                pane = 0
+                if k >= 0:
+                    if pi[k, 0] == GLASS:
+                        pane = 1
+                if pane == 1:  # reflect with probability F, else straight on; not a bounce
+                    panes += 1
+                    state, u_f = _rng(state)
+                    if u_f < _glass_reflectance(ti.abs(n.dot(d))):
+                        d = d - 2.0 * n.dot(d) * n
+                        o = p + n * SHADOW_OFFSET
+                        prev_delta = 1
+                        camera_view = 0
+                    else:
+                        o = p
+                    continue
+                if camera_view == 1:
                     guide_albedo += albedo
                     guide_normal += ns
                 rough = 1.0
@@ -243,12 +269,14 @@ def quality_kernel(
                             f, p_bsdf = bsdf.evaluate(albedo, rough, metal, wo,
                                                       ti.Vector([wl.dot(t1), wl.dot(t2), wl.dot(ns)]))
                             if p_bsdf > 0.0:
-                                if _trace(po, wl, dist, n_prims, nodes_f, nodes_i, pf, pi, tris, True)[1] < 0:
+                                _t, k_sh, _n, tr = _trace(po, wl, dist, n_prims, nodes_f, nodes_i, pf, pi, tris, True,
+                                                          1)
+                                if k_sh < 0:
                                     p_light = w_chosen / total / (TWO_PI * omc)
                                     mis = 1.0  # the path ends here: no BSDF sample will reach the light
                                     if bounce < max_bounces:
                                         mis = p_light * p_light / (p_light * p_light + p_bsdf * p_bsdf)
-                                    acc += throughput * f * radiance * (wl.dot(ns) * mis / p_light)
+                                    acc += throughput * f * radiance * (tr * wl.dot(ns) * mis / p_light)
                 if bounce == max_bounces:
                     break
                 # the BSDF sample that continues the path
@@ -270,9 +298,12 @@ def quality_kernel(
                 prev_ns = ns
                 prev_pdf = pdf
                 prev_total = total
+                prev_delta = 0
+                camera_view = 0
                 o = po
                 d = d_new.normalized()
                 spread = ti.max(BOUNCE_SPREAD * rough, spread)
+                bounce += 1
         acc /= ti.cast(spp, ti.f32)
         for k in ti.static(range(3)):
             out[b, v, u, k] = acc[k]

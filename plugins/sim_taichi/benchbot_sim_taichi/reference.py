@@ -106,12 +106,17 @@ def hit_primitive(scene, i: int, o: np.ndarray, d: np.ndarray, tmax: np.ndarray)
 
 
 def trace_reference(scene, o, d, tmax=None):
-    """Closest primitive hit of rays ``o``/``d``: ``(t (R,), index (R,) (-1: none), normal (R, 3))``."""
+    """Closest primitive hit of rays ``o``/``d``: ``(t (R,), index (R,) (-1: none), normal (R, 3))``. Window panes
+    (``Scene.prim_glass``) are left out, as depth, segmentation and the laser see through them (shadow rays and the
+    images of this reference therefore take panes as fully clear)."""
     R = d.shape[0]
     best = np.full(R, _INF) if tmax is None else np.asarray(tmax, dtype=np.float64).copy()
     k = np.full(R, -1)
     nrm = np.zeros((R, 3))
+    glass = scene.prim_glass()
     for i in range(int(scene.prim_type.shape[0])):
+        if glass[i]:
+            continue
         t, n = hit_primitive(scene, i, o, d, best)
         m = t < best
         best[m], k[m], nrm[m] = t[m], i, n[m]

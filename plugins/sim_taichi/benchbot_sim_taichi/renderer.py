@@ -38,6 +38,17 @@ texture: sRGB texels turned linear through a 256-entry table, bilinearly filtere
 from the ray's footprint (``t / fx`` metres per pixel, divided by the cosine of incidence) against the
 triangle's texel density, and blended between the two nearest levels (trilinear), so distant surfaces do not alias.
 Depth, segmentation and laser ranges use the triangles themselves.
+
+Window panes (triangles of a glass material, ``Scene.mat_glass``; kind ``kernels.GLASS`` in ``pi``) are thin,
+clear, colourless glass of index 1.5: each face is one air–glass interface with Schlick's reflectance
+``F = 0.04 + 0.96 (1 − |cos θ|)⁵`` and transmittance ``1 − F``, without refraction (a sheet a few millimetres thick
+shifts a ray by less than that). A camera ray meets up to :data:`~benchbot_sim_taichi.kernels.MAX_GLASS_LAYERS` faces
+and goes on in the same direction through each, weighted by its ``1 − F``; ``fast`` mode adds the first face's
+reflection (one reflected ray, shaded like a camera hit, weighted by its F), ``quality`` mode reflects or transmits at
+each face with probability F / 1 − F. Shadow rays pass through panes, weighted by ``1 − F`` per face (the sun shines
+in through the windows, about 8 % dimmer per pane at normal incidence); lamps' shadow maps ignore panes. Depth,
+segmentation and the laser see through panes (the surface beyond), as time-of-flight and structured-light depth
+cameras and most laser scanners do through clear glass.
 """
 
 import contextlib
@@ -68,7 +79,7 @@ from benchbot_sim_taichi import kernels  # noqa: E402 - after Taichi's banner is
 from benchbot_sim_taichi.denoiser import denoise_radiance  # noqa: E402
 from benchbot_sim_taichi.pathtrace import quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
-    LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
+    GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
     lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel,
 )
 
@@ -219,10 +230,11 @@ def pack_scene(scene) -> dict:
     Returns:
         ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
         ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
-        primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind, axis or
-        packed triangle index, class, instance]; ``tris`` (max(T,1), 9) float32 vertices, in BVH order (row
-        ``pi[k, 1]`` is primitive k's); ``shade`` (max(T,1), SHADE_COLS) float32 (rows as ``tris``)
-        per triangle [vertex normals (9), UVs (6), texture index (−1: none), texture LOD offset]; ``texels``
+        primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind (the scene's, or
+        ``kernels.GLASS`` for a window pane), axis or packed triangle index, class, instance];
+        ``tris`` (max(T,1), 9) float32 vertices, in BVH order (row ``pi[k, 1]`` is primitive k's); ``shade``
+        (max(T,1), SHADE_COLS) float32 (rows as ``tris``) per triangle [vertex normals (9), UVs (6), texture index
+        (−1: none), texture LOD offset]; ``texels``
         (max(N,1),) int32 packed sRGB ``r | g << 8 | b << 16``; ``tex_info`` (max(X,1), 4) int32 (as
         ``Scene.tex_info``); ``tex_lut`` (256,) float32 sRGB byte → linear; ``lights`` (max(L,1), LIGHT_COLS)
         float32 [kind, vec xyz, colour rgb, range, lamp-map slot (−1 here; :meth:`Renderer.set_scene` assigns
@@ -263,7 +275,7 @@ def pack_scene(scene) -> dict:
                 if factors.shape[0] == mat_albedo.shape[0]:  # NaN (a malformed asset) reads as the default
                     pf[:n, col][has] = np.clip(np.nan_to_num(factors[m[has]], nan=default), 0.0, 1.0)
         pf[:n, 0:3], pf[:n, 3:6], pf[:n, 6:9] = scene.prim_min[order], scene.prim_max[order], albedo
-        pi[:n, 0], pi[:n, 1] = kind, axis
+        pi[:n, 0], pi[:n, 1] = np.where(scene.prim_glass()[order], GLASS, kind), axis
         is_obj = obj >= 0
         safe = np.where(is_obj, obj, 0)
         pi[:n, 2] = np.where(is_obj, scene.box_class[safe] if scene.n_boxes else 0, scene.background_class)
@@ -297,7 +309,7 @@ def pack_scene(scene) -> dict:
                 wh = tex_info[tex[t], 1].astype(np.float64) * tex_info[tex[t], 2]
                 shade[t, 16] = 0.5 * np.log2(np.maximum(wh * uv_area, 1e-30) / np.maximum(area, 1e-30))
     if n and nt:  # triangles in BVH order, so that a leaf's triangles are neighbours in memory
-        tri_k = np.flatnonzero(pi[:n, 0] == 3)
+        tri_k = np.flatnonzero(pi[:n, 0] >= 3)  # triangles and panes
         if tri_k.size:
             j = pi[tri_k, 1].astype(np.int64)
             tris = np.ascontiguousarray(tris[j])

@@ -140,7 +140,8 @@ class Scene:
             Scenes whose ``tri_n``/``tri_uv``/``tri_material`` do not cover every triangle are drawn with face
             normals and no texture (see :func:`benchbot_sim_taichi.meshes.ensure_triangle_attributes`).
         mat_albedo: (K, 3) float32 linear base colour; mat_texture: (K,) int32 index into ``tex_info`` (−1: none);
-            mat_roughness, mat_metallic: (K,) float32 glTF factors.
+            mat_roughness, mat_metallic: (K,) float32 glTF factors; mat_glass: (K,) bool window panes
+            (``meshes.Material.glass``).
         tex_texels: (N, 3) uint8 sRGB texels of every texture and its mip-maps; tex_info: (X, 4) int32
             ``[offset, width, height, levels]`` per texture, level l (``max(1, width >> l)`` ×
             ``max(1, height >> l)``, row-major, top row first) stored right after level l − 1
@@ -188,6 +189,7 @@ class Scene:
     mat_texture: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     mat_roughness: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
     mat_metallic: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
+    mat_glass: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     tex_texels: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.uint8))
     tex_info: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int32))
     style: str = "primitives"
@@ -201,6 +203,19 @@ class Scene:
     def n_boxes(self) -> int:
         """Number of object boxes."""
         return int(self.box_min.shape[0])
+
+    def prim_glass(self) -> np.ndarray:
+        """(P,) bool: the primitives that are window panes (triangles whose material is glass, ``mat_glass``)."""
+        glass = np.asarray(self.mat_glass, bool).reshape(-1)
+        out = np.zeros(self.prim_type.shape[0], bool)
+        tri_mat = np.asarray(self.tri_material).reshape(-1)
+        if not glass.any() or tri_mat.shape[0] != self.tri_v.shape[0]:
+            return out
+        tri = np.flatnonzero(self.prim_type == PRIM_TRIANGLE)
+        m = tri_mat[self.prim_axis[tri]]
+        ok = (m >= 0) & (m < glass.shape[0])
+        out[tri[ok]] = glass[m[ok]]
+        return out
 
 
 def load_ground_truth_json(path: "str | Path") -> dict:

@@ -3,6 +3,8 @@ textured scene export. Test meshes are made here with trimesh (no binaries in th
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -89,10 +91,10 @@ def test_scene_file_nodes_materials_and_computed_normals(tmp_path):
     assert np.all(np.einsum("ij,ij->i", mesh.n[ball_i], p / 0.5) > 0.95)
 
 
-def test_blended_materials_keep_their_opacity_and_glass_can_be_dropped(tmp_path):
+def test_blended_materials_keep_their_opacity_and_glass_becomes_panes(tmp_path):
     import trimesh
 
-    from benchbot_sim_taichi.meshes import GLASS_OPACITY, load_mesh, without_glass
+    from benchbot_sim_taichi.meshes import GLASS_OPACITY, load_mesh, with_glass_panes
 
     sc = trimesh.Scene()
     for name, rgba, mode, x in [("frame", [200, 200, 200, 255], None, 0.0), ("pane", [165, 165, 165, 128], "BLEND", 2.0),
@@ -108,11 +110,14 @@ def test_blended_materials_keep_their_opacity_and_glass_can_be_dropped(tmp_path)
     # only BLEND materials are see-through; MASK (cut-outs) and OPAQUE keep opacity 1
     assert opacity == {"frame": 1.0, "pane": 0.502, "curtain": 0.659, "masked": 1.0}, opacity
     assert 0.502 < GLASS_OPACITY < 0.659
-    kept = without_glass(mesh)
-    names = {kept.materials[i].name for i in np.unique(kept.f_material)}
-    assert names == {"frame", "curtain", "masked"} and kept.n_triangles == mesh.n_triangles - 12
-    np.testing.assert_array_equal(kept.bounds, mesh.bounds)  # the frame's fit is unchanged
-    assert without_glass(kept) is kept  # nothing left to drop: the same mesh
+    glazed = with_glass_panes(mesh)
+    assert {m.name: m.glass for m in glazed.materials} == {"frame": False, "pane": True, "curtain": False,
+                                                            "masked": False}
+    assert not any(m.glass for m in mesh.materials)  # the loaded mesh (maybe cached) is not changed
+    assert glazed.f is mesh.f and glazed.n_triangles == mesh.n_triangles
+    opaque = dataclasses.replace(mesh, materials=[m for m in mesh.materials if m.name != "pane"],
+                                 f=mesh.f[:0], f_material=mesh.f_material[:0])  # (faces do not matter here)
+    assert with_glass_panes(opaque) is opaque  # no glass: the same mesh
 
 
 def test_smooth_normals_round_curves_and_keep_creases(tmp_path):
