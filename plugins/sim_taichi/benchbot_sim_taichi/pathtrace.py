@@ -25,7 +25,7 @@ Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering
   fully);
 - **window panes** (``kernels.GLASS``): at each face a path reflects with probability F (Schlick, index 1.5) or goes
   straight on with 1 − F, with its throughput unchanged (what it estimates is F · reflected + (1 − F) · transmitted
-  light); a face is not a bounce (at most ``kernels.MAX_GLASS_LAYERS`` per path, then panes are invisible to it),
+  light); a face is not a bounce (a path ends at the face after ``kernels.MAX_GLASS_LAYERS``),
   has no next-event estimation (a specular event), and a light reached after a reflection counts fully. Shadow rays
   go through panes weighted by their 1 − F. The camera's view through panes sees the room shell and writes the
   denoiser's guides, like a camera hit;
@@ -44,7 +44,7 @@ with contextlib.redirect_stdout(sys.stderr):
 
 from benchbot_sim_taichi import bsdf  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.kernels import (  # noqa: E402
-    GLASS, MAX_GLASS_LAYERS, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
+    GLASS, MAX_GLASS_LAYERS, PANES_SEEN, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
 )
 
 #: Spread (rad) of the ray cone of a diffuse bounce, for its texture level of detail.
@@ -193,10 +193,9 @@ def quality_kernel(
             panes = 0
             bounce = 0
             for _event in range(max_bounces + 1 + MAX_GLASS_LAYERS):
-                see = 1 if panes < MAX_GLASS_LAYERS else 0
-                hit, t, n, ns, albedo, c_id, i_id, p, k = _shade_hit(o, d, spread, n_prims, nodes_f, nodes_i, pf,
-                                                                     pi, tris, shade, texels, tex_info, tex_lut,
-                                                                     world, see)
+                hit, t, n, ns, albedo, c_id, i_id, p, k, _pane = _shade_hit(o, d, spread, n_prims, nodes_f, nodes_i,
+                                                                            pf, pi, tris, shade, texels, tex_info,
+                                                                            tex_lut, world, PANES_SEEN)
                 escaped = hit == 0 or (k < 0 and camera_view == 0)  # the shell is seen by camera rays only
                 if camera_view == 0:  # lights reached by the BSDF sample, weighted against next-event estimation
                     t_lim = 1e30
@@ -220,6 +219,8 @@ def quality_kernel(
                     if pi[k, 0] == GLASS:
                         pane = 1
                 if pane == 1:  # reflect with probability F, else straight on; not a bounce
+                    if panes == MAX_GLASS_LAYERS:
+                        break
                     panes += 1
                     state, u_f = _rng(state)
                     if u_f < _glass_reflectance(ti.abs(n.dot(d))):
@@ -269,8 +270,8 @@ def quality_kernel(
                             f, p_bsdf = bsdf.evaluate(albedo, rough, metal, wo,
                                                       ti.Vector([wl.dot(t1), wl.dot(t2), wl.dot(ns)]))
                             if p_bsdf > 0.0:
-                                _t, k_sh, _n, tr = _trace(po, wl, dist, n_prims, nodes_f, nodes_i, pf, pi, tris, True,
-                                                          1)
+                                _t, k_sh, _n, tr, _pt, _pk = _trace(po, wl, dist, n_prims, nodes_f, nodes_i, pf, pi,
+                                                                    tris, True, PANES_SEEN)
                                 if k_sh < 0:
                                     p_light = w_chosen / total / (TWO_PI * omc)
                                     mis = 1.0  # the path ends here: no BSDF sample will reach the light

@@ -42,13 +42,14 @@ Depth, segmentation and laser ranges use the triangles themselves.
 Window panes (triangles of a glass material, ``Scene.mat_glass``; kind ``kernels.GLASS`` in ``pi``) are thin,
 clear, colourless glass of index 1.5: each face is one air–glass interface with Schlick's reflectance
 ``F = 0.04 + 0.96 (1 − |cos θ|)⁵`` and transmittance ``1 − F``, without refraction (a sheet a few millimetres thick
-shifts a ray by less than that). A camera ray meets up to :data:`~benchbot_sim_taichi.kernels.MAX_GLASS_LAYERS` faces
-and goes on in the same direction through each, weighted by its ``1 − F``; ``fast`` mode adds the first face's
-reflection (one reflected ray, shaded like a camera hit, weighted by its F), ``quality`` mode reflects or transmits at
-each face with probability F / 1 − F. Shadow rays pass through panes, weighted by ``1 − F`` per face (the sun shines
-in through the windows, about 8 % dimmer per pane at normal incidence); lamps' shadow maps ignore panes. Depth,
-segmentation and the laser see through panes (the surface beyond), as time-of-flight and structured-light depth
-cameras and most laser scanners do through clear glass.
+shifts a ray by less than that). ``quality`` mode is exact to that model: a path reflects or goes straight on at each
+face with probability F / 1 − F, and shadow rays are weighted by the ``1 − F`` of every face they cross. ``fast``
+mode keeps a frame's cost: camera rays do not stop at panes but note the nearest one in front of their surface
+(``kernels.PANES_TRACKED``), whose two faces pass ``(1 − F)²`` of that surface's colour and reflect
+``F + (1 − F)² F`` of the ambient sky (``ambient · (0.8 + 0.3 r_z)`` in the mirror direction r, what quality mode's
+escaping paths see); shadow rays and the lamps' shadow maps do not see panes (the sun through a window is about 8 %
+brighter than in quality mode). Depth, segmentation and the laser see through panes (the surface beyond), as
+time-of-flight and structured-light depth cameras and most laser scanners do through clear glass.
 """
 
 import contextlib
