@@ -208,8 +208,10 @@ def quality_kernel(
                             if prev_delta == 0 and prev_total > 0.0 and omc > 0.0:
                                 p_light = (_light_weight(lights, j, prev_p, prev_ns, params) / prev_total
                                            / (TWO_PI * omc))
-                            acc += throughput * radiance * (prev_pdf * prev_pdf
-                                                            / (prev_pdf * prev_pdf + p_light * p_light))
+                            mis = 1.0  # after a pane's reflection (a delta event) no light sample competes
+                            if p_light > 0.0:
+                                mis = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + p_light * p_light)
+                            acc += throughput * radiance * mis
                     if escaped:
                         acc += throughput * _sky(world, d)
                 if escaped:

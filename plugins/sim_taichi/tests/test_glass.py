@@ -168,6 +168,32 @@ def test_quality_mode_transmits_and_reflects_at_a_pane():
         assert abs(alternative[on_quad].mean(axis=0)[2] - want[2]) > 0.05 * want[2]
 
 
+def test_quality_mode_shows_a_lamp_reflected_in_a_pane():
+    """A lamp behind the camera, seen in the pane in front of it: a path that reflects off the pane and reaches the
+    lamp counts fully (a delta event: no light sample competes with it) — finite and bright."""
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import LIGHT_POINT
+
+    def scene(pane_z):
+        s = _scene_with_pane(1.0, 0.6, pane_z, ambient=0.2)
+        s.light_kind = np.array([LIGHT_POINT], np.int32)
+        s.light_vec = np.array([[-0.5, 0.0, 0.8]], np.float32)  # behind the camera, at its height
+        s.light_colour = np.full((1, 3), 1.0, np.float32)
+        s.light_range = np.array([50.0], np.float32)
+        return s
+
+    K, T = intrinsics(W, H, 60.0), _cam(0.0, 0.0, 0.0)
+    r = Renderer("cpu")
+    centre = {}
+    for name, pane_z in (("pane", (0.3, 1.3)), ("none", (-5.0, -4.0))):  # control: the pane out of sight
+        r.set_scene(scene(pane_z))
+        rad = r.render(K, T, W, H, mode="quality", spp=16, denoise=False)["radiance"]
+        assert np.isfinite(rad).all()
+        # the lamp's mirror image lies 2.5 m away straight ahead: a disc of about 0.15 / 2.5 · fx pixels
+        centre[name] = rad[H // 2 - 2:H // 2 + 2, W // 2 - 2:W // 2 + 2].mean() / np.median(rad)
+    assert centre["pane"] > 5.0 and centre["none"] < 2.0, centre
+
+
 def test_a_pane_exports_as_a_glass_material_and_loads_back_as_glass(tmp_path):
     from benchbot_sim_taichi.export import GLASS_MATERIAL_PREFIX, export_scene
     from benchbot_sim_taichi.meshes import load_mesh, with_glass_panes
