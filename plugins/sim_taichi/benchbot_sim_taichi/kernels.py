@@ -291,8 +291,7 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
     product of their 1 − F — exact, since such a ray tests every primitive before tmax — and a closest-hit ray sees
     them as surfaces; PANES_TRACKED (closest hit), the ray does not see them but returns the nearest one in front of
     the hit (``pane_k``, −1: none, at ``pane_t``) — exact too, since every primitive nearer than the closest hit is
-    tested. (The bookkeeping costs: on one H200, fast mode's shadow rays with transmittance made house:1 a third
-    slower at 256 cameras per launch, so fast mode's shadow rays do not see panes.)
+    tested. (The bookkeeping costs GPU occupancy: fast mode's shadow rays do not see panes, see docs/simulator.md.)
 
     Any-hit rays, and every ray when :data:`ORDERED_TRAVERSAL` is off (the CPU), traverse the BVH stacklessly with
     skip pointers, left child first. With it on (CUDA), closest-hit rays traverse it nearer child first: at an
