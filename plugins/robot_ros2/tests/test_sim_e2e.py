@@ -32,8 +32,9 @@ def _structure(v):
 def test_carter_ros2_observations_match_carter(sim_bridge, monkeypatch):
     from benchbot_sim_taichi.backend import create_backend
 
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(sim_bridge))
-    monkeypatch.setenv("BENCHBOT_ROS2_TIME_SCALE", "4")
+    domain, time_scale = sim_bridge
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    monkeypatch.setenv("BENCHBOT_ROS2_TIME_SCALE", str(time_scale))
     reg = get_registry()
     task, env = reg.get("tasks", TASK), reg.scenes("miniroom:4")
     ros = Episode(task, reg.get("robots", "carter_ros2"), env,

@@ -235,3 +235,18 @@ def test_the_quality_benchmark_runs_and_reports_its_figures():
     out = json.loads(proc.stdout)
     assert out["arch"] == "cpu" and out["denoise_device"] == "cpu" and out["spp"] == 2 and out["bounces"] == 8
     assert out["fps"] > 0 and out["fps_no_denoise"] >= out["fps"] * 0.5 and out["prims"] > 10
+
+
+@pytest.mark.slow
+def test_the_compile_time_benchmark_compiles_in_an_empty_cache_and_reports_both_kernels():
+    """``benchmarks/compile_time.py`` (the first-frame latency of the docs): both kernels compiled in a fresh
+    process with an empty cache, which it removes afterwards."""
+    import json
+    import subprocess
+
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "compile_time.py"), "--json"],
+                          capture_output=True, text=True, timeout=900, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    assert out["arch"] == "cpu" and out["fast_first_frame_s"] > 0 and out["quality_first_frame_s"] > 0
