@@ -639,12 +639,12 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                     texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
                     vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
                                                po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
-                if slot < 0:  # shadow rays (through panes, weighted by their transmittance)
+                if slot < 0:  # shadow rays (window panes unseen)
                     if total <= 1:
-                        _t, k_sh, _n, tr, _pt, _pk = _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris,
-                                                            True, PANES_UNSEEN)
+                        _t, k_sh, _n, _tr, _pt, _pk = _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris,
+                                                             True, PANES_UNSEEN)
                         if k_sh < 0:
-                            vis = tr
+                            vis = 1.0
                     else:
                         t1, t2 = _frame(L)
                         rot = _rand(key * 977 + j * 131 + 7)
@@ -662,10 +662,10 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                                 ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
                             else:
                                 Ls = (L + off * params[1]).normalized()
-                            _t, k_sh, _n, tr, _pt, _pk = _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi,
-                                                                tris, True, PANES_UNSEEN)
+                            _t, k_sh, _n, _tr, _pt, _pk = _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi,
+                                                                 tris, True, PANES_UNSEEN)
                             if k_sh < 0:
-                                vis += tr
+                                vis += 1.0
                         vis /= ti.cast(total, ti.f32)
                 radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten * vis)
     return radiance
