@@ -18,7 +18,7 @@ import time
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--arch", default="cpu")
+    ap.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "gpu"), help="Taichi arch (default: cpu)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="benchbot-ticache-") as cache:

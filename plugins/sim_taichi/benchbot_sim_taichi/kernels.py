@@ -62,11 +62,13 @@ GLASS_F0 = 0.04
 #: Pane faces a quality-mode path goes through or reflects in; at the next one it ends (two panes of a
 #: double-glazed window have four faces).
 MAX_GLASS_LAYERS = 8
-#: What closest-hit rays do with panes (a compile-time argument of the traversal): see them as surfaces, or not at all.
-#: Any-hit (shadow) rays go through them, weighted by their transmittance.
+#: What a ray does with panes (a compile-time argument of the traversal, see :func:`_trace`): PANES_SEEN, a
+#: closest-hit ray sees them as surfaces and an any-hit (shadow) ray goes through them weighted by their
+#: transmittance (quality mode); PANES_UNSEEN, the ray does not see them (fast mode's shadow rays, the laser, the lamp
+#: maps); PANES_TRACKED, a closest-hit ray does not see them but notes the nearest in front of its hit (fast mode's
+#: camera rays).
 PANES_SEEN = 1
 PANES_UNSEEN = 0
-#: ... or not see them but note the nearest in front of the hit (fast mode's camera rays).
 PANES_TRACKED = 2
 
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),

@@ -1,7 +1,7 @@
 """Window panes (``Material.glass``): the camera sees through them and in them (Fresnel reflection: of the ambient
 sky in fast mode, of the scene in quality mode), shadow rays go through them (weighted by their transmittance in
 quality mode), depth, segmentation and the laser see the surface beyond; each against a closed-form expectation,
-and each with a control that an opaque pane would fail."""
+and, where a pane changes the answer, a control that an opaque pane (or none) fails."""
 
 from __future__ import annotations
 
