@@ -77,6 +77,13 @@ class CameraModel:
         """(2,) float64 ``[1 / radiance_max, vignetting]``: what the kernels read besides :func:`tone_table`."""
         return np.array([1.0 / self.radiance_max, self.vignetting])
 
+    def kernel_params(self, K: np.ndarray) -> np.ndarray:
+        """(8,) float64 ``[2^exposure_ev, 1 if filmic else 0, vignetting, fx, fy, cx, cy, 0]`` for the intrinsics
+        ``K`` (3, 3, pixels): the arguments of ``pathtrace.encode_kernel``, this model on the GPU."""
+        K = np.asarray(K, dtype=np.float64)
+        return np.array([2.0 ** self.exposure_ev, 1.0 if self.tone_curve == "filmic" else 0.0, self.vignetting,
+                         K[0, 0], K[1, 1], K[0, 2], K[1, 2], 0.0])
+
     def vignette(self, K: np.ndarray, width: int, height: int) -> np.ndarray:
         """(height, width) float64 factor of step 1 for the pinhole intrinsics ``K`` (3, 3, pixels; integer pixel
         centres)."""

@@ -4,6 +4,8 @@ One :class:`Denoiser` holds an OIDN device, its ``RT`` filter (HDR, albedo and n
 the four images of one size, committed once; a call then only copies the three inputs in, runs the filter and copies the
 output back. :func:`denoise_radiance` keeps such denoisers per (device, height, width, quality), so a renderer that
 denoises frame after frame pays the filter's set-up (loading the network, the GPU's context) once.
+:func:`denoise_shared` (:class:`SharedImageDenoiser`) denoises images that are already in the device's memory — the
+path tracer's output on the GPU — without copying them at all.
 """
 
 from __future__ import annotations
@@ -80,6 +82,24 @@ def _device(name: str):
     return handle
 
 
+def _check_arguments(device: str, height: int, width: int, quality: str) -> None:
+    """Raise ValueError for an unknown device or quality, or an image size below 1×1."""
+    if device not in DEVICES:
+        raise ValueError(f"device must be one of {DEVICES}, not {device!r}")
+    if quality not in QUALITIES:
+        raise ValueError(f"quality must be one of {tuple(QUALITIES)}, not {quality!r}")
+    if height < 1 or width < 1:
+        raise ValueError(f"image size must be at least 1x1, not {width}x{height}")
+
+
+def _commit_rt_filter(filter_handle, quality: str) -> None:
+    """Set an ``RT`` filter's options (HDR input, ``quality``) and commit it; the caller checks the device's error."""
+    capi, _ = _capi()
+    capi.oidnSetFilterBool(filter_handle, b"hdr", True)
+    capi.oidnSetFilterInt(filter_handle, b"quality", QUALITIES[quality])
+    capi.oidnCommitFilter(filter_handle)
+
+
 class Denoiser:
     """OIDN's ``RT`` filter (HDR input, albedo and normal guides) for (H, W) images on one device, set up once.
 
@@ -95,12 +115,7 @@ class Denoiser:
     """
 
     def __init__(self, device: str, height: int, width: int, quality: str = "high"):
-        if device not in DEVICES:
-            raise ValueError(f"device must be one of {DEVICES}, not {device!r}")
-        if quality not in QUALITIES:
-            raise ValueError(f"quality must be one of {tuple(QUALITIES)}, not {quality!r}")
-        if height < 1 or width < 1:
-            raise ValueError(f"image size must be at least 1x1, not {width}x{height}")
+        _check_arguments(device, height, width, quality)
         capi, ffi = _capi()
         self.device, self.shape, self.quality = device, (int(height), int(width), 3), quality
         self._nbytes = int(height) * int(width) * 3 * 4
@@ -112,9 +127,7 @@ class Denoiser:
             for i, name in enumerate(_IMAGES):
                 capi.oidnSetFilterImage(self._filter, name.encode(), self._buffer, _FLOAT3, int(width), int(height),
                                         i * self._nbytes, 0, 0)
-            capi.oidnSetFilterBool(self._filter, b"hdr", True)
-            capi.oidnSetFilterInt(self._filter, b"quality", QUALITIES[quality])
-            capi.oidnCommitFilter(self._filter)
+            _commit_rt_filter(self._filter, quality)
             self._check("setting up the filter")
         except BaseException:
             self.close()
@@ -159,23 +172,92 @@ class Denoiser:
         self._filter = self._buffer = None
 
 
-_CACHE: OrderedDict[tuple, Denoiser] = OrderedDict()
+class SharedImageDenoiser:
+    """OIDN's ``RT`` filter reading and writing images that already lie in memory its device can use — CUDA device
+    memory for "cuda" (e.g. a Taichi ndarray on CUDA: Taichi and OIDN share the device's primary context), host memory
+    for "cpu" — with no copies: the GPU path of quality mode keeps the path tracer's output on the GPU.
+
+    Layout (float32, rows packed): ``color`` and ``output`` (H, W, 3); ``guides`` (H, W, 6), per pixel the albedo (3)
+    then the shading normal (3), as ``pathtrace.quality_kernel`` writes them. The inputs must already be in range
+    (colour ≥ 0, albedo 0..1, normal −1..1: ``pathtrace.prepare_denoiser_inputs`` clamps them in place).
+
+    Args and Raises: as :class:`Denoiser`.
+    """
+
+    def __init__(self, device: str, height: int, width: int, quality: str = "high"):
+        _check_arguments(device, height, width, quality)
+        capi, ffi = _capi()
+        self.device, self.quality = device, quality
+        self.height, self.width = int(height), int(width)
+        self._device = _device(device)
+        self._filter = capi.oidnNewFilter(self._device, b"RT")
+        self._bound: tuple | None = None  # the addresses the filter was last committed with
+        try:
+            self._check("creating the filter")
+        except BaseException:
+            self.close()
+            raise
+
+    def _check(self, what: str) -> None:
+        code, message = _error(self._device)
+        if code:
+            raise RuntimeError(f"Open Image Denoise ({self.device}) failed {what}: {message}")
+
+    def __call__(self, color: int, guides: int, output: int) -> None:
+        """Denoise the image at address ``color`` into ``output``, with the guides at ``guides`` (see the class doc);
+        returns when the output is written. Committing the filter again (a few milliseconds) happens only when the
+        addresses change.
+
+        Raises:
+            RuntimeError: the filter was closed, or Open Image Denoise failed (its message).
+        """
+        if self._filter is None:
+            raise RuntimeError("this SharedImageDenoiser was closed")
+        capi, ffi = _capi()
+        addresses = (int(color), int(guides), int(output))
+        if addresses != self._bound:
+            images = (("color", color, 0, 12), ("albedo", guides, 0, 24), ("normal", guides, 12, 24),
+                      ("output", output, 0, 12))
+            for name, address, offset, stride in images:
+                capi.oidnSetSharedFilterImage(self._filter, name.encode(), ffi.cast("void*", int(address)), _FLOAT3,
+                                              self.width, self.height, offset, stride, 0)
+            _commit_rt_filter(self._filter, self.quality)
+            self._check("setting up the filter")
+            self._bound = addresses
+        capi.oidnExecuteFilterAsync(self._filter)
+        capi.oidnSyncDevice(self._device)
+        self._check("denoising")
+
+    def close(self) -> None:
+        """Release the filter (the device stays, shared); idempotent."""
+        if self._filter is None:
+            return
+        capi, ffi = _capi()
+        if self._filter != ffi.NULL:
+            capi.oidnReleaseFilter(self._filter)
+        self._filter = None
+
+
+_CACHE: OrderedDict[tuple, Denoiser | SharedImageDenoiser] = OrderedDict()
 _LOCK = threading.Lock()
 
 
-def cached_denoiser(device: str, height: int, width: int, quality: str = "high") -> Denoiser:
-    """The process's :class:`Denoiser` for these arguments, made on first use; the last 4 used are kept.
+def cached_denoiser(device: str, height: int, width: int, quality: str = "high",
+                    shared: bool = False) -> Denoiser | SharedImageDenoiser:
+    """The process's :class:`Denoiser` (or, with ``shared``, :class:`SharedImageDenoiser`) for these arguments, made
+    on first use; the last 4 used are kept.
 
-    Not thread-safe by itself: :func:`denoise_radiance` calls it, and the denoiser, under one lock.
+    Not thread-safe by itself: :func:`denoise_radiance` and :func:`denoise_shared` call it, and the denoiser, under
+    one lock.
 
     Raises:
         as :class:`Denoiser`.
     """
-    key = (device, int(height), int(width), quality)
+    key = (device, int(height), int(width), quality, bool(shared))
     if key in _CACHE:
         _CACHE.move_to_end(key)
         return _CACHE[key]
-    denoiser = _CACHE[key] = Denoiser(device, height, width, quality)
+    denoiser = _CACHE[key] = (SharedImageDenoiser if shared else Denoiser)(device, height, width, quality)
     while len(_CACHE) > _MAX_CACHED:
         _CACHE.popitem(last=False)[1].close()
     return denoiser
@@ -211,6 +293,24 @@ def denoise_radiance(radiance: np.ndarray, albedo: np.ndarray, normal: np.ndarra
         raise ValueError(f"radiance must have shape (H, W, 3), not {shape}")
     with _LOCK:
         return cached_denoiser(device, shape[0], shape[1], quality)(radiance, albedo, normal)
+
+
+def denoise_shared(color: int, guides: int, output: int, height: int, width: int, device: str = "cpu",
+                   quality: str = "high") -> None:
+    """:func:`denoise_radiance` for images already in the OIDN device's memory (:class:`SharedImageDenoiser`: CUDA
+    device memory for "cuda", host memory for "cpu"), given by address: no copies. Thread-safe: calls are serialised.
+    For the same inputs it writes what :func:`denoise_radiance` returns on the same device.
+
+    Args:
+        color, guides, output: addresses of the (H, W, 3), (H, W, 6) and (H, W, 3) float32 images (layout and ranges
+            in :class:`SharedImageDenoiser`).
+        height, width: image size in pixels. device, quality: as :func:`denoise_radiance`.
+
+    Raises:
+        ValueError, RuntimeError, ImportError: as :func:`denoise_radiance`.
+    """
+    with _LOCK:
+        cached_denoiser(device, height, width, quality, shared=True)(color, guides, output)
 
 
 @atexit.register

@@ -743,7 +743,7 @@ def sensors_kernel(
     inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
     ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
 ):
-    """One launch (two parallel loops) for B sensor frames in the ``map`` frame: fast-mode images (when ``images``
+    """One launch (one parallel loop) for B sensor frames in the ``map`` frame: fast-mode images (when ``images``
     is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``cls``/``inst`` (B, H, W)
     int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame
     angle ``beams[j]`` (rad) + the lidar's yaw. Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value: no
@@ -753,52 +753,63 @@ def sensors_kernel(
     B = depth.shape[0]
     H = depth.shape[1]
     W = depth.shape[2]
-    for b, v, u in ti.ndrange(B * images, H, W):
-        q = pose0
-        if one == 0:
-            for k in ti.static(range(12)):
-                q[k] = table[b, k]
-        c = ti.Vector([q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11],
-                       consts[27], consts[28], consts[29], consts[30]])
-        params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
-        o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
-        key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
-        hit, t, n, ns, albedo, c_id, i_id, p, _k, pane = _shade_hit(o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i,
-                                                                    pf, pi, tris, shade, texels, tex_info, tex_lut,
-                                                                    consts, PANES_TRACKED)
-        col = ti.Vector([0.0, 0.0, 0.0])
-        if hit == 1:
-            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
-            radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi, tris,
-                                lamp_maps)
-            col = albedo * radiance
-        if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
-            col = _through_pane(col, d, pane, pi, tris, consts)
-        if hit == 1:
-            if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
-                xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
-                yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
-                cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
-                col *= 1.0 - consts[32] * (1.0 - cos2 * cos2)
-            col *= consts[31]  # radiance / radiance_max: exposure and tone curve are in the table
-            for k in ti.static(range(3)):
-                x = ti.min(ti.max(col[k], 0.0), 1.0)
-                rgb[b, v, u, k] = ti.cast(consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)],
-                                          ti.u8)
-            depth[b, v, u] = t
+    n_scan = ranges.shape[0] * n_beams
+    # One loop: the laser's beams first, then the pixels. A beam is a long ray; as the loop's first items the beams
+    # run while the pixels are traced, instead of after them (a separate loop is a second pass on the GPU, which for
+    # one camera waited on 360 lone threads: 0.16 of 0.50 ms on an H200).
+    for i in range(n_scan + B * images * H * W):
+        if i < n_scan:
+            b = i // n_beams
+            beam = i % n_beams
+            q = pose0
+            if one == 0:
+                for m in ti.static(range(12, POSE_LEN)):
+                    q[m] = table[b, m]
+            ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], n_prims, nodes_f,
+                                         nodes_i, pf, pi, tris, consts)
         else:
-            for k in ti.static(range(3)):
-                rgb[b, v, u, k] = ti.cast(0, ti.u8)
-            depth[b, v, u] = 0.0
-        cls[b, v, u] = c_id
-        inst[b, v, u] = i_id
-    for b, k in ti.ndrange(B, n_beams):
-        q = pose0
-        if one == 0:
-            for m in ti.static(range(12, POSE_LEN)):
-                q[m] = table[b, m]
-        ranges[b, k] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[k] + q[15], n_prims, nodes_f, nodes_i,
-                                  pf, pi, tris, consts)
+            j = i - n_scan
+            b = j // (H * W)
+            v = (j // W) % H
+            u = j % W
+            q = pose0
+            if one == 0:
+                for k in ti.static(range(12)):
+                    q[k] = table[b, k]
+            c = ti.Vector([q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11],
+                           consts[27], consts[28], consts[29], consts[30]])
+            params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
+            o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
+            key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
+            hit, t, n, ns, albedo, c_id, i_id, p, _k, pane = _shade_hit(
+                o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf, pi, tris, shade, texels, tex_info, tex_lut,
+                consts, PANES_TRACKED)
+            col = ti.Vector([0.0, 0.0, 0.0])
+            if hit == 1:
+                radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
+                radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi, tris,
+                                    lamp_maps)
+                col = albedo * radiance
+            if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
+                col = _through_pane(col, d, pane, pi, tris, consts)
+            if hit == 1:
+                if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
+                    xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
+                    yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
+                    cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
+                    col *= 1.0 - consts[32] * (1.0 - cos2 * cos2)
+                col *= consts[31]  # radiance / radiance_max: exposure and tone curve are in the table
+                for k in ti.static(range(3)):
+                    x = ti.min(ti.max(col[k], 0.0), 1.0)
+                    level = consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)]
+                    rgb[b, v, u, k] = ti.cast(level, ti.u8)
+                depth[b, v, u] = t
+            else:
+                for k in ti.static(range(3)):
+                    rgb[b, v, u, k] = ti.cast(0, ti.u8)
+                depth[b, v, u] = 0.0
+            cls[b, v, u] = c_id
+            inst[b, v, u] = i_id
 
 
 @ti.kernel

@@ -43,6 +43,7 @@ with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
 from benchbot_sim_taichi import bsdf  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.camera_model import GAMMA  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402
     GLASS, MAX_GLASS_LAYERS, PANES_SEEN, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
 )
@@ -312,3 +313,35 @@ def quality_kernel(
             out[b, v, u, k] = acc[k]
             aux[b, v, u, k] = guide_albedo[k] / ti.cast(spp, ti.f32)
             aux[b, v, u, 3 + k] = guide_normal[k] / ti.cast(spp, ti.f32)
+
+
+@ti.kernel
+def prepare_denoiser_inputs(out: ti.types.ndarray(dtype=ti.f32, ndim=4), aux: ti.types.ndarray(dtype=ti.f32, ndim=4)):
+    """Clamp :func:`quality_kernel`'s outputs in place to the ranges the denoiser reads (what
+    ``denoiser.Denoiser`` does to its copies): radiance ``out`` (B, H, W, 3) ≥ 0, the albedo guide (``aux`` channels
+    0–2) to 0..1 and the normal guide (channels 3–5) to −1..1."""
+    for b, v, u in ti.ndrange(out.shape[0], out.shape[1], out.shape[2]):
+        for k in ti.static(range(3)):
+            out[b, v, u, k] = ti.max(out[b, v, u, k], 0.0)
+            aux[b, v, u, k] = ti.min(ti.max(aux[b, v, u, k], 0.0), 1.0)
+            aux[b, v, u, 3 + k] = ti.min(ti.max(aux[b, v, u, 3 + k], -1.0), 1.0)
+
+
+@ti.kernel
+def encode_kernel(radiance: ti.types.ndarray(dtype=ti.f32, ndim=4), camera: ti.types.vector(8, ti.f64),
+                  rgb: ti.types.ndarray(dtype=ti.u8, ndim=4)):
+    """The camera model (``camera_model.CameraModel.encode``'s steps 1–4, in float64 as there) of linear radiance
+    (B, H, W, 3) float32 into ``rgb`` (B, H, W, 3) uint8 sRGB, where the images are (on the GPU: no copy to the
+    host first). ``camera`` is ``CameraModel.kernel_params``: [2^EV, 1 for the filmic curve else 0, vignetting,
+    fx, fy, cx, cy, 0]."""
+    for b, v, u in ti.ndrange(radiance.shape[0], radiance.shape[1], radiance.shape[2]):
+        xn = (ti.cast(u, ti.f64) - camera[5]) / camera[3]
+        yn = (ti.cast(v, ti.f64) - camera[6]) / camera[4]
+        cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
+        vignette = 1.0 - camera[2] * (1.0 - cos2 * cos2)
+        for k in ti.static(range(3)):
+            x = ti.max(ti.cast(radiance[b, v, u, k], ti.f64) * vignette, 0.0) * camera[0]
+            y = ti.min(x, 1.0)
+            if camera[1] > 0.5:  # Narkowicz's ACES fit, clamped to 0..1 (camera_model.aces_filmic)
+                y = ti.min(ti.max(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0), 1.0)
+            rgb[b, v, u, k] = ti.cast(ti.floor(ti.pow(y, ti.cast(GAMMA, ti.f64)) * 255.0 + 0.5), ti.u8)

@@ -7,10 +7,11 @@ materials, next-event estimation with multiple importance sampling, several boun
 Importing this module imports Taichi but does not initialise it; :func:`ensure_taichi` (called by
 :class:`Renderer`) runs ``ti.init`` once per process. Taichi must be used from one thread per process.
 
-One kernel launch computes every sensor of a frame (or of a batch of B frames): the camera pixels (RGB, depth, class
-and instance ids) and the laser beams are two parallel loops of :func:`~benchbot_sim_taichi.kernels.sensors_kernel`. Kernels take
-``ti.types.ndarray`` arguments, so a scene with any number of primitives, or any image size, reuses the compiled
-kernels (compiled once per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
+One kernel launch computes every sensor of a frame (or of a batch of B frames): the laser beams and the camera
+pixels (RGB, depth, class and instance ids) are the items of one parallel loop of
+:func:`~benchbot_sim_taichi.kernels.sensors_kernel`, the beams first. Kernels take ``ti.types.ndarray``
+arguments, so a scene with any number of primitives, or any image size, reuses the compiled kernels (compiled once
+per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
 ``ti.ndarray`` and the outputs stay in reused device buffers; each launch goes through a compiled ``ti.graph`` with the
 camera and lidar pose passed by value, so the per-frame cost is one launch plus, when wanted, one copy to the host.
 The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy; rays traverse it stacklessly (skip
@@ -50,6 +51,13 @@ mode keeps a frame's cost: camera rays do not stop at panes but note the nearest
 escaping paths see); shadow rays and the lamps' shadow maps do not see panes (the sun through a window is about 8 %
 brighter than in quality mode). Depth, segmentation and the laser see through panes (the surface beyond), as
 time-of-flight and structured-light depth cameras and most laser scanners do through clear glass.
+
+``quality`` mode with device buffers (CUDA) finishes a frame where it was rendered: Open Image Denoise reads the path
+tracer's radiance and guides in GPU memory and writes the denoised image there
+(:func:`~benchbot_sim_taichi.denoiser.denoise_shared`), and ``pathtrace.encode_kernel`` applies the camera model
+there, in float64 like :meth:`~benchbot_sim_taichi.camera_model.CameraModel.encode`; only the results travel to the
+host, through page-locked memory. Without device buffers (the CPU's default) the same steps run on NumPy arrays; the
+images are the same.
 """
 
 import contextlib
@@ -77,8 +85,8 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi import kernels  # noqa: E402 - after Taichi's banner is redirected
-from benchbot_sim_taichi.denoiser import denoise_radiance  # noqa: E402
-from benchbot_sim_taichi.pathtrace import quality_kernel  # noqa: E402
+from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
+from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
     lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel,
@@ -488,6 +496,7 @@ class Renderer:
         self._scene_arrays: list = []
         self.lamp_maps = lamp_maps
         self._pinned_copier = None  # render_sensors(to_host="pinned"): page-locked host arrays, made on first use
+        self._render_copier = None  # render(): its own page-locked arrays (render_sensors' stay the caller's)
 
     def __del__(self) -> None:
         # may run on any thread: the device arrays are only retired here, and freed later on Taichi's thread
@@ -503,9 +512,10 @@ class Renderer:
         self._buffers, self._uploaded, self._scene_arrays = {}, {}, []
         self._packed = self._scene_args = self._consts = self._consts_key = None
         _free_retired()
-        if self._pinned_copier is not None:
-            self._pinned_copier.close()
-            self._pinned_copier = None
+        for copier in (self._pinned_copier, self._render_copier):
+            if copier is not None:
+                copier.close()
+        self._pinned_copier = self._render_copier = None
 
     def set_scene(self, scene) -> None:
         """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
@@ -725,22 +735,73 @@ class Renderer:
         with_scan = beams is not None and beams.size > 0  # no beams: nothing to launch for the scan
         batch = self._launch(K, np.asarray(T_map_camera, dtype=np.float64)[None], int(width), int(height),
                              Tl if with_scan else None, beams, lit=mode == "fast")
-        out = {k: (v if isinstance(v, np.ndarray) else v.to_numpy())[0] for k, v in batch.items()}
-        if beams is not None:
-            out["ranges"] = out["ranges"][:beams.size].astype(np.float64) if with_scan else np.zeros(0)
+        host = None
         if mode == "quality":
             H, W = int(height), int(width)
             lin = self._buffer("quality", (1, H, W, 3), np.float32)
             aux = self._buffer("quality_guides", (1, H, W, 6), np.float32)
             params = render_params(seed=self.seed, spp=spp, bounces=bounces)
             quality_kernel(camera_params(K, T_map_camera), *self._args()[:13], params, lin, aux)
-            lin = (lin.to_numpy() if self.device_buffers else lin)[0]
-            if denoise:
-                guides = (aux.to_numpy() if self.device_buffers else aux)[0]
-                lin = self._denoise(lin, guides[..., :3], guides[..., 3:])
-            out["radiance"] = np.ascontiguousarray(lin, dtype=np.float32)
-            out["rgb"] = self.camera.encode(lin, np.asarray(K, dtype=np.float64))
+            finished = self._finish_quality_in_place(lin, aux, K, denoise)
+            if finished is not None:  # denoised and encoded where the images are: copy the results only
+                batch["radiance"], batch["rgb"] = finished
+            else:
+                host = self._fetch({"radiance": lin, "guides": aux})
+                lin = host["radiance"][0]
+                if denoise:
+                    guides = host["guides"][0]
+                    lin = self._denoise(lin, guides[..., :3], guides[..., 3:])
+                host = {"radiance": np.ascontiguousarray(lin, dtype=np.float32)[None],
+                        "rgb": self.camera.encode(lin, np.asarray(K, dtype=np.float64))[None]}
+                batch = {k: v for k, v in batch.items() if k not in host}
+        out = {k: v[0] for k, v in self._fetch(batch).items()}
+        if host is not None:
+            out.update({k: v[0] for k, v in host.items()})
+        if beams is not None:
+            out["ranges"] = out["ranges"][:beams.size].astype(np.float64) if with_scan else np.zeros(0)
         return out
+
+    def _fetch(self, arrays: dict) -> dict:
+        """New NumPy arrays holding ``arrays`` (``{key: Taichi ndarray or NumPy array}``; NumPy arrays pass
+        through). On CUDA they come through the page-locked copier (one synchronisation and a fast copy each), then
+        a host copy, so that the caller owns them; elsewhere through ``to_numpy``."""
+        if self.device_buffers and self.arch == "cuda":
+            if self._render_copier is None:
+                from benchbot_sim_taichi.host_copy import HostCopier
+
+                self._render_copier = HostCopier(pinned=True)
+            return {k: v.copy() for k, v in self._render_copier.copy(arrays).items()}
+        return {k: (v if isinstance(v, np.ndarray) else v.to_numpy()) for k, v in arrays.items()}
+
+    def _finish_quality_in_place(self, lin, aux, K, denoise: bool) -> tuple | None:
+        """With device buffers, where the denoiser's device reads the renderer's memory (OIDN on CUDA for a CUDA
+        renderer, on the CPU for a CPU one; or no denoising): denoise the path tracer's radiance ``lin`` with its
+        guides ``aux`` where they lie (:func:`~benchbot_sim_taichi.denoiser.denoise_shared`) and encode it with the
+        camera model there (``pathtrace.encode_kernel``); returns the (radiance, rgb) device buffers (B = 1). None
+        when that does not apply (the caller copies to the host and finishes there), or when a GPU denoiser the
+        renderer chose cannot start (then, as :meth:`_denoise`, it warns once and denoises on the CPU from now on).
+        """
+        if not self.device_buffers or (denoise and self.denoise_device != ("cuda" if self.arch == "cuda" else "cpu")):
+            return None
+        from benchbot_sim_taichi.host_copy import device_pointer
+
+        if denoise:
+            prepare_denoiser_inputs(lin, aux)
+            ti.sync()  # the denoiser runs on its own stream: the path tracer's images must be complete
+            denoised = self._buffer("quality_denoised", lin.shape, np.float32)
+            try:
+                denoise_shared(device_pointer(lin), device_pointer(aux), device_pointer(denoised), lin.shape[1],
+                               lin.shape[2], device=self.denoise_device)
+            except RuntimeError as e:
+                if not (self._denoise_device_chosen and self.denoise_device != "cpu"):
+                    raise
+                warnings.warn(f"quality mode: {e}; denoising on the CPU instead", RuntimeWarning, stacklevel=3)
+                self.denoise_device = "cpu"
+                return None
+            lin = denoised
+        rgb = self._buffer("quality_rgb", lin.shape, np.uint8)
+        encode_kernel(lin, self.camera.kernel_params(K), rgb)
+        return lin, rgb
 
     def _denoise(self, radiance: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """:func:`denoise_radiance` on :attr:`denoise_device`. A GPU denoiser that the renderer chose by itself (CUDA

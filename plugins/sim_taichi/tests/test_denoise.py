@@ -89,6 +89,29 @@ def test_a_cached_denoiser_is_reused_and_rewrites_its_inputs():
     assert denoise_radiance(*_noisy_frame(24, 32)).shape == (24, 32, 3)  # another size: its own denoiser
 
 
+def test_a_shared_image_denoiser_reads_and_writes_memory_in_place_and_gives_the_same_image():
+    """``denoise_shared`` (the GPU path of quality mode: OIDN reads the path tracer's memory) on the CPU device with
+    host memory: the same image as ``denoise_radiance``, with the guides interleaved as the path tracer writes them;
+    moved images are followed (the filter is committed again), and a closed filter refuses in one line."""
+    from benchbot_sim_taichi.denoiser import SharedImageDenoiser, cached_denoiser, denoise_radiance, denoise_shared
+
+    for seed in (3, 4):
+        radiance, albedo, normal = _noisy_frame(seed=seed)
+        guides = np.ascontiguousarray(np.concatenate([albedo, normal], axis=-1))  # (H, W, 6): albedo, then normal
+        output = np.full((H, W, 3), -1.0, np.float32)
+        denoise_shared(radiance.ctypes.data, guides.ctypes.data, output.ctypes.data, H, W, device="cpu")
+        assert np.array_equal(output, denoise_radiance(radiance, albedo, normal, device="cpu")), seed
+    shared = cached_denoiser("cpu", H, W, "high", shared=True)
+    assert isinstance(shared, SharedImageDenoiser) and shared is cached_denoiser("cpu", H, W, "high", shared=True)
+    closed = SharedImageDenoiser("cpu", H, W)
+    closed.close()
+    closed.close()  # idempotent
+    with pytest.raises(RuntimeError, match="closed"):
+        closed(radiance.ctypes.data, guides.ctypes.data, output.ctypes.data)
+    with pytest.raises(ValueError, match="quality"):
+        SharedImageDenoiser("cpu", H, W, quality="best")
+
+
 def test_bad_arguments_are_refused():
     from benchbot_sim_taichi.denoiser import denoise_radiance
 

@@ -155,6 +155,36 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
         host.render_sensors(K, cams, W, H, lidars)
 
 
+@pytest.mark.parametrize("camera", ["default", "filmic"])
+def test_quality_mode_finished_in_device_memory_equals_the_numpy_path(bear_envs, camera):
+    """Quality mode with device buffers (GPU memory on CUDA; exercised here on the CPU, where OIDN's CPU device reads
+    the Taichi ndarrays in place) denoises where the path tracer wrote its images and encodes them there with the
+    camera model (``pathtrace.encode_kernel``, float64): every output equals the NumPy path's, bit for bit, denoised
+    or not, for the default camera and one with exposure, the filmic curve and vignetting."""
+    from benchbot_sim_taichi.camera_model import CameraModel
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import build_scene
+
+    model = CameraModel() if camera == "default" else CameraModel(exposure_ev=0.7, tone_curve="filmic", vignetting=0.6)
+    scene = build_scene(bear_envs["miniroom:1"])
+    W, H = 40, 30
+    K = intrinsics(W, H, 90.0)
+    T = _cam(*scene.trajectory_se2[5])
+    host = Renderer("cpu", camera=model)
+    host.set_scene(scene)
+    dev = Renderer("cpu", device_buffers=True, camera=model)
+    dev.set_scene(scene)
+    for denoise in (True, False):
+        a = host.render(K, T, W, H, mode="quality", spp=2, denoise=denoise)
+        b = dev.render(K, T, W, H, mode="quality", spp=2, denoise=denoise)
+        assert set(a) == set(b) == {"rgb", "depth", "class", "instance", "radiance"}
+        for k in a:
+            assert isinstance(b[k], np.ndarray) and b[k].dtype == a[k].dtype and np.array_equal(a[k], b[k]), k
+    assert ("quality_denoised", (1, H, W, 3)) in dev._buffers  # the in-place path ran (the NumPy one has no buffers)
+    b["rgb"][:] = 0  # the caller owns what it got: the next frame is not written into it
+    assert np.array_equal(dev.render(K, T, W, H, mode="quality", spp=2, denoise=False)["rgb"], a["rgb"])
+
+
 def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_taichi_thread(bear_envs):
     """Freeing GPU memory off Taichi's thread aborts a CUDA process, so a Renderer dropped (or garbage-collected)
     on another thread only retires its device arrays; they are freed on the rendering thread once nothing else
