@@ -5,12 +5,17 @@ Open Image Denoise, ``benchbot_sim_taichi.denoiser``) on one environment, along 
         [--bounces 8] [--frames 20] [--denoise-device cpu|cuda] [--json [PATH]]
 
 Each frame is ``Renderer.render(mode='quality')``: a fast-mode launch for depth and segmentation, the path tracer's
-launch, the copy of its radiance and guides to the host, the denoiser (``--denoise-device``; default: the
-renderer's, ``cuda`` on CUDA) and the camera model's 8-bit encoding. Printed/JSON keys: ``fps`` (frames per second,
-denoised, as returned to the caller), ``fps_no_denoise`` (``denoise=False``), ``ms_path_trace`` (the same frame
-without denoising: launches and copies), ``ms_denoise`` (the difference), ``spp``, ``bounces``, ``triangles``,
-``lights``, ``arch``, ``denoise_device``, ``gpu`` (on CUDA), ``first_frame_s`` (compiling the kernels and starting
-the denoiser included).
+launch, the denoiser (``--denoise-device``; default: the renderer's, ``cuda`` on CUDA) and the camera model's 8-bit
+encoding, and the copies of the results to the host. On CUDA the denoiser reads the path tracer's images in GPU
+memory and the encoding runs there too; on the CPU (or with ``--denoise-device cpu`` on CUDA) they run on NumPy
+arrays. Printed/JSON keys: ``fps`` (frames per second, denoised, as returned to the caller), ``fps_no_denoise``
+(``denoise=False``), ``ms_path_trace`` (the same frame without denoising: launches, encoding and copies),
+``ms_denoise`` (the difference), ``spp``, ``bounces``, ``triangles``, ``lights``, ``arch``, ``denoise_device``,
+``gpu`` (on CUDA), ``first_frame_s`` (compiling the kernels and starting the denoiser included).
+
+``--compare-host-path`` renders the first ``--frames`` poses (at most 4) again with a renderer that finishes frames
+on the host (``device_buffers=False``: NumPy arrays, NumPy encoding) and adds ``host_path``: per output, the largest
+absolute difference and how many values differ, denoised and not.
 """
 
 import argparse
@@ -24,6 +29,30 @@ from pathlib import Path
 import numpy as np
 
 
+def compare_host_path(r, scene, K, cams, W: int, H: int, args) -> dict:
+    """``{"denoised"|"plain": {output: {"max_abs": float, "differing": int, "values": int}}}`` between ``r``'s frames
+    and those of a renderer of the same settings without device buffers (the NumPy path), over ``cams``."""
+    from benchbot_sim_taichi.renderer import Renderer
+
+    host = Renderer(r.arch, device_buffers=False, denoise_device=r.denoise_device, camera=r.camera)
+    host.set_scene(scene)
+    report = {}
+    for name, denoise in (("denoised", True), ("plain", False)):
+        stats: dict = {}
+        for T in cams:
+            kw = {"mode": "quality", "spp": args.spp, "bounces": args.bounces, "denoise": denoise}
+            a, b = r.render(K, T, W, H, **kw), host.render(K, T, W, H, **kw)
+            for k in a:
+                d = np.abs(a[k].astype(np.float64) - b[k].astype(np.float64))
+                s = stats.setdefault(k, {"max_abs": 0.0, "differing": 0, "values": 0})
+                s["max_abs"] = max(s["max_abs"], float(d.max()))
+                s["differing"] += int((d > 0).sum())
+                s["values"] += int(d.size)
+        report[name] = stats
+    host.close()
+    return report
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--env", default="house:1")
@@ -35,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--denoise-device", choices=("cpu", "cuda"), default=None)
     ap.add_argument("--json", nargs="?", const="-", default=None, help="print JSON (or write it to PATH)")
+    ap.add_argument("--compare-host-path", action="store_true",
+                    help="also compare the frames with a renderer that finishes them on the host (NumPy)")
     args = ap.parse_args(argv)
     if min(args.width, args.height, args.spp, args.frames) < 1 or args.bounces < 0:
         ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
@@ -88,6 +119,8 @@ def main(argv: list[str] | None = None) -> int:
            "ms_denoise": 1e3 * (s_denoised - s_plain), "first_frame_s": first,
            "triangles": int(scene.tri_v.shape[0]), "prims": int(scene.prim_type.shape[0]),
            "lights": int(scene.light_kind.shape[0]), "machine": platform.machine(), "cpus": os.cpu_count()}
+    if args.compare_host_path:
+        out["host_path"] = compare_host_path(r, scene, K, cams[:min(4, args.frames)], W, H, args)
     if r.arch == "cuda":
         try:
             import subprocess

@@ -756,7 +756,7 @@ def sensors_kernel(
     n_scan = ranges.shape[0] * n_beams
     # One loop: the laser's beams first, then the pixels. A beam is a long ray; as the loop's first items the beams
     # run while the pixels are traced, instead of after them (a separate loop is a second pass on the GPU, which for
-    # one camera waited on 360 lone threads: 0.16 of 0.50 ms on an H200).
+    # one camera waited on 360 lone threads: one H200, house:1, one camera 1,799 -> 2,419 fps).
     for i in range(n_scan + B * images * H * W):
         if i < n_scan:
             b = i // n_beams

@@ -229,12 +229,17 @@ def test_the_quality_benchmark_runs_and_reports_its_figures():
 
     root = Path(__file__).resolve().parents[3]
     proc = subprocess.run([sys.executable, str(root / "benchmarks" / "render_quality.py"), "--env", "miniroom:1",
-                           "--width", "32", "--height", "24", "--spp", "2", "--frames", "2", "--json"],
+                           "--width", "32", "--height", "24", "--spp", "2", "--frames", "2", "--json",
+                           "--compare-host-path"],
                           capture_output=True, text=True, timeout=600, cwd=root)
     assert proc.returncode == 0, proc.stderr[-2000:]
     out = json.loads(proc.stdout)
     assert out["arch"] == "cpu" and out["denoise_device"] == "cpu" and out["spp"] == 2 and out["bounces"] == 8
     assert out["fps"] > 0 and out["fps_no_denoise"] >= out["fps"] * 0.5 and out["prims"] > 10
+    for kind in ("denoised", "plain"):  # on the CPU both renderers finish frames on NumPy arrays: the same images
+        stats = out["host_path"][kind]
+        assert set(stats) == {"rgb", "depth", "class", "instance", "radiance"}
+        assert all(s["max_abs"] == 0.0 and s["differing"] == 0 and s["values"] > 0 for s in stats.values()), stats
 
 
 @pytest.mark.slow
