@@ -138,9 +138,10 @@ def _glass_reflectance(cos_i):
 
 @ti.func
 def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), k, tmax,
-              skip_panes: ti.template()):
+              skip_panes: ti.template(), with_normal: ti.template()):
     """(t, normal) of the ray's entry into primitive k if T_EPS < t < tmax, else (tmax, 0). With ``skip_panes``, a
-    pane (kind GLASS) is missed."""
+    pane (kind GLASS) is missed. Without ``with_normal`` the normal is not computed (it is 0): the traversal tests
+    primitives without it, and :func:`_trace` asks for the closest one's once, at the end."""
     kind = pi[k, 0]
     if ti.static(skip_panes):
         if kind == GLASS:
@@ -166,9 +167,10 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
             tf = ti.min(tf, ti.max(t1, t2))
         if tn <= tf and tn > T_EPS and tn < tmax:
             t = tn
-            for q in ti.static(range(3)):
-                if q == axis:
-                    n[q] = -1.0 if d[q] > 0 else 1.0
+            if ti.static(with_normal):
+                for q in ti.static(range(3)):
+                    if q == axis:
+                        n[q] = -1.0 if d[q] > 0 else 1.0
     elif kind == 1:  # ellipsoid inscribed in the box
         c = (lo + hi) * 0.5
         r = ti.max((hi - lo) * 0.5, 1e-6)
@@ -182,7 +184,8 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
             t0 = (-b - ti.sqrt(disc)) / a
             if t0 > T_EPS and t0 < tmax:
                 t = t0
-                n = ((oc + t0 * dd) / r).normalized()
+                if ti.static(with_normal):
+                    n = ((oc + t0 * dd) / r).normalized()
     elif kind == 2:  # cylinder along axis pi[k, 1], elliptic section inscribed in the box
         ax = pi[k, 1]
         c = (lo + hi) * 0.5
@@ -217,16 +220,16 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
         tf = ti.min(ts1, ti.max(tz0, tz1))
         if ok == 1 and tn <= tf and tn > T_EPS and tn < tmax:
             t = tn
-            nl = ti.Vector([0.0, 0.0, -1.0 if D[2] > 0 else 1.0])
-            if ts0 > tza:
-                q = O + tn * D
-                nl = ti.Vector([q[0] / R[0], q[1] / R[1], 0.0])
-            n = _unperm(nl, ax).normalized()
-    elif kind >= 3:  # triangle or pane
-        j = pi[k, 1]
-        v0 = _v3(tris, j, 0)
-        e1 = _v3(tris, j, 3) - v0
-        e2 = _v3(tris, j, 6) - v0
+            if ti.static(with_normal):
+                nl = ti.Vector([0.0, 0.0, -1.0 if D[2] > 0 else 1.0])
+                if ts0 > tza:
+                    q = O + tn * D
+                    nl = ti.Vector([q[0] / R[0], q[1] / R[1], 0.0])
+                n = _unperm(nl, ax).normalized()
+    elif kind >= 3:  # triangle or pane: its vertices are row k of tris
+        v0 = _v3(tris, k, 0)
+        e1 = _v3(tris, k, 3) - v0
+        e2 = _v3(tris, k, 6) - v0
         p = d.cross(e2)
         det = e1.dot(p)
         if det != 0.0:
@@ -240,34 +243,36 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
                     t0 = e2.dot(qv) * idet
                     if t0 > T_EPS and t0 < tmax:
                         t = t0
-                        n = e1.cross(e2).normalized()
-                        if n.dot(d) > 0:
-                            n = -n
+                        if ti.static(with_normal):
+                            n = e1.cross(e2).normalized()
+                            if n.dot(d) > 0:
+                                n = -n
     return t, n
 
 
 @ti.func
-def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, best, best_k, best_n,
-              trans, pane_t, pane_k, any_hit: ti.template(), panes: ti.template()):
+def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, best, best_k, trans,
+              pane_t, pane_k, any_hit: ti.template(), panes: ti.template()):
     """The closest of a leaf's primitives ``first .. first + cnt - 1`` nearer than ``best``: the updated
-    ``(best, best_k, best_n, trans, pane_t, pane_k)`` (unchanged when none is). Panes (``panes``, see :func:`_trace`):
+    ``(best, best_k, trans, pane_t, pane_k)`` (unchanged when none is). Panes (``panes``, see :func:`_trace`):
     with PANES_UNSEEN a ray does not see them; with PANES_SEEN an ``any_hit`` ray goes through them, its
     transmittance ``trans`` multiplied by each one's 1 − F (a face's triangles meet the ray at one distance: one of
     them counts), and a closest-hit ray sees them as surfaces; with PANES_TRACKED a closest-hit ray keeps the nearest,
     ``(pane_t, pane_k)``, without seeing it."""
     last_pane_t = -1.0
     for k in range(first, first + cnt):
-        t, n = _hit_prim(o, d, inv, pf, pi, tris, k, best, ti.static(panes == PANES_UNSEEN))
+        t, _n = _hit_prim(o, d, inv, pf, pi, tris, k, best, ti.static(panes == PANES_UNSEEN), False)
         if t < best:
             if ti.static(any_hit and panes == PANES_SEEN):
                 if pi[k, 0] == GLASS:
                     if ti.abs(t - last_pane_t) > T_EPS:  # not the same face again (its other triangle, at an edge)
-                        trans *= 1.0 - _glass_reflectance(ti.abs(n.dot(d)) / d.norm())
+                        v0 = _v3(tris, k, 0)
+                        nrm = (_v3(tris, k, 3) - v0).cross(_v3(tris, k, 6) - v0).normalized()
+                        trans *= 1.0 - _glass_reflectance(ti.abs(nrm.dot(d)) / d.norm())
                         last_pane_t = t
                 else:
                     best = t
                     best_k = k
-                    best_n = n
             elif ti.static(panes == PANES_TRACKED):
                 if pi[k, 0] == GLASS:
                     if t < pane_t:
@@ -276,12 +281,10 @@ def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
                 else:
                     best = t
                     best_k = k
-                    best_n = n
             else:
                 best = t
                 best_k = k
-                best_n = n
-    return best, best_k, best_n, trans, pane_t, pane_k
+    return best, best_k, trans, pane_t, pane_k
 
 
 @ti.func
@@ -303,7 +306,6 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
     inv = _safe_inv(d)
     best = tmax
     best_k = -1
-    best_n = ti.Vector([0.0, 0.0, 0.0])
     trans = 1.0
     pane_t = 1e30
     pane_k = -1
@@ -315,8 +317,8 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
             if a0 <= a1 and a1 > 0.0 and a0 < best:
                 cnt = nodes_i[node, 0]
                 if cnt > 0:
-                    best, best_k, best_n, trans, pane_t, pane_k = _hit_leaf(
-                        o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, best_n, trans, pane_t, pane_k,
+                    best, best_k, trans, pane_t, pane_k = _hit_leaf(
+                        o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, trans, pane_t, pane_k,
                         any_hit, panes)
                     if ti.static(any_hit):
                         if best_k >= 0:
@@ -339,8 +341,8 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
             nxt = -1
             cnt = nodes_i[node, 0]
             if cnt > 0:
-                best, best_k, best_n, trans, pane_t, pane_k = _hit_leaf(
-                    o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, best_n, trans, pane_t, pane_k,
+                best, best_k, trans, pane_t, pane_k = _hit_leaf(
+                    o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, trans, pane_t, pane_k,
                     False, panes)
             else:
                 left = node + 1
@@ -369,6 +371,17 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
     if ti.static(panes == PANES_TRACKED):
         if pane_t >= best:
             pane_k = -1
+    best_n = ti.Vector([0.0, 0.0, 0.0])
+    if best_k >= 0:  # the closest primitive's normal, facing the ray, computed once
+        if pi[best_k, 0] >= 3:  # a triangle's is its plane's
+            v0 = _v3(tris, best_k, 0)
+            best_n = (_v3(tris, best_k, 3) - v0).cross(_v3(tris, best_k, 6) - v0).normalized()
+            if best_n.dot(d) > 0:
+                best_n = -best_n
+        else:  # the primitive's test again (the same entry point), with the normal
+            t_again, best_n = _hit_prim(o, d, inv, pf, pi, tris, best_k, best * (1.0 + 1e-5) + T_EPS, False, True)
+            if t_again >= best * (1.0 + 1e-5) + T_EPS:  # missed on a grazing edge: face the ray
+                best_n = -d.normalized()
     return best, best_k, best_n, trans, pane_t, pane_k
 
 
@@ -505,7 +518,7 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
         c_id = pi[k, 2]
         i_id = pi[k, 3]
         if pi[k, 0] == 3:  # triangle: barycentrics of the hit (the traversal's own test, repeated once)
-            j = pi[k, 1]
+            j = k  # its rows of tris and shade
             v0 = _v3(tris, j, 0)
             v1 = _v3(tris, j, 3)
             v2 = _v3(tris, j, 6)
@@ -678,9 +691,8 @@ def _through_pane(col, d, pane, pi: ti.template(), tris: ti.template(), consts: 
     """Fast mode's colour ``col`` (linear) seen along camera ray d through pane primitive ``pane``: a slab whose two
     faces pass (1 − F)² of it and reflect F + (1 − F)² F of the environment the ambient term stands for — quality
     mode's sky, ``ambient · (0.8 + 0.3 r_z)`` in the mirror direction r (no traversal, no shadow ray)."""
-    j = pi[pane, 1]
-    v0 = _v3(tris, j, 0)
-    nrm = (_v3(tris, j, 3) - v0).cross(_v3(tris, j, 6) - v0).normalized()
+    v0 = _v3(tris, pane, 0)
+    nrm = (_v3(tris, pane, 3) - v0).cross(_v3(tris, pane, 6) - v0).normalized()
     dn = d.normalized()
     c = nrm.dot(dn)
     f = _glass_reflectance(ti.abs(c))

@@ -241,8 +241,9 @@ def pack_scene(scene) -> dict:
         ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
         primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind (the scene's, or
         ``kernels.GLASS`` for a window pane), axis or packed triangle index, class, instance];
-        ``tris`` (max(T,1), 9) float32 vertices, in BVH order (row ``pi[k, 1]`` is primitive k's); ``shade``
-        (max(T,1), SHADE_COLS) float32 (rows as ``tris``) per triangle [vertex normals (9), UVs (6), texture index
+        ``tris`` (max(P,1), 9) float32 vertices: row k is primitive k's, when it is a triangle (``pi[k, 1]`` is
+        then k; the other rows are zeros; (1, 9) without triangles); ``shade`` (rows as ``tris``) float32
+        (SHADE_COLS columns) per triangle [vertex normals (9), UVs (6), texture index
         (−1: none), texture LOD offset]; ``texels``
         (max(N,1),) int32 packed sRGB ``r | g << 8 | b << 16``; ``tex_info`` (max(X,1), 4) int32 (as
         ``Scene.tex_info``); ``tex_lut`` (256,) float32 sRGB byte → linear; ``lights`` (max(L,1), LIGHT_COLS)
@@ -317,13 +318,15 @@ def pack_scene(scene) -> dict:
                 uv_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
                 wh = tex_info[tex[t], 1].astype(np.float64) * tex_info[tex[t], 2]
                 shade[t, 16] = 0.5 * np.log2(np.maximum(wh * uv_area, 1e-30) / np.maximum(area, 1e-30))
-    if n and nt:  # triangles in BVH order, so that a leaf's triangles are neighbours in memory
+    if n and nt:  # a triangle's rows at its primitive's index, in BVH order: no indirection in the traversal
         tri_k = np.flatnonzero(pi[:n, 0] >= 3)  # triangles and panes
         if tri_k.size:
             j = pi[tri_k, 1].astype(np.int64)
-            tris = np.ascontiguousarray(tris[j])
-            shade = np.ascontiguousarray(shade[j])
-            pi[tri_k, 1] = np.arange(tri_k.size, dtype=np.int32)
+            by_prim = np.zeros((n, 9), np.float32), np.zeros((n, SHADE_COLS), np.float32)
+            by_prim[1][:, 15] = -1.0
+            by_prim[0][tri_k], by_prim[1][tri_k] = tris[j], shade[j]
+            tris, shade = by_prim
+            pi[tri_k, 1] = tri_k
     texels8 = np.asarray(scene.tex_texels, np.uint8).reshape(-1, 3).astype(np.int32)
     texels = np.zeros(max(texels8.shape[0], 1), dtype=np.int32)
     texels[:texels8.shape[0]] = texels8[:, 0] | (texels8[:, 1] << 8) | (texels8[:, 2] << 16)
