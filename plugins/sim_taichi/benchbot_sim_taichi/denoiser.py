@@ -92,6 +92,23 @@ def _check_arguments(device: str, height: int, width: int, quality: str) -> None
         raise ValueError(f"image size must be at least 1x1, not {width}x{height}")
 
 
+def _check(handle, name: str, what: str) -> None:
+    """Raise ``RuntimeError("Open Image Denoise (<name>) failed <what>: <OIDN's message>")`` if the device ``handle``
+    has an error (reading it clears it)."""
+    code, message = _error(handle)
+    if code:
+        raise RuntimeError(f"Open Image Denoise ({name}) failed {what}: {message}")
+
+
+def _release(filter_handle, buffer_handle) -> None:
+    """Release an OIDN filter and buffer (either may be NULL, the buffer None)."""
+    capi, ffi = _capi()
+    if filter_handle != ffi.NULL:
+        capi.oidnReleaseFilter(filter_handle)
+    if buffer_handle is not None and buffer_handle != ffi.NULL:
+        capi.oidnReleaseBuffer(buffer_handle)
+
+
 def _commit_rt_filter(filter_handle, quality: str) -> None:
     """Set an ``RT`` filter's options (HDR input, ``quality``) and commit it; the caller checks the device's error."""
     capi, _ = _capi()
@@ -128,15 +145,10 @@ class Denoiser:
                 capi.oidnSetFilterImage(self._filter, name.encode(), self._buffer, _FLOAT3, int(width), int(height),
                                         i * self._nbytes, 0, 0)
             _commit_rt_filter(self._filter, quality)
-            self._check("setting up the filter")
+            _check(self._device, self.device, "setting up the filter")
         except BaseException:
             self.close()
             raise
-
-    def _check(self, what: str) -> None:
-        code, message = _error(self._device)
-        if code:
-            raise RuntimeError(f"Open Image Denoise ({self.device}) failed {what}: {message}")
 
     def __call__(self, radiance: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """Denoise one image; see :func:`denoise_radiance` for the arguments, the result and the errors."""
@@ -157,18 +169,13 @@ class Denoiser:
                                  ffi.from_buffer(out, require_writable=True))
         capi.oidnSyncDevice(self._device)
         del inputs  # kept alive until the device has read them
-        self._check("denoising")
+        _check(self._device, self.device, "denoising")
         return out
 
     def close(self) -> None:
         """Release the filter and the buffer (the device stays, shared); idempotent."""
-        if self._filter is None:
-            return
-        capi, ffi = _capi()
-        if self._filter != ffi.NULL:
-            capi.oidnReleaseFilter(self._filter)
-        if self._buffer != ffi.NULL:
-            capi.oidnReleaseBuffer(self._buffer)
+        if self._filter is not None:
+            _release(self._filter, self._buffer)
         self._filter = self._buffer = None
 
 
@@ -193,15 +200,10 @@ class SharedImageDenoiser:
         self._filter = capi.oidnNewFilter(self._device, b"RT")
         self._bound: tuple | None = None  # the addresses the filter was last committed with
         try:
-            self._check("creating the filter")
+            _check(self._device, self.device, "creating the filter")
         except BaseException:
             self.close()
             raise
-
-    def _check(self, what: str) -> None:
-        code, message = _error(self._device)
-        if code:
-            raise RuntimeError(f"Open Image Denoise ({self.device}) failed {what}: {message}")
 
     def __call__(self, color: int, guides: int, output: int) -> None:
         """Denoise the image at address ``color`` into ``output``, with the guides at ``guides`` (see the class doc);
@@ -222,19 +224,16 @@ class SharedImageDenoiser:
                 capi.oidnSetSharedFilterImage(self._filter, name.encode(), ffi.cast("void*", int(address)), _FLOAT3,
                                               self.width, self.height, offset, stride, 0)
             _commit_rt_filter(self._filter, self.quality)
-            self._check("setting up the filter")
+            _check(self._device, self.device, "setting up the filter")
             self._bound = addresses
         capi.oidnExecuteFilterAsync(self._filter)
         capi.oidnSyncDevice(self._device)
-        self._check("denoising")
+        _check(self._device, self.device, "denoising")
 
     def close(self) -> None:
         """Release the filter (the device stays, shared); idempotent."""
-        if self._filter is None:
-            return
-        capi, ffi = _capi()
-        if self._filter != ffi.NULL:
-            capi.oidnReleaseFilter(self._filter)
+        if self._filter is not None:
+            _release(self._filter, None)
         self._filter = None
 
 
