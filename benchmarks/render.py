@@ -11,10 +11,11 @@ same primary camera rays at the exported triangle mesh of the same scene (``benc
 Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
 (``Renderer.render_sensors``). On CUDA the scene and the outputs stay in GPU memory
 (``device_buffers``): ``fps`` counts frames finished in GPU memory (the timing ends with a device synchronisation),
-``fps_with_host_copy`` the same frames copied into NumPy arrays by the renderer (``to_host=True``: Taichi's
-``Ndarray.to_numpy``, new arrays each call); on the CPU both are the same figure. On CUDA, ``--host-copy`` adds
-copies into NumPy arrays made once and reused (``benchbot_sim_taichi.host_copy.HostCopier``: one
-``cuMemcpyDtoHAsync`` per output; checked equal to ``to_numpy``'s): ``pinned``, the renderer's
+``fps_with_host_copy`` the same frames copied into new NumPy arrays by the renderer (``to_host=True``: through its
+page-locked arrays, then a host copy; Taichi's ``Ndarray.to_numpy`` before 22 Nov 2026's ``_fetch``); on the CPU
+both are the same figure. On CUDA, ``--host-copy`` adds copies into NumPy arrays made once and reused
+(``benchbot_sim_taichi.host_copy.HostCopier``: one ``cuMemcpyDtoHAsync`` per output); every copy is checked equal
+to Taichi's ``to_numpy`` of the same outputs. ``pinned``, the renderer's
 ``to_host="pinned"`` (page-locked memory) → ``fps_host_pinned``; ``reused``, the copier driven by the benchmark with
 ordinary memory → ``fps_host_reused``. JSON keys: ``fps`` (sensor frames per second), ``fps_with_host_copy``,
 ``mrays_per_s`` (primary camera rays, millions per second, counted from the same timing: W·H·fps),
@@ -75,8 +76,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="off: ambient light only (no shadow rays, no lamp maps): what primary rays, shading and "
                          "the laser cost without the lights")
     ap.add_argument("--host-copy", default="taichi",
-                    help="comma list of host-copy timings on CUDA: taichi (the renderer's to_host), reused, pinned; "
-                         "none")
+                    help="comma list of host-copy timings on CUDA: taichi (the renderer's to_host=True), reused, "
+                         "pinned; none")
     ap.add_argument("--no-embree", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -119,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.lights == "on":
             return r.render_sensors(K, Ts, W, H, Tl, angles, to_host=to_host)
         out = r._launch(K, Ts, W, H, Tl, angles, lit=False)  # the renderer's unlit launch (depth/segmentation use)
-        return {k: v.to_numpy() if to_host and not isinstance(v, np.ndarray) else v for k, v in out.items()}
+        return r._fetch(out) if to_host else out  # the renderer's own copy to new NumPy arrays
 
     def timed(to_host, fetch=None):
         for i in range(args.warmup):
@@ -145,18 +146,20 @@ def main(argv: list[str] | None = None) -> int:
     if r.device_buffers:
         import gpu_host  # this folder is on sys.path when a script here runs
 
-        for mode in [c for c in copies if c != "taichi"]:
-            if mode == "pinned":  # the renderer's own page-locked path
+        for mode in copies:
+            want = {k: v.to_numpy() for k, v in run(0, False).items()}  # Taichi's own copy
+            if mode == "taichi":  # the renderer's to_host=True (timed above)
+                got = run(0, True)
+            elif mode == "pinned":  # the renderer's own page-locked path
                 got = {k: v.copy() for k, v in run(0, "pinned").items()}
-                want = run(0, True)
             else:  # the renderer's copier driven here with ordinary memory
                 copier = gpu_host.HostCopier(pinned=False)
-                got, want = copier.copy(run(0, False)), run(0, True)
+                got = copier.copy(run(0, False))
             if any(not np.array_equal(got[k], want[k]) for k in want):
                 raise SystemExit(f"--host-copy {mode}: the copies differ from to_numpy's")
             if mode == "pinned":
                 extra["fps_host_pinned"] = timed(to_host="pinned")
-            else:
+            elif mode == "reused":
                 extra["fps_host_reused"] = timed(to_host=False, fetch=copier.copy)
                 copier.close()
         extra.update(gpu_host.device_info())

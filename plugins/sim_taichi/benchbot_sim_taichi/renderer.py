@@ -56,8 +56,9 @@ time-of-flight and structured-light depth cameras and most laser scanners do thr
 tracer's radiance and guides in GPU memory and writes the denoised image there
 (:func:`~benchbot_sim_taichi.denoiser.denoise_shared`), and ``pathtrace.encode_kernel`` applies the camera model
 there, in float64 like :meth:`~benchbot_sim_taichi.camera_model.CameraModel.encode`; only the results travel to the
-host, through page-locked memory. Without device buffers (the CPU's default) the same steps run on NumPy arrays; the
-images are the same.
+host, through page-locked memory. Without device buffers (the CPU's default) the same steps run on NumPy arrays, with
+the same images (on CUDA, not denoised, a few 8-bit values of a frame can be one level apart: the GPU's float64
+``pow`` rounds a value on a level's edge differently).
 """
 
 import contextlib
@@ -240,7 +241,7 @@ def pack_scene(scene) -> dict:
         ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
         ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
         primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind (the scene's, or
-        ``kernels.GLASS`` for a window pane), axis or packed triangle index, class, instance];
+        ``kernels.GLASS`` for a window pane), a cylinder's axis or a triangle's row of ``tris`` (k), class, instance];
         ``tris`` (max(P,1), 9) float32 vertices: row k is primitive k's, when it is a triangle (``pi[k, 1]`` is
         then k; the other rows are zeros; (1, 9) without triangles); ``shade`` (rows as ``tris``) float32
         (SHADE_COLS columns) per triangle [vertex normals (9), UVs (6), texture index
@@ -610,7 +611,8 @@ class Renderer:
             width, height: image size, pixels.
             T_map_lidars: (B, 4, 4) lidar poses (x forward, z up, assumed level), or ``None`` for no scans.
             angles: (N,) beam angles (rad, about each lidar's z from its +x); required with ``T_map_lidars``.
-            to_host: ``True``: return new NumPy arrays (copied from the GPU on CUDA by Taichi's ``to_numpy``).
+            to_host: ``True``: return new NumPy arrays (on CUDA copied through page-locked memory, then into new
+                arrays: :meth:`_fetch`).
                 ``"pinned"``: on CUDA, copy into page-locked NumPy arrays that the renderer makes once and reuses
                 (:class:`~benchbot_sim_taichi.host_copy.HostCopier`: several times faster), valid until the next
                 ``"pinned"`` call of the same sizes overwrites them — copy what you keep; on the CPU the same as
@@ -646,7 +648,7 @@ class Renderer:
                 self._pinned_copier = HostCopier(pinned=True)
             return self._pinned_copier.copy(out)
         if to_host and self.device_buffers:
-            out = {k: (v if isinstance(v, np.ndarray) else v.to_numpy()) for k, v in out.items()}
+            out = self._fetch(out)
         return out
 
     def render_batch(self, K: np.ndarray, T_map_cameras, width: int, height: int) -> dict[str, np.ndarray]:
@@ -796,10 +798,7 @@ class Renderer:
                 denoise_shared(device_pointer(lin), device_pointer(aux), device_pointer(denoised), lin.shape[1],
                                lin.shape[2], device=self.denoise_device)
             except RuntimeError as e:
-                if not (self._denoise_device_chosen and self.denoise_device != "cpu"):
-                    raise
-                warnings.warn(f"quality mode: {e}; denoising on the CPU instead", RuntimeWarning, stacklevel=3)
-                self.denoise_device = "cpu"
+                self._denoise_on_the_cpu_instead(e)
                 return None
             lin = denoised
         rgb = self._buffer("quality_rgb", lin.shape, np.uint8)
@@ -813,11 +812,16 @@ class Renderer:
         try:
             return denoise_radiance(radiance, albedo, normal, device=self.denoise_device)
         except RuntimeError as e:
-            if not (self._denoise_device_chosen and self.denoise_device != "cpu"):
-                raise
-            warnings.warn(f"quality mode: {e}; denoising on the CPU instead", RuntimeWarning, stacklevel=3)
-            self.denoise_device = "cpu"
+            self._denoise_on_the_cpu_instead(e)
             return denoise_radiance(radiance, albedo, normal, device="cpu")
+
+    def _denoise_on_the_cpu_instead(self, error: RuntimeError) -> None:
+        """After the denoiser failed with ``error``: re-raise it if its device was asked for (or is the CPU), else
+        warn once and denoise on the CPU from now on."""
+        if not (self._denoise_device_chosen and self.denoise_device != "cpu"):
+            raise error
+        warnings.warn(f"quality mode: {error}; denoising on the CPU instead", RuntimeWarning, stacklevel=4)
+        self.denoise_device = "cpu"
 
     def scan(self, T_map_lidar: np.ndarray, angles: np.ndarray) -> np.ndarray:
         """Planar laser ranges.
