@@ -654,22 +654,22 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                     texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
                     vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
                                                po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
-                if slot < 0:  # shadow rays (window panes unseen)
-                    if total <= 1:
-                        _t, k_sh, _n, _tr, _pt, _pk = _trace(po, L, reach, n_prims, nodes_f, nodes_i, pf, pi, tris,
-                                                             True, PANES_UNSEEN)
-                        if k_sh < 0:
-                            vis = 1.0
-                    else:
+                if slot < 0:  # shadow rays (window panes unseen): one towards the centre, or `total` over the disc
+                    rays = ti.max(total, 1)
+                    t1 = ti.Vector([0.0, 0.0, 0.0])
+                    t2 = ti.Vector([0.0, 0.0, 0.0])
+                    rot = 0.0
+                    if total > 1:
                         t1, t2 = _frame(L)
                         rot = _rand(key * 977 + j * 131 + 7)
-                        for s in range(total):
+                    for s in range(rays):
+                        Ls = L
+                        ds = reach
+                        if total > 1:
                             rr = ti.sqrt((ti.cast(s, ti.f32) + _rand(key * 31 + j * 7919 + s * 104729 + 3))
                                          / ti.cast(total, ti.f32))
                             th = 6.2831853 * (rot + ti.cast(s, ti.f32) * 0.6180340)
                             off = rr * (ti.cos(th) * t1 + ti.sin(th) * t2)
-                            Ls = L
-                            ds = dist
                             if point:
                                 q = L * dist + off * params[2]  # towards a point of the lamp's disc
                                 ds = q.norm()
@@ -677,11 +677,12 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                                 ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
                             else:
                                 Ls = (L + off * params[1]).normalized()
-                            _t, k_sh, _n, _tr, _pt, _pk = _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi,
-                                                                 tris, True, PANES_UNSEEN)
-                            if k_sh < 0:
-                                vis += 1.0
-                        vis /= ti.cast(total, ti.f32)
+                        # one traversal in the code for both cases (each call site inlines a whole traversal)
+                        _t, k_sh, _n, _tr, _pt, _pk = _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris,
+                                                             True, PANES_UNSEEN)
+                        if k_sh < 0:
+                            vis += 1.0
+                    vis /= ti.cast(rays, ti.f32)
                 radiance += ti.Vector([lights[j, 4], lights[j, 5], lights[j, 6]]) * (ndl * atten * vis)
     return radiance
 
