@@ -688,7 +688,7 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
 
 
 @ti.func
-def _through_pane(col, d, pane, pi: ti.template(), tris: ti.template(), consts: ti.template()):
+def _through_pane(col, d, pane, tris: ti.template(), consts: ti.template()):
     """Fast mode's colour ``col`` (linear) seen along camera ray d through pane primitive ``pane``: a slab whose two
     faces pass (1 − F)² of it and reflect F + (1 − F)² F of the environment the ambient term stands for — quality
     mode's sky, ``ambient · (0.8 + 0.3 r_z)`` in the mirror direction r (no traversal, no shadow ray)."""
@@ -804,7 +804,7 @@ def sensors_kernel(
                                     lamp_maps)
                 col = albedo * radiance
             if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
-                col = _through_pane(col, d, pane, pi, tris, consts)
+                col = _through_pane(col, d, pane, tris, consts)
             if hit == 1:
                 if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
                     xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
