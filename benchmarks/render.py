@@ -5,7 +5,7 @@ environment's trajectory poses (fast mode), and, in the same run, Embree (``embr
 same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.export``).
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
-        [--shadow-samples 1] [--lamp-maps auto|on|off] [--lights on|off] [--host-copy taichi[,reused,pinned]|none]
+        [--shadow-samples 1] [--shadow-maps auto|on|off] [--lights on|off] [--host-copy taichi[,reused,pinned]|none]
         [--json]
 
 Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
@@ -23,7 +23,8 @@ ordinary memory → ``fps_host_reused``. JSON keys: ``fps`` (sensor frames per s
 segmentation and the textured albedo under ambient light, no lights or laser; the figure to set beside Embree's), ``embree_mrays_per_s`` (primary rays only, closest hit), ``ms_per_frame``, ``prims``, ``triangles``, ``bvh_nodes``,
 ``lights`` (how many), ``lights_on`` (false with ``--lights off``: ambient light only, the renderer's unlit launch),
 ``bvh_build_s`` (``bvh.build_bvh`` inside ``set_scene``, on the host CPU), ``setup_s`` (renderer start and
-``set_scene``: BVH, packing, upload, lamp maps), ``scene_mb`` (the packed scene arrays the kernels read: on CUDA
+``set_scene``: BVH, packing, upload, shadow maps), ``lamps_with_maps`` / ``sun_map`` (which lights take their
+shadows from shadow maps), ``scene_mb`` (the packed scene arrays the kernels read: on CUDA
 what ``set_scene`` uploads), ``bvh_mb`` (its nodes), ``peak_rss_mb`` (host), on CUDA ``gpu``, ``gpu_mem_used_mb``
 (device memory in use after the timings, the whole device), ``embree_triangles``, …
 """
@@ -70,10 +71,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--warmup", type=int, default=2)
     ap.add_argument("--shadow-samples", type=int, default=1)
-    ap.add_argument("--lamp-maps", choices=("auto", "on", "off"), default="auto",
-                    help="lamp shadows from cube shadow maps (auto: in furnished scenes) or shadow rays")
+    ap.add_argument("--shadow-maps", choices=("auto", "on", "off"), default="auto",
+                    help="the lamps' and the sun's shadows from shadow maps (auto: in furnished scenes) or shadow "
+                         "rays (named --lamp-maps before 23 Nov 2026, when the sun had no map)")
     ap.add_argument("--lights", choices=("on", "off"), default="on",
-                    help="off: ambient light only (no shadow rays, no lamp maps): what primary rays, shading and "
+                    help="off: ambient light only (no shadow rays, no shadow maps): what primary rays, shading and "
                          "the laser cost without the lights")
     ap.add_argument("--host-copy", default="taichi",
                     help="comma list of host-copy timings on CUDA: taichi (the renderer's to_host=True), reused, "
@@ -100,9 +102,9 @@ def main(argv: list[str] | None = None) -> int:
     bvh_s.clear()
     t0 = time.perf_counter()
     r = Renderer(args.arch, shadow_samples=args.shadow_samples,
-                 lamp_maps={"auto": None, "on": True, "off": False}[args.lamp_maps])
+                 shadow_maps={"auto": None, "on": True, "off": False}[args.shadow_maps])
     r.set_scene(scene)
-    r.sync()  # the lamp maps' kernel
+    r.sync()  # the shadow maps' kernels
     t_setup = time.perf_counter() - t0
     K = intrinsics(W, H, 90.0)
     Tc = np.eye(4)
@@ -180,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
            "lights_on": args.lights == "on",
            "style": scene.style, "lamps_with_maps": r.lamps_with_maps,
+           "sun_map": r.sun_map,
            "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
            "setup_s": t_setup, "bvh_build_s": sum(bvh_s), "fps_with_host_copy": fps_host,
            "scene_mb": sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20,
@@ -215,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(f"{args.env} ({scene.style}, {out['triangles']} triangles, {out['lamps_with_maps']} of {out['lights']} lights with lamp maps) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
+        print(f"{args.env} ({scene.style}, {out['triangles']} triangles, {out['lamps_with_maps'] + out['sun_map']} of {out['lights']} lights with shadow maps) {W}x{H} arch={out['arch']} batch={B}: {fps:.1f} fps ({out['ms_per_frame']:.1f} ms/frame), "
               f"{out['mrays_per_s']:.2f} Mrays/s primary in whole frames, {primary_mrays:.2f} alone; "
               f"{fps_host or float('nan'):.1f} fps with host copies; "
               f"embree {out.get('embree_mrays_per_s', float('nan')):.2f} "

@@ -6,8 +6,8 @@ class/instance segmentation + 360-beam laser):
 * ``render.py`` on the furnished ``house:1`` and ``miniroom:1``, ``--batch`` 1, 64, 256 and 1024 cameras per
   launch: frames left in GPU memory (``fps``), copied to NumPy by the renderer (``fps_with_host_copy``) and by the
   benchmark's reused ordinary / page-locked buffers (``fps_host_reused``, ``fps_host_pinned``; 1024: page-locked
-  only); at batch 256 also with the lights off (ambient only: no shadow rays, no lamp maps) and with shadow rays to
-  every lamp instead of the lamp maps (``--lamp-maps off``), which show the lights' share of a frame;
+  only); at batch 256 also with the lights off (ambient only: no shadow rays, no shadow maps) and with shadow rays to
+  every light instead of the shadow maps (``--shadow-maps off``), which show the lights' share of a frame;
 * ``render_meshes.py``: 100 textured spheres of 100, 1,000 and 10,000 triangles (≈ 10k, 90k and 960k triangles),
   batch 1 and 256: BVH build time on the host, scene and BVH size, device memory in use and fps against triangle
   count.
@@ -41,7 +41,7 @@ def cases(quick: bool) -> list[list[str]]:
             frames = batch * 2 if quick else frames
             out.append(["benchmarks/render.py", "--arch", "cuda", "--env", env, "--batch", str(batch), "--frames",
                         str(frames), "--host-copy", copies, "--no-embree", "--json"])
-        for what in (["--lights", "off"], ["--lamp-maps", "off"]):  # where the time goes: the lights' share
+        for what in (["--lights", "off"], ["--shadow-maps", "off"]):  # where the time goes: the lights' share
             out.append(["benchmarks/render.py", "--arch", "cuda", "--env", env, "--batch", "256", "--frames",
                         "512" if quick else "4096", *what, "--host-copy", "none", "--no-embree", "--json"])
     for tris in (100, 1000, 10000):

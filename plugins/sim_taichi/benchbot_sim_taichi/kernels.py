@@ -51,8 +51,18 @@ LAMP_FIXTURE_M = 0.6
 LAMP_MAP_RES = 256
 LAMP_MAP_NORMAL_OFFSET = 1.5
 LAMP_MAP_BIAS_M = 0.01
-#: Columns of a packed light row: kind, vector xyz, colour rgb, range, lamp-map slot (−1: shadow rays).
-LIGHT_COLS = 9
+#: The sun's shadow map (fast mode, one shadow sample, scenes with lamp maps): an orthographic map along the sun's
+#: direction over the scene's primitives, ``SUN_MAP_RES``² texels (a furnished house of 20 m: 1 cm texels), traced
+#: once per scene (:func:`sun_map_kernel`). Each texel holds the height, along the direction towards the sun, of the
+#: first primitive that the sun's rays meet; a point is lit when it is no lower than that, less ``SUN_MAP_BIAS_M``
+#: (m), after leaving its surface along the normal by ``SUN_MAP_NORMAL_OFFSET`` texels (no "shadow acne").
+SUN_MAP_RES = 2048
+SUN_MAP_NORMAL_OFFSET = 1.5
+SUN_MAP_BIAS_M = 0.002
+#: Columns of a packed light row: kind, vector xyz, colour rgb, range, shadow-map slot (−1: shadow rays; a lamp's
+#: cube-map slot; 0 for the directional light with the sun map), then the sun map's projection a xyz, b xyz, a0,
+#: b0: a point p falls at texel coordinates (p·a − a0, p·b − b0) (a, b orthogonal to the light, of length 1/texel).
+LIGHT_COLS = 17
 
 #: ``pi`` kind of a window pane: a triangle of clear glass (see the renderer's module docstring). The scene's own
 #: kinds are 0 box, 1 ellipsoid, 2 cylinder, 3 triangle.
@@ -614,13 +624,41 @@ def _lamp_map_visibility(maps: ti.template(), slot, L, q):
 
 
 @ti.func
+def _sun_map_visibility(sun_map: ti.template(), lights: ti.template(), j, q):
+    """Fraction (0..1) of the four nearest texels of the sun map (bilinear weights) whose first occluder is no
+    higher, along the direction towards the sun (light j's vector), than the point q plus ``SUN_MAP_BIAS_M``:
+    percentage-closer filtering of an orthographic shadow map. Outside the map (beyond every primitive): lit."""
+    R = sun_map.shape[0]
+    a = ti.Vector([lights[j, 9], lights[j, 10], lights[j, 11]])
+    b = ti.Vector([lights[j, 12], lights[j, 13], lights[j, 14]])
+    fx = q.dot(a) - lights[j, 15] - 0.5
+    fy = q.dot(b) - lights[j, 16] - 0.5
+    x0 = ti.cast(ti.floor(fx), ti.i32)
+    y0 = ti.cast(ti.floor(fy), ti.i32)
+    ax_ = fx - x0
+    ay_ = fy - y0
+    h = q.dot(ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])) + SUN_MAP_BIAS_M
+    vis = 0.0
+    for k in ti.static(range(4)):
+        xi = x0 + (k & 1)
+        yi = y0 + (k >> 1)
+        wgt = (ax_ if (k & 1) else 1.0 - ax_) * (ay_ if (k >> 1) else 1.0 - ay_)
+        if xi < 0 or yi < 0 or xi >= R or yi >= R:
+            vis += wgt
+        elif h >= sun_map[yi, xi]:
+            vis += wgt
+    return vis
+
+
+@ti.func
 def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_lights, n_prims,
             nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
-            maps: ti.template()):
+            maps: ti.template(), sun_map: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
     along the geometric normal ng); visibility from ``params[0]`` shadow rays (stratified over the light's disc),
-    hashed from ``key`` — or, with one sample and a lamp with a map slot: from its cube shadow map
-    (:func:`_lamp_map_visibility`). Window panes do not stop shadow rays, nor dim them."""
+    hashed from ``key`` — or, with one sample and a light with a map slot: a lamp's from its cube shadow map
+    (:func:`_lamp_map_visibility`), the sun's from the sun map (:func:`_sun_map_visibility`). Window panes do not
+    stop shadow rays, nor dim them."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
     total = ti.cast(params[0], ti.i32)
@@ -648,12 +686,17 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                 if point:
                     reach = ti.max(dist - LAMP_FIXTURE_M, 0.0)
                 slot = -1
-                if point and total <= 1:
+                if total <= 1:
                     slot = ti.cast(lights[j, 8], ti.i32)
                 if slot >= 0:
-                    texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
-                    vis = _lamp_map_visibility(maps, slot, ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
-                                               po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
+                    if point:
+                        texel = dist * 2.0 / ti.cast(maps.shape[1], ti.f32)  # a texel's footprint at p (m)
+                        vis = _lamp_map_visibility(maps, slot,
+                                                   ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]),
+                                                   po + ng * (LAMP_MAP_NORMAL_OFFSET * texel))
+                    else:
+                        texel = 1.0 / ti.Vector([lights[j, 9], lights[j, 10], lights[j, 11]]).norm()
+                        vis = _sun_map_visibility(sun_map, lights, j, po + ng * (SUN_MAP_NORMAL_OFFSET * texel))
                 if slot < 0:  # shadow rays (window panes unseen): one towards the centre, or `total` over the disc
                     rays = ti.max(total, 1)
                     t1 = ti.Vector([0.0, 0.0, 0.0])
@@ -749,6 +792,7 @@ def sensors_kernel(
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
     lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
     consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
     rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
     depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
@@ -762,7 +806,8 @@ def sensors_kernel(
     angle ``beams[j]`` (rad) + the lidar's yaw. Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value: no
     upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
     the scene arrays are ``renderer.pack_scene``'s; ``lamp_maps`` (6·S, R, R) the lamps' cube shadow maps
-    (:func:`lamp_map_kernel`; used by lights whose row has a slot ≥ 0)."""
+    (:func:`lamp_map_kernel`; used by lamps whose row has a slot ≥ 0), ``sun_map`` (R, R) the sun's
+    (:func:`sun_map_kernel`; used by a directional light whose row has slot 0)."""
     B = depth.shape[0]
     H = depth.shape[1]
     W = depth.shape[2]
@@ -801,7 +846,7 @@ def sensors_kernel(
             if hit == 1:
                 radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
                 radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi, tris,
-                                    lamp_maps)
+                                    lamp_maps, sun_map)
                 col = albedo * radiance
             if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
                 col = _through_pane(col, d, pane, tris, consts)
@@ -860,6 +905,38 @@ def lamp_map_kernel(
         maps[z, y, x] = depth
 
 
+@ti.kernel
+def sun_map_kernel(
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    j: ti.i32,
+    top: ti.f32,
+    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    n_prims: ti.i32,
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """The orthographic shadow map of directional light j (its row's projection columns, see :data:`LIGHT_COLS`)
+    into ``sun_map`` (R, R) float32: texel (x, y) holds the height ``p·l`` (l: the unit vector towards the light) of
+    the first primitive p met by the ray that comes from the light through the point at texel coordinates
+    (x + ½, y + ½) on the plane ``p·l = top`` (above every primitive); −1e30 where there is none. The room shell and
+    window panes cast no shadow, as with shadow rays."""
+    R = sun_map.shape[0]
+    for y, x in ti.ndrange(R, R):
+        a = ti.Vector([lights[j, 9], lights[j, 10], lights[j, 11]])
+        b = ti.Vector([lights[j, 12], lights[j, 13], lights[j, 14]])
+        l = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
+        # a / |a|² is the world vector of one texel step along a (a has length 1/texel), likewise b
+        o = (x + 0.5 + lights[j, 15]) * a / a.dot(a) + (y + 0.5 + lights[j, 16]) * b / b.dot(b) + top * l
+        t, k, nrm, _tr, _pt, _pk = _trace(o, -l, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False, PANES_UNSEEN)
+        height = -1e30
+        if k >= 0:
+            height = top - t
+        sun_map[y, x] = height
+
+
 #: Parameters of :func:`sensors_kernel`, in order: (name, kind, dtype, ndim) with kind ``nd`` (ndarray), ``sc``
 #: (scalar) or ``vec`` (by-value vector of POSE_LEN).
 SENSORS_ARGS = (
@@ -867,7 +944,8 @@ SENSORS_ARGS = (
     ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes_f", "nd", "f32", 2), ("nodes_i", "nd", "i32", 2),
     ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
     ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1), ("n_prims", "sc", "i32", 0),
-    ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("lamp_maps", "nd", "f32", 3), ("consts", "nd", "f32", 1),
+    ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("lamp_maps", "nd", "f32", 3),
+    ("sun_map", "nd", "f32", 2), ("consts", "nd", "f32", 1),
     ("rgb", "nd", "u8", 4),
     ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
 )

@@ -26,11 +26,14 @@ curve, gamma 2.2; by default clamped and gamma-encoded, as always) to uint8 thro
 is the fraction of ``shadow_samples`` shadow rays (stratified over the light's disc — the sun's angular radius, a
 lamp's radius — with a per-pixel rotation from a seeded integer hash, so renders are deterministic) that reach the
 light; one sample is a hard shadow towards the light's centre. With one sample in a furnished scene (``Renderer``'s
-``lamp_maps``), a lamp's visibility comes instead from its cube shadow map, traced once per scene: the distance from
-the lamp to the first occluder for each of 6 × 256² directions, compared with the point's distance (offset along
-its normal by 1.5 texel footprints; 2 × 2 texels, bilinearly weighted). The images agree with shadow rays but for
-a rim of a texel or two along shadow edges, and a frame costs about a third of the rays' (many lamps: house:1 has
-29). The kernels live in :mod:`benchbot_sim_taichi.kernels`.
+``shadow_maps``), visibility comes instead from shadow maps traced once per scene: a lamp's from its cube map (the
+distance from the lamp to the first occluder for each of 6 × 256² directions, compared with the point's distance),
+the sun's from one orthographic map over the scene's primitives (2048² texels, about 1 cm in a furnished house: the
+height, along the direction towards the sun, of the first primitive the sun's rays meet, compared with the
+point's). Either way the point is first moved off its surface along its normal by 1.5 texels, and 2 × 2 texels are
+compared, bilinearly weighted. The images agree with shadow rays but for a rim of a texel or two along shadow edges
+(and rare specks where a texel's ray slips through a seam of the structure), and a frame costs far less (many lamps:
+house:1 has 29, and the sun's ray is long). The kernels live in :mod:`benchbot_sim_taichi.kernels`.
 
 Triangles (meshes, :mod:`benchbot_sim_taichi.meshes`) are shaded with their interpolated vertex normals (n above;
 shadow rays leave from the hit point offset along the geometric normal, moved onto the vertices' tangent planes so
@@ -89,8 +92,8 @@ from benchbot_sim_taichi import kernels  # noqa: E402 - after Taichi's banner is
 from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
 from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
-    GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_RADIUS,
-    lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel,
+    GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_MAP_RES, SUN_RADIUS,
+    lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel, sun_map_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -400,7 +403,34 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
 # ---------------------------------------------------------------------------------------------------------- renderer
 #: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
 _SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
-                 "lamp_maps")
+                 "lamp_maps", "sun_map")
+
+
+def _plan_sun_map(packed: dict) -> tuple[int | None, float]:
+    """Plan the sun map of a packed scene (:func:`pack_scene`'s dict, modified in place): the first directional
+    light's row gets map slot 0 and the map's projection (``kernels.LIGHT_COLS``): two unit vectors orthogonal to
+    the light, scaled by 1/texel, and offsets, such that the box of every primitive (the BVH's root, padded by two
+    texels) projects onto ``SUN_MAP_RES``² square texels. Returns (that row, the height ``top`` along the light of a
+    plane above every primitive), or (None, 0.0) when the scene has no directional light or no primitive."""
+    lights, n = packed["lights"], packed["n_lights"]
+    rows = np.flatnonzero(lights[:n, 0] == 0)
+    if rows.size == 0 or packed["n_prims"] == 0:
+        return None, 0.0
+    j = int(rows[0])
+    l = lights[j, 1:4].astype(np.float64)
+    l /= np.linalg.norm(l)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(l[0]) > 0.9 else np.array([1.0, 0.0, 0.0])
+    t1 = np.cross(l, helper)
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(l, t1)
+    lo, hi = packed["nodes_f"][0, :3].astype(np.float64), packed["nodes_f"][0, 3:6].astype(np.float64)
+    corners = np.array([[(lo, hi)[(c >> a) & 1][a] for a in range(3)] for c in range(8)])
+    u, v, h = corners @ t1, corners @ t2, corners @ l
+    texel = max(u.max() - u.min(), v.max() - v.min(), 1e-3) / (SUN_MAP_RES - 4)
+    lights[j, 1:4], lights[j, 8] = l, 0
+    lights[j, 9:12], lights[j, 12:15] = t1 / texel, t2 / texel
+    lights[j, 15], lights[j, 16] = u.min() / texel - 2.0, v.min() / texel - 2.0
+    return j, float(h.max() + 1.0)
 
 
 # Taichi ndarrays must be freed on Taichi's thread: on CUDA the context is current only there, and freeing GPU
@@ -468,12 +498,13 @@ class Renderer:
         device_buffers: keep the scene and the output images in Taichi ndarrays, i.e. in GPU memory on CUDA, so a
             launch copies nothing between host and device (``None``: on CUDA only). On the CPU, NumPy arrays are
             already shared with the kernels, so the default there passes them directly.
-        lamp_maps: with one shadow sample in ``fast`` mode, take the lamps' (point lights') shadows from cube shadow
-            maps (``kernels.LAMP_MAP_RES``² texels a face, traced once per scene in :meth:`set_scene`) instead of
-            one shadow ray per lamp and pixel. ``None`` (default): for furnished scenes (``scene.style ==
-            'furnished'``: many lamps and triangles, where those rays cost most of a frame), not for primitive
-            scenes (whose shadows stay exact, ray for ray). The sun and soft shadows (``shadow_samples`` > 1)
-            always use rays, and so does ``quality`` mode.
+        shadow_maps: with one shadow sample in ``fast`` mode, take the lamps' (point lights') shadows from cube
+            shadow maps (``kernels.LAMP_MAP_RES``² texels a face) and the sun's (the first directional light's) from
+            an orthographic map (``kernels.SUN_MAP_RES``² texels), all traced once per scene in :meth:`set_scene`,
+            instead of one shadow ray per light and pixel. ``None`` (default): for furnished scenes (``scene.style
+            == 'furnished'``: many lamps and triangles, where those rays cost most of a frame), not for primitive
+            scenes (whose shadows stay exact, ray for ray). Soft shadows (``shadow_samples`` > 1) always use rays,
+            and so does ``quality`` mode.
         camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.camera_model.CameraModel`);
             the default is the image as it always was.
         denoise_device: where ``quality`` mode's denoiser runs (:func:`~benchbot_sim_taichi.denoiser.denoise_radiance`):
@@ -482,7 +513,7 @@ class Renderer:
     """
 
     def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
-                 device_buffers: bool | None = None, lamp_maps: bool | None = None,
+                 device_buffers: bool | None = None, shadow_maps: bool | None = None,
                  camera: CameraModel = DEFAULT_CAMERA, denoise_device: str | None = None) -> None:
         self.arch = ensure_taichi(arch)
         self.denoise_device = denoise_device or ("cuda" if self.arch == "cuda" else "cpu")
@@ -498,7 +529,7 @@ class Renderer:
         self._consts_key: tuple | None = None
         self._consts = None
         self._scene_arrays: list = []
-        self.lamp_maps = lamp_maps
+        self.shadow_maps = shadow_maps
         self._pinned_copier = None  # render_sensors(to_host="pinned"): page-locked host arrays, made on first use
         self._render_copier = None  # render(): its own page-locked arrays (render_sensors' stay the caller's)
 
@@ -526,11 +557,14 @@ class Renderer:
         use it. With device buffers, this is the only host-to-device copy of the scene."""
         _free_retired()
         packed = pack_scene(scene)
-        use_maps = (getattr(scene, "style", "") == "furnished") if self.lamp_maps is None else bool(self.lamp_maps)
+        use_maps = (getattr(scene, "style", "") == "furnished") if self.shadow_maps is None else bool(self.shadow_maps)
         lamps = np.flatnonzero(packed["lights"][:packed["n_lights"], 0] == 1) if use_maps else np.zeros(0, np.int64)
         packed["lights"][lamps, 8] = np.arange(lamps.size)
         res = LAMP_MAP_RES if lamps.size else 1
         packed["lamp_maps"] = np.zeros((6 * max(lamps.size, 1), res, res), np.float32)
+        sun, top = _plan_sun_map(packed) if use_maps else (None, 0.0)
+        res = SUN_MAP_RES if sun is not None else 1
+        packed["sun_map"] = np.zeros((res, res), np.float32)
         self._packed = packed
         _retire(self._scene_arrays)
         arrays = {k: self._packed[k] for k in _SCENE_ARRAYS}
@@ -543,16 +577,27 @@ class Renderer:
             lamp_map_kernel(arrays["lights"], self._upload("light_of_slot", lamps.astype(np.int32)),
                             arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
                             self._packed["n_prims"], arrays["lamp_maps"])
+        if sun is not None:  # and the sun's
+            sun_map_kernel(arrays["lights"], sun, top, arrays["nodes_f"], arrays["nodes_i"], arrays["pf"],
+                           arrays["pi"], arrays["tris"], self._packed["n_prims"], arrays["sun_map"])
         self._scene_args = (arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
                             arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
                             self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"],
-                            arrays["lamp_maps"])
+                            arrays["lamp_maps"], arrays["sun_map"])
+
+    @property
+    def sun_map(self) -> bool:
+        """Whether the current scene's sun takes its shadows from the sun map (False before :meth:`set_scene`)."""
+        return self._packed is not None and bool(((self._packed["lights"][:, 0] == 0)
+                                                  & (self._packed["lights"][:, 8] >= 0)).any())
 
     @property
     def lamps_with_maps(self) -> int:
         """How many of the current scene's lamps take their shadows from cube shadow maps (0 before
         :meth:`set_scene`)."""
-        return 0 if self._packed is None else int((self._packed["lights"][:, 8] >= 0).sum())
+        if self._packed is None:
+            return 0
+        return int(((self._packed["lights"][:, 0] == 1) & (self._packed["lights"][:, 8] >= 0)).sum())
 
     def _need_scene(self) -> dict:
         if self._packed is None:
@@ -692,7 +737,7 @@ class Renderer:
                              cached=True)
         consts = self._frame_constants(K)
         s = self._args()
-        values = (table, pose0, one, int(images), beams, n_beams, *s[:11], s[11] if lit else 0, s[13], consts,
+        values = (table, pose0, one, int(images), beams, n_beams, *s[:11], s[11] if lit else 0, s[13], s[14], consts,
                   out["rgb"], out["depth"], out["class"], out["instance"], ranges)
         if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
             values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(SENSORS_ARGS, values))

@@ -298,7 +298,7 @@ from benchbot_sim_taichi.renderer import Renderer, intrinsics
 from benchbot_sim_taichi.scene import build_scene
 env = next(e for e in plugin.environment_specs() if (e["name"], int(e["variant"])) == ("miniroom", 1))
 scene = build_scene({**env, "style": "furnished"})
-r = Renderer("cpu", lamp_maps=False)
+r = Renderer("cpu", shadow_maps=False)
 kernels.ORDERED_TRAVERSAL = True  # as on CUDA; set before the first kernel compiles
 r.set_scene(scene)
 Ts = np.load(sys.argv[1])
@@ -324,7 +324,7 @@ def test_the_ordered_traversal_finds_the_same_closest_hits(bear_envs, tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
     ordered = np.load(tmp_path / "o.npz")
-    r = Renderer("cpu", lamp_maps=False)
+    r = Renderer("cpu", shadow_maps=False)
     r.set_scene(scene)
     stackless = r.render_batch(intrinsics(64, 48, 90.0), Ts, 64, 48)
     assert np.array_equal(ordered["instance"], stackless["instance"])

@@ -1,0 +1,169 @@
+"""Shadow maps (``Renderer(shadow_maps=...)``): the lamps' cube maps hold the true distances to the first occluder
+and the sun's map the true heights of the first primitive the sun's rays meet, renders lit through them agree with
+renders lit through shadow rays, and furnished scenes use them by default while primitive scenes keep exact shadow
+rays."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+pytest.importorskip("taichi")
+
+
+def _lamp_scene(synthetic_env):
+    """A room with a table-top box (centre (3, 0, 0.75), 0.8 × 0.8 × 0.1 m) 1.5 m under a lamp at (3, 0, 2.3),
+    and a chair; ambient off, so everything lit is lit by the lamp."""
+    from benchbot_sim_taichi.scene import LIGHT_POINT, build_scene
+
+    env = synthetic_env([("table", (3.0, 0.0, 0.75), (0.8, 0.8, 0.1)), ("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
+    scene = build_scene({**env, "procedural": False})
+    scene.ambient = np.zeros(3, np.float32)
+    scene.light_kind = np.array([LIGHT_POINT], np.int32)
+    scene.light_vec = np.array([[3.0, 0.0, 2.3]], np.float32)
+    scene.light_colour = np.array([[1.5, 1.5, 1.5]], np.float32)
+    scene.light_range = np.array([6.0], np.float32)
+    return scene
+
+
+def _sun_scene(synthetic_env, direction=(0.45, 0.30, 0.84)):
+    """The same room lit by the sun alone (``direction``, towards the sun), ambient off."""
+    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL
+
+    scene = _lamp_scene(synthetic_env)
+    d = np.asarray(direction, np.float32)
+    scene.light_kind = np.array([LIGHT_DIRECTIONAL], np.int32)
+    scene.light_vec = (d / np.linalg.norm(d))[None]
+    scene.light_colour = np.array([[1.2, 1.2, 1.2]], np.float32)
+    scene.light_range = np.zeros(1, np.float32)
+    return scene
+
+
+def _sun_texel(row, p):
+    """(column, row) of the sun-map texel that holds point p, from the light's packed row."""
+    x = np.dot(p, row[9:12]) - row[15]
+    y = np.dot(p, row[12:15]) - row[16]
+    return int(np.floor(x)), int(np.floor(y))
+
+
+def test_the_sun_map_holds_the_height_of_the_first_primitive_the_sun_meets(synthetic_env):
+    """With the sun straight overhead, the texel over the table holds the height of its top (0.8 m), the texel over
+    the bare floor between the table and the chair holds no primitive, and the map spans the primitives' extent."""
+    from benchbot_sim_taichi.kernels import SUN_MAP_RES
+    from benchbot_sim_taichi.renderer import Renderer
+
+    r = Renderer("cpu", shadow_maps=True)
+    r.set_scene(_sun_scene(synthetic_env, direction=(0.0, 0.0, 1.0)))
+    assert r.sun_map and r.lamps_with_maps == 0
+    sun_map, row = np.asarray(r._packed["sun_map"]), r._packed["lights"][0]
+    assert sun_map.shape == (SUN_MAP_RES, SUN_MAP_RES) and row[8] == 0
+    x, y = _sun_texel(row, (3.0, 0.0, 0.0))
+    assert sun_map[y, x] == pytest.approx(0.8, abs=1e-3)
+    x, y = _sun_texel(row, (1.8, 1.5, 0.0))
+    assert sun_map[y, x] < -1e29
+    texel = 1.0 / np.linalg.norm(row[9:12])
+    extent = 3.2 - (-0.4)  # y, from the table's near side to the chair's far side (x spans 0.3 .. 3.4)
+    assert texel == pytest.approx(extent / (SUN_MAP_RES - 4), rel=1e-3)  # and a margin of 2 texels each side
+
+
+def test_lit_through_the_sun_map_agrees_with_shadow_rays(synthetic_env):
+    """The floor around the table seen from above, lit by an oblique sun through its map and through shadow rays:
+    the table's shadow on the floor is dark in both, the table top and the open floor lit in both, and all but a
+    thin rim of pixels along the shadow's edges agree within 2 levels."""
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+
+    scene = _sun_scene(synthetic_env)
+    W, H = 96, 72
+    K = intrinsics(W, H, 90.0)
+    T = np.diag([1.0, -1.0, -1.0, 1.0])  # looking straight down from 2.4 m over the table and its shadow
+    T[:3, 3] = (2.6, -0.25, 2.4)
+
+    def pixel(p):
+        q = T[:3, :3].T @ (np.asarray(p, float) - T[:3, 3])
+        return int(round(K[1, 1] * q[1] / q[2] + K[1, 2])), int(round(K[0, 0] * q[0] / q[2] + K[0, 2]))
+
+    images = {}
+    for maps in (True, False):
+        r = Renderer("cpu", shadow_maps=maps)
+        r.set_scene(scene)
+        assert r.sun_map == maps
+        images[maps] = r.render(K, T, W, H)["rgb"].astype(int)
+    # the shadow of the table top's centre (0.8 m high) falls 0.8 / 0.84 · (0.45, 0.30) away from under it
+    d = np.array([0.45, 0.30, 0.84]) / np.linalg.norm([0.45, 0.30, 0.84])
+    shadow = np.array([3.0, 0.0, 0.8]) - 0.8 / d[2] * d
+    for got in images.values():
+        assert got[pixel(shadow)].max() == 0
+        assert got[pixel((3.1, 0.1, 0.8))].min() > 40  # the table top
+        assert got[pixel((3.0, -1.2, 0.0))].min() > 40  # the open floor
+    diff = np.abs(images[True] - images[False]).max(axis=2)
+    assert (diff > 2).mean() < 0.03, f"{(diff > 2).mean():.3f} of pixels differ"
+
+
+def test_a_lamp_map_holds_the_distance_to_the_first_occluder(synthetic_env):
+    """Straight down from the lamp (face −z, centre texels) the map holds the distance to the top of the table box
+    (2.3 − 0.8 = 1.5 m); straight up (face +z) nothing but the shell, which casts no shadow: no occluder."""
+    from benchbot_sim_taichi.kernels import LAMP_MAP_RES
+    from benchbot_sim_taichi.renderer import Renderer
+
+    r = Renderer("cpu", shadow_maps=True)
+    r.set_scene(_lamp_scene(synthetic_env))
+    maps = np.asarray(r._packed["lamp_maps"])
+    assert maps.shape == (6, LAMP_MAP_RES, LAMP_MAP_RES)
+    c = LAMP_MAP_RES // 2
+    down, up = maps[5], maps[4]  # faces 2·axis + (0: +, 1: −), axis z = 2
+    assert down[c - 1:c + 1, c - 1:c + 1] == pytest.approx(1.5, abs=2e-3)
+    assert np.all(up[c - 1:c + 1, c - 1:c + 1] >= 1e29)
+    assert r._packed["lights"][0, 8] == 0  # the lamp's slot
+
+
+def test_lit_through_lamp_maps_agrees_with_shadow_rays(synthetic_env):
+    """The same views rendered with the lamp's shadows from its cube map and from shadow rays: the table top (a
+    primitive in the map, so a receiver that could shadow itself) is lit in both, the floor under the table is dark
+    in both, and all but a thin rim of pixels along shadow edges agree within 2 levels."""
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+
+    scene = _lamp_scene(synthetic_env)
+    W, H = 96, 72
+    K = intrinsics(W, H, 90.0)
+    above = np.diag([1.0, -1.0, -1.0, 1.0])  # looking straight down, from beside the lamp
+    above[:3, 3] = (2.4, 0.0, 1.9)
+    under = above.copy()  # looking down at the floor from under the table top
+    under[:3, 3] = (3.0, 0.0, 0.65)
+
+    def pixel(T, p):
+        q = T[:3, :3].T @ (np.asarray(p, float) - T[:3, 3])
+        return int(round(K[1, 1] * q[1] / q[2] + K[1, 2])), int(round(K[0, 0] * q[0] / q[2] + K[0, 2]))
+
+    images = {}
+    for maps in (True, False):
+        r = Renderer("cpu", shadow_maps=maps)
+        r.set_scene(scene)
+        images[maps] = [r.render(K, T, W, H)["rgb"].astype(int) for T in (above, under)]
+    for got in images.values():
+        assert got[0][pixel(above, (3.1, 0.1, 0.8))].min() > 40  # the table top, lit by the lamp
+        assert got[1][H // 2, W // 2].max() == 0  # the floor under the table
+    for a, b in zip(images[True], images[False]):
+        diff = np.abs(a - b).max(axis=2)
+        assert (diff > 2).mean() < 0.03, f"{(diff > 2).mean():.3f} of pixels differ"
+
+
+def test_furnished_scenes_use_shadow_maps_by_default_primitive_scenes_use_rays(synthetic_env):
+    from benchbot_sim_taichi.renderer import Renderer
+
+    scene = _lamp_scene(synthetic_env)
+    assert scene.style != "furnished"
+    sunny = _sun_scene(synthetic_env)
+    r = Renderer("cpu")
+    r.set_scene(scene)
+    assert r.lamps_with_maps == 0
+    r.set_scene(sunny)
+    assert not r.sun_map
+    r.set_scene(dataclasses.replace(scene, style="furnished"))
+    assert r.lamps_with_maps == 1
+    r.set_scene(dataclasses.replace(sunny, style="furnished"))
+    assert r.sun_map
+    with_rays = Renderer("cpu", shadow_maps=False)
+    with_rays.set_scene(dataclasses.replace(scene, style="furnished"))
+    assert with_rays.lamps_with_maps == 0
+    with_rays.set_scene(dataclasses.replace(sunny, style="furnished"))
+    assert not with_rays.sun_map
