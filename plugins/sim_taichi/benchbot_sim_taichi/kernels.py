@@ -81,6 +81,10 @@ PANES_SEEN = 1
 PANES_UNSEEN = 0
 PANES_TRACKED = 2
 
+#: Flag added to a BVH leaf's primitive count (``nodes_i[n, 0]``, by ``renderer.pack_scene``) when every primitive
+#: of the leaf is a plain triangle (kind 3, not a pane): the traversal then tests them without reading their kinds.
+TRI_LEAF = 1 << 16
+
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
 SHADE_COLS = 17
@@ -144,6 +148,30 @@ def _glass_reflectance(cos_i):
     c = 1.0 - ti.min(ti.max(cos_i, 0.0), 1.0)
     c2 = c * c
     return GLASS_F0 + (1.0 - GLASS_F0) * c2 * c2 * c
+
+
+@ti.func
+def _hit_tri(o, d, tris: ti.template(), k, tmax):
+    """Distance t along the ray to triangle k (row k of ``tris``) if T_EPS < t < tmax, else tmax (Möller–Trumbore;
+    both faces)."""
+    t = tmax
+    v0 = _v3(tris, k, 0)
+    e1 = _v3(tris, k, 3) - v0
+    e2 = _v3(tris, k, 6) - v0
+    p = d.cross(e2)
+    det = e1.dot(p)
+    if det != 0.0:
+        idet = 1.0 / det
+        s = o - v0
+        u = s.dot(p) * idet
+        if u >= 0.0 and u <= 1.0:
+            qv = s.cross(e1)
+            w = d.dot(qv) * idet
+            if w >= 0.0 and u + w <= 1.0:
+                t0 = e2.dot(qv) * idet
+                if t0 > T_EPS and t0 < tmax:
+                    t = t0
+    return t
 
 
 @ti.func
@@ -237,26 +265,13 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
                     nl = ti.Vector([q[0] / R[0], q[1] / R[1], 0.0])
                 n = _unperm(nl, ax).normalized()
     elif kind >= 3:  # triangle or pane: its vertices are row k of tris
-        v0 = _v3(tris, k, 0)
-        e1 = _v3(tris, k, 3) - v0
-        e2 = _v3(tris, k, 6) - v0
-        p = d.cross(e2)
-        det = e1.dot(p)
-        if det != 0.0:
-            idet = 1.0 / det
-            s = o - v0
-            u = s.dot(p) * idet
-            if u >= 0.0 and u <= 1.0:
-                qv = s.cross(e1)
-                w = d.dot(qv) * idet
-                if w >= 0.0 and u + w <= 1.0:
-                    t0 = e2.dot(qv) * idet
-                    if t0 > T_EPS and t0 < tmax:
-                        t = t0
-                        if ti.static(with_normal):
-                            n = e1.cross(e2).normalized()
-                            if n.dot(d) > 0:
-                                n = -n
+        t = _hit_tri(o, d, tris, k, tmax)
+        if ti.static(with_normal):
+            if t < tmax:
+                v0 = _v3(tris, k, 0)
+                n = (_v3(tris, k, 3) - v0).cross(_v3(tris, k, 6) - v0).normalized()
+                if n.dot(d) > 0:
+                    n = -n
     return t, n
 
 
@@ -270,6 +285,13 @@ def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
     them counts), and a closest-hit ray sees them as surfaces; with PANES_TRACKED a closest-hit ray keeps the nearest,
     ``(pane_t, pane_k)``, without seeing it."""
     last_pane_t = -1.0
+    if cnt >= TRI_LEAF:  # plain triangles only: no kinds to read
+        for k in range(first, first + cnt - TRI_LEAF):
+            t = _hit_tri(o, d, tris, k, best)
+            if t < best:
+                best = t
+                best_k = k
+        cnt = 0
     for k in range(first, first + cnt):
         t, _n = _hit_prim(o, d, inv, pf, pi, tris, k, best, ti.static(panes == PANES_UNSEEN), False)
         if t < best:

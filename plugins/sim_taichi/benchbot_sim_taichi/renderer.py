@@ -93,7 +93,7 @@ from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noq
 from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_MAP_RES, SUN_RADIUS,
-    lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel, sun_map_kernel,
+    TRI_LEAF, lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel, sun_map_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -294,6 +294,11 @@ def pack_scene(scene) -> dict:
         safe = np.where(is_obj, obj, 0)
         pi[:n, 2] = np.where(is_obj, scene.box_class[safe] if scene.n_boxes else 0, scene.background_class)
         pi[:n, 3] = np.where(is_obj, scene.box_instance[safe] if scene.n_boxes else 0, 0)
+    leaves = np.flatnonzero(nodes_i[:, 0] > 0)
+    if n and leaves.size:  # leaves of plain triangles only are flagged: the traversal reads no kinds there
+        plain = np.concatenate([[0], np.cumsum(pi[:n, 0] == 3)])
+        first, count = nodes_i[leaves, 1].astype(np.int64), nodes_i[leaves, 0].astype(np.int64)
+        nodes_i[leaves[plain[first + count] - plain[first] == count], 0] += TRI_LEAF
     tris = np.zeros((max(nt, 1), 9), dtype=np.float32)
     shade = np.zeros((max(nt, 1), SHADE_COLS), dtype=np.float32)
     shade[:, 15] = -1.0
