@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
            "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
            "setup_s": t_setup, "bvh_build_s": sum(bvh_s), "fps_with_host_copy": fps_host,
            "scene_mb": sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20,
-           "bvh_mb": (r._packed["nodes_f"].nbytes + r._packed["nodes_i"].nbytes) / 2**20,
+           "bvh_mb": r._packed["nodes"].nbytes / 2**20,
            "device_buffers": r.device_buffers, **extra,
            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
            "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),

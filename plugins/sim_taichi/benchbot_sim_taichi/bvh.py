@@ -10,6 +10,10 @@ or leaves n). ``nodes_f[n] = [min xyz, max xyz]`` (float32, padded by :data:`PAD
 vectorised NumPy (a few seconds for a million triangles on one core), then the nodes are laid out depth-first.
 It makes the same decisions as the recursive :func:`build_bvh_reference` (the same tree, bit for bit) except where
 that one would go deeper than :data:`MAX_DEPTH`: there the builder switches to median splits.
+
+The kernels read the tree as :func:`wide_nodes` packs it: one 64-byte record per interior node with both children's
+boxes, so that a traversal step reads one record (one H200, house:1, one camera 3,915 → 4,194 fps against the
+depth-first arrays read node by node; the 2-core CPU unchanged).
 """
 
 from __future__ import annotations
@@ -31,6 +35,10 @@ MAX_DEPTH = 48
 NODE_CHUNK = 4096
 #: Centroid extent (metres) below which an axis is not split by SAH.
 MIN_EXTENT = 1e-9
+#: Leaf references of :func:`wide_nodes`: the first primitive's index is shifted by LEAF_SHIFT bits, above the flag
+#: TRI_ONLY (all the leaf's primitives are plain triangles) and the count (at most 15).
+LEAF_SHIFT = 5
+TRI_ONLY = 1 << 4
 
 
 def _empty() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -313,6 +321,43 @@ def _layout(levels: list, order: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     nodes_i[dfs, 1] = np.where(interior, dfs[right], first)
     nodes_i[dfs, 2] = dfs + subtree
     return nodes_f, nodes_i, order.astype(np.int32)
+
+
+def wide_nodes(nodes_f: np.ndarray, nodes_i: np.ndarray, tri_only: np.ndarray | None = None) -> np.ndarray:
+    """The tree of :func:`build_bvh` as the kernels traverse it: one 64-byte record per interior node, holding both
+    children's boxes, so that a step of the traversal reads one record.
+
+    Args:
+        nodes_f, nodes_i: :func:`build_bvh`'s depth-first arrays (M nodes).
+        tri_only: (M,) bool, for each leaf whether all its primitives are plain triangles (the kernels then test
+            them without reading their kinds); ``None``: none is.
+
+    Returns:
+        (max(I, 1), 16) float32 for the I interior nodes in depth-first order (the root first): [left child's box
+        (min xyz, max xyz), right child's box, left child's reference, right child's reference (int32 bit patterns),
+        0, 0]. A reference ≥ 0 is an interior child's record; a leaf's is ``~((first << LEAF_SHIFT) | (TRI_ONLY if
+        tri_only) | count)`` (its primitives ``first .. first + count − 1``). A tree without an interior node (one
+        leaf, or none) becomes one record of that leaf and an empty leaf (count 0).
+    """
+    count = nodes_i[:, 0].astype(np.int64)
+    link = nodes_i[:, 1].astype(np.int64)
+    interior = (count == 0) & (link > 0)
+    tri = np.zeros(count.shape, bool) if tri_only is None else np.asarray(tri_only, bool)
+    leaf_ref = ~((np.maximum(link, 0) << LEAF_SHIFT) | np.where(tri, TRI_ONLY, 0) | count)
+    ref = np.where(interior, np.cumsum(interior) - 1, leaf_ref)
+    if ref.max(initial=0) >= 2**31 or ref.min(initial=0) < -2**31:
+        raise ValueError("BVH too large for 32-bit node references")
+    ref = ref.astype(np.int32)
+    ids = np.flatnonzero(interior)
+    out = np.zeros((max(ids.size, 1), 16), np.float32)
+    if ids.size:
+        left, right = ids + 1, link[ids]
+        out[:, 0:6], out[:, 6:12] = nodes_f[left], nodes_f[right]
+        out[:, 12], out[:, 13] = ref[left].view(np.float32), ref[right].view(np.float32)
+    else:  # one leaf (or an empty tree: a leaf of no primitive) and an empty leaf
+        out[0, 0:6] = nodes_f[0]
+        out[0, 12:14] = np.array([ref[0], ~np.int32(0)], np.int32).view(np.float32)
+    return out
 
 
 def build_bvh_reference(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

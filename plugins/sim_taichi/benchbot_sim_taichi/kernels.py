@@ -16,7 +16,8 @@ import sys
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
-from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.bvh import LEAF_SHIFT, TRI_ONLY  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402
 
 #: Tiny direction component substituted for zero before inverting (avoids 0·inf).
 DIR_EPS = 1e-12
@@ -30,13 +31,8 @@ TILE_CONTRAST = 0.06
 #: Relative margin by which a primitive beats the room shell at equal distance (a furnished floor at z = 0 lies on
 #: the shell's floor; float32 rounding would otherwise show the shell in rows of pixels).
 SHELL_TIE = 1e-5
-#: Deepest BVH the renderer accepts (``renderer.pack_scene``): the entries of the ordered traversal's stack.
+#: Deepest BVH the renderer accepts (``renderer.pack_scene``): the entries of the traversal's per-ray stack.
 STACK = 64
-#: Closest-hit rays traverse the BVH nearer child first with a per-ray stack (:func:`_trace`) instead of stacklessly.
-#: Read when the kernels compile: ``renderer.ensure_taichi`` sets it for the arch before any kernel is compiled (on,
-#: for CUDA: one H200, house:1, 912 → 1,834 fps with one camera, 2,803 → 3,649 batched; off, for the CPU, where the
-#: stack costs more than it saves: 2-core CPU, house:1, 4.16 → 3.93 fps). The same closest hits either way.
-ORDERED_TRAVERSAL = False
 #: Default angular radius (rad) of the sun and radius (m) of the lamps, for soft shadows.
 SUN_RADIUS = 0.035
 LAMP_RADIUS = 0.15
@@ -80,10 +76,6 @@ MAX_GLASS_LAYERS = 8
 PANES_SEEN = 1
 PANES_UNSEEN = 0
 PANES_TRACKED = 2
-
-#: Flag added to a BVH leaf's primitive count (``nodes_i[n, 0]``, by ``renderer.pack_scene``) when every primitive
-#: of the leaf is a plain triangle (kind 3, not a pane): the traversal then tests them without reading their kinds.
-TRI_LEAF = 1 << 16
 
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
@@ -276,17 +268,17 @@ def _hit_prim(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
 
 
 @ti.func
-def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, best, best_k, trans,
-              pane_t, pane_k, any_hit: ti.template(), panes: ti.template()):
+def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template(), first, cnt, tri_only, best,
+              best_k, trans, pane_t, pane_k, any_hit: ti.template(), panes: ti.template()):
     """The closest of a leaf's primitives ``first .. first + cnt - 1`` nearer than ``best``: the updated
     ``(best, best_k, trans, pane_t, pane_k)`` (unchanged when none is). Panes (``panes``, see :func:`_trace`):
     with PANES_UNSEEN a ray does not see them; with PANES_SEEN an ``any_hit`` ray goes through them, its
     transmittance ``trans`` multiplied by each one's 1 − F (a face's triangles meet the ray at one distance: one of
     them counts), and a closest-hit ray sees them as surfaces; with PANES_TRACKED a closest-hit ray keeps the nearest,
-    ``(pane_t, pane_k)``, without seeing it."""
+    ``(pane_t, pane_k)``, without seeing it. ``tri_only``: all are plain triangles (no kinds to read)."""
     last_pane_t = -1.0
-    if cnt >= TRI_LEAF:  # plain triangles only: no kinds to read
-        for k in range(first, first + cnt - TRI_LEAF):
+    if tri_only:
+        for k in range(first, first + cnt):
             t = _hit_tri(o, d, tris, k, best)
             if t < best:
                 best = t
@@ -320,8 +312,8 @@ def _hit_leaf(o, d, inv, pf: ti.template(), pi: ti.template(), tris: ti.template
 
 
 @ti.func
-def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
-           pi: ti.template(), tris: ti.template(), any_hit: ti.template(), panes: ti.template()):
+def _trace(o, d, tmax, nodes: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
+           any_hit: ti.template(), panes: ti.template()):
     """Closest (or, with ``any_hit``, any) primitive hit with T_EPS < t < tmax: (t, k, normal, transmittance,
     pane_t, pane_k); k = -1: none. Window panes (kind GLASS), by ``panes``: PANES_UNSEEN, the ray does not see them
     (transmittance 1); PANES_SEEN, an any-hit ray (a shadow ray) goes through them, and the transmittance is the
@@ -330,76 +322,64 @@ def _trace(o, d, tmax, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), 
     the hit (``pane_k``, −1: none, at ``pane_t``) — exact too, since every primitive nearer than the closest hit is
     tested. (The bookkeeping costs GPU occupancy: fast mode's shadow rays do not see panes, see docs/simulator.md.)
 
-    Any-hit rays, and every ray when :data:`ORDERED_TRAVERSAL` is off (the CPU), traverse the BVH stacklessly with
-    skip pointers, left child first. With it on (CUDA), closest-hit rays traverse it nearer child first: at an
-    interior node both children's boxes are tested, the nearer entered and the farther pushed on a per-ray stack of
-    :data:`STACK` entries with its entry distance; a popped node that begins beyond the closest hit so far is skipped.
-    Both find the same closest hit."""
+    ``nodes`` is :func:`benchbot_sim_taichi.bvh.wide_nodes`'s: each interior node one record with both children's
+    boxes. A step reads one record and tests both boxes; where both are hit, a closest-hit ray enters the nearer
+    child and pushes the farther, with its entry distance, on a per-ray stack of :data:`STACK` entries (an any-hit
+    ray enters the left one); a popped child that begins beyond the closest hit so far is skipped. A leaf's
+    primitives are tested where it is met."""
     inv = _safe_inv(d)
     best = tmax
     best_k = -1
     trans = 1.0
     pane_t = 1e30
     pane_k = -1
-    n_nodes = nodes_i.shape[0] if n_prims > 0 else 0
-    if ti.static(any_hit or not ORDERED_TRAVERSAL):
-        node = 0
-        while node < n_nodes:
-            a0, a1 = _slab(o, inv, _v3(nodes_f, node, 0), _v3(nodes_f, node, 3))
-            if a0 <= a1 and a1 > 0.0 and a0 < best:
-                cnt = nodes_i[node, 0]
-                if cnt > 0:
-                    best, best_k, trans, pane_t, pane_k = _hit_leaf(
-                        o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, trans, pane_t, pane_k,
-                        any_hit, panes)
-                    if ti.static(any_hit):
-                        if best_k >= 0:
-                            break
-                    node = nodes_i[node, 2]
-                else:
-                    node += 1
-            else:
-                node = nodes_i[node, 2]
-    else:
-        node = -1
-        if n_nodes > 0:
-            a0, a1 = _slab(o, inv, _v3(nodes_f, 0, 0), _v3(nodes_f, 0, 3))
-            if a0 <= a1 and a1 > 0.0 and a0 < best:
-                node = 0
-        stack = ti.Vector([0] * STACK, dt=ti.i32)
-        entry = ti.Vector([0.0] * STACK, dt=ti.f32)
-        sp = 0
-        while node >= 0:
-            nxt = -1
-            cnt = nodes_i[node, 0]
-            if cnt > 0:
-                best, best_k, trans, pane_t, pane_k = _hit_leaf(
-                    o, d, inv, pf, pi, tris, nodes_i[node, 1], cnt, best, best_k, trans, pane_t, pane_k,
-                    False, panes)
-            else:
-                left = node + 1
-                right = nodes_i[node, 1]
-                l0, l1 = _slab(o, inv, _v3(nodes_f, left, 0), _v3(nodes_f, left, 3))
-                r0, r1 = _slab(o, inv, _v3(nodes_f, right, 0), _v3(nodes_f, right, 3))
-                hit_l = l0 <= l1 and l1 > 0.0 and l0 < best
-                hit_r = r0 <= r1 and r1 > 0.0 and r0 < best
-                if hit_l and hit_r:
-                    near, far, far_t = left, right, r0
+    stack = ti.Vector([0] * STACK, dt=ti.i32)
+    entry = ti.Vector([0.0] * STACK, dt=ti.f32)
+    sp = 0
+    ref = 0  # the root's record
+    going = True
+    while going:
+        found = False
+        nxt = 0
+        if ref >= 0:  # an interior node: both children's boxes
+            l0, l1 = _slab(o, inv, _v3(nodes, ref, 0), _v3(nodes, ref, 3))
+            r0, r1 = _slab(o, inv, _v3(nodes, ref, 6), _v3(nodes, ref, 9))
+            hit_l = l0 <= l1 and l1 > 0.0 and l0 < best
+            hit_r = r0 <= r1 and r1 > 0.0 and r0 < best
+            left = ti.bit_cast(nodes[ref, 12], ti.i32)
+            right = ti.bit_cast(nodes[ref, 13], ti.i32)
+            if hit_l and hit_r:
+                near, far, far_t = left, right, r0
+                if ti.static(not any_hit):
                     if r0 < l0:
                         near, far, far_t = right, left, l0
-                    stack[sp] = far
-                    entry[sp] = far_t
-                    sp += 1
-                    nxt = near
-                elif hit_l:
-                    nxt = left
-                elif hit_r:
-                    nxt = right
-            while nxt < 0 and sp > 0:
-                sp -= 1
-                if entry[sp] < best:
-                    nxt = stack[sp]
-            node = nxt
+                stack[sp] = far
+                entry[sp] = far_t
+                sp += 1
+                nxt = near
+                found = True
+            elif hit_l:
+                nxt = left
+                found = True
+            elif hit_r:
+                nxt = right
+                found = True
+        else:  # a leaf: its primitives
+            code = ~ref
+            best, best_k, trans, pane_t, pane_k = _hit_leaf(
+                o, d, inv, pf, pi, tris, code >> LEAF_SHIFT, code & (TRI_ONLY - 1), (code & TRI_ONLY) != 0, best,
+                best_k, trans, pane_t, pane_k, any_hit, panes)
+            if ti.static(any_hit):
+                if best_k >= 0:
+                    going = False
+        while going and not found and sp > 0:
+            sp -= 1
+            if entry[sp] < best:
+                nxt = stack[sp]
+                found = True
+        if not found:
+            going = False
+        ref = nxt
     if ti.static(panes == PANES_TRACKED):
         if pane_t >= best:
             pane_k = -1
@@ -505,7 +485,7 @@ def _texture(texels: ti.template(), tex_info: ti.template(), lut: ti.template(),
 
 
 @ti.func
-def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(),
+def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
                pi: ti.template(), tris: ti.template(), shade: ti.template(), texels: ti.template(),
                tex_info: ti.template(), lut: ti.template(), world: ti.template(), panes: ti.template()):
     """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
@@ -518,7 +498,7 @@ def _shade_hit(o, d, spread, n_prims, nodes_f: ti.template(), nodes_i: ti.templa
     do not shadow themselves in facets; elsewhere both normals are equal and the origin is the hit point. Window
     panes are surfaces with ``panes`` PANES_SEEN (a pane's hit is returned unshaded: its normals, its primitive
     index), invisible with PANES_UNSEEN and PANES_TRACKED (see :func:`_trace`)."""
-    best, k, nb, _tr, pane_t, pane_k = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False, panes)
+    best, k, nb, _tr, pane_t, pane_k = _trace(o, d, 1e30, nodes, pf, pi, tris, False, panes)
     inv = _safe_inv(d)
     t_exit = 1e30
     exit_axis = 0
@@ -673,8 +653,8 @@ def _sun_map_visibility(sun_map: ti.template(), lights: ti.template(), j, q):
 
 
 @ti.func
-def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_lights, n_prims,
-            nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
+def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_lights,
+            nodes: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
             maps: ti.template(), sun_map: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
     along the geometric normal ng); visibility from ``params[0]`` shadow rays (stratified over the light's disc),
@@ -743,7 +723,7 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
                             else:
                                 Ls = (L + off * params[1]).normalized()
                         # one traversal in the code for both cases (each call site inlines a whole traversal)
-                        _t, k_sh, _n, _tr, _pt, _pk = _trace(po, Ls, ds, n_prims, nodes_f, nodes_i, pf, pi, tris,
+                        _t, k_sh, _n, _tr, _pt, _pk = _trace(po, Ls, ds, nodes, pf, pi, tris,
                                                              True, PANES_UNSEEN)
                         if k_sh < 0:
                             vis += 1.0
@@ -781,12 +761,12 @@ def _ray(c, x, y):
 
 
 @ti.func
-def _scan_beam(o, a, n_prims, nodes_f: ti.template(), nodes_i: ti.template(), pf: ti.template(), pi: ti.template(),
+def _scan_beam(o, a, nodes: ti.template(), pf: ti.template(), pi: ti.template(),
                tris: ti.template(), world: ti.template()):
     """Range (m) along the horizontal beam from o at map-frame angle a to the first primitive or wall (through
     window panes)."""
     d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
-    best, k, n, _tr, _pt, _pk = _trace(o, d, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False, PANES_UNSEEN)
+    best, k, n, _tr, _pt, _pk = _trace(o, d, 1e30, nodes, pf, pi, tris, False, PANES_UNSEEN)
     inv = _safe_inv(d)
     tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
     ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
@@ -801,8 +781,7 @@ def sensors_kernel(
     images: ti.i32,
     beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
     n_beams: ti.i32,
-    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
@@ -810,7 +789,6 @@ def sensors_kernel(
     texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
     tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_prims: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
     lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
@@ -845,8 +823,8 @@ def sensors_kernel(
             if one == 0:
                 for m in ti.static(range(12, POSE_LEN)):
                     q[m] = table[b, m]
-            ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], n_prims, nodes_f,
-                                         nodes_i, pf, pi, tris, consts)
+            ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], nodes, pf, pi, tris,
+                                         consts)
         else:
             j = i - n_scan
             b = j // (H * W)
@@ -862,12 +840,12 @@ def sensors_kernel(
             o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
             key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
             hit, t, n, ns, albedo, c_id, i_id, p, _k, pane = _shade_hit(
-                o, d, 1.0 / consts[27], n_prims, nodes_f, nodes_i, pf, pi, tris, shade, texels, tex_info, tex_lut,
+                o, d, 1.0 / consts[27], nodes, pf, pi, tris, shade, texels, tex_info, tex_lut,
                 consts, PANES_TRACKED)
             col = ti.Vector([0.0, 0.0, 0.0])
             if hit == 1:
                 radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
-                radiance += _direct(p, n, ns, key, params, lights, n_lights, n_prims, nodes_f, nodes_i, pf, pi, tris,
+                radiance += _direct(p, n, ns, key, params, lights, n_lights, nodes, pf, pi, tris,
                                     lamp_maps, sun_map)
                 col = albedo * radiance
             if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
@@ -896,12 +874,10 @@ def sensors_kernel(
 def lamp_map_kernel(
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    n_prims: ti.i32,
     maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
 ):
     """Cube shadow maps of point lights into ``maps`` (6·S, R, R) float32: texel (x, y) of face 2·a + (0: +a,
@@ -920,7 +896,7 @@ def lamp_map_kernel(
         reach = lights[j, 7] - LAMP_FIXTURE_M
         depth = 1e30
         if reach > 0.0:
-            t, k, nrm, _tr, _pt, _pk = _trace(L + d * LAMP_FIXTURE_M, d, reach, n_prims, nodes_f, nodes_i, pf, pi,
+            t, k, nrm, _tr, _pt, _pk = _trace(L + d * LAMP_FIXTURE_M, d, reach, nodes, pf, pi,
                                               tris, False, PANES_UNSEEN)
             if k >= 0:
                 depth = LAMP_FIXTURE_M + t
@@ -932,12 +908,10 @@ def sun_map_kernel(
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     j: ti.i32,
     top: ti.f32,
-    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    n_prims: ti.i32,
     sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
 ):
     """The orthographic shadow map of directional light j (its row's projection columns, see :data:`LIGHT_COLS`)
@@ -952,7 +926,7 @@ def sun_map_kernel(
         l = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
         # a / |a|² is the world vector of one texel step along a (a has length 1/texel), likewise b
         o = (x + 0.5 + lights[j, 15]) * a / a.dot(a) + (y + 0.5 + lights[j, 16]) * b / b.dot(b) + top * l
-        t, k, nrm, _tr, _pt, _pk = _trace(o, -l, 1e30, n_prims, nodes_f, nodes_i, pf, pi, tris, False, PANES_UNSEEN)
+        t, k, nrm, _tr, _pt, _pk = _trace(o, -l, 1e30, nodes, pf, pi, tris, False, PANES_UNSEEN)
         height = -1e30
         if k >= 0:
             height = top - t
@@ -963,9 +937,9 @@ def sun_map_kernel(
 #: (scalar) or ``vec`` (by-value vector of POSE_LEN).
 SENSORS_ARGS = (
     ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
-    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes_f", "nd", "f32", 2), ("nodes_i", "nd", "i32", 2),
+    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
     ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
-    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1), ("n_prims", "sc", "i32", 0),
+    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1),
     ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("lamp_maps", "nd", "f32", 3),
     ("sun_map", "nd", "f32", 2), ("consts", "nd", "f32", 1),
     ("rgb", "nd", "u8", 4),

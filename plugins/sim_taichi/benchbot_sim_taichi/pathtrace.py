@@ -141,8 +141,7 @@ def _cone_hit(lights: ti.template(), j, o, d, tmax, params):
 @ti.kernel
 def quality_kernel(
     cam: ti.types.vector(16, ti.f32),
-    nodes_f: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    nodes_i: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
@@ -150,7 +149,6 @@ def quality_kernel(
     texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
     tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
     tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_prims: ti.i32,
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
     world: ti.types.ndarray(dtype=ti.f32, ndim=1),
@@ -194,7 +192,7 @@ def quality_kernel(
             panes = 0
             bounce = 0
             for _event in range(max_bounces + 1 + MAX_GLASS_LAYERS):
-                hit, t, n, ns, albedo, c_id, i_id, p, k, _pane = _shade_hit(o, d, spread, n_prims, nodes_f, nodes_i,
+                hit, t, n, ns, albedo, c_id, i_id, p, k, _pane = _shade_hit(o, d, spread, nodes,
                                                                             pf, pi, tris, shade, texels, tex_info,
                                                                             tex_lut, world, PANES_SEEN)
                 escaped = hit == 0 or (k < 0 and camera_view == 0)  # the shell is seen by camera rays only
@@ -273,7 +271,7 @@ def quality_kernel(
                             f, p_bsdf = bsdf.evaluate(albedo, rough, metal, wo,
                                                       ti.Vector([wl.dot(t1), wl.dot(t2), wl.dot(ns)]))
                             if p_bsdf > 0.0:
-                                _t, k_sh, _n, tr, _pt, _pk = _trace(po, wl, dist, n_prims, nodes_f, nodes_i, pf, pi,
+                                _t, k_sh, _n, tr, _pt, _pk = _trace(po, wl, dist, nodes, pf, pi,
                                                                     tris, True, PANES_SEEN)
                                 if k_sh < 0:
                                     p_light = w_chosen / total / (TWO_PI * omc)

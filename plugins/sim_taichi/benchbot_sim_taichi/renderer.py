@@ -14,9 +14,9 @@ arguments, so a scene with any number of primitives, or any image size, reuses t
 per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
 ``ti.ndarray`` and the outputs stay in reused device buffers; each launch goes through a compiled ``ti.graph`` with the
 camera and lidar pose passed by value, so the per-frame cost is one launch plus, when wanted, one copy to the host.
-The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy; rays traverse it stacklessly (skip
-pointers) on the CPU, and closest-hit rays nearer child first with a per-ray stack on CUDA
-(:data:`~benchbot_sim_taichi.kernels.ORDERED_TRAVERSAL`).
+The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and stored with both children's boxes in
+each interior node's record (:func:`~benchbot_sim_taichi.bvh.wide_nodes`); closest-hit rays traverse it nearer
+child first with a per-ray stack, any-hit rays left child first.
 
 Conventions: ``map`` frame, metres. Cameras use the OPTICAL frame (z forward, x right, y down); the ray of pixel
 (u, v) (column, row; integer pixel centres) is ``R · K⁻¹ [u, v, 1]ᵀ`` so its parameter t is the z-depth.
@@ -88,12 +88,11 @@ _banner = io.StringIO()
 with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
-from benchbot_sim_taichi import kernels  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
 from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_MAP_RES, SUN_RADIUS,
-    TRI_LEAF, lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel, sun_map_kernel,
+    lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel, sun_map_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -145,7 +144,6 @@ def ensure_taichi(arch: str | None = None) -> str:
         return "cpu" if _INIT_ARCH.startswith("cpu") else _INIT_ARCH
     with contextlib.redirect_stdout(sys.stderr):  # "[Taichi] Starting on arch=..." is printed on stdout
         _INIT_ARCH = _init(want)
-    kernels.ORDERED_TRAVERSAL = _INIT_ARCH == "cuda"  # read when the kernels compile, i.e. after this
     _INIT_THREAD = threading.current_thread()
     if _INIT_ARCH == "cuda" and threading.current_thread() is not threading.main_thread():
         # The CUDA context is current only on this thread: release Taichi here when this thread ends, or the
@@ -241,7 +239,9 @@ def pack_scene(scene) -> dict:
     """The scene as the flat float32/int32 arrays the kernels read (primitives in BVH order).
 
     Returns:
-        ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32 BVH nodes (see :mod:`benchbot_sim_taichi.bvh`);
+        ``nodes`` (max(I, 1), 16) float32, the BVH as the kernels read it (:func:`~benchbot_sim_taichi.bvh.wide_nodes`),
+        and ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32, its depth-first nodes (see
+        :mod:`benchbot_sim_taichi.bvh`); leaves of plain triangles only are flagged;
         ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
         primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind (the scene's, or
         ``kernels.GLASS`` for a window pane), a cylinder's axis or a triangle's row of ``tris`` (k), class, instance];
@@ -259,7 +259,7 @@ def pack_scene(scene) -> dict:
     Raises:
         ValueError: the BVH is deeper than the kernels' stack.
     """
-    from benchbot_sim_taichi.bvh import build_bvh, bvh_depth
+    from benchbot_sim_taichi.bvh import build_bvh, bvh_depth, wide_nodes
     from benchbot_sim_taichi.meshes import face_normals
 
     n, nl = int(scene.prim_type.shape[0]), int(scene.light_kind.shape[0])
@@ -294,11 +294,13 @@ def pack_scene(scene) -> dict:
         safe = np.where(is_obj, obj, 0)
         pi[:n, 2] = np.where(is_obj, scene.box_class[safe] if scene.n_boxes else 0, scene.background_class)
         pi[:n, 3] = np.where(is_obj, scene.box_instance[safe] if scene.n_boxes else 0, 0)
-    leaves = np.flatnonzero(nodes_i[:, 0] > 0)
-    if n and leaves.size:  # leaves of plain triangles only are flagged: the traversal reads no kinds there
+    count = nodes_i[:, 0].astype(np.int64)
+    tri_only = np.zeros(count.shape, bool)  # leaves of plain triangles only: the traversal reads no kinds there
+    if n:
         plain = np.concatenate([[0], np.cumsum(pi[:n, 0] == 3)])
-        first, count = nodes_i[leaves, 1].astype(np.int64), nodes_i[leaves, 0].astype(np.int64)
-        nodes_i[leaves[plain[first + count] - plain[first] == count], 0] += TRI_LEAF
+        first = np.where(count > 0, nodes_i[:, 1], 0).astype(np.int64)
+        tri_only = (count > 0) & (plain[first + count] - plain[first] == count)
+    nodes = wide_nodes(nodes_f, nodes_i, tri_only)
     tris = np.zeros((max(nt, 1), 9), dtype=np.float32)
     shade = np.zeros((max(nt, 1), SHADE_COLS), dtype=np.float32)
     shade[:, 15] = -1.0
@@ -348,7 +350,7 @@ def pack_scene(scene) -> dict:
         lights[:nl, 1:4], lights[:nl, 4:7], lights[:nl, 7] = scene.light_vec, scene.light_colour, scene.light_range
     world = np.concatenate([scene.room_min, scene.room_max, scene.shell_albedo.reshape(-1), scene.ambient,
                             [scene.background_class]]).astype(np.float32)
-    return {"nodes_f": np.ascontiguousarray(nodes_f), "nodes_i": np.ascontiguousarray(nodes_i), "pf": pf, "pi": pi,
+    return {"nodes": nodes, "nodes_f": nodes_f, "nodes_i": nodes_i, "pf": pf, "pi": pi,
             "tris": tris, "shade": shade, "texels": texels, "tex_info": info, "tex_lut": texture_lut(),
             "lights": lights, "world": world, "n_prims": n, "n_lights": nl, "order": order}
 
@@ -407,7 +409,7 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
 
 # ---------------------------------------------------------------------------------------------------------- renderer
 #: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
-_SCENE_ARRAYS = ("nodes_f", "nodes_i", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
+_SCENE_ARRAYS = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
                  "lamp_maps", "sun_map")
 
 
@@ -580,14 +582,13 @@ class Renderer:
         self._scene_arrays = [arrays[k] for k in _SCENE_ARRAYS] if self.device_buffers else []
         if lamps.size:  # the lamps' shadow maps, traced once per scene, where the kernels read them
             lamp_map_kernel(arrays["lights"], self._upload("light_of_slot", lamps.astype(np.int32)),
-                            arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
-                            self._packed["n_prims"], arrays["lamp_maps"])
+                            arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"], arrays["lamp_maps"])
         if sun is not None:  # and the sun's
-            sun_map_kernel(arrays["lights"], sun, top, arrays["nodes_f"], arrays["nodes_i"], arrays["pf"],
-                           arrays["pi"], arrays["tris"], self._packed["n_prims"], arrays["sun_map"])
-        self._scene_args = (arrays["nodes_f"], arrays["nodes_i"], arrays["pf"], arrays["pi"], arrays["tris"],
+            sun_map_kernel(arrays["lights"], sun, top, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
+                           arrays["sun_map"])
+        self._scene_args = (arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
                             arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
-                            self._packed["n_prims"], arrays["lights"], self._packed["n_lights"], arrays["world"],
+                            arrays["lights"], self._packed["n_lights"], arrays["world"],
                             arrays["lamp_maps"], arrays["sun_map"])
 
     @property
@@ -742,7 +743,7 @@ class Renderer:
                              cached=True)
         consts = self._frame_constants(K)
         s = self._args()
-        values = (table, pose0, one, int(images), beams, n_beams, *s[:11], s[11] if lit else 0, s[13], s[14], consts,
+        values = (table, pose0, one, int(images), beams, n_beams, *s[:9], s[9] if lit else 0, s[11], s[12], consts,
                   out["rgb"], out["depth"], out["class"], out["instance"], ranges)
         if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
             values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(SENSORS_ARGS, values))
@@ -796,7 +797,7 @@ class Renderer:
             lin = self._buffer("quality", (1, H, W, 3), np.float32)
             aux = self._buffer("quality_guides", (1, H, W, 6), np.float32)
             params = render_params(seed=self.seed, spp=spp, bounces=bounces)
-            quality_kernel(camera_params(K, T_map_camera), *self._args()[:13], params, lin, aux)
+            quality_kernel(camera_params(K, T_map_camera), *self._args()[:11], params, lin, aux)
             finished = self._finish_quality_in_place(lin, aux, K, denoise)
             if finished is not None:  # denoised and encoded where the images are: copy the results only
                 batch["radiance"], batch["rgb"] = finished

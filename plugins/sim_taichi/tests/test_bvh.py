@@ -212,3 +212,74 @@ def test_nearest_hits_through_the_bvh_equal_brute_force():
     np.testing.assert_allclose(dist, brute.min(axis=1), rtol=1e-12)
     hit = np.isfinite(dist)
     np.testing.assert_array_equal(ids[hit], brute.argmin(axis=1)[hit])
+
+
+def traverse_wide(records, order, tris, o, d):
+    """Nearest hit of every ray through :func:`bvh.wide_nodes`'s records, one ray at a time with a stack as the
+    kernels do (both children's boxes read from the parent's record; leaves decoded from their references)."""
+    refs = records[:, 12:14].view(np.int32)
+    best, best_id = np.full(o.shape[0], np.inf), np.full(o.shape[0], -1)
+    for r in range(o.shape[0]):
+        inv = 1.0 / np.where(d[r] == 0, 1e-300, d[r])
+        stack = [0]
+        while stack:
+            ref = stack.pop()
+            if ref < 0:
+                code = ~int(ref)
+                first, count = code >> bvh.LEAF_SHIFT, code & (bvh.TRI_ONLY - 1)
+                prims = order[first:first + count]
+                if prims.size:
+                    dist = _ray_triangle(o[r], d[r], tris[prims])
+                    j = int(np.argmin(dist))
+                    if dist[j] < best[r]:
+                        best[r], best_id[r] = dist[j], prims[j]
+                continue
+            for c in (0, 1):
+                box = records[ref, 6 * c:6 * c + 6].astype(np.float64)
+                t1, t2 = (box[:3] - o[r]) * inv, (box[3:] - o[r]) * inv
+                near, far = np.minimum(t1, t2).max(), np.maximum(t1, t2).min()
+                if near <= far and far >= 0 and near <= best[r]:
+                    stack.append(int(refs[ref, c]))
+    return best, best_id
+
+
+def test_wide_records_hold_both_children_and_find_the_nearest_hits():
+    """Each record holds its node's children's boxes and references (interior children by record, leaves by first
+    primitive, count and the plain-triangles flag), and a walk of the records finds the brute-force nearest hits."""
+    tris = soup(2000, 5, size=0.4)
+    nodes_f, nodes_i, order = bvh.build_bvh(*tri_bounds(tris))
+    leaf = nodes_i[:, 0] > 0
+    records = bvh.wide_nodes(nodes_f, nodes_i, tri_only=leaf)
+    interior = np.flatnonzero(~leaf)
+    assert records.shape == (interior.size, 16) and records.dtype == np.float32
+    refs = records[:, 12:14].view(np.int32)
+    for i, n in enumerate(interior[:50]):
+        for c, child in enumerate((n + 1, nodes_i[n, 1])):
+            assert np.array_equal(records[i, 6 * c:6 * c + 6], nodes_f[child])
+            if leaf[child]:
+                code = ~int(refs[i, c])
+                assert (code >> bvh.LEAF_SHIFT, code & (bvh.TRI_ONLY - 1)) == tuple(nodes_i[child, 1::-1])
+                assert code & bvh.TRI_ONLY
+            else:
+                assert refs[i, c] == np.searchsorted(interior, child)
+    rng = np.random.default_rng(3)
+    o = rng.uniform([-12, -12, -1], [12, 12, 4], (150, 3))
+    d = rng.uniform([-10, -10, 0], [10, 10, 3], (150, 3)) - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    dist, ids = traverse_wide(records, order, tris, o, d)
+    brute = _ray_triangle(o[:, None, :], d[:, None, :], tris[None])
+    assert np.isfinite(dist).sum() > 40
+    np.testing.assert_allclose(dist, brute.min(axis=1), rtol=1e-12)
+    hit = np.isfinite(dist)
+    np.testing.assert_array_equal(ids[hit], brute.argmin(axis=1)[hit])
+
+
+def test_a_tree_without_interior_nodes_is_one_record_of_its_leaf_and_an_empty_one():
+    tris = soup(3, 1, size=0.4)
+    nodes_f, nodes_i, order = bvh.build_bvh(*tri_bounds(tris))
+    records = bvh.wide_nodes(nodes_f, nodes_i)
+    refs = records[0, 12:14].view(np.int32)
+    assert records.shape == (1, 16) and np.array_equal(records[0, :6], nodes_f[0])
+    assert [~int(x) for x in refs] == [3, 0]  # first 0, count 3, not flagged; then first 0, count 0
+    empty = bvh.wide_nodes(*bvh.build_bvh(np.zeros((0, 3)), np.zeros((0, 3)))[:2])
+    assert [~int(x) for x in empty[0, 12:14].view(np.int32)] == [0, 0]
