@@ -5,8 +5,8 @@ environment's trajectory poses (fast mode), and, in the same run, Embree (``embr
 same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.export``).
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
-        [--shadow-samples 1] [--shadow-maps auto|on|off] [--lights on|off] [--host-copy taichi[,reused,pinned]|none]
-        [--json]
+        [--shadow-samples 1] [--shadow-maps auto|on|off] [--lights on|off|sun|lamps]
+        [--host-copy taichi[,reused,pinned]|none] [--json]
 
 Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
 (``Renderer.render_sensors``). On CUDA the scene and the outputs stay in GPU memory
@@ -21,7 +21,8 @@ ordinary memory → ``fps_host_reused``. JSON keys: ``fps`` (sensor frames per s
 ``mrays_per_s`` (primary camera rays, millions per second, counted from the same timing: W·H·fps),
 ``primary_mrays_per_s`` (Taichi's primary rays alone: the unlit launch of camera rays, closest hit, depth,
 segmentation and the textured albedo under ambient light, no lights or laser; the figure to set beside Embree's), ``embree_mrays_per_s`` (primary rays only, closest hit), ``ms_per_frame``, ``prims``, ``triangles``, ``bvh_nodes``,
-``lights`` (how many), ``lights_on`` (false with ``--lights off``: ambient light only, the renderer's unlit launch),
+``lights`` (how many, after ``--lights sun|lamps``), ``lights_on`` (false with ``--lights off``: ambient light only,
+the renderer's unlit launch), ``lights_kept`` (``--lights``),
 ``bvh_build_s`` (``bvh.build_bvh`` inside ``set_scene``, on the host CPU), ``setup_s`` (renderer start and
 ``set_scene``: BVH, packing, upload, shadow maps), ``lamps_with_maps`` / ``sun_map`` (which lights take their
 shadows from shadow maps), ``scene_mb`` (the packed scene arrays the kernels read: on CUDA
@@ -74,9 +75,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--shadow-maps", choices=("auto", "on", "off"), default="auto",
                     help="the lamps' and the sun's shadows from shadow maps (auto: in furnished scenes) or shadow "
                          "rays (named --lamp-maps before 23 Nov 2026, when the sun had no map)")
-    ap.add_argument("--lights", choices=("on", "off"), default="on",
+    ap.add_argument("--lights", choices=("on", "off", "sun", "lamps"), default="on",
                     help="off: ambient light only (no shadow rays, no shadow maps): what primary rays, shading and "
-                         "the laser cost without the lights")
+                         "the laser cost without the lights; sun, lamps: the scene keeps only those lights")
     ap.add_argument("--host-copy", default="taichi",
                     help="comma list of host-copy timings on CUDA: taichi (the renderer's to_host=True), reused, "
                          "pinned; none")
@@ -97,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     t0 = time.perf_counter()
     scene = build_scene(envs[args.env])  # the default style, or $BENCHBOT_SIM_STYLE (furnished | primitives)
+    if args.lights in ("sun", "lamps"):
+        scene = scene.with_lights(args.lights)
     t_build = time.perf_counter() - t0
     W, H, B = args.width, args.height, max(1, args.batch)
     bvh_s.clear()
@@ -119,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     def run(i, to_host):
         idx = [(i * B + b) % len(cams) for b in range(B)]
         Ts, Tl = np.stack([cams[k] for k in idx]), np.stack([lidars[k] for k in idx])
-        if args.lights == "on":
+        if args.lights != "off":
             return r.render_sensors(K, Ts, W, H, Tl, angles, to_host=to_host)
         out = r._launch(K, Ts, W, H, Tl, angles, lit=False)  # the renderer's unlit launch (depth/segmentation use)
         return r._fetch(out) if to_host else out  # the renderer's own copy to new NumPy arrays
@@ -180,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
            "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
            "mrays_per_s": W * H * fps / 1e6, "primary_mrays_per_s": primary_mrays, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
-           "lights_on": args.lights == "on",
+           "lights_on": args.lights != "off", "lights_kept": args.lights,
            "style": scene.style, "lamps_with_maps": r.lamps_with_maps,
            "sun_map": r.sun_map,
            "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,

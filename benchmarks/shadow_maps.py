@@ -18,7 +18,6 @@ differs most: maps | rays | 4 × |difference|.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import sys
@@ -43,16 +42,13 @@ def main(argv: list[str] | None = None) -> int:
     from benchbot_sim_taichi import plugin
     from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
     from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL, build_scene
+    from benchbot_sim_taichi.scene import build_scene
 
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])
-    if args.lights != "all":
-        keep = (scene.light_kind == LIGHT_DIRECTIONAL) == (args.lights == "sun")
-        scene = dataclasses.replace(scene, light_kind=scene.light_kind[keep], light_vec=scene.light_vec[keep],
-                                    light_colour=scene.light_colour[keep], light_range=scene.light_range[keep])
+    scene = scene.with_lights(args.lights)
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
     Tc = np.eye(4)

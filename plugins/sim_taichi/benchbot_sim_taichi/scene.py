@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import math
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -203,6 +203,21 @@ class Scene:
     def n_boxes(self) -> int:
         """Number of object boxes."""
         return int(self.box_min.shape[0])
+
+    def with_lights(self, which: str) -> "Scene":
+        """A copy of the scene with ``which`` of its lights: ``'all'``, ``'sun'`` (the directional lights only),
+        ``'lamps'`` (the point lights only) or ``'none'``; the ambient light stays (benchmarks use it to show what
+        each kind of light costs).
+
+        Raises:
+            ValueError: ``which`` is none of those.
+        """
+        keep = {"all": np.ones_like(self.light_kind, bool), "sun": self.light_kind == LIGHT_DIRECTIONAL,
+                "lamps": self.light_kind == LIGHT_POINT, "none": np.zeros_like(self.light_kind, bool)}.get(which)
+        if keep is None:
+            raise ValueError(f"Scene.with_lights: which must be all, sun, lamps or none, got {which!r}")
+        return replace(self, light_kind=self.light_kind[keep], light_vec=self.light_vec[keep],
+                       light_colour=self.light_colour[keep], light_range=self.light_range[keep])
 
     def prim_glass(self) -> np.ndarray:
         """(P,) bool: the primitives that are window panes (triangles whose material is glass, ``mat_glass``)."""

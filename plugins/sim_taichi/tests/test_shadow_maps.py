@@ -167,3 +167,59 @@ def test_furnished_scenes_use_shadow_maps_by_default_primitive_scenes_use_rays(s
     assert with_rays.lamps_with_maps == 0
     with_rays.set_scene(dataclasses.replace(sunny, style="furnished"))
     assert not with_rays.sun_map
+
+
+def test_a_scene_keeps_the_lights_asked_for(synthetic_env):
+    """``Scene.with_lights`` keeps the sun, the lamps, all or none, and refuses another word."""
+    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL, LIGHT_POINT
+
+    scene = _lamp_scene(synthetic_env)
+    sun = _sun_scene(synthetic_env)
+    both = dataclasses.replace(scene, light_kind=np.concatenate([scene.light_kind, sun.light_kind]),
+                               light_vec=np.concatenate([scene.light_vec, sun.light_vec]),
+                               light_colour=np.concatenate([scene.light_colour, sun.light_colour]),
+                               light_range=np.concatenate([scene.light_range, sun.light_range]))
+    assert both.with_lights("sun").light_kind.tolist() == [LIGHT_DIRECTIONAL]
+    assert both.with_lights("lamps").light_kind.tolist() == [LIGHT_POINT]
+    assert both.with_lights("lamps").light_range.tolist() == [6.0]
+    assert both.with_lights("all").light_kind.size == 2 and both.with_lights("none").light_kind.size == 0
+    with pytest.raises(ValueError, match="all, sun, lamps or none"):
+        both.with_lights("candles")
+
+
+@pytest.mark.slow  # two renderers each build the scene's BVH and maps
+def test_the_shadow_map_benchmark_compares_maps_with_rays_on_an_environment():
+    """``benchmarks/shadow_maps.py`` (the maps-against-rays figures of the docs) on a BEAR environment in the tests'
+    scene style, with its sun alone, tiny: the sun takes the map, and the images agree but for a few pixels."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "shadow_maps.py"), "--env", "miniroom:1",
+                           "--lights", "sun", "--width", "64", "--height", "48", "--every", "25", "--json"],
+                          capture_output=True, text=True, timeout=600, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    assert out["sun_map"] and out["lamps_with_maps"] == 0 and out["views"] >= 2
+    assert out["differ_gt2_mean"] < 0.02 and out["setup_s_maps"] > 0 and out["fps_maps"] > 0 and out["fps_rays"] > 0
+
+
+@pytest.mark.slow
+def test_the_render_benchmark_times_a_scene_with_only_the_lights_asked_for():
+    """``benchmarks/render.py --lights sun`` (the lights' share of a frame in the docs), tiny: one light kept, and
+    with ``--shadow-maps on`` it takes the sun map."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "render.py"), "--env", "miniroom:1", "--width",
+                           "32", "--height", "24", "--frames", "2", "--lights", "sun", "--shadow-maps", "on",
+                           "--no-embree", "--json"], capture_output=True, text=True, timeout=600, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    assert out["lights"] == 1 and out["lights_kept"] == "sun" and out["sun_map"] and out["lamps_with_maps"] == 0
+    assert out["fps"] > 0 and out["lights_on"]
