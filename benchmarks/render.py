@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
 
@@ -110,11 +110,8 @@ def main(argv: list[str] | None = None) -> int:
     r.sync()  # the shadow maps' kernels
     t_setup = time.perf_counter() - t0
     K = intrinsics(W, H, 90.0)
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    Tc[:3, 3] = DEFAULT_SENSORS["camera"]["mount_xyz"]
+    cams = trajectory_cameras(scene)
     poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
-    cams = [se2_to_matrix(*p) @ Tc for p in poses]
     lidars = [se2_to_matrix(*p, z=0.3) for p in poses]
     angles = np.radians(np.arange(-180.0, 180.0, 1.0))
     n_batches = max(1, math.ceil(args.frames / B))

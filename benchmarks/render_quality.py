@@ -70,9 +70,8 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.spp, args.frames) < 1 or args.bounces < 0:
         ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
 
-    from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.renderer import Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
 
@@ -87,11 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     r.set_scene(scene)
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    Tc[:3, 3] = DEFAULT_SENSORS["camera"]["mount_xyz"]
-    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
-    cams = [se2_to_matrix(*p) @ Tc for p in poses]
+    cams = trajectory_cameras(scene)
 
     def frame(i: int, denoise: bool) -> None:
         r.render(K, cams[i % len(cams)], W, H, mode="quality", spp=args.spp, bounces=args.bounces, denoise=denoise)

@@ -38,9 +38,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
-    from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.renderer import Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
 
@@ -51,11 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     scene = scene.with_lights(args.lights)
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    Tc[:3, 3] = DEFAULT_SENSORS["camera"]["mount_xyz"]
-    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
-    cams = [se2_to_matrix(*p) @ Tc for p in poses[::max(1, args.every)]]
+    cams = trajectory_cameras(scene)[::max(1, args.every)]
 
     images, out = {}, {"env": args.env, "lights": args.lights, "width": W, "height": H, "views": len(cams)}
     for maps, name in ((True, "maps"), (False, "rays")):

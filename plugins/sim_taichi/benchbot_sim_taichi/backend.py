@@ -61,6 +61,16 @@ R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
 
 
+def trajectory_cameras(scene: Scene) -> list[np.ndarray]:
+    """(4, 4) float64 poses in ``map`` of the default camera's optical frame (mounted as ``DEFAULT_SENSORS``) at
+    each pose of the scene's trajectory, or at its start pose when it has none: the views the benchmarks render."""
+    mount = np.eye(4)
+    mount[:3, :3] = R_BODY_OPTICAL
+    mount[:3, 3] = DEFAULT_SENSORS["camera"]["mount_xyz"]
+    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else np.asarray(scene.start_se2)[None]
+    return [se2_to_matrix(*p) @ mount for p in poses]
+
+
 def _over_defaults(defaults: dict, given: Any) -> Any:
     """``given`` (a ``sensors`` block) over ``defaults``, one level of sub-blocks deep (a ``None`` sub-block is its
     defaults); a block that is not a mapping is returned as it is, for the schema to refuse."""
