@@ -40,14 +40,14 @@ LAMP_RADIUS = 0.15
 #: most 0.5 m tall, its bottom 5 cm above its light) casts no shadow, so a shade does not black out the ceiling
 #: around it. A hanging lamp has nothing else that close.
 LAMP_FIXTURE_M = 0.6
-#: Lamp shadow maps (fast mode, one shadow sample, scenes that ask for them: ``Renderer.lamp_maps``): texels per
+#: Lamp shadow maps (fast mode, one shadow sample, scenes that ask for them: ``Renderer.shadow_maps``): texels per
 #: cube-face side; the lookup point leaves the surface along its normal by ``LAMP_MAP_NORMAL_OFFSET`` texel
 #: footprints, and a texel's depth may be exceeded by ``LAMP_MAP_BIAS_M`` (m), so a lit surface does not shadow
 #: itself ("shadow acne").
 LAMP_MAP_RES = 256
 LAMP_MAP_NORMAL_OFFSET = 1.5
 LAMP_MAP_BIAS_M = 0.01
-#: The sun's shadow map (fast mode, one shadow sample, scenes with lamp maps): an orthographic map along the sun's
+#: The sun's shadow map (fast mode, one shadow sample, beside the lamps' maps): an orthographic map along the sun's
 #: direction over the scene's primitives, ``SUN_MAP_RES``² texels (a furnished house of 20 m: 1 cm texels), traced
 #: once per scene (:func:`sun_map_kernel`). Each texel holds the height, along the direction towards the sun, of the
 #: first primitive that the sun's rays meet; a point is lit when it is no lower than that, less ``SUN_MAP_BIAS_M``
