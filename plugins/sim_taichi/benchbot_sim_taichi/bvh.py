@@ -338,6 +338,9 @@ def wide_nodes(nodes_f: np.ndarray, nodes_i: np.ndarray, tri_only: np.ndarray | 
         0, 0]. A reference ≥ 0 is an interior child's record; a leaf's is ``~((first << LEAF_SHIFT) | (TRI_ONLY if
         tri_only) | count)`` (its primitives ``first .. first + count − 1``). A tree without an interior node (one
         leaf, or none) becomes one record of that leaf and an empty leaf (count 0).
+
+    Raises:
+        ValueError: a reference does not fit in 32 bits (more than about 67 million primitives).
     """
     count = nodes_i[:, 0].astype(np.int64)
     link = nodes_i[:, 1].astype(np.int64)
