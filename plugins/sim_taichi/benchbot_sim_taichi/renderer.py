@@ -418,13 +418,16 @@ def _plan_sun_map(packed: dict) -> tuple[int | None, float]:
     light's row gets map slot 0 and the map's projection (``kernels.LIGHT_COLS``): two unit vectors orthogonal to
     the light, scaled by 1/texel, and offsets, such that the box of every primitive (the BVH's root, padded by two
     texels) projects onto ``SUN_MAP_RES``² square texels. Returns (that row, the height ``top`` along the light of a
-    plane above every primitive), or (None, 0.0) when the scene has no directional light or no primitive."""
+    plane above every primitive), or (None, 0.0) when the scene has no directional light, no primitive, or a
+    directional light without a finite, non-zero direction."""
     lights, n = packed["lights"], packed["n_lights"]
     rows = np.flatnonzero(lights[:n, 0] == 0)
     if rows.size == 0 or packed["n_prims"] == 0:
         return None, 0.0
     j = int(rows[0])
     l = lights[j, 1:4].astype(np.float64)
+    if not np.isfinite(l).all() or np.linalg.norm(l) < 1e-9:  # no direction to project along: shadow rays instead
+        return None, 0.0
     l /= np.linalg.norm(l)
     helper = np.array([0.0, 1.0, 0.0]) if abs(l[0]) > 0.9 else np.array([1.0, 0.0, 0.0])
     t1 = np.cross(l, helper)

@@ -26,6 +26,26 @@ def _lamp_scene(synthetic_env):
     return scene
 
 
+def _pixel(K, T, p):
+    """(row, column) of map point p in the view of camera pose T (optical frame) with intrinsics K."""
+    q = T[:3, :3].T @ (np.asarray(p, float) - T[:3, 3])
+    return int(round(K[1, 1] * q[1] / q[2] + K[1, 2])), int(round(K[0, 0] * q[0] / q[2] + K[0, 2]))
+
+
+def _render_with_and_without_maps(scene, K, views, W, H):
+    """RGB (int) of each view of ``views``, rendered with shadow maps (key True) and with shadow rays (False), and
+    whether each renderer's sun took its shadows from the sun map."""
+    from benchbot_sim_taichi.renderer import Renderer
+
+    images, sun_map = {}, {}
+    for maps in (True, False):
+        r = Renderer("cpu", shadow_maps=maps)
+        r.set_scene(scene)
+        sun_map[maps] = r.sun_map
+        images[maps] = [r.render(K, T, W, H)["rgb"].astype(int) for T in views]
+    return images, sun_map
+
+
 def _sun_scene(synthetic_env, direction=(0.45, 0.30, 0.84)):
     """The same room lit by the sun alone (``direction``, towards the sun), ambient off."""
     from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL
@@ -70,7 +90,7 @@ def test_lit_through_the_sun_map_agrees_with_shadow_rays(synthetic_env):
     """The floor around the table seen from above, lit by an oblique sun through its map and through shadow rays:
     the table's shadow on the floor is dark in both, the table top and the open floor lit in both, and all but a
     thin rim of pixels along the shadow's edges agree within 2 levels."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.renderer import intrinsics
 
     scene = _sun_scene(synthetic_env)
     W, H = 96, 72
@@ -79,15 +99,11 @@ def test_lit_through_the_sun_map_agrees_with_shadow_rays(synthetic_env):
     T[:3, 3] = (2.6, -0.25, 2.4)
 
     def pixel(p):
-        q = T[:3, :3].T @ (np.asarray(p, float) - T[:3, 3])
-        return int(round(K[1, 1] * q[1] / q[2] + K[1, 2])), int(round(K[0, 0] * q[0] / q[2] + K[0, 2]))
+        return _pixel(K, T, p)
 
-    images = {}
-    for maps in (True, False):
-        r = Renderer("cpu", shadow_maps=maps)
-        r.set_scene(scene)
-        assert r.sun_map == maps
-        images[maps] = r.render(K, T, W, H)["rgb"].astype(int)
+    renders, sun_map = _render_with_and_without_maps(scene, K, [T], W, H)
+    assert sun_map == {True: True, False: False}
+    images = {maps: views[0] for maps, views in renders.items()}
     # the shadow of the table top's centre (0.8 m high) falls 0.8 / 0.84 · (0.45, 0.30) away from under it
     d = np.array([0.45, 0.30, 0.84]) / np.linalg.norm([0.45, 0.30, 0.84])
     shadow = np.array([3.0, 0.0, 0.8]) - 0.8 / d[2] * d
@@ -120,7 +136,7 @@ def test_lit_through_lamp_maps_agrees_with_shadow_rays(synthetic_env):
     """The same views rendered with the lamp's shadows from its cube map and from shadow rays: the table top (a
     primitive in the map, so a receiver that could shadow itself) is lit in both, the floor under the table is dark
     in both, and all but a thin rim of pixels along shadow edges agree within 2 levels."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.renderer import intrinsics
 
     scene = _lamp_scene(synthetic_env)
     W, H = 96, 72
@@ -131,14 +147,9 @@ def test_lit_through_lamp_maps_agrees_with_shadow_rays(synthetic_env):
     under[:3, 3] = (3.0, 0.0, 0.65)
 
     def pixel(T, p):
-        q = T[:3, :3].T @ (np.asarray(p, float) - T[:3, 3])
-        return int(round(K[1, 1] * q[1] / q[2] + K[1, 2])), int(round(K[0, 0] * q[0] / q[2] + K[0, 2]))
+        return _pixel(K, T, p)
 
-    images = {}
-    for maps in (True, False):
-        r = Renderer("cpu", shadow_maps=maps)
-        r.set_scene(scene)
-        images[maps] = [r.render(K, T, W, H)["rgb"].astype(int) for T in (above, under)]
+    images, _sun_map = _render_with_and_without_maps(scene, K, [above, under], W, H)
     for got in images.values():
         assert got[0][pixel(above, (3.1, 0.1, 0.8))].min() > 40  # the table top, lit by the lamp
         assert got[1][H // 2, W // 2].max() == 0  # the floor under the table
@@ -223,3 +234,16 @@ def test_the_render_benchmark_times_a_scene_with_only_the_lights_asked_for():
     out = json.loads(proc.stdout)
     assert out["lights"] == 1 and out["lights_kept"] == "sun" and out["sun_map"] and out["lamps_with_maps"] == 0
     assert out["fps"] > 0 and out["lights_on"]
+
+
+def test_a_sun_without_a_direction_keeps_its_shadow_rays(synthetic_env):
+    """A directional light of zero length has no plane to project onto: no sun map, and the scene still renders."""
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+
+    scene = dataclasses.replace(_sun_scene(synthetic_env), style="furnished")
+    scene.light_vec = np.zeros((1, 3), np.float32)
+    r = Renderer("cpu")
+    r.set_scene(scene)
+    assert not r.sun_map
+    assert np.isfinite(r._packed["lights"]).all()
+    assert r.render(intrinsics(16, 12, 90.0), np.eye(4), 16, 12)["rgb"].shape == (12, 16, 3)
