@@ -37,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--save-worst", help="PNG of the view that differs most: maps | rays | 4 × |difference|")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if min(args.width, args.height, args.every) < 1:
+        ap.error("--width, --height and --every must be >= 1")
 
     from benchbot_sim_taichi import plugin
     from benchbot_sim_taichi.backend import trajectory_cameras
@@ -50,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     scene = scene.with_lights(args.lights)
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
-    cams = trajectory_cameras(scene)[::max(1, args.every)]
+    cams = trajectory_cameras(scene)[::args.every]
 
     images, out = {}, {"env": args.env, "lights": args.lights, "width": W, "height": H, "views": len(cams)}
     for maps, name in ((True, "maps"), (False, "rays")):
