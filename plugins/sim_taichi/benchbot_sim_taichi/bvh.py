@@ -363,6 +363,47 @@ def wide_nodes(nodes_f: np.ndarray, nodes_i: np.ndarray, tri_only: np.ndarray | 
     return out
 
 
+def clusters(nodes_f: np.ndarray, nodes_i: np.ndarray, max_prims: int) -> tuple[np.ndarray, np.ndarray]:
+    """The largest subtrees of :func:`build_bvh`'s tree with at most ``max_prims`` primitives each: the clusters that
+    the rasteriser culls against a camera's view before it sets up their primitives
+    (:mod:`benchbot_sim_taichi.raster`).
+
+    A subtree's primitives are consecutive (its leaves' ranges follow one another in depth-first order), so a
+    cluster is a box and a range of primitives; the clusters hold every primitive once, in order.
+
+    Args:
+        nodes_f, nodes_i: :func:`build_bvh`'s depth-first arrays (M nodes). max_prims: at least 1.
+
+    Returns:
+        ``(boxes (C, 6) float32 [min xyz, max xyz], prims (C, 2) int32 [first, count])``; C = 0 for a tree without
+        primitives.
+
+    Raises:
+        ValueError: ``max_prims`` below 1, or a tree whose leaves do not hold consecutive primitive ranges in
+            depth-first order (not :func:`build_bvh`'s layout).
+    """
+    if max_prims < 1:
+        raise ValueError(f"clusters: max_prims must be at least 1, got {max_prims}")
+    count = np.asarray(nodes_i)[:, 0].astype(np.int64)
+    link = np.asarray(nodes_i)[:, 1].astype(np.int64)
+    skip = np.asarray(nodes_i)[:, 2].astype(np.int64)
+    m = count.size
+    before = np.concatenate([[0], np.cumsum(count)])  # primitives in the leaves of nodes 0 .. n-1
+    leaves = np.flatnonzero(count > 0)
+    if not np.array_equal(link[leaves], before[leaves]):
+        raise ValueError("clusters: the leaves' primitive ranges are not consecutive in depth-first order")
+    sub = before[skip] - before[:m]  # primitives in each node's subtree (nodes n .. skip[n] - 1)
+    interior = (count == 0) & (link > 0)
+    parent = np.full(m, -1, np.int64)
+    ids = np.flatnonzero(interior)
+    parent[ids + 1], parent[link[ids]] = ids, ids
+    parent_sub = np.where(parent >= 0, sub[np.maximum(parent, 0)], max_prims + 1)
+    roots = np.flatnonzero((sub > 0) & (sub <= max_prims) & (parent_sub > max_prims))
+    boxes = np.ascontiguousarray(np.asarray(nodes_f, np.float32)[roots])
+    prims = np.stack([before[roots], sub[roots]], axis=1).astype(np.int32)
+    return boxes.reshape(-1, 6), prims.reshape(-1, 2)
+
+
 def build_bvh_reference(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The recursive binned-SAH builder :func:`build_bvh` replaced (one node at a time, Python loops over the
     3 × (BINS - 1) candidate splits; about 40 s for 200k triangles). Same arguments, result and layout; kept as the

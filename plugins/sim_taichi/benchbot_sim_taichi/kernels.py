@@ -1,15 +1,14 @@
-"""The Taichi kernels of the ray tracer (see :mod:`benchbot_sim_taichi.renderer`, which prepares their arguments
-and launches them): BVH traversal, primitive intersection, shading with shadow rays (on triangles: interpolated
-vertex normals and mip-mapped, bilinearly filtered textures), the all-sensors kernel
-(:func:`sensors_kernel`: camera pixels and laser beams in one launch), the lamps' shadow maps, and
-:func:`sensors_graph`, the all-sensors kernel compiled as a ``ti.graph``.
+"""The Taichi functions of the ray tracer: BVH traversal, primitive intersection, shading with shadow rays or shadow
+maps (on triangles: interpolated vertex normals and mip-mapped, bilinearly filtered textures), and the kernels that
+trace the lamps' and the sun's shadow maps. The all-sensors kernel that uses them is in
+:mod:`benchbot_sim_taichi.sensors`, the path tracer in :mod:`benchbot_sim_taichi.pathtrace`;
+:mod:`benchbot_sim_taichi.renderer` prepares their arguments and launches them.
 
 Conventions and formulas: see the renderer's module docstring. Kernels take ``ti.types.ndarray`` arguments (NumPy
 arrays or Taichi ndarrays), so they compile once per process, not per scene or image size.
 """
 
 import contextlib
-import gc
 import sys
 
 # Taichi prints its banner on stdout; stdout carries our programs' data (tables, --json), so it goes to stderr.
@@ -17,7 +16,6 @@ with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
 from benchbot_sim_taichi.bvh import LEAF_SHIFT, TRI_ONLY  # noqa: E402 - after Taichi's banner is redirected
-from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402
 
 #: Tiny direction component substituted for zero before inverting (avoids 0·inf).
 DIR_EPS = 1e-12
@@ -47,6 +45,12 @@ LAMP_FIXTURE_M = 0.6
 LAMP_MAP_RES = 256
 LAMP_MAP_NORMAL_OFFSET = 1.5
 LAMP_MAP_BIAS_M = 0.01
+#: The light grid of fast mode (lamps with shadow maps, one shadow sample: :func:`_direct`): cells of LIGHT_CELL_M
+#: (m) in x and y; :func:`light_grid_kernel` samples each lamp's lit region along the centre rays of blocks of
+#: LIGHT_GRID_BLOCK² map texels every LIGHT_GRID_STEP (m).
+LIGHT_CELL_M = 0.25
+LIGHT_GRID_BLOCK = 4
+LIGHT_GRID_STEP = 0.125
 #: The sun's shadow map (fast mode, one shadow sample, beside the lamps' maps): an orthographic map along the sun's
 #: direction over the scene's primitives, ``SUN_MAP_RES``² texels (a furnished house of 20 m: 1 cm texels), traced
 #: once per scene (:func:`sun_map_kernel`). Each texel holds the height, along the direction towards the sun, of the
@@ -80,15 +84,6 @@ PANES_TRACKED = 2
 #: Columns of the per-triangle shading rows (``renderer.pack_scene``'s ``shade``): vertex normals (9), UVs (6),
 #: texture index (−1: none), texture LOD offset ``0.5·log2(texels per world area)``.
 SHADE_COLS = 17
-
-#: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
-POSE_LEN = 16
-#: Entries of the tone table (``camera_model.tone_table``) and where it starts in the frame constants
-#: (``renderer.frame_constants``: world 19, render params 8, fx fy cx cy, then the camera model's 1/radiance_max and
-#: vignetting at 31 and 32).
-GAMMA_STEPS = TABLE_STEPS
-FRAME_CONSTS = 33
-
 
 @ti.func
 def _safe_inv(d):
@@ -383,18 +378,25 @@ def _trace(o, d, tmax, nodes: ti.template(), pf: ti.template(), pi: ti.template(
     if ti.static(panes == PANES_TRACKED):
         if pane_t >= best:
             pane_k = -1
+    return best, best_k, _closest_normal(o, d, inv, best, best_k, pf, pi, tris), trans, pane_t, pane_k
+
+
+@ti.func
+def _closest_normal(o, d, inv, best, best_k, pf: ti.template(), pi: ti.template(), tris: ti.template()):
+    """The geometric normal, facing the ray, of primitive ``best_k`` met at distance ``best`` (0 when best_k < 0):
+    a triangle's is its plane's; another primitive's comes from its test, run again (the same entry point)."""
     best_n = ti.Vector([0.0, 0.0, 0.0])
-    if best_k >= 0:  # the closest primitive's normal, facing the ray, computed once
-        if pi[best_k, 0] >= 3:  # a triangle's is its plane's
+    if best_k >= 0:
+        if pi[best_k, 0] >= 3:
             v0 = _v3(tris, best_k, 0)
             best_n = (_v3(tris, best_k, 3) - v0).cross(_v3(tris, best_k, 6) - v0).normalized()
             if best_n.dot(d) > 0:
                 best_n = -best_n
-        else:  # the primitive's test again (the same entry point), with the normal
+        else:
             t_again, best_n = _hit_prim(o, d, inv, pf, pi, tris, best_k, best * (1.0 + 1e-5) + T_EPS, False, True)
             if t_again >= best * (1.0 + 1e-5) + T_EPS:  # missed on a grazing edge: face the ray
                 best_n = -d.normalized()
-    return best, best_k, best_n, trans, pane_t, pane_k
+    return best_n
 
 
 @ti.func
@@ -490,8 +492,10 @@ def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
                tex_info: ti.template(), lut: ti.template(), world: ti.template(), panes: ti.template()):
     """First surface along the ray (objects, else the room shell): (hit, t, geometric normal, shading normal,
     albedo, class, instance, shadow-ray origin, primitive index: −1 for the shell, the nearest pane in front of it:
-    −1 for none or unless ``panes`` is PANES_TRACKED). Both normals face the ray. On a
-    triangle the shading normal interpolates its vertex normals, the albedo is multiplied by its texture, sampled
+    −1 for none or unless ``panes`` is PANES_TRACKED, and on a triangle (b1, b2, side): the hit's barycentrics of
+    vertices 1 and 2 and the side seen, 1 the front (where the vertex normals point) or −1). Both normals face the
+    ray. On a triangle the shading normal interpolates its vertex normals (:func:`_triangle_point`), bent towards the
+    eye where it turns away from it, the albedo is multiplied by its texture, sampled
     at the mip level of the ray footprint (``spread`` · t wide, divided by the cosine of incidence: the long axis of
     the footprint on the surface, so grazing surfaces blur rather than alias), and the shadow-ray origin is the hit
     point moved onto the vertices' tangent planes (Hanika's shadow-terminator fix) so that smooth low-poly surfaces
@@ -499,6 +503,17 @@ def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
     panes are surfaces with ``panes`` PANES_SEEN (a pane's hit is returned unshaded: its normals, its primitive
     index), invisible with PANES_UNSEEN and PANES_TRACKED (see :func:`_trace`)."""
     best, k, nb, _tr, pane_t, pane_k = _trace(o, d, 1e30, nodes, pf, pi, tris, False, panes)
+    return _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf, pi, tris, shade, texels, tex_info, lut, world,
+                    panes)
+
+
+@ti.func
+def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: ti.template(), tris: ti.template(),
+             shade: ti.template(), texels: ti.template(), tex_info: ti.template(), lut: ti.template(),
+             world: ti.template(), panes: ti.template()):
+    """What :func:`_shade_hit` returns, given the closest primitive hit along the ray (distance ``best``, primitive
+    ``k``, −1 for none, its geometric normal ``nb`` facing the ray) and the nearest pane before it (``pane_t``,
+    ``pane_k``): the room shell is tested here, then the surface met is shaded."""
     inv = _safe_inv(d)
     t_exit = 1e30
     exit_axis = 0
@@ -519,6 +534,7 @@ def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
     i_id = 0
     hit = 0
     prim = -1
+    tri_pos = ti.Vector([0.0, 0.0, 0.0])
     if k >= 0 and (inside == 0 or best < t_exit * (1.0 + SHELL_TIE)):  # geometry on the shell's faces wins
         hit = 1
         prim = k
@@ -542,26 +558,12 @@ def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
             b1 = sv.dot(pv) * idet
             b2 = d.dot(sv.cross(e1)) * idet
             b0 = 1.0 - b1 - b2
-            n0 = _v3(shade, j, 0)
-            n1 = _v3(shade, j, 3)
-            n2 = _v3(shade, j, 6)
-            sn = b0 * n0 + b1 * n1 + b2 * n2
-            sgn = 1.0
-            if sn.dot(nb) < 0.0:  # the vertex normals point to the other side: the ray hit the back
-                sgn = -1.0
-            ln = sn.norm()
-            if ln > 1e-12:
-                ns = sgn * sn / ln
+            ns, sgn, ps = _triangle_point(tris, shade, j, b0, b1, b2, nb, ps)
             dl = d.norm()
             cos_v = ns.dot(d) / dl
             if cos_v > -0.02:  # a shading normal turned away from the eye: bend it back towards the eye
                 ns = (ns - (cos_v + 0.02) * d / dl).normalized()
-            # shadow-terminator offset: project the hit onto each vertex's tangent plane (only outwards)
-            q0 = ps - v0
-            q1 = ps - v1
-            q2 = ps - v2
-            ps = ps - sgn * (b0 * ti.min(0.0, sgn * q0.dot(n0)) * n0 + b1 * ti.min(0.0, sgn * q1.dot(n1)) * n1
-                             + b2 * ti.min(0.0, sgn * q2.dot(n2)) * n2)
+            tri_pos = ti.Vector([b1, b2, sgn])
             tex = ti.cast(shade[j, 15], ti.i32)
             if tex >= 0:
                 u = b0 * shade[j, 9] + b1 * shade[j, 11] + b2 * shade[j, 13]
@@ -590,7 +592,33 @@ def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
     if ti.static(panes == PANES_TRACKED):
         if hit == 1 and pane_t < t:
             pane = pane_k
-    return hit, t, n, ns, albedo, c_id, i_id, ps, prim, pane
+    return hit, t, n, ns, albedo, c_id, i_id, ps, prim, pane, tri_pos
+
+
+@ti.func
+def _triangle_point(tris: ti.template(), shade: ti.template(), k, b0, b1, b2, nb, p):
+    """The shading of triangle k's point p at barycentrics (b0, b1, b2), seen from the side its geometric normal nb
+    faces: (shading normal ns, side sgn, shadow-ray origin ps). ns interpolates the vertex normals, turned to nb's
+    side (sgn = 1 when the vertex normals point that way, the front; −1 from the back); ps is p moved onto the
+    vertices' tangent planes, outwards only (Hanika's shadow-terminator fix), so that smooth low-poly surfaces do not
+    shadow themselves in facets."""
+    n0 = _v3(shade, k, 0)
+    n1 = _v3(shade, k, 3)
+    n2 = _v3(shade, k, 6)
+    sn = b0 * n0 + b1 * n1 + b2 * n2
+    sgn = 1.0
+    if sn.dot(nb) < 0.0:  # the vertex normals point to the other side: the back
+        sgn = -1.0
+    ns = nb
+    ln = sn.norm()
+    if ln > 1e-12:
+        ns = sgn * sn / ln
+    q0 = p - _v3(tris, k, 0)
+    q1 = p - _v3(tris, k, 3)
+    q2 = p - _v3(tris, k, 6)
+    ps = p - sgn * (b0 * ti.min(0.0, sgn * q0.dot(n0)) * n0 + b1 * ti.min(0.0, sgn * q1.dot(n1)) * n1
+                    + b2 * ti.min(0.0, sgn * q2.dot(n2)) * n2)
+    return ns, sgn, ps
 
 
 @ti.func
@@ -653,18 +681,58 @@ def _sun_map_visibility(sun_map: ti.template(), lights: ti.template(), j, q):
 
 
 @ti.func
-def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_lights,
+def _next_light(taken, w, m, n_always, always: ti.template(), grid: ti.template(), gx, gy, words,
+                light_of_slot: ti.template()):
+    """The next light of a point's list: ``always[taken]`` while taken < n_always, then the lamps whose bits are set
+    in the point's cell (gx, gy) of the light grid (word w of ``grid``, m its bits not yet taken; gx < 0: none).
+    Returns (the light, or −1 at the end; taken, w, m for the next call)."""
+    j = -1
+    if taken < n_always:
+        j = always[taken]
+        taken += 1
+    elif gx >= 0:
+        while m == 0 and w + 1 < words:
+            w += 1
+            m = grid[gy, gx, w]
+        if m != 0:
+            low = m & (-m)
+            m ^= low
+            j = light_of_slot[w * 32 + 31 - ti.math.clz(low)]
+    return j, taken, w, m
+
+
+@ti.func
+def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_always, always: ti.template(),
+            grid: ti.template(), grid_xform: ti.template(), light_of_slot: ti.template(),
             nodes: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
             maps: ti.template(), sun_map: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
     along the geometric normal ng); visibility from ``params[0]`` shadow rays (stratified over the light's disc),
     hashed from ``key`` — or, with one sample and a light with a map slot: a lamp's from its cube shadow map
     (:func:`_lamp_map_visibility`), the sun's from the sun map (:func:`_sun_map_visibility`). Window panes do not
-    stop shadow rays, nor dim them."""
+    stop shadow rays, nor dim them.
+
+    The lights summed are the ``n_always`` lights ``always`` (every light that has no shadow map, and the sun),
+    then the lamps that the light grid lists for p's cell: ``grid`` (NY, NX, words) int32 holds, for each cell of
+    ``grid_xform`` = [x0, y0, 1/cell (1/m), words] (cell (i, j) spans x0 + j·cell, y0 + i·cell), a bit for each
+    lamp shadow-map slot s (word s // 32, bit s % 32; ``light_of_slot[s]`` its light) whose map may let it light a
+    point of that cell (:func:`light_grid_kernel`); a lamp that is not listed would add exactly 0 there. Words = 0:
+    no grid (the renderer then puts every light in ``always``)."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
     total = ti.cast(params[0], ti.i32)
-    for j in range(n_lights):
+    words = ti.cast(grid_xform[3], ti.i32)
+    gx = ti.cast(ti.floor((p[0] - grid_xform[0]) * grid_xform[2]), ti.i32)
+    gy = ti.cast(ti.floor((p[1] - grid_xform[1]) * grid_xform[2]), ti.i32)
+    if words == 0 or gx < 0 or gy < 0 or gx >= grid.shape[1] or gy >= grid.shape[0]:
+        gx = -1
+    taken = 0  # of the always-lit lights
+    gw = -1  # the grid word being read, and its bits not yet taken
+    gm = 0
+    while True:
+        j, taken, gw, gm = _next_light(taken, gw, gm, n_always, always, grid, gx, gy, words, light_of_slot)
+        if j < 0:
+            break
         L = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
         dist = 1e30
         atten = 1.0
@@ -733,21 +801,6 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_light
 
 
 @ti.func
-def _through_pane(col, d, pane, tris: ti.template(), consts: ti.template()):
-    """Fast mode's colour ``col`` (linear) seen along camera ray d through pane primitive ``pane``: a slab whose two
-    faces pass (1 − F)² of it and reflect F + (1 − F)² F of the environment the ambient term stands for — quality
-    mode's sky, ``ambient · (0.8 + 0.3 r_z)`` in the mirror direction r (no traversal, no shadow ray)."""
-    v0 = _v3(tris, pane, 0)
-    nrm = (_v3(tris, pane, 3) - v0).cross(_v3(tris, pane, 6) - v0).normalized()
-    dn = d.normalized()
-    c = nrm.dot(dn)
-    f = _glass_reflectance(ti.abs(c))
-    r = dn - 2.0 * c * nrm
-    sky = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.3 * r[2])
-    return col * ((1.0 - f) * (1.0 - f)) + sky * (f + (1.0 - f) * (1.0 - f) * f)
-
-
-@ti.func
 def _ray(c, x, y):
     o = ti.Vector([c[9], c[10], c[11]])
     xc = (x - c[14]) / c[12]
@@ -758,116 +811,6 @@ def _ray(c, x, y):
         c[6] * xc + c[7] * yc + c[8],
     ])
     return o, d
-
-
-@ti.func
-def _scan_beam(o, a, nodes: ti.template(), pf: ti.template(), pi: ti.template(),
-               tris: ti.template(), world: ti.template()):
-    """Range (m) along the horizontal beam from o at map-frame angle a to the first primitive or wall (through
-    window panes)."""
-    d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
-    best, k, n, _tr, _pt, _pk = _trace(o, d, 1e30, nodes, pf, pi, tris, False, PANES_UNSEEN)
-    inv = _safe_inv(d)
-    tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
-    ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
-    return ti.min(best, ti.min(tx, ty))
-
-
-@ti.kernel
-def sensors_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    n_lights: ti.i32,
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
-):
-    """One launch (one parallel loop) for B sensor frames in the ``map`` frame: fast-mode images (when ``images``
-    is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``cls``/``inst`` (B, H, W)
-    int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame
-    angle ``beams[j]`` (rad) + the lidar's yaw. Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value: no
-    upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
-    the scene arrays are ``renderer.pack_scene``'s; ``lamp_maps`` (6·S, R, R) the lamps' cube shadow maps
-    (:func:`lamp_map_kernel`; used by lamps whose row has a slot ≥ 0), ``sun_map`` (R, R) the sun's
-    (:func:`sun_map_kernel`; used by a directional light whose row has slot 0)."""
-    B = depth.shape[0]
-    H = depth.shape[1]
-    W = depth.shape[2]
-    n_scan = ranges.shape[0] * n_beams
-    # One loop: the laser's beams first, then the pixels. A beam is a long ray; as the loop's first items the beams
-    # run while the pixels are traced, instead of after them (a separate loop is a second pass on the GPU, which for
-    # one camera waited on 360 lone threads: one H200, house:1, one camera 1,799 -> 2,419 fps).
-    for i in range(n_scan + B * images * H * W):
-        if i < n_scan:
-            b = i // n_beams
-            beam = i % n_beams
-            q = pose0
-            if one == 0:
-                for m in ti.static(range(12, POSE_LEN)):
-                    q[m] = table[b, m]
-            ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], nodes, pf, pi, tris,
-                                         consts)
-        else:
-            j = i - n_scan
-            b = j // (H * W)
-            v = (j // W) % H
-            u = j % W
-            q = pose0
-            if one == 0:
-                for k in ti.static(range(12)):
-                    q[k] = table[b, k]
-            c = ti.Vector([q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11],
-                           consts[27], consts[28], consts[29], consts[30]])
-            params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
-            o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
-            key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
-            hit, t, n, ns, albedo, c_id, i_id, p, _k, pane = _shade_hit(
-                o, d, 1.0 / consts[27], nodes, pf, pi, tris, shade, texels, tex_info, tex_lut,
-                consts, PANES_TRACKED)
-            col = ti.Vector([0.0, 0.0, 0.0])
-            if hit == 1:
-                radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
-                radiance += _direct(p, n, ns, key, params, lights, n_lights, nodes, pf, pi, tris,
-                                    lamp_maps, sun_map)
-                col = albedo * radiance
-            if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
-                col = _through_pane(col, d, pane, tris, consts)
-            if hit == 1:
-                if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
-                    xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
-                    yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
-                    cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
-                    col *= 1.0 - consts[32] * (1.0 - cos2 * cos2)
-                col *= consts[31]  # radiance / radiance_max: exposure and tone curve are in the table
-                for k in ti.static(range(3)):
-                    x = ti.min(ti.max(col[k], 0.0), 1.0)
-                    level = consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)]
-                    rgb[b, v, u, k] = ti.cast(level, ti.u8)
-                depth[b, v, u] = t
-            else:
-                for k in ti.static(range(3)):
-                    rgb[b, v, u, k] = ti.cast(0, ti.u8)
-                depth[b, v, u] = 0.0
-            cls[b, v, u] = c_id
-            inst[b, v, u] = i_id
 
 
 @ti.kernel
@@ -904,6 +847,49 @@ def lamp_map_kernel(
 
 
 @ti.kernel
+def light_grid_kernel(
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    block: ti.i32,
+    step: ti.f32,
+    grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+):
+    """Mark in ``grid`` (NY, NX, words) int32 (zeros on entry; cells as :func:`_direct` reads them) each cell that a
+    sample of a lamp's lit region falls in: for each block of ``block`` × ``block`` texels of a cube map (:func:`
+    lamp_map_kernel`'s layout), points every ``step`` m along the block's centre ray from the lamp out to the
+    largest depth of the block's texels and their neighbours (plus ``LAMP_MAP_BIAS_M``), at most the lamp's range.
+    A point that the map lets the lamp light lies within the block's cone up to that depth, so it lies within
+    ``step / 2`` plus the cone's width there, plus the lookup's offset along the normal, of a sample: the renderer
+    grows the marked cells by that much (``renderer._light_grid``)."""
+    R = maps.shape[1]
+    nb = (R + block - 1) // block
+    for z, by, bx in ti.ndrange(maps.shape[0], nb, nb):
+        slot = z // 6
+        j = light_of_slot[slot]
+        face = z % 6
+        ax = face // 2
+        sign = 1.0 - 2.0 * ti.cast(face % 2, ti.f32)
+        depth = 0.0
+        for y, x in ti.ndrange((ti.max(by * block - 1, 0), ti.min(by * block + block + 1, R)),
+                               (ti.max(bx * block - 1, 0), ti.min(bx * block + block + 1, R))):
+            depth = ti.max(depth, maps[z, y, x])
+        cu = (ti.cast(bx * block, ti.f32) + 0.5 * block) * 2.0 / R - 1.0
+        cv = (ti.cast(by * block, ti.f32) + 0.5 * block) * 2.0 / R - 1.0
+        d = _unperm(ti.Vector([cu, cv, sign]), ax).normalized()
+        L = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]])
+        reach = ti.min(depth + LAMP_MAP_BIAS_M, lights[j, 7])
+        n = ti.cast(reach / step, ti.i32) + 1
+        for i in range(n + 1):
+            q = L + d * ti.min(ti.cast(i, ti.f32) * step, reach)
+            gx = ti.cast(ti.floor((q[0] - grid_xform[0]) * grid_xform[2]), ti.i32)
+            gy = ti.cast(ti.floor((q[1] - grid_xform[1]) * grid_xform[2]), ti.i32)
+            if gx >= 0 and gy >= 0 and gx < grid.shape[1] and gy < grid.shape[0]:
+                ti.atomic_or(grid[gy, gx, slot // 32], 1 << (slot % 32))
+
+
+@ti.kernel
 def sun_map_kernel(
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     j: ti.i32,
@@ -931,46 +917,3 @@ def sun_map_kernel(
         if k >= 0:
             height = top - t
         sun_map[y, x] = height
-
-
-#: Parameters of :func:`sensors_kernel`, in order: (name, kind, dtype, ndim) with kind ``nd`` (ndarray), ``sc``
-#: (scalar) or ``vec`` (by-value vector of POSE_LEN).
-SENSORS_ARGS = (
-    ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
-    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
-    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
-    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1),
-    ("lights", "nd", "f32", 2), ("n_lights", "sc", "i32", 0), ("lamp_maps", "nd", "f32", 3),
-    ("sun_map", "nd", "f32", 2), ("consts", "nd", "f32", 1),
-    ("rgb", "nd", "u8", 4),
-    ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
-)
-_SENSORS_GRAPH = None
-
-
-def sensors_graph():
-    """:func:`sensors_kernel` as a compiled Taichi compute graph (``ti.graph``), built once per process. Running
-    the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument work, which is
-    most of the time of a one-camera frame on a GPU. Graph arguments must be Taichi ndarrays (device buffers)."""
-    global _SENSORS_GRAPH
-    if _SENSORS_GRAPH is None:
-        kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
-        dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8}
-        symbols = []
-        for name, kind, dtype, ndim in SENSORS_ARGS:
-            extra = {"ndim": ndim} if kind == "nd" else {}
-            dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
-            symbols.append(ti.graph.Arg(kinds[kind], name, dtype=dt, **extra))
-        builder = ti.graph.GraphBuilder()
-        builder.dispatch(sensors_kernel, *symbols)
-        _SENSORS_GRAPH = builder.compile()
-        # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
-        # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
-        gc.collect()
-    return _SENSORS_GRAPH
-
-
-def reset_graph() -> None:
-    """Forget the compiled graph (after ``ti.reset``, or to compile it again)."""
-    global _SENSORS_GRAPH
-    _SENSORS_GRAPH = None

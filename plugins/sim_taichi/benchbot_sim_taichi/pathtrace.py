@@ -192,7 +192,7 @@ def quality_kernel(
             panes = 0
             bounce = 0
             for _event in range(max_bounces + 1 + MAX_GLASS_LAYERS):
-                hit, t, n, ns, albedo, c_id, i_id, p, k, _pane = _shade_hit(o, d, spread, nodes,
+                hit, t, n, ns, albedo, c_id, i_id, p, k, _pane, _tp = _shade_hit(o, d, spread, nodes,
                                                                             pf, pi, tris, shade, texels, tex_info,
                                                                             tex_lut, world, PANES_SEEN)
                 escaped = hit == 0 or (k < 0 and camera_view == 0)  # the shell is seen by camera rays only

@@ -7,16 +7,19 @@ materials, next-event estimation with multiple importance sampling, several boun
 Importing this module imports Taichi but does not initialise it; :func:`ensure_taichi` (called by
 :class:`Renderer`) runs ``ti.init`` once per process. Taichi must be used from one thread per process.
 
-One kernel launch computes every sensor of a frame (or of a batch of B frames): the laser beams and the camera
-pixels (RGB, depth, class and instance ids) are the items of one parallel loop of
-:func:`~benchbot_sim_taichi.kernels.sensors_kernel`, the beams first. Kernels take ``ti.types.ndarray``
+One kernel launch computes every sensor of a frame (or of a batch of B frames):
+:func:`~benchbot_sim_taichi.sensors.sensors_kernel` traces the laser beams, finds every camera ray's closest hit by
+rasterising the scene's primitives into a visibility buffer (:mod:`benchbot_sim_taichi.raster`: the same hits as
+the BVH traversal, found object by object), then shades the pixels (RGB, depth, class and instance ids). Kernels take
+``ti.types.ndarray``
 arguments, so a scene with any number of primitives, or any image size, reuses the compiled kernels (compiled once
 per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
 ``ti.ndarray`` and the outputs stay in reused device buffers; each launch goes through a compiled ``ti.graph`` with the
 camera and lidar pose passed by value, so the per-frame cost is one launch plus, when wanted, one copy to the host.
 The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and stored with both children's boxes in
-each interior node's record (:func:`~benchbot_sim_taichi.bvh.wide_nodes`); closest-hit rays traverse it nearer
-child first with a per-ray stack, any-hit rays left child first.
+each interior node's record (:func:`~benchbot_sim_taichi.bvh.wide_nodes`); closest-hit rays (the laser, the
+shadow maps, quality mode's paths) traverse it nearer child first with a per-ray stack, any-hit rays left child
+first; the rasteriser culls its clusters (:func:`~benchbot_sim_taichi.bvh.clusters`) against each camera's view.
 
 Conventions: ``map`` frame, metres. Cameras use the OPTICAL frame (z forward, x right, y down); the ray of pixel
 (u, v) (column, row; integer pixel centres) is ``R · K⁻¹ [u, v, 1]ᵀ`` so its parameter t is the z-depth.
@@ -91,8 +94,16 @@ with contextlib.redirect_stdout(_banner):
 from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
 from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
-    GLASS, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_COLS, POSE_LEN, SENSORS_ARGS, SHADE_COLS, STACK, SUN_MAP_RES, SUN_RADIUS,
-    lamp_map_kernel, reset_graph, sensors_graph, sensors_kernel, sun_map_kernel,
+    GLASS, LAMP_MAP_NORMAL_OFFSET, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_CELL_M, LIGHT_COLS, LIGHT_GRID_BLOCK,
+    LIGHT_GRID_STEP, SHADE_COLS, SHADOW_OFFSET, STACK, SUN_MAP_RES, SUN_RADIUS, lamp_map_kernel, light_grid_kernel,
+    sun_map_kernel,
+)
+from benchbot_sim_taichi.lightmap import bake_kernel, layout as lightmap_layout  # noqa: E402
+from benchbot_sim_taichi.raster import (  # noqa: E402
+    CLUSTER_PRIMS, COUNTERS, EMPTY, OCCLUDER_AREA_M2, QUEUE_COLS, split, tile_entries,
+)
+from benchbot_sim_taichi.sensors import (  # noqa: E402
+    POSE_LEN, SENSORS_ARGS, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -241,7 +252,11 @@ def pack_scene(scene) -> dict:
     Returns:
         ``nodes`` (max(I, 1), 16) float32, the BVH as the kernels read it (:func:`~benchbot_sim_taichi.bvh.wide_nodes`),
         and ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32, its depth-first nodes (see
-        :mod:`benchbot_sim_taichi.bvh`); leaves of plain triangles only are flagged;
+        :mod:`benchbot_sim_taichi.bvh`); leaves of plain triangles only are flagged; ``cluster_box`` (C, 6) float32
+        and ``cluster_prims`` (C, 2) int32 [first, count], the BVH's clusters of at most ``raster.CLUSTER_PRIMS``
+        primitives (:func:`~benchbot_sim_taichi.bvh.clusters`; one empty cluster without primitives);
+        ``is_occluder`` (max(P, 1),) int32 1 for the triangles of at least ``raster.OCCLUDER_AREA_M2``, which the
+        rasteriser draws first, ``occluders`` their indices (one −1 for none) and ``n_occluders`` how many;
         ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
         primitive or a triangle without material: 1, 0)]; ``pi`` (max(P,1), 4) int32 [kind (the scene's, or
         ``kernels.GLASS`` for a window pane), a cylinder's axis or a triangle's row of ``tris`` (k), class, instance];
@@ -259,7 +274,7 @@ def pack_scene(scene) -> dict:
     Raises:
         ValueError: the BVH is deeper than the kernels' stack.
     """
-    from benchbot_sim_taichi.bvh import build_bvh, bvh_depth, wide_nodes
+    from benchbot_sim_taichi.bvh import build_bvh, bvh_depth, clusters, wide_nodes
     from benchbot_sim_taichi.meshes import face_normals
 
     n, nl = int(scene.prim_type.shape[0]), int(scene.light_kind.shape[0])
@@ -301,6 +316,9 @@ def pack_scene(scene) -> dict:
         first = np.where(count > 0, nodes_i[:, 1], 0).astype(np.int64)
         tri_only = (count > 0) & (plain[first + count] - plain[first] == count)
     nodes = wide_nodes(nodes_f, nodes_i, tri_only)
+    cluster_box, cluster_prims = clusters(nodes_f, nodes_i, CLUSTER_PRIMS)
+    if cluster_prims.shape[0] == 0:  # no primitive: one empty cluster (the kernels' arrays have a row at least)
+        cluster_box, cluster_prims = np.zeros((1, 6), np.float32), np.zeros((1, 2), np.int32)
     tris = np.zeros((max(nt, 1), 9), dtype=np.float32)
     shade = np.zeros((max(nt, 1), SHADE_COLS), dtype=np.float32)
     shade[:, 15] = -1.0
@@ -350,7 +368,15 @@ def pack_scene(scene) -> dict:
         lights[:nl, 1:4], lights[:nl, 4:7], lights[:nl, 7] = scene.light_vec, scene.light_colour, scene.light_range
     world = np.concatenate([scene.room_min, scene.room_max, scene.shell_albedo.reshape(-1), scene.ambient,
                             [scene.background_class]]).astype(np.float32)
-    return {"nodes": nodes, "nodes_f": nodes_f, "nodes_i": nodes_i, "pf": pf, "pi": pi,
+    is_occluder = np.zeros(max(n, 1), np.int32)  # triangles large enough to hide much: rasterised first
+    if n and nt:  # (tris is in primitive order now)
+        tk = np.flatnonzero(pi[:n, 0] == 3)
+        area = 0.5 * np.linalg.norm(np.cross(tris[tk, 3:6] - tris[tk, 0:3], tris[tk, 6:9] - tris[tk, 0:3]), axis=1)
+        is_occluder[tk[area >= OCCLUDER_AREA_M2]] = 1
+    occluders = np.flatnonzero(is_occluder).astype(np.int32)
+    return {"nodes": nodes, "nodes_f": nodes_f, "nodes_i": nodes_i, "cluster_box": cluster_box,
+            "cluster_prims": cluster_prims, "occluders": occluders if occluders.size else np.full(1, -1, np.int32),
+            "n_occluders": int(occluders.size), "is_occluder": is_occluder, "pf": pf, "pi": pi,
             "tris": tris, "shade": shade, "texels": texels, "tex_info": info, "tex_lut": texture_lut(),
             "lights": lights, "world": world, "n_prims": n, "n_lights": nl, "order": order}
 
@@ -410,7 +436,7 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
 # ---------------------------------------------------------------------------------------------------------- renderer
 #: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
 _SCENE_ARRAYS = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
-                 "lamp_maps", "sun_map")
+                 "lamp_maps", "sun_map", "cluster_box", "cluster_prims", "light_of_slot", "occluders", "is_occluder")
 
 
 def _plan_sun_map(packed: dict) -> tuple[int | None, float]:
@@ -454,10 +480,10 @@ _RETIRE_LOCK = threading.Lock()
 
 
 def _new_device_array(dtype, shape: tuple):
-    """A new Taichi ndarray of ``dtype`` (NumPy dtype: uint8, int32 or float32) and ``shape`` (zeroed), in the arch's
+    """A new Taichi ndarray of ``dtype`` (NumPy dtype: uint8, int32, int64 or float32) and ``shape`` (zeroed), in the arch's
     memory (GPU memory on CUDA), held until :func:`_retire`. Call on Taichi's thread."""
-    arr = ti.ndarray(dtype={np.dtype(np.uint8): ti.u8, np.dtype(np.float32): ti.f32,
-                            np.dtype(np.int32): ti.i32}[np.dtype(dtype)], shape=tuple(shape))
+    arr = ti.ndarray(dtype={np.dtype(np.uint8): ti.u8, np.dtype(np.float32): ti.f32, np.dtype(np.int32): ti.i32,
+                            np.dtype(np.int64): ti.i64}[np.dtype(dtype)], shape=tuple(shape))
     _DEVICE_ARRAYS[id(arr)] = arr
     return arr
 
@@ -515,6 +541,10 @@ class Renderer:
             == 'furnished'``: many lamps and triangles, where those rays cost most of a frame), not for primitive
             scenes (whose shadows stay exact, ray for ray). Soft shadows (``shadow_samples`` > 1) always use rays,
             and so does ``quality`` mode.
+        baked_light: in ``fast`` mode, take the triangles' direct light from a lattice of points baked once per
+            scene (:mod:`benchbot_sim_taichi.lightmap`) instead of summing the lights at each pixel. ``None``
+            (default): when the lights' shadows come from shadow maps (then the light does not change from frame
+            to frame); the room shell, boxes, ellipsoids and cylinders always sum their lights per pixel.
         camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.camera_model.CameraModel`);
             the default is the image as it always was.
         denoise_device: where ``quality`` mode's denoiser runs (:func:`~benchbot_sim_taichi.denoiser.denoise_radiance`):
@@ -524,7 +554,8 @@ class Renderer:
 
     def __init__(self, arch: str | None = None, *, shadow_samples: int = 1, seed: int = 0,
                  device_buffers: bool | None = None, shadow_maps: bool | None = None,
-                 camera: CameraModel = DEFAULT_CAMERA, denoise_device: str | None = None) -> None:
+                 baked_light: bool | None = None, camera: CameraModel = DEFAULT_CAMERA,
+                 denoise_device: str | None = None) -> None:
         self.arch = ensure_taichi(arch)
         self.denoise_device = denoise_device or ("cuda" if self.arch == "cuda" else "cpu")
         self._denoise_device_chosen = denoise_device is None
@@ -535,26 +566,31 @@ class Renderer:
         self.seed = int(seed)
         self.device_buffers = (self.arch == "cuda") if device_buffers is None else bool(device_buffers)
         self._buffers: dict = {}
+        self._work_arrays: dict = {}
         self._uploaded: dict = {}
         self._consts_key: tuple | None = None
         self._consts = None
         self._scene_arrays: list = []
         self.shadow_maps = shadow_maps
+        self.baked_light = baked_light
+        self.baked_points = 0  # lattice points of the current scene's baked light
         self._pinned_copier = None  # render_sensors(to_host="pinned"): page-locked host arrays, made on first use
         self._render_copier = None  # render(): its own page-locked arrays (render_sensors' stay the caller's)
 
     def __del__(self) -> None:
         # may run on any thread: the device arrays are only retired here, and freed later on Taichi's thread
         try:
-            _retire(list(getattr(self, "_buffers", {}).values()) + getattr(self, "_scene_arrays", []))
+            _retire(list(getattr(self, "_buffers", {}).values()) + getattr(self, "_scene_arrays", [])
+                    + [a for a in getattr(self, "_work_arrays", {}).values() if not isinstance(a, np.ndarray)])
         except (TypeError, AttributeError):  # at interpreter exit this module's globals may already be None
             pass
 
     def close(self) -> None:
         """Release the GPU memory of this renderer now (call on the thread that renders); it cannot render
         afterwards until :meth:`set_scene` is called again."""
-        _retire(list(self._buffers.values()) + self._scene_arrays)
-        self._buffers, self._uploaded, self._scene_arrays = {}, {}, []
+        _retire(list(self._buffers.values()) + self._scene_arrays
+                + [a for a in self._work_arrays.values() if not isinstance(a, np.ndarray)])
+        self._buffers, self._uploaded, self._scene_arrays, self._work_arrays = {}, {}, [], {}
         self._packed = self._scene_args = self._consts = self._consts_key = None
         _free_retired()
         for copier in (self._pinned_copier, self._render_copier):
@@ -575,24 +611,95 @@ class Renderer:
         sun, top = _plan_sun_map(packed) if use_maps else (None, 0.0)
         res = SUN_MAP_RES if sun is not None else 1
         packed["sun_map"] = np.zeros((res, res), np.float32)
+        packed["light_of_slot"] = lamps.astype(np.int32) if lamps.size else np.full(1, -1, np.int32)
         self._packed = packed
         _retire(self._scene_arrays)
-        arrays = {k: self._packed[k] for k in _SCENE_ARRAYS}
-        if self.device_buffers:
-            for k, a in arrays.items():
-                arrays[k] = _new_device_array(a.dtype, a.shape)
-                arrays[k].from_numpy(np.ascontiguousarray(a))
-        self._scene_arrays = [arrays[k] for k in _SCENE_ARRAYS] if self.device_buffers else []
+        self._scene_arrays = []
+        arrays = {k: self._scene_array(self._packed[k]) for k in _SCENE_ARRAYS}
         if lamps.size:  # the lamps' shadow maps, traced once per scene, where the kernels read them
-            lamp_map_kernel(arrays["lights"], self._upload("light_of_slot", lamps.astype(np.int32)),
-                            arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"], arrays["lamp_maps"])
+            lamp_map_kernel(arrays["lights"], arrays["light_of_slot"], arrays["nodes"], arrays["pf"], arrays["pi"],
+                            arrays["tris"], arrays["lamp_maps"])
         if sun is not None:  # and the sun's
             sun_map_kernel(arrays["lights"], sun, top, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
                            arrays["sun_map"])
+        always, grid, xform = self._light_grid(arrays, lamps.size)
+        lights = (always.shape[0], self._scene_array(always if always.size else np.full(1, -1, np.int32)),
+                  self._scene_array(grid), self._scene_array(xform), arrays["light_of_slot"])
+        bake = (lamps.size > 0 or sun is not None) and self.shadow_samples <= 1 \
+            if self.baked_light is None else bool(self.baked_light)
         self._scene_args = (arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
                             arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
                             arrays["lights"], self._packed["n_lights"], arrays["world"],
-                            arrays["lamp_maps"], arrays["sun_map"])
+                            arrays["lamp_maps"], arrays["sun_map"], arrays["cluster_box"], arrays["cluster_prims"],
+                            *lights, *self._bake(arrays, lights, bake), self._packed["n_occluders"],
+                            arrays["occluders"], arrays["is_occluder"])
+
+    def _bake(self, arrays: dict, lights: tuple, bake: bool) -> tuple:
+        """The current scene's baked direct light (:mod:`benchbot_sim_taichi.lightmap`): ``(store, info)`` where the
+        kernels read them, baked now when ``bake``; else an empty store and every triangle unbaked (per-pixel
+        light)."""
+        packed = self._packed
+        n = packed["n_prims"]
+        kinds = packed["pi"][:n, 0] if bake else np.zeros(n, np.int32)  # kinds 0: no triangle is baked
+        info, starts = lightmap_layout(packed["tris"], kinds)
+        store = np.zeros(max(int(starts[-1]), 1), np.int32)
+        self.baked_points = int(starts[-1])
+        store, info_arr = self._scene_array(store), self._scene_array(info)
+        if starts[-1] > 0:
+            params = self._upload("bake_params", render_params(self.shadow_samples, self.seed))
+            bake_kernel(self._upload("bake_starts", starts.astype(np.int64)), info_arr, params, arrays["lights"],
+                        *lights, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"], arrays["shade"],
+                        arrays["lamp_maps"], arrays["sun_map"], store)
+        return store, info_arr
+
+    def _scene_array(self, a: np.ndarray) -> object:
+        """``a`` where the kernels read it for the current scene: a new device array (freed with the scene) with
+        device buffers, else ``a`` itself."""
+        if not self.device_buffers:
+            return a
+        arr = _new_device_array(a.dtype, a.shape)
+        arr.from_numpy(np.ascontiguousarray(a))
+        self._scene_arrays.append(arr)
+        return arr
+
+    def _light_grid(self, arrays: dict, n_maps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The current scene's light lists for :func:`~benchbot_sim_taichi.kernels._direct`: ``(always (A,) int32,
+        grid (NY, NX, words) int32, xform (4,) float32)``. With lamp shadow maps and one shadow sample, ``always``
+        holds the lights without a map (the sun) and the grid, over the xy extent of the room shell and the
+        primitives and a cell more on each side, in cells of ``kernels.LIGHT_CELL_M``, a bit for each lamp in each cell where its map may let it
+        light a point: the cells that :func:`~benchbot_sim_taichi.kernels.light_grid_kernel` marks, grown by the
+        distance its docstring names. Otherwise every light is in ``always`` and the grid is empty (words = 0)."""
+        packed = self._packed
+        n = packed["n_lights"]
+        lamp = (packed["lights"][:n, 0] == 1) & (packed["lights"][:n, 8] >= 0)
+        if n_maps == 0 or self.shadow_samples > 1 or not lamp.any():
+            return np.arange(n, dtype=np.int32), np.zeros((1, 1, 1), np.int32), np.zeros(4, np.float32)
+        world = packed["world"]
+        # a cell more on each side: the shell's walls lie on the extent's edges, and rounding puts points just out
+        lo = np.minimum(world[0:2], packed["nodes_f"][0, 0:2]).astype(np.float64) - LIGHT_CELL_M
+        hi = np.maximum(world[3:5], packed["nodes_f"][0, 3:5]).astype(np.float64) + LIGHT_CELL_M
+        nx, ny = (np.floor((hi - lo) / LIGHT_CELL_M).astype(int) + 1).tolist()
+        words = (n_maps + 31) // 32
+        xform = np.array([lo[0], lo[1], 1.0 / LIGHT_CELL_M, words], np.float32)
+        marked = self._buffer("light_grid_marks", (ny, nx, words), np.int32) if self.device_buffers \
+            else np.zeros((ny, nx, words), np.int32)
+        if self.device_buffers:
+            marked.fill(0)
+        light_grid_kernel(arrays["lights"], arrays["light_of_slot"], arrays["lamp_maps"],
+                          self._upload("light_grid_xform", xform), LIGHT_GRID_BLOCK, LIGHT_GRID_STEP, marked)
+        marked = marked if isinstance(marked, np.ndarray) else marked.to_numpy()
+        reach = float(packed["lights"][:n, 7][lamp].max())
+        R = LAMP_MAP_RES
+        grow = (LIGHT_GRID_STEP / 2 + reach * LIGHT_GRID_BLOCK * math.sqrt(2.0) / R  # the block's cone
+                + SHADOW_OFFSET + LAMP_MAP_NORMAL_OFFSET * reach * 2.0 / R)  # the lookup point's offset
+        r = int(math.ceil(grow / LIGHT_CELL_M))
+        grid = np.zeros_like(marked)
+        padded = np.pad(marked, ((r, r), (r, r), (0, 0)))
+        for dy in range(2 * r + 1):
+            for dx in range(2 * r + 1):
+                grid |= padded[dy:dy + ny, dx:dx + nx]
+        always = np.flatnonzero(~lamp).astype(np.int32)
+        return always, grid, xform
 
     @property
     def sun_map(self) -> bool:
@@ -626,6 +733,22 @@ class Renderer:
         if key not in self._buffers:
             self._buffers[key] = _new_device_array(dtype, shape)
         return self._buffers[key]
+
+    def _work(self, name: str, shape: tuple, dtype, fill) -> object:
+        """The kernels' work array ``name`` of ``shape`` holding ``fill`` when made, kept between launches (a
+        Taichi ndarray with device buffers, else a NumPy array): the visibility buffers, which the sensors kernel
+        leaves as it found them, and its lists and counters."""
+        key = (name, shape)
+        if key not in self._work_arrays:
+            if len(self._work_arrays) >= 16:  # sizes changed often: drop the old ones
+                _retire([a for a in self._work_arrays.values() if not isinstance(a, np.ndarray)])
+                self._work_arrays = {}
+            a = np.full(shape, fill, dtype)
+            if self.device_buffers:  # (Ndarray.fill cannot take an int64 beyond int32)
+                a, host = _new_device_array(dtype, shape), a
+                a.from_numpy(host)
+            self._work_arrays[key] = a
+        return self._work_arrays[key]
 
     def _upload(self, name: str, a: np.ndarray, *, cached: bool = False) -> object:
         """``a`` where the kernels read it: copied into a reused device buffer, or ``a`` itself. ``cached``: skip
@@ -746,8 +869,15 @@ class Renderer:
                              cached=True)
         consts = self._frame_constants(K)
         s = self._args()
-        values = (table, pose0, one, int(images), beams, n_beams, *s[:9], s[9] if lit else 0, s[11], s[12], consts,
-                  out["rgb"], out["depth"], out["class"], out["instance"], ranges)
+        n_clusters = self._packed["cluster_prims"].shape[0]
+        work = (self._work("listed", (B * n_clusters if images else 1,), np.int32, 0),
+                self._work("queue", ((B if images else 1) * split()["queue_items"], QUEUE_COLS), np.int32, 0),
+                self._work("counters", (COUNTERS,), np.int32, 0),
+                self._work("tiles", (shape[0], tile_entries(shape[2], shape[1])), np.float32, 0.0),
+                self._work("vis", (2,) + shape, np.int64, EMPTY))
+        values = (table, pose0, one, int(images), beams, n_beams, *s[:9], int(lit), *s[15:20], s[11], s[12], s[20],
+                  s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
+                  out["instance"], ranges)
         if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
             values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(SENSORS_ARGS, values))
             sensors_graph().run(dict(zip((a[0] for a in SENSORS_ARGS), values)))

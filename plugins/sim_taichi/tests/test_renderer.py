@@ -237,16 +237,16 @@ def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector
 
     from taichi.lang._ndarray import Ndarray
 
-    from benchbot_sim_taichi import kernels
     from benchbot_sim_taichi import renderer as rmod
+    from benchbot_sim_taichi import sensors
 
     rmod.ensure_taichi("cpu")
-    kernels.reset_graph()
+    sensors.reset_graph()
     gc.collect()  # ndarrays of earlier tests' renderers, freed now: only the compiler's own may count below
     rmod._free_retired()
     gc.disable()  # so that nothing but the compiler's own collect runs during the compile
     try:
-        kernels.sensors_graph()
+        sensors.sensors_graph()
         tracked = set(rmod._DEVICE_ARRAYS) | {id(a) for a in rmod._RETIRED}  # the renderer's own, held or retired
         stray = [o for o in gc.get_objects() if isinstance(o, Ndarray) and id(o) not in tracked]
     finally:

@@ -1,0 +1,452 @@
+"""The all-sensors work of ``fast`` mode (:func:`sensors_kernel`): B camera frames (RGB, depth, class and instance
+segmentation) and B laser scans in four kernel launches, and :func:`sensors_graph`, the four kernels compiled as
+one ``ti.graph``. :class:`~benchbot_sim_taichi.renderer.Renderer` prepares their arguments and launches them.
+
+The loops run one after the other (:mod:`benchbot_sim_taichi.raster` for the visibility buffer), each step a
+kernel (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
+
+1. the laser beams (traced through the BVH) beside the occluders (the large triangles, ``raster.OCCLUDER_AREA_M2``),
+   which are rasterised into each camera's visibility buffer; their large images are queued in parts, and
+   rasterised by the next loop;
+2. a pyramid of tiles of the largest depth so far in each camera's image; the clusters of the BVH that meet each
+   camera's view and are not hidden behind it are listed;
+3. their primitives, but the occluders, each culled against the pyramid the same way, are rasterised (the nearest
+   window pane into the buffer's second layer), large images again queued in parts and rasterised by the next loop;
+4. the pixels: each reads its closest hit from the visibility buffer (and resets it), then is shaded as
+   :func:`~benchbot_sim_taichi.kernels._surface` says, lit by the baked light of its triangle
+   (:mod:`benchbot_sim_taichi.lightmap`) or by :func:`~benchbot_sim_taichi.kernels._direct`.
+
+A primitive is culled only when every tile its image covers already holds a hit nearer than its nearest point, so
+culling changes no pixel.
+"""
+
+import contextlib
+import gc
+import sys
+
+with contextlib.redirect_stdout(sys.stderr):
+    import taichi as ti
+
+from benchbot_sim_taichi import lightmap, raster  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402
+from benchbot_sim_taichi.kernels import (  # noqa: E402
+    PANES_TRACKED, PANES_UNSEEN, _closest_normal, _direct, _glass_reflectance, _ray, _safe_inv, _surface, _trace, _v3,
+)
+
+#: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
+POSE_LEN = 16
+#: Entries of the tone table (``camera_model.tone_table``) and where it starts in the frame constants
+#: (``renderer.frame_constants``: world 19, render params 8, fx fy cx cy, then the camera model's 1/radiance_max and
+#: vignetting at 31 and 32).
+GAMMA_STEPS = TABLE_STEPS
+FRAME_CONSTS = 33
+
+
+@ti.func
+def _through_pane(col, d, pane, tris: ti.template(), consts: ti.template()):
+    """Fast mode's colour ``col`` (linear) seen along camera ray d through pane primitive ``pane``: a slab whose two
+    faces pass (1 − F)² of it and reflect F + (1 − F)² F of the environment the ambient term stands for — quality
+    mode's sky, ``ambient · (0.8 + 0.3 r_z)`` in the mirror direction r (no traversal, no shadow ray)."""
+    v0 = _v3(tris, pane, 0)
+    nrm = (_v3(tris, pane, 3) - v0).cross(_v3(tris, pane, 6) - v0).normalized()
+    dn = d.normalized()
+    c = nrm.dot(dn)
+    f = _glass_reflectance(ti.abs(c))
+    r = dn - 2.0 * c * nrm
+    sky = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.3 * r[2])
+    return col * ((1.0 - f) * (1.0 - f)) + sky * (f + (1.0 - f) * (1.0 - f) * f)
+
+
+@ti.func
+def _scan_beam(o, a, nodes: ti.template(), pf: ti.template(), pi: ti.template(),
+               tris: ti.template(), world: ti.template()):
+    """Range (m) along the horizontal beam from o at map-frame angle a to the first primitive or wall (through
+    window panes)."""
+    d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
+    best, k, n, _tr, _pt, _pk = _trace(o, d, 1e30, nodes, pf, pi, tris, False, PANES_UNSEEN)
+    inv = _safe_inv(d)
+    tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
+    ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
+    return ti.min(best, ti.min(tx, ty))
+
+
+@ti.func
+def _camera(table: ti.template(), pose0, one, b, consts: ti.template()):
+    """Camera b's row for the kernels (R row-major, origin, fx, fy, cx, cy)."""
+    q = pose0
+    if one == 0:
+        for k in ti.static(range(12)):
+            q[k] = table[b, k]
+    return ti.Vector([q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11],
+                      consts[27], consts[28], consts[29], consts[30]])
+
+
+@ti.kernel
+def occluders_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_beams: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lit: ti.i32,
+    n_always: ti.i32,
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    n_occluders: ti.i32,
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """Step 1 of :func:`sensors_kernel`: the laser's beams into ``ranges`` beside the occluders (large triangles)
+    rasterised into ``vis``, then their queued large images. Same parameters as :func:`sensors_kernel`."""
+    B = depth.shape[0]
+    H = depth.shape[1]
+    W = depth.shape[2]
+    n_occ = n_occluders * images
+    n_scan = ranges.shape[0] * n_beams
+    counters[0] = 0
+    counters[1] = 0
+    # A beam is a long ray: beside the occluders the beams run while the loop would otherwise wait on a few (one
+    # camera: 360 lone beams after the pixels used to cost the H200 a third of a frame).
+    for i in range(n_scan + B * n_occ):
+        if i < n_scan:
+            b = i // n_beams
+            beam = i % n_beams
+            q = pose0
+            if one == 0:
+                for m in ti.static(range(12, POSE_LEN)):
+                    q[m] = table[b, m]
+            ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], nodes, pf, pi, tris,
+                                         consts)
+        else:
+            e = i - n_scan
+            raster.rasterise_occluder(e, n_occ, _camera(table, pose0, one, e // n_occ, consts), occluders, pf, pi,
+                                      tris, vis, queue, counters, tiles)
+    for t in range(ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])):  # their large images
+        j, lane = raster.item_lane(t)
+        raster.rasterise_queued(j, lane, _camera(table, pose0, one, queue[j, 1] // H, consts), pf, pi, tris, vis,
+                                queue, True)
+
+
+@ti.kernel
+def clusters_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_beams: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lit: ti.i32,
+    n_always: ti.i32,
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    n_occluders: ti.i32,
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """Step 2 of :func:`sensors_kernel`: the tile pyramid of the depths in ``vis`` so far, then the clusters in each
+    camera's view and not hidden behind it, into ``listed``. Same parameters as :func:`sensors_kernel`."""
+    B = depth.shape[0]
+    H = depth.shape[1]
+    W = depth.shape[2]
+    n_clusters = cluster_prims.shape[0] * images
+    across, down, _first, _total = raster.tile_levels(W, H)
+    counters[1] = 0
+    for lv in ti.static(range(raster.TILE_LEVELS)):
+        for i in range(B * images * across[lv] * down[lv]):
+            raster.tile_depth(i, lv, vis, tiles)
+    for i in range(B * n_clusters):
+        raster.list_cluster(i, _camera(table, pose0, one, i // n_clusters, consts), n_clusters, cluster_box,
+                            cluster_prims, listed, counters, tiles, W, H)
+
+
+@ti.kernel
+def primitives_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_beams: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lit: ti.i32,
+    n_always: ti.i32,
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    n_occluders: ti.i32,
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """Step 3 of :func:`sensors_kernel`: the listed clusters' primitives (but the occluders), each culled against the
+    tile pyramid, into ``vis``, then their queued large images. Same parameters as :func:`sensors_kernel`."""
+    B = depth.shape[0]
+    H = depth.shape[1]
+    W = depth.shape[2]
+    n_clusters = cluster_prims.shape[0] * images
+    for i in range(counters[0] * raster.CLUSTER_PRIMS):
+        b, k = raster.listed_primitive(i, n_clusters, cluster_prims, listed)
+        if k >= 0 and is_occluder[k] == 0:
+            raster.rasterise_primitive(_camera(table, pose0, one, b, consts), b, k, pf, pi, tris, vis, queue, counters,
+                                       tiles, True, False)
+    for t in range(ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])):
+        j, lane = raster.item_lane(t)
+        raster.rasterise_queued(j, lane, _camera(table, pose0, one, queue[j, 1] // H, consts), pf, pi, tris, vis,
+                                queue, False)
+
+
+@ti.kernel
+def shade_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_beams: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lit: ti.i32,
+    n_always: ti.i32,
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    n_occluders: ti.i32,
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """Step 4 of :func:`sensors_kernel`: each pixel of the B frames reads its closest hit (and nearest pane) from
+    ``vis``, which the steps before filled, resets it to :data:`raster.EMPTY`, and is shaded
+    into ``rgb``, ``depth``, ``cls`` and ``inst``. Same parameters as :func:`sensors_kernel`."""
+    B = depth.shape[0]
+    H = depth.shape[1]
+    W = depth.shape[2]
+    # The pixels: each reads its closest hit and is shaded.
+    for j in range(B * images * H * W):
+        b = j // (H * W)
+        v = (j // W) % H
+        u = j % W
+        c = _camera(table, pose0, one, b, consts)
+        params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
+        o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
+        best, k = raster.unkey(vis[0, b, v, u])
+        pane_t, pane_k = raster.unkey(vis[1, b, v, u])
+        vis[0, b, v, u] = ti.i64(raster.EMPTY)
+        vis[1, b, v, u] = ti.i64(raster.EMPTY)
+        nb = _closest_normal(o, d, _safe_inv(d), best, k, pf, pi, tris)
+        key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
+        hit, t, n, ns, albedo, c_id, i_id, p, prim, pane, tri_pos = _surface(
+            o, d, 1.0 / consts[27], best, k, nb, pane_t, pane_k, pf, pi, tris, shade, texels, tex_info, tex_lut,
+            consts, PANES_TRACKED)
+        col = ti.Vector([0.0, 0.0, 0.0])
+        if hit == 1:
+            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
+            if lit == 1:
+                if prim >= 0 and baked_info[prim, 1] > 0:  # a triangle's light, baked once per scene
+                    radiance += lightmap.baked_direct(baked, baked_info, prim, tri_pos)
+                else:
+                    radiance += _direct(p, n, ns, key, params, lights, n_always, always, light_grid, grid_xform,
+                                        light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map)
+            col = albedo * radiance
+        if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
+            col = _through_pane(col, d, pane, tris, consts)
+        if hit == 1:
+            if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
+                xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
+                yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
+                cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
+                col *= 1.0 - consts[32] * (1.0 - cos2 * cos2)
+            col *= consts[31]  # radiance / radiance_max: exposure and tone curve are in the table
+            for m in ti.static(range(3)):
+                x = ti.min(ti.max(col[m], 0.0), 1.0)
+                level = consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)]
+                rgb[b, v, u, m] = ti.cast(level, ti.u8)
+            depth[b, v, u] = t
+        else:
+            for m in ti.static(range(3)):
+                rgb[b, v, u, m] = ti.cast(0, ti.u8)
+            depth[b, v, u] = 0.0
+        cls[b, v, u] = c_id
+        inst[b, v, u] = i_id
+
+
+def sensors_kernel(*args) -> None:
+    """Four kernel launches (:data:`SENSORS_KERNELS`, one per step of this module's list) for B sensor frames in the
+    ``map`` frame: fast-mode images (when ``images`` is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``cls``/``inst`` (B, H, W) int32, and ``n_beams`` laser
+    beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame angle ``beams[j]`` (rad) +
+    the lidar's yaw; the lights (``lit`` 1; 0: ambient light only) as :func:`~benchbot_sim_taichi.kernels._direct`
+    takes them (the renderer's ``_light_grid``). Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value:
+    no upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
+    the scene arrays are ``renderer.pack_scene``'s (``cluster_box`` (C, 6) and ``cluster_prims`` (C, 2): its
+    clusters); ``lamp_maps`` (6·S, R, R) the lamps' cube shadow maps
+    (:func:`~benchbot_sim_taichi.kernels.lamp_map_kernel`; used by lamps whose row has a slot ≥ 0), ``sun_map`` (R,
+    R) the sun's, ``baked`` and ``baked_info`` the triangles' baked direct light
+    (:mod:`benchbot_sim_taichi.lightmap`; a triangle with 0 divisions sums its lights per pixel). Work space:
+    ``listed`` (≥ B·C,) int32, ``queue`` (Q, raster.QUEUE_COLS) int32, ``counters`` (raster.COUNTERS,) int32, and
+    the visibility buffer ``vis`` (2, B, H, W) int64 (layer 0: the closest primitive, 1: the nearest pane), which
+    must hold :data:`raster.EMPTY` on entry and does again on return.
+
+    The arguments are :data:`SENSORS_ARGS`, in order (every kernel takes them all, so that one compute graph feeds
+    them). The work is four kernels rather than one because Taichi's compile time grows faster than a kernel's
+    length (``benchmarks/compile_time.py``)."""
+    for kernel in SENSORS_KERNELS:
+        kernel(*args)
+
+
+#: The kernels of :func:`sensors_kernel`, in the order they run.
+SENSORS_KERNELS = (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel)
+
+
+#: Parameters of :func:`sensors_kernel`, in order: (name, kind, dtype, ndim) with kind ``nd`` (ndarray), ``sc``
+#: (scalar) or ``vec`` (by-value vector of POSE_LEN).
+SENSORS_ARGS = (
+    ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
+    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
+    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
+    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1),
+    ("lights", "nd", "f32", 2), ("lit", "sc", "i32", 0), ("n_always", "sc", "i32", 0), ("always", "nd", "i32", 1),
+    ("light_grid", "nd", "i32", 3), ("grid_xform", "nd", "f32", 1), ("light_of_slot", "nd", "i32", 1),
+    ("lamp_maps", "nd", "f32", 3),
+    ("sun_map", "nd", "f32", 2), ("baked", "nd", "i32", 1), ("baked_info", "nd", "i32", 2), ("consts", "nd", "f32", 1),
+    ("cluster_box", "nd", "f32", 2), ("cluster_prims", "nd", "i32", 2), ("n_occluders", "sc", "i32", 0),
+    ("occluders", "nd", "i32", 1), ("is_occluder", "nd", "i32", 1), ("listed", "nd", "i32", 1),
+    ("queue", "nd", "i32", 2), ("counters", "nd", "i32", 1), ("tiles", "nd", "f32", 2), ("vis", "nd", "i64", 4),
+    ("rgb", "nd", "u8", 4),
+    ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
+)
+_SENSORS_GRAPH = None
+
+
+def sensors_graph():
+    """:func:`sensors_kernel`'s kernels as one compiled Taichi compute graph (``ti.graph``), built once per process. Running
+    the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument work, which is
+    most of the time of a one-camera frame on a GPU. Graph arguments must be Taichi ndarrays (device buffers)."""
+    global _SENSORS_GRAPH
+    if _SENSORS_GRAPH is None:
+        kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
+        dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8, "i64": ti.i64}
+        symbols = []
+        for name, kind, dtype, ndim in SENSORS_ARGS:
+            extra = {"ndim": ndim} if kind == "nd" else {}
+            dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
+            symbols.append(ti.graph.Arg(kinds[kind], name, dtype=dt, **extra))
+        builder = ti.graph.GraphBuilder()
+        for kernel in SENSORS_KERNELS:
+            builder.dispatch(kernel, *symbols)
+        _SENSORS_GRAPH = builder.compile()
+        # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
+        # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
+        gc.collect()
+    return _SENSORS_GRAPH
+
+
+def reset_graph() -> None:
+    """Forget the compiled graph (after ``ti.reset``, or to compile it again)."""
+    global _SENSORS_GRAPH
+    _SENSORS_GRAPH = None

@@ -1,0 +1,210 @@
+"""The rasterised visibility pass (``benchbot_sim_taichi.raster``) finds, for every camera ray, the closest primitive
+that the BVH traversal finds (``kernels._trace``, run here ray by ray as the reference), at the same distance, and
+the nearest window pane in front of it: on a furnished BEAR home, on triangles that reach behind the camera or fill
+the image, on boxes, ellipsoids and cylinders, with a full band queue, and for a batch of cameras."""
+
+import numpy as np
+import pytest
+
+ti = pytest.importorskip("taichi")
+
+
+@pytest.fixture(scope="module")
+def kernels():
+    """(traced, visibility): the reference kernel (one BVH traversal per pixel) and a function running the
+    rasterised pass, both on packed scenes (``renderer.pack_scene``)."""
+    from benchbot_sim_taichi import raster
+    from benchbot_sim_taichi.kernels import PANES_TRACKED, _ray, _trace
+    from benchbot_sim_taichi.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+
+    @ti.kernel
+    def traced(cams: ti.types.ndarray(dtype=ti.f32, ndim=2), nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+               pf: ti.types.ndarray(dtype=ti.f32, ndim=2), pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+               tris: ti.types.ndarray(dtype=ti.f32, ndim=2), depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+               prim: ti.types.ndarray(dtype=ti.i32, ndim=3), pane: ti.types.ndarray(dtype=ti.i32, ndim=3)):
+        for b, v, u in depth:
+            c = ti.Vector([cams[b, m] for m in ti.static(range(16))])
+            o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
+            t, k, _n, _tr, _pt, pk = _trace(o, d, 1e30, nodes, pf, pi, tris, False, PANES_TRACKED)
+            depth[b, v, u] = t if k >= 0 else 0.0
+            prim[b, v, u] = k
+            pane[b, v, u] = pk
+
+    def run(kernel_args, cams, W, H, queue_rows=None):
+        B = cams.shape[0]
+        out = (np.zeros((B, H, W), np.float32), np.zeros((B, H, W), np.int32), np.zeros((B, H, W), np.int32))
+        return kernel_args(cams, out, queue_rows) or out
+
+    def traced_run(packed, cams, W, H):
+        def go(c, out, _q):
+            traced(c, packed["nodes"], packed["pf"], packed["pi"], packed["tris"], *out)
+        return run(go, cams, W, H)
+
+    def visibility_run(packed, cams, W, H, queue_rows=None):
+        B = cams.shape[0]
+        vis = np.full((2, B, H, W), raster.EMPTY, np.int64)
+
+        def go(c, out, q):
+            rows = q if q is not None else B * raster.split()["queue_items"]
+            raster.visibility_kernel(c, packed["pf"], packed["pi"], packed["tris"], packed["cluster_box"],
+                                     packed["cluster_prims"], packed["n_occluders"], packed["occluders"],
+                                     packed["is_occluder"], np.zeros(B * packed["cluster_prims"].shape[0], np.int32),
+                                     np.zeros((rows, raster.QUEUE_COLS), np.int32),
+                                     np.zeros(raster.COUNTERS, np.int32),
+                                     np.zeros((B, raster.tile_entries(W, H)), np.float32), vis, *out)
+        out = run(go, cams, W, H, queue_rows)
+        assert (vis == raster.EMPTY).all()  # the pass leaves its buffer as it found it
+        return out
+
+    return traced_run, visibility_run
+
+
+def _rows(K, poses):
+    """The kernels' camera rows (B, 16) float32 of optical-frame poses (4, 4) and intrinsics K."""
+    return np.stack([np.concatenate([T[:3, :3].reshape(-1), T[:3, 3], [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]])
+                     for T in poses]).astype(np.float32)
+
+
+def _agree(ref, got, min_same=0.999):
+    """The same primitive on all but a tie's share of pixels (≥ min_same); where it differs the two are at the same
+    distance (a tie of surfaces closer than float32's two tests of them agree: 5e-4 relative, half a millimetre at
+    a metre); elsewhere the distances agree to float32 rounding."""
+    (d_ref, k_ref, p_ref), (d, k, p) = ref, got
+    same = k == k_ref
+    assert same.mean() >= min_same, f"{1 - same.mean():.5f} of pixels see another primitive"
+    hit = same & (k >= 0)
+    np.testing.assert_allclose(d[hit], d_ref[hit], rtol=2e-5, atol=1e-6)
+    np.testing.assert_allclose(d[~same], d_ref[~same], rtol=5e-4)
+    assert (p == p_ref).mean() >= min_same
+
+
+@pytest.mark.slow
+def test_closest_hits_equal_the_bvh_traversal_on_a_furnished_home(bear_envs, kernels):
+    """miniroom:1 furnished (textured meshes, window panes), views along its trajectory, and a batch of them."""
+    from benchbot_sim_taichi.backend import trajectory_cameras
+    from benchbot_sim_taichi.renderer import intrinsics, pack_scene
+    from benchbot_sim_taichi.scene import build_scene
+
+    traced, visibility = kernels
+    scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
+    assert scene.style == "furnished" and scene.prim_glass().any()
+    packed = pack_scene(scene)
+    W, H = 160, 120
+    K = intrinsics(W, H, 90.0)
+    poses = trajectory_cameras(scene)
+    cams = _rows(K, [poses[i] for i in range(0, len(poses), max(1, len(poses) // 6))])
+    ref = traced(packed, cams, W, H)
+    got = visibility(packed, cams, W, H)
+    _agree(ref, got)
+    assert (got[1] >= 0).mean() > 0.9 and (got[2] >= 0).any()  # the room fills the views; some see a window
+    for b in range(cams.shape[0]):  # a batch equals its cameras one at a time
+        one = visibility(packed, cams[b:b + 1], W, H)
+        for a, c in zip(got, one):
+            assert np.array_equal(a[b], c[0])
+    again = visibility(packed, cams, W, H, queue_rows=1)  # a full queue: the primitives' threads do the bands
+    for a, c in zip(got, again):
+        assert np.array_equal(a, c)
+
+
+def _add_tris(scene, tris):
+    """Append triangles (T, 3, 3) as primitives of kind triangle belonging to the scene's first object."""
+    import dataclasses
+
+    from benchbot_sim_taichi.scene import PRIM_TRIANGLE
+
+    n0 = scene.tri_v.shape[0]
+    t = tris.shape[0]
+    lo, hi = tris.min(axis=1), tris.max(axis=1)
+    prim = {
+        "prim_type": np.concatenate([scene.prim_type, np.full(t, PRIM_TRIANGLE, scene.prim_type.dtype)]),
+        "prim_axis": np.concatenate([scene.prim_axis, np.arange(n0, n0 + t, dtype=scene.prim_axis.dtype)]),
+        "prim_min": np.concatenate([scene.prim_min, lo.astype(scene.prim_min.dtype)]),
+        "prim_max": np.concatenate([scene.prim_max, hi.astype(scene.prim_max.dtype)]),
+        "prim_albedo": np.concatenate([scene.prim_albedo, np.full((t, 3), 0.5, scene.prim_albedo.dtype)]),
+        "prim_object": np.concatenate([scene.prim_object, np.zeros(t, scene.prim_object.dtype)]),
+        "tri_v": np.concatenate([scene.tri_v.reshape(-1, 3, 3), tris.astype(np.float32)]),
+    }
+    return dataclasses.replace(scene, **prim)
+
+
+def test_triangles_reaching_behind_the_camera_and_filling_the_image(synthetic_env, kernels):
+    """A floor triangle that passes under and behind the camera (clipped at the rays' nearest distance), a wall
+    triangle that fills the whole image (rasterised in queued bands), and a small one in front of it."""
+    from benchbot_sim_taichi.renderer import intrinsics, pack_scene
+
+    traced, visibility = kernels
+    tris = [
+        [(-20.0, -20.0, 0.05), (20.0, -20.0, 0.05), (0.0, 30.0, 0.05)],  # under and behind the camera
+        [(4.0, -30.0, -10.0), (4.0, 30.0, -10.0), (4.0, 0.0, 30.0)],  # a wall ahead, larger than the view
+        [(3.0, -0.2, 0.8), (3.0, 0.3, 0.9), (3.0, 0.0, 1.3)],  # a small triangle in front of the wall
+    ]
+    from benchbot_sim_taichi.scene import build_scene
+
+    env = synthetic_env([("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
+    scene = _add_tris(build_scene({**env, "procedural": False}), np.asarray(tris, np.float32))
+    packed = pack_scene(scene)
+    W, H = 64, 48
+    K = intrinsics(W, H, 90.0)
+    T = np.eye(4)
+    T[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # optical frame looking along +x, level
+    T[:3, 3] = (1.0, 0.0, 1.0)
+    down = T.copy()
+    down[:3, :3] = T[:3, :3] @ np.array([[1, 0, 0], [0, np.cos(0.9), np.sin(0.9)], [0, -np.sin(0.9), np.cos(0.9)]])
+    cams = _rows(K, [T, down])
+    ref = traced(packed, cams, W, H)
+    got = visibility(packed, cams, W, H)
+    _agree(ref, got, min_same=1.0 - 2.0 / (W * H))
+    assert (got[1] >= 0).all()  # nothing but triangles in view: the wall and the floor
+    small = packed["order"].size - 1  # the last primitive in the scene's order: the small triangle
+    assert (got[1][0] == np.flatnonzero(packed["order"] == small)[0]).sum() > 20
+
+
+def test_boxes_ellipsoids_and_cylinders_equal_the_traversal(synthetic_env, kernels):
+    """The procedural primitives of a synthetic room (boxes, ellipsoids, cylinders), seen from its start pose and
+    from above."""
+    from benchbot_sim_taichi.renderer import intrinsics, pack_scene
+    from benchbot_sim_taichi.scene import build_scene
+
+    traced, visibility = kernels
+    env = synthetic_env([("chair", (2.0, 0.5, 0.45), (0.6, 0.6, 0.9)), ("table", (3.0, -0.6, 0.4), (1.2, 0.8, 0.8)),
+                         ("chair", (2.5, -1.5, 0.3), (0.5, 0.5, 0.6))])
+    scene = build_scene(env)
+    kinds = set(np.unique(scene.prim_type).tolist())
+    assert len(kinds) >= 2, kinds
+    packed = pack_scene(scene)
+    W, H = 80, 60
+    K = intrinsics(W, H, 90.0)
+    ahead = np.eye(4)
+    ahead[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]
+    ahead[:3, 3] = (0.2, 0.0, 0.8)
+    above = np.diag([1.0, -1.0, -1.0, 1.0])
+    above[:3, 3] = (2.5, -0.5, 2.4)
+    ref = traced(packed, _rows(K, [ahead, above]), W, H)
+    got = visibility(packed, _rows(K, [ahead, above]), W, H)
+    _agree(ref, got)
+    assert (got[1] >= 0).mean() > 0.1  # the objects take a good part of the views
+
+
+def test_a_primitive_with_no_image_has_no_pixels():
+    """Nothing in front of the camera (the image box stays at ±1e30) or a NaN box gives no pixels: the box is
+    clipped to the image in floating point, before a conversion to int32 could overflow into a vast loop."""
+    from benchbot_sim_taichi import raster
+    from benchbot_sim_taichi.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+
+    @ti.kernel
+    def pixels(box: ti.types.ndarray(dtype=ti.f32, ndim=2), out: ti.types.ndarray(dtype=ti.i32, ndim=2)):
+        for i in range(box.shape[0]):
+            u0, u1, v0, v1 = raster._pixels(ti.Vector([box[i, 0], box[i, 1], box[i, 2], box[i, 3]]), 64, 48)
+            out[i, 0], out[i, 1], out[i, 2], out[i, 3] = u0, u1, v0, v1
+
+    boxes = np.array([[1e30, -1e30, 1e30, -1e30], [np.nan, np.nan, np.nan, np.nan], [-5e9, 5e9, 10.2, 11.7],
+                      [70.0, 80.0, 0.0, 5.0]], np.float32)
+    out = np.zeros((4, 4), np.int32)
+    pixels(boxes, out)
+    for row in out[[0, 1, 3]]:
+        assert row[0] > row[1] or row[2] > row[3], row
+    assert out[2].tolist() == [0, 63, 11, 11]
