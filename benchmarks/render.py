@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
            "lights_on": args.lights != "off", "lights_kept": args.lights,
            "style": scene.style, "lamps_with_maps": r.lamps_with_maps,
-           "sun_map": r.sun_map,
+           "sun_map": r.sun_map, "baked_points": r.baked_points,
            "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
            "setup_s": t_setup, "bvh_build_s": sum(bvh_s), "fps_with_host_copy": fps_host,
            "scene_mb": sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20,
