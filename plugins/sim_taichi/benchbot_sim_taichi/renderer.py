@@ -426,7 +426,7 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
                     camera: CameraModel = DEFAULT_CAMERA) -> np.ndarray:
     """(33 + GAMMA_STEPS,) float32 [world (19, see :func:`pack_scene`), render params (8, see :func:`render_params`),
     fx, fy, cx, cy, the camera model's 1/radiance_max and vignetting, its tone table
-    (:func:`~benchbot_sim_taichi.camera_model.tone_table`)] — what :func:`~benchbot_sim_taichi.kernels.sensors_kernel`
+    (:func:`~benchbot_sim_taichi.camera_model.tone_table`)] — what :func:`~benchbot_sim_taichi.sensors.sensors_kernel`
     reads besides the scene and the poses (zeros for K when None)."""
     k = np.zeros(4) if K is None else np.asarray(K, dtype=np.float64)[[0, 1, 0, 1], [0, 1, 2, 2]]
     return np.concatenate([world, params, k, camera.frame_constants(), tone_table(camera)]).astype(np.float32)
@@ -781,7 +781,8 @@ class Renderer:
 
     def render_sensors(self, K: np.ndarray, T_map_cameras, width: int, height: int, T_map_lidars=None,
                        angles: np.ndarray | None = None, *, to_host: bool | str = True) -> dict:
-        """Render B camera views (``fast`` mode) and, optionally, B planar laser scans, all in ONE kernel launch.
+        """Render B camera views (``fast`` mode) and, optionally, B planar laser scans, all in one launch of the
+        all-sensors kernels (:func:`~benchbot_sim_taichi.sensors.sensors_kernel`).
 
         Args:
             K: (3, 3) intrinsics shared by the views. T_map_cameras: (B, 4, 4) optical-frame poses in ``map``.
@@ -841,7 +842,7 @@ class Renderer:
         return self.render_sensors(K, T_map_cameras, width, height)
 
     def _launch(self, K, Ts, W: int, H: int, Tl, angles, *, lit: bool) -> dict:
-        """One :func:`~benchbot_sim_taichi.kernels.sensors_kernel` launch: images for the (B, 4, 4) camera poses
+        """One :func:`~benchbot_sim_taichi.sensors.sensors_kernel` launch (its kernels): images for the (B, 4, 4) camera poses
         ``Ts`` (none if ``K`` is None), scans for the lidar poses ``Tl`` (none if None) at beam ``angles``. Outputs
         stay in the renderer's buffers. ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for
         callers that only keep depth and segmentation, which do not depend on the lights."""
@@ -878,11 +879,12 @@ class Renderer:
         values = (table, pose0, one, int(images), beams, n_beams, *s[:9], int(lit), *s[15:20], s[11], s[12], s[20],
                   s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
                   out["instance"], ranges)
+        values = dict(zip((name for name, *_ in SENSORS_ARGS), values))
         if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
-            values = (ti.Vector(v.tolist()) if name == "pose0" else v for (name, *_), v in zip(SENSORS_ARGS, values))
-            sensors_graph().run(dict(zip((a[0] for a in SENSORS_ARGS), values)))
+            values["pose0"] = ti.Vector(values["pose0"].tolist())
+            sensors_graph(self.arch).run(values)
         else:
-            sensors_kernel(*values)
+            sensors_kernel(self.arch, values)
         if not images:
             out = {}
         if Tl is not None:

@@ -22,6 +22,7 @@ culling changes no pixel.
 
 import contextlib
 import gc
+import inspect
 import sys
 
 with contextlib.redirect_stdout(sys.stderr):
@@ -81,61 +82,23 @@ def _camera(table: ti.template(), pose0, one, b, consts: ti.template()):
                       consts[27], consts[28], consts[29], consts[30]])
 
 
-@ti.kernel
-def occluders_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lit: ti.i32,
-    n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
-):
-    """Step 1 of :func:`sensors_kernel`: the laser's beams into ``ranges`` beside the occluders (large triangles)
-    rasterised into ``vis``, then their queued large images. Same parameters as :func:`sensors_kernel`."""
-    B = depth.shape[0]
-    H = depth.shape[1]
-    W = depth.shape[2]
+@ti.func
+def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template(), n_beams, nodes: ti.template(),
+                    pf: ti.template(), pi: ti.template(), tris: ti.template(), consts: ti.template(), n_occluders,
+                    occluders: ti.template(), queue: ti.template(), counters: ti.template(), tiles: ti.template(),
+                    vis: ti.template(), ranges: ti.template()):
+    """Step 1: the laser's beams into ``ranges`` beside the occluders (large triangles) rasterised into ``vis``, then
+    their queued large images."""
+    B = vis.shape[1]
+    H = vis.shape[2]
+    W = vis.shape[3]
     n_occ = n_occluders * images
     n_scan = ranges.shape[0] * n_beams
     counters[0] = 0
     counters[1] = 0
-    # A beam is a long ray: beside the occluders the beams run while the loop would otherwise wait on a few (one
-    # camera: 360 lone beams after the pixels used to cost the H200 a third of a frame).
+    # 1. The laser's beams, and the occluders (the large triangles) of each camera. A beam is a long ray: beside the
+    # occluders the beams run while the loop would otherwise wait on a few (one camera: 360 lone beams after the
+    # pixels used to cost the H200 a third of a frame).
     for i in range(n_scan + B * n_occ):
         if i < n_scan:
             b = i // n_beams
@@ -156,55 +119,15 @@ def occluders_kernel(
                                 queue, True)
 
 
-@ti.kernel
-def clusters_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lit: ti.i32,
-    n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
-):
-    """Step 2 of :func:`sensors_kernel`: the tile pyramid of the depths in ``vis`` so far, then the clusters in each
-    camera's view and not hidden behind it, into ``listed``. Same parameters as :func:`sensors_kernel`."""
-    B = depth.shape[0]
-    H = depth.shape[1]
-    W = depth.shape[2]
+@ti.func
+def _clusters_step(table: ti.template(), pose0, one, images, consts: ti.template(), cluster_box: ti.template(),
+                   cluster_prims: ti.template(), listed: ti.template(), counters: ti.template(), tiles: ti.template(),
+                   vis: ti.template()):
+    """Step 2: the tile pyramid of the depths in ``vis`` so far, then the clusters in each camera's view and not
+    hidden behind it, into ``listed``."""
+    B = vis.shape[1]
+    H = vis.shape[2]
+    W = vis.shape[3]
     n_clusters = cluster_prims.shape[0] * images
     across, down, _first, _total = raster.tile_levels(W, H)
     counters[1] = 0
@@ -216,55 +139,14 @@ def clusters_kernel(
                             cluster_prims, listed, counters, tiles, W, H)
 
 
-@ti.kernel
-def primitives_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lit: ti.i32,
-    n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
-):
-    """Step 3 of :func:`sensors_kernel`: the listed clusters' primitives (but the occluders), each culled against the
-    tile pyramid, into ``vis``, then their queued large images. Same parameters as :func:`sensors_kernel`."""
-    B = depth.shape[0]
-    H = depth.shape[1]
-    W = depth.shape[2]
+@ti.func
+def _primitives_step(table: ti.template(), pose0, one, images, pf: ti.template(), pi: ti.template(),
+                     tris: ti.template(), consts: ti.template(), cluster_prims: ti.template(),
+                     is_occluder: ti.template(), listed: ti.template(), queue: ti.template(), counters: ti.template(),
+                     tiles: ti.template(), vis: ti.template()):
+    """Step 3: the listed clusters' primitives (but the occluders), each culled against the tile pyramid, into
+    ``vis``, then their queued large images."""
+    H = vis.shape[2]
     n_clusters = cluster_prims.shape[0] * images
     for i in range(counters[0] * raster.CLUSTER_PRIMS):
         b, k = raster.listed_primitive(i, n_clusters, cluster_prims, listed)
@@ -278,13 +160,112 @@ def primitives_kernel(
 
 
 @ti.kernel
-def shade_kernel(
+def occluders_kernel(
     table: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
     beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
     n_beams: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_occluders: ti.i32,
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """Step 1 alone (the CPU's first kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
+    _occluders_step(table, pose0, one, images, beams, n_beams, nodes, pf, pi, tris, consts, n_occluders, occluders,
+                    queue, counters, tiles, vis, ranges)
+
+
+@ti.kernel
+def clusters_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+):
+    """Step 2 alone (the CPU's second kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
+    _clusters_step(table, pose0, one, images, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
+
+
+@ti.kernel
+def primitives_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+):
+    """Step 3 alone (the CPU's third kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
+    _primitives_step(table, pose0, one, images, pf, pi, tris, consts, cluster_prims, is_occluder, listed, queue,
+                     counters, tiles, vis)
+
+
+@ti.kernel
+def visibility_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    n_beams: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    n_occluders: ti.i32,
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+):
+    """Steps 1 to 3 in one kernel (CUDA's first): every camera ray's closest hit and nearest pane into ``vis``, and
+    the laser's beams into ``ranges``. Parameters: those of :func:`sensors_kernel` that it uses."""
+    _occluders_step(table, pose0, one, images, beams, n_beams, nodes, pf, pi, tris, consts, n_occluders, occluders,
+                    queue, counters, tiles, vis, ranges)
+    _clusters_step(table, pose0, one, images, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
+    _primitives_step(table, pose0, one, images, pf, pi, tris, consts, cluster_prims, is_occluder, listed, queue,
+                     counters, tiles, vis)
+
+
+@ti.kernel
+def shade_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
     nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
@@ -305,28 +286,18 @@ def shade_kernel(
     baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
     baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
     consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
     vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
     rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
     depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
     cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
     inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
 ):
     """Step 4 of :func:`sensors_kernel`: each pixel of the B frames reads its closest hit (and nearest pane) from
     ``vis``, which the steps before filled, resets it to :data:`raster.EMPTY`, and is shaded
-    into ``rgb``, ``depth``, ``cls`` and ``inst``. Same parameters as :func:`sensors_kernel`."""
-    B = depth.shape[0]
-    H = depth.shape[1]
-    W = depth.shape[2]
+    into ``rgb``, ``depth``, ``cls`` and ``inst``. Parameters: those of :func:`sensors_kernel` that it uses."""
+    B = vis.shape[1]
+    H = vis.shape[2]
+    W = vis.shape[3]
     # The pixels: each reads its closest hit and is shaded.
     for j in range(B * images * H * W):
         b = j // (H * W)
@@ -376,10 +347,10 @@ def shade_kernel(
         inst[b, v, u] = i_id
 
 
-def sensors_kernel(*args) -> None:
-    """Four kernel launches (:data:`SENSORS_KERNELS`, one per step of this module's list) for B sensor frames in the
-    ``map`` frame: fast-mode images (when ``images`` is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W) float32 z-depth metres, ``cls``/``inst`` (B, H, W) int32, and ``n_beams`` laser
-    beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame angle ``beams[j]`` (rad) +
+def sensors_kernel(arch: str, values: dict) -> None:
+    """The kernels of :func:`sensors_kernels` for ``arch`` (``'cpu'`` or ``'cuda'``), launched one after the other for
+    B sensor frames in the ``map`` frame: fast-mode images (when ``images`` is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W)
+    float32 z-depth metres, ``cls``/``inst`` (B, H, W) int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame angle ``beams[j]`` (rad) +
     the lidar's yaw; the lights (``lit`` 1; 0: ambient light only) as :func:`~benchbot_sim_taichi.kernels._direct`
     takes them (the renderer's ``_light_grid``). Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value:
     no upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
@@ -392,19 +363,34 @@ def sensors_kernel(*args) -> None:
     the visibility buffer ``vis`` (2, B, H, W) int64 (layer 0: the closest primitive, 1: the nearest pane), which
     must hold :data:`raster.EMPTY` on entry and does again on return.
 
-    The arguments are :data:`SENSORS_ARGS`, in order (every kernel takes them all, so that one compute graph feeds
-    them). The work is four kernels rather than one because Taichi's compile time grows faster than a kernel's
-    length (``benchmarks/compile_time.py``)."""
-    for kernel in SENSORS_KERNELS:
-        kernel(*args)
+    Args:
+        arch: the Taichi arch the renderer runs on.
+        values: every name of :data:`SENSORS_ARGS` → its value (NumPy arrays or Taichi ndarrays, scalars, and
+            ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it declares.
+    """
+    for kernel in sensors_kernels(arch):
+        kernel(*(values[name] for name in kernel_parameters(kernel)))
 
 
-#: The kernels of :func:`sensors_kernel`, in the order they run.
-SENSORS_KERNELS = (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel)
+def sensors_kernels(arch: str) -> tuple:
+    """The kernels that make up the all-sensors work on ``arch``, in the order they run. On the CPU one kernel per
+    step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
+    Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 98 s
+    (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
+    after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`): there each kernel launch costs
+    a one-camera frame about 0.07–0.1 ms (one H200, house:1: 3,912 fps as one kernel, 3,035 as two, 2,346 as
+    four)."""
+    if arch == "cuda":
+        return (visibility_kernel, shade_kernel)
+    return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel)
 
 
-#: Parameters of :func:`sensors_kernel`, in order: (name, kind, dtype, ndim) with kind ``nd`` (ndarray), ``sc``
-#: (scalar) or ``vec`` (by-value vector of POSE_LEN).
+def kernel_parameters(kernel) -> tuple[str, ...]:
+    """The names of a Taichi kernel's parameters, in order (names of :data:`SENSORS_ARGS`)."""
+    return tuple(inspect.signature(kernel).parameters)
+
+#: Parameters of the all-sensors kernels (:func:`sensors_kernel`): (name, kind, dtype, ndim) with kind ``nd``
+#: (ndarray), ``sc`` (scalar) or ``vec`` (by-value vector of POSE_LEN).
 SENSORS_ARGS = (
     ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
     ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
@@ -420,33 +406,32 @@ SENSORS_ARGS = (
     ("rgb", "nd", "u8", 4),
     ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
 )
-_SENSORS_GRAPH = None
+_SENSORS_GRAPHS: dict = {}
 
 
-def sensors_graph():
-    """:func:`sensors_kernel`'s kernels as one compiled Taichi compute graph (``ti.graph``), built once per process. Running
-    the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument work, which is
-    most of the time of a one-camera frame on a GPU. Graph arguments must be Taichi ndarrays (device buffers)."""
-    global _SENSORS_GRAPH
-    if _SENSORS_GRAPH is None:
+def sensors_graph(arch: str):
+    """:func:`sensors_kernels` of ``arch`` as one compiled Taichi compute graph (``ti.graph``), built once per process
+    and arch. Running the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument
+    work, which is most of the time of a one-camera frame on a GPU. Its arguments (``graph.run({name: value})``) are
+    :data:`SENSORS_ARGS`; ndarray arguments must be Taichi ndarrays (device buffers)."""
+    if arch not in _SENSORS_GRAPHS:
         kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
         dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8, "i64": ti.i64}
-        symbols = []
+        symbols = {}
         for name, kind, dtype, ndim in SENSORS_ARGS:
             extra = {"ndim": ndim} if kind == "nd" else {}
             dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
-            symbols.append(ti.graph.Arg(kinds[kind], name, dtype=dt, **extra))
+            symbols[name] = ti.graph.Arg(kinds[kind], name, dtype=dt, **extra)
         builder = ti.graph.GraphBuilder()
-        for kernel in SENSORS_KERNELS:
-            builder.dispatch(kernel, *symbols)
-        _SENSORS_GRAPH = builder.compile()
+        for kernel in sensors_kernels(arch):
+            builder.dispatch(kernel, *(symbols[name] for name in kernel_parameters(kernel)))
+        _SENSORS_GRAPHS[arch] = builder.compile()
         # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
         # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
         gc.collect()
-    return _SENSORS_GRAPH
+    return _SENSORS_GRAPHS[arch]
 
 
 def reset_graph() -> None:
-    """Forget the compiled graph (after ``ti.reset``, or to compile it again)."""
-    global _SENSORS_GRAPH
-    _SENSORS_GRAPH = None
+    """Forget the compiled graphs (after ``ti.reset``, or to compile them again)."""
+    _SENSORS_GRAPHS.clear()

@@ -208,3 +208,30 @@ def test_a_primitive_with_no_image_has_no_pixels():
     for row in out[[0, 1, 3]]:
         assert row[0] > row[1] or row[2] > row[3], row
     assert out[2].tolist() == [0, 63, 11, 11]
+
+
+@pytest.mark.slow
+def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frames(bear_envs, monkeypatch):
+    """CUDA runs steps 1 to 3 of the all-sensors work as one kernel (``sensors.visibility_kernel``), the CPU as three;
+    run here on the CPU, both give the same frames and laser scans (miniroom:1, furnished, batched and one camera)."""
+    from benchbot_sim_taichi import sensors
+    from benchbot_sim_taichi.backend import trajectory_cameras
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import build_scene
+
+    scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
+    r = Renderer("cpu", device_buffers=False)
+    r.set_scene(scene)
+    cams = np.stack(trajectory_cameras(scene)[::5][:3])
+    lidars = cams.copy()
+    lidars[:, :3, :3] = np.eye(3)
+    angles = np.radians(np.arange(-180.0, 180.0, 1.0))
+    K = intrinsics(96, 72, 90.0)
+    assert len(sensors.sensors_kernels("cpu")) == 4 and len(sensors.sensors_kernels("cuda")) == 2
+    cpu = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
+    monkeypatch.setattr(sensors, "sensors_kernels", lambda arch, cuda=sensors.sensors_kernels("cuda"): cuda)
+    cuda = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
+    for a, b in zip(cpu, cuda):
+        assert set(a) == set(b) and a["depth"].any()
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)

@@ -246,7 +246,7 @@ def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector
     rmod._free_retired()
     gc.disable()  # so that nothing but the compiler's own collect runs during the compile
     try:
-        sensors.sensors_graph()
+        sensors.sensors_graph("cpu")
         tracked = set(rmod._DEVICE_ARRAYS) | {id(a) for a in rmod._RETIRED}  # the renderer's own, held or retired
         stray = [o for o in gc.get_objects() if isinstance(o, Ndarray) and id(o) not in tracked]
     finally:
