@@ -218,10 +218,10 @@ class TaichiSimBackend(RobotBackend):
     # ------------------------------------------------------------------------------------------------ contract
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
         """Build the scene of ``environment`` (its ``map_path`` is a BEAR ground-truth JSON), place the robot at the
-        normalised start pose (x, y, yaw; on the floor) and render the start pose's camera images and laser scan
-        into the observation cache. Rendering here, before any client is served, makes Taichi compile its kernels
-        now (on a cold kernel cache, minutes on a 2-core CPU): a solution's first request then waits for nothing,
-        and no client's request timeout (the API's default is 120 s) can run out during the compile.
+        normalised start pose (x, y, yaw; on the floor) and clear cached observations. It renders the start pose
+        once and drops the frame: before any client is served, Taichi compiles its kernels now (on a cold kernel
+        cache, minutes on a 2-core CPU), so that no client's request timeout (the API's default is 120 s) can run
+        out during the compile. (The frame is not kept: sensor noise set after loading still applies to it.)
 
         Raises:
             BackendError: the map file is missing or malformed, or the start pose collides with the scene.
@@ -249,7 +249,8 @@ class TaichiSimBackend(RobotBackend):
                 f"environment {environment.get('name')}:{environment.get('variant')}: the start pose "
                 f"{self._pose.round(3).tolist()} collides with {what}",
                 "move the start pose away from the objects, or reduce sensors.footprint_radius_m")
-        self._render(with_scan=True)
+        self._render(with_scan=True)  # compile the kernels now, and ...
+        self._cache = {}  # ... render again on request
 
     def _need_scene(self) -> Scene:
         if self.scene is None:

@@ -91,7 +91,6 @@ def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template
     their queued large images."""
     B = vis.shape[1]
     H = vis.shape[2]
-    W = vis.shape[3]
     n_occ = n_occluders * images
     n_scan = ranges.shape[0] * n_beams
     counters[0] = 0
@@ -375,7 +374,7 @@ def sensors_kernel(arch: str, values: dict) -> None:
 def sensors_kernels(arch: str) -> tuple:
     """The kernels that make up the all-sensors work on ``arch``, in the order they run. On the CPU one kernel per
     step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
-    Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 98 s
+    Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
     after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`): there each kernel launch costs
     a one-camera frame about 0.07–0.1 ms (one H200, house:1: 3,912 fps as one kernel, 3,035 as two, 2,346 as
