@@ -218,10 +218,11 @@ class TaichiSimBackend(RobotBackend):
     # ------------------------------------------------------------------------------------------------ contract
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
         """Build the scene of ``environment`` (its ``map_path`` is a BEAR ground-truth JSON), place the robot at the
-        normalised start pose (x, y, yaw; on the floor) and clear cached observations. It renders the start pose
-        once and drops the frame: before any client is served, Taichi compiles its kernels now (on a cold kernel
-        cache, minutes on a 2-core CPU), so that no client's request timeout (the API's default is 120 s) can run
-        out during the compile. (The frame is not kept: sensor noise set after loading still applies to it.)
+        normalised start pose (x, y, yaw; on the floor) and clear cached observations. It renders an 8 × 6 view and
+        scan at the start pose in the episode's mode and drops them: before any client is served, Taichi compiles
+        the kernels every frame runs (their code does not depend on the image size; on a cold kernel cache, minutes
+        on a 2-core CPU), so that no client's request timeout (the API's default is 120 s) can run out during the
+        compile.
 
         Raises:
             BackendError: the map file is missing or malformed, or the start pose collides with the scene.
@@ -249,8 +250,16 @@ class TaichiSimBackend(RobotBackend):
                 f"environment {environment.get('name')}:{environment.get('variant')}: the start pose "
                 f"{self._pose.round(3).tolist()} collides with {what}",
                 "move the start pose away from the objects, or reduce sensors.footprint_radius_m")
-        self._render(with_scan=True)  # compile the kernels now, and ...
-        self._cache = {}  # ... render again on request
+        self._compile_kernels()
+
+    def _compile_kernels(self) -> None:
+        """Render a tiny view and scan at the current pose and drop them (what :meth:`load_scene` warms up with)."""
+        from benchbot_sim_taichi.renderer import intrinsics
+
+        T_map_footprint = se2_to_matrix(*self._pose)
+        self._renderer.render(intrinsics(8, 6, float(self.sensors["camera"]["horizontal_fov_deg"])),
+                              T_map_footprint @ self.T_footprint_camera, 8, 6, mode=self.mode,
+                              T_map_lidar=T_map_footprint @ self.T_footprint_lidar, angles=self.laser_angles)
 
     def _need_scene(self) -> Scene:
         if self.scene is None:

@@ -13,7 +13,7 @@ ti = pytest.importorskip("taichi")
 def kernels():
     """(traced, visibility): the reference kernel (one BVH traversal per pixel) and a function running the
     rasterised pass, both on packed scenes (``renderer.pack_scene``)."""
-    from benchbot_sim_taichi import raster
+    from benchbot_sim_taichi import raster, sensors
     from benchbot_sim_taichi.kernels import PANES_TRACKED, _ray, _trace
     from benchbot_sim_taichi.renderer import ensure_taichi
 
@@ -42,18 +42,48 @@ def kernels():
             traced(c, packed["nodes"], packed["pf"], packed["pi"], packed["tris"], *out)
         return run(go, cams, W, H)
 
+    @ti.kernel
+    def visible(cams: ti.types.ndarray(dtype=ti.f32, ndim=2), consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+                beams: ti.types.ndarray(dtype=ti.f32, ndim=1), nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+                pf: ti.types.ndarray(dtype=ti.f32, ndim=2), pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+                tris: ti.types.ndarray(dtype=ti.f32, ndim=2), cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+                cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2), n_occluders: ti.i32,
+                occluders: ti.types.ndarray(dtype=ti.i32, ndim=1), is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
+                listed: ti.types.ndarray(dtype=ti.i32, ndim=1), queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
+                counters: ti.types.ndarray(dtype=ti.i32, ndim=1), tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+                vis: ti.types.ndarray(dtype=ti.i64, ndim=4), ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+                depth: ti.types.ndarray(dtype=ti.f32, ndim=3), prim: ti.types.ndarray(dtype=ti.i32, ndim=3),
+                pane: ti.types.ndarray(dtype=ti.i32, ndim=3)):
+        """Steps 1 to 3 of the all-sensors work (``sensors``' own Taichi functions; camera b's row of ``cams`` as
+        its pose row, no laser beams), then each pixel's closest primitive, its depth and the nearest pane."""
+        pose0 = ti.Vector([0.0 for _ in ti.static(range(sensors.POSE_LEN))])
+        sensors._occluders_step(cams, pose0, 0, 1, beams, 0, nodes, pf, pi, tris, consts, n_occluders, occluders,
+                                queue, counters, tiles, vis, ranges)
+        sensors._clusters_step(cams, pose0, 0, 1, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
+        sensors._primitives_step(cams, pose0, 0, 1, pf, pi, tris, consts, cluster_prims, is_occluder, listed, queue,
+                                 counters, tiles, vis)
+        for b, v, u in depth:
+            t, k = raster.unkey(vis[0, b, v, u])
+            pt, pk = raster.unkey(vis[1, b, v, u])
+            vis[0, b, v, u] = ti.i64(raster.EMPTY)
+            vis[1, b, v, u] = ti.i64(raster.EMPTY)
+            depth[b, v, u] = t if k >= 0 else 0.0
+            prim[b, v, u] = k
+            pane[b, v, u] = pk if pt < t else -1
+
     def visibility_run(packed, cams, W, H, queue_rows=None):
         B = cams.shape[0]
         vis = np.full((2, B, H, W), raster.EMPTY, np.int64)
+        consts = np.zeros(sensors.FRAME_CONSTS, np.float32)
+        consts[27:31] = cams[0, 12:16]  # the shared intrinsics fx, fy, cx, cy, where the kernels read them
 
         def go(c, out, q):
             rows = q if q is not None else B * raster.split()["queue_items"]
-            raster.visibility_kernel(c, packed["pf"], packed["pi"], packed["tris"], packed["cluster_box"],
-                                     packed["cluster_prims"], packed["n_occluders"], packed["occluders"],
-                                     packed["is_occluder"], np.zeros(B * packed["cluster_prims"].shape[0], np.int32),
-                                     np.zeros((rows, raster.QUEUE_COLS), np.int32),
-                                     np.zeros(raster.COUNTERS, np.int32),
-                                     np.zeros((B, raster.tile_entries(W, H)), np.float32), vis, *out)
+            visible(c, consts, np.zeros(1, np.float32), packed["nodes"], packed["pf"], packed["pi"], packed["tris"],
+                    packed["cluster_box"], packed["cluster_prims"], packed["n_occluders"], packed["occluders"],
+                    packed["is_occluder"], np.zeros(B * packed["cluster_prims"].shape[0], np.int32),
+                    np.zeros((rows, raster.QUEUE_COLS), np.int32), np.zeros(raster.COUNTERS, np.int32),
+                    np.zeros((B, raster.tile_entries(W, H)), np.float32), vis, np.zeros((B, 1), np.float32), *out)
         out = run(go, cams, W, H, queue_rows)
         assert (vis == raster.EMPTY).all()  # the pass leaves its buffer as it found it
         return out
