@@ -574,6 +574,10 @@ class Renderer:
         self.shadow_maps = shadow_maps
         self.baked_light = baked_light
         self.baked_points = 0  # lattice points of the current scene's baked light
+        #: ``None``, or a callable taking a kernel's name and returning a context manager: the all-sensors kernels then
+        #: run one by one inside it (not through the compiled graph), for ``benchmarks/sensors_kernels.py`` to time
+        #: each (:func:`~benchbot_sim_taichi.sensors.sensors_kernel`'s ``timer``).
+        self.kernel_timer = None
         self._pinned_copier = None  # render_sensors(to_host="pinned"): page-locked host arrays, made on first use
         self._render_copier = None  # render(): its own page-locked arrays (render_sensors' stay the caller's)
 
@@ -880,11 +884,11 @@ class Renderer:
                   s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
                   out["instance"], ranges)
         values = dict(zip((name for name, *_ in SENSORS_ARGS), values))
-        if self.device_buffers:  # every array is a Taichi ndarray: launch through the compiled graph
+        if self.device_buffers and self.kernel_timer is None:  # all Taichi ndarrays: launch the compiled graph
             values["pose0"] = ti.Vector(values["pose0"].tolist())
             sensors_graph(self.arch).run(values)
         else:
-            sensors_kernel(self.arch, values)
+            sensors_kernel(self.arch, values, self.kernel_timer)
         if not images:
             out = {}
         if Tl is not None:

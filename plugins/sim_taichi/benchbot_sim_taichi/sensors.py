@@ -346,7 +346,7 @@ def shade_kernel(
         inst[b, v, u] = i_id
 
 
-def sensors_kernel(arch: str, values: dict) -> None:
+def sensors_kernel(arch: str, values: dict, timer=None) -> None:
     """The kernels of :func:`sensors_kernels` for ``arch`` (``'cpu'`` or ``'cuda'``), launched one after the other for
     B sensor frames in the ``map`` frame: fast-mode images (when ``images`` is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W)
     float32 z-depth metres, ``cls``/``inst`` (B, H, W) int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame angle ``beams[j]`` (rad) +
@@ -366,9 +366,16 @@ def sensors_kernel(arch: str, values: dict) -> None:
         arch: the Taichi arch the renderer runs on.
         values: every name of :data:`SENSORS_ARGS` → its value (NumPy arrays or Taichi ndarrays, scalars, and
             ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it declares.
+        timer: ``None``, or a callable taking a kernel's name and returning a context manager that each launch runs
+            inside (``benchmarks/sensors_kernels.py`` times the kernels one by one with it).
     """
     for kernel in sensors_kernels(arch):
-        kernel(*(values[name] for name in kernel_parameters(kernel)))
+        args = [values[name] for name in kernel_parameters(kernel)]
+        if timer is None:
+            kernel(*args)
+        else:
+            with timer(kernel.__name__):
+                kernel(*args)
 
 
 def sensors_kernels(arch: str) -> tuple:

@@ -265,3 +265,31 @@ def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frame
         assert set(a) == set(b) and a["depth"].any()
         for key in a:
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+@pytest.mark.slow  # a subprocess that builds a furnished scene and compiles the kernels with the profiler on
+def test_the_sensors_kernels_benchmark_times_each_kernel_and_its_tasks():
+    """``benchmarks/sensors_kernels.py --tasks`` (where a frame's time goes, in the docs), tiny: every kernel of the
+    CPU grouping timed in order, with its CPU use, and the profiler's tasks named after their kernels."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from benchbot_sim_taichi.sensors import sensors_kernels
+
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "sensors_kernels.py"), "--env", "miniroom:1",
+                           "--width", "32", "--height", "24", "--frames", "2", "--warmup", "1", "--tasks", "--json"],
+                          capture_output=True, text=True, timeout=900, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    names = [k.__name__ for k in sensors_kernels("cpu")]
+    assert list(out["kernels"]) == names and out["frames"] == 2 and out["fps"] > 0
+    assert all(k["ms_per_launch"] > 0 and k["cpu_util"] > 0 for k in out["kernels"].values())
+    tasks = out["tasks"]
+    assert tasks and {t.split(" #")[0] for t in tasks} == set(names)
+    assert all(t.endswith(("(range_for)", "(serial)")) and ms >= 0 for t, ms in tasks.items())
+    bad = subprocess.run([sys.executable, str(root / "benchmarks" / "sensors_kernels.py"), "--frames", "0"],
+                         capture_output=True, text=True, timeout=120, cwd=root)
+    assert bad.returncode == 2 and "must be at least 1" in bad.stderr and "Traceback" not in bad.stderr
