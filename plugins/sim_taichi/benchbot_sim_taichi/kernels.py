@@ -504,16 +504,19 @@ def _shade_hit(o, d, spread, nodes: ti.template(), pf: ti.template(),
     index), invisible with PANES_UNSEEN and PANES_TRACKED (see :func:`_trace`)."""
     best, k, nb, _tr, pane_t, pane_k = _trace(o, d, 1e30, nodes, pf, pi, tris, False, panes)
     return _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf, pi, tris, shade, texels, tex_info, lut, world,
-                    panes)
+                    panes, False)
 
 
 @ti.func
 def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: ti.template(), tris: ti.template(),
              shade: ti.template(), texels: ti.template(), tex_info: ti.template(), lut: ti.template(),
-             world: ti.template(), panes: ti.template()):
+             world: ti.template(), panes: ti.template(), fast: ti.template()):
     """What :func:`_shade_hit` returns, given the closest primitive hit along the ray (distance ``best``, primitive
     ``k``, −1 for none, its geometric normal ``nb`` facing the ray) and the nearest pane before it (``pane_t``,
-    ``pane_k``): the room shell is tested here, then the surface met is shaded."""
+    ``pane_k``): the room shell is tested here, then the surface met is shaded. ``fast`` (compile-time), for the
+    all-sensors shading: on a triangle ``nb`` is not given but computed here (from the edges this function needs
+    anyway), and the shadow-ray origin returned is the hit point itself, which the caller moves with
+    :func:`_shadow_origin` only where it casts shadow rays; the values returned are otherwise the same."""
     inv = _safe_inv(d)
     t_exit = 1e30
     exit_axis = 0
@@ -552,13 +555,18 @@ def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: t
             v2 = _v3(tris, j, 6)
             e1 = v1 - v0
             e2 = v2 - v0
+            if ti.static(fast):  # the geometric normal, facing the ray, as _closest_normal computes it
+                nb = e1.cross(e2).normalized()
+                if nb.dot(d) > 0:
+                    nb = -nb
+                n = nb
             pv = d.cross(e2)
             idet = 1.0 / e1.dot(pv)
             sv = o - v0
             b1 = sv.dot(pv) * idet
             b2 = d.dot(sv.cross(e1)) * idet
             b0 = 1.0 - b1 - b2
-            ns, sgn, ps = _triangle_point(tris, shade, j, b0, b1, b2, nb, ps)
+            ns, sgn, ps = _triangle_point(tris, shade, j, b0, b1, b2, nb, ps, ti.static(not fast))
             dl = d.norm()
             cos_v = ns.dot(d) / dl
             if cos_v > -0.02:  # a shading normal turned away from the eye: bend it back towards the eye
@@ -596,12 +604,11 @@ def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: t
 
 
 @ti.func
-def _triangle_point(tris: ti.template(), shade: ti.template(), k, b0, b1, b2, nb, p):
+def _triangle_point(tris: ti.template(), shade: ti.template(), k, b0, b1, b2, nb, p, moved: ti.template()):
     """The shading of triangle k's point p at barycentrics (b0, b1, b2), seen from the side its geometric normal nb
     faces: (shading normal ns, side sgn, shadow-ray origin ps). ns interpolates the vertex normals, turned to nb's
-    side (sgn = 1 when the vertex normals point that way, the front; −1 from the back); ps is p moved onto the
-    vertices' tangent planes, outwards only (Hanika's shadow-terminator fix), so that smooth low-poly surfaces do not
-    shadow themselves in facets."""
+    side (sgn = 1 when the vertex normals point that way, the front; −1 from the back); ps is
+    :func:`_shadow_origin` when ``moved`` (compile-time), else p itself."""
     n0 = _v3(shade, k, 0)
     n1 = _v3(shade, k, 3)
     n2 = _v3(shade, k, 6)
@@ -613,12 +620,25 @@ def _triangle_point(tris: ti.template(), shade: ti.template(), k, b0, b1, b2, nb
     ln = sn.norm()
     if ln > 1e-12:
         ns = sgn * sn / ln
+    ps = p
+    if ti.static(moved):
+        ps = _shadow_origin(tris, shade, k, b0, b1, b2, sgn, p)
+    return ns, sgn, ps
+
+
+@ti.func
+def _shadow_origin(tris: ti.template(), shade: ti.template(), k, b0, b1, b2, sgn, p):
+    """Triangle k's point p at barycentrics (b0, b1, b2), seen from side sgn (:func:`_triangle_point`), moved onto
+    the vertices' tangent planes, outwards only (Hanika's shadow-terminator fix): the origin of its shadow rays, so
+    that smooth low-poly surfaces do not shadow themselves in facets."""
+    n0 = _v3(shade, k, 0)
+    n1 = _v3(shade, k, 3)
+    n2 = _v3(shade, k, 6)
     q0 = p - _v3(tris, k, 0)
     q1 = p - _v3(tris, k, 3)
     q2 = p - _v3(tris, k, 6)
-    ps = p - sgn * (b0 * ti.min(0.0, sgn * q0.dot(n0)) * n0 + b1 * ti.min(0.0, sgn * q1.dot(n1)) * n1
-                    + b2 * ti.min(0.0, sgn * q2.dot(n2)) * n2)
-    return ns, sgn, ps
+    return p - sgn * (b0 * ti.min(0.0, sgn * q0.dot(n0)) * n0 + b1 * ti.min(0.0, sgn * q1.dot(n1)) * n1
+                      + b2 * ti.min(0.0, sgn * q2.dot(n2)) * n2)
 
 
 @ti.func

@@ -52,9 +52,16 @@ CLUSTER_PRIMS = 64
 #: (row-major), each done by ``lanes`` threads that take every ``lanes``-th pixel (32 threads of a warp on
 #: neighbouring pixels: their memory accesses coalesce, and no thread walks a long row alone). ``queue_items``: room
 #: in the queue for each camera of a launch (items beyond it are done by their primitive's thread).
+#: ``surface_once``: the shading step computes a triangle's geometric normal once (in ``kernels._surface``, from the
+#: edges it needs anyway) and its shadow-ray origin only where it casts shadow rays (``kernels._shadow_origin``).
+#: That is the same image and on the 2-core CPU a faster one (house:1's shading 42.9 → 35.4 ms a frame,
+#: ``benchmarks/sensors_kernels.py``), but on an H200 a slower one (43.6 → 57.2 µs a frame at 256 per launch),
+#: so CUDA keeps computing the normal first and the origin with the rest of the surface.
 SPLIT = {
-    "cpu": {"direct_pixels": 64, "band_rows": 8, "lanes": 1, "chunk_pixels": 0, "queue_items": 65536},
-    "cuda": {"direct_pixels": 16, "band_rows": 0, "lanes": 32, "chunk_pixels": 1024, "queue_items": 65536},
+    "cpu": {"direct_pixels": 64, "band_rows": 8, "lanes": 1, "chunk_pixels": 0, "queue_items": 65536,
+            "surface_once": True},
+    "cuda": {"direct_pixels": 16, "band_rows": 0, "lanes": 32, "chunk_pixels": 1024, "queue_items": 65536,
+             "surface_once": False},
 }
 
 

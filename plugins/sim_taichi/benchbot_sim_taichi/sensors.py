@@ -31,7 +31,8 @@ with contextlib.redirect_stdout(sys.stderr):
 from benchbot_sim_taichi import lightmap, raster  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402
-    PANES_TRACKED, PANES_UNSEEN, _closest_normal, _direct, _glass_reflectance, _ray, _safe_inv, _surface, _trace, _v3,
+    PANES_TRACKED, PANES_UNSEEN, _closest_normal, _direct, _glass_reflectance, _ray, _safe_inv, _shadow_origin,
+    _surface, _trace, _v3,
 )
 
 #: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
@@ -309,11 +310,16 @@ def shade_kernel(
         pane_t, pane_k = raster.unkey(vis[1, b, v, u])
         vis[0, b, v, u] = ti.i64(raster.EMPTY)
         vis[1, b, v, u] = ti.i64(raster.EMPTY)
-        nb = _closest_normal(o, d, _safe_inv(d), best, k, pf, pi, tris)
+        nb = ti.Vector([0.0, 0.0, 0.0])
+        if ti.static(raster.split()["surface_once"]):
+            if k >= 0 and pi[k, 0] != 3:  # not a plain triangle (_surface computes a triangle's normal itself)
+                nb = _closest_normal(o, d, _safe_inv(d), best, k, pf, pi, tris)
+        else:
+            nb = _closest_normal(o, d, _safe_inv(d), best, k, pf, pi, tris)
         key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
         hit, t, n, ns, albedo, c_id, i_id, p, prim, pane, tri_pos = _surface(
             o, d, 1.0 / consts[27], best, k, nb, pane_t, pane_k, pf, pi, tris, shade, texels, tex_info, tex_lut,
-            consts, PANES_TRACKED)
+            consts, PANES_TRACKED, ti.static(raster.split()["surface_once"]))
         col = ti.Vector([0.0, 0.0, 0.0])
         if hit == 1:
             radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
@@ -321,6 +327,10 @@ def shade_kernel(
                 if prim >= 0 and baked_info[prim, 1] > 0:  # a triangle's light, baked once per scene
                     radiance += lightmap.baked_direct(baked, baked_info, prim, tri_pos)
                 else:
+                    if ti.static(raster.split()["surface_once"]):
+                        if prim >= 0 and pi[prim, 0] == 3:  # a triangle's shadow rays leave its shading surface
+                            p = _shadow_origin(tris, shade, prim, 1.0 - tri_pos[0] - tri_pos[1], tri_pos[0],
+                                               tri_pos[1], tri_pos[2], p)
                     radiance += _direct(p, n, ns, key, params, lights, n_always, always, light_grid, grid_xform,
                                         light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map)
             col = albedo * radiance
