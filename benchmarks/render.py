@@ -85,11 +85,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
-    from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
+    from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     bvh_s = time_bvh_builds()
 
@@ -110,10 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     r.sync()  # the shadow maps' kernels
     t_setup = time.perf_counter() - t0
     K = intrinsics(W, H, 90.0)
-    cams = trajectory_cameras(scene)
-    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
-    lidars = [se2_to_matrix(*p, z=0.3) for p in poses]
-    angles = np.radians(np.arange(-180.0, 180.0, 1.0))
+    cams, lidars, angles = trajectory_views(scene)
     n_batches = max(1, math.ceil(args.frames / B))
 
     def run(i, to_host):

@@ -59,11 +59,10 @@ def main(argv: list[str] | None = None) -> int:
     with contextlib.redirect_stdout(sys.stderr):  # Taichi's banner: stdout stays the report (or the JSON)
         import taichi as ti
 
-    from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.renderer import Renderer, intrinsics
     from benchbot_sim_taichi.scene import build_scene
+    from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:
@@ -74,10 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     r.sync()
     W, H, B = args.width, args.height, args.batch
     K = intrinsics(W, H, 90.0)
-    cams = trajectory_cameras(scene)
-    poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
-    lidars = [se2_to_matrix(*p, z=0.3) for p in poses]
-    angles = np.radians(np.arange(-180.0, 180.0, 1.0))
+    cams, lidars, angles = trajectory_views(scene)
     launches = max(1, math.ceil(args.frames / B))
 
     wall, cpu = collections.defaultdict(float), collections.defaultdict(float)
