@@ -56,13 +56,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.tasks:
         os.environ["TI_KERNEL_PROFILER"] = "1"  # read by ti.init, which the renderer calls
 
-    with contextlib.redirect_stdout(sys.stderr):  # Taichi's banner: stdout stays the report (or the JSON)
-        import taichi as ti
-
     from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
     from benchbot_sim_taichi.scene import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
+
+    import taichi as ti
 
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:

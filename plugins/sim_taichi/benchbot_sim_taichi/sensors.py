@@ -393,9 +393,9 @@ def sensors_kernels(arch: str) -> tuple:
     step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
     Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
-    after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`): there each kernel launch costs
-    a one-camera frame about 0.07–0.1 ms (one H200, house:1: 3,912 fps as one kernel, 3,035 as two, 2,346 as
-    four)."""
+    after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
+    one-camera frame, which is short there (one H200, house:1, one camera: 3,918 fps with these two kernels,
+    ``benchmarks/render.py``; each launch costs more the more arguments it passes)."""
     if arch == "cuda":
         return (visibility_kernel, shade_kernel)
     return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel)
