@@ -6,14 +6,16 @@ same primary camera rays at the exported triangle mesh of the same scene (``benc
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
         [--shadow-samples 1] [--shadow-maps auto|on|off] [--lights on|off|sun|lamps]
-        [--host-copy taichi[,reused,pinned]|none] [--json]
+        [--host-copy taichi[,reused,pinned]|none] [--numpy-buffers] [--json]
 
 Each kernel launch renders N cameras (``--batch N``, default 1) and their N laser scans
 (``Renderer.render_sensors``). On CUDA the scene and the outputs stay in GPU memory
 (``device_buffers``): ``fps`` counts frames finished in GPU memory (the timing ends with a device synchronisation),
 ``fps_with_host_copy`` the same frames copied into new NumPy arrays by the renderer (``to_host=True``: through its
 page-locked arrays, then a host copy; Taichi's ``Ndarray.to_numpy`` before 22 Nov 2026's ``_fetch``); on the CPU
-both are the same figure. On CUDA, ``--host-copy`` adds copies into NumPy arrays made once and reused
+both are the same figure: frames delivered as new NumPy arrays (the renderer's ``to_host=True``; since 24 Nov 2026
+through its compiled graph and Taichi ndarrays, copied from their memory; ``--numpy-buffers``: the kernels launched
+one by one on NumPy arrays, as before, ``device_buffers`` false in the JSON). On CUDA, ``--host-copy`` adds copies into NumPy arrays made once and reused
 (``benchbot_sim_taichi.host_copy.HostCopier``: one ``cuMemcpyDtoHAsync`` per output); every copy is checked equal
 to Taichi's ``to_numpy`` of the same outputs. ``pinned``, the renderer's
 ``to_host="pinned"`` (page-locked memory) → ``fps_host_pinned``; ``reused``, the copier driven by the benchmark with
@@ -81,6 +83,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--host-copy", default="taichi",
                     help="comma list of host-copy timings on CUDA: taichi (the renderer's to_host=True), reused, "
                          "pinned; none")
+    ap.add_argument("--numpy-buffers", action="store_true",
+                    help="the renderer without device buffers (Renderer(device_buffers=False), CPU only): NumPy "
+                         "arrays passed to each kernel, no compiled graph")
     ap.add_argument("--no-embree", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -104,7 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     bvh_s.clear()
     t0 = time.perf_counter()
     r = Renderer(args.arch, shadow_samples=args.shadow_samples,
-                 shadow_maps={"auto": None, "on": True, "off": False}[args.shadow_maps])
+                 shadow_maps={"auto": None, "on": True, "off": False}[args.shadow_maps],
+                 device_buffers=False if args.numpy_buffers else None)
+    if args.numpy_buffers and r.arch == "cuda":
+        ap.error("--numpy-buffers: CPU only (on CUDA the kernels read the scene from GPU memory)")
     r.set_scene(scene)
     r.sync()  # the shadow maps' kernels
     t_setup = time.perf_counter() - t0
@@ -137,11 +145,12 @@ def main(argv: list[str] | None = None) -> int:
     copies = [c for c in args.host_copy.split(",") if c and c != "none"]
     if set(copies) - {"taichi", "reused", "pinned"}:
         ap.error(f"--host-copy: unknown {sorted(set(copies) - {'taichi', 'reused', 'pinned'})}")
-    fps = timed(to_host=not r.device_buffers)  # frames in the renderer's memory (GPU memory on CUDA)
+    on_gpu = r.arch == "cuda"
+    fps = timed(to_host=not on_gpu)  # frames in GPU memory on CUDA; on the CPU, new NumPy arrays
     # and copied to NumPy arrays by the renderer
-    fps_host = (timed(to_host=True) if "taichi" in copies else None) if r.device_buffers else fps
+    fps_host = (timed(to_host=True) if "taichi" in copies else None) if on_gpu else fps
     extra = {}
-    if r.device_buffers:
+    if on_gpu:
         import gpu_host  # this folder is on sys.path when a script here runs
 
         for mode in copies:

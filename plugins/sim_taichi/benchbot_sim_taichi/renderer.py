@@ -13,9 +13,10 @@ rasterising the scene's primitives into a visibility buffer (:mod:`benchbot_sim_
 the BVH traversal, found object by object), then shades the pixels (RGB, depth, class and instance ids). Kernels take
 ``ti.types.ndarray``
 arguments, so a scene with any number of primitives, or any image size, reuses the compiled kernels (compiled once
-per process, not per scene). On CUDA (``device_buffers``) the scene is uploaded once as
-``ti.ndarray`` and the outputs stay in reused device buffers; each launch goes through a compiled ``ti.graph`` with the
-camera and lidar pose passed by value, so the per-frame cost is one launch plus, when wanted, one copy to the host.
+per process, not per scene). By default (``device_buffers``) the scene is uploaded once as
+``ti.ndarray`` (GPU memory on CUDA) and the outputs stay in reused buffers; each launch goes through a compiled
+``ti.graph`` with the camera and lidar pose passed by value, so the per-frame cost is one launch (the arguments set in
+C++, not by Python for each kernel) plus, when wanted, one copy to the host.
 The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and stored with both children's boxes in
 each interior node's record (:func:`~benchbot_sim_taichi.bvh.wide_nodes`); closest-hit rays (the laser, the
 shadow maps, quality mode's paths) traverse it nearer child first with a per-ray stack, any-hit rays left child
@@ -62,7 +63,8 @@ time-of-flight and structured-light depth cameras and most laser scanners do thr
 tracer's radiance and guides in GPU memory and writes the denoised image there
 (:func:`~benchbot_sim_taichi.denoiser.denoise_shared`), and ``pathtrace.encode_kernel`` applies the camera model
 there, in float64 like :meth:`~benchbot_sim_taichi.camera_model.CameraModel.encode`; only the results travel to the
-host, through page-locked memory. Without device buffers (the CPU's default) the same steps run on NumPy arrays, with
+host, through page-locked memory (on the CPU, OIDN's CPU device reads the Taichi arrays in place). Without device
+buffers (``device_buffers=False``) the same steps run on NumPy arrays, with
 the same images (on CUDA, not denoised, a few 8-bit values of a frame can be one level apart: the GPU's float64
 ``pow`` rounds a value on a level's edge differently).
 """
@@ -531,9 +533,11 @@ class Renderer:
         shadow_samples: shadow rays per light and pixel in ``fast`` mode (1: hard shadows; more: soft shadows over
             the light's disc).
         seed: seeds the sampling patterns (same seed → bit-identical images).
-        device_buffers: keep the scene and the output images in Taichi ndarrays, i.e. in GPU memory on CUDA, so a
-            launch copies nothing between host and device (``None``: on CUDA only). On the CPU, NumPy arrays are
-            already shared with the kernels, so the default there passes them directly.
+        device_buffers: keep the scene and the output images in Taichi ndarrays (in GPU memory on CUDA), so a
+            launch copies nothing between host and device and runs the all-sensors kernels as one compiled graph
+            (``None``, the default: on). ``False`` passes NumPy arrays to the kernels one by one (on the CPU only;
+            Python then sets every kernel's arguments on every launch: house:1, 640×480, on the 2-core CPU about
+            4 ms of a 30 ms frame, ``benchmarks/render.py --numpy-buffers``).
         shadow_maps: with one shadow sample in ``fast`` mode, take the lamps' (point lights') shadows from cube
             shadow maps (``kernels.LAMP_MAP_RES``² texels a face) and the sun's (the first directional light's) from
             an orthographic map (``kernels.SUN_MAP_RES``² texels), all traced once per scene in :meth:`set_scene`,
@@ -564,7 +568,7 @@ class Renderer:
         self._scene_args: tuple | None = None
         self.shadow_samples = int(shadow_samples)
         self.seed = int(seed)
-        self.device_buffers = (self.arch == "cuda") if device_buffers is None else bool(device_buffers)
+        self.device_buffers = True if device_buffers is None else bool(device_buffers)
         self._buffers: dict = {}
         self._work_arrays: dict = {}
         self._uploaded: dict = {}
@@ -691,7 +695,8 @@ class Renderer:
             marked.fill(0)
         light_grid_kernel(arrays["lights"], arrays["light_of_slot"], arrays["lamp_maps"],
                           self._upload("light_grid_xform", xform), LIGHT_GRID_BLOCK, LIGHT_GRID_STEP, marked)
-        marked = marked if isinstance(marked, np.ndarray) else marked.to_numpy()
+        marked = self._fetch({"marks": marked})["marks"]  # (not to_numpy: its first call compiles a copy kernel,
+        # which leaves the ndarray in a reference cycle for the collector to free on any thread)
         reach = float(packed["lights"][:n, 7][lamp].max())
         R = LAMP_MAP_RES
         grow = (LIGHT_GRID_STEP / 2 + reach * LIGHT_GRID_BLOCK * math.sqrt(2.0) / R  # the block's cone
@@ -798,8 +803,8 @@ class Renderer:
                 ``"pinned"``: on CUDA, copy into page-locked NumPy arrays that the renderer makes once and reuses
                 (:class:`~benchbot_sim_taichi.host_copy.HostCopier`: several times faster), valid until the next
                 ``"pinned"`` call of the same sizes overwrites them — copy what you keep; on the CPU the same as
-                ``True``. ``False`` leaves the outputs where the kernel wrote them — Taichi ndarrays in
-                GPU memory with device buffers (``.to_numpy()`` copies one), NumPy arrays otherwise — and returns
+                ``True``. ``False`` leaves the outputs where the kernel wrote them — Taichi ndarrays with device
+                buffers (in GPU memory on CUDA; ``.to_numpy()`` copies one), NumPy arrays otherwise — and returns
                 without waiting for the GPU (see :meth:`sync`); such device outputs are overwritten by the next
                 call of the same sizes.
 
@@ -959,14 +964,17 @@ class Renderer:
     def _fetch(self, arrays: dict) -> dict:
         """New NumPy arrays holding ``arrays`` (``{key: Taichi ndarray or NumPy array}``; NumPy arrays pass
         through). On CUDA they come through the page-locked copier (one synchronisation and a fast copy each), then
-        a host copy, so that the caller owns them; elsewhere through ``to_numpy``."""
+        a host copy, so that the caller owns them; on the CPU they are copied from the ndarrays' own memory
+        (:func:`~benchbot_sim_taichi.host_copy.host_view`)."""
         if self.device_buffers and self.arch == "cuda":
             if self._render_copier is None:
                 from benchbot_sim_taichi.host_copy import HostCopier
 
                 self._render_copier = HostCopier(pinned=True)
             return {k: v.copy() for k, v in self._render_copier.copy(arrays).items()}
-        return {k: (v if isinstance(v, np.ndarray) else v.to_numpy()) for k, v in arrays.items()}
+        from benchbot_sim_taichi.host_copy import host_view
+
+        return {k: (v if isinstance(v, np.ndarray) else host_view(v).copy()) for k, v in arrays.items()}
 
     def _finish_quality_in_place(self, lin, aux, K, denoise: bool) -> tuple | None:
         """With device buffers, where the denoiser's device reads the renderer's memory (OIDN on CUDA for a CUDA
@@ -1026,5 +1034,5 @@ class Renderer:
         """
         angles = np.asarray(angles, dtype=np.float64).reshape(-1)
         ranges = self._launch(None, None, 1, 1, np.asarray(T_map_lidar, dtype=np.float64)[None], angles,
-                              lit=False)["ranges"]
-        return (ranges if isinstance(ranges, np.ndarray) else ranges.to_numpy())[0, :angles.size].astype(np.float64)
+                              lit=False)
+        return self._fetch(ranges)["ranges"][0, :angles.size].astype(np.float64)

@@ -128,9 +128,9 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
     cams = np.stack([_cam(*p) for p in poses])
     lidars = np.stack([se2_to_matrix(*p, z=0.3) for p in poses])
     angles = np.radians(np.arange(-180.0, 180.0, 2.0))
-    host = Renderer("cpu")
+    host = Renderer("cpu", device_buffers=False)
     host.set_scene(scene)
-    dev = Renderer("cpu", device_buffers=True)
+    dev = Renderer("cpu")  # device buffers and the compiled graph: the default on every arch
     dev.set_scene(scene)
     assert dev.device_buffers and not host.device_buffers
     a = host.render_sensors(K, cams, W, H, lidars, angles)
@@ -189,7 +189,7 @@ def test_quality_mode_finished_in_device_memory_equals_the_numpy_path(bear_envs,
     W, H = 40, 30
     K = intrinsics(W, H, 90.0)
     T = _cam(*scene.trajectory_se2[5])
-    host = Renderer("cpu", camera=model)
+    host = Renderer("cpu", device_buffers=False, camera=model)
     host.set_scene(scene)
     dev = Renderer("cpu", device_buffers=True, camera=model)
     dev.set_scene(scene)
@@ -211,6 +211,7 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
     import threading
 
     from benchbot_sim_taichi import renderer as rmod
+    from benchbot_sim_taichi.host_copy import host_view
     from benchbot_sim_taichi.scene import build_scene
 
     scene = build_scene(bear_envs["miniroom:1"])
@@ -235,7 +236,8 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
     dropper.join()
     assert len(rmod._DEVICE_ARRAYS) == held_before and len(rmod._RETIRED) == elsewhere + made  # nothing freed there
     assert rmod._free_retired() == elsewhere + 1  # on this (Taichi's) thread: all freed but the output still held
-    assert kept.to_numpy().shape == (1, 12, 16)  # and that one is still valid
+    assert np.isfinite(host_view(kept)).all() and kept.shape == (1, 12, 16)  # and that one is still valid (not
+    # to_numpy: its first call in a process compiles a copy kernel, which keeps its arguments in a reference cycle)
     del kept
     assert rmod._free_retired() == elsewhere
 
@@ -246,6 +248,35 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
     assert len(rmod._DEVICE_ARRAYS) == held_before and len(rmod._RETIRED) == elsewhere
     with pytest.raises(RuntimeError, match="set_scene"):
         closing.render(K, cam, 16, 12)
+
+
+def test_host_view_shows_an_ndarrays_memory_and_keeps_it_alive():
+    """On the CPU, ``host_copy.host_view`` is a NumPy array over a Taichi ndarray's own memory (what the renderer's
+    outputs are copied from): it shows what a kernel wrote there, of the ndarray's dtype and shape, and holds the
+    ndarray, so dropping every other reference does not free the memory under it."""
+    import gc
+
+    import taichi as ti
+
+    from benchbot_sim_taichi.host_copy import host_view
+    from benchbot_sim_taichi.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+    for dtype, np_dtype in ((ti.f32, np.float32), (ti.i64, np.int64), (ti.u8, np.uint8)):
+        nd = ti.ndarray(dtype=dtype, shape=(3, 5, 2))
+        values = (np.arange(30).reshape(3, 5, 2) * 7 % 251).astype(np_dtype)
+        nd.from_numpy(values)
+        view = host_view(nd)
+        assert view.dtype == np_dtype and view.shape == (3, 5, 2) and np.array_equal(view, values)
+        nd.fill(3)  # a kernel writes: the view shows it
+        assert (view == 3).all()
+        root = view
+        while isinstance(root, np.ndarray):
+            root = root.base
+        assert root.owner is nd  # the view's buffer holds the ndarray
+        del nd
+        gc.collect()
+        assert (view == 3).all()  # still the ndarray's memory, held by the view
 
 
 def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector():

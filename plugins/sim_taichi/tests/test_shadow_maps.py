@@ -72,7 +72,7 @@ def test_the_sun_map_holds_the_height_of_the_first_primitive_the_sun_meets(synth
     from benchbot_sim_taichi.kernels import SUN_MAP_RES
     from benchbot_sim_taichi.renderer import Renderer
 
-    r = Renderer("cpu", shadow_maps=True)
+    r = Renderer("cpu", shadow_maps=True, device_buffers=False)  # the maps traced into the packed NumPy arrays
     r.set_scene(_sun_scene(synthetic_env, direction=(0.0, 0.0, 1.0)))
     assert r.sun_map and r.lamps_with_maps == 0
     sun_map, row = np.asarray(r._packed["sun_map"]), r._packed["lights"][0]
@@ -121,7 +121,7 @@ def test_a_lamp_map_holds_the_distance_to_the_first_occluder(synthetic_env):
     from benchbot_sim_taichi.kernels import LAMP_MAP_RES
     from benchbot_sim_taichi.renderer import Renderer
 
-    r = Renderer("cpu", shadow_maps=True)
+    r = Renderer("cpu", shadow_maps=True, device_buffers=False)  # the maps traced into the packed NumPy arrays
     r.set_scene(_lamp_scene(synthetic_env))
     maps = np.asarray(r._packed["lamp_maps"])
     assert maps.shape == (6, LAMP_MAP_RES, LAMP_MAP_RES)
@@ -247,3 +247,4 @@ def test_a_sun_without_a_direction_keeps_its_shadow_rays(synthetic_env):
     assert not r.sun_map
     assert np.isfinite(r._packed["lights"]).all()
     assert r.render(intrinsics(16, 12, 90.0), np.eye(4), 16, 12)["rgb"].shape == (12, 16, 3)
+
