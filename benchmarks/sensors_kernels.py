@@ -18,7 +18,8 @@ thread.
 
 JSON keys: ``env``, ``arch``, ``batch``, ``frames``, ``width``, ``height``, ``fps`` (frames per second with the
 synchronisations), ``kernels`` ({name: {``ms_per_launch``, ``us_per_frame``, ``cpu_util`` (CPU only)}}), ``tasks``
-({task: ms per launch}, with ``--tasks``), ``triangles``, ``machine``, ``cpu_count``.
+({task: ms per launch}, with ``--tasks``), ``triangles``, ``shadow_rays`` (whether the frames are shaded with the code of
+shadow rays, ``Renderer.shadow_rays``: not when every light has a shadow map), ``machine``, ``cpu_count``.
 """
 
 from __future__ import annotations
@@ -113,11 +114,12 @@ def main(argv: list[str] | None = None) -> int:
             kernels[name]["cpu_util"] = cpu[name] / s
     out = {"env": args.env, "arch": r.arch, "batch": B, "frames": launches * B, "width": W, "height": H,
            "fps": launches * B / seconds, "kernels": kernels, "triangles": int(scene.tri_v.shape[0]),
+           "shadow_rays": r.shadow_rays,
            "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()}
     if args.tasks:
         from benchbot_sim_taichi.sensors import sensors_kernels
 
-        out["tasks"] = _task_times(launches, {k.__name__ for k in sensors_kernels(r.arch)})
+        out["tasks"] = _task_times(launches, {k.__name__ for k in sensors_kernels(r.arch, r.shadow_rays)})
     if args.json:
         print(json.dumps(out, indent=1))
     else:

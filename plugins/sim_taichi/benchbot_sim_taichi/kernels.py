@@ -725,7 +725,7 @@ def _next_light(taken, w, m, n_always, always: ti.template(), grid: ti.template(
 def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_always, always: ti.template(),
             grid: ti.template(), grid_xform: ti.template(), light_of_slot: ti.template(),
             nodes: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
-            maps: ti.template(), sun_map: ti.template()):
+            maps: ti.template(), sun_map: ti.template(), shadow_rays: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
     along the geometric normal ng); visibility from ``params[0]`` shadow rays (stratified over the light's disc),
     hashed from ``key`` — or, with one sample and a light with a map slot: a lamp's from its cube shadow map
@@ -737,7 +737,11 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_alway
     ``grid_xform`` = [x0, y0, 1/cell (1/m), words] (cell (i, j) spans x0 + j·cell, y0 + i·cell), a bit for each
     lamp shadow-map slot s (word s // 32, bit s % 32; ``light_of_slot[s]`` its light) whose map may let it light a
     point of that cell (:func:`light_grid_kernel`); a lamp that is not listed would add exactly 0 there. Words = 0:
-    no grid (the renderer then puts every light in ``always``)."""
+    no grid (the renderer then puts every light in ``always``).
+
+    ``shadow_rays`` (compile-time): False leaves the shadow rays' code out (a BVH traversal with its per-ray stack,
+    which costs a kernel that inlines it many registers), for callers whose every light has a shadow map and
+    ``params[0]`` is 1: a light that would need rays then adds nothing."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
     total = ti.cast(params[0], ti.i32)
@@ -787,7 +791,9 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_alway
                     else:
                         texel = 1.0 / ti.Vector([lights[j, 9], lights[j, 10], lights[j, 11]]).norm()
                         vis = _sun_map_visibility(sun_map, lights, j, po + ng * (SUN_MAP_NORMAL_OFFSET * texel))
-                if slot < 0:  # shadow rays (window panes unseen): one towards the centre, or `total` over the disc
+                if ti.static(not shadow_rays):
+                    pass  # (the callers' lights all have maps)
+                elif slot < 0:  # shadow rays (window panes unseen): one towards the centre, or `total` over the disc
                     rays = ti.max(total, 1)
                     t1 = ti.Vector([0.0, 0.0, 0.0])
                     t2 = ti.Vector([0.0, 0.0, 0.0])

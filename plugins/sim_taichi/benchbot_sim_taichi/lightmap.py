@@ -172,7 +172,7 @@ def bake_kernel(
             ng = -ng
         ns, _sgn, ps = _triangle_point(tris, shade, k, b0, b1, b2, ng, p, True)
         store[w] = encode_rgb9e5(_direct(ps, ng, ns, 0, params, lights, n_always, always, light_grid, grid_xform,
-                                         light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map))
+                                         light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map, True))
 
 
 @ti.func

@@ -717,6 +717,16 @@ class Renderer:
                                                   & (self._packed["lights"][:, 8] >= 0)).any())
 
     @property
+    def shadow_rays(self) -> bool:
+        """Whether fast mode's frames need the code of shadow rays: more than one shadow sample, or a light of the
+        current scene without a shadow map. When not, the all-sensors work shades with
+        :func:`~benchbot_sim_taichi.sensors.shade_maps_kernel` (the same images, faster)."""
+        if self.shadow_samples > 1 or self._packed is None:
+            return True
+        lights = self._packed["lights"][:self._packed["n_lights"]]
+        return bool((lights[:, 8] < 0).any())
+
+    @property
     def lamps_with_maps(self) -> int:
         """How many of the current scene's lamps take their shadows from cube shadow maps (0 before
         :meth:`set_scene`)."""
@@ -889,11 +899,12 @@ class Renderer:
                   s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
                   out["instance"], ranges)
         values = dict(zip((name for name, *_ in SENSORS_ARGS), values))
+        rays = self.shadow_rays
         if self.device_buffers and self.kernel_timer is None:  # all Taichi ndarrays: launch the compiled graph
             values["pose0"] = ti.Vector(values["pose0"].tolist())
-            sensors_graph(self.arch).run(values)
+            sensors_graph(self.arch, rays).run(values)
         else:
-            sensors_kernel(self.arch, values, self.kernel_timer)
+            sensors_kernel(self.arch, values, self.kernel_timer, rays)
         if not images:
             out = {}
         if Tl is not None:

@@ -21,6 +21,7 @@ culling changes no pixel.
 """
 
 import contextlib
+import functools
 import gc
 import inspect
 import sys
@@ -260,41 +261,19 @@ def visibility_kernel(
                      counters, tiles, vis)
 
 
-@ti.kernel
-def shade_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lit: ti.i32,
-    n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-):
+@ti.func
+def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), pf: ti.template(),
+                pi: ti.template(), tris: ti.template(), shade: ti.template(), texels: ti.template(),
+                tex_info: ti.template(), tex_lut: ti.template(), lights: ti.template(), lit, n_always,
+                always: ti.template(), light_grid: ti.template(), grid_xform: ti.template(),
+                light_of_slot: ti.template(), lamp_maps: ti.template(), sun_map: ti.template(), baked: ti.template(),
+                baked_info: ti.template(), consts: ti.template(), vis: ti.template(), rgb: ti.template(),
+                depth: ti.template(), cls: ti.template(), inst: ti.template(), shadow_rays: ti.template()):
     """Step 4 of :func:`sensors_kernel`: each pixel of the B frames reads its closest hit (and nearest pane) from
-    ``vis``, which the steps before filled, resets it to :data:`raster.EMPTY`, and is shaded
-    into ``rgb``, ``depth``, ``cls`` and ``inst``. Parameters: those of :func:`sensors_kernel` that it uses."""
+    ``vis``, which the steps before filled, resets it to :data:`raster.EMPTY`, and is shaded into ``rgb``,
+    ``depth``, ``cls`` and ``inst``. ``shadow_rays`` (compile-time): whether the code of shadow rays is compiled
+    in (:func:`~benchbot_sim_taichi.kernels._direct`); without it the kernel takes far fewer registers.
+    """
     B = vis.shape[1]
     H = vis.shape[2]
     W = vis.shape[3]
@@ -332,7 +311,7 @@ def shade_kernel(
                             p = _shadow_origin(tris, shade, prim, 1.0 - tri_pos[0] - tri_pos[1], tri_pos[0],
                                                tri_pos[1], tri_pos[2], p)
                     radiance += _direct(p, n, ns, key, params, lights, n_always, always, light_grid, grid_xform,
-                                        light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map)
+                                        light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map, shadow_rays)
             col = albedo * radiance
         if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
             col = _through_pane(col, d, pane, tris, consts)
@@ -356,7 +335,86 @@ def shade_kernel(
         inst[b, v, u] = i_id
 
 
-def sensors_kernel(arch: str, values: dict, timer=None) -> None:
+@ti.kernel
+def shade_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lit: ti.i32,
+    n_always: ti.i32,
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+):
+    """Step 4 of :func:`sensors_kernel` (:func:`_shade_step`) with shadow rays: for any lights. Parameters: those of
+    :func:`sensors_kernel` that it uses."""
+    _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit, n_always,
+                always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info, consts, vis, rgb,
+                depth, cls, inst, True)
+
+
+@ti.kernel
+def shade_maps_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lit: ti.i32,
+    n_always: ti.i32,
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+):
+    """Step 4 of :func:`sensors_kernel` (:func:`_shade_step`) without the code of shadow rays, for frames whose every
+    light takes its shadows from a shadow map (one shadow sample; :func:`sensors_kernels`). Parameters: those of
+    :func:`sensors_kernel` that it uses."""
+    _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit, n_always,
+                always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info, consts, vis, rgb,
+                depth, cls, inst, False)
+
+
+def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True) -> None:
     """The kernels of :func:`sensors_kernels` for ``arch`` (``'cpu'`` or ``'cuda'``), launched one after the other for
     B sensor frames in the ``map`` frame: fast-mode images (when ``images`` is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W)
     float32 z-depth metres, ``cls``/``inst`` (B, H, W) int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame angle ``beams[j]`` (rad) +
@@ -378,8 +436,9 @@ def sensors_kernel(arch: str, values: dict, timer=None) -> None:
             ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it declares.
         timer: ``None``, or a callable taking a kernel's name and returning a context manager that each launch runs
             inside (``benchmarks/sensors_kernels.py`` times the kernels one by one with it).
+        shadow_rays: False shades with :func:`shade_maps_kernel` (see :func:`sensors_kernels`).
     """
-    for kernel in sensors_kernels(arch):
+    for kernel in sensors_kernels(arch, shadow_rays):
         args = [values[name] for name in kernel_parameters(kernel)]
         if timer is None:
             kernel(*args)
@@ -388,21 +447,27 @@ def sensors_kernel(arch: str, values: dict, timer=None) -> None:
                 kernel(*args)
 
 
-def sensors_kernels(arch: str) -> tuple:
-    """The kernels that make up the all-sensors work on ``arch``, in the order they run. On the CPU one kernel per
+def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
+    """The kernels that make up the all-sensors work on ``arch``, in the order they run; the last shades the pixels:
+    :func:`shade_kernel`, or with ``shadow_rays`` False :func:`shade_maps_kernel`, which has no code of shadow rays:
+    only for frames whose every light has a shadow map and one shadow sample (the renderer's choice,
+    ``Renderer.shadow_rays``), where it is faster (fewer registers, so more threads at once on a GPU). On the CPU one kernel per
     step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
     Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
     after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
     one-camera frame, which is short there (one H200, house:1, one camera: 3,918 fps with these two kernels,
     ``benchmarks/render.py``; each launch costs more the more arguments it passes)."""
+    shade = shade_kernel if shadow_rays else shade_maps_kernel
     if arch == "cuda":
-        return (visibility_kernel, shade_kernel)
-    return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel)
+        return (visibility_kernel, shade)
+    return (occluders_kernel, clusters_kernel, primitives_kernel, shade)
 
 
+@functools.lru_cache(maxsize=None)
 def kernel_parameters(kernel) -> tuple[str, ...]:
-    """The names of a Taichi kernel's parameters, in order (names of :data:`SENSORS_ARGS`)."""
+    """The names of a Taichi kernel's parameters, in order (names of :data:`SENSORS_ARGS`); cached (read on every
+    launch)."""
     return tuple(inspect.signature(kernel).parameters)
 
 #: Parameters of the all-sensors kernels (:func:`sensors_kernel`): (name, kind, dtype, ndim) with kind ``nd``
@@ -425,12 +490,12 @@ SENSORS_ARGS = (
 _SENSORS_GRAPHS: dict = {}
 
 
-def sensors_graph(arch: str):
-    """:func:`sensors_kernels` of ``arch`` as one compiled Taichi compute graph (``ti.graph``), built once per process
-    and arch. Running the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument
+def sensors_graph(arch: str, shadow_rays: bool = True):
+    """:func:`sensors_kernels` of ``arch`` (and ``shadow_rays``) as one compiled Taichi compute graph (``ti.graph``),
+    built once per process, arch and ``shadow_rays``. Running the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument
     work, which is most of the time of a one-camera frame on a GPU. Its arguments (``graph.run({name: value})``) are
     :data:`SENSORS_ARGS`; ndarray arguments must be Taichi ndarrays (device buffers)."""
-    if arch not in _SENSORS_GRAPHS:
+    if (arch, shadow_rays) not in _SENSORS_GRAPHS:
         kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
         dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8, "i64": ti.i64}
         symbols = {}
@@ -439,13 +504,13 @@ def sensors_graph(arch: str):
             dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
             symbols[name] = ti.graph.Arg(kinds[kind], name, dtype=dt, **extra)
         builder = ti.graph.GraphBuilder()
-        for kernel in sensors_kernels(arch):
+        for kernel in sensors_kernels(arch, shadow_rays):
             builder.dispatch(kernel, *(symbols[name] for name in kernel_parameters(kernel)))
-        _SENSORS_GRAPHS[arch] = builder.compile()
+        _SENSORS_GRAPHS[arch, shadow_rays] = builder.compile()
         # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
         # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
         gc.collect()
-    return _SENSORS_GRAPHS[arch]
+    return _SENSORS_GRAPHS[arch, shadow_rays]
 
 
 def reset_graph() -> None:

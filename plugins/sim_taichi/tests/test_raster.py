@@ -259,7 +259,8 @@ def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frame
     K = intrinsics(96, 72, 90.0)
     assert len(sensors.sensors_kernels("cpu")) == 4 and len(sensors.sensors_kernels("cuda")) == 2
     cpu = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
-    monkeypatch.setattr(sensors, "sensors_kernels", lambda arch, cuda=sensors.sensors_kernels("cuda"): cuda)
+    cuda_kernels = {rays: sensors.sensors_kernels("cuda", rays) for rays in (True, False)}
+    monkeypatch.setattr(sensors, "sensors_kernels", lambda arch, shadow_rays=True: cuda_kernels[shadow_rays])
     cuda = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
     for a, b in zip(cpu, cuda):
         assert set(a) == set(b) and a["depth"].any()
@@ -284,7 +285,7 @@ def test_the_sensors_kernels_benchmark_times_each_kernel_and_its_tasks():
                           capture_output=True, text=True, timeout=900, cwd=root)
     assert proc.returncode == 0, proc.stderr[-2000:]
     out = json.loads(proc.stdout)
-    names = [k.__name__ for k in sensors_kernels("cpu")]
+    names = [k.__name__ for k in sensors_kernels("cpu", out["shadow_rays"])]
     assert list(out["kernels"]) == names and out["frames"] == 2 and out["fps"] > 0
     assert all(k["ms_per_launch"] > 0 and k["cpu_util"] > 0 for k in out["kernels"].values())
     tasks = out["tasks"]

@@ -248,3 +248,56 @@ def test_a_sun_without_a_direction_keeps_its_shadow_rays(synthetic_env):
     assert np.isfinite(r._packed["lights"]).all()
     assert r.render(intrinsics(16, 12, 90.0), np.eye(4), 16, 12)["rgb"].shape == (12, 16, 3)
 
+
+def test_frames_whose_every_light_has_a_map_are_shaded_without_shadow_rays_and_look_the_same(synthetic_env,
+                                                                                            monkeypatch):
+    """With one shadow sample and a shadow map for every light (a furnished scene's lamps and sun), the renderer
+    shades with ``sensors.shade_maps_kernel``, which has no code of shadow rays (far fewer registers on a GPU): the
+    frames equal those of ``shade_kernel``, bit for bit. More samples, a light without a map (a second sun) or maps
+    turned off need the rays, and get ``shade_kernel``."""
+    from contextlib import contextmanager
+
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+
+    lamp, sun = _lamp_scene(synthetic_env), _sun_scene(synthetic_env)
+    both = dataclasses.replace(lamp, style="furnished",
+                               light_kind=np.concatenate([lamp.light_kind, sun.light_kind]),
+                               light_vec=np.concatenate([lamp.light_vec, sun.light_vec]),
+                               light_colour=np.concatenate([lamp.light_colour, sun.light_colour]),
+                               light_range=np.concatenate([lamp.light_range, sun.light_range]))
+    W, H = 48, 36
+    K = intrinsics(W, H, 90.0)
+    views = np.stack([np.diag([1.0, -1.0, -1.0, 1.0])] * 3)  # looking down on the table, its shadows, the chair
+    views[:, :3, 3] = [(2.6, -0.25, 2.4), (3.0, 0.0, 0.65), (1.0, 2.5, 1.6)]
+    shaded_by = []
+
+    @contextmanager
+    def timer(name):
+        shaded_by.append(name)
+        yield
+
+    r = Renderer("cpu")
+    r.set_scene(both)
+    assert r.sun_map and r.lamps_with_maps == 1 and not r.shadow_rays
+    r.kernel_timer = timer
+    fast = r.render_sensors(K, views, W, H)
+    assert shaded_by[-1] == "shade_maps_kernel" and fast["rgb"].any()
+    r.kernel_timer = None
+    assert all(np.array_equal(fast[k], v) for k, v in r.render_sensors(K, views, W, H).items())  # the graph too
+    monkeypatch.setattr(Renderer, "shadow_rays", property(lambda self: True))
+    r.kernel_timer = timer
+    general = r.render_sensors(K, views, W, H)
+    assert shaded_by[-1] == "shade_kernel"
+    for key in fast:
+        np.testing.assert_array_equal(fast[key], general[key], err_msg=key)
+    monkeypatch.undo()
+    soft = Renderer("cpu", shadow_samples=4)
+    soft.set_scene(both)
+    rays = Renderer("cpu", shadow_maps=False)
+    rays.set_scene(both)
+    two_suns = Renderer("cpu")
+    two_suns.set_scene(dataclasses.replace(both, light_kind=np.concatenate([both.light_kind, sun.light_kind]),
+                                           light_vec=np.concatenate([both.light_vec, sun.light_vec[:, [1, 0, 2]]]),
+                                           light_colour=np.concatenate([both.light_colour, sun.light_colour]),
+                                           light_range=np.concatenate([both.light_range, sun.light_range])))
+    assert soft.shadow_rays and rays.shadow_rays and two_suns.shadow_rays
