@@ -8,8 +8,8 @@ kernel (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_ker
 1. the laser beams (traced through the BVH) beside the occluders (the large triangles, ``raster.OCCLUDER_AREA_M2``),
    which are rasterised into each camera's visibility buffer; their large images are queued in parts, and
    rasterised by the next loop;
-2. a pyramid of tiles of the largest depth so far in each camera's image; the clusters of the BVH that meet each
-   camera's view and are not hidden behind it are listed;
+2. a pyramid of tiles of the largest depth so far in each camera's image (built from row segments of a tile's
+   width); the clusters of the BVH that meet each camera's view and are not hidden behind it are listed;
 3. their primitives, but the occluders, each culled against the pyramid the same way, are rasterised (the nearest
    window pane into the buffer's second layer), large images again queued in parts and rasterised by the next loop;
 4. the pixels: each reads its closest hit from the visibility buffer (and resets it), then is shaded as
@@ -132,6 +132,8 @@ def _clusters_step(table: ti.template(), pose0, one, images, consts: ti.template
     n_clusters = cluster_prims.shape[0] * images
     across, down, _first, _total = raster.tile_levels(W, H)
     counters[1] = 0
+    for i in range(B * images * H * across[0]):
+        raster.segment_depth(i, vis, tiles)
     for lv in ti.static(range(raster.TILE_LEVELS)):
         for i in range(B * images * across[lv] * down[lv]):
             raster.tile_depth(i, lv, vis, tiles)

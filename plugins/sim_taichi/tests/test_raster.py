@@ -240,6 +240,50 @@ def test_a_primitive_with_no_image_has_no_pixels():
     assert out[2].tolist() == [0, 63, 11, 11]
 
 
+def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
+    """Step 2's pyramid (``sensors._clusters_step``: row segments, then the levels of tiles), on random keys in an
+    image whose sides are not multiples of a tile, for two cameras: each entry is the largest depth of its pixels,
+    1e30 where one has no hit, exactly as NumPy computes it (the culling of clusters and primitives relies on it)."""
+    from benchbot_sim_taichi import raster, sensors
+    from benchbot_sim_taichi.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+
+    @ti.kernel
+    def pyramid(table: ti.types.ndarray(dtype=ti.f32, ndim=2), consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+                cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
+                cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2), listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
+                counters: ti.types.ndarray(dtype=ti.i32, ndim=1), tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
+                vis: ti.types.ndarray(dtype=ti.i64, ndim=4)):
+        sensors._clusters_step(table, ti.Vector([0.0] * sensors.POSE_LEN), 0, 1, consts, cluster_box, cluster_prims,
+                               listed, counters, tiles, vis)
+
+    B, H, W = 2, 150, 70  # 5 × 10 tiles of 16, the last ones partial
+    rng = np.random.default_rng(7)
+    depth = rng.uniform(0.5, 9.0, (B, H, W)).astype(np.float32)
+    empty = rng.random((B, H, W)) < 0.002
+    keys = (depth.view(np.int32).astype(np.int64) << 32) | rng.integers(0, 1000, (B, H, W))
+    vis = np.full((2, B, H, W), raster.EMPTY, np.int64)
+    vis[0] = np.where(empty, raster.EMPTY, keys)
+    tiles = np.full((B, raster.tile_entries(W, H)), -1.0, np.float32)
+    no_cluster = np.zeros((1, 2), np.int32)  # one cluster of no primitive: none is listed
+    pyramid(np.zeros((B, 16), np.float32), np.zeros(sensors.FRAME_CONSTS, np.float32), np.zeros((1, 6), np.float32),
+            no_cluster, np.zeros(B, np.int32),
+            np.zeros(raster.COUNTERS, np.int32), tiles, vis)
+    farthest = np.where(empty, np.float32(1e30), depth)
+    first = 0
+    for lv in range(raster.TILE_LEVELS):
+        side = raster.TILE_PX * 4**lv
+        across, down = -(-W // side), -(-H // side)
+        want = np.full((B, down, across), -1.0, np.float32)
+        for ty in range(down):
+            for tx in range(across):
+                want[:, ty, tx] = farthest[:, ty * side:(ty + 1) * side, tx * side:(tx + 1) * side].max(axis=(1, 2))
+        np.testing.assert_array_equal(tiles[:, first:first + across * down], want.reshape(B, -1), err_msg=f"{lv}")
+        first += across * down
+    assert (tiles[:, :first] == np.float32(1e30)).any() and (tiles[:, :first] < 9.0).any()  # both kinds of tile
+
+
 @pytest.mark.slow
 def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frames(bear_envs, monkeypatch):
     """CUDA runs steps 1 to 3 of the all-sensors work as one kernel (``sensors.visibility_kernel``), the CPU as three;
