@@ -84,6 +84,42 @@ def _camera(table: ti.template(), pose0, one, b, consts: ti.template()):
                       consts[27], consts[28], consts[29], consts[30]])
 
 
+def _loop_threads() -> int:
+    """Threads among which Taichi splits a parallel loop (read when a kernel is compiled): the CPU back end's
+    ``cpu_max_num_threads``; 1 on a GPU, where :func:`_spread` leaves the order alone."""
+    cfg = ti.lang.impl.current_cfg()
+    return 1 if cfg.arch == ti.cuda else max(1, int(cfg.cpu_max_num_threads))
+
+
+@ti.func
+def _spread_range(n, block):
+    """Iterations of a parallel loop over n items that :func:`_spread` deals out: n rounded up to whole blocks of
+    ``block`` items, one share of blocks for each thread."""
+    r = n
+    if ti.static(_loop_threads() > 1):
+        T = ti.static(_loop_threads())
+        per = ((n + block - 1) // block + T - 1) // T  # blocks a thread
+        r = T * per * block
+    return r
+
+
+@ti.func
+def _spread(i, n, block):
+    """The item of iteration i of a loop over :func:`_spread_range` iterations (an item ≥ n is none: skip it).
+    Taichi 1.7's CPU back end gives each of its T threads one contiguous chunk of a parallel loop, of max(⌈iterations
+    / T⌉, 512) iterations (no work stealing): a loop whose costly items are bunched (the image's lower half, full of
+    furniture; the laser's beams, first) keeps one core busy while the other waits. Here thread q's chunk holds
+    blocks q, q + T, q + 2T, … of ``block`` consecutive items: both halves of an image, every other row. On a GPU
+    the items keep their order (neighbouring threads on neighbouring items)."""
+    item = i
+    if ti.static(_loop_threads() > 1):
+        T = ti.static(_loop_threads())
+        per = ((n + block - 1) // block + T - 1) // T
+        blk = i // block
+        item = (T * (blk % per) + blk // per) * block + i % block
+    return item
+
+
 @ti.func
 def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template(), n_beams, nodes: ti.template(),
                     pf: ti.template(), pi: ti.template(), tris: ti.template(), consts: ti.template(), n_occluders,
@@ -100,7 +136,11 @@ def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template
     # 1. The laser's beams, and the occluders (the large triangles) of each camera. A beam is a long ray: beside the
     # occluders the beams run while the loop would otherwise wait on a few (one camera: 360 lone beams after the
     # pixels used to cost the H200 a third of a frame).
-    for i in range(n_scan + B * n_occ):
+    n_items = n_scan + B * n_occ
+    for it in range(_spread_range(n_items, 1)):
+        i = _spread(it, n_items, 1)
+        if i >= n_items:
+            continue
         if i < n_scan:
             b = i // n_beams
             beam = i % n_beams
@@ -114,7 +154,11 @@ def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template
             e = i - n_scan
             raster.rasterise_occluder(e, n_occ, _camera(table, pose0, one, e // n_occ, consts), occluders, pf, pi,
                                       tris, vis, queue, counters, tiles)
-    for t in range(ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])):  # their large images
+    n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
+    for it in range(_spread_range(n_queued, 1)):  # their large images
+        t = _spread(it, n_queued, 1)
+        if t >= n_queued:
+            continue
         j, lane = raster.item_lane(t)
         raster.rasterise_queued(j, lane, _camera(table, pose0, one, queue[j, 1] // H, consts), pf, pi, tris, vis,
                                 queue, True)
@@ -137,7 +181,11 @@ def _clusters_step(table: ti.template(), pose0, one, images, consts: ti.template
     for lv in ti.static(range(raster.TILE_LEVELS)):
         for i in range(B * images * across[lv] * down[lv]):
             raster.tile_depth(i, lv, vis, tiles)
-    for i in range(B * n_clusters):
+    n_listing = B * n_clusters
+    for it in range(_spread_range(n_listing, 1)):  # (the clusters in view are bunched in the BVH's order)
+        i = _spread(it, n_listing, 1)
+        if i >= n_listing:
+            continue
         raster.list_cluster(i, _camera(table, pose0, one, i // n_clusters, consts), n_clusters, cluster_box,
                             cluster_prims, listed, counters, tiles, W, H)
 
@@ -151,12 +199,20 @@ def _primitives_step(table: ti.template(), pose0, one, images, pf: ti.template()
     ``vis``, then their queued large images."""
     H = vis.shape[2]
     n_clusters = cluster_prims.shape[0] * images
-    for i in range(counters[0] * raster.CLUSTER_PRIMS):
+    n_slots = counters[0] * raster.CLUSTER_PRIMS
+    for it in range(_spread_range(n_slots, raster.CLUSTER_PRIMS)):  # a thread's share: whole clusters
+        i = _spread(it, n_slots, raster.CLUSTER_PRIMS)
+        if i >= n_slots:
+            continue
         b, k = raster.listed_primitive(i, n_clusters, cluster_prims, listed)
         if k >= 0 and is_occluder[k] == 0:
             raster.rasterise_primitive(_camera(table, pose0, one, b, consts), b, k, pf, pi, tris, vis, queue, counters,
                                        tiles, True, False)
-    for t in range(ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])):
+    n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
+    for it in range(_spread_range(n_queued, 1)):
+        t = _spread(it, n_queued, 1)
+        if t >= n_queued:
+            continue
         j, lane = raster.item_lane(t)
         raster.rasterise_queued(j, lane, _camera(table, pose0, one, queue[j, 1] // H, consts), pf, pi, tris, vis,
                                 queue, False)
@@ -279,8 +335,12 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
     B = vis.shape[1]
     H = vis.shape[2]
     W = vis.shape[3]
-    # The pixels: each reads its closest hit and is shaded.
-    for j in range(B * images * H * W):
+    # The pixels: each reads its closest hit and is shaded (a thread's share on the CPU: every other row).
+    n_pixels = B * images * H * W
+    for it in range(_spread_range(n_pixels, W)):
+        j = _spread(it, n_pixels, W)
+        if j >= n_pixels:
+            continue
         b = j // (H * W)
         v = (j // W) % H
         u = j % W

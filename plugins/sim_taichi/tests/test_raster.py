@@ -240,6 +240,38 @@ def test_a_primitive_with_no_image_has_no_pixels():
     assert out[2].tolist() == [0, 63, 11, 11]
 
 
+@pytest.mark.parametrize("threads", [1, 2, 3, 16])
+def test_spread_loops_visit_every_item_once_dealing_blocks_to_the_cpu_threads(monkeypatch, threads):
+    """``sensors._spread``: a loop over ``_spread_range(n, block)`` iterations meets every item of 0..n−1 once (the
+    others are ≥ n, skipped), and with Taichi's CPU split (each of T threads one contiguous chunk of
+    ⌈iterations / T⌉ when that is at least 512) thread q gets blocks q, q + T, … of ``block`` items."""
+    from benchbot_sim_taichi import sensors
+    from benchbot_sim_taichi.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+    monkeypatch.setattr(sensors, "_loop_threads", lambda: threads)
+
+    @ti.kernel
+    def dealt(n: ti.i32, block: ti.i32, out: ti.types.ndarray(dtype=ti.i32, ndim=1)) -> ti.i32:
+        r = sensors._spread_range(n, block)
+        for it in range(r):
+            out[it] = sensors._spread(it, n, block)
+        return r
+
+    for n, block in ((0, 1), (1, 1), (7, 3), (5000, 1), (4800, 640), (3 * 64 + 5, 64)):
+        out = np.full(n + threads * block + 1, -1, np.int32)
+        r = dealt(n, block, out)
+        items = out[:r]
+        assert r == (n if threads == 1 else threads * -(-(-(-n // block)) // threads) * block)
+        assert r >= n and r - n < threads * block and (out[r:] == -1).all()
+        np.testing.assert_array_equal(np.sort(items[items < n]), np.arange(n))
+        chunk = r // threads
+        if threads > 1 and chunk >= 512:
+            for q in range(threads):
+                mine = items[q * chunk:(q + 1) * chunk]
+                assert set(np.unique(mine // block).tolist()) <= set(range(q, r // block, threads)), (n, block, q)
+
+
 def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
     """Step 2's pyramid (``sensors._clusters_step``: row segments, then the levels of tiles), on random keys in an
     image whose sides are not multiples of a tile, for two cameras: each entry is the largest depth of its pixels,
