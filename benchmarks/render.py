@@ -13,9 +13,10 @@ Each kernel launch renders N cameras (``--batch N``, default 1) and their N lase
 (``device_buffers``): ``fps`` counts frames finished in GPU memory (the timing ends with a device synchronisation),
 ``fps_with_host_copy`` the same frames copied into new NumPy arrays by the renderer (``to_host=True``: through its
 page-locked arrays, then a host copy; Taichi's ``Ndarray.to_numpy`` before 22 Nov 2026's ``_fetch``); on the CPU
-both are the same figure: frames delivered as new NumPy arrays (the renderer's ``to_host=True``; since 24 Nov 2026
-through its compiled graph and Taichi ndarrays, copied from their memory; ``--numpy-buffers``: the kernels launched
-one by one on NumPy arrays, as before, ``device_buffers`` false in the JSON). On CUDA, ``--host-copy`` adds copies into NumPy arrays made once and reused
+both are the same figure: frames delivered as new NumPy arrays (the renderer's ``to_host=True``; since the night
+of 23 Nov 2026 through its compiled graph and Taichi ndarrays, copied from their memory; ``--numpy-buffers``: the
+kernels launched one by one on NumPy arrays, as before, ``device_buffers`` false in the JSON). On CUDA,
+``--host-copy`` adds copies into NumPy arrays made once and reused
 (``benchbot_sim_taichi.host_copy.HostCopier``: one ``cuMemcpyDtoHAsync`` per output); every copy is checked equal
 to Taichi's ``to_numpy`` of the same outputs. ``pinned``, the renderer's
 ``to_host="pinned"`` (page-locked memory) → ``fps_host_pinned``; ``reused``, the copier driven by the benchmark with

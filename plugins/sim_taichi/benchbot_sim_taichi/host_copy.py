@@ -53,8 +53,7 @@ def device_pointer(nd) -> int:
 def host_view(nd) -> np.ndarray:
     """A NumPy array over the memory of a Taichi ndarray that lives in host memory (Taichi on the CPU): no copy; it
     keeps ``nd`` alive, and shows what the kernels write there next (``.copy()`` it to keep a frame). Taichi's own
-    ``Ndarray.to_numpy`` runs a copy kernel per call instead (about 4 ms for a 640×480 frame of all four sensors on
-    the 2-core CPU).
+    ``Ndarray.to_numpy`` runs a copy kernel (compiled on its first call) for each array instead.
 
     Raises:
         ValueError: ``nd`` is not in host memory (Taichi runs on another arch).

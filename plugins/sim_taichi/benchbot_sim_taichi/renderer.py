@@ -536,8 +536,8 @@ class Renderer:
         device_buffers: keep the scene and the output images in Taichi ndarrays (in GPU memory on CUDA), so a
             launch copies nothing between host and device and runs the all-sensors kernels as one compiled graph
             (``None``, the default: on). ``False`` passes NumPy arrays to the kernels one by one (on the CPU only;
-            Python then sets every kernel's arguments on every launch: house:1, 640×480, on the 2-core CPU about
-            4 ms of a 30 ms frame, ``benchmarks/render.py --numpy-buffers``).
+            Python then sets every kernel's arguments on every launch: ``benchmarks/cpu_paths.py`` compares the
+            two).
         shadow_maps: with one shadow sample in ``fast`` mode, take the lamps' (point lights') shadows from cube
             shadow maps (``kernels.LAMP_MAP_RES``² texels a face) and the sun's (the first directional light's) from
             an orthographic map (``kernels.SUN_MAP_RES``² texels), all traced once per scene in :meth:`set_scene`,

@@ -513,8 +513,8 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     """The kernels that make up the all-sensors work on ``arch``, in the order they run; the last shades the pixels:
     :func:`shade_kernel`, or with ``shadow_rays`` False :func:`shade_maps_kernel`, which has no code of shadow rays:
     only for frames whose every light has a shadow map and one shadow sample (the renderer's choice,
-    ``Renderer.shadow_rays``), where it is faster (fewer registers, so more threads at once on a GPU). On the CPU one kernel per
-    step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
+    ``Renderer.shadow_rays``), where it is faster (fewer registers, so more threads at once on a GPU). On the CPU
+    one kernel per step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, the shading):
     Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
     after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
@@ -554,8 +554,9 @@ _SENSORS_GRAPHS: dict = {}
 
 def sensors_graph(arch: str, shadow_rays: bool = True):
     """:func:`sensors_kernels` of ``arch`` (and ``shadow_rays``) as one compiled Taichi compute graph (``ti.graph``),
-    built once per process, arch and ``shadow_rays``. Running the graph sets the arguments in C++ and costs a fraction of a Python kernel call's per-argument
-    work, which is most of the time of a one-camera frame on a GPU. Its arguments (``graph.run({name: value})``) are
+    built once per process, arch and ``shadow_rays``. Running the graph sets the arguments in C++ and costs a
+    fraction of a Python kernel call's per-argument work, which is most of the time of a one-camera frame on a GPU
+    (the CPU runs it too). Its arguments (``graph.run({name: value})``) are
     :data:`SENSORS_ARGS`; ndarray arguments must be Taichi ndarrays (device buffers)."""
     if (arch, shadow_rays) not in _SENSORS_GRAPHS:
         kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}

@@ -337,7 +337,8 @@ def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frame
     cpu = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
     cuda_kernels = {rays: sensors.sensors_kernels("cuda", rays) for rays in (True, False)}
     monkeypatch.setattr(sensors, "sensors_kernels", lambda arch, shadow_rays=True: cuda_kernels[shadow_rays])
-    cuda = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
+    cuda = [r.render_sensors(K, cams, 96, 72, lidars, angles),
+            r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
     for a, b in zip(cpu, cuda):
         assert set(a) == set(b) and a["depth"].any()
         for key in a:
