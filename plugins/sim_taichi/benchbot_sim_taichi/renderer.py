@@ -565,6 +565,7 @@ class Renderer:
         self._denoise_device_chosen = denoise_device is None
         self.camera = camera
         self._packed: dict | None = None
+        self._every_light_mapped = False  # (of the current scene: see shadow_rays)
         self._scene_args: tuple | None = None
         self.shadow_samples = int(shadow_samples)
         self.seed = int(seed)
@@ -621,6 +622,7 @@ class Renderer:
         packed["sun_map"] = np.zeros((res, res), np.float32)
         packed["light_of_slot"] = lamps.astype(np.int32) if lamps.size else np.full(1, -1, np.int32)
         self._packed = packed
+        self._every_light_mapped = bool((packed["lights"][:packed["n_lights"], 8] >= 0).all())
         _retire(self._scene_arrays)
         self._scene_arrays = []
         arrays = {k: self._scene_array(self._packed[k]) for k in _SCENE_ARRAYS}
@@ -721,10 +723,7 @@ class Renderer:
         """Whether fast mode's frames need the code of shadow rays: more than one shadow sample, or a light of the
         current scene without a shadow map. When not, the all-sensors work shades with
         :func:`~benchbot_sim_taichi.sensors.shade_maps_kernel` (the same images, faster)."""
-        if self.shadow_samples > 1 or self._packed is None:
-            return True
-        lights = self._packed["lights"][:self._packed["n_lights"]]
-        return bool((lights[:, 8] < 0).any())
+        return self.shadow_samples > 1 or not self._every_light_mapped
 
     @property
     def lamps_with_maps(self) -> int:

@@ -339,3 +339,31 @@ def test_a_lamps_own_shade_does_not_shadow_the_ceiling_around_it(synthetic_env):
     assert r.render(K, down, W, H)["rgb"][H // 2, W // 2].min() > 20
     down[:3, 3] = (0.07, 3.51, 1.0)  # behind the chair, seen from the lamp: the chair's shadow stays
     assert r.render(K, down, W, H)["rgb"][H // 2 - 1:H // 2 + 1, W // 2 - 1:W // 2 + 1].max() == 0
+
+
+@pytest.mark.slow  # subprocesses that build a furnished scene and render it both ways
+def test_the_cpu_paths_benchmark_and_render_py_numpy_buffers():
+    """``benchmarks/cpu_paths.py`` (the CPU's two launch paths, in the docs), tiny: one burst of each path per round,
+    the rates and their ratio reported, a bad count refused in one line; ``benchmarks/render.py --numpy-buffers``
+    runs the renderer without device buffers and says so in its JSON."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[3]
+    script = [sys.executable, str(root / "benchmarks" / "cpu_paths.py")]
+    proc = subprocess.run(script + ["--env", "miniroom:1", "--width", "32", "--height", "24", "--rounds", "2",
+                                    "--frames", "2", "--json"], capture_output=True, text=True, timeout=900, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    assert set(out["fps"]) == {"graph", "numpy"} and all(len(v) == 2 and min(v) > 0 for v in out["fps"].values())
+    assert out["ratio_min"] <= out["ratio_graph_over_numpy"] <= out["ratio_max"] and out["frames_per_burst"] == 2
+    bad = subprocess.run(script + ["--rounds", "0"], capture_output=True, text=True, timeout=120, cwd=root)
+    assert bad.returncode == 2 and "must be at least 1" in bad.stderr and "Traceback" not in bad.stderr
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "render.py"), "--env", "miniroom:1", "--width",
+                           "32", "--height", "24", "--frames", "2", "--numpy-buffers", "--no-embree", "--json"],
+                          capture_output=True, text=True, timeout=900, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout)
+    assert out["device_buffers"] is False and out["fps"] > 0 and out["fps_with_host_copy"] == out["fps"]
