@@ -397,83 +397,56 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
         inst[b, v, u] = i_id
 
 
-@ti.kernel
-def shade_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lit: ti.i32,
-    n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-):
-    """Step 4 of :func:`sensors_kernel` (:func:`_shade_step`) with shadow rays: for any lights. Parameters: those of
-    :func:`sensors_kernel` that it uses."""
-    _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit, n_always,
-                always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info, consts, vis, rgb,
-                depth, cls, inst, True)
+def _shading_kernel(name: str, shadow_rays: bool, doc: str):
+    """A Taichi kernel named ``name`` that runs :func:`_shade_step` with ``shadow_rays`` (compile-time)."""
+
+    def kernel(
+        table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        pose0: ti.types.vector(POSE_LEN, ti.f32),
+        one: ti.i32,
+        images: ti.i32,
+        nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+        tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+        tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+        tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+        lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        lit: ti.i32,
+        n_always: ti.i32,
+        always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+        light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+        grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+        light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+        lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+        sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+        baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+        baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+        consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+        vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+        rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+        depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+        cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+        inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    ):
+        _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit,
+                    n_always, always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info,
+                    consts, vis, rgb, depth, cls, inst, shadow_rays)
+
+    kernel.__name__ = kernel.__qualname__ = name
+    kernel.__doc__ = doc + " Parameters: those of :func:`sensors_kernel` that it uses."
+    return ti.kernel(kernel)
 
 
-@ti.kernel
-def shade_maps_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pose0: ti.types.vector(POSE_LEN, ti.f32),
-    one: ti.i32,
-    images: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lit: ti.i32,
-    n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-    depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-):
-    """Step 4 of :func:`sensors_kernel` (:func:`_shade_step`) without the code of shadow rays, for frames whose every
-    light takes its shadows from a shadow map (one shadow sample; :func:`sensors_kernels`). Parameters: those of
-    :func:`sensors_kernel` that it uses."""
-    _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit, n_always,
-                always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info, consts, vis, rgb,
-                depth, cls, inst, False)
+#: Step 4 of :func:`sensors_kernel` (:func:`_shade_step`) with shadow rays: for any lights.
+shade_kernel = _shading_kernel("shade_kernel", True, "Step 4 of :func:`sensors_kernel` with shadow rays: any lights.")
+#: Step 4 without the code of shadow rays, for frames whose every light takes its shadows from a shadow map (one
+#: shadow sample; :func:`sensors_kernels`): fewer registers, so more threads at once on a GPU.
+shade_maps_kernel = _shading_kernel("shade_maps_kernel", False,
+                                    "Step 4 of :func:`sensors_kernel` without the code of shadow rays: every light "
+                                    "has a shadow map.")
 
 
 def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True) -> None:

@@ -301,3 +301,10 @@ def test_frames_whose_every_light_has_a_map_are_shaded_without_shadow_rays_and_l
                                            light_colour=np.concatenate([both.light_colour, sun.light_colour]),
                                            light_range=np.concatenate([both.light_range, sun.light_range])))
     assert soft.shadow_rays and rays.shadow_rays and two_suns.shadow_rays
+    # shade_maps_kernel truly has no shadow rays: forced onto lights without maps, those lights add nothing
+    rays.kernel_timer = timer
+    with_rays = rays.render_sensors(K, views, W, H)["rgb"].astype(int)
+    monkeypatch.setattr(Renderer, "shadow_rays", property(lambda self: False))
+    without = rays.render_sensors(K, views, W, H)["rgb"].astype(int)
+    assert shaded_by[-1] == "shade_maps_kernel"
+    assert (without <= with_rays).all() and (without < with_rays - 20).mean() > 0.2
