@@ -92,31 +92,35 @@ def _loop_threads() -> int:
 
 
 @ti.func
-def _spread_range(n, block):
-    """Iterations of a parallel loop over n items that :func:`_spread` deals out: n rounded up to whole blocks of
-    ``block`` items, one share of blocks for each thread."""
+def _per_thread(n):
+    """Items of a loop over n items that each thread's share of :func:`_spread` holds: ⌈n / T⌉."""
+    T = ti.static(_loop_threads())
+    return (n + T - 1) // T
+
+
+@ti.func
+def _spread_range(n):
+    """Iterations of a parallel loop over n items that :func:`_spread` deals out: n rounded up to a whole share for
+    each thread (n itself on a GPU)."""
     r = n
     if ti.static(_loop_threads() > 1):
-        T = ti.static(_loop_threads())
-        per = ((n + block - 1) // block + T - 1) // T  # blocks a thread
-        r = T * per * block
+        r = ti.static(_loop_threads()) * _per_thread(n)
     return r
 
 
 @ti.func
-def _spread(i, n, block):
-    """The item of iteration i of a loop over :func:`_spread_range` iterations (an item ≥ n is none: skip it).
+def _spread(i, n):
+    """The item of iteration i of a loop over :func:`_spread_range` (n) iterations (an item ≥ n is none: skip it).
     Taichi 1.7's CPU back end gives each of its T threads one contiguous chunk of a parallel loop, of max(⌈iterations
     / T⌉, 512) iterations (no work stealing): a loop whose costly items are bunched (the image's lower half, full of
     furniture; the laser's beams, first) keeps one core busy while the other waits. Here thread q's chunk holds
-    blocks q, q + T, q + 2T, … of ``block`` consecutive items: both halves of an image, every other row. On a GPU
-    the items keep their order (neighbouring threads on neighbouring items)."""
+    items q, q + T, q + 2T, …. A loop over larger units (an image row of pixels, a cluster's primitives) spreads
+    the units: iteration it is unit ``_spread(it // size, units)``, element ``it % size`` of it. On a GPU the items
+    keep their order (neighbouring threads on neighbouring items)."""
     item = i
     if ti.static(_loop_threads() > 1):
-        T = ti.static(_loop_threads())
-        per = ((n + block - 1) // block + T - 1) // T
-        blk = i // block
-        item = (T * (blk % per) + blk // per) * block + i % block
+        per = _per_thread(n)
+        item = ti.static(_loop_threads()) * (i % per) + i // per
     return item
 
 
@@ -137,8 +141,8 @@ def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template
     # occluders the beams run while the loop would otherwise wait on a few (one camera: 360 lone beams after the
     # pixels used to cost the H200 a third of a frame).
     n_items = n_scan + B * n_occ
-    for it in range(_spread_range(n_items, 1)):
-        i = _spread(it, n_items, 1)
+    for it in range(_spread_range(n_items)):
+        i = _spread(it, n_items)
         if i >= n_items:
             continue
         if i < n_scan:
@@ -155,8 +159,8 @@ def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template
             raster.rasterise_occluder(e, n_occ, _camera(table, pose0, one, e // n_occ, consts), occluders, pf, pi,
                                       tris, vis, queue, counters, tiles)
     n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
-    for it in range(_spread_range(n_queued, 1)):  # their large images
-        t = _spread(it, n_queued, 1)
+    for it in range(_spread_range(n_queued)):  # their large images
+        t = _spread(it, n_queued)
         if t >= n_queued:
             continue
         j, lane = raster.item_lane(t)
@@ -182,8 +186,8 @@ def _clusters_step(table: ti.template(), pose0, one, images, consts: ti.template
         for i in range(B * images * across[lv] * down[lv]):
             raster.tile_depth(i, lv, vis, tiles)
     n_listing = B * n_clusters
-    for it in range(_spread_range(n_listing, 1)):  # (the clusters in view are bunched in the BVH's order)
-        i = _spread(it, n_listing, 1)
+    for it in range(_spread_range(n_listing)):  # (the clusters in view are bunched in the BVH's order)
+        i = _spread(it, n_listing)
         if i >= n_listing:
             continue
         raster.list_cluster(i, _camera(table, pose0, one, i // n_clusters, consts), n_clusters, cluster_box,
@@ -199,18 +203,19 @@ def _primitives_step(table: ti.template(), pose0, one, images, pf: ti.template()
     ``vis``, then their queued large images."""
     H = vis.shape[2]
     n_clusters = cluster_prims.shape[0] * images
-    n_slots = counters[0] * raster.CLUSTER_PRIMS
-    for it in range(_spread_range(n_slots, raster.CLUSTER_PRIMS)):  # a thread's share: whole clusters
-        i = _spread(it, n_slots, raster.CLUSTER_PRIMS)
-        if i >= n_slots:
+    n_listed = counters[0]
+    for it in range(_spread_range(n_listed) * raster.CLUSTER_PRIMS):  # a thread's share: whole clusters
+        e = _spread(it // raster.CLUSTER_PRIMS, n_listed)
+        if e >= n_listed:
             continue
+        i = e * raster.CLUSTER_PRIMS + it % raster.CLUSTER_PRIMS
         b, k = raster.listed_primitive(i, n_clusters, cluster_prims, listed)
         if k >= 0 and is_occluder[k] == 0:
             raster.rasterise_primitive(_camera(table, pose0, one, b, consts), b, k, pf, pi, tris, vis, queue, counters,
                                        tiles, True, False)
     n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
-    for it in range(_spread_range(n_queued, 1)):
-        t = _spread(it, n_queued, 1)
+    for it in range(_spread_range(n_queued)):
+        t = _spread(it, n_queued)
         if t >= n_queued:
             continue
         j, lane = raster.item_lane(t)
@@ -335,15 +340,15 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
     B = vis.shape[1]
     H = vis.shape[2]
     W = vis.shape[3]
-    # The pixels: each reads its closest hit and is shaded (a thread's share on the CPU: every other row).
-    n_pixels = B * images * H * W
-    for it in range(_spread_range(n_pixels, W)):
-        j = _spread(it, n_pixels, W)
-        if j >= n_pixels:
+    # The pixels: each reads its closest hit and is shaded (a thread's share on the CPU: every T-th image row).
+    rows = B * images * H
+    for it in range(_spread_range(rows) * W):
+        row = _spread(it // W, rows)
+        if row >= rows:
             continue
-        b = j // (H * W)
-        v = (j // W) % H
-        u = j % W
+        b = row // H
+        v = row % H
+        u = it % W
         c = _camera(table, pose0, one, b, consts)
         params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
         o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))

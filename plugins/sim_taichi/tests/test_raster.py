@@ -242,7 +242,8 @@ def test_a_primitive_with_no_image_has_no_pixels():
 
 @pytest.mark.parametrize("threads", [1, 2, 3, 16])
 def test_spread_loops_visit_every_item_once_dealing_blocks_to_the_cpu_threads(monkeypatch, threads):
-    """``sensors._spread``: a loop over ``_spread_range(n, block)`` iterations meets every item of 0..n−1 once (the
+    """``sensors._spread``, over blocks of ``block`` items as the callers use it (an image row of pixels, a cluster's
+    primitives): a loop over ``_spread_range(blocks) · block`` iterations meets every item of 0..n−1 once (the
     others are ≥ n, skipped), and with Taichi's CPU split (each of T threads one contiguous chunk of
     ⌈iterations / T⌉ when that is at least 512) thread q gets blocks q, q + T, … of ``block`` items."""
     from benchbot_sim_taichi import sensors
@@ -253,16 +254,17 @@ def test_spread_loops_visit_every_item_once_dealing_blocks_to_the_cpu_threads(mo
 
     @ti.kernel
     def dealt(n: ti.i32, block: ti.i32, out: ti.types.ndarray(dtype=ti.i32, ndim=1)) -> ti.i32:
-        r = sensors._spread_range(n, block)
+        blocks = (n + block - 1) // block
+        r = sensors._spread_range(blocks) * block
         for it in range(r):
-            out[it] = sensors._spread(it, n, block)
+            out[it] = sensors._spread(it // block, blocks) * block + it % block
         return r
 
     for n, block in ((0, 1), (1, 1), (7, 3), (5000, 1), (4800, 640), (3 * 64 + 5, 64)):
         out = np.full(n + threads * block + 1, -1, np.int32)
         r = dealt(n, block, out)
         items = out[:r]
-        assert r == (n if threads == 1 else threads * -(-(-(-n // block)) // threads) * block)
+        assert r == threads * -(-(-(-n // block)) // threads) * block
         assert r >= n and r - n < threads * block and (out[r:] == -1).all()
         np.testing.assert_array_equal(np.sort(items[items < n]), np.arange(n))
         chunk = r // threads
