@@ -1,12 +1,12 @@
-"""Where a one-camera sensor frame's time goes: the host's launch work against the GPU's, and what a Taichi launch
-costs per argument.
+"""Where a one-camera sensor frame's time goes on CUDA: the host's launch work against the GPU's work.
 
     python benchmarks/one_camera.py --arch cuda --env house:1 [--frames 1500] [--json]
     python benchmarks/one_camera.py --arch cpu --launch-only [--json]
 
 With one camera a fast-mode frame (640×480 RGB + depth + class/instance segmentation + a 360-beam laser scan, as
 ``render.py`` renders it) is short on a GPU, and the host's work to launch it can take longer than the GPU's work.
-This script measures both, for the renderer's one-camera frames along the environment's trajectory:
+This script measures both, for the renderer's one-camera frames along the environment's trajectory (and, below,
+what a Taichi launch costs per argument):
 
 * ``fps``: frames one after another with nothing in between (the GPU waits only at the end), as ``render.py``;
 * ``host_us_per_frame``: the host's time to launch a frame (``render_sensors(..., to_host=False)``) while the GPU is
@@ -46,8 +46,6 @@ import os
 import statistics
 import sys
 import time
-
-import numpy as np
 
 _LOOP = 32  # items of the probe kernels' loop: little work, so that a run costs its launch
 
@@ -164,26 +162,26 @@ class _Events:
 
 
 def _cpu_model() -> str:
-    with contextlib.suppress(OSError):
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+    with contextlib.suppress(OSError), open("/proc/cpuinfo") as f:
+        for line in f:
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
     return "unknown"
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--env", default="house:1", help="environment NAME:VARIANT (default house:1)")
-    ap.add_argument("--arch", default="cuda", choices=("cpu", "cuda"))
-    ap.add_argument("--width", type=int, default=640)
-    ap.add_argument("--height", type=int, default=480)
+    ap.add_argument("--arch", default="cuda", choices=("cpu", "cuda"),
+                    help="Taichi arch (default cuda; cpu measures the launch probes only)")
+    ap.add_argument("--width", type=int, default=640, help="image width, pixels (default 640)")
+    ap.add_argument("--height", type=int, default=480, help="image height, pixels (default 480)")
     ap.add_argument("--frames", type=int, default=1500, help="frames of the frame-rate run (CUDA)")
     ap.add_argument("--group", type=int, default=25, help="frames queued behind each spin kernel (CUDA)")
     ap.add_argument("--groups", type=int, default=12, help="groups measured (CUDA)")
     ap.add_argument("--bursts", type=int, default=15, help="bursts of 50 runs per launch probe")
     ap.add_argument("--launch-only", action="store_true", help="measure only the launch probes")
-    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--json", action="store_true", help="print one JSON object (keys in the module docstring)")
     args = ap.parse_args(argv)
     if min(args.width, args.height, args.frames, args.group, args.groups, args.bursts) < 1:
         ap.error("--width, --height, --frames, --group, --groups and --bursts must be at least 1")
@@ -194,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     from benchbot_sim_taichi.scene import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
-    import taichi as ti
+    import taichi as ti  # (after the renderer's import, which sends Taichi's banner to stderr)
 
     envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
     if args.env not in envs:
