@@ -33,7 +33,8 @@ JSON keys: ``env``, ``arch``, ``width``, ``height``, ``frames``, ``fps``, ``host
 ``gpu_us_per_frame`` (median over groups of ``--group`` frames) with ``gpu_us_range``, ``spin_ms``,
 ``python_us_per_frame``, ``shadow_rays``, ``gpu``, ``launch`` ({``two_ndarrays_us``, ``thirty_ndarrays_us``,
 ``two_dispatches_us``, ``eight_tasks_us``, ``per_ndarray_us``, ``per_dispatch_us``, ``per_task_us``}),
-``frame_launch`` ({``ndarray_args``, ``dispatches``, ``estimate_us``}), ``cpu_model``, ``cpu_count``. On the CPU (or
+``frame_launch`` ({``ndarray_args``, ``dispatches``, ``estimate_us``}), ``launch_after_frames`` (the probes again
+after the frame measurements, CUDA: the host's speed can drift within a process), ``cpu_model``, ``cpu_count``. On the CPU (or
 with ``--launch-only``) only ``launch`` and ``frame_launch`` are measured, and no scene is built: CPU kernels run
 while they are launched, so there is no separate GPU time.
 """
@@ -41,6 +42,7 @@ while they are launched, so there is no separate GPU time.
 import argparse
 import contextlib
 import ctypes
+import functools
 import json
 import os
 import statistics
@@ -50,8 +52,9 @@ import time
 _LOOP = 32  # items of the probe kernels' loop: little work, so that a run costs its launch
 
 
+@functools.cache
 def _probe_kernels(ti):
-    """The launch-cost probes: Taichi kernels with 2 and 30 ndarray parameters, and one with 8 loops."""
+    """The launch-cost probes: Taichi kernels with 2 and 30 ndarray parameters, and one with 8 loops (made once)."""
     nd = ti.types.ndarray(dtype=ti.f32, ndim=1)
 
     @ti.kernel
@@ -209,6 +212,7 @@ def main(argv: list[str] | None = None) -> int:
         r.set_scene(scene)
         out["shadow_rays"] = r.shadow_rays
         out.update(_frames(args, r, renderer_module, intrinsics, trajectory_views(scene), ti))
+        out["launch_after_frames"] = launch_costs(ti, args.bursts)  # the host may have changed speed meanwhile
         import gpu_host
 
         out["gpu"] = gpu_host.device_info()["gpu"]
