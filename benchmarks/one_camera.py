@@ -267,9 +267,12 @@ def _frames(args, r, renderer_module, intrinsics, views, ti) -> dict:
     spin(200_000, spin_out)
     ev.record(spin_end)
     steps_per_ms = 200_000 / max(ev.ms(start, spin_end), 1e-3)
-    host, gpu, spin_ms = [], [], 4.0 * args.group * 1e-3  # start from 4 ms a frame of spin
+    host, gpu, spin_ms = [], [], 0.5 * args.group  # half a millisecond of spin a frame, doubled while too short
     g = 0
     while len(gpu) < args.groups:
+        if spin_ms * steps_per_ms >= 2**31:
+            raise SystemExit(f"one_camera.py: {args.group} frames took the host longer than a {spin_ms:.0f} ms spin "
+                             "kernel; try a smaller --group")
         r.sync()
         spin(int(spin_ms * steps_per_ms), spin_out)
         ev.record(spin_end)

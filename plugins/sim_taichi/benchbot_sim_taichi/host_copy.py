@@ -55,6 +55,9 @@ def host_view(nd) -> np.ndarray:
     keeps ``nd`` alive, and shows what the kernels write there next (``.copy()`` it to keep a frame). Taichi's own
     ``Ndarray.to_numpy`` runs a copy kernel (compiled on its first call) for each array instead.
 
+    Returns:
+        an array of ``nd``'s shape (element dimensions last) and the NumPy dtype of its element type.
+
     Raises:
         ValueError: ``nd`` is not in host memory (Taichi runs on another arch).
     """

@@ -105,7 +105,7 @@ from benchbot_sim_taichi.raster import (  # noqa: E402
     CLUSTER_PRIMS, COUNTERS, EMPTY, OCCLUDER_AREA_M2, QUEUE_COLS, split, tile_entries,
 )
 from benchbot_sim_taichi.sensors import (  # noqa: E402
-    POSE_LEN, SENSORS_ARGS, reset_graph, sensors_graph, sensors_kernel,
+    POSE_LEN, SENSORS_ARG_NAMES, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -897,7 +897,7 @@ class Renderer:
         values = (table, pose0, one, int(images), beams, n_beams, *s[:9], int(lit), *s[15:20], s[11], s[12], s[20],
                   s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
                   out["instance"], ranges)
-        values = dict(zip((name for name, *_ in SENSORS_ARGS), values))
+        values = dict(zip(SENSORS_ARG_NAMES, values))
         rays = self.shadow_rays
         if self.device_buffers and self.kernel_timer is None:  # all Taichi ndarrays: launch the compiled graph
             values["pose0"] = ti.Vector(values["pose0"].tolist())

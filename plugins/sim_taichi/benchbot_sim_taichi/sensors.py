@@ -102,10 +102,7 @@ def _per_thread(n):
 def _spread_range(n):
     """Iterations of a parallel loop over n items that :func:`_spread` deals out: n rounded up to a whole share for
     each thread (n itself on a GPU)."""
-    r = n
-    if ti.static(_loop_threads() > 1):
-        r = ti.static(_loop_threads()) * _per_thread(n)
-    return r
+    return ti.static(_loop_threads()) * _per_thread(n)
 
 
 @ti.func
@@ -496,15 +493,15 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
     after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
-    one-camera frame, which is short there (one H200, house:1, one camera: 3,918 fps with these two kernels,
-    ``benchmarks/render.py``; each launch costs more the more arguments it passes)."""
+    one-camera frame, which is short there: its GPU work takes 211–215 µs (one H200, house:1), launching it 236–551
+    µs of the host's time, most of that Taichi's work for each argument and loop (``benchmarks/one_camera.py``)."""
     shade = shade_kernel if shadow_rays else shade_maps_kernel
     if arch == "cuda":
         return (visibility_kernel, shade)
     return (occluders_kernel, clusters_kernel, primitives_kernel, shade)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def kernel_parameters(kernel) -> tuple[str, ...]:
     """The names of a Taichi kernel's parameters, in order (names of :data:`SENSORS_ARGS`); cached (read on every
     launch)."""
@@ -527,6 +524,8 @@ SENSORS_ARGS = (
     ("rgb", "nd", "u8", 4),
     ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
 )
+#: The names of :data:`SENSORS_ARGS`, in order (the renderer keys a launch's values with them on every frame).
+SENSORS_ARG_NAMES = tuple(name for name, *_ in SENSORS_ARGS)
 _SENSORS_GRAPHS: dict = {}
 
 
