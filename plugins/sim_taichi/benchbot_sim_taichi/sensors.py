@@ -121,103 +121,172 @@ def _spread(i, n):
     return item
 
 
+#: Lanes of a parallel loop on a GPU (:func:`_lanes`): about the threads Taichi itself gives a long loop there (its
+#: saturating grid: on an H200 132 SMs × 32 resident blocks × 2, of 128 threads, 1.08 M).
+GPU_LANES = 1 << 20
+
+
+def _gpu_lanes() -> int:
+    """:data:`GPU_LANES` on a GPU, 0 on the CPU (read when a kernel is compiled)."""
+    return GPU_LANES if ti.lang.impl.current_cfg().arch == ti.cuda else 0
+
+
 @ti.func
-def _occluders_step(table: ti.template(), pose0, one, images, beams: ti.template(), n_beams, nodes: ti.template(),
-                    pf: ti.template(), pi: ti.template(), tris: ti.template(), consts: ti.template(), n_occluders,
+def _lanes(m: ti.template()):
+    """The bound of a parallel loop of m iterations, which runs :func:`_steps` (lane, m) iterations a lane, iteration
+    :func:`_iteration` (lane, step). On a GPU the constant :data:`GPU_LANES` (m is not read), lane ℓ taking the
+    iterations ℓ, ℓ + GPU_LANES, …: Taichi computes a bound that is not a compile-time constant in a serial task,
+    one more GPU kernel to launch before the loop's, and with one camera the host's work to launch a frame is what
+    limits its rate (``benchmarks/one_camera.py``); so the counts a loop needs are computed inside it, and m is a
+    template: an expression that is never evaluated there (it must not call a Taichi function, which would be).
+    On the CPU m itself (at least 1), one iteration a lane (Taichi's CPU back end deals out the lanes,
+    :func:`_spread`). The shading loop keeps Taichi's own bound: its body in a lane's loop took the H200 twice as
+    long with 256 cameras a launch (``benchmarks/sensors_kernels.py --tasks``)."""
+    if ti.static(_gpu_lanes()):
+        return ti.static(_gpu_lanes())
+    else:
+        return ti.max(m, 1)
+
+
+@ti.func
+def _steps(lane, m):
+    """Iterations of lane ``lane`` of a loop of m iterations (:func:`_lanes`)."""
+    if ti.static(_gpu_lanes()):
+        return (m - lane + ti.static(_gpu_lanes()) - 1) // ti.static(_gpu_lanes())
+    else:
+        return ti.cast(lane < m, ti.i32)
+
+
+@ti.func
+def _iteration(lane, step):
+    """Iteration ``step`` of lane ``lane`` (:func:`_lanes`), in 0..m−1. (On the CPU step is 0, and the iteration is
+    lane + step all the same: an item that did not depend on the inner loop would be hoisted above it by Taichi's
+    loop-invariant code motion, and an empty loop's item arithmetic can divide by zero, which traps on a CPU.)"""
+    if ti.static(_gpu_lanes()):
+        return lane + step * ti.static(_gpu_lanes())
+    else:
+        return lane + step
+
+
+@ti.func
+def _occluders_step(table: ti.template(), pose0: ti.template(), one: ti.template(), images: ti.template(),
+                    beams: ti.template(), n_beams: ti.template(), nodes: ti.template(), pf: ti.template(),
+                    pi: ti.template(), tris: ti.template(), consts: ti.template(), n_occluders: ti.template(),
                     occluders: ti.template(), queue: ti.template(), counters: ti.template(), tiles: ti.template(),
                     vis: ti.template(), ranges: ti.template()):
     """Step 1: the laser's beams into ``ranges`` beside the occluders (large triangles) rasterised into ``vis``, then
-    their queued large images."""
-    B = vis.shape[1]
-    H = vis.shape[2]
-    n_occ = n_occluders * images
-    n_scan = ranges.shape[0] * n_beams
+    their queued large images. (Each loop computes the counts it needs itself: :func:`_lanes`.)"""
     counters[0] = 0
     counters[1] = 0
     # 1. The laser's beams, and the occluders (the large triangles) of each camera. A beam is a long ray: beside the
     # occluders the beams run while the loop would otherwise wait on a few (one camera: 360 lone beams after the
     # pixels used to cost the H200 a third of a frame).
-    n_items = n_scan + B * n_occ
-    for it in range(_spread_range(n_items)):
-        i = _spread(it, n_items)
-        if i >= n_items:
-            continue
-        if i < n_scan:
-            b = i // n_beams
-            beam = i % n_beams
-            q = pose0
-            if one == 0:
-                for m in ti.static(range(12, POSE_LEN)):
-                    q[m] = table[b, m]
-            ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], nodes, pf, pi, tris,
-                                         consts)
-        else:
-            e = i - n_scan
-            raster.rasterise_occluder(e, n_occ, _camera(table, pose0, one, e // n_occ, consts), occluders, pf, pi,
-                                      tris, vis, queue, counters, tiles)
-    n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
-    for it in range(_spread_range(n_queued)):  # their large images
-        t = _spread(it, n_queued)
-        if t >= n_queued:
-            continue
-        j, lane = raster.item_lane(t)
-        raster.rasterise_queued(j, lane, _camera(table, pose0, one, queue[j, 1] // H, consts), pf, pi, tris, vis,
-                                queue, True)
+    for lane in range(_lanes(_spread_range(ranges.shape[0] * n_beams + vis.shape[1] * n_occluders * images))):
+        n_occ = n_occluders * images
+        n_scan = ranges.shape[0] * n_beams
+        n_items = n_scan + vis.shape[1] * n_occ
+        for step in range(_steps(lane, _spread_range(n_items))):
+            i = _spread(_iteration(lane, step), n_items)
+            if i < n_items:
+                _occluder_item(i, n_scan, n_occ, table, pose0, one, beams, n_beams, nodes, pf, pi, tris, consts,
+                               occluders, queue, counters, tiles, vis, ranges)
+    _queued_loop(table, pose0, one, pf, pi, tris, consts, queue, counters, vis, True)
 
 
 @ti.func
-def _clusters_step(table: ti.template(), pose0, one, images, consts: ti.template(), cluster_box: ti.template(),
-                   cluster_prims: ti.template(), listed: ti.template(), counters: ti.template(), tiles: ti.template(),
-                   vis: ti.template()):
+def _occluder_item(i, n_scan, n_occ, table: ti.template(), pose0, one, beams: ti.template(), n_beams,
+                   nodes: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
+                   consts: ti.template(), occluders: ti.template(), queue: ti.template(), counters: ti.template(),
+                   tiles: ti.template(), vis: ti.template(), ranges: ti.template()):
+    """Item i of step 1's first loop: a laser beam (i < n_scan), else an occluder of one camera."""
+    if i < n_scan:
+        b = i // n_beams
+        beam = i % n_beams
+        q = pose0
+        if one == 0:
+            for m in ti.static(range(12, POSE_LEN)):
+                q[m] = table[b, m]
+        ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], nodes, pf, pi, tris,
+                                     consts)
+    else:
+        e = i - n_scan
+        raster.rasterise_occluder(e, n_occ, _camera(table, pose0, one, e // n_occ, consts), occluders, pf, pi, tris,
+                                  vis, queue, counters, tiles)
+
+
+@ti.func
+def _queued_loop(table: ti.template(), pose0: ti.template(), one: ti.template(), pf: ti.template(),
+                 pi: ti.template(), tris: ti.template(), consts: ti.template(), queue: ti.template(),
+                 counters: ti.template(), vis: ti.template(), occluders: ti.template()):
+    """The loop over the parts of the large images queued by the loop before (``counters[1]`` of them; steps 1 and
+    3), ``occluders`` (compile-time) as ``raster.rasterise_queued`` takes it."""
+    for lane in range(_lanes(_spread_range(ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])))):
+        n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
+        for step in range(_steps(lane, _spread_range(n_queued))):
+            t = _spread(_iteration(lane, step), n_queued)
+            if t < n_queued:
+                j, part = raster.item_lane(t)
+                raster.rasterise_queued(j, part, _camera(table, pose0, one, queue[j, 1] // vis.shape[2], consts), pf,
+                                        pi, tris, vis, queue, occluders)
+
+
+@ti.func
+def _tiles(vis: ti.template(), images: ti.template(), lv: ti.template(), rows: ti.template()):
+    """Items of a loop of step 2 over the B cameras' tiles of pyramid level ``lv`` (as ``raster.tile_levels``): with
+    ``rows``, row segments of a level-0 tile's width; else tiles. (Template parameters and no local variable: in a
+    bound of :func:`_lanes` it leaves no statement behind on a GPU.)"""
+    side = ti.static(raster.TILE_PX * 4 ** lv)
+    return vis.shape[1] * images * ((vis.shape[3] + side - 1) // side) * (
+        vis.shape[2] if ti.static(rows) else (vis.shape[2] + side - 1) // side)
+
+
+@ti.func
+def _clusters_step(table: ti.template(), pose0: ti.template(), one: ti.template(), images: ti.template(),
+                   consts: ti.template(), cluster_box: ti.template(), cluster_prims: ti.template(),
+                   listed: ti.template(), counters: ti.template(), tiles: ti.template(), vis: ti.template()):
     """Step 2: the tile pyramid of the depths in ``vis`` so far, then the clusters in each camera's view and not
     hidden behind it, into ``listed``."""
-    B = vis.shape[1]
-    H = vis.shape[2]
-    W = vis.shape[3]
-    n_clusters = cluster_prims.shape[0] * images
-    across, down, _first, _total = raster.tile_levels(W, H)
-    counters[1] = 0
-    for i in range(B * images * H * across[0]):
-        raster.segment_depth(i, vis, tiles)
+    for lane in range(_lanes(_tiles(vis, images, 0, True))):
+        if lane == 0:  # (here and not before the loop, which would cost a serial task: :func:`_lanes`)
+            counters[1] = 0
+        for step in range(_steps(lane, _tiles(vis, images, 0, True))):
+            raster.segment_depth(_iteration(lane, step), vis, tiles)
     for lv in ti.static(range(raster.TILE_LEVELS)):
-        for i in range(B * images * across[lv] * down[lv]):
-            raster.tile_depth(i, lv, vis, tiles)
-    n_listing = B * n_clusters
-    for it in range(_spread_range(n_listing)):  # (the clusters in view are bunched in the BVH's order)
-        i = _spread(it, n_listing)
-        if i >= n_listing:
-            continue
-        raster.list_cluster(i, _camera(table, pose0, one, i // n_clusters, consts), n_clusters, cluster_box,
-                            cluster_prims, listed, counters, tiles, W, H)
+        for lane in range(_lanes(_tiles(vis, images, lv, False))):
+            for step in range(_steps(lane, _tiles(vis, images, lv, False))):
+                raster.tile_depth(_iteration(lane, step), lv, vis, tiles)
+    # (the clusters in view are bunched in the BVH's order: dealt out on the CPU)
+    for lane in range(_lanes(_spread_range(vis.shape[1] * cluster_prims.shape[0] * images))):
+        n_clusters = cluster_prims.shape[0] * images
+        n_listing = vis.shape[1] * n_clusters
+        for step in range(_steps(lane, _spread_range(n_listing))):
+            i = _spread(_iteration(lane, step), n_listing)
+            if i < n_listing:
+                raster.list_cluster(i, _camera(table, pose0, one, i // n_clusters, consts), n_clusters, cluster_box,
+                                    cluster_prims, listed, counters, tiles, vis.shape[3], vis.shape[2])
 
 
 @ti.func
-def _primitives_step(table: ti.template(), pose0, one, images, pf: ti.template(), pi: ti.template(),
-                     tris: ti.template(), consts: ti.template(), cluster_prims: ti.template(),
-                     is_occluder: ti.template(), listed: ti.template(), queue: ti.template(), counters: ti.template(),
-                     tiles: ti.template(), vis: ti.template()):
+def _primitives_step(table: ti.template(), pose0: ti.template(), one: ti.template(), images: ti.template(),
+                     pf: ti.template(), pi: ti.template(), tris: ti.template(), consts: ti.template(),
+                     cluster_prims: ti.template(), is_occluder: ti.template(), listed: ti.template(),
+                     queue: ti.template(), counters: ti.template(), tiles: ti.template(), vis: ti.template()):
     """Step 3: the listed clusters' primitives (but the occluders), each culled against the tile pyramid, into
     ``vis``, then their queued large images."""
-    H = vis.shape[2]
-    n_clusters = cluster_prims.shape[0] * images
-    n_listed = counters[0]
-    for it in range(_spread_range(n_listed) * raster.CLUSTER_PRIMS):  # a thread's share: whole clusters
-        e = _spread(it // raster.CLUSTER_PRIMS, n_listed)
-        if e >= n_listed:
-            continue
-        i = e * raster.CLUSTER_PRIMS + it % raster.CLUSTER_PRIMS
-        b, k = raster.listed_primitive(i, n_clusters, cluster_prims, listed)
-        if k >= 0 and is_occluder[k] == 0:
-            raster.rasterise_primitive(_camera(table, pose0, one, b, consts), b, k, pf, pi, tris, vis, queue, counters,
-                                       tiles, True, False)
-    n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
-    for it in range(_spread_range(n_queued)):
-        t = _spread(it, n_queued)
-        if t >= n_queued:
-            continue
-        j, lane = raster.item_lane(t)
-        raster.rasterise_queued(j, lane, _camera(table, pose0, one, queue[j, 1] // H, consts), pf, pi, tris, vis,
-                                queue, False)
+    # a thread's share on the CPU: whole clusters
+    for lane in range(_lanes(_spread_range(counters[0]) * raster.CLUSTER_PRIMS)):
+        n_clusters = cluster_prims.shape[0] * images
+        n_listed = counters[0]
+        for step in range(_steps(lane, _spread_range(n_listed) * raster.CLUSTER_PRIMS)):
+            it = _iteration(lane, step)
+            e = _spread(it // raster.CLUSTER_PRIMS, n_listed)
+            if e < n_listed:
+                i = e * raster.CLUSTER_PRIMS + it % raster.CLUSTER_PRIMS
+                b, k = raster.listed_primitive(i, n_clusters, cluster_prims, listed)
+                if k >= 0 and is_occluder[k] == 0:
+                    raster.rasterise_primitive(_camera(table, pose0, one, b, consts), b, k, pf, pi, tris, vis, queue,
+                                               counters, tiles, True, False)
+    _queued_loop(table, pose0, one, pf, pi, tris, consts, queue, counters, vis, False)
 
 
 @ti.kernel

@@ -373,3 +373,92 @@ def test_the_sensors_kernels_benchmark_times_each_kernel_and_its_tasks():
     bad = subprocess.run([sys.executable, str(root / "benchmarks" / "sensors_kernels.py"), "--frames", "0"],
                          capture_output=True, text=True, timeout=120, cwd=root)
     assert bad.returncode == 2 and "must be at least 1" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.parametrize("lanes", [0, 7])
+def test_lanes_run_every_iteration_of_a_loop_once(monkeypatch, lanes):
+    """``sensors._lanes``/``_steps``/``_iteration``: a loop of m iterations over ``_lanes(m)`` lanes meets each of
+    0..m−1 once, on the CPU (lanes 0: one iteration a lane) and with a GPU's constant lanes forced on (7 lanes,
+    several iterations a lane, some lanes with none)."""
+    from benchbot_sim_taichi import sensors
+    from benchbot_sim_taichi.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+    if lanes:
+        monkeypatch.setattr(sensors, "_gpu_lanes", lambda: lanes)
+
+    @ti.kernel
+    def visits(m: ti.i32, out: ti.types.ndarray(dtype=ti.i32, ndim=1)):
+        for lane in range(sensors._lanes(m)):
+            for step in range(sensors._steps(lane, m)):
+                ti.atomic_add(out[sensors._iteration(lane, step)], 1)
+
+    for m in (0, 1, 6, 7, 8, 50):
+        out = np.zeros(m + 1, np.int32)
+        visits(m, out)
+        assert out[:m].tolist() == [1] * m and out[m] == 0, (lanes, m)
+
+
+_FORCED_LANES = """
+import json, re, sys
+import numpy as np
+from benchbot_sim_taichi import sensors
+sensors._gpu_lanes = lambda: 64  # the GPU's loop structure, on the CPU
+from benchbot_sim_taichi import plugin
+from benchbot_sim_taichi.renderer import Renderer, intrinsics
+from benchbot_sim_taichi.scene import build_scene
+from taichi.profiler.kernel_profiler import get_default_kernel_profiler
+spec = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}["miniroom:1"]
+poses = np.load(sys.argv[2])
+r = Renderer("cpu", device_buffers=False)
+r.set_scene(build_scene(spec))
+out = r.render_sensors(intrinsics(96, 72, 90.0), poses["cams"], 96, 72, poses["lidars"], poses["angles"])
+np.savez(sys.argv[1], **{k: np.asarray(v) for k, v in out.items()})
+profiler = get_default_kernel_profiler()
+profiler._update_records()
+print(json.dumps(sorted({m.group(1) + " " + m.group(2) for rec in profiler._traced_records
+                         if (m := re.fullmatch(r"(.+)_c\\d+_\\d+_kernel_\\d+_(range_for|serial)", rec.name))})))
+print(json.dumps([rec.name for rec in profiler._traced_records if rec.name.endswith("_serial")]), file=sys.stderr)
+"""
+
+
+@pytest.mark.slow  # a subprocess that compiles the four CPU kernels with a GPU's loop structure
+def test_a_gpus_constant_lanes_give_the_same_frames_with_one_serial_task_for_the_visibility(bear_envs, tmp_path,
+                                                                                          monkeypatch):
+    """With a GPU's constant lanes (``sensors._gpu_lanes`` forced on, on the CPU, whose offloading is the same):
+    the steps before the shading have no serial task but the one that zeroes the counters (none computes a loop's
+    bound), and the frames of a batch of three cameras and their scans equal the CPU's own loops' exactly."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene import build_scene
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[3] / "benchmarks"))
+    from trajectory_views import trajectory_views
+
+    scene = build_scene(bear_envs["miniroom:1"])
+    cams, lidars, angles = trajectory_views(scene)
+    poses = tmp_path / "poses.npz"
+    views = (0, len(cams) // 2, len(cams) - 1)
+    np.savez(poses, cams=np.stack([cams[k] for k in views]), lidars=np.stack([lidars[k] for k in views]),
+             angles=angles)
+    proc = subprocess.run([sys.executable, "-c", _FORCED_LANES, str(tmp_path / "forced.npz"), str(poses)],
+                          capture_output=True, text=True, timeout=1200, env={**os.environ, "TI_KERNEL_PROFILER": "1"})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    tasks = json.loads(proc.stdout.strip().splitlines()[-1])
+    serial = {t for t in tasks if t.endswith("serial")}  # the shading keeps Taichi's own bound (sensors._lanes)
+    assert serial in ({"occluders_kernel serial", "shade_kernel serial"},
+                      {"occluders_kernel serial", "shade_maps_kernel serial"}), tasks
+    assert {t.split()[0] for t in tasks} >= {"occluders_kernel", "clusters_kernel", "primitives_kernel"}
+    r = Renderer("cpu", device_buffers=False)
+    r.set_scene(scene)
+    p = np.load(poses)
+    own = r.render_sensors(intrinsics(96, 72, 90.0), p["cams"], 96, 72, p["lidars"], p["angles"])
+    forced = np.load(tmp_path / "forced.npz")
+    assert set(forced.files) == set(own) and own["depth"].any()
+    for key in own:
+        np.testing.assert_array_equal(forced[key], np.asarray(own[key]), err_msg=key)
