@@ -41,7 +41,6 @@ while they are launched, so there is no separate GPU time.
 
 import argparse
 import contextlib
-import ctypes
 import functools
 import json
 import os
@@ -135,35 +134,6 @@ def frame_launch(arch: str, costs: dict) -> dict:
             + (n_nd - 2 * len(kernels)) * costs["per_ndarray_us"]}
 
 
-class _Events:
-    """CUDA events on the legacy default stream (where Taichi launches), through the driver library."""
-
-    def __init__(self):
-        from benchbot_sim_taichi.host_copy import check, cuda_driver
-
-        self.lib, self.check = cuda_driver(), check
-
-    def new(self):
-        e = ctypes.c_void_p()
-        self.check("cuEventCreate", self.lib.cuEventCreate(ctypes.byref(e), 0))
-        return e
-
-    def record(self, e) -> None:
-        self.check("cuEventRecord", self.lib.cuEventRecord(e, None))
-
-    def done(self, e) -> bool:
-        code = self.lib.cuEventQuery(e)
-        if code not in (0, 600):  # 600: CUDA_ERROR_NOT_READY
-            self.check("cuEventQuery", code)
-        return code == 0
-
-    def ms(self, a, b) -> float:
-        self.check("cuEventSynchronize", self.lib.cuEventSynchronize(b))
-        out = ctypes.c_float()
-        self.check("cuEventElapsedTime", self.lib.cuEventElapsedTime(ctypes.byref(out), a, b))
-        return out.value
-
-
 def _cpu_model() -> str:
     with contextlib.suppress(OSError), open("/proc/cpuinfo") as f:
         for line in f:
@@ -213,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
         out["shadow_rays"] = r.shadow_rays
         out.update(_frames(args, r, renderer_module, intrinsics, trajectory_views(scene), ti))
         out["launch_after_frames"] = launch_costs(ti, args.bursts)  # the host may have changed speed meanwhile
-        import gpu_host
+        import gpu_host  # (this folder is on sys.path when a script here runs)
 
         out["gpu"] = gpu_host.device_info()["gpu"]
     if args.json:
@@ -232,6 +202,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _frames(args, r, renderer_module, intrinsics, views, ti) -> dict:
     """The CUDA frame measurements (see the module's docstring)."""
+    import gpu_host
+
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
     cams, lidars, angles = views
@@ -249,7 +221,7 @@ def _frames(args, r, renderer_module, intrinsics, views, ti) -> dict:
     r.sync()
     fps = args.frames / (time.perf_counter() - t0)
 
-    ev = _Events()
+    ev = gpu_host.CudaEvents()
     spin_out = ti.ndarray(ti.f32, shape=(1,))
 
     @ti.kernel

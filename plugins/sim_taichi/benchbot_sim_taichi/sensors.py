@@ -138,7 +138,8 @@ def _lanes(m: ti.template()):
     iterations ℓ, ℓ + GPU_LANES, …: Taichi computes a bound that is not a compile-time constant in a serial task,
     one more GPU kernel to launch before the loop's, and with one camera the host's work to launch a frame is what
     limits its rate (``benchmarks/one_camera.py``); so the counts a loop needs are computed inside it, and m is a
-    template: an expression that is never evaluated there (it must not call a Taichi function, which would be).
+    template: an expression that is never evaluated there (a Taichi function it calls must keep no local variable
+    that is assigned twice, or the variable stays behind in a serial task; :func:`_tiles` and the other counts).
     On the CPU m itself (at least 1), one iteration a lane (Taichi's CPU back end deals out the lanes,
     :func:`_spread`). The shading loop keeps Taichi's own bound: its body in a lane's loop took the H200 twice as
     long with 256 cameras a launch (``benchmarks/sensors_kernels.py --tasks``)."""
@@ -181,10 +182,10 @@ def _occluders_step(table: ti.template(), pose0: ti.template(), one: ti.template
     # 1. The laser's beams, and the occluders (the large triangles) of each camera. A beam is a long ray: beside the
     # occluders the beams run while the loop would otherwise wait on a few (one camera: 360 lone beams after the
     # pixels used to cost the H200 a third of a frame).
-    for lane in range(_lanes(_spread_range(ranges.shape[0] * n_beams + vis.shape[1] * n_occluders * images))):
-        n_occ = n_occluders * images
+    for lane in range(_lanes(_spread_range(_beams_and_occluders(ranges, n_beams, vis, n_occluders, images)))):
+        n_items = _beams_and_occluders(ranges, n_beams, vis, n_occluders, images)
         n_scan = ranges.shape[0] * n_beams
-        n_items = n_scan + vis.shape[1] * n_occ
+        n_occ = n_occluders * images
         for step in range(_steps(lane, _spread_range(n_items))):
             i = _spread(_iteration(lane, step), n_items)
             if i < n_items:
@@ -220,8 +221,8 @@ def _queued_loop(table: ti.template(), pose0: ti.template(), one: ti.template(),
                  counters: ti.template(), vis: ti.template(), occluders: ti.template()):
     """The loop over the parts of the large images queued by the loop before (``counters[1]`` of them; steps 1 and
     3), ``occluders`` (compile-time) as ``raster.rasterise_queued`` takes it."""
-    for lane in range(_lanes(_spread_range(ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])))):
-        n_queued = ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
+    for lane in range(_lanes(_spread_range(_queued(counters, queue)))):
+        n_queued = _queued(counters, queue)
         for step in range(_steps(lane, _spread_range(n_queued))):
             t = _spread(_iteration(lane, step), n_queued)
             if t < n_queued:
@@ -230,11 +231,39 @@ def _queued_loop(table: ti.template(), pose0: ti.template(), one: ti.template(),
                                         pi, tris, vis, queue, occluders)
 
 
+# The counts of the loops of steps 1-3, each written once for both the loop's bound (:func:`_lanes`) and its lanes:
+# Taichi functions of template parameters with no local variable, which in a bound leave no statement behind on a GPU.
+
+
+@ti.func
+def _beams_and_occluders(ranges: ti.template(), n_beams: ti.template(), vis: ti.template(),
+                         n_occluders: ti.template(), images: ti.template()):
+    """Items of step 1's first loop: the B scans' beams, then the B cameras' occluders."""
+    return ranges.shape[0] * n_beams + vis.shape[1] * n_occluders * images
+
+
+@ti.func
+def _queued(counters: ti.template(), queue: ti.template()):
+    """Items of :func:`_queued_loop`: the parts of the queued images (the queue keeps at most its rows)."""
+    return ti.min(counters[1], queue.shape[0]) * ti.static(raster.split()["lanes"])
+
+
+@ti.func
+def _listing(vis: ti.template(), cluster_prims: ti.template(), images: ti.template()):
+    """Items of step 2's last loop: each camera's clusters."""
+    return vis.shape[1] * cluster_prims.shape[0] * images
+
+
+@ti.func
+def _primitive_iterations(counters: ti.template()):
+    """Iterations of step 3's first loop: the listed clusters' primitives (a CPU thread's share: whole clusters)."""
+    return _spread_range(counters[0]) * raster.CLUSTER_PRIMS
+
+
 @ti.func
 def _tiles(vis: ti.template(), images: ti.template(), lv: ti.template(), rows: ti.template()):
     """Items of a loop of step 2 over the B cameras' tiles of pyramid level ``lv`` (as ``raster.tile_levels``): with
-    ``rows``, row segments of a level-0 tile's width; else tiles. (Template parameters and no local variable: in a
-    bound of :func:`_lanes` it leaves no statement behind on a GPU.)"""
+    ``rows``, row segments of a level-0 tile's width; else tiles."""
     side = ti.static(raster.TILE_PX * 4 ** lv)
     return vis.shape[1] * images * ((vis.shape[3] + side - 1) // side) * (
         vis.shape[2] if ti.static(rows) else (vis.shape[2] + side - 1) // side)
@@ -256,9 +285,9 @@ def _clusters_step(table: ti.template(), pose0: ti.template(), one: ti.template(
             for step in range(_steps(lane, _tiles(vis, images, lv, False))):
                 raster.tile_depth(_iteration(lane, step), lv, vis, tiles)
     # (the clusters in view are bunched in the BVH's order: dealt out on the CPU)
-    for lane in range(_lanes(_spread_range(vis.shape[1] * cluster_prims.shape[0] * images))):
+    for lane in range(_lanes(_spread_range(_listing(vis, cluster_prims, images)))):
         n_clusters = cluster_prims.shape[0] * images
-        n_listing = vis.shape[1] * n_clusters
+        n_listing = _listing(vis, cluster_prims, images)
         for step in range(_steps(lane, _spread_range(n_listing))):
             i = _spread(_iteration(lane, step), n_listing)
             if i < n_listing:
@@ -273,11 +302,10 @@ def _primitives_step(table: ti.template(), pose0: ti.template(), one: ti.templat
                      queue: ti.template(), counters: ti.template(), tiles: ti.template(), vis: ti.template()):
     """Step 3: the listed clusters' primitives (but the occluders), each culled against the tile pyramid, into
     ``vis``, then their queued large images."""
-    # a thread's share on the CPU: whole clusters
-    for lane in range(_lanes(_spread_range(counters[0]) * raster.CLUSTER_PRIMS)):
+    for lane in range(_lanes(_primitive_iterations(counters))):
         n_clusters = cluster_prims.shape[0] * images
         n_listed = counters[0]
-        for step in range(_steps(lane, _spread_range(n_listed) * raster.CLUSTER_PRIMS)):
+        for step in range(_steps(lane, _primitive_iterations(counters))):
             it = _iteration(lane, step)
             e = _spread(it // raster.CLUSTER_PRIMS, n_listed)
             if e < n_listed:
@@ -562,8 +590,9 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
     after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
-    one-camera frame, which is short there: its GPU work takes 211–215 µs (one H200, house:1), launching it 236–551
-    µs of the host's time, most of that Taichi's work for each argument and loop (``benchmarks/one_camera.py``)."""
+    one-camera frame, which is short there: its GPU work takes 194–196 µs (one H200, house:1), launching it 203–224
+    µs of a fast host's time, most of that Taichi's work for each argument and loop (``benchmarks/one_camera.py``;
+    steps 1 to 3 loop over constant lanes there, :func:`_lanes`, which saves a launch for each loop)."""
     shade = shade_kernel if shadow_rays else shade_maps_kernel
     if arch == "cuda":
         return (visibility_kernel, shade)
