@@ -94,6 +94,7 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
+from benchbot_sim_taichi.packed_scene import pack as pack_for_sensors  # noqa: E402
 from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_NORMAL_OFFSET, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_CELL_M, LIGHT_COLS, LIGHT_GRID_BLOCK,
@@ -105,7 +106,7 @@ from benchbot_sim_taichi.raster import (  # noqa: E402
     CLUSTER_PRIMS, COUNTERS, EMPTY, OCCLUDER_AREA_M2, QUEUE_COLS, split, tile_entries,
 )
 from benchbot_sim_taichi.sensors import (  # noqa: E402
-    POSE_LEN, SENSORS_ARG_NAMES, reset_graph, sensors_graph, sensors_kernel,
+    POSE_LEN, SENSORS_ARG_NAMES, launch_arg_names, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -567,6 +568,7 @@ class Renderer:
         self._packed: dict | None = None
         self._every_light_mapped = False  # (of the current scene: see shadow_rays)
         self._scene_args: tuple | None = None
+        self._sensor_packs: tuple | None = None  # (scene_f32, scene_i32): packed_scene.pack of the current scene
         self.shadow_samples = int(shadow_samples)
         self.seed = int(seed)
         self.device_buffers = True if device_buffers is None else bool(device_buffers)
@@ -600,7 +602,7 @@ class Renderer:
         _retire(list(self._buffers.values()) + self._scene_arrays
                 + [a for a in self._work_arrays.values() if not isinstance(a, np.ndarray)])
         self._buffers, self._uploaded, self._scene_arrays, self._work_arrays = {}, {}, [], {}
-        self._packed = self._scene_args = self._consts = self._consts_key = None
+        self._packed = self._scene_args = self._sensor_packs = self._consts = self._consts_key = None
         _free_retired()
         for copier in (self._pinned_copier, self._render_copier):
             if copier is not None:
@@ -621,7 +623,7 @@ class Renderer:
         res = SUN_MAP_RES if sun is not None else 1
         packed["sun_map"] = np.zeros((res, res), np.float32)
         packed["light_of_slot"] = lamps.astype(np.int32) if lamps.size else np.full(1, -1, np.int32)
-        self._packed = packed
+        self._packed, self._sensor_packs = packed, None
         self._every_light_mapped = bool((packed["lights"][:packed["n_lights"], 8] >= 0).all())
         _retire(self._scene_arrays)
         self._scene_arrays = []
@@ -643,6 +645,19 @@ class Renderer:
                             arrays["lamp_maps"], arrays["sun_map"], arrays["cluster_box"], arrays["cluster_prims"],
                             *lights, *self._bake(arrays, lights, bake), self._packed["n_occluders"],
                             arrays["occluders"], arrays["is_occluder"])
+
+    def _pack_for_sensors(self) -> tuple:
+        """The current scene's arrays packed for CUDA's all-sensors kernels (:mod:`benchbot_sim_taichi.packed_scene`),
+        where they read them: ``(scene_f32, scene_i32)``, made by the first launch that needs them. The arrays that
+        kernels computed in :meth:`set_scene` (shadow maps, baked light) and the light lists are copied from where
+        the kernels read them; the others are taken from the packed scene."""
+        s, packed = self._scene_args, self._packed
+        named = {name: packed[name] for name in ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut",
+                                                 "lights", "cluster_box", "cluster_prims", "occluders", "is_occluder",
+                                                 "light_of_slot")}
+        named.update(self._fetch({"lamp_maps": s[11], "sun_map": s[12], "always": s[16], "light_grid": s[17],
+                                  "grid_xform": s[18], "baked": s[20], "baked_info": s[21]}, once=True))
+        return tuple(self._scene_array(a) for a in pack_for_sensors(named))
 
     def _bake(self, arrays: dict, lights: tuple, bake: bool) -> tuple:
         """The current scene's baked direct light (:mod:`benchbot_sim_taichi.lightmap`): ``(store, info)`` where the
@@ -894,11 +909,15 @@ class Renderer:
                 self._work("counters", (COUNTERS,), np.int32, 0),
                 self._work("tiles", (shape[0], tile_entries(shape[2], shape[1])), np.float32, 0.0),
                 self._work("vis", (2,) + shape, np.int64, EMPTY))
+        rays = self.shadow_rays
+        names = launch_arg_names(self.arch, rays)
+        if "scene_f32" in names and self._sensor_packs is None:  # (CUDA's kernels: the first launch of a scene)
+            self._sensor_packs = self._pack_for_sensors()
         values = (table, pose0, one, int(images), beams, n_beams, *s[:9], int(lit), *s[15:20], s[11], s[12], s[20],
                   s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
-                  out["instance"], ranges)
+                  out["instance"], ranges, *(self._sensor_packs or (None, None)))
         values = dict(zip(SENSORS_ARG_NAMES, values))
-        rays = self.shadow_rays
+        values = {name: values[name] for name in names}
         if self.device_buffers and self.kernel_timer is None:  # all Taichi ndarrays: launch the compiled graph
             values["pose0"] = ti.Vector(values["pose0"].tolist())
             sensors_graph(self.arch, rays).run(values)
@@ -971,11 +990,16 @@ class Renderer:
             out["ranges"] = out["ranges"][:beams.size].astype(np.float64) if with_scan else np.zeros(0)
         return out
 
-    def _fetch(self, arrays: dict) -> dict:
+    def _fetch(self, arrays: dict, *, once: bool = False) -> dict:
         """New NumPy arrays holding ``arrays`` (``{key: Taichi ndarray or NumPy array}``; NumPy arrays pass
         through). On CUDA they come through the page-locked copier (one synchronisation and a fast copy each), then
-        a host copy, so that the caller owns them; on the CPU they are copied from the ndarrays' own memory
-        (:func:`~benchbot_sim_taichi.host_copy.host_view`)."""
+        a host copy, so that the caller owns them; with ``once`` (copies made once per scene, too large to keep
+        page-locked buffers for) through ordinary host memory instead. On the CPU they are copied from the
+        ndarrays' own memory (:func:`~benchbot_sim_taichi.host_copy.host_view`)."""
+        if self.device_buffers and self.arch == "cuda" and once:
+            from benchbot_sim_taichi.host_copy import HostCopier
+
+            return HostCopier(pinned=False).copy(arrays)
         if self.device_buffers and self.arch == "cuda":
             if self._render_copier is None:
                 from benchbot_sim_taichi.host_copy import HostCopier

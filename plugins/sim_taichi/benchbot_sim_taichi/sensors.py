@@ -35,6 +35,7 @@ from benchbot_sim_taichi.kernels import (  # noqa: E402
     PANES_TRACKED, PANES_UNSEEN, _closest_normal, _direct, _glass_reflectance, _ray, _safe_inv, _shadow_origin,
     _surface, _trace, _v3,
 )
+from benchbot_sim_taichi.packed_scene import scene_views  # noqa: E402
 
 #: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
 POSE_LEN = 16
@@ -392,16 +393,10 @@ def visibility_kernel(
     images: ti.i32,
     beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
     n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),
     consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
     n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
     listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
     queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
     counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
@@ -411,11 +406,12 @@ def visibility_kernel(
 ):
     """Steps 1 to 3 in one kernel (CUDA's first): every camera ray's closest hit and nearest pane into ``vis``, and
     the laser's beams into ``ranges``. Parameters: those of :func:`sensors_kernel` that it uses."""
-    _occluders_step(table, pose0, one, images, beams, n_beams, nodes, pf, pi, tris, consts, n_occluders, occluders,
-                    queue, counters, tiles, vis, ranges)
-    _clusters_step(table, pose0, one, images, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
-    _primitives_step(table, pose0, one, images, pf, pi, tris, consts, cluster_prims, is_occluder, listed, queue,
-                     counters, tiles, vis)
+    v = ti.static(scene_views(scene_f32, scene_i32))
+    _occluders_step(table, pose0, one, images, beams, n_beams, v.nodes, v.pf, v.pi, v.tris, consts, n_occluders,
+                    v.occluders, queue, counters, tiles, vis, ranges)
+    _clusters_step(table, pose0, one, images, consts, v.cluster_box, v.cluster_prims, listed, counters, tiles, vis)
+    _primitives_step(table, pose0, one, images, v.pf, v.pi, v.tris, consts, v.cluster_prims, v.is_occluder, listed,
+                     queue, counters, tiles, vis)
 
 
 @ti.func
@@ -496,43 +492,69 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
         inst[b, v, u] = i_id
 
 
-def _shading_kernel(name: str, shadow_rays: bool, doc: str):
-    """A Taichi kernel named ``name`` that runs :func:`_shade_step` with ``shadow_rays`` (compile-time)."""
+def _shading_kernel(name: str, shadow_rays: bool, packed: bool, doc: str):
+    """A Taichi kernel named ``name`` that runs :func:`_shade_step` with ``shadow_rays`` (compile-time), reading the
+    scene's arrays from their packs (``packed``: CUDA, :mod:`~benchbot_sim_taichi.packed_scene`) or each its own
+    argument (the CPU)."""
 
-    def kernel(
-        table: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        pose0: ti.types.vector(POSE_LEN, ti.f32),
-        one: ti.i32,
-        images: ti.i32,
-        nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-        tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-        tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-        tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-        lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        lit: ti.i32,
-        n_always: ti.i32,
-        always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-        light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-        grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-        light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-        lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-        sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-        baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-        baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-        consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-        vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-        rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-        depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-        cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-        inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    ):
-        _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit,
-                    n_always, always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info,
-                    consts, vis, rgb, depth, cls, inst, shadow_rays)
+    if packed:
+        def kernel(
+            table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            pose0: ti.types.vector(POSE_LEN, ti.f32),
+            one: ti.i32,
+            images: ti.i32,
+            scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),
+            scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            lit: ti.i32,
+            n_always: ti.i32,
+            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+        ):
+            v = ti.static(scene_views(scene_f32, scene_i32))
+            _shade_step(table, pose0, one, images, v.nodes, v.pf, v.pi, v.tris, v.shade, v.texels, v.tex_info,
+                        v.tex_lut, v.lights, lit, n_always, v.always, v.light_grid, v.grid_xform, v.light_of_slot,
+                        v.lamp_maps, v.sun_map, v.baked, v.baked_info, consts, vis, rgb, depth, cls, inst,
+                        shadow_rays)
+
+    else:
+        def kernel(
+            table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            pose0: ti.types.vector(POSE_LEN, ti.f32),
+            one: ti.i32,
+            images: ti.i32,
+            nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
+            tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+            tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
+            lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            lit: ti.i32,
+            n_always: ti.i32,
+            always: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+            light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+            sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
+            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
+            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
+            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+        ):
+            _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit,
+                        n_always, always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info,
+                        consts, vis, rgb, depth, cls, inst, shadow_rays)
 
     kernel.__name__ = kernel.__qualname__ = name
     kernel.__doc__ = doc + " Parameters: those of :func:`sensors_kernel` that it uses."
@@ -540,12 +562,20 @@ def _shading_kernel(name: str, shadow_rays: bool, doc: str):
 
 
 #: Step 4 of :func:`sensors_kernel` (:func:`_shade_step`) with shadow rays: for any lights.
-shade_kernel = _shading_kernel("shade_kernel", True, "Step 4 of :func:`sensors_kernel` with shadow rays: any lights.")
+shade_kernel = _shading_kernel("shade_kernel", True, False,
+                               "Step 4 of :func:`sensors_kernel` with shadow rays: any lights.")
 #: Step 4 without the code of shadow rays, for frames whose every light takes its shadows from a shadow map (one
 #: shadow sample; :func:`sensors_kernels`): fewer registers, so more threads at once on a GPU.
-shade_maps_kernel = _shading_kernel("shade_maps_kernel", False,
+shade_maps_kernel = _shading_kernel("shade_maps_kernel", False, False,
                                     "Step 4 of :func:`sensors_kernel` without the code of shadow rays: every light "
                                     "has a shadow map.")
+#: :func:`shade_kernel` and :func:`shade_maps_kernel` reading the scene from its packs (CUDA's: fewer arguments to
+#: launch, :mod:`~benchbot_sim_taichi.packed_scene`).
+shade_packed_kernel = _shading_kernel("shade_packed_kernel", True, True,
+                                      "Step 4 of :func:`sensors_kernel` with shadow rays, the scene packed.")
+shade_maps_packed_kernel = _shading_kernel("shade_maps_packed_kernel", False, True,
+                                           "Step 4 of :func:`sensors_kernel` without the code of shadow rays, the "
+                                           "scene packed.")
 
 
 def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True) -> None:
@@ -559,7 +589,11 @@ def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True
     clusters); ``lamp_maps`` (6·S, R, R) the lamps' cube shadow maps
     (:func:`~benchbot_sim_taichi.kernels.lamp_map_kernel`; used by lamps whose row has a slot ≥ 0), ``sun_map`` (R,
     R) the sun's, ``baked`` and ``baked_info`` the triangles' baked direct light
-    (:mod:`benchbot_sim_taichi.lightmap`; a triangle with 0 divisions sums its lights per pixel). Work space:
+    (:mod:`benchbot_sim_taichi.lightmap`; a triangle with 0 divisions sums its lights per pixel), ``always``,
+    ``light_grid``, ``grid_xform`` and ``light_of_slot`` the light lists (``n_always`` of ``always`` taken). CUDA's
+    kernels take all of these packed in ``scene_f32`` and ``scene_i32`` instead
+    (:func:`~benchbot_sim_taichi.packed_scene.pack`: fewer arguments to launch) and read them through
+    :func:`~benchbot_sim_taichi.packed_scene.scene_views` under the same names. Work space:
     ``listed`` (≥ B·C,) int32, ``queue`` (Q, raster.QUEUE_COLS) int32, ``counters`` (raster.COUNTERS,) int32, and
     the visibility buffer ``vis`` (2, B, H, W) int64 (layer 0: the closest primitive, 1: the nearest pane), which
     must hold :data:`raster.EMPTY` on entry and does again on return.
@@ -590,13 +624,27 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
     (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
     after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
-    one-camera frame, which is short there: its GPU work takes 194–196 µs (one H200, house:1), launching it 203–224
+    one-camera frame, which is short there: its GPU work takes 194–198 µs (one H200, house:1), launching it 163–181
     µs of a fast host's time, most of that Taichi's work for each argument and loop (``benchmarks/one_camera.py``;
-    steps 1 to 3 loop over constant lanes there, :func:`_lanes`, which saves a launch for each loop)."""
-    shade = shade_kernel if shadow_rays else shade_maps_kernel
+    steps 1 to 3 loop over constant lanes there, :func:`_lanes`, which saves a launch for each loop, and the scene's
+    arrays come packed, :mod:`~benchbot_sim_taichi.packed_scene`: 20 ndarray arguments instead of 41). The CPU's
+    kernels take the scene's arrays one by one: a launch's cost is nothing there beside a frame's tens of
+    milliseconds, and the packs would be a second copy of the scene in its memory."""
     if arch == "cuda":
-        return (visibility_kernel, shade)
-    return (occluders_kernel, clusters_kernel, primitives_kernel, shade)
+        return (visibility_kernel, shade_packed_kernel if shadow_rays else shade_maps_packed_kernel)
+    return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel if shadow_rays else shade_maps_kernel)
+
+
+def launch_arg_names(arch: str, shadow_rays: bool = True) -> tuple[str, ...]:
+    """The names of :data:`SENSORS_ARGS` that the kernels of :func:`sensors_kernels` (``arch``, ``shadow_rays``)
+    take, in the order of :data:`SENSORS_ARGS` (the values a launch needs; read on every launch)."""
+    return _arg_names_of(sensors_kernels(arch, shadow_rays))
+
+
+@functools.cache
+def _arg_names_of(kernels: tuple) -> tuple[str, ...]:
+    taken = {name for kernel in kernels for name in kernel_parameters(kernel)}
+    return tuple(name for name in SENSORS_ARG_NAMES if name in taken)
 
 
 @functools.cache
@@ -621,6 +669,7 @@ SENSORS_ARGS = (
     ("queue", "nd", "i32", 2), ("counters", "nd", "i32", 1), ("tiles", "nd", "f32", 2), ("vis", "nd", "i64", 4),
     ("rgb", "nd", "u8", 4),
     ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
+    ("scene_f32", "nd", "f32", 1), ("scene_i32", "nd", "i32", 1),
 )
 #: The names of :data:`SENSORS_ARGS`, in order (the renderer keys a launch's values with them on every frame).
 SENSORS_ARG_NAMES = tuple(name for name, *_ in SENSORS_ARGS)
