@@ -2,9 +2,10 @@
 one float32 and one int32, and the views through which the kernels read them as the arrays they were.
 
 Why: Taichi 1.7 spends host time on every ndarray argument of every launch (hash-map work for each argument in its
-C++ launcher; 1.7–3.8 µs each on the H200's hosts, ``benchmarks/one_camera.py``), and a one-camera frame on a GPU
+C++ launcher; 1.7–4.9 µs each on the H200's hosts, ``benchmarks/one_camera.py``), and a one-camera frame on a GPU
 is limited by the host's launch work. The scene's 21 arrays, which do not change while a scene is loaded, were 35
-of the all-sensors graph's 41 ndarray arguments; packed, they are 4.
+of the all-sensors graph's 41 ndarray arguments on CUDA; packed, they are 4 (two in each kernel). The CPU's
+kernels take the arrays one by one (:func:`~benchbot_sim_taichi.sensors.sensors_kernels`).
 
 Layout: the int32 pack starts with a header of :data:`HEADER_LEN` int32 entries, four for each array of
 :data:`PACKED` in order: its offset in its pack (elements), then its shape's first three entries (1 where it has

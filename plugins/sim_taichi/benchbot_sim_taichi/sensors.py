@@ -654,7 +654,8 @@ def kernel_parameters(kernel) -> tuple[str, ...]:
     return tuple(inspect.signature(kernel).parameters)
 
 #: Parameters of the all-sensors kernels (:func:`sensors_kernel`): (name, kind, dtype, ndim) with kind ``nd``
-#: (ndarray), ``sc`` (scalar) or ``vec`` (by-value vector of POSE_LEN).
+#: (ndarray), ``sc`` (scalar) or ``vec`` (by-value vector of POSE_LEN). The CPU's kernels take the scene's arrays;
+#: CUDA's take ``scene_f32`` and ``scene_i32``, their packs, instead (:func:`launch_arg_names` gives which).
 SENSORS_ARGS = (
     ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
     ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
