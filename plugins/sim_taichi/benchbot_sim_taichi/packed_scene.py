@@ -12,6 +12,10 @@ Layout: the int32 pack starts with a header of :data:`HEADER_LEN` int32 entries,
 fewer). The first array of each pack lies at a fixed offset (0 in the float32 pack, :data:`HEADER_LEN` in the int32
 pack), so reading it costs no header read; the others' offsets are read from the header where they are used.
 Entries are indexed with int32, so a pack holds fewer than 2³¹ entries (:func:`pack` checks).
+
+The views emit their reads with ``taichi.lang.impl.subscript``, the call Taichi 1.7 itself makes for ``a[i]`` in a
+kernel; it is not public API, so a Taichi upgrade must keep ``test_packed_scene.py`` passing (a kernel there reads
+every view).
 """
 
 import collections

@@ -94,7 +94,7 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
-from benchbot_sim_taichi.packed_scene import pack as pack_for_sensors  # noqa: E402
+from benchbot_sim_taichi.packed_scene import PACKED_NAMES, pack as pack_for_sensors  # noqa: E402
 from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
 from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_NORMAL_OFFSET, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_CELL_M, LIGHT_COLS, LIGHT_GRID_BLOCK,
@@ -440,6 +440,14 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
 #: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
 _SCENE_ARRAYS = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
                  "lamp_maps", "sun_map", "cluster_box", "cluster_prims", "light_of_slot", "occluders", "is_occluder")
+#: Names of the entries of ``Renderer._scene_args`` (what ``set_scene`` leaves where the kernels read it), in order.
+_SCENE_ARG_NAMES = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "n_lights",
+                    "world", "lamp_maps", "sun_map", "cluster_box", "cluster_prims", "n_always", "always",
+                    "light_grid", "grid_xform", "light_of_slot", "baked", "baked_info", "n_occluders", "occluders",
+                    "is_occluder")
+#: The arrays of the sensors' packs that kernels compute in ``set_scene`` (shadow maps, light lists, baked light):
+#: copied from the device when packed; the others are taken from the host's packed scene.
+_COMPUTED_FOR_SENSORS = ("lamp_maps", "sun_map", "always", "light_grid", "grid_xform", "baked", "baked_info")
 
 
 def _plan_sun_map(packed: dict) -> tuple[int | None, float]:
@@ -651,12 +659,9 @@ class Renderer:
         where they read them: ``(scene_f32, scene_i32)``, made by the first launch that needs them. The arrays that
         kernels computed in :meth:`set_scene` (shadow maps, baked light) and the light lists are copied from where
         the kernels read them; the others are taken from the packed scene."""
-        s, packed = self._scene_args, self._packed
-        named = {name: packed[name] for name in ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut",
-                                                 "lights", "cluster_box", "cluster_prims", "occluders", "is_occluder",
-                                                 "light_of_slot")}
-        named.update(self._fetch({"lamp_maps": s[11], "sun_map": s[12], "always": s[16], "light_grid": s[17],
-                                  "grid_xform": s[18], "baked": s[20], "baked_info": s[21]}, once=True))
+        scene = dict(zip(_SCENE_ARG_NAMES, self._scene_args, strict=True))
+        named = {name: self._packed[name] for name in PACKED_NAMES if name not in _COMPUTED_FOR_SENSORS}
+        named.update(self._fetch({name: scene[name] for name in _COMPUTED_FOR_SENSORS}, once=True))
         return tuple(self._scene_array(a) for a in pack_for_sensors(named))
 
     def _bake(self, arrays: dict, lights: tuple, bake: bool) -> tuple:
@@ -996,14 +1001,12 @@ class Renderer:
         a host copy, so that the caller owns them; with ``once`` (copies made once per scene, too large to keep
         page-locked buffers for) through ordinary host memory instead. On the CPU they are copied from the
         ndarrays' own memory (:func:`~benchbot_sim_taichi.host_copy.host_view`)."""
-        if self.device_buffers and self.arch == "cuda" and once:
+        if self.device_buffers and self.arch == "cuda":
             from benchbot_sim_taichi.host_copy import HostCopier
 
-            return HostCopier(pinned=False).copy(arrays)
-        if self.device_buffers and self.arch == "cuda":
+            if once:  # a throwaway copier: its arrays are the caller's
+                return HostCopier(pinned=False).copy(arrays)
             if self._render_copier is None:
-                from benchbot_sim_taichi.host_copy import HostCopier
-
                 self._render_copier = HostCopier(pinned=True)
             return {k: v.copy() for k, v in self._render_copier.copy(arrays).items()}
         from benchbot_sim_taichi.host_copy import host_view

@@ -94,30 +94,25 @@ def test_a_kernel_reads_through_the_views_what_numpy_indexing_gives():
         assert tuple(shapes[p, :a.ndim]) == a.shape, packed_scene.PACKED_NAMES[slot]
 
 
-
 @pytest.mark.slow  # builds a furnished room's scene, its BVH, shadow maps and baked light
 def test_the_renderers_packs_hold_the_scene_and_the_maps_and_light_its_kernels_computed(bear_envs):
     """After ``set_scene`` of a furnished room (lamps with shadow maps, the sun's map, baked light), the packs that
     CUDA's all-sensors kernels read hold the arrays that the renderer's other kernels read: the packed scene, the
     maps and the baked light computed on the device, the light lists."""
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.renderer import _SCENE_ARG_NAMES, Renderer
     from benchbot_sim_taichi.scene import build_scene
 
     r = Renderer("cpu")
     r.set_scene(build_scene({**bear_envs["miniroom:1"], "style": "furnished"}))
     assert r._sensor_packs is None  # the CPU's kernels take the arrays one by one: no packs unless asked for
     f32, i32 = r._fetch(dict(zip(("f32", "i32"), r._pack_for_sensors()))).values()
-    s = r._scene_args
-    expected = dict(zip(("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights"), s[:9]))
-    expected.update(lamp_maps=s[11], sun_map=s[12], cluster_box=s[13], cluster_prims=s[14], always=s[16],
-                    light_grid=s[17], grid_xform=s[18], light_of_slot=s[19], baked=s[20], baked_info=s[21],
-                    occluders=s[23], is_occluder=s[24])
-    expected = r._fetch(expected)
+    scene = dict(zip(_SCENE_ARG_NAMES, r._scene_args, strict=True))  # where the other kernels read them
+    expected = r._fetch({name: scene[name] for name in packed_scene.PACKED_NAMES})
     assert r.baked_points > 0 and r.lamps_with_maps > 0 and r.sun_map
     for computed in ("lamp_maps", "sun_map", "baked"):  # not the zeros they start as
         assert expected[computed].any(), computed
     packs = {"f32": f32, "i32": i32}
     for slot, (name, kind, _) in enumerate(packed_scene.PACKED):
         a = expected[name]
-        offset, *dims = i32[4 * slot:4 * slot + 4]
+        offset = i32[4 * slot]
         np.testing.assert_array_equal(packs[kind][offset:offset + a.size].reshape(a.shape), a, err_msg=name)
