@@ -253,3 +253,47 @@ def test_a_batch_s_repeats_are_labelled_by_episode_and_never_cut_at_80_columns(m
     assert [r[:2] for r in rows[:4]] == [["miniroom:1", "#0"], ["miniroom:1", "#1"], ["miniroom:2", "#2"],
                                          ["miniroom:2", "#3"]], text
     assert all(r[-8:] == ["0.1601", "0.2374", "0.1876", "0.4950", "0.4686", "15", "8", "3"] for r in rows), text
+
+
+#: The arguments each command that takes a count flag needs besides it (every other one is refused first).
+COUNT_FLAG_COMMANDS = {
+    "benchbot batch": ["--example", "hello_passive", "--envs", "miniroom:1"],
+    "benchbot run": ["--env", "miniroom:1"],
+    "benchbot sim render": ["miniroom:1", "-o", "never.png"],
+    "benchbot ros2 serve-sim": ["--env", "miniroom:1"],
+}
+
+
+def test_every_count_flag_has_a_documented_maximum_checked_first(app, tmp_path, monkeypatch):
+    """Every integer flag of every command, plugins' included, is bounded: by Click's own range (``--port``) or by a
+    maximum from benchbot.core.limits said in its help, and a value past it is one usage line (exit 2) naming the
+    flag and the bound, before anything runs (``batch --repeat 99999999999999999999`` planned until killed)."""
+    monkeypatch.chdir(tmp_path)
+    bounded = {}
+    for path, cmd in commands(app):
+        for param in options(cmd):
+            if getattr(getattr(param, "type_descriptor", None), "annotation", None) is not int:
+                continue
+            if getattr(param, "max", None) is not None:
+                continue  # Typer's own range: --port 0..65535, --domain-id 0..232
+            bounded.setdefault(path, []).append(param)
+    assert set(bounded) == set(COUNT_FLAG_COMMANDS), "a count flag without a maximum, or a stale entry"
+    for path, params in bounded.items():
+        for param in params:
+            flag = max(param.opts, key=len)
+            documented = re.search(r"(\d+) to (\d+)", param.help or "")
+            assert documented, f"{path} {flag}: its help does not give its range ({param.help!r})"
+            low, high = int(documented[1]), int(documented[2])
+            for value, says in ((high + 1, f"is more than the maximum of {high}"), (low - 1, f"is less than {low}"),
+                                (10 ** 20, f"is more than the maximum of {high}")):
+                result = invoke(app, *path.split()[1:], *COUNT_FLAG_COMMANDS[path], flag, str(value))
+                errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+                assert result.exit_code == 2 and len(errors) == 1, (path, flag, value, result.stderr)
+                assert errors[0].startswith(f"error: {flag} {value} {says}"), (path, flag, errors)
+    sized = [path for path, cmd in commands(app) if any("--camera-size" in p.opts for p in options(cmd))]
+    assert sized == ["benchbot batch", "benchbot ros2 serve-sim", "benchbot run"]
+    for path in sized:  # a camera's sides count pixels: bounded in every command that takes one
+        result = invoke(app, *path.split()[1:], *COUNT_FLAG_COMMANDS[path], "--camera-size", "100000x10")
+        assert result.exit_code == 2, (path, result.stderr)
+        assert result.stderr.startswith("error: --camera-size '100000x10': each side must be at most 8192 pixels")
+    assert list(tmp_path.iterdir()) == []  # nothing was planned, rendered or written

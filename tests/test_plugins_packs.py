@@ -141,3 +141,26 @@ def test_installer_command_uses_uv_or_pip(monkeypatch):
     monkeypatch.setenv("BENCHBOT_INSTALLER", "uv")
     cmd = installer_command("install", ["x"])
     assert cmd[1:] == ["pip", "install", "--python", sys.executable, "x"] or cmd[:3] == [sys.executable, "-m", "pip"]
+
+
+GAME_ENV = "name: unreal_room\nvariant: 1\ntype: sim_taichi\nmap_path: {map_path}\nstart_pose: [1,0,0,0,0,0,0]\n"
+
+
+def test_an_unreal_map_path_is_judged_once_normalised(tmp_path, data_dir):
+    """``/Game/...`` (an Unreal asset path of the original's environments) was let through by its prefix alone, so
+    ``/Game/../../etc/passwd`` passed the "stays inside the pack" check; it is judged once normalised, at install
+    and again when the registry loads a hand-edited pack."""
+    evil = "/Game/../../etc/passwd"
+    pack = make_pack(tmp_path / "unreal", {"environments/e.yaml": GAME_ENV.format(map_path=evil)})
+    with pytest.raises(cp.PackError) as exc:
+        cp.install_pack(pack, registry=registry())
+    assert exc.value.details == [f"environments/e.yaml: $.map_path: '{evil}' leaves /Game/ (it is '/etc/passwd' "
+                                 "once normalised)"]
+    (pack / "environments" / "e.yaml").write_text(GAME_ENV.format(map_path="/Game/Maps/../Rooms/kitchen"))
+    cp.install_pack(pack, registry=registry())
+    assert registry().get("environments", "unreal_room:1")["map_path"] == "/Game/Rooms/kitchen"
+    installed = data_dir / "packs" / "unreal" / "environments" / "e.yaml"
+    installed.write_text(GAME_ENV.format(map_path=evil))  # edited by hand after the install
+    reg = registry()
+    assert "unreal_room:1" not in reg.names("environments")
+    assert any(f"$.map_path: '{evil}' leaves /Game/" in problem for problem in reg.problems.values()), reg.problems

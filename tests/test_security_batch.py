@@ -314,3 +314,100 @@ def test_default_episode_timeouts_follow_the_task_and_the_flag_replaces_them():
     for bad in (-1, float("nan"), float("inf")):
         with pytest.raises(UsageError, match="--episode-timeout must be a number of seconds ≥ 0"):
             plan(bad)
+
+
+# ------------------------------------------------------------------------------------------------ hostile results
+PLANTED_SOLUTION = """
+import json, os, urllib.request
+PLANTED = json.loads({planted!r})
+config = json.loads(urllib.request.urlopen(os.environ["BENCHBOT_SUPERVISOR_ADDRESS"] + "config/", timeout=10).read())
+scene = config["environments"][0]
+with open(os.environ["BENCHBOT_RESULT_LOCATION"], "w") as f:
+    f.write(PLANTED[f"{{scene['name']}}:{{scene['variant']}}"])
+"""
+
+
+@pytest.mark.slow
+def test_a_huge_number_or_another_environment_fails_only_its_episode_also_on_resume(tmp_path):
+    """miniroom:1 writes a 400-digit integer into a centroid (valid JSON, under the 4,300-digit cap); house:1
+    writes miniroom:1's perfect results, claiming miniroom:1; miniroom:2 writes its own perfect results. Before:
+    the first crashed scoring (OverflowError: no scores for any episode) and the second was scored against
+    miniroom:1. Now each is ``bad_results`` with a one-line reason and miniroom:2 is scored and written."""
+    from benchbot.core.registry import get_registry
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_evaluation import perfect_results
+
+    registry = get_registry()
+    huge = perfect_results(registry, "miniroom:1")
+    planted = {"miniroom:1": json.dumps(huge).replace(json.dumps(huge["results"]["objects"][2]["centroid"]),
+                                                      f"[1.0, {10 ** 400}, 0.5]", 1),
+               "house:1": json.dumps(perfect_results(registry, "miniroom:1")),
+               "miniroom:2": json.dumps(perfect_results(registry, "miniroom:2"))}
+    assert str(10 ** 400) in planted["miniroom:1"]
+    folder = tmp_path / "solution"  # a sandboxed solution sees its own folder: the batch's working directory
+    folder.mkdir()
+    (folder / "planted.py").write_text(PLANTED_SOLUTION.format(planted=json.dumps(planted)))
+    proc = subprocess.run([*BENCHBOT, "batch", "--native", "python planted.py", "--envs",
+                           "miniroom:1,miniroom:2,house:1", "--output-dir", str(tmp_path / "runs"), *SMALL],
+                          cwd=folder, capture_output=True, text=True, timeout=300)
+    assert "Traceback" not in proc.stderr and proc.returncode == 1, proc.stderr
+    run_dir = only_run_dir(tmp_path / "runs")
+    results = [str(run_dir / e["results"]) for e in manifest(run_dir)["plan"]]
+
+    def check(stderr: str) -> None:
+        episodes = manifest(run_dir)["episodes"]
+        assert [e["status"] for e in episodes] == ["bad_results", "ok", "bad_results"], stderr
+        assert episodes[0]["error"] == (f"{results[0]}: results.objects[2].centroid[1]: expected a finite number, "
+                                        "got an integer of 401 digits (beyond a float's range, ±1.8e+308)")
+        assert episodes[2]["error"] == (f"{results[2]}: environment_details name miniroom:1, but these are the "
+                                        "results of an episode on house:1")
+        assert episodes[0]["error"] in stderr and episodes[2]["error"] in stderr and "Traceback" not in stderr
+        scores = json.loads((run_dir / "scores.json").read_text())
+        assert [e["index"] for e in scores["excluded_episodes"]] == [0, 2]
+        per_episode = json.loads((run_dir / "episode_scores.json").read_text())
+        assert [(e["env"], e["scores"]["OMQ"]) for e in per_episode] == [("miniroom:2", 1.0)]
+        assert scores["scores"]["OMQ"] == pytest.approx(1 / 3)  # the excluded ones count as empty (0)
+
+    check(proc.stderr)
+    proc = batch("--resume", str(run_dir))  # the bad ones run again, and are refused again, one line each
+    assert proc.returncode == 1, proc.stderr
+    check(proc.stderr)
+    assert [e["attempts"] for e in manifest(run_dir)["episodes"]] == [2, 1, 2]
+
+    # a FIFO where a finished episode's results were is found without opening it (never waited on): the episode
+    # runs again; a folder where a results file goes is one line, never deleted
+    Path(results[1]).unlink()
+    os.mkfifo(results[1])
+    Path(results[2]).unlink()
+    Path(results[2]).mkdir()
+    proc = batch("--resume", str(run_dir))
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    episodes = manifest(run_dir)["episodes"]
+    assert [(e["status"], e["attempts"]) for e in episodes] == [("bad_results", 3), ("ok", 2), ("error", 3)]
+    assert episodes[2]["error"] == f"{results[2]}: a folder, where the episode's results file goes"
+    assert Path(results[1]).is_file() and Path(results[2]).is_dir()
+
+
+def test_an_absurd_repeat_is_one_usage_line_at_once(tmp_path):
+    """``--repeat 99999999999999999999`` was accepted: the plan grew ~110 MB/s until the batch was killed."""
+    measure = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:]); "
+               "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); sys.exit(p.returncode)")
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-c", measure, *BENCHBOT, "batch", "--example", "hello_passive", "--envs",
+                           "miniroom:1", "--repeat", "99999999999999999999", "--output-dir", str(tmp_path / "runs")],
+                          capture_output=True, text=True, timeout=120)
+    seconds = time.monotonic() - t0
+    *lines, peak_kib = proc.stderr.rstrip("\n").splitlines()
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert lines[0] == ("error: --repeat 99999999999999999999 is more than the maximum of 1000 repetitions "
+                        "(set BENCHBOT_MAX_REPEAT to raise it)")
+    assert seconds < 30 and int(peak_kib) < 400 * 1024, (seconds, peak_kib)
+    assert not (tmp_path / "runs").exists()
+    # within --repeat's bound, the batch's size is bounded too, before its plan is made
+    proc = batch("--example", "hello_passive", "--envs", "miniroom:1,miniroom:2", "--repeat", "3", "--output-dir",
+                 str(tmp_path / "runs"), env={"BENCHBOT_MAX_BATCH_EPISODES": "5"})
+    assert proc.returncode == 2 and proc.stderr.splitlines()[0] == (
+        "error: a batch of 1 robot(s) × 2 environment(s) × 3 repetition(s) is more than the limit of 5 episodes "
+        "(set BENCHBOT_MAX_BATCH_EPISODES to raise it)"), proc.stderr
+    assert not (tmp_path / "runs").exists()

@@ -305,3 +305,149 @@ def _refusal(fn, *args) -> str:
     except SpecError as exc:
         return exc.message
     return "accepted"
+
+
+# --- 4. one bad results file harms only itself (issue 38) --------------------------------------------------------
+
+
+def _perfect(registry, env: str, **kw) -> dict:
+    """A perfect results file of ``env`` (a deep copy: its lists are the registry's ground truth's own)."""
+    import copy
+
+    from test_evaluation import perfect_results
+
+    return copy.deepcopy(perfect_results(registry, env, **kw))
+
+
+def test_eval_refuses_numbers_beyond_a_float_naming_file_and_field_and_scores_the_others(registry, tmp_path):
+    """A 400-digit integer is valid JSON under the 4,300-digit cap; in a centroid it crashed scoring with
+    OverflowError (a traceback, nothing scored), and so did one in the optional yaw with --oriented."""
+    big = _perfect(registry, "miniroom:1")
+    big["results"]["objects"][2]["centroid"][1] = 10 ** 400
+    yaw = _perfect(registry, "house:1")
+    yaw["results"]["objects"][0]["yaw"] = -(10 ** 400)
+    paths = {name: tmp_path / f"{name}.json" for name in ("big", "yaw", "good")}
+    paths["big"].write_text(json.dumps(big))
+    paths["yaw"].write_text(json.dumps(yaw))
+    paths["good"].write_text(json.dumps(_perfect(registry, "miniroom:2")))
+    out = tmp_path / "s.json"
+    proc, _, _ = cli("eval", "--oriented", *map(str, paths.values()), "-o", str(out))
+    assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
+    assert [line for line in proc.stderr.splitlines() if line.startswith("error:")] == [
+        f"error: {paths['big']}: results.objects[2].centroid[1]: expected a finite number, got an integer of 401 "
+        "digits (beyond a float's range, ±1.8e+308)",
+        f"error: {paths['yaw']}: results.objects[0].yaw: expected a finite number (radians about +z), got an integer "
+        "of 401 digits (beyond a float's range)",
+    ]
+    assert json.loads(out.read_text())["scores"]["OMQ"] == 1.0  # the good file, scored and written
+
+
+BUGGY_FORMAT = ("name: buggy_map\ndescription: a validator with a bug\nfunctions:\n  create: buggy.create\n"
+                "  validate: buggy.validate\n")
+BUGGY_TASK = ("name: buggy:passive:ground_truth\nactions: [move_next]\nobservations: [poses]\n"
+              "results_format: buggy_map\ndescription: A task whose format's validator crashes.\n")
+
+
+def test_a_format_validator_that_crashes_fails_only_its_file(registry, tmp_path):
+    pack = make_pack(tmp_path / "buggy", {"formats/buggy.yaml": BUGGY_FORMAT, "tasks/t.yaml": BUGGY_TASK,
+                                          "formats/buggy.py": "def create():\n    return {}\ndef validate(results):\n"
+                                                              "    raise RuntimeError('boom\\n' + 'x' * 500)\n"})
+    proc, _, _ = cli("install", "--allow-code", str(pack))
+    assert proc.returncode == 0, proc.stderr
+    bad = _perfect(registry, "miniroom:1")
+    bad["task_details"] = {"name": "buggy:passive:ground_truth", "results_format": "buggy_map"}
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    (tmp_path / "good.json").write_text(json.dumps(_perfect(registry, "miniroom:1")))
+    proc, _, _ = cli("eval", str(tmp_path / "bad.json"), str(tmp_path / "good.json"), "-o", str(tmp_path / "s.json"))
+    assert proc.returncode == 4, proc.stderr
+    line = one_line_error(proc)
+    assert line.startswith(f"error: {tmp_path / 'bad.json'}: results: format 'buggy_map' could not validate it: "
+                           "RuntimeError('boom\\nxxx") and line.endswith("...") and len(line) < 400, line
+    assert json.loads((tmp_path / "s.json").read_text())["scores"]["OMQ"] == 1.0
+
+
+def test_eval_says_what_a_results_path_is_in_one_line(registry, tmp_path):
+    """A folder, a FIFO and /dev/zero were "no such results file"; a text file named .zip and a truncated zip were
+    "not valid JSON". Each is now said for what it is, and the FIFO is never opened (no writer ever comes)."""
+    folder = tmp_path / "results"
+    folder.mkdir()
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    cases = [(folder, f"error: {folder}: a folder, not a results file"),
+             (fifo, f"error: {fifo}: a named pipe (FIFO), not a results file"),
+             (Path("/dev/zero"), "error: /dev/zero: a character device, not a results file")]
+    for path, expected in cases:
+        proc, seconds, _ = cli("eval", str(path), "-o", str(tmp_path / "s.json"), timeout=60)
+        assert proc.returncode == 4 and one_line_error(proc) == expected and seconds < 30, (proc.stderr, seconds)
+    fake = tmp_path / "x.zip"
+    fake.write_text("hello, not a zip")
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(_perfect(registry, "miniroom:1")))
+    real = tmp_path / "real.zip"
+    with zipfile.ZipFile(real, "w", zipfile.ZIP_DEFLATED) as z:
+        z.write(good, "r.json")
+    truncated = tmp_path / "truncated.zip"
+    truncated.write_bytes(real.read_bytes()[: real.stat().st_size // 2])
+    proc, _, _ = cli("eval", str(fake), str(truncated), str(good), "-o", str(tmp_path / "s.json"))
+    assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
+    assert [line for line in proc.stderr.splitlines() if line.startswith("error:")] == [
+        f"error: {fake}: not a zip archive, though named .zip (it starts with b'hell')",
+        f"error: {truncated}: a damaged zip archive (it starts as one but has no end-of-archive record: truncated?)",
+    ]
+    assert json.loads((tmp_path / "s.json").read_text())["scores"]["OMQ"] == 1.0
+
+
+# --- 5. code of installed packs: only what the user allowed at install (issue 38) ---------------------------------
+
+PLANTED_PY = ("import pathlib\npathlib.Path({marker!r}).write_text('imported')\n"
+              "def create():\n    return {{'planted': True}}\n")
+
+
+def test_allow_code_written_into_an_installed_manifest_by_hand_imports_nothing(tmp_path, data_dir):
+    """A pack installed without --allow-code, then its manifest edited to ``allow_code: true`` and a .py dropped
+    in (what a program running as the user could plant): before, the registry imported it."""
+    marker = tmp_path / "imported"
+    pack = make_pack(tmp_path / "plain2", {"formats/f.yaml": EVIL_FORMAT.format(function=ALLOWED)})
+    proc, _, _ = cli("install", str(pack))
+    assert proc.returncode == 0, proc.stderr
+    installed = data_dir / "packs" / "plain2"
+    manifest = json.loads((installed / cp.MANIFEST).read_text())
+    (installed / cp.MANIFEST).write_text(json.dumps({**manifest, "allow_code": True, "code": []}))
+    make_pack(installed, {"formats/f.yaml": EVIL_FORMAT.format(function="mine.create"),
+                          "formats/mine.py": PLANTED_PY.format(marker=str(marker))})
+    registry = Registry()
+    assert "evil_fmt" not in registry.names("formats")
+    assert (f"{installed / 'formats' / 'f.yaml'}: functions.create runs pack code 'mine.create', but pack 'plain2' "
+            "was installed without --allow-code (to run its code, read it, then install it again: benchbot install "
+            f"--force --allow-code {pack})") in registry.problems.values()
+    with pytest.raises(SpecError, match="no format named 'evil_fmt'"):
+        registry.functions("formats", "evil_fmt")
+    assert not marker.exists()
+
+
+def test_code_changed_after_install_with_allow_code_is_not_imported_until_installed_again(tmp_path, data_dir):
+    marker = tmp_path / "imported"
+    pack = make_pack(tmp_path / "coded", {"formats/f.yaml": EVIL_FORMAT.format(function="mine.create"),
+                                          "formats/mine.py": "def create():\n    return {'honest': True}\n"})
+    proc, _, _ = cli("install", "--allow-code", str(pack))
+    assert proc.returncode == 0, proc.stderr
+    approvals = json.loads((data_dir / cp.CODE_APPROVALS).read_text())["packs"]  # the user's record, not the pack's
+    assert approvals["coded"]["digest"].startswith("sha256:") and approvals["coded"]["source"] == str(pack)
+    assert Registry().functions("formats", "evil_fmt")["create"]() == {"honest": True}
+    installed = data_dir / "packs" / "coded"
+    refused = (f"{installed / 'formats' / 'f.yaml'}: functions.create runs pack code 'mine.create', but pack "
+               "'coded' has changed since it was installed with --allow-code (to run its code, read it, then install "
+               f"it again: benchbot install --force --allow-code {pack})")
+    for planted in ({"formats/helper.py": PLANTED_PY.format(marker=str(marker))},  # a .py dropped in
+                    {"formats/mine.py": PLANTED_PY.format(marker=str(marker))}):  # the allowed .py edited
+        make_pack(installed, planted)
+        registry = Registry()
+        assert "evil_fmt" not in registry.names("formats") and refused in registry.problems.values()
+        with pytest.raises(SpecError, match="no format named 'evil_fmt'"):
+            registry.functions("formats", "evil_fmt")
+    assert not marker.exists()
+    proc, _, _ = cli("install", "--force", "--allow-code", str(pack))  # what the message says to do
+    assert proc.returncode == 0, proc.stderr
+    assert Registry().functions("formats", "evil_fmt")["create"]() == {"honest": True}
+    proc, _, _ = cli("uninstall", "coded")
+    assert proc.returncode == 0 and "coded" not in json.loads((data_dir / cp.CODE_APPROVALS).read_text())["packs"]

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
-from benchbot.core.errors import BenchbotError
+from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
 from benchbot.core.server import ServerThread, build_app
@@ -44,11 +44,16 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
     folder = Path(run_dir)
     (folder / "results").mkdir(exist_ok=True)
     (folder / "logs").mkdir(exist_ok=True)
-    (folder / spec.results).unlink(missing_ok=True)  # a stale file from a killed attempt must not count
+    stale = folder / spec.results
+    if stale.is_symlink() or not stale.is_dir():  # a folder there is refused below, never deleted
+        stale.unlink(missing_ok=True)  # a stale file from a killed attempt must not count
     if events is not None:
         events.put(("start", spec.index, None))
     t0 = time.monotonic()
     try:
+        if stale.is_dir():
+            raise ResultsError(f"{stale}: a folder, where the episode's results file goes",
+                               "move it away, then run the batch again with --resume")
         registry = get_registry()
 
         def on_step(info: dict) -> None:

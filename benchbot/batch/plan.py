@@ -13,6 +13,7 @@ from pathlib import Path
 
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
+from benchbot.core.limits import MAX_BATCH_EPISODES
 from benchbot.core.registry import json_path, validator
 
 MANIFEST = "manifest.json"
@@ -113,6 +114,11 @@ def plan_episodes(
         raise UsageError(f"--repeat must be at least 1, got {repeat}", "")
     if not robots or not envs:
         raise UsageError("a batch needs at least one robot and one environment", "")
+    if start + len(robots) * len(envs) * repeat > MAX_BATCH_EPISODES.value():  # before anything is allocated
+        before = f" after the {start} planned already" if start else ""
+        raise UsageError(f"a batch of {len(robots)} robot(s) × {len(envs)} environment(s) × {repeat} repetition(s)"
+                         f"{before} is more than the limit of {MAX_BATCH_EPISODES.describe()} "
+                         f"({MAX_BATCH_EPISODES.raise_hint()})", MAX_BATCH_EPISODES.hint())
     if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s >= 0):
         raise UsageError(f"--episode-timeout must be a number of seconds ≥ 0, got {timeout_s}",
                          "0 runs without a timeout; leave it out for the task's default")

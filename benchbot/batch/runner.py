@@ -392,21 +392,27 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[Epi
               outcome: BatchOutcome) -> None:
     """Score the ``ok`` episodes' results with ``method``; a results file that cannot be loaded, validated or
     scored turns its episode into ``bad_results`` (with the one-line reason) instead of failing the whole
-    evaluation, and the others are scored. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes
-    are not in it) and ``episode_scores.json``.
+    evaluation, and the others are scored. Each episode is scored against its own environment, the one of its
+    plan (never the one its results file names): results naming another environment, or results of another task,
+    are ``bad_results`` naming both. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes are not
+    in it) and ``episode_scores.json``.
 
     Raises:
-        BenchbotError: the evaluation as a whole cannot be done (unknown method, results of several tasks).
+        BenchbotError: the evaluation as a whole cannot be done (unknown method).
     """
     done = [e for e in outcome.episodes if e.status == "ok"]
     by_source = {str(run_dir / e.results): e for e in done}
     noise = {s.index: s.noise for s in specs}
+    env_of = {s.index: s.env for s in specs}
     evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
-                          required_task=manifest["task"], keep_going=True)
-    for source, exc in evaluation.errors:  # a zip archive's members are named PATH:MEMBER
+                          required_task=manifest["task"], keep_going=True,
+                          environments={path: env_of[record.index] for path, record in by_source.items()})
+    problems = [(source, exc.message) for source, exc in evaluation.errors]
+    problems += [(source, f"{source}: results not scored: {why}") for source, why in evaluation.skipped]
+    for source, message in problems:  # a zip archive's members are named PATH:MEMBER
         for path, record in by_source.items():
             if source == path or source.startswith(path + ":"):
-                record.status, record.error = "bad_results", exc.message
+                record.status, record.error = "bad_results", message
     excluded = _excluded(outcome.episodes)
     outcome.evaluation = evaluation
     scores = evaluation.to_json()

@@ -16,8 +16,10 @@ from benchbot.batch.plan import EpisodeRecord, expected_steps, plan_episodes
 from benchbot.batch.sweep import parse_sweep, plan_sweep
 from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
 from benchbot.cli.eval_cmd import print_scores
+from benchbot.cli.options import at_most, check_count
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core.errors import ExitCode, UsageError
+from benchbot.core.limits import MAX_REPEAT, MAX_RETRIES, MAX_SEED, MAX_WORKERS
 from benchbot.core.noise import get_preset
 from benchbot.core.submission import container_engine, container_files, example_submission, native_submission
 
@@ -36,9 +38,9 @@ def register(app: typer.Typer) -> None:
         containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman as the solution."),
         example_containerised: bool = typer.Option(False, "--example-containerised", help="Run the --example in a container."),
         args: str = typer.Option("", "--args", "-a", help="Arguments appended to the solution's command."),
-        repeat: int = typer.Option(1, "--repeat", help="Run every (robot, environment) this many times, each with its own recorded seed."),
-        workers: int = typer.Option(1, "--workers", "-w", min=1, help="Episodes run in parallel (each in its own process with its own backend and cores/N simulator threads; the longest episodes start first)."),
-        retries: int = typer.Option(0, "--retries", min=0, help="Re-run failed episodes up to this many times."),
+        repeat: int = typer.Option(1, "--repeat", help=f"Run every (robot, environment) this many times, each with its own recorded seed ({at_most(MAX_REPEAT, 1)})."),
+        workers: int = typer.Option(1, "--workers", "-w", help=f"Episodes run in parallel (each in its own process with its own backend and cores/N simulator threads; the longest episodes start first; {at_most(MAX_WORKERS, 1)})."),
+        retries: int = typer.Option(0, "--retries", help=f"Re-run failed episodes up to this many times ({at_most(MAX_RETRIES)})."),
         executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks)."),
         ray_address: Optional[str] = typer.Option(None, "--ray-address", help="An existing Ray cluster (default: start a local one)."),
         resume: Optional[Path] = typer.Option(None, "--resume", help="Resume the batch in this run directory: only unfinished episodes run."),
@@ -47,7 +49,7 @@ def register(app: typer.Typer) -> None:
         output_dir: Path = typer.Option(Path("runs"), "--output-dir", help="Where run directories are made."),
         evaluate_with: str = typer.Option("auto", "--evaluate-with", help="Evaluation method; 'auto' picks one when every environment has a ground truth."),
         no_evaluate: bool = typer.Option(False, "--no-evaluate", help="Do not evaluate."),
-        seed: int = typer.Option(0, "--seed", help="Seed of the first episode (episode i uses seed + i)."),
+        seed: int = typer.Option(0, "--seed", help=f"Seed of the first episode (episode i uses seed + i; {at_most(MAX_SEED)})."),
         arch: str = typer.Option("auto", "--arch", help="Simulator device: auto (a GPU when an NVIDIA device is present, else the CPU), cpu or gpu."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
         timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Stop a solution (its whole process group) after this many seconds; default from the task (passive: 300 s + 10 s per trajectory pose, active: 3600 s per scene); 0: none."),
@@ -65,6 +67,9 @@ def register(app: typer.Typer) -> None:
         """
         from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
 
+        for flag, value, limit, least in (("--repeat", repeat, MAX_REPEAT, 1), ("--workers", workers, MAX_WORKERS, 1),
+                                          ("--retries", retries, MAX_RETRIES, 0), ("--seed", seed, MAX_SEED, 0)):
+            check_count(flag, value, limit, least)  # first: nothing is planned for an absurd count
         reg = registry()
         if executor not in ("local", "ray"):
             raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")

@@ -13,7 +13,9 @@ from typing import Optional
 import typer
 
 from benchbot.cli.common import backend_options, err, handle_errors, registry, writing
+from benchbot.cli.options import at_most, check_count
 from benchbot.core.errors import UsageError
+from benchbot.core.limits import MAX_SEED
 from benchbot.core.server import DEFAULT_ACTION_TIMEOUT_S, ServerThread, build_app
 from benchbot.core.shared_frames import is_loopback
 from benchbot.core.session import resolve_run, start_service
@@ -35,7 +37,7 @@ def register(app: typer.Typer) -> None:
         host: str = typer.Option("127.0.0.1", "--host", help="Bind address. Anything but loopback requires a token (--token, else one is generated and printed)."),
         token: Optional[str] = typer.Option(None, "--token", envvar="BENCHBOT_TOKEN", help="Clients must send it (X-BenchBot-Token header; BENCHBOT_TOKEN for the API)."),
         action_timeout: float = typer.Option(DEFAULT_ACTION_TIMEOUT_S, "--action-timeout", min=0.1, help="Seconds after which an action answers 504 (the episode stays usable)."),
-        seed: int = typer.Option(0, "--seed", help="Seed of the scene and of sensor/odometry noise."),
+        seed: int = typer.Option(0, "--seed", help=f"Seed of the scene and of sensor/odometry noise ({at_most(MAX_SEED)})."),
         arch: str = typer.Option("auto", "--arch", help="Simulator device: auto (a GPU when an NVIDIA device is present, else the CPU), cpu or gpu."),
         camera_size: Optional[str] = typer.Option(None, "--camera-size", help="Camera resolution WIDTHxHEIGHT (default: the robot's, 640x480 for carter)."),
         record: Optional[Path] = typer.Option(None, "--record", help="Record the episode as MCAP (ROS 2 messages) to this file; `benchbot replay` serves it."),
@@ -48,6 +50,7 @@ def register(app: typer.Typer) -> None:
         A solution then connects with `benchbot submit` (or BenchBot(supervisor_address=...)). Ctrl-C (or SIGTERM) stops it.
         """
         # every check of the input comes before the simulator is built (seconds), cheapest first
+        check_count("--seed", seed, MAX_SEED)
         if token is not None and not token.strip():
             raise UsageError("--token is empty", "give a non-empty token or leave it out")
         if tls_key is not None and tls_cert is None:

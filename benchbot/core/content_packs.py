@@ -22,9 +22,12 @@ an explanation: what it would download, and which installed content corresponds
 reported, never installed.
 
 Security: symlinks leaving the pack, symlinked folders and special files are refused; ``map_path`` may not be
-absolute (except Unreal ``/Game/...`` asset paths) nor leave the pack; nothing in a pack is imported or run unless
-it was installed with ``allow_code=True`` (``--allow-code``), which it must be when it declares Python functions
-that live in the pack (formats/evaluation methods) or examples (their ``native_command`` runs from the pack).
+absolute (except Unreal ``/Game/...`` asset paths, which must stay in ``/Game/`` once normalised) nor leave the
+pack; nothing in a pack is imported or run unless it was installed with ``allow_code=True`` (``--allow-code``),
+which it must be when it declares Python functions that live in the pack (formats/evaluation methods) or examples
+(their ``native_command`` runs from the pack). What the user allowed is recorded outside the pack, in
+``<data dir>/code-approvals.json``, with the digest of the pack's files (:func:`pack_digest`): its code runs only
+while the pack is unchanged since, whatever the pack's manifest says.
 A function a pack names that is not pack code must be in a module that an installed plugin's own formats or
 evaluators name (:func:`plugin_function_modules`, e.g. ``benchbot_eval_omq.omq``); the standard library and any
 other module never (``os:system`` would run shell commands through ``POST /results_functions/create``). This is
@@ -38,8 +41,10 @@ original's ``functions: {evaluate: "omq.evaluate"}`` next to ``evaluation_method
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import posixpath
 import re
 import shutil
 import stat
@@ -72,6 +77,10 @@ FOLDER_KINDS = {
 
 SPEC_SUFFIXES = (".yaml", ".yml", ".json")
 MANIFEST = ".benchbot-pack.json"
+CODE_APPROVALS = "code-approvals.json"
+"""The user's record, in the data directory (outside every pack), of the packs installed with ``--allow-code``:
+``{"packs": {name: {"digest": "sha256:…", "source": folder, "approved_at": Unix s}}}``. A pack's code runs only
+while its files still have the digest recorded when the user allowed it (:func:`code_approval_problem`)."""
 NAMESPACE = "benchbot_packs"
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
 _IDENT_RE = re.compile(r"^[A-Za-z_]\w*$")
@@ -112,6 +121,98 @@ def data_dir() -> Path:
 def packs_dir() -> Path:
     """``<data dir>/packs`` (not created)."""
     return data_dir() / "packs"
+
+
+def approvals_path() -> Path:
+    """``<data dir>/code-approvals.json`` (:data:`CODE_APPROVALS`)."""
+    return data_dir() / CODE_APPROVALS
+
+
+_DIGESTS: dict[str, tuple[list, str]] = {}
+"""``{pack folder: (stat signature, digest)}``: a pack is hashed again only when one of its files changed (its
+size, mtime, ctime or inode: ctime cannot be set back by a user)."""
+
+
+def pack_digest(root: Path) -> str:
+    """``sha256:<hex>`` of a pack's files as installed: every file's path and bytes (a symlink's target), in path
+    order, leaving out the manifest, ``__pycache__``, ``*.pyc`` and the other folders an install does not copy.
+    Adding, removing, renaming or editing any file changes it."""
+    root = Path(root)
+    entries: list[tuple[str, Path, os.stat_result]] = []
+    for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
+        dirnames[:] = sorted(d for d in dirnames if d not in _IGNORED)
+        for fname in sorted(filenames):
+            path = Path(dirpath) / fname
+            if fname in _IGNORED or fname.endswith(".pyc"):
+                continue
+            entries.append((path.relative_to(root).as_posix(), path, path.lstat()))
+    entries.sort(key=lambda e: e[0])
+    signature = [(rel, st.st_mode, st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino) for rel, _, st in entries]
+    cached = _DIGESTS.get(str(root))
+    if cached is not None and cached[0] == signature:
+        return cached[1]
+    total = hashlib.sha256()
+    for rel, path, st in entries:
+        if stat.S_ISLNK(st.st_mode):
+            content = b"symlink:" + os.fsencode(os.readlink(path))
+        elif stat.S_ISREG(st.st_mode):
+            with open(path, "rb") as f:
+                content = b"file:" + hashlib.file_digest(f, "sha256").digest()
+        else:
+            content = b"special:" + str(stat.S_IFMT(st.st_mode)).encode()
+        total.update(rel.encode("utf-8", "surrogateescape") + b"\0" + content + b"\0")
+    digest = f"sha256:{total.hexdigest()}"
+    _DIGESTS[str(root)] = (signature, digest)
+    return digest
+
+
+def _read_approvals() -> dict:
+    """``{pack: record}`` of :data:`CODE_APPROVALS` (``{}`` when missing, unreadable or malformed)."""
+    from benchbot.core.limits import MAX_SPEC_BYTES
+    from benchbot.core.safe_load import load_data_file
+
+    path = approvals_path()
+    if not path.is_file():
+        return {}
+    try:
+        data = load_data_file(path, MAX_SPEC_BYTES, PackError)
+    except PackError:
+        return {}
+    packs = data.get("packs") if isinstance(data, dict) else None
+    return packs if isinstance(packs, dict) else {}
+
+
+def _record_approval(pack: str, record: dict | None) -> None:
+    """Set (``record``) or remove (``None``) ``pack``'s entry of :data:`CODE_APPROVALS`, atomically."""
+    from benchbot.core import atomic
+
+    packs = _read_approvals()
+    if record is None and pack not in packs:
+        return
+    if record is None:
+        packs.pop(pack)
+    else:
+        packs[pack] = record
+    atomic.write_json(approvals_path(), {"packs": packs})
+
+
+def code_approval_problem(pack: str, pack_dir: Path) -> str | None:
+    """Why the code of the installed pack ``pack`` (in ``pack_dir``) may not be imported or run, in one line that
+    says how to allow it, or ``None`` when the user installed it with ``--allow-code`` and no file of the pack has
+    changed since (its :func:`pack_digest` is the one in :data:`CODE_APPROVALS`). The pack's own manifest is not
+    asked: it lies inside the pack, where anyone who can plant code can edit it too."""
+    record = _read_approvals().get(pack)
+    source = read_manifest(pack_dir).get("source") or "DIR"
+    again = f"to run its code, read it, then install it again: benchbot install --force --allow-code {source}"
+    if not isinstance(record, dict) or not isinstance(record.get("digest"), str):
+        return f"pack '{pack}' was installed without --allow-code ({again})"
+    try:
+        digest = pack_digest(pack_dir)
+    except OSError as exc:
+        return f"pack '{pack}' cannot be read to check its code ({exc.strerror or exc})"
+    if digest != record["digest"]:
+        return f"pack '{pack}' has changed since it was installed with --allow-code ({again})"
+    return None
 
 
 def pack_name(text: str) -> str:
@@ -260,7 +361,13 @@ def _adapt_paths(pf: PackFile, spec: dict, root: Path) -> None:
         return
     if os.path.isabs(map_path) or map_path.startswith("~"):
         if map_path.startswith("/Game/"):  # an Unreal asset path (original sim_unreal environments)
-            return
+            normal = posixpath.normpath(map_path)  # judged once normalised: /Game/../../etc/x is /etc/x
+            if normal.startswith("/Game/"):
+                spec["map_path"] = normal
+                return
+            raise SpecError(f"{pf.rel}: $.map_path: '{map_path}' leaves /Game/ (it is '{normal}' once normalised)",
+                            "an Unreal asset path stays inside /Game/; other maps go in the pack, as a path "
+                            "relative to the spec's folder")
         raise SpecError(f"{pf.rel}: $.map_path: absolute path '{map_path}' is not allowed in a pack",
                         "give a path relative to the spec's folder, inside the pack")
     target = (pf.path.parent / map_path).resolve()
@@ -408,17 +515,21 @@ def verify_pack(path: Path | str, name: str | None = None, registry: "Registry |
 
 def installed_function_problem(spec_path: Path | None, value: str, registry: "Registry") -> str | None:
     """Why the registry must not import ``value``, a function named by an installed pack's spec at ``spec_path``
-    (the pack is the folder of ``packs_dir()`` that holds it; its manifest says whether it may run code), or
-    ``None``. Checked when functions are imported, whatever the pack's files say now."""
-    pack, allow_code = "", False
+    (the pack is the folder of ``packs_dir()`` that holds it), or ``None``. Checked when functions are imported,
+    whatever the pack's files say now: its own code only when the user allowed it at install and the pack has not
+    changed since (:func:`code_approval_problem`; the pack's manifest is not asked)."""
+    pack, approval = "", None
     if spec_path is not None:
         try:
             rel = Path(spec_path).resolve().relative_to(packs_dir().resolve())
             pack = rel.parts[0]
-            allow_code = read_manifest(packs_dir() / pack).get("allow_code") is True
+            approval = code_approval_problem(pack, packs_dir() / pack)
         except (ValueError, IndexError, OSError):
             pass
-    return function_problem(value, pack or "?", allow_code, plugin_function_modules(registry))
+    problem = function_problem(value, pack or "?", approval is None and bool(pack), plugin_function_modules(registry))
+    if problem and approval and value.startswith(f"{NAMESPACE}.{pack}."):
+        return f"'{value}' is pack code, and {approval}"
+    return problem
 
 
 def imported_function_problem(value: str, obj: Any) -> str | None:
@@ -675,6 +786,13 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
                         "check that the data directory is writable (BENCHBOT_DATA_DIR)") from None
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+    try:  # what the user allowed, kept outside the pack: the pack's code runs only while its digest is this one
+        _record_approval(scan.name, {"digest": pack_digest(dest), "source": str(scan.root),
+                                     "approved_at": manifest["installed_at"]} if allow_code else None)
+    except OSError as exc:
+        raise PackError(f"pack '{scan.name}' was installed into {dest}, but {approvals_path()} cannot be written "
+                        f"({exc.strerror or exc}): its code will not run",
+                        "check that the data directory is writable (BENCHBOT_DATA_DIR), then install again") from None
     return {**manifest, **report}
 
 
@@ -695,6 +813,10 @@ def uninstall_pack(name: str) -> Path:
     trash = dest.parent / f".old-{dest.name}-{os.getpid()}-{time.monotonic_ns()}"
     os.rename(dest, trash)
     shutil.rmtree(trash, ignore_errors=True)
+    try:
+        _record_approval(dest.name, None)
+    except OSError:
+        pass  # a stale approval matches no future pack: its digest names these files exactly
     return dest
 
 
@@ -721,9 +843,13 @@ def load_installed_specs() -> dict[str, list[Any]]:
     """``{kind: [spec dict or path]}`` of every installed pack, for the registry.
 
     Invalid files are returned as well (dicts with ``_file_path``, or the path when unparsable) so the registry
-    reports them naming the file. Code of a pack installed without ``--allow-code`` is never made importable, and a
-    file that needs it (pack functions, examples) is returned as ``{_file_path, _load_error}`` for the registry to
-    report instead of registering it. A spec that the pack's manifest lists in ``overrides`` (installed with
+    reports them naming the file; a file the scan refuses (:func:`scan_pack`: a ``map_path`` leaving the pack or
+    ``/Game/``, a function that is not ``module:attr``, an invalid spec) as ``{_file_path, _load_error}``: the
+    checks of an install hold for files edited after it. Code of a pack is made importable only when the user
+    allowed it at install and the pack is unchanged since (:func:`code_approval_problem`: a manifest edited to
+    ``allow_code: true`` and a ``.py`` dropped in gain nothing); otherwise a file that needs it (pack functions,
+    examples) is returned as ``{_file_path, _load_error}`` for the registry to report, in one line saying how to
+    re-install, instead of registering it. A spec that the pack's manifest lists in ``overrides`` (installed with
     ``--override``) carries :data:`OVERRIDE_KEY`.
     """
     out: dict[str, list[Any]] = {}
@@ -733,15 +859,18 @@ def load_installed_specs() -> dict[str, list[Any]]:
             scan = scan_pack(pack_dir, manifest["name"])
         except PackError:
             continue
-        allow_code = manifest.get("allow_code") is True
-        if allow_code:
+        refused = code_approval_problem(scan.name, pack_dir) if scan.code else None
+        if scan.code and refused is None:
             _register_namespace(scan.name, scan.root)
         overrides = manifest.get("overrides") if isinstance(manifest.get("overrides"), dict) else {}
         for pf in scan.files:
-            if pf.code and not allow_code:  # the files changed since installation: never run the new code
+            if pf.error and pf.spec is not None:  # refused by the scan (say, a map_path edited to leave the pack)
+                where = f"{pf.path}{pf.error[len(pf.rel):]}" if pf.error.startswith(pf.rel) else pf.error
+                out.setdefault(pf.kind, []).append({"_file_path": str(pf.path), LOAD_ERROR_KEY: where})
+                continue
+            if pf.code and refused:  # not allowed at install, or changed since: never run the new code
                 out.setdefault(pf.kind, []).append({"_file_path": str(pf.path), LOAD_ERROR_KEY: (
-                    f"{pf.path}: {pf.code[0].partition(': ')[2]}, but pack '{scan.name}' was installed without "
-                    "--allow-code")})
+                    f"{pf.path}: {pf.code[0].partition(': ')[2]}, but {refused}")})
                 continue
             names = overrides.get(pf.kind)
             if pf.spec is not None and pf.name and isinstance(names, list) and pf.name in names:

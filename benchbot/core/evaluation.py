@@ -8,7 +8,6 @@ members are skipped, as in the original). Ground truths are found by each scene'
 from __future__ import annotations
 
 import inspect
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -16,7 +15,7 @@ from typing import Any, Callable
 from benchbot.core.errors import BenchbotError, ResultsError, SpecError, UsageError
 from benchbot.core.registry import Registry, json_path, validator
 from benchbot.core.limits import MAX_RESULTS_BYTES
-from benchbot.core.safe_load import parse_json, read_capped, zip_members
+from benchbot.core.safe_load import is_zip_archive, parse_json, path_kind, read_capped, zip_members
 
 
 @dataclass
@@ -56,7 +55,9 @@ def validate_result(result: LoadedResult, registry: Registry) -> None:
     """Check a result's envelope (schema ``results``) and its format instance (the format's ``validate``).
 
     Raises:
-        ResultsError: naming the source and the JSON path of the first problem.
+        ResultsError: naming the source and the JSON path of the first problem; also when the format's
+            ``validate`` fails with anything but a :class:`BenchbotError` (its own bug: one line naming the file),
+            so that one bad file never stops the others being validated and scored.
     """
     errors = sorted(validator("results").iter_errors(result.data), key=lambda e: list(map(str, e.absolute_path)))
     if errors:
@@ -74,13 +75,32 @@ def validate_result(result: LoadedResult, registry: Registry) -> None:
             functions["validate"](result.data["results"])
         except ResultsError as exc:
             raise ResultsError(f"{result.source}: results.{exc.message}", exc.hint) from None
+        except BenchbotError as exc:
+            raise type(exc)(f"{result.source}: {exc.message}", exc.hint) from None
+        except Exception as exc:  # the format's own bug (OverflowError, KeyError, ...): this file fails alone
+            raise ResultsError(f"{result.source}: results: format '{fmt}' could not validate it: "
+                               f"{_one_line(exc)}", "report this as a bug in the format") from exc
+
+
+def _one_line(exc: BaseException, limit: int = 200) -> str:
+    """``repr(exc)`` on one line, at most ``limit`` characters (an exception's text may be long or multi-line)."""
+    text = " ".join(repr(exc).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def _check_exist(paths: list[Path | str]) -> None:
-    """Raise ResultsError for the first path that is not a file (checked before anything is read)."""
+    """Raise ResultsError for the first path that is not a regular file, saying what it is (checked before
+    anything is read, without opening anything: a FIFO is never waited on)."""
     for path in paths:
-        if not Path(path).is_file():
+        kind = path_kind(Path(path))
+        if kind == "missing":
             raise ResultsError(f"{path}: no such results file", "check the path")
+        if kind == "a folder":
+            raise ResultsError(f"{path}: a folder, not a results file",
+                               f"give the results files in it (e.g. {Path(path) / '*.json'}) or a .zip of them")
+        if kind != "a regular file":
+            raise ResultsError(f"{path}: {kind}, not a results file",
+                               "give a results JSON file or a .zip archive of them")
 
 
 PerFileError = tuple[str, BenchbotError]
@@ -104,11 +124,12 @@ def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileE
     Returns:
         ``(results, errors)``: the parsed results in input order, and ``(source, ResultsError)`` for each file or
         archive member that cannot be read, is beyond a limit, is not valid JSON or not a JSON object (``source``
-        is ``path`` or ``path:member``; a whole archive is refused when it breaks an archive limit).
+        is ``path`` or ``path:member``; a whole archive is refused when it breaks an archive limit, is damaged,
+        or is named ``.zip`` without being a zip archive).
 
     Raises:
-        ResultsError: a path does not exist (checked for every path before anything is read, as the original's
-            pre-checks).
+        ResultsError: a path does not exist or is not a regular file (a folder, a FIFO, a device: said which;
+            checked for every path before anything is read, as the original's pre-checks).
         UsageError: a limit's environment variable is not a positive number.
     """
     _check_exist(paths)
@@ -118,7 +139,7 @@ def load_all(paths: list[Path | str]) -> tuple[list[LoadedResult], list[PerFileE
         file_results: list[LoadedResult] = []
         file_errors: list[PerFileError] = []
         try:
-            if zipfile.is_zipfile(path):
+            if is_zip_archive(path, ResultsError):
                 for member, data in zip_members(path, ResultsError, skip=_is_submission):
                     source = f"{path}:{member}"
                     try:
@@ -208,6 +229,7 @@ def evaluate(
     combine: str = "mean",
     options: dict[str, Any] | None = None,
     keep_going: bool = False,
+    environments: dict[str, str] | None = None,
 ) -> Evaluation:
     """Validate and score results files (docs/cli.md).
 
@@ -224,12 +246,16 @@ def evaluate(
             "oriented": True}`` for OMQ); false values are not passed.
         keep_going: collect per-file problems (bad JSON, validation errors, no ground truth, the method refusing
             a file) in ``Evaluation.errors`` and score the other files, instead of raising the first one.
+        environments: ``{str(path): environment string}``: the environment each file's results are *of* (a batch's
+            episode, from its plan). Such a file is scored against that environment's ground truth whatever its
+            ``environment_details`` say, and results naming another environment are an error naming both.
 
     Raises:
         UsageError: unknown combine mode, or the method does not support an option or pooled combining.
         SpecError: unknown method, task or environment; (without ``keep_going``) no ground truth for a scene.
-        ResultsError: a results file does not exist; results name several tasks; (without ``keep_going``) a
-            results file is malformed (naming it and the field) or the method cannot score it.
+        ResultsError: a results file does not exist; results name several tasks (without ``required_task``: with
+            it, results of other tasks are skipped); (without ``keep_going``) a results file is malformed (naming
+            it and the field), is not of its environment in ``environments``, or the method cannot score it.
     """
     if combine not in COMBINE_MODES:
         raise UsageError(f"unknown combine mode '{combine}'", f"use one of: {', '.join(COMBINE_MODES)}")
@@ -274,7 +300,7 @@ def evaluate(
         except BenchbotError as exc:
             fail(result.source, exc)
     tasks = {r.data["task_details"]["name"] for r in valid}
-    if len(tasks) > 1:
+    if len(tasks) > 1 and required_task is None:
         raise ResultsError(f"results name several tasks: {', '.join(sorted(tasks))}", "evaluate one task at a time")
     covered = set()
     task_details = None
@@ -283,23 +309,29 @@ def evaluate(
         if required_task is not None and task["name"] != required_task:
             evaluation.skipped.append((result.source, f"task {task['name']} is not {required_task}"))
             continue
-        if required_envs is not None and result.env_string not in required_envs:
+        own_env = environments.get(str(paths[order[result.source]])) if environments else None
+        if own_env is None and required_envs is not None and result.env_string not in required_envs:
             evaluation.skipped.append((result.source, f"environment {result.env_string} is not required"))
             continue
         try:
+            if own_env is not None and result.env_string != own_env:
+                raise ResultsError(
+                    f"{result.source}: environment_details name {result.env_string}, but these are the results of "
+                    f"an episode on {own_env}", "a solution writes the results of the environment it ran in")
+            scenes = result.data["environment_details"] if own_env is None else registry.scenes(own_env)
             if task["results_format"] not in spec["valid_result_formats"]:
                 raise ResultsError(
                     f"{result.source}: method '{method}' cannot score results of format '{task['results_format']}'",
                     f"it scores: {', '.join(spec['valid_result_formats'])}",
                 )
-            ground_truths = _ground_truths(result.source, result.data["environment_details"], spec, registry)
+            ground_truths = _ground_truths(result.source, scenes, spec, registry)
             try:
                 scores = functions["evaluate"](result.data, ground_truths, **method_kwargs)
             except BenchbotError as exc:
                 raise type(exc)(f"{result.source}: {exc.message}", exc.hint) from None
             except Exception as exc:  # the method's own bug: name the file, keep a one-line message
                 raise ResultsError(
-                    f"{result.source}: {method} failed: {exc!r}", "report this as a bug in the method"
+                    f"{result.source}: {method} failed: {_one_line(exc)}", "report this as a bug in the method"
                 ) from exc
         except BenchbotError as exc:
             fail(result.source, exc)

@@ -22,6 +22,13 @@ MAX_RESULTS_BYTES           64 MiB                   BENCHBOT_MAX_RESULTS_BYTES 
 MAX_ZIP_BYTES               256 MiB                  BENCHBOT_MAX_ZIP_BYTES               results error (exit 4)
 MAX_ZIP_MEMBERS             10000 members            BENCHBOT_MAX_ZIP_MEMBERS             results error (exit 4)
 MAX_NESTING_DEPTH           64 levels                BENCHBOT_MAX_NESTING_DEPTH           spec/results error (3/4)
+**command-line counts**
+MAX_REPEAT                  1000 repetitions         BENCHBOT_MAX_REPEAT                  usage error (exit 2)
+MAX_BATCH_EPISODES          100000 episodes          BENCHBOT_MAX_BATCH_EPISODES          usage error (exit 2)
+MAX_WORKERS                 256 workers              BENCHBOT_MAX_WORKERS                 usage error (exit 2)
+MAX_RETRIES                 100 retries              BENCHBOT_MAX_RETRIES                 usage error (exit 2)
+MAX_SEED                    4294967295               (none: --seed, 0 to 2**32 - 1)       usage error (exit 2)
+MAX_RENDER_SAMPLES          4096 samples             (none: sim render --spp, ...)        usage error (exit 2)
 **child processes**
 MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
 STOP_GRACE_S                5 seconds (0: no grace)  BENCHBOT_STOP_GRACE_S                SIGKILL after SIGTERM
@@ -219,6 +226,30 @@ MAX_ZIP_MEMBERS = Limit(10_000, "BENCHBOT_MAX_ZIP_MEMBERS", "members", integer=T
 
 MAX_NESTING_DEPTH = Limit(64, "BENCHBOT_MAX_NESTING_DEPTH", "levels", integer=True)
 """Deepest nesting of lists/objects in a spec or results file (a results file needs 6 levels)."""
+
+# --- command-line counts (benchbot.cli.options.check_count) -------------------------------------------------------
+# Every flag that counts something is bounded, and checked before anything proportional to it is made: a mistyped
+# `--repeat 99999999999999999999` is a one-line usage error naming the flag and its maximum, not a batch plan that
+# grows until the machine runs out of memory.
+
+MAX_REPEAT = Limit(1000, "BENCHBOT_MAX_REPEAT", "repetitions", integer=True)
+"""``benchbot batch --repeat``: runs of every (robot, environment) in one batch."""
+
+MAX_BATCH_EPISODES = Limit(100_000, "BENCHBOT_MAX_BATCH_EPISODES", "episodes", integer=True)
+"""Episodes in one batch's plan (robots × environments × repetitions, × the levels of a ``--sweep``); checked
+before the plan is made (:func:`benchbot.batch.plan.plan_episodes`)."""
+
+MAX_WORKERS = Limit(256, "BENCHBOT_MAX_WORKERS", "workers", integer=True)
+"""``benchbot batch --workers``: episodes run at once (each a process with its own backend)."""
+
+MAX_RETRIES = Limit(100, "BENCHBOT_MAX_RETRIES", "retries", integer=True)
+"""``benchbot batch --retries``: times a failed episode is run again."""
+
+MAX_SEED = Limit((1 << 32) - 1, None, "", integer=True)
+"""``--seed`` (``batch``, ``run``, ``ros2 sim``, ``sim render``) lies in 0 to this (NumPy's 32-bit seeds)."""
+
+MAX_RENDER_SAMPLES = Limit(4096, None, "samples", integer=True)
+"""``benchbot sim render --spp`` and ``--shadow-samples``: rays per pixel (the renderer packs them in float32)."""
 
 # --- child processes (benchbot.core.process_group) ----------------------------------------------------------------
 

@@ -11,7 +11,9 @@ YAML aliases (``*name``, including ``<<: *name`` merges) are refused in spec fil
 aliases expand to billions of nodes. Integers longer than Python's ``sys.get_int_max_str_digits()`` (4300 digits)
 and text that is not UTF-8 are refused too. Each refusal is one :class:`~benchbot.core.errors.BenchbotError` naming the
 file, the limit and how to raise it; nothing here lets a ``RecursionError``, ``ValueError`` or
-``UnicodeDecodeError`` escape.
+``UnicodeDecodeError`` escape. What is not a regular file is said to be what it is (:func:`path_kind`: a folder,
+a FIFO, a device), found without waiting on a FIFO; a file named ``.zip`` that is no zip archive, and a damaged
+zip archive, are said to be so (:func:`is_zip_archive`), not "not valid JSON".
 """
 
 from __future__ import annotations
@@ -42,6 +44,69 @@ def _too_big(source: str, size: int | str, limit: Limit, what: str, error: type[
                  f"({limit.raise_hint()})", _file_hint(limit))
 
 
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def file_kind(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, for messages: ``a regular file``, ``a folder``, ``a named pipe
+    (FIFO)``, ``a character device`` (``/dev/zero``), ``a block device``, ``a socket``."""
+    for test, name in _KINDS:
+        if test(mode):
+            return name
+    return "a regular file" if stat.S_ISREG(mode) else "not a regular file"
+
+
+def path_kind(path: Path) -> str:
+    """What ``path`` is (symlinks followed), found without opening it (so a FIFO is never waited on): ``missing``,
+    ``a broken symbolic link``, or :func:`file_kind` of it; ``cannot read: <why>`` when it cannot be looked at."""
+    try:
+        return file_kind(os.stat(path).st_mode)
+    except FileNotFoundError:
+        return "a broken symbolic link" if os.path.islink(path) else "missing"
+    except OSError as exc:
+        return f"cannot read: {exc.strerror or exc}"
+
+
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06", b"PK\x07\x08")
+"""How a zip archive starts: a local file header, an empty archive's end record, a spanned archive's marker."""
+
+
+def is_zip_archive(path: Path, error: type[BenchbotError]) -> bool:
+    """Whether the file ``path`` is a zip archive (it has a zip end-of-archive record), opened without blocking.
+
+    A file that is not one is ``False`` (read it as JSON) unless it pretends to be one, which is refused rather
+    than reported as "not valid JSON".
+
+    Raises:
+        ``error``: ``path`` is not a regular file (saying what it is); is named ``.zip`` but is no zip archive;
+            starts as a zip archive but has no end record (``a damaged zip archive``: truncated, say); cannot be
+            read.
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as f:
+            mode = os.fstat(f.fileno()).st_mode
+            if not stat.S_ISREG(mode):
+                raise error(f"{path}: {file_kind(mode)}, not a regular file",
+                            "give a file (not a pipe, device or folder)")
+            head = f.read(4)
+            f.seek(0)
+            found = zipfile.is_zipfile(f)
+    except OSError as exc:
+        raise error(f"{path}: cannot read: {exc.strerror or exc}", "check the path and its permissions") from None
+    if found:
+        return True
+    if head in _ZIP_MAGIC:
+        raise error(f"{path}: a damaged zip archive (it starts as one but has no end-of-archive record: truncated?)",
+                    "re-create it with zip or shutil.make_archive")
+    if path.suffix.lower() == ".zip":
+        shown = "empty" if not head else f"it starts with {head!r}"
+        raise error(f"{path}: not a zip archive, though named .zip ({shown})",
+                    "give the zip archive itself, or name a JSON results file .json")
+    return False
+
+
 def read_capped(path: Path, limit: Limit, error: type[BenchbotError], what: str = "the file") -> bytes:
     """The bytes of the regular file ``path``, refusing it (from its size, before reading) when it is larger than
     ``limit``; at most ``limit + 1`` bytes are ever read, even if the file grows meanwhile.
@@ -56,7 +121,8 @@ def read_capped(path: Path, limit: Limit, error: type[BenchbotError], what: str 
         with os.fdopen(fd, "rb") as f:
             info = os.fstat(f.fileno())
             if not stat.S_ISREG(info.st_mode):
-                raise error(f"{path}: not a regular file", "give a file (not a pipe, device or folder)")
+                raise error(f"{path}: {file_kind(info.st_mode)}, not a regular file",
+                            "give a file (not a pipe, device or folder)")
             size = info.st_size
             if size > cap:
                 raise _too_big(str(path), size, limit, what, error)
@@ -280,8 +346,8 @@ def zip_members(path: Path, error: type[BenchbotError], skip: Any = None) -> Ite
         why = str(exc)
         if "CRC" in why:  # zipfile inflates no further than the header's size, so a lying header ends in a bad CRC
             why += ": a member's content does not match its header (a damaged or crafted archive)"
-        raise error(f"{path}: cannot read the zip archive ({why})", "re-create it with zip or shutil.make_archive") \
-            from None
+        raise error(f"{path}: a damaged zip archive, cannot read it ({why})",
+                    "re-create it with zip or shutil.make_archive") from None
 
 
 def _too_many(path: Path, count: int, error: type[BenchbotError]) -> BenchbotError:

@@ -131,19 +131,45 @@ def resolve_class(name: Any, class_index: dict[str, int], synonyms: dict[str, st
 # --------------------------------------------------------------------------------------------------------------------
 # Input checking / sanitising
 # --------------------------------------------------------------------------------------------------------------------
+def _finite(value: Any) -> bool:
+    """A real number (not a bool) that is finite as a float: a JSON integer beyond a float's range (400 digits) is
+    not, and never raises ``OverflowError``."""
+    if not isinstance(value, Real) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
+def _shown(value: Any) -> str:
+    """``repr(value)``, except an integer beyond a float's range, told by its digit count (one short line)."""
+    if isinstance(value, int) and not isinstance(value, bool) and not _finite(value):
+        return f"an integer of {len(str(abs(value)))} digits (beyond a float's range)"
+    return repr(value)
+
+
+def _as_floats(values: Any) -> Optional[np.ndarray]:
+    """``np.asarray(values, float64)``, or None when an integer does not fit a float (the slow path names it)."""
+    try:
+        return np.asarray(values, dtype=np.float64)
+    except OverflowError:
+        return None
+
+
 def _number_array(value: Any, length: int, path: str, what: str, non_negative: bool = False) -> np.ndarray:
     # Fast path (the common case: a list of JSON ints/floats): one type pass, then vectorised checks.
     if type(value) is list and len(value) == length and all(type(v) is float or type(v) is int for v in value):
-        arr = np.asarray(value, dtype=np.float64)
-        if np.isfinite(arr).all() and not (non_negative and (arr < 0).any()):
+        arr = _as_floats(value)
+        if arr is not None and np.isfinite(arr).all() and not (non_negative and (arr < 0).any()):
             return arr
     if not isinstance(value, (list, tuple)):
         raise ResultsError(f"{path}: expected a list of {length} {what}, got {type(value).__name__}", _RESULTS_HINT)
     if len(value) != length:
         raise ResultsError(f"{path}: expected {length} {what}, got {len(value)}", _RESULTS_HINT)
     for k, v in enumerate(value):
-        if not isinstance(v, Real) or isinstance(v, bool) or not math.isfinite(v):
-            raise ResultsError(f"{path}[{k}]: expected a finite number, got {v!r}", _RESULTS_HINT)
+        if not _finite(v):
+            raise ResultsError(f"{path}[{k}]: expected a finite number, got {_shown(v)}", _RESULTS_HINT)
         if non_negative and v < 0:
             raise ResultsError(f"{path}[{k}]: expected a number >= 0, got {v!r}", _RESULTS_HINT)
     return np.asarray(value, dtype=np.float64)
@@ -175,9 +201,9 @@ def _number_matrix(
     if all(type(v) is list and len(v) == length for v in values) and set(
         map(type, itertools.chain.from_iterable(values))
     ) <= {float, int}:
-        arr = np.array(values, dtype=np.float64).reshape(len(values), length)
-        if np.isfinite(arr).all() and not (non_negative and (arr < 0).any()):
-            return arr
+        arr = _as_floats(values)
+        if arr is not None and np.isfinite(arr).all() and not (non_negative and (arr < 0).any()):
+            return arr.reshape(len(values), length)
     out = np.zeros((len(values), length))
     hint = _GT_HINT if err is SpecError else _RESULTS_HINT
     for i, (obj, value) in enumerate(zip(objects, values)):
@@ -562,8 +588,8 @@ def _yaws(objects: Sequence[dict], prefix: str, err: type) -> np.ndarray:
     out = np.zeros(len(objects))
     for i, obj in enumerate(objects):
         yaw = obj.get("yaw", 0.0)
-        if not isinstance(yaw, Real) or isinstance(yaw, bool) or not math.isfinite(yaw):
-            raise err(f"{prefix}[{i}].yaw: expected a finite number (radians about +z), got {yaw!r}",
+        if not _finite(yaw):
+            raise err(f"{prefix}[{i}].yaw: expected a finite number (radians about +z), got {_shown(yaw)}",
                       _RESULTS_HINT if err is ResultsError else _GT_HINT)  # fmt: skip
         out[i] = float(yaw)
     return out

@@ -34,7 +34,8 @@ def benchbot_commands(app: Any) -> None:
     """``benchbot ros2 serve-sim --env ENV``: the Taichi simulator served as a ROS 2 robot."""
     import typer
 
-    from benchbot.cli.options import ARCH_HELP, arch_value
+    from benchbot.cli.options import ARCH_HELP, arch_value, at_most, check_count
+    from benchbot.core.limits import MAX_SEED
 
     ros2 = typer.Typer(help="ROS 2 robots: serve the simulator as a ROS 2 robot.", no_args_is_help=True)
 
@@ -48,7 +49,7 @@ def benchbot_commands(app: Any) -> None:
         camera_hz: float = typer.Option(10.0, "--camera-hz", min=0.1, help="Camera rate (simulated time)."),
         transport: str = typer.Option("auto", "--transport", help="auto (rclpy if importable), rclpy or cyclonedds."),
         network: str = typer.Option("loopback", "--network", help="loopback (Cyclone DDS on lo unless CYCLONEDDS_URI is set) or system."),
-        seed: int = typer.Option(0, "--seed", help="Scene seed."),
+        seed: int = typer.Option(0, "--seed", help=f"Scene seed ({at_most(MAX_SEED)})."),
     ) -> None:
         """Publish the simulated carter's camera, depth, laser, odometry and TF over ROS 2 and obey /cmd_vel in
         real time; /benchbot/reset (std_msgs/String JSON) reloads the scene. Ctrl-C stops."""
@@ -59,6 +60,7 @@ def benchbot_commands(app: Any) -> None:
 
         @handle_errors
         def _run() -> None:
+            check_count("--seed", seed, MAX_SEED)
             domain = domain_id
             if domain is None:
                 from benchbot.core import settings

@@ -350,17 +350,24 @@ def serve(env: str, **kwargs: Any) -> None:
 
 
 def parse_size(text: str | None) -> tuple[int | None, int | None]:
-    """``'64x48'`` → (64, 48); None → (None, None). Raises UsageError otherwise."""
+    """``'64x48'`` → (64, 48); None → (None, None). Raises UsageError otherwise, and for a side of more than
+    :data:`~benchbot.core.limits.MAX_CAMERA_SIDE` (8192) pixels (checked on the digits, before any number is made)."""
     if not text:
         return None, None
     import re
 
     from benchbot.core.errors import UsageError
+    from benchbot.core.limits import MAX_CAMERA_SIDE
 
+    side = int(MAX_CAMERA_SIDE.value())
     m = re.fullmatch(r"(\d+)[xX](\d+)", text.strip())
-    if not m or int(m.group(1)) <= 0 or int(m.group(2)) <= 0:
+    sides = [int(g) if len(g.lstrip("0")) <= 12 else side + 1 for g in m.groups()] if m else [0]
+    if min(sides) <= 0:
         raise UsageError(f"--camera-size '{text}' is not WIDTHxHEIGHT", "e.g. --camera-size 320x240")
-    return int(m.group(1)), int(m.group(2))
+    if max(sides) > side:
+        raise UsageError(f"--camera-size '{text}': each side must be at most {side} pixels",
+                         f"e.g. --camera-size 640x480 (at most {side}x{side})")
+    return sides[0], sides[1]
 
 
 def main(argv: list[str] | None = None) -> None:

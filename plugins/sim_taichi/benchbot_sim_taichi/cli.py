@@ -18,6 +18,9 @@ from pathlib import Path
 
 import typer
 
+from benchbot.cli.options import at_most, check_count
+from benchbot.core.limits import MAX_CAMERA_SIDE, MAX_RENDER_SAMPLES, MAX_SEED
+
 app = typer.Typer(help="The Taichi simulator (sim_taichi): render views, export scenes, derive ground truths.",
                   no_args_is_help=True)
 
@@ -79,12 +82,12 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
            output: Path = typer.Option(..., "-o", "--output", help="PNG file to write"),
            pose: str = typer.Option(None, "--pose", help="camera x,y,z (m),yaw (deg); default: the start pose"),
            mode: str = typer.Option("fast", "--mode", help="fast or quality"),
-           width: int = typer.Option(640, "--width", help="image width, pixels"),
-           height: int = typer.Option(480, "--height", help="image height, pixels"),
-           spp: int = typer.Option(32, "--spp", help="samples per pixel in quality mode"),
-           shadow_samples: int = typer.Option(8, "--shadow-samples", help="soft-shadow rays per light (fast mode)"),
+           width: int = typer.Option(640, "--width", help=f"image width, pixels ({at_most(MAX_CAMERA_SIDE, 1)})"),
+           height: int = typer.Option(480, "--height", help=f"image height, pixels ({at_most(MAX_CAMERA_SIDE, 1)})"),
+           spp: int = typer.Option(32, "--spp", help=f"samples per pixel in quality mode ({at_most(MAX_RENDER_SAMPLES, 1)})"),
+           shadow_samples: int = typer.Option(8, "--shadow-samples", help=f"soft-shadow rays per light, fast mode ({at_most(MAX_RENDER_SAMPLES, 1)})"),
            fov: float = typer.Option(90.0, "--fov", help="horizontal field of view, degrees"),
-           seed: int = typer.Option(0, "--seed", help="seed of the scene's colour variation and of the sampling"),
+           seed: int = typer.Option(0, "--seed", help=f"seed of the scene's colour variation and of the sampling ({at_most(MAX_SEED)})"),
            style: str = typer.Option(None, "--style",
                                      help="furnished (a house: rooms, walls, textured models) or primitives; "
                                           "default: the environment's own, else furnished"),
@@ -92,6 +95,12 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
     """Render one RGB view of ENV to a PNG."""
 
     def go():
+        for flag, value, limit in (("--width", width, MAX_CAMERA_SIDE), ("--height", height, MAX_CAMERA_SIDE),
+                                   ("--spp", spp, MAX_RENDER_SAMPLES),
+                                   ("--shadow-samples", shadow_samples, MAX_RENDER_SAMPLES)):
+            check_count(flag, value, limit, 1)  # first: before the simulator is even imported
+        check_count("--seed", seed, MAX_SEED)
+
         import cv2
 
         from benchbot.core.errors import UsageError
@@ -100,9 +109,6 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
 
         if mode not in ("fast", "quality"):
             raise UsageError(f"unknown --mode {mode!r}", "use fast or quality")
-        if min(width, height, spp, shadow_samples) < 1:
-            raise UsageError("--width, --height, --spp and --shadow-samples must be ≥ 1",
-                             "e.g. --width 640 --height 480 --spp 32 --shadow-samples 8")
         if not 0.0 < fov < 180.0:
             raise UsageError(f"--fov {fov} is not between 0 and 180 degrees", "e.g. --fov 90")
         scene = build_scene(_styled(_environment(env), style), seed=seed)

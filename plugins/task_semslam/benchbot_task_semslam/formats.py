@@ -23,12 +23,14 @@ names the JSON path inside the format instance (e.g. ``objects[3].extent: expect
 
 Fixed bugs of the original validators: the ``objects`` type check was always true; the extent message said
 "centroid"; a missing ``class_list`` raised ``KeyError``; ``state_probs`` length was never checked; numbers were not
-checked for being finite; extents could be negative; the ground-truth format had no validator.
+checked for being finite (nor, here, for fitting a float: a 400-digit integer is refused by its JSON path, not an
+``OverflowError``); extents could be negative; the ground-truth format had no validator.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from numbers import Real
 from typing import Any, Optional
 
@@ -156,10 +158,28 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, Real) and not isinstance(value, bool)
 
 
+def _finite(value: Real) -> bool:
+    """Whether the real number ``value`` is finite *as a float*: an integer beyond a float's range (a 400-digit
+    JSON integer) is not (``math.isfinite`` would raise ``OverflowError`` on it)."""
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
+def _describe_number(value: Real) -> str:
+    """``inf``, ``nan``, ``1e+300``; an integer too large for a float as ``an integer of 401 digits`` (never its
+    digits: the message stays one short line)."""
+    if isinstance(value, int) and abs(value) > sys.float_info.max:
+        return f"an integer of {len(str(abs(value)))} digits (beyond a float's range, ±{sys.float_info.max:.2g})"
+    return repr(value)
+
+
 def _check_numbers(
     value: Any, path: str, fmt: str, length: int, what: str = "numbers", non_negative: bool = False
 ) -> None:
-    """Check ``value`` is a list of ``length`` finite (optionally non-negative) real numbers."""
+    """Check ``value`` is a list of ``length`` finite (optionally non-negative) real numbers, each within a
+    float's range (``±1.8e308``: a JSON integer of hundreds of digits is refused, naming its JSON path)."""
     if not isinstance(value, (list, tuple)):
         _fail(path, f"expected a list of {length} {what}, got {type(value).__name__}", fmt)
     if len(value) != length:
@@ -167,8 +187,8 @@ def _check_numbers(
     for i, v in enumerate(value):
         if not _is_number(v):
             _fail(f"{path}[{i}]", f"expected a number, got {_describe(v)}", fmt)
-        if not math.isfinite(v):
-            _fail(f"{path}[{i}]", f"expected a finite number, got {v!r}", fmt)
+        if not _finite(v):
+            _fail(f"{path}[{i}]", f"expected a finite number, got {_describe_number(v)}", fmt)
         if non_negative and v < 0:
             _fail(f"{path}[{i}]", f"expected a number >= 0, got {v!r}", fmt)
 
