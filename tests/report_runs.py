@@ -60,10 +60,11 @@ def results_file(env: str, quality: float, seed: int) -> dict:
 
 
 def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, example: str = "semslam_geometric",
-             seed: int = 0, robot: str = "carter", plan_options: dict | None = None) -> Path:
+             seed: int = 0, robot: str = "carter", plan_options: dict | None = None, sandbox: str = "bwrap") -> Path:
     """A scored run directory ``root/name``: per environment, one episode per quality in its list (repetitions).
 
-    ``plan_options`` are stored in every plan entry's ``options`` (e.g. ``{"lighting": "night"}``).
+    ``plan_options`` are stored in every plan entry's ``options`` (e.g. ``{"lighting": "night"}``); ``sandbox`` is
+    the manifest's isolation level.
     """
     run = root / name
     (run / "results").mkdir(parents=True)
@@ -85,7 +86,7 @@ def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, e
                                "machine": {"system": "Linux-test", "architecture": "x86_64", "cpu": "Test CPU",
                                            "cpus": 2, "memory_gib": 8.0}},
                 "started": "2026-11-22T10:00:00+00:00", "plan": to_json(specs), "episodes": to_json(records),
-                "wall_s": 12.5}
+                "wall_s": 12.5, "sandbox": sandbox}
     (run / "manifest.json").write_text(json.dumps(manifest))
     (run / "config.json").write_text(json.dumps({"task": TASK, "environments": {e: reg.scenes(e) for e in envs}}))
     by_source = {str(run / s.results): s for s in specs}
@@ -100,7 +101,7 @@ def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, e
 
 
 def scores_only_run(root: Path, name: str, omq_by_env: dict[str, list[float]], *, seed: int = 0,
-                    example: str = "semslam_geometric") -> Path:
+                    example: str = "semslam_geometric", sandbox: str = "bwrap") -> Path:
     """A run directory with given OMQ values and no results files (fast: nothing is evaluated)."""
     run = root / name
     run.mkdir(parents=True)
@@ -113,7 +114,8 @@ def scores_only_run(root: Path, name: str, omq_by_env: dict[str, list[float]], *
         records.append(record)
     (run / "manifest.json").write_text(json.dumps({
         "command": ["benchbot", "batch", "--example", example], "task": TASK, "robots": ["carter"],
-        "environments": envs, "evaluate_with": "omq", "plan": to_json(specs), "episodes": to_json(records)}))
+        "environments": envs, "evaluate_with": "omq", "plan": to_json(specs), "episodes": to_json(records),
+        "sandbox": sandbox}))
     (run / "config.json").write_text(json.dumps({"environments": {e: [{"lighting": "base"}] for e in envs}}))
     rows = [{"index": s.index, "env": s.env, "robot": "carter", "repeat": s.repeat, "seed": s.seed,
              "scores": {"OMQ": omq_by_env[s.env][s.repeat], "avg_label": 0.5}} for s in specs]

@@ -39,7 +39,7 @@ def test_plan_gives_each_episode_a_recorded_seed():
 
 @pytest.mark.slow
 def test_repeats_on_two_workers(tmp_path):
-    proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1", "--repeat", "2",
+    proc = cli("batch", "--example", "hello_eval_semantic_slam", "--no-sandbox", "--envs", "miniroom:1", "--repeat", "2",
                "--workers", "2", "--output-dir", str(tmp_path), "--json", "--zip", *SMALL)
     assert proc.returncode == 0, proc.stderr
     run_dir = Path(json.loads(proc.stdout)["run_dir"])

@@ -62,7 +62,7 @@ def test_run_refuses_bad_tls_files_in_one_line(tmp_path):
 
 @pytest.mark.slow
 def test_batch_scores_the_ground_truth_example_one(tmp_path):
-    proc = cli("batch", "--example", "hello_eval_semantic_slam", "--envs", "miniroom:1,house:1",
+    proc = cli("batch", "--example", "hello_eval_semantic_slam", "--no-sandbox", "--envs", "miniroom:1,house:1",
                "--camera-size", "64x48", "--output-dir", str(tmp_path), "--json")
     assert proc.returncode == 0, proc.stderr
     outcome = json.loads(proc.stdout)

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-REQUIRED = {"python", "packages", "main-job content", "taichi cpu"}
+REQUIRED = {"python", "packages", "main-job content", "taichi cpu", "sandbox"}
 
 
 def doctor(*args, env=None):

@@ -68,6 +68,26 @@ def test_entries_are_ranked_on_one_set_of_environments(tmp_path):
     assert [(e["label"], e["rank"]) for e in rows if e["rank"]] == [("c", 1), ("d", 2)]
 
 
+def test_runs_without_the_sandbox_are_marked_and_not_ranked(tmp_path):
+    """A run whose solution could read the ground truth (--no-sandbox, or a batch from before the sandbox) is listed
+    as not verifiable and never ranked, however high it scores; its report says so too."""
+    from benchbot.batch.report import analyse, render_html
+
+    runs = [load_run(scores_only_run(tmp_path, "a", {"miniroom:1": [0.2]}, example="honest")),
+            load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.99]}, example="copied", sandbox="none"))]
+    assign_labels(runs, None)
+    [(task, rows)] = entries(runs).items()
+    assert [(e["label"], e["rank"], e["verifiable"]) for e in rows] == [("honest", 1, True), ("copied", None, False)]
+    write_site(runs, tmp_path / "site", reports=False)
+    page = (tmp_path / "site" / f"{slug(task)}.html").read_text()
+    assert "copied (not verifiable)" in page and "1 entry is not verifiable" in page
+    result = analyse(runs)
+    assert [r["verifiable"] for r in result["runs"]] == [True, False]
+    assert result["runs"][1]["provenance"]["isolation"].startswith("none (NOT VERIFIABLE")
+    html = render_html(runs, result, [], [], "assets")
+    assert "Not verifiable:</b> copied ran its solution without the sandbox" in html
+
+
 @pytest.mark.slow
 def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     a = make_run(tmp_path, "a", {"miniroom:1": [0.9]})

@@ -48,9 +48,8 @@ def wait_gone(pids: list[int], within_s: float) -> list[int]:
 
 
 def solution(tmp_path: Path, body: str) -> str:
-    """A native solution: ``body`` after a preamble that forks a child sleeping 120 s and writes
-    ``pids/<solution pid>`` (``<solution pid> <child pid>``) into tmp_path."""
-    (tmp_path / "pids").mkdir()
+    """A native solution: ``body`` after a preamble that forks a child sleeping 120 s. It runs sandboxed (the
+    default), so it tells nothing through files: :func:`pids` finds it and its child in this machine's ``/proc``."""
     script = tmp_path / "solution.py"
     script.write_text(
         "import os, sys, time\n"
@@ -58,21 +57,41 @@ def solution(tmp_path: Path, body: str) -> str:
         "if child == 0:\n"
         "    time.sleep(120)\n"
         "    os._exit(0)\n"
-        f"path = os.path.join({str(tmp_path / 'pids')!r}, str(os.getpid()))\n"
-        "with open(path + '.tmp', 'w') as f:\n"
-        "    f.write(f'{os.getpid()} {child}')\n"
-        "os.replace(path + '.tmp', path)\n" + body
+        "print('forked a child', flush=True)\n" + body
     )
     return f"{sys.executable} {script}"
 
 
+def running_solutions(tmp_path: Path) -> list[int]:
+    """The pids (as this machine numbers them, sandboxed or not) of the live processes running ``python
+    tmp_path/solution.py``: solutions and their forked children."""
+    script = str(tmp_path / "solution.py")
+    found = []
+    for entry in os.listdir("/proc"):
+        try:
+            argv = Path(f"/proc/{entry}/cmdline").read_bytes().split(b"\0")
+        except (OSError, ValueError):
+            continue
+        if entry.isdigit() and len(argv) > 1 and argv[1].decode(errors="replace") == script and running(int(entry)):
+            found.append(int(entry))
+    return found
+
+
 def pids(tmp_path: Path, count: int = 1, within_s: float = 90) -> list[int]:
-    """The pids of ``count`` solutions and their forked children (waiting for them to start)."""
+    """The pids of ``count`` running solutions and their forked children (waiting for them to start and fork)."""
     deadline = time.monotonic() + within_s
-    while len(files := [p for p in (tmp_path / "pids").iterdir() if p.suffix != ".tmp"]) < count:
+    while len(found := running_solutions(tmp_path)) < 2 * count:
         assert time.monotonic() < deadline, "the solutions never started"
         time.sleep(0.1)
-    return [int(pid) for path in files for pid in path.read_text().split()]
+    return found
+
+
+def none_left_within(tmp_path: Path, within_s: float) -> list[int]:
+    """The solutions' processes still running after ``within_s`` seconds (none, if their groups were ended)."""
+    deadline = time.monotonic() + within_s
+    while (left := running_solutions(tmp_path)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return left
 
 
 def descendants(pid: int) -> list[int]:
@@ -98,8 +117,9 @@ def test_a_forked_child_ends_with_its_episode_and_episodes_get_a_default_timeout
     proc = batch("--native", solution(tmp_path, "sys.exit(0)\n"), "--envs", "miniroom:1", "--no-evaluate",
                  "--output-dir", str(tmp_path / "runs"), *SMALL)
     assert proc.returncode == 1, proc.stderr  # no results
-    assert wait_gone(pids(tmp_path), 2) == []  # before: the child slept on after the batch
+    assert none_left_within(tmp_path, 2) == []  # before: the child slept on after the batch
     m = manifest(only_run_dir(tmp_path / "runs"))
+    assert "forked a child" in (only_run_dir(tmp_path / "runs") / m["episodes"][0]["log"]).read_text()
     assert m["episodes"][0]["status"] == "no_results"
     assert m["plan"][0]["timeout_s"] == 300 + 10 * 48  # startup + 10 s × 48 trajectory poses of miniroom:1
     assert m["episode_timeout"]["source"] == "default"
@@ -112,12 +132,26 @@ def test_episode_timeout_stops_the_whole_group(tmp_path):
                  "--episode-timeout", "2", "--output-dir", str(tmp_path / "runs"), *SMALL)
     assert time.monotonic() - t0 < 60
     assert proc.returncode == 1
-    assert wait_gone(pids(tmp_path), 2) == []
+    assert none_left_within(tmp_path, 2) == []
     m = manifest(only_run_dir(tmp_path / "runs"))
     record = m["episodes"][0]
+    assert "forked a child" in (only_run_dir(tmp_path / "runs") / record["log"]).read_text()
     assert record["status"] == "timeout" and "timeout of 2 s" in record["error"], record
     assert m["plan"][0]["timeout_s"] == 2 and m["episode_timeout"] == {"source": "--episode-timeout", "seconds": 2}
     assert "timeout" in proc.stderr
+
+
+@pytest.mark.slow
+def test_a_sandboxed_process_that_leaves_its_group_ends_with_the_sandbox(tmp_path):
+    """setsid() takes a process out of the solution's process group, so the group's clean-up misses it; in the
+    sandbox it still ends with its episode (the sandbox's PID namespace ends)."""
+    body = "if os.fork() == 0:\n    os.setsid()\n    time.sleep(120)\n    os._exit(0)\nprint('escaped', flush=True)\n"
+    proc = batch("--native", solution(tmp_path, body), "--envs", "miniroom:1", "--no-evaluate",
+                 "--output-dir", str(tmp_path / "runs"), *SMALL)
+    assert proc.returncode == 1, proc.stderr  # no results
+    run_dir = only_run_dir(tmp_path / "runs")
+    assert "escaped" in (run_dir / manifest(run_dir)["episodes"][0]["log"]).read_text()
+    assert none_left_within(tmp_path, 2) == []
 
 
 @pytest.mark.parametrize("workers", [1, 2])

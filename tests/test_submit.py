@@ -320,7 +320,8 @@ def test_results_stay_where_the_readme_says(served, original_location):
     """Before: without -r they were saved in a temporary folder removed on exit (the path the solution printed no
     longer existed)."""
     _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
-    proc = subprocess.run([*BENCHBOT, "submit", "--example", "hello_eval_semantic_slam", "--address", server.address],
+    proc = subprocess.run([*BENCHBOT, "submit", "--example", "hello_eval_semantic_slam", "--no-sandbox",
+                           "--address", server.address],
                           capture_output=True, text=True, timeout=300, env=_without_result_location())
     assert proc.returncode == 0, proc.stderr
     assert f"results saved to {original_location}" in proc.stderr
@@ -360,12 +361,14 @@ LegacyBenchBot(GroundTruth(), supervisor_address=os.environ["BENCHBOT_SUPERVISOR
 @pytest.mark.slow
 def test_an_original_client_s_results_are_found_and_scored(served, original_location, tmp_path):
     """An original benchbot_api client writes /tmp/benchbot_result even when BENCHBOT_RESULT_LOCATION names another
-    file. Before: "saved no results" and the evaluation of {} failed."""
+    file. Before: "saved no results" and the evaluation of {} failed. (Unsandboxed: this solution submits the
+    ground truth, which only a solution outside the sandbox can read; sandboxed, /tmp/benchbot_result leads to the
+    solution's outputs folder: tests/test_sandbox.py.)"""
     _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
     solution = tmp_path / "original_solution.py"
     solution.write_text(ORIGINAL_CLIENT.format(tests=str(Path(__file__).parent)))
     given, scores = tmp_path / "given.json", tmp_path / "scores.json"
-    proc = cli("submit", "--native", sys.executable, str(solution), "--address", server.address,
+    proc = cli("submit", "--no-sandbox", "--native", sys.executable, str(solution), "--address", server.address,
                "--evaluate-with", "omq", "--scores", str(scores), env={"BENCHBOT_RESULT_LOCATION": str(given)})
     assert proc.returncode == 0, proc.stderr
     assert not given.exists() and original_location.is_file()

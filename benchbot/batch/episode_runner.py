@@ -6,6 +6,9 @@ reports steps through an optional ``events`` queue as ``("step", index, info)`` 
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -27,6 +30,34 @@ def results_problem(path: Path) -> str:
     except BenchbotError as exc:
         return exc.message
     return ""
+
+
+def run_directories(run_dir: Path) -> list[Path]:
+    """``run_dir`` and the other run directories beside it (folders holding a ``manifest.json``): what a sandboxed
+    solution must not see of the batches' outputs (others' results and scores included)."""
+    siblings = [p for p in run_dir.parent.iterdir() if p.is_dir() and (p / "manifest.json").is_file()]
+    return [run_dir, *siblings]
+
+
+def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log, record: EpisodeRecord) -> bool:
+    """Run ``spec``'s solution in the sandbox (:func:`benchbot.core.sandbox.run_sandboxed`): it writes only to its
+    outputs folder (``spec.outputs``, made afresh) and reaches the backend through ``backend_socket`` at
+    ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. Sets ``record.returncode``
+    (and ``record.error`` when its results file is refused); returns whether it timed out."""
+    from benchbot.core.sandbox import run_sandboxed
+
+    outputs = folder / spec.outputs
+    shutil.rmtree(outputs, ignore_errors=True)
+    outputs.mkdir(parents=True)
+    run = run_sandboxed(list(spec.argv), Path(spec.cwd), registry=registry, backend_socket=backend_socket,
+                        address="http://127.0.0.1:10000/", outputs=outputs, result_name=Path(spec.results).name,
+                        hide=run_directories(folder), log=log, timeout_s=spec.timeout_s)
+    record.returncode = run.outcome.returncode
+    if run.problem:
+        record.error = run.problem
+    elif run.results is not None:
+        os.replace(run.results, folder / spec.results)
+    return run.outcome.timed_out
 
 
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
@@ -69,11 +100,16 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
 
                 recorder = attach_recorder(registry, service, run, folder / spec.recording, seed=spec.seed,
                                            options=options)
-            server = ServerThread(build_app(service)).start()
+            private = tempfile.mkdtemp(prefix="benchbot-episode-")  # the sandbox's way to the backend
+            backend_socket = Path(private) / "backend.sock"
+            server = ServerThread(build_app(service), unix_socket=backend_socket if spec.sandbox == "bwrap" else None)
+            server.start()
             timed_out = False
             try:
                 with open(folder / spec.log, "w") as log:
-                    if spec.container:
+                    if spec.sandbox == "bwrap":
+                        timed_out = _run_sandboxed(spec, registry, folder, backend_socket, log, record)
+                    elif spec.container:
                         c = spec.container
                         record.returncode = run_container_submission(
                             c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=server.address,
@@ -90,6 +126,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                         record.returncode, timed_out = outcome.returncode, outcome.timed_out
             finally:
                 server.stop()
+                shutil.rmtree(private, ignore_errors=True)
             state = service.call(service.episode.state)
             record.steps, record.collided = state["step"], state["is_collided"]
         finally:
@@ -98,7 +135,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
 
                 detach_recorder(registry, service, recorder)
             service.close()
-        if timed_out:
+        if record.error:  # the sandbox refused what the solution left as its results
+            record.status = "bad_results"
+        elif timed_out:
             record.status = "timeout"
             record.error = f"stopped after the episode timeout of {spec.timeout_s:g} s"
         elif record.returncode != 0:

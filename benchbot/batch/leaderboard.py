@@ -26,7 +26,9 @@ from pathlib import Path
 
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
-from benchbot.batch.report import CSS, MAIN_SCORE, RunData, present_scores, provenance, solution, write_report
+from benchbot.batch.report import (
+    CSS, MAIN_SCORE, RunData, present_scores, provenance, solution, verifiable, write_report,
+)
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 
@@ -105,12 +107,14 @@ def entries(runs: list[RunData], environments: list[str] | None = None) -> dict[
             scored = [r for r in run.rows if r["env"] in bench] if covers else run.rows
             rows.append({"run": run, "label": run.name, "slug": name, "episodes": len(scored),
                          "environments": envs, "covers": covers, "benchmark": bench,
+                         "verifiable": verifiable(run.manifest),
                          "scores": {s: stats.mean_ci([r[s] for r in scored if s in r]).to_json()
                                     for s in present_scores([run])}})
-        rows.sort(key=lambda e: (not e["covers"], -(e["scores"].get(MAIN_SCORE, {}).get("value") or 0.0)))
+        rows.sort(key=lambda e: (not (e["covers"] and e["verifiable"]),
+                                 -(e["scores"].get(MAIN_SCORE, {}).get("value") or 0.0)))
         rank = 0
         for e in rows:
-            e["rank"] = (rank := rank + 1) if e["covers"] else None
+            e["rank"] = (rank := rank + 1) if e["covers"] and e["verifiable"] else None
         out[task] = rows
     return out
 
@@ -161,7 +165,10 @@ def task_page(task: str, rows: list[dict], title: str, made: str, reports: bool)
         links = [f"<a href='entries/{esc(e['slug'])}/manifest.json'>manifest</a>"]
         if reports:
             links.insert(0, f"<a href='entries/{esc(e['slug'])}/report.html'>report</a>")
-        cells = [_cell(e["rank"], str(e["rank"]) if e["rank"] else "–", "num rank"), _cell(e["label"], cls="txt")]
+        label = e["label"] + ("" if e["verifiable"] else " (not verifiable)")
+        cells = [_cell(e["rank"], str(e["rank"]) if e["rank"] else "–", "num rank"),
+                 _cell(label, cls="txt", title="" if e["verifiable"] else
+                       "run without the sandbox: its solution could read the ground truth")]
         cells += [_estimate_cell(e["scores"].get(s), "num" if s == MAIN_SCORE else "num opt") for s in scores]
         cells.append(_cell(f"{kind} {what}", cls="txt opt"))
         covered = len(set(e["environments"]) & set(bench))
@@ -172,11 +179,16 @@ def task_page(task: str, rows: list[dict], title: str, made: str, reports: bool)
                   _cell(prov.get("BenchBot"), cls="txt opt"),
                   _cell(git[:12] + ("+dirty" if git.endswith("+dirty") else ""), cls="txt opt", title=git),
                   f"<td class='txt' data-v=''>{' · '.join(links)}</td>"]
-        body.append(f"<tr class='{'' if e['covers'] else 'partial'}'>{''.join(cells)}</tr>")
+        body.append(f"<tr class='{'' if e['covers'] and e['verifiable'] else 'partial'}'>{''.join(cells)}</tr>")
     partial = sum(not e["covers"] for e in rows)
     note = (f"<p class='note'>{partial} entr{'y does' if partial == 1 else 'ies do'} not cover the ranked "
             "environments: listed in grey, not ranked, scored on their own episodes (other scenes).</p>"
             if partial else "")
+    unverified = sum(not e["verifiable"] for e in rows)
+    if unverified:
+        note += (f"<p class='note'>{unverified} entr{'y is' if unverified == 1 else 'ies are'} not verifiable: run "
+                 "without the sandbox (<code>--no-sandbox</code>), where the solution could read the ground truth; "
+                 "listed in grey and not ranked.</p>")
     return _page(f"{title}: {task}", (
         f"<header><p class='sub'><a href='index.html'>{esc(title)}</a></p><h1>{esc(task)}</h1>"
         f"<p class='sub'>{len(rows)} entries · ranked by mean {MAIN_SCORE} over each entry's episodes of "

@@ -36,6 +36,9 @@ class EpisodeSpec:
         container: for containerised solutions, ``{engine, dockerfile, context, args}`` (``argv`` is then unused).
         noise: the sensor and motion noise preset of the episode (:mod:`benchbot.core.noise`; ``none``: no noise
             beyond the robot's and the task's own).
+        sandbox: how the solution is isolated (:data:`benchbot.core.sandbox.ISOLATION_LEVELS`): ``bwrap`` (its
+            outputs folder is ``outputs/NNN_<env>/``, :attr:`outputs`), ``container`` or ``none``. Plans written
+            before isolation levels existed read as ``none``, as they ran.
     """
 
     index: int
@@ -53,11 +56,18 @@ class EpisodeSpec:
     record: bool = False
     container: dict | None = None
     noise: str = "none"
+    sandbox: str = "none"
 
     @property
     def recording(self) -> str:
         """The recording's path relative to the run directory (named like the results file)."""
         return f"recordings/{Path(self.results).stem}.mcap"
+
+    @property
+    def outputs(self) -> str:
+        """A sandboxed solution's outputs folder relative to the run directory (everything it wrote but its
+        results file, which is moved to :attr:`results`)."""
+        return f"outputs/{Path(self.results).stem}"
 
 
 @dataclass
@@ -97,19 +107,27 @@ def slug(text: str) -> str:
 def plan_episodes(
     *, task: str, robots: list[str], envs: list[str], repeat: int, seed: int, argv: list[str], cwd: str,
     options: dict, timeout_s: float | None, record: bool = False, container: dict | None = None,
-    noise: str = "none", start: int = 0, tag: str = "",
+    noise: str = "none", start: int = 0, tag: str = "", sandbox: str = "bwrap",
 ) -> list[EpisodeSpec]:
     """Episodes for every robot × environment × repetition (in that nesting order); episode ``i`` gets seed
     ``seed + i``. ``record``: every episode is recorded as MCAP. ``timeout_s``: None leaves the task's default to
     :func:`benchbot.batch.runner.prepare_batch`, 0 means no timeout. ``noise``: every episode's noise preset.
+    ``sandbox``: how every solution is isolated (``bwrap``, the default; ``container`` or ``none``).
 
     ``start`` and ``tag`` serve sweeps (:func:`benchbot.batch.sweep.plan_sweep`): the episodes are numbered from
     ``start`` (episode ``start + j`` still gets seed ``seed + j``, so every level of a sweep reuses the same seeds)
     and ``tag`` is added to their file names.
 
     Raises:
-        UsageError: ``repeat`` < 1, no robots or environments, or ``timeout_s`` negative or not finite.
+        UsageError: ``repeat`` < 1, no robots or environments, more than
+            :data:`~benchbot.core.limits.MAX_BATCH_EPISODES` episodes in all (checked before any is made), or
+            ``timeout_s`` negative or not finite.
+        ValueError: ``sandbox`` is not an isolation level.
     """
+    from benchbot.core.sandbox import ISOLATION_LEVELS
+
+    if sandbox not in ISOLATION_LEVELS:
+        raise ValueError(f"unknown isolation level {sandbox!r}")
     if repeat < 1:
         raise UsageError(f"--repeat must be at least 1, got {repeat}", "")
     if not robots or not envs:
@@ -133,7 +151,7 @@ def plan_episodes(
                 specs.append(EpisodeSpec(
                     index=i, task=task, robot=robot, env=env, repeat=r, seed=seed + j, argv=argv, cwd=cwd,
                     options=options, timeout_s=timeout_s, results=f"results/{name}.json", log=f"logs/{name}.log",
-                    record=record, container=container, noise=noise,
+                    record=record, container=container, noise=noise, sandbox=sandbox,
                 ))
     return specs
 

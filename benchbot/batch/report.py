@@ -34,6 +34,7 @@ from benchbot.batch.paper import Table, to_csv, to_html, to_latex
 from benchbot.batch.plan import read_manifest
 from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
+from benchbot.core.sandbox import VERIFIABLE
 
 SCORES = ["OMQ", "avg_pairwise", "avg_label", "avg_spatial", "avg_fp_quality", "avg_state_quality"]
 """The scores a report shows, in order (those present in the runs)."""
@@ -153,6 +154,18 @@ def solution(manifest: dict) -> tuple[str, str]:
     return ("native", " ".join(map(str, argv))) if argv else ("unknown", "")
 
 
+def isolation(manifest: dict) -> str:
+    """How the run's solutions were isolated (its manifest's ``sandbox``: ``bwrap``, ``container`` or ``none``);
+    ``none`` for a batch that ran before BenchBot recorded it (it ran unsandboxed)."""
+    return str(manifest.get("sandbox") or "none")
+
+
+def verifiable(manifest: dict) -> bool:
+    """Whether the run's scores can be trusted: its solutions could not read the ground truth (they ran sandboxed
+    or in a container, docs/security.md)."""
+    return isolation(manifest) in VERIFIABLE
+
+
 def default_label(manifest: dict, run_dir: Path) -> str:
     """A short name for a run: the example's name, a native command's script (``my_solution.py``) or program, a
     container folder's name; the folder's name when the manifest does not say."""
@@ -209,8 +222,11 @@ def provenance(run: RunData) -> list[tuple[str, str]]:
     prov = m.get("provenance") or {}
     machine = prov.get("machine") or {}
     not_recorded = "not recorded (the batch ran before BenchBot recorded it)"
+    level = isolation(m)
     rows = [
         ("solution", f"{kind} {what}".strip()),
+        ("isolation", f"{level} ({'scores verifiable' if verifiable(m) else 'NOT VERIFIABLE: the solution could read the ground truth'})"
+         + ("" if "sandbox" in m else "; not recorded (the batch ran before the sandbox)")),
         ("command", " ".join(map(str, m.get("command") or [])) or "not recorded"),
         ("task", str(m.get("task", ""))),
         ("robots", ", ".join(m.get("robots") or [])),
@@ -516,6 +532,7 @@ def analyse(runs: list[RunData], registry=None) -> dict:
     for run in runs:
         out_runs.append({
             "label": run.name, "run_dir": str(run.run_dir), "task": run.manifest.get("task"),
+            "isolation": isolation(run.manifest), "verifiable": verifiable(run.manifest),
             "provenance": dict(provenance(run)),
             "summary": {k: v.to_json() for k, v in summary(run).items()},
             "environments": {env: {"values": v, **stats.mean_ci(v).to_json()}
@@ -722,6 +739,12 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
              + ("<a href='#comparisons'>Comparisons</a>" if result["comparisons"] else "")
              + "<a href='#classes'>Classes</a><a href='#maps'>Maps</a><a href='#factors'>Factors</a>"
                "<a href='#episodes'>Episodes</a></nav></header>"]
+    unverified = [r["label"] for r in result["runs"] if not r["verifiable"]]
+    if unverified:
+        parts.append(f"<div class='box warn'><b>Not verifiable:</b> {esc(', '.join(unverified))} ran "
+                     f"{'its' if len(unverified) == 1 else 'their'} solution without the sandbox (isolation "
+                     "<code>none</code>), where it could read the ground truth: fine for development, not for "
+                     "comparisons or publication (docs/security.md).</div>")
     if len(result["tasks"]) > 1:
         parts.append(f"<div class='box warn'>These runs are of different tasks ({esc(', '.join(result['tasks']))}): "
                      "their scores are not comparable.</div>")

@@ -2,11 +2,12 @@
 
 A run directory holds::
 
-    config.json          the resolved task, robots and environments
+    config.json          the resolved task, robots and environments (environments as the API serves them)
     manifest.json        command, versions, provenance (git revisions, machine), seeds, the plan, and every
                          episode's record (atomic, after each change)
     progress.json        the running episodes' step counts, for live views (benchbot.batch.progress)
     results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
+    outputs/NNN_<env>/   what a sandboxed solution wrote besides its results (its /benchbot/results folder)
     scores.json          the evaluation in the original's format (the combined scores)
     episode_scores.json  per-episode scores with environment, robot, repetition, seed and noise preset
     robustness.json, robustness.png/.svg   a --sweep batch's score against the factor (benchbot.batch.sweep)
@@ -40,6 +41,7 @@ from benchbot.batch.plan import (
     trajectory_length, write_manifest,
 )
 from benchbot.core import atomic
+from benchbot.core.episode import served_environment
 from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import Evaluation, evaluate
 from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
@@ -132,13 +134,19 @@ def parse_env_list(envs: str | None, envs_batch: str | None, registry: Registry)
     return [e.strip() for e in envs.split(",") if e.strip()]
 
 
-def _versions(registry: Registry) -> dict:
+def _versions(registry: Registry, isolation: str) -> dict:
+    """Python, the platform, BenchBot and its plugins' distributions, and the sandbox's bubblewrap (``bwrap``:
+    version and path) when the solutions run sandboxed."""
     out = {"python": platform.python_version(), "platform": platform.platform()}
     for dist in ["benchbot"] + sorted({p.distribution for p in registry.plugins if p.distribution}):
         try:
             out[dist] = md.version(dist)
         except md.PackageNotFoundError:
             pass
+    if isolation == "bwrap":
+        from benchbot.core.sandbox import bwrap_executable, bwrap_version
+
+        out["bwrap"] = bwrap_version(bwrap_executable())
     return out
 
 
@@ -203,6 +211,10 @@ def prepare_batch(
     Raises:
         SpecError: a combination is invalid (nothing has run yet) or the named method does not exist.
     """
+    levels = {s.sandbox for s in specs}
+    if len(levels) != 1:
+        raise UsageError(f"the episodes of one batch must share an isolation level, not {sorted(levels)}", "")
+    isolation = levels.pop()
     runs = _resolve_runs(registry, specs)
     episode_timeout = apply_timeouts(registry, specs)
     records = [new_record(s) for s in specs]
@@ -211,18 +223,19 @@ def prepare_batch(
         evaluate_with = default_evaluator(registry, first)
     elif evaluate_with is not None:
         registry.get("evaluators", evaluate_with)
-    atomic.write_json(run_dir / "config.json", {
+    atomic.write_json(run_dir / "config.json", {  # as the API serves them: no file that holds ground truth
         "task": first.task,
         "robots": {robot: registry.get("robots", robot) for robot, _ in runs},
-        "environments": {env: run.environments for (_, env), run in runs.items()},
+        "environments": {env: [served_environment(e) for e in run.environments] for (_, env), run in runs.items()},
     })
     manifest = {
         "command": sys.argv, "task": specs[0].task, "robots": sorted({s.robot for s in specs}),
         "environments": list(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
-        "prefix": prefix, "zip": zip_results, "versions": _versions(registry),
+        "prefix": prefix, "zip": zip_results, "versions": _versions(registry, isolation),
         "provenance": provenance.collect([s.cwd for s in specs]),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "noise": {name: get_preset(name) for name in dict.fromkeys(s.noise for s in specs)}, "sweep": sweep,
+        "sandbox": isolation,
         "plan": to_json(specs), "episodes": to_json(records),
     }
     write_manifest(run_dir, manifest)

@@ -21,6 +21,7 @@ from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.limits import MAX_REPEAT, MAX_RETRIES, MAX_SEED, MAX_WORKERS
 from benchbot.core.noise import get_preset
+from benchbot.core.sandbox import check_available, check_sandboxable, not_verifiable_note
 from benchbot.core.submission import container_engine, container_files, example_submission, native_submission
 
 
@@ -58,6 +59,7 @@ def register(app: typer.Typer) -> None:
         no_tui: bool = typer.Option(False, "--no-tui", help="Progress bars instead of the live episode table (the default when stderr is not a terminal)."),
         noise: Optional[str] = typer.Option(None, "--noise", help="Sensor and motion noise preset: none (default), low, realistic or high (docs/noise.md); recorded in the manifest."),
         sweep: Optional[str] = typer.Option(None, "--sweep", help="Run the batch at every level of one factor and plot the score against it: noise=none,low,realistic,high, robot=A,B, variant=1,2,3 or lighting=day,night (docs/noise.md)."),
+        no_sandbox: bool = typer.Option(False, "--no-sandbox", help="Run native solutions as plain processes of your user instead of in the bubblewrap sandbox (for development: they could read the ground truth, so the scores are marked not verifiable; docs/security.md)."),
     ) -> None:
         """Run a solution on every environment, each episode with its own backend on 127.0.0.1, then score it.
 
@@ -75,6 +77,12 @@ def register(app: typer.Typer) -> None:
             raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
         if resume is not None:
             batch = load_batch(reg, resume)
+            isolation = batch.specs[0].sandbox
+            if no_sandbox and isolation != "none":
+                raise UsageError(f"{batch.run_dir} ran its solutions with isolation '{isolation}'; a batch resumes "
+                                 "as it started", "drop --no-sandbox, or start a new batch")
+            if isolation == "bwrap":
+                check_available()
             done = sum(r.status == "ok" for r in batch.records)
             err.print(f"resuming {batch.run_dir}: {done} of {len(batch.specs)} episodes already done")
         else:
@@ -96,15 +104,21 @@ def register(app: typer.Typer) -> None:
             env_list = parse_env_list(envs, envs_batch, reg)
             robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
             container = None
+            isolation = "container" if containerised is not None or example_containerised else (
+                "none" if no_sandbox else "bwrap")
+            if isolation == "bwrap":
+                check_available()  # before anything is planned: one line when bubblewrap is missing
             if containerised is not None or example_containerised:
                 dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
                 container = {"engine": container_engine(), "dockerfile": str(dockerfile), "context": str(context), "args": args}
                 submission = native_submission(["true"])  # unused: the container runs instead
             else:
                 submission = example_submission(reg, example, args) if example else native_submission([native], args)
+                if isolation == "bwrap":
+                    check_sandboxable(submission)
             plan = dict(task=task, repeat=repeat, seed=seed, argv=submission.argv, cwd=str(submission.cwd),
                         options=backend_options(arch, camera_size), timeout_s=timeout, container=container,
-                        record=record)
+                        record=record, sandbox=isolation)
             sweep_record = None
             if parsed_sweep is None:
                 specs = plan_episodes(robots=robot_list, envs=env_list, noise=noise or "none", **plan)
@@ -123,6 +137,8 @@ def register(app: typer.Typer) -> None:
                 shutil.rmtree(run_dir, ignore_errors=True)
                 raise
             err.print(f"run directory: {run_dir}")
+        if not_verifiable_note(isolation):
+            err.print(f"[yellow]warning:[/] {not_verifiable_note(isolation)}", highlight=False)
         run_dir, specs = batch.run_dir, batch.specs
         total = len(specs)
         label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")

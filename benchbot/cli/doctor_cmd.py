@@ -180,6 +180,18 @@ def check_containers() -> Check:
     return Check("containers", False, False, "neither docker nor podman found", "optional: install Docker or Podman for containerised solutions")
 
 
+def check_sandbox() -> Check:
+    """Whether the solution sandbox can be made here (required: the main job runs its example sandboxed)."""
+    from benchbot.core.errors import UsageError
+    from benchbot.core.sandbox import bwrap_version, check_available
+
+    try:
+        bwrap = check_available()
+    except UsageError as exc:
+        return Check("sandbox", False, True, exc.message, exc.hint)
+    return Check("sandbox", True, True, f"solutions run sandboxed with {bwrap_version(bwrap)}")
+
+
 def check_port(port: int = 10000) -> Check:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         try:
@@ -212,6 +224,7 @@ def run_checks(render: bool = True, timeout_s: float = 180.0) -> list[Check]:
     checks += [
         check_gpu(),
         check_module("rclpy|cyclonedds", "ros", "optional (real robots): install ROS 2 (rclpy) or `pip install cyclonedds`"),
+        check_sandbox(),
         check_containers(),
         check_module("ray", "ray", "optional (distributed batches): benchbot install ray"),
         check_port(10000),
@@ -230,7 +243,7 @@ def register(app: typer.Typer) -> None:
         timeout: float = typer.Option(180.0, "--timeout", min=1.0, help="Seconds each render may take."),
     ) -> None:
         """Check this machine: Python and packages, plugins, Taichi backends (one rendered frame each), GPU, ROS,
-        Docker/Podman, Ray, port 10000, the data directory; and show BenchBot's settings (environment variables)
+        the solution sandbox (bubblewrap), Docker/Podman, Ray, port 10000, the data directory; and show BenchBot's settings (environment variables)
         with their effective values and where each comes from. Exit code 0 when the default main job can run."""
         checks = run_checks(render, timeout)
         ok = all(c.ok for c in checks if c.required)

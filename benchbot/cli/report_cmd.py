@@ -27,6 +27,9 @@ def _print_report(result: dict) -> None:
         for score, e in r["summary"].items():
             table.add_row(f"[bold]all: {score}[/]", str(e["n"]), fmt(e["value"]), interval_text(e))
         out.print(table)
+        if not r["verifiable"]:
+            err.print(f"[yellow]not verifiable:[/] {r['label']} ran its solution without the sandbox (isolation "
+                      f"{r['isolation']}): it could read the ground truth", highlight=False)
         if r["objects_note"]:
             err.print(f"note: {r['label']}: {r['objects_note']}", highlight=False)
     for c in result["comparisons"]:

@@ -20,6 +20,7 @@ from benchbot.core import atomic
 from benchbot.core.errors import BackendError, ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
 from benchbot.core.result_files import ORIGINAL_RESULT_LOCATION, ResultWatch, submission_result_location
+from benchbot.core.sandbox import INSIDE_OUTPUTS, check_available, check_sandboxable, not_verifiable_note
 from benchbot.core.submission import (
     container_engine,
     container_files,
@@ -116,6 +117,39 @@ def check_backend(address: str) -> None:
                            "give --address of the `benchbot run` backend")
 
 
+def _run_sandboxed(reg, sub, address: str, location: Path, timeout: float | None) -> int:
+    """Run ``sub`` in the sandbox (:func:`benchbot.core.sandbox.run_sandboxed`) against the backend at ``address``,
+    reached through a Unix socket relayed to it (:class:`~benchbot.core.socket_relay.UnixToTcpRelay`); copy the
+    results file it wrote to ``location`` (never through a link) and say where its other files are. Returns its
+    exit status (-9 when it timed out).
+
+    Raises:
+        UsageError: no sandbox can be made here, or the command cannot be started.
+    """
+    import urllib.parse
+
+    from benchbot.core.sandbox import inside_address, read_results, run_sandboxed
+    from benchbot.core.socket_relay import UnixToTcpRelay
+
+    parts = urllib.parse.urlsplit(address)
+    port = parts.port or {"http": 80, "https": 443}.get(parts.scheme)
+    outputs = Path(tempfile.mkdtemp(prefix="benchbot-submit-outputs-"))
+    with UnixToTcpRelay(parts.hostname or "127.0.0.1", port) as relay:
+        run = run_sandboxed(sub.argv, sub.cwd, registry=reg, backend_socket=relay.path,
+                            address=inside_address(address)[0], outputs=outputs, result_name=location.name,
+                            timeout_s=timeout)
+    if run.problem:
+        err.print(f"[red]{run.problem}[/]", highlight=False)
+    elif run.results is not None:
+        atomic.write_bytes(location, read_results(run.results))
+        run.results.unlink()
+    if any(outputs.iterdir()):
+        err.print(f"the solution's other files (it wrote them in {INSIDE_OUTPUTS}): {outputs}", highlight=False)
+    else:
+        outputs.rmdir()
+    return -9 if run.outcome.timed_out else run.outcome.returncode
+
+
 def register(app: typer.Typer) -> None:
     @app.command("submit", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
     @handle_errors
@@ -132,6 +166,7 @@ def register(app: typer.Typer) -> None:
         address: str = typer.Option(settings.get("BENCHBOT_SUPERVISOR_ADDRESS"), "--address", help="The backend (`benchbot run`)."),
         scores: Path = typer.Option(Path("scores.json"), "--scores", "--output", "-o", help="Where --evaluate-with writes scores."),
         timeout: Optional[float] = typer.Option(None, "--timeout", min=1.0, help="Kill the submission (native, or the container once built) after this many seconds."),
+        no_sandbox: bool = typer.Option(False, "--no-sandbox", help="Run a native solution or example as a plain process of your user instead of in the bubblewrap sandbox (for development: it could read the ground truth, so its scores are not verifiable; docs/security.md)."),
         _env: Optional[str] = typer.Option(None, "--env", "-e", hidden=True, help="Refused: benchbot run chooses the environment.", callback=refused("-e", "submit runs against the environment `benchbot run --env` chose; to evaluate, use --evaluate-with METHOD (the original's -e)")),
         _robot: Optional[str] = typer.Option(None, "--robot", "-r", hidden=True, help="Refused: benchbot run chooses the robot.", callback=refused("-r", "submit runs against the robot `benchbot run --robot` chose; to copy the results, use --results-location FILE (the original's -r)")),
     ) -> None:
@@ -179,11 +214,17 @@ def register(app: typer.Typer) -> None:
 
         # the submission first (its files, the container engine), then the backend: each fails in one line
         in_container = containerised is not None or example_containerised
+        sandboxed = not in_container and not no_sandbox
         if in_container:
             dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
             engine = container_engine()
         else:
             sub = example_submission(reg, example, args) if example else native_submission(command or [], args)
+        if sandboxed:
+            check_sandboxable(sub)
+            check_available()  # before the backend is asked: one line when bubblewrap is missing
+        elif not in_container:
+            err.print(f"[yellow]warning:[/] {not_verifiable_note('none')}", highlight=False)
         check_backend(address)
         location = submission_result_location()
         with writing(location, "BENCHBOT_RESULT_LOCATION"):
@@ -191,8 +232,14 @@ def register(app: typer.Typer) -> None:
         if in_container:
             err.print(f"building and running {dockerfile} with {engine} against {address}")
             watch = ResultWatch(location)  # the container writes its own /tmp/benchbot_result, copied to location
-            code = run_container_submission(engine, dockerfile, context, address=address, result_location=location,
-                                            args=args, token=settings.get("BENCHBOT_TOKEN"), timeout_s=timeout)
+            code = run_container_submission(engine, dockerfile, context, address=address,
+                                            result_location=location, args=args,
+                                            token=settings.get("BENCHBOT_TOKEN"), timeout_s=timeout)
+        elif sandboxed:
+            err.print(f"running {sub.label} against {address} in the sandbox (bubblewrap: it sees no ground "
+                      "truth)")
+            watch = ResultWatch(location)  # the sandbox's own results file, copied to location
+            code = _run_sandboxed(reg, sub, address, location, timeout)
         else:
             err.print(f"running {sub.label} against {address}")
             watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)

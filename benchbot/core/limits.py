@@ -32,6 +32,7 @@ MAX_RENDER_SAMPLES          4096 samples             (none: sim render --spp, ..
 **child processes**
 MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
 STOP_GRACE_S                5 seconds (0: no grace)  BENCHBOT_STOP_GRACE_S                SIGKILL after SIGTERM
+SANDBOX_TMP_BYTES           1 GiB                    BENCHBOT_SANDBOX_TMP_BYTES           ENOSPC in the sandbox's /tmp
 ==========================  =======================  ===================================  ==============================
 
 Every error past a limit is one line naming the limit and how to raise it (:meth:`Limit.raise_hint`). A variable
@@ -260,3 +261,7 @@ with a last line saying so. 0: no cap."""
 STOP_GRACE_S = Limit(5.0, "BENCHBOT_STOP_GRACE_S", "seconds", zero_means="no grace")
 """Seconds a child's process group has between SIGTERM and SIGKILL when its episode ends. 0: no grace (SIGKILL
 right after SIGTERM)."""
+
+SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", integer=True)
+"""Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.core.sandbox`):
+past it, writes there fail with "No space left on device"."""

@@ -21,11 +21,13 @@ from benchbot.core.registry import Registry
 
 @dataclass
 class Submission:
-    """A command to run: ``argv`` in folder ``cwd``; ``label`` names it in messages."""
+    """A command to run: ``argv`` in folder ``cwd``; ``label`` names it in messages; ``reads_ground_truth``: an
+    example that reads the ground truth on purpose (its spec says so), which only runs unsandboxed."""
 
     argv: list[str]
     cwd: Path
     label: str
+    reads_ground_truth: bool = False
 
 
 def _python_first(argv: list[str]) -> list[str]:
@@ -58,7 +60,7 @@ def example_submission(registry: Registry, name: str, args: str = "") -> Submiss
     if entry.path is None:
         raise SpecError(f"example '{name}' has no spec file to run from", "plugins must give examples as files")
     argv = _python_first(shlex.split(entry.spec["native_command"]) + shlex.split(args))
-    return Submission(argv, entry.path.parent, f"example {name}")
+    return Submission(argv, entry.path.parent, f"example {name}", bool(entry.spec.get("reads_ground_truth")))
 
 
 def run_submission(

@@ -36,7 +36,8 @@ Every channel carries ``offered_qos_profiles`` (rosbag2's Jazzy YAML: reliable, 
 ``/tf_static`` transient-local, keep-last 1) and ``topic_type_hash`` (the type's RIHS01 hash) metadata, as
 ``ros2 bag record`` writes them, so ``ros2 bag play`` republishes with the right QoS.
 
-Metadata records (each ``{'json': <JSON text>}``): ``benchbot.run`` (task, robot, environments specs, seed,
+Metadata records (each ``{'json': <JSON text>}``): ``benchbot.run`` (task, robot, environment specs as the API
+serves them (:func:`~benchbot.core.episode.served_environment`: no ground-truth file named), seed,
 options, results format), ``benchbot.clock`` (``start_ns``: the time of the start, ns since the Unix epoch;
 ``clock``: ``simulated``), ``benchbot.steps`` (per step: ``step``, ``action``, ``args``, ``result``,
 ``scene_number``, ``pose`` [x, y, yaw], ``collided``, ``duration_s``, ``time_ns``), ``benchbot.frames`` (per
@@ -54,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from benchbot.core.episode import served_environment
 from benchbot.core.errors import UsageError
 from benchbot.core.geometry import matrix_to_quaternion_xyzw, se2_relative
 from benchbot.core.hookspecs import hookimpl
@@ -432,8 +434,9 @@ def attach_recorder(registry: Any, service: Any, run_spec: Any, path: Path | str
         run_spec: its :class:`~benchbot.core.session.RunSpec`.
         path: the ``.mcap`` file to write.
     """
-    recorder = EpisodeRecorder(path, {
-        "task": run_spec.task, "robot": run_spec.robot, "environments": run_spec.environments,
+    recorder = EpisodeRecorder(path, {  # environments as the API serves them: no file that holds ground truth
+        "task": run_spec.task, "robot": run_spec.robot,
+        "environments": [served_environment(e) for e in run_spec.environments],
         "results_format": run_spec.results_format, "env_string": run_spec.env_string, "seed": seed,
         "options": dict(options or {}),
     })

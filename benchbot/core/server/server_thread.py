@@ -4,6 +4,8 @@ segments, worker threads)."""
 
 from __future__ import annotations
 
+import os
+import socket
 import threading
 import time
 from typing import Any
@@ -11,6 +13,18 @@ from typing import Any
 import uvicorn
 
 from benchbot.core.errors import BackendError
+
+
+def _bind_unix(path: str) -> socket.socket:
+    """A stream socket bound to the Unix socket ``path`` (only this user may connect: mode 0600)."""
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        listener.bind(path)
+        os.chmod(path, 0o600)
+    except OSError:
+        listener.close()
+        raise
+    return listener
 
 
 class ServerThread:
@@ -24,23 +38,32 @@ class ServerThread:
             certificate's file); plain HTTP when None.
         sock: a socket already bound to ``host:port`` (e.g. reserved before a long start-up, so that a taken port is
             said first); the server listens on it and closes it when it stops. None: bind ``host:port`` at start.
+        unix_socket: also serve on a Unix socket made at this path (a sandboxed solution's way in:
+            :mod:`benchbot.core.sandbox`); its requests have no client address.
 
     Raises:
         BackendError: (from start) the server did not come up within 10 s, e.g. the port is taken.
     """
 
     def __init__(self, app: Any, host: str = "127.0.0.1", port: int = 0, *, tls_cert: Any = None,
-                 tls_key: Any = None, sock: Any = None) -> None:
+                 tls_key: Any = None, sock: Any = None, unix_socket: Any = None) -> None:
         self.host = host
         self.app = app
         self.scheme = "https" if tls_cert else "http"
         tls = {"ssl_certfile": str(tls_cert), "ssl_keyfile": str(tls_key) if tls_key else None} if tls_cert else {}
-        self.server = uvicorn.Server(
-            uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off", access_log=False, **tls)
-        )
-        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [sock]} if sock else {},
-                                       name="benchbot-http", daemon=True)
+        config = uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off", access_log=False,
+                                **tls)
+        self.server = uvicorn.Server(config)
         self.port = port
+        sockets = [sock] if sock else []
+        if unix_socket is not None:
+            try:
+                sockets = [sock or config.bind_socket(), _bind_unix(str(unix_socket))]
+            except (OSError, SystemExit) as exc:  # uvicorn's bind_socket exits when the port is taken
+                raise BackendError(f"the backend server could not listen on {host}:{port} and {unix_socket}: "
+                                   f"{exc}", "choose another --port") from None
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": sockets} if sockets else {},
+                                       name="benchbot-http", daemon=True)
 
     def start(self) -> "ServerThread":
         """Start serving and wait until the socket listens (at most 10 s); returns self.
@@ -56,7 +79,7 @@ class ServerThread:
                     f"the backend server could not listen on {self.host}:{self.port}", "choose another --port"
                 )
             time.sleep(0.01)
-        self.port = self.server.servers[0].sockets[0].getsockname()[1]
+        self.port = self.server.servers[0].sockets[0].getsockname()[1]  # the TCP socket comes first
         return self
 
     @property

