@@ -91,9 +91,9 @@ def backend():
 
 def test_refusals_are_decoded_in_one_place():
     refused = _reply_refusal("native/step", 409, json.dumps({"error": "not now", "hint": "reset"}).encode())
-    assert type(refused) is ValueError and str(refused) == "not now (reset)"
+    assert isinstance(refused, ValueError) and str(refused) == "not now (reset)"
     failed = _reply_refusal("robot/reset", 500, json.dumps({"error": "broke", "hint": ""}).encode())
-    assert type(failed) is ConnectionError and str(failed) == "BenchBot backend refused /robot/reset (500): broke"
+    assert isinstance(failed, ConnectionError) and str(failed) == "BenchBot backend refused /robot/reset (500): broke"
     raw = _reply_refusal("config/", 502, b"<html>bad gateway</html>" + b"x" * 300)
     assert str(raw) == "BenchBot backend refused /config/ (502): <html>bad gateway</html>" + "x" * 176
     assert str(_reply_refusal("x", 400, b"[1, 2]")) == "BenchBot backend refused /x (400): [1, 2]"

@@ -315,7 +315,8 @@ def test_a_container_is_given_no_mount_no_device_and_no_host_path(tmp_path):
     for flag in ("-v", "--volume", "--mount", "--device", "--privileged", "--cap-add", "--pid", "--ipc"):
         assert flag not in run and not any(w.startswith(flag + "=") for w in run), run
     variables = {run[i + 1].split("=", 1)[0] for i, w in enumerate(run) if w == "-e"}
-    assert variables == {"BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_SHARED_MEMORY", "args"}
+    assert variables == {"BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_SHARED_MEMORY", "args",
+                         "BENCHBOT_CLIENT_ID"}  # the last by name only: its value comes from the engine's environment
     assert "--network" in run and run[run.index("--network") + 1] == "host"
     host_paths = [w for w in run if "/" in w and not w.startswith(("BENCHBOT_", "benchbot/", "args="))]
     assert host_paths == [], host_paths

@@ -234,7 +234,7 @@ def test_ownership_rules_with_a_clock():
     now = [0.0]
     owner = EpisodeOwnership(10.0, clock=lambda: now[0])
     owner.acquire("a")
-    with pytest.raises(EpisodeInUseError, match="until its request ends"):
+    with pytest.raises(EpisodeInUseError, match="a request of it is running"):
         owner.acquire("b")  # a's request is still in flight
     owner.done("a")
     now[0] = 9.0

@@ -11,16 +11,21 @@ Address: the ``supervisor_address`` argument, else ``$BENCHBOT_SUPERVISOR_ADDRES
 ``$BENCHBOT_CA_FILE``, else the system's. Token (for backends served beyond loopback):
 ``$BENCHBOT_TOKEN``, sent as the ``X-BenchBot-Token`` header. Results location: ``$BENCHBOT_RESULT_LOCATION``, else
 the original's ``/tmp/benchbot_result``.
+
+The backend's refusals and a backend that does not answer raise :class:`BackendRefusal` errors (still a
+``ValueError`` for 409 and a ``ConnectionError`` otherwise, as before), each one line with its fix; left uncaught in a
+solution, one is printed as that line (``error: ...``) instead of a traceback (``BENCHBOT_DEBUG=1`` shows it).
 """
 
 from __future__ import annotations
 
-import atexit
 import enum
 import json
 import http.client
+import os
 import secrets
 import ssl
+import sys
 import threading
 import urllib.parse
 import time
@@ -69,18 +74,74 @@ def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | No
         raise ValueError(f"{source}={path} cannot be used as certificate authorities ({reason})") from None
 
 
-def _refusal(route: str, status: int, error: Any, hint: Any = None) -> ValueError | ConnectionError:
+class BackendRefusal(Exception):
+    """A request the backend refused, or a backend that did not answer: one line saying what happened and how to
+    fix it. Raised as :class:`EpisodeRefused` (a ``ValueError``) or as :class:`BackendRefused` or
+    :class:`BackendUnreachable` (both ``ConnectionError``), the types the client always raised. Left uncaught in the
+    main thread, it is printed as ``error: <that line>`` without a traceback (``BENCHBOT_DEBUG=1`` shows it).
+
+    Attributes:
+        route: the route (``robot/reset``, ``native/step``, ...). status: the HTTP status (None: no answer).
+    """
+
+    route: str = ""
+    status: int | None = None
+
+
+class EpisodeRefused(BackendRefusal, ValueError):
+    """409: an action refused, or the episode belongs to another client (docs/protocol.md, "One client at a
+    time")."""
+
+
+class BackendRefused(BackendRefusal, ConnectionError):
+    """Any other refusal (400, 401, 404, 413, 500, 504, ...)."""
+
+
+class BackendUnreachable(BackendRefusal, ConnectionError):
+    """No answer: nothing listens at the address, the connection broke, or the request timed out."""
+
+
+def _refusal(route: str, status: int, error: Any, hint: Any = None) -> BackendRefusal:
     """The exception for the backend's refusal of ``/route`` with HTTP ``status`` and the error ``{"error": error,
-    "hint": hint}`` (docs/protocol.md): ``ValueError("<error> (<hint>)")`` for 409 (an action refused, or the episode
-    owned by another client), else ``ConnectionError("BenchBot backend refused /<route> (<status>): <error>
-    (<hint>)")``; `` (<hint>)`` is left out when there is no hint. Both transports raise their refusals through it."""
-    detail = f"{error} ({hint})" if hint else error
+    "hint": hint}`` (docs/protocol.md): ``EpisodeRefused("<error> (<hint>)")`` (a ``ValueError``) for 409 (an action
+    refused, or the episode owned by another client), else ``BackendRefused("BenchBot backend refused /<route>
+    (<status>): <error> (<hint>)")`` (a ``ConnectionError``); `` (<hint>)`` is left out when there is no hint; line
+    breaks become spaces. Both transports raise their refusals through it."""
+    detail = f"{error} ({hint})" if hint else f"{error}"
+    detail = " ".join(detail.split("\n"))
+    exc: BackendRefusal
     if status == 409:
-        return ValueError(detail)
-    return ConnectionError(f"BenchBot backend refused /{route} ({status}): {detail}")
+        exc = EpisodeRefused(detail)
+    else:
+        exc = BackendRefused(f"BenchBot backend refused /{route} ({status}): {detail}")
+    exc.route, exc.status = route, status
+    _print_refusals_in_one_line()
+    return exc
 
 
-def _reply_refusal(route: str, status: int, content: bytes) -> ValueError | ConnectionError:
+def _one_line_excepthook(kind: type, exc: BaseException, tb: Any) -> None:
+    if isinstance(exc, BackendRefusal) and settings.get("BENCHBOT_DEBUG") != "1":
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        return
+    _previous_excepthook(kind, exc, tb)
+
+
+_previous_excepthook = sys.excepthook
+_hook_installed = False
+
+
+def _print_refusals_in_one_line() -> None:
+    """Make an uncaught :class:`BackendRefusal` print as one line: installs a ``sys.excepthook`` once per process
+    (at the first refusal), which hands every other exception to the hook that was there before. A hook the
+    solution sets later replaces it."""
+    global _previous_excepthook, _hook_installed
+    if not _hook_installed:
+        _hook_installed = True
+        _previous_excepthook = sys.excepthook
+        sys.excepthook = _one_line_excepthook
+
+
+def _reply_refusal(route: str, status: int, content: bytes) -> BackendRefusal:
     """:func:`_refusal` for an HTTP reply of ``status`` whose body is ``content``: the error and hint of its JSON
     body, else (a body that is not such JSON) its first 200 bytes."""
     try:
@@ -184,7 +245,10 @@ class HttpTransport:
         self._mappings: list[shared_frames.ClientMapping] = []  # every thread's, to let go of them on close
         self._missed_maps = 0  # announced segments gone before this client could map them, in a row
         self._closed = False
-        atexit.register(_release_at_exit, weakref.ref(self))  # a solution ended by Ctrl-C frees its episode too
+        # The episode is released when this transport is closed, and also when it is garbage-collected unclosed
+        # (`BenchBot(agent=...).run()` drops its object as soon as run returns) or still open at exit (Ctrl-C).
+        self._release_finalizer = weakref.finalize(self, _release_episode, os.getpid(), self._host, self._port,
+                                                   self._tls, self._base_path, self.headers)
 
     def _shm_offer(self) -> dict:
         """This thread's ``shm`` field: its client id (one segment per thread, as requests of two threads may
@@ -298,25 +362,48 @@ class HttpTransport:
         """POST ``body`` to ``route``; the reply's body when it succeeded (status below 300).
 
         Raises:
-            ValueError: refused with 409. ConnectionError: the connection failed or timed out, any other refusal,
-                or this transport is closed.
+            EpisodeRefused (ValueError): refused with 409. BackendRefused, BackendUnreachable (ConnectionError): any
+                other refusal; the connection failed or timed out. ConnectionError: this transport is closed.
         """
         self._check_open(route)
         try:
             status, content = self._send("POST", route, body, content_type)
         except (OSError, http.client.HTTPException) as exc:
-            raise ConnectionError(f"communication with the BenchBot backend at {self.address} failed on /{route}: "
-                                  f"{exc!r}") from None
+            raise self._unreachable(route, exc) from None
         if status >= 300:
             raise _reply_refusal(route, status, content)
         return content
 
+    def _unreachable(self, route: str, exc: BaseException) -> BackendUnreachable:
+        """One line for a request that got no answer: what failed and how to fix it."""
+        if isinstance(exc, ssl.SSLCertVerificationError):
+            fix = "set BENCHBOT_CA_FILE to the authority that signed the backend's certificate"
+        elif isinstance(exc, TimeoutError):
+            fix = (f"no reply within {self.timeout_s:g} s: the backend is busy or stuck; a slower action needs "
+                   "BenchBot(timeout_s=...)")
+        elif isinstance(exc, ConnectionRefusedError):
+            fix = "nothing listens there: is the backend (`benchbot run`) still running?"
+        else:
+            fix = "the backend closed the connection: did `benchbot run` stop? its terminal says why"
+        error = BackendUnreachable(f"communication with the BenchBot backend at {self.address} failed on /{route}: "
+                                   f"{exc!r} ({fix})")
+        error.route = route
+        _print_refusals_in_one_line()
+        return error
+
     def ping(self) -> bool:
-        """True when the backend answers ``GET /`` with a success (2xx) within 2 s."""
+        """True when the backend answers ``GET /`` with a success (2xx) within 2 s; False when it does not answer or
+        answers with a server error (it may still be starting).
+
+        Raises:
+            BackendRefused: it answered with a 4xx refusal (a missing token: 401), which waiting cannot fix.
+        """
         try:
-            status, _ = self._send("GET", "", timeout_s=2.0)
+            status, content = self._send("GET", "", timeout_s=2.0)
         except (OSError, http.client.HTTPException):
             return False
+        if 400 <= status < 500:
+            raise _reply_refusal("", status, content)
         return 200 <= status < 300
 
     def get(self, route: str, body: dict | None = None) -> Any:
@@ -365,9 +452,11 @@ class HttpTransport:
         """Close the HTTP connections (every thread's) and let go of the shared-memory segments (idempotent).
         Arrays that earlier steps returned stay valid: a segment is unmapped when the last array read from it is
         gone. Later requests raise ConnectionError. The episode is released (``/robot/release``, 2 s timeout) so
-        that another client may use it at once rather than after the backend's idle lease."""
+        that another client may use it at once rather than after the backend's idle lease; a transport never closed
+        releases it when it is garbage-collected or at exit (in the process that made it)."""
         if self._closed:
             return
+        self._release_finalizer.detach()
         try:
             self._send("POST", "robot/release", b"{}", "application/json", timeout_s=2.0)
         except (OSError, http.client.HTTPException):  # the backend is gone: nothing to release
@@ -383,10 +472,26 @@ class HttpTransport:
         self._mappings.clear()
 
 
-def _release_at_exit(ref: "weakref.ref[HttpTransport]") -> None:
-    transport = ref()
-    if transport is not None:
-        transport.close()
+def _release_episode(pid: int, host: str, port: int, tls: ssl.SSLContext | None, base_path: str,
+                     headers: dict[str, str]) -> None:
+    """``POST /robot/release`` for an :class:`HttpTransport` that was never closed, on a connection of its own (2 s
+    at most; nothing when the backend is gone). Only in the process that made the transport: a forked child that
+    exits does not release its parent's episode."""
+    if os.getpid() != pid:
+        return
+    try:
+        if tls is not None:
+            conn: http.client.HTTPConnection = http.client.HTTPSConnection(host, port, timeout=2.0, context=tls)
+        else:
+            conn = http.client.HTTPConnection(host, port, timeout=2.0)
+        try:
+            conn.request("POST", f"{base_path}/robot/release", body=b"{}",
+                         headers={"content-type": "application/json", **headers})
+            conn.getresponse().read()
+        finally:
+            conn.close()
+    except Exception:  # the backend is gone, or the interpreter is shutting down: nothing to release
+        pass
 
 
 def _read_only(obj: Any) -> Any:
@@ -475,8 +580,9 @@ class BenchBot:
             two above.
 
     Raises:
-        ConnectionError: the backend does not answer within 60 s, or a request fails (the message names the
-            route and the backend's error).
+        BackendUnreachable, BackendRefused (ConnectionError): the backend does not answer within 60 s, refuses at
+            once (a 4xx to ``GET /``: a missing token), or a request fails (one line naming the route, the
+            backend's error and the fix). EpisodeRefused (ValueError): the episode belongs to another client.
     """
 
     def __init__(
@@ -512,10 +618,12 @@ class BenchBot:
         deadline = time.monotonic() + wait_s
         while not self.transport.ping():
             if time.monotonic() > deadline:
-                raise ConnectionError(
+                error = BackendUnreachable(
                     f"no BenchBot backend answered at {self.address} within {wait_s:.0f} s; "
                     "start one with `benchbot run` or set BENCHBOT_SUPERVISOR_ADDRESS"
                 )
+                _print_refusals_in_one_line()
+                raise error
             time.sleep(0.2)
         self._get("robot/reset")
         self._state = self._get("robot/state")

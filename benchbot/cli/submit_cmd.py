@@ -21,6 +21,7 @@ from benchbot.core.errors import BackendError, ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
 from benchbot.core.result_files import ORIGINAL_RESULT_LOCATION, ResultWatch, submission_result_location
 from benchbot.core.sandbox import INSIDE_OUTPUTS, check_available, check_sandboxable, not_verifiable_note
+from benchbot.core.solution_lease import supervised_solution
 from benchbot.core.submission import (
     container_engine,
     container_files,
@@ -229,22 +230,24 @@ def register(app: typer.Typer) -> None:
         location = submission_result_location()
         with writing(location, "BENCHBOT_RESULT_LOCATION"):
             location.parent.mkdir(parents=True, exist_ok=True)
-        if in_container:
-            err.print(f"building and running {dockerfile} with {engine} against {address}")
-            watch = ResultWatch(location)  # the container writes its own /tmp/benchbot_result, copied to location
-            code = run_container_submission(engine, dockerfile, context, address=address,
-                                            result_location=location, args=args,
-                                            token=settings.get("BENCHBOT_TOKEN"), timeout_s=timeout)
-        elif sandboxed:
-            err.print(f"running {sub.label} against {address} in the sandbox (bubblewrap: it sees no ground "
-                      "truth)")
-            watch = ResultWatch(location)  # the sandbox's own results file, copied to location
-            code = _run_sandboxed(reg, sub, address, location, timeout)
-        else:
-            err.print(f"running {sub.label} against {address}")
-            watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)
-            outcome = run_submission(sub, address=address, result_location=location, timeout_s=timeout)
-            code = -9 if outcome.timed_out else outcome.returncode
+        # the episode must be free; the solution's client gets an id of ours, whose hold ends when the solution does
+        with supervised_solution(address):
+            if in_container:
+                err.print(f"building and running {dockerfile} with {engine} against {address}")
+                watch = ResultWatch(location)  # the container writes its own /tmp/benchbot_result, copied to location
+                code = run_container_submission(engine, dockerfile, context, address=address,
+                                                result_location=location, args=args,
+                                                token=settings.get("BENCHBOT_TOKEN"), timeout_s=timeout)
+            elif sandboxed:
+                err.print(f"running {sub.label} against {address} in the sandbox (bubblewrap: it sees no ground "
+                          "truth)")
+                watch = ResultWatch(location)  # the sandbox's own results file, copied to location
+                code = _run_sandboxed(reg, sub, address, location, timeout)
+            else:
+                err.print(f"running {sub.label} against {address}")
+                watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)
+                outcome = run_submission(sub, address=address, result_location=location, timeout_s=timeout)
+                code = -9 if outcome.timed_out else outcome.returncode
         result = watch.found()
         if result == location:
             err.print(f"results saved to {result}")

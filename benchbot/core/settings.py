@@ -38,7 +38,7 @@ SETTINGS: tuple[Setting, ...] = (
             secret=True),
     Setting("BENCHBOT_CA_FILE", None, "PEM certificate authorities for an https:// backend", "api"),
     Setting("BENCHBOT_CLIENT_ID", None, "names one solution's connections as one owner of the episode (else a "
-            "random id per client)", "api"),
+            "random id per client); `benchbot submit` sets it for the solution it runs", "api"),
     Setting("BENCHBOT_DEBUG", None, "1: print the traceback behind a one-line error", "cli"),
     Setting("BENCHBOT_INSTALLER", None, "uv or pip: the installer of `benchbot install` (default: uv when on "
             "PATH)", "cli"),

@@ -212,6 +212,7 @@ def run_container_submission(
     subprocess.run([engine, "rm", "-f", name], capture_output=True)
     env = ["-e", f"BENCHBOT_SUPERVISOR_ADDRESS={address}", "-e", "BENCHBOT_RESULT_LOCATION=/tmp/benchbot_result",
            "-e", "BENCHBOT_SHARED_MEMORY=0", "-e", f"args={args}"]
+    env += ["-e", "BENCHBOT_CLIENT_ID"]  # when set: the id `benchbot submit` gave the solution (solution_lease.py)
     engine_env = None
     if token:
         env += ["-e", "BENCHBOT_TOKEN"]  # the value comes from the engine client's environment

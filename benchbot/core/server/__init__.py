@@ -19,8 +19,8 @@ The names below are importable from here (``from benchbot.core.server import Ser
 """
 
 from benchbot.core.server.http_errors import (
-    ActionTimeoutError, BadRequestError, EpisodeInUseError, NotFoundError, PayloadTooLargeError, UnauthorizedError,
-    status_of,
+    ActionTimeoutError, BadRequestError, EpisodeInUseError, ForbiddenError, NotFoundError, PayloadTooLargeError,
+    UnauthorizedError, status_of,
 )
 from benchbot.core.server.middleware import TOKEN_HEADER, BodyLimit, MergeSlashes, TokenGuard
 from benchbot.core.server.operations import RGB_CALLBACK, ROBOT_GREETING, BackendApi
@@ -37,9 +37,9 @@ from benchbot.core.server.service import BackendService, backend_worker
 
 __all__ = [
     "ActionTimeoutError", "BackendApi", "BackendService", "BadRequestError", "BodyLimit", "CLIENT_HEADER",
-    "CLIENT_ID_PATTERN", "DEFAULT_ACTION_TIMEOUT_S", "EpisodeInUseError", "EpisodeOwnership", "HIDDEN", "MSGPACK",
-    "MergeSlashes", "NotFoundError", "PARSE_OFF_LOOP_BYTES", "PayloadTooLargeError", "READ_ONLY_COMMANDS",
-    "RGB_CALLBACK", "ROBOT_GREETING", "SUPERVISOR_GREETING", "ServerThread", "TOKEN_HEADER", "TokenGuard",
+    "CLIENT_ID_PATTERN", "DEFAULT_ACTION_TIMEOUT_S", "EpisodeInUseError", "EpisodeOwnership", "ForbiddenError",
+    "HIDDEN", "MSGPACK", "MergeSlashes", "NotFoundError", "PARSE_OFF_LOOP_BYTES", "PayloadTooLargeError",
+    "READ_ONLY_COMMANDS", "RGB_CALLBACK", "ROBOT_GREETING", "SUPERVISOR_GREETING", "ServerThread", "TOKEN_HEADER", "TokenGuard",
     "UnauthorizedError", "backend_worker", "build_app", "check_results_arguments", "client_identity",
     "encode_jsonpickle", "ground_truth_strings", "parse_json_body", "redact", "status_of",
 ]

@@ -1,6 +1,8 @@
 """The server's errors and their HTTP statuses: every error is JSON ``{"error": message, "hint": hint}``.
 
-400: a bad request, or an argument past its limit; 401: a missing or wrong token; 404: an unknown route, key,
+400: a bad request, or an argument past its limit; 401: a missing or wrong token; 403: a supervisor's request
+(releasing another client's episode) from a caller that is neither on loopback nor holding the token; 404: an
+unknown route, key,
 connection or results function; 405: a method the route does not take; 409: an action refused, or the episode
 belongs to another client; 413: a body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES`; 500: a backend failure
 (its message says which; paths of ground-truth files are blanked out, :mod:`benchbot.core.server.redaction`); 504:
@@ -33,6 +35,10 @@ class UnauthorizedError(BenchbotError):
     """A request without the server's token (HTTP 401)."""
 
 
+class ForbiddenError(BenchbotError):
+    """A request only the backend's host (loopback) or a token holder may make (HTTP 403)."""
+
+
 class EpisodeInUseError(BenchbotError):
     """The episode belongs to another client (HTTP 409; :class:`~benchbot.core.server.ownership.EpisodeOwnership`)."""
 
@@ -46,6 +52,7 @@ class PayloadTooLargeError(BenchbotError):
 STATUS_BY_ERROR: tuple[tuple[tuple[type, ...], int], ...] = (
     ((NotFoundError,), 404),
     ((UnauthorizedError,), 401),
+    ((ForbiddenError,), 403),
     ((PayloadTooLargeError,), 413),
     ((ActionArgumentError,), 400),
     ((ActionError, EpisodeInUseError), 409),

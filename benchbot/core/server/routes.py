@@ -9,8 +9,11 @@ them (the original supervisor's, plus the native protocol; docs/protocol.md).
                                         jsonpickle text, NumPy arrays by ``jsonpickle.ext.numpy``)
 ``GET|POST /robot/<command>``           ``is_collided``, ``is_dirty``, ``is_finished``, ``is_running``, ``next``,
                                         ``reset``, ``restart``, ``stop``, ``selected_environment``, ``state``,
-                                        ``run_info`` (task, robot, environments, seed), ``release`` (give the
-                                        episode up: :class:`~benchbot.core.server.ownership.EpisodeOwnership`)
+                                        ``run_info`` (task, robot, environments, seed), ``is_free`` (whether
+                                        the caller may start the episode now, else why not), ``release`` (give the
+                                        episode up: :class:`~benchbot.core.server.ownership.EpisodeOwnership`;
+                                        a supervisor's ``{"client": id, "anonymous": bool}`` ends the hold of
+                                        a solution that has ended: loopback or token holders only, else 403)
 ``GET|POST /results_functions/[fn]``    the results format's function names, or call one with
                                         ``{"args": [...], "kwargs": {...}}``
 ``POST /native/step``                   one round trip per step: MessagePack ``{action, args, observations?}``
@@ -37,10 +40,14 @@ from starlette.routing import Route
 
 from benchbot.core import limits, shared_frames, wire
 from benchbot.core.errors import BenchbotError
-from benchbot.core.server.http_errors import ActionTimeoutError, BadRequestError, error_response, status_of
+from benchbot.core.server.http_errors import (
+    ActionTimeoutError, BadRequestError, ForbiddenError, error_response, status_of,
+)
 from benchbot.core.server.middleware import BodyLimit, MergeSlashes, TokenGuard
 from benchbot.core.server.operations import BackendApi
-from benchbot.core.server.ownership import READ_ONLY_COMMANDS, EpisodeOwnership, client_identity
+from benchbot.core.server.ownership import (
+    CLIENT_ID_PATTERN, READ_ONLY_COMMANDS, EpisodeOwnership, client_identity,
+)
 from benchbot.core.server.request_decoding import PARSE_OFF_LOOP_BYTES, parse_json_body, parse_step_body
 from benchbot.core.server.service import BackendService
 from benchbot.core.shared_frames import is_loopback
@@ -144,9 +151,33 @@ def build_app(
         keys = [k for k in request.path_params.get("path", "").split("/") if k]
         return JSONResponse(api.config(keys))
 
+    def release_ended(request: Request, body: dict) -> bool:
+        # A supervisor (benchbot submit) ends the hold of the solution it ran, once that solution's processes have
+        # all ended: {"client": the id it gave the solution, "anonymous": true for an original client}. Only a
+        # caller on the backend's host (loopback) or holding the token may: not one reaching a tokenless backend
+        # through a relay (a Unix socket, no client address), such as a sandboxed solution.
+        if token is None and (request.client is None or not is_loopback(request.client.host)):
+            raise ForbiddenError("only the supervisor on the backend's host may release another client's episode",
+                                 "send /robot/release without a body to release your own")
+        client, anonymous = body.get("client"), body.get("anonymous", False)
+        if client is not None and not (isinstance(client, str) and CLIENT_ID_PATTERN.fullmatch(client)):
+            raise BadRequestError("release: 'client' must be 8-128 characters of A-Z a-z 0-9 _ . : -",
+                                  "give the X-BenchBot-Client id the solution used")
+        if not isinstance(anonymous, bool):
+            raise BadRequestError("release: 'anonymous' must be true or false", "e.g. {\"anonymous\": true}")
+        return ownership.release_ended(None if client is None else f"id:{client}", anonymous)
+
     async def robot(request: Request) -> Response:
         command = request.path_params.get("command", "")
+        if command == "is_free":  # whether the caller could start the episode now; claims and changes nothing
+            refused = ownership.refusal(client_identity(request))
+            if refused is None:
+                return JSONResponse({"is_free": True})
+            return JSONResponse({"is_free": False, "error": refused.message, "hint": refused.hint})
         if command == "release":
+            body = await body_json(request)
+            if "client" in body or "anonymous" in body:
+                return JSONResponse({"release_success": release_ended(request, body)})
             return JSONResponse({"release_success": ownership.release(client_identity(request))})
         if command and command not in api.robot_commands:
             api.robot(command)  # raises NotFoundError without touching the worker
