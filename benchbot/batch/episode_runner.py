@@ -22,6 +22,11 @@ from benchbot.core.session import RunSpec, start_service
 from benchbot.core.submission import Submission, run_container_submission, run_submission
 
 
+#: An episode's error when it did not end ``ok`` and its solution read standard input (its log has the line).
+READ_STDIN_ERROR = ("the solution read its standard input, which a batch does not give (end-of-file); "
+                    "an interactive solution runs with `benchbot submit`")
+
+
 def results_problem(path: Path) -> str:
     """Why the results file at ``path`` cannot be scored at all (not readable, not JSON, not a JSON object), in one
     line naming it; "" when it parses. (Its format is checked when the batch is evaluated.)"""
@@ -39,11 +44,13 @@ def run_directories(run_dir: Path) -> list[Path]:
     return [run_dir, *siblings]
 
 
-def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log, record: EpisodeRecord) -> bool:
+def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log,
+                   record: EpisodeRecord) -> tuple[bool, bool]:
     """Run ``spec``'s solution in the sandbox (:func:`benchbot.core.sandbox.run_sandboxed`): it writes only to its
     outputs folder (``spec.outputs``, made afresh) and reaches the backend through ``backend_socket`` at
     ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. Sets ``record.returncode``
-    (and ``record.error`` when its results file is refused); returns whether it timed out."""
+    (and ``record.error`` when its results file is refused); returns (whether it timed out, whether it read its
+    standard input)."""
     from benchbot.core.sandbox import run_sandboxed
 
     outputs = folder / spec.outputs
@@ -57,7 +64,7 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
         record.error = run.problem
     elif run.results is not None:
         os.replace(run.results, folder / spec.results)
-    return run.outcome.timed_out
+    return run.outcome.timed_out, run.outcome.read_stdin
 
 
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
@@ -104,11 +111,11 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             backend_socket = Path(private) / "backend.sock"
             server = ServerThread(build_app(service), unix_socket=backend_socket if spec.sandbox == "bwrap" else None)
             server.start()
-            timed_out = False
+            timed_out = read_stdin = False
             try:
                 with open(folder / spec.log, "w") as log:
                     if spec.sandbox == "bwrap":
-                        timed_out = _run_sandboxed(spec, registry, folder, backend_socket, log, record)
+                        timed_out, read_stdin = _run_sandboxed(spec, registry, folder, backend_socket, log, record)
                     elif spec.container:
                         c = spec.container
                         record.returncode = run_container_submission(
@@ -124,6 +131,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                             timeout_s=spec.timeout_s,
                         )
                         record.returncode, timed_out = outcome.returncode, outcome.timed_out
+                        read_stdin = outcome.read_stdin
             finally:
                 server.stop()
                 shutil.rmtree(private, ignore_errors=True)
@@ -147,6 +155,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
         else:
             record.error = results_problem(folder / spec.results)
             record.status = "bad_results" if record.error else "ok"
+        if read_stdin and record.status != "ok" and not record.error:
+            record.error = READ_STDIN_ERROR
     except BenchbotError as exc:
         record.status, record.error = "error", exc.message
     record.wall_s = round(time.monotonic() - t0, 3)

@@ -138,7 +138,7 @@ def _run_sandboxed(reg, sub, address: str, location: Path, timeout: float | None
     with UnixToTcpRelay(parts.hostname or "127.0.0.1", port) as relay:
         run = run_sandboxed(sub.argv, sub.cwd, registry=reg, backend_socket=relay.path,
                             address=inside_address(address)[0], outputs=outputs, result_name=location.name,
-                            timeout_s=timeout)
+                            timeout_s=timeout, stdin="inherit")
     if run.problem:
         err.print(f"[red]{run.problem}[/]", highlight=False)
     elif run.results is not None:
@@ -246,7 +246,8 @@ def register(app: typer.Typer) -> None:
             else:
                 err.print(f"running {sub.label} against {address}")
                 watch = ResultWatch(location, fallback=ORIGINAL_RESULT_LOCATION)
-                outcome = run_submission(sub, address=address, result_location=location, timeout_s=timeout)
+                outcome = run_submission(sub, address=address, result_location=location, timeout_s=timeout,
+                                         stdin="inherit")
                 code = -9 if outcome.timed_out else outcome.returncode
         result = watch.found()
         if result == location:

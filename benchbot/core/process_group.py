@@ -9,15 +9,26 @@ doing it (``kill -9``). A process that leaves the group on purpose (``setsid``) 
 With a ``log``, the command's stdout and stderr go through a pipe that is always drained (the command never blocks
 on a full pipe); the first :data:`~benchbot.core.limits.MAX_LOG_BYTES` bytes are kept and the rest counted and
 dropped, with a last line saying so.
+
+Standard input: ``stdin="inherit"`` passes the caller's through (``benchbot submit``: the terminal, so an interactive
+solution can be typed to; the terminal's modes are put back and its unread input dropped when the child ends, see
+:func:`_terminal_guard`); the child still runs in a session of its own, so the terminal is not its controlling
+terminal and the kernel refuses it ``TIOCSTI`` (typing into your shell) and ``TIOCSCTTY`` unless it holds
+``CAP_SYS_ADMIN`` (a sandboxed child never does; docs/security.md). ``stdin="none"`` (batches) gives it an empty
+pipe and watches it (:class:`_StdinWatch`): the first time a process of the group blocks reading it, one line says so
+(in the log, else on stderr), :attr:`ChildOutcome.read_stdin` is set and the pipe is closed, so that read and every
+later one get end-of-file.
 """
 
 from __future__ import annotations
 
 import os
+import platform
 import select
 import signal
 import subprocess
 import sys
+import termios
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,12 +53,14 @@ class ChildOutcome:
         timed_out: it was stopped because the timeout passed.
         output_bytes: bytes it wrote to the log pipe (0 without a log).
         log_truncated: the log kept only the first ``MAX_LOG_BYTES`` of them.
+        read_stdin: with ``stdin="none"``, a process of its group read its standard input (and got end-of-file).
     """
 
     returncode: int
     timed_out: bool = False
     output_bytes: int = 0
     log_truncated: bool = False
+    read_stdin: bool = False
 
 
 class _Watchdog:
@@ -134,8 +147,113 @@ class _LogPump:
             view = view[os.write(self.out, view):]
 
 
+#: The line a child that reads standard input it was not given gets in its log (``stdin="none"``: batches).
+STDIN_NOTICE = ("[benchbot] the solution read its standard input: a batch gives it none, so it got end-of-file "
+                "(run an interactive solution with `benchbot submit`, which passes your terminal through)")
+#: Seconds between two looks for a process of the group blocked reading the empty stdin pipe.
+STDIN_WATCH_PERIOD_S = 0.25
+#: ``read``-family system call numbers (``read``, ``pread64``, ``readv``, ``preadv``, ``preadv2``) by machine, as
+#: ``/proc/PID/task/TID/syscall`` reports them.
+_READ_SYSCALLS = {"x86_64": {0, 17, 19, 295, 327}, "aarch64": {63, 65, 67, 69, 286}}
+
+
+class _StdinWatch:
+    """A child's standard input when it is given none: the read end of a pipe that nothing is written to, and a
+    way to see a process of the child's group blocked reading it (Linux: ``/proc/PID/task/TID/syscall`` names the
+    system call and its first argument, the file descriptor; ``/proc/PID/fd/N`` names the pipe). Once one is seen,
+    or where this cannot be watched (another system, a process whose ``/proc`` files cannot be read), the write end
+    is closed: reads get end-of-file, as from ``/dev/null``."""
+
+    def __init__(self) -> None:
+        self.read_end, self.write_end = os.pipe()
+        self.link = f"pipe:[{os.fstat(self.read_end).st_ino}]"
+        self.seen = False
+        self.next_look = 0.0
+        self.calls = _READ_SYSCALLS.get(platform.machine())
+        if self.calls is None or not os.path.exists(f"/proc/self/task/{os.getpid()}/syscall"):
+            self.close()
+
+    def close(self) -> None:
+        if self.write_end is not None:
+            os.close(self.write_end)
+            self.write_end = None
+
+    def look(self, pgid: int) -> bool:
+        """True the first time a process of group ``pgid`` is seen blocked reading the pipe (then closed)."""
+        if self.write_end is None or time.monotonic() < self.next_look:
+            return False
+        self.next_look = time.monotonic() + STDIN_WATCH_PERIOD_S
+        for pid in _group_members(pgid):
+            try:
+                tasks = os.listdir(f"/proc/{pid}/task")
+            except OSError:  # it ended meanwhile
+                continue
+            for tid in tasks:
+                try:
+                    with open(f"/proc/{pid}/task/{tid}/syscall") as f:
+                        fields = f.read().split()
+                except FileNotFoundError:
+                    continue
+                except OSError:  # not ours to read: it cannot be watched, so it must not wait for us
+                    self.close()
+                    return False
+                if len(fields) < 2 or not fields[0].isdigit() or int(fields[0]) not in self.calls:
+                    continue
+                try:
+                    if os.readlink(f"/proc/{pid}/fd/{int(fields[1], 16)}") == self.link:
+                        self.seen = True
+                        self.close()
+                        return True
+                except (OSError, ValueError):
+                    continue
+        return False
+
+
+def _group_members(pgid: int) -> list[int]:
+    """The processes of group ``pgid`` (Linux: from ``/proc/*/stat``)."""
+    members = []
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/stat", "rb") as f:
+                stat = f.read()
+        except OSError:
+            continue
+        fields = stat[stat.rfind(b")") + 2:].split()  # after "pid (comm) ": state ppid pgrp ...
+        if len(fields) >= 3 and int(fields[2]) == pgid and fields[0] not in (b"Z", b"X"):
+            members.append(int(name))
+    return members
+
+
+class _terminal_guard:
+    """Around a child given this process's terminal (``stdin="inherit"``): the terminal's modes as they were before
+    are put back afterwards and input it left unread is dropped (``tcsetattr(TCSAFLUSH)``), so that a solution that
+    turned echo off, left the terminal raw or made the terminal answer a query leaves nothing for your shell to read.
+    Nothing is done when standard input is not a terminal or this process is not in its foreground."""
+
+    def __enter__(self) -> "_terminal_guard":
+        self.modes = None
+        try:
+            if os.isatty(0) and os.tcgetpgrp(0) == os.getpgrp():
+                self.modes = termios.tcgetattr(0)
+        except OSError:
+            pass
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.modes is None:
+            return
+        try:
+            if os.tcgetpgrp(0) == os.getpgrp():
+                termios.tcsetattr(0, termios.TCSAFLUSH, self.modes)
+        except (OSError, termios.error):
+            pass
+
+
 def run_child(
     argv: list[str], *, cwd: Path, env: dict[str, str], log: IO | None = None, timeout_s: float | None = None,
+    stdin: str = "none",
 ) -> ChildOutcome:
     """Run ``argv`` to completion in its own process group, then stop whatever is left of the group.
 
@@ -144,20 +262,36 @@ def run_child(
         log: a file (opened for writing; its descriptor is used) for stdout and stderr, capped at
             :data:`~benchbot.core.limits.MAX_LOG_BYTES`; None: they are inherited.
         timeout_s: stop the group after this many seconds (``timed_out`` is then set).
+        stdin: ``"none"``: an empty pipe, watched (a read of it is said once, in ``log`` or on stderr, and gets
+            end-of-file); ``"inherit"``: this process's standard input (the terminal of ``benchbot submit``),
+            restored afterwards (module docstring).
 
     Raises:
         OSError: the command cannot be started. UsageError: a bad ``BENCHBOT_MAX_LOG_BYTES`` or
             ``BENCHBOT_STOP_GRACE_S``. Whatever interrupts the wait (KeyboardInterrupt) is re-raised after the group
             has been stopped.
     """
+    if stdin not in ("none", "inherit"):
+        raise ValueError(f"stdin must be 'none' or 'inherit', not {stdin!r}")
     grace, cap = STOP_GRACE_S.value(), MAX_LOG_BYTES.value()
     output = {"stdout": subprocess.PIPE, "stderr": subprocess.STDOUT} if log is not None else {}
-    child = subprocess.Popen(argv, cwd=cwd, env=env, stdin=subprocess.DEVNULL, start_new_session=True, **output)
+    watch = _StdinWatch() if stdin == "none" else None
+    terminal = _terminal_guard().__enter__() if stdin == "inherit" else None
+    try:
+        child = subprocess.Popen(argv, cwd=cwd, env=env, stdin=watch.read_end if watch else None,
+                                 start_new_session=True, **output)
+    except BaseException:
+        _release(watch, terminal)
+        raise
+    finally:
+        if watch is not None:
+            os.close(watch.read_end)  # the child has its own copy
     pump = None
     try:
         watchdog = _Watchdog(child.pid, grace)
     except BaseException:
         _stop(child, 0.0, None)
+        _release(watch, terminal)
         raise
     timed_out = False
     try:
@@ -169,21 +303,37 @@ def run_child(
                 timed_out = True
                 break
             step = 0.1 if remaining is None else min(0.1, remaining)
+            if watch is not None and watch.look(child.pid):
+                if pump is not None:
+                    pump._write(f"\n{STDIN_NOTICE}\n".encode())
+                else:
+                    print(STDIN_NOTICE, file=sys.stderr, flush=True)
             if pump is not None:
                 pump.pump(step)
             else:
                 try:
-                    child.wait(timeout=step if remaining is not None else None)
+                    watched = watch is not None and watch.write_end is not None
+                    child.wait(timeout=step if remaining is not None or watched else None)
                 except subprocess.TimeoutExpired:
                     pass
     finally:
         _stop(child, grace, pump)
         watchdog.release()
+        _release(watch, terminal)
         if pump is not None:
             pump.finish(FINAL_DRAIN_S)
         elif child.stdout is not None:
             child.stdout.close()
-    return ChildOutcome(child.returncode, timed_out, pump.total if pump else 0, bool(pump and pump.truncated))
+    return ChildOutcome(child.returncode, timed_out, pump.total if pump else 0, bool(pump and pump.truncated),
+                        bool(watch and watch.seen))
+
+
+def _release(watch: _StdinWatch | None, terminal: _terminal_guard | None) -> None:
+    """Close the stdin pipe's write end and put the terminal back (whichever the child had)."""
+    if watch is not None:
+        watch.close()
+    if terminal is not None:
+        terminal.__exit__()
 
 
 def _stop(child: subprocess.Popen, grace_s: float, pump: _LogPump | None) -> None:

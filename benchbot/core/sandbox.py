@@ -356,7 +356,7 @@ class SandboxedRun:
 def run_sandboxed(
     argv: list[str], cwd: Path, *, registry, backend_socket: Path, address: str, outputs: Path, result_name: str,
     hide: list[Path] | tuple = (), env: dict[str, str] | None = None, log: IO | None = None,
-    timeout_s: float | None = None,
+    timeout_s: float | None = None, stdin: str = "none",
 ) -> SandboxedRun:
     """Run ``argv`` in folder ``cwd`` sandboxed (module docstring), in its own process group
     (:func:`benchbot.core.process_group.run_child`: stopped whole when it ends, watched, its log capped).
@@ -372,7 +372,9 @@ def run_sandboxed(
         env: the environment to start from (default: this process's); ``HOME``, ``TMPDIR``, the backend's address
             and the results location are set for the sandbox, and the shared-memory fast path is turned off
             (the sandbox's ``/dev/shm`` is its own).
-        log, timeout_s: as for :func:`~benchbot.core.process_group.run_child`.
+        log, timeout_s, stdin: as for :func:`~benchbot.core.process_group.run_child` (``stdin="inherit"``: the
+            terminal reaches the solution; the sandbox's session of its own keeps it from typing into your shell,
+            docs/security.md).
 
     Returns:
         A :class:`SandboxedRun`; its ``results`` is ``outputs/result_name``, else ``outputs/benchbot_result`` (an
@@ -408,7 +410,7 @@ def run_sandboxed(
             relay += ["--port", str(port)]
         command = [bwrap, *layout.bwrap_args(), *relay, "--", *argv]
         try:
-            outcome = run_child(command, cwd=cwd, env=child_env, log=log, timeout_s=timeout_s)
+            outcome = run_child(command, cwd=cwd, env=child_env, log=log, timeout_s=timeout_s, stdin=stdin)
         except OSError as exc:
             raise UsageError(f"cannot start the sandbox: {exc.strerror}: {bwrap}", "check the bubblewrap install") \
                 from None

@@ -70,6 +70,7 @@ def run_submission(
     result_location: Path,
     log: IO[str] | None = None,
     timeout_s: float | None = None,
+    stdin: str = "none",
 ) -> ChildOutcome:
     """Run the submission to completion in its own process group (:func:`benchbot.core.process_group.run_child`):
     when it ends, for any reason, every process it started is stopped too, and a watchdog stops them if this process
@@ -80,6 +81,8 @@ def run_submission(
         result_location: where the API makes the agent save its results.
         log: a file for the child's stdout and stderr, capped at ``BENCHBOT_MAX_LOG_BYTES`` (inherited when None).
         timeout_s: stop the child's group after this many seconds (``timed_out`` in the outcome).
+        stdin: ``"inherit"`` (``benchbot submit``: the terminal is passed through) or ``"none"`` (batches: an empty
+            pipe; a read of it is said once and gets end-of-file).
 
     Returns:
         The :class:`~benchbot.core.process_group.ChildOutcome`: ``returncode``, ``timed_out``, ``output_bytes``,
@@ -92,7 +95,7 @@ def run_submission(
     env = dict(os.environ, BENCHBOT_SUPERVISOR_ADDRESS=address, BENCHBOT_RESULT_LOCATION=str(result_location))
     env["PYTHONUNBUFFERED"] = "1"
     try:
-        return run_child(submission.argv, cwd=submission.cwd, env=env, log=log, timeout_s=timeout_s)
+        return run_child(submission.argv, cwd=submission.cwd, env=env, log=log, timeout_s=timeout_s, stdin=stdin)
     except OSError as exc:
         raise UsageError(f"cannot start {submission.label}: {exc.strerror}: {submission.argv[0]}", "check the command") from None
 
