@@ -365,8 +365,11 @@ TYPES: dict[str, type] = {
 }
 
 #: ROS 2 Jazzy's type hash (REP 2011 ``RIHS01_<sha256>``) of every type in :data:`TYPES`, as rmw announces it in an
-#: endpoint's USER_DATA (``typehash=...;``) and ``ros2 topic info -v`` shows it. Checked against an independent
-#: implementation (``rosbags``) by the tests.
+#: endpoint's USER_DATA (``typehash=...;``) and ``ros2 topic info -v`` shows it. The tests check them against the
+#: type descriptions (``share/<pkg>/msg/<Name>.json``) that the ``ros-jazzy-*`` wheels install (all but
+#: ``tf2_msgs``, which has no wheel) and, but for the three ``rmw_dds_common`` types, against ``rosbags``' own
+#: hashing (which hashes their ``char`` fields differently: it gave ``Gid`` ``RIHS01_a8e2f2bd…``, Jazzy announces
+#: ``RIHS01_ab6f21cf…``).
 TYPE_HASHES: dict[str, str] = {
     "builtin_interfaces/msg/Time": "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
     "std_msgs/msg/Header": "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
@@ -387,10 +390,10 @@ TYPE_HASHES: dict[str, str] = {
     "sensor_msgs/msg/Image": "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
     "sensor_msgs/msg/LaserScan": "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828",
     "rosgraph_msgs/msg/Clock": "RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564",
-    "rmw_dds_common/msg/Gid": "RIHS01_a8e2f2bd4b156011c7ed7618c1db625ac341c2dc3ff09b8dd107f33f20dcec07",
-    "rmw_dds_common/msg/NodeEntitiesInfo": "RIHS01_8ecbfcad87fa92b9c1458f525b5faf5bf7cab9427a92524d72a394112992b5ab",
+    "rmw_dds_common/msg/Gid": "RIHS01_ab6f21cfbb0a6dbb837161e1110c2051a2850ed9f9c53944d7115d9bcebedf71",
+    "rmw_dds_common/msg/NodeEntitiesInfo": "RIHS01_8ffef65ee2d088c63b1e8fcd31e800ba9fc8dbe0ee15ca60d1676de5218087a7",
     "rmw_dds_common/msg/ParticipantEntitiesInfo":
-        "RIHS01_e725f4a506958c79f95dd693b965722c57b19cd18e7eff984f49561b93dc985d",
+        "RIHS01_91a0593bacdcc50ea9bdcf849a938b128412cc1ea821245c663bcd26f83c295e",
 }
 
 
