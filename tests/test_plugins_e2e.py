@@ -76,3 +76,25 @@ def test_generated_sim_plugin_end_to_end(tmp_path):
     assert "sim_demo" not in plugins
     assert json.loads(sh(bb, "list", "environments", "--json", env=env).stdout) == []
     assert json.loads(sh(bb, "list", "tasks", "--json", env=env).stdout) == []
+
+
+@pytest.mark.skipif(shutil.which("uv") is None, reason="needs uv")
+@pytest.mark.parametrize("kind", ["sim", "robot", "task", "eval", "env"])
+def test_a_generated_projects_readme_works_outside_this_checkout(tmp_path, kind):
+    """The README's Develop commands, run as written in a project made outside the checkout, install it with
+    BenchBot from where this machine's came from ([tool.uv.sources]) and pass its tests; nothing points users to the
+    original QUT project."""
+    env = {k: v for k, v in os.environ.items() if k not in ("BENCHBOT_ONLY_PLUGINS", "VIRTUAL_ENV", "PYTHONPATH")}
+    env.update(BENCHBOT_DATA_DIR=str(tmp_path / "data"), UV_PYTHON_DOWNLOADS="never", UV_PYTHON=sys.executable)
+    project = Path(sh(sys.executable, "-m", "benchbot.cli", "plugin", "new", "lidar_noise", "--kind", kind,
+                      "-o", tmp_path, env=env).stdout.strip())
+    assert project.name == f"benchbot-{kind}-lidar-noise" and not project.is_relative_to(ROOT)
+    readme = (project / "README.md").read_text()
+    assert "qcr" not in readme and "github.com" not in readme
+    develop = readme.split("## Develop", 1)[1].split("```bash", 1)[1].split("```", 1)[0]
+    commands = [line.split("#", 1)[0].strip() for line in develop.splitlines() if line.split("#", 1)[0].strip()]
+    assert commands[:2] == ['uv venv && uv pip install -e ".[test]"', "uv run --no-sync pytest"]
+    for command in commands:
+        sh("bash", "-c", command, env=env, cwd=project)
+    assert list((project / "dist").glob(f"benchbot_{kind}_lidar_noise-0.1.0-*.whl"))
+    assert "[tool.uv.sources]" in (project / "pyproject.toml").read_text()

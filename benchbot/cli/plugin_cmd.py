@@ -25,14 +25,15 @@ def register(app: typer.Typer) -> None:
     @plugin_app.command("new")
     @handle_errors
     def new(
-        name: str = typer.Argument(..., help="Plugin name, e.g. 'mysim' (distribution benchbot-<kind>-<name>)."),
+        name: str = typer.Argument(..., help="Plugin name, e.g. 'lidar_noise': the project is the folder and distribution benchbot-<kind>-<name> (with - for _, e.g. benchbot-sim-lidar-noise), its package benchbot_<kind>_<name>."),
         kind: str = typer.Option(..., "--kind", "-k", help="sim, robot, task, eval or env."),
-        out_dir: Path = typer.Option(Path("."), "--output", "--out", "-o", help="Folder to create the project in."),
+        out_dir: Path = typer.Option(Path("."), "--output", "--out", "-o", help="Folder to create the project folder in."),
         force: bool = typer.Option(False, "--force", help="Write into an existing, non-empty project folder."),
     ) -> None:
         """Write a complete plugin project: pyproject (entry point), hook implementations, an example spec,
         README, contract tests and a CI workflow. It installs (`benchbot install ./benchbot-<kind>-<name>`) and its
-        tests pass as written."""
+        tests pass as written, anywhere: until BenchBot is on PyPI its pyproject takes BenchBot from where this
+        machine's came from (a checkout, a wheel or a git URL; [tool.uv.sources])."""
         from benchbot.plugins.scaffold import new_plugin
 
         root = new_plugin(kind, name, out_dir, force=force)

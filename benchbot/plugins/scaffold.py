@@ -51,6 +51,57 @@ def _env_map(env: str, dist: str) -> str:
     return json.dumps(data, indent=2) + "\n"
 
 
+def installed_from(distribution: str) -> dict | None:
+    """Where the installed ``distribution`` came from, as a uv source (``[tool.uv.sources]``): ``{"path": folder,
+    "editable": True}`` for an editable install, ``{"path": folder or wheel}`` for a local one, ``{"git": url,
+    "rev": commit}`` for a git install; None when it came from a package index (or is not installed), where its
+    name alone finds it. Read from the installed distribution's ``direct_url.json`` (PEP 610)."""
+    import importlib.metadata
+    import urllib.parse
+    import urllib.request
+
+    try:
+        text = importlib.metadata.distribution(distribution).read_text("direct_url.json")
+        data = json.loads(text) if text else None
+    except (importlib.metadata.PackageNotFoundError, ValueError):
+        return None
+    if not isinstance(data, dict) or not isinstance(data.get("url"), str):
+        return None
+    url = data["url"]
+    vcs = data.get("vcs_info")
+    if isinstance(vcs, dict) and vcs.get("vcs") == "git":
+        return {"git": url, "rev": str(vcs.get("commit_id", ""))}
+    if url.startswith("file:"):
+        source: dict = {"path": urllib.request.url2pathname(urllib.parse.urlsplit(url).path)}
+        if (data.get("dir_info") or {}).get("editable"):
+            source["editable"] = True
+        return source
+    return None
+
+
+def _sources(distributions: list[str]) -> tuple[str, str]:
+    """The ``[tool.uv.sources]`` block for the BenchBot distributions a generated project depends on (where this
+    machine's came from; nothing for those from an index) and the README's sentence saying so."""
+    lines, where = [], []
+    for dist in distributions:
+        source = installed_from(dist)
+        if source is None:
+            continue
+        fields = ", ".join(f"{k} = {json.dumps(v)}" for k, v in source.items())
+        lines.append(f"{dist} = {{ {fields} }}")
+        where.append(f"`{dist}` from `{source.get('path') or source.get('git')}`")
+    if not lines:
+        return "", ("`benchbot` comes from the package index, like every other dependency.")
+    block = ("\n# Where BenchBot comes from until it is on PyPI: this machine's install when the project was made. Change\n"
+             "# it to a git URL ({ git = \"https://...\" }) or a wheel ({ path = \"benchbot-X-py3-none-any.whl\" })\n"
+             "# when the project moves; `uv` reads it (`pip` needs BenchBot installed first).\n[tool.uv.sources]\n"
+             + "\n".join(lines) + "\n")
+    return block, ("BenchBot is not on PyPI yet: `uv` takes " + ", ".join(where)
+                   + " (`[tool.uv.sources]` in `pyproject.toml`, written when the project was made; point it at a "
+                     "git URL or a wheel when the project moves). With `pip`, install BenchBot first from the same "
+                     "place.")
+
+
 def project_files(kind: str, name: str) -> dict[str, str]:
     """``{relative path: text}`` of the project for plugin ``kind`` and ``name``.
 
@@ -102,6 +153,9 @@ def project_files(kind: str, name: str) -> dict[str, str]:
         files[f"{pkg}/plugin.py"] = _fill("env_plugin.py", v)
         files[f"{pkg}/data/{v['env']}_1.json"] = _env_map(v["env"], dist)
         tests.append("env_tests.py")
+    needs = ["benchbot"] + (["benchbot-sim-taichi"] if kind == "env" else [])
+    v["sources"], v["core_source"] = _sources(needs)
+    v["core_deps"] = ", ".join(f'"{d}>=0.1"' for d in needs)
     files["tests/test_contract.py"] = "".join(_fill(t, v) for t in tests)
     files["pyproject.toml"] = _fill("pyproject.toml", v)
     files["README.md"] = _fill("README.md", v)

@@ -43,6 +43,18 @@ def _load(raw: Any) -> dict:
     raise AssertionError(f"a spec must be a dict or a file path, got {type(raw).__name__}")
 
 
+def spec_items(specs: Iterable[Any]) -> list:
+    """What a content hook returned, with every folder replaced by the spec files in it (as the registry reads
+    them: :func:`benchbot.core.registry.expand_spec_folders`), so each item can go to a ``check_*`` function.
+
+    Args:
+        specs: the hook's list: dicts, and paths of spec files or of folders of them.
+    """
+    from benchbot.core.registry import expand_spec_folders
+
+    return expand_spec_folders(list(specs))
+
+
 def _importable(module_name: str) -> bool:
     import importlib.util
 
