@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from benchbot.core.errors import ActionError
-from benchbot.core.geometry import pose7_to_se2
+from benchbot.core.geometry import pose7_to_se2, start_pose_to_se2
 
 PASSIVE = "semantic_slam:passive:ground_truth"
 ACTIVE = "semantic_slam:active:ground_truth"
@@ -98,7 +98,7 @@ def test_moving_makes_dirty_and_collision_ends_actions(make_service):
 def test_next_reset_and_restart(make_service, registry):
     service = make_service(SCD_ACTIVE, "house:1:2")
     ep = service.episode
-    start_2 = pose7_to_se2(registry.get("environments", "house:2")["start_pose"])
+    start_2 = start_pose_to_se2(registry.get("environments", "house:2")["start_pose"])
     service.call(ep.act, "move_angle", {"angle": 45})
     first_initial = ep.initial_pose.copy()
     assert service.call(ep.next) is True and ep.scene_index == 1
@@ -111,7 +111,7 @@ def test_next_reset_and_restart(make_service, registry):
     assert service.call(ep.restart) and ep.scene_index == 1 and ep.initial_pose is not None
     assert service.call(ep.reset) and ep.scene_index == 0  # fixed: really scene 0
     assert ep.selected_environment() == {"name": "house", "variant": 1, "number": 0}
-    start_1 = pose7_to_se2(registry.get("environments", "house:1")["start_pose"])
+    start_1 = start_pose_to_se2(registry.get("environments", "house:1")["start_pose"])
     assert np.allclose(ep.backend.base_pose(), start_1, atol=1e-9)
 
 

@@ -31,6 +31,7 @@ from benchbot.core.errors import ActionError, BackendError, BenchbotError
 from benchbot.core.geometry import (
     pose7_to_se2,
     pose_observation,
+    start_pose_to_se2,
     se2_compose,
     se2_relative,
     se2_to_matrix,
@@ -202,7 +203,7 @@ class Episode:
     def _load(self, scene_index: int) -> None:
         self.scene_index = scene_index
         self.backend.load_scene(self.environments[scene_index], seed=self.seed + scene_index)
-        self.start_se2 = pose7_to_se2(self.environments[scene_index]["start_pose"])
+        self.start_se2 = start_pose_to_se2(self.environments[scene_index]["start_pose"])
         self.trajectory_next: int | None = None
         self.collided = False
         self.dirty = False

@@ -105,6 +105,27 @@ def pose7_to_se2(pose: "list[float] | np.ndarray") -> np.ndarray:
     return np.array([T[0, 3], T[1, 3], math.atan2(T[1, 0], T[0, 0])])
 
 
+def start_pose_to_se2(pose: "list[float] | np.ndarray") -> np.ndarray:
+    """SE(2) pose (3,) float64 ``[x, y, yaw]`` where the original's simulator placed the robot for an environment's
+    ``start_pose`` ``[qw, qx, qy, qz, x, y, z]``: the yaw of the rotation matrix that the unit-quaternion formula
+    gives for the four numbers *as written*, ``atan2(2(qw·qz + qx·qy), 1 − 2(qy² + qz²))``, without normalising
+    them (the original wrote the start pose into its simulator's configuration as it was). For a unit quaternion
+    this is :func:`pose7_to_se2`'s yaw; for house's ``[1, 0, 0, 0.8]`` it is 99.9° where normalising gives 77.3° —
+    and the original's recorded trajectory of house:1 begins at the start position with a yaw of 99.8°
+    (docs/original-benchbot.md, section 10).
+
+    Raises:
+        ValueError: not 7 finite numbers, or a quaternion of zeros.
+    """
+    p = np.asarray(pose, dtype=np.float64).reshape(-1)
+    if p.shape[0] != 7 or not np.isfinite(p).all():
+        raise ValueError(f"a pose needs 7 finite numbers [qw,qx,qy,qz,x,y,z], got {p.tolist()}")
+    w, x, y, z = p[:4]
+    if not (w or x or y or z):
+        raise ValueError("the quaternion of a pose cannot be all zeros")
+    return np.array([p[4], p[5], math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))])
+
+
 def se2_to_matrix(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
     """``T`` (4, 4) float64 of a planar pose at height ``z`` (metres), rotated by ``yaw`` (radians) about +z."""
     c, s = math.cos(yaw), math.sin(yaw)

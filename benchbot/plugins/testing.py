@@ -236,9 +236,9 @@ def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
 
 
 def _yaw_of(start_pose: list[float]) -> float:
-    from benchbot.core.geometry import pose7_to_se2  # SciPy: loaded when a check runs, not with pytest
+    from benchbot.core.geometry import start_pose_to_se2  # loaded when a check runs, not with pytest
 
-    return float(pose7_to_se2(start_pose)[2])
+    return float(start_pose_to_se2(start_pose)[2])
 
 
 def _angle_diff(a: float, b: float) -> float:

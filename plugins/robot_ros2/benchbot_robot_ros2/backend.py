@@ -35,7 +35,7 @@ import numpy as np
 
 from benchbot.core import settings
 from benchbot.core.errors import BackendError
-from benchbot.core.geometry import pose7_to_se2, se2_relative, se2_to_matrix
+from benchbot.core.geometry import se2_relative, se2_to_matrix, start_pose_to_se2
 from benchbot.core.motion import ControllerGains, PoseController
 from benchbot.core.registry import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
@@ -402,7 +402,7 @@ class Ros2RobotBackend(RobotBackend):
             BackendError: no answer/topics within ``startup_timeout_s``, the simulator refused, or the robot could
                 not drive back.
         """
-        start = pose7_to_se2(environment["start_pose"])
+        start = start_pose_to_se2(environment["start_pose"])
         timeout = self.cfg["startup_timeout_s"]
         self.stop()
         if self.cfg["reset"] == "topic":

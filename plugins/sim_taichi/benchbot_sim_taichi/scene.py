@@ -19,7 +19,7 @@ import numpy as np
 
 from benchbot.core import settings
 from benchbot.core.errors import BackendError
-from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix
+from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix, start_pose_to_se2
 from benchbot.core.registry import first_error
 from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
 from benchbot_sim_taichi.plugin import lighting_of_map_path
@@ -128,7 +128,8 @@ class Scene:
         light_colour: (L, 3) float32 radiance (point lights: at 1 m, falling off as 1/d²).
         light_range: (L,) float32 cut-off distance of point lights (metres; ignored for directional ones).
         lighting: the lighting name.
-        start_se2: (3,) float64 normalised start pose ``[x, y, yaw]``; trajectory_se2: (M, 3) float64.
+        start_se2: (3,) float64 start pose ``[x, y, yaw]`` as the original placed the robot
+            (:func:`benchbot.core.geometry.start_pose_to_se2`); trajectory_se2: (M, 3) float64.
         prim_type, prim_axis, prim_min, prim_max, prim_albedo, prim_object: the primitives drawn (see
             :data:`PRIM_BOX` …; ``prim_object`` indexes the per-object arrays ``box_*``, whose boxes are each object's
             cuboid, i.e. the AABB of its primitives; −1: not an object — class ``background``, instance 0);
@@ -646,7 +647,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
 
     try:
         sp = poses("start_pose")
-        start = pose7_to_se2(sp) if sp is not None else np.zeros(3)
+        start = start_pose_to_se2(sp) if sp is not None else np.zeros(3)  # as the original placed the robot
         traj = np.array([pose7_to_se2(p) for p in (poses("trajectory_poses") or [])], dtype=np.float64).reshape(-1, 3)
     except (ValueError, TypeError) as e:
         raise BackendError(f"environment {environment.get('name')}:{environment.get('variant')}: bad pose ({e})",

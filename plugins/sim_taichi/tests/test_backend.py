@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from benchbot.core.errors import BackendError
-from benchbot.core.geometry import pose7_to_se2, se2_compose, se2_relative
+from benchbot.core.geometry import pose7_to_se2, se2_compose, se2_relative, start_pose_to_se2
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
 ALL = ["image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment"]
@@ -37,8 +37,8 @@ def test_factory_and_start_pose(bear_envs, carter_spec):
     b.load_scene(env)
     p = b.base_pose()
     assert p.shape == (3,) and p.dtype == np.float64
-    np.testing.assert_allclose(p, pose7_to_se2(env["start_pose"]))
-    assert math.degrees(p[2]) == pytest.approx(77.32, abs=0.01)
+    np.testing.assert_allclose(p, start_pose_to_se2(env["start_pose"]))
+    assert math.degrees(p[2]) == pytest.approx(99.93, abs=0.01)  # as the original placed it (not 77.32)
     tf = b.frame_transforms()
     assert set(tf) >= {"robot", "camera", "lidar"}
     assert tf["robot"][2, 3] == pytest.approx(0.244)  # carter's robot frame, as the original's (its rigid body)
