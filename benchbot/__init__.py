@@ -5,7 +5,12 @@ server and the client API. Every capability (simulators, robots, tasks, evaluato
 through the entry-point group ``benchbot``.
 """
 
-__version__ = "0.1.0"
+from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version
+
+try:
+    __version__ = _version("benchbot")  # one source: pyproject.toml's [project] version, as installed
+except _NotInstalled:  # imported from a source tree that was never installed
+    __version__ = "0+unknown"
 
 import importlib as _importlib
 import sys as _sys

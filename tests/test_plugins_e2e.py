@@ -85,7 +85,8 @@ def test_a_generated_projects_readme_works_outside_this_checkout(tmp_path, kind)
     BenchBot from where this machine's came from ([tool.uv.sources]) and pass its tests; nothing points users to the
     original QUT project."""
     env = {k: v for k, v in os.environ.items() if k not in ("BENCHBOT_ONLY_PLUGINS", "VIRTUAL_ENV", "PYTHONPATH")}
-    env.update(BENCHBOT_DATA_DIR=str(tmp_path / "data"), UV_PYTHON_DOWNLOADS="never", UV_PYTHON=sys.executable)
+    env.update(BENCHBOT_DATA_DIR=str(tmp_path / "data"), UV_PYTHON_DOWNLOADS="never")
+    env.pop("UV_PYTHON", None)  # it would make `uv pip install` install into that interpreter's environment
     project = Path(sh(sys.executable, "-m", "benchbot.cli", "plugin", "new", "lidar_noise", "--kind", kind,
                       "-o", tmp_path, env=env).stdout.strip())
     assert project.name == f"benchbot-{kind}-lidar-noise" and not project.is_relative_to(ROOT)
@@ -97,4 +98,9 @@ def test_a_generated_projects_readme_works_outside_this_checkout(tmp_path, kind)
     for command in commands:
         sh("bash", "-c", command, env=env, cwd=project)
     assert list((project / "dist").glob(f"benchbot_{kind}_lidar_noise-0.1.0-*.whl"))
+    import importlib.metadata
+
+    with pytest.raises(importlib.metadata.PackageNotFoundError):  # it went into the project's .venv, not this one
+        importlib.metadata.distribution(f"benchbot-{kind}-lidar-noise")
+    assert list((project / ".venv").glob(f"lib/python*/site-packages/*benchbot_{kind}_lidar_noise*"))
     assert "[tool.uv.sources]" in (project / "pyproject.toml").read_text()

@@ -31,12 +31,14 @@ command: -e environment(s), -t task, -r robot, -n native, -c containerised, -E e
 
 
 def _no_type_on_flags() -> None:
-    """Typer's rich help shows ``<bool>`` after every flag (``--json <bool>``, even ``--help <bool>``), as if it
-    took a value; a flag takes none, so its type column is left empty (options that take a value keep theirs)."""
+    """Typer's rich help (from 0.16 or so) shows ``<bool>`` after every flag (``--json <bool>``, even ``--help
+    <bool>``), as if it took a value; a flag takes none, so its type column is left empty (options that take a value
+    keep theirs). Typer has no public setting for it, so this wraps its ``TyperOption.display_type_rich`` where that
+    exists; a Typer without it (older ones, which show no type on flags) is left as it is."""
     from typer.core import TyperOption
 
-    shown = TyperOption.display_type_rich
-    if getattr(shown, "_benchbot_flags_untyped", False):
+    shown = getattr(TyperOption, "display_type_rich", None)
+    if shown is None or getattr(shown, "_benchbot_flags_untyped", False):
         return
 
     def display_type_rich(self: TyperOption, ctx: Any) -> "str | None":
