@@ -84,7 +84,11 @@ def _print_pack(manifest: dict) -> None:
         err.print(f"  [yellow]override:[/] {escape(line)}", highlight=False)
     for line in manifest["notes"]:
         err.print(f"  [dim]note:[/] {escape(line)}", highlight=False)
-    what = escape("; ".join(f"{k}: {', '.join(v)}" for k, v in manifest["files"].items()))
+    built_in = manifest.get("built_in") or {}
+    new = {k: [n for n in v if n not in built_in.get(k, [])] for k, v in manifest["files"].items()}
+    what = escape("; ".join(f"{k}: {', '.join(v)}" for k, v in new.items() if v) or "nothing new")
+    if any(built_in.values()):
+        what += escape("; already provided: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in built_in.items() if v))
     where = f"content pack '{manifest['name']}' into {escape(manifest['path'])} ({what})"
     if manifest["dry_run"]:
         err.print(f"[green]would install[/] {where}; --dry-run: nothing changed", highlight=False)
@@ -112,9 +116,11 @@ def register(app: typer.Typer) -> None:
         tasks/, robots/, environments/, formats/, evaluation_methods/, ground_truths/, examples/, batches/,
         such as the original BenchBot add-ons).
 
-        A spec identical in meaning to an installed one is reported as already provided; one that differs is a
-        clash (exit 3) unless --override. An add-on whose content is a download (.remote) is explained, not
-        installed (exit 3).
+        A spec identical in meaning to an installed one, or an original add-on's spec that a built-in plugin
+        re-implements, is reported as already provided (the rest installs); a robot that no installed plugin can
+        run is listed as unavailable, never put in place of a working one; a second ground truth of an environment
+        is another set (benchbot eval --ground-truths). Any other spec that differs is a clash (exit 3) unless
+        --override. An add-on whose content is a download (.remote) is explained, not installed (exit 3).
 
         Example: benchbot install benchbot-sim-foo ./my_pack
         """

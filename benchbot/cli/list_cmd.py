@@ -117,15 +117,35 @@ def register(app: typer.Typer) -> None:
             print_plugins(as_json)
             return
         entries = [reg.entries[kind.value][n] for n in reg.names(kind.value)]
+        sets: dict[str, list[str]] = {}
+        if kind is Kind.ground_truths:  # every set that has the environment's ground truth, the default's first
+            for set_name, members in sorted(reg.ground_truth_sets().items()):
+                for env in members:
+                    sets.setdefault(env, []).append(set_name)
+            for e in entries:
+                default = reg.ground_truth_set(e.name)
+                sets[e.name] = [default] + [s for s in sets.get(e.name, []) if s != default]
         if as_json:
-            out.print_json(json.dumps([
-                {"name": e.name, "plugin": e.plugin, "path": str(e.path) if e.path else None,
-                 "description": str(e.spec.get("description", e.spec.get("environment", {}).get("description", ""))).strip()}
-                for e in entries
-            ]))
+            rows = []
+            for e in entries:
+                row = {"name": e.name, "plugin": e.plugin, "path": str(e.path) if e.path else None,
+                       "description": str(e.spec.get("description",
+                                                     e.spec.get("environment", {}).get("description", ""))).strip()}
+                if kind is Kind.robots:
+                    row["unavailable"] = reg.unavailable_reason("robots", e.name) or None
+                if kind is Kind.ground_truths:
+                    row["sets"] = sets.get(e.name, [])
+                rows.append(row)
+            out.print_json(json.dumps(rows))
             return
-        table = Table("name", "plugin", "description")
+        table = Table("name", "plugin", "sets (default first)" if kind is Kind.ground_truths else "description")
         table.columns[0].no_wrap = True
         for e in entries:  # spec text is shown as written: Text, never markup ("centroid [x, y, z]" keeps its brackets)
-            table.add_row(Text(e.name), Text(e.plugin), Text(first_sentence(e.spec.get("description", ""))))
+            third = Text(first_sentence(e.spec.get("description", "")))
+            if kind is Kind.ground_truths:
+                third = Text(", ".join(sets.get(e.name, [])))
+            unavailable = reg.unavailable_reason(kind.value, e.name)
+            if unavailable:
+                third = Text(f"unavailable here: {unavailable}", style="yellow")
+            table.add_row(Text(e.name), Text(e.plugin), third)
         out.print(table)

@@ -10,9 +10,17 @@ clash with installed content, and copies the pack atomically to ``<data dir>/pac
 the same errors and exit code, and nothing copied.
 
 A spec whose name is already installed is no clash when the two are identical in meaning
-(:mod:`benchbot.core.spec_meaning`): it is reported as already provided and the installed copy is used. A real
-clash is refused naming both sources, unless the pack is installed with ``override=True`` (``--override``): its
-spec then replaces the other source's while the pack is installed (the manifest's ``overrides``).
+(:mod:`benchbot.core.spec_meaning`): it is reported as already provided and the installed copy is used. Nor is an
+original add-on's spec copied unchanged whose name a first-party plugin re-implements (formats_object_map's
+formats, eval_omq's ``omq``, the examples of the built-in names, robots_isaac's ``carter``:
+:func:`benchbot.core.original_addons.built_in_counterpart`): it is reported as already provided, the built-in is
+used, and the pack's copy (and its code, which then needs no ``--allow-code``) is never loaded (the manifest's
+``built_in``). A robot whose type no installed plugin runs never replaces an installed robot of its name; under a
+new name it installs and is listed as unavailable with the reason (``Registry.unavailable_reason``). A ground truth
+of an environment that has one already is another *set* of ground truths (the original's ``isaac_develop`` and
+``bear_develop``, else named after the pack), offered beside the default. A real clash is refused naming both
+sources, unless the pack is installed with ``override=True`` (``--override``): its spec then replaces the other
+source's while the pack is installed (the manifest's ``overrides``).
 
 An original add-on whose content lives elsewhere — a ``.remote`` file naming a URL to download and a folder to
 unzip it into (the original's environments and Omniverse robots) — is recognised by its markers
@@ -570,14 +578,31 @@ def installed_packs() -> list[dict]:
 
 @dataclass
 class _Classified:
-    provided: list[str] = field(default_factory=list)  # identical in meaning: one line each
+    provided: list[str] = field(default_factory=list)  # identical in meaning or re-implemented: one line each
     clashes: list[str] = field(default_factory=list)  # real clashes: one line each
     overrides: dict[str, list[str]] = field(default_factory=dict)  # kind -> names that would replace another's
     refused: list[str] = field(default_factory=list)  # clashes that --override cannot settle
+    built_in: dict[str, list[str]] = field(default_factory=dict)  # kind -> names a built-in provides: not loaded
+    alternatives: list[str] = field(default_factory=list)  # ground truths offered as another set: one line each
 
 
-def _classify(scan: PackScan, registry: "Registry", replacing: Path | None) -> _Classified:
-    """Each pack file whose name is already installed: identical in meaning (provided) or a real clash."""
+def _unavailable_robot(pf: PackFile, registry: "Registry") -> str:
+    """Why the pack's robot cannot run on this machine (its type has no robot backend here), or ``""``."""
+    robot_type = str(pf.spec.get("type")) if pf.kind == "robots" and pf.spec else ""
+    if not robot_type or robot_type in registry.backend_factories:
+        return ""
+    from benchbot.core.original_addons import shown
+
+    types = ", ".join(sorted(registry.backend_factories)) or "none"
+    return (f"its type '{shown(robot_type, 40)}' needs a robot backend that no installed plugin provides "
+            f"(types here: {types})")
+
+
+def _classify(scan: PackScan, registry: "Registry", replacing: Path | None, override: bool = False) -> _Classified:
+    """Each pack file whose name is already installed: identical in meaning or an unchanged original add-on's
+    spec that a first-party plugin re-implements (provided), a robot this machine cannot run (the installed one
+    stays), a ground truth of another set (an alternative), or a real clash."""
+    from benchbot.core.original_addons import built_in_counterpart, ground_truth_set_of
     from benchbot.core.registry import singular
     from benchbot.core.spec_meaning import differences
 
@@ -600,6 +625,27 @@ def _classify(scan: PackScan, registry: "Registry", replacing: Path | None) -> _
             out.provided.append(f"{pf.rel}: {what} is already provided by {_source(entry, with_path=False)} "
                                 "(identical in meaning; that copy is used)")
             continue
+        unavailable = _unavailable_robot(pf, registry)
+        if unavailable:  # never installed broken: the installed robot stays, --override or not
+            out.provided.append(f"{pf.rel}: {what} cannot run here: {unavailable}; the one of "
+                                f"{_source(entry, with_path=False)} is kept")
+            out.built_in.setdefault(pf.kind, []).append(pf.name)
+            continue
+        addon = built_in_counterpart(pf.kind, pf.name, pf.spec, pf.path, scan.root)
+        if addon is not None and not override and not is_pack_entry(entry.plugin, entry.path):
+            out.provided.append(f"{pf.rel}: {what} is the original add-on {addon}'s, unchanged; "
+                                f"{_source(entry, with_path=False)} provides its re-implementation, which is used "
+                                "(--override installs the add-on's own instead)")
+            out.built_in.setdefault(pf.kind, []).append(pf.name)
+            continue
+        if pf.kind == "ground_truths" and not getattr(entry, "override", False):
+            ours = ground_truth_set_of(pf.spec) or scan.name
+            theirs = ground_truth_set_of(entry.spec) or entry.plugin
+            if ours != theirs:
+                out.alternatives.append(f"{pf.rel}: {what} is offered as ground-truth set '{ours}' beside set "
+                                        f"'{theirs}' of {_source(entry, with_path=False)}, which stays the default "
+                                        f"(choose with --ground-truths {ours}); they differ in {', '.join(diff)}")
+                continue
         how = (f"differs only in functions (the pack's own code, not that of {_source(entry, with_path=False)})"
                if diff == ["functions"] else f"differs in {', '.join(diff)}")
         out.clashes.append(f"{pf.rel}: {what} is already installed by {_source(entry)} and {how}")
@@ -607,6 +653,12 @@ def _classify(scan: PackScan, registry: "Registry", replacing: Path | None) -> _
         if getattr(entry, "override", False):
             out.refused.append(f"{pf.rel}: {what} of {_source(entry)} is itself an override")
     return out
+
+
+def _code_needed(scan: PackScan, built_in: dict[str, list[str]]) -> list[str]:
+    """Why the pack needs ``--allow-code``, leaving out the files whose spec a built-in provides (never loaded,
+    so their code never runs)."""
+    return [c for pf in scan.files if pf.name not in built_in.get(pf.kind, []) for c in pf.code]
 
 
 def _source(entry: Any, with_path: bool = True) -> str:
@@ -621,9 +673,10 @@ def _source(entry: Any, with_path: bool = True) -> str:
     return f"plugin '{entry.plugin}'{path}"
 
 
-def _usability_notes(scan: PackScan, registry: "Registry", overrides: dict[str, list[str]]) -> list[str]:
-    """Notes on content that installs but cannot be used here: robots of a type no plugin runs, batches naming
-    environments that are not installed."""
+def _usability_notes(scan: PackScan, registry: "Registry", overrides: dict[str, list[str]],
+                     built_in: dict[str, list[str]], dest: Path) -> list[str]:
+    """Notes on content that installs but cannot be used here: robots of a type no plugin runs (listed as
+    unavailable), batches naming environments that are not installed."""
     from benchbot.core.original_addons import compact_names, shown
     from benchbot.core.registry import singular
 
@@ -634,11 +687,15 @@ def _usability_notes(scan: PackScan, registry: "Registry", overrides: dict[str, 
         if pf.error or pf.spec is None:
             continue
         if pf.kind == "robots" and pf.spec.get("type") not in registry.backend_factories:
-            if pf.name in registry.entries["robots"] and pf.name not in overrides.get("robots", []):
-                continue  # not registered from this pack (provided, or a refused clash)
+            other = registry.entries["robots"].get(pf.name)
+            if pf.name in built_in.get("robots", []) or (
+                    other is not None and pf.name not in overrides.get("robots", [])
+                    and not (other.path is not None and Path(other.path).resolve().is_relative_to(dest.resolve()))):
+                continue  # not registered from this pack (said already, or provided)
             types = ", ".join(sorted(registry.backend_factories)) or "none"
-            notes.append(f"{pf.rel}: {singular(pf.kind)} '{pf.name}' has type '{shown(str(pf.spec.get('type')), 40)}', "
-                         f"which no installed plugin runs (types: {types})")
+            notes.append(f"{pf.rel}: {singular(pf.kind)} '{pf.name}' is unavailable here (benchbot list robots says "
+                         f"so): its type '{shown(str(pf.spec.get('type')), 40)}' needs a robot backend that no "
+                         f"installed plugin provides (types here: {types})")
         if pf.kind == "batches":
             missing: list[str] = []
             for env in pf.spec.get("environments") or []:
@@ -655,15 +712,17 @@ STAGED_ATTR = "_dry_run_packs"
 """The attribute of a registry naming the packs a dry run has staged into it (:func:`_stage`)."""
 
 
-def _stage(registry: "Registry", scan: PackScan, dest: Path, overrides: dict[str, list[str]]) -> None:
+def _stage(registry: "Registry", scan: PackScan, dest: Path, overrides: dict[str, list[str]],
+           built_in: dict[str, list[str]] | None = None) -> None:
     """Add the specs of a pack that a dry run found installable to ``registry`` as the real install would (as
     entries of the pack's future folder), so the next pack of the same ``benchbot install --dry-run`` is checked
-    against it as a real install checks it against the installed pack."""
+    against it as a real install checks it against the installed pack. Specs a built-in provides
+    (``built_in``) are left out, as the registry leaves them out of an installed pack."""
     from benchbot.core.registry import Entry
     from benchbot.core.spec_meaning import same_meaning
 
     for pf in scan.files:
-        if not pf.name or pf.spec is None:
+        if not pf.name or pf.spec is None or pf.name in (built_in or {}).get(pf.kind, []):
             continue
         entries = registry.entries.setdefault(pf.kind, {})
         override = pf.name in overrides.get(pf.kind, [])
@@ -697,10 +756,13 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
 
     Returns:
         The manifest (written, or that would be written): ``name``, ``source``, ``allow_code``, ``code``
-        (reasons), ``installed_at`` (Unix s), ``files`` (``{kind: [names]}``), ``overrides`` (``{kind: [names]}``),
-        plus ``path``, ``provided`` (specs identical in meaning to installed ones, one line each, whose installed
-        copy is used), ``overridden`` (one line each), ``notes`` (content that installs but cannot be used here,
-        the add-on's ``.dependencies``) and ``dry_run``.
+        (reasons, leaving out code that never runs), ``installed_at`` (Unix s), ``files`` (``{kind: [names]}``),
+        ``overrides`` (``{kind: [names]}``), ``built_in`` (``{kind: [names]}`` of specs the registry does not load
+        from the pack: an unchanged original add-on's spec that a first-party plugin re-implements, or a robot of
+        a name already installed that cannot run here), plus ``path``, ``provided`` (one line each: specs identical
+        in meaning to installed ones, the ``built_in`` ones, ground truths offered as another set), ``overridden``
+        (one line each), ``notes`` (content that installs but cannot be used here, the add-on's
+        ``.dependencies``) and ``dry_run``.
 
     Raises:
         PackError: the folder is an original add-on whose content is a download (``.remote``: what it would
@@ -725,17 +787,19 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
     if scan.errors:
         raise PackError(f"pack '{scan.name}' ({scan.root}) has {len(scan.errors)} problem(s); nothing installed",
                         "fix the files listed above", scan.errors)
-    if scan.code and not allow_code:
-        raise PackError(f"pack '{scan.name}' contains code that BenchBot would run ({len(scan.code)} place(s)); "
-                        "nothing installed", "read the code, then install again with --allow-code", scan.code)
     base = packs_dir()
     dest = base / scan.name
     staged = getattr(registry, STAGED_ATTR, set())
     exists = dest.exists() or scan.name in staged
+    found = _classify(scan, registry, dest if exists else None, override)
+    code = _code_needed(scan, found.built_in)
+    if code and not allow_code:
+        raise PackError(f"pack '{scan.name}' contains code that BenchBot would run ({len(code)} place(s)); "
+                        "nothing installed", "read the code, then install again with --allow-code",
+                        found.provided + code)
     if exists and not force:
         raise PackError(f"a pack named '{scan.name}' is already installed ({dest})",
                         "pass --force to replace it, or --name to install under another name")
-    found = _classify(scan, registry, dest if exists else None)
     if found.refused and override:
         raise PackError(f"pack '{scan.name}' would override an override: {found.refused[0]}; nothing installed",
                         "uninstall the pack that overrides it, then install again", found.refused)
@@ -753,19 +817,20 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
         "name": scan.name,
         "source": str(scan.root),
         "allow_code": bool(allow_code),
-        "code": scan.code,
+        "code": code,
         "installed_at": time.time(),
         "files": {},
         "overrides": overrides,
+        "built_in": found.built_in,
     }
     for pf in scan.files:
         manifest["files"].setdefault(pf.kind, []).append(pf.name)
-    report = {"path": str(dest), "provided": found.provided, "dry_run": dry_run,
+    report = {"path": str(dest), "provided": found.provided + found.alternatives, "dry_run": dry_run,
               "overridden": [c.replace(" is already installed by ", " overrides the one of ", 1) for c in found.clashes]
               if override else [],
-              "notes": addon_notes(scan.root) + _usability_notes(scan, registry, overrides)}
+              "notes": addon_notes(scan.root) + _usability_notes(scan, registry, overrides, found.built_in, dest)}
     if dry_run:
-        _stage(registry, scan, dest, overrides)
+        _stage(registry, scan, dest, overrides, found.built_in)
         return {**manifest, **report}
     base.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=base, prefix=f".tmp-{scan.name}-"))
@@ -859,11 +924,16 @@ def load_installed_specs() -> dict[str, list[Any]]:
             scan = scan_pack(pack_dir, manifest["name"])
         except PackError:
             continue
-        refused = code_approval_problem(scan.name, pack_dir) if scan.code else None
-        if scan.code and refused is None:
+        built_in = manifest.get("built_in") if isinstance(manifest.get("built_in"), dict) else {}
+        built_in = {k: v for k, v in built_in.items() if isinstance(v, list)}
+        code = _code_needed(scan, built_in)
+        refused = code_approval_problem(scan.name, pack_dir) if code else None
+        if code and refused is None:
             _register_namespace(scan.name, scan.root)
         overrides = manifest.get("overrides") if isinstance(manifest.get("overrides"), dict) else {}
         for pf in scan.files:
+            if pf.name and pf.name in built_in.get(pf.kind, []):
+                continue  # a built-in provides it (the original add-on's, re-implemented) or it cannot run here
             if pf.error and pf.spec is not None:  # refused by the scan (say, a map_path edited to leave the pack)
                 where = f"{pf.path}{pf.error[len(pf.rel):]}" if pf.error.startswith(pf.rel) else pf.error
                 out.setdefault(pf.kind, []).append({"_file_path": str(pf.path), LOAD_ERROR_KEY: where})

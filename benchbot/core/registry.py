@@ -8,7 +8,10 @@ A spec that fails to load or validate, or whose name clashes with another, is ke
 :attr:`Registry.problems`; asking for it raises :class:`~benchbot.core.errors.SpecError` with that problem. A spec
 of a name already registered is not a clash when the two are identical in meaning
 (:mod:`benchbot.core.spec_meaning`; a plugin's copy is kept over a content pack's), nor when it comes from a
-content pack installed with ``--override``; both are recorded in :attr:`Registry.notes`.
+content pack installed with ``--override``; both are recorded in :attr:`Registry.notes`. Nor is a second ground
+truth of an environment: it belongs to another *set* of ground truths (:meth:`Registry.ground_truth_sets`: the
+original's ``isaac_develop`` and ``bear_develop``, recognised by content, else named after the pack or plugin),
+chosen by name when scoring (:meth:`Registry.ground_truth`).
 """
 
 from __future__ import annotations
@@ -104,6 +107,26 @@ def validate(instance: Any, schema_name: str, source: str) -> None:
                         f"fix the field to match schemas/{schema_name}.schema.json")
     if schema_name == "task":
         check_task_actions(instance, source)
+    if schema_name == "evaluator":
+        check_evaluator_scores(instance, source)
+
+
+def check_evaluator_scores(spec: dict, source: str) -> None:
+    """An evaluator's ``scores`` declaration (when it has one) names each score once and marks exactly one
+    ``primary`` (docs/evaluation.md, "Declaring scores").
+
+    Raises:
+        SpecError: ``"<source>: $.scores: ..."`` naming the scores at fault.
+    """
+    scores = spec.get("scores") or []
+    names = [s["name"] for s in scores]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise SpecError(f"{source}: $.scores: '{twice[0]}' is declared twice", "declare each score once")
+    primary = [s["name"] for s in scores if s.get("primary")]
+    if scores and len(primary) != 1:
+        raise SpecError(f"{source}: $.scores: {len(primary)} scores are primary ({', '.join(primary) or 'none'})",
+                        "mark exactly one score 'primary: true': the one that ranks, compares and summarises")
 
 
 def check_task_actions(task: dict, source: str) -> None:
@@ -210,6 +233,8 @@ class Registry:
         notes: ``{(kind, name): one line}`` of every second source of a name that is no clash (identical in meaning,
             or replaced by a pack's ``--override``).
         overridden: ``{(kind, name): Entry}`` of every spec a pack's ``--override`` replaced.
+        alternative_ground_truths: ``{environment: [Entry]}``: ground truths of environments that have one already
+            (the default, in :attr:`entries`), which differ from it: other sets (:meth:`ground_truth_sets`).
     """
 
     def __init__(self, extra_plugins: dict | None = None) -> None:
@@ -218,6 +243,7 @@ class Registry:
         self.problems: dict[tuple[str, str], str] = {}  # (kind, name or source) -> one-line problem
         self.notes: dict[tuple[str, str], str] = {}  # (kind, name) -> a second source that is no clash, one line
         self.overridden: dict[tuple[str, str], Entry] = {}  # (kind, name) -> the entry a pack's --override replaced
+        self.alternative_ground_truths: dict[str, list[Entry]] = {}  # environment -> ground truths of other sets
         self.backend_factories: dict[str, tuple[str, Callable]] = {}
         infos = self._infos = {p.name: p for p in self.plugins}
         for kind, schema_name in KIND_SCHEMAS.items():
@@ -278,6 +304,23 @@ class Registry:
         if name in self.entries[kind]:
             first = self.entries[kind][name]
             kept = self._second_source(first, entry)
+            if kept is None and kind == "ground_truths" and not first.override:  # another set of ground truths
+                default, other = first, entry
+                if is_pack_entry(first.plugin, first.path) and not is_pack_entry(plugin, path):
+                    default, other = entry, first  # a plugin's stays the default over a pack's
+                self.alternative_ground_truths.setdefault(name, []).append(other)
+                self.notes[(kind, f"{name} ({other.plugin}: {other.path})")] = (
+                    f"ground truth '{name}' of plugin '{other.plugin}' ({other.path or 'dict'}) is another set beside "
+                    f"the one of plugin '{default.plugin}' ({default.path or 'dict'}), the default")
+                if default is first:
+                    return
+                first_info = self._infos.get(first.plugin)
+                if first_info is not None and name in first_info.registers.get(kind, []):
+                    first_info.registers[kind].remove(name)
+                self.entries[kind][name] = entry
+                if info is not None:
+                    info.registers.setdefault(kind, []).append(name)
+                return
             if kept is None:
                 self.problems[(kind, name)] = (
                     f"{singular(kind)} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
@@ -355,9 +398,85 @@ class Registry:
             )
         return [self.get("environments", f"{name}:{v}") for v in variants.split(":")]
 
-    def ground_truth(self, env_name: str) -> dict:
-        """The ground truth of environment ``name:variant`` (raises SpecError when there is none)."""
-        return self.get("ground_truths", env_name)
+    def ground_truth(self, env_name: str, ground_truth_set: str | None = None) -> dict:
+        """The ground truth of environment ``name:variant``: the default one, or that of the set
+        ``ground_truth_set`` (:meth:`ground_truth_sets`; the original add-on's full name, such as
+        ``ground_truths_bear_develop``, works too).
+
+        Raises:
+            SpecError: there is none (for that set: naming the sets that have one).
+        """
+        if ground_truth_set is None:
+            return self.get("ground_truths", env_name)
+        from benchbot.core.original_addons import ground_truth_set_name
+
+        sets = self.ground_truth_sets()
+        chosen = ground_truth_set_name(ground_truth_set)
+        if chosen not in sets:
+            raise SpecError(f"no set of ground truths named '{ground_truth_set}'",
+                            f"sets: {', '.join(sorted(sets)) or 'none'} (benchbot list ground_truths)")
+        if env_name not in sets[chosen]:
+            having = sorted(k for k, v in sets.items() if env_name in v)
+            raise SpecError(f"ground-truth set '{chosen}' has no ground truth of '{env_name}'",
+                            f"sets that have one: {', '.join(having) or 'none'}")
+        return sets[chosen][env_name].spec
+
+    def ground_truth_set(self, env_name: str) -> str:
+        """The name of the set the default ground truth of ``env_name`` belongs to (:meth:`ground_truth_sets`)."""
+        entry = self.entry("ground_truths", env_name)
+        return self._set_of(entry)
+
+    def _set_of(self, entry: Entry) -> str:
+        from benchbot.core.content_packs import packs_dir
+        from benchbot.core.original_addons import ground_truth_set_of
+
+        known = ground_truth_set_of(entry.spec)
+        if known is not None:
+            return known
+        if is_pack_entry(entry.plugin, entry.path) and entry.path is not None:
+            try:
+                return Path(entry.path).resolve().relative_to(packs_dir().resolve()).parts[0]
+            except (ValueError, IndexError, OSError):
+                pass
+        return entry.plugin
+
+    def ground_truth_sets(self) -> dict[str, dict[str, Entry]]:
+        """``{set: {environment: Entry}}`` of every set of ground truths: a ground-truth file that is an unchanged
+        copy of one of the original's add-ons belongs to its set (``isaac_develop``, ``bear_develop``:
+        :data:`benchbot.core.original_addons.GROUND_TRUTH_SETS`), any other to the pack (or plugin) that gives it.
+        ``bear_develop`` is also made from ``isaac_develop`` where the files are not installed (it moves one sink
+        in miniroom:1, 2, 3 and 5: :func:`~benchbot.core.original_addons.bear_develop_from_isaac_develop`), so the
+        BEAR environments have both. Computed once (the files are hashed)."""
+        cached = getattr(self, "_ground_truth_sets", None)
+        if cached is not None:
+            return cached
+        from benchbot.core.original_addons import GROUND_TRUTH_SETS, bear_develop_from_isaac_develop
+
+        sets: dict[str, dict[str, Entry]] = {}
+        every = [(name, e) for name, e in self.entries["ground_truths"].items()]
+        every += [(name, e) for name, entries in self.alternative_ground_truths.items() for e in entries]
+        for name, entry in every:
+            sets.setdefault(self._set_of(entry), {}).setdefault(name, entry)
+        isaac, bear = sets.get("isaac_develop", {}), sets.setdefault("bear_develop", {})
+        for name, entry in isaac.items():
+            if name in GROUND_TRUTH_SETS["bear_develop"].digests and name not in bear:
+                bear[name] = Entry("ground_truths", name, bear_develop_from_isaac_develop(name, entry.spec),
+                                   entry.plugin, entry.path)
+        if not bear:
+            del sets["bear_develop"]
+        self._ground_truth_sets = sets
+        return sets
+
+    def unavailable_reason(self, kind: str, name: str) -> str:
+        """Why the registered spec ``name`` of ``kind`` cannot be used on this machine (a robot whose type no
+        installed plugin runs), or ``""``."""
+        if kind != "robots" or name not in self.entries[kind]:
+            return ""
+        robot_type = str(self.entries[kind][name].spec.get("type"))
+        if robot_type in self.backend_factories:
+            return ""
+        types = ", ".join(sorted(self.backend_factories)) or "none"
+        return f"type '{robot_type}' needs a robot backend that no installed plugin provides (types here: {types})"
 
     def backend_factory(self, robot_type: str) -> Callable:
         """The robot-backend factory for robot ``type``.
