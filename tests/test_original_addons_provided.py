@@ -160,3 +160,34 @@ def test_installing_bear_develop_offers_its_files_beside_the_default(data_dir):
     assert chosen.plugin == "content_packs" and chosen.path.name == "miniroom_1.json"
     assert reg.ground_truth("miniroom:1", "bear_develop")["ground_truth"]["objects"][17]["centroid"] == \
         oa.BEAR_DEVELOP_SINK[1]
+
+
+def test_each_score_says_which_set_it_used_and_bear_develop_moves_the_sink(registry, tmp_path):
+    """The ground truth of miniroom:1 submitted as results: OMQ 1 against isaac_develop (the default), less against
+    bear_develop (its sink is elsewhere); the per-result and combined scores, and `benchbot eval`, name the set."""
+    from benchbot.core.evaluation import evaluate
+
+    gt = registry.ground_truth("miniroom:1")
+    names = gt["ground_truth"]["class_list"]
+    objects = [{"label_probs": [float(c == o["class"]) for c in names], "centroid": o["centroid"],
+                "extent": o["extent"]} for o in gt["ground_truth"]["objects"]]
+    path = tmp_path / "miniroom_1.json"
+    path.write_text(json.dumps({"task_details": registry.get("tasks", "semantic_slam:passive:ground_truth"),
+                                "environment_details": [registry.get("environments", "miniroom:1")],
+                                "results": {"objects": objects, "class_list": names}}))
+    default = evaluate([path], "omq", registry)
+    bear = evaluate([path], "omq", registry, ground_truth_set="bear_develop")
+    assert default.combined["scores"]["OMQ"] == pytest.approx(1.0)
+    assert 0.9 < bear.combined["scores"]["OMQ"] < 1.0
+    assert default.per_result[0][1]["ground_truth_set"] == default.combined["ground_truth_set"] == "isaac_develop"
+    assert bear.per_result[0][1]["ground_truth_set"] == bear.combined["ground_truth_set"] == "bear_develop"
+    out = tmp_path / "scores.json"
+    from benchbot.cli.main import app
+
+    result = CliRunner().invoke(app, ["eval", str(path), "-o", str(out), "--ground-truths", "ground_truths_bear_develop"],
+                                env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.stderr
+    assert "ground truths: bear_develop" in result.stderr
+    assert json.loads(out.read_text())["ground_truth_set"] == "bear_develop"
+    wrong = CliRunner().invoke(app, ["eval", str(path), "--ground-truths", "isaac"], env={"COLUMNS": "200"})
+    assert wrong.exit_code == 3 and "no set of ground truths named 'isaac'" in wrong.stderr

@@ -130,8 +130,15 @@ def register(app: typer.Typer) -> None:
         per_class: bool = typer.Option(False, "--per-class", help="Also report the scores per ground-truth class."),
         oriented: bool = typer.Option(False, "--oriented", help="Use result objects' optional yaw (radians about +z) in the IoU."),
         as_json: bool = typer.Option(False, "--json", help="Print the scores as JSON on stdout."),
+        ground_truths: Optional[str] = typer.Option(None, "--ground-truths", help="Score against this set of ground truths (`benchbot list ground_truths`: isaac_develop, the default, or bear_develop, what the original's default install used); the scores say which set they used."),
     ) -> None:
         reg = registry()
+        if ground_truths is not None:
+            from benchbot.core.original_addons import ground_truth_set_name
+
+            if ground_truth_set_name(ground_truths) not in reg.ground_truth_sets():
+                raise SpecError(f"--ground-truths: no set of ground truths named '{ground_truths}'",
+                                f"sets: {', '.join(sorted(reg.ground_truth_sets()))} (benchbot list ground_truths)")
         if required_envs and required_envs_batch:
             raise UsageError("give at most one of --required-envs and --required-envs-batch", "")
         if combine not in COMBINE_MODES:
@@ -158,11 +165,14 @@ def register(app: typer.Typer) -> None:
             return
         evaluation = evaluate(
             list(files), method, reg, required_envs=envs, required_task=required_task, combine=combine,
-            options={"per_class": per_class, "oriented": oriented}, keep_going=True,
+            options={"per_class": per_class, "oriented": oriented}, keep_going=True, ground_truth_set=ground_truths,
         )  # fmt: skip
         _print_errors(evaluation.errors)
         if not evaluation.per_result and evaluation.errors:
             raise typer.Exit(int(ExitCode.RESULTS))
+        used = sorted({s.get("ground_truth_set") for _, s in evaluation.per_result if isinstance(s, dict)} - {None})
+        if used:
+            err.print(f"ground truths: {', '.join(used)} (--ground-truths chooses the set)", highlight=False)
         with writing(output, "--output-location"):
             atomic.write_json(output, evaluation.to_json())
         if as_json:

@@ -230,6 +230,7 @@ def evaluate(
     options: dict[str, Any] | None = None,
     keep_going: bool = False,
     environments: dict[str, str] | None = None,
+    ground_truth_set: str | None = None,
 ) -> Evaluation:
     """Validate and score results files (docs/cli.md).
 
@@ -249,6 +250,10 @@ def evaluate(
         environments: ``{str(path): environment string}``: the environment each file's results are *of* (a batch's
             episode, from its plan). Such a file is scored against that environment's ground truth whatever its
             ``environment_details`` say, and results naming another environment are an error naming both.
+        ground_truth_set: score against this set of ground truths (``bear_develop``:
+            :meth:`~benchbot.core.registry.Registry.ground_truth_sets`) instead of each environment's default. Every
+            per-result score dict says the set it was scored against (``ground_truth_set``), and so does the combined
+            one (the sets used, comma-separated).
 
     Raises:
         UsageError: unknown combine mode, or the method does not support an option or pooled combining.
@@ -324,7 +329,7 @@ def evaluate(
                     f"{result.source}: method '{method}' cannot score results of format '{task['results_format']}'",
                     f"it scores: {', '.join(spec['valid_result_formats'])}",
                 )
-            ground_truths = _ground_truths(result.source, scenes, spec, registry)
+            ground_truths, used_set = _ground_truths(result.source, scenes, spec, registry, ground_truth_set)
             try:
                 scores = functions["evaluate"](result.data, ground_truths, **method_kwargs)
             except BenchbotError as exc:
@@ -336,6 +341,8 @@ def evaluate(
         except BenchbotError as exc:
             fail(result.source, exc)
             continue
+        if isinstance(scores, dict):
+            scores = {**scores, "ground_truth_set": used_set}
         evaluation.per_result.append((result.source, scores))
         covered.add(result.env_string)
         task_details = task_details or task
@@ -352,20 +359,32 @@ def evaluate(
             for env in evaluation.missing:
                 scores_list.append(_empty_evaluation(env, task_details, spec, functions, registry, method_kwargs))
             evaluation.combined = functions["combine"](scores_list, mode=combine)
+    if isinstance(evaluation.combined, dict):
+        used = sorted({s.get("ground_truth_set") for _, s in evaluation.per_result if isinstance(s, dict)} - {None})
+        evaluation.combined["ground_truth_set"] = ", ".join(used) if used else None
     return evaluation
 
 
-def _ground_truths(source: str, environment_details: list[dict], spec: dict, registry: Registry) -> list[dict]:
-    ground_truths = []
+def _ground_truths(source: str, environment_details: list[dict], spec: dict, registry: Registry,
+                   ground_truth_set: str | None = None) -> tuple[list[dict], str]:
+    """The ground truths of a result's scenes (of ``ground_truth_set``, else each one's default) and the name of
+    the set(s) they come from (comma-separated when the scenes' defaults differ).
+
+    Raises:
+        SpecError: a scene has no ground truth (in that set), or one of a format the method cannot read.
+    """
+    ground_truths, sets = [], []
     for env in environment_details:
         name = f"{env['name']}:{env['variant']}"
         if name not in registry.entries["ground_truths"]:
             raise SpecError(f"{source}: no ground truth for environment {name}", "see `benchbot list environments`")
-        gt = registry.ground_truth(name)
+        gt = registry.ground_truth(name, ground_truth_set)
         if gt["format"]["name"] not in spec["valid_ground_truth_formats"]:
             raise SpecError(f"{source}: the ground truth of {name} has format {gt['format']['name']}", "")
         ground_truths.append(gt)
-    return ground_truths
+        chosen = registry.ground_truth_set(name) if ground_truth_set is None else ground_truth_set
+        sets.append(chosen.removeprefix("ground_truths_"))
+    return ground_truths, ", ".join(dict.fromkeys(sets))
 
 
 def _empty_evaluation(
@@ -377,7 +396,7 @@ def _empty_evaluation(
         return {}
     try:
         scenes = registry.scenes(env)
-        gts = _ground_truths(env, scenes, spec, registry)
+        gts, _ = _ground_truths(env, scenes, spec, registry)
         inner: dict[str, Any] = {"objects": [], "class_list": list(gts[0]["ground_truth"].get("class_list") or [])}
         if task_details.get("results_format") == "object_map_with_states":
             inner["state_list"] = ["added", "removed", "unchanged"]
