@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
-from benchbot.batch.provenance import backend_facts
 from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
@@ -69,31 +68,6 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
 
 
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
-def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[float]]]) -> None:
-    """Write an episode's trajectory log: per scene, its start pose and the robot's ground-truth pose after every
-    action, ``{"frame": "map", "units": "x, y in metres, yaw in radians", "scenes": [{"scene", "environment",
-    "start": [x, y, yaw], "poses": [[x, y, yaw], ...]}]}`` (what report maps draw as the driven path). Written
-    atomically; never fails the episode (a write error leaves no log)."""
-    from benchbot.core import atomic
-    from benchbot.core.geometry import pose7_to_se2
-
-    scenes = []
-    for k, env in enumerate(run.environments):
-        try:
-            start = [round(float(v), 6) for v in pose7_to_se2(env["start_pose"])]
-        except (KeyError, TypeError, ValueError):
-            start = None
-        poses = [p for scene, p in driven if scene == k]
-        if start is not None or poses:
-            scenes.append({"scene": k, "environment": f"{env.get('name')}:{env.get('variant')}",
-                           "start": start if start is not None else poses[0], "poses": poses})
-    try:
-        path.parent.mkdir(exist_ok=True)
-        atomic.write_json(path, {"frame": "map", "units": "x, y in metres, yaw in radians", "scenes": scenes})
-    except OSError:
-        pass
-
-
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
     Args:
@@ -123,12 +97,7 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
         def on_step(info: dict) -> None:
             if events is not None:
                 events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
-        driven: list[tuple[int, list[float]]] = []
 
-
-            pose = info.get("pose")
-            if pose is not None:
-                driven.append((int(info.get("scene_number", 0)), [round(float(v), 6) for v in pose]))
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
         service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step)
         recorder = None
@@ -176,8 +145,6 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
             service.close()
         if record.error:  # the sandbox refused what the solution left as its results
             record.status = "bad_results"
-            record.backend = backend_facts(registry, run.robot, run.environments)
-            write_trajectory(folder / spec.trajectory, run, driven)
         elif timed_out:
             record.status = "timeout"
             record.error = f"stopped after the episode timeout of {spec.timeout_s:g} s"
