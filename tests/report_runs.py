@@ -17,13 +17,14 @@ from benchbot.core.registry import get_registry
 TASK = "semantic_slam:passive:ground_truth"
 
 
-def plan(root: Path, counts: dict[str, int], seed: int, robot: str = "carter", options: dict | None = None) -> list:
+def plan(root: Path, counts: dict[str, int], seed: int, robot: str = "carter", options: dict | None = None,
+         noise: str = "none") -> list:
     """Episode specs as ``benchbot batch`` plans them: ``counts[env]`` repetitions of each environment, episode i
     with seed ``seed + i``."""
     specs = []
     for env, n in counts.items():
         for spec in plan_episodes(task=TASK, robots=[robot], envs=[env], repeat=n, seed=seed, argv=["python", "x.py"],
-                                  cwd=str(root), options=dict(options or {}), timeout_s=None):
+                                  cwd=str(root), options=dict(options or {}), timeout_s=None, noise=noise):
             i = len(specs)
             name = f"{i:03d}_{env.replace(':', '_')}_r{spec.repeat}"
             specs.append(dataclasses.replace(spec, index=i, seed=seed + i, results=f"results/{name}.json",
@@ -59,27 +60,51 @@ def results_file(env: str, quality: float, seed: int) -> dict:
             "results": {"objects": objects, "class_list": classes}}
 
 
+BACKEND = {"type": "sim_taichi", "plugin": "sim_taichi", "distribution": "benchbot-sim-taichi", "version": "0.1.0",
+           "style": "primitives", "arch": "x64", "device": "Test CPU"}
+"""A record's ``backend`` as a batch on the test machine writes it."""
+
+
+def driven(spec, registry, offset: float = 0.25) -> dict:
+    """A trajectory log for ``spec``: its environment's planned poses, each shifted ``offset`` metres along +y (the
+    robot drove beside its plan)."""
+    from benchbot.core.geometry import pose7_to_se2
+
+    scene = registry.scenes(spec.env)[0]
+    start = [float(v) for v in pose7_to_se2(scene["start_pose"])]
+    poses = [[float(p[4]), float(p[5]) + offset, 0.0] for p in scene["trajectory_poses"]]
+    return {"frame": "map", "scenes": [{"scene": 0, "environment": spec.env, "start": start, "poses": poses}]}
+
+
 def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, example: str = "semslam_geometric",
-             seed: int = 0, robot: str = "carter", plan_options: dict | None = None, sandbox: str = "bwrap") -> Path:
+             seed: int = 0, robot: str = "carter", plan_options: dict | None = None, sandbox: str = "bwrap",
+             method: str = "omq", registry=None, noise: str = "none", backend: dict | None = None,
+             trajectories: bool = False) -> Path:
     """A scored run directory ``root/name``: per environment, one episode per quality in its list (repetitions).
 
     ``plan_options`` are stored in every plan entry's ``options`` (e.g. ``{"lighting": "night"}``); ``sandbox`` is
-    the manifest's isolation level.
+    the manifest's isolation level; ``method`` scores it (with ``registry``, e.g. one holding a test evaluator);
+    ``backend`` is every record's (default :data:`BACKEND`); ``trajectories`` writes trajectory logs
+    (:func:`driven`).
     """
     run = root / name
     (run / "results").mkdir(parents=True)
     envs = list(quality_by_env)
-    specs = plan(root, {e: len(v) for e, v in quality_by_env.items()}, seed, robot, plan_options)
+    reg = registry or get_registry()
+    specs = plan(root, {e: len(v) for e, v in quality_by_env.items()}, seed, robot, plan_options, noise)
     records = []
     for spec in specs:
         quality = quality_by_env[spec.env][spec.repeat]
         (run / spec.results).write_text(json.dumps(results_file(spec.env, quality, spec.seed)))
         record = new_record(spec)
         record.status = "ok"
+        record.backend = dict(BACKEND if backend is None else backend)
         records.append(record)
-    reg = get_registry()
+        if trajectories:
+            (run / "trajectories").mkdir(exist_ok=True)
+            (run / spec.trajectory).write_text(json.dumps(driven(spec, reg)))
     manifest = {"command": ["benchbot", "batch", "--example", example, "--envs", ",".join(envs)], "task": TASK,
-                "robots": [robot], "environments": envs, "evaluate_with": "omq", "prefix": "batch", "zip": False,
+                "robots": [robot], "environments": envs, "evaluate_with": method, "prefix": "batch", "zip": False,
                 "versions": {"python": "3.11.7", "platform": "Linux-test", "benchbot": "0.1.0"},
                 "provenance": {"benchbot_git": "0123456789abcdef0123456789abcdef01234567",
                                "solution_git": {str(root): None},
@@ -90,34 +115,39 @@ def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, e
     (run / "manifest.json").write_text(json.dumps(manifest))
     (run / "config.json").write_text(json.dumps({"task": TASK, "environments": {e: reg.scenes(e) for e in envs}}))
     by_source = {str(run / s.results): s for s in specs}
-    evaluation = evaluate(list(by_source), "omq", reg, required_envs=envs, required_task=TASK, keep_going=True)
+    evaluation = evaluate(list(by_source), method, reg, required_envs=envs, required_task=TASK, keep_going=True)
     assert not evaluation.errors, evaluation.errors
+    manifest["scores"] = evaluation.score_set.to_json()
+    (run / "manifest.json").write_text(json.dumps(manifest))
     (run / "scores.json").write_text(json.dumps(evaluation.to_json()))
     (run / "episode_scores.json").write_text(json.dumps([
         {"index": by_source[src].index, "env": by_source[src].env, "robot": by_source[src].robot,
-         "repeat": by_source[src].repeat, "seed": by_source[src].seed, **scores}
+         "repeat": by_source[src].repeat, "seed": by_source[src].seed, "noise": noise, **scores}
         for src, scores in evaluation.per_result]))
     return run
 
 
 def scores_only_run(root: Path, name: str, omq_by_env: dict[str, list[float]], *, seed: int = 0,
-                    example: str = "semslam_geometric", sandbox: str = "bwrap") -> Path:
-    """A run directory with given OMQ values and no results files (fast: nothing is evaluated)."""
+                    example: str = "semslam_geometric", sandbox: str = "bwrap", robot: str = "carter",
+                    noise: str = "none", backend: dict | None = None, manifest: dict | None = None) -> Path:
+    """A run directory with given OMQ values and no results files (fast: nothing is evaluated). ``backend``: every
+    record's (default :data:`BACKEND`); ``manifest``: entries to add to (or replace in) the manifest."""
     run = root / name
     run.mkdir(parents=True)
     envs = list(omq_by_env)
-    specs = plan(root, {e: len(v) for e, v in omq_by_env.items()}, seed)
+    specs = plan(root, {e: len(v) for e, v in omq_by_env.items()}, seed, robot, noise=noise)
     records = []
     for spec in specs:
         record = new_record(spec)
         record.status = "ok"
+        record.backend = dict(BACKEND if backend is None else backend)
         records.append(record)
     (run / "manifest.json").write_text(json.dumps({
-        "command": ["benchbot", "batch", "--example", example], "task": TASK, "robots": ["carter"],
+        "command": ["benchbot", "batch", "--example", example], "task": TASK, "robots": [robot],
         "environments": envs, "evaluate_with": "omq", "plan": to_json(specs), "episodes": to_json(records),
-        "sandbox": sandbox}))
+        "sandbox": sandbox, **(manifest or {})}))
     (run / "config.json").write_text(json.dumps({"environments": {e: [{"lighting": "base"}] for e in envs}}))
-    rows = [{"index": s.index, "env": s.env, "robot": "carter", "repeat": s.repeat, "seed": s.seed,
+    rows = [{"index": s.index, "env": s.env, "robot": robot, "repeat": s.repeat, "seed": s.seed, "noise": noise,
              "scores": {"OMQ": omq_by_env[s.env][s.repeat], "avg_label": 0.5}} for s in specs]
     (run / "episode_scores.json").write_text(json.dumps(rows))
     return run

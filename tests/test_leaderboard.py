@@ -15,6 +15,7 @@ from benchbot.batch.leaderboard import entries, slug, write_site
 from benchbot.batch.report import assign_labels, load_run
 
 sys.path.insert(0, str(Path(__file__).parent))
+import report_runs  # noqa: E402
 from report_runs import make_run, scores_only_run  # noqa: E402
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
@@ -30,18 +31,22 @@ def test_ranks_by_mean_omq_among_entries_on_the_same_environments(tmp_path):
             load_run(scores_only_run(tmp_path, "b", {e: [v + 0.3 for v in vs] for e, vs in envs.items()}, example="high")),
             load_run(scores_only_run(tmp_path, "c", {"miniroom:1": [0.9]}, example="partial"))]
     assign_labels(runs, None)
-    [(task, rows)] = entries(runs).items()
-    assert task == "semantic_slam:passive:ground_truth"
+    [(task, [table])] = entries(runs).items()
+    rows = table["entries"]
+    assert task == "semantic_slam:passive:ground_truth" and (table["score"], table["direction"]) == ("OMQ", "higher")
     assert [(e["label"], e["rank"], e["covers"]) for e in rows] == [("high", 1, True), ("low", 2, True),
                                                                     ("partial", None, False)]
-    assert abs(rows[0]["scores"]["OMQ"]["value"] - (0.5 + 0.6 + 0.55) / 3) < 1e-12
+    # the environment is the unit: the mean of miniroom:1's (0.55) and miniroom:2's (0.55) means
+    assert abs(rows[0]["scores"]["OMQ"]["value"] - (0.55 + 0.55) / 2) < 1e-12 and rows[0]["scores"]["OMQ"]["n"] == 2
     site = write_site(runs, tmp_path / "site", reports=False)
     page = (tmp_path / "site" / f"{slug(task)}.html").read_text()
     assert "table class='sortable'" in page and "<script>" in page and "aria-sort" in page
     assert "1 entry does not cover the ranked environments" in page
     assert "2 environments: miniroom:1, miniroom:2" in page
+    assert "ordered by their mean alone" in page  # 2 environments: no interval
     # the mean with its n (and why no interval), its raw value for sorting
-    assert re.search(r"data-v='0\.55[0-9]*' title='n = 3 &lt; 5: no confidence interval'>0\.55<br><small>n = 3<", page)
+    assert re.search(r"data-v='0\.55[0-9]*' title='n = 2 &lt; 5: no confidence interval over environments'>"
+                     r"0\.55<br><small>n = 2<", page)
     assert not re.search(r"(src|href)=['\"]https?://", page)  # nothing from elsewhere: works offline, forever
     for e in rows:
         assert (tmp_path / "site" / "entries" / e["slug"] / "manifest.json").is_file()
@@ -49,7 +54,7 @@ def test_ranks_by_mean_omq_among_entries_on_the_same_environments(tmp_path):
     index = (tmp_path / "site" / "index.html").read_text()
     assert f"href='{slug(task)}.html'" in index and "3 entries" in index
     data = json.loads((tmp_path / "site" / "leaderboard.json").read_text())
-    assert [e["rank"] for e in data["tasks"][task]] == [1, 2, None] and site["tasks"] == data["tasks"]
+    assert [e["rank"] for e in data["tasks"][task][0]["entries"]] == [1, 2, None] and site["tasks"] == data["tasks"]
 
 
 def test_entries_are_ranked_on_one_set_of_environments(tmp_path):
@@ -59,13 +64,65 @@ def test_entries_are_ranked_on_one_set_of_environments(tmp_path):
                                      example="c")),
             load_run(scores_only_run(tmp_path, "d", {"house:1": [0.9]}, example="d"))]
     assign_labels(runs, None)
-    [rows] = entries(runs).values()
-    assert rows[0]["benchmark"] == ["miniroom:1", "miniroom:2"]  # the set most entries ran
+    [[table]] = entries(runs).values()
+    rows = table["entries"]
+    assert table["benchmark"] == ["miniroom:1", "miniroom:2"]  # the set most entries ran
     # c covers it (and more): scored on its miniroom episodes only, 0.1, not 0.367; d does not: not ranked
     assert [(e["label"], e["rank"]) for e in rows] == [("a", 1), ("b", 2), ("c", 3), ("d", None)]
     assert rows[2]["scores"]["OMQ"]["value"] == 0.1 and rows[2]["episodes"] == 2
-    [rows] = entries(runs, ["house:1"]).values()
-    assert [(e["label"], e["rank"]) for e in rows if e["rank"]] == [("c", 1), ("d", 2)]
+    [[table]] = entries(runs, ["house:1"]).values()
+    assert [(e["label"], e["rank"]) for e in table["entries"] if e["rank"]] == [("c", 1), ("d", 1)]  # both 0.9
+
+
+def test_one_table_per_condition_set(tmp_path):
+    """Entries run with another noise preset, robot, camera, scene style or simulator version are never ranked
+    against each other: each condition set is its own table."""
+    envs = {"miniroom:1": [0.3]}
+    runs = [load_run(scores_only_run(tmp_path, "a", envs, example="a")),
+            load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.9]}, example="b", noise="high")),
+            load_run(scores_only_run(tmp_path, "c", {"miniroom:1": [0.8]}, example="c", robot="turtlebot4")),
+            load_run(scores_only_run(tmp_path, "d", {"miniroom:1": [0.7]}, example="d",
+                                     backend=dict(report_runs.BACKEND, style="furnished"))),
+            load_run(scores_only_run(tmp_path, "e", {"miniroom:1": [0.6]}, example="e",
+                                     backend=dict(report_runs.BACKEND, version="0.2.0"))),
+            load_run(scores_only_run(tmp_path, "f", envs, example="f"))]
+    plan = json.loads((runs[5].run_dir / "manifest.json").read_text())
+    for p in plan["plan"]:
+        p["options"] = {"width": 320, "height": 240}
+    (runs[5].run_dir / "manifest.json").write_text(json.dumps(plan))
+    runs[5] = load_run(runs[5].run_dir)
+    assign_labels(runs, None)
+    [tables] = entries(runs).values()
+    assert len(tables) == 6 and all(len(t["entries"]) == 1 and t["entries"][0]["rank"] == 1 for t in tables)
+    by_label = {t["entries"][0]["label"]: t["conditions"] for t in tables}
+    assert by_label["b"]["noise preset"] == "high" and by_label["c"]["robot"] == "turtlebot4"
+    assert by_label["d"]["simulator style"] == "furnished" and by_label["f"]["camera"] == "320x240"
+    assert by_label["e"]["simulator"] == "benchbot-sim-taichi 0.2.0"
+    assert by_label["a"] == {"robot": "carter", "noise preset": "none", "camera": "not recorded",
+                             "simulator": "benchbot-sim-taichi 0.1.0", "simulator style": "primitives",
+                             "isolation": "bwrap", "evaluation": "omq"}
+    write_site(runs, tmp_path / "site", reports=False)
+    page = (tmp_path / "site" / "semantic_slam-passive-ground_truth.html").read_text()
+    assert page.count("<table class='sortable'>") == 6 and "6 entries in 6 condition sets" in page
+
+
+def test_entries_the_intervals_do_not_tell_apart_share_a_rank(tmp_path):
+    envs = [f"miniroom:{v}" for v in range(1, 6)] + ["house:1"]
+    spread = [0.0, 0.05, -0.05, 0.1, -0.1, 0.02]
+    best = {e: [0.6 + d] for e, d in zip(envs, spread)}
+    close = {e: [0.58 + d] for e, d in zip(envs, spread[::-1])}
+    far = {e: [0.2 + d / 2] for e, d in zip(envs, spread)}
+    runs = [load_run(scores_only_run(tmp_path, n, d, example=n)) for n, d in (("far", far), ("close", close),
+                                                                             ("best", best))]
+    assign_labels(runs, None)
+    [[table]] = entries(runs).values()
+    rows = table["entries"]
+    assert [(e["label"], e["rank"], e["tied"]) for e in rows] == [("best", 1, True), ("close", 1, True),
+                                                                  ("far", 3, False)]
+    assert rows[0]["scores"]["OMQ"]["low"] < rows[1]["scores"]["OMQ"]["high"]  # the intervals overlap
+    write_site(runs, tmp_path / "site", reports=False)
+    page = (tmp_path / "site" / "semantic_slam-passive-ground_truth.html").read_text()
+    assert ">1=<" in page and "share a rank" in page and ">3<" in page
 
 
 def test_runs_without_the_sandbox_are_marked_and_not_ranked(tmp_path):
@@ -76,8 +133,9 @@ def test_runs_without_the_sandbox_are_marked_and_not_ranked(tmp_path):
     runs = [load_run(scores_only_run(tmp_path, "a", {"miniroom:1": [0.2]}, example="honest")),
             load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.99]}, example="copied", sandbox="none"))]
     assign_labels(runs, None)
-    [(task, rows)] = entries(runs).items()
-    assert [(e["label"], e["rank"], e["verifiable"]) for e in rows] == [("honest", 1, True), ("copied", None, False)]
+    [(task, tables)] = entries(runs).items()
+    assert [[(e["label"], e["rank"], e["verifiable"]) for e in t["entries"]] for t in tables] == [
+        [("honest", 1, True)], [("copied", None, False)]]  # isolation is a condition: its own table, unranked
     write_site(runs, tmp_path / "site", reports=False)
     page = (tmp_path / "site" / f"{slug(task)}.html").read_text()
     assert "copied (not verifiable)" in page and "1 entry is not verifiable" in page
@@ -92,12 +150,22 @@ def test_runs_without_the_sandbox_are_marked_and_not_ranked(tmp_path):
 def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     a = make_run(tmp_path, "a", {"miniroom:1": [0.9]})
     b = scores_only_run(tmp_path, "b", {"miniroom:1": [0.3]}, example="other")
+    stopped = scores_only_run(tmp_path, "stopped", {"miniroom:1": [0.3, 0.4]}, example="killed")
+    manifest = json.loads((stopped / "manifest.json").read_text())
+    manifest["episodes"][1]["status"] = "running"
+    (stopped / "manifest.json").write_text(json.dumps(manifest))
+    (stopped / "episode_scores.json").unlink()
     site = tmp_path / "site"
-    proc = cli("leaderboard", str(a), str(b), "-o", str(site), "--label", "ours", "--label", "theirs",
-               "--title", "Semantic SLAM challenge")
+    proc = cli("leaderboard", str(a), str(stopped), str(b), "-o", str(site), "--label", "ours", "--label", "killed",
+               "--label", "theirs", "--title", "Semantic SLAM challenge")
     assert proc.returncode == 0, proc.stderr
+    # the interrupted batch: one line naming --resume, and the rest is built
+    [line] = [x for x in proc.stderr.splitlines() if "stopped" in x]
+    assert "skipped" in line and "did not finish (1 of 2 episodes not run)" in line
+    assert f"benchbot batch --resume {stopped}" in line and "--evaluate-with" not in proc.stderr
     page = (site / "semantic_slam-passive-ground_truth.html").read_text()
-    assert "Semantic SLAM challenge" in page and ">ours<" in page and ">theirs<" in page
+    assert "Semantic SLAM challenge" in page and ">ours<" in page and ">theirs<" in page and "killed" not in page
+    assert "Left out (unfinished)" in (site / "index.html").read_text()
     reports = sorted(site.glob("entries/*/report.html"))
     assert len(reports) == 2 and all("BenchBot performance profile" in r.read_text() for r in reports)
     assert list(site.glob("entries/ours-a/report_files/map_miniroom_1.svg"))
@@ -105,3 +173,5 @@ def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     assert proc.returncode == 2 and "is a file" in proc.stderr and "Traceback" not in proc.stderr
     proc = cli("leaderboard", str(tmp_path / "nothing"), "-o", str(site))
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    proc = cli("leaderboard", str(stopped), "-o", str(site))
+    assert proc.returncode == 2 and "no finished run directory" in proc.stderr

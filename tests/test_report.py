@@ -12,17 +12,20 @@ import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy import stats as sps
 
 from benchbot.batch import stats
 from benchbot.batch.report import (
-    analyse, assign_labels, compare, comparisons, default_label, factor_views, load_run, pair_episodes,
-    per_class_rows, write_report,
+    UnfinishedRun, analyse, assign_labels, compare, comparisons, default_label, driven_path, factor_views, load_run,
+    pair_episodes, per_class_rows, write_report,
 )
 from benchbot.core.errors import UsageError
 from benchbot.core.registry import get_registry
 
 sys.path.insert(0, str(Path(__file__).parent))
+import report_runs  # noqa: E402
 from report_runs import make_run, scores_only_run  # noqa: E402
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
@@ -46,38 +49,125 @@ def test_too_few_episodes_get_no_interval_and_say_why(tmp_path):
     assert envs["miniroom:1"]["low"] is None and envs["miniroom:1"]["reason"] == "n = 1 < 5: no confidence interval"
     assert envs["miniroom:2"]["low"] is None and envs["miniroom:2"]["n"] == 2
     assert envs["house:1"]["low"] < envs["house:1"]["value"] < envs["house:1"]["high"]
-    assert result["runs"][0]["summary"]["OMQ"]["n"] == 9 and result["runs"][0]["summary"]["OMQ"]["low"] is not None
-    assert result["policy"]["min_ci_n"] == stats.MIN_CI_N == 5
+    # the environment is the unit: 3 environments, no interval; the episode level (9 episodes) has one
+    summary, episodes = result["runs"][0]["summary"]["OMQ"], result["runs"][0]["summary_episodes"]["OMQ"]
+    assert (summary["n"], summary["level"], summary["low"]) == (3, "environments", None)
+    assert summary["reason"] == "n = 3 < 5: no confidence interval over environments"
+    assert summary["value"] == pytest.approx((0.1601 + 0.25 + 0.3083333333) / 3)
+    assert (episodes["n"], episodes["level"]) == (9, "episodes") and episodes["low"] is not None
+    assert result["policy"]["min_ci_n"] == stats.MIN_CI_N == 5 and result["policy"]["unit"] == "environment"
+    assert result["main_score"] == "OMQ" and result["scores"]["scores"][0]["name"] == "OMQ"
+
+
+def test_environment_means_are_the_unit_of_intervals_and_tests(tmp_path):
+    """Nested data (rooms differ far more than repetitions in a room): the interval over environments is wider
+    than the episodes' and the test over environments has a larger p-value than over pseudo-replicated episodes."""
+    rng = np.random.default_rng(7)
+    envs = [f"miniroom:{v}" for v in range(1, 6)] + [f"house:{v}" for v in range(1, 4)]
+    room = dict(zip(envs, rng.uniform(0.1, 0.6, len(envs))))
+    base = {e: list(room[e] + rng.normal(0, 0.01, 3)) for e in envs}
+    shift = dict(zip(envs, rng.normal(0.02, 0.03, len(envs))))
+    other = {e: [v + shift[e] + rng.normal(0, 0.005) for v in vs] for e, vs in base.items()}
+    a, b = load_run(scores_only_run(tmp_path, "a", base)), load_run(scores_only_run(tmp_path, "b", other))
+    summary = analyse([a])["runs"][0]
+    env, ep = summary["summary"]["OMQ"], summary["summary_episodes"]["OMQ"]
+    assert (env["n"], ep["n"]) == (8, 24) and env["high"] - env["low"] > 1.5 * (ep["high"] - ep["low"])
+    means = [np.mean(v) for v in base.values()]
+    assert (env["low"], env["high"]) == (pytest.approx(sps.t.interval(0.95, 7, np.mean(means), sps.sem(means))[0]),
+                                         pytest.approx(sps.t.interval(0.95, 7, np.mean(means), sps.sem(means))[1]))
+    c = compare(a, b, "OMQ")
+    assert (c["n"], c["level"], c["episodes"]["n"]) == (8, "environment pairs", 24)
+    diffs = [np.mean(np.subtract(other[e], base[e])) for e in envs]
+    assert c["environment_differences"] == pytest.approx(diffs)
+    assert c["ttest_p"] == pytest.approx(sps.ttest_1samp(diffs, 0).pvalue)
+    assert c["episodes"]["ttest_p"] < c["ttest_p"]  # pseudo-replication: too small a p-value
 
 
 def test_pairs_by_environment_and_seed_else_by_repetition(tmp_path):
     a = load_run(scores_only_run(tmp_path, "a", {"miniroom:1": [0.2, 0.3], "house:1": [0.25], "house:9": [0.9]}))
     b = load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.4, 0.5], "house:1": [0.5]}))
-    pairs = pair_episodes(a, b)
-    assert pairs["pairing"] == "environment and seed"
+    pairs = pair_episodes(a, b, "OMQ")
+    assert pairs["pairing"] == "environment and seed" and pairs["factors"] == []
     assert pairs["keys"] == ["miniroom:1 s0", "miniroom:1 s1", "house:1 s2"]
     assert (pairs["a"], pairs["b"], pairs["unpaired"]) == ([0.2, 0.3, 0.25], [0.4, 0.5, 0.5], 1)
     shifted = load_run(scores_only_run(tmp_path, "c", {"miniroom:1": [0.4, 0.5], "house:1": [0.5]}, seed=100))
-    pairs = pair_episodes(a, shifted)
+    pairs = pair_episodes(a, shifted, "OMQ")
     assert pairs["pairing"] == "environment and repetition (the seeds differ)" and len(pairs["a"]) == 3
-    c = compare(a, b)
-    assert c["n"] == 3 and c["ttest_p"] is None and c["reason"] == "n = 3 < 6: no paired test"
-    assert c["difference"]["value"] == pytest.approx((0.2 + 0.2 + 0.25) / 3)
+    c = compare(a, b, "OMQ")
+    assert c["n"] == 2 and c["ttest_p"] is None and c["reason"] == "n = 2 < 6: no paired test over environments"
+    assert c["difference"]["value"] == pytest.approx(((0.2 + 0.2) / 2 + 0.25) / 2)  # the environments' mean
+    assert c["episodes"]["n"] == 3 and c["episodes"]["reason"] == "n = 3 < 6: no paired test"
+    assert c["episodes"]["difference"]["value"] == pytest.approx((0.2 + 0.2 + 0.25) / 3)
+
+
+@pytest.mark.parametrize("setting", ["noise", "robot"])
+def test_runs_that_differ_in_noise_or_robot_pair_on_environment_and_seed(tmp_path, setting):
+    """A run with noise preset high (or robot turtlebot4) against one with none (carter): the episodes pair on
+    environment and seed, the differing setting is the factor compared, and the seeds are not said to differ."""
+    envs = {f"miniroom:{v}": [0.3 + 0.02 * v, 0.32 + 0.02 * v] for v in range(1, 4)}
+    a = load_run(scores_only_run(tmp_path, "a", envs))
+    other = {"noise": {"noise": "high"}, "robot": {"robot": "turtlebot4"}}[setting]
+    b = load_run(scores_only_run(tmp_path, "b", {e: [x - 0.05 for x in v] for e, v in envs.items()}, **other))
+    c = compare(a, b, "OMQ")
+    what, old, new = {"noise": ("noise preset", "none", "high"), "robot": ("robot", "carter", "turtlebot4")}[setting]
+    assert c["factors"] == [{"field": setting, "what": what, "a": old, "b": new}]
+    assert c["pairing"] == f"environment and seed; factor compared: {what} {old} → {new}"
+    assert "seeds differ" not in c["pairing"] and c["episodes"]["n"] == 6 and c["unpaired"] == 0
+    assert c["difference"]["value"] == pytest.approx(-0.05)
+    result = analyse([a, b])
+    assert result["differences"] == []  # the factor is named: no warning about it
 
 
 def test_comparisons_have_effect_sizes_and_holm_adjusted_p_values(tmp_path):
-    base = {f"miniroom:{v}": [0.20 + 0.01 * v, 0.22 + 0.01 * v] for v in range(1, 5)}  # 8 pairs
-    better = {e: [x + 0.05 + 0.004 * k for k, x in enumerate(v)] for e, v in base.items()}
-    same = {e: [x + (0.002 if k else -0.003) for k, x in enumerate(v)] for e, v in base.items()}
+    envs = [f"miniroom:{v}" for v in range(1, 6)] + ["house:1", "house:2"]  # 7 environments, 14 pairs
+    base = {e: [0.20 + 0.01 * k, 0.22 + 0.01 * k] for k, e in enumerate(envs)}
+    better = {e: [x + 0.05 + 0.004 * k + 0.001 * j for j, x in enumerate(v)] for k, (e, v) in enumerate(base.items())}
+    same = {e: [x + (0.002 if j else -0.003) + 0.001 * (k % 3 - 1) for j, x in enumerate(v)]
+            for k, (e, v) in enumerate(base.items())}
     runs = [load_run(scores_only_run(tmp_path, n, d)) for n, d in (("a", base), ("b", better), ("c", same))]
     assign_labels(runs, ["baseline", "better", "same"])
     out = comparisons(runs)
-    assert [c["b"] for c in out] == ["better", "same"] and all(c["n"] == 8 for c in out)
+    assert [c["b"] for c in out] == ["better", "same"] and all(c["n"] == 7 and c["episodes"]["n"] == 14 for c in out)
     raw = [c["ttest_p"] for c in out]
     assert [c["ttest_p_holm"] for c in out] == pytest.approx(stats.holm(raw))
+    assert [c["episodes"]["ttest_p_holm"] for c in out] == pytest.approx(stats.holm([c["episodes"]["ttest_p"] for c in out]))
     assert out[0]["ttest_p_holm"] == pytest.approx(min(1.0, 2 * min(raw)))  # the smaller p is doubled
     assert out[0]["cohens_dz"] > 1 and out[0]["rank_biserial"] == 1.0 and out[0]["ttest_p"] < 0.001
-    assert out[0]["difference"]["low"] > 0
+    assert out[0]["difference"]["low"] > 0 and out[0]["difference"]["method"] == "Student t (n < 30)"
+
+
+def test_runs_that_differ_in_an_unnamed_condition_are_warned_about(tmp_path):
+    a = load_run(scores_only_run(tmp_path, "a", {"miniroom:1": [0.2]}))
+    furnished = dict(report_runs.BACKEND, style="furnished", version="0.2.0")
+    b = load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.3]}, backend=furnished))
+    result = analyse([a, b])
+    what = {d["what"]: d["values"] for d in result["differences"]}
+    assert set(what) == {"simulator", "simulator style"}
+    assert what["simulator style"] == {"a": "primitives", "b": "furnished"}
+    assert what["simulator"] == {"a": "benchbot-sim-taichi 0.1.0", "b": "benchbot-sim-taichi 0.2.0"}
+    assert analyse([a, b], factors=["simulator style", "simulator"])["differences"] == []
+    with pytest.raises(UsageError, match="--factor: 'style' is not a condition"):
+        analyse([a, b], factors=["style"])
+    old = load_run(scores_only_run(tmp_path, "c", {"miniroom:1": [0.3]}, backend={}))  # recorded nothing
+    assert analyse([a, old])["differences"] == []
+
+
+def test_an_interrupted_batch_names_resume(tmp_path):
+    run = scores_only_run(tmp_path, "a", {"miniroom:1": [0.2, 0.3]})
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["episodes"][1]["status"] = "pending"
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    (run / "episode_scores.json").unlink()
+    with pytest.raises(UnfinishedRun) as e:
+        load_run(run)
+    assert "the batch did not finish (1 of 2 episodes not run)" in e.value.message
+    assert e.value.hint == f"finish it: benchbot batch --resume {run}"
+    manifest["episodes"][1]["status"] = "ok"
+    manifest["finished"] = "2026-11-24T00:00:00+00:00"
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(UsageError, match="the batch was not evaluated") as e:
+        load_run(run)
+    assert not isinstance(e.value, UnfinishedRun) and "--evaluate-with" in e.value.hint
 
 
 def test_labels_from_the_solution_not_the_timestamp(tmp_path):
@@ -117,7 +207,9 @@ def test_per_class_and_per_object_views_from_rescored_results(tmp_path):
     rows = per_class_rows(run)
     gt = get_registry().ground_truth("miniroom:1")["ground_truth"]["objects"]
     gt2 = get_registry().ground_truth("miniroom:2")["ground_truth"]["objects"]
-    assert sum(r["GT"] for r in rows) == 2 * len(gt) + len(gt2)
+    assert list(rows[0]) == ["class", "TP", "FP", "FN", "OMQ", "avg_pairwise", "avg_label", "avg_spatial",
+                             "avg_fp_quality"]  # the method's declared counts and scores, in its order
+    assert sum(r["TP"] + r["FN"] for r in rows) == 2 * len(gt) + len(gt2)
     assert sum(r["FN"] for r in rows) == 2 * (len(gt) // 5) + len(gt2) // 5  # every fifth object is missed
     assert sum(r["FP"] for r in rows) == 3 * 2
     matches = run.objects[0]["matches"]
@@ -125,13 +217,32 @@ def test_per_class_and_per_object_views_from_rescored_results(tmp_path):
 
 
 @pytest.mark.slow
-def test_report_files_for_papers(tmp_path):
-    a = load_run(make_run(tmp_path, "batch-20261122-100000", {"miniroom:1": [0.9, 0.85], "miniroom:2": [0.8]}))
+def test_report_files_for_papers(tmp_path, monkeypatch):
+    """The whole report of two runs: every figure in three formats with no label over another and no warning
+    printed, tables as CSV and LaTeX, maps with the driven path, labels instead of timestamps, provenance."""
+    import warnings
+
+    from benchbot.batch import figures
+
+    a = load_run(make_run(tmp_path, "batch-20261122-100000", {"miniroom:1": [0.9, 0.85], "miniroom:2": [0.8]},
+                          trajectories=True))
     b = load_run(make_run(tmp_path, "batch-20261122-110000", {"miniroom:1": [0.6, 0.65], "miniroom:2": [0.7]},
                           example="hello_active"))
     assign_labels([a, b], None)
+    overlaps = {}
+    render = figures.render
+
+    def checked(fig):
+        overlaps[fig.get_suptitle() or fig.axes[0].get_title()] = figures.text_overlaps(fig)
+        return render(fig)
+
+    monkeypatch.setattr(figures, "render", checked)
     output = tmp_path / "out" / "report.html"
-    write_report([a, b], output, get_registry())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        write_report([a, b], output, get_registry())
+    assert [str(w.message) for w in caught] == []  # nothing printed to the terminal
+    assert len(overlaps) == 7 and {k: v for k, v in overlaps.items() if v} == {}
     page = output.read_text()
     files = output.parent / "report_files"
     for stem in ("summary", "environments", "comparison_1", "per_class_1", "per_class_2", "map_miniroom_1",
@@ -142,19 +253,28 @@ def test_report_files_for_papers(tmp_path):
         assert f"report_files/{stem}.svg" in page and f"report_files/{stem}.pdf" in page
     with (files / "summary.csv").open() as f:
         rows = list(csv.reader(f))
-    assert rows[0][:5] == ["run", "episodes", "OMQ", "OMQ low", "OMQ high"]
-    assert rows[1][0] == "semslam_geometric" and float(rows[1][2]) == pytest.approx(a.rows[0]["OMQ"] / 3
-                                                                                     + a.rows[1]["OMQ"] / 3
-                                                                                     + a.rows[2]["OMQ"] / 3)
+    assert rows[0] == ["run", "environments", "episodes", "OMQ over environments", "OMQ over environments low",
+                       "OMQ over environments high", "OMQ over episodes", "OMQ over episodes low",
+                       "OMQ over episodes high"]
+    env_means = [(a.rows[0]["OMQ"] + a.rows[1]["OMQ"]) / 2, a.rows[2]["OMQ"]]
+    assert rows[1][:3] == ["semslam_geometric", "2", "3"] and float(rows[1][3]) == pytest.approx(np.mean(env_means))
+    assert float(rows[1][6]) == pytest.approx(np.mean([r["OMQ"] for r in a.rows]))
     tex = (files / "per_class_1.tex").read_text()
-    assert tex.startswith("\\begin{table}") and "\\toprule" in tex and "potted plant" in tex and "\\_" not in "x"
+    assert "\\begin{table" in tex and "\\toprule" in tex and "potted plant" in tex
     assert "\\label{tab:summary}" in (files / "summary.tex").read_text()
+    # maps draw what the robot drove (the trajectory log, 0.25 m beside the plan), the plan faintly
+    path, source = driven_path(a, a.rows[0])
+    plan = get_registry().scenes("miniroom:1")[0]["trajectory_poses"]
+    assert source == "trajectory log" and path[1:, 1] == pytest.approx([p[5] + 0.25 for p in plan])
+    assert driven_path(b, b.rows[0]) == (None, "")
+    assert "no driven path recorded" in (files / "map_miniroom_1.svg").read_text()  # b's panel says so
     # the page: labels instead of timestamps in the legends, n stated, provenance, statistics policy
     assert "semslam_geometric" in page and "hello_active" in page and "0123456789abcdef" in page
-    assert "n = 3 &lt; 6: no paired test" in page and "How to read the numbers" in page
+    assert "n = 2 &lt; 6: no paired test over environments" in page and "How to read the numbers" in page
+    assert "the unit is the <b>environment</b>" in page.replace("The unit", "the unit")
     assert "Test CPU, 2 CPUs, 8 GiB" in page and "benchbot batch --example semslam_geometric" in page
     assert page.count("data:image/png;base64,") == 7
-    assert json.loads((files / "report.json").read_text())["comparisons"][0]["n"] == 3
+    assert json.loads((files / "report.json").read_text())["comparisons"][0]["episodes"]["n"] == 3
     assert too_precise(re.sub(r"data:image/png;base64,[^']*", "", page)) == []
 
 

@@ -39,7 +39,8 @@ def make_run_dir(path: Path, finished: bool = False) -> Path:
                 _record(2, "house:1", "running" if not finished else "ok", 0 if not finished else 33, 0.0 if not finished else 75.0),
                 _record(3, "miniroom:1", "pending" if not finished else "ok", 0 if not finished else 33, 0.0 if not finished else 11.0, repeat=1)]
     manifest = {"task": "semantic_slam:passive:ground_truth", "robots": ["carter"], "episodes": episodes,
-                "environments": ["miniroom:1", "miniroom:4", "house:1"], "plan": []}
+                "environments": ["miniroom:1", "miniroom:4", "house:1"], "plan": [],
+                "scores": {"method": "omq", "scores": [{"name": "OMQ", "primary": True, "direction": "higher"}]}}
     if finished:
         manifest.update(finished="2024-01-01T00:00:00+00:00", evaluation_error="")
         atomic.write_json(path / "episode_scores.json", [
@@ -93,7 +94,7 @@ async def _test_batch_app_follows_the_run_directory(tmp_path):
         make_run_dir(run_dir, finished=True)  # the batch writes its manifest; the view polls it
         await pilot.pause(0.2)
         assert "ok" in str(table.get_cell("2", "status"))
-        assert table.get_cell("0", "OMQ") == "0.2377"
+        assert table.get_cell("0", "score") == "0.2377" and str(table.columns["score"].label) == "OMQ"
         await pilot.press("q")
     assert app.return_code == 0
 
@@ -145,7 +146,7 @@ async def _test_columns_grow(tmp_path):
         await pilot.pause(0.3)
         table = app.query_one("DataTable")
         widths = {str(c.key.value): c.get_render_width(table) - 2 * table.cell_padding for c in table.columns.values()}
-        assert widths["OMQ"] >= len("0.9877") and widths["steps"] >= len("269/33")
+        assert widths["score"] >= len("0.9877") and widths["steps"] >= len("269/33")
 
 
 def test_batch_snapshot_running(snap_compare, tmp_path):

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
+from benchbot.batch.provenance import backend_facts
 from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
@@ -67,6 +68,31 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
     return run.outcome.timed_out, run.outcome.read_stdin
 
 
+def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[float]]]) -> None:
+    """Write an episode's trajectory log: per scene, its start pose and the robot's ground-truth pose after every
+    action, ``{"frame": "map", "units": "x, y in metres, yaw in radians", "scenes": [{"scene", "environment",
+    "start": [x, y, yaw], "poses": [[x, y, yaw], ...]}]}`` (what report maps draw as the driven path). Written
+    atomically; never fails the episode (a write error leaves no log)."""
+    from benchbot.core import atomic
+    from benchbot.core.geometry import pose7_to_se2
+
+    scenes = []
+    for k, env in enumerate(run.environments):
+        try:
+            start = [round(float(v), 6) for v in pose7_to_se2(env["start_pose"])]
+        except (KeyError, TypeError, ValueError):
+            start = None
+        poses = [p for scene, p in driven if scene == k]
+        if start is not None or poses:
+            scenes.append({"scene": k, "environment": f"{env.get('name')}:{env.get('variant')}",
+                           "start": start if start is not None else poses[0], "poses": poses})
+    try:
+        path.parent.mkdir(exist_ok=True)
+        atomic.write_json(path, {"frame": "map", "units": "x, y in metres, yaw in radians", "scenes": scenes})
+    except OSError:
+        pass
+
+
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
@@ -94,7 +120,12 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                                "move it away, then run the batch again with --resume")
         registry = get_registry()
 
+        driven: list[tuple[int, list[float]]] = []
+
         def on_step(info: dict) -> None:
+            pose = info.get("pose")
+            if pose is not None:
+                driven.append((int(info.get("scene_number", 0)), [round(float(v), 6) for v in pose]))
             if events is not None:
                 events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
 
@@ -137,6 +168,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                 shutil.rmtree(private, ignore_errors=True)
             state = service.call(service.episode.state)
             record.steps, record.collided = state["step"], state["is_collided"]
+            record.backend = backend_facts(registry, run.robot, run.environments)
+            write_trajectory(folder / spec.trajectory, run, driven)
         finally:
             if recorder is not None:
                 from benchbot.plugins.recorder import detach_recorder

@@ -100,69 +100,134 @@ def _errorbar(ax, x: float, est: dict, colour: str) -> None:
         ax.plot([x], [est["value"]], marker="D", color=colour, ms=5, ls="none", zorder=3)
 
 
-def _key(ax, min_n: int, runs: list[tuple[str, str]]) -> None:
-    """A legend outside the axes on the right: one colour per run, then what the markers mean."""
+SHORT_LABEL_CHARS = 14
+"""Run labels longer than this are drawn as letters (A, B, ...) on axes, the legend saying which is which."""
+
+
+def short_labels(names: list[str]) -> list[str]:
+    """What a figure's axes call the runs: their names when every one is at most :data:`SHORT_LABEL_CHARS`
+    characters, else A, B, C, ... (the legend, :func:`_key`, pairs each letter with its name)."""
+    if all(len(n) <= SHORT_LABEL_CHARS for n in names):
+        return list(names)
+    return [_letters(k) for k in range(len(names))]
+
+
+def _letters(k: int) -> str:
+    out = ""
+    k += 1
+    while k:
+        k, r = divmod(k - 1, 26)
+        out = chr(65 + r) + out
+    return out
+
+
+def _wrap(text: str, width: int = 28) -> str:
+    """``text`` broken at spaces into lines of at most ``width`` characters (a longer word stays whole)."""
+    lines: list[str] = []
+    for word in str(text).split():
+        if lines and len(lines[-1]) + 1 + len(word) <= width:
+            lines[-1] += " " + word
+        else:
+            lines.append(word)
+    return "\n".join(lines)
+
+
+def _key(target, min_n: int, runs: list[tuple[str, str, str]], *, markers: bool = True, level: str = "") -> None:
+    """A legend outside the axes on the right (``target``: an axes, or a figure for a figure-wide legend): one
+    colour per run (its short label and, when shortened, its name), then what the markers mean."""
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], marker="s", color=c, ls="none", ms=6, label=label) for label, c in runs]
-    handles += [Line2D([], [], marker="o", color="#444444", ls="-", lw=1, ms=4, label="mean, 95 % CI"),
-                Line2D([], [], marker="D", color="#444444", ls="none", ms=4, label=f"mean, no interval (n < {min_n})"),
-                Line2D([], [], marker="o", mfc="none", mec="#444444", ls="none", ms=4, label="one episode")]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
+    handles = [Line2D([], [], marker="s", color=c, ls="none", ms=6,
+                      label=_wrap(label if label == name else f"{label}: {name}")) for label, c, name in runs]
+    if markers:
+        handles += [Line2D([], [], marker="o", color="#444444", ls="-", lw=1, ms=4, label="mean, 95 % CI"),
+                    Line2D([], [], marker="D", color="#444444", ls="none", ms=4, label=f"mean, no interval (n < {min_n})"),
+                    Line2D([], [], marker="o", mfc="none", mec="#444444", ls="none", ms=4,
+                           label=f"one {level or 'episode'}")]
+    if hasattr(target, "transAxes"):
+        target.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
+    else:
+        target.legend(handles=handles, loc="outside right upper", frameon=False)
 
 
-def per_group(title: str, score: str, groups: list[str], series: list[dict], min_n: int, xlabel: str = ""):
-    """Dots of every episode and the mean (with its interval where there is one) of ``score`` per group
-    (environment, robot, lighting...), one colour per run.
+def _series_key(series: list[dict]) -> list[tuple[str, str, str]]:
+    return [(run.get("short", run["label"]), PALETTE[k % len(PALETTE)], run["label"]) for k, run in enumerate(series)]
+
+
+GROUPS_PER_ROW = 12
+"""A per-group figure with more groups than this draws them in several rows of panels (a figure stays readable at
+a page's width)."""
+
+
+def per_group(title: str, score: str, groups: list[str], series: list[dict], min_n: int, xlabel: str = "",
+              level: str = "episode"):
+    """Dots of every value and the mean (with its interval where there is one) of ``score`` per group
+    (environment, robot, lighting...), one colour per run; more than :data:`GROUPS_PER_ROW` groups go in several
+    rows, on one shared scale.
 
     Args:
         title: the figure's title; the n of every group and run is added under each group's name.
         groups: the groups in order.
-        series: one per run, ``{"label", "values": {group: [score per episode]}, "estimates": {group: Estimate
-            dict}}``.
+        series: one per run, ``{"label", "short" (optional: its axis label), "values": {group: [score per
+            episode]}, "estimates": {group: Estimate dict}}``.
         min_n: the smallest n that gets an interval (for the legend's note).
+        level: what a dot is (``episode``).
     """
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(max(3.4, 0.9 * len(groups) * max(1, len(series)) ** 0.5 + 1.2), 2.8))
+    rows = max(1, -(-len(groups) // GROUPS_PER_ROW))
+    per_row = -(-len(groups) // rows) if groups else 1
+    width_in = min(9.5, max(3.6, 0.75 * per_row * max(1, len(series)) ** 0.5 + 1.6))
+    fig, axes = plt.subplots(rows, 1, figsize=(width_in, 0.6 + 2.5 * rows), squeeze=False, layout="constrained")
     width = 0.7 / max(1, len(series))
     everything = []
     for k, run in enumerate(series):
-        colour = PALETTE[k % len(PALETTE)]
-        for g, group in enumerate(groups):
-            x = g + (k - (len(series) - 1) / 2) * width
-            values = run["values"].get(group, [])
-            everything += values
-            ax.scatter(x + _jitter(len(values), width * 0.6), values, s=9, facecolors="none", edgecolors=colour,
-                       linewidths=0.7, alpha=0.8, zorder=2)
-            est = run["estimates"].get(group)
-            if est:
-                _errorbar(ax, x, est, colour)
-                everything += [v for v in (est.get("low"), est.get("high")) if v is not None]
-    ns = [", ".join(str(len(run["values"].get(g, []))) for run in series) for g in groups]
-    tilt = len(groups) > 6
-    ax.set_xticks(range(len(groups)), [f"{g}\nn = {n}" for g, n in zip(groups, ns)],
-                  rotation=30 if tilt else 0, ha="right" if tilt else "center")
-    ax.set_ylim(*_limits(everything))
-    ax.set_ylabel(score)
+        for group in groups:
+            everything += run["values"].get(group, [])
+            est = run["estimates"].get(group) or {}
+            everything += [v for v in (est.get("low"), est.get("high")) if v is not None]
+    tilt = per_row > 4 or max((len(g) for g in groups), default=0) > 12
+    for r, ax in enumerate(axes[:, 0]):
+        chunk = groups[r * per_row:(r + 1) * per_row]
+        for k, run in enumerate(series):
+            colour = PALETTE[k % len(PALETTE)]
+            for g, group in enumerate(chunk):
+                x = g + (k - (len(series) - 1) / 2) * width
+                values = run["values"].get(group, [])
+                ax.scatter(x + _jitter(len(values), width * 0.6), values, s=9, facecolors="none", edgecolors=colour,
+                           linewidths=0.7, alpha=0.8, zorder=2)
+                est = run["estimates"].get(group)
+                if est:
+                    _errorbar(ax, x, est, colour)
+        ns = [", ".join(str(len(run["values"].get(g, []))) for run in series) for g in chunk]
+        ax.set_xticks(range(len(chunk)), [f"{g}\nn = {n}" for g, n in zip(chunk, ns)],
+                      rotation=35 if tilt else 0, ha="right" if tilt else "center", rotation_mode="anchor")
+        ax.set_xlim(-0.6, per_row - 0.4)
+        ax.set_ylim(*_limits(everything))
+        ax.set_ylabel(score)
+        ax.grid(axis="y", color="#dddddd", lw=0.5)
     if xlabel:
-        ax.set_xlabel(xlabel)
-    ax.set_title(title)
-    ax.grid(axis="y", color="#dddddd", lw=0.5)
-    _key(ax, min_n, [(run["label"], PALETTE[k % len(PALETTE)]) for k, run in enumerate(series)])
+        axes[-1, 0].set_xlabel(xlabel)
+    axes[0, 0].set_title(_wrap(title, 60))
+    _key(fig if rows > 1 else axes[0, 0], min_n, _series_key(series), level=level)
     return fig
 
 
-def summary(scores: list[str], series: list[dict], min_n: int):
-    """One panel per score: each run's episodes as dots, their mean and its interval.
+def summary(scores: list[str], series: list[dict], min_n: int, level: str = "environment"):
+    """One panel per score: each run's values as dots (one per environment), their mean and its interval.
 
     Args:
         scores: the score names, one panel each.
-        series: one per run, ``{"label", "values": {score: [per episode]}, "estimates": {score: Estimate dict}}``.
+        series: one per run, ``{"label", "short" (optional), "values": {score: [one per environment]},
+            "estimates": {score: Estimate dict}}``.
+        level: what a dot is (``environment``), for the titles and the legend.
     """
     plt = pyplot()
     cols = min(3, len(scores))
     rows = -(-len(scores) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(1.4 + 1.7 * cols, 2.5 * rows), squeeze=False)
+    names = [run.get("short", run["label"]) for run in series]
+    tilt = max(map(len, names)) > 4
+    fig, axes = plt.subplots(rows, cols, figsize=(2.2 + 2.0 * cols + 0.12 * max(map(len, names)) * tilt,
+                                                  2.2 + 2.1 * rows), squeeze=False, layout="constrained")
     flat = list(axes.flat)
     for ax in flat[len(scores):]:
         ax.set_visible(False)
@@ -178,92 +243,122 @@ def summary(scores: list[str], series: list[dict], min_n: int):
             if est:
                 _errorbar(ax, k, est, colour)
                 everything += [v for v in (est.get("low"), est.get("high")) if v is not None]
-        ax.set_xticks(range(len(series)), [r["label"] for r in series], rotation=30 if len(series) > 1 else 0,
-                      ha="right" if len(series) > 1 else "center")
+        ax.set_xticks(range(len(series)), names, rotation=35 if tilt else 0, ha="right" if tilt else "center",
+                      rotation_mode="anchor")
         ax.set_xlim(-0.6, len(series) - 0.4)
         ax.set_ylim(*_limits(everything))
         ns = ", ".join(str(len(r["values"].get(score, []))) for r in series)
-        ax.set_title(f"{score}\nn = {ns}")
+        ax.set_title(f"{score}\nn = {ns} {level}s", fontsize=8)
         ax.grid(axis="y", color="#dddddd", lw=0.5)
-    _key(flat[cols - 1], min_n, [(run["label"], PALETTE[k % len(PALETTE)]) for k, run in enumerate(series)])
-    fig.tight_layout()
+    _key(fig, min_n, _series_key(series), level=level)
     return fig
 
 
 def paired_differences(comparison: dict, score: str, min_pairs: int):
-    """A comparison's paired differences (B − A) as dots, their mean with its interval, and the zero line.
+    """A comparison with the environment as the unit: per environment, its episode pairs' differences (B − A,
+    small dots) and their mean (a large dot, what the test is over); the mean over environments with its interval,
+    and the zero line.
 
     Args:
-        comparison: ``{"a", "b", "keys": [pair names], "differences": [...], "difference": Estimate dict,
-            "ttest_p_holm", "wilcoxon_p_holm", "reason", "pairing"}``.
+        comparison: ``{"a", "b", "keys", "envs", "differences" (per episode pair), "environments",
+            "environment_differences", "difference": Estimate dict, "n", "ttest_p_holm", "reason", "pairing",
+            "episodes": {...}}`` (:func:`benchbot.batch.report.compare`).
     """
     plt = pyplot()
-    d = comparison["differences"]
-    fig, ax = plt.subplots(figsize=(max(3.2, 0.28 * len(d) + 2.0), 2.6))
-    x = np.arange(len(d))
+    envs = comparison.get("environments") or list(dict.fromkeys(comparison.get("envs", [])))
+    means = comparison.get("environment_differences") or []
+    fig, ax = plt.subplots(figsize=(max(3.6, 0.45 * len(envs) + 2.6), 3.0), layout="constrained")
     ax.axhline(0, color="#555555", lw=0.8)
-    ax.scatter(x, d, s=12, color=PALETTE[1], zorder=2, label="one pair")
+    position = {e: i for i, e in enumerate(envs)}
+    d = comparison["differences"]
+    xs = [position.get(e, 0) for e in comparison.get("envs", [])]
+    for e in envs:  # spread each environment's pairs
+        idx = [i for i, x in enumerate(comparison.get("envs", [])) if x == e]
+        for j, off in zip(idx, _jitter(len(idx), 0.4)):
+            xs[j] = position[e] + off
+    ax.scatter(xs, d, s=8, color="#999999", zorder=2, label="one episode pair")
+    ax.scatter(range(len(envs)), means, s=30, color=PALETTE[1], zorder=3, label="environment mean")
     est = comparison["difference"]
     if est.get("value") is not None:
-        ax.axhline(est["value"], color=PALETTE[0], lw=1.2, label="mean difference")
+        ax.axhline(est["value"], color=PALETTE[0], lw=1.2, label="mean over environments")
         if est.get("low") is not None:
-            ax.axhspan(est["low"], est["high"], color=PALETTE[0], alpha=0.15, lw=0, label="95 % CI")
-    ax.set_xticks(x, comparison["keys"], rotation=60, ha="right", fontsize=5 if len(d) > 12 else 6)
-    ax.set_ylim(*_limits(list(d) + [0.0] + [v for v in (est.get("low"), est.get("high")) if v is not None]))
-    ax.set_ylabel(f"{score}: {comparison['b']} − {comparison['a']}")
-    if comparison.get("reason"):
-        verdict = comparison["reason"]
-    else:
-        verdict = f"paired t-test p = {fmt(comparison['ttest_p_holm'])} (Holm)"
-    ax.set_title(f"{comparison['b']} vs {comparison['a']}: n = {len(d)} pairs ({comparison['pairing']})\n{verdict}",
-                 fontsize=8)
+            ax.axhspan(est["low"], est["high"], color=PALETTE[0], alpha=0.15, lw=0, label="95 % CI (environments)")
+    tilt = len(envs) > 3 or max((len(e) for e in envs), default=0) > 10
+    ax.set_xticks(range(len(envs)), envs, rotation=35 if tilt else 0, ha="right" if tilt else "center",
+                  rotation_mode="anchor", fontsize=6 if len(envs) > 12 else 7)
+    ax.set_xlim(-0.6, len(envs) - 0.4)
+    ax.set_ylim(*_limits(list(d) + list(means) + [0.0] + [v for v in (est.get("low"), est.get("high")) if v is not None]))
+    ax.set_ylabel(f"{score}: B − A")
+    verdict = comparison["reason"] or f"paired t-test over environments p = {fmt(comparison['ttest_p_holm'])} (Holm)"
+    ax.set_title(_wrap(f"B = {comparison['b']}, A = {comparison['a']}: n = {len(envs)} environments, "
+                       f"{len(d)} episode pairs", 58) + "\n" + _wrap(verdict, 58), fontsize=8)
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
     ax.grid(axis="y", color="#dddddd", lw=0.5)
     return fig
 
 
-def per_class(label: str, rows: list[dict], episodes: int):
-    """A run's per-class counts (TP, FN of the ground-truth objects; FP of the proposals) and the mean label and
-    spatial quality of its true positives.
+def per_class(label: str, rows: list[dict], episodes: int, counts: list[tuple[str, str]],
+              scores: list[str]):
+    """A run's per-class counts (horizontal bars: those where higher is better to the right of 0, the others to
+    the left) and up to four of its per-class scores (markers, on their axis).
 
     Args:
-        rows: ``{"class", "TP", "FP", "FN", "avg_label", "avg_spatial"}`` per class (qualities None without TPs).
+        rows: ``{"class", <count>: int, <score>: float or None}`` per class.
         episodes: how many episodes the counts are pooled over (stated in the title).
+        counts: ``[(count name, "higher" or "lower")]`` in the method's order.
+        scores: the per-class scores to draw (their values in [0, 1] or any range).
     """
     plt = pyplot()
-    rows = sorted(rows, key=lambda r: (r["TP"] + r["FN"], r["FP"]))
+    rows = sorted(rows, key=lambda r: sum(r.get(c, 0) for c, _ in counts))
     names = [r["class"] for r in rows]
     y = np.arange(len(rows))
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(6.4, 0.9 + 0.17 * len(rows)), sharey=True,
-                                 gridspec_kw={"width_ratios": [3, 2]})
-    tp, fn, fp = (np.array([r[k] for r in rows], float) for k in ("TP", "FN", "FP"))
-    ax.barh(y, tp, color=COUNT_COLOURS["TP"], label="TP (found)")
-    ax.barh(y, fn, left=tp, color=COUNT_COLOURS["FN"], label="FN (missed)")
-    ax.barh(y, -fp, color=COUNT_COLOURS["FP"], label="FP (left of 0)")
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(6.6, 1.3 + 0.17 * len(rows)), sharey=True,
+                                 gridspec_kw={"width_ratios": [3, 2]}, layout="constrained")
+    right = np.zeros(len(rows))
+    left = np.zeros(len(rows))
+    colours = {"higher": ["#009E73", "#56B4E9", "#000000"], "lower": ["#D55E00", "#E69F00", "#CC79A7"]}
+    used = {"higher": 0, "lower": 0}
+    for name, direction in counts:
+        v = np.array([r.get(name, 0) for r in rows], float)
+        colour = colours[direction][used[direction] % 3]
+        used[direction] += 1
+        if direction == "higher":
+            ax.barh(y, v, left=right, color=colour, label=name)
+            right += v
+        else:
+            ax.barh(y, -v, left=-left, color=colour, label=f"{name} (left of 0)")
+            left += v
     ax.axvline(0, color="#555555", lw=0.6)
     ax.set_yticks(y, names, fontsize=6)
-    ax.set_xlabel("objects (FP to the left)")
-    ax.legend(loc="lower right", frameon=False, fontsize=6)
-    for key, marker, colour in (("avg_label", "o", PALETTE[0]), ("avg_spatial", "s", PALETTE[3])):
-        vals = [r[key] if r[key] is not None else np.nan for r in rows]
-        bx.plot(vals, y, marker=marker, ls="none", color=colour, ms=4, label=key.replace("avg_", "mean ") + " quality")
-    bx.set_xlim(0, 1)
-    bx.set_xlabel("quality of the TPs")
-    bx.legend(loc="lower right", frameon=False, fontsize=6)
+    ax.set_xlabel("count (lower is better: left of 0)")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09 - 1.2 / max(len(rows), 6)), frameon=False, fontsize=6,
+              ncol=3)
+    markers = "osD^"
+    values = []
+    for k, key in enumerate(scores[:4]):
+        vals = [r.get(key) if r.get(key) is not None else np.nan for r in rows]
+        values += [v for v in vals if np.isfinite(v)]
+        bx.plot(vals, y, marker=markers[k], ls="none", color=PALETTE[k % len(PALETTE)], ms=4, label=key)
+    lo, hi = _limits(values)
+    bx.set_xlim(min(lo, 0.0), max(hi, 1.0) if values and min(values) >= 0 and max(values) <= 1 else hi)
+    bx.set_xlabel("per-class score")
+    bx.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09 - 1.2 / max(len(rows), 6)), frameon=False, fontsize=6,
+              ncol=2)
     bx.grid(axis="x", color="#dddddd", lw=0.5)
-    fig.suptitle(f"{label}: per class, pooled over n = {episodes} episodes", fontsize=9)
-    fig.tight_layout()
+    fig.suptitle(_wrap(f"{label}: per class, pooled over n = {episodes} episodes", 70), fontsize=9)
     return fig
 
 
 def topdown(env: str, panels: list[dict]):
     """Top-down maps of one environment, one panel per run: ground-truth boxes (dark: found, red: missed),
     predicted boxes (filled by the pair's quality when matched, orange when false positives, grey inside a group
-    box), a line from each match to its ground truth, and the robot's trajectory (start: triangle).
+    box), a line from each match to its ground truth, the path the robot drove (solid; start: triangle) and the
+    planned one (faint, dashed). Class names that would overlap another are left out.
 
     Args:
-        panels: ``{"title", "matches": evaluation ``matches`` dict, "path": (k, 2) metres (x, y; map frame) or
-            None}`` per run.
+        panels: ``{"title", "matches": evaluation ``matches`` dict, "path": (k, 2) metres (x, y; map frame) the
+            robot drove or None, "plan": (k, 2) the planned path or None, "path_source": where ``path`` came from}``
+            per run.
     """
     plt = pyplot()
     import matplotlib
@@ -273,7 +368,18 @@ def topdown(env: str, panels: list[dict]):
 
     cmap, norm = matplotlib.colormaps["viridis"], colors.Normalize(0, 1)
     n = len(panels)
-    fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 4.4), squeeze=False)
+    extent = []
+    for panel in panels:
+        for item in panel["matches"]["ground_truth"] + panel["matches"]["proposals"]:
+            (cx, cy), (ex, ey) = item["centroid"][:2], item["extent"][:2]
+            extent += [(cx - ex / 2, cy - ey / 2), (cx + ex / 2, cy + ey / 2)]
+        for key in ("path", "plan"):
+            if panel.get(key) is not None and len(panel[key]):
+                extent += [tuple(p) for p in np.asarray(panel[key], float)]
+    span = np.ptp(np.asarray(extent, float), axis=0) if extent else np.ones(2)
+    aspect = float(np.clip(span[1] / max(span[0], 1e-6), 0.4, 1.6))
+    fig, axes = plt.subplots(1, n, figsize=(4.4 * n + 0.8, 4.4 * aspect + 2.2), squeeze=False, layout="constrained")
+    labels = []
     for ax, panel in zip(axes[0], panels):
         m = panel["matches"]
         points = []
@@ -282,7 +388,8 @@ def topdown(env: str, panels: list[dict]):
             colour = STATUS_COLOURS[g["status"]]
             ax.add_patch(Rectangle((cx - ex / 2, cy - ey / 2), ex, ey, fill=False, ec=colour, lw=1.3,
                                    ls="--" if g.get("isgroup") else "-", zorder=2))
-            ax.text(cx, cy + ey / 2, g["class"], fontsize=4.5, color="#333333", ha="center", va="bottom", zorder=5)
+            labels.append(ax.text(cx, cy + ey / 2, g["class"], fontsize=4.5, color="#333333", ha="center",
+                                  va="bottom", zorder=5))
             points += [(cx - ex / 2, cy - ey / 2), (cx + ex / 2, cy + ey / 2)]
         for p in m["proposals"]:
             (cx, cy), (ex, ey) = p["centroid"][:2], p["extent"][:2]
@@ -295,10 +402,15 @@ def topdown(env: str, panels: list[dict]):
                 gc = m["ground_truth"][p["ground_truth"]]["centroid"]
                 ax.plot([cx, gc[0]], [cy, gc[1]], color="#333333", lw=0.5, zorder=3)
             points += [(cx - ex / 2, cy - ey / 2), (cx + ex / 2, cy + ey / 2)]
+        plan = panel.get("plan")
+        if plan is not None and len(plan):
+            plan = np.asarray(plan, float)
+            ax.plot(plan[:, 0], plan[:, 1], color="#000000", lw=0.8, ls="--", alpha=0.25, zorder=3)
+            points += [tuple(p) for p in plan]
         path = panel.get("path")
         if path is not None and len(path):
             path = np.asarray(path, float)
-            ax.plot(path[:, 0], path[:, 1], color="#000000", lw=0.9, alpha=0.7, zorder=4)
+            ax.plot(path[:, 0], path[:, 1], color="#000000", lw=1.0, alpha=0.85, zorder=4)
             ax.plot(path[:1, 0], path[:1, 1], marker="^", color="#000000", ms=6, zorder=4)
             points += [tuple(p) for p in path]
         if points:
@@ -310,18 +422,70 @@ def topdown(env: str, panels: list[dict]):
         ax.set_aspect("equal")
         ax.set_xlabel("x (m, map frame)")
         ax.set_ylabel("y (m)")
-        ax.set_title(panel["title"], fontsize=8)
+        ax.set_title(panel["title"], fontsize=7)
     handles = [Line2D([], [], color=STATUS_COLOURS["TP"], lw=1.3, label="ground truth, found (TP)"),
                Line2D([], [], color=STATUS_COLOURS["FN"], lw=1.3, label="ground truth, missed (FN)"),
                Patch(color=cmap(0.75), alpha=0.55, label="prediction, matched (colour: quality)"),
                Patch(color=STATUS_COLOURS["FP"], alpha=0.35, label="prediction, false positive"),
                Patch(color=STATUS_COLOURS["group"], alpha=0.35, label="prediction in a group box"),
-               Line2D([], [], color="#000000", lw=0.9, marker="^", label="trajectory (start ▲)")]
-    fig.legend(handles=handles, loc="upper center", ncol=3, frameon=False, fontsize=6, bbox_to_anchor=(0.5, 0.06))
+               Line2D([], [], color="#000000", lw=1.0, marker="^", label="driven path (start ▲)"),
+               Line2D([], [], color="#000000", lw=0.8, ls="--", alpha=0.3, label="planned path")]
+    fig.legend(handles=handles, loc="outside lower center", ncol=2 if n == 1 else 4, frameon=False, fontsize=6)
     sm = cm.ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=axes[0].tolist(), shrink=0.6, label="pair quality (OMQ's pairwise)")
+    fig.colorbar(sm, ax=axes[0].tolist(), shrink=0.6, label="pair quality (the method's matches)")
     fig.suptitle(f"{env}: what was mapped (top-down, x-y footprints)", fontsize=9)
+    _drop_overlapping(fig, labels)
     return fig
+
+
+def _drop_overlapping(fig, texts: list) -> None:
+    """Hide each of ``texts`` whose box overlaps one already kept (in order), so labels never print over each
+    other."""
+    renderer = fig.canvas.get_renderer()
+    fig.draw_without_rendering()
+    kept = []
+    for t in texts:
+        box = t.get_window_extent(renderer)
+        if any(box.overlaps(k) for k in kept):
+            t.set_visible(False)
+        else:
+            kept.append(box)
+
+
+def visible_texts(fig) -> list:
+    """The texts a reader sees in ``fig`` once drawn: per visible axes its titles, axis labels, the tick labels
+    within its view, its free texts and legend; the figure's suptitle, texts and legends (empty texts left out)."""
+    fig.draw_without_rendering()
+    out = []
+
+    def legend_texts(legend):
+        return list(legend.get_texts()) + ([legend.get_title()] if legend is not None else []) if legend else []
+
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        out += [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label] + list(ax.texts)
+        for axis, (lo, hi) in ((ax.xaxis, sorted(ax.get_xlim())), (ax.yaxis, sorted(ax.get_ylim()))):
+            for tick in axis.get_major_ticks():
+                if lo - 1e-9 <= tick.get_loc() <= hi + 1e-9:
+                    out += [tick.label1, tick.label2]
+        out += legend_texts(ax.get_legend())
+    out += list(fig.texts) + ([fig._suptitle] if fig._suptitle is not None else [])
+    for legend in fig.legends:
+        out += legend_texts(legend)
+    seen: set[int] = set()
+    return [t for t in out if t is not None and t.get_visible() and t.get_text().strip()
+            and not (id(t) in seen or seen.add(id(t)))]
+
+
+def text_overlaps(fig, ignore: tuple[str, ...] = ()) -> list[tuple[str, str]]:
+    """Pairs of the texts a reader sees in ``fig`` (:func:`visible_texts`) whose boxes overlap as drawn (each box
+    shrunk by a few per cent, so that touching is not overlapping): labels printed over each other. ``ignore``:
+    texts not to check. ``[]`` for a figure that reads cleanly."""
+    renderer = fig.canvas.get_renderer()
+    boxes = [(t.get_text(), t.get_window_extent(renderer).shrunk(0.96, 0.85)) for t in visible_texts(fig)
+             if t.get_text() not in ignore]
+    return [(a, b) for i, (a, ba) in enumerate(boxes) for b, bb in boxes[i + 1:] if ba.overlaps(bb)]
 
 
 def scatter_predictivity(units: list[str], sim: Sequence[float], real: Sequence[float], result: dict,
@@ -381,15 +545,29 @@ def interval_text(estimate: dict) -> str:
     return estimate.get("reason") or "–"
 
 
-def comparison_text(comparison: dict) -> str:
-    """A paired comparison in words (what ``benchbot report`` and a sweep print after naming the two sides):
-    ``mean difference X [low, high], Cohen's d_z, the paired t-test and Wilcoxon p with their Holm adjustments,
-    rank-biserial r`` — or the mean difference and why there is no test. ``comparison`` has the keys of
-    ``stats.paired_test`` plus ``ttest_p_holm`` and ``wilcoxon_p_holm``."""
-    c, d = comparison, comparison["difference"]
+def _test_text(c: dict) -> str:
+    d = c["difference"]
     text = f"mean difference {fmt(d['value'])}"
     if c["reason"]:
         return f"{text}; {c['reason']}"
     return (f"{text} {interval_text(d)}, Cohen's d_z = {fmt(c['cohens_dz'])}; paired t-test p = {fmt(c['ttest_p'])} "
-            f"(Holm {fmt(c['ttest_p_holm'])}), Wilcoxon p = {fmt(c['wilcoxon_p'])} (Holm {fmt(c['wilcoxon_p_holm'])}), "
-            f"rank-biserial r = {fmt(c['rank_biserial'])}")
+            f"(Holm {fmt(c.get('ttest_p_holm'))}), Wilcoxon p = {fmt(c['wilcoxon_p'])} "
+            f"(Holm {fmt(c.get('wilcoxon_p_holm'))}), rank-biserial r = {fmt(c['rank_biserial'])}")
+
+
+def comparison_text(comparison: dict) -> str:
+    """A paired comparison in words (what ``benchbot report`` and a sweep print after naming the two sides), at the
+    environment level and then, when it has one (``episodes``), at the episode level: ``over N environments: mean
+    difference X [low, high], Cohen's d_z, the paired t-test and Wilcoxon p with their Holm adjustments,
+    rank-biserial r`` — or the mean difference and why there is no test. ``comparison`` has the keys of
+    ``stats.paired_test`` (with ``level``) plus ``ttest_p_holm`` and ``wilcoxon_p_holm``, and optionally
+    ``episodes`` with the same keys."""
+    c = comparison
+    level = c.get("level_of_n", c.get("level", "pairs"))
+    unit = {"environment pairs": "environment", "pairs": "episode pair"}.get(level, level)
+    text = f"over {c['n']} {unit}{'' if c['n'] == 1 else 's'}: {_test_text(c)}"
+    ep = c.get("episodes")
+    if ep:
+        text += (f" | over {ep['n']} episode pair{'' if ep['n'] == 1 else 's'} (these environments only): "
+                 f"{_test_text(ep)}")
+    return text

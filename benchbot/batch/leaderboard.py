@@ -9,10 +9,16 @@ The site is plain files — no server, no external scripts, fonts or styles — 
     site/entries/<entry>/report.html     and its report (``benchbot report``), with report_files/
     site/leaderboard.json                every entry's numbers
 
-Entries are ranked on one set of environments per task (:func:`benchmark_set`: ``--environments``, else the set most
-entries ran): an entry that covers it is scored on its episodes of those environments and ranked; an entry that does
-not is listed, marked, and not ranked (its mean is over other scenes). Every mean carries its interval (none below
-:data:`~benchbot.batch.stats.MIN_CI_N` episodes).
+Entries are comparable only under identical conditions (:data:`~benchbot.batch.report.CONDITIONS` but the
+environments: robot, noise preset, camera, simulator and its version, scene style, isolation level, evaluation
+method), so each task's page has one table per condition set (:func:`condition_key`). Within a table, entries are
+ranked on one set of environments (:func:`benchmark_set`: ``--environments``, else the set most of its entries ran):
+an entry that covers it is scored on its episodes of those environments and ranked; an entry that does not is
+listed, marked, and not ranked (its mean is over other scenes); an entry that is not verifiable (run without the
+sandbox) is never ranked. The score is the evaluation method's primary score, as it declares it (its direction
+decides what is better), the environment the unit: the mean of the environments' means with its interval over the
+environments (none below :data:`~benchbot.batch.stats.MIN_CI_N`). Entries that the intervals do not tell apart
+share a rank (:func:`rank_entries`).
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from pathlib import Path
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
 from benchbot.batch.report import (
-    CSS, MAIN_SCORE, RunData, present_scores, provenance, solution, verifiable, write_report,
+    CONDITIONS, CSS, RunData, conditions, present_scores, provenance, solution, verifiable, write_report,
 )
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
@@ -75,8 +81,20 @@ def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.]+", "-", text).strip("-") or "entry"
 
 
+LEADERBOARD_CONDITIONS = tuple(c for c in CONDITIONS if c not in ("task", "environments", "arch"))
+"""What entries of one table share besides the task (the environments are the table's benchmark set; the arch is
+shown, not a condition: the CPU and the GPU render the same scenes)."""
+
+
+def condition_key(run: RunData) -> tuple[tuple[str, str], ...]:
+    """``((condition, value), ...)`` of :data:`LEADERBOARD_CONDITIONS`: runs with equal keys go in one table
+    ("not recorded" where an older batch did not record it, so such runs are not mixed with runs that did)."""
+    c = conditions(run)
+    return tuple((k, c[k] or "not recorded") for k in LEADERBOARD_CONDITIONS)
+
+
 def benchmark_set(runs: list[RunData], given: list[str] | None = None) -> list[str]:
-    """The environments a task's entries are ranked on: ``given`` (``--environments``), else the set of
+    """The environments a table's entries are ranked on: ``given`` (``--environments``), else the set of
     environments most entries ran (a tie goes to the larger set, then to the earlier entry)."""
     if given:
         return sorted(dict.fromkeys(given))
@@ -84,38 +102,71 @@ def benchmark_set(runs: list[RunData], given: list[str] | None = None) -> list[s
     return list(max(dict.fromkeys(sets), key=lambda s: (sets.count(s), len(s))))
 
 
+def better(a: dict, b: dict, sign: int) -> bool:
+    """Whether estimate ``a`` is distinguishably better than ``b`` (``sign`` +1: higher is better, −1: lower):
+    both have intervals and ``a``'s lies wholly on the better side of ``b``'s; where either has none (fewer than
+    :data:`~benchbot.batch.stats.MIN_CI_N` environments), the better mean."""
+    if a.get("value") is None or b.get("value") is None:
+        return a.get("value") is not None and b.get("value") is None
+    if None not in (a.get("low"), a.get("high"), b.get("low"), b.get("high")):
+        return a["low"] > b["high"] if sign > 0 else a["high"] < b["low"]
+    return sign * a["value"] > sign * b["value"]
+
+
+def rank_entries(rows: list[dict], score: str, sign: int) -> None:
+    """Rank the rankable entries of one table (``covers`` and ``verifiable``) in place: an entry's rank is 1 + the
+    number of entries distinguishably better (:func:`better`), so entries the intervals do not tell apart share a
+    rank (``tied`` True); the others get ``rank`` None. Sorts ``rows``: ranked first, by rank then mean."""
+    ranked = [e for e in rows if e["covers"] and e["verifiable"]]
+    for e in rows:
+        e["rank"], e["tied"] = None, False
+    for e in ranked:
+        est = e["scores"].get(score, {})
+        e["rank"] = 1 + sum(better(o["scores"].get(score, {}), est, sign) for o in ranked if o is not e)
+    for e in ranked:
+        e["tied"] = sum(o["rank"] == e["rank"] for o in ranked) > 1
+    rows.sort(key=lambda e: (e["rank"] is None, e["rank"] or 0,
+                             -sign * (e["scores"].get(score, {}).get("value") or 0.0)))
+
+
 def entries(runs: list[RunData], environments: list[str] | None = None) -> dict[str, list[dict]]:
-    """Each task's entries, best first: ``{task: [{"run", "label", "slug", "scores": {score: Estimate dict},
-    "episodes", "environments", "covers", "rank", "benchmark"}]}``. An entry that ``covers`` the task's
-    :func:`benchmark_set` is scored on its episodes of those environments and ranked; any other entry on all its
-    episodes, with ``rank`` None."""
-    by_task: dict[str, list[RunData]] = {}
+    """Each task's tables: ``{task: [{"conditions": {condition: value}, "benchmark": [env], "score", "direction",
+    "entries": [{"run", "label", "slug", "scores": {score: Estimate dict (environment level)}, "episodes",
+    "environments", "covers", "verifiable", "rank", "tied", "benchmark"}]}]}``, one table per condition set
+    (:func:`condition_key`), entries best first (:func:`rank_entries`). An entry that ``covers`` its table's
+    :func:`benchmark_set` is scored on its episodes of those environments and ranked (when verifiable); any other
+    entry on all its episodes, with ``rank`` None."""
+    by_task: dict[str, dict[tuple, list[RunData]]] = {}
     for run in runs:
-        by_task.setdefault(str(run.manifest.get("task", "unknown task")), []).append(run)
+        by_task.setdefault(str(run.manifest.get("task", "unknown task")), {}).setdefault(condition_key(run), []).append(run)
     out: dict[str, list[dict]] = {}
     used: set[str] = set()
-    for task, task_runs in by_task.items():
-        bench = benchmark_set(task_runs, environments)
-        rows = []
-        for run in task_runs:
-            name = slug(f"{run.name}-{run.run_dir.name}")
-            while name in used:
-                name += "-x"
-            used.add(name)
-            envs = sorted({r["env"] for r in run.rows})
-            covers = set(bench) <= set(envs)
-            scored = [r for r in run.rows if r["env"] in bench] if covers else run.rows
-            rows.append({"run": run, "label": run.name, "slug": name, "episodes": len(scored),
-                         "environments": envs, "covers": covers, "benchmark": bench,
-                         "verifiable": verifiable(run.manifest),
-                         "scores": {s: stats.mean_ci([r[s] for r in scored if s in r]).to_json()
-                                    for s in present_scores([run])}})
-        rows.sort(key=lambda e: (not (e["covers"] and e["verifiable"]),
-                                 -(e["scores"].get(MAIN_SCORE, {}).get("value") or 0.0)))
-        rank = 0
-        for e in rows:
-            e["rank"] = (rank := rank + 1) if e["covers"] and e["verifiable"] else None
-        out[task] = rows
+    for task, groups in by_task.items():
+        tables = []
+        for key, group_runs in groups.items():
+            bench = benchmark_set(group_runs, environments)
+            declared = group_runs[0].score_set
+            score, sign = declared.primary.name, declared.sign()
+            rows = []
+            for run in group_runs:
+                name = slug(f"{run.name}-{run.run_dir.name}")
+                while name in used:
+                    name += "-x"
+                used.add(name)
+                envs = sorted({r["env"] for r in run.rows})
+                covers = set(bench) <= set(envs)
+                scored = [r for r in run.rows if r["env"] in bench] if covers else run.rows
+                rows.append({"run": run, "label": run.name, "slug": name, "episodes": len(scored),
+                             "environments": envs, "covers": covers, "benchmark": bench,
+                             "verifiable": verifiable(run.manifest),
+                             "scores": {s: stats.cluster_mean_ci([r[s] for r in scored if s in r],
+                                                                 [r["env"] for r in scored if s in r]).to_json()
+                                        for s in present_scores([run])}})
+            rank_entries(rows, score, sign)
+            tables.append({"conditions": dict(key), "benchmark": bench, "score": score,
+                           "direction": declared.primary.direction, "entries": rows})
+        tables.sort(key=lambda t: (not any(e["rank"] for e in t["entries"]), -len(t["entries"])))
+        out[task] = tables
     return out
 
 
@@ -145,14 +196,13 @@ def _page(title: str, body: str, script: bool = False) -> str:
             + (f"<script>{SORT_JS}</script>" if script else "") + "</html>")
 
 
-def task_page(task: str, rows: list[dict], title: str, made: str, reports: bool) -> str:
-    """One task's page: the entries as a sortable table, each linking its manifest (and report)."""
+def _table_html(table: dict, reports: bool, number: int) -> str:
+    """One condition set's table: heading with its conditions and benchmark environments, the entries, notes."""
     esc = html.escape
-    scores = [s for s in ("OMQ", "avg_pairwise", "avg_label", "avg_spatial", "avg_fp_quality", "avg_state_quality")
-              if any(s in e["scores"] for e in rows)]
-    bench = rows[0]["benchmark"] if rows else []
+    rows, bench, main = table["entries"], table["benchmark"], table["score"]
+    scores = list(dict.fromkeys([main] + [s for e in rows for s in e["scores"]]))
     # (heading, optional): optional columns are hidden on narrow screens
-    head = [("rank", False), ("entry", False)] + [(f"{s} [95 % CI]", s != MAIN_SCORE) for s in scores] + [
+    head = [("rank", False), ("entry", False)] + [(f"{s} [95 % CI]", s != main) for s in scores] + [
         ("solution", True), ("environments", False), ("episodes", True), ("date", True), ("BenchBot", True),
         ("git", True), ("files", False)]
     body = []
@@ -166,10 +216,12 @@ def task_page(task: str, rows: list[dict], title: str, made: str, reports: bool)
         if reports:
             links.insert(0, f"<a href='entries/{esc(e['slug'])}/report.html'>report</a>")
         label = e["label"] + ("" if e["verifiable"] else " (not verifiable)")
-        cells = [_cell(e["rank"], str(e["rank"]) if e["rank"] else "–", "num rank"),
+        rank = f"{e['rank']}=" if e["tied"] else str(e["rank"]) if e["rank"] else "–"
+        cells = [_cell(e["rank"], rank, "num rank",
+                       title="not told apart from the entries of the same rank by the intervals" if e["tied"] else ""),
                  _cell(label, cls="txt", title="" if e["verifiable"] else
                        "run without the sandbox: its solution could read the ground truth")]
-        cells += [_estimate_cell(e["scores"].get(s), "num" if s == MAIN_SCORE else "num opt") for s in scores]
+        cells += [_estimate_cell(e["scores"].get(s), "num" if s == main else "num opt") for s in scores]
         cells.append(_cell(f"{kind} {what}", cls="txt opt"))
         covered = len(set(e["environments"]) & set(bench))
         cells += [_cell(covered, f"{covered} of {len(bench)}" + (f" (+{len(e['environments']) - covered})"
@@ -179,33 +231,53 @@ def task_page(task: str, rows: list[dict], title: str, made: str, reports: bool)
                   _cell(prov.get("BenchBot"), cls="txt opt"),
                   _cell(git[:12] + ("+dirty" if git.endswith("+dirty") else ""), cls="txt opt", title=git),
                   f"<td class='txt' data-v=''>{' · '.join(links)}</td>"]
-        body.append(f"<tr class='{'' if e['covers'] and e['verifiable'] else 'partial'}'>{''.join(cells)}</tr>")
+        body.append(f"<tr class='{'' if e['rank'] else 'partial'}'>{''.join(cells)}</tr>")
+    notes = []
     partial = sum(not e["covers"] for e in rows)
-    note = (f"<p class='note'>{partial} entr{'y does' if partial == 1 else 'ies do'} not cover the ranked "
-            "environments: listed in grey, not ranked, scored on their own episodes (other scenes).</p>"
-            if partial else "")
+    if partial:
+        notes.append(f"{partial} entr{'y does' if partial == 1 else 'ies do'} not cover the ranked environments: "
+                     "listed in grey, not ranked, scored on their own episodes (other scenes).")
     unverified = sum(not e["verifiable"] for e in rows)
     if unverified:
-        note += (f"<p class='note'>{unverified} entr{'y is' if unverified == 1 else 'ies are'} not verifiable: run "
-                 "without the sandbox (<code>--no-sandbox</code>), where the solution could read the ground truth; "
-                 "listed in grey and not ranked.</p>")
+        notes.append(f"{unverified} entr{'y is' if unverified == 1 else 'ies are'} not verifiable: run without the "
+                     "sandbox (<code>--no-sandbox</code>), where the solution could read the ground truth; listed in "
+                     "grey and not ranked.")
+    if any(e["tied"] for e in rows):
+        notes.append("Entries whose intervals overlap share a rank (=): the data do not tell them apart.")
+    if any(e["rank"] and e["scores"].get(main, {}).get("low") is None for e in rows):
+        notes.append(f"Entries with fewer than {stats.MIN_CI_N} environments have no interval: they are ordered by "
+                     "their mean alone.")
+    conds = " · ".join(f"{esc(k)} <b>{esc(v)}</b>" for k, v in table["conditions"].items())
+    return (f"<section id='set-{number}'><h2>Conditions {number}</h2><p class='sub'>{conds}</p>"
+            f"<p class='sub'>{len(rows)} entr{'y' if len(rows) == 1 else 'ies'} · ranked by {esc(main)} "
+            f"({esc(table['direction'])} is better), the mean over each entry's environments of "
+            f"{len(bench)} environment{'s' if len(bench) != 1 else ''}: {esc(', '.join(bench))}</p>"
+            "<div class='scroll'><table class='sortable'><thead><tr>"
+            + "".join(f"<th scope='col'{' class=opt' if opt else ''}>{esc(h)}</th>" for h, opt in head)
+            + "</tr></thead><tbody>" + "".join(body) + "</tbody></table></div>"
+            + "".join(f"<p class='note'>{n}</p>" for n in notes) + "</section>")
+
+
+def task_page(task: str, tables: list[dict], title: str, made: str, reports: bool) -> str:
+    """One task's page: one sortable table per condition set (:func:`condition_key`), each entry linking its
+    manifest (and report)."""
+    esc = html.escape
+    n = sum(len(t["entries"]) for t in tables)
     return _page(f"{title}: {task}", (
         f"<header><p class='sub'><a href='index.html'>{esc(title)}</a></p><h1>{esc(task)}</h1>"
-        f"<p class='sub'>{len(rows)} entries · ranked by mean {MAIN_SCORE} over each entry's episodes of "
-        f"{len(bench)} environment{'s' if len(bench) != 1 else ''}: {esc(', '.join(bench))} · updated {esc(made)}</p>"
-        "</header>"
-        f"<div class='box'>Click a column heading to sort by it (on a narrow screen only the main columns are "
-        f"shown). Intervals are {int(stats.CONFIDENCE * 100)} % BCa "
-        f"bootstrap intervals over episodes, none below {stats.MIN_CI_N} episodes (then n is shown). Each entry's "
+        f"<p class='sub'>{n} entries in {len(tables)} condition set{'s' if len(tables) != 1 else ''} · updated "
+        f"{esc(made)}</p></header>"
+        "<div class='box'>Entries are ranked only against entries run under the same conditions (robot, noise "
+        "preset, camera, simulator and its version, scene style, isolation, evaluation method): one table per "
+        "set. Click a column heading to sort by it (on a narrow screen only the main columns are shown). Scores "
+        f"are means over environments with {int(stats.CONFIDENCE * 100)} % intervals over the environments "
+        f"(Student t below {stats.T_INTERVAL_BELOW}, none below {stats.MIN_CI_N}: then n is shown). Each entry's "
         "manifest records its command, seeds, versions, git revision and machine.</div>"
-        "<div class='scroll'><table class='sortable'><thead><tr>"
-        + "".join(f"<th scope='col'{' class=opt' if opt else ''}>{esc(h)}</th>" for h, opt in head)
-        + "</tr></thead><tbody>" + "".join(body)
-        + f"</tbody></table></div>{note}"), script=True)
+        + "".join(_table_html(t, reports, k + 1) for k, t in enumerate(tables))), script=True)
 
 
 def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot leaderboard", registry=None,
-               reports: bool = True, environments: list[str] | None = None) -> dict:
+               reports: bool = True, environments: list[str] | None = None, skipped: list[str] | None = None) -> dict:
     """Write the static site into the folder ``output`` (created; files of earlier runs of this command are
     replaced, nothing else is touched). Every file is written atomically.
 
@@ -214,9 +286,11 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
         registry: for the entries' reports (per-class views and maps); None leaves them out of those reports.
         reports: also write each entry's report (the slow part: its figures).
         environments: the environments entries are ranked on (:func:`benchmark_set`); None: the most common set.
+        skipped: one line per run directory left out (unfinished batches), listed on the index page.
 
     Returns:
-        ``{"tasks": {task: [entry summary]}, "made": ...}`` as written to ``leaderboard.json``.
+        ``{"title", "made", "tasks": {task: [{"conditions", "benchmark", "score", "direction", "entries":
+        [entry summary]}]}, "skipped"}`` as written to ``leaderboard.json``.
 
     Raises:
         UsageError: ``output`` cannot be written, or is a file.
@@ -225,34 +299,45 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
         raise UsageError(f"--output: {output} is a file", "give a folder for the site, e.g. -o site/")
     made = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     tasks = entries(runs, environments)
-    data = {"title": title, "made": made, "tasks": {}}
+    data = {"title": title, "made": made, "tasks": {}, "skipped": list(skipped or [])}
     try:
-        for task, rows in tasks.items():
-            for e in rows:
-                folder = output / "entries" / e["slug"]
-                folder.mkdir(parents=True, exist_ok=True)
-                for name in COPIED:
-                    if (e["run"].run_dir / name).is_file():
-                        atomic.write_bytes(folder / name, (e["run"].run_dir / name).read_bytes())
-                if reports:
-                    stale = folder / "report_files"
-                    if stale.is_dir():
-                        shutil.rmtree(stale)
-                    write_report([e["run"]], folder / "report.html", registry)
-            atomic.write_text(output / f"{slug(task)}.html", task_page(task, rows, title, made, reports))
-            data["tasks"][task] = [{k: e[k] for k in ("rank", "label", "slug", "episodes", "environments", "covers",
-                                                      "benchmark", "scores")} | {"run_dir": str(e["run"].run_dir)}
-                                   for e in rows]
-        items = "".join(
-            f"<li><a href='{html.escape(slug(task))}.html'>{html.escape(task)}</a> — {len(rows)} entr"
-            f"{'y' if len(rows) == 1 else 'ies'}; best: {html.escape(rows[0]['label'])} "
-            f"({MAIN_SCORE} {fmt(rows[0]['scores'].get(MAIN_SCORE, {}).get('value'))})</li>"
-            for task, rows in tasks.items())
+        for task, tables in tasks.items():
+            for t in tables:
+                for e in t["entries"]:
+                    folder = output / "entries" / e["slug"]
+                    folder.mkdir(parents=True, exist_ok=True)
+                    for name in COPIED:
+                        if (e["run"].run_dir / name).is_file():
+                            atomic.write_bytes(folder / name, (e["run"].run_dir / name).read_bytes())
+                    if reports:
+                        stale = folder / "report_files"
+                        if stale.is_dir():
+                            shutil.rmtree(stale)
+                        write_report([e["run"]], folder / "report.html", registry)
+            atomic.write_text(output / f"{slug(task)}.html", task_page(task, tables, title, made, reports))
+            data["tasks"][task] = [
+                {k: t[k] for k in ("conditions", "benchmark", "score", "direction")}
+                | {"entries": [{k: e[k] for k in ("rank", "tied", "label", "slug", "episodes", "environments", "covers",
+                                                  "verifiable", "scores")} | {"run_dir": str(e["run"].run_dir)}
+                               for e in t["entries"]]}
+                for t in tables]
+        items = []
+        for task, tables in tasks.items():
+            n = sum(len(t["entries"]) for t in tables)
+            best = "; ".join(f"{html.escape(t['entries'][0]['label'])} ({html.escape(t['score'])} "
+                             f"{fmt(t['entries'][0]['scores'].get(t['score'], {}).get('value'))})"
+                             for t in tables if t["entries"] and t["entries"][0]["rank"])
+            items.append(f"<li><a href='{html.escape(slug(task))}.html'>{html.escape(task)}</a> — {n} entr"
+                         f"{'y' if n == 1 else 'ies'} in {len(tables)} condition set{'s' if len(tables) != 1 else ''}"
+                         + (f"; best: {best}" if best else "") + "</li>")
+        left_out = "".join(f"<li>{html.escape(line)}</li>" for line in skipped or [])
         atomic.write_text(output / "index.html", _page(title, (
             f"<header><h1>{html.escape(title)}</h1><p class='sub'>{len(runs)} entries · {len(tasks)} task"
             f"{'' if len(tasks) == 1 else 's'} · updated {html.escape(made)}</p></header>"
-            f"<ul class='tasks'>{items}</ul><p class='note'>A static site made by <code>benchbot leaderboard</code>: "
-            "plain files, no server; copy the folder to any web host.</p>")))
+            f"<ul class='tasks'>{''.join(items)}</ul>"
+            + (f"<p class='note'>Left out (unfinished):</p><ul class='note'>{left_out}</ul>" if left_out else "")
+            + "<p class='note'>A static site made by <code>benchbot leaderboard</code>: plain files, no server; copy "
+              "the folder to any web host.</p>")))
         atomic.write_text(output / "leaderboard.json", json.dumps(data, indent=2) + "\n")
     except OSError as exc:
         raise UsageError(f"--output: cannot write the site in {output} ({exc.strerror or exc})",

@@ -1,5 +1,8 @@
 """Tables of ``benchbot report`` for papers: HTML for the page, CSV for data, LaTeX (booktabs) for the paper.
 
+The LaTeX files compile with pdflatex at one- and two-column widths, values in scientific notation included
+(``tests/test_paper_latex.py`` compiles them with a real TeX engine and measures their width against the column).
+
 A :class:`Table` holds raw values; a cell may be a number, a string, None, or an estimate (a dict with ``value``,
 ``low``, ``high``, ``reason``, ``n``, as :class:`benchbot.batch.stats.Estimate` writes it). Numbers are printed to 4
 significant digits in HTML and LaTeX (:func:`benchbot.batch.figures.fmt`); CSV keeps every digit and splits an
@@ -63,7 +66,8 @@ def cell_text(cell) -> str:
 
 
 def to_html(table: Table) -> str:
-    """The table as an HTML ``<table>`` (escaped) inside a horizontally scrolling box, with its note."""
+    """The table as an HTML ``<table>`` (escaped) inside a horizontally scrolling box, with its note; an estimate
+    shows its value over its interval (or over why it has none), so a column is as wide as an interval."""
     head = "".join(f"<th>{html.escape(h)}</th>" for h in table.headers)
     body = []
     for row in table.rows:
@@ -71,7 +75,14 @@ def to_html(table: Table) -> str:
         for cell in row:
             title = f" title='{html.escape(cell['reason'])}'" if is_estimate(cell) and cell.get("reason") else ""
             numeric = isinstance(cell, (int, float)) or is_estimate(cell) or cell is None
-            cells.append(f"<td class='{'num' if numeric else 'txt'}'{title}>{html.escape(cell_text(cell))}</td>")
+            if is_estimate(cell) and cell.get("low") is not None and cell.get("high") is not None:
+                text = (f"{html.escape(fmt(cell['value']))}<br><small>[{html.escape(fmt(cell['low']))}, "
+                        f"{html.escape(fmt(cell['high']))}]</small>")
+            elif is_estimate(cell) and cell.get("reason", "").startswith("n = "):
+                text = f"{html.escape(fmt(cell['value']))}<br><small>n = {cell.get('n')}: no CI</small>"
+            else:
+                text = html.escape(cell_text(cell))
+            cells.append(f"<td class='{'num' if numeric else 'txt'}'{title}>{text}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     note = f"<p class='note'>{html.escape(table.note)}</p>" if table.note else ""
     return (f"<div class='scroll'><table id='t-{html.escape(table.name)}'><thead><tr>{head}</tr></thead>"
@@ -101,29 +112,135 @@ def to_csv(table: Table) -> str:
     return buffer.getvalue()
 
 
-def latex_escape(text: str) -> str:
-    """``text`` with LaTeX's special characters escaped; ``×10⁻⁵`` (from :func:`fmt`) becomes ``$\\times10^{-5}$``."""
-    escaped = "".join(LATEX_SPECIAL.get(c, c) for c in text)
-    escaped = re.sub("×10([⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+)", lambda m: rf"$\times10^{{{m.group(1).translate(_PLAIN)}}}$", escaped)
-    escaped = re.sub(r"(?<![\w$])-(?=\d)", "$-$", escaped)  # a negative number's sign, not a hyphen
-    return escaped.replace("–", "--").replace("−", "$-$").replace("ρ", r"$\rho$")
+LATEX_UNICODE = {"–": "--", "—": "---", "−": "$-$", "ρ": r"$\rho$", "→": r"$\to$", "≥": r"$\geq$", "≤": r"$\leq$",
+                 "×": r"$\times$", "·": r"$\cdot$", "≈": r"$\approx$", "µ": r"$\mu$", "μ": r"$\mu$", "°": r"$^\circ$",
+                 "±": r"$\pm$", "…": r"\dots{}", "‘": "`", "’": "'", "“": "``", "”": "''"}
+"""Characters of the report's text that LaTeX (pdflatex, inputenc utf8) cannot take as they are, and what they become.
+Other characters beyond Latin-1 become ``?`` (pdflatex stops on a character it has no glyph set up for)."""
 
-
+_SCIENTIFIC = re.compile(r"(-?)(\d+(?:\.\d+)?)×10([⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+)")
 _PLAIN = str.maketrans("⁻⁰¹²³⁴⁵⁶⁷⁸⁹", "-0123456789")
 
 
+def _escape_text(text: str) -> str:
+    out = []
+    for c in text:
+        if c in LATEX_SPECIAL:
+            out.append(LATEX_SPECIAL[c])
+        elif c in LATEX_UNICODE:
+            out.append(LATEX_UNICODE[c])
+        elif ord(c) > 0xFF:
+            out.append("?")
+        else:
+            out.append(c)
+    escaped = "".join(out)
+    return re.sub(r"(?<![\w$])-(?=\d)", "$-$", escaped)  # a negative number's sign, not a hyphen
+
+
+def latex_escape(text: str) -> str:
+    r"""``text`` for LaTeX: its special characters escaped (:data:`LATEX_SPECIAL`, :data:`LATEX_UNICODE`), a
+    number in :func:`~benchbot.batch.figures.fmt`'s scientific notation (``-1.5×10⁻⁵``) as one math expression
+    (``$-1.5\times10^{-5}$``), a negative number's sign as a minus."""
+    parts, last = [], 0
+    for m in _SCIENTIFIC.finditer(text):
+        parts.append(_escape_text(text[last:m.start()]))
+        parts.append(rf"${m.group(1)}{m.group(2)}\times10^{{{m.group(3).translate(_PLAIN)}}}$")
+        last = m.end()
+    parts.append(_escape_text(text[last:]))
+    return "".join(parts)
+
+
+LATEX_PACKAGES = ("booktabs", "array", "graphicx")
+r"""What a document needs to ``\input`` the tables: ``\usepackage{booktabs,array,graphicx}``."""
+
+COLUMN_PT = 240.0
+"""Tables estimated wider than this (about a two-column paper's column, 229–252 pt) are ``table*`` floats, which
+span both columns of a two-column document (and are ordinary floats in a one-column one)."""
+
+TEXT_COLUMN_CHARS = 22
+"""A text column whose longest cell is longer than this wraps (a ``p`` column of that width) instead of widening
+the table."""
+
+_CHAR_PT = 4.6  # the average width of a character of \small Computer Modern (9 pt), for the float's choice only
+
+
+def _latex_cell(cell) -> str:
+    """A cell in LaTeX: an estimate with an interval as its value over its interval in script size (two lines, so
+    the column is as wide as the interval, not value and interval side by side)."""
+    if is_estimate(cell) and cell.get("low") is not None and cell.get("high") is not None:
+        return (rf"\begin{{tabular}}[t]{{@{{}}r@{{}}}}{latex_escape(fmt(cell['value']))}\\[-1pt]"
+                rf"\scriptsize[{latex_escape(fmt(cell['low']))}, {latex_escape(fmt(cell['high']))}]\end{{tabular}}")
+    text = latex_escape(cell_text(cell))
+    return "{}" + text if text.startswith("[") else text  # not read as the optional argument of the \\ before it
+
+
+def _width_chars(cell) -> int:
+    if is_estimate(cell) and cell.get("low") is not None:
+        return max(len(fmt(cell["value"])), int(0.75 * len(f"[{fmt(cell['low'])}, {fmt(cell['high'])}]")))
+    return len(cell_text(cell))
+
+
+def latex_layout(table: Table) -> tuple[list[str], list[bool], float]:
+    r"""``(column specs, numeric, estimated width in pt)`` of ``table``'s ``tabular``: numbers right-aligned, the first
+    column and other text left-aligned, text longer than :data:`TEXT_COLUMN_CHARS` characters wrapped in a ragged
+    ``p`` column; headings wrap at 12 characters (:func:`header_lines`), so they never widen a column much."""
+    specs, numeric, width = [], [], 0.0
+    for i, header in enumerate(table.headers):
+        cells = [row[i] for row in table.rows if i < len(row)]
+        is_number = i > 0 and all(isinstance(c, (int, float)) or c is None or is_estimate(c) for c in cells)
+        chars = max([_width_chars(c) for c in cells] + [max(map(len, header_lines(header)))])
+        if not is_number and chars > TEXT_COLUMN_CHARS:
+            specs.append(rf">{{\raggedright\arraybackslash}}p{{{TEXT_COLUMN_CHARS * 0.5:g}em}}")
+            chars = TEXT_COLUMN_CHARS
+        else:
+            specs.append("r" if is_number else "l")
+        numeric.append(is_number)
+        width += chars * _CHAR_PT + 12.0  # two \tabcolsep of 6 pt
+    return specs, numeric, width
+
+
+def header_lines(text: str, width: int = 12) -> list[str]:
+    """A heading broken into lines of at most ``width`` characters (a longer word stays whole)."""
+    lines: list[str] = []
+    for word in text.split():
+        if lines and len(lines[-1]) + 1 + len(word) <= width:
+            lines[-1] += " " + word
+        else:
+            lines.append(word)
+    return lines or [""]
+
+
+def _header(text: str, numeric: bool) -> str:
+    """A heading cell: one line as it is, several (:func:`header_lines`) in a nested tabular aligned as the column."""
+    lines = header_lines(text)
+    if len(lines) == 1:
+        return latex_escape(text)
+    return (rf"\begin{{tabular}}[b]{{@{{}}{'r' if numeric else 'l'}@{{}}}}" + r"\\\relax ".join(map(latex_escape, lines))
+            + r"\end{tabular}")
+
+
+FIT = (r"\providecommand{\benchbotfit}[1]{\sbox0{#1}\ifdim\wd0>\linewidth"
+       r"\resizebox{\linewidth}{!}{\usebox0}\else\usebox0\fi}")
+r"""Defined by every table file unless the document defines it first: sets the tabular at its natural width, scaled
+down to ``\linewidth`` only when it is wider (a last resort: :func:`latex_layout` keeps tables narrow)."""
+
+
 def to_latex(table: Table) -> str:
-    """The table as a LaTeX ``table`` environment (needs ``\\usepackage{booktabs}``): caption, label
-    ``tab:<name>``, one ``l`` column then right-aligned ones, ``\\toprule``/``\\midrule``/``\\bottomrule``; the
-    note becomes a footnote-size paragraph under the table."""
-    spec = "l" + "r" * (len(table.headers) - 1)
-    lines = [r"\begin{table}[t]", r"\centering", r"\small", rf"\caption{{{latex_escape(table.caption)}}}",
-             rf"\label{{tab:{table.name}}}", rf"\begin{{tabular}}{{{spec}}}", r"\toprule",
-             " & ".join(latex_escape(h) for h in table.headers) + r" \\", r"\midrule"]
+    r"""The table as a LaTeX float for ``\usepackage{booktabs,array,graphicx}`` (:data:`LATEX_PACKAGES`): caption,
+    label ``tab:<name>``, a ``tabular`` laid out by :func:`latex_layout` with ``\toprule``/``\midrule``/
+    ``\bottomrule``, estimates as value over interval, long headings broken into lines, the note as a
+    footnote-size paragraph under it. Estimated wider than :data:`COLUMN_PT`, the float is ``table*`` (both columns
+    of a two-column document); the tabular is scaled down to the line only if it is still wider (:data:`FIT`)."""
+    specs, numeric, width = latex_layout(table)
+    spec = "".join(specs)
+    env = "table*" if width > COLUMN_PT else "table"
+    lines = [FIT, rf"\begin{{{env}}}[t]", r"\centering", r"\small", rf"\caption{{{latex_escape(table.caption)}}}",
+             rf"\label{{tab:{table.name}}}", rf"\benchbotfit{{\begin{{tabular}}{{{spec}}}", r"\toprule",
+             " & ".join(_header(h, n) for h, n in zip(table.headers, numeric)) + r" \\", r"\midrule"]
     for row in table.rows:
-        lines.append(" & ".join(latex_escape(cell_text(c)) for c in row) + r" \\")
-    lines += [r"\bottomrule", r"\end{tabular}"]
+        lines.append(" & ".join(_latex_cell(c) for c in row) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}}"]
     if table.note:
         lines.append(rf"\par\footnotesize {latex_escape(table.note)}")
-    lines.append(r"\end{table}")
+    lines.append(rf"\end{{{env}}}")
     return "\n".join(lines) + "\n"

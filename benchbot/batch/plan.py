@@ -64,6 +64,12 @@ class EpisodeSpec:
         return f"recordings/{Path(self.results).stem}.mcap"
 
     @property
+    def trajectory(self) -> str:
+        """The episode's trajectory log relative to the run directory (named like the results file): the poses the
+        robot drove, written by the batch (:func:`benchbot.batch.episode_runner.run_episode`)."""
+        return f"trajectories/{Path(self.results).stem}.json"
+
+    @property
     def outputs(self) -> str:
         """A sandboxed solution's outputs folder relative to the run directory (everything it wrote but its
         results file, which is moved to :attr:`results`)."""
@@ -81,6 +87,8 @@ class EpisodeRecord:
             scores) or ``error`` (the backend failed: message in ``error``).
         attempts: how many times it was run. steps: actions performed. collided: the robot collided.
         wall_s: seconds of the last attempt. returncode: the submission's exit status.
+        backend: what the episode's backend was (:func:`benchbot.batch.provenance.backend_facts`: simulator plugin
+            and version, scene style, Taichi arch and device, the plugin's settings); ``{}`` before it ran.
     """
 
     index: int
@@ -97,6 +105,7 @@ class EpisodeRecord:
     error: str = ""
     results: str = ""
     log: str = ""
+    backend: dict = field(default_factory=dict)
 
 
 def slug(text: str) -> str:

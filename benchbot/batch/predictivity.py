@@ -11,8 +11,12 @@ run i of one half paired with run i of the other (the same solution). The units 
   performance that environment's mean score.
 
 Statistics (:func:`benchbot.batch.stats.predictivity`): Spearman's ρ, Pearson's r (the SRCC of Kadian et al.
-2020), and the mean maximum rank violation (MMRV, Li et al. 2024), with intervals from
-:data:`~benchbot.batch.stats.MIN_CORRELATION_N` units on.
+2020), and the mean maximum rank violation (MMRV, Li et al. 2024, as SimplerEnv's own function computes it), with
+intervals from :data:`~benchbot.batch.stats.MIN_CORRELATION_N` units on.
+
+What it can say depends on the second setting (:data:`LIMITS`): BenchBot ships no real-robot runs, and between two
+simulator settings (two scene styles, say) these numbers only say whether the two settings rank the units alike —
+nothing about a real robot. Every output says so.
 """
 
 from __future__ import annotations
@@ -27,9 +31,15 @@ import numpy as np
 
 from benchbot.batch import figures, stats
 from benchbot.batch.paper import Table, to_csv, to_html, to_latex
-from benchbot.batch.report import CSS, MAIN_SCORE, RunData, group, make_assets_dir, png_size, provenance, solution
+from benchbot.batch.report import CSS, RunData, group, main_score, make_assets_dir, png_size, provenance, solution
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
+
+LIMITS = ("These numbers compare two settings over the same units. Only with a real robot as the second setting do "
+          "they estimate how well the first predicts reality; BenchBot ships no real-robot runs. Between two "
+          "simulator settings (scene styles, cameras, simulators) they say whether the two rank the units alike, "
+          "and little more: agreement between two simulations is not evidence that either predicts a real robot.")
+"""What predictivity can and cannot say, stated wherever it is offered (page, command line, docs/report.md)."""
 
 ACROSS = ("auto", "solutions", "environments")
 """What ``--across`` takes; ``auto`` is ``solutions`` with two or more pairs of runs, else ``environments``."""
@@ -48,7 +58,7 @@ def split_halves(runs: list, flag: str = "--predictivity") -> tuple[list, list]:
     return runs[:k], runs[k:]
 
 
-def units(sim: list[RunData], real: list[RunData], across: str = "auto", score: str = MAIN_SCORE) -> dict:
+def units(sim: list[RunData], real: list[RunData], across: str = "auto", score: str | None = None) -> dict:
     """The paired units and their performance in each setting.
 
     Returns:
@@ -60,6 +70,7 @@ def units(sim: list[RunData], real: list[RunData], across: str = "auto", score: 
     """
     if across not in ACROSS:
         raise UsageError(f"--across: '{across}' is not one of {', '.join(ACROSS)}", "e.g. --across environments")
+    score = score or main_score(sim)
     if across == "auto":
         across = "solutions" if len(sim) > 1 else "environments"
     if across == "solutions" and len(sim) < 2:
@@ -92,13 +103,21 @@ def units(sim: list[RunData], real: list[RunData], across: str = "auto", score: 
 
 
 def analyse(sim: list[RunData], real: list[RunData], across: str = "auto", names: tuple[str, str] = ("sim", "real"),
-            score: str = MAIN_SCORE) -> dict:
+            score: str | None = None) -> dict:
     """Units (:func:`units`) and their statistics (:func:`benchbot.batch.stats.predictivity`), JSON-able:
     ``{"settings": names, "score", "across", "units", "sim", "real", "episodes", "notes", "statistics", "policy",
     "pairs": [[sim label, real label]]}``."""
+    score = score or main_score(sim)
     u = units(sim, real, across, score)
+    from benchbot.batch.report import condition_differences
+
+    differs = {}
+    for s, r in zip(sim, real):
+        for d in condition_differences([s, r]):
+            differs.setdefault(d["what"], set()).add(" vs ".join(v or "not recorded" for v in d["values"].values()))
     return {"settings": list(names), "score": score, **u, "statistics": stats.predictivity(u["sim"], u["real"]),
-            "pairs": [[s.name, r.name] for s, r in zip(sim, real)],
+            "pairs": [[s.name, r.name] for s, r in zip(sim, real)], "limits": LIMITS,
+            "setting_differences": {k: sorted(v) for k, v in differs.items()},
             "policy": {"min_rank_n": stats.MIN_RANK_N, "min_correlation_n": stats.MIN_CORRELATION_N,
                        "confidence": stats.CONFIDENCE, "bootstrap_resamples": stats.BOOTSTRAP_RESAMPLES}}
 
@@ -154,7 +173,11 @@ def write_report(sim: list[RunData], real: list[RunData], output: Path, result: 
              f"in Simulation</i> (SimplerEnv): for each unit, the largest {esc(real_name)} gap to a unit that "
              f"{esc(sim_name)} orders the other way, averaged (0 is perfect; in score units). Intervals: Fisher z "
              "(Pearson), Bonett–Wright (Spearman), percentile bootstrap over units (MMRV); none below "
-             f"{stats.MIN_CORRELATION_N} units. Details: docs/report.md.</div>"]
+             f"{stats.MIN_CORRELATION_N} units. Details: docs/report.md.</div>",
+             f"<div class='box warn'><b>What this can say.</b> {esc(LIMITS)}"
+             + (" Here the two settings differ in: " + esc("; ".join(f"{k} ({', '.join(v)})" for k, v in
+                                                                    result["setting_differences"].items())) + "."
+                if result.get("setting_differences") else "") + "</div>"]
     for note in result["notes"]:
         parts.append(f"<div class='box warn'>{esc(note)}</div>")
     for t in tabs:

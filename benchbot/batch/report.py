@@ -6,14 +6,24 @@ Inputs are run directories written by ``benchbot batch`` (``manifest.json``, ``c
 :func:`write_report` writes the HTML page and, next to it in ``<stem>_files/``, every figure as PNG, SVG and PDF and
 every table as CSV and LaTeX.
 
-Statistics (:mod:`benchbot.batch.stats`): means with BCa bootstrap intervals from :data:`~benchbot.batch.stats.MIN_CI_N`
-episodes on; runs compared with the first one (the baseline) on episodes paired by environment, robot, noise preset
-and seed (common random numbers), from :data:`~benchbot.batch.stats.MIN_TEST_PAIRS` pairs on, with the mean
-difference and its interval, Cohen's d_z, the paired t-test and the Wilcoxon signed-rank test with its rank-biserial
-correlation, the p-values Holm-adjusted over the comparisons of the report.
+Scores are what the run's evaluation method declares (:class:`benchbot.core.evaluation.ScoreSet`: names, the primary
+one, direction, range), recorded in the manifest's ``scores`` or read from the installed method; nothing here knows
+a method's score names.
+
+Statistics (:mod:`benchbot.batch.stats`): the **environment is the unit of analysis**. A run's score is the mean over
+its environments of each environment's mean, with an interval over the environments; runs are compared with the
+first one (the baseline) on episodes paired by environment and seed (common random numbers; a robot or noise preset
+that differs between the two runs is the factor compared, not a reason not to pair), averaged per environment, with
+the tests over the environments' mean differences (from :data:`~benchbot.batch.stats.MIN_TEST_PAIRS` environments
+on), the p-values Holm-adjusted over the comparisons. The episode level is shown beside it, named as such: how
+precisely these environments were measured, not how a solution does on others. Runs that differ in a condition the
+comparison does not name (simulator style or version, camera, arch, ...) are compared with a warning
+(:func:`condition_differences`).
 
 Per-class and per-object views re-score each episode's results file with the run's evaluation method asking for
-``per_class`` and ``matches`` (OMQ: docs/evaluation.md), and check that the re-scored OMQ equals the run's.
+``per_class`` and ``matches`` (docs/evaluation.md), and check that the re-scored primary score equals the run's.
+Maps draw the trajectory the robot drove (:func:`driven_path`: the batch's trajectory log, else its recording), the
+planned one faintly.
 """
 
 from __future__ import annotations
@@ -22,6 +32,7 @@ import base64
 import html
 import json
 import os
+import shlex
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -34,19 +45,18 @@ from benchbot.batch.paper import Table, to_csv, to_html, to_latex
 from benchbot.batch.plan import read_manifest
 from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
+from benchbot.core.evaluation import ScoreSet, method_scores, observed_scores
 from benchbot.core.sandbox import VERIFIABLE
 
-SCORES = ["OMQ", "avg_pairwise", "avg_label", "avg_spatial", "avg_fp_quality", "avg_state_quality"]
-"""The scores a report shows, in order (those present in the runs)."""
+ROW_FIELDS = ("index", "env", "robot", "repeat", "seed", "noise", "lighting", "results")
+"""The fields of an episode's row besides its scores (a score of one of these names is not read)."""
 
-MAIN_SCORE = "OMQ"
-"""The score environments, comparisons and predictivity are computed on."""
-
-PAIR_KEY = ("env", "robot", "noise", "seed")
-"""Episodes of two runs pair up when all of these are equal (the same environment, robot, noise preset and seed)."""
+ROW_FACTORS = (("robot", "robot"), ("noise", "noise preset"))
+"""Settings that vary by episode and that two runs may differ in (field, words): when each run has one value and
+they differ, it is the factor under comparison and episodes pair without it."""
 
 RESCORE_TOLERANCE = 1e-9
-"""Largest difference between a run's OMQ and the re-scored OMQ that is not reported as a change."""
+"""Largest difference between a run's primary score and the re-scored one that is not reported as a change."""
 
 
 @dataclass
@@ -57,7 +67,8 @@ class RunData:
         run_dir: the folder. manifest, config: its ``manifest.json`` and ``config.json``.
         rows: one dict per scored episode: ``index``, ``env``, ``robot``, ``repeat``, ``seed``, ``noise``
             (``"none"`` when not recorded), ``lighting`` (or ``""``), ``results`` (path relative to the run
-            directory, or ``""``) and every score of :data:`SCORES` it has.
+            directory, or ``""``) and every numeric score the method returned for it.
+        score_set: what the scores are (:func:`resolve_score_set`).
         label: the name the report gives the run (``--label``, else :func:`default_label`).
         objects: per episode index, the re-scored evaluation with ``per_class`` and ``matches`` (after
             :func:`score_objects`).
@@ -69,6 +80,7 @@ class RunData:
     manifest: dict
     config: dict
     rows: list[dict]
+    score_set: ScoreSet
     label: str = ""
     objects: dict[int, dict] = field(default_factory=dict)
     per_class: dict | None = None
@@ -79,6 +91,15 @@ class RunData:
         """The run's label, or its folder's name."""
         return self.label or self.run_dir.name
 
+    @property
+    def primary(self) -> str:
+        """The name of its method's primary score."""
+        return self.score_set.primary.name
+
+
+class UnfinishedRun(UsageError):
+    """A run directory whose batch did not finish (it was interrupted): nothing to report until it is resumed."""
+
 
 def _read_json(path: Path, what: str):
     try:
@@ -88,18 +109,72 @@ def _read_json(path: Path, what: str):
                          "it is written by `benchbot batch`; was it edited or cut short?") from None
 
 
-def load_run(run_dir: Path, label: str | None = None) -> RunData:
-    """Read a run directory.
+def resolve_score_set(manifest: dict, entries: list, registry=None) -> ScoreSet:
+    """What a run's scores are: the declaration its manifest recorded (``scores``), else the one its evaluation
+    method declares now (with ``registry``), else what its episodes' scores show (:func:`observed_scores`).
 
     Raises:
-        UsageError: not a run directory, no scores (not evaluated yet), or a file is malformed (naming it and the
+        UsageError: none of these gives a score (no numeric score in any episode).
+    """
+    recorded = manifest.get("scores")
+    if isinstance(recorded, dict):
+        try:
+            return ScoreSet.from_json(recorded)
+        except ValueError:
+            pass
+    method = str(manifest.get("evaluate_with") or "")
+    if registry is not None and method:
+        try:
+            declared = method_scores(registry, method)
+        except BenchbotError:
+            declared = None
+        if declared is not None:
+            return declared
+    try:
+        return observed_scores(method, [e.get("scores") if isinstance(e, dict) and isinstance(e.get("scores"), dict)
+                                        else {} for e in entries])
+    except ValueError:
+        raise UsageError(f"the episode scores of the run (method '{method or 'unknown'}') hold no numeric score",
+                         "it is written by `benchbot batch`; was it edited?") from None
+
+
+def unfinished(manifest: dict) -> str:
+    """Why a run directory's batch is unfinished, in words ("3 of 10 episodes not run"), or "" when it finished
+    (its manifest has ``finished``: :func:`benchbot.batch.runner.run_batch` writes it last)."""
+    if manifest.get("finished"):
+        return ""
+    records = [e for e in manifest.get("episodes", []) if isinstance(e, dict)]
+    left = sum(e.get("status") in ("pending", "running") for e in records)
+    return f"{left} of {len(records)} episodes not run" if left else "it was stopped before its evaluation"
+
+
+def load_run(run_dir: Path, label: str | None = None, registry=None) -> RunData:
+    """Read a run directory.
+
+    Args:
+        registry: to read what the scores are from the installed evaluation method when the manifest did not
+            record it (:func:`resolve_score_set`); None: from the manifest or the scores themselves.
+
+    Raises:
+        UnfinishedRun: the batch was interrupted (the hint names ``benchbot batch --resume``).
+        UsageError: not a run directory, no scores (not evaluated), or a file is malformed (naming it and the
             field).
     """
     run_dir = Path(run_dir)
     manifest = read_manifest(run_dir)
     path = run_dir / "episode_scores.json"
+    why = unfinished(manifest)
+    if why and (not path.is_file() or "not run" in why):
+        raise UnfinishedRun(f"{run_dir}: the batch did not finish ({why})",
+                                f"finish it: benchbot batch --resume {shlex.quote(str(run_dir))}")
     if not path.is_file():
-        raise UsageError(f"{run_dir} has no episode_scores.json (the batch was not evaluated)", "run it with --evaluate-with omq")
+        if manifest.get("evaluation_error"):
+            raise UsageError(f"{run_dir} has no episode_scores.json: its evaluation failed "
+                             f"({manifest['evaluation_error']})", "fix the cause, then benchbot batch --resume "
+                             f"{shlex.quote(str(run_dir))} evaluates it again")
+        raise UsageError(f"{run_dir} has no episode_scores.json (the batch was not evaluated: --no-evaluate, no ground "
+                         "truth, or no episode produced results)", "run a batch with an evaluation method "
+                         "(--evaluate-with METHOD, `benchbot list evaluators`)")
     config = _read_json(run_dir / "config.json", "config.json") if (run_dir / "config.json").is_file() else {}
     entries = _read_json(path, "episode_scores.json")
     plan = {p.get("index"): p for p in manifest.get("plan", []) if isinstance(p, dict)}
@@ -120,14 +195,15 @@ def load_run(run_dir: Path, label: str | None = None) -> RunData:
             options = spec.get("options") or {}
             row["lighting"] = str(options.get("lighting") or lighting.get(entry["env"], ""))
             row["results"] = str((records.get(entry["index"]) or spec).get("results", ""))
-            row.update({s: float(v) for s, v in (entry.get("scores") or {}).items() if s in SCORES})
+            row.update({s: float(v) for s, v in (entry.get("scores") or {}).items()
+                        if s not in ROW_FIELDS and isinstance(v, (int, float)) and not isinstance(v, bool)})
             rows.append(row)
     except (KeyError, TypeError, AttributeError, ValueError) as exc:
         detail = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         raise UsageError(f"{path}: malformed ({detail})", "it is written by `benchbot batch`; was it edited?") from None
     if not rows:
         raise UsageError(f"{run_dir} has no scored episodes", "every episode failed, or the batch ran with --no-evaluate")
-    return RunData(run_dir, manifest, config, rows, label or "")
+    return RunData(run_dir, manifest, config, rows, resolve_score_set(manifest, entries, registry), label or "")
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -207,9 +283,82 @@ def assign_labels(runs: list[RunData], labels: list[str] | None) -> None:
             run.label = f"{run.label} #{k + 1}"
 
 
+def _distinct(values) -> str:
+    """The distinct non-empty values, sorted, joined with " + " ("" when none)."""
+    return " + ".join(sorted({str(v) for v in values if v not in (None, "")}))
+
+
+def camera(run: RunData) -> str:
+    """The camera size the run's episodes used, ``WIDTHxHEIGHT``: the plan's options (``--camera-size``), else the
+    robots' own (their spec's ``sensors.camera``), else ""."""
+    plan = [p for p in run.manifest.get("plan", []) if isinstance(p, dict)]
+    sizes = set()
+    robots = (run.config.get("robots") or {}) if isinstance(run.config, dict) else {}
+    for p in plan:
+        options = p.get("options") or {}
+        if options.get("width") and options.get("height"):
+            sizes.add(f"{options['width']}x{options['height']}")
+            continue
+        cam = (((robots.get(p.get("robot")) or {}).get("sensors") or {}).get("camera") or {})
+        if cam.get("width") and cam.get("height"):
+            sizes.add(f"{cam['width']}x{cam['height']}")
+    return _distinct(sizes)
+
+
+def backend(run: RunData) -> dict[str, str]:
+    """What the run's episodes' backends were (their records' ``backend``, distinct values joined): ``simulator``
+    (plugin distribution and version), ``style``, ``arch``, ``device``; a value is "" when no episode recorded it
+    (batches from before BenchBot recorded it)."""
+    records = [e.get("backend") or {} for e in run.manifest.get("episodes", []) if isinstance(e, dict)]
+    return {"simulator": _distinct(f"{b.get('distribution') or b.get('plugin') or b.get('type')} {b.get('version') or ''}".strip()
+                                   for b in records if b),
+            "style": _distinct(b.get("style") for b in records),
+            "arch": _distinct(b.get("arch") for b in records),
+            "device": _distinct(b.get("device") for b in records)}
+
+
+CONDITIONS = ("task", "robot", "environments", "noise preset", "camera", "simulator", "simulator style", "arch",
+              "isolation", "evaluation")
+"""What two runs must share for their scores to be comparable (the leaderboard's condition set; a report warns
+when runs differ in one the comparison does not name)."""
+
+CONTEXT = ("BenchBot", "lock", "device")
+"""Provenance a report also compares (a difference is named, as it may change numbers, but is not a condition)."""
+
+
+def conditions(run: RunData) -> dict[str, str]:
+    """The run's :data:`CONDITIONS` and :data:`CONTEXT` as text (distinct values joined; "" where not recorded)."""
+    m = run.manifest
+    b = backend(run)
+    lock = ((m.get("provenance") or {}).get("lock") or {}).get("sha256") or ""
+    return {"task": str(m.get("task", "")), "robot": _distinct(r["robot"] for r in run.rows),
+            "environments": ", ".join(sorted({r["env"] for r in run.rows})),
+            "noise preset": _distinct(r["noise"] for r in run.rows), "camera": camera(run),
+            "simulator": b["simulator"], "simulator style": b["style"], "arch": b["arch"],
+            "isolation": isolation(m), "evaluation": str(m.get("evaluate_with") or ""),
+            "BenchBot": str((m.get("versions") or {}).get("benchbot", "")), "lock": lock[:12], "device": b["device"]}
+
+
+def condition_differences(runs: list[RunData], mentioned: set[str] | None = None) -> list[dict]:
+    """The conditions (and context) in which ``runs`` differ, except those in ``mentioned`` (the factors the
+    comparison is about) and ``environments`` (comparisons pair environments both runs have):
+    ``[{"what", "values": {label: value}, "condition": bool}]``. A value not recorded in one run is not a
+    difference (older batches recorded less)."""
+    out = []
+    table = [conditions(run) for run in runs]
+    for what in CONDITIONS + CONTEXT:
+        if what in (mentioned or set()) or what == "environments":
+            continue
+        values = {run.name: c[what] for run, c in zip(runs, table)}
+        if len({v for v in values.values() if v}) > 1:
+            out.append({"what": what, "values": values, "condition": what in CONDITIONS})
+    return out
+
+
 def provenance(run: RunData) -> list[tuple[str, str]]:
     """``[(what, value)]``: where a run's numbers came from (solution, command, task, robots, environments,
-    episodes, seeds, times, versions, git revisions, machine), as its manifest recorded them."""
+    episodes, seeds, simulator, style, camera, arch and device, times, versions, lock file, git revisions, machine),
+    as its manifest recorded them."""
     m = run.manifest
     kind, what = solution(m)
     plan = [p for p in m.get("plan", []) if isinstance(p, dict)]
@@ -223,11 +372,15 @@ def provenance(run: RunData) -> list[tuple[str, str]]:
     machine = prov.get("machine") or {}
     not_recorded = "not recorded (the batch ran before BenchBot recorded it)"
     level = isolation(m)
+    b = backend(run)
+    lock = prov.get("lock") or {}
+    command = prov.get("command") or (shlex.join(["benchbot"] + [str(w) for w in (m.get("command") or [])[1:]])
+                                      if m.get("command") else "not recorded")
     rows = [
         ("solution", f"{kind} {what}".strip()),
         ("isolation", f"{level} ({'scores verifiable' if verifiable(m) else 'NOT VERIFIABLE: the solution could read the ground truth'})"
          + ("" if "sandbox" in m else "; not recorded (the batch ran before the sandbox)")),
-        ("command", " ".join(map(str, m.get("command") or [])) or "not recorded"),
+        ("command", command),
         ("task", str(m.get("task", ""))),
         ("robots", ", ".join(m.get("robots") or [])),
         ("environments", ", ".join(m.get("environments") or [])),
@@ -235,19 +388,29 @@ def provenance(run: RunData) -> list[tuple[str, str]]:
                      + ", ".join(f"{n} {s}" for s, n in sorted(statuses.items())) + ")"),
         ("seeds", _ranges(seeds) if seeds else "not recorded"),
         ("noise presets", ", ".join(sorted({str(p.get("noise", "none")) for p in plan})) or "none"),
-        ("evaluation", str(m.get("evaluate_with") or "none")),
+        ("camera", camera(run) or "not recorded"),
+        ("simulator", b["simulator"] or not_recorded),
+        ("scene style", b["style"] or not_recorded),
+        ("arch, device", f"{b['arch']}, {b['device'] or 'unknown device'}" if b["arch"] else not_recorded),
+        ("evaluation", str(m.get("evaluate_with") or "none")
+         + (f" (primary score {run.primary}, {run.score_set.primary.direction} is better"
+            + ("" if run.score_set.declared else "; not declared by the method: assumed") + ")")),
         ("started", str(m.get("started", "not recorded"))),
         ("wall time", f"{fmt(m.get('wall_s'))} s" if isinstance(m.get("wall_s"), (int, float)) else "not recorded"),
         ("BenchBot", str(versions.get("benchbot", "not recorded"))),
         ("BenchBot git revision", str(prov.get("benchbot_git") or (not_recorded if not prov else "not a git checkout"))),
         ("solution git revision", ", ".join(f"{v or 'not a git checkout'} ({k})" for k, v in (prov.get("solution_git") or {}).items())
          or not_recorded),
+        ("lock file", f"{lock.get('file')} sha256 {lock.get('sha256')}" if lock else
+         ("none (BenchBot installed, not a checkout)" if "lock" in prov else not_recorded)),
         ("machine", (f"{machine.get('cpu') or '?'}, {machine.get('cpus') or '?'} CPUs, {fmt(machine.get('memory_gib'))} GiB; "
                      f"{machine.get('system') or versions.get('platform', '')}") if machine else
          f"{versions.get('platform', '')} (CPU, cores, memory {not_recorded})"),
         ("Python", str(versions.get("python", "not recorded"))),
-        ("packages", ", ".join(f"{k} {v}" for k, v in versions.items() if k not in ("python", "platform", "benchbot"))
+        ("plugins", ", ".join(f"{k} {v}" for k, v in versions.items() if k not in ("python", "platform", "benchbot"))
          or "not recorded"),
+        ("packages", (f"{len(prov['packages'])} installed: " + ", ".join(f"{k} {v}" for k, v in prov["packages"].items()))
+         if prov.get("packages") else not_recorded),
     ]
     return rows
 
@@ -267,8 +430,8 @@ def _ranges(values: list[int]) -> str:
 # --------------------------------------------------------------------------------------------------------------------
 # Statistics over runs
 # --------------------------------------------------------------------------------------------------------------------
-def group(rows: list[dict], key: str, score: str = MAIN_SCORE) -> dict[str, list[float]]:
-    """``{value of key: [score of each row]}`` in first-seen order."""
+def group(rows: list[dict], key: str, score: str) -> dict[str, list[float]]:
+    """``{value of key: [score of each row]}`` in first-seen order (rows without ``score`` left out)."""
     out: dict[str, list[float]] = {}
     for row in rows:
         if score in row:
@@ -276,33 +439,65 @@ def group(rows: list[dict], key: str, score: str = MAIN_SCORE) -> dict[str, list
     return out
 
 
+def score_set(runs: list[RunData]) -> ScoreSet:
+    """The scores a report of ``runs`` shows: the baseline's (the first run's) method's."""
+    return runs[0].score_set
+
+
+def main_score(runs: list[RunData]) -> str:
+    """The score environments, comparisons and predictivity are computed on: the baseline's primary score."""
+    return runs[0].primary
+
+
 def present_scores(runs: list[RunData]) -> list[str]:
-    """The scores of :data:`SCORES` that some episode of ``runs`` has, in order."""
-    return [s for s in SCORES if any(s in r for run in runs for r in run.rows)]
+    """The real-valued scores (not counts) of the baseline's method that some episode of ``runs`` has, primary
+    first, in the method's order."""
+    return [s for s in score_set(runs).scores if any(s in r for run in runs for r in run.rows)]
 
 
-def summary(run: RunData) -> dict[str, stats.Estimate]:
-    """Mean and interval (:func:`benchbot.batch.stats.mean_ci`) of every score present, over all episodes."""
-    return {s: stats.mean_ci([r[s] for r in run.rows if s in r]) for s in present_scores([run])}
+def summary(run: RunData, scores: list[str] | None = None) -> dict[str, stats.Estimate]:
+    """Every score (default: the run's method's scores present) with the environment as the unit
+    (:func:`benchbot.batch.stats.cluster_mean_ci`: the mean of the environments' means, its interval over them)."""
+    names = scores if scores is not None else present_scores([run])
+    out = {}
+    for s in names:
+        rows = [r for r in run.rows if s in r]
+        out[s] = stats.cluster_mean_ci([r[s] for r in rows], [r["env"] for r in rows])
+    return out
 
 
-def per_environment(run: RunData, score: str = MAIN_SCORE) -> dict[str, stats.Estimate]:
+def summary_episodes(run: RunData, scores: list[str] | None = None) -> dict[str, stats.Estimate]:
+    """Every score over the run's episodes (:func:`benchbot.batch.stats.mean_ci`): how precisely these environments
+    were measured, not how the solution does on other environments."""
+    names = scores if scores is not None else present_scores([run])
+    return {s: stats.mean_ci([r[s] for r in run.rows if s in r], level="episodes") for s in names}
+
+
+def per_environment(run: RunData, score: str) -> dict[str, stats.Estimate]:
     """Mean and interval of ``score`` per environment, over that environment's episodes."""
-    return {env: stats.mean_ci(v) for env, v in group(run.rows, "env", score).items()}
+    return {env: stats.mean_ci(v, level="episodes") for env, v in group(run.rows, "env", score).items()}
 
 
-def _pair_label(row: dict, robots: bool, noise: bool) -> str:
-    parts = [row["env"]] + ([row["robot"]] if robots else []) + ([row["noise"]] if noise else [])
-    return " ".join(parts) + f" s{row['seed']}"
+def comparison_factors(a: RunData, b: RunData) -> list[dict]:
+    """The :data:`ROW_FACTORS` in which ``b`` differs from ``a`` as the factor compared: each run has one value and
+    they differ (``[{"field", "what", "a", "b"}]``)."""
+    out = []
+    for f, words in ROW_FACTORS:
+        va, vb = {r[f] for r in a.rows}, {r[f] for r in b.rows}
+        if len(va) == 1 and len(vb) == 1 and va != vb:
+            out.append({"field": f, "what": words, "a": next(iter(va)), "b": next(iter(vb))})
+    return out
 
 
-def pair_episodes(a: RunData, b: RunData, score: str = MAIN_SCORE) -> dict:
-    """Pair the episodes of two runs: equal environment, robot, noise preset and seed (:data:`PAIR_KEY`); when no
-    episode pairs that way (the runs used different seeds), equal environment, robot, noise preset and repetition.
+def pair_episodes(a: RunData, b: RunData, score: str) -> dict:
+    """Pair the episodes of two runs: equal environment and seed (common random numbers), and equal robot and noise
+    preset unless the runs differ in it as a whole (:func:`comparison_factors`: then it is the factor compared and
+    not part of the pairing); when no episode pairs that way (the runs used different seeds), equal environment and
+    repetition instead.
 
     Returns:
-        ``{"pairing": how, in words, "keys": [a name per pair], "a": [...], "b": [...], "unpaired": episodes of
-        either run left out}``.
+        ``{"pairing": how, in words, "factors": comparison_factors, "keys": [a name per pair], "envs": [the
+        environment of each pair], "a": [...], "b": [...], "unpaired": episodes of either run left out}``.
     """
     def index(run: RunData, fields: tuple) -> dict:
         out = {}
@@ -311,47 +506,70 @@ def pair_episodes(a: RunData, b: RunData, score: str = MAIN_SCORE) -> dict:
                 out.setdefault(tuple(row[f] for f in fields), row)
         return out
 
-    robots = len({r["robot"] for r in a.rows + b.rows}) > 1
-    noise = len({r["noise"] for r in a.rows + b.rows}) > 1
-    how = "environment and seed"
-    ia, ib = index(a, PAIR_KEY), index(b, PAIR_KEY)
+    factors = comparison_factors(a, b)
+    kept = tuple(f for f, _ in ROW_FACTORS if f not in {x["field"] for x in factors})
+    varied = [f for f in kept if len({r[f] for r in a.rows + b.rows}) > 1]
+    also = "".join(f", {dict(ROW_FACTORS)[f]}" for f in varied)
+    how = f"environment{also} and seed"
+    ia, ib = index(a, ("env", *kept, "seed")), index(b, ("env", *kept, "seed"))
     shared = [k for k in ia if k in ib]
     if not shared:
-        fields = ("env", "robot", "noise", "repeat")
-        ia, ib = index(a, fields), index(b, fields)
+        ia, ib = index(a, ("env", *kept, "repeat")), index(b, ("env", *kept, "repeat"))
         shared = [k for k in ia if k in ib]
-        how = "environment and repetition (the seeds differ)"
+        how = f"environment{also} and repetition (the seeds differ)"
+    if factors:
+        how += "; factor compared: " + ", ".join(f"{x['what']} {x['a']} → {x['b']}" for x in factors)
     scored = sum(score in r for r in a.rows) + sum(score in r for r in b.rows)
-    return {"pairing": how, "keys": [_pair_label(ia[k], robots, noise) for k in shared],
-            "a": [ia[k][score] for k in shared], "b": [ib[k][score] for k in shared],
-            "unpaired": scored - 2 * len(shared)}
+
+    def label(row: dict) -> str:
+        return " ".join([row["env"]] + [str(row[f]) for f in varied]) + f" s{row['seed']}"
+
+    return {"pairing": how, "factors": factors, "keys": [label(ia[k]) for k in shared],
+            "envs": [ia[k]["env"] for k in shared], "a": [ia[k][score] for k in shared],
+            "b": [ib[k][score] for k in shared], "unpaired": scored - 2 * len(shared)}
 
 
-def compare(a: RunData, b: RunData, score: str = MAIN_SCORE) -> dict:
-    """Paired comparison of run ``b`` against run ``a`` (:func:`pair_episodes`, then
-    :func:`benchbot.batch.stats.paired_test`).
+TEST_KEYS = ("n", "level", "difference", "cohens_dz", "rank_biserial", "ttest_p", "wilcoxon_p", "reason")
+
+
+def _test(result: dict) -> dict:
+    return {k: (result[k].to_json() if isinstance(result[k], stats.Estimate) else result[k]) for k in TEST_KEYS}
+
+
+def compare(a: RunData, b: RunData, score: str) -> dict:
+    """Paired comparison of run ``b`` against run ``a`` on ``score`` (:func:`pair_episodes`), with the environment
+    as the unit (:func:`benchbot.batch.stats.cluster_paired_test`) and, beside it, over the episode pairs
+    (:func:`benchbot.batch.stats.paired_test`).
 
     Returns:
-        ``{"a", "b" (labels), "score", "pairing", "n", "unpaired", "keys", "differences" (b − a per pair),
-        "difference" (Estimate dict), "cohens_dz", "rank_biserial", "ttest_p", "wilcoxon_p", "reason"}``.
+        ``{"a", "b" (labels), "score", "direction", "pairing", "factors", "unpaired", "keys", "envs",
+        "differences" (b − a per episode pair), "environments" (their order), "environment_differences", and the
+        environment-level test: "n" (environments), "level", "difference" (Estimate dict), "cohens_dz",
+        "rank_biserial", "ttest_p", "wilcoxon_p", "reason"; "episodes": the same keys over the episode pairs}``.
     """
     pairs = pair_episodes(a, b, score)
-    test = stats.paired_test(pairs["a"], pairs["b"])
-    return {"a": a.name, "b": b.name, "score": score, "pairing": pairs["pairing"], "n": test["n"],
-            "unpaired": pairs["unpaired"], "keys": pairs["keys"],
+    env = stats.cluster_paired_test(pairs["a"], pairs["b"], pairs["envs"])
+    episodes = stats.paired_test(pairs["a"], pairs["b"], level="pairs")
+    info = a.score_set.get(score)
+    return {"a": a.name, "b": b.name, "score": score, "direction": info.direction if info else "higher",
+            "pairing": pairs["pairing"], "factors": pairs["factors"], "unpaired": pairs["unpaired"],
+            "keys": pairs["keys"], "envs": pairs["envs"],
             "differences": [float(y - x) for x, y in zip(pairs["a"], pairs["b"])],
-            "difference": test["difference"].to_json(), "cohens_dz": test["cohens_dz"],
-            "rank_biserial": test["rank_biserial"], "ttest_p": test["ttest_p"], "wilcoxon_p": test["wilcoxon_p"],
-            "reason": test["reason"]}
+            "environments": env["clusters"], "environment_differences": env["cluster_differences"],
+            **_test(env), "episodes": _test(episodes)}
 
 
-def comparisons(runs: list[RunData], score: str = MAIN_SCORE) -> list[dict]:
-    """Every run after the first compared with the first (:func:`compare`), the p-values of each test adjusted
-    with Holm's method over these comparisons (``ttest_p_holm``, ``wilcoxon_p_holm``)."""
+def comparisons(runs: list[RunData], score: str | None = None) -> list[dict]:
+    """Every run after the first compared with the first (:func:`compare`) on ``score`` (default: the baseline's
+    primary score), the p-values of each test adjusted with Holm's method over these comparisons
+    (``ttest_p_holm``, ``wilcoxon_p_holm``, at both levels)."""
+    score = score or main_score(runs)
     out = [compare(runs[0], run, score) for run in runs[1:]]
     for test in ("ttest_p", "wilcoxon_p"):
         for c, p in zip(out, stats.holm([c[test] for c in out])):
             c[f"{test}_holm"] = p
+        for c, p in zip(out, stats.holm([c["episodes"][test] for c in out])):
+            c["episodes"][f"{test}_holm"] = p
     return out
 
 
@@ -360,8 +578,9 @@ def comparisons(runs: list[RunData], score: str = MAIN_SCORE) -> list[dict]:
 # --------------------------------------------------------------------------------------------------------------------
 def score_objects(run: RunData, registry) -> None:
     """Re-score the run's results files with its evaluation method asking for ``per_class`` and ``matches``;
-    fills ``run.objects``, ``run.per_class`` and ``run.objects_note`` (why not, or that the re-scored OMQ differs
-    from the run's, e.g. because the ground truth changed since). Never raises: what cannot be done is noted."""
+    fills ``run.objects``, ``run.per_class`` and ``run.objects_note`` (why not, or that the re-scored primary score
+    differs from the run's, e.g. because the ground truth changed since). Never raises: what cannot be done is
+    noted."""
     from benchbot.core.evaluation import evaluate
 
     method = run.manifest.get("evaluate_with")
@@ -390,22 +609,23 @@ def score_objects(run: RunData, registry) -> None:
     if evaluation is None:
         run.objects_note = f"the evaluation method '{method}' gives no per-class scores"
         return
+    primary = run.primary
     differences = []
     for source, result in evaluation.per_result:
         row = by_path.get(source)
         if row is None:
             continue
         run.objects[row["index"]] = result
-        new = (result.get("scores") or {}).get(MAIN_SCORE)
-        if new is not None and MAIN_SCORE in row:
-            differences.append(abs(float(new) - row[MAIN_SCORE]))
+        new = (result.get("scores") or {}).get(primary)
+        if new is not None and primary in row:
+            differences.append(abs(float(new) - row[primary]))
     combined = evaluation.combined or {}
     run.per_class = combined.get("per_class")
     notes = []
     if evaluation.errors:
         notes.append(f"{len(evaluation.errors)} results file(s) could not be re-scored ({evaluation.errors[0][1].message})")
     if differences and max(differences) > RESCORE_TOLERANCE:
-        notes.append(f"re-scored {MAIN_SCORE} differs from the run's by up to {fmt(max(differences))}: the ground truth "
+        notes.append(f"re-scored {primary} differs from the run's by up to {fmt(max(differences))}: the ground truth "
                      "or the evaluation method changed since the batch ran; per-class and per-object views show today's "
                      "scoring")
     if not any("matches" in r for r in run.objects.values()):
@@ -413,23 +633,33 @@ def score_objects(run: RunData, registry) -> None:
     run.objects_note = "; ".join(notes)
 
 
+def per_class_columns(run: RunData) -> tuple[list[str], list[str]]:
+    """``(counts, scores)``: the method's declared counts and real-valued scores that its per-class entries hold
+    (counts from each class's ``totals`` or ``scores``), in the method's order."""
+    entries = list((run.per_class or {}).values())
+    have = set()
+    for e in entries:
+        have |= set((e.get("totals") or {})) | set((e.get("scores") or {}))
+    return ([c for c in run.score_set.counts if c in have], [s for s in run.score_set.scores if s in have])
+
+
 def per_class_rows(run: RunData) -> list[dict]:
-    """``[{class, GT, TP, FN, FP, avg_label, avg_spatial, avg_pairwise, OMQ}]`` pooled over the run's episodes,
-    classes by ground-truth count (most first); qualities None without a TP."""
+    """``[{class, <count>..., <score>...}]`` pooled over the run's episodes (:func:`per_class_columns`), classes by
+    their counts' sum (most first); a score is None where the class has no value for it."""
+    counts, scores = per_class_columns(run)
     rows = []
     for cls, entry in (run.per_class or {}).items():
         t, s = entry.get("totals") or {}, entry.get("scores") or {}
-        tp = int(t.get("TP", 0))
-        rows.append({"class": cls, "GT": tp + int(t.get("FN", 0)), "TP": tp, "FN": int(t.get("FN", 0)),
-                     "FP": int(t.get("FP", 0)), "avg_label": s.get("avg_label") if tp else None,
-                     "avg_spatial": s.get("avg_spatial") if tp else None,
-                     "avg_pairwise": s.get("avg_pairwise") if tp else None, "OMQ": s.get("OMQ")})
-    return sorted(rows, key=lambda r: (-r["GT"], -r["FP"], r["class"]))
+        row = {"class": cls}
+        row.update({c: int(t.get(c, s.get(c, 0)) or 0) for c in counts})
+        row.update({k: s.get(k) for k in scores})
+        rows.append(row)
+    return sorted(rows, key=lambda r: (-sum(r[c] for c in counts), r["class"]))
 
 
 def trajectory(env: str, registry, fallback: list | None = None) -> np.ndarray | None:
-    """``(k, 2)`` x, y (metres, map frame) of the environment's start pose then its trajectory poses (first
-    scene), from the registry's environment spec, else from ``fallback`` (a results file's
+    """The *planned* path: ``(k, 2)`` x, y (metres, map frame) of the environment's start pose then its trajectory
+    poses (first scene), from the registry's environment spec, else from ``fallback`` (a results file's
     ``environment_details``); None when neither has poses."""
     scenes = None
     try:
@@ -445,13 +675,62 @@ def trajectory(env: str, registry, fallback: list | None = None) -> np.ndarray |
     return np.array(xy) if xy else None
 
 
+def _stem(run: RunData, row: dict) -> str:
+    plan = next((p for p in run.manifest.get("plan", []) if isinstance(p, dict) and p.get("index") == row["index"]), {})
+    return Path(str(plan.get("results") or row.get("results") or "")).stem
+
+
+def driven_path(run: RunData, row: dict) -> tuple[np.ndarray | None, str]:
+    """What the robot drove in an episode's first scene: ``((k, 2) x, y in metres, map frame, from its start, source)``
+    from the batch's trajectory log (``trajectories/NNN_<env>.json``, :func:`benchbot.batch.episode_runner.run_episode`
+    writes it), else from its recording (``recordings/NNN_<env>.mcap``, the ``/tf`` map → robot transforms of
+    ``--record``); ``(None, "")`` when the batch kept neither (batches from before the log, without ``--record``)."""
+    stem = _stem(run, row)
+    if not stem:
+        return None, ""
+    log = run.run_dir / "trajectories" / f"{stem}.json"
+    if log.is_file():
+        try:
+            data = json.loads(log.read_text())
+            scene = data["scenes"][0]
+            xy = [scene["start"][:2]] + [p[:2] for p in scene["poses"]]
+            return np.asarray(xy, dtype=float).reshape(-1, 2), "trajectory log"
+        except (OSError, ValueError, KeyError, IndexError, TypeError):
+            pass
+    recording = run.run_dir / "recordings" / f"{stem}.mcap"
+    if recording.is_file():
+        xy = recorded_path(recording)
+        if xy is not None:
+            return xy, "recording"
+    return None, ""
+
+
+def recorded_path(path: Path) -> np.ndarray | None:
+    """``(k, 2)`` x, y (metres) of the map → robot transforms on ``/tf`` of a ``--record`` MCAP file, in time
+    order (the robot's pose at the start and after every action); None when it cannot be read."""
+    try:
+        from mcap.reader import make_reader
+        from mcap_ros2.decoder import DecoderFactory
+
+        xy = []
+        with open(path, "rb") as f:
+            reader = make_reader(f, decoder_factories=[DecoderFactory()])
+            for _schema, _channel, _message, msg in reader.iter_decoded_messages(topics=["/tf"], log_time_order=True):
+                if msg.transforms:
+                    t = msg.transforms[0].transform.translation
+                    xy.append((float(t.x), float(t.y)))
+        return np.asarray(xy, dtype=float) if xy else None
+    except Exception:  # noqa: BLE001 - a damaged or foreign recording: the map shows the plan instead
+        return None
+
+
 def map_episode(run: RunData, env: str) -> tuple[dict, dict, int] | None:
-    """The episode of ``env`` a map shows: the one with the median OMQ among those with matches (the lower one
-    of the middle two) → ``(row, evaluation, how many there were)``; None when none has matches."""
+    """The episode of ``env`` a map shows: the one with the median primary score among those with matches (the
+    lower one of the middle two) → ``(row, evaluation, how many there were)``; None when none has matches."""
     rows = [r for r in run.rows if r["env"] == env and "matches" in run.objects.get(r["index"], {})]
     if not rows:
         return None
-    rows.sort(key=lambda r: (r.get(MAIN_SCORE, 0.0), r["index"]))
+    rows.sort(key=lambda r: (run.score_set.sign() * r.get(run.primary, 0.0), r["index"]))
     row = rows[(len(rows) - 1) // 2]
     return row, run.objects[row["index"]], len(rows)
 
@@ -459,7 +738,7 @@ def map_episode(run: RunData, env: str) -> tuple[dict, dict, int] | None:
 # --------------------------------------------------------------------------------------------------------------------
 # Factors: robots, noise presets, lighting
 # --------------------------------------------------------------------------------------------------------------------
-def factor_views(runs: list[RunData], score: str = MAIN_SCORE) -> list[dict]:
+def factor_views(runs: list[RunData], score: str | None = None) -> list[dict]:
     """The factors a run varies, each as ``{"factor", "groups", "series", "note"}`` (``series`` one per run as
     :func:`benchbot.batch.figures.per_group` takes it; ``groups`` empty when the factor cannot be shown).
 
@@ -468,13 +747,15 @@ def factor_views(runs: list[RunData], score: str = MAIN_SCORE) -> list[dict]:
     the trajectory: grouping by lighting across variants would measure the variants. It is shown only within an
     environment run under several lightings; otherwise the note says why it is not shown.
     """
+    score = score or main_score(runs)
     out = []
     for factor in ("robot", "noise"):
         levels = list(dict.fromkeys(r[factor] for run in runs for r in run.rows))
         if len(levels) > 1:
             out.append({"factor": factor, "groups": levels, "note": "", "series": [
                 {"label": run.name, "values": group(run.rows, factor, score),
-                 "estimates": {g: stats.mean_ci(v).to_json() for g, v in group(run.rows, factor, score).items()}}
+                 "estimates": {g: stats.mean_ci(v, level="episodes").to_json()
+                               for g, v in group(run.rows, factor, score).items()}}
                 for run in runs]})
     lit: dict[str, set] = {}
     for run in runs:
@@ -491,7 +772,8 @@ def factor_views(runs: list[RunData], score: str = MAIN_SCORE) -> list[dict]:
         for run in runs:
             rows = [dict(r, _group=key(r)) for r in run.rows if r["env"] in varied]
             g = group(rows, "_group", score)
-            series.append({"label": run.name, "values": g, "estimates": {k: stats.mean_ci(v).to_json() for k, v in g.items()}})
+            series.append({"label": run.name, "values": g,
+                           "estimates": {k: stats.mean_ci(v, level="episodes").to_json() for k, v in g.items()}})
         out.append({"factor": "lighting", "groups": groups, "series": series,
                     "note": "lighting compared within each environment run under several lightings"})
     elif len(levels) > 1:
@@ -511,51 +793,95 @@ def policy() -> dict:
     """The statistics' settings and minimums, as the report states them."""
     return {"confidence": stats.CONFIDENCE, "bootstrap_resamples": stats.BOOTSTRAP_RESAMPLES, "seed": stats.SEED,
             "min_ci_n": stats.MIN_CI_N, "min_test_pairs": stats.MIN_TEST_PAIRS,
-            "min_correlation_n": stats.MIN_CORRELATION_N, "pair_key": list(PAIR_KEY), "correction": "Holm"}
+            "t_interval_below": stats.T_INTERVAL_BELOW, "min_correlation_n": stats.MIN_CORRELATION_N,
+            "unit": "environment", "pair_key": ["env", "seed"], "pair_factors": [f for f, _ in ROW_FACTORS],
+            "correction": "Holm"}
 
 
-def analyse(runs: list[RunData], registry=None) -> dict:
+def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None) -> dict:
     """Everything a report says about ``runs`` (the first is the baseline of comparisons), JSON-able.
 
     Args:
         registry: to re-score results for per-class and per-object views (:func:`score_objects`); None skips them.
+        factors: conditions (:data:`CONDITIONS`) the comparison is about (``--factor``): runs differing in them
+            are not warned about.
 
     Returns:
-        ``{"policy", "runs": [{label, run_dir, task, provenance, summary, environments, per_class, objects_note}],
-        "comparisons", "factors"}``; estimates are :class:`benchbot.batch.stats.Estimate` dicts.
+        ``{"policy", "scores" (the baseline method's ScoreSet), "main_score", "runs": [{label, run_dir, task,
+        isolation, verifiable, provenance, conditions, environments_n, episodes_n, summary (environment level),
+        summary_episodes, environments, per_class, objects_note}], "comparisons", "factors", "tasks",
+        "differences" (:func:`condition_differences`), "notes"}``; estimates are
+        :class:`benchbot.batch.stats.Estimate` dicts.
+
+    Raises:
+        UsageError: ``factors`` names something that is not a condition.
     """
+    unknown = [f for f in factors or [] if f not in CONDITIONS]
+    if unknown:
+        raise UsageError(f"--factor: '{unknown[0]}' is not a condition", f"one of: {', '.join(CONDITIONS)}")
     if registry is not None:
         for run in runs:
             if not run.objects and not run.objects_note:
                 score_objects(run, registry)
+    scores = present_scores(runs)
+    main = main_score(runs)
     out_runs = []
     for run in runs:
         out_runs.append({
             "label": run.name, "run_dir": str(run.run_dir), "task": run.manifest.get("task"),
             "isolation": isolation(run.manifest), "verifiable": verifiable(run.manifest),
-            "provenance": dict(provenance(run)),
-            "summary": {k: v.to_json() for k, v in summary(run).items()},
-            "environments": {env: {"values": v, **stats.mean_ci(v).to_json()}
-                             for env, v in group(run.rows, "env").items()},
+            "provenance": dict(provenance(run)), "conditions": conditions(run),
+            "environments_n": len({r["env"] for r in run.rows}), "episodes_n": len(run.rows),
+            "summary": {k: v.to_json() for k, v in summary(run, scores).items()},
+            "summary_episodes": {k: v.to_json() for k, v in summary_episodes(run, scores).items()},
+            "environments": {env: {"values": v, **stats.mean_ci(v, level="episodes").to_json()}
+                             for env, v in group(run.rows, "env", main).items()},
             "per_class": per_class_rows(run) if run.per_class else None,
             "objects_note": run.objects_note,
         })
+    comps = comparisons(runs, main) if len(runs) > 1 else []
+    mentioned = set(factors or []) | {dict(ROW_FACTORS)[x["field"]] if x["field"] != "noise" else "noise preset"
+                                      for c in comps for x in c["factors"]}
+    notes = []
+    methods = {str(run.manifest.get("evaluate_with") or "") for run in runs}
+    if len(methods) > 1:
+        notes.append(f"these runs were scored by different evaluation methods ({', '.join(sorted(methods))}): "
+                     f"they are compared on {main}, the baseline's primary score, where they have it")
     tasks = {run.manifest.get("task") for run in runs}
-    return {"policy": policy(), "runs": out_runs, "comparisons": comparisons(runs) if len(runs) > 1 else [],
-            "factors": factor_views(runs), "tasks": sorted(map(str, tasks))}
+    return {"policy": policy(), "scores": score_set(runs).to_json(), "main_score": main, "runs": out_runs,
+            "comparisons": comps, "factors": factor_views(runs, main), "tasks": sorted(map(str, tasks)),
+            "differences": condition_differences(runs, mentioned) if len(runs) > 1 else [], "notes": notes}
 
 
 # --------------------------------------------------------------------------------------------------------------------
 # Tables and figures
 # --------------------------------------------------------------------------------------------------------------------
+def interval_note() -> str:
+    """How the tables' intervals are made, in one sentence."""
+    return (f"Intervals: {int(stats.CONFIDENCE * 100)} %, Student t below {stats.T_INTERVAL_BELOW} values, BCa "
+            f"bootstrap ({stats.BOOTSTRAP_RESAMPLES} resamples) from there; none below {stats.MIN_CI_N} values.")
+
+
 def tables(runs: list[RunData], result: dict) -> list[Table]:
-    """The report's tables (each also written as CSV and LaTeX)."""
+    """The report's tables (each also written as CSV and LaTeX); every caption names its unit (environments or
+    episodes)."""
     scores = present_scores(runs)
-    n_note = (f"Intervals: {int(stats.CONFIDENCE * 100)} % BCa bootstrap ({stats.BOOTSTRAP_RESAMPLES} resamples); none "
-              f"below n = {stats.MIN_CI_N} episodes.")
-    out = [Table("summary", "Scores over all episodes: mean [95 % CI]", ["run", "episodes"] + scores,
-                 [[r["label"], len(run.rows)] + [r["summary"].get(s) for s in scores] for run, r in zip(runs, result["runs"])],
-                 n_note)]
+    main = result["main_score"]
+    out = [Table("summary", f"{main}: mean [95 % CI] over environments (the unit) and over episodes",
+                 ["run", "environments", "episodes", f"{main} over environments", f"{main} over episodes"],
+                 [[r["label"], r["environments_n"], r["episodes_n"], r["summary"].get(main),
+                   r["summary_episodes"].get(main)] for r in result["runs"]],
+                 "Environments: the mean of the environments' means, its interval over the environments (how the "
+                 "solution does on environments like these). Episodes: the mean over episodes, its interval over "
+                 "them (how precisely these environments were measured; episodes of one environment are not "
+                 "independent). " + interval_note())]
+    if len(scores) > 1:
+        out.append(Table("scores", "Every score: mean over environments [95 % CI over environments]",
+                         ["run"] + [(runs[0].score_set.get(s).heading if runs[0].score_set.get(s) else s)
+                                    for s in scores],
+                         [[r["label"]] + [r["summary"].get(s) for s in scores] for r in result["runs"]],
+                         "; ".join(f"{i.heading}: {i.description or i.name} ({i.direction} is better)"
+                                   for i in (runs[0].score_set.get(s) for s in scores) if i) + ". " + interval_note()))
     envs = list(dict.fromkeys(e for r in result["runs"] for e in r["environments"]))
     rows = []
     for env in envs:
@@ -565,26 +891,42 @@ def tables(runs: list[RunData], result: dict) -> list[Table]:
             e = r["environments"].get(env)
             row += [len(e["values"]) if e else 0, e]
         rows.append(row)
-    out.append(Table("environments", f"{MAIN_SCORE} per environment: mean [95 % CI]",
+    out.append(Table("environments", f"{main} per environment: mean over its episodes [95 % CI over episodes]",
                      ["environment", "lighting"] + [h for r in result["runs"] for h in (f"n {r['label']}", r["label"])],
-                     rows, n_note))
-    if result["comparisons"]:
-        out.append(Table("comparisons", f"Paired comparisons with {runs[0].name} ({MAIN_SCORE})",
-                         ["run", "pairs", "paired by", "mean difference [95 % CI]", "Cohen's d_z", "t-test p (Holm)",
+                     rows, interval_note()))
+    comps = result["comparisons"]
+    if comps:
+        out.append(Table("comparisons", f"Paired comparisons with {runs[0].name} ({main}, B − A), environments as "
+                                        "the unit",
+                         ["run", "environments", "factor", "mean difference [95 % CI]", "d_z", "t-test p (Holm)",
                           "Wilcoxon p (Holm)", "rank-biserial r"],
-                         [[c["b"], c["n"], c["pairing"], c["difference"], c["cohens_dz"], c["ttest_p_holm"],
-                           c["wilcoxon_p_holm"], c["rank_biserial"]] for c in result["comparisons"]],
-                         f"No test below {stats.MIN_TEST_PAIRS} pairs. p-values Holm-adjusted over the "
-                         f"{len(result['comparisons'])} comparison(s); d_z = mean difference / SD of the differences."))
+                         [[c["b"], c["n"], "; ".join(f"{x['what']} {x['a']} → {x['b']}" for x in c["factors"]) or
+                           "solution", c["difference"], c["cohens_dz"], c["ttest_p_holm"], c["wilcoxon_p_holm"],
+                           c["rank_biserial"]] for c in comps],
+                         f"Episodes paired by environment and seed, averaged per environment; tests over the "
+                         f"environments' mean differences, none below {stats.MIN_TEST_PAIRS} environments; p-values "
+                         f"Holm-adjusted over the {len(comps)} comparison(s); d_z = mean difference / SD of the "
+                         "differences."))
+        out.append(Table("comparisons_episodes", f"Paired comparisons with {runs[0].name} ({main}, B − A), "
+                                                 "episode pairs (these environments only)",
+                         ["run", "episode pairs", "unpaired", "mean difference [95 % CI]", "d_z", "t-test p (Holm)",
+                          "Wilcoxon p (Holm)"],
+                         [[c["b"], c["episodes"]["n"], c["unpaired"], c["episodes"]["difference"],
+                           c["episodes"]["cohens_dz"], c["episodes"]["ttest_p_holm"], c["episodes"]["wilcoxon_p_holm"]]
+                          for c in comps],
+                         "Over episode pairs: what these environments show, not what other environments would; "
+                         "episodes of one environment are not independent, so these p-values are smaller than the "
+                         f"environment level's. None below {stats.MIN_TEST_PAIRS} pairs."))
     for k, (run, r) in enumerate(zip(runs, result["runs"])):
         if r["per_class"]:
+            counts, class_scores = per_class_columns(run)
             out.append(Table(f"per_class_{k + 1}", f"{r['label']}: per class, pooled over {len(run.objects)} episodes",
-                             ["class", "GT objects", "TP", "FN", "FP", "label quality", "spatial quality",
-                              "pair quality", "OMQ"],
-                             [[c["class"], c["GT"], c["TP"], c["FN"], c["FP"], c["avg_label"], c["avg_spatial"],
-                               c["avg_pairwise"], c["OMQ"]] for c in r["per_class"]],
-                             "Qualities are means over the class's true positives (– without one); an FP counts for "
-                             "its most probable class."))
+                             ["class"] + counts + [(run.score_set.get(s).heading if run.score_set.get(s) else s)
+                                                   for s in class_scores],
+                             [[c["class"]] + [c[x] for x in counts] + [c[x] for x in class_scores]
+                              for c in r["per_class"]],
+                             "Counts and scores as the evaluation method gives them per class (– where a class has "
+                             "no value)."))
     return out
 
 
@@ -599,55 +941,76 @@ class Figure:
 
 
 def make_figures(runs: list[RunData], result: dict, registry=None) -> list[Figure]:
-    """Render every figure of the report (PNG, SVG, PDF each)."""
+    """Render every figure of the report (PNG, SVG, PDF each); runs are drawn under short labels when their names
+    are long (:func:`benchbot.batch.figures.short_labels`), the legend naming them."""
     out = []
     scores = present_scores(runs)
-    series = [{"label": run.name, "values": {s: [r[s] for r in run.rows if s in r] for s in scores},
-               "estimates": r["summary"]} for run, r in zip(runs, result["runs"])]
-    out.append(Figure("summary", "Scores over all episodes",
-                      "Each dot is one episode; the mean is drawn with its 95 % BCa bootstrap interval where n allows "
-                      f"(n ≥ {stats.MIN_CI_N}); every panel's axis is scaled to its data.",
+    main = result["main_score"]
+    shorts = figures.short_labels([r["label"] for r in result["runs"]])
+    series = [{"label": r["label"], "short": short,
+               "values": {s: list(stats.cluster_means([x[s] for x in run.rows if s in x],
+                                                      [x["env"] for x in run.rows if s in x]).values())
+                          for s in scores},
+               "estimates": r["summary"]} for run, r, short in zip(runs, result["runs"], shorts)]
+    out.append(Figure("summary", "Scores over environments",
+                      "Each dot is one environment's mean; the mean over environments is drawn with its 95 % interval "
+                      f"over them where n allows (n ≥ {stats.MIN_CI_N} environments); every panel's axis is scaled "
+                      "to its data.",
                       figures.render(figures.summary(scores, series, stats.MIN_CI_N))))
     envs = list(dict.fromkeys(e for r in result["runs"] for e in r["environments"]))
-    env_series = [{"label": r["label"], "values": {e: v["values"] for e, v in r["environments"].items()},
-                   "estimates": r["environments"]} for r in result["runs"]]
-    out.append(Figure("environments", f"{MAIN_SCORE} per environment",
-                      "Each dot is one episode (a repetition); n under each environment, one number per run.",
-                      figures.render(figures.per_group(f"{MAIN_SCORE} per environment", MAIN_SCORE, envs, env_series,
+    env_series = [{"label": r["label"], "short": short, "values": {e: v["values"] for e, v in r["environments"].items()},
+                   "estimates": r["environments"]} for r, short in zip(result["runs"], shorts)]
+    out.append(Figure("environments", f"{main} per environment",
+                      "Each dot is one episode (a repetition); the interval is over the environment's episodes; n under "
+                      "each environment, one number per run.",
+                      figures.render(figures.per_group(f"{main} per environment", main, envs, env_series,
                                                        stats.MIN_CI_N))))
     for k, c in enumerate(result["comparisons"]):
-        if c["n"]:
+        if c["episodes"]["n"]:
             out.append(Figure(f"comparison_{k + 1}", f"{c['b']} vs {c['a']}: paired differences",
-                              f"Each dot is one pair of episodes ({c['pairing']}); the line is the mean difference "
-                              "and the band its interval.",
-                              figures.render(figures.paired_differences(c, MAIN_SCORE, stats.MIN_TEST_PAIRS))))
+                              f"Grey dots: episode pairs ({c['pairing']}); large dots: each environment's mean "
+                              "difference, the unit of the test; the line is the mean over environments and the band "
+                              "its interval.",
+                              figures.render(figures.paired_differences(c, main, stats.MIN_TEST_PAIRS))))
     for view in result["factors"]:
         if view["groups"]:
-            out.append(Figure(f"factor_{view['factor']}", f"{MAIN_SCORE} per {view['factor']}", view["note"],
-                              figures.render(figures.per_group(f"{MAIN_SCORE} per {view['factor']}", MAIN_SCORE,
+            for s, short in zip(view["series"], shorts):
+                s["short"] = short
+            out.append(Figure(f"factor_{view['factor']}", f"{main} per {view['factor']}", view["note"],
+                              figures.render(figures.per_group(f"{main} per {view['factor']}", main,
                                                                view["groups"], view["series"], stats.MIN_CI_N))))
     for k, (run, r) in enumerate(zip(runs, result["runs"])):
         if r["per_class"]:
+            counts, class_scores = per_class_columns(run)
+            directions = [(c, run.score_set.get(c).direction) for c in counts]
             out.append(Figure(f"per_class_{k + 1}", f"{r['label']}: per class",
-                              "Left: ground-truth objects found (TP) and missed (FN) to the right, false positives to "
-                              "the left. Right: mean label and spatial (3D IoU) quality of the class's TPs.",
-                              figures.render(figures.per_class(r["label"], r["per_class"], len(run.objects)))))
+                              "Left: the method's counts per class (those where lower is better to the left of 0). "
+                              "Right: its per-class scores.",
+                              figures.render(figures.per_class(r["label"], r["per_class"], len(run.objects),
+                                                               directions, [s for s in class_scores if s != main]
+                                                               or class_scores))))
     for env in envs:
         panels = []
-        for run in runs:
+        for run, short in zip(runs, shorts):
             chosen = map_episode(run, env)
             if chosen is None:
                 continue
             row, evaluation, n = chosen
             s = evaluation.get("scores") or {}
-            which = f"median-{MAIN_SCORE} episode of {n}" if n > 1 else "its only episode"
-            panels.append({"title": f"{run.name}: episode {row['index']} (seed {row['seed']}, {which})\n"
-                                    f"{MAIN_SCORE} {fmt(s.get(MAIN_SCORE))}, TP {s.get('TP')}, FP {s.get('FP')}, FN {s.get('FN')}",
-                           "matches": evaluation["matches"],
-                           "path": trajectory(env, registry, evaluation.get("environment_details"))})
+            which = f"median-{run.primary} episode of {n}" if n > 1 else "its only episode"
+            path, source = driven_path(run, row)
+            counts = ", ".join(f"{c} {s.get(c)}" for c in run.score_set.counts if c in s)
+            name = short if short == run.name else f"{short}: {run.name}"
+            panels.append({"title": figures._wrap(f"{name}: episode {row['index']} (seed {row['seed']}, {which})", 60)
+                                    + f"\n{run.primary} {fmt(s.get(run.primary))}" + (f", {counts}" if counts else "")
+                                    + ("" if path is not None else "\nno driven path recorded: the plan only"),
+                           "matches": evaluation["matches"], "path": path, "path_source": source,
+                           "plan": trajectory(env, registry, evaluation.get("environment_details"))})
         if panels:
             out.append(Figure(f"map_{_slug(env)}", f"{env}: top-down map",
-                              f"{len(panels)} panel{'s' if len(panels) > 1 else ''}, one per run; the key is above.",
+                              f"{len(panels)} panel{'s' if len(panels) > 1 else ''}, one per run; solid: the path the "
+                              "robot drove (from the batch's trajectory log or its recording), dashed: the planned "
+                              "path.",
                               figures.render(figures.topdown(env, panels))))
     return out
 
@@ -728,6 +1091,8 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
 
     labels = [run.name for run in runs]
     p = result["policy"]
+    main = result["main_score"]
+    primary = runs[0].score_set.primary
     parts = ["<!doctype html><html lang='en'><meta charset='utf-8'>",
              "<meta name='viewport' content='width=device-width,initial-scale=1'>",
              f"<title>BenchBot report: {esc(', '.join(labels))}</title><style>{CSS}</style><main>",
@@ -748,34 +1113,49 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
     if len(result["tasks"]) > 1:
         parts.append(f"<div class='box warn'>These runs are of different tasks ({esc(', '.join(result['tasks']))}): "
                      "their scores are not comparable.</div>")
+    if result["differences"]:
+        items = "".join(f"<li><b>{esc(d['what'])}</b>: " + "; ".join(f"{esc(k)}: {esc(v or 'not recorded')}"
+                                                                      for k, v in d["values"].items()) + "</li>"
+                        for d in result["differences"])
+        parts.append("<div class='box warn'><b>These runs differ in more than the comparison names.</b> Their "
+                     "differences below measure these too:<ul>" + items + "</ul>If that is the point, say so with "
+                     "<code>--factor WHAT</code>; otherwise run them under the same conditions.</div>")
+    for note in result["notes"]:
+        parts.append(f"<div class='box warn'>{esc(note)}</div>")
     parts.append(
-        "<section id='statistics'><div class='box'><b>How to read the numbers.</b> Means carry a "
-        f"{int(p['confidence'] * 100)} % bias-corrected and accelerated bootstrap interval ({p['bootstrap_resamples']} "
-        f"resamples, seed {p['seed']}) from n = {p['min_ci_n']} episodes on; below that the mean is given alone and "
-        f"the table says why. Runs are compared with <b>{esc(labels[0])}</b> on episodes paired by "
-        f"{esc(', '.join(p['pair_key']))}, from {p['min_test_pairs']} pairs on: mean difference with its interval, "
-        "Cohen's d<sub>z</sub>, paired t-test and Wilcoxon signed-rank test (with its rank-biserial r), p-values "
-        "Holm-adjusted over all comparisons. Every figure states its n. Details: docs/report.md.</div></section>")
+        "<section id='statistics'><div class='box'><b>How to read the numbers.</b> The unit is the "
+        f"<b>environment</b>: a run's {esc(main)} is the mean of its environments' means ({esc(primary.direction)} "
+        f"is better; {esc(primary.description or main)}), its {int(p['confidence'] * 100)} % interval over the "
+        f"environments (Student t below {p['t_interval_below']} values, BCa bootstrap from there; none below "
+        f"{p['min_ci_n']}). Episodes of one environment share its rooms and objects, so they are not independent: "
+        "the episode-level numbers, shown beside and named as such, say how precisely these environments were "
+        f"measured, not how a solution does elsewhere. Runs are compared with <b>{esc(labels[0])}</b> on episodes "
+        "paired by environment and seed (a robot or noise preset that differs between two runs is the factor "
+        f"compared), averaged per environment; tests over the environments from {p['min_test_pairs']} on: mean "
+        "difference with its interval, Cohen's d<sub>z</sub>, paired t-test and Wilcoxon signed-rank test (with "
+        "its rank-biserial r), p-values Holm-adjusted over all comparisons. Every figure states its n. Details: "
+        "docs/report.md.</div></section>")
     parts.append("<section id='runs'><h2>Runs and provenance</h2>")
     for run, r in zip(runs, result["runs"]):
         rows = "".join(f"<tr><td>{esc(k)}</td><td>{esc(v)}</td></tr>" for k, v in provenance(run))
         parts.append(f"<h3>{esc(r['label'])}</h3><p class='note'><code>{esc(str(run.run_dir))}</code></p>"
                      f"<details{' open' if len(runs) == 1 else ''}><summary>provenance</summary>"
                      f"<div class='scroll'><table class='kv'>{rows}</table></div></details>")
-    parts.append("</section><section id='summary'><h2>Summary</h2>" + table("summary") + figure("summary") + "</section>")
+    parts.append("</section><section id='summary'><h2>Summary</h2>" + table("summary") + table("scores")
+                 + figure("summary") + "</section>")
     parts.append("<section id='environments'><h2>Per environment</h2>" + table("environments") + figure("environments")
                  + "</section>")
     if result["comparisons"]:
         parts.append("<section id='comparisons'><h2>Comparisons</h2>" + table("comparisons"))
         for k, c in enumerate(result["comparisons"]):
-            if c["reason"]:
-                parts.append(f"<p class='note'><b>{esc(c['b'])}</b>: {esc(c['reason'])}; mean difference "
-                             f"{fmt(c['difference']['value'])} over {c['n']} pair(s) ({esc(c['pairing'])}).</p>")
+            parts.append(f"<p class='note'><b>{esc(c['b'])}</b> − {esc(c['a'])}: "
+                         f"{esc(figures.comparison_text(c))}.</p>")
             if c["unpaired"]:
                 parts.append(f"<p class='note'>{c['unpaired']} episode(s) of {esc(c['a'])} or {esc(c['b'])} have no "
                              "partner and are left out of this comparison.</p>")
             parts.append(figure(f"comparison_{k + 1}"))
-        parts.append("</section>")
+        parts.append("<details><summary>the same over episode pairs</summary>" + table("comparisons_episodes")
+                     + "</details></section>")
     parts.append("<section id='classes'><h2>Per class</h2>")
     for k, r in enumerate(result["runs"]):
         parts.append(f"<h3>{esc(r['label'])}</h3>")
@@ -785,9 +1165,10 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
     parts.append("</section><section id='maps'><h2>Top-down maps</h2><p class='note'>Seen from above (x-y "
                  "footprints, metres, map frame): ground-truth boxes from the environment's ground truth (dark outline: "
                  "found; red: missed), predicted boxes (filled by the matched pair's quality; orange: false positive; "
-                 "grey: inside a group box, neither), a line from each match to its ground truth, and the robot's "
-                 "trajectory from the environment spec (start ▲). With several episodes of an environment a panel "
-                 "shows the median-OMQ one. Click a map for its SVG.</p>")
+                 "grey: inside a group box, neither), a line from each match to its ground truth, the path the robot "
+                 "drove (solid, start ▲; from the batch's trajectory log or recording) and the planned one (faint, "
+                 f"dashed). With several episodes of an environment a panel shows the median-{esc(main)} one. Click a "
+                 "map for its SVG.</p>")
     maps = [f for f in figures_ if f.name.startswith("map_")]
     parts.append("".join(figure(f.name) for f in maps) if maps else
                  "<p class='note'>No maps: no run has per-object matches (see Per class).</p>")
@@ -802,10 +1183,12 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
     parts.append("</section><section id='episodes'><h2>Episodes</h2>")
     scores = present_scores(runs)
     for run in runs:
-        keys = ["index", "env", "robot", "repeat", "seed", "noise", "lighting"]
+        keys = ["index", "env"] + [k for k in ("robot", "repeat", "seed", "noise", "lighting")
+                                   if k in ("repeat", "seed") or len({str(r.get(k, "")) for r in run.rows}) > 1]
         rows = [[r.get(k, "") for k in keys] + [r.get(s) for s in scores] for r in run.rows]
+        headings = keys + [(run.score_set.get(s).heading if run.score_set.get(s) else s) for s in scores]
         parts.append(f"<details><summary>{esc(run.name)}: {len(run.rows)} episodes</summary>"
-                     + to_html(Table("episodes", "", keys + scores, rows)) + "</details>")
+                     + to_html(Table("episodes", "", headings, rows)) + "</details>")
     parts.append("</section></main></html>")
     return "\n".join(parts)
 

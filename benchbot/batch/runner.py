@@ -3,11 +3,14 @@
 A run directory holds::
 
     config.json          the resolved task, robots and environments (environments as the API serves them)
-    manifest.json        command, versions, provenance (git revisions, machine), seeds, the plan, and every
-                         episode's record (atomic, after each change)
+    manifest.json        command (also shell-quoted), versions, provenance (git revisions, machine, every installed
+                         distribution, the lock file's hash), the evaluation method's declared scores, seeds, the
+                         plan, and every episode's record with its backend (simulator, style, arch, device;
+                         atomic, after each change)
     progress.json        the running episodes' step counts, for live views (benchbot.batch.progress)
     results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
     outputs/NNN_<env>/   what a sandboxed solution wrote besides its results (its /benchbot/results folder)
+    trajectories/NNN_<env>.json   the poses the robot drove (ground truth, per scene), for report maps
     scores.json          the evaluation in the original's format (the combined scores)
     episode_scores.json  per-episode scores with environment, robot, repetition, seed and noise preset
     robustness.json, robustness.png/.svg   a --sweep batch's score against the factor (benchbot.batch.sweep)
@@ -43,7 +46,7 @@ from benchbot.batch.plan import (
 from benchbot.core import atomic
 from benchbot.core.episode import served_environment
 from benchbot.core.errors import BenchbotError, UsageError
-from benchbot.core.evaluation import Evaluation, evaluate
+from benchbot.core.evaluation import Evaluation, evaluate, method_scores
 from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
 from benchbot.core.noise import get_preset
 from benchbot.core.registry import Registry
@@ -235,11 +238,21 @@ def prepare_batch(
         "provenance": provenance.collect([s.cwd for s in specs]),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "noise": {name: get_preset(name) for name in dict.fromkeys(s.noise for s in specs)}, "sweep": sweep,
-        "sandbox": isolation,
+        "sandbox": isolation, "scores": _declared_scores(registry, evaluate_with),
         "plan": to_json(specs), "episodes": to_json(records),
     }
     write_manifest(run_dir, manifest)
     return Batch(run_dir.resolve(), manifest, specs, records, runs)
+
+
+def _declared_scores(registry: Registry, method: str | None) -> dict | None:
+    """The manifest's ``scores``: what ``method`` declares its scores to be (``ScoreSet.to_json``), so that reports
+    and views read a run's scores without the method installed; None without a method or a declaration (then the
+    evaluation records the scores it saw)."""
+    if not method:
+        return None
+    declared = method_scores(registry, method)
+    return declared.to_json() if declared is not None else None
 
 
 def load_batch(registry: Registry, run_dir: Path) -> Batch:
@@ -378,6 +391,8 @@ def run_batch(
         except BenchbotError as exc:
             outcome.evaluation_error = exc.message
     outcome.excluded = _excluded(outcome.episodes)
+    if outcome.evaluation is not None and outcome.evaluation.score_set is not None:
+        manifest["scores"] = outcome.evaluation.score_set.to_json()
     if manifest.get("sweep") and outcome.evaluation is not None:
         from benchbot.batch.sweep import write_robustness
 

@@ -8,11 +8,15 @@ random numbers: level k's j-th episode has seed ``--seed + j`` whatever k), so t
 and their episodes pair up.
 
 Statistics (:func:`robustness`): those of ``benchbot report``, from :mod:`benchbot.batch.stats` (docs/report.md,
-*Statistics*). Per level, the mean score with its BCa bootstrap interval (:func:`~benchbot.batch.stats.mean_ci`,
-none below :data:`~benchbot.batch.stats.MIN_CI_N` episodes); for ``noise`` and ``robot``, each level against the
-first over paired episodes (matched by robot or noise, environment and repetition) with
-:func:`~benchbot.batch.stats.paired_test` (none below :data:`~benchbot.batch.stats.MIN_TEST_PAIRS` pairs), the
-p-values Holm-adjusted over the levels (:func:`~benchbot.batch.stats.holm`).
+*Statistics*), with the environment as the unit. Per level, the mean of the environments' means with its interval
+over the environments (:func:`~benchbot.batch.stats.cluster_mean_ci`, none below
+:data:`~benchbot.batch.stats.MIN_CI_N` environments) and, beside it, the mean over episodes with its interval over
+them (about these environments only); for ``noise`` and ``robot``, each level against the first over paired
+episodes (matched by robot or noise, environment and repetition), averaged per environment, the tests over the
+environments (:func:`~benchbot.batch.stats.cluster_paired_test`, none below
+:data:`~benchbot.batch.stats.MIN_TEST_PAIRS` environments) and over the episode pairs, the p-values
+Holm-adjusted over the levels (:func:`~benchbot.batch.stats.holm`). The score is the batch's evaluation method's
+primary score unless another is named.
 """
 
 from __future__ import annotations
@@ -129,37 +133,46 @@ def policy() -> dict:
     them), for ``robustness.json``."""
     return {"confidence": stats.CONFIDENCE, "bootstrap_resamples": stats.BOOTSTRAP_RESAMPLES, "seed": stats.SEED,
             "min_ci_n": stats.MIN_CI_N, "min_test_pairs": stats.MIN_TEST_PAIRS,
-            "interval": "BCa bootstrap of the mean (benchbot.batch.stats.mean_ci)",
-            "test": "paired t-test and Wilcoxon signed-rank test (benchbot.batch.stats.paired_test)",
+            "t_interval_below": stats.T_INTERVAL_BELOW, "unit": "environment",
+            "interval": "mean of the environments' means, interval over them (benchbot.batch.stats.cluster_mean_ci); "
+                        "beside it over episodes (mean_ci)",
+            "test": "paired t-test and Wilcoxon signed-rank test over the environments' mean differences "
+                    "(benchbot.batch.stats.cluster_paired_test); beside them over the episode pairs",
             "correction": "Holm, over the levels compared with the baseline"}
 
 
-def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str = "OMQ") -> dict:
+def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str = "score") -> dict:
     """A robustness curve: ``score`` against the ``levels`` of ``factor``, with the statistics of
-    :mod:`benchbot.batch.stats` (the same as ``benchbot report``'s, docs/report.md, *Statistics*).
+    :mod:`benchbot.batch.stats` (the same as ``benchbot report``'s, docs/report.md, *Statistics*): the environment
+    as the unit, the episode level beside it.
 
     Args:
         rows: one per scored episode: ``level`` (str), ``score`` (float; None or NaN rows are left out), and
             ``robot``, ``env``, ``repeat``, ``noise`` (what pairs episodes across levels).
         factor: one of :data:`FACTORS`. levels: in plot order; the first is the baseline of the differences.
+        score: the score's name (for the labels).
 
     Returns:
         ``{factor, score, policy, levels, differences}``:
 
         * ``policy``: :func:`policy`.
-        * ``levels``: per level, ``{level, n, value, low, high, reason, method}``: the mean score over its ``n``
-          episodes with its BCa bootstrap interval (:func:`benchbot.batch.stats.mean_ci`, an
-          :class:`~benchbot.batch.stats.Estimate` dict); ``low``/``high`` None and ``reason`` saying why below
-          :data:`~benchbot.batch.stats.MIN_CI_N` episodes.
-        * ``differences``: for ``noise`` and ``robot``, per level after the first, ``{level, baseline, n, unpaired,
-          difference, cohens_dz, rank_biserial, ttest_p, ttest_p_holm, wilcoxon_p, wilcoxon_p_holm, reason}``:
-          the level's episodes paired with the baseline's of the same robot (or noise), environment and
-          repetition (``n`` pairs; ``unpaired`` episodes of the two levels without a partner), compared with
-          :func:`benchbot.batch.stats.paired_test` (``difference``: the mean of level − baseline, an Estimate
-          dict; Cohen's d_z; matched-pairs rank-biserial r; p-values), the p-values Holm-adjusted
-          (:func:`benchbot.batch.stats.holm`) over the levels; below :data:`~benchbot.batch.stats.MIN_TEST_PAIRS`
-          pairs no test, no interval and ``reason`` says why. Empty for ``variant`` and ``lighting``: their
-          levels are different environments, so no episodes pair up.
+        * ``levels``: per level, ``{level, n, value, low, high, reason, method, level_of_n: "environments",
+          episodes: {...}}``: the mean of its environments' means with its interval over the ``n`` environments
+          (:func:`benchbot.batch.stats.cluster_mean_ci`, an :class:`~benchbot.batch.stats.Estimate` dict whose
+          ``level`` key is renamed ``level_of_n``), ``low``/``high`` None and ``reason`` saying why below
+          :data:`~benchbot.batch.stats.MIN_CI_N` environments; ``episodes``: the mean over its episodes with its
+          interval over them (:func:`~benchbot.batch.stats.mean_ci`).
+        * ``differences``: for ``noise`` and ``robot``, per level after the first, ``{level, baseline, n, level_of_n,
+          unpaired, difference, cohens_dz, rank_biserial, ttest_p, ttest_p_holm, wilcoxon_p, wilcoxon_p_holm,
+          reason, episodes}``: the level's episodes paired with the baseline's of the same robot (or noise),
+          environment and repetition, averaged per environment and compared over the ``n`` environments
+          (:func:`benchbot.batch.stats.cluster_paired_test`; ``difference``: the mean of level − baseline, an
+          Estimate dict; Cohen's d_z; matched-pairs rank-biserial r; p-values), the same over the episode pairs in
+          ``episodes`` (:func:`~benchbot.batch.stats.paired_test`; ``unpaired`` episodes of the two levels without
+          a partner), the p-values Holm-adjusted (:func:`benchbot.batch.stats.holm`) over the levels at each
+          level of analysis; below :data:`~benchbot.batch.stats.MIN_TEST_PAIRS` no test, no interval and
+          ``reason`` says why. Empty for ``variant`` and ``lighting``: their levels are different environments,
+          so no episodes pair up.
     """
     out = {"factor": factor, "score": score, "policy": policy(), "levels": [], "differences": []}
     by_level: dict[str, list[dict]] = {lv: [] for lv in levels}
@@ -168,29 +181,48 @@ def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str =
         if row.get("level") in by_level and value is not None and math.isfinite(value):
             by_level[row["level"]].append(row)
     for lv in levels:
-        out["levels"].append({"level": lv, **stats.mean_ci([r["score"] for r in by_level[lv]]).to_json()})
+        values, envs = [r["score"] for r in by_level[lv]], [r.get("env") for r in by_level[lv]]
+        est = stats.cluster_mean_ci(values, envs).to_json()
+        est["level_of_n"] = est.pop("level")
+        out["levels"].append({"level": lv, **est, "episodes": stats.mean_ci(values, level="episodes").to_json()})
     if factor not in ("noise", "robot") or not levels:
         return out
     keys = ("env", "repeat", "noise" if factor == "robot" else "robot")
     base = {tuple(r.get(k) for k in keys): r["score"] for r in by_level[levels[0]]}
     for lv in levels[1:]:
-        pairs = [(base[key], r["score"]) for r in by_level[lv] if (key := tuple(r.get(k) for k in keys)) in base]
-        test = stats.paired_test([a for a, _ in pairs], [b for _, b in pairs])
+        pairs = [(base[key], r["score"], r.get("env")) for r in by_level[lv]
+                 if (key := tuple(r.get(k) for k in keys)) in base]
+        a, b, envs = [p[0] for p in pairs], [p[1] for p in pairs], [p[2] for p in pairs]
+        env = stats.cluster_paired_test(a, b, envs)
+        episodes = stats.paired_test(a, b, level="pairs")
         out["differences"].append({
-            "level": lv, "baseline": levels[0], "n": test["n"],
-            "unpaired": len(by_level[lv]) + len(by_level[levels[0]]) - 2 * test["n"],
-            "difference": test["difference"].to_json(), "cohens_dz": test["cohens_dz"],
-            "rank_biserial": test["rank_biserial"], "ttest_p": test["ttest_p"], "wilcoxon_p": test["wilcoxon_p"],
-            "reason": test["reason"]})
+            "level": lv, "baseline": levels[0], "n": env["n"], "level_of_n": env["level"],
+            "unpaired": len(by_level[lv]) + len(by_level[levels[0]]) - 2 * episodes["n"],
+            "difference": env["difference"].to_json(), "cohens_dz": env["cohens_dz"],
+            "rank_biserial": env["rank_biserial"], "ttest_p": env["ttest_p"], "wilcoxon_p": env["wilcoxon_p"],
+            "reason": env["reason"],
+            "episodes": {"n": episodes["n"], "level": "pairs", "difference": episodes["difference"].to_json(),
+                         **{k: episodes[k] for k in ("cohens_dz", "rank_biserial", "ttest_p", "wilcoxon_p", "reason")}}})
     for name in ("ttest_p", "wilcoxon_p"):
         for d, p in zip(out["differences"], stats.holm([d[name] for d in out["differences"]])):
             d[f"{name}_holm"] = p
+        for d, p in zip(out["differences"], stats.holm([d["episodes"][name] for d in out["differences"]])):
+            d["episodes"][f"{name}_holm"] = p
     return out
 
 
-def sweep_rows(manifest: dict, episode_scores: list[dict], score: str = "OMQ") -> list[dict]:
+def primary_score(manifest: dict, episode_scores: list[dict]) -> str:
+    """The name of the primary score of the batch's evaluation method (its manifest's declaration, else what its
+    scores show: :func:`benchbot.batch.report.resolve_score_set`)."""
+    from benchbot.batch.report import resolve_score_set
+
+    return resolve_score_set(manifest, episode_scores).primary.name
+
+
+def sweep_rows(manifest: dict, episode_scores: list[dict], score: str | None = None) -> list[dict]:
     """The rows of :func:`robustness` from a sweep's manifest and its ``episode_scores.json`` entries (episodes
-    without ``score`` are left out)."""
+    without ``score``, default the primary score, are left out)."""
+    score = score or primary_score(manifest, episode_scores)
     level_of = (manifest.get("sweep") or {}).get("level_of", {})
     plan = {p["index"]: p for p in manifest.get("plan", [])}
     rows = []
@@ -204,9 +236,9 @@ def sweep_rows(manifest: dict, episode_scores: list[dict], score: str = "OMQ") -
     return rows
 
 
-def robustness_from_run(run_dir: Path, score: str = "OMQ") -> dict:
+def robustness_from_run(run_dir: Path, score: str | None = None) -> dict:
     """:func:`robustness` of a sweep's run directory (``manifest.json`` and ``episode_scores.json``), for the
-    batch and for ``benchbot report``.
+    batch and for ``benchbot report``; ``score`` defaults to the method's primary score.
 
     Raises:
         UsageError: not a run directory, not a sweep (no ``sweep`` in its manifest), or not evaluated.
@@ -218,10 +250,11 @@ def robustness_from_run(run_dir: Path, score: str = "OMQ") -> dict:
     path = run_dir / "episode_scores.json"
     try:
         entries = json.loads(path.read_text())
+        score = score or primary_score(manifest, entries)
         rows = sweep_rows(manifest, entries, score)
     except FileNotFoundError:
         raise UsageError(f"{run_dir} has no episode_scores.json (the batch was not evaluated)",
-                         "run it with --evaluate-with omq") from None
+                         "run a sweep with an evaluation method (--evaluate-with METHOD)") from None
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise UsageError(f"{path}: unreadable or malformed ({exc!r})", "it is written by `benchbot batch`") from None
     return robustness(rows, sweep["factor"], list(sweep["levels"]), score=score)
@@ -243,7 +276,7 @@ def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -
     except ImportError:
         raise UsageError("the robustness plot needs matplotlib", "install benchbot[vis]") from None
     levels = summary["levels"]
-    fig, ax = plt.subplots(figsize=(1.6 + 1.3 * len(levels), 3.6))
+    fig, ax = plt.subplots(figsize=(2.0 + 1.3 * len(levels), 3.8), layout="constrained")
     xs = np.arange(len(levels))
     for x, lv in zip(xs, levels):
         if rows:
@@ -252,22 +285,26 @@ def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -
             ax.plot(x + jitter, ys, ".", color="0.6", zorder=1)
         if lv["value"] is None:
             continue
+        ep = lv.get("episodes") or {}
         if lv["low"] is not None and lv["high"] is not None:
             ax.errorbar(x, lv["value"], yerr=[[lv["value"] - lv["low"]], [lv["high"] - lv["value"]]], fmt="o",
                         color="C0", capsize=5, zorder=2)
+        elif ep.get("low") is not None and ep.get("high") is not None:  # the episodes' interval, drawn as such
+            ax.errorbar(x + 0.18, ep["value"], yerr=[[ep["value"] - ep["low"]], [ep["high"] - ep["value"]]],
+                        fmt="s", mfc="none", color="C1", capsize=3, zorder=2)
+            ax.plot(x, lv["value"], "o", mfc="none", color="C0", zorder=2)
         else:
             ax.plot(x, lv["value"], "o", mfc="none", color="C0", zorder=2)
-    means = [lv["value"] if lv["value"] is not None else np.nan for lv in levels]
-    ax.plot(xs, means, "-", color="C0", alpha=0.5, zorder=1)
-    ax.set_xticks(xs, [f"{lv['level']}\nn={lv['n']}" for lv in levels])
+    ax.set_xticks(xs, [f"{lv['level']}\n{lv['n']} env., {(lv.get('episodes') or {}).get('n', '?')} ep."
+                       for lv in levels])
     ax.set_xlabel(summary["factor"])
     ax.set_ylabel(summary["score"])
     policy = summary["policy"]
     pct = round(policy["confidence"] * 100)
-    ax.set_title(f"{summary['score']} vs {summary['factor']}: mean, {pct} % BCa bootstrap interval "
-                 f"(none below n={policy['min_ci_n']}: hollow marker)", fontsize=9)
+    ax.set_title(f"{summary['score']} vs {summary['factor']}: mean over environments, {pct} % interval over them\n"
+                 f"(none below {policy['min_ci_n']} environments: hollow circle; square: the interval over episodes, "
+                 "these environments only)", fontsize=8)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
     paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
     for path in paths:
         fig.savefig(path, dpi=120)
@@ -275,7 +312,7 @@ def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -
     return paths
 
 
-def write_robustness(run_dir: Path, score: str = "OMQ") -> dict:
+def write_robustness(run_dir: Path, score: str | None = None) -> dict:
     """Write ``robustness.json`` and ``robustness.png``/``.svg`` (:func:`plot_robustness`) into a sweep's run
     directory; returns the summary, with ``plots`` (file names) or ``plot_error`` (why there is none).
 
@@ -284,7 +321,7 @@ def write_robustness(run_dir: Path, score: str = "OMQ") -> dict:
     """
     summary = robustness_from_run(run_dir, score)
     manifest = read_manifest(run_dir)
-    rows = sweep_rows(manifest, json.loads((run_dir / "episode_scores.json").read_text()), score)
+    rows = sweep_rows(manifest, json.loads((run_dir / "episode_scores.json").read_text()), summary["score"])
     try:
         summary["plots"] = [p.name for p in plot_robustness(summary, run_dir / ROBUSTNESS_PLOT, rows)]
     except UsageError as exc:

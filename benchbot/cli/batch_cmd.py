@@ -213,14 +213,17 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
     from benchbot.batch.figures import comparison_text, fmt, interval_text
 
     pct = round(summary["policy"]["confidence"] * 100)
-    table = Table(summary["factor"], "n", f"mean {summary['score']}", f"{pct} % CI",
-                  title=f"{summary['score']} vs {summary['factor']}", title_justify="left")
+    table = Table(summary["factor"], "environments", f"mean {summary['score']}", f"{pct} % CI", "episodes",
+                  "mean", f"{pct} % CI (episodes)", title=f"{summary['score']} vs {summary['factor']}",
+                  title_justify="left")
     for lv in summary["levels"]:
-        table.add_row(lv["level"], str(lv["n"]), fmt(lv["value"]), interval_text(lv))
+        ep = lv.get("episodes") or {}
+        table.add_row(lv["level"], str(lv["n"]), fmt(lv["value"]), interval_text(lv), str(ep.get("n", "")),
+                      fmt(ep.get("value")), interval_text(ep) if ep else "")
     out.print(table)
     for c in summary["differences"]:
         unpaired = f", {c['unpaired']} episodes unpaired" if c["unpaired"] else ""
-        out.print(f"{c['level']} − {c['baseline']} ({summary['score']}, {c['n']} pairs{unpaired}): "
+        out.print(f"{c['level']} − {c['baseline']} ({summary['score']}{unpaired}): "
                   f"{comparison_text(c)}", highlight=False, markup=False)
     if summary.get("plots"):
         err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
@@ -241,7 +244,8 @@ def episode_line(record: EpisodeRecord, label: str) -> str:
 
 
 def batch_summary(outcome, elapsed_s: float) -> str:
-    """The closing line of a batch: episode counts by status, the time taken, the combined OMQ when scored."""
+    """The closing line of a batch: episode counts by status, the time taken, the combined primary score of the
+    evaluation method when scored (its name as the method declares it)."""
     from benchbot.tui.batch_app import format_seconds
 
     counts: dict[str, int] = {}
@@ -250,10 +254,12 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     n = len(outcome.episodes)
     text = f"{n} episode{'s' if n != 1 else ''}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
     text += f" in {format_seconds(elapsed_s)}"
-    combined = outcome.evaluation.combined if outcome.evaluation is not None else None
-    omq = (combined.get("scores", combined) if isinstance(combined, dict) else {}).get("OMQ")
-    if isinstance(omq, (int, float)):
-        text += f"; OMQ {omq:.4f}"
+    evaluation = outcome.evaluation
+    combined = evaluation.combined if evaluation is not None else None
+    primary = evaluation.score_set.primary.name if evaluation is not None and evaluation.score_set else None
+    value = (combined.get("scores", combined) if isinstance(combined, dict) else {}).get(primary) if primary else None
+    if isinstance(value, (int, float)):
+        text += f"; {primary} {value:.4f}"
     return text
 
 

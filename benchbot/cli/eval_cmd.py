@@ -15,11 +15,6 @@ from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, ResultsError, SpecError, UsageError
 from benchbot.core.evaluation import COMBINE_MODES, Evaluation, evaluate, validate_all
 
-SCORE_ORDER = ["OMQ", "avg_pairwise", "avg_label", "avg_spatial", "avg_fp_quality", "avg_state_quality", "TP", "FP", "FN"]
-SHORT = {"avg_pairwise": "pairwise", "avg_label": "label", "avg_spatial": "spatial", "avg_fp_quality": "fp_quality",
-         "avg_state_quality": "state"}
-
-
 def _fmt(value: object) -> str:
     return f"{value:.4f}" if isinstance(value, float) else str(value)
 
@@ -29,11 +24,14 @@ def _env_name(source: str, scores: dict) -> str:
     return f"{envs[0]['name']}:" + ":".join(str(e["variant"]) for e in envs) if envs else Path(source).name
 
 
-def _score_keys(entries: list[dict]) -> list[str]:
+def _score_keys(entries: list[dict], declared=None) -> list[str]:
+    """The score keys of ``entries`` in the method's declared order (``declared``: a
+    :class:`~benchbot.core.evaluation.ScoreSet`; the primary score first), then any others in first-seen order."""
     keys: list[str] = []
     for s in entries:
         keys += [k for k in s if k not in keys]
-    return [k for k in SCORE_ORDER if k in keys] + [k for k in keys if k not in SCORE_ORDER]
+    order = ([declared.primary.name] + [n for n in declared.names if n != declared.primary.name]) if declared else []
+    return [k for k in order if k in keys] + [k for k in keys if k not in order]
 
 
 def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
@@ -43,12 +41,19 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
     (:mod:`benchbot.cli.tables`)."""
     from rich.markup import escape
 
-    from benchbot.cli.tables import COUNT_KEYS, count_cell, fit, plural, row_labels
+    from benchbot.cli.tables import count_cell, fit, plural, row_labels
+
+    declared = evaluation.score_set
+    counts = set(declared.counts) if declared is not None else set()
 
     def cell(key: str, value: object) -> str:
-        return count_cell(value) if key in COUNT_KEYS else _fmt(value)
+        return count_cell(value) if key in counts else _fmt(value)
 
-    keys = _score_keys([s.get("scores", {}) for _, s in evaluation.per_result])
+    def heading(key: str) -> str:
+        info = declared.get(key) if declared is not None else None
+        return info.heading if info is not None else key
+
+    keys = _score_keys([s.get("scores", {}) for _, s in evaluation.per_result], declared)
     mode = getattr(evaluation, "combine_mode", "mean")
     labels = row_labels([(source, _env_name(source, s)) for source, s in evaluation.per_result])
     table = Table(title=f"{evaluation.method} scores")
@@ -61,7 +66,7 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
     table.add_column("environment", min_width=max([len("environment"), *map(len, labels)]))
     values = [s["scores"] for _, s in evaluation.per_result] + ([evaluation.combined.get("scores", {})] if with_combined else [])
     for k in keys:
-        table.add_column(SHORT.get(k, k), overflow="ellipsis", no_wrap=True,
+        table.add_column(heading(k), overflow="ellipsis", no_wrap=True,
                          min_width=max([1, *(len(cell(k, v.get(k, ""))) for v in values)]))
     for label, (source, s) in zip(labels, evaluation.per_result):
         table.add_row(escape(label), *[cell(k, s["scores"].get(k, "")) for k in keys])
@@ -73,8 +78,8 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
         rows = [(label, s["per_class"]) for label, (src, s) in zip(labels, evaluation.per_result) if "per_class" in s]
         if evaluation.combined is not None and "per_class" in evaluation.combined and len(rows) > 1:
             rows.append(("combined (pooled)", evaluation.combined["per_class"]))
-        class_keys = _score_keys([c["scores"] for _, pc in rows for c in pc.values()])
-        pc_table = Table("environment", "class", *[SHORT.get(k, k) for k in class_keys],
+        class_keys = _score_keys([c["scores"] for _, pc in rows for c in pc.values()], declared)
+        pc_table = Table("environment", "class", *[heading(k) for k in class_keys],
                          title=f"{evaluation.method} scores per class")  # fmt: skip
         for env, pc in rows:
             for cls, entry in pc.items():
@@ -108,7 +113,9 @@ Combining (--combine): mean (default, the original) = each score averaged over t
 environment counting as 0; pooled = TP, FP, FN and the quality sums added up over all results before dividing (a
 missing required environment counts its ground-truth objects as FN).
 
---per-class adds OMQ and its sub-scores per ground-truth class (TPs and FNs by the GT object's class, FPs by
+The table's columns are the scores the method declares (`benchbot show evaluators NAME`), its primary score first.
+
+--per-class adds the scores per ground-truth class (TPs and FNs by the GT object's class, FPs by
 their most likely non-background class). --oriented turns on the oriented-cuboid extension: a result object's
 optional "yaw" (radians about +z, map frame) rotates its box in the IoU; off (default) yaw is ignored, as in the
 original. See docs/evaluation.md.

@@ -8,8 +8,9 @@ from typing import Optional
 import typer
 
 from benchbot.batch.leaderboard import slug, write_site
-from benchbot.batch.report import assign_labels, load_run
+from benchbot.batch.report import UnfinishedRun, assign_labels, load_run
 from benchbot.cli.common import err, handle_errors, out, registry
+from benchbot.core.errors import UsageError
 
 
 def register(app: typer.Typer) -> None:
@@ -27,14 +28,29 @@ def register(app: typer.Typer) -> None:
                                                    "cover to be ranked, a comma list; default: the set most entries "
                                                    "ran."),
     ) -> None:
-        """Write a static leaderboard site: an index, one sortable page per task ranking its entries by mean OMQ
-        with intervals, and each entry's manifest and report linked. Plain files, no server: copy the folder to
-        any web host."""
-        data = [load_run(r.resolve()) for r in runs]
-        assign_labels(data, label)
+        """Write a static leaderboard site: an index, one page per task with one sortable table per condition set
+        (robot, noise preset, camera, simulator and version, scene style, isolation, evaluation method), entries
+        ranked by the evaluation method's primary score over environments with intervals (entries the intervals do
+        not tell apart share a rank), each entry's manifest and report linked. Unfinished batches are skipped with
+        one line each. Plain files, no server: copy the folder to any web host."""
+        reg = registry()
+        data, kept, skipped = [], [], []
+        for k, r in enumerate(runs):
+            try:
+                data.append(load_run(r.resolve(), registry=reg))
+                kept.append(k)
+            except UnfinishedRun as exc:
+                skipped.append(f"{exc.message}; {exc.hint}")
+                err.print(f"[yellow]skipped[/] {exc.message}; {exc.hint}", highlight=False)
+        if not data:
+            raise UsageError(f"no finished run directory among the {len(runs)} given", "finish them with "
+                             "benchbot batch --resume RUN_DIR, or give finished ones")
+        assign_labels(data, [label[k] for k in kept] if label and len(label) == len(runs) else label)
         envs = [e.strip() for e in environments.split(",") if e.strip()] if environments else None
-        site = write_site(data, output, title=title, registry=registry() if reports else None, reports=reports,
-                          environments=envs)
-        for task, rows in site["tasks"].items():
-            out.print(f"{output / (slug(task) + '.html')}: {len(rows)} entries", highlight=False)
+        site = write_site(data, output, title=title, registry=reg if reports else None, reports=reports,
+                          environments=envs, skipped=skipped)
+        for task, tables in site["tasks"].items():
+            n = sum(len(t["entries"]) for t in tables)
+            out.print(f"{output / (slug(task) + '.html')}: {n} entries in {len(tables)} condition set"
+                      f"{'s' if len(tables) != 1 else ''}", highlight=False)
         err.print(f"site written to {output} (open {output / 'index.html'})")

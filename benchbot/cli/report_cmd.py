@@ -19,13 +19,18 @@ from benchbot.core.errors import UsageError
 
 
 def _print_report(result: dict) -> None:
+    main = result["main_score"]
+    pct = f"{int(stats.CONFIDENCE * 100)} % CI"
     for r in result["runs"]:
-        table = Table("environment", "n", "mean OMQ", f"{int(stats.CONFIDENCE * 100)} % CI",
-                      title=f"{r['label']} ({r['run_dir']})", title_justify="left")
+        table = Table("over", "n", f"mean {main}", pct, title=f"{r['label']} ({r['run_dir']})", title_justify="left")
         for env, e in r["environments"].items():
-            table.add_row(env, str(e["n"]), fmt(e["value"]), interval_text(e))
+            table.add_row(f"{env}: episodes", str(e["n"]), fmt(e["value"]), interval_text(e))
         for score, e in r["summary"].items():
-            table.add_row(f"[bold]all: {score}[/]", str(e["n"]), fmt(e["value"]), interval_text(e))
+            table.add_row(f"[bold]all: {score}[/], environments", str(e["n"]), fmt(e["value"]), interval_text(e))
+        e = r["summary_episodes"].get(main)
+        if e:
+            table.add_row(f"all: {main}, episodes (these environments only)", str(e["n"]), fmt(e["value"]),
+                          interval_text(e))
         out.print(table)
         if not r["verifiable"]:
             err.print(f"[yellow]not verifiable:[/] {r['label']} ran its solution without the sandbox (isolation "
@@ -33,8 +38,14 @@ def _print_report(result: dict) -> None:
         if r["objects_note"]:
             err.print(f"note: {r['label']}: {r['objects_note']}", highlight=False)
     for c in result["comparisons"]:
-        out.print(f"{c['b']} − {c['a']} ({c['score']}, {c['n']} pairs by {c['pairing']}): {comparison_text(c)}",
+        out.print(f"{c['b']} − {c['a']} ({c['score']}, paired by {c['pairing']}): {comparison_text(c)}",
                   highlight=False, markup=False)
+    for d in result["differences"]:
+        err.print(f"[yellow]warning:[/] the runs differ in {d['what']} ("
+                  + "; ".join(f"{k}: {v or 'not recorded'}" for k, v in d["values"].items())
+                  + "): the comparisons measure it too; name it with --factor if that is the point", highlight=False)
+    for note in result["notes"]:
+        err.print(f"[yellow]note:[/] {note}", highlight=False)
 
 
 def _print_predictivity(result: dict) -> None:
@@ -51,6 +62,9 @@ def _print_predictivity(result: dict) -> None:
         out.print(f"{name} = {fmt(e['value'])} {interval_text(e)}{p} (n = {st['n']})", highlight=False, markup=False)
     for note in result["notes"]:
         err.print(f"note: {note}", highlight=False)
+    differs = "; ".join(f"{k} ({', '.join(v)})" for k, v in result.get("setting_differences", {}).items())
+    err.print(f"note: {result['limits']}" + (f" The two settings differ in: {differs}." if differs else ""),
+              highlight=False)
 
 
 def register(app: typer.Typer) -> None:
@@ -72,13 +86,21 @@ def register(app: typer.Typer) -> None:
         across: str = typer.Option("auto", "--across", help="With --predictivity, the paired units: solutions (one "
                                    "per pair of runs), environments, or auto (solutions from 2 pairs on)."),
         settings: str = typer.Option("sim,real", "--settings", help="With --predictivity, the two settings' names."),
+        factor: Optional[list[str]] = typer.Option(None, "--factor", help="A condition the runs are meant to differ "
+                                                   "in (repeat the flag): simulator style, camera, simulator, arch, "
+                                                   "... (docs/report.md); other differences are warned about."),
+        strict: bool = typer.Option(False, "--strict", help="Refuse (exit 2) instead of warning when the runs "
+                                    "differ in a condition not named with --factor."),
     ) -> None:
-        """Summarise batch runs: scores per environment and overall with 95 % bootstrap intervals (none below
-        5 episodes), runs compared with the first on episodes paired by environment and seed (tests from 6 pairs,
-        effect sizes, Holm-corrected), per-class results and, with -o, an HTML page with top-down maps of what was
-        mapped, figures as PNG/SVG/PDF and tables as CSV/LaTeX. --predictivity measures how well one setting's
-        runs predict another's."""
-        data = [load_run(r.resolve()) for r in runs]
+        """Summarise batch runs with the environment as the unit: each run's primary score as the mean of its
+        environments' means with a 95 % interval over them (none below 5), the episode level beside it; runs
+        compared with the first on episodes paired by environment and seed, tests over the environments (from 6,
+        effect sizes, Holm-corrected); per-class results and, with -o, an HTML page with top-down maps of what was
+        mapped and driven, figures as PNG/SVG/PDF and tables as CSV/LaTeX. Runs that differ in a condition the
+        comparison does not name are warned about (--strict refuses). --predictivity measures how well one
+        setting's runs predict another's."""
+        reg = registry()
+        data = [load_run(r.resolve(), registry=reg) for r in runs]
         if predictivity:
             names = tuple(n.strip() for n in settings.split(","))
             if len(names) != 2 or not all(names):
@@ -100,8 +122,12 @@ def register(app: typer.Typer) -> None:
                 err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")
             return
         assign_labels(data, label)
-        reg = registry()
-        result = analyse(data, reg)
+        result = analyse(data, reg, factors=factor)
+        conditions = [d for d in result["differences"] if d["condition"]]
+        if strict and conditions:
+            d = conditions[0]
+            raise UsageError(f"the runs differ in {d['what']} (" + "; ".join(f"{k}: {v}" for k, v in d["values"].items())
+                             + ")", f"run them under the same {d['what']}, or name it: --factor '{d['what']}'")
         if as_json:
             out.print_json(json.dumps(result))
         else:

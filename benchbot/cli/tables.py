@@ -1,7 +1,7 @@
 """Cells and labels of the CLI's score tables (``benchbot eval``, ``submit --evaluate-with``, ``batch``).
 
-* Counts (``TP``, ``FP``, ``FN``) are integers: ``15``, not ``15.0000``; a mean of counts over several results
-  keeps at most two decimals (``14.5``).
+* Counts (the scores a method declares of kind ``count``, docs/evaluation.md) are integers: ``15``, not
+  ``15.0000``; a mean of counts over several results keeps at most two decimals (``14.5``).
 * Rows of the same environment (repeats, several robots, several files) are told apart by their results file (a
   batch's by its episode number, ``miniroom:1 #3``).
 * Counts of things read "1 episode", "2 episodes" (:func:`plural`).
@@ -15,10 +15,6 @@ from pathlib import PurePath
 from rich import box
 from rich.console import Console
 from rich.table import Table
-
-#: Score keys that count objects: shown as integers.
-COUNT_KEYS = frozenset({"TP", "FP", "FN"})
-
 
 def plural(n: int, noun: str) -> str:
     """``plural(1, 'episode')`` → ``'1 episode'``; ``plural(4, 'episode')`` → ``'4 episodes'``."""

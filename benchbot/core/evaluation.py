@@ -193,6 +193,8 @@ class Evaluation:
         errors: ``[(source, error)]`` of files that could not be loaded, validated or scored (only filled with
             ``keep_going=True``; otherwise the first one is raised).
         combine_mode: ``"mean"`` or ``"pooled"``.
+        score_set: what the method's scores are (:class:`ScoreSet`): its declaration, else guessed from the scores
+            it returned (:func:`observed_scores`); None before anything was scored.
     """
 
     method: str
@@ -202,6 +204,7 @@ class Evaluation:
     missing: list[str] = field(default_factory=list)
     errors: list[PerFileError] = field(default_factory=list)
     combine_mode: str = "mean"
+    score_set: "ScoreSet | None" = None
 
     def to_json(self) -> dict | list:
         """What the original wrote to ``scores.json``: the combined dict, or the list of per-result dicts."""
@@ -209,6 +212,145 @@ class Evaluation:
 
 
 COMBINE_MODES = ("mean", "pooled")
+
+
+# --------------------------------------------------------------------------------------------------------------------
+# What a method's scores are: its declaration (the evaluator spec's ``scores``), read by every view
+# --------------------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ScoreInfo:
+    """One score an evaluation method returns under ``scores`` (docs/evaluation.md, "Declaring scores").
+
+    Attributes:
+        name: its key in the method's ``scores`` dict.
+        direction: ``"higher"`` or ``"lower"`` is better.
+        range: ``(low, high)`` of its values; None where unbounded or unknown.
+        kind: ``"score"`` (a real number) or ``"count"`` (an integer count, printed without decimals).
+        short: a short heading for narrow tables ("" : the name).
+        description: what it measures, in a sentence.
+        primary: the score that ranks, compares and summarises (one per method).
+    """
+
+    name: str
+    direction: str = "higher"
+    range: tuple[float | None, float | None] = (None, None)
+    kind: str = "score"
+    short: str = ""
+    description: str = ""
+    primary: bool = False
+
+    @property
+    def heading(self) -> str:
+        """The short heading, else the name."""
+        return self.short or self.name
+
+    def to_json(self) -> dict:
+        """As the spec writes it."""
+        return {"name": self.name, "direction": self.direction, "range": list(self.range), "kind": self.kind,
+                "short": self.short, "description": self.description, "primary": self.primary}
+
+
+@dataclass(frozen=True)
+class ScoreSet:
+    """The scores of an evaluation method, in the order views show them, with the primary one first-class.
+
+    Attributes:
+        method: the method's name ("" when unknown).
+        items: one :class:`ScoreInfo` per score, the primary one among them.
+        declared: whether the method declared them (False: guessed from scores seen, see :func:`observed_scores`).
+    """
+
+    method: str
+    items: tuple[ScoreInfo, ...]
+    declared: bool = True
+
+    @property
+    def primary(self) -> ScoreInfo:
+        """The primary score (the first item when none is marked)."""
+        return next((s for s in self.items if s.primary), self.items[0])
+
+    @property
+    def names(self) -> list[str]:
+        """Every score's name, in order (counts included)."""
+        return [s.name for s in self.items]
+
+    @property
+    def scores(self) -> list[str]:
+        """The names of the real-valued scores (not counts), primary first."""
+        rest = [s.name for s in self.items if s.kind == "score" and not s.primary]
+        return [self.primary.name] + rest if self.primary.kind == "score" else rest
+
+    @property
+    def counts(self) -> list[str]:
+        """The names of the integer counts."""
+        return [s.name for s in self.items if s.kind == "count"]
+
+    def get(self, name: str) -> ScoreInfo | None:
+        """The :class:`ScoreInfo` of ``name``, or None."""
+        return next((s for s in self.items if s.name == name), None)
+
+    def sign(self, name: str | None = None) -> int:
+        """+1 when higher values of ``name`` (default: the primary score) are better, −1 when lower are."""
+        info = self.get(name) if name else self.primary
+        return -1 if info is not None and info.direction == "lower" else 1
+
+    def to_json(self) -> dict:
+        """``{"method", "declared", "scores": [ScoreInfo dicts]}``: what a batch's manifest records."""
+        return {"method": self.method, "declared": self.declared, "scores": [s.to_json() for s in self.items]}
+
+    @classmethod
+    def from_json(cls, data: dict) -> "ScoreSet":
+        """The inverse of :meth:`to_json` (also takes an evaluator spec: ``{"name", "scores": [...]}``).
+
+        Raises:
+            ValueError: ``data`` has no non-empty ``scores`` list of entries with a ``name``.
+        """
+        entries = data.get("scores") if isinstance(data, dict) else None
+        if not isinstance(entries, list) or not entries or not all(isinstance(e, dict) and e.get("name")
+                                                                   for e in entries):
+            raise ValueError("no 'scores' list of {name, ...} entries")
+        items = []
+        for e in entries:
+            low, high = (list(e.get("range") or [None, None]) + [None, None])[:2]
+            items.append(ScoreInfo(str(e["name"]), str(e.get("direction", "higher")),
+                                   (None if low is None else float(low), None if high is None else float(high)),
+                                   str(e.get("kind", "score")), str(e.get("short", "")), str(e.get("description", "")),
+                                   bool(e.get("primary", False))))
+        return cls(str(data.get("method", data.get("name", ""))), tuple(items), bool(data.get("declared", True)))
+
+
+def observed_scores(method: str, entries: list[dict]) -> ScoreSet:
+    """A :class:`ScoreSet` for a method that declares none (an older third-party evaluator), from the scores it
+    returned: every numeric key of ``entries`` (each a method's ``scores`` dict) in first-seen order, integers seen
+    only as whole numbers counted as counts, the first real-valued one primary, every one "higher is better"
+    (``declared`` False, so views can say the direction is assumed).
+
+    Raises:
+        ValueError: no entry has a numeric score.
+    """
+    seen: dict[str, bool] = {}  # name -> every value an integer
+    for entry in entries:
+        for k, v in (entry or {}).items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                seen[k] = seen.get(k, True) and isinstance(v, int)
+    if not seen:
+        raise ValueError(f"no numeric scores from method '{method}'")
+    kinds = {k: "count" if whole else "score" for k, whole in seen.items()}
+    primary = next((k for k, kind in kinds.items() if kind == "score"), next(iter(kinds)))
+    return ScoreSet(method, tuple(ScoreInfo(k, kind=kinds[k], primary=k == primary) for k in kinds), declared=False)
+
+
+def method_scores(registry: Registry, method: str) -> ScoreSet | None:
+    """The :class:`ScoreSet` the evaluation method ``method`` declares in its spec's ``scores``; None when it
+    declares none (then :func:`observed_scores` stands in).
+
+    Raises:
+        SpecError: no method of that name.
+    """
+    spec = registry.get("evaluators", method)
+    if not spec.get("scores"):
+        return None
+    return ScoreSet.from_json({"method": method, "scores": spec["scores"]})
 
 
 def _accepts(fn: Callable, name: str) -> bool:
@@ -347,6 +489,8 @@ def evaluate(
         covered.add(result.env_string)
         task_details = task_details or task
     evaluation.errors.sort(key=lambda e: order.get(e[0], len(paths)))
+    evaluation.score_set = ScoreSet.from_json({"method": method, "scores": spec["scores"]}) if spec.get("scores") \
+        else _observed_or_none(method, [s.get("scores") or {} for _, s in evaluation.per_result])
     evaluation.missing = [e for e in (required_envs or []) if e not in covered]
     if "combine" in functions:
         scores_list = [s for _, s in evaluation.per_result]
@@ -363,6 +507,13 @@ def evaluate(
         used = sorted({s.get("ground_truth_set") for _, s in evaluation.per_result if isinstance(s, dict)} - {None})
         evaluation.combined["ground_truth_set"] = ", ".join(used) if used else None
     return evaluation
+
+
+def _observed_or_none(method: str, entries: list[dict]) -> ScoreSet | None:
+    try:
+        return observed_scores(method, entries)
+    except ValueError:
+        return None
 
 
 def _ground_truths(source: str, environment_details: list[dict], spec: dict, registry: Registry,

@@ -3,7 +3,8 @@
 :class:`BatchApp` polls the run directory every ``poll_s`` seconds and reads ``manifest.json`` (the plan and every
 episode's record, written atomically by the batch after each episode), ``progress.json`` (live step counts, written
 by the batch at most 4 times a second: :mod:`benchbot.batch.progress`), ``config.json`` (the expected steps of
-passive tasks) and ``episode_scores.json`` (OMQ, once the batch is evaluated). It works for a batch running in this
+passive tasks) and ``episode_scores.json`` (the evaluation method's primary score, once the batch is evaluated; its
+name from the manifest's ``scores``, which the method declares). It works for a batch running in this
 process (``benchbot batch`` runs it in a background thread) or in another one (``benchbot tui RUN_DIR``), and for a
 finished one: one way in for all three, since the files are written for the other process and the finished batch
 anyway.
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from rich.markup import escape
+from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.css.query import NoMatches
@@ -29,7 +31,8 @@ from textual.widgets import DataTable, Footer, Log, Static
 from benchbot.batch.plan import expected_steps
 from benchbot.batch.progress import read_progress
 
-COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "OMQ")
+COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "score")
+"""The episode table's column keys; the last one is headed by the primary score's name (:func:`primary_score`)."""
 #: Bytes of an episode's log that the log screen shows (its end).
 LOG_TAIL_BYTES = 256 * 1024
 #: Statuses of an episode that will not change any more in this batch.
@@ -61,15 +64,35 @@ def expected_steps_by_env(config: dict | None) -> dict[str, int]:
             if (steps := expected_steps(task, scenes)) is not None}
 
 
-def episode_omq(scores: Any) -> dict[int, float]:
-    """``{episode index: OMQ}`` from ``episode_scores.json``'s parsed content: a list of
-    ``{"index": i, "OMQ": x}`` or ``{"index": i, "scores": {"OMQ": x}}``; entries without both are skipped,
-    anything but a list gives ``{}``."""
+def primary_score(manifest: dict, scores: Any = None) -> str | None:
+    """The name of the batch's primary score: the manifest's ``scores`` declaration (what the evaluation method
+    declares, :class:`benchbot.core.evaluation.ScoreSet`), else the first real-valued score of
+    ``episode_scores.json``'s entries (``scores``), else None (not evaluated yet)."""
+    from benchbot.core.evaluation import ScoreSet, observed_scores
+
+    try:
+        return ScoreSet.from_json(manifest.get("scores")).primary.name
+    except (ValueError, AttributeError, TypeError):
+        pass
+    entries = [e.get("scores") if isinstance(e.get("scores"), dict) else e
+               for e in (scores if isinstance(scores, list) else []) if isinstance(e, dict)]
+    try:
+        return observed_scores(str(manifest.get("evaluate_with") or ""),
+                               [{k: v for k, v in e.items() if k not in ("index", "repeat", "seed")} for e in entries]
+                               ).primary.name
+    except ValueError:
+        return None
+
+
+def episode_scores(scores: Any, name: str | None) -> dict[int, float]:
+    """``{episode index: score}`` of the score ``name`` from ``episode_scores.json``'s parsed content: a list of
+    ``{"index": i, name: x}`` or ``{"index": i, "scores": {name: x}}``; entries without both are skipped,
+    anything but a list (or no name) gives ``{}``."""
     out: dict[int, float] = {}
-    for entry in scores if isinstance(scores, list) else []:
+    for entry in scores if isinstance(scores, list) and name else []:
         inner = entry.get("scores") if isinstance(entry.get("scores"), dict) else entry
-        if "OMQ" in inner and "index" in entry:
-            out[int(entry["index"])] = float(inner["OMQ"])
+        if name in inner and "index" in entry:
+            out[int(entry["index"])] = float(inner[name])
     return out
 
 
@@ -98,10 +121,11 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
 
     Returns:
         ``(summary, rows)``: ``summary`` has ``task``, ``episodes``, ``counts`` (``{status: n}``), ``finished``
-        (bool), ``evaluation_error``, ``combined_omq`` (or None), ``done`` (episodes that ended), ``progress``
+        (bool), ``evaluation_error``, ``score_name`` (the primary score's, or None), ``combined`` (its combined
+        value, or None), ``done`` (episodes that ended), ``progress``
         (0–1: ended episodes plus running ones' step fractions, over all), ``logs`` (``{index: log path relative
         to run_dir}``); each row is ``(index, env, robot, repeat, status,
-        steps text, wall text, OMQ text)``. Empty when there is no manifest yet.
+        steps text, wall text, score text)``. Empty when there is no manifest yet.
     """
     manifest = read_json(run_dir / "manifest.json")
     if not isinstance(manifest, dict):
@@ -109,7 +133,9 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     now = time.time() if now is None else now
     live = read_progress(run_dir)
     expected = _or_empty(expected_steps_by_env, read_json(run_dir / "config.json"))
-    omq = _or_empty(episode_omq, read_json(run_dir / "episode_scores.json"))
+    episode_scores_ = read_json(run_dir / "episode_scores.json")
+    name = primary_score(manifest, episode_scores_)
+    omq = _or_empty(lambda content: episode_scores(content, name), episode_scores_)
     counts: dict[str, int] = {}
     logs: dict[int, str] = {}
     progress_sum = 0.0
@@ -137,10 +163,11 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
     combined = None
     if isinstance(scores, dict):
         inner = scores.get("scores") if isinstance(scores.get("scores"), dict) else scores
-        combined = inner.get("OMQ")
+        combined = inner.get(name) if name else None
     summary = {"task": manifest.get("task", ""), "episodes": len(rows), "counts": counts,
                "finished": "finished" in manifest, "evaluation_error": manifest.get("evaluation_error", ""),
-               "combined_omq": combined, "logs": logs,
+               "score_name": name, "combined": combined if isinstance(combined, (int, float)) else None,
+               "logs": logs,
                "done": sum(n for k, n in counts.items() if k in FINAL_STATUSES),
                "progress": progress_sum / len(rows) if rows else 1.0}
     return summary, rows
@@ -168,13 +195,14 @@ class EtaEstimator:
 
 
 def summary_text(summary: dict, eta_s: float | None) -> str:
-    """The view's header (rich markup): task, episode counts by status, the overall progress line, OMQ."""
+    """The view's header (rich markup): task, episode counts by status, the overall progress line, the combined
+    primary score."""
     counts = " · ".join(f"[{STATUS_STYLE.get(k, '')}]{k} {v}[/]" for k, v in sorted(summary["counts"].items()))
     n = summary["episodes"]
     state = "[green]finished[/]" if summary["finished"] else "[yellow]running[/]"
     text = f"task [b]{escape(str(summary['task']))}[/b] · {n} episode{'s' if n != 1 else ''} · {counts} · {state}"
-    if summary["combined_omq"] is not None:
-        text += f" · OMQ [b]{summary['combined_omq']:.4f}[/b]"
+    if summary.get("combined") is not None:
+        text += f" · {escape(str(summary['score_name']))} [b]{summary['combined']:.4f}[/b]"
     done, width = summary.get("done", 0), 30
     filled = int(round(width * float(summary.get("progress", 0.0))))
     eta = "" if summary["finished"] else f" · ETA {format_seconds(eta_s)}" if eta_s is not None else " · ETA …"
@@ -334,8 +362,11 @@ class BatchApp(PollingApp):
     def on_mount(self) -> None:
         self.sub_title = str(self.run_dir.name)
         table = self.query_one(DataTable)
-        for name in COLUMNS:
-            table.add_column(name, key=name)
+        manifest = read_json(self.run_dir / "manifest.json")
+        name = primary_score(manifest, read_json(self.run_dir / "episode_scores.json")) \
+            if isinstance(manifest, dict) else None
+        for key in COLUMNS:
+            table.add_column(name if key == COLUMNS[-1] and name else key, key=key)
         self.start_polling()
 
     def _refresh(self) -> None:
@@ -350,6 +381,11 @@ class BatchApp(PollingApp):
             self.query_one("#summary", Static).update(f"waiting for {self.run_dir / 'manifest.json'} …")
             return
         self.query_one("#summary", Static).update(summary_text(summary, self._eta.update(summary, self.clock())))
+        name = summary.get("score_name") or "score"
+        column = table.columns.get(COLUMNS[-1])
+        if column is not None and str(column.label) != name:
+            column.label = Text(name)
+            table.refresh()
         for row in rows:
             key = str(row[0])
             self._logs[key] = (f"episode {row[0]} · {row[1]} · {row[2]} · repeat {row[3]}",
