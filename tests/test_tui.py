@@ -244,9 +244,33 @@ def test_progress_file_keeps_the_last_step_and_reads_back_whatever_is_there(tmp_
     for n in range(1, 50):
         live.event("step", 3, {"step": n})  # written at most 4 times a second
     live.event("end", 3, None)  # always written, with the last step
-    assert {k: v for k, v in read_progress(tmp_path)["3"].items() if k != "started"} == {"state": "ended", "step": 49}
+    assert {k: v for k, v in read_progress(tmp_path)["3"].items() if k != "started"} == {
+        "state": "ended", "step": 49, "stage": ""}
     atomic.write_json(tmp_path / "progress.json", {"episodes": ["not", "a", "map"]})
     assert read_progress(tmp_path) == {}
+
+
+def test_a_starting_episode_shows_what_its_backend_is_doing(tmp_path):
+    """Before its first step an episode's steps cell says the backend's stage ("building the BVH …"), from the
+    progress file (before: 0/33 for the ~30 s the scene took to build)."""
+    from benchbot.batch.progress import ProgressFile
+
+    run_dir = make_run_dir(tmp_path)
+    live = ProgressFile(run_dir)
+    live.event("start", 2, None)
+    live.event("stage", 2, {"stage": "building the BVH"})
+    assert batch_rows(run_dir, now=FROZEN)[1][2][5] == "building the BVH …"
+    live.event("stage", 2, {"stage": ""})
+    live.event("step", 2, {"step": 1})
+    live.event("end", 2, None)
+    assert read_progress_stage(run_dir) == ""
+    assert batch_rows(run_dir, now=FROZEN)[1][2][5] == "0/33"  # the record's steps once ended (not ok yet)
+
+
+def read_progress_stage(run_dir):
+    from benchbot.batch.progress import read_progress
+
+    return read_progress(run_dir)["2"]["stage"]
 
 
 def test_batch_view_shows_what_it_can_of_files_of_the_wrong_shape(tmp_path):

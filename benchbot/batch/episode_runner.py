@@ -15,6 +15,7 @@ from typing import Any
 
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
 from benchbot.batch.provenance import backend_facts
+from benchbot.core import stages
 from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
 from benchbot.core.registry import get_registry
@@ -102,7 +103,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             combination by the batch process (:class:`benchbot.batch.runner.Batch`); plain data, it is pickled
             to worker processes and Ray tasks with ``spec``.
         run_dir: absolute path of the run directory (results and logs go there).
-        events: a queue receiving ``("start", index, None)``, ``("step", index, info)`` and ``("end", index, None)``.
+        events: a queue receiving ``("start", index, None)``, ``("stage", index, {"stage": what the backend is
+            doing, "" when done})`` while it starts (:mod:`benchbot.core.stages`), ``("step", index, info)`` and
+            ``("end", index, None)``.
     """
     record = new_record(spec)
     folder = Path(run_dir)
@@ -129,8 +132,13 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             if events is not None:
                 events.put(("step", spec.index, {"step": info["step"], "result": info["result"]}))
 
+        def on_stage(event: stages.StageEvent) -> None:  # what the backend is doing before the first step
+            if events is not None:
+                events.put(("stage", spec.index, {"stage": "" if event.kind == "end" else event.text()}))
+
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
-        service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step)
+        with stages.listening(on_stage):
+            service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step)
         recorder = None
         try:
             if spec.record:

@@ -5,7 +5,8 @@
 manifest, whether it runs in the batch's process (``benchbot batch`` in a terminal) or in another one
 (``benchbot tui RUN_DIR``). The format (docs/tui.md)::
 
-    {"episodes": {"<index>": {"state": "running" | "ended", "step": <steps so far>, "started": <Unix s>}}}
+    {"episodes": {"<index>": {"state": "running" | "ended", "step": <steps so far>, "started": <Unix s>,
+                              "stage": <what its backend is doing while it starts, e.g. "building the BVH"; "">}}}
 
 An episode's expected steps are not in it: the view takes them from ``config.json``
 (:func:`benchbot.batch.plan.expected_steps`).
@@ -39,8 +40,8 @@ class ProgressFile:
         self.lock = threading.Lock()
 
     def event(self, kind: str, index: int, info: dict | None) -> None:
-        """An executor event: ``("start", index, None)``, ``("step", index, {"step": n, ...})`` or
-        ``("end", index, None)``; others are ignored.
+        """An executor event: ``("start", index, None)``, ``("stage", index, {"stage": text})``, ``("step", index,
+        {"step": n, ...})`` or ``("end", index, None)``; others are ignored.
 
         Raises:
             OSError: the file cannot be written.
@@ -48,13 +49,15 @@ class ProgressFile:
         with self.lock:
             key = str(index)
             if kind == "start":
-                self.episodes[key] = {"state": "running", "step": 0, "started": time.time()}
+                self.episodes[key] = {"state": "running", "step": 0, "started": time.time(), "stage": ""}
+            elif kind == "stage" and key in self.episodes:
+                self.episodes[key]["stage"] = str(info.get("stage", ""))
             elif kind == "step" and key in self.episodes:
                 self.episodes[key]["step"] = info["step"]
                 if time.monotonic() - self.written_at < self.min_interval:
                     return
             elif kind == "end" and key in self.episodes:
-                self.episodes[key]["state"] = "ended"
+                self.episodes[key].update(state="ended", stage="")
             else:
                 return
             atomic.write_json(self.path, {"episodes": self.episodes})

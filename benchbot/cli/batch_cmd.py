@@ -165,6 +165,9 @@ def register(app: typer.Typer) -> None:
                 def on_event(kind: str, index: int, info: dict | None) -> None:
                     if kind == "start":
                         rows[index] = progress.add_task(label[index], total=expected[index])
+                    elif kind == "stage" and index in rows:  # what the backend does before the first step
+                        stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
+                        progress.update(rows[index], description=label[index] + stage)
                     elif kind == "step" and index in rows:
                         progress.update(rows[index], completed=info["step"])
 

@@ -104,3 +104,40 @@ def writing(path: Any, flag: str) -> Iterator[None]:
 def is_tty() -> bool:
     """stderr is a terminal (progress bars are drawn live)."""
     return sys.stderr.isatty()
+
+
+#: Stages shorter than this (seconds) leave no line behind in a terminal (the status line showed them meanwhile).
+STAGE_LINE_MIN_S = 0.5
+#: In a log, a stage's start is a line; its end is one too when it took this long or more (seconds).
+STAGE_END_LINE_MIN_S = 5.0
+
+
+@contextlib.contextmanager
+def showing_stages(label: str = "") -> Iterator[None]:
+    """Show the stages of the work done inside the block (:mod:`benchbot.core.stages`: building the scene,
+    compiling kernels, ...) on stderr, ``label`` (e.g. an environment's name) before each. In a terminal: a status
+    line with a spinner naming the current stage and its progress, and a line with its time for each stage that
+    took :data:`STAGE_LINE_MIN_S` or more. In a log: a line as each stage starts, and one with its time when it took
+    :data:`STAGE_END_LINE_MIN_S` or more. Nothing is shown for work that has no stages."""
+    from benchbot.core import stages
+
+    prefix = f"{label}: " if label else ""
+    status = err.status("starting …", spinner="dots") if is_tty() else None
+
+    def show(event: stages.StageEvent) -> None:
+        if event.kind == "end":
+            if event.elapsed_s >= (STAGE_LINE_MIN_S if status is not None else STAGE_END_LINE_MIN_S):
+                err.print(f"[dim]{prefix}{event.text()}: {event.elapsed_s:.1f} s[/]", highlight=False)
+        elif status is not None:
+            status.update(f"{prefix}{event.text()} …")
+        elif event.kind == "start":
+            err.print(f"{prefix}{event.text()} …", highlight=False)
+
+    if status is not None:
+        status.start()
+    try:
+        with stages.listening(show):
+            yield
+    finally:
+        if status is not None:
+            status.stop()

@@ -14,12 +14,13 @@ import subprocess
 import sys
 import tempfile
 from dataclasses import asdict, dataclass
+from typing import Callable
 
 import typer
 from rich.table import Table
 from rich.text import Text
 
-from benchbot.cli.common import handle_errors, out
+from benchbot.cli.common import err, handle_errors, is_tty, out
 from benchbot.core import settings
 
 MAIN_JOB = {"tasks": "semantic_slam:passive:ground_truth", "robots": "carter", "environments": "miniroom:1",
@@ -216,20 +217,31 @@ def check_data_dir() -> Check:
                      "set BENCHBOT_DATA_DIR (or XDG_DATA_HOME) to a writable folder")
 
 
-def run_checks(render: bool = True, timeout_s: float = 180.0) -> list[Check]:
-    """Every check, in order (renders run in one subprocess per arch, each limited to ``timeout_s`` seconds)."""
-    checks = [check_python(), check_packages(), *check_plugins()]
+def run_checks(render: bool = True, timeout_s: float = 180.0, on_check: Callable[[str], None] = lambda _: None
+               ) -> list[Check]:
+    """Every check, in order (renders run in one subprocess per arch, each limited to ``timeout_s`` seconds);
+    ``on_check`` is told what is checked next, as a phrase ("the solution sandbox")."""
+    def step(what: str, check: Callable[[], "Check | list[Check]"]) -> list[Check]:
+        on_check(what)
+        result = check()
+        return result if isinstance(result, list) else [result]
+
+    checks = step("Python and packages", check_python) + step("Python and packages", check_packages)
+    checks += step("the plugins", check_plugins)
     if render:
-        checks += [check_render(arch, timeout_s if arch == "cpu" else min(timeout_s, 90.0)) for arch in ("cpu", "cuda", "vulkan")]
-    checks += [
-        check_gpu(),
-        check_module("rclpy|cyclonedds", "ros", "optional (real robots): install ROS 2 (rclpy) or `pip install cyclonedds`"),
-        check_sandbox(),
-        check_containers(),
-        check_module("ray", "ray", "optional (distributed batches): benchbot install ray"),
-        check_port(10000),
-        check_data_dir(),
-    ]
+        for arch in ("cpu", "cuda", "vulkan"):
+            limit = timeout_s if arch == "cpu" else min(timeout_s, 90.0)
+            checks += step(f"a frame rendered on {arch} (the first run compiles kernels: up to {limit:.0f} s)",
+                           lambda arch=arch, limit=limit: check_render(arch, limit))
+    for what, check in (
+        ("the GPU", check_gpu),
+        ("ROS 2", lambda: check_module("rclpy|cyclonedds", "ros",
+                                       "optional (real robots): install ROS 2 (rclpy) or `pip install cyclonedds`")),
+        ("the solution sandbox", check_sandbox), ("container engines", check_containers),
+        ("Ray", lambda: check_module("ray", "ray", "optional (distributed batches): benchbot install ray")),
+        ("port 10000", lambda: check_port(10000)), ("the data directory", check_data_dir),
+    ):
+        checks += step(what, check)
     return checks
 
 
@@ -245,7 +257,11 @@ def register(app: typer.Typer) -> None:
         """Check this machine: Python and packages, plugins, Taichi backends (one rendered frame each), GPU, ROS,
         the solution sandbox (bubblewrap), Docker/Podman, Ray, port 10000, the data directory; and show BenchBot's settings (environment variables)
         with their effective values and where each comes from. Exit code 0 when the default main job can run."""
-        checks = run_checks(render, timeout)
+        if as_json or not is_tty():
+            checks = run_checks(render, timeout)
+        else:
+            with err.status("checking …", spinner="dots") as status:
+                checks = run_checks(render, timeout, on_check=lambda what: status.update(f"checking {what} …"))
         ok = all(c.ok for c in checks if c.required)
         if as_json:
             out.print_json(json.dumps({"ok": ok, "checks": [asdict(c) for c in checks],

@@ -12,7 +12,7 @@ from typing import Optional
 
 import typer
 
-from benchbot.cli.common import backend_options, err, handle_errors, registry, writing
+from benchbot.cli.common import backend_options, err, handle_errors, registry, showing_stages, writing
 from benchbot.cli.options import at_most, check_count
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_SEED
@@ -68,7 +68,8 @@ def register(app: typer.Typer) -> None:
                 token = secrets.token_urlsafe(24)
                 err.print(f"serving beyond loopback: clients must send the token [bold]{token}[/] (export BENCHBOT_TOKEN={token})")
             err.print(f"task {task} | robot {robot} | environment {env} | results format {spec.task.get('results_format') or 'none'}")
-            service = start_service(reg, spec, seed=seed, options=options)
+            with showing_stages():
+                service = start_service(reg, spec, seed=seed, options=options)
         except BaseException:
             sock.close()
             raise

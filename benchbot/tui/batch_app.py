@@ -152,6 +152,8 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
         counts[status] = counts.get(status, 0) + 1
         total = expected.get(record["env"])
         steps_text = f"{steps}/{total}" if total else str(steps)
+        if status == "running" and not steps and isinstance(p, dict) and p.get("stage"):
+            steps_text = f"{p['stage']} …"  # the backend is still starting: what it is doing
         logs[index] = str(record.get("log", ""))
         if status in FINAL_STATUSES:
             progress_sum += 1.0

@@ -334,17 +334,20 @@ class SimBridge:
 
 
 def serve(env: str, **kwargs: Any) -> None:
-    """Build a :class:`SimBridge` and serve until interrupted (Ctrl-C / SIGTERM)."""
+    """Build a :class:`SimBridge` (its stages shown on stderr: :func:`benchbot.cli.common.showing_stages`), say one
+    "ready" line, and serve until interrupted. Ctrl-C re-raises KeyboardInterrupt once the bridge is closed (the
+    command exits 130, as ``benchbot run`` does); SIGTERM stops serving and returns."""
     import signal
 
-    bridge = SimBridge(env, **kwargs)
+    from benchbot.cli.common import showing_stages
+
+    with showing_stages(env):
+        bridge = SimBridge(env, **kwargs)
     signal.signal(signal.SIGTERM, lambda *_: bridge.stop_event.set())
-    print(f"serving {env} as a ROS 2 robot (domain {kwargs.get('domain_id', 0)}, transport {bridge.tr.name}); "
+    print(f"ready: serving {env} as a ROS 2 robot (domain {kwargs.get('domain_id', 0)}, transport {bridge.tr.name}); "
           "Ctrl-C stops", file=sys.stderr, flush=True)
     try:
         bridge.run()
-    except KeyboardInterrupt:
-        pass
     finally:
         bridge.close()
 

@@ -22,6 +22,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from benchbot.core import noise as noise_models
+from benchbot.core import stages
 from benchbot.core.errors import BackendError, UsageError
 from benchbot.core.geometry import rpy_to_matrix, se2_to_matrix
 from benchbot.core.motion import ControllerGains
@@ -228,14 +229,17 @@ class TaichiSimBackend(RobotBackend):
             BackendError: the map file is missing or malformed, or the start pose collides with the scene.
         """
         seed = int(self.options.get("seed", 0) if seed is None else seed)
-        scene = build_scene(environment, seed=seed)
+        name = f"{environment.get('name')}:{environment.get('variant')}"
+        with stages.stage("building the scene", detail=name):
+            scene = build_scene(environment, seed=seed)
         if self._renderer is None:
-            from benchbot_sim_taichi.renderer import Renderer  # Taichi is imported and initialised here
+            with stages.stage("starting Taichi", detail=str(self.options.get("arch") or "auto")):
+                from benchbot_sim_taichi.renderer import Renderer  # Taichi is imported and initialised here
 
-            cam = self.sensors["camera"]
-            camera = CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
-            self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
-                                      camera=camera)
+                cam = self.sensors["camera"]
+                camera = CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
+                self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
+                                          camera=camera)
         self._renderer.seed = seed
         self._renderer.set_scene(scene)
         self._seed = seed
@@ -257,7 +261,8 @@ class TaichiSimBackend(RobotBackend):
         from benchbot_sim_taichi.renderer import intrinsics
 
         T_map_footprint = se2_to_matrix(*self._pose)
-        self._renderer.render(intrinsics(8, 6, float(self.sensors["camera"]["horizontal_fov_deg"])),
+        with stages.stage("compiling kernels", detail="once per machine, then cached"):
+            self._renderer.render(intrinsics(8, 6, float(self.sensors["camera"]["horizontal_fov_deg"])),
                               T_map_footprint @ self.T_footprint_camera, 8, 6, mode=self.mode,
                               T_map_lidar=T_map_footprint @ self.T_footprint_lidar, angles=self.laser_angles)
 

@@ -18,7 +18,9 @@ from pathlib import Path
 
 import typer
 
+from benchbot.cli.common import showing_stages
 from benchbot.cli.options import at_most, check_count
+from benchbot.core import stages
 from benchbot.core.limits import MAX_CAMERA_SIDE, MAX_RENDER_SAMPLES, MAX_SEED
 
 app = typer.Typer(help="The Taichi simulator (sim_taichi): render views, export scenes, derive ground truths.",
@@ -111,10 +113,17 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
             raise UsageError(f"unknown --mode {mode!r}", "use fast or quality")
         if not 0.0 < fov < 180.0:
             raise UsageError(f"--fov {fov} is not between 0 and 180 degrees", "e.g. --fov 90")
-        scene = build_scene(_styled(_environment(env), style), seed=seed)
-        r = Renderer(None, shadow_samples=shadow_samples, seed=seed)
-        r.set_scene(scene)
-        out = r.render(intrinsics(width, height, fov), _T_camera(scene, pose), width, height, mode=mode, spp=spp)
+        with showing_stages(env):
+            with stages.stage("building the scene"):
+                scene = build_scene(_styled(_environment(env), style), seed=seed)
+            with stages.stage("starting Taichi"):
+                r = Renderer(None, shadow_samples=shadow_samples, seed=seed)
+            r.set_scene(scene)
+            with stages.stage("rendering", detail=f"{mode} mode, {width}x{height}"
+                              + (f", {spp} samples a pixel" if mode == "quality" else "")
+                              + "; the first run also compiles kernels"):
+                out = r.render(intrinsics(width, height, fov), _T_camera(scene, pose), width, height, mode=mode,
+                               spp=spp)
         output.parent.mkdir(parents=True, exist_ok=True)
         try:
             written = cv2.imwrite(str(output), out["rgb"][:, :, ::-1])

@@ -80,7 +80,7 @@ import warnings
 
 import numpy as np
 
-from benchbot.core import settings
+from benchbot.core import settings, stages
 from benchbot.core.errors import UsageError
 from benchbot_sim_taichi.camera_model import CameraModel, tone_table
 
@@ -621,7 +621,8 @@ class Renderer:
         """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
         use it. With device buffers, this is the only host-to-device copy of the scene."""
         _free_retired()
-        packed = pack_scene(scene)
+        with stages.stage("building the BVH"):
+            packed = pack_scene(scene)
         use_maps = (getattr(scene, "style", "") == "furnished") if self.shadow_maps is None else bool(self.shadow_maps)
         lamps = np.flatnonzero(packed["lights"][:packed["n_lights"], 0] == 1) if use_maps else np.zeros(0, np.int64)
         packed["lights"][lamps, 8] = np.arange(lamps.size)
@@ -636,12 +637,15 @@ class Renderer:
         _retire(self._scene_arrays)
         self._scene_arrays = []
         arrays = {k: self._scene_array(self._packed[k]) for k in _SCENE_ARRAYS}
-        if lamps.size:  # the lamps' shadow maps, traced once per scene, where the kernels read them
-            lamp_map_kernel(arrays["lights"], arrays["light_of_slot"], arrays["nodes"], arrays["pf"], arrays["pi"],
-                            arrays["tris"], arrays["lamp_maps"])
-        if sun is not None:  # and the sun's
-            sun_map_kernel(arrays["lights"], sun, top, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
-                           arrays["sun_map"])
+        if lamps.size or sun is not None:  # the lamps' and the sun's shadow maps, traced once per scene
+            with stages.stage("tracing shadow maps", detail=f"{lamps.size} lamps" + (" and the sun" if sun is not None
+                                                                                    else "")):
+                if lamps.size:
+                    lamp_map_kernel(arrays["lights"], arrays["light_of_slot"], arrays["nodes"], arrays["pf"],
+                                    arrays["pi"], arrays["tris"], arrays["lamp_maps"])
+                if sun is not None:
+                    sun_map_kernel(arrays["lights"], sun, top, arrays["nodes"], arrays["pf"], arrays["pi"],
+                                   arrays["tris"], arrays["sun_map"])
         always, grid, xform = self._light_grid(arrays, lamps.size)
         lights = (always.shape[0], self._scene_array(always if always.size else np.full(1, -1, np.int32)),
                   self._scene_array(grid), self._scene_array(xform), arrays["light_of_slot"])
@@ -677,9 +681,10 @@ class Renderer:
         store, info_arr = self._scene_array(store), self._scene_array(info)
         if starts[-1] > 0:
             params = self._upload("bake_params", render_params(self.shadow_samples, self.seed))
-            bake_kernel(self._upload("bake_starts", starts.astype(np.int64)), info_arr, params, arrays["lights"],
-                        *lights, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"], arrays["shade"],
-                        arrays["lamp_maps"], arrays["sun_map"], store)
+            with stages.stage("baking light", detail=f"{int(starts[-1]):,} points"):
+                bake_kernel(self._upload("bake_starts", starts.astype(np.int64)), info_arr, params, arrays["lights"],
+                            *lights, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"], arrays["shade"],
+                            arrays["lamp_maps"], arrays["sun_map"], store)
         return store, info_arr
 
     def _scene_array(self, a: np.ndarray) -> object:

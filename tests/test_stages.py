@@ -1,0 +1,80 @@
+"""Long work says what it is doing (benchbot.core.stages): the simulator's stages reach listeners, commands show them
+and say one "ready" line, and a stage's listener can never break the work."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from benchbot.core import stages
+
+BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
+
+
+def test_listeners_hear_every_stage_and_cannot_break_the_work(monkeypatch):
+    monkeypatch.setattr(stages, "ADVANCE_INTERVAL_S", 0.0)
+    heard = []
+
+    def broken(event):
+        raise RuntimeError("a listener's own bug")
+
+    with stages.listening(heard.append), stages.listening(broken):
+        with stages.stage("baking light", detail="12 points", total=3) as progress:
+            for _ in range(3):
+                progress.advance()
+    assert [(e.kind, e.done) for e in heard] == [("start", 0), ("advance", 1), ("advance", 2), ("advance", 3),
+                                                 ("end", 3)]
+    assert heard[2].text() == "baking light (12 points, 2/3)"
+    with stages.stage("unheard"):
+        pass
+    assert len(heard) == 5  # the listener is gone after its block
+
+
+def read_until(proc: subprocess.Popen, marker: str, within_s: float) -> list[str]:
+    lines, deadline = [], time.monotonic() + within_s
+    while time.monotonic() < deadline:
+        line = proc.stderr.readline()
+        if not line:
+            break
+        lines.append(line.rstrip("\n"))
+        if marker in line:
+            return lines
+    raise AssertionError(f"no {marker!r} within {within_s} s: {lines}")
+
+
+@pytest.mark.slow
+def test_run_says_each_stage_then_ready_in_a_log():
+    """In a log (no terminal) each stage of the simulator's start is a line, then one "backend ready" line."""
+    proc = subprocess.Popen([*BENCHBOT, "run", "--env", "miniroom:1", "--port", "0", "--camera-size", "64x48",
+                             "--no-tui"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        lines = read_until(proc, "backend ready", 300)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    started = [line for line in lines if line.endswith(" …")]
+    assert started[:2] == ["building the scene (miniroom:1) …", "starting Taichi (cpu) …"], lines
+    assert "building the BVH …" in started and "compiling kernels (once per machine, then cached) …" in started
+    assert lines[-1].startswith("backend ready at http://127.0.0.1:")
+    assert proc.returncode == 130
+
+
+@pytest.mark.slow
+def test_ros2_serve_sim_is_ready_then_ends_on_ctrl_c_with_130():
+    pytest.importorskip("cyclonedds")
+    env = dict(os.environ, ROS_DOMAIN_ID="77")
+    proc = subprocess.Popen([*BENCHBOT, "ros2", "serve-sim", "--env", "miniroom:1", "--camera-size", "64x48",
+                             "--transport", "cyclonedds", "--arch", "cpu"], stderr=subprocess.PIPE,
+                            stdout=subprocess.DEVNULL, text=True, env=env)
+    try:
+        lines = read_until(proc, "ready: serving miniroom:1 as a ROS 2 robot", 300)
+        assert "miniroom:1: building the scene (miniroom:1) …" in lines
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert proc.returncode == 130  # as `benchbot run` and `batch`: before, 0
