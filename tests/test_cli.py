@@ -88,6 +88,22 @@ def test_readme_main_job_with_the_baseline(tmp_path):
 
 
 @pytest.mark.slow
+def test_readme_solution_runs_with_the_readmes_batch_native_line(tmp_path):
+    """The README's agent, saved as my_solution.py, and its `batch --native` line fit together: every episode
+    ends ok with results (before: the line ran it on an active task it cannot do, and it saved nothing)."""
+    import shlex
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    (tmp_path / "my_solution.py").write_text(readme.split("```python\n", 1)[1].split("```", 1)[0])
+    line = next(l for l in readme.splitlines() if l.startswith('uv run benchbot batch --native "python my_solution.py"'))
+    words = shlex.split(line.split("#", 1)[0])[3:]  # after `uv run benchbot`
+    proc = cli(*words, "--camera-size", "64x48", "--output-dir", str(tmp_path / "runs"), "--json", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    episodes = json.loads(proc.stdout)["episodes"]
+    assert len(episodes) == 2 and {e["status"] for e in episodes} == {"ok"}
+
+
+@pytest.mark.slow
 def test_eval_errors_are_one_line(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text("[1, 2")

@@ -209,6 +209,9 @@ def test_unknown_action_in_a_content_pack_is_refused_at_install(tmp_path):
     assert "tasks/t.yaml: $.actions[1]: unknown action 'move_nxt'" in proc.stderr
     assert "did you mean move_next?" in proc.stderr
     assert not (tmp_path / "data" / "packs" / "typo_pack").exists()
+    (pack / "tasks" / "t.yaml").write_text("name: typo:passive:ground_truth\nactions: [turn]\nobservations: [poses]\n")
+    proc = cli("install", str(pack), env={"BENCHBOT_DATA_DIR": str(tmp_path / "data")})
+    assert "unknown action 'turn' (the actions are move_next, move_distance, move_angle)" in proc.stderr  # none close
 
 
 def test_score_tables_show_integer_counts_and_label_repeats(app, registry, tmp_path):

@@ -97,3 +97,12 @@ def test_disable_plugins(monkeypatch):
 def test_spec_files_get_their_path(registry):
     entry = registry.entry("tasks", "semantic_slam:passive:ground_truth")
     assert entry.path is not None and Path(entry.spec["_file_path"]) == entry.path
+
+
+def test_list_tells_every_task_apart(registry):
+    """`benchbot list tasks` shows each description's first sentence: no two tasks may share it (the six
+    semantic_slam/scd tasks once all began with the same sentence)."""
+    from benchbot.cli.list_cmd import first_sentence
+
+    shown = [first_sentence(registry.get("tasks", name).get("description", "")) for name in registry.names("tasks")]
+    assert len(shown) >= 6 and len(set(shown)) == len(shown), shown

@@ -134,15 +134,15 @@ def check_task_actions(task: dict, source: str) -> None:
     could perform it; checked when the registry loads the spec and when ``benchbot install`` scans a pack).
 
     Raises:
-        SpecError: ``"<source>: $.actions[i]: unknown action 'x' (did you mean …?)"`` (the suggestion is in the
-            message, which ``benchbot install`` lists per file).
+        SpecError: ``"<source>: $.actions[i]: unknown action 'x' (did you mean …?)"``, or with the list of actions
+            when no name is close (in the message, which ``benchbot install`` lists per file).
     """
     from benchbot.core.episode import ACTIONS
 
     for i, action in enumerate(task.get("actions") or []):
         if action not in ACTIONS:
             close = close_names(action, list(ACTIONS))
-            guess = f" (did you mean {', '.join(close)}?)" if close else ""
+            guess = f" (did you mean {', '.join(close)}?)" if close else f" (the actions are {', '.join(ACTIONS)})"
             raise SpecError(f"{source}: $.actions[{i}]: unknown action '{action}'{guess}",
                             f"the actions are {', '.join(ACTIONS)}")
 
