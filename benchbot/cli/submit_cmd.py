@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import datetime as _dt
-import os
 import tempfile
 from pathlib import Path
 from typing import Optional
@@ -46,45 +45,36 @@ def _run_info(address: str) -> dict:
         return {}
 
 
-#: Seconds ``benchbot submit`` gives the backend to accept a connection and answer ``GET /`` before running anything
-#: (a running backend answers in milliseconds); ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` overrides it.
-BACKEND_CHECK_TIMEOUT_S = 1.0
-#: Seconds ``benchbot submit`` waits for a backend that accepted the connection but has not answered yet (one still
-#: building its simulator, which takes seconds); ``$BENCHBOT_BACKEND_START_WAIT_S`` overrides it.
-BACKEND_START_WAIT_S = 60.0
-
-
-def env_seconds(name: str, default: float) -> float:
-    """``$name`` as a number of seconds, ``default`` when unset or empty.
+def env_seconds(name: str) -> float:
+    """The setting ``name`` (:mod:`benchbot.core.settings`: its variable, else its default) as seconds.
 
     Raises:
         UsageError: the variable is not a positive number (naming it).
     """
-    raw = os.environ.get(name, "").strip()
-    if not raw:
-        return default
+    raw = settings.get(name) or ""
     try:
         value = float(raw)
     except ValueError:
         value = -1.0
     if not 0 < value < float("inf"):
-        raise UsageError(f"${name}={raw!r} is not a positive number of seconds", f"unset it for the default ({default:g} s)")
+        raise UsageError(f"${name}={raw!r} is not a positive number of seconds",
+                         f"unset it for the default ({settings.default(name)} s)")
     return value
 
 
 def check_backend(address: str) -> None:
     """Make sure a BenchBot backend answers ``GET /`` at ``address`` (sending ``$BENCHBOT_TOKEN`` when set), so that
     a submission never starts against nothing: nothing listening fails at once; a connection not accepted within
-    :data:`BACKEND_CHECK_TIMEOUT_S` fails then; a backend that accepted but is still starting is waited for (said on
-    stderr) up to :data:`BACKEND_START_WAIT_S`.
+    ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` (1 s) fails then; a backend that accepted but is still starting is waited
+    for (said on stderr) up to ``$BENCHBOT_BACKEND_START_WAIT_S`` (60 s).
 
     Raises:
         BackendError: nothing listens there, it did not answer in time, it wants a token, or it answered with an
             error status (one line naming the address, and the fix).
         UsageError: a bad ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` or ``$BENCHBOT_BACKEND_START_WAIT_S``.
     """
-    timeout = env_seconds("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", BACKEND_CHECK_TIMEOUT_S)
-    start_wait = env_seconds("BENCHBOT_BACKEND_START_WAIT_S", BACKEND_START_WAIT_S)
+    timeout = env_seconds("BENCHBOT_BACKEND_CHECK_TIMEOUT_S")
+    start_wait = env_seconds("BENCHBOT_BACKEND_START_WAIT_S")
     token = settings.get("BENCHBOT_TOKEN")
     fix = "start one in another terminal: `benchbot run --env miniroom:1` (or give --address / " \
           "BENCHBOT_SUPERVISOR_ADDRESS of a running one)"

@@ -64,6 +64,7 @@ class Limit:
             ``"bytes"`` variable may carry a binary suffix ``K``/``M``/``G`` (``64M``).
         integer: the bound is a whole number (bytes, counts).
         zero_means: what ``0`` means where it is allowed (``"no cap"``); ``None``: the bound must be positive.
+        meaning: what it bounds, in a phrase (``benchbot doctor`` shows it beside the settings).
 
     Raises:
         ValueError: a ``"bytes"`` limit without ``integer=True`` (a programming error, at import).
@@ -74,10 +75,13 @@ class Limit:
     unit: str = ""
     integer: bool = False
     zero_means: str | None = None
+    meaning: str = ""
 
     def __post_init__(self) -> None:
         if self.unit == "bytes" and not self.integer:
             raise ValueError("a byte limit is a whole number: pass integer=True")
+        if self.env and not self.meaning:
+            raise ValueError(f"limit {self.env} needs a meaning")
 
     def value(self) -> float:
         """The bound now: ``$env`` when set and non-empty, else :attr:`default` (an ``int`` for :attr:`integer`
@@ -177,55 +181,66 @@ def all_limits() -> dict[str, Limit]:
 
 # --- backend server and episode ----------------------------------------------------------------------------------
 
-MAX_REQUEST_BYTES = Limit(1 << 20, "BENCHBOT_MAX_REQUEST_BYTES", "bytes", integer=True)
+MAX_REQUEST_BYTES = Limit(1 << 20, "BENCHBOT_MAX_REQUEST_BYTES", "bytes", integer=True,
+                          meaning="bytes of one request body to the backend")
 """Request bodies larger than this are answered 413 without being read (``Content-Length`` is checked first; a
 chunked body is cut off as soon as it passes the bound)."""
 
-MAX_OBSERVATION_NAMES = Limit(64, "BENCHBOT_MAX_OBSERVATION_NAMES", "names", integer=True)
+MAX_OBSERVATION_NAMES = Limit(64, "BENCHBOT_MAX_OBSERVATION_NAMES", "names", integer=True,
+                              meaning="observation names in one native step")
 """Observation names one native step may ask for (a task observes fewer than ten); past it: 400."""
 
-MAX_RESULTS_ARG_NUMBER = Limit(100_000, "BENCHBOT_MAX_RESULTS_ARG_NUMBER")
+MAX_RESULTS_ARG_NUMBER = Limit(100_000, "BENCHBOT_MAX_RESULTS_ARG_NUMBER",
+                               meaning="the largest number in a results function's arguments")
 """Every number in a results function's ``args``/``kwargs`` — and every string that reads as a number — must lie
 within ± this. The server cannot tell which argument is a count (``create_object(num_classes)``), so one bound
 covers counts and coordinates alike (map coordinates are metres; label probabilities lie in [0, 1]); past it: 400."""
 
-MAX_RESULTS_REPLY_BYTES = Limit(8 << 20, "BENCHBOT_MAX_RESULTS_REPLY_BYTES", "bytes", integer=True)
+MAX_RESULTS_REPLY_BYTES = Limit(8 << 20, "BENCHBOT_MAX_RESULTS_REPLY_BYTES", "bytes", integer=True,
+                                meaning="bytes of a results function's reply")
 """The JSON reply of one results-function call; past it: 400."""
 
-RESULTS_FUNCTION_TIMEOUT_S = Limit(10.0, "BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S", "seconds")
+RESULTS_FUNCTION_TIMEOUT_S = Limit(10.0, "BENCHBOT_RESULTS_FUNCTION_TIMEOUT_S", "seconds",
+                                   meaning="seconds a results function may run")
 """A results function still running after this answers 504; results functions run one at a time on their own
 thread, never on the server's event loop or the backend thread."""
 
-EPISODE_LEASE_S = Limit(60.0, "BENCHBOT_EPISODE_LEASE_S", "seconds")
+EPISODE_LEASE_S = Limit(60.0, "BENCHBOT_EPISODE_LEASE_S", "seconds",
+                        meaning="idle seconds before another client may take the episode")
 """An episode belongs to the client that started it until that client releases it (``/robot/release``) or sends
 no request for this long; until then other clients get 409 (docs/protocol.md, "One client at a time")."""
 
-MAX_MOVE_DISTANCE_M = Limit(100.0, "BENCHBOT_MAX_MOVE_DISTANCE_M", "metres")
+MAX_MOVE_DISTANCE_M = Limit(100.0, "BENCHBOT_MAX_MOVE_DISTANCE_M", "metres", meaning="metres of one move_distance")
 """``move_distance``'s ``distance`` must lie within ± this (metres); past it: 400."""
 
-MAX_MOVE_ANGLE_DEG = Limit(360.0, "BENCHBOT_MAX_MOVE_ANGLE_DEG", "degrees")
+MAX_MOVE_ANGLE_DEG = Limit(360.0, "BENCHBOT_MAX_MOVE_ANGLE_DEG", "degrees", meaning="degrees of one move_angle")
 """``move_angle``'s ``angle`` must lie within ± this (degrees); past it: 400."""
 
-MAX_CAMERA_SIDE = Limit(8192, None, "pixels", integer=True)
+MAX_CAMERA_SIDE = Limit(8192, None, "pixels", integer=True, meaning="pixels of a camera side (--camera-size)")
 """``--camera-size WxH``: each side at most this many pixels (a larger camera fails at its first observation)."""
 
 # --- input files (benchbot.core.safe_load) ------------------------------------------------------------------------
 
-MAX_SPEC_BYTES = Limit(4 << 20, "BENCHBOT_MAX_SPEC_BYTES", "bytes", integer=True)
+MAX_SPEC_BYTES = Limit(4 << 20, "BENCHBOT_MAX_SPEC_BYTES", "bytes", integer=True,
+                       meaning="bytes of a spec file of a pack or plugin")
 """Largest spec file (YAML or JSON: task, robot, environment, format, evaluator, example, batch, ground truth,
 pack manifest) read by the registry or ``benchbot install``. The largest shipped ground truth is ~110 KB."""
 
-MAX_RESULTS_BYTES = Limit(64 << 20, "BENCHBOT_MAX_RESULTS_BYTES", "bytes", integer=True)
+MAX_RESULTS_BYTES = Limit(64 << 20, "BENCHBOT_MAX_RESULTS_BYTES", "bytes", integer=True,
+                          meaning="bytes of a results file, or of one zip member decompressed")
 """Largest results file, or results member of a zip archive after decompression, read by ``benchbot eval``.
 A result of 1000 objects over 30 classes is under 1 MB; the parsed file takes roughly 4x its size in memory."""
 
-MAX_ZIP_BYTES = Limit(256 << 20, "BENCHBOT_MAX_ZIP_BYTES", "bytes", integer=True)
+MAX_ZIP_BYTES = Limit(256 << 20, "BENCHBOT_MAX_ZIP_BYTES", "bytes", integer=True,
+                      meaning="bytes of a zip archive, on disk and decompressed")
 """Largest zip archive of results: both its size on disk and the sum of its members' decompressed sizes."""
 
-MAX_ZIP_MEMBERS = Limit(10_000, "BENCHBOT_MAX_ZIP_MEMBERS", "members", integer=True)
+MAX_ZIP_MEMBERS = Limit(10_000, "BENCHBOT_MAX_ZIP_MEMBERS", "members", integer=True,
+                        meaning="entries in one zip archive")
 """Most entries (files and folders) in one zip archive of results."""
 
-MAX_NESTING_DEPTH = Limit(64, "BENCHBOT_MAX_NESTING_DEPTH", "levels", integer=True)
+MAX_NESTING_DEPTH = Limit(64, "BENCHBOT_MAX_NESTING_DEPTH", "levels", integer=True,
+                          meaning="nesting of lists and objects in specs and results")
 """Deepest nesting of lists/objects in a spec or results file (a results file needs 6 levels)."""
 
 # --- command-line counts (benchbot.cli.options.check_count) -------------------------------------------------------
@@ -233,35 +248,39 @@ MAX_NESTING_DEPTH = Limit(64, "BENCHBOT_MAX_NESTING_DEPTH", "levels", integer=Tr
 # `--repeat 99999999999999999999` is a one-line usage error naming the flag and its maximum, not a batch plan that
 # grows until the machine runs out of memory.
 
-MAX_REPEAT = Limit(1000, "BENCHBOT_MAX_REPEAT", "repetitions", integer=True)
+MAX_REPEAT = Limit(1000, "BENCHBOT_MAX_REPEAT", "repetitions", integer=True, meaning="batch --repeat")
 """``benchbot batch --repeat``: runs of every (robot, environment) in one batch."""
 
-MAX_BATCH_EPISODES = Limit(100_000, "BENCHBOT_MAX_BATCH_EPISODES", "episodes", integer=True)
+MAX_BATCH_EPISODES = Limit(100_000, "BENCHBOT_MAX_BATCH_EPISODES", "episodes", integer=True,
+                           meaning="episodes in one batch")
 """Episodes in one batch's plan (robots × environments × repetitions, × the levels of a ``--sweep``); checked
 before the plan is made (:func:`benchbot.batch.plan.plan_episodes`)."""
 
-MAX_WORKERS = Limit(256, "BENCHBOT_MAX_WORKERS", "workers", integer=True)
+MAX_WORKERS = Limit(256, "BENCHBOT_MAX_WORKERS", "workers", integer=True, meaning="batch --workers")
 """``benchbot batch --workers``: episodes run at once (each a process with its own backend)."""
 
-MAX_RETRIES = Limit(100, "BENCHBOT_MAX_RETRIES", "retries", integer=True)
+MAX_RETRIES = Limit(100, "BENCHBOT_MAX_RETRIES", "retries", integer=True, meaning="batch --retries")
 """``benchbot batch --retries``: times a failed episode is run again."""
 
-MAX_SEED = Limit((1 << 32) - 1, None, "", integer=True)
+MAX_SEED = Limit((1 << 32) - 1, None, "", integer=True, meaning="--seed")
 """``--seed`` (``batch``, ``run``, ``ros2 sim``, ``sim render``) lies in 0 to this (NumPy's 32-bit seeds)."""
 
-MAX_RENDER_SAMPLES = Limit(4096, None, "samples", integer=True)
+MAX_RENDER_SAMPLES = Limit(4096, None, "samples", integer=True, meaning="sim render --spp and --shadow-samples")
 """``benchbot sim render --spp`` and ``--shadow-samples``: rays per pixel (the renderer packs them in float32)."""
 
 # --- child processes (benchbot.core.process_group) ----------------------------------------------------------------
 
-MAX_LOG_BYTES = Limit(16 << 20, "BENCHBOT_MAX_LOG_BYTES", "bytes", integer=True, zero_means="no cap")
+MAX_LOG_BYTES = Limit(16 << 20, "BENCHBOT_MAX_LOG_BYTES", "bytes", integer=True, zero_means="no cap",
+                      meaning="bytes of a solution's log (0: no cap)")
 """Bytes of a child's output (a submission's stdout and stderr) kept in its log; the rest is counted and dropped,
 with a last line saying so. 0: no cap."""
 
-STOP_GRACE_S = Limit(5.0, "BENCHBOT_STOP_GRACE_S", "seconds", zero_means="no grace")
+STOP_GRACE_S = Limit(5.0, "BENCHBOT_STOP_GRACE_S", "seconds", zero_means="no grace",
+                     meaning="seconds between SIGTERM and SIGKILL of a solution's group")
 """Seconds a child's process group has between SIGTERM and SIGKILL when its episode ends. 0: no grace (SIGKILL
 right after SIGTERM)."""
 
-SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", integer=True)
+SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", integer=True,
+                          meaning="bytes of a sandboxed solution's private /tmp")
 """Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.core.sandbox`):
 past it, writes there fail with "No space left on device"."""

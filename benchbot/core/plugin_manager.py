@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata as md
-import os
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any, Iterator
@@ -49,7 +48,9 @@ class PluginInfo:
 
 
 def _names_from_env(var: str) -> set[str]:
-    return {n.strip() for n in os.environ.get(var, "").split(",") if n.strip()}
+    from benchbot.core import settings
+
+    return {n.strip() for n in (settings.get(var) or "").split(",") if n.strip()}
 
 
 def build_plugin_manager(extra_plugins: dict[str, ModuleType | object] | None = None) -> tuple[

@@ -76,7 +76,9 @@ ENV_SWITCH = "BENCHBOT_SHARED_MEMORY"
 def available() -> bool:
     """True where segments can be used: :data:`SHM_DIR` is a writable directory and ``$BENCHBOT_SHARED_MEMORY``
     is not ``0``."""
-    if os.environ.get(ENV_SWITCH, "1").strip() == "0":
+    from benchbot.core import settings
+
+    if settings.get(ENV_SWITCH) == "0":
         return False
     return os.path.isdir(SHM_DIR) and os.access(SHM_DIR, os.W_OK | os.X_OK)
 
