@@ -77,7 +77,7 @@ def test_malformed_files_name_the_file_and_field(registry, tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# issue 4: original files, SCD, combine modes, options, keep-going
+# original files, SCD, combine modes, options, keep-going
 # ---------------------------------------------------------------------------------------------------------------------
 ORIGINAL_CLASSES = [
     "bottle", "cup", "knife", "bowl", "wine glass", "fork", "spoon", "banana", "apple", "orange", "cake",

@@ -1,4 +1,4 @@
-"""Hostile files (issue 14): content packs that name functions outside the pack (``os:system``), YAML alias bombs,
+"""Hostile files: content packs that name functions outside the pack (``os:system``), YAML alias bombs,
 invalid UTF-8, deep nesting, huge integers and oversized files in `benchbot install`; zip bombs, oversized and deep
 results in `benchbot eval`. Each is refused with a one-line error naming the file and the limit, in bounded time
 and memory, by the real command in a subprocess."""
@@ -307,7 +307,7 @@ def _refusal(fn, *args) -> str:
     return "accepted"
 
 
-# --- 4. one bad results file harms only itself (issue 38) --------------------------------------------------------
+# --- 4. one bad results file harms only itself ---------------------------------------------------------------
 
 
 def _perfect(registry, env: str, **kw) -> dict:
@@ -397,7 +397,7 @@ def test_eval_says_what_a_results_path_is_in_one_line(registry, tmp_path):
     assert json.loads((tmp_path / "s.json").read_text())["scores"]["OMQ"] == 1.0
 
 
-# --- 5. code of installed packs: only what the user allowed at install (issue 38) ---------------------------------
+# --- 5. code of installed packs: only what the user allowed at install ----------------------------------------
 
 PLANTED_PY = ("import pathlib\npathlib.Path({marker!r}).write_text('imported')\n"
               "def create():\n    return {{'planted': True}}\n")

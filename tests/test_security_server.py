@@ -1,4 +1,4 @@
-"""Security of the backend server on 127.0.0.1 (issue 14, server side): no ground truth through the API, one client
+"""Security of the backend server on 127.0.0.1 (server side): no ground truth through the API, one client
 per episode, bounded requests, bounded motions, the camera-size flag, the loopback check."""
 
 from __future__ import annotations
