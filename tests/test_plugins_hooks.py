@@ -101,6 +101,43 @@ def test_a_misspelt_hook_names_the_plugin_and_the_hook_and_the_others_load(tmp_p
     assert len(warning) == 1 and "implements unknown hook benchbot_task (did you mean benchbot_tasks?)" in warning[0]
 
 
+def test_a_robot_backends_hook_that_raises_is_reported_and_the_others_load():
+    """Every other hook records a problem and goes on; before, this one took the whole registry down."""
+    mod = types.ModuleType("broken_backends")
+
+    def benchbot_robot_backends():
+        raise RuntimeError("no GPU driver")
+
+    mod.benchbot_robot_backends = hookimpl(benchbot_robot_backends)
+    reg = Registry(extra_plugins={"broken": mod})
+    info = next(p for p in reg.plugins if p.name == "broken")
+    assert info.problems == ["plugin broken: benchbot_robot_backends() raised RuntimeError('no GPU driver')"]
+    assert "sim_taichi" in reg.backend_factories and "carter" in reg.names("robots")
+
+
+def test_every_hook_says_since_when_and_a_retired_one_warns_its_implementers():
+    """Each hook's reference says the version that added it; a hook declared with replaced_by makes pluggy warn,
+    when a plugin implementing it is registered, with the name of the hook to implement instead."""
+    import pluggy
+
+    from benchbot.core.hookspecs import PROJECT_NAME, declared
+
+    assert all("\nSince:\n    BenchBot " in (fn.__doc__ or "") for _, _, fn in hookdoc.hooks())
+
+    class Hooks:
+        @declared("0.1", replaced_by="benchbot_new_thing")
+        def benchbot_old_thing(self) -> None:
+            """A hook on its way out."""
+
+    assert "Deprecated: implement ``benchbot_new_thing`` instead" in Hooks.benchbot_old_thing.__doc__
+    pm = pluggy.PluginManager(PROJECT_NAME)
+    pm.add_hookspecs(Hooks)
+    plugin = types.ModuleType("old_plugin")
+    plugin.benchbot_old_thing = hookimpl(lambda: None)
+    with pytest.warns(DeprecationWarning, match="benchbot_old_thing is deprecated: implement benchbot_new_thing"):
+        pm.register(plugin)
+
+
 def test_every_hookspec_is_called_by_the_core():
     # datasette's habit: a hook nobody calls is a promise nobody keeps
     from benchbot.core.registry import KIND_SCHEMAS

@@ -8,8 +8,9 @@ import textwrap
 
 from benchbot.core import hookspecs
 
-SECTIONS = ("Returns:", "Called:", "Call policy:")
-"""Sections every hookspec docstring has (Google style), plus ``Args:`` naming each parameter in double backticks."""
+SECTIONS = ("Returns:", "Called:", "Call policy:", "Since:")
+"""Sections every hookspec docstring has (Google style), plus ``Args:`` naming each parameter in double backticks;
+``Since:`` (the version that added the hook) comes from :func:`benchbot.core.hookspecs.declared`."""
 
 
 def hooks() -> list[tuple[type, str, object]]:
@@ -46,7 +47,8 @@ def _markdown(doc: str) -> str:
     """A Google-style docstring as Markdown: section titles in bold, their bodies un-indented."""
     out = []
     for line in doc.strip().splitlines():
-        if line.rstrip(":") + ":" == line and line[:-1] in ("Args", "Returns", "Called", "Call policy", "Raises"):
+        if line.rstrip(":") + ":" == line and line[:-1] in ("Args", "Returns", "Called", "Call policy", "Raises",
+                                                            "Since"):
             out += ([""] if out and out[-1] else []) + [f"**{line}**"]
         else:
             out.append(line[4:] if line.startswith("    ") else line)

@@ -40,70 +40,83 @@ Call policy:
     invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load."""
 
 
-def spec_hook(function: Callable) -> Callable:
-    """Declare a content hook returning specs: ``function``'s docstring (what its specs hold) gets the sections
-    every such hook shares (:data:`SPEC_HOOK_SECTIONS`), and it becomes a hookspec."""
-    function.__doc__ = inspect.cleandoc(function.__doc__ or "") + "\n\n" + SPEC_HOOK_SECTIONS
-    return hookspec(function)
+def declared(since: str, *, spec: bool = False, replaced_by: str | None = None) -> Callable[[Callable], Callable]:
+    """Declare a hook (a decorator): the hookspec of ``function``, whose docstring gets a ``Since:`` section (the
+    BenchBot version that added it) and, for a content hook returning specs (``spec``), the sections every such
+    hook shares (:data:`SPEC_HOOK_SECTIONS`).
+
+    A hook being retired keeps working for a release with ``replaced_by`` set: its docstring says so and pluggy
+    warns every plugin that implements it, when the plugin is registered (a ``DeprecationWarning`` naming the hook
+    and its replacement; pluggy's ``warn_on_impl``).
+
+    Args:
+        since: the version, e.g. ``"0.1"``.
+        spec: the hook returns specs (a content hook).
+        replaced_by: the hook to implement instead, when this one is deprecated.
+    """
+    def declare(function: Callable) -> Callable:
+        doc = inspect.cleandoc(function.__doc__ or "")
+        if spec:
+            doc += "\n\n" + SPEC_HOOK_SECTIONS
+        doc += f"\n\nSince:\n    BenchBot {since}."
+        warning = None
+        if replaced_by:
+            doc += f" Deprecated: implement ``{replaced_by}`` instead; it goes in the next minor release."
+            warning = DeprecationWarning(f"the hook {function.__name__} is deprecated: implement {replaced_by} "
+                                         "instead")
+        function.__doc__ = doc
+        return hookspec(warn_on_impl=warning)(function)
+
+    return declare
 
 
 class ContentHooks:
     """Hooks returning content specs. Call policy: every implementation is called once, when the registry is
     built (asset packs: when the asset library is first used); the results of all plugins are concatenated."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_tasks(self) -> list[Spec]:
         """Task specs (schema ``task``): ``name``, ``actions``, ``observations``, ``localisation``,
         ``results_format``, ``scene_count``, ``description``."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_robots(self) -> list[Spec]:
         """Robot specs (schema ``robot``): ``name``, ``type`` (selects the robot backend), ``global_frame``,
         ``robot_frame``, ``poses``, ``connections``."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_environments(self) -> list[Spec]:
         """Environment specs (schema ``environment``): ``name``, ``variant``, ``type``, ``map_path``,
         ``start_pose`` ``[qw,qx,qy,qz,x,y,z]`` (map frame, metres), ``trajectory_poses``, ``object_labels``.
         Indexed as ``name:variant``."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_formats(self) -> list[Spec]:
         """Results-format specs (schema ``format``): ``name`` and ``functions`` (``create``,
         ``create_object``, ``validate`` as ``"module:attr"`` import paths)."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_evaluators(self) -> list[Spec]:
         """Evaluation-method specs (schema ``evaluator``): ``name``, ``valid_result_formats``,
         ``valid_ground_truth_formats``, ``functions`` (``evaluate(results, ground_truths) -> dict``, optional
         ``combine(list) -> dict``)."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_examples(self) -> list[Spec]:
         """Example-solution specs (schema ``example``): ``name``, ``native_command`` (run from the spec's
-        folder, so give files, not dicts), ``description``.
+        folder, so give files or folders, not dicts), ``description``, ``reads_ground_truth`` (an example that reads
+        the ground truth on purpose: it runs only unsandboxed)."""
 
-        Returns:
-            A list of specs, each a path (``str``/``Path``) to a YAML/JSON file (its folder is the spec's folder,
-            recorded as ``_file_path``) or a dict.
-
-        Called:
-            Once per process, when the registry is built (first use of any content).
-
-        Call policy:
-            every implementation is called; their lists are concatenated. Each spec is validated against its schema; an
-            invalid spec or a name clash is skipped and reported (``benchbot plugins``), the rest still load."""
-
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_batches(self) -> list[Spec]:
         """Batch specs (schema ``batch``): ``name`` and ``environments`` (a list of environment strings)."""
 
-    @spec_hook
+    @declared("0.1", spec=True)
     def benchbot_ground_truths(self) -> list[Spec]:
         """Ground-truth specs (schema ``ground_truth``): ``{environment, format, ground_truth}`` as in the
         original BenchBot's ground-truth JSON files; found by the environment's ``name:variant``."""
 
-    @hookspec
+    @declared("0.1")
     def benchbot_asset_packs(self) -> list[Path]:
         """Asset packs: 3D models (GLB) that simulators draw ground-truth objects and furniture with.
 
@@ -130,7 +143,7 @@ class ContentHooks:
 class BehaviourHooks:
     """Hooks that add behaviour."""
 
-    @hookspec
+    @declared("0.1")
     def benchbot_robot_backends(self) -> dict[str, Callable[..., "RobotBackend"]]:
         """Robot backends (simulators, real robots) by robot ``type``.
 
@@ -144,10 +157,11 @@ class BehaviourHooks:
 
         Call policy:
             every implementation is called; the dicts are merged. A type offered by two plugins is an error: the
-            second is skipped and reported.
+            second is skipped and reported; an implementation that raises offers nothing and is reported
+            (``benchbot plugins``), and the other plugins' backends still load.
         """
 
-    @hookspec
+    @declared("0.1")
     def benchbot_commands(self, app: Any) -> None:
         """Add commands to the ``benchbot`` CLI.
 
@@ -171,7 +185,7 @@ class ObserverHooks:
     """Hooks that observe episodes (TUI, recorders, progress bars). Nothing in the data path depends on them;
     every implementation is called, results are ignored, and they must return quickly."""
 
-    @hookspec
+    @declared("0.1")
     def benchbot_episode_started(self, info: dict) -> None:
         """An episode started.
 
@@ -188,7 +202,7 @@ class ObserverHooks:
             every implementation is called; results are ignored; it must return quickly.
         """
 
-    @hookspec
+    @declared("0.1")
     def benchbot_step(self, info: dict) -> None:
         """An action was executed.
 
@@ -207,7 +221,7 @@ class ObserverHooks:
             every implementation is called; results are ignored; it must return quickly.
         """
 
-    @hookspec
+    @declared("0.1")
     def benchbot_episode_finished(self, info: dict) -> None:
         """An episode ended.
 

@@ -257,8 +257,14 @@ class Registry:
                 for raw in expand_spec_folders(specs or []):
                     self._add(kind, schema_name, raw, plugin, infos.get(plugin))
         for plugin_name, factories, exc in call_each_plugin(self.plugin_manager, "benchbot_robot_backends"):
-            if exc is not None:
-                raise exc
+            if exc is not None or not isinstance(factories or {}, dict):  # the plugin offers nothing; others load
+                problem = (f"plugin {plugin_name}: benchbot_robot_backends() raised {exc!r}" if exc is not None else
+                           f"plugin {plugin_name}: benchbot_robot_backends() returned {type(factories).__name__}, "
+                           "not a dict")
+                self.problems[("robot_backends", plugin_name)] = problem
+                if plugin_name in infos:
+                    infos[plugin_name].problems.append(problem)
+                continue
             for type_name, factory in (factories or {}).items():
                 if type_name in self.backend_factories:
                     other = self.backend_factories[type_name][0]
