@@ -254,11 +254,12 @@ def test_report_files_for_papers(tmp_path, monkeypatch):
     with (files / "summary.csv").open() as f:
         rows = list(csv.reader(f))
     assert rows[0] == ["run", "environments", "episodes", "OMQ over environments", "OMQ over environments low",
-                       "OMQ over environments high", "OMQ over episodes", "OMQ over episodes low",
-                       "OMQ over episodes high"]
+                       "OMQ over environments high", "OMQ over environments n", "OMQ over episodes",
+                       "OMQ over episodes low", "OMQ over episodes high", "OMQ over episodes n"]
     env_means = [(a.rows[0]["OMQ"] + a.rows[1]["OMQ"]) / 2, a.rows[2]["OMQ"]]
     assert rows[1][:3] == ["semslam_geometric", "2", "3"] and float(rows[1][3]) == pytest.approx(np.mean(env_means))
-    assert float(rows[1][6]) == pytest.approx(np.mean([r["OMQ"] for r in a.rows]))
+    assert rows[1][6] == "2" and rows[1][10] == "3"  # what each interval is over
+    assert float(rows[1][7]) == pytest.approx(np.mean([r["OMQ"] for r in a.rows]))
     tex = (files / "per_class_1.tex").read_text()
     assert "\\begin{table" in tex and "\\toprule" in tex and "potted plant" in tex
     assert "\\label{tab:summary}" in (files / "summary.tex").read_text()

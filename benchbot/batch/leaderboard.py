@@ -71,7 +71,8 @@ EXTRA_CSS = """
 table.sortable th{cursor:pointer;user-select:none}
 table.sortable th[aria-sort=ascending]::after{content:" ▲"}table.sortable th[aria-sort=descending]::after{content:" ▼"}
 td.rank{font-weight:600}tr.partial td{color:#777}main.wide{max-width:1500px}td small{color:#777}
-@media (max-width:700px){.opt{display:none}}
+table.sortable{font-size:.8em}table.sortable th,table.sortable td{padding:4px 6px}
+@media (max-width:1100px){.opt{display:none}}
 .tasks li{margin:.3em 0}
 """
 
@@ -269,7 +270,7 @@ def task_page(task: str, tables: list[dict], title: str, made: str, reports: boo
         f"{esc(made)}</p></header>"
         "<div class='box'>Entries are ranked only against entries run under the same conditions (robot, noise "
         "preset, camera, simulator and its version, scene style, isolation, evaluation method): one table per "
-        "set. Click a column heading to sort by it (on a narrow screen only the main columns are shown). Scores "
+        "set. Click a column heading to sort by it (on a screen narrower than 1100 px only the main columns are shown). Scores "
         f"are means over environments with {int(stats.CONFIDENCE * 100)} % intervals over the environments "
         f"(Student t below {stats.T_INTERVAL_BELOW}, none below {stats.MIN_CI_N}: then n is shown). Each entry's "
         "manifest records its command, seeds, versions, git revision and machine.</div>"

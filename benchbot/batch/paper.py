@@ -90,11 +90,12 @@ def to_html(table: Table) -> str:
 
 
 def to_csv(table: Table) -> str:
-    """The table as CSV: full-precision numbers; an estimate column becomes three (``X``, ``X low``, ``X high``)."""
+    """The table as CSV: full-precision numbers; an estimate column becomes four (``X``, ``X low``, ``X high``,
+    ``X n``: what its interval is over)."""
     estimate_cols = {i for row in table.rows for i, c in enumerate(row) if is_estimate(c)}
     headers = []
     for i, h in enumerate(table.headers):
-        headers += [h, f"{h} low", f"{h} high"] if i in estimate_cols else [h]
+        headers += [h, f"{h} low", f"{h} high", f"{h} n"] if i in estimate_cols else [h]
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(headers)
@@ -104,6 +105,7 @@ def to_csv(table: Table) -> str:
             if i in estimate_cols:
                 est = cell if is_estimate(cell) else {"value": cell, "low": None, "high": None}
                 out += ["" if est[k] is None else repr(float(est[k])) for k in ("value", "low", "high")]
+                out.append("" if est.get("n") is None else str(int(est["n"])))
             elif isinstance(cell, float):
                 out.append(repr(cell))
             else:
@@ -153,23 +155,30 @@ def latex_escape(text: str) -> str:
 LATEX_PACKAGES = ("booktabs", "array", "graphicx")
 r"""What a document needs to ``\input`` the tables: ``\usepackage{booktabs,array,graphicx}``."""
 
-COLUMN_PT = 240.0
-"""Tables estimated wider than this (about a two-column paper's column, 229–252 pt) are ``table*`` floats, which
-span both columns of a two-column document (and are ordinary floats in a one-column one)."""
+COLUMN_PT = 215.0
+"""Tables estimated wider than this are ``table*`` floats, which span both columns of a two-column document (and are
+ordinary floats in a one-column one): a two-column paper's column is 229–252 pt, and the estimate
+(:func:`latex_layout`) is within about 10 % of the width TeX sets."""
 
-TEXT_COLUMN_CHARS = 22
+TEXT_COLUMN_CHARS = 20
 """A text column whose longest cell is longer than this wraps (a ``p`` column of that width) instead of widening
 the table."""
 
-_CHAR_PT = 4.6  # the average width of a character of \small Computer Modern (9 pt), for the float's choice only
+_CHAR_PT = 4.2  # the average width of a character of \footnotesize Computer Modern (8 pt), for the float's choice only
+_COLUMN_SEP_PT = 4.0  # \tabcolsep in the tables
 
 
 def _latex_cell(cell) -> str:
-    """A cell in LaTeX: an estimate with an interval as its value over its interval in script size (two lines, so
-    the column is as wide as the interval, not value and interval side by side)."""
+    """A cell in LaTeX: an estimate as its value over its interval (or over why it has none) in script size (two
+    lines, so the column is as wide as the interval, not value and interval side by side)."""
+    below = None
     if is_estimate(cell) and cell.get("low") is not None and cell.get("high") is not None:
+        below = f"[{fmt(cell['low'])}, {fmt(cell['high'])}]"
+    elif is_estimate(cell) and cell.get("value") is not None and str(cell.get("reason", "")).startswith("n = "):
+        below = f"n = {cell.get('n')}: no CI"
+    if below is not None:
         return (rf"\begin{{tabular}}[t]{{@{{}}r@{{}}}}{latex_escape(fmt(cell['value']))}\\[-1pt]"
-                rf"\scriptsize[{latex_escape(fmt(cell['low']))}, {latex_escape(fmt(cell['high']))}]\end{{tabular}}")
+                rf"\scriptsize {latex_escape(below)}\end{{tabular}}")
     text = latex_escape(cell_text(cell))
     return "{}" + text if text.startswith("[") else text  # not read as the optional argument of the \\ before it
 
@@ -177,13 +186,15 @@ def _latex_cell(cell) -> str:
 def _width_chars(cell) -> int:
     if is_estimate(cell) and cell.get("low") is not None:
         return max(len(fmt(cell["value"])), int(0.75 * len(f"[{fmt(cell['low'])}, {fmt(cell['high'])}]")))
+    if is_estimate(cell) and cell.get("value") is not None and str(cell.get("reason", "")).startswith("n = "):
+        return max(len(fmt(cell["value"])), int(0.75 * len(f"n = {cell.get('n')}: no CI")))
     return len(cell_text(cell))
 
 
 def latex_layout(table: Table) -> tuple[list[str], list[bool], float]:
     r"""``(column specs, numeric, estimated width in pt)`` of ``table``'s ``tabular``: numbers right-aligned, the first
     column and other text left-aligned, text longer than :data:`TEXT_COLUMN_CHARS` characters wrapped in a ragged
-    ``p`` column; headings wrap at 12 characters (:func:`header_lines`), so they never widen a column much."""
+    ``p`` column; headings wrap at 10 characters (:func:`header_lines`), so they never widen a column much."""
     specs, numeric, width = [], [], 0.0
     for i, header in enumerate(table.headers):
         cells = [row[i] for row in table.rows if i < len(row)]
@@ -195,11 +206,11 @@ def latex_layout(table: Table) -> tuple[list[str], list[bool], float]:
         else:
             specs.append("r" if is_number else "l")
         numeric.append(is_number)
-        width += chars * _CHAR_PT + 12.0  # two \tabcolsep of 6 pt
+        width += chars * _CHAR_PT + 2 * _COLUMN_SEP_PT
     return specs, numeric, width
 
 
-def header_lines(text: str, width: int = 12) -> list[str]:
+def header_lines(text: str, width: int = 10) -> list[str]:
     """A heading broken into lines of at most ``width`` characters (a longer word stays whole)."""
     lines: list[str] = []
     for word in text.split():
@@ -227,15 +238,16 @@ down to ``\linewidth`` only when it is wider (a last resort: :func:`latex_layout
 
 def to_latex(table: Table) -> str:
     r"""The table as a LaTeX float for ``\usepackage{booktabs,array,graphicx}`` (:data:`LATEX_PACKAGES`): caption,
-    label ``tab:<name>``, a ``tabular`` laid out by :func:`latex_layout` with ``\toprule``/``\midrule``/
-    ``\bottomrule``, estimates as value over interval, long headings broken into lines, the note as a
-    footnote-size paragraph under it. Estimated wider than :data:`COLUMN_PT`, the float is ``table*`` (both columns
+    label ``tab:<name>``, a ``tabular`` in footnote size with 4 pt between columns, laid out by
+    :func:`latex_layout` with ``\toprule``/``\midrule``/``\bottomrule``, estimates as value over interval, long
+    headings broken into lines, the note as a paragraph under it. Estimated wider than :data:`COLUMN_PT`, the float is ``table*`` (both columns
     of a two-column document); the tabular is scaled down to the line only if it is still wider (:data:`FIT`)."""
     specs, numeric, width = latex_layout(table)
     spec = "".join(specs)
     env = "table*" if width > COLUMN_PT else "table"
-    lines = [FIT, rf"\begin{{{env}}}[t]", r"\centering", r"\small", rf"\caption{{{latex_escape(table.caption)}}}",
-             rf"\label{{tab:{table.name}}}", rf"\benchbotfit{{\begin{{tabular}}{{{spec}}}", r"\toprule",
+    lines = [FIT, rf"\begin{{{env}}}[t]", r"\centering", rf"\caption{{{latex_escape(table.caption)}}}",
+             rf"\label{{tab:{table.name}}}", r"\footnotesize", r"\setlength{\tabcolsep}{4pt}",
+             rf"\benchbotfit{{\begin{{tabular}}{{{spec}}}", r"\toprule",
              " & ".join(_header(h, n) for h, n in zip(table.headers, numeric)) + r" \\", r"\midrule"]
     for row in table.rows:
         lines.append(" & ".join(_latex_cell(c) for c in row) + r" \\")

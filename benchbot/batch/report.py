@@ -883,40 +883,47 @@ def tables(runs: list[RunData], result: dict) -> list[Table]:
                          "; ".join(f"{i.heading}: {i.description or i.name} ({i.direction} is better)"
                                    for i in (runs[0].score_set.get(s) for s in scores) if i) + ". " + interval_note()))
     envs = list(dict.fromkeys(e for r in result["runs"] for e in r["environments"]))
-    rows = []
-    for env in envs:
-        lighting = "/".join(sorted({row["lighting"] for run in runs for row in run.rows if row["env"] == env} - {""}))
-        row = [env, lighting]
-        for r in result["runs"]:
-            e = r["environments"].get(env)
-            row += [len(e["values"]) if e else 0, e]
-        rows.append(row)
+    lit = {env: "/".join(sorted({row["lighting"] for run in runs for row in run.rows if row["env"] == env} - {""}))
+           for env in envs}
+    lighting = any(lit.values())
+    rows = [[env] + ([lit[env]] if lighting else []) + [r["environments"].get(env) for r in result["runs"]]
+            for env in envs]
+    shorts = figures.short_labels([r["label"] for r in result["runs"]])
+    key = "; ".join(f"{short}: {r['label']}" for short, r in zip(shorts, result["runs"]) if short != r["label"])
     out.append(Table("environments", f"{main} per environment: mean over its episodes [95 % CI over episodes]",
-                     ["environment", "lighting"] + [h for r in result["runs"] for h in (f"n {r['label']}", r["label"])],
-                     rows, interval_note()))
+                     ["environment"] + (["lighting"] if lighting else []) + shorts, rows,
+                     (f"Runs: {key}. " if key else "") + "Each cell's n (its episodes) is in the CSV. "
+                     + interval_note()))
     comps = result["comparisons"]
     if comps:
+        factors = any(c["factors"] for c in comps)
+        short_b = dict(zip([r["label"] for r in result["runs"]], shorts))
+        key = "; ".join(f"{short_b[c['b']]}: {c['b']}" for c in comps if short_b[c["b"]] != c["b"])
+        key = f"Runs: {key}. " if key else ""
         out.append(Table("comparisons", f"Paired comparisons with {runs[0].name} ({main}, B − A), environments as "
                                         "the unit",
-                         ["run", "environments", "factor", "mean difference [95 % CI]", "d_z", "t-test p (Holm)",
-                          "Wilcoxon p (Holm)", "rank-biserial r"],
-                         [[c["b"], c["n"], "; ".join(f"{x['what']} {x['a']} → {x['b']}" for x in c["factors"]) or
-                           "solution", c["difference"], c["cohens_dz"], c["ttest_p_holm"], c["wilcoxon_p_holm"],
-                           c["rank_biserial"]] for c in comps],
-                         f"Episodes paired by environment and seed, averaged per environment; tests over the "
-                         f"environments' mean differences, none below {stats.MIN_TEST_PAIRS} environments; p-values "
-                         f"Holm-adjusted over the {len(comps)} comparison(s); d_z = mean difference / SD of the "
-                         "differences."))
+                         ["run", "envs"] + (["factor"] if factors else []) + [
+                             "mean diff. [95 % CI]", "d_z", "t-test p", "Wilcoxon p", "r_rb"],
+                         [[short_b[c["b"]], c["n"]] + (["; ".join(f"{x['what']} {x['a']} → {x['b']}" for x in c["factors"])
+                                               or "solution"] if factors else [])
+                          + [c["difference"], c["cohens_dz"], c["ttest_p_holm"], c["wilcoxon_p_holm"],
+                             c["rank_biserial"]] for c in comps],
+                         key + "Episodes paired by environment and seed, averaged per environment; tests over the "
+                         f"environments' (envs) mean differences, none below {stats.MIN_TEST_PAIRS} environments; "
+                         f"p-values Holm-adjusted over the {len(comps)} comparison(s) (the raw ones are in "
+                         "report.json); d_z = mean difference / SD of the differences; r_rb: the matched-pairs "
+                         "rank-biserial correlation."))
         out.append(Table("comparisons_episodes", f"Paired comparisons with {runs[0].name} ({main}, B − A), "
                                                  "episode pairs (these environments only)",
-                         ["run", "episode pairs", "unpaired", "mean difference [95 % CI]", "d_z", "t-test p (Holm)",
-                          "Wilcoxon p (Holm)"],
-                         [[c["b"], c["episodes"]["n"], c["unpaired"], c["episodes"]["difference"],
+                         ["run", "pairs", "mean diff. [95 % CI]", "d_z", "t-test p", "Wilcoxon p"],
+                         [[short_b[c["b"]], c["episodes"]["n"], c["episodes"]["difference"],
                            c["episodes"]["cohens_dz"], c["episodes"]["ttest_p_holm"], c["episodes"]["wilcoxon_p_holm"]]
                           for c in comps],
-                         "Over episode pairs: what these environments show, not what other environments would; "
+                         key + "".join(f"{c['unpaired']} episode(s) of {short_b[c['b']]} or the baseline unpaired, "
+                                       "left out. " for c in comps if c["unpaired"])
+                         + "Over episode pairs: what these environments show, not what other environments would; "
                          "episodes of one environment are not independent, so these p-values are smaller than the "
-                         f"environment level's. None below {stats.MIN_TEST_PAIRS} pairs."))
+                         f"environment level's. None below {stats.MIN_TEST_PAIRS} pairs; p-values Holm-adjusted."))
     for k, (run, r) in enumerate(zip(runs, result["runs"])):
         if r["per_class"]:
             counts, class_scores = per_class_columns(run)
@@ -1035,9 +1042,10 @@ nav{display:flex;flex-wrap:wrap;gap:.3em .9em;font-size:.92em;margin:.6em 0}
 nav a{color:var(--accent);text-decoration:none}
 .scroll{overflow-x:auto;max-width:100%;margin:.5em 0}
 table{border-collapse:collapse;font-size:.88em}
-th,td{border-bottom:1px solid var(--line);padding:4px 10px;white-space:nowrap}
-th{background:var(--soft);text-align:left;position:sticky;top:0}
-td.num{text-align:right;font-variant-numeric:tabular-nums}td.txt{text-align:left}
+th,td{border-bottom:1px solid var(--line);padding:4px 10px;white-space:nowrap;vertical-align:top}
+th{background:var(--soft);text-align:left;position:sticky;top:0;white-space:normal;min-width:4em}
+td.num{text-align:right;font-variant-numeric:tabular-nums}
+td.txt{text-align:left;white-space:normal;min-width:6em;max-width:22em;overflow-wrap:break-word}
 table.kv td{white-space:normal;vertical-align:top}table.kv td:first-child{color:var(--muted);white-space:nowrap}
 figure{margin:1em 0 1.6em}figure img{max-width:100%;height:auto;border:1px solid var(--line);border-radius:4px}
 figcaption{color:var(--muted);font-size:.88em;margin-top:.3em}
@@ -1045,7 +1053,8 @@ figcaption{color:var(--muted);font-size:.88em;margin-top:.3em}
 .box{background:var(--soft);border-left:4px solid var(--accent);padding:.6em 1em;margin:1em 0;font-size:.92em}
 .warn{border-left-color:#D55E00}
 .files a{margin-right:.6em}
-details{margin:.6em 0}summary{cursor:pointer;color:var(--accent)}
+details{margin:.6em 0}summary{cursor:pointer;color:var(--accent)}details table{font-size:.8em}
+details th,details td{padding:3px 7px}
 code{font-size:.9em;background:var(--soft);padding:0 .25em;border-radius:3px;word-break:break-all}
 @media (max-width:600px){body{font-size:14px}main{padding:.7em}th,td{padding:3px 6px}h1{font-size:1.3em}}
 """
