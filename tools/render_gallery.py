@@ -23,9 +23,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from benchbot.core.geometry import se2_to_matrix
 from benchbot.core.registry import get_registry
-from benchbot_sim_taichi.backend import R_BODY_OPTICAL
+from benchbot_sim_taichi.backend import camera_at
 from benchbot_sim_taichi.floorplan_plot import save_plan_figure
 from benchbot_sim_taichi.renderer import Renderer, intrinsics
 from benchbot_sim_taichi.scene import build_scene
@@ -33,12 +32,7 @@ from benchbot_sim_taichi.scene import build_scene
 ENVIRONMENTS = [f"{home}:{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 
 
-def camera_pose(x: float, y: float, yaw: float, z: float) -> np.ndarray:
-    """(4, 4) float64 T_map_camera of a camera z metres high at (x, y) looking along yaw (rad), optical frame."""
-    T = se2_to_matrix(x, y, yaw, z=z)
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    return T @ Tc
+camera_pose = camera_at  # (4, 4) T_map_camera of a camera z metres high at (x, y) looking along yaw (rad)
 
 
 def best_pose(renderer: Renderer, scene, every: int, z: float) -> np.ndarray:

@@ -43,9 +43,9 @@ if TYPE_CHECKING:
 
 RESULT_LOCATION = settings.get("BENCHBOT_RESULT_LOCATION")
 DEFAULT_ADDRESS = settings.default("BENCHBOT_SUPERVISOR_ADDRESS")
-TOKEN_HEADER = "X-BenchBot-Token"
+TOKEN_HEADER = wire.TOKEN_HEADER
 #: The header naming this client to the backend (one client owns an episode at a time: docs/protocol.md).
-CLIENT_HEADER = "X-BenchBot-Client"
+CLIENT_HEADER = wire.CLIENT_HEADER
 
 
 class ActionResult(enum.Enum):
@@ -470,6 +470,59 @@ class HttpTransport:
         for mapping in self._mappings:
             mapping.close()
         self._mappings.clear()
+
+
+class ConnectTimeout(TimeoutError):
+    """:func:`request_once`: nothing accepted the connection in time."""
+
+
+class ReadTimeout(TimeoutError):
+    """:func:`request_once`: the connection was accepted but no answer came in time."""
+
+
+def request_once(address: str, method: str, route: str, *, body: bytes | None = None,
+                 headers: dict[str, str] | None = None, connect_timeout_s: float = 5.0,
+                 read_timeout_s: float = 5.0) -> tuple[int, bytes]:
+    """One request to the backend at ``address`` on a connection of its own, closed after it: how a supervisor
+    looks at a backend without being its client (``benchbot submit``'s checks, the release of a solution that has
+    ended). Over the standard library's :mod:`http.client`, as :class:`HttpTransport`; TLS as :func:`tls_context`.
+
+    Args:
+        address: ``http://host:port/`` or ``https://host:port/``. method, route: e.g. ``"GET"``, ``"robot/run_info"``.
+        body, headers: the request's (add :data:`TOKEN_HEADER` where the backend wants a token).
+        connect_timeout_s: seconds to connect (and, for HTTPS, to shake hands). read_timeout_s: seconds for each
+            read of the answer.
+
+    Returns:
+        ``(HTTP status, body)``.
+
+    Raises:
+        ConnectTimeout, ReadTimeout: as named. OSError: refused, unreachable, TLS failures (``ssl.SSLError``) and
+            other socket errors; ``http.client.HTTPException`` for a malformed answer. ValueError: a bad
+            ``$BENCHBOT_CA_FILE``.
+    """
+    import socket
+
+    url = urllib.parse.urlsplit(address)
+    tls = tls_context(address)
+    host, port = url.hostname or "127.0.0.1", url.port or (443 if tls else 80)
+    conn: http.client.HTTPConnection = (http.client.HTTPSConnection(host, port, timeout=connect_timeout_s, context=tls)
+                                        if tls else http.client.HTTPConnection(host, port, timeout=connect_timeout_s))
+    try:
+        try:
+            conn.connect()
+        except (socket.timeout, TimeoutError):
+            raise ConnectTimeout(f"nothing at {address} accepted a connection within {connect_timeout_s:g} s") from None
+        conn.sock.settimeout(read_timeout_s)
+        try:
+            conn.request(method, f"{url.path.rstrip('/')}/{route.lstrip('/')}", body=body, headers=headers or {})
+            reply = conn.getresponse()
+            return reply.status, reply.read()
+        except (socket.timeout, TimeoutError):
+            raise ReadTimeout(f"{address} accepted the connection but did not answer within {read_timeout_s:g} s") \
+                from None
+    finally:
+        conn.close()
 
 
 def _release_episode(pid: int, host: str, port: int, tls: ssl.SSLContext | None, base_path: str,

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import datetime as _dt
+import http.client
+import json
 import tempfile
 from pathlib import Path
 from typing import Optional
 
-import httpx
 import typer
 
 from benchbot.core import settings
-from benchbot.api.benchbot import tls_context
+from benchbot.api.benchbot import TOKEN_HEADER, ConnectTimeout, ReadTimeout, request_once, tls_context
 from benchbot.cli.common import err, handle_errors, registry, writing
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.options import native_words, refused
@@ -34,15 +35,19 @@ from benchbot.core.submission import (
 DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
 
 
+def _token_header() -> dict[str, str]:
+    token = settings.get("BENCHBOT_TOKEN")
+    return {TOKEN_HEADER: token} if token else {}
+
+
 def _run_info(address: str) -> dict:
     """Task, robot, environments and seed of the backend, or ``{}`` when none answers."""
-    token = settings.get("BENCHBOT_TOKEN")
     try:
-        reply = httpx.get(address.rstrip("/") + "/robot/run_info", timeout=5.0,
-                          headers={"X-BenchBot-Token": token} if token else {}, verify=tls_context(address) or True)
-        return reply.json() if reply.status_code == 200 else {}
-    except (httpx.HTTPError, ValueError):
+        status, body = request_once(address, "GET", "robot/run_info", headers=_token_header())
+        info = json.loads(body) if status == 200 else {}
+    except (OSError, http.client.HTTPException, ValueError):
         return {}
+    return info if isinstance(info, dict) else {}
 
 
 def env_seconds(name: str) -> float:
@@ -75,36 +80,36 @@ def check_backend(address: str) -> None:
     """
     timeout = env_seconds("BENCHBOT_BACKEND_CHECK_TIMEOUT_S")
     start_wait = env_seconds("BENCHBOT_BACKEND_START_WAIT_S")
-    token = settings.get("BENCHBOT_TOKEN")
     fix = "start one in another terminal: `benchbot run --env miniroom:1` (or give --address / " \
           "BENCHBOT_SUPERVISOR_ADDRESS of a running one)"
 
-    def get(read_s: float) -> httpx.Response:
-        return httpx.get(address, timeout=httpx.Timeout(read_s, connect=timeout), verify=tls_context(address) or True,
-                         headers={"X-BenchBot-Token": token} if token else {})
+    def get(read_s: float) -> int:
+        return request_once(address, "GET", "", headers=_token_header(), connect_timeout_s=timeout,
+                            read_timeout_s=read_s)[0]
 
     try:
         try:
-            reply = get(timeout)
-        except httpx.ReadTimeout:
+            status = get(timeout)
+        except ReadTimeout:
             err.print(f"the backend at {address} accepted the connection but has not answered yet; waiting up to "
                       f"{start_wait:g} s for it to finish starting", highlight=False)
             try:
-                reply = get(start_wait)
-            except httpx.ReadTimeout:
+                status = get(start_wait)
+            except ReadTimeout:
                 raise BackendError(f"the backend at {address} accepted the connection but did not answer within "
                                    f"{timeout + start_wait:g} s", "is it stuck? restart `benchbot run`; "
                                    "$BENCHBOT_BACKEND_START_WAIT_S waits longer") from None
-    except httpx.ConnectTimeout:
+    except ConnectTimeout:
         raise BackendError(f"nothing at {address} accepted a connection within {timeout:g} s",
                            fix + "; $BENCHBOT_BACKEND_CHECK_TIMEOUT_S waits longer") from None
-    except httpx.HTTPError as exc:
-        raise BackendError(f"no BenchBot backend answers at {address} ({exc or type(exc).__name__})", fix) from None
-    if reply.status_code == 401:
+    except (OSError, http.client.HTTPException) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        raise BackendError(f"no BenchBot backend answers at {address} ({reason})", fix) from None
+    if status == 401:
         raise BackendError(f"the backend at {address} wants a token (HTTP 401)",
                            "export BENCHBOT_TOKEN=<the token `benchbot run` printed>")
-    if reply.status_code != 200:
-        raise BackendError(f"{address} answered GET / with HTTP {reply.status_code}: not a BenchBot backend?",
+    if status != 200:
+        raise BackendError(f"{address} answered GET / with HTTP {status}: not a BenchBot backend?",
                            "give --address of the `benchbot run` backend")
 
 

@@ -13,15 +13,13 @@ the episode: the release names the anonymous client too.
 from __future__ import annotations
 
 import contextlib
+import http.client
+import json
 import os
 import secrets
-import ssl
-import urllib.parse
-from typing import Iterator
+from typing import Any, Iterator
 
-import httpx
-
-from benchbot.core import settings
+from benchbot.core import settings, wire
 from benchbot.core.errors import BackendError
 
 #: The environment variable that names a solution's client (read by :mod:`benchbot.api`).
@@ -35,16 +33,24 @@ def new_client_id() -> str:
     return "solution-" + secrets.token_hex(16)
 
 
-def _request(address: str, route: str, *, client_id: str | None = None, body: dict | None = None) -> httpx.Response:
-    headers = {"X-BenchBot-Client": client_id} if client_id else {}
+def _request(address: str, route: str, *, client_id: str | None = None, body: dict | None = None) -> tuple[int, Any]:
+    """``POST route`` with a JSON ``body`` (as ``client_id`` when given, with ``$BENCHBOT_TOKEN`` when set), on a
+    connection of its own (the client's :func:`~benchbot.api.benchbot.request_once`): ``(status, parsed JSON)``.
+
+    Raises:
+        OSError, http.client.HTTPException, ValueError: no answer, or one that is not JSON.
+    """
+    from benchbot.api.benchbot import request_once
+
+    headers = {"content-type": "application/json"}
+    if client_id:
+        headers[wire.CLIENT_HEADER] = client_id
     token = settings.get("BENCHBOT_TOKEN")
     if token:
-        headers["X-BenchBot-Token"] = token
-    verify: ssl.SSLContext | bool = True
-    if urllib.parse.urlsplit(address).scheme == "https":
-        verify = ssl.create_default_context(cafile=settings.get("BENCHBOT_CA_FILE"))
-    return httpx.post(address.rstrip("/") + "/" + route, json=body or {}, headers=headers, timeout=TIMEOUT_S,
-                      verify=verify)
+        headers[wire.TOKEN_HEADER] = token
+    status, data = request_once(address, "POST", route, body=json.dumps(body or {}).encode(), headers=headers,
+                                connect_timeout_s=TIMEOUT_S, read_timeout_s=TIMEOUT_S)
+    return status, json.loads(data) if data else None
 
 
 def check_episode_free(address: str, client_id: str) -> None:
@@ -55,9 +61,9 @@ def check_episode_free(address: str, client_id: str) -> None:
         BackendError: another client holds the episode (one line: the backend's reason, and the fix).
     """
     try:
-        reply = _request(address, "robot/is_free", client_id=client_id)
-        answer = reply.json() if reply.status_code == 200 else {}
-    except (httpx.HTTPError, ssl.SSLError, OSError, ValueError):
+        status, answer = _request(address, "robot/is_free", client_id=client_id)
+        answer = answer if status == 200 else {}
+    except (http.client.HTTPException, OSError, ValueError):
         return  # the backend was just checked: the solution meets whatever failed, in one line of its own
     if isinstance(answer, dict) and answer.get("is_free") is False:
         raise BackendError(f"the backend at {address} is in use: {answer.get('error')}",
@@ -74,9 +80,9 @@ def release_solution(address: str, client_id: str) -> bool | None:
         to release) or refused.
     """
     try:
-        reply = _request(address, "robot/release", body={"client": client_id, "anonymous": True})
-        return bool(reply.json()["release_success"]) if reply.status_code == 200 else None
-    except (httpx.HTTPError, ssl.SSLError, OSError, ValueError, KeyError, TypeError):
+        status, answer = _request(address, "robot/release", body={"client": client_id, "anonymous": True})
+        return bool(answer["release_success"]) if status == 200 else None
+    except (http.client.HTTPException, OSError, ValueError, KeyError, TypeError):
         return None
 
 

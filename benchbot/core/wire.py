@@ -18,6 +18,10 @@ from benchbot.core.errors import BenchbotError
 _ND = "__ndarray__"
 SHM = "__shm__"
 MSGPACK_TYPE = "application/msgpack"
+#: The header carrying the backend's access token (docs/security.md); HTTP header names are case-insensitive.
+TOKEN_HEADER = "X-BenchBot-Token"
+#: The header naming a client: the episode belongs to one client at a time (docs/protocol.md).
+CLIENT_HEADER = "X-BenchBot-Client"
 
 
 def _encode(obj: Any) -> Any:

@@ -8,10 +8,10 @@ from __future__ import annotations
 import hmac
 from typing import Any, Callable
 
-from benchbot.core import limits
+from benchbot.core import limits, wire
 from benchbot.core.server.http_errors import PayloadTooLargeError, error_response
 
-TOKEN_HEADER = "x-benchbot-token"
+TOKEN_HEADER = wire.TOKEN_HEADER.lower()  # as ASGI gives header names
 
 
 class BodyLimit:

@@ -9,12 +9,12 @@ from typing import Callable
 
 from starlette.requests import Request
 
-from benchbot.core import limits
+from benchbot.core import limits, wire
 from benchbot.core.server.http_errors import BadRequestError, EpisodeInUseError
 
 #: The header naming a client (8–128 of ``A-Z a-z 0-9 _ . : -``, e.g. a random hex id): the episode belongs to one
 #: client at a time (:class:`EpisodeOwnership`).
-CLIENT_HEADER = "x-benchbot-client"
+CLIENT_HEADER = wire.CLIENT_HEADER.lower()
 CLIENT_ID_PATTERN = re.compile(r"[A-Za-z0-9_.:-]{8,128}")
 #: Robot commands that only read the episode: any client may ask them, and asking does not claim the episode.
 READ_ONLY_COMMANDS = frozenset({"", "is_collided", "is_dirty", "is_finished", "selected_environment", "state",

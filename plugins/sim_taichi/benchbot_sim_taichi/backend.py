@@ -62,12 +62,29 @@ R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
 
 
+def camera_mount(camera: dict | None = None) -> np.ndarray:
+    """(4, 4) float64 ``T_footprint_camera``: the camera's optical frame (x right, y down, z forward) in the robot's
+    footprint frame, from a ``sensors.camera`` block (``mount_xyz`` metres, ``mount_rpy_deg`` roll-pitch-yaw
+    degrees of the camera body, x forward, y left, z up); ``DEFAULT_SENSORS``' camera when None. The one place a
+    camera's mount is composed."""
+    camera = DEFAULT_SENSORS["camera"] if camera is None else camera
+    T = np.eye(4)
+    T[:3, :3] = rpy_to_matrix(*np.radians(np.asarray(camera.get("mount_rpy_deg", (0.0, 0.0, 0.0)),
+                                                     dtype=np.float64))) @ R_BODY_OPTICAL
+    T[:3, 3] = np.asarray(camera["mount_xyz"], dtype=np.float64)
+    return T
+
+
+def camera_at(x: float, y: float, yaw: float, z: float) -> np.ndarray:
+    """(4, 4) float64 ``T_map_camera`` of an optical frame ``z`` metres above the floor at (``x``, ``y``) metres,
+    looking level along ``yaw`` radians (map frame): a free viewpoint (``benchbot sim render --pose``, galleries)."""
+    return se2_to_matrix(x, y, yaw, z=z) @ camera_mount({"mount_xyz": (0.0, 0.0, 0.0)})
+
+
 def trajectory_cameras(scene: Scene) -> list[np.ndarray]:
     """(4, 4) float64 poses in ``map`` of the default camera's optical frame (mounted as ``DEFAULT_SENSORS``) at
     each pose of the scene's trajectory, or at its start pose when it has none: the views the benchmarks render."""
-    mount = np.eye(4)
-    mount[:3, :3] = R_BODY_OPTICAL
-    mount[:3, 3] = DEFAULT_SENSORS["camera"]["mount_xyz"]
+    mount = camera_mount()
     poses = scene.trajectory_se2 if len(scene.trajectory_se2) else np.asarray(scene.start_se2)[None]
     return [se2_to_matrix(*p) @ mount for p in poses]
 
@@ -171,11 +188,8 @@ class TaichiSimBackend(RobotBackend):
         self.width, self.height = int(cam["width"]), int(cam["height"])
         fx = (self.width / 2.0) / math.tan(math.radians(float(cam["horizontal_fov_deg"])) / 2.0)
         self.K = np.array([[fx, 0.0, (self.width - 1) / 2.0], [0.0, fx, (self.height - 1) / 2.0], [0.0, 0.0, 1.0]])
-        T = np.eye(4)
-        T[:3, :3] = rpy_to_matrix(*np.radians(np.asarray(cam["mount_rpy_deg"], dtype=np.float64))) @ R_BODY_OPTICAL
-        T[:3, 3] = np.asarray(cam["mount_xyz"], dtype=np.float64)
         #: (4, 4) the camera's optical frame in the robot's footprint frame (the robot frame lowered to the floor)
-        self.T_footprint_camera = T
+        self.T_footprint_camera = camera_mount(cam)
         las = self.sensors["laser"]
         #: (4, 4) the lidar frame in the robot's footprint frame
         self.T_footprint_lidar = np.eye(4)

@@ -48,24 +48,17 @@ def _environment(env: str) -> dict:
 
 
 def _T_camera(scene, pose: str | None) -> "object":
-    import numpy as np
-
     from benchbot.core.errors import UsageError
-    from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_at
 
     if pose:
         try:
             x, y, z, yaw = (float(v) for v in pose.split(","))
         except ValueError:
             raise UsageError(f"--pose {pose!r} is not x,y,z,yaw_deg", "e.g. --pose 1.0,2.0,0.8,90") from None
-        T = se2_to_matrix(x, y, math.radians(yaw), z=z)
-    else:
-        x, y, yaw = scene.start_se2
-        T = se2_to_matrix(x, y, yaw, z=DEFAULT_SENSORS["camera"]["mount_xyz"][2])
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    return T @ Tc
+        return camera_at(x, y, math.radians(yaw), z)
+    x, y, yaw = scene.start_se2
+    return camera_at(x, y, yaw, DEFAULT_SENSORS["camera"]["mount_xyz"][2])
 
 
 def _styled(environment: dict, style: str | None) -> dict:
