@@ -99,7 +99,9 @@ class ContentHooks:
     def benchbot_evaluators(self) -> list[Spec]:
         """Evaluation-method specs (schema ``evaluator``): ``name``, ``valid_result_formats``,
         ``valid_ground_truth_formats``, ``functions`` (``evaluate(results, ground_truths) -> dict``, optional
-        ``combine(list) -> dict``)."""
+        ``combine(list) -> dict``), and ``scores``: what ``evaluate`` returns under ``scores`` (each score's
+        ``name``, ``direction``, ``range``, ``kind``, ``description``; exactly one ``primary``), which every view
+        reads (docs/evaluation.md, "Declaring scores")."""
 
     @declared("0.1", spec=True)
     def benchbot_examples(self) -> list[Spec]:
