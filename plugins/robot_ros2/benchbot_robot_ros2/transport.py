@@ -23,8 +23,10 @@ transient-local, keep-last 1) lists the node (namespace ``/``, ``node_name``) wi
 readers and writers, re-published whenever one is created.
 
 Network: ``network='loopback'`` confines Cyclone DDS to the ``lo`` interface (multicast off, peer 127.0.0.1) by
-setting ``CYCLONEDDS_URI`` before the first participant — unless the user has set ``CYCLONEDDS_URI`` already, which
-always wins. ``network='system'`` leaves DDS configuration to the environment (a real robot on a LAN).
+setting ``CYCLONEDDS_URI`` before the first participant, and Fast DDS (rclpy on ``rmw_fastrtps_cpp``) to UDP on
+127.0.0.1 by setting ``FASTRTPS_DEFAULT_PROFILES_FILE`` (:data:`FASTDDS_LOOPBACK_PROFILE`) — each unless the user
+has set it already, which always wins. ``network='system'`` leaves DDS configuration to the environment (a real
+robot on a LAN).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ import logging
 import os
 import re
 import threading
+from pathlib import Path
 from typing import Any, Callable
 
 from benchbot.core import settings
@@ -49,8 +52,17 @@ LOOPBACK_URI = (
 )
 
 
+FASTDDS_LOOPBACK_PROFILE = Path(__file__).with_name("fastdds_loopback.xml")
+"""A Fast DDS XML profile (the default participant profile) that confines Fast DDS — ``rmw_fastrtps_cpp``, Jazzy's
+default RMW — to UDP on 127.0.0.1: no shared memory, no multicast, discovery by unicast to 127.0.0.1 for participant
+indices 0-50, as :data:`LOOPBACK_URI` does for Cyclone DDS; the two then find each other both ways
+(docs/ros2.md). ``export FASTRTPS_DEFAULT_PROFILES_FILE=<this file>`` for ROS 2 nodes on the same machine."""
+
+
 def configure_network(network: str = "loopback") -> None:
-    """Set ``CYCLONEDDS_URI`` to :data:`LOOPBACK_URI` for ``network='loopback'`` unless it is already set.
+    """For ``network='loopback'``: set ``CYCLONEDDS_URI`` to :data:`LOOPBACK_URI` and
+    ``FASTRTPS_DEFAULT_PROFILES_FILE`` to :data:`FASTDDS_LOOPBACK_PROFILE`, each unless it is already set (yours
+    always wins). Both are read when a DDS participant is made, so this must run before the first one.
 
     Raises:
         ValueError: ``network`` is neither ``loopback`` nor ``system``.
@@ -59,6 +71,8 @@ def configure_network(network: str = "loopback") -> None:
         raise ValueError(f"ros2.network must be 'loopback' or 'system', got {network!r}")
     if network == "loopback" and not settings.get("CYCLONEDDS_URI"):
         os.environ["CYCLONEDDS_URI"] = LOOPBACK_URI
+    if network == "loopback" and not settings.get("FASTRTPS_DEFAULT_PROFILES_FILE"):
+        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_LOOPBACK_PROFILE)
 
 
 def rclpy_available() -> bool:
@@ -314,13 +328,25 @@ class _RclpyPublisher(Publisher):
 class RclpyTransport(Transport):
     """:class:`Transport` over an ``rclpy`` node (its own context, spun on a daemon thread).
 
+    A message type whose ROS 2 package is not installed (the ``ros-jazzy-*`` PyPI wheels have no ``tf2_msgs``, so
+    no ``/tf``) goes through a Cyclone DDS participant of this process instead (:class:`CycloneTransport`, the node
+    ``<node_name>_cyclonedds``, same domain and network), said once in the log and listed in
+    :attr:`via_cyclonedds`; Fast DDS and Cyclone DDS interoperate on loopback (docs/ros2.md). A sourced ROS 2
+    install has every package, and then everything goes through rclpy.
+
     Args:
         domain_id: ROS_DOMAIN_ID of the node.
-        network: as for :class:`CycloneTransport` (applies when the RMW is rmw_cyclonedds_cpp).
+        network: ``loopback`` sets ``CYCLONEDDS_URI`` (rmw_cyclonedds_cpp) and ``FASTRTPS_DEFAULT_PROFILES_FILE``
+            (rmw_fastrtps_cpp, Jazzy's default) to loopback-only configurations unless they are set already
+            (:func:`configure_network`); ``system`` leaves them.
         node_name: the node's name.
 
+    Attributes:
+        via_cyclonedds: the types (``pkg/msg/Name``) sent and received through Cyclone DDS.
+
     Raises:
-        ImportError: rclpy or a message package is not importable. ValueError: an invalid ``node_name``.
+        ImportError: rclpy is not importable, or a message package is missing and the type is not one Cyclone DDS
+            carries here. ValueError: an invalid ``node_name``.
     """
 
     name = "rclpy"
@@ -329,6 +355,9 @@ class RclpyTransport(Transport):
         super().__init__()
         configure_network(network)
         check_node_name(node_name)
+        self.domain_id, self.network, self.node_name = int(domain_id), network, node_name
+        self._fallback: CycloneTransport | None = None
+        self.via_cyclonedds: set[str] = set()
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
@@ -338,11 +367,12 @@ class RclpyTransport(Transport):
         self.node = rclpy.create_node(node_name, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, name="benchbot-rclpy", daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
-        while self._rclpy.ok(context=self.context):
+        while not self._stop.is_set() and self._rclpy.ok(context=self.context):
             try:
                 self.executor.spin_once(timeout_sec=0.05)
             except Exception as exc:  # noqa: BLE001
@@ -356,8 +386,33 @@ class RclpyTransport(Transport):
         pkg, _, name = normalise_type(ros_type).split("/")
         return getattr(importlib.import_module(f"{pkg}.msg"), name)
 
+    def _cyclone(self, ros_type: str) -> "CycloneTransport | None":
+        """The Cyclone DDS participant for ``ros_type`` when its ROS 2 package is not installed and Cyclone DDS
+        carries it; ``None`` when rclpy has it.
+
+        Raises:
+            ImportError: the package is missing and the type is not one of :data:`~benchbot_robot_ros2.msgs.TYPES`.
+        """
+        from benchbot_robot_ros2.msgs import TYPES
+        from benchbot_robot_ros2.naming import normalise_type
+
+        name = normalise_type(ros_type)
+        try:
+            self._cls(name)
+            return None
+        except ModuleNotFoundError:
+            if name not in TYPES:
+                raise
+        if self._fallback is None:
+            log.warning("rclpy has no %s package here: %s goes through Cyclone DDS (node %s_cyclonedds)",
+                        name.split("/")[0], name, self.node_name)
+            self._fallback = CycloneTransport(self.domain_id, self.network, f"{self.node_name}_cyclonedds")
+        self.via_cyclonedds.add(name)
+        return self._fallback
+
     def message(self, ros_type: str) -> Any:
-        return self._cls(ros_type)()
+        other = self._cyclone(ros_type)
+        return other.message(ros_type) if other is not None else self._cls(ros_type)()
 
     def _qos(self, latched: bool, reliable: bool, publisher: bool) -> Any:
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -368,20 +423,34 @@ class RclpyTransport(Transport):
                           reliability=rel, durability=dur)
 
     def publisher(self, topic: str, ros_type: str, *, latched: bool = False) -> Publisher:
+        other = self._cyclone(ros_type)
+        if other is not None:
+            return other.publisher(topic, ros_type, latched=latched)
         return _RclpyPublisher(self.node.create_publisher(self._cls(ros_type), topic, self._qos(latched, True, True)))
 
     def subscribe(self, topic: str, ros_type: str, callback: Callable[[Any], None], *, latched: bool = False,
                   reliable: bool = False) -> Any:
+        other = self._cyclone(ros_type)
+        if other is not None:
+            return other.subscribe(topic, ros_type, lambda m: self._guard(callback, m), latched=latched,
+                                   reliable=reliable)
         return self.node.create_subscription(self._cls(ros_type), topic, lambda m: self._guard(callback, m),
                                              self._qos(latched, reliable, False))
 
     def close(self) -> None:
+        """Stop the spinning thread (joined: a thread left inside rclpy at interpreter exit aborts the process),
+        then the executor, the node and the context; and the Cyclone DDS participant of missing message packages."""
+        self._stop.set()
+        if self._thread is not threading.current_thread():
+            self._thread.join(timeout=5)
         try:
             self.executor.shutdown()
             self.node.destroy_node()
             self._rclpy.shutdown(context=self.context)
         except Exception:  # noqa: BLE001
             pass
+        if self._fallback is not None:
+            self._fallback.close()
 
 
 def make_transport(kind: str = "auto", domain_id: int = 0, network: str = "loopback",

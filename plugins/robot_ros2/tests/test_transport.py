@@ -120,6 +120,7 @@ def _tf(m, T):
 
 
 @pytest.mark.ros
+@pytest.mark.rclpy
 @pytest.mark.skipif(not rclpy_available(), reason="rclpy is not importable (no ROS 2 Jazzy install here)")
 def test_rclpy_transport_talks_to_cyclone_transport(domain_id):
     from benchbot_robot_ros2.transport import RclpyTransport
