@@ -40,6 +40,14 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_CLIENT_ID", None, "names one solution's connections as one owner of the episode (else a "
             "random id per client); `benchbot submit` sets it for the solution it runs", "api"),
     Setting("BENCHBOT_DEBUG", None, "1: print the traceback behind a one-line error", "cli"),
+    Setting("BENCHBOT_DISABLE_PLUGINS", None, "comma list of plugins (entry-point names) not to load", "core"),
+    Setting("BENCHBOT_ONLY_PLUGINS", None, "comma list of the only plugins to load (the tests set it)", "core"),
+    Setting("BENCHBOT_SHARED_MEMORY", "1", "0: clients take frames in the HTTP reply, never through /dev/shm "
+            "(sandboxes and containers set it)", "api"),
+    Setting("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", "1", "seconds `benchbot submit` gives a backend to accept a "
+            "connection before running anything", "cli"),
+    Setting("BENCHBOT_BACKEND_START_WAIT_S", "60", "seconds `benchbot submit` waits for a backend that accepted "
+            "the connection but is still starting", "cli"),
     Setting("BENCHBOT_INSTALLER", None, "uv or pip: the installer of `benchbot install` (default: uv when on "
             "PATH)", "cli"),
     Setting("BENCHBOT_SIM_STYLE", "furnished", "scene style of environments naming none: furnished or "
@@ -56,6 +64,16 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_ROS2_TIME_SCALE", None, "simulated seconds per wall second of ROS 2 robots (the robot "
             "spec's time_scale by default)", "robot_ros2"),
 )
+
+def all_settings() -> tuple[Setting, ...]:
+    """:data:`SETTINGS` and, after them, every limit of :mod:`benchbot.core.limits` that a variable changes (its
+    default in its unit, owner ``core (limits)``): the one table of the variables BenchBot reads, as ``benchbot
+    doctor`` shows it. Limits are read by :meth:`benchbot.core.limits.Limit.value`, which checks their values."""
+    from benchbot.core import limits
+
+    return SETTINGS + tuple(Setting(limit.env, limit.describe(limit.default), limit.meaning, "core (limits)")
+                            for limit in limits.all_limits().values() if limit.env)
+
 
 _BY_NAME = {s.name: s for s in SETTINGS}
 
@@ -94,10 +112,14 @@ def source(name: str) -> str:
 
 
 def effective() -> list[dict]:
-    """Every setting as ``{'name', 'value', 'source', 'owner', 'meaning'}`` (secret values shown as ``'***'``)."""
+    """Every setting and limit (:func:`all_settings`) as ``{'name', 'value', 'source', 'owner', 'meaning'}``: the
+    value as the environment gives it, else the default (secret values shown as ``'***'``), and where it came from
+    (``'environment'``, ``'default'`` or ``'unset'``)."""
     rows = []
-    for s in SETTINGS:
-        value = get(s.name)
-        rows.append({"name": s.name, "value": "***" if (s.secret and value) else value, "source": source(s.name),
+    for s in all_settings():
+        given = os.environ.get(s.name, "").strip()
+        value = given or s.default
+        where = "environment" if given else ("default" if s.default is not None else "unset")
+        rows.append({"name": s.name, "value": "***" if (s.secret and value) else value, "source": where,
                      "owner": s.owner, "meaning": s.meaning})
     return rows
