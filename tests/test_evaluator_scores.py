@@ -121,3 +121,20 @@ def test_a_method_without_a_declaration_still_gets_views(reg, tmp_path):
     run = load_run(make_run(tmp_path, "old", {"miniroom:1": [0.9]}, method="reach_undeclared", registry=reg))
     assert (run.primary, run.score_set.declared) == ("miss_m", False)  # the first real-valued score it returned
     assert "not declared by the method: assumed" in dict(provenance(run))["evaluation"]
+
+
+def test_the_contract_check_holds_a_method_to_its_declaration(reg):
+    from benchbot.plugins.testing import check_evaluator
+
+    from second_evaluator import SPEC
+    from report_runs import results_file
+
+    results = results_file("miniroom:1", 0.9, 0)
+    gts = [reg.ground_truth("miniroom:1")]
+    assert check_evaluator(dict(SPEC), results, gts)["scores"]["proposals"] > 0
+    wrong = dict(SPEC, scores=[dict(SPEC["scores"][0], name="missed_m")] + SPEC["scores"][1:])
+    with pytest.raises(AssertionError, match="declares score 'missed_m' but evaluate returned scores.missed_m = None"):
+        check_evaluator(wrong, results, gts)
+    narrow = dict(SPEC, scores=[dict(SPEC["scores"][0], range=[0, 0.001])] + SPEC["scores"][1:])
+    with pytest.raises(AssertionError, match="outside its declared range"):
+        check_evaluator(narrow, results, gts)

@@ -313,3 +313,36 @@ def test_report_errors_are_one_line(tmp_path):
     (tmp_path / "a_file").write_text("")
     proc = cli("report", str(good), "-o", str(tmp_path / "a_file" / "report.html"))
     assert proc.returncode == 2 and "--output: cannot write" in proc.stderr and "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_maps_read_the_driven_path_from_a_recording(tmp_path):
+    """A run without trajectory logs but with `--record` recordings: the map's path is the recording's /tf map →
+    robot positions, which end where the plan does (the passive robot follows it)."""
+    import shutil
+
+    from benchbot.api import ActionResult, BenchBot
+    from benchbot.core.session import resolve_run, start_service
+    from benchbot.plugins.recorder import attach_recorder, detach_recorder
+
+    reg = get_registry()
+    run_spec = resolve_run(reg, "semantic_slam:passive:ground_truth", "carter", "miniroom:4")
+    service = start_service(reg, run_spec, seed=0, options={"width": 64, "height": 48})
+    try:
+        recorder = attach_recorder(reg, service, run_spec, tmp_path / "episode.mcap", seed=0,
+                                   options={"width": 64, "height": 48})
+        bot = BenchBot(backend=service)
+        _, result = bot.reset()
+        while result == ActionResult.SUCCESS:
+            _, result = bot.step("move_next")
+        mcap = detach_recorder(reg, service, recorder)
+    finally:
+        service.close()
+    run = load_run(scores_only_run(tmp_path, "recorded", {"miniroom:4": [0.3]}))
+    (run.run_dir / "recordings").mkdir()
+    stem = Path(run.manifest["plan"][0]["results"]).stem
+    shutil.copy(mcap, run.run_dir / "recordings" / f"{stem}.mcap")
+    path, source = driven_path(run, run.rows[0])
+    plan = reg.scenes("miniroom:4")[0]["trajectory_poses"]
+    assert source == "recording" and len(path) >= len(plan)
+    assert path[-1] == pytest.approx([plan[-1][4], plan[-1][5]], abs=0.05)

@@ -361,7 +361,8 @@ def check_format(spec: dict | str | Path) -> dict:
 
 def check_evaluator(spec: dict | str | Path, results: dict, ground_truths: list[dict], *, expect: dict | None = None) -> dict:
     """Check an evaluation method: the spec validates, ``evaluate(results, ground_truths)`` returns
-    ``{name: finite number}``, ``combine([scores, scores])`` (if any) returns the same kind of dict.
+    ``{name: finite number}`` with the spec's declared primary score (``scores``) under ``scores`` and every declared
+    score it returns inside its declared range, and ``combine([scores, scores])`` (if any) returns the same kind of dict.
 
     Args:
         spec: the evaluator spec (dict or file).
@@ -396,6 +397,18 @@ def check_evaluator(spec: dict | str | Path, results: dict, ground_truths: list[
             raise AssertionError(f"evaluator '{name}': {what} returned non-finite {', '.join(bad)}")
 
     check_scores("evaluate", scores)
+    returned = scores.get("scores") if isinstance(scores.get("scores"), dict) else {}
+    for d in spec.get("scores") or []:  # a declared score may be absent from some results (a mode's), not the primary
+        value = returned.get(d["name"])
+        if value is None and not d.get("primary"):
+            continue
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            raise AssertionError(f"evaluator '{name}': declares score '{d['name']}' but evaluate returned "
+                                 f"scores.{d['name']} = {value!r}")
+        low, high = (list(d.get("range") or [None, None]) + [None, None])[:2]
+        if (low is not None and value < low) or (high is not None and value > high):
+            raise AssertionError(f"evaluator '{name}': scores.{d['name']} = {value} is outside its declared range "
+                                 f"[{low}, {high}]")
     for key, value in (expect or {}).items():
         got: Any = scores
         for part in key.split("."):
