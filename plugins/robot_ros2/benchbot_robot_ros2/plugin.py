@@ -50,6 +50,8 @@ def benchbot_commands(app: Any) -> None:
         transport: str = typer.Option("auto", "--transport", help="auto (rclpy if importable), rclpy or cyclonedds."),
         network: str = typer.Option("loopback", "--network", help="loopback (Cyclone DDS on lo unless CYCLONEDDS_URI is set) or system."),
         seed: int = typer.Option(0, "--seed", help=f"Scene seed ({at_most(MAX_SEED)})."),
+        robot: str = typer.Option("carter", "--robot", "-r", help="The simulated robot (a robot of type sim_taichi: its camera, laser and footprint)."),
+        ros_robot: str = typer.Option("carter_ros2", "--ros-robot", help="The ROS 2 robot definition whose topic and frame names are served (e.g. turtlebot4: its oakd_… frames and topics)."),
     ) -> None:
         """Publish the simulated carter's camera, depth, laser, odometry and TF over ROS 2 and obey /cmd_vel in
         real time; /benchbot/reset (std_msgs/String JSON) reloads the scene. Ctrl-C stops."""
@@ -71,7 +73,7 @@ def benchbot_commands(app: Any) -> None:
                 domain = int(raw)
             w, h = parse_size(camera_size)
             serve(env, domain_id=domain, width=w, height=h, arch=arch, time_scale=time_scale, camera_hz=camera_hz,
-                  transport=transport, network=network, seed=seed)
+                  transport=transport, network=network, seed=seed, robot=robot, ros_robot=ros_robot)
 
         _run()
 

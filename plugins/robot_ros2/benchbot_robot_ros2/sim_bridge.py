@@ -21,15 +21,19 @@ topic                          type                            content
 ``/benchbot/reset_done``       ``std_msgs/msg/String``         JSON ``{"id", "ok", "error", "environment"}``
 =============================  ==============================  ==============================================
 
-Frame names come from one place, the ROS robot definition served (``carter_ros2``): ``global_frame`` (``map``),
+Frame and topic names come from one place, the ROS robot definition served (``carter_ros2``, or another with
+``--ros-robot``, such as ``turtlebot4``'s ``oakd_…`` frames and topics): ``global_frame`` (``map``),
 ``ros2.frames.robot`` or ``ros2.base_frame`` (``base_link``), ``ros2.frames.camera`` (``camera``) and
 ``ros2.frames.lidar`` (``lidar``); the odometry frame is ``odom``. The same names are in the images, camera infos,
-scans, odometry and TF.
+scans, odometry and TF. The topics of the table are ``carter_ros2``'s; another definition's connections
+(``image_rgb``, ``image_depth``, their ``_info``, ``laser``, ``move_next``) and ``ros2.odom_topic``,
+``ros2.tf_topic``, ``ros2.tf_static_topic`` rename them (:func:`ros_topics`).
 
 Time: every message is stamped with the simulated time, published on ``/clock`` (ROS's ``use_sim_time``
-convention): it starts at the wall-clock time the bridge started and advances 1/20 s per tick, ``time_scale`` ticks
-of 1/20 s per 1/20 wall second (fewer when rendering cannot keep up). ROS nodes must run with
-``use_sim_time:=true`` to see velocities and timeouts right when ``time_scale`` ≠ 1 (or the simulation lags).
+convention): it starts at the wall-clock time the scene was ready (not when the process started: loading a
+furnished scene takes tens of seconds) and advances 1/20 s per tick, ``time_scale`` ticks of 1/20 s per 1/20 wall
+second (fewer when rendering cannot keep up). ROS nodes must run with ``use_sim_time:=true`` to see velocities and
+timeouts right when ``time_scale`` ≠ 1 (or the simulation lags).
 
 It obeys ``/cmd_vel`` (``geometry_msgs/msg/Twist``: ``linear.x`` m/s, ``angular.z`` rad/s) in simulated time: every
 tick it integrates the newest command exactly (unicycle) and refuses a step that would bring the footprint into
@@ -89,6 +93,40 @@ def ros_frames(ros_robot: dict) -> dict[str, str]:
     return out
 
 
+#: The topics served, by key: ``carter_ros2``'s names (:func:`ros_topics` reads another definition's).
+DEFAULT_TOPICS = {"rgb": "/camera/color/image_raw", "rgb_info": "/camera/color/camera_info",
+                  "depth": "/camera/depth/image_raw", "depth_info": "/camera/depth/camera_info", "scan": "/scan",
+                  "odom": "/odom", "tf": "/tf", "tf_static": "/tf_static", "cmd_vel": "/cmd_vel"}
+
+
+def ros_topics(ros_robot: dict) -> dict[str, str]:
+    """The topics a ROS robot definition (type ``ros2``) reads and commands, by :data:`DEFAULT_TOPICS`' keys: its
+    connections' ``ros_topic`` (``image_rgb`` → ``rgb``, ``image_rgb_info`` → ``rgb_info``, ``image_depth``,
+    ``image_depth_info``, ``laser`` → ``scan``, ``move_next`` → ``cmd_vel``) and ``ros2.odom_topic``,
+    ``ros2.tf_topic``, ``ros2.tf_static_topic``; :data:`DEFAULT_TOPICS` for what it does not name.
+
+    Raises:
+        benchbot.core.errors.UsageError: a topic that is not a string starting with ``/``.
+    """
+    from benchbot.core.errors import UsageError
+
+    connections = ros_robot.get("connections") or {}
+    ros2 = ros_robot.get("ros2") or {}
+    named = {"rgb": "image_rgb", "rgb_info": "image_rgb_info", "depth": "image_depth",
+             "depth_info": "image_depth_info", "scan": "laser", "cmd_vel": "move_next"}
+    out = dict(DEFAULT_TOPICS)
+    for key, connection in named.items():
+        topic = (connections.get(connection) or {}).get("ros_topic")
+        if topic is not None:
+            out[key] = topic
+    for key in ("odom", "tf", "tf_static"):
+        out[key] = ros2.get(f"{key}_topic", out[key])
+    for key, topic in out.items():
+        if not isinstance(topic, str) or not topic.startswith("/"):
+            raise UsageError(f"robot '{ros_robot.get('name')}': topic {key} is {topic!r}", "give ROS topics as /name")
+    return out
+
+
 def _set_pose(sim: Any, pose: np.ndarray) -> None:
     """Place the simulated robot through the simulator's public ``set_pose``."""
     sim.set_pose(pose)
@@ -107,8 +145,8 @@ class SimBridge:
         camera_hz, laser_hz: publication rates (simulated time); odometry and TF go out every tick (20 Hz).
         transport: ``auto``/``cyclonedds``/``rclpy``. network: ``loopback``/``system``.
         seed: scene seed.
-        ros_robot: the ROS robot definition served (a robot name, or a spec dict): its frame names are used
-            (:func:`ros_frames`).
+        ros_robot: the ROS robot definition served (a robot name, or a spec dict): its frame and topic names are
+            used (:func:`ros_frames`, :func:`ros_topics`).
 
     Attributes:
         frames: ``{'map', 'robot', 'camera', 'lidar'}`` → TF frame name. clock_ns: the simulated time (int ns).
@@ -128,8 +166,10 @@ class SimBridge:
 
         self.registry = get_registry()
         self.robot_spec = self.registry.get("robots", robot)
-        self.frames = ros_frames(ros_robot if isinstance(ros_robot, dict) else self.registry.get("robots", ros_robot))
-        self.clock_ns = time.time_ns() // 1_000_000 * 1_000_000  # simulated time starts at the wall clock (ms)
+        definition = ros_robot if isinstance(ros_robot, dict) else self.registry.get("robots", ros_robot)
+        self.frames = ros_frames(definition)
+        self.topics = ros_topics(definition)
+        self.clock_ns = time.time_ns() // 1_000_000 * 1_000_000  # until the scene is ready (below)
         options: dict[str, Any] = {"arch": arch, "seed": seed}
         if width and height:
             options.update(width=int(width), height=int(height))
@@ -140,28 +180,31 @@ class SimBridge:
         self.seed = seed
         self.env_string = env
         self.tr = make_transport(transport, domain_id, network, NODE_NAME)
-        p = self.tr.publisher
+        p, t = self.tr.publisher, self.topics
         self.pub = {
             "clock": p("/clock", "rosgraph_msgs/msg/Clock"),
-            "rgb": p("/camera/color/image_raw", "sensor_msgs/msg/Image"),
-            "rgb_info": p("/camera/color/camera_info", "sensor_msgs/msg/CameraInfo"),
-            "depth": p("/camera/depth/image_raw", "sensor_msgs/msg/Image"),
-            "depth_info": p("/camera/depth/camera_info", "sensor_msgs/msg/CameraInfo"),
-            "scan": p("/scan", "sensor_msgs/msg/LaserScan"),
-            "odom": p("/odom", "nav_msgs/msg/Odometry"),
-            "tf": p("/tf", "tf2_msgs/msg/TFMessage"),
-            "tf_static": p("/tf_static", "tf2_msgs/msg/TFMessage", latched=True),
+            "rgb": p(t["rgb"], "sensor_msgs/msg/Image"),
+            "rgb_info": p(t["rgb_info"], "sensor_msgs/msg/CameraInfo"),
+            "depth": p(t["depth"], "sensor_msgs/msg/Image"),
+            "depth_info": p(t["depth_info"], "sensor_msgs/msg/CameraInfo"),
+            "scan": p(t["scan"], "sensor_msgs/msg/LaserScan"),
+            "odom": p(t["odom"], "nav_msgs/msg/Odometry"),
+            "tf": p(t["tf"], "tf2_msgs/msg/TFMessage"),
+            "tf_static": p(t["tf_static"], "tf2_msgs/msg/TFMessage", latched=True),
             "reset_done": p("/benchbot/reset_done", "std_msgs/msg/String"),
         }
         self._cmd = (0.0, 0.0, -math.inf)  # v, w, wall receipt time
         self._twist = (0.0, 0.0)  # the motion made in the last tick: v m/s, w rad/s
         self._resets: queue.Queue = queue.Queue()
-        self.tr.subscribe("/cmd_vel", "geometry_msgs/msg/Twist", self._on_cmd, reliable=True)
+        self.tr.subscribe(t["cmd_vel"], "geometry_msgs/msg/Twist", self._on_cmd, reliable=True)
         self.tr.subscribe("/benchbot/reset", "std_msgs/msg/String", self._on_reset, reliable=True)
         self.stop_event = threading.Event()
         self.sim_time = 0.0
         self.blocked_steps = 0
         self._load(env, seed)
+        # simulated time starts now that the scene is ready, at the wall clock (not when the process started)
+        self.clock_ns = time.time_ns() // 1_000_000 * 1_000_000
+        self._publish_static()
 
     # ------------------------------------------------------------------------------------------ callbacks
     def _on_cmd(self, msg: Any) -> None:
@@ -386,13 +429,14 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--transport", default="auto")
     ap.add_argument("--network", default="loopback")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--ros-robot", default="carter_ros2")
     a = ap.parse_args(argv)
     from benchbot.core import settings
 
     domain = a.domain_id if a.domain_id is not None else int(settings.get("ROS_DOMAIN_ID"))
     w, h = parse_size(a.camera_size)
     serve(a.env, robot=a.robot, domain_id=domain, width=w, height=h, arch=a.arch, time_scale=a.time_scale,
-          camera_hz=a.camera_hz, transport=a.transport, network=a.network, seed=a.seed)
+          camera_hz=a.camera_hz, transport=a.transport, network=a.network, seed=a.seed, ros_robot=a.ros_robot)
 
 
 if __name__ == "__main__":
