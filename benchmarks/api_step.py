@@ -28,7 +28,13 @@ interval of that median (``*_ci95_ms``, from the order statistics of the differe
 the interval says how far the median may be off).
 Requests are counted for real (an ``HttpTransport`` event hook; the legacy client's counter).
 
-    python benchmarks/api_step.py [--rounds 301] [--width 640 --height 480] [--env miniroom:1] [--server process|thread] [--json]
+The episode belongs to one client at a time (docs/protocol.md, "One client at a time"): the two ``BenchBot`` paths and
+the untimed resets are one client (``$BENCHBOT_CLIENT_ID``, as a solution of several connections names itself); the
+legacy client, which sends no id, is the anonymous client of 127.0.0.1, so before its turn the benchmark's client
+releases the episode (``/robot/release``) and after it the anonymous client does, all untimed.
+
+    python benchmarks/api_step.py [--rounds 301] [--width 640 --height 480] [--env miniroom:1]
+        [--server process|thread] [--json] [--smoke]
 """
 
 from __future__ import annotations
@@ -40,12 +46,15 @@ import math
 import multiprocessing
 import os
 import platform
+import secrets
 import statistics
 import sys
 import time
 from pathlib import Path
 
 import httpx
+
+import smoke  # this folder is on sys.path when a script here runs
 
 
 def start_backend(args: argparse.Namespace):
@@ -84,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="HTTP backend in its own process (default: as `benchbot run` serves a submission) or on a "
                          "thread of this process (the same simulator for every path; client and server share a GIL)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, rounds=2, width=32, height=24, server="thread")
     if args.rounds < 1:
         ap.error("--rounds must be at least 1")
 
@@ -92,8 +101,11 @@ def main(argv: list[str] | None = None) -> int:
     from legacy_client import LegacyBenchBot
 
     from benchbot.api import BenchBot, InProcessBenchBot
-    from benchbot.api.benchbot import HttpTransport
+    from benchbot.api.benchbot import CLIENT_HEADER, HttpTransport
     from benchbot.core.server import ServerThread, build_app
+
+    # one client for the BenchBot paths and the resets (HttpTransport reads the id when it is made)
+    os.environ["BENCHBOT_CLIENT_ID"] = client_id = secrets.token_hex(16)
 
     service = start_backend(args)  # the in-process path's backend (and the thread server's)
     if args.server == "process":
@@ -104,7 +116,12 @@ def main(argv: list[str] | None = None) -> int:
     else:
         server = ServerThread(build_app(service)).start()
         address = server.address
-    reset_http = httpx.Client(base_url=address, timeout=60)
+    reset_http = httpx.Client(base_url=address, timeout=60, headers={CLIENT_HEADER: client_id})
+    anonymous_http = httpx.Client(base_url=address, timeout=60)  # the legacy client's identity: no id
+
+    def hand_over(to_legacy: bool) -> None:
+        """Release the episode to the other client (the legacy one, or back from it), as the protocol documents."""
+        (reset_http if to_legacy else anonymous_http).post("robot/release").raise_for_status()
     native_count = [0]
     transport = HttpTransport(address, event_hooks={"request": [lambda request: native_count.__setitem__(0, native_count[0] + 1)]})
     clients = {
@@ -112,8 +129,10 @@ def main(argv: list[str] | None = None) -> int:
         "native": BenchBot(transport=transport),
         "native_inline": BenchBot(transport=HttpTransport(address, shared_memory=False)),
     }
+    hand_over(to_legacy=True)  # the BenchBot clients' start (a reset) took the episode
     with contextlib.redirect_stdout(sys.stderr):
-        legacy = LegacyBenchBot(supervisor_address=address, poll_s=0.1)
+        legacy = LegacyBenchBot(supervisor_address=address, poll_s=0.1)  # so does its start handshake
+    hand_over(to_legacy=False)
     times: dict[str, list[float]] = {"inprocess": [], "native": [], "native_inline": [], "legacy": []}
     native_requests, legacy_requests = [], []
     shapes = {}
@@ -123,15 +142,19 @@ def main(argv: list[str] | None = None) -> int:
                 service.call(service.episode.reset)
             else:
                 reset_http.post("robot/reset").raise_for_status()
+            if name == "legacy":
+                hand_over(to_legacy=True)
             before_native, before_legacy = native_count[0], legacy.requests_made
             t0 = time.perf_counter()
             if name == "legacy":
                 with contextlib.redirect_stdout(sys.stderr):
                     obs, _ = legacy.step("move_angle", angle=args.angle)
+                dt = (time.perf_counter() - t0) * 1000.0
+                hand_over(to_legacy=False)
             else:
                 clients[name]._state = {"actions": ["move_angle"]}  # the client's view after a reset
                 obs, _ = clients[name].step("move_angle", angle=args.angle)
-            dt = (time.perf_counter() - t0) * 1000.0
+                dt = (time.perf_counter() - t0) * 1000.0
             if i == 0:
                 shapes[name] = sorted(k for k in obs)
                 continue
@@ -156,6 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     for client in clients.values():
         client.close()
     reset_http.close()
+    anonymous_http.close()
     if args.server == "process":
         parent.send("stop")
         backend.join(timeout=30)
