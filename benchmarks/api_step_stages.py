@@ -19,7 +19,8 @@ import os
 import statistics
 import time
 
-from api_step import print_report, start_backend  # this folder is on sys.path when a script here runs
+import smoke  # this folder is on sys.path when a script here runs
+from api_step import print_report, start_backend
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -32,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--angle", type=float, default=0.0,
                     help="each step turns the robot by this many degrees first (0: observe-only steps)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, steps=3, width=32, height=24)
     if args.steps < 1:
         ap.error("--steps must be at least 1")
 

@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -29,7 +31,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--every", type=int, default=8, help="every N-th pose of the trajectory (default 8)")
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, every=20,
+                             style="furnished", force_style=True)  # baked light needs a furnished home
     if min(args.width, args.height, args.every) < 1:
         ap.error("--width, --height and --every must be at least 1")
 

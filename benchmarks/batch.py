@@ -5,7 +5,10 @@ Prints wall time and episodes per minute for each, the speed-up and the parallel
 time is that of the whole ``benchbot batch`` process (interpreter start, plugin loading, simulator start-up and the
 OMQ evaluation included), not of the episodes alone.
 
-    python benchmarks/batch.py [--workers N] [--envs-batch bear_all] [--repeat 1] [--camera-size 640x480] [--json]
+    python benchmarks/batch.py [--workers N] [--envs-batch bear_all | --envs ENV,...] [--example semslam_geometric]
+        [--repeat 1] [--camera-size 640x480] [--json] [--smoke]
+
+``--smoke``: ``hello_passive`` on miniroom:4 (33 poses) at 32×24, with one worker and with two.
 
 The speed-up is bounded by the longest episode: in bear_all the longest (house:5, 286 poses) is 19% of the
 1,529 poses of the ten, so no number of workers can pass about 5.3× on one repetition; ``--repeat 3`` gives the
@@ -23,9 +26,12 @@ import tempfile
 import time
 from pathlib import Path
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def run(workers: int, args: argparse.Namespace, out: Path) -> dict:
-    command = [sys.executable, "-m", "benchbot.cli", "batch", "--example", args.example, "--envs-batch", args.envs_batch,
+    envs = ["--envs", args.envs] if args.envs else ["--envs-batch", args.envs_batch]
+    command = [sys.executable, "-m", "benchbot.cli", "batch", "--example", args.example, *envs,
                "--workers", str(workers), "--output-dir", str(out), "--json", "--arch", args.arch]
     if args.camera_size:
         command += ["--camera-size", args.camera_size]
@@ -43,23 +49,24 @@ def run(workers: int, args: argparse.Namespace, out: Path) -> dict:
             "omq": outcome["scores"]["scores"]["OMQ"] if outcome.get("scores") else None}
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="N (default: the number of CPUs)")
     ap.add_argument("--envs-batch", default="bear_all")
+    ap.add_argument("--envs", default=None, help="a comma list of environments instead of --envs-batch")
     ap.add_argument("--example", default="semslam_geometric")
     ap.add_argument("--camera-size", default=None, help="WIDTHxHEIGHT (default: the robot's 640x480)")
     ap.add_argument("--arch", default="cpu")
     ap.add_argument("--repeat", type=int, default=1, help="run each environment N times (more, shorter-tailed work)")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = smoke.parse_args(ap, argv, envs="miniroom:4", example="hello_passive", camera_size="32x24", workers=2)
     if args.workers < 1 or args.repeat < 1:
         ap.error("--workers and --repeat must be at least 1")
     with tempfile.TemporaryDirectory(prefix="benchbot-bench-") as tmp:
         one = run(1, args, Path(tmp) / "one")
         many = run(args.workers, args, Path(tmp) / "many") if args.workers > 1 else one
     speedup = one["wall_s"] / many["wall_s"]
-    result = {"envs_batch": args.envs_batch, "example": args.example, "repeat": args.repeat,
+    result = {"envs_batch": args.envs or args.envs_batch, "example": args.example, "repeat": args.repeat,
               "cpu_count": os.cpu_count(),
               "one_worker": one, "n_workers": many, "speedup": round(speedup, 3),
               "parallel_efficiency": round(speedup / args.workers, 3)}

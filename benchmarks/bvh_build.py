@@ -31,6 +31,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def soup(n: int, seed: int = 0) -> np.ndarray:
     """(n, 3, 3) float32 random thin triangles in a 20 × 20 × 3 m room."""
@@ -109,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mesh", action="append", default=[], help="a real mesh file (repeatable)")
     ap.add_argument("--json", nargs="?", const="-", help="print one JSON object (or write it to PATH)")
     ap.add_argument("--one", help=argparse.SUPPRESS)  # scene:builder:n, in a child process
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, sizes="2000", old_max=2000)
     if args.one:
         scene, builder, n = args.one.rsplit(":", 2)
         print(json.dumps(one(scene, builder, int(n))))

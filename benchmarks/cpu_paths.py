@@ -26,6 +26,8 @@ import statistics
 import sys
 import time
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -35,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=8, help="rounds of one burst of each path")
     ap.add_argument("--frames", type=int, default=15, help="frames in a burst")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, rounds=1, frames=2)
     if min(args.width, args.height, args.rounds, args.frames) < 1:
         ap.error("--width, --height, --rounds and --frames must be at least 1")
 

@@ -24,6 +24,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def _gpu_name() -> str:
     try:
@@ -42,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH")
-    a = ap.parse_args(argv)
+    a = smoke.parse_args(ap, argv, width=64, height=48, repeats=1)
 
     from benchbot_sim_taichi.denoiser import denoise_radiance
 

@@ -19,14 +19,18 @@ Three groups, each run against this checkout's real commands, as subprocesses, o
   memory (``ru_maxrss`` from ``wait4`` in a small launcher: the largest of the process and the children it waited
   for) and the first line of its stderr (the temporary directory's path cut from it).
 * ``batch``: ``benchbot batch --native "python -c ..." --envs ENV4 --no-evaluate`` where the solution prints
-  1 GiB to stdout (1,048,576 lines of 1 KiB), then exits without results: exit status, wall seconds, peak resident
-  memory (``ru_maxrss``, as above), the size of the episode's log, its last line and the batch's line for the episode.
+  1 GiB to stdout (1,048,576 lines of 1 KiB; ``--shout-mib``), then exits without results: exit status, wall seconds,
+  peak resident memory (``ru_maxrss``, as above), the size of the episode's log, its last line and the batch's line
+  for the episode.
 
 Every child has a timeout (SIGTERM, then SIGKILL 10 s later); the files are built in, and removed with, one
 temporary directory, which is also every child's ``BENCHBOT_DATA_DIR``.
 
     python benchmarks/hostile_inputs.py [--only server,files,batch] [--env miniroom:1] [--batch-env miniroom:4]
-                                        [--camera-size 64x48] [--arch cpu] [--json]
+                                        [--camera-size 64x48] [--arch cpu] [--shout-mib 1024] [--json] [--smoke]
+
+``--smoke``: every group, with three of the seven files (the zip bomb, the nested JSON, the alias bomb installed)
+and a solution that prints 32 MiB (twice the episode log's limit).
 """
 
 from __future__ import annotations
@@ -45,6 +49,8 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+
+import smoke  # this folder is on sys.path when a script here runs
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from hostile_files import alias_bomb, zip_bomb  # noqa: E402 - the builders the security tests use
@@ -252,6 +258,8 @@ def file_cases(args: argparse.Namespace, tmp: Path) -> list[dict]:
         ("install --dry-run YAML alias bomb", ["install", "--dry-run", str(pack)]),
         ("install YAML alias bomb (temp data dir)", ["install", str(pack)]),
     ]
+    if args.smoke:  # one of each kind: an archive, a parser's limit, a content pack
+        cases = [case for case in cases if case[0].startswith(("eval zip bomb", "eval JSON nested", "install YAML"))]
     rows = []
     for name, cli_args in cases:
         result = run_measured([*BENCHBOT, *cli_args], child_env(tmp / "data"), args.cli_timeout, tmp)
@@ -263,15 +271,22 @@ def file_cases(args: argparse.Namespace, tmp: Path) -> list[dict]:
 
 
 # ------------------------------------------------------------------------------------------------ 3. batch
-SHOUT = ("import sys\nline = b'x' * 1023 + b'\\n'\nchunk = line * 1024\n"
-         "for _ in range(1024):\n    sys.stdout.buffer.write(chunk)\n")
-"""The solution: 1 GiB to stdout, 1,048,576 lines of 1 KiB, then it exits without results."""
+def shout(mib: int) -> str:
+    """The solution: ``mib`` MiB to stdout (1,024 lines of 1 KiB each), then it exits without results."""
+    return ("import sys\nline = b'x' * 1023 + b'\\n'\nchunk = line * 1024\n"
+            f"for _ in range({mib}):\n    sys.stdout.buffer.write(chunk)\n")
+
+
+def size_name(mib: int) -> str:
+    """``1 GiB`` for 1024, ``32 MiB`` for 32."""
+    return f"{mib // 1024} GiB" if mib % 1024 == 0 else f"{mib} MiB"
 
 
 def batch_case(args: argparse.Namespace, tmp: Path) -> dict:
-    """One real batch episode whose solution prints 1 GiB to stdout; the episode log's size and last line."""
+    """One real batch episode whose solution prints ``--shout-mib`` to stdout; the episode log's size and last
+    line."""
     output = tmp / "batch"
-    native = shlex.join([sys.executable, "-c", SHOUT])
+    native = shlex.join([sys.executable, "-c", shout(args.shout_mib)])
     result = run_measured([*BENCHBOT, "batch", "--native", native, "--envs", args.batch_env, "--camera-size",
                            args.camera_size, "--arch", args.arch, "--no-evaluate", "--output-dir", str(output)],
                           child_env(tmp / "data"), args.batch_timeout, tmp)
@@ -284,9 +299,9 @@ def batch_case(args: argparse.Namespace, tmp: Path) -> dict:
             last = first_line("\n".join(reversed(f.read().decode(errors="replace").splitlines())))
     lines = result["stderr"].splitlines()
     outcome = [line for line in lines if re.match(r"\[\d+/\d+\] |error:", line)]  # the episode's line, or an error
-    return {"case": f"solution prints 1 GiB ({args.batch_env})", "exit": result["exit"], "wall_s": result["wall_s"],
-            "peak_rss_mib": result["peak_rss_mib"], "timed_out": result["timed_out"], "logs": len(logs),
-            "log_mib": round(size / MIB, 2), "log_last_line": last,
+    return {"case": f"solution prints {size_name(args.shout_mib)} ({args.batch_env})", "exit": result["exit"],
+            "wall_s": result["wall_s"], "peak_rss_mib": result["peak_rss_mib"], "timed_out": result["timed_out"],
+            "logs": len(logs), "log_mib": round(size / MIB, 2), "log_last_line": last,
             "outcome": (outcome[0] if outcome else first_line(result["stderr"])).strip()}
 
 
@@ -328,7 +343,7 @@ def print_report(report: dict, as_json: bool) -> None:
                                       ("peak_rss_mib", "peak RSS MiB"), ("message", "first line of stderr")]))
     if "batch" in report:
         b = report["batch"]
-        print("\n## batch: a solution printing 1 GiB to stdout\n")
+        print(f"\n## batch: a solution printing {size_name(report['shout_mib'])} to stdout\n")
         print(table([b], [("case", "case"), ("exit", "exit"), ("wall_s", "wall s"), ("peak_rss_mib", "peak RSS MiB"),
                           ("log_mib", "log MiB"), ("log_last_line", "last line of the log")]))
         print(f"\nthe batch's episode line: {b['outcome']}")
@@ -345,14 +360,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--request-timeout", type=float, default=60.0, help="seconds per request (server group)")
     ap.add_argument("--cli-timeout", type=float, default=120.0, help="seconds per command (files group)")
     ap.add_argument("--batch-timeout", type=float, default=600.0, help="seconds for the batch")
+    ap.add_argument("--shout-mib", type=int, default=1024, help="MiB the batch group's solution prints")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, shout_mib=32)
+    if args.shout_mib < 1:
+        ap.error("--shout-mib must be at least 1")
     groups = {g.strip() for g in args.only.split(",") if g.strip()}
     if not groups or groups - {"server", "files", "batch"}:
         ap.error("--only takes a comma list of server, files, batch")
     report: dict = {"machine": f"{platform.machine()} {os.cpu_count()} cpu, {platform.python_implementation()} "
                                f"{platform.python_version()}",
-                    "env": args.env, "camera_size": args.camera_size, "arch": args.arch}
+                    "env": args.env, "camera_size": args.camera_size, "arch": args.arch, "shout_mib": args.shout_mib}
     with tempfile.TemporaryDirectory(prefix="benchbot-hostile-") as name:
         tmp = Path(name)
         if "server" in groups:

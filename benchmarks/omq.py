@@ -25,6 +25,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def make_results(gt: dict, n: int, seed: int) -> dict:
     """A semantic SLAM results file of ``n`` proposals for ground-truth file ``gt`` (deterministic in ``seed``)."""
@@ -217,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=7, help="timed runs of the vectorised evaluator (median)")
     ap.add_argument("--repeat-per-pair", type=int, default=3, help="timed runs of the per-pair version (median)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, proposals=60, repeat=1, repeat_per_pair=1)
 
     from benchbot.core.registry import get_registry
     from benchbot_eval_omq import omq

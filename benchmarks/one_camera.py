@@ -2,6 +2,7 @@
 
     python benchmarks/one_camera.py --arch cuda --env house:1 [--frames 1500] [--json]
     python benchmarks/one_camera.py --arch cpu --launch-only [--json]
+    python benchmarks/one_camera.py --smoke     (the launch probes on the CPU, one burst each)
 
 With one camera a fast-mode frame (640×480 RGB + depth + class/instance segmentation + a 360-beam laser scan, as
 ``render.py`` renders it) is short on a GPU, and the host's work to launch it can take longer than the GPU's work.
@@ -47,6 +48,8 @@ import os
 import statistics
 import sys
 import time
+
+import smoke  # this folder is on sys.path when a script here runs
 
 _LOOP = 32  # items of the probe kernels' loop: little work, so that a run costs its launch
 
@@ -155,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bursts", type=int, default=15, help="bursts of 50 runs per launch probe")
     ap.add_argument("--launch-only", action="store_true", help="measure only the launch probes")
     ap.add_argument("--json", action="store_true", help="print one JSON object (keys in the module docstring)")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, arch="cpu", launch_only=True, bursts=1)
     if min(args.width, args.height, args.frames, args.group, args.groups, args.bursts) < 1:
         ap.error("--width, --height, --frames, --group, --groups and --bursts must be at least 1")
 
@@ -177,6 +180,8 @@ def main(argv: list[str] | None = None) -> int:
            "cpu_count": os.cpu_count()}
     out["launch"] = launch_costs(ti, args.bursts)
     out["frame_launch"] = frame_launch(r.arch, out["launch"])
+    if args.smoke and (r.arch != "cuda" or args.launch_only):
+        smoke.left_out("the frames' host/GPU split", "it needs CUDA and a run without --smoke or --launch-only")
     if r.arch == "cuda" and not args.launch_only:
         scene = build_scene(envs[args.env])
         r.set_scene(scene)

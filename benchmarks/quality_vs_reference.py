@@ -23,12 +23,18 @@ Needs what the reference half of ``realism.py`` needs: uv and Python 3.11 for ``
 run). Both renderers run on this machine's CPU (``--arch cpu``); with ``--arch cuda`` ours runs on the GPU (with
 ``--reference-from`` an earlier run's Cycles renders, e.g. made on a CPU machine, are reused), and the two
 renderers' times are then of different machines (say so when quoting them).
+
+``--smoke`` (tiny: miniroom:4, 32×24, ours at 1 and 2 spp, written under the system's temporary folder) runs without
+Blender: it exports the scene and writes Cycles' job as a real run does, then leaves Cycles out and compares ours with
+a stand-in reference, our own quality mode at ``--reference-spp`` without the denoiser (so its PSNR and SSIM compare
+ours with ours, and there is no ladder).
 """
 
 import argparse
 import json
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -36,6 +42,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import realism  # noqa: E402 - benchmarks/realism.py, beside this file
+import smoke  # noqa: E402 - benchmarks/smoke.py, beside this file
 
 
 def _int_list(text: str) -> list[int]:
@@ -116,7 +123,9 @@ def main(argv: list[str] | None = None) -> int:
                          "spp and ladder) instead of rendering them again, e.g. to time ours on another machine; "
                          "without the ladder's .npy files there, the ladder's figures are read from the earlier "
                          "run's quality_vs_reference.json beside it")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, reference_spp=8, ladder=[1, 4],
+                            ours_spp=[1, 2], repeats=1,
+                            out=Path(tempfile.gettempdir()) / "benchbot-smoke" / "quality_vs_reference")
 
     from PIL import Image
 
@@ -136,6 +145,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: --pose {args.pose} is outside the trajectory's 0..{len(poses) - 1}", file=sys.stderr)
         return 2
     T = se2_to_matrix(*poses[args.pose]) @ Tc
+    try:
+        r = Renderer(args.arch, seed=args.seed)
+    except ValueError as e:
+        print(f"error: --arch {args.arch}: {e}", file=sys.stderr)
+        return 2
+    r.set_scene(scene)
     out_dir = args.out
     ref_dir = out_dir / "reference"
     ref_dir.mkdir(parents=True, exist_ok=True)
@@ -147,10 +162,21 @@ def main(argv: list[str] | None = None) -> int:
     ladder = [s for s in args.ladder if s < args.reference_spp]
     job = {"glb": str(ref_dir / "scene.glb"), "shell": "camera-only", "lights": realism.reference_lights(scene),
            "frames": [cam], "spp": args.reference_spp, "ladder": ladder, "seed": args.seed, "out_dir": str(ref_dir)}
+    reference_name = f"Cycles {args.reference_spp} spp"
     try:
         if args.reference_from is not None:
             ref_dir = args.reference_from
             timings, ref_linear, cycles = earlier_reference(ref_dir, cam, args.reference_spp, ladder)
+        elif args.smoke:
+            (ref_dir / "job.json").write_text(json.dumps(job))  # as realism.run_cycles writes it
+            smoke.left_out("the Cycles reference", f"it needs bpy, which `uv sync` does not install; {ref_dir} has "
+                           "the scene and the job Cycles would render, and ours is compared with our own quality "
+                           f"mode at {args.reference_spp} spp, not denoised")
+            t = time.perf_counter()
+            ref_linear = r.render(K, T, W, H, mode="quality", spp=args.reference_spp, denoise=False)["radiance"]
+            timings = {"frames": {"frame0": {str(args.reference_spp): time.perf_counter() - t}}}
+            ref_linear, cycles = np.asarray(ref_linear, np.float32), {}
+            reference_name = f"stand-in: ours {args.reference_spp} spp"
         else:
             print(f"Cycles: {args.reference_spp} spp reference and ladder {ladder} at {W}x{H} …", flush=True)
             timings = realism.run_cycles(job, ref_dir / "job.json", args.bpy, args.reference_timeout)
@@ -169,12 +195,6 @@ def main(argv: list[str] | None = None) -> int:
                               "ssim": realism.ssim(img, ref)}
 
     # ours
-    try:
-        r = Renderer(args.arch, seed=args.seed)
-    except ValueError as e:
-        print(f"error: --arch {args.arch}: {e}", file=sys.stderr)
-        return 2
-    r.set_scene(scene)
     fast = r.render(K, T, W, H)["rgb"]
     r.render(K, T, W, H, mode="quality", spp=1)  # compiles the kernels and starts the denoiser
     ours, pictures = {}, [fast]
@@ -195,20 +215,21 @@ def main(argv: list[str] | None = None) -> int:
                 pictures.append(img)
         ours[str(spp)] = entry
     pictures.append(ref)
-    labels = ["ours fast"] + [f"ours quality {s} spp" for s in args.ours_spp] + [f"Cycles {args.reference_spp} spp"]
+    labels = ["ours fast"] + [f"ours quality {s} spp" for s in args.ours_spp] + [reference_name]
     realism.side_by_side(pictures, labels).save(out_dir / "side_by_side.png")
     Image.fromarray(ref).save(out_dir / "reference.png")
 
-    top = max(ladder) if ladder else None
+    top = max((int(s) for s in cycles), default=None)  # the ladder's largest rung
     result = {"env": args.env, "pose": args.pose, "width": W, "height": H, "arch": r.arch,
-              "reference_spp": args.reference_spp, "reference_s": per[str(args.reference_spp)],
+              "reference": reference_name, "reference_spp": args.reference_spp,
+              "reference_s": per[str(args.reference_spp)],
               "reference_psnr_est_db": (cycles[str(top)]["psnr_db"] + 10 * math.log10(args.reference_spp / top + 1.0)
                                         if top else None),
               "cycles": cycles, "ours": ours, "export": glb, "blender": timings.get("blender"),
               "fast": {"psnr_db": realism.psnr(fast, ref), "ssim": realism.ssim(fast, ref)}}
     (out_dir / "quality_vs_reference.json").write_text(json.dumps(result, indent=1) + "\n")
 
-    print(f"\n{args.env} pose {args.pose}, {W}x{H}, against Cycles {args.reference_spp} spp "
+    print(f"\n{args.env} pose {args.pose}, {W}x{H}, against {reference_name} "
           f"({result['reference_s']:.0f} s; its own noise ≈ {result['reference_psnr_est_db'] or float('nan'):.1f} dB)")
     print(f"{'renderer':<26}{'seconds':>10}{'PSNR dB':>10}{'SSIM':>8}   Cycles to the same PSNR")
     for s, v in cycles.items():

@@ -32,9 +32,11 @@ K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also
 
 Writes ``<out>/realism.json`` and PNGs (annotated frames: green = detected visible object, red = missed visible
 object, grey = ignored object, yellow = detection, with class and score), and prints a per-class table. Exit code 2
-with one line on bad flags or a missing tool (Node.js/npm, uv). Limits: the module constants below (``--help``).
-Re-run it after the simulator changes: it renders whatever ``build_scene`` builds (``--style`` sets
-``environment['style']`` for simulators that read it).
+with one line on bad flags or a missing tool (Node.js/npm, uv). ``--smoke``: miniroom:4, two 32×24 frames (one also
+in quality mode at 1 spp), written under the system's temporary folder, without the two tools that ``uv sync`` does
+not install: no detector, and the reference's scene exported and its job written but not rendered by Cycles.
+Limits: the module constants below (``--help``). Re-run it after the simulator changes: it renders whatever
+``build_scene`` builds (``--style`` sets ``environment['style']`` for simulators that read it).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ import shutil
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,6 +60,9 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+if str(HERE) not in sys.path:  # run as a script it is; loaded by path (tests/test_realism.py), not
+    sys.path.append(str(HERE))
+import smoke  # noqa: E402 - benchmarks/smoke.py, beside this file
 ASSETS = HERE / "realism"
 
 #: Environments judged by default.
@@ -787,6 +793,12 @@ def reference_section(name: str, scene, K, W: int, H: int, images: dict, n_ref: 
     job = {"glb": str(ref_dir / "scene.glb"), "shell": "solid" if args.shell == "solid" else "camera-only",
            "lights": reference_lights(scene), "frames": frames, "spp": args.reference_spp, "ladder": ladder,
            "seed": args.seed, "out_dir": str(ref_dir)}
+    if args.smoke:
+        (ref_dir / "job.json").write_text(json.dumps(job))  # as run_cycles writes it
+        smoke.left_out(f"the Cycles reference of {name}", f"it needs bpy, which `uv sync` does not install; {ref_dir} "
+                       "has the scene and the job Cycles would render")
+        return {"export": {**glb, "seconds": export_s}, "spp": args.reference_spp, "ladder": ladder,
+                "shell": job["shell"], "frames": [], "left_out": "Cycles (smoke)"}
     t0 = time.perf_counter()
     timings = run_cycles(job, ref_dir / "job.json", args.bpy, args.reference_timeout)
     wall_s = time.perf_counter() - t0
@@ -912,7 +924,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                          "detector on real photos first")
     ap.add_argument("--pngs", type=int, default=PNGS_PER_ENV, help="annotated PNGs per environment and mode")
     ap.add_argument("--out", type=Path, default=Path("runs") / "realism")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, frames=2, quality_frames=1, quality_spp=1, reference_spp=8, ladder=[1],
+                            no_detector=True, width=32, height=24, min_pixels=20, pngs=1,
+                            out=Path(tempfile.gettempdir()) / "benchbot-smoke" / "realism")
     for flag in ("frames", "quality_spp", "reference_spp", "width", "height", "min_pixels"):
         if getattr(args, flag) <= 0:
             ap.error(f"--{flag.replace('_', '-')} must be positive")
@@ -923,7 +937,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         ap.error("--every must be positive")
     if not 0.0 <= args.max_truncation <= 1.0 or not 0.0 < args.iou <= 1.0:
         ap.error("--max-truncation must be in [0, 1] and --iou in (0, 1]")
-    args.env = args.env or list(DEFAULT_ENVS)
+    args.env = args.env or (["miniroom:4"] if args.smoke else list(DEFAULT_ENVS))
     return args
 
 
@@ -948,6 +962,9 @@ def _run(args) -> int:
                     "machine": {"processor": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()},
                     "settings": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
                     "thresholds": list(thresholds), "environments": {}}
+    if args.smoke and args.no_detector:
+        smoke.left_out("the detector", "it needs Node.js and npm, and `npm ci` downloads its package; `uv sync` "
+                       "installs neither")
     try:
         if not args.no_detector:
             detector = Detector(install_detector(args.detector_dir), args.detector_timeout)
@@ -963,6 +980,11 @@ def _run(args) -> int:
             section = judge_environment(name, args, detector, args.out, thresholds)
             tallies = section.pop("_tallies")
             report["environments"][name] = section
+            ms = section["ms_per_frame"]
+            print(f"{name} ({section['triangles']} triangles, {section['primitives']} primitives): "
+                  f"{len(section['pose_indices'])} frames at {args.width}x{args.height}, fast "
+                  f"{ms.get('fast', math.nan):.1f} ms a frame, quality {ms.get('quality', math.nan):.1f} ms "
+                  f"({args.quality_spp} spp)")
             if detector is not None:
                 print_table(name, tallies, thresholds)
                 for m, t in tallies.items():

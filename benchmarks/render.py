@@ -46,6 +46,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def time_bvh_builds() -> list[float]:
     """Time every ``bvh.build_bvh`` from now on (``pack_scene`` imports it when called, so the BVH built inside
@@ -89,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
                          "arrays passed to each kernel, no compiled graph")
     ap.add_argument("--no-embree", action="store_true")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, frames=2, warmup=1)
 
     from benchbot_sim_taichi import plugin
     from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics

@@ -2,7 +2,7 @@
 
 For each environment (default miniroom:1 and house:1) the robot is placed at the environment's trajectory poses in
 turn (after a warm-up that compiles the kernels) and one RGB + depth + segmentation render is timed per pose;
-``--frames`` frames (≥ 50) are averaged, cycling through the trajectory.
+``--frames`` frames (≥ 50, but for ``--smoke``) are averaged, cycling through the trajectory.
 
     python benchmarks/render_fps.py [--arch cpu|gpu] [--frames 60] [--width 640 --height 480] [--json]
 """
@@ -18,6 +18,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -28,8 +30,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--envs", default="miniroom:1,house:1")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args(argv)
-    frames = max(50, args.frames)
+    args = smoke.parse_args(ap, argv, frames=2, warmup=1, width=32, height=24, envs="miniroom:4")
+    frames = args.frames if args.smoke else max(50, args.frames)
 
     import yaml
 

@@ -16,7 +16,9 @@ class/instance segmentation + 360-beam laser):
 
 Writes one JSON object (``--out``, else stdout): ``date``, ``python``, ``cases`` (each ``command``: the exact
 command line, run from the repository's root; ``wall_s``; ``result``: that command's JSON, or ``error``: the end of
-its stderr). ``--quick`` runs few frames (a smoke test, not figures). Prints a short table on stderr.
+its stderr). ``--quick`` runs few frames (a quick look, not figures). Prints a short table on stderr. ``--smoke``
+runs one ``render.py`` case and one ``render_meshes.py`` case on the CPU, each in its own smoke mode (no GPU needed;
+the CUDA cases are left out).
 """
 
 from __future__ import annotations
@@ -30,7 +32,15 @@ import sys
 import time
 from pathlib import Path
 
+import smoke  # this folder is on sys.path when a script here runs
+
 ROOT = Path(__file__).resolve().parents[1]
+
+
+#: The smoke run's cases: the two scripts' own smoke modes, on the CPU, with the GPU cases' flags that work there.
+SMOKE_CASES = [["benchmarks/render.py", "--arch", "cpu", "--batch", "2", "--host-copy", "taichi,reused,pinned",
+                "--no-embree", "--json", "--smoke"],
+               ["benchmarks/render_meshes.py", "--arch", "cpu", "--batch", "2", "--json", "--smoke"]]
 
 
 def cases(quick: bool) -> list[list[str]]:
@@ -55,13 +65,15 @@ def cases(quick: bool) -> list[list[str]]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", help="write the JSON here (default: stdout)")
-    ap.add_argument("--quick", action="store_true", help="few frames per case: a smoke test, not figures")
+    ap.add_argument("--quick", action="store_true", help="few frames per case: a quick look, not figures")
     ap.add_argument("--only", default="", help="run only the cases whose command line contains this")
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per case")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv)
+    if args.smoke:
+        smoke.left_out("the CUDA cases", "a smoke run renders one case of each script on the CPU, tiny")
     result = {"date": datetime.date.today().isoformat(), "python": platform.python_version(),
-              "quick": args.quick, "cases": []}
-    for cmd in cases(args.quick):
+              "quick": args.quick, "smoke": args.smoke, "cases": []}
+    for cmd in SMOKE_CASES if args.smoke else cases(args.quick):
         line = " ".join(["python", *cmd])
         if args.only not in line:
             continue

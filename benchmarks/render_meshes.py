@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def _sphere(triangles: int):
     """A UV sphere (radius 0.35 m, bottom at z = 0) of about ``triangles`` triangles with a 256² texture."""
@@ -62,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=1, help="cameras per kernel launch")
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, count=4, triangles=100, width=32, height=24, frames=2)
 
     from benchbot.core.geometry import se2_to_matrix
     from render import time_bvh_builds  # this folder is on sys.path when a script here runs

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def compare_host_path(r, scene, K, cams, W: int, H: int, args) -> dict:
     """``{"denoised"|"plain": {output: {"max_abs": float, "differing": int, "values": int}}}`` between ``r``'s frames
@@ -66,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", nargs="?", const="-", default=None, help="print JSON (or write it to PATH)")
     ap.add_argument("--compare-host-path", action="store_true",
                     help="also compare the frames with a renderer that finishes them on the host (NumPy)")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, spp=1, bounces=2, frames=1)
     if min(args.width, args.height, args.spp, args.frames) < 1 or args.bounces < 0:
         ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
 

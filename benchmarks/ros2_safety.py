@@ -21,6 +21,8 @@ import statistics
 import threading
 import time
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def one_trial(transport, timeout_s: float, drive_s: float) -> float:
     """Seconds from the laser's silence to the first zero Twist heard by the fake robot.
@@ -67,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--drive-s", type=float, default=0.6, help="seconds of driving before the silence")
     ap.add_argument("--domain-id", type=int, default=173)
     ap.add_argument("--json", action="store_true")
-    a = ap.parse_args(argv)
+    a = smoke.parse_args(ap, argv, trials=1, drive_s=0.3)
 
     from benchbot_robot_ros2.backend import DEFAULTS
     from benchbot_robot_ros2.testing import FAKE_SPEC

@@ -23,6 +23,8 @@ import subprocess
 import sys
 import time
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -34,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--camera-hz", type=float, default=10.0)
     ap.add_argument("--domain-id", type=int, default=171)
     ap.add_argument("--json", action="store_true")
-    a = ap.parse_args(argv)
+    a = smoke.parse_args(ap, argv, rounds=1, width=32, height=24)
 
     from benchbot_robot_ros2.transport import LOOPBACK_URI
 

@@ -38,6 +38,8 @@ import time
 
 import numpy as np
 
+import smoke  # this folder is on sys.path when a script here runs
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -51,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tasks", action="store_true", help="also time each kernel's offloaded tasks (Taichi's "
                                                           "kernel profiler)")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
+    args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, frames=2, warmup=1)
     if args.width < 1 or args.height < 1 or args.batch < 1 or args.frames < 1 or args.warmup < 1:
         ap.error("--width, --height, --batch, --frames and --warmup must be at least 1")
     if args.tasks:
