@@ -30,11 +30,9 @@ STYLE = {"font.size": 8, "axes.titlesize": 9, "axes.labelsize": 8, "xtick.labels
 """matplotlib settings of every figure (text stays text in SVG and PDF, so it can be edited and searched)."""
 
 STATUS_COLOURS = {"TP": "#222222", "FN": "#D55E00", "FP": "#E69F00", "group": "#999999"}
-"""Top-down maps: ground truth found (TP, dark outline), missed ground truth (FN), false positive (FP), inside a
-group box (neither); matched predictions are filled by their quality (viridis) instead."""
-
-COUNT_COLOURS = {"TP": "#009E73", "FN": "#D55E00", "FP": "#E69F00"}
-"""Per-class bars: found, missed, false positives."""
+"""Top-down maps, by the ``status`` of an evaluation's per-object ``matches`` (docs/evaluation.md): ground truth found
+(TP, dark outline), missed ground truth (FN), false positive (FP), inside a group box (neither); matched predictions
+are filled by their quality (viridis) instead."""
 
 
 def pyplot():
