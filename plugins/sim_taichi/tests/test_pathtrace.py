@@ -240,18 +240,3 @@ def test_the_quality_benchmark_runs_and_reports_its_figures():
         stats = out["host_path"][kind]
         assert set(stats) == {"rgb", "depth", "class", "instance", "radiance"}
         assert all(s["max_abs"] == 0.0 and s["differing"] == 0 and s["values"] > 0 for s in stats.values()), stats
-
-
-@pytest.mark.slow
-def test_the_compile_time_benchmark_compiles_in_an_empty_cache_and_reports_both_kernels():
-    """``benchmarks/compile_time.py`` (the first-frame latency of the docs): both kernels compiled in a fresh
-    process with an empty cache, which it removes afterwards."""
-    import json
-    import subprocess
-
-    root = Path(__file__).resolve().parents[3]
-    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "compile_time.py"), "--json"],
-                          capture_output=True, text=True, timeout=900, cwd=root)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    out = json.loads(proc.stdout)
-    assert out["arch"] == "cpu" and out["fast_first_frame_s"] > 0 and out["quality_first_frame_s"] > 0
