@@ -4,8 +4,10 @@ run, print its figures as a real run does, and name what it left out (a GPU's pa
 install). A new script without a smoke mode, or without an entry in :data:`FIGURES`, fails here, so none rots
 unnoticed. Tests of what a script computes (its flags, its comparisons) live beside the code they measure.
 
-All of it: ``uv run pytest tests/test_benchmarks_smoke.py --durations=0`` (slow: about four minutes on a 2-core
-machine whose Taichi kernel cache is warm; a kernel variant that no earlier test compiled adds its compile time).
+All of it: ``uv run pytest tests/test_benchmarks_smoke.py --durations=0`` (slow: 2.5 minutes on a 2-core machine
+whose Taichi kernel cache is warm, the longest ``hostile_inputs.py``, ``baked_light.py`` and ``batch.py`` at 10-30 s
+each; a kernel variant that no earlier test compiled adds its compile time once, which the slow tests of the
+simulator's benchmarks would pay otherwise).
 """
 
 from __future__ import annotations
