@@ -624,14 +624,11 @@ def select_frames(n_poses: int, frames: int, every: int | None = None) -> list[i
 
 def camera_setup(width: int, height: int):
     """(K, T_robot_camera) of the robot's default camera (``DEFAULT_SENSORS``) at ``width`` × ``height``."""
-    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, R_BODY_OPTICAL
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_mount
     from benchbot_sim_taichi.renderer import intrinsics
 
     cam = DEFAULT_SENSORS["camera"]
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    Tc[:3, 3] = cam["mount_xyz"]
-    return intrinsics(width, height, float(cam["horizontal_fov_deg"])), Tc
+    return intrinsics(width, height, float(cam["horizontal_fov_deg"])), camera_mount(cam)
 
 
 class Tally:

@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from benchbot.core.geometry import se2_to_matrix
     from render import time_bvh_builds  # this folder is on sys.path when a script here runs
-    from benchbot_sim_taichi.backend import R_BODY_OPTICAL
+    from benchbot_sim_taichi.backend import camera_at
     from benchbot_sim_taichi.meshes import MeshInstance, add_mesh_instances, load_mesh
     from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
     from benchbot_sim_taichi.scene import BEAR_CLASS_LIST, build_scene
@@ -108,13 +108,10 @@ def main(argv: list[str] | None = None) -> int:
     bvh_mb = r._packed["nodes"].nbytes / 2**20
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)
-    Tc = np.eye(4)
-    Tc[:3, :3] = R_BODY_OPTICAL
-    Tc[:3, 3] = (0.0, 0.0, 1.2)
     radius = half + 0.8
     poses = [(radius * math.cos(a), radius * math.sin(a), a + math.pi) for a in np.linspace(0, 2 * math.pi, 8,
                                                                                           endpoint=False)]
-    cams = [se2_to_matrix(*p) @ Tc for p in poses]
+    cams = [camera_at(*p, z=1.2) for p in poses]
     lidars = [se2_to_matrix(*p, z=0.3) for p in poses]
     angles = np.radians(np.arange(-180.0, 180.0, 1.0))
 
