@@ -265,8 +265,14 @@ def test_noise_sweep_records_the_presets_and_the_noise_reaches_the_solution(tmp_
     robustness = json.loads((run_dir / "robustness.json").read_text())
     assert robustness == {**out["robustness"]}
     assert [lv["n"] for lv in robustness["levels"]] == [1, 1] and robustness["levels"][0]["low"] is None
-    assert robustness["levels"][0]["reason"] == "n = 1 < 5: no confidence interval"
-    assert robustness["differences"][0]["reason"] == "n = 1 < 6: no paired test"
+    assert robustness["levels"][0]["reason"] == "n = 1 < 5: no confidence interval over environments"
+    assert robustness["differences"][0]["reason"] == "n = 1 < 6: no paired test over environments"
+    assert robustness["levels"][0]["episodes"]["reason"] == "n = 1 < 5: no confidence interval"
+    assert robustness["score"] == "OMQ" and m["scores"]["scores"][0]["name"] == "OMQ"  # the declared primary
+    assert m["episodes"][0]["backend"]["style"] == "primitives"
+    assert " -m benchbot.cli batch --example semslam_geometric --envs miniroom:1 --sweep noise=none,low" in \
+        m["provenance"]["command"]
+    assert (run_dir / "trajectories" / (Path(m["plan"][0]["results"]).stem + ".json")).is_file()
     assert (run_dir / "robustness.png").is_file() and (run_dir / "robustness.svg").is_file()
     none, low = (json.loads((run_dir / p["results"]).read_text()) for p in m["plan"])
     assert none != low

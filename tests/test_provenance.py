@@ -51,3 +51,30 @@ def test_prepare_batch_records_provenance(tmp_path):
     assert written["provenance"]["solution_git"] == {str(tmp_path): None}
     assert written["provenance"]["benchbot_git"]
     assert written["provenance"]["machine"]["cpus"] >= 1
+
+
+def test_the_command_is_shell_quoted_and_the_lock_and_versions_recorded(tmp_path):
+    import hashlib
+    import importlib.metadata as md
+
+    assert provenance.command_line(["/home/x/.venv/bin/benchbot", "batch", "--native", "python my.py --fast",
+                                    "--envs", "miniroom:1"]) == \
+        "benchbot batch --native 'python my.py --fast' --envs miniroom:1"
+    lock = provenance.lock_hash(ROOT)
+    assert lock["sha256"] == hashlib.sha256((ROOT / "uv.lock").read_bytes()).hexdigest()
+    assert provenance.lock_hash(tmp_path) is None  # an installed BenchBot has no lock file
+    packages = provenance.packages()
+    assert packages["numpy"] == md.version("numpy") and packages["scipy"] == md.version("scipy")
+
+
+def test_an_episode_records_its_backend(registry):
+    from benchbot.core.session import resolve_run
+
+    run = resolve_run(registry, "semantic_slam:passive:ground_truth", "carter", "miniroom:1")
+    facts = provenance.backend_facts(registry, run.robot, run.environments)
+    assert facts["type"] == "sim_taichi" and facts["plugin"] == "sim_taichi"
+    assert facts["distribution"] == "benchbot-sim-taichi" and facts["version"]
+    assert facts["style"] == "primitives"  # the test run's BENCHBOT_SIM_STYLE (conftest.py); no scene names one
+    assert facts["settings"]["BENCHBOT_SIM_STYLE"] == "primitives"
+    furnished = [dict(e, style="furnished") for e in run.environments]
+    assert provenance.backend_facts(registry, run.robot, furnished)["style"] == "furnished"

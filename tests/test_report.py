@@ -293,6 +293,17 @@ def test_cli_prints_rounded_numbers_and_refusals(tmp_path):
     result = json.loads(proc.stdout)
     assert [r["label"] for r in result["runs"]] == ["A", "B"]
     assert result["comparisons"][0]["ttest_p"] is None
+    # a condition the comparison does not name: a warning, or with --strict a refusal naming it and --factor
+    c = scores_only_run(tmp_path, "c", {"miniroom:1": [0.2], "miniroom:2": [0.3]},
+                        backend=dict(report_runs.BACKEND, style="furnished"))
+    proc = cli("report", str(a), str(c))
+    assert proc.returncode == 0 and "warning: the runs differ in simulator style" in proc.stderr
+    assert "primitives" in proc.stderr and "furnished" in proc.stderr
+    proc = cli("report", str(a), str(c), "--strict")
+    assert proc.returncode == 2 and "the runs differ in simulator style" in proc.stderr
+    assert "--factor 'simulator style'" in proc.stderr and "Traceback" not in proc.stderr
+    proc = cli("report", str(a), str(c), "--strict", "--factor", "simulator style")
+    assert proc.returncode == 0 and "warning" not in proc.stderr
 
 
 @pytest.mark.slow

@@ -99,8 +99,10 @@ def packages() -> dict[str, str]:
 def command_line(argv: list[str] | None = None) -> str:
     """The command as typed, shell-quoted (``shlex.join``) so that it can be pasted back: ``benchbot batch
     --native 'python my.py' --envs miniroom:1``; the program is named by its file name (``benchbot``), not its
-    path."""
+    path, and a run through ``python -m benchbot.cli`` is written so (from ``sys.orig_argv``)."""
     argv = list(sys.argv if argv is None else argv)
+    if argv and argv[0].endswith("__main__.py") and getattr(sys, "orig_argv", None):
+        argv = list(sys.orig_argv)  # `python -m benchbot.cli ...`: the interpreter's own argv says so
     if argv:
         argv[0] = Path(argv[0]).name
     return shlex.join(argv)
