@@ -72,7 +72,7 @@ def test_rclpy_and_cyclone_dds_talk_both_ways_on_loopback(domain_id):
     Cyclone DDS."""
     from benchbot_robot_ros2.transport import FASTDDS_LOOPBACK_PROFILE, RclpyTransport
 
-    dom = domain_id + 40
+    dom = domain_id + 11
     r = RclpyTransport(dom, "loopback", node_name="benchbot_probe_rclpy")
     c = CycloneTransport(dom, "loopback", node_name="benchbot_probe_cyclone")
     assert os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] == str(FASTDDS_LOOPBACK_PROFILE)

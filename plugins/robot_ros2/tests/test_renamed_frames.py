@@ -71,7 +71,7 @@ def _pack(folder: Path) -> Path:
 def test_turtlebot4_frames_and_topics_end_to_end_with_a_recording(tmp_path, domain_id):
     from benchbot.core.content_packs import install_pack
 
-    dom = domain_id + 50
+    dom = domain_id + 13
     env = dict(os.environ, BENCHBOT_DATA_DIR=str(tmp_path / "data"), ROS_DOMAIN_ID=str(dom),
                BENCHBOT_ROS2_TIME_SCALE="4", COLUMNS="200")
     os.environ["BENCHBOT_DATA_DIR"], saved = str(tmp_path / "data"), os.environ["BENCHBOT_DATA_DIR"]
