@@ -243,7 +243,10 @@ def test_a_batch_s_repeats_are_labelled_by_episode_and_never_cut_at_80_columns(m
         ["miniroom:1 #0", "miniroom:1 #1", "miniroom:2 #2", "miniroom:2 #3"]
     scores = {"OMQ": 0.1601, "avg_pairwise": 0.2374, "avg_label": 0.1876, "avg_spatial": 0.495,
               "avg_fp_quality": 0.4686, "TP": 15, "FP": 8, "FN": 3}
-    evaluation = Evaluation(method="omq")
+    from benchbot.core.evaluation import method_scores
+    from benchbot.core.registry import get_registry
+
+    evaluation = Evaluation(method="omq", score_set=method_scores(get_registry(), "omq"))  # as evaluate() makes it
     evaluation.per_result = [(s, {"environment_details": [{"name": "miniroom", "variant": 1 + i // 2}],
                                   "scores": dict(scores)}) for i, s in enumerate(sources)]
     evaluation.combined = {"scores": dict(scores)}

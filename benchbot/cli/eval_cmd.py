@@ -44,6 +44,13 @@ def print_scores(evaluation: Evaluation, per_class: bool = False) -> None:
     from benchbot.cli.tables import count_cell, fit, plural, row_labels
 
     declared = evaluation.score_set
+    if declared is None:  # an Evaluation made by hand: what its scores show (numbers only ever whole are counts)
+        from benchbot.core.evaluation import observed_scores
+
+        try:
+            declared = observed_scores(evaluation.method, [s.get("scores") or {} for _, s in evaluation.per_result])
+        except ValueError:
+            declared = None
     counts = set(declared.counts) if declared is not None else set()
 
     def cell(key: str, value: object) -> str:
