@@ -191,3 +191,30 @@ def test_each_score_says_which_set_it_used_and_bear_develop_moves_the_sink(regis
     assert json.loads(out.read_text())["ground_truth_set"] == "bear_develop"
     wrong = CliRunner().invoke(app, ["eval", str(path), "--ground-truths", "isaac"], env={"COLUMNS": "200"})
     assert wrong.exit_code == 3 and "no set of ground truths named 'isaac'" in wrong.stderr
+
+
+@pytest.mark.slow
+def test_a_batch_scored_against_bear_develop_says_so_in_its_manifest_and_scores(tmp_path):
+    """hello_eval_semantic_slam submits miniroom:1's default (isaac_develop) ground truth; scored against
+    bear_develop (--ground-truths) it is not perfect (the sink moved), and the manifest, scores.json and
+    episode_scores.json name the set."""
+    import os
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "batch", "--example", "hello_eval_semantic_slam",
+                           "--no-sandbox", "--envs", "miniroom:1", "--camera-size", "64x48", "--ground-truths",
+                           "bear_develop", "--no-tui", "--json", "--output-dir", str(tmp_path / "runs")],
+                          capture_output=True, text=True, timeout=600, env=dict(os.environ, COLUMNS="200"))
+    result = json.loads(proc.stdout)
+    run_dir = Path(result["run_dir"])
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["ground_truth_set"] == "bear_develop" and manifest["ground_truth_sets"] == {"miniroom:1": "bear_develop"}
+    scores = json.loads((run_dir / "scores.json").read_text())
+    assert scores["ground_truth_set"] == "bear_develop" and 0.9 < scores["scores"]["OMQ"] < 1.0, scores["scores"]
+    episode = json.loads((run_dir / "episode_scores.json").read_text())[0]
+    assert episode["ground_truth_set"] == "bear_develop"
+    wrong = subprocess.run([sys.executable, "-m", "benchbot.cli", "batch", "--example", "hello_passive", "--envs",
+                            "miniroom:1", "--ground-truths", "isaac", "--no-tui", "--output-dir", str(tmp_path / "r2")],
+                           capture_output=True, text=True, timeout=300, env=dict(os.environ, COLUMNS="200"))
+    assert wrong.returncode == 3 and "no set of ground truths named 'isaac'" in wrong.stderr, wrong.stderr

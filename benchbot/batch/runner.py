@@ -201,12 +201,14 @@ def apply_timeouts(registry: Registry, specs: list[EpisodeSpec]) -> dict:
 
 def prepare_batch(
     registry: Registry, *, run_dir: Path, specs: list[EpisodeSpec], evaluate_with: str | None, prefix: str,
-    zip_results: bool, sweep: dict | None = None,
+    zip_results: bool, sweep: dict | None = None, ground_truth_set: str | None = None,
 ) -> Batch:
     """Validate every combination of the plan, resolve the evaluation method and the episode timeouts
     (:func:`apply_timeouts`, in place), and write config + manifest. The manifest records the parameters of every
     noise preset the plan uses (``noise``: ``{name: parameters}``, docs/noise.md) and ``sweep`` (``{factor, levels,
-    level_of: {index: level}}`` of a ``--sweep`` batch, else None).
+    level_of: {index: level}}`` of a ``--sweep`` batch, else None). ``ground_truth_set`` (``--ground-truths``)
+    scores every episode against that set of ground truths (each scene's default when None); the manifest's
+    ``ground_truth_sets`` says, for every scene, the set its scores use.
 
     Returns:
         the batch in memory (``specs`` itself, pending records, the manifest as written), for :func:`run_batch`.
@@ -219,6 +221,7 @@ def prepare_batch(
         raise UsageError(f"the episodes of one batch must share an isolation level, not {sorted(levels)}", "")
     isolation = levels.pop()
     runs = _resolve_runs(registry, specs)
+    ground_truth_sets = _ground_truth_sets(registry, runs, ground_truth_set)
     episode_timeout = apply_timeouts(registry, specs)
     records = [new_record(s) for s in specs]
     first = next(iter(runs.values()))
@@ -239,10 +242,33 @@ def prepare_batch(
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "noise": {name: get_preset(name) for name in dict.fromkeys(s.noise for s in specs)}, "sweep": sweep,
         "sandbox": isolation, "scores": _declared_scores(registry, evaluate_with),
+        "ground_truth_set": ground_truth_set, "ground_truth_sets": ground_truth_sets,
         "plan": to_json(specs), "episodes": to_json(records),
     }
     write_manifest(run_dir, manifest)
     return Batch(run_dir.resolve(), manifest, specs, records, runs)
+
+
+def _ground_truth_sets(registry: Registry, runs: dict, chosen: str | None) -> dict[str, str]:
+    """``{scene: the set of ground truths its scores use}`` for every scene of the plan: ``chosen`` (checked: every
+    scene has one in that set) or each scene's default set. A scene without any ground truth is left out (its
+    episodes cannot be scored; the evaluation says so).
+
+    Raises:
+        SpecError: no set named ``chosen``, or a scene without a ground truth in it.
+    """
+    from benchbot.core.original_addons import ground_truth_set_name
+
+    out: dict[str, str] = {}
+    for run in runs.values():
+        for env in run.environments:
+            name = f"{env['name']}:{env['variant']}"
+            if chosen is not None:
+                registry.ground_truth(name, chosen)  # raises, naming the sets that have it
+                out[name] = ground_truth_set_name(chosen)
+            elif name in registry.entries["ground_truths"]:
+                out[name] = registry.ground_truth_set(name)
+    return out
 
 
 def _declared_scores(registry: Registry, method: str | None) -> dict | None:
@@ -434,7 +460,8 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[Epi
     env_of = {s.index: s.env for s in specs}
     evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
                           required_task=manifest["task"], keep_going=True,
-                          environments={path: env_of[record.index] for path, record in by_source.items()})
+                          environments={path: env_of[record.index] for path, record in by_source.items()},
+                          ground_truth_set=manifest.get("ground_truth_set"))
     problems = [(source, exc.message) for source, exc in evaluation.errors]
     problems += [(source, f"{source}: results not scored: {why}") for source, why in evaluation.skipped]
     for source, message in problems:  # a zip archive's members are named PATH:MEMBER

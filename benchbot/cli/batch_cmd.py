@@ -60,6 +60,7 @@ def register(app: typer.Typer) -> None:
         noise: Optional[str] = typer.Option(None, "--noise", help="Sensor and motion noise preset: none (default), low, realistic or high (docs/noise.md); recorded in the manifest."),
         sweep: Optional[str] = typer.Option(None, "--sweep", help="Run the batch at every level of one factor and plot the score against it: noise=none,low,realistic,high, robot=A,B, variant=1,2,3 or lighting=day,night (docs/noise.md)."),
         no_sandbox: bool = typer.Option(False, "--no-sandbox", help="Run native solutions as plain processes of your user instead of in the bubblewrap sandbox (for development: they could read the ground truth, so the scores are marked not verifiable; docs/security.md)."),
+        ground_truths: Optional[str] = typer.Option(None, "--ground-truths", help="Score against this set of ground truths (`benchbot list ground_truths`: isaac_develop, the default, or bear_develop, what the original's default install used); the manifest and the scores say which set each score used."),
     ) -> None:
         """Run a solution on every environment, each episode with its own backend on 127.0.0.1, then score it.
 
@@ -132,7 +133,7 @@ def register(app: typer.Typer) -> None:
             try:
                 batch = prepare_batch(reg, run_dir=run_dir, specs=specs,
                                       evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
-                                      zip_results=zip_results, sweep=sweep_record)
+                                      zip_results=zip_results, sweep=sweep_record, ground_truth_set=ground_truths)
             except BaseException:  # nothing ran: leave no empty run directory behind
                 shutil.rmtree(run_dir, ignore_errors=True)
                 raise
