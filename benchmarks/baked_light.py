@@ -1,4 +1,4 @@
-"""Baked direct light against the lights summed at every pixel (fast mode, ``benchbot_sim_taichi.lightmap``), on one
+"""Baked direct light against the lights summed at every pixel (fast mode, ``benchbot_sim_taichi.render.lightmap``), on one
 environment: how far apart the frames are, and what each costs.
 
     python benchmarks/baked_light.py --env house:1 [--width 640 --height 480] [--every 8] [--arch cpu] [--json]
@@ -36,12 +36,12 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.every) < 1:
         ap.error("--width, --height and --every must be at least 1")
 
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear
     from benchbot_sim_taichi.backend import trajectory_cameras
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])

@@ -1,4 +1,4 @@
-"""BVH build time, size, depth, SAH cost and peak memory of the sim_taichi builder (benchbot_sim_taichi.bvh).
+"""BVH build time, size, depth, SAH cost and peak memory of the sim_taichi builder (benchbot_sim_taichi.render.bvh).
 
 For each scene and triangle count, ``build_bvh`` (level-by-level, vectorised) and, up to ``--old-max`` triangles,
 ``build_bvh_reference`` (the recursive builder it replaced; same tree) build a BVH over the triangles' boxes, each
@@ -87,7 +87,7 @@ def mesh(path: str) -> np.ndarray:
 
 def one(scene: str, builder: str, n: int) -> dict:
     """Build once in this process; the figures of that build."""
-    from benchbot_sim_taichi import bvh
+    from benchbot_sim_taichi.render import bvh
 
     tris = soup(n) if scene == "soup" else house1(n) if scene == "house1" else mesh(scene[len("mesh:"):])
     lo, hi = tris.min(axis=1), tris.max(axis=1)

@@ -34,8 +34,8 @@ def main(argv: list[str] | None = None) -> int:
             os.environ["TI_OFFLINE_CACHE_FILE_PATH"] = cache  # read by ti.init: an empty cache
         import numpy as np
 
-        from benchbot_sim_taichi.renderer import Renderer, intrinsics
-        from benchbot_sim_taichi.scene import Scene
+        from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+        from benchbot_sim_taichi.scene.model import Scene
 
         z = np.zeros((0, 3), np.float32)
         scene = Scene(box_min=z, box_max=z, box_albedo=z, box_class=np.zeros(0, np.int32),

@@ -41,12 +41,12 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.rounds, args.frames) < 1:
         ap.error("--width, --height, --rounds and --frames must be at least 1")
 
-    from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi import bear
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
+    from benchbot_sim_taichi.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])

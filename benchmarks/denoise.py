@@ -1,4 +1,4 @@
-"""Seconds Intel Open Image Denoise (``benchbot_sim_taichi.denoiser.denoise_radiance``: pyoidn's RT filter, HDR, on the
+"""Seconds Intel Open Image Denoise (``benchbot_sim_taichi.render.denoiser.denoise_radiance``: pyoidn's RT filter, HDR, on the
 CPU or an NVIDIA GPU) takes for one quality-mode frame with its albedo and normal guides.
 
 The inputs are seeded noise of the frame's size (the filter's time does not depend on the content); the first call,
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH")
     a = smoke.parse_args(ap, argv, width=64, height=48, repeats=1)
 
-    from benchbot_sim_taichi.denoiser import denoise_radiance
+    from benchbot_sim_taichi.render.denoiser import denoise_radiance
 
     rng = np.random.default_rng(0)
     radiance = rng.random((a.height, a.width, 3), dtype=np.float32)

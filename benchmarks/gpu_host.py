@@ -1,10 +1,10 @@
 """GPU-side helpers of the render benchmarks (``render.py``, ``render_meshes.py``) on CUDA, through the CUDA driver
-library that Taichi has already loaded (``benchbot_sim_taichi.host_copy``: the driver calls' one home).
+library that Taichi has already loaded (``benchbot_sim_taichi.render.host_copy``: the driver calls' one home).
 
 * :func:`device_info`: the GPU's name and the device memory in use (``cuMemGetInfo``: the whole device, i.e. this
   process's Taichi context, memory pool and arrays when nothing else runs on the GPU).
 * :class:`CudaEvents`: CUDA events on the stream Taichi launches on, to time GPU work (``one_camera.py``).
-* :class:`HostCopier`: the renderer's copier (``benchbot_sim_taichi.host_copy.HostCopier``, re-exported here), which
+* :class:`HostCopier`: the renderer's copier (``benchbot_sim_taichi.render.host_copy.HostCopier``, re-exported here), which
   ``render.py --host-copy reused`` drives with ordinary memory.
 
 Use from the thread that initialised Taichi (``Renderer``), after ``ti.init(arch=cuda)``. Every driver call's result
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import ctypes
 
-from benchbot_sim_taichi.host_copy import HostCopier, check, cuda_driver
+from benchbot_sim_taichi.render.host_copy import HostCopier, check, cuda_driver
 
 __all__ = ["CudaEvents", "HostCopier", "device_info"]
 

@@ -127,7 +127,7 @@ def frame_launch(arch: str, costs: dict) -> dict:
     """The ndarray arguments and dispatches of the renderer's graph on ``arch``, and their cost at ``costs``: one
     2-ndarray dispatch, one ``per_dispatch_us`` (a 2-ndarray dispatch) for each further kernel, and
     ``per_ndarray_us`` for each ndarray argument beyond those."""
-    from benchbot_sim_taichi.sensors import SENSORS_ARGS, kernel_parameters, sensors_kernels
+    from benchbot_sim_taichi.render.sensors import SENSORS_ARGS, kernel_parameters, sensors_kernels
 
     kinds = {name: kind for name, kind, *_ in SENSORS_ARGS}
     kernels = sensors_kernels(arch)  # (both shading kernels take the same arguments)
@@ -162,15 +162,15 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.frames, args.group, args.groups, args.bursts) < 1:
         ap.error("--width, --height, --frames, --group, --groups and --bursts must be at least 1")
 
-    from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi import renderer as renderer_module
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi import bear
+    from benchbot_sim_taichi.render import renderer as renderer_module
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
+    from benchbot_sim_taichi.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     import taichi as ti  # (after the renderer's import, which sends Taichi's banner to stderr)
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     r = Renderer(args.arch)  # (initialises Taichi on the arch)

@@ -130,8 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     from PIL import Image
 
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi.renderer import Renderer
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer
+    from benchbot_sim_taichi.scene.build import build_scene
 
     try:
         scene = build_scene(realism._env_spec(args.env, None))

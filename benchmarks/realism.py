@@ -20,7 +20,7 @@ K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also
   ignored). ``localised`` counts visible objects hit by a box of any class.
 - **Reference.** The first ``--reference-frames`` frames are rendered by Blender Cycles (``bpy``, in its own
   environment: ``uv run --no-project --python 3.11 --with bpy==5.0.1``) from the scene exported by
-  ``benchbot_sim_taichi.export.export_scene`` (glTF, PBR materials with their textures, shading normals), the
+  ``benchbot_sim_taichi.scene.export.export_scene`` (glTF, PBR materials with their textures, shading normals), the
   same camera (intrinsics and pose) and the same lights (sun, lamps, ambient as a sky), path traced at
   ``--reference-spp`` samples per pixel with no denoiser, and at each ``--ladder`` count (timed: Cycles' time to a
   given error). Images are encoded as ours are (clamp, gamma 1/2.2, 8 bits); PSNR (dB) and SSIM (luma, 11×11
@@ -293,8 +293,8 @@ def ssim(a: np.ndarray, b: np.ndarray) -> float:
 
 def encode_like_ours(linear: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8 of linear radiance, encoded as our renderer encodes it: clamp to [0, 1], ``x^(1/2.2)``,
-    8 bits (``benchbot_sim_taichi.camera_model.GAMMA``). Change it with the renderer's camera model."""
-    from benchbot_sim_taichi.camera_model import GAMMA
+    8 bits (``benchbot_sim_taichi.render.camera_model.GAMMA``). Change it with the renderer's camera model."""
+    from benchbot_sim_taichi.render.camera_model import GAMMA
 
     return np.floor(np.power(np.clip(linear, 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
 
@@ -446,7 +446,7 @@ def _shell_meshes(scene) -> list:
     lo, hi = np.asarray(scene.room_min, np.float64), np.asarray(scene.room_max, np.float64)
     alb = np.asarray(scene.shell_albedo, np.float64)
     try:
-        from benchbot_sim_taichi.kernels import TILE_CONTRAST, TILE_M
+        from benchbot_sim_taichi.render.kernels import TILE_CONTRAST, TILE_M
     except ImportError:
         TILE_M, TILE_CONTRAST = 1.0, 0.0
     edges = [np.unique(np.concatenate([[lo[k]], np.arange(math.ceil(lo[k] / TILE_M), math.floor(hi[k] / TILE_M) + 1)
@@ -488,7 +488,7 @@ def export_reference_glb(scene, path: Path, *, shell: bool = True) -> dict:
     Returns:
         ``{'triangles': int, 'meshes': int, 'textured_meshes': int}``.
     """
-    from benchbot_sim_taichi.export import export_scene
+    from benchbot_sim_taichi.scene.export import export_scene
 
     exported = export_scene(scene, path, shell=False)  # in glTF coordinates
     for name, mesh in _shell_meshes(scene) if shell else []:
@@ -536,8 +536,8 @@ def reference_lights(scene) -> dict:
     """The scene's lights for the reference: ``ambient`` (3,), ``suns`` and ``points`` (see
     ``benchmarks/realism/cycles_reference.py``), with the sun's angular radius and the lamps' radius of our
     renderer's soft shadows."""
-    from benchbot_sim_taichi.kernels import LAMP_RADIUS, SUN_RADIUS
-    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL
+    from benchbot_sim_taichi.render.kernels import LAMP_RADIUS, SUN_RADIUS
+    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL
 
     suns, points = [], []
     for kind, vec, col in zip(np.asarray(scene.light_kind).tolist(), np.asarray(scene.light_vec, np.float64),
@@ -625,7 +625,7 @@ def select_frames(n_poses: int, frames: int, every: int | None = None) -> list[i
 def camera_setup(width: int, height: int):
     """(K, T_robot_camera) of the robot's default camera (``DEFAULT_SENSORS``) at ``width`` × ``height``."""
     from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_mount
-    from benchbot_sim_taichi.renderer import intrinsics
+    from benchbot_sim_taichi.render.renderer import intrinsics
 
     cam = DEFAULT_SENSORS["camera"]
     return intrinsics(width, height, float(cam["horizontal_fov_deg"])), camera_mount(cam)
@@ -689,9 +689,9 @@ class Tally:
 
 
 def _env_spec(name: str, style: str | None) -> dict:
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if name not in envs:
         raise RealismError(f"unknown environment {name!r}", f"use one of {', '.join(sorted(envs))}")
     env = dict(envs[name])
@@ -703,8 +703,8 @@ def _env_spec(name: str, style: str | None) -> dict:
 def judge_environment(name: str, args, detector: Detector | None, out_dir: Path, thresholds) -> dict:
     """Render, detect, compare for one environment; returns its JSON section and fills PNGs under ``out_dir``."""
     env = _env_spec(name, args.style)
-    from benchbot_sim_taichi.renderer import Renderer
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer
+    from benchbot_sim_taichi.scene.build import build_scene
 
     from benchbot.core.geometry import se2_to_matrix
 

@@ -2,7 +2,7 @@
 
 Times full sensor frames (RGB + depth + class/instance segmentation + a 360-beam laser scan) along the
 environment's trajectory poses (fast mode), and, in the same run, Embree (``embreex``, through trimesh) casting the
-same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.export``).
+same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.scene.export``).
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
         [--shadow-samples 1] [--shadow-maps auto|on|off] [--lights on|off|sun|lamps]
@@ -17,7 +17,7 @@ both are the same figure: frames delivered as new NumPy arrays (the renderer's `
 of 23 Nov 2026 through its compiled graph and Taichi ndarrays, copied from their memory; ``--numpy-buffers``: the
 kernels launched one by one on NumPy arrays, as before, ``device_buffers`` false in the JSON). On CUDA,
 ``--host-copy`` adds copies into NumPy arrays made once and reused
-(``benchbot_sim_taichi.host_copy.HostCopier``: one ``cuMemcpyDtoHAsync`` per output); every copy is checked equal
+(``benchbot_sim_taichi.render.host_copy.HostCopier``: one ``cuMemcpyDtoHAsync`` per output); every copy is checked equal
 to Taichi's ``to_numpy`` of the same outputs. ``pinned``, the renderer's
 ``to_host="pinned"`` (page-locked memory) → ``fps_host_pinned``; ``reused``, the copier driven by the benchmark with
 ordinary memory → ``fps_host_reused``. JSON keys: ``fps`` (sensor frames per second), ``fps_with_host_copy``,
@@ -52,7 +52,7 @@ import smoke  # this folder is on sys.path when a script here runs
 def time_bvh_builds() -> list[float]:
     """Time every ``bvh.build_bvh`` from now on (``pack_scene`` imports it when called, so the BVH built inside
     ``Renderer.set_scene`` is timed): returns the list that each build's seconds are appended to."""
-    from benchbot_sim_taichi import bvh
+    from benchbot_sim_taichi.render import bvh
 
     build_bvh, seconds = bvh.build_bvh, []
 
@@ -93,14 +93,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true")
     args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, frames=2, warmup=1)
 
-    from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.renderer import _SCENE_ARRAYS, Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi import bear
+    from benchbot_sim_taichi.render.renderer import _SCENE_ARRAYS, Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     bvh_s = time_bvh_builds()
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     t0 = time.perf_counter()
@@ -203,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             from trimesh.ray.ray_pyembree import RayMeshIntersector
 
-            from benchbot_sim_taichi.export import scene_mesh
+            from benchbot_sim_taichi.scene.export import scene_mesh
 
             mesh = scene_mesh(scene)
             inter = RayMeshIntersector(mesh)

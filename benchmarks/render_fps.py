@@ -36,12 +36,12 @@ def main(argv: list[str] | None = None) -> int:
     import yaml
 
     from benchbot.core.geometry import pose7_to_se2
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
     from benchbot_sim_taichi.backend import TaichiSimBackend
 
     with open(plugin.ROBOTS_DIR / "carter.yaml", encoding="utf-8") as f:
         spec = yaml.safe_load(f)
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     backend = TaichiSimBackend(spec, {"arch": args.arch, "width": args.width, "height": args.height})
     names = ["image_rgb", "image_depth", "image_segment"]
     result: dict = {"width": args.width, "height": args.height, "frames": frames, "outputs": names,

@@ -1,5 +1,5 @@
-"""Frames per second of the Taichi simulator's ``quality`` mode (path tracing, ``benchbot_sim_taichi.pathtrace``, then
-Open Image Denoise, ``benchbot_sim_taichi.denoiser``) on one environment, along its trajectory poses.
+"""Frames per second of the Taichi simulator's ``quality`` mode (path tracing, ``benchbot_sim_taichi.render.pathtrace``, then
+Open Image Denoise, ``benchbot_sim_taichi.render.denoiser``) on one environment, along its trajectory poses.
 
     python benchmarks/render_quality.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--spp 4]
         [--bounces 8] [--frames 20] [--denoise-device cpu|cuda] [--json [PATH]]
@@ -34,7 +34,7 @@ import smoke  # this folder is on sys.path when a script here runs
 def compare_host_path(r, scene, K, cams, W: int, H: int, args) -> dict:
     """``{"denoised"|"plain": {output: {"max_abs": float, "differing": int, "values": int}}}`` between ``r``'s frames
     and those of a renderer of the same settings without device buffers (the NumPy path), over ``cams``."""
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     host = Renderer(r.arch, device_buffers=False, denoise_device=r.denoise_device, camera=r.camera)
     host.set_scene(scene)
@@ -72,12 +72,12 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.spp, args.frames) < 1 or args.bounces < 0:
         ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
 
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear
     from benchbot_sim_taichi.backend import trajectory_cameras
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])

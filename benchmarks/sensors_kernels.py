@@ -4,7 +4,7 @@
 
 Renders full sensor frames (640×480 RGB + depth + class/instance segmentation + a 360-beam laser scan, fast mode)
 along the environment's trajectory, as ``benchmarks/render.py`` does, but launches the kernels of
-``benchbot_sim_taichi.sensors.sensors_kernels`` one by one (``Renderer.kernel_timer``) with a device synchronisation
+``benchbot_sim_taichi.render.sensors.sensors_kernels`` one by one (``Renderer.kernel_timer``) with a device synchronisation
 before and after each, so each kernel's wall-clock time is its own (on CUDA the renderer otherwise launches them as
 one compiled graph, which this script does not time: ``render.py`` does). On the CPU it also reports the CPU time
 each kernel used over its wall-clock time (``cpu_util``: 2.0 on a 2-core machine when both cores work throughout).
@@ -59,14 +59,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.tasks:
         os.environ["TI_KERNEL_PROFILER"] = "1"  # read by ti.init, which the renderer calls
 
-    from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi import bear
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
+    from benchbot_sim_taichi.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     import taichi as ti
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])
@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
            "shadow_rays": r.shadow_rays,
            "machine": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()}
     if args.tasks:
-        from benchbot_sim_taichi.sensors import sensors_kernels
+        from benchbot_sim_taichi.render.sensors import sensors_kernels
 
         out["tasks"] = _task_times(launches, {k.__name__ for k in sensors_kernels(r.arch, r.shadow_rays)})
     if args.json:

@@ -42,12 +42,12 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.every) < 1:
         ap.error("--width, --height and --every must be >= 1")
 
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear
     from benchbot_sim_taichi.backend import trajectory_cameras
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])

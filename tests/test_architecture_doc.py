@@ -288,7 +288,7 @@ def test_the_checks_import_no_simulator():
         "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
         "m.hookspec_names(); m.cli_commands(); m.first_party_plugins()\n"
         "m.reference_problems(m.ARCHITECTURE); m.reference_problems(m.ORIGINAL)\n"
-        "print(sorted(n for n in ('taichi', 'benchbot_sim_taichi.renderer', 'rclpy', 'ray') if n in sys.modules))\n"
+        "print(sorted(n for n in ('taichi', 'benchbot_sim_taichi.render.renderer', 'rclpy', 'ray') if n in sys.modules))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60,
                           env={**os.environ, "BENCHBOT_ONLY_PLUGINS": os.environ["BENCHBOT_ONLY_PLUGINS"]})

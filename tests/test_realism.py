@@ -124,10 +124,10 @@ def test_blender_camera_projects_as_ours(realism):
 
 def test_reference_export_is_gltf_y_up_with_flat_materials_and_shell(realism):
     trimesh = pytest.importorskip("trimesh")
-    from benchbot_sim_taichi import plugin
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi import bear
+    from benchbot_sim_taichi.scene.build import build_scene
 
-    env = next(e for e in plugin.environment_specs() if e["name"] == "miniroom" and e["variant"] == 1)
+    env = next(e for e in bear.environment_specs() if e["name"] == "miniroom" and e["variant"] == 1)
     scene = build_scene({**env, "style": "primitives"})
     path = Path(os.environ.get("TMPDIR", "/tmp")) / f"realism-test-{os.getpid()}.glb"
     try:
@@ -264,7 +264,7 @@ def test_quality_vs_reference_compares_ours_with_an_earlier_reference(realism, t
     import subprocess
 
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     W, H = 32, 24
     scene = build_scene(realism._env_spec("miniroom:1", None))

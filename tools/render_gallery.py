@@ -25,9 +25,9 @@ import numpy as np
 
 from benchbot.core.registry import get_registry
 from benchbot_sim_taichi.backend import camera_at
-from benchbot_sim_taichi.floorplan_plot import save_plan_figure
-from benchbot_sim_taichi.renderer import Renderer, intrinsics
-from benchbot_sim_taichi.scene import build_scene
+from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
+from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+from benchbot_sim_taichi.scene.build import build_scene
 
 ENVIRONMENTS = [f"{home}:{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 

@@ -1,8 +1,8 @@
 """``TaichiSimBackend``: the :class:`~benchbot.core.robot.RobotBackend` of robots of type ``sim_taichi``.
 
 The robot is a differential-drive base with a circular footprint moving on the floor of a box scene
-(:mod:`benchbot_sim_taichi.scene`), driven by :class:`benchbot.core.motion.PoseController` in simulated time;
-its RGB-D camera, segmentation and planar laser are ray cast with Taichi (:mod:`benchbot_sim_taichi.renderer`,
+(:mod:`benchbot_sim_taichi.scene.build`), driven by :class:`benchbot.core.motion.PoseController` in simulated time;
+its RGB-D camera, segmentation and planar laser are ray cast with Taichi (:mod:`benchbot_sim_taichi.render.renderer`,
 imported on first use). Use from one thread.
 
 Frames (all ``T_map_<frame>`` (4, 4) float64): ``robot`` (x forward, y left, z up, ``sensors.robot_frame_height_m``
@@ -29,9 +29,10 @@ from benchbot.core.motion import ControllerGains
 from benchbot.core.registry import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
-from benchbot_sim_taichi.camera_model import CameraModel
+from benchbot_sim_taichi.render.camera_model import CameraModel
 from benchbot_sim_taichi.kinematics import Obstacles, drive
-from benchbot_sim_taichi.scene import Scene, build_scene
+from benchbot_sim_taichi.scene.build import build_scene
+from benchbot_sim_taichi.scene.model import Scene
 
 #: Defaults of the robot spec's ``sensors`` block.
 DEFAULT_SENSORS: dict[str, Any] = {
@@ -248,7 +249,7 @@ class TaichiSimBackend(RobotBackend):
             scene = build_scene(environment, seed=seed)
         if self._renderer is None:
             with stages.stage("starting Taichi", detail=str(self.options.get("arch") or "auto")):
-                from benchbot_sim_taichi.renderer import Renderer  # Taichi is imported and initialised here
+                from benchbot_sim_taichi.render.renderer import Renderer  # Taichi is imported and initialised here
 
                 cam = self.sensors["camera"]
                 camera = CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
@@ -272,7 +273,7 @@ class TaichiSimBackend(RobotBackend):
 
     def _compile_kernels(self) -> None:
         """Render a tiny view and scan at the current pose and drop them (what :meth:`load_scene` warms up with)."""
-        from benchbot_sim_taichi.renderer import intrinsics
+        from benchbot_sim_taichi.render.renderer import intrinsics
 
         T_map_footprint = se2_to_matrix(*self._pose)
         with stages.stage("compiling kernels", detail="once per machine, then cached"):

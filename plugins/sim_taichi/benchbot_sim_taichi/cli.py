@@ -99,8 +99,8 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
         import cv2
 
         from benchbot.core.errors import UsageError
-        from benchbot_sim_taichi.renderer import Renderer, intrinsics
-        from benchbot_sim_taichi.scene import build_scene
+        from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+        from benchbot_sim_taichi.scene.build import build_scene
 
         if mode not in ("fast", "quality"):
             raise UsageError(f"unknown --mode {mode!r}", "use fast or quality")
@@ -140,8 +140,8 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
     normals (for a reference renderer); other formats get one mesh with face colours."""
 
     def go():
-        from benchbot_sim_taichi.export import export_scene, scene_mesh
-        from benchbot_sim_taichi.scene import build_scene
+        from benchbot_sim_taichi.scene.export import export_scene, scene_mesh
+        from benchbot_sim_taichi.scene.build import build_scene
 
         from benchbot.core.errors import UsageError
 
@@ -177,8 +177,8 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
         import numpy as np
 
         from benchbot.core.errors import UsageError
-        from benchbot_sim_taichi.floorplan_plot import save_plan_figure
-        from benchbot_sim_taichi.scene import build_scene
+        from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
+        from benchbot_sim_taichi.scene.build import build_scene
 
         environment = _environment(env)
         scene = build_scene(_styled(environment, "furnished"))
@@ -205,7 +205,7 @@ def ground_truth(env: str = typer.Argument(..., help="name:variant or an environ
     """Write the ground truth derived from ENV's scene (axis-aligned bounds of every object's geometry)."""
 
     def go():
-        from benchbot_sim_taichi.scene import derive_ground_truth
+        from benchbot_sim_taichi.scene.build import derive_ground_truth
 
         gt = derive_ground_truth(_environment(env))
         output.parent.mkdir(parents=True, exist_ok=True)

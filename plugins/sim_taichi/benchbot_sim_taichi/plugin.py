@@ -3,67 +3,13 @@ the ``carter`` robot and the ``sim_taichi`` robot backend. Imports nothing heavy
 
 from __future__ import annotations
 
-import json
-from functools import lru_cache
 from pathlib import Path
 
 from benchbot.core.hookspecs import hookimpl
+from benchbot_sim_taichi.bear import environment_specs, ground_truth_specs
 
 PACKAGE_DIR = Path(__file__).resolve().parent
-DATA_DIR = PACKAGE_DIR / "data" / "bear"
 ROBOTS_DIR = PACKAGE_DIR / "robots"
-BEAR_FILES = tuple(f"{n}_{v}.json" for n in ("miniroom", "house") for v in range(1, 6))
-SOURCE = ('BEAR development ground truths from benchbot-addons/ground_truths_isaac_develop (QUT, 2020); '
-          'Hall et al., "The Robotic Vision Scene Understanding Challenge", arXiv:2009.05246')
-
-
-@lru_cache(maxsize=None)
-def _load(name: str) -> dict:
-    with open(DATA_DIR / name, encoding="utf-8") as f:
-        return json.load(f)
-
-
-def lighting_of_map_path(map_path: str) -> str:
-    """The lighting name (``base``, ``day``, ``night``, ``day_extra``, ``night_extra``) encoded in an original
-    Unreal ``map_path`` such as ``/Game/AI_vol3_03_base/Maps/AI_vol3_scene_03``; ``base`` if none is found."""
-    first = [p for p in str(map_path).split("/") if p][1:2] or [str(map_path)]
-    name = first[0]
-    for suffix in ("night_extra", "day_extra", "night", "day", "base"):
-        if name.endswith("_" + suffix):
-            return suffix
-    return "base"
-
-
-def environment_specs() -> list[dict]:
-    """The ten BEAR environment specs (``type: sim_taichi``, ``map_path`` = the bundled JSON's absolute path)."""
-    out = []
-    for fname in BEAR_FILES:
-        env = _load(fname)["environment"]
-        out.append({
-            "name": env["name"],
-            "variant": int(env["variant"]),
-            "type": "sim_taichi",
-            "map_path": str(DATA_DIR / fname),
-            "start_pose": list(env["start_pose"]),
-            "trajectory_poses": [list(p) for p in env["trajectory_poses"]],
-            "object_labels": list(env["object_labels"]),
-            "description": env.get("description", "").strip(),
-            "robots": ["carter"],
-            "lighting": lighting_of_map_path(env.get("map_path", "")),
-            "source": SOURCE,
-        })
-    return out
-
-
-def ground_truth_specs() -> list[dict]:
-    """The ten ground truths ``{environment, format, ground_truth}`` as published (``environment._file_path``
-    dropped)."""
-    out = []
-    for fname in BEAR_FILES:
-        d = json.loads(json.dumps(_load(fname)))  # deep copy
-        d["environment"].pop("_file_path", None)
-        out.append(d)
-    return out
 
 
 @hookimpl

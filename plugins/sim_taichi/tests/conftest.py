@@ -19,7 +19,7 @@ def taichi_on_a_live_thread():
     here, on the main thread. (The tests of this folder use Taichi on the main thread only.)"""
     import sys
 
-    renderer = sys.modules.get("benchbot_sim_taichi.renderer")
+    renderer = sys.modules.get("benchbot_sim_taichi.render.renderer")
     if renderer is not None and renderer.initialised_on_another_thread():
         renderer.release_taichi()
     yield
@@ -28,9 +28,9 @@ def taichi_on_a_live_thread():
 @pytest.fixture(scope="session")
 def bear_envs():
     """The plugin's ten environment specs, keyed 'name:variant'."""
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
 
-    return {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}
+    return {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
 
 
 @pytest.fixture(scope="session")
@@ -38,7 +38,7 @@ def carter_spec():
     """The carter robot spec (YAML)."""
     import yaml
 
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
 
     with open(plugin.ROBOTS_DIR / "carter.yaml", encoding="utf-8") as f:
         return yaml.safe_load(f)

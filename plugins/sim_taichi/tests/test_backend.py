@@ -155,7 +155,7 @@ def test_all_trajectories_collision_free(bear_envs, carter_spec):
     pose within 0.01 m / 1°. (Kinematics only: no rendering.)"""
     from benchbot_sim_taichi.backend import sensor_config
     from benchbot_sim_taichi.kinematics import Obstacles, drive
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     sensors = sensor_config(carter_spec)
     for key, env in bear_envs.items():
@@ -255,7 +255,7 @@ def test_load_scene_renders_the_start_pose_once_so_that_no_request_waits_for_a_c
     """Taichi compiles its kernels at the first render: load_scene renders the start pose (images and scan, one
     launch) so that a client's first request, with its own timeout, finds them compiled; it keeps no frame, so noise
     set after loading still applies to the first observation."""
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     launches = _count_calls(monkeypatch, Renderer, "_launch")
     b = make_backend(40, 30)

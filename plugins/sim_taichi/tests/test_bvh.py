@@ -1,4 +1,4 @@
-"""The BVH builder (benchbot_sim_taichi.bvh): the level-by-level builder makes the same tree as the recursive reference
+"""The BVH builder (benchbot_sim_taichi.render.bvh): the level-by-level builder makes the same tree as the recursive reference
 builder; structure invariants of the depth-first layout (every primitive in one leaf, bounds contain children and
 primitives, skip links, leaf sizes, depth); nearest hits through a NumPy stackless traversal equal brute force."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchbot_sim_taichi import bvh
+from benchbot_sim_taichi.render import bvh
 
 
 def soup(n: int, seed: int = 0, size: float = 0.05, dtype=np.float64) -> np.ndarray:
@@ -126,7 +126,7 @@ def test_coincident_centroids_still_give_small_leaves():
 
 @pytest.mark.slow
 def test_a_million_thin_triangles_stay_within_the_kernels_stack():
-    from benchbot_sim_taichi.kernels import STACK
+    from benchbot_sim_taichi.render.kernels import STACK
 
     assert bvh.MAX_DEPTH < STACK
     rng = np.random.default_rng(9)

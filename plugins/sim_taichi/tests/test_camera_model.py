@@ -9,7 +9,7 @@ import copy
 import numpy as np
 import pytest
 
-from benchbot_sim_taichi.camera_model import CameraModel, aces_filmic, tone_table
+from benchbot_sim_taichi.render.camera_model import CameraModel, aces_filmic, tone_table
 
 W, H = 64, 48
 
@@ -36,8 +36,8 @@ def test_numpy_model():
 
 @pytest.fixture(scope="module")
 def default_and_scene(bear_envs):
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi.backend import R_BODY_OPTICAL
 
@@ -82,7 +82,7 @@ def test_the_robot_specs_camera_fields_reach_the_renderer(carter_spec):
 
 
 def _env_file(name: str) -> dict:
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear
 
-    env = next(e for e in plugin.environment_specs() if e["map_path"].endswith(name))
+    env = next(e for e in bear.environment_specs() if e["map_path"].endswith(name))
     return {k: v for k, v in env.items() if k not in ("name", "variant")}

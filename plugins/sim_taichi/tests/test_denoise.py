@@ -13,8 +13,8 @@ W, H = 64, 48
 
 @pytest.fixture(scope="module")
 def view(bear_envs):
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi.backend import R_BODY_OPTICAL
 
@@ -44,7 +44,7 @@ def test_the_denoised_image_is_closer_to_the_converged_one_than_the_noisy_one(vi
 
 
 def test_a_clean_image_stays_as_it_is():
-    from benchbot_sim_taichi.denoiser import denoise_radiance
+    from benchbot_sim_taichi.render.denoiser import denoise_radiance
 
     y, x = np.mgrid[0:H, 0:W].astype(np.float32)
     radiance = np.stack([0.2 + 0.5 * x / W, 0.3 + 0.2 * y / H, np.full_like(x, 0.4)], axis=-1)
@@ -67,7 +67,7 @@ def _noisy_frame(h: int = H, w: int = W, seed: int = 0):
 
 def test_the_denoiser_module_gives_pyoidns_own_result_on_the_cpu():
     import pyoidn
-    from benchbot_sim_taichi.denoiser import denoise_radiance
+    from benchbot_sim_taichi.render.denoiser import denoise_radiance
 
     radiance, albedo, normal = _noisy_frame()
     expected = pyoidn.denoise(radiance, albedo, normal, hdr=True, quality="high")  # the renderer's call before
@@ -77,7 +77,7 @@ def test_the_denoiser_module_gives_pyoidns_own_result_on_the_cpu():
 
 
 def test_a_cached_denoiser_is_reused_and_rewrites_its_inputs():
-    from benchbot_sim_taichi.denoiser import cached_denoiser, denoise_radiance
+    from benchbot_sim_taichi.render.denoiser import cached_denoiser, denoise_radiance
 
     a, b = _noisy_frame(seed=1), _noisy_frame(seed=2)
     first = denoise_radiance(*a)
@@ -93,7 +93,7 @@ def test_a_shared_image_denoiser_reads_and_writes_memory_in_place_and_gives_the_
     """``denoise_shared`` (the GPU path of quality mode: OIDN reads the path tracer's memory) on the CPU device with
     host memory: the same image as ``denoise_radiance``, with the guides interleaved as the path tracer writes them;
     moved images are followed (the filter is committed again), and a closed filter refuses in one line."""
-    from benchbot_sim_taichi.denoiser import SharedImageDenoiser, cached_denoiser, denoise_radiance, denoise_shared
+    from benchbot_sim_taichi.render.denoiser import SharedImageDenoiser, cached_denoiser, denoise_radiance, denoise_shared
 
     for seed in (3, 4):
         radiance, albedo, normal = _noisy_frame(seed=seed)
@@ -113,7 +113,7 @@ def test_a_shared_image_denoiser_reads_and_writes_memory_in_place_and_gives_the_
 
 
 def test_bad_arguments_are_refused():
-    from benchbot_sim_taichi.denoiser import denoise_radiance
+    from benchbot_sim_taichi.render.denoiser import denoise_radiance
 
     radiance, albedo, normal = _noisy_frame()
     with pytest.raises(ValueError, match="albedo"):
@@ -126,7 +126,7 @@ def test_bad_arguments_are_refused():
 
 def test_a_missing_cuda_device_is_a_one_line_runtime_error():
     import pyoidn
-    from benchbot_sim_taichi.denoiser import denoise_radiance
+    from benchbot_sim_taichi.render.denoiser import denoise_radiance
 
     if pyoidn.Device.is_cuda_available(0):
         pytest.skip("this machine has a CUDA GPU that OIDN can use")
@@ -140,7 +140,7 @@ def test_a_gpu_denoiser_the_renderer_chose_falls_back_to_the_cpu_once():
     """Rendering on CUDA picks the GPU denoiser; where Open Image Denoise cannot start there, quality mode still
     denoises (on the CPU) and says so once; a device asked for by name is not replaced."""
     import pyoidn
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     if pyoidn.Device.is_cuda_available(0):
         pytest.skip("this machine has a CUDA GPU that OIDN can use")

@@ -1,4 +1,4 @@
-"""Floor plans derived from the BEAR ground truth and robot paths (benchbot_sim_taichi.floorplan): walls clear of
+"""Floor plans derived from the BEAR ground truth and robot paths (benchbot_sim_taichi.homes.floorplan): walls clear of
 every cuboid and of the swept paths except through doorways, every room reachable, windows only outside, lamps in
 every room, seeded determinism; synthetic homes for doorways, passages and windows."""
 
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from benchbot.core.errors import BackendError
-from benchbot_sim_taichi import floorplan as fp
+from benchbot_sim_taichi.homes import floorplan as fp
 
-DATA = Path(fp.__file__).parent / "data" / "bear"
+DATA = Path(fp.__file__).parents[1] / "data" / "bear"
 RADIUS = 0.35
 
 
@@ -307,7 +307,7 @@ def test_home_files_are_found_and_plans_cached(tmp_path):
 
 def test_plan_figure(tmp_path, homes):
     pytest.importorskip("matplotlib")
-    from benchbot_sim_taichi.floorplan_plot import save_plan_figure
+    from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
 
     objects, paths, plan = homes["miniroom"]
     out = save_plan_figure(plan, objects, paths, tmp_path / "plan.png", dpi=40)

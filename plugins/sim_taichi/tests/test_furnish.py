@@ -1,4 +1,4 @@
-"""Furnishing (benchbot_sim_taichi.furnish): exact fits, model choice by proportion, facing, book rows, supports,
+"""Furnishing (benchbot_sim_taichi.homes.furnish): exact fits, model choice by proportion, facing, book rows, supports,
 distractors, openings, determinism — on small hand-built libraries and plans (no Taichi)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from benchbot.core.assets import AssetInfo, AssetLibrary
-from benchbot_sim_taichi import fitting as FIT
-from benchbot_sim_taichi import furnish as F
-from benchbot_sim_taichi import furnish_space as SP
-from benchbot_sim_taichi import furnish_supports as S
+from benchbot_sim_taichi.homes import fitting as FIT
+from benchbot_sim_taichi.homes import furnish as F
+from benchbot_sim_taichi.homes import furnish_space as SP
+from benchbot_sim_taichi.homes import furnish_supports as S
 
 
 # ------------------------------------------------------------------------------------------------ fakes
@@ -549,7 +549,7 @@ def bear_homes():
     """{home: (plan, union objects, [variant dicts])} for miniroom and house."""
     import json
 
-    from benchbot_sim_taichi import floorplan as FP
+    from benchbot_sim_taichi.homes import floorplan as FP
 
     out = {}
     for home in ("miniroom", "house"):

@@ -1,4 +1,4 @@
-"""Furnished homes end to end (benchbot_sim_taichi.furnished + scene.build_scene, style ``furnished``) on the ten BEAR
+"""Furnished homes end to end (benchbot_sim_taichi.homes.furnished + scene.build_scene, style ``furnished``) on the ten BEAR
 environments with the installed asset packs: the ground truth is unchanged, the models of every object bound exactly
 its cuboid, the passive trajectories are collision-free with the added walls and furniture, the variants of a home
 share their house, a seed gives one house, the furnished style is the default and the primitive style stays
@@ -13,11 +13,11 @@ import pytest
 
 from benchbot.core.assets import asset_library
 from benchbot.core.errors import BackendError
-from benchbot_sim_taichi.furnished import furnish_environment
+from benchbot_sim_taichi.homes.furnished import furnish_environment
 from benchbot_sim_taichi.kinematics import Obstacles
-from benchbot_sim_taichi.meshes import instance_bounds
-from benchbot_sim_taichi.plugin import DATA_DIR
-from benchbot_sim_taichi.scene import STYLE_VARIABLE, build_scene
+from benchbot_sim_taichi.scene.meshes import instance_bounds
+from benchbot_sim_taichi.bear import DATA_DIR
+from benchbot_sim_taichi.scene.build import STYLE_VARIABLE, build_scene
 
 ENVS = [f"{home}_{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 #: carter's footprint radius and height (robots/carter.yaml).
@@ -149,7 +149,7 @@ def test_sim_plan_draws_the_plan_of_a_home(tmp_path):
 
 
 def test_windows_have_glass_panes_and_nothing_else_does():
-    from benchbot_sim_taichi.meshes import GLASS_OPACITY, load_mesh
+    from benchbot_sim_taichi.scene.meshes import GLASS_OPACITY, load_mesh
 
     env = _environment("miniroom_1")
     data = json.loads((DATA_DIR / "miniroom_1.json").read_text())

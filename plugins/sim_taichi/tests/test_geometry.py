@@ -21,7 +21,7 @@ def _cam(x, y, yaw, h=0.8):
 
 
 def test_procedural_models_fill_their_cuboid():
-    from benchbot_sim_taichi.scene import _MODELS, object_geometry
+    from benchbot_sim_taichi.scene.build import _MODELS, object_geometry
 
     rng = np.random.default_rng(0)
     for cls in list(_MODELS) + ["book", "unknown"]:
@@ -40,7 +40,7 @@ def test_procedural_models_fill_their_cuboid():
 
 
 def _single(synthetic_env, kind):
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     env = synthetic_env([("chair", (2.5, 0.0, 0.8), (1.0, 1.0, 1.0))])
     env["procedural"] = False
@@ -52,8 +52,8 @@ def _single(synthetic_env, kind):
 
 @pytest.mark.parametrize("kind", [1, 2])
 def test_depth_of_sphere_and_cylinder(synthetic_env, kind):
-    from benchbot_sim_taichi.reference import render_reference
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.reference import render_reference
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = _single(synthetic_env, kind)  # unit sphere / vertical cylinder of radius 0.5 centred at (2.5, 0, 0.8)
     r = Renderer("cpu")
@@ -80,8 +80,8 @@ def test_depth_of_sphere_and_cylinder(synthetic_env, kind):
 def test_mesh_objects_and_derived_ground_truth(synthetic_env, tmp_path):
     import trimesh
 
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene, derive_ground_truth
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene, derive_ground_truth
 
     trimesh.creation.icosphere(subdivisions=2, radius=0.5).export(tmp_path / "ball.obj")
     trimesh.creation.box(extents=(0.4, 0.4, 0.4)).export(tmp_path / "cube.ply")
@@ -123,8 +123,8 @@ def test_mesh_objects_and_derived_ground_truth(synthetic_env, tmp_path):
 
 
 def test_batch_equals_single_and_soft_shadows_deterministic(bear_envs):
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     scene = build_scene(bear_envs["miniroom:1"])
     r = Renderer("cpu", shadow_samples=4, seed=3)
@@ -146,9 +146,9 @@ def test_batch_equals_single_and_soft_shadows_deterministic(bear_envs):
 def test_object_centres_hit_their_instance(bear_envs):
     """From trajectory poses that see it, the ray through the centre of an object's largest primitive hits that
     object's instance (visibility decided by the NumPy reference)."""
-    from benchbot_sim_taichi.reference import trace_reference
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.reference import trace_reference
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     r = Renderer("cpu")
     W, H = 64, 48

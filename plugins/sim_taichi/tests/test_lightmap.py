@@ -1,4 +1,4 @@
-"""Baked direct light (``benchbot_sim_taichi.lightmap``): the RGB9E5 store keeps a light to 0.2 % of its largest
+"""Baked direct light (``benchbot_sim_taichi.render.lightmap``): the RGB9E5 store keeps a light to 0.2 % of its largest
 channel, the lattice's numbering is one to one, the layout gives each triangle its lattice by area (panes and other
 primitives none), and frames lit from the baked lattice match frames that sum their lights at every pixel but for
 the lattice's blur of shadow edges."""
@@ -11,13 +11,13 @@ ti = pytest.importorskip("taichi")
 
 @pytest.fixture(scope="module")
 def taichi_cpu():
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
 
 
 def test_rgb9e5_keeps_a_light_to_its_largest_channels_precision(taichi_cpu):
-    from benchbot_sim_taichi import lightmap
+    from benchbot_sim_taichi.render import lightmap
 
     @ti.kernel
     def round_trip(c: ti.types.ndarray(dtype=ti.f32, ndim=2), out: ti.types.ndarray(dtype=ti.f32, ndim=2)):
@@ -37,7 +37,7 @@ def test_rgb9e5_keeps_a_light_to_its_largest_channels_precision(taichi_cpu):
 
 
 def test_lattice_points_are_numbered_one_to_one(taichi_cpu):
-    from benchbot_sim_taichi import lightmap
+    from benchbot_sim_taichi.render import lightmap
 
     @ti.kernel
     def numbering(n: ti.i32, out: ti.types.ndarray(dtype=ti.i32, ndim=2)):
@@ -54,8 +54,8 @@ def test_lattice_points_are_numbered_one_to_one(taichi_cpu):
 
 
 def test_layout_gives_triangles_lattices_by_area():
-    from benchbot_sim_taichi.kernels import GLASS
-    from benchbot_sim_taichi.lightmap import LIGHTMAP_SPACING_M, layout
+    from benchbot_sim_taichi.render.kernels import GLASS
+    from benchbot_sim_taichi.render.lightmap import LIGHTMAP_SPACING_M, layout
 
     tris = np.array([[0, 0, 0, 1, 0, 0, 0, 1, 0],  # 0.5 m²: n = 1 / spacing
                      [0, 0, 0, 0.01, 0, 0, 0, 0.01, 0],  # smaller than a cell: its vertices
@@ -75,7 +75,8 @@ def _lit_floor_scene(synthetic_env):
     shadow; ambient light off, so all the light is the lamp's."""
     import dataclasses
 
-    from benchbot_sim_taichi.scene import LIGHT_POINT, PRIM_TRIANGLE, build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_sim_taichi.scene.model import LIGHT_POINT, PRIM_TRIANGLE
 
     env = synthetic_env([("table", (3.0, 0.0, 0.75), (0.8, 0.8, 0.1))])
     scene = build_scene({**env, "procedural": False})
@@ -100,7 +101,7 @@ def _lit_floor_scene(synthetic_env):
 def test_baked_light_matches_the_lights_summed_at_each_pixel(synthetic_env):
     """The floor lit by the lamp through its shadow map, baked and summed per pixel: the same image but for a
     blurred rim along the table's shadow (the lattice is 2.5 cm); the shadow itself is dark in both."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = _lit_floor_scene(synthetic_env)
     W, H = 96, 72
@@ -124,7 +125,7 @@ def test_baked_light_matches_the_lights_summed_at_each_pixel(synthetic_env):
 
 
 def test_frames_lit_by_default_are_baked_only_with_shadow_maps_and_one_sample(synthetic_env):
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     scene = _lit_floor_scene(synthetic_env)
     for kwargs, expect in (({"shadow_maps": True}, True), ({"shadow_maps": False}, False),

@@ -40,7 +40,7 @@ def write_textured_quad_glb(path, image=None, factor=(255, 255, 255, 255)):
 
 
 def test_glb_quad_loads_in_the_map_frame_with_its_texture(tmp_path):
-    from benchbot_sim_taichi.meshes import load_mesh
+    from benchbot_sim_taichi.scene.meshes import load_mesh
 
     mesh = load_mesh(write_textured_quad_glb(tmp_path / "quad.glb", factor=(255, 128, 64, 255)))
     # glTF (x, y, z) → map (x, −z, y): the quad stands in the plane y = 0, z from 0 to 1, front facing −y
@@ -64,7 +64,7 @@ def test_glb_quad_loads_in_the_map_frame_with_its_texture(tmp_path):
 def test_scene_file_nodes_materials_and_computed_normals(tmp_path):
     import trimesh
 
-    from benchbot_sim_taichi.meshes import load_mesh
+    from benchbot_sim_taichi.scene.meshes import load_mesh
 
     sc = trimesh.Scene()
     box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
@@ -94,7 +94,7 @@ def test_scene_file_nodes_materials_and_computed_normals(tmp_path):
 def test_blended_materials_keep_their_opacity_and_glass_becomes_panes(tmp_path):
     import trimesh
 
-    from benchbot_sim_taichi.meshes import GLASS_OPACITY, load_mesh, with_glass_panes
+    from benchbot_sim_taichi.scene.meshes import GLASS_OPACITY, load_mesh, with_glass_panes
 
     sc = trimesh.Scene()
     for name, rgba, mode, x in [("frame", [200, 200, 200, 255], None, 0.0), ("pane", [165, 165, 165, 128], "BLEND", 2.0),
@@ -123,7 +123,7 @@ def test_blended_materials_keep_their_opacity_and_glass_becomes_panes(tmp_path):
 def test_smooth_normals_round_curves_and_keep_creases(tmp_path):
     import trimesh
 
-    from benchbot_sim_taichi.meshes import load_mesh, make_mesh
+    from benchbot_sim_taichi.scene.meshes import load_mesh, make_mesh
 
     # an icosphere written as STL (no normals, no shared vertices): welded for the averaging, so the normals are
     # the radial direction, not the faces' (which differ from it by up to ~10° here)
@@ -148,7 +148,7 @@ def test_smooth_normals_round_curves_and_keep_creases(tmp_path):
 def test_instances_flatten_with_inverse_transpose_normals():
     import trimesh
 
-    from benchbot_sim_taichi.meshes import Material, MeshInstance, flatten_instances, make_mesh
+    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, flatten_instances, make_mesh
 
     s = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     red = Material(np.array([1.0, 0.0, 0.0], np.float32))
@@ -170,7 +170,7 @@ def test_instances_flatten_with_inverse_transpose_normals():
 
 
 def test_mip_chain_and_atlas_layout():
-    from benchbot_sim_taichi.meshes import mip_chain, texture_atlas
+    from benchbot_sim_taichi.scene.meshes import mip_chain, texture_atlas
 
     checker = np.zeros((8, 6, 3), np.uint8)
     checker[(np.arange(8)[:, None] + np.arange(6)[None, :]) % 2 == 1] = 255
@@ -188,8 +188,9 @@ def test_mip_chain_and_atlas_layout():
 def test_add_mesh_instances_to_a_scene_and_bad_object_index(synthetic_env):
     import trimesh
 
-    from benchbot_sim_taichi.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
-    from benchbot_sim_taichi.scene import PRIM_TRIANGLE, build_scene
+    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_sim_taichi.scene.model import PRIM_TRIANGLE
 
     env = synthetic_env([("chair", (2.5, 0.0, 0.5), (1.0, 1.0, 1.0))])
     env["style"] = "primitives"  # one room shell, no furnished house: only the meshes added here are textured
@@ -217,7 +218,7 @@ def test_add_mesh_instances_to_a_scene_and_bad_object_index(synthetic_env):
 
 
 def test_unreadable_and_empty_meshes_are_one_line_errors(tmp_path):
-    from benchbot_sim_taichi.meshes import load_mesh
+    from benchbot_sim_taichi.scene.meshes import load_mesh
 
     with pytest.raises(BackendError, match="cannot read the mesh .*nope.glb"):
         load_mesh(tmp_path / "nope.glb")
@@ -234,9 +235,9 @@ def test_textured_scene_exports_to_glb_and_loads_back_in_the_map_frame(synthetic
 
     import trimesh
 
-    from benchbot_sim_taichi.export import export_scene
-    from benchbot_sim_taichi.meshes import Material, MeshInstance, add_mesh_instances, load_mesh, make_mesh
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.export import export_scene
+    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, load_mesh, make_mesh
+    from benchbot_sim_taichi.scene.build import build_scene
 
     env = synthetic_env([("chair", (2.5, 0.0, 0.5), (1.0, 1.0, 1.0))])
     env["style"] = "primitives"  # one room shell, no furnished house: only the meshes added here are textured
@@ -278,7 +279,7 @@ def test_sim_export_cli_writes_a_textured_glb_for_an_environment_with_mesh_objec
     from typer.testing import CliRunner
 
     from benchbot_sim_taichi.cli import app
-    from benchbot_sim_taichi.meshes import load_mesh
+    from benchbot_sim_taichi.scene.meshes import load_mesh
 
     write_textured_quad_glb(tmp_path / "quad.glb")
     (tmp_path / "env.yaml").write_text(yaml.safe_dump({

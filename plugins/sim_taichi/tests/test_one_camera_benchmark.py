@@ -9,7 +9,7 @@ from pathlib import Path
 
 import taichi as ti
 
-from benchbot_sim_taichi.sensors import sensors_kernels
+from benchbot_sim_taichi.render.sensors import sensors_kernels
 
 ROOT = Path(__file__).resolve().parents[3]
 SCRIPT = [sys.executable, str(ROOT / "benchmarks" / "one_camera.py")]

@@ -5,7 +5,7 @@ reads what NumPy indexing of the arrays gives."""
 import numpy as np
 import pytest
 
-from benchbot_sim_taichi import packed_scene
+from benchbot_sim_taichi.render import packed_scene
 
 
 def _arrays(rng, rows: int = 5) -> dict:
@@ -54,7 +54,7 @@ def test_a_kernel_reads_through_the_views_what_numpy_indexing_gives():
     of each pack) read inside a Taichi kernel on the CPU."""
     import taichi as ti
 
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
     rng = np.random.default_rng(2)
@@ -99,8 +99,8 @@ def test_the_renderers_packs_hold_the_scene_and_the_maps_and_light_its_kernels_c
     """After ``set_scene`` of a furnished room (lamps with shadow maps, the sun's map, baked light), the packs that
     CUDA's all-sensors kernels read hold the arrays that the renderer's other kernels read: the packed scene, the
     maps and the baked light computed on the device, the light lists."""
-    from benchbot_sim_taichi.renderer import _SCENE_ARG_NAMES, Renderer
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import _SCENE_ARG_NAMES, Renderer
+    from benchbot_sim_taichi.scene.build import build_scene
 
     r = Renderer("cpu")
     r.set_scene(build_scene({**bear_envs["miniroom:1"], "style": "furnished"}))

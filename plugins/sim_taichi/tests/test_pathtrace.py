@@ -18,10 +18,10 @@ def _directional_albedo(albedo, roughness, metallic, cos_v, n=200_000):
     hemisphere sampling, ∫ pdf dω by uniform hemisphere sampling), channel 0."""
     import taichi as ti
 
-    from benchbot_sim_taichi import bsdf
-    from benchbot_sim_taichi.kernels import _hash
-    from benchbot_sim_taichi.pathtrace import _rng
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render import bsdf
+    from benchbot_sim_taichi.render.kernels import _hash
+    from benchbot_sim_taichi.render.pathtrace import _rng
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
 
@@ -92,7 +92,7 @@ def test_white_furnace_a_white_diffuse_sphere_returns_the_skys_radiance():
     """A closed diffuse sphere of albedo 1 under the sky ``L(ω) = a·(0.8 + 0.3 ω_z)`` and no other light reflects
     exactly the irradiance it receives: its radiance is ``a·(0.8 + 0.2 n_z)`` at every point, whatever the number
     of bounces (a convex object never sees itself)."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     centre, radius = np.array([3.0, 0.0, 1.0]), 0.6
     scene = _sphere_scene(centre, radius)
@@ -118,8 +118,8 @@ def test_white_furnace_a_white_diffuse_sphere_returns_the_skys_radiance():
 def _lit_floor_scene(kind, roughness=1.0, metallic=0.0):
     """No sky; one light (the sun from 60° elevation, or a lamp 1.5 m above (2, 0, 0)); a mesh floor quad at
     z = 0.01 of the given material, seen by a camera looking down at it."""
-    from benchbot_sim_taichi.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
-    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL, LIGHT_POINT
+    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL, LIGHT_POINT
 
     scene = _bare_scene(ambient=0.0)
     if kind == "sun":
@@ -155,7 +155,7 @@ def test_direct_light_equals_fast_modes(kind):
     """With no bounce, quality mode's next-event estimation of a Lambertian floor's light gives fast mode's
     ``albedo · colour · n·l`` (sun) and ``albedo · colour · n·l / d²`` (lamp; fast mode's range cut-off set far
     away), up to the light's finite size."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = _lit_floor_scene(kind)
     W, H = 40, 30
@@ -180,7 +180,7 @@ def test_multiple_importance_sampling_neither_loses_nor_adds_light(roughness, me
     next-event estimation already counts; MIS splits that light between the two strategies, so the image's mean
     equals the no-bounce image's (next-event estimation alone) — on glossy floors too, where most of it comes from
     the BSDF's samples."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = _lit_floor_scene("lamp", roughness, metallic)
     W, H = 40, 30
@@ -196,7 +196,7 @@ def test_multiple_importance_sampling_neither_loses_nor_adds_light(roughness, me
 def test_a_material_with_nan_factors_is_drawn_with_the_defaults():
     """A malformed asset's NaN roughness or metallic must not reach the kernels (NaN radiance): it reads as glTF's
     default of a flat colour, roughness 1 and metallic 0."""
-    from benchbot_sim_taichi.renderer import pack_scene
+    from benchbot_sim_taichi.render.renderer import pack_scene
 
     packed = pack_scene(_lit_floor_scene("lamp", roughness=float("nan"), metallic=float("nan")))
     tri = packed["pi"][:packed["n_prims"], 0] == 3
@@ -206,7 +206,7 @@ def test_a_material_with_nan_factors_is_drawn_with_the_defaults():
 
 
 def test_quality_images_are_deterministic_per_seed():
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = _lit_floor_scene("lamp", 0.4, 0.0)
     W, H = 32, 24

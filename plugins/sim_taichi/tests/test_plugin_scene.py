@@ -19,7 +19,7 @@ def test_plugin_imports_no_taichi():
 
 
 def test_environment_specs(bear_envs):
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
 
     envs = plugin.benchbot_environments()
     assert len(envs) == 10
@@ -37,7 +37,7 @@ def test_environment_specs(bear_envs):
 
 
 def test_ground_truth_specs():
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
 
     gts = plugin.benchbot_ground_truths()
     assert len(gts) == 10
@@ -47,11 +47,11 @@ def test_ground_truth_specs():
         assert "_file_path" not in g["environment"]
         assert g["ground_truth"]["class_list"][-1] == "background"
     # the cached originals are not mutated
-    assert "_file_path" in plugin._load("miniroom_1.json")["environment"]
+    assert "_file_path" in bear._load("miniroom_1.json")["environment"]
 
 
 def test_robot_spec(carter_spec):
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
 
     (path,) = plugin.benchbot_robots()
     assert Path(path).is_file()
@@ -72,7 +72,7 @@ def test_robot_spec(carter_spec):
 
 
 def test_scene_boxes_equal_ground_truth(bear_envs):
-    from benchbot_sim_taichi.scene import WALL_MARGIN_M, build_scene
+    from benchbot_sim_taichi.scene.build import WALL_MARGIN_M, build_scene
 
     for key, env in bear_envs.items():
         gt = json.loads(Path(env["map_path"]).read_text())["ground_truth"]
@@ -97,7 +97,7 @@ def test_scene_boxes_equal_ground_truth(bear_envs):
 
 
 def test_colours_seeded_and_plausible(bear_envs):
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     a, b, c = (build_scene(bear_envs["house:1"], seed=s) for s in (0, 0, 1))
     assert np.array_equal(a.box_albedo, b.box_albedo)
@@ -107,7 +107,7 @@ def test_colours_seeded_and_plausible(bear_envs):
 
 
 def test_bad_map_path_and_json(tmp_path, synthetic_env):
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     env = synthetic_env([])
     missing = dict(env, map_path=str(tmp_path / "nope.json"))
@@ -126,7 +126,7 @@ def test_bad_map_path_and_json(tmp_path, synthetic_env):
 
 
 def test_lighting_parse():
-    from benchbot_sim_taichi.plugin import lighting_of_map_path
+    from benchbot_sim_taichi.bear import lighting_of_map_path
 
     assert lighting_of_map_path("/Game/AI_vol3_03_base/Maps/AI_vol3_scene_03") == "base"
     assert lighting_of_map_path("/Game/AIUE_V02_002_night_extra/Maps/AIUE_V02_002") == "night_extra"
@@ -136,11 +136,11 @@ def test_lighting_parse():
 
 def test_specs_pass_core_schemas():
     from benchbot.core import registry
-    from benchbot_sim_taichi import plugin
+    from benchbot_sim_taichi import bear, plugin
 
-    for e in plugin.environment_specs():
+    for e in bear.environment_specs():
         registry.validate(e, "environment", "sim_taichi")
-    for g in plugin.ground_truth_specs():
+    for g in bear.ground_truth_specs():
         registry.validate(g, "ground_truth", "sim_taichi")
     (path,) = plugin.benchbot_robots()
     registry.validate(registry.load_spec_file(Path(path)), "robot", path)

@@ -1,4 +1,4 @@
-"""The rasterised visibility pass (``benchbot_sim_taichi.raster``) finds, for every camera ray, the closest primitive
+"""The rasterised visibility pass (``benchbot_sim_taichi.render.raster``) finds, for every camera ray, the closest primitive
 that the BVH traversal finds (``kernels._trace``, run here ray by ray as the reference), at the same distance, and
 the nearest window pane in front of it: on a furnished BEAR home, on triangles that reach behind the camera or fill
 the image, on boxes, ellipsoids and cylinders, with a full band queue, and for a batch of cameras."""
@@ -13,9 +13,9 @@ ti = pytest.importorskip("taichi")
 def kernels():
     """(traced, visibility): the reference kernel (one BVH traversal per pixel) and a function running the
     rasterised pass, both on packed scenes (``renderer.pack_scene``)."""
-    from benchbot_sim_taichi import raster, sensors
-    from benchbot_sim_taichi.kernels import PANES_TRACKED, _ray, _trace
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render import raster, sensors
+    from benchbot_sim_taichi.render.kernels import PANES_TRACKED, _ray, _trace
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
 
@@ -114,8 +114,8 @@ def _agree(ref, got, min_same=0.999):
 def test_closest_hits_equal_the_bvh_traversal_on_a_furnished_home(bear_envs, kernels):
     """miniroom:1 furnished (textured meshes, window panes), views along its trajectory, and a batch of them."""
     from benchbot_sim_taichi.backend import trajectory_cameras
-    from benchbot_sim_taichi.renderer import intrinsics, pack_scene
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import intrinsics, pack_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     traced, visibility = kernels
     scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
@@ -142,7 +142,7 @@ def _add_tris(scene, tris):
     """Append triangles (T, 3, 3) as primitives of kind triangle belonging to the scene's first object."""
     import dataclasses
 
-    from benchbot_sim_taichi.scene import PRIM_TRIANGLE
+    from benchbot_sim_taichi.scene.model import PRIM_TRIANGLE
 
     n0 = scene.tri_v.shape[0]
     t = tris.shape[0]
@@ -162,7 +162,7 @@ def _add_tris(scene, tris):
 def test_triangles_reaching_behind_the_camera_and_filling_the_image(synthetic_env, kernels):
     """A floor triangle that passes under and behind the camera (clipped at the rays' nearest distance), a wall
     triangle that fills the whole image (rasterised in queued bands), and a small one in front of it."""
-    from benchbot_sim_taichi.renderer import intrinsics, pack_scene
+    from benchbot_sim_taichi.render.renderer import intrinsics, pack_scene
 
     traced, visibility = kernels
     tris = [
@@ -170,7 +170,7 @@ def test_triangles_reaching_behind_the_camera_and_filling_the_image(synthetic_en
         [(4.0, -30.0, -10.0), (4.0, 30.0, -10.0), (4.0, 0.0, 30.0)],  # a wall ahead, larger than the view
         [(3.0, -0.2, 0.8), (3.0, 0.3, 0.9), (3.0, 0.0, 1.3)],  # a small triangle in front of the wall
     ]
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     env = synthetic_env([("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
     scene = _add_tris(build_scene({**env, "procedural": False}), np.asarray(tris, np.float32))
@@ -194,8 +194,8 @@ def test_triangles_reaching_behind_the_camera_and_filling_the_image(synthetic_en
 def test_boxes_ellipsoids_and_cylinders_equal_the_traversal(synthetic_env, kernels):
     """The procedural primitives of a synthetic room (boxes, ellipsoids, cylinders), seen from its start pose and
     from above."""
-    from benchbot_sim_taichi.renderer import intrinsics, pack_scene
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import intrinsics, pack_scene
+    from benchbot_sim_taichi.scene.build import build_scene
 
     traced, visibility = kernels
     env = synthetic_env([("chair", (2.0, 0.5, 0.45), (0.6, 0.6, 0.9)), ("table", (3.0, -0.6, 0.4), (1.2, 0.8, 0.8)),
@@ -220,8 +220,8 @@ def test_boxes_ellipsoids_and_cylinders_equal_the_traversal(synthetic_env, kerne
 def test_a_primitive_with_no_image_has_no_pixels():
     """Nothing in front of the camera (the image box stays at ±1e30) or a NaN box gives no pixels: the box is
     clipped to the image in floating point, before a conversion to int32 could overflow into a vast loop."""
-    from benchbot_sim_taichi import raster
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render import raster
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
 
@@ -246,8 +246,8 @@ def test_spread_loops_visit_every_item_once_dealing_blocks_to_the_cpu_threads(mo
     primitives): a loop over ``_spread_range(blocks) · block`` iterations meets every item of 0..n−1 once (the
     others are ≥ n, skipped), and with Taichi's CPU split (each of T threads one contiguous chunk of
     ⌈iterations / T⌉ when that is at least 512) thread q gets blocks q, q + T, … of ``block`` items."""
-    from benchbot_sim_taichi import sensors
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render import sensors
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
     monkeypatch.setattr(sensors, "_loop_threads", lambda: threads)
@@ -278,8 +278,8 @@ def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
     """Step 2's pyramid (``sensors._clusters_step``: row segments, then the levels of tiles), on random keys in an
     image whose sides are not multiples of a tile, for two cameras: each entry is the largest depth of its pixels,
     1e30 where one has no hit, exactly as NumPy computes it (the culling of clusters and primitives relies on it)."""
-    from benchbot_sim_taichi import raster, sensors
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render import raster, sensors
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
 
@@ -322,10 +322,10 @@ def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
 def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frames(bear_envs, monkeypatch):
     """CUDA runs steps 1 to 3 of the all-sensors work as one kernel (``sensors.visibility_kernel``), the CPU as three;
     run here on the CPU, both give the same frames and laser scans (miniroom:1, furnished, batched and one camera)."""
-    from benchbot_sim_taichi import sensors
+    from benchbot_sim_taichi.render import sensors
     from benchbot_sim_taichi.backend import trajectory_cameras
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
     r = Renderer("cpu", device_buffers=False)
@@ -356,7 +356,7 @@ def test_the_sensors_kernels_benchmark_times_each_kernel_and_its_tasks():
     import sys
     from pathlib import Path
 
-    from benchbot_sim_taichi.sensors import sensors_kernels
+    from benchbot_sim_taichi.render.sensors import sensors_kernels
 
     root = Path(__file__).resolve().parents[3]
     proc = subprocess.run([sys.executable, str(root / "benchmarks" / "sensors_kernels.py"), "--env", "miniroom:1",
@@ -380,8 +380,8 @@ def test_lanes_run_every_iteration_of_a_loop_once(monkeypatch, lanes):
     """``sensors._lanes``/``_steps``/``_iteration``: a loop of m iterations over ``_lanes(m)`` lanes meets each of
     0..m−1 once, on the CPU (lanes 0: one iteration a lane) and with a GPU's constant lanes forced on (7 lanes,
     several iterations a lane, some lanes with none)."""
-    from benchbot_sim_taichi import sensors
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render import sensors
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
     if lanes:
@@ -402,13 +402,13 @@ def test_lanes_run_every_iteration_of_a_loop_once(monkeypatch, lanes):
 _FORCED_LANES = """
 import json, re, sys
 import numpy as np
-from benchbot_sim_taichi import sensors
+from benchbot_sim_taichi.render import sensors
 sensors._gpu_lanes = lambda: 64  # the GPU's loop structure, on the CPU
-from benchbot_sim_taichi import plugin
-from benchbot_sim_taichi.renderer import Renderer, intrinsics
-from benchbot_sim_taichi.scene import build_scene
+from benchbot_sim_taichi import bear
+from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+from benchbot_sim_taichi.scene.build import build_scene
 from taichi.profiler.kernel_profiler import get_default_kernel_profiler
-spec = {f"{e['name']}:{e['variant']}": e for e in plugin.environment_specs()}["miniroom:1"]
+spec = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}["miniroom:1"]
 poses = np.load(sys.argv[2])
 r = Renderer("cpu", device_buffers=False)
 r.set_scene(build_scene(spec))
@@ -434,8 +434,8 @@ def test_a_gpus_constant_lanes_give_the_same_frames_with_one_serial_task_for_the
     import sys
     from pathlib import Path
 
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[3] / "benchmarks"))
     from trajectory_views import trajectory_views

@@ -21,9 +21,9 @@ def _cam(x, y, yaw, h=0.8):
 
 @pytest.mark.parametrize("key,pose_index", [("miniroom:1", 0), ("miniroom:3", 20), ("house:2", 40), ("house:5", 100)])
 def test_render_matches_numpy_reference(bear_envs, key, pose_index):
-    from benchbot_sim_taichi.reference import render_reference
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.reference import render_reference
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     scene = build_scene(bear_envs[key])
     r = Renderer("cpu")
@@ -47,9 +47,9 @@ def test_render_matches_numpy_reference(bear_envs, key, pose_index):
 
 
 def test_scan_matches_numpy_reference(bear_envs):
-    from benchbot_sim_taichi.reference import scan_reference
-    from benchbot_sim_taichi.renderer import Renderer
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.reference import scan_reference
+    from benchbot_sim_taichi.render.renderer import Renderer
+    from benchbot_sim_taichi.scene.build import build_scene
 
     scene = build_scene(bear_envs["house:1"])
     r = Renderer("cpu")
@@ -62,8 +62,8 @@ def test_scan_matches_numpy_reference(bear_envs):
 
 
 def test_depth_of_known_box(synthetic_env):
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     # a 1 m cube whose near face is the plane x = 2.0, camera at the origin looking along +x at 0.8 m
     env = synthetic_env([("chair", (2.5, 0.0, 0.8), (1.0, 1.0, 1.0))])
@@ -93,8 +93,8 @@ def test_depth_of_known_box(synthetic_env):
 
 
 def test_laser_sees_wall(synthetic_env):
-    from benchbot_sim_taichi.renderer import Renderer
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer
+    from benchbot_sim_taichi.scene.build import build_scene
 
     # one low box far away to one side sets the room extent; the robot at the origin
     env = synthetic_env([("table", (3.0, 2.0, 0.4), (0.5, 0.5, 0.8))])
@@ -118,8 +118,8 @@ def test_laser_sees_wall(synthetic_env):
 def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
     """The device-buffer path (Taichi ndarrays: GPU memory on CUDA, exercised here on the CPU) gives the same
     images and scans as the NumPy path; one render_sensors launch equals per-view render() and scan() calls."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     scene = build_scene(bear_envs["house:1"])
     W, H = 48, 36
@@ -157,7 +157,7 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
     # and changes nothing in what comes out
     from contextlib import contextmanager
 
-    from benchbot_sim_taichi.sensors import sensors_kernels
+    from benchbot_sim_taichi.render.sensors import sensors_kernels
 
     seen = []
 
@@ -180,9 +180,9 @@ def test_quality_mode_finished_in_device_memory_equals_the_numpy_path(bear_envs,
     the Taichi ndarrays in place) denoises where the path tracer wrote its images and encodes them there with the
     camera model (``pathtrace.encode_kernel``, float64): every output equals the NumPy path's, bit for bit, denoised
     or not, for the default camera and one with exposure, the filmic curve and vignetting."""
-    from benchbot_sim_taichi.camera_model import CameraModel
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render.camera_model import CameraModel
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
 
     model = CameraModel() if camera == "default" else CameraModel(exposure_ev=0.7, tone_curve="filmic", vignetting=0.6)
     scene = build_scene(bear_envs["miniroom:1"])
@@ -210,9 +210,9 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
     refers to them (exercised with device buffers on the CPU, where the bookkeeping is the same)."""
     import threading
 
-    from benchbot_sim_taichi import renderer as rmod
-    from benchbot_sim_taichi.host_copy import host_view
-    from benchbot_sim_taichi.scene import build_scene
+    from benchbot_sim_taichi.render import renderer as rmod
+    from benchbot_sim_taichi.render.host_copy import host_view
+    from benchbot_sim_taichi.scene.build import build_scene
 
     scene = build_scene(bear_envs["miniroom:1"])
     K = rmod.intrinsics(16, 12, 90.0)
@@ -258,8 +258,8 @@ def test_host_view_shows_an_ndarrays_memory_and_keeps_it_alive():
 
     import taichi as ti
 
-    from benchbot_sim_taichi.host_copy import host_view
-    from benchbot_sim_taichi.renderer import ensure_taichi
+    from benchbot_sim_taichi.render.host_copy import host_view
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
     for dtype, np_dtype in ((ti.f32, np.float32), (ti.i64, np.int64), (ti.u8, np.uint8)):
@@ -287,8 +287,8 @@ def test_compiling_the_sensors_graph_leaves_no_ndarray_for_the_garbage_collector
 
     from taichi.lang._ndarray import Ndarray
 
-    from benchbot_sim_taichi import renderer as rmod
-    from benchbot_sim_taichi import sensors
+    from benchbot_sim_taichi.render import renderer as rmod
+    from benchbot_sim_taichi.render import sensors
 
     rmod.ensure_taichi("cpu")
     sensors.reset_graph()
@@ -308,10 +308,11 @@ def test_a_lamps_own_shade_does_not_shadow_the_ceiling_around_it(synthetic_env):
     """A point light 5 cm under a 0.6 m wide shade (a ceiling lamp): the ceiling around the shade is lit (shadow rays
     stop LAMP_FIXTURE_M short of a point light), in the kernels and in the NumPy reference alike; shadows of
     anything farther from the light stay."""
-    from benchbot_sim_taichi.kernels import LAMP_FIXTURE_M
-    from benchbot_sim_taichi.reference import render_reference
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene import LIGHT_POINT, build_scene
+    from benchbot_sim_taichi.render.kernels import LAMP_FIXTURE_M
+    from benchbot_sim_taichi.render.reference import render_reference
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_sim_taichi.scene.model import LIGHT_POINT
 
     env = synthetic_env([("table", (3.0, 0.0, 2.15), (0.6, 0.6, 0.1)), ("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
     scene = build_scene({**env, "procedural": False})  # the shade: one box

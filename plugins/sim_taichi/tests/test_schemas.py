@@ -11,11 +11,11 @@ import pytest
 
 from benchbot.core.errors import BackendError
 from benchbot.core.registry import first_error, load_spec_file, validator
-from benchbot_sim_taichi import plugin
+from benchbot_sim_taichi import bear, plugin
 from benchbot_sim_taichi.backend import (
     DEFAULT_SENSORS, OPTIONS_SCHEMA, ROBOT_SCHEMA, TaichiSimBackend, sensor_config,
 )
-from benchbot_sim_taichi.scene import ENVIRONMENT_SCHEMA
+from benchbot_sim_taichi.scene.build import ENVIRONMENT_SCHEMA
 
 CARTER = load_spec_file(plugin.ROBOTS_DIR / "carter.yaml")
 
@@ -25,7 +25,7 @@ def test_schemas_are_valid_and_the_shipped_content_matches_them():
         assert validator(path).schema["$id"].endswith("/sim_taichi/" + path.name)  # check_schema passed
     assert first_error(CARTER, ROBOT_SCHEMA) is None
     assert first_error({"sensors": DEFAULT_SENSORS}, ROBOT_SCHEMA) is None
-    for env in plugin.environment_specs():
+    for env in bear.environment_specs():
         assert first_error(env, ENVIRONMENT_SCHEMA) is None
     assert first_error({"mode": "quality", "seed": 3, "arch": None, "anything": object()}, OPTIONS_SCHEMA) is None
 

@@ -14,7 +14,8 @@ pytest.importorskip("taichi")
 def _lamp_scene(synthetic_env):
     """A room with a table-top box (centre (3, 0, 0.75), 0.8 × 0.8 × 0.1 m) 1.5 m under a lamp at (3, 0, 2.3),
     and a chair; ambient off, so everything lit is lit by the lamp."""
-    from benchbot_sim_taichi.scene import LIGHT_POINT, build_scene
+    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_sim_taichi.scene.model import LIGHT_POINT
 
     env = synthetic_env([("table", (3.0, 0.0, 0.75), (0.8, 0.8, 0.1)), ("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
     scene = build_scene({**env, "procedural": False})
@@ -35,7 +36,7 @@ def _pixel(K, T, p):
 def _render_with_and_without_maps(scene, K, views, W, H):
     """RGB (int) of each view of ``views``, rendered with shadow maps (key True) and with shadow rays (False), and
     whether each renderer's sun took its shadows from the sun map."""
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     images, sun_map = {}, {}
     for maps in (True, False):
@@ -48,7 +49,7 @@ def _render_with_and_without_maps(scene, K, views, W, H):
 
 def _sun_scene(synthetic_env, direction=(0.45, 0.30, 0.84)):
     """The same room lit by the sun alone (``direction``, towards the sun), ambient off."""
-    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL
+    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL
 
     scene = _lamp_scene(synthetic_env)
     d = np.asarray(direction, np.float32)
@@ -69,8 +70,8 @@ def _sun_texel(row, p):
 def test_the_sun_map_holds_the_height_of_the_first_primitive_the_sun_meets(synthetic_env):
     """With the sun straight overhead, the texel over the table holds the height of its top (0.8 m), the texel over
     the bare floor between the table and the chair holds no primitive, and the map spans the primitives' extent."""
-    from benchbot_sim_taichi.kernels import SUN_MAP_RES
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.kernels import SUN_MAP_RES
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     r = Renderer("cpu", shadow_maps=True, device_buffers=False)  # the maps traced into the packed NumPy arrays
     r.set_scene(_sun_scene(synthetic_env, direction=(0.0, 0.0, 1.0)))
@@ -90,7 +91,7 @@ def test_lit_through_the_sun_map_agrees_with_shadow_rays(synthetic_env):
     """The floor around the table seen from above, lit by an oblique sun through its map and through shadow rays:
     the table's shadow on the floor is dark in both, the table top and the open floor lit in both, and all but a
     thin rim of pixels along the shadow's edges agree within 2 levels."""
-    from benchbot_sim_taichi.renderer import intrinsics
+    from benchbot_sim_taichi.render.renderer import intrinsics
 
     scene = _sun_scene(synthetic_env)
     W, H = 96, 72
@@ -118,8 +119,8 @@ def test_lit_through_the_sun_map_agrees_with_shadow_rays(synthetic_env):
 def test_a_lamp_map_holds_the_distance_to_the_first_occluder(synthetic_env):
     """Straight down from the lamp (face −z, centre texels) the map holds the distance to the top of the table box
     (2.3 − 0.8 = 1.5 m); straight up (face +z) nothing but the shell, which casts no shadow: no occluder."""
-    from benchbot_sim_taichi.kernels import LAMP_MAP_RES
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.kernels import LAMP_MAP_RES
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     r = Renderer("cpu", shadow_maps=True, device_buffers=False)  # the maps traced into the packed NumPy arrays
     r.set_scene(_lamp_scene(synthetic_env))
@@ -136,7 +137,7 @@ def test_lit_through_lamp_maps_agrees_with_shadow_rays(synthetic_env):
     """The same views rendered with the lamp's shadows from its cube map and from shadow rays: the table top (a
     primitive in the map, so a receiver that could shadow itself) is lit in both, the floor under the table is dark
     in both, and all but a thin rim of pixels along shadow edges agree within 2 levels."""
-    from benchbot_sim_taichi.renderer import intrinsics
+    from benchbot_sim_taichi.render.renderer import intrinsics
 
     scene = _lamp_scene(synthetic_env)
     W, H = 96, 72
@@ -159,7 +160,7 @@ def test_lit_through_lamp_maps_agrees_with_shadow_rays(synthetic_env):
 
 
 def test_furnished_scenes_use_shadow_maps_by_default_primitive_scenes_use_rays(synthetic_env):
-    from benchbot_sim_taichi.renderer import Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
 
     scene = _lamp_scene(synthetic_env)
     assert scene.style != "furnished"
@@ -182,7 +183,7 @@ def test_furnished_scenes_use_shadow_maps_by_default_primitive_scenes_use_rays(s
 
 def test_a_scene_keeps_the_lights_asked_for(synthetic_env):
     """``Scene.with_lights`` keeps the sun, the lamps, all or none, and refuses another word."""
-    from benchbot_sim_taichi.scene import LIGHT_DIRECTIONAL, LIGHT_POINT
+    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL, LIGHT_POINT
 
     scene = _lamp_scene(synthetic_env)
     sun = _sun_scene(synthetic_env)
@@ -238,7 +239,7 @@ def test_the_render_benchmark_times_a_scene_with_only_the_lights_asked_for():
 
 def test_a_sun_without_a_direction_keeps_its_shadow_rays(synthetic_env):
     """A directional light of zero length has no plane to project onto: no sun map, and the scene still renders."""
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = dataclasses.replace(_sun_scene(synthetic_env), style="furnished")
     scene.light_vec = np.zeros((1, 3), np.float32)
@@ -257,7 +258,7 @@ def test_frames_whose_every_light_has_a_map_are_shaded_without_shadow_rays_and_l
     turned off need the rays, and get ``shade_kernel``."""
     from contextlib import contextmanager
 
-    from benchbot_sim_taichi.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     lamp, sun = _lamp_scene(synthetic_env), _sun_scene(synthetic_env)
     both = dataclasses.replace(lamp, style="furnished",

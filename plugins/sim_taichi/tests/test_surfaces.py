@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from benchbot_sim_taichi.surfaces import SURFACE_KINDS, TEXTURE_PX, room_materials, surface_texture
+from benchbot_sim_taichi.scene.surfaces import SURFACE_KINDS, TEXTURE_PX, room_materials, surface_texture
 
 
 @pytest.mark.parametrize("kind", SURFACE_KINDS)

@@ -1,5 +1,5 @@
 """Camera rays' closest hits by rasterisation: a visibility buffer that the all-sensors kernel
-(:func:`benchbot_sim_taichi.kernels.sensors_kernel`) fills before it shades its pixels.
+(:func:`benchbot_sim_taichi.render.kernels.sensors_kernel`) fills before it shades its pixels.
 
 A camera's primary rays all leave one point, the camera's centre, through the pixel centres; their closest hits can
 therefore be found object by object instead of ray by ray. For each primitive the kernel finds the pixels whose rays
@@ -8,7 +8,7 @@ such ray whether it meets the primitive and at which distance t, and keeps the n
 minimum on a 64-bit key ``(t's float bits << 32) | primitive`` (a positive float's bits order like the float, so the
 smallest key is the nearest primitive; a tie goes to the lower index). Every primitive is tested against every ray
 that may meet it, so the result is the closest hit among all primitives: what the BVH traversal of
-:func:`~benchbot_sim_taichi.kernels._trace` returns for the same rays, found without a per-ray traversal.
+:func:`~benchbot_sim_taichi.render.kernels._trace` returns for the same rays, found without a per-ray traversal.
 
 - **Triangles** (and window panes) are tested in the camera's frame with homogeneous edge functions (Olano & Greer,
   "Triangle scan conversion using 2D homogeneous coordinates", 1997): with the vertices q₀, q₁, q₂ relative to the
@@ -18,11 +18,11 @@ that may meet it, so the result is the closest hit among all primitives: what th
   in u along a row, so a row's pixels inside the triangle are an interval computed exactly (plus
   :data:`SPAN_MARGIN`), and each of its pixels is confirmed by the three functions themselves.
 - **Boxes, ellipsoids, cylinders** are tested with the traversal's own primitive test
-  (:func:`~benchbot_sim_taichi.kernels._hit_prim`) on every pixel of their bounding box's image.
+  (:func:`~benchbot_sim_taichi.render.kernels._hit_prim`) on every pixel of their bounding box's image.
 - **Window panes** go to the buffer's second layer: fast mode's camera rays do not stop at panes but note the nearest one in
   front of their surface (``kernels.PANES_TRACKED``).
 
-Work is spread in three parallel loops of the kernel: the clusters of the BVH (:func:`~benchbot_sim_taichi.bvh.clusters`,
+Work is spread in three parallel loops of the kernel: the clusters of the BVH (:func:`~benchbot_sim_taichi.render.bvh.clusters`,
 at most :data:`CLUSTER_PRIMS` primitives each) whose boxes meet a camera's view are listed; each of their primitives
 is set up, and rasterised at once when its image's bounding box is small; a larger one is queued in bands of rows
 that the third loop rasterises, so that a wall that fills the image is shared among many threads (when the queue is
@@ -30,7 +30,7 @@ full, the primitive's own thread does the work). How finely the work is split de
 follows reads each pixel's keys and resets them to :data:`EMPTY` for the next frame.
 
 Keys are deterministic (an atomic minimum does not depend on the order of the writes); the distances agree with
-:func:`~benchbot_sim_taichi.kernels._hit_tri`'s world-frame Möller–Trumbore test to float32 rounding (a few parts in
+:func:`~benchbot_sim_taichi.render.kernels._hit_tri`'s world-frame Möller–Trumbore test to float32 rounding (a few parts in
 a million), and where two surfaces are that close the nearer by either test may win.
 """
 
@@ -40,7 +40,7 @@ import sys
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
-from benchbot_sim_taichi.kernels import GLASS, T_EPS, _hit_prim, _ray, _safe_inv, _v3  # noqa: E402
+from benchbot_sim_taichi.render.kernels import GLASS, T_EPS, _hit_prim, _ray, _safe_inv, _v3  # noqa: E402
 
 #: The key of a pixel that no primitive covers (the largest int64).
 EMPTY = 0x7FFF_FFFF_FFFF_FFFF

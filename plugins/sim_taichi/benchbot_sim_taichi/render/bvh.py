@@ -27,7 +27,7 @@ MAX_LEAF = 8
 BINS = 12
 TRAVERSAL_COST = 1.0
 #: Deepest tree :func:`build_bvh` makes (the root has depth 1), below the kernels' traversal stack (``STACK`` = 64
-#: in :mod:`benchbot_sim_taichi.kernels`). Where an SAH split could not finish within it by halving, a node is cut
+#: in :mod:`benchbot_sim_taichi.render.kernels`). Where an SAH split could not finish within it by halving, a node is cut
 #: at its centroid median instead. Holds for up to ``MAX_LEAF · 2**(MAX_DEPTH - 1)`` primitives.
 MAX_DEPTH = 48
 #: Nodes binned together in one vectorised pass (each per-bin bounds array is ``NODE_CHUNK · BINS · 9`` float64,
@@ -366,7 +366,7 @@ def wide_nodes(nodes_f: np.ndarray, nodes_i: np.ndarray, tri_only: np.ndarray | 
 def clusters(nodes_f: np.ndarray, nodes_i: np.ndarray, max_prims: int) -> tuple[np.ndarray, np.ndarray]:
     """The largest subtrees of :func:`build_bvh`'s tree with at most ``max_prims`` primitives each: the clusters that
     the rasteriser culls against a camera's view before it sets up their primitives
-    (:mod:`benchbot_sim_taichi.raster`).
+    (:mod:`benchbot_sim_taichi.render.raster`).
 
     A subtree's primitives are consecutive (its leaves' ranges follow one another in depth-first order), so a
     cluster is a box and a range of primitives; the clusters hold every primitive once, in order.

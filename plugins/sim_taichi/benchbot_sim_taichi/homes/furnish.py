@@ -1,14 +1,14 @@
 """Furnishing a floor plan: real models for the ground-truth objects, supports under floating ones, distractors.
 
 :func:`furnish_home` (and :func:`furnish`, its placements only) turns the ground-truth (GT) objects of an environment,
-its :class:`~benchbot_sim_taichi.floorplan.FloorPlan` and an :class:`~benchbot.core.assets.AssetLibrary` into
-:class:`~benchbot_sim_taichi.furnish_space.Placement` s: an asset id and the (4, 4) transform taking the asset's
+its :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan` and an :class:`~benchbot.core.assets.AssetLibrary` into
+:class:`~benchbot_sim_taichi.homes.furnish_space.Placement` s: an asset id and the (4, 4) transform taking the asset's
 map-frame model (z up, front −y, origin at the centre of the bottom of its bounds) to the map. Pure NumPy,
 deterministic per ``seed``; GT is never changed. The steps:
 
 * **GT objects** (here): a model of the object's class fitted EXACTLY to its cuboid
-  (:func:`~benchbot_sim_taichi.fitting.fit_to_cuboid`), model and quarter turn chosen by proportion distortion plus a
-  facing preference (:func:`~benchbot_sim_taichi.fitting.choose_model`: facing decides between turns that distort
+  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`), model and quarter turn chosen by proportion distortion plus a
+  facing preference (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides between turns that distort
   alike and yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a 1.8×
   aspect change for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
   draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest
@@ -18,10 +18,10 @@ deterministic per ``seed``; GT is never changed. The steps:
   horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
   heights and depths, their union exactly the cuboid, all with the object's index. A class with no model, or a
   flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
-* **Supports** (:mod:`benchbot_sim_taichi.furnish_supports`): counters, cabinets, shelves … under objects that would
+* **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that would
   float, their tops at the objects' bottoms; the ones left without are reported with why
   (:attr:`Furnishing.unsupported`).
-* **Along the walls** (:mod:`benchbot_sim_taichi.furnish_walls`): distractors by room kind (never a GT class),
+* **Along the walls** (:mod:`benchbot_sim_taichi.homes.furnish_walls`): distractors by room kind (never a GT class),
   pictures, radiators and curtains at windows, door and window models, ceiling lamps.
 
 Everything that is not a GT model is derived from ``context_objects`` (the home's union over its variants) so the
@@ -38,13 +38,13 @@ from typing import Any
 
 import numpy as np
 
-from benchbot_sim_taichi.fitting import (
+from benchbot_sim_taichi.homes.fitting import (
     FACING_WEIGHT, RANDOM_FACING_WEIGHT, asset_bounds, best_score, choose_model, fit_to_cuboid, front_of,
     transformed_bounds)
-from benchbot_sim_taichi.furnish_space import (
+from benchbot_sim_taichi.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
-from benchbot_sim_taichi.furnish_supports import FLOAT_MIN_Z_M, place_supports, rests_on, supported_by
-from benchbot_sim_taichi.furnish_walls import place_lights, place_openings, place_span
+from benchbot_sim_taichi.homes.furnish_supports import FLOAT_MIN_Z_M, place_supports, rests_on, supported_by
+from benchbot_sim_taichi.homes.furnish_walls import place_lights, place_openings, place_span
 
 __all__ = ["Furnishing", "Placement", "asset_bounds", "fit_to_cuboid", "furnish", "furnish_home",
            "transformed_bounds"]
@@ -221,7 +221,7 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
     Args:
         objects: the environment's GT objects (dicts with ``class``, ``centroid`` (3,), ``extent`` (3,), optional
             ``ID_name``, ``isgroup``), map frame, metres.
-        plan: its :class:`~benchbot_sim_taichi.floorplan.FloorPlan`.
+        plan: its :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan`.
         library: an :class:`~benchbot.core.assets.AssetLibrary`.
         seed: the same seed gives the same placements.
         context_objects: every GT object of the home (the union over its variants). Supports and distractors are

@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.camera_model import GAMMA
-from benchbot_sim_taichi.kernels import (DIR_EPS, LAMP_FIXTURE_M, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST,
+from benchbot_sim_taichi.render.camera_model import GAMMA
+from benchbot_sim_taichi.render.kernels import (DIR_EPS, LAMP_FIXTURE_M, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST,
                                         TILE_M)
-from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
+from benchbot_sim_taichi.scene.model import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
 
 _INF = 1e30
 
@@ -124,7 +124,7 @@ def trace_reference(scene, o, d, tmax=None):
 
 
 def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int) -> dict:
-    """Same outputs as :meth:`benchbot_sim_taichi.renderer.Renderer.render` (fast mode, one shadow sample),
+    """Same outputs as :meth:`benchbot_sim_taichi.render.renderer.Renderer.render` (fast mode, one shadow sample),
     computed with NumPy."""
     room_min, room_max = scene.room_min.astype(np.float64), scene.room_max.astype(np.float64)
     shell = scene.shell_albedo.astype(np.float64)
@@ -197,7 +197,7 @@ def render_reference(scene, K: np.ndarray, T_map_camera: np.ndarray, width: int,
 
 
 def scan_reference(scene, T_map_lidar: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """Same output as :meth:`benchbot_sim_taichi.renderer.Renderer.scan`, computed with NumPy."""
+    """Same output as :meth:`benchbot_sim_taichi.render.renderer.Renderer.scan`, computed with NumPy."""
     T = np.asarray(T_map_lidar, dtype=np.float64)
     a = np.asarray(angles, dtype=np.float64) + math.atan2(T[1, 0], T[0, 0])
     d = np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=1)

@@ -2,7 +2,7 @@
 
 Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering events each, with:
 
-- **the BSDF** of :mod:`benchbot_sim_taichi.bsdf` (Lambertian + GGX, glTF metallic–roughness; each primitive's
+- **the BSDF** of :mod:`benchbot_sim_taichi.render.bsdf` (Lambertian + GGX, glTF metallic–roughness; each primitive's
   roughness and metallic in ``pf`` columns 9–10, see ``renderer.pack_scene``), textures and shading normals as in
   ``fast`` mode (``kernels._shade_hit``);
 - **the lights as emitters of finite size**: the sun a disc of angular radius ``params[1]`` and radiance
@@ -42,9 +42,9 @@ import sys
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
-from benchbot_sim_taichi import bsdf  # noqa: E402 - after Taichi's banner is redirected
-from benchbot_sim_taichi.camera_model import GAMMA  # noqa: E402
-from benchbot_sim_taichi.kernels import (  # noqa: E402
+from benchbot_sim_taichi.render import bsdf  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.render.camera_model import GAMMA  # noqa: E402
+from benchbot_sim_taichi.render.kernels import (  # noqa: E402
     GLASS, MAX_GLASS_LAYERS, PANES_SEEN, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
 )
 

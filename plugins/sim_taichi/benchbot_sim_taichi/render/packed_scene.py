@@ -1,11 +1,11 @@
-"""The scene's arrays for the all-sensors kernels (:mod:`benchbot_sim_taichi.sensors`) packed into two 1-D arrays,
+"""The scene's arrays for the all-sensors kernels (:mod:`benchbot_sim_taichi.render.sensors`) packed into two 1-D arrays,
 one float32 and one int32, and the views through which the kernels read them as the arrays they were.
 
 Why: Taichi 1.7 spends host time on every ndarray argument of every launch (hash-map work for each argument in its
 C++ launcher; 1.7–4.9 µs each on the H200's hosts, ``benchmarks/one_camera.py``), and a one-camera frame on a GPU
 is limited by the host's launch work. The scene's 21 arrays, which do not change while a scene is loaded, were 35
 of the all-sensors graph's 41 ndarray arguments on CUDA; packed, they are 4 (two in each kernel). The CPU's
-kernels take the arrays one by one (:func:`~benchbot_sim_taichi.sensors.sensors_kernels`).
+kernels take the arrays one by one (:func:`~benchbot_sim_taichi.render.sensors.sensors_kernels`).
 
 Layout: the int32 pack starts with a header of :data:`HEADER_LEN` int32 entries, four for each array of
 :data:`PACKED` in order: its offset in its pack (elements), then its shape's first three entries (1 where it has
@@ -23,11 +23,11 @@ import collections
 import numpy as np
 from taichi.lang import impl
 
-from benchbot_sim_taichi.kernels import LIGHT_COLS, SHADE_COLS
+from benchbot_sim_taichi.render.kernels import LIGHT_COLS, SHADE_COLS
 
 #: The packed arrays: (name, pack, trailing dims), the pack ``"f32"`` or ``"i32"``, each trailing dim a number
 #: fixed at compile time or ``None``: read from the header (it varies with the scene). Names and shapes are
-#: :func:`~benchbot_sim_taichi.renderer.pack_scene`'s and the renderer's (``Renderer.set_scene``).
+#: :func:`~benchbot_sim_taichi.render.renderer.pack_scene`'s and the renderer's (``Renderer.set_scene``).
 PACKED = (
     ("nodes", "f32", (16,)), ("pf", "f32", (11,)), ("tris", "f32", (9,)), ("shade", "f32", (SHADE_COLS,)),
     ("tex_lut", "f32", ()), ("lights", "f32", (LIGHT_COLS,)), ("grid_xform", "f32", ()),

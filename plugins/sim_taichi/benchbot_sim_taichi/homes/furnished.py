@@ -1,15 +1,15 @@
 """The furnished style of a scene: a BEAR home as a house (pure NumPy, no Taichi).
 
 :func:`furnish_environment` turns an environment's ground-truth objects and robot paths into what
-:func:`benchbot_sim_taichi.scene.build_scene` draws in the ``furnished`` style (the default):
+:func:`benchbot_sim_taichi.scene.build.build_scene` draws in the ``furnished`` style (the default):
 
-1. the floor plan shared by every variant of the home (:func:`benchbot_sim_taichi.floorplan.plan_for_files`):
+1. the floor plan shared by every variant of the home (:func:`benchbot_sim_taichi.homes.floorplan.plan_for_files`):
    rooms, walls with doors and windows, lamps;
-2. the furnishing (:func:`benchbot_sim_taichi.furnish.furnish_home`): a textured model of its class fitted exactly
+2. the furnishing (:func:`benchbot_sim_taichi.homes.furnish.furnish_home`): a textured model of its class fitted exactly
    to every ground-truth cuboid, supports under objects that would float, distractor furniture of no ground-truth
    class, door frames, windows, ceiling lamps — models from the asset packs of the plugins
    (:func:`benchbot.core.assets.asset_library`);
-3. the structure as textured triangles (:data:`benchbot_sim_taichi.surfaces`): floors, walls and ceilings with
+3. the structure as textured triangles (:data:`benchbot_sim_taichi.scene.surfaces`): floors, walls and ceilings with
    materials chosen by room kind;
 4. the robot's obstacles: the walls, and every support and distractor (with its bottom height: what the robot
    passes under is no obstacle).
@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchbot_sim_taichi.meshes import Material, MeshInstance, load_mesh, make_mesh, with_glass_panes
-from benchbot_sim_taichi.surfaces import TILE_SIZE_M, room_materials, surface_texture
+from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, load_mesh, make_mesh, with_glass_panes
+from benchbot_sim_taichi.scene.surfaces import TILE_SIZE_M, room_materials, surface_texture
 
 #: Roles of placements that stand in the robot's way (when their bottom is below its height).
 OBSTACLE_ROLES = ("support", "distractor")
@@ -40,8 +40,8 @@ class FurnishedHome:
     """What the furnished style adds to a scene.
 
     Attributes:
-        plan: the home's :class:`~benchbot_sim_taichi.floorplan.FloorPlan`.
-        furnishing: the :class:`~benchbot_sim_taichi.furnish.Furnishing` (placements, objects left without a model
+        plan: the home's :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan`.
+        furnishing: the :class:`~benchbot_sim_taichi.homes.furnish.Furnishing` (placements, objects left without a model
             or support).
         instances: mesh instances in the map frame; ``object_index`` is the index of the ground-truth object in the
             ``objects`` given to :func:`furnish_environment`, −1 for everything else.
@@ -100,12 +100,12 @@ def _box_faces(lo: np.ndarray, hi: np.ndarray):
 
 
 def structure_mesh(plan, *, seed: int = 0):
-    """Floors, ceilings and walls of a floor plan as one textured :class:`~benchbot_sim_taichi.meshes.MeshData`
+    """Floors, ceilings and walls of a floor plan as one textured :class:`~benchbot_sim_taichi.scene.meshes.MeshData`
     (map frame, metres).
 
     Each room's floor and ceiling extend under the walls' half thickness (so doorways have a floor); every wall face
     takes the painted plaster of the room it faces (the exterior plaster outside); materials by room kind from
-    :func:`benchbot_sim_taichi.surfaces.room_materials` (seeded per room).
+    :func:`benchbot_sim_taichi.scene.surfaces.room_materials` (seeded per room).
     """
     mats: list[Material] = []
     index: dict[tuple, int] = {}
@@ -144,7 +144,7 @@ def structure_mesh(plan, *, seed: int = 0):
 # ------------------------------------------------------------------------------------------------------- the home
 def _home_plan(map_path: str | None, objects: list[dict], paths: list[np.ndarray], seed: int):
     """(plan, context objects): the plan shared by the home's variant files, else one of this environment alone."""
-    from benchbot_sim_taichi.floorplan import derive_floor_plan, home_inputs, home_variant_files, plan_for_files
+    from benchbot_sim_taichi.homes.floorplan import derive_floor_plan, home_inputs, home_variant_files, plan_for_files
 
     if map_path:
         files = home_variant_files(map_path)
@@ -178,10 +178,10 @@ def furnish_environment(objects: list[dict], map_path: str | None, paths: list[n
 
     Raises:
         BackendError: a ground-truth file or pose is unreadable (from the floor plan); a model file that cannot be read
-            (from :func:`~benchbot_sim_taichi.meshes.load_mesh`).
+            (from :func:`~benchbot_sim_taichi.scene.meshes.load_mesh`).
     """
     from benchbot.core.assets import asset_library
-    from benchbot_sim_taichi.furnish import furnish_home
+    from benchbot_sim_taichi.homes.furnish import furnish_home
 
     library = asset_library() if library is None else library
     plan, context = _home_plan(map_path, objects, paths, seed)

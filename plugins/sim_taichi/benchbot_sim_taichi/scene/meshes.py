@@ -9,13 +9,13 @@ front faces −y). Other formats (OBJ, PLY, STL, …) are taken as already z-up 
 Materials (:class:`Material`): a linear albedo (glTF ``baseColorFactor``, which glTF defines as linear; an OBJ
 ``Kd`` or a face colour is sRGB and is linearised), an optional sRGB ``uint8`` albedo texture (``baseColorTexture``
 or ``map_Kd``) that multiplies it, roughness and metallic. The sRGB ↔ linear conversion is the plain 2.2 gamma used
-everywhere in the simulator (:func:`benchbot_sim_taichi.scene.srgb_to_linear`).
+everywhere in the simulator (:func:`benchbot_sim_taichi.scene.model.srgb_to_linear`).
 
 Texture coordinates follow trimesh's (OpenGL's) convention: ``v = 0`` is the image's BOTTOM row (trimesh flips
 glTF's top-left origin on loading); texture arrays are stored top row first, as images are; textures repeat.
 
 The scene side: :func:`add_mesh_instances` appends :class:`MeshInstance` s to a
-:class:`~benchbot_sim_taichi.scene.Scene` as triangle primitives with per-vertex normals, UVs and materials, and
+:class:`~benchbot_sim_taichi.scene.model.Scene` as triangle primitives with per-vertex normals, UVs and materials, and
 adds their textures (with mip-maps, :func:`mip_chain`) to the scene's texture atlas.
 """
 
@@ -601,7 +601,7 @@ def add_mesh_instances(scene, instances) -> tuple[int, int]:
         ValueError: a bad transform (see :func:`flatten_instances`) or an ``object_index`` outside −1 ..
             ``scene.n_boxes − 1``.
     """
-    from benchbot_sim_taichi.scene import PRIM_TRIANGLE
+    from benchbot_sim_taichi.scene.model import PRIM_TRIANGLE
 
     instances = list(instances)
     for inst in instances:

@@ -3,7 +3,7 @@ models in the openings, ceiling lamps (pure NumPy).
 
 Distractors stand along ``plan.wall_spans`` at their natural size (± 5 %), back to the wall, kinds drawn by room
 (:data:`ROOM_DISTRACTORS`; never a GT class), no taller than the span allows (a window's sill); pictures hang on
-free wall above :data:`~benchbot_sim_taichi.furnish_space.OVERHEAD_CLEAR_Z_M`; a radiator under each window sill and
+free wall above :data:`~benchbot_sim_taichi.homes.furnish_space.OVERHEAD_CLEAR_Z_M`; a radiator under each window sill and
 curtains beside it; a door model fitted to each doorway that takes a leaf (a door frame where the robot passes:
 never a closed door), a window model to each window; a ceiling lamp over each of ``plan.lights``. Each keeps
 :data:`DISTRACTOR_CLEARANCE_M` from every GT cuboid, support and other distractor, cuts no wall, covers no window or
@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from benchbot_sim_taichi.fitting import FACING_WEIGHT, choose_model, fit_to_cuboid, turns_facing
-from benchbot_sim_taichi.furnish_space import (
+from benchbot_sim_taichi.homes.fitting import FACING_WEIGHT, choose_model, fit_to_cuboid, turns_facing
+from benchbot_sim_taichi.homes.furnish_space import (
     OVERHEAD_CLEAR_Z_M, Furnishing, Placement, Space, add_placement, furniture_of_kinds, room_of, seeded_rng)
 
 #: Floor-standing distractors keep this clearance (m) from GT cuboids, supports and each other.

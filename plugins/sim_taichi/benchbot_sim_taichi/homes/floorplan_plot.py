@@ -1,4 +1,4 @@
-"""Top-down figure of a :class:`~benchbot_sim_taichi.floorplan.FloorPlan`: rooms labelled by kind, walls, doorways,
+"""Top-down figure of a :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan`: rooms labelled by kind, walls, doorways,
 windows, ground-truth boxes and the robot paths (matplotlib, imported lazily: the ``vis`` extra)."""
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from benchbot_sim_taichi.fitting import fit_to_cuboid
+from benchbot_sim_taichi.homes.fitting import fit_to_cuboid
 
 #: GT classes (BEAR); no support or distractor is ever of one of these kinds.
 GT_CLASSES = frozenset((

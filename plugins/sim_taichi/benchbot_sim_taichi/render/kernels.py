@@ -1,8 +1,8 @@
 """The Taichi functions of the ray tracer: BVH traversal, primitive intersection, shading with shadow rays or shadow
 maps (on triangles: interpolated vertex normals and mip-mapped, bilinearly filtered textures), and the kernels that
 trace the lamps' and the sun's shadow maps. The all-sensors kernel that uses them is in
-:mod:`benchbot_sim_taichi.sensors`, the path tracer in :mod:`benchbot_sim_taichi.pathtrace`;
-:mod:`benchbot_sim_taichi.renderer` prepares their arguments and launches them.
+:mod:`benchbot_sim_taichi.render.sensors`, the path tracer in :mod:`benchbot_sim_taichi.render.pathtrace`;
+:mod:`benchbot_sim_taichi.render.renderer` prepares their arguments and launches them.
 
 Conventions and formulas: see the renderer's module docstring. Kernels take ``ti.types.ndarray`` arguments (NumPy
 arrays or Taichi ndarrays), so they compile once per process, not per scene or image size.
@@ -15,7 +15,7 @@ import sys
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
-from benchbot_sim_taichi.bvh import LEAF_SHIFT, TRI_ONLY  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.render.bvh import LEAF_SHIFT, TRI_ONLY  # noqa: E402 - after Taichi's banner is redirected
 
 #: Tiny direction component substituted for zero before inverting (avoids 0·inf).
 DIR_EPS = 1e-12
@@ -317,7 +317,7 @@ def _trace(o, d, tmax, nodes: ti.template(), pf: ti.template(), pi: ti.template(
     the hit (``pane_k``, −1: none, at ``pane_t``) — exact too, since every primitive nearer than the closest hit is
     tested. (The bookkeeping costs GPU occupancy: fast mode's shadow rays do not see panes, see docs/simulator.md.)
 
-    ``nodes`` is :func:`benchbot_sim_taichi.bvh.wide_nodes`'s: each interior node one record with both children's
+    ``nodes`` is :func:`benchbot_sim_taichi.render.bvh.wide_nodes`'s: each interior node one record with both children's
     boxes. A step reads one record and tests both boxes; where both are hit, a closest-hit ray enters the nearer
     child and pushes the farther, with its entry distance, on a per-ray stack of :data:`STACK` entries (an any-hit
     ray enters the left one); a popped child that begins beyond the closest hit so far is skipped. A leaf's

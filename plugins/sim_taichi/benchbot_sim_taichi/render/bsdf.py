@@ -1,4 +1,4 @@
-"""The physically based BSDF of ``quality`` mode (Taichi functions, called by :mod:`benchbot_sim_taichi.pathtrace`):
+"""The physically based BSDF of ``quality`` mode (Taichi functions, called by :mod:`benchbot_sim_taichi.render.pathtrace`):
 a Lambertian diffuse lobe plus a GGX (Trowbridge–Reitz) microfacet specular lobe in the glTF metallic–roughness
 parametrisation, its importance sampling and its probability density.
 

@@ -1,8 +1,8 @@
 """The all-sensors work of ``fast`` mode (:func:`sensors_kernel`): B camera frames (RGB, depth, class and instance
 segmentation) and B laser scans in four kernel launches, and :func:`sensors_graph`, the four kernels compiled as
-one ``ti.graph``. :class:`~benchbot_sim_taichi.renderer.Renderer` prepares their arguments and launches them.
+one ``ti.graph``. :class:`~benchbot_sim_taichi.render.renderer.Renderer` prepares their arguments and launches them.
 
-The loops run one after the other (:mod:`benchbot_sim_taichi.raster` for the visibility buffer), each step a
+The loops run one after the other (:mod:`benchbot_sim_taichi.render.raster` for the visibility buffer), each step a
 kernel (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, :func:`shade_kernel`):
 
 1. the laser beams (traced through the BVH) beside the occluders (the large triangles, ``raster.OCCLUDER_AREA_M2``),
@@ -13,8 +13,8 @@ kernel (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_ker
 3. their primitives, but the occluders, each culled against the pyramid the same way, are rasterised (the nearest
    window pane into the buffer's second layer), large images again queued in parts and rasterised by the next loop;
 4. the pixels: each reads its closest hit from the visibility buffer (and resets it), then is shaded as
-   :func:`~benchbot_sim_taichi.kernels._surface` says, lit by the baked light of its triangle
-   (:mod:`benchbot_sim_taichi.lightmap`) or by :func:`~benchbot_sim_taichi.kernels._direct`.
+   :func:`~benchbot_sim_taichi.render.kernels._surface` says, lit by the baked light of its triangle
+   (:mod:`benchbot_sim_taichi.render.lightmap`) or by :func:`~benchbot_sim_taichi.render.kernels._direct`.
 
 A primitive is culled only when every tile its image covers already holds a hit nearer than its nearest point, so
 culling changes no pixel.
@@ -29,13 +29,14 @@ import sys
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
-from benchbot_sim_taichi import lightmap, raster  # noqa: E402 - after Taichi's banner is redirected
-from benchbot_sim_taichi.camera_model import TABLE_STEPS  # noqa: E402
-from benchbot_sim_taichi.kernels import (  # noqa: E402
+from benchbot_sim_taichi.render import lightmap
+from benchbot_sim_taichi.render import raster  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.render.camera_model import TABLE_STEPS  # noqa: E402
+from benchbot_sim_taichi.render.kernels import (  # noqa: E402
     PANES_TRACKED, PANES_UNSEEN, _closest_normal, _direct, _glass_reflectance, _ray, _safe_inv, _shadow_origin,
     _surface, _trace, _v3,
 )
-from benchbot_sim_taichi.packed_scene import scene_views  # noqa: E402
+from benchbot_sim_taichi.render.packed_scene import scene_views  # noqa: E402
 
 #: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
 POSE_LEN = 16
@@ -425,7 +426,7 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
     """Step 4 of :func:`sensors_kernel`: each pixel of the B frames reads its closest hit (and nearest pane) from
     ``vis``, which the steps before filled, resets it to :data:`raster.EMPTY`, and is shaded into ``rgb``,
     ``depth``, ``cls`` and ``inst``. ``shadow_rays`` (compile-time): whether the code of shadow rays is compiled
-    in (:func:`~benchbot_sim_taichi.kernels._direct`); without it the kernel takes far fewer registers.
+    in (:func:`~benchbot_sim_taichi.render.kernels._direct`); without it the kernel takes far fewer registers.
     """
     B = vis.shape[1]
     H = vis.shape[2]
@@ -494,7 +495,7 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
 
 def _shading_kernel(name: str, shadow_rays: bool, packed: bool, doc: str):
     """A Taichi kernel named ``name`` that runs :func:`_shade_step` with ``shadow_rays`` (compile-time), reading the
-    scene's arrays from their packs (``packed``: CUDA, :mod:`~benchbot_sim_taichi.packed_scene`) or each its own
+    scene's arrays from their packs (``packed``: CUDA, :mod:`~benchbot_sim_taichi.render.packed_scene`) or each its own
     argument (the CPU)."""
 
     if packed:
@@ -570,7 +571,7 @@ shade_maps_kernel = _shading_kernel("shade_maps_kernel", False, False,
                                     "Step 4 of :func:`sensors_kernel` without the code of shadow rays: every light "
                                     "has a shadow map.")
 #: :func:`shade_kernel` and :func:`shade_maps_kernel` reading the scene from its packs (CUDA's: fewer arguments to
-#: launch, :mod:`~benchbot_sim_taichi.packed_scene`).
+#: launch, :mod:`~benchbot_sim_taichi.render.packed_scene`).
 shade_packed_kernel = _shading_kernel("shade_packed_kernel", True, True,
                                       "Step 4 of :func:`sensors_kernel` with shadow rays, the scene packed.")
 shade_maps_packed_kernel = _shading_kernel("shade_maps_packed_kernel", False, True,
@@ -582,18 +583,18 @@ def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True
     """The kernels of :func:`sensors_kernels` for ``arch`` (``'cpu'`` or ``'cuda'``), launched one after the other for
     B sensor frames in the ``map`` frame: fast-mode images (when ``images`` is 1) into ``rgb`` (B, H, W, 3) uint8, ``depth`` (B, H, W)
     float32 z-depth metres, ``cls``/``inst`` (B, H, W) int32, and ``n_beams`` laser beams per frame into ``ranges`` (B, ≥ n_beams) float32 metres, beam j at map-frame angle ``beams[j]`` (rad) +
-    the lidar's yaw; the lights (``lit`` 1; 0: ambient light only) as :func:`~benchbot_sim_taichi.kernels._direct`
+    the lidar's yaw; the lights (``lit`` 1; 0: ambient light only) as :func:`~benchbot_sim_taichi.render.kernels._direct`
     takes them (the renderer's ``_light_grid``). Frame b's pose (``renderer.sensor_pose``) is ``pose0`` (by value:
     no upload) when ``one`` is 1, else row b of ``table`` (B, POSE_LEN). ``consts`` is ``renderer.frame_constants``;
     the scene arrays are ``renderer.pack_scene``'s (``cluster_box`` (C, 6) and ``cluster_prims`` (C, 2): its
     clusters); ``lamp_maps`` (6·S, R, R) the lamps' cube shadow maps
-    (:func:`~benchbot_sim_taichi.kernels.lamp_map_kernel`; used by lamps whose row has a slot ≥ 0), ``sun_map`` (R,
+    (:func:`~benchbot_sim_taichi.render.kernels.lamp_map_kernel`; used by lamps whose row has a slot ≥ 0), ``sun_map`` (R,
     R) the sun's, ``baked`` and ``baked_info`` the triangles' baked direct light
-    (:mod:`benchbot_sim_taichi.lightmap`; a triangle with 0 divisions sums its lights per pixel), ``always``,
+    (:mod:`benchbot_sim_taichi.render.lightmap`; a triangle with 0 divisions sums its lights per pixel), ``always``,
     ``light_grid``, ``grid_xform`` and ``light_of_slot`` the light lists (``n_always`` of ``always`` taken). CUDA's
     kernels take all of these packed in ``scene_f32`` and ``scene_i32`` instead
-    (:func:`~benchbot_sim_taichi.packed_scene.pack`: fewer arguments to launch) and read them through
-    :func:`~benchbot_sim_taichi.packed_scene.scene_views` under the same names. Work space:
+    (:func:`~benchbot_sim_taichi.render.packed_scene.pack`: fewer arguments to launch) and read them through
+    :func:`~benchbot_sim_taichi.render.packed_scene.scene_views` under the same names. Work space:
     ``listed`` (≥ B·C,) int32, ``queue`` (Q, raster.QUEUE_COLS) int32, ``counters`` (raster.COUNTERS,) int32, and
     the visibility buffer ``vis`` (2, B, H, W) int64 (layer 0: the closest primitive, 1: the nearest pane), which
     must hold :data:`raster.EMPTY` on entry and does again on return.
@@ -627,7 +628,7 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     one-camera frame, which is short there: its GPU work takes 194–198 µs (one H200, house:1), launching it 163–181
     µs of a fast host's time, most of that Taichi's work for each argument and loop (``benchmarks/one_camera.py``;
     steps 1 to 3 loop over constant lanes there, :func:`_lanes`, which saves a launch for each loop, and the scene's
-    arrays come packed, :mod:`~benchbot_sim_taichi.packed_scene`: 20 ndarray arguments instead of 41). The CPU's
+    arrays come packed, :mod:`~benchbot_sim_taichi.render.packed_scene`: 20 ndarray arguments instead of 41). The CPU's
     kernels take the scene's arrays one by one: a launch's cost is nothing there beside a frame's tens of
     milliseconds, and the packs would be a second copy of the scene in its memory."""
     if arch == "cuda":

@@ -13,8 +13,8 @@ pedestal, a riser. Floor furniture (:data:`FLOOR_CLASSES`) at most :data:`LOW_SU
 Each support avoids every GT cuboid, wall, other furniture, window and door hole and the doorways
 (:data:`SUPPORT_DOOR_CLEARANCE_M`; not for one inside a single object's footprint), and stays out of the robot
 corridor except where GT objects below the robot's height already take the floor
-(:meth:`~benchbot_sim_taichi.furnish_space.Space.blocked_beyond_gt`), or, for a shelf, when its underside is above
-:data:`~benchbot_sim_taichi.furnish_space.OVERHEAD_CLEAR_Z_M`. Objects left without one are reported with why.
+(:meth:`~benchbot_sim_taichi.homes.furnish_space.Space.blocked_beyond_gt`), or, for a shelf, when its underside is above
+:data:`~benchbot_sim_taichi.homes.furnish_space.OVERHEAD_CLEAR_Z_M`. Objects left without one are reported with why.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from benchbot_sim_taichi.fitting import FACING_WEIGHT, RANDOM_FACING_WEIGHT, choose_model, fit_to_cuboid
-from benchbot_sim_taichi.furnish_space import (
+from benchbot_sim_taichi.homes.fitting import FACING_WEIGHT, RANDOM_FACING_WEIGHT, choose_model, fit_to_cuboid
+from benchbot_sim_taichi.homes.furnish_space import (
     OVERHEAD_CLEAR_Z_M, ROBOT_HEIGHT_M, Furnishing, Placement, Space, boxes_hit, furniture_of_kinds,
     nearest_wall_away, overlap_area, rect_gap, room_of, seeded_rng, wall_faces)
 

@@ -1,15 +1,15 @@
-"""Taichi ray tracing of a :class:`~benchbot_sim_taichi.scene.Scene` (boxes, ellipsoids, cylinders and triangles in a
+"""Taichi ray tracing of a :class:`~benchbot_sim_taichi.scene.model.Scene` (boxes, ellipsoids, cylinders and triangles in a
 BVH, inside a room shell): RGB-D + segmentation images, planar laser scans, batched rendering of many cameras in one
 kernel launch, and two modes: ``fast`` (direct lighting, shadow rays) and ``quality`` (path traced: physically based
 materials, next-event estimation with multiple importance sampling, several bounces with Russian roulette —
-:mod:`benchbot_sim_taichi.pathtrace` — then Intel Open Image Denoise with albedo and normal guides).
+:mod:`benchbot_sim_taichi.render.pathtrace` — then Intel Open Image Denoise with albedo and normal guides).
 
 Importing this module imports Taichi but does not initialise it; :func:`ensure_taichi` (called by
 :class:`Renderer`) runs ``ti.init`` once per process. Taichi must be used from one thread per process.
 
 One kernel launch computes every sensor of a frame (or of a batch of B frames):
-:func:`~benchbot_sim_taichi.sensors.sensors_kernel` traces the laser beams, finds every camera ray's closest hit by
-rasterising the scene's primitives into a visibility buffer (:mod:`benchbot_sim_taichi.raster`: the same hits as
+:func:`~benchbot_sim_taichi.render.sensors.sensors_kernel` traces the laser beams, finds every camera ray's closest hit by
+rasterising the scene's primitives into a visibility buffer (:mod:`benchbot_sim_taichi.render.raster`: the same hits as
 the BVH traversal, found object by object), then shades the pixels (RGB, depth, class and instance ids). Kernels take
 ``ti.types.ndarray``
 arguments, so a scene with any number of primitives, or any image size, reuses the compiled kernels (compiled once
@@ -17,15 +17,15 @@ per process, not per scene). By default (``device_buffers``) the scene is upload
 ``ti.ndarray`` (GPU memory on CUDA) and the outputs stay in reused buffers; each launch goes through a compiled
 ``ti.graph`` with the camera and lidar pose passed by value, so the per-frame cost is one launch (the arguments set in
 C++, not by Python for each kernel) plus, when wanted, one copy to the host.
-The BVH (:mod:`benchbot_sim_taichi.bvh`) is built once per scene in NumPy and stored with both children's boxes in
-each interior node's record (:func:`~benchbot_sim_taichi.bvh.wide_nodes`); closest-hit rays (the laser, the
+The BVH (:mod:`benchbot_sim_taichi.render.bvh`) is built once per scene in NumPy and stored with both children's boxes in
+each interior node's record (:func:`~benchbot_sim_taichi.render.bvh.wide_nodes`); closest-hit rays (the laser, the
 shadow maps, quality mode's paths) traverse it nearer child first with a per-ray stack, any-hit rays left child
-first; the rasteriser culls its clusters (:func:`~benchbot_sim_taichi.bvh.clusters`) against each camera's view.
+first; the rasteriser culls its clusters (:func:`~benchbot_sim_taichi.render.bvh.clusters`) against each camera's view.
 
 Conventions: ``map`` frame, metres. Cameras use the OPTICAL frame (z forward, x right, y down); the ray of pixel
 (u, v) (column, row; integer pixel centres) is ``R · K⁻¹ [u, v, 1]ᵀ`` so its parameter t is the z-depth.
 Lighting: linear radiance = albedo · (ambient·(0.8 + 0.2·n_z) + Σ_lights visibility · colour · max(0, n·l) ·
-attenuation), then through the camera model (:mod:`benchbot_sim_taichi.camera_model`: vignetting, exposure, tone
+attenuation), then through the camera model (:mod:`benchbot_sim_taichi.render.camera_model`: vignetting, exposure, tone
 curve, gamma 2.2; by default clamped and gamma-encoded, as always) to uint8 through a table. Visibility
 is the fraction of ``shadow_samples`` shadow rays (stratified over the light's disc — the sun's angular radius, a
 lamp's radius — with a per-pixel rotation from a seeded integer hash, so renders are deterministic) that reach the
@@ -37,9 +37,9 @@ height, along the direction towards the sun, of the first primitive the sun's ra
 point's). Either way the point is first moved off its surface along its normal by 1.5 texels, and 2 × 2 texels are
 compared, bilinearly weighted. The images agree with shadow rays but for a rim of a texel or two along shadow edges
 (and rare specks where a texel's ray slips through a seam of the structure), and a frame costs far less (many lamps:
-house:1 has 29, and the sun's ray is long). The kernels live in :mod:`benchbot_sim_taichi.kernels`.
+house:1 has 29, and the sun's ray is long). The kernels live in :mod:`benchbot_sim_taichi.render.kernels`.
 
-Triangles (meshes, :mod:`benchbot_sim_taichi.meshes`) are shaded with their interpolated vertex normals (n above;
+Triangles (meshes, :mod:`benchbot_sim_taichi.scene.meshes`) are shaded with their interpolated vertex normals (n above;
 shadow rays leave from the hit point offset along the geometric normal, moved onto the vertices' tangent planes so
 low-poly curved surfaces do not shadow themselves in facets) and, with a textured material, albedo = material albedo ×
 texture: sRGB texels turned linear through a 256-entry table, bilinearly filtered, repeating, at a mip level chosen
@@ -61,8 +61,8 @@ time-of-flight and structured-light depth cameras and most laser scanners do thr
 
 ``quality`` mode with device buffers (CUDA) finishes a frame where it was rendered: Open Image Denoise reads the path
 tracer's radiance and guides in GPU memory and writes the denoised image there
-(:func:`~benchbot_sim_taichi.denoiser.denoise_shared`), and ``pathtrace.encode_kernel`` applies the camera model
-there, in float64 like :meth:`~benchbot_sim_taichi.camera_model.CameraModel.encode`; only the results travel to the
+(:func:`~benchbot_sim_taichi.render.denoiser.denoise_shared`), and ``pathtrace.encode_kernel`` applies the camera model
+there, in float64 like :meth:`~benchbot_sim_taichi.render.camera_model.CameraModel.encode`; only the results travel to the
 host, through page-locked memory (on the CPU, OIDN's CPU device reads the Taichi arrays in place). Without device
 buffers (``device_buffers=False``) the same steps run on NumPy arrays, with
 the same images (on CUDA, not denoised, a few 8-bit values of a frame can be one level apart: the GPU's float64
@@ -82,7 +82,7 @@ import numpy as np
 
 from benchbot.core import settings, stages
 from benchbot.core.errors import UsageError
-from benchbot_sim_taichi.camera_model import CameraModel, tone_table
+from benchbot_sim_taichi.render.camera_model import CameraModel, tone_table
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
 # (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
@@ -93,19 +93,19 @@ _banner = io.StringIO()
 with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
-from benchbot_sim_taichi.denoiser import denoise_radiance, denoise_shared  # noqa: E402
-from benchbot_sim_taichi.packed_scene import PACKED_NAMES, pack as pack_for_sensors  # noqa: E402
-from benchbot_sim_taichi.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
-from benchbot_sim_taichi.kernels import (  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.render.denoiser import denoise_radiance, denoise_shared  # noqa: E402
+from benchbot_sim_taichi.render.packed_scene import PACKED_NAMES, pack as pack_for_sensors  # noqa: E402
+from benchbot_sim_taichi.render.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
+from benchbot_sim_taichi.render.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_NORMAL_OFFSET, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_CELL_M, LIGHT_COLS, LIGHT_GRID_BLOCK,
     LIGHT_GRID_STEP, SHADE_COLS, SHADOW_OFFSET, STACK, SUN_MAP_RES, SUN_RADIUS, lamp_map_kernel, light_grid_kernel,
     sun_map_kernel,
 )
-from benchbot_sim_taichi.lightmap import bake_kernel, layout as lightmap_layout  # noqa: E402
-from benchbot_sim_taichi.raster import (  # noqa: E402
+from benchbot_sim_taichi.render.lightmap import bake_kernel, layout as lightmap_layout  # noqa: E402
+from benchbot_sim_taichi.render.raster import (  # noqa: E402
     CLUSTER_PRIMS, COUNTERS, EMPTY, OCCLUDER_AREA_M2, QUEUE_COLS, split, tile_entries,
 )
-from benchbot_sim_taichi.sensors import (  # noqa: E402
+from benchbot_sim_taichi.render.sensors import (  # noqa: E402
     POSE_LEN, SENSORS_ARG_NAMES, launch_arg_names, reset_graph, sensors_graph, sensors_kernel,
 )
 
@@ -253,11 +253,11 @@ def pack_scene(scene) -> dict:
     """The scene as the flat float32/int32 arrays the kernels read (primitives in BVH order).
 
     Returns:
-        ``nodes`` (max(I, 1), 16) float32, the BVH as the kernels read it (:func:`~benchbot_sim_taichi.bvh.wide_nodes`),
+        ``nodes`` (max(I, 1), 16) float32, the BVH as the kernels read it (:func:`~benchbot_sim_taichi.render.bvh.wide_nodes`),
         and ``nodes_f`` (M, 6) float32 / ``nodes_i`` (M, 3) int32, its depth-first nodes (see
-        :mod:`benchbot_sim_taichi.bvh`); leaves of plain triangles only are flagged; ``cluster_box`` (C, 6) float32
+        :mod:`benchbot_sim_taichi.render.bvh`); leaves of plain triangles only are flagged; ``cluster_box`` (C, 6) float32
         and ``cluster_prims`` (C, 2) int32 [first, count], the BVH's clusters of at most ``raster.CLUSTER_PRIMS``
-        primitives (:func:`~benchbot_sim_taichi.bvh.clusters`; one empty cluster without primitives);
+        primitives (:func:`~benchbot_sim_taichi.render.bvh.clusters`; one empty cluster without primitives);
         ``is_occluder`` (max(P, 1),) int32 1 for the triangles of at least ``raster.OCCLUDER_AREA_M2``, which the
         rasteriser draws first, ``occluders`` their indices (one −1 for none) and ``n_occluders`` how many;
         ``pf`` (max(P,1), 11) float32 [min xyz, max xyz, linear albedo rgb, roughness, metallic (glTF factors; a
@@ -277,8 +277,8 @@ def pack_scene(scene) -> dict:
     Raises:
         ValueError: the BVH is deeper than the kernels' stack.
     """
-    from benchbot_sim_taichi.bvh import build_bvh, bvh_depth, clusters, wide_nodes
-    from benchbot_sim_taichi.meshes import face_normals
+    from benchbot_sim_taichi.render.bvh import build_bvh, bvh_depth, clusters, wide_nodes
+    from benchbot_sim_taichi.scene.meshes import face_normals
 
     n, nl = int(scene.prim_type.shape[0]), int(scene.light_kind.shape[0])
     nodes_f, nodes_i, order = build_bvh(scene.prim_min, scene.prim_max)
@@ -387,7 +387,7 @@ def pack_scene(scene) -> dict:
 @functools.lru_cache(maxsize=1)
 def texture_lut() -> np.ndarray:
     """(256,) float32 (cached: do not modify): linear value of each sRGB byte, ``(i / 255) ** 2.2`` (the gamma of
-    :func:`benchbot_sim_taichi.scene.srgb_to_linear`)."""
+    :func:`benchbot_sim_taichi.scene.model.srgb_to_linear`)."""
     return np.power(np.arange(256, dtype=np.float64) / 255.0, 2.2).astype(np.float32)
 
 
@@ -396,7 +396,7 @@ def render_params(shadow_samples: int = 1, seed: int = 0, sun_radius: float = SU
                   roulette_from: int = 3) -> np.ndarray:
     """(8,) float32 [shadow samples, sun angular radius rad, lamp radius m, seed, spp, most bounces of a path,
     first bounce of Russian roulette, 0] (the last three for ``quality`` mode:
-    :func:`~benchbot_sim_taichi.pathtrace.quality_kernel`)."""
+    :func:`~benchbot_sim_taichi.render.pathtrace.quality_kernel`)."""
     return np.array([max(1, int(shadow_samples)), sun_radius, lamp_radius, int(seed) % (1 << 24), max(1, int(spp)),
                      max(0, int(bounces)), max(1, int(roulette_from)), 0], dtype=np.float32)
 
@@ -429,7 +429,7 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
                     camera: CameraModel = DEFAULT_CAMERA) -> np.ndarray:
     """(33 + GAMMA_STEPS,) float32 [world (19, see :func:`pack_scene`), render params (8, see :func:`render_params`),
     fx, fy, cx, cy, the camera model's 1/radiance_max and vignetting, its tone table
-    (:func:`~benchbot_sim_taichi.camera_model.tone_table`)] — what :func:`~benchbot_sim_taichi.sensors.sensors_kernel`
+    (:func:`~benchbot_sim_taichi.render.camera_model.tone_table`)] — what :func:`~benchbot_sim_taichi.render.sensors.sensors_kernel`
     reads besides the scene and the poses (zeros for K when None)."""
     k = np.zeros(4) if K is None else np.asarray(K, dtype=np.float64)[[0, 1, 0, 1], [0, 1, 2, 2]]
     return np.concatenate([world, params, k, camera.frame_constants(), tone_table(camera)]).astype(np.float32)
@@ -555,12 +555,12 @@ class Renderer:
             scenes (whose shadows stay exact, ray for ray). Soft shadows (``shadow_samples`` > 1) always use rays,
             and so does ``quality`` mode.
         baked_light: in ``fast`` mode, take the triangles' direct light from a lattice of points baked once per
-            scene (:mod:`benchbot_sim_taichi.lightmap`) instead of summing the lights at each pixel. ``None``
+            scene (:mod:`benchbot_sim_taichi.render.lightmap`) instead of summing the lights at each pixel. ``None``
             (default): when the lights' shadows come from shadow maps (then the light does not change from frame
             to frame); the room shell, boxes, ellipsoids and cylinders always sum their lights per pixel.
-        camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.camera_model.CameraModel`);
+        camera: exposure, tone curve and vignetting (:class:`~benchbot_sim_taichi.render.camera_model.CameraModel`);
             the default is the image as it always was.
-        denoise_device: where ``quality`` mode's denoiser runs (:func:`~benchbot_sim_taichi.denoiser.denoise_radiance`):
+        denoise_device: where ``quality`` mode's denoiser runs (:func:`~benchbot_sim_taichi.render.denoiser.denoise_radiance`):
             ``'cpu'`` or ``'cuda'``; ``None`` (default): ``'cuda'`` when rendering on CUDA (falling back to the CPU,
             with a warning, if Open Image Denoise cannot start there), else ``'cpu'``.
     """
@@ -591,7 +591,7 @@ class Renderer:
         self.baked_points = 0  # lattice points of the current scene's baked light
         #: ``None``, or a callable taking a kernel's name and returning a context manager: the all-sensors kernels then
         #: run one by one inside it (not through the compiled graph), for ``benchmarks/sensors_kernels.py`` to time
-        #: each (:func:`~benchbot_sim_taichi.sensors.sensors_kernel`'s ``timer``).
+        #: each (:func:`~benchbot_sim_taichi.render.sensors.sensors_kernel`'s ``timer``).
         self.kernel_timer = None
         self._pinned_copier = None  # render_sensors(to_host="pinned"): page-locked host arrays, made on first use
         self._render_copier = None  # render(): its own page-locked arrays (render_sensors' stay the caller's)
@@ -618,7 +618,7 @@ class Renderer:
         self._pinned_copier = self._render_copier = None
 
     def set_scene(self, scene) -> None:
-        """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.Scene`); builds its BVH. Later renders and scans
+        """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.model.Scene`); builds its BVH. Later renders and scans
         use it. With device buffers, this is the only host-to-device copy of the scene."""
         _free_retired()
         with stages.stage("building the BVH"):
@@ -659,7 +659,7 @@ class Renderer:
                             arrays["occluders"], arrays["is_occluder"])
 
     def _pack_for_sensors(self) -> tuple:
-        """The current scene's arrays packed for CUDA's all-sensors kernels (:mod:`benchbot_sim_taichi.packed_scene`),
+        """The current scene's arrays packed for CUDA's all-sensors kernels (:mod:`benchbot_sim_taichi.render.packed_scene`),
         where they read them: ``(scene_f32, scene_i32)``, made by the first launch that needs them. The arrays that
         kernels computed in :meth:`set_scene` (shadow maps, baked light) and the light lists are copied from where
         the kernels read them; the others are taken from the packed scene."""
@@ -669,7 +669,7 @@ class Renderer:
         return tuple(self._scene_array(a) for a in pack_for_sensors(named))
 
     def _bake(self, arrays: dict, lights: tuple, bake: bool) -> tuple:
-        """The current scene's baked direct light (:mod:`benchbot_sim_taichi.lightmap`): ``(store, info)`` where the
+        """The current scene's baked direct light (:mod:`benchbot_sim_taichi.render.lightmap`): ``(store, info)`` where the
         kernels read them, baked now when ``bake``; else an empty store and every triangle unbaked (per-pixel
         light)."""
         packed = self._packed
@@ -698,11 +698,11 @@ class Renderer:
         return arr
 
     def _light_grid(self, arrays: dict, n_maps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The current scene's light lists for :func:`~benchbot_sim_taichi.kernels._direct`: ``(always (A,) int32,
+        """The current scene's light lists for :func:`~benchbot_sim_taichi.render.kernels._direct`: ``(always (A,) int32,
         grid (NY, NX, words) int32, xform (4,) float32)``. With lamp shadow maps and one shadow sample, ``always``
         holds the lights without a map (the sun) and the grid, over the xy extent of the room shell and the
         primitives and a cell more on each side, in cells of ``kernels.LIGHT_CELL_M``, a bit for each lamp in each cell where its map may let it
-        light a point: the cells that :func:`~benchbot_sim_taichi.kernels.light_grid_kernel` marks, grown by the
+        light a point: the cells that :func:`~benchbot_sim_taichi.render.kernels.light_grid_kernel` marks, grown by the
         distance its docstring names. Otherwise every light is in ``always`` and the grid is empty (words = 0)."""
         packed = self._packed
         n = packed["n_lights"]
@@ -747,7 +747,7 @@ class Renderer:
     def shadow_rays(self) -> bool:
         """Whether fast mode's frames need the code of shadow rays: more than one shadow sample, or a light of the
         current scene without a shadow map. When not, the all-sensors work shades with
-        :func:`~benchbot_sim_taichi.sensors.shade_maps_kernel` (the same images, faster)."""
+        :func:`~benchbot_sim_taichi.render.sensors.shade_maps_kernel` (the same images, faster)."""
         return self.shadow_samples > 1 or not self._every_light_mapped
 
     @property
@@ -825,7 +825,7 @@ class Renderer:
     def render_sensors(self, K: np.ndarray, T_map_cameras, width: int, height: int, T_map_lidars=None,
                        angles: np.ndarray | None = None, *, to_host: bool | str = True) -> dict:
         """Render B camera views (``fast`` mode) and, optionally, B planar laser scans, all in one launch of the
-        all-sensors kernels (:func:`~benchbot_sim_taichi.sensors.sensors_kernel`).
+        all-sensors kernels (:func:`~benchbot_sim_taichi.render.sensors.sensors_kernel`).
 
         Args:
             K: (3, 3) intrinsics shared by the views. T_map_cameras: (B, 4, 4) optical-frame poses in ``map``.
@@ -835,7 +835,7 @@ class Renderer:
             to_host: ``True``: return new NumPy arrays (on CUDA copied through page-locked memory, then into new
                 arrays: :meth:`_fetch`).
                 ``"pinned"``: on CUDA, copy into page-locked NumPy arrays that the renderer makes once and reuses
-                (:class:`~benchbot_sim_taichi.host_copy.HostCopier`: several times faster), valid until the next
+                (:class:`~benchbot_sim_taichi.render.host_copy.HostCopier`: several times faster), valid until the next
                 ``"pinned"`` call of the same sizes overwrites them — copy what you keep; on the CPU the same as
                 ``True``. ``False`` leaves the outputs where the kernel wrote them — Taichi ndarrays with device
                 buffers (in GPU memory on CUDA; ``.to_numpy()`` copies one), NumPy arrays otherwise — and returns
@@ -864,7 +864,7 @@ class Renderer:
         out = self._launch(K, Ts, int(width), int(height), Tl, angles, lit=True)
         if to_host == "pinned" and self.device_buffers and self.arch == "cuda":
             if self._pinned_copier is None:
-                from benchbot_sim_taichi.host_copy import HostCopier
+                from benchbot_sim_taichi.render.host_copy import HostCopier
 
                 self._pinned_copier = HostCopier(pinned=True)
             return self._pinned_copier.copy(out)
@@ -885,7 +885,7 @@ class Renderer:
         return self.render_sensors(K, T_map_cameras, width, height)
 
     def _launch(self, K, Ts, W: int, H: int, Tl, angles, *, lit: bool) -> dict:
-        """One :func:`~benchbot_sim_taichi.sensors.sensors_kernel` launch (its kernels): images for the (B, 4, 4) camera poses
+        """One :func:`~benchbot_sim_taichi.render.sensors.sensors_kernel` launch (its kernels): images for the (B, 4, 4) camera poses
         ``Ts`` (none if ``K`` is None), scans for the lidar poses ``Tl`` (none if None) at beam ``angles``. Outputs
         stay in the renderer's buffers. ``lit=False`` skips the lights (no shadow rays: RGB is ambient only) for
         callers that only keep depth and segmentation, which do not depend on the lights."""
@@ -948,7 +948,7 @@ class Renderer:
             K: (3, 3) pinhole intrinsics (pixels). T_map_camera: (4, 4) pose of the camera's OPTICAL frame in ``map``.
             width, height: image size in pixels.
             mode: ``'fast'`` (default) or ``'quality'`` (RGB path traced with ``spp`` samples per pixel and paths
-                of up to ``bounces`` bounces (:mod:`~benchbot_sim_taichi.pathtrace`), then Open Image Denoise if
+                of up to ``bounces`` bounces (:mod:`~benchbot_sim_taichi.render.pathtrace`), then Open Image Denoise if
                 ``denoise``: :func:`denoise_radiance`; depth and segmentation as in ``fast``).
             T_map_lidar, angles: as :meth:`scan`; ``None`` (default) for no scan.
 
@@ -1005,30 +1005,30 @@ class Renderer:
         through). On CUDA they come through the page-locked copier (one synchronisation and a fast copy each), then
         a host copy, so that the caller owns them; with ``once`` (copies made once per scene, too large to keep
         page-locked buffers for) through ordinary host memory instead. On the CPU they are copied from the
-        ndarrays' own memory (:func:`~benchbot_sim_taichi.host_copy.host_view`)."""
+        ndarrays' own memory (:func:`~benchbot_sim_taichi.render.host_copy.host_view`)."""
         if self.device_buffers and self.arch == "cuda":
-            from benchbot_sim_taichi.host_copy import HostCopier
+            from benchbot_sim_taichi.render.host_copy import HostCopier
 
             if once:  # a throwaway copier: its arrays are the caller's
                 return HostCopier(pinned=False).copy(arrays)
             if self._render_copier is None:
                 self._render_copier = HostCopier(pinned=True)
             return {k: v.copy() for k, v in self._render_copier.copy(arrays).items()}
-        from benchbot_sim_taichi.host_copy import host_view
+        from benchbot_sim_taichi.render.host_copy import host_view
 
         return {k: (v if isinstance(v, np.ndarray) else host_view(v).copy()) for k, v in arrays.items()}
 
     def _finish_quality_in_place(self, lin, aux, K, denoise: bool) -> tuple | None:
         """With device buffers, where the denoiser's device reads the renderer's memory (OIDN on CUDA for a CUDA
         renderer, on the CPU for a CPU one; or no denoising): denoise the path tracer's radiance ``lin`` with its
-        guides ``aux`` where they lie (:func:`~benchbot_sim_taichi.denoiser.denoise_shared`) and encode it with the
+        guides ``aux`` where they lie (:func:`~benchbot_sim_taichi.render.denoiser.denoise_shared`) and encode it with the
         camera model there (``pathtrace.encode_kernel``); returns the (radiance, rgb) device buffers (B = 1). None
         when that does not apply (the caller copies to the host and finishes there), or when a GPU denoiser the
         renderer chose cannot start (then, as :meth:`_denoise`, it warns once and denoises on the CPU from now on).
         """
         if not self.device_buffers or (denoise and self.denoise_device != ("cuda" if self.arch == "cuda" else "cpu")):
             return None
-        from benchbot_sim_taichi.host_copy import device_pointer
+        from benchbot_sim_taichi.render.host_copy import device_pointer
 
         if denoise:
             prepare_denoiser_inputs(lin, aux)

@@ -2,7 +2,7 @@
 once per scene on a lattice of points, then read by each pixel instead of summing the lights there.
 
 Fast mode's light is diffuse: at a surface point it is ``Σ colour · n·l · attenuation · visibility`` over the lights
-(:func:`~benchbot_sim_taichi.kernels._direct`), which depends on the point and the side it is seen from, not on the
+(:func:`~benchbot_sim_taichi.render.kernels._direct`), which depends on the point and the side it is seen from, not on the
 eye. With shadow maps (lamps' cube maps and the sun's map, one shadow sample), it is therefore the same for every
 frame of a scene, and :func:`bake_kernel` evaluates it once, on both sides of each triangle, at the barycentric lattice
 points ``(b1, b2) = (i/n, j/n)``, ``i + j ≤ n``, with ``n = ⌈√(2 · area) / LIGHTMAP_SPACING_M⌉`` (at most
@@ -30,7 +30,7 @@ import numpy as np
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
-from benchbot_sim_taichi.kernels import _direct, _triangle_point, _v3  # noqa: E402
+from benchbot_sim_taichi.render.kernels import _direct, _triangle_point, _v3  # noqa: E402
 
 #: Spacing (m) of a triangle's lattice along its longest edge.
 LIGHTMAP_SPACING_M = 0.025
@@ -139,7 +139,7 @@ def bake_kernel(
     store: ti.types.ndarray(dtype=ti.i32, ndim=1),
 ):
     """Every lattice point of the store (:func:`layout`'s ``starts`` and ``info``): the direct light
-    (:func:`~benchbot_sim_taichi.kernels._direct`, with the render params ``params`` and the light lists as the
+    (:func:`~benchbot_sim_taichi.render.kernels._direct`, with the render params ``params`` and the light lists as the
     all-sensors kernel takes them) at the triangle's point, seen from that side, encoded RGB9E5."""
     P = starts.shape[0] - 1
     for w in range(store.shape[0]):

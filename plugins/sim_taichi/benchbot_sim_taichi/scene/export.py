@@ -1,4 +1,4 @@
-"""A :class:`~benchbot_sim_taichi.scene.Scene` as triangles for other programs.
+"""A :class:`~benchbot_sim_taichi.scene.model.Scene` as triangles for other programs.
 
 :func:`scene_mesh`: one triangle mesh (trimesh): every primitive tessellated (boxes: 12 triangles; ellipsoids:
 icospheres scaled into their box; cylinders: ``sections``-gon prisms), mesh triangles as they are, plus the room
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchbot_sim_taichi.scene import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID, PRIM_TRIANGLE
+from benchbot_sim_taichi.scene.model import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID, PRIM_TRIANGLE
 
 #: Name prefix of the exported materials of window panes.
 GLASS_MATERIAL_PREFIX = "glass_"
@@ -86,7 +86,7 @@ MAP_TO_GLTF = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 def _smooth_unit_parts(subdivisions: int, sections: int) -> dict:
     """Unit primitives (unit box / sphere / cylinders along x, y, z, centred on 0) as unindexed (T, 3, 3) triangles
     with (T, 3, 3) vertex normals: smooth where curved, sharp at creases (the box's edges, the cylinders' rims)."""
-    from benchbot_sim_taichi.meshes import smooth_normals
+    from benchbot_sim_taichi.scene.meshes import smooth_normals
 
     box, sph, cyl = _unit_parts(subdivisions, sections)
     out = {}
@@ -114,11 +114,11 @@ def export_scene(scene, path, *, subdivisions: int = 2, sections: int = 24, shel
     albedo. One node per (material, object): its name ``i<instance>_c<class>_m<n>`` carries the segmentation ids.
     Coordinates are converted from the map frame (z up) to glTF's +Y up (:data:`MAP_TO_GLTF`), so a glTF importer
     that turns +Y up into z up (Blender's) gives back map coordinates, and so does
-    :func:`benchbot_sim_taichi.meshes.load_mesh`. The scene's extras (``benchbot``) hold the lights (map frame),
+    :func:`benchbot_sim_taichi.scene.meshes.load_mesh`. The scene's extras (``benchbot``) hold the lights (map frame),
     ambient radiance, room shell and class list. Not exported: the floor's tile modulation.
 
     Args:
-        scene: a :class:`~benchbot_sim_taichi.scene.Scene`. path: the ``.glb`` file to write.
+        scene: a :class:`~benchbot_sim_taichi.scene.model.Scene`. path: the ``.glb`` file to write.
 
     Returns:
         The ``trimesh.Scene`` written.
@@ -130,7 +130,7 @@ def export_scene(scene, path, *, subdivisions: int = 2, sections: int = 24, shel
     import trimesh
     from PIL import Image
 
-    from benchbot_sim_taichi.meshes import face_normals
+    from benchbot_sim_taichi.scene.meshes import face_normals
 
     path = Path(path)
     if path.suffix.lower() != ".glb":
