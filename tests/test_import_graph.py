@@ -84,3 +84,29 @@ def test_no_import_circles(package):
     edges = import_graph(PACKAGES[package], package)
     assert len(edges) > 10  # the walk found the modules
     assert cycles(edges) == []
+
+
+def test_every_plugin_declares_the_first_party_packages_it_imports():
+    """A plugin's shipped code imports another BenchBot distribution only if its pyproject.toml depends on it
+    (robot_ros2 imported the simulator's backend and kinematics without: now the registry gives it a simulator's
+    backend, and the motion model is the core's)."""
+    import tomllib
+
+    from packaging.requirements import Requirement
+
+    undeclared = []
+    for pyproject in sorted((ROOT / "plugins").glob("*/pyproject.toml")):
+        meta = tomllib.loads(pyproject.read_text())["project"]
+        declared = {Requirement(r).name.replace("-", "_") for r in meta.get("dependencies", [])}
+        own = {p.name for p in pyproject.parent.iterdir() if (p / "__init__.py").is_file()}
+        for path in pyproject.parent.rglob("*.py"):
+            if {"tests", "tools"} & set(path.relative_to(pyproject.parent).parts):
+                continue
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                names = ([node.module] if isinstance(node, ast.ImportFrom) and node.module else
+                         [a.name for a in node.names] if isinstance(node, ast.Import) else [])
+                for name in names:
+                    top = name.split(".")[0]
+                    if top.startswith("benchbot") and top not in own | declared | {"benchbot", "benchbot_api"}:
+                        undeclared.append(f"{path.relative_to(ROOT)}: {top}")
+    assert undeclared == [], undeclared

@@ -1,4 +1,6 @@
-"""The original BenchBot's pose controller (docs/original-benchbot.md, section 6), as a pure, steppable state machine.
+"""The robot's motion model: the original BenchBot's pose controller (docs/original-benchbot.md, section 6), as a
+pure, steppable state machine, and the exact unicycle integration that simulators apply its commands with
+(:func:`integrate_unicycle`).
 
 Robot backends call :meth:`PoseController.command` at ``rate_hz`` with the robot's current SE(2) pose and apply the
 returned velocity command (simulators integrate it; real robots publish it as a Twist) until it returns ``None``.
@@ -107,3 +109,18 @@ class PoseController:
                 return (0.0, w)
             self.phase = "done"
         return None
+
+
+def integrate_unicycle(pose: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
+    """The exact pose (3,) float64 ``[x m, y m, yaw rad]`` (map frame) after driving at a constant ``v`` (m/s) and
+    ``w`` (rad/s) for ``dt`` seconds from ``pose`` (3,): a straight line for ``w`` ≈ 0, else a circular arc of radius
+    ``v / w``; yaw wrapped to [-π, π)."""
+    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
+    if abs(w) < 1e-9:
+        x += v * math.cos(th) * dt
+        y += v * math.sin(th) * dt
+    else:
+        th1 = th + w * dt
+        x += v / w * (math.sin(th1) - math.sin(th))
+        y -= v / w * (math.cos(th1) - math.cos(th))
+    return np.array([x, y, wrap_angle(th + w * dt)])

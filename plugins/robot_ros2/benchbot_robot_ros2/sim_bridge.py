@@ -132,6 +132,13 @@ def _set_pose(sim: Any, pose: np.ndarray) -> None:
     sim.set_pose(pose)
 
 
+#: What serve-sim needs of a simulator's robot backend besides :class:`benchbot.core.robot.RobotBackend`: the robot
+#: placed directly (the bridge integrates /cmd_vel itself), its obstacles, the sensors' mounts (4x4, footprint frame),
+#: the camera's intrinsics and size.
+SIMULATOR_INTERFACE = ("set_pose", "obstacles", "T_footprint_robot", "T_footprint_camera", "T_footprint_lidar",
+                       "robot_frame_height", "K", "width", "height")
+
+
 class SimBridge:
     """Serve one simulated robot over ROS 2 (see the module doc).
 
@@ -160,7 +167,6 @@ class SimBridge:
                  laser_hz: float = 10.0, transport: str = "auto", network: str = "loopback", seed: int = 0,
                  ros_robot: str | dict = "carter_ros2") -> None:
         from benchbot.core.registry import get_registry
-        from benchbot_sim_taichi.backend import create_backend
 
         from benchbot_robot_ros2.transport import make_transport
 
@@ -173,7 +179,15 @@ class SimBridge:
         options: dict[str, Any] = {"arch": arch, "seed": seed}
         if width and height:
             options.update(width=int(width), height=int(height))
-        self.sim = create_backend(self.robot_spec, options)
+        # the simulator comes from whichever plugin offers the robot's type (benchbot-sim-taichi for carter)
+        self.sim = self.registry.backend_factory(self.robot_spec["type"])(self.robot_spec, options)
+        missing = [a for a in SIMULATOR_INTERFACE if not hasattr(self.sim, a)]
+        if missing:
+            from benchbot.core.errors import BackendError
+
+            raise BackendError(f"robot '{robot}' (type {self.robot_spec['type']}) is no simulated robot that serve-sim "
+                               f"can drive: its backend lacks {', '.join(missing)}",
+                               "serve a robot of a simulator plugin, e.g. --robot carter (benchbot-sim-taichi)")
         self.time_scale = float(time_scale)
         self.camera_period = 1.0 / float(camera_hz)
         self.laser_period = 1.0 / float(laser_hz)
@@ -250,7 +264,7 @@ class SimBridge:
     def _step(self) -> None:
         """Integrate the newest fresh command for one tick; :attr:`_twist` becomes the motion made (exact unicycle
         integration: the command, or zero when the step is refused)."""
-        from benchbot_sim_taichi.kinematics import integrate_unicycle
+        from benchbot.core.motion import integrate_unicycle
 
         self._twist = (0.0, 0.0)
         v, w, t = self._cmd

@@ -44,7 +44,7 @@ class FakeRobot:
 
     def _run(self) -> None:
         from benchbot.core.geometry import se2_to_matrix
-        from benchbot_sim_taichi.kinematics import integrate_unicycle
+        from benchbot.core.motion import integrate_unicycle
 
         static = self.tr.message("tf2_msgs/msg/TFMessage")
         static.transforms = [self._tf("base_link", "lidar", np.eye(4))]

@@ -1,5 +1,6 @@
-"""Planar robot motion for the Taichi simulator (pure NumPy/math, no Taichi): exact unicycle integration of the
-pose controller's commands and a circular-footprint collision check against the room walls and object boxes.
+"""Planar robot motion for the Taichi simulator (pure NumPy/math, no Taichi): the pose controller's commands
+integrated exactly (:func:`benchbot.core.motion.integrate_unicycle`) and a circular-footprint collision check against
+the room walls and object boxes.
 
 Frames and units: SE(2) poses ``[x m, y m, yaw rad]`` in the ``map`` frame.
 """
@@ -12,22 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchbot.core.geometry import wrap_angle
-from benchbot.core.motion import ControllerGains, PoseController
+from benchbot.core.motion import ControllerGains, PoseController, integrate_unicycle
 from benchbot.core.robot import MotionOutcome
-
-
-def integrate_unicycle(pose: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
-    """Exact pose (3,) float64 after driving at constant ``v`` (m/s) and ``w`` (rad/s) for ``dt`` seconds from
-    ``pose`` (3,) ``[x, y, yaw]``; yaw wrapped to [-π, π)."""
-    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
-    if abs(w) < 1e-9:
-        x += v * math.cos(th) * dt
-        y += v * math.sin(th) * dt
-    else:
-        th1 = th + w * dt
-        x += v / w * (math.sin(th1) - math.sin(th))
-        y -= v / w * (math.cos(th1) - math.cos(th))
-    return np.array([x, y, wrap_angle(th + w * dt)])
 
 
 @dataclass
