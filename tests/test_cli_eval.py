@@ -144,7 +144,7 @@ def test_gt_command(registry, tmp_path):
 def test_gt_command_writes_the_original_layout(registry, tmp_path):
     """--layout original: the original's ground-truth file {environment, format, ground_truth}, valid as a ground
     truth spec (the layout of a content pack's ground_truths/ files)."""
-    from benchbot.core.registry import validate
+    from benchbot.core.specs import validate
 
     out = tmp_path / "miniroom_1.json"
     proc = cli("gt", "miniroom:1", "--layout", "original", "-o", str(out))

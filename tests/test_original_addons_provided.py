@@ -20,7 +20,8 @@ import pytest
 from typer.testing import CliRunner
 
 from benchbot.core import original_addons as oa
-from benchbot.core.registry import Registry, load_spec_file
+from benchbot.core.registry import Registry
+from benchbot.core.specs import load_spec_file
 
 ROOT = Path(__file__).resolve().parents[1]
 ADDONS = ROOT / "tests" / "data" / "original_addons"

@@ -140,7 +140,7 @@ def test_every_hook_says_since_when_and_a_retired_one_warns_its_implementers():
 
 def test_every_hookspec_is_called_by_the_core():
     # datasette's habit: a hook nobody calls is a promise nobody keeps
-    from benchbot.core.registry import KIND_SCHEMAS
+    from benchbot.core.specs import KIND_SCHEMAS
 
     sources = "\n".join(p.read_text() for p in (ROOT / "benchbot").rglob("*.py")
                         if p.name not in ("hookspecs.py", "hookdoc.py", "testing.py"))

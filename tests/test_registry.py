@@ -11,7 +11,8 @@ import pytest
 
 from benchbot.core.errors import SpecError
 from benchbot.core.hookspecs import hookimpl
-from benchbot.core.registry import Registry, schema_dir
+from benchbot.core.registry import Registry
+from benchbot.core.specs import schema_dir
 
 EXPECTED = {
     "tasks": 6, "formats": 3, "evaluators": 1, "robots": 3, "environments": 10, "ground_truths": 10, "batches": 7,

@@ -227,7 +227,7 @@ def test_what_a_sandboxed_process_sees_and_can_do(tmp_path, served, registry):
 
 
 def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry):
-    from benchbot.core.content_packs import data_dir
+    from benchbot.core.pack_layout import data_dir
     from benchbot.core.sandbox import hidden_folders, python_folders
 
     hidden = hidden_folders(registry)

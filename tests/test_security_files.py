@@ -95,7 +95,7 @@ def test_install_refuses_a_format_that_names_os_system(tmp_path, data_dir):
     registry = Registry()
     for function in ("subprocess:getoutput", "benchbot.core.atomic:write_json", "benchbot_packs.other.x:y"):
         (pack / "formats" / "f.yaml").write_text(EVIL_FORMAT.format(function=function))
-        assert f"formats/f.yaml: $.functions.create: '{function}'" in cp.verify_pack(pack).errors[0]  # --dry-run
+        assert f"formats/f.yaml: $.functions.create: '{function}'" in cp.verify_pack(pack, registry=registry).errors[0]  # --dry-run
         with pytest.raises(cp.PackError) as exc:
             cp.install_pack(pack, allow_code=True, registry=registry)
         assert f"formats/f.yaml: $.functions.create: '{function}'" in exc.value.details[0]

@@ -14,7 +14,7 @@ from pathlib import Path
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_BATCH_EPISODES
-from benchbot.core.registry import json_path, validator
+from benchbot.core.specs import json_path, validator
 
 MANIFEST = "manifest.json"
 

@@ -204,7 +204,7 @@ def check_port(port: int = 10000) -> Check:
 
 
 def check_data_dir() -> Check:
-    from benchbot.core.content_packs import data_dir
+    from benchbot.core.pack_layout import data_dir
 
     path = data_dir()
     try:

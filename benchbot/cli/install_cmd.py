@@ -15,7 +15,8 @@ from benchbot.core import settings
 from benchbot.cli.common import err, handle_errors
 from rich.markup import escape
 
-from benchbot.core.content_packs import PackError, install_pack, installed_packs, pack_name, uninstall_pack
+from benchbot.core.content_packs import install_pack, installed_packs, pack_name, uninstall_pack
+from benchbot.core.pack_layout import PackError
 from benchbot.core.original_addons import is_addon_folder
 from benchbot.core.errors import BenchbotError, UsageError
 
@@ -136,15 +137,14 @@ def register(app: typer.Typer) -> None:
             raise UsageError("--override applies to content packs only", "give the folder of a content pack")
         # --dry-run takes the same path: every check, the same errors and exit code, nothing copied; one registry
         # for all its packs, into which each checked pack is staged as the real install would have installed it
-        staging = None
-        if dry_run and packs:
-            from benchbot.core.registry import Registry
+        # (a real install checks each pack against what is installed when its turn comes)
+        from benchbot.core.registry import Registry
 
-            staging = Registry()
+        staging = Registry() if dry_run and packs else None
         for target in packs:
             try:
                 manifest = install_pack(target, name=name, allow_code=allow_code, force=force, override=override,
-                                        dry_run=dry_run, registry=staging)
+                                        dry_run=dry_run, registry=staging if staging is not None else Registry())
             except PackError as exc:
                 _print_details(exc)
                 raise

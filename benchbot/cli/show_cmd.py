@@ -10,7 +10,7 @@ import yaml
 from benchbot.cli.common import handle_errors, out, registry
 from benchbot.cli.list_cmd import KINDS_HELP, Kind, parse_kind
 from benchbot.core.errors import UsageError
-from benchbot.core.registry import singular
+from benchbot.core.specs import singular
 
 
 def register(app: typer.Typer) -> None:

@@ -148,7 +148,7 @@ def load_asset_manifest(path: Path | str) -> list[AssetInfo]:
     Raises:
         SpecError: one line ``"<manifest>: $.assets[3].size_m: <what is wrong>"`` naming the file and the field.
     """
-    from benchbot.core.registry import validate
+    from benchbot.core.specs import validate
 
     path = Path(path).resolve()
     data = load_data_file(path, MAX_SPEC_BYTES, SpecError)

@@ -5,7 +5,7 @@ A pack holds spec files in type folders — ``tasks/``, ``robots/``, ``environme
 file directly inside a folder of that name, anywhere in the pack (the original's discovery rule; files in
 sub-folders of a type folder are ignored). ``benchbot install ./my_pack`` validates every file, refuses names that
 clash with installed content, and copies the pack atomically to ``<data dir>/packs/<name>/`` with a manifest
-``.benchbot-pack.json``; the built-in plugin ``benchbot.plugins.content_packs`` loads the installed packs.
+``.benchbot-pack.json``; the built-in plugin ``benchbot.plugins.installed_packs`` loads the installed packs.
 ``benchbot install --dry-run`` runs :func:`install_pack` with ``dry_run=True``: every check of a real install,
 the same errors and exit code, and nothing copied.
 
@@ -64,27 +64,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from benchbot.core import settings
-from benchbot.core.errors import BenchbotError, ExitCode, SpecError
+from benchbot.core.errors import SpecError
+from benchbot.core.pack_layout import (
+    FOLDER_KINDS, IGNORED, MANIFEST, PackError, data_dir, packs_dir, spec_files,
+)
+from benchbot.core.specs import SPEC_SUFFIXES
 
 if TYPE_CHECKING:  # pragma: no cover
     from benchbot.core.registry import Registry
 
-FOLDER_KINDS = {
-    "tasks": "tasks",
-    "robots": "robots",
-    "environments": "environments",
-    "formats": "formats",
-    "evaluation_methods": "evaluators",
-    "evaluators": "evaluators",
-    "ground_truths": "ground_truths",
-    "examples": "examples",
-    "batches": "batches",
-}
-"""Pack folder name → registry kind (the original's ``evaluation_methods`` is our ``evaluators``)."""
-
-SPEC_SUFFIXES = (".yaml", ".yml", ".json")
-MANIFEST = ".benchbot-pack.json"
 CODE_APPROVALS = "code-approvals.json"
 """The user's record, in the data directory (outside every pack), of the packs installed with ``--allow-code``:
 ``{"packs": {name: {"digest": "sha256:…", "source": folder, "approved_at": Unix s}}}``. A pack's code runs only
@@ -92,43 +80,14 @@ while its files still have the digest recorded when the user allowed it (:func:`
 NAMESPACE = "benchbot_packs"
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
 _IDENT_RE = re.compile(r"^[A-Za-z_]\w*$")
-_IGNORED = {".git", "__pycache__", ".venv", ".mypy_cache", ".pytest_cache", MANIFEST}
 _FUNCTION_RE = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*$")
 PLUGIN = "content_packs"
-"""The entry-point name of the built-in plugin that loads installed packs (``benchbot.plugins.content_packs``)."""
+"""The entry-point name of the built-in plugin that loads installed packs (``benchbot.plugins.installed_packs``)."""
 LOAD_ERROR_KEY = "_load_error"
 """A spec dict carrying this key is reported by the registry as that one-line problem instead of registered."""
 OVERRIDE_KEY = "_benchbot_override"
 """Set (only) by :func:`load_installed_specs` on a spec that its pack's manifest lists in ``overrides``: the
 registry lets it replace another source's spec of the same name. Removed from every spec file a pack holds."""
-
-
-class PackError(BenchbotError):
-    """A content pack is invalid, unsafe, clashes with installed content, or cannot be installed.
-
-    Attributes:
-        details: one line per problem (``<file>: <$.json.path>: <message>``), printed before the message.
-    """
-
-    exit_code = ExitCode.SPEC
-
-    def __init__(self, message: str, hint: str = "", details: list[str] | None = None) -> None:
-        super().__init__(message, hint)
-        self.details = list(details or [])
-
-
-def data_dir() -> Path:
-    """BenchBot's data directory: ``$BENCHBOT_DATA_DIR``, else ``$XDG_DATA_HOME/benchbot``, else
-    ``~/.local/share/benchbot`` (not created)."""
-    if settings.get("BENCHBOT_DATA_DIR"):
-        return Path(settings.get("BENCHBOT_DATA_DIR")).expanduser()
-    xdg = settings.get("XDG_DATA_HOME")
-    return (Path(xdg).expanduser() if xdg else Path.home() / ".local" / "share") / "benchbot"
-
-
-def packs_dir() -> Path:
-    """``<data dir>/packs`` (not created)."""
-    return data_dir() / "packs"
 
 
 def approvals_path() -> Path:
@@ -148,10 +107,10 @@ def pack_digest(root: Path) -> str:
     root = Path(root)
     entries: list[tuple[str, Path, os.stat_result]] = []
     for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
-        dirnames[:] = sorted(d for d in dirnames if d not in _IGNORED)
+        dirnames[:] = sorted(d for d in dirnames if d not in IGNORED)
         for fname in sorted(filenames):
             path = Path(dirpath) / fname
-            if fname in _IGNORED or fname.endswith(".pyc"):
+            if fname in IGNORED or fname.endswith(".pyc"):
                 continue
             entries.append((path.relative_to(root).as_posix(), path, path.lstat()))
     entries.sort(key=lambda e: e[0])
@@ -285,7 +244,7 @@ def _check_tree(root: Path) -> list[str]:
     """Safety problems of the files under ``root``: escaping symlinks, symlinked folders, special files."""
     problems = []
     for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
-        dirnames[:] = [d for d in dirnames if d not in _IGNORED]
+        dirnames[:] = [d for d in dirnames if d not in IGNORED]
         for entry in dirnames + filenames:
             path = Path(dirpath) / entry
             rel = path.relative_to(root).as_posix()
@@ -299,25 +258,6 @@ def _check_tree(root: Path) -> list[str]:
             elif not (stat.S_ISDIR(mode) or stat.S_ISREG(mode)):
                 problems.append(f"{rel}: not a regular file or folder")
     return problems
-
-
-def _spec_files(root: Path) -> list[tuple[str, Path]]:
-    """``(kind, path)`` of every spec file directly inside a type folder anywhere under ``root`` (sorted)."""
-    found = []
-    for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
-        dirnames[:] = sorted(d for d in dirnames if d not in _IGNORED and not d.startswith("."))
-        folder = Path(dirpath)
-        kind = FOLDER_KINDS.get(folder.name) if folder != root else None
-        if kind is None:
-            continue
-        for fname in sorted(filenames):
-            path = folder / fname
-            if path.suffix not in SPEC_SUFFIXES or fname.startswith(".") or not path.is_file():
-                continue
-            if path.is_symlink() and not path.resolve().is_relative_to(root):
-                continue  # reported by _check_tree
-            found.append((kind, path))
-    return found
 
 
 def _pack_module(root: Path, folder: Path, dotted: str, pack: str) -> str | None:
@@ -398,7 +338,7 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
     Raises:
         PackError: ``path`` is not a folder, or the name is invalid.
     """
-    from benchbot.core.registry import KIND_SCHEMAS, entry_name, load_spec_file, singular, validate
+    from benchbot.core.specs import KIND_SCHEMAS, entry_name, load_spec_file, singular, validate
 
     given = Path(path).expanduser()
     if not given.is_dir():
@@ -406,7 +346,7 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
     root = given.resolve()
     scan = PackScan(pack_name(name or root.name), root)
     scan.errors.extend(_check_tree(root))
-    for kind, file in _spec_files(root):
+    for kind, file in spec_files(root):
         pf = PackFile(kind, file, file.relative_to(root).as_posix())
         scan.files.append(pf)
         spec: dict | None = None
@@ -502,21 +442,17 @@ def _function_errors(scan: PackScan, allow_code: bool, allowed: set[str]) -> lis
     return problems
 
 
-def verify_pack(path: Path | str, name: str | None = None, registry: "Registry | None" = None) -> PackScan:
+def verify_pack(path: Path | str, name: str | None = None, *, registry: "Registry") -> PackScan:
     """:func:`scan_pack`, plus the functions check: every function that is not pack code must be in a module of an
     installed plugin's formats/evaluators (:func:`function_problem`); problems are added to ``errors``.
 
     Args:
-        registry: the installed content (default: a fresh ``Registry()``).
+        registry: the installed content (a :class:`~benchbot.core.registry.Registry`).
 
     Raises:
         PackError: ``path`` is not a folder, or the name is invalid.
     """
     scan = scan_pack(path, name)
-    if registry is None:
-        from benchbot.core.registry import Registry
-
-        registry = Registry()
     scan.errors.extend(_function_errors(scan, True, plugin_function_modules(registry)))
     return scan
 
@@ -603,7 +539,7 @@ def _classify(scan: PackScan, registry: "Registry", replacing: Path | None, over
     spec that a first-party plugin re-implements (provided), a robot this machine cannot run (the installed one
     stays), a ground truth of another set (an alternative), or a real clash."""
     from benchbot.core.original_addons import built_in_counterpart, ground_truth_set_of
-    from benchbot.core.registry import singular
+    from benchbot.core.specs import singular
     from benchbot.core.spec_meaning import differences
 
     out = _Classified()
@@ -678,7 +614,7 @@ def _usability_notes(scan: PackScan, registry: "Registry", overrides: dict[str, 
     """Notes on content that installs but cannot be used here: robots of a type no plugin runs (listed as
     unavailable), batches naming environments that are not installed."""
     from benchbot.core.original_addons import compact_names, shown
-    from benchbot.core.registry import singular
+    from benchbot.core.specs import singular
 
     notes = []
     envs = set(registry.entries.get("environments", {}))
@@ -718,7 +654,7 @@ def _stage(registry: "Registry", scan: PackScan, dest: Path, overrides: dict[str
     entries of the pack's future folder), so the next pack of the same ``benchbot install --dry-run`` is checked
     against it as a real install checks it against the installed pack. Specs a built-in provides
     (``built_in``) are left out, as the registry leaves them out of an installed pack."""
-    from benchbot.core.registry import Entry
+    from benchbot.core.specs import Entry
     from benchbot.core.spec_meaning import same_meaning
 
     for pf in scan.files:
@@ -738,7 +674,7 @@ def _stage(registry: "Registry", scan: PackScan, dest: Path, overrides: dict[str
 
 
 def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool = False, force: bool = False,
-                 override: bool = False, dry_run: bool = False, registry: "Registry | None" = None) -> dict:
+                 override: bool = False, dry_run: bool = False, registry: "Registry") -> dict:
     """Validate the pack at ``path`` and copy it atomically to ``<data dir>/packs/<name>/``.
 
     ``dry_run=True`` runs every check of a real install (the same errors, so the same exit code) and copies
@@ -752,7 +688,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
         override: let the pack's specs replace installed specs of the same name that differ in meaning
             (``--override``; recorded in the manifest's ``overrides``, undone by uninstalling the pack).
         dry_run: check everything, change nothing.
-        registry: the installed content to check clashes against (default: a fresh ``Registry()``).
+        registry: the installed content to check clashes against (a :class:`~benchbot.core.registry.Registry`).
 
     Returns:
         The manifest (written, or that would be written): ``name``, ``source``, ``allow_code``, ``code``
@@ -772,10 +708,6 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
             names clashing with installed specs that differ in meaning (without ``override``, naming both
             sources and the fields that differ); or the copy failed.
     """
-    if registry is None:
-        from benchbot.core.registry import Registry
-
-        registry = Registry()
     from benchbot.core.original_addons import addon_notes, addon_problem
 
     given = Path(path).expanduser()
@@ -783,7 +715,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
         problem = addon_problem(given.resolve(), registry)
         if problem is not None:
             raise problem
-    scan = verify_pack(path, name, registry)
+    scan = verify_pack(path, name, registry=registry)
     if scan.errors:
         raise PackError(f"pack '{scan.name}' ({scan.root}) has {len(scan.errors)} problem(s); nothing installed",
                         "fix the files listed above", scan.errors)
@@ -837,7 +769,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
     old: Path | None = None
     try:
         shutil.copytree(scan.root, tmp, symlinks=False, dirs_exist_ok=True,
-                        ignore=shutil.ignore_patterns(*_IGNORED, "*.pyc"))
+                        ignore=shutil.ignore_patterns(*IGNORED, "*.pyc"))
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
         if dest.exists():
             old = base / f".old-{scan.name}-{os.getpid()}-{time.monotonic_ns()}"

@@ -13,7 +13,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from benchbot.core.errors import BenchbotError, ResultsError, SpecError, UsageError
-from benchbot.core.registry import Registry, json_path, validator
+from benchbot.core.registry import Registry
+from benchbot.core.specs import json_path, validator
 from benchbot.core.limits import MAX_RESULTS_BYTES
 from benchbot.core.safe_load import is_zip_archive, parse_json, path_kind, read_capped, zip_members
 

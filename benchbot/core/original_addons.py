@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from benchbot.core.content_packs import FOLDER_KINDS, PackError, _spec_files
+from benchbot.core.pack_layout import FOLDER_KINDS, PackError, spec_files
 
 if TYPE_CHECKING:  # pragma: no cover
     from benchbot.core.registry import Registry
@@ -164,7 +164,7 @@ def remote_fetched(root: Path, remote: Remote) -> bool:
     """Whether the content of ``remote`` is already in the add-on: spec files in its folder (someone downloaded
     and unzipped it by hand)."""
     target = (root / remote.target).resolve()
-    return any(path.resolve().is_relative_to(target) for _, path in _spec_files(root))
+    return any(path.resolve().is_relative_to(target) for _, path in spec_files(root))
 
 
 def _known_remote(root: Path, remote: Remote) -> KnownRemote | None:
@@ -212,7 +212,7 @@ def remote_refusal(root: Path, remote: Remote, registry: "Registry") -> PackErro
     Raises:
         PackError: ``.dependencies`` is unreadable (naming it).
     """
-    from benchbot.core.registry import singular
+    from benchbot.core.specs import singular
 
     name = shown(root.name, 64)
     known = _known_remote(root, remote)
@@ -258,7 +258,7 @@ def addon_problem(root: Path, registry: "Registry") -> PackError | None:
     Raises:
         PackError: a marker file is unreadable or malformed (naming it).
     """
-    if _spec_files(root):
+    if spec_files(root):
         return None
     remote = read_remote(root)
     if remote is not None:

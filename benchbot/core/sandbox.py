@@ -176,7 +176,7 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     Returns:
         Absolute, resolved folders, sorted (never raises for a path that does not exist: it is simply left out).
     """
-    from benchbot.core.content_packs import data_dir
+    from benchbot.core.pack_layout import data_dir
     from benchbot.core.server.redaction import ground_truth_strings
 
     files: set[str] = set()
@@ -223,7 +223,7 @@ def python_folders() -> list[Path]:
     install's source folder, ``PYTHONPATH``), only its Python packages (folders with ``__init__.py``) and modules
     (``.py`` files), never the folder itself with whatever else it holds (run directories, data, tests' files);
     and BenchBot's JSON Schemas (a repository's ``schemas/`` in an editable install)."""
-    from benchbot.core.registry import schema_dir
+    from benchbot.core.specs import schema_dir
 
     prefixes = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix)}
     shown = set(prefixes) | {schema_dir().resolve()}

@@ -56,7 +56,7 @@ _SCHEMAS = {"tasks": "task", "robots": "robot", "environments": "environment", "
 
 def _defaults(kind: str) -> dict[str, Any]:
     """``{field: default}`` of the top-level properties of the kind's schema that declare one."""
-    from benchbot.core.registry import validator
+    from benchbot.core.specs import validator
 
     schema = validator(_SCHEMAS[kind]).schema
     return {key: prop["default"] for key, prop in (schema.get("properties") or {}).items()

@@ -34,7 +34,7 @@ def _fail(what: str, problems: list[str]) -> None:
 
 
 def _load(raw: Any) -> dict:
-    from benchbot.core.registry import load_spec_file
+    from benchbot.core.specs import load_spec_file
 
     if isinstance(raw, (str, Path)):
         return load_spec_file(Path(raw))
@@ -45,12 +45,12 @@ def _load(raw: Any) -> dict:
 
 def spec_items(specs: Iterable[Any]) -> list:
     """What a content hook returned, with every folder replaced by the spec files in it (as the registry reads
-    them: :func:`benchbot.core.registry.expand_spec_folders`), so each item can go to a ``check_*`` function.
+    them: :func:`benchbot.core.specs.expand_spec_folders`), so each item can go to a ``check_*`` function.
 
     Args:
         specs: the hook's list: dicts, and paths of spec files or of folders of them.
     """
-    from benchbot.core.registry import expand_spec_folders
+    from benchbot.core.specs import expand_spec_folders
 
     return expand_spec_folders(list(specs))
 
@@ -84,7 +84,7 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
 
     from benchbot.core import hookspecs
     from benchbot.core.errors import SpecError
-    from benchbot.core.registry import KIND_SCHEMAS, entry_name, expand_spec_folders, singular, validate
+    from benchbot.core.specs import KIND_SCHEMAS, entry_name, expand_spec_folders, singular, validate
 
     pm = pluggy.PluginManager(hookspecs.PROJECT_NAME)
     for hook_class in hookspecs.HOOK_CLASSES:
@@ -269,7 +269,7 @@ def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, 
     Raises:
         AssertionError: every contract violation found.
     """
-    from benchbot.core.registry import validate
+    from benchbot.core.specs import validate
     from benchbot.core.robot import MotionOutcome, RobotBackend
 
     validate({k: v for k, v in robot_spec.items() if k != "_file_path"}, "robot", "robot_spec")
@@ -344,7 +344,7 @@ def check_format(spec: dict | str | Path) -> dict:
         AssertionError: a problem.
     """
     from benchbot.core.plugin_manager import import_object
-    from benchbot.core.registry import validate
+    from benchbot.core.specs import validate
 
     spec = _load(spec)
     validate({k: v for k, v in spec.items() if k != "_file_path"}, "format", f"format '{spec.get('name')}'")
@@ -377,7 +377,7 @@ def check_evaluator(spec: dict | str | Path, results: dict, ground_truths: list[
         AssertionError: a problem.
     """
     from benchbot.core.plugin_manager import import_object
-    from benchbot.core.registry import validate
+    from benchbot.core.specs import validate
 
     spec = _load(spec)
     name = spec.get("name")
@@ -427,7 +427,7 @@ def check_task(spec: dict | str | Path, *, registry: Any = None, robots: Iterabl
     Raises:
         AssertionError: a problem.
     """
-    from benchbot.core.registry import validate
+    from benchbot.core.specs import validate
 
     spec = _load(spec)
     validate({k: v for k, v in spec.items() if k != "_file_path"}, "task", f"task '{spec.get('name')}'")

@@ -37,7 +37,7 @@ from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import se2_relative, se2_to_matrix, start_pose_to_se2
 from benchbot.core.motion import ControllerGains, PoseController
-from benchbot.core.registry import first_error
+from benchbot.core.specs import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
 #: Defaults of the robot spec's ``ros2`` block (see docs/ros2.md).
@@ -65,7 +65,7 @@ DEFAULTS: dict[str, Any] = {
 }
 
 #: The schema of what this backend reads of a robot spec beyond ``schemas/``: its ``connections`` and ``ros2`` block
-#: (package data, validated by :func:`benchbot.core.registry.first_error`).
+#: (package data, validated by :func:`benchbot.core.specs.first_error`).
 ROBOT_SCHEMA = Path(__file__).resolve().parent / "schemas" / "robot.schema.json"
 
 _DEFAULT_CONVERTERS = {

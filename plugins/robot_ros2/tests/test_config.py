@@ -10,7 +10,7 @@ import copy
 import pytest
 
 from benchbot.core.errors import BackendError
-from benchbot.core.registry import first_error, load_spec_file, validator
+from benchbot.core.specs import first_error, load_spec_file, validator
 from benchbot_robot_ros2 import plugin
 from benchbot_robot_ros2.backend import DEFAULTS, ROBOT_SCHEMA, Ros2RobotBackend, ros2_config
 from benchbot_robot_ros2.testing import FAKE_SPEC

@@ -70,13 +70,14 @@ def _pack(folder: Path) -> Path:
 @pytest.mark.slow
 def test_turtlebot4_frames_and_topics_end_to_end_with_a_recording(tmp_path, domain_id):
     from benchbot.core.content_packs import install_pack
+    from benchbot.core.registry import Registry
 
     dom = domain_id + 13
     env = dict(os.environ, BENCHBOT_DATA_DIR=str(tmp_path / "data"), ROS_DOMAIN_ID=str(dom),
                BENCHBOT_ROS2_TIME_SCALE="4", COLUMNS="200")
     os.environ["BENCHBOT_DATA_DIR"], saved = str(tmp_path / "data"), os.environ["BENCHBOT_DATA_DIR"]
     try:
-        install_pack(_pack(tmp_path / "pack"))
+        install_pack(_pack(tmp_path / "pack"), registry=Registry())
     finally:
         os.environ["BENCHBOT_DATA_DIR"] = saved
     log = open(tmp_path / "serve-sim.log", "w")

@@ -26,7 +26,7 @@ from benchbot.core import stages
 from benchbot.core.errors import BackendError, UsageError
 from benchbot.core.geometry import rpy_to_matrix, se2_to_matrix
 from benchbot.core.motion import ControllerGains
-from benchbot.core.registry import first_error
+from benchbot.core.specs import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
 from benchbot_sim_taichi.render.camera_model import CameraModel
@@ -52,7 +52,7 @@ DEFAULT_SENSORS: dict[str, Any] = {
 }
 
 #: The schemas of what this backend reads beyond ``schemas/``: the robot spec's ``sensors`` block and the options
-#: (package data, validated by :func:`benchbot.core.registry.first_error`).
+#: (package data, validated by :func:`benchbot.core.specs.first_error`).
 SCHEMA_DIR = Path(__file__).resolve().parent / "schemas"
 ROBOT_SCHEMA = SCHEMA_DIR / "robot.schema.json"
 OPTIONS_SCHEMA = SCHEMA_DIR / "options.schema.json"

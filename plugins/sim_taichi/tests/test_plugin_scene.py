@@ -135,12 +135,12 @@ def test_lighting_parse():
 
 
 def test_specs_pass_core_schemas():
-    from benchbot.core import registry
+    from benchbot.core import specs
     from benchbot_sim_taichi import bear, plugin
 
     for e in bear.environment_specs():
-        registry.validate(e, "environment", "sim_taichi")
+        specs.validate(e, "environment", "sim_taichi")
     for g in bear.ground_truth_specs():
-        registry.validate(g, "ground_truth", "sim_taichi")
+        specs.validate(g, "ground_truth", "sim_taichi")
     (path,) = plugin.benchbot_robots()
-    registry.validate(registry.load_spec_file(Path(path)), "robot", path)
+    specs.validate(specs.load_spec_file(Path(path)), "robot", path)

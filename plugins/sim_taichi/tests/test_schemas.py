@@ -10,7 +10,7 @@ import math
 import pytest
 
 from benchbot.core.errors import BackendError
-from benchbot.core.registry import first_error, load_spec_file, validator
+from benchbot.core.specs import first_error, load_spec_file, validator
 from benchbot_sim_taichi import bear, plugin
 from benchbot_sim_taichi.backend import (
     DEFAULT_SENSORS, OPTIONS_SCHEMA, ROBOT_SCHEMA, TaichiSimBackend, sensor_config,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from benchbot.core.registry import expand_spec_folders
+from benchbot.core.specs import expand_spec_folders
 from benchbot.plugins import testing
 
 

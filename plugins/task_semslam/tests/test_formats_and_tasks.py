@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from benchbot.core.errors import ResultsError
-from benchbot.core.registry import expand_spec_folders
+from benchbot.core.specs import expand_spec_folders
 from benchbot_task_semslam import formats, plugin
 
 #: Unmodified ground-truth files of the original's ``ground_truths_isaac_develop`` add-on (tests/data: MANIFEST.json).

@@ -21,7 +21,7 @@ import numpy as np
 from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix, start_pose_to_se2
-from benchbot.core.registry import first_error
+from benchbot.core.specs import first_error
 from benchbot_sim_taichi.bear import lighting_of_map_path
 from benchbot_sim_taichi.scene.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
 from benchbot_sim_taichi.scene.model import (

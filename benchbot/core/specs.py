@@ -1,0 +1,206 @@
+"""Spec files and their schemas: the kinds of content (:data:`KIND_SCHEMAS`), loading a spec file, validating it
+against ``schemas/`` (JSON Schema 2020-12) and the checks a schema cannot express, a registered spec
+(:class:`Entry`) and its index name. The registry (:mod:`benchbot.core.registry`) and content packs
+(:mod:`benchbot.core.content_packs`) both build on this module, which imports neither.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+
+from benchbot.core.errors import SpecError
+from benchbot.core.limits import MAX_SPEC_BYTES
+from benchbot.core.names import close_names
+from benchbot.core.safe_load import load_data_file
+
+KIND_SCHEMAS = {
+    "tasks": "task",
+    "robots": "robot",
+    "environments": "environment",
+    "formats": "format",
+    "evaluators": "evaluator",
+    "examples": "example",
+    "batches": "batch",
+    "ground_truths": "ground_truth",
+}
+
+
+def schema_dir() -> Path:
+    """The folder of the JSON Schemas: inside the installed wheel, or the repository's ``schemas/``."""
+    packaged = resources.files("benchbot") / "schemas"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parents[2] / "schemas"
+
+
+@functools.lru_cache(maxsize=None)
+def validator(schema_name: "str | Path") -> jsonschema.Draft202012Validator:
+    """The Draft 2020-12 validator of ``schemas/<schema_name>.schema.json``, or, when ``schema_name`` is a
+    :class:`~pathlib.Path`, of that schema file (a plugin's schema of the fields its robot backend reads, shipped in
+    the plugin's package: ``benchbot_<plugin>/schemas/``).
+
+    Raises:
+        OSError: the schema file cannot be read. jsonschema.SchemaError: it is not a valid Draft 2020-12 schema.
+    """
+    path = schema_name if isinstance(schema_name, Path) else schema_dir() / f"{schema_name}.schema.json"
+    schema = json.loads(path.read_text(encoding="utf-8"))
+    jsonschema.Draft202012Validator.check_schema(schema)
+    return jsonschema.Draft202012Validator(schema)
+
+
+def json_path(path: "list[Any] | Any") -> str:
+    """``$.a.b[3].c`` from a jsonschema error path."""
+    out = "$"
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else f".{part}"
+    return out
+
+
+def first_error(instance: Any, schema_name: "str | Path") -> "tuple[str, str] | None":
+    """The first error (by path) of ``instance`` against a schema (``schema_name`` as for :func:`validator`), as
+    ``(<$.json.path>, <message>)``, or ``None`` when it is valid. The message is jsonschema's, one line; where an
+    ``anyOf``/``oneOf`` fails and its schema has a ``description``, the description is added as what was expected
+    (jsonschema's own message names no alternative)."""
+    errors = sorted(validator(schema_name).iter_errors(instance), key=lambda e: list(map(str, e.absolute_path)))
+    if not errors:
+        return None
+    err = errors[0]
+    message = err.message
+    if err.validator in ("anyOf", "oneOf") and isinstance(err.schema, dict) and err.schema.get("description"):
+        message += f" (expected {err.schema['description']})"
+    return json_path(err.absolute_path), message
+
+
+def validate(instance: Any, schema_name: str, source: str) -> None:
+    """Validate ``instance`` against ``schemas/<schema_name>.schema.json``.
+
+    A task's ``actions`` must also be actions the episode performs (:func:`check_task_actions`).
+
+    Raises:
+        SpecError: ``"<source>: <$.json.path>: <message>"`` for the first error (by path).
+    """
+    error = first_error(instance, schema_name)
+    if error:
+        raise SpecError(f"{source}: {error[0]}: {error[1]}",
+                        f"fix the field to match schemas/{schema_name}.schema.json")
+    if schema_name == "task":
+        check_task_actions(instance, source)
+    if schema_name == "evaluator":
+        check_evaluator_scores(instance, source)
+
+
+def check_evaluator_scores(spec: dict, source: str) -> None:
+    """An evaluator's ``scores`` declaration (when it has one) names each score once and marks exactly one
+    ``primary`` (docs/evaluation.md, "Declaring scores").
+
+    Raises:
+        SpecError: ``"<source>: $.scores: ..."`` naming the scores at fault.
+    """
+    scores = spec.get("scores") or []
+    names = [s["name"] for s in scores]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise SpecError(f"{source}: $.scores: '{twice[0]}' is declared twice", "declare each score once")
+    primary = [s["name"] for s in scores if s.get("primary")]
+    if scores and len(primary) != 1:
+        raise SpecError(f"{source}: $.scores: {len(primary)} scores are primary ({', '.join(primary) or 'none'})",
+                        "mark exactly one score 'primary: true': the one that ranks, compares and summarises")
+
+
+def check_task_actions(task: dict, source: str) -> None:
+    """Every name in a task spec's ``actions`` must be one of :data:`benchbot.core.episode.ACTIONS` (else no robot
+    could perform it; checked when the registry loads the spec and when ``benchbot install`` scans a pack).
+
+    Raises:
+        SpecError: ``"<source>: $.actions[i]: unknown action 'x' (did you mean …?)"``, or with the list of actions
+            when no name is close (in the message, which ``benchbot install`` lists per file).
+    """
+    from benchbot.core.episode import ACTIONS
+
+    for i, action in enumerate(task.get("actions") or []):
+        if action not in ACTIONS:
+            close = close_names(action, list(ACTIONS))
+            guess = f" (did you mean {', '.join(close)}?)" if close else f" (the actions are {', '.join(ACTIONS)})"
+            raise SpecError(f"{source}: $.actions[{i}]: unknown action '{action}'{guess}",
+                            f"the actions are {', '.join(ACTIONS)}")
+
+
+SPEC_SUFFIXES = (".yaml", ".yml", ".json")
+"""The file suffixes of spec files that a folder returned by a content hook contributes."""
+
+
+def expand_spec_folders(specs: list) -> list:
+    """A content hook's list with every folder replaced by the spec files directly inside it.
+
+    Args:
+        specs: what a content hook returned: dicts, and paths (``str``/``Path``) of spec files or of folders.
+
+    Returns:
+        The same items in order, a folder replaced by its files whose suffix is in :data:`SPEC_SUFFIXES`, sorted by
+        name (not recursive); a folder with none stays as it is, so that loading it reports the folder by name.
+    """
+    out: list = []
+    for raw in specs:
+        if isinstance(raw, (str, Path)) and Path(raw).is_dir():
+            files = sorted(p for p in Path(raw).iterdir() if p.suffix in SPEC_SUFFIXES and p.is_file())
+            out.extend(files or [raw])
+        else:
+            out.append(raw)
+    return out
+
+
+def load_spec_file(path: Path) -> dict:
+    """Parse a YAML or JSON spec file into a dict, read by :mod:`benchbot.core.safe_load`
+    (within :data:`~benchbot.core.limits.MAX_SPEC_BYTES`, no YAML aliases, bounded nesting and integers).
+
+    Raises:
+        SpecError: the file is missing, unreadable, too large, not UTF-8, malformed, or not a mapping (one line
+            naming the file).
+    """
+    data = load_data_file(Path(path), MAX_SPEC_BYTES, SpecError)
+    if not isinstance(data, dict):
+        raise SpecError(f"{path}: expected a mapping at the top level, got {type(data).__name__}", "")
+    return data
+
+
+@dataclass
+class Entry:
+    """One registered spec.
+
+    Attributes:
+        kind: the registry kind (``tasks``, ``environments``, ...).
+        name: its index name (``name`` field; ``name:variant`` for environments and ground truths).
+        spec: the validated spec (dict). File specs get ``_file_path`` (absolute path) as in the original.
+        plugin: the name of the plugin that contributed it.
+        path: the spec's file, or ``None`` when a plugin gave a dict.
+        override: it comes from a content pack installed with ``--override`` and replaces another source's spec of
+            the same name.
+    """
+
+    kind: str
+    name: str
+    spec: dict
+    plugin: str
+    path: Path | None
+    override: bool = False
+
+
+def singular(kind: str) -> str:
+    """``tasks`` → ``task``, ``batches`` → ``batch``, ``ground_truths`` → ``ground truth``."""
+    return {"batches": "batch"}.get(kind, kind[:-1]).replace("_", " ")
+
+
+def entry_name(kind: str, spec: dict) -> str:
+    """The index name of a spec of ``kind``."""
+    if kind == "environments":
+        return f"{spec['name']}:{spec['variant']}"
+    if kind == "ground_truths":
+        return f"{spec['environment']['name']}:{spec['environment']['variant']}"
+    return str(spec["name"])
