@@ -7,12 +7,10 @@ Frames and units: SE(2) poses ``[x m, y m, yaw rad]`` in the ``map`` frame.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from benchbot.core.geometry import wrap_angle
 from benchbot.core.motion import ControllerGains, PoseController, integrate_unicycle
 from benchbot.core.robot import MotionOutcome
 

@@ -13,7 +13,7 @@ ti = pytest.importorskip("taichi")
 def kernels():
     """(traced, visibility): the reference kernel (one BVH traversal per pixel) and a function running the
     rasterised pass, both on packed scenes (``renderer.pack_scene``)."""
-    from benchbot_sim_taichi.render import raster, sensors
+    from benchbot_sim_taichi.render import layouts, raster, sensors
     from benchbot_sim_taichi.render.kernels import PANES_TRACKED, _ray, _trace
     from benchbot_sim_taichi.render.renderer import ensure_taichi
 
@@ -56,7 +56,7 @@ def kernels():
                 pane: ti.types.ndarray(dtype=ti.i32, ndim=3)):
         """Steps 1 to 3 of the all-sensors work (``sensors``' own Taichi functions; camera b's row of ``cams`` as
         its pose row, no laser beams), then each pixel's closest primitive, its depth and the nearest pane."""
-        pose0 = ti.Vector([0.0 for _ in ti.static(range(sensors.POSE_LEN))])
+        pose0 = ti.Vector([0.0 for _ in ti.static(range(layouts.POSE_LEN))])
         sensors._occluders_step(cams, pose0, 0, 1, beams, 0, nodes, pf, pi, tris, consts, n_occluders, occluders,
                                 queue, counters, tiles, vis, ranges)
         sensors._clusters_step(cams, pose0, 0, 1, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
@@ -74,8 +74,8 @@ def kernels():
     def visibility_run(packed, cams, W, H, queue_rows=None):
         B = cams.shape[0]
         vis = np.full((2, B, H, W), raster.EMPTY, np.int64)
-        consts = np.zeros(sensors.FRAME_CONSTS, np.float32)
-        consts[27:31] = cams[0, 12:16]  # the shared intrinsics fx, fy, cx, cy, where the kernels read them
+        consts = np.zeros(layouts.FRAME_TONE_TABLE, np.float32)
+        consts[layouts.FRAME_INTRINSICS:layouts.FRAME_INTRINSICS + 4] = cams[0, layouts.CAM_FX:layouts.CAM_CY + 1]  # the shared intrinsics fx, fy, cx, cy, where the kernels read them
 
         def go(c, out, q):
             rows = q if q is not None else B * raster.split()["queue_items"]
@@ -278,7 +278,7 @@ def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
     """Step 2's pyramid (``sensors._clusters_step``: row segments, then the levels of tiles), on random keys in an
     image whose sides are not multiples of a tile, for two cameras: each entry is the largest depth of its pixels,
     1e30 where one has no hit, exactly as NumPy computes it (the culling of clusters and primitives relies on it)."""
-    from benchbot_sim_taichi.render import raster, sensors
+    from benchbot_sim_taichi.render import layouts, raster, sensors
     from benchbot_sim_taichi.render.renderer import ensure_taichi
 
     ensure_taichi("cpu")
@@ -289,7 +289,7 @@ def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
                 cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2), listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
                 counters: ti.types.ndarray(dtype=ti.i32, ndim=1), tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
                 vis: ti.types.ndarray(dtype=ti.i64, ndim=4)):
-        sensors._clusters_step(table, ti.Vector([0.0] * sensors.POSE_LEN), 0, 1, consts, cluster_box, cluster_prims,
+        sensors._clusters_step(table, ti.Vector([0.0] * layouts.POSE_LEN), 0, 1, consts, cluster_box, cluster_prims,
                                listed, counters, tiles, vis)
 
     B, H, W = 2, 150, 70  # 5 × 10 tiles of 16, the last ones partial
@@ -301,7 +301,7 @@ def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
     vis[0] = np.where(empty, raster.EMPTY, keys)
     tiles = np.full((B, raster.tile_entries(W, H)), -1.0, np.float32)
     no_cluster = np.zeros((1, 2), np.int32)  # one cluster of no primitive: none is listed
-    pyramid(np.zeros((B, 16), np.float32), np.zeros(sensors.FRAME_CONSTS, np.float32), np.zeros((1, 6), np.float32),
+    pyramid(np.zeros((B, 16), np.float32), np.zeros(layouts.FRAME_TONE_TABLE, np.float32), np.zeros((1, 6), np.float32),
             no_cluster, np.zeros(B, np.int32),
             np.zeros(raster.COUNTERS, np.int32), tiles, vis)
     farthest = np.where(empty, np.float32(1e30), depth)

@@ -16,6 +16,10 @@ with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
 from benchbot_sim_taichi.render.bvh import LEAF_SHIFT, TRI_ONLY  # noqa: E402 - after Taichi's banner is redirected
+from benchbot_sim_taichi.render.layouts import (  # noqa: E402
+    CAM_CX, CAM_CY, CAM_FX, CAM_FY, CAM_ORIGIN, CAM_R, P_LAMP_RADIUS, P_SHADOW_SAMPLES, P_SUN_RADIUS,
+    WORLD_BACKGROUND_CLASS, WORLD_ROOM_MAX, WORLD_ROOM_MIN, WORLD_SHELL_ALBEDO,
+)
 
 #: Tiny direction component substituted for zero before inverting (avoids 0·inf).
 DIR_EPS = 1e-12
@@ -522,9 +526,9 @@ def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: t
     exit_axis = 0
     inside = 1
     for q in ti.static(range(3)):
-        if o[q] < world[q] or o[q] > world[3 + q]:
+        if o[q] < world[WORLD_ROOM_MIN + q] or o[q] > world[WORLD_ROOM_MAX + q]:
             inside = 0
-        hi = ti.max((world[q] - o[q]) * inv[q], (world[3 + q] - o[q]) * inv[q])
+        hi = ti.max((world[WORLD_ROOM_MIN + q] - o[q]) * inv[q], (world[WORLD_ROOM_MAX + q] - o[q]) * inv[q])
         if hi < t_exit:
             t_exit = hi
             exit_axis = q
@@ -533,7 +537,7 @@ def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: t
     ns = ti.Vector([0.0, 0.0, 0.0])
     ps = ti.Vector([0.0, 0.0, 0.0])
     t = 0.0
-    c_id = ti.cast(world[18], ti.i32)
+    c_id = ti.cast(world[WORLD_BACKGROUND_CLASS], ti.i32)
     i_id = 0
     hit = 0
     prim = -1
@@ -590,7 +594,8 @@ def _surface(o, d, spread, best, k, nb, pane_t, pane_k, pf: ti.template(), pi: t
         surf = 1
         if exit_axis == 2:
             surf = 0 if d[2] < 0 else 2
-        albedo = ti.Vector([world[6 + 3 * surf], world[7 + 3 * surf], world[8 + 3 * surf]])
+        a0 = WORLD_SHELL_ALBEDO + 3 * surf
+        albedo = ti.Vector([world[a0], world[a0 + 1], world[a0 + 2]])
         if surf == 0:
             px = o[0] + t * d[0]
             py = o[1] + t * d[1]
@@ -727,7 +732,7 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_alway
             nodes: ti.template(), pf: ti.template(), pi: ti.template(), tris: ti.template(),
             maps: ti.template(), sun_map: ti.template(), shadow_rays: ti.template()):
     """Σ lights colour · n·l · attenuation · visibility at p (shading normal n; shadow rays leave from p offset
-    along the geometric normal ng); visibility from ``params[0]`` shadow rays (stratified over the light's disc),
+    along the geometric normal ng); visibility from ``params[P_SHADOW_SAMPLES]`` shadow rays (stratified over the light's disc),
     hashed from ``key`` — or, with one sample and a light with a map slot: a lamp's from its cube shadow map
     (:func:`_lamp_map_visibility`), the sun's from the sun map (:func:`_sun_map_visibility`). Window panes do not
     stop shadow rays, nor dim them.
@@ -741,10 +746,10 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_alway
 
     ``shadow_rays`` (compile-time): False leaves the shadow rays' code out (a BVH traversal with its per-ray stack,
     which costs a kernel that inlines it many registers), for callers whose every light has a shadow map and
-    ``params[0]`` is 1: a light that would need rays then adds nothing."""
+    ``params[P_SHADOW_SAMPLES]`` is 1: a light that would need rays then adds nothing."""
     radiance = ti.Vector([0.0, 0.0, 0.0])
     po = p + ng * SHADOW_OFFSET
-    total = ti.cast(params[0], ti.i32)
+    total = ti.cast(params[P_SHADOW_SAMPLES], ti.i32)
     words = ti.cast(grid_xform[3], ti.i32)
     gx = ti.cast(ti.floor((p[0] - grid_xform[0]) * grid_xform[2]), ti.i32)
     gy = ti.cast(ti.floor((p[1] - grid_xform[1]) * grid_xform[2]), ti.i32)
@@ -810,12 +815,12 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_alway
                             th = 6.2831853 * (rot + ti.cast(s, ti.f32) * 0.6180340)
                             off = rr * (ti.cos(th) * t1 + ti.sin(th) * t2)
                             if point:
-                                q = L * dist + off * params[2]  # towards a point of the lamp's disc
+                                q = L * dist + off * params[P_LAMP_RADIUS]  # towards a point of the lamp's disc
                                 ds = q.norm()
                                 Ls = q / ds
                                 ds = ti.max(ds - LAMP_FIXTURE_M, 0.0)
                             else:
-                                Ls = (L + off * params[1]).normalized()
+                                Ls = (L + off * params[P_SUN_RADIUS]).normalized()
                         # one traversal in the code for both cases (each call site inlines a whole traversal)
                         _t, k_sh, _n, _tr, _pt, _pk = _trace(po, Ls, ds, nodes, pf, pi, tris,
                                                              True, PANES_UNSEEN)
@@ -828,13 +833,14 @@ def _direct(p, ng, n, key, params: ti.template(), lights: ti.template(), n_alway
 
 @ti.func
 def _ray(c, x, y):
-    o = ti.Vector([c[9], c[10], c[11]])
-    xc = (x - c[14]) / c[12]
-    yc = (y - c[15]) / c[13]
+    """The ray of pixel (x, y) of camera row c (:data:`~.layouts.CAM_LEN`): origin, unnormalised direction (map)."""
+    o = ti.Vector([c[CAM_ORIGIN], c[CAM_ORIGIN + 1], c[CAM_ORIGIN + 2]])
+    xc = (x - c[CAM_CX]) / c[CAM_FX]
+    yc = (y - c[CAM_CY]) / c[CAM_FY]
     d = ti.Vector([
-        c[0] * xc + c[1] * yc + c[2],
-        c[3] * xc + c[4] * yc + c[5],
-        c[6] * xc + c[7] * yc + c[8],
+        c[CAM_R + 0] * xc + c[CAM_R + 1] * yc + c[CAM_R + 2],
+        c[CAM_R + 3] * xc + c[CAM_R + 4] * yc + c[CAM_R + 5],
+        c[CAM_R + 6] * xc + c[CAM_R + 7] * yc + c[CAM_R + 8],
     ])
     return o, d
 

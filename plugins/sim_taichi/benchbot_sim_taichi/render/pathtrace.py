@@ -5,8 +5,8 @@ Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering
 - **the BSDF** of :mod:`benchbot_sim_taichi.render.bsdf` (Lambertian + GGX, glTF metallic–roughness; each primitive's
   roughness and metallic in ``pf`` columns 9–10, see ``renderer.pack_scene``), textures and shading normals as in
   ``fast`` mode (``kernels._shade_hit``);
-- **the lights as emitters of finite size**: the sun a disc of angular radius ``params[1]`` and radiance
-  ``π · colour / Ω`` (Ω its solid angle), each lamp a sphere of radius ``params[2]`` and radiance
+- **the lights as emitters of finite size**: the sun a disc of angular radius ``params[P_SUN_RADIUS]`` and radiance
+  ``π · colour / Ω`` (Ω its solid angle), each lamp a sphere of radius ``params[P_LAMP_RADIUS]`` and radiance
   ``colour / radius²``, falling off as 1/d² (no range cut-off) — the same light as ``fast`` mode's
   ``colour · n·l`` (sun) and ``colour · n·l / d²`` (lamp) on a Lambertian surface, and as the reference renders of
   ``docs/realism.md``; the sky, ``ambient · (0.8 + 0.3 ω_z)`` (the direction's z component), is what a path that
@@ -29,7 +29,7 @@ Per pixel, ``spp`` paths (jittered in the pixel) of up to ``bounces`` scattering
   has no next-event estimation (a specular event), and a light reached after a reflection counts fully. Shadow rays
   go through panes weighted by their 1 − F. The camera's view through panes sees the room shell and writes the
   denoiser's guides, like a camera hit;
-- **Russian roulette** from bounce ``params[6]`` on: a path continues with probability
+- **Russian roulette** from bounce ``params[P_ROULETTE_FROM]`` on: a path continues with probability
   ``min(0.95, max(throughput))`` and is reweighted by its inverse.
 
 Random numbers come from a hash of (pixel, sample, seed) advanced per draw (:func:`_rng`), so an image is a pure
@@ -44,6 +44,9 @@ with contextlib.redirect_stdout(sys.stderr):
 
 from benchbot_sim_taichi.render import bsdf  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.render.camera_model import GAMMA  # noqa: E402
+from benchbot_sim_taichi.render.layouts import (  # noqa: E402
+    CAM_FX, P_BOUNCES, P_LAMP_RADIUS, P_ROULETTE_FROM, P_SEED, P_SPP, P_SUN_RADIUS, WORLD_AMBIENT,
+)
 from benchbot_sim_taichi.render.kernels import (  # noqa: E402
     GLASS, MAX_GLASS_LAYERS, PANES_SEEN, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
 )
@@ -65,7 +68,8 @@ def _rng(state):
 @ti.func
 def _sky(world: ti.template(), d):
     """Linear radiance of the sky in unit direction d."""
-    return ti.Vector([world[15], world[16], world[17]]) * (0.8 + 0.3 * d[2])
+    a = WORLD_AMBIENT
+    return ti.Vector([world[a], world[a + 1], world[a + 2]]) * (0.8 + 0.3 * d[2])
 
 
 @ti.func
@@ -84,17 +88,17 @@ def _light_geometry(lights: ti.template(), j, p, params):
     dist = 1e30
     omc = 0.0
     radiance = ti.Vector([0.0, 0.0, 0.0])
-    if lights[j, 0] > 0.5:  # lamp: a sphere of radius params[2]
-        r = params[2]
+    if lights[j, 0] > 0.5:  # lamp: a sphere of radius params[P_LAMP_RADIUS]
+        r = params[P_LAMP_RADIUS]
         axis -= p
         dist = axis.norm()
         if dist > r:
             axis /= dist
             omc = _one_minus_cos_cone(r * r / (dist * dist))
             radiance = col / (r * r)
-    else:  # sun: a disc of angular radius params[1]
+    else:  # sun: a disc of angular radius params[P_SUN_RADIUS]
         axis = axis.normalized()
-        sh = ti.sin(0.5 * params[1])
+        sh = ti.sin(0.5 * params[P_SUN_RADIUS])
         omc = 2.0 * sh * sh
         radiance = col * (bsdf.PI / (TWO_PI * omc))
     return axis, dist, omc, radiance
@@ -125,14 +129,14 @@ def _cone_hit(lights: ti.template(), j, o, d, tmax, params):
     hit = 0
     if lights[j, 0] > 0.5:
         c = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]) - o
-        r = params[2]
+        r = params[P_LAMP_RADIUS]
         b = c.dot(d)
         cc = c.dot(c)
         if b > 0.0 and b * b - (cc - r * r) >= 0.0 and tmax >= ti.sqrt(cc):
             hit = 1
     elif tmax >= 1e29:
         axis = ti.Vector([lights[j, 1], lights[j, 2], lights[j, 3]]).normalized()
-        sh = ti.sin(0.5 * params[1])
+        sh = ti.sin(0.5 * params[P_SUN_RADIUS])
         if 1.0 - d.dot(axis) <= 2.0 * sh * sh:
             hit = 1
     return hit
@@ -165,10 +169,10 @@ def quality_kernel(
     B = out.shape[0]
     H = out.shape[1]
     W = out.shape[2]
-    spp = ti.cast(params[4], ti.i32)
-    max_bounces = ti.cast(params[5], ti.i32)
-    rr_start = ti.cast(params[6], ti.i32)
-    seed_hash = _hash(ti.cast(params[3], ti.i32) * 7919 + 17)
+    spp = ti.cast(params[P_SPP], ti.i32)
+    max_bounces = ti.cast(params[P_BOUNCES], ti.i32)
+    rr_start = ti.cast(params[P_ROULETTE_FROM], ti.i32)
+    seed_hash = _hash(ti.cast(params[P_SEED], ti.i32) * 7919 + 17)
     for b, v, u in ti.ndrange(B, H, W):
         acc = ti.Vector([0.0, 0.0, 0.0])
         guide_albedo = ti.Vector([0.0, 0.0, 0.0])
@@ -179,7 +183,7 @@ def quality_kernel(
             state, jx = _rng(state)
             state, jy = _rng(state)
             o, d = _ray(cam, ti.cast(u, ti.f32) + jx - 0.5, ti.cast(v, ti.f32) + jy - 0.5)
-            spread = 1.0 / cam[12]
+            spread = 1.0 / cam[CAM_FX]
             d = d.normalized()
             throughput = ti.Vector([1.0, 1.0, 1.0])
             # the previous vertex, for the MIS weight of a BSDF sample that reaches a light

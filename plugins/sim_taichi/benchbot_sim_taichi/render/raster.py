@@ -41,6 +41,7 @@ with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
 from benchbot_sim_taichi.render.kernels import GLASS, T_EPS, _hit_prim, _ray, _safe_inv, _v3  # noqa: E402
+from benchbot_sim_taichi.render.layouts import CAM_CX, CAM_CY, CAM_FX, CAM_FY, CAM_ORIGIN, CAM_R  # noqa: E402
 
 #: The key of a pixel that no primitive covers (the largest int64).
 EMPTY = 0x7FFF_FFFF_FFFF_FFFF
@@ -109,20 +110,22 @@ def unkey(key):
 @ti.func
 def _in_camera(c, p):
     """Point p (map frame) in the camera's optical frame (c: the kernels' camera row, R row-major then origin)."""
-    w = p - ti.Vector([c[9], c[10], c[11]])
-    return ti.Vector([c[0] * w[0] + c[3] * w[1] + c[6] * w[2],
-                      c[1] * w[0] + c[4] * w[1] + c[7] * w[2],
-                      c[2] * w[0] + c[5] * w[1] + c[8] * w[2]])
+    o = CAM_ORIGIN
+    w = p - ti.Vector([c[o], c[o + 1], c[o + 2]])
+    r = CAM_R  # row-major R (optical into map): its transpose takes map to optical
+    return ti.Vector([c[r + 0] * w[0] + c[r + 3] * w[1] + c[r + 6] * w[2],
+                      c[r + 1] * w[0] + c[r + 4] * w[1] + c[r + 7] * w[2],
+                      c[r + 2] * w[0] + c[r + 5] * w[1] + c[r + 8] * w[2]])
 
 
 @ti.func
 def cluster_in_view(c, lo, hi, W, H):
     """Whether the box lo..hi (map frame) may meet the view of camera c (W × H pixels): False when its eight corners
     all lie beyond one side of the view's frustum (grown by a pixel) or before ``T_EPS``."""
-    fx = c[12]
-    fy = c[13]
-    cx = c[14]
-    cy = c[15]
+    fx = c[CAM_FX]
+    fy = c[CAM_FY]
+    cx = c[CAM_CX]
+    cy = c[CAM_CY]
     # outward planes through the centre: u < −1, u > W, v < −1, v > H; then z < T_EPS
     out = ti.Vector([1, 1, 1, 1, 1])
     for m in ti.static(range(8)):
@@ -148,13 +151,13 @@ def _grow(box, c, a, b):
     for e in ti.static(range(2)):
         p = a if e == 0 else b
         if p[2] >= T_EPS:
-            pu = c[14] + c[12] * p[0] / p[2]
-            pv = c[15] + c[13] * p[1] / p[2]
+            pu = c[CAM_CX] + c[CAM_FX] * p[0] / p[2]
+            pv = c[CAM_CY] + c[CAM_FY] * p[1] / p[2]
             r = ti.Vector([ti.min(r[0], pu), ti.max(r[1], pu), ti.min(r[2], pv), ti.max(r[3], pv)])
     if (a[2] - T_EPS) * (b[2] - T_EPS) < 0.0:  # it crosses z = T_EPS: where
         x = a + (b - a) * ((T_EPS - a[2]) / (b[2] - a[2]))
-        pu = c[14] + c[12] * x[0] / T_EPS
-        pv = c[15] + c[13] * x[1] / T_EPS
+        pu = c[CAM_CX] + c[CAM_FX] * x[0] / T_EPS
+        pv = c[CAM_CY] + c[CAM_FY] * x[1] / T_EPS
         r = ti.Vector([ti.min(r[0], pu), ti.max(r[1], pu), ti.min(r[2], pv), ti.max(r[3], pv)])
     return r
 
@@ -330,7 +333,7 @@ def _edges(c, k, tris: ti.template()):
 def _span(c, v, u0, u1, n0, n1, n2):
     """The columns [ua, ub] of row v, within u0..u1, where the three edge functions may be ≥ 0 (exact interval,
     grown by SPAN_MARGIN); ua > ub when there is none."""
-    yc = (ti.cast(v, ti.f32) - c[15]) / c[13]
+    yc = (ti.cast(v, ti.f32) - c[CAM_CY]) / c[CAM_FY]
     lo = -1e30
     hi = 1e30
     ok = True
@@ -350,8 +353,8 @@ def _span(c, v, u0, u1, n0, n1, n2):
     if not ok:
         ub = u0 - 1
     else:
-        fu_lo = c[14] + c[12] * lo - SPAN_MARGIN
-        fu_hi = c[14] + c[12] * hi + SPAN_MARGIN
+        fu_lo = c[CAM_CX] + c[CAM_FX] * lo - SPAN_MARGIN
+        fu_hi = c[CAM_CX] + c[CAM_FX] * hi + SPAN_MARGIN
         if fu_lo > ti.cast(u0, ti.f32):
             ua = ti.cast(ti.min(ti.ceil(fu_lo), 1e9), ti.i32)
         if fu_hi < ti.cast(u1, ti.f32):
@@ -368,14 +371,14 @@ def _keep(buf: ti.template(), layer, b, v, u, key):
 @ti.func
 def _triangle_row(c, b, v, ua, ub, k, n0, n1, n2, nn, dd, buf: ti.template(), layer):
     """Keep triangle k's hits on pixels ua..ub of row v of camera b in layer ``layer`` of ``buf``."""
-    yc = (ti.cast(v, ti.f32) - c[15]) / c[13]
-    ifx = 1.0 / c[12]
+    yc = (ti.cast(v, ti.f32) - c[CAM_CY]) / c[CAM_FY]
+    ifx = 1.0 / c[CAM_FX]
     b0 = n0[1] * yc + n0[2]
     b1 = n1[1] * yc + n1[2]
     b2 = n2[1] * yc + n2[2]
     bn = nn[1] * yc + nn[2]
     for u in range(ua, ub + 1):
-        xc = (ti.cast(u, ti.f32) - c[14]) * ifx
+        xc = (ti.cast(u, ti.f32) - c[CAM_CX]) * ifx
         if n0[0] * xc + b0 >= 0.0 and n1[0] * xc + b1 >= 0.0 and n2[0] * xc + b2 >= 0.0:
             den = nn[0] * xc + bn
             if den > 0.0:
@@ -414,13 +417,13 @@ def _triangle_pixels(c, b, k, u0, u1, v0, p0, p1, lane, lanes, pi: ti.template()
     w = u1 - u0 + 1
     n0, n1, n2, nn, dd = _edges(c, k, tris)
     layer = 1 if pi[k, 0] == GLASS else 0
-    ifx = 1.0 / c[12]
-    ify = 1.0 / c[13]
+    ifx = 1.0 / c[CAM_FX]
+    ify = 1.0 / c[CAM_FY]
     p = p0 + lane
     while p < p1:
         u = u0 + p % w
         v = v0 + p // w
-        d = ti.Vector([(ti.cast(u, ti.f32) - c[14]) * ifx, (ti.cast(v, ti.f32) - c[15]) * ify, 1.0])
+        d = ti.Vector([(ti.cast(u, ti.f32) - c[CAM_CX]) * ifx, (ti.cast(v, ti.f32) - c[CAM_CY]) * ify, 1.0])
         if n0.dot(d) >= 0.0 and n1.dot(d) >= 0.0 and n2.dot(d) >= 0.0:
             den = nn.dot(d)
             if den > 0.0:

@@ -105,8 +105,10 @@ from benchbot_sim_taichi.render.lightmap import bake_kernel, layout as lightmap_
 from benchbot_sim_taichi.render.raster import (  # noqa: E402
     CLUSTER_PRIMS, COUNTERS, EMPTY, OCCLUDER_AREA_M2, QUEUE_COLS, split, tile_entries,
 )
+from benchbot_sim_taichi.render import layouts as L  # noqa: E402
+from benchbot_sim_taichi.render.layouts import POSE_LEN  # noqa: E402
 from benchbot_sim_taichi.render.sensors import (  # noqa: E402
-    POSE_LEN, SENSORS_ARG_NAMES, launch_arg_names, reset_graph, sensors_graph, sensors_kernel,
+    SENSORS_ARG_NAMES, launch_arg_names, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -369,8 +371,12 @@ def pack_scene(scene) -> dict:
     if nl:
         lights[:nl, 0] = scene.light_kind
         lights[:nl, 1:4], lights[:nl, 4:7], lights[:nl, 7] = scene.light_vec, scene.light_colour, scene.light_range
-    world = np.concatenate([scene.room_min, scene.room_max, scene.shell_albedo.reshape(-1), scene.ambient,
-                            [scene.background_class]]).astype(np.float32)
+    world = np.zeros(L.WORLD_LEN, np.float32)
+    world[L.WORLD_ROOM_MIN:L.WORLD_ROOM_MIN + 3] = scene.room_min
+    world[L.WORLD_ROOM_MAX:L.WORLD_ROOM_MAX + 3] = scene.room_max
+    world[L.WORLD_SHELL_ALBEDO:L.WORLD_SHELL_ALBEDO + 9] = np.asarray(scene.shell_albedo).reshape(-1)
+    world[L.WORLD_AMBIENT:L.WORLD_AMBIENT + 3] = scene.ambient
+    world[L.WORLD_BACKGROUND_CLASS] = scene.background_class
     is_occluder = np.zeros(max(n, 1), np.int32)  # triangles large enough to hide much: rasterised first
     if n and nt:  # (tris is in primitive order now)
         tk = np.flatnonzero(pi[:n, 0] == 3)
@@ -394,18 +400,27 @@ def texture_lut() -> np.ndarray:
 def render_params(shadow_samples: int = 1, seed: int = 0, sun_radius: float = SUN_RADIUS,
                   lamp_radius: float = LAMP_RADIUS, spp: int = 1, bounces: int = 0,
                   roulette_from: int = 3) -> np.ndarray:
-    """(8,) float32 [shadow samples, sun angular radius rad, lamp radius m, seed, spp, most bounces of a path,
-    first bounce of Russian roulette, 0] (the last three for ``quality`` mode:
+    """(PARAMS_LEN,) float32 render parameters at their offsets (:mod:`~benchbot_sim_taichi.render.layouts`,
+    ``P_*``): shadow samples, sun angular radius rad, lamp radius m, seed, spp, most bounces of a path, first bounce
+    of Russian roulette (the last three for ``quality`` mode:
     :func:`~benchbot_sim_taichi.render.pathtrace.quality_kernel`)."""
-    return np.array([max(1, int(shadow_samples)), sun_radius, lamp_radius, int(seed) % (1 << 24), max(1, int(spp)),
-                     max(0, int(bounces)), max(1, int(roulette_from)), 0], dtype=np.float32)
+    out = np.zeros(L.PARAMS_LEN, np.float32)
+    out[L.P_SHADOW_SAMPLES] = max(1, int(shadow_samples))
+    out[L.P_SUN_RADIUS], out[L.P_LAMP_RADIUS] = sun_radius, lamp_radius
+    out[L.P_SEED] = int(seed) % (1 << 24)
+    out[L.P_SPP], out[L.P_BOUNCES], out[L.P_ROULETTE_FROM] = max(1, int(spp)), max(0, int(bounces)), max(1, int(roulette_from))
+    return out
 
 
 def camera_params(K: np.ndarray, T_map_camera: np.ndarray) -> np.ndarray:
-    """(16,) float32 [R row-major (9), origin (3), fx, fy, cx, cy] for the kernels."""
+    """(CAM_LEN,) float32 camera row for the kernels (:mod:`~benchbot_sim_taichi.render.layouts`, ``CAM_*``): R
+    row-major (optical frame into map), origin (m, map), fx, fy, cx, cy (pixels)."""
     K = np.asarray(K, dtype=np.float64)
     T = np.asarray(T_map_camera, dtype=np.float64)
-    return np.concatenate([T[:3, :3].reshape(-1), T[:3, 3], [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]]).astype(np.float32)
+    out = np.zeros(L.CAM_LEN, np.float64)
+    out[L.CAM_R:L.CAM_R + 9], out[L.CAM_ORIGIN:L.CAM_ORIGIN + 3] = T[:3, :3].reshape(-1), T[:3, 3]
+    out[L.CAM_FX], out[L.CAM_FY], out[L.CAM_CX], out[L.CAM_CY] = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    return out.astype(np.float32)
 
 
 
@@ -413,13 +428,13 @@ def camera_params(K: np.ndarray, T_map_camera: np.ndarray) -> np.ndarray:
 def sensor_pose(T_map_camera: np.ndarray | None, T_map_lidar: np.ndarray | None) -> np.ndarray:
     """(16,) float32 [camera R row-major (9), camera origin (3), lidar x, y, z, yaw] (map frame; the camera in its
     optical frame; the lidar assumed level, its yaw read from its x axis). A missing sensor's entries are zero."""
-    out = np.zeros(POSE_LEN, dtype=np.float64)
+    out = np.zeros(L.POSE_LEN, dtype=np.float64)
     if T_map_camera is not None:
         T = np.asarray(T_map_camera, dtype=np.float64)
-        out[:9], out[9:12] = T[:3, :3].reshape(-1), T[:3, 3]
+        out[L.CAM_R:L.CAM_R + 9], out[L.CAM_ORIGIN:L.CAM_ORIGIN + 3] = T[:3, :3].reshape(-1), T[:3, 3]
     if T_map_lidar is not None:
         T = np.asarray(T_map_lidar, dtype=np.float64)
-        out[12:15], out[15] = T[:3, 3], math.atan2(T[1, 0], T[0, 0])
+        out[L.POSE_LIDAR_XYZ:L.POSE_LIDAR_XYZ + 3], out[L.POSE_LIDAR_YAW] = T[:3, 3], math.atan2(T[1, 0], T[0, 0])
     return out.astype(np.float32)
 
 
@@ -427,12 +442,21 @@ def sensor_pose(T_map_camera: np.ndarray | None, T_map_lidar: np.ndarray | None)
 
 def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
                     camera: CameraModel = DEFAULT_CAMERA) -> np.ndarray:
-    """(33 + GAMMA_STEPS,) float32 [world (19, see :func:`pack_scene`), render params (8, see :func:`render_params`),
-    fx, fy, cx, cy, the camera model's 1/radiance_max and vignetting, its tone table
-    (:func:`~benchbot_sim_taichi.render.camera_model.tone_table`)] — what :func:`~benchbot_sim_taichi.render.sensors.sensors_kernel`
-    reads besides the scene and the poses (zeros for K when None)."""
-    k = np.zeros(4) if K is None else np.asarray(K, dtype=np.float64)[[0, 1, 0, 1], [0, 1, 2, 2]]
-    return np.concatenate([world, params, k, camera.frame_constants(), tone_table(camera)]).astype(np.float32)
+    """(FRAME_TONE_TABLE + TABLE_STEPS,) float32 frame constants (:mod:`~benchbot_sim_taichi.render.layouts`,
+    ``FRAME_*``): the world row (see :func:`pack_scene`), the render parameters (see :func:`render_params`), fx, fy,
+    cx, cy, the camera model's 1/radiance_max and vignetting, its tone table
+    (:func:`~benchbot_sim_taichi.render.camera_model.tone_table`) — what
+    :func:`~benchbot_sim_taichi.render.sensors.sensors_kernel` reads besides the scene and the poses (zeros for K
+    when None)."""
+    table = tone_table(camera)
+    out = np.zeros(L.FRAME_TONE_TABLE + len(table), np.float64)
+    out[L.FRAME_WORLD:L.FRAME_WORLD + L.WORLD_LEN] = world
+    out[L.FRAME_PARAMS:L.FRAME_PARAMS + L.PARAMS_LEN] = params
+    if K is not None:
+        out[L.FRAME_INTRINSICS:L.FRAME_INTRINSICS + 4] = np.asarray(K, dtype=np.float64)[[0, 1, 0, 1], [0, 1, 2, 2]]
+    out[L.FRAME_RADIANCE_SCALE], out[L.FRAME_VIGNETTING] = camera.frame_constants()
+    out[L.FRAME_TONE_TABLE:] = table
+    return out.astype(np.float32)
 
 
 
@@ -711,8 +735,9 @@ class Renderer:
             return np.arange(n, dtype=np.int32), np.zeros((1, 1, 1), np.int32), np.zeros(4, np.float32)
         world = packed["world"]
         # a cell more on each side: the shell's walls lie on the extent's edges, and rounding puts points just out
-        lo = np.minimum(world[0:2], packed["nodes_f"][0, 0:2]).astype(np.float64) - LIGHT_CELL_M
-        hi = np.maximum(world[3:5], packed["nodes_f"][0, 3:5]).astype(np.float64) + LIGHT_CELL_M
+        room_lo, room_hi = world[L.WORLD_ROOM_MIN:L.WORLD_ROOM_MIN + 2], world[L.WORLD_ROOM_MAX:L.WORLD_ROOM_MAX + 2]
+        lo = np.minimum(room_lo, packed["nodes_f"][0, 0:2]).astype(np.float64) - LIGHT_CELL_M
+        hi = np.maximum(room_hi, packed["nodes_f"][0, 3:5]).astype(np.float64) + LIGHT_CELL_M
         nx, ny = (np.floor((hi - lo) / LIGHT_CELL_M).astype(int) + 1).tolist()
         words = (n_maps + 31) // 32
         xform = np.array([lo[0], lo[1], 1.0 / LIGHT_CELL_M, words], np.float32)

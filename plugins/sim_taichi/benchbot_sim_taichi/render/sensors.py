@@ -36,15 +36,14 @@ from benchbot_sim_taichi.render.kernels import (  # noqa: E402
     PANES_TRACKED, PANES_UNSEEN, _closest_normal, _direct, _glass_reflectance, _ray, _safe_inv, _shadow_origin,
     _surface, _trace, _v3,
 )
+from benchbot_sim_taichi.render.layouts import (  # noqa: E402
+    CAM_R, FRAME_INTRINSICS, FRAME_PARAMS, FRAME_RADIANCE_SCALE, FRAME_TONE_TABLE, FRAME_VIGNETTING, FRAME_WORLD,
+    P_SEED, PARAMS_LEN, POSE_LEN, POSE_LIDAR_XYZ, POSE_LIDAR_YAW, WORLD_AMBIENT, WORLD_ROOM_MAX, WORLD_ROOM_MIN,
+)
 from benchbot_sim_taichi.render.packed_scene import scene_views  # noqa: E402
 
-#: Length of one frame's pose row for :func:`sensors_kernel` (see ``renderer.sensor_pose``).
-POSE_LEN = 16
-#: Entries of the tone table (``camera_model.tone_table``) and where it starts in the frame constants
-#: (``renderer.frame_constants``: world 19, render params 8, fx fy cx cy, then the camera model's 1/radiance_max and
-#: vignetting at 31 and 32).
+#: Entries of the tone table (``camera_model.tone_table``), which starts at ``FRAME_TONE_TABLE`` of the frame constants.
 GAMMA_STEPS = TABLE_STEPS
-FRAME_CONSTS = 33
 
 
 @ti.func
@@ -58,7 +57,8 @@ def _through_pane(col, d, pane, tris: ti.template(), consts: ti.template()):
     c = nrm.dot(dn)
     f = _glass_reflectance(ti.abs(c))
     r = dn - 2.0 * c * nrm
-    sky = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.3 * r[2])
+    a = FRAME_WORLD + WORLD_AMBIENT
+    sky = ti.Vector([consts[a], consts[a + 1], consts[a + 2]]) * (0.8 + 0.3 * r[2])
     return col * ((1.0 - f) * (1.0 - f)) + sky * (f + (1.0 - f) * (1.0 - f) * f)
 
 
@@ -70,20 +70,24 @@ def _scan_beam(o, a, nodes: ti.template(), pf: ti.template(), pi: ti.template(),
     d = ti.Vector([ti.cos(a), ti.sin(a), 0.0])
     best, k, n, _tr, _pt, _pk = _trace(o, d, 1e30, nodes, pf, pi, tris, False, PANES_UNSEEN)
     inv = _safe_inv(d)
-    tx = ti.max((world[0] - o[0]) * inv[0], (world[3] - o[0]) * inv[0])
-    ty = ti.max((world[1] - o[1]) * inv[1], (world[4] - o[1]) * inv[1])
+    lo = WORLD_ROOM_MIN
+    hi = WORLD_ROOM_MAX
+    tx = ti.max((world[lo] - o[0]) * inv[0], (world[hi] - o[0]) * inv[0])
+    ty = ti.max((world[lo + 1] - o[1]) * inv[1], (world[hi + 1] - o[1]) * inv[1])
     return ti.min(best, ti.min(tx, ty))
 
 
 @ti.func
 def _camera(table: ti.template(), pose0, one, b, consts: ti.template()):
-    """Camera b's row for the kernels (R row-major, origin, fx, fy, cx, cy)."""
+    """Camera b's row for the kernels (:data:`~.layouts.CAM_LEN`: R row-major, origin, fx, fy, cx, cy): a pose row's
+    first 12 entries are a camera row's."""
     q = pose0
     if one == 0:
-        for k in ti.static(range(12)):
+        for k in ti.static(range(CAM_R, POSE_LIDAR_XYZ)):
             q[k] = table[b, k]
+    f = FRAME_INTRINSICS
     return ti.Vector([q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11],
-                      consts[27], consts[28], consts[29], consts[30]])
+                      consts[f], consts[f + 1], consts[f + 2], consts[f + 3]])
 
 
 def _loop_threads() -> int:
@@ -207,10 +211,11 @@ def _occluder_item(i, n_scan, n_occ, table: ti.template(), pose0, one, beams: ti
         beam = i % n_beams
         q = pose0
         if one == 0:
-            for m in ti.static(range(12, POSE_LEN)):
+            for m in ti.static(range(POSE_LIDAR_XYZ, POSE_LEN)):
                 q[m] = table[b, m]
-        ranges[b, beam] = _scan_beam(ti.Vector([q[12], q[13], q[14]]), beams[beam] + q[15], nodes, pf, pi, tris,
-                                     consts)
+        lx = POSE_LIDAR_XYZ
+        ranges[b, beam] = _scan_beam(ti.Vector([q[lx], q[lx + 1], q[lx + 2]]), beams[beam] + q[POSE_LIDAR_YAW], nodes,
+                                     pf, pi, tris, consts)
     else:
         e = i - n_scan
         raster.rasterise_occluder(e, n_occ, _camera(table, pose0, one, e // n_occ, consts), occluders, pf, pi, tris,
@@ -441,7 +446,7 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
         v = row % H
         u = it % W
         c = _camera(table, pose0, one, b, consts)
-        params = ti.Vector([consts[19 + k] for k in ti.static(range(8))])
+        params = ti.Vector([consts[FRAME_PARAMS + m] for m in ti.static(range(PARAMS_LEN))])
         o, d = _ray(c, ti.cast(u, ti.f32), ti.cast(v, ti.f32))
         best, k = raster.unkey(vis[0, b, v, u])
         pane_t, pane_k = raster.unkey(vis[1, b, v, u])
@@ -453,13 +458,14 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
                 nb = _closest_normal(o, d, _safe_inv(d), best, k, pf, pi, tris)
         else:
             nb = _closest_normal(o, d, _safe_inv(d), best, k, pf, pi, tris)
-        key = (v * W + u) * 65536 + ti.cast(params[3], ti.i32)
+        key = (v * W + u) * 65536 + ti.cast(params[P_SEED], ti.i32)
         hit, t, n, ns, albedo, c_id, i_id, p, prim, pane, tri_pos = _surface(
-            o, d, 1.0 / consts[27], best, k, nb, pane_t, pane_k, pf, pi, tris, shade, texels, tex_info, tex_lut,
+            o, d, 1.0 / consts[FRAME_INTRINSICS], best, k, nb, pane_t, pane_k, pf, pi, tris, shade, texels, tex_info, tex_lut,
             consts, PANES_TRACKED, ti.static(raster.split()["surface_once"]))
         col = ti.Vector([0.0, 0.0, 0.0])
         if hit == 1:
-            radiance = ti.Vector([consts[15], consts[16], consts[17]]) * (0.8 + 0.2 * ns[2])
+            a = FRAME_WORLD + WORLD_AMBIENT
+            radiance = ti.Vector([consts[a], consts[a + 1], consts[a + 2]]) * (0.8 + 0.2 * ns[2])
             if lit == 1:
                 if prim >= 0 and baked_info[prim, 1] > 0:  # a triangle's light, baked once per scene
                     radiance += lightmap.baked_direct(baked, baked_info, prim, tri_pos)
@@ -474,15 +480,16 @@ def _shade_step(table: ti.template(), pose0, one, images, nodes: ti.template(), 
         if pane >= 0:  # seen through the nearest pane (both faces), which reflects the ambient sky
             col = _through_pane(col, d, pane, tris, consts)
         if hit == 1:
-            if consts[32] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
-                xn = (ti.cast(u, ti.f32) - consts[29]) / consts[27]
-                yn = (ti.cast(v, ti.f32) - consts[30]) / consts[28]
+            if consts[FRAME_VIGNETTING] > 0.0:  # the camera model's vignetting (camera_model.py, step 1)
+                f = FRAME_INTRINSICS  # fx, fy, cx, cy
+                xn = (ti.cast(u, ti.f32) - consts[f + 2]) / consts[f]
+                yn = (ti.cast(v, ti.f32) - consts[f + 3]) / consts[f + 1]
                 cos2 = 1.0 / (1.0 + xn * xn + yn * yn)
-                col *= 1.0 - consts[32] * (1.0 - cos2 * cos2)
-            col *= consts[31]  # radiance / radiance_max: exposure and tone curve are in the table
+                col *= 1.0 - consts[FRAME_VIGNETTING] * (1.0 - cos2 * cos2)
+            col *= consts[FRAME_RADIANCE_SCALE]  # radiance / radiance_max: exposure and tone curve are in the table
             for m in ti.static(range(3)):
                 x = ti.min(ti.max(col[m], 0.0), 1.0)
-                level = consts[FRAME_CONSTS + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)]
+                level = consts[FRAME_TONE_TABLE + ti.cast(ti.sqrt(x) * (GAMMA_STEPS - 1) + 0.5, ti.i32)]
                 rgb[b, v, u, m] = ti.cast(level, ti.u8)
             depth[b, v, u] = t
         else:
