@@ -11,7 +11,9 @@ imported; the id ``"benchbot.gym:BenchBot-v0"`` imports this module itself):
 Observations (``gymnasium.spaces.Dict``): ``image_rgb`` Box (H, W, 3) uint8; ``image_depth`` Box (H, W) float32
 metres (0 where nothing is hit); ``laser`` Box (N,) float64 ranges in metres (the scan's angles are fixed:
 ``laser['scans'][:, 1]`` of the API); ``pose`` Box (3,) float64 ``[x m, y m, yaw rad]`` of the robot in the map frame.
-Entries the task does not observe are left out.
+Entries the task does not observe are left out. Each entry is its observation kind's ``gym`` (``GymEntry``:
+:mod:`benchbot.core.observations`), so a plugin's own sensor with one has its entry too; the kinds are the
+episode's for a backend in this process, else this process's registry's (``Registry.observations``).
 
 Actions: active tasks ``Discrete(4)``: 0 forward ``step_m``, 1 backward ``step_m``, 2 turn left ``turn_deg``,
 3 turn right ``turn_deg``; passive tasks ``Discrete(1)`` (``move_next``). Reward 0 (BenchBot scores results, not
@@ -23,8 +25,6 @@ returns the terminal observation again with ``terminated=True`` (the backend ref
 from __future__ import annotations
 
 from typing import Any
-
-import numpy as np
 
 #: The in-process environment's defaults (``BenchBot-v0``).
 DEFAULT_TASK = "semantic_slam:active:ground_truth"
@@ -57,10 +57,6 @@ def register_envs() -> None:
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point="benchbot.gym:BenchBotEnv", kwargs=dict(kwargs))
-
-
-def _yaw(rpy: Any) -> float:
-    return float(rpy[2])
 
 
 def make_env_class() -> type:
@@ -140,33 +136,24 @@ def make_env_class() -> type:
             self.action_space = spaces.Discrete(4 if self.active else 1)
             obs, _ = self.bot.step(None)
             self._last_rgb = obs.get("image_rgb")
-            entries: dict[str, Any] = {}
-            if "image_rgb" in obs:
-                entries["image_rgb"] = spaces.Box(0, 255, obs["image_rgb"].shape, np.uint8)
-            if "image_depth" in obs:
-                entries["image_depth"] = spaces.Box(0.0, np.inf, obs["image_depth"].shape, np.float32)
-            if "laser" in obs:
-                laser = obs["laser"]
-                entries["laser"] = spaces.Box(0.0, np.inf, (laser["scans"].shape[0],), np.float64)
-            if "poses" in obs:
-                entries["pose"] = spaces.Box(-np.inf, np.inf, (3,), np.float64)
-            self.observation_space = spaces.Dict(entries)
+            # the observation kinds with a Gym entry (benchbot.core.observations): the episode's in this process,
+            # else this process's registry (plugins' kinds included)
+            kinds = getattr(getattr(backend, "episode", None), "observation_kinds", None)
+            if kinds is None:
+                from benchbot.core.registry import get_registry
+
+                kinds = get_registry().observations
+            #: ``{observation name: GymEntry}`` of the entries of :attr:`observation_space`
+            self.gym_entries = {name: kind.gym for name, kind in kinds.items() if kind.gym is not None and name in obs}
+            self.observation_space = spaces.Dict({entry.key: entry.space(spaces, obs[name])
+                                                  for name, entry in self.gym_entries.items()})
             self._steps = 0
             self._terminal: tuple[dict, dict] | None = None  # (observation, info) once terminated
 
         def _convert(self, obs: dict) -> dict:
-            out: dict[str, Any] = {}
-            if "image_rgb" in self.observation_space.spaces:
-                out["image_rgb"] = np.array(obs["image_rgb"], dtype=np.uint8)
+            out = {entry.key: entry.value(obs[name]) for name, entry in self.gym_entries.items()}
+            if "image_rgb" in out:
                 self._last_rgb = out["image_rgb"]
-            if "image_depth" in self.observation_space.spaces:
-                out["image_depth"] = np.clip(np.array(obs["image_depth"], dtype=np.float32), 0.0, None)
-            if "laser" in self.observation_space.spaces:
-                out["laser"] = np.clip(np.array(obs["laser"]["scans"][:, 0], dtype=np.float64), 0.0, None)
-            if "pose" in self.observation_space.spaces:
-                robot = obs["poses"]["robot"]
-                t = robot["translation_xyz"]
-                out["pose"] = np.array([t[0], t[1], _yaw(robot["rotation_rpy"])], dtype=np.float64)
             return out
 
         def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:

@@ -14,10 +14,18 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
-import numpy as np
+from benchbot.core.observations import AXIS_LENGTH_M, BUILT_IN  # noqa: F401 - AXIS_LENGTH_M: its home is there
 
-SUPPORTED = ("image_rgb", "image_depth", "laser", "poses", "image_class", "image_instance")
-AXIS_LENGTH_M = 0.25
+
+def views(kinds: dict | None = None) -> dict[str, tuple[str, Any]]:
+    """``{entry: (observation name, View)}`` of every view the observation ``kinds`` declare (default: the
+    built-in ones, :data:`benchbot.core.observations.BUILT_IN`)."""
+    return {view.name: (name, view) for name, kind in (BUILT_IN if kinds is None else kinds).items()
+            for view in kind.views}
+
+
+#: The entries the visualiser draws by default: the built-in kinds' views.
+SUPPORTED = tuple(views())
 
 
 def _has_display() -> bool:
@@ -44,18 +52,22 @@ class ObservationVisualiser:
     Args:
         vis_list: the entries to draw, from ``image_rgb``, ``image_depth`` (colour map 'hot'), ``laser`` (a scatter
             plot in the robot frame, metres), ``poses`` (3-D axes of each frame, 0.25 m long, map frame),
-            ``image_class`` and ``image_instance`` (both from ``image_segment``).
+            ``image_class`` and ``image_instance`` (both from ``image_segment``): the views of the observation
+            kinds (:mod:`benchbot.core.observations`).
         show: show a window (default: when there is a display).
+        kinds: the observation kinds whose views may be drawn (default the built-in ones; a plugin's sensor is
+            drawn with ``kinds=get_registry().observations`` when its kind declares a view).
 
     Raises:
         ValueError: an unsupported entry.
     """
 
     def __init__(self, vis_list: Sequence[str] = ("image_rgb", "image_depth", "laser", "poses"),
-                 show: bool | None = None) -> None:
-        unknown = [v for v in vis_list if v not in SUPPORTED]
+                 show: bool | None = None, kinds: dict | None = None) -> None:
+        self.views = views(kinds)
+        unknown = [v for v in vis_list if v not in self.views]
         if unknown:
-            raise ValueError(f"cannot visualise {unknown}; supported: {', '.join(SUPPORTED)}")
+            raise ValueError(f"cannot visualise {unknown}; supported: {', '.join(self.views)}")
         self.vis_list = list(vis_list)
         self.show = _has_display() if show is None else show
         self.fig: Any = None
@@ -70,7 +82,7 @@ class ObservationVisualiser:
         for i, name in enumerate(self.vis_list):
             row, col = i % 2, i // 2  # column by column
             index = row * cols + col + 1
-            projection = "3d" if name == "poses" else None
+            projection = self.views[name][1].projection
             self.axs.append(self.fig.add_subplot(2, cols, index, projection=projection))
         if self.show:
             plt.ion()
@@ -91,50 +103,11 @@ class ObservationVisualiser:
             manager.set_window_title(title)
         for ax, name in zip(self.axs, self.vis_list):
             ax.clear()
-            getattr(self, f"_draw_{name}")(ax, observations)
+            observation, view = self.views[name]
+            view.draw(ax, observations[observation])
         self.fig.canvas.draw_idle()
         if self.show:
             self.update()
-
-    def _draw_image_rgb(self, ax: Any, obs: dict) -> None:
-        ax.imshow(obs["image_rgb"])
-        ax.set_title("image_rgb")
-        ax.axis("off")
-
-    def _draw_image_depth(self, ax: Any, obs: dict) -> None:
-        ax.imshow(obs["image_depth"], cmap="hot")
-        ax.set_title("image_depth (m)")
-        ax.axis("off")
-
-    def _draw_laser(self, ax: Any, obs: dict) -> None:
-        scans = np.asarray(obs["laser"]["scans"])
-        x, y = scans[:, 0] * np.cos(scans[:, 1]), scans[:, 0] * np.sin(scans[:, 1])
-        ax.scatter(x, y, s=2, c="k")
-        ax.plot(0, 0, "r>", markersize=8)
-        ax.set_aspect("equal")
-        ax.set_title("laser (robot frame, m)")
-
-    def _draw_poses(self, ax: Any, obs: dict) -> None:
-        from benchbot.core.geometry import quaternion_xyzw_to_matrix  # SciPy: loaded on first use
-
-        for frame, pose in obs["poses"].items():
-            origin = np.asarray(pose["translation_xyz"], dtype=float)
-            R = quaternion_xyzw_to_matrix(pose["rotation_xyzw"])
-            for axis, colour in zip(R.T, "rgb"):
-                end = origin + AXIS_LENGTH_M * axis
-                ax.plot([origin[0], end[0]], [origin[1], end[1]], [origin[2], end[2]], colour)
-            ax.text(*origin, frame, fontsize=7)
-        ax.set_title("poses (map frame)")
-
-    def _draw_image_class(self, ax: Any, obs: dict) -> None:
-        ax.imshow(obs["image_segment"]["class_segment_img"], cmap="tab20", interpolation="nearest")
-        ax.set_title("image_class")
-        ax.axis("off")
-
-    def _draw_image_instance(self, ax: Any, obs: dict) -> None:
-        ax.imshow(obs["image_segment"]["instance_segment_img"] % 1000, cmap="tab20", interpolation="nearest")
-        ax.set_title("image_instance")
-        ax.axis("off")
 
     def update(self) -> None:
         """Pump GUI events for 0.05 s (a window stays responsive)."""

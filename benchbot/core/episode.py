@@ -27,6 +27,7 @@ import numpy as np
 
 from benchbot.core import limits
 from benchbot.core import noise as noise_models
+from benchbot.core import observations
 from benchbot.core.errors import ActionError, BackendError, BenchbotError
 from benchbot.core.geometry import (
     pose7_to_se2,
@@ -163,6 +164,10 @@ class Episode:
             motion execute a noisy version of the one commanded (actuation noise, drawn from
             ``numpy.random.default_rng([seed, scene, 14])``) and, in ``noisy`` localisation, set the odometry
             noise's σ; the backend applies the sensor models (it must have ``noise_presets``).
+        observation_kinds: ``{name: ObservationKind}`` of the observations (:mod:`benchbot.core.observations`;
+            default its ``BUILT_IN``; ``start_service`` gives the registry's, plugins' kinds included): kept as
+            :attr:`observation_kinds` for whoever reads this episode's observations (recorder, Gym, the original
+            protocol's routes). A name of a kind that is no ``sensor`` (``poses``) is the episode's to build.
 
     Raises:
         BackendError: the first scene cannot be loaded, or ``noise`` is not ``none`` and the backend does not apply
@@ -180,8 +185,10 @@ class Episode:
         seed: int = 0,
         on_step: Callable[[dict], None] | None = None,
         noise: str = "none",
+        observation_kinds: dict | None = None,
     ) -> None:
         self.task, self.robot, self.environments = task, robot, list(environments)
+        self.observation_kinds = dict(observations.BUILT_IN if observation_kinds is None else observation_kinds)
         self.noise_preset_name = noise or "none"
         self.noise_preset = noise_models.get_preset(self.noise_preset_name, flag="noise")
         if not noise_models.is_none(self.noise_preset_name) and not getattr(backend, "noise_presets", False):
@@ -386,7 +393,8 @@ class Episode:
                 f"observation '{unknown[0]}' is not part of task {self.task['name']}",
                 f"available: {', '.join(self.task['observations'])}",
             )
-        sensors = [n for n in names if n != "poses"]
+        kinds = self.observation_kinds
+        sensors = [n for n in names if n not in kinds or kinds[n].sensor]  # poses: built here
         backend_observe = self.backend.observe_borrowed if borrowed else self.backend.observe
         obs = backend_observe(sensors) if sensors else {}
         if "poses" in names:

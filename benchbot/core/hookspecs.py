@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable, Union
 import pluggy
 
 if TYPE_CHECKING:  # pragma: no cover
+    from benchbot.core.observations import ObservationKind
     from benchbot.core.robot import RobotBackend
 
 PROJECT_NAME = "benchbot"
@@ -139,6 +140,32 @@ class ContentHooks:
             every implementation is called; the packs are merged into one library. An invalid manifest, or a hook
             that raises, leaves that pack out (reported in ``AssetLibrary.problems``); an asset id already used by
             another pack leaves that asset out. The other packs still load.
+        """
+
+    @declared("0.1")
+    def benchbot_observations(self) -> list[ObservationKind]:
+        """Observation kinds of a plugin's own sensors (an IMU, a bumper), beside the core's (docs/observations.md).
+
+        Each is a ``benchbot.core.observations.ObservationKind``, declared once: its name (the key in the
+        observations, and in task and robot specs), its structure (shapes, dtypes, units, frame), its structure
+        check, its recorder channels (topic, ROS 2 message type, converters to messages and back, and the type's
+        definition when it is not a standard one), its Gym space and value, its visualiser views. The recorder,
+        the replay, the Gym environment and the contract checks read it from the registry
+        (``Registry.observations``); the plugin's robot backend produces the observation, a task asks for it by
+        name (docs/plugin-guide.md, "Adding a sensor").
+
+        Returns:
+            A list of ``ObservationKind``.
+
+        Called:
+            Once per process, when the registry is built.
+
+        Call policy:
+            every implementation is called; the kinds join the core's, in plugin order. A kind whose name,
+            channel key or topic is taken (by the core's kinds, the recorder's own topics or an earlier plugin's
+            kind), that the episode would have to build (``sensor=False``), whose channel type has no definition,
+            or that is not an ``ObservationKind`` is left out and reported (``benchbot plugins``); an
+            implementation that raises offers nothing and is reported; the other kinds still load.
         """
 
 

@@ -23,6 +23,7 @@ from typing import Any, Callable
 from benchbot.core.content_packs import (
     LOAD_ERROR_KEY, OVERRIDE_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
 )
+from benchbot.core import observations
 from benchbot.core.errors import SpecError
 from benchbot.core.names import did_you_mean
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, call_each_plugin, import_object
@@ -46,6 +47,9 @@ class Registry:
         overridden: ``{(kind, name): Entry}`` of every spec a pack's ``--override`` replaced.
         alternative_ground_truths: ``{environment: [Entry]}``: ground truths of environments that have one already
             (the default, in :attr:`entries`), which differ from it: other sets (:meth:`ground_truth_sets`).
+        observations: ``{name: ObservationKind}``: the core's observation kinds
+            (:data:`benchbot.core.observations.BUILT_IN`), then those of plugins (hook ``benchbot_observations``)
+            that clash with none before them; the others are in :attr:`problems` under ``("observations", plugin)``.
     """
 
     def __init__(self, extra_plugins: dict | None = None) -> None:
@@ -88,6 +92,18 @@ class Registry:
                 self.backend_factories[type_name] = (plugin_name, factory)
                 if plugin_name in infos:
                     infos[plugin_name].registers.setdefault("robot_backends", []).append(type_name)
+        self.observations: dict[str, observations.ObservationKind] = dict(observations.BUILT_IN)
+        for plugin_name, kinds, exc in call_each_plugin(self.plugin_manager, "benchbot_observations"):
+            if exc is not None:  # the plugin offers no kinds; the others load
+                added, found = [], [f"plugin {plugin_name}: benchbot_observations() raised {exc!r}"]
+            else:
+                added, found = observations.add_offered(self.observations, plugin_name, kinds)
+            if found:
+                self.problems[("observations", plugin_name)] = "; ".join(found)
+            if plugin_name in infos:
+                infos[plugin_name].problems.extend(found)
+                if added:
+                    infos[plugin_name].registers.setdefault("observations", []).extend(added)
 
     def _add(self, kind: str, schema_name: str, raw: Any, plugin: str, info: PluginInfo | None) -> None:
         path = Path(raw).resolve() if isinstance(raw, (str, Path)) else None

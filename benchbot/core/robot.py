@@ -71,9 +71,10 @@ class RobotBackend(abc.ABC):
 
     @abc.abstractmethod
     def observe(self, names: Sequence[str]) -> dict[str, Any]:
-        """Sensor observations in the structures of docs/observations.md, for the names among ``image_rgb``,
-        ``image_depth``, ``image_rgb_info``, ``image_depth_info``, ``laser``, ``image_segment`` that this robot
-        has (``poses`` is built by the episode from :meth:`frame_transforms`).
+        """Sensor observations for ``names``: those this robot has among the observation kinds that are sensors
+        (:mod:`benchbot.core.observations`: the core's ``image_rgb``, ``image_depth``, ``image_rgb_info``,
+        ``image_depth_info``, ``laser``, ``image_segment``, and kinds of plugins' own sensors), each in its kind's
+        structure (docs/observations.md; ``poses`` is built by the episode from :meth:`frame_transforms`).
 
         Raises:
             KeyError: a name this backend cannot observe.

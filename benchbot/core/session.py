@@ -110,7 +110,7 @@ def start_service(
             episode = Episode(
                 run.task, run.robot, run.environments, backend,
                 results_format=run.results_format, seed=seed, on_step=step_observer,
-                noise=str((options or {}).get("noise") or "none"),
+                noise=str((options or {}).get("noise") or "none"), observation_kinds=registry.observations,
             )
         hook.benchbot_episode_started(
             info={"task": run.task["name"], "robot": run.robot["name"],

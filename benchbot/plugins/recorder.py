@@ -32,6 +32,11 @@ topic                           type                             content
 ``/cmd_vel``                    ``geometry_msgs/msg/Twist``      the motion made (robot frame, m/s, rad/s)
 ==============================  ===============================  ==========================================
 
+The observations' rows are their kinds' channels (:data:`benchbot.core.observations.BUILT_IN`): the recorder
+writes, for every kind of the episode's (``Episode.observation_kinds``: a plugin's own kinds too, from the hook
+``benchbot_observations``) in the step's observations, what the kind's ``to_messages`` makes of it, on the kind's
+topics, with the type definitions of :data:`~benchbot.core.ros_messages.MSGDEFS` or the kind's ``message_types``.
+
 Every channel carries ``offered_qos_profiles`` (rosbag2's Jazzy YAML: reliable, volatile, keep-last 10;
 ``/tf_static`` transient-local, keep-last 1) and ``topic_type_hash`` (the type's RIHS01 hash) metadata, as
 ``ros2 bag record`` writes them, so ``ros2 bag play`` republishes with the right QoS.
@@ -48,80 +53,30 @@ recorded observation: ``step``, ``time_ns``, ``scene_number``, ``names``, the ``
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from benchbot.core import observations as observation_kinds
 from benchbot.core.episode import served_environment
 from benchbot.core.errors import UsageError
-from benchbot.core.geometry import matrix_to_quaternion_xyzw, se2_relative
+from benchbot.core.geometry import se2_relative
 from benchbot.core.hookspecs import hookimpl
+from benchbot.core.ros_messages import (  # noqa: F401 - their home is benchbot.core.ros_messages; named here too
+    MSGDEFS, SEP, TYPE_HASHES, camera_info_message, image_message, laser_message, ros_depth, ros_ranges,
+    transform_message, wrap_angle_min,
+)
 
-SEP = "=" * 80
-
-_TIME = "int32 sec\nuint32 nanosec\n"
-_HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
-_VECTOR3 = "float64 x\nfloat64 y\nfloat64 z\n"
-_QUATERNION = "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
-_ROI = "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n"
-_TRANSFORM = "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
-_TRANSFORM_STAMPED = "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
-
-
-def _concat(main: str, deps: list[tuple[str, str]]) -> str:
-    return main + "".join(f"{SEP}\nMSG: {name}\n{text}" for name, text in deps)
-
-
-MSGDEFS: dict[str, str] = {
-    "sensor_msgs/msg/Image": _concat(
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n"
-        "uint8[] data\n",
-        [("std_msgs/Header", _HEADER), ("builtin_interfaces/Time", _TIME)]),
-    "sensor_msgs/msg/CameraInfo": _concat(
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\n"
-        "float64[9] r\nfloat64[12] p\nuint32 binning_x\nuint32 binning_y\nsensor_msgs/RegionOfInterest roi\n",
-        [("std_msgs/Header", _HEADER), ("builtin_interfaces/Time", _TIME), ("sensor_msgs/RegionOfInterest", _ROI)]),
-    "sensor_msgs/msg/LaserScan": _concat(
-        "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\nfloat32 angle_increment\n"
-        "float32 time_increment\nfloat32 scan_time\nfloat32 range_min\nfloat32 range_max\nfloat32[] ranges\n"
-        "float32[] intensities\n",
-        [("std_msgs/Header", _HEADER), ("builtin_interfaces/Time", _TIME)]),
-    "tf2_msgs/msg/TFMessage": _concat(
-        "geometry_msgs/TransformStamped[] transforms\n",
-        [("geometry_msgs/TransformStamped", _TRANSFORM_STAMPED), ("std_msgs/Header", _HEADER),
-         ("builtin_interfaces/Time", _TIME), ("geometry_msgs/Transform", _TRANSFORM),
-         ("geometry_msgs/Vector3", _VECTOR3), ("geometry_msgs/Quaternion", _QUATERNION)]),
-    "geometry_msgs/msg/Twist": _concat(
-        "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n", [("geometry_msgs/Vector3", _VECTOR3)]),
-}
-"""The standard ROS 2 message definitions (ros2msg text with the dependencies appended), by datatype."""
-
+#: The recorder's own channels, ``{key: (topic, datatype)}``: the frames and the motion made. The observations'
+#: channels are their kinds' (:mod:`benchbot.core.observations`: ``Channel``).
 TOPICS = {
-    "image_rgb": ("/camera/color/image_raw", "sensor_msgs/msg/Image"),
-    "image_rgb_info": ("/camera/color/camera_info", "sensor_msgs/msg/CameraInfo"),
-    "image_depth": ("/camera/depth/image_raw", "sensor_msgs/msg/Image"),
-    "image_depth_info": ("/camera/depth/camera_info", "sensor_msgs/msg/CameraInfo"),
-    "segment_class": ("/camera/segment/class", "sensor_msgs/msg/Image"),
-    "segment_instance": ("/camera/segment/instance", "sensor_msgs/msg/Image"),
-    "laser": ("/scan", "sensor_msgs/msg/LaserScan"),
     "tf": ("/tf", "tf2_msgs/msg/TFMessage"),
     "cmd_vel": ("/cmd_vel", "geometry_msgs/msg/Twist"),
 }
-"""``{key: (topic, datatype)}``."""
 
 TF_STATIC = ("/tf_static", "tf2_msgs/msg/TFMessage")
-
-TYPE_HASHES = {
-    "sensor_msgs/msg/Image": "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
-    "sensor_msgs/msg/CameraInfo": "RIHS01_b3dfd68ff46c9d56c80fd3bd4ed22c7a4ddce8c8348f2f59c299e73118e7e275",
-    "sensor_msgs/msg/LaserScan": "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828",
-    "tf2_msgs/msg/TFMessage": "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087",
-    "geometry_msgs/msg/Twist": "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
-}
-"""ROS 2 Jazzy's RIHS01 type hash (REP 2011) of each recorded datatype (channel metadata ``topic_type_hash``)."""
 
 
 def offered_qos_profiles(latched: bool = False) -> str:
@@ -159,78 +114,7 @@ def tf_frames(robot: dict) -> dict[str, str]:
     return {k: str(v).strip("/") or k for k, v in out.items()}
 
 
-def ros_ranges(ranges: np.ndarray, range_max: float) -> np.ndarray:
-    """Laser ranges (N,) metres, no return read as ``range_max`` (the API's convention) → float32 with +Inf for no
-    return (REP 117)."""
-    r = np.asarray(ranges, dtype=np.float32).reshape(-1).copy()
-    r[~(r < np.float32(range_max))] = np.inf
-    return r
-
-
-def ros_depth(depth: np.ndarray) -> np.ndarray:
-    """Depth (H, W) metres, 0.0 where nothing is hit (the API's convention) → float32 with NaN there (REP 118)."""
-    d = np.asarray(depth, dtype=np.float32).copy()
-    d[~(d > 0) | ~np.isfinite(d)] = np.nan
-    return d
-
-
-def wrap_angle_min(a: float) -> float:
-    """``a`` (rad) wrapped to [-π, π); within 1e-6 below +π counts as -π (a float32 -π wrapped around)."""
-    a = (float(a) + math.pi) % (2.0 * math.pi) - math.pi
-    return -math.pi if a >= math.pi - 1e-6 else max(a, -math.pi)
-
-
 DEFAULT_STEP_S = 1.0
-
-
-def _stamp(time_ns: int) -> dict:
-    return {"sec": int(time_ns // 1_000_000_000), "nanosec": int(time_ns % 1_000_000_000)}
-
-
-def _header(time_ns: int, frame_id: str) -> dict:
-    return {"stamp": _stamp(time_ns), "frame_id": frame_id}
-
-
-def image_message(array: np.ndarray, encoding: str, frame_id: str, time_ns: int) -> dict:
-    """A ``sensor_msgs/msg/Image`` dict for ``array`` (H, W[, C]) in ``encoding`` (little-endian, dense rows)."""
-    array = np.ascontiguousarray(array)
-    h, w = array.shape[:2]
-    return {"header": _header(time_ns, frame_id), "height": h, "width": w, "encoding": encoding,
-            "is_bigendian": 0, "step": int(array.strides[0]), "data": array.tobytes()}
-
-
-def camera_info_message(info: dict, time_ns: int, frame_id: str | None = None) -> dict:
-    """A ``sensor_msgs/msg/CameraInfo`` dict from an ``image_*_info`` observation (plumb-bob, zero distortion), in
-    ``frame_id`` (default: the observation's ``frame_id``)."""
-    return {"header": _header(time_ns, frame_id or info.get("frame_id", "camera")), "height": int(info["height"]),
-            "width": int(info["width"]), "distortion_model": "plumb_bob", "d": [0.0] * 5,
-            "k": np.asarray(info["matrix_intrinsics"], dtype=np.float64).ravel().tolist(),
-            "r": np.eye(3).ravel().tolist(),
-            "p": np.asarray(info["matrix_projection"], dtype=np.float64).ravel().tolist(),
-            "binning_x": 0, "binning_y": 0,
-            "roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0, "do_rectify": False}}
-
-
-def laser_message(laser: dict, frame_id: str, time_ns: int) -> dict:
-    """A ``sensor_msgs/msg/LaserScan`` from a ``laser`` observation (rows ``[range, angle]`` at uniform angles):
-    ``angle_min`` wrapped to [-π, π), ``angle_max = angle_min + (N - 1) · increment``, no return (``range_max``)
-    as +Inf (REP 117)."""
-    scans = np.asarray(laser["scans"], dtype=np.float64)
-    n = len(scans)
-    a0 = wrap_angle_min(scans[0, 1]) if n else 0.0
-    inc = float((scans[1, 1] - a0 + math.pi) % (2 * math.pi) - math.pi) if n > 1 else 0.0
-    return {"header": _header(time_ns, frame_id), "angle_min": a0, "angle_max": a0 + inc * max(n - 1, 0),
-            "angle_increment": inc, "time_increment": 0.0, "scan_time": 0.0,
-            "range_min": float(laser["range_min"]), "range_max": float(laser["range_max"]),
-            "ranges": ros_ranges(scans[:, 0], laser["range_max"]).tolist() if n else [], "intensities": []}
-
-
-def transform_message(T: np.ndarray, parent: str, child: str, time_ns: int) -> dict:
-    """A ``geometry_msgs/msg/TransformStamped`` for ``T`` (4, 4) ``T_parent_child``."""
-    q = matrix_to_quaternion_xyzw(T[:3, :3])
-    return {"header": _header(time_ns, parent), "child_frame_id": child,
-            "transform": {"translation": dict(zip("xyz", map(float, T[:3, 3]))),
-                          "rotation": dict(zip("xyzw", map(float, q)))}}
 
 
 class EpisodeRecorder:
@@ -263,6 +147,9 @@ class EpisodeRecorder:
         self._recorded_obs: Any = None
         self._last_duration: float | None = None
         self._pose_before: np.ndarray | None = None
+        self.kinds: dict[str, Any] = dict(observation_kinds.BUILT_IN)  # the episode's, from attach()
+        self._types: dict[str, Any] = {}
+        self._serialize: Any = None
         self._encoders: dict[str, Any] = {}
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
@@ -292,9 +179,11 @@ class EpisodeRecorder:
                              "choose a writable --record path") from None
         self.writer = Writer(self._file, compression=CompressionType.ZSTD)
         self.writer.start(profile="ros2", library="benchbot recorder")
-        for datatype, text in MSGDEFS.items():
-            self._schemas[datatype] = self.writer.register_schema(datatype, "ros2msg", text.encode())
-            self._encoders[datatype] = serialize_dynamic(datatype, text)[datatype]
+        self.kinds = getattr(episode, "observation_kinds", None) or observation_kinds.BUILT_IN
+        self._types = observation_kinds.message_types(self.kinds)
+        self._serialize = serialize_dynamic
+        for datatype in MSGDEFS:  # the standard types up front; another kind's type when first written
+            self._schema(datatype)
         self.start_ns = self.time_ns = time.time_ns() // 1_000_000 * 1_000_000
         backend = episode.backend
         original_move_to = backend.move_to
@@ -308,12 +197,20 @@ class EpisodeRecorder:
         self._pose_before = np.asarray(backend.base_pose(), dtype=np.float64)
         self._write_tf()
 
+    def _schema(self, datatype: str) -> int:
+        """The schema id of ``datatype`` (registered, with its encoder, on first use)."""
+        if datatype not in self._schemas:
+            text = self._types[datatype].definition
+            self._schemas[datatype] = self.writer.register_schema(datatype, "ros2msg", text.encode())
+            self._encoders[datatype] = self._serialize(datatype, text)[datatype]
+        return self._schemas[datatype]
+
     def _channel(self, topic: str, datatype: str) -> int:
         if topic not in self._channels:
             self._channels[topic] = self.writer.register_channel(
-                topic, "cdr", self._schemas[datatype],
+                topic, "cdr", self._schema(datatype),
                 {"offered_qos_profiles": offered_qos_profiles(latched=topic == TF_STATIC[0]),
-                 "topic_type_hash": TYPE_HASHES[datatype]})
+                 "topic_type_hash": self._types[datatype].type_hash})
         return self._channels[topic]
 
     def _write_to(self, topic: str, datatype: str, message: dict) -> None:
@@ -347,26 +244,17 @@ class EpisodeRecorder:
         t = self.steps[step - 1]["time_ns"] if 0 < step <= len(self.steps) else (self.start_ns if step == 0
                                                                                  else self.time_ns)
         saved, self.time_ns = self.time_ns, t
-        cam, lidar = self.tf_names["camera"], self.tf_names["lidar"]
         try:
             frame = {"step": step, "time_ns": t, "scene_number": int(obs.get("scene_number", 0)),
-                     "names": sorted(k for k in obs if k not in ("scene_number", "poses"))}
-            if "image_rgb" in obs:
-                self._write("image_rgb", image_message(obs["image_rgb"], "rgb8", cam, t))
-            if "image_depth" in obs:
-                self._write("image_depth", image_message(ros_depth(obs["image_depth"]), "32FC1", cam, t))
-            for name in ("image_rgb_info", "image_depth_info"):
-                if name in obs:
-                    self._write(name, camera_info_message(obs[name], t, cam))
-                    if obs[name].get("frame_id", cam) != cam:
-                        frame.setdefault("info_frame_ids", {})[name] = obs[name]["frame_id"]
-            if "laser" in obs:
-                self._write("laser", laser_message(obs["laser"], lidar, t))
-            if "image_segment" in obs:
-                seg = obs["image_segment"]
-                self._write("segment_class", image_message(np.asarray(seg["class_segment_img"], np.uint8), "mono8", cam, t))
-                self._write("segment_instance", image_message(np.asarray(seg["instance_segment_img"], np.int32), "32SC1", cam, t))
-                frame["class_ids"] = dict(seg.get("class_ids", {}))
+                     "names": sorted(k for k in obs if k != "scene_number"
+                                     and (k not in self.kinds or self.kinds[k].sensor))}
+            context = observation_kinds.RecordContext(t, self.tf_names, frame)
+            for name, kind in self.kinds.items():  # in the kinds' order; what no kind channels is only named
+                if name in obs and kind.channels:
+                    messages = kind.to_messages(obs[name], context)
+                    for channel in kind.channels:
+                        if channel.key in messages:
+                            self._write_to(channel.topic, channel.datatype, messages[channel.key])
             self.frames.append(frame)
         finally:
             self.time_ns = saved

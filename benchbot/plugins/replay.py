@@ -23,6 +23,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from benchbot.core import observations as observation_kinds
 from benchbot.core.errors import BackendError, BenchbotError, ExitCode
 from benchbot.core.geometry import quaternion_wxyz_to_matrix
 from benchbot.core.robot import MotionOutcome, RobotBackend
@@ -33,18 +34,6 @@ class RecordingError(BenchbotError):
     """A recording is missing, unreadable or not a BenchBot episode recording."""
 
     exit_code = ExitCode.USAGE
-
-
-def _encoding_array(msg: Any) -> np.ndarray:
-    dtypes = {"rgb8": (np.uint8, 3), "mono8": (np.uint8, 1), "32FC1": (np.float32, 1), "32SC1": (np.int32, 1)}
-    if msg.encoding not in dtypes:
-        raise RecordingError(f"unsupported image encoding '{msg.encoding}'", "recordings use rgb8, mono8, 32FC1, 32SC1")
-    dtype, channels = dtypes[msg.encoding]
-    dtype = np.dtype(dtype).newbyteorder(">" if msg.is_bigendian else "<")
-    row = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.step)
-    itemsize = dtype.itemsize * channels
-    pixels = np.ascontiguousarray(row[:, : msg.width * itemsize]).view(dtype).astype(dtype.newbyteorder("="))
-    return pixels.reshape(msg.height, msg.width, channels) if channels > 1 else pixels.reshape(msg.height, msg.width)
 
 
 def _transform(tf: Any) -> np.ndarray:
@@ -125,11 +114,14 @@ class ReplayBackend(RobotBackend):
     Args:
         recording: the recording.
         robot_spec: the robot spec (the recording's).
+        kinds: the observation kinds that decode the recorded messages (``Registry.observations``; default the
+            built-in ones, :data:`benchbot.core.observations.BUILT_IN`).
     """
 
-    def __init__(self, recording: Recording, robot_spec: dict) -> None:
+    def __init__(self, recording: Recording, robot_spec: dict, kinds: dict | None = None) -> None:
         self.recording = recording
         self.robot_spec = robot_spec
+        self.kinds = observation_kinds.BUILT_IN if kinds is None else kinds
         self.moves = 0  # == the episode's step_count: every action makes exactly one move_to
         self.loaded = False
 
@@ -205,52 +197,36 @@ class ReplayBackend(RobotBackend):
         """``T_map_<frame>`` of ``robot``, ``camera``, ``lidar`` from the recorded ``/tf`` at this step."""
         return self._robot_transform()
 
-    def _message(self, key: str, t: int) -> Any:
-        msg = self.recording.at(TOPICS[key][0], t)
-        if msg is None:
-            raise BackendError(f"the recording has no {TOPICS[key][0]} message at step {self.moves}",
-                               "was it written by --record (and finished)?")
-        return msg
-
     def observe(self, names: Sequence[str]) -> dict[str, Any]:
-        """The recorded observations of this step, decoded into the reference structures.
+        """The recorded observations of this step, decoded into the reference structures by their kinds'
+        ``from_messages`` (:mod:`benchbot.core.observations`).
 
         Raises:
-            KeyError: a name that was not recorded at this step (or is not a sensor).
+            KeyError: a name that was not recorded at this step (or is not a sensor, or of no kind that decodes
+                recorded messages).
             BackendError: the frame lists a name whose message is missing from the file.
+            RecordingError: a recorded message cannot be read (an image encoding other than the recorder's).
         """
         t = self._time()
         frame = next((f for f in self.recording.frames if f["time_ns"] == t and f["step"] == self.moves), None)
         out: dict[str, Any] = {}
         for name in names:
-            if frame is None or name not in frame["names"]:
+            kind = self.kinds.get(name)
+            if frame is None or name not in frame["names"] or kind is None or not kind.channels:
                 raise KeyError(name)
-            if name == "image_rgb":
-                out[name] = _encoding_array(self._message(name, t))
-            elif name == "image_depth":  # REP 118: NaN (no hit) is the API's 0.0
-                depth = _encoding_array(self._message(name, t))
-                out[name] = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(0.0)).astype(np.float32)
-            elif name in ("image_rgb_info", "image_depth_info"):
-                msg = self._message(name, t)
-                frame_id = (frame.get("info_frame_ids") or {}).get(name, msg.header.frame_id)
-                out[name] = {"frame_id": frame_id, "height": int(msg.height), "width": int(msg.width),
-                             "matrix_intrinsics": np.asarray(msg.k, dtype=np.float64).reshape(3, 3),
-                             "matrix_projection": np.asarray(msg.p, dtype=np.float64).reshape(3, 4)}
-            elif name == "laser":
-                msg = self._message("laser", t)
-                ranges = np.asarray(msg.ranges, dtype=np.float32).astype(np.float64)
-                ranges[~(ranges <= msg.range_max)] = float(msg.range_max)  # REP 117: +Inf (no return) is range_max
-                angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges), dtype=np.float64)
-                angles = (angles + math.pi) % (2.0 * math.pi) - math.pi
-                angles[angles >= math.pi - 1e-6] -= 2.0 * math.pi  # float32 rounding of −π must not wrap to +π
-                out[name] = {"scans": np.stack([ranges, angles], axis=1), "range_min": float(msg.range_min),
-                             "range_max": float(msg.range_max)}
-            elif name == "image_segment":
-                out[name] = {"class_segment_img": _encoding_array(self._message("segment_class", t)),
-                             "instance_segment_img": _encoding_array(self._message("segment_instance", t)),
-                             "class_ids": dict(frame.get("class_ids", {}))}
-            else:
-                raise KeyError(name)
+            topics = {ch.key: ch.topic for ch in kind.channels}
+
+            def message(key: str, topics: dict = topics) -> Any:
+                msg = self.recording.at(topics[key], t)
+                if msg is None:
+                    raise BackendError(f"the recording has no {topics[key]} message at step {self.moves}",
+                                       "was it written by --record (and finished)?")
+                return msg
+
+            try:
+                out[name] = kind.from_messages(message, frame)
+            except ValueError as exc:
+                raise RecordingError(str(exc), "replay recordings written by --record") from None
         return out
 
 
@@ -274,5 +250,5 @@ def start_replay_service(path: Path | str, registry: Any = None, *, on_step: Any
     spec = RunSpec(run["task"], run["robot"], run["environments"], run.get("results_format") or {},
                    run.get("env_string") or ":".join([run["environments"][0]["name"]] + [str(e["variant"]) for e in run["environments"]]))
     service = start_service(registry, spec, seed=int(run.get("seed", 0)), on_step=on_step,
-                            factory=lambda robot, options: ReplayBackend(recording, robot))
+                            factory=lambda robot, options: ReplayBackend(recording, robot, registry.observations))
     return service, spec

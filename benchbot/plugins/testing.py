@@ -24,7 +24,6 @@ from typing import Any, Callable, Iterable
 import numpy as np
 
 HEAVY_MODULES = ("taichi", "rclpy", "ray", "torch", "cyclonedds")
-SENSORS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
 CONTENT_KINDS = ("tasks", "robots", "environments", "formats", "evaluators", "examples", "batches", "ground_truths")
 
 
@@ -157,54 +156,31 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
     return registers
 
 
-def check_observations(obs: dict, names: Iterable[str]) -> None:
-    """Check observation structures (docs/observations.md) for ``names``.
+def _kinds(registry: Any) -> dict:
+    """The observation kinds of ``registry`` (default: the process's registry, plugins' kinds included)."""
+    if registry is None:
+        from benchbot.core.registry import get_registry
+
+        registry = get_registry()
+    return registry.observations
+
+
+def check_observations(obs: dict, names: Iterable[str], *, registry: Any = None) -> None:
+    """Check observation structures (docs/observations.md) for ``names``: each must be there, and every observation
+    of a kind in ``obs`` must pass its kind's structure check (:func:`benchbot.core.observations.problems`).
+
+    Args:
+        obs: the observations.
+        names: the names that must be there.
+        registry: the :class:`~benchbot.core.registry.Registry` whose observation kinds check (default: the
+            process's; give the one holding a plugin defined in a test).
 
     Raises:
-        AssertionError: a missing key, a wrong dtype/shape, or an inconsistent size.
+        AssertionError: a missing key, a wrong dtype/shape, or an inconsistent size (one line each).
     """
-    problems: list[str] = []
-    names = list(names)
-    for name in names:
-        if name not in obs:
-            problems.append(f"{name}: missing")
-    rgb, depth = obs.get("image_rgb"), obs.get("image_depth")
-    if "image_rgb" in obs:
-        if not (isinstance(rgb, np.ndarray) and rgb.ndim == 3 and rgb.shape[2] == 3 and rgb.dtype == np.uint8):
-            problems.append(f"image_rgb: expected (H, W, 3) uint8, got {getattr(rgb, 'shape', type(rgb))} {getattr(rgb, 'dtype', '')}")
-    if "image_depth" in obs:
-        if not (isinstance(depth, np.ndarray) and depth.ndim == 2 and depth.dtype == np.float32):
-            problems.append(f"image_depth: expected (H, W) float32 metres, got {getattr(depth, 'shape', type(depth))} {getattr(depth, 'dtype', '')}")
-        elif not (np.isfinite(depth).all() and (depth >= 0).all()):
-            problems.append("image_depth: values must be finite and >= 0 (0 where nothing is hit)")
-    for info_name, image in (("image_rgb_info", rgb), ("image_depth_info", depth)):
-        if info_name not in obs:
-            continue
-        info = obs[info_name]
-        missing = {"frame_id", "height", "width", "matrix_intrinsics", "matrix_projection"} - set(info or {})
-        if missing:
-            problems.append(f"{info_name}: missing {', '.join(sorted(missing))}")
-            continue
-        if np.asarray(info["matrix_intrinsics"]).shape != (3, 3) or np.asarray(info["matrix_projection"]).shape != (3, 4):
-            problems.append(f"{info_name}: matrix_intrinsics must be (3, 3) and matrix_projection (3, 4)")
-        if isinstance(image, np.ndarray) and (info["height"], info["width"]) != image.shape[:2]:
-            problems.append(f"{info_name}: height/width {info['height']}x{info['width']} differ from the image {image.shape[:2]}")
-    if "laser" in obs:
-        laser = obs["laser"]
-        scans = np.asarray((laser or {}).get("scans", np.zeros((0,))))
-        if not ({"scans", "range_min", "range_max"} <= set(laser or {})):
-            problems.append("laser: expected keys scans, range_min, range_max")
-        elif scans.ndim != 2 or scans.shape[1] != 2 or scans.dtype != np.float64:
-            problems.append(f"laser.scans: expected (N, 2) float64 [range m, angle rad], got {scans.shape} {scans.dtype}")
-        elif len(scans) and not ((scans[:, 1] >= -math.pi - 1e-9).all() and (scans[:, 1] < math.pi + 1e-9).all()):
-            problems.append("laser.scans: angles must be wrapped to [-pi, pi)")
-    if "image_segment" in obs:
-        seg = obs["image_segment"] or {}
-        if not ({"class_segment_img", "instance_segment_img", "class_ids"} <= set(seg)):
-            problems.append("image_segment: expected keys class_segment_img, instance_segment_img, class_ids")
-        elif np.asarray(seg["instance_segment_img"]).dtype != np.int32:
-            problems.append("image_segment.instance_segment_img: expected int32")
-    _fail("observations", problems)
+    from benchbot.core.observations import problems
+
+    _fail("observations", problems(obs, list(names), _kinds(registry)))
 
 
 def _check_transform(name: str, t: Any, problems: list[str]) -> None:
@@ -248,7 +224,7 @@ def _angle_diff(a: float, b: float) -> float:
 
 
 def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, *, options: dict | None = None,
-                        turn_rad: float = 0.3) -> dict:
+                        turn_rad: float = 0.3, registry: Any = None) -> dict:
     """Drive a robot backend through the :class:`~benchbot.core.robot.RobotBackend` contract: build it, load the
     scene, read the pose (must be the environment's ``start_pose``), frame transforms for every frame of the
     robot's ``poses``, every sensor observation the robot offers (structures of docs/observations.md; the same values
@@ -262,6 +238,8 @@ def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, 
         environment: an environment spec (schema ``environment``) of the robot's type.
         options: backend options (default ``{'seed': 0, 'width': 64, 'height': 48, 'arch': 'cpu'}``).
         turn_rad: the test turn (rad, counter-clockwise).
+        registry: the registry whose observation kinds say which of the robot's observations are sensors and check
+            them (default: the process's).
 
     Returns:
         The observations of the first scene (dict).
@@ -295,10 +273,11 @@ def check_robot_backend(factory: Callable, robot_spec: dict, environment: dict, 
             else:
                 _check_transform(frame, transforms[frame], problems)
         offered = set(robot_spec.get("observations", [])) | set(robot_spec.get("connections", {}))
-        names = [n for n in SENSORS if n in offered]
+        kinds = _kinds(registry)
+        names = [n for n, kind in kinds.items() if kind.sensor and n in offered]
         obs = backend.observe(names)
         try:
-            check_observations(obs, names)
+            check_observations(obs, names, registry=registry)
         except AssertionError as exc:
             problems.append(str(exc))
         # a backend that overrides observe_borrowed must give observe's values (the default is observe itself,

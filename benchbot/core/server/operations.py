@@ -8,6 +8,7 @@ from typing import Any, Callable
 
 from benchbot.core import limits
 from benchbot.core.episode import ACTIONS
+from benchbot.core.observations import BUILT_IN
 from benchbot.core.errors import BenchbotError
 from benchbot.core.server.http_errors import BadRequestError, NotFoundError
 from benchbot.core.server.request_decoding import check_results_arguments
@@ -15,8 +16,9 @@ from benchbot.core.server.service import BackendService
 
 ROBOT_GREETING = "Hello, I am the BenchBot robot controller"
 #: The original robot config's API-side callback for colour images (docs/original-benchbot.md): clients import it
-#: from ``benchbot_api.api_callbacks``.
-RGB_CALLBACK = "api_callbacks.convert_to_rgb"
+#: from ``benchbot_api.api_callbacks``. It is the ``image_rgb`` kind's ``original_callback_api``
+#: (:mod:`benchbot.core.observations`).
+RGB_CALLBACK = BUILT_IN["image_rgb"].original_callback_api
 
 
 class BackendApi:
@@ -80,7 +82,8 @@ class BackendApi:
         """The config ``{task, results, robot, environments}`` or the value at nested ``keys``.
 
         The robot's ``image_rgb`` connection carries the original's ``callback_api`` (docs/original-benchbot.md) so
-        original clients convert ``{encoding, data}`` to an array. Ground truth is never part of the config.
+        original clients convert ``{encoding, data}`` to an array (every connection of an observation kind with an
+        ``original_callback_api`` carries it). Ground truth is never part of the config.
 
         Raises:
             NotFoundError: a key is missing (list indices are not supported, as in the original).
@@ -96,8 +99,9 @@ class BackendApi:
         """The served config (a copy; no ground truth: :attr:`Episode.config`)."""
         config = self.episode.config
         connections = config.get("robot", {}).get("connections", {})
-        if isinstance(connections.get("image_rgb"), dict):
-            connections["image_rgb"].setdefault("callback_api", RGB_CALLBACK)
+        for name, kind in self.episode.observation_kinds.items():
+            if kind.original_callback_api and isinstance(connections.get(name), dict):
+                connections[name].setdefault("callback_api", kind.original_callback_api)
         return config
 
     def robot(self, command: str) -> Any:
@@ -190,9 +194,10 @@ class BackendApi:
         self._mutate(lambda: self.episode.act(action, args))
 
     def observation(self, name: str) -> Any:
-        """*worker*. One observation in the original controller's structures (``image_rgb`` as
-        ``{'encoding': 'rgb8', 'data': (H, W, 3) uint8}``). All of the task's observations are taken at once and
-        kept until the next state change, so an original client's one-by-one requests see one instant.
+        """*worker*. One observation in the original controller's structures (its kind's ``original_value``:
+        ``image_rgb`` as ``{'encoding': 'rgb8', 'data': (H, W, 3) uint8}``). All of the task's observations are
+        taken at once and kept until the next state change, so an original client's one-by-one requests see one
+        instant.
 
         Raises:
             NotFoundError: the task does not observe ``name``.
@@ -207,9 +212,8 @@ class BackendApi:
             obs = ep.observe(None)
             self._obs_cache = (self._obs_key(), obs)  # after observe: it may capture initial_pose
         value = self._obs_cache[1][name]
-        if name == "image_rgb":
-            return {"encoding": "rgb8", "data": value}
-        return value
+        kind = self.episode.observation_kinds.get(name)
+        return kind.original_value(value) if kind is not None and kind.original_value is not None else value
 
     def connection(self, name: str, body: dict) -> Any:
         """*worker*. ``/connections/<name>``: an action (``body`` = its arguments; returns None) or an observation.

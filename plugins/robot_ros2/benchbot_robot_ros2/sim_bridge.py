@@ -93,10 +93,21 @@ def ros_frames(ros_robot: dict) -> dict[str, str]:
     return out
 
 
-#: The topics served, by key: ``carter_ros2``'s names (:func:`ros_topics` reads another definition's).
-DEFAULT_TOPICS = {"rgb": "/camera/color/image_raw", "rgb_info": "/camera/color/camera_info",
-                  "depth": "/camera/depth/image_raw", "depth_info": "/camera/depth/camera_info", "scan": "/scan",
-                  "odom": "/odom", "tf": "/tf", "tf_static": "/tf_static", "cmd_vel": "/cmd_vel"}
+def _recorded_topic(observation: str) -> str:
+    """The topic a recording holds the core's observation kind ``observation`` on (its one channel's,
+    :data:`benchbot.core.observations.BUILT_IN`): serve-sim publishes it where ``--record`` records it."""
+    from benchbot.core.observations import BUILT_IN
+
+    (channel,) = BUILT_IN[observation].channels
+    return channel.topic
+
+
+#: The topics served, by key: ``carter_ros2``'s names (:func:`ros_topics` reads another definition's); the sensors'
+#: are the recorder's channels of their observation kinds.
+DEFAULT_TOPICS = {"rgb": _recorded_topic("image_rgb"), "rgb_info": _recorded_topic("image_rgb_info"),
+                  "depth": _recorded_topic("image_depth"), "depth_info": _recorded_topic("image_depth_info"),
+                  "scan": _recorded_topic("laser"), "odom": "/odom", "tf": "/tf", "tf_static": "/tf_static",
+                  "cmd_vel": "/cmd_vel"}
 
 
 def ros_topics(ros_robot: dict) -> dict[str, str]:

@@ -60,7 +60,13 @@ OPTIONS_SCHEMA = SCHEMA_DIR / "options.schema.json"
 #: Rotation (3, 3) of the camera OPTICAL frame in the camera body frame (x forward, y left, z up).
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
-OBSERVATIONS = ("image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "laser", "image_segment")
+#: The method of :class:`TaichiSimBackend` that makes each observation it senses: ``method(scene, hand_out)``,
+#: ``hand_out`` copying a cached array or giving a read-only view of it.
+_PRODUCERS = {"image_rgb": "_image_rgb", "image_depth": "_image_depth", "image_rgb_info": "_camera_info",
+              "image_depth_info": "_camera_info", "laser": "_laser", "image_segment": "_image_segment"}
+
+#: What this simulator senses: observation kinds of :mod:`benchbot.core.observations` (their structures there).
+OBSERVATIONS = tuple(_PRODUCERS)
 
 
 def camera_mount(camera: dict | None = None) -> np.ndarray:
@@ -441,22 +447,25 @@ class TaichiSimBackend(RobotBackend):
                                                         for n in names):
             self._render(with_scan=True)  # one kernel launch for both
         hand_out = np.copy if owned else _read_only_view
-        out: dict[str, Any] = {}
-        for n in names:
-            if n == "image_rgb":
-                out[n] = hand_out(self._render()["rgb"])
-            elif n == "image_depth":
-                out[n] = hand_out(self._render()["depth"])
-            elif n in ("image_rgb_info", "image_depth_info"):
-                out[n] = self._info()
-            elif n == "image_segment":
-                r = self._render()
-                out[n] = {"class_segment_img": r["class"].astype(np.uint8),
-                          "instance_segment_img": hand_out(r["instance"].astype(np.int32, copy=False)),
-                          "class_ids": dict(scene.class_ids)}
-            elif n == "laser":
-                out[n] = {"scans": hand_out(self._scan()), "range_min": self.range_min, "range_max": self.range_max}
-        return out
+        return {n: getattr(self, _PRODUCERS[n])(scene, hand_out) for n in names}
+
+    def _image_rgb(self, scene: Scene, hand_out: Any) -> np.ndarray:
+        return hand_out(self._render()["rgb"])
+
+    def _image_depth(self, scene: Scene, hand_out: Any) -> np.ndarray:
+        return hand_out(self._render()["depth"])
+
+    def _camera_info(self, scene: Scene, hand_out: Any) -> dict[str, Any]:
+        return self._info()
+
+    def _image_segment(self, scene: Scene, hand_out: Any) -> dict[str, Any]:
+        r = self._render()
+        return {"class_segment_img": r["class"].astype(np.uint8),
+                "instance_segment_img": hand_out(r["instance"].astype(np.int32, copy=False)),
+                "class_ids": dict(scene.class_ids)}
+
+    def _laser(self, scene: Scene, hand_out: Any) -> dict[str, Any]:
+        return {"scans": hand_out(self._scan()), "range_min": self.range_min, "range_max": self.range_max}
 
     def close(self) -> None:
         """Drop the scene and caches and free the renderer's GPU memory (Taichi's runtime stays up for the
