@@ -138,7 +138,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
 
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
         with stages.listening(on_stage):
-            service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step)
+            service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step,
+                                    world_seed=spec.world_seed)
         recorder = None
         try:
             if spec.record:

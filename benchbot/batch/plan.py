@@ -26,7 +26,11 @@ class EpisodeSpec:
     Attributes:
         index: position in the batch (0-based; files are numbered by it).
         task, robot, env: names (``env`` is an environment string such as ``miniroom:1`` or ``house:1:2``).
-        repeat: repetition number (0-based). seed: the episode's seed (``base seed + index``).
+        repeat: repetition number (0-based). seed: the episode's seed (``base seed + index``): its sensor, odometry
+            and actuation noise.
+        world_seed: the batch's ``--seed``, the same for every episode: with the environment's name and variant it
+            fixes the scene (:func:`benchbot.core.seeding.world_seed`), so an environment's world does not depend on
+            its position in ``--envs``. None in plans written before it (they then use ``seed``).
         argv, cwd: the submission's command and folder.
         options: robot-backend options (``arch``, ``width``, ``height``).
         timeout_s: stop the submission (its whole process group) after this many seconds (None: never); a new
@@ -57,6 +61,7 @@ class EpisodeSpec:
     container: dict | None = None
     noise: str = "none"
     sandbox: str = "none"
+    world_seed: int | None = None
 
     @property
     def recording(self) -> str:
@@ -119,8 +124,9 @@ def plan_episodes(
     noise: str = "none", start: int = 0, tag: str = "", sandbox: str = "bwrap",
 ) -> list[EpisodeSpec]:
     """Episodes for every robot × environment × repetition (in that nesting order); episode ``i`` gets seed
-    ``seed + i``. ``record``: every episode is recorded as MCAP. ``timeout_s``: None leaves the task's default to
-    :func:`benchbot.batch.runner.prepare_batch`, 0 means no timeout. ``noise``: every episode's noise preset.
+    ``seed + i`` (its noise) and every episode the world seed ``seed`` (its scenes). ``record``: every episode is
+    recorded as MCAP. ``timeout_s``: None leaves the task's default to :func:`benchbot.batch.runner.prepare_batch`, 0
+    means no timeout. ``noise``: every episode's noise preset.
     ``sandbox``: how every solution is isolated (``bwrap``, the default; ``container`` or ``none``).
 
     ``start`` and ``tag`` serve sweeps (:func:`benchbot.batch.sweep.plan_sweep`): the episodes are numbered from
@@ -160,7 +166,7 @@ def plan_episodes(
                 specs.append(EpisodeSpec(
                     index=i, task=task, robot=robot, env=env, repeat=r, seed=seed + j, argv=argv, cwd=cwd,
                     options=options, timeout_s=timeout_s, results=f"results/{name}.json", log=f"logs/{name}.log",
-                    record=record, container=container, noise=noise, sandbox=sandbox,
+                    record=record, container=container, noise=noise, sandbox=sandbox, world_seed=seed,
                 ))
     return specs
 

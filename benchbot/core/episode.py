@@ -28,6 +28,7 @@ import numpy as np
 from benchbot.core import limits
 from benchbot.core import noise as noise_models
 from benchbot.core import observations
+from benchbot.core import seeding
 from benchbot.core.errors import ActionError, BackendError, BenchbotError
 from benchbot.core.geometry import (
     pose7_to_se2,
@@ -158,7 +159,11 @@ class Episode:
         environments: validated environment specs, one per scene (``len == task.scene_count``).
         backend: the robot backend (already built).
         results_format: the task's results-format spec, or ``{}`` when the task has none.
-        seed: seeds the backend's scenes, the odometry noise and the actuation noise.
+        seed: the episode seed: seeds the odometry noise and the actuation noise, and (through the backend's
+            ``seed`` option) its sensor noise.
+        world_seed: the run's world seed (None: ``seed``): every scene is loaded with
+            :func:`benchbot.core.seeding.environment_world_seed` of it and the scene's environment, so a name and
+            variant give one world whatever the episode's position in a batch (docs/noise.md, *Seeds*).
         on_step: optional callback ``on_step(info: dict)`` after every action (observer hooks).
         noise: a preset of :mod:`benchbot.core.noise` (default ``none``: nothing changes). Other presets make every
             motion execute a noisy version of the one commanded (actuation noise, drawn from
@@ -186,6 +191,7 @@ class Episode:
         on_step: Callable[[dict], None] | None = None,
         noise: str = "none",
         observation_kinds: dict | None = None,
+        world_seed: int | None = None,
     ) -> None:
         self.task, self.robot, self.environments = task, robot, list(environments)
         self.observation_kinds = dict(observations.BUILT_IN if observation_kinds is None else observation_kinds)
@@ -197,6 +203,8 @@ class Episode:
                 "use --noise none with this robot (a real robot's noise is its own)")
         self.results_format = results_format or {}
         self.backend, self.seed, self.on_step = backend, seed, on_step
+        #: the run's world seed; None: :attr:`seed` (so resetting a Gym environment's seed also changes its worlds)
+        self.world_seed = world_seed
         self.localisation = task.get("localisation", "ground_truth")
         self.step_count = 0
         # (step_count, observations) of the last observe(); its arrays may be borrowed from the backend, valid until
@@ -209,7 +217,7 @@ class Episode:
     # ----------------------------------------------------------------------------------------- state
     def _load(self, scene_index: int) -> None:
         self.scene_index = scene_index
-        self.backend.load_scene(self.environments[scene_index], seed=self.seed + scene_index)
+        self.backend.load_scene(self.environments[scene_index], seed=self.scene_seed(scene_index))
         self.start_se2 = start_pose_to_se2(self.environments[scene_index]["start_pose"])
         self.trajectory_next: int | None = None
         self.collided = False
@@ -222,6 +230,12 @@ class Episode:
         self.actuation_rng = (None if noise_models.is_none(self.noise_preset_name)
                               else np.random.default_rng([self.seed, scene_index, noise_models.STREAM_ACTUATION]))
         self.running = True
+
+    def scene_seed(self, scene_index: int) -> int:
+        """The seed scene ``scene_index`` is loaded with: :func:`benchbot.core.seeding.environment_world_seed` of
+        :attr:`world_seed` (or :attr:`seed`) and the scene's environment; never the episode's position in a batch."""
+        base = self.seed if self.world_seed is None else self.world_seed
+        return seeding.environment_world_seed(base, self.environments[scene_index])
 
     @property
     def environment(self) -> dict:

@@ -50,6 +50,9 @@ class RobotBackend(abc.ABC):
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
         """Load ``environment`` (a validated environment spec) and place the robot at its normalised
         ``start_pose``, at rest, with no collision. Called at the start of every scene and on reset/restart.
+        ``seed`` is the scene's world seed (:meth:`benchbot.core.episode.Episode.scene_seed`: derived from the
+        run's seed and the environment's name and variant): a simulator builds the same scene for the same seed; its
+        sensor noise draws from its ``seed`` option (the episode seed) as well, so repetitions differ.
 
         Raises:
             benchbot.core.errors.BackendError: the scene cannot be loaded.

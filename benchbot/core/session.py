@@ -81,8 +81,13 @@ def start_service(
     options: dict | None = None,
     on_step: Callable[[dict], None] | None = None,
     factory: Callable[[dict, dict], Any] | None = None,
+    world_seed: int | None = None,
 ) -> BackendService:
     """Build the robot backend and the episode on the backend worker thread.
+
+    ``seed`` is the episode seed (the backend's ``seed`` option: its sensor noise; odometry and actuation noise);
+    ``world_seed`` the run's world seed (None: ``seed``), which with each scene's name and variant fixes the scene
+    (:meth:`benchbot.core.episode.Episode.scene_seed`, docs/noise.md *Seeds*).
 
     ``factory(robot_spec, options)`` builds the backend; by default the one registered for the robot's ``type``
     (the replay of a recording passes its own).
@@ -111,6 +116,7 @@ def start_service(
                 run.task, run.robot, run.environments, backend,
                 results_format=run.results_format, seed=seed, on_step=step_observer,
                 noise=str((options or {}).get("noise") or "none"), observation_kinds=registry.observations,
+                world_seed=world_seed,
             )
         hook.benchbot_episode_started(
             info={"task": run.task["name"], "robot": run.robot["name"],

@@ -61,6 +61,8 @@ from typing import Any
 
 import numpy as np
 
+from benchbot.core.seeding import environment_world_seed
+
 TICK_S = 0.05  # simulated seconds per integration step (the controller's rate)
 TICK_NS = 50_000_000
 CMD_TIMEOUT_S = 0.5
@@ -162,7 +164,8 @@ class SimBridge:
         time_scale: simulated seconds per wall second (1 = real time).
         camera_hz, laser_hz: publication rates (simulated time); odometry and TF go out every tick (20 Hz).
         transport: ``auto``/``cyclonedds``/``rclpy``. network: ``loopback``/``system``.
-        seed: scene seed.
+        seed: the run's seed: with the environment's name and variant it fixes the scene
+            (:func:`benchbot.core.seeding.environment_world_seed`, as in an episode with that seed).
         ros_robot: the ROS robot definition served (a robot name, or a spec dict): its frame and topic names are
             used (:func:`ros_frames`, :func:`ros_topics`).
 
@@ -248,7 +251,7 @@ class SimBridge:
 
             raise UsageError(f"serve-sim serves one scene, got '{env}'", "e.g. --env miniroom:1")
         self.environment = environments[0]
-        self.sim.load_scene(self.environment, seed=seed)
+        self.sim.load_scene(self.environment, seed=environment_world_seed(seed, self.environment))
         self.env_string = env
         self.start = self.sim.base_pose()
         self._cmd = (0.0, 0.0, -math.inf)

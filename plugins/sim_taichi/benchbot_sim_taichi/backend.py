@@ -168,14 +168,17 @@ class TaichiSimBackend(RobotBackend):
     Args:
         robot_spec: the robot spec (``sensors`` block optional, defaults :data:`DEFAULT_SENSORS`; ``speed_factor``
             optional).
-        options: ``seed`` (int, default 0: colour variation, sampling and noise), ``arch`` (``'cpu'``/``'gpu'``/
+        options: ``seed`` (int, default 0: the episode seed, of sensor noise), ``arch`` (``'cpu'``/``'gpu'``/
             ``'cuda'``; default env ``BENCHBOT_TAICHI_ARCH`` or cpu), ``width``/``height`` (camera size override,
             pixels), ``mode`` (``fast`` default / ``quality``), ``shadow_samples`` (shadow rays per light and pixel
             in fast mode, default 1 = hard shadows), ``noise`` (a preset of :mod:`benchbot.core.noise`, default
             ``none``); others ignored.
 
-    Sensor noise, drawn from ``numpy.random.default_rng([seed, frame, stream])`` so the same seed gives
-    bit-identical observations: first the ``noise`` preset's physical models (range-dependent depth error and
+    The scene (colour variation, the furnished home's choices) and the renderer's sampling follow the world seed
+    :meth:`load_scene` is given (the episode derives it from the environment's name and variant,
+    :mod:`benchbot.core.seeding`). Sensor noise, drawn from ``numpy.random.default_rng([episode seed, world seed,
+    frame, stream])`` (the episode seed: the ``seed`` option) so the same seeds give bit-identical observations and
+    each repetition of one world its own noise: first the ``noise`` preset's physical models (range-dependent depth error and
     dropout, Poisson-Gaussian RGB noise, laser range noise; docs/noise.md), then the robot spec's own
     ``sensors.noise`` (all 0 = off by default): ``rgb_sigma``, ``depth_sigma`` (relative), ``depth_dropout``,
     ``laser_sigma`` (m). Segmentation and poses never get noise.
@@ -229,7 +232,9 @@ class TaichiSimBackend(RobotBackend):
         self.noise_preset_name = name
         self.mode = str(self.options.get("mode", "fast"))
         self.shadow_samples = int(self.options.get("shadow_samples", 1))
-        self._seed = int(self.options.get("seed", 0))
+        #: the episode seed (option ``seed``, as an unsigned 64-bit int): sensor noise
+        self._episode_seed = int(self.options.get("seed", 0)) % (1 << 64)
+        self._seed = 0
         self._frame = 0
         self._renderer = None
         self.scene: Scene | None = None
@@ -378,8 +383,9 @@ class TaichiSimBackend(RobotBackend):
         self._cache["laser"] = np.stack([ranges, self.laser_angles_wrapped], axis=1)
 
     def _rng(self, what: int) -> np.random.Generator:
-        """Noise generator of this frame: seeded by (seed, frame count, sensor) so reruns are bit-identical."""
-        return np.random.default_rng([self._seed, self._frame, what])
+        """Noise generator of this frame: seeded by (episode seed, world seed, frame count, sensor) so reruns are
+        bit-identical and repetitions of one world differ."""
+        return np.random.default_rng([self._episode_seed, self._seed, self._frame, what])
 
     def _add_preset_image_noise(self, out: dict) -> dict:
         """The ``noise`` preset's RGB and depth models (:mod:`benchbot.core.noise`) on a render's ``rgb`` and

@@ -22,6 +22,7 @@ from benchbot.cli.common import showing_stages
 from benchbot.cli.options import at_most, check_count
 from benchbot.core import stages
 from benchbot.core.limits import MAX_CAMERA_SIDE, MAX_RENDER_SAMPLES, MAX_SEED
+from benchbot.core.seeding import environment_world_seed
 
 app = typer.Typer(help="The Taichi simulator (sim_taichi): render views, export scenes, derive ground truths.",
                   no_args_is_help=True)
@@ -82,7 +83,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
            spp: int = typer.Option(32, "--spp", help=f"samples per pixel in quality mode ({at_most(MAX_RENDER_SAMPLES, 1)})"),
            shadow_samples: int = typer.Option(8, "--shadow-samples", help=f"soft-shadow rays per light, fast mode ({at_most(MAX_RENDER_SAMPLES, 1)})"),
            fov: float = typer.Option(90.0, "--fov", help="horizontal field of view, degrees"),
-           seed: int = typer.Option(0, "--seed", help=f"seed of the scene's colour variation and of the sampling ({at_most(MAX_SEED)})"),
+           seed: int = typer.Option(0, "--seed", help=f"the run's seed: with ENV's name and variant it fixes the scene's look and the sampling, as in an episode with that --seed ({at_most(MAX_SEED)})"),
            style: str = typer.Option(None, "--style",
                                      help="furnished (a house: rooms, walls, textured models) or primitives; "
                                           "default: the environment's own, else furnished"),
@@ -107,10 +108,12 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
         if not 0.0 < fov < 180.0:
             raise UsageError(f"--fov {fov} is not between 0 and 180 degrees", "e.g. --fov 90")
         with showing_stages(env):
+            environment = _environment(env)
+            world = environment_world_seed(seed, environment)  # the world an episode with this --seed sees
             with stages.stage("building the scene"):
-                scene = build_scene(_styled(_environment(env), style), seed=seed)
+                scene = build_scene(_styled(environment, style), seed=world)
             with stages.stage("starting Taichi"):
-                r = Renderer(None, shadow_samples=shadow_samples, seed=seed)
+                r = Renderer(None, shadow_samples=shadow_samples, seed=world)
             r.set_scene(scene)
             with stages.stage("rendering", detail=f"{mode} mode, {width}x{height}"
                               + (f", {spp} samples a pixel" if mode == "quality" else "")
@@ -145,7 +148,8 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
 
         from benchbot.core.errors import UsageError
 
-        scene = build_scene(_styled(_environment(env), style))
+        environment = _environment(env)
+        scene = build_scene(_styled(environment, style), seed=environment_world_seed(0, environment))  # as --seed 0
         if output.suffix.lower() == ".glb":
             try:
                 written = export_scene(scene, output)
@@ -181,7 +185,7 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
         from benchbot_sim_taichi.scene.build import build_scene
 
         environment = _environment(env)
-        scene = build_scene(_styled(environment, "furnished"))
+        scene = build_scene(_styled(environment, "furnished"), seed=environment_world_seed(0, environment))
         if scene.plan is None:
             raise UsageError(f"{env} has no ground-truth objects, so no floor plan is derived for it",
                              "give an environment with a map_path (BEAR ground truth)")
