@@ -442,9 +442,43 @@ def _function_errors(scan: PackScan, allow_code: bool, allowed: set[str]) -> lis
     return problems
 
 
+def _layout_errors(scan: PackScan) -> list[str]:
+    """The content problems (:func:`benchbot.core.layout_checks.layout_problems`) of the pack's layouts: every
+    ground truth, and every environment's ``map_path`` that is a ``.json`` file in the pack, checked with the
+    environment's own start and trajectory poses. One line each, no line twice."""
+    from benchbot.core.layout_checks import layout_problems
+    from benchbot.core.limits import MAX_SPEC_BYTES
+    from benchbot.core.safe_load import load_data_file
+
+    problems: list[str] = []
+    for pf in scan.files:
+        if pf.error or not isinstance(pf.spec, dict):
+            continue
+        if pf.kind == "ground_truths":
+            problems += layout_problems(pf.spec, source=pf.rel)
+        elif pf.kind == "environments" and isinstance(pf.spec.get("map_path"), str):
+            target = Path(pf.spec["map_path"])
+            if target.suffix != ".json" or not target.is_absolute() or not target.is_relative_to(scan.root) \
+                    or not target.is_file():
+                continue  # an Unreal asset path, another simulator's map, or none (the run says so)
+            rel = target.relative_to(scan.root).as_posix()
+            try:
+                layout = load_data_file(target, MAX_SPEC_BYTES, SpecError)
+            except SpecError as exc:
+                problems.append(f"{pf.rel}: $.map_path: {exc.message.replace(str(target), rel)}")
+                continue
+            own = "start_pose" in pf.spec or "trajectory_poses" in pf.spec
+            problems += layout_problems(layout, source=rel, poses_source=pf.rel if own else None,
+                                        start_pose=pf.spec.get("start_pose"),
+                                        trajectory_poses=pf.spec.get("trajectory_poses"))
+    return list(dict.fromkeys(problems))
+
+
 def verify_pack(path: Path | str, name: str | None = None, *, registry: "Registry") -> PackScan:
     """:func:`scan_pack`, plus the functions check: every function that is not pack code must be in a module of an
-    installed plugin's formats/evaluators (:func:`function_problem`); problems are added to ``errors``.
+    installed plugin's formats/evaluators (:func:`function_problem`), and the content check of the pack's layouts
+    (:func:`benchbot.core.layout_checks.layout_problems`: unknown classes, objects of no size or far from the rest
+    of the home, poses inside objects); problems are added to ``errors``.
 
     Args:
         registry: the installed content (a :class:`~benchbot.core.registry.Registry`).
@@ -454,6 +488,7 @@ def verify_pack(path: Path | str, name: str | None = None, *, registry: "Registr
     """
     scan = scan_pack(path, name)
     scan.errors.extend(_function_errors(scan, True, plugin_function_modules(registry)))
+    scan.errors.extend(_layout_errors(scan))
     return scan
 
 
