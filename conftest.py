@@ -1,5 +1,6 @@
 """Test-wide settings: only the first-party plugins load, whatever else is installed (architecture.md), and content
-packs come from an empty, per-session data directory, never from the user's. Environments that name no style are
+packs come from an empty, per-session data directory, never from the user's (and built scenes go to a per-session
+cache directory). Environments that name no style are
 drawn in sim_taichi's ``primitives`` style (fast to build); the tests of the furnished default name it, and
 ``tests/test_furnished_episode.py`` runs the README's main job on it."""
 
@@ -10,6 +11,7 @@ pytest_plugins = ["pytester"]  # tests/test_fast_loop.py runs pytest on this con
 
 os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,sim_taichi,eval_omq,task_semslam,robot_ros2,assets_sh3d"
 os.environ["BENCHBOT_DATA_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-data-")
+os.environ["BENCHBOT_CACHE_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-cache-")
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
 
 

@@ -226,8 +226,8 @@ def test_what_a_sandboxed_process_sees_and_can_do(tmp_path, served, registry):
     assert not (folder / "in_my_folder.txt").exists()
 
 
-def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry):
-    from benchbot.core.pack_layout import data_dir
+def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp_path, monkeypatch):
+    from benchbot.core.pack_layout import cache_dir, data_dir
     from benchbot.core.sandbox import hidden_folders, python_folders
 
     hidden = hidden_folders(registry)
@@ -240,6 +240,9 @@ def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry):
 
     assert Path(benchbot_sim_taichi.__file__).parent.resolve() in hidden
     assert data_dir().resolve() in hidden
+    assert cache_dir().resolve() in hidden  # the simulator's built scenes hold their layouts
+    monkeypatch.setenv("BENCHBOT_CACHE_DIR", str(tmp_path / "solution" / "cache"))  # even inside a shown folder
+    assert (tmp_path / "solution" / "cache").resolve() in hidden_folders(registry)
     shown = python_folders()
     repo = Path(__file__).resolve().parents[1]
     assert repo not in shown and repo / "tests" not in shown  # an editable install shows its packages only

@@ -33,6 +33,8 @@ MAX_RENDER_SAMPLES          4096 samples             (none: sim render --spp, ..
 MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
 STOP_GRACE_S                5 seconds (0: no grace)  BENCHBOT_STOP_GRACE_S                SIGKILL after SIGTERM
 SANDBOX_TMP_BYTES           1 GiB                    BENCHBOT_SANDBOX_TMP_BYTES           ENOSPC in the sandbox's /tmp
+**caches**
+SCENE_CACHE_BYTES           4 GiB (0: no cache)      BENCHBOT_SCENE_CACHE_BYTES           oldest built scenes removed
 ==========================  =======================  ===================================  ==============================
 
 Every error past a limit is one line naming the limit and how to raise it (:meth:`Limit.raise_hint`). A variable
@@ -284,3 +286,11 @@ SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", intege
                           meaning="bytes of a sandboxed solution's private /tmp")
 """Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.core.sandbox`):
 past it, writes there fail with "No space left on device"."""
+
+# --- caches (benchbot_sim_taichi.scene.cache) -----------------------------------------------------------------------
+
+SCENE_CACHE_BYTES = Limit(4 << 30, "BENCHBOT_SCENE_CACHE_BYTES", "bytes", integer=True, zero_means="no cache",
+                          meaning="bytes of the simulator's scene cache in the cache directory (0: no cache)")
+"""Bytes the simulator's cache of built scenes (scene arrays, BVH, shadow maps, baked light: tens to hundreds of MiB
+an environment) may take in the cache directory (:func:`benchbot.core.pack_layout.cache_dir`): past it, the entries
+used longest ago are removed after each write. 0: scenes are neither read from nor written to the cache."""

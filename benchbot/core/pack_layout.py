@@ -54,6 +54,16 @@ def data_dir() -> Path:
     return (Path(xdg).expanduser() if xdg else Path.home() / ".local" / "share") / "benchbot"
 
 
+def cache_dir() -> Path:
+    """BenchBot's cache directory (what can be rebuilt, such as the simulator's built scenes): ``$BENCHBOT_CACHE_DIR``,
+    else ``$XDG_CACHE_HOME/benchbot``, else ``~/.cache/benchbot`` (not created). It may hold scene layouts, so the
+    sandbox hides it (:func:`benchbot.core.sandbox.hidden_folders`)."""
+    if settings.get("BENCHBOT_CACHE_DIR"):
+        return Path(settings.get("BENCHBOT_CACHE_DIR")).expanduser()
+    xdg = settings.get("XDG_CACHE_HOME")
+    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "benchbot"
+
+
 def packs_dir() -> Path:
     """``<data dir>/packs`` (not created)."""
     return data_dir() / "packs"

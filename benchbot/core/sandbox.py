@@ -6,7 +6,8 @@ installation and virtual environment BenchBot runs in (for an editable install, 
 folders, not the folders themselves), and the solution's own folder. Over those, every folder that holds ground
 truth or a scene layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every environment's
 and ground truth's files in the registry, the package of every plugin that contributes environments or ground
-truths (the simulator's), the data directory of installed content packs) and so is the folder that batches write
+truths (the simulator's), the data directory of installed content packs, the cache directory of built scenes) and
+so is the folder that batches write
 run directories to. It writes only to its own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION``
 is a file there, and ``/tmp/benchbot_result``, where original clients write, leads there too) and to a private
 ``/tmp`` of at most :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS, user and network
@@ -166,7 +167,7 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
     of ``registry`` names (``_file_path``, ``map_path``, mesh files), the package folder of every plugin that
     contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
-    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory), BenchBot's data directory (installed content packs, with their ground truths), and
+    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory), BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built scenes: their layouts), and
     ``extra`` (say, the folder of run directories). Folders inside another hidden folder are left out.
 
     Args:
@@ -176,7 +177,7 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     Returns:
         Absolute, resolved folders, sorted (never raises for a path that does not exist: it is simply left out).
     """
-    from benchbot.core.pack_layout import data_dir
+    from benchbot.core.pack_layout import cache_dir, data_dir
     from benchbot.core.server.redaction import ground_truth_strings
 
     files: set[str] = set()
@@ -196,6 +197,7 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
             folders |= {(Path(entry) / top).resolve() for entry in sys.path
                         if entry and os.path.isdir(os.path.join(entry, top))}
     folders.add(data_dir().expanduser().resolve())
+    folders.add(cache_dir().expanduser().resolve())  # the simulator's built scenes hold their layouts
     folders |= {Path(p).expanduser().resolve() for p in extra}
     kept = sorted(folders, key=lambda p: len(p.parts))
     minimal: list[Path] = []

@@ -30,6 +30,9 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_DATA_DIR", None, "data directory (installed content packs); else $XDG_DATA_HOME/benchbot, "
             "else ~/.local/share/benchbot", "core"),
     Setting("XDG_DATA_HOME", None, "base of the data directory when BENCHBOT_DATA_DIR is unset", "core"),
+    Setting("BENCHBOT_CACHE_DIR", None, "cache directory (the simulator's built scenes; hidden from sandboxed "
+            "solutions); else $XDG_CACHE_HOME/benchbot, else ~/.cache/benchbot", "core"),
+    Setting("XDG_CACHE_HOME", None, "base of the cache directory when BENCHBOT_CACHE_DIR is unset", "core"),
     Setting("BENCHBOT_RESULT_LOCATION", "/tmp/benchbot_result", "the results file a solution writes (the "
             "original's fixed path by default)", "api"),
     Setting("BENCHBOT_SUPERVISOR_ADDRESS", "http://127.0.0.1:10000/", "the backend a solution's BenchBot() and "

@@ -31,6 +31,7 @@ from benchbot.core.robot import MotionOutcome, RobotBackend
 
 from benchbot_sim_taichi.render.camera_model import CameraModel
 from benchbot_sim_taichi.kinematics import Obstacles, drive
+from benchbot_sim_taichi.scene import cache as scene_cache
 from benchbot_sim_taichi.scene.build import build_scene
 from benchbot_sim_taichi.scene.model import Scene
 
@@ -241,6 +242,7 @@ class TaichiSimBackend(RobotBackend):
         self.obstacles: Obstacles | None = None
         self._pose = np.zeros(3)
         self._cache: dict[str, Any] = {}
+        self._scene_key: tuple | None = None  # (scene_cache key, renderer options) of the scene the renderer holds
 
     # ------------------------------------------------------------------------------------------------ contract
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
@@ -255,9 +257,13 @@ class TaichiSimBackend(RobotBackend):
             BackendError: the map file is missing or malformed, or the start pose collides with the scene.
         """
         seed = int(self.options.get("seed", 0) if seed is None else seed)
-        name = f"{environment.get('name')}:{environment.get('variant')}"
-        with stages.stage("building the scene", detail=name):
-            scene = build_scene(environment, seed=seed)
+        key = scene_cache.scene_key(environment, seed) if scene_cache.max_bytes() else None
+        held = self._scene_key is not None and self._renderer is not None and self.scene is not None \
+            and self._scene_key == (key, {**self._renderer.preparation_options(), "seed": seed})
+        if held:  # the scene the renderer holds (an episode's reset loads it again): nothing to build or upload
+            scene = self.scene
+        else:
+            scene, key = scene_cache.scene_for(environment, seed, build=build_scene, key=key)
         if self._renderer is None:
             with stages.stage("starting Taichi", detail=str(self.options.get("arch") or "auto")):
                 from benchbot_sim_taichi.render.renderer import Renderer  # Taichi is imported and initialised here
@@ -267,7 +273,10 @@ class TaichiSimBackend(RobotBackend):
                 self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
                                           camera=camera)
         self._renderer.seed = seed
-        self._renderer.set_scene(scene)
+        if not held:
+            self._scene_key = None
+            scene_cache.set_scene(self._renderer, scene, key)
+            self._scene_key = None if key is None else (key, self._renderer.preparation_options())
         self._seed = seed
         self._frame = 0
         self.scene = scene

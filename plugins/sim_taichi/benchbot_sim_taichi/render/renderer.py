@@ -472,6 +472,15 @@ _SCENE_ARG_NAMES = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", 
 #: The arrays of the sensors' packs that kernels compute in ``set_scene`` (shadow maps, light lists, baked light):
 #: copied from the device when packed; the others are taken from the host's packed scene.
 _COMPUTED_FOR_SENSORS = ("lamp_maps", "sun_map", "always", "light_grid", "grid_xform", "baked", "baked_info")
+#: The packed scene's integer counts (``Renderer.prepared_scene`` keeps them as 0-d arrays).
+_PACKED_INTS = ("n_prims", "n_lights", "n_occluders")
+#: The packed scene's arrays that ``Renderer.prepared_scene`` keeps from the host (``lamp_maps`` and ``sun_map`` are
+#: fetched from where the kernels traced them instead).
+_PREPARED_PACKED = ("nodes", "nodes_f", "nodes_i", "cluster_box", "cluster_prims", "occluders", "is_occluder", "pf",
+                    "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world", "order",
+                    "light_of_slot")
+#: The arrays of ``Renderer.prepared_scene`` that set_scene's kernels computed, fetched from where they read them.
+_PREPARED_COMPUTED = ("lamp_maps", "sun_map", "always", "light_grid", "grid_xform", "baked", "baked_info")
 
 
 def _plan_sun_map(packed: dict) -> tuple[int | None, float]:
@@ -641,10 +650,24 @@ class Renderer:
                 copier.close()
         self._pinned_copier = self._render_copier = None
 
-    def set_scene(self, scene) -> None:
-        """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.model.Scene`); builds its BVH. Later renders and scans
-        use it. With device buffers, this is the only host-to-device copy of the scene."""
+    def set_scene(self, scene, prepared: dict | None = None) -> None:
+        """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.model.Scene`); builds its BVH, traces its shadow maps
+        and bakes its light. Later renders and scans use it. With device buffers, this is the only host-to-device
+        copy of the scene.
+
+        Args:
+            scene: the scene.
+            prepared: what :meth:`prepared_scene` returned for this scene with a renderer of the same
+                :meth:`preparation_options` (read from :mod:`benchbot_sim_taichi.scene.cache`): then nothing is built,
+                traced or baked, the arrays are uploaded as they are (only ``scene.style`` is read from ``scene``).
+
+        Raises:
+            ValueError: the BVH is too deep (:func:`pack_scene`); KeyError: ``prepared`` lacks an array.
+        """
         _free_retired()
+        if prepared is not None:
+            self._set_prepared_scene(prepared)
+            return
         with stages.stage("building the BVH"):
             packed = pack_scene(scene)
         use_maps = (getattr(scene, "style", "") == "furnished") if self.shadow_maps is None else bool(self.shadow_maps)
@@ -681,6 +704,54 @@ class Renderer:
                             arrays["lamp_maps"], arrays["sun_map"], arrays["cluster_box"], arrays["cluster_prims"],
                             *lights, *self._bake(arrays, lights, bake), self._packed["n_occluders"],
                             arrays["occluders"], arrays["is_occluder"])
+
+    def _set_prepared_scene(self, prepared: dict) -> None:
+        """:meth:`set_scene` from :meth:`prepared_scene`'s arrays: upload them, trace and bake nothing."""
+        packed = {k: np.asarray(prepared[k]) for k in _PREPARED_PACKED}
+        packed.update({k: np.asarray(prepared[k]) for k in ("lamp_maps", "sun_map")})
+        packed.update({k: int(prepared[k]) for k in _PACKED_INTS})
+        self._packed, self._sensor_packs = packed, None
+        self._every_light_mapped = bool((packed["lights"][:packed["n_lights"], 8] >= 0).all())
+        _retire(self._scene_arrays)
+        self._scene_arrays = []
+        arrays = {k: self._scene_array(packed[k]) for k in _SCENE_ARRAYS}
+        lights = (int(prepared["n_always"]), self._scene_array(np.asarray(prepared["always"])),
+                  self._scene_array(np.asarray(prepared["light_grid"])),
+                  self._scene_array(np.asarray(prepared["grid_xform"])), arrays["light_of_slot"])
+        self.baked_points = int(prepared["baked_points"])
+        baked = self._scene_array(np.asarray(prepared["baked"])), self._scene_array(np.asarray(prepared["baked_info"]))
+        self._scene_args = (arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
+                            arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
+                            arrays["lights"], packed["n_lights"], arrays["world"],
+                            arrays["lamp_maps"], arrays["sun_map"], arrays["cluster_box"], arrays["cluster_prims"],
+                            *lights, *baked, packed["n_occluders"], arrays["occluders"], arrays["is_occluder"])
+
+    def preparation_options(self) -> dict:
+        """What, besides the scene, decides :meth:`prepared_scene`'s arrays: ``{arch, shadow_samples, seed,
+        shadow_maps, baked_light, taichi}`` (JSON-ready; part of the scene cache's key)."""
+        return {"arch": self.arch, "shadow_samples": self.shadow_samples, "seed": self.seed,
+                "shadow_maps": self.shadow_maps, "baked_light": self.baked_light,
+                "taichi": ".".join(str(v) for v in ti.__version__)}
+
+    def prepared_scene(self) -> dict[str, np.ndarray]:
+        """Everything :meth:`set_scene` made of the current scene, as host NumPy arrays that :meth:`set_scene`
+        takes back (``prepared=``) instead of building it again: the packed scene (:func:`pack_scene`'s arrays, the
+        BVH among them, with the lamps' map slots and the sun map's projection), the traced shadow maps
+        (``lamp_maps``, ``sun_map``), the light lists (``n_always``, ``always``, ``light_grid``, ``grid_xform``) and the
+        baked light (``baked``, ``baked_info``, ``baked_points``); counts as 0-d int64 arrays. Copies: the caller owns
+        them. For :mod:`benchbot_sim_taichi.scene.cache`.
+
+        Raises:
+            RuntimeError: no scene is set.
+        """
+        packed = self._need_scene()
+        named = dict(zip(_SCENE_ARG_NAMES, self._scene_args, strict=True))
+        out = {k: np.array(packed[k]) for k in _PREPARED_PACKED}
+        out.update(self._fetch({k: named[k] for k in _PREPARED_COMPUTED}, once=True))
+        out.update({k: np.array(packed[k], np.int64) for k in _PACKED_INTS})
+        out["n_always"] = np.array(int(named["n_always"]), np.int64)
+        out["baked_points"] = np.array(self.baked_points, np.int64)
+        return {k: np.asarray(v) for k, v in out.items()}
 
     def _pack_for_sensors(self) -> tuple:
         """The current scene's arrays packed for CUDA's all-sensors kernels (:mod:`benchbot_sim_taichi.render.packed_scene`),

@@ -1,0 +1,192 @@
+"""The cache of built scenes (benchbot_sim_taichi.scene.cache) with the real simulator at a tiny resolution: a scene
+and the renderer's arrays loaded from it equal the freshly built ones array for array and render the same images; a
+changed layout file, package version or cache format is a miss; a corrupt or foreign entry is rebuilt with one log
+line; the size bound removes the entries used longest ago."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import os
+
+import numpy as np
+import pytest
+
+from benchbot.core import stages
+from benchbot_sim_taichi.scene import cache
+
+ALL = ["image_rgb", "image_depth", "image_segment", "laser"]
+
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch):
+    """An empty cache directory of this test's own."""
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("BENCHBOT_CACHE_DIR", str(folder))
+    monkeypatch.delenv("BENCHBOT_SCENE_CACHE_BYTES", raising=False)
+    return folder / cache.FOLDER_NAME
+
+
+def stages_of(work) -> list[str]:
+    """The names of the stages started while ``work()`` runs."""
+    heard: list[str] = []
+
+    def listen(event):
+        if event.kind == "start":
+            heard.append(event.name)
+
+    with stages.listening(listen):
+        work()
+    return heard
+
+
+def assert_same_scene(a, b) -> None:
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            assert isinstance(y, np.ndarray) and x.dtype == y.dtype and x.shape == y.shape, f.name
+            assert x.tobytes() == y.tobytes(), f.name  # bit for bit
+        elif f.name == "plan":
+            assert json.dumps(cache.encode_plain(x)) == json.dumps(cache.encode_plain(y))
+            assert type(x) is type(y)
+        else:
+            assert x == y and type(x) is type(y), f.name
+
+
+def observations(backend) -> dict:
+    obs = backend.observe(ALL)
+    return {"rgb": obs["image_rgb"], "depth": obs["image_depth"],
+            "class": obs["image_segment"]["class_segment_img"],
+            "instance": obs["image_segment"]["instance_segment_img"], "scan": obs["laser"]["scans"]}
+
+
+def test_a_cached_furnished_scene_equals_the_built_one_and_renders_the_same(bear_envs, make_backend, cache_dir):
+    env = {**bear_envs["miniroom:1"], "style": "furnished"}
+    built = make_backend(width=32, height=24)
+    heard = stages_of(lambda: built.load_scene(env, seed=2))
+    assert "building the scene" in heard and "building the BVH" in heard and "baking light" in heard, heard
+    assert "loading the scene" not in heard
+    files = sorted(p.name.split(".", 1)[1] for p in cache_dir.iterdir())
+    assert files == ["prepared.npz", "scene.npz"]
+    fresh_scene, fresh_prepared = built.scene, built._renderer.prepared_scene()
+    assert fresh_scene.plan is not None and int(fresh_prepared["baked_points"]) > 0
+    built.move_to(np.asarray(fresh_scene.trajectory_se2[3]))
+    fresh_obs = observations(built)
+    built.close()
+
+    loaded = make_backend(width=32, height=24)
+    heard = stages_of(lambda: loaded.load_scene(env, seed=2))
+    assert "loading the scene" in heard and "building the scene" not in heard, heard
+    assert "building the BVH" not in heard and "baking light" not in heard and "tracing shadow maps" not in heard
+    assert_same_scene(fresh_scene, loaded.scene)
+    prepared = loaded._renderer.prepared_scene()
+    assert sorted(prepared) == sorted(fresh_prepared)
+    for name, array in fresh_prepared.items():
+        assert prepared[name].dtype == array.dtype and prepared[name].shape == array.shape, name
+        assert prepared[name].tobytes() == array.tobytes(), name  # bit for bit (the BVH's rows hold int bits)
+    loaded.move_to(np.asarray(fresh_scene.trajectory_se2[3]))
+    for name, image in observations(loaded).items():
+        assert np.array_equal(image, fresh_obs[name]), name
+
+    # an episode's reset loads the same scene again: nothing is built or read
+    heard = stages_of(lambda: loaded.load_scene(env, seed=2))
+    assert not {"loading the scene", "building the scene", "building the BVH"} & set(heard), heard
+    loaded.close()
+
+
+def test_a_changed_layout_version_or_format_misses(synthetic_env, make_backend, cache_dir, monkeypatch):
+    env = synthetic_env([("chair", (2.0, 0.5, 0.45), (0.5, 0.5, 0.9))])
+    key = cache.scene_key(env, 0)
+    assert key == cache.scene_key(dict(env), 0) and len(key) == 64
+    assert cache.scene_key(env, 1) != key
+    assert cache.scene_key({**env, "style": "furnished"}, 0) != key
+    b = make_backend(width=16, height=12)
+    assert "building the scene" in stages_of(lambda: b.load_scene(env))
+    b.close()
+    assert "building the scene" not in stages_of(lambda: make_backend(width=16, height=12).load_scene(env))
+
+    data = json.loads(open(env["map_path"]).read())
+    data["ground_truth"]["objects"][0]["centroid"][0] = 2.5  # the chair moved
+    with open(env["map_path"], "w") as f:
+        f.write(json.dumps(data))
+    assert cache.scene_key(env, 0) != key
+    b = make_backend(width=16, height=12)
+    assert "building the scene" in stages_of(lambda: b.load_scene(env))
+    assert float(b.scene.box_min[0, 0]) == pytest.approx(2.25)  # the new layout, not the cached one
+    b.close()
+    moved = cache.scene_key(env, 0)
+
+    from importlib import metadata
+
+    real_version = metadata.version
+    monkeypatch.setattr(metadata, "version", lambda name: "99.0" if name == "benchbot-sim-taichi"
+                        else real_version(name))
+    cache.code_fingerprint.cache_clear()
+    try:
+        assert cache.scene_key(env, 0) != moved
+    finally:
+        monkeypatch.setattr(metadata, "version", real_version)
+        cache.code_fingerprint.cache_clear()
+    assert cache.scene_key(env, 0) == moved
+    monkeypatch.setattr(cache, "CACHE_FORMAT", cache.CACHE_FORMAT + 1)
+    cache.code_fingerprint.cache_clear()
+    try:
+        assert cache.scene_key(env, 0) != moved
+    finally:
+        cache.code_fingerprint.cache_clear()
+
+
+def test_a_corrupt_or_foreign_entry_is_rebuilt_with_one_log_line(synthetic_env, make_backend, cache_dir, caplog):
+    env = synthetic_env([("table", (2.0, 0.0, 0.4), (1.0, 0.6, 0.8))])
+    b = make_backend(width=16, height=12)
+    b.load_scene(env)
+    good = observations(b)
+    b.close()
+    key = cache.scene_key(env, 0)
+    scene_file = cache_dir / f"{key}.scene.npz"
+    prepared_file, = cache_dir.glob("*.prepared.npz")
+    scene_file.write_bytes(b"PK\x03\x04 not a zip at all")
+    np.savez(prepared_file, entry=np.array([object()], dtype=object))  # a pickled object: never loaded
+    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
+        b = make_backend(width=16, height=12)
+        heard = stages_of(lambda: b.load_scene(env))
+    assert "building the scene" in heard and "building the BVH" in heard, heard
+    lines = [r.getMessage() for r in caplog.records if r.name == "benchbot_sim_taichi.scene.cache"]
+    assert len(lines) == 2, lines
+    assert str(scene_file) in lines[0] and "building the scene again" in lines[0]
+    assert str(prepared_file) in lines[1] and "pickle" in lines[1].lower()
+    for name, image in observations(b).items():
+        assert np.array_equal(image, good[name]), name
+    b.close()
+    assert cache.load_scene(key) is not None  # written again, whole
+
+    # an entry renamed to another key's name (its record names its own) is not taken for that key
+    other = "0" * 64
+    os.replace(scene_file, cache_dir / f"{other}.scene.npz")
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
+        assert cache.load_scene(other) is None
+    assert len(caplog.records) == 1 and "records" in caplog.records[0].getMessage()
+    assert not (cache_dir / f"{other}.scene.npz").exists()
+
+
+def test_the_bound_removes_the_entries_used_longest_ago(cache_dir, monkeypatch):
+    arrays = {"a": np.zeros(250_000, np.uint8)}  # about 250 kB a file
+    paths = []
+    for i in range(3):
+        paths.append(cache._write(f"{i:064d}", "scene", arrays))
+        os.utime(paths[-1], (1_000_000 + i, 1_000_000 + i))
+    assert all(p.is_file() for p in paths)
+    cache._read(f"{0:064d}", "scene", "it")  # used now: the newest
+    monkeypatch.setenv("BENCHBOT_SCENE_CACHE_BYTES", "600000")
+    newest = cache._write(f"{3:064d}", "scene", arrays)
+    left = sorted(p.name[:64] for p in cache_dir.glob("*.npz"))
+    assert left == [f"{0:064d}", f"{3:064d}"] and newest.is_file()
+    assert sum(p.stat().st_size for p in cache_dir.glob("*.npz")) <= 600_000
+    assert not list(cache_dir.glob(".tmp-*"))
+
+    monkeypatch.setenv("BENCHBOT_SCENE_CACHE_BYTES", "0")  # off: nothing read, nothing written
+    assert cache._read(f"{0:064d}", "scene", "it") is None
+    assert cache._write(f"{4:064d}", "scene", arrays) is None
+
