@@ -47,12 +47,12 @@ def run_directories(run_dir: Path) -> list[Path]:
 
 
 def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log,
-                   record: EpisodeRecord) -> tuple[bool, bool]:
+                   record: EpisodeRecord, hide: tuple = ()) -> tuple[bool, bool]:
     """Run ``spec``'s solution in the sandbox (:func:`benchbot.core.sandbox.run_sandboxed`): it writes only to its
     outputs folder (``spec.outputs``, made afresh) and reaches the backend through ``backend_socket`` at
-    ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. Sets ``record.returncode``
-    (and ``record.error`` when its results file is refused); returns (whether it timed out, whether it read its
-    standard input)."""
+    ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. The run directories beside
+    ``folder`` and the folders ``hide`` lists are hidden from it. Sets ``record.returncode`` (and ``record.error``
+    when its results file is refused); returns (whether it timed out, whether it read its standard input)."""
     from benchbot.core.sandbox import run_sandboxed
 
     outputs = folder / spec.outputs
@@ -60,7 +60,8 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
     outputs.mkdir(parents=True)
     run = run_sandboxed(list(spec.argv), Path(spec.cwd), registry=registry, backend_socket=backend_socket,
                         address="http://127.0.0.1:10000/", outputs=outputs, result_name=Path(spec.results).name,
-                        hide=run_directories(folder), log=log, timeout_s=spec.timeout_s)
+                        hide=[*run_directories(folder), *hide], log=log,
+                        timeout_s=spec.timeout_s)
     record.returncode = run.outcome.returncode
     if run.problem:
         record.error = run.problem
@@ -94,7 +95,8 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
         pass
 
 
-def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None) -> EpisodeRecord:
+def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None, *,
+                hide: tuple = ()) -> EpisodeRecord:
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
     Args:
@@ -106,6 +108,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
         events: a queue receiving ``("start", index, None)``, ``("stage", index, {"stage": what the backend is
             doing, "" when done})`` while it starts (:mod:`benchbot.core.stages`), ``("step", index, info)`` and
             ``("end", index, None)``.
+        hide: more folders a sandboxed solution must not see (a Ray node runs the episode in a run directory of
+            its own and hides the batch's, :func:`benchbot.batch.executors.run_ray`).
     """
     record = new_record(spec)
     folder = Path(run_dir)
@@ -155,7 +159,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             try:
                 with open(folder / spec.log, "w") as log:
                     if spec.sandbox == "bwrap":
-                        timed_out, read_stdin = _run_sandboxed(spec, registry, folder, backend_socket, log, record)
+                        timed_out, read_stdin = _run_sandboxed(spec, registry, folder, backend_socket, log, record,
+                                                             tuple(hide))
                     elif spec.container:
                         c = spec.container
                         record.returncode = run_container_submission(

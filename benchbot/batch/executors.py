@@ -5,23 +5,36 @@ do not depend on the executor.
 ``local``: ``workers == 1`` runs episodes one after another in this process (the simulator starts once);
 ``workers > 1`` runs them in that many worker processes (spawned; each has its own simulator thread and its own
 backend on a free loopback port; each worker's simulator and solutions get cores / workers threads). ``ray``:
-episodes are Ray tasks on a local or existing Ray cluster.
+episodes are Ray tasks on an existing Ray cluster or on a local Ray started for the batch (:func:`connect_ray`,
+:func:`run_ray`; docs/cluster.md): each reserves a CPU for its whole life, runs in a run directory of its node's
+own and sends its files back through Ray, and is run again elsewhere when its node dies.
 """
 
 from __future__ import annotations
 
+import contextlib
+import importlib.metadata as md
+import importlib.util
+import logging
 import multiprocessing
 import multiprocessing.connection
 import os
 import queue
+import shutil
 import signal
+import socket
+import sys
+import tempfile
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 from benchbot.batch.episode_runner import run_episode
-from benchbot.batch.plan import EpisodeRecord, EpisodeSpec
+from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
+from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 from benchbot.core.session import RunSpec
 
@@ -105,8 +118,15 @@ def run_local(
 ) -> None:
     """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
     thread) as each ends. Worker processes end with the batch process, even when it is killed
-    (:func:`_end_with_parent`)."""
+    (:func:`_end_with_parent`). Each record says it ran here (``executor`` ``local``, ``node`` this host)."""
     stop = threading.Event()
+    here = {"hostname": socket.gethostname()}
+    record_done = on_record
+
+    def on_record(record: EpisodeRecord) -> None:
+        record.executor, record.node = "local", dict(here)
+        record_done(record)
+
     if workers <= 1:
         events: queue.Queue = queue.Queue()
         drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
@@ -135,50 +155,636 @@ def run_local(
         events.close()
 
 
-def run_ray(
-    episodes: list[Episode], run_dir: str, *, address: str | None, workers: int, on_event: EventHandler,
-    on_record: Callable[[EpisodeRecord], None],
-) -> None:
-    """Run ``episodes`` as Ray tasks (one CPU each) and call ``on_record`` as each ends.
+# ------------------------------------------------------------------------------------------------------------ Ray
+#: Seconds ``ray.init`` may take to attach to a cluster (or to start a local Ray) before the batch gives up.
+RAY_CONNECT_TIMEOUT_S = 60.0
+#: Seconds a plain TCP connection to the cluster's address may take: a wrong address fails here, at once.
+RAY_PROBE_TIMEOUT_S = 5.0
+#: Times an episode lost with its Ray node or worker process (the node died, its raylet was killed) is run again on
+#: another node before it ends as ``error``; the other episodes go on meanwhile.
+RAY_LOST_RETRIES = 3
+#: CPUs an episode reserves on its Ray node for its whole life. Its task never waits on Ray (its events are sent
+#: without waiting for a reply), so Ray never lends the CPU to another task while the episode runs.
+RAY_EPISODE_CPUS = 1
+#: Seconds an interrupted Ray batch waits for its cancelled episodes to stop (solution, server, backend).
+STOP_WAIT_S = 10.0
+#: Ray Client's default port (``ray://HOST`` without one).
+RAY_CLIENT_PORT = 10001
+#: Where Ray's own messages go while a batch is attached, relative to the run directory.
+RAY_LOG = "logs/ray.log"
+RAY_INSTALL_HINT = "install it: uv pip install 'benchbot[ray]' (Ray with Ray Client)"
+#: Variables passed to every Ray worker (Ray's workers do not inherit the batch's environment): BenchBot's
+#: settings (plugins to load or skip, data directory, Taichi arch), so every episode sees the registry a local run
+#: would.
+RAY_PASSED_PREFIXES = ("BENCHBOT_", "TI_", "CYCLONEDDS_")
 
-    Args:
-        address: an existing cluster's address (``ray://host:10001`` or ``host:6379``); None starts a local Ray
-            with ``workers`` CPUs for this batch (and shuts it down afterwards).
 
-    On a cluster, every node needs BenchBot and the plugins installed, and the run directory and the submission's
-    folder must be on a filesystem all nodes share (each episode writes its results and log there).
+@dataclass
+class RayCluster:
+    """This process's connection to Ray for one batch (:func:`connect_ray`). While it is open, Ray's own messages
+    (its log lines, the errors it reports, such as a node's raylet dying) go to :attr:`log`, never to the terminal
+    (where they would break the live table and ``--json``'s output).
+
+    Attributes:
+        address: the cluster's address as given or found (``HOST:PORT``, ``ray://HOST:PORT``, ``auto``); None for a
+            Ray started for this batch.
+        source: how it was chosen (:func:`connect_ray`): ``--ray-address``, ``RAY_ADDRESS``, ``ray start on this
+            machine``, ``started for this batch`` or ``already connected``.
+        started_here: a local Ray was started for this batch; :meth:`close` stops it.
+        log: the file Ray's messages go to (None: nowhere).
+        owned: :meth:`close` disconnects (False when this process was connected to Ray before).
+    """
+
+    address: str | None
+    source: str
+    started_here: bool = False
+    log: Path | None = None
+    owned: bool = True
+    _undo: list = field(default_factory=list, repr=False)
+    _handler: logging.Handler | None = field(default=None, repr=False)
+
+    def nodes(self) -> list[dict]:
+        """The cluster's live nodes: ``[{id, address, hostname, cpus, gpus}]`` (``[]`` when Ray cannot say)."""
+        import ray
+
+        try:
+            nodes = ray.nodes()
+        except Exception:  # noqa: BLE001 - facts for the manifest; never fail a batch over them
+            return []
+        return [{"id": n.get("NodeID", ""), "address": n.get("NodeManagerAddress", ""),
+                 "hostname": n.get("NodeManagerHostname", ""), "cpus": n.get("Resources", {}).get("CPU", 0),
+                 "gpus": n.get("Resources", {}).get("GPU", 0)} for n in nodes if n.get("Alive")]
+
+    def facts(self) -> dict:
+        """The manifest's ``executor`` entry: ``{name: "ray", ray: version, address, source, started_here, nodes}``."""
+        import ray
+
+        return {"name": "ray", "ray": ray.__version__, "address": self.address, "source": self.source,
+                "started_here": self.started_here, "nodes": self.nodes()}
+
+    def describe(self) -> str:
+        """One line: where the episodes run, how many nodes and CPUs, what an episode reserves."""
+        nodes = self.nodes()
+        cpus = sum(n["cpus"] for n in nodes)
+        where = ("a local Ray started for this batch" if self.started_here
+                 else f"the Ray cluster at {self.address} ({self.source})" if self.address
+                 else f"the Ray this process was connected to ({self.source})")
+        return (f"Ray: {where}: {len(nodes)} node{'s' if len(nodes) != 1 else ''}, {cpus:g} CPUs; each episode "
+                f"reserves {RAY_EPISODE_CPUS} CPU")
+
+    def close(self) -> None:
+        """Disconnect (stopping a Ray started for the batch) and give Ray's messages back their old place."""
+        import ray
+
+        try:
+            if self.owned:
+                ray.shutdown()
+        except Exception:  # noqa: BLE001 - disconnecting from a cluster that is gone
+            pass
+        finally:
+            for undo in reversed(self._undo):
+                undo()
+            self._undo.clear()
+
+
+def _ray_target(address: str | None) -> tuple[str | None, str]:
+    """``(address to connect to or None to start a local Ray, how it was chosen)``, as ``ray.init`` chooses:
+    ``--ray-address``, else ``$RAY_ADDRESS``, else the cluster ``ray start`` last started on this machine (Ray's
+    ``ray_current_cluster`` file), else a new local Ray. ``local`` means a new local Ray wherever it is given."""
+    if address:
+        return (None if address == "local" else address), "--ray-address"
+    env = os.environ.get("RAY_ADDRESS", "").strip()
+    if env:
+        return (None if env == "local" else env), "RAY_ADDRESS"
+    try:
+        from ray._private.services import find_bootstrap_address
+
+        found = find_bootstrap_address(None)
+    except Exception:  # noqa: BLE001 - Ray moved it: ray.init's own search still applies (address "auto" not given)
+        found = None
+    if found:
+        return found, "ray start on this machine"
+    return None, "started for this batch"
+
+
+def _unreachable_hint(source: str) -> str:
+    if source == "--ray-address":
+        return ("check the head's address and port (`ray status` on the head prints them), or leave --ray-address "
+                "out to start a local Ray for this batch")
+    if source == "RAY_ADDRESS":
+        return "check RAY_ADDRESS, or unset it to start a local Ray for this batch"
+    return ("start that cluster again (ray start --head), or run `ray stop` on this machine to forget it (the batch "
+            "then starts a local Ray)")
+
+
+def _probe_ray(target: str, source: str) -> None:
+    """Open and close a TCP connection to ``target``'s host and port, so that a wrong address fails at once
+    (``ray.init`` waits minutes on one, deaf to Ctrl-C).
 
     Raises:
-        UsageError: Ray is not installed.
+        UsageError: ``target`` is not ``[ray://]HOST:PORT``, or nothing accepts connections there.
     """
-    # Under `uv run`, Ray would copy the working directory and run workers from that copy (paths in specs and
-    # results would differ from a local run); workers use the installed BenchBot instead. Ray reads this at import.
+    client = target.startswith("ray://")
+    hostport = target.removeprefix("ray://").rstrip("/")
+    host, sep, port = hostport.rpartition(":")
+    if client and (not sep or not port.isdigit()):
+        host, port = hostport, str(RAY_CLIENT_PORT)
+    elif not sep or not port.isdigit() or not host:
+        raise UsageError(f"Ray address '{target}' ({source}) is not HOST:PORT",
+                         "e.g. --ray-address 10.0.0.5:6379 (the head's GCS port), or ray://10.0.0.5:10001 "
+                         "(Ray Client)")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=RAY_PROBE_TIMEOUT_S).close()
+    except OSError as exc:
+        why = exc.strerror or str(exc) or type(exc).__name__
+        raise UsageError(f"no Ray cluster answers at {target} ({source}): {why}", _unreachable_hint(source)) \
+            from None
+
+
+def _first_line(text: str, limit: int = 240) -> str:
+    """The first sentence of ``text`` on one line, at most ``limit`` characters."""
+    text = " ".join(str(text).split())
+    for end in (". ", ".\n"):
+        if end in text:
+            text = text[:text.index(end) + 1]
+            break
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _init_problem(exc: BaseException, target: str | None, source: str) -> UsageError:
+    """One line (and the fix) for a failed ``ray.init``."""
+    where = f"the Ray cluster at {target} ({source})" if target else "a local Ray"
+    name = type(exc).__name__
+    text = str(exc)
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    if any(line.startswith("Traceback (most recent call last)") for line in lines):
+        text = lines[-1]  # a server's traceback (Ray Client's): what it raised
+    if name == "AuthenticationError" or "InvalidAuthToken" in text:
+        return UsageError(f"{where} refused this process's authentication token",
+                          "give it the cluster's token: RAY_AUTH_MODE=token with RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH "
+                          "or ~/.ray/auth_token (docs/cluster.md)")
+    if "version" in text.lower() and "mismatch" in text.lower():
+        return UsageError(f"cannot attach to {where}: {_first_line(text)}",
+                          "install the same Ray and Python on this machine as on the cluster")
+    hint = _unreachable_hint(source) if target else "see the log of Ray's messages (logs/ray.log)"
+    if target and not target.startswith("ray://"):
+        hint += "; from a machine outside the cluster, attach through Ray Client: ray://HEAD:10001"
+    elif target:
+        hint = ("the head's Ray Client server says why in ray_client_server*.err (its session's logs folder, "
+                "/tmp/ray/session_latest/logs by default)")
+    return UsageError(f"cannot attach to {where}: {name}: {_first_line(text)}" if target
+                      else f"cannot start a local Ray: {name}: {_first_line(text)}", hint)
+
+
+def connect_ray(address: str | None = None, *, workers: int = 1, log: Path | None = None,
+                timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> RayCluster:
+    """Connect this process to Ray for a batch, choosing the cluster as ``ray.init`` does (docs/cluster.md):
+    ``address`` (``--ray-address``: the head's ``HOST:PORT``, ``ray://HOST:PORT`` through Ray Client, ``auto``,
+    or ``local`` for a new local Ray), else ``$RAY_ADDRESS``, else the cluster ``ray start`` last started on this
+    machine, else a new local Ray with ``workers`` CPUs, started for this batch (:meth:`RayCluster.close` stops
+    it). An address is first tried with a plain TCP connection, and attaching (``ray.init``) runs in a helper
+    thread for at most ``timeout_s`` seconds, so a wrong address fails in one line and Ctrl-C works while it waits. Ray's
+    messages go to ``log`` (appended) from here on; a process already connected to Ray keeps its connection.
+
+    Raises:
+        UsageError: Ray is not installed (or, for ``ray://``, Ray Client); the address is not ``HOST:PORT``,
+            refuses connections, does not answer within ``timeout_s``, or refuses this process's token.
+    """
+    # Under `uv run`, Ray would copy the working directory to every worker and run from that copy (paths in specs
+    # and results would differ from a local run); workers use the installed BenchBot instead. Read at import.
     os.environ["RAY_ENABLE_UV_RUN_RUNTIME_ENV"] = "0"
     try:
         import ray
-        from ray.util.queue import Queue
     except ImportError:
-        raise UsageError("--executor ray needs Ray", "install it: uv pip install 'benchbot[ray]'") from None
-    started_here = not ray.is_initialized()
-    if started_here:
-        kwargs = {"address": address} if address else {"num_cpus": workers}
-        # Ray's workers do not inherit this process's environment: pass BenchBot's settings (plugins to load or
-        # skip, data directory, Taichi arch) so every episode sees the same registry as a local run would.
-        env_vars = {k: v for k, v in os.environ.items() if k.startswith(("BENCHBOT_", "TI_", "CYCLONEDDS_"))}
-        ray.init(include_dashboard=False, log_to_driver=False, configure_logging=False,
-                 runtime_env={"env_vars": env_vars}, **kwargs)
-    stop = threading.Event()
-    events = Queue()
-    drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
-    drainer.start()
+        raise UsageError("--executor ray needs Ray, which is not installed", RAY_INSTALL_HINT) from None
+    if ray.is_initialized():
+        return RayCluster(address=None, source="already connected", owned=False)
+    target, source = _ray_target(address)
+    if target is not None and target.startswith("ray://") and importlib.util.find_spec("grpc") is None:
+        raise UsageError(f"{target} ({source}) is a Ray Client address, and Ray Client (ray[client]: grpcio) is "
+                         "not installed", RAY_INSTALL_HINT)
+    if target not in (None, "auto"):
+        _probe_ray(target, source)
+    cluster = RayCluster(address=target, source=source, started_here=target is None, log=log)
+    _send_ray_messages_to(cluster, log)
+    env_vars = {k: v for k, v in os.environ.items() if k.startswith(RAY_PASSED_PREFIXES)}
+    # Ray Client's server on the head would otherwise run the batch's job as `uv run` when the head was started
+    # with `uv run ray start`, and its workers would fail to set up that environment.
+    env_vars["RAY_ENABLE_UV_RUN_RUNTIME_ENV"] = "0"
+    kwargs: dict = {"runtime_env": {"env_vars": env_vars}, "log_to_driver": False}
+    if target is None:
+        kwargs.update(address="local", num_cpus=workers, include_dashboard=False, configure_logging=False)
+    elif target.startswith("ray://"):
+        kwargs.update(address=target)
+    else:
+        kwargs.update(address=target, configure_logging=False)
     try:
-        remote_episode = ray.remote(num_cpus=1, max_retries=0)(run_episode)
-        pending = [remote_episode.remote(spec, run, run_dir, events) for spec, run in episodes]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            on_record(ray.get(done[0]))
+        with _stderr_to(log):  # Ray's C++ core writes to stderr before its log files exist
+            if target is None:  # a local Ray: in this thread, which its processes' lives are tied to
+                _init_local(ray, kwargs)
+            else:
+                _init_with_timeout(ray, kwargs, timeout_s, target, source)
+    except BaseException:
+        cluster.owned = False  # nothing to disconnect
+        cluster.close()
+        raise
+    logging.getLogger("ray").handlers = [cluster._handler]  # ray.init cleared them
+    return cluster
+
+
+def _init_local(ray, kwargs: dict) -> None:
+    """``ray.init(**kwargs)`` starting a local Ray, in the calling thread: Ray ties the processes it starts (its
+    GCS, raylet) to the thread that starts them (they get a death signal when it ends), so a helper thread, as
+    :func:`_init_with_timeout` uses, would leave a Ray whose GCS is gone a moment later.
+
+    Raises:
+        UsageError: ``ray.init`` failed (:func:`_init_problem`).
+    """
+    try:
+        ray.init(**kwargs)
+    except Exception as exc:  # noqa: BLE001 - reported in one line
+        raise _init_problem(exc, None, "started for this batch") from None
+
+
+def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str | None, source: str) -> None:
+    """``ray.init(**kwargs)`` in a helper thread; this thread waits (Ctrl-C interrupts the wait) at most
+    ``timeout_s`` seconds.
+
+    Raises:
+        UsageError: ``ray.init`` failed or did not return in time.
+    """
+    outcome: dict = {}
+
+    def init() -> None:
+        try:
+            ray.init(**kwargs)
+        except BaseException as exc:  # noqa: BLE001 - reported by the waiting thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=init, name="benchbot-ray-init", daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    if thread.is_alive():
+        where = f"the Ray cluster at {target} ({source})" if target else "a local Ray"
+        raise UsageError(f"{where} did not answer within {timeout_s:g} s", _unreachable_hint(source) if target
+                         else "see the log of Ray's messages (logs/ray.log)")
+    if "error" in outcome:
+        raise _init_problem(outcome["error"], target, source) from None
+
+
+@contextlib.contextmanager
+def _stderr_to(log: Path | None):
+    """File descriptor 2 of this process goes to ``log`` (or nowhere) inside the block."""
+    sys.stderr.flush()
+    target = open(log, "a") if log is not None else open(os.devnull, "w")  # noqa: SIM115
+    saved = os.dup(2)
+    try:
+        os.dup2(target.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        target.close()
+
+
+def _send_ray_messages_to(cluster: RayCluster, log: Path | None) -> None:
+    """Point Ray's logger, and the errors its driver prints (a raylet that died, ...), at ``log`` until
+    ``cluster`` closes (its undo list puts them back)."""
+    import ray._private.worker as ray_worker
+
+    if log is not None:
+        log.parent.mkdir(parents=True, exist_ok=True)
+        handler: logging.Handler = logging.FileHandler(log)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    else:
+        handler = logging.NullHandler()
+    ray_logger = logging.getLogger("ray")
+    saved_handlers, saved_propagate = ray_logger.handlers[:], ray_logger.propagate
+    ray_logger.handlers, ray_logger.propagate = [handler], False
+    cluster._handler = handler
+
+    def restore_logger() -> None:
+        ray_logger.handlers, ray_logger.propagate = saved_handlers, saved_propagate
+        handler.close()
+
+    cluster._undo.append(restore_logger)
+    printer = getattr(ray_worker, "print_to_stdstream", None)
+    if printer is not None:  # the driver's thread that prints cluster errors to stdout and stderr
+        def to_log(data: dict, *args, **kwargs) -> None:
+            for line in data.get("lines", []):
+                ray_logger.warning("(%s) %s", data.get("pid", "ray"), line)
+
+        ray_worker.print_to_stdstream = to_log
+        cluster._undo.append(lambda: setattr(ray_worker, "print_to_stdstream", printer))
+
+
+class _EventBuffer:
+    """A Ray actor, on the batch's own node, keeping the episodes' events until the batch process takes them."""
+
+    def __init__(self) -> None:
+        self.items: list = []
+
+    def put(self, item: tuple) -> None:
+        self.items.append(item)
+
+    def take(self) -> list:
+        items, self.items = self.items, []
+        return items
+
+
+class _ActorSink:
+    """The ``events`` of :func:`run_episode` on a Ray node: ``put`` sends an event to the batch's
+    :class:`_EventBuffer` without waiting for the reply (a task that waits on Ray lends its CPU to other tasks)."""
+
+    def __init__(self, actor) -> None:
+        self.actor = actor
+
+    def put(self, item: tuple) -> None:
+        try:
+            self.actor.put.remote(item)
+        except Exception:  # noqa: BLE001 - the batch process is gone: the episode ends on its own
+            pass
+
+
+def _node_facts() -> dict:
+    """Where a Ray task runs: ``{id, address, hostname}`` (its node's id and IP address)."""
+    import ray
+
+    return {"id": ray.get_runtime_context().get_node_id(), "address": ray.util.get_node_ip_address(),
+            "hostname": socket.gethostname()}
+
+
+def _node_name(node: dict) -> str:
+    return f"{node.get('address', '?')} ({str(node.get('id', ''))[:8]})" if node else "an unknown node"
+
+
+def distribution_versions() -> dict[str, str]:
+    """``{distribution: version}`` of BenchBot and of every installed plugin distribution (entry-point group
+    ``benchbot``): what every Ray node must have, the same (:func:`_node_problem`)."""
+    out = {}
+    try:
+        out["benchbot"] = md.version("benchbot")
+    except md.PackageNotFoundError:
+        pass
+    for entry in md.entry_points(group="benchbot"):
+        if entry.dist is not None:
+            out[entry.dist.name] = entry.dist.version
+    return out
+
+
+def _node_problem(spec: EpisodeSpec, versions: dict[str, str]) -> str:
+    """Why this node cannot run ``spec`` as the batch's machine would ("" when it can): another version of
+    BenchBot or of a plugin, or the solution's folder or program missing (every node needs them at the same
+    path)."""
+    for dist, wanted in sorted(versions.items()):
+        try:
+            have = md.version(dist)
+        except md.PackageNotFoundError:
+            have = None
+        if have != wanted:
+            here = "is not installed here" if have is None else f"is {have} here"
+            return (f"{dist} {here}, {wanted} on the batch's machine: every node needs the same BenchBot and "
+                    "plugins (docs/cluster.md)")
+    folder = Path(spec.container["context"]) if spec.container else Path(spec.cwd)
+    if not folder.is_dir():
+        return (f"the solution's folder {folder} is not on this node: every node needs it at the same path (a "
+                "shared file system, or the same copy; docs/cluster.md)")
+    program = spec.argv[0] if spec.argv and not spec.container else ""
+    if os.path.isabs(program) and not os.path.exists(program):
+        return (f"the solution's program {program} is not on this node: install BenchBot at the same path on every "
+                "node (docs/cluster.md)")
+    return ""
+
+
+def _shared_run_dirs(run_dir: str) -> tuple:
+    """The batch's run directory and those beside it, where this node sees them (a shared file system): hidden
+    from a sandboxed solution, as on the batch's machine."""
+    from benchbot.batch.episode_runner import run_directories
+
+    try:
+        return tuple(run_directories(Path(run_dir))) if Path(run_dir).parent.is_dir() else ()
+    except OSError:
+        return ()
+
+
+def _collect(folder: Path) -> dict[str, bytes]:
+    """``{path relative to folder: content}`` of every regular file under ``folder``, and ``{path + "/": b""}`` of
+    every folder in it (links are left out)."""
+    files = {}
+    for root, dirs, names in os.walk(folder):
+        for name in dirs:
+            path = Path(root, name)
+            if not path.is_symlink():
+                files[path.relative_to(folder).as_posix() + "/"] = b""
+        for name in names:
+            path = Path(root, name)
+            if path.is_file() and not path.is_symlink():
+                files[path.relative_to(folder).as_posix()] = path.read_bytes()
+    return files
+
+
+def _ray_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events, versions: dict[str, str]
+                 ) -> tuple[EpisodeRecord, dict[str, bytes]]:
+    """A Ray task: run ``spec`` in a run directory of this node's own (a temporary folder) and return its record
+    and the files it wrote there (``{path relative to the run directory: bytes}``), which the batch process writes
+    into the run directory (:func:`_unpack`): the nodes need no shared file system for results, logs, outputs,
+    trajectories or recordings. A problem of this node (:func:`_node_problem`, or anything
+    :func:`run_episode` does not record itself) ends the episode as ``error`` in one line naming the node."""
+    node = _node_facts()
+    sink = _ActorSink(events)
+    sink.put(("node", spec.index, node))
+    files: dict[str, bytes] = {}
+    try:
+        problem = _node_problem(spec, versions)
+        if problem:
+            record = new_record(spec)
+            record.status, record.error = "error", problem
+        else:
+            with tempfile.TemporaryDirectory(prefix="benchbot-ray-") as tmp:
+                local = Path(tmp, Path(run_dir).name)
+                local.mkdir()
+                record = run_episode(spec, run, str(local), sink, hide=_shared_run_dirs(run_dir))
+                files = _collect(local)
+    except Exception as exc:  # noqa: BLE001 - not the episode's own failure (run_episode records those)
+        record = new_record(spec)
+        record.status, record.error = "error", f"{type(exc).__name__}: {_first_line(exc)}"
+    record.executor, record.node = "ray", node
+    if record.status == "error":
+        record.error = f"on node {_node_name(node)}: {record.error}"
+    return record, files
+
+
+def _unpack(run_dir: Path, spec: EpisodeSpec, files: dict[str, bytes]) -> str:
+    """Write the files an episode made on its node into the run directory, after removing what its previous
+    attempt left (its results file and outputs folder), as :func:`run_episode` does locally. Returns "" or the
+    problem (one line)."""
+    root = Path(run_dir).resolve()
+    try:
+        stale = root / spec.results
+        if stale.is_symlink() or stale.is_file():
+            stale.unlink()
+        shutil.rmtree(root / spec.outputs, ignore_errors=True)
+        for rel, data in files.items():
+            path = root / rel
+            if Path(rel).is_absolute() or ".." in Path(rel).parts or not path.resolve().is_relative_to(root):
+                return f"the node sent a file outside the run directory ({rel}): refused"
+            if rel.endswith("/"):
+                path.mkdir(parents=True, exist_ok=True)
+            else:
+                atomic.write_bytes(path, data)
+    except OSError as exc:
+        return f"cannot write the episode's files into {root}: {exc.strerror or exc}"
+    return ""
+
+
+def _lost_reason(exc: BaseException) -> str:
+    """Why Ray lost an episode, in a few words ("" when ``exc`` is no loss but a failure: a runtime environment
+    that cannot be set up, say, which would fail again anywhere)."""
+    import ray.exceptions as rex
+
+    if isinstance(exc, rex.NodeDiedError):
+        return "its node died"
+    if isinstance(exc, (rex.WorkerCrashedError, getattr(rex, "LocalRayletDiedError", rex.WorkerCrashedError))):
+        return "its worker process died"
+    if isinstance(exc, rex.ObjectLostError):  # OwnerDiedError, ObjectReconstructionFailedError, ... among them
+        return "its result was lost"
+    return ""
+
+
+def _drain_actor(ray, actor, on_event: EventHandler, stop: threading.Event) -> None:
+    """Take the episodes' events from the :class:`_EventBuffer` a few times a second until ``stop``; one last
+    time after it."""
+    while True:
+        final = stop.is_set()
+        try:
+            items = ray.get(actor.take.remote(), timeout=10)
+        except Exception:  # noqa: BLE001 - a slow or gone buffer: progress waits, records still arrive
+            items = []
+        for kind, index, info in items:
+            on_event(kind, index, info)
+        if final:
+            return
+        stop.wait(0.1)
+
+
+def run_ray(
+    episodes: list[Episode], run_dir: str, *, address: str | None = None, workers: int = 1,
+    on_event: EventHandler, on_record: Callable[[EpisodeRecord], None], cluster: RayCluster | None = None,
+    lost_retries: int = RAY_LOST_RETRIES,
+) -> None:
+    """Run ``episodes`` as Ray tasks and call ``on_record`` (in this thread) as each ends (docs/cluster.md).
+
+    Each episode reserves :data:`RAY_EPISODE_CPUS` CPU on its node for its whole life and runs in a run directory
+    of the node's own; what it wrote comes back through Ray's object store and this process writes it into
+    ``run_dir`` (:func:`_ray_episode`): no shared file system is needed for the run directory. The solution's
+    folder, and BenchBot with the same plugins, must be at the same paths on every node. An episode lost with its
+    node or worker process is run again on another node (up to ``lost_retries`` times; the others go on) and the
+    lost attempts are in its record's ``lost``. Events: those of :func:`run_episode`, and ``("lost", index, {node,
+    error, again})``.
+
+    Args:
+        cluster: an open connection (:func:`connect_ray`), used and left open; None connects with ``address`` and
+            ``workers`` (as :func:`connect_ray`) and disconnects at the end.
+
+    Raises:
+        UsageError: (without ``cluster``) as :func:`connect_ray`.
+    """
+    own = cluster is None
+    if cluster is None:
+        cluster = connect_ray(address, workers=workers, log=Path(run_dir) / RAY_LOG)
+    try:
+        _run_on_ray(episodes, Path(run_dir), on_event=on_event, on_record=on_record, lost_retries=lost_retries)
+    finally:
+        if own:
+            cluster.close()
+
+
+def _run_on_ray(episodes: list[Episode], run_dir: Path, *, on_event: EventHandler,
+                on_record: Callable[[EpisodeRecord], None], lost_retries: int) -> None:
+    import ray
+    import ray.exceptions as rex
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+    here = ray.get_runtime_context().get_node_id()  # the events wait here: a worker node may die
+    buffer = ray.remote(num_cpus=0, max_restarts=0)(_EventBuffer).options(
+        scheduling_strategy=NodeAffinitySchedulingStrategy(here, soft=True)).remote()
+    remote_episode = ray.remote(num_cpus=RAY_EPISODE_CPUS, max_retries=0)(_ray_episode)
+    versions = distribution_versions()
+    node_of: dict[int, dict] = {}
+
+    def forward(kind: str, index: int, info: dict | None) -> None:
+        if kind == "node":
+            node_of[index] = info or {}
+        else:
+            on_event(kind, index, info)
+
+    stop = threading.Event()
+    drainer = threading.Thread(target=_drain_actor, args=(ray, buffer, forward, stop), daemon=True,
+                               name="benchbot-ray-events")
+    drainer.start()
+    lost: dict[int, list[dict]] = {spec.index: [] for spec, _ in episodes}
+    running: dict = {}
+
+    def submit(episode: Episode) -> None:
+        running[remote_episode.remote(episode[0], episode[1], str(run_dir), buffer, versions)] = episode
+
+    try:
+        for episode in episodes:
+            submit(episode)
+        while running:
+            done, _ = ray.wait(list(running), num_returns=1, timeout=0.5)  # short: Ctrl-C reaches this thread
+            for ref in done:
+                spec, run = running.pop(ref)
+                files: dict[str, bytes] = {}
+                try:
+                    record, files = ray.get(ref)
+                except rex.RayTaskError as exc:  # the task could not even start its episode (an import, say)
+                    record = new_record(spec)
+                    cause = exc.cause if getattr(exc, "cause", None) is not None else exc
+                    record.status, record.executor, record.node = "error", "ray", node_of.get(spec.index, {})
+                    record.error = (f"on node {_node_name(record.node)}: {type(cause).__name__}: "
+                                    f"{_first_line(cause)}")
+                except rex.RayError as exc:
+                    reason = _lost_reason(exc)
+                    if reason:  # its node or worker died: the episode was lost, not failed
+                        what = {"node": node_of.get(spec.index, {}), "error": reason}
+                        lost[spec.index].append(what)
+                        forward("end", spec.index, None)
+                        again = len(lost[spec.index]) <= lost_retries
+                        forward("lost", spec.index, {**what, "again": again})
+                        if again:  # elsewhere: Ray schedules nothing on a dead node
+                            submit((spec, run))
+                            continue
+                    record = new_record(spec)
+                    record.status, record.executor = "error", "ray"
+                    if reason:
+                        record.node = what["node"]
+                        record.error = (f"lost {len(lost[spec.index])} times with its Ray node or worker (last: "
+                                        f"{reason} on node {_node_name(what['node'])})")
+                    else:  # Ray could not run it at all (its runtime environment, say): it would fail anywhere
+                        record.error = f"Ray could not run the episode: {type(exc).__name__}: {_first_line(exc)}"
+                if files:
+                    problem = _unpack(run_dir, spec, files)
+                    if problem:
+                        record.status, record.error = "error", problem
+                record.lost = lost[spec.index]
+                record.attempts = 1 + len(record.lost)
+                forward("end", spec.index, None)  # in case the episode's own end is still on its way
+                on_record(record)
+    except BaseException:
+        for ref in running:  # stop the episodes still running (their solutions too) before disconnecting
+            try:
+                ray.cancel(ref)
+            except Exception:  # noqa: BLE001
+                pass
+        if running:
+            ray.wait(list(running), num_returns=len(running), timeout=STOP_WAIT_S)
+        raise
     finally:
         stop.set()
         drainer.join()
-        if started_here:
-            ray.shutdown()
+        try:
+            ray.kill(buffer)
+        except Exception:  # noqa: BLE001 - gone with its node or the cluster
+            pass
+

@@ -94,6 +94,12 @@ class EpisodeRecord:
         wall_s: seconds of the last attempt. returncode: the submission's exit status.
         backend: what the episode's backend was (:func:`benchbot.batch.provenance.backend_facts`: simulator plugin
             and version, scene style, Taichi arch and device, the plugin's settings); ``{}`` before it ran.
+        executor: what ran its last attempt, ``local`` or ``ray`` (``""`` before it ran).
+        node: where its last attempt ran: ``{"hostname"}`` for ``local``; ``{"id", "address", "hostname"}`` (the
+            Ray node's id and IP address) for ``ray``.
+        lost: the attempts lost with their Ray node or worker process (``[{"node", "error"}]``, oldest first),
+            each run again on another node (:data:`benchbot.batch.executors.RAY_LOST_RETRIES`); they count in
+            ``attempts``.
     """
 
     index: int
@@ -111,6 +117,9 @@ class EpisodeRecord:
     results: str = ""
     log: str = ""
     backend: dict = field(default_factory=dict)
+    executor: str = ""
+    node: dict = field(default_factory=dict)
+    lost: list = field(default_factory=list)
 
 
 def slug(text: str) -> str:

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Callable
 
 from benchbot.batch.episode_runner import results_problem
-from benchbot.batch.executors import EventHandler, run_local, run_ray
+from benchbot.batch.executors import RAY_LOG, EventHandler, RayCluster, connect_ray, run_local, run_ray
 from benchbot.batch import provenance
 from benchbot.batch.progress import ProgressFile
 from benchbot.batch.plan import (
@@ -341,7 +341,7 @@ def longest_first(specs: list[EpisodeSpec], registry: Registry) -> list[EpisodeS
 def run_batch(
     registry: Registry, batch: Batch, *, workers: int = 1, retries: int = 0, executor: str = "local",
     ray_address: str | None = None, on_event: EventHandler | None = None,
-    on_record: Callable[[EpisodeRecord], None] | None = None,
+    on_record: Callable[[EpisodeRecord], None] | None = None, ray_cluster: RayCluster | None = None,
 ) -> BatchOutcome:
     """Run (or resume) ``batch`` (from :func:`prepare_batch` or :func:`load_batch`), then evaluate.
 
@@ -353,11 +353,16 @@ def run_batch(
         on_event: called with every executor event (``start``/``step``/``end``, index, info), in the thread that
             drains the executor's event queue, after ``progress.json`` has taken it.
         on_record: called with every episode's record as it ends, after the manifest has been written.
-        executor: ``local`` (this process, or ``workers`` processes) or ``ray`` (Ray tasks; ``ray_address`` names
-            an existing cluster, else a local one with ``workers`` CPUs is started).
+        executor: ``local`` (this process, or ``workers`` processes) or ``ray`` (Ray tasks on the cluster
+            :func:`~benchbot.batch.executors.connect_ray` picks for ``ray_address``: as ``ray.init`` does, else a
+            local Ray with ``workers`` CPUs; Ray's messages go to ``logs/ray.log``). The manifest's ``executor``
+            says which, and every record its ``executor`` and ``node``.
+        ray_cluster: for ``ray``, a connection already open (``connect_ray``; the CLI connects before its live
+            table starts, as ``ray.init`` cannot run under it); run_batch closes it when the episodes are done.
 
     Raises:
-        UsageError: ``workers`` < 1; unknown executor; a bad ``BENCHBOT_*`` limit variable.
+        UsageError: ``workers`` < 1; unknown executor; a bad ``BENCHBOT_*`` limit variable; for ``ray`` without
+            ``ray_cluster``, Ray missing or its cluster unreachable (:func:`~benchbot.batch.executors.connect_ray`).
     """
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
@@ -378,34 +383,42 @@ def run_batch(
         if on_event is not None:
             on_event(kind, index, info)
 
-    def record_done(record: EpisodeRecord) -> None:
-        record.attempts = by_index[record.index].attempts + 1
+    def record_done(record: EpisodeRecord) -> None:  # a Ray record counts its lost attempts too
+        record.attempts = by_index[record.index].attempts + max(1, record.attempts)
+        record.lost = by_index[record.index].lost + record.lost
         by_index[record.index] = record
         manifest["episodes"] = to_json([by_index[s.index] for s in specs])
         write_manifest(run_dir, manifest)
         if on_record is not None:
             on_record(record)
 
-    for _ in range(retries + 1):
-        todo = [s for s in specs if by_index[s.index].status != "ok"]
-        if not todo:
-            break
-        for spec in todo:
-            if (spec.robot, spec.env) in batch.unresolved:
-                record = new_record(spec)
-                record.status, record.error = "error", batch.unresolved[(spec.robot, spec.env)]
-                record_done(record)
-        todo = [s for s in todo if (s.robot, s.env) in batch.runs]
-        if workers > 1 or executor == "ray":
-            todo = longest_first(todo, registry)
-        episodes = [(s, batch.runs[(s.robot, s.env)]) for s in todo]
-        if not episodes:
-            continue
-        if executor == "ray":
-            run_ray(episodes, str(run_dir), address=ray_address, workers=workers, on_event=handler,
-                    on_record=record_done)
-        else:
-            run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
+    cluster = ray_cluster
+    if executor == "ray" and cluster is None:
+        cluster = connect_ray(ray_address, workers=workers, log=run_dir / RAY_LOG)
+    manifest["executor"] = cluster.facts() if executor == "ray" else {"name": "local", "workers": workers}
+    try:
+        for _ in range(retries + 1):
+            todo = [s for s in specs if by_index[s.index].status != "ok"]
+            if not todo:
+                break
+            for spec in todo:
+                if (spec.robot, spec.env) in batch.unresolved:
+                    record = new_record(spec)
+                    record.status, record.error = "error", batch.unresolved[(spec.robot, spec.env)]
+                    record_done(record)
+            todo = [s for s in todo if (s.robot, s.env) in batch.runs]
+            if workers > 1 or executor == "ray":
+                todo = longest_first(todo, registry)
+            episodes = [(s, batch.runs[(s.robot, s.env)]) for s in todo]
+            if not episodes:
+                continue
+            if executor == "ray":
+                run_ray(episodes, str(run_dir), cluster=cluster, on_event=handler, on_record=record_done)
+            else:
+                run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
+    finally:
+        if cluster is not None:
+            cluster.close()
     outcome = BatchOutcome(run_dir, [by_index[s.index] for s in specs])
     done = [e for e in outcome.episodes if e.status == "ok"]
     if manifest.get("zip") and done:

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from benchbot.batch.plan import EpisodeRecord, expected_steps, plan_episodes
@@ -42,8 +43,8 @@ def register(app: typer.Typer) -> None:
         repeat: int = typer.Option(1, "--repeat", help=f"Run every (robot, environment) this many times, each with its own recorded seed ({at_most(MAX_REPEAT, 1)})."),
         workers: int = typer.Option(1, "--workers", "-w", help=f"Episodes run in parallel (each in its own process with its own backend and cores/N simulator threads; the longest episodes start first; {at_most(MAX_WORKERS, 1)})."),
         retries: int = typer.Option(0, "--retries", help=f"Re-run failed episodes up to this many times ({at_most(MAX_RETRIES)})."),
-        executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks)."),
-        ray_address: Optional[str] = typer.Option(None, "--ray-address", help="An existing Ray cluster (default: start a local one)."),
+        executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks, each reserving a CPU on its node; results come back through Ray; docs/cluster.md)."),
+        ray_address: Optional[str] = typer.Option(None, "--ray-address", help="With --executor ray: the cluster's head HOST:PORT, ray://HOST:10001 (Ray Client) or local; default as ray.init: $RAY_ADDRESS, else the cluster `ray start` began on this machine, else a local Ray with --workers CPUs."),
         resume: Optional[Path] = typer.Option(None, "--resume", help="Resume the batch in this run directory: only unfinished episodes run."),
         prefix: str = typer.Option("batch", "--prefix", "-p", help="Name prefix of the run directory (and of the --zip archive)."),
         zip_results: bool = typer.Option(False, "--zip", "-z", help="Also write PREFIX.zip of the results files, as the original did."),
@@ -76,6 +77,9 @@ def register(app: typer.Typer) -> None:
         reg = registry()
         if executor not in ("local", "ray"):
             raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
+        if ray_address is not None and executor != "ray":
+            raise UsageError("--ray-address is for --executor ray", "add --executor ray, or leave --ray-address out")
+        cluster = None
         if resume is not None:
             batch = load_batch(reg, resume)
             isolation = batch.specs[0].sandbox
@@ -85,6 +89,7 @@ def register(app: typer.Typer) -> None:
             if isolation == "bwrap":
                 check_available()
             done = sum(r.status == "ok" for r in batch.records)
+            cluster = _connect_ray(executor, ray_address, workers, batch.run_dir)
             err.print(f"resuming {batch.run_dir}: {done} of {len(batch.specs)} episodes already done")
         else:
             modes = [m for m, on in (("--native", native), ("--example", example), ("--containerised", containerised)) if on]
@@ -134,6 +139,7 @@ def register(app: typer.Typer) -> None:
                 batch = prepare_batch(reg, run_dir=run_dir, specs=specs,
                                       evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
                                       zip_results=zip_results, sweep=sweep_record, ground_truth_set=ground_truths)
+                cluster = _connect_ray(executor, ray_address, workers, run_dir)
             except BaseException:  # nothing ran: leave no empty run directory behind
                 shutil.rmtree(run_dir, ignore_errors=True)
                 raise
@@ -149,13 +155,18 @@ def register(app: typer.Typer) -> None:
         def print_line(record: EpisodeRecord) -> None:  # one line per finished episode, as it finishes
             err.print(episode_line(record, label[record.index]), highlight=False)
 
+        def print_lost(kind: str, index: int, info: dict | None) -> None:  # a Ray episode lost with its node
+            if kind == "lost":
+                err.print(lost_line(info or {}, label[index]), highlight=False)
+
         started = time.monotonic()
         if is_tty() and not no_tui:
             outcome = _run_with_tui(reg, batch, print_line, workers=workers, retries=retries,
-                                    executor=executor, ray_address=ray_address)
+                                    executor=executor, ray_address=ray_address, ray_cluster=cluster)
         elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
             outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                ray_address=ray_address, on_record=print_line)
+                                ray_address=ray_address, on_record=print_line, on_event=print_lost,
+                                ray_cluster=cluster)
         else:
             runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
             expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
@@ -171,6 +182,9 @@ def register(app: typer.Typer) -> None:
                         progress.update(rows[index], description=label[index] + stage)
                     elif kind == "step" and index in rows:
                         progress.update(rows[index], completed=info["step"])
+                    elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
+                        progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
+                        print_lost(kind, index, info)
 
                 def on_record(record: EpisodeRecord) -> None:
                     colour = "green" if record.status == "ok" else "red"
@@ -178,7 +192,8 @@ def register(app: typer.Typer) -> None:
                         progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
 
                 outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                    ray_address=ray_address, on_event=on_event, on_record=on_record)
+                                    ray_address=ray_address, on_event=on_event, on_record=on_record,
+                                    ray_cluster=cluster)
         err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
         for record in outcome.episodes:
             if record.status != "ok":
@@ -233,6 +248,35 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
         err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
     elif summary.get("plot_error"):
         err.print(f"no robustness plot: {summary['plot_error']}")
+
+
+def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path):
+    """For ``--executor ray``: connect to Ray now (:func:`benchbot.batch.executors.connect_ray`), in the main
+    thread and before any live table (``ray.init`` needs the terminal's real stderr, which the table takes over),
+    and say where the episodes will run; None for ``local``.
+
+    Raises:
+        UsageError: Ray missing, or its cluster unreachable (one line, with the fix).
+    """
+    if executor != "ray":
+        return None
+    from benchbot.batch.executors import RAY_LOG, connect_ray
+
+    cluster = connect_ray(address, workers=workers, log=run_dir / RAY_LOG)
+    err.print(cluster.describe(), highlight=False)
+    if workers > 1 and not cluster.started_here:
+        err.print("(--workers is not used on an existing cluster: its free CPUs decide how many episodes run at "
+                  "once)", highlight=False)
+    return cluster
+
+
+def lost_line(info: dict, label: str) -> str:
+    """One line (rich markup) for an episode Ray lost with its node or worker process: ``[2/4] house:1  lost: its
+    node died on node 10.0.0.7 (3f2a1b2c); running it again on another node``."""
+    node = info.get("node") or {}
+    where = f" on node {node.get('address', '?')} ({str(node.get('id', ''))[:8]})" if node else ""
+    then = "running it again on another node" if info.get("again") else "no retries left"
+    return f"{label}  [yellow]lost[/]: {escape(str(info.get('error', '')))}{where}; {then}"
 
 
 def episode_line(record: EpisodeRecord, label: str) -> str:
