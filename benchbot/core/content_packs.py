@@ -68,7 +68,6 @@ from benchbot.core.errors import SpecError
 from benchbot.core.pack_layout import (
     FOLDER_KINDS, IGNORED, MANIFEST, PackError, data_dir, packs_dir, spec_files,
 )
-from benchbot.core.specs import SPEC_SUFFIXES
 
 if TYPE_CHECKING:  # pragma: no cover
     from benchbot.core.registry import Registry
