@@ -38,6 +38,7 @@ FIGURES = {
     "compile_time.py": [r"fast [\d.]+ s, quality [\d.]+ s"],
     "cpu_paths.py": [r"graph [\d.]+ fps, numpy [\d.]+ fps"],
     "denoise.py": [r"median_ms +[\d.]+"],
+    "end_to_end.py": [r"trivial +inprocess +33 +[\d.]+ +[\d.]+", r"hello_passive +native +33 +[\d.]+"],
     "hostile_inputs.py": [r"50 MB body on move_next +413", r"eval zip bomb .+ +4 +[\d.]+", r"log truncated at"],
     "omq.py": [r"omq_ms +[\d.]+", r"same scores: yes"],
     "one_camera.py": [r"launch \(cpu\): [\d.]+ µs", r"\d+ ndarray arguments, \d+ dispatches"],
