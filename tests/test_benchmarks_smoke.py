@@ -39,6 +39,8 @@ FIGURES = {
     "cpu_paths.py": [r"graph [\d.]+ fps, numpy [\d.]+ fps"],
     "denoise.py": [r"median_ms +[\d.]+"],
     "end_to_end.py": [r"trivial +inprocess +33 +[\d.]+ +[\d.]+", r"hello_passive +native +33 +[\d.]+"],
+    "first_run.py": [r"cold +[\d.]+ s +\(scene built; ready after [\d.]+ s: .*building the scene",
+                     r"warm 1 +[\d.]+ s +\(scene from the scene cache; ready after .*loading the scene"],
     "hostile_inputs.py": [r"50 MB body on move_next +413", r"eval zip bomb .+ +4 +[\d.]+", r"log truncated at"],
     "omq.py": [r"omq_ms +[\d.]+", r"same scores: yes"],
     "one_camera.py": [r"launch \(cpu\): [\d.]+ µs", r"\d+ ndarray arguments, \d+ dispatches"],
@@ -57,6 +59,7 @@ FIGURES = {
 #: Per script, what its smoke run leaves out (words of its ``smoke: left out ...`` line on stderr).
 LEFT_OUT = {
     "compile_time.py": ["the empty kernel cache"],
+    "first_run.py": ["the empty kernel cache"],
     "one_camera.py": ["host/GPU split"],
     "quality_vs_reference.py": ["the Cycles reference"],
     "realism.py": ["the detector", "the Cycles reference"],
