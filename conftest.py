@@ -11,7 +11,7 @@ pytest_plugins = ["pytester"]  # tests/test_fast_loop.py runs pytest on this con
 
 os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,sim_taichi,eval_omq,task_semslam,robot_ros2,assets_sh3d"
 os.environ["BENCHBOT_DATA_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-data-")
-os.environ["BENCHBOT_CACHE_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-cache-")
+os.environ["BENCHBOT_CACHE_DIR"] = _TEST_CACHE_DIR = tempfile.mkdtemp(prefix="benchbot-test-cache-")
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
 
 
@@ -21,6 +21,15 @@ os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
 # -m slow` runs only them, `uv run pytest --run-slow` runs everything, and naming a file or test runs all of it.
 # CI (.ci/run) runs the default command and then `uv run pytest -m slow`, so every test runs there.
 # ---------------------------------------------------------------------------------------------------------------------
+def pytest_unconfigure(config):
+    """The per-session cache of built scenes holds hundreds of MB once furnished homes were built: removed at the
+    end."""
+    import shutil
+
+    if os.environ.get("BENCHBOT_CACHE_DIR") == _TEST_CACHE_DIR:
+        shutil.rmtree(_TEST_CACHE_DIR, ignore_errors=True)
+
+
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False,
                      help="also run the tests marked slow (the default run, with no path and no -m, leaves them out)")

@@ -25,7 +25,7 @@ ignored with one log line (logger ``benchbot_sim_taichi.scene.cache``), removed,
 fails a run.
 
 Its size is bounded by :data:`benchbot.core.limits.SCENE_CACHE_BYTES` (``BENCHBOT_SCENE_CACHE_BYTES``, 4 GiB; an
-entry of the furnished miniroom:1 takes 82 MB in two files): after each write, the files used longest ago (by
+entry of the furnished miniroom:1 takes 82 MB in two files, house:1 378 MB): after each write, the files used longest ago (by
 modification time, which every hit renews) are removed until the rest fit. ``BENCHBOT_SCENE_CACHE_BYTES=0`` turns
 the cache off.
 """
