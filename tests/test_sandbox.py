@@ -249,6 +249,43 @@ def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp
     assert repo / "benchbot" in shown and repo / "schemas" in shown
 
 
+def test_the_cache_directory_is_hidden_even_inside_the_solutions_folder(tmp_path, registry, monkeypatch):
+    """The simulator's built scenes (their layouts) are out of a solution's sight, also where the cache directory
+    lies inside the solution's own folder (a solution run from the home folder, ~/.cache/benchbot) and did not exist
+    yet when the sandbox started."""
+    import socket
+
+    from benchbot.core.sandbox import run_sandboxed
+
+    folder = tmp_path / "solution"
+    folder.mkdir()
+    cache = folder / ".cache" / "benchbot"
+    monkeypatch.setenv("BENCHBOT_CACHE_DIR", str(cache))
+    (folder / "look.py").write_text("import os, sys\nprint(sorted(os.listdir(sys.argv[1])))\n")
+    outputs = tmp_path / "outputs"
+    outputs.mkdir()
+    backend = socket.socket(socket.AF_UNIX)
+    backend.bind(str(tmp_path / "backend.sock"))
+    backend.listen()
+
+    def look() -> str:
+        with open(tmp_path / "look.log", "w") as log:
+            run = run_sandboxed([sys.executable, "look.py", str(cache / "sim_taichi-scenes")], folder,
+                                registry=registry, backend_socket=tmp_path / "backend.sock",
+                                address="http://127.0.0.1:10000/", outputs=outputs, result_name="r.json", log=log,
+                                timeout_s=60)
+        text = (tmp_path / "look.log").read_text()
+        assert run.outcome.returncode != 0 or text.strip(), text
+        return text
+
+    with backend:
+        assert "FileNotFoundError" in look()  # started before the cache existed: an empty folder in its place
+        (cache / "sim_taichi-scenes").mkdir(parents=True)
+        (cache / "sim_taichi-scenes" / "key.scene.npz").write_bytes(b"the layout")
+        assert "FileNotFoundError" in look()
+    assert (cache / "sim_taichi-scenes" / "key.scene.npz").read_bytes() == b"the layout"
+
+
 def test_inside_addresses():
     from benchbot.core.sandbox import inside_address
 
