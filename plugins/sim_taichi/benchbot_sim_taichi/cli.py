@@ -101,6 +101,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
 
         from benchbot.core.errors import UsageError
         from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+        from benchbot_sim_taichi.scene import cache as scene_cache
         from benchbot_sim_taichi.scene.build import build_scene
 
         if mode not in ("fast", "quality"):
@@ -110,11 +111,10 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
         with showing_stages(env):
             environment = _environment(env)
             world = environment_world_seed(seed, environment)  # the world an episode with this --seed sees
-            with stages.stage("building the scene"):
-                scene = build_scene(_styled(environment, style), seed=world)
+            scene, key = scene_cache.scene_for(_styled(environment, style), world, build=build_scene)
             with stages.stage("starting Taichi"):
                 r = Renderer(None, shadow_samples=shadow_samples, seed=world)
-            r.set_scene(scene)
+            scene_cache.set_scene(r, scene, key)  # BVH, shadow maps and baked light: from the cache when it has them
             with stages.stage("rendering", detail=f"{mode} mode, {width}x{height}"
                               + (f", {spp} samples a pixel" if mode == "quality" else "")
                               + "; the first run also compiles kernels"):
@@ -143,13 +143,15 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
     normals (for a reference renderer); other formats get one mesh with face colours."""
 
     def go():
+        from benchbot_sim_taichi.scene import cache as scene_cache
         from benchbot_sim_taichi.scene.export import export_scene, scene_mesh
         from benchbot_sim_taichi.scene.build import build_scene
 
         from benchbot.core.errors import UsageError
 
         environment = _environment(env)
-        scene = build_scene(_styled(environment, style), seed=environment_world_seed(0, environment))  # as --seed 0
+        scene, _ = scene_cache.scene_for(_styled(environment, style), environment_world_seed(0, environment),
+                                         build=build_scene)  # as --seed 0
         if output.suffix.lower() == ".glb":
             try:
                 written = export_scene(scene, output)
@@ -182,10 +184,12 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
 
         from benchbot.core.errors import UsageError
         from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
+        from benchbot_sim_taichi.scene import cache as scene_cache
         from benchbot_sim_taichi.scene.build import build_scene
 
         environment = _environment(env)
-        scene = build_scene(_styled(environment, "furnished"), seed=environment_world_seed(0, environment))
+        scene, _ = scene_cache.scene_for(_styled(environment, "furnished"), environment_world_seed(0, environment),
+                                         build=build_scene)
         if scene.plan is None:
             raise UsageError(f"{env} has no ground-truth objects, so no floor plan is derived for it",
                              "give an environment with a map_path (BEAR ground truth)")
