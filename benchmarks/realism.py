@@ -6,7 +6,8 @@ photos, and a physically based reference renderer (Blender Cycles) on the same e
         [--out runs/realism] [--arch cpu|cuda]
 
 Per environment it renders ``--frames`` camera frames spread evenly along the trajectory (``--every K``: every
-K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also in ``quality`` mode, and:
+K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also in ``quality`` mode, through the
+robot's default camera (``DEFAULT_SENSORS``: intrinsics, mount, camera model), and:
 
 - **Detector.** CenterNet (MobileNetV3 backbone, trained on MS-COCO photos) from the npm package
   ``@vladmandic/human`` 3.3.6, run by TF.js on WebAssembly through Node.js (``benchmarks/realism/detect.mjs``;
@@ -23,9 +24,9 @@ K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also
   ``benchbot_sim_taichi.scene.export.export_scene`` (glTF, PBR materials with their textures, shading normals), the
   same camera (intrinsics and pose) and the same lights (sun, lamps, ambient as a sky), path traced at
   ``--reference-spp`` samples per pixel with no denoiser, and at each ``--ladder`` count (timed: Cycles' time to a
-  given error). Images are encoded as ours are (clamp, gamma 1/2.2, 8 bits); PSNR (dB) and SSIM (luma, 11×11
-  Gaussian window, σ 1.5) of ours fast and quality against the reference, also with the reference's exposure
-  matched to ours (``exposure_gain``, one scalar), and of each ladder rung (``cycles_s_to_same_psnr``: Cycles'
+  given error). Images are encoded as ours are (the robot's camera model: exposure, tone curve, gamma 2.2, 8 bits);
+  PSNR (dB) and SSIM (luma, 11×11 Gaussian window, σ 1.5) of ours fast and quality against the reference, also
+  with the reference's exposure matched to ours (``exposure_gain``, one scalar), and of each ladder rung (``cycles_s_to_same_psnr``: Cycles'
   time to our error, interpolated); ``reference_psnr_est_db`` estimates the reference's own noise from its largest
   rung (the rung's MSE against it is σ²/s + σ²/S for s and S samples). The detector also runs on the reference
   frames. Side-by-side PNGs: ours fast | ours quality | reference.
@@ -291,11 +292,14 @@ def ssim(a: np.ndarray, b: np.ndarray) -> float:
     return float(s.mean())
 
 
-def encode_like_ours(linear: np.ndarray) -> np.ndarray:
-    """(H, W, 3) uint8 of linear radiance, encoded as our renderer encodes it: clamp to [0, 1], ``x^(1/2.2)``,
-    8 bits (``benchbot_sim_taichi.render.camera_model.GAMMA``). Change it with the renderer's camera model."""
+def encode_like_ours(linear: np.ndarray, camera=None) -> np.ndarray:
+    """(H, W, 3) uint8 of linear radiance, encoded as our renderer encodes it: through ``camera`` (a
+    ``CameraModel``, e.g. :func:`camera_model`: exposure, tone curve, vignetting, gamma), else the plain one: clamp to
+    [0, 1], ``x^(1/2.2)``, 8 bits (``benchbot_sim_taichi.render.camera_model.GAMMA``)."""
     from benchbot_sim_taichi.render.camera_model import GAMMA
 
+    if camera is not None:
+        return camera.encode(linear, camera_setup(linear.shape[1], linear.shape[0])[0])
     return np.floor(np.power(np.clip(linear, 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
 
 
@@ -631,6 +635,16 @@ def camera_setup(width: int, height: int):
     return intrinsics(width, height, float(cam["horizontal_fov_deg"])), camera_mount(cam)
 
 
+def camera_model():
+    """The robot's default camera model (``DEFAULT_SENSORS``: exposure, tone curve, vignetting), as the simulator
+    gives it to a solution."""
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS
+    from benchbot_sim_taichi.render.camera_model import CameraModel
+
+    cam = DEFAULT_SENSORS["camera"]
+    return CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
+
+
 class Tally:
     """Per-class counts over frames for one image source (fast, quality, reference) at each threshold."""
 
@@ -716,7 +730,7 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
     poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
     idx = select_frames(len(poses), args.frames, args.every)
     t0 = time.perf_counter()
-    r = Renderer(args.arch)
+    r = Renderer(args.arch, camera=camera_model())
     r.set_scene(scene)
     setup_s = time.perf_counter() - t0
     env_dir = out_dir / name.replace(":", "_")
@@ -802,10 +816,11 @@ def reference_section(name: str, scene, K, W: int, H: int, images: dict, n_ref: 
     out = {"export": {**glb, "seconds": export_s}, "spp": args.reference_spp, "ladder": ladder,
            "shell": job["shell"], "blender": timings.get("blender"), "import_s": timings.get("import_s"),
            "wall_s": wall_s, "frames": []}
+    camera = camera_model()  # the reference goes through the camera our images went through
     for n in range(n_ref):
         per = timings["frames"][f"frame{n}"]
         ref_linear = np.load(ref_dir / f"frame{n}_spp{args.reference_spp}.npy")
-        ref = encode_like_ours(ref_linear)
+        ref = encode_like_ours(ref_linear, camera)
         Image.fromarray(ref).save(ref_dir / f"frame{n}_reference.png")
         fr = {"pose_index": images[n]["pose_index"], "reference_s": per[str(args.reference_spp)], "ours": {},
               "ladder": {}}
@@ -813,12 +828,12 @@ def reference_section(name: str, scene, K, W: int, H: int, images: dict, n_ref: 
             if mode in images[n]:
                 ours = images[n][mode]
                 gain = exposure_gain(ours, ref_linear)
-                matched = encode_like_ours(gain * ref_linear)
+                matched = encode_like_ours(gain * ref_linear, camera)
                 fr["ours"][mode] = {"psnr_db": psnr(ours, ref), "ssim": ssim(ours, ref), "exposure_gain": gain,
                                     "psnr_db_exposure_matched": psnr(ours, matched),
                                     "ssim_exposure_matched": ssim(ours, matched)}
         for s in ladder:
-            img = encode_like_ours(np.load(ref_dir / f"frame{n}_spp{s}.npy"))
+            img = encode_like_ours(np.load(ref_dir / f"frame{n}_spp{s}.npy"), camera)
             fr["ladder"][str(s)] = {"seconds": per[str(s)], "psnr_db": psnr(img, ref), "ssim": ssim(img, ref)}
         if ladder:
             top = fr["ladder"][str(ladder[-1])]["psnr_db"]

@@ -39,8 +39,9 @@ from benchbot_sim_taichi.scene.model import Scene
 DEFAULT_SENSORS: dict[str, Any] = {
     "camera": {"width": 640, "height": 480, "horizontal_fov_deg": 90.0, "mount_xyz": [0.08, 0.0, 0.8],
                "mount_rpy_deg": [0.0, 0.0, 0.0],
-               # the camera model (camera_model.py), off by default: the image as rendered
-               "exposure_ev": 0.0, "tone_curve": "clip", "vignetting": 0.0},
+               # the camera model (camera_model.py): an ACES filmic tone curve at -0.5 EV (mid-tones as the plain
+               # clip's, highlights roll off instead of burning out; docs/realism.md); 0.0, "clip": the image as rendered
+               "exposure_ev": -0.5, "tone_curve": "filmic", "vignetting": 0.0},
     "laser": {"mount_xyz": [0.0, 0.0, 0.3], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
