@@ -208,14 +208,12 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _example_fits(entry, task: str) -> bool:
-    """Whether an example runs on ``task``: those that say which tasks they suit are kept only for it; an example
-    that submits the ground truth (``hello_eval_*``) measures nothing and is left out."""
-    name = entry.spec.get("name", "")
-    if name.startswith("hello_eval"):
+    """Whether an example is measured on ``task``: one that reads the ground truth on purpose
+    (``reads_ground_truth``, a check of the evaluation pipeline) measures nothing and is left out, and
+    ``hello_active``, which drives with ``move_distance``/``move_angle``, needs an active task."""
+    if entry.spec.get("reads_ground_truth"):
         return False
-    if name == "hello_active":
-        return ":active:" in task
-    return True
+    return entry.spec.get("name") != "hello_active" or ":active:" in task
 
 
 if __name__ == "__main__":
