@@ -170,6 +170,20 @@ def test_an_interrupted_batch_names_resume(tmp_path):
     assert not isinstance(e.value, UnfinishedRun) and "--evaluate-with" in e.value.hint
 
 
+
+@pytest.mark.parametrize("entry, value, field", [("provenance", "x", "$.provenance"),
+                                                 ("provenance", {"machine": "x"}, "$.provenance.machine"),
+                                                 ("scores", {"scores": [{"name": "OMQ", "range": 5}]}, None)])
+def test_a_malformed_manifest_entry_is_refused_in_one_line_or_ignored(tmp_path, entry, value, field):
+    run = scores_only_run(tmp_path, "a", {"miniroom:1": [0.2, 0.3]}, manifest={entry: value})
+    if field is None:  # a recorded declaration that does not read: the scores' own names stand in
+        data = load_run(run)
+        assert data.primary == "OMQ" and analyse([data])["runs"]
+        return
+    with pytest.raises(UsageError) as e:
+        load_run(run)
+    assert f"manifest.json: {field}: " in e.value.message and "\n" not in e.value.message
+
 def test_labels_from_the_solution_not_the_timestamp(tmp_path):
     a = load_run(scores_only_run(tmp_path, "batch-20261122-103519", {"miniroom:1": [0.1]}))
     b = load_run(scores_only_run(tmp_path, "batch-20261122-104000", {"miniroom:1": [0.2]}, example="hello_active"))
