@@ -49,6 +49,12 @@ def test_undeclared_scores_are_read_from_what_the_method_returns():
         observed_scores("x", [{"name": "not a number"}])
 
 
+
+@pytest.mark.parametrize("bad", [[[1], 2], 5, ["low", 1]])
+def test_a_recorded_declaration_with_a_bad_range_is_a_value_error(bad):
+    with pytest.raises(ValueError, match="range .* is not \\[low, high\\]"):
+        ScoreSet.from_json({"method": "m", "scores": [{"name": "s", "range": bad}]})
+
 @pytest.fixture(scope="module")
 def runs(reg, tmp_path_factory):
     root = tmp_path_factory.mktemp("reach")

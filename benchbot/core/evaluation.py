@@ -304,7 +304,8 @@ class ScoreSet:
         """The inverse of :meth:`to_json` (also takes an evaluator spec: ``{"name", "scores": [...]}``).
 
         Raises:
-            ValueError: ``data`` has no non-empty ``scores`` list of entries with a ``name``.
+            ValueError: ``data`` has no non-empty ``scores`` list of entries with a ``name``, or an entry's
+                ``range`` is not ``[low, high]`` (numbers or null).
         """
         entries = data.get("scores") if isinstance(data, dict) else None
         if not isinstance(entries, list) or not entries or not all(isinstance(e, dict) and e.get("name")
@@ -312,9 +313,12 @@ class ScoreSet:
             raise ValueError("no 'scores' list of {name, ...} entries")
         items = []
         for e in entries:
-            low, high = (list(e.get("range") or [None, None]) + [None, None])[:2]
-            items.append(ScoreInfo(str(e["name"]), str(e.get("direction", "higher")),
-                                   (None if low is None else float(low), None if high is None else float(high)),
+            try:
+                low, high = (list(e.get("range") or [None, None]) + [None, None])[:2]
+                bounds = (None if low is None else float(low), None if high is None else float(high))
+            except (TypeError, ValueError):
+                raise ValueError(f"score '{e['name']}': range {e.get('range')!r} is not [low, high]") from None
+            items.append(ScoreInfo(str(e["name"]), str(e.get("direction", "higher")), bounds,
                                    str(e.get("kind", "score")), str(e.get("short", "")), str(e.get("description", "")),
                                    bool(e.get("primary", False))))
         return cls(str(data.get("method", data.get("name", ""))), tuple(items), bool(data.get("declared", True)))
