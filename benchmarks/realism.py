@@ -638,11 +638,9 @@ def camera_setup(width: int, height: int):
 def camera_model():
     """The robot's default camera model (``DEFAULT_SENSORS``: exposure, tone curve, vignetting), as the simulator
     gives it to a solution."""
-    from benchbot_sim_taichi.backend import DEFAULT_SENSORS
-    from benchbot_sim_taichi.render.camera_model import CameraModel
+    from benchbot_sim_taichi.backend import camera_model as default_camera_model
 
-    cam = DEFAULT_SENSORS["camera"]
-    return CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
+    return default_camera_model()
 
 
 class Tally:

@@ -4,7 +4,8 @@ one view in ``fast`` and one in ``quality`` mode, and a top-down floor plan of e
     uv run python tools/render_gallery.py [--out docs/gallery] [--envs miniroom:1,house:1] [--width 480 --height 360]
 
 The view of an environment is the pose of its trajectory (every ``--every``-th pose, camera ``--camera-z`` m high,
-looking along the robot's heading) whose segmentation shows the most ground-truth object pixels. Writes
+looking along the robot's heading) whose segmentation shows the most ground-truth object pixels, seen through the
+robot's default camera model (``benchbot_sim_taichi.backend.camera_model``: exposure, tone curve, vignetting). Writes
 ``<env>_fast.png``, ``<env>_quality.png`` and ``<env>_plan.png`` (``house_1_fast.png`` for ``house:1``) and prints a
 line per environment: the pose, triangles, scene build and render seconds.
 
@@ -24,7 +25,7 @@ import cv2
 import numpy as np
 
 from benchbot.core.registry import get_registry
-from benchbot_sim_taichi.backend import camera_at
+from benchbot_sim_taichi.backend import camera_at, camera_model
 from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
 from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 from benchbot_sim_taichi.scene.build import build_scene
@@ -60,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     registry = get_registry()
-    renderer = Renderer(None, shadow_samples=args.shadow_samples, seed=0)
+    # the robot's default camera model (exposure, tone curve, vignetting): the gallery shows what a robot sees
+    renderer = Renderer(None, shadow_samples=args.shadow_samples, seed=0, camera=camera_model())
     K = intrinsics(args.width, args.height, 90.0)
     for env in args.envs.split(","):
         stem = env.replace(":", "_")

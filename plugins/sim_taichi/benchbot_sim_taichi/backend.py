@@ -84,6 +84,19 @@ def camera_mount(camera: dict | None = None) -> np.ndarray:
     return T
 
 
+def camera_model(camera: dict | None = None) -> CameraModel:
+    """The camera model (exposure, tone curve, vignetting) of a ``sensors.camera`` block (``exposure_ev`` stops,
+    ``tone_curve`` ``clip`` or ``filmic``, ``vignetting`` 0..1); ``DEFAULT_SENSORS``' camera when None: the images a
+    robot of the default spec sees. The one place a camera's model is made from its spec.
+
+    Raises:
+        KeyError: the block lacks one of the three fields (:func:`sensor_config` fills them in);
+        ValueError: a value :class:`CameraModel` refuses (the robot schema refuses it first, naming the field).
+    """
+    camera = DEFAULT_SENSORS["camera"] if camera is None else camera
+    return CameraModel(float(camera["exposure_ev"]), str(camera["tone_curve"]), float(camera["vignetting"]))
+
+
 def camera_at(x: float, y: float, yaw: float, z: float) -> np.ndarray:
     """(4, 4) float64 ``T_map_camera`` of an optical frame ``z`` metres above the floor at (``x``, ``y``) metres,
     looking level along ``yaw`` radians (map frame): a free viewpoint (``benchbot sim render --pose``, galleries)."""
@@ -269,10 +282,8 @@ class TaichiSimBackend(RobotBackend):
             with stages.stage("starting Taichi", detail=str(self.options.get("arch") or "auto")):
                 from benchbot_sim_taichi.render.renderer import Renderer  # Taichi is imported and initialised here
 
-                cam = self.sensors["camera"]
-                camera = CameraModel(float(cam["exposure_ev"]), str(cam["tone_curve"]), float(cam["vignetting"]))
                 self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
-                                          camera=camera)
+                                          camera=camera_model(self.sensors["camera"]))
         self._renderer.seed = seed
         if not held:
             self._scene_key = None
