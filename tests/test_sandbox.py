@@ -249,18 +249,22 @@ def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp
     assert repo / "benchbot" in shown and repo / "schemas" in shown
 
 
-def test_the_cache_directory_is_hidden_even_inside_the_solutions_folder(tmp_path, registry, monkeypatch):
+@pytest.mark.parametrize("variable, inside", [("BENCHBOT_CACHE_DIR", ".cache/benchbot"),
+                                               ("BENCHBOT_DATA_DIR", ".local/share/benchbot")])
+def test_the_cache_and_data_directories_are_hidden_even_inside_the_solutions_folder(tmp_path, registry, monkeypatch,
+                                                                                   variable, inside):
     """The simulator's built scenes (their layouts) are out of a solution's sight, also where the cache directory
     lies inside the solution's own folder (a solution run from the home folder, ~/.cache/benchbot) and did not exist
-    yet when the sandbox started."""
+    yet when the sandbox started; so are installed content packs (their ground truths) in the data directory
+    (~/.local/share/benchbot)."""
     import socket
 
     from benchbot.core.sandbox import run_sandboxed
 
     folder = tmp_path / "solution"
     folder.mkdir()
-    cache = folder / ".cache" / "benchbot"
-    monkeypatch.setenv("BENCHBOT_CACHE_DIR", str(cache))
+    cache = folder / inside
+    monkeypatch.setenv(variable, str(cache))
     (folder / "look.py").write_text("import os, sys\nprint(sorted(os.listdir(sys.argv[1])))\n")
     outputs = tmp_path / "outputs"
     outputs.mkdir()

@@ -355,16 +355,18 @@ class SandboxedRun:
     problem: str = ""
 
 
-def _make_cache_dir() -> None:
-    """Make BenchBot's cache directory when it is missing (readable by its owner only): where it lies inside a shown
-    folder (a solution run from the home folder), bubblewrap cannot make the mount point of its empty tmpfs in that
-    read-only folder, and a cache directory made on the host while the sandbox runs would show through it."""
-    from benchbot.core.pack_layout import cache_dir
+def _make_hidden_dirs() -> None:
+    """Make BenchBot's data and cache directories when they are missing (readable by their owner only): where one
+    lies inside a shown folder (a solution run from the home folder: ``~/.local/share/benchbot``,
+    ``~/.cache/benchbot``), bubblewrap cannot make the mount point of its empty tmpfs in that read-only folder, and
+    one made on the host while the sandbox runs (a pack installed, a scene cached) would show through it."""
+    from benchbot.core.pack_layout import cache_dir, data_dir
 
-    try:
-        cache_dir().expanduser().mkdir(parents=True, exist_ok=True, mode=0o700)
-    except OSError:
-        pass  # not writable: nothing can be cached there either
+    for folder in (data_dir(), cache_dir()):
+        try:
+            folder.expanduser().mkdir(parents=True, exist_ok=True, mode=0o700)
+        except OSError:
+            pass  # not writable: nothing can be installed or cached there either
 
 
 def run_sandboxed(
@@ -404,7 +406,7 @@ def run_sandboxed(
     if cwd == Path("/"):
         raise UsageError("a sandboxed solution cannot run from / (the whole file system would be its folder)",
                          "run it from its own folder")
-    _make_cache_dir()
+    _make_hidden_dirs()
     hidden = hidden_folders(registry, list(hide))
     for folder in hidden:
         if cwd == folder or cwd.is_relative_to(folder):
