@@ -190,3 +190,43 @@ def test_the_bound_removes_the_entries_used_longest_ago(cache_dir, monkeypatch):
     assert cache._read(f"{0:064d}", "scene", "it") is None
     assert cache._write(f"{4:064d}", "scene", arrays) is None
 
+
+
+def test_an_entry_larger_than_the_bound_once_read_is_not_read(cache_dir, monkeypatch, caplog):
+    """A compressed archive whose arrays would take more than BENCHBOT_SCENE_CACHE_BYTES once read (a zip bomb) is
+    ignored and removed before any array is read; so is a file larger than the bound."""
+    key = f"{7:064d}"
+    cache_dir.mkdir(parents=True)
+    bomb = cache_dir / f"{key}.scene.npz"
+    np.savez_compressed(bomb, entry=cache._text({"format": cache.CACHE_FORMAT, "key": key, "kind": "scene"}),
+                        a=np.zeros(2_000_000, np.uint8))  # 2 MB of zeros in a few kB
+    assert bomb.stat().st_size < 100_000
+    monkeypatch.setenv("BENCHBOT_SCENE_CACHE_BYTES", "1000000")
+    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
+        assert cache._read(key, "scene", "it") is None
+    assert len(caplog.records) == 1 and "more than BENCHBOT_SCENE_CACHE_BYTES" in caplog.records[0].getMessage()
+    assert not bomb.exists()
+
+    monkeypatch.delenv("BENCHBOT_SCENE_CACHE_BYTES")
+    assert cache._write(key, "scene", {"a": np.zeros(300_000, np.uint8)}) is not None
+    assert cache._read(key, "scene", "it") is not None
+    monkeypatch.setenv("BENCHBOT_SCENE_CACHE_BYTES", "200000")  # the file alone is larger
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
+        assert cache._read(key, "scene", "it") is None
+    assert len(caplog.records) == 1 and "bytes, more than" in caplog.records[0].getMessage()
+
+
+def test_a_stored_plan_of_any_shape_is_rebuilt_not_raised(cache_dir, caplog):
+    """load_scene gives None (one log line, the entry removed) for stored fields that are no Scene's, nested too
+    deep for the JSON decoder included."""
+    key = f"{8:064d}"
+    deep = np.frombuffer(("[" * 100_000 + "]" * 100_000).encode(), np.uint8)
+    odd = cache._text({"dataclass": "Room", "fields": [1, 2]})
+    for plan in (deep, odd):
+        assert cache._write(key, "scene", {"scene.fields": cache._text({}), "scene.plan": plan}) is not None
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
+            assert cache.load_scene(key) is None
+        assert len(caplog.records) == 1 and "building the scene again" in caplog.records[0].getMessage()
+        assert not (cache_dir / f"{key}.scene.npz").exists()

@@ -20,9 +20,9 @@ any of them is a miss; nothing is ever invalidated by hand.
 Files are NumPy ``.npz`` archives read with ``allow_pickle=False`` (loading one runs no code): arrays as they are,
 strings and the floor plan as JSON in uint8 arrays. They are written to a temporary file beside their place, then
 renamed (``os.replace``), so a reader never sees half a file, and parallel episodes building one scene at once
-simply write it twice. An entry that cannot be read, or whose recorded key, format or arrays do not match, is
-ignored with one log line (logger ``benchbot_sim_taichi.scene.cache``), removed, and built again; the cache never
-fails a run.
+simply write it twice. An entry that cannot be read, whose recorded key, format or arrays do not match, or that
+would take more than the cache's bound once read (a compressed archive too), is ignored with one log line (logger
+``benchbot_sim_taichi.scene.cache``), removed, and built again; the cache never fails a run.
 
 Its size is bounded by :data:`benchbot.core.limits.SCENE_CACHE_BYTES` (``BENCHBOT_SCENE_CACHE_BYTES``, 4 GiB; an
 entry of the furnished miniroom:1 takes 82 MB in two files, house:1 378 MB): after each write, the files used longest ago (by
@@ -283,14 +283,24 @@ def _path(key: str, kind: str) -> Path:
 
 def _read(key: str, kind: str, what: str) -> dict[str, np.ndarray] | None:
     """The arrays of entry ``key.kind`` (its ``entry`` record checked), or None when there is none or it is bad
-    (logged once and removed)."""
-    if max_bytes() == 0:
+    (logged once and removed): unreadable, not an ``.npz`` of plain arrays, a pickled object in it, or larger, as a
+    file or once read, than the cache's bound (:func:`max_bytes`), so that a hostile file cannot exhaust memory."""
+    limit = max_bytes()
+    if limit == 0:
         return None
     path = _path(key, kind)
     if not path.is_file():
         return None
     try:
+        size = path.stat().st_size
+        if size > limit:
+            raise ValueError(f"it takes {size} bytes, more than BENCHBOT_SCENE_CACHE_BYTES={limit}")
         with np.load(path, allow_pickle=False) as z:
+            # what its arrays take once read (the archive's own sizes, which bound what zipfile gives out): a
+            # compressed archive could hold far more than its file takes
+            stored = sum(info.file_size for info in z.zip.infolist())
+            if stored > limit:
+                raise ValueError(f"its arrays take {stored} bytes, more than BENCHBOT_SCENE_CACHE_BYTES={limit}")
             arrays = {name: z[name] for name in z.files}
         entry = _untext(arrays.pop("entry"))
         if entry != {"format": CACHE_FORMAT, "key": key, "kind": kind}:
@@ -379,7 +389,7 @@ def load_scene(key: str) -> Any | None:
         return None
     try:
         return scene_from_arrays(arrays)
-    except (KeyError, ValueError, TypeError) as e:
+    except Exception as e:  # noqa: BLE001 - stored data of any shape (nested too deep: RecursionError) is rebuilt
         log.warning("scene cache: ignoring %s (%s: %s); building the scene again", _path(key, "scene"),
                     type(e).__name__, e)
         with contextlib.suppress(OSError):
@@ -455,8 +465,9 @@ def set_scene(renderer, scene, key: str | None) -> bool:
         try:
             renderer.set_scene(scene, prepared=prepared)
             return True
-        except KeyError as e:
-            log.warning("scene cache: the renderer's arrays lack %s; preparing the scene again", e)
+        except (KeyError, ValueError, TypeError, IndexError) as e:
+            log.warning("scene cache: the renderer's arrays do not fit (%s: %s); preparing the scene again",
+                        type(e).__name__, e)
             with contextlib.suppress(OSError):
                 _path(prepared_key(key, options), "prepared").unlink()
     renderer.set_scene(scene)
