@@ -8,7 +8,8 @@ milliseconds) with the read end of a pipe as its stdin; the starting process kee
   watchdog sends SIGTERM to the group, waits up to ``GRACE_S`` seconds for it to end, then sends SIGKILL.
 
 The watchdog runs in its own session, so neither Ctrl-C in the terminal nor a signal to the starter's process group
-reaches it. :func:`group_running` is also used by :mod:`benchbot.core.process_group`.
+reaches it. :func:`group_running` and :func:`group_members` are also used by
+:mod:`benchbot.core.process_group`.
 """
 
 from __future__ import annotations
@@ -17,22 +18,12 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Iterator
 
 
-def group_running(pgid: int) -> bool:
-    """Whether process group ``pgid`` has a member that is not a zombie.
-
-    ``killpg(pgid, 0)`` alone also counts zombies, and orphaned zombies stay until the system's init reaps them
-    (some container inits never do); on Linux the members' states are read from ``/proc``.
-    """
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # a member we may not signal (it changed its user): still running
-        return True
-    if not os.path.isdir("/proc/self"):
-        return True
+def group_members(pgid: int) -> Iterator[int]:
+    """The process ids of group ``pgid``'s members that are not zombies, as ``/proc/*/stat`` gives them (Linux; the
+    caller checks that ``/proc`` exists). A process that ends while it is read is left out."""
     for name in os.listdir("/proc"):
         if not name.isdigit():
             continue
@@ -43,8 +34,24 @@ def group_running(pgid: int) -> bool:
             continue
         fields = stat[stat.rfind(b")") + 2:].split()  # after "pid (comm) ": state ppid pgrp ...
         if len(fields) >= 3 and int(fields[2]) == pgid and fields[0] not in (b"Z", b"X"):
-            return True
-    return False
+            yield int(name)
+
+
+def group_running(pgid: int) -> bool:
+    """Whether process group ``pgid`` has a member that is not a zombie.
+
+    ``killpg(pgid, 0)`` alone also counts zombies, and orphaned zombies stay until the system's init reaps them
+    (some container inits never do); on Linux the members' states are read from ``/proc`` (:func:`group_members`).
+    """
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # a member we may not signal (it changed its user): still running
+        return True
+    if not os.path.isdir("/proc/self"):
+        return True
+    return next(group_members(pgid), None) is not None
 
 
 def stop_group(pgid: int, grace_s: float) -> None:

@@ -183,7 +183,7 @@ class _StdinWatch:
         if self.write_end is None or time.monotonic() < self.next_look:
             return False
         self.next_look = time.monotonic() + STDIN_WATCH_PERIOD_S
-        for pid in _group_members(pgid):
+        for pid in group_watchdog.group_members(pgid):
             try:
                 tasks = os.listdir(f"/proc/{pid}/task")
             except OSError:  # it ended meanwhile
@@ -207,23 +207,6 @@ class _StdinWatch:
                 except (OSError, ValueError):
                     continue
         return False
-
-
-def _group_members(pgid: int) -> list[int]:
-    """The processes of group ``pgid`` (Linux: from ``/proc/*/stat``)."""
-    members = []
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/stat", "rb") as f:
-                stat = f.read()
-        except OSError:
-            continue
-        fields = stat[stat.rfind(b")") + 2:].split()  # after "pid (comm) ": state ppid pgrp ...
-        if len(fields) >= 3 and int(fields[2]) == pgid and fields[0] not in (b"Z", b"X"):
-            members.append(int(name))
-    return members
 
 
 class _terminal_guard:
