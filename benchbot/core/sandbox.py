@@ -167,15 +167,19 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
     of ``registry`` names (``_file_path``, ``map_path``, mesh files), the package folder of every plugin that
     contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
-    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory), BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built scenes: their layouts), and
-    ``extra`` (say, the folder of run directories). Folders inside another hidden folder are left out.
+    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory),
+    BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built
+    scenes: their layouts), and ``extra`` (say, the folder of run directories). Folders inside another hidden folder
+    are left out.
 
     Args:
         registry: a :class:`~benchbot.core.registry.Registry`.
         extra: more folders to hide.
 
     Returns:
-        Absolute, resolved folders, sorted (never raises for a path that does not exist: it is simply left out).
+        Absolute, resolved folders, sorted. Never raises for a path that does not exist: a registry's file that does
+        not exist is left out; the data and cache directories and ``extra`` are kept whether they exist or not
+        (:func:`run_sandboxed` makes the first two).
     """
     from benchbot.core.pack_layout import cache_dir, data_dir
     from benchbot.core.server.redaction import ground_truth_strings
@@ -199,12 +203,7 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     folders.add(data_dir().expanduser().resolve())
     folders.add(cache_dir().expanduser().resolve())  # the simulator's built scenes hold their layouts
     folders |= {Path(p).expanduser().resolve() for p in extra}
-    kept = sorted(folders, key=lambda p: len(p.parts))
-    minimal: list[Path] = []
-    for folder in kept:
-        if not any(folder.is_relative_to(outer) for outer in minimal):
-            minimal.append(folder)
-    return sorted(minimal)
+    return _outermost(list(folders))
 
 
 # ------------------------------------------------------------------------------------------------ what is shown
