@@ -230,3 +230,34 @@ def test_a_stored_plan_of_any_shape_is_rebuilt_not_raised(cache_dir, caplog):
             assert cache.load_scene(key) is None
         assert len(caplog.records) == 1 and "building the scene again" in caplog.records[0].getMessage()
         assert not (cache_dir / f"{key}.scene.npz").exists()
+
+
+def test_the_key_follows_the_core_code_and_trimesh_that_shape_a_scene(synthetic_env, monkeypatch):
+    """A change to trimesh's version (it loads every mesh) or to the core's geometry module (poses) is a miss."""
+    import importlib.util
+    from importlib import metadata
+
+    env = synthetic_env([("chair", (2.0, 0.5, 0.45), (0.5, 0.5, 0.9))])
+    cache.code_fingerprint.cache_clear()
+    key = cache.scene_key(env, 0)
+    real_version = metadata.version
+    monkeypatch.setattr(metadata, "version", lambda name: "0.0.1" if name == "trimesh" else real_version(name))
+    cache.code_fingerprint.cache_clear()
+    try:
+        assert cache.scene_key(env, 0) != key
+    finally:
+        monkeypatch.setattr(metadata, "version", real_version)
+        cache.code_fingerprint.cache_clear()
+    assert cache.scene_key(env, 0) == key
+
+    assert "benchbot.core.geometry" in cache.CORE_MODULES
+    real_bytes = cache.Path.read_bytes
+    geometry = cache.Path(importlib.util.find_spec("benchbot.core.geometry").origin)
+    monkeypatch.setattr(cache.Path, "read_bytes",
+                        lambda self: real_bytes(self) + b"# changed" if self == geometry else real_bytes(self))
+    cache.code_fingerprint.cache_clear()
+    try:
+        assert cache.scene_key(env, 0) != key
+    finally:
+        monkeypatch.setattr(cache.Path, "read_bytes", real_bytes)
+        cache.code_fingerprint.cache_clear()

@@ -14,8 +14,9 @@ version).
 Keys are SHA-256 digests of everything that decides the content (:func:`scene_key`): the environment spec, the
 style and seed, the bytes of its layout file (and of its home's other variants, from which the furnished floor plan
 is derived) and of its mesh files, the asset packs' models (ids, digests, sizes, modification times), and the code:
-the bytes of every Python file of this package, its version, NumPy's version and :data:`CACHE_FORMAT`. A change to
-any of them is a miss; nothing is ever invalidated by hand.
+the bytes of every Python file of this package and of the core's modules that shape a scene (:data:`CORE_MODULES`),
+its version, NumPy's and trimesh's versions and :data:`CACHE_FORMAT`. A change to any of them is a miss; nothing is
+ever invalidated by hand.
 
 Files are NumPy ``.npz`` archives read with ``allow_pickle=False`` (loading one runs no code): arrays as they are,
 strings and the floor plan as JSON in uint8 arrays. They are written to a temporary file beside their place, then
@@ -56,6 +57,11 @@ FOLDER_NAME = "sim_taichi-scenes"
 STALE_TMP_S = 3600.0
 
 _PACKAGE = Path(__file__).resolve().parents[1]
+#: Modules of the BenchBot core whose code decides what a scene holds (poses and start poses; the asset library the
+#: furnished style chooses from): their bytes are part of :func:`code_fingerprint`.
+CORE_MODULES = ("benchbot.core.geometry", "benchbot.core.assets")
+#: Distributions whose version decides what a scene holds besides NumPy: trimesh loads every mesh file.
+LIBRARIES = ("trimesh",)
 
 
 # ------------------------------------------------------------------------------------------------------ where, when
@@ -81,19 +87,26 @@ def max_bytes() -> int:
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
     """SHA-256 (hex) of the code that builds and prepares scenes: the path and bytes of every ``.py`` file of
-    ``benchbot_sim_taichi``, its distribution's version, NumPy's version and :data:`CACHE_FORMAT` (computed once per
-    process: a few milliseconds)."""
+    ``benchbot_sim_taichi`` and of the core's :data:`CORE_MODULES`, its distribution's version, NumPy's and
+    :data:`LIBRARIES`' versions and :data:`CACHE_FORMAT` (computed once per process: a few milliseconds)."""
+    import importlib.util
     from importlib import metadata
 
+    def version(name: str) -> str:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return "unknown"
+
     h = hashlib.sha256()
-    try:
-        version = metadata.version("benchbot-sim-taichi")
-    except metadata.PackageNotFoundError:
-        version = "unknown"
-    h.update(json.dumps([CACHE_FORMAT, version, np.__version__]).encode())
+    h.update(json.dumps([CACHE_FORMAT, version("benchbot-sim-taichi"), np.__version__,
+                         [version(name) for name in LIBRARIES]]).encode())
     for path in sorted(_PACKAGE.rglob("*.py")):
         h.update(str(path.relative_to(_PACKAGE)).encode() + b"\0")
         h.update(path.read_bytes())
+    for name in CORE_MODULES:
+        h.update(name.encode() + b"\0")
+        h.update(Path(importlib.util.find_spec(name).origin).read_bytes())
     return h.hexdigest()
 
 
