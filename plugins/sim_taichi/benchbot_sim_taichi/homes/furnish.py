@@ -116,6 +116,21 @@ def _book_layout(lo: np.ndarray, hi: np.ndarray, assets: list, prefer: np.ndarra
     return best[1], best[2]
 
 
+def _seeded_parts(rng: np.random.Generator, lo: float, hi: float, n: int, low_a: float,
+                  low_b: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The seeded split of ``[lo, hi]`` (metres) into ``n`` parts of :func:`_book_boxes`: ``(edges (n + 1,) float64,
+    from ``lo`` to ``hi`` exactly, part widths uniform in 0.7..1.3 relative, fa (n,), fb (n,))``, two size fractions
+    per part uniform in ``low_a``..1 and ``low_b``..1, one part of each set to 1 (in this order of draws from
+    ``rng``)."""
+    t = rng.uniform(0.7, 1.3, n)
+    edges = lo + (hi - lo) * np.concatenate([[0.0], np.cumsum(t) / t.sum()])
+    edges[-1] = hi
+    fa, fb = rng.uniform(low_a, 1.0, n), rng.uniform(low_b, 1.0, n)
+    fa[int(rng.integers(n))] = 1.0
+    fb[int(rng.integers(n))] = 1.0
+    return edges, fa, fb
+
+
 def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_sign: float, mode: str,
                 n: int) -> list:
     """Boxes of the ``n`` parts of an ``isgroup`` book cuboid (see :func:`_book_layout`): a row along its long
@@ -127,12 +142,7 @@ def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_
     if n == 1:
         return [(lo.copy(), hi.copy())]
     if mode == "stack":
-        t = rng.uniform(0.7, 1.3, n)
-        edges = lo[2] + ext[2] * np.concatenate([[0.0], np.cumsum(t) / t.sum()])
-        edges[-1] = hi[2]
-        fu, fw = rng.uniform(0.75, 1.0, n), rng.uniform(0.75, 1.0, n)
-        fu[int(rng.integers(n))] = 1.0
-        fw[int(rng.integers(n))] = 1.0
+        edges, fu, fw = _seeded_parts(rng, lo[2], hi[2], n, 0.75, 0.75)
         out = []
         for i in range(n):
             blo, bhi = lo.copy(), hi.copy()
@@ -143,12 +153,7 @@ def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_
             blo[2], bhi[2] = edges[i], edges[i + 1]
             out.append((blo, bhi))
         return out
-    t = rng.uniform(0.7, 1.3, n)
-    edges = lo[u] + ext[u] * np.concatenate([[0.0], np.cumsum(t) / t.sum()])
-    edges[-1] = hi[u]
-    fh, fd = rng.uniform(0.72, 1.0, n), rng.uniform(0.8, 1.0, n)
-    fh[int(rng.integers(n))] = 1.0
-    fd[int(rng.integers(n))] = 1.0
+    edges, fh, fd = _seeded_parts(rng, lo[u], hi[u], n, 0.72, 0.8)
     out = []
     for i in range(n):
         blo, bhi = lo.copy(), hi.copy()
