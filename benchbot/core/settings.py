@@ -68,6 +68,7 @@ SETTINGS: tuple[Setting, ...] = (
             "spec's time_scale by default)", "robot_ros2"),
 )
 
+
 def all_settings() -> tuple[Setting, ...]:
     """:data:`SETTINGS` and, after them, every limit of :mod:`benchbot.core.limits` that a variable changes (its
     default in its unit, owner ``core (limits)``): the one table of the variables BenchBot reads, as ``benchbot
@@ -88,9 +89,16 @@ def get(name: str) -> str | None:
     Raises:
         KeyError: ``name`` is not in :data:`SETTINGS` (a programming error: add the setting there first).
     """
-    setting = _BY_NAME[name]
-    value = os.environ.get(name, "").strip()
-    return value if value else setting.default
+    return _resolve(_BY_NAME[name])[0]
+
+
+def _resolve(setting: Setting) -> tuple[str | None, str]:
+    """``(value, source)`` of ``setting``: the environment variable, stripped, when set and not blank
+    (``'environment'``), else its default (``'default'``, or ``'unset'`` when it has none)."""
+    given = os.environ.get(setting.name, "").strip()
+    if given:
+        return given, "environment"
+    return setting.default, "default" if setting.default is not None else "unset"
 
 
 def default(name: str) -> str | None:
@@ -108,10 +116,7 @@ def source(name: str) -> str:
     Raises:
         KeyError: ``name`` is not in :data:`SETTINGS`.
     """
-    setting = _BY_NAME[name]
-    if os.environ.get(name, "").strip():
-        return "environment"
-    return "default" if setting.default is not None else "unset"
+    return _resolve(_BY_NAME[name])[1]
 
 
 def effective() -> list[dict]:
@@ -120,9 +125,7 @@ def effective() -> list[dict]:
     (``'environment'``, ``'default'`` or ``'unset'``)."""
     rows = []
     for s in all_settings():
-        given = os.environ.get(s.name, "").strip()
-        value = given or s.default
-        where = "environment" if given else ("default" if s.default is not None else "unset")
+        value, where = _resolve(s)
         rows.append({"name": s.name, "value": "***" if (s.secret and value) else value, "source": where,
                      "owner": s.owner, "meaning": s.meaning})
     return rows
