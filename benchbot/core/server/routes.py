@@ -155,7 +155,9 @@ def build_app(
         # A supervisor (benchbot submit) ends the hold of the solution it ran, once that solution's processes have
         # all ended: {"client": the id it gave the solution, "anonymous": true for an original client}. Only a
         # caller on the backend's host (loopback) or holding the token may: not one reaching a tokenless backend
-        # through a relay (a Unix socket, no client address), such as a sandboxed solution.
+        # through a Unix socket (no client address), such as a batch's sandboxed solution. A solution that
+        # `benchbot submit` sandboxes reaches the backend through submit's relay, so from loopback: it may release
+        # holds (its own backend's, which reveals nothing), as any process of this host may.
         if token is None and (request.client is None or not is_loopback(request.client.host)):
             raise ForbiddenError("only the supervisor on the backend's host may release another client's episode",
                                  "send /robot/release without a body to release your own")
