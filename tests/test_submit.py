@@ -396,3 +396,14 @@ def test_a_stale_results_file_is_never_scored(greeter, original_location, tmp_pa
     assert "results saved to" not in proc.stderr
     assert json.loads(copy.read_text()) == {}
     assert (original_location.stat().st_mtime_ns, given.stat().st_mtime_ns) == before  # left as they were
+
+
+@pytest.mark.parametrize("address, why", [("http://127.0.0.1:99999/", "Port out of range 0-65535"),
+                                          ("http://127.0.0.1:abc/", "Port could not be cast to integer value")])
+def test_an_address_with_a_bad_port_is_one_usage_line(address, why):
+    """Before: ``--address http://127.0.0.1:99999/`` ended in urllib's ValueError traceback."""
+    from benchbot.cli.submit_cmd import check_backend
+
+    with pytest.raises(UsageError, match=f"backend address {address}: {why}") as caught:
+        check_backend(address)
+    assert "--address" in caught.value.hint

@@ -76,8 +76,17 @@ def check_backend(address: str) -> None:
     Raises:
         BackendError: nothing listens there, it did not answer in time, it wants a token, or it answered with an
             error status (one line naming the address, and the fix).
-        UsageError: a bad ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` or ``$BENCHBOT_BACKEND_START_WAIT_S``.
+        UsageError: a bad ``$BENCHBOT_BACKEND_CHECK_TIMEOUT_S`` or ``$BENCHBOT_BACKEND_START_WAIT_S``, or an
+            ``address`` whose port is not a number of 0-65535.
     """
+    import urllib.parse
+
+    try:
+        urllib.parse.urlsplit(address).port
+    except ValueError as exc:
+        raise UsageError(f"backend address {address}: {exc}",
+                         "give --address (or BENCHBOT_SUPERVISOR_ADDRESS) as http://HOST:PORT/, e.g. "
+                         "http://127.0.0.1:10000/") from None
     timeout = env_seconds("BENCHBOT_BACKEND_CHECK_TIMEOUT_S")
     start_wait = env_seconds("BENCHBOT_BACKEND_START_WAIT_S")
     fix = "start one in another terminal: `benchbot run --env miniroom:1` (or give --address / " \
