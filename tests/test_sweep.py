@@ -267,3 +267,16 @@ def test_printout_rounds_and_gives_the_reasons(tmp_path, capsys):
     d = summary["differences"][0]
     assert f"paired t-test p = {d['ttest_p']:.4g} (Holm {d['ttest_p_holm']:.4g})" in text
     assert "Cohen's d_z = " in text and "rank-biserial r = -1" in text
+
+
+@pytest.mark.parametrize("sweep, field", [({"factor": "noise", "levels": ["none"]}, "$.sweep"),
+                                          ({"factor": "noise", "levels": 3, "level_of": {}}, "$.sweep.levels")])
+def test_an_edited_sweep_entry_is_a_one_line_error(tmp_path, sweep, field):
+    from benchbot.batch.plan import new_record, to_json, write_manifest
+
+    specs, _ = plan(Sweep("noise", ("none", "low")), repeat=1)
+    write_manifest(tmp_path, {"task": "t", "environments": ["miniroom:1"], "plan": to_json(specs),
+                              "episodes": to_json([new_record(s) for s in specs]), "sweep": sweep})
+    with pytest.raises(UsageError) as e:
+        robustness_from_run(tmp_path)
+    assert f"manifest.json: {field}: " in e.value.message

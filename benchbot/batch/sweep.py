@@ -243,6 +243,15 @@ def robustness_from_run(run_dir: Path, score: str | None = None) -> dict:
     Raises:
         UsageError: not a run directory, not a sweep (no ``sweep`` in its manifest), or not evaluated.
     """
+    return _robustness_and_rows(run_dir, score)[0]
+
+
+def _robustness_and_rows(run_dir: Path, score: str | None) -> tuple[dict, list[dict]]:
+    """:func:`robustness_from_run` and the :func:`sweep_rows` it summarises (read once, for the plot too).
+
+    Raises:
+        UsageError: as :func:`robustness_from_run`.
+    """
     manifest = read_manifest(run_dir)
     sweep = manifest.get("sweep")
     if not sweep:
@@ -257,7 +266,7 @@ def robustness_from_run(run_dir: Path, score: str | None = None) -> dict:
                          "run a sweep with an evaluation method (--evaluate-with METHOD)") from None
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise UsageError(f"{path}: unreadable or malformed ({exc!r})", "it is written by `benchbot batch`") from None
-    return robustness(rows, sweep["factor"], list(sweep["levels"]), score=score)
+    return robustness(rows, sweep["factor"], list(sweep["levels"]), score=score), rows
 
 
 def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -> list[Path]:
@@ -319,9 +328,7 @@ def write_robustness(run_dir: Path, score: str | None = None) -> dict:
     Raises:
         UsageError: as :func:`robustness_from_run`.
     """
-    summary = robustness_from_run(run_dir, score)
-    manifest = read_manifest(run_dir)
-    rows = sweep_rows(manifest, json.loads((run_dir / "episode_scores.json").read_text()), summary["score"])
+    summary, rows = _robustness_and_rows(run_dir, score)
     try:
         summary["plots"] = [p.name for p in plot_robustness(summary, run_dir / ROBUSTNESS_PLOT, rows)]
     except UsageError as exc:
