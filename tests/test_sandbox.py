@@ -97,6 +97,24 @@ def test_a_results_file_that_links_to_the_ground_truth_is_refused(tmp_path):
     assert proc.returncode == 1
 
 
+def test_a_results_file_that_is_no_regular_file_is_refused_saying_what_it_is(tmp_path):
+    """What a sandboxed solution leaves as its results file is looked at without following or opening it: a link,
+    a folder or a FIFO (never waited on) is refused by name; a regular file is read."""
+    from benchbot.core.errors import ResultsError
+    from benchbot.core.sandbox import read_results
+
+    (tmp_path / "results.json").write_text("{}")
+    (tmp_path / "link.json").symlink_to(tmp_path / "results.json")
+    (tmp_path / "folder.json").mkdir()
+    os.mkfifo(tmp_path / "fifo.json")
+    assert read_results(tmp_path / "results.json") == b"{}"
+    for name, kind in (("link.json", "a symbolic link"), ("folder.json", "a folder"),
+                       ("fifo.json", "a named pipe (FIFO)"), ("none.json", "no such file")):
+        with pytest.raises(ResultsError) as caught:
+            read_results(tmp_path / name)
+        assert caught.value.message == f"{tmp_path / name}: {kind}"
+
+
 def ground_truth_needles() -> set[str]:
     """Strings that name a ground-truth or layout file: every environment's files, and the data folders."""
     registry = get_registry()

@@ -445,7 +445,10 @@ def run_sandboxed(
 
 
 def _special_file(path: Path) -> str:
-    """``""`` for a regular file, ``"missing"``, or what else ``path`` is (never follows a link)."""
+    """``""`` for a regular file, ``"missing"``, or what else ``path`` is (never follows a link): ``a symbolic
+    link``, else :func:`~benchbot.core.safe_load.file_kind` (``a folder``, ``a named pipe (FIFO)``, ...)."""
+    from benchbot.core.safe_load import file_kind
+
     try:
         mode = os.lstat(path).st_mode
     except FileNotFoundError:
@@ -454,9 +457,7 @@ def _special_file(path: Path) -> str:
         return f"unreadable ({exc.strerror})"
     if stat.S_ISREG(mode):
         return ""
-    if stat.S_ISLNK(mode):
-        return "a symbolic link"
-    return "a folder" if stat.S_ISDIR(mode) else "not a regular file"
+    return "a symbolic link" if stat.S_ISLNK(mode) else file_kind(mode)
 
 
 def read_results(path: Path) -> bytes:
