@@ -308,6 +308,35 @@ def test_the_cache_and_data_directories_are_hidden_even_inside_the_solutions_fol
     assert (cache / "sim_taichi-scenes" / "key.scene.npz").read_bytes() == b"the layout"
 
 
+def test_a_batchs_run_directory_missing_on_this_machine_does_not_stop_the_sandbox(tmp_path, registry):
+    """A Ray node that does not share the batch's file system has no batch run directory: where its path lies inside
+    the solution's folder (``--output-dir runs`` from there), bubblewrap could not make its empty folder in that
+    read-only folder and every episode failed ("Can't mkdir ... Read-only file system"). The run directories that
+    are there stay hidden."""
+    import socket
+
+    from benchbot.batch.episode_runner import run_directories
+    from benchbot.core.sandbox import run_sandboxed
+
+    folder = tmp_path / "solution"
+    (folder / "runs" / "earlier").mkdir(parents=True)
+    (folder / "runs" / "earlier" / "manifest.json").write_text("{}")
+    (folder / "look.py").write_text("import os\nprint(sorted(os.listdir('runs')), os.listdir('runs/earlier'))\n")
+    outputs = tmp_path / "outputs"
+    outputs.mkdir()
+    hide = run_directories(folder / "runs" / "this_batch")
+    assert hide == [folder / "runs" / "earlier"]
+    with socket.socket(socket.AF_UNIX) as backend, open(tmp_path / "look.log", "w") as log:
+        backend.bind(str(tmp_path / "backend.sock"))
+        backend.listen()
+        run = run_sandboxed([sys.executable, "look.py"], folder, registry=registry,
+                            backend_socket=tmp_path / "backend.sock", address="http://127.0.0.1:10000/",
+                            outputs=outputs, result_name="r.json", hide=hide, log=log, timeout_s=60)
+    text = (tmp_path / "look.log").read_text()
+    assert run.outcome.returncode == 0, text
+    assert text.strip() == "['earlier'] []"  # the other batch's run directory: an empty folder
+
+
 def test_inside_addresses():
     from benchbot.core.sandbox import inside_address
 

@@ -41,9 +41,14 @@ def results_problem(path: Path) -> str:
 
 def run_directories(run_dir: Path) -> list[Path]:
     """``run_dir`` and the other run directories beside it (folders holding a ``manifest.json``): what a sandboxed
-    solution must not see of the batches' outputs (others' results and scores included)."""
+    solution must not see of the batches' outputs (others' results and scores included). ``run_dir`` is left out
+    where it does not exist (a Ray node that does not share the batch's file system): bubblewrap cannot make its
+    empty folder inside a read-only shown folder, and there is nothing there to hide.
+
+    Raises:
+        OSError: ``run_dir``'s parent folder cannot be listed."""
     siblings = [p for p in run_dir.parent.iterdir() if p.is_dir() and (p / "manifest.json").is_file()]
-    return [run_dir, *siblings]
+    return [run_dir, *siblings] if run_dir.is_dir() else siblings
 
 
 def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log,
