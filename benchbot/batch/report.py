@@ -473,11 +473,6 @@ def summary_episodes(run: RunData, scores: list[str] | None = None) -> dict[str,
     return {s: stats.mean_ci([r[s] for r in run.rows if s in r], level="episodes") for s in names}
 
 
-def per_environment(run: RunData, score: str) -> dict[str, stats.Estimate]:
-    """Mean and interval of ``score`` per environment, over that environment's episodes."""
-    return {env: stats.mean_ci(v, level="episodes") for env, v in group(run.rows, "env", score).items()}
-
-
 def comparison_factors(a: RunData, b: RunData) -> list[dict]:
     """The :data:`ROW_FACTORS` in which ``b`` differs from ``a`` as the factor compared: each run has one value and
     they differ (``[{"field", "what", "a", "b"}]``)."""
