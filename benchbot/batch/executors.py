@@ -43,7 +43,9 @@ EventHandler = Callable[[str, int, dict | None], None]
 Episode = tuple[EpisodeSpec, RunSpec]
 
 
-def _drain(events: "queue.Queue | object", on_event: EventHandler, stop: threading.Event) -> None:
+def _drain(events: "queue.Queue | multiprocessing.Queue", on_event: EventHandler, stop: threading.Event) -> None:
+    """Call ``on_event(kind, index, info)`` for every event put on ``events`` until ``stop`` is set and the queue
+    is empty (or the queue is closed)."""
     while True:
         try:
             kind, index, info = events.get(timeout=0.1)
@@ -51,7 +53,7 @@ def _drain(events: "queue.Queue | object", on_event: EventHandler, stop: threadi
             if stop.is_set():
                 return
             continue
-        except (EOFError, OSError):  # the manager went away
+        except (EOFError, OSError):  # the queue was closed
             return
         on_event(kind, index, info)
 
@@ -119,40 +121,34 @@ def run_local(
     """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
     thread) as each ends. Worker processes end with the batch process, even when it is killed
     (:func:`_end_with_parent`). Each record says it ran here (``executor`` ``local``, ``node`` this host)."""
-    stop = threading.Event()
     here = {"hostname": socket.gethostname()}
-    record_done = on_record
 
-    def on_record(record: EpisodeRecord) -> None:
+    def done(record: EpisodeRecord) -> None:
         record.executor, record.node = "local", dict(here)
-        record_done(record)
+        on_record(record)
 
-    if workers <= 1:
-        events: queue.Queue = queue.Queue()
-        drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
-        drainer.start()
-        try:
-            for spec, run in episodes:
-                on_record(run_episode(spec, run, run_dir, events))
-        finally:
-            stop.set()
-            drainer.join()
-        return
-    context = multiprocessing.get_context("spawn")
-    events = context.Queue()  # no manager process: it would outlive a killed batch
+    context = multiprocessing.get_context("spawn") if workers > 1 else None
+    # between processes a plain multiprocessing queue: a manager process would outlive a killed batch
+    events = context.Queue() if context is not None else queue.Queue()
+    stop = threading.Event()
     drainer = threading.Thread(target=_drain, args=(events, on_event, stop), daemon=True)
     drainer.start()
     try:
+        if context is None:
+            for spec, run in episodes:
+                done(run_episode(spec, run, run_dir, events))
+            return
         threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
         with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
                                  initargs=(threads, events)) as pool:
             futures = [pool.submit(_worker_episode, spec, run, run_dir) for spec, run in episodes]
             for future in as_completed(futures):
-                on_record(future.result())
+                done(future.result())
     finally:
         stop.set()
         drainer.join()
-        events.close()
+        if context is not None:
+            events.close()
 
 
 # ------------------------------------------------------------------------------------------------------------ Ray
@@ -182,8 +178,8 @@ RAY_PASSED_PREFIXES = ("BENCHBOT_", "TI_", "CYCLONEDDS_")
 @dataclass
 class RayCluster:
     """This process's connection to Ray for one batch (:func:`connect_ray`). While it is open, Ray's own messages
-    (its log lines, the errors it reports, such as a node's raylet dying) go to :attr:`log`, never to the terminal
-    (where they would break the live table and ``--json``'s output).
+    (its log lines, the errors it reports, such as a node's raylet dying) go to the log file :func:`connect_ray` was
+    given, never to the terminal (where they would break the live table and ``--json``'s output).
 
     Attributes:
         address: the cluster's address as given or found (``HOST:PORT``, ``ray://HOST:PORT``, ``auto``); None for a
@@ -191,14 +187,12 @@ class RayCluster:
         source: how it was chosen (:func:`connect_ray`): ``--ray-address``, ``RAY_ADDRESS``, ``ray start on this
             machine``, ``started for this batch`` or ``already connected``.
         started_here: a local Ray was started for this batch; :meth:`close` stops it.
-        log: the file Ray's messages go to (None: nowhere).
         owned: :meth:`close` disconnects (False when this process was connected to Ray before).
     """
 
     address: str | None
     source: str
     started_here: bool = False
-    log: Path | None = None
     owned: bool = True
     _undo: list = field(default_factory=list, repr=False)
     _handler: logging.Handler | None = field(default=None, repr=False)
@@ -365,7 +359,7 @@ def connect_ray(address: str | None = None, *, workers: int = 1, log: Path | Non
                          "not installed", RAY_INSTALL_HINT)
     if target not in (None, "auto"):
         _probe_ray(target, source)
-    cluster = RayCluster(address=target, source=source, started_here=target is None, log=log)
+    cluster = RayCluster(address=target, source=source, started_here=target is None)
     _send_ray_messages_to(cluster, log)
     env_vars = {k: v for k, v in os.environ.items() if k.startswith(RAY_PASSED_PREFIXES)}
     # Ray Client's server on the head would otherwise run the batch's job as `uv run` when the head was started
@@ -406,7 +400,7 @@ def _init_local(ray, kwargs: dict) -> None:
         raise _init_problem(exc, None, "started for this batch") from None
 
 
-def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str | None, source: str) -> None:
+def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str, source: str) -> None:
     """``ray.init(**kwargs)`` in a helper thread; this thread waits (Ctrl-C interrupts the wait) at most
     ``timeout_s`` seconds.
 
@@ -425,9 +419,8 @@ def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str | None, 
     thread.start()
     thread.join(timeout_s)
     if thread.is_alive():
-        where = f"the Ray cluster at {target} ({source})" if target else "a local Ray"
-        raise UsageError(f"{where} did not answer within {timeout_s:g} s", _unreachable_hint(source) if target
-                         else "see the log of Ray's messages (logs/ray.log)")
+        raise UsageError(f"the Ray cluster at {target} ({source}) did not answer within {timeout_s:g} s",
+                         _unreachable_hint(source))
     if "error" in outcome:
         raise _init_problem(outcome["error"], target, source) from None
 
