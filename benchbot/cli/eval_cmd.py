@@ -15,6 +15,7 @@ from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, ResultsError, SpecError, UsageError
 from benchbot.core.evaluation import COMBINE_MODES, Evaluation, evaluate, validate_all
 
+
 def _fmt(value: object) -> str:
     return f"{value:.4f}" if isinstance(value, float) else str(value)
 

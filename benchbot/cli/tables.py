@@ -16,6 +16,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+
 def plural(n: int, noun: str) -> str:
     """``plural(1, 'episode')`` → ``'1 episode'``; ``plural(4, 'episode')`` → ``'4 episodes'``."""
     return f"{n} {noun}{'' if n == 1 else 's'}"
