@@ -161,3 +161,27 @@ def test_far_limit_and_problem_cap(tmp_path):
     problems = layout_problems(layout, source="x.json")
     assert len(problems) == MAX_PROBLEMS_PER_FILE + 1 and problems[-1] == "x.json: and 5 more problem(s) like these"
     assert layout_problems([1, 2], source="x.json")[0].startswith("x.json: not a ground-truth layout")
+
+
+def test_a_huge_layout_is_checked_in_bounded_work(monkeypatch):
+    """A hostile pack's layout of many objects and poses: "did you mean" is worked out only for the lines shown (it
+    is O(classes) per name), and a pose inside several objects names the first of them, as the objects are listed."""
+    from benchbot.core import layout_checks
+
+    calls = []
+    real = layout_checks.close_names
+    monkeypatch.setattr(layout_checks, "close_names", lambda *a, **k: calls.append(a) or real(*a, **k))
+    n = 2000
+    objects = [{"class": f"alien{i}", "centroid": [i * 0.01, 0, 0.5], "extent": [0.001, 0.001, 1.0]} for i in range(n)]
+    objects += [{"class": "chair", "centroid": [3.0, 3.0, 0.5], "extent": [1.0, 1.0, 1.0], "ID_name": name}
+                for name in ("first", "second")]
+    layout = {"ground_truth": {"class_list": ["chair", *(f"c{i}" for i in range(200))], "objects": objects}}
+    poses = [[1, 0, 0, 0, -5.0, 3.0, 0]] * 500 + [[1, 0, 0, 0, 3.1, 2.9, 0]]
+    problems = layout_problems(layout, source="x.json", trajectory_poses=poses)
+    assert len(calls) <= MAX_PROBLEMS_PER_FILE
+    assert problems[-1] == f"x.json: and {n + 1 - MAX_PROBLEMS_PER_FILE} more problem(s) like these"
+    last = layout_problems({"ground_truth": {"class_list": ["chair"], "objects": objects[n:]}}, source="x.json",
+                           trajectory_poses=poses)
+    assert last == ["x.json: trajectory_poses[500] at x=3.100, y=2.900 m is inside the footprint of x.json's "
+                    "ground_truth.objects[0] 'first' (class 'chair'); move the pose out of the object "
+                    "(or the object away from the pose)"]

@@ -82,6 +82,7 @@ def layout_problems(layout: Any, *, source: str, poses_source: str | None = None
     classes = [str(c) for c in gt["class_list"]]
     known = set(classes)
     lows, highs, index = [], [], []
+    hints: dict[str, str] = {}  # "did you mean" by unknown class, worked out only for lines that are shown
     for i, obj in enumerate(gt["objects"]):
         if not isinstance(obj, dict):
             problems.append(f"{source}: ground_truth.objects[{i}]: not an object; give {{class, centroid, extent}}")
@@ -89,8 +90,10 @@ def layout_problems(layout: Any, *, source: str, poses_source: str | None = None
         label = _label(i, obj)
         cls = obj.get("class")
         if not isinstance(cls, str) or cls not in known:
-            near = close_names(str(cls), classes)
-            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            if str(cls) not in hints and len(problems) < MAX_PROBLEMS_PER_FILE:  # difflib: O(classes) per name
+                near = close_names(str(cls), classes)
+                hints[str(cls)] = f" (did you mean '{near[0]}'?)" if near else ""
+            hint = hints.get(str(cls), "")
             problems.append(f"{source}: {label}: class '{cls}' is not in ground_truth.class_list; use one of its "
                             f"classes{hint} or add '{cls}' to class_list")
         centroid, extent = _finite3(obj.get("centroid")), _finite3(obj.get("extent"))
@@ -107,7 +110,6 @@ def layout_problems(layout: Any, *, source: str, poses_source: str | None = None
         index.append(i)
     if len(index) >= 2:
         lo, hi = np.asarray(lows), np.asarray(highs)
-        n = len(index)
         # the bounding box of all objects but k: from prefix and suffix minima/maxima, O(n)
         inf = np.full((1, 3), np.inf)
         pre_lo = np.vstack([inf, np.minimum.accumulate(lo)[:-1]])
@@ -116,12 +118,11 @@ def layout_problems(layout: Any, *, source: str, poses_source: str | None = None
         suf_hi = np.vstack([np.maximum.accumulate(hi[::-1])[::-1][1:], -inf])
         rest_lo, rest_hi = np.minimum(pre_lo, suf_lo), np.maximum(pre_hi, suf_hi)
         gap = np.linalg.norm(np.maximum(0.0, np.maximum(rest_lo - hi, lo - rest_hi)), axis=1)
-        for k in range(n):
-            if gap[k] > FAR_FROM_HOME_M:
-                i = index[k]
-                problems.append(
-                    f"{source}: {_label(i, gt['objects'][i])}: {gap[k]:.1f} m from the bounding box of the other "
-                    f"objects (more than {FAR_FROM_HOME_M:g} m); move its centroid into the home or remove it")
+        for k in np.flatnonzero(gap > FAR_FROM_HOME_M):
+            i = index[k]
+            problems.append(
+                f"{source}: {_label(i, gt['objects'][i])}: {gap[k]:.1f} m from the bounding box of the other "
+                f"objects (more than {FAR_FROM_HOME_M:g} m); move its centroid into the home or remove it")
     env = layout.get("environment") if isinstance(layout.get("environment"), dict) else {}
     if start_pose is None:
         start_pose = env.get("start_pose")
@@ -130,18 +131,23 @@ def layout_problems(layout: Any, *, source: str, poses_source: str | None = None
     where = poses_source or source
     poses = ([("start_pose", start_pose)] if start_pose is not None else []) + \
         [(f"trajectory_poses[{j}]", p) for j, p in enumerate(trajectory_poses or [])]
-    blocking = [k for k in range(len(index)) if lows[k][2] < BLOCKING_BELOW_M]
-    for what, pose in poses:
-        xy = _pose_xy(pose)
-        if xy is None:
-            continue
-        for k in blocking:
-            if lows[k][0] < xy[0] < highs[k][0] and lows[k][1] < xy[1] < highs[k][1]:
-                i = index[k]
-                problems.append(f"{where}: {what} at x={xy[0]:.3f}, y={xy[1]:.3f} m is inside the footprint of "
-                                f"{source}'s {_label(i, gt['objects'][i])}; move the pose out of the object "
-                                "(or the object away from the pose)")
-                break
+    # the footprints of the blocking objects, in the objects' order: (B,) x/y lows and highs, metres
+    lo_all, hi_all = np.asarray(lows).reshape(-1, 3), np.asarray(highs).reshape(-1, 3)
+    blocking = np.flatnonzero(lo_all[:, 2] < BLOCKING_BELOW_M)
+    (x0, y0), (x1, y1) = lo_all[blocking, :2].T, hi_all[blocking, :2].T
+    checked = [(what, xy) for what, pose in poses if (xy := _pose_xy(pose)) is not None] if len(blocking) else []
+    # poses against objects in blocks of about 2**22 pairs: vectorised, in bounded memory (a pack may be hostile)
+    chunk = max(1, (1 << 22) // max(1, len(blocking)))
+    for start in range(0, len(checked), chunk):
+        part = checked[start:start + chunk]
+        px, py = (np.array([xy[j] for _, xy in part])[:, None] for j in (0, 1))
+        inside = (x0 < px) & (px < x1) & (y0 < py) & (py < y1)  # strictly inside: (poses, objects)
+        first = inside.argmax(axis=1)  # the first such object, as the objects are listed
+        for r in np.flatnonzero(inside.any(axis=1)):
+            (what, xy), i = part[r], index[blocking[first[r]]]
+            problems.append(f"{where}: {what} at x={xy[0]:.3f}, y={xy[1]:.3f} m is inside the footprint of "
+                            f"{source}'s {_label(i, gt['objects'][i])}; move the pose out of the object "
+                            "(or the object away from the pose)")
     if len(problems) > MAX_PROBLEMS_PER_FILE:
         more = len(problems) - MAX_PROBLEMS_PER_FILE
         problems = problems[:MAX_PROBLEMS_PER_FILE] + [f"{source}: and {more} more problem(s) like these"]
