@@ -34,11 +34,11 @@ def tell(event):
     if event.kind in ("start", "end"):
         sys.stderr.write("STAGE " + json.dumps([event.kind, event.name, round(time.monotonic() - t0, 4)]) + "\\n")
         sys.stderr.flush()
-stages._listeners.append(tell)
 from benchbot.cli.main import main
 sys.argv = ["benchbot"] + sys.argv[1:]
 try:
-    main()
+    with stages.listening(tell):
+        main()
 finally:
     sys.stderr.write("STAGE " + json.dumps(["exit", "", round(time.monotonic() - t0, 4)]) + "\\n")
 """
