@@ -507,7 +507,9 @@ def _node_facts() -> dict:
             "hostname": socket.gethostname()}
 
 
-def _node_name(node: dict) -> str:
+def node_name(node: dict) -> str:
+    """A Ray node in a few words, ``10.0.0.7 (3f2a1b2c)`` (its address and the start of its id), from a record's
+    ``node`` (:func:`_node_facts`); ``an unknown node`` when ``node`` is empty."""
     return f"{node.get('address', '?')} ({str(node.get('id', ''))[:8]})" if node else "an unknown node"
 
 
@@ -603,7 +605,7 @@ def _ray_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events, versions
         record.status, record.error = "error", f"{type(exc).__name__}: {_first_line(exc)}"
     record.executor, record.node = "ray", node
     if record.status == "error":
-        record.error = f"on node {_node_name(node)}: {record.error}"
+        record.error = f"on node {node_name(node)}: {record.error}"
     return record, files
 
 
@@ -735,7 +737,7 @@ def _run_on_ray(episodes: list[Episode], run_dir: Path, *, on_event: EventHandle
                     record = new_record(spec)
                     cause = exc.cause if getattr(exc, "cause", None) is not None else exc
                     record.status, record.executor, record.node = "error", "ray", node_of.get(spec.index, {})
-                    record.error = (f"on node {_node_name(record.node)}: {type(cause).__name__}: "
+                    record.error = (f"on node {node_name(record.node)}: {type(cause).__name__}: "
                                     f"{_first_line(cause)}")
                 except rex.RayError as exc:
                     reason = _lost_reason(exc)
@@ -753,7 +755,7 @@ def _run_on_ray(episodes: list[Episode], run_dir: Path, *, on_event: EventHandle
                     if reason:
                         record.node = what["node"]
                         record.error = (f"lost {len(lost[spec.index])} times with its Ray node or worker (last: "
-                                        f"{reason} on node {_node_name(what['node'])})")
+                                        f"{reason} on node {node_name(what['node'])})")
                     else:  # Ray could not run it at all (its runtime environment, say): it would fail anywhere
                         record.error = f"Ray could not run the episode: {type(exc).__name__}: {_first_line(exc)}"
                 if files:

@@ -273,8 +273,10 @@ def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path
 def lost_line(info: dict, label: str) -> str:
     """One line (rich markup) for an episode Ray lost with its node or worker process: ``[2/4] house:1  lost: its
     node died on node 10.0.0.7 (3f2a1b2c); running it again on another node``."""
+    from benchbot.batch.executors import node_name
+
     node = info.get("node") or {}
-    where = f" on node {node.get('address', '?')} ({str(node.get('id', ''))[:8]})" if node else ""
+    where = f" on node {node_name(node)}" if node else ""
     then = "running it again on another node" if info.get("again") else "no retries left"
     return f"{label}  [yellow]lost[/]: {escape(str(info.get('error', '')))}{where}; {then}"
 
