@@ -45,7 +45,7 @@ with contextlib.redirect_stdout(sys.stderr):
 from benchbot_sim_taichi.render import bsdf  # noqa: E402 - after Taichi's banner is redirected
 from benchbot_sim_taichi.render.camera_model import GAMMA  # noqa: E402
 from benchbot_sim_taichi.render.layouts import (  # noqa: E402
-    CAM_FX, P_BOUNCES, P_LAMP_RADIUS, P_ROULETTE_FROM, P_SEED, P_SPP, P_SUN_RADIUS, WORLD_AMBIENT,
+    CAM_FX, CAM_LEN, P_BOUNCES, P_LAMP_RADIUS, P_ROULETTE_FROM, P_SEED, P_SPP, P_SUN_RADIUS, PARAMS_LEN, WORLD_AMBIENT,
 )
 from benchbot_sim_taichi.render.kernels import (  # noqa: E402
     GLASS, MAX_GLASS_LAYERS, PANES_SEEN, SHADOW_OFFSET, _frame, _glass_reflectance, _hash, _ray, _shade_hit, _trace,
@@ -144,7 +144,7 @@ def _cone_hit(lights: ti.template(), j, o, d, tmax, params):
 
 @ti.kernel
 def quality_kernel(
-    cam: ti.types.vector(16, ti.f32),
+    cam: ti.types.vector(CAM_LEN, ti.f32),
     nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
     pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
@@ -156,7 +156,7 @@ def quality_kernel(
     lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
     n_lights: ti.i32,
     world: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    params: ti.types.vector(8, ti.f32),
+    params: ti.types.vector(PARAMS_LEN, ti.f32),
     out: ti.types.ndarray(dtype=ti.f32, ndim=4),
     aux: ti.types.ndarray(dtype=ti.f32, ndim=4),
 ):
