@@ -148,3 +148,26 @@ def test_replay_rejects_other_files(tmp_path):
         Recording(bad)
     with pytest.raises(RecordingError):
         Recording(tmp_path / "missing.mcap")
+
+
+@pytest.mark.parametrize("metadata, named", [
+    ({"environments": [{"name": "miniroom"}]}, "benchbot.run environments[0] lacks variant"),
+    ({"environments": {"name": "miniroom", "variant": 1}}, "benchbot.run needs task, robot and environments"),
+    ({"steps": [{"time_ns": 1}]}, "benchbot.steps[0] lacks pose, collided, duration_s"),
+    ({"frames": [{"step": 0, "time_ns": 1, "names": []}, "x"]}, "benchbot.frames[1] lacks step, time_ns, names"),
+])
+def test_replay_names_a_damaged_metadata_record_in_one_line(tmp_path, metadata, named):
+    from mcap.writer import Writer
+
+    records = {"environments": [{"name": "miniroom", "variant": 1}], "steps": [], "frames": [], **metadata}
+    path = tmp_path / "damaged.mcap"
+    with open(path, "wb") as f:
+        writer = Writer(f)
+        writer.start(profile="ros2", library="test")
+        run = {"task": {}, "robot": {}, "environments": records["environments"]}
+        for name, value in (("run", run), ("steps", records["steps"]), ("frames", records["frames"])):
+            writer.add_metadata(f"benchbot.{name}", {"json": json.dumps(value)})
+        writer.finish()
+    with pytest.raises(RecordingError) as err:
+        Recording(path)
+    assert named in err.value.message and "\n" not in err.value.message

@@ -87,13 +87,31 @@ class Recording:
             raise RecordingError(f"{self.path}: no BenchBot metadata (benchbot.run/steps/frames)",
                                  "only files written by `--record` can be replayed") from None
         run_ok = isinstance(self.run, dict) and all(k in self.run for k in ("task", "robot", "environments"))
-        if not (run_ok and self.run["environments"] and isinstance(self.steps, list)
+        if not (run_ok and isinstance(self.run["environments"], list) and self.run["environments"]
+                and isinstance(self.steps, list)
                 and isinstance(self.frames, list)):
             raise RecordingError(f"{self.path}: malformed BenchBot metadata (benchbot.run needs task, robot and "
                                  "environments; benchbot.steps/frames must be lists)",
                                  "only files written by `--record` can be replayed")
+        self._check_records()
         # log times per topic, for the bisections of at() / latest() (called for every observation)
         self._times = {topic: [t for t, _ in entries] for topic, entries in self.messages.items()}
+
+    #: The fields every record of the metadata needs (what the replay reads), by where it is.
+    RECORD_FIELDS = {"benchbot.run environments": ("name", "variant"),
+                     "benchbot.steps": ("time_ns", "pose", "collided", "duration_s"),
+                     "benchbot.frames": ("step", "time_ns", "names")}
+
+    def _check_records(self) -> None:
+        """Raise :class:`RecordingError` naming the first record of :attr:`RECORD_FIELDS` that is no JSON object
+        with its fields, so a damaged file is one line up front instead of a ``KeyError`` mid-replay."""
+        records = (self.run["environments"], self.steps, self.frames)
+        for (where, fields), items in zip(self.RECORD_FIELDS.items(), records):
+            for i, item in enumerate(items):
+                missing = [f for f in fields if not isinstance(item, dict) or f not in item]
+                if missing:
+                    raise RecordingError(f"{self.path}: malformed BenchBot metadata: {where}[{i}] lacks "
+                                         f"{', '.join(missing)}", "only files written by `--record` can be replayed")
 
     def at(self, topic: str, time_ns: int) -> Any:
         """The message of ``topic`` logged at ``time_ns``, or None."""
