@@ -145,15 +145,7 @@ class Registry:
                 self.notes[(kind, f"{name} ({other.plugin}: {other.path})")] = (
                     f"ground truth '{name}' of plugin '{other.plugin}' ({other.path or 'dict'}) is another set beside "
                     f"the one of plugin '{default.plugin}' ({default.path or 'dict'}), the default")
-                if default is first:
-                    return
-                first_info = self._infos.get(first.plugin)
-                if first_info is not None and name in first_info.registers.get(kind, []):
-                    first_info.registers[kind].remove(name)
-                self.entries[kind][name] = entry
-                if info is not None:
-                    info.registers.setdefault(kind, []).append(name)
-                return
+                kept = default
             if kept is None:
                 self.problems[(kind, name)] = (
                     f"{singular(kind)} '{name}' is defined twice: by plugin '{first.plugin}' ({first.path or 'dict'}) "
@@ -164,7 +156,7 @@ class Registry:
                 return
             if kept is first:
                 return
-            first_info = self._infos.get(first.plugin)
+            first_info = self._infos.get(first.plugin)  # the second replaces the first: no longer registered by it
             if first_info is not None and name in first_info.registers.get(kind, []):
                 first_info.registers[kind].remove(name)
         self.entries[kind][name] = entry
