@@ -267,6 +267,21 @@ def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp
     assert repo / "benchbot" in shown and repo / "schemas" in shown
 
 
+def test_a_solution_folder_holding_benchbots_source_checkout_is_refused(tmp_path, registry):
+    """A checkout holds copies of ground truth in its tests' data (the registry names none of them): a solution run
+    from the checkout, or from a folder above it, is refused in one line; one inside it (an example's folder) runs."""
+    from benchbot.core.errors import UsageError
+    from benchbot.core.sandbox import run_sandboxed, source_roots
+
+    repo = Path(__file__).resolve().parents[1]
+    assert repo in source_roots(registry) and repo / "plugins" / "eval_omq" in source_roots(registry)
+    for folder in (repo, repo.parent):
+        with pytest.raises(UsageError, match="holds BenchBot's source folder"):
+            run_sandboxed([sys.executable, "-c", "pass"], folder, registry=registry, backend_socket=tmp_path / "s",
+                          address="http://127.0.0.1:10000/", outputs=tmp_path / "out", result_name="r.json",
+                          log=None, timeout_s=30)
+
+
 @pytest.mark.parametrize("variable, inside", [("BENCHBOT_CACHE_DIR", ".cache/benchbot"),
                                                ("BENCHBOT_DATA_DIR", ".local/share/benchbot")])
 def test_the_cache_and_data_directories_are_hidden_even_inside_the_solutions_folder(tmp_path, registry, monkeypatch,

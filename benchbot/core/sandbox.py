@@ -163,6 +163,27 @@ def _top_package_folder(module: str) -> Path | None:
     return Path(locations[0]).resolve() if len(locations) == 1 else None
 
 
+def source_roots(registry) -> list[Path]:
+    """The source folders of BenchBot and of its plugins where they are installed from a checkout (editable): the
+    folder on ``sys.path`` that holds ``benchbot`` or a plugin's top-level package, when it is no site-packages
+    folder of this Python (where it is, nothing but installed packages lies beside it). A checkout holds more than
+    its packages (tests' data with copies of ground truth), so a sandboxed solution's folder must not contain one.
+
+    Args:
+        registry: a :class:`~benchbot.core.registry.Registry` (its plugins' modules).
+
+    Returns:
+        Absolute, resolved folders, sorted; none for a wheel install.
+    """
+    prefixes = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix)}
+    roots = set()
+    for module in {"benchbot", *(plugin.module for plugin in registry.plugins)}:
+        package = _top_package_folder(module)
+        if package is not None and not any(package.is_relative_to(prefix) for prefix in prefixes):
+            roots.add(package.parent)
+    return sorted(roots)
+
+
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
     of ``registry`` names (``_file_path``, ``map_path``, mesh files), the package folder of every plugin that
@@ -411,6 +432,10 @@ def run_sandboxed(
         if cwd == folder or cwd.is_relative_to(folder):
             raise UsageError(f"the solution's folder {cwd} is inside {folder}, which holds ground truth or run "
                              "directories and is hidden from solutions", "run it from its own folder")
+    for root in source_roots(registry):
+        if root == cwd or root.is_relative_to(cwd):
+            raise UsageError(f"the solution's folder {cwd} holds BenchBot's source folder {root}, whose tests' data "
+                             "hold copies of ground truth", "run the solution from its own folder")
     inside, ports, names = inside_address(address)
     shown = python_folders() + [cwd] + program_folders(argv, cwd)
     with tempfile.TemporaryDirectory(prefix="benchbot-sandbox-") as private:
