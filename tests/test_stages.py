@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 
 import pytest
@@ -49,9 +48,9 @@ def read_until(proc: subprocess.Popen, marker: str, within_s: float) -> list[str
 
 
 @pytest.mark.slow
-def test_run_says_each_stage_then_ready_in_a_log():
+def test_run_says_each_stage_then_ready_in_a_log(tmp_path):
     """In a log (no terminal) each stage of the simulator's start is a line, then one "backend ready" line."""
-    env = dict(os.environ, BENCHBOT_CACHE_DIR=tempfile.mkdtemp(prefix="benchbot-test-cache-"))  # a cold scene
+    env = dict(os.environ, BENCHBOT_CACHE_DIR=str(tmp_path / "cache"))  # a cold scene
     proc = subprocess.Popen([*BENCHBOT, "run", "--env", "miniroom:1", "--port", "0", "--camera-size", "64x48",
                              "--no-tui"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env)
     try:
@@ -67,9 +66,9 @@ def test_run_says_each_stage_then_ready_in_a_log():
 
 
 @pytest.mark.slow
-def test_ros2_serve_sim_is_ready_then_ends_on_ctrl_c_with_130():
+def test_ros2_serve_sim_is_ready_then_ends_on_ctrl_c_with_130(tmp_path):
     pytest.importorskip("cyclonedds")
-    env = dict(os.environ, ROS_DOMAIN_ID="77", BENCHBOT_CACHE_DIR=tempfile.mkdtemp(prefix="benchbot-test-cache-"))
+    env = dict(os.environ, ROS_DOMAIN_ID="77", BENCHBOT_CACHE_DIR=str(tmp_path / "cache"))
     proc = subprocess.Popen([*BENCHBOT, "ros2", "serve-sim", "--env", "miniroom:1", "--camera-size", "64x48",
                              "--transport", "cyclonedds", "--arch", "cpu"], stderr=subprocess.PIPE,
                             stdout=subprocess.DEVNULL, text=True, env=env)
