@@ -20,6 +20,14 @@ def registry() -> Registry:
 
 
 @pytest.fixture
+def data_dir(tmp_path, monkeypatch):
+    """A fresh BenchBot data directory (``BENCHBOT_DATA_DIR``: installed packs live there) under ``tmp_path``; the
+    folder is not created. A test module that needs it for every test says ``pytestmark = usefixtures``."""
+    monkeypatch.setenv("BENCHBOT_DATA_DIR", str(tmp_path / "data"))
+    return tmp_path / "data"
+
+
+@pytest.fixture
 def make_service(registry):
     """``make_service(task, env, robot='carter', seed=0)`` → a BackendService on the real simulator; closed after."""
     services = []

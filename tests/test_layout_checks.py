@@ -22,10 +22,7 @@ GT = "ground_truths/room_1.json"
 ENV = "environments/room.yaml"
 
 
-@pytest.fixture(autouse=True)
-def data_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("BENCHBOT_DATA_DIR", str(tmp_path / "data"))
-    return tmp_path / "data"
+pytestmark = pytest.mark.usefixtures("data_dir")  # tests/conftest.py
 
 
 def miniroom() -> dict:

@@ -39,12 +39,6 @@ ADDONS = ROOT / "tests" / "data" / "original_addons"
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 
 
-@pytest.fixture()
-def data_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("BENCHBOT_DATA_DIR", str(tmp_path / "data"))
-    return tmp_path / "data"
-
-
 @pytest.fixture(scope="module")
 def app():
     from benchbot.cli.main import app

@@ -27,12 +27,6 @@ ROOT = Path(__file__).resolve().parents[1]
 ADDONS = ROOT / "tests" / "data" / "original_addons"
 
 
-@pytest.fixture()
-def data_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("BENCHBOT_DATA_DIR", str(tmp_path / "data"))
-    return tmp_path / "data"
-
-
 def install(*args: str):
     from benchbot.cli.main import app
 

@@ -19,10 +19,7 @@ EVAL = ("name: countq\nvalid_result_formats: [object_map]\nvalid_ground_truth_fo
 EVAL_PY = "def evaluate(results, ground_truths):\n    return {'count': float(len(results['results']['objects']))}\n"
 
 
-@pytest.fixture(autouse=True)
-def data_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("BENCHBOT_DATA_DIR", str(tmp_path / "data"))
-    return tmp_path / "data"
+pytestmark = pytest.mark.usefixtures("data_dir")  # tests/conftest.py
 
 
 def make_pack(root: Path, files: dict[str, str]) -> Path:
