@@ -662,12 +662,10 @@ def _drain_actor(ray, actor, on_event: EventHandler, stop: threading.Event) -> N
         stop.wait(0.1)
 
 
-def run_ray(
-    episodes: list[Episode], run_dir: str, *, address: str | None = None, workers: int = 1,
-    on_event: EventHandler, on_record: Callable[[EpisodeRecord], None], cluster: RayCluster | None = None,
-    lost_retries: int = RAY_LOST_RETRIES,
-) -> None:
-    """Run ``episodes`` as Ray tasks and call ``on_record`` (in this thread) as each ends (docs/cluster.md).
+def run_ray(episodes: list[Episode], run_dir: str | Path, *, on_event: EventHandler,
+            on_record: Callable[[EpisodeRecord], None], lost_retries: int = RAY_LOST_RETRIES) -> None:
+    """Run ``episodes`` as Ray tasks on the cluster this process is connected to (:func:`connect_ray`; the caller
+    closes it) and call ``on_record`` (in this thread) as each ends (docs/cluster.md).
 
     Each episode reserves :data:`RAY_EPISODE_CPUS` CPU on its node for its whole life and runs in a run directory
     of the node's own; what it wrote comes back through Ray's object store and this process writes it into
@@ -675,31 +673,14 @@ def run_ray(
     folder, and BenchBot with the same plugins, must be at the same paths on every node. An episode lost with its
     node or worker process is run again on another node (up to ``lost_retries`` times; the others go on) and the
     lost attempts are in its record's ``lost``. Events: those of :func:`run_episode`, and ``("lost", index, {node,
-    error, again})``.
-
-    Args:
-        cluster: an open connection (:func:`connect_ray`), used and left open; None connects with ``address`` and
-            ``workers`` (as :func:`connect_ray`) and disconnects at the end.
-
-    Raises:
-        UsageError: (without ``cluster``) as :func:`connect_ray`.
+    error, again})``. A problem of one episode (its node, its files) ends that episode as ``error``; Ctrl-C cancels
+    the running episodes, waits up to :data:`STOP_WAIT_S` for them, and is raised again.
     """
-    own = cluster is None
-    if cluster is None:
-        cluster = connect_ray(address, workers=workers, log=Path(run_dir) / RAY_LOG)
-    try:
-        _run_on_ray(episodes, Path(run_dir), on_event=on_event, on_record=on_record, lost_retries=lost_retries)
-    finally:
-        if own:
-            cluster.close()
-
-
-def _run_on_ray(episodes: list[Episode], run_dir: Path, *, on_event: EventHandler,
-                on_record: Callable[[EpisodeRecord], None], lost_retries: int) -> None:
     import ray
     import ray.exceptions as rex
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
+    run_dir = Path(run_dir)
     here = ray.get_runtime_context().get_node_id()  # the events wait here: a worker node may die
     buffer = ray.remote(num_cpus=0, max_restarts=0)(_EventBuffer).options(
         scheduling_strategy=NodeAffinitySchedulingStrategy(here, soft=True)).remote()

@@ -413,7 +413,7 @@ def run_batch(
             if not episodes:
                 continue
             if executor == "ray":
-                run_ray(episodes, str(run_dir), cluster=cluster, on_event=handler, on_record=record_done)
+                run_ray(episodes, str(run_dir), on_event=handler, on_record=record_done)
             else:
                 run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
     finally:
