@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 from benchbot.api.benchbot import BenchBot
+from benchbot.core.ros_messages import TYPE_HASHES, laser_message
 from benchbot.core.session import resolve_run, start_service
-from benchbot.plugins.recorder import TYPE_HASHES, attach_recorder, detach_recorder, laser_message, tf_frames
+from benchbot.plugins.recorder import attach_recorder, detach_recorder, tf_frames
 from benchbot.plugins.replay import start_replay_service
 
 rosbags = pytest.importorskip("rosbags")

@@ -64,10 +64,7 @@ from benchbot.core.episode import served_environment
 from benchbot.core.errors import UsageError
 from benchbot.core.geometry import se2_relative
 from benchbot.core.hookspecs import hookimpl
-from benchbot.core.ros_messages import (  # noqa: F401 - their home is benchbot.core.ros_messages; named here too
-    MSGDEFS, SEP, TYPE_HASHES, camera_info_message, image_message, laser_message, ros_depth, ros_ranges,
-    transform_message, wrap_angle_min,
-)
+from benchbot.core.ros_messages import MSGDEFS, transform_message
 
 #: The recorder's own channels, ``{key: (topic, datatype)}``: the frames and the motion made. The observations'
 #: channels are their kinds' (:mod:`benchbot.core.observations`: ``Channel``).
