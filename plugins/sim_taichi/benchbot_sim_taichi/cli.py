@@ -48,6 +48,22 @@ def _environment(env: str) -> dict:
     return registry().scenes(env)[0]
 
 
+def _world(seed: int, environment: dict, env: str) -> int:
+    """The world seed an episode with ``--seed`` ``seed`` gets for ``environment``
+    (:func:`benchbot.core.seeding.environment_world_seed`).
+
+    Raises:
+        SpecError: the environment (an environment YAML ``env``) has no ``name`` or no ``variant``.
+    """
+    from benchbot.core.errors import SpecError
+
+    missing = [field for field in ("name", "variant") if field not in environment]
+    if missing:
+        raise SpecError(f"the environment {env} has no {' and no '.join(missing)}",
+                        "give it name: and variant: (with --seed they fix the look of its scene)")
+    return environment_world_seed(seed, environment)
+
+
 def _T_camera(scene, pose: str | None) -> "object":
     from benchbot.core.errors import UsageError
     from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_at
@@ -110,7 +126,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
             raise UsageError(f"--fov {fov} is not between 0 and 180 degrees", "e.g. --fov 90")
         with showing_stages(env):
             environment = _environment(env)
-            world = environment_world_seed(seed, environment)  # the world an episode with this --seed sees
+            world = _world(seed, environment, env)  # the world an episode with this --seed sees
             scene, key = scene_cache.scene_for(_styled(environment, style), world, build=build_scene)
             with stages.stage("starting Taichi"):
                 r = Renderer(None, shadow_samples=shadow_samples, seed=world)
@@ -150,7 +166,7 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
         from benchbot.core.errors import UsageError
 
         environment = _environment(env)
-        scene, _ = scene_cache.scene_for(_styled(environment, style), environment_world_seed(0, environment),
+        scene, _ = scene_cache.scene_for(_styled(environment, style), _world(0, environment, env),
                                          build=build_scene)  # as --seed 0
         if output.suffix.lower() == ".glb":
             try:
@@ -188,7 +204,7 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
         from benchbot_sim_taichi.scene.build import build_scene
 
         environment = _environment(env)
-        scene, _ = scene_cache.scene_for(_styled(environment, "furnished"), environment_world_seed(0, environment),
+        scene, _ = scene_cache.scene_for(_styled(environment, "furnished"), _world(0, environment, env),
                                          build=build_scene)
         if scene.plan is None:
             raise UsageError(f"{env} has no ground-truth objects, so no floor plan is derived for it",

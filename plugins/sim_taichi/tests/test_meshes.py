@@ -292,3 +292,19 @@ def test_sim_export_cli_writes_a_textured_glb_for_an_environment_with_mesh_objec
     assert [m.texture.shape for m in back.materials if m.texture is not None] == [(4, 4, 3)]
     res = CliRunner().invoke(app, ["export", str(tmp_path / "env.yaml"), "-o", str(tmp_path / "scene.ply")])
     assert res.exit_code == 0 and (tmp_path / "scene.ply").stat().st_size > 0  # other formats: one coloured mesh
+
+
+@pytest.mark.parametrize("command", ["render", "export", "plan"])
+def test_an_environment_yaml_without_name_or_variant_is_one_line_error(tmp_path, command):
+    """The sim commands seed the world from the environment's name and variant: a YAML without them gets an error
+    naming the file and the fields, not a KeyError traceback."""
+    import yaml
+    from typer.testing import CliRunner
+
+    from benchbot_sim_taichi.cli import app
+
+    (tmp_path / "env.yaml").write_text(yaml.safe_dump({"style": "primitives", "start_pose": [1, 0, 0, 0, 0, 0, 0]}))
+    res = CliRunner().invoke(app, [command, str(tmp_path / "env.yaml"), "-o", str(tmp_path / "out.png")])
+    assert res.exit_code == 3, res.output
+    assert f"the environment {tmp_path / 'env.yaml'} has no name and no variant" in res.output, res.output
+    assert "Traceback" not in res.output and isinstance(res.exception, (SystemExit, type(None))), res.exception
