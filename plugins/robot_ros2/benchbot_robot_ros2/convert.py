@@ -199,22 +199,6 @@ def odometry_se2(msg: Any) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------ writers
-def ros_ranges(ranges: np.ndarray, range_max: float) -> np.ndarray:
-    """BenchBot laser ranges (N,) metres, where no return reads ``range_max`` → float32 ranges for a
-    ``sensor_msgs/LaserScan`` after REP 117: no return (``>= range_max``, or NaN) is +Inf."""
-    r = np.asarray(ranges, dtype=np.float32).reshape(-1).copy()
-    r[~(r < np.float32(range_max))] = np.inf
-    return r
-
-
-def ros_depth(depth: np.ndarray) -> np.ndarray:
-    """BenchBot depth (H, W) metres, 0.0 where nothing is hit → float32 for a ``32FC1`` ``sensor_msgs/Image`` after
-    REP 118: no hit (0.0, negative or non-finite) is NaN."""
-    d = np.asarray(depth, dtype=np.float32).copy()
-    d[~(d > 0) | ~np.isfinite(d)] = np.nan
-    return d
-
-
 def fill_twist(msg: Any, v: float, w: float) -> Any:
     """Set a ``geometry_msgs/Twist`` to forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s); returns it."""
     msg.linear.x, msg.linear.y, msg.linear.z = float(v), 0.0, 0.0
@@ -257,8 +241,8 @@ def fill_camera_info(msg: Any, K: np.ndarray, width: int, height: int, frame_id:
 
 def fill_laser(msg: Any, ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float,
                range_max: float, frame_id: str, t_s: float, *, t_ns: int | None = None) -> Any:
-    """Fill a ``sensor_msgs/LaserScan`` (ranges in metres, float32 on the wire, as given: see :func:`ros_ranges`
-    for REP 117's +Inf), stamped ``t_ns`` (int ns) or ``t_s`` (s); returns it. ``angle_max`` is
+    """Fill a ``sensor_msgs/LaserScan`` (ranges in metres, float32 on the wire, as given: see
+    :func:`benchbot.core.ros_messages.ros_ranges` for REP 117's +Inf), stamped ``t_ns`` (int ns) or ``t_s`` (s); returns it. ``angle_max`` is
     ``angle_min + (N - 1) · angle_increment``."""
     set_stamp(msg.header.stamp, t_s, t_ns=t_ns)
     msg.header.frame_id = frame_id

@@ -342,7 +342,8 @@ class SimBridge:
         self.pub["tf"].publish(tf)
 
     def _publish_laser(self) -> None:
-        from benchbot_robot_ros2.convert import fill_laser, ros_ranges, wrap_angles
+        from benchbot.core.ros_messages import ros_ranges
+        from benchbot_robot_ros2.convert import fill_laser, wrap_angles
 
         scan = self.sim.observe(["laser"])["laser"]
         sim = self.sim
@@ -353,7 +354,8 @@ class SimBridge:
         self.pub["scan"].publish(msg)
 
     def _publish_camera(self) -> None:
-        from benchbot_robot_ros2.convert import fill_camera_info, fill_image, ros_depth
+        from benchbot.core.ros_messages import ros_depth
+        from benchbot_robot_ros2.convert import fill_camera_info, fill_image
 
         obs = self.sim.observe(["image_rgb", "image_depth"])
         K, w, h, cam, now = self.sim.K, self.sim.width, self.sim.height, self.frames["camera"], self.clock_ns

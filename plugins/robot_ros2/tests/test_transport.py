@@ -41,10 +41,13 @@ def test_type_names_and_topics_follow_ros2_conventions():
 
 
 def test_rep117_and_rep118_writers():
-    """BenchBot's no return (range_max) and no hit (depth 0.0) become REP 117's +Inf and REP 118's NaN."""
-    np.testing.assert_array_equal(convert.ros_ranges(np.array([1.0, 20.0, 25.0, 2.0]), 20.0),
+    """BenchBot's no return (range_max) and no hit (depth 0.0) become REP 117's +Inf and REP 118's NaN (the writers
+    of benchbot.core.ros_messages, which the recorder and the simulator bridge share)."""
+    from benchbot.core.ros_messages import ros_depth, ros_ranges
+
+    np.testing.assert_array_equal(ros_ranges(np.array([1.0, 20.0, 25.0, 2.0]), 20.0),
                                   np.array([1.0, np.inf, np.inf, 2.0], np.float32))
-    d = convert.ros_depth(np.array([[0.0, 1.5], [-1.0, np.inf]], np.float32))
+    d = ros_depth(np.array([[0.0, 1.5], [-1.0, np.inf]], np.float32))
     assert d.dtype == np.float32 and d[0, 1] == 1.5 and np.isnan(d[0, 0]) and np.isnan(d[1]).all()
 
 
