@@ -267,19 +267,30 @@ def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp
     assert repo / "benchbot" in shown and repo / "schemas" in shown
 
 
-def test_a_solution_folder_holding_benchbots_source_checkout_is_refused(tmp_path, registry):
-    """A checkout holds copies of ground truth in its tests' data (the registry names none of them): a solution run
-    from the checkout, or from a folder above it, is refused in one line; one inside it (an example's folder) runs."""
-    from benchbot.core.errors import UsageError
-    from benchbot.core.sandbox import run_sandboxed, source_roots
+def test_a_checkouts_test_data_and_history_are_hidden_from_a_solution_run_from_it(tmp_path, registry):
+    """A checkout holds copies of ground truth that no registry names (tests' data, git history): a solution run from
+    the checkout's root finds neither, nor the BEAR layouts those copies come from; its own files stay in view."""
+    from benchbot.core.sandbox import hidden_folders, run_sandboxed, source_roots
 
     repo = Path(__file__).resolve().parents[1]
     assert repo in source_roots(registry) and repo / "plugins" / "eval_omq" in source_roots(registry)
-    for folder in (repo, repo.parent):
-        with pytest.raises(UsageError, match="holds BenchBot's source folder"):
-            run_sandboxed([sys.executable, "-c", "pass"], folder, registry=registry, backend_socket=tmp_path / "s",
-                          address="http://127.0.0.1:10000/", outputs=tmp_path / "out", result_name="r.json",
-                          log=None, timeout_s=30)
+    hidden = hidden_folders(registry)
+    assert repo / "tests" / "data" in hidden and repo / "plugins" / "eval_omq" / "tests" / "data" in hidden
+    copies = [repo / "tests/data/original_addons/ground_truths_bear_develop/ground_truths/miniroom_1.json",
+              repo / "plugins/eval_omq/tests/data/miniroom_1.json", repo / ".git" / "HEAD"]
+    probe = ("import json, sys; paths = sys.argv[1:]; "
+             "print(json.dumps({p: __import__('os').path.exists(p) for p in paths}))")
+    outputs, log = tmp_path / "outputs", tmp_path / "probe.log"
+    outputs.mkdir()
+    (tmp_path / "socket").touch()  # no backend: the probe only looks at files
+    with open(log, "w") as out:
+        run = run_sandboxed([sys.executable, "-c", probe, *map(str, copies), str(repo / "README.md")], repo,
+                            registry=registry, backend_socket=tmp_path / "socket", address="http://127.0.0.1:10000/",
+                            outputs=outputs, result_name="r.json", log=out, timeout_s=60)
+    assert run.outcome.returncode == 0, log.read_text()
+    seen = json.loads(log.read_text().strip().splitlines()[-1])
+    assert [seen[str(p)] for p in copies if p.exists()] == [False] * sum(p.exists() for p in copies)
+    assert seen[str(repo / "README.md")] is True  # the rest of the folder it runs from is shown
 
 
 @pytest.mark.parametrize("variable, inside", [("BENCHBOT_CACHE_DIR", ".cache/benchbot"),

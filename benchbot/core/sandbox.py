@@ -165,9 +165,8 @@ def _top_package_folder(module: str) -> Path | None:
 
 def source_roots(registry) -> list[Path]:
     """The source folders of BenchBot and of its plugins where they are installed from a checkout (editable): the
-    folder on ``sys.path`` that holds ``benchbot`` or a plugin's top-level package, when it is no site-packages
-    folder of this Python (where it is, nothing but installed packages lies beside it). A checkout holds more than
-    its packages (tests' data with copies of ground truth), so a sandboxed solution's folder must not contain one.
+    folder on ``sys.path`` that holds ``benchbot`` or a plugin's top-level package, when it lies outside this
+    Python's prefixes (in site-packages nothing but installed packages lies beside a package).
 
     Args:
         registry: a :class:`~benchbot.core.registry.Registry` (its plugins' modules).
@@ -184,23 +183,31 @@ def source_roots(registry) -> list[Path]:
     return sorted(roots)
 
 
+#: What a source checkout holds beside its packages that holds copies of ground truth, relative to a source root
+#: (:func:`source_roots`): the tests' data (BEAR ground truths, original add-ons) and the git history (every file
+#: ever committed, test data included).
+CHECKOUT_GROUND_TRUTH = ("tests/data", ".git")
+
+
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
     of ``registry`` names (``_file_path``, ``map_path``, mesh files), the package folder of every plugin that
     contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
     second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory),
     BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built
-    scenes: their layouts), and ``extra`` (say, the folder of run directories). Folders inside another hidden folder
-    are left out.
+    scenes: their layouts), the test data and git history of a source checkout BenchBot or a plugin runs from
+    (:data:`CHECKOUT_GROUND_TRUTH` of each of :func:`source_roots`: copies of ground truth no registry names, in
+    view when the solution runs from the checkout), and ``extra`` (say, the folder of run directories). Folders
+    inside another hidden folder are left out.
 
     Args:
         registry: a :class:`~benchbot.core.registry.Registry`.
         extra: more folders to hide.
 
     Returns:
-        Absolute, resolved folders, sorted. Never raises for a path that does not exist: a registry's file that does
-        not exist is left out; the data and cache directories and ``extra`` are kept whether they exist or not
-        (:func:`run_sandboxed` makes the first two).
+        Absolute, resolved folders, sorted. Never raises for a path that does not exist: a registry's file or a
+        checkout's folder that does not exist is left out; the data and cache directories and ``extra`` are kept
+        whether they exist or not (:func:`run_sandboxed` makes the first two).
     """
     from benchbot.core.pack_layout import cache_dir, data_dir
     from benchbot.core.server.redaction import ground_truth_strings
@@ -223,6 +230,8 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
                         if entry and os.path.isdir(os.path.join(entry, top))}
     folders.add(data_dir().expanduser().resolve())
     folders.add(cache_dir().expanduser().resolve())  # the simulator's built scenes hold their layouts
+    folders |= {root / rel for root in source_roots(registry) for rel in CHECKOUT_GROUND_TRUTH
+                if (root / rel).exists()}  # a checkout shown as (or in) the solution's folder
     folders |= {Path(p).expanduser().resolve() for p in extra}
     return _outermost(list(folders))
 
@@ -432,10 +441,6 @@ def run_sandboxed(
         if cwd == folder or cwd.is_relative_to(folder):
             raise UsageError(f"the solution's folder {cwd} is inside {folder}, which holds ground truth or run "
                              "directories and is hidden from solutions", "run it from its own folder")
-    for root in source_roots(registry):
-        if root == cwd or root.is_relative_to(cwd):
-            raise UsageError(f"the solution's folder {cwd} holds BenchBot's source folder {root}, whose tests' data "
-                             "hold copies of ground truth", "run the solution from its own folder")
     inside, ports, names = inside_address(address)
     shown = python_folders() + [cwd] + program_folders(argv, cwd)
     with tempfile.TemporaryDirectory(prefix="benchbot-sandbox-") as private:
