@@ -104,7 +104,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
                                      help="furnished (a house: rooms, walls, textured models) or primitives; "
                                           "default: the environment's own, else furnished"),
            ) -> None:
-    """Render one RGB view of ENV to a PNG."""
+    """Render one RGB view of ENV to a PNG, through the default robot's camera model (exposure, tone curve)."""
 
     def go():
         for flag, value, limit in (("--width", width, MAX_CAMERA_SIDE), ("--height", height, MAX_CAMERA_SIDE),
@@ -116,6 +116,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
         import cv2
 
         from benchbot.core.errors import UsageError
+        from benchbot_sim_taichi.backend import camera_model
         from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
         from benchbot_sim_taichi.scene import cache as scene_cache
         from benchbot_sim_taichi.scene.build import build_scene
@@ -129,7 +130,7 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
             world = _world(seed, environment, env)  # the world an episode with this --seed sees
             scene, key = scene_cache.scene_for(_styled(environment, style), world, build=build_scene)
             with stages.stage("starting Taichi"):
-                r = Renderer(None, shadow_samples=shadow_samples, seed=world)
+                r = Renderer(None, shadow_samples=shadow_samples, seed=world, camera=camera_model())
             scene_cache.set_scene(r, scene, key)  # BVH, shadow maps and baked light: from the cache when it has them
             with stages.stage("rendering", detail=f"{mode} mode, {width}x{height}"
                               + (f", {spp} samples a pixel" if mode == "quality" else "")
