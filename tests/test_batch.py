@@ -300,3 +300,19 @@ def test_bad_noise_or_sweep_flags_are_one_line_usage_errors(tmp_path, args, mess
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert proc.stderr.splitlines()[0] == message and proc.stderr.splitlines()[1].startswith("hint: ")
     assert not list(tmp_path.iterdir())
+
+
+def test_a_ray_episode_sends_back_its_files_within_the_limit_and_only_its_log_past_it(tmp_path, monkeypatch):
+    """What a Ray node sends back passes whole through memory: past BENCHBOT_RAY_EPISODE_BYTES only the log goes."""
+    from benchbot.batch.executors import _collect
+
+    (tmp_path / "logs").mkdir()
+    (tmp_path / "logs" / "000.log").write_text("the log")
+    (tmp_path / "outputs" / "000").mkdir(parents=True)
+    (tmp_path / "outputs" / "000" / "big.bin").write_bytes(b"x" * 2048)
+    files, problem = _collect(tmp_path, "logs/000.log")
+    assert problem == "" and files["outputs/000/big.bin"] == b"x" * 2048 and "outputs/000/" in files
+    monkeypatch.setenv("BENCHBOT_RAY_EPISODE_BYTES", "1K")
+    files, problem = _collect(tmp_path, "logs/000.log")
+    assert files == {"logs/000.log": b"the log"}
+    assert "2055 bytes" in problem and "more than 1 KiB" in problem and "BENCHBOT_RAY_EPISODE_BYTES" in problem

@@ -562,20 +562,27 @@ def _shared_run_dirs(run_dir: str) -> tuple:
         return ()
 
 
-def _collect(folder: Path) -> dict[str, bytes]:
-    """``{path relative to folder: content}`` of every regular file under ``folder``, and ``{path + "/": b""}`` of
-    every folder in it (links are left out)."""
-    files = {}
+def _collect(folder: Path, log: str) -> tuple[dict[str, bytes], str]:
+    """``({path relative to folder: content}, "")`` of every regular file under ``folder``, with ``{path + "/":
+    b""}`` of every folder in it (links are left out); when the files take more than
+    :data:`~benchbot.core.limits.RAY_EPISODE_BYTES`, nothing is read but the file ``log`` (relative to ``folder``),
+    and the second item says why in one line."""
+    from benchbot.core.limits import RAY_EPISODE_BYTES
+
+    folders, regular = [], []
     for root, dirs, names in os.walk(folder):
-        for name in dirs:
-            path = Path(root, name)
-            if not path.is_symlink():
-                files[path.relative_to(folder).as_posix() + "/"] = b""
-        for name in names:
-            path = Path(root, name)
-            if path.is_file() and not path.is_symlink():
-                files[path.relative_to(folder).as_posix()] = path.read_bytes()
-    return files
+        folders += [Path(root, name) for name in dirs if not Path(root, name).is_symlink()]
+        regular += [Path(root, name) for name in names
+                    if Path(root, name).is_file() and not Path(root, name).is_symlink()]
+    total, limit = sum(path.stat().st_size for path in regular), RAY_EPISODE_BYTES.value()
+    if total > limit:
+        kept = folder / log
+        files = {log: kept.read_bytes()} if kept.is_file() and not kept.is_symlink() else {}
+        return files, (f"its files take {total} bytes on its node, more than {RAY_EPISODE_BYTES.describe(limit)}; "
+                       f"only its log was sent back ({RAY_EPISODE_BYTES.raise_hint()})")
+    files = {path.relative_to(folder).as_posix() + "/": b"" for path in folders}
+    files |= {path.relative_to(folder).as_posix(): path.read_bytes() for path in regular}
+    return files, ""
 
 
 def _ray_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events, versions: dict[str, str]
@@ -599,7 +606,10 @@ def _ray_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events, versions
                 local = Path(tmp, Path(run_dir).name)
                 local.mkdir()
                 record = run_episode(spec, run, str(local), sink, hide=_shared_run_dirs(run_dir))
-                files = _collect(local)
+                files, too_large = _collect(local, spec.log)
+                if too_large:
+                    record.status = "error"
+                    record.error = f"{record.error}; {too_large}" if record.error else too_large
     except Exception as exc:  # noqa: BLE001 - not the episode's own failure (run_episode records those)
         record = new_record(spec)
         record.status, record.error = "error", f"{type(exc).__name__}: {_first_line(exc)}"

@@ -33,6 +33,7 @@ MAX_RENDER_SAMPLES          4096 samples             (none: sim render --spp, ..
 MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
 STOP_GRACE_S                5 seconds (0: no grace)  BENCHBOT_STOP_GRACE_S                SIGKILL after SIGTERM
 SANDBOX_TMP_BYTES           1 GiB                    BENCHBOT_SANDBOX_TMP_BYTES           ENOSPC in the sandbox's /tmp
+RAY_EPISODE_BYTES           1 GiB                    BENCHBOT_RAY_EPISODE_BYTES           episode error, its log kept
 **caches**
 SCENE_CACHE_BYTES           4 GiB (0: no cache)      BENCHBOT_SCENE_CACHE_BYTES           oldest built scenes removed
 ==========================  =======================  ===================================  ==============================
@@ -286,6 +287,12 @@ SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", intege
                           meaning="bytes of a sandboxed solution's private /tmp")
 """Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.core.sandbox`):
 past it, writes there fail with "No space left on device"."""
+
+RAY_EPISODE_BYTES = Limit(1 << 30, "BENCHBOT_RAY_EPISODE_BYTES", "bytes", integer=True,
+                          meaning="bytes of the files an episode on a Ray node sends back")
+"""Bytes of the files an episode run on a Ray node may send back to the batch (its results, log, outputs folder,
+trajectory, recording: :func:`benchbot.batch.executors.run_ray`), which pass whole through the node's memory, Ray's
+object store and the batch process's memory. Past it the episode ends as ``error`` and only its log comes back."""
 
 # --- caches (benchbot_sim_taichi.scene.cache) -----------------------------------------------------------------------
 
