@@ -41,6 +41,7 @@ FIGURES = {
     "end_to_end.py": [r"trivial +inprocess +33 +[\d.]+ +[\d.]+", r"hello_passive +native +33 +[\d.]+"],
     "first_run.py": [r"cold +[\d.]+ s +\(scene built; ready after [\d.]+ s: .*building the scene",
                      r"warm 1 +[\d.]+ s +\(scene from the scene cache; ready after .*loading the scene"],
+    "layout_checks.py": [r"200 objects x 50 poses \(\d+ bytes as JSON\): \d+ problem lines in [\d.]+ s"],
     "hostile_inputs.py": [r"50 MB body on move_next +413", r"eval zip bomb .+ +4 +[\d.]+", r"log truncated at"],
     "omq.py": [r"omq_ms +[\d.]+", r"same scores: yes"],
     "one_camera.py": [r"launch \(cpu\): [\d.]+ µs", r"\d+ ndarray arguments, \d+ dispatches"],
