@@ -10,8 +10,8 @@ can be compared with the file limit.
     python benchmarks/layout_checks.py [--objects 20000] [--poses 0] [--class zz] [--classes 1000] [--json]
 
 Cases quoted in the review notes: ``--objects 20000 --class zz --classes 1000`` (every object of an unknown class)
-and ``--objects 50000 --poses 150000 --class c0 --classes 10`` (9.9 MB of JSON in all, files near the 4 MiB limit: every pose against every
-object).
+and ``--objects 50000 --poses 150000 --class c0 --classes 10`` (9.9 MB of JSON in all, files near the 4 MiB limit:
+every pose against every object).
 """
 
 from __future__ import annotations
