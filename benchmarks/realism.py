@@ -1,13 +1,15 @@
 """Realism of the Taichi simulator's images, judged two ways on the same frames: a COCO detector trained on real
 photos, and a physically based reference renderer (Blender Cycles) on the same exported scene.
 
-    python benchmarks/realism.py [--env miniroom:1 --env house:1] [--frames 16] [--quality-frames 4]
+    python benchmarks/realism.py [--env miniroom:1 --env house:1 | --all-homes] [--frames 16] [--quality-frames 4]
         [--reference-frames 1] [--reference-spp 64] [--ladder 1,4,16] [--style furnished|primitives]
-        [--out runs/realism] [--arch cpu|cuda]
+        [--seed 0] [--out runs/realism] [--arch cpu|cuda]
 
-Per environment it renders ``--frames`` camera frames spread evenly along the trajectory (``--every K``: every
-K-th pose instead) in ``fast`` mode, the first ``--quality-frames`` of them also in ``quality`` mode, through the
-robot's default camera (``DEFAULT_SENSORS``: intrinsics, mount, camera model), and:
+Per environment (``--all-homes``: the ten BEAR homes) it builds the world an episode run with ``--seed`` sees (world
+seed ``benchbot.core.seeding.world_seed(seed, name, variant)``, through the scene cache as the simulator loads it),
+renders ``--frames`` camera frames spread evenly along the trajectory (``--every K``: every K-th pose instead) in
+``fast`` mode, the first ``--quality-frames`` of them also in ``quality`` mode, through the robot's default camera
+(``DEFAULT_SENSORS``: intrinsics, mount; ``backend.camera_model()``: exposure, tone curve), and:
 
 - **Detector.** CenterNet (MobileNetV3 backbone, trained on MS-COCO photos) from the npm package
   ``@vladmandic/human`` 3.3.6, run by TF.js on WebAssembly through Node.js (``benchmarks/realism/detect.mjs``;
@@ -31,8 +33,9 @@ robot's default camera (``DEFAULT_SENSORS``: intrinsics, mount, camera model), a
   rung (the rung's MSE against it is σ²/s + σ²/S for s and S samples). The detector also runs on the reference
   frames. Side-by-side PNGs: ours fast | ours quality | reference.
 
-Writes ``<out>/realism.json`` and PNGs (annotated frames: green = detected visible object, red = missed visible
-object, grey = ignored object, yellow = detection, with class and score), and prints a per-class table. Exit code 2
+Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
+each one) and PNGs (annotated frames: green = detected visible object, red = missed visible object, grey = ignored
+object, yellow = detection, with class and score). Exit code 2
 with one line on bad flags or a missing tool (Node.js/npm, uv). ``--smoke``: miniroom:4, two 32×24 frames (one also
 in quality mode at 1 spp), written under the system's temporary folder, without the two tools that ``uv sync`` does
 not install: no detector, and the reference's scene exported and its job written but not rendered by Cycles.
@@ -64,6 +67,8 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:  # run as a script it is; loaded by path (tests/test_realism.py), not
     sys.path.append(str(HERE))
 import smoke  # noqa: E402 - benchmarks/smoke.py, beside this file
+
+from benchbot.core import atomic  # noqa: E402
 ASSETS = HERE / "realism"
 
 #: Environments judged by default.
@@ -700,6 +705,14 @@ class Tally:
         return out
 
 
+def all_homes() -> list[str]:
+    """``name:variant`` of every BEAR home the simulator ships (miniroom:1..5, then house:1..5)."""
+    from benchbot_sim_taichi import bear
+
+    names = [(e["name"], int(e["variant"])) for e in bear.environment_specs()]
+    return [f"{n}:{v}" for n, v in sorted(names, key=lambda nv: (nv[0] != "miniroom", nv))]
+
+
 def _env_spec(name: str, style: str | None) -> dict:
     from benchbot_sim_taichi import bear
 
@@ -716,20 +729,23 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
     """Render, detect, compare for one environment; returns its JSON section and fills PNGs under ``out_dir``."""
     env = _env_spec(name, args.style)
     from benchbot_sim_taichi.render.renderer import Renderer
+    from benchbot_sim_taichi.scene import cache as scene_cache
     from benchbot_sim_taichi.scene.build import build_scene
 
     from benchbot.core.geometry import se2_to_matrix
+    from benchbot.core.seeding import environment_world_seed
 
+    world = environment_world_seed(args.seed, env)  # the world an episode run with --seed sees
     t0 = time.perf_counter()
-    scene = build_scene(env)
+    scene, key = scene_cache.scene_for(env, world, build=build_scene)  # as the simulator loads it
     build_s = time.perf_counter() - t0
     W, H = args.width, args.height
     K, Tc = camera_setup(W, H)
     poses = scene.trajectory_se2 if len(scene.trajectory_se2) else scene.start_se2[None]
     idx = select_frames(len(poses), args.frames, args.every)
     t0 = time.perf_counter()
-    r = Renderer(args.arch, camera=camera_model())
-    r.set_scene(scene)
+    r = Renderer(args.arch, seed=world, camera=camera_model())
+    scene_cache.set_scene(r, scene, key)
     setup_s = time.perf_counter() - t0
     env_dir = out_dir / name.replace(":", "_")
     env_dir.mkdir(parents=True, exist_ok=True)
@@ -765,7 +781,7 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
                 from PIL import Image
                 Image.fromarray(o["rgb"]).save(env_dir / f"pose{i:03d}_{mode}.png")
         frames_json.append(fj)
-    section = {"style": env.get("style"), "lighting": scene.lighting, "poses": len(poses), "pose_indices": idx,
+    section = {"style": scene.style, "world_seed": world, "lighting": scene.lighting, "poses": len(poses), "pose_indices": idx,
                "build_scene_s": build_s, "renderer_setup_s": setup_s,
                "primitives": int(np.asarray(scene.prim_type).shape[0]),
                "triangles": int(np.asarray(scene.tri_v).shape[0]),
@@ -870,23 +886,33 @@ def control_check(detector: Detector, folder: Path) -> dict:
     return res
 
 
-def print_table(title: str, tallies: dict, thresholds) -> None:
-    """Per-class table: visible objects and detections (at the first threshold) per image source."""
+def class_table(title: str, tallies: dict, thresholds) -> str:
+    """A Markdown table under a ``title`` heading: per class, objects detected at the first threshold / visible, per
+    image source (fast, quality, reference: the columns with frames); then recall and false positives per frame at
+    each threshold and the frame count. Empty when no source has frames."""
     sources = [m for m in ("fast", "quality", "reference") if tallies.get(m) and tallies[m].frames]
     if not sources:
-        return
+        return ""
     thr = thresholds[0]
-    classes = sorted(set().union(*[tallies[m].visible for m in sources]))
-    print(f"\n{title}: objects detected at score ≥ {thr} / visible")
-    print(f"{'class':<14}" + "".join(f"{m:>18}" for m in sources))
+    seen = set().union(*[tallies[m].visible for m in sources])
+    classes = sorted(seen, key=lambda c: (-tallies[sources[0]].visible.get(c, 0), c))  # most seen first
+    lines = [f"### {title}: objects detected at score ≥ {thr} / visible", "",
+             "| class | " + " | ".join(sources) + " |", "|---" * (len(sources) + 1) + "|"]
     for c in classes:
-        print(f"{c:<14}" + "".join(f"{tallies[m].detected[thr].get(c, 0)}/{tallies[m].visible.get(c, 0)}".rjust(18)
-                                   for m in sources))
-    for label, fn in (("recall", lambda t, th: (sum(t.detected[th].values()) / max(1, sum(t.visible.values())))),
-                      ("FP/frame", lambda t, th: t.fp[th] / max(1, t.frames))):
-        for th in thresholds:
-            print(f"{label + ' ≥' + str(th):<14}" + "".join(f"{fn(tallies[m], th):>18.3f}" for m in sources))
-    print(f"{'frames':<14}" + "".join(f"{tallies[m].frames:>18}" for m in sources))
+        lines.append(f"| {c} | " + " | ".join(f"{tallies[m].detected[thr].get(c, 0)}/{tallies[m].visible.get(c, 0)}"
+                                               for m in sources) + " |")
+    for th in thresholds:
+        cells = []
+        for m in sources:
+            t = tallies[m]
+            det, vis = sum(t.detected[th].values()), sum(t.visible.values())
+            cells.append(f"{det}/{vis} ({100.0 * det / vis:.1f} %)" if vis else "–")
+        lines.append(f"| **all classes, score ≥ {th}** | " + " | ".join(cells) + " |")
+    lines.append("| false positives per frame (" + " / ".join(f"≥ {th}" for th in thresholds) + ") | "
+                 + " | ".join(" / ".join(f"{tallies[m].fp[th] / tallies[m].frames:.3f}" for th in thresholds)
+                              for m in sources) + " |")
+    lines.append("| frames | " + " | ".join(str(tallies[m].frames) for m in sources) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def _int_list(text: str) -> list[int]:
@@ -903,6 +929,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The command line (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--env", action="append", help=f"environment name:variant, repeatable (default {DEFAULT_ENVS})")
+    ap.add_argument("--all-homes", action="store_true",
+                    help="every BEAR home (miniroom:1..5, house:1..5) instead of --env")
     ap.add_argument("--style", default=None, help="environment['style'] for the scene builder (default: its own)")
     ap.add_argument("--frames", type=int, default=FRAMES_PER_ENV, help="frames per environment")
     ap.add_argument("--every", type=int, default=None, help="every K-th trajectory pose instead of --frames")
@@ -920,7 +948,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0,
+                    help="the run's seed, as `benchbot run --seed`: each environment's world is\n"
+                         "benchbot.core.seeding.world_seed(seed, name, variant), the world an episode sees;\n"
+                         "it also seeds Cycles' sampling")
     ap.add_argument("--min-pixels", type=int, default=MIN_PIXELS)
     ap.add_argument("--max-truncation", type=float, default=MAX_TRUNCATION)
     ap.add_argument("--iou", type=float, default=MATCH_IOU)
@@ -947,7 +978,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         ap.error("--every must be positive")
     if not 0.0 <= args.max_truncation <= 1.0 or not 0.0 < args.iou <= 1.0:
         ap.error("--max-truncation must be in [0, 1] and --iou in (0, 1]")
-    args.env = args.env or (["miniroom:4"] if args.smoke else list(DEFAULT_ENVS))
+    if args.all_homes and args.env:
+        ap.error("--all-homes and --env name the environments both ways: give one")
+    args.env = all_homes() if args.all_homes else args.env or (["miniroom:4"] if args.smoke else list(DEFAULT_ENVS))
     return args
 
 
@@ -986,6 +1019,7 @@ def _run(args) -> int:
                 found = [v["found"] for v in report["detector"]["control"].values()]
                 print(f"control photos: main object found in {sum(found)} of {len(found)}")
         overall = {m: Tally(thresholds) for m in ("fast", "quality", "reference")}
+        tables: list[str] = []
         for name in args.env:
             section = judge_environment(name, args, detector, args.out, thresholds)
             tallies = section.pop("_tallies")
@@ -996,7 +1030,8 @@ def _run(args) -> int:
                   f"{ms.get('fast', math.nan):.1f} ms a frame, quality {ms.get('quality', math.nan):.1f} ms "
                   f"({args.quality_spp} spp)")
             if detector is not None:
-                print_table(name, tallies, thresholds)
+                tables.append(class_table(name, tallies, thresholds))
+                print("\n" + tables[-1])
                 for m, t in tallies.items():
                     overall[m].merge(t)
             for fr in section.get("reference", {}).get("frames", []):
@@ -1006,15 +1041,21 @@ def _run(args) -> int:
                                  for m, v in fr["ours"].items())
                 print(f"{name}: vs Cycles {args.reference_spp} spp ({fr['reference_s']:.0f} s): {ours}")
         if detector is not None and len(args.env) > 1:
-            print_table("all environments", overall, thresholds)
+            tables.insert(0, class_table(f"all {len(args.env)} environments ({', '.join(args.env)})", overall,
+                                         thresholds))
+            print("\n" + tables[0])
             report["detector"]["overall"] = {m: t.as_dict() for m, t in overall.items() if t.frames}
     finally:
         if detector is not None:
             report.setdefault("detector", {})["seconds_per_frame"] = detector.seconds / max(1, detector.frames)
             detector.close()
     report["total_s"] = time.perf_counter() - t_start
-    (args.out / "realism.json").write_text(json.dumps(report, indent=1, default=float))
-    print(f"\nwrote {args.out / 'realism.json'} ({report['total_s']:.0f} s)")
+    atomic.write_text(args.out / "realism.json", json.dumps(report, indent=1, default=float))
+    written = [args.out / "realism.json"]
+    if tables:
+        atomic.write_text(args.out / "per_class.md", "\n".join(tables))
+        written.append(args.out / "per_class.md")
+    print(f"\nwrote {', '.join(map(str, written))} ({report['total_s']:.0f} s)")
     return 0
 
 

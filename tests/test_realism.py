@@ -294,3 +294,52 @@ def test_quality_vs_reference_compares_ours_with_an_earlier_reference(realism, t
     other = subprocess.run(cmd[:2] + ["--width", "40"] + cmd[4:], capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert other.returncode == 2 and "rendered with other settings" in other.stderr
     assert "Traceback" not in other.stderr
+
+
+def test_all_homes_names_the_ten_bear_homes_and_excludes_env(realism, capsys):
+    homes = [f"miniroom:{v}" for v in range(1, 6)] + [f"house:{v}" for v in range(1, 6)]
+    assert realism.all_homes() == homes
+    assert realism.parse_args(["--all-homes"]).env == homes
+    with pytest.raises(SystemExit) as exc:
+        realism.parse_args(["--all-homes", "--env", "house:1"])
+    assert exc.value.code == 2 and "--all-homes and --env" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("seed", [0, 7])
+def test_each_environment_is_built_with_its_world_seed(realism, tmp_path, monkeypatch, seed):
+    """The scene judged is the world an episode run with ``--seed`` sees (``world_seed(seed, name, variant)``), not
+    ``build_scene``'s seed 0: the scene loader is stopped at its first call and asked what it was given."""
+    from benchbot.core.seeding import world_seed
+    from benchbot_sim_taichi.scene import cache as scene_cache
+
+    asked = []
+
+    def stop(environment, seed, **kwargs):
+        asked.append((f"{environment['name']}:{environment['variant']}", seed, environment.get("style")))
+        raise realism.RealismError("stopped here")
+
+    monkeypatch.setattr(scene_cache, "scene_for", stop)
+    argv = ["--env", "house:2", "--style", "primitives", "--no-detector", "--seed", str(seed),
+            "--out", str(tmp_path / "o")]
+    assert realism.main(argv) == 2
+    assert asked == [("house:2", world_seed(seed, "house", 2), "primitives")]
+    assert world_seed(seed, "house", 2) != seed
+
+
+def test_class_table_counts_per_class_recall_and_false_positives(realism):
+    t = realism.Tally((0.3, 0.1))
+    chairs = [truth(realism, 18001, "chair", (0, 0, 10, 10)), truth(realism, 18002, "chair", (50, 0, 60, 10)),
+              truth(realism, 19001, "table", (0, 50, 40, 90))]
+    dets = [det(realism, (0, 0, 10, 10), 0.9, "chair"), det(realism, (0, 50, 40, 90), 0.2, "dining table"),
+            det(realism, (200, 200, 220, 220), 0.5, "tv")]
+    t.add(chairs, {thr: realism.score_frame(chairs, dets, thr) for thr in (0.3, 0.1)})
+    t.add(chairs[:1], {thr: realism.score_frame(chairs[:1], [], thr) for thr in (0.3, 0.1)})
+    lines = realism.class_table("house:1", {"fast": t}, (0.3, 0.1)).splitlines()
+    assert lines[0] == "### house:1: objects detected at score ≥ 0.3 / visible"
+    assert "| chair | 1/3 |" in lines and "| table | 0/1 |" in lines
+    assert lines.index("| chair | 1/3 |") < lines.index("| table | 0/1 |")  # most seen first
+    assert "| **all classes, score ≥ 0.3** | 1/4 (25.0 %) |" in lines
+    assert "| **all classes, score ≥ 0.1** | 2/4 (50.0 %) |" in lines
+    assert "| false positives per frame (≥ 0.3 / ≥ 0.1) | 0.500 / 0.500 |" in lines
+    assert "| frames | 2 |" in lines
+    assert realism.class_table("empty", {"fast": realism.Tally((0.3,))}, (0.3,)) == ""
