@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from benchbot.core.motion import ControllerGains, PoseController, integrate_unicycle
+from benchbot.core.motion import ControllerGains, PoseControllers, integrate_unicycles
 from benchbot.core.robot import MotionOutcome
 
 
@@ -52,20 +52,27 @@ class Obstacles:
             radius=float(radius),
         )
 
+    def clearances(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed clearances (M,) float64 (m) between the footprint at each of ``xy`` (M, 2) and its nearest
+        obstacle (negative: overlap), and that obstacle's index (M,) int64 into :attr:`names` (-1: the walls)."""
+        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        wall = np.minimum(np.minimum(p[:, 0] - self.room_min[0], self.room_max[0] - p[:, 0]),
+                          np.minimum(p[:, 1] - self.room_min[1], self.room_max[1] - p[:, 1])) - self.radius
+        best, index = wall, np.full(len(p), -1, dtype=np.int64)
+        if len(self.rect_min):
+            q = np.clip(p[:, None, :], self.rect_min[None], self.rect_max[None])  # (M, K, 2) nearest box points
+            d = np.hypot(q[..., 0] - p[:, None, 0], q[..., 1] - p[:, None, 1]) - self.radius
+            i = np.argmin(d, axis=1)
+            nearest = d[np.arange(len(p)), i]
+            closer = nearest < best
+            best, index = np.where(closer, nearest, best), np.where(closer, i, index)
+        return best, index
+
     def clearance(self, xy: np.ndarray) -> tuple[float, str]:
         """Signed clearance (m) between the footprint at ``xy`` (2,) and the nearest obstacle (negative: overlap),
         and that obstacle's name (``'wall'`` for the walls)."""
-        p = np.asarray(xy, dtype=np.float64)[:2]
-        wall = float(min(p[0] - self.room_min[0], self.room_max[0] - p[0],
-                         p[1] - self.room_min[1], self.room_max[1] - p[1])) - self.radius
-        best, name = wall, "wall"
-        if len(self.rect_min):
-            q = np.clip(p, self.rect_min, self.rect_max)
-            d = np.hypot(q[:, 0] - p[0], q[:, 1] - p[1]) - self.radius
-            i = int(np.argmin(d))
-            if d[i] < best:
-                best, name = float(d[i]), self.names[i]
-        return best, name
+        best, index = self.clearances(np.asarray(xy, dtype=np.float64)[:2])
+        return float(best[0]), "wall" if index[0] < 0 else self.names[int(index[0])]
 
     def collides(self, xy: np.ndarray) -> bool:
         """Whether the footprint circle centred at ``xy`` (2,) touches a wall or an obstacle box."""
@@ -74,21 +81,39 @@ class Obstacles:
 
 def drive(pose: np.ndarray, goal: np.ndarray, obstacles: Obstacles | None,
           gains: ControllerGains = ControllerGains()) -> tuple[np.ndarray, MotionOutcome]:
-    """Drive from ``pose`` to ``goal`` (both (3,) ``[x, y, yaw]``) with :class:`PoseController`, integrating each
-    command exactly over ``1 / gains.rate_hz`` seconds of simulated time. Before each step, the next pose is checked
-    against ``obstacles``; on contact the robot stays at the current pose and the outcome says ``collided``.
+    """Drive from ``pose`` to ``goal`` (both (3,) ``[x, y, yaw]``): :func:`drive_robots` of one robot.
 
     Returns:
         (final pose (3,) float64, :class:`MotionOutcome` with the simulated duration including ``settle_s``).
     """
+    poses, collided, seconds = drive_robots(np.asarray(pose, dtype=np.float64).reshape(1, 3),
+                                            np.asarray(goal, dtype=np.float64).reshape(1, 3), obstacles, gains)
+    return poses[0], MotionOutcome(collided=bool(collided[0]), duration_s=float(seconds[0]))
+
+
+def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | None,
+                 gains: ControllerGains = ControllerGains()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Drive N robots from ``poses`` to ``goals`` (both (N, 3) ``[x, y, yaw]``, map frame) together with
+    :class:`~benchbot.core.motion.PoseControllers`, integrating each command exactly over ``1 / gains.rate_hz``
+    seconds of simulated time. Before each step, every moving robot's next pose is checked against ``obstacles``
+    (not against the other robots); on contact that robot stays at its current pose and stops. A robot whose goal
+    is its pose does not move.
+
+    Returns:
+        (final poses (N, 3) float64, collided (N,) bool, simulated seconds (N,) float64: until the contact, or the
+        motion plus ``gains.settle_s``).
+    """
     dt = 1.0 / gains.rate_hz
-    ctl = PoseController(np.asarray(goal, dtype=np.float64), gains)
-    pose = np.asarray(pose, dtype=np.float64).copy()
-    t = 0.0
-    while (cmd := ctl.command(pose)) is not None:
-        nxt = integrate_unicycle(pose, cmd[0], cmd[1], dt)
-        if obstacles is not None and obstacles.collides(nxt[:2]):
-            return pose, MotionOutcome(collided=True, duration_s=t)
-        pose = nxt
-        t += dt
-    return pose, MotionOutcome(collided=False, duration_s=t + gains.settle_s)
+    ctl = PoseControllers(goals, gains)
+    poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
+    collided = np.zeros(len(poses), dtype=bool)
+    ticks = np.zeros(len(poses))
+    while (moving := ctl.command(poses)).any():
+        idx = np.flatnonzero(moving)
+        nxt = integrate_unicycles(poses[idx], ctl.v[idx], ctl.w[idx], dt)
+        hit = np.zeros(len(idx), dtype=bool) if obstacles is None else obstacles.clearances(nxt[:, :2])[0] <= 0.0
+        collided[idx[hit]] = True
+        ctl.stop(idx[hit])
+        poses[idx[~hit]] = nxt[~hit]
+        ticks[idx[~hit]] += 1
+    return poses, collided, np.where(collided, ticks * dt, ticks * dt + gains.settle_s)
