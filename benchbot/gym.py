@@ -37,6 +37,10 @@ ENV_IDS: dict[str, dict[str, Any]] = {
     "BenchBotRemote-v0": {},
 }
 
+#: Gymnasium id → its ``vector_entry_point``: ``gym.make_vec(id, num_envs=N)`` builds N batched robots in one
+#: process by default (:mod:`benchbot.gym_vector`); ``vectorization_mode="sync"`` steps N environments instead.
+VECTOR_ENTRY_POINTS: dict[str, str] = {"BenchBot-v0": "benchbot.gym_vector:BenchBotVectorEnv"}
+
 
 def _gym() -> Any:
     try:
@@ -47,8 +51,9 @@ def _gym() -> Any:
 
 
 def register_envs() -> None:
-    """Register :data:`ENV_IDS` with Gymnasium (entry point ``benchbot.gym:BenchBotEnv``, no time limit wrapper:
-    the environment truncates itself at ``max_steps``). Idempotent.
+    """Register :data:`ENV_IDS` with Gymnasium (entry point ``benchbot.gym:BenchBotEnv``, vector entry points
+    :data:`VECTOR_ENTRY_POINTS`, no time limit wrapper: the environment truncates itself at ``max_steps``).
+    Idempotent.
 
     Raises:
         ImportError: gymnasium is not installed.
@@ -56,7 +61,8 @@ def register_envs() -> None:
     gymnasium = _gym()
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point="benchbot.gym:BenchBotEnv", kwargs=dict(kwargs))
+            gymnasium.register(id=env_id, entry_point="benchbot.gym:BenchBotEnv",
+                               vector_entry_point=VECTOR_ENTRY_POINTS.get(env_id), kwargs=dict(kwargs))
 
 
 def make_env_class() -> type:
@@ -238,4 +244,5 @@ try:
 except ImportError:  # gymnasium missing: BenchBotEnv says how to install it when first used
     pass
 
-__all__ = ["BenchBotEnv", "DEFAULT_ENV", "DEFAULT_ROBOT", "DEFAULT_TASK", "ENV_IDS", "make_env_class", "register_envs"]
+__all__ = ["BenchBotEnv", "DEFAULT_ENV", "DEFAULT_ROBOT", "DEFAULT_TASK", "ENV_IDS", "VECTOR_ENTRY_POINTS", "make_env_class",
+           "register_envs"]

@@ -135,6 +135,18 @@ def se2_to_matrix(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
     return T
 
 
+def se2_to_matrices(poses: np.ndarray) -> np.ndarray:
+    """(N, 4, 4) float64 ``T`` of N planar poses ``[x m, y m, yaw rad]`` (N, 3) on the floor (z = 0): each is
+    :func:`se2_to_matrix` of one row."""
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    T = np.zeros((len(poses), 4, 4))
+    T[:, 0, 0], T[:, 0, 1], T[:, 1, 0], T[:, 1, 1] = c, -s, s, c
+    T[:, :2, 3] = poses[:, :2]
+    T[:, 2, 2] = T[:, 3, 3] = 1.0
+    return T
+
+
 def se2_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """SE(2) product ``a · b`` of two (3,) poses ``[x, y, yaw]``; yaw wrapped to [-π, π)."""
     c, s = math.cos(a[2]), math.sin(a[2])

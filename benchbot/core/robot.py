@@ -97,5 +97,62 @@ class RobotBackend(abc.ABC):
         """
         return self.observe(names)
 
+    def batched(self, count: int) -> "BatchedRobots":
+        """``count`` robots like this one in the scene :meth:`load_scene` loaded, moved and sensed together (the
+        Gym vector environment, :mod:`benchbot.gym_vector`). A simulator offers it by overriding this method.
+
+        Raises:
+            NotImplementedError: this backend has no batched robots (a real robot, a simulator without them).
+            benchbot.core.errors.BackendError: no scene is loaded.
+        """
+        raise NotImplementedError(f"{type(self).__name__} has no batched robots")
+
     def close(self) -> None:
         """Release resources (GPU memory, threads, connections). The backend is not used afterwards."""
+
+
+class BatchedRobots(abc.ABC):
+    """N robots of one backend in its scene, moved and sensed together (:meth:`RobotBackend.batched`). They do not
+    see or collide with one another. Frames and units as :class:`RobotBackend`'s; robot ``i`` is index ``i`` of
+    every array.
+
+    Attributes:
+        count: N.
+        start_pose: (3,) float64 ``[x m, y m, yaw rad]``: the scene's start pose (map frame), where :meth:`place`
+            puts robots by default.
+        observations: the names :meth:`observe` offers: among ``image_rgb``, ``image_depth``, ``laser``.
+    """
+
+    count: int
+    start_pose: np.ndarray
+    observations: tuple[str, ...]
+
+    @abc.abstractmethod
+    def poses(self) -> np.ndarray:
+        """(N, 3) float64 ``[x m, y m, yaw rad]`` of each robot frame in ``map`` (a copy)."""
+
+    @abc.abstractmethod
+    def place(self, which: np.ndarray, poses: np.ndarray | None = None) -> None:
+        """Put the robots selected by ``which`` ((N,) bool) at ``poses`` ((N, 3), the selected rows used; None: the
+        start pose), at rest, without motion or collision checks."""
+
+    @abc.abstractmethod
+    def move_to(self, goals: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Drive the robots selected by ``which`` ((N,) bool) to ``goals`` ((N, 3) map frame, the selected rows
+        used) with the pose controller of :mod:`benchbot.core.motion`, as :meth:`RobotBackend.move_to` drives one;
+        returns (N,) bool, True where a robot stopped before a contact with the scene."""
+
+    @abc.abstractmethod
+    def observe(self, names: Sequence[str], *, on_device: bool = False) -> dict[str, Any]:
+        """The sensors ``names`` (among :attr:`observations`) of all N robots at their poses, with a leading batch
+        axis: ``image_rgb`` (N, H, W, 3) uint8, ``image_depth`` (N, H, W) float32 metres (0: no hit), ``laser``
+        (N, beams) float64 ranges in metres clipped to the laser's ``range_max`` (the beams' angles fixed, as the
+        single robot's scan). NumPy arrays the caller owns; with ``on_device`` the images may instead be the
+        backend's own device buffers exporting DLPack (``__dlpack__``), valid until the next call.
+
+        Raises:
+            KeyError: a name not in :attr:`observations`.
+        """
+
+    def close(self) -> None:
+        """Release what the batch holds (the backend it came from stays open)."""

@@ -494,6 +494,18 @@ class TaichiSimBackend(RobotBackend):
     def _laser(self, scene: Scene, hand_out: Any) -> dict[str, Any]:
         return {"scans": hand_out(self._scan()), "range_min": self.range_min, "range_max": self.range_max}
 
+    def batched(self, count: int):
+        """``count`` robots in this scene, moved and sensed together: a
+        :class:`~benchbot_sim_taichi.batched.TaichiBatchedRobots` sharing this backend's renderer, obstacles and
+        sensors, at the start pose.
+
+        Raises:
+            BackendError: no scene is loaded, ``count`` < 1, quality mode or sensor noise (see that class).
+        """
+        from benchbot_sim_taichi.batched import TaichiBatchedRobots
+
+        return TaichiBatchedRobots(self, count)
+
     def close(self) -> None:
         """Drop the scene and caches and free the renderer's GPU memory (Taichi's runtime stays up for the
         process). Runs on the backend thread, the thread that renders."""

@@ -1,0 +1,314 @@
+"""A Gymnasium vector environment over batched simulated robots: N robots, one renderer launch per step
+(``pip install benchbot[gym]``; docs/gym.md, *Vector environments*).
+
+``gym.make_vec("BenchBot-v0", num_envs=N)`` builds :class:`BenchBotVectorEnv` (Gymnasium's ``vector_entry_point``
+mode, the default for this id; ``vectorization_mode="sync"`` steps N separate simulators instead). Each distinct
+environment among the sub-environments is one scene, loaded once, with its robots batched
+(:meth:`benchbot.core.robot.RobotBackend.batched`): every step moves all N robots with the pose controller on arrays
+and renders every camera and laser of a scene in one kernel launch. Sub-environment ``i`` behaves as
+``gym.make("BenchBot-v0", ...)`` with the same task, environment, robot and seed would (same actions, spaces,
+poses, collisions, ``terminated``/``truncated``), except that:
+
+* the robots do not see or collide with one another;
+* observations are the batched kinds ``image_rgb``, ``image_depth``, ``laser`` and ``pose``, in fast mode without
+  sensor noise; tasks with noisy localisation and scene-change tasks (two scenes) need the ``sync`` mode;
+* ``reset(seed=...)`` seeds only :attr:`np_random`: the worlds are fixed by the constructor's ``seed`` (with each
+  environment's name and variant, :mod:`benchbot.core.seeding`);
+* a sub-environment that terminated or was truncated is reset on its next step (Gymnasium's ``NEXT_STEP``
+  autoreset, as ``SyncVectorEnv`` does): its action is ignored and it returns its start observation.
+
+``on_device=True`` hands the images over without a copy: on CUDA as objects exporting DLPack and the CUDA Array
+Interface (``torch.from_dlpack(obs["image_rgb"])``, ``jax.dlpack.from_dlpack(...)``), on the CPU as NumPy views.
+They are the renderer's buffers, written over by the next ``step``/``reset``: clone what you keep.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from benchbot.gym import DEFAULT_ENV, DEFAULT_ROBOT, DEFAULT_TASK, _gym
+
+#: Observation kinds a batch senses → the key of their entry in the observation dict (``poses`` is served as
+#: ``pose``, as :class:`benchbot.gym.BenchBotEnv` serves it).
+BATCHED_KEYS = {"image_rgb": "image_rgb", "image_depth": "image_depth", "laser": "laser", "poses": "pose"}
+
+
+def _on_backend_thread(fn: Any, *args: Any) -> Any:
+    """``fn(*args)`` on the process's backend thread (:func:`benchbot.core.server.service.backend_worker`: Taichi
+    runs on one thread, shared with in-process ``BenchBot-v0`` environments and services); returns its value,
+    raises what it raises."""
+    from benchbot.core.server.service import backend_worker
+
+    return backend_worker().submit(fn, *args).result()
+
+
+def _environment_list(env: str | Sequence[str], num_envs: int) -> list[str]:
+    """``env`` as one ``name:variant`` string per sub-environment.
+
+    Raises:
+        ValueError: a list whose length is not ``num_envs``, or not strings.
+    """
+    if isinstance(env, str):
+        return [env] * num_envs
+    names = list(env)
+    if len(names) != num_envs or not all(isinstance(n, str) for n in names):
+        raise ValueError(f"env must be one 'name:variant' string or a list of {num_envs} of them, got {env!r}")
+    return names
+
+
+def make_vector_env_class() -> type:
+    """The :class:`BenchBotVectorEnv` class (built lazily, as :func:`benchbot.gym.make_env_class`)."""
+    gymnasium = _gym()
+    spaces = gymnasium.spaces
+    from gymnasium.vector import AutoresetMode, VectorEnv
+    from gymnasium.vector.utils import batch_space
+
+    from benchbot.core import seeding
+    from benchbot.core.errors import SpecError
+    from benchbot.core.geometry import pose7_to_se2, wrap_angle
+    from benchbot.core.registry import get_registry
+    from benchbot.core.session import resolve_run
+
+    class BenchBotVectorEnv(VectorEnv):
+        """N BenchBot sub-environments stepped as one (the module docstring gives the contract).
+
+        Args:
+            num_envs: N (≥ 1).
+            task, env, robot: as ``BenchBot-v0``; ``env`` may also be a list of N ``name:variant`` strings
+                (sub-environments of one environment share its scene).
+            seed: the world seed (scene appearance) of every scene. options: backend options, e.g.
+                ``{'width': 160, 'height': 120, 'arch': 'cuda'}``.
+            max_steps, step_m, turn_deg, render_mode: as ``BenchBot-v0``.
+            on_device: hand the images over as the renderer's own buffers (DLPack on CUDA; NumPy views on the CPU).
+
+        Raises:
+            ValueError: a bad ``num_envs``, ``max_steps``, ``step_m``, ``turn_deg``, ``render_mode`` or ``env``
+                list; ``on_device`` with more than one scene.
+            benchbot.core.errors.SpecError: an unknown name, a combination the task refuses, a task this vector
+                environment does not batch (two scenes, noisy localisation), or a robot without batched robots.
+            benchbot.core.errors.BackendError: a scene cannot be built.
+        """
+
+        metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+        def __init__(self, num_envs: int = 1, *, task: str = DEFAULT_TASK, env: str | Sequence[str] = DEFAULT_ENV,
+                     robot: str = DEFAULT_ROBOT, seed: int = 0, options: dict | None = None, max_steps: int = 200,
+                     step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None,
+                     on_device: bool = False) -> None:
+            if not (isinstance(num_envs, int) and num_envs >= 1):
+                raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+            if render_mode not in (None, "rgb_array"):
+                raise ValueError(f"render_mode {render_mode!r} is not supported: use None or 'rgb_array'")
+            if not (isinstance(max_steps, int) and max_steps >= 1):
+                raise ValueError(f"max_steps must be an integer >= 1, got {max_steps!r}")
+            for name, value in (("step_m", step_m), ("turn_deg", turn_deg)):
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
+                    raise ValueError(f"{name} must be a positive number, got {value!r}")
+            names = _environment_list(env, num_envs)
+            scenes = list(dict.fromkeys(names))
+            if on_device and len(scenes) > 1:
+                raise ValueError(f"on_device needs one scene per vector environment, got {', '.join(scenes)}: make "
+                                 "one vector environment per scene")
+            self.num_envs, self.render_mode, self.on_device = num_envs, render_mode, bool(on_device)
+            self.max_steps, self.step_m, self.turn_rad = max_steps, float(step_m), math.radians(float(turn_deg))
+            self._groups: list[tuple[Any, Any, np.ndarray, list]] = []  # (backend, robots, indices, trajectory)
+            try:
+                self.task = _on_backend_thread(self._load_scenes, task, robot, names, int(seed), dict(options or {}))
+            except BaseException:
+                self.close()
+                raise
+            self.active = "move_distance" in self.task["actions"] and "move_angle" in self.task["actions"]
+            self.keys = {kind: key for kind, key in BATCHED_KEYS.items() if kind in self.task["observations"]}
+            self.single_action_space = spaces.Discrete(4 if self.active else 1)
+            self.action_space = batch_space(self.single_action_space, num_envs)
+            self._steps = np.zeros(num_envs, dtype=np.int64)
+            self._next_pose = np.zeros(num_envs, dtype=np.int64)  # passive: index of the next trajectory pose
+            self._needs_reset = np.zeros(num_envs, dtype=bool)
+            self._last: dict[str, Any] = {}
+            first = _on_backend_thread(self._observe)
+            self.single_observation_space = spaces.Dict({key: self._space(spaces, key, value[0])
+                                                         for key, value in first.items()})
+            self.observation_space = batch_space(self.single_observation_space, num_envs)
+
+        def _load_scenes(self, task: str, robot: str, names: list[str], seed: int, options: dict) -> dict:
+            """Build each distinct scene's backend and its batched robots (on the backend thread); returns the
+            task spec."""
+            registry = get_registry()
+            for scene_name in dict.fromkeys(names):
+                run = resolve_run(registry, task, robot, scene_name)
+                self._check_task(run.task)
+                environment = run.environments[0]
+                backend = registry.backend_factory(run.robot["type"])(run.robot, {"seed": seed, **options})
+                self._groups.append((backend, None, np.array([], dtype=np.int64), []))
+                backend.load_scene(environment, seed=seeding.environment_world_seed(seed, environment))
+                indices = np.array([i for i, n in enumerate(names) if n == scene_name], dtype=np.int64)
+                try:
+                    robots = backend.batched(len(indices))
+                except NotImplementedError:
+                    raise SpecError(f"robot '{robot}' (type {run.robot['type']}) has no batched robots",
+                                    "use gym.make_vec(..., vectorization_mode='sync')") from None
+                trajectory = [pose7_to_se2(p) for p in environment.get("trajectory_poses") or []]
+                if not trajectory and "move_next" in run.task["actions"]:
+                    raise SpecError(f"environment {scene_name} has no trajectory_poses for task '{task}'",
+                                    "choose an environment with a trajectory, or an active task")
+                self._groups[-1] = (backend, robots, indices, trajectory)
+            return run.task
+
+        @staticmethod
+        def _check_task(task: dict) -> None:
+            if task.get("scene_count", 1) != 1:
+                raise SpecError(f"task '{task['name']}' has {task['scene_count']} scenes: the vector environment "
+                                "batches single-scene tasks", "use gym.make_vec(..., vectorization_mode='sync')")
+            if task.get("localisation", "ground_truth") != "ground_truth":
+                raise SpecError(f"task '{task['name']}' has {task['localisation']} localisation: the vector "
+                                "environment batches ground-truth tasks",
+                                "use gym.make_vec(..., vectorization_mode='sync')")
+
+        @staticmethod
+        def _space(spaces: Any, key: str, value: Any) -> Any:
+            shape, dtype = tuple(value.shape), np.dtype(value.dtype)
+            if key == "image_rgb":
+                return spaces.Box(0, 255, shape, np.uint8)
+            if key == "pose":
+                return spaces.Box(-np.inf, np.inf, shape, np.float64)
+            return spaces.Box(0.0, np.inf, shape, dtype)
+
+        # ----------------------------------------------------------------------------------------- observing
+        def _poses(self) -> np.ndarray:
+            poses = np.zeros((self.num_envs, 3))
+            for _, robots, indices, _ in self._groups:
+                poses[indices] = robots.poses()
+            return poses
+
+        def _observe(self) -> dict[str, Any]:
+            sensors = [kind for kind in self.keys if kind != "poses"]
+            out: dict[str, Any] = {}
+            for _, robots, indices, _ in self._groups:
+                part = robots.observe(sensors, on_device=self.on_device) if sensors else {}
+                for kind, value in part.items():
+                    key = self.keys[kind]
+                    if len(self._groups) == 1:
+                        out[key] = value
+                        continue
+                    if key not in out:
+                        out[key] = np.empty((self.num_envs,) + tuple(value.shape[1:]), value.dtype)
+                    out[key][indices] = value
+            if "poses" in self.keys:
+                out["pose"] = self._poses()
+            self._last = out
+            return out
+
+        # ----------------------------------------------------------------------------------------- the episode
+        def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+            """Every robot back at its scene's start pose; returns ``(observations, {'scene_number': (N,) int})``.
+            ``seed`` seeds :attr:`np_random` only (the worlds are fixed by the constructor's ``seed``)."""
+            if seed is not None:
+                self._np_random, self._np_random_seed = gymnasium.utils.seeding.np_random(seed)
+            self._steps[:] = 0
+            self._next_pose[:] = 0
+            self._needs_reset[:] = False
+            return _on_backend_thread(self._reset), {"scene_number": np.zeros(self.num_envs, dtype=np.int64)}
+
+        def _reset(self) -> dict[str, Any]:
+            for _, robots, _, _ in self._groups:
+                robots.place(np.ones(robots.count, dtype=bool))
+            return self._observe()
+
+        def _goals(self, actions: np.ndarray, acting: np.ndarray, poses: np.ndarray) -> np.ndarray:
+            """(N, 3) goals of the acting robots (map frame): the task's action per robot."""
+            goals = poses.copy()
+            if self.active:
+                distance = np.select([actions == 0, actions == 1], [self.step_m, -self.step_m], 0.0)
+                turn = np.select([actions == 2, actions == 3], [self.turn_rad, -self.turn_rad], 0.0)
+                goals[:, 0] += np.cos(poses[:, 2]) * distance
+                goals[:, 1] += np.sin(poses[:, 2]) * distance
+                goals[:, 2] = wrap_angle(poses[:, 2] + turn)
+                return goals
+            for _, _, indices, trajectory in self._groups:
+                for i in indices[acting[indices]]:
+                    goals[i] = trajectory[self._next_pose[i]]
+            return goals
+
+        def step(self, actions: Any) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, dict]:
+            """Perform one action per sub-environment ((N,) ints of :attr:`single_action_space`); returns
+            ``(observations, rewards (N,) float64 zeros, terminated (N,) bool, truncated (N,) bool, info)``, with
+            ``info['result']`` (N,) str ``'SUCCESS'``/``'COLLISION'``/``'FINISHED'`` and ``info['scene_number']``
+            (N,) int, each masked by ``info['_result']``/``info['_scene_number']`` (False where a sub-environment
+            was reset instead).
+
+            Raises:
+                ValueError: ``actions`` is not N actions of the action space.
+            """
+            actions = np.asarray(actions)
+            if (actions.shape != (self.num_envs,) or actions.dtype.kind not in "iu"
+                    or not self.action_space.contains(actions.astype(np.int64))):
+                raise ValueError(f"actions must be {self.num_envs} integers of {self.single_action_space}, got "
+                                 f"{actions!r}")
+            resetting, acting = self._needs_reset.copy(), ~self._needs_reset
+            collided, obs = _on_backend_thread(self._move_and_observe, actions.astype(np.int64), resetting, acting)
+            self._steps[resetting], self._next_pose[resetting] = 0, 0
+            self._steps[acting] += 1
+            finished = np.zeros(self.num_envs, dtype=bool)
+            if not self.active:
+                self._next_pose[acting] += 1
+                lengths = np.zeros(self.num_envs, dtype=np.int64)
+                for _, _, indices, trajectory in self._groups:
+                    lengths[indices] = len(trajectory)
+                finished = acting & (self._next_pose >= lengths)
+            terminated = acting & (collided | finished)
+            truncated = acting & ~terminated & (self._steps >= self.max_steps)
+            self._needs_reset = terminated | truncated
+            result = np.where(collided, "COLLISION", np.where(finished, "FINISHED", "SUCCESS"))
+            result = np.where(acting, result, "")
+            info = {"result": result, "_result": acting.copy(),
+                    "scene_number": np.zeros(self.num_envs, dtype=np.int64), "_scene_number": acting.copy()}
+            return obs, np.zeros(self.num_envs), terminated, truncated, info
+
+        def _move_and_observe(self, actions: np.ndarray, resetting: np.ndarray,
+                              acting: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+            """Put the ``resetting`` robots at their start, drive the ``acting`` ones (on the backend thread);
+            returns (collided (N,) bool, the observations)."""
+            goals = self._goals(actions, acting, self._poses())
+            collided = np.zeros(self.num_envs, dtype=bool)
+            for _, robots, indices, _ in self._groups:
+                robots.place(resetting[indices])
+                collided[indices] = robots.move_to(goals[indices], acting[indices])
+            return collided, self._observe()
+
+        def render(self) -> tuple | None:
+            """The last colour images, one (H, W, 3) uint8 NumPy array per sub-environment (None without
+            ``image_rgb``)."""
+            rgb = self._last.get("image_rgb")
+            if rgb is None:
+                return None
+            if not isinstance(rgb, np.ndarray):
+                rgb = rgb.numpy()
+            return tuple(np.array(image) for image in rgb)
+
+        def close_extras(self, **kwargs: Any) -> None:
+            """Close every scene's backend (its renderer's memory)."""
+            groups, self._groups = getattr(self, "_groups", []), []
+
+            def close_all() -> None:
+                for backend, robots, _, _ in groups:
+                    if robots is not None:
+                        robots.close()
+                    backend.close()
+
+            _on_backend_thread(close_all)
+
+    return BenchBotVectorEnv
+
+
+def __getattr__(name: str) -> Any:
+    if name == "BenchBotVectorEnv":
+        cls = make_vector_env_class()
+        globals()["BenchBotVectorEnv"] = cls
+        return cls
+    raise AttributeError(name)
+
+
+__all__ = ["BATCHED_KEYS", "BenchBotVectorEnv", "make_vector_env_class"]

@@ -1,0 +1,163 @@
+"""The renderer's GPU outputs handed to array libraries without a copy: DLPack and ``__cuda_array_interface__``.
+
+Taichi 1.7's ndarrays export neither protocol, so :class:`DeviceArray` exports a Taichi ndarray itself; one in CUDA
+memory is taken by ``torch.from_dlpack(a)``, ``jax.dlpack.from_dlpack(a)``, ``cupy.from_dlpack(a)`` (DLPack) and
+``torch.as_tensor(a, device="cuda")``, ``cupy.asarray(a)`` (``__cuda_array_interface__``, version 3), all without
+copying; one in host memory (Taichi on the CPU) by ``numpy.from_dlpack(a)``. Formats: the DLPack C header, ``dlpack.h`` (v0.8, the unversioned ``DLManagedTensor`` in a
+capsule named ``"dltensor"``: https://dmlc.github.io/dlpack/latest/c_api.html), and Numba's CUDA Array Interface
+(https://numba.readthedocs.io/en/stable/cuda/cuda_array_interface.html).
+
+The memory stays the renderer's: the next frame of the same sizes is written into it, so a consumer that keeps a
+frame copies it (``tensor.clone()``). Whoever makes a :class:`DeviceArray` first waits for the kernels that write it
+(``Renderer.sync()``, on Taichi's thread: the CUDA context is current there only), so the data is complete on any
+stream a consumer names.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from typing import Any
+
+import numpy as np
+
+#: DLPack device types (``DLDeviceType``) and data type codes (``DLDataTypeCode``) of dlpack.h.
+KDL_CPU, KDL_CUDA = 1, 2
+_DTYPE_CODES = {"i": 0, "u": 1, "f": 2}
+
+
+class _DLDevice(ctypes.Structure):
+    _fields_ = [("device_type", ctypes.c_int32), ("device_id", ctypes.c_int32)]
+
+
+class _DLDataType(ctypes.Structure):
+    _fields_ = [("code", ctypes.c_uint8), ("bits", ctypes.c_uint8), ("lanes", ctypes.c_uint16)]
+
+
+class _DLTensor(ctypes.Structure):
+    _fields_ = [("data", ctypes.c_void_p), ("device", _DLDevice), ("ndim", ctypes.c_int32),
+                ("dtype", _DLDataType), ("shape", ctypes.POINTER(ctypes.c_int64)),
+                ("strides", ctypes.POINTER(ctypes.c_int64)), ("byte_offset", ctypes.c_uint64)]
+
+
+class _DLManagedTensor(ctypes.Structure):
+    pass
+
+
+_DELETER = ctypes.CFUNCTYPE(None, ctypes.POINTER(_DLManagedTensor))
+_DLManagedTensor._fields_ = [("dl_tensor", _DLTensor), ("manager_ctx", ctypes.c_void_p), ("deleter", _DELETER)]
+
+#: what each exported tensor keeps alive until its consumer (or the unconsumed capsule) calls the deleter:
+#: ``{address of the DLManagedTensor: (the struct, its shape array, the exporting DeviceArray)}``
+_LIVE: dict[int, tuple] = {}
+
+
+@_DELETER
+def _delete(managed) -> None:
+    _LIVE.pop(ctypes.addressof(managed.contents), None)
+
+
+_CAPSULE_DESTRUCTOR = ctypes.CFUNCTYPE(None, ctypes.c_void_p)
+_capsule_new = ctypes.pythonapi.PyCapsule_New
+_capsule_new.restype = ctypes.py_object
+_capsule_new.argtypes = [ctypes.c_void_p, ctypes.c_char_p, _CAPSULE_DESTRUCTOR]
+_capsule_is_valid = ctypes.pythonapi.PyCapsule_IsValid
+_capsule_is_valid.restype = ctypes.c_int
+_capsule_is_valid.argtypes = [ctypes.c_void_p, ctypes.c_char_p]
+_capsule_pointer = ctypes.pythonapi.PyCapsule_GetPointer
+_capsule_pointer.restype = ctypes.c_void_p
+_capsule_pointer.argtypes = [ctypes.c_void_p, ctypes.c_char_p]
+
+
+@_CAPSULE_DESTRUCTOR
+def _destroy_capsule(capsule: int) -> None:
+    """A capsule no consumer took (still named ``"dltensor"``; a consumer renames it ``"used_dltensor"``) frees its
+    tensor; a consumed one leaves that to the consumer's call of the deleter."""
+    if _capsule_is_valid(capsule, b"dltensor"):
+        _LIVE.pop(_capsule_pointer(capsule, b"dltensor"), None)
+
+
+class DeviceArray:
+    """A Taichi ndarray (one of the renderer's output buffers), exported without a copy.
+
+    Args:
+        ndarray: the Taichi ndarray (``taichi.ndarray``; element dimensions last in :attr:`shape`).
+        device_id: the CUDA device ordinal (Taichi's, 0).
+        device_type: :data:`KDL_CUDA` (default: the ndarray is in CUDA memory) or :data:`KDL_CPU` (Taichi on the
+            CPU; NumPy views, :func:`~benchbot_sim_taichi.render.host_copy.host_view`, are simpler there, and the
+            CUDA Array Interface is not offered).
+
+    Attributes:
+        shape: tuple of ints (the ndarray's shape, element dimensions last). dtype: its ``numpy.dtype``.
+
+    Raises:
+        TypeError: (on export) an element type DLPack cannot describe here (not int, uint or float).
+    """
+
+    def __init__(self, ndarray: Any, device_id: int = 0, device_type: int = KDL_CUDA) -> None:
+        from benchbot_sim_taichi.render.host_copy import device_pointer
+        from taichi.lang.util import to_numpy_type
+
+        self.ndarray = ndarray
+        self.device_id = int(device_id)
+        if device_type not in (KDL_CPU, KDL_CUDA):
+            raise ValueError(f"DeviceArray: device_type must be KDL_CPU (1) or KDL_CUDA (2), got {device_type!r}")
+        self.device_type = int(device_type)
+        self.dtype = np.dtype(to_numpy_type(ndarray.dtype))
+        element = tuple(getattr(ndarray, "element_shape", ()) or ())
+        self.shape = tuple(int(n) for n in ndarray.shape) + tuple(int(n) for n in element)
+        self.pointer = device_pointer(ndarray)
+
+    def __repr__(self) -> str:
+        where = f"cuda:{self.device_id}" if self.device_type == KDL_CUDA else "cpu"
+        return f"DeviceArray(shape={self.shape}, dtype={self.dtype}, {where})"
+
+    def __dlpack_device__(self) -> tuple[int, int]:
+        """``(device_type, device_id)``: ``(2, 0)`` for CUDA device 0 (DLPack's ``kDLCUDA``), ``(1, 0)`` on the CPU."""
+        return self.device_type, self.device_id if self.device_type == KDL_CUDA else 0
+
+    def __dlpack__(self, *, stream: Any = None, max_version: Any = None, dl_device: Any = None,
+                   copy: bool | None = None) -> Any:
+        """A ``"dltensor"`` capsule of this memory (row-major, no copy; ``stream`` is not needed: see the module
+        docstring).
+
+        Raises:
+            BufferError: a copy or another device was asked for (neither is offered).
+            TypeError: the element type has no DLPack code here.
+        """
+        if copy:
+            raise BufferError("DeviceArray exports its memory without copying: copy=True is not offered")
+        if dl_device is not None and tuple(dl_device) != self.__dlpack_device__():
+            raise BufferError(f"{self!r} cannot be exported to DLPack device {tuple(dl_device)}")
+        if self.dtype.kind not in _DTYPE_CODES:
+            raise TypeError(f"DeviceArray: no DLPack type code for {self.dtype}")
+        managed = _DLManagedTensor()
+        shape = (ctypes.c_int64 * len(self.shape))(*self.shape)
+        tensor = managed.dl_tensor
+        tensor.data = self.pointer
+        tensor.device = _DLDevice(*self.__dlpack_device__())
+        tensor.ndim = len(self.shape)
+        tensor.dtype = _DLDataType(_DTYPE_CODES[self.dtype.kind], self.dtype.itemsize * 8, 1)
+        tensor.shape = shape
+        tensor.strides = None  # row-major (compact)
+        tensor.byte_offset = 0
+        managed.manager_ctx = None
+        managed.deleter = _delete
+        address = ctypes.addressof(managed)
+        _LIVE[address] = (managed, shape, self)
+        return _capsule_new(address, b"dltensor", _destroy_capsule)
+
+    @property
+    def __cuda_array_interface__(self) -> dict:
+        """Version 3 of the CUDA Array Interface (``stream`` None: the data is complete, see the module docstring).
+
+        Raises:
+            AttributeError: the array is not in CUDA memory (so ``hasattr`` is False there, as consumers expect).
+        """
+        if self.device_type != KDL_CUDA:
+            raise AttributeError("__cuda_array_interface__: the array is in host memory")
+        return {"shape": self.shape, "typestr": self.dtype.str, "data": (self.pointer, False), "version": 3,
+                "strides": None, "stream": None}
+
+    def numpy(self) -> np.ndarray:
+        """A new host copy, (shape) of :attr:`dtype`."""
+        return self.ndarray.to_numpy()

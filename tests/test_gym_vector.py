@@ -1,0 +1,147 @@
+"""benchbot.gym_vector: N batched robots behind ``gym.make_vec("BenchBot-v0", num_envs=N)``, checked against N
+single ``BenchBot-v0`` environments stepped by hand with the same actions (real simulator, real renders)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+import benchbot.gym  # noqa: E402,F401  (registers the ids)
+from benchbot.core.errors import BackendError, SpecError  # noqa: E402
+
+SMALL = {"width": 32, "height": 24}
+ACTIVE = "semantic_slam:active:ground_truth"
+PASSIVE = "semantic_slam:passive:ground_truth"
+
+
+def _single_runs(task: str, envs: list[str], actions: np.ndarray, max_steps: int) -> list[list[tuple]]:
+    """What N single environments give for ``actions`` (T, N), each reset on the step after it ended (Gymnasium's
+    NEXT_STEP autoreset): per step and environment ``(obs, terminated, truncated, result or None)``."""
+    runs = []
+    for i, env_name in enumerate(envs):
+        env = gymnasium.make("BenchBot-v0", task=task, env=env_name, options=SMALL, max_steps=max_steps)
+        obs, _ = env.reset()
+        steps, ended = [(obs, False, False, None)], False
+        for action in actions[:, i]:
+            if ended:
+                obs, _ = env.reset()
+                steps.append((obs, False, False, None))
+                ended = False
+                continue
+            obs, _, terminated, truncated, info = env.step(int(action))
+            steps.append((obs, terminated, truncated, info["result"]))
+            ended = terminated or truncated
+        env.close()
+        runs.append(steps)
+    return runs
+
+
+def _vector_run(task: str, envs: list[str] | str, actions: np.ndarray, max_steps: int, **kwargs) -> list[tuple]:
+    n = actions.shape[1]
+    vec = gymnasium.make_vec("BenchBot-v0", num_envs=n, task=task, env=envs, options=SMALL, max_steps=max_steps,
+                             **kwargs)
+    try:
+        assert type(vec).__name__ == "BenchBotVectorEnv"  # the vector entry point is make_vec's default here
+        obs, info = vec.reset(seed=3)
+        assert vec.observation_space.contains({k: np.asarray(v) for k, v in obs.items()})
+        steps = [({k: np.array(v) for k, v in obs.items()}, np.zeros(n, bool), np.zeros(n, bool),
+                  np.full(n, None))]
+        for action in actions:
+            obs, reward, terminated, truncated, info = vec.step(action)
+            assert reward.shape == (n,) and not reward.any()
+            result = np.where(info["_result"], info["result"], None)
+            steps.append(({k: np.array(v) for k, v in obs.items()}, terminated, truncated, result))
+    finally:
+        vec.close()
+    return steps
+
+
+def _assert_same(vector: list[tuple], singles: list[list[tuple]]) -> None:
+    for t, (obs, terminated, truncated, result) in enumerate(vector):
+        for i, single in enumerate(singles):
+            s_obs, s_terminated, s_truncated, s_result = single[t]
+            where = f"step {t}, environment {i}"
+            assert (bool(terminated[i]), bool(truncated[i]), result[i]) == (s_terminated, s_truncated, s_result), where
+            np.testing.assert_allclose(obs["pose"][i], s_obs["pose"], atol=1e-9, err_msg=where)
+            np.testing.assert_allclose(obs["laser"][i], s_obs["laser"], atol=1e-5, err_msg=where)
+            # one launch for N cameras gives each camera's pixels as a launch of its own does
+            assert np.array_equal(obs["image_rgb"][i], s_obs["image_rgb"]), where
+            assert np.array_equal(obs["image_depth"][i], s_obs["image_depth"]), where
+
+
+def test_batched_robots_move_and_see_as_single_environments_do():
+    """Three robots in one scene: one drives forward until it collides, one turns, one acts at random; max_steps
+    truncates and each is reset on its next step, as three single environments do."""
+    rng = np.random.default_rng(7)
+    actions = np.stack([np.zeros(14, int), np.full(14, 2), rng.integers(0, 4, 14)], axis=1)
+    vector = _vector_run(ACTIVE, "miniroom:1", actions, max_steps=6)
+    singles = _single_runs(ACTIVE, ["miniroom:1"] * 3, actions, max_steps=6)
+    _assert_same(vector, singles)
+    results = {r for _, _, _, step in vector for r in step if r is not None}
+    assert "COLLISION" in results, results  # the test saw a collision and a truncation
+    assert any(truncated.any() for _, _, truncated, _ in vector)
+
+
+def test_passive_robots_follow_the_trajectory_in_two_scenes():
+    """Passive robots in two scenes of one vector environment follow each scene's trajectory to FINISHED."""
+    envs = ["miniroom:4", "miniroom:1", "miniroom:4"]
+    actions = np.zeros((36, 3), int)
+    vector = _vector_run(PASSIVE, envs, actions, max_steps=1000)
+    singles = _single_runs(PASSIVE, envs, actions, max_steps=1000)
+    _assert_same(vector, singles)
+    assert any(r == "FINISHED" for _, _, _, step in vector for r in step)
+
+
+def test_on_device_images_are_the_renderers_buffers_without_a_copy():
+    """On the CPU, ``on_device`` images are NumPy views of the renderer's buffers (DLPack through NumPy), equal to
+    the host copies, and the next step writes over them."""
+    vec = gymnasium.make_vec("BenchBot-v0", num_envs=2, task=ACTIVE, env="miniroom:1", options=SMALL, on_device=True)
+    host = gymnasium.make_vec("BenchBot-v0", num_envs=2, task=ACTIVE, env="miniroom:1", options=SMALL)
+    try:
+        obs, _ = vec.reset()
+        expected, _ = host.reset()
+        rgb = np.from_dlpack(obs["image_rgb"])
+        assert np.array_equal(rgb, expected["image_rgb"]) and not rgb.flags.owndata
+        before = rgb.copy()
+        vec.step(np.array([2, 2]))  # both turn: the view now shows the new frame
+        assert not np.array_equal(rgb, before)
+        assert np.array_equal(rgb, host.step(np.array([2, 2]))[0]["image_rgb"])
+    finally:
+        vec.close()
+        host.close()
+
+
+def test_what_the_vector_environment_refuses_is_one_line():
+    make = gymnasium.make_vec
+    with pytest.raises(SpecError, match="has 2 scenes"):
+        make("BenchBot-v0", num_envs=2, task="scd:active:ground_truth", env="miniroom:1:2", options=SMALL)
+    with pytest.raises(SpecError, match="noisy localisation"):
+        make("BenchBot-v0", num_envs=2, task="semantic_slam:active:dead_reckoning", options=SMALL)
+    with pytest.raises(BackendError, match="fast mode without sensor noise"):
+        make("BenchBot-v0", num_envs=2, task=ACTIVE, options={**SMALL, "noise": "realistic"})
+    with pytest.raises(ValueError, match="one scene per vector environment"):
+        make("BenchBot-v0", num_envs=2, task=ACTIVE, env=["miniroom:1", "miniroom:2"], on_device=True)
+    with pytest.raises(ValueError, match="a list of 3"):
+        make("BenchBot-v0", num_envs=3, task=ACTIVE, env=["miniroom:1", "miniroom:2"])
+    with pytest.raises(SpecError, match="nosuchhome"):
+        make("BenchBot-v0", num_envs=2, task=ACTIVE, env="nosuchhome:1")
+    vec = make("BenchBot-v0", num_envs=2, task=ACTIVE, options=SMALL)
+    try:
+        vec.reset()
+        for bad in (np.array([0]), np.array([0, 4]), np.array([0.5, 1.0])):
+            with pytest.raises(ValueError, match="2 integers of Discrete"):
+                vec.step(bad)
+    finally:
+        vec.close()
+
+
+def test_sync_mode_still_steps_separate_simulators():
+    vec = gymnasium.make_vec("BenchBot-v0", num_envs=2, vectorization_mode="sync", task=ACTIVE, options=SMALL)
+    try:
+        assert type(vec).__name__ == "SyncVectorEnv"
+        obs, _ = vec.reset(seed=0)
+        assert obs["image_rgb"].shape == (2, 24, 32, 3)
+    finally:
+        vec.close()
