@@ -301,8 +301,35 @@ def _adapt_functions(pf: PackFile, spec: dict, root: Path, pack: str) -> None:
                             "add the module or use an installed module as module:attr")
 
 
+def _adapt_home_files(pf: PackFile, spec: dict, root: Path) -> None:
+    """Resolve an environment's ``home_files`` (the ground-truth files its home's floor plan is derived from)
+    against the spec's folder; refuse absolute paths, paths leaving the pack and missing files, one line naming the
+    entry. A list of another form is left to the schema's one-line error."""
+    files = spec.get("home_files")
+    if pf.kind != "environments" or not isinstance(files, list):
+        return
+    resolved = []
+    for i, name in enumerate(files):
+        if not isinstance(name, str) or not name:
+            return
+        where = f"{pf.rel}: $.home_files[{i}]"
+        if os.path.isabs(name) or name.startswith("~"):
+            raise SpecError(f"{where}: absolute path '{name}' is not allowed in a pack",
+                            "give a path relative to the spec's folder, inside the pack")
+        target = (pf.path.parent / name).resolve()
+        if not target.is_relative_to(root):
+            raise SpecError(f"{where}: '{name}' leaves the pack", "keep the home's ground-truth files inside the pack")
+        if not target.is_file():
+            raise SpecError(f"{where}: '{name}' does not exist",
+                            "list the ground-truth JSON files of the home's variants, relative to the spec's folder")
+        resolved.append(str(target))
+    spec["home_files"] = resolved
+
+
 def _adapt_paths(pf: PackFile, spec: dict, root: Path) -> None:
-    """Resolve a relative ``map_path`` against the spec's folder; refuse absolute ones and ones leaving the pack."""
+    """Resolve a relative ``map_path`` (and ``home_files``: :func:`_adapt_home_files`) against the spec's folder;
+    refuse absolute ones and ones leaving the pack."""
+    _adapt_home_files(pf, spec, root)
     map_path = spec.get("map_path")
     if pf.kind != "environments" or not isinstance(map_path, str) or not map_path:
         return
@@ -444,7 +471,8 @@ def _function_errors(scan: PackScan, allow_code: bool, allowed: set[str]) -> lis
 def _layout_errors(scan: PackScan) -> list[str]:
     """The content problems (:func:`benchbot.core.layout_checks.layout_problems`) of the pack's layouts: every
     ground truth, and every environment's ``map_path`` that is a ``.json`` file in the pack, checked with the
-    environment's own start and trajectory poses. One line each, no line twice."""
+    environment's own start and trajectory poses; every file of an environment's ``home_files`` must be a ground
+    truth (:func:`_home_file_errors`). One line each, no line twice."""
     from benchbot.core.layout_checks import layout_problems
     from benchbot.core.limits import MAX_SPEC_BYTES
     from benchbot.core.safe_load import load_data_file
@@ -453,6 +481,8 @@ def _layout_errors(scan: PackScan) -> list[str]:
     for pf in scan.files:
         if pf.error or not isinstance(pf.spec, dict):
             continue
+        if pf.kind == "environments":
+            problems += _home_file_errors(pf, scan.root)
         if pf.kind == "ground_truths":
             problems += layout_problems(pf.spec, source=pf.rel)
         elif pf.kind == "environments" and isinstance(pf.spec.get("map_path"), str):
@@ -471,6 +501,33 @@ def _layout_errors(scan: PackScan) -> list[str]:
                                         start_pose=pf.spec.get("start_pose"),
                                         trajectory_poses=pf.spec.get("trajectory_poses"))
     return list(dict.fromkeys(problems))
+
+
+def _home_file_errors(pf: PackFile, root: Path) -> list[str]:
+    """``<file>: $.home_files[i]: ...`` for each of an environment's ``home_files`` (resolved by the scan) that is
+    not a ground-truth JSON file (``{environment, ground_truth: {objects}}``)."""
+    from benchbot.core.limits import MAX_SPEC_BYTES
+    from benchbot.core.safe_load import load_data_file
+
+    problems = []
+    files = pf.spec.get("home_files") if isinstance(pf.spec, dict) else None
+    for i, name in enumerate(files if isinstance(files, list) else []):
+        target = Path(name)
+        rel = target.relative_to(root).as_posix() if target.is_relative_to(root) else name
+        where = f"{pf.rel}: $.home_files[{i}]"
+        if target.suffix != ".json":
+            problems.append(f"{where}: '{rel}' is not a .json file (list the ground-truth JSON files of the home)")
+            continue
+        try:
+            layout = load_data_file(target, MAX_SPEC_BYTES, SpecError)
+        except SpecError as exc:
+            problems.append(f"{where}: {exc.message.replace(str(target), rel)}")
+            continue
+        gt = layout.get("ground_truth") if isinstance(layout, dict) else None
+        if not isinstance(gt, dict) or not isinstance(gt.get("objects"), list):
+            problems.append(f"{where}: '{rel}' is not a ground truth: it has no ground_truth.objects (list the "
+                            "ground-truth JSON files {environment, format, ground_truth} of the home)")
+    return problems
 
 
 def verify_pack(path: Path | str, name: str | None = None, *, registry: "Registry") -> PackScan:

@@ -191,9 +191,10 @@ CHECKOUT_GROUND_TRUTH = ("tests/data", ".git")
 
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
-    of ``registry`` names (``_file_path``, ``map_path``, mesh files), the package folder of every plugin that
-    contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
-    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory),
+    of ``registry`` names (``_file_path``, ``map_path``, ``home_files``, mesh files), the package folder of every
+    plugin that contributes environments or ground truths, and every other folder of that package's name on
+    ``sys.path`` (a second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the
+    data directory),
     BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built
     scenes: their layouts), the test data and git history of a source checkout BenchBot or a plugin runs from
     (:data:`CHECKOUT_GROUND_TRUTH` of each of :func:`source_roots`: copies of ground truth no registry names, in

@@ -12,8 +12,8 @@ HIDDEN = "<hidden>"
 
 def ground_truth_strings(environments: list[dict]) -> set[str]:
     """The strings of environment specs that name files holding (or building) ground truth: ``map_path``,
-    ``_file_path`` and each mesh object's ``mesh`` (at least 4 characters long, so that blanking them out of a
-    message cannot blank out ordinary words).
+    ``_file_path``, each of ``home_files`` and each mesh object's ``mesh`` (at least 4 characters long, so that
+    blanking them out of a message cannot blank out ordinary words).
 
     Args:
         environments: environment specs (dicts; other values of their fields are ignored).
@@ -24,6 +24,9 @@ def ground_truth_strings(environments: list[dict]) -> set[str]:
     found: set[str] = set()
     for env in environments:
         values = [env.get("map_path"), env.get("_file_path")]
+        home = env.get("home_files")
+        if isinstance(home, list):
+            values += home
         objects = env.get("objects")
         if isinstance(objects, list):
             values += [o.get("mesh") for o in objects if isinstance(o, dict)]

@@ -10,7 +10,8 @@ from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 DATA_DIR = PACKAGE_DIR / "data" / "bear"
-BEAR_FILES = tuple(f"{n}_{v}.json" for n in ("miniroom", "house") for v in range(1, 6))
+BEAR_HOMES = ("miniroom", "house")
+BEAR_FILES = tuple(f"{n}_{v}.json" for n in BEAR_HOMES for v in range(1, 6))
 SOURCE = ('BEAR development ground truths from benchbot-addons/ground_truths_isaac_develop (QUT, 2020); '
           'Hall et al., "The Robotic Vision Scene Understanding Challenge", arXiv:2009.05246')
 
@@ -32,8 +33,15 @@ def lighting_of_map_path(map_path: str) -> str:
     return "base"
 
 
+def home_files_of(name: str) -> list[str]:
+    """The absolute paths of the five variants' ground-truth files of the BEAR home ``name`` (``miniroom``,
+    ``house``), by variant: the ``home_files`` of each of its environments, so that the five share one floor plan."""
+    return [str(DATA_DIR / f) for f in BEAR_FILES if f.rsplit("_", 1)[0] == name]
+
+
 def environment_specs() -> list[dict]:
-    """The ten BEAR environment specs (``type: sim_taichi``, ``map_path`` = the bundled JSON's absolute path)."""
+    """The ten BEAR environment specs (``type: sim_taichi``, ``map_path`` = the bundled JSON's absolute path,
+    ``home_files`` = the five files of its home: its variants share their furnished floor plan)."""
     out = []
     for fname in BEAR_FILES:
         env = _load(fname)["environment"]
@@ -42,6 +50,7 @@ def environment_specs() -> list[dict]:
             "variant": int(env["variant"]),
             "type": "sim_taichi",
             "map_path": str(DATA_DIR / fname),
+            "home_files": home_files_of(env["name"]),
             "start_pose": list(env["start_pose"]),
             "trajectory_poses": [list(p) for p in env["trajectory_poses"]],
             "object_labels": list(env["object_labels"]),

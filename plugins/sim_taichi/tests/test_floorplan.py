@@ -286,14 +286,23 @@ def test_bad_input_is_one_clear_error():
         fp.home_inputs([{"environment": {"start_pose": [0, 0, 0, 0, 1, 2, 0]}, "ground_truth": {"objects": []}}])
 
 
-def test_home_files_are_found_and_plans_cached(tmp_path):
-    files = fp.home_variant_files(DATA / "house_3.json")
-    assert [f.name for f in files] == [f"house_{v}.json" for v in range(1, 6)]
-    assert fp.home_variant_files(tmp_path / "custom.json") == [tmp_path / "custom.json"]
-    for f in files[:2]:
-        (tmp_path / f.name).write_text(f.read_text())
-    mine = fp.home_variant_files(tmp_path / "house_2.json")
-    assert [f.name for f in mine] == ["house_1.json", "house_2.json"]
+def test_home_files_are_declared_and_plans_cached(tmp_path):
+    """An environment's plan comes from the files its ``home_files`` declares (relative to its file, its own map
+    first when not listed), never from files that merely sit beside its map; plans are cached by file and seed."""
+    for v in (1, 2):
+        (tmp_path / f"house_{v}.json").write_text((DATA / f"house_{v}.json").read_text())
+    env = {"name": "h", "variant": 2, "map_path": str(tmp_path / "house_2.json"),
+           "_file_path": str(tmp_path / "env.yaml")}
+    assert fp.home_files(env) == [tmp_path / "house_2.json"]  # a sibling beside it is not its home
+    assert fp.home_files({**env, "home_files": ["house_1.json", "house_2.json"]}) == [
+        tmp_path / "house_1.json", tmp_path / "house_2.json"]
+    assert fp.home_files({**env, "home_files": ["house_1.json"]}) == [tmp_path / "house_2.json",
+                                                                      tmp_path / "house_1.json"]
+    with pytest.raises(BackendError, match=r"^environment h:2: home_files\[1\] .*house_9.json does not exist$"):
+        fp.home_files({**env, "home_files": ["house_1.json", "house_9.json"]})
+    with pytest.raises(BackendError, match="home_files is not a non-empty list"):
+        fp.home_files({**env, "home_files": "house_1.json"})
+    mine = fp.home_files({**env, "home_files": ["house_1.json", "house_2.json"]})
     a = fp.plan_for_files(mine, seed=0)
     assert fp.plan_for_files(mine, seed=0) is a
     assert fp.plan_for_files(mine, seed=1) is not a

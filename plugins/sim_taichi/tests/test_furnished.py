@@ -16,7 +16,8 @@ from benchbot.core.errors import BackendError
 from benchbot_sim_taichi.homes.furnished import furnish_environment
 from benchbot_sim_taichi.kinematics import Obstacles
 from benchbot_sim_taichi.scene.meshes import instance_bounds
-from benchbot_sim_taichi.bear import DATA_DIR
+from benchbot_sim_taichi.bear import DATA_DIR, home_files_of
+from benchbot_sim_taichi.homes.floorplan import home_files
 from benchbot_sim_taichi.scene.build import STYLE_VARIABLE, build_scene
 
 ENVS = [f"{home}_{v}" for home in ("miniroom", "house") for v in range(1, 6)]
@@ -28,6 +29,7 @@ def _environment(name: str, **extra) -> dict:
     path = DATA_DIR / f"{name}.json"
     env = dict(json.loads(path.read_text())["environment"])
     env["map_path"] = str(path)
+    env["home_files"] = home_files_of(env["name"])  # as the plugin declares them: the variants share one plan
     env.update(extra)
     return env
 
@@ -56,7 +58,7 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
         c, e = np.asarray(o["centroid"]), np.asarray(o["extent"])
         np.testing.assert_allclose(scene.box_min[i], c - e / 2, atol=1e-5)
         np.testing.assert_allclose(scene.box_max[i], c + e / 2, atol=1e-5)
-    home = furnish_environment(objects, str(DATA_DIR / f"{name}.json"), [], seed=0)
+    home = furnish_environment(objects, home_files(_environment(name)), [], seed=0)
     by_object: dict[int, list] = {}
     for inst in home.instances:
         if inst.object_index >= 0:
@@ -153,7 +155,7 @@ def test_windows_have_glass_panes_and_nothing_else_does():
 
     env = _environment("miniroom_1")
     data = json.loads((DATA_DIR / "miniroom_1.json").read_text())
-    home = furnish_environment(data["ground_truth"]["objects"], env["map_path"], [np.zeros((1, 2))], seed=0)
+    home = furnish_environment(data["ground_truth"]["objects"], home_files(env), [np.zeros((1, 2))], seed=0)
     lib = asset_library()
     placed = list(zip(home.furnishing.placements, home.instances[1:]))  # instances[0]: floors, walls, ceilings
     windows = [(p, inst) for p, inst in placed if p.role == "window"]

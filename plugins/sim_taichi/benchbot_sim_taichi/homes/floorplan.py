@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import functools
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -996,17 +995,47 @@ def plan_for_home(variant_dicts: list[dict], *, seed: int = 0, robot_radius_m: f
     return derive_floor_plan(objects, paths, seed=seed, robot_radius_m=robot_radius_m)
 
 
-def home_variant_files(map_path) -> list[Path]:
-    """The ground-truth files of every variant of ``map_path``'s home: ``<home>_<n>.json`` beside it (sorted by
-    ``n``), or ``[map_path]`` when its name has no ``_<n>`` suffix."""
-    p = Path(map_path)
-    m = re.fullmatch(r"(.+)_(\d+)", p.stem)
-    if not m:
-        return [p]
-    pat = re.compile(re.escape(m.group(1)) + r"_(\d+)")
-    found = [(int(mm.group(1)), q) for q in p.parent.glob(f"{m.group(1)}_*{p.suffix}")
-             if (mm := pat.fullmatch(q.stem))]
-    return [q for _, q in sorted(found)] or [p]
+#: The environment field that names the ground-truth files of every variant of its home (see :func:`home_files`).
+HOME_FILES_FIELD = "home_files"
+
+
+def home_files(environment: dict) -> list[Path]:
+    """The ground-truth JSON files whose union the furnished floor plan of ``environment`` is derived from.
+
+    An environment declares its home's variants in the field ``home_files``: a list of ground-truth files, absolute
+    or relative to the environment file (``_file_path``; a content pack's are resolved at install). Its own
+    ``map_path`` belongs to the home: when the list does not name it, it comes first. Variants that list the same
+    files in the same order share one plan (:func:`plan_for_files`). Without ``home_files`` the plan is the
+    environment's own: ``[map_path]`` (and ``[]`` without a map_path).
+
+    Returns:
+        Absolute paths, in the declared order, without repeats.
+
+    Raises:
+        BackendError: ``home_files`` is not a non-empty list of paths, or a file it names does not exist.
+    """
+    from benchbot_sim_taichi.scene.build import _env_dir
+
+    where = f"environment {environment.get('name')}:{environment.get('variant')}"
+    map_path = environment.get("map_path")
+    own = [Path(map_path).expanduser().resolve()] if isinstance(map_path, str) and map_path else []
+    declared = environment.get(HOME_FILES_FIELD)
+    if declared is None:
+        return own
+    if not isinstance(declared, list) or not declared or not all(isinstance(f, str) and f for f in declared):
+        raise BackendError(f"{where}: {HOME_FILES_FIELD} is not a non-empty list of file paths",
+                           f"{HOME_FILES_FIELD}: [house_1.json, house_2.json, ...] (relative to the environment file)")
+    files = []
+    for i, name in enumerate(declared):
+        path = Path(name).expanduser()
+        path = (path if path.is_absolute() else _env_dir(environment) / path).resolve()
+        if not path.is_file():
+            raise BackendError(f"{where}: {HOME_FILES_FIELD}[{i}] {path} does not exist",
+                               "list the ground-truth files of the home's variants, relative to the environment file")
+        files.append(path)
+    if own and own[0] not in files:
+        files.insert(0, own[0])
+    return list(dict.fromkeys(files))
 
 
 @functools.lru_cache(maxsize=16)

@@ -3,7 +3,8 @@
 :func:`furnish_environment` turns an environment's ground-truth objects and robot paths into what
 :func:`benchbot_sim_taichi.scene.build.build_scene` draws in the ``furnished`` style (the default):
 
-1. the floor plan shared by every variant of the home (:func:`benchbot_sim_taichi.homes.floorplan.plan_for_files`):
+1. the floor plan shared by the variants of the home that the environment declares
+   (:func:`benchbot_sim_taichi.homes.floorplan.home_files`, :func:`benchbot_sim_taichi.homes.floorplan.plan_for_files`):
    rooms, walls with doors and windows, lamps;
 2. the furnishing (:func:`benchbot_sim_taichi.homes.furnish.furnish_home`): a textured model of its class fitted exactly
    to every ground-truth cuboid, supports under objects that would float, distractor furniture of no ground-truth
@@ -142,12 +143,12 @@ def structure_mesh(plan, *, seed: int = 0):
 
 
 # ------------------------------------------------------------------------------------------------------- the home
-def _home_plan(map_path: str | None, objects: list[dict], paths: list[np.ndarray], seed: int):
-    """(plan, context objects): the plan shared by the home's variant files, else one of this environment alone."""
-    from benchbot_sim_taichi.homes.floorplan import derive_floor_plan, home_inputs, home_variant_files, plan_for_files
+def _home_plan(files, objects: list[dict], paths: list[np.ndarray], seed: int):
+    """(plan, context objects): the plan shared by the home's ground-truth ``files``, else one of this environment's
+    objects and paths alone."""
+    from benchbot_sim_taichi.homes.floorplan import derive_floor_plan, home_inputs, plan_for_files
 
-    if map_path:
-        files = home_variant_files(map_path)
+    if files:
         plan = plan_for_files(files, seed=seed)
         import json
 
@@ -163,16 +164,18 @@ def _transformed_bounds(T: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, 
     return p.min(axis=0), p.max(axis=0)
 
 
-def furnish_environment(objects: list[dict], map_path: str | None, paths: list[np.ndarray], *, seed: int = 0,
+def furnish_environment(objects: list[dict], home_files: list | None, paths: list[np.ndarray], *, seed: int = 0,
                         library=None) -> FurnishedHome:
     """The furnished home of one environment.
 
     Args:
         objects: the environment's ground-truth objects (``class``, ``centroid``, ``extent``, ``ID_name``,
             ``isgroup``), map frame, metres; ``instances[i].object_index`` refers to this list.
-        map_path: its BEAR ground-truth JSON; the home's other variants (``<home>_<n>.json`` beside it) share the
-            floor plan and the furniture. ``None``: a plan of this environment alone.
-        paths: (M, 2) xy robot paths (start pose and trajectory) — used when there is no ``map_path``.
+        home_files: the BEAR ground-truth JSON files of the home's variants
+            (:func:`~benchbot_sim_taichi.homes.floorplan.home_files`: the environment's own map file and those its
+            ``home_files`` field declares): the floor plan is derived from their union, and every variant listing
+            the same files shares it. ``None`` or empty: a plan of ``objects`` and ``paths`` alone.
+        paths: (M, 2) xy robot paths (start pose and trajectory) — used when there are no ``home_files``.
         seed: the same seed gives the same home.
         library: an :class:`~benchbot.core.assets.AssetLibrary` (default: every installed asset pack).
 
@@ -184,7 +187,7 @@ def furnish_environment(objects: list[dict], map_path: str | None, paths: list[n
     from benchbot_sim_taichi.homes.furnish import furnish_home
 
     library = asset_library() if library is None else library
-    plan, context = _home_plan(map_path, objects, paths, seed)
+    plan, context = _home_plan(home_files, objects, paths, seed)
 
     def bounds_of(asset):
         return load_mesh(asset.path).bounds

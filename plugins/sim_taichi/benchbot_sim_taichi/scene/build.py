@@ -584,7 +584,14 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
 
 def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, seed: int):
     """The :class:`~benchbot_sim_taichi.homes.furnished.FurnishedHome` of an environment (its home's plan is derived
-    from every variant's file beside ``map_path``, or from this environment's own poses)."""
+    from the ground-truth files its ``home_files`` declares with its own map file,
+    :func:`~benchbot_sim_taichi.homes.floorplan.home_files`, or from this environment's own poses without a map file).
+
+    Raises:
+        BackendError: ``home_files`` is malformed or names a missing file, or one of the files is not a ground-truth
+            JSON (one line naming the environment and the field).
+    """
+    from benchbot_sim_taichi.homes.floorplan import HOME_FILES_FIELD, home_files
     from benchbot_sim_taichi.homes.furnished import furnish_environment
 
     paths = []
@@ -596,7 +603,14 @@ def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, 
         except (ValueError, TypeError):
             continue  # a bad pose is reported by build_scene with its own message
     paths = [np.concatenate(paths, axis=0)] if paths else []
-    return furnish_environment(objects, map_path, paths, seed=seed)
+    files = home_files(environment) if map_path else None
+    try:
+        return furnish_environment(objects, files, paths, seed=seed)
+    except BackendError as e:
+        if not environment.get(HOME_FILES_FIELD) or not e.message.startswith("floor plan: cannot read"):
+            raise
+        raise BackendError(f"environment {environment.get('name')}:{environment.get('variant')}: {HOME_FILES_FIELD}: "
+                           f"{e.message.removeprefix('floor plan: ')}", e.hint) from e
 
 
 #: The BEAR class list (30 classes, ``background`` last): the class list of environments without a map_path.

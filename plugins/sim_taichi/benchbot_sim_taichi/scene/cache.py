@@ -12,8 +12,9 @@ Scene) and ``<key>.prepared.npz`` (the renderer's arrays; its key adds the rende
 version).
 
 Keys are SHA-256 digests of everything that decides the content (:func:`scene_key`): the environment spec, the
-style and seed, the bytes of its layout file (and of its home's other variants, from which the furnished floor plan
-is derived) and of its mesh files, the asset packs' models (ids, digests, sizes, modification times), and the code:
+style and seed, the bytes of its layout file (and of the files its ``home_files`` declares, from which the furnished
+floor plan is derived: :func:`~benchbot_sim_taichi.homes.floorplan.home_files`) and of its mesh files, the asset
+packs' models (ids, digests, sizes, modification times), and the code:
 the bytes of every Python file of this package and of the core's modules that shape a scene (:data:`CORE_MODULES`),
 its version, NumPy's and trimesh's versions and :data:`CACHE_FORMAT`. A change to any of them is a miss; nothing is
 ever invalidated by hand.
@@ -134,14 +135,16 @@ def scene_key(environment: dict, seed: int = 0) -> str | None:
     """The key of the scene :func:`~benchbot_sim_taichi.scene.build.build_scene` makes of ``environment`` with
     ``seed``: a 64-character SHA-256 hex digest of the spec, the style (the spec's, else
     :func:`~benchbot_sim_taichi.scene.build.default_style`), the seed, the bytes of the layout file (``map_path``), of
-    its home's other variants (furnished style) and of the mesh files of ``objects``, the asset packs' models
-    (furnished style) and :func:`code_fingerprint`. ``None`` when a file it names cannot be read (then the scene is
-    built, and the build says what is wrong).
+    the ground-truth files its home's plan is derived from (furnished style:
+    :func:`~benchbot_sim_taichi.homes.floorplan.home_files`) and of the mesh files of ``objects``, the asset packs'
+    models (furnished style) and :func:`code_fingerprint`. ``None`` when a file it names cannot be read (then the
+    scene is built, and the build says what is wrong).
 
     Raises:
         BackendError: the style variable names no style (as ``build_scene`` would).
     """
-    from benchbot_sim_taichi.homes.floorplan import home_variant_files
+    from benchbot.core.errors import BackendError
+    from benchbot_sim_taichi.homes.floorplan import home_files
     from benchbot_sim_taichi.scene.build import _env_dir, default_style
 
     style = environment.get("style") or default_style()
@@ -150,7 +153,12 @@ def scene_key(environment: dict, seed: int = 0) -> str | None:
     if map_path:
         files.append(Path(map_path))
         if style == "furnished":
-            files += [Path(p) for p in home_variant_files(map_path)]
+            try:
+                files += home_files(environment)
+            except BackendError as e:
+                log.info("scene cache: not used for %s:%s (%s)", environment.get("name"), environment.get("variant"),
+                         e.message)
+                return None
     for obj in environment.get("objects") or []:
         if isinstance(obj, dict) and isinstance(obj.get("mesh"), str):
             path = Path(obj["mesh"]).expanduser()
