@@ -15,6 +15,16 @@ from benchbot.core.motion import ControllerGains, PoseControllers, integrate_uni
 from benchbot.core.robot import MotionOutcome
 
 
+#: How often (in controller ticks) :func:`drive_robots` finds again the obstacles near each robot.
+NEAR_REFRESH_TICKS = 8
+
+
+def _box_distances(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(M, C) distances (m) from points ``p`` (M, 2) to axis-aligned boxes ``lo``/``hi`` ((M or 1, C, 2)); 0 inside."""
+    q = np.clip(p[:, None, :], lo, hi)
+    return np.hypot(q[..., 0] - p[:, None, 0], q[..., 1] - p[:, None, 1])
+
+
 @dataclass
 class Obstacles:
     """The obstacles of the robot's footprint.
@@ -52,21 +62,48 @@ class Obstacles:
             radius=float(radius),
         )
 
-    def clearances(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def clearances(self, xy: np.ndarray, among: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Signed clearances (M,) float64 (m) between the footprint at each of ``xy`` (M, 2) and its nearest
-        obstacle (negative: overlap), and that obstacle's index (M,) int64 into :attr:`names` (-1: the walls)."""
+        obstacle (negative: overlap), and that obstacle's index (M,) int64 into :attr:`names` (-1: the walls).
+
+        Args:
+            among: (M, C) int64 obstacle indices per point (from :meth:`near`) to check instead of all K; the walls
+                are always checked.
+        """
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         wall = np.minimum(np.minimum(p[:, 0] - self.room_min[0], self.room_max[0] - p[:, 0]),
                           np.minimum(p[:, 1] - self.room_min[1], self.room_max[1] - p[:, 1])) - self.radius
         best, index = wall, np.full(len(p), -1, dtype=np.int64)
-        if len(self.rect_min):
-            q = np.clip(p[:, None, :], self.rect_min[None], self.rect_max[None])  # (M, K, 2) nearest box points
-            d = np.hypot(q[..., 0] - p[:, None, 0], q[..., 1] - p[:, None, 1]) - self.radius
-            i = np.argmin(d, axis=1)
-            nearest = d[np.arange(len(p)), i]
-            closer = nearest < best
-            best, index = np.where(closer, nearest, best), np.where(closer, i, index)
-        return best, index
+        if among is not None and among.shape[1]:
+            lo, hi = self._padded()
+            d = _box_distances(p, lo[among], hi[among]) - self.radius
+        elif among is None and len(self.rect_min):
+            d = _box_distances(p, self.rect_min[None], self.rect_max[None]) - self.radius
+            among = np.broadcast_to(np.arange(len(self.rect_min)), d.shape)
+        else:
+            return best, index
+        i = np.argmin(d, axis=1)
+        rows = np.arange(len(p))
+        nearest = d[rows, i]
+        closer = nearest < best
+        return np.where(closer, nearest, best), np.where(closer, among[rows, i], index)
+
+    def near(self, xy: np.ndarray, reach: float) -> np.ndarray:
+        """(M, C) int64: for each of ``xy`` (M, 2), the obstacles whose boxes lie within ``reach`` + the footprint
+        radius (m) of it, padded with K (a box infinitely far away): the only ones a footprint that moves less than
+        ``reach`` from there can touch."""
+        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        if not len(self.rect_min):
+            return np.zeros((len(p), 0), dtype=np.int64)
+        close = _box_distances(p, self.rect_min[None], self.rect_max[None]) <= reach + self.radius
+        width = int(close.sum(axis=1).max())
+        order = np.argsort(~close, axis=1, kind="stable")[:, :width]  # the close ones first, in index order
+        return np.where(np.take_along_axis(close, order, axis=1), order, len(self.rect_min))
+
+    def _padded(self) -> tuple[np.ndarray, np.ndarray]:
+        """:attr:`rect_min`, :attr:`rect_max` with one box at infinity appended (index K, :meth:`near`'s padding)."""
+        far = np.full((1, 2), np.inf)
+        return np.concatenate([self.rect_min, far]), np.concatenate([self.rect_max, far])
 
     def clearance(self, xy: np.ndarray) -> tuple[float, str]:
         """Signed clearance (m) between the footprint at ``xy`` (2,) and the nearest obstacle (negative: overlap),
@@ -108,10 +145,18 @@ def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | No
     poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
     collided = np.zeros(len(poses), dtype=bool)
     ticks = np.zeros(len(poses))
+    # each robot checks only the obstacles near it, found again every NEAR_REFRESH_TICKS ticks within the farthest it
+    # can move meanwhile (so the outcome is that of checking every obstacle)
+    reach = NEAR_REFRESH_TICKS * max(gains.linear_max_mps, -gains.linear_min_mps) * dt + 1e-6
+    tick = 0
     while (moving := ctl.command(poses)).any():
+        if obstacles is not None and tick % NEAR_REFRESH_TICKS == 0:
+            near = obstacles.near(poses[:, :2], reach)
+        tick += 1
         idx = np.flatnonzero(moving)
         nxt = integrate_unicycles(poses[idx], ctl.v[idx], ctl.w[idx], dt)
-        hit = np.zeros(len(idx), dtype=bool) if obstacles is None else obstacles.clearances(nxt[:, :2])[0] <= 0.0
+        hit = (np.zeros(len(idx), dtype=bool) if obstacles is None
+               else obstacles.clearances(nxt[:, :2], among=near[idx])[0] <= 0.0)
         collided[idx[hit]] = True
         ctl.stop(idx[hit])
         poses[idx[~hit]] = nxt[~hit]
