@@ -145,3 +145,37 @@ def test_sync_mode_still_steps_separate_simulators():
         assert obs["image_rgb"].shape == (2, 24, 32, 3)
     finally:
         vec.close()
+
+
+def _cuda_and_torch() -> bool:
+    try:
+        import torch
+    except ImportError:
+        return False
+    return torch.cuda.is_available()
+
+
+@pytest.mark.skipif(not _cuda_and_torch(), reason="needs an NVIDIA GPU and PyTorch (runs on the GPU machine)")
+def test_on_device_images_reach_torch_on_the_gpu_without_a_copy():
+    """On CUDA, ``torch.from_dlpack`` of an on-device image is a CUDA tensor over the renderer's buffer (same
+    address), equal to the host copy of the same step; so is ``torch.as_tensor`` through the CUDA Array Interface."""
+    import torch
+
+    options = {**SMALL, "arch": "cuda"}
+    vec = gymnasium.make_vec("BenchBot-v0", num_envs=3, task=ACTIVE, env="miniroom:1", options=options,
+                             on_device=True)
+    host = gymnasium.make_vec("BenchBot-v0", num_envs=3, task=ACTIVE, env="miniroom:1", options=options)
+    try:
+        for actions in (None, np.array([0, 2, 3])):
+            obs = vec.reset()[0] if actions is None else vec.step(actions)[0]
+            expected = host.reset()[0] if actions is None else host.step(actions)[0]
+            rgb, depth = torch.from_dlpack(obs["image_rgb"]), torch.from_dlpack(obs["image_depth"])
+            assert rgb.is_cuda and rgb.data_ptr() == obs["image_rgb"].pointer and rgb.dtype == torch.uint8
+            assert torch.equal(rgb.cpu(), torch.from_numpy(expected["image_rgb"]))
+            assert torch.equal(depth.cpu(), torch.from_numpy(expected["image_depth"]))
+            via_interface = torch.as_tensor(obs["image_depth"], device="cuda")
+            assert via_interface.data_ptr() == depth.data_ptr()
+            np.testing.assert_allclose(obs["pose"], expected["pose"], atol=1e-12)
+    finally:
+        vec.close()
+        host.close()
