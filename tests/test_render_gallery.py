@@ -53,3 +53,14 @@ def test_contact_sheet_and_views_of_two_styles(gallery, tmp_path, monkeypatch):
     top, bottom = sheet[:48].astype(int), sheet[48:].astype(int)
     assert np.abs(top - bottom).mean() < 2.0  # the same world from the same poses (up to the JPEG)
     assert np.abs(top[30:, :64] - views[0][30:].astype(int)).mean() < 8.0  # the first view, below its label
+
+
+def test_views_are_chosen_by_the_objects_they_show(gallery):
+    """A view's worth: objects of at least MIN_OBJECT_PIXELS pixels (a wall of one fridge counts once), then pixels."""
+    img = np.zeros((120, 160), np.int32)
+    img[:100, :100] = 72001  # one object filling the view
+    assert gallery.objects_seen(img) == (1, 10000)
+    img[:] = 0
+    img[0:5, 0:5], img[10:15, 10:15], img[20:22, 20:22] = 19001, 18001, 18002  # two seen, one too small
+    assert gallery.objects_seen(img) == (2, 54)
+    assert gallery.objects_seen(img, min_pixels=4) == (3, 54)

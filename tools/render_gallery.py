@@ -7,8 +7,8 @@ before/after contact sheets of ``docs/realism.md``.
         --robot-camera --width 400 --height 300
 
 The views of an environment are trajectory poses (every ``--every``-th, start included; ``--views N``: the poses
-split into N runs along the trajectory, one view from each) whose segmentation shows the most ground-truth object
-pixels, in the world an episode with ``--seed 0`` sees (``benchbot.core.seeding.environment_world_seed``), seen
+split into N runs along the trajectory, one view from each) whose segmentation shows the most ground-truth objects
+(ties broken by their pixels), in the world an episode with ``--seed 0`` sees (``benchbot.core.seeding.environment_world_seed``), seen
 through the robot's default camera (``benchbot_sim_taichi.backend.DEFAULT_SENSORS``' field of view, and
 ``backend.camera_model()``: exposure, tone curve, vignetting): from ``--camera-z`` m high, looking along the robot's
 heading, or with ``--robot-camera`` from the robot's own camera mount (the views ``benchmarks/realism.py`` judges).
@@ -49,6 +49,9 @@ from benchbot_sim_taichi.scene.build import build_scene
 ENVIRONMENTS = [f"{home}:{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 #: The robot's default camera's horizontal field of view (degrees).
 FOV_DEG = float(DEFAULT_SENSORS["camera"]["horizontal_fov_deg"])
+#: Pixels of a 160×120 view for an object to count as seen when views are chosen: 400 at 640×480, as a visible
+#: object of ``benchmarks/realism.py``.
+MIN_OBJECT_PIXELS = 25
 #: JPEG quality of a contact sheet (``--sheet``).
 SHEET_JPEG_QUALITY = 85
 
@@ -60,14 +63,21 @@ def view_camera(pose, z: float | None) -> np.ndarray:
     return se2_to_matrix(x, y, yaw) @ camera_mount() if z is None else camera_at(x, y, yaw, z)
 
 
+def objects_seen(instance: np.ndarray, min_pixels: int = MIN_OBJECT_PIXELS) -> tuple[int, int]:
+    """(objects with at least ``min_pixels`` pixels, pixels of objects) of an (H, W) int instance image (0: none)."""
+    ids, counts = np.unique(instance[instance > 0], return_counts=True)
+    return int((counts >= min_pixels).sum()), int(counts.sum())
+
+
 def best_poses(renderer: Renderer, scene, every: int, z: float | None, views: int = 1) -> list[np.ndarray]:
     """``views`` (x, y, yaw) poses: every ``every``-th trajectory pose (start included) split into ``views`` runs in
-    trajectory order, and from each the pose whose 160×120 segmentation has the most pixels of ground-truth objects."""
+    trajectory order, and from each the pose whose 160×120 segmentation shows the most ground-truth objects (of at
+    least :data:`MIN_OBJECT_PIXELS` pixels), ties broken by their pixels."""
     poses = np.concatenate([scene.start_se2[None], scene.trajectory_se2[::every]])
     K = intrinsics(160, 120, FOV_DEG)
-    counts = np.array([int((renderer.render(K, view_camera(p, z), 160, 120)["instance"] > 0).sum()) for p in poses])
+    seen = [objects_seen(renderer.render(K, view_camera(p, z), 160, 120)["instance"]) for p in poses]
     runs = np.array_split(np.arange(len(poses)), min(views, len(poses)))
-    return [poses[run[int(np.argmax(counts[run]))]] for run in runs]
+    return [poses[max(run, key=lambda i: seen[i])] for run in runs]
 
 
 def load_world(renderer: Renderer, environment: dict, style: str | None):
@@ -88,8 +98,9 @@ def contact_sheet(rows: list[list[np.ndarray]], labels: list[list[str]]) -> np.n
         tiles = []
         for img, label in zip(row, row_labels):
             tile = np.ascontiguousarray(img).copy()
-            for colour, width in (((0, 0, 0), 3), ((255, 255, 255), 1)):  # white text on a dark outline
-                cv2.putText(tile, label, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, width, cv2.LINE_AA)
+            (w, h), base = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+            tile[: h + base + 8, : w + 10] //= 3  # a dark band under white text
+            cv2.putText(tile, label, (5, h + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1, cv2.LINE_AA)
             tiles.append(tile)
         out.append(np.concatenate(tiles, axis=1))
     return np.concatenate(out, axis=0)
