@@ -129,7 +129,8 @@ def make_vector_env_class() -> type:
             self._needs_reset = np.zeros(num_envs, dtype=bool)
             self._last: dict[str, Any] = {}
             first = _on_backend_thread(self._observe)
-            self.single_observation_space = spaces.Dict({key: self._space(spaces, key, value[0])
+            self.single_observation_space = spaces.Dict({key: self._space(spaces, key, tuple(value.shape[1:]),
+                                                                                      np.dtype(value.dtype))
                                                          for key, value in first.items()})
             self.observation_space = batch_space(self.single_observation_space, num_envs)
 
@@ -168,8 +169,7 @@ def make_vector_env_class() -> type:
                                 "use gym.make_vec(..., vectorization_mode='sync')")
 
         @staticmethod
-        def _space(spaces: Any, key: str, value: Any) -> Any:
-            shape, dtype = tuple(value.shape), np.dtype(value.dtype)
+        def _space(spaces: Any, key: str, shape: tuple, dtype: np.dtype) -> Any:
             if key == "image_rgb":
                 return spaces.Box(0, 255, shape, np.uint8)
             if key == "pose":

@@ -93,17 +93,19 @@ class TaichiBatchedRobots(BatchedRobots):
         lidars = T_map_footprint @ b.T_footprint_lidar if "laser" in names else None
         device = on_device and renderer.device_buffers
         out = renderer.render_sensors(b.K, T_map_footprint @ b.T_footprint_camera, b.width, b.height, lidars,
-                                      b.laser_angles if lidars is not None else None, to_host=not device)
-        if device and renderer.arch == "cuda":
-            renderer.sync()  # the images are complete before anyone reads them, on any stream (dlpack.py)
-        result: dict[str, Any] = {}
-        for name, key in (("image_rgb", "rgb"), ("image_depth", "depth")):
-            if name in names:
-                result[name] = _exported(out[key], renderer.arch) if device else out[key]
+                                      b.laser_angles if lidars is not None else None, to_host=False)
+        wanted = {name: key for name, key in (("image_rgb", "rgb"), ("image_depth", "depth"), ("laser", "ranges"))
+                  if name in names}
+        if device:  # the images stay where the kernel wrote them; the laser's ranges (small) come to the host
+            if renderer.arch == "cuda":
+                renderer.sync()  # the images are complete before anyone reads them, on any stream (dlpack.py)
+            result = {name: _exported(out[key], renderer.arch) for name, key in wanted.items() if name != "laser"}
+            host = renderer.host_copies({"ranges": out["ranges"]}) if lidars is not None else {}
+        else:  # only what was asked for is copied (not the segmentation images)
+            host = renderer.host_copies({key: out[key] for key in wanted.values()})
+            result = {name: host[key] for name, key in wanted.items() if name != "laser"}
         if lidars is not None:
-            ranges = _exported(out["ranges"], renderer.arch) if device else out["ranges"]
-            ranges = ranges.numpy() if hasattr(ranges, "numpy") else ranges
-            result["laser"] = np.clip(ranges[:, :len(b.laser_angles)].astype(np.float64), 0.0, b.range_max)
+            result["laser"] = np.clip(host["ranges"][:, :len(b.laser_angles)].astype(np.float64), 0.0, b.range_max)
         return result
 
 

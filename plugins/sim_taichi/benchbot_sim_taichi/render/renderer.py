@@ -1096,6 +1096,11 @@ class Renderer:
             out["ranges"] = out["ranges"][:beams.size].astype(np.float64) if with_scan else np.zeros(0)
         return out
 
+    def host_copies(self, arrays: dict) -> dict:
+        """New NumPy arrays the caller owns, of ``arrays`` (``{key: output of render_sensors(..., to_host=False)}``):
+        the outputs a caller needs on the host, copied without the others (on CUDA through page-locked memory)."""
+        return self._fetch(arrays)
+
     def _fetch(self, arrays: dict, *, once: bool = False) -> dict:
         """New NumPy arrays holding ``arrays`` (``{key: Taichi ndarray or NumPy array}``; NumPy arrays pass
         through). On CUDA they come through the page-locked copier (one synchronisation and a fast copy each), then
