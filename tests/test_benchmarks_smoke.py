@@ -56,6 +56,8 @@ FIGURES = {
     "ros2_step.py": [r"ros2_observe_ms: [\d.]+", r"direct_observe_ms: [\d.]+"],
     "sensors_kernels.py": [r"[\d.]+ fps with a synchronisation", r"shade\w*_kernel +[\d.]+ ms/launch"],
     "shadow_maps.py": [r"[\d.]+ fps with maps, [\d.]+ with rays"],
+    "turned_homes.py": [r"miniroom:1, first 2 poses", r"mirror_y +OMQ [\d.]+",
+                        r"largest OMQ gap between turns: [\d.]+"],
     "vector_env.py": [r"batched +N=3 +[\d.]+ env-steps/s", r"sync +N=1 +[\d.]+ env-steps/s"],
 }
 #: Per script, what its smoke run leaves out (words of its ``smoke: left out ...`` line on stderr).

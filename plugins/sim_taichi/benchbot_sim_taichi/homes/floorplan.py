@@ -29,6 +29,11 @@ How the plan is derived:
 
 The wall boxes returned have the openings cut out (a doorway leaves a lintel above it, a window a parapet below
 and a lintel above), so a collision or rendering test can use the boxes as they are.
+
+:func:`derive_floor_plan` works in whatever frame its inputs are in. A home's plan (:func:`home_plan`,
+:func:`plan_for_files`) is derived in the home's frame (:mod:`benchbot_sim_taichi.homes.home_frame`: the symmetry of
+the square that brings every turned or mirrored copy of a layout to the same orientation), then carried to the map
+frame, so that a turned layout gets the same plan turned.
 """
 
 from __future__ import annotations
@@ -988,11 +993,28 @@ def home_inputs(variant_dicts: list[dict]) -> tuple[list[dict], list[np.ndarray]
     return objects, paths
 
 
+def home_plan(objects: list[dict], paths: list, *, seed: int = 0, robot_radius_m: float = 0.35):
+    """(frame, plan): a home's :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame`
+    (:func:`~benchbot_sim_taichi.homes.home_frame.home_frame`) and its floor plan derived in that frame
+    (:func:`derive_floor_plan` of the objects and paths carried there), so that a turned or mirrored layout gets the
+    same plan turned or mirrored. ``objects``, ``paths``: map frame, as :func:`derive_floor_plan` takes them.
+
+    Raises:
+        BackendError: as :func:`derive_floor_plan`.
+    """
+    from benchbot_sim_taichi.homes.home_frame import home_frame
+
+    frame = home_frame(objects, paths)
+    if not frame.is_identity:
+        objects, paths = frame.objects_to_home(objects), [frame.points_to_home(p) for p in paths]
+    return frame, derive_floor_plan(objects, paths, seed=seed, robot_radius_m=robot_radius_m)
+
+
 def plan_for_home(variant_dicts: list[dict], *, seed: int = 0, robot_radius_m: float = 0.35) -> FloorPlan:
-    """The floor plan shared by a home's variants (their loaded ground-truth JSON dicts): :func:`home_inputs` then
-    :func:`derive_floor_plan`."""
-    objects, paths = home_inputs(variant_dicts)
-    return derive_floor_plan(objects, paths, seed=seed, robot_radius_m=robot_radius_m)
+    """The floor plan (map frame) shared by a home's variants (their loaded ground-truth JSON dicts):
+    :func:`home_inputs`, :func:`home_plan`, then the plan carried to the map frame."""
+    frame, plan = home_plan(*home_inputs(variant_dicts), seed=seed, robot_radius_m=robot_radius_m)
+    return frame.plan_to_map(plan)
 
 
 #: The environment field that names the ground-truth files of every variant of its home (see :func:`home_files`).
@@ -1039,7 +1061,8 @@ def home_files(environment: dict) -> list[Path]:
 
 
 @functools.lru_cache(maxsize=16)
-def _plan_cached(key: tuple, seed: int, robot_radius_m: float) -> FloorPlan:
+def _plan_cached(key: tuple, seed: int, robot_radius_m: float):
+    """(frame, home-frame plan, map-frame plan) of the files in ``key``."""
     dicts = []
     for path, _, _ in key:
         try:
@@ -1048,16 +1071,11 @@ def _plan_cached(key: tuple, seed: int, robot_radius_m: float) -> FloorPlan:
         except (OSError, ValueError) as e:
             raise BackendError(f"floor plan: cannot read the ground-truth file {path} ({e})",
                                "check that the file exists and is JSON") from e
-    return plan_for_home(dicts, seed=seed, robot_radius_m=robot_radius_m)
+    frame, plan = home_plan(*home_inputs(dicts), seed=seed, robot_radius_m=robot_radius_m)
+    return frame, plan, frame.plan_to_map(plan)
 
 
-def plan_for_files(files, *, seed: int = 0, robot_radius_m: float = 0.35) -> FloorPlan:
-    """:func:`plan_for_home` of ground-truth JSON files, cached by (paths, modification times, sizes, seed,
-    radius): a home's variants share one plan object.
-
-    Raises:
-        BackendError: a file is missing or not JSON, or :func:`plan_for_home` fails.
-    """
+def _files_key(files) -> tuple:
     key = []
     for f in files:
         p = Path(f).resolve()
@@ -1067,4 +1085,25 @@ def plan_for_files(files, *, seed: int = 0, robot_radius_m: float = 0.35) -> Flo
             raise BackendError(f"floor plan: cannot read the ground-truth file {p} ({e})",
                                "check that the file exists") from e
         key.append((str(p), st.st_mtime_ns, st.st_size))
-    return _plan_cached(tuple(key), int(seed), float(robot_radius_m))
+    return tuple(key)
+
+
+def plan_for_files(files, *, seed: int = 0, robot_radius_m: float = 0.35) -> FloorPlan:
+    """:func:`plan_for_home` of ground-truth JSON files (the plan in the map frame), cached by (paths, modification
+    times, sizes, seed, radius): a home's variants share one plan object.
+
+    Raises:
+        BackendError: a file is missing or not JSON, or :func:`plan_for_home` fails.
+    """
+    return _plan_cached(_files_key(files), int(seed), float(robot_radius_m))[2]
+
+
+def home_plan_for_files(files, *, seed: int = 0, robot_radius_m: float = 0.35):
+    """(frame, plan in that frame) of ground-truth JSON files: :func:`home_plan` of their :func:`home_inputs`,
+    cached as :func:`plan_for_files` is (the furnishing works in the home frame).
+
+    Raises:
+        BackendError: as :func:`plan_for_files`.
+    """
+    frame, plan, _ = _plan_cached(_files_key(files), int(seed), float(robot_radius_m))
+    return frame, plan

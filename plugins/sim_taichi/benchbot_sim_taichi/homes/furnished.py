@@ -17,6 +17,9 @@
 
 The ground truth is not changed: an object's drawn bounds are its cuboid (the fit is exact), and an object of a class
 no asset pack provides is drawn with the procedural primitives of the ``primitives`` style.
+
+Steps 1–3 happen in the home's frame (:mod:`benchbot_sim_taichi.homes.home_frame`), and what they make is carried to
+the map frame, so that a turned or mirrored layout gives the same home turned or mirrored.
 """
 
 from __future__ import annotations
@@ -41,10 +44,13 @@ class FurnishedHome:
     """What the furnished style adds to a scene.
 
     Attributes:
-        plan: the home's :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan`.
+        plan: the home's :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan` (map frame).
         furnishing: the :class:`~benchbot_sim_taichi.homes.furnish.Furnishing` (placements, objects left without a model
-            or support).
-        instances: mesh instances in the map frame; ``object_index`` is the index of the ground-truth object in the
+            or support), in the home frame: ``frame.T_map_home @ placement.transform`` is a placement in the map.
+        frame: the :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame` the home was derived in (the plan, the
+            furnishing and the structure's texture coordinates; the sun's direction is fixed there).
+        instances: mesh instances in the map frame (the structure's transform carries it from the home frame);
+            ``object_index`` is the index of the ground-truth object in the
             ``objects`` given to :func:`furnish_environment`, −1 for everything else.
         without_model: indices of ground-truth objects with no model (drawn with primitives instead).
         obstacles: ``(lo_xy (2,), hi_xy (2,), bottom_z, name)`` what the robot's footprint may not touch when the
@@ -56,6 +62,7 @@ class FurnishedHome:
 
     plan: object
     furnishing: object
+    frame: object = None
     instances: list[MeshInstance] = field(default_factory=list)
     without_model: list[int] = field(default_factory=list)
     obstacles: list[tuple[np.ndarray, np.ndarray, float, str]] = field(default_factory=list)
@@ -144,17 +151,19 @@ def structure_mesh(plan, *, seed: int = 0):
 
 # ------------------------------------------------------------------------------------------------------- the home
 def _home_plan(files, objects: list[dict], paths: list[np.ndarray], seed: int):
-    """(plan, context objects): the plan shared by the home's ground-truth ``files``, else one of this environment's
-    objects and paths alone."""
-    from benchbot_sim_taichi.homes.floorplan import derive_floor_plan, home_inputs, plan_for_files
+    """(frame, plan, context objects), the plan and the context in the home frame
+    (:mod:`benchbot_sim_taichi.homes.home_frame`): the plan shared by the home's ground-truth ``files``, else one of
+    this environment's objects and paths alone."""
+    from benchbot_sim_taichi.homes.floorplan import home_inputs, home_plan, home_plan_for_files
 
     if files:
-        plan = plan_for_files(files, seed=seed)
+        frame, plan = home_plan_for_files(files, seed=seed)
         import json
 
         context, _ = home_inputs([json.loads(Path(p).read_text()) for p in files])
-        return plan, context
-    return derive_floor_plan(objects, paths, seed=seed), objects
+        return frame, plan, frame.objects_to_home(context)
+    frame, plan = home_plan(objects, paths, seed=seed)
+    return frame, plan, frame.objects_to_home(objects)
 
 
 def _transformed_bounds(T: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -187,21 +196,27 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
     from benchbot_sim_taichi.homes.furnish import furnish_home
 
     library = asset_library() if library is None else library
-    plan, context = _home_plan(home_files, objects, paths, seed)
+    frame, home_plan, context = _home_plan(home_files, objects, paths, seed)
+    plan = frame.plan_to_map(home_plan)
+    to_map = None if frame.is_identity else frame.T_map_home
 
     def bounds_of(asset):
         return load_mesh(asset.path).bounds
 
-    furnishing = furnish_home(objects, plan, library, seed=seed, context_objects=context, bounds_of=bounds_of)
-    home = FurnishedHome(plan=plan, furnishing=furnishing, wall_height=float(plan.wall_height))
+    furnishing = furnish_home(frame.objects_to_home(objects), home_plan, library, seed=seed, context_objects=context,
+                              bounds_of=bounds_of)
+    home = FurnishedHome(plan=plan, furnishing=furnishing, wall_height=float(plan.wall_height), frame=frame)
     home.without_model = sorted(set(furnishing.without_model))
-    home.instances.append(MeshInstance(structure_mesh(plan, seed=seed), np.eye(4), -1))
+    home.instances.append(MeshInstance(structure_mesh(home_plan, seed=seed), np.eye(4) if to_map is None else to_map,
+                                       -1))
     lamps = []
     for p in furnishing.placements:
         mesh = load_mesh(library.get(p.asset_id).path)
         if p.role in ("window", "door"):  # glass panes: the outdoors is seen and the sun shines in through them
             mesh = with_glass_panes(mesh)
         T = np.asarray(p.transform, dtype=np.float64)
+        if to_map is not None:
+            T = to_map @ T
         home.instances.append(MeshInstance(mesh, T, int(p.object_index) if p.role == "object" else -1))
         lo, hi = _transformed_bounds(T, mesh.bounds)
         if p.role in OBSTACLE_ROLES:

@@ -328,12 +328,17 @@ def object_colour(cls: str, id_name: str, seed: int) -> np.ndarray:
     return np.clip(np.asarray(base, dtype=np.float64) + jitter, 0.02, 0.98).astype(np.float32)
 
 
-def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None):
+def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None,
+            frame=None):
     """(ambient, kind, vec, colour, range) for a lighting name and a room; ``lamps`` (K, 3): the ceiling lights'
-    positions (furnished homes), else a grid under the room's ceiling."""
+    positions (furnished homes), else a grid under the room's ceiling; ``frame``: a furnished home's
+    :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame`, in which the sun's direction is fixed (else the map
+    frame)."""
     h = float(room_max[2])
     sun_dir = np.array([0.45, 0.30, 0.84], dtype=np.float64)
     sun_dir /= np.linalg.norm(sun_dir)
+    if frame is not None:
+        sun_dir = frame.vector_to_map(sun_dir)
     kinds, vecs, cols, ranges = [], [], [], []
 
     def sun(intensity):
@@ -469,7 +474,11 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
             mins.append(c - e / 2)
             maxs.append(c + e / 2)
         else:
-            parts = object_geometry(obj, procedural=procedural)
+            if home is not None and k < len(map_objects) and not home.frame.is_identity:  # drawn in the home frame
+                parts = _parts_in_map(home.frame, object_geometry(home.frame.objects_to_home([obj])[0],
+                                                                  procedural=procedural))
+            else:
+                parts = object_geometry(obj, procedural=procedural)
             for part in parts:
                 if part.colour is None:
                     col = colour
@@ -535,8 +544,8 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         room_min = np.array([*(home.outer_lo - OUTDOOR_MARGIN_M), 0.0], dtype=np.float32)
         room_max = np.array([*(home.outer_hi + OUTDOOR_MARGIN_M), home.wall_height + OUTDOOR_MARGIN_M], np.float32)
         shell = _OUTDOOR_COLOURS
-    ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max,
-                                           lamps=None if home is None else home.lamps)
+    ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max, lamps=None if home is None else home.lamps,
+                                           frame=None if home is None else home.frame)
     if home is not None:  # walls and ceilings keep the sun out but for the windows: light bounced indoors
         ambient = (ambient * INDOOR_AMBIENT_GAIN).astype(np.float32)
     obstacles = [] if home is None else home.obstacles
@@ -580,6 +589,16 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     if instances:
         add_mesh_instances(scene, instances)
     return scene
+
+
+def _parts_in_map(frame, parts: list[Part]) -> list[Part]:
+    """Home-frame :class:`Part` s of an object (boxes, ellipsoids, cylinders) carried to the map frame by a
+    :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame` (a symmetry of the square: boxes stay boxes)."""
+    out = []
+    for part in parts:
+        lo, hi = frame.box_to_map(part.lo, part.hi)
+        out.append(Part(part.kind, lo, hi, frame.axis_to_map(part.axis), part.colour, part.tris))
+    return out
 
 
 def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, seed: int):

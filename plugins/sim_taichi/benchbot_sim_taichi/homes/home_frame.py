@@ -1,0 +1,220 @@
+"""The home frame: the orientation a furnished home is derived in, so that a turned or mirrored layout gives the same
+world turned or mirrored (pure NumPy).
+
+Why: the floor plan (:mod:`benchbot_sim_taichi.homes.floorplan`) splits a home with axis-aligned walls, tries the
+x axis before the y axis, draws its seeded jitter in that order, breaks ties towards smaller coordinates and sorts
+rooms by y then x; the furnishing walks the plan's rooms, walls and windows in that order, and the sun shines from a
+fixed direction. Derived in the map frame, a layout turned by 90° or mirrored got another house (other walls, other
+rooms, other furniture, the sun from elsewhere), and other scores.
+
+How: the ground-truth cuboids of a BEAR layout are axis-aligned, so the turns of a layout that keep it a BEAR layout
+are the eight symmetries of the square (quarter turns and mirrors about the axes and diagonals). :func:`home_frame`
+picks among them the one under which the layout looks a fixed way (:data:`ORIENTATION_RULES`), with no regard to the
+orientation it came in: every turned or mirrored copy of a layout is brought to the same home-frame layout, bit for
+bit (the symmetries of the square only swap and negate coordinates). The plan, the furnishing, the structure's
+texture coordinates and the sun's direction are derived there, then every placement, wall box, lamp and the sun are
+carried to the map frame (:class:`HomeFrame`). The rules are such that the ten BEAR layouts are in their home frame
+already (the identity: their worlds are bit-identical to what they were).
+
+What it does not cover: a layout shifted by a translation gives the same plan up to rounding in the last bits
+(every rule and every candidate wall is relative to the layout's bounds), but the textures' coordinates stay in
+metres of the map frame; a turn by another angle than a quarter turn changes what a BEAR cuboid is (its
+axis-aligned extent), so no such layout is the same objects turned. A layout symmetric under a turn or mirror in
+every rule (to :data:`TIE_M`) keeps its own orientation.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+#: Two rule values closer than this (metres) are a tie, decided by the next rule.
+TIE_M = 1e-6
+#: The eight symmetries of the square as home ← map matrices (p_home = R @ p_map), the identity first: a layout
+#: symmetric in every rule keeps its orientation.
+SQUARE_SYMMETRIES = tuple(np.array(m, dtype=np.float64) for m in (
+    [[1, 0], [0, 1]], [[-1, 0], [0, 1]], [[1, 0], [0, -1]], [[-1, 0], [0, -1]],
+    [[0, 1], [1, 0]], [[0, -1], [1, 0]], [[0, 1], [-1, 0]], [[0, -1], [-1, 0]]))
+#: How the home frame is chosen, rule by rule (each maximised, ties by the next): the layout's bounding box is at
+#: least as long along y as along x; the mean of its objects' centres lies at x ≤ and y ≥ the box's centre; then the
+#: mean of its robot paths' points, then the objects' centres weighted by their footprint, likewise.
+ORIENTATION_RULES = ("box longer along y", "object centres toward -x", "object centres toward +y",
+                     "path points toward -x", "path points toward +y", "object footprints toward -x",
+                     "object footprints toward +y")
+
+
+@dataclass(frozen=True)
+class HomeFrame:
+    """A home's frame: ``p_home = R @ p_map`` in xy (z unchanged).
+
+    Attributes:
+        R: (2, 2) float64 home ← map rotation or reflection, one of :data:`SQUARE_SYMMETRIES` (entries 0 and ±1,
+            so every coordinate carried either way is exact).
+    """
+
+    R: np.ndarray
+
+    @property
+    def is_identity(self) -> bool:
+        """Whether the home frame is the map frame (then nothing is carried anywhere)."""
+        return bool(np.array_equal(self.R, np.eye(2)))
+
+    @property
+    def T_map_home(self) -> np.ndarray:
+        """(4, 4) float64 transform taking home-frame points to the map frame."""
+        T = np.eye(4)
+        T[:2, :2] = self.R.T
+        return T
+
+    def points_to_home(self, xy) -> np.ndarray:
+        """(M, 2) float64 map-frame xy points in the home frame."""
+        return np.asarray(xy, dtype=np.float64).reshape(-1, 2) @ self.R.T
+
+    def objects_to_home(self, objects: list[dict]) -> list[dict]:
+        """Ground-truth objects (``centroid``, ``extent``: axis-aligned cuboids, metres) in the home frame: copies
+        with the centroid carried and the horizontal extents swapped where the frame swaps x and y; every other key
+        kept. The identity returns ``objects`` itself."""
+        if self.is_identity:
+            return objects
+        out = []
+        for o in objects:
+            c = np.asarray(o["centroid"], dtype=np.float64).reshape(3)
+            e = np.asarray(o["extent"], dtype=np.float64).reshape(3)
+            c2, e2 = c.copy(), e.copy()
+            c2[:2] = self.R @ c[:2]
+            e2[:2] = np.abs(self.R) @ e[:2]
+            out.append({**o, "centroid": c2.tolist(), "extent": e2.tolist()})
+        return out
+
+    def box_to_map(self, lo, hi) -> tuple[np.ndarray, np.ndarray]:
+        """The map-frame (lo, hi) of a home-frame axis-aligned box (2 or 3 coordinates; z unchanged)."""
+        lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+        if self.is_identity:
+            return lo, hi
+        a, b = lo.copy(), hi.copy()
+        a[:2], b[:2] = self.R.T @ lo[:2], self.R.T @ hi[:2]
+        return np.minimum(a, b), np.maximum(a, b)
+
+    def vector_to_map(self, v) -> np.ndarray:
+        """A home-frame point or direction (2 or 3 coordinates; z unchanged) in the map frame."""
+        v = np.asarray(v, dtype=np.float64)
+        if self.is_identity:
+            return v
+        out = v.copy()
+        out[:2] = self.R.T @ v[:2]
+        return out
+
+    def axis_to_map(self, axis: int) -> int:
+        """The map-frame axis (0, 1, 2) of a home-frame axis."""
+        if axis == 2 or self.R[0, 0] != 0:
+            return axis
+        return 1 - axis
+
+    def plan_to_map(self, plan):
+        """A home-frame :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan` in the map frame: rooms, walls,
+        openings (their ``outward`` normals), lamps, wall spans (ends and ``inward`` normals), the outer boundary
+        and the robot corridor carried; indices and order kept. The identity returns ``plan`` itself."""
+        from benchbot_sim_taichi.homes.floorplan import Corridor, FloorPlan
+
+        if self.is_identity:
+            return plan
+        outer_lo, outer_hi = self.box_to_map(plan.outer_lo, plan.outer_hi)
+        return FloorPlan(
+            outer_lo=outer_lo, outer_hi=outer_hi, wall_height=plan.wall_height, wall_thickness=plan.wall_thickness,
+            rooms=[replace(r, lo=lo, hi=hi) for r in plan.rooms for lo, hi in [self.box_to_map(r.lo, r.hi)]],
+            walls=[replace(w, lo=lo, hi=hi) for w in plan.walls for lo, hi in [self.box_to_map(w.lo, w.hi)]],
+            openings=[replace(o, lo=lo, hi=hi, outward=self.vector_to_map(o.outward)) for o in plan.openings
+                      for lo, hi in [self.box_to_map(o.lo, o.hi)]],
+            lights=[self.vector_to_map(p) for p in plan.lights],
+            wall_spans=[replace(s, a=self.vector_to_map(s.a), b=self.vector_to_map(s.b),
+                                inward=self.vector_to_map(s.inward)) for s in plan.wall_spans],
+            corridor=Corridor(self.points_to_map(plan.corridor.p0), self.points_to_map(plan.corridor.p1),
+                              plan.corridor.radius))
+
+    def points_to_map(self, xy) -> np.ndarray:
+        """(M, 2) float64 home-frame xy points in the map frame."""
+        return np.asarray(xy, dtype=np.float64).reshape(-1, 2) @ self.R
+
+
+def _rule_values(objects: list[dict], paths: list) -> np.ndarray:
+    """(8, len(ORIENTATION_RULES)) the rules' values (metres) of the layout under each of
+    :data:`SQUARE_SYMMETRIES` (higher is preferred)."""
+    pts = np.concatenate([np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in paths]) if paths else \
+        np.zeros((0, 2))
+    if objects:
+        c = np.array([np.asarray(o["centroid"], dtype=np.float64).reshape(3)[:2] for o in objects])
+        e = np.abs(np.array([np.asarray(o["extent"], dtype=np.float64).reshape(3)[:2] for o in objects]))
+        lo, hi = (c - e / 2).min(axis=0), (c + e / 2).max(axis=0)
+        area = e[:, 0] * e[:, 1]
+        footprint = (c * area[:, None]).sum(axis=0) / area.sum() if area.sum() > 0 else c.mean(axis=0)
+        centres = c.mean(axis=0)
+    elif len(pts):
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        centres = footprint = (lo + hi) / 2
+    else:
+        return np.zeros((len(SQUARE_SYMMETRIES), len(ORIENTATION_RULES)))
+    mid = (lo + hi) / 2
+    offsets = [centres - mid, (pts.mean(axis=0) if len(pts) else mid) - mid, footprint - mid]
+    rows = []
+    for R in SQUARE_SYMMETRIES:
+        size = np.abs(R) @ (hi - lo)
+        row = [size[1] - size[0]]
+        for d in offsets:
+            d2 = R @ d
+            row += [-d2[0], d2[1]]
+        rows.append(row)
+    return np.asarray(rows)
+
+
+def home_frame(objects: list[dict], paths: list) -> HomeFrame:
+    """The frame a home is derived in (module docstring): the symmetry of the square under which the layout best
+    follows :data:`ORIENTATION_RULES`, rule by rule (values within :data:`TIE_M` tie), the identity first among
+    equals.
+
+    Args:
+        objects: the home's ground-truth objects (``centroid``, ``extent``; map frame, metres).
+        paths: (M, 2) xy robot paths (map frame, metres).
+    """
+    values = _rule_values(objects, paths)
+    keep = np.arange(len(SQUARE_SYMMETRIES))
+    for k in range(values.shape[1]):
+        best = values[keep, k].max()
+        keep = keep[values[keep, k] >= best - TIE_M]
+    return HomeFrame(SQUARE_SYMMETRIES[int(keep[0])])
+
+
+def turned_layout(data: dict, M) -> dict:
+    """A copy of a BEAR ground-truth dict ``{environment, format, ground_truth}`` carried by the 2 × 2 matrix ``M``
+    (one of :data:`SQUARE_SYMMETRIES`, map → turned map): every object's centroid, its horizontal extents (swapped
+    where ``M`` swaps x and y, so the cuboids stay axis-aligned), the start pose and every trajectory pose (written
+    as unit quaternions about z: the start pose's yaw is the one the original placed the robot at,
+    :func:`benchbot.core.geometry.start_pose_to_se2`). For tests and ``benchmarks/turned_homes.py``.
+
+    Raises:
+        ValueError: ``M`` is not a symmetry of the square; a pose is malformed.
+    """
+    from benchbot.core.geometry import pose7_to_se2, start_pose_to_se2
+
+    M = np.asarray(M, dtype=np.float64)
+    if not any(np.array_equal(M, S) for S in SQUARE_SYMMETRIES):
+        raise ValueError(f"{M.tolist()} is not a symmetry of the square (entries 0 and ±1, one non-zero per row)")
+
+    def pose(se2, z: float) -> list[float]:
+        p = M @ se2[:2]
+        heading = M @ [math.cos(se2[2]), math.sin(se2[2])]
+        yaw = math.atan2(heading[1], heading[0])
+        return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2), float(p[0]), float(p[1]), float(z)]
+
+    out = json.loads(json.dumps(data))
+    for o in out["ground_truth"]["objects"]:
+        c, e = np.asarray(o["centroid"], dtype=np.float64), np.asarray(o["extent"], dtype=np.float64)
+        c[:2], e[:2] = M @ c[:2], np.abs(M) @ e[:2]
+        o["centroid"], o["extent"] = c.tolist(), e.tolist()
+    env = out.get("environment") or {}
+    if env.get("start_pose") is not None:
+        env["start_pose"] = pose(start_pose_to_se2(env["start_pose"]), env["start_pose"][6])
+    env["trajectory_poses"] = [pose(pose7_to_se2(p), p[6]) for p in env.get("trajectory_poses") or []]
+    return out
