@@ -7,16 +7,14 @@ Frames and units: SE(2) poses ``[x m, y m, yaw rad]`` in the ``map`` frame.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
+from benchbot.core.geometry import wrap_angle
 from benchbot.core.motion import ControllerGains, PoseControllers, integrate_unicycles
 from benchbot.core.robot import MotionOutcome
-
-
-#: How often (in controller ticks) :func:`drive_robots` finds again the obstacles near each robot.
-NEAR_REFRESH_TICKS = 8
 
 
 def _box_distances(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -89,16 +87,19 @@ class Obstacles:
         return np.where(closer, nearest, best), np.where(closer, among[rows, i], index)
 
     def near(self, xy: np.ndarray, reach: float) -> np.ndarray:
-        """(M, C) int64: for each of ``xy`` (M, 2), the obstacles whose boxes lie within ``reach`` + the footprint
-        radius (m) of it, padded with K (a box infinitely far away): the only ones a footprint that moves less than
-        ``reach`` from there can touch."""
+        """(M, C) int64: for each of ``xy`` (M, 2), the obstacles whose boxes, grown by ``reach`` + the footprint
+        radius (m) on every side, contain it (every box within that distance, and a few corner boxes farther),
+        padded with K (a box infinitely far away): all a footprint that moves less than ``reach`` from there can
+        touch."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if not len(self.rect_min):
-            return np.zeros((len(p), 0), dtype=np.int64)
-        close = _box_distances(p, self.rect_min[None], self.rect_max[None]) <= reach + self.radius
-        width = int(close.sum(axis=1).max())
-        order = np.argsort(~close, axis=1, kind="stable")[:, :width]  # the close ones first, in index order
-        return np.where(np.take_along_axis(close, order, axis=1), order, len(self.rect_min))
+        grow = reach + self.radius
+        close = ((p[:, None, :] >= self.rect_min[None] - grow) & (p[:, None, :] <= self.rect_max[None] + grow)).all(-1)
+        rows, cols = np.nonzero(close)  # row-major: each row's boxes in index order
+        counts = np.bincount(rows, minlength=len(p))
+        out = np.full((len(p), int(counts.max()) if len(p) else 0), len(self.rect_min), dtype=np.int64)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        out[rows, np.arange(len(rows)) - starts[rows]] = cols
+        return out
 
     def _padded(self) -> tuple[np.ndarray, np.ndarray]:
         """:attr:`rect_min`, :attr:`rect_max` with one box at infinity appended (index K, :meth:`near`'s padding)."""
@@ -130,35 +131,76 @@ def drive(pose: np.ndarray, goal: np.ndarray, obstacles: Obstacles | None,
 
 def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | None,
                  gains: ControllerGains = ControllerGains()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Drive N robots from ``poses`` to ``goals`` (both (N, 3) ``[x, y, yaw]``, map frame) together with
-    :class:`~benchbot.core.motion.PoseControllers`, integrating each command exactly over ``1 / gains.rate_hz``
-    seconds of simulated time. Before each step, every moving robot's next pose is checked against ``obstacles``
-    (not against the other robots); on contact that robot stays at its current pose and stops. A robot whose goal
-    is its pose does not move.
+    """Drive N robots from ``poses`` to ``goals`` (both (N, 3) ``[x, y, yaw]``, map frame) with
+    :class:`~benchbot.core.motion.PoseControllers`, each command integrated exactly over ``1 / gains.rate_hz``
+    seconds of simulated time. Before each tick, a robot's next pose is checked against ``obstacles`` (not against
+    the other robots); on contact that robot stays at its current pose and stops. A robot whose goal is its pose
+    does not move.
+
+    The controller's law depends only on the goal relative to the robot, so each robot's path is its relative
+    goal's path from the origin (:func:`local_path`, the relative goal rounded to :data:`GOAL_QUANTUM`, cached)
+    carried into the map frame, and the collisions of all ticks of all robots are checked at once. One robot moves
+    exactly as it does in a batch.
 
     Returns:
         (final poses (N, 3) float64, collided (N,) bool, simulated seconds (N,) float64: until the contact, or the
         motion plus ``gains.settle_s``).
     """
-    dt = 1.0 / gains.rate_hz
-    ctl = PoseControllers(goals, gains)
     poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
-    collided = np.zeros(len(poses), dtype=bool)
-    ticks = np.zeros(len(poses))
-    # each robot checks only the obstacles near it, found again every NEAR_REFRESH_TICKS ticks within the farthest it
-    # can move meanwhile (so the outcome is that of checking every obstacle)
-    reach = NEAR_REFRESH_TICKS * max(gains.linear_max_mps, -gains.linear_min_mps) * dt + 1e-6
-    tick = 0
-    while (moving := ctl.command(poses)).any():
-        if obstacles is not None and tick % NEAR_REFRESH_TICKS == 0:
-            near = obstacles.near(poses[:, :2], reach)
-        tick += 1
-        idx = np.flatnonzero(moving)
-        nxt = integrate_unicycles(poses[idx], ctl.v[idx], ctl.w[idx], dt)
-        hit = (np.zeros(len(idx), dtype=bool) if obstacles is None
-               else obstacles.clearances(nxt[:, :2], among=near[idx])[0] <= 0.0)
-        collided[idx[hit]] = True
-        ctl.stop(idx[hit])
-        poses[idx[~hit]] = nxt[~hit]
-        ticks[idx[~hit]] += 1
-    return poses, collided, np.where(collided, ticks * dt, ticks * dt + gains.settle_s)
+    n = len(poses)
+    relative = np.round(_relative(poses, np.asarray(goals, dtype=np.float64).reshape(-1, 3)) / GOAL_QUANTUM)
+    keys, which = np.unique(relative, axis=0, return_inverse=True)
+    paths = [local_path(tuple(key * GOAL_QUANTUM), gains) for key in keys]
+    ticks = np.array([len(path) - 1 for path in paths])[which.reshape(-1)]
+    longest = int(ticks.max()) if n else 0
+    local = np.zeros((len(paths), longest + 1, 3))
+    for u, path in enumerate(paths):
+        local[u, :len(path)], local[u, len(path):] = path, path[-1]
+    path = _compose(poses[:, None, :], local[which.reshape(-1)])  # (N, T + 1, 3) map poses after 0..T ticks
+    dt = 1.0 / gains.rate_hz
+    collided = np.zeros(n, dtype=bool)
+    first = ticks.copy()
+    if obstacles is not None and longest:
+        reach = float(np.hypot(local[..., 0], local[..., 1]).max()) + 1e-6
+        near = obstacles.near(poses[:, :2], reach)
+        hit = obstacles.clearances(path[:, 1:, :2].reshape(-1, 2),
+                                   among=np.repeat(near, longest, axis=0))[0].reshape(n, longest) <= 0.0
+        hit &= np.arange(longest)[None, :] < ticks[:, None]
+        collided = hit.any(axis=1)
+        first = np.where(collided, np.argmax(hit, axis=1), ticks)  # ticks made before the contact
+    final = path[np.arange(n), first]
+    return final, collided, np.where(collided, first * dt, first * dt + gains.settle_s)
+
+
+#: Relative goals are rounded to this (m and rad) so that robots given the same move share one path.
+GOAL_QUANTUM = 1e-9
+
+
+@functools.lru_cache(maxsize=4096)
+def local_path(relative_goal: tuple[float, float, float], gains: ControllerGains) -> np.ndarray:
+    """(T + 1, 3) float64: the poses after 0..T ticks of the pose controller driving from the origin to
+    ``relative_goal`` ``(x m, y m, yaw rad)`` (its frame), each command integrated exactly
+    (:func:`~benchbot.core.motion.integrate_unicycles`), until the controller is done (read-only, cached)."""
+    ctl = PoseControllers(np.array([relative_goal]), gains)
+    pose = np.zeros((1, 3))
+    out = [pose[0]]
+    while ctl.command(pose)[0]:
+        pose = integrate_unicycles(pose, ctl.v, ctl.w, 1.0 / gains.rate_hz)
+        out.append(pose[0])
+    path = np.array(out)
+    path.flags.writeable = False
+    return path
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, 3) SE(2) ``a⁻¹ · b`` of (N, 3) poses (:func:`benchbot.core.geometry.se2_relative` row by row)."""
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    dx, dy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
+    return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[:, 2] - a[:, 2])], axis=1)
+
+
+def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """SE(2) ``a · b`` of (..., 3) poses, broadcast (:func:`benchbot.core.geometry.se2_compose` element-wise)."""
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    return np.stack([a[..., 0] + c * b[..., 0] - s * b[..., 1], a[..., 1] + s * b[..., 0] + c * b[..., 1],
+                     wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
