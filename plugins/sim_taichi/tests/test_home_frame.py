@@ -27,11 +27,11 @@ def _home(name: str) -> list[dict]:
     return [json.loads((DATA_DIR / f"{name}_{v}.json").read_text()) for v in range(1, 6)]
 
 
-def _scene(folder, name: str, variant: int, dicts: list[dict]):
+def _scene(folder, name: str, variant: int, dicts: list[dict], style: str = "furnished"):
     folder.mkdir(parents=True, exist_ok=True)
     for v, d in enumerate(dicts, 1):
         (folder / f"{name}_{v}.json").write_text(json.dumps(d))
-    env = {"name": name, "variant": variant, "type": "sim_taichi", "style": "furnished",
+    env = {"name": name, "variant": variant, "type": "sim_taichi", "style": style,
            "map_path": str(folder / f"{name}_{variant}.json"),
            "home_files": [str(folder / f"{name}_{v}.json") for v in range(1, 6)]}
     return build_scene(env)
@@ -119,3 +119,26 @@ def test_the_turned_and_mirrored_worlds_render_as_turned_and_mirrored_images(tmp
                 np.testing.assert_array_equal(a[key], b[key], err_msg=f"{label} {key}")
             gap = np.abs(a["rgb"].astype(int) - b["rgb"].astype(int))
             assert gap.max() <= 1 and (gap > 0).mean() < 0.005, (label, gap.max(), (gap > 0).mean())
+
+
+@pytest.mark.parametrize("name, variant", [("miniroom", 1), ("house", 2)])
+def test_the_primitives_style_turns_with_its_layout_too(tmp_path, name, variant):
+    """In the primitives style the objects' procedural models (a chair's back, a bed's headboard) and the sun are
+    made in the home frame as well: the turned layout's primitives are the original's turned."""
+    base = _scene(tmp_path / "base", name, variant, _home(name), style="primitives")
+    for label, M in TURNS.items():
+        moved = _scene(tmp_path / label.replace(" ", "_"), name, variant, [turned_layout(d, M) for d in _home(name)],
+                       style="primitives")
+        np.testing.assert_array_equal(base.prim_type, moved.prim_type)
+        np.testing.assert_array_equal(base.prim_albedo, moved.prim_albedo)
+        swap = M[0, 0] == 0  # x and y trade places: so do the cylinders' axes
+        axes = np.where((base.prim_axis < 2) & swap, 1 - base.prim_axis, base.prim_axis)
+        np.testing.assert_array_equal(axes, moved.prim_axis, err_msg=label)
+        for lo, hi in (("prim_min", "prim_max"), ("box_min", "box_max"), ("room_min", "room_max")):
+            want = _box(M, getattr(base, lo), getattr(base, hi))
+            np.testing.assert_allclose(want[0], getattr(moved, lo), atol=1e-6, err_msg=f"{label} {lo}")
+            np.testing.assert_allclose(want[1], getattr(moved, hi), atol=1e-6, err_msg=f"{label} {hi}")
+        sun = base.light_kind == LIGHT_DIRECTIONAL
+        lv = base.light_vec[sun].astype(np.float64)
+        lv[:, :2] = lv[:, :2] @ M.T
+        np.testing.assert_allclose(lv, moved.light_vec[moved.light_kind == LIGHT_DIRECTIONAL], atol=1e-6)

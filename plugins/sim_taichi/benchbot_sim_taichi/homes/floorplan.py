@@ -1021,11 +1021,12 @@ def plan_for_home(variant_dicts: list[dict], *, seed: int = 0, robot_radius_m: f
 HOME_FILES_FIELD = "home_files"
 
 
-def home_files(environment: dict) -> list[Path]:
+def home_files(environment: dict, base_dir: Path | None = None) -> list[Path]:
     """The ground-truth JSON files whose union the furnished floor plan of ``environment`` is derived from.
 
     An environment declares its home's variants in the field ``home_files``: a list of ground-truth files, absolute
-    or relative to the environment file (``_file_path``; a content pack's are resolved at install). Its own
+    or relative to ``base_dir`` (the environment file's folder; default the folder of its ``_file_path``, else the
+    working directory; a content pack's are resolved at install). Its own
     ``map_path`` belongs to the home: when the list does not name it, it comes first. Variants that list the same
     files in the same order share one plan (:func:`plan_for_files`). Without ``home_files`` the plan is the
     environment's own: ``[map_path]`` (and ``[]`` without a map_path).
@@ -1036,8 +1037,9 @@ def home_files(environment: dict) -> list[Path]:
     Raises:
         BackendError: ``home_files`` is not a non-empty list of paths, or a file it names does not exist.
     """
-    from benchbot_sim_taichi.scene.build import _env_dir
-
+    if base_dir is None:
+        fp = environment.get("_file_path")
+        base_dir = Path(fp).resolve().parent if fp else Path.cwd()
     where = f"environment {environment.get('name')}:{environment.get('variant')}"
     map_path = environment.get("map_path")
     own = [Path(map_path).expanduser().resolve()] if isinstance(map_path, str) and map_path else []
@@ -1050,7 +1052,7 @@ def home_files(environment: dict) -> list[Path]:
     files = []
     for i, name in enumerate(declared):
         path = Path(name).expanduser()
-        path = (path if path.is_absolute() else _env_dir(environment) / path).resolve()
+        path = (path if path.is_absolute() else Path(base_dir) / path).resolve()
         if not path.is_file():
             raise BackendError(f"{where}: {HOME_FILES_FIELD}[{i}] {path} does not exist",
                                "list the ground-truth files of the home's variants, relative to the environment file")

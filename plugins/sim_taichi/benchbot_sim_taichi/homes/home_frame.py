@@ -13,14 +13,18 @@ picks among them the one under which the layout looks a fixed way (:data:`ORIENT
 orientation it came in: every turned or mirrored copy of a layout is brought to the same home-frame layout, bit for
 bit (the symmetries of the square only swap and negate coordinates). The plan, the furnishing, the structure's
 texture coordinates and the sun's direction are derived there, then every placement, wall box, lamp and the sun are
-carried to the map frame (:class:`HomeFrame`). The rules are such that the ten BEAR layouts are in their home frame
-already (the identity: their worlds are bit-identical to what they were).
+carried to the map frame (:class:`HomeFrame`); so are the procedural models of objects drawn with primitives (in
+either style: a chair's back, a bed's headboard are placed by the object's longer side and a seeded flip). The rules
+are such that the ten BEAR layouts are in their home frame already (the identity: their worlds are bit-identical to
+what they were).
 
-What it does not cover: a layout shifted by a translation gives the same plan up to rounding in the last bits
-(every rule and every candidate wall is relative to the layout's bounds), but the textures' coordinates stay in
-metres of the map frame; a turn by another angle than a quarter turn changes what a BEAR cuboid is (its
-axis-aligned extent), so no such layout is the same objects turned. A layout symmetric under a turn or mirror in
-every rule (to :data:`TIE_M`) keeps its own orientation.
+What it does not cover: the home frame has the map's origin. A layout shifted by a translation gives the same world
+only up to rounding in the last bits (every rule and every candidate wall is relative to the layout's bounds), and
+at BEAR's exact contacts (objects standing flush on others, sides touching) that rounding can tip a decision of the
+plan or the furnishing; the floors' and walls' texture coordinates are metres from the origin. An origin of the
+home's own would change the BEAR worlds in their last bits. A turn by another angle than a quarter turn changes what
+a BEAR cuboid is (its axis-aligned extent), so no such layout is the same objects turned. A layout symmetric under a
+turn or mirror in every rule (to :data:`TIE_M`) keeps its own orientation.
 """
 
 from __future__ import annotations
@@ -117,13 +121,11 @@ class HomeFrame:
         """A home-frame :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan` in the map frame: rooms, walls,
         openings (their ``outward`` normals), lamps, wall spans (ends and ``inward`` normals), the outer boundary
         and the robot corridor carried; indices and order kept. The identity returns ``plan`` itself."""
-        from benchbot_sim_taichi.homes.floorplan import Corridor, FloorPlan
-
         if self.is_identity:
             return plan
         outer_lo, outer_hi = self.box_to_map(plan.outer_lo, plan.outer_hi)
-        return FloorPlan(
-            outer_lo=outer_lo, outer_hi=outer_hi, wall_height=plan.wall_height, wall_thickness=plan.wall_thickness,
+        return replace(
+            plan, outer_lo=outer_lo, outer_hi=outer_hi,
             rooms=[replace(r, lo=lo, hi=hi) for r in plan.rooms for lo, hi in [self.box_to_map(r.lo, r.hi)]],
             walls=[replace(w, lo=lo, hi=hi) for w in plan.walls for lo, hi in [self.box_to_map(w.lo, w.hi)]],
             openings=[replace(o, lo=lo, hi=hi, outward=self.vector_to_map(o.outward)) for o in plan.openings
@@ -131,8 +133,8 @@ class HomeFrame:
             lights=[self.vector_to_map(p) for p in plan.lights],
             wall_spans=[replace(s, a=self.vector_to_map(s.a), b=self.vector_to_map(s.b),
                                 inward=self.vector_to_map(s.inward)) for s in plan.wall_spans],
-            corridor=Corridor(self.points_to_map(plan.corridor.p0), self.points_to_map(plan.corridor.p1),
-                              plan.corridor.radius))
+            corridor=type(plan.corridor)(self.points_to_map(plan.corridor.p0), self.points_to_map(plan.corridor.p1),
+                                         plan.corridor.radius))
 
     def points_to_map(self, xy) -> np.ndarray:
         """(M, 2) float64 home-frame xy points in the map frame."""

@@ -446,6 +446,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     map_objects = gt["objects"][: len(gt["objects"]) - len(mesh_objs)]
     if style == "furnished" and map_objects:  # the plan is derived from the map's cuboids: without any, a room shell
         home = _furnished_home(environment, file_env, map_objects, map_path, seed)
+    frame = home.frame if home is not None else _primitives_frame(environment, file_env, map_objects, map_path)
     modelled = set() if home is None else \
         {i.object_index for i in home.instances if i.object_index >= 0}
     mins, maxs, albedo, cls_ids, inst_ids, names = [], [], [], [], [], []
@@ -474,9 +475,8 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
             mins.append(c - e / 2)
             maxs.append(c + e / 2)
         else:
-            if home is not None and k < len(map_objects) and not home.frame.is_identity:  # drawn in the home frame
-                parts = _parts_in_map(home.frame, object_geometry(home.frame.objects_to_home([obj])[0],
-                                                                  procedural=procedural))
+            if frame is not None and k < len(map_objects) and not frame.is_identity:  # drawn in the home frame
+                parts = _parts_in_map(frame, object_geometry(frame.objects_to_home([obj])[0], procedural=procedural))
             else:
                 parts = object_geometry(obj, procedural=procedural)
             for part in parts:
@@ -545,7 +545,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         room_max = np.array([*(home.outer_hi + OUTDOOR_MARGIN_M), home.wall_height + OUTDOOR_MARGIN_M], np.float32)
         shell = _OUTDOOR_COLOURS
     ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max, lamps=None if home is None else home.lamps,
-                                           frame=None if home is None else home.frame)
+                                           frame=frame)
     if home is not None:  # walls and ceilings keep the sun out but for the windows: light bounced indoors
         ambient = (ambient * INDOOR_AMBIENT_GAIN).astype(np.float32)
     obstacles = [] if home is None else home.obstacles
@@ -591,6 +591,36 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     return scene
 
 
+def _env_paths(environment: dict, file_env: dict) -> list[np.ndarray]:
+    """The environment's robot path as [(M, 2) xy]: its start pose then its trajectory (spec, else map file); a bad
+    pose is left out (build_scene reports it with its own message)."""
+    paths = []
+    for key in ("start_pose", "trajectory_poses"):
+        v = environment.get(key, file_env.get(key))
+        poses = [v] if key == "start_pose" and v is not None else (v or [])
+        try:
+            paths.append(np.array([pose7_to_se2(p)[:2] for p in poses], dtype=np.float64).reshape(-1, 2))
+        except (ValueError, TypeError):
+            continue
+    return [np.concatenate(paths, axis=0)] if paths else []
+
+
+def _primitives_frame(environment: dict, file_env: dict, objects: list, map_path):
+    """The :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame` of a scene without a furnished home: that of its
+    home's ground-truth files (:func:`~benchbot_sim_taichi.homes.floorplan.home_files`, as the furnished style's),
+    else of its own objects and path; ``None`` without map objects. The objects' procedural models and the sun are
+    made in it."""
+    from benchbot_sim_taichi.homes.floorplan import home_files, home_inputs
+    from benchbot_sim_taichi.homes.home_frame import home_frame
+
+    if not objects:
+        return None
+    if map_path:
+        dicts = [load_ground_truth_json(f) for f in home_files(environment, _env_dir(environment))]
+        return home_frame(*home_inputs(dicts))
+    return home_frame(objects, _env_paths(environment, file_env))
+
+
 def _parts_in_map(frame, parts: list[Part]) -> list[Part]:
     """Home-frame :class:`Part` s of an object (boxes, ellipsoids, cylinders) carried to the map frame by a
     :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame` (a symmetry of the square: boxes stay boxes)."""
@@ -613,16 +643,8 @@ def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, 
     from benchbot_sim_taichi.homes.floorplan import HOME_FILES_FIELD, home_files
     from benchbot_sim_taichi.homes.furnished import furnish_environment
 
-    paths = []
-    for key in ("start_pose", "trajectory_poses"):
-        v = environment.get(key, file_env.get(key))
-        poses = [v] if key == "start_pose" and v is not None else (v or [])
-        try:
-            paths.append(np.array([pose7_to_se2(p)[:2] for p in poses], dtype=np.float64).reshape(-1, 2))
-        except (ValueError, TypeError):
-            continue  # a bad pose is reported by build_scene with its own message
-    paths = [np.concatenate(paths, axis=0)] if paths else []
-    files = home_files(environment) if map_path else None
+    paths = _env_paths(environment, file_env)
+    files = home_files(environment, _env_dir(environment)) if map_path else None
     try:
         return furnish_environment(objects, files, paths, seed=seed)
     except BackendError as e:

@@ -154,7 +154,7 @@ def scene_key(environment: dict, seed: int = 0) -> str | None:
         files.append(Path(map_path))
         if style == "furnished":
             try:
-                files += home_files(environment)
+                files += home_files(environment, _env_dir(environment))
             except BackendError as e:
                 log.info("scene cache: not used for %s:%s (%s)", environment.get("name"), environment.get("variant"),
                          e.message)
