@@ -1,11 +1,13 @@
-"""Several BenchBot simulators stepped together as one Gymnasium vector environment (docs/gym.md).
+"""Several BenchBot robots stepped together as one Gymnasium vector environment (docs/gym.md).
 
     python examples/gym_vector_env.py [--num-envs 2] [--steps 20] [--env miniroom:1] [--width 160 --height 120]
+        [--mode batched|sync]
 
-Every sub-environment is an in-process simulator built by ``gym.make("BenchBot-v0", ...)``; ``gym.make_vec`` steps them
-in turn (``vectorization_mode="sync"``) and resets one as soon as it terminates (a collision) or is truncated. Each
-is reseeded from ``reset(seed=...)`` (seed, seed + 1, ...), so their object colours differ. Random actions stand in
-for a policy.
+``--mode batched`` (the default, ``gym.make_vec``'s own for ``BenchBot-v0``): N robots in one scene, moved together
+and rendered in one launch per step (``benchbot.gym_vector``). ``--mode sync``: N in-process simulators, each built by
+``gym.make("BenchBot-v0", ...)`` and stepped in turn, each reseeded from ``reset(seed=...)`` (seed, seed + 1, ...) so
+their object colours differ. Either way a sub-environment that terminates (a collision) or is truncated is reset on
+its next step. Random actions stand in for a policy.
 """
 
 from __future__ import annotations
@@ -31,9 +33,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--env", default="miniroom:1", help="environment NAME:VARIANT")
     parser.add_argument("--width", type=int, default=160)
     parser.add_argument("--height", type=int, default=120)
+    parser.add_argument("--mode", choices=["batched", "sync"], default="batched",
+                        help="batched: N robots, one simulator; sync: N simulators")
     args = parser.parse_args(argv)
 
-    envs = gym.make_vec("BenchBot-v0", num_envs=args.num_envs, vectorization_mode="sync", task=args.task,
+    mode = "vector_entry_point" if args.mode == "batched" else "sync"
+    envs = gym.make_vec("BenchBot-v0", num_envs=args.num_envs, vectorization_mode=mode, task=args.task,
                         env=args.env, options={"width": args.width, "height": args.height}, max_steps=50)
     try:
         obs, info = envs.reset(seed=0)
@@ -43,7 +48,7 @@ def main(argv: list[str] | None = None) -> None:
             actions = rng.integers(0, envs.single_action_space.n, size=args.num_envs)  # a policy goes here
             obs, rewards, terminated, truncated, info = envs.step(actions)
             collisions += int(np.sum(terminated))
-        print(f"{args.num_envs} environments, {args.steps} steps, {collisions} collisions")
+        print(f"{args.num_envs} environments ({args.mode}), {args.steps} steps, {collisions} collisions")
         for key, value in obs.items():
             print(f"  {key} {value.shape} {value.dtype}")
         print(f"  poses [x, y, yaw]: {np.round(obs['pose'], 3).tolist()}")

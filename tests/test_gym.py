@@ -123,10 +123,12 @@ def test_bad_arguments_are_one_line_errors(make_service):
 
 @pytest.mark.slow
 def test_the_vector_env_example_runs(tmp_path):
-    """examples/gym_vector_env.py (docs/gym.md): two simulators stepped together by gym.make_vec, run as a user
-    would."""
-    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "gym_vector_env.py"), "--num-envs", "2",
-                           "--steps", "3", "--width", "32", "--height", "24"],
-                          capture_output=True, text=True, timeout=600, cwd=tmp_path)
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-    assert "2 environments, 3 steps" in proc.stdout and "image_rgb (2, 24, 32, 3)" in proc.stdout, proc.stdout
+    """examples/gym_vector_env.py (docs/gym.md): two robots stepped together by gym.make_vec, batched and as two
+    simulators, run as a user would."""
+    for mode in ("batched", "sync"):
+        proc = subprocess.run([sys.executable, str(ROOT / "examples" / "gym_vector_env.py"), "--num-envs", "2",
+                               "--steps", "3", "--width", "32", "--height", "24", "--mode", mode],
+                              capture_output=True, text=True, timeout=600, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        assert f"2 environments ({mode}), 3 steps" in proc.stdout, proc.stdout
+        assert "image_rgb (2, 24, 32, 3)" in proc.stdout, proc.stdout
