@@ -151,20 +151,29 @@ def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | No
     relative = np.round(_relative(poses, np.asarray(goals, dtype=np.float64).reshape(-1, 3)) / GOAL_QUANTUM)
     keys, which = np.unique(relative, axis=0, return_inverse=True)
     paths = [local_path(tuple(key * GOAL_QUANTUM), gains) for key in keys]
-    ticks = np.array([len(path) - 1 for path in paths])[which.reshape(-1)]
+    ticks = np.array([len(path) - 1 for path in paths], dtype=np.int64)[which.reshape(-1)]
     longest = int(ticks.max()) if n else 0
     local = np.zeros((len(paths), longest + 1, 3))
     for u, path in enumerate(paths):
         local[u, :len(path)], local[u, len(path):] = path, path[-1]
     path = _compose(poses[:, None, :], local[which.reshape(-1)])  # (N, T + 1, 3) map poses after 0..T ticks
+    path[:, 0] = poses  # exactly where they are (composing with the identity may round the last bit)
     dt = 1.0 / gains.rate_hz
     collided = np.zeros(n, dtype=bool)
     first = ticks.copy()
     if obstacles is not None and longest:
         reach = float(np.hypot(local[..., 0], local[..., 1]).max()) + 1e-6
         near = obstacles.near(poses[:, :2], reach)
-        hit = obstacles.clearances(path[:, 1:, :2].reshape(-1, 2),
-                                   among=np.repeat(near, longest, axis=0))[0].reshape(n, longest) <= 0.0
+        hit = np.zeros((n, longest), dtype=bool)
+        # robots in blocks of about CHECK_PAIRS (point, obstacle) pairs: the temporaries stay bounded (a 30 s phase
+        # is 600 ticks at 20 Hz) however many robots, ticks and nearby obstacles there are
+        rows = max(1, CHECK_PAIRS // (longest * max(1, near.shape[1])))
+        for start in range(0, n, rows):
+            block = near[start:start + rows]
+            block = block[:, :int((block < len(obstacles.rect_min)).sum(axis=1).max())]  # drop all-padding columns
+            hit[start:start + rows] = obstacles.clearances(
+                path[start:start + rows, 1:, :2].reshape(-1, 2),
+                among=np.repeat(block, longest, axis=0))[0].reshape(len(block), longest) <= 0.0
         hit &= np.arange(longest)[None, :] < ticks[:, None]
         collided = hit.any(axis=1)
         first = np.where(collided, np.argmax(hit, axis=1), ticks)  # ticks made before the contact
@@ -174,6 +183,10 @@ def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | No
 
 #: Relative goals are rounded to this (m and rad) so that robots given the same move share one path.
 GOAL_QUANTUM = 1e-9
+
+#: At most about this many (footprint pose, obstacle) pairs are checked at once by :func:`drive_robots` (its
+#: temporaries: about 80 bytes a pair).
+CHECK_PAIRS = 1 << 20
 
 
 @functools.lru_cache(maxsize=4096)
