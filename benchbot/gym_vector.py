@@ -45,6 +45,11 @@ def _on_backend_thread(fn: Any, *args: Any) -> Any:
     return backend_worker().submit(fn, *args).result()
 
 
+def _one_line(array: np.ndarray) -> str:
+    """``array`` for an error message: one line, summarised past 16 elements."""
+    return " ".join(np.array2string(np.asarray(array), threshold=16, max_line_width=10**9).split())
+
+
 def _environment_list(env: str | Sequence[str], num_envs: int) -> list[str]:
     """``env`` as one ``name:variant`` string per sub-environment.
 
@@ -98,7 +103,7 @@ def make_vector_env_class() -> type:
                      robot: str = DEFAULT_ROBOT, seed: int = 0, options: dict | None = None, max_steps: int = 200,
                      step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None,
                      on_device: bool = False) -> None:
-            if not (isinstance(num_envs, int) and num_envs >= 1):
+            if isinstance(num_envs, bool) or not (isinstance(num_envs, int) and num_envs >= 1):
                 raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
             if render_mode not in (None, "rgb_array"):
                 raise ValueError(f"render_mode {render_mode!r} is not supported: use None or 'rgb_array'")
@@ -203,18 +208,31 @@ def make_vector_env_class() -> type:
 
         # ----------------------------------------------------------------------------------------- the episode
         def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-            """Every robot back at its scene's start pose; returns ``(observations, {'scene_number': (N,) int})``.
-            ``seed`` seeds :attr:`np_random` only (the worlds are fixed by the constructor's ``seed``)."""
+            """Every robot (or those of ``options['reset_mask']``, (N,) bool, as ``SyncVectorEnv``) back at its
+            scene's start pose; returns ``(observations, {'scene_number': (N,) int64 zeros, '_scene_number': the
+            reset ones})``. ``seed`` seeds :attr:`np_random` only (the worlds are fixed by the constructor's
+            ``seed``).
+
+            Raises:
+                ValueError: a ``reset_mask`` that is not (N,) bool with at least one True.
+            """
             if seed is not None:
                 self._np_random, self._np_random_seed = gymnasium.utils.seeding.np_random(seed)
-            self._steps[:] = 0
-            self._next_pose[:] = 0
-            self._needs_reset[:] = False
-            return _on_backend_thread(self._reset), {"scene_number": np.zeros(self.num_envs, dtype=np.int64)}
+            mask = np.ones(self.num_envs, dtype=bool)
+            if options is not None and "reset_mask" in options:
+                mask = np.asarray(options["reset_mask"])
+                if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
+                    raise ValueError(f"options['reset_mask'] must be ({self.num_envs},) bool with at least one True, "
+                                     f"got {_one_line(mask)}")
+            self._steps[mask] = 0
+            self._next_pose[mask] = 0
+            self._needs_reset[mask] = False
+            obs = _on_backend_thread(self._reset, mask)
+            return obs, {"scene_number": np.zeros(self.num_envs, dtype=np.int64), "_scene_number": mask.copy()}
 
-        def _reset(self) -> dict[str, Any]:
-            for _, robots, _, _ in self._groups:
-                robots.place(np.ones(robots.count, dtype=bool))
+        def _reset(self, mask: np.ndarray) -> dict[str, Any]:
+            for _, robots, indices, _ in self._groups:
+                robots.place(mask[indices])
             return self._observe()
 
         def _goals(self, actions: np.ndarray, acting: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -235,9 +253,9 @@ def make_vector_env_class() -> type:
         def step(self, actions: Any) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, dict]:
             """Perform one action per sub-environment ((N,) ints of :attr:`single_action_space`); returns
             ``(observations, rewards (N,) float64 zeros, terminated (N,) bool, truncated (N,) bool, info)``, with
-            ``info['result']`` (N,) str ``'SUCCESS'``/``'COLLISION'``/``'FINISHED'`` and ``info['scene_number']``
-            (N,) int, each masked by ``info['_result']``/``info['_scene_number']`` (False where a sub-environment
-            was reset instead).
+            ``info['result']`` (N,) str ``'SUCCESS'``/``'COLLISION'``/``'FINISHED'``, masked by ``info['_result']``
+            (False where a sub-environment was reset instead), and ``info['scene_number']`` (N,) int64 zeros with
+            ``info['_scene_number']`` all True (a reset reports its scene too, as ``SyncVectorEnv`` does).
 
             Raises:
                 ValueError: ``actions`` is not N actions of the action space.
@@ -246,7 +264,8 @@ def make_vector_env_class() -> type:
             if (actions.shape != (self.num_envs,) or actions.dtype.kind not in "iu"
                     or not self.action_space.contains(actions.astype(np.int64))):
                 raise ValueError(f"actions must be {self.num_envs} integers of {self.single_action_space}, got "
-                                 f"{actions!r}")
+                                 f"{_one_line(actions)} "
+                                 f"(shape {actions.shape}, {actions.dtype})")
             resetting, acting = self._needs_reset.copy(), ~self._needs_reset
             collided, obs = _on_backend_thread(self._move_and_observe, actions.astype(np.int64), resetting, acting)
             self._steps[resetting], self._next_pose[resetting] = 0, 0
@@ -264,7 +283,8 @@ def make_vector_env_class() -> type:
             result = np.where(collided, "COLLISION", np.where(finished, "FINISHED", "SUCCESS"))
             result = np.where(acting, result, "")
             info = {"result": result, "_result": acting.copy(),
-                    "scene_number": np.zeros(self.num_envs, dtype=np.int64), "_scene_number": acting.copy()}
+                    "scene_number": np.zeros(self.num_envs, dtype=np.int64),
+                    "_scene_number": np.ones(self.num_envs, dtype=bool)}
             return obs, np.zeros(self.num_envs), terminated, truncated, info
 
         def _move_and_observe(self, actions: np.ndarray, resetting: np.ndarray,
@@ -284,8 +304,8 @@ def make_vector_env_class() -> type:
             rgb = self._last.get("image_rgb")
             if rgb is None:
                 return None
-            if not isinstance(rgb, np.ndarray):
-                rgb = rgb.numpy()
+            if not isinstance(rgb, np.ndarray):  # a DeviceArray: Taichi copies it on its own thread
+                rgb = _on_backend_thread(rgb.numpy)
             return tuple(np.array(image) for image in rgb)
 
         def close_extras(self, **kwargs: Any) -> None:

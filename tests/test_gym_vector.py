@@ -179,3 +179,38 @@ def test_on_device_images_reach_torch_on_the_gpu_without_a_copy():
     finally:
         vec.close()
         host.close()
+
+
+def test_infos_and_reset_mask_match_sync_vector_env():
+    """The info keys and masks of reset and of NEXT_STEP autoreset are those SyncVectorEnv gives over BenchBot-v0;
+    ``options['reset_mask']`` resets only the masked robots; a bad action array is refused in one line."""
+    actions = np.array([[0, 2], [0, 2], [3, 2], [1, 2], [2, 0]])
+    kwargs = {"num_envs": 2, "task": ACTIVE, "env": "miniroom:1", "options": SMALL, "max_steps": 2}
+    infos = {}
+    for mode in ("vector_entry_point", "sync"):
+        vec = gymnasium.make_vec("BenchBot-v0", vectorization_mode=mode, **kwargs)
+        try:
+            obs, info = vec.reset(seed=0)
+            start, run = obs["pose"].copy(), [info]
+            for a in actions:
+                obs, _, terminated, truncated, info = vec.step(a)
+                run.append({**info, "terminated": terminated, "truncated": truncated})
+            moved = obs["pose"].copy()
+            assert not np.allclose(moved, start)
+            obs, info = vec.reset(options={"reset_mask": np.array([False, True])})
+            run.append(info)
+            np.testing.assert_allclose(obs["pose"], [moved[0], start[1]], atol=1e-9)  # only robot 1 is reset
+            if mode == "vector_entry_point":
+                with pytest.raises(ValueError, match="reset_mask"):
+                    vec.reset(options={"reset_mask": np.array([0, 1])})
+                with pytest.raises(ValueError) as bad:
+                    vec.step(np.arange(200).reshape(100, 2))
+                assert "\n" not in str(bad.value) and "(100, 2)" in str(bad.value)
+        finally:
+            vec.close()
+        infos[mode] = run
+    for t, (a, b) in enumerate(zip(infos["vector_entry_point"], infos["sync"], strict=True)):
+        # SyncVectorEnv leaves 'result' out when every robot was reset; here it is there, masked off
+        assert b.keys() <= a.keys() and not any(a[f"_{key}"].any() for key in a.keys() - b.keys() if key[0] != "_"), t
+        for key in b:
+            assert np.array_equal(a[key], b[key]), (t, key, a[key], b[key])
