@@ -142,9 +142,16 @@ def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | No
     carried into the map frame, and the collisions of all ticks of all robots are checked at once. One robot moves
     exactly as it does in a batch.
 
+    Memory: the paths are (N, T + 1, 3) float64, T the longest path's ticks (at most two phases of
+    ``gains.phase_timeout_s`` at ``gains.rate_hz``: 1,200 by default); the collision checks go by blocks of robots of
+    about :data:`CHECK_PAIRS` (pose, obstacle) pairs.
+
     Returns:
         (final poses (N, 3) float64, collided (N,) bool, simulated seconds (N,) float64: until the contact, or the
         motion plus ``gains.settle_s``).
+
+    Raises:
+        ValueError: a pose or goal that is not finite (:class:`~benchbot.core.motion.PoseControllers`).
     """
     poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
     n = len(poses)
