@@ -58,7 +58,7 @@ def _environment_list(env: str | Sequence[str], num_envs: int) -> list[str]:
     """
     if isinstance(env, str):
         return [env] * num_envs
-    names = list(env)
+    names = list(env) if isinstance(env, (list, tuple)) else []
     if len(names) != num_envs or not all(isinstance(n, str) for n in names):
         raise ValueError(f"env must be one 'name:variant' string or a list of {num_envs} of them, got {env!r}")
     return names

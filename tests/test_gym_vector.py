@@ -214,3 +214,10 @@ def test_infos_and_reset_mask_match_sync_vector_env():
         assert b.keys() <= a.keys() and not any(a[f"_{key}"].any() for key in a.keys() - b.keys() if key[0] != "_"), t
         for key in b:
             assert np.array_equal(a[key], b[key]), (t, key, a[key], b[key])
+
+
+def test_bad_keywords_are_one_line_value_errors():
+    for kwargs, match in (({"env": 5}, "a list of 2"), ({"env": "miniroom:1", "num_envs": True}, "num_envs"),
+                          ({"max_steps": 0}, "max_steps"), ({"step_m": -1.0}, "step_m")):
+        with pytest.raises(ValueError, match=match):
+            gymnasium.make_vec("BenchBot-v0", **{"num_envs": 2, "task": ACTIVE, **kwargs})
