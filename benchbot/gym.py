@@ -24,7 +24,7 @@ returns the terminal observation again with ``terminated=True`` (the backend ref
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 #: The in-process environment's defaults (``BenchBot-v0``).
 DEFAULT_TASK = "semantic_slam:active:ground_truth"
@@ -48,6 +48,38 @@ def _gym() -> Any:
     except ImportError:  # pragma: no cover - depends on the environment
         raise ImportError("benchbot.gym needs gymnasium: install the extra with `pip install benchbot[gym]`") from None
     return gymnasium
+
+
+def check_episode_arguments(max_steps: Any, step_m: Any, turn_deg: Any, render_mode: Any) -> None:
+    """Check the keywords every BenchBot Gym environment takes (single and vector alike).
+
+    Raises:
+        ValueError: ``max_steps`` not an integer >= 1, ``step_m`` (m) or ``turn_deg`` (degrees) not a positive finite
+            number, or ``render_mode`` not None or ``'rgb_array'`` (one line naming the keyword).
+    """
+    if render_mode not in (None, "rgb_array"):
+        raise ValueError(f"render_mode {render_mode!r} is not supported: use None or 'rgb_array'")
+    if isinstance(max_steps, bool) or not (isinstance(max_steps, int) and max_steps >= 1):
+        raise ValueError(f"max_steps must be an integer >= 1, got {max_steps!r}")
+    for name, value in (("step_m", step_m), ("turn_deg", turn_deg)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
+            raise ValueError(f"{name} must be a positive number, got {value!r}")
+
+
+def lazy_classes(namespace: dict, makers: dict[str, Callable[[], type]]) -> Callable[[str], Any]:
+    """A module ``__getattr__`` that builds each class of ``makers`` (name → maker) on first access and keeps it in
+    the module's ``namespace`` (its ``globals()``), so importing the module does not need gymnasium.
+
+    Raises (from the returned function):
+        AttributeError: a name that is not in ``makers``. ImportError: gymnasium is not installed (from the maker).
+    """
+    def module_getattr(name: str) -> Any:
+        if name not in makers:
+            raise AttributeError(name)
+        namespace[name] = cls = makers[name]()
+        return cls
+
+    return module_getattr
 
 
 def register_envs() -> None:
@@ -109,13 +141,7 @@ def make_env_class() -> type:
                      step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None, *,
                      task: str | None = None, env: str | None = None, robot: str | None = None, seed: int = 0,
                      options: dict | None = None) -> None:
-            if render_mode not in (None, "rgb_array"):
-                raise ValueError(f"render_mode {render_mode!r} is not supported: use None or 'rgb_array'")
-            if not (isinstance(max_steps, int) and max_steps >= 1):
-                raise ValueError(f"max_steps must be an integer >= 1, got {max_steps!r}")
-            for name, value in (("step_m", step_m), ("turn_deg", turn_deg)):
-                if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
-                    raise ValueError(f"{name} must be a positive number, got {value!r}")
+            check_episode_arguments(max_steps, step_m, turn_deg, render_mode)
             self._owned = None  # the in-process service this environment built, closed by close()
             if task is not None or env is not None or robot is not None:
                 if backend is not None or address is not None:
@@ -231,12 +257,7 @@ def make_env_class() -> type:
     return BenchBotEnv
 
 
-def __getattr__(name: str) -> Any:
-    if name == "BenchBotEnv":
-        cls = make_env_class()
-        globals()["BenchBotEnv"] = cls
-        return cls
-    raise AttributeError(name)
+__getattr__ = lazy_classes(globals(), {"BenchBotEnv": make_env_class})
 
 
 try:
@@ -244,5 +265,5 @@ try:
 except ImportError:  # gymnasium missing: BenchBotEnv says how to install it when first used
     pass
 
-__all__ = ["BenchBotEnv", "DEFAULT_ENV", "DEFAULT_ROBOT", "DEFAULT_TASK", "ENV_IDS", "VECTOR_ENTRY_POINTS", "make_env_class",
-           "register_envs"]
+__all__ = ["BenchBotEnv", "DEFAULT_ENV", "DEFAULT_ROBOT", "DEFAULT_TASK", "ENV_IDS", "VECTOR_ENTRY_POINTS",
+           "check_episode_arguments", "lazy_classes", "make_env_class", "register_envs"]

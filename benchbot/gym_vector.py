@@ -29,7 +29,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from benchbot.gym import DEFAULT_ENV, DEFAULT_ROBOT, DEFAULT_TASK, _gym
+from benchbot.gym import DEFAULT_ENV, DEFAULT_ROBOT, DEFAULT_TASK, _gym, check_episode_arguments, lazy_classes
 
 #: Observation kinds a batch senses → the key of their entry in the observation dict (``poses`` is served as
 #: ``pose``, as :class:`benchbot.gym.BenchBotEnv` serves it).
@@ -105,13 +105,7 @@ def make_vector_env_class() -> type:
                      on_device: bool = False) -> None:
             if isinstance(num_envs, bool) or not (isinstance(num_envs, int) and num_envs >= 1):
                 raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-            if render_mode not in (None, "rgb_array"):
-                raise ValueError(f"render_mode {render_mode!r} is not supported: use None or 'rgb_array'")
-            if not (isinstance(max_steps, int) and max_steps >= 1):
-                raise ValueError(f"max_steps must be an integer >= 1, got {max_steps!r}")
-            for name, value in (("step_m", step_m), ("turn_deg", turn_deg)):
-                if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
-                    raise ValueError(f"{name} must be a positive number, got {value!r}")
+            check_episode_arguments(max_steps, step_m, turn_deg, render_mode)
             names = _environment_list(env, num_envs)
             scenes = list(dict.fromkeys(names))
             if on_device and len(scenes) > 1:
@@ -323,12 +317,7 @@ def make_vector_env_class() -> type:
     return BenchBotVectorEnv
 
 
-def __getattr__(name: str) -> Any:
-    if name == "BenchBotVectorEnv":
-        cls = make_vector_env_class()
-        globals()["BenchBotVectorEnv"] = cls
-        return cls
-    raise AttributeError(name)
+__getattr__ = lazy_classes(globals(), {"BenchBotVectorEnv": make_vector_env_class})
 
 
 __all__ = ["BATCHED_KEYS", "BenchBotVectorEnv", "make_vector_env_class"]
