@@ -113,7 +113,7 @@ def make_vector_env_class() -> type:
                                  "one vector environment per scene")
             self.num_envs, self.render_mode, self.on_device = num_envs, render_mode, bool(on_device)
             self.max_steps, self.step_m, self.turn_rad = max_steps, float(step_m), math.radians(float(turn_deg))
-            self._groups: list[tuple[Any, Any, np.ndarray, list]] = []  # (backend, robots, indices, trajectory)
+            self._groups: list[tuple[Any, Any, np.ndarray, np.ndarray]] = []  # (backend, robots, indices, trajectory)
             try:
                 self.task = _on_backend_thread(self._load_scenes, task, robot, names, int(seed), dict(options or {}))
             except BaseException:
@@ -126,6 +126,9 @@ def make_vector_env_class() -> type:
             self._steps = np.zeros(num_envs, dtype=np.int64)
             self._next_pose = np.zeros(num_envs, dtype=np.int64)  # passive: index of the next trajectory pose
             self._needs_reset = np.zeros(num_envs, dtype=bool)
+            self._trajectory_lengths = np.zeros(num_envs, dtype=np.int64)  # passive: poses of each one's trajectory
+            for _, _, indices, trajectory in self._groups:
+                self._trajectory_lengths[indices] = len(trajectory)
             self._last: dict[str, Any] = {}
             first = _on_backend_thread(self._observe)
             self.single_observation_space = spaces.Dict({key: self._space(spaces, key, tuple(value.shape[1:]),
@@ -150,8 +153,9 @@ def make_vector_env_class() -> type:
                 except NotImplementedError:
                     raise SpecError(f"robot '{robot}' (type {run.robot['type']}) has no batched robots",
                                     "use gym.make_vec(..., vectorization_mode='sync')") from None
-                trajectory = [pose7_to_se2(p) for p in environment.get("trajectory_poses") or []]
-                if not trajectory and "move_next" in run.task["actions"]:
+                poses = environment.get("trajectory_poses") or []
+                trajectory = np.array([pose7_to_se2(p) for p in poses]).reshape(-1, 3)  # (L, 3) map [x, y, yaw]
+                if not len(trajectory) and "move_next" in run.task["actions"]:
                     raise SpecError(f"environment {scene_name} has no trajectory_poses for task '{task}'",
                                     "choose an environment with a trajectory, or an active task")
                 self._groups[-1] = (backend, robots, indices, trajectory)
@@ -240,8 +244,8 @@ def make_vector_env_class() -> type:
                 goals[:, 2] = wrap_angle(poses[:, 2] + turn)
                 return goals
             for _, _, indices, trajectory in self._groups:
-                for i in indices[acting[indices]]:
-                    goals[i] = trajectory[self._next_pose[i]]
+                moving = indices[acting[indices]]
+                goals[moving] = trajectory[self._next_pose[moving]]
             return goals
 
         def step(self, actions: Any) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, dict]:
@@ -267,10 +271,7 @@ def make_vector_env_class() -> type:
             finished = np.zeros(self.num_envs, dtype=bool)
             if not self.active:
                 self._next_pose[acting] += 1
-                lengths = np.zeros(self.num_envs, dtype=np.int64)
-                for _, _, indices, trajectory in self._groups:
-                    lengths[indices] = len(trajectory)
-                finished = acting & (self._next_pose >= lengths)
+                finished = acting & (self._next_pose >= self._trajectory_lengths)
             terminated = acting & (collided | finished)
             truncated = acting & ~terminated & (self._steps >= self.max_steps)
             self._needs_reset = terminated | truncated
