@@ -73,7 +73,7 @@ def make_vector_env_class() -> type:
 
     from benchbot.core import seeding
     from benchbot.core.errors import SpecError
-    from benchbot.core.geometry import pose7_to_se2, wrap_angle
+    from benchbot.core.geometry import pose7_to_se2, se2_compose_many
     from benchbot.core.registry import get_registry
     from benchbot.core.session import resolve_run
 
@@ -235,14 +235,12 @@ def make_vector_env_class() -> type:
 
         def _goals(self, actions: np.ndarray, acting: np.ndarray, poses: np.ndarray) -> np.ndarray:
             """(N, 3) goals of the acting robots (map frame): the task's action per robot."""
+            if self.active:  # as the episode's goal: the pose composed with the action's motion
+                moves = np.zeros((self.num_envs, 3))
+                moves[:, 0] = np.select([actions == 0, actions == 1], [self.step_m, -self.step_m], 0.0)
+                moves[:, 2] = np.select([actions == 2, actions == 3], [self.turn_rad, -self.turn_rad], 0.0)
+                return se2_compose_many(poses, moves)
             goals = poses.copy()
-            if self.active:
-                distance = np.select([actions == 0, actions == 1], [self.step_m, -self.step_m], 0.0)
-                turn = np.select([actions == 2, actions == 3], [self.turn_rad, -self.turn_rad], 0.0)
-                goals[:, 0] += np.cos(poses[:, 2]) * distance
-                goals[:, 1] += np.sin(poses[:, 2]) * distance
-                goals[:, 2] = wrap_angle(poses[:, 2] + turn)
-                return goals
             for _, _, indices, trajectory in self._groups:
                 moving = indices[acting[indices]]
                 goals[moving] = trajectory[self._next_pose[moving]]

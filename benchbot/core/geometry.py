@@ -160,6 +160,24 @@ def se2_relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[2] - a[2])])
 
 
+def se2_compose_many(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """SE(2) products ``a · b`` of poses ``[x, y, yaw]`` in arrays (..., 3) that broadcast together: each is
+    :func:`se2_compose` of one pair (yaw wrapped to [-π, π)); float64 (..., 3)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    return np.stack([a[..., 0] + c * b[..., 0] - s * b[..., 1], a[..., 1] + s * b[..., 0] + c * b[..., 1],
+                     wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
+
+
+def se2_relative_many(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """SE(2) ``a⁻¹ · b`` of poses in arrays (..., 3) that broadcast together: each is :func:`se2_relative` of one
+    pair; float64 (..., 3)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    dx, dy = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
+    return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[..., 2] - a[..., 2])], axis=-1)
+
+
 def pose_observation(T_parent_frame: np.ndarray, parent_frame: str) -> dict:
     """One entry of the ``poses`` observation (docs/observations.md) from ``T_parent_frame`` (4, 4).
 

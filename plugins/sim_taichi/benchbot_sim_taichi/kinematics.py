@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from benchbot.core.geometry import wrap_angle
+from benchbot.core.geometry import se2_compose_many, se2_relative_many
 from benchbot.core.motion import ControllerGains, PoseControllers, integrate_unicycles
 from benchbot.core.robot import MotionOutcome
 
@@ -155,7 +155,7 @@ def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | No
     """
     poses = np.array(poses, dtype=np.float64).reshape(-1, 3)
     n = len(poses)
-    relative = np.round(_relative(poses, np.asarray(goals, dtype=np.float64).reshape(-1, 3)) / GOAL_QUANTUM)
+    relative = np.round(se2_relative_many(poses, np.asarray(goals, dtype=np.float64).reshape(-1, 3)) / GOAL_QUANTUM)
     keys, which = np.unique(relative, axis=0, return_inverse=True)
     paths = [local_path(tuple(key * GOAL_QUANTUM), gains) for key in keys]
     ticks = np.array([len(path) - 1 for path in paths], dtype=np.int64)[which.reshape(-1)]
@@ -163,7 +163,7 @@ def drive_robots(poses: np.ndarray, goals: np.ndarray, obstacles: Obstacles | No
     local = np.zeros((len(paths), longest + 1, 3))
     for u, path in enumerate(paths):
         local[u, :len(path)], local[u, len(path):] = path, path[-1]
-    path = _compose(poses[:, None, :], local[which.reshape(-1)])  # (N, T + 1, 3) map poses after 0..T ticks
+    path = se2_compose_many(poses[:, None, :], local[which.reshape(-1)])  # (N, T + 1, 3) map poses after 0..T ticks
     path[:, 0] = poses  # exactly where they are (composing with the identity may round the last bit)
     dt = 1.0 / gains.rate_hz
     collided = np.zeros(n, dtype=bool)
@@ -210,17 +210,3 @@ def local_path(relative_goal: tuple[float, float, float], gains: ControllerGains
     path = np.array(out)
     path.flags.writeable = False
     return path
-
-
-def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(N, 3) SE(2) ``a⁻¹ · b`` of (N, 3) poses (:func:`benchbot.core.geometry.se2_relative` row by row)."""
-    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-    dx, dy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
-    return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[:, 2] - a[:, 2])], axis=1)
-
-
-def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """SE(2) ``a · b`` of (..., 3) poses, broadcast (:func:`benchbot.core.geometry.se2_compose` element-wise)."""
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack([a[..., 0] + c * b[..., 0] - s * b[..., 1], a[..., 1] + s * b[..., 0] + c * b[..., 1],
-                     wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
