@@ -5,6 +5,7 @@ line; the size bound removes the entries used longest ago."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
@@ -17,6 +18,7 @@ from benchbot.core import stages
 from benchbot_sim_taichi.scene import cache
 
 ALL = ["image_rgb", "image_depth", "image_segment", "laser"]
+LOGGER = "benchbot_sim_taichi.scene.cache"
 
 
 @pytest.fixture
@@ -39,6 +41,29 @@ def stages_of(work) -> list[str]:
     with stages.listening(listen):
         work()
     return heard
+
+
+def warnings_of(caplog, work) -> tuple:
+    """``(work(), [message of every record logged at WARNING or above while it ran])``, the cache's logger
+    included (``caplog`` is cleared first)."""
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        result = work()
+    return result, [r.getMessage() for r in caplog.records]
+
+
+@contextlib.contextmanager
+def changed(monkeypatch, target, name: str, value):
+    """``target.<name>`` is ``value`` inside the block and :func:`cache.code_fingerprint` is computed afresh there;
+    after it the real attribute is back and the fingerprint is computed afresh again."""
+    real = getattr(target, name)
+    monkeypatch.setattr(target, name, value)
+    cache.code_fingerprint.cache_clear()
+    try:
+        yield
+    finally:
+        monkeypatch.setattr(target, name, real)
+        cache.code_fingerprint.cache_clear()
 
 
 def assert_same_scene(a, b) -> None:
@@ -120,21 +145,12 @@ def test_a_changed_layout_version_or_format_misses(synthetic_env, make_backend, 
     from importlib import metadata
 
     real_version = metadata.version
-    monkeypatch.setattr(metadata, "version", lambda name: "99.0" if name == "benchbot-sim-taichi"
-                        else real_version(name))
-    cache.code_fingerprint.cache_clear()
-    try:
+    with changed(monkeypatch, metadata, "version",
+                 lambda name: "99.0" if name == "benchbot-sim-taichi" else real_version(name)):
         assert cache.scene_key(env, 0) != moved
-    finally:
-        monkeypatch.setattr(metadata, "version", real_version)
-        cache.code_fingerprint.cache_clear()
     assert cache.scene_key(env, 0) == moved
-    monkeypatch.setattr(cache, "CACHE_FORMAT", cache.CACHE_FORMAT + 1)
-    cache.code_fingerprint.cache_clear()
-    try:
+    with changed(monkeypatch, cache, "CACHE_FORMAT", cache.CACHE_FORMAT + 1):
         assert cache.scene_key(env, 0) != moved
-    finally:
-        cache.code_fingerprint.cache_clear()
 
 
 def test_a_corrupt_or_foreign_entry_is_rebuilt_with_one_log_line(synthetic_env, make_backend, cache_dir, caplog):
@@ -148,11 +164,11 @@ def test_a_corrupt_or_foreign_entry_is_rebuilt_with_one_log_line(synthetic_env, 
     prepared_file, = cache_dir.glob("*.prepared.npz")
     scene_file.write_bytes(b"PK\x03\x04 not a zip at all")
     np.savez(prepared_file, entry=np.array([object()], dtype=object))  # a pickled object: never loaded
-    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
         b = make_backend(width=16, height=12)
         heard = stages_of(lambda: b.load_scene(env))
     assert "building the scene" in heard and "building the BVH" in heard, heard
-    lines = [r.getMessage() for r in caplog.records if r.name == "benchbot_sim_taichi.scene.cache"]
+    lines = [r.getMessage() for r in caplog.records if r.name == LOGGER]
     assert len(lines) == 2, lines
     assert str(scene_file) in lines[0] and "building the scene again" in lines[0]
     assert str(prepared_file) in lines[1] and "pickle" in lines[1].lower()
@@ -164,10 +180,9 @@ def test_a_corrupt_or_foreign_entry_is_rebuilt_with_one_log_line(synthetic_env, 
     # an entry renamed to another key's name (its record names its own) is not taken for that key
     other = "0" * 64
     os.replace(scene_file, cache_dir / f"{other}.scene.npz")
-    caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
-        assert cache.load_scene(other) is None
-    assert len(caplog.records) == 1 and "records" in caplog.records[0].getMessage()
+    loaded, lines = warnings_of(caplog, lambda: cache.load_scene(other))
+    assert loaded is None
+    assert len(lines) == 1 and "records" in lines[0]
     assert not (cache_dir / f"{other}.scene.npz").exists()
 
 
@@ -191,7 +206,6 @@ def test_the_bound_removes_the_entries_used_longest_ago(cache_dir, monkeypatch):
     assert cache._write(f"{4:064d}", "scene", arrays) is None
 
 
-
 def test_an_entry_larger_than_the_bound_once_read_is_not_read(cache_dir, monkeypatch, caplog):
     """A compressed archive whose arrays would take more than BENCHBOT_SCENE_CACHE_BYTES once read (a zip bomb) is
     ignored and removed before any array is read; so is a file larger than the bound."""
@@ -202,19 +216,18 @@ def test_an_entry_larger_than_the_bound_once_read_is_not_read(cache_dir, monkeyp
                         a=np.zeros(2_000_000, np.uint8))  # 2 MB of zeros in a few kB
     assert bomb.stat().st_size < 100_000
     monkeypatch.setenv("BENCHBOT_SCENE_CACHE_BYTES", "1000000")
-    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
-        assert cache._read(key, "scene", "it") is None
-    assert len(caplog.records) == 1 and "more than BENCHBOT_SCENE_CACHE_BYTES" in caplog.records[0].getMessage()
+    read, lines = warnings_of(caplog, lambda: cache._read(key, "scene", "it"))
+    assert read is None
+    assert len(lines) == 1 and "more than BENCHBOT_SCENE_CACHE_BYTES" in lines[0]
     assert not bomb.exists()
 
     monkeypatch.delenv("BENCHBOT_SCENE_CACHE_BYTES")
     assert cache._write(key, "scene", {"a": np.zeros(300_000, np.uint8)}) is not None
     assert cache._read(key, "scene", "it") is not None
     monkeypatch.setenv("BENCHBOT_SCENE_CACHE_BYTES", "200000")  # the file alone is larger
-    caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
-        assert cache._read(key, "scene", "it") is None
-    assert len(caplog.records) == 1 and "bytes, more than" in caplog.records[0].getMessage()
+    read, lines = warnings_of(caplog, lambda: cache._read(key, "scene", "it"))
+    assert read is None
+    assert len(lines) == 1 and "bytes, more than" in lines[0]
 
 
 def test_a_stored_plan_of_any_shape_is_rebuilt_not_raised(cache_dir, caplog):
@@ -225,10 +238,9 @@ def test_a_stored_plan_of_any_shape_is_rebuilt_not_raised(cache_dir, caplog):
     odd = cache._text({"dataclass": "Room", "fields": [1, 2]})
     for plan in (deep, odd):
         assert cache._write(key, "scene", {"scene.fields": cache._text({}), "scene.plan": plan}) is not None
-        caplog.clear()
-        with caplog.at_level(logging.WARNING, logger="benchbot_sim_taichi.scene.cache"):
-            assert cache.load_scene(key) is None
-        assert len(caplog.records) == 1 and "building the scene again" in caplog.records[0].getMessage()
+        loaded, lines = warnings_of(caplog, lambda: cache.load_scene(key))
+        assert loaded is None
+        assert len(lines) == 1 and "building the scene again" in lines[0]
         assert not (cache_dir / f"{key}.scene.npz").exists()
 
 
@@ -241,23 +253,14 @@ def test_the_key_follows_the_core_code_and_trimesh_that_shape_a_scene(synthetic_
     cache.code_fingerprint.cache_clear()
     key = cache.scene_key(env, 0)
     real_version = metadata.version
-    monkeypatch.setattr(metadata, "version", lambda name: "0.0.1" if name == "trimesh" else real_version(name))
-    cache.code_fingerprint.cache_clear()
-    try:
+    with changed(monkeypatch, metadata, "version",
+                 lambda name: "0.0.1" if name == "trimesh" else real_version(name)):
         assert cache.scene_key(env, 0) != key
-    finally:
-        monkeypatch.setattr(metadata, "version", real_version)
-        cache.code_fingerprint.cache_clear()
     assert cache.scene_key(env, 0) == key
 
     assert "benchbot.core.geometry" in cache.CORE_MODULES
     real_bytes = cache.Path.read_bytes
     geometry = cache.Path(importlib.util.find_spec("benchbot.core.geometry").origin)
-    monkeypatch.setattr(cache.Path, "read_bytes",
-                        lambda self: real_bytes(self) + b"# changed" if self == geometry else real_bytes(self))
-    cache.code_fingerprint.cache_clear()
-    try:
+    with changed(monkeypatch, cache.Path, "read_bytes",
+                 lambda self: real_bytes(self) + b"# changed" if self == geometry else real_bytes(self)):
         assert cache.scene_key(env, 0) != key
-    finally:
-        monkeypatch.setattr(cache.Path, "read_bytes", real_bytes)
-        cache.code_fingerprint.cache_clear()
