@@ -112,11 +112,9 @@ def code_fingerprint() -> str:
 
 
 def _file_digest(path: Path) -> str:
-    h = hashlib.sha256()
+    """SHA-256 (hex) of the file at ``path``, read in blocks. Raises OSError: it cannot be read."""
     with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def _assets_fingerprint() -> list:
