@@ -64,3 +64,19 @@ def test_views_are_chosen_by_the_objects_they_show(gallery):
     img[0:5, 0:5], img[10:15, 10:15], img[20:22, 20:22] = 19001, 18001, 18002  # two seen, one too small
     assert gallery.objects_seen(img) == (2, 54)
     assert gallery.objects_seen(img, min_pixels=4) == (3, 54)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--envs", "miniroom:1,miniroom:9"], "--envs: no environment named 'miniroom:9'"),
+    (["--styles", "fancy"], "--styles must be a comma-separated list of furnished, primitives"),
+    (["--width", "0"], "--width must be 1 or more"),
+    (["--every", "0"], "--every must be 1 or more"),
+])
+def test_a_bad_flag_is_one_line_before_anything_is_rendered(gallery, tmp_path, capsys, argv, message):
+    """Before: an unknown environment or style, or --width 0, ended in a traceback (a SpecError, a BackendError
+    from build_scene, Taichi's 'not a valid shape'), the unknown environment only after the homes before it."""
+    with pytest.raises(SystemExit) as exc:
+        gallery.main(argv + ["--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and message in err.splitlines()[-1] and "Traceback" not in err
+    assert not (tmp_path / "out").exists()

@@ -37,6 +37,7 @@ import cv2
 import numpy as np
 
 from benchbot.core import atomic
+from benchbot.core.errors import BenchbotError
 from benchbot.core.geometry import se2_to_matrix
 from benchbot.core.registry import get_registry
 from benchbot.core.seeding import environment_world_seed
@@ -44,7 +45,7 @@ from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_at, camera_model
 from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
 from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 from benchbot_sim_taichi.scene import cache as scene_cache
-from benchbot_sim_taichi.scene.build import build_scene
+from benchbot_sim_taichi.scene.build import STYLES, build_scene
 
 ENVIRONMENTS = [f"{home}:{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 #: The robot's default camera's horizontal field of view (degrees).
@@ -107,6 +108,8 @@ def contact_sheet(rows: list[list[np.ndarray]], labels: list[list[str]]) -> np.n
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Render the gallery (see the module docstring); 0 when done. A bad flag, an unknown environment or style:
+    one line on stderr and ``SystemExit(2)``, before anything is rendered."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=Path("docs/gallery"))
     ap.add_argument("--envs", default=",".join(ENVIRONMENTS), help="comma-separated name:variant")
@@ -127,15 +130,23 @@ def main(argv: list[str] | None = None) -> int:
     styles = [s for s in args.styles.split(",") if s] or [None]
     if args.views < 1 or not modes or set(modes) - {"fast", "quality"}:
         ap.error("--views must be 1 or more and --modes a comma-separated list of fast, quality")
+    for flag in ("width", "height", "every", "shadow_samples", "spp"):
+        if getattr(args, flag) < 1:
+            ap.error(f"--{flag.replace('_', '-')} must be 1 or more")
+    if set(styles) - {None, *STYLES}:
+        ap.error(f"--styles must be a comma-separated list of {', '.join(STYLES)}")
+    registry = get_registry()
+    try:  # every name checked before the first home is rendered
+        environments = {env: registry.scenes(env)[0] for env in args.envs.split(",")}
+    except BenchbotError as exc:
+        ap.error(f"--envs: {exc.message}" + (f" ({exc.hint})" if exc.hint else ""))
     z = None if args.robot_camera else args.camera_z
     args.out.mkdir(parents=True, exist_ok=True)
-    registry = get_registry()
     # the robot's default camera model (exposure, tone curve, vignetting): the gallery shows what a robot sees
     renderer = Renderer(None, shadow_samples=args.shadow_samples, seed=0, camera=camera_model())
     K = intrinsics(args.width, args.height, FOV_DEG)
-    for env in args.envs.split(","):
+    for env, environment in environments.items():
         stem = env.replace(":", "_")
-        environment = registry.scenes(env)[0]
         rows, labels, poses = [], [], None
         for style in styles:
             t0 = time.perf_counter()
