@@ -297,11 +297,9 @@ def _probe_ray(target: str, source: str) -> None:
 
 def _first_line(text: str, limit: int = 240) -> str:
     """The first sentence of ``text`` on one line, at most ``limit`` characters."""
-    text = " ".join(str(text).split())
-    for end in (". ", ".\n"):
-        if end in text:
-            text = text[:text.index(end) + 1]
-            break
+    text = " ".join(str(text).split())  # one line: a sentence now ends at ". "
+    if ". " in text:
+        text = text[:text.index(". ") + 1]
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
