@@ -980,6 +980,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         ap.error("--max-truncation must be in [0, 1] and --iou in (0, 1]")
     if args.all_homes and args.env:
         ap.error("--all-homes and --env name the environments both ways: give one")
+    from benchbot_sim_taichi.scene.build import STYLES
+
+    if args.style is not None and args.style not in STYLES:  # else build_scene's BackendError, a traceback
+        ap.error(f"--style must be one of {', '.join(STYLES)}")
     args.env = all_homes() if args.all_homes else args.env or (["miniroom:4"] if args.smoke else list(DEFAULT_ENVS))
     return args
 

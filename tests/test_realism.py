@@ -343,3 +343,11 @@ def test_class_table_counts_per_class_recall_and_false_positives(realism):
     assert "| false positives per frame (≥ 0.3 / ≥ 0.1) | 0.500 / 0.500 |" in lines
     assert "| frames | 2 |" in lines
     assert realism.class_table("empty", {"fast": realism.Tally((0.3,))}, (0.3,)) == ""
+
+
+def test_an_unknown_style_is_a_usage_line(realism, capsys):
+    """Before: ``--style fancy`` built the scene and ended in build_scene's BackendError traceback."""
+    with pytest.raises(SystemExit) as exc:
+        realism.parse_args(["--style", "fancy", "--no-detector"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "--style must be one of furnished, primitives" in err and "Traceback" not in err
