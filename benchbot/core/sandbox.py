@@ -2,18 +2,18 @@
 not exist (docs/security.md, "Isolation levels").
 
 A sandboxed solution's process sees, read-only: the system's folders (``/usr``, ``/etc``, ``/opt``, ...), the Python
-installation and virtual environment BenchBot runs in (for an editable install, only the Python packages of its
-folders, not the folders themselves), and the solution's own folder. Over those, every folder that holds ground
-truth or a scene layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every environment's
-and ground truth's files in the registry, the package of every plugin that contributes environments or ground
-truths (the simulator's), the data directory of installed content packs, the cache directory of built scenes) and
-so is the folder that batches write
-run directories to. It writes only to its own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION``
-is a file there, and ``/tmp/benchbot_result``, where original clients write, leads there too) and to a private
-``/tmp`` of at most :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS, user and network
-namespaces: no other process is visible, no capability is kept, no new user namespace can be made, and its network
-is a loopback device of its own on which the backend answers at ``127.0.0.1:<port>`` and at
-``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.core.socket_relay`.
+installation and virtual environment BenchBot runs in (for an editable install, only the Python packages of its folders,
+not the folders themselves), and the solution's own folder. Over those, every folder that holds ground truth or a scene
+layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every environment's and ground truth's
+files in the registry, the package of every plugin that contributes environments or ground truths (the simulator's), the
+data directory of installed content packs, the cache directory of built scenes, the test data and git history of a
+source checkout BenchBot runs from) and so is the folder that batches write run directories to. It writes only to its
+own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION`` is a file there, and ``/tmp/benchbot_result``,
+where original clients write, leads there too) and to a private ``/tmp`` of at most
+:data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS, user and network namespaces: no other
+process is visible, no capability is kept, no new user namespace can be made, and its network is a loopback device of
+its own on which the backend answers at ``127.0.0.1:<port>`` and at ``benchbot_supervisor:10000`` (where the original
+client looks) through :mod:`benchbot.core.socket_relay`.
 
 What the isolation levels of a run mean (:data:`ISOLATION_LEVELS`, recorded in a batch's manifest as ``sandbox``):
 ``bwrap`` (this module), ``container`` (``--containerised``: the container holds only its image and mounts nothing)
@@ -190,16 +190,15 @@ CHECKOUT_GROUND_TRUTH = ("tests/data", ".git")
 
 
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
-    """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth
-    of ``registry`` names (``_file_path``, ``map_path``, ``home_files``, mesh files), the package folder of every
-    plugin that contributes environments or ground truths, and every other folder of that package's name on
-    ``sys.path`` (a second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the
-    data directory),
-    BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built
-    scenes: their layouts), the test data and git history of a source checkout BenchBot or a plugin runs from
-    (:data:`CHECKOUT_GROUND_TRUTH` of each of :func:`source_roots`: copies of ground truth no registry names, in
-    view when the solution runs from the checkout), and ``extra`` (say, the folder of run directories). Folders
-    inside another hidden folder are left out.
+    """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth of
+    ``registry`` names (``_file_path``, ``map_path``, ``home_files``, mesh files), the package folder of every plugin
+    that contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
+    second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory),
+    BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built scenes:
+    their layouts), the test data and git history of a source checkout BenchBot or a plugin runs from
+    (:data:`CHECKOUT_GROUND_TRUTH` of each of :func:`source_roots`: copies of ground truth no registry names, in view
+    when the solution runs from the checkout), and ``extra`` (say, the folder of run directories). Folders inside
+    another hidden folder are left out.
 
     Args:
         registry: a :class:`~benchbot.core.registry.Registry`.
