@@ -88,6 +88,9 @@ def test_the_cache_key_follows_the_declared_files_only(tmp_path, monkeypatch):
     ("../maps/notes.json", "environments/house_2.yaml: $.home_files[1]: maps/notes.json: not valid JSON (line 1"),
     ("../maps/plain.json", "environments/house_2.yaml: $.home_files[1]: 'maps/plain.json' is not a ground truth: it "
                            "has no ground_truth.objects"),
+    ("../maps/a\0.json", "environments/house_2.yaml: $.home_files[1]: '../maps/a\\x00.json' holds a NUL "
+                         "character"),
+    ("a" * 5000, "environments/house_2.yaml: $.home_files[1]: '" + "a" * 5000 + "' does not exist"),
 ])
 def test_a_bad_declaration_is_refused_by_benchbot_install_in_one_line(tmp_path, entry, expected):
     (tmp_path / "outside.json").write_text((DATA_DIR / "house_1.json").read_text())
@@ -101,6 +104,23 @@ def test_a_bad_declaration_is_refused_by_benchbot_install_in_one_line(tmp_path, 
     lines = [line for line in proc.stderr.splitlines() if "home_files" in line]
     assert len(lines) == 1 and expected in lines[0], proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_unusable_paths_and_symlink_loops_are_refused_in_one_line_at_scan(tmp_path):
+    """A NUL character in map_path or home_files, and a symlink loop in the pack, are problems of the scan (which
+    the registry also runs on every installed pack at load), not a traceback."""
+    pack = _house_pack(tmp_path / "p", home_files=["../maps/house_1.json\0"])
+    scan = cp.scan_pack(pack)
+    assert any("$.home_files[0]: '../maps/house_1.json\\x00' holds a NUL character" in e for e in scan.errors), \
+        scan.errors
+    spec = yaml.safe_load((pack / "environments" / "house_2.yaml").read_text())
+    spec.pop("home_files")
+    (pack / "environments" / "house_2.yaml").write_text(yaml.safe_dump({**spec, "map_path": "../maps/x\0.json"}))
+    (pack / "maps" / "loop_a").symlink_to("loop_b")
+    (pack / "maps" / "loop_b").symlink_to("loop_a")
+    scan = cp.scan_pack(pack)
+    assert any("$.map_path: '../maps/x\\x00.json' holds a NUL character" in e for e in scan.errors), scan.errors
+    assert any(e.startswith("maps/loop_a: symlink to loop_b cannot be resolved") for e in scan.errors), scan.errors
 
 
 def test_a_pack_edited_after_install_is_refused_at_load_and_at_build(tmp_path, data_dir, monkeypatch):

@@ -249,7 +249,11 @@ def _check_tree(root: Path) -> list[str]:
             rel = path.relative_to(root).as_posix()
             mode = path.lstat().st_mode
             if stat.S_ISLNK(mode):
-                target = path.resolve()
+                try:
+                    target = path.resolve()
+                except (OSError, RuntimeError):  # a symlink loop (RuntimeError before Python 3.13)
+                    problems.append(f"{rel}: symlink to {os.readlink(path)} cannot be resolved (a symlink loop?)")
+                    continue
                 if not target.is_relative_to(root):
                     problems.append(f"{rel}: symlink to {os.readlink(path)} leaves the pack")
                 elif target.is_dir():
@@ -301,6 +305,37 @@ def _adapt_functions(pf: PackFile, spec: dict, root: Path, pack: str) -> None:
                             "add the module or use an installed module as module:attr")
 
 
+def _pack_target(pf: PackFile, where: str, name: str, root: Path, inside_hint: str) -> Path:
+    """The resolved path of ``name`` (a path a spec of the pack gives, relative to the spec's folder) that must lie
+    inside the pack ``root``.
+
+    Raises:
+        SpecError: one line starting with ``where``: ``name`` is absolute (or ``~``), holds a NUL character, cannot
+            be resolved (a symlink loop, a name too long) or leaves the pack (``inside_hint`` is the hint).
+    """
+    if os.path.isabs(name) or name.startswith("~"):
+        raise SpecError(f"{where}: absolute path '{name}' is not allowed in a pack",
+                        "give a path relative to the spec's folder, inside the pack")
+    if "\0" in name:
+        raise SpecError(f"{where}: {name[:80]!r} holds a NUL character", "give a file name of the pack")
+    try:
+        target = (pf.path.parent / name).resolve()
+    except (OSError, RuntimeError) as exc:  # a symlink loop (RuntimeError before Python 3.13), a name too long
+        raise SpecError(f"{where}: {name[:80]!r} cannot be resolved ({exc.__class__.__name__})",
+                        "give a file name of the pack") from None
+    if not target.is_relative_to(root):
+        raise SpecError(f"{where}: '{name}' leaves the pack", inside_hint)
+    return target
+
+
+def _asked(test) -> bool:
+    """``test()`` (say ``path.is_file``); ``False`` where the file system cannot answer (a name too long)."""
+    try:
+        return test()
+    except OSError:
+        return False
+
+
 def _adapt_home_files(pf: PackFile, spec: dict, root: Path) -> None:
     """Resolve an environment's ``home_files`` (the ground-truth files its home's floor plan is derived from)
     against the spec's folder; refuse absolute paths, paths leaving the pack and missing files, one line naming the
@@ -313,13 +348,8 @@ def _adapt_home_files(pf: PackFile, spec: dict, root: Path) -> None:
         if not isinstance(name, str) or not name:
             return
         where = f"{pf.rel}: $.home_files[{i}]"
-        if os.path.isabs(name) or name.startswith("~"):
-            raise SpecError(f"{where}: absolute path '{name}' is not allowed in a pack",
-                            "give a path relative to the spec's folder, inside the pack")
-        target = (pf.path.parent / name).resolve()
-        if not target.is_relative_to(root):
-            raise SpecError(f"{where}: '{name}' leaves the pack", "keep the home's ground-truth files inside the pack")
-        if not target.is_file():
+        target = _pack_target(pf, where, name, root, "keep the home's ground-truth files inside the pack")
+        if not _asked(target.is_file):
             raise SpecError(f"{where}: '{name}' does not exist",
                             "list the ground-truth JSON files of the home's variants, relative to the spec's folder")
         resolved.append(str(target))
@@ -342,12 +372,8 @@ def _adapt_paths(pf: PackFile, spec: dict, root: Path) -> None:
             raise SpecError(f"{pf.rel}: $.map_path: '{map_path}' leaves /Game/ (it is '{normal}' once normalised)",
                             "an Unreal asset path stays inside /Game/; other maps go in the pack, as a path "
                             "relative to the spec's folder")
-        raise SpecError(f"{pf.rel}: $.map_path: absolute path '{map_path}' is not allowed in a pack",
-                        "give a path relative to the spec's folder, inside the pack")
-    target = (pf.path.parent / map_path).resolve()
-    if not target.is_relative_to(root):
-        raise SpecError(f"{pf.rel}: $.map_path: '{map_path}' leaves the pack", "keep the map inside the pack")
-    if target.exists():
+    target = _pack_target(pf, f"{pf.rel}: $.map_path", map_path, root, "keep the map inside the pack")
+    if _asked(target.exists):
         spec["map_path"] = str(target)
 
 
