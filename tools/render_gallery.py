@@ -16,10 +16,10 @@ The poses are chosen in the first of ``--styles`` and kept for the others, so th
 places.
 
 Writes ``<env>_<mode>.png`` (``house_1_fast.png`` for ``house:1``; ``<env>_<mode>_<view>.png`` for more than one
-view, ``<env>_<style>_<mode>...`` for a style other than the default) and ``<env>_plan.png``; with ``--sheet``
-instead one JPEG per environment, ``<env>_sheet.jpg`` (rows: style and mode, columns: views, each labelled), and no
-plan. Prints a line per environment and style: the poses, triangles, scene build (or scene cache load) and render
-seconds.
+view, ``<env>_<style>_<mode>...`` for each style that ``--styles`` names, furnished too) and ``<env>_plan.png`` (when
+the first style is furnished: primitives have no plan); with ``--sheet`` instead one JPEG per environment,
+``<env>_sheet.jpg`` (rows: style and mode, columns: views, each labelled), and no plan. Prints a line per
+environment and style: the poses, triangles, scene build (or scene cache load) and render seconds.
 
 Ground truth: BEAR (QUT Centre for Robotic Vision, https://github.com/qcr/benchbot_envs; see the BEAR data manifest
 shipped with sim_taichi).
