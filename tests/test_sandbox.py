@@ -278,6 +278,7 @@ def test_a_checkouts_test_data_and_history_are_hidden_from_a_solution_run_from_i
     assert repo / "tests" / "data" in hidden and repo / "plugins" / "eval_omq" / "tests" / "data" in hidden
     copies = [repo / "tests/data/original_addons/ground_truths_bear_develop/ground_truths/miniroom_1.json",
               repo / "plugins/eval_omq/tests/data/miniroom_1.json", repo / ".git" / "HEAD"]
+    assert copies[0].is_file() and copies[1].is_file()  # the probe looks for real copies (else it proves nothing)
     probe = ("import json, sys; paths = sys.argv[1:]; "
              "print(json.dumps({p: __import__('os').path.exists(p) for p in paths}))")
     outputs, log = tmp_path / "outputs", tmp_path / "probe.log"
