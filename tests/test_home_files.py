@@ -140,6 +140,24 @@ def test_a_pack_edited_after_install_is_refused_at_load_and_at_build(tmp_path, d
     assert "\n" not in exc.value.message
 
 
+@pytest.mark.parametrize("style", ["furnished", "primitives"])
+@pytest.mark.parametrize("text, why", [
+    ("[1, 2]", "no ground_truth.objects"),
+    ('{"environment": {}, "ground_truth": {"class_list": ["chair"], "objects": [{"class": "chair"}]}}',
+     "objects[0]"),
+])
+def test_a_declared_file_that_is_not_a_ground_truth_is_refused_at_build_in_one_line(tmp_path, style, text, why):
+    """An environment that no pack install checked (a plugin's, a file's) declaring a JSON file that is no ground
+    truth: a one-line BackendError naming the field, not a traceback from deep in the floor plan."""
+    (tmp_path / "other.json").write_text(text)
+    env = {"name": "x", "variant": 1, "map_path": str(DATA_DIR / "miniroom_1.json"), "home_files": ["other.json"],
+           "style": style, "_file_path": str(tmp_path / "env.yaml")}
+    with pytest.raises(BackendError) as exc:
+        build_scene(env)
+    assert exc.value.message.startswith("environment x:1: home_files: ") and why in exc.value.message
+    assert "\n" not in exc.value.message
+
+
 @pytest.mark.slow
 def test_the_built_scene_of_a_declared_pack_home_is_the_built_in_home(tmp_path, monkeypatch):
     """The scene builder reads the declaration: the furnished scene of the pack's house_2 with its siblings declared

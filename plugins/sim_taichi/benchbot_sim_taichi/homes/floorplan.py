@@ -1062,6 +1062,26 @@ def home_files(environment: dict, base_dir: Path | None = None) -> list[Path]:
     return list(dict.fromkeys(files))
 
 
+def _checked_ground_truth(data) -> dict:
+    """``data`` (a loaded JSON value) when it is a ground truth whose objects :func:`home_inputs` can read: a dict
+    with ``ground_truth.objects``, a list of dicts with a ``centroid`` and an ``extent`` of 3 numbers each.
+
+    Raises:
+        ValueError: one line saying what is missing.
+    """
+    gt = data.get("ground_truth") if isinstance(data, dict) else None
+    if not isinstance(gt, dict) or not isinstance(gt.get("objects"), list):
+        raise ValueError("it has no ground_truth.objects list")
+    for i, o in enumerate(gt["objects"]):
+        try:
+            ok = all(np.asarray(o[k], dtype=np.float64).shape == (3,) for k in ("centroid", "extent"))
+        except (KeyError, TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ValueError(f"ground_truth.objects[{i}] has no centroid and extent of 3 numbers")
+    return data
+
+
 @functools.lru_cache(maxsize=16)
 def _plan_cached(key: tuple, seed: int, robot_radius_m: float):
     """(frame, home-frame plan, map-frame plan) of the files in ``key``."""
@@ -1069,10 +1089,11 @@ def _plan_cached(key: tuple, seed: int, robot_radius_m: float):
     for path, _, _ in key:
         try:
             with open(path, encoding="utf-8") as f:
-                dicts.append(json.load(f))
+                dicts.append(_checked_ground_truth(json.load(f)))
         except (OSError, ValueError) as e:
             raise BackendError(f"floor plan: cannot read the ground-truth file {path} ({e})",
-                               "check that the file exists and is JSON") from e
+                               "check that the file exists and is a ground-truth JSON {environment, format, "
+                               "ground_truth}") from e
     frame, plan = home_plan(*home_inputs(dicts), seed=seed, robot_radius_m=robot_radius_m)
     return frame, plan, frame.plan_to_map(plan)
 

@@ -610,13 +610,20 @@ def _primitives_frame(environment: dict, file_env: dict, objects: list, map_path
     home's ground-truth files (:func:`~benchbot_sim_taichi.homes.floorplan.home_files`, as the furnished style's),
     else of its own objects and path; ``None`` without map objects. The objects' procedural models and the sun are
     made in it."""
-    from benchbot_sim_taichi.homes.floorplan import home_files, home_inputs
+    from benchbot_sim_taichi.homes.floorplan import HOME_FILES_FIELD, home_files, home_inputs
     from benchbot_sim_taichi.homes.home_frame import home_frame
 
     if not objects:
         return None
     if map_path:
-        dicts = [load_ground_truth_json(f) for f in home_files(environment, _env_dir(environment))]
+        try:
+            dicts = [load_ground_truth_json(f) for f in home_files(environment, _env_dir(environment))]
+        except BackendError as e:
+            if not environment.get(HOME_FILES_FIELD) or e.message.startswith("environment "):
+                raise  # the map's own problem was reported by build_scene; home_files' names the field already
+            raise BackendError(f"environment {environment.get('name')}:{environment.get('variant')}: "
+                               f"{HOME_FILES_FIELD}: {e.message}", "list the ground-truth JSON files of the home's "
+                               "variants {environment, format, ground_truth}") from e
         return home_frame(*home_inputs(dicts))
     return home_frame(objects, _env_paths(environment, file_env))
 
