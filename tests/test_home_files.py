@@ -18,6 +18,7 @@ import yaml
 from benchbot.core import content_packs as cp
 from benchbot.core.errors import BackendError
 from benchbot.core.registry import Registry
+from benchbot.core.server.redaction import ground_truth_strings, redact
 from benchbot_sim_taichi.bear import DATA_DIR, home_files_of
 from benchbot_sim_taichi.homes.floorplan import home_files, plan_for_files
 from benchbot_sim_taichi.scene import cache
@@ -156,6 +157,20 @@ def test_a_declared_file_that_is_not_a_ground_truth_is_refused_at_build_in_one_l
         build_scene(env)
     assert exc.value.message.startswith("environment x:1: home_files: ") and why in exc.value.message
     assert "\n" not in exc.value.message
+
+
+def test_a_relative_declared_file_is_redacted_where_an_error_names_it_resolved(tmp_path):
+    """An environment file's relative home_files entry (``../maps/bad.json``) is opened, and named in errors, as an
+    absolute path: the server's redaction and the sandbox's hidden folders take that path too."""
+    (tmp_path / "maps").mkdir()
+    (tmp_path / "maps" / "bad.json").write_text("{not json")
+    env = {"name": "x", "variant": 1, "map_path": str(DATA_DIR / "miniroom_1.json"), "style": "furnished",
+           "home_files": ["../maps/bad.json"], "_file_path": str(tmp_path / "envs" / "x.yaml")}
+    assert str(tmp_path.resolve() / "maps" / "bad.json") in ground_truth_strings([env])
+    with pytest.raises(BackendError) as exc:
+        build_scene(env)
+    assert "bad.json" in exc.value.message
+    assert str(tmp_path.resolve() / "maps") not in redact(exc.value.message, ground_truth_strings([env]))
 
 
 @pytest.mark.slow
