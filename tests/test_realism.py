@@ -351,3 +351,18 @@ def test_an_unknown_style_is_a_usage_line(realism, capsys):
         realism.parse_args(["--style", "fancy", "--no-detector"])
     err = capsys.readouterr().err
     assert exc.value.code == 2 and "--style must be one of furnished, primitives" in err and "Traceback" not in err
+
+
+def test_the_reference_is_encoded_through_the_robots_camera(realism):
+    """``encode_like_ours(linear, camera)``: the robot's default camera model (filmic at −0.5 EV), not the plain
+    clip: a highlight that the clip burns out to 255 keeps detail under the filmic curve."""
+    from benchbot_sim_taichi.backend import camera_model
+
+    lin = np.array([[[0.0, 0.5, 2.0], [1.0, 1.5, 3.0]]])
+    camera = realism.camera_model()
+    assert camera == camera_model() and camera.tone_curve == "filmic"
+    ours = realism.encode_like_ours(lin, camera)
+    assert ours.dtype == np.uint8 and ours.shape == lin.shape
+    assert np.array_equal(ours, camera.encode(lin, realism.camera_setup(2, 1)[0]))
+    assert realism.encode_like_ours(lin)[0, 1].tolist() == [255, 255, 255]
+    assert 0 < ours[0, 1, 0] < ours[0, 1, 1] < ours[0, 1, 2] < 255  # no clip at 1.0: the roll-off keeps the order
