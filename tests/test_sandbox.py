@@ -294,6 +294,18 @@ def test_a_checkouts_test_data_and_history_are_hidden_from_a_solution_run_from_i
     assert seen[str(repo / "README.md")] is True  # the rest of the folder it runs from is shown
 
 
+def test_a_checkouts_gallery_and_benchmark_figures_are_hidden_too(registry):
+    """The gallery's plans draw every ground-truth object of a home (box and class) and the benchmarks' recorded
+    figures list the objects each frame shows: a solution run from the checkout sees neither folder."""
+    from benchbot.core.sandbox import hidden_folders
+
+    repo = Path(__file__).resolve().parents[1]
+    hidden = hidden_folders(registry)
+    for folder, sample in (("docs/gallery", "miniroom_1_plan.png"), ("benchmarks/results", None)):
+        assert (repo / folder).is_dir() and (sample is None or (repo / folder / sample).is_file()), folder
+        assert repo / folder in hidden, folder
+
+
 @pytest.mark.parametrize("variable, inside", [("BENCHBOT_CACHE_DIR", ".cache/benchbot"),
                                                ("BENCHBOT_DATA_DIR", ".local/share/benchbot")])
 def test_the_cache_and_data_directories_are_hidden_even_inside_the_solutions_folder(tmp_path, registry, monkeypatch,

@@ -6,10 +6,10 @@ installation and virtual environment BenchBot runs in (for an editable install, 
 not the folders themselves), and the solution's own folder. Over those, every folder that holds ground truth or a scene
 layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every environment's and ground truth's
 files in the registry, the package of every plugin that contributes environments or ground truths (the simulator's), the
-data directory of installed content packs, the cache directory of built scenes, the test data and git history of a
-source checkout BenchBot runs from) and so is the folder that batches write run directories to. It writes only to its
-own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION`` is a file there, and ``/tmp/benchbot_result``,
-where original clients write, leads there too) and to a private ``/tmp`` of at most
+data directory of installed content packs, the cache directory of built scenes, the test data, git history, gallery and
+benchmark figures of a source checkout BenchBot runs from) and so is the folder that batches write run directories to.
+It writes only to its own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION`` is a file there, and
+``/tmp/benchbot_result``, where original clients write, leads there too) and to a private ``/tmp`` of at most
 :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS, user and network namespaces: no other
 process is visible, no capability is kept, no new user namespace can be made, and its network is a loopback device of
 its own on which the backend answers at ``127.0.0.1:<port>`` and at ``benchbot_supervisor:10000`` (where the original
@@ -184,9 +184,11 @@ def source_roots(registry) -> list[Path]:
 
 
 #: What a source checkout holds beside its packages that holds copies of ground truth, relative to a source root
-#: (:func:`source_roots`): the tests' data (BEAR ground truths, original add-ons) and the git history (every file
-#: ever committed, test data included).
-CHECKOUT_GROUND_TRUTH = ("tests/data", ".git")
+#: (:func:`source_roots`): the tests' data (BEAR ground truths, original add-ons), the git history (every file
+#: ever committed, test data included), the simulator gallery (``docs/gallery``: each home's plan draws its
+#: ground-truth objects, boxes and classes) and the benchmarks' recorded figures (``benchmarks/results``: the
+#: objects each frame shows, by class and image box).
+CHECKOUT_GROUND_TRUTH = ("tests/data", ".git", "docs/gallery", "benchmarks/results")
 
 
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
@@ -195,10 +197,10 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     that contributes environments or ground truths, and every other folder of that package's name on ``sys.path`` (a
     second, shadowed install) (BenchBot's own package excepted: its built-in content comes from the data directory),
     BenchBot's data directory (installed content packs, with their ground truths), its cache directory (built scenes:
-    their layouts), the test data and git history of a source checkout BenchBot or a plugin runs from
-    (:data:`CHECKOUT_GROUND_TRUTH` of each of :func:`source_roots`: copies of ground truth no registry names, in view
-    when the solution runs from the checkout), and ``extra`` (say, the folder of run directories). Folders inside
-    another hidden folder are left out.
+    their layouts), the test data, git history, gallery and benchmark figures of a source checkout BenchBot or a plugin
+    runs from (:data:`CHECKOUT_GROUND_TRUTH` of each of :func:`source_roots`: copies of ground truth no registry names,
+    in view when the solution runs from the checkout), and ``extra`` (say, the folder of run directories). Folders
+    inside another hidden folder are left out.
 
     Args:
         registry: a :class:`~benchbot.core.registry.Registry`.
