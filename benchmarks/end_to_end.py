@@ -173,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, agents="trivial,hello_passive")
 
+    from benchbot.core.errors import BenchbotError
     from benchbot.core.registry import get_registry
 
     registry = get_registry()
@@ -189,7 +190,11 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="benchbot-e2e-") as tmp:
         for agent in agents:
             for path in paths:
-                run = one_run(args, registry, agent, path, Path(tmp))
+                try:
+                    run = one_run(args, registry, agent, path, Path(tmp))
+                except BenchbotError as exc:  # a name the registry does not know (--env, --task, --agents)
+                    raise SystemExit(f"error: {exc.message}" + (f"\nhint: {exc.hint}" if exc.hint else "")) \
+                        from None
                 runs.append(run)
                 print(f"{agent:>22} {path:>9}: {run['steps']:4d} steps, {run['steps_per_s']:7.2f} steps/s, "
                       f"episode {run['episode_s']:6.2f} s, start-up {run['start_s']:5.2f} s", file=sys.stderr,

@@ -56,7 +56,8 @@ def run_once(argv: list[str], env: dict) -> dict:
                           stdin=subprocess.DEVNULL)
     wall = time.perf_counter() - t
     if proc.returncode != 0:
-        raise RuntimeError(f"benchbot {' '.join(argv)} exited {proc.returncode}:\n{proc.stderr[-3000:]}")
+        said = "\n".join(line for line in proc.stderr.splitlines() if not line.startswith("STAGE "))
+        raise RuntimeError(f"benchbot {' '.join(argv)} exited {proc.returncode}:\n{said[-3000:]}")
     seconds: dict[str, float] = {}
     started: dict[str, float] = {}
     last_end, exit_at = 0.0, None
@@ -101,7 +102,10 @@ def main(argv: list[str] | None = None) -> int:
         if not args.smoke:
             env["TI_OFFLINE_CACHE_FILE_PATH"] = os.path.join(tmp, "taichi")  # read by ti.init: an empty cache
         for i in range(1 + max(0, args.warm)):
-            run = run_once([*command, "--output-dir", os.path.join(tmp, "runs")], env)
+            try:
+                run = run_once([*command, "--output-dir", os.path.join(tmp, "runs")], env)
+            except RuntimeError as exc:  # the command failed (a bad --env or --example): its own message
+                raise SystemExit(str(exc)) from None
             run["label"] = "cold" if i == 0 else f"warm {i}"
             runs.append(run)
             if not args.json:
