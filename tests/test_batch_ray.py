@@ -395,3 +395,17 @@ def test_an_address_that_never_answers_times_out_and_ctrl_c_stops_the_wait(tmp_p
             assert term.wait(20) == 130, term.text[-2000:]
             assert time.monotonic() - t0 < 10 and "interrupted" in term.text and "Traceback" not in term.text
     assert not any(tmp_path.iterdir())
+
+
+def test_a_bad_limit_variable_stops_a_ray_batch_before_any_episode(monkeypatch):
+    """A node reads BENCHBOT_RAY_EPISODE_BYTES only once its episode has run, and the simulator reads
+    BENCHBOT_SCENE_CACHE_BYTES in every episode: run_batch reads both first, so a bad value is one UsageError
+    before any episode (or cluster) is touched, not an error at the end of each episode."""
+    from benchbot.batch.runner import run_batch
+    from benchbot.core.errors import UsageError
+
+    for variable in ("BENCHBOT_RAY_EPISODE_BYTES", "BENCHBOT_SCENE_CACHE_BYTES"):
+        monkeypatch.setenv(variable, "lots")
+        with pytest.raises(UsageError, match=f"{variable}='lots' is not a"):
+            run_batch(None, None, executor="ray")  # stops before it looks at the registry or the batch
+        monkeypatch.delenv(variable)

@@ -47,7 +47,7 @@ from benchbot.core import atomic
 from benchbot.core.episode import served_environment
 from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import Evaluation, evaluate, method_scores
-from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
+from benchbot.core.limits import MAX_LOG_BYTES, RAY_EPISODE_BYTES, SCENE_CACHE_BYTES, STOP_GRACE_S
 from benchbot.core.noise import get_preset
 from benchbot.core.registry import Registry
 from benchbot.core.session import RunSpec, resolve_run
@@ -368,7 +368,10 @@ def run_batch(
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
     if executor not in ("local", "ray"):
         raise UsageError(f"unknown executor '{executor}'", "use local or ray")
-    MAX_LOG_BYTES.value(), STOP_GRACE_S.value()  # a bad variable stops here, not once per episode
+    # a bad limit variable stops here, not once per episode (a Ray node reads its own only after the episode ran)
+    MAX_LOG_BYTES.value(), STOP_GRACE_S.value(), SCENE_CACHE_BYTES.value()
+    if executor == "ray":
+        RAY_EPISODE_BYTES.value()
     run_dir, manifest, specs, records = batch.run_dir, batch.manifest, batch.specs, batch.records
     for record in records:  # results finished earlier but since removed or corrupted are done again
         problem = results_problem(run_dir / record.results) if record.status == "ok" else ""
