@@ -3,7 +3,8 @@ machine and again: once cold, with an empty scene cache and an empty Taichi kern
 folder: ``BENCHBOT_CACHE_DIR``, ``TI_OFFLINE_CACHE_FILE_PATH``), then ``--warm`` more times with the caches that run
 filled. Prints each run's wall time and where its start-up went (the seconds of each stage the simulator marks,
 :mod:`benchbot.core.stages`: building or loading the scene, starting Taichi, BVH, shadow maps, baked light, compiling
-kernels), and what follows the last stage (the episode: the solution's start, its steps, scoring, exit).
+kernels), what follows the last stage (the episode: the solution's start, its steps, scoring, exit), and the bytes
+the scene cache holds after the run (``scene_cache_bytes``: the environment's entry).
 
     uv run python benchmarks/first_run.py [--env miniroom:1] [--example semslam_geometric] [--warm 2] [--json]
 
@@ -77,12 +78,23 @@ def run_once(argv: list[str], env: dict) -> dict:
             "after_stages_s": round((exit_at if exit_at is not None else wall) - last_end, 3)}
 
 
+def folder_bytes(folder: str) -> int:
+    """Bytes of the regular files under ``folder`` (0 when it does not exist)."""
+    total = 0
+    for root, _, names in os.walk(folder):
+        total += sum(os.path.getsize(os.path.join(root, name)) for name in names
+                     if os.path.isfile(os.path.join(root, name)))
+    return total
+
+
 def describe(label: str, run: dict) -> str:
-    """One line of a run for people: its wall time, the seconds of each stage, what came after them."""
+    """One line of a run for people: its wall time, the seconds of each stage, what came after them, the scene
+    cache's size."""
     parts = ", ".join(f"{name} {s:.2f} s" for name, s in run["stages"].items())
     source = "from the scene cache" if run["scene_from_cache"] else "built"
     return (f"{label:<8} {run['wall_s']:6.1f} s  (scene {source}; ready after {run['last_stage_end_s']:.1f} s: "
-            f"{parts}; then {run['after_stages_s']:.1f} s to the end)")
+            f"{parts}; then {run['after_stages_s']:.1f} s to the end; scene cache "
+            f"{run['scene_cache_bytes'] / 1e6:.1f} MB)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -107,6 +119,7 @@ def main(argv: list[str] | None = None) -> int:
             except RuntimeError as exc:  # the command failed (a bad --env or --example): its own message
                 raise SystemExit(str(exc)) from None
             run["label"] = "cold" if i == 0 else f"warm {i}"
+            run["scene_cache_bytes"] = folder_bytes(env["BENCHBOT_CACHE_DIR"])  # what the cache holds after it
             runs.append(run)
             if not args.json:
                 print(describe(run["label"], run), flush=True)
