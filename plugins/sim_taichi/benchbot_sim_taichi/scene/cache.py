@@ -27,9 +27,10 @@ would take more than the cache's bound once read (a compressed archive too), is 
 ``benchbot_sim_taichi.scene.cache``), removed, and built again; the cache never fails a run.
 
 Its size is bounded by :data:`benchbot.core.limits.SCENE_CACHE_BYTES` (``BENCHBOT_SCENE_CACHE_BYTES``, 4 GiB; an entry
-of the furnished miniroom:1 takes 82 MB in two files, house:1 378 MB): after each write, the files used longest ago (by
-modification time, which every hit renews) are removed until the rest fit. ``BENCHBOT_SCENE_CACHE_BYTES=0`` turns the
-cache off.
+of the furnished miniroom:1 takes 82.6 MB in two files, house:1 362 MB, as ``scene_cache_bytes`` of
+``BENCHBOT_SIM_STYLE=furnished uv run python benchmarks/first_run.py --smoke --env house:1 --warm 0`` says on
+2026-11-24): after each write, the files used longest ago (by modification time, which every hit renews) are removed
+until the rest fit. ``BENCHBOT_SCENE_CACHE_BYTES=0`` turns the cache off.
 """
 
 from __future__ import annotations
