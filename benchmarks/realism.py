@@ -69,6 +69,7 @@ if str(HERE) not in sys.path:  # run as a script it is; loaded by path (tests/te
 import smoke  # noqa: E402 - benchmarks/smoke.py, beside this file
 
 from benchbot.core import atomic  # noqa: E402
+from benchbot_task_semslam.coco import COCO80, COCO_TO_BEAR, NMS_IOU, bear_name, box_iou, nms  # noqa: E402, F401
 ASSETS = HERE / "realism"
 
 #: Environments judged by default.
@@ -82,9 +83,8 @@ REFERENCE_FRAMES_PER_ENV = 1
 QUALITY_SPP = 16
 #: Detection score thresholds reported (the first is the headline figure).
 SCORE_THRESHOLDS = (0.3, 0.1)
-#: IoU for a detection to match an object's box (``--iou``); IoU of the detector's own NMS (as @vladmandic/human).
+#: IoU for a detection to match an object's box (``--iou``); the detector's own NMS is ``coco.NMS_IOU``.
 MATCH_IOU = 0.5
-NMS_IOU = 0.4
 #: A visible object: at least this many mask pixels (``--min-pixels``) and at most this fraction of its cuboid
 #: outside the image (``--max-truncation``).
 MIN_PIXELS = 400
@@ -104,20 +104,6 @@ REFERENCE_TIMEOUT_S = 3600
 #: Annotated PNGs written per environment and mode (``--pngs``).
 PNGS_PER_ENV = 3
 
-#: The 80 COCO classes in the detector's order (its class index).
-COCO80 = (
-    "person", "bicycle", "car", "motorcycle", "airplane", "bus", "train", "truck", "boat", "traffic light",
-    "fire hydrant", "stop sign", "parking meter", "bench", "bird", "cat", "dog", "horse", "sheep", "cow", "elephant",
-    "bear", "zebra", "giraffe", "backpack", "umbrella", "handbag", "tie", "suitcase", "frisbee", "skis", "snowboard",
-    "sports ball", "kite", "baseball bat", "baseball glove", "skateboard", "surfboard", "tennis racket", "bottle",
-    "wine glass", "cup", "fork", "knife", "spoon", "bowl", "banana", "apple", "sandwich", "orange", "broccoli",
-    "carrot", "hot dog", "pizza", "donut", "cake", "chair", "couch", "potted plant", "bed", "dining table", "toilet",
-    "tv", "laptop", "mouse", "remote", "keyboard", "cell phone", "microwave", "oven", "toaster", "sink",
-    "refrigerator", "book", "clock", "vase", "scissors", "teddy bear", "hair drier", "toothbrush",
-)
-#: COCO names that BEAR spells differently (every other BEAR class is a COCO name).
-COCO_TO_BEAR = {"dining table": "table"}
-
 #: The detector's control photos: files shipped in registry packages (the scikit-image wheel's ``skimage/data``,
 #: Debian's ``darknet`` package's ``/usr/share/darknet/data``) and the COCO class of each one's main object.
 CONTROL_PHOTOS = {
@@ -135,34 +121,7 @@ class RealismError(Exception):
         self.message, self.hint = message, hint
 
 
-def bear_name(coco_class: int) -> str:
-    """The BEAR class name of a COCO class index (0..79); COCO names BEAR lacks are returned as they are."""
-    name = COCO80[int(coco_class)]
-    return COCO_TO_BEAR.get(name, name)
-
-
 # ----------------------------------------------------------------------------------------------------- box geometry
-def box_iou(a, b) -> float:
-    """IoU of two boxes ``[x1, y1, x2, y2]`` (pixels, x2 > x1 for a non-empty box); 0 for empty ones."""
-    ix = min(a[2], b[2]) - max(a[0], b[0])
-    iy = min(a[3], b[3]) - max(a[1], b[1])
-    if ix <= 0 or iy <= 0:
-        return 0.0
-    inter = ix * iy
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return float(inter / union) if union > 0 else 0.0
-
-
-def nms(detections: list, iou: float = NMS_IOU) -> list:
-    """Class-agnostic non-maximum suppression: ``detections`` rows ``[x1, y1, x2, y2, score, class]``, kept best
-    score first; a row overlapping a kept one at IoU > ``iou`` is dropped."""
-    kept: list = []
-    for d in sorted(detections, key=lambda r: -r[4]):
-        if all(box_iou(d, k) <= iou for k in kept):
-            kept.append(d)
-    return kept
-
-
 def cuboid_truncation(lo, hi, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
                       samples: int = 5) -> float:
     """Fraction (0..1) of an axis-aligned cuboid (``lo``, ``hi`` (3,) metres, map frame) that falls outside the image
