@@ -49,7 +49,9 @@ class CocoDetector:
             raise DetectorUnavailable("onnxruntime is not installed: pip install 'benchbot-task-semslam[detector]'"
                                       " (or uv sync in the BenchBot workspace)") from None
         opts = ort.SessionOptions()
-        opts.intra_op_num_threads = int(threads or len(os.sched_getaffinity(0)))
+        #: intra-op threads of the session
+        self.threads = int(threads or len(os.sched_getaffinity(0)))
+        opts.intra_op_num_threads = self.threads
         opts.inter_op_num_threads = 1
         opts.log_severity_level = 3
         try:

@@ -30,5 +30,5 @@ EXAMPLES_DIR = Path(__file__).parent / "examples"
 
 @hookimpl
 def benchbot_examples() -> list[Path]:
-    """Return the folder of the example specs in ``examples/`` (``semslam_geometric``)."""
+    """Return the folder of the example specs in ``examples/`` (``semslam_geometric``, ``semslam_detector``)."""
     return [EXAMPLES_DIR]

@@ -61,6 +61,9 @@ def observation_frame(observations: dict) -> tuple[np.ndarray, np.ndarray, np.nd
 class GeometricAgent(Agent):
     """Passive agent: fuses every observation and follows the trajectory with ``move_next`` until it ends."""
 
+    #: The name its messages start with.
+    NAME = "semslam_geometric"
+
     def __init__(self, **mapper_kwargs):
         self._mapper_kwargs = mapper_kwargs
         self.mappers: dict[int, GeometricMapper] = {}
@@ -101,7 +104,7 @@ class GeometricAgent(Agent):
         results["objects"] = objects
         with open(filename, "w") as f:
             json.dump(empty_results, f)
-        print(f"semslam_geometric: wrote {len(objects)} objects to {filename}")
+        print(f"{self.NAME}: wrote {len(objects)} objects to {filename}")
 
 
 def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
