@@ -30,6 +30,7 @@ from benchbot.core.specs import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
 
 from benchbot_sim_taichi.render.camera_model import CameraModel
+from benchbot_sim_taichi import loaded_scenes
 from benchbot_sim_taichi.kinematics import Obstacles, drive
 from benchbot_sim_taichi.scene import cache as scene_cache
 from benchbot_sim_taichi.scene.build import build_scene
@@ -256,7 +257,8 @@ class TaichiSimBackend(RobotBackend):
         self.obstacles: Obstacles | None = None
         self._pose = np.zeros(3)
         self._cache: dict[str, Any] = {}
-        self._scene_key: tuple | None = None  # (scene_cache key, renderer options) of the scene the renderer holds
+        #: the scene this backend renders, shared with the process's other backends of the same world
+        self._loaded: loaded_scenes.LoadedScene | None = None
 
     # ------------------------------------------------------------------------------------------------ contract
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
@@ -272,23 +274,29 @@ class TaichiSimBackend(RobotBackend):
         """
         seed = int(self.options.get("seed", 0) if seed is None else seed)
         key = scene_cache.scene_key(environment, seed) if scene_cache.max_bytes() else None
-        held = self._scene_key is not None and self._renderer is not None and self.scene is not None \
-            and self._scene_key == (key, {**self._renderer.preparation_options(), "seed": seed})
-        if held:  # the scene the renderer holds (an episode's reset loads it again): nothing to build or upload
-            scene = self.scene
-        else:
-            scene, key = scene_cache.scene_for(environment, seed, build=build_scene, key=key)
-        if self._renderer is None:
-            with stages.stage("starting Taichi", detail=str(self.options.get("arch") or "auto")):
-                from benchbot_sim_taichi.render.renderer import Renderer  # Taichi is imported and initialised here
+        camera = camera_model(self.sensors["camera"])
+        sharing = None if key is None else (key, self.options.get("arch"), self.shadow_samples, seed, camera)
+        if self._loaded is None or sharing is None or self._loaded.key != sharing:
+            # not the scene this backend holds (an episode's reset loads it again: nothing to build or upload)
 
-                self._renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
-                                          camera=camera_model(self.sensors["camera"]))
-        self._renderer.seed = seed
-        if not held:
-            self._scene_key = None
-            scene_cache.set_scene(self._renderer, scene, key)
-            self._scene_key = None if key is None else (key, self._renderer.preparation_options())
+            def load() -> tuple[Any, Scene]:
+                scene, built_key = scene_cache.scene_for(environment, seed, build=build_scene, key=key)
+                with stages.stage("starting Taichi", detail=str(self.options.get("arch") or "auto")):
+                    from benchbot_sim_taichi.render.renderer import Renderer  # Taichi is imported and initialised here
+
+                    renderer = Renderer(self.options.get("arch"), shadow_samples=self.shadow_samples, seed=seed,
+                                        camera=camera)
+                try:
+                    scene_cache.set_scene(renderer, scene, built_key)
+                except BaseException:
+                    renderer.close()
+                    raise
+                return renderer, scene
+
+            self._let_go()
+            self._loaded = loaded_scenes.acquire(sharing, load)
+            self._renderer = self._loaded.renderer
+        scene = self._loaded.scene
         self._seed = seed
         self._frame = 0
         self.scene = scene
@@ -507,13 +515,18 @@ class TaichiSimBackend(RobotBackend):
         return TaichiBatchedRobots(self, count)
 
     def close(self) -> None:
-        """Drop the scene and caches and free the renderer's GPU memory (Taichi's runtime stays up for the
-        process). Runs on the backend thread, the thread that renders."""
+        """Drop the scene and caches and let go of the renderer (the last backend of the process using its scene
+        frees its GPU memory, :mod:`benchbot_sim_taichi.loaded_scenes`; Taichi's runtime stays up for the process).
+        Runs on the backend thread, the thread that renders."""
         self._cache = {}
         self.scene = None
-        if self._renderer is not None:
-            self._renderer.close()
-        self._renderer = None
+        self._let_go()
+
+    def _let_go(self) -> None:
+        """Release the loaded scene this backend holds, if any."""
+        loaded, self._loaded, self._renderer = self._loaded, None, None
+        if loaded is not None:
+            loaded_scenes.release(loaded)
 
 
 def _read_only_view(a: np.ndarray) -> np.ndarray:
