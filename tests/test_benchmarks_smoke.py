@@ -33,7 +33,8 @@ FIGURES = {
     "api_step.py": [r"native_step_ms +\d", r"legacy_step_ms +\d", r"native_requests_per_step +1\b"],
     "api_step_stages.py": [r"step_ms +\d", r"total_ms +\d"],
     "baked_light.py": [r"PSNR [\d.]+ dB", r"; [1-9]\d* points"],  # the lattice was baked (a furnished home)
-    "batch.py": [r" 1 worker\(s\): +[\d.]+ s", r" 2 worker\(s\): +[\d.]+ s", r"speed-up [\d.]+x"],
+    "batch.py": [r" 1 worker\(s\): +[\d.]+ s", r" 2 worker\(s\): +[\d.]+ s.*\[local\]",
+                 r" 2 worker\(s\): +[\d.]+ s.*\[batched\]", r"speed-up [\d.]+x \[batched\]"],
     "bvh_build.py": [r"soup +old +\d+ tris +[\d.]+ s", r"house1 +new +\d+ tris +[\d.]+ s"],
     "compile_time.py": [r"fast [\d.]+ s, quality [\d.]+ s"],
     "cpu_paths.py": [r"graph [\d.]+ fps, numpy [\d.]+ fps"],

@@ -4,7 +4,9 @@ do not depend on the executor.
 
 ``local``: ``workers == 1`` runs episodes one after another in this process (the simulator starts once);
 ``workers > 1`` runs them in that many worker processes (spawned; each has its own simulator thread and its own
-backend on a free loopback port; each worker's simulator and solutions get cores / workers threads). ``ray``:
+backend on a free loopback port; each worker's simulator and solutions get cores / workers threads). ``batched``:
+``workers`` episodes at a time in this process (:func:`run_batched`): one simulator, kernels compiled once, the
+episodes of one world sharing its scene, each with its own backend, endpoint and solution process. ``ray``:
 episodes are Ray tasks on an existing Ray cluster or on a local Ray started for the batch (:func:`connect_ray`,
 :func:`run_ray`; docs/cluster.md): each reserves a CPU for its whole life, runs in a run directory of its node's
 own and sends its files back through Ray, and is run again elsewhere when its node dies.
@@ -39,6 +41,8 @@ from benchbot.core.errors import UsageError
 from benchbot.core.session import RunSpec
 
 EventHandler = Callable[[str, int, dict | None], None]
+#: The executors a batch can run its episodes with (module docstring).
+EXECUTORS = ("local", "batched", "ray")
 #: An episode to run: its spec and its combination, resolved once by the batch process.
 Episode = tuple[EpisodeSpec, RunSpec]
 
@@ -149,6 +153,94 @@ def run_local(
         drainer.join()
         if context is not None:
             events.close()
+
+
+#: Seconds an interrupted ``batched`` executor waits for its episodes to stop (solution group, server, backend).
+BATCHED_STOP_WAIT_S = 30.0
+
+
+def world_order(episodes: list[Episode]) -> list[Episode]:
+    """``episodes`` with those of one world (robot, environment, world seed and simulator options) next to each
+    other, in the order each world first appears: what :func:`run_batched` starts together shares one scene."""
+    groups: dict[tuple, list[Episode]] = {}
+    for spec, run in episodes:
+        world = (spec.robot, spec.env, spec.world_seed, repr(sorted(spec.options.items())), spec.noise)
+        groups.setdefault(world, []).append((spec, run))
+    return [episode for group in groups.values() for episode in group]
+
+
+def run_batched(
+    episodes: list[Episode], run_dir: str, *, workers: int, on_event: EventHandler,
+    on_record: Callable[[EpisodeRecord], None],
+) -> None:
+    """Run ``episodes`` together in THIS process, ``workers`` at a time: each episode in a thread of its own with
+    its own backend, API endpoint and solution process (as :func:`run_episode` runs it), all backends on the
+    process's one backend thread, so the simulator starts and compiles its kernels once. Episodes of one world run
+    together (:func:`world_order`) and share its loaded scene where the simulator shares scenes (``sim_taichi``:
+    :mod:`benchbot_sim_taichi.loaded_scenes`: one upload, one copy in GPU memory); what each episode observes, its
+    results and its record are what it would get alone. Solutions' BLAS/OpenMP threads are capped to
+    ``cores / workers`` (unless set). Each record says it ran here (``executor`` ``batched``, ``node`` this host).
+
+    Ctrl-C (KeyboardInterrupt in this thread): every running solution's group is stopped
+    (:func:`benchbot.core.process_group.interrupt_children`), the episodes are given :data:`BATCHED_STOP_WAIT_S`
+    seconds to close their servers and backends, and the interrupt is re-raised; episodes not started never start.
+    """
+    from benchbot.core import process_group
+
+    here = {"hostname": socket.gethostname()}
+    threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
+    for name in THREAD_VARIABLES[1:]:  # the solutions' libraries; the one simulator keeps every core
+        os.environ.setdefault(name, str(threads))
+    events: queue.Queue = queue.Queue()
+    finished: queue.Queue = queue.Queue()  # (index in todo, record or the exception it raised)
+    todo = list(world_order(episodes))
+    claim = threading.Lock()
+    stop = threading.Event()
+    next_one = [0]
+
+    def work() -> None:
+        while not stop.is_set():
+            with claim:
+                k = next_one[0]
+                if k >= len(todo):
+                    return
+                next_one[0] += 1
+            spec, run = todo[k]
+            try:
+                finished.put((k, run_episode(spec, run, run_dir, events)))
+            except BaseException as exc:  # KeyboardInterrupt from interrupt_children, or a bug: the caller says
+                finished.put((k, exc))
+
+    drained = threading.Event()
+    drainer = threading.Thread(target=_drain, args=(events, on_event, drained), daemon=True)
+    drainer.start()
+    pool = [threading.Thread(target=work, name=f"benchbot-episode-{i}", daemon=True)
+            for i in range(min(workers, len(todo)))]
+    for thread in pool:
+        thread.start()
+    try:
+        for _ in range(len(todo)):
+            while True:
+                try:
+                    _, outcome = finished.get(timeout=0.2)  # a timed wait: Ctrl-C is seen at once
+                    break
+                except queue.Empty:
+                    continue
+            if isinstance(outcome, BaseException):
+                raise outcome
+            outcome.executor, outcome.node = "batched", dict(here)
+            on_record(outcome)
+    except BaseException:
+        stop.set()
+        process_group.interrupt_children()
+        deadline = time.monotonic() + BATCHED_STOP_WAIT_S
+        for thread in pool:
+            thread.join(max(0.0, deadline - time.monotonic()))
+        raise
+    finally:
+        process_group.interrupt_children(False)
+        drained.set()
+        drainer.join()
 
 
 # ------------------------------------------------------------------------------------------------------------ Ray

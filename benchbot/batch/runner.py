@@ -36,7 +36,9 @@ from pathlib import Path
 from typing import Callable
 
 from benchbot.batch.episode_runner import results_problem
-from benchbot.batch.executors import RAY_LOG, EventHandler, RayCluster, connect_ray, run_local, run_ray
+from benchbot.batch.executors import (
+    EXECUTORS, RAY_LOG, EventHandler, RayCluster, connect_ray, run_batched, run_local, run_ray,
+)
 from benchbot.batch import provenance
 from benchbot.batch.progress import ProgressFile
 from benchbot.batch.plan import (
@@ -353,7 +355,8 @@ def run_batch(
         on_event: called with every executor event (``start``/``step``/``end``, index, info), in the thread that
             drains the executor's event queue, after ``progress.json`` has taken it.
         on_record: called with every episode's record as it ends, after the manifest has been written.
-        executor: ``local`` (this process, or ``workers`` processes) or ``ray`` (Ray tasks on the cluster
+        executor: ``local`` (this process, or ``workers`` processes), ``batched`` (``workers`` episodes at a time
+            in this process, one simulator, episodes of one world sharing its scene) or ``ray`` (Ray tasks on the cluster
             :func:`~benchbot.batch.executors.connect_ray` picks for ``ray_address``: as ``ray.init`` does, else a
             local Ray with ``workers`` CPUs; Ray's messages go to ``logs/ray.log``). The manifest's ``executor``
             says which, and every record its ``executor`` and ``node``.
@@ -366,8 +369,8 @@ def run_batch(
     """
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
-    if executor not in ("local", "ray"):
-        raise UsageError(f"unknown executor '{executor}'", "use local or ray")
+    if executor not in EXECUTORS:
+        raise UsageError(f"unknown executor '{executor}'", f"use one of {', '.join(EXECUTORS)}")
     # a bad limit variable stops here, not once per episode (a Ray node reads its own only after the episode ran)
     MAX_LOG_BYTES.value(), STOP_GRACE_S.value(), SCENE_CACHE_BYTES.value()
     if executor == "ray":
@@ -398,7 +401,7 @@ def run_batch(
     cluster = ray_cluster
     if executor == "ray" and cluster is None:
         cluster = connect_ray(ray_address, workers=workers, log=run_dir / RAY_LOG)
-    manifest["executor"] = cluster.facts() if executor == "ray" else {"name": "local", "workers": workers}
+    manifest["executor"] = cluster.facts() if executor == "ray" else {"name": executor, "workers": workers}
     try:
         for _ in range(retries + 1):
             todo = [s for s in specs if by_index[s.index].status != "ok"]
@@ -417,6 +420,8 @@ def run_batch(
                 continue
             if executor == "ray":
                 run_ray(episodes, str(run_dir), on_event=handler, on_record=record_done)
+            elif executor == "batched":
+                run_batched(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
             else:
                 run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
     finally:

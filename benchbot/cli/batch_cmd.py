@@ -43,7 +43,7 @@ def register(app: typer.Typer) -> None:
         repeat: int = typer.Option(1, "--repeat", help=f"Run every (robot, environment) this many times, each with its own recorded seed ({at_most(MAX_REPEAT, 1)})."),
         workers: int = typer.Option(1, "--workers", "-w", help=f"Episodes run in parallel (each in its own process with its own backend and cores/N simulator threads; the longest episodes start first; {at_most(MAX_WORKERS, 1)})."),
         retries: int = typer.Option(0, "--retries", help=f"Re-run failed episodes up to this many times ({at_most(MAX_RETRIES)})."),
-        executor: str = typer.Option("local", "--executor", help="local (this machine) or ray (Ray tasks, each reserving a CPU on its node; results come back through Ray; docs/cluster.md)."),
+        executor: str = typer.Option("local", "--executor", help="local (this machine; with --workers N, N processes each with its own simulator), batched (this process: --workers episodes at a time on ONE simulator, kernels compiled once, episodes of one environment sharing its scene; the fastest on a GPU) or ray (Ray tasks, each reserving a CPU on its node; results come back through Ray; docs/cluster.md)."),
         ray_address: Optional[str] = typer.Option(None, "--ray-address", help="With --executor ray: the cluster's head HOST:PORT, ray://HOST:10001 (Ray Client) or local; default as ray.init: $RAY_ADDRESS, else the cluster `ray start` began on this machine, else a local Ray with --workers CPUs."),
         resume: Optional[Path] = typer.Option(None, "--resume", help="Resume the batch in this run directory: only unfinished episodes run."),
         prefix: str = typer.Option("batch", "--prefix", "-p", help="Name prefix of the run directory (and of the --zip archive)."),
@@ -69,14 +69,15 @@ def register(app: typer.Typer) -> None:
         directory under --output-dir, named on stderr; a batch stopped at any moment continues with --resume.
         Exit status 0 when every episode produced results.
         """
+        from benchbot.batch.executors import EXECUTORS
         from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
 
         for flag, value, limit, least in (("--repeat", repeat, MAX_REPEAT, 1), ("--workers", workers, MAX_WORKERS, 1),
                                           ("--retries", retries, MAX_RETRIES, 0), ("--seed", seed, MAX_SEED, 0)):
             check_count(flag, value, limit, least)  # first: nothing is planned for an absurd count
         reg = registry()
-        if executor not in ("local", "ray"):
-            raise UsageError(f"--executor '{executor}' is not an executor", "use local or ray")
+        if executor not in EXECUTORS:
+            raise UsageError(f"--executor '{executor}' is not an executor", f"use one of {', '.join(EXECUTORS)}")
         if ray_address is not None and executor != "ray":
             raise UsageError("--ray-address is for --executor ray", "add --executor ray, or leave --ray-address out")
         cluster = None

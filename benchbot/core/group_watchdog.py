@@ -8,7 +8,7 @@ milliseconds) with the read end of a pipe as its stdin; the starting process kee
   watchdog sends SIGTERM to the group, waits up to ``GRACE_S`` seconds for it to end, then sends SIGKILL.
 
 The watchdog runs in its own session, so neither Ctrl-C in the terminal nor a signal to the starter's process group
-reaches it. :func:`group_running` and :func:`group_members` are also used by
+reaches it. :func:`group_running`, :func:`group_members` and :func:`process_groups` are also used by
 :mod:`benchbot.core.process_group`.
 """
 
@@ -21,9 +21,9 @@ import time
 from collections.abc import Iterator
 
 
-def group_members(pgid: int) -> Iterator[int]:
-    """The process ids of group ``pgid``'s members that are not zombies, as ``/proc/*/stat`` gives them (Linux; the
-    caller checks that ``/proc`` exists). A process that ends while it is read is left out."""
+def _live_processes() -> Iterator[tuple[int, int]]:
+    """``(pid, pgid)`` of every process that is not a zombie, as ``/proc/*/stat`` gives them (Linux; the caller
+    checks that ``/proc`` exists). A process that ends while it is read is left out."""
     for name in os.listdir("/proc"):
         if not name.isdigit():
             continue
@@ -33,8 +33,23 @@ def group_members(pgid: int) -> Iterator[int]:
         except OSError:  # it ended meanwhile
             continue
         fields = stat[stat.rfind(b")") + 2:].split()  # after "pid (comm) ": state ppid pgrp ...
-        if len(fields) >= 3 and int(fields[2]) == pgid and fields[0] not in (b"Z", b"X"):
-            yield int(name)
+        if len(fields) >= 3 and fields[0] not in (b"Z", b"X"):
+            yield int(name), int(fields[2])
+
+
+def group_members(pgid: int) -> Iterator[int]:
+    """The process ids of group ``pgid``'s members that are not zombies, as ``/proc/*/stat`` gives them (Linux; the
+    caller checks that ``/proc`` exists). A process that ends while it is read is left out."""
+    return (pid for pid, group in _live_processes() if group == pgid)
+
+
+def process_groups() -> dict[int, list[int]]:
+    """``{pgid: [pid, ...]}`` of every process that is not a zombie, from one reading of ``/proc`` (Linux; the caller
+    checks that ``/proc`` exists)."""
+    groups: dict[int, list[int]] = {}
+    for pid, group in _live_processes():
+        groups.setdefault(group, []).append(pid)
+    return groups
 
 
 def group_running(pgid: int) -> bool:

@@ -29,6 +29,7 @@ import signal
 import subprocess
 import sys
 import termios
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -157,6 +158,21 @@ STDIN_WATCH_PERIOD_S = 0.25
 _READ_SYSCALLS = {"x86_64": {0, 17, 19, 295, 327}, "aarch64": {63, 65, 67, 69, 286}}
 
 
+_groups_lock = threading.Lock()
+_groups_read: list = [float("-inf"), {}]  # [when /proc was last read (monotonic s), its {pgid: [pid, ...]}]
+
+
+def _recent_group_members(pgid: int, max_age_s: float) -> list[int]:
+    """The members of group ``pgid`` as ``/proc`` gave them at most ``max_age_s`` seconds ago: one reading serves
+    every watcher of this process (the ``batched`` executor of a batch watches many solutions at once, and reading
+    every process's ``/proc`` entry once per watcher and look held the interpreter for most of a step)."""
+    with _groups_lock:
+        now = time.monotonic()
+        if now - _groups_read[0] > max_age_s:
+            _groups_read[:] = [now, group_watchdog.process_groups()]
+        return list(_groups_read[1].get(pgid, ()))
+
+
 class _StdinWatch:
     """A child's standard input when it is given none: the read end of a pipe that nothing is written to, and a
     way to see a process of the child's group blocked reading it (Linux: ``/proc/PID/task/TID/syscall`` names the
@@ -183,7 +199,7 @@ class _StdinWatch:
         if self.write_end is None or time.monotonic() < self.next_look:
             return False
         self.next_look = time.monotonic() + STDIN_WATCH_PERIOD_S
-        for pid in group_watchdog.group_members(pgid):
+        for pid in _recent_group_members(pgid, STDIN_WATCH_PERIOD_S):
             try:
                 tasks = os.listdir(f"/proc/{pid}/task")
             except OSError:  # it ended meanwhile
@@ -234,6 +250,21 @@ class _terminal_guard:
             pass
 
 
+#: Set while this process is being interrupted: every :func:`run_child` waiting in it, on any thread, stops its
+#: group and raises KeyboardInterrupt (Ctrl-C reaches only the main thread; the ``batched`` executor of a batch
+#: waits for its episodes' solutions on threads of their own).
+_interrupted = threading.Event()
+
+
+def interrupt_children(on: bool = True) -> None:
+    """Make every :func:`run_child` of this process, waiting or about to start, stop its child's group and raise
+    KeyboardInterrupt (``on``); ``on=False`` lets them run again. Never raises."""
+    if on:
+        _interrupted.set()
+    else:
+        _interrupted.clear()
+
+
 def run_child(
     argv: list[str], *, cwd: Path, env: dict[str, str], log: IO | None = None, timeout_s: float | None = None,
     stdin: str = "none",
@@ -251,11 +282,13 @@ def run_child(
 
     Raises:
         OSError: the command cannot be started. UsageError: a bad ``BENCHBOT_MAX_LOG_BYTES`` or
-            ``BENCHBOT_STOP_GRACE_S``. Whatever interrupts the wait (KeyboardInterrupt) is re-raised after the group
-            has been stopped.
+            ``BENCHBOT_STOP_GRACE_S``. Whatever interrupts the wait (KeyboardInterrupt, also from
+            :func:`interrupt_children`) is re-raised after the group has been stopped.
     """
     if stdin not in ("none", "inherit"):
         raise ValueError(f"stdin must be 'none' or 'inherit', not {stdin!r}")
+    if _interrupted.is_set():
+        raise KeyboardInterrupt
     grace, cap = STOP_GRACE_S.value(), MAX_LOG_BYTES.value()
     output = {"stdout": subprocess.PIPE, "stderr": subprocess.STDOUT} if log is not None else {}
     watch = _StdinWatch() if stdin == "none" else None
@@ -281,6 +314,8 @@ def run_child(
         pump = _LogPump(child.stdout, log, cap) if log is not None else None
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
         while child.poll() is None:
+            if _interrupted.is_set():
+                raise KeyboardInterrupt
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
                 timed_out = True
