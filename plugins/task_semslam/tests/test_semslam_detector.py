@@ -122,6 +122,34 @@ def test_merging_and_association_do_not_swallow_a_neighbour():
     assert len(objs) == 2 and all(iou(o, TABLE) < 0.05 or iou(o, CHAIR) < 0.05 for o in objs)
 
 
+def test_without_onnxruntime_or_with_a_missing_recording_the_example_says_so_in_one_line(tmp_path):
+    (tmp_path / "onnxruntime.py").write_text("raise ImportError('No module named onnxruntime')\n")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    proc = subprocess.run([sys.executable, str(EXAMPLE_DIR / "semslam_detector.py"), "--offline", "absent.npz"],
+                          capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == ("semslam_detector: onnxruntime is not installed: pip install "
+                                   "'benchbot-task-semslam[detector]' (or uv sync in the BenchBot workspace)")
+    proc = subprocess.run([sys.executable, str(EXAMPLE_DIR / "semslam_detector.py"), "--offline", "absent.npz"],
+                          capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert proc.returncode == 1 and proc.stderr.startswith("semslam_detector: cannot read --offline absent.npz: ")
+    assert "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_offline_mode_writes_an_object_map_of_recorded_frames(tmp_path):
+    """``--offline``: frames of the synthetic room (grey images: the detector finds nothing in them) → a results
+    file of the default class list."""
+    views = [camera(0.0), camera(0.6)]
+    np.savez(tmp_path / "frames.npz", rgb=np.full((2, H, W, 3), 128, np.uint8),
+             depth=np.stack([render_depth(T) for T in views]), K=K, T=np.stack(views))
+    proc = subprocess.run([sys.executable, str(EXAMPLE_DIR / "semslam_detector.py"), "--offline", "frames.npz",
+                           "--output", "result.json"], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "s per frame over 2 frames" in proc.stdout
+    results = json.loads((tmp_path / "result.json").read_text())["results"]
+    assert results["class_list"][-1] == "background" and results["objects"] == []
+
+
 @pytest.mark.slow
 def test_example_runs_end_to_end_on_the_furnished_miniroom(tmp_path):
     """``benchbot batch --example semslam_detector --envs miniroom:1`` (furnished, sandboxed): a valid results file

@@ -35,7 +35,7 @@ sys.path.insert(1, os.path.join(os.path.dirname(HERE), "semslam_geometric"))
 from fusion import DetectionMapper  # noqa: E402
 from semslam_geometric import DEFAULT_CLASS_LIST, BenchBot, GeometricAgent, observation_frame  # noqa: E402
 
-from benchbot_task_semslam.coco_detector import CocoDetector  # noqa: E402
+from benchbot_task_semslam.coco_detector import CocoDetector, DetectorUnavailable  # noqa: E402
 
 
 class DetectorAgent(GeometricAgent):
@@ -83,10 +83,15 @@ class DetectorAgent(GeometricAgent):
 
 def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
     """Detect and fuse the frames recorded in ``path`` (.npz, see the module docstring) and write an object_map
-    result to ``output``; returns it."""
+    result to ``output``; returns it.
+
+    Raises:
+        DetectorUnavailable: no onnxruntime or no model. OSError, KeyError, ValueError: ``path`` is missing, lacks
+            an array, or is not an ``.npz``.
+    """
+    agent = DetectorAgent(**mapper_kwargs)
     data = np.load(path)
     rgb, depth, T, K = data["rgb"], data["depth"], data["T"], data["K"]
-    agent = DetectorAgent(**mapper_kwargs)
     mapper = agent._mapper(0)
     for i in range(len(rgb)):
         mapper.integrate(rgb[i], depth[i], K if K.ndim == 2 else K[i], T[i])
@@ -104,12 +109,18 @@ def main(argv=None) -> None:
     p.add_argument("--min-score", type=float, default=0.15, help="lowest detection score fused")
     args = p.parse_args(argv)
     kwargs = dict(min_score=args.min_score)
-    if args.offline:
-        run_offline(args.offline, args.output, **kwargs)
-        return
-    if BenchBot is None:
-        sys.exit("benchbot_api is not installed: use --offline")
-    BenchBot(agent=DetectorAgent(**kwargs)).run()
+    try:
+        if args.offline:
+            try:
+                run_offline(args.offline, args.output, **kwargs)
+            except (OSError, KeyError, ValueError) as exc:
+                sys.exit(f"semslam_detector: cannot read --offline {args.offline}: {exc}")
+            return
+        if BenchBot is None:
+            sys.exit("benchbot_api is not installed: use --offline")
+        BenchBot(agent=DetectorAgent(**kwargs)).run()
+    except DetectorUnavailable as exc:  # no onnxruntime, or no model: one line, not a traceback
+        sys.exit(f"semslam_detector: {exc}")
 
 
 if __name__ == "__main__":
