@@ -208,6 +208,25 @@ def test_distortion_picks_the_squat_model_for_a_squat_cuboid(lib):
     assert "chair_squat" not in chosen and "chair_tall" in chosen
 
 
+def test_the_size_term_prefers_a_model_near_its_real_size():
+    # a stool and an armchair of alike (near-cubic) proportions: proportions alone draw either for either cuboid
+    stool, armchair = obj_asset("stool", "chair", (0.43, 0.43, 0.46)), obj_asset("armchair", "chair", (0.85, 0.8, 0.86))
+    big, small = [0.83, 0.78, 0.75], [0.45, 0.45, 0.45]
+
+    def drawn(ext, size_weight):
+        return {FIT.choose_model([stool, armchair], ext, None, 0.0, np.random.default_rng(s),
+                                 size_weight=size_weight)[0].id for s in range(30)}
+
+    assert drawn(big, 0.0) == drawn(small, 0.0) == {"stool", "armchair"}
+    assert drawn(big, FIT.SIZE_WEIGHT) == {"armchair"} and drawn(small, FIT.SIZE_WEIGHT) == {"stool"}
+    assert FIT.size_change((0.4, 0.5, 0.6), [0.5, 0.8, 1.2], 1) == pytest.approx(np.log(2.0) * 2 / 3)
+    # furnishing draws ground-truth objects with it
+    library = AssetLibrary([stool, armchair])
+    for seed in range(10):
+        res = F.furnish_home([gt("chair", [1, 1, 0], [1.83, 1.78, 0.75])], one_room_plan(), library, seed=seed)
+        assert [p.asset_id for p in res.placements if p.role == "object"] == ["armchair"]
+
+
 def test_proportions_outweigh_facing_when_they_disagree_strongly():
     couch = [obj_asset("c", "couch", (2.0, 0.9, 0.85))]
     rng = np.random.default_rng(0)

@@ -5,8 +5,10 @@ centre of the bottom of its bounds, bounds ``size_m = [w, d, h]``. :func:`fit_to
 ``T = Translate(box bottom centre) · Rz(k·90°) · Scale(s) · Translate(−model bottom centre)`` that makes the model's
 bounds EQUAL the box (k odd swaps the x and y extents; quarter turns only, so axis-aligned bounds stay exact).
 :func:`choose_model` picks, seeded, among the models and turns that distort the least
-(``Σ_axes |log(s_axis / geometric-mean(s))|``, 0 for a uniform scale), plus a facing term
-``weight · (1 − cos Δ) / 2`` (Δ: angle between the model's front after the turn and the wanted facing).
+(``Σ_axes |log(s_axis / geometric-mean(s))|``, 0 for a uniform scale), plus, with a ``size_weight``, a size term
+``size_weight · |log(geometric-mean(s))|`` (0 when the model keeps its size; the packs' models have their real sizes,
+so a 0.8 m cuboid takes an armchair rather than a 0.45 m stool of the same proportions blown up 1.8×), plus a facing
+term ``weight · (1 − cos Δ) / 2`` (Δ: angle between the model's front after the turn and the wanted facing).
 """
 
 from __future__ import annotations
@@ -19,6 +21,12 @@ import numpy as np
 #: Weight of a rule-given facing against the proportion distortion (see the module docstring): facing yields to
 #: proportions once the facing it wants distorts by more than about this (0.6: a 1.8x aspect change).
 FACING_WEIGHT = 0.6
+
+#: The size term's weight for ground-truth objects (:mod:`~benchbot_sim_taichi.homes.furnish`; see the module
+#: docstring): a model of the right proportions at twice (or half) its size scores as one of the right size whose
+#: proportions are off by a factor 2.2 on one axis. Chosen with ``benchmarks/realism.py`` (docs/realism.md, 24 Nov
+#: 2026, late: 1.5 against 0 and 3).
+SIZE_WEIGHT = 1.5
 
 #: Weight of a seeded random facing (only breaks ties between turns that distort alike).
 RANDOM_FACING_WEIGHT = 0.05
@@ -122,7 +130,19 @@ def distortion(size: Sequence[float], ext: Sequence[float], k: int) -> float:
     return float(np.abs(ls - ls.mean()).sum())
 
 
-def best_score(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float) -> float:
+def size_change(size: Sequence[float], ext: Sequence[float], k: int) -> float:
+    """How much fitting a model of ``size`` (3,) into a box of ``ext`` (3,) with ``k`` quarter turns scales it
+    overall: ``|log(geometric mean of the per-axis scales)|`` (0 when the model keeps its size; log 2 ≈ 0.69 at twice
+    or half its size)."""
+    size = np.asarray(size, dtype=np.float64)
+    ext = np.asarray(ext, dtype=np.float64)
+    if k % 2:
+        size = size[[1, 0, 2]]
+    return float(abs(np.log(ext / size).mean()))
+
+
+def best_score(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float, *,
+               size_weight: float = 0.0) -> float:
     """The lowest :func:`choose_model` score over ``assets`` and the 4 turns for a box of extents ``ext`` (3,)
     (``inf`` without assets)."""
     ext = np.asarray(ext, dtype=np.float64)
@@ -131,6 +151,8 @@ def best_score(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray |
         size = np.asarray(a.size_m, dtype=np.float64)
         for k in range(4):
             sc = distortion(size, ext, k)
+            if size_weight:
+                sc += size_weight * size_change(size, ext, k)
             if prefer is not None:
                 sc += weight * (1.0 - float(front_of(k) @ prefer)) / 2.0
             best = min(best, sc)
@@ -138,9 +160,10 @@ def best_score(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray |
 
 
 def choose_model(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float,
-                 rng: np.random.Generator) -> tuple[Any, int] | None:
+                 rng: np.random.Generator, *, size_weight: float = 0.0) -> tuple[Any, int] | None:
     """Seeded choice of (asset, quarter turns) for a box of extents ``ext`` (3,), ``prefer`` the wanted facing (2,)
-    or None (see the module docstring for the score). ``None`` when ``assets`` is empty."""
+    or None, ``size_weight`` the size term's weight (0: proportions and facing only; see the module docstring for
+    the score). ``None`` when ``assets`` is empty."""
     ext = np.asarray(ext, dtype=np.float64)
     rows = []
     for i, a in enumerate(assets):
@@ -148,6 +171,8 @@ def choose_model(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray
         best = None
         for k in range(4):
             sc = distortion(size, ext, k)
+            if size_weight:
+                sc += size_weight * size_change(size, ext, k)
             if prefer is not None:
                 sc += weight * (1.0 - float(front_of(k) @ prefer)) / 2.0
             if best is None or sc < best[0] - 1e-12:

@@ -7,10 +7,11 @@ map-frame model (z up, front −y, origin at the centre of the bottom of its bou
 deterministic per ``seed``; GT is never changed. The steps:
 
 * **GT objects** (here): a model of the object's class fitted EXACTLY to its cuboid
-  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`), model and quarter turn chosen by proportion distortion plus a
-  facing preference (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides between turns that distort
-  alike and yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a 1.8×
-  aspect change for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
+  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`), model and quarter turn chosen by proportion distortion, a
+  size term (``SIZE_WEIGHT``: a model near its real size is preferred) and a facing preference
+  (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides between turns that distort alike and
+  yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a 1.8× aspect change
+  for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
   draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest
   GT table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back
   to the nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
@@ -39,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from benchbot_sim_taichi.homes.fitting import (
-    FACING_WEIGHT, RANDOM_FACING_WEIGHT, asset_bounds, best_score, choose_model, fit_to_cuboid, front_of,
+    FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, best_score, choose_model, fit_to_cuboid, front_of,
     transformed_bounds)
 from benchbot_sim_taichi.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
@@ -110,7 +111,7 @@ def _book_layout(lo: np.ndarray, hi: np.ndarray, assets: list, prefer: np.ndarra
         for n in range(1, nmax + 1):
             slot = ext.copy()
             slot[ax] /= n
-            sc = best_score(assets, slot, prefer, weight)
+            sc = best_score(assets, slot, prefer, weight, size_weight=SIZE_WEIGHT)
             if sc < best[0] - 1e-9:
                 best = (sc, mode, n)
     return best[1], best[2]
@@ -191,11 +192,11 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
                 prefer[w] = 1.0 if rng.random() < 0.5 else -1.0
             mode, n = _book_layout(lo, hi, assets, prefer, weight)
             for blo, bhi in _book_boxes(lo, hi, rng, float(np.sign(prefer[w])), mode, n):
-                pick = choose_model(assets, bhi - blo, prefer, weight, rng)
+                pick = choose_model(assets, bhi - blo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
                 a, k = pick
                 out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))
             continue
-        a, k = choose_model(assets, hi - lo, prefer, weight, rng)
+        a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
         out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds_of(a)), i, "object"))
 
 
