@@ -252,10 +252,9 @@ SELECTION: tuple[Pick, ...] = (
     P("sc", "bowlWithFruits", "bowl"),
     P("sc", "bowlWithFruits", "bowl", groups="^bowl", name="bowlWithFruits_empty"),
     # potted plant (foliage of separate leaves hardly decimates: the heaviest plants of the libraries, 20k-170k
-    # triangles, are left out)
+    # triangles, are left out; so are the orchids in a dark glossy pot and the cactus in a black one, which the COCO
+    # detector of benchmarks/realism.py took for vases, not potted plants: docs/realism.md, 24 Nov 2026, late)
     P("cc0", "littlePlant", "potted plant", max_error=0.05),
-    P("cc0", "orchids", "potted plant", max_error=0.05),
-    P("cc0", "cactus", "potted plant", max_error=0.05),
     P("cc0", "augalas", "potted plant", max_error=0.05),
     P("ccby", "decorativePlant", "potted plant", max_error=0.05),
     P("ccby", "spider_plant", "potted plant", max_error=0.05),
