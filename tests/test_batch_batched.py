@@ -77,3 +77,17 @@ def test_ctrl_c_stops_every_running_solution_of_a_batched_batch(tmp_path):
     for pid in started:  # every solution was stopped (each runs in a process group of its own)
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def test_recording_with_concurrent_batched_episodes_is_a_usage_error():
+    """Each episode's MCAP recorder is a plugin of the process's one plugin manager: batched episodes running
+    together would each record the others' steps, and the first to end would finish the others' files. run_batch
+    refuses the combination before any episode runs."""
+    from types import SimpleNamespace
+
+    from benchbot.batch.runner import run_batch
+    from benchbot.core.errors import UsageError
+
+    batch = SimpleNamespace(specs=[SimpleNamespace(record=False), SimpleNamespace(record=True)])
+    with pytest.raises(UsageError, match="--record cannot be used with --executor batched"):
+        run_batch(None, batch, executor="batched", workers=2)

@@ -364,13 +364,18 @@ def run_batch(
             table starts, as ``ray.init`` cannot run under it); run_batch closes it when the episodes are done.
 
     Raises:
-        UsageError: ``workers`` < 1; unknown executor; a bad ``BENCHBOT_*`` limit variable; for ``ray`` without
+        UsageError: ``workers`` < 1; unknown executor; ``batched`` with ``workers`` > 1 and recorded episodes; a bad ``BENCHBOT_*`` limit variable; for ``ray`` without
             ``ray_cluster``, Ray missing or its cluster unreachable (:func:`~benchbot.batch.executors.connect_ray`).
     """
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
     if executor not in EXECUTORS:
         raise UsageError(f"unknown executor '{executor}'", f"use one of {', '.join(EXECUTORS)}")
+    if executor == "batched" and workers > 1 and any(s.record for s in batch.specs):
+        # an episode's recorder is a plugin of the process's one plugin manager: episodes running together in one
+        # process would each record every episode's steps, and the first to end would finish the others' files
+        raise UsageError("--record cannot be used with --executor batched and --workers above 1",
+                         "use --executor local (with --workers N), or --workers 1")
     # a bad limit variable stops here, not once per episode (a Ray node reads its own only after the episode ran)
     MAX_LOG_BYTES.value(), STOP_GRACE_S.value(), SCENE_CACHE_BYTES.value()
     if executor == "ray":
