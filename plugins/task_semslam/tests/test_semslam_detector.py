@@ -171,3 +171,23 @@ def test_example_runs_end_to_end_on_the_furnished_miniroom(tmp_path):
     assert scores["TP"] >= 5 and scores["OMQ"] > 0.1, scores
     log = (run_dir / "logs" / "000_miniroom_1.log").read_text()
     assert "semslam_detector: detector" in log and "s per frame over 48 frames" in log
+
+
+
+@pytest.mark.parametrize("shapes, message", [
+    ({"rgb": None, "K": None, "T": None}, "no array rgb, K, T (an .npz of rgb, depth, K, T is needed)"),
+    ({"rgb": (2, H, W, 4)}, f"rgb has shape (2, {H}, {W}, 4), not (N, H, W, 3)"),
+    ({"depth": (3, H, W)}, f"depth has shape (3, {H}, {W}), not (2, {H}, {W}) (rgb's N, H, W)"),
+    ({"K": (4, 4)}, "K has shape (4, 4), not (3, 3) or (2, 3, 3)"),
+    ({"T": (1, 4, 4)}, "T has shape (1, 4, 4), not (2, 4, 4)"),
+])
+def test_a_recording_of_wrong_arrays_is_named_in_one_line(tmp_path, shapes, message):
+    """``--offline`` with an .npz whose arrays are missing (None) or of the wrong shapes: one line naming the
+    array, not a traceback from deep in the mapper."""
+    shapes = {"rgb": (2, H, W, 3), "depth": (2, H, W), "K": (3, 3), "T": (2, 4, 4), **shapes}
+    np.savez(tmp_path / "frames.npz", **{name: np.zeros(shape, np.uint8 if name == "rgb" else np.float32)
+                                         for name, shape in shapes.items() if shape is not None})
+    proc = subprocess.run([sys.executable, str(EXAMPLE_DIR / "semslam_detector.py"), "--offline", "frames.npz"],
+                          capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == f"semslam_detector: cannot read --offline frames.npz: {message}"

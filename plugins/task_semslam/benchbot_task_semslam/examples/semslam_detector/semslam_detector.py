@@ -33,7 +33,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(1, os.path.join(os.path.dirname(HERE), "semslam_geometric"))
 from fusion import DetectionMapper  # noqa: E402
-from semslam_geometric import DEFAULT_CLASS_LIST, BenchBot, GeometricAgent, observation_frame  # noqa: E402
+from semslam_geometric import (  # noqa: E402
+    DEFAULT_CLASS_LIST, BenchBot, GeometricAgent, load_recording, observation_frame,
+)
 
 from benchbot_task_semslam.coco_detector import CocoDetector, DetectorUnavailable  # noqa: E402
 
@@ -86,15 +88,14 @@ def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
     result to ``output``; returns it.
 
     Raises:
-        DetectorUnavailable: no onnxruntime or no model. OSError, KeyError, ValueError: ``path`` is missing, lacks
-            an array, or is not an ``.npz``.
+        DetectorUnavailable: no onnxruntime or no model. OSError, ValueError: ``path`` cannot be read or holds no
+            valid recording (``semslam_geometric.load_recording``: the message names the array).
     """
     agent = DetectorAgent(**mapper_kwargs)
-    data = np.load(path)
-    rgb, depth, T, K = data["rgb"], data["depth"], data["T"], data["K"]
+    rgb, depth, K, T = load_recording(path)
     mapper = agent._mapper(0)
     for i in range(len(rgb)):
-        mapper.integrate(rgb[i], depth[i], K if K.ndim == 2 else K[i], T[i])
+        mapper.integrate(rgb[i], depth[i], K[i], T[i])
     empty = {"task_details": {"name": "semantic_slam:passive:ground_truth", "results_format": "object_map"},
              "environment_details": [{"name": "offline", "variant": 1}],
              "results": {"objects": [], "class_list": list(DEFAULT_CLASS_LIST)}}
@@ -113,7 +114,7 @@ def main(argv=None) -> None:
         if args.offline:
             try:
                 run_offline(args.offline, args.output, **kwargs)
-            except (OSError, KeyError, ValueError) as exc:
+            except (OSError, ValueError) as exc:
                 sys.exit(f"semslam_detector: cannot read --offline {args.offline}: {exc}")
             return
         if BenchBot is None:

@@ -107,15 +107,48 @@ class GeometricAgent(Agent):
         print(f"{self.NAME}: wrote {len(objects)} objects to {filename}")
 
 
-def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
-    """Fuse the frames recorded in ``path`` (.npz, see the module docstring) and write an object_map result."""
+def load_recording(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The frames recorded in ``path`` (.npz, see the module docstring): ``rgb`` (N, H, W, 3) uint8, ``depth``
+    (N, H, W) float32 metres, ``K`` (N, 3, 3) intrinsics (one (3, 3) is repeated), ``T`` (N, 4, 4) T_map_camera of
+    the optical frame.
+
+    Raises:
+        OSError: ``path`` cannot be read. ValueError: it is not an ``.npz`` of those four arrays, or their shapes
+            disagree (the message names the array).
+    """
     data = np.load(path)
-    rgb, depth, T = data["rgb"], data["depth"], data["T"]
-    K = data["K"]
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise ValueError("not an .npz of the arrays rgb, depth, K, T")
+    with data:
+        missing = [name for name in ("rgb", "depth", "K", "T") if name not in data.files]
+        if missing:
+            raise ValueError(f"no array {', '.join(missing)} (an .npz of rgb, depth, K, T is needed)")
+        rgb, depth, K, T = data["rgb"], data["depth"], data["K"], data["T"]
+    if rgb.ndim != 4 or rgb.shape[3] != 3:
+        raise ValueError(f"rgb has shape {rgb.shape}, not (N, H, W, 3)")
+    n = len(rgb)
+    if depth.shape != rgb.shape[:3]:
+        raise ValueError(f"depth has shape {depth.shape}, not {rgb.shape[:3]} (rgb's N, H, W)")
+    if K.shape == (3, 3):
+        K = np.broadcast_to(K, (n, 3, 3))
+    if K.shape != (n, 3, 3):
+        raise ValueError(f"K has shape {K.shape}, not (3, 3) or ({n}, 3, 3)")
+    if T.shape != (n, 4, 4):
+        raise ValueError(f"T has shape {T.shape}, not ({n}, 4, 4)")
+    return rgb, depth, K, T
+
+
+def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
+    """Fuse the frames recorded in ``path`` (.npz, see the module docstring) and write an object_map result.
+
+    Raises:
+        OSError, ValueError: ``path`` cannot be read or holds no valid recording (:func:`load_recording`).
+    """
+    rgb, depth, K, T = load_recording(path)
     agent = GeometricAgent(**mapper_kwargs)
     mapper = agent._mapper(0)
     for i in range(len(rgb)):
-        mapper.integrate(rgb[i], depth[i], K if K.ndim == 2 else K[i], T[i])
+        mapper.integrate(rgb[i], depth[i], K[i], T[i])
     empty = {"task_details": {"name": "semantic_slam:passive:ground_truth", "results_format": "object_map"},
              "environment_details": [{"name": "offline", "variant": 1}],
              "results": {"objects": [], "class_list": list(DEFAULT_CLASS_LIST)}}
@@ -132,7 +165,10 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     kwargs = dict(voxel=args.voxel, stride=args.stride)
     if args.offline:
-        run_offline(args.offline, args.output, **kwargs)
+        try:
+            run_offline(args.offline, args.output, **kwargs)
+        except (OSError, ValueError) as exc:
+            sys.exit(f"semslam_geometric: cannot read --offline {args.offline}: {exc}")
         return
     if BenchBot is None:
         sys.exit("benchbot_api is not installed: use --offline")
