@@ -364,8 +364,9 @@ def run_batch(
             table starts, as ``ray.init`` cannot run under it); run_batch closes it when the episodes are done.
 
     Raises:
-        UsageError: ``workers`` < 1; unknown executor; ``batched`` with ``workers`` > 1 and recorded episodes; a bad ``BENCHBOT_*`` limit variable; for ``ray`` without
-            ``ray_cluster``, Ray missing or its cluster unreachable (:func:`~benchbot.batch.executors.connect_ray`).
+        UsageError: ``workers`` < 1; unknown executor; ``batched`` with ``workers`` > 1 and recorded episodes; a
+            bad ``BENCHBOT_*`` limit variable; for ``ray`` without ``ray_cluster``, Ray missing or its cluster
+            unreachable (:func:`~benchbot.batch.executors.connect_ray`).
     """
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}", "")
