@@ -6,6 +6,7 @@ detector) on the same frames."""
 from __future__ import annotations
 
 import importlib.util
+import os
 import shutil
 import sys
 from pathlib import Path
@@ -75,6 +76,18 @@ def test_the_shipped_model_is_small_and_takes_any_frame_size():
     assert raw[:, 2].max() <= 80 * 1.2 and raw[:, 3].max() <= 60 * 1.2  # in the frame's pixels, not the 512 input's
     with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
         det.raw(np.zeros((60, 80), np.uint8))
+
+
+def test_the_detector_takes_the_batchs_thread_share(monkeypatch):
+    """A batch of --workers N sets OMP_NUM_THREADS to each solution's share of the cores; ONNX Runtime ignores it,
+    so the detector reads it: N detectors do not each start one thread per core."""
+    from benchbot_task_semslam.coco_detector import default_threads
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    assert default_threads() == 3
+    for unusable in ("", "0", "many"):
+        monkeypatch.setenv("OMP_NUM_THREADS", unusable)
+        assert default_threads() == len(os.sched_getaffinity(0))
 
 
 @pytest.mark.slow

@@ -25,6 +25,16 @@ MODEL_INPUT = 512
 MIN_SCORE = 0.05
 
 
+def default_threads() -> int:
+    """ONNX Runtime's intra-op threads when none are asked for: ``OMP_NUM_THREADS`` when it is a positive integer (a
+    batch of ``--workers N`` sets it to the cores / N each solution may use; ONNX Runtime itself ignores it), else
+    the CPUs this process may use."""
+    value = os.environ.get("OMP_NUM_THREADS", "").split(",")[0].strip()
+    if value.isdigit() and int(value) > 0:
+        return int(value)
+    return len(os.sched_getaffinity(0))
+
+
 class DetectorUnavailable(RuntimeError):
     """onnxruntime is not installed, or the model file is missing or unreadable (the message says which)."""
 
@@ -34,7 +44,7 @@ class CocoDetector:
 
     Args:
         model_path: the ONNX model (default :data:`MODEL_PATH`).
-        threads: intra-op threads (default: the CPUs this process may use).
+        threads: intra-op threads (default: :func:`default_threads`).
         min_score: lowest score :meth:`detect` returns.
 
     Raises:
@@ -50,7 +60,7 @@ class CocoDetector:
                                       " (or uv sync in the BenchBot workspace)") from None
         opts = ort.SessionOptions()
         #: intra-op threads of the session
-        self.threads = int(threads or len(os.sched_getaffinity(0)))
+        self.threads = int(threads or default_threads())
         opts.intra_op_num_threads = self.threads
         opts.inter_op_num_threads = 1
         opts.log_severity_level = 3
