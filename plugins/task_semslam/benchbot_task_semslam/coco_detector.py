@@ -74,7 +74,10 @@ class CocoDetector:
     def raw(self, rgb: np.ndarray) -> np.ndarray:
         """The model's 100 rows for an (H, W, 3) uint8 RGB image: (100, 6) float32 ``x1, y1, x2, y2`` in pixels of
         the image (x right, y down), score, COCO class index; in the model's order (best first), no threshold, no
-        NMS."""
+        NMS.
+
+        Raises:
+            ValueError: ``rgb`` is not (H, W, 3)."""
         rgb = np.asarray(rgb)
         if rgb.ndim != 3 or rgb.shape[2] != 3:
             raise ValueError(f"expected an (H, W, 3) RGB image, got shape {rgb.shape}")
@@ -87,7 +90,10 @@ class CocoDetector:
     def detect(self, rgb: np.ndarray, iou: float = NMS_IOU) -> list[list]:
         """Detections of an (H, W, 3) uint8 RGB image: rows ``[x1, y1, x2, y2, score, coco_class]`` (pixels as
         floats, score float, class int 0..79) of score ≥ ``min_score``, best first, after class-agnostic NMS at
-        ``iou`` (as ``@vladmandic/human`` and ``benchmarks/realism.py`` apply it)."""
+        ``iou`` (as ``@vladmandic/human`` and ``benchmarks/realism.py`` apply it).
+
+        Raises:
+            ValueError: ``rgb`` is not (H, W, 3)."""
         rows = [[float(v) for v in r[:5]] + [int(round(float(r[5])))] for r in self.raw(rgb)
                 if r[4] >= self.min_score and np.isfinite(r[5])]
         return nms(rows, iou)
