@@ -91,3 +91,46 @@ def test_recording_with_concurrent_batched_episodes_is_a_usage_error():
     batch = SimpleNamespace(specs=[SimpleNamespace(record=False), SimpleNamespace(record=True)])
     with pytest.raises(UsageError, match="--record cannot be used with --executor batched"):
         run_batch(None, batch, executor="batched", workers=2)
+
+
+def test_run_batched_runs_episodes_of_one_world_together_and_takes_its_thread_variables_back(monkeypatch):
+    """With a stand-in for run_episode: episodes of one world start next to each other, up to ``workers`` at once,
+    every record says ``batched``, and the thread-count variables it set for the solutions are gone afterwards."""
+    import threading
+
+    from benchbot.batch import executors
+    from benchbot.batch.plan import new_record, plan_episodes
+
+    specs = plan_episodes(task="t", robots=["carter"], envs=["house:1", "miniroom:1"], repeat=3, seed=0,
+                          argv=["x"], cwd=".", options={}, timeout_s=None)
+    order = [0, 3, 1, 4, 2, 5]  # interleaved worlds, as longest-first can hand them over
+    started, running, most = [], [0], [0]
+    lock = threading.Lock()
+    for name in executors.THREAD_VARIABLES[1:]:
+        monkeypatch.delenv(name, raising=False)
+    seen_env = []
+
+    def fake_run_episode(spec, run, run_dir, events):
+        with lock:
+            started.append(spec.env)
+            running[0] += 1
+            most[0] = max(most[0], running[0])
+            seen_env.append(os.environ.get("OMP_NUM_THREADS"))
+        time.sleep(0.05)
+        with lock:
+            running[0] -= 1
+        record = new_record(spec)
+        record.status = "ok"
+        return record
+
+    monkeypatch.setattr(executors, "run_episode", fake_run_episode)
+    records = []
+    executors.run_batched([(specs[i], None) for i in order], "/nonexistent", workers=2,
+                          on_event=lambda *a: None, on_record=records.append)
+    grouped = executors.world_order([(specs[i], None) for i in order])
+    assert [spec.env for spec, _ in grouped] == ["house:1"] * 3 + ["miniroom:1"] * 3
+    assert [spec.repeat for spec, _ in grouped] == [0, 1, 2, 0, 1, 2]
+    assert sorted(started) == ["house:1"] * 3 + ["miniroom:1"] * 3
+    assert most[0] == 2 and len(records) == 6 and {r.executor for r in records} == {"batched"}
+    assert set(seen_env) == {str(max(1, (os.cpu_count() or 1) // 2))}
+    assert all(name not in os.environ for name in executors.THREAD_VARIABLES[1:])

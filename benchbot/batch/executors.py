@@ -179,7 +179,8 @@ def run_batched(
     together (:func:`world_order`) and share its loaded scene where the simulator shares scenes (``sim_taichi``:
     :mod:`benchbot_sim_taichi.loaded_scenes`: one upload, one copy in GPU memory); what each episode observes, its
     results and its record are what it would get alone. Solutions' BLAS/OpenMP threads are capped to
-    ``cores / workers`` (unless set). Each record says it ran here (``executor`` ``batched``, ``node`` this host).
+    ``cores / workers`` (unless set; the variables are taken back afterwards). Each record says it ran here
+    (``executor`` ``batched``, ``node`` this host).
 
     Ctrl-C (KeyboardInterrupt in this thread): every running solution's group is stopped
     (:func:`benchbot.core.process_group.interrupt_children`), the episodes are given :data:`BATCHED_STOP_WAIT_S`
@@ -189,8 +190,9 @@ def run_batched(
 
     here = {"hostname": socket.gethostname()}
     threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
-    for name in THREAD_VARIABLES[1:]:  # the solutions' libraries; the one simulator keeps every core
-        os.environ.setdefault(name, str(threads))
+    added = [name for name in THREAD_VARIABLES[1:] if name not in os.environ]
+    for name in added:  # the solutions' libraries (the one simulator keeps every core); taken back at the end
+        os.environ[name] = str(threads)
     events: queue.Queue = queue.Queue()
     finished: queue.Queue = queue.Queue()  # (index in todo, record or the exception it raised)
     todo = list(world_order(episodes))
@@ -241,6 +243,8 @@ def run_batched(
         process_group.interrupt_children(False)
         drained.set()
         drainer.join()
+        for name in added:
+            os.environ.pop(name, None)
 
 
 # ------------------------------------------------------------------------------------------------------------ Ray
