@@ -35,6 +35,33 @@ def test_listeners_hear_every_stage_and_cannot_break_the_work(monkeypatch):
     assert len(heard) == 5  # the listener is gone after its block
 
 
+def test_a_thread_listener_hears_only_the_work_of_its_thread():
+    """listening_here: two pieces of work on two threads each hear their own stages; a process-wide listener both."""
+    import threading
+
+    heard: dict[str, list[str]] = {"a": [], "b": [], "all": []}
+    ready = threading.Barrier(2)
+
+    def work(name: str) -> None:
+        with stages.listening_here(lambda e: heard[name].append(f"{e.kind} {e.name}")):
+            ready.wait(5)
+            with stages.stage(f"building {name}"):
+                pass
+            ready.wait(5)  # both stages are told while both listeners are there
+
+    with stages.listening(lambda e: heard["all"].append(e.name)):
+        threads = [threading.Thread(target=work, args=(n,)) for n in ("a", "b")]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(10)
+    with stages.stage("after"):  # the thread listeners are gone with their blocks
+        pass
+    assert heard["a"] == ["start building a", "end building a"]
+    assert heard["b"] == ["start building b", "end building b"]
+    assert sorted(heard["all"]) == ["building a"] * 2 + ["building b"] * 2
+
+
 def read_until(proc: subprocess.Popen, marker: str, within_s: float) -> list[str]:
     lines, deadline = [], time.monotonic() + within_s
     while time.monotonic() < deadline:

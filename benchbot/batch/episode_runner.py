@@ -146,9 +146,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                 events.put(("stage", spec.index, {"stage": "" if event.kind == "end" else event.text()}))
 
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
-        with stages.listening(on_stage):
-            service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step,
-                                    world_seed=spec.world_seed)
+        # only this episode's backend: episodes run together in one process build theirs one after another
+        service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step,
+                                world_seed=spec.world_seed, on_stage=on_stage)
         recorder = None
         try:
             if spec.record:

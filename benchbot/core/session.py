@@ -15,6 +15,7 @@ import sys
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from benchbot.core import stages
 from benchbot.core.episode import Episode
 from benchbot.core.errors import SpecError
 from benchbot.core.registry import Registry
@@ -82,6 +83,7 @@ def start_service(
     on_step: Callable[[dict], None] | None = None,
     factory: Callable[[dict, dict], Any] | None = None,
     world_seed: int | None = None,
+    on_stage: Callable[[Any], None] | None = None,
 ) -> BackendService:
     """Build the robot backend and the episode on the backend worker thread.
 
@@ -91,6 +93,9 @@ def start_service(
 
     ``factory(robot_spec, options)`` builds the backend; by default the one registered for the robot's ``type``
     (the replay of a recording passes its own).
+
+    ``on_stage`` hears the stages of building THIS backend and its first scene
+    (:func:`benchbot.core.stages.listening_here` on the backend thread), not those of another service of the process.
 
     Observer hooks (``benchbot_episode_started``, ``benchbot_step``) are called along with ``on_step``, and
     ``benchbot_episode_finished`` when the service closes. The
@@ -110,7 +115,8 @@ def start_service(
     def build() -> Episode:
         # stdout carries the CLI's data (tables, --json): whatever a backend prints while starting (Taichi's banner)
         # goes to stderr instead.
-        with contextlib.redirect_stdout(sys.stderr):
+        heard = stages.listening_here(on_stage) if on_stage is not None else contextlib.nullcontext()
+        with contextlib.redirect_stdout(sys.stderr), heard:
             backend = factory(run.robot, {"seed": seed, **(options or {})})
             episode = Episode(
                 run.task, run.robot, run.environments, backend,

@@ -14,7 +14,7 @@ A plugin marks a stage where it does the work::
 
 and a command listens while it waits (:func:`listening`): each listener is called with a :class:`StageEvent` when a
 stage starts, advances and ends. Listeners are process-wide (the work often runs on another thread, such as a
-backend's), called on the thread doing the work, and must return quickly; an exception in a listener is dropped (the
+backend's; :func:`listening_here` hears one thread's work only), called on the thread doing the work, and must return quickly; an exception in a listener is dropped (the
 work never fails because its progress could not be shown). Without a listener a stage costs a few microseconds.
 """
 
@@ -60,11 +60,13 @@ class StageEvent:
 Listener = Callable[[StageEvent], None]
 _listeners: list[Listener] = []
 _lock = threading.Lock()
+_here = threading.local()  # .listeners: the listeners of :func:`listening_here` on this thread
 
 
 def _tell(event: StageEvent) -> None:
     with _lock:
         listeners = list(_listeners)
+    listeners += getattr(_here, "listeners", [])
     for listener in listeners:
         try:
             listener(event)
@@ -120,3 +122,16 @@ def listening(listener: Listener) -> Iterator[None]:
     finally:
         with _lock:
             _listeners.remove(listener)
+
+
+@contextlib.contextmanager
+def listening_here(listener: Listener) -> Iterator[None]:
+    """Call ``listener`` with the :class:`StageEvent` s of the work this thread does while the block runs, and of no
+    other thread's: where several pieces of work share a process (a batch's episodes run together build their
+    backends one after another on the backend thread), each hears only its own."""
+    listeners = _here.__dict__.setdefault("listeners", [])
+    listeners.append(listener)
+    try:
+        yield
+    finally:
+        listeners.remove(listener)
