@@ -229,8 +229,11 @@ SELECTION: tuple[Pick, ...] = (
     P("kl", "full-bookcase", "book", groups="^Books_3$", name="books_row_3", tags=("row",)),
     P("kl", "full-bookcase", "book", groups="^Books_4$", name="books_row_4", tags=("row",)),
     P("sc", "office_furniture1", "book", groups="libros", name="office_books_row", tags=("row",)),
-    # clock
+    # clock: a 7 cm desk clock, and a cuckoo clock's round dial alone (white face, rim, hands), which the furnishing
+    # keeps round inside BEAR's clock cuboids (docs/realism.md, 24 Nov 2026, night)
     P("ccby", "clock", "clock"),
+    P("cc0", "cuckooClock", "clock", groups=r"^(Circle|Torus|Plane\.00[34]|Cylinder_Cylinder\.001)$",
+      name="cuckooClock_dial", tags=("proportional",)),
     # bottle
     P("kl", "red-wine-bottle-01", "bottle"),
     P("sc", "wine_bottle", "bottle"),

@@ -3,7 +3,7 @@ distractors, openings, determinism — on small hand-built libraries and plans (
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -332,6 +332,22 @@ def test_floating_objects_get_one_support_with_its_top_at_their_bottom(lib):
     assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"counter"}
 
 
+def test_a_proportional_clock_keeps_its_proportions_against_the_wall():
+    """A clock model tagged ``proportional`` (a round dial) in a cube cuboid on the north wall: scaled uniformly to
+    the cube's width and height, its back on the wall side, on the cuboid's bottom; the plain clock is not drawn."""
+    dial = replace(obj_asset("dial", "clock", (0.14, 0.013, 0.14)), tags=(F.PROPORTIONAL_TAG,))
+    library = AssetLibrary(FULL_LIB + [dial])
+    lo, hi = np.array([2.0, 4.74, 1.3]), np.array([2.24, 4.98, 1.54])  # a 0.24 m cube against the north wall (y 5)
+    res = F.furnish_home([gt("clock", lo, hi)], one_room_plan(), library, seed=0)
+    (p,) = [p for p in res.placements if p.object_index == 0]
+    assert p.asset_id == "dial"
+    blo, bhi = placed_box(library, p)
+    assert np.allclose(blo[[0, 2]], lo[[0, 2]]) and np.allclose(bhi[[0, 2]], hi[[0, 2]])  # 0.24 m round face
+    assert abs(bhi[1] - hi[1]) < 1e-9 and abs((bhi[1] - blo[1]) - 0.24 * 0.013 / 0.14) < 1e-9  # on the wall side
+    scale = (bhi - blo) / np.array([0.14, 0.013, 0.14])
+    assert np.allclose(scale, scale[0])
+
+
 def library_kind(lib, p):
     return lib.get(p.asset_id).kind
 
@@ -631,8 +647,13 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
             for i, o in enumerate(objs):
                 if i in res.without_model:
                     continue
-                bs = np.array([placed_box(lib, p) for p in res.placements if p.object_index == i])
+                mine = [p for p in res.placements if p.object_index == i]
+                bs = np.array([placed_box(lib, p) for p in mine])
                 lo, hi = box_of(o)
+                if any(F.PROPORTIONAL_TAG in lib.get(p.asset_id).tags for p in mine):  # inside, on its bottom
+                    assert len(bs) == 1 and np.all(bs[0, 0] >= lo - 1e-6) and np.all(bs[0, 1] <= hi + 1e-6), (where, i)
+                    assert abs(bs[0, 0, 2] - lo[2]) < 1e-6, (where, i)
+                    continue
                 assert len(bs) and np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-6, (where, i)
                 assert np.abs(bs[:, 1].max(axis=0) - hi).max() < 1e-6, (where, i)
             # nothing floats: on a GT object, on a wall, on a support whose top is its bottom (or within the

@@ -13,6 +13,7 @@ import pytest
 
 from benchbot.core.assets import asset_library
 from benchbot.core.errors import BackendError
+from benchbot_sim_taichi.homes.furnish import PROPORTIONAL_TAG
 from benchbot_sim_taichi.homes.furnished import furnish_environment
 from benchbot_sim_taichi.kinematics import Obstacles
 from benchbot_sim_taichi.scene.meshes import instance_bounds
@@ -64,6 +65,8 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
         if inst.object_index >= 0:
             by_object.setdefault(inst.object_index, []).append(instance_bounds(inst))
     modelled = set(by_object)
+    library = asset_library()
+    proportional = {p.object_index for p in home.furnishing.placements if PROPORTIONAL_TAG in library.get(p.asset_id).tags}
     assert len(modelled) >= 0.9 * len(objects), f"{name}: only {len(modelled)} of {len(objects)} objects have models"
     # every object but a mouse (no model in Sweet Home 3D's libraries) is a real model; nothing floats
     assert {objects[i]["class"] for i in range(len(objects)) if i not in modelled} <= {"mouse"}
@@ -72,6 +75,10 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
         lo = np.min([b[0] for b in bounds], axis=0)
         hi = np.max([b[1] for b in bounds], axis=0)
         c, e = np.asarray(objects[i]["centroid"]), np.asarray(objects[i]["extent"])
+        if i in proportional:  # a round clock dial: inside its cuboid, on its bottom (furnish.proportional_box)
+            assert np.all(lo >= c - e / 2 - 1e-4) and np.all(hi <= c + e / 2 + 1e-4), (name, i)
+            assert abs(lo[2] - (c[2] - e[2] / 2)) < 1e-4, (name, i)
+            continue
         np.testing.assert_allclose(lo, c - e / 2, atol=1e-4, err_msg=f"{name} object {i} {objects[i]['class']}")
         np.testing.assert_allclose(hi, c + e / 2, atol=1e-4, err_msg=f"{name} object {i} {objects[i]['class']}")
 

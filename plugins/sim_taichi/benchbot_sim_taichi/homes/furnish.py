@@ -17,7 +17,9 @@ deterministic per ``seed``; GT is never changed. The steps:
   to the nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
   ``RANDOM_FACING_WEIGHT``, a tie-break). ``isgroup`` books: a row of standing books along the cuboid's long
   horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
-  heights and depths, their union exactly the cuboid, all with the object's index. A class with no model, or a
+  heights and depths, their union exactly the cuboid, all with the object's index. A class with models tagged
+  :data:`PROPORTIONAL_TAG` (the clocks' round dial) takes one of them, never stretched: uniformly scaled into the
+  cuboid against its back (:func:`proportional_box`). A class with no model, or a
   flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that would
   float, their tops at the objects' bottoms; the ones left without are reported with why
@@ -169,6 +171,25 @@ def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_
     return out
 
 
+#: The tag of a model that is never stretched (a clock's round dial): it is scaled uniformly to the largest size that
+#: fits the cuboid, its back against the cuboid's back side, on its bottom, centred across (:func:`proportional_box`).
+PROPORTIONAL_TAG = "proportional"
+
+
+def proportional_box(size: np.ndarray, lo: np.ndarray, hi: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The box (lo, hi) (3,) float64, map frame, metres, that a model of ``size`` (3,) metres turned by ``k`` quarter
+    turns fills when scaled uniformly to the largest size inside the cuboid ``lo``..``hi``: on the cuboid's bottom,
+    its back flush with the cuboid's side opposite :func:`front_of` (k), centred along the other horizontal axis."""
+    sz = np.asarray(size, dtype=np.float64)[[1, 0, 2]] if k % 2 else np.asarray(size, dtype=np.float64)
+    d = sz * float(np.min((hi - lo) / sz))
+    blo, bhi = (lo + hi) / 2 - d / 2, (lo + hi) / 2 + d / 2
+    blo[2], bhi[2] = lo[2], lo[2] + d[2]
+    f = front_of(k)
+    ax = 0 if abs(f[0]) > 0.5 else 1
+    blo[ax], bhi[ax] = (lo[ax], lo[ax] + d[ax]) if f[ax] > 0 else (hi[ax] - d[ax], hi[ax])
+    return np.minimum(np.maximum(blo, lo), hi), np.minimum(np.maximum(bhi, lo), hi)
+
+
 def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing) -> None:
     tables = [boxes[j] for j, o in enumerate(objects) if o.get("class") == "table"]
     for i, obj in enumerate(objects):
@@ -195,6 +216,13 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
                 pick = choose_model(assets, bhi - blo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
                 a, k = pick
                 out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))
+            continue
+        proportional = [a for a in assets if PROPORTIONAL_TAG in getattr(a, "tags", ())]
+        if proportional:  # seeded among them; the turn that faces the preferred way
+            a = proportional[int(rng.integers(len(proportional)))]
+            k = max(range(4), key=lambda t: float(front_of(t) @ prefer))
+            blo, bhi = proportional_box(bounds_of(a)[1] - bounds_of(a)[0], lo, hi, k)
+            out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))
             continue
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
         out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds_of(a)), i, "object"))
