@@ -34,7 +34,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(1, os.path.join(os.path.dirname(HERE), "semslam_geometric"))
 from fusion import DetectionMapper  # noqa: E402
 from semslam_geometric import (  # noqa: E402
-    DEFAULT_CLASS_LIST, BenchBot, GeometricAgent, load_recording, observation_frame,
+    DEFAULT_CLASS_LIST, BenchBot, GeometricAgent, fuse_recording, observation_frame,
 )
 
 from benchbot_task_semslam.coco_detector import CocoDetector, DetectorUnavailable  # noqa: E402
@@ -91,16 +91,7 @@ def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
         DetectorUnavailable: no onnxruntime or no model. OSError, ValueError: ``path`` cannot be read or holds no
             valid recording (``semslam_geometric.load_recording``: the message names the array).
     """
-    agent = DetectorAgent(**mapper_kwargs)
-    rgb, depth, K, T = load_recording(path)
-    mapper = agent._mapper(0)
-    for i in range(len(rgb)):
-        mapper.integrate(rgb[i], depth[i], K[i], T[i])
-    empty = {"task_details": {"name": "semantic_slam:passive:ground_truth", "results_format": "object_map"},
-             "environment_details": [{"name": "offline", "variant": 1}],
-             "results": {"objects": [], "class_list": list(DEFAULT_CLASS_LIST)}}
-    agent.save_result(output, empty, {})
-    return empty
+    return fuse_recording(DetectorAgent(**mapper_kwargs), path, output)
 
 
 def main(argv=None) -> None:

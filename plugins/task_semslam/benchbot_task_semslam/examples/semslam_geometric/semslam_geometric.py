@@ -144,8 +144,18 @@ def run_offline(path: str, output: str, **mapper_kwargs) -> dict:
     Raises:
         OSError, ValueError: ``path`` cannot be read or holds no valid recording (:func:`load_recording`).
     """
+    return fuse_recording(GeometricAgent(**mapper_kwargs), path, output)
+
+
+def fuse_recording(agent: "GeometricAgent", path: str, output: str) -> dict:
+    """Integrate every frame recorded in ``path`` (:func:`load_recording`) into ``agent``'s mapper and write its
+    object_map result to ``output`` (:meth:`GeometricAgent.save_result`); returns the result's frame (task and
+    environment details of an offline run). The offline mode of this example and of ``semslam_detector``.
+
+    Raises:
+        OSError, ValueError: ``path`` cannot be read or holds no valid recording (:func:`load_recording`).
+    """
     rgb, depth, K, T = load_recording(path)
-    agent = GeometricAgent(**mapper_kwargs)
     mapper = agent._mapper(0)
     for i in range(len(rgb)):
         mapper.integrate(rgb[i], depth[i], K[i], T[i])
