@@ -82,3 +82,19 @@ def container_engine_with_base_image() -> tuple[str, str]:
         pytest.skip(f"base image {image} is not present in {engine} (tests never pull; pull it, or set "
                     "BENCHBOT_TEST_BASE_IMAGE to a local image with python3)")
     return engine, image
+
+
+@pytest.fixture(scope="module")
+def realism():
+    """``benchmarks/realism.py`` imported as a module (``realism_benchmark``), for tests of its parts."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realism.py"
+    spec = importlib.util.spec_from_file_location("realism_benchmark", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["realism_benchmark"] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    yield mod
+    sys.modules.pop("realism_benchmark", None)

@@ -5,10 +5,8 @@ detector) on the same frames."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,16 +18,6 @@ from benchbot_task_semslam.coco_detector import MODEL_PATH, CocoDetector, Detect
 ROOT = Path(__file__).resolve().parents[1]
 #: Trajectory poses of miniroom:1 rendered: six spread evenly along its 48 (``realism.select_frames(48, 6)``).
 POSES = (0, 9, 19, 28, 38, 47)
-
-
-@pytest.fixture(scope="module")
-def realism():
-    spec = importlib.util.spec_from_file_location("realism_benchmark", ROOT / "benchmarks" / "realism.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["realism_benchmark"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    yield mod
-    sys.modules.pop("realism_benchmark", None)
 
 
 @pytest.fixture(scope="module")

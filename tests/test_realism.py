@@ -4,7 +4,6 @@ the Blender camera, the glTF export for the reference renderer, and the detector
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import os
@@ -18,16 +17,6 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def realism():
-    spec = importlib.util.spec_from_file_location("realism_benchmark", ROOT / "benchmarks" / "realism.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["realism_benchmark"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    yield mod
-    sys.modules.pop("realism_benchmark", None)
 
 
 def truth(realism, iid, cls, box, visible=True):
