@@ -181,6 +181,33 @@ def test_on_device_images_reach_torch_on_the_gpu_without_a_copy():
         host.close()
 
 
+@pytest.mark.skipif(not _cuda_and_torch(), reason="needs an NVIDIA GPU and PyTorch (runs on the GPU machine)")
+def test_a_step_waits_for_reads_still_queued_on_a_stream_of_the_consumers_own():
+    """A read of an on-device frame that PyTorch has queued (behind a long kernel) on a stream of its own, not
+    Taichi's, still sees that frame when the next step comes before the read has run: the step waits for it
+    instead of rendering over the buffer. The frames differ from step to step, so an overwrite would show."""
+    import torch
+
+    vec = gymnasium.make_vec("BenchBot-v0", num_envs=2, task=ACTIVE, env="miniroom:1",
+                             options={"width": 64, "height": 48, "arch": "cuda"}, on_device=True)
+    try:
+        obs = vec.reset(seed=0)[0]
+        stream = torch.cuda.Stream()  # PyTorch's streams do not order against the legacy default stream
+        for t in range(4):
+            rgb = torch.from_dlpack(obs["image_rgb"])
+            with torch.cuda.stream(stream):
+                given = rgb.clone()
+                torch.cuda.synchronize()
+                torch.cuda._sleep(200_000_000)  # clock cycles: about 0.1 s of GPU time on this stream
+                late = rgb.clone()  # queued behind the sleep: runs after the step below has launched
+            obs = vec.step(np.array([t % 4, (t + 1) % 4]))[0]
+            torch.cuda.synchronize()
+            assert not torch.equal(torch.from_dlpack(obs["image_rgb"]), given)  # the step changed the frame
+            assert torch.equal(late, given)
+    finally:
+        vec.close()
+
+
 def test_infos_and_reset_mask_match_sync_vector_env():
     """The info keys and masks of reset and of NEXT_STEP autoreset are those SyncVectorEnv gives over BenchBot-v0;
     ``options['reset_mask']`` resets only the masked robots; a bad action array is refused in one line."""

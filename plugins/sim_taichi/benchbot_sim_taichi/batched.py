@@ -33,7 +33,9 @@ class TaichiBatchedRobots(BatchedRobots):
     ``observe(..., on_device=True)``: on CUDA the images are
     :class:`~benchbot_sim_taichi.render.dlpack.DeviceArray` s of the renderer's GPU buffers (DLPack and the CUDA Array
     Interface, no copy); on the CPU they are NumPy views of its buffers (NumPy exports DLPack itself). Either way the
-    next ``observe`` writes over them. The laser's ranges always come back as NumPy.
+    next ``observe`` writes over them, after waiting on CUDA for the work queued on every stream (a consumer's reads
+    of the last frames, even on a stream of its own: ``Renderer.wait_for_readers``). The laser's ranges always come
+    back as NumPy.
 
     Raises:
         BackendError: no scene is loaded; ``count`` < 1; the backend renders in ``quality`` mode or adds sensor noise
@@ -92,6 +94,8 @@ class TaichiBatchedRobots(BatchedRobots):
         T_map_footprint = se2_to_matrices(self._poses)
         lidars = T_map_footprint @ b.T_footprint_lidar if "laser" in names else None
         device = on_device and renderer.device_buffers
+        if device:  # the frames handed out last time are overwritten now: let their readers finish first
+            renderer.wait_for_readers()
         out = renderer.render_sensors(b.K, T_map_footprint @ b.T_footprint_camera, b.width, b.height, lidars,
                                       b.laser_angles if lidars is not None else None, to_host=False)
         wanted = {name: key for name, key in (("image_rgb", "rgb"), ("image_depth", "depth"), ("laser", "ranges"))

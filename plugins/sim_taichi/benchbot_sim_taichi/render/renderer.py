@@ -918,6 +918,20 @@ class Renderer:
         by themselves)."""
         ti.sync()
 
+    def wait_for_readers(self) -> None:
+        """On CUDA, wait for all work queued in the GPU context on any stream — a consumer's, such as a PyTorch
+        stream of its own still reading the buffers handed out without a copy (:mod:`.dlpack`) — so that the next
+        launch does not write over a frame before it is read (``cuCtxSynchronize``; Taichi's own :meth:`sync` waits
+        for its stream only, and work on non-blocking streams does not order against it). Nothing on the CPU.
+
+        Raises:
+            RuntimeError: the driver call failed (its CUDA error in the message).
+        """
+        if self.arch == "cuda":
+            from benchbot_sim_taichi.render.host_copy import check, cuda_driver
+
+            check("cuCtxSynchronize", cuda_driver().cuCtxSynchronize())
+
     def render_sensors(self, K: np.ndarray, T_map_cameras, width: int, height: int, T_map_lidars=None,
                        angles: np.ndarray | None = None, *, to_host: bool | str = True) -> dict:
         """Render B camera views (``fast`` mode) and, optionally, B planar laser scans, all in one launch of the
