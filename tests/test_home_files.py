@@ -107,6 +107,17 @@ def test_a_bad_declaration_is_refused_by_benchbot_install_in_one_line(tmp_path, 
     assert "Traceback" not in proc.stderr
 
 
+def test_more_home_files_than_the_schema_allows_are_refused_by_benchbot_install_in_one_line(tmp_path):
+    pack = _house_pack(tmp_path / "pack", home_files=[SIBLINGS[0]] * 33)
+    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "install", str(pack)], capture_output=True,
+                          text=True, env={**os.environ, "BENCHBOT_ONLY_PLUGINS": "content_packs,sim_taichi"},
+                          timeout=120)
+    assert proc.returncode == 3, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if "$.home_files" in line]
+    assert lines == ["  environments/house_2.yaml: $.home_files: 33 items, more than the 32 allowed"], proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
 def test_unusable_paths_and_symlink_loops_are_refused_in_one_line_at_scan(tmp_path):
     """A NUL character in map_path or home_files, and a symlink loop in the pack, are problems of the scan (which
     the registry also runs on every installed pack at load), not a traceback."""

@@ -72,10 +72,28 @@ def first_error(instance: Any, schema_name: "str | Path") -> "tuple[str, str] | 
     if not errors:
         return None
     err = errors[0]
-    message = err.message
+    message = _sized_message(err) or err.message
     if err.validator in ("anyOf", "oneOf") and isinstance(err.schema, dict) and err.schema.get("description"):
         message += f" (expected {err.schema['description']})"
     return json_path(err.absolute_path), message
+
+
+#: A value whose ``repr`` is longer than this is not quoted in a size keyword's error (:func:`_sized_message`).
+LONG_VALUE_CHARS = 80
+#: Size keywords of JSON Schema whose errors name the count instead of quoting a long value (jsonschema's own
+#: message quotes it: a 33-item list of paths fills the screen).
+_SIZE_WORDS = {"maxItems": ("items", "more than the {} allowed"), "minItems": ("items", "fewer than the {} needed"),
+               "maxLength": ("characters", "more than the {} allowed"),
+               "maxProperties": ("keys", "more than the {} allowed")}
+
+
+def _sized_message(err: Any) -> "str | None":
+    """``"33 items, more than the 32 allowed"`` for a size keyword's error (:data:`_SIZE_WORDS`) on a value whose
+    ``repr`` is longer than :data:`LONG_VALUE_CHARS`, else None (jsonschema's message, quoting it, is then kept)."""
+    words = _SIZE_WORDS.get(err.validator)
+    if words is None or not hasattr(err.instance, "__len__") or len(repr(err.instance)) <= LONG_VALUE_CHARS:
+        return None
+    return f"{len(err.instance)} {words[0]}, {words[1].format(err.validator_value)}"
 
 
 def validate(instance: Any, schema_name: str, source: str) -> None:
