@@ -227,6 +227,31 @@ def test_the_size_term_prefers_a_model_near_its_real_size():
         assert [p.asset_id for p in res.placements if p.role == "object"] == ["armchair"]
 
 
+def test_low_chair_cuboids_take_a_dining_chair_squashed():
+    # a stool fits a 0.5 m chair cuboid with the least distortion, but a chair cuboid from SEAT_HEIGHT_M up to
+    # LOW_CHAIR_M takes a chair tagged dining, squashed (still filling the cuboid exactly); a lower or a taller one
+    # chooses as before
+    stool = obj_asset("stool", "chair", (0.45, 0.45, 0.42))
+    dining = replace(obj_asset("dining", "chair", (0.45, 0.5, 0.85)), tags=(F.DINING_TAG,))
+    library = AssetLibrary([stool, dining])
+    assert F.SEAT_HEIGHT_M < 0.5 < F.LOW_CHAIR_M
+
+    def drawn(height, lib, seed):
+        res = F.furnish_home([gt("chair", [1, 1, 0], [1.47, 1.47, height])], one_room_plan(), lib, seed=seed)
+        (p,) = [p for p in res.placements if p.role == "object"]
+        return p
+
+    for seed in range(10):
+        p = drawn(0.5, library, seed)
+        assert p.asset_id == "dining"
+        bounds = FIT.transformed_bounds(p.transform, FIT.asset_bounds(dining))
+        assert np.allclose(bounds, [[1, 1, 0], [1.47, 1.47, 0.5]])
+        assert drawn(F.SEAT_HEIGHT_M - 0.06, library, seed).asset_id == "stool"
+        assert drawn(F.LOW_CHAIR_M + 0.02, library, seed).asset_id == "stool"
+    # without a dining chair the low cuboid takes the model that fits it best
+    assert drawn(0.5, AssetLibrary([stool]), 0).asset_id == "stool"
+
+
 def test_proportions_outweigh_facing_when_they_disagree_strongly():
     couch = [obj_asset("c", "couch", (2.0, 0.9, 0.85))]
     rng = np.random.default_rng(0)

@@ -19,7 +19,9 @@ deterministic per ``seed``; GT is never changed. The steps:
   horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
   heights and depths, their union exactly the cuboid, all with the object's index. A class with models tagged
   :data:`PROPORTIONAL_TAG` (the clocks' round dial) takes one of them, never stretched: uniformly scaled into the
-  cuboid against its back (:func:`proportional_box`). A class with no model, or a
+  cuboid against its back (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to
+  :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has
+  one. A class with no model, or a
   flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that would
   float, their tops at the objects' bottoms; the ones left without are reported with why
@@ -190,6 +192,21 @@ def proportional_box(size: np.ndarray, lo: np.ndarray, hi: np.ndarray, k: int) -
     return np.minimum(np.maximum(blo, lo), hi), np.minimum(np.maximum(bhi, lo), hi)
 
 
+#: The tag of a dining chair (four legs and a back) ...
+DINING_TAG = "dining"
+
+#: ... which a chair cuboid at least :data:`SEAT_HEIGHT_M` but lower than this high (m) takes, squashed: BEAR's
+#: 0.51 m chair cuboids at the houses' dining tables fit a legless floor chair or a stool with the least distortion,
+#: but the COCO detector of ``benchmarks/realism.py`` finds a squashed dining chair in them far more often
+#: (docs/realism.md, 25 Nov 2026).
+LOW_CHAIR_M = 0.55
+
+#: A chair cuboid lower than a seat (m) keeps the models that fit it best (a stool): a dining chair squashed into
+#: BEAR's 0.39 m cuboids was found more often than the stool, but its chair boxes matched the low cuboids' visible
+#: parts less often (more false positives; docs/realism.md, 25 Nov 2026).
+SEAT_HEIGHT_M = 0.45
+
+
 def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing) -> None:
     tables = [boxes[j] for j, o in enumerate(objects) if o.get("class") == "table"]
     for i, obj in enumerate(objects):
@@ -224,6 +241,8 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             blo, bhi = proportional_box(bounds_of(a)[1] - bounds_of(a)[0], lo, hi, k)
             out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))
             continue
+        if cls == "chair" and SEAT_HEIGHT_M <= hi[2] - lo[2] < LOW_CHAIR_M:  # squashed: see LOW_CHAIR_M
+            assets = [a for a in assets if DINING_TAG in getattr(a, "tags", ())] or assets
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
         out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds_of(a)), i, "object"))
 
