@@ -132,6 +132,8 @@ def box_of(o):
 
 
 def placed_box(library, p):
+    if p.mesh is not None:  # made in code (closed books)
+        return FIT.transformed_bounds(p.transform, p.mesh.bounds)
     return FIT.transformed_bounds(p.transform, FIT.asset_bounds(library.get(p.asset_id)))
 
 
@@ -291,42 +293,78 @@ def test_chairs_face_the_table_and_couch_backs_onto_the_wall(lib):
         assert res.hanging == [7] and res.unsupported == []
 
 
-# ------------------------------------------------------------------------------------------------ book rows
-def test_book_rows_fill_the_cuboid_exactly(lib):
-    plan = one_room_plan()
-    row = gt("book", [1.0, 4.7, 0.9], [1.6, 4.95, 1.15], "row", isgroup=True)  # a shelf row against the north wall
-    stack = gt("book", [3.0, 3.0, 0.75], [3.3, 3.25, 0.85], "stack", isgroup=True)  # lying books on a table
-    table = gt("table", [2.8, 2.8, 0], [3.6, 3.5, 0.75])
-    res = F.furnish_home([row, stack, table], plan, lib, seed=0)
-    for i, o in ((0, row), (1, stack)):
+# ------------------------------------------------------------------------------------------------ books
+def _books_scene():
+    return [gt("book", [1.0, 4.7, 0.9], [1.6, 4.95, 1.15], "row", isgroup=True),  # a shelf row by the north wall
+            gt("book", [3.0, 3.0, 0.75], [3.3, 3.25, 0.88], "stack", isgroup=True),  # lying books on a table
+            gt("book", [5.0, 0.05, 0.9], [5.166, 0.099, 1.089], "one_standing"),  # by the south wall
+            gt("book", [2.0, 1.0, 0.75], [2.297, 1.311, 0.786], "one_lying"),
+            gt("table", [2.8, 2.8, 0], [3.6, 3.5, 0.75])]
+
+
+def _book_corners_and_faces(mesh):
+    """The unit book's 8 distinct corners and, per face normal, the materials drawn on it."""
+    corners = {tuple(np.round(v, 9)) for v in mesh.v}
+    normals = np.round(mesh.n[mesh.f[:, 0]], 9)
+    faces = {}
+    for nrm, m in zip(map(tuple, normals), mesh.f_material):
+        faces.setdefault(nrm, set()).add(mesh.materials[m].name.split(":")[0])
+    return corners, faces
+
+
+def test_books_are_closed_books_made_in_code_filling_their_cuboid_exactly(lib):
+    from benchbot_sim_taichi.homes import books as B
+
+    objs = _books_scene()
+    res = F.furnish_home(objs, one_room_plan(), lib, seed=0)
+    assert res.without_model == []
+    for i, o in enumerate(objs[:4]):
         books = [p for p in res.placements if p.object_index == i]
-        assert len(books) >= 3
+        assert all(p.asset_id == F.CLOSED_BOOK_ID and p.mesh is not None for p in books)  # never the pack's models
         bs = np.array([placed_box(lib, p) for p in books])
         lo, hi = box_of(o)
         assert np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-9 and np.abs(bs[:, 1].max(axis=0) - hi).max() < 1e-9
-        for x in range(len(bs)):  # no two books overlap
+        assert np.all(bs[:, 0] >= lo - 1e-9) and np.all(bs[:, 1] <= hi + 1e-9)  # each inside the cuboid
+        for x in range(len(bs)):  # no two books overlap; each rests on the cuboid's bottom or on a book
+            assert abs(bs[x, 0, 2] - lo[2]) < 1e-9 or any(
+                abs(bs[x, 0, 2] - bs[y, 1, 2]) < 1e-9 and inter((bs[x, 0] - [0, 0, 1e-3], bs[x, 1]), bs[y])
+                for y in range(len(bs)) if y != x)
             for y in range(x + 1, len(bs)):
                 assert not inter(bs[x], bs[y])
-    row_books = [p for p in res.placements if p.object_index == 0]
-    assert {p.asset_id for p in row_books} <= {"book_stand", "book_stand2"}  # standing models in a row
-    assert all(np.allclose(_front(p), (0, -1)) for p in row_books)  # spines toward the room
-    assert {p.asset_id for p in res.placements if p.object_index == 1} == {"book_lying"}
+        for p in books:  # closed: a box of 6 faces, its spine at the front, covers and cream page edges
+            corners, faces = _book_corners_and_faces(p.mesh)
+            assert len(corners) == 8 and p.mesh.n_triangles == 12 and np.allclose(p.mesh.bounds, B.UNIT_BOUNDS)
+            assert all(len(m) == 1 for m in faces.values()) and faces[(0.0, -1.0, 0.0)] == {"book_spine"}
+            assert sorted(next(iter(m)) for m in faces.values()).count("book_pages") == 3
+            pages = next(m for m in p.mesh.materials if m.name.startswith("book_pages"))
+            cream = pages.texture[:, 4:-4].reshape(-1, 3).mean(axis=0) / 255
+            assert np.abs(cream - B.PAGE_SRGB).max() < 0.05
+    n_row = sum(p.object_index == 0 for p in res.placements)
+    assert abs(n_row - 0.6 / B.BOOK_THICKNESS_M) <= 1  # about one spine per 3 cm
+    row = [p for p in res.placements if p.object_index == 0]
+    assert all(np.allclose(_front(p), (0, -1)) for p in row)  # spines toward the room
+    assert all(p.mesh.materials[0].name.startswith("book_spine") for p in row)
+    assert len({id(p.mesh.materials[0]) for p in row}) >= 5  # seeded spine styles
+    stack = np.array([placed_box(lib, p) for p in res.placements if p.object_index == 1])
+    assert len(stack) == round(0.13 / B.LYING_BOOK_THICKNESS_M) == 3  # lying books one above the other
+    assert np.all(np.diff(stack[:, 0, 2]) > 0)
+    assert np.all(np.diff(np.prod(stack[:, 1, :2] - stack[:, 0, :2], axis=1)) <= 1e-12)  # larger books lower
+    assert all(np.allclose(_front(p), (0, -1)) for p in res.placements if p.object_index == 1)  # a neat pile, spines
+    assert np.all(stack[:, 1, :2] - stack[:, 0, :2] >= B.STACK_FOOTPRINT_MIN * np.array([0.3, 0.25]) - 1e-9)  # out
+    standing = [p for p in res.placements if p.object_index == 2]
+    assert len(standing) == 1 and abs(_front(standing[0])[0]) > 0.999  # spine across its thickness (y)
+    assert len([p for p in res.placements if p.object_index == 3]) == 1
 
 
-def test_book_rows_use_row_models_when_they_fit_better():
-    # the books of the real pack: rows of books and a lying book (no standing single book)
-    library = AssetLibrary([a for a in FULL_LIB if a.cls != "book"]
-                           + [obj_asset("books_row", "book", (0.85, 0.18, 0.26)),
-                              obj_asset("book_lying", "book", (0.17, 0.24, 0.03))])
+def test_books_are_deterministic_per_seed(lib):
     plan = one_room_plan()
-    short = gt("book", [1.0, 4.75, 0.9], [1.8, 4.95, 1.15], "short", isgroup=True)  # one row model
-    long = gt("book", [2.0, 4.75, 0.9], [3.7, 4.95, 1.15], "long", isgroup=True)  # two of them side by side
-    res = F.furnish_home([short, long], plan, library, seed=0)
-    assert [p.asset_id for p in res.placements if p.object_index == 0] == ["books_row"]
-    assert [p.asset_id for p in res.placements if p.object_index == 1] == ["books_row", "books_row"]
-    bs = np.array([placed_box(library, p) for p in res.placements if p.object_index == 1])
-    assert np.abs(bs[:, 0].min(axis=0) - box_of(long)[0]).max() < 1e-9
-    assert np.abs(bs[:, 1].max(axis=0) - box_of(long)[1]).max() < 1e-9
+
+    def books(seed):
+        res = F.furnish_home(_books_scene(), plan, lib, seed=seed)
+        return [(p.object_index, p.mesh.materials[0].name, p.mesh.materials[1].name, np.round(p.transform, 9).tobytes())
+                for p in res.placements if p.asset_id == F.CLOSED_BOOK_ID]
+
+    assert books(0) == books(0) and books(0) != books(1)
 
 
 # ------------------------------------------------------------------------------------------------ supports
@@ -675,7 +713,7 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
                 mine = [p for p in res.placements if p.object_index == i]
                 bs = np.array([placed_box(lib, p) for p in mine])
                 lo, hi = box_of(o)
-                if any(F.PROPORTIONAL_TAG in lib.get(p.asset_id).tags for p in mine):  # inside, on its bottom
+                if any(p.mesh is None and F.PROPORTIONAL_TAG in lib.get(p.asset_id).tags for p in mine):  # on bottom
                     assert len(bs) == 1 and np.all(bs[0, 0] >= lo - 1e-6) and np.all(bs[0, 1] <= hi + 1e-6), (where, i)
                     assert abs(bs[0, 0, 2] - lo[2]) < 1e-6, (where, i)
                     continue

@@ -15,9 +15,11 @@ deterministic per ``seed``; GT is never changed. The steps:
   draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest
   GT table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back
   to the nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
-  ``RANDOM_FACING_WEIGHT``, a tie-break). ``isgroup`` books: a row of standing books along the cuboid's long
-  horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
-  heights and depths, their union exactly the cuboid, all with the object's index. A class with models tagged
+  ``RANDOM_FACING_WEIGHT``, a tie-break). Books are closed books made in code, not models
+  (:func:`~benchbot_sim_taichi.homes.books.closed_books`): an ``isgroup`` cuboid a row of standing books along its
+  long horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded
+  thicknesses, heights, depths and spine colours, their union exactly the cuboid, all with the object's index; one
+  book standing or lying (:attr:`Placement.mesh` holds each book's mesh). A class with models tagged
   :data:`PROPORTIONAL_TAG` (the clocks' round dial) takes one of them, never stretched: uniformly scaled into the
   cuboid against its back (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to
   :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has
@@ -43,8 +45,9 @@ from typing import Any
 
 import numpy as np
 
+from benchbot_sim_taichi.homes.books import closed_books
 from benchbot_sim_taichi.homes.fitting import (
-    FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, best_score, choose_model, fit_to_cuboid, front_of,
+    FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of,
     transformed_bounds)
 from benchbot_sim_taichi.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
@@ -66,11 +69,8 @@ BACK_TO_WALL = frozenset(("couch", "bed", "toilet", "refrigerator", "oven", "tv"
 #: Classes drawn facing the room centre.
 FACE_ROOM = frozenset(("person",))
 
-#: Thinnest part (m) of a book row or stack (a single book) considered when splitting an ``isgroup`` cuboid.
-BOOK_MIN_THICKNESS_M = 0.015
-#: The most books in one row or stack.
-MAX_BOOKS_PER_GROUP = 40
-
+#: The ``asset_id`` of the placements of closed books made in code (:mod:`~benchbot_sim_taichi.homes.books`).
+CLOSED_BOOK_ID = "closed_book"
 
 def _facing(i: int, obj: dict, box, space: Space, tables: list, rng: np.random.Generator) -> tuple[np.ndarray, float]:
     """(preferred facing (2,), weight) of a GT object."""
@@ -101,76 +101,6 @@ def _facing(i: int, obj: dict, box, space: Space, tables: list, rng: np.random.G
         if v is not None:
             return v, FACING_WEIGHT
     return front_of(int(rng.integers(4))), RANDOM_FACING_WEIGHT
-
-
-def _book_layout(lo: np.ndarray, hi: np.ndarray, assets: list, prefer: np.ndarray, weight: float) -> tuple[str, int]:
-    """How an ``isgroup`` book cuboid is split: (``"row"`` along its long horizontal axis | ``"stack"`` in height,
-    number of parts), the one whose equal parts the book models fit with the least distortion (one part: a single
-    model, e.g. a row-of-books model, fills the cuboid)."""
-    ext = hi - lo
-    u = 0 if ext[0] >= ext[1] else 1
-    best = (np.inf, "row", 1)
-    for mode, ax in (("row", u), ("stack", 2)):
-        nmax = int(np.clip(ext[ax] / BOOK_MIN_THICKNESS_M, 1, MAX_BOOKS_PER_GROUP))
-        for n in range(1, nmax + 1):
-            slot = ext.copy()
-            slot[ax] /= n
-            sc = best_score(assets, slot, prefer, weight, size_weight=SIZE_WEIGHT)
-            if sc < best[0] - 1e-9:
-                best = (sc, mode, n)
-    return best[1], best[2]
-
-
-def _seeded_parts(rng: np.random.Generator, lo: float, hi: float, n: int, low_a: float,
-                  low_b: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The seeded split of ``[lo, hi]`` (metres) into ``n`` parts of :func:`_book_boxes`: ``(edges (n + 1,) float64,
-    from ``lo`` to ``hi`` exactly, part widths uniform in 0.7..1.3 relative, fa (n,), fb (n,))``, two size fractions
-    per part uniform in ``low_a``..1 and ``low_b``..1, one part of each set to 1 (in this order of draws from
-    ``rng``)."""
-    t = rng.uniform(0.7, 1.3, n)
-    edges = lo + (hi - lo) * np.concatenate([[0.0], np.cumsum(t) / t.sum()])
-    edges[-1] = hi
-    fa, fb = rng.uniform(low_a, 1.0, n), rng.uniform(low_b, 1.0, n)
-    fa[int(rng.integers(n))] = 1.0
-    fb[int(rng.integers(n))] = 1.0
-    return edges, fa, fb
-
-
-def _book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_sign: float, mode: str,
-                n: int) -> list:
-    """Boxes of the ``n`` parts of an ``isgroup`` book cuboid (see :func:`_book_layout`): a row along its long
-    horizontal axis (seeded widths, heights and depths, spines flush at the front ``front_sign``) or a stack of
-    lying books (seeded thicknesses and footprints). Union = the cuboid."""
-    ext = hi - lo
-    u = 0 if ext[0] >= ext[1] else 1
-    w = 1 - u
-    if n == 1:
-        return [(lo.copy(), hi.copy())]
-    if mode == "stack":
-        edges, fu, fw = _seeded_parts(rng, lo[2], hi[2], n, 0.75, 0.75)
-        out = []
-        for i in range(n):
-            blo, bhi = lo.copy(), hi.copy()
-            for ax, f in ((u, fu[i]), (w, fw[i])):
-                off = rng.uniform(0.0, 1.0 - f) * ext[ax]
-                blo[ax] = lo[ax] + off if f < 1.0 else lo[ax]
-                bhi[ax] = blo[ax] + f * ext[ax] if f < 1.0 else hi[ax]
-            blo[2], bhi[2] = edges[i], edges[i + 1]
-            out.append((blo, bhi))
-        return out
-    edges, fh, fd = _seeded_parts(rng, lo[u], hi[u], n, 0.72, 0.8)
-    out = []
-    for i in range(n):
-        blo, bhi = lo.copy(), hi.copy()
-        blo[u], bhi[u] = edges[i], edges[i + 1]
-        if fd[i] < 1.0:  # spines flush at the front (hi[w] if front_sign > 0), shorter books stop short of the back
-            if front_sign > 0:
-                blo[w] = hi[w] - fd[i] * ext[w]
-            else:
-                bhi[w] = lo[w] + fd[i] * ext[w]
-        bhi[2] = lo[2] + fh[i] * ext[2] if fh[i] < 1.0 else hi[2]
-        out.append((blo, bhi))
-    return out
 
 
 #: The tag of a model that is never stretched (a clock's round dial): it is scaled uniformly to the largest size that
@@ -213,26 +143,16 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
         lo, hi = boxes[i]
         cls = str(obj.get("class", ""))
         assets = [a for a in library.by_class(cls) if getattr(a, "role", "object") == "object"]
-        if not assets or np.any(hi - lo <= 1e-6):
+        if (not assets and cls != "book") or np.any(hi - lo <= 1e-6):
             out.without_model.append(i)
             continue
         key = (cls, obj.get("ID_name", i))
         rng = seeded_rng(seed, "object", *key)
         prefer, weight = _facing(i, obj, (lo, hi), space, tables, rng)
-        if cls == "book" and obj.get("isgroup"):
-            # spines toward the room: the row's front is the side away from the nearest wall
-            w = 1 if (hi - lo)[0] >= (hi - lo)[1] else 0
+        if cls == "book":  # closed books made in code, spines toward the room (away from the nearest wall)
             away = nearest_wall_away(space, lo, hi)
-            if away is not None and abs(away[w]) > 0.5:
-                prefer, weight = away, FACING_WEIGHT
-            else:
-                prefer = np.zeros(2)
-                prefer[w] = 1.0 if rng.random() < 0.5 else -1.0
-            mode, n = _book_layout(lo, hi, assets, prefer, weight)
-            for blo, bhi in _book_boxes(lo, hi, rng, float(np.sign(prefer[w])), mode, n):
-                pick = choose_model(assets, bhi - blo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
-                a, k = pick
-                out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))
+            for mesh, T in closed_books(lo, hi, isgroup=bool(obj.get("isgroup")), away=away, rng=rng):
+                out.placements.append(Placement(CLOSED_BOOK_ID, T, i, "object", mesh=mesh))
             continue
         proportional = [a for a in assets if PROPORTIONAL_TAG in getattr(a, "tags", ())]
         if proportional:  # seeded among them; the turn that faces the preferred way

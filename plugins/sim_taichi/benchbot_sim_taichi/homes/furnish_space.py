@@ -44,12 +44,16 @@ class Placement:
         object_index: index into the ``objects`` given to :func:`furnish` (several placements share it for a book
             row), −1 for everything that is not a GT object.
         role: one of :data:`ROLES`.
+        mesh: a mesh made in code (a closed book, :mod:`~benchbot_sim_taichi.homes.books`), drawn instead of an
+            asset's model (``transform`` then maps the mesh's frame to the map); ``asset_id`` names it. None: the
+            asset's model.
     """
 
     asset_id: str
     transform: np.ndarray
     object_index: int
     role: str
+    mesh: Any = None
 
 
 @dataclass

@@ -211,7 +211,7 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
                                        -1))
     lamps = []
     for p in furnishing.placements:
-        mesh = load_mesh(library.get(p.asset_id).path)
+        mesh = p.mesh if p.mesh is not None else load_mesh(library.get(p.asset_id).path)
         if p.role in ("window", "door"):  # glass panes: the outdoors is seen and the sun shines in through them
             mesh = with_glass_panes(mesh)
         T = np.asarray(p.transform, dtype=np.float64)
