@@ -141,24 +141,6 @@ def size_change(size: Sequence[float], ext: Sequence[float], k: int) -> float:
     return float(abs(np.log(ext / size).mean()))
 
 
-def best_score(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float, *,
-               size_weight: float = 0.0) -> float:
-    """The lowest :func:`choose_model` score over ``assets`` and the 4 turns for a box of extents ``ext`` (3,)
-    (``inf`` without assets)."""
-    ext = np.asarray(ext, dtype=np.float64)
-    best = np.inf
-    for a in assets:
-        size = np.asarray(a.size_m, dtype=np.float64)
-        for k in range(4):
-            sc = distortion(size, ext, k)
-            if size_weight:
-                sc += size_weight * size_change(size, ext, k)
-            if prefer is not None:
-                sc += weight * (1.0 - float(front_of(k) @ prefer)) / 2.0
-            best = min(best, sc)
-    return float(best)
-
-
 def choose_model(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float,
                  rng: np.random.Generator, *, size_weight: float = 0.0) -> tuple[Any, int] | None:
     """Seeded choice of (asset, quarter turns) for a box of extents ``ext`` (3,), ``prefer`` the wanted facing (2,)
