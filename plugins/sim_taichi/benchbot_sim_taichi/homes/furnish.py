@@ -158,8 +158,9 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
         if proportional:  # seeded among them; the turn that faces the preferred way
             a = proportional[int(rng.integers(len(proportional)))]
             k = max(range(4), key=lambda t: float(front_of(t) @ prefer))
-            blo, bhi = proportional_box(bounds_of(a)[1] - bounds_of(a)[0], lo, hi, k)
-            out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds_of(a)), i, "object"))
+            bounds = bounds_of(a)
+            blo, bhi = proportional_box(bounds[1] - bounds[0], lo, hi, k)
+            out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds), i, "object"))
             continue
         if cls == "chair" and SEAT_HEIGHT_M <= hi[2] - lo[2] < LOW_CHAIR_M:  # squashed: see LOW_CHAIR_M
             assets = [a for a in assets if DINING_TAG in getattr(a, "tags", ())] or assets
