@@ -23,8 +23,8 @@ deterministic per ``seed``; GT is never changed. The steps:
   :data:`PROPORTIONAL_TAG` (the clocks' round dial) takes one of them, never stretched: uniformly scaled into the
   cuboid against its back (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to
   :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has
-  one. A class with no model, or a
-  flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
+  one. A class other than ``book`` with no model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`;
+  the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that would
   float, their tops at the objects' bottoms; the ones left without are reported with why
   (:attr:`Furnishing.unsupported`).
