@@ -411,6 +411,24 @@ def test_a_proportional_clock_keeps_its_proportions_against_the_wall():
     assert np.allclose(scale, scale[0])
 
 
+@pytest.mark.parametrize("k", range(4))
+def test_proportional_box_scales_uniformly_onto_the_bottom_against_the_back(k):
+    """Every quarter turn: inside the cuboid, on its bottom, one uniform scale of the turned model, its back flush
+    with the cuboid's side opposite front_of(k), centred along the other horizontal axis."""
+    size = np.array([0.3, 0.05, 0.2])
+    lo, hi = np.array([1.0, 2.0, 0.5]), np.array([1.4, 2.5, 0.9])
+    blo, bhi = F.proportional_box(size, lo, hi, k)
+    assert np.all(blo >= lo - 1e-12) and np.all(bhi <= hi + 1e-12) and abs(blo[2] - lo[2]) < 1e-12
+    turned = size[[1, 0, 2]] if k % 2 else size
+    scale = (bhi - blo) / turned
+    assert np.allclose(scale, scale[0]) and np.isclose(scale[0], np.min((hi - lo) / turned))
+    f = FIT.front_of(k)
+    ax = 0 if abs(f[0]) > 0.5 else 1
+    assert np.isclose(blo[ax], lo[ax]) if f[ax] > 0 else np.isclose(bhi[ax], hi[ax])  # back against the back side
+    other = 1 - ax
+    assert np.isclose(blo[other] + bhi[other], lo[other] + hi[other])  # centred across
+
+
 def library_kind(lib, p):
     return lib.get(p.asset_id).kind
 
