@@ -48,7 +48,7 @@ import numpy as np
 from benchbot_sim_taichi.homes.books import closed_books
 from benchbot_sim_taichi.homes.fitting import (
     FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of,
-    transformed_bounds)
+    transformed_bounds, turns_facing)
 from benchbot_sim_taichi.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
 from benchbot_sim_taichi.homes.furnish_supports import FLOAT_MIN_Z_M, place_supports, rests_on, supported_by
@@ -157,7 +157,7 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
         proportional = [a for a in assets if PROPORTIONAL_TAG in getattr(a, "tags", ())]
         if proportional:  # seeded among them; the turn that faces the preferred way
             a = proportional[int(rng.integers(len(proportional)))]
-            k = max(range(4), key=lambda t: float(front_of(t) @ prefer))
+            k = turns_facing(prefer)
             bounds = bounds_of(a)
             blo, bhi = proportional_box(bounds[1] - bounds[0], lo, hi, k)
             out.placements.append(Placement(a.id, fit_to_cuboid(a, blo, bhi, k, bounds=bounds), i, "object"))
