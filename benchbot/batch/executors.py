@@ -357,6 +357,14 @@ def _ray_target(address: str | None) -> tuple[str | None, str]:
     return None, "started for this batch"
 
 
+#: The fix when Ray Client's server accepts a connection but gives it no session. Its proxy starts one session server
+#: per connection, forking from a multithreaded process, and that server sometimes dies as it starts (Ray 2.60); the
+#: client then waits minutes before it fails.
+RAY_CLIENT_NO_SESSION_HINT = ("run the batch again (a session server that dies as it starts is a transient Ray Client "
+                              "failure); the head's ray_client_server*.err (its session's logs folder, "
+                              "/tmp/ray/session_latest/logs by default) says why")
+
+
 def _unreachable_hint(source: str) -> str:
     if source == "--ray-address":
         return ("check the head's address and port (`ray status` on the head prints them), or leave --ray-address "
@@ -513,6 +521,9 @@ def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str, source:
     thread = threading.Thread(target=init, name="benchbot-ray-init", daemon=True)
     thread.start()
     thread.join(timeout_s)
+    if thread.is_alive() and target.startswith("ray://"):  # the probe reached its server: no session came
+        raise UsageError(f"the Ray Client server at {target} ({source}) accepted the connection but started no "
+                         f"session for this batch within {timeout_s:g} s", RAY_CLIENT_NO_SESSION_HINT)
     if thread.is_alive():
         raise UsageError(f"the Ray cluster at {target} ({source}) did not answer within {timeout_s:g} s",
                          _unreachable_hint(source))
