@@ -2,7 +2,7 @@
 Open Image Denoise, ``benchbot_sim_taichi.render.denoiser``) on one environment, along its trajectory poses.
 
     python benchmarks/render_quality.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--spp 4]
-        [--bounces 8] [--frames 20] [--denoise-device cpu|cuda] [--json [PATH]]
+        [--bounces 8] [--frames 20] [--denoise-device cpu|cuda] [--no-denoise] [--camera plain|robot] [--json [PATH]]
 
 Each frame is ``Renderer.render(mode='quality')``: a fast-mode launch for depth and segmentation, the path tracer's
 launch, the denoiser (``--denoise-device``; default: the renderer's, ``cuda`` on CUDA) and the camera model's 8-bit
@@ -11,7 +11,10 @@ memory and the encoding runs there too; on the CPU (or with ``--denoise-device c
 arrays. Printed/JSON keys: ``fps`` (frames per second, denoised, as returned to the caller), ``fps_no_denoise``
 (``denoise=False``), ``ms_path_trace`` (the same frame without denoising: launches, encoding and copies),
 ``ms_denoise`` (the difference), ``spp``, ``bounces``, ``triangles``, ``lights``, ``arch``, ``denoise_device``,
-``gpu`` (on CUDA), ``first_frame_s`` (compiling the kernels and starting the denoiser included).
+``gpu`` (on CUDA), ``first_frame_s`` (compiling the kernels and starting the denoiser included), ``camera`` and
+``camera_model``. ``--no-denoise`` times the path tracer alone (``fps`` and ``ms_denoise`` are then null), for a
+machine without Open Image Denoise. ``--camera robot`` renders through the default robot's camera model (the filmic
+curve, and each frame's exposure metered: ``camera_model.py``) instead of the plain one, so the meter's cost shows.
 
 ``--compare-host-path`` renders the first ``--frames`` poses (at most 4) again with a renderer that finishes frames
 on the host (``device_buffers=False``: NumPy arrays, NumPy encoding) and adds ``host_path``: per output, the largest
@@ -65,6 +68,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bounces", type=int, default=8)
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--denoise-device", choices=("cpu", "cuda"), default=None)
+    ap.add_argument("--no-denoise", action="store_true",
+                    help="time the path tracer alone (where Open Image Denoise is not installed)")
+    ap.add_argument("--camera", choices=("plain", "robot"), default="plain",
+                    help="the camera model: plain (0 EV, clip; the default) or the default robot's (filmic, and "
+                         "quality mode meters each frame's exposure)")
     ap.add_argument("--json", nargs="?", const="-", default=None, help="print JSON (or write it to PATH)")
     ap.add_argument("--compare-host-path", action="store_true",
                     help="also compare the frames with a renderer that finishes them on the host (NumPy)")
@@ -73,7 +81,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
 
     from benchbot_sim_taichi import bear
-    from benchbot_sim_taichi.backend import trajectory_cameras
+    from benchbot_sim_taichi.backend import camera_model, trajectory_cameras
+    from benchbot_sim_taichi.render.camera_model import CameraModel
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
     from benchbot_sim_taichi.scene.build import build_scene
 
@@ -82,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown environment {args.env}; one of {sorted(envs)}")
     scene = build_scene(envs[args.env])
     try:
-        r = Renderer(args.arch, denoise_device=args.denoise_device)
+        r = Renderer(args.arch, denoise_device=args.denoise_device,
+                     camera=camera_model() if args.camera == "robot" else CameraModel())
     except ValueError as e:
         ap.error(f"--arch {args.arch}: {e}")
     r.set_scene(scene)
@@ -95,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     try:
-        frame(0, True)
+        frame(0, not args.no_denoise)
     except RuntimeError as e:  # the denoiser's device cannot start (one line, naming it and why)
         print(f"error: {e}", file=sys.stderr)
         return 1
@@ -109,11 +119,13 @@ def main(argv: list[str] | None = None) -> int:
         return (time.perf_counter() - t) / args.frames
 
     s_plain = timed(False)
-    s_denoised = timed(True)
+    s_denoised = None if args.no_denoise else timed(True)
     out = {"env": args.env, "width": W, "height": H, "arch": r.arch, "spp": args.spp, "bounces": args.bounces,
-           "frames": args.frames, "denoise_device": r.denoise_device, "fps": 1.0 / s_denoised,
+           "frames": args.frames, "camera": args.camera, "camera_model": r.camera.__dict__,
+           "denoise_device": None if args.no_denoise else r.denoise_device,
+           "fps": None if s_denoised is None else 1.0 / s_denoised,
            "fps_no_denoise": 1.0 / s_plain, "ms_path_trace": 1e3 * s_plain,
-           "ms_denoise": 1e3 * (s_denoised - s_plain), "first_frame_s": first,
+           "ms_denoise": None if s_denoised is None else 1e3 * (s_denoised - s_plain), "first_frame_s": first,
            "triangles": int(scene.tri_v.shape[0]), "prims": int(scene.prim_type.shape[0]),
            "lights": int(scene.light_kind.shape[0]), "machine": platform.machine(), "cpus": os.cpu_count()}
     if args.compare_host_path:
@@ -132,10 +144,14 @@ def main(argv: list[str] | None = None) -> int:
             print(text)
         else:
             Path(args.json).write_text(text + "\n")
-    if args.json != "-":
-        print(f"{args.env} {W}x{H} quality {args.spp} spp, ≤{args.bounces} bounces on {r.arch} "
-              f"(denoiser on {r.denoise_device}): {out['fps']:.2f} fps denoised, {out['fps_no_denoise']:.2f} fps "
-              f"without ({out['ms_path_trace']:.1f} ms path tracing + {out['ms_denoise']:.1f} ms denoising); "
+    if args.json != "-" and s_denoised is None:
+        print(f"{args.env} {W}x{H} quality {args.spp} spp, ≤{args.bounces} bounces on {r.arch}, {args.camera} "
+              f"camera, not denoised: {out['fps_no_denoise']:.2f} fps ({out['ms_path_trace']:.1f} ms a frame); "
+              f"{out['triangles']:,} triangles, {out['lights']} lights; first frame {first:.1f} s")
+    elif args.json != "-":
+        print(f"{args.env} {W}x{H} quality {args.spp} spp, ≤{args.bounces} bounces on {r.arch}, {args.camera} "
+              f"camera (denoiser on {r.denoise_device}): {out['fps']:.2f} fps denoised, {out['fps_no_denoise']:.2f} "
+              f"fps without ({out['ms_path_trace']:.1f} ms path tracing + {out['ms_denoise']:.1f} ms denoising); "
               f"{out['triangles']:,} triangles, {out['lights']} lights; first frame {first:.1f} s")
     return 0
 

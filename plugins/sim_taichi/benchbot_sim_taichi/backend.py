@@ -42,7 +42,9 @@ DEFAULT_SENSORS: dict[str, Any] = {
                "mount_rpy_deg": [0.0, 0.0, 0.0],
                # the camera model (camera_model.py): an ACES filmic tone curve at -0.5 EV (mid-tones as the plain
                # clip's, highlights roll off instead of burning out; docs/realism.md); 0.0, "clip": the image as rendered
-               "exposure_ev": -0.5, "tone_curve": "filmic", "vignetting": 0.0},
+               "exposure_ev": -0.5, "tone_curve": "filmic", "vignetting": 0.0,
+               # quality mode meters each frame's exposure, as a camera's auto-exposure (camera_model.py, step 2)
+               "auto_exposure": True},
     "laser": {"mount_xyz": [0.0, 0.0, 0.3], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
@@ -86,16 +88,18 @@ def camera_mount(camera: dict | None = None) -> np.ndarray:
 
 
 def camera_model(camera: dict | None = None) -> CameraModel:
-    """The camera model (exposure, tone curve, vignetting) of a ``sensors.camera`` block (``exposure_ev`` stops,
-    ``tone_curve`` ``clip`` or ``filmic``, ``vignetting`` 0..1); ``DEFAULT_SENSORS``' camera when None: the images a
-    robot of the default spec sees. The one place a camera's model is made from its spec.
+    """The camera model (exposure, tone curve, vignetting, auto-exposure) of a ``sensors.camera`` block
+    (``exposure_ev`` stops, ``tone_curve`` ``clip`` or ``filmic``, ``vignetting`` 0..1, ``auto_exposure`` true or
+    false); ``DEFAULT_SENSORS``' camera when None: the images a robot of the default spec sees. The one place a
+    camera's model is made from its spec.
 
     Raises:
-        KeyError: the block lacks one of the three fields (:func:`sensor_config` fills them in);
+        KeyError: the block lacks one of the four fields (:func:`sensor_config` fills them in);
         ValueError: a value :class:`CameraModel` refuses (the robot schema refuses it first, naming the field).
     """
     camera = DEFAULT_SENSORS["camera"] if camera is None else camera
-    return CameraModel(float(camera["exposure_ev"]), str(camera["tone_curve"]), float(camera["vignetting"]))
+    return CameraModel(float(camera["exposure_ev"]), str(camera["tone_curve"]), float(camera["vignetting"]),
+                       bool(camera["auto_exposure"]))
 
 
 def camera_at(x: float, y: float, yaw: float, z: float) -> np.ndarray:

@@ -72,11 +72,11 @@ def test_the_robot_specs_camera_fields_reach_the_renderer(carter_spec):
 
     spec = copy.deepcopy(carter_spec)
     spec.setdefault("sensors", {}).setdefault("camera", {}).update(
-        {"exposure_ev": 0.5, "tone_curve": "filmic", "vignetting": 0.3})
+        {"exposure_ev": 0.5, "tone_curve": "filmic", "vignetting": 0.3, "auto_exposure": False})
     backend = TaichiSimBackend(spec, {"arch": "cpu", "width": W, "height": H})
     try:
         backend.load_scene({"name": "miniroom", "variant": 1, **_env_file("miniroom_1.json")})
-        assert backend._renderer.camera == CameraModel(0.5, "filmic", 0.3)
+        assert backend._renderer.camera == CameraModel(0.5, "filmic", 0.3, auto_exposure=False)
     finally:
         backend.close()
 
@@ -86,3 +86,49 @@ def _env_file(name: str) -> dict:
 
     env = next(e for e in bear.environment_specs() if e["map_path"].endswith(name))
     return {k: v for k, v in env.items() if k not in ("name", "variant")}
+
+
+def test_auto_exposure_meters_the_log_average_luminance_to_the_key():
+    """Reinhard et al. 2002's meter: a uniform grey radiance L gets the gain 0.18 / (1e-4 + L), clamped to ±8 stops;
+    a camera without auto-exposure keeps 1; encoding meters the image itself, and exposure_ev still biases it."""
+    from benchbot_sim_taichi.render.camera_model import METER_DELTA, METER_KEY
+
+    auto = CameraModel(tone_curve="filmic", auto_exposure=True)
+    for level in (0.01, 0.18, 3.0):
+        grey = np.full((48, 64, 3), level, np.float32)
+        assert auto.metered_gain(auto.meter_sample(grey)) == pytest.approx(METER_KEY / (METER_DELTA + level))
+        assert CameraModel().metered_gain(auto.meter_sample(grey)) == 1.0
+    assert auto.metered_gain(np.zeros((6, 8, 3))) == 2.0 ** 8  # a black frame: the longest exposure, not infinity
+    assert auto.meter_sample(np.zeros((48, 64, 3))).shape == (6, 8, 3)
+    K = np.array([[32.0, 0, 31.5], [0, 32.0, 23.5], [0, 0, 1]])
+    dim, bright = np.full((48, 64, 3), 0.02), np.full((48, 64, 3), 2.0)
+    assert np.array_equal(auto.encode(dim, K), auto.encode(bright, K))  # metered to the same key
+    assert not np.array_equal(CameraModel(tone_curve="filmic").encode(dim, K), auto.encode(dim, K))
+    brighter = CameraModel(exposure_ev=1.0, tone_curve="filmic", auto_exposure=True).encode(dim, K)
+    assert brighter.mean() > auto.encode(dim, K).mean()
+    assert np.array_equal(auto.encode(dim, K, gain=1.0), CameraModel(tone_curve="filmic").encode(dim, K))
+
+
+def test_quality_mode_frames_of_a_daylit_and_a_lamplit_room_are_exposed_alike(bear_envs):
+    """Quality mode's light is physical: a furnished room lit by daylight through its windows (miniroom:2) and one
+    under its lamps at night (miniroom:3) differ severalfold in radiance, and a fixed exposure leaves the first dark
+    and the second bright. The robot's default camera meters each frame, so both come out with mid-tones."""
+    from benchbot.core.geometry import se2_to_matrix
+    from benchbot_sim_taichi.backend import camera_model, camera_mount
+    from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
+    from benchbot_sim_taichi.scene.build import build_scene
+
+    camera = camera_model()
+    assert camera.auto_exposure
+    fixed_camera = CameraModel(camera.exposure_ev, camera.tone_curve, camera.vignetting)
+    K = intrinsics(80, 60, 90.0)
+    metered, fixed = {}, {}
+    for env in ("miniroom:2", "miniroom:3"):
+        scene = build_scene({**bear_envs[env], "style": "furnished"})
+        r = Renderer("cpu", camera=camera)
+        r.set_scene(scene)
+        out = r.render(K, se2_to_matrix(*scene.trajectory_se2[8]) @ camera_mount(), 80, 60, mode="quality", spp=2)
+        metered[scene.lighting] = out["rgb"].astype(float).mean()
+        fixed[scene.lighting] = fixed_camera.encode(out["radiance"], K).astype(float).mean()
+    assert fixed["night"] > 2.0 * fixed["day"], fixed
+    assert all(70.0 < v < 190.0 for v in metered.values()) and abs(metered["day"] - metered["night"]) < 25.0, metered

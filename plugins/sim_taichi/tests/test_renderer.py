@@ -174,17 +174,19 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
         assert all(np.array_equal(a[k], timed[k]) for k in a)
 
 
-@pytest.mark.parametrize("camera", ["default", "filmic"])
+@pytest.mark.parametrize("camera", ["default", "filmic", "metered"])
 def test_quality_mode_finished_in_device_memory_equals_the_numpy_path(bear_envs, camera):
     """Quality mode with device buffers (GPU memory on CUDA; exercised here on the CPU, where OIDN's CPU device reads
     the Taichi ndarrays in place) denoises where the path tracer wrote its images and encodes them there with the
     camera model (``pathtrace.encode_kernel``, float64): every output equals the NumPy path's, bit for bit, denoised
-    or not, for the default camera and one with exposure, the filmic curve and vignetting."""
+    or not, for the default camera, one with exposure, the filmic curve and vignetting, and one that meters its
+    exposure (the meter's pixels gathered on the device, ``pathtrace.meter_sample_kernel``)."""
     from benchbot_sim_taichi.render.camera_model import CameraModel
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
     from benchbot_sim_taichi.scene.build import build_scene
 
-    model = CameraModel() if camera == "default" else CameraModel(exposure_ev=0.7, tone_curve="filmic", vignetting=0.6)
+    model = {"default": CameraModel(), "filmic": CameraModel(exposure_ev=0.7, tone_curve="filmic", vignetting=0.6),
+             "metered": CameraModel(exposure_ev=-0.5, tone_curve="filmic", vignetting=0.3, auto_exposure=True)}[camera]
     scene = build_scene(bear_envs["miniroom:1"])
     W, H = 40, 30
     K = intrinsics(W, H, 90.0)
@@ -200,6 +202,7 @@ def test_quality_mode_finished_in_device_memory_equals_the_numpy_path(bear_envs,
         for k in a:
             assert isinstance(b[k], np.ndarray) and b[k].dtype == a[k].dtype and np.array_equal(a[k], b[k]), k
     assert ("quality_denoised", (1, H, W, 3)) in dev._buffers  # the in-place path ran (the NumPy one has no buffers)
+    assert (("quality_meter", (1, 4, 5, 3)) in dev._buffers) == model.auto_exposure
     b["rgb"][:] = 0  # the caller owns what it got: the next frame is not written into it
     assert np.array_equal(dev.render(K, T, W, H, mode="quality", spp=2, denoise=False)["rgb"], a["rgb"])
 

@@ -43,7 +43,7 @@ with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
 from benchbot_sim_taichi.render import bsdf  # noqa: E402 - after Taichi's banner is redirected
-from benchbot_sim_taichi.render.camera_model import GAMMA  # noqa: E402
+from benchbot_sim_taichi.render.camera_model import GAMMA, METER_OFFSET, METER_STRIDE  # noqa: E402
 from benchbot_sim_taichi.render.layouts import (  # noqa: E402
     CAM_FX, CAM_LEN, P_BOUNCES, P_LAMP_RADIUS, P_ROULETTE_FROM, P_SEED, P_SPP, P_SUN_RADIUS, PARAMS_LEN, WORLD_AMBIENT,
 )
@@ -347,3 +347,15 @@ def encode_kernel(radiance: ti.types.ndarray(dtype=ti.f32, ndim=4), camera: ti.t
             if camera[1] > 0.5:  # Narkowicz's ACES fit, clamped to 0..1 (camera_model.aces_filmic)
                 y = ti.min(ti.max(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0), 1.0)
             rgb[b, v, u, k] = ti.cast(ti.floor(ti.pow(y, ti.cast(GAMMA, ti.f64)) * 255.0 + 0.5), ti.u8)
+
+
+@ti.kernel
+def meter_sample_kernel(radiance: ti.types.ndarray(dtype=ti.f32, ndim=4),
+                        sample: ti.types.ndarray(dtype=ti.f32, ndim=4)):
+    """The auto-exposure meter's pixels of linear radiance (B, H, W, 3) float32 into ``sample`` (B, h, w, 3),
+    ``sample[b, i, j] = radiance[b, METER_OFFSET + METER_STRIDE i, METER_OFFSET + METER_STRIDE j]``: what
+    ``camera_model.CameraModel.meter_sample`` takes on the host, gathered where the images are (a copy, so the
+    same values)."""
+    for b, i, j in ti.ndrange(sample.shape[0], sample.shape[1], sample.shape[2]):
+        for k in ti.static(range(3)):
+            sample[b, i, j, k] = radiance[b, METER_OFFSET + METER_STRIDE * i, METER_OFFSET + METER_STRIDE * j, k]

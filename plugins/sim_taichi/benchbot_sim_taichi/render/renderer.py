@@ -82,7 +82,7 @@ import numpy as np
 
 from benchbot.core import settings, stages
 from benchbot.core.errors import UsageError
-from benchbot_sim_taichi.render.camera_model import CameraModel, tone_table
+from benchbot_sim_taichi.render.camera_model import METER_OFFSET, METER_STRIDE, CameraModel, tone_table
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
 # (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
@@ -95,7 +95,12 @@ with contextlib.redirect_stdout(_banner):
 
 from benchbot_sim_taichi.render.denoiser import denoise_radiance, denoise_shared  # noqa: E402
 from benchbot_sim_taichi.render.packed_scene import PACKED_NAMES, pack as pack_for_sensors  # noqa: E402
-from benchbot_sim_taichi.render.pathtrace import encode_kernel, prepare_denoiser_inputs, quality_kernel  # noqa: E402
+from benchbot_sim_taichi.render.pathtrace import (  # noqa: E402
+    encode_kernel,
+    meter_sample_kernel,
+    prepare_denoiser_inputs,
+    quality_kernel,
+)
 from benchbot_sim_taichi.render.kernels import (  # noqa: E402 - after Taichi's banner is redirected
     GLASS, LAMP_MAP_NORMAL_OFFSET, LAMP_MAP_RES, LAMP_RADIUS, LIGHT_CELL_M, LIGHT_COLS, LIGHT_GRID_BLOCK,
     LIGHT_GRID_STEP, SHADE_COLS, SHADOW_OFFSET, STACK, SUN_MAP_RES, SUN_RADIUS, lamp_map_kernel, light_grid_kernel,
@@ -1156,8 +1161,15 @@ class Renderer:
                 self._denoise_on_the_cpu_instead(e)
                 return None
             lin = denoised
+        gain = 1.0
+        _, H, W, _ = lin.shape
+        rows, cols = len(range(METER_OFFSET, H, METER_STRIDE)), len(range(METER_OFFSET, W, METER_STRIDE))
+        if self.camera.auto_exposure and rows and cols:  # the meter's pixels gathered where the image is
+            sample = self._buffer("quality_meter", (1, rows, cols, 3), np.float32)
+            meter_sample_kernel(lin, sample)
+            gain = self.camera.metered_gain(self._fetch({"sample": sample})["sample"][0])
         rgb = self._buffer("quality_rgb", lin.shape, np.uint8)
-        encode_kernel(lin, self.camera.kernel_params(K), rgb)
+        encode_kernel(lin, self.camera.kernel_params(K, gain), rgb)
         return lin, rgb
 
     def _denoise(self, radiance: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
