@@ -8,7 +8,7 @@ goes through, in order:
    it, 0: none, 1: the whole fall-off);
 2. **exposure** — ``× g · 2^exposure_ev`` (stops; +1 doubles the light). ``g`` is 1, except in quality mode with
    ``auto_exposure``: there the camera meters each frame, as a real camera's auto-exposure does, because the path
-   tracer's light is physical and varies about tenfold between homes (a daylit room without lamps, a room under its
+   tracer's light is physical and varies severalfold between homes (a daylit room without lamps, a room under its
    lamps at night), where fast mode's light has a fill that keeps its frames exposed. ``g = key / L̄``, ``L̄`` the
    log-average luminance ``exp(mean(log(δ + Y)))`` of the frame's radiance (before vignetting) on a grid of every
    :data:`METER_STRIDE`-th pixel, ``Y`` the Rec. 709 luminance, key :data:`METER_KEY` = 0.18 and ``δ`` =
