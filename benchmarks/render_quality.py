@@ -22,6 +22,7 @@ absolute difference and how many values differ, denoised and not.
 """
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -121,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     s_plain = timed(False)
     s_denoised = None if args.no_denoise else timed(True)
     out = {"env": args.env, "width": W, "height": H, "arch": r.arch, "spp": args.spp, "bounces": args.bounces,
-           "frames": args.frames, "camera": args.camera, "camera_model": r.camera.__dict__,
+           "frames": args.frames, "camera": args.camera, "camera_model": dataclasses.asdict(r.camera),
            "denoise_device": None if args.no_denoise else r.denoise_device,
            "fps": None if s_denoised is None else 1.0 / s_denoised,
            "fps_no_denoise": 1.0 / s_plain, "ms_path_trace": 1e3 * s_plain,

@@ -99,7 +99,8 @@ def test_auto_exposure_meters_the_log_average_luminance_to_the_key():
         assert auto.metered_gain(auto.meter_sample(grey)) == pytest.approx(METER_KEY / (METER_DELTA + level))
         assert CameraModel().metered_gain(auto.meter_sample(grey)) == 1.0
     assert auto.metered_gain(np.zeros((6, 8, 3))) == 2.0 ** 8  # a black frame: the longest exposure, not infinity
-    assert auto.meter_sample(np.zeros((48, 64, 3))).shape == (6, 8, 3)
+    assert auto.meter_sample(np.zeros((48, 64, 3))).shape == (*auto.meter_shape(48, 64), 3) == (6, 8, 3)
+    assert auto.meter_shape(4, 640) == (0, 80)  # too small to meter: the gain stays 1
     K = np.array([[32.0, 0, 31.5], [0, 32.0, 23.5], [0, 0, 1]])
     dim, bright = np.full((48, 64, 3), 0.02), np.full((48, 64, 3), 2.0)
     assert np.array_equal(auto.encode(dim, K), auto.encode(bright, K))  # metered to the same key

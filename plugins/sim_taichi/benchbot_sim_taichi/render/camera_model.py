@@ -119,6 +119,12 @@ class CameraModel:
         (H, W, 3) linear radiance (a view). ``pathtrace.meter_sample_kernel`` gathers the same pixels on a device."""
         return radiance[METER_OFFSET::METER_STRIDE, METER_OFFSET::METER_STRIDE]
 
+    @staticmethod
+    def meter_shape(height: int, width: int) -> tuple[int, int]:
+        """(rows, columns) of :meth:`meter_sample` for an image of ``height`` × ``width`` pixels (either may be 0,
+        for an image too small to meter)."""
+        return len(range(METER_OFFSET, height, METER_STRIDE)), len(range(METER_OFFSET, width, METER_STRIDE))
+
     def metered_gain(self, sample: np.ndarray) -> float:
         """The auto-exposure gain ``g`` of step 2 for the meter's pixels ``sample`` ((h, w, 3) linear radiance,
         :meth:`meter_sample`): ``METER_KEY / exp(mean(log(METER_DELTA + Y)))`` clamped to ±``METER_RANGE_EV`` stops,

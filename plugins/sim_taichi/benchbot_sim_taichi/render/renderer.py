@@ -82,7 +82,7 @@ import numpy as np
 
 from benchbot.core import settings, stages
 from benchbot.core.errors import UsageError
-from benchbot_sim_taichi.render.camera_model import METER_OFFSET, METER_STRIDE, CameraModel, tone_table
+from benchbot_sim_taichi.render.camera_model import CameraModel, tone_table
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
 # (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
@@ -1162,8 +1162,7 @@ class Renderer:
                 return None
             lin = denoised
         gain = 1.0
-        _, H, W, _ = lin.shape
-        rows, cols = len(range(METER_OFFSET, H, METER_STRIDE)), len(range(METER_OFFSET, W, METER_STRIDE))
+        rows, cols = self.camera.meter_shape(lin.shape[1], lin.shape[2])
         if self.camera.auto_exposure and rows and cols:  # the meter's pixels gathered where the image is
             sample = self._buffer("quality_meter", (1, rows, cols, 3), np.float32)
             meter_sample_kernel(lin, sample)
