@@ -395,6 +395,31 @@ def test_floating_objects_get_one_support_with_its_top_at_their_bottom(lib):
     assert {library_kind(lib, p) for p in res.placements if p.role == "support"} == {"counter"}
 
 
+def test_a_toilet_boxed_a_little_over_the_floor_stands_on_its_own_foot(lib):
+    """BEAR boxes only the bowl of two of house:1's toilets (0.08 and 0.16 m up): such a toilet gets no support (a
+    plinth or a cabinet under a toilet); its model reaches from the floor to its cuboid's top, nothing else is placed
+    under it, and it is not reported as unsupported. A cup as high, and a toilet higher than OWN_FOOT_MAX_Z_M, still
+    get supports."""
+    library = AssetLibrary(FULL_LIB + [obj_asset("toilet_a", "toilet", (0.4, 0.65, 0.75))])
+    plan = one_room_plan(kind="bathroom")
+    objs = [gt("toilet", [2.0, 2.0, 0.16], [2.4, 2.6, 0.42], "bowl_only"),
+            gt("cup", [4.0, 2.0, 0.16], [4.1, 2.1, 0.26], "low_cup"),
+            gt("toilet", [1.0, 3.5, S.OWN_FOOT_MAX_Z_M + 0.05], [1.4, 4.1, 0.8], "high_toilet")]
+    assert [S.stands_on_own_foot(o, box_of(o)) for o in objs] == [True, False, False]
+    res = F.furnish_home(objs, plan, library, seed=0)
+    (p,) = [p for p in res.placements if p.object_index == 0]
+    blo, bhi = placed_box(library, p)
+    lo, hi = box_of(objs[0])
+    assert np.allclose(blo, [lo[0], lo[1], 0.0]) and np.allclose(bhi, hi)  # from the floor to the cuboid's top
+    sup = res.boxes.get("support", [])
+    assert not any(inter(s, (blo, bhi)) for s in sup)  # nothing under it
+    assert not any(inter(placed_box(library, q), (blo, bhi)) for q in res.placements if q.object_index < 0)
+    assert 0 not in {i for i, _ in res.unsupported}
+    for o in objs[1:]:  # the cup and the higher toilet: each on a support whose top is its bottom
+        olo, ohi = box_of(o)
+        assert any(abs(s[1][2] - olo[2]) < 1e-9 and SP.overlap_area(olo, ohi, *s) > 0 for s in sup), o["ID_name"]
+
+
 def test_a_proportional_clock_keeps_its_proportions_against_the_wall():
     """A clock model tagged ``proportional`` (a round dial) in a cube cuboid on the north wall: scaled uniformly to
     the cube's width and height, its back on the wall side, on the cuboid's bottom; the plain clock is not drawn."""
@@ -735,6 +760,7 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
                     assert len(bs) == 1 and np.all(bs[0, 0] >= lo - 1e-6) and np.all(bs[0, 1] <= hi + 1e-6), (where, i)
                     assert abs(bs[0, 0, 2] - lo[2]) < 1e-6, (where, i)
                     continue
+                lo, hi = S.standing_box(o, (lo, hi))  # a toilet's bowl boxed alone: its model from the floor up
                 assert len(bs) and np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-6, (where, i)
                 assert np.abs(bs[:, 1].max(axis=0) - hi).max() < 1e-6, (where, i)
             # nothing floats: on a GT object, on a wall, on a support whose top is its bottom (or within the
@@ -743,7 +769,8 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
             boxes = [box_of(o) for o in objs]
             reported = {i for i, _ in res.unsupported}
             for i in range(len(objs)):
-                if not _floats(i, boxes) or i in res.hanging or i in reported:
+                if not _floats(i, boxes) or i in res.hanging or i in reported \
+                        or S.stands_on_own_foot(objs[i], boxes[i]):
                     continue
                 lo, hi = boxes[i]
                 area = (hi[0] - lo[0]) * (hi[1] - lo[1])

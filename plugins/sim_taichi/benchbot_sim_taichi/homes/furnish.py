@@ -7,10 +7,11 @@ map-frame model (z up, front −y, origin at the centre of the bottom of its bou
 deterministic per ``seed``; GT is never changed. The steps:
 
 * **GT objects** (here): a model of the object's class fitted EXACTLY to its cuboid
-  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`), model and quarter turn chosen by proportion distortion, a
-  size term (``SIZE_WEIGHT``: a model near its real size is preferred) and a facing preference
-  (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides between turns that distort alike and
-  yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a 1.8× aspect change
+  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`; a toilet whose cuboid boxes its bowl alone, a little
+  over the floor, from the floor up: :func:`~benchbot_sim_taichi.homes.furnish_supports.standing_box`), model and
+  quarter turn chosen by proportion distortion, a size term (``SIZE_WEIGHT``: a model near its real size is
+  preferred) and a facing preference (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides
+  between turns that distort alike and yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a 1.8× aspect change
   for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
   draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest
   GT table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back
@@ -51,7 +52,8 @@ from benchbot_sim_taichi.homes.fitting import (
     transformed_bounds, turns_facing)
 from benchbot_sim_taichi.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
-from benchbot_sim_taichi.homes.furnish_supports import FLOAT_MIN_Z_M, place_supports, rests_on, supported_by
+from benchbot_sim_taichi.homes.furnish_supports import (
+    FLOAT_MIN_Z_M, place_supports, rests_on, standing_box, stands_on_own_foot, supported_by)
 from benchbot_sim_taichi.homes.furnish_walls import place_lights, place_openings, place_span
 
 __all__ = ["Furnishing", "Placement", "asset_bounds", "fit_to_cuboid", "furnish", "furnish_home",
@@ -164,6 +166,7 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             continue
         if cls == "chair" and SEAT_HEIGHT_M <= hi[2] - lo[2] < LOW_CHAIR_M:  # squashed: see LOW_CHAIR_M
             assets = [a for a in assets if DINING_TAG in getattr(a, "tags", ())] or assets
+        lo, hi = standing_box(obj, (lo, hi))  # a toilet's bowl boxed alone stands on its own foot
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
         out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds_of(a)), i, "object"))
 
@@ -210,7 +213,9 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
     objects = list(objects)
     context = _dedupe(list(context_objects or []) + objects) if context_objects is not None else list(objects)
     ctx_boxes = [gt_box(o) for o in context]
-    space = Space(plan, ctx_boxes, [f"{o.get('class')} {o.get('ID_name', '')}".strip() for o in context],
+    # the space a GT object's model takes (a toilet's foot under its cuboid) is kept free of other furniture
+    space = Space(plan, [standing_box(o, b) for o, b in zip(context, ctx_boxes)],
+                  [f"{o.get('class')} {o.get('ID_name', '')}".strip() for o in context],
                   [str(o.get("class", "")) for o in context])
     out = Furnishing()
     boxes = [gt_box(o) for o in objects]
@@ -238,7 +243,8 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
         elif j in unsupported_ctx:
             out.unsupported.append((i, unsupported_ctx[j]))
         elif boxes[i][0][2] > FLOAT_MIN_Z_M and np.all(boxes[i][1] - boxes[i][0] > 1e-6) \
-                and not rests_on(i, boxes) and not supported_by(boxes[i], out.boxes.get("support", [])):
+                and not stands_on_own_foot(o, boxes[i]) and not rests_on(i, boxes) \
+                and not supported_by(boxes[i], out.boxes.get("support", [])):
             extra.append(i)
     if extra:
         local = Furnishing()

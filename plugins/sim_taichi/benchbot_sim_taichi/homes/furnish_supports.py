@@ -32,6 +32,15 @@ from benchbot_sim_taichi.homes.furnish_space import (
 #: A GT object whose bottom is above this height (m) needs something under it.
 FLOAT_MIN_Z_M = 0.05
 
+#: Classes that stand on their own foot: BEAR boxes only the bowl of two of house:1's toilets (0.08 and 0.16 m over
+#: the floor, no cistern), so a support under them was a plinth or a cabinet carrying a toilet. An object of one of
+#: these classes whose bottom is at most :data:`OWN_FOOT_MAX_Z_M` up gets no support: its model is fitted from the floor
+#: to the cuboid's top (:func:`standing_box`), its foot under the cuboid. The cuboid (ground truth) is unchanged.
+OWN_FOOT_CLASSES = frozenset(("toilet",))
+
+#: See OWN_FOOT_CLASSES (m): a toilet's bowl starts at most this high over the floor.
+OWN_FOOT_MAX_Z_M = 0.25
+
 #: An object rests on another if that one's top is within this of its bottom (m) ...
 REST_TOL_M = 0.02
 
@@ -105,6 +114,23 @@ MAX_SUPPORT_UNITS = 8
 
 #: Kinds of units that are tiled side by side along a long support.
 TILED_KINDS = frozenset(("counter", "cabinet", "kitchen_cabinet"))
+
+
+def stands_on_own_foot(obj: dict, box) -> bool:
+    """Whether a GT object (its dict and its box (lo (3,), hi (3,)), map frame, metres) floats a little and stands on
+    its own foot instead of a support (:data:`OWN_FOOT_CLASSES`, bottom over :data:`FLOAT_MIN_Z_M` and at most
+    :data:`OWN_FOOT_MAX_Z_M`)."""
+    lo, _ = box
+    return str(obj.get("class", "")) in OWN_FOOT_CLASSES and FLOAT_MIN_Z_M < float(lo[2]) <= OWN_FOOT_MAX_Z_M
+
+
+def standing_box(obj: dict, box) -> tuple[np.ndarray, np.ndarray]:
+    """The box (lo (3,), hi (3,)) float64, map frame, metres, that a GT object's model fills: its cuboid, reaching
+    down to the floor (z = 0) when it :func:`stands_on_own_foot`."""
+    lo, hi = (np.asarray(b, dtype=np.float64).copy() for b in box)
+    if stands_on_own_foot(obj, (lo, hi)):
+        lo[2] = 0.0
+    return lo, hi
 
 
 def rests_on(i: int, boxes) -> bool:
@@ -404,7 +430,8 @@ def place_supports(objects: list[dict], boxes: list, space: Space, library, plan
     need = []
     for i, obj in enumerate(objects):
         lo, hi = boxes[i]
-        if lo[2] <= FLOAT_MIN_Z_M or np.any(hi - lo <= 1e-6) or rests_on(i, boxes):
+        if (lo[2] <= FLOAT_MIN_Z_M or np.any(hi - lo <= 1e-6) or rests_on(i, boxes)
+                or stands_on_own_foot(obj, (lo, hi))):
             continue
         if _hangs(obj, boxes[i], space):
             out.hanging.append(i)
