@@ -165,6 +165,9 @@ def test_every_used_bear_class_has_models_except_the_missing_ones():
     # the chairs the furnishing squashes into BEAR's low chair cuboids: dining chairs, as tall as real ones
     dining = [a for a in ASSETS if "dining" in a.get("tags", ())]
     assert len(dining) >= 3 and all(a["class"] == "chair" and 0.7 <= a["size_m"][2] <= 0.9 for a in dining)
+    # the bowl of fruit the furnishing puts in BEAR's big bowl cuboids (0.46-0.55 m across)
+    fruit = [a for a in ASSETS if "fruit" in a.get("tags", ())]
+    assert len(fruit) >= 1 and all(a["class"] == "bowl" and a["size_m"][2] < a["size_m"][0] for a in fruit)
 
 
 def test_the_pack_is_within_its_size_limit():

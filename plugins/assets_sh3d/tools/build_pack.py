@@ -256,7 +256,7 @@ SELECTION: tuple[Pick, ...] = (
     P("kl", "bowl", "bowl"),
     P("sc", "bowl", "bowl"),
     P("sc", "bowlWithSalad", "bowl"),
-    P("sc", "bowlWithFruits", "bowl"),
+    P("sc", "bowlWithFruits", "bowl", tags=("fruit",)),  # a bowl of fruit: BEAR's big bowl cuboids take it
     P("sc", "bowlWithFruits", "bowl", groups="^bowl", name="bowlWithFruits_empty"),
     # potted plant (foliage of separate leaves hardly decimates: the heaviest plants of the libraries, 20k-170k
     # triangles, are left out; so are the orchids in a dark glossy pot and the cactus in a black one, which the COCO

@@ -254,6 +254,32 @@ def test_low_chair_cuboids_take_a_dining_chair_squashed():
     assert drawn(0.5, AssetLibrary([stool]), 0).asset_id == "stool"
 
 
+def test_big_bowl_cuboids_take_a_bowl_of_fruit():
+    # a plain bowl near its size fits BEAR's 0.55 x 0.52 x 0.25 m bowl cuboids best, but a bowl cuboid at least
+    # FRUIT_BOWL_M across on both sides takes a bowl tagged fruit (still filling the cuboid exactly); a small one, or
+    # a long narrow one, chooses as if the tag were not there
+    plain = obj_asset("plain", "bowl", (0.4, 0.4, 0.2))
+    fruit = replace(obj_asset("fruit", "bowl", (0.32, 0.34, 0.14)), tags=(F.FRUIT_TAG,))
+    library = AssetLibrary([plain, fruit])
+    untagged = AssetLibrary([plain, replace(fruit, tags=())])
+
+    def drawn(w, d, h, lib, seed):
+        objs = [gt("table", [1, 1, 0], [2, 2, 0.8]), gt("bowl", [1.1, 1.1, 0.8], [1.1 + w, 1.1 + d, 0.8 + h])]
+        res = F.furnish_home(objs, one_room_plan(), lib, seed=seed)
+        (p,) = [p for p in res.placements if p.object_index == 1]
+        return p
+
+    for seed in range(10):
+        p = drawn(0.55, 0.52, 0.25, library, seed)
+        assert p.asset_id == "fruit"
+        bounds = FIT.transformed_bounds(p.transform, FIT.asset_bounds(fruit))
+        assert np.allclose(bounds, [[1.1, 1.1, 0.8], [1.65, 1.62, 1.05]])
+        for small in ((0.23, 0.23, 0.11), (0.8, F.FRUIT_BOWL_M - 0.05, 0.4)):  # as if the tag were not there
+            assert drawn(*small, library, seed).asset_id == drawn(*small, untagged, seed).asset_id
+    # without a bowl of fruit the big cuboid takes the model that fits it best
+    assert drawn(0.55, 0.52, 0.25, AssetLibrary([plain]), 0).asset_id == "plain"
+
+
 def test_proportions_outweigh_facing_when_they_disagree_strongly():
     couch = [obj_asset("c", "couch", (2.0, 0.9, 0.85))]
     rng = np.random.default_rng(0)

@@ -24,7 +24,8 @@ deterministic per ``seed``; GT is never changed. The steps:
   :data:`PROPORTIONAL_TAG` (the clocks' round dial) takes one of them, never stretched: uniformly scaled into the
   cuboid against its back (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to
   :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has
-  one. A class other than ``book`` with no model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`;
+  one; a bowl cuboid at least :data:`FRUIT_BOWL_M` across one tagged :data:`FRUIT_TAG` (a bowl of fruit). A class
+  other than ``book`` with no model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`;
   the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that would
   float, their tops at the objects' bottoms; the ones left without are reported with why
@@ -139,6 +140,16 @@ LOW_CHAIR_M = 0.55
 SEAT_HEIGHT_M = 0.45
 
 
+#: The tag of a bowl of fruit ...
+FRUIT_TAG = "fruit"
+
+#: ... which a bowl cuboid at least this wide on both horizontal sides (m) takes, if the class has one: BEAR's big
+#: bowl cuboids (0.46-0.55 m across, on the houses' counters) took the pack's plain bowl at 1.3x its size, a bare
+#: hemisphere from the camera's height that the COCO detector of ``benchmarks/realism.py`` hardly ever took for a bowl
+#: (docs/realism.md, 25 Nov 2026); its small ones (0.15-0.24 m) keep the models that fit them best.
+FRUIT_BOWL_M = 0.4
+
+
 def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing) -> None:
     tables = [boxes[j] for j, o in enumerate(objects) if o.get("class") == "table"]
     for i, obj in enumerate(objects):
@@ -166,6 +177,8 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             continue
         if cls == "chair" and SEAT_HEIGHT_M <= hi[2] - lo[2] < LOW_CHAIR_M:  # squashed: see LOW_CHAIR_M
             assets = [a for a in assets if DINING_TAG in getattr(a, "tags", ())] or assets
+        if cls == "bowl" and min(hi[0] - lo[0], hi[1] - lo[1]) >= FRUIT_BOWL_M:  # see FRUIT_BOWL_M
+            assets = [a for a in assets if FRUIT_TAG in getattr(a, "tags", ())] or assets
         lo, hi = standing_box(obj, (lo, hi))  # a toilet's bowl boxed alone stands on its own foot
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
         out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds_of(a)), i, "object"))
