@@ -55,6 +55,7 @@ from benchbot_sim_taichi.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
 from benchbot_sim_taichi.homes.furnish_supports import (
     FLOAT_MIN_Z_M, place_supports, rests_on, standing_box, stands_on_own_foot, supported_by)
+from benchbot_sim_taichi.homes.furnish_tables import dress_tables
 from benchbot_sim_taichi.homes.furnish_walls import place_lights, place_openings, place_span
 
 __all__ = ["Furnishing", "Placement", "asset_bounds", "fit_to_cuboid", "furnish", "furnish_home",
@@ -205,7 +206,8 @@ def _dedupe(objs: Sequence[dict]) -> list[dict]:
 
 def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int = 0,
                  context_objects: Sequence[dict] | None = None,
-                 bounds_of: Callable[[Any], np.ndarray] | None = None) -> Furnishing:
+                 bounds_of: Callable[[Any], np.ndarray] | None = None,
+                 mesh_of: Callable[[Any], Any] | None = None) -> Furnishing:
     """Models, supports, distractors, doors, windows and lamps for one environment (see the module docstring).
 
     Args:
@@ -218,6 +220,8 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
             derived from these, so the variants of a home share their furniture; default ``objects``.
         bounds_of: the (2, 3) true model-frame bounds of an asset (e.g. its mesh's) for exact fits; default from
             ``size_m``.
+        mesh_of: an asset's mesh (``v`` (V, 3) model frame, metres; ``f`` (F, 3) int), to stand things on the GT
+            tables' tops (:func:`~benchbot_sim_taichi.homes.furnish_tables.dress_tables`); None: tables stay bare.
 
     Returns:
         A :class:`Furnishing`.
@@ -268,6 +272,9 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
             out.boxes.setdefault(role, []).extend(bl)
         out.unsupported.extend((extra[j], why) for j, why in local.unsupported)
         out.hanging.extend(extra[j] for j in local.hanging)
+    if mesh_of is not None:  # last: what the home's other variants place is in the space already
+        dress_tables(objects, [p for p in out.placements if p.role == "object"], space, library, seed, mesh_of,
+                     bounds_of, out)
     out.unsupported.sort()
     out.hanging.sort()
     for i, why in out.unsupported:

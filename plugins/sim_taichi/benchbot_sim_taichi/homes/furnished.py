@@ -204,7 +204,7 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
         return load_mesh(asset.path).bounds
 
     furnishing = furnish_home(frame.objects_to_home(objects), home_plan, library, seed=seed, context_objects=context,
-                              bounds_of=bounds_of)
+                              bounds_of=bounds_of, mesh_of=lambda asset: load_mesh(asset.path))
     home = FurnishedHome(plan=plan, furnishing=furnishing, wall_height=float(plan.wall_height), frame=frame)
     home.without_model = sorted(set(furnishing.without_model))
     home.instances.append(MeshInstance(structure_mesh(home_plan, seed=seed), np.eye(4) if to_map is None else to_map,
