@@ -122,6 +122,22 @@ def test_merging_and_association_do_not_swallow_a_neighbour():
     assert len(objs) == 2 and all(iou(o, TABLE) < 0.05 or iou(o, CHAIR) < 0.05 for o in objs)
 
 
+def test_a_cuboid_near_the_floor_reaches_down_to_it_and_one_high_up_does_not():
+    views = [camera(y) for y in (-0.3, 0.0, 0.3)]
+    upper = (np.array([TABLE[0][0], TABLE[0][1], 0.25]), TABLE[1])  # the detector boxes the table above its legs
+    tv = [100.0, 10.0, 140.0, 40.0, 0.9, COCO80.index("tv")]  # on the wall, high up
+    frames = [(T, [project_box(*upper, T) + [0.6, COCO80.index("dining table")], tv]) for T in views]
+    snapped, kept = fused(frames), fused(frames, floor_snap=0.0)
+    table = [o for o in snapped if o["label_probs"][1] > 0][0]
+    lo = np.array(table["centroid"]) - np.array(table["extent"]) / 2
+    assert lo[2] == pytest.approx(0.0, abs=1e-9) and table["extent"][2] == pytest.approx(TABLE[1][2], abs=0.05)
+    lo_kept = [np.array(o["centroid"]) - np.array(o["extent"]) / 2 for o in kept if o["label_probs"][1] > 0][0]
+    assert lo_kept[2] > 0.2  # without the snap the cuboid starts where its points do
+    for objs in (snapped, kept):
+        screen = [o for o in objs if o["label_probs"][2] > 0][0]
+        assert screen["centroid"][2] - screen["extent"][2] / 2 > fusion.FLOOR_SNAP_M
+
+
 def test_without_onnxruntime_or_with_a_missing_recording_the_example_says_so_in_one_line(tmp_path):
     (tmp_path / "onnxruntime.py").write_text("raise ImportError('No module named onnxruntime')\n")
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}

@@ -98,9 +98,10 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--offline", metavar="NPZ", help="detect and fuse recorded frames instead of connecting to BenchBot")
     p.add_argument("--output", default="semslam_detector_result.json", help="results file in offline mode")
-    p.add_argument("--min-score", type=float, default=0.15, help="lowest detection score fused")
+    p.add_argument("--min-score", type=float, default=None,
+                   help="lowest detection score fused (default: fusion.DetectionMapper's, 0.3)")
     args = p.parse_args(argv)
-    kwargs = dict(min_score=args.min_score)
+    kwargs = {} if args.min_score is None else dict(min_score=args.min_score)
     try:
         if args.offline:
             try:
