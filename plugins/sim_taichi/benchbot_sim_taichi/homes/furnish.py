@@ -11,8 +11,8 @@ deterministic per ``seed``; GT is never changed. The steps:
   over the floor, from the floor up: :func:`~benchbot_sim_taichi.homes.furnish_supports.standing_box`), model and
   quarter turn chosen by proportion distortion, a size term (``SIZE_WEIGHT``: a model near its real size is
   preferred) and a facing preference (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides
-  between turns that distort alike and yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a 1.8× aspect change
-  for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
+  between turns that distort alike and yields to proportions once the facing it wants would distort by more than
+  ~``FACING_WEIGHT``, a 1.8× aspect change for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
   draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest
   GT table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back
   to the nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
@@ -27,8 +27,8 @@ deterministic per ``seed``; GT is never changed. The steps:
   one; a bowl cuboid at least :data:`FRUIT_BOWL_M` across one tagged :data:`FRUIT_TAG` (a bowl of fruit). A class
   other than ``book`` with no model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`;
   the caller draws it otherwise).
-* **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that would
-  float, their tops at the objects' bottoms; the ones left without are reported with why
+* **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that
+  would float, their tops at the objects' bottoms; the ones left without are reported with why
   (:attr:`Furnishing.unsupported`).
 * **Along the walls** (:mod:`benchbot_sim_taichi.homes.furnish_walls`): distractors by room kind (never a GT class),
   pictures, radiators and curtains at windows, door and window models, ceiling lamps.
