@@ -59,6 +59,8 @@ SETTINGS: tuple[Setting, ...] = (
             "sim_taichi"),
     Setting("BENCHBOT_TAICHI_THREADS", None, "CPU threads per simulator process (default: one per core; batch "
             "workers set it)", "sim_taichi"),
+    Setting("BENCHBOT_TAICHI_FULL_POSITIONS", None, "1: the simulator's kernels keep Taichi's full source excerpts "
+            "in their debug information (slower start; for changing the kernels)", "sim_taichi"),
     Setting("ROS_DOMAIN_ID", "0", "DDS domain of ROS 2 robots and `benchbot ros2 serve-sim`", "robot_ros2"),
     Setting("CYCLONEDDS_URI", None, "Cyclone DDS configuration (default: discovery on loopback only)",
             "robot_ros2"),

@@ -111,6 +111,7 @@ from benchbot_sim_taichi.render.raster import (  # noqa: E402
     CLUSTER_PRIMS, COUNTERS, EMPTY, OCCLUDER_AREA_M2, QUEUE_COLS, split, tile_entries,
 )
 from benchbot_sim_taichi.render import layouts as L  # noqa: E402
+from benchbot_sim_taichi.render.source_positions import use_brief_positions  # noqa: E402
 from benchbot_sim_taichi.render.layouts import POSE_LEN  # noqa: E402
 from benchbot_sim_taichi.render.sensors import (  # noqa: E402
     SENSORS_ARG_NAMES, launch_arg_names, reset_graph, sensors_graph, sensors_kernel,
@@ -218,6 +219,7 @@ def _init(want: str) -> str:
 
 
 def _init_quietly(want: str) -> str:
+    use_brief_positions()
     if want == "cpu":
         ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN, **_cpu_threads())
         return "cpu"
