@@ -21,6 +21,15 @@ FROZEN = 1_700_000_100.0  # the frozen clock of the views: wall times in snapsho
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 
 
+async def settle(pilot, condition, timeout_s: float = 5.0) -> None:
+    """Let the app run until ``condition()`` holds or ``timeout_s`` has passed (the views poll their files every
+    0.05 s here; a fixed pause failed on a loaded machine). The caller asserts what it waited for."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout_s
+    while not condition() and loop.time() < deadline:
+        await pilot.pause(0.05)
+
+
 def _record(index, env, status, steps=0, wall=0.0, repeat=0):
     return {"index": index, "env": env, "robot": "carter", "repeat": repeat, "seed": index, "status": status,
             "attempts": int(status != "pending"), "steps": steps, "collided": False, "wall_s": wall,
@@ -92,7 +101,7 @@ async def _test_batch_app_follows_the_run_directory(tmp_path):
         assert table.row_count == 4
         assert "running" in str(table.get_cell("2", "status"))
         make_run_dir(run_dir, finished=True)  # the batch writes its manifest; the view polls it
-        await pilot.pause(0.2)
+        await settle(pilot, lambda: "ok" in str(table.get_cell("2", "status")))
         assert "ok" in str(table.get_cell("2", "status"))
         assert table.get_cell("0", "score") == "0.2377" and str(table.columns["score"].label) == "OMQ"
         await pilot.press("q")
@@ -143,10 +152,14 @@ async def _test_columns_grow(tmp_path):
         manifest = json.loads((run_dir / "manifest.json").read_text())
         manifest["episodes"][3]["steps"] = 269
         atomic.write_json(run_dir / "manifest.json", manifest)
-        await pilot.pause(0.3)
         table = app.query_one("DataTable")
-        widths = {str(c.key.value): c.get_render_width(table) - 2 * table.cell_padding for c in table.columns.values()}
-        assert widths["score"] >= len("0.9877") and widths["steps"] >= len("269/33")
+
+        def widths() -> dict:
+            return {str(c.key.value): c.get_render_width(table) - 2 * table.cell_padding
+                    for c in table.columns.values()}
+
+        await settle(pilot, lambda: widths()["score"] >= len("0.9877") and widths()["steps"] >= len("269/33"))
+        assert widths()["score"] >= len("0.9877") and widths()["steps"] >= len("269/33")
 
 
 def test_batch_snapshot_running(snap_compare, tmp_path):
@@ -187,7 +200,7 @@ async def _test_run_app_appends_new_log_lines(tmp_path):
         state = json.loads((state_dir / STATE).read_text())
         state.update(step=4, log=state["log"][1:] + ["step 4"], log_total=5)
         atomic.write_json(state_dir / STATE, state)
-        await pilot.pause(0.2)
+        await settle(pilot, lambda: log.line_count == 5 and "steps        4" in str(app.query_one("#status").render()))
         assert log.line_count == 5 and "steps        4" in str(app.query_one("#status").render())
 
 
