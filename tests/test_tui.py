@@ -131,8 +131,13 @@ async def _test_batch_app_keys(tmp_path):
     async with app.run_test(size=(100, 20)) as pilot:
         await pilot.pause(0.1)
         await pilot.press("down", "enter")  # episode 1's log
-        await pilot.pause(0.2)
-        assert list(app.screen.query_one("#episode-log").lines) == ["loading detector", "Traceback: boom"]
+
+        def log_lines() -> list:
+            found = app.screen.query("#episode-log")
+            return list(found.first().lines) if found else []
+
+        await settle(pilot, lambda: log_lines() == ["loading detector", "Traceback: boom"])
+        assert log_lines() == ["loading detector", "Traceback: boom"]
         await pilot.press("escape")
         await pilot.pause(0.1)
         assert app.screen.query("#episodes")
