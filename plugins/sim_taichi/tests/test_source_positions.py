@@ -43,7 +43,7 @@ def test_a_kernel_of_the_package_compiles_with_brief_positions_and_its_errors_sa
 
 
 def test_a_kernel_defined_elsewhere_keeps_taichis_full_positions(positions, monkeypatch):
-    monkeypatch.setattr(positions, "PACKAGE_DIR", "/nowhere/" + os.sep)
+    monkeypatch.setattr(positions, "PACKAGE_DIR", "/nowhere" + os.sep)
     message = _compile_error(_kernel_with_an_unknown_name())
     assert "out[i] = nowhere_defined * 2.0" in message and "^^^" in message  # the source line and its carets
 
@@ -60,7 +60,7 @@ def test_brief_positions_change_nothing_a_kernel_computes(positions, monkeypatch
 
     x = np.linspace(-3, 3, 101).astype(np.float32)
     got = {}
-    for where in (os.path.dirname(os.path.abspath(__file__)) + os.sep, "/nowhere/"):
+    for where in (os.path.dirname(os.path.abspath(__file__)) + os.sep, "/nowhere" + os.sep):
         monkeypatch.setattr(positions, "PACKAGE_DIR", where)
         out = np.zeros_like(x)
         make()(x, out)

@@ -7,26 +7,25 @@ map-frame model (z up, front −y, origin at the centre of the bottom of its bou
 deterministic per ``seed``; GT is never changed. The steps:
 
 * **GT objects** (here): a model of the object's class fitted EXACTLY to its cuboid
-  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`; a toilet whose cuboid boxes its bowl alone, a little
-  over the floor, from the floor up: :func:`~benchbot_sim_taichi.homes.furnish_supports.standing_box`), model and
-  quarter turn chosen by proportion distortion, a size term (``SIZE_WEIGHT``: a model near its real size is
-  preferred) and a facing preference (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides
-  between turns that distort alike and yields to proportions once the facing it wants would distort by more than
-  ~``FACING_WEIGHT``, a 1.8× aspect change for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
-  draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest
-  GT table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back
-  to the nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
+  (:func:`~benchbot_sim_taichi.homes.fitting.fit_to_cuboid`; a toilet whose cuboid boxes its bowl alone, a little over
+  the floor, from the floor up: :func:`~benchbot_sim_taichi.homes.furnish_supports.standing_box`), model and quarter
+  turn chosen by proportion distortion, a size term (``SIZE_WEIGHT``: a model near its real size is preferred) and a
+  facing preference (:func:`~benchbot_sim_taichi.homes.fitting.choose_model`: facing decides between turns that
+  distort alike and yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a
+  1.8× aspect change for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
+  draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest GT
+  table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back to the
+  nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
   ``RANDOM_FACING_WEIGHT``, a tie-break). Books are closed books made in code, not models
   (:func:`~benchbot_sim_taichi.homes.books.closed_books`): an ``isgroup`` cuboid a row of standing books along its
-  long horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded
-  thicknesses, heights, depths and spine colours, their union exactly the cuboid, all with the object's index; one
-  book standing or lying (:attr:`Placement.mesh` holds each book's mesh). A class with models tagged
-  :data:`PROPORTIONAL_TAG` (the clocks' round dial) takes one of them, never stretched: uniformly scaled into the
-  cuboid against its back (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to
-  :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has
-  one; a bowl cuboid at least :data:`FRUIT_BOWL_M` across one tagged :data:`FRUIT_TAG` (a bowl of fruit). A class
-  other than ``book`` with no model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`;
-  the caller draws it otherwise).
+  long horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
+  heights, depths and spine colours, their union exactly the cuboid, all with the object's index; one book standing or
+  lying (:attr:`Placement.mesh` holds each book's mesh). A class with models tagged :data:`PROPORTIONAL_TAG` (the
+  clocks' round dial) takes one of them, never stretched: uniformly scaled into the cuboid against its back
+  (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to :data:`LOW_CHAIR_M` high takes a model
+  tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has one; a bowl cuboid at least
+  :data:`FRUIT_BOWL_M` across one tagged :data:`FRUIT_TAG` (a bowl of fruit). A class other than ``book`` with no
+  model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_sim_taichi.homes.furnish_supports`): counters, cabinets, shelves … under objects that
   would float, their tops at the objects' bottoms; the ones left without are reported with why
   (:attr:`Furnishing.unsupported`).
