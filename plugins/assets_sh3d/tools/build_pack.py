@@ -99,6 +99,9 @@ class Pick:
         name: overrides the asset id's last part.
         max_error: decimation tolerance (fraction of the diagonal; default ``meshops.DECIMATION_MAX_ERROR``):
             foliage needs more to be decimated at all.
+        plain: regex: materials it matches (search, by name) are drawn in their texture's mean colour instead of
+            the texture (a placeholder texture: Blend Swap's ``bedWithTexture`` covers its coverlet with a 16 × 16
+            grey-and-white UV checker, which the draped coverlet's coordinates bend into blotches 10-30 cm across).
     """
 
     lib: str
@@ -114,6 +117,7 @@ class Pick:
     tags: tuple[str, ...] = ()
     name: str | None = None
     max_error: float = meshops.DECIMATION_MAX_ERROR
+    plain: str | None = None
 
     @property
     def asset_kind(self) -> str:
@@ -195,7 +199,7 @@ SELECTION: tuple[Pick, ...] = (
     P("sc", "burlap_sofa", "couch"),
     P("sc", "leather_sofa", "couch"),
     # bed
-    P("cc0", "bedWithTexture", "bed"),
+    P("cc0", "bedWithTexture", "bed", plain="^coverlet$"),  # a plain coverlet, not the UV checker
     P("cc0", "bed2", "bed"),
     P("sc", "bed1", "bed"),
     P("sc", "iron_bed", "bed"),
@@ -544,6 +548,8 @@ def build_asset(pick: Pick, libs: dict[str, sh3d.Library], copyright_text: str) 
         if mat.map_kd:
             img = images[mat.map_kd]
             has_uv = (model.f_vt[sel] >= 0).all() and len(model.vt)
+            if pick.plain and re.search(pick.plain, mname or ""):
+                has_uv = False  # drawn in its mean colour, below
             if img is not None and has_uv:
                 if mat.map_kd not in tex_cache:
                     tex_cache[mat.map_kd] = meshops.texture_bytes(img, scale=tex_scale)
@@ -553,7 +559,7 @@ def build_asset(pick: Pick, libs: dict[str, sh3d.Library], copyright_text: str) 
                 uv = np.stack([raw_uv[..., 0], 1.0 - raw_uv[..., 1]], axis=-1)
                 base = np.r_[1.0, 1.0, 1.0, mat.d]
                 alpha_mode = "MASK" if has_alpha else "OPAQUE"
-            elif img is not None:  # a texture without coordinates: its mean colour
+            elif img is not None:  # a texture without coordinates (or a placeholder, ``plain``): its mean colour
                 base = np.r_[meshops.srgb_to_linear(meshops.mean_colour(img)), mat.d]
         if mat.d < 0.99 and alpha_mode == "OPAQUE":
             alpha_mode = "BLEND"
@@ -695,6 +701,8 @@ def attribution(built: list[Built]) -> str:
             changes.append("parts kept: " + (b.pick.groups or f"all but {b.pick.drop}"))
         if b.pick.op:
             changes.append(f"step: {b.pick.op}")
+        if b.pick.plain:
+            changes.append(f"drawn without its texture, in its mean colour: {b.pick.plain}")
         lines.append(f"| `{b.pick.asset_id}` | {b.model} | {b.creator} | {b.library} | "
                      f"[{b.licence}]({b.licence_url}) | {b.source_url or 'sweethome3d.com'} | {'; '.join(changes)} |")
     return "\n".join(lines) + "\n"
