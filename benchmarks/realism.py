@@ -34,7 +34,7 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
   frames. Side-by-side PNGs: ours fast | ours quality | reference.
 
 Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
-each one) and PNGs (annotated frames: green = detected visible object, red = missed visible object, grey = ignored
+each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and PNGs (annotated frames: green = detected visible object, red = missed visible object, grey = ignored
 object, yellow = detection, with class and score). Exit code 2
 with one line on bad flags or a missing tool (Node.js/npm, uv). ``--smoke``: miniroom:4, two 32×24 frames (one also
 in quality mode at 1 spp), written under the system's temporary folder, without the two tools that ``uv sync`` does
@@ -164,7 +164,9 @@ def cuboid_truncation(lo, hi, K: np.ndarray, T_map_camera: np.ndarray, width: in
 @dataclass
 class Truth:
     """One ground-truth object seen in a frame: ``instance`` id (class·1000 + n), BEAR ``cls``, mask ``box``
-    ``[x1, y1, x2, y2]`` (pixels, exclusive max), mask ``pixels``, ``truncation`` (0..1) and ``visible`` (counted)."""
+    ``[x1, y1, x2, y2]`` (pixels, exclusive max), mask ``pixels``, ``truncation`` (0..1), ``visible`` (counted) and
+    the ``model`` that draws it (the scene's ``box_models``: an asset id, ``closed_book``, ``""`` for a primitive
+    model or the primitives style)."""
 
     instance: int
     cls: str
@@ -172,6 +174,7 @@ class Truth:
     pixels: int
     truncation: float
     visible: bool
+    model: str = ""
 
 
 def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: np.ndarray,
@@ -182,6 +185,7 @@ def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: n
     H, W = instance_img.shape
     ids, counts = np.unique(instance_img, return_counts=True)
     index = {int(i): k for k, i in enumerate(np.asarray(scene.box_instance).tolist())}
+    models = list(getattr(scene, "box_models", None) or [])
     out = []
     for iid, n in zip(ids.tolist(), counts.tolist()):
         if iid <= 0 or iid not in index:
@@ -191,7 +195,8 @@ def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: n
         box = [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1]
         trunc = cuboid_truncation(scene.box_min[k], scene.box_max[k], K, T_map_camera, W, H)
         cls = str(scene.class_list[iid // 1000])
-        out.append(Truth(iid, cls, box, int(n), trunc, n >= min_pixels and trunc <= max_truncation))
+        out.append(Truth(iid, cls, box, int(n), trunc, n >= min_pixels and trunc <= max_truncation,
+                         models[k] if k < len(models) else ""))
     return out
 
 
@@ -685,12 +690,15 @@ def camera_model():
 
 
 class Tally:
-    """Per-class counts over frames for one image source (fast, quality, reference) at each threshold."""
+    """Per-class counts over frames for one image source (fast, quality, reference) at each threshold, and the
+    same per model (keys ``"<class> <model>"``, :attr:`Truth.model`)."""
 
     def __init__(self, thresholds) -> None:
         self.thresholds = tuple(thresholds)
         self.visible: dict[str, int] = {}
         self.detected = {t: {} for t in self.thresholds}
+        self.visible_models: dict[str, int] = {}
+        self.detected_models = {t: {} for t in self.thresholds}
         self.localised = {t: {} for t in self.thresholds}
         self.fp = {t: 0 for t in self.thresholds}
         self.fp_classes = {t: {} for t in self.thresholds}
@@ -700,12 +708,16 @@ class Tally:
         """Count one frame: its truths and its :class:`FrameScore` per threshold."""
         self.frames += 1
         cls_of = {t.instance: t.cls for t in truths}
+        model_of = {t.instance: f"{t.cls} {t.model or '(primitive)'}" for t in truths}
         for t in truths:
             if t.visible:
                 self.visible[t.cls] = self.visible.get(t.cls, 0) + 1
+                self.visible_models[model_of[t.instance]] = self.visible_models.get(model_of[t.instance], 0) + 1
         for thr, s in scores.items():
             for iid, hit in s.hits.items():
                 self.detected[thr][cls_of[iid]] = self.detected[thr].get(cls_of[iid], 0) + int(hit)
+                m = model_of[iid]
+                self.detected_models[thr][m] = self.detected_models[thr].get(m, 0) + int(hit)
             for iid, hit in s.localised.items():
                 self.localised[thr][cls_of[iid]] = self.localised[thr].get(cls_of[iid], 0) + int(hit)
             self.fp[thr] += len(s.false_positives)
@@ -715,24 +727,28 @@ class Tally:
     def merge(self, other: Tally) -> None:
         """Add another tally's counts (same thresholds)."""
         self.frames += other.frames
-        for c, n in other.visible.items():
-            self.visible[c] = self.visible.get(c, 0) + n
+        for src, dst in ((other.visible, self.visible), (other.visible_models, self.visible_models)):
+            for c, n in src.items():
+                dst[c] = dst.get(c, 0) + n
         for thr in self.thresholds:
             for src, dst in ((other.detected[thr], self.detected[thr]), (other.localised[thr], self.localised[thr]),
-                             (other.fp_classes[thr], self.fp_classes[thr])):
+                             (other.fp_classes[thr], self.fp_classes[thr]),
+                             (other.detected_models[thr], self.detected_models[thr])):
                 for c, n in src.items():
                     dst[c] = dst.get(c, 0) + n
             self.fp[thr] += other.fp[thr]
 
     def as_dict(self) -> dict:
-        """JSON-ready: frames, visible per class, and per threshold detected/localised per class, recall,
-        false positives per frame and their COCO classes."""
+        """JSON-ready: frames, visible per class (and per class and model), and per threshold detected/localised
+        per class (detected also per class and model), recall, false positives per frame and their COCO classes."""
         vis = sum(self.visible.values())
-        out = {"frames": self.frames, "visible": dict(sorted(self.visible.items())), "visible_total": vis}
+        out = {"frames": self.frames, "visible": dict(sorted(self.visible.items())), "visible_total": vis,
+               "visible_by_model": dict(sorted(self.visible_models.items()))}
         for thr in self.thresholds:
             det = sum(self.detected[thr].values())
             out[f"score>={thr}"] = {
                 "detected": dict(sorted(self.detected[thr].items())), "detected_total": det,
+                "detected_by_model": dict(sorted(self.detected_models[thr].items())),
                 "recall": det / vis if vis else None,
                 "localised_total": sum(self.localised[thr].values()),
                 "false_positives_per_frame": self.fp[thr] / self.frames if self.frames else None,
@@ -951,6 +967,19 @@ def class_table(title: str, tallies: dict, thresholds) -> str:
     return "\n".join(lines) + "\n"
 
 
+def model_table(title: str, tally: Tally, threshold: float) -> str:
+    """A Markdown table under a ``title`` heading: per class and model (most seen first), objects detected at
+    ``threshold`` / visible in ``tally``'s frames. Empty without frames."""
+    if not tally.frames:
+        return ""
+    lines = [f"### {title}: per model, objects detected at score ≥ {threshold} / visible", "",
+             "| class | model | found / visible |", "|---|---|---|"]
+    rows = [(*key.rsplit(" ", 1), n, key) for key, n in tally.visible_models.items()]
+    for cls, model, n, key in sorted(rows, key=lambda r: (-tally.visible.get(r[0], 0), r[0], -r[2], r[1])):
+        lines.append(f"| {cls} | {model} | {tally.detected_models[threshold].get(key, 0)}/{n} |")
+    return "\n".join(lines) + "\n"
+
+
 def _int_list(text: str) -> list[int]:
     try:
         vals = [int(v) for v in text.split(",") if v.strip()]
@@ -1092,6 +1121,8 @@ def _run(args) -> int:
                                          thresholds))
             print("\n" + tables[0])
             report["detector"]["overall"] = {m: t.as_dict() for m, t in overall.items() if t.frames}
+        if detector is not None and overall["fast"].frames:  # per model: in the file only (about 60 rows)
+            tables.append(model_table(f"{', '.join(args.env)}, fast mode", overall["fast"], thresholds[0]))
     finally:
         if detector is not None:
             report.setdefault("detector", {})["seconds_per_frame"] = detector.seconds / max(1, detector.frames)

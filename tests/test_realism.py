@@ -69,6 +69,10 @@ def test_truncation_and_frame_truths(realism):
     got = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=400)}
     assert got[19001].cls == "table" and got[19001].box == [20, 10, 44, 30] and got[19001].visible
     assert got[18001].cls == "chair" and got[18001].pixels == 25 and not got[18001].visible
+    assert got[19001].model == ""  # a scene without box_models (the primitives style)
+    scene.box_models = ["table__sc_round-table", "chair__cc0_thonet"]
+    got = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=400)}
+    assert got[19001].model == "table__sc_round-table" and got[18001].model == "chair__cc0_thonet"
 
 
 def test_psnr_ssim(realism):
@@ -224,6 +228,30 @@ def test_tally_counts_and_merges(realism):
     assert d["visible"] == {"table": 2} and d["score>=0.3"]["detected"] == {"table": 1}
     assert d["score>=0.3"]["recall"] == 0.5 and d["score>=0.3"]["false_positives_per_frame"] == 0.5
     assert json.loads(json.dumps(d)) == d
+
+
+def test_counts_per_model_in_the_tally_and_its_table(realism):
+    t = realism.Tally((0.3,))
+    stool = realism.Truth(18001, "chair", [0, 0, 10, 10], 1000, 0.0, True, "chair__ccby_green_stool")
+    thonet = realism.Truth(18002, "chair", [50, 0, 60, 10], 1000, 0.0, True, "chair__cc0_thonet")
+    plant = realism.Truth(59001, "potted plant", [0, 50, 40, 90], 1000, 0.0, True, "")
+    frame = [stool, thonet, plant]
+    t.add(frame, {0.3: realism.score_frame(frame, [det(realism, (50, 0, 60, 10), 0.9, "chair")], 0.3)})
+    t.add(frame[:1], {0.3: realism.score_frame(frame[:1], [det(realism, (0, 0, 10, 10), 0.8, "chair")], 0.3)})
+    other = realism.Tally((0.3,))
+    other.add(frame[:1], {0.3: realism.score_frame(frame[:1], [], 0.3)})
+    t.merge(other)
+    d = t.as_dict()
+    assert d["visible_by_model"] == {"chair chair__cc0_thonet": 1, "chair chair__ccby_green_stool": 3,
+                                     "potted plant (primitive)": 1}
+    assert d["score>=0.3"]["detected_by_model"] == {"chair chair__cc0_thonet": 1, "chair chair__ccby_green_stool": 1,
+                                                    "potted plant (primitive)": 0}
+    lines = realism.model_table("house:1, fast mode", t, 0.3).splitlines()
+    assert lines[0] == "### house:1, fast mode: per model, objects detected at score ≥ 0.3 / visible"
+    rows = [ln for ln in lines if ln.startswith("| chair") or ln.startswith("| potted")]
+    assert rows == ["| chair | chair__ccby_green_stool | 1/3 |", "| chair | chair__cc0_thonet | 1/1 |",
+                    "| potted plant | (primitive) | 0/1 |"]  # the class seen most first, then its models
+    assert realism.model_table("empty", realism.Tally((0.3,)), 0.3) == ""
 
 
 def test_seconds_to_reach(realism):

@@ -73,6 +73,13 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
     # every object but a mouse (no model in Sweet Home 3D's libraries) is a real model; nothing floats
     assert {objects[i]["class"] for i in range(len(objects)) if i not in modelled} <= {"mouse"}
     assert home.furnishing.unsupported == [], [(objects[i]["class"], why) for i, why in home.furnishing.unsupported]
+    # the scene names each object's model (benchmarks/realism.py counts per model); books are made in code
+    models = {p.object_index: p.asset_id for p in home.furnishing.placements if p.role == "object"}
+    assert scene.box_models == [models.get(i, "") for i in range(len(objects))]
+    for i, model in enumerate(scene.box_models):
+        want = "closed_book" if objects[i]["class"] == "book" else objects[i]["class"] if i in modelled else None
+        assert (model == "closed_book" if want == "closed_book" else
+                library.get(model).cls == want if want else model == ""), (name, i, model)
     for i, bounds in by_object.items():
         lo = np.min([b[0] for b in bounds], axis=0)
         hi = np.max([b[1] for b in bounds], axis=0)
@@ -136,6 +143,7 @@ def test_furnished_is_the_default_primitives_stay_available_and_unknown_style_is
     monkeypatch.delenv(STYLE_VARIABLE)
     scene = build_scene(_environment("miniroom_1", style="primitives"), seed=0)
     assert scene.style == "primitives" and scene.obstacle_min.shape == (0, 2) and scene.plan is None
+    assert scene.box_models == []
     with pytest.raises(BackendError, match="unknown style 'photo'") as e:
         build_scene(_environment("miniroom_1", style="photo"), seed=0)
     assert "furnished, primitives" in str(e.value.hint)

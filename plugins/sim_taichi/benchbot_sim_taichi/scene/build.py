@@ -583,6 +583,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         obstacle_bottom=np.asarray([o[2] for o in obstacles], dtype=np.float64),
         obstacle_names=[o[3] for o in obstacles],
         plan=None if home is None else home.plan,
+        box_models=_box_models(home, len(mins)),
     )
     if home is not None:
         instances = home.instances + instances
@@ -636,6 +637,14 @@ def _parts_in_map(frame, parts: list[Part]) -> list[Part]:
         lo, hi = frame.box_to_map(part.lo, part.hi)
         out.append(Part(part.kind, lo, hi, frame.axis_to_map(part.axis), part.colour, part.tris))
     return out
+
+
+def _box_models(home, n_boxes: int) -> list[str]:
+    """:attr:`Scene.box_models` of ``n_boxes`` objects furnished as ``home`` (None: the primitives style, [])."""
+    if home is None:
+        return []
+    by_object = {p.object_index: p.asset_id for p in home.furnishing.placements if p.role == "object"}
+    return [by_object.get(k, "") for k in range(n_boxes)]
 
 
 def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, seed: int):

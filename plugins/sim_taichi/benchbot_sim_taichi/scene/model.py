@@ -30,6 +30,9 @@ class Scene:
         box_class: (N,) int32 class ids (index in ``class_list``).
         box_instance: (N,) int32 instance ids ``class_id * 1000 + instance`` (instance ≥ 1, per class).
         box_names: the objects' ``ID_name``.
+        box_models: the furnished style's model of each object: the asset id
+            (:class:`~benchbot.core.assets.AssetInfo`) of the mesh that draws it, ``closed_book`` for books made in
+            code, ``""`` where the object keeps its primitive model; empty in the primitives style.
         room_min, room_max: (3,) float32 corners of the room shell (floor at ``room_min[2] = 0``).
         shell_albedo: (3, 3) float32 linear albedo of the floor, walls, ceiling.
         background_class: class id of ``background`` (the shell's class; instance id 0).
@@ -111,6 +114,7 @@ class Scene:
     obstacle_bottom: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float64))
     obstacle_names: list[str] = field(default_factory=list)
     plan: object | None = None
+    box_models: list[str] = field(default_factory=list)
 
     @property
     def n_boxes(self) -> int:
