@@ -34,8 +34,9 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
   frames. Side-by-side PNGs: ours fast | ours quality | reference.
 
 Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
-each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and PNGs (annotated frames: green = detected visible object, red = missed visible object, grey = ignored
-object, yellow = detection, with class and score). Exit code 2
+each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and
+PNGs (annotated frames: green = detected visible object, red = missed visible object, grey = ignored object,
+yellow = detection, with class and score). Exit code 2
 with one line on bad flags or a missing tool (Node.js/npm, uv). ``--smoke``: miniroom:4, two 32×24 frames (one also
 in quality mode at 1 spp), written under the system's temporary folder, without the two tools that ``uv sync`` does
 not install: no detector, and the reference's scene exported and its job written but not rendered by Cycles.
