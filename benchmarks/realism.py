@@ -182,7 +182,8 @@ def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: n
                  min_pixels: int = MIN_PIXELS, max_truncation: float = MAX_TRUNCATION) -> list[Truth]:
     """The ground-truth objects with at least one pixel in ``instance_img`` ((H, W) int32 ``class*1000+n`` ids, 0 =
     background) of a frame rendered from ``T_map_camera``; ``scene`` gives each instance's class name
-    (``class_list``) and cuboid (``box_min``/``box_max``/``box_instance``)."""
+    (``class_list``), cuboid (``box_min``/``box_max``/``box_instance``) and, where it has them, model
+    (``box_models``; a scene without them gives ``""``)."""
     H, W = instance_img.shape
     ids, counts = np.unique(instance_img, return_counts=True)
     index = {int(i): k for k, i in enumerate(np.asarray(scene.box_instance).tolist())}

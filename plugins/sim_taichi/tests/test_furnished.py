@@ -13,7 +13,7 @@ import pytest
 
 from benchbot.core.assets import asset_library
 from benchbot.core.errors import BackendError
-from benchbot_sim_taichi.homes.furnish import PROPORTIONAL_TAG
+from benchbot_sim_taichi.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG
 from benchbot_sim_taichi.homes.furnished import furnish_environment
 from benchbot_sim_taichi.homes.furnish_supports import standing_box
 from benchbot_sim_taichi.kinematics import Obstacles
@@ -77,9 +77,13 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
     models = {p.object_index: p.asset_id for p in home.furnishing.placements if p.role == "object"}
     assert scene.box_models == [models.get(i, "") for i in range(len(objects))]
     for i, model in enumerate(scene.box_models):
-        want = "closed_book" if objects[i]["class"] == "book" else objects[i]["class"] if i in modelled else None
-        assert (model == "closed_book" if want == "closed_book" else
-                library.get(model).cls == want if want else model == ""), (name, i, model)
+        cls = objects[i]["class"]
+        if cls == "book":
+            assert model == CLOSED_BOOK_ID, (name, i, model)
+        elif i in modelled:
+            assert library.get(model).cls == cls, (name, i, model)
+        else:
+            assert model == "", (name, i, model)
     for i, bounds in by_object.items():
         lo = np.min([b[0] for b in bounds], axis=0)
         hi = np.max([b[1] for b in bounds], axis=0)
