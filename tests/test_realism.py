@@ -479,11 +479,14 @@ def test_average_down_integrates_linear_light_over_each_block(realism):
         realism.average_down(img, 4)
 
 
-def test_a_supersample_below_one_is_a_usage_line(realism, capsys):
+@pytest.mark.parametrize("n,message", [("0", "--supersample must be positive"),
+                                       ("5", "--supersample must be at most 4"),
+                                       ("4 --width 4096", "at most 8192 pixels: the rendered side would be 16384")])
+def test_a_supersample_out_of_range_is_a_usage_line(realism, capsys, n, message):
     with pytest.raises(SystemExit) as exc:
-        realism.parse_args(["--supersample", "0", "--no-detector"])
+        realism.parse_args(["--supersample", *n.split(), "--no-detector"])
     err = capsys.readouterr().err
-    assert exc.value.code == 2 and "--supersample must be positive" in err and "Traceback" not in err
+    assert exc.value.code == 2 and message in err and "Traceback" not in err
 
 
 @pytest.mark.slow
