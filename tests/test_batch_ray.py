@@ -476,7 +476,11 @@ def test_a_ray_client_session_that_dies_as_it_starts_fails_in_one_line_and_the_n
         assert message == (f"the Ray Client server at {target} (--ray-address) accepted the connection but started "
                            "no session for this batch within 15 s"), proc.stdout + proc.stderr
         assert hint.startswith("run the batch again") and "ray_client_server*.err" in hint
-        assert head.session_servers_that_died_starting() == 1, head.diagnostics()
+        # The first session server was replaced by one that exits at once (the flag says the replacement ran). Ray's
+        # proxy logs that death only when its poll sees the exit before it reads the process's command line; when
+        # the process exits between the two, psutil raises ZombieProcess and nothing is logged: the log shows 0 or 1.
+        assert Path(env["BENCHBOT_TEST_SESSION_DIED"]).is_file(), head.diagnostics()
+        assert head.session_servers_that_died_starting() <= 1, head.diagnostics()
         argv = _batch(head, "--native", "python solution.py 0", "--no-sandbox")
         proc = subprocess.run(argv, env={**env, "PYTHONPATH": "", "RAY_ADDRESS": target}, cwd=solution,
                               capture_output=True, text=True, timeout=300)
