@@ -64,6 +64,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -714,72 +715,88 @@ def camera_model():
     return default_camera_model()
 
 
+#: How the per-model counts name an object drawn by its primitive model (``Truth.model`` ``""``).
+PRIMITIVE_MODEL = "(primitive)"
+
+
 class Tally:
-    """Per-class counts over frames for one image source (fast, quality, reference) at each threshold, and the
-    same per model (keys ``"<class> <model>"``, :attr:`Truth.model`)."""
+    """Per-class and per-model counts over frames for one image source (fast, quality, reference) at each
+    threshold. Objects are counted under ``(class, model)`` (:attr:`Truth.model`, :data:`PRIMITIVE_MODEL` for
+    ``""``); the per-class counts :attr:`visible` and :attr:`detected` are their sums."""
 
     def __init__(self, thresholds) -> None:
         self.thresholds = tuple(thresholds)
-        self.visible: dict[str, int] = {}
-        self.detected = {t: {} for t in self.thresholds}
-        self.visible_models: dict[str, int] = {}
-        self.detected_models = {t: {} for t in self.thresholds}
-        self.localised = {t: {} for t in self.thresholds}
+        self.visible_models: Counter[tuple[str, str]] = Counter()
+        self.detected_models: dict[float, Counter[tuple[str, str]]] = {t: Counter() for t in self.thresholds}
+        self.localised: dict[float, Counter[str]] = {t: Counter() for t in self.thresholds}
         self.fp = {t: 0 for t in self.thresholds}
-        self.fp_classes = {t: {} for t in self.thresholds}
+        self.fp_classes: dict[float, Counter[str]] = {t: Counter() for t in self.thresholds}
         self.frames = 0
+
+    @staticmethod
+    def _per_class(by_model: Counter) -> Counter:
+        out: Counter[str] = Counter()
+        for (cls, _model), n in by_model.items():
+            out[cls] += n
+        return out
+
+    @property
+    def visible(self) -> Counter:
+        """Visible objects per class."""
+        return self._per_class(self.visible_models)
+
+    @property
+    def detected(self) -> dict:
+        """{threshold: objects detected per class}."""
+        return {thr: self._per_class(d) for thr, d in self.detected_models.items()}
 
     def add(self, truths: list[Truth], scores: dict) -> None:
         """Count one frame: its truths and its :class:`FrameScore` per threshold."""
         self.frames += 1
-        cls_of = {t.instance: t.cls for t in truths}
-        model_of = {t.instance: f"{t.cls} {t.model or '(primitive)'}" for t in truths}
-        for t in truths:
-            if t.visible:
-                self.visible[t.cls] = self.visible.get(t.cls, 0) + 1
-                self.visible_models[model_of[t.instance]] = self.visible_models.get(model_of[t.instance], 0) + 1
+        key_of = {t.instance: (t.cls, t.model or PRIMITIVE_MODEL) for t in truths}
+        self.visible_models.update(key_of[t.instance] for t in truths if t.visible)
         for thr, s in scores.items():
             for iid, hit in s.hits.items():
-                self.detected[thr][cls_of[iid]] = self.detected[thr].get(cls_of[iid], 0) + int(hit)
-                m = model_of[iid]
-                self.detected_models[thr][m] = self.detected_models[thr].get(m, 0) + int(hit)
+                self.detected_models[thr][key_of[iid]] += int(hit)
             for iid, hit in s.localised.items():
-                self.localised[thr][cls_of[iid]] = self.localised[thr].get(cls_of[iid], 0) + int(hit)
+                self.localised[thr][key_of[iid][0]] += int(hit)
             self.fp[thr] += len(s.false_positives)
-            for d in s.false_positives:
-                self.fp_classes[thr][COCO80[d[5]]] = self.fp_classes[thr].get(COCO80[d[5]], 0) + 1
+            self.fp_classes[thr].update(COCO80[d[5]] for d in s.false_positives)
 
     def merge(self, other: Tally) -> None:
         """Add another tally's counts (same thresholds)."""
         self.frames += other.frames
-        for src, dst in ((other.visible, self.visible), (other.visible_models, self.visible_models)):
-            for c, n in src.items():
-                dst[c] = dst.get(c, 0) + n
+        self.visible_models.update(other.visible_models)
         for thr in self.thresholds:
-            for src, dst in ((other.detected[thr], self.detected[thr]), (other.localised[thr], self.localised[thr]),
-                             (other.fp_classes[thr], self.fp_classes[thr]),
-                             (other.detected_models[thr], self.detected_models[thr])):
-                for c, n in src.items():
-                    dst[c] = dst.get(c, 0) + n
+            self.detected_models[thr].update(other.detected_models[thr])
+            self.localised[thr].update(other.localised[thr])
+            self.fp_classes[thr].update(other.fp_classes[thr])
             self.fp[thr] += other.fp[thr]
 
     def as_dict(self) -> dict:
-        """JSON-ready: frames, visible per class (and per class and model), and per threshold detected/localised
-        per class (detected also per class and model), recall, false positives per frame and their COCO classes."""
-        vis = sum(self.visible.values())
-        out = {"frames": self.frames, "visible": dict(sorted(self.visible.items())), "visible_total": vis,
-               "visible_by_model": dict(sorted(self.visible_models.items()))}
-        for thr in self.thresholds:
-            det = sum(self.detected[thr].values())
+        """JSON-ready: frames, visible per class (and per class and model, keys ``"<class> <model>"``), and per
+        threshold detected/localised per class (detected also per class and model), recall, false positives per
+        frame and their COCO classes."""
+        visible = self.visible
+        vis = sum(visible.values())
+        out = {"frames": self.frames, "visible": dict(sorted(visible.items())), "visible_total": vis,
+               "visible_by_model": _by_model_json(self.visible_models)}
+        for thr, detected in self.detected.items():
+            det = sum(detected.values())
             out[f"score>={thr}"] = {
-                "detected": dict(sorted(self.detected[thr].items())), "detected_total": det,
-                "detected_by_model": dict(sorted(self.detected_models[thr].items())),
+                "detected": dict(sorted(detected.items())), "detected_total": det,
+                "detected_by_model": _by_model_json(self.detected_models[thr]),
                 "recall": det / vis if vis else None,
                 "localised_total": sum(self.localised[thr].values()),
                 "false_positives_per_frame": self.fp[thr] / self.frames if self.frames else None,
                 "false_positive_classes": dict(sorted(self.fp_classes[thr].items(), key=lambda kv: -kv[1])),
             }
         return out
+
+
+def _by_model_json(counts: Counter) -> dict:
+    """``{"<class> <model>": n}``, sorted, of counts keyed by ``(class, model)``."""
+    return {f"{cls} {model}": n for (cls, model), n in sorted(counts.items())}
 
 
 def all_homes() -> list[str]:
@@ -1003,9 +1020,10 @@ def model_table(title: str, tally: Tally, threshold: float) -> str:
         return ""
     lines = [f"### {title}: per model, objects detected at score ≥ {threshold} / visible", "",
              "| class | model | found / visible |", "|---|---|---|"]
-    rows = [(*key.rsplit(" ", 1), n, key) for key, n in tally.visible_models.items()]
-    for cls, model, n, key in sorted(rows, key=lambda r: (-tally.visible.get(r[0], 0), r[0], -r[2], r[1])):
-        lines.append(f"| {cls} | {model} | {tally.detected_models[threshold].get(key, 0)}/{n} |")
+    per_class, detected = tally.visible, tally.detected_models[threshold]
+    for (cls, model), n in sorted(tally.visible_models.items(), key=lambda kv: (-per_class[kv[0][0]], kv[0][0],
+                                                                                -kv[1], kv[0][1])):
+        lines.append(f"| {cls} | {model} | {detected[(cls, model)]}/{n} |")
     return "\n".join(lines) + "\n"
 
 
