@@ -250,8 +250,8 @@ SELECTION: tuple[Pick, ...] = (
     P("cc0", "mamadeira", "bottle"),
     P("sc", "com_bath", "bottle"),
     # cup (left out: Kator Legaz's grey coffee mug, which filled the houses' mug-sized cup cuboids as a grey can that
-    # the COCO detectors of benchmarks/realism.py found in 5 of 33 views; those cuboids now take the white coffee
-    # cup, found in 12 of 32: docs/realism.md, 25 Nov 2026, evening)
+    # the COCO detectors of benchmarks/realism.py found in 5 of 33 views; those cuboids now take Blend Swap's coffee
+    # cup, a pale paper cup with a white lid, found in 12 of 32: docs/realism.md, 25 Nov 2026, evening)
     P("cc0", "caffe_final", "cup"),
     P("ccby", "coffee_cup", "cup"),
     P("sc", "cup", "cup"),
