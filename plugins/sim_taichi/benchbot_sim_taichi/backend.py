@@ -38,17 +38,18 @@ from benchbot_sim_taichi.scene.model import Scene
 
 #: Defaults of the robot spec's ``sensors`` block.
 DEFAULT_SENSORS: dict[str, Any] = {
-    "camera": {"width": 640, "height": 480, "horizontal_fov_deg": 90.0, "mount_xyz": [0.08, 0.0, 0.8],
+    # mounts: where the original BenchBot's carter carried its left camera (1.054 m above the floor) and its lidar
+    "camera": {"width": 640, "height": 480, "horizontal_fov_deg": 90.0, "mount_xyz": [0.11, 0.06, 1.054],
                "mount_rpy_deg": [0.0, 0.0, 0.0],
                # the camera model (camera_model.py): an ACES filmic tone curve at -0.5 EV (mid-tones as the plain
                # clip's, highlights roll off instead of burning out; docs/realism.md); 0.0, "clip": the image as rendered
                "exposure_ev": -0.5, "tone_curve": "filmic", "vignetting": 0.0,
                # quality mode meters each frame's exposure, as a camera's auto-exposure (camera_model.py, step 2)
                "auto_exposure": True},
-    "laser": {"mount_xyz": [0.0, 0.0, 0.3], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
+    "laser": {"mount_xyz": [0.0, 0.0, 0.62], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
-    "max_height_m": 1.0,
+    "max_height_m": 1.1,
     # the robot frame's height above the floor (m, >= 0); the original BenchBot's carter reported 0.244
     "robot_frame_height_m": 0.0,
     # seeded sensor noise, off by default: rgb_sigma (0..255 levels, Gaussian), depth_sigma (m, Gaussian, scaled by

@@ -43,13 +43,30 @@ def test_factory_and_start_pose(bear_envs, carter_spec):
     assert set(tf) >= {"robot", "camera", "lidar"}
     assert tf["robot"][2, 3] == pytest.approx(0.244)  # carter's robot frame, as the original's (its rigid body)
     cam = tf["camera"]
-    # optical frame: z forward (= robot +x), x right (= robot -y), y down; ~0.8 m high
+    # optical frame: z forward (= robot +x), x right (= robot -y), y down; where the original's left camera was:
+    # 0.81 m above the robot frame (0.244 m), 0.11 m ahead and 0.06 m to the left
     R_robot = tf["robot"][:3, :3]
     np.testing.assert_allclose(cam[:3, 2], R_robot[:, 0], atol=1e-12)
     np.testing.assert_allclose(cam[:3, 0], -R_robot[:, 1], atol=1e-12)
     np.testing.assert_allclose(cam[:3, 1], [0, 0, -1], atol=1e-12)
-    assert cam[2, 3] == pytest.approx(0.8)
+    assert cam[2, 3] == pytest.approx(0.244 + 0.81)
+    assert cam[2, 3] - tf["robot"][2, 3] == pytest.approx(0.81)
+    np.testing.assert_allclose(np.linalg.inv(tf["robot"])[:2] @ cam[:, 3], [0.11, 0.06], atol=1e-9)
+    assert tf["lidar"][2, 3] == pytest.approx(0.62)
     b.close()
+
+
+def test_carter_is_as_tall_as_its_camera_and_furnishing_knows_it(carter_spec):
+    """The camera sits where the original's did (1.054 m): the robot's height, the furnishing's clearance and the
+    backend's defaults all say the same robot."""
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS
+    from benchbot_sim_taichi.homes.furnish_space import ROBOT_HEIGHT_M
+
+    sensors = carter_spec["sensors"]
+    assert sensors["max_height_m"] >= sensors["camera"]["mount_xyz"][2]
+    assert sensors["max_height_m"] == ROBOT_HEIGHT_M == DEFAULT_SENSORS["max_height_m"]
+    assert sensors["camera"]["mount_xyz"] == DEFAULT_SENSORS["camera"]["mount_xyz"]
+    assert sensors["laser"]["mount_xyz"] == DEFAULT_SENSORS["laser"]["mount_xyz"]
 
 
 def test_observe_structures_and_cache(bear_envs, make_backend, monkeypatch):

@@ -20,7 +20,7 @@ GT_CLASSES = frozenset((
     "toilet", "tv", "microwave", "toaster", "refrigerator", "oven", "sink", "person"))
 
 #: The tallest robot (m): carter's ``max_height_m``.
-ROBOT_HEIGHT_M = 1.0
+ROBOT_HEIGHT_M = 1.1
 
 #: Things whose underside is at least this high (m) may overhang the robot corridor.
 OVERHEAD_CLEAR_Z_M = ROBOT_HEIGHT_M + 0.2
