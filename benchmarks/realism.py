@@ -33,10 +33,10 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
   rung (the rung's MSE against it is σ²/s + σ²/S for s and S samples). The detector also runs on the reference
   frames. Side-by-side PNGs: ours fast | ours quality | reference.
 
-``--supersample N`` is a diagnostic: each fast frame's RGB is rendered at N times the size and averaged down in
-linear light (``average_down``), as a sensor's pixel integrates the light on its area where the renderer samples
-its centre; the objects, masks and boxes are the plain frame's. It says what aliasing costs the detector; it is not
-the image episodes see.
+``--supersample N`` renders the fast frames as a camera with ``sensors.camera.samples_per_pixel`` N² sees them
+(:mod:`benchbot_sim_taichi.render.pixel_integration`: an N × N grid of sub-pixels averaged in linear radiance, as a
+sensor's pixel integrates the light on its area); the objects, masks and boxes are the pixel centres', as always. It
+says what aliasing costs the detector; the default robot's camera has 1 sample a pixel.
 
 Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
 each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and
@@ -302,22 +302,6 @@ def encode_like_ours(linear: np.ndarray, camera=None) -> np.ndarray:
     if camera is not None:
         return camera.encode(linear, camera_setup(linear.shape[1], linear.shape[0])[0])
     return np.floor(np.power(np.clip(linear, 0.0, 1.0), GAMMA) * 255.0 + 0.5).astype(np.uint8)
-
-
-def average_down(rgb: np.ndarray, n: int) -> np.ndarray:
-    """An image rendered at n times the size, averaged down as a sensor's pixel integrates the light on its area:
-    each n × n block of ``rgb`` ((n·H, n·W, 3) uint8, gamma-encoded) is decoded to linear light (``x^2.2``),
-    averaged and encoded again (``round(255 · y^(1/2.2))``, ``benchbot_sim_taichi.render.camera_model.GAMMA``).
-    Returns (H, W, 3) uint8. With ``intrinsics(n·W, n·H, fov)`` (pixel centres on integers) the n × n sub-pixels of a
-    block tile exactly the area of the W × H image's pixel. Raises ValueError when the image is not n-divisible."""
-    from benchbot_sim_taichi.render.camera_model import GAMMA
-
-    if n < 1 or rgb.ndim != 3 or rgb.shape[0] % n or rgb.shape[1] % n:
-        raise ValueError(f"average_down: a {rgb.shape} image does not split into {n} x {n} blocks")
-    H, W = rgb.shape[0] // n, rgb.shape[1] // n
-    linear = np.power(rgb.astype(np.float64) / 255.0, 1.0 / GAMMA)
-    mean = linear.reshape(H, n, W, n, 3).mean(axis=(1, 3))
-    return np.floor(np.power(mean, GAMMA) * 255.0 + 0.5).astype(np.uint8)
 
 
 def exposure_gain(ours: np.ndarray, reference_linear: np.ndarray) -> float:
@@ -853,13 +837,11 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
             if mode == "quality" and n >= args.quality_frames:
                 continue
             if n == 0:  # compile the mode's kernels outside the timing (kernels do not depend on the image size)
-                r.render(camera_setup(8, 8)[0], T, 8, 8, mode=mode, spp=args.quality_spp)
+                r.render(camera_setup(8, 8)[0], T, 8, 8, mode=mode, spp=args.quality_spp,
+                         samples_per_pixel=args.supersample ** 2)
             t1 = time.perf_counter()
-            outs[mode] = r.render(K, T, W, H, mode=mode, spp=args.quality_spp)
-            if mode == "fast" and args.supersample > 1:  # a diagnostic: the RGB only; objects and masks as rendered
-                n_ss = args.supersample
-                big = r.render(camera_setup(W * n_ss, H * n_ss)[0], T, W * n_ss, H * n_ss, mode=mode)["rgb"]
-                outs[mode] = {**outs[mode], "rgb": average_down(big, n_ss)}
+            outs[mode] = r.render(K, T, W, H, mode=mode, spp=args.quality_spp,
+                                  samples_per_pixel=args.supersample ** 2)
             times[mode].append(time.perf_counter() - t1)
         truths = frame_truths(outs["fast"]["instance"], scene, K, T, args.min_pixels, args.max_truncation)
         fj = {"pose_index": i, "objects": [t.__dict__ for t in truths]}
@@ -1058,11 +1040,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="the room shell in the reference: seen by the camera only (as our renderer, whose shell "
                          "casts no shadows), solid, or left out")
     ap.add_argument("--supersample", type=int, default=1, metavar="N",
-                    help="a diagnostic, not the image episodes see: each fast frame's RGB rendered at N x the width\n"
-                         "and height and averaged down in linear light (average_down), as a sensor's pixel\n"
-                         "integrates light over its area where the renderer samples its centre; objects, masks and\n"
-                         "boxes stay the plain frame's. It measures what aliasing costs the detector (default 1: off;\n"
-                         f"at most {MAX_SUPERSAMPLE})")
+                    help="fast frames as a camera with samples_per_pixel N x N sees them (sensors.camera.\n"
+                         "samples_per_pixel: an N x N grid of sub-pixels averaged in linear radiance, as a sensor's\n"
+                         "pixel integrates light over its area); objects, masks and boxes stay the pixel centres'.\n"
+                         "It measures what aliasing costs the detector (default 1, the default camera's; at most\n"
+                         f"{MAX_SUPERSAMPLE})")
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--arch", default=os.environ.get("BENCHBOT_TAICHI_ARCH", "cpu"))
@@ -1194,8 +1176,8 @@ def _run(args) -> int:
     written = [args.out / "realism.json"]
     if tables:
         if args.supersample > 1:  # the tables' "fast" column is then not the image episodes see: say so first
-            tables.insert(0, f"Fast frames supersampled {args.supersample} x {args.supersample} (`--supersample`, a "
-                             "diagnostic): not the image episodes see.\n")
+            tables.insert(0, f"Fast frames with {args.supersample ** 2} samples a pixel (`--supersample "
+                             f"{args.supersample}`, the camera's samples_per_pixel): not the default camera's image.\n")
         atomic.write_text(args.out / "per_class.md", "\n".join(tables))
         written.append(args.out / "per_class.md")
     print(f"\nwrote {', '.join(map(str, written))} ({report['total_s']:.0f} s)")

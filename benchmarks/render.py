@@ -89,6 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--numpy-buffers", action="store_true",
                     help="the renderer without device buffers (Renderer(device_buffers=False), CPU only): NumPy "
                          "arrays passed to each kernel, no compiled graph")
+    ap.add_argument("--samples-per-pixel", type=int, default=1, choices=(1, 4, 9, 16),
+                    help="the camera's pixel integration (sensors.camera.samples_per_pixel); above 1 each frame is\n"
+                         "one Renderer.render call, as an episode's (--batch 1 only), sub-pixel RGB included")
     ap.add_argument("--no-embree", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, frames=2, warmup=1)
@@ -123,9 +126,15 @@ def main(argv: list[str] | None = None) -> int:
     cams, lidars, angles = trajectory_views(scene)
     n_batches = max(1, math.ceil(args.frames / B))
 
+    if args.samples_per_pixel > 1 and (B != 1 or args.lights == "off"):
+        ap.error("--samples-per-pixel above 1: --batch 1 with the lights on (it times the episodes' render call)")
+
     def run(i, to_host):
         idx = [(i * B + b) % len(cams) for b in range(B)]
         Ts, Tl = np.stack([cams[k] for k in idx]), np.stack([lidars[k] for k in idx])
+        if args.samples_per_pixel > 1:  # an episode's frame: the pixel centres, then the sub-pixels' RGB
+            return r.render(K, Ts[0], W, H, T_map_lidar=Tl[0], angles=angles,
+                            samples_per_pixel=args.samples_per_pixel)
         if args.lights != "off":
             return r.render_sensors(K, Ts, W, H, Tl, angles, to_host=to_host)
         out = r._launch(K, Ts, W, H, Tl, angles, lit=False)  # the renderer's unlit launch (depth/segmentation use)
@@ -185,7 +194,7 @@ def main(argv: list[str] | None = None) -> int:
     primary_mrays = W * H * n_batches * B / (time.perf_counter() - t_primary) / 1e6
     frames = n_batches * B
     out = {"env": args.env, "width": W, "height": H, "arch": r.arch, "batch": B, "frames": frames,
-           "shadow_samples": args.shadow_samples, "fps": fps, "ms_per_frame": 1e3 / fps,
+           "shadow_samples": args.shadow_samples, "samples_per_pixel": args.samples_per_pixel, "fps": fps, "ms_per_frame": 1e3 / fps,
            "mrays_per_s": W * H * fps / 1e6, "primary_mrays_per_s": primary_mrays, "prims": int(scene.prim_type.shape[0]),
            "bvh_nodes": int(r._packed["nodes_f"].shape[0]), "lights": int(scene.light_kind.shape[0]),
            "lights_on": args.lights != "off", "lights_kept": args.lights,

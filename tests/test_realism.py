@@ -463,22 +463,6 @@ def test_the_pinned_nanodet_hashes_name_the_files_the_tarball_gives(realism):
     assert sorted(realism.NANODET_SHA256) == sorted(name.rsplit("/", 1)[1] for name in realism.NANODET_FILES)
 
 
-def test_average_down_integrates_linear_light_over_each_block(realism):
-    """A sensor's pixel integrates light: a block half black and half white (255) averages to half the linear light,
-    255 · 0.5^(1/2.2) = 186, not to the encoded mean 128; a uniform block keeps its value."""
-    img = np.zeros((4, 6, 3), np.uint8)
-    img[0, 1] = img[1, 0] = 255  # the first block: a 2 x 2 checker of 0 and 255
-    img[0:2, 2:4] = 77
-    img[2:4, :] = (10, 200, 255)
-    out = realism.average_down(img, 2)
-    assert out.shape == (2, 3, 3) and out.dtype == np.uint8
-    assert out[0, 0].tolist() == [186, 186, 186]
-    assert out[0, 1].tolist() == [77, 77, 77] and out[1, 2].tolist() == [10, 200, 255]
-    assert np.array_equal(realism.average_down(img, 1), img)
-    with pytest.raises(ValueError, match="does not split into 4 x 4 blocks"):
-        realism.average_down(img, 4)
-
-
 @pytest.mark.parametrize("n,message", [("0", "--supersample must be positive"),
                                        ("5", "--supersample must be at most 4"),
                                        ("4 --width 4096", "at most 8192 pixels: the rendered side would be 16384")])
@@ -490,26 +474,20 @@ def test_a_supersample_out_of_range_is_a_usage_line(realism, capsys, n, message)
 
 
 @pytest.mark.slow
-def test_a_supersampled_frame_tiles_each_pixel_of_the_plain_frame(realism):
-    """The real renderer at twice the size with ``camera_setup``'s intrinsics, averaged down: each 2 x 2 block covers
-    its plain pixel's area, so the result lies closer to the plain frame than to the plain frame moved by one pixel
-    either way (its mean difference 0.54 of the nearest moved frame's; with the big frame's principal point half a
-    plain pixel off, 0.96-1.03), and differs from it where the image has detail."""
-    from benchbot.core.geometry import se2_to_matrix
+def test_supersample_renders_the_fast_frames_with_the_cameras_sub_pixels(realism, monkeypatch, tmp_path):
+    """``--supersample N`` asks the renderer for N² samples a pixel (the camera's ``samples_per_pixel``, tested in
+    plugins/sim_taichi/tests/test_pixel_integration.py), and only in fast mode."""
     from benchbot_sim_taichi.render.renderer import Renderer
-    from benchbot_sim_taichi.scene.build import build_scene
 
-    scene = build_scene(realism._env_spec("miniroom:4", None))
-    r = Renderer("cpu", camera=realism.camera_model())
-    r.set_scene(scene)
-    W, H = 96, 72
-    T = se2_to_matrix(*scene.trajectory_se2[10]) @ realism.camera_setup(W, H)[1]
-    plain = r.render(realism.camera_setup(W, H)[0], T, W, H)["rgb"].astype(int)
-    big = r.render(realism.camera_setup(2 * W, 2 * H)[0], T, 2 * W, 2 * H)["rgb"]
-    ss = realism.average_down(big, 2).astype(int)
-    err = np.abs(ss - plain)[2:-2, 2:-2].mean()
-    for axis in (0, 1):
-        for step in (1, -1):
-            moved = np.abs(ss - np.roll(plain, step, axis=axis))[2:-2, 2:-2].mean()
-            assert err < 0.7 * moved, (err, moved, axis, step)
-    assert 0 < err and (np.abs(ss - plain).max(axis=2) > 8).any()
+    asked = []
+    real = Renderer.render
+
+    def spy(self, *args, **kw):
+        asked.append((kw.get("mode", "fast"), kw.get("samples_per_pixel", 1)))
+        return real(self, *args, **kw)
+
+    monkeypatch.setattr(Renderer, "render", spy)
+    assert realism.main(["--smoke", "--supersample", "2", "--out", str(tmp_path)]) == 0
+    assert ("fast", 4) in asked and all(spp == 4 for mode, spp in asked if mode == "fast")
+    report = json.loads((tmp_path / "realism.json").read_text())
+    assert [env["fast_supersample"] for env in report["environments"].values()] == [2]

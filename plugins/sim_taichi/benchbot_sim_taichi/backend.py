@@ -24,6 +24,7 @@ import numpy as np
 from benchbot.core import noise as noise_models
 from benchbot.core import stages
 from benchbot.core.errors import BackendError, UsageError
+from benchbot.core.limits import MAX_CAMERA_SIDE
 from benchbot.core.geometry import rpy_to_matrix, se2_to_matrix
 from benchbot.core.motion import ControllerGains
 from benchbot.core.specs import first_error
@@ -45,7 +46,10 @@ DEFAULT_SENSORS: dict[str, Any] = {
                # clip's, highlights roll off instead of burning out; docs/realism.md); 0.0, "clip": the image as rendered
                "exposure_ev": -0.5, "tone_curve": "filmic", "vignetting": 0.0,
                # quality mode meters each frame's exposure, as a camera's auto-exposure (camera_model.py, step 2)
-               "auto_exposure": True},
+               "auto_exposure": True,
+               # pixel integration in fast mode (render/pixel_integration.py): 1 ray a pixel, or an n x n grid of
+               # sub-pixels averaged in linear radiance (4, 9, 16)
+               "samples_per_pixel": 1},
     "laser": {"mount_xyz": [0.0, 0.0, 0.62], "angle_min_deg": -180.0, "angle_max_deg": 180.0, "beams": 360,
               "range_min": 0.1, "range_max": 20.0},
     "footprint_radius_m": 0.25,
@@ -151,8 +155,9 @@ def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, An
         BackendError: one line ``robot '<name>': sensors.<field>: <problem>``: the merged block does not match
             :data:`ROBOT_SCHEMA` (a block that is not a mapping, a value that is not a number or integer, a
             non-positive size, beam count, footprint or range, a negative ``robot_frame_height_m``, a field of view
-            outside (0°, 180°), an unknown or negative noise field, a ``depth_dropout`` above 1), a number is not
-            finite, or ``range_max`` ≤ ``range_min``.
+            outside (0°, 180°), an unknown or negative noise field, a ``depth_dropout`` above 1, a
+            ``samples_per_pixel`` not 1, 4, 9 or 16), a number is not finite, ``range_max`` ≤ ``range_min``, or
+            the sub-pixel image's side would pass ``MAX_CAMERA_SIDE``.
     """
     name = robot_spec.get("name", "?")
 
@@ -177,6 +182,10 @@ def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, An
     if not cfg["laser"]["range_min"] < cfg["laser"]["range_max"]:
         raise bad("sensors.laser.range_max", f"expected range_min < range_max, got {cfg['laser']['range_min']!r} and "
                   f"{cfg['laser']['range_max']!r}")
+    side = max(cfg["camera"]["width"], cfg["camera"]["height"]) * math.isqrt(cfg["camera"]["samples_per_pixel"])
+    if side > MAX_CAMERA_SIDE.value():
+        raise bad("sensors.camera.samples_per_pixel", f"{cfg['camera']['samples_per_pixel']} sub-pixels a pixel "
+                  f"render a {side}-pixel side, above {int(MAX_CAMERA_SIDE.value())}: use fewer or a smaller camera")
     for key, default in DEFAULT_SENSORS.items():
         if not isinstance(default, dict):
             cfg[key] = float(cfg[key])
@@ -221,6 +230,8 @@ class TaichiSimBackend(RobotBackend):
         self.K = np.array([[fx, 0.0, (self.width - 1) / 2.0], [0.0, fx, (self.height - 1) / 2.0], [0.0, 0.0, 1.0]])
         #: (4, 4) the camera's optical frame in the robot's footprint frame (the robot frame lowered to the floor)
         self.T_footprint_camera = camera_mount(cam)
+        #: fast mode's pixel integration: sub-pixels a pixel (render/pixel_integration.py)
+        self.samples_per_pixel = int(cam["samples_per_pixel"])
         las = self.sensors["laser"]
         #: (4, 4) the lidar frame in the robot's footprint frame
         self.T_footprint_lidar = np.eye(4)
@@ -388,7 +399,8 @@ class TaichiSimBackend(RobotBackend):
             T_map_footprint = se2_to_matrix(*self._pose)
             lidar = (T_map_footprint @ self.T_footprint_lidar) if with_scan else None
             out = self._renderer.render(self.K, T_map_footprint @ self.T_footprint_camera, self.width, self.height,
-                                        mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles)
+                                        mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles,
+                                        samples_per_pixel=self.samples_per_pixel)
             if with_scan:
                 self._cache_scan(out.pop("ranges"))
             self._cache_images(out)

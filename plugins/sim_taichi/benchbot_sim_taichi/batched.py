@@ -38,7 +38,8 @@ class TaichiBatchedRobots(BatchedRobots):
     back as NumPy.
 
     Raises:
-        BackendError: no scene is loaded; ``count`` < 1; the backend renders in ``quality`` mode or adds sensor noise
+        BackendError: no scene is loaded; ``count`` < 1; the backend renders in ``quality`` mode, adds sensor noise
+            or integrates several samples a pixel
             (a batch renders fast mode without noise: use one simulator per environment for those).
     """
 
@@ -54,6 +55,11 @@ class TaichiBatchedRobots(BatchedRobots):
                 f"batched robots render fast mode without sensor noise; this backend has mode {backend.mode!r}"
                 f"{' and sensor noise' if noisy else ''}",
                 "use options mode fast and noise none, or one simulator per environment (vectorization_mode='sync')")
+        if backend.samples_per_pixel != 1:
+            raise BackendError(
+                f"batched robots shade one ray a pixel; this robot's camera has samples_per_pixel "
+                f"{backend.samples_per_pixel}",
+                "use samples_per_pixel 1, or one simulator per environment (vectorization_mode='sync')")
         self.backend = backend
         self.count = int(count)
         self.start_pose = np.asarray(scene.start_se2, dtype=np.float64).copy()

@@ -165,6 +165,26 @@ class CameraModel:
         return np.floor(np.power(y, GAMMA) * 255.0 + 0.5).astype(np.uint8)
 
 
+    def decode(self, rgb: np.ndarray, gain: float = 1.0) -> np.ndarray:
+        """The inverse of steps 2–4: the linear radiance (after vignetting) that :meth:`encode` maps to each 8-bit
+        value of ``rgb``, so that ``encode(decode(v)) == v`` for every value (no vignetting, the same ``gain``).
+
+        Args:
+            rgb: (..., 3) uint8 sRGB (gamma 2.2) as this camera encoded it.
+            gain: step 2's metered gain (1: fast mode, which does not meter).
+
+        Returns:
+            float64 array of ``rgb``'s shape. A saturated value (255) decodes to the least radiance that saturates.
+        """
+        y = np.power(np.asarray(rgb, dtype=np.float64) / 255.0, 1.0 / GAMMA)
+        if self.tone_curve == "clip":
+            x = y
+        else:  # aces_filmic's fit solved for x: (2.43y − 2.51)x² + (0.59y − 0.03)x + 0.14y = 0, its root ≥ 0
+            a, b, c = 2.43 * y - 2.51, 0.59 * y - 0.03, 0.14 * y
+            x = (-b - np.sqrt(b * b - 4.0 * a * c)) / (2.0 * a)
+        return x / self._scale(gain)
+
+
 @functools.lru_cache(maxsize=16)
 def tone_table(camera: CameraModel = CameraModel()) -> np.ndarray:
     """(TABLE_STEPS,) float64 (cached: do not modify): entry i is the 8-bit value of linear radiance

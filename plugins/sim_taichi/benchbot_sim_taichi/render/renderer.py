@@ -83,6 +83,7 @@ import numpy as np
 from benchbot.core import settings, stages
 from benchbot.core.errors import UsageError
 from benchbot_sim_taichi.render.camera_model import CameraModel, tone_table
+from benchbot_sim_taichi.render.pixel_integration import grid_side, integrate, subpixel_intrinsics
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
 # (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
@@ -1058,7 +1059,8 @@ class Renderer:
 
     def render(self, K: np.ndarray, T_map_camera: np.ndarray, width: int, height: int,
                mode: str = "fast", spp: int = QUALITY_SPP, denoise: bool = True, T_map_lidar: np.ndarray | None = None,
-               angles: np.ndarray | None = None, bounces: int = QUALITY_BOUNCES) -> dict[str, np.ndarray]:
+               angles: np.ndarray | None = None, bounces: int = QUALITY_BOUNCES,
+               samples_per_pixel: int = 1) -> dict[str, np.ndarray]:
         """Render one view and, with ``T_map_lidar``, the laser scan of the same instant in the same kernel launch.
 
         Args:
@@ -1068,6 +1070,11 @@ class Renderer:
                 of up to ``bounces`` bounces (:mod:`~benchbot_sim_taichi.render.pathtrace`), then Open Image Denoise if
                 ``denoise``: :func:`denoise_radiance`; depth and segmentation as in ``fast``).
             T_map_lidar, angles: as :meth:`scan`; ``None`` (default) for no scan.
+            samples_per_pixel: ``fast`` mode's pixel integration
+                (:mod:`~benchbot_sim_taichi.render.pixel_integration`): 1 (default) shades each pixel's centre; 4, 9
+                or 16 render the RGB on an n × n grid of sub-pixels (a second launch) and average them in linear
+                radiance. Depth, segmentation and the scan are the pixel centres' either way. ``quality`` mode's
+                paths are already jittered over each pixel and ignore it.
 
         Returns:
             ``{'rgb': (H, W, 3) uint8 RGB, 'depth': (H, W) float32 z-depth metres (0 = no hit), 'class': (H, W)
@@ -1077,10 +1084,11 @@ class Renderer:
             encodes (denoised if ``denoise``).
 
         Raises:
-            ValueError: an unknown mode, or a lidar pose without angles.
+            ValueError: an unknown mode, a lidar pose without angles, or ``samples_per_pixel`` not 1, 4, 9 or 16.
         """
         if mode not in MODES:
             raise ValueError(f"unknown render mode {mode!r}: use one of {MODES}")
+        n_sub = grid_side(samples_per_pixel) if mode == "fast" else 1
         Tl = beams = None
         if T_map_lidar is not None:
             if angles is None:
@@ -1089,9 +1097,15 @@ class Renderer:
             beams = np.asarray(angles, dtype=np.float64).reshape(-1)
         # quality mode replaces the RGB, so its fast pass only needs depth and segmentation: no lights
         with_scan = beams is not None and beams.size > 0  # no beams: nothing to launch for the scan
-        batch = self._launch(K, np.asarray(T_map_camera, dtype=np.float64)[None], int(width), int(height),
-                             Tl if with_scan else None, beams, lit=mode == "fast")
+        Ts = np.asarray(T_map_camera, dtype=np.float64)[None]
+        batch = self._launch(K, Ts, int(width), int(height), Tl if with_scan else None, beams,
+                             lit=mode == "fast" and n_sub == 1)
         host = None
+        if n_sub > 1:  # the pixel centres' depth, segmentation and scan to the host, then the sub-pixels' RGB
+            batch = self._fetch(batch)
+            sub = self._launch(subpixel_intrinsics(K, n_sub), Ts, n_sub * int(width), n_sub * int(height), None,
+                               None, lit=True)
+            batch["rgb"] = integrate(self._fetch({"rgb": sub["rgb"]})["rgb"][0], n_sub, self.camera)[None]
         if mode == "quality":
             H, W = int(height), int(width)
             lin = self._buffer("quality", (1, H, W, 3), np.float32)
