@@ -52,6 +52,42 @@ def test_matching_maps_coco_names_ignores_hidden_objects_and_counts_false_positi
     assert [realism.COCO80[d[5]] for d in low.false_positives] == ["dining table", "couch", "tv"]
 
 
+def test_the_crowd_rule_treats_a_group_box_as_cocos_iscrowd_region(realism):
+    """A row of books boxed as one (BEAR's isgroup): plain, the row is a visible book that a single book's box does
+    not match (a miss and a false positive); under the crowd rule the row is neither found nor missed and the
+    single book inside it is no false positive, while a book box elsewhere still is."""
+    row = realism.Truth(84001, "book", [100, 100, 200, 130], 3000, 0.0, True, "closed_book", crowd=True)
+    cup = truth(realism, 41001, "cup", (300, 100, 330, 130))
+    dets = [det(realism, (110, 102, 125, 130), 0.7, "book"),    # one book of the row: ioa 1, IoU 0.13
+            det(realism, (300, 100, 330, 130), 0.6, "cup"),     # the cup
+            det(realism, (400, 300, 420, 330), 0.5, "book")]    # a book on nothing
+    assert realism.box_ioa(dets[0], row.box) == 1.0 and realism.box_ioa(dets[2], row.box) == 0.0
+    assert realism.box_ioa([5, 5, 5, 9], row.box) == 0.0  # an empty box
+    plain = realism.score_frame([row, cup], dets, 0.3)
+    assert plain.hits == {84001: False, 41001: True} and len(plain.false_positives) == 2
+    as_crowd = realism.with_crowd_rule([row, cup])
+    assert [t.visible for t in as_crowd] == [False, True] and row.visible  # the plain truths are left as they are
+    crowd = realism.score_frame(as_crowd, dets, 0.3, crowd_rule=True)
+    assert crowd.hits == {41001: True} and [d[:4] for d in crowd.false_positives] == [[400.0, 300.0, 420.0, 330.0]]
+    tally = realism.Tally((0.3,))
+    tally.add(as_crowd, {0.3: crowd})
+    assert tally.visible == {"cup": 1} and tally.fp[0.3] == 1
+
+
+@pytest.mark.slow
+def test_crowd_instances_are_the_group_boxes_of_the_ground_truth(realism):
+    """house:1's ground truth marks four book boxes isgroup; the scene's instances of exactly those cuboids."""
+    from benchbot_sim_taichi.scene.build import build_scene
+
+    env = realism._env_spec("house:1", "primitives")
+    scene = build_scene(env)
+    crowd = realism.crowd_instances(scene, env)
+    data = json.loads(Path(env["map_path"]).read_text(encoding="utf-8"))
+    groups = [o for o in data["ground_truth"]["objects"] if o.get("isgroup")]
+    assert len(crowd) == len(groups) == 4
+    assert all(scene.class_list[i // 1000] == "book" for i in crowd)
+
+
 def test_truncation_and_frame_truths(realism):
     W, H = 64, 48
     K = np.array([[32.0, 0, (W - 1) / 2], [0, 32.0, (H - 1) / 2], [0, 0, 1]])
