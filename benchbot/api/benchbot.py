@@ -94,7 +94,7 @@ class EpisodeRefused(BackendRefusal, ValueError):
 
 
 class BackendRefused(BackendRefusal, ConnectionError):
-    """Any other refusal (400, 401, 404, 413, 500, 504, ...)."""
+    """Any other refusal (400, 401, 404, 413, 500, 503 a robot fault, 504, ...)."""
 
 
 class BackendUnreachable(BackendRefusal, ConnectionError):

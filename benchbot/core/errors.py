@@ -66,6 +66,13 @@ class BackendError(BenchbotError):
     exit_code = ExitCode.BACKEND
 
 
+class RobotFaultError(BackendError):
+    """The robot stopped itself on a fault it detected (a sensor topic silent past its limit, TF lost, no fresh
+    observation): the robot is safe and the backend still runs, so the server answers 503 (never 500: a fault of
+    the robot, not of BenchBot) and the client shows the message as one line. The message names the topic or frame
+    and the setting that sets the limit."""
+
+
 class ActionError(BenchbotError):
     """An action was refused by the episode (not allowed by the task, robot collided, trajectory finished)."""
 

@@ -5,7 +5,9 @@
 unknown route, key,
 connection or results function; 405: a method the route does not take; 409: an action refused, or the episode
 belongs to another client; 413: a body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES`; 500: a backend failure
-(its message says which; paths of ground-truth files are blanked out, :mod:`benchbot.core.server.redaction`); 504:
+(its message says which; paths of ground-truth files are blanked out, :mod:`benchbot.core.server.redaction`);
+503: the robot stopped on a fault it detected (:class:`~benchbot.core.errors.RobotFaultError`: a sensor topic silent
+past its limit, TF lost; the message names the topic and the setting); 504:
 an action or results function that ran past its timeout (the motion still completes on the backend thread and the
 episode stays usable).
 """
@@ -15,7 +17,7 @@ from __future__ import annotations
 from starlette.responses import JSONResponse
 
 from benchbot.core.episode import ActionArgumentError
-from benchbot.core.errors import ActionError, BackendError, BenchbotError
+from benchbot.core.errors import ActionError, BackendError, BenchbotError, RobotFaultError
 from benchbot.core.server.redaction import redact
 
 
@@ -48,7 +50,8 @@ class PayloadTooLargeError(BenchbotError):
 
 
 #: ``(error classes, HTTP status)``, most specific first: the first row whose classes match an error gives its status
-#: (``ActionArgumentError`` is an ``ActionError``, ``ActionTimeoutError`` a ``BackendError``, all a ``BenchbotError``).
+#: (``ActionArgumentError`` is an ``ActionError``; ``ActionTimeoutError`` and ``RobotFaultError`` are
+#: ``BackendError``; all are ``BenchbotError``).
 STATUS_BY_ERROR: tuple[tuple[tuple[type, ...], int], ...] = (
     ((NotFoundError,), 404),
     ((UnauthorizedError,), 401),
@@ -57,6 +60,7 @@ STATUS_BY_ERROR: tuple[tuple[tuple[type, ...], int], ...] = (
     ((ActionArgumentError,), 400),
     ((ActionError, EpisodeInUseError), 409),
     ((ActionTimeoutError,), 504),
+    ((RobotFaultError,), 503),
     ((BackendError,), 500),
     ((BenchbotError,), 400),
 )

@@ -11,8 +11,13 @@ Motion: :class:`benchbot.core.motion.PoseController` closed-loop on the ground-t
 ``rate_hz`` (20 Hz; × ``time_scale`` for a simulator running faster than real time). Before each command the laser
 scan is checked: if the footprint circle (``footprint_radius_m``) would come within ``safety_distance_m`` of a laser
 return during the next step, a zero Twist is sent and the motion ends with ``collided=True`` (→ COLLISION).
-Faults — odometry, laser or TF silent for longer than ``sensor_timeout_s`` during a motion, TF lost, the transport
-gone — publish a zero Twist at once and raise :class:`~benchbot.core.errors.BackendError`.
+Faults — odometry, laser or TF silent for longer than ``sensor_timeout_s`` during a motion, TF lost, no fresh
+observation — publish a zero Twist at once and raise :class:`~benchbot.core.errors.RobotFaultError` (a
+``BackendError``; the server answers 503, the client shows one line). Silence is judged by what the robot sent,
+not by when this process got round to reading it (:mod:`benchbot_robot_ros2.watchdog`): a motion starts only once
+every watched topic has sent a new message (a header stamp that moved on), and during it a topic is silent when no
+such message arrived over ``sensor_timeout_s`` of punctual control periods — time in which this process was not
+scheduled (a machine under heavy load) never counts against the robot.
 
 Observations: the newest *valid* message of each topic, converted on receipt (malformed messages are dropped and
 counted in :attr:`Ros2RobotBackend.rejected`); after a motion, :meth:`observe` waits for messages received after the
@@ -34,11 +39,12 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from benchbot.core import settings
-from benchbot.core.errors import BackendError
+from benchbot.core.errors import BackendError, RobotFaultError
 from benchbot.core.geometry import se2_relative, se2_to_matrix, start_pose_to_se2
 from benchbot.core.motion import ControllerGains, PoseController
 from benchbot.core.specs import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
+from benchbot_robot_ros2.watchdog import SilenceWatch, header_stamp_s
 
 #: Defaults of the robot spec's ``ros2`` block (see docs/ros2.md).
 DEFAULTS: dict[str, Any] = {
@@ -54,7 +60,7 @@ DEFAULTS: dict[str, Any] = {
     "rate_hz": 20.0,
     "time_scale": 1.0,              # > 1 only with a simulator running that much faster than real time
     "settle_s": 0.65,
-    "sensor_timeout_s": 0.4,        # odometry/laser/TF silent this long during a motion: fault
+    "sensor_timeout_s": 0.4,        # odometry/laser/TF send nothing new this long during a motion: fault
     "observation_timeout_s": 5.0,   # no fresh message for an observation within this: error
     "startup_timeout_s": 60.0,      # topics/TF must appear (and a simulator reset finish) within this
     "footprint_radius_m": 0.25,
@@ -221,6 +227,7 @@ class Ros2RobotBackend(RobotBackend):
         self._scene_start: np.ndarray | None = None
         self._reset_acks: dict[str, dict] = {}
         self._reset_cond = threading.Condition()
+        self._watches = self._make_watches()
 
         # actions: Twist publisher on the actions' topic (ros2_config checked that they publish Twists)
         cmd_topic = None
@@ -272,6 +279,8 @@ class Ros2RobotBackend(RobotBackend):
                 self._reject(name, exc)
                 return
             self._latest[name].set(value)
+            if name in self._watches:
+                self._watches[name].note(header_stamp_s(msg))
 
         return receive
 
@@ -284,6 +293,7 @@ class Ros2RobotBackend(RobotBackend):
             self._reject("odometry", exc)
             return
         self._latest["_odom"].set(se2)
+        self._watches["odometry"].note(header_stamp_s(msg))
 
     def _on_tf(self, msg: Any, static: bool = False) -> None:
         try:
@@ -293,6 +303,7 @@ class Ros2RobotBackend(RobotBackend):
             return
         if not static:
             self._latest["_tf"].set(True)
+            self._watches["tf"].note(header_stamp_s(msg))
 
     def _on_reset_done(self, msg: Any) -> None:
         try:
@@ -315,27 +326,70 @@ class Ros2RobotBackend(RobotBackend):
         except Exception:  # noqa: BLE001
             pass
 
-    def _fault(self, message: str, hint: str) -> BackendError:
+    def _fault(self, message: str, hint: str) -> RobotFaultError:
         self.stop()
         self.stop()
-        return BackendError(message, hint)
+        return RobotFaultError(message, hint)
+
+    def _make_watches(self) -> dict[str, SilenceWatch]:
+        """One :class:`~benchbot_robot_ros2.watchdog.SilenceWatch` per watched topic: ``odometry``, ``tf`` and
+        the laser connection (``laser``) when the robot has one."""
+        limit = self.cfg["sensor_timeout_s"]
+        period = 1.0 / (self.cfg["rate_hz"] * self.cfg["time_scale"])
+        # a check at most this late still counts in full; later ones (a starved process) count no more than this
+        max_step = max(2.0 * period, 0.1)
+        setting = f"ros2.sensor_timeout_s of robot '{self.robot_spec.get('name')}'"
+        topics = {"odometry": self.cfg["odom_topic"], "tf": self.cfg["tf_topic"]}
+        laser = (self.robot_spec.get("connections") or {}).get("laser") or {}
+        if laser.get("ros_topic"):
+            topics["laser"] = laser["ros_topic"]
+        return {what: SilenceWatch(what, topic, limit, max_step, setting) for what, topic in topics.items()}
+
+    def _watched(self) -> dict[str, SilenceWatch]:
+        """The watches a motion checks: odometry; TF with ``ground_truth: tf``; the laser when the safety check
+        uses it."""
+        out = {"odometry": self._watches["odometry"]}
+        if self.cfg["ground_truth"] == "tf":
+            out["tf"] = self._watches["tf"]
+        if "laser" in self._watches and "laser" in self._latest and self.cfg["safety_distance_m"] > 0:
+            out["laser"] = self._watches["laser"]
+        return out
 
     def _check_fresh(self) -> None:
-        """Raise (after a zero Twist) if odometry, laser or TF has been silent past ``sensor_timeout_s``."""
-        now, limit = time.monotonic(), self.cfg["sensor_timeout_s"]
-        watched = {"odometry": "_odom"}
-        if self.cfg["ground_truth"] == "tf":
-            watched["tf"] = "_tf"
-        if "laser" in self._latest and self.cfg["safety_distance_m"] > 0:
-            watched["laser"] = "laser"
-        for what, key in watched.items():
-            age = now - self._latest[key].t
-            if age > limit:
-                topic = {"odometry": self.cfg["odom_topic"], "tf": self.cfg["tf_topic"]}.get(what) or \
-                    self.robot_spec["connections"]["laser"]["ros_topic"]
-                raise self._fault(f"ROS 2 robot fault: {what} ({topic}) silent for {age:.2f} s during a motion "
-                                  f"(limit {limit:.2f} s); the robot was stopped",
-                                  "check the robot's drivers and the network (ROS_DOMAIN_ID, CYCLONEDDS_URI)")
+        """Take what DDS has queued for the watched topics (``Transport.poll``), then judge each
+        (:meth:`SilenceWatch.check`): a topic that sent nothing new over ``sensor_timeout_s`` of punctual control
+        periods is a fault.
+
+        Raises:
+            RobotFaultError: (after a zero Twist) one line naming the topic, its last header stamp and the setting
+                ``ros2.sensor_timeout_s``.
+        """
+        watched = self._watched()
+        self.transport.poll([w.topic for w in watched.values()])
+        now = time.monotonic()
+        for watch in watched.values():
+            watch.check(now)
+            if watch.silent:
+                raise self._fault(watch.fault_line(),
+                                  "check the robot's drivers and the network (ROS_DOMAIN_ID, CYCLONEDDS_URI); a "
+                                  f"slower sensor needs a larger {watch.setting}")
+
+    def _await_fresh(self) -> None:
+        """Before a motion: wait until every watched topic has sent a new message (one control period or so).
+
+        Raises:
+            RobotFaultError: a topic sent nothing new within ``sensor_timeout_s`` (see :meth:`_check_fresh`).
+        """
+        watched = self._watched()
+        now = time.monotonic()
+        for watch in watched.values():
+            watch.restart(now)
+        period = 1.0 / (self.cfg["rate_hz"] * self.cfg["time_scale"])
+        while True:
+            self._check_fresh()
+            if all(w.fresh for w in watched.values()):
+                return
+            time.sleep(period / 2)
 
     def _blocked(self, v: float, dt: float) -> bool:
         """Whether the next step at forward speed ``v`` (m/s) for ``dt`` (s) would bring the footprint within the
@@ -373,7 +427,7 @@ class Ros2RobotBackend(RobotBackend):
     # ------------------------------------------------------------------------------------------ contract
     def _wait_ready(self, t0: float, timeout: float) -> None:
         """Wait until odometry, TF (global → base) and every observation topic have a message received after
-        ``t0``. Raises BackendError naming the missing topics."""
+        ``t0``. Raises RobotFaultError naming the missing topics."""
         deadline = time.monotonic() + timeout
         for name, latest in self._latest.items():
             if latest.wait_after(t0, max(deadline - time.monotonic(), 0.0)) is None:
@@ -445,7 +499,7 @@ class Ros2RobotBackend(RobotBackend):
         (``ground_truth: tf``) or the odometry pose (``ground_truth: odometry``).
 
         Raises:
-            BackendError: TF lost / no odometry (after publishing a zero Twist).
+            RobotFaultError: TF lost / no odometry (after publishing a zero Twist).
         """
         from benchbot_robot_ros2.convert import matrix_to_se2
         from benchbot_robot_ros2.tf import TfLookupError
@@ -463,7 +517,7 @@ class Ros2RobotBackend(RobotBackend):
 
     def odometry_pose(self) -> np.ndarray:
         """(3,) ``[x, y, yaw]``: the newest odometry pose (in the odometry message's frame, usually ``odom``): what
-        a dead-reckoning robot believes. Raises BackendError without odometry."""
+        a dead-reckoning robot believes. Raises RobotFaultError without odometry."""
         value = self._latest["_odom"].value
         if value is None:
             raise self._fault("no odometry received yet", f"is {self.cfg['odom_topic']} published?")
@@ -474,7 +528,8 @@ class Ros2RobotBackend(RobotBackend):
         publishing Twists on the actions' topic; stops before a laser-detected contact (``collided=True``).
 
         Raises:
-            BackendError: a fault (see the module doc); the robot was stopped.
+            RobotFaultError: a fault (see the module doc); the robot was stopped. BackendError: the backend is
+                closed.
         """
         if self._closed:
             raise BackendError("the ROS 2 backend is closed", "")
@@ -490,6 +545,8 @@ class Ros2RobotBackend(RobotBackend):
         collided = False
         self._moving = True
         try:
+            self._await_fresh()
+            t_start = next_t = time.monotonic()
             while True:
                 self._check_fresh()
                 cmd = ctl.command(self.base_pose())
@@ -517,7 +574,7 @@ class Ros2RobotBackend(RobotBackend):
         ``base_frame``).
 
         Raises:
-            BackendError: a frame is not in TF (after a zero Twist).
+            RobotFaultError: a frame is not in TF (after a zero Twist).
         """
         from benchbot_robot_ros2.tf import TfLookupError
 
@@ -542,7 +599,7 @@ class Ros2RobotBackend(RobotBackend):
         motion ended (waits up to ``observation_timeout_s``).
 
         Raises:
-            KeyError: a name this robot has no topic for. BackendError: no fresh message in time.
+            KeyError: a name this robot has no topic for. RobotFaultError: no fresh message in time.
         """
         for n in names:
             if n not in self._latest or n.startswith("_"):

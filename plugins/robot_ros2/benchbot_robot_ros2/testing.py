@@ -13,14 +13,17 @@ import numpy as np
 class FakeRobot:
     """A ROS 2 robot in a thread: integrates /cmd_vel (unicycle, 50 Hz), publishes /odom, /tf (map→odom→base_link),
     /tf_static (base_link→lidar at the base) and /scan seeing a wall x = ``wall_x`` (map frame, if given).
-    ``silence`` holds topic names not to publish; ``cmds`` records every (wall time, v, w) received."""
+    ``silence`` holds topic names not to publish; ``cmds`` records every (wall time, v, w) received. Every message
+    is stamped with the wall clock (``time.time()``). ``cmd_timeout_s``: stop when no /cmd_vel came for that long
+    (s), as robot bases do (None: keep the last command for ever)."""
 
-    def __init__(self, transport, wall_x: float | None = None) -> None:
+    def __init__(self, transport, wall_x: float | None = None, cmd_timeout_s: float | None = None) -> None:
         from benchbot_robot_ros2 import convert
 
         self.c, self.tr, self.wall_x = convert, transport, wall_x
         self.pose = np.zeros(3)
         self.cmd = (0.0, 0.0)
+        self.cmd_timeout_s = cmd_timeout_s
         self.cmds: list[tuple[float, float, float]] = []
         self.silence: set[str] = set()
         self.stop_event = threading.Event()
@@ -51,6 +54,9 @@ class FakeRobot:
         self.pub["tf_static"].publish(static)
         angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
         while not self.stop_event.is_set():
+            timeout = self.cmd_timeout_s
+            if timeout is not None and self.cmds and time.monotonic() - self.cmds[-1][0] > timeout:
+                self.cmd = (0.0, 0.0)
             self.pose = integrate_unicycle(self.pose, *self.cmd, 0.02)
             T = se2_to_matrix(*self.pose)
             if "odom" not in self.silence:

@@ -1,7 +1,10 @@
 """A small TF buffer: the newest transform of every (parent → child) edge from ``/tf`` and ``/tf_static``.
 
-Lookups compose edges through the tree; a dynamic edge older than ``max_age_s`` (by receipt time, monotonic clock)
-counts as lost. Thread-safe (written by the transport's thread, read by the backend's).
+Lookups compose edges through the tree; a dynamic edge received ``max_age_s`` before the newest dynamic transform
+counts as lost (a localiser that stopped while odometry goes on). Age is judged against what arrived, not against
+the wall clock: a process that was not scheduled for a while (a machine under heavy load) reads its queued
+messages late and must not find all of TF stale; TF silent altogether is the backend's watchdog's to judge
+(:mod:`benchbot_robot_ros2.watchdog`). Thread-safe (written by the transport's thread, read by the backend's).
 """
 
 from __future__ import annotations
@@ -23,13 +26,15 @@ class TfBuffer:
     """Newest transforms by child frame.
 
     Args:
-        max_age_s: dynamic transforms older than this (receipt time) are lost (static ones never are).
+        max_age_s: dynamic transforms received this long (s) before the newest dynamic one are lost (static ones
+            never are).
     """
 
     def __init__(self, max_age_s: float = 1.0) -> None:
         self.max_age_s = float(max_age_s)
         self._edges: dict[str, tuple[str, np.ndarray, float, bool]] = {}  # child -> (parent, T_parent_child, t, static)
         self._lock = threading.Lock()
+        self._newest = -float("inf")  # receipt time (monotonic s) of the newest dynamic transform
 
     def add_message(self, msg: Any, static: bool = False) -> None:
         """Store every ``TransformStamped`` of a ``tf2_msgs/TFMessage``; malformed entries are skipped (the first
@@ -47,6 +52,8 @@ class TfBuffer:
                 continue
             with self._lock:
                 self._edges[child] = (parent, T, now, static)
+                if not static:
+                    self._newest = max(self._newest, now)
         if problem is not None:
             raise ValueError(f"malformed transform: {problem}")
 
@@ -57,7 +64,8 @@ class TfBuffer:
         while frame in self._edges and len(path) < 64:
             parent, T_pc, t, static = self._edges[frame]
             if not static and now - t > self.max_age_s:
-                raise TfLookupError(f"transform {parent} → {frame} is {now - t:.2f} s old (limit {self.max_age_s} s)")
+                raise TfLookupError(f"transform {parent} → {frame} was received {now - t:.2f} s before the newest "
+                                    f"transform (limit {self.max_age_s:.2f} s)")
             T = T_pc @ T
             frame = parent
             path.append(frame)
@@ -69,8 +77,8 @@ class TfBuffer:
         Raises:
             TfLookupError: the frames are not connected, or a transform on the way is stale.
         """
-        now = time.monotonic()
         with self._lock:
+            now = self._newest
             p_t, T_rt = self._chain(target, now)
             p_s, T_rs = self._chain(source, now)
         if p_t[-1] != p_s[-1]:

@@ -38,7 +38,7 @@ import os
 import re
 import threading
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from benchbot.core import settings
 
@@ -119,6 +119,14 @@ class Transport(abc.ABC):
                   reliable: bool = False) -> Any:
         """Call ``callback(msg)`` for each message on ``topic``; returns a handle kept alive by the transport."""
 
+    def poll(self, topics: "Iterable[str] | None" = None) -> int:
+        """Deliver now, on the calling thread, the messages of ``topics`` (None: every subscribed topic) that have
+        arrived but that the transport's own thread has not handed to their callbacks yet: a watchdog calls it
+        before judging a topic silent, so that messages queued while this process was not scheduled count
+        (:mod:`benchbot_robot_ros2.watchdog`). Never blocks on the transport's thread: what that thread is
+        delivering right now it delivers itself. Returns how many messages were delivered here (0 by default)."""
+        return 0
+
     def close(self) -> None:
         """Release the participant/node."""
 
@@ -198,6 +206,7 @@ class CycloneTransport(Transport):
         self.participant = DomainParticipant(self.domain_id, qos=Qos(Policy.Userdata(data=b"enclave=/;")))
         self._topics: dict[str, Any] = {}
         self._keep: list[Any] = []
+        self._pollers: list[tuple[str, Any, Callable[[Any], int]]] = []  # (topic, reader, poll) per subscription
         self._lock = threading.Lock()
         self.reader_gids: list[bytes] = []
         self.writer_gids: list[bytes] = []
@@ -267,20 +276,36 @@ class CycloneTransport(Transport):
 
         dds_topic_obj, cls = self._topic(topic, ros_type)
         transport = self
+        taking = threading.Lock()  # one thread at a time takes and delivers this reader's samples, in order
 
-        def on_data_available(reader: Any) -> None:
+        def deliver(reader: Any) -> int:
+            delivered = 0
             for _ in range(64):  # bounded: a flood cannot pin this thread
                 try:
                     samples = reader.take(N=16)
                 except Exception as exc:  # noqa: BLE001 - undecodable sample(s): dropped, counted
                     transport.errors += 1
                     transport.last_error = f"cannot decode a {ros_type} on {topic}: {exc!r}"
-                    return
+                    return delivered
                 if not samples:
-                    return
+                    return delivered
                 for sample in samples:
                     if isinstance(sample, cls):
                         transport._guard(callback, sample)
+                        delivered += 1
+            return delivered
+
+        def on_data_available(reader: Any) -> None:
+            with taking:
+                deliver(reader)
+
+        def poll(reader: Any) -> int:
+            if not taking.acquire(blocking=False):  # the listener is delivering them now
+                return 0
+            try:
+                return deliver(reader)
+            finally:
+                taking.release()
 
         policies = [
             Policy.Reliability.Reliable(max_blocking_time=100_000_000) if (reliable or latched) else Policy.Reliability.BestEffort,
@@ -293,10 +318,26 @@ class CycloneTransport(Transport):
                             listener=Listener(on_data_available=on_data_available))
         self._keep.append(reader)
         with self._lock:
+            self._pollers.append((topic, reader, poll))
+        with self._lock:
             self.reader_gids.append(reader.guid.bytes)
         self._announce()
         on_data_available(reader)  # samples that arrived while the reader was being built (latched topics)
         return reader
+
+    def poll(self, topics: Iterable[str] | None = None) -> int:
+        """:meth:`Transport.poll`: takes each reader's queued samples (``DataReader.take``) and delivers them on this
+        thread, unless the listener thread is delivering that reader's samples at this moment."""
+        wanted = None if topics is None else set(topics)
+        with self._lock:
+            pollers = [p for p in self._pollers if wanted is None or p[0] in wanted]
+        delivered = 0
+        for _, reader, poll in pollers:
+            try:
+                delivered += poll(reader)
+            except Exception:  # noqa: BLE001 - a reader deleted by close() meanwhile: nothing to deliver
+                pass
+        return delivered
 
     def close(self) -> None:
         """Delete the readers, writers, topics and the participant. The readers' listeners are removed first, on
@@ -311,6 +352,8 @@ class CycloneTransport(Transport):
                     entity.set_listener(None)
                 except Exception:  # noqa: BLE001 - an entity already deleted with its participant: nothing to stop
                     pass
+        with self._lock:
+            self._pollers.clear()
         self._keep.clear()
         self._topics.clear()
         self._discovery = None
@@ -358,6 +401,7 @@ class RclpyTransport(Transport):
         self.domain_id, self.network, self.node_name = int(domain_id), network, node_name
         self._fallback: CycloneTransport | None = None
         self.via_cyclonedds: set[str] = set()
+        self._handled = 0  # rclpy subscription callbacks run so far (either thread)
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
@@ -368,16 +412,44 @@ class RclpyTransport(Transport):
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._stop = threading.Event()
+        self._spinning = threading.Lock()  # one thread at a time runs the executor (the spin thread, or poll())
+        self._topics: dict[str, str] = {}  # topic -> "rclpy" or "cyclonedds": who delivers it
         self._thread = threading.Thread(target=self._spin, name="benchbot-rclpy", daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
         while not self._stop.is_set() and self._rclpy.ok(context=self.context):
             try:
-                self.executor.spin_once(timeout_sec=0.05)
+                with self._spinning:
+                    self.executor.spin_once(timeout_sec=0.05)
             except Exception as exc:  # noqa: BLE001
                 self.errors += 1
                 self.last_error = repr(exc)
+
+    def poll(self, topics: Iterable[str] | None = None) -> int:
+        """:meth:`Transport.poll`: the Cyclone DDS participant's queued samples (:meth:`CycloneTransport.poll`), and
+        the callbacks rclpy has ready (``spin_once`` without waiting, up to 64), run here unless the spinning thread
+        holds the executor: it is then waiting for messages or delivering them itself. rclpy runs whatever callback
+        is ready first, so this may deliver other topics' messages too (returned as the count)."""
+        wanted = None if topics is None else list(topics)
+        delivered = self._fallback.poll(wanted) if self._fallback is not None else 0
+        if wanted is not None and not any(self._topics.get(t) == "rclpy" for t in wanted):
+            return delivered
+        if not self._spinning.acquire(blocking=False):
+            return delivered
+        try:
+            for _ in range(64):
+                before = self._handled
+                self.executor.spin_once(timeout_sec=0.0)
+                if self._handled == before:
+                    break
+                delivered += self._handled - before
+        except Exception as exc:  # noqa: BLE001 - as on the spinning thread: counted, never raised
+            self.errors += 1
+            self.last_error = repr(exc)
+        finally:
+            self._spinning.release()
+        return delivered
 
     @staticmethod
     def _cls(ros_type: str) -> type:
@@ -432,10 +504,16 @@ class RclpyTransport(Transport):
                   reliable: bool = False) -> Any:
         other = self._cyclone(ros_type)
         if other is not None:
+            self._topics[topic] = "cyclonedds"
             return other.subscribe(topic, ros_type, lambda m: self._guard(callback, m), latched=latched,
                                    reliable=reliable)
-        return self.node.create_subscription(self._cls(ros_type), topic, lambda m: self._guard(callback, m),
-                                             self._qos(latched, reliable, False))
+        self._topics[topic] = "rclpy"
+
+        def handle(msg: Any) -> None:
+            self._handled += 1
+            self._guard(callback, msg)
+
+        return self.node.create_subscription(self._cls(ros_type), topic, handle, self._qos(latched, reliable, False))
 
     def close(self) -> None:
         """Stop the spinning thread (joined: a thread left inside rclpy at interpreter exit aborts the process),
