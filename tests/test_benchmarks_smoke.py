@@ -53,6 +53,7 @@ FIGURES = {
     "render_gpu.py": [r'"fps": [\d.]+', r'"fps_textured": [\d.]+'],
     "render_meshes.py": [r"[\d.]+ fps textured, [\d.]+ fps untextured"],
     "render_quality.py": [r"[\d.]+ fps denoised, [\d.]+ fps"],
+    "ros2_load.py": [r"motions +\d+", r"faults +\d+"],
     "ros2_safety.py": [r"stop_latency_median_s +[\d.]+"],
     "ros2_step.py": [r"ros2_observe_ms: [\d.]+", r"direct_observe_ms: [\d.]+"],
     "sensors_kernels.py": [r"[\d.]+ fps with a synchronisation", r"shade\w*_kernel +[\d.]+ ms/launch"],
