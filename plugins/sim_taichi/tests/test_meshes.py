@@ -308,3 +308,111 @@ def test_an_environment_yaml_without_name_or_variant_is_one_line_error(tmp_path,
     assert res.exit_code == 3, res.output
     assert f"the environment {tmp_path / 'env.yaml'} has no name and no variant" in res.output, res.output
     assert "Traceback" not in res.output and isinstance(res.exception, (SystemExit, type(None))), res.exception
+
+
+# ---------------------------------------------------------------------------------------- textures that cannot be decoded
+#: Makes Pillow unimportable in a fresh interpreter, as in an environment where it is not installed.
+WITHOUT_PILLOW = "import sys; sys.modules['PIL'] = None\n"
+
+
+def _run_without_pillow(code: str, tmp_path, *args: str):
+    import subprocess
+    import sys
+
+    import os
+
+    env = {**os.environ, "BENCHBOT_CACHE_DIR": str(tmp_path / "cache"), "BENCHBOT_SIM_STYLE": "furnished"}
+    env.pop("BENCHBOT_DEBUG", None)
+    return subprocess.run([sys.executable, "-c", WITHOUT_PILLOW + code, *args], capture_output=True, text=True,
+                          timeout=120, cwd=tmp_path, env=env)
+
+
+def test_a_textured_pack_model_without_pillow_is_an_error_and_an_untextured_one_loads(tmp_path):
+    """Without Pillow trimesh would load a textured GLB of the shipped pack without its images, saying nothing:
+    load_mesh raises TextureDecodeError naming Pillow instead; a model without textures needs no Pillow."""
+    pack = pytest.importorskip("benchbot_assets_sh3d.plugin").PACK_DIR
+    code = (
+        "import json, sys\n"
+        "from benchbot_sim_taichi.scene.meshes import TextureDecodeError, load_mesh\n"
+        "from benchbot.core.errors import BenchbotError\n"
+        "assert issubclass(TextureDecodeError, BenchbotError)\n"
+        "mesh = load_mesh(sys.argv[2])\n"
+        "print('untextured:', len(mesh.materials), 'materials')\n"
+        "try:\n"
+        "    load_mesh(sys.argv[1])\n"
+        "except TextureDecodeError as e:\n"
+        "    print(json.dumps([e.message, e.hint]))\n"
+    )
+    textured, untextured = pack / "chair__sc_children_chair.glb", pack / "chair__ccby_green_stool.glb"
+    res = _run_without_pillow(code, tmp_path, str(textured), str(untextured))
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert lines[0].startswith("untextured:")
+    import json
+
+    message, hint = json.loads(lines[1])
+    assert message == (f"textures cannot be decoded: Pillow is not installed (the mesh {textured} has 1 textured "
+                       "material)")
+    assert "pip install pillow" in hint and "\n" not in message + hint
+
+
+def test_a_furnished_scene_without_pillow_is_a_one_line_error(tmp_path):
+    """The user's view: `benchbot sim export miniroom:1` where Pillow is missing exits 5 with one line naming Pillow
+    and the hint, no traceback, and writes nothing (the scene cache's key records the decoder, so no scene decoded
+    by a Pillow elsewhere is served either: the cache here starts empty)."""
+    pytest.importorskip("benchbot_assets_sh3d")
+    code = ("import sys\nfrom benchbot.cli.main import main\n"
+            "sys.argv = ['benchbot', 'sim', 'export', 'miniroom:1', '-o', 'scene.glb']\nmain()\n")
+    res = _run_without_pillow(code, tmp_path)
+    assert res.returncode == 5, res.stdout + res.stderr
+    lines = [line for line in res.stderr.splitlines() if line.strip()]
+    assert lines[0].startswith("error: textures cannot be decoded: Pillow is not installed (the mesh "), lines
+    assert lines[1].startswith("hint: pip install pillow"), lines
+    assert "Traceback" not in res.stderr and not (tmp_path / "scene.glb").exists()
+
+
+def _damaged_png_glb(path, how: str):
+    """A textured quad GLB whose PNG is damaged: ``signature`` (Pillow cannot even identify it, so trimesh leaves
+    the material without its image) or ``data`` (its pixel data zeroed: Pillow opens it and fails decoding)."""
+    import struct
+
+    image = (np.random.default_rng(0).random((16, 16, 3)) * 255).astype(np.uint8)
+    data = bytearray(write_textured_quad_glb(path, image=image).read_bytes())
+    start = data.index(b"\x89PNG")
+    if how == "signature":
+        data[start:start + 8] = b"NOTAPNG!"
+    else:
+        at = data.index(b"IDAT", start)
+        size = struct.unpack(">I", data[at - 4:at])[0]
+        data[at + 4:at + 4 + size] = bytes(size)
+    path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("how, reason", [
+    ("signature", "1 of the 1 textured materials of the mesh .*signature.glb have no image that Pillow could read"),
+    ("data", r"an image of the mesh .*data.glb is unreadable \(OSError: "),
+])
+def test_an_image_pillow_cannot_decode_is_an_error(tmp_path, how, reason):
+    from benchbot_sim_taichi.scene.meshes import TextureDecodeError, load_mesh
+
+    with pytest.raises(TextureDecodeError, match="^textures cannot be decoded: " + reason) as info:
+        load_mesh(_damaged_png_glb(tmp_path / f"{how}.glb", how))
+    assert "\n" not in info.value.message and info.value.hint
+
+
+def test_an_obj_whose_map_kd_cannot_be_read_is_an_error(tmp_path):
+    from PIL import Image
+
+    from benchbot_sim_taichi.scene.meshes import TextureDecodeError, load_mesh
+
+    Image.fromarray(_quadrant_image()).save(tmp_path / "tex.png")
+    (tmp_path / "m.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd tex.png\n")
+    (tmp_path / "quad.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                       "usemtl a\nf 1/1 2/2 3/3\n")
+    (mat,) = load_mesh(tmp_path / "quad.obj").materials
+    assert mat.texture.shape == (4, 4, 3)
+    (tmp_path / "m.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd missing.png\n")
+    (tmp_path / "quad2.obj").write_text((tmp_path / "quad.obj").read_text())
+    with pytest.raises(TextureDecodeError, match="quad2.obj have no image"):
+        load_mesh(tmp_path / "quad2.obj")

@@ -11,6 +11,10 @@ Materials (:class:`Material`): a linear albedo (glTF ``baseColorFactor``, which 
 or ``map_Kd``) that multiplies it, roughness and metallic. The sRGB ↔ linear conversion is the plain 2.2 gamma used
 everywhere in the simulator (:func:`benchbot_sim_taichi.scene.model.srgb_to_linear`).
 
+Textures are decoded by Pillow, through trimesh. A file whose textures cannot be decoded (Pillow is not installed,
+or an image is damaged or of a format Pillow does not read) raises :class:`TextureDecodeError` when loaded: trimesh
+itself would leave such a material untextured without a word, and the scene would quietly look different.
+
 Texture coordinates follow trimesh's (OpenGL's) convention: ``v = 0`` is the image's BOTTOM row (trimesh flips
 glTF's top-left origin on loading); texture arrays are stored top row first, as images are; textures repeat.
 
@@ -59,6 +63,21 @@ def _srgb_to_linear(c) -> np.ndarray:
 def _linear_to_srgb8(c) -> np.ndarray:
     return np.floor(np.power(np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0), 1.0 / 2.2) * 255.0 + 0.5
                     ).astype(np.uint8)
+
+
+#: What to do when Pillow, which decodes every texture, is missing.
+PILLOW_HINT = "pip install pillow (benchbot-sim-taichi declares it: reinstalling it installs Pillow too)"
+
+
+class TextureDecodeError(BackendError):
+    """A mesh file has textures that cannot be decoded: Pillow (which trimesh decodes images with) is not
+    installed, or an image is damaged, missing or of a format Pillow cannot read. Raised by :func:`load_mesh`, so
+    that a scene is never built with some of its models untextured; the message names the file and the reason in
+    one line, the hint how to fix it."""
+
+
+class _Undecodable(Exception):
+    """Internal: Pillow could not decode one texture image (the message says why)."""
 
 
 @dataclass(eq=False)
@@ -259,8 +278,11 @@ def _texture_array(image) -> np.ndarray | None:
         return None
     from PIL import Image
 
-    img = image if isinstance(image, Image.Image) else Image.fromarray(np.asarray(image))
-    img = img.convert("RGB")
+    try:
+        img = image if isinstance(image, Image.Image) else Image.fromarray(np.asarray(image))
+        img = img.convert("RGB")  # decodes the image (trimesh only opened it)
+    except (OSError, ValueError, SyntaxError, TypeError) as e:  # what Pillow raises for damaged or odd images
+        raise _Undecodable(f"{type(e).__name__}: {e}".splitlines()[0]) from e
     w, h = img.size
     if max(w, h) > TEXTURE_MAX_SIDE_PX:
         s = TEXTURE_MAX_SIDE_PX / max(w, h)
@@ -344,14 +366,113 @@ def _file_normals(geom) -> np.ndarray | None:
     return n if n.shape == (len(geom.vertices), 3) else None
 
 
+def pillow_missing() -> bool:
+    """True when Pillow (``PIL``), which decodes every texture, cannot be imported."""
+    try:
+        import PIL.Image  # noqa: F401
+    except ImportError:
+        return True
+    return False
+
+
+def _gltf_json(path: Path) -> dict | None:
+    """The JSON of a glTF file (``.gltf``: the file; ``.glb``: its first chunk), or None when the file is not one
+    (trimesh then says what is wrong with it)."""
+    import json
+    import struct
+
+    try:
+        with open(path, "rb") as f:
+            if path.suffix.lower() == ".gltf":
+                data = json.loads(f.read())
+            else:
+                magic, _version, _length = struct.unpack("<4sII", f.read(12))
+                size, kind = struct.unpack("<I4s", f.read(8))
+                if magic != b"glTF" or kind != b"JSON":
+                    return None
+                data = json.loads(f.read(size))
+    except (OSError, ValueError, struct.error):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _declared_textures(path: Path) -> int:
+    """How many distinct textured materials the file ``path`` declares, counting only what the loaded mesh can show:
+    for glTF, the materials of triangle primitives with a base colour texture that names an image; for OBJ, 1 when
+    one of its MTL files has a ``map_Kd`` (its materials are not counted one by one); 0 for other formats."""
+    suffix = path.suffix.lower()
+    if suffix in (".glb", ".gltf"):
+        header = _gltf_json(path)
+        if header is None:
+            return 0
+        materials, textures = header.get("materials") or [], header.get("textures") or []
+        used = {prim.get("material") for mesh in header.get("meshes") or [] if isinstance(mesh, dict)
+                for prim in mesh.get("primitives") or [] if isinstance(prim, dict) and prim.get("mode", 4) == 4}
+        count = 0
+        for i in used:
+            if not isinstance(i, int) or not 0 <= i < len(materials) or not isinstance(materials[i], dict):
+                continue
+            ref = (materials[i].get("pbrMetallicRoughness") or {}).get("baseColorTexture")
+            t = ref.get("index") if isinstance(ref, dict) else None
+            if isinstance(t, int) and 0 <= t < len(textures) and isinstance(textures[t], dict) and (
+                    "source" in textures[t] or any(isinstance(ext, dict) and "source" in ext
+                                                   for ext in (textures[t].get("extensions") or {}).values())):
+                count += 1
+        return count
+    if suffix == ".obj":
+        try:
+            with open(path, "rb") as f:
+                libs = [line.split(None, 1)[1].strip().decode(errors="replace") for line in f
+                        if line.startswith(b"mtllib") and len(line.split(None, 1)) == 2]
+            for lib in libs:
+                with open(path.parent / lib, "rb") as f:
+                    if any(line.strip().lower().startswith(b"map_kd") for line in f):
+                        return 1
+        except OSError:
+            return 0
+    return 0
+
+
+def _decoded_textures(loaded) -> int:
+    """How many distinct materials of a loaded ``trimesh.Scene`` hold a texture image (glTF's base colour texture,
+    an MTL's ``map_Kd``); trimesh gives every primitive of one file material the same material object."""
+    textured = set()
+    for geom in loaded.geometry.values():
+        material = getattr(getattr(geom, "visual", None), "material", None)
+        if material is not None and (getattr(material, "baseColorTexture", None) is not None
+                                     or getattr(material, "image", None) is not None):
+            textured.add(id(material))
+    return len(textured)
+
+
 def _read_mesh(path: Path) -> MeshData:
     import trimesh
 
     hint = "use a GLB/glTF, OBJ, PLY or STL file that trimesh can read"
+    declared = _declared_textures(path)
+    if declared and pillow_missing():
+        raise TextureDecodeError(f"textures cannot be decoded: Pillow is not installed (the mesh {path} has "
+                                 f"{declared} textured material{'s' if declared > 1 else ''})", PILLOW_HINT)
     try:
         loaded = trimesh.load_scene(str(path), process=False)
     except Exception as e:  # noqa: BLE001 - trimesh raises many kinds
         raise BackendError(f"cannot read the mesh {path}: {e}", hint) from e
+    decoded = _decoded_textures(loaded)
+    if decoded < declared:
+        raise TextureDecodeError(
+            f"textures cannot be decoded: {declared - decoded} of the {declared} textured materials of the mesh "
+            f"{path} have no image that Pillow could read (damaged, missing, or a format it does not decode)",
+            "fix or re-export the model's textures (PNG or JPEG), or check that Pillow reads them: "
+            "python -c \"import PIL.Image; PIL.Image.open('texture.png').load()\"")
+    try:
+        return _mesh_data(loaded, path, trimesh)
+    except _Undecodable as e:
+        raise TextureDecodeError(f"textures cannot be decoded: an image of the mesh {path} is unreadable ({e})",
+                                 "fix or re-export the model's textures (PNG or JPEG)") from e
+
+
+def _mesh_data(loaded, path: Path, trimesh) -> MeshData:
+    """:class:`MeshData` of a loaded ``trimesh.Scene`` of the file ``path`` (see :func:`load_mesh`)."""
     gltf = path.suffix.lower() in (".glb", ".gltf")
     shared: dict = {}
     materials: list[Material] = []
@@ -407,6 +528,8 @@ def load_mesh(path: "str | Path") -> MeshData:
 
     Raises:
         BackendError: the file is missing or unreadable, trimesh cannot read it, or it has no triangles.
+        TextureDecodeError: (a BackendError) the file has textures that cannot be decoded: Pillow is not installed,
+            or an image is damaged, missing or in a format Pillow cannot read.
     """
     p = Path(path).expanduser()
     try:
