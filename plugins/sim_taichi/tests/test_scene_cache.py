@@ -264,3 +264,89 @@ def test_the_key_follows_the_core_code_and_trimesh_that_shape_a_scene(synthetic_
     with changed(monkeypatch, cache.Path, "read_bytes",
                  lambda self: real_bytes(self) + b"# changed" if self == geometry else real_bytes(self)):
         assert cache.scene_key(env, 0) != key
+
+
+@pytest.fixture
+def small_pack(tmp_path, monkeypatch):
+    """A copy of two models of the shipped pack (one textured) with its manifest, as the only asset pack: the
+    manifest's path."""
+    import shutil
+
+    from benchbot.core import assets
+
+    shipped = pytest.importorskip("benchbot_assets_sh3d.plugin").MANIFEST
+    data = json.loads(shipped.read_text())
+    keep = {"chair__sc_children_chair", "chair__ccby_green_stool"}
+    data["assets"] = [a for a in data["assets"] if a["id"] in keep]
+    folder = tmp_path / "pack"
+    folder.mkdir()
+    for a in data["assets"]:
+        shutil.copy(shipped.parent / a["file"], folder / a["file"])
+    manifest = folder / "manifest.json"
+    manifest.write_text(json.dumps(data))
+    monkeypatch.setattr(assets, "asset_library",
+                        lambda *a, **k: assets.AssetLibrary(assets.load_asset_manifest(manifest)))
+    return manifest
+
+
+def _new_jpeg(decoder):
+    return {**decoder, "jpeg": "0.1"}
+
+
+def _edit_manifest(manifest):
+    data = json.loads(manifest.read_text())
+    data["assets"][0]["tags"] = [*data["assets"][0].get("tags", []), "changed"]
+    manifest.write_text(json.dumps(data))
+
+
+def _edit_model_in_place(manifest):
+    """One byte of a model file changed, its size and modification time kept (only its content tells)."""
+    data = json.loads(manifest.read_text())
+    glb = manifest.parent / data["assets"][0]["file"]
+    st = glb.stat()
+    raw = bytearray(glb.read_bytes())
+    raw[-1] ^= 0x01
+    glb.write_bytes(bytes(raw))
+    os.utime(glb, ns=(st.st_atime_ns, st.st_mtime_ns))
+    cache._content_digest.cache_clear()  # digests are remembered per (path, size, time) within a process
+
+
+@pytest.mark.parametrize("component", ["pillow version", "jpeg library", "no pillow", "trimesh version",
+                                       "manifest entry", "model bytes"])
+def test_the_key_follows_the_image_decoder_and_the_asset_packs(synthetic_env, small_pack, monkeypatch, component):
+    """Everything that changes a furnished scene changes its key: Pillow's version, the JPEG library it decodes
+    with, Pillow missing (then no scene is built at all: the key must not find one built elsewhere), trimesh's
+    version, a field of an asset pack's manifest, and a model file's bytes (its size and time unchanged)."""
+    import sys
+    from importlib import metadata
+
+    env = {**synthetic_env([("chair", (2.0, 0.5, 0.45), (0.5, 0.5, 0.9))]), "style": "furnished"}
+    cache.code_fingerprint.cache_clear()
+    key = cache.scene_key(env, 0)
+    assert key == cache.scene_key(env, 0) and cache.image_decoder()["pillow"]
+    assert {row[0]["id"] for row in cache.assets_fingerprint()} == {"chair__sc_children_chair",
+                                                                    "chair__ccby_green_stool"}
+    real_version = metadata.version
+    if component in ("pillow version", "trimesh version"):
+        name = component.split()[0]
+        with changed(monkeypatch, metadata, "version",
+                     lambda dist: "0.0.1" if dist == name else real_version(dist)):
+            assert cache.scene_key(env, 0) != key
+    elif component == "jpeg library":
+        with changed(monkeypatch, cache, "image_decoder", lambda real=cache.image_decoder: _new_jpeg(real())):
+            assert cache.scene_key(env, 0) != key
+    elif component == "no pillow":
+        with monkeypatch.context() as inside:
+            inside.setitem(sys.modules, "PIL", None)  # as where Pillow is not installed: `import PIL` fails
+            cache.code_fingerprint.cache_clear()
+            assert cache.image_decoder() is None
+            assert cache.scene_key(env, 0) != key
+    elif component == "manifest entry":
+        _edit_manifest(small_pack)
+        assert cache.scene_key(env, 0) != key
+    else:
+        _edit_model_in_place(small_pack)
+        assert cache.scene_key(env, 0) != key
+    cache.code_fingerprint.cache_clear()
+    if component not in ("manifest entry", "model bytes"):
+        assert cache.scene_key(env, 0) == key  # the same again once the component is back

@@ -14,10 +14,13 @@ version).
 Keys are SHA-256 digests of everything that decides the content (:func:`scene_key`): the environment spec, the
 style and seed, the bytes of its layout file (and of the files its ``home_files`` declares, from which the furnished
 floor plan is derived: :func:`~benchbot_sim_taichi.homes.floorplan.home_files`) and of its mesh files, the asset
-packs' models (ids, digests, sizes, modification times), and the code:
-the bytes of every Python file of this package and of the core's modules that shape a scene (:data:`CORE_MODULES`),
-its version, NumPy's and trimesh's versions and :data:`CACHE_FORMAT`. A change to any of them is a miss; nothing is
-ever invalidated by hand.
+packs' contents (every manifest entry as read, and the SHA-256 of each model file's bytes: :func:`assets_fingerprint`),
+and the code: the bytes of every Python file of this package and of the core's modules that shape a scene
+(:data:`CORE_MODULES`), its version, NumPy's, trimesh's and Pillow's versions, the image decoder that turns textures
+into pixels (:func:`image_decoder`: Pillow's version and its JPEG and zlib libraries', or none) and
+:data:`CACHE_FORMAT`. A change to any of them is a miss; nothing is ever invalidated by hand. (A scene is never
+built without its textures: :class:`~benchbot_sim_taichi.scene.meshes.TextureDecodeError`; the decoder is in the key
+so that a scene decoded by one Pillow is not served to another.)
 
 Files are NumPy ``.npz`` archives read with ``allow_pickle=False`` (loading one runs no code): arrays as they are,
 strings and the floor plan as JSON in uint8 arrays. They are written to a temporary file beside their place, then
@@ -62,8 +65,9 @@ _PACKAGE = Path(__file__).resolve().parents[1]
 #: Modules of the BenchBot core whose code decides what a scene holds (poses and start poses; the asset library the
 #: furnished style chooses from): their bytes are part of :func:`code_fingerprint`.
 CORE_MODULES = ("benchbot.core.geometry", "benchbot.core.assets")
-#: Distributions whose version decides what a scene holds besides NumPy: trimesh loads every mesh file.
-LIBRARIES = ("trimesh",)
+#: Distributions whose version decides what a scene holds besides NumPy: trimesh loads every mesh file, Pillow
+#: decodes their textures (see also :func:`image_decoder`).
+LIBRARIES = ("trimesh", "pillow")
 
 
 # ------------------------------------------------------------------------------------------------------ where, when
@@ -86,11 +90,34 @@ def max_bytes() -> int:
 
 
 # ------------------------------------------------------------------------------------------------------------- keys
+def image_decoder() -> dict | None:
+    """What decodes the models' textures (trimesh hands every image to Pillow): ``{"pillow": version, "jpeg":
+    libjpeg's version, "libjpeg_turbo": its version or None, "zlib": zlib's version}`` (the libraries Pillow was
+    built with: a JPEG texture's pixels may differ between libjpeg versions), or None when Pillow cannot be imported
+    (then a furnished scene cannot be built: :class:`~benchbot_sim_taichi.scene.meshes.TextureDecodeError`)."""
+    try:
+        import PIL
+        from PIL import features
+    except ImportError:
+        return None
+
+    def probe(get, name: str) -> str | None:
+        try:
+            return get(name)
+        except Exception:  # noqa: BLE001 - an older Pillow without the probe, or without the feature
+            return None
+
+    return {"pillow": PIL.__version__, "jpeg": probe(features.version_codec, "jpg"),
+            "libjpeg_turbo": probe(features.version_feature, "libjpeg_turbo"),
+            "zlib": probe(features.version_codec, "zlib")}
+
+
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
     """SHA-256 (hex) of the code that builds and prepares scenes: the path and bytes of every ``.py`` file of
     ``benchbot_sim_taichi`` and of the core's :data:`CORE_MODULES`, its distribution's version, NumPy's and
-    :data:`LIBRARIES`' versions and :data:`CACHE_FORMAT` (computed once per process: a few milliseconds)."""
+    :data:`LIBRARIES`' versions, :func:`image_decoder` and :data:`CACHE_FORMAT` (computed once per process: a few
+    milliseconds, and importing Pillow)."""
     import importlib.util
     from importlib import metadata
 
@@ -102,7 +129,7 @@ def code_fingerprint() -> str:
 
     h = hashlib.sha256()
     h.update(json.dumps([CACHE_FORMAT, version("benchbot-sim-taichi"), np.__version__,
-                         [version(name) for name in LIBRARIES]]).encode())
+                         [version(name) for name in LIBRARIES], image_decoder()]).encode())
     for path in sorted(_PACKAGE.rglob("*.py")):
         h.update(str(path.relative_to(_PACKAGE)).encode() + b"\0")
         h.update(path.read_bytes())
@@ -118,15 +145,28 @@ def _file_digest(path: Path) -> str:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
 
-def _assets_fingerprint() -> list:
-    """The installed asset packs' models as the furnished style chooses among them: id, class, kind, role, the
-    manifest's digest, and the file's size and modification time (a file changed without its manifest)."""
+@functools.lru_cache(maxsize=1024)
+def _content_digest(path: str, size: int, mtime_ns: int) -> str:
+    """SHA-256 (hex) of the file at ``path``, remembered per (path, size, modification time) within a process (the
+    shipped pack's 187 models, 15 MB: about 30 ms once). Raises OSError: it cannot be read."""
+    return _file_digest(Path(path))
+
+
+def assets_fingerprint() -> list:
+    """The installed asset packs' contents as the furnished style uses them: per model, every field of its manifest
+    entry as read (:class:`benchbot.core.assets.AssetInfo`: id, class, kind, role, size, mount, tags, the manifest's
+    digest, …, its path) and the SHA-256 of the model file's bytes (so a file changed without its manifest is a
+    miss too).
+
+    Raises:
+        OSError: a model file cannot be read.
+    """
     from benchbot.core.assets import asset_library
 
     rows = []
     for a in asset_library().all():
         st = os.stat(a.path)
-        rows.append([a.id, a.file, a.cls, a.kind, a.role, a.sha256, str(a.path), st.st_size, st.st_mtime_ns])
+        rows.append([dataclasses.asdict(a), _content_digest(str(a.path), st.st_size, st.st_mtime_ns)])
     return rows
 
 
@@ -136,7 +176,7 @@ def scene_key(environment: dict, seed: int = 0) -> str | None:
     :func:`~benchbot_sim_taichi.scene.build.default_style`), the seed, the bytes of the layout file (``map_path``), of
     the ground-truth files its home's plan is derived from (furnished style:
     :func:`~benchbot_sim_taichi.homes.floorplan.home_files`) and of the mesh files of ``objects``, the asset packs'
-    models (furnished style) and :func:`code_fingerprint`. ``None`` when a file it names cannot be read (then the
+    contents (furnished style: :func:`assets_fingerprint`) and :func:`code_fingerprint`. ``None`` when a file it names cannot be read (then the
     scene is built, and the build says what is wrong).
 
     Raises:
@@ -164,7 +204,7 @@ def scene_key(environment: dict, seed: int = 0) -> str | None:
             files.append(path if path.is_absolute() else _env_dir(environment) / path)
     try:
         digests = [[str(p), _file_digest(p)] for p in files]
-        assets = _assets_fingerprint() if style == "furnished" else []
+        assets = assets_fingerprint() if style == "furnished" else []
     except OSError as e:
         log.info("scene cache: not used for %s:%s (%s)", environment.get("name"), environment.get("variant"), e)
         return None
