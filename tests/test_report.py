@@ -100,6 +100,43 @@ def test_pairs_by_environment_and_seed_else_by_repetition(tmp_path):
     assert c["episodes"]["difference"]["value"] == pytest.approx((0.2 + 0.2 + 0.25) / 3)
 
 
+def test_runs_with_different_repeats_pair_every_environment_and_say_what_was_left_out(tmp_path, capsys):
+    """--repeat 2 against --repeat 1 on six environments (issue 57): seeds are numbered across a batch, so by
+    environment and seed only miniroom:1's first episode pairs. The environment level pairs the six environments'
+    means (every episode counts), the episode level pairs by repetition, and the CLI says in one line what it left
+    out and why."""
+    from benchbot.cli.report_cmd import _print_report
+
+    rng = np.random.default_rng(3)
+    envs = [f"miniroom:{v}" for v in range(1, 4)] + [f"house:{v}" for v in range(1, 4)]
+    room = dict(zip(envs, rng.uniform(0.2, 0.6, 6)))
+    twice = {e: list(room[e] + rng.normal(0, 0.01, 2)) for e in envs}
+    once = {e: [room[e] + 0.02 + rng.normal(0, 0.01)] for e in envs}
+    a, b = load_run(scores_only_run(tmp_path, "r2", twice)), load_run(scores_only_run(tmp_path, "r1", once))
+    assign_labels([a, b], ["geomR", "geomN"])
+    seeds = {r["env"]: r["seed"] for r in b.rows}
+    assert sum(r["seed"] == seeds[r["env"]] for r in a.rows) == 1  # by seed, one pair of 18 episodes
+    c = compare(a, b, "OMQ")
+    diffs = [once[e][0] - np.mean(twice[e]) for e in envs]
+    assert (c["n"], c["environments"]) == (6, envs)
+    assert c["environment_differences"] == pytest.approx(diffs)
+    assert c["difference"]["value"] == pytest.approx(np.mean(diffs))
+    assert c["ttest_p"] == pytest.approx(sps.ttest_1samp(diffs, 0).pvalue)
+    assert c["wilcoxon_p"] == pytest.approx(sps.wilcoxon(diffs).pvalue)
+    assert c["episodes"]["n"] == 6 and c["pairing"] == "environment and repetition (the seeds differ)"
+    assert c["unpaired"] == 6 and c["unpaired_environments"] == []
+    assert c["left_out"] == ("at the episode level 6 of 18 episodes (geomR ran 2 episodes per environment, geomN 1 "
+                             "episode per environment); the environment level uses every episode")
+    _print_report(analyse([a, b]))
+    printed = capsys.readouterr().out
+    assert "\n  left out: at the episode level 6 of 18 episodes" in printed
+    # an environment only one run has is left out of both levels, by name
+    extra = load_run(scores_only_run(tmp_path, "r1x", {**once, "house:5": [0.5]}))
+    c = compare(a, extra, "OMQ")
+    assert c["n"] == 6 and c["unpaired_environments"] == ["house:5"]
+    assert c["left_out"].startswith("1 environment only r1x ran (house:5): no partner; at the episode level 7 of 19")
+
+
 @pytest.mark.parametrize("setting", ["noise", "robot"])
 def test_runs_that_differ_in_noise_or_robot_pair_on_environment_and_seed(tmp_path, setting):
     """A run with noise preset high (or robot turtlebot4) against one with none (carter): the episodes pair on

@@ -12,13 +12,14 @@ a method's score names.
 
 Statistics (:mod:`benchbot.batch.stats`): the **environment is the unit of analysis**. A run's score is the mean over
 its environments of each environment's mean, with an interval over the environments; runs are compared with the
-first one (the baseline) on episodes paired by environment and seed (common random numbers; a robot or noise preset
-that differs between the two runs is the factor compared, not a reason not to pair), averaged per environment, with
+first one (the baseline) on their environment means (over every episode of each) paired by environment (a robot or
+noise preset that differs between the two runs is the factor compared, not a reason not to pair), with
 the tests over the environments' mean differences (from :data:`~benchbot.batch.stats.MIN_TEST_PAIRS` environments
 on), the p-values Holm-adjusted over the comparisons. The episode level is shown beside it, named as such: how
-precisely these environments were measured, not how a solution does on others. Runs that differ in a condition the
-comparison does not name (simulator style or version, camera, arch, ...) are compared with a warning
-(:func:`condition_differences`).
+precisely these environments were measured, not how a solution does on others, with episodes paired by
+environment and seed (common random numbers) or repetition; what a comparison leaves out is said (:func:`left_out`).
+Runs that differ in a condition the comparison does not name (simulator style or version, camera, arch, ...) are
+compared with a warning (:func:`condition_differences`).
 
 Per-class and per-object views re-score each episode's results file with the run's evaluation method asking for
 ``per_class`` and ``matches`` (docs/evaluation.md), and check that the re-scored primary score equals the run's.
@@ -484,15 +485,55 @@ def comparison_factors(a: RunData, b: RunData) -> list[dict]:
     return out
 
 
-def pair_episodes(a: RunData, b: RunData, score: str) -> dict:
-    """Pair the episodes of two runs: equal environment and seed (common random numbers), and equal robot and noise
-    preset unless the runs differ in it as a whole (:func:`comparison_factors`: then it is the factor compared and
-    not part of the pairing); when no episode pairs that way (the runs used different seeds), equal environment and
-    repetition instead.
+def _cell_fields(a: RunData, b: RunData) -> tuple[list[dict], tuple[str, ...], list[str]]:
+    """``(factors compared, the row factors kept in the pairing, those of them that vary)`` of two runs."""
+    factors = comparison_factors(a, b)
+    kept = tuple(f for f, _ in ROW_FACTORS if f not in {x["field"] for x in factors})
+    varied = [f for f in kept if len({r[f] for r in a.rows + b.rows}) > 1]
+    return factors, kept, varied
+
+
+def pair_environments(a: RunData, b: RunData, score: str) -> dict:
+    """Pair two runs at the environment level: each run's mean of ``score`` over **all** its episodes of an
+    environment (and of a robot or noise preset, where the runs vary one inside them), paired by environment. Every
+    episode counts, whatever the seeds and however many repetitions each run had: two runs with ``--repeat 2`` and
+    ``--repeat 1`` pair all their environments, where their episodes pair by seed in one environment at most
+    (seeds are numbered across a batch).
 
     Returns:
-        ``{"pairing": how, in words, "factors": comparison_factors, "keys": [a name per pair], "envs": [the
-        environment of each pair], "a": [...], "b": [...], "unpaired": episodes of either run left out}``.
+        ``{"keys": [a name per paired cell], "envs": [its environment], "a": [run a's mean], "b": [run b's mean],
+        "only_a": [cells only run a has], "only_b": [...], "episodes_a": {cell: n}, "episodes_b": {cell: n}}``;
+        cells are environments unless the runs vary a robot or noise preset inside them.
+    """
+    _, kept, varied = _cell_fields(a, b)
+
+    def cells(run: RunData) -> dict[str, tuple[str, list[float]]]:
+        out: dict[str, tuple[str, list[float]]] = {}
+        for row in run.rows:
+            if score in row:
+                key = " ".join([row["env"]] + [str(row[f]) for f in varied])
+                out.setdefault(key, (row["env"], []))[1].append(row[score])
+        return out
+
+    ca, cb = cells(a), cells(b)
+    shared = [k for k in ca if k in cb]
+    return {"keys": shared, "envs": [ca[k][0] for k in shared],
+            "a": [float(np.mean(ca[k][1])) for k in shared], "b": [float(np.mean(cb[k][1])) for k in shared],
+            "only_a": [k for k in ca if k not in cb], "only_b": [k for k in cb if k not in ca],
+            "episodes_a": {k: len(v[1]) for k, v in ca.items()}, "episodes_b": {k: len(v[1]) for k, v in cb.items()}}
+
+
+def pair_episodes(a: RunData, b: RunData, score: str) -> dict:
+    """Pair the episodes of two runs (the episode level): equal environment and seed (common random numbers), and
+    equal robot and noise preset unless the runs differ in it as a whole (:func:`comparison_factors`: then it is
+    the factor compared and not part of the pairing); when pairing by environment and repetition pairs more
+    episodes (runs with different seeds or a different ``--repeat``, whose seeds are numbered across the batch),
+    by repetition instead.
+
+    Returns:
+        ``{"pairing": how, in words, "by": "seed" or "repetition", "factors": comparison_factors, "keys": [a name
+        per pair], "envs": [the environment of each pair], "a": [...], "b": [...], "unpaired": episodes of either
+        run left out, "scored": episodes of both runs with the score}``.
     """
     def index(run: RunData, fields: tuple) -> dict:
         out = {}
@@ -501,27 +542,54 @@ def pair_episodes(a: RunData, b: RunData, score: str) -> dict:
                 out.setdefault(tuple(row[f] for f in fields), row)
         return out
 
-    factors = comparison_factors(a, b)
-    kept = tuple(f for f, _ in ROW_FACTORS if f not in {x["field"] for x in factors})
-    varied = [f for f in kept if len({r[f] for r in a.rows + b.rows}) > 1]
+    factors, kept, varied = _cell_fields(a, b)
     also = "".join(f", {dict(ROW_FACTORS)[f]}" for f in varied)
-    how = f"environment{also} and seed"
-    ia, ib = index(a, ("env", *kept, "seed")), index(b, ("env", *kept, "seed"))
-    shared = [k for k in ia if k in ib]
-    if not shared:
-        ia, ib = index(a, ("env", *kept, "repeat")), index(b, ("env", *kept, "repeat"))
-        shared = [k for k in ia if k in ib]
+    by_seed = (index(a, ("env", *kept, "seed")), index(b, ("env", *kept, "seed")))
+    by_repeat = (index(a, ("env", *kept, "repeat")), index(b, ("env", *kept, "repeat")))
+    seed_pairs = [k for k in by_seed[0] if k in by_seed[1]]
+    repeat_pairs = [k for k in by_repeat[0] if k in by_repeat[1]]
+    if len(seed_pairs) >= len(repeat_pairs):
+        (ia, ib), shared, by = by_seed, seed_pairs, "seed"
+        how = f"environment{also} and seed"
+    else:
+        (ia, ib), shared, by = by_repeat, repeat_pairs, "repetition"
         how = f"environment{also} and repetition (the seeds differ)"
     if factors:
         how += "; factor compared: " + ", ".join(f"{x['what']} {x['a']} → {x['b']}" for x in factors)
     scored = sum(score in r for r in a.rows) + sum(score in r for r in b.rows)
 
     def label(row: dict) -> str:
-        return " ".join([row["env"]] + [str(row[f]) for f in varied]) + f" s{row['seed']}"
+        return " ".join([row["env"]] + [str(row[f]) for f in varied]) + (
+            f" s{row['seed']}" if by == "seed" else f" r{row['repeat']}")
 
-    return {"pairing": how, "factors": factors, "keys": [label(ia[k]) for k in shared],
+    return {"pairing": how, "by": by, "factors": factors, "keys": [label(ia[k]) for k in shared],
             "envs": [ia[k]["env"] for k in shared], "a": [ia[k][score] for k in shared],
-            "b": [ib[k][score] for k in shared], "unpaired": scored - 2 * len(shared)}
+            "b": [ib[k][score] for k in shared], "unpaired": scored - 2 * len(shared), "scored": scored}
+
+
+def _per_environment(counts: dict[str, int]) -> str:
+    """``{cell: episodes}`` → ``"2 episodes per environment"`` (or ``"1–3 episodes per environment"``)."""
+    lo, hi = min(counts.values(), default=0), max(counts.values(), default=0)
+    n = str(lo) if lo == hi else f"{lo}–{hi}"
+    return f"{n} episode{'' if hi == 1 else 's'} per environment"
+
+
+def left_out(a: RunData, b: RunData, cells: dict, pairs: dict) -> str:
+    """What a comparison leaves out and why, in one line ("" when nothing): environments only one run has (the
+    environment level pairs the others), and the episodes without a partner at the episode level."""
+    parts = []
+    for run, only in ((a, cells["only_a"]), (b, cells["only_b"])):
+        if only:
+            shown = ", ".join(only[:4]) + (f" and {len(only) - 4} more" if len(only) > 4 else "")
+            parts.append(f"{len(only)} environment{'s' if len(only) > 1 else ''} only {run.name} ran ({shown}): "
+                         "no partner")
+    if pairs["unpaired"]:
+        na, nb = _per_environment(cells["episodes_a"]), _per_environment(cells["episodes_b"])
+        why = (f"{a.name} ran {na}, {b.name} {nb}" if na != nb else
+               f"no episode of the other run with the same environment and {pairs['by']}")
+        parts.append(f"at the episode level {pairs['unpaired']} of {pairs['scored']} episodes ({why}); the "
+                     "environment level uses every episode")
+    return "; ".join(parts)
 
 
 TEST_KEYS = ("n", "level", "difference", "cohens_dz", "rank_biserial", "ttest_p", "wilcoxon_p", "reason")
@@ -532,22 +600,27 @@ def _test(result: dict) -> dict:
 
 
 def compare(a: RunData, b: RunData, score: str) -> dict:
-    """Paired comparison of run ``b`` against run ``a`` on ``score`` (:func:`pair_episodes`), with the environment
-    as the unit (:func:`benchbot.batch.stats.cluster_paired_test`) and, beside it, over the episode pairs
-    (:func:`benchbot.batch.stats.paired_test`).
+    """Paired comparison of run ``b`` against run ``a`` on ``score``, with the environment as the unit: each run's
+    environment means over all its episodes, paired by environment (:func:`pair_environments`,
+    :func:`benchbot.batch.stats.cluster_paired_test`), and, beside it, over the episode pairs
+    (:func:`pair_episodes`, :func:`benchbot.batch.stats.paired_test`).
 
     Returns:
-        ``{"a", "b" (labels), "score", "direction", "pairing", "factors", "unpaired", "keys", "envs",
+        ``{"a", "b" (labels), "score", "direction", "pairing" (of the episodes), "factors", "unpaired" (episodes
+        without a partner at the episode level), "unpaired_environments" (environments only one run has),
+        "left_out" (:func:`left_out`: what was left out and why, one line, "" when nothing), "keys", "envs",
         "differences" (b − a per episode pair), "environments" (their order), "environment_differences", and the
         environment-level test: "n" (environments), "level", "difference" (Estimate dict), "cohens_dz",
         "rank_biserial", "ttest_p", "wilcoxon_p", "reason"; "episodes": the same keys over the episode pairs}``.
     """
+    cells = pair_environments(a, b, score)
     pairs = pair_episodes(a, b, score)
-    env = stats.cluster_paired_test(pairs["a"], pairs["b"], pairs["envs"])
+    env = stats.cluster_paired_test(cells["a"], cells["b"], cells["envs"])
     episodes = stats.paired_test(pairs["a"], pairs["b"], level="pairs")
     info = a.score_set.get(score)
     return {"a": a.name, "b": b.name, "score": score, "direction": info.direction if info else "higher",
             "pairing": pairs["pairing"], "factors": pairs["factors"], "unpaired": pairs["unpaired"],
+            "unpaired_environments": cells["only_a"] + cells["only_b"], "left_out": left_out(a, b, cells, pairs),
             "keys": pairs["keys"], "envs": pairs["envs"],
             "differences": [float(y - x) for x, y in zip(pairs["a"], pairs["b"])],
             "environments": env["clusters"], "environment_differences": env["cluster_differences"],
@@ -789,7 +862,7 @@ def policy() -> dict:
     return {"confidence": stats.CONFIDENCE, "bootstrap_resamples": stats.BOOTSTRAP_RESAMPLES, "seed": stats.SEED,
             "min_ci_n": stats.MIN_CI_N, "min_test_pairs": stats.MIN_TEST_PAIRS,
             "t_interval_below": stats.T_INTERVAL_BELOW, "min_correlation_n": stats.MIN_CORRELATION_N,
-            "unit": "environment", "pair_key": ["env", "seed"], "pair_factors": [f for f, _ in ROW_FACTORS],
+            "unit": "environment", "pair_key": ["env"], "episode_pair_key": ["env", "seed"], "pair_factors": [f for f, _ in ROW_FACTORS],
             "correction": "Holm"}
 
 
@@ -903,9 +976,11 @@ def tables(runs: list[RunData], result: dict) -> list[Table]:
                                                or "solution"] if factors else [])
                           + [c["difference"], c["cohens_dz"], c["ttest_p_holm"], c["wilcoxon_p_holm"],
                              c["rank_biserial"]] for c in comps],
-                         key + "Episodes paired by environment and seed, averaged per environment; tests over the "
-                         f"environments' (envs) mean differences, none below {stats.MIN_TEST_PAIRS} environments; "
-                         f"p-values Holm-adjusted over the {len(comps)} comparison(s) (the raw ones are in "
+                         key + "Each run's environment means (over all its episodes there) paired by environment; "
+                         f"tests over the environments' (envs) mean differences, none below {stats.MIN_TEST_PAIRS} "
+                         "environments; "
+                         + "".join(f"{short_b[c['b']]}: left out {c['left_out']}. " for c in comps if c["left_out"])
+                         + f"p-values Holm-adjusted over the {len(comps)} comparison(s) (the raw ones are in "
                          "report.json); d_z = mean difference / SD of the differences; r_rb: the matched-pairs "
                          "rank-biserial correlation."))
         out.append(Table("comparisons_episodes", f"Paired comparisons with {runs[0].name} ({main}, B − A), "
@@ -914,8 +989,9 @@ def tables(runs: list[RunData], result: dict) -> list[Table]:
                          [[short_b[c["b"]], c["episodes"]["n"], c["episodes"]["difference"],
                            c["episodes"]["cohens_dz"], c["episodes"]["ttest_p_holm"], c["episodes"]["wilcoxon_p_holm"]]
                           for c in comps],
-                         key + "".join(f"{c['unpaired']} episode(s) of {short_b[c['b']]} or the baseline unpaired, "
-                                       "left out. " for c in comps if c["unpaired"])
+                         key + "".join(f"{c['unpaired']} episode(s) of {short_b[c['b']]} or the baseline without a "
+                                       f"partner ({c['pairing'].split(';')[0]}), left out. "
+                                       for c in comps if c["unpaired"])
                          + "Over episode pairs: what these environments show, not what other environments would; "
                          "episodes of one environment are not independent, so these p-values are smaller than the "
                          f"environment level's. None below {stats.MIN_TEST_PAIRS} pairs; p-values Holm-adjusted."))
@@ -1133,9 +1209,10 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
         f"environments (Student t below {p['t_interval_below']} values, BCa bootstrap from there; none below "
         f"{p['min_ci_n']}). Episodes of one environment share its rooms and objects, so they are not independent: "
         "the episode-level numbers, shown beside and named as such, say how precisely these environments were "
-        f"measured, not how a solution does elsewhere. Runs are compared with <b>{esc(labels[0])}</b> on episodes "
-        "paired by environment and seed (a robot or noise preset that differs between two runs is the factor "
-        f"compared), averaged per environment; tests over the environments from {p['min_test_pairs']} on: mean "
+        f"measured, not how a solution does elsewhere. Runs are compared with <b>{esc(labels[0])}</b> on their "
+        "environments' means (over every episode of each), paired by environment (a robot or noise preset that "
+        "differs between two runs is the factor compared); episodes pair by environment and seed (or repetition) "
+        f"at the episode level; tests over the environments from {p['min_test_pairs']} on: mean "
         "difference with its interval, Cohen's d<sub>z</sub>, paired t-test and Wilcoxon signed-rank test (with "
         "its rank-biserial r), p-values Holm-adjusted over all comparisons. Every figure states its n. Details: "
         "docs/report.md.</div></section>")
@@ -1154,9 +1231,8 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
         for k, c in enumerate(result["comparisons"]):
             parts.append(f"<p class='note'><b>{esc(c['b'])}</b> − {esc(c['a'])}: "
                          f"{esc(figures.comparison_text(c))}.</p>")
-            if c["unpaired"]:
-                parts.append(f"<p class='note'>{c['unpaired']} episode(s) of {esc(c['a'])} or {esc(c['b'])} have no "
-                             "partner and are left out of this comparison.</p>")
+            if c.get("left_out"):
+                parts.append(f"<p class='note'>Left out: {esc(c['left_out'])}.</p>")
             parts.append(figure(f"comparison_{k + 1}"))
         parts.append("<details><summary>the same over episode pairs</summary>" + table("comparisons_episodes")
                      + "</details></section>")

@@ -38,8 +38,10 @@ def _print_report(result: dict) -> None:
         if r["objects_note"]:
             err.print(f"note: {r['label']}: {r['objects_note']}", highlight=False)
     for c in result["comparisons"]:
-        out.print(f"{c['b']} − {c['a']} ({c['score']}, paired by {c['pairing']}): {comparison_text(c)}",
-                  highlight=False, markup=False)
+        out.print(f"{c['b']} − {c['a']} ({c['score']}, environment means paired by environment; episodes paired by "
+                  f"{c['pairing']}): {comparison_text(c)}", highlight=False, markup=False)
+        if c.get("left_out"):
+            out.print(f"  left out: {c['left_out']}", highlight=False, markup=False)
     for d in result["differences"]:
         err.print(f"[yellow]warning:[/] the runs differ in {d['what']} ("
                   + "; ".join(f"{k}: {v or 'not recorded'}" for k, v in d["values"].items())
@@ -94,8 +96,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Summarise batch runs with the environment as the unit: each run's primary score as the mean of its
         environments' means with a 95 % interval over them (none below 5), the episode level beside it; runs
-        compared with the first on episodes paired by environment and seed, tests over the environments (from 6,
-        effect sizes, Holm-corrected); per-class results and, with -o, an HTML page with top-down maps of what was
+        compared with the first on their environment means paired by environment, tests over the environments
+        (from 6, effect sizes, Holm-corrected), what was left out said; per-class results and, with -o, an HTML page with top-down maps of what was
         mapped and driven, figures as PNG/SVG/PDF and tables as CSV/LaTeX. Runs that differ in a condition the
         comparison does not name are warned about (--strict refuses). --predictivity measures how well one
         setting's runs predict another's."""
