@@ -79,13 +79,14 @@ def driven(spec, registry, offset: float = 0.25) -> dict:
 def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, example: str = "semslam_geometric",
              seed: int = 0, robot: str = "carter", plan_options: dict | None = None, sandbox: str = "bwrap",
              method: str = "omq", registry=None, noise: str = "none", backend: dict | None = None,
-             trajectories: bool = False) -> Path:
+             trajectories: bool = False, ground_truth_set: str | None = None) -> Path:
     """A scored run directory ``root/name``: per environment, one episode per quality in its list (repetitions).
 
     ``plan_options`` are stored in every plan entry's ``options`` (e.g. ``{"lighting": "night"}``); ``sandbox`` is
     the manifest's isolation level; ``method`` scores it (with ``registry``, e.g. one holding a test evaluator);
     ``backend`` is every record's (default :data:`BACKEND`); ``trajectories`` writes trajectory logs
-    (:func:`driven`).
+    (:func:`driven`); ``ground_truth_set`` scores it against that set of ground truths (``--ground-truths``), the
+    manifest recording it as a batch does.
     """
     run = root / name
     (run / "results").mkdir(parents=True)
@@ -111,11 +112,13 @@ def make_run(root: Path, name: str, quality_by_env: dict[str, list[float]], *, e
                                "machine": {"system": "Linux-test", "architecture": "x86_64", "cpu": "Test CPU",
                                            "cpus": 2, "memory_gib": 8.0}},
                 "started": "2026-11-22T10:00:00+00:00", "plan": to_json(specs), "episodes": to_json(records),
-                "wall_s": 12.5, "sandbox": sandbox}
+                "wall_s": 12.5, "sandbox": sandbox, "ground_truth_set": ground_truth_set,
+                "ground_truth_sets": {e: ground_truth_set or reg.ground_truth_set(e) for e in envs}}
     (run / "manifest.json").write_text(json.dumps(manifest))
     (run / "config.json").write_text(json.dumps({"task": TASK, "environments": {e: reg.scenes(e) for e in envs}}))
     by_source = {str(run / s.results): s for s in specs}
-    evaluation = evaluate(list(by_source), method, reg, required_envs=envs, required_task=TASK, keep_going=True)
+    evaluation = evaluate(list(by_source), method, reg, required_envs=envs, required_task=TASK, keep_going=True,
+                          ground_truth_set=ground_truth_set)
     assert not evaluation.errors, evaluation.errors
     manifest["scores"] = evaluation.score_set.to_json()
     (run / "manifest.json").write_text(json.dumps(manifest))

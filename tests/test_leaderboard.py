@@ -100,7 +100,7 @@ def test_one_table_per_condition_set(tmp_path):
     assert by_label["e"]["simulator"] == "benchbot-sim-taichi 0.2.0"
     assert by_label["a"] == {"robot": "carter", "noise preset": "none", "camera": "not recorded",
                              "simulator": "benchbot-sim-taichi 0.1.0", "simulator style": "primitives",
-                             "isolation": "bwrap", "evaluation": "omq"}
+                             "isolation": "bwrap", "evaluation": "omq", "ground truth": "not recorded"}
     write_site(runs, tmp_path / "site", reports=False)
     page = (tmp_path / "site" / "semantic_slam-passive-ground_truth.html").read_text()
     assert page.count("<table class='sortable'>") == 6 and "6 entries in 6 condition sets" in page

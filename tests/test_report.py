@@ -267,6 +267,52 @@ def test_per_class_and_per_object_views_from_rescored_results(tmp_path):
     assert len(matches["ground_truth"]) == len(gt) and {p["status"] for p in matches["proposals"]} <= {"TP", "FP", "group"}
 
 
+def test_the_ground_truth_set_is_a_condition_and_rescoring_uses_the_runs_set(tmp_path):
+    """The same maps scored against isaac_develop and bear_develop (issue 57): the set is a condition (warned about,
+    a leaderboard table of its own), and the per-class and per-object views re-score each run against the set it
+    used, so they equal its scores and claim no change of the ground truth; a run that did not record its set is
+    re-scored against the default and says so."""
+    from benchbot.batch.leaderboard import entries
+    from benchbot.core.evaluation import evaluate
+
+    reg = get_registry()
+    qualities = {"miniroom:1": [0.95], "miniroom:2": [0.9]}
+    isaac = load_run(make_run(tmp_path, "isaac", qualities))
+    bear = load_run(make_run(tmp_path, "bear", qualities, ground_truth_set="bear_develop"))
+    assert {r["ground_truth_set"] for r in isaac.rows} == {"isaac_develop"}
+    assert {r["ground_truth_set"] for r in bear.rows} == {"bear_develop"}
+    assert isaac.rows[0]["OMQ"] != pytest.approx(bear.rows[0]["OMQ"])  # miniroom:1's two sets differ
+    result = analyse([isaac, bear], reg)
+    assert {d["what"]: d["values"] for d in result["differences"]}["ground truth"] == {
+        "isaac": "isaac_develop", "bear": "bear_develop"}
+    assert analyse([isaac, bear], factors=["ground truth"])["differences"] == []
+    [tables_] = entries([isaac, bear]).values()
+    assert sorted(dict(t["conditions"])["ground truth"] for t in tables_) == ["bear_develop", "isaac_develop"]
+    assert [r["objects_note"] for r in result["runs"]] == ["", ""]
+    for run in (isaac, bear):
+        for row in run.rows:
+            evaluation = run.objects[row["index"]]
+            assert evaluation["scores"]["OMQ"] == pytest.approx(row["OMQ"], abs=1e-12)
+            assert evaluation["ground_truth_set"] == row["ground_truth_set"]
+    paths = [str(bear.run_dir / r["results"]) for r in bear.rows]
+    against = {s: evaluate(paths, "omq", reg, options={"per_class": True}, ground_truth_set=s).combined["per_class"]
+               for s in ("bear_develop", "isaac_develop")}
+    assert bear.per_class == against["bear_develop"] != against["isaac_develop"]
+    # a batch from before the set was recorded: re-scored against the default, and it says so
+    old = bear.run_dir
+    manifest = json.loads((old / "manifest.json").read_text())
+    del manifest["ground_truth_set"], manifest["ground_truth_sets"]
+    (old / "manifest.json").write_text(json.dumps(manifest))
+    rows = json.loads((old / "episode_scores.json").read_text())
+    (old / "episode_scores.json").write_text(json.dumps([{k: v for k, v in r.items() if k != "ground_truth_set"}
+                                                         for r in rows]))
+    unrecorded = load_run(old)
+    assert {r["ground_truth_set"] for r in unrecorded.rows} == {""}
+    note = analyse([unrecorded], reg)["runs"][0]["objects_note"]
+    assert "the run did not record its set of ground truths, and was re-scored against isaac_develop" in note
+    assert "changed since" not in note
+
+
 @pytest.mark.slow
 def test_report_files_for_papers(tmp_path, monkeypatch):
     """The whole report of two runs: every figure in three formats with no label over another and no warning

@@ -11,7 +11,7 @@ The site is plain files — no server, no external scripts, fonts or styles — 
 
 Entries are comparable only under identical conditions (:data:`~benchbot.batch.report.CONDITIONS` but the
 environments: robot, noise preset, camera, simulator and its version, scene style, isolation level, evaluation
-method), so each task's page has one table per condition set (:func:`condition_key`). Within a table, entries are
+method, the set of ground truths the scores used), so each task's page has one table per condition set (:func:`condition_key`). Within a table, entries are
 ranked on one set of environments (:func:`benchmark_set`: ``--environments``, else the set most of its entries ran):
 an entry that covers it is scored on its episodes of those environments and ranked; an entry that does not is
 listed, marked, and not ranked (its mean is over other scenes); an entry that is not verifiable (run without the

@@ -49,7 +49,7 @@ from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import ScoreSet, method_scores, observed_scores
 from benchbot.core.sandbox import VERIFIABLE
 
-ROW_FIELDS = ("index", "env", "robot", "repeat", "seed", "noise", "lighting", "results")
+ROW_FIELDS = ("index", "env", "robot", "repeat", "seed", "noise", "lighting", "results", "ground_truth_set")
 """The fields of an episode's row besides its scores (a score of one of these names is not read)."""
 
 ROW_FACTORS = (("robot", "robot"), ("noise", "noise preset"))
@@ -68,7 +68,9 @@ class RunData:
         run_dir: the folder. manifest, config: its ``manifest.json`` and ``config.json``.
         rows: one dict per scored episode: ``index``, ``env``, ``robot``, ``repeat``, ``seed``, ``noise``
             (``"none"`` when not recorded), ``lighting`` (or ``""``), ``results`` (path relative to the run
-            directory, or ``""``) and every numeric score the method returned for it.
+            directory, or ``""``), ``ground_truth_set`` (the set of ground truths its scores used:
+            :func:`episode_ground_truth_set`; ``""`` when not recorded) and every numeric score the method returned
+            for it.
         score_set: what the scores are (:func:`resolve_score_set`).
         label: the name the report gives the run (``--label``, else :func:`default_label`).
         objects: per episode index, the re-scored evaluation with ``per_class`` and ``matches`` (after
@@ -196,6 +198,7 @@ def load_run(run_dir: Path, label: str | None = None, registry=None) -> RunData:
             options = spec.get("options") or {}
             row["lighting"] = str(options.get("lighting") or lighting.get(entry["env"], ""))
             row["results"] = str((records.get(entry["index"]) or spec).get("results", ""))
+            row["ground_truth_set"] = episode_ground_truth_set(manifest, entry)
             row.update({s: float(v) for s, v in (entry.get("scores") or {}).items()
                         if s not in ROW_FIELDS and isinstance(v, (int, float)) and not isinstance(v, bool)})
             rows.append(row)
@@ -205,6 +208,18 @@ def load_run(run_dir: Path, label: str | None = None, registry=None) -> RunData:
     if not rows:
         raise UsageError(f"{run_dir} has no scored episodes", "every episode failed, or the batch ran with --no-evaluate")
     return RunData(run_dir, manifest, config, rows, resolve_score_set(manifest, entries, registry), label or "")
+
+
+def episode_ground_truth_set(manifest: dict, entry: dict) -> str:
+    """The set of ground truths an episode's scores used (``isaac_develop``, ``bear_develop``...): what its entry
+    of ``episode_scores.json`` says (the evaluation writes ``ground_truth_set``), else the manifest's
+    ``ground_truth_sets`` for its environment, else the manifest's ``ground_truth_set`` (``--ground-truths``); ""
+    for a batch from before BenchBot recorded it."""
+    for value in (entry.get("ground_truth_set"), (manifest.get("ground_truth_sets") or {}).get(entry.get("env")),
+                  manifest.get("ground_truth_set")):
+        if isinstance(value, str) and value:
+            return value.removeprefix("ground_truths_")
+    return ""
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -319,9 +334,10 @@ def backend(run: RunData) -> dict[str, str]:
 
 
 CONDITIONS = ("task", "robot", "environments", "noise preset", "camera", "simulator", "simulator style", "arch",
-              "isolation", "evaluation")
+              "isolation", "evaluation", "ground truth")
 """What two runs must share for their scores to be comparable (the leaderboard's condition set; a report warns
-when runs differ in one the comparison does not name)."""
+when runs differ in one the comparison does not name). ``ground truth`` is the set of ground truths the scores
+used (``isaac_develop``, ``bear_develop``: the same map scores differently against each)."""
 
 CONTEXT = ("BenchBot", "lock", "device")
 """Provenance a report also compares (a difference is named, as it may change numbers, but is not a condition)."""
@@ -337,6 +353,7 @@ def conditions(run: RunData) -> dict[str, str]:
             "noise preset": _distinct(r["noise"] for r in run.rows), "camera": camera(run),
             "simulator": b["simulator"], "simulator style": b["style"], "arch": b["arch"],
             "isolation": isolation(m), "evaluation": str(m.get("evaluate_with") or ""),
+            "ground truth": _distinct(r.get("ground_truth_set") for r in run.rows),
             "BenchBot": str((m.get("versions") or {}).get("benchbot", "")), "lock": lock[:12], "device": b["device"]}
 
 
@@ -393,6 +410,7 @@ def provenance(run: RunData) -> list[tuple[str, str]]:
         ("simulator", b["simulator"] or not_recorded),
         ("scene style", b["style"] or not_recorded),
         ("arch, device", f"{b['arch']}, {b['device'] or 'unknown device'}" if b["arch"] else not_recorded),
+        ("ground truth", _distinct(r.get("ground_truth_set") for r in run.rows) or not_recorded),
         ("evaluation", str(m.get("evaluate_with") or "none")
          + (f" (primary score {run.primary}, {run.score_set.primary.direction} is better"
             + ("" if run.score_set.declared else "; not declared by the method: assumed") + ")")),
@@ -645,57 +663,73 @@ def comparisons(runs: list[RunData], score: str | None = None) -> list[dict]:
 # Per class and per object
 # --------------------------------------------------------------------------------------------------------------------
 def score_objects(run: RunData, registry) -> None:
-    """Re-score the run's results files with its evaluation method asking for ``per_class`` and ``matches``;
-    fills ``run.objects``, ``run.per_class`` and ``run.objects_note`` (why not, or that the re-scored primary score
-    differs from the run's, e.g. because the ground truth changed since). Never raises: what cannot be done is
-    noted."""
+    """Re-score the run's results files with its evaluation method asking for ``per_class`` and ``matches``, each
+    against the set of ground truths its scores used (the row's ``ground_truth_set``; each environment's default
+    where the run did not record one); fills ``run.objects``, ``run.per_class`` (the method's ``combine`` over
+    every re-scored episode) and ``run.objects_note`` (why not, or that the re-scored primary score differs from
+    the run's, naming the set it was re-scored against). Never raises: what cannot be done is noted."""
     from benchbot.core.evaluation import evaluate
 
     method = run.manifest.get("evaluate_with")
     if not method:
         run.objects_note = "the batch ran without an evaluation method: no per-class or per-object views"
         return
-    by_path = {}
+    by_set: dict[str, dict[str, dict]] = {}
     for row in run.rows:
         path = run.run_dir / row["results"] if row["results"] else None
         if path is not None and path.is_file():
-            by_path[str(path)] = row
-    if not by_path:
+            by_set.setdefault(row.get("ground_truth_set", ""), {})[str(path)] = row
+    if not by_set:
         run.objects_note = "the results files are not in the run directory: no per-class or per-object views"
         return
-    evaluation = None
-    for options in ({"per_class": True, "matches": True}, {"per_class": True}):
-        try:
-            evaluation = evaluate(list(by_path), method, registry, required_task=run.manifest.get("task"),
-                                  options=options, keep_going=True)
-            break
-        except UsageError:
-            continue  # the method lacks the option: try with less
-        except BenchbotError as exc:
-            run.objects_note = f"re-scoring failed: {exc.message}"
+    per_result, errors, combined = [], [], None
+    for gt_set, by_path in by_set.items():
+        evaluation = None
+        for options in ({"per_class": True, "matches": True}, {"per_class": True}):
+            try:
+                evaluation = evaluate(list(by_path), method, registry, required_task=run.manifest.get("task"),
+                                      options=options, keep_going=True, ground_truth_set=gt_set or None)
+                break
+            except UsageError:
+                continue  # the method lacks the option: try with less
+            except BenchbotError as exc:
+                run.objects_note = f"re-scoring failed: {exc.message}"
+                return
+        if evaluation is None:
+            run.objects_note = f"the evaluation method '{method}' gives no per-class scores"
             return
-    if evaluation is None:
-        run.objects_note = f"the evaluation method '{method}' gives no per-class scores"
-        return
+        per_result += [(source, result, by_path.get(source)) for source, result in evaluation.per_result]
+        errors += evaluation.errors
+        combined = evaluation.combined if len(by_set) == 1 else None
+    if len(by_set) > 1:  # episodes scored against different sets: the method's combine over all of them
+        try:
+            combine = registry.functions("evaluators", method).get("combine")
+            combined = combine([result for _, result, _ in per_result]) if combine else None
+        except Exception:  # noqa: BLE001 - a method's own failure: the per-class view is left out, said below
+            combined = None
     primary = run.primary
     differences = []
-    for source, result in evaluation.per_result:
-        row = by_path.get(source)
+    used = set()
+    for _source, result, row in per_result:
         if row is None:
             continue
         run.objects[row["index"]] = result
+        used.add(str(result.get("ground_truth_set") or ""))
         new = (result.get("scores") or {}).get(primary)
         if new is not None and primary in row:
             differences.append(abs(float(new) - row[primary]))
-    combined = evaluation.combined or {}
-    run.per_class = combined.get("per_class")
+    run.per_class = (combined or {}).get("per_class") if isinstance(combined, dict) else None
     notes = []
-    if evaluation.errors:
-        notes.append(f"{len(evaluation.errors)} results file(s) could not be re-scored ({evaluation.errors[0][1].message})")
+    if errors:
+        notes.append(f"{len(errors)} results file(s) could not be re-scored ({errors[0][1].message})")
     if differences and max(differences) > RESCORE_TOLERANCE:
-        notes.append(f"re-scored {primary} differs from the run's by up to {fmt(max(differences))}: the ground truth "
-                     "or the evaluation method changed since the batch ran; per-class and per-object views show today's "
-                     "scoring")
+        sets = ", ".join(sorted(used - {""})) or "each environment's default"
+        recorded = all(by_set)
+        notes.append(f"re-scored {primary} differs from the run's by up to {fmt(max(differences))}: "
+                     + (f"the ground truths of set {sets} or the evaluation method changed since the batch ran"
+                        if recorded else
+                        f"the run did not record its set of ground truths, and was re-scored against {sets}")
+                     + "; per-class and per-object views show today's scoring")
     if not any("matches" in r for r in run.objects.values()):
         notes.append(f"the evaluation method '{method}' gives no per-object matches: no top-down maps")
     run.objects_note = "; ".join(notes)
