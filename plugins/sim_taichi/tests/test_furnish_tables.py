@@ -121,6 +121,29 @@ def test_the_variants_of_a_home_dress_a_shared_table_alike_and_avoid_each_others
         assert not inter((lo - T.ITEM_CLEARANCE_M, hi + T.ITEM_CLEARANCE_M), box_of(book))
 
 
+def pads_table_mesh(w=1.2, d=0.8, h=0.75, pad=0.1) -> Mesh:
+    """A table model whose top is four small pads at its corners (``pad`` a side) with nothing between them."""
+    v, f = [], []
+    x, y = w / 2, d / 2
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            a, b = (sx * x, sy * y), (sx * (x - pad), sy * (y - pad))
+            lo, hi = np.minimum(a, b), np.maximum(a, b)
+            _quad(v, f, [[lo[0], lo[1], h], [hi[0], lo[1], h], [hi[0], hi[1], h], [lo[0], hi[1], h]])
+    return Mesh(np.asarray(v, float), np.asarray(f, np.int64))
+
+
+def test_nothing_stands_where_no_top_is_under_it():
+    """Positions whose footprint has no top under it at all (the top's highest point there is -inf) are no place for
+    an item: a table of four corner pads too small for any item stays bare (it used to take an item at z = -inf,
+    which the fit refused with a ValueError)."""
+    lib = AssetLibrary(FULL_LIB + ITEMS)
+    table = gt("table", [2.0, 2.0, 0.0], [3.2, 2.8, 0.75])
+    for seed in range(8):
+        res = F.furnish_home([table], one_room_plan(), lib, seed=seed, mesh_of=lambda a: pads_table_mesh())
+        assert not [p for p in res.placements if p.asset_id in {a.id for a in ITEMS}], seed
+
+
 def test_no_things_without_tabletop_models_a_mesh_or_on_a_plant_stand():
     table = gt("table", [2.0, 2.0, 0.0], [3.2, 2.8, 0.75])
     assert _dressed([table], AssetLibrary(FULL_LIB))[1] == []

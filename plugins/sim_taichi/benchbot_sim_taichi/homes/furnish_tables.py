@@ -130,7 +130,8 @@ def dress_tables(objects: Sequence[dict], placements: Sequence[Placement], space
                 c = lo + ext / 2 + rng.random(2) * (hi - lo - ext)
                 z = surface_heights(tris, footprint_points(c - ext / 2, c + ext / 2))
                 base = float(z.max())
-                if not np.all(z >= base - MAX_GAP_M):  # off the top somewhere, or over a gap or a rim
+                # no top under it at all (base -inf), off the top somewhere, or over a gap or a rim
+                if not np.isfinite(base) or not np.all(z >= base - MAX_GAP_M):
                     continue
                 blo, bhi = np.array([*(c - ext / 2), base]), np.array([*(c + ext / 2), base + h])
                 if boxes_hit(blo, bhi, space.gt_lo[others], space.gt_hi[others], ITEM_CLEARANCE_M).any() \
