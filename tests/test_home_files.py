@@ -187,10 +187,11 @@ def test_a_relative_declared_file_is_redacted_where_an_error_names_it_resolved(t
 @pytest.mark.slow
 def test_the_built_scene_of_a_declared_pack_home_is_the_built_in_home(tmp_path, monkeypatch):
     """The scene builder reads the declaration: the furnished scene of the pack's house_2 with its siblings declared
-    has the built-in house:2's floor plan, walls and furniture."""
+    has the built-in house:2's floor plan, walls and furniture, given the same name (a home is seeded by its name:
+    benchbot.core.seeding.home_seed)."""
     monkeypatch.setenv("BENCHBOT_SIM_STYLE", "furnished")
     pack_scene = build_scene(_installed_env(_house_pack(tmp_path / "p", home_files=SIBLINGS)))
-    built_in = build_scene(Registry().get("environments", "house:2"))
+    built_in = build_scene({**Registry().get("environments", "house:2"), "name": "myhouse"})
     assert pack_scene.plan.to_dict() == built_in.plan.to_dict()
     assert pack_scene.obstacle_names == built_in.obstacle_names
     assert (pack_scene.obstacle_min == built_in.obstacle_min).all() and (pack_scene.tri_v == built_in.tri_v).all()

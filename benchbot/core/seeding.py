@@ -1,11 +1,17 @@
-"""The seed of a world: a name and variant give one scene, wherever the environment stands in a batch.
+"""The seeds of a world: a name and variant give one scene, wherever the environment stands in a batch.
 
-Two kinds of seed reach a simulator (docs/noise.md, *Seeds*):
+Three kinds of seed make a scene and an episode (docs/noise.md, *Seeds*); a simulator is given the world seed and
+derives the home seed from the environment's name:
 
-* the **world seed** fixes what a scene looks like (object colour variation, the furnished home's model choices):
+* the **world seed** fixes the rest of a scene's look (the colour variation of objects drawn with primitives):
   :func:`world_seed` of the run's seed (``benchbot batch --seed``, ``benchbot run --seed``; the same for every
   episode of a batch) and the environment's ``name:variant``. The same environment therefore builds the same scene
   in any batch, whatever the order of ``--envs`` or the repetition; another ``--seed`` gives another look.
+* the **home seed** fixes what a home is, the same in all its variants and under every ``--seed``: a furnished
+  home's floor plan (rooms, walls, doors, windows, lamps), its floors' and walls' materials, its furniture and the
+  models its ground-truth objects are drawn with (:func:`home_seed` of the environment's ``name``). The variants of a
+  home (``miniroom:1`` … ``miniroom:5``) are one house with objects moved, so what scene change detection compares
+  differs only where the objects do.
 * the **episode seed** (``--seed`` + the episode's index in a batch) seeds what should differ between repetitions:
   sensor noise, odometry noise, actuation noise.
 """
@@ -38,3 +44,16 @@ def environment_world_seed(seed: int, environment: dict) -> int:
         KeyError: ``environment`` has no ``name`` or no ``variant``.
     """
     return world_seed(seed, environment["name"], environment["variant"])
+
+
+def home_seed(name: str) -> int:
+    """The seed of the home ``name`` (an environment's ``name``: ``miniroom``, ``house``): a stable hash of the name
+    alone, the same for every variant and every run seed, so a home's variants are one house (module docstring).
+
+    Args:
+        name: the environment's name (its home).
+
+    Returns:
+        An int in [0, 2**32): ``zlib.crc32(b"home:<name>")``.
+    """
+    return zlib.crc32(f"home:{name}".encode("utf-8"))

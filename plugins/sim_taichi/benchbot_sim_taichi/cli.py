@@ -194,7 +194,8 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
 def plan(env: str = typer.Argument(..., help="name:variant or an environment YAML"),
          output: Path = typer.Option(..., "-o", "--output", help="image file to write (.png, .svg or .pdf)")) -> None:
     """Draw the floor plan of ENV's furnished home from above: rooms by kind, walls, doors and open passages,
-    windows, ENV's ground-truth boxes and its robot path (start dot, then the trajectory)."""
+    windows, ENV's ground-truth boxes and its robot path (start dot, then the trajectory). Prints the plan's counts
+    and the first 12 hex digits of its digest on stderr (the same for every variant of a home), the file on stdout."""
 
     def go():
         import numpy as np
@@ -219,6 +220,7 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
                              title=f"{env}: {len(scene.plan.rooms)} rooms, {len(objects)} ground-truth objects")
         except (OSError, ValueError) as e:
             raise UsageError(f"cannot write the plan {output}: {e}", "use a writable path ending in .png, .svg or .pdf")
+        typer.echo(f"{env}: {scene.plan.summary()}; plan {scene.plan.digest()[:12]}", err=True)
         typer.echo(str(output))
 
     _run(go)

@@ -197,6 +197,16 @@ def test_two_clusters_with_a_path_between_become_two_rooms_with_a_door_on_the_pa
     assert d.hi[2] == pytest.approx(fp.DOOR_HEAD_M)
 
 
+def test_a_path_stretch_as_wide_as_a_doorway_gets_a_door_whatever_the_last_bit():
+    """A stretch of wall the paths need, 0.91 m wide (between the doorway's least and largest widths), gets a doorway
+    of exactly its width: (a + b) / 2 - (b - a) / 2 is a bit more than a here, which made it an open passage."""
+    a, b = 0.3, 1.21
+    assert (a + b) / 2 - (b - a) / 2 > a
+    planner = fp._Planner([], [np.array([[0.0, 0.0], [1.0, 1.0]])], 0, RADIUS)
+    ((d0, d1, kind),) = planner._openings([], [(a, b)], (0.0, 5.0))
+    assert kind == "door" and d0 == pytest.approx(a) and d1 == pytest.approx(b)
+
+
 def test_a_wall_no_path_crosses_still_gets_a_doorway():
     objects = [_obj("bed", (0.0, 0.0, 0.3), (2.0, 1.6, 0.6)), _obj("toilet", (7.0, 0.0, 0.3), (0.5, 0.6, 0.6))]
     path = np.array([[-0.5, 1.8], [0.5, 1.8]])  # the robot stays in the bedroom

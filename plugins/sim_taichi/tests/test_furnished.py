@@ -13,6 +13,7 @@ import pytest
 
 from benchbot.core.assets import asset_library
 from benchbot.core.errors import BackendError
+from benchbot.core.seeding import home_seed
 from benchbot_sim_taichi.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG
 from benchbot_sim_taichi.homes.furnished import furnish_environment
 from benchbot_sim_taichi.homes.furnish_supports import standing_box
@@ -60,7 +61,8 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
         c, e = np.asarray(o["centroid"]), np.asarray(o["extent"])
         np.testing.assert_allclose(scene.box_min[i], c - e / 2, atol=1e-5)
         np.testing.assert_allclose(scene.box_max[i], c + e / 2, atol=1e-5)
-    home = furnish_environment(objects, home_files(_environment(name)), [], seed=0)
+    env = _environment(name)
+    home = furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))  # as the scene was
     by_object: dict[int, list] = {}
     for inst in home.instances:
         if inst.object_index >= 0:

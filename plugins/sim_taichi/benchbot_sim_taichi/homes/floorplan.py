@@ -32,13 +32,16 @@ and a lintel above), so a collision or rendering test can use the boxes as they 
 
 :func:`derive_floor_plan` works in whatever frame its inputs are in. A home's plan (:func:`home_plan`,
 :func:`plan_for_files`) is derived in the home's frame (:mod:`benchbot_sim_taichi.homes.home_frame`: the symmetry of
-the square that brings every turned or mirrored copy of a layout to the same orientation), then carried to the map
-frame, so that a turned layout gets the same plan turned.
+the square that brings every turned or mirrored copy of a layout to the same orientation, and an origin at the
+layout's lowest corner, coordinates rounded to a micrometre), then carried to the map frame, so that a turned or
+moved layout gets the same plan turned or moved. Every variant of a home that declares the same ``home_files`` and
+is built with the same seed (the home's: :func:`benchbot.core.seeding.home_seed`) gets the same plan.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -272,6 +275,20 @@ class FloorPlan:
             "wall_spans": [{"room": s.room, "a": f(s.a), "b": f(s.b), "inward": f(s.inward),
                             "max_height": round(s.max_height, 6)} for s in self.wall_spans],
         }
+
+    def digest(self) -> str:
+        """SHA-256 hex digest (64 characters) of :meth:`to_dict` (coordinates to a micrometre): equal for equal plans,
+        e.g. those of a home's variants; another for a plan moved or turned (the plan is in the map frame)."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+    def summary(self) -> str:
+        """One line of counts: rooms, doorways that take a door, open passages, windows, ceiling lamps."""
+        doors = sum(o.kind == "door" and o.leaf for o in self.openings)
+        passages = sum(o.kind == "door" and not o.leaf for o in self.openings)
+        windows = sum(o.kind == "window" for o in self.openings)
+        return (f"{len(self.rooms)} rooms, {doors} doors, {passages} open passages, {windows} windows, "
+                f"{len(self.lights)} lamps")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -550,7 +567,9 @@ class _Planner:
                 if d1 - d0 < w - 1e-9:  # squeezed by a wall end: slide it along
                     d0, d1 = (s0 + DOOR_JAMB_M, s0 + DOOR_JAMB_M + w) if d0 <= s0 + DOOR_JAMB_M else (
                         s1 - DOOR_JAMB_M - w, s1 - DOOR_JAMB_M)
-                if d0 >= s0 + DOOR_JAMB_M - 1e-9 and d1 <= s1 + 1e-9 - DOOR_JAMB_M and d0 <= a and d1 >= b:
+                # (the doorway of a stretch of its own width starts at a and ends at b but for the last bit)
+                if d0 >= s0 + DOOR_JAMB_M - 1e-9 and d1 <= s1 + 1e-9 - DOOR_JAMB_M and d0 <= a + 1e-9 \
+                        and d1 >= b - 1e-9:
                     out.append([d0, d1, False])
                     continue
             # an open passage; near a wall end it runs to the end
@@ -995,16 +1014,19 @@ def home_inputs(variant_dicts: list[dict]) -> tuple[list[dict], list[np.ndarray]
 
 def home_plan(objects: list[dict], paths: list, *, seed: int = 0, robot_radius_m: float = 0.35):
     """(frame, plan): a home's :class:`~benchbot_sim_taichi.homes.home_frame.HomeFrame`
-    (:func:`~benchbot_sim_taichi.homes.home_frame.home_frame`) and its floor plan derived in that frame
-    (:func:`derive_floor_plan` of the objects and paths carried there), so that a turned or mirrored layout gets the
-    same plan turned or mirrored. ``objects``, ``paths``: map frame, as :func:`derive_floor_plan` takes them.
+    (:func:`~benchbot_sim_taichi.homes.home_frame.home_frame`, with an origin of the home's own) and its floor plan
+    derived in that frame (:func:`derive_floor_plan` of the objects and paths carried there, their xy rounded to
+    :data:`~benchbot_sim_taichi.homes.home_frame.HOME_GRID_M`), so that a turned, mirrored or moved layout gets the
+    same plan turned, mirrored or moved. ``objects``, ``paths``: map frame, as :func:`derive_floor_plan` takes them;
+    the plan returned is in the home frame (:meth:`~benchbot_sim_taichi.homes.home_frame.HomeFrame.plan_to_map`
+    carries it to the map).
 
     Raises:
         BackendError: as :func:`derive_floor_plan`.
     """
     from benchbot_sim_taichi.homes.home_frame import home_frame
 
-    frame = home_frame(objects, paths)
+    frame = home_frame(objects, paths, own_origin=True)
     if not frame.is_identity:
         objects, paths = frame.objects_to_home(objects), [frame.points_to_home(p) for p in paths]
     return frame, derive_floor_plan(objects, paths, seed=seed, robot_radius_m=robot_radius_m)

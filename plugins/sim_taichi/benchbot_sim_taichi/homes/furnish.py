@@ -14,8 +14,9 @@ deterministic per ``seed``; GT is never changed. The steps:
   distort alike and yields to proportions once the facing it wants would distort by more than ~``FACING_WEIGHT``, a
   1.8× aspect change for 0.6). The model is drawn, seeded by the object's class and ``ID_name`` (so a home's variants
   draw an object alike), among the ``CHOICE_TOP`` best within ``CHOICE_MARGIN``. Facings: chairs toward the nearest GT
-  table within :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back to the
-  nearest wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
+  table of the home (of any of its variants, so a chair that stays faces the same way in all of them) within
+  :data:`CHAIR_TABLE_RANGE_M` (else the room centre); :data:`BACK_TO_WALL` classes with their back to the nearest
+  wall; :data:`FACE_ROOM` classes toward the room centre; the rest a seeded random turn (weight
   ``RANDOM_FACING_WEIGHT``, a tie-break). Books are closed books made in code, not models
   (:func:`~benchbot_sim_taichi.homes.books.closed_books`): an ``isgroup`` cuboid a row of standing books along its
   long horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
@@ -150,8 +151,9 @@ FRUIT_TAG = "fruit"
 FRUIT_BOWL_M = 0.4
 
 
-def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing) -> None:
-    tables = [boxes[j] for j, o in enumerate(objects) if o.get("class") == "table"]
+def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing, tables: list) -> None:
+    """A model for every GT object (module docstring); ``tables``: the (lo, hi) boxes of the home's GT tables (in
+    every variant: a chair of several variants faces the same way in all of them)."""
     for i, obj in enumerate(objects):
         lo, hi = boxes[i]
         cls = str(obj.get("class", ""))
@@ -235,7 +237,8 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
                   [str(o.get("class", "")) for o in context])
     out = Furnishing()
     boxes = [gt_box(o) for o in objects]
-    _place_objects(objects, boxes, space, library, seed, bounds_of, out)
+    tables = [b for o, b in zip(context, ctx_boxes) if o.get("class") == "table"]
+    _place_objects(objects, boxes, space, library, seed, bounds_of, out, tables)
     # supports for the whole home (stable across variants), then distractors
     ctx_out = Furnishing()
     place_supports(context, ctx_boxes, space, library, plan, seed, bounds_of, ctx_out)

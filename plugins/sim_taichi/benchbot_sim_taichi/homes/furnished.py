@@ -185,7 +185,9 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
             ``home_files`` field declares): the floor plan is derived from their union, and every variant listing
             the same files shares it. ``None`` or empty: a plan of ``objects`` and ``paths`` alone.
         paths: (M, 2) xy robot paths (start pose and trajectory) — used when there are no ``home_files``.
-        seed: the same seed gives the same home.
+        seed: the home's seed (:func:`benchbot.core.seeding.home_seed` of its name, as the scene build passes it):
+            the same seed gives the same home; pass the same one for every variant of a home, so that they share
+            their plan, materials and furniture.
         library: an :class:`~benchbot.core.assets.AssetLibrary` (default: every installed asset pack).
 
     Raises:

@@ -15,16 +15,23 @@ bit (the symmetries of the square only swap and negate coordinates). The plan, t
 texture coordinates and the sun's direction are derived there, then every placement, wall box, lamp and the sun are
 carried to the map frame (:class:`HomeFrame`); so are the procedural models of objects drawn with primitives (in
 either style: a chair's back, a bed's headboard are placed by the object's longer side and a seeded flip). The rules
-are such that the ten BEAR layouts are in their home frame already (the identity: their worlds are bit-identical to
-what they were).
+are such that the ten BEAR layouts are in their home orientation already (their frame turns nothing).
 
-What it does not cover: the home frame has the map's origin. A layout shifted by a translation gives the same world
-only up to rounding in the last bits (every rule and every candidate wall is relative to the layout's bounds), and
-at BEAR's exact contacts (objects standing flush on others, sides touching) that rounding can tip a decision of the
-plan or the furnishing; the floors' and walls' texture coordinates are metres from the origin. An origin of the
-home's own would change the BEAR worlds in their last bits. A turn by another angle than a quarter turn changes what
-a BEAR cuboid is (its axis-aligned extent), so no such layout is the same objects turned. A layout symmetric under a
-turn or mirror in every rule (to :data:`TIE_M`) keeps its own orientation.
+A moved layout: a furnished home's frame also has an origin of its own (:func:`home_frame` with ``own_origin``, as
+:func:`~benchbot_sim_taichi.homes.floorplan.home_plan` asks): the lowest corner, in the home frame, of the layout's
+bounding box. The objects and paths are carried there and their xy rounded to :data:`HOME_GRID_M`, so a layout
+moved by any translation (and turned) reaches the same home-frame layout bit for bit: the last bits in which
+``(p + t) - (o + t)`` differs from ``p - o`` are rounded away, and with them every decision they could tip at BEAR's
+exact contacts (objects flush on others, sides touching). The plan, the furnishing and the structure's texture
+coordinates (metres from the home's origin) are therefore the same, and the world differs from the moved original
+only by the rounding of carrying it back (about 1e-15 m; float32 triangles: their own resolution). The primitives
+style keeps the map's origin (:func:`home_frame` without ``own_origin``): its models are made per object, with no
+decision a shift could tip.
+
+What it does not cover: a turn by another angle than a quarter turn changes what a BEAR cuboid is (its axis-aligned
+extent), so no such layout is the same objects turned. A layout symmetric under a turn or mirror in every rule (to
+:data:`TIE_M`) keeps its own orientation. A fitted model fills its cuboid as carried to the home frame, so to
+:data:`HOME_GRID_M`.
 """
 
 from __future__ import annotations
@@ -37,6 +44,12 @@ import numpy as np
 
 #: Two rule values closer than this (metres) are a tie, decided by the next rule.
 TIE_M = 1e-6
+#: The grid (metres) that home-frame coordinates are rounded to in a frame with an origin of the home's own
+#: (:func:`home_frame` with ``own_origin``): a moved copy of a layout differs from it in the last bits of every
+#: coordinate, rounded away here, so that every decision of the plan and the furnishing is the same bit for bit.
+#: Below float32's resolution of a triangle's vertex a few metres from the origin (0.5-1 µm).
+HOME_GRID_M = 1e-6
+HOME_GRID_DECIMALS = 6
 #: The eight symmetries of the square as home ← map matrices (p_home = R @ p_map), the identity first: a layout
 #: symmetric in every rule keeps its orientation.
 SQUARE_SYMMETRIES = tuple(np.array(m, dtype=np.float64) for m in (
@@ -52,35 +65,49 @@ ORIENTATION_RULES = ("box longer along y", "object centres toward -x", "object c
 
 @dataclass(frozen=True)
 class HomeFrame:
-    """A home's frame: ``p_home = R @ p_map`` in xy (z unchanged).
+    """A home's frame: ``p_home = R @ (p_map - origin)`` in xy (z unchanged), rounded to :data:`HOME_GRID_M` when the
+    frame has an origin of its own.
 
     Attributes:
         R: (2, 2) float64 home ← map rotation or reflection, one of :data:`SQUARE_SYMMETRIES` (entries 0 and ±1,
             so every coordinate carried either way is exact).
+        origin: (2,) float64 map-frame xy (metres) of the home frame's origin (:func:`home_frame` with
+            ``own_origin``: the corner of the layout's bounding box that the home frame puts lowest in x and y), or
+            None: the map's origin (a turn only, nothing rounded).
     """
 
     R: np.ndarray
+    origin: np.ndarray | None = None
 
     @property
     def is_identity(self) -> bool:
         """Whether the home frame is the map frame (then nothing is carried anywhere)."""
-        return bool(np.array_equal(self.R, np.eye(2)))
+        return self.origin is None and bool(np.array_equal(self.R, np.eye(2)))
 
     @property
     def T_map_home(self) -> np.ndarray:
         """(4, 4) float64 transform taking home-frame points to the map frame."""
         T = np.eye(4)
         T[:2, :2] = self.R.T
+        if self.origin is not None:
+            T[:2, 3] = self.origin
         return T
 
+    def _home_xy(self, xy: np.ndarray) -> np.ndarray:
+        """(M, 2) map-frame xy → home frame, on the :data:`HOME_GRID_M` grid when the frame has an origin."""
+        if self.origin is None:
+            return xy @ self.R.T
+        return np.round((xy - self.origin) @ self.R.T, HOME_GRID_DECIMALS) + 0.0  # + 0.0: no negative zeros
+
     def points_to_home(self, xy) -> np.ndarray:
-        """(M, 2) float64 map-frame xy points in the home frame."""
-        return np.asarray(xy, dtype=np.float64).reshape(-1, 2) @ self.R.T
+        """(M, 2) float64 map-frame xy points (metres) in the home frame."""
+        return self._home_xy(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
 
     def objects_to_home(self, objects: list[dict]) -> list[dict]:
         """Ground-truth objects (``centroid``, ``extent``: axis-aligned cuboids, metres) in the home frame: copies
-        with the centroid carried and the horizontal extents swapped where the frame swaps x and y; every other key
-        kept. The identity returns ``objects`` itself."""
+        with the centroid carried (its xy on the :data:`HOME_GRID_M` grid when the frame has an origin) and the
+        horizontal extents swapped where the frame swaps x and y; every other key kept. The identity returns
+        ``objects`` itself."""
         if self.is_identity:
             return objects
         out = []
@@ -88,7 +115,7 @@ class HomeFrame:
             c = np.asarray(o["centroid"], dtype=np.float64).reshape(3)
             e = np.asarray(o["extent"], dtype=np.float64).reshape(3)
             c2, e2 = c.copy(), e.copy()
-            c2[:2] = self.R @ c[:2]
+            c2[:2] = self._home_xy(c[None, :2])[0]
             e2[:2] = np.abs(self.R) @ e[:2]
             out.append({**o, "centroid": c2.tolist(), "extent": e2.tolist()})
         return out
@@ -98,14 +125,21 @@ class HomeFrame:
         lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
         if self.is_identity:
             return lo, hi
-        a, b = lo.copy(), hi.copy()
-        a[:2], b[:2] = self.R.T @ lo[:2], self.R.T @ hi[:2]
+        a, b = self.point_to_map(lo), self.point_to_map(hi)
         return np.minimum(a, b), np.maximum(a, b)
 
+    def point_to_map(self, p) -> np.ndarray:
+        """A home-frame point (2 or 3 coordinates, metres; z unchanged) in the map frame."""
+        out = self.vector_to_map(p)
+        if self.origin is not None:
+            out = out.copy()
+            out[:2] = out[:2] + self.origin
+        return out
+
     def vector_to_map(self, v) -> np.ndarray:
-        """A home-frame point or direction (2 or 3 coordinates; z unchanged) in the map frame."""
+        """A home-frame direction (2 or 3 coordinates; z unchanged) in the map frame (turned, never moved)."""
         v = np.asarray(v, dtype=np.float64)
-        if self.is_identity:
+        if np.array_equal(self.R, np.eye(2)):
             return v
         out = v.copy()
         out[:2] = self.R.T @ v[:2]
@@ -119,8 +153,9 @@ class HomeFrame:
 
     def plan_to_map(self, plan):
         """A home-frame :class:`~benchbot_sim_taichi.homes.floorplan.FloorPlan` in the map frame: rooms, walls,
-        openings (their ``outward`` normals), lamps, wall spans (ends and ``inward`` normals), the outer boundary
-        and the robot corridor carried; indices and order kept. The identity returns ``plan`` itself."""
+        openings (their ``outward`` normals turned), lamps, wall spans (ends carried, ``inward`` normals turned), the
+        outer boundary and the robot corridor carried; indices and order kept. The identity returns ``plan``
+        itself."""
         if self.is_identity:
             return plan
         outer_lo, outer_hi = self.box_to_map(plan.outer_lo, plan.outer_hi)
@@ -130,15 +165,30 @@ class HomeFrame:
             walls=[replace(w, lo=lo, hi=hi) for w in plan.walls for lo, hi in [self.box_to_map(w.lo, w.hi)]],
             openings=[replace(o, lo=lo, hi=hi, outward=self.vector_to_map(o.outward)) for o in plan.openings
                       for lo, hi in [self.box_to_map(o.lo, o.hi)]],
-            lights=[self.vector_to_map(p) for p in plan.lights],
-            wall_spans=[replace(s, a=self.vector_to_map(s.a), b=self.vector_to_map(s.b),
+            lights=[self.point_to_map(p) for p in plan.lights],
+            wall_spans=[replace(s, a=self.point_to_map(s.a), b=self.point_to_map(s.b),
                                 inward=self.vector_to_map(s.inward)) for s in plan.wall_spans],
             corridor=type(plan.corridor)(self.points_to_map(plan.corridor.p0), self.points_to_map(plan.corridor.p1),
                                          plan.corridor.radius))
 
     def points_to_map(self, xy) -> np.ndarray:
-        """(M, 2) float64 home-frame xy points in the map frame."""
-        return np.asarray(xy, dtype=np.float64).reshape(-1, 2) @ self.R
+        """(M, 2) float64 home-frame xy points (metres) in the map frame."""
+        out = np.asarray(xy, dtype=np.float64).reshape(-1, 2) @ self.R
+        return out if self.origin is None else out + self.origin
+
+
+def _layout_box(objects: list[dict], paths: list) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lo, hi) (2,) float64 xy bounds (map frame, metres) of a layout: its objects' cuboids, else its path points;
+    None for an empty layout."""
+    if objects:
+        c = np.array([np.asarray(o["centroid"], dtype=np.float64).reshape(3)[:2] for o in objects])
+        e = np.abs(np.array([np.asarray(o["extent"], dtype=np.float64).reshape(3)[:2] for o in objects]))
+        return (c - e / 2).min(axis=0), (c + e / 2).max(axis=0)
+    pts = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in paths]
+    pts = np.concatenate(pts) if pts else np.zeros((0, 2))
+    if not len(pts):
+        return None
+    return pts.min(axis=0), pts.max(axis=0)
 
 
 def _rule_values(objects: list[dict], paths: list) -> np.ndarray:
@@ -171,7 +221,7 @@ def _rule_values(objects: list[dict], paths: list) -> np.ndarray:
     return np.asarray(rows)
 
 
-def home_frame(objects: list[dict], paths: list) -> HomeFrame:
+def home_frame(objects: list[dict], paths: list, *, own_origin: bool = False) -> HomeFrame:
     """The frame a home is derived in (module docstring): the symmetry of the square under which the layout best
     follows :data:`ORIENTATION_RULES`, rule by rule (values within :data:`TIE_M` tie), the identity first among
     equals.
@@ -179,33 +229,48 @@ def home_frame(objects: list[dict], paths: list) -> HomeFrame:
     Args:
         objects: the home's ground-truth objects (``centroid``, ``extent``; map frame, metres).
         paths: (M, 2) xy robot paths (map frame, metres).
+        own_origin: give the frame an origin of the home's own: the corner of the layout's bounding box (its
+            objects' cuboids, else its path points) that is lowest in x and y once turned, so that a moved copy of
+            the layout has the same home-frame coordinates (to :data:`HOME_GRID_M`). False: the map's origin.
+
+    Returns:
+        A :class:`HomeFrame`; with ``own_origin`` and an empty layout, one at the map's origin.
     """
     values = _rule_values(objects, paths)
     keep = np.arange(len(SQUARE_SYMMETRIES))
     for k in range(values.shape[1]):
         best = values[keep, k].max()
         keep = keep[values[keep, k] >= best - TIE_M]
-    return HomeFrame(SQUARE_SYMMETRIES[int(keep[0])])
+    R = SQUARE_SYMMETRIES[int(keep[0])]
+    box = _layout_box(objects, paths) if own_origin else None
+    if box is None:
+        return HomeFrame(R)
+    corner = np.minimum(R @ box[0], R @ box[1])  # the box's lowest corner in the home frame
+    return HomeFrame(R, R.T @ corner)
 
 
-def turned_layout(data: dict, M) -> dict:
+def turned_layout(data: dict, M, offset=(0.0, 0.0)) -> dict:
     """A copy of a BEAR ground-truth dict ``{environment, format, ground_truth}`` carried by the 2 × 2 matrix ``M``
-    (one of :data:`SQUARE_SYMMETRIES`, map → turned map): every object's centroid, its horizontal extents (swapped
-    where ``M`` swaps x and y, so the cuboids stay axis-aligned), the start pose and every trajectory pose (written
-    as unit quaternions about z: the start pose's yaw is the one the original placed the robot at,
-    :func:`benchbot.core.geometry.start_pose_to_se2`). For tests and ``benchmarks/turned_homes.py``.
+    (one of :data:`SQUARE_SYMMETRIES`, map → turned map), then moved by ``offset`` ((2,) xy, metres): every object's
+    centroid, its horizontal extents (swapped where ``M`` swaps x and y, so the cuboids stay axis-aligned), the start
+    pose and every trajectory pose (written as unit quaternions about z: the start pose's yaw is the one the original
+    placed the robot at, :func:`benchbot.core.geometry.start_pose_to_se2`): ``p' = M @ p + offset``. For tests and
+    ``benchmarks/turned_homes.py``.
 
     Raises:
-        ValueError: ``M`` is not a symmetry of the square; a pose is malformed.
+        ValueError: ``M`` is not a symmetry of the square, ``offset`` is not 2 finite numbers; a pose is malformed.
     """
     from benchbot.core.geometry import pose7_to_se2, start_pose_to_se2
 
     M = np.asarray(M, dtype=np.float64)
     if not any(np.array_equal(M, S) for S in SQUARE_SYMMETRIES):
         raise ValueError(f"{M.tolist()} is not a symmetry of the square (entries 0 and ±1, one non-zero per row)")
+    t = np.asarray(offset, dtype=np.float64)
+    if t.shape != (2,) or not np.all(np.isfinite(t)):
+        raise ValueError(f"offset {offset!r} is not 2 finite numbers (x, y in metres)")
 
     def pose(se2, z: float) -> list[float]:
-        p = M @ se2[:2]
+        p = M @ se2[:2] + t
         heading = M @ [math.cos(se2[2]), math.sin(se2[2])]
         yaw = math.atan2(heading[1], heading[0])
         return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2), float(p[0]), float(p[1]), float(z)]
@@ -213,7 +278,7 @@ def turned_layout(data: dict, M) -> dict:
     out = json.loads(json.dumps(data))
     for o in out["ground_truth"]["objects"]:
         c, e = np.asarray(o["centroid"], dtype=np.float64), np.asarray(o["extent"], dtype=np.float64)
-        c[:2], e[:2] = M @ c[:2], np.abs(M) @ e[:2]
+        c[:2], e[:2] = M @ c[:2] + t, np.abs(M) @ e[:2]
         o["centroid"], o["extent"] = c.tolist(), e.tolist()
     env = out.get("environment") or {}
     if env.get("start_pose") is not None:

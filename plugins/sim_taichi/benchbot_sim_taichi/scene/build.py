@@ -21,6 +21,7 @@ import numpy as np
 from benchbot.core import settings
 from benchbot.core.errors import BackendError
 from benchbot.core.geometry import pose7_to_se2, quaternion_wxyz_to_matrix, start_pose_to_se2
+from benchbot.core.seeding import home_seed
 from benchbot.core.specs import first_error
 from benchbot_sim_taichi.bear import lighting_of_map_path
 from benchbot_sim_taichi.scene.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
@@ -415,7 +416,9 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
             ``start_pose``/``trajectory_poses`` (``[qw,qx,qy,qz,x,y,z]``) are taken from the spec, else from the
             JSON; ``lighting`` from the spec, else from the JSON's original Unreal ``map_path``; ``style`` (one of
             :data:`STYLES`) from the spec, else :func:`default_style`.
-        seed: seeds the per-instance colour variation (and the furnished home's choices).
+        seed: the world seed: seeds the per-instance colour variation of objects drawn with primitives. A
+            furnished home (plan, materials, furniture, the models of the objects) is seeded by the home alone
+            (:func:`benchbot.core.seeding.home_seed` of the environment's ``name``), the same in all its variants.
 
     Raises:
         BackendError: ``map_path`` is missing, unreadable or malformed, a pose is malformed, or the style is
@@ -445,7 +448,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     home = None
     map_objects = gt["objects"][: len(gt["objects"]) - len(mesh_objs)]
     if style == "furnished" and map_objects:  # the plan is derived from the map's cuboids: without any, a room shell
-        home = _furnished_home(environment, file_env, map_objects, map_path, seed)
+        home = _furnished_home(environment, file_env, map_objects, map_path)
     frame = home.frame if home is not None else _primitives_frame(environment, file_env, map_objects, map_path)
     modelled = set() if home is None else \
         {i.object_index for i in home.instances if i.object_index >= 0}
@@ -647,10 +650,12 @@ def _box_models(home, n_boxes: int) -> list[str]:
     return [by_object.get(k, "") for k in range(n_boxes)]
 
 
-def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, seed: int):
+def _furnished_home(environment: dict, file_env: dict, objects: list, map_path):
     """The :class:`~benchbot_sim_taichi.homes.furnished.FurnishedHome` of an environment (its home's plan is derived
     from the ground-truth files its ``home_files`` declares with its own map file,
-    :func:`~benchbot_sim_taichi.homes.floorplan.home_files`, or from this environment's own poses without a map file).
+    :func:`~benchbot_sim_taichi.homes.floorplan.home_files`, or from this environment's own poses without a map file),
+    seeded by the home alone (:func:`benchbot.core.seeding.home_seed` of the environment's ``name``): every variant of
+    a home gets the same plan, materials and furniture, whatever the world seed.
 
     Raises:
         BackendError: ``home_files`` is malformed or names a missing file, or one of the files is not a ground-truth
@@ -662,7 +667,7 @@ def _furnished_home(environment: dict, file_env: dict, objects: list, map_path, 
     paths = _env_paths(environment, file_env)
     files = home_files(environment, _env_dir(environment)) if map_path else None
     try:
-        return furnish_environment(objects, files, paths, seed=seed)
+        return furnish_environment(objects, files, paths, seed=home_seed(str(environment.get("name", ""))))
     except BackendError as e:
         if not environment.get(HOME_FILES_FIELD) or not e.message.startswith("floor plan: cannot read"):
             raise
