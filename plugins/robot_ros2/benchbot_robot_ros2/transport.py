@@ -438,12 +438,16 @@ class RclpyTransport(Transport):
         if not self._spinning.acquire(blocking=False):
             return delivered
         try:
+            idle = 0
             for _ in range(64):
                 before = self._handled
                 self.executor.spin_once(timeout_sec=0.0)
-                if self._handled == before:
-                    break
-                delivered += self._handled - before
+                if self._handled > before:
+                    delivered, idle = delivered + self._handled - before, 0
+                else:  # the executor's list of ready callbacks ran out: one more wait tells whether more came
+                    idle += 1
+                    if idle >= 2:
+                        break
         except Exception as exc:  # noqa: BLE001 - as on the spinning thread: counted, never raised
             self.errors += 1
             self.last_error = repr(exc)

@@ -1,7 +1,8 @@
 """The sensor watchdog judges silence by what the robot sent (issue 54): a robot still publishing while BenchBot's
 own process is starved (its reading thread held up, its checks late) never faults; a robot that stops publishing
 faults with one line naming the topic, its last header stamp and the setting; over HTTP that fault is a 503 (not a
-500) whose one-line message the client shows."""
+500) whose one-line message the client shows. Over Cyclone DDS here; the last test over rclpy (marked ``rclpy``:
+``.ci/ros2``)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ import pytest
 from benchbot.core.errors import RobotFaultError
 from benchbot_robot_ros2.backend import Ros2RobotBackend
 from benchbot_robot_ros2.testing import FAKE_SPEC, FakeRobot
+from benchbot_robot_ros2.transport import rclpy_available
 from benchbot_robot_ros2.watchdog import SilenceWatch, header_stamp_s
 
 ENV = {"name": "fake", "variant": 1, "type": "real", "map_path": "-", "start_pose": [1, 0, 0, 0, 0, 0, 0]}
@@ -98,7 +100,8 @@ def test_header_stamps_of_messages_and_tf(transport):
     convert.set_stamp(odom.header.stamp, 12.5)
     assert header_stamp_s(odom) == pytest.approx(12.5)
     tf = transport.message("tf2_msgs/msg/TFMessage")
-    a, b = transport.message("geometry_msgs/msg/TransformStamped"), transport.message("geometry_msgs/msg/TransformStamped")
+    a = transport.message("geometry_msgs/msg/TransformStamped")
+    b = transport.message("geometry_msgs/msg/TransformStamped")
     convert.set_stamp(a.header.stamp, 3.0)
     convert.set_stamp(b.header.stamp, 4.0)
     tf.transforms = [a, b]
@@ -325,3 +328,81 @@ def test_a_stopped_backend_process_does_not_fault_a_publishing_robot(domain_id):
     finally:
         tr.close()
     assert report == {"faults": [], "motions": 3}
+
+
+@pytest.mark.slow
+@pytest.mark.rclpy
+@pytest.mark.skipif(not rclpy_available(), reason="rclpy is not importable (no ROS 2 Jazzy here)")
+def test_over_rclpy_a_stopped_backend_goes_on_and_a_silent_robot_faults(domain_id):
+    """The same over the rclpy transport (Fast DDS; TF through its Cyclone DDS participant), stand-in and backend
+    alike: the stopped backend process faults none of its three motions; odometry falling silent faults with the
+    one line."""
+    from benchbot_robot_ros2.transport import RclpyTransport
+
+    dom = domain_id + 22
+    tr = RclpyTransport(dom, "loopback", node_name="benchbot_stand_in")
+    try:
+        with FakeRobot(tr, cmd_timeout_s=0.5) as robot:
+            assert run_starved_backend(dom, "rclpy") == {"faults": [], "motions": 3}
+            spec = copy.deepcopy(FAKE_SPEC)
+            spec["ros2"].update(transport="rclpy", domain_id=dom)
+            b = Ros2RobotBackend(spec, {})
+            try:
+                b.load_scene(ENV)
+                errors = []
+
+                def drive():
+                    try:
+                        b.move_to(np.array([5.0, 0.0, 0.0]))
+                    except Exception as exc:  # noqa: BLE001
+                        errors.append(exc)
+
+                t = threading.Thread(target=drive)
+                t.start()
+                time.sleep(0.5)
+                robot.silence.add("odom")
+                t.join(10)
+                assert errors and isinstance(errors[0], RobotFaultError), errors
+                assert errors[0].message.startswith("ROS 2 robot fault: odometry (/odom) silent for ")
+                assert SETTING in errors[0].message and "\n" not in errors[0].message
+            finally:
+                b.close()
+    finally:
+        tr.close()
+
+
+@pytest.mark.rclpy
+@pytest.mark.skipif(not rclpy_available(), reason="rclpy is not importable (no ROS 2 Jazzy here)")
+def test_rclpy_poll_delivers_what_the_spinning_thread_has_not(domain_id):
+    """With the rclpy transport's spinning thread stopped (a thread that is not scheduled), messages that arrived
+    stay queued in rmw; ``poll`` delivers all of them on the calling thread."""
+    from benchbot_robot_ros2 import convert
+    from benchbot_robot_ros2.transport import RclpyTransport
+
+    dom = domain_id + 23
+    a = RclpyTransport(dom, "loopback", node_name="benchbot_poll_a")
+    b = RclpyTransport(dom, "loopback", node_name="benchbot_poll_b")
+    try:
+        got = []
+        b.subscribe("/t/poll", "geometry_msgs/msg/Twist", got.append)
+        pub = a.publisher("/t/poll", "geometry_msgs/msg/Twist")
+        deadline = time.monotonic() + 20
+        while not got and time.monotonic() < deadline:  # discovery
+            pub.publish(convert.fill_twist(a.message("geometry_msgs/msg/Twist"), 0.0, 0.0))
+            time.sleep(0.05)
+        assert got
+        b._stop.set()
+        b._thread.join(5)
+        time.sleep(0.2)
+        before = len(got)
+        for k in range(5):
+            pub.publish(convert.fill_twist(a.message("geometry_msgs/msg/Twist"), 0.1 * (k + 1), 0.0))
+            time.sleep(0.01)
+        time.sleep(0.3)
+        assert len(got) == before  # nobody reads them now
+        assert b.poll(["/t/poll"]) == 5
+        assert [m.linear.x for m in got[before:]] == pytest.approx([0.1, 0.2, 0.3, 0.4, 0.5])
+        assert b.errors == 0, b.last_error
+    finally:
+        a.close()
+        b.close()
