@@ -161,15 +161,19 @@ def backend_facts(registry, robot: dict, scenes: list[dict], versions: dict | No
     """What an episode's backend was, for the record's ``backend`` (call it in the process that ran the episode,
     after the episode, where the backend initialised its libraries):
 
-    ``{"type", "plugin", "distribution", "version", "style", "arch", "device", "settings"}``: the robot's type, the
-    plugin providing its backend and that plugin's distribution and version; the scene style (the scenes' own
+    ``{"type", "clock", "plugin", "distribution", "version", "style", "arch", "device", "settings"}``: the robot's
+    type; the episode's clock, ``simulated`` or ``wall`` (a real robot: an environment of type ``real``,
+    :func:`benchbot.core.robot.episode_clock`); the plugin providing its backend and that plugin's distribution and
+    version; the scene style (the scenes' own
     ``style``, else the setting ``BENCHBOT_SIM_STYLE`` when that plugin reads it; absent otherwise); the Taichi
     arch and device (:func:`taichi_device`; absent without Taichi); the effective values of the settings that
     plugin reads (:mod:`benchbot.core.settings`). Never raises: what cannot be told is left out.
     """
     from benchbot.core import settings
 
-    out: dict = {"type": str(robot.get("type", ""))}
+    from benchbot.core.robot import episode_clock
+
+    out: dict = {"type": str(robot.get("type", "")), "clock": episode_clock(scenes)}
     try:
         plugin = registry.backend_factories[out["type"]][0]
         out["plugin"] = plugin

@@ -33,6 +33,19 @@ class MotionOutcome:
     duration_s: float
 
 
+#: The environment type of the real world: a scene of this type is a room a real robot drives in (docs/your-robot.md).
+REAL_ENVIRONMENT_TYPE = "real"
+
+
+def episode_clock(environments: Sequence[dict]) -> str:
+    """The clock of an episode in ``environments`` (environment specs): ``"wall"`` when one is of type ``real`` (a
+    real robot: its time is the wall clock, motions take what they take), else ``"simulated"`` (a simulator's time,
+    which advances with the motions, behind ROS 2 or not). Recordings (``benchbot.clock``) and the batch manifest's
+    episode ``backend`` say it."""
+    real = any(isinstance(e, dict) and e.get("type") == REAL_ENVIRONMENT_TYPE for e in environments)
+    return "wall" if real else "simulated"
+
+
 class RobotBackend(abc.ABC):
     """One robot, in one scene at a time.
 

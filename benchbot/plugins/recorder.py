@@ -5,9 +5,10 @@
 the episode it records (:func:`attach_recorder`). It renders nothing itself: after every step it writes the
 observations the episode last produced (``Episode.last_observation``), the ground-truth frames and the motion made.
 
-Time: the simulated time (the sum of the motions' durations; 1 s per step when a backend reports none), counted
-from the wall-clock time the recording started (so viewers show the real date). Every message's log time, publish
-time and header stamp are that time.
+Time (:func:`benchbot.core.robot.episode_clock`): in a simulator (``clock: simulated``) the simulated time, the sum
+of the motions' durations (1 s per step when a backend reports none), counted from the wall-clock time the
+recording started (so viewers show the real date); on a real robot (an environment of type ``real``, ``clock:
+wall``) the wall clock at each step. Every message's log time, publish time and header stamp are that time.
 
 Frames (:func:`tf_frames`): one name per frame, from the robot definition, in every header and transform: the
 robot's ``global_frame`` (``map``); for a ROS 2 robot (type ``ros2``) the TF frames of its ``ros2`` block
@@ -44,7 +45,7 @@ Every channel carries ``offered_qos_profiles`` (rosbag2's Jazzy YAML: reliable, 
 Metadata records (each ``{'json': <JSON text>}``): ``benchbot.run`` (task, robot, environment specs as the API
 serves them (:func:`~benchbot.core.episode.served_environment`: no ground-truth file named), seed,
 options, results format), ``benchbot.clock`` (``start_ns``: the time of the start, ns since the Unix epoch;
-``clock``: ``simulated``), ``benchbot.steps`` (per step: ``step``, ``action``, ``args``, ``result``,
+``clock``: ``simulated`` or ``wall``), ``benchbot.steps`` (per step: ``step``, ``action``, ``args``, ``result``,
 ``scene_number``, ``pose`` [x, y, yaw], ``collided``, ``duration_s``, ``time_ns``), ``benchbot.frames`` (per
 recorded observation: ``step``, ``time_ns``, ``scene_number``, ``names``, the ``image_segment`` class ids, and
 ``info_frame_ids`` when an ``image_*_info`` observation named a frame other than the camera's TF frame).
@@ -64,6 +65,7 @@ from benchbot.core.episode import served_environment
 from benchbot.core.errors import UsageError
 from benchbot.core.geometry import se2_relative
 from benchbot.core.hookspecs import hookimpl
+from benchbot.core.robot import episode_clock
 from benchbot.core.ros_messages import MSGDEFS, transform_message
 
 #: The recorder's own channels, ``{key: (topic, datatype)}``: the frames and the motion made. The observations'
@@ -125,7 +127,9 @@ class EpisodeRecorder:
 
     Attributes:
         start_ns: the recording's time origin, ns since the Unix epoch (the wall clock at :meth:`attach`, whole ms).
-        time_ns: the current simulated time, ns since the Unix epoch.
+        time_ns: the current time, ns since the Unix epoch: simulated, or the wall clock at the last step.
+        clock: ``simulated`` or ``wall`` (:func:`~benchbot.core.robot.episode_clock` of the episode's environments,
+            set by :meth:`attach`).
         tf_names: the TF frame names, :func:`tf_frames` of the robot. frames, steps: the metadata being built.
 
     Every method runs on the backend thread (observer hooks, or ``BackendService.call``).
@@ -139,6 +143,7 @@ class EpisodeRecorder:
         self.writer: Any = None
         self.start_ns = 0
         self.time_ns = 0
+        self.clock = "simulated"
         self.steps: list[dict] = []
         self.frames: list[dict] = []
         self._recorded_obs: Any = None
@@ -182,6 +187,7 @@ class EpisodeRecorder:
         for datatype in MSGDEFS:  # the standard types up front; another kind's type when first written
             self._schema(datatype)
         self.start_ns = self.time_ns = time.time_ns() // 1_000_000 * 1_000_000
+        self.clock = episode_clock(getattr(episode, "environments", None) or [])
         backend = episode.backend
         original_move_to = backend.move_to
 
@@ -268,7 +274,10 @@ class EpisodeRecorder:
         pose = np.asarray(info["pose"], dtype=np.float64)
         before = self._pose_before if self._pose_before is not None else pose
         self._pose_before = pose
-        self.time_ns += int(round(duration * 1e9))
+        if self.clock == "wall":  # a real robot: the time the step ended (never before the last one)
+            self.time_ns = max(time.time_ns(), self.time_ns + 1)
+        else:
+            self.time_ns += int(round(duration * 1e9))
         self.steps.append({
             "step": int(info["step"]), "action": info.get("action"), "args": dict(info.get("args") or {}),
             "result": info.get("result"), "scene_number": int(info.get("scene_number", 0)),
@@ -294,7 +303,7 @@ class EpisodeRecorder:
         self._flush_observation()
         self.writer.add_metadata("benchbot.run", {"json": json.dumps(self.run, default=_jsonable)})
         self.writer.add_metadata("benchbot.clock", {"json": json.dumps({"start_ns": self.start_ns,
-                                                                        "clock": "simulated"})})
+                                                                        "clock": self.clock})})
         self.writer.add_metadata("benchbot.steps", {"json": json.dumps(self.steps)})
         self.writer.add_metadata("benchbot.frames", {"json": json.dumps(self.frames)})
         self.writer.finish()

@@ -1,5 +1,6 @@
 """Hook implementations of the robot_ros2 plugin: robots of type ``ros2`` (``carter_ros2``, ``turtlebot4``), their
-backend, and the ``benchbot ros2 serve-sim`` command. Imports nothing heavy: cyclonedds/rclpy/Taichi load lazily."""
+backend, and the commands ``benchbot ros2 serve-sim`` and ``benchbot ros2 example-room``. Imports nothing heavy:
+cyclonedds/rclpy/Taichi load lazily."""
 
 from __future__ import annotations
 
@@ -9,6 +10,12 @@ from typing import Any, Optional
 from benchbot.core.hookspecs import hookimpl
 
 ROBOTS_DIR = Path(__file__).resolve().parent / "robots"
+
+EXAMPLE_ROOM = Path(__file__).resolve().parent / "example_room"
+"""The example real-environment pack (original add-on layout): ``environments/example_room_1.yaml`` (type ``real``:
+start pose, trajectory, ground truth) with its simulated twin ``example_room_sim_1.yaml``, and their ground truths
+in ``ground_truths/``. Installed with ``benchbot install``; ``benchbot ros2 example-room DEST`` copies it to edit
+(docs/your-robot.md)."""
 
 
 @hookimpl
@@ -31,13 +38,15 @@ def benchbot_robot_backends() -> dict:
 
 @hookimpl
 def benchbot_commands(app: Any) -> None:
-    """``benchbot ros2 serve-sim --env ENV``: the Taichi simulator served as a ROS 2 robot."""
+    """``benchbot ros2 serve-sim --env ENV`` (the Taichi simulator served as a ROS 2 robot) and ``benchbot ros2
+    example-room DEST`` (a copy of :data:`EXAMPLE_ROOM` to edit)."""
     import typer
 
     from benchbot.cli.options import ARCH_HELP, arch_value, at_most, check_count
     from benchbot.core.limits import MAX_SEED
 
-    ros2 = typer.Typer(help="ROS 2 robots: serve the simulator as a ROS 2 robot.", no_args_is_help=True)
+    ros2 = typer.Typer(help="ROS 2 robots: serve the simulator as a ROS 2 robot; the example room pack.",
+                       no_args_is_help=True)
 
     @ros2.command("serve-sim")
     def serve_sim(
@@ -74,6 +83,32 @@ def benchbot_commands(app: Any) -> None:
             w, h = parse_size(camera_size)
             serve(env, domain_id=domain, width=w, height=h, arch=arch, time_scale=time_scale, camera_hz=camera_hz,
                   transport=transport, network=network, seed=seed, robot=robot, ros_robot=ros_robot)
+
+        _run()
+
+    @ros2.command("example-room")
+    def example_room(
+        dest: Path = typer.Argument(..., help="A new folder to write the pack into (e.g. ./my_room)."),
+    ) -> None:
+        """Write the example real-environment pack (a room of type real with its start pose, trajectory and
+        ground-truth template, and its simulated twin) into DEST, to edit for your own room and install with
+        `benchbot install DEST` (docs/your-robot.md)."""
+        import shutil
+
+        from benchbot.cli.common import handle_errors
+        from benchbot.core.errors import UsageError
+
+        @handle_errors
+        def _run() -> None:
+            if dest.exists():
+                raise UsageError(f"{dest} already exists", "name a new folder, e.g. ./my_room")
+            try:
+                shutil.copytree(EXAMPLE_ROOM, dest, ignore=shutil.ignore_patterns("__pycache__"))
+            except OSError as exc:
+                raise UsageError(f"{dest}: cannot write the pack ({exc.strerror or exc})",
+                                 "choose a writable folder") from None
+            print(f"wrote the example room pack to {dest}: edit environments/ and ground_truths/ (docs/your-robot.md),"
+                  f" then `benchbot install {dest}`")
 
         _run()
 
