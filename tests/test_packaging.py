@@ -131,7 +131,7 @@ def test_every_distribution_declares_what_its_code_imports(folder):
     """Each third-party module a distribution's code imports (statically: ast) is one of its dependencies, or, for
     the optional ones of :data:`OPTIONAL`, of the extra named there. An undeclared import works in the workspace,
     where another package brought it, and not from the wheels: sim_taichi imported Pillow without declaring it, and
-    its wheels rendered the furniture untextured (issue 54)."""
+    its wheels rendered the furniture untextured and scored differently from the workspace."""
     name = canonical(project(folder)["name"])
     dependencies, extras = declared(folder)
     problems = []
