@@ -1,14 +1,15 @@
-"""The geometric baseline's scores on a BEAR home turned and mirrored: the same world turned gives the same scores.
+"""The geometric baseline's scores on a BEAR home turned, mirrored and moved: the same world turned or moved gives the
+same scores.
 
-Each turn (a symmetry of the square: quarter turns, mirrors) of the home's five variants — objects, start poses,
-trajectories, by ``benchbot_sim_taichi.homes.home_frame.turned_layout`` — is installed as a content pack (into a
-temporary data directory: environment ``turned:1`` of ``--env``'s variant, its trajectory cut to its first
-``--poses`` poses, all five variants as its ``home_files``, the turned ground truth beside it), and
-``benchbot batch --example semslam_geometric --envs turned:1`` runs on it in the furnished style. Every turn gets the
-same name and variant, so the same world seed. The figures: per turn the OMQ and its parts, and the largest gap of
-OMQ from the unturned home's.
+Each turn (a symmetry of the square: quarter turns, mirrors) or move (a turn and a translation, :data:`MOVES`) of the
+home's five variants — objects, start poses, trajectories, by ``benchbot_sim_taichi.homes.home_frame.turned_layout``
+— is installed as a content pack (into a temporary data directory: environment ``turned:1`` of ``--env``'s variant,
+its trajectory cut to its first ``--poses`` poses, all five variants as its ``home_files``, the turned ground truth
+beside it), and ``benchbot batch --example semslam_geometric --envs turned:1`` runs on it in the furnished style.
+Every turn gets the same name and variant, so the same home seed and world seed. The figures: per turn the OMQ and
+its parts, and the largest gap of OMQ from the unturned home's.
 
-    python benchmarks/turned_homes.py [--env house:2] [--poses 40] [--turns identity,turn90,mirror_y]
+    python benchmarks/turned_homes.py [--env house:2] [--poses 40] [--turns identity,turn90,mirror_y,shift]
 """
 
 from __future__ import annotations
@@ -28,18 +29,25 @@ import smoke  # this folder is on sys.path when a script here runs
 TURNS = {"identity": [[1, 0], [0, 1]], "turn90": [[0, -1], [1, 0]], "turn180": [[-1, 0], [0, -1]],
          "turn270": [[0, 1], [-1, 0]], "mirror_x": [[-1, 0], [0, 1]], "mirror_y": [[1, 0], [0, -1]],
          "mirror_diagonal": [[0, 1], [1, 0]], "mirror_antidiagonal": [[0, -1], [-1, 0]]}
+#: Moves by name: a turn of :data:`TURNS` then a translation (x, y metres): ``p' = M @ p + offset``. The baseline
+#: fuses depth into 4 cm voxels counted from the map's origin (``mapping.py``, ``voxel``), so it sees a home moved by
+#: whole voxels (``shift``, ``turn90_shift``) as it sees the home, and one moved by a fraction of a voxel
+#: (``shift_off_grid``) through other voxels: other boxes, another OMQ, in the same world.
+MOVES = {"shift": ("identity", (7.32, -2.12)), "turn90_shift": ("turn90", (-3.4, 12.92)),
+         "shift_off_grid": ("identity", (7.3, -2.1))}
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 
 
-def write_pack(folder: Path, home: str, variant: int, M, poses: int) -> None:
-    """A content pack of the five variants of BEAR home ``home`` turned by ``M``: ``maps/``, the environment
-    ``turned:1`` (variant ``variant``, its first ``poses`` trajectory poses) and its ground truth."""
+def write_pack(folder: Path, home: str, variant: int, M, poses: int, offset=(0.0, 0.0)) -> None:
+    """A content pack of the five variants of BEAR home ``home`` turned by ``M`` and moved by ``offset`` (metres):
+    ``maps/``, the environment ``turned:1`` (variant ``variant``, its first ``poses`` trajectory poses) and its
+    ground truth."""
     import yaml
 
     from benchbot_sim_taichi.bear import DATA_DIR
     from benchbot_sim_taichi.homes.home_frame import turned_layout
 
-    dicts = [turned_layout(json.loads((DATA_DIR / f"{home}_{v}.json").read_text()), M) for v in range(1, 6)]
+    dicts = [turned_layout(json.loads((DATA_DIR / f"{home}_{v}.json").read_text()), M, offset) for v in range(1, 6)]
     for sub in ("maps", "environments", "ground_truths"):
         (folder / sub).mkdir(parents=True, exist_ok=True)
     for v, d in enumerate(dicts, 1):
@@ -61,7 +69,8 @@ def run_turn(root: Path, home: str, variant: int, name: str, poses: int) -> dict
     env = {k: v for k, v in os.environ.items() if k != "BENCHBOT_SIM_STYLE"}
     env["BENCHBOT_DATA_DIR"] = str(root / "data")
     pack = root / f"pack_{name}"
-    write_pack(pack, home, variant, TURNS[name], poses)
+    turn, offset = MOVES.get(name, (name, (0.0, 0.0)))
+    write_pack(pack, home, variant, TURNS[turn], poses, offset)
     done = subprocess.run([*BENCHBOT, "install", "--force", "--name", "turned", str(pack)], capture_output=True,
                           text=True, env=env, timeout=600)
     if done.returncode:
@@ -83,15 +92,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--env", default="house:2", help="a BEAR environment name:variant (miniroom:1-5, house:1-5)")
     ap.add_argument("--poses", type=int, default=40, help="trajectory poses driven (from the start)")
     ap.add_argument("--turns", default="identity,turn90,turn180,mirror_y,mirror_diagonal",
-                    help=f"comma-separated, of: {', '.join(TURNS)}")
+                    help=f"comma-separated, of: {', '.join([*TURNS, *MOVES])}")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = smoke.parse_args(ap, argv, style=None, env="miniroom:1", poses=2, turns="identity,mirror_y")
     home, _, variant = args.env.partition(":")
     turns = [t.strip() for t in args.turns.split(",") if t.strip()]
     if home not in ("miniroom", "house") or variant not in {str(v) for v in range(1, 6)}:
         ap.error(f"--env {args.env}: give a BEAR environment, miniroom:1-5 or house:1-5")
-    if args.poses < 1 or not turns or set(turns) - set(TURNS):
-        ap.error(f"--poses is at least 1; --turns names some of {', '.join(TURNS)}")
+    if args.poses < 1 or not turns or set(turns) - set(TURNS) - set(MOVES):
+        ap.error(f"--poses is at least 1; --turns names some of {', '.join([*TURNS, *MOVES])}")
     with tempfile.TemporaryDirectory(prefix="turned_homes_") as tmp:
         results = {name: run_turn(Path(tmp), home, int(variant), name, args.poses) for name in turns}
     if args.json:
