@@ -122,7 +122,7 @@ def register(app: typer.Typer) -> None:
             else:
                 submission = example_submission(reg, example, args) if example else native_submission([native], args)
                 if isolation == "bwrap":
-                    check_sandboxable(submission)
+                    check_sandboxable(submission, reg)
             plan = dict(task=task, repeat=repeat, seed=seed, argv=submission.argv, cwd=str(submission.cwd),
                         options=backend_options(arch, camera_size), timeout_s=timeout, container=container,
                         record=record, sandbox=isolation)

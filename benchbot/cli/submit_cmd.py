@@ -226,7 +226,7 @@ def register(app: typer.Typer) -> None:
         else:
             sub = example_submission(reg, example, args) if example else native_submission(command or [], args)
         if sandboxed:
-            check_sandboxable(sub)
+            check_sandboxable(sub, reg)
             check_available()  # before the backend is asked: one line when bubblewrap is missing
         elif not in_container:
             err.print(f"[yellow]warning:[/] {not_verifiable_note('none')}", highlight=False)

@@ -3,17 +3,18 @@ not exist (docs/security.md, "Isolation levels").
 
 A sandboxed solution's process sees, read-only: the system's folders (``/usr``, ``/etc``, ``/opt``, ...), the Python
 installation and virtual environment BenchBot runs in (for an editable install, only the Python packages of its folders,
-not the folders themselves), and the solution's own folder. Over those, every folder that holds ground truth or a scene
-layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every environment's and ground truth's
-files in the registry, the package of every plugin that contributes environments or ground truths (the simulator's), the
-data directory of installed content packs, the cache directory of built scenes, the test data, git history, gallery and
-benchmark figures of a source checkout BenchBot runs from) and so is the folder that batches write run directories to.
-It writes only to its own outputs folder (``/benchbot/results``; ``BENCHBOT_RESULT_LOCATION`` is a file there, and
-``/tmp/benchbot_result``, where original clients write, leads there too) and to a private ``/tmp`` of at most
-:data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS, user and network namespaces: no other
-process is visible, no capability is kept, no new user namespace can be made, and its network is a loopback device of
-its own on which the backend answers at ``127.0.0.1:<port>`` and at ``benchbot_supervisor:10000`` (where the original
-client looks) through :mod:`benchbot.core.socket_relay`.
+not the folders themselves), and the solution's own folder; an installed pack's example its own folder only, the sources
+of editable installs and the user's display are added by :mod:`benchbot.core.sandbox_extras`. Over those, every folder
+that holds ground truth or a scene layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every
+environment's and ground truth's files in the registry, the package of every plugin that contributes environments or
+ground truths (the simulator's), the data directory of installed content packs, the cache directory of built scenes, the
+test data, git history, gallery and benchmark figures of a source checkout BenchBot runs from) and so is the folder that
+batches write run directories to. It writes only to its own outputs folder (``/benchbot/results``;
+``BENCHBOT_RESULT_LOCATION`` is a file there, and ``/tmp/benchbot_result``, where original clients write, leads there
+too) and to a private ``/tmp`` of at most :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS,
+user and network namespaces: no other process is visible, no capability is kept, no new user namespace can be made, and
+its network is a loopback device of its own on which the backend answers at ``127.0.0.1:<port>`` and at
+``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.core.socket_relay`.
 
 What the isolation levels of a run mean (:data:`ISOLATION_LEVELS`, recorded in a batch's manifest as ``sandbox``):
 ``bwrap`` (this module), ``container`` (``--containerised``: the container holds only its image and mounts nothing)
@@ -31,7 +32,7 @@ import subprocess
 import sys
 import tempfile
 import urllib.parse
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
@@ -131,16 +132,23 @@ def check_available() -> str:
     return bwrap
 
 
-def check_sandboxable(submission) -> None:
+def check_sandboxable(submission, registry=None) -> None:
     """Refuse to sandbox a :class:`~benchbot.core.submission.Submission` that reads the ground truth on purpose
-    (an example whose spec says ``reads_ground_truth: true``, such as ``hello_eval_semantic_slam``).
+    (an example whose spec says ``reads_ground_truth: true``, such as ``hello_eval_semantic_slam``), or, given the
+    ``registry``, an installed pack's example whose own folder, which the sandbox shows it, holds a ground truth
+    (:func:`benchbot.core.sandbox_extras.check_pack_example`: the original ``hello_eval_scd`` keeps copies beside
+    its script).
 
     Raises:
-        UsageError: naming it, with ``--no-sandbox`` as the fix.
+        UsageError: naming it (and the file), with the fix.
     """
     if submission.reads_ground_truth:
         raise UsageError(f"{submission.label} reads the ground truth on purpose (a check of the evaluation "
                          "pipeline, not a solution), and the sandbox hides it", "run it with --no-sandbox")
+    if registry is not None:
+        from benchbot.core.sandbox_extras import check_pack_example
+
+        check_pack_example(submission.argv, submission.cwd, registry)
 
 
 def not_verifiable_note(isolation: str) -> str:
@@ -191,6 +199,22 @@ def source_roots(registry) -> list[Path]:
 CHECKOUT_GROUND_TRUTH = ("tests/data", ".git", "docs/gallery", "benchmarks/results")
 
 
+def registry_files(registry) -> set[str]:
+    """The absolute paths of the files that hold ground truth or build a layout, as ``registry``'s environments and
+    ground truths name them (their spec files, ``map_path``, ``home_files``, mesh files; overridden entries too) and
+    as they exist on this machine."""
+    from benchbot.core.server.redaction import ground_truth_strings
+
+    files: set[str] = set()
+    for kind in ("environments", "ground_truths"):
+        entries = list(registry.entries[kind].values())
+        entries += [e for (k, _), e in registry.overridden.items() if k == kind]
+        for entry in entries:
+            files |= {str(entry.path)} if entry.path else set()
+            files |= ground_truth_strings([entry.spec, entry.spec.get("environment") or {}])
+    return {f for f in files if os.path.isabs(f) and os.path.exists(f)}
+
+
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
     """The folders a sandboxed solution must not see: the folder of every file that an environment or ground truth of
     ``registry`` names (``_file_path``, ``map_path``, ``home_files``, mesh files), the package folder of every plugin
@@ -212,16 +236,8 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
         whether they exist or not (:func:`run_sandboxed` makes the first two).
     """
     from benchbot.core.pack_layout import cache_dir, data_dir
-    from benchbot.core.server.redaction import ground_truth_strings
 
-    files: set[str] = set()
-    for kind in ("environments", "ground_truths"):
-        entries = list(registry.entries[kind].values())
-        entries += [e for (k, _), e in registry.overridden.items() if k == kind]
-        for entry in entries:
-            files |= {str(entry.path)} if entry.path else set()
-            files |= ground_truth_strings([entry.spec, entry.spec.get("environment") or {}])
-    folders = {Path(f).resolve().parent for f in files if os.path.isabs(f) and os.path.exists(f)}
+    folders = {Path(f).resolve().parent for f in registry_files(registry)}
     for plugin in registry.plugins:
         if {"environments", "ground_truths"} & set(plugin.registers) and not plugin.module.startswith("benchbot."):
             package = _top_package_folder(plugin.module)
@@ -310,7 +326,12 @@ class SandboxLayout:
         outputs: the host folder bound writable at :data:`INSIDE_OUTPUTS`.
         backend_socket: the host's Unix socket bound at :data:`INSIDE_SOCKET`.
         hosts_file: the host file bound at ``/etc/hosts`` (names the backend's hosts as 127.0.0.1).
-        cwd: the solution's folder (shown).
+        cwd: the solution's folder (shown; inside a hidden folder, an empty folder is made for it unless it is
+            inside a ``revealed`` one).
+        revealed: host folders shown read-only although they lie inside a hidden folder (an installed pack's
+            example's own folder, checked for ground truth by :func:`benchbot.core.sandbox_extras.check_pack_example`):
+            bound over that folder's empty tmpfs, nothing else of it.
+        files: ``(host path, path inside)`` bound read-only last (the display's sockets and cookie).
     """
 
     shown: list[Path]
@@ -319,6 +340,24 @@ class SandboxLayout:
     backend_socket: Path
     hosts_file: Path
     cwd: Path
+    revealed: list[Path] = field(default_factory=list)
+    files: list[tuple[Path, str]] = field(default_factory=list)
+
+    def _reveal(self, folder: Path | None, emitted: list[Path]) -> list[str]:
+        """The binds of the revealed folders inside the hidden ``folder`` of ``emitted`` (the hidden folders made
+        empty; None: inside none of them), and the solution's folder made there when no revealed folder holds it."""
+        def under(path: Path) -> bool:
+            inside = [h for h in emitted if path.is_relative_to(h)]
+            return (folder in inside) if folder is not None else not inside
+
+        args: list[str] = []
+        for revealed in self.revealed:
+            if under(revealed):
+                args += ["--ro-bind", str(revealed), str(revealed)]
+        if any(self.cwd.is_relative_to(h) for h in self.hidden) and under(self.cwd) and not any(
+                self.cwd.is_relative_to(r) for r in self.revealed):
+            args += ["--dir", str(self.cwd)]
+        return args
 
     def bwrap_args(self) -> list[str]:
         """bubblewrap's arguments, in mount order (later mounts cover earlier ones)."""
@@ -331,9 +370,12 @@ class SandboxLayout:
                  "--symlink", f"{INSIDE_OUTPUTS}/benchbot_result", ORIGINAL_RESULT]
         for folder in self.shown:
             args += ["--ro-bind", str(folder), str(folder)]
-        for folder in self.hidden:
-            if any(folder.is_relative_to(s) or s.is_relative_to(folder) for s in self.shown):
-                args += ["--tmpfs", str(folder), "--remount-ro", str(folder)]
+        emitted = [h for h in self.hidden if any(h.is_relative_to(s) or s.is_relative_to(h) for s in self.shown)]
+        for folder in emitted:  # an empty folder in its place, with what is revealed in it bound before it is frozen
+            args += ["--tmpfs", str(folder), *self._reveal(folder, emitted), "--remount-ro", str(folder)]
+        args += self._reveal(None, emitted)
+        for host, inside in self.files:
+            args += ["--ro-bind", str(host), inside]
         args += ["--bind", str(self.outputs), INSIDE_OUTPUTS,
                  "--bind", str(self.backend_socket), INSIDE_SOCKET, "--chdir", str(self.cwd)]
         return args
@@ -418,10 +460,16 @@ def run_sandboxed(
         hide: more host folders to hide (run directories).
         env: the environment to start from (default: this process's); ``HOME``, ``TMPDIR``, the backend's address
             and the results location are set for the sandbox, and the shared-memory fast path is turned off
-            (the sandbox's ``/dev/shm`` is its own).
+            (the sandbox's ``/dev/shm`` is its own); the display variables as
+            :func:`~benchbot.core.sandbox_extras.display_access` decides.
         log, timeout_s, stdin: as for :func:`~benchbot.core.process_group.run_child` (``stdin="inherit"``: the
             terminal reaches the solution; the sandbox's session of its own keeps it from typing into your shell,
-            docs/security.md).
+            docs/security.md). What the solution is not given and why (a display that cannot be passed, an
+            editable install's source that stays hidden) is said in ``log`` (else on stderr) first, one line each.
+
+    Besides the module docstring's folders the sandbox shows (:mod:`benchbot.core.sandbox_extras`): an installed
+    content pack's example's own folder, when ``cwd`` is in the pack; the sources of the editable installs of
+    BenchBot's Python and of a virtual environment ``argv`` runs; the user's display.
 
     Returns:
         A :class:`SandboxedRun`; its ``results`` is ``outputs/result_name``, else ``outputs/benchbot_result`` (an
@@ -430,8 +478,11 @@ def run_sandboxed(
 
     Raises:
         UsageError: no sandbox can be made (:func:`check_available`), ``cwd`` is ``/`` or the solution's folder
-            is hidden, or the command cannot be started.
+            is hidden (but for a pack's example whose own folder holds no ground truth:
+            :func:`~benchbot.core.sandbox_extras.check_pack_example`), or the command cannot be started.
     """
+    from benchbot.core.sandbox_extras import check_pack_example, display_access, editable_view
+
     bwrap = check_available()
     cwd = Path(cwd).resolve()
     if cwd == Path("/"):
@@ -439,20 +490,43 @@ def run_sandboxed(
                          "run it from its own folder")
     _make_hidden_dirs()
     hidden = hidden_folders(registry, list(hide))
+    revealed = []
     for folder in hidden:
         if cwd == folder or cwd.is_relative_to(folder):
-            raise UsageError(f"the solution's folder {cwd} is inside {folder}, which holds ground truth or run "
-                             "directories and is hidden from solutions", "run it from its own folder")
+            own = check_pack_example(argv, cwd, registry)  # an installed pack's example: its own folder is shown
+            if own is None:
+                raise UsageError(f"the solution's folder {cwd} is inside {folder}, which holds ground truth or run "
+                                 "directories and is hidden from solutions", "run it from its own folder")
+            revealed = [own]
+            break
     inside, ports, names = inside_address(address)
-    shown = python_folders() + [cwd] + program_folders(argv, cwd)
+    programs = program_folders(argv, cwd)
+    shown = [p for p in python_folders() + [cwd] + programs if not any(p.is_relative_to(h) for h in hidden)]
+    own_prefixes = [Path(p) for p in dict.fromkeys((sys.prefix, sys.base_prefix))]
+    editable = editable_view(own_prefixes + programs, own_prefixes, _outermost(shown + revealed), hidden, registry)
+    notes = list(editable.notes)
     with tempfile.TemporaryDirectory(prefix="benchbot-sandbox-") as private:
         hosts = Path(private) / "hosts"
         hosts.write_text("127.0.0.1\tlocalhost " + " ".join(names) + f" {HOSTNAME}\n::1\tlocalhost\n")
         child_env = {k: v for k, v in (os.environ if env is None else env).items() if k != "TMPDIR"}
+        display = display_access(child_env, Path(private))
+        for key, value in display.env.items():
+            if value is None:
+                child_env.pop(key, None)
+            else:
+                child_env[key] = value
+        notes += [display.note] if display.note else []
         child_env.update(HOME="/tmp/home", BENCHBOT_SUPERVISOR_ADDRESS=inside, PYTHONUNBUFFERED="1",
                          BENCHBOT_RESULT_LOCATION=f"{INSIDE_OUTPUTS}/{result_name}", BENCHBOT_SHARED_MEMORY="0")
-        layout = SandboxLayout(shown=_outermost(shown), hidden=hidden, outputs=Path(outputs).resolve(),
-                               backend_socket=Path(backend_socket), hosts_file=hosts, cwd=cwd)
+        layout = SandboxLayout(shown=_outermost(shown + editable.shown), hidden=hidden,
+                               outputs=Path(outputs).resolve(), backend_socket=Path(backend_socket),
+                               hosts_file=hosts, cwd=cwd, revealed=revealed, files=display.binds)
+        for note in notes:  # one line each, where the solution's output goes
+            if log is not None:
+                log.write(note + "\n")
+                log.flush()
+            else:
+                print(note, file=sys.stderr, flush=True)
         relay = [sys.executable, "-I", "-S", socket_relay.__file__, "--socket", INSIDE_SOCKET]
         for port in ports:
             relay += ["--port", str(port)]

@@ -47,6 +47,8 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_ONLY_PLUGINS", None, "comma list of the only plugins to load (the tests set it)", "core"),
     Setting("BENCHBOT_SHARED_MEMORY", "1", "0: clients take frames in the HTTP reply, never through /dev/shm "
             "(sandboxes and containers set it)", "api"),
+    Setting("BENCHBOT_SANDBOX_DISPLAY", "1", "0: sandboxed solutions get no display (they draw off screen, "
+            "MPLBACKEND=Agg); otherwise your X11 or Wayland display is passed into the sandbox", "core"),
     Setting("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", "1", "seconds `benchbot submit` gives a backend to accept a "
             "connection before running anything", "cli"),
     Setting("BENCHBOT_BACKEND_START_WAIT_S", "60", "seconds `benchbot submit` waits for a backend that accepted "
