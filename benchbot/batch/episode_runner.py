@@ -81,12 +81,12 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
     "start": [x, y, yaw], "poses": [[x, y, yaw], ...]}]}`` (what report maps draw as the driven path). Written
     atomically; never fails the episode (a write error leaves no log)."""
     from benchbot.core import atomic
-    from benchbot.core.geometry import pose7_to_se2
+    from benchbot.core.geometry import start_pose_to_se2
 
     scenes = []
     for k, env in enumerate(run.environments):
-        try:
-            start = [round(float(v), 6) for v in pose7_to_se2(env["start_pose"])]
+        try:  # where the robot was placed: the start pose read as the original read it (a quaternion as written)
+            start = [round(float(v), 6) for v in start_pose_to_se2(env["start_pose"])]
         except (KeyError, TypeError, ValueError):
             start = None
         poses = [p for scene, p in driven if scene == k]

@@ -85,6 +85,8 @@ def _print_pack(manifest: dict) -> None:
         err.print(f"  [yellow]override:[/] {escape(line)}", highlight=False)
     for line in manifest["notes"]:
         err.print(f"  [dim]note:[/] {escape(line)}", highlight=False)
+    for line in manifest.get("warnings", []):
+        err.print(f"  [yellow]warning:[/] {escape(line)}", highlight=False)
     built_in = manifest.get("built_in") or {}
     new = {k: [n for n in v if n not in built_in.get(k, [])] for k, v in manifest["files"].items()}
     what = escape("; ".join(f"{k}: {', '.join(v)}" for k, v in new.items() if v) or "nothing new")

@@ -226,12 +226,15 @@ class PackScan:
         root: the pack folder (resolved).
         files: every spec file, valid or not.
         errors: safety problems and invalid files, one line each.
+        warnings: what installs but is read in a way its author may not expect (a start pose's quaternion that is
+            not unit length: :func:`start_pose_warning`), one line each.
     """
 
     name: str
     root: Path
     files: list[PackFile] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def code(self) -> list[str]:
@@ -373,8 +376,38 @@ def _adapt_paths(pf: PackFile, spec: dict, root: Path) -> None:
                             "an Unreal asset path stays inside /Game/; other maps go in the pack, as a path "
                             "relative to the spec's folder")
     target = _pack_target(pf, f"{pf.rel}: $.map_path", map_path, root, "keep the map inside the pack")
-    if _asked(target.exists):
-        spec["map_path"] = str(target)
+    if not _asked(target.exists):
+        raise SpecError(f"{pf.rel}: $.map_path: '{map_path}' names no file of the pack (it would be "
+                        f"{target.relative_to(root).as_posix()}): put the map file there, or correct map_path (a path "
+                        "relative to the environment file)", "give map_path as a file of the pack, e.g. "
+                        "../maps/room_1.json")
+    spec["map_path"] = str(target)
+
+
+def start_pose_warning(pf: PackFile) -> str:
+    """The warning for an environment whose ``start_pose`` quaternion is not unit length (``""`` for one that is,
+    or for another kind of spec): the pose, the heading it is read with, as the original read it (the yaw the
+    unit-quaternion formula gives for the four numbers as written: :func:`benchbot.core.geometry.start_pose_to_se2`),
+    the heading of the normalised quaternion, and the unit quaternion that says the former."""
+    import math
+
+    pose = pf.spec.get("start_pose") if pf.kind == "environments" and isinstance(pf.spec, dict) else None
+    if not isinstance(pose, list) or len(pose) != 7 or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pose):
+        return ""
+    norm = math.sqrt(sum(v * v for v in pose[:4]))
+    if norm == 0 or abs(norm - 1.0) <= 1e-3:
+        return ""
+    from benchbot.core.geometry import pose7_to_se2, start_pose_to_se2
+
+    read = float(start_pose_to_se2(pose)[2])
+    normalised = float(pose7_to_se2(pose)[2])
+    unit = [round(math.cos(read / 2), 4), 0, 0, round(math.sin(read / 2), 4)]
+    shown = ", ".join(f"{v:g}" for v in pose)
+    return (f"{pf.rel}: $.start_pose: [{shown}] has a quaternion of length {norm:.3f}, not 1: it is read as the "
+            f"original BenchBot read it, a heading of {math.degrees(read):.1f} degrees (normalised it would be "
+            f"{math.degrees(normalised):.1f}); to say so with a unit quaternion write "
+            f"[{', '.join(f'{v:g}' for v in unit)}, {', '.join(f'{v:g}' for v in pose[4:])}]")
 
 
 def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
@@ -419,6 +452,8 @@ def scan_pack(path: Path | str, name: str | None = None) -> PackScan:
         if spec is not None:
             spec["_file_path"] = str(file)
         pf.spec = spec
+        warning = start_pose_warning(pf) if not pf.error else ""
+        scan.warnings += [warning] if warning else []
     if not scan.files:
         scan.errors.append(f"no spec files found: expected {', '.join(sorted(set(FOLDER_KINDS) - {'evaluators'}))}/ "
                            "folders with YAML/JSON files (docs/plugin-guide.md)")
@@ -815,7 +850,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
         a name already installed that cannot run here), plus ``path``, ``provided`` (one line each: specs identical
         in meaning to installed ones, the ``built_in`` ones, ground truths offered as another set), ``overridden``
         (one line each), ``notes`` (content that installs but cannot be used here, the add-on's
-        ``.dependencies``) and ``dry_run``.
+        ``.dependencies``), ``warnings`` (:attr:`PackScan.warnings`) and ``dry_run``.
 
     Raises:
         PackError: the folder is an original add-on whose content is a download (``.remote``: what it would
@@ -875,6 +910,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
     for pf in scan.files:
         manifest["files"].setdefault(pf.kind, []).append(pf.name)
     report = {"path": str(dest), "provided": found.provided + found.alternatives, "dry_run": dry_run,
+              "warnings": list(scan.warnings),
               "overridden": [c.replace(" is already installed by ", " overrides the one of ", 1) for c in found.clashes]
               if override else [],
               "notes": addon_notes(scan.root) + _usability_notes(scan, registry, overrides, found.built_in, dest)}
