@@ -101,7 +101,7 @@ def test_pairs_by_environment_and_seed_else_by_repetition(tmp_path):
 
 
 def test_runs_with_different_repeats_pair_every_environment_and_say_what_was_left_out(tmp_path, capsys):
-    """--repeat 2 against --repeat 1 on six environments (issue 57): seeds are numbered across a batch, so by
+    """--repeat 2 against --repeat 1 on six environments: seeds are numbered across a batch, so by
     environment and seed only miniroom:1's first episode pairs. The environment level pairs the six environments'
     means (every episode counts), the episode level pairs by repetition, and the CLI says in one line what it left
     out and why."""
@@ -268,7 +268,7 @@ def test_per_class_and_per_object_views_from_rescored_results(tmp_path):
 
 
 def test_the_ground_truth_set_is_a_condition_and_rescoring_uses_the_runs_set(tmp_path):
-    """The same maps scored against isaac_develop and bear_develop (issue 57): the set is a condition (warned about,
+    """The same maps scored against isaac_develop and bear_develop: the set is a condition (warned about,
     a leaderboard table of its own), and the per-class and per-object views re-score each run against the set it
     used, so they equal its scores and claim no change of the ground truth; a run that did not record its set is
     re-scored against the default and says so."""
@@ -330,7 +330,8 @@ def test_report_files_for_papers(tmp_path, monkeypatch):
     render = figures.render
 
     def checked(fig):
-        overlaps[fig.get_suptitle() or fig.axes[0].get_title()] = figures.text_overlaps(fig)
+        title = fig.get_suptitle() or fig.axes[0].get_title()
+        overlaps[title] = figures.text_overlaps(fig) + figures.print_problems(fig)
         return render(fig)
 
     monkeypatch.setattr(figures, "render", checked)

@@ -93,7 +93,8 @@ def test_pages_fit_800_and_1400_px_and_figures_read_cleanly(tmp_path, monkeypatc
     render = figures.render
 
     def checked(fig):
-        overlaps[f"{len(overlaps)}: {fig.get_suptitle() or fig.axes[0].get_title()}"] = figures.text_overlaps(fig)
+        overlaps[f"{len(overlaps)}: {fig.get_suptitle() or fig.axes[0].get_title()}"] = (figures.text_overlaps(fig)
+                                                                                       + figures.print_problems(fig))
         return render(fig)
 
     monkeypatch.setattr(figures, "render", checked)

@@ -1,5 +1,10 @@
-"""The figures of ``benchbot report`` (matplotlib, Agg): each one states its n, draws every episode as a dot next to
+r"""The figures of ``benchbot report`` (matplotlib, Agg): each one states its n, draws every episode as a dot next to
 the mean, draws an interval only where one was computed, and scales its axis to the data (docs/report.md).
+
+**Print size.** Every figure is made at the width it is printed at in a two-column paper — one column,
+:data:`COLUMN_IN`, or both, :data:`PAGE_IN` (IEEEtran's ``\columnwidth`` and ``\textwidth``, within IEEE's 3.5 in
+and 7.16 in) — with no text smaller than :data:`MIN_FONT_PT`, and saved at exactly that size (no cropping), so
+``\includegraphics`` without a width prints it 1:1 (``tests/test_paper_latex.py`` compiles them and measures).
 
 Every function takes plain data and returns a ``matplotlib.figure.Figure``; :func:`render` turns one into PNG, SVG
 and PDF bytes (no timestamps in the files, so the same report gives the same bytes). Colours are the Okabe–Ito
@@ -24,10 +29,26 @@ FORMATS = ("png", "svg", "pdf")
 PNG_DPI = 200
 """Resolution of the PNG files (the page shows them at CSS width)."""
 
-STYLE = {"font.size": 8, "axes.titlesize": 9, "axes.labelsize": 8, "xtick.labelsize": 7, "ytick.labelsize": 7,
-         "legend.fontsize": 7, "axes.spines.top": False, "axes.spines.right": False, "svg.fonttype": "none",
-         "pdf.fonttype": 42, "svg.hashsalt": "benchbot"}
-"""matplotlib settings of every figure (text stays text in SVG and PDF, so it can be edited and searched)."""
+TEX_PT_PER_IN = 72.27
+"""TeX points per inch (a PDF's points, "big points", are 72 per inch)."""
+
+COLUMN_IN = 252 / TEX_PT_PER_IN
+r"""A one-column figure's width: IEEEtran's ``\columnwidth``, 252 pt = 3.487 in (IEEE's guide says 3.5 in; a figure
+made at 3.5 in would stick out of IEEEtran's column by 0.9 pt, and scaling it down would shrink its text)."""
+
+PAGE_IN = 516 / TEX_PT_PER_IN
+r"""A two-column (``figure*``) figure's width: IEEEtran's ``\textwidth``, 516 pt = 7.14 in (IEEE's guide: 7.16 in)."""
+
+MIN_FONT_PT = 7.0
+"""No text of a figure is smaller than this, at the size it is printed (IEEE asks for 8–10 pt, at least 7)."""
+
+STYLE = {"font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8, "xtick.labelsize": 7, "ytick.labelsize": 7,
+         "legend.fontsize": 7, "figure.titlesize": 8, "axes.spines.top": False, "axes.spines.right": False,
+         "svg.fonttype": "none", "pdf.fonttype": 42, "svg.hashsalt": "benchbot",
+         "figure.constrained_layout.h_pad": 0.02, "figure.constrained_layout.w_pad": 0.02,
+         "legend.handlelength": 1.5, "legend.columnspacing": 1.0}
+"""matplotlib settings of every figure (text stays text in SVG and PDF, so it can be edited and searched; nothing
+below :data:`MIN_FONT_PT`)."""
 
 STATUS_COLOURS = {"TP": "#222222", "FN": "#D55E00", "FP": "#E69F00", "group": "#999999"}
 """Top-down maps, by the ``status`` of an evaluation's per-object ``matches`` (docs/evaluation.md): ground truth found
@@ -53,7 +74,8 @@ def pyplot():
 
 
 def render(fig) -> dict[str, bytes]:
-    """``{"png": ..., "svg": ..., "pdf": ...}``: ``fig`` in every format of :data:`FORMATS`, then closed."""
+    """``{"png": ..., "svg": ..., "pdf": ...}``: ``fig`` in every format of :data:`FORMATS`, then closed; saved at
+    its size (no cropping: the PDF is as wide as the figure was made, :data:`COLUMN_IN` or :data:`PAGE_IN`)."""
     plt = pyplot()
     out = {}
     for fmt in FORMATS:
@@ -62,7 +84,7 @@ def render(fig) -> dict[str, bytes]:
         if fmt == "pdf":
             metadata["CreationDate"] = None
             metadata.pop("Date")
-        fig.savefig(buffer, format=fmt, dpi=PNG_DPI if fmt == "png" else None, bbox_inches="tight", metadata=metadata)
+        fig.savefig(buffer, format=fmt, dpi=PNG_DPI if fmt == "png" else None, metadata=metadata)
         out[fmt] = buffer.getvalue()
     plt.close(fig)
     return out
@@ -130,38 +152,55 @@ def _wrap(text: str, width: int = 28) -> str:
     return "\n".join(lines)
 
 
-def _key(target, min_n: int, runs: list[tuple[str, str, str]], *, markers: bool = True, level: str = "") -> None:
-    """A legend outside the axes on the right (``target``: an axes, or a figure for a figure-wide legend): one
-    colour per run (its short label and, when shortened, its name), then what the markers mean."""
+def chars_per_line(width_in: float, size_pt: float = 8.0) -> int:
+    """How many characters of ``size_pt`` text fit in ``width_in`` inches: DejaVu Sans's characters are up to about
+    0.63 em wide on average over the report's labels, so at 8 pt about 49 fit in :data:`COLUMN_IN`."""
+    return max(12, int(width_in * 72 / (0.63 * size_pt)))
+
+
+def width_for(columns_needed: float) -> float:
+    """:data:`COLUMN_IN` when a figure's content needs at most one column (``columns_needed`` ≤ 1, in units of
+    :data:`COLUMN_IN`), else :data:`PAGE_IN`."""
+    return COLUMN_IN if columns_needed <= 1.0 else PAGE_IN
+
+
+def _key(fig, min_n: int, runs: list[tuple[str, str, str]], *, markers: bool = True, level: str = "") -> None:
+    """A legend under the figure's axes, as wide as the figure: one colour per run (its short label and, when
+    shortened, its name), then what the markers mean."""
     from matplotlib.lines import Line2D
 
+    width = fig.get_figwidth()
+    ncol = 2 if width <= COLUMN_IN + 1e-6 else 4
+    wrap = chars_per_line(width / ncol - 0.3, 7)
     handles = [Line2D([], [], marker="s", color=c, ls="none", ms=6,
-                      label=_wrap(label if label == name else f"{label}: {name}")) for label, c, name in runs]
+                      label=_wrap(label if label == name else f"{label}: {name}", wrap)) for label, c, name in runs]
     if markers:
         handles += [Line2D([], [], marker="o", color="#444444", ls="-", lw=1, ms=4, label="mean, 95 % CI"),
-                    Line2D([], [], marker="D", color="#444444", ls="none", ms=4, label=f"mean, no interval (n < {min_n})"),
+                    Line2D([], [], marker="D", color="#444444", ls="none", ms=4,
+                           label=_wrap(f"mean, no interval (n < {min_n})", wrap)),
                     Line2D([], [], marker="o", mfc="none", mec="#444444", ls="none", ms=4,
                            label=f"one {level or 'episode'}")]
-    if hasattr(target, "transAxes"):
-        target.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
-    else:
-        target.legend(handles=handles, loc="outside right upper", frameon=False)
+    fig.legend(handles=handles, loc="outside lower center", frameon=False, ncol=ncol)
 
 
 def _series_key(series: list[dict]) -> list[tuple[str, str, str]]:
     return [(run.get("short", run["label"]), PALETTE[k % len(PALETTE)], run["label"]) for k, run in enumerate(series)]
 
 
-GROUPS_PER_ROW = 12
-"""A per-group figure with more groups than this draws them in several rows of panels (a figure stays readable at
-a page's width)."""
+GROUPS_PER_ROW = 10
+"""A per-group figure with more groups than this draws them in several rows of panels (each group gets at least
+about 0.6 in of a two-column figure's width)."""
+
+GROUPS_PER_COLUMN = 4
+"""A per-group figure with at most this many groups (of at most two runs) fits one column."""
 
 
 def per_group(title: str, score: str, groups: list[str], series: list[dict], min_n: int, xlabel: str = "",
               level: str = "episode"):
     """Dots of every value and the mean (with its interval where there is one) of ``score`` per group
     (environment, robot, lighting...), one colour per run; more than :data:`GROUPS_PER_ROW` groups go in several
-    rows, on one shared scale.
+    rows, on one shared scale. One column wide (:data:`COLUMN_IN`) for up to :data:`GROUPS_PER_COLUMN` groups of at
+    most two runs, else two (:data:`PAGE_IN`).
 
     Args:
         title: the figure's title; the n of every group and run is added under each group's name.
@@ -174,8 +213,9 @@ def per_group(title: str, score: str, groups: list[str], series: list[dict], min
     plt = pyplot()
     rows = max(1, -(-len(groups) // GROUPS_PER_ROW))
     per_row = -(-len(groups) // rows) if groups else 1
-    width_in = min(9.5, max(3.6, 0.75 * per_row * max(1, len(series)) ** 0.5 + 1.6))
-    fig, axes = plt.subplots(rows, 1, figsize=(width_in, 0.6 + 2.5 * rows), squeeze=False, layout="constrained")
+    width_in = width_for(per_row / GROUPS_PER_COLUMN * max(1.0, len(series) / 2))
+    fig, axes = plt.subplots(rows, 1, figsize=(width_in, 1.1 + 2.0 * rows + 0.16 * (len(series) + 3)),
+                             squeeze=False, layout="constrained")
     width = 0.7 / max(1, len(series))
     everything = []
     for k, run in enumerate(series):
@@ -183,7 +223,8 @@ def per_group(title: str, score: str, groups: list[str], series: list[dict], min
             everything += run["values"].get(group, [])
             est = run["estimates"].get(group) or {}
             everything += [v for v in (est.get("low"), est.get("high")) if v is not None]
-    tilt = per_row > 4 or max((len(g) for g in groups), default=0) > 12
+    slot = width_in / max(per_row, 1)
+    tilt = any(len(g) * 0.58 * 7 / 72 > slot * 0.9 for g in groups)
     for r, ax in enumerate(axes[:, 0]):
         chunk = groups[r * per_row:(r + 1) * per_row]
         for k, run in enumerate(series):
@@ -205,13 +246,14 @@ def per_group(title: str, score: str, groups: list[str], series: list[dict], min
         ax.grid(axis="y", color="#dddddd", lw=0.5)
     if xlabel:
         axes[-1, 0].set_xlabel(xlabel)
-    axes[0, 0].set_title(_wrap(title, 60))
-    _key(fig if rows > 1 else axes[0, 0], min_n, _series_key(series), level=level)
+    axes[0, 0].set_title(_wrap(title, chars_per_line(width_in - 0.9)))
+    _key(fig, min_n, _series_key(series), level=level)
     return fig
 
 
 def summary(scores: list[str], series: list[dict], min_n: int, level: str = "environment"):
-    """One panel per score: each run's values as dots (one per environment), their mean and its interval.
+    """One panel per score: each run's values as dots (one per environment), their mean and its interval. One
+    column wide for one or two scores, else two columns (three panels a row).
 
     Args:
         scores: the score names, one panel each.
@@ -220,12 +262,15 @@ def summary(scores: list[str], series: list[dict], min_n: int, level: str = "env
         level: what a dot is (``environment``), for the titles and the legend.
     """
     plt = pyplot()
-    cols = min(3, len(scores))
+    width_in = width_for(len(scores) / 2 * max(1.0, len(series) / 4))
+    cols = min(len(scores), 2 if width_in == COLUMN_IN else 3)
     rows = -(-len(scores) // cols)
     names = [run.get("short", run["label"]) for run in series]
-    tilt = max(map(len, names)) > 4
-    fig, axes = plt.subplots(rows, cols, figsize=(2.2 + 2.0 * cols + 0.12 * max(map(len, names)) * tilt,
-                                                  2.2 + 2.1 * rows), squeeze=False, layout="constrained")
+    slot = width_in / cols / max(1, len(series))
+    tilt = max(len(n) * 0.58 * 7 / 72 for n in names) > slot * 0.9
+    label_in = max(len(n) for n in names) * 0.58 * 7 / 72 * 0.6 if tilt else 0.15
+    fig, axes = plt.subplots(rows, cols, figsize=(width_in, 0.9 + (1.7 + label_in) * rows + 0.16 * (len(series) + 3)),
+                             squeeze=False, layout="constrained")
     flat = list(axes.flat)
     for ax in flat[len(scores):]:
         ax.set_visible(False)
@@ -246,7 +291,8 @@ def summary(scores: list[str], series: list[dict], min_n: int, level: str = "env
         ax.set_xlim(-0.6, len(series) - 0.4)
         ax.set_ylim(*_limits(everything))
         ns = ", ".join(str(len(r["values"].get(score, []))) for r in series)
-        ax.set_title(f"{score}\nn = {ns} {level}s", fontsize=8)
+        plural = "s" if any(len(r["values"].get(score, [])) != 1 for r in series) else ""
+        ax.set_title(_wrap(f"{score}, n = {ns} {level}{plural}", chars_per_line(width_in / cols - 0.45)))
         ax.grid(axis="y", color="#dddddd", lw=0.5)
     _key(fig, min_n, _series_key(series), level=level)
     return fig
@@ -255,7 +301,7 @@ def summary(scores: list[str], series: list[dict], min_n: int, level: str = "env
 def paired_differences(comparison: dict, score: str, min_pairs: int):
     """A comparison with the environment as the unit: per environment, its episode pairs' differences (B − A,
     small dots) and their mean (a large dot, what the test is over); the mean over environments with its interval,
-    and the zero line.
+    and the zero line. One column wide up to 8 environments, else two.
 
     Args:
         comparison: ``{"a", "b", "keys", "envs", "differences" (per episode pair), "environments",
@@ -265,7 +311,8 @@ def paired_differences(comparison: dict, score: str, min_pairs: int):
     plt = pyplot()
     envs = comparison.get("environments") or list(dict.fromkeys(comparison.get("envs", [])))
     means = comparison.get("environment_differences") or []
-    fig, ax = plt.subplots(figsize=(max(3.6, 0.45 * len(envs) + 2.6), 3.0), layout="constrained")
+    width_in = width_for(len(envs) / 8)
+    fig, ax = plt.subplots(figsize=(width_in, 3.1), layout="constrained")
     ax.axhline(0, color="#555555", lw=0.8)
     position = {e: i for i, e in enumerate(envs)}
     d = comparison["differences"]
@@ -273,7 +320,7 @@ def paired_differences(comparison: dict, score: str, min_pairs: int):
     for e in envs:  # spread each environment's pairs
         idx = [i for i, x in enumerate(comparison.get("envs", [])) if x == e]
         for j, off in zip(idx, _jitter(len(idx), 0.4)):
-            xs[j] = position[e] + off
+            xs[j] = position.get(e, 0) + off
     ax.scatter(xs, d, s=8, color="#999999", zorder=2, label="one episode pair")
     ax.scatter(range(len(envs)), means, s=30, color=PALETTE[1], zorder=3, label="environment mean")
     est = comparison["difference"]
@@ -281,16 +328,18 @@ def paired_differences(comparison: dict, score: str, min_pairs: int):
         ax.axhline(est["value"], color=PALETTE[0], lw=1.2, label="mean over environments")
         if est.get("low") is not None:
             ax.axhspan(est["low"], est["high"], color=PALETTE[0], alpha=0.15, lw=0, label="95 % CI (environments)")
-    tilt = len(envs) > 3 or max((len(e) for e in envs), default=0) > 10
+    slot = width_in / max(1, len(envs))
+    tilt = any(len(e) * 0.58 * 7 / 72 > slot * 0.9 for e in envs)
     ax.set_xticks(range(len(envs)), envs, rotation=35 if tilt else 0, ha="right" if tilt else "center",
-                  rotation_mode="anchor", fontsize=6 if len(envs) > 12 else 7)
+                  rotation_mode="anchor")
     ax.set_xlim(-0.6, len(envs) - 0.4)
     ax.set_ylim(*_limits(list(d) + list(means) + [0.0] + [v for v in (est.get("low"), est.get("high")) if v is not None]))
     ax.set_ylabel(f"{score}: B − A")
     verdict = comparison["reason"] or f"paired t-test over environments p = {fmt(comparison['ttest_p_holm'])} (Holm)"
+    chars = chars_per_line(width_in - 0.9)  # the title is centred on the axes, which the y label moves right
     ax.set_title(_wrap(f"B = {comparison['b']}, A = {comparison['a']}: n = {len(envs)} environments, "
-                       f"{len(d)} episode pairs", 58) + "\n" + _wrap(verdict, 58), fontsize=8)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
+                       f"{len(d)} episode pairs", chars) + "\n" + _wrap(verdict, chars))
+    fig.legend(loc="outside lower center", frameon=False, ncol=2 if width_in == COLUMN_IN else 4)
     ax.grid(axis="y", color="#dddddd", lw=0.5)
     return fig
 
@@ -298,7 +347,7 @@ def paired_differences(comparison: dict, score: str, min_pairs: int):
 def per_class(label: str, rows: list[dict], episodes: int, counts: list[tuple[str, str]],
               scores: list[str]):
     """A run's per-class counts (horizontal bars: those where higher is better to the right of 0, the others to
-    the left) and up to four of its per-class scores (markers, on their axis).
+    the left) and up to four of its per-class scores (markers, on their axis); two columns wide.
 
     Args:
         rows: ``{"class", <count>: int, <score>: float or None}`` per class.
@@ -310,7 +359,7 @@ def per_class(label: str, rows: list[dict], episodes: int, counts: list[tuple[st
     rows = sorted(rows, key=lambda r: sum(r.get(c, 0) for c, _ in counts))
     names = [r["class"] for r in rows]
     y = np.arange(len(rows))
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(6.6, 1.3 + 0.17 * len(rows)), sharey=True,
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(PAGE_IN, 1.5 + 0.15 * len(rows)), sharey=True,
                                  gridspec_kw={"width_ratios": [3, 2]}, layout="constrained")
     right = np.zeros(len(rows))
     left = np.zeros(len(rows))
@@ -327,10 +376,9 @@ def per_class(label: str, rows: list[dict], episodes: int, counts: list[tuple[st
             ax.barh(y, -v, left=-left, color=colour, label=f"{name} (left of 0)")
             left += v
     ax.axvline(0, color="#555555", lw=0.6)
-    ax.set_yticks(y, names, fontsize=6)
+    ax.set_yticks(y, names)
+    ax.set_ylim(-0.7, len(rows) - 0.3)
     ax.set_xlabel("count (lower is better: left of 0)")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09 - 1.2 / max(len(rows), 6)), frameon=False, fontsize=6,
-              ncol=3)
     markers = "osD^"
     values = []
     for k, key in enumerate(scores[:4]):
@@ -340,18 +388,28 @@ def per_class(label: str, rows: list[dict], episodes: int, counts: list[tuple[st
     lo, hi = _limits(values)
     bx.set_xlim(min(lo, 0.0), max(hi, 1.0) if values and min(values) >= 0 and max(values) <= 1 else hi)
     bx.set_xlabel("per-class score")
-    bx.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09 - 1.2 / max(len(rows), 6)), frameon=False, fontsize=6,
-              ncol=2)
     bx.grid(axis="x", color="#dddddd", lw=0.5)
-    fig.suptitle(_wrap(f"{label}: per class, pooled over n = {episodes} episodes", 70), fontsize=9)
+    handles, labels = [], []
+    for a in (ax, bx):
+        h, lab = a.get_legend_handles_labels()
+        handles += h
+        labels += lab
+    fig.legend(handles, labels, loc="outside lower center", frameon=False, ncol=min(len(labels), 4))
+    fig.suptitle(_wrap(f"{label}: per class, pooled over n = {episodes} episodes", chars_per_line(PAGE_IN)))
     return fig
+
+
+MAP_LABEL_PT = 7.0
+"""The size of the class names on a top-down map (:data:`MIN_FONT_PT`): names that would overlap another are left
+out (:func:`_drop_overlapping`), so a small map shows fewer of them rather than smaller ones."""
 
 
 def topdown(env: str, panels: list[dict]):
     """Top-down maps of one environment, one panel per run: ground-truth boxes (dark: found, red: missed),
     predicted boxes (filled by the pair's quality when matched, orange when false positives, grey inside a group
     box), a line from each match to its ground truth, the path the robot drove (solid; start: triangle) and the
-    planned one (faint, dashed). Class names that would overlap another are left out.
+    planned one (faint, dashed). Class names that would overlap another are left out. One column wide for one
+    panel; two columns (two panels a row) for more.
 
     Args:
         panels: ``{"title", "matches": evaluation ``matches`` dict, "path": (k, 2) metres (x, y; map frame) the
@@ -375,18 +433,25 @@ def topdown(env: str, panels: list[dict]):
             if panel.get(key) is not None and len(panel[key]):
                 extent += [tuple(p) for p in np.asarray(panel[key], float)]
     span = np.ptp(np.asarray(extent, float), axis=0) if extent else np.ones(2)
-    aspect = float(np.clip(span[1] / max(span[0], 1e-6), 0.4, 1.6))
-    fig, axes = plt.subplots(1, n, figsize=(4.4 * n + 0.8, 4.4 * aspect + 2.2), squeeze=False, layout="constrained")
+    aspect = float(np.clip(span[1] / max(span[0], 1e-6), 0.5, 1.4))
+    width_in = COLUMN_IN if n == 1 else PAGE_IN
+    cols = 1 if n == 1 else 2
+    rows = -(-n // cols)
+    panel_in = width_in / cols - (0.75 if n == 1 else 0.6)
+    fig, axes = plt.subplots(rows, cols, figsize=(width_in, rows * (panel_in * aspect + 0.8) + 0.75),
+                             squeeze=False, layout="constrained")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
     labels = []
-    for ax, panel in zip(axes[0], panels):
+    for ax, panel in zip(axes.flat, panels):
         m = panel["matches"]
         points = []
         for g in m["ground_truth"]:
             (cx, cy), (ex, ey) = g["centroid"][:2], g["extent"][:2]
             colour = STATUS_COLOURS[g["status"]]
-            ax.add_patch(Rectangle((cx - ex / 2, cy - ey / 2), ex, ey, fill=False, ec=colour, lw=1.3,
+            ax.add_patch(Rectangle((cx - ex / 2, cy - ey / 2), ex, ey, fill=False, ec=colour, lw=1.0,
                                    ls="--" if g.get("isgroup") else "-", zorder=2))
-            labels.append(ax.text(cx, cy + ey / 2, g["class"], fontsize=4.5, color="#333333", ha="center",
+            labels.append(ax.text(cx, cy + ey / 2, g["class"], fontsize=MAP_LABEL_PT, color="#333333", ha="center",
                                   va="bottom", zorder=5))
             points += [(cx - ex / 2, cy - ey / 2), (cx + ex / 2, cy + ey / 2)]
         for p in m["proposals"]:
@@ -409,7 +474,7 @@ def topdown(env: str, panels: list[dict]):
         if path is not None and len(path):
             path = np.asarray(path, float)
             ax.plot(path[:, 0], path[:, 1], color="#000000", lw=1.0, alpha=0.85, zorder=4)
-            ax.plot(path[:1, 0], path[:1, 1], marker="^", color="#000000", ms=6, zorder=4)
+            ax.plot(path[:1, 0], path[:1, 1], marker="^", color="#000000", ms=5, zorder=4)
             points += [tuple(p) for p in path]
         if points:
             pts = np.array(points)
@@ -420,18 +485,19 @@ def topdown(env: str, panels: list[dict]):
         ax.set_aspect("equal")
         ax.set_xlabel("x (m, map frame)")
         ax.set_ylabel("y (m)")
-        ax.set_title(panel["title"], fontsize=7)
+        ax.set_title("\n".join(_wrap(line, chars_per_line(panel_in + 0.4, 7)) for line in panel["title"].split("\n")),
+                     fontsize=7)
     handles = [Line2D([], [], color=STATUS_COLOURS["TP"], lw=1.3, label="ground truth, found (TP)"),
                Line2D([], [], color=STATUS_COLOURS["FN"], lw=1.3, label="ground truth, missed (FN)"),
-               Patch(color=cmap(0.75), alpha=0.55, label="prediction, matched (colour: quality)"),
+               Patch(color=cmap(0.75), alpha=0.55, label="prediction, matched"),
                Patch(color=STATUS_COLOURS["FP"], alpha=0.35, label="prediction, false positive"),
                Patch(color=STATUS_COLOURS["group"], alpha=0.35, label="prediction in a group box"),
                Line2D([], [], color="#000000", lw=1.0, marker="^", label="driven path (start ▲)"),
                Line2D([], [], color="#000000", lw=0.8, ls="--", alpha=0.3, label="planned path")]
-    fig.legend(handles=handles, loc="outside lower center", ncol=2 if n == 1 else 4, frameon=False, fontsize=6)
+    fig.legend(handles=handles, loc="outside lower center", ncol=2 if n == 1 else 4, frameon=False)
     sm = cm.ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=axes[0].tolist(), shrink=0.6, label="pair quality (the method's matches)")
-    fig.suptitle(f"{env}: what was mapped (top-down, x-y footprints)", fontsize=9)
+    fig.colorbar(sm, ax=axes.flat[:n] if n > 1 else axes[0, 0], shrink=0.7, label="matched pair's quality")
+    fig.suptitle(_wrap(f"{env}: what was mapped (top-down, x-y footprints)", chars_per_line(width_in)))
     _drop_overlapping(fig, labels)
     return fig
 
@@ -486,18 +552,38 @@ def text_overlaps(fig, ignore: tuple[str, ...] = ()) -> list[tuple[str, str]]:
     return [(a, b) for i, (a, ba) in enumerate(boxes) for b, bb in boxes[i + 1:] if ba.overlaps(bb)]
 
 
+def print_problems(fig) -> list[str]:
+    """What keeps ``fig`` from printing 1:1 in a two-column paper, in words: a width other than :data:`COLUMN_IN`
+    or :data:`PAGE_IN`, a text a reader sees (:func:`visible_texts`) smaller than :data:`MIN_FONT_PT`, a text
+    sticking out of the figure. ``[]`` for a figure that prints as made."""
+    out = []
+    width = fig.get_figwidth()
+    if min(abs(width - COLUMN_IN), abs(width - PAGE_IN)) > 1e-6:
+        out.append(f"width {width:.3f} in is neither {COLUMN_IN:.3f} (one column) nor {PAGE_IN:.3f} (two)")
+    renderer = fig.canvas.get_renderer()
+    bounds = fig.bbox
+    for t in visible_texts(fig):
+        if t.get_fontsize() < MIN_FONT_PT - 1e-9:
+            out.append(f"{t.get_text()!r} is {t.get_fontsize():g} pt (< {MIN_FONT_PT:g})")
+        box = t.get_window_extent(renderer)
+        if box.x0 < bounds.x0 - 1 or box.x1 > bounds.x1 + 1 or box.y0 < bounds.y0 - 1 or box.y1 > bounds.y1 + 1:
+            out.append(f"{t.get_text()!r} sticks out of the figure")
+    return out
+
+
 def scatter_predictivity(units: list[str], sim: Sequence[float], real: Sequence[float], result: dict,
                          sim_name: str, real_name: str, score: str):
-    """Sim (x) against real (y) performance per paired unit, with the line y = x and the statistics in the title.
+    """Sim (x) against real (y) performance per paired unit, with the line y = x and the statistics in the title;
+    one column wide.
 
     Args:
         result: :func:`benchbot.batch.stats.predictivity`'s output.
     """
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(3.8, 3.6))
+    fig, ax = plt.subplots(figsize=(COLUMN_IN, 3.4), layout="constrained")
     ax.scatter(sim, real, s=18, color=PALETTE[0], zorder=3)
     for name, x, y in zip(units, sim, real):
-        ax.annotate(name, (x, y), xytext=(3, 3), textcoords="offset points", fontsize=6)
+        ax.annotate(name, (x, y), xytext=(3, 3), textcoords="offset points", fontsize=MIN_FONT_PT)
     lo, hi = _limits(list(sim) + list(real))
     ax.plot([lo, hi], [lo, hi], color="#999999", lw=0.8, ls="--", label="y = x")
     ax.set_xlim(lo, hi)
@@ -506,8 +592,8 @@ def scatter_predictivity(units: list[str], sim: Sequence[float], real: Sequence[
     ax.set_xlabel(f"{score} in {sim_name}")
     ax.set_ylabel(f"{score} in {real_name}")
     s, p, m = result["spearman"], result["pearson"], result["mmrv"]
-    ax.set_title(f"n = {result['n']} paired units\nSpearman ρ = {fmt(s['value'])}, Pearson r = {fmt(p['value'])}, "
-                 f"MMRV = {fmt(m['value'])}", fontsize=8)
+    ax.set_title(_wrap(f"n = {result['n']} paired units: Spearman ρ = {fmt(s['value'])}, Pearson r = "
+                       f"{fmt(p['value'])}, MMRV = {fmt(m['value'])}", chars_per_line(COLUMN_IN)))
     ax.grid(color="#eeeeee", lw=0.5)
     ax.legend(loc="lower right", frameon=False)
     return fig

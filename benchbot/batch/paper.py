@@ -155,17 +155,86 @@ def latex_escape(text: str) -> str:
 LATEX_PACKAGES = ("booktabs", "array", "graphicx")
 r"""What a document needs to ``\input`` the tables: ``\usepackage{booktabs,array,graphicx}``."""
 
-COLUMN_PT = 215.0
-"""Tables estimated wider than this are ``table*`` floats, which span both columns of a two-column document (and are
-ordinary floats in a one-column one): a two-column paper's column is 229–252 pt, and the estimate
-(:func:`latex_layout`) is within about 10 % of the width TeX sets."""
+COLUMN_PT = 249.0
+"""Tables estimated (:func:`latex_layout`) at most this wide are ``table`` floats, set in one column of a two-column
+document (IEEE's column is 252 pt; the estimate is within about 2 pt of what pdflatex sets, 5 pt for numbers in
+scientific notation); wider ones are ``table*``, which span both columns (and are ordinary floats in a one-column
+document)."""
 
-TEXT_COLUMN_CHARS = 20
-"""A text column whose longest cell is longer than this wraps (a ``p`` column of that width) instead of widening
-the table."""
+TEXT_COLUMN_EM = 10
+"""A text column whose longest cell is wider than this many ems of the table's font wraps (a ragged ``p`` column of
+that width) instead of widening the table."""
 
-_CHAR_PT = 4.2  # the average width of a character of \footnotesize Computer Modern (8 pt), for the float's choice only
 _COLUMN_SEP_PT = 4.0  # \tabcolsep in the tables
+
+_CMR_WIDTHS = {  # characters '!'..'~' of Computer Modern Roman 8 and 7 pt (tftopl cmr8.tfm, cmr7.tfm), 1/1000 em
+    8: (295, 531, 885, 531, 885, 826, 295, 413, 413, 531, 826, 295, 354, 295, 531, 531, 531, 531, 531, 531, 531, 531,
+        531, 531, 531, 295, 295, 295, 826, 502, 502, 826, 796, 752, 767, 811, 723, 693, 834, 796, 383, 545, 825, 664,
+        973, 796, 826, 723, 826, 782, 590, 767, 796, 796, 1091, 796, 796, 649, 295, 531, 295, 531, 295, 295, 531, 590,
+        472, 590, 472, 325, 531, 590, 295, 325, 561, 295, 885, 590, 531, 590, 561, 414, 419, 413, 590, 561, 767, 561,
+        561, 472, 531, 1063, 531, 531),
+    7: (323, 569, 938, 569, 938, 877, 323, 446, 446, 569, 877, 323, 385, 323, 569, 569, 569, 569, 569, 569, 569, 569,
+        569, 569, 569, 323, 323, 323, 877, 539, 539, 877, 843, 799, 815, 860, 768, 737, 884, 843, 413, 583, 874, 706,
+        1028, 843, 877, 768, 877, 829, 631, 815, 843, 843, 1151, 843, 843, 692, 323, 569, 323, 569, 323, 323, 569, 631,
+        508, 631, 508, 354, 569, 631, 323, 354, 600, 323, 938, 631, 569, 631, 600, 446, 453, 446, 631, 600, 815, 600,
+        600, 508, 569, 1139, 569, 569),
+}
+_SPACE_EM = {8: 0.354, 7: 0.385}  # interword space (its natural width)
+_OTHER_EM = {"_": 0.42, "−": 0.778, "–": 0.531, "—": 1.063, "→": 1.0, "×": 0.778, "≥": 0.778, "≤": 0.778,
+             "±": 0.778}
+
+
+def text_pt(text: str, size: int = 8) -> float:
+    """The natural width in TeX points of ``text`` set in Computer Modern Roman at ``size`` pt (8: the tables'
+    footnote size, 7: their script size, in a 10 pt document): the sum of its characters' widths from the fonts'
+    metrics (kerning left out: a few tenths of a point); a number's minus sign as a math minus, other characters
+    beyond ASCII as 0.6 em. Computer Modern is wider than Times (IEEEtran's font), so in such a paper the tables come
+    out narrower than estimated."""
+    widths = _CMR_WIDTHS[size]
+    total = 0.0
+    for c in text:
+        if c == " ":
+            total += _SPACE_EM[size]
+        elif c in _OTHER_EM:
+            total += _OTHER_EM[c]
+        elif "!" <= c <= "~":
+            total += widths[ord(c) - 33] / 1000
+        else:
+            total += 0.6
+    total += 0.424 * len(re.findall(r"(?<![\w])-(?=\d)", text))  # '-' before a digit: $-$, 0.778 em, not 0.354
+    total += 0.444 * text.count("×")  # a binary operator's spaces in math (2 × 4 mu)
+    return total * size
+
+
+def _width_pt(cell) -> float:
+    """A cell's natural width: an estimate as the wider of its value (8 pt) and the interval under it (7 pt)."""
+    if is_estimate(cell) and cell.get("low") is not None:
+        return max(text_pt(fmt(cell["value"])), text_pt(f"[{fmt(cell['low'])}, {fmt(cell['high'])}]", 7))
+    if is_estimate(cell) and cell.get("value") is not None and str(cell.get("reason", "")).startswith("n = "):
+        return max(text_pt(fmt(cell["value"])), text_pt(f"n = {cell.get('n')}: no CI", 7))
+    return text_pt(cell_text(cell))
+
+
+def latex_layout(table: Table) -> tuple[list[str], list[bool], float]:
+    r"""``(column specs, numeric, estimated natural width in pt)`` of ``table``'s ``tabular``: numbers right-aligned,
+    the first column and other text left-aligned, text wider than :data:`TEXT_COLUMN_EM` ems wrapped in a ragged
+    ``p`` column of that width; headings wrap at 10 characters (:func:`header_lines`). The width is the sum of the
+    columns' widest cells (:func:`text_pt`, from the fonts' metrics) and their separation, within about 1 % of what
+    pdflatex sets (``tests/test_paper_latex.py`` measures it)."""
+    specs, numeric, width = [], [], 0.0
+    wrap_pt = TEXT_COLUMN_EM * 8.5  # an em of cmr8: its quad, 1.0625 × 8 pt
+    for i, header in enumerate(table.headers):
+        cells = [row[i] for row in table.rows if i < len(row)]
+        is_number = i > 0 and all(isinstance(c, (int, float)) or c is None or is_estimate(c) for c in cells)
+        pt = max([_width_pt(c) for c in cells] + [max(text_pt(line) for line in header_lines(header))])
+        if not is_number and pt > wrap_pt:
+            specs.append(rf">{{\raggedright\arraybackslash}}p{{{TEXT_COLUMN_EM:g}em}}")
+            pt = wrap_pt
+        else:
+            specs.append("r" if is_number else "l")
+        numeric.append(is_number)
+        width += pt + 2 * _COLUMN_SEP_PT
+    return specs, numeric, width
 
 
 def _latex_cell(cell) -> str:
@@ -181,33 +250,6 @@ def _latex_cell(cell) -> str:
                 rf"\scriptsize {latex_escape(below)}\end{{tabular}}")
     text = latex_escape(cell_text(cell))
     return "{}" + text if text.startswith("[") else text  # not read as the optional argument of the \\ before it
-
-
-def _width_chars(cell) -> int:
-    if is_estimate(cell) and cell.get("low") is not None:
-        return max(len(fmt(cell["value"])), int(0.75 * len(f"[{fmt(cell['low'])}, {fmt(cell['high'])}]")))
-    if is_estimate(cell) and cell.get("value") is not None and str(cell.get("reason", "")).startswith("n = "):
-        return max(len(fmt(cell["value"])), int(0.75 * len(f"n = {cell.get('n')}: no CI")))
-    return len(cell_text(cell))
-
-
-def latex_layout(table: Table) -> tuple[list[str], list[bool], float]:
-    r"""``(column specs, numeric, estimated width in pt)`` of ``table``'s ``tabular``: numbers right-aligned, the first
-    column and other text left-aligned, text longer than :data:`TEXT_COLUMN_CHARS` characters wrapped in a ragged
-    ``p`` column; headings wrap at 10 characters (:func:`header_lines`), so they never widen a column much."""
-    specs, numeric, width = [], [], 0.0
-    for i, header in enumerate(table.headers):
-        cells = [row[i] for row in table.rows if i < len(row)]
-        is_number = i > 0 and all(isinstance(c, (int, float)) or c is None or is_estimate(c) for c in cells)
-        chars = max([_width_chars(c) for c in cells] + [max(map(len, header_lines(header)))])
-        if not is_number and chars > TEXT_COLUMN_CHARS:
-            specs.append(rf">{{\raggedright\arraybackslash}}p{{{TEXT_COLUMN_CHARS * 0.5:g}em}}")
-            chars = TEXT_COLUMN_CHARS
-        else:
-            specs.append("r" if is_number else "l")
-        numeric.append(is_number)
-        width += chars * _CHAR_PT + 2 * _COLUMN_SEP_PT
-    return specs, numeric, width
 
 
 def header_lines(text: str, width: int = 10) -> list[str]:
@@ -231,17 +273,21 @@ def _header(text: str, numeric: bool) -> str:
 
 
 FIT = (r"\providecommand{\benchbotfit}[1]{\sbox0{#1}\ifdim\wd0>\linewidth"
+       r"\typeout{BenchBot: a table \the\wd0\space wide is scaled down to the line, \the\linewidth}"
        r"\resizebox{\linewidth}{!}{\usebox0}\else\usebox0\fi}")
 r"""Defined by every table file unless the document defines it first: sets the tabular at its natural width, scaled
-down to ``\linewidth`` only when it is wider (a last resort: :func:`latex_layout` keeps tables narrow)."""
+down to ``\linewidth`` only when it is wider, saying so in the log (a last resort: :func:`latex_layout` keeps tables
+narrow, and a ``table*`` is at most 516 pt wide wherever it can be; in a one-column document with a 345 pt line, a
+table between 345 and 516 pt is scaled)."""
 
 
 def to_latex(table: Table) -> str:
     r"""The table as a LaTeX float for ``\usepackage{booktabs,array,graphicx}`` (:data:`LATEX_PACKAGES`): caption,
     label ``tab:<name>``, a ``tabular`` in footnote size with 4 pt between columns, laid out by
     :func:`latex_layout` with ``\toprule``/``\midrule``/``\bottomrule``, estimates as value over interval, long
-    headings broken into lines, the note as a paragraph under it. Estimated wider than :data:`COLUMN_PT`, the float is ``table*`` (both columns
-    of a two-column document); the tabular is scaled down to the line only if it is still wider (:data:`FIT`)."""
+    headings broken into lines, the note as a paragraph under it. Estimated at most :data:`COLUMN_PT` wide, the float
+    is a ``table`` (one column of a two-column document), else a ``table*`` (both columns); the tabular is scaled
+    down to the line only if it is still wider (:data:`FIT`, which says so in the log)."""
     specs, numeric, width = latex_layout(table)
     spec = "".join(specs)
     env = "table*" if width > COLUMN_PT else "table"

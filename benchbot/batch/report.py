@@ -1165,13 +1165,18 @@ code{font-size:.9em;background:var(--soft);padding:0 .25em;border-radius:3px;wor
 """
 
 
+PAGE_ZOOM = 1.35
+"""The page shows a figure this much larger than it prints (a two-column figure, 7.14 in, as 925 CSS px: its 7 pt
+text as 12.6 px), shrunk to the window where that is narrower."""
+
+
 def png_size(png: bytes) -> str:
-    """``width='…' height='…'`` attributes showing a PNG at its size in CSS pixels (the files are made at
-    :data:`~benchbot.batch.figures.PNG_DPI`, about twice a screen's 96 dpi, so they stay sharp on dense screens)."""
+    """``width='…' height='…'`` attributes showing a PNG at :data:`PAGE_ZOOM` times its print size in CSS pixels
+    (the files are made at :data:`~benchbot.batch.figures.PNG_DPI`, so they stay sharp on dense screens)."""
     if png[:8] != b"\x89PNG\r\n\x1a\n" or len(png) < 24:
         return ""
     width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
-    scale = 96 / figures.PNG_DPI
+    scale = 96 * PAGE_ZOOM / figures.PNG_DPI
     return f"width='{round(width * scale)}' height='{round(height * scale)}' "
 
 
