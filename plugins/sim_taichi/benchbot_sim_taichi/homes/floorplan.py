@@ -287,8 +287,9 @@ class FloorPlan:
         doors = sum(o.kind == "door" and o.leaf for o in self.openings)
         passages = sum(o.kind == "door" and not o.leaf for o in self.openings)
         windows = sum(o.kind == "window" for o in self.openings)
-        return (f"{len(self.rooms)} rooms, {doors} doors, {passages} open passages, {windows} windows, "
-                f"{len(self.lights)} lamps")
+        counts = ((len(self.rooms), "room"), (doors, "door"), (passages, "open passage"), (windows, "window"),
+                  (len(self.lights), "lamp"))
+        return ", ".join(f"{n} {what}{'' if n == 1 else 's'}" for n, what in counts)
 
 
 # ---------------------------------------------------------------------------------------------------------------
