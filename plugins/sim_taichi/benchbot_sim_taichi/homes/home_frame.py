@@ -22,7 +22,8 @@ A moved layout: a furnished home's frame also has an origin of its own (:func:`h
 bounding box. The objects and paths are carried there and their xy rounded to :data:`HOME_GRID_M`, so a layout
 moved by any translation (and turned) reaches the same home-frame layout bit for bit: the last bits in which
 ``(p + t) - (o + t)`` differs from ``p - o`` are rounded away, and with them every decision they could tip at BEAR's
-exact contacts (objects flush on others, sides touching). The plan, the furnishing and the structure's texture
+exact contacts (objects flush on others, sides touching). (Only a coordinate within those last bits of a half
+micrometre could round either way: about one coordinate in 10⁹.) The plan, the furnishing and the structure's texture
 coordinates (metres from the home's origin) are therefore the same, and the world differs from the moved original
 only by the rounding of carrying it back (about 1e-15 m; float32 triangles: their own resolution). The primitives
 style keeps the map's origin (:func:`home_frame` without ``own_origin``): its models are made per object, with no
