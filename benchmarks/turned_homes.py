@@ -6,8 +6,10 @@ home's five variants — objects, start poses, trajectories, by ``benchbot_sim_t
 — is installed as a content pack (into a temporary data directory: environment ``turned:1`` of ``--env``'s variant,
 its trajectory cut to its first ``--poses`` poses, all five variants as its ``home_files``, the turned ground truth
 beside it), and ``benchbot batch --example semslam_geometric --envs turned:1`` runs on it in the furnished style.
-Every turn gets the same name and variant, so the same home seed and world seed. The figures: per turn the OMQ and
-its parts, and the largest gap of OMQ from the unturned home's.
+Every turn gets the same name and variant, so the same home seed and world seed. A mirror mirrors the robot too:
+carter's camera sits 6 cm left of its centre line (where the original's left camera was), so in a mirrored home the
+pack's robot ``turned_carter`` carries it 6 cm to the right — the robot's mirror image, which sees the home's
+images mirrored. The figures: per turn the OMQ and its parts, and the largest gap of OMQ from the unturned home's.
 
     python benchmarks/turned_homes.py [--env house:2] [--poses 40] [--turns identity,turn90,mirror_y,shift]
 """
@@ -59,9 +61,28 @@ def write_pack(folder: Path, home: str, variant: int, M, poses: int, offset=(0.0
            "start_pose": own["start_pose"], "trajectory_poses": own["trajectory_poses"][:poses],
            "object_labels": own["object_labels"]}
     (folder / "environments" / "turned_1.yaml").write_text(yaml.safe_dump(env))
+    (folder / "robots").mkdir(exist_ok=True)
+    (folder / "robots" / "turned_carter.yaml").write_text(yaml.safe_dump(robot_for(M)))
     gt = json.loads(json.dumps(dicts[variant - 1]))
     gt["environment"].update(name="turned", variant=1, trajectory_poses=env["trajectory_poses"])
     (folder / "ground_truths" / "turned_1.json").write_text(json.dumps(gt))
+
+
+def robot_for(M) -> dict:
+    """carter's spec as ``turned_carter``, mirrored with the home when ``M`` (2 × 2) is a mirror (its determinant
+    −1): each sensor's mount moved to the other side of the robot's centre line (y → −y)."""
+    import numpy as np
+    import yaml
+
+    from benchbot_sim_taichi.plugin import ROBOTS_DIR
+
+    spec = yaml.safe_load((ROBOTS_DIR / "carter.yaml").read_text(encoding="utf-8"))
+    spec["name"] = "turned_carter"
+    if np.linalg.det(np.asarray(M, dtype=float)) < 0:
+        for sensor in ("camera", "laser"):
+            x, y, z = spec["sensors"][sensor]["mount_xyz"]
+            spec["sensors"][sensor]["mount_xyz"] = [x, -y, z]
+    return spec
 
 
 def run_turn(root: Path, home: str, variant: int, name: str, poses: int) -> dict:
@@ -78,6 +99,7 @@ def run_turn(root: Path, home: str, variant: int, name: str, poses: int) -> dict
     out = root / f"runs_{name}"
     start = time.perf_counter()
     done = subprocess.run([*BENCHBOT, "batch", "--example", "semslam_geometric", "--envs", "turned:1",
+                           "--robot", "turned_carter",
                            "--output-dir", str(out)], capture_output=True, text=True, env=env, timeout=3600)
     seconds = time.perf_counter() - start
     if done.returncode:

@@ -95,24 +95,27 @@ def test_a_turned_or_mirrored_layout_gives_the_same_world_turned_or_mirrored(tmp
 
 def test_the_turned_and_mirrored_worlds_render_as_turned_and_mirrored_images(tmp_path):
     """From the carried poses, a quarter turn of miniroom:1 renders the same images, a mirror the images mirrored
-    left to right: depth, class and instance exactly; RGB to one level in a few pixels (float32 shading sums)."""
+    left to right: depth, class and instance exactly; RGB to one level in a few pixels (float32 shading sums). The
+    mirror mirrors the robot too: carter's camera sits 6 cm left of its centre line, so its mirror image carries it
+    6 cm to the right."""
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi.backend import camera_mount
+    from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_mount
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     renderer = Renderer("cpu")
     K = intrinsics(96, 72, 90.0)
 
-    def frames(scene):
+    def frames(scene, mirrored=False):
+        x0, y0, z0 = DEFAULT_SENSORS["camera"]["mount_xyz"]
+        mount = camera_mount({"mount_xyz": [x0, -y0 if mirrored else y0, z0]})
         renderer.set_scene(scene)
-        return [{k: np.asarray(v) for k, v in renderer.render(K, se2_to_matrix(x, y, yaw) @ camera_mount(), 96,
-                                                                72).items()}
+        return [{k: np.asarray(v) for k, v in renderer.render(K, se2_to_matrix(x, y, yaw) @ mount, 96, 72).items()}
                 for x, y, yaw in scene.trajectory_se2[:3]]
 
     base = frames(_scene(tmp_path / "base", "miniroom", 1, _home("miniroom")))
     for label, M, flip in (("turn 90", QUARTER_TURN, False), ("mirror y", np.diag([1.0, -1.0]), True)):
         moved = frames(_scene(tmp_path / label.replace(" ", "_"), "miniroom", 1,
-                              [turned_layout(d, M) for d in _home("miniroom")]))
+                              [turned_layout(d, M) for d in _home("miniroom")]), mirrored=flip)
         for a, b in zip(base, moved, strict=True):
             b = {k: v[:, ::-1] if flip else v for k, v in b.items()}
             for key in ("depth", "class", "instance"):
