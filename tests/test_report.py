@@ -130,6 +130,7 @@ def test_runs_with_different_repeats_pair_every_environment_and_say_what_was_lef
     _print_report(analyse([a, b]))
     printed = capsys.readouterr().out
     assert "\n  left out: at the episode level 6 of 18 episodes" in printed
+    assert "  IQM OMQ over environments " in printed and "  P(geomN better than geomR in an episode" in printed
     # an environment only one run has is left out of both levels, by name
     extra = load_run(scores_only_run(tmp_path, "r1x", {**once, "house:5": [0.5]}))
     c = compare(a, extra, "OMQ")
@@ -340,11 +341,11 @@ def test_report_files_for_papers(tmp_path, monkeypatch):
         warnings.simplefilter("always")
         write_report([a, b], output, get_registry())
     assert [str(w.message) for w in caught] == []  # nothing printed to the terminal
-    assert len(overlaps) == 7 and {k: v for k, v in overlaps.items() if v} == {}
+    assert len(overlaps) == 8 and {k: v for k, v in overlaps.items() if v} == {}
     page = output.read_text()
     files = output.parent / "report_files"
     for stem in ("summary", "environments", "comparison_1", "per_class_1", "per_class_2", "map_miniroom_1",
-                 "map_miniroom_2"):
+                 "map_miniroom_2", "score_distribution"):
         assert (files / f"{stem}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert (files / f"{stem}.pdf").read_bytes()[:5] == b"%PDF-"
         ET.fromstring((files / f"{stem}.svg").read_bytes())  # well-formed SVG
@@ -372,7 +373,7 @@ def test_report_files_for_papers(tmp_path, monkeypatch):
     assert "n = 2 &lt; 6: no paired test over environments" in page and "How to read the numbers" in page
     assert "the unit is the <b>environment</b>" in page.replace("The unit", "the unit")
     assert "Test CPU, 2 CPUs, 8 GiB" in page and "benchbot batch --example semslam_geometric" in page
-    assert page.count("data:image/png;base64,") == 7
+    assert page.count("data:image/png;base64,") == 8
     assert json.loads((files / "report.json").read_text())["comparisons"][0]["episodes"]["n"] == 3
     assert too_precise(re.sub(r"data:image/png;base64,[^']*", "", page)) == []
 

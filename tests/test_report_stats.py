@@ -217,3 +217,61 @@ def test_interval_coverage_at_the_n_a_batch_has():
     assert coverage(nested(7), 0.3, 2_000, lambda v, c: stats.mean_ci(v)) < 0.85  # episodes as the unit
     bca = coverage(lambda rng: (rng.normal(0.3, 0.05, 5),), 0.3, 1_000, lambda v: stats.mean_ci(v, method="bca"))
     assert bca < COVERAGE_FLOOR
+
+
+def test_robust_aggregates_equal_rliables():
+    """IQM, probability of improvement and score distribution against the numbers rliable 1.2.0 itself gave on the
+    same 3 x 8 scores (tests/data/rliable_reference.json says how they were made): the point estimates equal, the
+    stratified-bootstrap intervals agree within bootstrap noise (10,000 resamples here, 20,000 there)."""
+    import json
+    from pathlib import Path
+
+    ref = json.loads((Path(__file__).parent / "data" / "rliable_reference.json").read_text())
+    a, b = np.array(ref["A"]), np.array(ref["B"])
+    ga, gb = [list(a[:, m]) for m in range(a.shape[1])], [list(b[:, m]) for m in range(b.shape[1])]
+    iqm = stats.iqm_stratified(ga)
+    assert iqm.value == pytest.approx(ref["iqm"][0], abs=1e-12)
+    assert (iqm.low, iqm.high) == (pytest.approx(ref["iqm"][1], abs=0.005), pytest.approx(ref["iqm"][2], abs=0.005))
+    poi = stats.probability_of_improvement(ga, gb)
+    assert poi.value == pytest.approx(ref["poi"][0], abs=1e-12)
+    assert (poi.low, poi.high) == (pytest.approx(ref["poi"][1], abs=0.03), pytest.approx(ref["poi"][2], abs=0.03))
+    assert stats.probability_of_improvement(ga, gb, sign=-1).value == pytest.approx(1 - ref["poi"][0])
+    profile = stats.score_distribution(ga, np.linspace(0, 1, 11))
+    assert profile["fraction"] == pytest.approx(ref["profile"], abs=1e-12)
+    assert profile["low"] == pytest.approx(ref["profile_low"], abs=0.05)
+    assert profile["high"] == pytest.approx(ref["profile_high"], abs=0.05)
+    # over environments (the unit): the IQM of the environment means, resampling environments
+    env = stats.iqm_environments(ga)
+    assert env.value == pytest.approx(sps.trim_mean(a.mean(axis=0), 0.25)) and env.low < env.value < env.high
+    # one episode per environment: the stratified bootstrap has nothing to resample, and says so
+    single = stats.iqm_stratified([[v] for v in a[0]])
+    assert single.low is None and "nothing to resample" in single.reason
+
+
+def test_intervals_stay_in_the_declared_range(tmp_path):
+    """Scores near their bound of 1: Student's t interval of the mean passes 1; the report's is clipped at 1 and
+    says so, and so are a comparison's difference (within [−1, 1]) and the robust aggregates."""
+    import sys
+    from pathlib import Path
+
+    from benchbot.batch.report import analyse, load_run
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from report_runs import scores_only_run
+
+    values = [0.999, 0.93, 1.0, 0.995, 0.9, 1.0]
+    envs = {f"miniroom:{k + 1}" if k < 5 else "house:1": [v] for k, v in enumerate(values)}
+    raw = stats.mean_ci(values)
+    assert raw.high > 1.0  # t: 1.003
+    from benchbot.core.registry import get_registry
+
+    run = load_run(scores_only_run(tmp_path, "a", envs), registry=get_registry())  # OMQ declares [0, 1]
+    assert run.score_set.get("OMQ").range == (0.0, 1.0)
+    result = analyse([run])
+    omq = result["runs"][0]["summary"]["OMQ"]
+    assert omq["high"] == 1.0 and omq["low"] == pytest.approx(raw.low)
+    assert "clipped to the score's range [0" in omq["method"]
+    for est in (result["runs"][0]["robust"]["iqm"], result["runs"][0]["summary_episodes"]["OMQ"]):
+        assert 0.0 <= est["low"] <= est["value"] <= est["high"] <= 1.0
+    clipped = stats.clip_to_range(stats.Estimate(5, -0.95, -1.2, -0.7, method="t"), -1.0, 1.0)
+    assert (clipped.low, clipped.high) == (-1.0, -0.7)

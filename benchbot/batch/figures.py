@@ -599,6 +599,35 @@ def scatter_predictivity(units: list[str], sim: Sequence[float], real: Sequence[
     return fig
 
 
+def score_distribution(score: str, series: list[dict]):
+    """Score distributions (Agarwal et al. 2021's performance profiles of run scores): per run, the fraction of
+    episodes scoring above τ (averaged over environments) against τ, with its 95 % band (stratified bootstrap)
+    where there is one; one column wide.
+
+    Args:
+        series: one per run, ``{"label", "short" (optional), "distribution":``
+            :func:`benchbot.batch.stats.score_distribution` ``'s dict, "n": environments}``.
+    """
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(COLUMN_IN, 2.9 + 0.16 * len(series)), layout="constrained")
+    for k, run in enumerate(series):
+        d, colour = run["distribution"], PALETTE[k % len(PALETTE)]
+        short = run.get("short", run["label"])
+        ax.plot(d["taus"], d["fraction"], color=colour, lw=1.2, drawstyle="steps-post",
+                label=_wrap(short if short == run["label"] else f"{short}: {run['label']}", 30))
+        if d.get("low") is not None:
+            ax.fill_between(d["taus"], d["low"], d["high"], color=colour, alpha=0.18, lw=0, step="post")
+    ax.set_xlabel(f"τ ({score})")
+    ax.set_ylabel(f"fraction of episodes with {score} > τ")
+    ax.set_ylim(-0.02, 1.02)
+    ns = ", ".join(str(run.get("n", "?")) for run in series)
+    ax.set_title(_wrap(f"Score distribution, mean over n = {ns} environments; bands: 95 % stratified bootstrap",
+                       chars_per_line(COLUMN_IN - 0.9)))
+    ax.grid(color="#eeeeee", lw=0.5)
+    fig.legend(loc="outside lower center", frameon=False, ncol=2)
+    return fig
+
+
 def fmt(x, digits: int = 4) -> str:
     """A number to ``digits`` significant digits (``"–"`` for None): how every number is printed."""
     if x is None:

@@ -474,22 +474,61 @@ def present_scores(runs: list[RunData]) -> list[str]:
     return [s for s in score_set(runs).scores if any(s in r for run in runs for r in run.rows)]
 
 
+def score_range(run: RunData, score: str, difference: bool = False) -> tuple[float | None, float | None]:
+    """The range ``score`` declares in ``run``'s method (``(None, None)`` where unbounded or not declared); with
+    ``difference``, the range of a difference of two such scores, ``(low − high, high − low)``."""
+    info = run.score_set.get(score)
+    low, high = info.range if info else (None, None)
+    if difference:
+        return (None, None) if low is None or high is None else (low - high, high - low)
+    return low, high
+
+
+def bounded(estimate: stats.Estimate, run: RunData, score: str, difference: bool = False) -> stats.Estimate:
+    """``estimate`` (of ``score``, or of a difference of it) with its interval clipped to the score's declared range
+    (:func:`benchbot.batch.stats.clip_to_range`)."""
+    return stats.clip_to_range(estimate, *score_range(run, score, difference))
+
+
 def summary(run: RunData, scores: list[str] | None = None) -> dict[str, stats.Estimate]:
     """Every score (default: the run's method's scores present) with the environment as the unit
-    (:func:`benchbot.batch.stats.cluster_mean_ci`: the mean of the environments' means, its interval over them)."""
+    (:func:`benchbot.batch.stats.cluster_mean_ci`: the mean of the environments' means, its interval over them,
+    clipped to the score's declared range, :func:`bounded`)."""
     names = scores if scores is not None else present_scores([run])
     out = {}
     for s in names:
         rows = [r for r in run.rows if s in r]
-        out[s] = stats.cluster_mean_ci([r[s] for r in rows], [r["env"] for r in rows])
+        out[s] = bounded(stats.cluster_mean_ci([r[s] for r in rows], [r["env"] for r in rows]), run, s)
     return out
+
+
+def thresholds(runs: list[RunData], score: str, k: int = 101) -> np.ndarray:
+    """``(k,)`` thresholds of a score distribution: evenly over ``score``'s declared range, else over the values
+    the runs have."""
+    low, high = score_range(runs[0], score)
+    values = [r[score] for run in runs for r in run.rows if score in r]
+    low = min(values, default=0.0) if low is None else low
+    high = max(values, default=1.0) if high is None else high
+    return np.linspace(low, high if high > low else low + 1.0, k)
+
+
+def robust(run: RunData, score: str, taus: np.ndarray) -> dict:
+    """The robust aggregates of Agarwal et al. 2021 (rliable) of ``run``'s ``score`` (:mod:`benchbot.batch.stats`):
+    ``{"iqm": the IQM over environments (the unit, bootstrap over environments), "iqm_episodes": rliable's IQM of
+    the episodes with the stratified bootstrap (these environments), "score_distribution": the fraction of
+    episodes above each threshold, averaged over environments, with its stratified-bootstrap band}``; intervals
+    clipped to the score's declared range."""
+    groups = list(group(run.rows, "env", score).values())
+    return {"iqm": bounded(stats.iqm_environments(groups), run, score).to_json(),
+            "iqm_episodes": bounded(stats.iqm_stratified(groups), run, score).to_json(),
+            "score_distribution": stats.score_distribution(groups, taus)}
 
 
 def summary_episodes(run: RunData, scores: list[str] | None = None) -> dict[str, stats.Estimate]:
     """Every score over the run's episodes (:func:`benchbot.batch.stats.mean_ci`): how precisely these environments
     were measured, not how the solution does on other environments."""
     names = scores if scores is not None else present_scores([run])
-    return {s: stats.mean_ci([r[s] for r in run.rows if s in r], level="episodes") for s in names}
+    return {s: bounded(stats.mean_ci([r[s] for r in run.rows if s in r], level="episodes"), run, s) for s in names}
 
 
 def comparison_factors(a: RunData, b: RunData) -> list[dict]:
@@ -626,7 +665,9 @@ def compare(a: RunData, b: RunData, score: str) -> dict:
     Returns:
         ``{"a", "b" (labels), "score", "direction", "pairing" (of the episodes), "factors", "unpaired" (episodes
         without a partner at the episode level), "unpaired_environments" (environments only one run has),
-        "left_out" (:func:`left_out`: what was left out and why, one line, "" when nothing), "keys", "envs",
+        "left_out" (:func:`left_out`: what was left out and why, one line, "" when nothing),
+        "probability_of_improvement" (:func:`benchbot.batch.stats.probability_of_improvement` of b over a, over
+        the environments both ran, better in the score's direction: an Estimate dict), "keys", "envs",
         "differences" (b − a per episode pair), "environments" (their order), "environment_differences", and the
         environment-level test: "n" (environments), "level", "difference" (Estimate dict), "cohens_dz",
         "rank_biserial", "ttest_p", "wilcoxon_p", "reason"; "episodes": the same keys over the episode pairs}``.
@@ -635,14 +676,20 @@ def compare(a: RunData, b: RunData, score: str) -> dict:
     pairs = pair_episodes(a, b, score)
     env = stats.cluster_paired_test(cells["a"], cells["b"], cells["envs"])
     episodes = stats.paired_test(pairs["a"], pairs["b"], level="pairs")
+    for test in (env, episodes):
+        bounded(test["difference"], a, score, difference=True)
     info = a.score_set.get(score)
+    per_env_a, per_env_b = (group(run.rows, "env", score) for run in (a, b))
+    shared = [e for e in per_env_a if e in per_env_b]
+    improvement = stats.probability_of_improvement([per_env_a[e] for e in shared], [per_env_b[e] for e in shared],
+                                                   a.score_set.sign(score) if info else 1)
     return {"a": a.name, "b": b.name, "score": score, "direction": info.direction if info else "higher",
             "pairing": pairs["pairing"], "factors": pairs["factors"], "unpaired": pairs["unpaired"],
             "unpaired_environments": cells["only_a"] + cells["only_b"], "left_out": left_out(a, b, cells, pairs),
             "keys": pairs["keys"], "envs": pairs["envs"],
             "differences": [float(y - x) for x, y in zip(pairs["a"], pairs["b"])],
             "environments": env["clusters"], "environment_differences": env["cluster_differences"],
-            **_test(env), "episodes": _test(episodes)}
+            "probability_of_improvement": improvement.to_json(), **_test(env), "episodes": _test(episodes)}
 
 
 def comparisons(runs: list[RunData], score: str | None = None) -> list[dict]:
@@ -856,7 +903,7 @@ def factor_views(runs: list[RunData], score: str | None = None) -> list[dict]:
         if len(levels) > 1:
             out.append({"factor": factor, "groups": levels, "note": "", "series": [
                 {"label": run.name, "values": group(run.rows, factor, score),
-                 "estimates": {g: stats.mean_ci(v, level="episodes").to_json()
+                 "estimates": {g: bounded(stats.mean_ci(v, level="episodes"), run, score).to_json()
                                for g, v in group(run.rows, factor, score).items()}}
                 for run in runs]})
     lit: dict[str, set] = {}
@@ -875,7 +922,8 @@ def factor_views(runs: list[RunData], score: str | None = None) -> list[dict]:
             rows = [dict(r, _group=key(r)) for r in run.rows if r["env"] in varied]
             g = group(rows, "_group", score)
             series.append({"label": run.name, "values": g,
-                           "estimates": {k: stats.mean_ci(v, level="episodes").to_json() for k, v in g.items()}})
+                           "estimates": {k: bounded(stats.mean_ci(v, level="episodes"), run, score).to_json()
+                                         for k, v in g.items()}})
         out.append({"factor": "lighting", "groups": groups, "series": series,
                     "note": "lighting compared within each environment run under several lightings"})
     elif len(levels) > 1:
@@ -911,7 +959,8 @@ def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None
     Returns:
         ``{"policy", "scores" (the baseline method's ScoreSet), "main_score", "runs": [{label, run_dir, task,
         isolation, verifiable, provenance, conditions, environments_n, episodes_n, summary (environment level),
-        summary_episodes, environments, per_class, objects_note}], "comparisons", "factors", "tasks",
+        summary_episodes, environments, per_class, objects_note, robust (:func:`robust`)}], "comparisons",
+        "factors", "tasks",
         "differences" (:func:`condition_differences`), "notes"}``; estimates are
         :class:`benchbot.batch.stats.Estimate` dicts.
 
@@ -927,6 +976,7 @@ def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None
                 score_objects(run, registry)
     scores = present_scores(runs)
     main = main_score(runs)
+    taus = thresholds(runs, main)
     out_runs = []
     for run in runs:
         out_runs.append({
@@ -936,10 +986,11 @@ def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None
             "environments_n": len({r["env"] for r in run.rows}), "episodes_n": len(run.rows),
             "summary": {k: v.to_json() for k, v in summary(run, scores).items()},
             "summary_episodes": {k: v.to_json() for k, v in summary_episodes(run, scores).items()},
-            "environments": {env: {"values": v, **stats.mean_ci(v, level="episodes").to_json()}
+            "environments": {env: {"values": v, **bounded(stats.mean_ci(v, level="episodes"), run, main).to_json()}
                              for env, v in group(run.rows, "env", main).items()},
             "per_class": per_class_rows(run) if run.per_class else None,
             "objects_note": run.objects_note,
+            "robust": robust(run, main, taus),
         })
     comps = comparisons(runs, main) if len(runs) > 1 else []
     mentioned = set(factors or []) | {dict(ROW_FACTORS)[x["field"]] if x["field"] != "noise" else "noise preset"
@@ -1029,6 +1080,21 @@ def tables(runs: list[RunData], result: dict) -> list[Table]:
                          + "Over episode pairs: what these environments show, not what other environments would; "
                          "episodes of one environment are not independent, so these p-values are smaller than the "
                          f"environment level's. None below {stats.MIN_TEST_PAIRS} pairs; p-values Holm-adjusted."))
+    improvement = {c["b"]: c["probability_of_improvement"] for c in comps}
+    key = "; ".join(f"{short}: {r['label']}" for short, r in zip(shorts, result["runs"]) if short != r["label"])
+    out.append(Table("robust", f"{main}: robust aggregates (Agarwal et al. 2021)",
+                     ["run", "IQM over environments", "IQM of episodes (stratified)"]
+                     + ([f"P(better than {shorts[0]})"] if comps else []),
+                     [[short, r["robust"]["iqm"], r["robust"]["iqm_episodes"]]
+                      + ([improvement.get(r["label"]) if k else None] if comps else [])
+                      for k, (short, r) in enumerate(zip(shorts, result["runs"]))],
+                     (f"Runs: {key}. " if key else "") + "IQM: the mean of the middle 50 %. Over environments: of the "
+                     "environments' means, percentile bootstrap over environments (about environments like these). "
+                     "Of episodes: rliable's, every episode pooled, stratified bootstrap of the episodes within each "
+                     "environment (about these environments only). P(better): the probability that an episode of "
+                     "the run scores better than one of the baseline in the same environment, averaged over "
+                     "environments, stratified bootstrap. Intervals 95 %, percentile, "
+                     f"{stats.BOOTSTRAP_RESAMPLES} resamples, clipped to the score's range."))
     for k, (run, r) in enumerate(zip(runs, result["runs"])):
         if r["per_class"]:
             counts, class_scores = per_class_columns(run)
@@ -1077,6 +1143,13 @@ def make_figures(runs: list[RunData], result: dict, registry=None) -> list[Figur
                       "each environment, one number per run.",
                       figures.render(figures.per_group(f"{main} per environment", main, envs, env_series,
                                                        stats.MIN_CI_N))))
+    out.append(Figure("score_distribution", f"{main}: score distributions",
+                      "The fraction of each run's episodes scoring above τ, averaged over its environments (each "
+                      "counts once), with a 95 % band by the stratified bootstrap (episodes resampled within each "
+                      "environment: about these environments). A curve above another everywhere is better everywhere.",
+                      figures.render(figures.score_distribution(main, [
+                          {"label": r["label"], "short": short, "distribution": r["robust"]["score_distribution"],
+                           "n": r["environments_n"]} for r, short in zip(result["runs"], shorts)]))))
     for k, c in enumerate(result["comparisons"]):
         if c["episodes"]["n"]:
             out.append(Figure(f"comparison_{k + 1}", f"{c['b']} vs {c['a']}: paired differences",
@@ -1221,7 +1294,7 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
              "<nav><a href='#statistics'>Statistics</a><a href='#runs'>Runs</a><a href='#summary'>Summary</a>"
              "<a href='#environments'>Environments</a>"
              + ("<a href='#comparisons'>Comparisons</a>" if result["comparisons"] else "")
-             + "<a href='#classes'>Classes</a><a href='#maps'>Maps</a><a href='#factors'>Factors</a>"
+             + "<a href='#robust'>Robust</a><a href='#classes'>Classes</a><a href='#maps'>Maps</a><a href='#factors'>Factors</a>"
                "<a href='#episodes'>Episodes</a></nav></header>"]
     unverified = [r["label"] for r in result["runs"] if not r["verifiable"]]
     if unverified:
@@ -1275,6 +1348,10 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
             parts.append(figure(f"comparison_{k + 1}"))
         parts.append("<details><summary>the same over episode pairs</summary>" + table("comparisons_episodes")
                      + "</details></section>")
+    parts.append("<section id='robust'><h2>Robust aggregates</h2><p class='note'>The interquartile mean, the "
+                 "probability of improvement and score distributions of Agarwal et al. 2021 (rliable): see "
+                 "docs/report.md for when each holds.</p>" + table("robust") + figure("score_distribution")
+                 + "</section>")
     parts.append("<section id='classes'><h2>Per class</h2>")
     for k, r in enumerate(result["runs"]):
         parts.append(f"<h3>{esc(r['label'])}</h3>")

@@ -444,3 +444,218 @@ def predictivity(sim: Sequence[float], real: Sequence[float]) -> dict:
             m.low, m.high, m.reason = _bootstrap((s, r), _mmrv_statistic, paired=True, method="percentile")
     out["mmrv"] = m.to_json()
     return out
+
+
+# --------------------------------------------------------------------------------------------------------------------
+# Bounded scores
+# --------------------------------------------------------------------------------------------------------------------
+def clip_to_range(estimate: Estimate, low: float | None, high: float | None) -> Estimate:
+    """``estimate`` with its interval clipped to ``[low, high]``, the range its score declares (None: unbounded on
+    that side), saying so in its ``method`` when it clipped. A mean of values in [0, 1] cannot lie outside it, so
+    clipping an interval at the bound removes only values the mean cannot take: it never lowers the interval's
+    coverage, and keeps ``low ≤ value ≤ high``. (Student's t interval of a mean near a bound is symmetric and can
+    pass it: 1.003 for an OMQ near 1.) Clipped, not transformed: a logit interval would be undefined at a mean of
+    exactly 0 or 1, which a score's range allows."""
+    if estimate.low is None or estimate.high is None:
+        return estimate
+    lo, hi = estimate.low, estimate.high
+    if low is not None:
+        lo, hi = max(lo, low), max(hi, low)
+    if high is not None:
+        lo, hi = min(lo, high), min(hi, high)
+    if (lo, hi) != (estimate.low, estimate.high):
+        estimate.low, estimate.high = lo, hi
+        estimate.method += f"; clipped to the score's range [{low if low is not None else '−∞'}, " \
+                           f"{high if high is not None else '∞'}]"
+    return estimate
+
+
+# --------------------------------------------------------------------------------------------------------------------
+# Robust aggregates (Agarwal et al. 2021, "Deep Reinforcement Learning at the Edge of the Statistical Precipice",
+# NeurIPS, arXiv:2108.13264; the rliable library's definitions, with SciPy's bootstrap)
+# --------------------------------------------------------------------------------------------------------------------
+def iqm(values: Sequence[float]) -> float | None:
+    """The interquartile mean: the mean of the middle 50 % of ``values`` (``scipy.stats.trim_mean(values, 0.25)``,
+    which drops ⌊n/4⌋ values at each end, as rliable's ``aggregate_iqm`` does); None for no values. Robust to a few
+    outlying values (a room where everything fails), and less noisy than the median (Agarwal et al. 2021)."""
+    from scipy import stats
+
+    x = np.asarray(values, dtype=np.float64)
+    return None if x.size == 0 else float(stats.trim_mean(x, 0.25))
+
+
+def _strata(groups: Sequence[Sequence[float]]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """``(resampled, fixed)``: the groups with two or more values (SciPy's bootstrap resamples them) and those with
+    one (a stratum of one value resamples to itself)."""
+    arrays = [np.asarray(g, dtype=np.float64) for g in groups if len(g)]
+    return [a for a in arrays if a.size > 1], [a for a in arrays if a.size == 1]
+
+
+def _stratified(groups: list[list[np.ndarray]], statistic, *, multi: bool = False) -> tuple:
+    """A percentile interval of ``statistic`` by the stratified bootstrap: every group of values (one per
+    environment and run) resampled with replacement within itself, independently (``scipy.stats.bootstrap`` with
+    one sample per stratum, which resamples each sample on its own: rliable's ``StratifiedBootstrap``).
+
+    Args:
+        groups: per stratum kind (e.g. the runs), a list of ``(n_k,)`` arrays, one per environment; every kind has
+            the same environments in the same order.
+        statistic: ``statistic(*kinds)`` where each kind is a list of arrays ``(..., n_k)``, returning ``(...)``
+            (or ``(k, ...)`` with ``multi``).
+
+    Returns:
+        ``(low, high, reason)``; reason says why there is no interval (no stratum has two values).
+    """
+    from scipy import stats
+
+    flat = [a for kind in groups for a in kind]
+    movable = [i for i, a in enumerate(flat) if a.size > 1]
+    if not movable:
+        return None, None, "every environment has one episode: a stratified bootstrap has nothing to resample"
+    sizes = [len(kind) for kind in groups]
+
+    def vectorised(*samples, axis=-1):
+        batch = samples[0].shape[:-1]
+        arrays = list(flat)
+        for i, sample in zip(movable, samples):
+            arrays[i] = sample
+        arrays = [a if a.ndim > 1 or i in movable else np.broadcast_to(a, batch + a.shape)
+                  for i, a in enumerate(arrays)]
+        kinds, start = [], 0
+        for size in sizes:
+            kinds.append(arrays[start:start + size])
+            start += size
+        return statistic(*kinds)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = stats.bootstrap(tuple(flat[i] for i in movable), vectorised, n_resamples=BOOTSTRAP_RESAMPLES,
+                              confidence_level=CONFIDENCE, method="percentile", vectorized=True,
+                              rng=np.random.default_rng(SEED))
+    low, high = res.confidence_interval.low, res.confidence_interval.high
+    if multi:
+        return np.asarray(low, dtype=float), np.asarray(high, dtype=float), ""
+    return _float(low), _float(high), ""
+
+
+def iqm_environments(groups: Sequence[Sequence[float]]) -> Estimate:
+    """The IQM over environments (the unit): :func:`iqm` of the environments' means, with a percentile bootstrap
+    interval over the environments (``scipy.stats.bootstrap``; resampling environments with all their episodes,
+    as :func:`cluster_mean_ci` does); none below :data:`MIN_CI_N` environments.
+
+    Args:
+        groups: one sequence of episode scores per environment.
+    """
+    means = [float(np.mean(g)) for g in groups if len(g)]
+    est = Estimate(len(means), iqm(means), level="environments",
+                   method=f"IQM of the environments' means; percentile bootstrap over environments, "
+                          f"{BOOTSTRAP_RESAMPLES} resamples")
+    if len(means) < MIN_CI_N:
+        est.reason = _too_few(len(means), MIN_CI_N, "confidence interval over environments")
+    elif len(set(means)) == 1:
+        est.low = est.high = means[0]
+        est.reason = "every value is equal: the interval is the value itself"
+    else:
+        from scipy import stats
+
+        est.low, est.high, est.reason = _bootstrap((np.asarray(means),), lambda x, axis=-1: stats.trim_mean(
+            x, 0.25, axis=axis), method="percentile", vectorized=True)
+    return est
+
+
+def iqm_stratified(groups: Sequence[Sequence[float]]) -> Estimate:
+    """rliable's IQM: :func:`iqm` of every episode's score pooled over the environments, with the stratified
+    bootstrap's percentile interval (episodes resampled within each environment, :func:`_stratified`). The
+    environments are held fixed: the interval says how precisely *these* environments were measured (as rliable's
+    runs of a fixed set of tasks), not how the solution does on other environments (:func:`iqm_environments`).
+    With unequal repetitions, an environment with more episodes weighs more (rliable assumes equal ones).
+
+    Args:
+        groups: one sequence of episode scores per environment.
+    """
+    from scipy import stats
+
+    moved, fixed = _strata(groups)
+    pooled = [float(v) for g in groups for v in g]
+    est = Estimate(len(pooled), iqm(pooled), level="episodes",
+                   method=f"IQM of the episodes; stratified bootstrap (episodes within environments), percentile, "
+                          f"{BOOTSTRAP_RESAMPLES} resamples")
+    if len(pooled) < MIN_CI_N:
+        est.reason = _too_few(len(pooled), MIN_CI_N, "confidence interval")
+        return est
+
+    def statistic(kind):
+        batch = np.broadcast_shapes(*(a.shape[:-1] for a in kind))
+        return stats.trim_mean(np.concatenate([np.broadcast_to(a, batch + a.shape[-1:]) for a in kind], axis=-1),
+                               0.25, axis=-1)
+
+    est.low, est.high, est.reason = _stratified([moved + fixed], statistic)
+    return est
+
+
+def _improvement(a_kind: list[np.ndarray], b_kind: list[np.ndarray]) -> np.ndarray:
+    """The mean over environments of P(b > a) within each (ties count one half): ``(...)`` from arrays
+    ``(..., n)``."""
+    per_env = []
+    for a, b in zip(a_kind, b_kind):
+        diff = b[..., :, None] - a[..., None, :]
+        per_env.append(np.mean((diff > 0) + 0.5 * (diff == 0), axis=(-2, -1)))
+    return np.mean(np.broadcast_arrays(*per_env), axis=0)
+
+
+def probability_of_improvement(a: Sequence[Sequence[float]], b: Sequence[Sequence[float]], sign: int = 1) -> Estimate:
+    """Agarwal et al. 2021's probability of improvement of run B over run A: per environment m, the probability that
+    an episode of B scores better than one of A, P_m = (1 / (N_a N_b)) Σ_i Σ_j S(b_j, a_i) with S = 1 when better,
+    ½ when equal, 0 otherwise (the Mann–Whitney U statistic over N_a N_b), averaged over the environments, each
+    counting once. 0.5: neither is better; above: B better. Its interval is rliable's, the stratified bootstrap
+    (each run's episodes resampled within each environment, :func:`_stratified`): about these environments, like
+    every stratified-bootstrap interval.
+
+    Args:
+        a, b: per environment (the same ones in the same order), the episode scores of run A and of run B.
+        sign: +1 when higher is better, −1 when lower is.
+
+    Raises:
+        ValueError: ``a`` and ``b`` have different numbers of environments.
+    """
+    if len(a) != len(b):
+        raise ValueError(f"a and b differ in environments: {len(a)} and {len(b)}")
+    pairs = [(np.asarray(x, float) * sign, np.asarray(y, float) * sign) for x, y in zip(a, b) if len(x) and len(y)]
+    est = Estimate(len(pairs), None, level="environments",
+                   method=f"stratified bootstrap (episodes within environments), percentile, "
+                          f"{BOOTSTRAP_RESAMPLES} resamples")
+    if not pairs:
+        est.reason = "no environment both runs ran"
+        return est
+    est.value = float(_improvement([p[0] for p in pairs], [p[1] for p in pairs]))
+    est.low, est.high, est.reason = _stratified([[p[0] for p in pairs], [p[1] for p in pairs]], _improvement)
+    return est
+
+
+def score_distribution(groups: Sequence[Sequence[float]], taus: Sequence[float]) -> dict:
+    """rliable's score distribution (its "performance profile" of run scores): for each threshold τ, the fraction
+    of episodes scoring above τ, averaged over the environments (each counts once), with a 95 % band by the
+    stratified bootstrap (episodes within environments, percentile, pointwise). It shows the whole distribution
+    rather than one aggregate: one profile above another everywhere is stochastic dominance.
+
+    Args:
+        groups: one sequence of episode scores per environment. taus: ``(k,)`` thresholds.
+
+    Returns:
+        ``{"taus": [k], "fraction": [k], "low": [k] or None, "high": [k] or None, "reason"}``.
+    """
+    t = np.asarray(taus, dtype=np.float64)
+    arrays = [np.asarray(g, dtype=np.float64) for g in groups if len(g)]
+
+    def statistic(kind):
+        out = np.mean(np.broadcast_arrays(*[np.mean(a[..., :, None] > t, axis=-2) for a in kind]), axis=0)
+        return np.moveaxis(out, -1, 0)
+
+    fraction = statistic(arrays) if arrays else np.full(t.shape, np.nan)
+    out = {"taus": t.tolist(), "fraction": [float(v) for v in fraction], "low": None, "high": None, "reason": ""}
+    if not arrays:
+        out["reason"] = "no episodes"
+        return out
+    low, high, out["reason"] = _stratified([arrays], statistic, multi=True)
+    if low is not None:
+        out["low"], out["high"] = [float(v) for v in low], [float(v) for v in high]
+    return out

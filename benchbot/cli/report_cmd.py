@@ -32,6 +32,10 @@ def _print_report(result: dict) -> None:
             table.add_row(f"all: {main}, episodes (these environments only)", str(e["n"]), fmt(e["value"]),
                           interval_text(e))
         out.print(table)
+        iqm, iqm_episodes = r["robust"]["iqm"], r["robust"]["iqm_episodes"]
+        out.print(f"  IQM {main} over environments {fmt(iqm['value'])} {interval_text(iqm)}; of episodes "
+                  f"(stratified bootstrap, these environments) {fmt(iqm_episodes['value'])} "
+                  f"{interval_text(iqm_episodes)}", highlight=False, markup=False)
         if not r["verifiable"]:
             err.print(f"[yellow]not verifiable:[/] {r['label']} ran its solution without the sandbox (isolation "
                       f"{r['isolation']}): it could read the ground truth", highlight=False)
@@ -40,6 +44,10 @@ def _print_report(result: dict) -> None:
     for c in result["comparisons"]:
         out.print(f"{c['b']} − {c['a']} ({c['score']}, environment means paired by environment; episodes paired by "
                   f"{c['pairing']}): {comparison_text(c)}", highlight=False, markup=False)
+        poi = c.get("probability_of_improvement")
+        if poi and poi.get("value") is not None:
+            out.print(f"  P({c['b']} better than {c['a']} in an episode of the same environment) = {fmt(poi['value'])} "
+                      f"{interval_text(poi)} (stratified bootstrap, these environments)", highlight=False, markup=False)
         if c.get("left_out"):
             out.print(f"  left out: {c['left_out']}", highlight=False, markup=False)
     for d in result["differences"]:
