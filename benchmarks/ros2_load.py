@@ -7,14 +7,14 @@ priority (``--stand-in-nice``, -10 where allowed: a real robot has CPUs of its o
 killed) load every core while ``Ros2RobotBackend`` in this process puts the robot at its start pose (``reset:
 drive``, what ``benchbot run`` does first) and then drives back and forth (1 m, and a 90° turn) until the time is
 up. ``--pause-s S`` also stops this process (SIGSTOP, then SIGCONT) for S seconds every ``--pause-every-s``: a
-process the scheduler did not run at all, as issue 54's machine at load 40-68 did to BenchBot for 1.4-2.2 s. It
+process the scheduler did not run at all, as a machine at load 40-68 once did to BenchBot for 1.4-2.2 s. It
 prints the motions made, the faults and their lines, the load average and the longest gap between two watchdog
 checks (how late the starved process got round to one).
 
     python benchmarks/ros2_load.py [--hogs 40] [--seconds 60] [--pause-s 1.5] [--timeout 0.5] [--json]
 
 ``--timeout`` is the robot's ``sensor_timeout_s`` (turtlebot4's 0.5 s). On the 2-core development machine,
-``--hogs 40 --seconds 40 --pause-s 1.5 --pause-every-s 3`` before issue 54's fix faulted at start-up and in 32 of
+``--hogs 40 --seconds 40 --pause-s 1.5 --pause-every-s 3`` before the watchdog judged by header stamps faulted at start-up and in 32 of
 32 motions (``odometry (/odom) silent for 1.53 s during a motion (limit 0.50 s)``); after it, none.
 """
 
@@ -48,7 +48,7 @@ def hog(seconds: float, nice: int) -> None:
 
 def pauser(pid: int, pause_s: float, every_s: float, seconds: float) -> None:
     """Stop process ``pid`` (SIGSTOP) for ``pause_s`` every ``every_s`` during ``seconds``: a process the scheduler
-    did not run at all for that long, as on the overloaded machine of issue 54."""
+    did not run at all for that long, as on an overloaded machine seen at load 40-68."""
     import signal
 
     end = time.monotonic() + seconds

@@ -1,4 +1,4 @@
-"""An episode's clock (issue 54): a real robot (an environment of type ``real``) runs on the wall clock, a simulator
+"""An episode's clock: a real robot (an environment of type ``real``) runs on the wall clock, a simulator
 on simulated time; the batch manifest's episode ``backend`` says which (the recording's metadata is checked end to
 end by ``plugins/robot_ros2/tests/test_real_room.py``)."""
 

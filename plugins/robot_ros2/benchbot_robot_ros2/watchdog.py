@@ -1,7 +1,7 @@
 """Whether a robot's topic fell silent, judged by what the robot sent, not by when this process read it.
 
 A sensor watchdog that compares the wall time of the last *receipt* with the wall time now blames the robot for
-every moment BenchBot's own process was not scheduled: on a machine under heavy load (issue 54: load average 40-68
+every moment BenchBot's own process was not scheduled: on a machine under heavy load (seen at load average 40-68
 on 2 cores) the process slept 1.4-2.2 s, nothing was read meanwhile, and the robot, still publishing, was stopped
 with "odometry silent". :class:`SilenceWatch` judges instead by the messages themselves:
 

@@ -1,4 +1,4 @@
-"""The same solution file, scored in simulation and on a real robot (issue 54): the example room pack that ships with
+"""The same solution file, scored in simulation and on a real robot: the example room pack that ships with
 the plugin (``benchbot ros2 example-room``: ``example_room:1``, type ``real``, and its simulated twin
 ``example_room_sim:1``) is installed; one solution follows the room's trajectory and reports a chair-sized cuboid
 1.5 m ahead of every pose it saw; ``benchbot batch`` scores it on ``carter`` in the twin and on the unchanged

@@ -1,4 +1,4 @@
-"""The sensor watchdog judges silence by what the robot sent (issue 54): a robot still publishing while BenchBot's
+"""The sensor watchdog judges silence by what the robot sent: a robot still publishing while BenchBot's
 own process is starved (its reading thread held up, its checks late) never faults; a robot that stops publishing
 faults with one line naming the topic, its last header stamp and the setting; over HTTP that fault is a 503 (not a
 500) whose one-line message the client shows. Over Cyclone DDS here; the last test over rclpy (marked ``rclpy``:
@@ -138,7 +138,7 @@ def _backend(transport, **ros2):
 def test_a_starved_reading_thread_and_a_late_check_do_not_fault(transport):
     """Mid-motion the reading thread stops taking messages and the control loop's next check runs 1.5 s late (5x
     ``sensor_timeout_s``), judging while the robot's messages are still queued: the motion goes on and ends. Before
-    issue 54 this was ``odometry (/odom) silent for 1.50 s``."""
+    the stamp-based watchdog this was ``odometry (/odom) silent for 1.50 s``."""
     gated = _GatedTransport(transport)
     with FakeRobot(transport, cmd_timeout_s=0.5) as robot:
         b = _backend(gated)
@@ -291,7 +291,7 @@ print(json.dumps(out), flush=True)
 def run_starved_backend(domain: int, transport_kind: str, pauses: int = 3, pause_s: float = 1.5) -> dict:
     """Run :data:`STARVED_BACKEND` (three motions against a stand-in publishing on ``domain``) in a subprocess that
     is stopped (SIGSTOP) for ``pause_s`` ``pauses`` times while it drives: the scheduler does not run it at all,
-    as on issue 54's overloaded machine. Returns its report ``{faults, motions}``."""
+    as on an overloaded machine (load 40-68). Returns its report ``{faults, motions}``."""
     env = dict(os.environ)
     env.pop("ROS_DOMAIN_ID", None)
     proc = subprocess.Popen([sys.executable, "-c", STARVED_BACKEND, str(domain), transport_kind], env=env,
