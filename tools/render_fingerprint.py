@@ -5,9 +5,11 @@
     uv run python tools/render_fingerprint.py save after.npz       # on the new code
     uv run python tools/render_fingerprint.py compare before.npz after.npz
 
-``save`` renders, on the CPU, the first three trajectory poses of ``--envs`` (default ``miniroom:1,house:1``) at
+``save`` renders, on the CPU (``--arch cuda``: on the GPU), the first three trajectory poses of ``--envs`` (default ``miniroom:1,house:1``) at
 96 × 72 pixels: RGB, depth, class and instance images with the laser scan of the same instant (fast mode), and one
-quality-mode view (4 samples per pixel, not denoised). ``compare`` prints one line per differing array (largest
+quality-mode view (4 samples per pixel, not denoised); ``--samples-per-pixel N`` renders the fast views with the
+camera's pixel integration (``sensors.camera.samples_per_pixel``). Saved on the CPU and on a GPU and compared, two
+files show how far the two devices' images are apart. ``compare`` prints one line per differing array (largest
 absolute difference) and the count of equal ones; it exits 1 when any differs or the two files hold different
 arrays. Bit-identical output is what a refactor of the kernels should give; a change meant to alter the images shows
 here how much they moved.
@@ -29,8 +31,9 @@ WIDTH, HEIGHT, FOV_DEG, POSES = 96, 72, 90.0, 3
 LIDAR_Z = 0.3
 
 
-def save(path: str, envs: list[str]) -> int:
-    """Render the fixed views of ``envs`` (``name:variant``) and write them to ``path`` (``.npz``, one array per
+def save(path: str, envs: list[str], arch: str = "cpu", samples_per_pixel: int = 1) -> int:
+    """Render the fixed views of ``envs`` (``name:variant``) on ``arch`` (``cpu`` or ``cuda``), the fast views with
+    ``samples_per_pixel`` sub-pixels a pixel, and write them to ``path`` (``.npz``, one array per
     ``env/pose/output``). Returns the exit status."""
     from benchbot.core.geometry import se2_to_matrix
     from benchbot.core.registry import get_registry
@@ -39,7 +42,7 @@ def save(path: str, envs: list[str]) -> int:
     from benchbot_sim_taichi.scene.build import build_scene
 
     registry = get_registry()
-    renderer = Renderer("cpu")
+    renderer = Renderer(arch)
     K = intrinsics(WIDTH, HEIGHT, FOV_DEG)
     angles = np.linspace(-3.0, 3.0, 90)
     out: dict[str, np.ndarray] = {}
@@ -49,7 +52,8 @@ def save(path: str, envs: list[str]) -> int:
         for i, (x, y, yaw) in enumerate(scene.trajectory_se2[:POSES]):
             T_cam = se2_to_matrix(x, y, yaw) @ camera_mount()
             T_lidar = se2_to_matrix(x, y, yaw, z=LIDAR_Z)
-            for name_, image in renderer.render(K, T_cam, WIDTH, HEIGHT, T_map_lidar=T_lidar, angles=angles).items():
+            for name_, image in renderer.render(K, T_cam, WIDTH, HEIGHT, T_map_lidar=T_lidar, angles=angles,
+                                                samples_per_pixel=samples_per_pixel).items():
                 out[f"{key}/{i}/{name_}"] = np.asarray(image)
         for name_, image in renderer.render(K, T_cam, WIDTH, HEIGHT, mode="quality", spp=4, denoise=False).items():
             out[f"{key}/quality/{name_}"] = np.asarray(image)
@@ -71,7 +75,8 @@ def compare(a_path: str, b_path: str) -> int:
         if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
             differing += 1
             gap = "shapes differ" if x.shape != y.shape else (
-                f"largest difference {np.nanmax(np.abs(x.astype(np.float64) - y.astype(np.float64))):.6g}")
+                f"largest difference {np.nanmax(np.abs(x.astype(np.float64) - y.astype(np.float64))):.6g}, "
+                f"{int(np.count_nonzero(x != y))} of {x.size} values differ")
             print(f"{key}: {gap}")
     print(f"{len(a.files) - differing} of {len(a.files)} arrays equal")
     return 1 if differing else 0
@@ -84,12 +89,16 @@ def main(argv: list[str] | None = None) -> int:
     s = sub.add_parser("save", help="render the fixed views to an .npz file")
     s.add_argument("path")
     s.add_argument("--envs", default="miniroom:1,house:1", help="environments, name:variant, comma-separated")
+    s.add_argument("--arch", default="cpu", choices=("cpu", "cuda"), help="where to render (default: cpu)")
+    s.add_argument("--samples-per-pixel", type=int, default=1, choices=(1, 4, 9, 16),
+                   help="the fast views' pixel integration (sensors.camera.samples_per_pixel; default 1)")
     c = sub.add_parser("compare", help="compare two .npz files written by save")
     c.add_argument("before")
     c.add_argument("after")
     args = parser.parse_args(argv)
     if args.command == "save":
-        return save(args.path, [e.strip() for e in args.envs.split(",") if e.strip()])
+        return save(args.path, [e.strip() for e in args.envs.split(",") if e.strip()], args.arch,
+                    args.samples_per_pixel)
     return compare(args.before, args.after)
 
 
