@@ -387,6 +387,11 @@ def test_cli_prints_rounded_numbers_and_refusals(tmp_path):
     assert "0.1601" in proc.stdout and "n = 1 < 5: no confidence interval" in proc.stdout
     assert "mean difference -0.001079" in proc.stdout  # (-0.002258 + 0.0001) / 2 and "n = 2 < 6: no paired test" in proc.stdout
     assert too_precise(proc.stdout) == [], proc.stdout
+    proc = cli("report", str(a), str(b), "--plan-width", "0.05", "--plan-difference", "0.01")
+    assert proc.returncode == 0 and "(a): n = 2 < 3: no plan (the SD of so few environments" in proc.stdout
+    assert "(b) − semslam_geometric (a): n = 2 < 3: no plan" in proc.stdout
+    proc = cli("report", str(a), "--plan-width", "-0.1")
+    assert proc.returncode == 2 and "--plan-width: -0.1 is not a positive number" in proc.stderr
     proc = cli("report", str(a), str(b), "--json", "--label", "A", "--label", "B")
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout)

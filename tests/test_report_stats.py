@@ -275,3 +275,54 @@ def test_intervals_stay_in_the_declared_range(tmp_path):
         assert 0.0 <= est["low"] <= est["value"] <= est["high"] <= 1.0
     clipped = stats.clip_to_range(stats.Estimate(5, -0.95, -1.2, -0.7, method="t"), -1.0, 1.0)
     assert (clipped.low, clipped.high) == (-1.0, -0.7)
+
+
+def test_how_many_environments_a_pilot_says():
+    """The plan's power is R's power.t.test(type = "one.sample") (d = 1: n = 10, power 0.8031; d = 0.5: n = 34),
+    its numbers are the smallest that reach the target, and simulated studies of the planned size reach it."""
+    assert stats.paired_power(1.0, 1.0, 10) == pytest.approx(0.8031, abs=1e-4)
+    assert stats.paired_power(1.0, 1.0, 9) < 0.8 < stats.paired_power(1.0, 0.5, 34)
+    assert stats.paired_power(1.0, 0.5, 33) < 0.8
+    assert stats.interval_width(2.0, 7) == pytest.approx(2 * sps.t.ppf(0.975, 6) * 2.0 / math.sqrt(7))
+    assert stats.sd_upper(1.0, 6) == pytest.approx(math.sqrt(5 / sps.chi2.ppf(0.2, 5)))
+    rng = np.random.default_rng(11)
+    pilot = rng.normal(0.02, 0.03, 8)  # eight environments' paired differences
+    plan = stats.plan_environments(pilot, width=0.02, difference=0.02)
+    sd = float(np.std(pilot, ddof=1))
+    k, cautious = plan["difference"]["environments"], plan["difference"]["cautious"]
+    assert plan["sd"] == pytest.approx(sd) and plan["sd_upper"] > sd and cautious > k >= stats.MIN_TEST_PAIRS
+    assert stats.paired_power(sd, 0.02, k) >= 0.8 > stats.paired_power(sd, 0.02, k - 1)
+    w = plan["width"]["environments"]
+    assert stats.interval_width(sd, w) <= 0.02 < stats.interval_width(sd, w - 1)
+    studies = rng.normal(0.02, sd, (4000, k))  # environments like the pilot's, as many as planned
+    rejected = float(np.mean(sps.ttest_1samp(studies, 0, axis=1).pvalue < 0.05))
+    assert rejected == pytest.approx(0.8, abs=0.03)
+    assert stats.plan_environments([0.1, 0.2])["reason"] == (
+        "n = 2 < 3: no plan (the SD of so few environments says nothing)")
+    assert stats.plan_environments([0.1, 0.1, 0.1], width=0.1)["width"] is None
+
+
+def test_report_plans_from_a_pilot(tmp_path):
+    import sys
+    from pathlib import Path
+
+    from benchbot.batch.report import analyse, load_run
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from report_runs import scores_only_run
+
+    rng = np.random.default_rng(3)
+    envs = [f"miniroom:{v}" for v in range(1, 6)] + ["house:1"]
+    room = dict(zip(envs, rng.uniform(0.1, 0.5, 6)))
+    a = load_run(scores_only_run(tmp_path, "a", {e: list(room[e] + rng.normal(0, 0.01, 2)) for e in envs}))
+    b = load_run(scores_only_run(tmp_path, "b", {e: list(room[e] + 0.02 + rng.normal(0, 0.02, 2)) for e in envs}))
+    plan = analyse([a, b], plan={"width": 0.05, "difference": 0.01})["planning"]
+    means = [np.mean([r["OMQ"] for r in a.rows if r["env"] == e]) for e in envs]
+    assert plan["runs"][0]["plan"]["sd"] == pytest.approx(np.std(means, ddof=1))
+    assert plan["runs"][0]["lines"][0].startswith("a 95 % interval 0.05 wide needs ")
+    assert "2 episodes per environment as in the pilot" in plan["runs"][0]["lines"][0]
+    line = plan["comparisons"][0]["lines"][0]
+    assert line.startswith("detecting a mean difference of 0.01 with 80 % power (paired t-test over environments")
+    assert analyse([a], plan={"width": None, "difference": 0.01})["planning"]["note"].startswith(
+        "--plan-difference needs a comparison")
+    assert analyse([a])["planning"] is None

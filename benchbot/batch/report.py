@@ -948,18 +948,84 @@ def policy() -> dict:
             "correction": "Holm"}
 
 
-def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None) -> dict:
+def plan_text(plan: dict, what: str, episodes: str) -> list[str]:
+    """A plan (:func:`benchbot.batch.stats.plan_environments`) in words, one line per target: ``what`` the SD is of
+    (e.g. "their means"), ``episodes`` how the pilot measured each environment."""
+    if plan["reason"]:
+        return [plan["reason"]]
+    pilot = (f"pilot: {plan['n']} environments, SD of {what} {fmt(plan['sd'])}, its "
+             f"{int(stats.PLAN_SD_LEVEL * 100)} % upper bound {fmt(plan['sd_upper'])}")
+
+    def count(k):
+        return f"more than {stats.PLAN_MAX}" if k is None else str(k)
+
+    out = []
+    if plan["width"]:
+        w = plan["width"]
+        out.append(f"a {int(stats.CONFIDENCE * 100)} % interval {fmt(w['target'])} wide needs "
+                   f"{count(w['environments'])} environments on average, {count(w['cautious'])} at the SD's upper bound ({pilot}; {episodes} "
+                   "as in the pilot)")
+    if plan["difference"]:
+        d = plan["difference"]
+        out.append(f"detecting a mean difference of {fmt(d['target'])} with {int(d['power'] * 100)} % power (paired "
+                   f"t-test over environments, two-sided α = {fmt(1 - stats.CONFIDENCE)}) needs "
+                   f"{count(d['environments'])} environments, {count(d['cautious'])} at the SD's upper bound ({pilot};"
+                   f" {episodes} as in the pilot)")
+    return out
+
+
+def planning(runs: list[RunData], comps: list[dict], score: str, width: float | None,
+             difference: float | None) -> dict:
+    """How many environments a study like these runs needs (``benchbot report --plan-width/--plan-difference``):
+    per run, for an interval of ``width`` from the SD of its environments' means; per comparison, for a detectable
+    ``difference`` from the SD of its environments' paired differences (:func:`benchbot.batch.stats.plan_environments`).
+
+    Returns:
+        ``{"runs": [{"label", "plan", "lines"}], "comparisons": [{"a", "b", "plan", "lines"}]}``.
+    """
+    out: dict = {"runs": [], "comparisons": []}
+    for run in runs:
+        means = list(stats.cluster_means([r[score] for r in run.rows if score in r],
+                                         [r["env"] for r in run.rows if score in r]).values())
+        plan = stats.plan_environments(means, width=width)
+        episodes = _per_environment({e: n for e, n in _counts(run, score).items()})
+        lines = plan_text(plan, "their means", episodes) if width is not None else []
+        out["runs"].append({"label": run.name, "plan": plan, "lines": lines})
+    for c in comps:
+        plan = stats.plan_environments(c["environment_differences"], difference=difference)
+        lines = (plan_text(plan, "their paired differences", "as many episodes per environment")
+                 if difference is not None else [])
+        out["comparisons"].append({"a": c["a"], "b": c["b"], "plan": plan, "lines": lines})
+    if difference is not None and not comps:
+        out["note"] = ("--plan-difference needs a comparison (two or more runs): the SD of the environments' paired "
+                       "differences comes from it")
+    return out
+
+
+def _counts(run: RunData, score: str) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for r in run.rows:
+        if score in r:
+            counts[r["env"]] = counts.get(r["env"], 0) + 1
+    return counts
+
+
+def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None,
+            plan: dict | None = None) -> dict:
     """Everything a report says about ``runs`` (the first is the baseline of comparisons), JSON-able.
 
     Args:
         registry: to re-score results for per-class and per-object views (:func:`score_objects`); None skips them.
         factors: conditions (:data:`CONDITIONS`) the comparison is about (``--factor``): runs differing in them
             are not warned about.
+        plan: ``{"width": W, "difference": D}`` (either may be None): how many environments an interval W wide or
+            a detectable difference D needs, from these runs as a pilot (:func:`planning`, in ``"planning"``).
 
     Returns:
         ``{"policy", "scores" (the baseline method's ScoreSet), "main_score", "runs": [{label, run_dir, task,
         isolation, verifiable, provenance, conditions, environments_n, episodes_n, summary (environment level),
-        summary_episodes, environments, per_class, objects_note, robust (:func:`robust`)}], "comparisons",
+        summary_episodes, environments, per_class, objects_note, robust (:func:`robust`)}], "planning" (None
+        without ``plan``), "comparisons",
         "factors", "tasks",
         "differences" (:func:`condition_differences`), "notes"}``; estimates are
         :class:`benchbot.batch.stats.Estimate` dicts.
@@ -1001,7 +1067,9 @@ def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None
         notes.append(f"these runs were scored by different evaluation methods ({', '.join(sorted(methods))}): "
                      f"they are compared on {main}, the baseline's primary score, where they have it")
     tasks = {run.manifest.get("task") for run in runs}
-    return {"policy": policy(), "scores": score_set(runs).to_json(), "main_score": main, "runs": out_runs,
+    wanted = {k: v for k, v in (plan or {}).items() if v is not None}
+    return {"planning": planning(runs, comps, main, wanted.get("width"), wanted.get("difference")) if wanted else None,
+            "policy": policy(), "scores": score_set(runs).to_json(), "main_score": main, "runs": out_runs,
             "comparisons": comps, "factors": factor_views(runs, main), "tasks": sorted(map(str, tasks)),
             "differences": condition_differences(runs, mentioned) if len(runs) > 1 else [], "notes": notes}
 
@@ -1294,7 +1362,8 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
              "<nav><a href='#statistics'>Statistics</a><a href='#runs'>Runs</a><a href='#summary'>Summary</a>"
              "<a href='#environments'>Environments</a>"
              + ("<a href='#comparisons'>Comparisons</a>" if result["comparisons"] else "")
-             + "<a href='#robust'>Robust</a><a href='#classes'>Classes</a><a href='#maps'>Maps</a><a href='#factors'>Factors</a>"
+             + "<a href='#robust'>Robust</a><a href='#classes'>Classes</a><a href='#maps'>Maps</a>"
+               "<a href='#factors'>Factors</a>"
                "<a href='#episodes'>Episodes</a></nav></header>"]
     unverified = [r["label"] for r in result["runs"] if not r["verifiable"]]
     if unverified:

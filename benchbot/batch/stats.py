@@ -659,3 +659,119 @@ def score_distribution(groups: Sequence[Sequence[float]], taus: Sequence[float])
     if low is not None:
         out["low"], out["high"] = [float(v) for v in low], [float(v) for v in high]
     return out
+
+
+# --------------------------------------------------------------------------------------------------------------------
+# How many environments: planning from a pilot
+# --------------------------------------------------------------------------------------------------------------------
+PLAN_SD_LEVEL = 0.8
+"""The one-sided confidence level of the upper bound on the pilot's SD that the cautious plan uses (Browne 1995)."""
+
+PLAN_POWER = 0.8
+"""The power a plan for a detectable difference asks for (the conventional 80 %), at a two-sided α of
+1 − :data:`CONFIDENCE`."""
+
+PLAN_MAX = 100_000
+"""Plans needing more environments than this are reported as "more than" it."""
+
+MIN_PILOT_N = 3
+"""No plan from fewer pilot environments: an SD from 2 values has 1 degree of freedom, and its upper bound is 3.2
+times it."""
+
+
+def interval_width(sd: float, k: int) -> float:
+    """The width of Student's t interval (:data:`CONFIDENCE`) of a mean of ``k`` values with standard deviation
+    ``sd``: 2 · t_{(1 + CONFIDENCE)/2, k − 1} · sd / √k."""
+    return 2 * _t_quantile(k - 1) * sd / math.sqrt(k)
+
+
+def paired_power(sd: float, difference: float, k: int) -> float:
+    """The power of the two-sided paired t-test at α = 1 − :data:`CONFIDENCE` over ``k`` pairs whose differences
+    have mean ``difference`` and standard deviation ``sd``: with noncentrality δ = difference · √k / sd and
+    t* = t_{1 − α/2, k − 1}, power = P(T > t*) + P(T < −t*) for T ~ noncentral t(k − 1, δ) (``scipy.stats.nct``;
+    what R's ``power.t.test(type = "one.sample")`` computes)."""
+    from scipy import stats
+
+    crit = _t_quantile(k - 1)
+    nc = abs(difference) * math.sqrt(k) / sd
+    return float(stats.nct.sf(crit, k - 1, nc) + stats.nct.cdf(-crit, k - 1, nc))
+
+
+def _smallest(ok, start: int) -> int | None:
+    """The smallest k ≥ ``start`` with ``ok(k)`` (``ok`` monotone), by doubling then bisection; None beyond
+    :data:`PLAN_MAX`."""
+    hi = start
+    while not ok(hi):
+        if hi >= PLAN_MAX:
+            return None
+        hi = min(PLAN_MAX, hi * 2)
+    lo = start
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if ok(mid):
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+def sd_upper(sd: float, n: int, level: float = PLAN_SD_LEVEL) -> float:
+    """The one-sided ``level`` upper confidence limit of a standard deviation estimated from ``n`` values:
+    sd · √((n − 1) / χ²_{1 − level, n − 1}) (normal data). Planning with it instead of the pilot's SD itself guards
+    against a pilot that happened to vary little (Browne 1995, "On the use of a pilot sample for sample size
+    determination", Statistics in Medicine 14)."""
+    from scipy import stats
+
+    return float(sd * math.sqrt((n - 1) / stats.chi2.ppf(1 - level, n - 1)))
+
+
+def plan_environments(values: Sequence[float], *, width: float | None = None,
+                      difference: float | None = None) -> dict:
+    """How many environments a study needs, from a pilot's environment-level values: the environments' means of one
+    run (for an interval ``width``) or their paired differences between two runs (for a detectable
+    ``difference``).
+
+    * ``width``: the smallest k whose Student t interval of the mean is at most ``width`` wide (:func:`interval_width`)
+      with the pilot's SD — the width a study gets on average — and at least :data:`MIN_CI_N`;
+    * ``difference``: the smallest k at which the paired t-test over k environments detects a mean difference of
+      ``difference`` with power :data:`PLAN_POWER` (:func:`paired_power`), and at least :data:`MIN_TEST_PAIRS`.
+
+    Each is also given for the SD's :data:`PLAN_SD_LEVEL` upper bound (:func:`sd_upper`): the cautious number.
+    Both hold for environments like the pilot's, each measured as the pilot measured them (the same number of
+    episodes per environment: fewer make every environment mean noisier).
+
+    Args:
+        values: ``(n,)`` one value per pilot environment. width, difference: what the study should achieve, in the
+            score's units.
+
+    Returns:
+        ``{"n", "sd", "sd_upper", "width": {"target", "environments", "cautious"} or None, "difference": {...} or
+        None, "reason"}`` (numbers of environments None above :data:`PLAN_MAX`; ``reason`` set and the rest None
+        below :data:`MIN_PILOT_N` pilot environments or when they do not vary).
+
+    Raises:
+        ValueError: a ``width`` or ``difference`` that is not positive.
+    """
+    for name, target in (("width", width), ("difference", difference)):
+        if target is not None and not target > 0:
+            raise ValueError(f"{name} must be positive, not {target}")
+    x = np.asarray(values, dtype=np.float64)
+    n = int(x.size)
+    out = {"n": n, "sd": None, "sd_upper": None, "width": None, "difference": None, "reason": ""}
+    if n < MIN_PILOT_N:
+        out["reason"] = _too_few(n, MIN_PILOT_N, "plan (the SD of so few environments says nothing)")
+        return out
+    sd = float(x.std(ddof=1))
+    if np.all(x == x[0]):
+        out["reason"] = "the pilot's environments do not vary: their SD is 0, so any number of environments would do"
+        return out
+    out["sd"], out["sd_upper"] = sd, sd_upper(sd, n)
+    if width is not None:
+        out["width"] = {"target": float(width), **{key: _smallest(lambda k, s=s: interval_width(s, k) <= width,
+                                                                   MIN_CI_N)
+                                                   for key, s in (("environments", sd), ("cautious", out["sd_upper"]))}}
+    if difference is not None:
+        out["difference"] = {"target": float(difference), "power": PLAN_POWER, **{
+            key: _smallest(lambda k, s=s: paired_power(s, difference, k) >= PLAN_POWER, MIN_TEST_PAIRS)
+            for key, s in (("environments", sd), ("cautious", out["sd_upper"]))}}
+    return out

@@ -50,6 +50,16 @@ def _print_report(result: dict) -> None:
                       f"{interval_text(poi)} (stratified bootstrap, these environments)", highlight=False, markup=False)
         if c.get("left_out"):
             out.print(f"  left out: {c['left_out']}", highlight=False, markup=False)
+    plan = result.get("planning")
+    if plan:
+        for entry in plan["runs"]:
+            for line in entry["lines"]:
+                out.print(f"{entry['label']}: {line}", highlight=False, markup=False)
+        for entry in plan["comparisons"]:
+            for line in entry["lines"]:
+                out.print(f"{entry['b']} − {entry['a']}: {line}", highlight=False, markup=False)
+        if plan.get("note"):
+            err.print(f"note: {plan['note']}", highlight=False)
     for d in result["differences"]:
         err.print(f"[yellow]warning:[/] the runs differ in {d['what']} ("
                   + "; ".join(f"{k}: {v or 'not recorded'}" for k, v in d["values"].items())
@@ -101,6 +111,13 @@ def register(app: typer.Typer) -> None:
                                                    "... (docs/report.md); other differences are warned about."),
         strict: bool = typer.Option(False, "--strict", help="Refuse (exit 2) instead of warning when the runs "
                                     "differ in a condition not named with --factor."),
+        plan_width: Optional[float] = typer.Option(None, "--plan-width", help="With these runs as a pilot: how many "
+                                                   "environments a 95 % interval this wide (in the score's units) "
+                                                   "needs, from the SD of the environments' means."),
+        plan_difference: Optional[float] = typer.Option(None, "--plan-difference", help="With these runs as a pilot: "
+                                                        "how many environments detecting a mean difference this large "
+                                                        "needs (paired t-test, 80 % power), from each comparison's "
+                                                        "SD of the environments' differences."),
     ) -> None:
         """Summarise batch runs with the environment as the unit: each run's primary score as the mean of its
         environments' means with a 95 % interval over them (none below 5), the episode level beside it; runs
@@ -131,8 +148,12 @@ def register(app: typer.Typer) -> None:
                 pred.write_report(sim, real, output, result)
                 err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")
             return
+        for name, value in (("--plan-width", plan_width), ("--plan-difference", plan_difference)):
+            if value is not None and not value > 0:
+                raise UsageError(f"{name}: {value} is not a positive number",
+                                 f"e.g. {name} 0.05 (in the score's units)")
         assign_labels(data, label)
-        result = analyse(data, reg, factors=factor)
+        result = analyse(data, reg, factors=factor, plan={"width": plan_width, "difference": plan_difference})
         conditions = [d for d in result["differences"] if d["condition"]]
         if strict and conditions:
             d = conditions[0]
