@@ -273,6 +273,15 @@ def test_intervals_stay_in_the_declared_range(tmp_path):
     assert "clipped to the score's range [0" in omq["method"]
     for est in (result["runs"][0]["robust"]["iqm"], result["runs"][0]["summary_episodes"]["OMQ"]):
         assert 0.0 <= est["low"] <= est["value"] <= est["high"] <= 1.0
+    from benchbot.batch.leaderboard import entries
+    from benchbot.batch.sweep import robustness
+
+    [[table]] = entries([run]).values()
+    assert table["entries"][0]["scores"]["OMQ"]["high"] == 1.0
+    rows = [{"level": level, "score": v + shift, "env": f"e{k}", "robot": "carter", "repeat": 0, "noise": level}
+            for level, shift in (("none", 0.0), ("high", -0.05)) for k, v in enumerate(values)]
+    curve = robustness(rows, "noise", ["none", "high"], score="OMQ", score_range=(0.0, 1.0))
+    assert curve["levels"][0]["high"] == 1.0 and "clipped" in curve["levels"][0]["method"]
     clipped = stats.clip_to_range(stats.Estimate(5, -0.95, -1.2, -0.7, method="t"), -1.0, 1.0)
     assert (clipped.low, clipped.high) == (-1.0, -0.7)
 

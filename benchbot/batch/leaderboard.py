@@ -33,7 +33,7 @@ from pathlib import Path
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
 from benchbot.batch.report import (
-    CONDITIONS, CSS, RunData, conditions, present_scores, provenance, solution, verifiable, write_report,
+    CONDITIONS, CSS, RunData, bounded, conditions, present_scores, provenance, solution, verifiable, write_report,
 )
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
@@ -160,8 +160,9 @@ def entries(runs: list[RunData], environments: list[str] | None = None) -> dict[
                 rows.append({"run": run, "label": run.name, "slug": name, "episodes": len(scored),
                              "environments": envs, "covers": covers, "benchmark": bench,
                              "verifiable": verifiable(run.manifest),
-                             "scores": {s: stats.cluster_mean_ci([r[s] for r in scored if s in r],
-                                                                 [r["env"] for r in scored if s in r]).to_json()
+                             "scores": {s: bounded(stats.cluster_mean_ci([r[s] for r in scored if s in r],
+                                                                         [r["env"] for r in scored if s in r]),
+                                                   run, s).to_json()
                                         for s in present_scores([run])}})
             rank_entries(rows, score, sign)
             tables.append({"conditions": dict(key), "benchmark": bench, "score": score,

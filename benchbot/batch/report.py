@@ -1383,6 +1383,15 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
                      "<code>--factor WHAT</code>; otherwise run them under the same conditions.</div>")
     for note in result["notes"]:
         parts.append(f"<div class='box warn'>{esc(note)}</div>")
+    plan = result.get("planning")
+    if plan:
+        items = [f"<li>{esc(e['label'])}: {esc(line)}</li>" for e in plan["runs"] for line in e["lines"]]
+        items += [f"<li>{esc(e['b'])} − {esc(e['a'])}: {esc(line)}</li>" for e in plan["comparisons"]
+                  for line in e["lines"]]
+        if plan.get("note"):
+            items.append(f"<li>{esc(plan['note'])}</li>")
+        parts.append("<div class='box'><b>How many environments</b> (these runs as a pilot; docs/report.md):<ul>"
+                     + "".join(items) + "</ul></div>")
     parts.append(
         "<section id='statistics'><div class='box'><b>How to read the numbers.</b> The unit is the "
         f"<b>environment</b>: a run's {esc(main)} is the mean of its environments' means ({esc(primary.direction)} "

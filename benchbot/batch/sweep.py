@@ -141,7 +141,8 @@ def policy() -> dict:
             "correction": "Holm, over the levels compared with the baseline"}
 
 
-def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str = "score") -> dict:
+def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str = "score",
+               score_range: tuple[float | None, float | None] = (None, None)) -> dict:
     """A robustness curve: ``score`` against the ``levels`` of ``factor``, with the statistics of
     :mod:`benchbot.batch.stats` (the same as ``benchbot report``'s, docs/report.md, *Statistics*): the environment
     as the unit, the episode level beside it.
@@ -151,6 +152,8 @@ def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str =
             ``robot``, ``env``, ``repeat``, ``noise`` (what pairs episodes across levels).
         factor: one of :data:`FACTORS`. levels: in plot order; the first is the baseline of the differences.
         score: the score's name (for the labels).
+        score_range: the range the score declares (``(None, None)``: unbounded): every interval is clipped to it,
+            a difference's to ``(low − high, high − low)`` (:func:`benchbot.batch.stats.clip_to_range`).
 
     Returns:
         ``{factor, score, policy, levels, differences}``:
@@ -182,9 +185,10 @@ def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str =
             by_level[row["level"]].append(row)
     for lv in levels:
         values, envs = [r["score"] for r in by_level[lv]], [r.get("env") for r in by_level[lv]]
-        est = stats.cluster_mean_ci(values, envs).to_json()
+        est = stats.clip_to_range(stats.cluster_mean_ci(values, envs), *score_range).to_json()
         est["level_of_n"] = est.pop("level")
-        out["levels"].append({"level": lv, **est, "episodes": stats.mean_ci(values, level="episodes").to_json()})
+        out["levels"].append({"level": lv, **est, "episodes": stats.clip_to_range(
+            stats.mean_ci(values, level="episodes"), *score_range).to_json()})
     if factor not in ("noise", "robot") or not levels:
         return out
     keys = ("env", "repeat", "noise" if factor == "robot" else "robot")
@@ -195,6 +199,10 @@ def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str =
         a, b, envs = [p[0] for p in pairs], [p[1] for p in pairs], [p[2] for p in pairs]
         env = stats.cluster_paired_test(a, b, envs)
         episodes = stats.paired_test(a, b, level="pairs")
+        low, high = score_range
+        if low is not None and high is not None:
+            for test in (env, episodes):
+                stats.clip_to_range(test["difference"], low - high, high - low)
         out["differences"].append({
             "level": lv, "baseline": levels[0], "n": env["n"], "level_of_n": env["level"],
             "unpaired": len(by_level[lv]) + len(by_level[levels[0]]) - 2 * episodes["n"],
@@ -266,7 +274,19 @@ def _robustness_and_rows(run_dir: Path, score: str | None) -> tuple[dict, list[d
                          "run a sweep with an evaluation method (--evaluate-with METHOD)") from None
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise UsageError(f"{path}: unreadable or malformed ({exc!r})", "it is written by `benchbot batch`") from None
-    return robustness(rows, sweep["factor"], list(sweep["levels"]), score=score), rows
+    return robustness(rows, sweep["factor"], list(sweep["levels"]), score=score,
+                      score_range=_declared_range(manifest, score)), rows
+
+
+def _declared_range(manifest: dict, score: str) -> tuple[float | None, float | None]:
+    """The range ``score`` declares in the manifest's ``scores`` (``(None, None)`` where it declares none)."""
+    from benchbot.core.evaluation import ScoreSet
+
+    try:
+        info = ScoreSet.from_json(manifest["scores"]).get(score) if isinstance(manifest.get("scores"), dict) else None
+    except ValueError:
+        info = None
+    return info.range if info else (None, None)
 
 
 def plot_robustness(summary: dict, stem: Path, rows: list[dict] | None = None) -> list[Path]:
