@@ -102,3 +102,25 @@ def test_a_batch_that_scored_nothing_says_so(tmp_path):
     assert proc.returncode != 0
     assert "nothing was scored (no episode produced results)" in proc.stderr
     assert "results and scores in" not in proc.stderr
+
+
+def test_a_batch_whose_script_is_missing_says_so_before_starting_anything(tmp_path):
+    proc = subprocess.run([*BENCHBOT, "batch", "--native", "python -u my_solution.py --fast", "--envs", "miniroom:1",
+                           *SMALL, "--output-dir", str(tmp_path / "runs")], capture_output=True, text=True,
+                          timeout=60, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert f"{tmp_path / 'my_solution.py'} does not exist" in proc.stderr and "hint: run benchbot from the folder" in proc.stderr
+    assert "Traceback" not in proc.stderr and not (tmp_path / "runs").exists()  # no run directory, no backend
+
+
+def test_only_a_python_scripts_path_is_checked(tmp_path):
+    from benchbot.core.errors import UsageError
+    from benchbot.core.submission import check_native_files
+
+    (tmp_path / "ok.py").write_text("")
+    for fine in ("python ok.py", "python3 -u -W ignore ok.py --x", "python -m mypkg", "python -c 'print(1)'",
+                 "./run.sh", "false", "python"):
+        check_native_files(fine, tmp_path)
+    for missing in ("python my.py", "python3.11 -u sub/my.py", "/usr/bin/python3 gone.py"):
+        with pytest.raises(UsageError, match="does not exist"):
+            check_native_files(missing, tmp_path)

@@ -23,7 +23,8 @@ from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.limits import MAX_REPEAT, MAX_RETRIES, MAX_SEED, MAX_WORKERS
 from benchbot.core.noise import get_preset
 from benchbot.core.sandbox import check_available, check_sandboxable, not_verifiable_note
-from benchbot.core.submission import container_engine, container_files, example_submission, native_submission
+from benchbot.core.submission import (check_native_files, container_engine, container_files, example_submission,
+                                      native_submission)
 
 
 def register(app: typer.Typer) -> None:
@@ -120,6 +121,8 @@ def register(app: typer.Typer) -> None:
                 container = {"engine": container_engine(), "dockerfile": str(dockerfile), "context": str(context), "args": args}
                 submission = native_submission(["true"])  # unused: the container runs instead
             else:
+                if native:  # its script must be there before a backend starts (one line, not an episode log)
+                    check_native_files(native, Path.cwd())
                 submission = example_submission(reg, example, args) if example else native_submission([native], args)
                 if isolation == "bwrap":
                     check_sandboxable(submission, reg)

@@ -7,6 +7,7 @@ results to ``BENCHBOT_RESULT_LOCATION`` (both read by :mod:`benchbot.api`), so u
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import subprocess
 import sys
@@ -48,6 +49,43 @@ def native_submission(command: list[str], args: str = "") -> Submission:
     if not argv:
         raise UsageError("--native needs a command", "e.g. --native python my_solution.py")
     return Submission(_python_first(argv), Path.cwd(), " ".join(argv))
+
+
+_PYTHON_NAME = re.compile(r"python(\d+(\.\d+)?)?")
+_PYTHON_VALUE_FLAGS = ("-W", "-X", "-Q")  # interpreter flags that take the next word as their value
+
+
+def check_native_files(command: str, cwd: Path) -> None:
+    """Refuse a ``--native`` command whose script is not there, before any backend starts: for ``python
+    [FLAGS] SCRIPT ...`` (``python``, ``python3``, ``python3.11`` or a path ending in one), the first word after the
+    interpreter's flags, when it looks like a path (ends in ``.py`` or holds a ``/``), must be a file relative to
+    ``cwd``, the folder the solution runs in (the sandbox shows it at the same path). ``-m``/``-c`` commands and
+    other programs are not checked.
+
+    Raises:
+        UsageError: naming the missing file and the fix.
+    """
+    argv = shlex.split(command)
+    if not argv or not _PYTHON_NAME.fullmatch(Path(argv[0]).name):
+        return
+    words = iter(argv[1:])
+    for word in words:
+        if word in ("-m", "-c", "-"):
+            return
+        if word in _PYTHON_VALUE_FLAGS:
+            next(words, None)
+            continue
+        if word.startswith("-"):
+            continue
+        if not (word.endswith(".py") or "/" in word):
+            return
+        path = Path(word) if Path(word).is_absolute() else cwd / word
+        if not path.is_file():
+            what = "is a folder, not a file" if path.is_dir() else "does not exist"
+            raise UsageError(f"--native '{command}': {path} {what} (the solution runs in {cwd})",
+                             f"run benchbot from the folder that holds {word}, or give its path, e.g. "
+                             f"--native 'python path/to/{Path(word).name}'")
+        return
 
 
 def example_submission(registry: Registry, name: str, args: str = "") -> Submission:
