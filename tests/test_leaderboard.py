@@ -165,7 +165,7 @@ def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     assert f"benchbot batch --resume {stopped}" in line and "--evaluate-with" not in proc.stderr
     page = (site / "semantic_slam-passive-ground_truth.html").read_text()
     assert "Semantic SLAM challenge" in page and ">ours<" in page and ">theirs<" in page and "killed" not in page
-    assert "Left out (unfinished)" in (site / "index.html").read_text()
+    assert "Left out (unfinished, or every episode failed)" in (site / "index.html").read_text()
     reports = sorted(site.glob("entries/*/report.html"))
     assert len(reports) == 2 and all("BenchBot performance profile" in r.read_text() for r in reports)
     assert list(site.glob("entries/ours-a/report_files/map_miniroom_1.svg"))
@@ -174,4 +174,24 @@ def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     proc = cli("leaderboard", str(tmp_path / "nothing"), "-o", str(site))
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     proc = cli("leaderboard", str(stopped), "-o", str(site))
-    assert proc.returncode == 2 and "no finished run directory" in proc.stderr
+    assert proc.returncode == 2 and "no finished run directory with scores" in proc.stderr
+
+
+def test_a_batch_whose_every_episode_failed_is_skipped_with_a_note(tmp_path):
+    good = scores_only_run(tmp_path, "good", {"miniroom:1": [0.6]})
+    failed = scores_only_run(tmp_path, "failed", {"miniroom:1": [0.3, 0.4]}, example="broken")
+    manifest = json.loads((failed / "manifest.json").read_text())
+    for e in manifest["episodes"]:
+        e.update(status="failed", returncode=1)
+    manifest["finished"] = "2026-11-25T00:00:00+00:00"
+    (failed / "manifest.json").write_text(json.dumps(manifest))
+    (failed / "episode_scores.json").unlink()
+    site = tmp_path / "site"
+    proc = cli("leaderboard", str(good), str(failed), "-o", str(site), "--no-reports")
+    assert proc.returncode == 0, proc.stderr
+    [line] = [x for x in proc.stderr.splitlines() if "failed" in x]
+    assert line.startswith("skipped ") and "every episode failed, 2 of 2 (first: miniroom:1: exit status 1; log " in line
+    assert f"benchbot batch --resume {failed} runs them again" in line and "--evaluate-with" not in proc.stderr
+    assert "every episode failed, 2 of 2" in (site / "index.html").read_text()
+    proc = cli("leaderboard", str(failed), "-o", str(tmp_path / "site2"))
+    assert proc.returncode == 2 and "no finished run directory with scores among the 1 given" in proc.stderr

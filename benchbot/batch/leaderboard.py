@@ -288,7 +288,7 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
         registry: for the entries' reports (per-class views and maps); None leaves them out of those reports.
         reports: also write each entry's report (the slow part: its figures).
         environments: the environments entries are ranked on (:func:`benchmark_set`); None: the most common set.
-        skipped: one line per run directory left out (unfinished batches), listed on the index page.
+        skipped: one line per run directory left out (unfinished batches, or every episode failed), listed on the index page.
 
     Returns:
         ``{"title", "made", "tasks": {task: [{"conditions", "benchmark", "score", "direction", "entries":
@@ -337,7 +337,7 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
             f"<header><h1>{html.escape(title)}</h1><p class='sub'>{len(runs)} entries · {len(tasks)} task"
             f"{'' if len(tasks) == 1 else 's'} · updated {html.escape(made)}</p></header>"
             f"<ul class='tasks'>{''.join(items)}</ul>"
-            + (f"<p class='note'>Left out (unfinished):</p><ul class='note'>{left_out}</ul>" if left_out else "")
+            + (f"<p class='note'>Left out (unfinished, or every episode failed):</p><ul class='note'>{left_out}</ul>" if left_out else "")
             + "<p class='note'>A static site made by <code>benchbot leaderboard</code>: plain files, no server; copy "
               "the folder to any web host.</p>")))
         atomic.write_text(output / "leaderboard.json", json.dumps(data, indent=2) + "\n")

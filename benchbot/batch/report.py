@@ -104,6 +104,11 @@ class UnfinishedRun(UsageError):
     """A run directory whose batch did not finish (it was interrupted): nothing to report until it is resumed."""
 
 
+class FailedRun(UsageError):
+    """A run directory whose batch finished with every episode failed: nothing was scored (``leaderboard`` skips it
+    as it skips an :class:`UnfinishedRun`)."""
+
+
 def _read_json(path: Path, what: str):
     try:
         return json.loads(path.read_text())
@@ -160,6 +165,7 @@ def load_run(run_dir: Path, label: str | None = None, registry=None) -> RunData:
 
     Raises:
         UnfinishedRun: the batch was interrupted (the hint names ``benchbot batch --resume``).
+        FailedRun: the batch finished with every episode failed (the first one's reason and log named).
         UsageError: not a run directory, no scores (not evaluated), or a file is malformed (naming it and the
             field).
     """
@@ -170,6 +176,14 @@ def load_run(run_dir: Path, label: str | None = None, registry=None) -> RunData:
     if why and (not path.is_file() or "not run" in why):
         raise UnfinishedRun(f"{run_dir}: the batch did not finish ({why})",
                                 f"finish it: benchbot batch --resume {shlex.quote(str(run_dir))}")
+    records = [e for e in manifest.get("episodes", []) if isinstance(e, dict)]
+    if records and not path.is_file() and not any(e.get("status") == "ok" for e in records):
+        first = records[0]
+        reason = first.get("error") or (f"exit status {first['returncode']}" if first.get("returncode") else
+                                        first.get("status", "failed"))
+        log = f" (first: {first.get('env', '?')}: {reason}; log {run_dir / first['log']})" if first.get("log") else ""
+        raise FailedRun(f"{run_dir}: every episode failed, {len(records)} of {len(records)}{log}",
+                        f"fix the cause, then benchbot batch --resume {shlex.quote(str(run_dir))} runs them again")
     if not path.is_file():
         if manifest.get("evaluation_error"):
             raise UsageError(f"{run_dir} has no episode_scores.json: its evaluation failed "

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from benchbot.batch.leaderboard import slug, write_site
-from benchbot.batch.report import UnfinishedRun, assign_labels, load_run
+from benchbot.batch.report import FailedRun, UnfinishedRun, assign_labels, load_run
 from benchbot.cli.common import err, handle_errors, out, registry
 from benchbot.core.errors import UsageError
 
@@ -32,19 +32,20 @@ def register(app: typer.Typer) -> None:
         (robot, noise preset, camera, simulator and version, scene style, isolation, evaluation method), entries
         ranked by the evaluation method's primary score over environments with intervals (entries the intervals do
         not tell apart share a rank), each entry's manifest and report linked. Unfinished batches are skipped with
-        one line each. Plain files, no server: copy the folder to any web host."""
+        one line each, as are batches whose every episode failed. Plain files, no server: copy the folder to any web host."""
         reg = registry()
         data, kept, skipped = [], [], []
         for k, r in enumerate(runs):
             try:
                 data.append(load_run(r.resolve(), registry=reg))
                 kept.append(k)
-            except UnfinishedRun as exc:
+            except (UnfinishedRun, FailedRun) as exc:  # left out with one line each, the rest is built
                 skipped.append(f"{exc.message}; {exc.hint}")
                 err.print(f"[yellow]skipped[/] {exc.message}; {exc.hint}", highlight=False)
         if not data:
-            raise UsageError(f"no finished run directory among the {len(runs)} given", "finish them with "
-                             "benchbot batch --resume RUN_DIR, or give finished ones")
+            raise UsageError(f"no finished run directory with scores among the {len(runs)} given", "finish or re-run "
+                             "them with benchbot batch --resume RUN_DIR (it re-runs failed episodes too), or give "
+                             "scored ones")
         assign_labels(data, [label[k] for k in kept] if label and len(label) == len(runs) else label)
         envs = [e.strip() for e in environments.split(",") if e.strip()] if environments else None
         site = write_site(data, output, title=title, registry=reg if reports else None, reports=reports,
