@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
+from benchbot.core.sandbox_extras import registry_files
 from benchbot.core import socket_relay
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_RESULTS_BYTES, SANDBOX_TMP_BYTES
@@ -197,22 +198,6 @@ def source_roots(registry) -> list[Path]:
 #: ground-truth objects, boxes and classes) and the benchmarks' recorded figures (``benchmarks/results``: the
 #: objects each frame shows, by class and image box).
 CHECKOUT_GROUND_TRUTH = ("tests/data", ".git", "docs/gallery", "benchmarks/results")
-
-
-def registry_files(registry) -> set[str]:
-    """The absolute paths of the files that hold ground truth or build a layout, as ``registry``'s environments and
-    ground truths name them (their spec files, ``map_path``, ``home_files``, mesh files; overridden entries too) and
-    as they exist on this machine."""
-    from benchbot.core.server.redaction import ground_truth_strings
-
-    files: set[str] = set()
-    for kind in ("environments", "ground_truths"):
-        entries = list(registry.entries[kind].values())
-        entries += [e for (k, _), e in registry.overridden.items() if k == kind]
-        for entry in entries:
-            files |= {str(entry.path)} if entry.path else set()
-            files |= ground_truth_strings([entry.spec, entry.spec.get("environment") or {}])
-    return {f for f in files if os.path.isabs(f) and os.path.exists(f)}
 
 
 def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:

@@ -47,6 +47,22 @@ _FAMILY_WILD = 0xFFFF
 
 
 # ------------------------------------------------------------------------------------------------ ground truth
+def registry_files(registry) -> set[str]:
+    """The absolute paths of the files that hold ground truth or build a layout, as ``registry``'s environments and
+    ground truths name them (their spec files, ``map_path``, ``home_files``, mesh files; overridden entries too) and
+    as they exist on this machine."""
+    from benchbot.core.server.redaction import ground_truth_strings
+
+    files: set[str] = set()
+    for kind in ("environments", "ground_truths"):
+        entries = list(registry.entries[kind].values())
+        entries += [e for (k, _), e in registry.overridden.items() if k == kind]
+        for entry in entries:
+            files |= {str(entry.path)} if entry.path else set()
+            files |= ground_truth_strings([entry.spec, entry.spec.get("environment") or {}])
+    return {f for f in files if os.path.isabs(f) and os.path.exists(f)}
+
+
 @dataclass
 class GroundTruthFiles:
     """The files that hold ground truth or a layout as the registry names them, to recognise them and their copies.
@@ -62,9 +78,7 @@ class GroundTruthFiles:
 
     @classmethod
     def of(cls, registry) -> "GroundTruthFiles":
-        """The files of ``registry``'s environments and ground truths (:func:`benchbot.core.sandbox.registry_files`)."""
-        from benchbot.core.sandbox import registry_files
-
+        """The files of ``registry``'s environments and ground truths (:func:`registry_files`)."""
         found = cls()
         for name in registry_files(registry):
             try:

@@ -54,13 +54,13 @@ def test_a_late_check_counts_no_more_than_a_punctual_one():
     assert w.check(t0 + 1.5) == pytest.approx(0.1) and not w.silent
     t = t0 + 1.5
     checks = 0
-    while not w.silent:
-        t += 0.05
+    while not w.silent:  # steps of 0.06 s: no sum lands on the limit, where rounding would decide
+        t += 0.06
         w.check(t)
         checks += 1
-    assert checks == 9  # 0.1 + 9 x 0.05 = 0.55 s > 0.5 s
+    assert checks == 7  # 0.1 + 6 x 0.06 = 0.46 s, 0.1 + 7 x 0.06 = 0.52 s > 0.5 s
     line = w.fault_line()
-    assert "\n" not in line and "odometry (/odom) silent for 0.55 s during a motion" in line
+    assert "\n" not in line and "odometry (/odom) silent for 0.52 s during a motion" in line
     assert "stamped 100.000 s" in line and "limit 0.50 s: ros2.sensor_timeout_s of robot 'fake_ros2'" in line
 
 
