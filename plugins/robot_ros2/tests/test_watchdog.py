@@ -165,30 +165,37 @@ def test_a_starved_reading_thread_and_a_late_check_do_not_fault(transport):
         b.close()
 
 
+def fault_when_odometry_stops(backend, robot) -> RobotFaultError:
+    """Drive ``backend`` towards x = 5 m, silence the stand-in ``robot``'s odometry 0.5 s into the motion and return
+    the :class:`RobotFaultError` the motion raised (the test fails when it raised none, or another error)."""
+    errors = []
+
+    def drive():
+        try:
+            backend.move_to(np.array([5.0, 0.0, 0.0]))
+        except Exception as exc:  # noqa: BLE001
+            errors.append(exc)
+
+    t = threading.Thread(target=drive)
+    t.start()
+    time.sleep(0.5)
+    robot.silence.add("odom")
+    t.join(10)
+    assert errors and isinstance(errors[0], RobotFaultError), errors
+    return errors[0]
+
+
 def test_a_robot_that_stops_publishing_faults_with_one_line(transport):
     """The stand-in's odometry stops mid-motion: a zero Twist, then a RobotFaultError of one line naming /odom, the
     last header stamp and the setting."""
     with FakeRobot(transport) as robot:
         b = _backend(transport)
         b.load_scene(ENV)
-        errors = []
-
-        def drive():
-            try:
-                b.move_to(np.array([5.0, 0.0, 0.0]))
-            except Exception as exc:  # noqa: BLE001
-                errors.append(exc)
-
-        t = threading.Thread(target=drive)
-        t.start()
-        time.sleep(0.5)
-        robot.silence.add("odom")
-        t.join(10)
-        assert errors and isinstance(errors[0], RobotFaultError), errors
-        message = errors[0].message
+        fault = fault_when_odometry_stops(b, robot)
+        message = fault.message
         assert "\n" not in message and message.startswith("ROS 2 robot fault: odometry (/odom) silent for ")
         assert "no new message since the one stamped " in message and SETTING in message
-        assert "ros2.sensor_timeout_s" in errors[0].hint
+        assert "ros2.sensor_timeout_s" in fault.hint
         assert robot.cmd == (0.0, 0.0)
         b.close()
 
@@ -349,22 +356,9 @@ def test_over_rclpy_a_stopped_backend_goes_on_and_a_silent_robot_faults(domain_i
             b = Ros2RobotBackend(spec, {})
             try:
                 b.load_scene(ENV)
-                errors = []
-
-                def drive():
-                    try:
-                        b.move_to(np.array([5.0, 0.0, 0.0]))
-                    except Exception as exc:  # noqa: BLE001
-                        errors.append(exc)
-
-                t = threading.Thread(target=drive)
-                t.start()
-                time.sleep(0.5)
-                robot.silence.add("odom")
-                t.join(10)
-                assert errors and isinstance(errors[0], RobotFaultError), errors
-                assert errors[0].message.startswith("ROS 2 robot fault: odometry (/odom) silent for ")
-                assert SETTING in errors[0].message and "\n" not in errors[0].message
+                message = fault_when_odometry_stops(b, robot).message
+                assert message.startswith("ROS 2 robot fault: odometry (/odom) silent for ")
+                assert SETTING in message and "\n" not in message
             finally:
                 b.close()
     finally:
