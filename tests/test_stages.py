@@ -87,7 +87,9 @@ def test_run_says_each_stage_then_ready_in_a_log(tmp_path):
         proc.wait(60)
     started = [line for line in lines if line.endswith(" …")]
     assert started[:2] == ["building the scene (miniroom:1) …", "starting Taichi (cpu) …"], lines
-    assert "building the BVH …" in started and "compiling kernels (once per machine, then cached) …" in started
+    assert "building the BVH …" in started
+    assert ("compiling kernels (once per machine, then cached) …" in started  # what happens, by Taichi's cache
+            or "loading cached kernels (compiled on an earlier run) …" in started), lines
     assert lines[-1].startswith("backend ready at http://127.0.0.1:")
     assert proc.returncode == 130
 
@@ -106,3 +108,19 @@ def test_ros2_serve_sim_is_ready_then_ends_on_ctrl_c_with_130(tmp_path):
         proc.send_signal(signal.SIGINT)
         proc.wait(60)
     assert proc.returncode == 130  # as `benchbot run` and `batch`: before, 0
+
+
+def test_the_kernel_stage_says_compiling_then_loading_cached_kernels(tmp_path):
+    from benchbot_sim_taichi.render import kernel_cache
+
+    cache = tmp_path / "ticache"
+    assert kernel_cache.kernels_state("k1", cache) == "cold" and kernel_cache.kernels_state("k1", None) == "off"
+    kernel_cache.mark_ready("k1", "cold", cache)  # a run compiled: its marker
+    assert kernel_cache.kernels_state("k1", cache) == "memory"  # the same process: warm
+    kernel_cache._WARM.discard("k1")
+    assert kernel_cache.kernels_state("k1", cache) == "cold"  # Taichi wrote nothing after it: the run died
+    (cache / "T1.tic").write_text("x")
+    (cache / "ticache.tcb").write_text("x")  # Taichi's index, written as the compiling process ends
+    assert kernel_cache.kernels_state("k1", cache) == "disk"
+    assert kernel_cache.STAGES["disk"][0] == "loading cached kernels"
+    assert kernel_cache.kernels_state("k2", cache) == "cold"  # other sources, Taichi or arch

@@ -329,13 +329,19 @@ class TaichiSimBackend(RobotBackend):
 
     def _compile_kernels(self) -> None:
         """Render a tiny view and scan at the current pose and drop them (what :meth:`load_scene` warms up with)."""
+        from benchbot_sim_taichi.render import kernel_cache
         from benchbot_sim_taichi.render.renderer import intrinsics
 
         T_map_footprint = se2_to_matrix(*self._pose)
-        with stages.stage("compiling kernels", detail="once per machine, then cached"):
+        key = kernel_cache.kernels_key(str(getattr(self._renderer, "arch", "")), self.mode)
+        cache = kernel_cache.offline_cache_dir()
+        state = kernel_cache.kernels_state(key, cache)
+        name, detail = kernel_cache.STAGES[state]  # says what happens: compiling, or loading cached kernels
+        with stages.stage(name, detail=detail):
             self._renderer.render(intrinsics(8, 6, float(self.sensors["camera"]["horizontal_fov_deg"])),
                               T_map_footprint @ self.T_footprint_camera, 8, 6, mode=self.mode,
                               T_map_lidar=T_map_footprint @ self.T_footprint_lidar, angles=self.laser_angles)
+        kernel_cache.mark_ready(key, state, cache)
 
     def _need_scene(self) -> Scene:
         if self.scene is None:
