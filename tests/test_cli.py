@@ -113,6 +113,23 @@ def test_eval_errors_are_one_line(tmp_path):
     assert not (tmp_path / "s.json").exists()
 
 
+def test_a_comma_list_broken_by_a_space_is_one_line_with_the_fix(tmp_path):
+    """``--envs miniroom:1, house:1``: the shell splits the list; one usage line that says how to write it, not
+    Typer's box about an extra argument, and nothing started (no run directory)."""
+    from benchbot.cli.main import spaced_comma_list
+
+    proc = cli("batch", "--example", "hello_passive", "--envs", "miniroom:1,", "house:1", "--output-dir",
+               str(tmp_path / "runs"), timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.splitlines() == ["error: --envs 'miniroom:1,' is followed by 'house:1': a comma list is one "
+                                        "word, with no spaces",
+                                        "hint: write --envs miniroom:1,house:1 (or quote the whole list)"]
+    assert not (tmp_path / "runs").exists()
+    assert spaced_comma_list(["batch", "--envs", "miniroom:1,house:1", "--workers", "2"]) is None
+    assert spaced_comma_list(["batch", "--envs", "miniroom:1,", "--workers", "2"]) is None  # Typer's own business
+    assert spaced_comma_list(["batch", "--envs=miniroom:1,", "house:1"]) is None  # one word: Typer reports it
+
+
 @pytest.mark.slow
 def test_submit_needs_exactly_one_mode():
     proc = cli("submit")

@@ -8,6 +8,7 @@ from typing import Any
 import typer
 
 from benchbot import __version__
+from benchbot.core.errors import ExitCode, UsageError
 from benchbot.cli import (
     batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, leaderboard_cmd, list_cmd, plugin_cmd, report_cmd, run_cmd,
     show_cmd, submit_cmd,
@@ -77,11 +78,28 @@ def _stop_as_on_ctrl_c(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def spaced_comma_list(argv: list[str]) -> UsageError | None:
+    """The usage error of a comma list broken by a space (``--envs miniroom:1, house:1``: the shell passes
+    ``house:1`` as a word of its own, which Typer would report as an unexpected extra argument, with no hint), or
+    None. ``argv``: the command line's words after the program name."""
+    for option, value, after in zip(argv, argv[1:], argv[2:]):
+        if option.startswith("--") and "=" not in option and value.endswith(",") and not after.startswith("-"):
+            return UsageError(f"{option} {value!r} is followed by {after!r}: a comma list is one word, with no spaces",
+                              f"write {option} {value}{after} (or quote the whole list)")
+    return None
+
+
 def main() -> None:
     """Entry point of the ``benchbot`` script."""
     import signal
+    import sys
 
-    from benchbot.cli.common import registry
+    from benchbot.cli.common import registry, report
+
+    spaced = spaced_comma_list(sys.argv[1:])
+    if spaced is not None:
+        report(spaced)
+        raise SystemExit(int(ExitCode.USAGE))
 
     signal.signal(signal.SIGTERM, _stop_as_on_ctrl_c)
     add_plugin_commands(registry().plugin_manager, app)
