@@ -3,6 +3,7 @@ stderr going to a log. Each test bounds its wait on the process itself, which th
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import time
@@ -39,6 +40,23 @@ def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
         assert term.wait(20) == 130, term.text[-2000:]
         assert time.monotonic() - t0 < 15
         assert "interrupted" in term.text and "Do you want to quit" not in term.text
+    (run_dir,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    assert "finish the batch with: benchbot batch --resume" in " ".join(term.text.split())
+    states = {e["state"] for e in json.loads((run_dir / "progress.json").read_text())["episodes"].values()}
+    assert "running" not in states and "interrupted" in states, states
+
+
+def test_mark_interrupted_rewrites_only_the_running_episodes(tmp_path):
+    from benchbot.batch.progress import PROGRESS, mark_interrupted
+
+    assert mark_interrupted(tmp_path) == 0 and not (tmp_path / PROGRESS).exists()
+    (tmp_path / PROGRESS).write_text(json.dumps({"episodes": {
+        "0": {"state": "ended", "step": 48, "started": 1.0, "stage": ""},
+        "1": {"state": "running", "step": 7, "started": 2.0, "stage": "building the BVH"}}}))
+    assert mark_interrupted(tmp_path) == 1
+    episodes = json.loads((tmp_path / PROGRESS).read_text())["episodes"]
+    assert episodes["0"]["state"] == "ended" and episodes["1"] == {"state": "interrupted", "step": 7, "started": 2.0,
+                                                                   "stage": ""}
 
 
 @pytest.mark.slow

@@ -5,7 +5,7 @@
 manifest, whether it runs in the batch's process (``benchbot batch`` in a terminal) or in another one
 (``benchbot tui RUN_DIR``). The format (docs/tui.md)::
 
-    {"episodes": {"<index>": {"state": "running" | "ended", "step": <steps so far>, "started": <Unix s>,
+    {"episodes": {"<index>": {"state": "running" | "ended" | "interrupted", "step": <steps so far>, "started": <Unix s>,
                               "stage": <what its backend is doing while it starts, e.g. "building the BVH"; "">}}}
 
 An episode's expected steps are not in it: the view takes them from ``config.json``
@@ -62,6 +62,18 @@ class ProgressFile:
                 return
             atomic.write_json(self.path, {"episodes": self.episodes})
             self.written_at = time.monotonic()
+
+
+def mark_interrupted(run_dir: Path) -> int:
+    """After Ctrl-C: the episodes ``run_dir``'s ``progress.json`` still calls ``running`` become ``interrupted``
+    (replaced atomically; nothing is written when none runs or the file is missing). Returns how many."""
+    episodes = read_progress(run_dir)
+    running = [e for e in episodes.values() if isinstance(e, dict) and e.get("state") == "running"]
+    for e in running:
+        e.update(state="interrupted", stage="")
+    if running:
+        atomic.write_json(run_dir / PROGRESS, {"episodes": episodes})
+    return len(running)
 
 
 def read_progress(run_dir: Path) -> dict[str, dict]:

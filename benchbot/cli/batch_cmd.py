@@ -164,40 +164,43 @@ def register(app: typer.Typer) -> None:
                 err.print(lost_line(info or {}, label[index]), highlight=False)
 
         started = time.monotonic()
-        if is_tty() and not no_tui:
-            outcome = _run_with_tui(reg, batch, print_line, workers=workers, retries=retries,
-                                    executor=executor, ray_address=ray_address, ray_cluster=cluster)
-        elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
-            outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                ray_address=ray_address, on_record=print_line, on_event=print_lost,
-                                ray_cluster=cluster)
-        else:
-            runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
-            expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
-            with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
-                          TimeElapsedColumn(), console=err) as progress:
-                rows: dict[int, int] = {}
-
-                def on_event(kind: str, index: int, info: dict | None) -> None:
-                    if kind == "start":
-                        rows[index] = progress.add_task(label[index], total=expected[index])
-                    elif kind == "stage" and index in rows:  # what the backend does before the first step
-                        stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
-                        progress.update(rows[index], description=label[index] + stage)
-                    elif kind == "step" and index in rows:
-                        progress.update(rows[index], completed=info["step"])
-                    elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
-                        progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
-                        print_lost(kind, index, info)
-
-                def on_record(record: EpisodeRecord) -> None:
-                    colour = "green" if record.status == "ok" else "red"
-                    if record.index in rows:
-                        progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
-
+        try:
+            if is_tty() and not no_tui:
+                outcome = _run_with_tui(reg, batch, print_line, workers=workers, retries=retries,
+                                        executor=executor, ray_address=ray_address, ray_cluster=cluster)
+            elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
                 outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                    ray_address=ray_address, on_event=on_event, on_record=on_record,
+                                    ray_address=ray_address, on_record=print_line, on_event=print_lost,
                                     ray_cluster=cluster)
+            else:
+                runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
+                expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
+                with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+                              TimeElapsedColumn(), console=err) as progress:
+                    rows: dict[int, int] = {}
+
+                    def on_event(kind: str, index: int, info: dict | None) -> None:
+                        if kind == "start":
+                            rows[index] = progress.add_task(label[index], total=expected[index])
+                        elif kind == "stage" and index in rows:  # what the backend does before the first step
+                            stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
+                            progress.update(rows[index], description=label[index] + stage)
+                        elif kind == "step" and index in rows:
+                            progress.update(rows[index], completed=info["step"])
+                        elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
+                            progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
+                            print_lost(kind, index, info)
+
+                    def on_record(record: EpisodeRecord) -> None:
+                        colour = "green" if record.status == "ok" else "red"
+                        if record.index in rows:
+                            progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
+
+                    outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
+                                        ray_address=ray_address, on_event=on_event, on_record=on_record,
+                                        ray_cluster=cluster)
+        except KeyboardInterrupt:
+            stopped_by_user(run_dir)
         err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
         for record in outcome.episodes:
             if record.status != "ok":
@@ -224,6 +227,21 @@ def register(app: typer.Typer) -> None:
             err.print(f"nothing was scored ({why}); results, logs and the manifest are in {run_dir}")
         if not outcome.ok:
             raise typer.Exit(int(ExitCode.FAILURE))
+
+
+def stopped_by_user(run_dir: Path) -> None:
+    """Ctrl-C ended the batch in ``run_dir``: its ``progress.json`` says so for the episodes it left running
+    (:func:`benchbot.batch.progress.mark_interrupted`), one line says how to finish it, and the command exits with
+    ``ExitCode.INTERRUPTED``.
+
+    Raises:
+        typer.Exit: always.
+    """
+    from benchbot.batch.progress import mark_interrupted
+
+    mark_interrupted(run_dir)
+    err.print(f"interrupted; finish the batch with: benchbot batch --resume {run_dir}", highlight=False)
+    raise typer.Exit(int(ExitCode.INTERRUPTED))
 
 
 def print_robustness(summary: dict, run_dir: Path) -> None:
