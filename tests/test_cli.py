@@ -128,6 +128,7 @@ def test_a_comma_list_broken_by_a_space_is_one_line_with_the_fix(tmp_path):
     assert spaced_comma_list(["batch", "--envs", "miniroom:1,house:1", "--workers", "2"]) is None
     assert spaced_comma_list(["batch", "--envs", "miniroom:1,", "--workers", "2"]) is None  # Typer's own business
     assert spaced_comma_list(["batch", "--envs=miniroom:1,", "house:1"]) is None  # one word: Typer reports it
+    assert spaced_comma_list(["submit", "--native", "python", "my.py", "--classes", "chair,", "table"]) is None
 
 
 @pytest.mark.slow

@@ -239,7 +239,10 @@ def stopped_by_user(run_dir: Path) -> None:
     """
     from benchbot.batch.progress import mark_interrupted
 
-    mark_interrupted(run_dir)
+    try:
+        mark_interrupted(run_dir)
+    except OSError:  # a marker only: the manifest and the episodes' records say what ran
+        pass
     err.print(f"interrupted; finish the batch with: benchbot batch --resume {run_dir}", highlight=False)
     raise typer.Exit(int(ExitCode.INTERRUPTED))
 

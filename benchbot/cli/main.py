@@ -78,10 +78,19 @@ def _stop_as_on_ctrl_c(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+#: Where a command line's words become a solution's own (``submit --native python my.py --classes chair, table``).
+SOLUTION_WORDS_FROM = frozenset(("--", "--native", "-n", "--args", "-a"))
+
+
 def spaced_comma_list(argv: list[str]) -> UsageError | None:
     """The usage error of a comma list broken by a space (``--envs miniroom:1, house:1``: the shell passes
     ``house:1`` as a word of its own, which Typer would report as an unexpected extra argument, with no hint), or
-    None. ``argv``: the command line's words after the program name."""
+    None. ``argv``: the command line's words after the program name; the words from ``--``, ``--native``/``-n`` or
+    ``--args``/``-a`` on are a solution's own and are not read."""
+    for k, word in enumerate(argv):
+        if word in SOLUTION_WORDS_FROM:
+            argv = argv[:k]
+            break
     for option, value, after in zip(argv, argv[1:], argv[2:]):
         if option.startswith("--") and "=" not in option and value.endswith(",") and not after.startswith("-"):
             return UsageError(f"{option} {value!r} is followed by {after!r}: a comma list is one word, with no spaces",

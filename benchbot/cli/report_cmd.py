@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -149,7 +150,7 @@ def register(app: typer.Typer) -> None:
                 err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")
             return
         for name, value in (("--plan-width", plan_width), ("--plan-difference", plan_difference)):
-            if value is not None and not value > 0:
+            if value is not None and not (math.isfinite(value) and value > 0):
                 raise UsageError(f"{name}: {value} is not a positive number",
                                  f"e.g. {name} 0.05 (in the score's units)")
         assign_labels(data, label)

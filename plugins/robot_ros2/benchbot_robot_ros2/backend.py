@@ -540,8 +540,6 @@ class Ros2RobotBackend(RobotBackend):
         scale = self.cfg["time_scale"]
         dt = 1.0 / self.gains.rate_hz
         period = dt / scale
-        t_start = time.monotonic()
-        next_t = t_start
         collided = False
         self._moving = True
         try:
