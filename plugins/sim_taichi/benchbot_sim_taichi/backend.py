@@ -182,6 +182,7 @@ def sensor_config(robot_spec: dict, options: dict | None = None) -> dict[str, An
     if not cfg["laser"]["range_min"] < cfg["laser"]["range_max"]:
         raise bad("sensors.laser.range_max", f"expected range_min < range_max, got {cfg['laser']['range_min']!r} and "
                   f"{cfg['laser']['range_max']!r}")
+    cfg["camera"]["samples_per_pixel"] = int(cfg["camera"]["samples_per_pixel"])  # the schema took 4.0 as 4
     side = max(cfg["camera"]["width"], cfg["camera"]["height"]) * math.isqrt(cfg["camera"]["samples_per_pixel"])
     if side > MAX_CAMERA_SIDE.value():
         raise bad("sensors.camera.samples_per_pixel", f"{cfg['camera']['samples_per_pixel']} sub-pixels a pixel "

@@ -416,3 +416,28 @@ def test_an_obj_whose_map_kd_cannot_be_read_is_an_error(tmp_path):
     (tmp_path / "quad2.obj").write_text((tmp_path / "quad.obj").read_text())
     with pytest.raises(TextureDecodeError, match="quad2.obj have no image"):
         load_mesh(tmp_path / "quad2.obj")
+
+
+def test_an_obj_whose_textured_material_no_face_uses_loads_untextured(tmp_path):
+    """The MTL declares a textured material that no ``usemtl`` picks: trimesh attaches only the used, plain one, and
+    that is no decoding failure."""
+    from benchbot_sim_taichi.scene.meshes import load_mesh
+
+    (tmp_path / "m.mtl").write_text("newmtl plain\nKd 1 1 1\nnewmtl textured\nKd 1 1 1\nmap_Kd missing.png\n")
+    (tmp_path / "quad.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl plain\nf 1 2 3\n")
+    (mat,) = load_mesh(tmp_path / "quad.obj").materials
+    assert mat.texture is None
+
+
+@pytest.mark.parametrize("materials", ['{"0": {}}', '[{"pbrMetallicRoughness": [1]}]'])
+def test_a_gltf_whose_materials_have_another_shape_is_one_line(tmp_path, materials):
+    """A glTF whose JSON does not have the spec's shapes gives the reader's one-line error, never a traceback of
+    the texture count."""
+    from benchbot_sim_taichi.scene.meshes import load_mesh
+
+    path = tmp_path / "odd.gltf"
+    path.write_text('{"asset": {"version": "2.0"}, "materials": ' + materials
+                    + ', "meshes": [{"primitives": [{"attributes": {}, "material": 0}]}]}')
+    with pytest.raises(BackendError) as info:
+        load_mesh(path)
+    assert "\n" not in info.value.message

@@ -46,6 +46,13 @@ def test_integrate_averages_linear_radiance_not_the_encoded_values():
         integrate(img, 4, filmic)
 
 
+@pytest.mark.parametrize("camera", CAMERAS)
+def test_a_block_of_one_value_keeps_it_for_every_value(camera):
+    values = np.arange(256, dtype=np.uint8).reshape(16, 16, 1).repeat(3, axis=2)
+    blocks = values.repeat(4, axis=0).repeat(4, axis=1)
+    assert np.array_equal(integrate(blocks, 4, camera), values)
+
+
 def test_the_grid_sides_and_the_sub_pixel_intrinsics():
     assert [grid_side(s) for s in (1, 4, 9, 16)] == [1, 2, 3, 4]
     with pytest.raises(ValueError, match="samples_per_pixel must be one of"):

@@ -12,6 +12,7 @@ index when a process that compiled ends; a process that died first left no kerne
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import sys
 from pathlib import Path
@@ -28,8 +29,10 @@ STAGES = {  # state -> (stage name, detail)
 }
 
 
+@functools.lru_cache(maxsize=8)
 def kernels_key(arch: str, mode: str) -> str:
-    """16 hex digits naming this process's kernels: Taichi's version, ``arch``, ``mode``, Python, render/'s sources."""
+    """16 hex digits naming this process's kernels: Taichi's version, ``arch``, ``mode``, Python, render/'s sources
+    (read once per process: every episode's reset asks)."""
     import taichi as ti
 
     digest = hashlib.sha256(f"{ti.__version__}|{arch}|{mode}|{sys.version_info[:2]}".encode())
@@ -40,10 +43,14 @@ def kernels_key(arch: str, mode: str) -> str:
 
 
 def offline_cache_dir() -> Path | None:
-    """The folder of Taichi's offline cache (initialised Taichi's config), None when the cache is off."""
+    """The folder of Taichi's offline cache (initialised Taichi's config), None when the cache is off or this Taichi
+    does not say where it is (its config is not public API: a stage's label must never fail)."""
     import taichi as ti
 
-    cfg = ti.lang.impl.current_cfg()
+    try:
+        cfg = ti.lang.impl.current_cfg()
+    except AttributeError:
+        return None
     return Path(cfg.offline_cache_file_path) if cfg.offline_cache else None
 
 

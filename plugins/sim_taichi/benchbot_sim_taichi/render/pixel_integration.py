@@ -14,6 +14,7 @@ in NumPy on the host, so a setting gives the same images whichever device render
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -46,6 +47,14 @@ def subpixel_intrinsics(K: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
+@functools.lru_cache(maxsize=16)
+def decode_table(camera: CameraModel) -> np.ndarray:
+    """(256,) float32, read-only: :meth:`CameraModel.decode` of every 8-bit value for ``camera`` (fast mode, gain 1)."""
+    table = camera.decode(np.arange(256, dtype=np.uint8)).astype(np.float32)
+    table.flags.writeable = False
+    return table
+
+
 def integrate(subpixels: np.ndarray, n: int, camera: CameraModel) -> np.ndarray:
     """Each pixel's n × n block of ``subpixels`` ((n·H, n·W, 3) uint8, encoded by ``camera`` in fast mode, with its
     vignetting already applied) averaged in linear radiance (:meth:`CameraModel.decode`) and encoded again by the
@@ -62,8 +71,8 @@ def integrate(subpixels: np.ndarray, n: int, camera: CameraModel) -> np.ndarray:
     if n == 1:
         return np.array(subpixels, dtype=np.uint8)
     H, W = subpixels.shape[0] // n, subpixels.shape[1] // n
-    # decode each of the 256 values once, then look them up (n²·H·W·3 powers and square roots otherwise)
-    table = camera.decode(np.arange(256, dtype=np.uint8))
-    mean = table[subpixels].reshape(H, n, W, n, 3).mean(axis=(1, 3))
+    # each of the 256 values decoded once per camera, then looked up (n²·H·W·3 powers and roots otherwise), in
+    # float32 and summed in float64
+    mean = decode_table(camera)[subpixels].reshape(H, n, W, n, 3).sum(axis=(1, 3), dtype=np.float64) / (n * n)
     flat = dataclasses.replace(camera, vignetting=0.0)
     return flat.encode(mean, np.eye(3), gain=1.0)

@@ -399,38 +399,55 @@ def _gltf_json(path: Path) -> dict | None:
 def _declared_textures(path: Path) -> int:
     """How many distinct textured materials the file ``path`` declares, counting only what the loaded mesh can show:
     for glTF, the materials of triangle primitives with a base colour texture that names an image; for OBJ, 1 when
-    one of its MTL files has a ``map_Kd`` (its materials are not counted one by one); 0 for other formats."""
+    a material its faces use (``usemtl``) has a ``map_Kd`` in one of its MTL files (its materials are not counted one
+    by one); 0 for other formats, and for a file whose JSON or MTL is not of the expected shape (trimesh then reads
+    it, or says why it cannot)."""
     suffix = path.suffix.lower()
     if suffix in (".glb", ".gltf"):
         header = _gltf_json(path)
         if header is None:
             return 0
-        materials, textures = header.get("materials") or [], header.get("textures") or []
+        materials, textures = header.get("materials"), header.get("textures")
+        materials = materials if isinstance(materials, list) else []
+        textures = textures if isinstance(textures, list) else []
         used = {prim.get("material") for mesh in header.get("meshes") or [] if isinstance(mesh, dict)
                 for prim in mesh.get("primitives") or [] if isinstance(prim, dict) and prim.get("mode", 4) == 4}
         count = 0
         for i in used:
             if not isinstance(i, int) or not 0 <= i < len(materials) or not isinstance(materials[i], dict):
                 continue
-            ref = (materials[i].get("pbrMetallicRoughness") or {}).get("baseColorTexture")
+            pbr = materials[i].get("pbrMetallicRoughness")
+            ref = pbr.get("baseColorTexture") if isinstance(pbr, dict) else None
             t = ref.get("index") if isinstance(ref, dict) else None
             if isinstance(t, int) and 0 <= t < len(textures) and isinstance(textures[t], dict) and (
                     "source" in textures[t] or any(isinstance(ext, dict) and "source" in ext
-                                                   for ext in (textures[t].get("extensions") or {}).values())):
+                                                   for ext in _values(textures[t].get("extensions")))):
                 count += 1
         return count
     if suffix == ".obj":
         try:
             with open(path, "rb") as f:
-                libs = [line.split(None, 1)[1].strip().decode(errors="replace") for line in f
-                        if line.startswith(b"mtllib") and len(line.split(None, 1)) == 2]
+                words = [line.split() for line in f]
+            libs = [name.decode(errors="replace") for w in words if w[:1] == [b"mtllib"] for name in w[1:]]
+            used = {b" ".join(w[1:]) for w in words if w[:1] == [b"usemtl"]}
+            textured: set[bytes] = set()
             for lib in libs:
+                material = None
                 with open(path.parent / lib, "rb") as f:
-                    if any(line.strip().lower().startswith(b"map_kd") for line in f):
-                        return 1
+                    for w in (line.split() for line in f):
+                        if w[:1] == [b"newmtl"]:
+                            material = b" ".join(w[1:])
+                        elif w[:1] and w[0].lower() == b"map_kd" and material is not None:
+                            textured.add(material)
+            return 1 if used & textured else 0
         except OSError:
             return 0
     return 0
+
+
+def _values(mapping) -> list:
+    """The values of ``mapping`` when it is a dict, else none (a glTF field of another shape than the spec's)."""
+    return list(mapping.values()) if isinstance(mapping, dict) else []
 
 
 def _decoded_textures(loaded) -> int:
