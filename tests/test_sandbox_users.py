@@ -461,3 +461,13 @@ def test_xauthority_entries_round_trip_and_are_rewritten_for_any_host(tmp_path):
     assert extras.read_xauthority((copy / "Xauthority").read_bytes()) == [
         (0xFFFF, b"", b"0", b"MIT-MAGIC-COOKIE-1", bytes(range(16)))]
     assert access.env == {"DISPLAY": ":0", "XAUTHORITY": extras.INSIDE_XAUTHORITY} and access.note == ""
+
+
+def test_editable_sources_survive_odd_pth_lines_and_finders(tmp_path):
+    """A solution's own site-packages may hold anything: a 5,000-character .pth line and a finder whose MAPPING is
+    no usable literal are skipped, never a traceback."""
+    from benchbot.core.sandbox_extras import editable_sources
+
+    (tmp_path / "long.pth").write_text("x" * 5000 + "\n")
+    (tmp_path / "__editable___odd_finder.py").write_text("MAPPING = {[1]: 2}\nNAMESPACES = {}\n")
+    assert editable_sources(tmp_path) == []

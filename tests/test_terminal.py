@@ -142,3 +142,12 @@ def test_only_a_python_scripts_path_is_checked(tmp_path):
     for missing in ("python my.py", "python3.11 -u sub/my.py", "/usr/bin/python3 gone.py"):
         with pytest.raises(UsageError, match="does not exist"):
             check_native_files(missing, tmp_path)
+
+
+def test_a_native_command_with_unbalanced_quotes_is_one_line(tmp_path):
+    from benchbot.core.errors import UsageError
+    from benchbot.core.submission import check_native_files
+
+    with pytest.raises(UsageError, match="No closing quotation") as info:
+        check_native_files('python "my solution.py', tmp_path)
+    assert "\n" not in info.value.message and "balance its quotes" in info.value.hint

@@ -15,7 +15,9 @@ it:
   holding a ground truth, is not, and the solution's log says why in one line.
 * **The user's display** (:func:`display_access`): the X11 socket of a local ``DISPLAY`` (``/tmp/.X11-unix/X<n>``)
   with that display's cookie from the Xauthority file (rewritten for any host name: the sandbox has its own), and
-  the Wayland socket of ``WAYLAND_DISPLAY``. A display holds no ground truth. Where none can be passed (a display
+  the Wayland socket of ``WAYLAND_DISPLAY``. A display holds no file of ground truth, but a client of it can read
+  the screen and send keys to other windows: passing it trusts the solution with the user's desktop (docs/security.md;
+  ``BENCHBOT_SANDBOX_DISPLAY=0`` keeps it out). Where none can be passed (a display
   over the network, which the sandbox cannot reach, a missing socket, ``BENCHBOT_SANDBOX_DISPLAY=0``), the solution
   draws off screen (``MPLBACKEND=Agg``) and its log says so in one line.
 """
@@ -144,8 +146,9 @@ def _json_layout(path: Path, size: int) -> bool:
 def ground_truth_problem(folder: Path, known: GroundTruthFiles, skip: list[Path] | tuple = ()) -> str:
     """Why ``folder`` must not be shown to a solution, ``""`` when it may: it holds a ground truth (a file the
     registry names, a copy of one, a JSON file in the ground-truth layout: :func:`is_ground_truth_layout`), a symbolic
-    link leading out of it, or more than :data:`MAX_CHECKED_FILES` files. Folders in ``skip`` (hidden anyway) are not
-    looked into. Links are never followed; FIFOs and devices are never opened.
+    link leading out of it, a folder it cannot list, or more than :data:`MAX_CHECKED_FILES` files. Folders in ``skip``
+    (hidden anyway) are not looked into. Links are never followed; FIFOs and devices are never opened. Copies it
+    does not recognise (a ground truth as YAML, compressed, or a JSON file over ``MAX_RESULTS_BYTES``) pass.
 
     Returns:
         ``"<path relative to folder> is ..."`` (one clause), or ``""``.
@@ -153,7 +156,12 @@ def ground_truth_problem(folder: Path, known: GroundTruthFiles, skip: list[Path]
     root = Path(folder).resolve()
     skipped = [Path(s) for s in skip]
     count = 0
-    for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
+    unlisted: list[OSError] = []
+    for dirpath, dirnames, filenames in os.walk(root, followlinks=False, onerror=unlisted.append):
+        if unlisted:  # a folder it may enter but not list: what it holds cannot be checked
+            where = Path(unlisted[0].filename or root)
+            return f"{where.relative_to(root).as_posix() if where.is_relative_to(root) else where} cannot be listed " \
+                   "(so it cannot be checked for ground truth)"
         here = Path(dirpath)
         dirnames[:] = sorted(d for d in dirnames if not any((here / d) == s for s in skipped))
         for name in sorted(filenames) + [d for d in dirnames if (here / d).is_symlink()]:
@@ -259,7 +267,7 @@ def _finder_paths(module: Path) -> list[Path]:
     ``NAMESPACES`` literals, read with :mod:`ast`, never imported)."""
     try:
         tree = ast.parse(module.read_text(encoding="utf-8", errors="replace"))
-    except (OSError, SyntaxError, ValueError):
+    except (OSError, SyntaxError, ValueError, MemoryError, RecursionError):
         return []
     found: list[Path] = []
     for node in tree.body:
@@ -269,7 +277,7 @@ def _finder_paths(module: Path) -> list[Path]:
             continue
         try:
             value = ast.literal_eval(node.value)
-        except (ValueError, SyntaxError):
+        except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):  # a literal of no usable shape
             continue
         for item in value.values() if isinstance(value, dict) else ():
             for path in item if isinstance(item, list) else [item]:
@@ -299,7 +307,7 @@ def editable_sources(site: Path, paths: bool = True) -> list[EditableSource]:
                 if not line or line.startswith(("#", "import ", "import\t")) or "\0" in line:
                     continue
                 path = Path(os.path.normpath(site / line))
-                if path.is_dir():
+                if os.path.isdir(path):  # never raises (a name too long, a folder it may not enter)
                     found.append(EditableSource(path.resolve(), origin, False))
     for origin in sorted(site.glob("__editable___*_finder.py")):
         found += [EditableSource(p.resolve(), origin, True) for p in _finder_paths(origin) if p.exists()]
@@ -316,9 +324,10 @@ def python_entries(folder: Path) -> list[Path]:
     except OSError:
         return []
     for child in children:
-        if child.is_dir() and ((child / "__init__.py").is_file() or child.suffix in (".dist-info", ".egg-info")):
+        if os.path.isdir(child) and (os.path.isfile(child / "__init__.py")
+                                     or child.suffix in (".dist-info", ".egg-info")):
             entries.append(child.resolve())
-        elif child.is_file() and (child.suffix == ".py" or child.suffix == ".so"):
+        elif os.path.isfile(child) and (child.suffix == ".py" or child.suffix == ".so"):
             entries.append(child.resolve())
     return entries
 

@@ -52,7 +52,7 @@ def native_submission(command: list[str], args: str = "") -> Submission:
 
 
 _PYTHON_NAME = re.compile(r"python(\d+(\.\d+)?)?")
-_PYTHON_VALUE_FLAGS = ("-W", "-X", "-Q")  # interpreter flags that take the next word as their value
+_PYTHON_VALUE_FLAGS = ("-W", "-X", "--check-hash-based-pycs")  # interpreter flags that take the next word
 
 
 def check_native_files(command: str, cwd: Path) -> None:
@@ -65,7 +65,11 @@ def check_native_files(command: str, cwd: Path) -> None:
     Raises:
         UsageError: naming the missing file and the fix.
     """
-    argv = shlex.split(command)
+    try:
+        argv = shlex.split(command)
+    except ValueError as exc:  # "No closing quotation"
+        raise UsageError(f"--native '{command}': {exc}", "balance its quotes, e.g. --native 'python my solution.py'") \
+            from None
     if not argv or not _PYTHON_NAME.fullmatch(Path(argv[0]).name):
         return
     words = iter(argv[1:])
