@@ -9,7 +9,7 @@ import tempfile
 
 pytest_plugins = ["pytester"]  # tests/test_fast_loop.py runs pytest on this conftest
 
-os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,sim_taichi,eval_omq,task_semslam,robot_ros2,assets_sh3d"
+os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,worlds,sim_taichi,eval_omq,task_semslam,robot_ros2,assets_sh3d"
 os.environ["BENCHBOT_DATA_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-data-")
 os.environ["BENCHBOT_CACHE_DIR"] = _TEST_CACHE_DIR = tempfile.mkdtemp(prefix="benchbot-test-cache-")
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"

@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
         import numpy as np
 
         from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-        from benchbot_sim_taichi.scene.model import Scene
+        from benchbot_worlds.scene.model import Scene
 
         z = np.zeros((0, 3), np.float32)
         scene = Scene(box_min=z, box_max=z, box_albedo=z, box_class=np.zeros(0, np.int32),

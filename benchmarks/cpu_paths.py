@@ -41,9 +41,9 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.rounds, args.frames) < 1:
         ap.error("--width, --height, --rounds and --frames must be at least 1")
 
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}

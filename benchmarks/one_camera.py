@@ -162,10 +162,10 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.frames, args.group, args.groups, args.bursts) < 1:
         ap.error("--width, --height, --frames, --group, --groups and --bursts must be at least 1")
 
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
     from benchbot_sim_taichi.render import renderer as renderer_module
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     import taichi as ti  # (after the renderer's import, which sends Taichi's banner to stderr)

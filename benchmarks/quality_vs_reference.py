@@ -131,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi.render.renderer import Renderer
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     try:
         scene = build_scene(realism._env_spec(args.env, None))

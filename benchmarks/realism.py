@@ -27,7 +27,7 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
   (``with_crowd_rule``); the same rule for every detector.
 - **Reference.** The first ``--reference-frames`` frames are rendered by Blender Cycles (``bpy``, in its own
   environment: ``uv run --no-project --python 3.11 --with bpy==5.0.1``) from the scene exported by
-  ``benchbot_sim_taichi.scene.export.export_scene`` (glTF, PBR materials with their textures, shading normals), the
+  ``benchbot_worlds.scene.export.export_scene`` (glTF, PBR materials with their textures, shading normals), the
   same camera (intrinsics and pose) and the same lights (sun, lamps, ambient as a sky), path traced at
   ``--reference-spp`` samples per pixel with no denoiser, and at each ``--ladder`` count (timed: Cycles' time to a
   given error). Images are encoded as ours are (the robot's camera model: exposure, tone curve, gamma 2.2, 8 bits);
@@ -593,7 +593,7 @@ def export_reference_glb(scene, path: Path, *, shell: bool = True) -> dict:
     Returns:
         ``{'triangles': int, 'meshes': int, 'textured_meshes': int}``.
     """
-    from benchbot_sim_taichi.scene.export import export_scene
+    from benchbot_worlds.scene.export import export_scene
 
     exported = export_scene(scene, path, shell=False)  # in glTF coordinates
     for name, mesh in _shell_meshes(scene) if shell else []:
@@ -642,7 +642,7 @@ def reference_lights(scene) -> dict:
     ``benchmarks/realism/cycles_reference.py``), with the sun's angular radius and the lamps' radius of our
     renderer's soft shadows."""
     from benchbot_sim_taichi.render.kernels import LAMP_RADIUS, SUN_RADIUS
-    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL
+    from benchbot_worlds.scene.model import LIGHT_DIRECTIONAL
 
     suns, points = [], []
     for kind, vec, col in zip(np.asarray(scene.light_kind).tolist(), np.asarray(scene.light_vec, np.float64),
@@ -835,14 +835,14 @@ def _by_model_json(counts: Counter) -> dict:
 
 def all_homes() -> list[str]:
     """``name:variant`` of every BEAR home the simulator ships (miniroom:1..5, then house:1..5)."""
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
 
     names = [(e["name"], int(e["variant"])) for e in bear.environment_specs()]
     return [f"{n}:{v}" for n, v in sorted(names, key=lambda nv: (nv[0] != "miniroom", nv))]
 
 
 def _env_spec(name: str, style: str | None) -> dict:
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
 
     envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if name not in envs:
@@ -857,8 +857,8 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
     """Render, detect, compare for one environment; returns its JSON section and fills PNGs under ``out_dir``."""
     env = _env_spec(name, args.style)
     from benchbot_sim_taichi.render.renderer import Renderer
-    from benchbot_sim_taichi.scene import cache as scene_cache
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_sim_taichi import scene_cache
+    from benchbot_worlds.scene.build import build_scene
 
     from benchbot.core.geometry import se2_to_matrix
     from benchbot.core.seeding import environment_world_seed
@@ -1149,7 +1149,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         ap.error("--all-homes and --env name the environments both ways: give one")
     if args.no_detector and args.detector != "centernet" and not args.smoke:  # else --detector is dropped silently
         ap.error(f"--detector {args.detector} and --no-detector contradict each other: give one")
-    from benchbot_sim_taichi.scene.build import STYLES
+    from benchbot_worlds.scene.build import STYLES
 
     if args.style is not None and args.style not in STYLES:  # else build_scene's BackendError, a traceback
         ap.error(f"--style must be one of {', '.join(STYLES)}")

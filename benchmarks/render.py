@@ -2,7 +2,7 @@
 
 Times full sensor frames (RGB + depth + class/instance segmentation + a 360-beam laser scan) along the
 environment's trajectory poses (fast mode), and, in the same run, Embree (``embreex``, through trimesh) casting the
-same primary camera rays at the exported triangle mesh of the same scene (``benchbot_sim_taichi.scene.export``).
+same primary camera rays at the exported triangle mesh of the same scene (``benchbot_worlds.scene.export``).
 
     python benchmarks/render.py --env house:1 --width 640 --height 480 [--arch cpu|cuda] [--batch N] [--frames 60]
         [--shadow-samples 1] [--shadow-maps auto|on|off] [--lights on|off|sun|lamps]
@@ -96,9 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true")
     args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, frames=2, warmup=1)
 
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
     from benchbot_sim_taichi.render.renderer import _SCENE_ARRAYS, Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     bvh_s = time_bvh_builds()
@@ -212,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             from trimesh.ray.ray_pyembree import RayMeshIntersector
 
-            from benchbot_sim_taichi.scene.export import scene_mesh
+            from benchbot_worlds.scene.export import scene_mesh
 
             mesh = scene_mesh(scene)
             inter = RayMeshIntersector(mesh)

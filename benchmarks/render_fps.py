@@ -36,7 +36,8 @@ def main(argv: list[str] | None = None) -> int:
     import yaml
 
     from benchbot.core.geometry import pose7_to_se2
-    from benchbot_sim_taichi import bear, plugin
+    from benchbot_worlds import bear
+    from benchbot_sim_taichi import plugin
     from benchbot_sim_taichi.backend import TaichiSimBackend
 
     with open(plugin.ROBOTS_DIR / "carter.yaml", encoding="utf-8") as f:

@@ -1,4 +1,4 @@
-"""Render throughput of the Taichi simulator on triangle-heavy, textured scenes (benchbot_sim_taichi.scene.meshes).
+"""Render throughput of the Taichi simulator on triangle-heavy, textured scenes (benchbot_worlds.scene.meshes).
 
 A room (the primitive style's shell, no ground-truth objects) holds a grid of ``--count`` instances of one mesh: a
 GLB/OBJ given with ``--mesh``, else a generated textured sphere of about ``--triangles`` triangles. Each frame is
@@ -41,7 +41,7 @@ def _sphere(triangles: int):
     """A UV sphere (radius 0.35 m, bottom at z = 0) of about ``triangles`` triangles with a 256² texture."""
     import trimesh
 
-    from benchbot_sim_taichi.scene.meshes import Material, make_mesh
+    from benchbot_worlds.scene.meshes import Material, make_mesh
 
     seg = max(4, int(math.sqrt(triangles / 4)))
     s = trimesh.creation.uv_sphere(radius=0.35, count=[seg, seg])
@@ -69,9 +69,9 @@ def main(argv: list[str] | None = None) -> int:
     from benchbot.core.geometry import se2_to_matrix
     from render import time_bvh_builds  # this folder is on sys.path when a script here runs
     from benchbot_sim_taichi.backend import camera_at
-    from benchbot_sim_taichi.scene.meshes import MeshInstance, add_mesh_instances, load_mesh
+    from benchbot_worlds.scene.meshes import MeshInstance, add_mesh_instances, load_mesh
     from benchbot_sim_taichi.render.renderer import _SCENE_ARRAYS, Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import BEAR_CLASS_LIST, build_scene
+    from benchbot_worlds.scene.build import BEAR_CLASS_LIST, build_scene
 
     bvh_s = time_bvh_builds()
 

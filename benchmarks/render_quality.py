@@ -81,11 +81,11 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.spp, args.frames) < 1 or args.bounces < 0:
         ap.error("--width, --height, --spp and --frames must be ≥ 1 and --bounces ≥ 0")
 
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
     from benchbot_sim_taichi.backend import camera_model, trajectory_cameras
     from benchbot_sim_taichi.render.camera_model import CameraModel
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:

@@ -59,9 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.tasks:
         os.environ["TI_KERNEL_PROFILER"] = "1"  # read by ti.init, which the renderer calls
 
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics  # (imports Taichi, its banner sent to stderr)
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
     import taichi as ti

@@ -42,10 +42,10 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.width, args.height, args.every) < 1:
         ap.error("--width, --height and --every must be >= 1")
 
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
     from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
     if args.env not in envs:

@@ -2,7 +2,7 @@
 same scores.
 
 Each turn (a symmetry of the square: quarter turns, mirrors) or move (a turn and a translation, :data:`MOVES`) of the
-home's five variants — objects, start poses, trajectories, by ``benchbot_sim_taichi.homes.home_frame.turned_layout``
+home's five variants — objects, start poses, trajectories, by ``benchbot_worlds.homes.home_frame.turned_layout``
 — is installed as a content pack (into a temporary data directory: environment ``turned:1`` of ``--env``'s variant,
 its trajectory cut to its first ``--poses`` poses, all five variants as its ``home_files``, the turned ground truth
 beside it), and ``benchbot batch --example semslam_geometric --envs turned:1`` runs on it in the furnished style.
@@ -46,8 +46,8 @@ def write_pack(folder: Path, home: str, variant: int, M, poses: int, offset=(0.0
     ground truth."""
     import yaml
 
-    from benchbot_sim_taichi.bear import DATA_DIR
-    from benchbot_sim_taichi.homes.home_frame import turned_layout
+    from benchbot_worlds.bear import DATA_DIR
+    from benchbot_worlds.homes.home_frame import turned_layout
 
     dicts = [turned_layout(json.loads((DATA_DIR / f"{home}_{v}.json").read_text()), M, offset) for v in range(1, 6)]
     for sub in ("maps", "environments", "ground_truths"):

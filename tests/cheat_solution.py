@@ -7,7 +7,7 @@ folder. It tries, in order, printing one ``TRIED <way>: <what happened>`` line f
    directory), following any ``map_path`` or file path they name;
 2. ``benchbot-gt``: ``python -m benchbot.cli gt ENV --layout original``;
 3. ``import``: BenchBot's registry in-process (``get_registry().ground_truth(ENV)``), then the simulator plugin's
-   own ground-truth loader (``benchbot_sim_taichi.bear.ground_truth_specs``);
+   own ground-truth loader (``benchbot_worlds.bear.ground_truth_specs``);
 4. ``walk``: a bounded walk of the whole file system for the environment's layout file (``<name>_<variant>.json``,
    or any JSON file naming the environment and holding ``ground_truth``), at most :data:`WALK_ENTRIES` entries and
    :data:`WALK_SECONDS` seconds;
@@ -110,7 +110,7 @@ def try_import(env: str) -> list | None:
     except Exception as exc:  # noqa: BLE001 - a cheat tries everything
         print(f"TRIED import: registry failed: {exc!r}"[:300])
     try:
-        from benchbot_sim_taichi.bear import ground_truth_specs
+        from benchbot_worlds.bear import ground_truth_specs
 
         name, variant = env.split(":")
         for gt in ground_truth_specs():
@@ -166,7 +166,7 @@ class Cheat(Agent):
         if not found and "--symlink" in sys.argv:
             import benchbot
 
-            target = (Path(benchbot.__file__).resolve().parents[1] / "plugins" / "sim_taichi" / "benchbot_sim_taichi"
+            target = (Path(benchbot.__file__).resolve().parents[1] / "plugins" / "worlds" / "benchbot_worlds"
                       / "data" / "bear" / f"{env.replace(':', '_')}.json")
             os.symlink(target, filename)
             print(f"SYMLINK {filename} -> {target}")

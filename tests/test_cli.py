@@ -23,7 +23,8 @@ def test_list_plugins_json_names_distributions_and_content():
     assert proc.returncode == 0, proc.stderr
     plugins = {p["name"]: p for p in json.loads(proc.stdout)}
     assert plugins["sim_taichi"]["distribution"] == "benchbot-sim-taichi" and plugins["sim_taichi"]["version"]
-    assert "miniroom:1" in plugins["sim_taichi"]["registers"]["environments"]
+    assert "miniroom:1" in plugins["worlds"]["registers"]["environments"]
+    assert plugins["worlds"]["distribution"] == "benchbot-worlds"
     assert plugins["eval_omq"]["registers"]["evaluators"] == ["omq"]
 
 

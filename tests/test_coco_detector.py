@@ -25,8 +25,8 @@ def frames(realism):
     """``[(pose index, rgb (480, 640, 3) uint8, ground-truth objects)]`` of miniroom:1 as an episode with seed 0
     sees it, through the robot's default camera (fast mode)."""
     from benchbot_sim_taichi.render.renderer import Renderer
-    from benchbot_sim_taichi.scene import cache as scene_cache
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_sim_taichi import scene_cache
+    from benchbot_worlds.scene.build import build_scene
 
     from benchbot.core.geometry import se2_to_matrix
     from benchbot.core.seeding import environment_world_seed

@@ -19,10 +19,10 @@ from benchbot.core import content_packs as cp
 from benchbot.core.errors import BackendError
 from benchbot.core.registry import Registry
 from benchbot.core.server.redaction import ground_truth_strings, redact
-from benchbot_sim_taichi.bear import DATA_DIR, home_files_of
-from benchbot_sim_taichi.homes.floorplan import home_files, plan_for_files
-from benchbot_sim_taichi.scene import cache
-from benchbot_sim_taichi.scene.build import build_scene
+from benchbot_worlds.bear import DATA_DIR, home_files_of
+from benchbot_worlds.homes.floorplan import home_files, plan_for_files
+from benchbot_sim_taichi import scene_cache as cache
+from benchbot_worlds.scene.build import build_scene
 
 pytestmark = pytest.mark.usefixtures("data_dir")  # tests/conftest.py: installs go to a fresh data directory
 SIBLINGS = [f"../maps/house_{v}.json" for v in range(1, 6)]

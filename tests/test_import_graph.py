@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = {"benchbot": ROOT / "benchbot", "benchbot_sim_taichi": ROOT / "plugins" / "sim_taichi" / "benchbot_sim_taichi"}
+PACKAGES = {"benchbot": ROOT / "benchbot", "benchbot_sim_taichi": ROOT / "plugins" / "sim_taichi" / "benchbot_sim_taichi",
+            "benchbot_worlds": ROOT / "plugins" / "worlds" / "benchbot_worlds"}
 
 
 def import_graph(folder: Path, package: str) -> dict[str, set[str]]:

@@ -17,7 +17,7 @@ from benchbot.core import content_packs as cp
 from benchbot.core.layout_checks import FAR_FROM_HOME_M, MAX_PROBLEMS_PER_FILE, layout_problems
 from benchbot.core.registry import Registry
 
-BEAR = Path(__file__).resolve().parents[1] / "plugins/sim_taichi/benchbot_sim_taichi/data/bear"
+BEAR = Path(__file__).resolve().parents[1] / "plugins/worlds/benchbot_worlds/data/bear"
 GT = "ground_truths/room_1.json"
 ENV = "environments/room.yaml"
 

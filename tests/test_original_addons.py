@@ -115,11 +115,11 @@ def test_batches_isaac_develop_batches_are_the_same_scenes(app, data_dir):
     assert real.exit_code == 0
     for result in (dry, real):
         for i in range(1, 7):
-            assert f"batches/develop_{i}.yaml: batch 'develop_{i}' is already provided by plugin 'sim_taichi'" in result.stderr
+            assert f"batches/develop_{i}.yaml: batch 'develop_{i}' is already provided by plugin 'worlds'" in result.stderr
         assert ("batches/challenge_4.yaml: batch 'challenge_4' names environments that are not installed: "
                 "office:1..3, apartment:1..3, company:1..3") in result.stderr
     reg = Registry()
-    assert reg.entry("batches", "develop_3").plugin == "sim_taichi"
+    assert reg.entry("batches", "develop_3").plugin == "worlds"
     assert reg.get("batches", "develop_3")["environments"] == ["miniroom:4", "miniroom:5", "house:4", "house:5"]
     assert reg.entry("batches", "challenge_1").plugin == "content_packs"
     assert not [k for k in reg.problems if k[0] == "batches"]
@@ -128,8 +128,8 @@ def test_batches_isaac_develop_batches_are_the_same_scenes(app, data_dir):
 def test_ground_truths_isaac_develop_are_the_shipped_ones(app, data_dir):
     dry, real = dry_then_real(app, data_dir, str(ADDONS / "ground_truths_isaac_develop"))
     assert real.exit_code == 0
-    assert "ground_truths/miniroom_1.json: ground truth 'miniroom:1' is already provided by plugin 'sim_taichi'" in dry.stderr
-    assert Registry().entry("ground_truths", "miniroom:1").plugin == "sim_taichi"
+    assert "ground_truths/miniroom_1.json: ground truth 'miniroom:1' is already provided by plugin 'worlds'" in dry.stderr
+    assert Registry().entry("ground_truths", "miniroom:1").plugin == "worlds"
 
 
 @pytest.mark.slow
@@ -167,7 +167,7 @@ def test_envs_isaac_develop_remote_is_explained_never_sent_to_pip(app, data_dir)
         assert ("error: add-on 'envs_isaac_develop' keeps its environments in a download (.remote: "
                 "https://cloudstor.aarnet.edu.au/plus/s/ZqgsznfVNyxnbxV/download); BenchBot downloads nothing") in result.stderr
         assert "unzip it into environments/ (the 10 BEAR development scenes" in result.stderr
-        assert "corresponding here: environments miniroom:1..5, house:1..5 (plugin 'sim_taichi')" in result.stderr
+        assert "corresponding here: environments miniroom:1..5, house:1..5 (plugin 'worlds')" in result.stderr
         assert "hint: use the installed environments miniroom:1..5, house:1..5 instead" in result.stderr
         assert "pip" not in result.stderr and "would run" not in result.stderr
 

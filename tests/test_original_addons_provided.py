@@ -146,11 +146,11 @@ def test_installing_bear_develop_offers_its_files_beside_the_default(data_dir):
     result = install(str(ADDONS / "ground_truths_bear_develop"))
     assert result.exit_code == 0, result.stderr
     assert ("ground_truths/miniroom_1.json: ground truth 'miniroom:1' is offered as ground-truth set 'bear_develop' "
-            "beside set 'isaac_develop' of plugin 'sim_taichi', which stays the default (choose with --ground-truths "
+            "beside set 'isaac_develop' of plugin 'worlds', which stays the default (choose with --ground-truths "
             "bear_develop)") in result.stderr
-    assert "ground truth 'miniroom:4' is already provided by plugin 'sim_taichi'" in result.stderr
+    assert "ground truth 'miniroom:4' is already provided by plugin 'worlds'" in result.stderr
     reg = Registry()
-    assert reg.entry("ground_truths", "miniroom:1").plugin == "sim_taichi" and not reg.problems
+    assert reg.entry("ground_truths", "miniroom:1").plugin == "worlds" and not reg.problems
     chosen = reg.ground_truth_sets()["bear_develop"]["miniroom:1"]
     assert chosen.plugin == "content_packs" and chosen.path.name == "miniroom_1.json"
     assert reg.ground_truth("miniroom:1", "bear_develop")["ground_truth"]["objects"][17]["centroid"] == \

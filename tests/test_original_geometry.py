@@ -74,7 +74,7 @@ def miniroom_1(registry):
 def test_furniture_models_lie_inside_their_cuboids(miniroom_1):
     """No furnished model is larger than the ground-truth cuboid it was fitted to (which is what the robot's
     footprint is checked against), so what the camera sees is never closer than what stops the robot."""
-    from benchbot_sim_taichi.scene.model import PRIM_TRIANGLE
+    from benchbot_worlds.scene.model import PRIM_TRIANGLE
 
     scene = miniroom_1.call(lambda: miniroom_1.episode.backend.scene)
     triangles = scene.prim_type == PRIM_TRIANGLE

@@ -51,6 +51,7 @@ OPTIONAL = {
     "benchbot": {"gymnasium": "gym", "matplotlib": "vis", "mcap": "record", "mcap_ros2": "record", "ray": "ray",
                  "cv2": "examples"},
     "benchbot-sim-taichi": {"matplotlib": "vis"},
+    "benchbot-worlds": {"matplotlib": "vis"},
     "benchbot-task-semslam": {"onnxruntime": "detector"},
 }
 #: Imports no pyproject can declare, and why.
@@ -155,11 +156,12 @@ def test_every_distribution_declares_what_its_code_imports(folder):
 def test_the_import_scan_sees_lazy_imports_and_maps_import_names():
     """The scan reads imports inside functions (meshes.py imports Pillow only where it decodes a texture) and finds
     a module's distribution under another name (PIL: pillow, yaml: pyyaml, cv2: opencv-python-headless)."""
-    sim = ROOT / "plugins" / "sim_taichi"
-    assert "plugins/sim_taichi/benchbot_sim_taichi/scene/meshes.py" in imported_modules(sim)["PIL"]
+    sim, worlds = ROOT / "plugins" / "sim_taichi", ROOT / "plugins" / "worlds"
+    assert "plugins/worlds/benchbot_worlds/scene/meshes.py" in imported_modules(worlds)["PIL"]
     assert {m: distributions_of(m) for m in ("PIL", "yaml", "cv2")} == {
         "PIL": {"pillow"}, "yaml": {"pyyaml"}, "cv2": {"opencv-python-headless"}}
-    assert {"PIL", "trimesh", "taichi", "cv2", "benchbot"} <= set(required_modules(sim))
+    assert {"PIL", "taichi", "cv2", "benchbot", "benchbot_worlds"} <= set(required_modules(sim))
+    assert {"PIL", "trimesh", "benchbot"} <= set(required_modules(worlds))
 
 
 @pytest.mark.parametrize("folder", PROJECTS, ids=lambda p: p.name)
@@ -219,7 +221,7 @@ for dist in metadata.distributions():
 for module in required:
     importlib.import_module(module)
 from benchbot_assets_sh3d.plugin import PACK_DIR
-from benchbot_sim_taichi.scene.meshes import load_mesh
+from benchbot_worlds.scene.meshes import load_mesh
 textures = [m.texture for m in load_mesh(PACK_DIR / "chair__sc_children_chair.glb").materials]
 assert any(t is not None for t in textures), "the wheels load the pack's models without their textures"
 print(json.dumps(imported))

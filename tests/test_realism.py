@@ -77,7 +77,7 @@ def test_the_crowd_rule_treats_a_group_box_as_cocos_iscrowd_region(realism):
 @pytest.mark.slow
 def test_crowd_instances_are_the_group_boxes_of_the_ground_truth(realism):
     """house:1's ground truth marks four book boxes isgroup; the scene's instances of exactly those cuboids."""
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     env = realism._env_spec("house:1", "primitives")
     scene = build_scene(env)
@@ -153,8 +153,8 @@ def test_blender_camera_projects_as_ours(realism):
 
 def test_reference_export_is_gltf_y_up_with_flat_materials_and_shell(realism):
     trimesh = pytest.importorskip("trimesh")
-    from benchbot_sim_taichi import bear
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds import bear
+    from benchbot_worlds.scene.build import build_scene
 
     env = next(e for e in bear.environment_specs() if e["name"] == "miniroom" and e["variant"] == 1)
     scene = build_scene({**env, "style": "primitives"})
@@ -317,7 +317,7 @@ def test_quality_vs_reference_compares_ours_with_an_earlier_reference(realism, t
     import subprocess
 
     from benchbot.core.geometry import se2_to_matrix
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     W, H = 32, 24
     scene = build_scene(realism._env_spec("miniroom:1", None))
@@ -363,7 +363,7 @@ def test_each_environment_is_built_with_its_world_seed(realism, tmp_path, monkey
     """The scene judged is the world an episode run with ``--seed`` sees (``world_seed(seed, name, variant)``), not
     ``build_scene``'s seed 0: the scene loader is stopped at its first call and asked what it was given."""
     from benchbot.core.seeding import world_seed
-    from benchbot_sim_taichi.scene import cache as scene_cache
+    from benchbot_sim_taichi import scene_cache
 
     asked = []
 

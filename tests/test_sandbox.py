@@ -244,7 +244,7 @@ def test_what_a_sandboxed_process_sees_and_can_do(tmp_path, served, registry):
     assert not (folder / "in_my_folder.txt").exists()
 
 
-def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp_path, monkeypatch):
+def test_hidden_folders_cover_every_ground_truth_and_the_worlds(registry, tmp_path, monkeypatch):
     from benchbot.core.pack_layout import cache_dir, data_dir
     from benchbot.core.sandbox import hidden_folders, python_folders
 
@@ -254,9 +254,9 @@ def test_hidden_folders_cover_every_ground_truth_and_the_simulator(registry, tmp
             for path in ground_truth_strings([entry.spec]):
                 if os.path.isabs(path) and os.path.exists(path):
                     assert any(Path(path).resolve().is_relative_to(h) for h in hidden), path
-    import benchbot_sim_taichi
+    import benchbot_worlds
 
-    assert Path(benchbot_sim_taichi.__file__).parent.resolve() in hidden
+    assert Path(benchbot_worlds.__file__).parent.resolve() in hidden  # the worlds' package: BEAR's files, generators
     assert data_dir().resolve() in hidden
     assert cache_dir().resolve() in hidden  # the simulator's built scenes hold their layouts
     monkeypatch.setenv("BENCHBOT_CACHE_DIR", str(tmp_path / "solution" / "cache"))  # even inside a shown folder

@@ -4,7 +4,7 @@ the primitives style, unset here). The changes it is scored against (``benchbot_
 objects of one variant's ground-truth file that the other has not, by ID_name, class, centroid and extent) are
 exactly the objects that differ between ``miniroom_1.json`` and ``miniroom_2.json``, all of the task's object
 classes: the walls, doors, windows and lamps of the home are in neither file, and the simulator draws them the same
-in both scenes (plugins/sim_taichi/tests/test_one_home.py: one plan, one set of furniture, and depth images that
+in both scenes (plugins/worlds/tests/test_one_home.py: one plan, one set of furniture, and depth images that
 differ only at the changed objects)."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from benchbot_eval_omq.omq import SCD_STATE_LIST, evaluate
-from benchbot_sim_taichi.bear import DATA_DIR
+from benchbot_worlds.bear import DATA_DIR
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 

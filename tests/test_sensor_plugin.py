@@ -117,7 +117,7 @@ class ImuPlugin:
 
     def __init__(self, carter: dict) -> None:
         robot = {k: copy.deepcopy(v) for k, v in carter.items() if k != "_file_path"}
-        robot.update(name=ROBOT, type="sim_taichi_imu", environment_types=["sim_taichi"],
+        robot.update(name=ROBOT, type="sim_taichi_imu", environment_types=["world", "sim_taichi"],
                      observations=[*carter["observations"], "imu"])
         robot["connections"]["imu"] = {"connection": "ros_to_api"}
         self.robot = robot

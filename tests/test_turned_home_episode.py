@@ -14,14 +14,14 @@ import pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "turned_homes.py"
 #: How far a turn's OMQ may be from the unturned home's: the images of a turned home are the same up to one RGB level
-#: in a few pixels (plugins/sim_taichi/tests/test_home_frame.py), so the scores agree to rounding (0.0000 here,
+#: in a few pixels (plugins/worlds/tests/test_home_frame.py), so the scores agree to rounding (0.0000 here,
 #: 0.0002 on all of house:2).
 TURN_TOLERANCE = 0.001
 #: A mirror's: its images are mirrored exactly, but the baseline is not mirror-symmetric (it keeps every second pixel
 #: column counted from the left), so it sees other pixels (0.0003 here, 0.0073 on all of house:2: docs/simulator.md).
 MIRROR_TOLERANCE = 0.01
 #: A move's (a translation by whole 4 cm voxels of the baseline, or a quarter turn and such a translation): the moved
-#: world is the world moved to float32's resolution (plugins/sim_taichi/tests/test_one_home.py), its images the same
+#: world is the world moved to float32's resolution (plugins/worlds/tests/test_one_home.py), its images the same
 #: to rounding (0.0004 here). A move by a fraction of a voxel is seen by the baseline through other voxels
 #: (benchmarks/turned_homes.py, MOVES: shift_off_grid), so its score is not compared.
 MOVE_TOLERANCE = 0.001

@@ -39,7 +39,7 @@ def save(path: str, envs: list[str], arch: str = "cpu", samples_per_pixel: int =
     from benchbot.core.registry import get_registry
     from benchbot_sim_taichi.backend import camera_mount
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     registry = get_registry()
     renderer = Renderer(arch)

@@ -42,10 +42,10 @@ from benchbot.core.geometry import se2_to_matrix
 from benchbot.core.registry import get_registry
 from benchbot.core.seeding import environment_world_seed
 from benchbot_sim_taichi.backend import DEFAULT_SENSORS, camera_at, camera_model, camera_mount
-from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
+from benchbot_worlds.homes.floorplan_plot import save_plan_figure
 from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-from benchbot_sim_taichi.scene import cache as scene_cache
-from benchbot_sim_taichi.scene.build import STYLES, build_scene
+from benchbot_sim_taichi import scene_cache
+from benchbot_worlds.scene.build import STYLES, build_scene
 
 ENVIRONMENTS = [f"{home}:{v}" for home in ("miniroom", "house") for v in range(1, 6)]
 #: The robot's default camera's horizontal field of view (degrees).

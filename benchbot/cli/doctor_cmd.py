@@ -25,7 +25,7 @@ from benchbot.core import settings
 
 MAIN_JOB = {"tasks": "semantic_slam:passive:ground_truth", "robots": "carter", "environments": "miniroom:1",
             "evaluators": "omq", "examples": "semslam_geometric", "ground_truths": "miniroom:1"}
-MAIN_PLUGINS = ("sim_taichi", "task_semslam", "eval_omq")
+MAIN_PLUGINS = ("worlds", "sim_taichi", "task_semslam", "eval_omq")
 
 RENDER_SCRIPT = r"""
 import contextlib, json, sys, time
@@ -84,10 +84,10 @@ def check_python() -> Check:
 
 
 def check_packages() -> Check:
-    names = ["benchbot", "benchbot-sim-taichi", "benchbot-task-semslam", "benchbot-eval-omq", "taichi", "numpy",
-             "scipy", "pluggy", "jsonschema"]
+    names = ["benchbot", "benchbot-worlds", "benchbot-sim-taichi", "benchbot-task-semslam", "benchbot-eval-omq", "taichi",
+             "numpy", "scipy", "pluggy", "jsonschema"]
     versions = {n: _version(n) or "missing" for n in names}
-    missing = [n for n in names[:4] if versions[n] == "missing"]
+    missing = [n for n in names[:5] if versions[n] == "missing"]
     return Check("packages", not missing, True, ", ".join(f"{n} {v}" for n, v in versions.items()),
                  f"install them: benchbot install {' '.join(missing)}  (in the repo: uv sync)" if missing else "")
 
@@ -109,7 +109,8 @@ def check_plugins() -> list[Check]:
                         "task, robot, environment, ground truth, evaluator and example of the main job are installed"
                         if not missing and not missing_plugins else f"missing: {', '.join(missing_plugins + missing)}",
                         "" if not missing and not missing_plugins else
-                        "install benchbot-sim-taichi, benchbot-task-semslam and benchbot-eval-omq (in the repo: uv sync); "
+                        "install benchbot-worlds, benchbot-sim-taichi, benchbot-task-semslam and benchbot-eval-omq (in the repo: "
+                        "uv sync); "
                         "check BENCHBOT_DISABLE_PLUGINS"))
     return checks
 

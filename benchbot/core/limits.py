@@ -294,7 +294,7 @@ RAY_EPISODE_BYTES = Limit(1 << 30, "BENCHBOT_RAY_EPISODE_BYTES", "bytes", intege
 trajectory, recording: :func:`benchbot.batch.executors.run_ray`), which pass whole through the node's memory, Ray's
 object store and the batch process's memory. Past it the episode ends as ``error`` and only its log comes back."""
 
-# --- caches (benchbot_sim_taichi.scene.cache) -----------------------------------------------------------------------
+# --- caches (benchbot_sim_taichi.scene_cache) -----------------------------------------------------------------------
 
 SCENE_CACHE_BYTES = Limit(4 << 30, "BENCHBOT_SCENE_CACHE_BYTES", "bytes", integer=True, zero_means="no cache",
                           meaning="bytes of the simulator's scene cache in the cache directory (0: no cache)")

@@ -36,7 +36,7 @@ import numpy as np
 
 from benchbot.core.errors import UsageError
 
-#: The simulator's sRGB encoding: a plain 2.2 gamma (``benchbot_sim_taichi.scene.model.srgb_to_linear``).
+#: The simulator's sRGB encoding: a plain 2.2 gamma (``benchbot_worlds.scene.model.srgb_to_linear``).
 GAMMA = 2.2
 
 #: Every preset, by name: ``depth``, ``rgb``, ``laser``, ``actuation``, ``odometry`` (None: the task's own).

@@ -178,7 +178,7 @@ REVIEWED = {
 
 
 def test_no_distractor_or_structure_is_of_a_ground_truth_class():
-    from benchbot_sim_taichi.scene.build import BEAR_CLASS_LIST
+    from benchbot_worlds.scene.build import BEAR_CLASS_LIST
 
     for a in ASSETS:
         if a["role"] == "object":

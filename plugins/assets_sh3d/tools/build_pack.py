@@ -58,7 +58,7 @@ GT_CLASSES = (
     "keyboard", "cell phone", "person", "potted plant", "toilet", "sink", "knife", "couch", "bed", "refrigerator",
     "toaster", "microwave", "tv", "table", "oven", "fork", "spoon", "wine glass",
 )
-"""The 30 BEAR classes (``benchbot_sim_taichi.scene.build.BEAR_CLASS_LIST``): no distractor may be of one of them."""
+"""The 30 BEAR classes (``benchbot_worlds.scene.build.BEAR_CLASS_LIST``): no distractor may be of one of them."""
 
 LIBRARIES = {
     "cc0": ("BlendSwap-CC-0", "Blend Swap CC-0#"),

@@ -59,7 +59,7 @@ def _pack(folder: Path) -> Path:
     carter["name"] = "carter_short"
     carter["sensors"]["laser"]["range_max"] = 2.0
     turtlebot = yaml.safe_load(reg.entry("robots", "turtlebot4").path.read_text())
-    turtlebot.update(name="turtlebot4_sim", environment_types=["sim_taichi"], speed_factor=1.0)
+    turtlebot.update(name="turtlebot4_sim", environment_types=["world", "sim_taichi"], speed_factor=1.0)
     turtlebot["ros2"].update(network="loopback", reset="topic", transport="cyclonedds")
     (folder / "robots").mkdir(parents=True)
     for spec in (carter, turtlebot):

@@ -1,7 +1,7 @@
 """``TaichiSimBackend``: the :class:`~benchbot.core.robot.RobotBackend` of robots of type ``sim_taichi``.
 
 The robot is a differential-drive base with a circular footprint moving on the floor of a box scene
-(:mod:`benchbot_sim_taichi.scene.build`), driven by :class:`benchbot.core.motion.PoseController` in simulated time;
+(:mod:`benchbot_worlds.scene.build`), driven by :class:`benchbot.core.motion.PoseController` in simulated time;
 its RGB-D camera, segmentation and planar laser are ray cast with Taichi (:mod:`benchbot_sim_taichi.render.renderer`,
 imported on first use). Use from one thread.
 
@@ -33,9 +33,9 @@ from benchbot.core.robot import MotionOutcome, RobotBackend
 from benchbot_sim_taichi.render.camera_model import CameraModel
 from benchbot_sim_taichi import loaded_scenes
 from benchbot_sim_taichi.kinematics import Obstacles, drive
-from benchbot_sim_taichi.scene import cache as scene_cache
-from benchbot_sim_taichi.scene.build import build_scene
-from benchbot_sim_taichi.scene.model import Scene
+from benchbot_sim_taichi import scene_cache
+from benchbot_worlds.scene.build import build_scene
+from benchbot_worlds.scene.model import Scene
 
 #: Defaults of the robot spec's ``sensors`` block.
 DEFAULT_SENSORS: dict[str, Any] = {

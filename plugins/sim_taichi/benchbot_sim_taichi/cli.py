@@ -118,8 +118,8 @@ def render(env: str = typer.Argument(..., help="name:variant or an environment Y
         from benchbot.core.errors import UsageError
         from benchbot_sim_taichi.backend import camera_model
         from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-        from benchbot_sim_taichi.scene import cache as scene_cache
-        from benchbot_sim_taichi.scene.build import build_scene
+        from benchbot_sim_taichi import scene_cache
+        from benchbot_worlds.scene.build import build_scene
 
         if mode not in ("fast", "quality"):
             raise UsageError(f"unknown --mode {mode!r}", "use fast or quality")
@@ -160,9 +160,9 @@ def export(env: str = typer.Argument(..., help="name:variant or an environment Y
     normals (for a reference renderer); other formats get one mesh with face colours."""
 
     def go():
-        from benchbot_sim_taichi.scene import cache as scene_cache
-        from benchbot_sim_taichi.scene.export import export_scene, scene_mesh
-        from benchbot_sim_taichi.scene.build import build_scene
+        from benchbot_sim_taichi import scene_cache
+        from benchbot_worlds.scene.export import export_scene, scene_mesh
+        from benchbot_worlds.scene.build import build_scene
 
         from benchbot.core.errors import UsageError
 
@@ -201,9 +201,9 @@ def plan(env: str = typer.Argument(..., help="name:variant or an environment YAM
         import numpy as np
 
         from benchbot.core.errors import UsageError
-        from benchbot_sim_taichi.homes.floorplan_plot import save_plan_figure
-        from benchbot_sim_taichi.scene import cache as scene_cache
-        from benchbot_sim_taichi.scene.build import build_scene
+        from benchbot_worlds.homes.floorplan_plot import save_plan_figure
+        from benchbot_sim_taichi import scene_cache
+        from benchbot_worlds.scene.build import build_scene
 
         environment = _environment(env)
         scene, _ = scene_cache.scene_for(_styled(environment, "furnished"), _world(0, environment, env),
@@ -232,7 +232,7 @@ def ground_truth(env: str = typer.Argument(..., help="name:variant or an environ
     """Write the ground truth derived from ENV's scene (axis-aligned bounds of every object's geometry)."""
 
     def go():
-        from benchbot_sim_taichi.scene.build import derive_ground_truth
+        from benchbot_worlds.scene.build import derive_ground_truth
 
         gt = derive_ground_truth(_environment(env))
         output.parent.mkdir(parents=True, exist_ok=True)

@@ -44,7 +44,7 @@ class Obstacles:
 
     @classmethod
     def from_scene(cls, scene, radius: float, max_height: float) -> "Obstacles":
-        """Obstacles of a :class:`~benchbot_sim_taichi.scene.model.Scene` for a robot of footprint ``radius`` (m) and
+        """Obstacles of a :class:`~benchbot_worlds.scene.model.Scene` for a robot of footprint ``radius`` (m) and
         height ``max_height`` (m): every object box with ``min z < max_height``, the scene's other obstacle rectangles
         with ``obstacle_bottom < max_height`` (a furnished home's walls and furniture), and the shell's four walls."""
         keep = scene.box_min[:, 2].astype(np.float64) < max_height

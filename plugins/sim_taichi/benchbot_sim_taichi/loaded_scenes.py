@@ -10,7 +10,7 @@ runs on the process's one backend thread (:func:`benchbot.core.server.service.ba
 overlap, and :meth:`~benchbot_sim_taichi.render.renderer.Renderer.render` returns new arrays its caller owns.
 
 A loaded scene lives while a backend uses it (counted); the last backend to let go closes its renderer (frees its
-GPU memory), and one whose backends are dropped without closing goes when they are garbage collected. Only scenes with a scene-cache key are shared (:func:`benchbot_sim_taichi.scene.cache.scene_key`: the
+GPU memory), and one whose backends are dropped without closing goes when they are garbage collected. Only scenes with a scene-cache key are shared (:func:`benchbot_sim_taichi.scene_cache.scene_key`: the
 world's content, style, seed and the simulator's code); with the scene cache off (``BENCHBOT_SCENE_CACHE_BYTES=0``)
 or a file the key cannot read, each backend loads its own.
 """
@@ -32,7 +32,7 @@ class LoadedScene:
 
     Attributes:
         renderer: the :class:`~benchbot_sim_taichi.render.renderer.Renderer` holding the scene.
-        scene: the :class:`~benchbot_sim_taichi.scene.model.Scene` (read-only for its users).
+        scene: the :class:`~benchbot_worlds.scene.model.Scene` (read-only for its users).
         key: its :data:`SharingKey`, or None when it is not shared.
         users: backends holding it.
     """

@@ -28,7 +28,8 @@ def taichi_on_a_live_thread():
 @pytest.fixture(scope="session")
 def bear_envs():
     """The plugin's ten environment specs, keyed 'name:variant'."""
-    from benchbot_sim_taichi import bear, plugin
+    from benchbot_worlds import bear
+    from benchbot_sim_taichi import plugin
 
     return {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
 
@@ -38,7 +39,8 @@ def carter_spec():
     """The carter robot spec (YAML)."""
     import yaml
 
-    from benchbot_sim_taichi import bear, plugin
+    from benchbot_worlds import bear
+    from benchbot_sim_taichi import plugin
 
     with open(plugin.ROBOTS_DIR / "carter.yaml", encoding="utf-8") as f:
         return yaml.safe_load(f)

@@ -60,7 +60,7 @@ def test_carter_is_as_tall_as_its_camera_and_furnishing_knows_it(carter_spec):
     """The camera sits where the original's did (1.054 m): the robot's height, the furnishing's clearance and the
     backend's defaults all say the same robot."""
     from benchbot_sim_taichi.backend import DEFAULT_SENSORS
-    from benchbot_sim_taichi.homes.furnish_space import ROBOT_HEIGHT_M
+    from benchbot_worlds.homes.furnish_space import ROBOT_HEIGHT_M
 
     sensors = carter_spec["sensors"]
     assert sensors["max_height_m"] >= sensors["camera"]["mount_xyz"][2]
@@ -172,7 +172,7 @@ def test_all_trajectories_collision_free(bear_envs, carter_spec):
     pose within 0.01 m / 1°. (Kinematics only: no rendering.)"""
     from benchbot_sim_taichi.backend import sensor_config
     from benchbot_sim_taichi.kinematics import Obstacles, drive
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     sensors = sensor_config(carter_spec)
     for key, env in bear_envs.items():

@@ -37,7 +37,7 @@ def test_numpy_model():
 @pytest.fixture(scope="module")
 def default_and_scene(bear_envs):
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi.backend import R_BODY_OPTICAL
 
@@ -82,7 +82,7 @@ def test_the_robot_specs_camera_fields_reach_the_renderer(carter_spec):
 
 
 def _env_file(name: str) -> dict:
-    from benchbot_sim_taichi import bear
+    from benchbot_worlds import bear
 
     env = next(e for e in bear.environment_specs() if e["map_path"].endswith(name))
     return {k: v for k, v in env.items() if k not in ("name", "variant")}
@@ -117,7 +117,7 @@ def test_quality_mode_frames_of_a_daylit_and_a_lamplit_room_are_exposed_alike(be
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi.backend import camera_model, camera_mount
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     camera = camera_model()
     assert camera.auto_exposure

@@ -8,8 +8,11 @@ from benchbot.plugins import testing
 def test_plugin_content_contract():
     from benchbot_sim_taichi import plugin
 
+    from benchbot_worlds import plugin as worlds
+
     registers = testing.check_content_plugin(plugin)
-    assert registers["robot_backends"] == ["sim_taichi"] and "miniroom:1" in registers["environments"]
+    assert registers["robot_backends"] == ["sim_taichi"] and registers["robots"] == ["carter"]
+    assert "miniroom:1" in testing.check_content_plugin(worlds)["environments"]
 
 
 def test_robot_backend_contract(carter_spec, bear_envs):

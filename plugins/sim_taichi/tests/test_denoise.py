@@ -14,7 +14,7 @@ W, H = 64, 48
 @pytest.fixture(scope="module")
 def view(bear_envs):
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
     from benchbot.core.geometry import se2_to_matrix
     from benchbot_sim_taichi.backend import R_BODY_OPTICAL
 

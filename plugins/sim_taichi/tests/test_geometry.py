@@ -21,7 +21,7 @@ def _cam(x, y, yaw, h=0.8):
 
 
 def test_procedural_models_fill_their_cuboid():
-    from benchbot_sim_taichi.scene.build import _MODELS, object_geometry
+    from benchbot_worlds.scene.build import _MODELS, object_geometry
 
     rng = np.random.default_rng(0)
     for cls in list(_MODELS) + ["book", "unknown"]:
@@ -40,7 +40,7 @@ def test_procedural_models_fill_their_cuboid():
 
 
 def _single(synthetic_env, kind):
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     env = synthetic_env([("chair", (2.5, 0.0, 0.8), (1.0, 1.0, 1.0))])
     env["procedural"] = False
@@ -81,7 +81,7 @@ def test_mesh_objects_and_derived_ground_truth(synthetic_env, tmp_path):
     import trimesh
 
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene, derive_ground_truth
+    from benchbot_worlds.scene.build import build_scene, derive_ground_truth
 
     trimesh.creation.icosphere(subdivisions=2, radius=0.5).export(tmp_path / "ball.obj")
     trimesh.creation.box(extents=(0.4, 0.4, 0.4)).export(tmp_path / "cube.ply")
@@ -98,7 +98,7 @@ def test_mesh_objects_and_derived_ground_truth(synthetic_env, tmp_path):
     r.set_scene(scene)
     out = r.render(intrinsics(32, 24, 60.0), _cam(0.0, 0.0, 0.0), 32, 24)
     assert out["instance"][12, 16] == 1 and out["depth"][12, 16] == pytest.approx(2.0, abs=0.02)
-    # clear errors, one line naming the field (the schema benchbot_sim_taichi/schemas/environment.schema.json, then
+    # clear errors, one line naming the field (the schema benchbot_worlds/schemas/environment.schema.json, then
     # what it cannot express: finite poses, non-zero quaternions, existing files)
     for bad, msg in [({"mesh": "nope.obj", "class": "chair"}, r"objects\[0\]\.mesh .*nope.obj does not exist"),
                      ({"mesh": "ball.obj"}, r"objects\[0\]: 'class' is a required property"),
@@ -124,7 +124,7 @@ def test_mesh_objects_and_derived_ground_truth(synthetic_env, tmp_path):
 
 def test_batch_equals_single_and_soft_shadows_deterministic(bear_envs):
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene(bear_envs["miniroom:1"])
     r = Renderer("cpu", shadow_samples=4, seed=3)
@@ -148,7 +148,7 @@ def test_object_centres_hit_their_instance(bear_envs):
     object's instance (visibility decided by the NumPy reference)."""
     from benchbot_sim_taichi.render.reference import trace_reference
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     r = Renderer("cpu")
     W, H = 64, 48

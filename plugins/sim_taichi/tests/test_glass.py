@@ -30,7 +30,7 @@ def _pane_faces(x, half_w, z0, z1, thickness=0.004):
 
 
 def _mesh(v, f, material):
-    from benchbot_sim_taichi.scene.meshes import make_mesh
+    from benchbot_worlds.scene.meshes import make_mesh
 
     return make_mesh(np.asarray(v, float), np.asarray(f), materials=[material])
 
@@ -39,7 +39,7 @@ def _scene_with_pane(pane_x, pane_half_w, pane_z, glass=True, ambient=1.25):
     """Ambient light only (vertical surfaces' radiance = their albedo): a coloured quad (object 0) at x = 3 facing
     the camera at the origin (looking +x, 0.8 m up), a pane in front of it, the shell wall behind the camera at
     x = −1 (albedo 0.5)."""
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances
 
     scene = _bare_scene(1, ambient=ambient)
     v, f, _ = _quad(3.0, 2.0, 0.0, 2.6)
@@ -100,9 +100,9 @@ def test_shadow_rays_go_through_a_pane_weighted_by_its_transmittance_in_quality_
     """The sun overhead lights a horizontal quad; a horizontal pane (out of the camera's view) covers the half y > 0.
     Quality mode: there the quad gets (1 − F0)² of the light (both faces at normal incidence). Fast mode: panes do not
     dim shadow rays (a cost decision, see kernels._trace). With an opaque pane, that half is dark in both."""
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL
+    from benchbot_worlds.scene.model import LIGHT_DIRECTIONAL
 
     def scene(glass):
         s = _bare_scene(1, ambient=0.0)
@@ -172,7 +172,7 @@ def test_quality_mode_shows_a_lamp_reflected_in_a_pane():
     """A lamp behind the camera, seen in the pane in front of it: a path that reflects off the pane and reaches the
     lamp counts fully (a delta event: no light sample competes with it) — finite and bright."""
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.model import LIGHT_POINT
+    from benchbot_worlds.scene.model import LIGHT_POINT
 
     def scene(pane_z):
         s = _scene_with_pane(1.0, 0.6, pane_z, ambient=0.2)
@@ -195,8 +195,8 @@ def test_quality_mode_shows_a_lamp_reflected_in_a_pane():
 
 
 def test_a_pane_exports_as_a_glass_material_and_loads_back_as_glass(tmp_path):
-    from benchbot_sim_taichi.scene.export import GLASS_MATERIAL_PREFIX, export_scene
-    from benchbot_sim_taichi.scene.meshes import load_mesh, with_glass_panes
+    from benchbot_worlds.scene.export import GLASS_MATERIAL_PREFIX, export_scene
+    from benchbot_worlds.scene.meshes import load_mesh, with_glass_panes
 
     export_scene(_scene_with_pane(1.0, 0.3, (0.5, 1.1)), tmp_path / "scene.glb")
     back = load_mesh(tmp_path / "scene.glb")

@@ -75,8 +75,8 @@ def _lit_floor_scene(synthetic_env):
     shadow; ambient light off, so all the light is the lamp's."""
     import dataclasses
 
-    from benchbot_sim_taichi.scene.build import build_scene
-    from benchbot_sim_taichi.scene.model import LIGHT_POINT, PRIM_TRIANGLE
+    from benchbot_worlds.scene.build import build_scene
+    from benchbot_worlds.scene.model import LIGHT_POINT, PRIM_TRIANGLE
 
     env = synthetic_env([("table", (3.0, 0.0, 0.75), (0.8, 0.8, 0.1))])
     scene = build_scene({**env, "procedural": False})

@@ -100,7 +100,7 @@ def test_the_renderers_packs_hold_the_scene_and_the_maps_and_light_its_kernels_c
     CUDA's all-sensors kernels read hold the arrays that the renderer's other kernels read: the packed scene, the
     maps and the baked light computed on the device, the light lists."""
     from benchbot_sim_taichi.render.renderer import _SCENE_ARG_NAMES, Renderer
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     r = Renderer("cpu")
     r.set_scene(build_scene({**bear_envs["miniroom:1"], "style": "furnished"}))

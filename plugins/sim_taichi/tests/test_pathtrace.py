@@ -118,8 +118,8 @@ def test_white_furnace_a_white_diffuse_sphere_returns_the_skys_radiance():
 def _lit_floor_scene(kind, roughness=1.0, metallic=0.0):
     """No sky; one light (the sun from 60° elevation, or a lamp 1.5 m above (2, 0, 0)); a mesh floor quad at
     z = 0.01 of the given material, seen by a camera looking down at it."""
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
-    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL, LIGHT_POINT
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_worlds.scene.model import LIGHT_DIRECTIONAL, LIGHT_POINT
 
     scene = _bare_scene(ambient=0.0)
     if kind == "sun":

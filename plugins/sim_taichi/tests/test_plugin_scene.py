@@ -14,44 +14,13 @@ from benchbot.core.errors import BackendError
 
 
 def test_plugin_imports_no_taichi():
-    code = "import sys, benchbot_sim_taichi.plugin as p; p.benchbot_environments(); assert 'taichi' not in sys.modules"
+    code = "import sys, benchbot_sim_taichi.plugin as p; p.benchbot_robots(); assert 'taichi' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def test_environment_specs(bear_envs):
-    from benchbot_sim_taichi import bear, plugin
-
-    envs = plugin.benchbot_environments()
-    assert len(envs) == 10
-    assert sorted(bear_envs) == sorted(f"{n}:{v}" for n in ("miniroom", "house") for v in range(1, 6))
-    lights = {"1": "base", "2": "day", "3": "night", "4": "day_extra", "5": "night_extra"}
-    for key, e in bear_envs.items():
-        assert e["type"] == "sim_taichi" and e["robots"] == ["carter"]
-        assert Path(e["map_path"]).is_absolute() and Path(e["map_path"]).is_file()
-        assert len(e["start_pose"]) == 7 and all(len(p) == 7 for p in e["trajectory_poses"])
-        assert len(e["trajectory_poses"]) > 0 and len(e["object_labels"]) == 30
-        assert e["lighting"] == lights[key.split(":")[1]]
-        assert "arXiv" in e["source"] and e["description"]
-    attribution = Path(envs[0]["map_path"]).parent / "ATTRIBUTION.md"
-    assert "ground_truths_isaac_develop" in attribution.read_text()
-
-
-def test_ground_truth_specs():
-    from benchbot_sim_taichi import bear, plugin
-
-    gts = plugin.benchbot_ground_truths()
-    assert len(gts) == 10
-    assert sum(len(g["ground_truth"]["objects"]) for g in gts) == 369
-    for g in gts:
-        assert set(g) == {"environment", "format", "ground_truth"}
-        assert "_file_path" not in g["environment"]
-        assert g["ground_truth"]["class_list"][-1] == "background"
-    # the cached originals are not mutated
-    assert "_file_path" in bear._load("miniroom_1.json")["environment"]
-
-
 def test_robot_spec(carter_spec):
-    from benchbot_sim_taichi import bear, plugin
+    from benchbot_worlds import bear
+    from benchbot_sim_taichi import plugin
 
     (path,) = plugin.benchbot_robots()
     assert Path(path).is_file()
@@ -72,7 +41,7 @@ def test_robot_spec(carter_spec):
 
 
 def test_scene_boxes_equal_ground_truth(bear_envs):
-    from benchbot_sim_taichi.scene.build import WALL_MARGIN_M, build_scene
+    from benchbot_worlds.scene.build import WALL_MARGIN_M, build_scene
 
     for key, env in bear_envs.items():
         gt = json.loads(Path(env["map_path"]).read_text())["ground_truth"]
@@ -97,7 +66,7 @@ def test_scene_boxes_equal_ground_truth(bear_envs):
 
 
 def test_colours_seeded_and_plausible(bear_envs):
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     a, b, c = (build_scene(bear_envs["house:1"], seed=s) for s in (0, 0, 1))
     assert np.array_equal(a.box_albedo, b.box_albedo)
@@ -107,7 +76,7 @@ def test_colours_seeded_and_plausible(bear_envs):
 
 
 def test_bad_map_path_and_json(tmp_path, synthetic_env):
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     env = synthetic_env([])
     missing = dict(env, map_path=str(tmp_path / "nope.json"))
@@ -126,7 +95,7 @@ def test_bad_map_path_and_json(tmp_path, synthetic_env):
 
 
 def test_lighting_parse():
-    from benchbot_sim_taichi.bear import lighting_of_map_path
+    from benchbot_worlds.bear import lighting_of_map_path
 
     assert lighting_of_map_path("/Game/AI_vol3_03_base/Maps/AI_vol3_scene_03") == "base"
     assert lighting_of_map_path("/Game/AIUE_V02_002_night_extra/Maps/AIUE_V02_002") == "night_extra"
@@ -136,7 +105,8 @@ def test_lighting_parse():
 
 def test_specs_pass_core_schemas():
     from benchbot.core import specs
-    from benchbot_sim_taichi import bear, plugin
+    from benchbot_worlds import bear
+    from benchbot_sim_taichi import plugin
 
     for e in bear.environment_specs():
         specs.validate(e, "environment", "sim_taichi")

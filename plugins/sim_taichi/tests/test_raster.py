@@ -124,7 +124,7 @@ def test_closest_hits_equal_the_bvh_traversal_on_a_furnished_home(bear_envs, ker
     """miniroom:1 furnished (textured meshes, window panes), views along its trajectory, and a batch of them."""
     from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.render.renderer import intrinsics, pack_scene
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     traced, visibility = kernels
     scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
@@ -151,7 +151,7 @@ def _add_tris(scene, tris):
     """Append triangles (T, 3, 3) as primitives of kind triangle belonging to the scene's first object."""
     import dataclasses
 
-    from benchbot_sim_taichi.scene.model import PRIM_TRIANGLE
+    from benchbot_worlds.scene.model import PRIM_TRIANGLE
 
     n0 = scene.tri_v.shape[0]
     t = tris.shape[0]
@@ -179,7 +179,7 @@ def test_triangles_reaching_behind_the_camera_and_filling_the_image(synthetic_en
         [(4.0, -30.0, -10.0), (4.0, 30.0, -10.0), (4.0, 0.0, 30.0)],  # a wall ahead, larger than the view
         [(3.0, -0.2, 0.8), (3.0, 0.3, 0.9), (3.0, 0.0, 1.3)],  # a small triangle in front of the wall
     ]
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     env = synthetic_env([("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
     scene = _add_tris(build_scene({**env, "procedural": False}), np.asarray(tris, np.float32))
@@ -204,7 +204,7 @@ def test_boxes_ellipsoids_and_cylinders_equal_the_traversal(synthetic_env, kerne
     """The procedural primitives of a synthetic room (boxes, ellipsoids, cylinders), seen from its start pose and
     from above."""
     from benchbot_sim_taichi.render.renderer import intrinsics, pack_scene
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     traced, visibility = kernels
     env = synthetic_env([("chair", (2.0, 0.5, 0.45), (0.6, 0.6, 0.9)), ("table", (3.0, -0.6, 0.4), (1.2, 0.8, 0.8)),
@@ -334,7 +334,7 @@ def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frame
     from benchbot_sim_taichi.render import sensors
     from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene({**bear_envs["miniroom:1"], "style": "furnished"})
     r = Renderer("cpu", device_buffers=False)
@@ -413,9 +413,9 @@ import json, re, sys
 import numpy as np
 from benchbot_sim_taichi.render import sensors
 sensors._gpu_lanes = lambda: 64  # the GPU's loop structure, on the CPU
-from benchbot_sim_taichi import bear
+from benchbot_worlds import bear
 from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-from benchbot_sim_taichi.scene.build import build_scene
+from benchbot_worlds.scene.build import build_scene
 from taichi.profiler.kernel_profiler import get_default_kernel_profiler
 spec = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}["miniroom:1"]
 poses = np.load(sys.argv[2])
@@ -444,7 +444,7 @@ def test_a_gpus_constant_lanes_give_the_same_frames_with_one_serial_task_for_the
     from pathlib import Path
 
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[3] / "benchmarks"))
     from trajectory_views import trajectory_views

@@ -23,7 +23,7 @@ def _cam(x, y, yaw, h=0.8):
 def test_render_matches_numpy_reference(bear_envs, key, pose_index):
     from benchbot_sim_taichi.render.reference import render_reference
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene(bear_envs[key])
     r = Renderer("cpu")
@@ -49,7 +49,7 @@ def test_render_matches_numpy_reference(bear_envs, key, pose_index):
 def test_scan_matches_numpy_reference(bear_envs):
     from benchbot_sim_taichi.render.reference import scan_reference
     from benchbot_sim_taichi.render.renderer import Renderer
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene(bear_envs["house:1"])
     r = Renderer("cpu")
@@ -63,7 +63,7 @@ def test_scan_matches_numpy_reference(bear_envs):
 
 def test_depth_of_known_box(synthetic_env):
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     # a 1 m cube whose near face is the plane x = 2.0, camera at the origin looking along +x at 0.8 m
     env = synthetic_env([("chair", (2.5, 0.0, 0.8), (1.0, 1.0, 1.0))])
@@ -94,7 +94,7 @@ def test_depth_of_known_box(synthetic_env):
 
 def test_laser_sees_wall(synthetic_env):
     from benchbot_sim_taichi.render.renderer import Renderer
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     # one low box far away to one side sets the room extent; the robot at the origin
     env = synthetic_env([("table", (3.0, 2.0, 0.4), (0.5, 0.5, 0.8))])
@@ -119,7 +119,7 @@ def test_device_buffers_and_render_sensors_match_the_numpy_path(bear_envs):
     """The device-buffer path (Taichi ndarrays: GPU memory on CUDA, exercised here on the CPU) gives the same
     images and scans as the NumPy path; one render_sensors launch equals per-view render() and scan() calls."""
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene(bear_envs["house:1"])
     W, H = 48, 36
@@ -183,7 +183,7 @@ def test_quality_mode_finished_in_device_memory_equals_the_numpy_path(bear_envs,
     exposure (the meter's pixels gathered on the device, ``pathtrace.meter_sample_kernel``)."""
     from benchbot_sim_taichi.render.camera_model import CameraModel
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     model = {"default": CameraModel(), "filmic": CameraModel(exposure_ev=0.7, tone_curve="filmic", vignetting=0.6),
              "metered": CameraModel(exposure_ev=-0.5, tone_curve="filmic", vignetting=0.3, auto_exposure=True)}[camera]
@@ -215,7 +215,7 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
 
     from benchbot_sim_taichi.render import renderer as rmod
     from benchbot_sim_taichi.render.host_copy import host_view
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene(bear_envs["miniroom:1"])
     K = rmod.intrinsics(16, 12, 90.0)
@@ -314,8 +314,8 @@ def test_a_lamps_own_shade_does_not_shadow_the_ceiling_around_it(synthetic_env):
     from benchbot_sim_taichi.render.kernels import LAMP_FIXTURE_M
     from benchbot_sim_taichi.render.reference import render_reference
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
-    from benchbot_sim_taichi.scene.model import LIGHT_POINT
+    from benchbot_worlds.scene.build import build_scene
+    from benchbot_worlds.scene.model import LIGHT_POINT
 
     env = synthetic_env([("table", (3.0, 0.0, 2.15), (0.6, 0.6, 0.1)), ("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
     scene = build_scene({**env, "procedural": False})  # the shade: one box

@@ -1,4 +1,4 @@
-"""The cache of built scenes (benchbot_sim_taichi.scene.cache) with the real simulator at a tiny resolution: a scene
+"""The cache of built scenes (benchbot_sim_taichi.scene_cache) with the real simulator at a tiny resolution: a scene
 and the renderer's arrays loaded from it equal the freshly built ones array for array and render the same images; a
 changed layout file, package version or cache format is a miss; a corrupt or foreign entry is rebuilt with one log
 line; the size bound removes the entries used longest ago."""
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from benchbot.core import stages
-from benchbot_sim_taichi.scene import cache
+from benchbot_sim_taichi import scene_cache as cache
 
 ALL = ["image_rgb", "image_depth", "image_segment", "laser"]
-LOGGER = "benchbot_sim_taichi.scene.cache"
+LOGGER = "benchbot_sim_taichi.scene_cache"
 
 
 @pytest.fixture

@@ -11,18 +11,20 @@ import pytest
 
 from benchbot.core.errors import BackendError
 from benchbot.core.specs import first_error, load_spec_file, validator
-from benchbot_sim_taichi import bear, plugin
+from benchbot_worlds import bear
+from benchbot_sim_taichi import plugin
 from benchbot_sim_taichi.backend import (
     DEFAULT_SENSORS, OPTIONS_SCHEMA, ROBOT_SCHEMA, TaichiSimBackend, sensor_config,
 )
-from benchbot_sim_taichi.scene.build import ENVIRONMENT_SCHEMA
+from benchbot_worlds.scene.build import ENVIRONMENT_SCHEMA
 
 CARTER = load_spec_file(plugin.ROBOTS_DIR / "carter.yaml")
 
 
 def test_schemas_are_valid_and_the_shipped_content_matches_them():
-    for path in (ROBOT_SCHEMA, OPTIONS_SCHEMA, ENVIRONMENT_SCHEMA):
+    for path in (ROBOT_SCHEMA, OPTIONS_SCHEMA):
         assert validator(path).schema["$id"].endswith("/sim_taichi/" + path.name)  # check_schema passed
+    assert validator(ENVIRONMENT_SCHEMA).schema["$id"].endswith("/worlds/" + ENVIRONMENT_SCHEMA.name)
     assert first_error(CARTER, ROBOT_SCHEMA) is None
     assert first_error({"sensors": DEFAULT_SENSORS}, ROBOT_SCHEMA) is None
     for env in bear.environment_specs():

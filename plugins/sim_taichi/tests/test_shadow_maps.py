@@ -14,8 +14,8 @@ pytest.importorskip("taichi")
 def _lamp_scene(synthetic_env):
     """A room with a table-top box (centre (3, 0, 0.75), 0.8 × 0.8 × 0.1 m) 1.5 m under a lamp at (3, 0, 2.3),
     and a chair; ambient off, so everything lit is lit by the lamp."""
-    from benchbot_sim_taichi.scene.build import build_scene
-    from benchbot_sim_taichi.scene.model import LIGHT_POINT
+    from benchbot_worlds.scene.build import build_scene
+    from benchbot_worlds.scene.model import LIGHT_POINT
 
     env = synthetic_env([("table", (3.0, 0.0, 0.75), (0.8, 0.8, 0.1)), ("chair", (0.5, 3.0, 0.3), (0.4, 0.4, 0.6))])
     scene = build_scene({**env, "procedural": False})
@@ -49,7 +49,7 @@ def _render_with_and_without_maps(scene, K, views, W, H):
 
 def _sun_scene(synthetic_env, direction=(0.45, 0.30, 0.84)):
     """The same room lit by the sun alone (``direction``, towards the sun), ambient off."""
-    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL
+    from benchbot_worlds.scene.model import LIGHT_DIRECTIONAL
 
     scene = _lamp_scene(synthetic_env)
     d = np.asarray(direction, np.float32)
@@ -183,7 +183,7 @@ def test_furnished_scenes_use_shadow_maps_by_default_primitive_scenes_use_rays(s
 
 def test_a_scene_keeps_the_lights_asked_for(synthetic_env):
     """``Scene.with_lights`` keeps the sun, the lamps, all or none, and refuses another word."""
-    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL, LIGHT_POINT
+    from benchbot_worlds.scene.model import LIGHT_DIRECTIONAL, LIGHT_POINT
 
     scene = _lamp_scene(synthetic_env)
     sun = _sun_scene(synthetic_env)

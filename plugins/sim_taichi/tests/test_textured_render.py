@@ -12,7 +12,7 @@ import pytest
 
 from benchbot.core.geometry import se2_to_matrix
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[2] / "worlds" / "tests"))  # the worlds' mesh tests' GLB writer
 from test_meshes import write_textured_quad_glb  # noqa: E402
 
 LUT = np.power(np.arange(256) / 255.0, 2.2)
@@ -31,7 +31,7 @@ def _bare_scene(n_objects=0, ambient=1.25, room=((-1.0, -20.0, 0.0), (40.0, 20.0
     """A scene with no primitives: ``n_objects`` object boxes (class 0 'chair', instances 1, 2, …; their geometry is
     added by the test), the room shell, ambient light only (1.25 · (0.8 + 0.2·n_z) = 1 on vertical surfaces, so
     a vertical surface's pixels are its albedo)."""
-    from benchbot_sim_taichi.scene.model import Scene
+    from benchbot_worlds.scene.model import Scene
 
     z = np.zeros((n_objects, 3), np.float32)
     return Scene(box_min=z, box_max=z, box_albedo=z, box_class=np.zeros(n_objects, np.int32),
@@ -76,7 +76,7 @@ def _srgb8(lin):
 
 
 def test_textured_quad_head_on_matches_a_numpy_bilinear_reference():
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     rng = np.random.default_rng(5)
@@ -107,7 +107,7 @@ def test_textured_quad_head_on_matches_a_numpy_bilinear_reference():
 def test_a_far_high_frequency_checker_is_filtered_to_its_average(distance):
     """A 1-texel black/white checker repeated many times: minified, each pixel must show the average (linear 0.5,
     sRGB 186), not a sample of black or white (aliasing). Seen close (magnified), the checker stays sharp."""
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     checker = np.zeros((64, 64, 3), np.uint8)
@@ -144,8 +144,8 @@ def _sphere_scene(smooth: bool):
     the camera's side; vertex normals analytic (smooth) or the faces' (flat)."""
     import trimesh
 
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
-    from benchbot_sim_taichi.scene.model import LIGHT_DIRECTIONAL
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_worlds.scene.model import LIGHT_DIRECTIONAL
 
     s = trimesh.creation.icosphere(subdivisions=1, radius=0.5)
     mat = [Material(np.full(3, 0.8, np.float32))]
@@ -223,7 +223,7 @@ def test_depth_and_segmentation_of_a_loaded_glb_match_a_numpy_ray_cast(synthetic
     import trimesh
 
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     sc = trimesh.Scene()
     sc.add_geometry(trimesh.creation.box(extents=(0.6, 0.3, 0.4)), node_name="box",
@@ -280,7 +280,7 @@ def test_glb_front_faces_minus_y_and_its_texture_reads_upright(synthetic_env, tm
     in the map frame) the image shows red top-left, green top-right, blue bottom-left, white bottom-right; the
     material factor multiplies the texture (the file's colours are kept, not the class colour)."""
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     write_textured_quad_glb(tmp_path / "quad.glb", factor=(255, 255, 128, 255))
     env = synthetic_env([])
@@ -309,7 +309,7 @@ def test_glb_front_faces_minus_y_and_its_texture_reads_upright(synthetic_env, tm
 
 def test_quality_mode_draws_the_texture(synthetic_env, tmp_path):
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
-    from benchbot_sim_taichi.scene.build import build_scene
+    from benchbot_worlds.scene.build import build_scene
 
     write_textured_quad_glb(tmp_path / "quad.glb")
     env = synthetic_env([])
@@ -340,7 +340,7 @@ def test_closest_hits_in_a_large_triangle_scene_match_a_numpy_ray_cast():
     nodes, triangles packed in its order) equal a float64 ray cast."""
     import trimesh
 
-    from benchbot_sim_taichi.scene.meshes import MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_worlds.scene.meshes import MeshInstance, add_mesh_instances, make_mesh
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     s = trimesh.creation.icosphere(subdivisions=3, radius=0.4)
@@ -389,7 +389,7 @@ def test_closest_hits_in_a_large_triangle_scene_match_a_numpy_ray_cast():
 def test_a_floor_lying_on_the_shell_floor_wins_every_pixel():
     """Geometry on a face of the room shell (a furnished home's floor at z = 0) is drawn, not the shell: at equal
     distance float32 rounding used to pick the shell in whole rows of pixels."""
-    from benchbot_sim_taichi.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
+    from benchbot_worlds.scene.meshes import Material, MeshInstance, add_mesh_instances, make_mesh
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
 
     scene = _bare_scene(1, room=((-1.0, -6.0, 0.0), (12.0, 6.0, 3.0)))

@@ -12,7 +12,7 @@ import numpy as np
 from benchbot_sim_taichi.render.camera_model import GAMMA
 from benchbot_sim_taichi.render.kernels import (DIR_EPS, LAMP_FIXTURE_M, SHADOW_OFFSET, SHELL_TIE, T_EPS, TILE_CONTRAST,
                                         TILE_M)
-from benchbot_sim_taichi.scene.model import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
+from benchbot_worlds.scene.model import PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID
 
 _INF = 1e30
 

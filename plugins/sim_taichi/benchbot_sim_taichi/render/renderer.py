@@ -1,4 +1,4 @@
-"""Taichi ray tracing of a :class:`~benchbot_sim_taichi.scene.model.Scene` (boxes, ellipsoids, cylinders and triangles in a
+"""Taichi ray tracing of a :class:`~benchbot_worlds.scene.model.Scene` (boxes, ellipsoids, cylinders and triangles in a
 BVH, inside a room shell): RGB-D + segmentation images, planar laser scans, batched rendering of many cameras in one
 kernel launch, and two modes: ``fast`` (direct lighting, shadow rays) and ``quality`` (path traced: physically based
 materials, next-event estimation with multiple importance sampling, several bounces with Russian roulette —
@@ -39,7 +39,7 @@ compared, bilinearly weighted. The images agree with shadow rays but for a rim o
 (and rare specks where a texel's ray slips through a seam of the structure), and a frame costs far less (many lamps:
 house:1 has 29, and the sun's ray is long). The kernels live in :mod:`benchbot_sim_taichi.render.kernels`.
 
-Triangles (meshes, :mod:`benchbot_sim_taichi.scene.meshes`) are shaded with their interpolated vertex normals (n above;
+Triangles (meshes, :mod:`benchbot_worlds.scene.meshes`) are shaded with their interpolated vertex normals (n above;
 shadow rays leave from the hit point offset along the geometric normal, moved onto the vertices' tangent planes so
 low-poly curved surfaces do not shadow themselves in facets) and, with a textured material, albedo = material albedo ×
 texture: sRGB texels turned linear through a 256-entry table, bilinearly filtered, repeating, at a mip level chosen
@@ -288,7 +288,7 @@ def pack_scene(scene) -> dict:
         ValueError: the BVH is deeper than the kernels' stack.
     """
     from benchbot_sim_taichi.render.bvh import build_bvh, bvh_depth, clusters, wide_nodes
-    from benchbot_sim_taichi.scene.meshes import face_normals
+    from benchbot_worlds.scene.meshes import face_normals
 
     n, nl = int(scene.prim_type.shape[0]), int(scene.light_kind.shape[0])
     nodes_f, nodes_i, order = build_bvh(scene.prim_min, scene.prim_max)
@@ -401,7 +401,7 @@ def pack_scene(scene) -> dict:
 @functools.lru_cache(maxsize=1)
 def texture_lut() -> np.ndarray:
     """(256,) float32 (cached: do not modify): linear value of each sRGB byte, ``(i / 255) ** 2.2`` (the gamma of
-    :func:`benchbot_sim_taichi.scene.model.srgb_to_linear`)."""
+    :func:`benchbot_worlds.scene.model.srgb_to_linear`)."""
     return np.power(np.arange(256, dtype=np.float64) / 255.0, 2.2).astype(np.float32)
 
 
@@ -659,14 +659,14 @@ class Renderer:
         self._pinned_copier = self._render_copier = None
 
     def set_scene(self, scene, prepared: dict | None = None) -> None:
-        """Upload ``scene`` (a :class:`~benchbot_sim_taichi.scene.model.Scene`); builds its BVH, traces its shadow maps
+        """Upload ``scene`` (a :class:`~benchbot_worlds.scene.model.Scene`); builds its BVH, traces its shadow maps
         and bakes its light. Later renders and scans use it. With device buffers, this is the only host-to-device
         copy of the scene.
 
         Args:
             scene: the scene.
             prepared: what :meth:`prepared_scene` returned for this scene with a renderer of the same
-                :meth:`preparation_options` (read from :mod:`benchbot_sim_taichi.scene.cache`): then nothing is built,
+                :meth:`preparation_options` (read from :mod:`benchbot_sim_taichi.scene_cache`): then nothing is built,
                 traced or baked, the arrays are uploaded as they are (only ``scene.style`` is read from ``scene``).
 
         Raises:
@@ -747,7 +747,7 @@ class Renderer:
         BVH among them, with the lamps' map slots and the sun map's projection), the traced shadow maps
         (``lamp_maps``, ``sun_map``), the light lists (``n_always``, ``always``, ``light_grid``, ``grid_xform``) and the
         baked light (``baked``, ``baked_info``, ``baked_points``); counts as 0-d int64 arrays. Copies: the caller owns
-        them. For :mod:`benchbot_sim_taichi.scene.cache`.
+        them. For :mod:`benchbot_sim_taichi.scene_cache`.
 
         Raises:
             RuntimeError: no scene is set.

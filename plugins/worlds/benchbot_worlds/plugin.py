@@ -1,0 +1,30 @@
+"""BenchBot hook implementations of ``benchbot_worlds``: the ten BEAR environments and their ground truths, and the
+BEAR batches. Imports nothing heavy (no simulator, no mesh library)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from benchbot.core.hookspecs import hookimpl
+from benchbot_worlds.bear import environment_specs, ground_truth_specs
+
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+@hookimpl
+def benchbot_environments() -> list[dict]:
+    """The ten BEAR environments (miniroom:1..5, house:1..5), of type ``world``."""
+    return environment_specs()
+
+
+@hookimpl
+def benchbot_ground_truths() -> list[dict]:
+    """The ten BEAR ground truths, found by ``name:variant``."""
+    return ground_truth_specs()
+
+
+@hookimpl
+def benchbot_batches() -> list[Path]:
+    """The BEAR batches in ``batches/``: ``develop_1..3`` (4 single scenes each), ``develop_4..6`` (6 scene pairs
+    each, for scene change detection) and ``bear_all`` (all ten environments)."""
+    return [PACKAGE_DIR / "batches"]
