@@ -75,3 +75,42 @@ class Layout:
     rooms: list[RoomBox]
     doors: list[Door]
     wall_thickness: float = 0.12
+
+
+def _r6(v: float) -> float:
+    return round(float(v), 6) + 0.0  # + 0.0: no negative zeros
+
+
+def layout_to_dict(layout: Layout) -> dict:
+    """The JSON form of ``layout`` stored in each variant's ``environment.layout`` (metres, map frame, coordinates
+    rounded to a micrometre): ``outer`` [[x0, y0], [x1, y1]], ``cuts`` [[axis, pos, lo, hi], ...] in the order made,
+    ``rooms`` [{"kind", "lo": [x, y], "hi": [x, y]}, ...] (boxes between wall centre lines), ``room_kinds`` (the
+    rooms' kinds, in order), ``doors`` [{"rooms": [a, b], "axis", "pos", "lo", "hi"}, ...] and ``wall_thickness``.
+    :func:`benchbot_worlds.homes.floorplan.derive_floor_plan` reads ``outer``, ``cuts`` and the rooms' kinds."""
+    return {
+        "outer": [[_r6(v) for v in layout.outer_lo], [_r6(v) for v in layout.outer_hi]],
+        "cuts": [[int(c.axis), _r6(c.pos), _r6(c.lo), _r6(c.hi)] for c in layout.cuts],
+        "rooms": [{"kind": r.kind, "lo": [_r6(v) for v in r.lo], "hi": [_r6(v) for v in r.hi]} for r in layout.rooms],
+        "room_kinds": [r.kind for r in layout.rooms],
+        "doors": [{"rooms": [int(d.rooms[0]), int(d.rooms[1])], "axis": int(d.axis), "pos": _r6(d.pos),
+                   "lo": _r6(d.lo), "hi": _r6(d.hi)} for d in layout.doors],
+        "wall_thickness": _r6(layout.wall_thickness),
+    }
+
+
+def layout_from_dict(data: dict) -> Layout:
+    """The :class:`Layout` of its JSON form (:func:`layout_to_dict`).
+
+    Raises:
+        ValueError: a field is missing or malformed.
+    """
+    try:
+        outer = np.asarray(data["outer"], dtype=np.float64).reshape(2, 2)
+        cuts = [Cut(int(a), float(p), float(lo), float(hi)) for a, p, lo, hi in data["cuts"]]
+        rooms = [RoomBox(i, str(r["kind"]), np.asarray(r["lo"], dtype=np.float64).reshape(2),
+                         np.asarray(r["hi"], dtype=np.float64).reshape(2)) for i, r in enumerate(data["rooms"])]
+        doors = [Door((int(d["rooms"][0]), int(d["rooms"][1])), int(d["axis"]), float(d["pos"]), float(d["lo"]),
+                      float(d["hi"])) for d in data.get("doors", [])]
+        return Layout(outer[0].copy(), outer[1].copy(), cuts, rooms, doors, float(data.get("wall_thickness", 0.12)))
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"malformed layout ({e!r})") from e
