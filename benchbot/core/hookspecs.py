@@ -172,6 +172,26 @@ class ContentHooks:
 class BehaviourHooks:
     """Hooks that add behaviour."""
 
+    @declared("0.2")
+    def benchbot_world_generators(self) -> list[Any]:
+        """Generators of worlds: environments made on demand, too many to list (``benchbot.core.world_generators``).
+
+        Returns:
+            A list of ``benchbot.core.world_generators.WorldGenerator``: each has a ``name`` and ``splits``; its
+            homes are named ``<name>_<split>_<index>`` (short form ``<name>:<split>:<index>``), its batches
+            ``<name>_<split>_<count>``; ``content(kind, split, index)`` gives the environment and ground-truth specs
+            of one home's variants, ``describe()`` a line for ``benchbot list environments``.
+
+        Called:
+            Once per process, when the registry is built; a generator's ``content`` when a name it owns is first
+            asked for.
+
+        Call policy:
+            every implementation is called; the lists are concatenated. A generator whose name is taken (by an
+            earlier generator), or that is no ``WorldGenerator``, is left out and reported (``benchbot plugins``);
+            an implementation that raises offers nothing and is reported.
+        """
+
     @declared("0.1")
     def benchbot_robot_backends(self) -> dict[str, Callable[..., "RobotBackend"]]:
         """Robot backends (simulators, real robots) by robot ``type``.

@@ -28,6 +28,7 @@ from benchbot.core.errors import SpecError
 from benchbot.core.names import did_you_mean
 from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, call_each_plugin, import_object
 from benchbot.core.spec_meaning import same_meaning
+from benchbot.core.world_generators import WorldGenerator, batch_spec, parse_batch, parse_home, short_form
 from benchbot.core.specs import (
     KIND_SCHEMAS, SPEC_SUFFIXES, Entry, entry_name, expand_spec_folders, load_spec_file, singular, validate,
 )
@@ -92,6 +93,9 @@ class Registry:
                 self.backend_factories[type_name] = (plugin_name, factory)
                 if plugin_name in infos:
                     infos[plugin_name].registers.setdefault("robot_backends", []).append(type_name)
+        self.generators: dict[str, WorldGenerator] = {}
+        self._generator_plugins: dict[str, str] = {}
+        self._add_generators()
         self.observations: dict[str, observations.ObservationKind] = dict(observations.BUILT_IN)
         for plugin_name, kinds, exc in call_each_plugin(self.plugin_manager, "benchbot_observations"):
             if exc is not None:  # the plugin offers no kinds; the others load
@@ -104,6 +108,64 @@ class Registry:
                 infos[plugin_name].problems.extend(found)
                 if added:
                     infos[plugin_name].registers.setdefault("observations", []).extend(added)
+
+    def _add_generators(self) -> None:
+        """:attr:`generators` from the ``benchbot_world_generators`` hook (its call policy)."""
+        for plugin_name, gens, exc in call_each_plugin(self.plugin_manager, "benchbot_world_generators"):
+            found = [f"plugin {plugin_name}: benchbot_world_generators() raised {exc!r}"] if exc is not None else []
+            for gen in [] if exc is not None else list(gens or []):
+                name = getattr(gen, "name", None)
+                if not isinstance(gen, WorldGenerator) or not isinstance(name, str) or not name.isalnum() \
+                        or not name.islower() or not name[0].isalpha():
+                    found.append(f"plugin {plugin_name}: {gen!r} is no WorldGenerator with an alphanumeric name")
+                elif name in self.generators:
+                    found.append(f"world generator '{name}' is offered by plugins "
+                                 f"'{self._generator_plugins[name]}' and '{plugin_name}'")
+                else:
+                    self.generators[name] = gen
+                    self._generator_plugins[name] = plugin_name
+                    if plugin_name in self._infos:
+                        self._infos[plugin_name].registers.setdefault("world_generators", []).append(name)
+            if found:
+                self.problems[("world_generators", plugin_name)] = "; ".join(found)
+                if plugin_name in self._infos:
+                    self._infos[plugin_name].problems.extend(found)
+
+    def _generated(self, kind: str, name: str) -> bool:
+        """Register the specs a world generator makes for ``name`` (an environment or ground truth
+        ``<home>:<variant>``, or a batch ``<generator>_<split>_<count>``); False when no generator owns the name.
+
+        Raises:
+            SpecError: a generator owns the name's pattern but cannot make it (unknown split, index out of range,
+                a held-out split without its key, a spec that fails its schema).
+        """
+        if not self.generators or kind not in ("environments", "ground_truths", "batches"):
+            return False
+        if kind == "batches":
+            found = parse_batch(name, self.generators)
+            if found is None:
+                return False
+            gen, split, count = found
+            self._add_checked(kind, batch_spec(gen, split, count), gen.name)
+            return True
+        home = parse_home(name.rpartition(":")[0] if ":" in name else name, self.generators)
+        if home is None:
+            return False
+        gen = self.generators[home.generator]
+        for k in ("environments", "ground_truths"):
+            for spec in gen.content(k, home.split, home.index):
+                if entry_name(k, spec) not in self.entries[k]:
+                    self._add_checked(k, spec, gen.name)
+        return True
+
+    def _add_checked(self, kind: str, spec: dict, generator: str) -> None:
+        """:meth:`_add` a generated spec; a spec it keeps out raises its problem (a generated name must resolve)."""
+        plugin = self._generator_plugins[generator]
+        before = set(self.problems)
+        self._add(kind, KIND_SCHEMAS[kind], spec, plugin, None)
+        new = [self.problems.pop(k) for k in set(self.problems) - before]
+        if new:
+            raise SpecError(f"world generator '{generator}': {new[0]}", "report it to the generator's plugin")
 
     def _add(self, kind: str, schema_name: str, raw: Any, plugin: str, info: PluginInfo | None) -> None:
         path = Path(raw).resolve() if isinstance(raw, (str, Path)) else None
@@ -200,6 +262,8 @@ class Registry:
         """
         if (kind, name) in self.problems:
             raise SpecError(self.problems[(kind, name)], "remove or rename one of the two")
+        if name not in self.entries[kind]:
+            self._generated(kind, name)
         try:
             return self.entries[kind][name]
         except KeyError:
@@ -211,12 +275,14 @@ class Registry:
 
     def scenes(self, env_string: str) -> list[dict]:
         """The environment specs of an environment string: ``miniroom:1`` → one, ``miniroom:1:2`` → two
-        (the name is everything before the first ':'; every later field is a variant, docs/original-benchbot.md).
+        (the name is everything before the first ':'; every later field is a variant, docs/original-benchbot.md);
+        a generated home's short form ``procedural:val:42[:VARIANT...]`` is read as ``procedural_val_42:1`` (or its
+        variants: :func:`benchbot.core.world_generators.short_form`).
 
         Raises:
             SpecError: malformed string or unknown environment.
         """
-        name, _, variants = env_string.partition(":")
+        name, _, variants = short_form(env_string, self.generators).partition(":")
         if not name or not variants or "" in variants.split(":"):
             raise SpecError(
                 f"environment '{env_string}' is not of the form NAME:VARIANT[:VARIANT...]", "e.g. miniroom:1 or house:1:2"

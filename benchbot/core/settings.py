@@ -63,6 +63,9 @@ SETTINGS: tuple[Setting, ...] = (
             "workers set it)", "sim_taichi"),
     Setting("BENCHBOT_TAICHI_FULL_POSITIONS", None, "1: the simulator's kernels keep Taichi's full source excerpts "
             "in their debug information (slower start; for changing the kernels)", "sim_taichi"),
+    Setting("BENCHBOT_WORLDS_KEY_FILE", None, "the host's key of the held-out test split of procedural homes (only "
+            "a host holding it can build them); else <data dir>/worlds/test_split.key, made by `benchbot worlds "
+            "key`", "worlds"),
     Setting("ROS_DOMAIN_ID", "0", "DDS domain of ROS 2 robots and `benchbot ros2 serve-sim`", "robot_ros2"),
     Setting("CYCLONEDDS_URI", None, "Cyclone DDS configuration (default: discovery on loopback only)",
             "robot_ros2"),

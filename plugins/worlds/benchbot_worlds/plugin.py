@@ -28,3 +28,11 @@ def benchbot_batches() -> list[Path]:
     """The BEAR batches in ``batches/``: ``develop_1..3`` (4 single scenes each), ``develop_4..6`` (6 scene pairs
     each, for scene change detection) and ``bear_all`` (all ten environments)."""
     return [PACKAGE_DIR / "batches"]
+
+
+@hookimpl
+def benchbot_world_generators() -> list:
+    """The ``procedural`` generator: homes of the splits train, val and test, made on demand."""
+    from benchbot_worlds.procedural.worlds import ProceduralWorlds
+
+    return [ProceduralWorlds()]
