@@ -22,6 +22,9 @@ How the plan is derived:
    is larger than :data:`MAX_ROOM_AREA_M2`; candidates are ranked by that gain, balance, and the cost of passages
    (:data:`PASSAGE_COST`, :data:`STRADDLE_COST`), and the seed breaks near-ties (:data:`SEED_JITTER`), so different
    seeds may give different houses and the same seed always the same one.
+   A procedural home declares its layout (``environment.layout``, :func:`home_layout`): then its outer rectangle
+   and its guillotine cuts are the boundary and the walls (no search) and its rooms' kinds name the rooms; each
+   wall's openings are found as above (where the paths cross it, else a connecting doorway).
 3. Rooms are named after what they hold (kitchen, bathroom, bedroom, living_room, office, else hall); exterior walls
    get windows (sill :data:`WINDOW_SILL_M`, head :data:`WINDOW_HEAD_M`) wherever no cuboid taller than the sill
    stands within :data:`WINDOW_CLEAR_DEPTH_M` of the wall; every room gets ceiling lamps on a grid of about
@@ -546,13 +549,14 @@ class _Planner:
                 merged.append([a, b, f])
         return merged
 
-    def _openings(self, obj_iv: list, path_iv: list, span) -> list | None:
+    def _openings(self, obj_iv: list, path_iv: list, span, strict: bool = True) -> list | None:
         """The openings (a, b, "door" | "passage") a wall across ``span`` needs so that it cuts no cuboid and no
         swept path, or None when such a wall would be mostly openings.
 
         A stretch only the paths need becomes a doorway (at least :data:`DOOR_MIN_WIDTH_M`, with a jamb of
         :data:`DOOR_JAMB_M` at both ends); a stretch wider than :data:`DOOR_MAX_WIDTH_M`, holding a cuboid or near
-        the wall's end becomes an open passage (open plan: no door leaf; at the wall's end the wall stops)."""
+        the wall's end becomes an open passage (open plan: no door leaf; at the wall's end the wall stops).
+        ``strict=False`` (a given wall, :func:`derive_floor_plan` with a layout): never None, however open."""
         s0, s1 = span
         length = s1 - s0
         groups = self._merge([(a, b, True) for a, b in obj_iv] + [(a, b, False) for a, b in path_iv])
@@ -580,10 +584,10 @@ class _Planner:
                 b = s1
             out.append([a, b, True])
         out = self._merge([tuple(x) for x in out])
-        if len(out) > MAX_OPENINGS_PER_WALL:
+        if strict and len(out) > MAX_OPENINGS_PER_WALL:
             return None
         open_len = sum(b - a for a, b, _ in out)
-        if length - open_len < MIN_SOLID_FRACTION * length:
+        if strict and length - open_len < MIN_SOLID_FRACTION * length:
             return None
         res = []
         for a, b, passage in out:
@@ -725,6 +729,53 @@ class _Planner:
         return leaves
 
 
+    def given_partition(self, layout: dict) -> list[_Cell]:
+        """The cells of a given layout's cuts (``layout["cuts"]`` [[axis, pos, lo, hi], ...] in the order made, in
+        this planner's frame; the outer boundary already set to ``layout["outer"]``), each wall with the openings
+        the paths need (:meth:`_openings`, never refused) or, when they need none, a connecting doorway where the
+        floor is clear (:meth:`_connect_door`), as :meth:`partition` gives its walls.
+
+        Raises:
+            BackendError: a cut does not run across exactly one cell from side to side.
+        """
+        leaves = [_Cell(self.outer_lo.copy(), self.outer_hi.copy(), np.arange(len(self.olo)))]
+        for k, (ax, pos, lo, hi) in enumerate(layout["cuts"]):
+            ax, pos, o = int(ax), float(pos), 1 - int(ax)
+            hits = [i for i, c in enumerate(leaves)
+                    if c.lo[ax] < pos < c.hi[ax] and c.lo[o] == float(lo) and c.hi[o] == float(hi)]
+            if len(hits) != 1:
+                raise BackendError(f"floor plan: the layout's cut {k} {[ax, pos, lo, hi]} does not run across one "
+                                   "cell of the cuts before it", "give guillotine cuts in the order they were made")
+            cell = leaves.pop(hits[0])
+            span = self._span(cell, o)
+            c = np.array([pos])
+            openings = self._openings(self._object_intervals(cell, c, ax)[0], self._path_intervals(c, ax, span)[0],
+                                      span, strict=False)
+            if not openings:
+                door = self._connect_door(cell, ax, pos, span, openings)
+                if door is not None:
+                    openings = [door]
+                    m = (door[0] + door[1]) / 2
+                    a, b = np.zeros(2), np.zeros(2)
+                    a[ax], b[ax] = pos - 0.5, pos + 0.5
+                    a[o] = b[o] = m
+                    self.res0 = np.concatenate([self.res0, a[None]])
+                    self.res1 = np.concatenate([self.res1, b[None]])
+            self.splits.append(_Split(ax, pos, cell.lo[o], cell.hi[o], openings))
+            leaves.extend(self._children(cell, ax, pos))
+        leaves.sort(key=lambda c: (round(float(c.lo[1]), 6), round(float(c.lo[0]), 6)))
+        return leaves
+
+
+def _given_kind(layout: dict, cell: _Cell) -> str | None:
+    """The kind of the layout room holding ``cell``'s centre, None when no room does."""
+    m = (cell.lo + cell.hi) / 2
+    for r in layout.get("rooms", []):
+        if r["lo"][0] <= m[0] <= r["hi"][0] and r["lo"][1] <= m[1] <= r["hi"][1]:
+            return str(r["kind"])
+    return None
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # assembling the plan
 
@@ -813,7 +864,7 @@ def _cut(planner: _Planner, box_lo, box_hi, ax: int, holes, exterior, rooms, out
 
 
 def derive_floor_plan(objects: list[dict], paths: list[np.ndarray], *, seed: int = 0,
-                      robot_radius_m: float = 0.35) -> FloorPlan:
+                      robot_radius_m: float = 0.35, layout: dict | None = None) -> FloorPlan:
     """Derive a home's floor plan from its ground-truth cuboids and robot paths (see the module docstring).
 
     Args:
@@ -823,19 +874,35 @@ def derive_floor_plan(objects: list[dict], paths: list[np.ndarray], *, seed: int
         seed: chooses among near-equal candidate walls; the same seed always gives the same plan.
         robot_radius_m: the robot's footprint radius (m): walls keep this (+ :data:`PATH_MARGIN_M`) from every
             path segment except through doorways.
+        layout: a procedural home's layout (the JSON form of :func:`benchbot_worlds.procedural.layout.layout_to_dict`,
+            in the frame of ``objects`` and ``paths``): its ``outer`` rectangle is the outer boundary and its
+            ``cuts`` are the walls, in their order (no search; ``seed`` is not used); a room's kind is that of the
+            layout room (``rooms``: kind, lo, hi) holding its centre. The openings are found as for a derived wall:
+            where the paths cross a wall, else a connecting doorway where the floor is clear. None (BEAR's homes):
+            the binary space partition of the module docstring.
 
     Returns:
         A :class:`FloorPlan`.
 
     Raises:
         BackendError: an object lacks a class/centroid/extent or has non-finite numbers, a path is not an (M, 2)
-            finite array, or there are neither objects nor paths.
+            finite array, there are neither objects nor paths, or the layout is malformed or its cuts are no
+            guillotine cuts of its outer rectangle.
     """
     if not np.isfinite(robot_radius_m) or robot_radius_m < 0:
         raise BackendError(f"floor plan: robot_radius_m={robot_radius_m} is not a finite radius >= 0",
                            "pass the robot's footprint radius in metres")
     pl = _Planner(objects, paths, int(seed), robot_radius_m)
-    cells = pl.partition()
+    if layout is None:
+        cells = pl.partition()
+    else:
+        try:
+            outer = np.asarray(layout["outer"], dtype=np.float64).reshape(2, 2)
+            pl.outer_lo, pl.outer_hi = outer[0].copy(), outer[1].copy()
+            cells = pl.given_partition(layout)
+        except (KeyError, TypeError, ValueError) as e:
+            raise BackendError(f"floor plan: malformed layout ({e!r})",
+                               "layout: {outer: [[x0,y0],[x1,y1]], cuts: [[axis,pos,lo,hi],...], rooms: [...]}") from e
     t, H = pl.t, pl.height
     olo, ohi = pl.outer_lo, pl.outer_hi
 
@@ -844,7 +911,8 @@ def derive_floor_plan(objects: list[dict], paths: list[np.ndarray], *, seed: int
     for i, c in enumerate(cells):
         lo = np.array([c.lo[k] + (0.0 if c.lo[k] == olo[k] else t / 2) for k in range(2)])
         hi = np.array([c.hi[k] - (0.0 if c.hi[k] == ohi[k] else t / 2) for k in range(2)])
-        rooms.append(Room(i, lo, hi, _room_kind(pl, c.objs)))
+        kind = _given_kind(layout, c) if layout is not None else None
+        rooms.append(Room(i, lo, hi, kind if kind is not None else _room_kind(pl, c.objs)))
 
     walls: list[Wall] = []
     openings: list[Opening] = []
@@ -1013,14 +1081,42 @@ def home_inputs(variant_dicts: list[dict]) -> tuple[list[dict], list[np.ndarray]
     return objects, paths
 
 
-def home_plan(objects: list[dict], paths: list, *, seed: int = 0, robot_radius_m: float = 0.35):
+#: The environment field of a procedural home's layout (:func:`benchbot_worlds.procedural.layout.layout_to_dict`).
+LAYOUT_FIELD = "layout"
+
+
+def home_layout(variant_dicts: list[dict]) -> dict | None:
+    """The layout (``environment.layout``, map frame) its variants' loaded ground-truth JSON dicts declare, None
+    when none does (BEAR's homes: the plan is searched for).
+
+    Raises:
+        BackendError: two variants declare different layouts, or a layout is no dict.
+    """
+    found = None
+    for v, data in enumerate(variant_dicts):
+        lay = (data.get("environment") or {}).get(LAYOUT_FIELD)
+        if lay is None:
+            continue
+        if not isinstance(lay, dict):
+            raise BackendError(f"floor plan: variant {v + 1}'s environment.{LAYOUT_FIELD} is not an object",
+                               "layout: {outer, cuts, rooms} (benchbot_worlds.procedural.layout.layout_to_dict)")
+        if found is not None and json.dumps(lay, sort_keys=True) != json.dumps(found, sort_keys=True):
+            raise BackendError(f"floor plan: variant {v + 1} declares another layout than the variants before it",
+                               "every variant of a home has the same layout")
+        found = lay
+    return found
+
+
+def home_plan(objects: list[dict], paths: list, *, seed: int = 0, robot_radius_m: float = 0.35,
+              layout: dict | None = None):
     """(frame, plan): a home's :class:`~benchbot_worlds.homes.home_frame.HomeFrame`
     (:func:`~benchbot_worlds.homes.home_frame.home_frame`, with an origin of the home's own) and its floor plan
     derived in that frame (:func:`derive_floor_plan` of the objects and paths carried there, their xy rounded to
     :data:`~benchbot_worlds.homes.home_frame.HOME_GRID_M`), so that a turned, mirrored or moved layout gets the
     same plan turned, mirrored or moved. ``objects``, ``paths``: map frame, as :func:`derive_floor_plan` takes them;
     the plan returned is in the home frame (:meth:`~benchbot_worlds.homes.home_frame.HomeFrame.plan_to_map`
-    carries it to the map).
+    carries it to the map). ``layout`` (map frame, :func:`home_layout`) is carried to the home frame
+    (:meth:`~benchbot_worlds.homes.home_frame.HomeFrame.layout_to_home`) and its cuts are the walls.
 
     Raises:
         BackendError: as :func:`derive_floor_plan`.
@@ -1030,13 +1126,20 @@ def home_plan(objects: list[dict], paths: list, *, seed: int = 0, robot_radius_m
     frame = home_frame(objects, paths, own_origin=True)
     if not frame.is_identity:
         objects, paths = frame.objects_to_home(objects), [frame.points_to_home(p) for p in paths]
-    return frame, derive_floor_plan(objects, paths, seed=seed, robot_radius_m=robot_radius_m)
+        try:
+            layout = frame.layout_to_home(layout)
+        except (KeyError, TypeError, ValueError) as e:
+            raise BackendError(f"floor plan: malformed layout ({e!r})",
+                               "layout: {outer, cuts, rooms} (benchbot_worlds.procedural.layout.layout_to_dict)") from e
+    return frame, derive_floor_plan(objects, paths, seed=seed, robot_radius_m=robot_radius_m, layout=layout)
 
 
 def plan_for_home(variant_dicts: list[dict], *, seed: int = 0, robot_radius_m: float = 0.35) -> FloorPlan:
     """The floor plan (map frame) shared by a home's variants (their loaded ground-truth JSON dicts):
-    :func:`home_inputs`, :func:`home_plan`, then the plan carried to the map frame."""
-    frame, plan = home_plan(*home_inputs(variant_dicts), seed=seed, robot_radius_m=robot_radius_m)
+    :func:`home_inputs`, :func:`home_plan` (with their :func:`home_layout`, if any), then the plan carried to the map
+    frame."""
+    frame, plan = home_plan(*home_inputs(variant_dicts), seed=seed, robot_radius_m=robot_radius_m,
+                            layout=home_layout(variant_dicts))
     return frame.plan_to_map(plan)
 
 
@@ -1117,7 +1220,7 @@ def _plan_cached(key: tuple, seed: int, robot_radius_m: float):
             raise BackendError(f"floor plan: cannot read the ground-truth file {path} ({e})",
                                "check that the file exists and is a ground-truth JSON {environment, format, "
                                "ground_truth}") from e
-    frame, plan = home_plan(*home_inputs(dicts), seed=seed, robot_radius_m=robot_radius_m)
+    frame, plan = home_plan(*home_inputs(dicts), seed=seed, robot_radius_m=robot_radius_m, layout=home_layout(dicts))
     return frame, plan, frame.plan_to_map(plan)
 
 
