@@ -39,8 +39,8 @@ class Tiny:
             raise SpecError("home 13 is unlucky", "take another")
         return envs if kind == "environments" else gts
 
-    def describe(self):
-        return "tiny homes"
+    def describe(self, split):
+        return f"tiny {split} homes"
 
 
 class TinyPlugin:
@@ -109,7 +109,7 @@ def test_other_names_pass_through_and_a_taken_or_bad_generator_is_reported():
         def content(self, kind, split, index):
             return []
 
-        def describe(self):
+        def describe(self, split):
             return ""
 
     reg = Registry(extra_plugins={"one": TinyPlugin(Tiny()), "two": TinyPlugin(Tiny(), Nameless())})

@@ -14,6 +14,7 @@ from rich.text import Text
 
 from benchbot.cli.common import handle_errors, out, registry
 from benchbot.core.names import close_names
+from benchbot.core.world_generators import MAX_BATCH_HOMES
 
 
 class Kind(str, enum.Enum):
@@ -103,6 +104,24 @@ def print_plugins(as_json: bool) -> None:
         out.print(f"[dim]note:[/] {escape(note)}", highlight=False)
 
 
+def generated_rows(reg, kind: Kind) -> list[dict]:
+    """One row per split of every world generator (``procedural_val_N``: made on demand, too many to list), as
+    :func:`list_` shows them after the listed entries."""
+    rows = []
+    for gen_name, gen in reg.generators.items():
+        plugin = reg._generator_plugins[gen_name]
+        for split in gen.splits:
+            if kind is Kind.environments:
+                rows.append({"name": f"{gen_name}_{split}_N:1..5", "plugin": plugin, "path": None, "generated": True,
+                             "description": f"split {split}, home N = 0, 1, ... (short form {gen_name}:{split}:N): "
+                                            + gen.describe(split)})
+            else:
+                rows.append({"name": f"{gen_name}_{split}_COUNT", "plugin": plugin, "path": None, "generated": True,
+                             "description": f"variant 1 of homes 0..COUNT-1 of split {split} (COUNT up to "
+                                            f"{MAX_BATCH_HOMES})"})
+    return rows
+
+
 def register(app: typer.Typer) -> None:
     @app.command("list")
     @handle_errors
@@ -136,6 +155,8 @@ def register(app: typer.Typer) -> None:
                 if kind is Kind.ground_truths:
                     row["sets"] = sets.get(e.name, [])
                 rows.append(row)
+            if kind in (Kind.environments, Kind.batches):  # generated on demand: one row per split, a pattern
+                rows.extend(generated_rows(reg, kind))
             out.print_json(json.dumps(rows))
             return
         table = Table("name", "plugin", "sets (default first)" if kind is Kind.ground_truths else "description")
@@ -148,4 +169,7 @@ def register(app: typer.Typer) -> None:
             if unavailable:
                 third = Text(f"unavailable here: {unavailable}", style="yellow")
             table.add_row(Text(e.name), Text(e.plugin), third)
+        if kind in (Kind.environments, Kind.batches):
+            for row in generated_rows(reg, kind):
+                table.add_row(Text(row["name"]), Text(row["plugin"]), Text(row["description"], style="cyan"))
         out.print(table)

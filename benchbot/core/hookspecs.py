@@ -180,7 +180,7 @@ class BehaviourHooks:
             A list of ``benchbot.core.world_generators.WorldGenerator``: each has a ``name`` and ``splits``; its
             homes are named ``<name>_<split>_<index>`` (short form ``<name>:<split>:<index>``), its batches
             ``<name>_<split>_<count>``; ``content(kind, split, index)`` gives the environment and ground-truth specs
-            of one home's variants, ``describe()`` a line for ``benchbot list environments``.
+            of one home's variants, ``describe(split)`` a few words per split for ``benchbot list environments``.
 
         Called:
             Once per process, when the registry is built; a generator's ``content`` when a name it owns is first

@@ -49,8 +49,9 @@ class WorldGenerator(Protocol):
             SpecError: the home cannot be made here (e.g. a held-out split without its key), one line with the fix.
         """
 
-    def describe(self) -> str:
-        """One line for ``benchbot list environments``: what the generator makes and how its splits are named."""
+    def describe(self, split: str) -> str:
+        """A few words for ``benchbot list environments`` on the homes of ``split`` (what they are for, what they
+        need)."""
 
 
 @dataclass(frozen=True)

@@ -36,3 +36,11 @@ def benchbot_world_generators() -> list:
     from benchbot_worlds.procedural.worlds import ProceduralWorlds
 
     return [ProceduralWorlds()]
+
+
+@hookimpl
+def benchbot_commands(app) -> None:
+    """``benchbot worlds generate|key`` (see :mod:`benchbot_worlds.cli`)."""
+    from benchbot_worlds.cli import app as worlds_app
+
+    app.add_typer(worlds_app, name="worlds")

@@ -108,7 +108,8 @@ class ProceduralWorlds:
             out.append({k: data[k] for k in ("environment", "format", "ground_truth")})
         return out
 
-    def describe(self) -> str:
-        """One line for ``benchbot list environments``."""
-        return ("procedural homes, any number: procedural_train_N, procedural_val_N (public) and procedural_test_N "
-                "(held out: needs this host's key) for N = 0, 1, ...; variants :1..:5; batches procedural_val_100 etc.")
+    def describe(self, split: str) -> str:
+        """A few words on the homes of ``split`` for ``benchbot list environments``."""
+        return {"train": "procedural homes to train on (public)",
+                "val": "procedural homes to validate on (public)",
+                "test": "held-out procedural homes (only a host with the key: benchbot worlds key)"}[split]
