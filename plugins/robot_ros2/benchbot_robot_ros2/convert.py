@@ -22,11 +22,6 @@ ENCODINGS = {"rgb8": (3, 3), "bgr8": (3, 3), "rgba8": (4, 4), "bgra8": (4, 4), "
 
 
 # ------------------------------------------------------------------------------------------ time and geometry
-def stamp_to_s(stamp: Any) -> float:
-    """``builtin_interfaces/Time`` → seconds (float)."""
-    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
-
-
 def set_stamp(stamp: Any, t_s: float | None = None, *, t_ns: int | None = None) -> None:
     """Write a time into a ``builtin_interfaces/Time``: ``t_ns`` (integer nanoseconds, exact) if given, else ``t_s``
     (float seconds), else now (wall clock)."""
