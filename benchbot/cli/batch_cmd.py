@@ -163,44 +163,49 @@ def register(app: typer.Typer) -> None:
             if kind == "lost":
                 err.print(lost_line(info or {}, label[index]), highlight=False)
 
+        from benchbot.batch.stopping import StopDeadline, interrupts_arm
+
         started = time.monotonic()
+        deadline = StopDeadline(run_dir, say=lambda line: err.print(line, highlight=False, markup=False))
         try:
-            if is_tty() and not no_tui:
-                outcome = _run_with_tui(reg, batch, print_line, workers=workers, retries=retries,
-                                        executor=executor, ray_address=ray_address, ray_cluster=cluster)
-            elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
-                outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                    ray_address=ray_address, on_record=print_line, on_event=print_lost,
-                                    ray_cluster=cluster)
-            else:
-                runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
-                expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
-                with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
-                              TimeElapsedColumn(), console=err) as progress:
-                    rows: dict[int, int] = {}
-
-                    def on_event(kind: str, index: int, info: dict | None) -> None:
-                        if kind == "start":
-                            rows[index] = progress.add_task(label[index], total=expected[index])
-                        elif kind == "stage" and index in rows:  # what the backend does before the first step
-                            stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
-                            progress.update(rows[index], description=label[index] + stage)
-                        elif kind == "step" and index in rows:
-                            progress.update(rows[index], completed=info["step"])
-                        elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
-                            progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
-                            print_lost(kind, index, info)
-
-                    def on_record(record: EpisodeRecord) -> None:
-                        colour = "green" if record.status == "ok" else "red"
-                        if record.index in rows:
-                            progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
-
+            with interrupts_arm(deadline):  # Ctrl-C: the command is gone within STOP_BOUND_S, by construction
+                if is_tty() and not no_tui:
+                    outcome = _run_with_tui(reg, batch, print_line, deadline, workers=workers, retries=retries,
+                                            executor=executor, ray_address=ray_address, ray_cluster=cluster)
+                elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
                     outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                        ray_address=ray_address, on_event=on_event, on_record=on_record,
+                                        ray_address=ray_address, on_record=print_line, on_event=print_lost,
                                         ray_cluster=cluster)
+                else:
+                    runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
+                    expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
+                    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+                                  TimeElapsedColumn(), console=err) as progress:
+                        rows: dict[int, int] = {}
+
+                        def on_event(kind: str, index: int, info: dict | None) -> None:
+                            if kind == "start":
+                                rows[index] = progress.add_task(label[index], total=expected[index])
+                            elif kind == "stage" and index in rows:  # what the backend does before the first step
+                                stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
+                                progress.update(rows[index], description=label[index] + stage)
+                            elif kind == "step" and index in rows:
+                                progress.update(rows[index], completed=info["step"])
+                            elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
+                                progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
+                                print_lost(kind, index, info)
+
+                        def on_record(record: EpisodeRecord) -> None:
+                            colour = "green" if record.status == "ok" else "red"
+                            if record.index in rows:
+                                progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
+
+                        outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
+                                            ray_address=ray_address, on_event=on_event, on_record=on_record,
+                                            ray_cluster=cluster)
         except KeyboardInterrupt:
-            stopped_by_user(run_dir)
+            deadline.arm(signal_sent=True)
+            stopped_by_user(run_dir, deadline)
         err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
         for record in outcome.episodes:
             if record.status != "ok":
@@ -229,10 +234,10 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(int(ExitCode.FAILURE))
 
 
-def stopped_by_user(run_dir: Path) -> None:
+def stopped_by_user(run_dir: Path, deadline=None) -> None:
     """Ctrl-C ended the batch in ``run_dir``: its ``progress.json`` says so for the episodes it left running
     (:func:`benchbot.batch.progress.mark_interrupted`), one line says how to finish it, and the command exits with
-    ``ExitCode.INTERRUPTED``.
+    ``ExitCode.INTERRUPTED`` (within ``deadline``'s bound, :class:`benchbot.batch.stopping.StopDeadline`).
 
     Raises:
         typer.Exit: always.
@@ -243,7 +248,11 @@ def stopped_by_user(run_dir: Path) -> None:
         mark_interrupted(run_dir)
     except OSError:  # a marker only: the manifest and the episodes' records say what ran
         pass
-    err.print(f"interrupted; finish the batch with: benchbot batch --resume {run_dir}", highlight=False)
+    from benchbot.batch.stopping import resume_line
+
+    err.print(resume_line(run_dir), highlight=False, markup=False)
+    if deadline is not None:
+        deadline.said_resume()
     raise typer.Exit(int(ExitCode.INTERRUPTED))
 
 
@@ -338,12 +347,14 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     return text
 
 
-def _run_with_tui(reg, batch, on_record, **kwargs):
+def _run_with_tui(reg, batch, on_record, deadline, **kwargs):
     """Run the batch (``run_batch(reg, batch, **kwargs)``) in a background thread and the episode table
     (:class:`benchbot.tui.batch_app.BatchApp`) in the foreground; the table closes itself when the batch ends.
 
     ``q`` closes the table and the batch goes on, printing a line per finished episode (``on_record``); Ctrl-C in
-    the table stops the batch as Ctrl-C does without it (:func:`stop_batch_thread`), and raises KeyboardInterrupt.
+    the table stops the batch as Ctrl-C does without it: ``deadline`` is armed
+    (:class:`benchbot.batch.stopping.StopDeadline`: the command is gone within its bound, whatever the thread is
+    doing), KeyboardInterrupt is raised in the thread (:func:`stop_batch_thread`) and here.
     """
     from benchbot.batch.runner import run_batch
     from benchbot.tui.batch_app import BatchApp
@@ -370,33 +381,28 @@ def _run_with_tui(reg, batch, on_record, **kwargs):
     view_open.clear()
     try:
         if app.interrupted:
+            deadline.arm(signal_sent=False)  # the view read Ctrl-C as a key: no process got SIGINT
             raise KeyboardInterrupt
         if thread.is_alive():
             err.print(f"the table was closed; the batch goes on (Ctrl-C stops it; watch it again: benchbot tui {run_dir})")
             while thread.is_alive():
                 thread.join(0.2)
     except KeyboardInterrupt:
-        stop_batch_thread(thread)
+        deadline.arm(signal_sent=True)
+        stop_batch_thread(thread, deadline)
         raise
     if "error" in result:
         raise result["error"]
     return result["outcome"]
 
 
-#: Seconds Ctrl-C waits for a batch thread to stop its episode (server, backend, solution) before exiting anyway.
-STOP_GRACE_S = 10.0
-
-
-def stop_batch_thread(thread: threading.Thread, grace_s: float = STOP_GRACE_S) -> None:
+def stop_batch_thread(thread: threading.Thread, deadline) -> None:
     """Stop a batch running in ``thread`` as Ctrl-C stops one in the main thread: raise KeyboardInterrupt in it
-    (its episode's clean-up runs: the solution is ended, the server stopped, the backend closed) and wait up to
-    ``grace_s`` seconds. A second Ctrl-C while waiting exits at once (the thread is a daemon; solutions end with
-    the process)."""
+    (its episode's clean-up runs: the solution's group is stopped, the server stopped, the backend closed) and wait
+    for it until ``deadline``'s bound is near (after which the deadline ends the process anyway)."""
     import ctypes
 
     if not thread.is_alive() or thread.ident is None:
         return
-    err.print(f"stopping the batch (up to {grace_s:.0f} s; Ctrl-C again exits at once) …")
     ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread.ident), ctypes.py_object(KeyboardInterrupt))
-    thread.join(grace_s)
-
+    thread.join(max(0.0, deadline.bound_s - (time.monotonic() - deadline.armed_at)))

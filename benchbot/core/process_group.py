@@ -254,6 +254,22 @@ class _terminal_guard:
 #: group and raises KeyboardInterrupt (Ctrl-C reaches only the main thread; the ``batched`` executor of a batch
 #: waits for its episodes' solutions on threads of their own).
 _interrupted = threading.Event()
+#: The process groups of this process's :func:`run_child` calls not yet stopped (their leaders' pids).
+_live_groups: set[int] = set()
+_live_lock = threading.Lock()
+
+
+def kill_live_groups() -> list[int]:
+    """SIGKILL every process group a :func:`run_child` of this process started and has not stopped yet (the last
+    resort of a bounded Ctrl-C, :mod:`benchbot.batch.stopping`); returns their ids. Never raises."""
+    with _live_lock:
+        groups = sorted(_live_groups)
+    for pgid in groups:
+        try:
+            os.killpg(pgid, signal.SIGKILL)
+        except OSError:
+            pass
+    return groups
 
 
 def interrupt_children(on: bool = True) -> None:
@@ -303,10 +319,13 @@ def run_child(
         if watch is not None:
             os.close(watch.read_end)  # the child has its own copy
     pump = None
+    with _live_lock:
+        _live_groups.add(child.pid)
     try:
         watchdog = _Watchdog(child.pid, grace)
     except BaseException:
         _stop(child, 0.0, None)
+        _forget(child.pid)
         _release(watch, terminal)
         raise
     timed_out = False
@@ -336,6 +355,7 @@ def run_child(
                     pass
     finally:
         _stop(child, grace, pump)
+        _forget(child.pid)
         watchdog.release()
         _release(watch, terminal)
         if pump is not None:
@@ -344,6 +364,11 @@ def run_child(
             child.stdout.close()
     return ChildOutcome(child.returncode, timed_out, pump.total if pump else 0, bool(pump and pump.truncated),
                         bool(watch and watch.seen))
+
+
+def _forget(pgid: int) -> None:
+    with _live_lock:
+        _live_groups.discard(pgid)
 
 
 def _release(watch: _StdinWatch | None, terminal: _terminal_guard | None) -> None:
