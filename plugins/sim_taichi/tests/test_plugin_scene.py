@@ -22,8 +22,11 @@ def test_robot_spec(carter_spec):
     from benchbot_worlds import bear
     from benchbot_sim_taichi import plugin
 
-    (path,) = plugin.benchbot_robots()
-    assert Path(path).is_file()
+    from benchbot.core.specs import expand_spec_folders
+
+    assert plugin.benchbot_robots() == [plugin.ROBOTS_DIR]  # the folder: every robot spec in it is registered
+    (path,) = expand_spec_folders(plugin.benchbot_robots())
+    assert Path(path).is_file() and Path(path).name == "carter.yaml"
     s = carter_spec
     assert s["name"] == "carter" and s["type"] == "sim_taichi"
     assert s["global_frame"] == "map" and s["robot_frame"] == "robot"
@@ -112,5 +115,14 @@ def test_specs_pass_core_schemas():
         specs.validate(e, "environment", "sim_taichi")
     for g in bear.ground_truth_specs():
         specs.validate(g, "ground_truth", "sim_taichi")
-    (path,) = plugin.benchbot_robots()
+    (path,) = specs.expand_spec_folders(plugin.benchbot_robots())
     specs.validate(specs.load_spec_file(Path(path)), "robot", path)
+
+
+def test_the_registry_reads_the_robots_folder():
+    """``benchbot_robots`` returns ``robots/``: the registry registers each spec file in it (carter), by its path."""
+    from benchbot.core.registry import Registry
+    from benchbot_sim_taichi import plugin
+
+    entry = Registry().entries["robots"]["carter"]
+    assert entry.plugin == "sim_taichi" and entry.path == (plugin.ROBOTS_DIR / "carter.yaml").resolve()
