@@ -132,8 +132,7 @@ def test_moves_are_turns_or_straight_drives_the_controller_follows():
 def test_an_object_behind_a_wall_is_not_seen_from_the_next_room():
     layout, _ = _row()
     hidden = [_obj("box", (2.0, 2.0, 1.0), (0.3, 0.3, 0.3))]
-    through_wall = [pose7(6.0, 2.0 + 1.5, math.pi)]  # in room 1, facing room 0 across the wall x = 4 (no door at y 3.5)
-    through_wall[0][5] = 3.5
+    through_wall = [pose7(6.0, 3.5, math.pi)]  # in room 1, facing room 0 across the wall x = 4 (no door at y 3.5)
     assert unseen_objects(layout, hidden, through_wall) == [0]
     assert unseen_objects(layout, [_obj("box", (2.0, 3.5, 1.0), (0.3, 0.3, 0.3))], through_wall) == [0]
     # the same line of sight through the doorway (y 1.5..2.4) sees it; so does a pose in its own room

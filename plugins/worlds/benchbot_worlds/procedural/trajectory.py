@@ -33,6 +33,8 @@ MAX_STEP_M = 1.0
 VIEWPOINT_SPACING_M = 0.3
 #: Width of the arc of bearings one look covers, degrees (the 90° field of view less a margin).
 LOOK_ARC_DEG = 70.0
+#: At the first viewpoint of each room the robot looks all around, turning at most this much at a time (degrees).
+LOOK_AROUND_DEG = 90.0
 #: How far beyond the wall's face the robot stops before and after a doorway, metres (plus its radius).
 DOOR_CLEAR_M = 0.1
 
@@ -124,6 +126,10 @@ def _viewpoints(layout, fs, mask, points, walls, camera, rng, notes) -> list[lis
         for _, new in picks:
             done[new] = True
         left += objs[~done].tolist()
+    for r in range(rooms):  # a room without objects: a look around from its most central reachable point
+        if not views[r] and len(cands[r]):
+            centre = (fs.room_lo[r] + fs.room_hi[r]) / 2
+            views[r].append((cands[r][int(np.argmin(np.hypot(*(cands[r] - centre).T)))], []))
     if left:  # seen from no candidate of their own room: from another room's
         every = np.concatenate(cands)
         owner = np.concatenate([np.full(len(c), r) for r, c in enumerate(cands)]).astype(np.int64)
@@ -246,9 +252,11 @@ def _cross(drv: _Driver, layout: Layout, door: int, frm: int, to: int) -> bool:
 
 
 def _visit(drv: _Driver, views, points, walls, camera: Camera, room: int, notes: list[str]) -> set[int]:
-    """Drive to a room's viewpoints (nearest first) and look at their objects from each; returns the objects seen
+    """Drive to a room's viewpoints (nearest first) and look at their objects from each (all around from the first:
+    :func:`_around`); returns the objects seen
     (each checked from the poses added, as :func:`~.visibility.unseen_objects` would)."""
     todo, seen = list(range(len(views))), set()
+    first = min(todo, key=lambda i: (float(np.hypot(*(views[i][0] - drv.xy))), i)) if todo else -1
     while todo:
         k = min(todo, key=lambda i: (float(np.hypot(*(views[i][0] - drv.xy))), i))
         todo.remove(k)
@@ -257,7 +265,8 @@ def _visit(drv: _Driver, views, points, walls, camera: Camera, room: int, notes:
             notes.append(f"room {room}: no free path to the viewpoint at {np.round(xy, 3).tolist()}")
             continue
         bearing = {o: math.atan2(points[o, 0, 1] - drv.xy[1], points[o, 0, 0] - drv.xy[0]) for o in objs}
-        yaws = sorted(_look_yaws(list(bearing.values())), key=lambda y: (y - drv.yaw) % (2 * math.pi))
+        yaws = _look_yaws(list(bearing.values()))
+        yaws = sorted(_around(yaws, drv.yaw) if k == first else yaws, key=lambda y: (y - drv.yaw) % (2 * math.pi))
         got = _seen_from(drv.xy, yaws, objs, points, walls, camera)
         missed = [o for o in objs if o not in got]
         got |= _seen_from(drv.xy, [bearing[o] for o in missed], missed, points, walls, camera)
@@ -265,6 +274,19 @@ def _visit(drv: _Driver, views, points, walls, camera: Camera, room: int, notes:
             drv.turn(y)
         seen |= got
     return seen
+
+
+def _around(yaws: list[float], current: float) -> list[float]:
+    """``yaws`` (rad) with yaws added so that, with ``current``, no two neighbours on the circle are more than
+    :data:`LOOK_AROUND_DEG` apart (a look all around the room)."""
+    ring = sorted({round(y % (2 * math.pi), 9) for y in yaws + [current]})
+    step, out = math.radians(LOOK_AROUND_DEG), list(yaws)
+    for a, b in zip(ring, ring[1:] + [ring[0] + 2 * math.pi]):
+        n = int(math.ceil((b - a) / step - 1e-9))
+        out += [_wrap(a + (b - a) * i / n) for i in range(1, n)]
+    if len(ring) == 1:
+        out.append(_wrap(current))  # a full turn: back to where it looked first
+    return out
 
 
 def _seen_from(xy: np.ndarray, yaws: list[float], objs: list[int], points, walls, camera: Camera) -> set[int]:
