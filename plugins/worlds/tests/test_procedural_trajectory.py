@@ -245,3 +245,15 @@ def test_bear_trajectories_seen_objects(name):
     tr = passive_trajectory(layout, objs, 0)
     print(f"{name}: procedural trajectory {len(tr[1])} poses, unseen {tr.unseen}, notes {tr.notes}")
     assert tr.unseen == [] or all("not reachable" in n or "seen" in n for n in tr.notes)
+
+
+def test_an_empty_room_gets_a_look_all_around_and_an_invisible_object_a_note():
+    layout, _ = _one_room()
+    start, poses = passive_trajectory(layout, [], 5)
+    yaws = np.sort(poses_to_se2([start] + poses)[:, 2] % (2 * math.pi))
+    assert len(poses) == 4 and np.diff(np.append(yaws, yaws[0] + 2 * math.pi)).max() <= math.pi / 2 + 1e-4
+    layout, objs = _row()
+    in_the_wall = _obj("speck", (4.0, 3.5, 1.0), (0.05, 0.05, 0.05))  # inside the wall x = 4, beside no door
+    tr = passive_trajectory(layout, objs + [in_the_wall], 0)
+    assert tr.unseen == [len(objs)] and any("speck" in n for n in tr.notes)
+    assert unseen_objects(layout, objs + [in_the_wall], tr[1]) == [len(objs)]

@@ -266,7 +266,7 @@ def _visit(drv: _Driver, views, points, walls, camera: Camera, room: int, notes:
             continue
         bearing = {o: math.atan2(points[o, 0, 1] - drv.xy[1], points[o, 0, 0] - drv.xy[0]) for o in objs}
         yaws = _look_yaws(list(bearing.values()))
-        yaws = sorted(_around(yaws, drv.yaw) if k == first else yaws, key=lambda y: (y - drv.yaw) % (2 * math.pi))
+        yaws = sorted(_around(yaws, drv.yaw) if k == first else yaws, key=lambda y: (y - drv.yaw - 1e-6) % (2 * math.pi))
         got = _seen_from(drv.xy, yaws, objs, points, walls, camera)
         missed = [o for o in objs if o not in got]
         got |= _seen_from(drv.xy, [bearing[o] for o in missed], missed, points, walls, camera)
