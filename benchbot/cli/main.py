@@ -3,17 +3,17 @@
 
 from __future__ import annotations
 
-from typing import Any
-
-import typer
+from typing import TYPE_CHECKING, Any
 
 from benchbot import __version__
-from benchbot.core.errors import ExitCode, UsageError
-from benchbot.cli import (
-    batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, leaderboard_cmd, list_cmd, plugin_cmd, report_cmd, run_cmd,
-    show_cmd, submit_cmd,
-)
-from benchbot.cli import replay_cmd, tui_cmd
+
+if TYPE_CHECKING:
+    import typer
+
+    from benchbot.core.errors import UsageError
+
+# The Typer app and its commands are built on first use (``app``, below): ``benchbot --version`` imports none of
+# them and builds no registry; ``--help`` loads the plugins (their commands) but not their specs.
 
 HELP = """BenchBot: benchmark robotics research on simulated and real robots.
 
@@ -49,27 +49,59 @@ def _no_type_on_flags() -> None:
     TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
 
 
-_no_type_on_flags()
-
 #: -h is --help in every command (as in the original BenchBot); sub-commands and plugins' commands inherit it.
 CONTEXT = {"help_option_names": ["-h", "--help"]}
-app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
-                  context_settings=CONTEXT)
-for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, leaderboard_cmd, install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd):
-    module.register(app)
+
+#: The words of a command line that only ask for the version: answered before anything else is imported.
+VERSION_WORDS = (["--version"], ["-v"])
 
 
 def _version(value: bool) -> None:
+    import typer
+
     if value:
         typer.echo(f"benchbot {__version__}")
         raise typer.Exit()
 
 
-@app.callback()
-def _root(
-    version: bool = typer.Option(False, "--version", "-v", help="Print the version and exit.", callback=_version, is_eager=True),
-) -> None:
-    """BenchBot."""
+def _build_app() -> typer.Typer:
+    """The root Typer app with the core's commands (plugins' commands are added by :func:`main`)."""
+    import typer
+
+    from benchbot.cli import (
+        batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, leaderboard_cmd, list_cmd, plugin_cmd, replay_cmd,
+        report_cmd, run_cmd, show_cmd, submit_cmd, tui_cmd,
+    )
+
+    _no_type_on_flags()
+    root = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
+                       context_settings=CONTEXT)
+    for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, leaderboard_cmd,
+                   install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd):
+        module.register(root)
+
+    @root.callback()
+    def _root(
+        version: bool = typer.Option(False, "--version", "-v", help="Print the version and exit.", callback=_version,
+                                     is_eager=True),
+    ) -> None:
+        """BenchBot."""
+
+    return root
+
+
+def get_app() -> typer.Typer:
+    """The root Typer app, built once (on first use)."""
+    if "app" not in globals():
+        globals()["app"] = _build_app()
+    return globals()["app"]
+
+
+def __getattr__(name: str) -> Any:
+    """``app``, the root Typer app, built on first use (PEP 562)."""
+    if name == "app":
+        return get_app()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _stop_as_on_ctrl_c(signum: int, frame: object) -> None:
@@ -91,6 +123,8 @@ def spaced_comma_list(argv: list[str]) -> UsageError | None:
         if word in SOLUTION_WORDS_FROM:
             argv = argv[:k]
             break
+    from benchbot.core.errors import UsageError
+
     for option, value, after in zip(argv, argv[1:], argv[2:]):
         if option.startswith("--") and "=" not in option and value.endswith(",") and not after.startswith("-"):
             return UsageError(f"{option} {value!r} is followed by {after!r}: a comma list is one word, with no spaces",
@@ -98,21 +132,54 @@ def spaced_comma_list(argv: list[str]) -> UsageError | None:
     return None
 
 
+def asks_only_for_help(argv: list[str]) -> bool:
+    """Whether a command line (its words after the program name) only prints help: no words (the root's help), or
+    ``-h``/``--help`` before the words that are a solution's own. Such a line needs the plugins' commands but not
+    their specs, so :func:`main` loads the plugins without building the registry."""
+    for k, word in enumerate(argv):
+        if word in SOLUTION_WORDS_FROM:
+            argv = argv[:k]
+            break
+    return not argv or any(word in CONTEXT["help_option_names"] for word in argv)
+
+
+def _plugins_for_help() -> Any:
+    """The plugin manager of the installed, enabled plugins, without the registry's specs (for help only); warns on
+    stderr, as the registry does, about plugins that failed to load."""
+    from benchbot.cli.common import err
+    from benchbot.core.plugin_manager import build_plugin_manager
+
+    plugin_manager, plugins = build_plugin_manager()
+    for plugin in plugins:
+        if plugin.status == "failed":
+            err.print(f"[yellow]warning:[/] plugin {plugin.name} ({plugin.distribution}) failed to load: {plugin.error}")
+    return plugin_manager
+
+
 def main() -> None:
-    """Entry point of the ``benchbot`` script."""
+    """Entry point of the ``benchbot`` script. ``benchbot --version`` is answered at once (no command, no plugin
+    imported); help loads the plugins (for their commands) but builds no registry."""
     import signal
     import sys
 
-    from benchbot.cli.common import registry, report
+    argv = sys.argv[1:]
+    if argv in VERSION_WORDS:
+        print(f"benchbot {__version__}")
+        return
 
-    spaced = spaced_comma_list(sys.argv[1:])
+    from benchbot.cli.common import registry, report
+    from benchbot.core.errors import ExitCode
+
+    spaced = spaced_comma_list(argv)
     if spaced is not None:
         report(spaced)
         raise SystemExit(int(ExitCode.USAGE))
 
     signal.signal(signal.SIGTERM, _stop_as_on_ctrl_c)
-    add_plugin_commands(registry().plugin_manager, app)
-    app()
+    root = get_app()
+    plugin_manager = _plugins_for_help() if asks_only_for_help(argv) else registry().plugin_manager
+    add_plugin_commands(plugin_manager, root)
+    root()
 
 
 def add_plugin_commands(plugin_manager: Any, cli_app: typer.Typer) -> list[str]:

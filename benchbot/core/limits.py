@@ -268,6 +268,11 @@ MAX_RETRIES = Limit(100, "BENCHBOT_MAX_RETRIES", "retries", integer=True, meanin
 MAX_SEED = Limit((1 << 32) - 1, None, "", integer=True, meaning="--seed")
 """``--seed`` (``batch``, ``run``, ``ros2 sim``, ``sim render``) lies in 0 to this (NumPy's 32-bit seeds)."""
 
+DEFAULT_ACTION_TIMEOUT_S = 120.0
+"""Seconds after which an action answers 504 (the episode stays usable), unless ``run --action-timeout`` says
+otherwise (:func:`benchbot.core.server.build_app`); a default, not a :class:`Limit`, kept here so that the command
+line reads it without importing the server."""
+
 MAX_RENDER_SAMPLES = Limit(4096, None, "samples", integer=True, meaning="sim render --spp and --shadow-samples")
 """``benchbot sim render --spp`` and ``--shadow-samples``: rays per pixel (the renderer packs them in float32)."""
 

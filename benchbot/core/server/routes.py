@@ -50,11 +50,11 @@ from benchbot.core.server.ownership import (
 )
 from benchbot.core.server.request_decoding import PARSE_OFF_LOOP_BYTES, parse_json_body, parse_step_body
 from benchbot.core.server.service import BackendService
+from benchbot.core.limits import DEFAULT_ACTION_TIMEOUT_S
 from benchbot.core.shared_frames import is_loopback
 
 SUPERVISOR_GREETING = "Hello, I am the BenchBot supervisor"
 MSGPACK = wire.MSGPACK_TYPE
-DEFAULT_ACTION_TIMEOUT_S = 120.0
 
 
 def encode_jsonpickle(value: Any) -> str:

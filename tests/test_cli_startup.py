@@ -1,0 +1,70 @@
+"""What ``benchbot --version`` and ``--help`` load: the version imports no command and builds no registry; help
+loads the plugins (their commands are listed) but builds no registry; a command builds it as before."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from benchbot.cli.main import asks_only_for_help
+
+PROBE = """
+import contextlib, io, json, sys
+sys.argv = ["benchbot", *json.loads(sys.argv[1])]
+out = io.StringIO()
+code = 0
+with contextlib.redirect_stdout(out):
+    try:
+        from benchbot.cli.main import main
+        main()
+    except SystemExit as exc:
+        code = exc.code or 0
+registry = sys.modules.get("benchbot.core.registry")
+print(json.dumps({
+    "code": code, "out": out.getvalue(),
+    "commands_imported": "benchbot.cli.batch_cmd" in sys.modules,
+    "registry_built": bool(registry and registry.get_registry.cache_info().currsize),
+}))
+"""
+
+
+def probe(*args: str) -> dict:
+    done = subprocess.run([sys.executable, "-c", PROBE, json.dumps(list(args))], capture_output=True, text=True,
+                          timeout=120, env={**__import__("os").environ, "COLUMNS": "160"})
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("flag", ["--version", "-v"])
+def test_version_imports_no_command_and_builds_no_registry(flag: str) -> None:
+    from benchbot import __version__
+
+    got = probe(flag)
+    assert got["out"] == f"benchbot {__version__}\n" and got["code"] == 0
+    assert not got["commands_imported"] and not got["registry_built"]
+
+
+def test_help_lists_plugin_commands_without_building_the_registry() -> None:
+    got = probe("--help")
+    assert got["code"] == 0 and not got["registry_built"]
+    assert "batch" in got["out"] and " sim " in got["out"]  # a core command and sim_taichi's (benchbot_commands)
+    plugin_help = probe("sim", "--help")
+    assert plugin_help["code"] == 0 and not plugin_help["registry_built"] and "render" in plugin_help["out"]
+
+
+def test_a_command_still_builds_the_registry() -> None:
+    got = probe("list", "tasks")
+    assert got["code"] == 0 and got["registry_built"]
+
+
+@pytest.mark.parametrize(("argv", "only_help"), [
+    ([], True), (["--help"], True), (["-h"], True), (["batch", "--help"], True), (["sim", "render", "-h"], True),
+    (["list", "tasks"], False), (["--version"], False),
+    (["submit", "--native", "python", "my.py", "-h"], False),  # the solution's own -h
+    (["submit", "-a", "--help"], False),
+])
+def test_asks_only_for_help(argv: list[str], only_help: bool) -> None:
+    assert asks_only_for_help(argv) is only_help
