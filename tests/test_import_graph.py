@@ -119,3 +119,13 @@ def test_every_plugin_declares_the_first_party_packages_it_imports():
                     if top.startswith("benchbot") and top not in own | declared | {"benchbot", "benchbot_api"}:
                         undeclared.append(f"{path.relative_to(ROOT)}: {top}")
     assert undeclared == [], undeclared
+
+
+def test_the_core_imports_no_client():
+    """The core (backend, supervisor, registry) never imports the client, :mod:`benchbot.api` (what both need, as
+    the one-off request of :mod:`benchbot.core.solution_lease`, lives in the core)."""
+    edges = import_graph(PACKAGES["benchbot"], "benchbot")
+    core = {name for name in edges if name.startswith("benchbot.core")}
+    assert len(core) > 10
+    assert {name: sorted(t for t in edges[name] if t.startswith("benchbot.api")) for name in core
+            if any(t.startswith("benchbot.api") for t in edges[name])} == {}

@@ -37,6 +37,8 @@ import numpy as np
 
 from benchbot.core import settings, shared_frames, wire
 from benchbot.core.errors import BenchbotError
+# one request on a connection of its own, and the TLS context of an address: the core's (re-exported here)
+from benchbot.core.wire import ConnectTimeout, ReadTimeout, request_once, tls_context
 
 if TYPE_CHECKING:
     from benchbot.core.server import BackendService
@@ -55,23 +57,6 @@ class ActionResult(enum.Enum):
     SUCCESS = 0
     FINISHED = 1
     COLLISION = 2
-
-
-def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | None:
-    """The TLS context a client uses for ``address``: None for ``http://``; for ``https://`` one that trusts the
-    certificate authorities in ``ca_file``, else in ``$BENCHBOT_CA_FILE``, else the system's.
-
-    Raises:
-        ValueError: the authorities' file is missing or holds no PEM certificate (the message names it).
-    """
-    if urllib.parse.urlsplit(address).scheme != "https":
-        return None
-    source, path = ("ca_file", ca_file) if ca_file else ("BENCHBOT_CA_FILE", settings.get("BENCHBOT_CA_FILE"))
-    try:
-        return ssl.create_default_context(cafile=path)
-    except (OSError, ssl.SSLError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
-        raise ValueError(f"{source}={path} cannot be used as certificate authorities ({reason})") from None
 
 
 class BackendRefusal(Exception):
@@ -470,59 +455,6 @@ class HttpTransport:
         for mapping in self._mappings:
             mapping.close()
         self._mappings.clear()
-
-
-class ConnectTimeout(TimeoutError):
-    """:func:`request_once`: nothing accepted the connection in time."""
-
-
-class ReadTimeout(TimeoutError):
-    """:func:`request_once`: the connection was accepted but no answer came in time."""
-
-
-def request_once(address: str, method: str, route: str, *, body: bytes | None = None,
-                 headers: dict[str, str] | None = None, connect_timeout_s: float = 5.0,
-                 read_timeout_s: float = 5.0) -> tuple[int, bytes]:
-    """One request to the backend at ``address`` on a connection of its own, closed after it: how a supervisor
-    looks at a backend without being its client (``benchbot submit``'s checks, the release of a solution that has
-    ended). Over the standard library's :mod:`http.client`, as :class:`HttpTransport`; TLS as :func:`tls_context`.
-
-    Args:
-        address: ``http://host:port/`` or ``https://host:port/``. method, route: e.g. ``"GET"``, ``"robot/run_info"``.
-        body, headers: the request's (add :data:`TOKEN_HEADER` where the backend wants a token).
-        connect_timeout_s: seconds to connect (and, for HTTPS, to shake hands). read_timeout_s: seconds for each
-            read of the answer.
-
-    Returns:
-        ``(HTTP status, body)``.
-
-    Raises:
-        ConnectTimeout, ReadTimeout: as named. OSError: refused, unreachable, TLS failures (``ssl.SSLError``) and
-            other socket errors; ``http.client.HTTPException`` for a malformed answer. ValueError: a bad
-            ``$BENCHBOT_CA_FILE``.
-    """
-    import socket
-
-    url = urllib.parse.urlsplit(address)
-    tls = tls_context(address)
-    host, port = url.hostname or "127.0.0.1", url.port or (443 if tls else 80)
-    conn: http.client.HTTPConnection = (http.client.HTTPSConnection(host, port, timeout=connect_timeout_s, context=tls)
-                                        if tls else http.client.HTTPConnection(host, port, timeout=connect_timeout_s))
-    try:
-        try:
-            conn.connect()
-        except (socket.timeout, TimeoutError):
-            raise ConnectTimeout(f"nothing at {address} accepted a connection within {connect_timeout_s:g} s") from None
-        conn.sock.settimeout(read_timeout_s)
-        try:
-            conn.request(method, f"{url.path.rstrip('/')}/{route.lstrip('/')}", body=body, headers=headers or {})
-            reply = conn.getresponse()
-            return reply.status, reply.read()
-        except (socket.timeout, TimeoutError):
-            raise ReadTimeout(f"{address} accepted the connection but did not answer within {read_timeout_s:g} s") \
-                from None
-    finally:
-        conn.close()
 
 
 def _release_episode(pid: int, host: str, port: int, tls: ssl.SSLContext | None, base_path: str,

@@ -35,21 +35,20 @@ def new_client_id() -> str:
 
 def _request(address: str, route: str, *, client_id: str | None = None, body: dict | None = None) -> tuple[int, Any]:
     """``POST route`` with a JSON ``body`` (as ``client_id`` when given, with ``$BENCHBOT_TOKEN`` when set), on a
-    connection of its own (the client's :func:`~benchbot.api.benchbot.request_once`): ``(status, parsed JSON)``.
+    connection of its own (:func:`~benchbot.core.wire.request_once`, which the client uses too): ``(status,
+    parsed JSON)``.
 
     Raises:
         OSError, http.client.HTTPException, ValueError: no answer, or one that is not JSON.
     """
-    from benchbot.api.benchbot import request_once
-
     headers = {"content-type": "application/json"}
     if client_id:
         headers[wire.CLIENT_HEADER] = client_id
     token = settings.get("BENCHBOT_TOKEN")
     if token:
         headers[wire.TOKEN_HEADER] = token
-    status, data = request_once(address, "POST", route, body=json.dumps(body or {}).encode(), headers=headers,
-                                connect_timeout_s=TIMEOUT_S, read_timeout_s=TIMEOUT_S)
+    status, data = wire.request_once(address, "POST", route, body=json.dumps(body or {}).encode(), headers=headers,
+                                     connect_timeout_s=TIMEOUT_S, read_timeout_s=TIMEOUT_S)
     return status, json.loads(data) if data else None
 
 

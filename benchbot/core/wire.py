@@ -4,15 +4,23 @@ An ndarray travels as ``{"__ndarray__": dtype str, "shape": [...], "data": raw C
 same-host shared-memory path (:mod:`benchbot.core.shared_frames`), as ``{"__shm__": dtype str, "shape": [...],
 "offset": bytes}`` pointing into the client's segment; tuples become lists; NumPy scalars become Python numbers.
 No pickle: decoding never executes code.
+
+Also the HTTP of a request on a connection of its own (:func:`request_once`, how a supervisor looks at a backend
+without being its client) and the TLS context of an address (:func:`tls_context`), which the client
+(:mod:`benchbot.api`) and the supervisor (:mod:`benchbot.core.solution_lease`, ``benchbot submit``) share.
 """
 
 from __future__ import annotations
 
+import http.client
+import ssl
+import urllib.parse
 from typing import Any, Callable
 
 import msgpack
 import numpy as np
 
+from benchbot.core import settings
 from benchbot.core.errors import BenchbotError
 
 _ND = "__ndarray__"
@@ -85,3 +93,73 @@ def unpack(data: bytes, fetch: Callable[[str, list, int], np.ndarray] | None = N
         raise
     except Exception as exc:
         raise BenchbotError(f"malformed payload: {exc}", "send MessagePack made by benchbot.core.wire.pack") from None
+
+
+def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | None:
+    """The TLS context a client uses for ``address``: None for ``http://``; for ``https://`` one that trusts the
+    certificate authorities in ``ca_file``, else in ``$BENCHBOT_CA_FILE``, else the system's.
+
+    Raises:
+        ValueError: the authorities' file is missing or holds no PEM certificate (the message names it).
+    """
+    if urllib.parse.urlsplit(address).scheme != "https":
+        return None
+    source, path = ("ca_file", ca_file) if ca_file else ("BENCHBOT_CA_FILE", settings.get("BENCHBOT_CA_FILE"))
+    try:
+        return ssl.create_default_context(cafile=path)
+    except (OSError, ssl.SSLError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise ValueError(f"{source}={path} cannot be used as certificate authorities ({reason})") from None
+
+
+class ConnectTimeout(TimeoutError):
+    """:func:`request_once`: nothing accepted the connection in time."""
+
+
+class ReadTimeout(TimeoutError):
+    """:func:`request_once`: the connection was accepted but no answer came in time."""
+
+
+def request_once(address: str, method: str, route: str, *, body: bytes | None = None,
+                 headers: dict[str, str] | None = None, connect_timeout_s: float = 5.0,
+                 read_timeout_s: float = 5.0) -> tuple[int, bytes]:
+    """One request to the backend at ``address`` on a connection of its own, closed after it: how a supervisor
+    looks at a backend without being its client (``benchbot submit``'s checks, the release of a solution that has
+    ended). Over the standard library's :mod:`http.client`, as :class:`HttpTransport`; TLS as :func:`tls_context`.
+
+    Args:
+        address: ``http://host:port/`` or ``https://host:port/``. method, route: e.g. ``"GET"``, ``"robot/run_info"``.
+        body, headers: the request's (add :data:`TOKEN_HEADER` where the backend wants a token).
+        connect_timeout_s: seconds to connect (and, for HTTPS, to shake hands). read_timeout_s: seconds for each
+            read of the answer.
+
+    Returns:
+        ``(HTTP status, body)``.
+
+    Raises:
+        ConnectTimeout, ReadTimeout: as named. OSError: refused, unreachable, TLS failures (``ssl.SSLError``) and
+            other socket errors; ``http.client.HTTPException`` for a malformed answer. ValueError: a bad
+            ``$BENCHBOT_CA_FILE``.
+    """
+    import socket
+
+    url = urllib.parse.urlsplit(address)
+    tls = tls_context(address)
+    host, port = url.hostname or "127.0.0.1", url.port or (443 if tls else 80)
+    conn: http.client.HTTPConnection = (http.client.HTTPSConnection(host, port, timeout=connect_timeout_s, context=tls)
+                                        if tls else http.client.HTTPConnection(host, port, timeout=connect_timeout_s))
+    try:
+        try:
+            conn.connect()
+        except (socket.timeout, TimeoutError):
+            raise ConnectTimeout(f"nothing at {address} accepted a connection within {connect_timeout_s:g} s") from None
+        conn.sock.settimeout(read_timeout_s)
+        try:
+            conn.request(method, f"{url.path.rstrip('/')}/{route.lstrip('/')}", body=body, headers=headers or {})
+            reply = conn.getresponse()
+            return reply.status, reply.read()
+        except (socket.timeout, TimeoutError):
+            raise ReadTimeout(f"{address} accepted the connection but did not answer within {read_timeout_s:g} s") \
+                from None
+    finally:
+        conn.close()
