@@ -11,7 +11,7 @@ from benchbot.core.errors import UsageError
 
 #: Floor tint per room kind in the figure.
 ROOM_COLOURS = {"kitchen": "#f6e7c8", "bathroom": "#d5ecf2", "bedroom": "#e8dcf0", "living_room": "#e3efd5",
-                "office": "#f0e0d6", "hall": "#eeeeee"}
+                "dining_room": "#f3ddd0", "office": "#f0e0d6", "hall": "#eeeeee"}
 
 
 def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title: str | None = None,
@@ -28,13 +28,24 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
 
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
-        from matplotlib.patches import Rectangle
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise UsageError("drawing a floor plan needs matplotlib, which is not installed",
                          "install the vis extra: pip install 'benchbot[vis]'") from e
     size = plan.outer_hi - plan.outer_lo + 2 * plan.wall_thickness
     scale = 9.0 / max(size)
     fig, ax = plt.subplots(figsize=(max(4.0, size[0] * scale + 1.5), max(4.0, size[1] * scale + 0.8)))
+    draw_plan(ax, plan, objects, paths, title=title)
+    out = Path(out_path)
+    fig.savefig(out, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return out
+
+
+def draw_plan(ax, plan, objects: list[dict], paths: list, *, title: str | None = None, small: bool = False) -> None:
+    """Draw ``plan`` with ``objects`` and ``paths`` (as :func:`save_plan_figure`) on the matplotlib axes ``ax``;
+    ``small``: for a grid of many plans (smaller labels, no object names, no legend)."""
+    from matplotlib.patches import Rectangle
+
     boxes = [(np.asarray(o["centroid"], float)[:2] - np.asarray(o["extent"], float)[:2] / 2,
               np.asarray(o["centroid"], float)[:2] + np.asarray(o["extent"], float)[:2] / 2) for o in objects]
     pts = np.concatenate([np.asarray(p, float).reshape(-1, 2) for p in paths]) if paths else np.zeros((0, 2))
@@ -42,7 +53,7 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
         ax.add_patch(Rectangle(r.lo, *(r.hi - r.lo), facecolor=ROOM_COLOURS.get(r.kind, "#eeeeee"),
                                edgecolor="none", zorder=0))
         c = _label_spot(r, boxes, pts)
-        ax.text(c[0], c[1], f"{r.index}: {r.kind.replace('_', ' ')}", ha="center", va="center", fontsize=9,
+        ax.text(c[0], c[1], f"{r.index}: {r.kind.replace('_', ' ')}", ha="center", va="center", fontsize=5 if small else 9,
                 color="#444444", zorder=7, fontweight="bold",
                 bbox={"facecolor": "white", "alpha": 0.6, "edgecolor": "none", "pad": 1.0})
     for w in plan.walls:
@@ -60,7 +71,8 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
         e = np.asarray(o["extent"], dtype=float)
         ax.add_patch(Rectangle(c[:2] - e[:2] / 2, e[0], e[1], facecolor="none", edgecolor="#2c7a3f", lw=0.7,
                                zorder=4))
-        ax.text(c[0], c[1], str(o["class"]), fontsize=4.5, ha="center", va="center", color="#1b4d27", zorder=6)
+        if not small:
+            ax.text(c[0], c[1], str(o["class"]), fontsize=4.5, ha="center", va="center", color="#1b4d27", zorder=6)
     for k, p in enumerate(paths):
         p = np.asarray(p, dtype=float)
         label = "robot path" if len(paths) == 1 else f"path {k + 1}"
@@ -74,18 +86,14 @@ def save_plan_figure(plan, objects: list[dict], paths: list, out_path, *, title:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.tick_params(labelsize=7)
-    if paths:
+    if paths and not small:
         ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     n_doors = sum(o.kind == "door" and o.leaf for o in plan.openings)
     n_open = sum(o.kind == "door" and not o.leaf for o in plan.openings)
     n_windows = sum(o.kind == "window" for o in plan.openings)
     summary = (f"{len(plan.rooms)} rooms, {n_doors} doors (red), {n_open} open passages (orange), {n_windows} windows "
                f"(blue), {len(plan.lights)} lamps (stars)")
-    ax.set_title(f"{title}\n{summary}" if title else summary, fontsize=9)
-    out = Path(out_path)
-    fig.savefig(out, dpi=dpi, bbox_inches="tight")
-    plt.close(fig)
-    return out
+    ax.set_title(f"{title}\n{summary}" if title else summary, fontsize=5 if small else 9)
 
 
 def _label_spot(room, boxes, pts) -> np.ndarray:
