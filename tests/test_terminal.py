@@ -106,6 +106,8 @@ def test_q_closes_the_batch_view_and_the_batch_goes_on(tmp_path):
         assert term.wait(300) == 0, term.text[-2000:]
         assert "the table was closed; the batch goes on" in term.text
         assert "[1/1] miniroom:4  ok  33 steps" in term.text  # the line printed when the view is gone
+        after_q = term.text.split("the table was closed; the batch goes on")[1].split("[1/1] miniroom:4  ok")[0]
+        assert "[1/1] miniroom:4  " in after_q, after_q  # what the episode is doing, not a silence
 
 
 @pytest.mark.slow
@@ -132,6 +134,10 @@ def test_batch_without_a_terminal_prints_each_episode_as_it_finishes(tmp_path):
                 assert proc.poll() is None  # printed while the batch still runs, not at the end
                 break
         assert any(l.startswith("[1/2] miniroom:4  ok  33 steps") for l in lines), lines
+        said = "".join(lines).split("[1/2] miniroom:4  ok")[0]  # what the first episode did, before it ended
+        assert "[1/2] miniroom:4  starting …" in said and "[1/2] miniroom:4  the backend is ready" in said, said
+        assert "building the scene" in said or "loading the scene" in said, said
+        assert "\x1b[" not in said  # plain lines in a log
         rest, _ = proc.communicate(timeout=300)[1], None
         assert proc.returncode == 0, rest
         assert "[2/2] miniroom:1  ok  48 steps" in rest and "2 episodes: 2 ok in " in rest
@@ -190,3 +196,38 @@ def test_a_native_command_with_unbalanced_quotes_is_one_line(tmp_path):
     with pytest.raises(UsageError, match="No closing quotation") as info:
         check_native_files('python "my solution.py', tmp_path)
     assert "\n" not in info.value.message and "balance its quotes" in info.value.hint
+
+
+def test_a_quiet_episode_is_described_every_few_seconds():
+    from benchbot.batch.narration import Narrator
+
+    lines: list[str] = []
+    with Narrator(lines.append, {0: "[1/1] miniroom:1"}, {0: 48}, quiet_s=0.5) as narrator:
+        narrator.event("start", 0, None)
+        narrator.event("stage", 0, {"stage": "baking light (12/29)"})
+        narrator.event("stage", 0, {"stage": "baking light (13/29)"})  # the same stage: no new line
+        deadline = time.monotonic() + 30
+        while not any("baking light (13/29) …, " in l for l in lines) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        narrator.event("stage", 0, {"stage": ""})
+        narrator.event("step", 0, {"step": 1})
+        narrator.event("step", 0, {"step": 7})
+        while not any("step 7 of 48 (the solution runs)" in l for l in lines) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        narrator.event("end", 0, None)
+    assert lines[:2] == ["[1/1] miniroom:1  starting …", "[1/1] miniroom:1  baking light (12/29) …"], lines
+    assert lines[2].startswith("[1/1] miniroom:1  baking light (13/29) …, 0:0"), lines  # said again when quiet
+    assert "[1/1] miniroom:1  the backend is ready; the solution runs …" in lines
+    assert any(l.startswith("[1/1] miniroom:1  step 7 of 48 (the solution runs), 0:0") for l in lines), lines
+
+
+def test_a_closed_view_says_what_the_running_episodes_wait_for():
+    from benchbot.batch.narration import Narrator
+
+    lines: list[str] = []
+    narrator = Narrator(lines.append, {0: "[1/2] miniroom:4", 1: "[2/2] miniroom:1"}, {0: 33}, speaking=False)
+    narrator.event("start", 0, None)
+    narrator.event("step", 0, {"step": 5})
+    assert lines == []  # the view shows it
+    narrator.speak()
+    assert len(lines) == 1 and lines[0].startswith("[1/2] miniroom:4  step 5 of 33 (the solution runs), 0:00"), lines

@@ -163,22 +163,32 @@ def register(app: typer.Typer) -> None:
             if kind == "lost":
                 err.print(lost_line(info or {}, label[index]), highlight=False)
 
+        from benchbot.batch.narration import Narrator
         from benchbot.batch.stopping import StopDeadline, interrupts_arm
+
+        runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
+        expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
+        # what an episode is doing, in plain lines, where nothing live shows it (a log; the view closed with q)
+        narrator = Narrator(lambda line: err.print(line, highlight=False, markup=False), label, expected,
+                            speaking=not is_tty())
+
+        def on_log_event(kind: str, index: int, info: dict | None) -> None:
+            narrator.event(kind, index, info)
+            print_lost(kind, index, info)
 
         started = time.monotonic()
         deadline = StopDeadline(run_dir, say=lambda line: err.print(line, highlight=False, markup=False))
         try:
-            with interrupts_arm(deadline):  # Ctrl-C: the command is gone within STOP_BOUND_S, by construction
+            with interrupts_arm(deadline), narrator:  # Ctrl-C: the command is gone within STOP_BOUND_S, by design
                 if is_tty() and not no_tui:
-                    outcome = _run_with_tui(reg, batch, print_line, deadline, workers=workers, retries=retries,
-                                            executor=executor, ray_address=ray_address, ray_cluster=cluster)
+                    outcome = _run_with_tui(reg, batch, print_line, deadline, narrator, workers=workers,
+                                            retries=retries, executor=executor, ray_address=ray_address,
+                                            ray_cluster=cluster, on_event=on_log_event)
                 elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
                     outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                        ray_address=ray_address, on_record=print_line, on_event=print_lost,
+                                        ray_address=ray_address, on_record=print_line, on_event=on_log_event,
                                         ray_cluster=cluster)
                 else:
-                    runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
-                    expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
                     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
                                   TimeElapsedColumn(), console=err) as progress:
                         rows: dict[int, int] = {}
@@ -347,11 +357,13 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     return text
 
 
-def _run_with_tui(reg, batch, on_record, deadline, **kwargs):
+def _run_with_tui(reg, batch, on_record, deadline, narrator, **kwargs):
     """Run the batch (``run_batch(reg, batch, **kwargs)``) in a background thread and the episode table
     (:class:`benchbot.tui.batch_app.BatchApp`) in the foreground; the table closes itself when the batch ends.
 
-    ``q`` closes the table and the batch goes on, printing a line per finished episode (``on_record``); Ctrl-C in
+    ``q`` closes the table and the batch goes on, printing a line per finished episode (``on_record``) and what the
+    running ones are doing (``narrator``, :class:`benchbot.batch.narration.Narrator`, which ``kwargs['on_event']``
+    feeds); Ctrl-C in
     the table stops the batch as Ctrl-C does without it: ``deadline`` is armed
     (:class:`benchbot.batch.stopping.StopDeadline`: the command is gone within its bound, whatever the thread is
     doing), KeyboardInterrupt is raised in the thread (:func:`stop_batch_thread`) and here.
@@ -385,6 +397,7 @@ def _run_with_tui(reg, batch, on_record, deadline, **kwargs):
             raise KeyboardInterrupt
         if thread.is_alive():
             err.print(f"the table was closed; the batch goes on (Ctrl-C stops it; watch it again: benchbot tui {run_dir})")
+            narrator.speak()
             while thread.is_alive():
                 thread.join(0.2)
     except KeyboardInterrupt:
