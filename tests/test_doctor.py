@@ -42,3 +42,20 @@ def test_doctor_fails_without_the_simulator(tmp_path):
     assert proc.returncode == 1 and report["ok"] is False
     content = next(c for c in report["checks"] if c["name"] == "main-job content")
     assert not content["ok"] and "sim_taichi" in content["detail"] and content["fix"]
+
+
+def test_doctor_into_a_log_says_each_check_as_it_starts():
+    proc = doctor("--no-render")
+    assert json.loads(proc.stdout)["checks"]  # stdout keeps the JSON alone
+    lines = proc.stderr.splitlines()
+    for what in ("Python", "the installed packages", "the plugins", "the solution sandbox", "the data directory"):
+        assert f"checking {what} …" in lines, lines
+    assert "\x1b[" not in proc.stderr  # plain lines in a log
+
+
+def test_doctor_names_the_packages_as_a_user_reads_them():
+    from benchbot.cli.doctor_cmd import check_packages
+
+    detail = check_packages().detail
+    assert detail.startswith("benchbot ") and "; plugins of the main job: worlds " in detail
+    assert "; libraries: taichi " in detail and "benchbot-" not in detail

@@ -88,7 +88,10 @@ def check_packages() -> Check:
              "numpy", "scipy", "pluggy", "jsonschema"]
     versions = {n: _version(n) or "missing" for n in names}
     missing = [n for n in names[:5] if versions[n] == "missing"]
-    return Check("packages", not missing, True, ", ".join(f"{n} {v}" for n, v in versions.items()),
+    plugins = ", ".join(f"{n.removeprefix('benchbot-')} {versions[n]}" for n in names[1:5])
+    libraries = ", ".join(f"{n} {versions[n]}" for n in names[5:])
+    detail = f"benchbot {versions['benchbot']}; plugins of the main job: {plugins}; libraries: {libraries}"
+    return Check("packages", not missing, True, detail,
                  f"install them: benchbot install {' '.join(missing)}  (in the repo: uv sync)" if missing else "")
 
 
@@ -118,8 +121,10 @@ def check_plugins() -> list[Check]:
 def check_render(arch: str, timeout_s: float) -> Check:
     required = arch == "cpu"
     fixes = {"cpu": "reinstall taichi (uv pip install --reinstall taichi); see the error above",
-             "cuda": "install an NVIDIA driver with CUDA support (nvidia-smi must work); not needed: cpu is the default",
-             "vulkan": "install a Vulkan driver/ICD (vulkaninfo must work); not needed: cpu is the default"}
+             "cuda": "optional (the CPU is the default): for GPU rendering install an NVIDIA driver with CUDA "
+                     "(nvidia-smi must work)",
+             "vulkan": "optional (the CPU is the default; the simulator does not render on Vulkan): install a Vulkan "
+                       "driver (vulkaninfo must work)"}
     # a file, not -c: Taichi reads the kernels' source code
     with tempfile.TemporaryDirectory(prefix="benchbot-doctor-") as tmp:
         script = os.path.join(tmp, "render_check.py")
@@ -141,7 +146,9 @@ def check_render(arch: str, timeout_s: float) -> Check:
     except (ValueError, IndexError):
         return Check(f"taichi {arch}", False, required, "no result printed", fixes[arch])
     if arch != "cpu" and arch not in result["arch"]:
-        return Check(f"taichi {arch}", False, False, f"not available (Taichi fell back to {result['arch']})", fixes[arch])
+        fell_back = "the CPU" if result["arch"] in ("x64", "arm64", "cpu") else result["arch"]
+        return Check(f"taichi {arch}", False, False, f"no {arch.upper() if arch == 'cuda' else arch.title()} device "
+                     f"(Taichi ran on {fell_back} instead)", fixes[arch])
     return Check(f"taichi {arch}", True, required, f"{result['render']} in {result['seconds']} s")
 
 
@@ -227,12 +234,13 @@ def run_checks(render: bool = True, timeout_s: float = 180.0, on_check: Callable
         result = check()
         return result if isinstance(result, list) else [result]
 
-    checks = step("Python and packages", check_python) + step("Python and packages", check_packages)
+    checks = step("Python", check_python) + step("the installed packages", check_packages)
     checks += step("the plugins", check_plugins)
     if render:
         for arch in ("cpu", "cuda", "vulkan"):
             limit = timeout_s if arch == "cpu" else min(timeout_s, 90.0)
-            checks += step(f"a frame rendered on {arch} (the first run compiles kernels: up to {limit:.0f} s)",
+            what = "one kernel run" if arch == "vulkan" else "one rendered frame"
+            checks += step(f"Taichi on {arch}: {what} (the first run compiles kernels: up to {limit:.0f} s)",
                            lambda arch=arch, limit=limit: check_render(arch, limit))
     for what, check in (
         ("the GPU", check_gpu),
@@ -258,7 +266,10 @@ def register(app: typer.Typer) -> None:
         """Check this machine: Python and packages, plugins, Taichi backends (one rendered frame each), GPU, ROS,
         the solution sandbox (bubblewrap), Docker/Podman, Ray, port 10000, the data directory; and show BenchBot's settings (environment variables)
         with their effective values and where each comes from. Exit code 0 when the default main job can run."""
-        if as_json or not is_tty():
+        if not is_tty():  # a log or a pipe: a plain line per check as it starts (on stderr; --json's on stdout)
+            checks = run_checks(render, timeout,
+                                on_check=lambda what: err.print(f"checking {what} …", highlight=False, markup=False))
+        elif as_json:
             checks = run_checks(render, timeout)
         else:
             with err.status("checking …", spinner="dots") as status:
