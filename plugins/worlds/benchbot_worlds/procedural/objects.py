@@ -25,7 +25,7 @@ keyboard and mouse on it; side tables in bedrooms; potted plants and persons sta
 top); potted plants on the floor or a table. Every floor object lies inside its room's clear floor, overlaps no
 other object, keeps the door approaches (:data:`DOOR_APPROACH_M` deep on both sides of each door) clear, and the
 room's floor stays connected for a robot of radius :data:`ROBOT_RADIUS_M` (every door's approach in one free
-component of an occupancy grid). An object that finds no place in :data:`PLACE_TRIES` draws is dropped and noted.
+component of an occupancy grid, holding :data:`MAIN_FREE_FRACTION` of the free floor). An object that finds no place in :data:`PLACE_TRIES` draws is dropped and noted.
 """
 
 from __future__ import annotations
@@ -78,11 +78,13 @@ DESK_CLASSES = ("laptop", "keyboard", "mouse")
 #: Least objects per m² of floor; the robot's radius (m); door approach depth (m); gaps (m); draws per object.
 DENSITY_PER_M2 = 0.8
 ROBOT_RADIUS_M = 0.35
-DOOR_APPROACH_M = 0.7
+DOOR_APPROACH_M = 0.85  # >= the 0.7 m asked; the trajectory stops 0.1 m + its radius beyond a wall's face
 WALL_GAP_M = 0.03
 OBJECT_GAP_M = 0.05
 PLACE_TRIES = 30
 GRID_M = 0.05
+#: The door's free component holds at least this fraction of a room's free floor.
+MAIN_FREE_FRACTION = 0.9
 MAX_OBJECTS = 320
 
 
@@ -143,22 +145,33 @@ class RoomSpace:
             lo[1 - d.axis], hi[1 - d.axis] = d.lo - 0.1, d.hi + 0.1
             self.keep_out.append((lo, hi))
             p = d.centre.copy()
-            p[d.axis] += (0.5 if room.lo[d.axis] >= d.pos - 1e-9 else -0.5)
+            p[d.axis] += (0.5 if room.lo[d.axis] >= d.pos - 1e-9 else -0.5) * 1.1  # (the stop: 0.51)
             self.doors.append(p)
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []  # floor objects' xy boxes
+        self._cache = None
 
     def fits(self, lo: np.ndarray, hi: np.ndarray, gap: float = OBJECT_GAP_M) -> bool:
         """Whether the xy box lo..hi lies in the clear floor and clear of door approaches and floor boxes."""
-        if np.any(lo < self.lo + WALL_GAP_M - 1e-9) or np.any(hi > self.hi - WALL_GAP_M + 1e-9):
+        if (lo[0] < self.lo[0] + WALL_GAP_M - 1e-9 or lo[1] < self.lo[1] + WALL_GAP_M - 1e-9
+                or hi[0] > self.hi[0] - WALL_GAP_M + 1e-9 or hi[1] > self.hi[1] - WALL_GAP_M + 1e-9):
             return False
         for a, b in self.keep_out:
-            if np.all(lo < b) and np.all(hi > a):
+            if lo[0] < b[0] and lo[1] < b[1] and hi[0] > a[0] and hi[1] > a[1]:
                 return False
-        return all(not (np.all(lo < b + gap) and np.all(hi > a - gap)) for a, b in self.boxes)
+        if not self.boxes:
+            return True
+        a, b = self._arrays()
+        return not bool(np.any(np.all(lo < b + gap, axis=1) & np.all(hi > a - gap, axis=1)))
+
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._cache is None or len(self._cache[0]) != len(self.boxes):
+            self._cache = (np.array([a for a, _ in self.boxes]), np.array([b for _, b in self.boxes]))
+        return self._cache
 
     def connected_with(self, lo: np.ndarray, hi: np.ndarray) -> bool:
-        """Whether the robot can still reach every door approach (and, in a room without doors, a free cell) once
-        lo..hi is occupied (occupancy grid of :data:`GRID_M`, obstacles grown by :data:`ROBOT_RADIUS_M`)."""
+        """Whether, once lo..hi is occupied, every door approach lies in one free component of the room's floor
+        for the robot (occupancy grid of :data:`GRID_M`, obstacles grown by :data:`ROBOT_RADIUS_M`) holding at
+        least :data:`MAIN_FREE_FRACTION` of its free cells (no pocket at a door cut off from the room)."""
         n = np.maximum(1, np.ceil((self.hi - self.lo) / GRID_M).astype(int))
         xs = self.lo[0] + (np.arange(n[0]) + 0.5) * GRID_M
         ys = self.lo[1] + (np.arange(n[1]) + 0.5) * GRID_M
@@ -172,11 +185,15 @@ class RoomSpace:
         lab, count = ndimage.label(free)
         if count == 0:
             return False
+        sizes = np.bincount(lab.ravel(), minlength=count + 1)
         ids = set()
         for p in self.doors:
             i = np.clip(((p - self.lo) / GRID_M).astype(int), 0, n - 1)
             ids.add(int(lab[i[0], i[1]]))
-        return 0 not in ids and len(ids) <= 1
+        if 0 in ids or len(ids) > 1:
+            return False
+        main = ids.pop() if ids else int(np.argmax(sizes[1:])) + 1
+        return sizes[main] >= MAIN_FREE_FRACTION * sizes[1:].sum()
 
     def try_box(self, lo: np.ndarray, hi: np.ndarray, gap: float = OBJECT_GAP_M) -> bool:
         """Occupy lo..hi when it :meth:`fits` and keeps the room :meth:`connected_with`; True when done."""
@@ -272,7 +289,8 @@ class _Home:
                 hi = np.round(lo + xy, 6)
                 if np.any(hi > t["hi"][:2] - 0.01 + 1e-9):
                     continue
-                if all(not (np.all(lo < b + 0.01) and np.all(hi > a - 0.01)) for a, b in items):
+                if not items or not np.any(np.all(lo < np.array([b for _, b in items]) + 0.01, axis=1)
+                                           & np.all(hi > np.array([a for a, _ in items]) - 0.01, axis=1)):
                     self.tops[ti].append((lo, hi))
                     z = float(t["hi"][2])
                     self.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on")
@@ -499,6 +517,21 @@ def _leftovers(h: _Home, left: dict) -> None:
         left[cls] -= 1
 
 
+def place_home(rng: np.random.Generator, layout: Layout, notes: list[str]) -> _Home:
+    """The placement state of a home with ``layout`` after its :func:`quota` is placed by the module's rules
+    (``.objects``: see :func:`place_objects`; ``.tops``, ``.spaces``: what more objects need to be placed
+    consistently, as :mod:`.variants` does). Dropped objects are appended to ``notes``. Never raises; every loop
+    is bounded."""
+    left = quota(rng, layout)
+    h = _Home(rng, layout, notes)
+    shares = _shares(layout, left)
+    rank = ["bathroom", "kitchen", "living_room", "bedroom", "office", "dining_room", "hall"]
+    for i in sorted(range(len(layout.rooms)), key=lambda i: (rank.index(layout.rooms[i].kind), i)):
+        _furnish_room(h, i, layout.rooms[i].kind, left, shares[i])
+    _leftovers(h, left)
+    return h
+
+
 def place_objects(rng: np.random.Generator, layout: Layout, notes: list[str]) -> list[dict]:
     """The ground-truth objects of a home with ``layout``: a :func:`quota` placed by the module's rules.
 
@@ -507,13 +540,4 @@ def place_objects(rng: np.random.Generator, layout: Layout, notes: list[str]) ->
         map frame, axis-aligned; ``role`` a table's role or "on" for an object standing on a table), in placing
         order. Dropped objects are appended to ``notes``. Never raises; every loop is bounded.
     """
-    left = quota(rng, layout)
-    h = _Home(rng, layout, notes)
-    shares = _shares(layout, left)
-    order = sorted(range(len(layout.rooms)), key=lambda i: (["bathroom", "kitchen", "living_room", "bedroom",
-                                                             "office", "dining_room", "hall"].index(
-        layout.rooms[i].kind), i))
-    for i in order:
-        _furnish_room(h, i, layout.rooms[i].kind, left, shares[i])
-    _leftovers(h, left)
-    return h.objects
+    return place_home(rng, layout, notes).objects
