@@ -1,0 +1,169 @@
+"""The procedural home generator (benchbot_worlds.procedural: rooms, objects, variants, generator) and the floor plan
+that follows a generated layout."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from benchbot_worlds.bear import lighting_of_map_path
+from benchbot_worlds.homes.floorplan import (
+    DOOR_JAMB_M, MIN_ROOM_SIDE_M, derive_floor_plan, home_inputs, plan_for_home)
+from benchbot_worlds.homes.home_frame import SQUARE_SYMMETRIES, HomeFrame
+from benchbot_worlds.procedural.generator import GENERATOR_VERSION, generate_home
+from benchbot_worlds.procedural.layout import layout_from_dict, layout_to_dict
+from benchbot_worlds.procedural.rooms import generate_layout
+from benchbot_worlds.procedural.variants import LIGHTINGS
+
+#: Seeds whose homes take < 0.3 s each on a 2-core CPU.
+FAST_SEEDS = (1, 3, 5, 8, 9)
+
+
+def _bytes(home) -> bytes:
+    return json.dumps(home.variants, sort_keys=True).encode()
+
+
+def _boxes(objects):
+    c = np.array([o["centroid"] for o in objects])
+    e = np.array([o["extent"] for o in objects])
+    return c - e / 2, c + e / 2
+
+
+def test_same_seed_same_bytes_in_process():
+    assert GENERATOR_VERSION == 1
+    assert _bytes(generate_home(5, "procedural_test_0005")) == _bytes(generate_home(5, "procedural_test_0005"))
+    assert _bytes(generate_home(5, "procedural_test_0005")) != _bytes(generate_home(9, "procedural_test_0005"))
+
+
+@pytest.mark.slow
+def test_same_seed_same_bytes_in_a_subprocess():
+    code = ("import json,sys;from benchbot_worlds.procedural.generator import generate_home;"
+            "sys.stdout.write(json.dumps(generate_home(5,'procedural_test_0005').variants,sort_keys=True))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, check=True).stdout
+    assert out == _bytes(generate_home(5, "procedural_test_0005"))
+
+
+def test_bad_seed_is_refused():
+    for bad in (-1, 2 ** 64, 1.5, True):
+        with pytest.raises(ValueError):
+            generate_home(bad, "x")
+
+
+def test_layouts_rooms_tile_the_outer_rectangle_and_doors_connect_them():
+    for seed in range(60):
+        lay = generate_layout(np.random.default_rng(seed))
+        area = sum(float(np.prod(r.hi - r.lo)) for r in lay.rooms)
+        assert area == pytest.approx(float(np.prod(lay.outer_hi - lay.outer_lo)), abs=1e-6)
+        assert all(np.all(r.hi - r.lo >= MIN_ROOM_SIDE_M - 1e-9) for r in lay.rooms)
+        assert sum(r.kind == "kitchen" for r in lay.rooms) <= 1
+        if len(lay.rooms) >= 2:
+            assert any(r.kind == "bedroom" for r in lay.rooms)
+        parent = list(range(len(lay.rooms)))
+
+        def find(i):
+            while parent[i] != i:
+                i = parent[i]
+            return i
+
+        for d in lay.doors:
+            assert 0.9 - 1e-9 <= d.width <= 1.0 + 1e-9
+            a, b = (lay.rooms[i] for i in d.rooms)
+            o = 1 - d.axis
+            shared = max(a.lo[o], b.lo[o]), min(a.hi[o], b.hi[o])
+            assert d.lo >= shared[0] + 0.06 + DOOR_JAMB_M - 1e-9 and d.hi <= shared[1] - 0.06 - DOOR_JAMB_M + 1e-9
+            parent[find(d.rooms[0])] = find(d.rooms[1])
+        assert len({find(i) for i in range(len(lay.rooms))}) == 1, seed
+        for r in lay.rooms:
+            if r.kind == "bathroom":
+                assert sum(r.index in d.rooms for d in lay.doors) == 1
+        assert layout_to_dict(layout_from_dict(layout_to_dict(lay))) == layout_to_dict(lay)
+
+
+@pytest.mark.parametrize("seed", FAST_SEEDS)
+def test_generated_homes_are_valid(seed):
+    home = generate_home(seed, f"procedural_test_{seed:04d}")
+    lay = home.layout
+    assert [v["environment"]["variant"] for v in home.variants] == [1, 2, 3, 4, 5]
+    assert [lighting_of_map_path(v["environment"]["map_path"]) for v in home.variants] == list(LIGHTINGS)
+    union = {}
+    for v in home.variants:
+        env = v["environment"]
+        assert env["type"] == "world" and env["layout"] == layout_to_dict(lay) and len(env["object_labels"]) == 30
+        for o in v["ground_truth"]["objects"]:
+            union[(o["ID_name"], tuple(o["centroid"]))] = o
+    objects = list(union.values())
+    lo, hi = _boxes(objects)
+    n = len(objects)
+    # no two objects overlap (1 mm tolerance: contact is allowed)
+    ov = np.all(lo[:, None] < hi[None] - 1e-3, axis=2) & np.all(hi[:, None] > lo[None] + 1e-3, axis=2)
+    ov[np.arange(n), np.arange(n)] = False
+    assert not ov.any(), [(objects[i]["ID_name"], objects[j]["ID_name"]) for i, j in zip(*np.nonzero(ov))][:5]
+    # each inside one room's clear floor (no wall cut)
+    t = lay.wall_thickness
+    for k in range(n):
+        assert any(np.all(lo[k, :2] >= r.lo + t / 2 * (r.lo > lay.outer_lo) - 1e-6)
+                   and np.all(hi[k, :2] <= r.hi - t / 2 * (r.hi < lay.outer_hi) + 1e-6) for r in lay.rooms), k
+    # nothing floats: on the floor or within 1 mm of another object's top, over it
+    for k in range(n):
+        if abs(lo[k, 2]) <= 1e-3:
+            continue
+        under = (np.abs(hi[:, 2] - lo[k, 2]) <= 1e-3) & np.all(lo[:, :2] < hi[k, :2], axis=1) & \
+            np.all(hi[:, :2] > lo[k, :2], axis=1)
+        assert under.any(), objects[k]
+    # door approaches clear of floor objects
+    for d in lay.doors:
+        a, b = np.zeros(2), np.zeros(2)
+        a[d.axis], b[d.axis] = d.pos - t / 2 - 0.7, d.pos + t / 2 + 0.7
+        a[1 - d.axis], b[1 - d.axis] = d.lo, d.hi
+        assert not np.any(np.all(lo[:, :2] < b, axis=1) & np.all(hi[:, :2] > a, axis=1))
+
+
+@pytest.mark.parametrize("seed", FAST_SEEDS[:3])
+def test_the_plan_of_a_generated_home_follows_its_layout(seed):
+    home = generate_home(seed, f"procedural_test_{seed:04d}")
+    lay = home.layout
+    plan = plan_for_home(home.variants)
+    t = lay.wall_thickness
+    got = sorted((round(float(r.lo[0] - t / 2 * (r.lo[0] > lay.outer_lo[0] + 1e-9)), 6),
+                  round(float(r.lo[1] - t / 2 * (r.lo[1] > lay.outer_lo[1] + 1e-9)), 6),
+                  round(float(r.hi[0] + t / 2 * (r.hi[0] < lay.outer_hi[0] - 1e-9)), 6),
+                  round(float(r.hi[1] + t / 2 * (r.hi[1] < lay.outer_hi[1] - 1e-9)), 6), r.kind) for r in plan.rooms)
+    want = sorted((*(round(float(v), 6) for v in (*r.lo, *r.hi)), r.kind) for r in lay.rooms)
+    assert len(got) == len(want)
+    for g, w in zip(got, want):
+        assert g[4] == w[4] and np.allclose(g[:4], w[:4], atol=2e-6), (g, w)
+    # a doorway where the trajectory passes each layout door
+    doors = [o for o in plan.openings if o.kind == "door"]
+    for d in lay.doors:
+        c = d.centre
+        assert any(np.all(o.lo[:2] - 1e-6 <= c) and np.all(c <= o.hi[:2] + 1e-6) for o in doors), d
+
+
+def test_given_cuts_are_carried_into_a_turned_home_frame():
+    home = generate_home(5, "procedural_test_0005")
+    objects, paths = home_inputs(home.variants)
+    lay = home.variants[0]["environment"]["layout"]
+    direct = derive_floor_plan(objects, paths, layout=lay)
+    for R in SQUARE_SYMMETRIES[1:]:
+        frame = HomeFrame(R, np.array([0.37, -1.2]))
+        turned = derive_floor_plan(frame.objects_to_home(objects), [frame.points_to_home(p) for p in paths],
+                                   layout=frame.layout_to_home(lay))
+        back = frame.plan_to_map(turned)
+        a = sorted((tuple(np.round(r.lo, 5)), tuple(np.round(r.hi, 5)), r.kind) for r in direct.rooms)
+        b = sorted((tuple(np.round(r.lo, 5)), tuple(np.round(r.hi, 5)), r.kind) for r in back.rooms)
+        assert a == b
+
+
+def test_ground_truth_schema_accepts_the_layout_field():
+    """schemas/ground_truth.schema.json leaves ``environment``'s other properties open: no schema change needed."""
+    jsonschema = pytest.importorskip("jsonschema")
+    from pathlib import Path
+
+    schema = json.loads((Path(__file__).resolve().parents[3] / "schemas" / "ground_truth.schema.json").read_text())
+    data = generate_home(5, "procedural_test_0005").variants[0]
+    assert "layout" in data["environment"]
+    jsonschema.validate(data, schema)
