@@ -159,6 +159,9 @@ def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     proc = cli("leaderboard", str(a), str(stopped), str(b), "-o", str(site), "--label", "ours", "--label", "killed",
                "--label", "theirs", "--title", "Semantic SLAM challenge")
     assert proc.returncode == 0, proc.stderr
+    said = proc.stderr.splitlines()  # into a log: a plain line per step, never a silence
+    assert said[0] == "reading run directory 1 of 3 …" and "writing entry 2 of 2's report: theirs …" in said, said
+    assert "\x1b[" not in proc.stderr
     # the interrupted batch: one line naming --resume, and the rest is built
     [line] = [x for x in proc.stderr.splitlines() if "stopped" in x]
     assert "skipped" in line and "did not finish (1 of 2 episodes not run)" in line
@@ -195,3 +198,59 @@ def test_a_batch_whose_every_episode_failed_is_skipped_with_a_note(tmp_path):
     assert "every episode failed, 2 of 2" in (site / "index.html").read_text()
     proc = cli("leaderboard", str(failed), "-o", str(tmp_path / "site2"))
     assert proc.returncode == 2 and "no finished run directory with scores among the 1 given" in proc.stderr
+
+
+# --- verified and self-reported entries (issue 56: signed runs, docs/challenge.md) ----------------------------------
+def signed_run(root: Path, name: str, omq: dict[str, list[float]], key: Path | None, **kwargs) -> Path:
+    """A finished run with a scores.json, signed with the private key ``key`` (None: left unsigned)."""
+    from benchbot.batch.signing import sign_run
+
+    run = scores_only_run(root, name, omq, manifest={"finished": "2026-11-26T00:00:00+00:00"}, **kwargs)
+    values = [v for vs in omq.values() for v in vs]
+    (run / "scores.json").write_text(json.dumps({"scores": {"OMQ": sum(values) / len(values)}}))
+    if key is not None:
+        sign_run(run, key)
+    return run
+
+
+def test_verified_entries_are_ranked_apart_from_self_reported_ones(tmp_path):
+    """A run signed by a trusted key on held-out worlds is verified and ranked in its own table; an unsigned run,
+    however high, is self-reported; an edited signed run fails verification and is not ranked; a run signed by
+    another key is self-reported; a signed run on public worlds is 'development — ground truth public'."""
+    from benchbot.batch.signing import DEVELOPMENT, load_public_key, write_key_pair
+
+    host, host_pub = write_key_pair(tmp_path / "host")
+    other, _ = write_key_pair(tmp_path / "other")
+    test = {"procedural_test_0:1": [0.3], "procedural_test_1:1": [0.4]}
+    paths = {"honest": signed_run(tmp_path, "a", test, host, example="honest"),
+             "claimed": signed_run(tmp_path, "b", {e: [0.99] for e in test}, None, example="claimed"),
+             "edited": signed_run(tmp_path, "c", test, host, example="edited"),
+             "elsewhere": signed_run(tmp_path, "d", {e: [0.5] for e in test}, other, example="elsewhere"),
+             "public": signed_run(tmp_path, "e", {"miniroom:1": [0.9]}, host, example="public")}
+    scores = paths["edited"] / "episode_scores.json"
+    scores.write_text(scores.read_text().replace('"OMQ": 0.3', '"OMQ": 0.9'))  # an edited byte of a signed run
+    runs = [load_run(p) for p in paths.values()]
+    assign_labels(runs, None)
+    trusted = [load_public_key(host_pub)]
+    [(task, tables)] = entries(runs, trusted=trusted).items()
+    status = {e["label"]: (t["standing"], e["status"], e["rank"]) for t in tables for e in t["entries"]}
+    assert tables[0]["standing"] == "verified" and [e["label"] for e in tables[0]["entries"]] == ["honest"]
+    assert status == {"honest": ("verified", "verified", 1), "claimed": ("self-reported", "self-reported", 1),
+                      "elsewhere": ("self-reported", "self-reported", 2), "edited": ("self-reported", "failed", None),
+                      "public": ("self-reported", "development", None)}  # other worlds: not ranked
+    site = write_site(runs, tmp_path / "site", reports=False, trusted=trusted)
+    page = (tmp_path / "site" / f"{slug(task)}.html").read_text()
+    assert "Verified: conditions 1" in page and "Self-reported: conditions 2" in page
+    assert "edited (fails verification)" in page and "episode_scores.json: changed since it was signed" in page
+    assert DEVELOPMENT in page and "never with verified entries" in page
+    assert (tmp_path / "site" / "entries").glob("*/signature.json")
+    [verified] = site["tasks"][task][0]["entries"]
+    assert verified["status"] == "verified" and verified["worlds"] == "held-out"
+    # no trusted key: nothing is verified, whatever it carries
+    assert all(t["standing"] == "self-reported" for t in entries(runs)[task])
+    proc = cli("leaderboard", *map(str, paths.values()), "-o", str(tmp_path / "s2"), "--no-reports",
+               "--trusted-key", str(host_pub))
+    assert proc.returncode == 0, proc.stderr
+    proc = cli("leaderboard", str(paths["honest"]), "-o", str(tmp_path / "s3"), "--trusted-key", str(scores))
+    assert proc.returncode == 2 and "episode_scores.json: not an Ed25519 public key" in proc.stderr
+    assert "Traceback" not in proc.stderr

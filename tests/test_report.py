@@ -385,6 +385,9 @@ def test_cli_prints_rounded_numbers_and_refusals(tmp_path):
     proc = cli("report", str(a), str(b))
     assert proc.returncode == 0, proc.stderr
     assert "0.1601" in proc.stdout and "n = 1 < 5: no confidence interval" in proc.stdout
+    said = proc.stderr.splitlines()  # into a log: a plain line per step before the numbers, never a silence
+    assert said[:3] == ["reading run directory 1 of 2 …", "reading run directory 2 of 2 …", "analysing 2 runs …"]
+    assert "\x1b[" not in proc.stderr
     assert "mean difference -0.001079" in proc.stdout  # (-0.002258 + 0.0001) / 2 and "n = 2 < 6: no paired test" in proc.stdout
     assert too_precise(proc.stdout) == [], proc.stdout
     proc = cli("report", str(a), str(b), "--plan-width", "0.05", "--plan-difference", "0.01")

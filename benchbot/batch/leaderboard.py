@@ -19,6 +19,13 @@ sandbox) is never ranked. The score is the evaluation method's primary score, as
 decides what is better), the environment the unit: the mean of the environments' means with its interval over the
 environments (none below :data:`~benchbot.batch.stats.MIN_CI_N`). Entries that the intervals do not tell apart
 share a rank (:func:`rank_entries`).
+
+Verified and self-reported entries are never ranked together (:func:`standing`, docs/challenge.md): an entry is
+**verified** when its run carries a valid signature (``signature.json``) by one of the trusted keys
+(``--trusted-key``), every covered file is as signed, and it ran sandboxed on held-out worlds; verified entries have
+tables of their own. Everything else is **self-reported** (not signed, signed by a key not trusted, or run on public
+worlds: "development — ground truth public"), listed in tables apart and ranked only among themselves; an entry whose
+signature fails (an edited signed run) is listed as failing verification and never ranked.
 """
 
 from __future__ import annotations
@@ -29,16 +36,19 @@ import re
 import shutil
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Callable
 
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
+from benchbot.batch.signing import DEVELOPMENT
 from benchbot.batch.report import (
-    CONDITIONS, CSS, RunData, bounded, conditions, present_scores, provenance, solution, verifiable, write_report,
+    CONDITIONS, CSS, RunData, bounded, conditions, present_scores, provenance, solution, verifiable, worlds,
+    write_report,
 )
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 
-COPIED = ("manifest.json", "scores.json", "episode_scores.json", "config.json")
+COPIED = ("manifest.json", "scores.json", "episode_scores.json", "config.json", "signature.json", "conditions.json")
 """The files of a run directory an entry links (those present are copied)."""
 
 SORT_JS = """
@@ -103,6 +113,42 @@ def benchmark_set(runs: list[RunData], given: list[str] | None = None) -> list[s
     return list(max(dict.fromkeys(sets), key=lambda s: (sets.count(s), len(s))))
 
 
+STANDINGS = ("verified", "self-reported")
+"""The two groups of tables: verified entries are never ranked with self-reported ones."""
+
+
+def standing(run: RunData, trusted=None) -> dict:
+    """Whether ``run``'s scores are verified: ``{"status", "reason", "fingerprint"}``. ``status``:
+
+    * ``verified``: a valid signature by one of ``trusted`` (Ed25519 public keys), every covered file as signed,
+      sandboxed (or containerised), on held-out worlds;
+    * ``development``: all that, but on public worlds (ground truth public: a solution can carry it);
+    * ``failed``: it has a signature, and it fails (the reason names the file): never ranked;
+    * ``self-reported``: no signature, a signature by a key not trusted (or no trusted key given), or unsandboxed.
+    """
+    from benchbot.batch.signing import check_run
+    from benchbot.core.errors import UsageError
+
+    try:
+        v = check_run(run.run_dir, trusted)
+    except UsageError as exc:
+        return {"status": "self-reported", "reason": exc.message, "fingerprint": ""}
+    if v.status == "failed":
+        return {"status": "failed", "reason": f"fails verification: {v.message}", "fingerprint": v.fingerprint}
+    if v.status == "unsigned":
+        return {"status": "self-reported", "reason": "not signed", "fingerprint": ""}
+    if v.status == "untrusted" or not v.trusted_checked:
+        return {"status": "self-reported", "reason": f"signed by key {v.fingerprint}, not a trusted one "
+                "(--trusted-key)", "fingerprint": v.fingerprint}
+    if v.signed.get("isolation") not in ("bwrap", "container"):
+        return {"status": "self-reported", "reason": "signed, but run without the sandbox",
+                "fingerprint": v.fingerprint}
+    if (v.signed.get("conditions") or {}).get("worlds") == DEVELOPMENT or worlds(run.manifest) == DEVELOPMENT:
+        return {"status": "development", "reason": f"signed by a trusted key, on public worlds: {DEVELOPMENT}",
+                "fingerprint": v.fingerprint}
+    return {"status": "verified", "reason": f"signed by trusted key {v.fingerprint}", "fingerprint": v.fingerprint}
+
+
 def better(a: dict, b: dict, sign: int) -> bool:
     """Whether estimate ``a`` is distinguishably better than ``b`` (``sign`` +1: higher is better, −1: lower):
     both have intervals and ``a``'s lies wholly on the better side of ``b``'s; where either has none (fewer than
@@ -115,10 +161,11 @@ def better(a: dict, b: dict, sign: int) -> bool:
 
 
 def rank_entries(rows: list[dict], score: str, sign: int) -> None:
-    """Rank the rankable entries of one table (``covers`` and ``verifiable``) in place: an entry's rank is 1 + the
+    """Rank the rankable entries of one table (``covers`` and ``verifiable``, and not failing verification) in
+    place: an entry's rank is 1 + the
     number of entries distinguishably better (:func:`better`), so entries the intervals do not tell apart share a
     rank (``tied`` True); the others get ``rank`` None. Sorts ``rows``: ranked first, by rank then mean."""
-    ranked = [e for e in rows if e["covers"] and e["verifiable"]]
+    ranked = [e for e in rows if e["covers"] and e["verifiable"] and e.get("status") != "failed"]
     for e in rows:
         e["rank"], e["tied"] = None, False
     for e in ranked:
@@ -130,16 +177,22 @@ def rank_entries(rows: list[dict], score: str, sign: int) -> None:
                              -sign * (e["scores"].get(score, {}).get("value") or 0.0)))
 
 
-def entries(runs: list[RunData], environments: list[str] | None = None) -> dict[str, list[dict]]:
-    """Each task's tables: ``{task: [{"conditions": {condition: value}, "benchmark": [env], "score", "direction",
-    "entries": [{"run", "label", "slug", "scores": {score: Estimate dict (environment level)}, "episodes",
-    "environments", "covers", "verifiable", "rank", "tied", "benchmark"}]}]}``, one table per condition set
-    (:func:`condition_key`), entries best first (:func:`rank_entries`). An entry that ``covers`` its table's
-    :func:`benchmark_set` is scored on its episodes of those environments and ranked (when verifiable); any other
-    entry on all its episodes, with ``rank`` None."""
+def entries(runs: list[RunData], environments: list[str] | None = None, trusted=None) -> dict[str, list[dict]]:
+    """Each task's tables: ``{task: [{"standing": "verified" | "self-reported", "conditions": {condition: value},
+    "benchmark": [env], "score", "direction", "entries": [{"run", "label", "slug", "scores": {score: Estimate dict
+    (environment level)}, "episodes", "environments", "covers", "verifiable", "status", "status_reason", "worlds",
+    "rank", "tied", "benchmark"}]}]}``, one table per standing and condition set (:func:`standing` with ``trusted``,
+    the public keys of ``--trusted-key``; :func:`condition_key`), verified tables first, entries best first
+    (:func:`rank_entries`). An entry that ``covers`` its table's :func:`benchmark_set` is scored on its episodes of
+    those environments and ranked (when verifiable and not failing verification); any other entry on all its
+    episodes, with ``rank`` None."""
     by_task: dict[str, dict[tuple, list[RunData]]] = {}
+    standings = {}
     for run in runs:
-        by_task.setdefault(str(run.manifest.get("task", "unknown task")), {}).setdefault(condition_key(run), []).append(run)
+        standings[id(run)] = standing(run, trusted)
+        group = "verified" if standings[id(run)]["status"] == "verified" else "self-reported"
+        by_task.setdefault(str(run.manifest.get("task", "unknown task")), {}).setdefault(
+            (("standing", group),) + condition_key(run), []).append(run)
     out: dict[str, list[dict]] = {}
     used: set[str] = set()
     for task, groups in by_task.items():
@@ -157,17 +210,20 @@ def entries(runs: list[RunData], environments: list[str] | None = None) -> dict[
                 envs = sorted({r["env"] for r in run.rows})
                 covers = set(bench) <= set(envs)
                 scored = [r for r in run.rows if r["env"] in bench] if covers else run.rows
+                st = standings[id(run)]
                 rows.append({"run": run, "label": run.name, "slug": name, "episodes": len(scored),
                              "environments": envs, "covers": covers, "benchmark": bench,
-                             "verifiable": verifiable(run.manifest),
+                             "verifiable": verifiable(run.manifest), "status": st["status"],
+                             "status_reason": st["reason"], "worlds": worlds(run.manifest),
                              "scores": {s: bounded(stats.cluster_mean_ci([r[s] for r in scored if s in r],
                                                                          [r["env"] for r in scored if s in r]),
                                                    run, s).to_json()
                                         for s in present_scores([run])}})
             rank_entries(rows, score, sign)
-            tables.append({"conditions": dict(key), "benchmark": bench, "score": score,
+            tables.append({"standing": key[0][1], "conditions": dict(key[1:]), "benchmark": bench, "score": score,
                            "direction": declared.primary.direction, "entries": rows})
-        tables.sort(key=lambda t: (not any(e["rank"] for e in t["entries"]), -len(t["entries"])))
+        tables.sort(key=lambda t: (t["standing"] != "verified", not any(e["rank"] for e in t["entries"]),
+                                   -len(t["entries"])))
         out[task] = tables
     return out
 
@@ -217,12 +273,15 @@ def _table_html(table: dict, reports: bool, number: int) -> str:
         links = [f"<a href='entries/{esc(e['slug'])}/manifest.json'>manifest</a>"]
         if reports:
             links.insert(0, f"<a href='entries/{esc(e['slug'])}/report.html'>report</a>")
-        label = e["label"] + ("" if e["verifiable"] else " (not verifiable)")
+        label = e["label"] + ("" if e["verifiable"] else " (not verifiable)") + (
+            " (fails verification)" if e["status"] == "failed" else "")
+        tag = e["status"] + (f" · {DEVELOPMENT}" if e["worlds"] == DEVELOPMENT else "")
         rank = f"{e['rank']}=" if e["tied"] else str(e["rank"]) if e["rank"] else "–"
         cells = [_cell(e["rank"], rank, "num rank",
                        title="not told apart from the entries of the same rank by the intervals" if e["tied"] else ""),
-                 _cell(label, cls="txt", title="" if e["verifiable"] else
-                       "run without the sandbox: its solution could read the ground truth")]
+                 f"<td class='txt' data-v='{esc(label)}' title='{esc(e['status_reason'])}"
+                 f"{'' if e['verifiable'] else '; run without the sandbox: its solution could read the ground truth'}'>"
+                 f"{esc(label)}<br><small>{esc(tag)}</small></td>"]
         cells += [_estimate_cell(e["scores"].get(s), "num" if s == main else "num opt") for s in scores]
         cells.append(_cell(f"{kind} {what}", cls="txt opt"))
         covered = len(set(e["environments"]) & set(bench))
@@ -244,13 +303,25 @@ def _table_html(table: dict, reports: bool, number: int) -> str:
         notes.append(f"{unverified} entr{'y is' if unverified == 1 else 'ies are'} not verifiable: run without the "
                      "sandbox (<code>--no-sandbox</code>), where the solution could read the ground truth; listed in "
                      "grey and not ranked.")
+    for e in rows:
+        if e["status"] == "failed":
+            notes.append(f"{esc(e['label'])} {esc(e['status_reason'])}: its files are not as the host signed them; "
+                         "listed, not ranked.")
+    public = sum(e["worlds"] == DEVELOPMENT for e in rows)
+    if public:
+        notes.append(f"{public} entr{'y ran' if public == 1 else 'ies ran'} on public worlds "
+                     f"(<b>{esc(DEVELOPMENT)}</b>): a solution could carry their ground truth in its own code.")
+    if table["standing"] != "verified":
+        notes.append("<b>Self-reported</b>: not verified by a trusted host's signature on held-out worlds (hover an "
+                     "entry for why); ranked only among themselves, never with verified entries.")
     if any(e["tied"] for e in rows):
         notes.append("Entries whose intervals overlap share a rank (=): the data do not tell them apart.")
     if any(e["rank"] and e["scores"].get(main, {}).get("low") is None for e in rows):
         notes.append(f"Entries with fewer than {stats.MIN_CI_N} environments have no interval: they are ordered by "
                      "their mean alone.")
     conds = " · ".join(f"{esc(k)} <b>{esc(v)}</b>" for k, v in table["conditions"].items())
-    return (f"<section id='set-{number}'><h2>Conditions {number}</h2><p class='sub'>{conds}</p>"
+    heading = "Verified" if table["standing"] == "verified" else "Self-reported"
+    return (f"<section id='set-{number}'><h2>{heading}: conditions {number}</h2><p class='sub'>{conds}</p>"
             f"<p class='sub'>{len(rows)} entr{'y' if len(rows) == 1 else 'ies'} · ranked by {esc(main)} "
             f"({esc(table['direction'])} is better), the mean over each entry's environments of "
             f"{len(bench)} environment{'s' if len(bench) != 1 else ''}: {esc(', '.join(bench))}</p>"
@@ -279,7 +350,8 @@ def task_page(task: str, tables: list[dict], title: str, made: str, reports: boo
 
 
 def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot leaderboard", registry=None,
-               reports: bool = True, environments: list[str] | None = None, skipped: list[str] | None = None) -> dict:
+               reports: bool = True, environments: list[str] | None = None, skipped: list[str] | None = None,
+               on_step: Callable[[str], None] | None = None, trusted=None) -> dict:
     """Write the static site into the folder ``output`` (created; files of earlier runs of this command are
     replaced, nothing else is touched). Every file is written atomically.
 
@@ -289,6 +361,8 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
         reports: also write each entry's report (the slow part: its figures).
         environments: the environments entries are ranked on (:func:`benchmark_set`); None: the most common set.
         skipped: one line per run directory left out (unfinished batches, or every episode failed), listed on the index page.
+        on_step: told each step as it starts ("writing entry 2 of 5's report: semslam_geometric").
+        trusted: the hosts' Ed25519 public keys whose signatures make an entry verified (:func:`standing`).
 
     Returns:
         ``{"title", "made", "tasks": {task: [{"conditions", "benchmark", "score", "direction", "entries":
@@ -300,12 +374,16 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
     if output.exists() and not output.is_dir():
         raise UsageError(f"--output: {output} is a file", "give a folder for the site, e.g. -o site/")
     made = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    tasks = entries(runs, environments)
+    tasks = entries(runs, environments, trusted)
     data = {"title": title, "made": made, "tasks": {}, "skipped": list(skipped or [])}
+    say = on_step or (lambda what: None)
+    total, done = sum(len(t["entries"]) for tables in tasks.values() for t in tables), 0
     try:
         for task, tables in tasks.items():
             for t in tables:
                 for e in t["entries"]:
+                    done += 1
+                    say(f"writing entry {done} of {total}" + ("'s report" if reports else "") + f": {e['label']}")
                     folder = output / "entries" / e["slug"]
                     folder.mkdir(parents=True, exist_ok=True)
                     for name in COPIED:
@@ -318,9 +396,9 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
                         write_report([e["run"]], folder / "report.html", registry)
             atomic.write_text(output / f"{slug(task)}.html", task_page(task, tables, title, made, reports))
             data["tasks"][task] = [
-                {k: t[k] for k in ("conditions", "benchmark", "score", "direction")}
+                {k: t[k] for k in ("standing", "conditions", "benchmark", "score", "direction")}
                 | {"entries": [{k: e[k] for k in ("rank", "tied", "label", "slug", "episodes", "environments", "covers",
-                                                  "verifiable", "scores")} | {"run_dir": str(e["run"].run_dir)}
+                                                  "verifiable", "status", "status_reason", "worlds", "scores")} | {"run_dir": str(e["run"].run_dir)}
                                for e in t["entries"]]}
                 for t in tables]
         items = []

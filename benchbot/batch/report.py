@@ -37,6 +37,7 @@ import shlex
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -272,6 +273,16 @@ def verifiable(manifest: dict) -> bool:
     return isolation(manifest) in VERIFIABLE
 
 
+def worlds(manifest: dict) -> str:
+    """The standing of the run's worlds (:func:`benchbot.batch.signing.worlds_standing`): ``held-out`` when every
+    environment is a world of a held-out split (only the scoring host can build it), else ``development — ground
+    truth public`` (BEAR, procedural train/val: a solution can carry their ground truth, so no score on them is
+    evidence of anything but development)."""
+    from benchbot.batch.signing import worlds_standing
+
+    return worlds_standing(manifest.get("environments") or [])
+
+
 def default_label(manifest: dict, run_dir: Path) -> str:
     """A short name for a run: the example's name, a native command's script (``my_solution.py``) or program, a
     container folder's name; the folder's name when the manifest does not say."""
@@ -416,6 +427,7 @@ def provenance(run: RunData) -> list[tuple[str, str]]:
         ("task", str(m.get("task", ""))),
         ("robots", ", ".join(m.get("robots") or [])),
         ("environments", ", ".join(m.get("environments") or [])),
+        ("worlds", worlds(m)),
         ("episodes", f"{len(run.rows)} scored of {len(plan) or len(records)} planned ("
                      + ", ".join(f"{n} {s}" for s, n in sorted(statuses.items())) + ")"),
         ("seeds", _ranges(seeds) if seeds else "not recorded"),
@@ -1062,7 +1074,7 @@ def analyse(runs: list[RunData], registry=None, factors: list[str] | None = None
         out_runs.append({
             "label": run.name, "run_dir": str(run.run_dir), "task": run.manifest.get("task"),
             "isolation": isolation(run.manifest), "verifiable": verifiable(run.manifest),
-            "provenance": dict(provenance(run)), "conditions": conditions(run),
+            "worlds": worlds(run.manifest), "provenance": dict(provenance(run)), "conditions": conditions(run),
             "environments_n": len({r["env"] for r in run.rows}), "episodes_n": len(run.rows),
             "summary": {k: v.to_json() for k, v in summary(run, scores).items()},
             "summary_episodes": {k: v.to_json() for k, v in summary_episodes(run, scores).items()},
@@ -1385,6 +1397,12 @@ def render_html(runs: list[RunData], result: dict, tables_: list[Table], figures
                      f"{'its' if len(unverified) == 1 else 'their'} solution without the sandbox (isolation "
                      "<code>none</code>), where it could read the ground truth: fine for development, not for "
                      "comparisons or publication (docs/security.md).</div>")
+    public = [r["label"] for r in result["runs"] if r.get("worlds", "").startswith("development")]
+    if public:
+        parts.append(f"<div class='box warn'><b>Development — ground truth public:</b> {esc(', '.join(public))} ran "
+                     "on public worlds (BEAR, procedural train/val), whose ground truth anyone can build, so a "
+                     "solution could carry it in its own code: a score here measures development, not what a "
+                     "held-out evaluation would (docs/challenge.md).</div>")
     if len(result["tasks"]) > 1:
         parts.append(f"<div class='box warn'>These runs are of different tasks ({esc(', '.join(result['tasks']))}): "
                      "their scores are not comparable.</div>")
@@ -1502,10 +1520,11 @@ def make_assets_dir(output: Path) -> Path:
     return folder
 
 
-def write_report(runs: list[RunData], output: Path, registry=None, result: dict | None = None) -> dict:
+def write_report(runs: list[RunData], output: Path, registry=None, result: dict | None = None,
+                 on_step: Callable[[str], None] | None = None) -> dict:
     """Analyse ``runs`` and write the report: ``output`` (HTML) and its assets folder (:func:`assets_dir`) with
     every figure as PNG, SVG and PDF, every table as CSV and LaTeX, and ``report.json`` (the analysis); each file
-    written atomically.
+    written atomically. ``on_step`` is told each step as it starts ("drawing the figures and maps").
 
     Returns:
         the analysis (:func:`analyse`).
@@ -1513,10 +1532,15 @@ def write_report(runs: list[RunData], output: Path, registry=None, result: dict 
     Raises:
         UsageError: matplotlib is missing, or a file cannot be written.
     """
+    say = on_step or (lambda what: None)
     folder = make_assets_dir(output)
-    result = result or analyse(runs, registry)
+    if result is None:
+        say("analysing the runs")
+        result = analyse(runs, registry)
     tables_ = tables(runs, result)
+    say("drawing the figures and maps (PNG, SVG, PDF)")
     figures_ = make_figures(runs, result, registry)
+    say(f"writing {output} and its files")
     try:
         for t in tables_:
             atomic.write_text(folder / f"{t.name}.csv", to_csv(t))

@@ -27,29 +27,42 @@ def register(app: typer.Typer) -> None:
         environments: Optional[str] = typer.Option(None, "--environments", help="The environments an entry must "
                                                    "cover to be ranked, a comma list; default: the set most entries "
                                                    "ran."),
+        trusted_key: Optional[list[Path]] = typer.Option(None, "--trusted-key", help="A challenge host's public "
+                                                         "key (host_key.pub.pem; repeat the flag): runs it signed on "
+                                                         "held-out worlds are verified and ranked apart from "
+                                                         "self-reported ones."),
     ) -> None:
         """Write a static leaderboard site: an index, one page per task with one sortable table per condition set
         (robot, noise preset, camera, simulator and version, scene style, isolation, evaluation method), entries
         ranked by the evaluation method's primary score over environments with intervals (entries the intervals do
         not tell apart share a rank), each entry's manifest and report linked. Unfinished batches are skipped with
         one line each, as are batches whose every episode failed. Plain files, no server: copy the folder to any web host."""
+        from benchbot.cli.progress_lines import Steps
+
+        from benchbot.batch.signing import load_public_key
+
+        trusted = [load_public_key(k) for k in trusted_key or []]  # a bad key file: one line, before any work
         reg = registry()
         data, kept, skipped = [], [], []
-        for k, r in enumerate(runs):
-            try:
-                data.append(load_run(r.resolve(), registry=reg))
-                kept.append(k)
-            except (UnfinishedRun, FailedRun) as exc:  # left out with one line each, the rest is built
-                skipped.append(f"{exc.message}; {exc.hint}")
-                err.print(f"[yellow]skipped[/] {exc.message}; {exc.hint}", highlight=False)
+        with Steps() as say:  # what it is doing, until the site is written
+            for k, r in enumerate(runs):
+                say(f"reading run directory {k + 1} of {len(runs)}")
+                try:
+                    data.append(load_run(r.resolve(), registry=reg))
+                    kept.append(k)
+                except (UnfinishedRun, FailedRun) as exc:  # left out with one line each, the rest is built
+                    skipped.append(f"{exc.message}; {exc.hint}")
+                    err.print(f"[yellow]skipped[/] {exc.message}; {exc.hint}", highlight=False)
+            if data:
+                assign_labels(data, [label[k] for k in kept] if label and len(label) == len(runs) else label)
+                envs = [e.strip() for e in environments.split(",") if e.strip()] if environments else None
+                site = write_site(data, output, title=title, registry=reg if reports else None, reports=reports,
+                                  environments=envs, skipped=skipped, on_step=say,
+                                  trusted=trusted)
         if not data:
             raise UsageError(f"no finished run directory with scores among the {len(runs)} given", "finish or re-run "
                              "them with benchbot batch --resume RUN_DIR (it re-runs failed episodes too), or give "
                              "scored ones")
-        assign_labels(data, [label[k] for k in kept] if label and len(label) == len(runs) else label)
-        envs = [e.strip() for e in environments.split(",") if e.strip()] if environments else None
-        site = write_site(data, output, title=title, registry=reg if reports else None, reports=reports,
-                          environments=envs, skipped=skipped)
         for task, tables in site["tasks"].items():
             n = sum(len(t["entries"]) for t in tables)
             out.print(f"{output / (slug(task) + '.html')}: {n} entries in {len(tables)} condition set"

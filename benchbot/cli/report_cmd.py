@@ -127,8 +127,14 @@ def register(app: typer.Typer) -> None:
         mapped and driven, figures as PNG/SVG/PDF and tables as CSV/LaTeX. Runs that differ in a condition the
         comparison does not name are warned about (--strict refuses). --predictivity measures how well one
         setting's runs predict another's."""
+        from benchbot.cli.progress_lines import Steps
+
         reg = registry()
-        data = [load_run(r.resolve(), registry=reg) for r in runs]
+        with Steps() as say:  # what it is doing, until the numbers are printed
+            data = []
+            for k, r in enumerate(runs):
+                say(f"reading run directory {k + 1} of {len(runs)}")
+                data.append(load_run(r.resolve(), registry=reg))
         if predictivity:
             names = tuple(n.strip() for n in settings.split(","))
             if len(names) != 2 or not all(names):
@@ -146,7 +152,9 @@ def register(app: typer.Typer) -> None:
             else:
                 _print_predictivity(result)
             if output is not None:
-                pred.write_report(sim, real, output, result)
+                with Steps() as say:
+                    say(f"writing {output} and its figures")
+                    pred.write_report(sim, real, output, result)
                 err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")
             return
         for name, value in (("--plan-width", plan_width), ("--plan-difference", plan_difference)):
@@ -154,7 +162,9 @@ def register(app: typer.Typer) -> None:
                 raise UsageError(f"{name}: {value} is not a positive number",
                                  f"e.g. {name} 0.05 (in the score's units)")
         assign_labels(data, label)
-        result = analyse(data, reg, factors=factor, plan={"width": plan_width, "difference": plan_difference})
+        with Steps() as say:
+            say(f"analysing {len(data)} run{'s' if len(data) != 1 else ''}")
+            result = analyse(data, reg, factors=factor, plan={"width": plan_width, "difference": plan_difference})
         conditions = [d for d in result["differences"] if d["condition"]]
         if strict and conditions:
             d = conditions[0]
@@ -165,5 +175,6 @@ def register(app: typer.Typer) -> None:
         else:
             _print_report(result)
         if output is not None:
-            write_report(data, output, reg, result)
+            with Steps() as say:
+                write_report(data, output, reg, result, on_step=say)
             err.print(f"report written to {output} (figures and tables in {assets_dir(output)})")
