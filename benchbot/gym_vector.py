@@ -10,8 +10,9 @@ and renders every camera and laser of a scene in one kernel launch. Sub-environm
 poses, collisions, ``terminated``/``truncated``), except that:
 
 * the robots do not see or collide with one another;
-* observations are the batched kinds ``image_rgb``, ``image_depth``, ``laser`` and ``pose``, in fast mode without
-  sensor noise; tasks with noisy localisation and scene-change tasks (two scenes) need the ``sync`` mode;
+* observations are the task's kinds with a Gym entry (the registry's observation kinds, plugins' included) that
+  the batched robots sense (the simulator's: ``image_rgb``, ``image_depth``, ``laser``), and ``pose``, in fast mode
+  without sensor noise; tasks with noisy localisation and scene-change tasks (two scenes) need the ``sync`` mode;
 * ``reset(seed=...)`` seeds only :attr:`np_random`: the worlds are fixed by the constructor's ``seed`` (with each
   environment's name and variant, :mod:`benchbot.core.seeding`);
 * a sub-environment that terminated or was truncated is reset on its next step (Gymnasium's ``NEXT_STEP``
@@ -31,9 +32,19 @@ import numpy as np
 
 from benchbot.gym import DEFAULT_ENV, DEFAULT_ROBOT, DEFAULT_TASK, _gym, check_episode_arguments, lazy_classes
 
-#: Observation kinds a batch senses → the key of their entry in the observation dict (``poses`` is served as
-#: ``pose``, as :class:`benchbot.gym.BenchBotEnv` serves it).
-BATCHED_KEYS = {"image_rgb": "image_rgb", "image_depth": "image_depth", "laser": "laser", "poses": "pose"}
+#: The observation kinds that are no sensor's (``ObservationKind.sensor`` False) which the vector environment builds
+#: itself: ``poses``, the robots' poses (as the episode builds it for :class:`benchbot.gym.BenchBotEnv`).
+BUILT_HERE = ("poses",)
+
+
+def batched_entries(kinds: dict, observations: Sequence[str], sensed: Sequence[str]) -> dict:
+    """``{observation name: GymEntry}`` of the vector environment: the task's ``observations`` that have a Gym entry
+    in ``kinds`` (the registry's observation kinds, plugins' included: ``Registry.observations``) and that the batch
+    ``sensed`` (every scene's :attr:`~benchbot.core.robot.BatchedRobots.observations`), or that the environment
+    builds itself (:data:`BUILT_HERE`); in the order of ``kinds``, as :class:`benchbot.gym.BenchBotEnv`'s."""
+    return {name: kind.gym for name, kind in kinds.items()
+            if kind.gym is not None and name in observations
+            and ((kind.sensor and name in sensed) or (not kind.sensor and name in BUILT_HERE))}
 
 
 def _on_backend_thread(fn: Any, *args: Any) -> Any:
@@ -74,7 +85,6 @@ def make_vector_env_class() -> type:
     from benchbot.core import seeding
     from benchbot.core.errors import SpecError
     from benchbot.core.geometry import pose7_to_se2, se2_compose_many
-    from benchbot.core.registry import get_registry
     from benchbot.core.session import resolve_run
 
     class BenchBotVectorEnv(VectorEnv):
@@ -120,7 +130,11 @@ def make_vector_env_class() -> type:
                 self.close()
                 raise
             self.active = "move_distance" in self.task["actions"] and "move_angle" in self.task["actions"]
-            self.keys = {kind: key for kind, key in BATCHED_KEYS.items() if kind in self.task["observations"]}
+            sensed = set.intersection(*(set(robots.observations) for _, robots, _, _ in self._groups))
+            #: ``{observation name: GymEntry}`` of :attr:`single_observation_space` (:func:`batched_entries`)
+            self.entries = batched_entries(self._kinds, self.task["observations"], sorted(sensed))
+            self.keys = {name: entry.key for name, entry in self.entries.items()}
+            self._sensors = [name for name in self.keys if self._kinds[name].sensor]
             self.single_action_space = spaces.Discrete(4 if self.active else 1)
             self.action_space = batch_space(self.single_action_space, num_envs)
             self._steps = np.zeros(num_envs, dtype=np.int64)
@@ -130,16 +144,16 @@ def make_vector_env_class() -> type:
             for _, _, indices, trajectory in self._groups:
                 self._trajectory_lengths[indices] = len(trajectory)
             self._last: dict[str, Any] = {}
-            first = _on_backend_thread(self._observe)
-            self.single_observation_space = spaces.Dict({key: self._space(spaces, key, tuple(value.shape[1:]),
-                                                                                      np.dtype(value.dtype))
-                                                         for key, value in first.items()})
+            self.single_observation_space = _on_backend_thread(self._single_space, spaces)
             self.observation_space = batch_space(self.single_observation_space, num_envs)
 
         def _load_scenes(self, task: str, robot: str, names: list[str], seed: int, options: dict) -> dict:
             """Build each distinct scene's backend and its batched robots (on the backend thread); returns the
             task spec."""
+            from benchbot.core.registry import get_registry
+
             registry = get_registry()
+            self._kinds = registry.observations  # the observation kinds, plugins' included
             for scene_name in dict.fromkeys(names):
                 run = resolve_run(registry, task, robot, scene_name)
                 self._check_task(run.task)
@@ -171,13 +185,14 @@ def make_vector_env_class() -> type:
                                 "environment batches ground-truth tasks",
                                 "use gym.make_vec(..., vectorization_mode='sync')")
 
-        @staticmethod
-        def _space(spaces: Any, key: str, shape: tuple, dtype: np.dtype) -> Any:
-            if key == "image_rgb":
-                return spaces.Box(0, 255, shape, np.uint8)
-            if key == "pose":
-                return spaces.Box(-np.inf, np.inf, shape, np.float64)
-            return spaces.Box(0.0, np.inf, shape, dtype)
+        def _single_space(self, spaces: Any) -> Any:
+            """One sub-environment's observation space, as ``BenchBot-v0``'s (on the backend thread): each entry's
+            space from its kind's Gym entry and one robot's observation of it (the first scene's backend, at its
+            start pose); a kind built here has a space of fixed shape (``poses``: (3,)), given no observation."""
+            backend = self._groups[0][0]
+            sample = backend.observe(self._sensors) if self._sensors else {}
+            return spaces.Dict({entry.key: entry.space(spaces, sample.get(name))
+                                for name, entry in self.entries.items()})
 
         # ----------------------------------------------------------------------------------------- observing
         def _poses(self) -> np.ndarray:
@@ -187,7 +202,7 @@ def make_vector_env_class() -> type:
             return poses
 
         def _observe(self) -> dict[str, Any]:
-            sensors = [kind for kind in self.keys if kind != "poses"]
+            sensors = self._sensors
             out: dict[str, Any] = {}
             for _, robots, indices, _ in self._groups:
                 part = robots.observe(sensors, on_device=self.on_device) if sensors else {}
@@ -200,7 +215,7 @@ def make_vector_env_class() -> type:
                         out[key] = np.empty((self.num_envs,) + tuple(value.shape[1:]), value.dtype)
                     out[key][indices] = value
             if "poses" in self.keys:
-                out["pose"] = self._poses()
+                out[self.keys["poses"]] = self._poses()
             self._last = out
             return out
 
@@ -319,4 +334,4 @@ def make_vector_env_class() -> type:
 __getattr__ = lazy_classes(globals(), {"BenchBotVectorEnv": make_vector_env_class})
 
 
-__all__ = ["BATCHED_KEYS", "BenchBotVectorEnv", "make_vector_env_class"]
+__all__ = ["BUILT_HERE", "BenchBotVectorEnv", "batched_entries", "make_vector_env_class"]

@@ -109,6 +109,21 @@ def create_imu_backend(robot_spec: dict, options: dict):
                               "linear_acceleration": np.array([0.0, 0.0, GRAVITY])}
             return {n: out[n] for n in names}
 
+        def batched(self, count):
+            """The simulator's batched robots, with the IMU too (its Gym value: no yaw rate, gravity)."""
+            from benchbot_sim_taichi.batched import TaichiBatchedRobots
+
+            class ImuBatchedRobots(TaichiBatchedRobots):
+                observations = (*TaichiBatchedRobots.observations, "imu")
+
+                def observe(self, names, *, on_device=False):
+                    out = super().observe([n for n in names if n != "imu"], on_device=on_device)
+                    if "imu" in names:
+                        out["imu"] = np.tile([0.0, 0.0, 0.0, 0.0, 0.0, GRAVITY], (self.count, 1))
+                    return out
+
+            return ImuBatchedRobots(self, count)
+
     return ImuSimBackend(robot_spec, options)
 
 
@@ -228,3 +243,25 @@ def test_the_plugins_sensor_has_its_gym_entry(episode):
     assert set(space.spaces) == {"image_rgb", "image_depth", "laser", "pose", "imu"}
     assert space["imu"].shape == (6,) and space.contains(first) and space.contains(stepped)
     np.testing.assert_allclose(stepped["imu"][3:], [0.0, 0.0, GRAVITY])
+
+
+def test_the_plugins_sensor_is_in_the_vector_environment(monkeypatch):
+    """The Gym vector environment reads the registry's observation kinds: the plugin's IMU, which its batched robots
+    sense, has its entry (the plugin's Gym space, as ``BenchBot-v0``'s) beside the core's kinds."""
+    pytest.importorskip("gymnasium")
+    import benchbot.core.registry as registry_module
+    from benchbot.gym_vector import make_vector_env_class
+
+    reg = Registry(extra_plugins={"imu_sensor": ImuPlugin(registry_module.get_registry().get("robots", "carter"))})
+    monkeypatch.setattr(registry_module, "get_registry", lambda: reg)
+    vec = make_vector_env_class()(2, task=TASK, env=ENV, robot=ROBOT, options=SMALL, max_steps=3)
+    try:
+        space = vec.single_observation_space
+        assert set(space.spaces) == {"image_rgb", "image_depth", "laser", "pose", "imu"}
+        assert space["imu"] == IMU.gym.space(__import__("gymnasium").spaces, None)
+        obs, _ = vec.reset()
+        assert obs["imu"].shape == (2, 6) and vec.observation_space.contains(obs)
+        obs = vec.step(np.zeros(2, dtype=np.int64))[0]
+        np.testing.assert_allclose(obs["imu"][:, 3:], [[0.0, 0.0, GRAVITY]] * 2)
+    finally:
+        vec.close()

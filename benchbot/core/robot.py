@@ -133,7 +133,9 @@ class BatchedRobots(abc.ABC):
         count: N.
         start_pose: (3,) float64 ``[x m, y m, yaw rad]``: the scene's start pose (map frame), where :meth:`place`
             puts robots by default.
-        observations: the names :meth:`observe` offers: among ``image_rgb``, ``image_depth``, ``laser``.
+        observations: the names :meth:`observe` offers: observation kinds of the registry
+            (:mod:`benchbot.core.observations`, plugins' included) that have a Gym entry (the simulator's
+            ``image_rgb``, ``image_depth``, ``laser``).
     """
 
     count: int
@@ -158,9 +160,10 @@ class BatchedRobots(abc.ABC):
     @abc.abstractmethod
     def observe(self, names: Sequence[str], *, on_device: bool = False) -> dict[str, Any]:
         """The sensors ``names`` (among :attr:`observations`) of all N robots at their poses, with a leading batch
-        axis: ``image_rgb`` (N, H, W, 3) uint8, ``image_depth`` (N, H, W) float32 metres (0: no hit), ``laser``
-        (N, beams) float64 ranges in metres clipped to the laser's ``range_max`` (the beams' angles fixed, as the
-        single robot's scan). NumPy arrays the caller owns; with ``on_device`` the images may instead be the
+        axis: each kind's Gym entry value (``ObservationKind.gym``) of every robot, stacked: ``image_rgb``
+        (N, H, W, 3) uint8, ``image_depth`` (N, H, W) float32 metres (0: no hit), ``laser`` (N, beams) float64
+        ranges in metres clipped to the laser's ``range_max`` (the beams' angles fixed, as the single robot's scan),
+        a plugin's kind (N, ...) as its entry's value. NumPy arrays the caller owns; with ``on_device`` the images may instead be the
         backend's own device buffers exporting DLPack (``__dlpack__``), valid until the next call.
 
         Raises:

@@ -22,8 +22,10 @@ from benchbot.core.robot import BatchedRobots
 
 from benchbot_sim_taichi.kinematics import drive_robots
 
-#: What the batch senses (the observation kinds of :mod:`benchbot.core.observations`).
-BATCHED_OBSERVATIONS = ("image_rgb", "image_depth", "laser")
+#: What the batch senses, each observation kind (of the registry's, :mod:`benchbot.core.observations`) by the output
+#: of the renderer's batched kernel that answers it (``Renderer.render_sensors``); the Gym vector environment reads
+#: the kinds' Gym entries from the registry.
+RENDERED = {"image_rgb": "rgb", "image_depth": "depth", "laser": "ranges"}
 
 
 class TaichiBatchedRobots(BatchedRobots):
@@ -43,7 +45,7 @@ class TaichiBatchedRobots(BatchedRobots):
             (a batch renders fast mode without noise: use one simulator per environment for those).
     """
 
-    observations = BATCHED_OBSERVATIONS
+    observations = tuple(RENDERED)
 
     def __init__(self, backend: Any, count: int) -> None:
         scene = backend._need_scene()
@@ -90,10 +92,10 @@ class TaichiBatchedRobots(BatchedRobots):
         every robot, from one kernel launch (see the class docstring for ``on_device``).
 
         Raises:
-            KeyError: a name not in :data:`BATCHED_OBSERVATIONS`.
+            KeyError: a name not in :data:`RENDERED`.
         """
         for name in names:
-            if name not in BATCHED_OBSERVATIONS:
+            if name not in self.observations:
                 raise KeyError(name)
         b = self.backend
         renderer = b._renderer
@@ -104,8 +106,7 @@ class TaichiBatchedRobots(BatchedRobots):
             renderer.wait_for_readers()
         out = renderer.render_sensors(b.K, T_map_footprint @ b.T_footprint_camera, b.width, b.height, lidars,
                                       b.laser_angles if lidars is not None else None, to_host=False)
-        wanted = {name: key for name, key in (("image_rgb", "rgb"), ("image_depth", "depth"), ("laser", "ranges"))
-                  if name in names}
+        wanted = {name: key for name, key in RENDERED.items() if name in names}
         if device:  # the images stay where the kernel wrote them; the laser's ranges (small) come to the host
             if renderer.arch == "cuda":
                 renderer.sync()  # the images are complete before anyone reads them, on any stream (dlpack.py)
