@@ -82,6 +82,9 @@ DOOR_APPROACH_M = 0.85  # >= the 0.7 m asked; the trajectory stops 0.1 m + its r
 WALL_GAP_M = 0.03
 OBJECT_GAP_M = 0.05
 PLACE_TRIES = 30
+#: Rooms tried for a leftover floor object; emptiest table tops tried for an object on a table.
+ROOM_TRIES = 4
+TOP_TRIES = 8
 GRID_M = 0.05
 #: The door's free component holds at least this fraction of a room's free floor.
 MAIN_FREE_FRACTION = 0.9
@@ -212,6 +215,7 @@ class _Home:
         self.spaces = [RoomSpace(r, layout) for r in layout.rooms]
         self.objects: list[dict] = []
         self.tops: dict[int, list] = {}
+        self.tries = PLACE_TRIES  # draws per placement
 
     def add(self, cls: str, lo, hi, room: int, role: str = "") -> int:
         self.objects.append({"class": cls, "lo": np.asarray(lo, float), "hi": np.asarray(hi, float), "room": room,
@@ -224,7 +228,7 @@ class _Home:
         """An xy box (lo, hi, (axis, sign)) against a wall of ``room``: ``along`` metres along the wall, ``depth``
         out of it, placed when it fits; None after :data:`PLACE_TRIES` draws."""
         sp = self.spaces[room]
-        for _ in range(PLACE_TRIES):
+        for _ in range(self.tries):
             ax, sg = side if side is not None else (int(self.rng.integers(2)), int(self.rng.choice([-1, 1])))
             o = 1 - ax
             lo, hi = np.zeros(2), np.zeros(2)
@@ -247,7 +251,7 @@ class _Home:
         """An xy box of ``size_xy`` (2,) anywhere on ``room``'s floor (or centred within ``spread`` of ``near``)."""
         sp = self.spaces[room]
         size = np.asarray(size_xy, float)
-        for _ in range(PLACE_TRIES):
+        for _ in range(self.tries):
             if near is None:
                 room_free = sp.hi - sp.lo - size - 2 * WALL_GAP_M
                 if np.any(room_free < 0):
@@ -269,11 +273,12 @@ class _Home:
     def on_table(self, cls: str, size, tables: list[int]) -> bool:
         """Stand a ``cls`` object of ``size`` on the top of one of ``tables`` (tried in a seeded order)."""
         def used(ti):
-            return sum(float(np.prod(b - a)) for a, b in self.tops[ti]) / float(
-                np.prod(self.objects[ti]["hi"][:2] - self.objects[ti]["lo"][:2]))
+            return float(sum((b[0] - a[0]) * (b[1] - a[1]) for a, b in self.tops[ti])) / float(
+                (self.objects[ti]["hi"][0] - self.objects[ti]["lo"][0])
+                * (self.objects[ti]["hi"][1] - self.objects[ti]["lo"][1]))
 
         fill = self.rng.uniform(0, 0.2, len(tables)) + np.array([used(ti) for ti in tables])
-        for ti in [tables[i] for i in np.argsort(fill, kind="stable")]:  # the emptiest tops first
+        for ti in [tables[i] for i in np.argsort(fill, kind="stable")[:TOP_TRIES]]:  # the emptiest tops first
             t = self.objects[ti]
             xy = np.array(size[:2]) if self.rng.random() < 0.5 else np.array(size[1::-1])
             room_free = t["hi"][:2] - t["lo"][:2] - xy - 0.02
@@ -469,8 +474,9 @@ def _shares(layout: Layout, left: dict) -> list[dict]:
 
 
 def _floor_anywhere(h: _Home, cls: str, rooms: list[int]) -> bool:
-    """One ``cls`` floor object in the first of ``rooms`` (a seeded order) that takes it."""
-    for room in [rooms[i] for i in h.rng.permutation(len(rooms))]:
+    """One ``cls`` floor object in the first of ``rooms`` (a seeded order, at most :data:`ROOM_TRIES`) that takes
+    it; a potted plant that no floor takes stands on a table."""
+    for room in [rooms[i] for i in h.rng.permutation(len(rooms))[:ROOM_TRIES]]:
         size = table_size(h.rng, "side") if cls == "table" else draw_size(h.rng, cls)
         if cls == "chair":
             tables = [i for i in sorted(h.tops) if h.objects[i]["room"] == room and h.objects[i]["role"] != "stand"]
@@ -484,9 +490,7 @@ def _floor_anywhere(h: _Home, cls: str, rooms: list[int]) -> bool:
             if box is not None:
                 h.floor(cls, room, size, box)
                 return True
-        if cls == "potted plant" and h.on_table(cls, size, sorted(h.tops)):
-            return True
-    return False
+    return cls == "potted plant" and h.on_table(cls, draw_size(h.rng, cls), sorted(h.tops))
 
 
 def _leftovers(h: _Home, left: dict) -> None:

@@ -32,6 +32,8 @@ LIGHTINGS = ("base", "day", "night", "day_extra", "night_extra")
 #: (moved, removed, added) per object of variant 1, for variants 2..5 (module docstring).
 VARIANT_CHANGES = {2: (0.027, 0.108, 0.135), 3: (0.014, 0.135, 0.135), 4: (0.014, 0.162, 0.162),
                    5: (0.041, 0.203, 0.162)}
+#: Draws per placement of an object a variant adds or moves (fewer than the base's: a full home says no fast).
+VARIANT_PLACE_TRIES = 10
 MOVABLE = objs.SMALL_CLASSES + objs.DESK_CLASSES + ("chair", "potted plant")
 
 
@@ -70,6 +72,7 @@ def make_variants(rng: np.random.Generator, home: objs._Home, notes: list[str]) 
     far); objects added or moved-to are appended to ``home.objects`` (a moved object's new copy carries
     ``"moved_from"``: the index it replaces). Changes that find no place are noted, never retried."""
     base = list(range(len(home.objects)))
+    home.tries = VARIANT_PLACE_TRIES
     names, p = objs.bear_proportions()
     out = [base]
     for v in (2, 3, 4, 5):
