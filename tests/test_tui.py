@@ -306,3 +306,33 @@ async def _shows_a_one_line_problem(run_dir):
     async with app.run_test() as pilot:
         await pilot.pause(0.1)
         assert "is not a batch manifest" in str(app.query_one("#summary").render())
+
+
+def test_batch_view_fits_80_columns_with_a_long_stage(tmp_path):
+    asyncio.run(_test_fits_80_columns(tmp_path))
+
+
+async def _test_fits_80_columns(tmp_path):
+    """At 80×24 a starting episode's stage is shortened (its detail first) so that every column, wall and score
+    included, stays on the screen (before: the stage pushed them off)."""
+    run_dir = make_run_dir(tmp_path)
+    atomic.write_json(run_dir / "progress.json", {"episodes": {"2": {
+        "state": "running", "step": 0, "started": FROZEN - 65.0,
+        "stage": "loading the BVH, shadow maps and baked light (from the cache)"}}})
+    app = BatchApp(run_dir, poll_s=0.05, clock=lambda: FROZEN)
+    async with app.run_test(size=(80, 24)) as pilot:
+        table = app.query_one("DataTable")
+        await settle(pilot, lambda: "2" in table.rows and str(table.get_cell("2", "steps")).startswith("loading"))
+        steps = str(table.get_cell("2", "steps"))
+        assert steps.startswith("loading the BVH") and steps.endswith("…") and "(from the cache)" not in steps
+        widths = [c.get_render_width(table) for c in table.columns.values()]
+        assert sum(widths) <= 80 - 2, widths  # every column on screen, beside the scrollbar
+        assert str(table.get_cell("2", "wall")) == "1:05"
+
+
+def test_fit_drops_the_detail_then_cuts():
+    from benchbot.tui.batch_app import fit
+
+    assert fit("0/48", 10) == "0/48"
+    assert fit("building the scene (miniroom:1) …", 24) == "building the scene …"
+    assert fit("building the scene (miniroom:1) …", 12) == "building th…"

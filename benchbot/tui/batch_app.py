@@ -320,6 +320,23 @@ class LogScreen(Screen):
         log.write_lines(text.splitlines())
 
 
+def fit(text: str, width: int) -> str:
+    """``text`` in at most ``width`` characters: whole if it fits, else without its parenthesised detail
+    ("building the scene (miniroom:1) …" → "building the scene …"), else cut with "…"."""
+    if len(text) <= width:
+        return text
+    if " (" in text:
+        short = text.split(" (")[0] + (" …" if text.endswith("…") else "")
+        if len(short) <= width:
+            return short
+        text = short
+    return text[: max(0, width - 1)] + "…"
+
+
+#: Columns the view keeps free beside the table (its vertical scrollbar, when the rows overflow).
+SCROLLBAR_COLUMNS = 2
+
+
 class EpisodeTable(DataTable):
     """The episode table: a row-cursor :class:`~textual.widgets.DataTable` whose Enter (open the episode's log) is
     shown in the footer."""
@@ -388,7 +405,15 @@ class BatchApp(PollingApp):
         if column is not None and str(column.label) != name:
             column.label = Text(name)
             table.refresh()
+        # the steps cell (a stage's name while the backend starts) gets what the other columns leave of the
+        # screen's width, so that at 80 columns the wall and score columns stay on it
+        headers = {k: (name if k == COLUMNS[-1] else k) for k in COLUMNS}
+        others = sum(max([len(headers[k])] + [len(str(r[i])) for r in rows]) for i, k in enumerate(COLUMNS)
+                     if k != "steps")
+        room = self.size.width - others - 2 * table.cell_padding * len(COLUMNS) - SCROLLBAR_COLUMNS
+        room = max(len("steps"), len("9999/9999"), room)
         for row in rows:
+            row = (*row[:5], fit(str(row[5]), room), *row[6:])
             key = str(row[0])
             self._logs[key] = (f"episode {row[0]} · {row[1]} · {row[2]} · repeat {row[3]}",
                                summary["logs"].get(row[0], ""))
