@@ -254,3 +254,18 @@ def test_verified_entries_are_ranked_apart_from_self_reported_ones(tmp_path):
     proc = cli("leaderboard", str(paths["honest"]), "-o", str(tmp_path / "s3"), "--trusted-key", str(scores))
     assert proc.returncode == 2 and "episode_scores.json: not an Ed25519 public key" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_the_report_labels_runs_on_public_worlds_as_development(tmp_path):
+    """`benchbot report` says which runs ran on public worlds (ground truth public) and which on held-out ones."""
+    from benchbot.batch.report import analyse, render_html
+    from benchbot.batch.signing import DEVELOPMENT, HELD_OUT
+
+    runs = [load_run(scores_only_run(tmp_path, "a", {"procedural_test_0:1": [0.2]}, example="held")),
+            load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.9]}, example="public"))]
+    assign_labels(runs, None)
+    result = analyse(runs)
+    assert [r["worlds"] for r in result["runs"]] == [HELD_OUT, DEVELOPMENT]
+    assert result["runs"][1]["provenance"]["worlds"] == DEVELOPMENT
+    html = render_html(runs, result, [], [], "assets")
+    assert "Development — ground truth public:</b> public ran on public worlds" in html

@@ -282,7 +282,12 @@ def sign_run(run_dir: Path, private_key_path: Path, challenge: dict | None = Non
 
     key = load_private_key(private_key_path)
     signed = payload(Path(run_dir), key.public_key(), challenge)
-    signature = base64.b64encode(key.sign(canonical(signed))).decode("ascii")
+    try:
+        message = canonical(signed)
+    except ValueError:  # NaN or infinity: JSON has no canonical form for it
+        raise UsageError(f"{Path(run_dir) / 'scores.json'}: a score is NaN or infinite, which cannot be signed",
+                         "re-evaluate the run; scores must be finite numbers") from None
+    signature = base64.b64encode(key.sign(message)).decode("ascii")
     path = Path(run_dir) / SIGNATURE_FILE
     atomic.write_text(path, json.dumps({"signed": signed, "signature": signature}, indent=2, ensure_ascii=True) + "\n")
     return path
