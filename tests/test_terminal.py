@@ -231,3 +231,39 @@ def test_a_closed_view_says_what_the_running_episodes_wait_for():
     assert lines == []  # the view shows it
     narrator.speak()
     assert len(lines) == 1 and lines[0].startswith("[1/2] miniroom:4  step 5 of 33 (the solution runs), 0:00"), lines
+
+
+def test_an_episode_log_names_the_run_directorys_folder_for_the_sandboxs(tmp_path):
+    """A sandboxed solution prints /benchbot/results/...; its episode log says which folder of the run directory
+    that is (before: only the sandbox's path, which does not exist outside it)."""
+    from benchbot.core.registry import get_registry
+    from benchbot.core.sandbox import run_sandboxed
+
+    outputs = tmp_path / "run" / "outputs" / "000_miniroom_1"
+    outputs.mkdir(parents=True)
+    (tmp_path / "socket").touch()  # no backend: the solution only prints
+    with open(tmp_path / "000.log", "w") as log:
+        run = run_sandboxed([sys.executable, "-c", "print('images in /benchbot/results/x_images')"], tmp_path,
+                            registry=get_registry(), backend_socket=tmp_path / "socket",
+                            address="http://127.0.0.1:10000/", outputs=outputs, result_name="r.json", log=log,
+                            timeout_s=60)
+    text = (tmp_path / "000.log").read_text()
+    assert run.outcome.returncode == 0, text
+    assert f"the solution's /benchbot/results is {outputs.resolve()}" in text, text
+    assert text.strip().splitlines()[-1] == "images in /benchbot/results/x_images"
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["plugin", "new", "--help"]])
+def test_help_reads_well_at_80_columns(argv):
+    proc = subprocess.run([*BENCHBOT, *argv], capture_output=True, text=True, timeout=60,
+                          env={**os.environ, "COLUMNS": "80", "TERM": "dumb"})
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert all(len(line) <= 80 for line in lines), [l for l in lines if len(l) > 80]
+    text = " ".join(proc.stdout.split())
+    assert "; )" not in text and "[tool.uv.sources]" in text if argv[0] == "plugin" else True
+    if argv == ["--help"]:  # each example command whole on its line, what it does under it
+        assert any(l.strip() == "benchbot batch --example semslam_geometric --envs miniroom:1" for l in lines)
+        assert any(l.strip() == "benchbot submit --native python my_solution.py" for l in lines)
+        assert "A short flag means the same in every command: -e environment(s)," in text
+        assert not any(l.strip() == "score, print a table)" for l in lines), lines  # a line broken by hand

@@ -15,20 +15,24 @@ if TYPE_CHECKING:
 # The Typer app and its commands are built on first use (``app``, below): ``benchbot --version`` imports none of
 # them and builds no registry; ``--help`` loads the plugins (their commands) but not their specs.
 
-HELP = """BenchBot: benchmark robotics research on simulated and real robots.
+HELP = ("""BenchBot: benchmark robotics research on simulated and real robots.
 
 Typical use:
 
-  benchbot batch --example semslam_geometric --envs miniroom:1     (run, score, print a table)
+  benchbot batch --example semslam_geometric --envs miniroom:1
+      run an example solution on an environment, score it, print a table
 
-  benchbot run --env miniroom:1     then, in another terminal:     benchbot submit --native python my_solution.py
+  benchbot run --env miniroom:1
+      a backend to develop against; in another terminal:
+      benchbot submit --native python my_solution.py
 
-  benchbot eval results.json        (score a results file with OMQ)
+  benchbot eval results.json
+      score a results file with OMQ
 
-See `benchbot list tasks|robots|environments|...` for what is installed. A short flag means the same in every
-command: -e environment(s), -t task, -r robot, -n native, -c containerised, -E example, -a args, -o output
-(docs/cli.md).
-"""
+"""  # each paragraph below is one line: Rich wraps it to the terminal (a break in it showed as a ragged line)
+        "See `benchbot list tasks|robots|environments|...` for what is installed. A short flag means the same in "
+        "every command: -e environment(s), -t task, -r robot, -n native, -c containerised, -E example, -a args, "
+        "-o output (docs/cli.md).\n")
 
 
 def _no_type_on_flags() -> None:

@@ -33,7 +33,7 @@ def register(app: typer.Typer) -> None:
         """Write a complete plugin project: pyproject (entry point), hook implementations, an example spec,
         README, contract tests and a CI workflow. It installs (`benchbot install ./benchbot-<kind>-<name>`) and its
         tests pass as written, anywhere: until BenchBot is on PyPI its pyproject takes BenchBot from where this
-        machine's came from (a checkout, a wheel or a git URL; [tool.uv.sources])."""
+        machine's came from (a checkout, a wheel or a git URL, in its \\[tool.uv.sources] table)."""
         from benchbot.plugins.scaffold import new_plugin
 
         root = new_plugin(kind, name, out_dir, force=force)

@@ -490,6 +490,9 @@ def run_sandboxed(
     own_prefixes = [Path(p) for p in dict.fromkeys((sys.prefix, sys.base_prefix))]
     editable = editable_view(own_prefixes + programs, own_prefixes, _outermost(shown + revealed), hidden, registry)
     notes = list(editable.notes)
+    if log is not None:  # a batch's episode log: a path the solution prints is the sandbox's; say where it is
+        notes.append(f"[benchbot] the solution's {INSIDE_OUTPUTS} is {Path(outputs).resolve()} (the sandbox shows the "
+                     f"run directory's folder there): paths it prints under {INSIDE_OUTPUTS} are in that folder")
     with tempfile.TemporaryDirectory(prefix="benchbot-sandbox-") as private:
         hosts = Path(private) / "hosts"
         hosts.write_text("127.0.0.1\tlocalhost " + " ".join(names) + f" {HOSTNAME}\n::1\tlocalhost\n")
