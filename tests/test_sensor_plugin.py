@@ -265,3 +265,62 @@ def test_the_plugins_sensor_is_in_the_vector_environment(monkeypatch):
         np.testing.assert_allclose(obs["imu"][:, 3:], [[0.0, 0.0, GRAVITY]] * 2)
     finally:
         vec.close()
+
+
+class _Message:
+    """A ROS message of any type for :class:`_Transport`: fields made on first use."""
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        child = _Message()
+        setattr(self, name, child)
+        return child
+
+
+class _Transport:
+    """A ROS 2 transport that keeps what is published: ``sent[topic]`` → ``[(ROS type, message)]``."""
+
+    def __init__(self):
+        self.sent = {}
+
+    def message(self, ros_type):
+        return _Message()
+
+    def publisher(self, topic, ros_type, *, latched=False):
+        sent = self.sent.setdefault(topic, [])
+        return type("P", (), {"publish": lambda _, msg: sent.append((ros_type, msg))})()
+
+    def subscribe(self, *args, **kwargs):
+        return None
+
+    def close(self):
+        pass
+
+
+def test_the_plugins_sensor_is_published_by_the_ros2_sim_bridge(monkeypatch):
+    """serve-sim reads the registry's observation kinds: the plugin's IMU, which its robot observes, goes out on the
+    kind's own topic and type (its recorder channel), converted by the kind; the camera and laser as before."""
+    pytest.importorskip("benchbot_robot_ros2")
+    import benchbot.core.registry as registry_module
+    import benchbot_robot_ros2.transport as transport_module
+    from benchbot_robot_ros2.sim_bridge import SimBridge, published_kinds
+
+    reg = Registry(extra_plugins={"imu_sensor": ImuPlugin(registry_module.get_registry().get("robots", "carter"))})
+    ros_robot = copy.deepcopy(reg.get("robots", "carter_ros2"))  # the ROS side reads the IMU too
+    ros_robot["observations"].append("imu")
+    assert published_kinds(reg.observations, reg.get("robots", "carter"), reg.get("robots", "carter_ros2")) == {}
+    ((kind, topics),) = published_kinds(reg.observations, reg.get("robots", ROBOT), ros_robot).values()
+    assert kind is IMU and topics == {"imu": "/imu/data"}
+    transport = _Transport()
+    monkeypatch.setattr(registry_module, "get_registry", lambda: reg)
+    monkeypatch.setattr(transport_module, "make_transport", lambda *args, **kwargs: transport)
+    bridge = SimBridge(ENV, robot=ROBOT, width=SMALL["width"], height=SMALL["height"], ros_robot=ros_robot)
+    try:
+        bridge.run(duration_s=0.3)
+    finally:
+        bridge.close()
+    ((ros_type, imu), *_) = transport.sent["/imu/data"]
+    assert ros_type == "sensor_msgs/msg/Imu" and imu.header.frame_id == bridge.frames["robot"]
+    assert imu.linear_acceleration.z == pytest.approx(GRAVITY) and imu.header.stamp.sec > 0
+    assert transport.sent[bridge.topics["rgb"]] and transport.sent[bridge.topics["scan"]]

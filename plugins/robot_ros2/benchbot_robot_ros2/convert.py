@@ -22,6 +22,19 @@ ENCODINGS = {"rgb8": (3, 3), "bgr8": (3, 3), "rgba8": (4, 4), "bgra8": (4, 4), "
 
 
 # ------------------------------------------------------------------------------------------ time and geometry
+def fill_from_dict(msg: Any, values: dict) -> Any:
+    """Fill a message from a message dict (field → value; a nested message as a dict, as an observation kind's
+    ``to_messages`` gives, :mod:`benchbot.core.observations`): nested messages are filled in place, other fields
+    set; returns ``msg``."""
+    for key, value in values.items():
+        current = getattr(msg, key, None)
+        if isinstance(value, dict) and current is not None and not isinstance(current, (dict, str, bytes, int, float)):
+            fill_from_dict(current, value)
+        else:
+            setattr(msg, key, value)
+    return msg
+
+
 def set_stamp(stamp: Any, t_s: float | None = None, *, t_ns: int | None = None) -> None:
     """Write a time into a ``builtin_interfaces/Time``: ``t_ns`` (integer nanoseconds, exact) if given, else ``t_s``
     (float seconds), else now (wall clock)."""

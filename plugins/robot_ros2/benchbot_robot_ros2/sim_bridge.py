@@ -21,6 +21,10 @@ topic                          type                            content
 ``/benchbot/reset_done``       ``std_msgs/msg/String``         JSON ``{"id", "ok", "error", "environment"}``
 =============================  ==============================  ==============================================
 
+Every other observation kind of the registry (plugins' included) that both the simulated robot and the ROS robot
+definition observe goes out with the camera, on its recorder channels' topics and types, converted as a recording
+holds it (a plugin's IMU on ``/imu/data``; :func:`published_kinds`).
+
 Frame and topic names come from one place, the ROS robot definition served (``carter_ros2``, or another with
 ``--ros-robot``, such as ``turtlebot4``'s ``oakd_…`` frames and topics): ``global_frame`` (``map``),
 ``ros2.frames.robot`` or ``ros2.base_frame`` (``base_link``), ``ros2.frames.camera`` (``camera``) and
@@ -110,6 +114,29 @@ DEFAULT_TOPICS = {"rgb": _recorded_topic("image_rgb"), "rgb_info": _recorded_top
                   "depth": _recorded_topic("image_depth"), "depth_info": _recorded_topic("image_depth_info"),
                   "scan": _recorded_topic("laser"), "odom": "/odom", "tf": "/tf", "tf_static": "/tf_static",
                   "cmd_vel": "/cmd_vel"}
+
+
+#: The observation kinds the bridge publishes with converters of its own, on the topics of the ROS robot definition
+#: served (:func:`ros_topics`): the camera's and the laser's. Every other kind is read from the registry
+#: (:func:`published_kinds`).
+PUBLISHED_HERE = ("image_rgb", "image_rgb_info", "image_depth", "image_depth_info", "laser")
+
+
+def published_kinds(kinds: dict, robot: dict, ros_robot: dict) -> dict:
+    """``{kind name: (ObservationKind, {channel key: topic})}``: the observation kinds (``kinds``: the registry's,
+    plugins' included: ``Registry.observations``) that the bridge publishes through their own recorder converters
+    (``ObservationKind.to_messages``): the sensor kinds with channels, beyond :data:`PUBLISHED_HERE`, that both the
+    simulated ``robot`` and the ROS robot definition served (``ros_robot``) observe (a plugin's IMU). Each goes
+    out on its channels' topics, or, for a kind of one channel, on the ``ros_topic`` of the definition's connection
+    of its name when it gives one (as :func:`ros_topics` renames the camera's and the laser's)."""
+    both = set(robot.get("observations") or []) & set(ros_robot.get("observations") or [])
+    connections = ros_robot.get("connections") or {}
+    out = {}
+    for name, kind in kinds.items():
+        if name in both and name not in PUBLISHED_HERE and kind.sensor and kind.channels:
+            renamed = (connections.get(name) or {}).get("ros_topic") if len(kind.channels) == 1 else None
+            out[name] = (kind, {c.key: renamed or c.topic for c in kind.channels})
+    return out
 
 
 def ros_topics(ros_robot: dict) -> dict[str, str]:
@@ -221,6 +248,17 @@ class SimBridge:
             "tf_static": p(t["tf_static"], "tf2_msgs/msg/TFMessage", latched=True),
             "reset_done": p("/benchbot/reset_done", "std_msgs/msg/String"),
         }
+        #: ``{kind name: (ObservationKind, {channel key: (publisher, ROS type)})}``: the kinds of the registry
+        #: published with their own converters (:func:`published_kinds`); a kind whose message type the transport
+        #: lacks is left out with a warning on stderr
+        self.kinds: dict[str, tuple[Any, dict[str, tuple[Any, str]]]] = {}
+        for kind, topics in published_kinds(self.registry.observations, self.robot_spec, definition).values():
+            try:
+                channels = {c.key: (p(topics[c.key], c.datatype), c.datatype) for c in kind.channels}
+            except Exception as exc:  # noqa: BLE001 - the type is unknown to this transport: the others still go out
+                print(f"warning: observation {kind.name} is not published: {exc}", file=sys.stderr)
+                continue
+            self.kinds[kind.name] = (kind, channels)
         self._cmd = (0.0, 0.0, -math.inf)  # v, w, wall receipt time
         self._twist = (0.0, 0.0)  # the motion made in the last tick: v m/s, w rad/s
         self._resets: queue.Queue = queue.Queue()
@@ -367,6 +405,22 @@ class SimBridge:
             self.pub[key].publish(fill_camera_info(self.tr.message("sensor_msgs/msg/CameraInfo"), K, w, h, cam, 0.0,
                                                    t_ns=now))
 
+    def _publish_kinds(self) -> None:
+        """The registry's kinds the robot observes beyond the camera's and laser's (:attr:`kinds`), each converted by
+        its own ``to_messages`` (as a recording holds it) and published on its channels' topics."""
+        if not self.kinds:
+            return
+        from benchbot.core.observations import RecordContext
+
+        from benchbot_robot_ros2.convert import fill_from_dict
+
+        obs = self.sim.observe(list(self.kinds))
+        context = RecordContext(self.clock_ns, dict(self.frames), {})
+        for name, (kind, channels) in self.kinds.items():
+            for key, message in kind.to_messages(obs[name], context).items():
+                publisher, ros_type = channels[key]
+                publisher.publish(fill_from_dict(self.tr.message(ros_type), message))
+
     def run(self, duration_s: float | None = None) -> None:
         """Serve until :attr:`stop_event` is set (or ``duration_s`` wall seconds pass). Call from the thread that
         created the bridge (Taichi's)."""
@@ -388,6 +442,7 @@ class SimBridge:
                 self._last_laser = self.sim_time
             if self.sim_time - self._last_camera >= self.camera_period - 1e-9:
                 self._publish_camera()
+                self._publish_kinds()
                 self._last_camera = self.sim_time
             tick += 1
             if tick % static_every == 0:
