@@ -1,0 +1,105 @@
+"""Procedural homes against BEAR's data (class histogram, sizes), built furnished end to end, and the benchmark's
+smoke mode."""
+
+from __future__ import annotations
+
+import collections
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchbot_worlds.bear import DATA_DIR
+from benchbot_worlds.procedural.generator import generate_home
+from benchbot_worlds.procedural.objects import BEAR_CLASS_COUNTS, BEAR_SIZES, bear_proportions
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def test_class_counts_and_sizes_are_bears():
+    counts = collections.Counter()
+    sides = collections.defaultdict(list)
+    for f in sorted(DATA_DIR.glob("*.json")):
+        for o in json.loads(f.read_text())["ground_truth"]["objects"]:
+            counts[o["class"]] += 1
+            e = np.abs(np.asarray(o["extent"], float))
+            sides[o["class"]].append([min(e[:2]), max(e[:2]), e[2]])
+    assert dict(counts) == BEAR_CLASS_COUNTS and sum(counts.values()) == 369
+    for cls, (lo, med, hi) in BEAR_SIZES.items():
+        v = np.array(sides[cls])
+        np.testing.assert_allclose(v.min(0), lo, atol=1e-3)
+        np.testing.assert_allclose(np.median(v, 0), med, atol=1e-3)
+        np.testing.assert_allclose(v.max(0), hi, atol=1e-3)
+
+
+@pytest.mark.slow
+def test_pooled_class_histogram_fits_bears():
+    """200 homes' variant-1 objects pooled: chi-square against BEAR's proportions does not reject at 1 %."""
+    from scipy.stats import chisquare
+
+    names, p = bear_proportions()
+    c = collections.Counter()
+    for seed in range(200):
+        for o in generate_home(seed, f"procedural_hist_{seed:04d}").variants[0]["ground_truth"]["objects"]:
+            c[o["class"]] += 1
+    assert set(c) <= set(names)
+    obs = np.array([c[k] for k in names])
+    assert chisquare(obs, p * obs.sum()).pvalue > 0.01
+
+
+@pytest.mark.slow
+def test_a_generated_home_builds_furnished_and_models_fill_their_cuboids(tmp_path):
+    from benchbot.core.assets import asset_library
+    from benchbot.core.seeding import home_seed
+    from benchbot_worlds.homes.furnish import PROPORTIONAL_TAG
+    from benchbot_worlds.homes.floorplan import home_files
+    from benchbot_worlds.homes.furnish_supports import standing_box
+    from benchbot_worlds.homes.furnished import furnish_environment
+    from benchbot_worlds.scene.build import build_scene
+    from benchbot_worlds.scene.meshes import instance_bounds
+
+    home = generate_home(5, "procedural_test_0005")
+    files = []
+    for v in home.variants:
+        path = tmp_path / f"procedural_test_0005_{v['environment']['variant']}.json"
+        path.write_text(json.dumps(v))
+        files.append(str(path))
+    env = dict(home.variants[0]["environment"], map_path=files[0], home_files=files, style="furnished")
+    scene = build_scene(env, seed=0)
+    assert scene.style == "furnished"
+    objects = home.variants[0]["ground_truth"]["objects"]
+    assert scene.n_boxes == len(objects)
+    furnished = furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    assert furnished.furnishing.unsupported == []
+    by_object: dict[int, list] = {}
+    for inst in furnished.instances:
+        if inst.object_index >= 0:
+            by_object.setdefault(inst.object_index, []).append(instance_bounds(inst))
+    assert len(by_object) >= 0.9 * len(objects)
+    library = asset_library()
+    proportional = {p.object_index for p in furnished.furnishing.placements
+                    if p.mesh is None and PROPORTIONAL_TAG in library.get(p.asset_id).tags}
+    checked = 0
+    for i, bounds in by_object.items():
+        lo = np.min([b[0] for b in bounds], axis=0)
+        hi = np.max([b[1] for b in bounds], axis=0)
+        c, e = np.asarray(objects[i]["centroid"]), np.asarray(objects[i]["extent"])
+        if i in proportional:  # a round clock dial: inside its cuboid (furnish.proportional_box)
+            assert np.all(lo >= c - e / 2 - 1e-4) and np.all(hi <= c + e / 2 + 1e-4)
+            continue
+        want_lo, want_hi = standing_box(objects[i], (c - e / 2, c + e / 2))
+        np.testing.assert_allclose(lo, want_lo, atol=1e-4, err_msg=f"object {i} {objects[i]['class']}")
+        np.testing.assert_allclose(hi, want_hi, atol=1e-4, err_msg=f"object {i} {objects[i]['class']}")
+        checked += 1
+    assert checked >= 0.8 * len(objects)
+
+
+@pytest.mark.slow
+def test_benchmark_smoke():
+    out = subprocess.run([sys.executable, str(REPO / "benchmarks" / "world_generation.py"), "--smoke"],
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "distinct homes: 20 of 20; invalid: 0" in out.stdout
