@@ -35,6 +35,12 @@ def test_class_counts_and_sizes_are_bears():
         np.testing.assert_allclose(v.max(0), hi, atol=1e-3)
 
 
+def test_variant_changes_are_measured_on_bear():
+    from benchbot_worlds.procedural.variants import VARIANT_CHANGES, measure_bear_changes
+
+    assert measure_bear_changes() == VARIANT_CHANGES
+
+
 @pytest.mark.slow
 def test_pooled_class_histogram_fits_bears():
     """200 homes' variant-1 objects pooled: chi-square against BEAR's proportions does not reject at 1 %."""

@@ -5,8 +5,8 @@ BEAR (Hall et al., arXiv:2009.05246; benchbot-addons ``ground_truths_isaac_devel
 Unreal ``map_path``, :func:`benchbot_worlds.bear.lighting_of_map_path`), and variants 2-5 differ from variant 1 by
 objects added, removed and moved. Measured on the bundled files (variant 1 against each other variant of miniroom
 and house; an object matched by class and ``ID_name``, else by class and the nearest centroid within 1 m; moved:
-its centroid differs by more than 1 cm), with ``python /tmp/var.py`` (the loop described, 8 pairs, 296 base
-objects)::
+its centroid differs by more than 1 cm), with :func:`measure_bear_changes` (``python -c "from
+benchbot_worlds.procedural.variants import measure_bear_changes as m; print(m())"``; 8 pairs, 296 base objects)::
 
     variant   moved   removed   added   (per object of variant 1, both homes pooled)
     2         0.027   0.108     0.135
@@ -101,3 +101,37 @@ def make_variants(rng: np.random.Generator, home: objs._Home, notes: list[str]) 
                 alive.append(j)
         out.append(alive)
     return out
+
+
+def measure_bear_changes() -> dict[int, tuple[float, float, float]]:
+    """{variant: (moved, removed, added) per object of variant 1} measured on BEAR's bundled miniroom and house
+    files (module docstring), both homes pooled, rounded to 3 decimals."""
+    import json
+
+    from benchbot_worlds.bear import DATA_DIR
+
+    tot: dict[int, list[int]] = {}
+    for name in ("miniroom", "house"):
+        base = json.loads((DATA_DIR / f"{name}_1.json").read_text())["ground_truth"]["objects"]
+        for v in (2, 3, 4, 5):
+            other = json.loads((DATA_DIR / f"{name}_{v}.json").read_text())["ground_truth"]["objects"]
+            used: set[int] = set()
+            moved = kept = 0
+            for b in base:
+                def dist(j, b=b):
+                    return float(np.linalg.norm(np.subtract(other[j]["centroid"], b["centroid"])))
+
+                same = [j for j, x in enumerate(other) if j not in used and x["class"] == b["class"]]
+                m = [j for j in same if other[j].get("ID_name") == b.get("ID_name")] or \
+                    [j for j in same if dist(j) < 1.0]
+                if not m:
+                    continue
+                j = min(m, key=dist)
+                used.add(j)
+                moved, kept = (moved + 1, kept) if dist(j) > 0.01 else (moved, kept + 1)
+            t = tot.setdefault(v, [0, 0, 0, 0])
+            t[0] += len(base)
+            t[1] += moved
+            t[2] += len(base) - kept - moved
+            t[3] += len(other) - len(used)
+    return {v: (round(t[1] / t[0], 3), round(t[2] / t[0], 3), round(t[3] / t[0], 3)) for v, t in tot.items()}
