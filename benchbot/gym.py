@@ -97,13 +97,139 @@ def register_envs() -> None:
                                vector_entry_point=VECTOR_ENTRY_POINTS.get(env_id), kwargs=dict(kwargs))
 
 
-def make_env_class() -> type:
-    """The :class:`BenchBotEnv` class (built lazily so importing this module does not define it before gymnasium)."""
-    gymnasium = _gym()
-    spaces = gymnasium.spaces
-    from benchbot.api.benchbot import ActionResult, BenchBot
+class _EnvMethods:
+    """The methods of :class:`BenchBotEnv` (which adds ``gymnasium.Env``, imported when the class is built:
+    :func:`make_env_class`)."""
 
-    class BenchBotEnv(gymnasium.Env):
+    def __init__(self, backend: Any = None, address: str | None = None, max_steps: int = 200,
+                 step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None, *,
+                 task: str | None = None, env: str | None = None, robot: str | None = None, seed: int = 0,
+                 options: dict | None = None) -> None:
+        from benchbot.api.benchbot import BenchBot
+
+        spaces = _gym().spaces
+        check_episode_arguments(max_steps, step_m, turn_deg, render_mode)
+        self._owned = None  # the in-process service this environment built, closed by close()
+        if task is not None or env is not None or robot is not None:
+            if backend is not None or address is not None:
+                raise ValueError("give task/env/robot (an in-process simulator) or backend or address, not both")
+            from benchbot.core.registry import get_registry
+            from benchbot.core.session import resolve_run, start_service
+
+            registry = get_registry()
+            run = resolve_run(registry, task or DEFAULT_TASK, robot or DEFAULT_ROBOT, env or DEFAULT_ENV)
+            backend = self._owned = start_service(registry, run, seed=int(seed), options=dict(options or {}))
+        elif options is not None or seed != 0:
+            raise ValueError("seed and options configure an in-process simulator: give task/env/robot too")
+        try:
+            self.bot = BenchBot(backend=backend, supervisor_address=address, auto_start=False)
+            self.bot.start()
+        except BaseException:
+            if self._owned is not None:
+                self._owned.close()
+            raise
+        self.max_steps, self.step_m, self.turn_deg = max_steps, float(step_m), float(turn_deg)
+        self.render_mode = render_mode
+        task_actions = self.bot.config["task"]["actions"]
+        self.active = "move_distance" in task_actions and "move_angle" in task_actions
+        self.action_space = spaces.Discrete(4 if self.active else 1)
+        obs, _ = self.bot.step(None)
+        self._last_rgb = obs.get("image_rgb")
+        # the observation kinds with a Gym entry (benchbot.core.observations): the episode's in this process,
+        # else this process's registry (plugins' kinds included)
+        kinds = getattr(getattr(backend, "episode", None), "observation_kinds", None)
+        if kinds is None:
+            from benchbot.core.registry import get_registry
+
+            kinds = get_registry().observations
+        #: ``{observation name: GymEntry}`` of the entries of :attr:`observation_space`
+        self.gym_entries = {name: kind.gym for name, kind in kinds.items() if kind.gym is not None and name in obs}
+        self.observation_space = spaces.Dict({entry.key: entry.space(spaces, obs[name])
+                                              for name, entry in self.gym_entries.items()})
+        self._steps = 0
+        self._terminal: tuple[dict, dict] | None = None  # (observation, info) once terminated
+
+    def _convert(self, obs: dict) -> dict:
+        out = {entry.key: entry.value(obs[name]) for name, entry in self.gym_entries.items()}
+        if "image_rgb" in out:
+            self._last_rgb = out["image_rgb"]
+        return out
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+        """Back to a fresh scene 0, the robot at its start pose; returns ``(observation, {'scene_number': int})``.
+
+        ``seed`` seeds :attr:`np_random` and, for an in-process simulator this environment built, the simulator
+        (colour variation, sensor and odometry noise) from this reset on; a backend given or reached over HTTP
+        keeps the seed it was started with.
+        """
+        super().reset(seed=seed)
+        if seed is not None and self._owned is not None:
+            self._owned.call(setattr, self._owned.episode, "seed", int(seed))
+        self.bot._get("robot/reset")  # always a fresh scene 0, even when the robot has not moved
+        self.bot._state = self.bot._get("robot/state")
+        obs, _ = self.bot.step(None)
+        self._steps = 0
+        self._terminal = None
+        return self._convert(obs), {"scene_number": obs["scene_number"]}
+
+    def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
+        """Perform ``action`` (an int of :attr:`action_space`); returns ``(observation, 0.0, terminated,
+        truncated, info)`` with ``info = {'result': 'SUCCESS' | 'COLLISION' | 'FINISHED', 'scene_number': int}``.
+
+        After ``terminated`` (a collision, or a passive trajectory used up) the backend accepts no action until
+        :meth:`reset`: a further ``step`` warns (``gymnasium.logger``) and returns the terminal observation and
+        ``terminated=True`` again, with ``info['after_terminal'] = True``, without moving.
+
+        Raises:
+            ValueError: ``action`` is not in the action space. ConnectionError: the backend failed.
+        """
+        from benchbot.api.benchbot import ActionResult
+
+        if not self.action_space.contains(action):
+            raise ValueError(f"action {action!r} is not in {self.action_space}")
+        if self._terminal is not None:
+            _gym().logger.warn(
+                "BenchBotEnv.step() called after terminated=True (the robot "
+                f"{'collided' if self._terminal[1]['result'] == 'COLLISION' else 'finished its trajectory'}); "
+                "call reset() first")
+            obs, info = self._terminal
+            return {k: v.copy() for k, v in obs.items()}, 0.0, True, False, {**info, "after_terminal": True}
+        action = int(action)
+        if self.active:
+            name, kwargs = [("move_distance", {"distance": self.step_m}), ("move_distance", {"distance": -self.step_m}),
+                            ("move_angle", {"angle": self.turn_deg}), ("move_angle", {"angle": -self.turn_deg})][action]
+        else:
+            name, kwargs = "move_next", {}
+        obs, result = self.bot.step(name, **kwargs)
+        self._steps += 1
+        terminated = result is not ActionResult.SUCCESS
+        truncated = not terminated and self._steps >= self.max_steps
+        info = {"result": result.name, "scene_number": obs["scene_number"]}
+        converted = self._convert(obs)
+        if terminated:
+            self._terminal = ({k: v.copy() for k, v in converted.items()}, dict(info))
+        return converted, 0.0, terminated, truncated, info
+
+    def render(self) -> Any:
+        """The last colour image, (H, W, 3) uint8 (None when the task observes none)."""
+        return self._last_rgb
+
+    def close(self) -> None:
+        """Close the connection to the backend, and the in-process simulator this environment built."""
+        bot, self.bot = getattr(self, "bot", None), None
+        if bot is not None:
+            bot.close()
+        owned, self._owned = getattr(self, "_owned", None), None
+        if owned is not None:
+            owned.close()
+
+
+def make_env_class() -> type:
+    """The :class:`BenchBotEnv` class (built lazily so importing this module does not define it before gymnasium):
+    the methods of :class:`_EnvMethods` on ``gymnasium.Env``."""
+    gymnasium = _gym()
+
+    class BenchBotEnv(_EnvMethods, gymnasium.Env):
         """BenchBot as a ``gymnasium.Env`` (the module docstring gives the spaces and the episode contract).
 
         Three ways to reach a backend, exactly one of them:
@@ -136,123 +262,6 @@ def make_env_class() -> type:
         """
 
         metadata = {"render_modes": ["rgb_array"]}
-
-        def __init__(self, backend: Any = None, address: str | None = None, max_steps: int = 200,
-                     step_m: float = 0.25, turn_deg: float = 15.0, render_mode: str | None = None, *,
-                     task: str | None = None, env: str | None = None, robot: str | None = None, seed: int = 0,
-                     options: dict | None = None) -> None:
-            check_episode_arguments(max_steps, step_m, turn_deg, render_mode)
-            self._owned = None  # the in-process service this environment built, closed by close()
-            if task is not None or env is not None or robot is not None:
-                if backend is not None or address is not None:
-                    raise ValueError("give task/env/robot (an in-process simulator) or backend or address, not both")
-                from benchbot.core.registry import get_registry
-                from benchbot.core.session import resolve_run, start_service
-
-                registry = get_registry()
-                run = resolve_run(registry, task or DEFAULT_TASK, robot or DEFAULT_ROBOT, env or DEFAULT_ENV)
-                backend = self._owned = start_service(registry, run, seed=int(seed), options=dict(options or {}))
-            elif options is not None or seed != 0:
-                raise ValueError("seed and options configure an in-process simulator: give task/env/robot too")
-            try:
-                self.bot = BenchBot(backend=backend, supervisor_address=address, auto_start=False)
-                self.bot.start()
-            except BaseException:
-                if self._owned is not None:
-                    self._owned.close()
-                raise
-            self.max_steps, self.step_m, self.turn_deg = max_steps, float(step_m), float(turn_deg)
-            self.render_mode = render_mode
-            task_actions = self.bot.config["task"]["actions"]
-            self.active = "move_distance" in task_actions and "move_angle" in task_actions
-            self.action_space = spaces.Discrete(4 if self.active else 1)
-            obs, _ = self.bot.step(None)
-            self._last_rgb = obs.get("image_rgb")
-            # the observation kinds with a Gym entry (benchbot.core.observations): the episode's in this process,
-            # else this process's registry (plugins' kinds included)
-            kinds = getattr(getattr(backend, "episode", None), "observation_kinds", None)
-            if kinds is None:
-                from benchbot.core.registry import get_registry
-
-                kinds = get_registry().observations
-            #: ``{observation name: GymEntry}`` of the entries of :attr:`observation_space`
-            self.gym_entries = {name: kind.gym for name, kind in kinds.items() if kind.gym is not None and name in obs}
-            self.observation_space = spaces.Dict({entry.key: entry.space(spaces, obs[name])
-                                                  for name, entry in self.gym_entries.items()})
-            self._steps = 0
-            self._terminal: tuple[dict, dict] | None = None  # (observation, info) once terminated
-
-        def _convert(self, obs: dict) -> dict:
-            out = {entry.key: entry.value(obs[name]) for name, entry in self.gym_entries.items()}
-            if "image_rgb" in out:
-                self._last_rgb = out["image_rgb"]
-            return out
-
-        def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-            """Back to a fresh scene 0, the robot at its start pose; returns ``(observation, {'scene_number': int})``.
-
-            ``seed`` seeds :attr:`np_random` and, for an in-process simulator this environment built, the simulator
-            (colour variation, sensor and odometry noise) from this reset on; a backend given or reached over HTTP
-            keeps the seed it was started with.
-            """
-            super().reset(seed=seed)
-            if seed is not None and self._owned is not None:
-                self._owned.call(setattr, self._owned.episode, "seed", int(seed))
-            self.bot._get("robot/reset")  # always a fresh scene 0, even when the robot has not moved
-            self.bot._state = self.bot._get("robot/state")
-            obs, _ = self.bot.step(None)
-            self._steps = 0
-            self._terminal = None
-            return self._convert(obs), {"scene_number": obs["scene_number"]}
-
-        def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
-            """Perform ``action`` (an int of :attr:`action_space`); returns ``(observation, 0.0, terminated,
-            truncated, info)`` with ``info = {'result': 'SUCCESS' | 'COLLISION' | 'FINISHED', 'scene_number': int}``.
-
-            After ``terminated`` (a collision, or a passive trajectory used up) the backend accepts no action until
-            :meth:`reset`: a further ``step`` warns (``gymnasium.logger``) and returns the terminal observation and
-            ``terminated=True`` again, with ``info['after_terminal'] = True``, without moving.
-
-            Raises:
-                ValueError: ``action`` is not in the action space. ConnectionError: the backend failed.
-            """
-            if not self.action_space.contains(action):
-                raise ValueError(f"action {action!r} is not in {self.action_space}")
-            if self._terminal is not None:
-                gymnasium.logger.warn(
-                    "BenchBotEnv.step() called after terminated=True (the robot "
-                    f"{'collided' if self._terminal[1]['result'] == 'COLLISION' else 'finished its trajectory'}); "
-                    "call reset() first")
-                obs, info = self._terminal
-                return {k: v.copy() for k, v in obs.items()}, 0.0, True, False, {**info, "after_terminal": True}
-            action = int(action)
-            if self.active:
-                name, kwargs = [("move_distance", {"distance": self.step_m}), ("move_distance", {"distance": -self.step_m}),
-                                ("move_angle", {"angle": self.turn_deg}), ("move_angle", {"angle": -self.turn_deg})][action]
-            else:
-                name, kwargs = "move_next", {}
-            obs, result = self.bot.step(name, **kwargs)
-            self._steps += 1
-            terminated = result is not ActionResult.SUCCESS
-            truncated = not terminated and self._steps >= self.max_steps
-            info = {"result": result.name, "scene_number": obs["scene_number"]}
-            converted = self._convert(obs)
-            if terminated:
-                self._terminal = ({k: v.copy() for k, v in converted.items()}, dict(info))
-            return converted, 0.0, terminated, truncated, info
-
-        def render(self) -> Any:
-            """The last colour image, (H, W, 3) uint8 (None when the task observes none)."""
-            return self._last_rgb
-
-        def close(self) -> None:
-            """Close the connection to the backend, and the in-process simulator this environment built."""
-            bot, self.bot = getattr(self, "bot", None), None
-            if bot is not None:
-                bot.close()
-            owned, self._owned = getattr(self, "_owned", None), None
-            if owned is not None:
-                owned.close()
 
     return BenchBotEnv
 
