@@ -396,7 +396,8 @@ def _run_with_tui(reg, batch, on_record, deadline, narrator, **kwargs):
             deadline.arm(signal_sent=False)  # the view read Ctrl-C as a key: no process got SIGINT
             raise KeyboardInterrupt
         if thread.is_alive():
-            err.print(f"the table was closed; the batch goes on (Ctrl-C stops it; watch it again: benchbot tui {run_dir})")
+            err.print("the table was closed; the batch goes on (Ctrl-C stops it)", highlight=False)
+            err.print(f"watch it again: benchbot tui {run_dir}", highlight=False, markup=False)
             narrator.speak()
             while thread.is_alive():
                 thread.join(0.2)
