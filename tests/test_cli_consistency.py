@@ -101,7 +101,7 @@ def test_arch_defaults_to_auto_and_native_takes_a_command_everywhere(app):
     assert {"benchbot run", "benchbot batch"} <= set(arch)
     assert set(arch.values()) == {"auto"}, arch
     native = {path: opt.is_flag for path, cmd in commands(app) for opt in options(cmd) if "--native" in opt.opts}
-    assert native == {"benchbot submit": False, "benchbot batch": False}
+    assert native == {"benchbot submit": False, "benchbot batch": False, "benchbot challenge evaluate": False}
 
 
 def test_every_option_has_help_and_help_shows_no_bool(app):
@@ -267,6 +267,9 @@ COUNT_FLAG_COMMANDS = {
     "benchbot run": ["--env", "miniroom:1"],
     "benchbot sim render": ["miniroom:1", "-o", "never.png"],
     "benchbot ros2 serve-sim": ["--env", "miniroom:1"],
+    "benchbot worlds generate": ["-o", "never_pack"],
+    "benchbot challenge init": ["never_challenge"],
+    "benchbot challenge evaluate": ["never_submission", "--challenge", "never_challenge"],
 }
 
 

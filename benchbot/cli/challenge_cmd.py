@@ -9,8 +9,10 @@ from typing import Optional
 import typer
 
 from benchbot.cli.common import err, handle_errors, out, registry
+from benchbot.cli.options import at_most, check_count
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core.errors import ExitCode
+from benchbot.core.limits import MAX_GENERATED_HOMES, MAX_WORKERS
 
 
 def register(app: typer.Typer) -> None:
@@ -26,7 +28,8 @@ def register(app: typer.Typer) -> None:
         robot: str = typer.Option(DEFAULT_ROBOT, "--robot", "-r", help="Robot name (`benchbot list robots`)."),
         split: Optional[str] = typer.Option(None, "--split", help="Procedural homes' split: test (held out: "
                                             "only this host can build them), val or train (public)."),
-        count: int = typer.Option(10, "--count", help="How many homes of the split (variant 1 of each)."),
+        count: int = typer.Option(10, "--count", help="How many homes of the split (variant 1 of each): "
+                                  f"{at_most(MAX_GENERATED_HOMES, 1)}."),
         environments: Optional[str] = typer.Option(None, "--environments", help="Instead of --split: a comma list "
                                                    "of environments (a development challenge: ground truth public)."),
         evaluate_with: str = typer.Option("auto", "--evaluate-with", help="Evaluation method."),
@@ -37,6 +40,7 @@ def register(app: typer.Typer) -> None:
         split is test (as `benchbot worlds key`), and conditions.json (public)."""
         from benchbot.batch.challenge import init_challenge
 
+        check_count("--count", count, MAX_GENERATED_HOMES, 1)
         reg = registry()
         reg.get("tasks", task)
         reg.get("robots", robot)
@@ -52,10 +56,10 @@ def register(app: typer.Typer) -> None:
     @handle_errors
     def evaluate(
         submission: Path = typer.Argument(..., help="The solution's folder (its code and lock file)."),
-        folder: Path = typer.Option(..., "--challenge", "-C", help="The challenge's folder (`benchbot challenge init`)."),
+        folder: Path = typer.Option(..., "--challenge", help="The challenge's folder (`benchbot challenge init`)."),
         native: Optional[str] = typer.Option(None, "--native", "-n", help="The solution's command, run in its folder; "
                                              "default: python FILE for its one top-level .py file."),
-        workers: int = typer.Option(1, "--workers", "-w", help="Episodes run in parallel."),
+        workers: int = typer.Option(1, "--workers", "-w", help=f"Episodes run in parallel: {at_most(MAX_WORKERS, 1)}."),
         executor: str = typer.Option("local", "--executor", help="local, batched or ray (as `benchbot batch`)."),
     ) -> None:
         """Run a submission sandboxed on the challenge's environments with `benchbot batch --native`, then sign the
@@ -63,6 +67,7 @@ def register(app: typer.Typer) -> None:
         versions, the isolation). Anyone can check it with `benchbot verify RUN --key host_key.pub.pem`."""
         from benchbot.batch.challenge import evaluate_submission
 
+        check_count("--workers", workers, MAX_WORKERS, 1)
         run_dir, signature, status = evaluate_submission(submission, folder, native=native, workers=workers,
                                                          executor=executor)
         if signature is None:

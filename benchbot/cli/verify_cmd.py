@@ -16,7 +16,7 @@ def register(app: typer.Typer) -> None:
     @handle_errors
     def verify(
         run: Path = typer.Argument(..., help="A run directory with a signature.json (`benchbot challenge evaluate`)."),
-        key: Optional[list[Path]] = typer.Option(None, "--key", "-k", help="A trusted host's public key "
+        key: Optional[list[Path]] = typer.Option(None, "--key", help="A trusted host's public key "
                                                  "(host_key.pub.pem; repeat the flag for several); without it only "
                                                  "the signature's own key is used."),
     ) -> None:

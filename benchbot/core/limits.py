@@ -28,6 +28,8 @@ MAX_BATCH_EPISODES          100000 episodes          BENCHBOT_MAX_BATCH_EPISODES
 MAX_WORKERS                 256 workers              BENCHBOT_MAX_WORKERS                 usage error (exit 2)
 MAX_RETRIES                 100 retries              BENCHBOT_MAX_RETRIES                 usage error (exit 2)
 MAX_SEED                    4294967295               (none: --seed, 0 to 2**32 - 1)       usage error (exit 2)
+MAX_GENERATED_HOMES         10000 homes              BENCHBOT_MAX_GENERATED_HOMES         usage error (exit 2)
+MAX_HOME_INDEX              1000000000               (none: a generated home's index)     usage error (exit 2)
 MAX_RENDER_SAMPLES          4096 samples             (none: sim render --spp, ...)        usage error (exit 2)
 **child processes**
 MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
@@ -267,6 +269,14 @@ MAX_RETRIES = Limit(100, "BENCHBOT_MAX_RETRIES", "retries", integer=True, meanin
 
 MAX_SEED = Limit((1 << 32) - 1, None, "", integer=True, meaning="--seed")
 """``--seed`` (``batch``, ``run``, ``ros2 sim``, ``sim render``) lies in 0 to this (NumPy's 32-bit seeds)."""
+
+MAX_GENERATED_HOMES = Limit(10_000, "BENCHBOT_MAX_GENERATED_HOMES", "homes", integer=True,
+                            meaning="homes in a generated batch or pack")
+"""Homes in one generated batch (``procedural_val_<count>``) or one ``benchbot worlds generate --count`` pack
+(:mod:`benchbot.core.world_generators`)."""
+
+MAX_HOME_INDEX = Limit(10**9, None, "", integer=True, meaning="a generated home's index")
+"""A generated home's index (``procedural_val_<index>``, ``benchbot worlds generate --start``) lies in 0 to this."""
 
 DEFAULT_ACTION_TIMEOUT_S = 120.0
 """Seconds after which an action answers 504 (the episode stays usable), unless ``run --action-timeout`` says

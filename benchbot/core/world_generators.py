@@ -19,11 +19,14 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 from benchbot.core.errors import SpecError
+from benchbot.core.limits import MAX_GENERATED_HOMES
+from benchbot.core.limits import MAX_HOME_INDEX as _MAX_HOME_INDEX
 
-#: The most homes a generated batch (``<generator>_<split>_<count>``) may hold.
-MAX_BATCH_HOMES = 10_000
+#: The most homes a generated batch (``<generator>_<split>_<count>``) may hold (``BENCHBOT_MAX_GENERATED_HOMES``
+#: raises it: :data:`benchbot.core.limits.MAX_GENERATED_HOMES`).
+MAX_BATCH_HOMES = int(MAX_GENERATED_HOMES.default)
 #: The largest home index a generator is asked for (indices are 0 .. MAX_HOME_INDEX).
-MAX_HOME_INDEX = 10**9
+MAX_HOME_INDEX = int(_MAX_HOME_INDEX.default)
 
 _HOME = re.compile(r"^(?P<generator>[a-z][a-z0-9]*)_(?P<split>[a-z][a-z0-9]*)_(?P<index>-?[0-9]+)$")
 
@@ -122,10 +125,11 @@ def parse_batch(name: str, generators: dict[str, WorldGenerator]) -> tuple[World
     if m["split"] not in gen.splits:
         raise SpecError(f"batch '{name}': generator '{gen.name}' has no split '{m['split']}'",
                         f"its splits: {', '.join(gen.splits)} (e.g. {gen.name}_{gen.splits[0]}_100)")
-    count = int(m["index"])
-    if not 1 <= count <= MAX_BATCH_HOMES:
-        raise SpecError(f"batch '{name}': {count} homes is outside 1..{MAX_BATCH_HOMES}",
-                        f"a generated batch holds at most {MAX_BATCH_HOMES} homes; sweep more as several batches")
+    count, most = int(m["index"]), int(MAX_GENERATED_HOMES.value())
+    if not 1 <= count <= most:
+        raise SpecError(f"batch '{name}': {count} homes is outside 1..{most}",
+                        f"a generated batch holds at most {most} homes (BENCHBOT_MAX_GENERATED_HOMES); sweep more as "
+                        "several batches")
     return gen, m["split"], count
 
 

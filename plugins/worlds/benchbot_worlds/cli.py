@@ -13,7 +13,8 @@ from pathlib import Path
 
 import typer
 
-from benchbot.core.world_generators import MAX_BATCH_HOMES
+from benchbot.cli.options import at_most, check_count
+from benchbot.core.limits import MAX_GENERATED_HOMES, MAX_HOME_INDEX
 
 app = typer.Typer(help="Procedural homes: write them as a content pack, make the test split's key.",
                   no_args_is_help=True)
@@ -26,8 +27,9 @@ app = typer.Typer(help="Procedural homes: write them as a content pack, make the
 def generate(
     split: str = typer.Option("val", "--split", help="train, val or test (test needs this host's key: "
                                                      "`benchbot worlds key`)."),
-    count: int = typer.Option(10, "--count", help=f"How many homes (1..{MAX_BATCH_HOMES})."),
-    start: int = typer.Option(0, "--start", help="The first home's index (homes start .. start+count-1)."),
+    count: int = typer.Option(10, "--count", help=f"How many homes: {at_most(MAX_GENERATED_HOMES, 1)}."),
+    start: int = typer.Option(0, "--start", help=f"The first home's index (homes start .. start+count-1): "
+                                                 f"{at_most(MAX_HOME_INDEX)}."),
     out: Path = typer.Option(..., "--output", "-o", help="The pack's folder (must not exist, unless --force)."),
     force: bool = typer.Option(False, "--force", help="Replace an existing folder."),
 ) -> None:
@@ -39,6 +41,8 @@ def generate(
 
     @handle_errors
     def run() -> None:
+        check_count("--count", count, MAX_GENERATED_HOMES, 1)
+        check_count("--start", start, MAX_HOME_INDEX)
         check_request(split, start, count, out, force=force)
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                       transient=False) as progress:

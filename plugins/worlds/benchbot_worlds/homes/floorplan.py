@@ -23,8 +23,8 @@ How the plan is derived:
    (:data:`PASSAGE_COST`, :data:`STRADDLE_COST`), and the seed breaks near-ties (:data:`SEED_JITTER`), so different
    seeds may give different houses and the same seed always the same one.
    A procedural home declares its layout (``environment.layout``, :func:`home_layout`): then its outer rectangle
-   and its guillotine cuts are the boundary and the walls (no search) and its rooms' kinds name the rooms; each
-   wall's openings are found as above (where the paths cross it, else a connecting doorway).
+   and its guillotine cuts are the boundary and the walls (no search), its rooms' kinds name the rooms and its
+   doors are the walls' doorways (a layout without doors: each wall's openings are found as above).
 3. Rooms are named after what they hold (kitchen, bathroom, bedroom, living_room, office, else hall); exterior walls
    get windows (sill :data:`WINDOW_SILL_M`, head :data:`WINDOW_HEAD_M`) wherever no cuboid taller than the sill
    stands within :data:`WINDOW_CLEAR_DEPTH_M` of the wall; every room gets ceiling lamps on a grid of about
@@ -731,9 +731,11 @@ class _Planner:
 
     def given_partition(self, layout: dict) -> list[_Cell]:
         """The cells of a given layout's cuts (``layout["cuts"]`` [[axis, pos, lo, hi], ...] in the order made, in
-        this planner's frame; the outer boundary already set to ``layout["outer"]``), each wall with the openings
-        the paths need (:meth:`_openings`, never refused) or, when they need none, a connecting doorway where the
-        floor is clear (:meth:`_connect_door`), as :meth:`partition` gives its walls.
+        this planner's frame; the outer boundary already set to ``layout["outer"]``). A layout that lists its
+        ``doors`` ([{axis, pos, lo, hi, rooms}], as :func:`benchbot_worlds.procedural.layout.layout_to_dict` writes
+        them) gets exactly those doorways in its walls (each takes a door); one without gets, in each wall, the
+        openings the paths need (:meth:`_openings`, never refused) or, when they need none, a connecting doorway
+        where the floor is clear (:meth:`_connect_door`), as :meth:`partition` gives its walls.
 
         Raises:
             BackendError: a cut does not run across exactly one cell from side to side.
@@ -749,9 +751,14 @@ class _Planner:
             cell = leaves.pop(hits[0])
             span = self._span(cell, o)
             c = np.array([pos])
-            openings = self._openings(self._object_intervals(cell, c, ax)[0], self._path_intervals(c, ax, span)[0],
-                                      span, strict=False)
-            if not openings:
+            if "doors" in layout:  # the layout's own doorways in this wall, and no other opening
+                openings = sorted((float(d["lo"]), float(d["hi"]), "door") for d in layout["doors"]
+                                  if int(d["axis"]) == ax and abs(float(d["pos"]) - pos) < 1e-6
+                                  and float(d["lo"]) >= span[0] - 1e-6 and float(d["hi"]) <= span[1] + 1e-6)
+            else:
+                openings = self._openings(self._object_intervals(cell, c, ax)[0],
+                                          self._path_intervals(c, ax, span)[0], span, strict=False)
+            if not openings and "doors" not in layout:
                 door = self._connect_door(cell, ax, pos, span, openings)
                 if door is not None:
                     openings = [door]
@@ -877,8 +884,9 @@ def derive_floor_plan(objects: list[dict], paths: list[np.ndarray], *, seed: int
         layout: a procedural home's layout (the JSON form of :func:`benchbot_worlds.procedural.layout.layout_to_dict`,
             in the frame of ``objects`` and ``paths``): its ``outer`` rectangle is the outer boundary and its
             ``cuts`` are the walls, in their order (no search; ``seed`` is not used); a room's kind is that of the
-            layout room (``rooms``: kind, lo, hi) holding its centre. The openings are found as for a derived wall:
-            where the paths cross a wall, else a connecting doorway where the floor is clear. None (BEAR's homes):
+            layout room (``rooms``: kind, lo, hi) holding its centre. Its ``doors`` are the walls' doorways (each with
+            a door leaf); without ``doors``, the openings are found as for a derived wall: where the paths cross a
+            wall, else a connecting doorway where the floor is clear. None (BEAR's homes):
             the binary space partition of the module docstring.
 
     Returns:

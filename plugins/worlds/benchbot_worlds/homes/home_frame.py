@@ -126,9 +126,8 @@ class HomeFrame:
         frame, metres) in the home frame: ``outer`` and each room's ``lo``/``hi`` carried as boxes, each cut
         [axis, pos, lo, hi] carried by its two end points (the axis swapped where the frame swaps x and y, the ends
         ordered), every coordinate by the same rounding as :meth:`points_to_home`, so cut lines and room sides that
-        are equal in the map frame stay equal bit for bit. ``doors`` are left out (the plan takes its doorways from
-        the paths); other keys are kept; None and the identity return
-        ``layout`` itself.
+        are equal in the map frame stay equal bit for bit; each door's [axis, pos, lo, hi] as a cut's; other keys are
+        kept; None and the identity return ``layout`` itself.
 
         Raises:
             KeyError, TypeError, ValueError: a malformed layout.
@@ -140,17 +139,21 @@ class HomeFrame:
             a = self._home_xy(np.asarray([lo, hi], dtype=np.float64).reshape(2, 2))
             return np.minimum(a[0], a[1]).tolist(), np.maximum(a[0], a[1]).tolist()
 
-        cuts = []
-        for ax, pos, lo, hi in layout["cuts"]:
+        def line(ax, pos, lo, hi) -> tuple[int, float, float, float]:
             ends = np.zeros((2, 2))
             ends[:, int(ax)] = float(pos)
             ends[:, 1 - int(ax)] = (float(lo), float(hi))
             e = self._home_xy(ends)
             ax2 = int(ax) if self.R[0, 0] != 0 else 1 - int(ax)
-            cuts.append([ax2, float(e[0, ax2]), float(e[:, 1 - ax2].min()), float(e[:, 1 - ax2].max())])
+            return ax2, float(e[0, ax2]), float(e[:, 1 - ax2].min()), float(e[:, 1 - ax2].max())
+
+        cuts = [list(line(*c)) for c in layout["cuts"]]
         rooms = [{**r, **dict(zip(("lo", "hi"), box(r["lo"], r["hi"])))} for r in layout.get("rooms", [])]
-        kept = {k: v for k, v in layout.items() if k != "doors"}
-        return {**kept, "outer": list(box(*layout["outer"])), "cuts": cuts, "rooms": rooms}
+        out = {**layout, "outer": list(box(*layout["outer"])), "cuts": cuts, "rooms": rooms}
+        if "doors" in layout:
+            out["doors"] = [{**d, **dict(zip(("axis", "pos", "lo", "hi"), line(d["axis"], d["pos"], d["lo"], d["hi"])))}
+                            for d in layout["doors"]]
+        return out
 
     def box_to_map(self, lo, hi) -> tuple[np.ndarray, np.ndarray]:
         """The map-frame (lo, hi) of a home-frame axis-aligned box (2 or 3 coordinates; z unchanged)."""

@@ -18,7 +18,7 @@ from pathlib import Path
 import yaml
 
 from benchbot.core.errors import UsageError
-from benchbot.core.world_generators import MAX_BATCH_HOMES
+from benchbot.core.limits import MAX_GENERATED_HOMES
 from benchbot_worlds.procedural import splits
 from benchbot_worlds.procedural.worlds import environment_spec, home_files, home_name
 
@@ -32,7 +32,7 @@ def _environment_yaml(spec: dict, home: str, variant: int) -> str:
 
 def check_request(split: str, start: int, count: int, out: Path, *, force: bool) -> None:
     """Refuse, in one line with the fix, an unknown split, a negative start, a count outside
-    1..:data:`~benchbot.core.world_generators.MAX_BATCH_HOMES`, or an existing ``out`` without ``force``.
+    1..:data:`~benchbot.core.limits.MAX_GENERATED_HOMES`, or an existing ``out`` without ``force``.
 
     Raises:
         UsageError: one of those.
@@ -41,9 +41,11 @@ def check_request(split: str, start: int, count: int, out: Path, *, force: bool)
         raise UsageError(f"--split {split!r} is no split of procedural homes", f"use one of: {', '.join(splits.SPLITS)}")
     if start < 0:
         raise UsageError(f"--start {start} is negative", "home indices start at 0")
-    if not 1 <= count <= MAX_BATCH_HOMES:
-        raise UsageError(f"--count {count} is outside 1..{MAX_BATCH_HOMES}",
-                         f"a pack holds at most {MAX_BATCH_HOMES} homes; write several packs with --start")
+    most = int(MAX_GENERATED_HOMES.value())
+    if not 1 <= count <= most:
+        raise UsageError(f"--count {count} is outside 1..{most}",
+                         f"a pack holds at most {most} homes (BENCHBOT_MAX_GENERATED_HOMES); write several packs with "
+                         "--start")
     if out.exists() and not force:
         raise UsageError(f"{out} exists", "choose another folder, or --force to replace it")
 
