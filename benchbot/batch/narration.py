@@ -29,12 +29,13 @@ class Narrator:
     Args:
         say: prints one line. labels: ``{index: "[1/2] miniroom:1"}``. expected: ``{index: expected steps or
             None}``. speaking: print from the start (False: only track until :meth:`speak`).
-        quiet_s: :data:`QUIET_S`.
+        quiet_s: :data:`QUIET_S`. muted: True once nothing more should be said (the batch is being stopped).
     """
 
-    def __init__(self, say: Callable[[str], None], labels: dict[int, str], expected: dict[int, int | None] | None = None,
-                 *, speaking: bool = True, quiet_s: float = QUIET_S) -> None:
-        self.say, self.labels, self.expected = say, labels, expected or {}
+    def __init__(self, say: Callable[[str], None], labels: dict[int, str],
+                 expected: dict[int, int | None] | None = None, *, speaking: bool = True, quiet_s: float = QUIET_S,
+                 muted: Callable[[], bool] = lambda: False) -> None:
+        self.say, self.labels, self.expected, self.muted = say, labels, expected or {}, muted
         self.quiet_s = quiet_s
         self.running: dict[int, dict] = {}  # index -> {"since", "stage", "step"}
         self.speaking = speaking
@@ -91,7 +92,7 @@ class Narrator:
                 self._line(f"{self.labels.get(index, index)}  {self.status(index)}")
 
     def _line(self, text: str) -> None:
-        if self.speaking:
+        if self.speaking and not self.muted():  # muted: the batch is being stopped (its backend may still talk)
             self.say(text)
             self.last_line = time.monotonic()
 

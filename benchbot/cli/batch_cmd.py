@@ -169,15 +169,15 @@ def register(app: typer.Typer) -> None:
         runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
         expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
         # what an episode is doing, in plain lines, where nothing live shows it (a log; the view closed with q)
+        deadline = StopDeadline(run_dir, say=lambda line: err.print(line, highlight=False, markup=False))
         narrator = Narrator(lambda line: err.print(line, highlight=False, markup=False), label, expected,
-                            speaking=not is_tty())
+                            speaking=not is_tty(), muted=lambda: deadline.armed_at is not None)
 
         def on_log_event(kind: str, index: int, info: dict | None) -> None:
             narrator.event(kind, index, info)
             print_lost(kind, index, info)
 
         started = time.monotonic()
-        deadline = StopDeadline(run_dir, say=lambda line: err.print(line, highlight=False, markup=False))
         try:
             with interrupts_arm(deadline), narrator:  # Ctrl-C: the command is gone within STOP_BOUND_S, by design
                 if is_tty() and not no_tui:
@@ -254,6 +254,8 @@ def stopped_by_user(run_dir: Path, deadline=None) -> None:
     """
     from benchbot.batch.progress import mark_interrupted
 
+    if deadline is not None:
+        deadline.finish()  # nothing the batch started outlives it
     try:
         mark_interrupted(run_dir)
     except OSError:  # a marker only: the manifest and the episodes' records say what ran
@@ -389,11 +391,19 @@ def _run_with_tui(reg, batch, on_record, deadline, narrator, **kwargs):
     thread.start()
     run_dir = batch.run_dir
     app = BatchApp(run_dir, is_done=lambda: not thread.is_alive())
-    app.run()
+    # the view reads Ctrl-C as a key (no process got SIGINT): the bound starts at the key press, quietly while the
+    # view still owns the screen
+    app.on_interrupt = lambda: deadline.arm(signal_sent=False, quiet=True)
+    deadline.view_open = True
+    try:
+        app.run()
+    finally:
+        deadline.view_open = False
     view_open.clear()
     try:
         if app.interrupted:
-            deadline.arm(signal_sent=False)  # the view read Ctrl-C as a key: no process got SIGINT
+            deadline.arm(signal_sent=False)
+            deadline.announce()
             raise KeyboardInterrupt
         if thread.is_alive():
             err.print("the table was closed; the batch goes on (Ctrl-C stops it)", highlight=False)
@@ -419,4 +429,4 @@ def stop_batch_thread(thread: threading.Thread, deadline) -> None:
     if not thread.is_alive() or thread.ident is None:
         return
     ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread.ident), ctypes.py_object(KeyboardInterrupt))
-    thread.join(max(0.0, deadline.bound_s - (time.monotonic() - deadline.armed_at)))
+    thread.join(deadline.left_s())

@@ -248,9 +248,15 @@ class PollingApp(App):
     def _refresh(self) -> None:
         raise NotImplementedError
 
+    #: Called at once on Ctrl-C (before the view closes, which takes a while on a busy machine): what stops the
+    #: work starts with the key press.
+    on_interrupt: Callable[[], None] | None = None
+
     def action_interrupt(self) -> None:
         """Ctrl-C: close the view now, marked :attr:`interrupted` (return code 130)."""
         self.interrupted = True
+        if self.on_interrupt is not None:
+            self.on_interrupt()
         self.exit(return_code=130)
 
     def _catch_signals(self) -> None:
