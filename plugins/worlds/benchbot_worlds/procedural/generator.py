@@ -1,9 +1,14 @@
 """The procedural home generator: a pure function of a 64-bit seed (and the home's name) to a home's five variants
 as BEAR-format ground-truth JSON dicts (NumPy PCG64 only; metres, ``map`` frame, z up).
 
-Steps: the layout (:mod:`.rooms`), the objects (:mod:`.objects`), the variants (:mod:`.variants`), one passive
+Steps: the layout (:mod:`.rooms`), the objects (:mod:`.objects`), the variants (:mod:`.variants`), a check of the
+union of the variants' objects against the trajectory's free-space model (:mod:`.free_space`, robot radius 0.35 m):
+while a room or a side of a door lies outside its main free component, the floor object whose removal helps most
+(of the :data:`REPAIR_TRIES` nearest a missed door; nothing standing on it, no bed or toilet, preferred) is dropped
+with what stands on it and noted, one passive
 trajectory among the union of the variants' objects (:func:`.trajectory.passive_trajectory`, shared by all five so
-that every object of every variant is seen), then the JSON. The seed's :class:`numpy.random.SeedSequence` is spawned
+that every object of every variant is seen; an object it still sees from no pose would be dropped and noted),
+then the JSON. The seed's :class:`numpy.random.SeedSequence` is spawned
 into independent streams (layout and objects, variants, trajectory), so a change in one step's draws does not
 shift another's. Every coordinate is rounded to 1e-6 m, nothing depends on set order, ``hash()``, the platform or
 the installed asset library: ``json.dumps(home.variants, sort_keys=True)`` is the same bytes on any machine for a
@@ -27,6 +32,8 @@ from benchbot_worlds.procedural.variants import LIGHTINGS, make_variants
 
 #: The generator's version: bump it whenever the output of any seed may change.
 GENERATOR_VERSION = 1
+#: Candidate objects tried per object dropped to clear the robot's way (:func:`_clear_the_way`).
+REPAIR_TRIES = 6
 #: BEAR's class list (30 classes, background last).
 CLASS_LIST = ("bottle", "cup", "knife", "bowl", "wine glass", "fork", "spoon", "banana", "apple", "orange", "cake",
               "potted plant", "mouse", "keyboard", "laptop", "cell phone", "book", "clock", "chair", "table",
@@ -75,7 +82,84 @@ def _trajectory(layout: Layout, gt: list[dict], seed: int, notes: list[str]):
     traj = passive_trajectory(layout, gt, seed)
     notes.extend(f"trajectory: {n}" for n in traj.notes)
     start, poses = traj
-    return [_r(v) for v in start], [[_r(v) for v in p] for p in poses]
+    return [_r(v) for v in start], [[_r(v) for v in p] for p in poses], list(traj.unseen)
+
+
+def _standing_on(objects: list[dict], i: int, alive: set[int]) -> list[int]:
+    """``i`` and the alive objects standing on it, recursively (a table's items, a stack's books)."""
+    out, todo = [i], [i]
+    while todo:  # bounded: each object enters once
+        b = objects[todo.pop()]
+        for j in sorted(alive):
+            o = objects[j]
+            if j not in out and abs(o["lo"][2] - b["hi"][2]) < 1e-6 and o["lo"][2] > 1e-6 and \
+                    np.all(o["lo"][:2] < b["hi"][:2]) and np.all(o["hi"][:2] > b["lo"][:2]):
+                out.append(j)
+                todo.append(j)
+    return out
+
+
+def _blocked(layout: Layout, objects: list[dict], alive: set[int]) -> tuple[int, list[int]]:
+    """(how many rooms and door crossings the trajectory's free space (:func:`.free_space.free_space`, its main
+    component) misses, the doors it misses or that lead to a room it misses) with the ``alive`` objects."""
+    from benchbot_worlds.procedural.free_space import free_space, main_component
+    from benchbot_worlds.procedural.trajectory import DOOR_CLEAR_M
+
+    idx = sorted(alive)
+    fs = free_space(layout, [_gt_object(objects[i], "") for i in idx])
+    mask, reach = main_component(fs)
+    s = layout.wall_thickness / 2 + fs.robot_radius_m + DOOR_CLEAR_M
+    bad = []
+    for k, d in enumerate(layout.doors):
+        pts = np.array([d.centre, d.centre])
+        pts[0, d.axis] -= s
+        pts[1, d.axis] += s
+        ij = fs.cells(pts)
+        inside = (ij >= 0).all(axis=1) & (ij < np.array(mask.shape)).all(axis=1)
+        ok = inside.all() and bool(mask[ij[inside, 0], ij[inside, 1]].all())
+        if not ok or not (reach[d.rooms[0]] and reach[d.rooms[1]]):
+            bad.append(k)
+    return sum(not r for r in reach) + len(bad), bad
+
+
+def _clear_the_way(layout: Layout, objects: list[dict], notes: list[str]) -> set[int]:
+    """Objects (indices into ``objects``) dropped so that the trajectory's free space reaches every room and both
+    sides of every door (:func:`_blocked`): while some are missed, the floor object (with what stands on it) that
+    most reduces the misses among the :data:`REPAIR_TRIES` nearest to a missed door in its rooms (objects nothing
+    stands on first, beds and toilets last) is dropped and noted. Bounded by the number of objects."""
+    from benchbot_worlds.procedural.free_space import OBSTRUCT_BELOW_M
+
+    alive, dropped = set(range(len(objects))), set()
+    score, bad = _blocked(layout, objects, alive)
+    while score and alive:  # bounded: every pass drops at least one object
+        doors = [layout.doors[k] for k in bad]
+        rooms = {r for d in doors for r in d.rooms}
+        cands = []
+        for i in sorted(alive):
+            o = objects[i]
+            if o["lo"][2] >= OBSTRUCT_BELOW_M or o["room"] not in rooms:
+                continue
+            dist = min(float(np.hypot(*np.maximum(np.maximum(o["lo"][:2] - d.centre, d.centre - o["hi"][:2]), 0.0)))
+                       for d in doors)
+            cands.append((o["class"] in ("bed", "toilet"), len(_standing_on(objects, i, alive)) > 1, dist, i))
+        if not cands:
+            break
+        best = None
+        for *_, i in sorted(cands)[:REPAIR_TRIES]:
+            group = _standing_on(objects, i, alive)
+            got = _blocked(layout, objects, alive - set(group))
+            if best is None or got[0] < best[0]:
+                best = (got[0], got[1], group)
+            if got[0] == 0:
+                break
+        score, bad, group = best
+        alive -= set(group)
+        dropped |= set(group)
+        what = ", ".join(f"{j} ({objects[j]['class']})" for j in group)
+        notes.append(f"objects: dropped {what}: they blocked the robot's way")
+    if score:
+        notes.append(f"objects: the robot's way stays blocked ({score} rooms or door sides missed)")
+    return dropped
 
 
 def generate_home(seed: int, name: str) -> GeneratedHome:
@@ -103,10 +187,20 @@ def generate_home(seed: int, name: str) -> GeneratedHome:
     layout = generate_layout(rng, notes)
     home = place_home(rng, layout, notes)
     members = make_variants(np.random.Generator(np.random.PCG64(s_variants)), home, notes)
+    dropped = _clear_the_way(layout, home.objects, notes)
     ids = _id_names(home.objects)
-    union = [_gt_object(o, ids[i]) for i, o in enumerate(home.objects)]
+    keep = [i for i in range(len(home.objects)) if i not in dropped]
+    union = [_gt_object(home.objects[i], ids[i]) for i in keep]
     traj_seed = int(np.random.Generator(np.random.PCG64(s_traj)).integers(0, 2 ** 63))
-    start, poses = _trajectory(layout, union, traj_seed, notes)
+    start, poses, unseen = _trajectory(layout, union, traj_seed, notes)
+    for k in unseen:  # seen from no pose (none expected): dropped; the poses stay free without them
+        dropped.add(keep[k])
+        notes.append(f"objects: dropped {keep[k]} ({home.objects[keep[k]]['class']}): no pose sees it")
+    if unseen:
+        keep = [i for i in keep if i not in dropped]
+        union = [_gt_object(home.objects[i], ids[i]) for i in keep]
+    pos = {i: k for k, i in enumerate(keep)}
+    members = [[pos[i] for i in idx if i in pos] for idx in members]
     lay = layout_to_dict(layout)
     kinds = ", ".join(f"{layout.rooms[i].kind.replace('_', ' ')}" for i in range(len(layout.rooms)))
     variants = []

@@ -14,7 +14,9 @@ proportions has zero expected counts for them.
 
 How many of each class: a quota of ``N`` objects apportioned by BEAR's proportions (floor of ``N p`` plus the
 remainders drawn by weight), ``N`` large enough that every bedroom gets a bed and every bathroom a toilet
-(``N >= beds / p_bed``, ``N >= toilets / p_toilet``) and at least :data:`DENSITY_PER_M2` per m² of floor.
+(``N >= beds / p_bed``, ``N >= toilets / p_toilet``) and at least :data:`DENSITY_PER_M2` per m² of floor, but at
+most :data:`MAX_OBJECTS` (120; BEAR's homes hold 18-57); a capped home still gets a bed per bedroom and a toilet per
+bathroom, taken from the classes most above their share.
 
 Where (a designer's rules): a bed against a wall of a bedroom (head to the wall); a toilet and a sink against
 bathroom walls; a refrigerator and a sink against kitchen walls; a couch against a living-room wall facing a tv
@@ -24,8 +26,10 @@ keyboard and mouse on it; side tables in bedrooms; potted plants and persons sta
 (cup, bowl, bottle, book, apple, orange, banana, spoon, toaster, clock) on table tops (their bottom exactly on the
 top); potted plants on the floor or a table. Every floor object lies inside its room's clear floor, overlaps no
 other object, keeps the door approaches (:data:`DOOR_APPROACH_M` deep on both sides of each door) clear, and the
-room's floor stays connected for a robot of radius :data:`ROBOT_RADIUS_M` (every door's approach in one free
-component of an occupancy grid, holding :data:`MAIN_FREE_FRACTION` of the free floor). An object that finds no place in :data:`PLACE_TRIES` draws is dropped and noted.
+room's floor stays connected for a robot of radius :data:`ROBOT_RADIUS_M` plus :data:`CHECK_MARGIN_M` (every
+door's approach in one free component of an occupancy grid, holding :data:`MAIN_FREE_FRACTION` of the free floor);
+the generator then checks the whole home against the trajectory's own free-space model and drops what still
+blocks the robot (:func:`benchbot_worlds.procedural.generator.generate_home`). An object that finds no place in :data:`PLACE_TRIES` draws is dropped and noted.
 """
 
 from __future__ import annotations
@@ -78,6 +82,9 @@ DESK_CLASSES = ("laptop", "keyboard", "mouse")
 #: Least objects per m² of floor; the robot's radius (m); door approach depth (m); gaps (m); draws per object.
 DENSITY_PER_M2 = 0.8
 ROBOT_RADIUS_M = 0.35
+#: The room check's radius exceeds the robot's by this (m), so that a passage it keeps open is open in the
+#: trajectory's free-space model too (:mod:`.free_space`: other grid, exact distances), whatever the grids' offsets.
+CHECK_MARGIN_M = 0.05
 DOOR_APPROACH_M = 0.85  # >= the 0.7 m asked; the trajectory stops 0.1 m + its radius beyond a wall's face
 WALL_GAP_M = 0.03
 OBJECT_GAP_M = 0.05
@@ -88,7 +95,8 @@ TOP_TRIES = 8
 GRID_M = 0.05
 #: The door's free component holds at least this fraction of a room's free floor.
 MAIN_FREE_FRACTION = 0.9
-MAX_OBJECTS = 320
+#: Most objects in a home's quota (variants add a few).
+MAX_OBJECTS = 120
 
 
 def bear_proportions() -> tuple[list[str], np.ndarray]:
@@ -112,6 +120,12 @@ def quota(rng: np.random.Generator, layout: Layout) -> dict[str, int]:
     if rest > 0:
         extra = rng.choice(len(p), size=rest, replace=False, p=rem / rem.sum())
         base[extra] += 1
+    for cls, kind in (("bed", "bedroom"), ("toilet", "bathroom")):  # capped homes: the room rules first
+        k = names.index(cls)
+        while base[k] < kinds.count(kind):  # bounded: each pass moves one object from the class most in excess
+            give = int(np.argmax(np.where(base > 0, base - n * p, -np.inf) - 1e9 * np.isin(names, ("bed", "toilet"))))
+            base[give] -= 1
+            base[k] += 1
     return {k: int(v) for k, v in zip(names, base)}
 
 
@@ -173,13 +187,13 @@ class RoomSpace:
 
     def connected_with(self, lo: np.ndarray, hi: np.ndarray) -> bool:
         """Whether, once lo..hi is occupied, every door approach lies in one free component of the room's floor
-        for the robot (occupancy grid of :data:`GRID_M`, obstacles grown by :data:`ROBOT_RADIUS_M`) holding at
+        for the robot (occupancy grid of :data:`GRID_M`, obstacles grown by :data:`ROBOT_RADIUS_M` + :data:`CHECK_MARGIN_M`) holding at
         least :data:`MAIN_FREE_FRACTION` of its free cells (no pocket at a door cut off from the room)."""
         n = np.maximum(1, np.ceil((self.hi - self.lo) / GRID_M).astype(int))
         xs = self.lo[0] + (np.arange(n[0]) + 0.5) * GRID_M
         ys = self.lo[1] + (np.arange(n[1]) + 0.5) * GRID_M
         X, Y = np.meshgrid(xs, ys, indexing="ij")
-        r = ROBOT_RADIUS_M
+        r = ROBOT_RADIUS_M + CHECK_MARGIN_M
         free = (X > self.lo[0] + r) & (X < self.hi[0] - r) & (Y > self.lo[1] + r) & (Y < self.hi[1] - r)
         for a, b in self.boxes + [(lo, hi)]:
             dx = np.maximum(np.maximum(a[0] - X, X - b[0]), 0.0)
