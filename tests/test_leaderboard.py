@@ -200,7 +200,7 @@ def test_a_batch_whose_every_episode_failed_is_skipped_with_a_note(tmp_path):
     assert proc.returncode == 2 and "no finished run directory with scores among the 1 given" in proc.stderr
 
 
-# --- verified and self-reported entries (issue 56: signed runs, docs/challenge.md) ----------------------------------
+# --- verified and self-reported entries (signed runs, docs/challenge.md) -------------------------------------------
 def signed_run(root: Path, name: str, omq: dict[str, list[float]], key: Path | None, **kwargs) -> Path:
     """A finished run with a scores.json, signed with the private key ``key`` (None: left unsigned)."""
     from benchbot.batch.signing import sign_run

@@ -118,3 +118,15 @@ def test_other_names_pass_through_and_a_taken_or_bad_generator_is_reported():
     assert "world generator 'tiny' is offered by plugins 'one' and 'two'" in problem
     assert "is no WorldGenerator with an alphanumeric name" in problem
     assert reg.scenes("miniroom:1")[0]["name"] == "miniroom"  # the listed environments are unaffected
+
+
+def test_the_short_form_is_made_canonical_where_runs_and_batches_take_it(tiny):
+    from benchbot.batch.runner import parse_env_list
+    from benchbot.core.session import resolve_run
+
+    _, reg = tiny
+    assert reg.canonical("tiny:val:4:1:2") == "tiny_val_4:1:2" and reg.canonical("miniroom:1") == "miniroom:1"
+    assert parse_env_list("tiny:val:4, miniroom:1", None, reg) == ["tiny_val_4:1", "miniroom:1"]
+    run = resolve_run(reg, "semantic_slam:passive:ground_truth", "carter", "tiny:val:4")
+    assert run.env_string == "tiny_val_4:1"  # the name its results carry (name:variant)
+    assert reg.has("ground_truths", "tiny_val_5:2") and not reg.has("ground_truths", "miniroom:77")

@@ -106,7 +106,7 @@ def default_evaluator(registry: Registry, run: RunSpec) -> str | None:
     fmt = run.task.get("results_format")
     if not fmt:
         return None
-    if any(f"{e['name']}:{e['variant']}" not in registry.entries["ground_truths"] for e in run.environments):
+    if not all(registry.has("ground_truths", f"{e['name']}:{e['variant']}") for e in run.environments):
         return None
     for name in registry.names("evaluators"):
         if fmt in registry.get("evaluators", name)["valid_result_formats"]:
@@ -127,7 +127,8 @@ def new_run_dir(output_dir: Path, prefix: str) -> Path:
 
 
 def parse_env_list(envs: str | None, envs_batch: str | None, registry: Registry) -> list[str]:
-    """The environment strings of ``--envs a,b`` xor ``--envs-batch NAME``.
+    """The environment strings of ``--envs a,b`` xor ``--envs-batch NAME`` (a generated home's short form made
+    canonical: ``procedural:val:3`` → ``procedural_val_3:1``, the name results carry).
 
     Raises:
         UsageError: both or neither given. SpecError: an unknown batch.
@@ -136,7 +137,7 @@ def parse_env_list(envs: str | None, envs_batch: str | None, registry: Registry)
         raise UsageError("give exactly one of --envs and --envs-batch", "e.g. --envs miniroom:1,house:1")
     if envs_batch:
         return list(registry.get("batches", envs_batch)["environments"])
-    return [e.strip() for e in envs.split(",") if e.strip()]
+    return [registry.canonical(e.strip()) for e in envs.split(",") if e.strip()]
 
 
 def _versions(registry: Registry, isolation: str) -> dict:
@@ -268,7 +269,7 @@ def _ground_truth_sets(registry: Registry, runs: dict, chosen: str | None) -> di
             if chosen is not None:
                 registry.ground_truth(name, chosen)  # raises, naming the sets that have it
                 out[name] = ground_truth_set_name(chosen)
-            elif name in registry.entries["ground_truths"]:
+            elif registry.has("ground_truths", name):
                 out[name] = registry.ground_truth_set(name)
     return out
 

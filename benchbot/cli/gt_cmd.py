@@ -33,7 +33,7 @@ def ground_truth_instance(reg: Registry, env: str) -> dict:
             f"give one scene, e.g. {env.split(':')[0]}:{scenes[0]['variant']}",
         )
     name = f"{scenes[0]['name']}:{scenes[0]['variant']}"
-    if name not in reg.entries["ground_truths"]:
+    if not reg.has("ground_truths", name):
         raise SpecError(
             f"environment {name} has no registered ground truth",
             "deriving one from the environment's plugin is not supported yet; see `benchbot list environments`",

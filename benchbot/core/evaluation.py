@@ -532,7 +532,7 @@ def _ground_truths(source: str, environment_details: list[dict], spec: dict, reg
     ground_truths, sets = [], []
     for env in environment_details:
         name = f"{env['name']}:{env['variant']}"
-        if name not in registry.entries["ground_truths"]:
+        if not registry.has("ground_truths", name):
             raise SpecError(f"{source}: no ground truth for environment {name}", "see `benchbot list environments`")
         gt = registry.ground_truth(name, ground_truth_set)
         if gt["format"]["name"] not in spec["valid_ground_truth_formats"]:

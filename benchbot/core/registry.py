@@ -250,6 +250,17 @@ class Registry:
             return kept
         return None
 
+    def has(self, kind: str, name: str) -> bool:
+        """Whether ``name`` of ``kind`` is registered, or a world generator makes it (then it is registered now:
+        a generated home's environments and ground truths are found by name like listed ones).
+
+        Raises:
+            SpecError: a generator owns the name's pattern but cannot make it (e.g. a held-out split without its key).
+        """
+        if name in self.entries[kind]:
+            return True
+        return self._generated(kind, name) and name in self.entries[kind]
+
     def names(self, kind: str) -> list[str]:
         """Sorted names of every valid entry of ``kind``."""
         return sorted(self.entries[kind])
@@ -272,6 +283,15 @@ class Registry:
     def get(self, kind: str, name: str) -> dict:
         """The spec ``name`` of ``kind`` (see :meth:`entry`)."""
         return self.entry(kind, name).spec
+
+    def canonical(self, env_string: str) -> str:
+        """The environment string as results and run directories name it: a generated home's short form
+        ``procedural:val:42[:VARIANT...]`` as ``procedural_val_42:1`` (or its variants); any other string unchanged.
+
+        Raises:
+            SpecError: a generator's short form that is malformed (:func:`benchbot.core.world_generators.short_form`).
+        """
+        return short_form(env_string, self.generators)
 
     def scenes(self, env_string: str) -> list[dict]:
         """The environment specs of an environment string: ``miniroom:1`` → one, ``miniroom:1:2`` → two

@@ -47,6 +47,7 @@ def resolve_run(registry: Registry, task_name: str, robot_name: str, env_string:
     robot = registry.get("robots", robot_name)
     task = registry.get("tasks", task_name)
     results_format = registry.get("formats", task["results_format"]) if task.get("results_format") else {}
+    env_string = registry.canonical(env_string)  # procedural:val:42 -> procedural_val_42:1, as results name it
     environments = registry.scenes(env_string)
     serves = robot.get("environment_types", [robot["type"]])
     for env in environments:
