@@ -73,7 +73,8 @@ def _check(layout, objs, tr):
     fs = tr.free
     assert tr.unseen == [] and tr.notes == []
     assert unseen_objects(layout, objs, poses) == []
-    assert 1 <= len(poses) <= 400
+    area = float(np.prod(np.asarray(layout.outer_hi) - np.asarray(layout.outer_lo)))
+    assert 1 <= len(poses) <= 4 * area + 20  # a sweep of every room: poses grow with the floor's area
     xy = np.array([start[4:6]] + [p[4:6] for p in poses])
     assert fs.is_free(xy).all()
     for a, b in zip(xy[:-1], xy[1:]):
@@ -250,8 +251,11 @@ def test_bear_trajectories_seen_objects(name):
 def test_an_empty_room_gets_a_look_all_around_and_an_invisible_object_a_note():
     layout, _ = _one_room()
     start, poses = passive_trajectory(layout, [], 5)
-    yaws = np.sort(poses_to_se2([start] + poses)[:, 2] % (2 * math.pi))
-    assert len(poses) == 4 and np.diff(np.append(yaws, yaws[0] + 2 * math.pi)).max() <= math.pi / 2 + 1e-4
+    se2 = poses_to_se2([start] + poses)
+    k = int(np.argmin(np.all(np.abs(se2[:, :2] - se2[0, :2]) < 1e-9, axis=1)))  # the first pose elsewhere
+    yaws = np.sort(se2[:5, 2] % (2 * math.pi))  # the start and four turns: a look all around; then the way on
+    assert k >= 5 and np.diff(np.append(yaws, yaws[0] + 2 * math.pi)).max() <= math.pi / 2 + 1e-4
+    assert len(poses) > 4  # then a sweep of the room's floor
     layout, objs = _row()
     in_the_wall = _obj("speck", (4.0, 3.5, 1.0), (0.05, 0.05, 0.05))  # inside the wall x = 4, beside no door
     tr = passive_trajectory(layout, objs + [in_the_wall], 0)

@@ -229,8 +229,8 @@ def room_cells(fs: FreeSpace, room: int) -> tuple[slice, slice]:
 
 
 def main_component(fs: FreeSpace) -> tuple[np.ndarray, list[bool]]:
-    """((nx, ny) bool mask of the free component that reaches the most rooms, ties to the lowest label, all False
-    when nothing is free; per room, whether that component has a cell in the room's box)."""
+    """((nx, ny) bool mask of the free component that reaches the most rooms, ties to the largest (then the lowest
+    label), all False when nothing is free; per room, whether that component has a cell in the room's box)."""
     labels, n = components(fs)
     if n == 0:
         return np.zeros_like(fs.free), [False] * len(fs.room_lo)
@@ -238,7 +238,9 @@ def main_component(fs: FreeSpace) -> tuple[np.ndarray, list[bool]]:
     for r in range(len(fs.room_lo)):
         present[r, np.unique(labels[room_cells(fs, r)])] = True
     present[:, 0] = False
-    best = int(np.argmax(present.sum(axis=0)))
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    sizes[0] = 0
+    best = int(np.lexsort((-np.arange(n + 1), sizes, present.sum(axis=0)))[-1])  # most rooms, then most cells
     return labels == best, [bool(v) for v in present[:, best]]
 
 

@@ -303,17 +303,21 @@ class _Home:
             ys = [t["lo"][1] + 0.01] + [b[1] + 0.01 for a, b in items]
             cands = [(x, y) for x in xs for y in ys] + [tuple(t["lo"][:2] + 0.01 + self.rng.uniform(0, 1, 2)
                                                                 * room_free) for _ in range(4)]
-            for k in self.rng.permutation(len(cands)):
-                lo = np.round(np.array(cands[k]), 6)
-                hi = np.round(lo + xy, 6)
-                if np.any(hi > t["hi"][:2] - 0.01 + 1e-9):
-                    continue
-                if not items or not np.any(np.all(lo < np.array([b for _, b in items]) + 0.01, axis=1)
-                                           & np.all(hi > np.array([a for a, _ in items]) - 0.01, axis=1)):
-                    self.tops[ti].append((lo, hi))
-                    z = float(t["hi"][2])
-                    self.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on")
-                    return True
+            order = self.rng.permutation(len(cands))
+            los = np.round(np.array(cands, dtype=np.float64), 6)
+            his = np.round(los + xy, 6)
+            ok = np.all(his <= t["hi"][:2] - 0.01 + 1e-9, axis=1)
+            if items:  # clear of the items on the top by 1 cm
+                ia, ib = np.array([a for a, _ in items]), np.array([b for _, b in items])
+                ok &= ~np.any(np.all(los[:, None] < ib[None] + 0.01, axis=2) & np.all(his[:, None] > ia[None] - 0.01,
+                                                                                      axis=2), axis=1)
+            free = order[ok[order]]
+            if len(free):  # the first free candidate in a seeded order
+                lo, hi = los[free[0]].copy(), his[free[0]].copy()
+                self.tops[ti].append((lo, hi))
+                z = float(t["hi"][2])
+                self.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on")
+                return True
         if cls == "book":  # a stack: on a book of at least this footprint, at most three high
             for i, o in enumerate(self.objects):
                 if o["class"] == "book" and o.get("stack", 0) < 2 and not o.get("covered"):

@@ -8,9 +8,14 @@ pose controller then drives straight: its goal lies dead ahead with the same yaw
 every point of it in free space (:meth:`~.free_space.FreeSpace.segment_free`).
 
 How: viewpoints on a grid of reachable free cells in each room are chosen greedily (a seeded tie-break) until every
-object of the room is seen from one, each looked at from there (turns that cover the objects' bearings); the rooms
-are toured in a seeded depth-first order of the door graph; paths between stops are straight when free, else
-shortest grid paths with corners cut. Objects that no reachable pose sees are listed in the result's ``unseen`` and
+object of the room is seen from one, each looked at from there (turns that cover the objects' bearings); then the
+room is swept: one more stop per :data:`COVER_SPACING_M` square of its reachable floor (farther than half a square
+from the other stops), looking at the nearest objects (:data:`COVER_NEAR_M`, :data:`COVER_LOOKS`), so that the
+poses grow with the floor's area as BEAR's hand-made ones do (procedural homes under 40 m²: about 45 poses; 90-120
+m²: about 240; BEAR's miniroom 33-56, house 237-286). A room's stops are visited nearest first, from the first of
+which the robot looks all around; the rooms are toured in a seeded depth-first order of the door graph; paths
+between stops are straight when every step of the drive, as rounded, is free, else shortest grid paths with
+corners cut. Objects that no reachable pose sees are listed in the result's ``unseen`` and
 ``notes``, never looped on.
 """
 
@@ -20,7 +25,7 @@ import math
 
 import numpy as np
 
-from .free_space import FreeSpace, free_space, grid_path, main_component, room_cells, shortcut
+from .free_space import FreeSpace, free_space, grid_path, main_component, room_cells
 from .layout import Layout
 from .free_space import rects_near, wall_rects
 from .visibility import CARTER_CAMERA, ROBOT_Z_M, Camera, poses_to_se2, sample_points, seen_pairs, unseen_objects
@@ -35,6 +40,15 @@ VIEWPOINT_SPACING_M = 0.3
 LOOK_ARC_DEG = 70.0
 #: At the first viewpoint of each room the robot looks all around, turning at most this much at a time (degrees).
 LOOK_AROUND_DEG = 90.0
+#: The robot also sweeps each room: one stop per square of this side (m) of the room's reachable floor (at the
+#: reachable cell nearest the square's reachable middle; squares laid from the room's low corner), so that the
+#: poses grow with the floor's area as BEAR's hand-made ones do (miniroom ~30 m²: 33-56 poses; house ~100 m²:
+#: 237-286).
+COVER_SPACING_M = 1.5
+#: At a sweep stop the robot looks at the room's objects within this distance (m), at most :data:`COVER_LOOKS` of
+#: them, nearest first.
+COVER_NEAR_M = 2.5
+COVER_LOOKS = 2
 #: How far beyond the wall's face the robot stops before and after a doorway, metres (plus its radius).
 DOOR_CLEAR_M = 0.1
 
@@ -77,6 +91,40 @@ def _candidates(fs: FreeSpace, mask: np.ndarray, room: int) -> np.ndarray:
     if not len(on):
         on = ij[::max(1, len(ij) // 16)]
     return fs.centres(on)
+
+
+def _cover_points(fs: FreeSpace, mask: np.ndarray, room: int) -> np.ndarray:
+    """(S, 2) xy of a room's sweep stops: per :data:`COVER_SPACING_M` square of its reachable cells, the reachable
+    cell nearest the mean of the square's reachable cells; squares in x-major order."""
+    w = room_cells(fs, room)
+    ij = np.argwhere(mask[w])
+    if not len(ij):
+        return np.zeros((0, 2))
+    k = max(1, int(round(COVER_SPACING_M / fs.cell_m)))
+    sq = ij // k
+    keys, inv = np.unique(sq, axis=0, return_inverse=True)
+    out = []
+    for q in range(len(keys)):
+        cells = ij[inv.ravel() == q]
+        mid = cells.mean(axis=0)
+        out.append(cells[int(np.argmin(((cells - mid) ** 2).sum(axis=1)))])
+    return fs.centres(np.array(out) + np.array([w[0].start, w[1].start]))
+
+
+def _add_sweep(views, fs: FreeSpace, mask: np.ndarray, points: np.ndarray, home: np.ndarray) -> None:
+    """Append each room's sweep stops (:func:`_cover_points`) farther than half a square from its viewpoints to
+    ``views`` (per room, [(xy, objects to look at)]), each looking at its nearest objects (:data:`COVER_NEAR_M`,
+    :data:`COVER_LOOKS`)."""
+    for r in range(len(views)):
+        have = [v[0] for v in views[r]]
+        objs = np.nonzero(home == r)[0]
+        for p in _cover_points(fs, mask, r):
+            if have and min(float(np.hypot(*(p - q))) for q in have) < COVER_SPACING_M / 2:
+                continue
+            d = np.hypot(*(points[objs, 0, :2] - p).T) if len(objs) else np.zeros(0)
+            near = [int(objs[i]) for i in np.argsort(d, kind="stable")[:COVER_LOOKS] if d[i] <= COVER_NEAR_M]
+            views[r].append((p, near))
+            have.append(p)
 
 
 def _greedy(cov: np.ndarray, rng: np.random.Generator) -> list[tuple[int, np.ndarray]]:
@@ -176,32 +224,59 @@ class _Driver:
             self.poses.append(pose7(float(self.xy[0]), float(self.xy[1]), yaw))
             self.yaw = yaw
 
-    def straight(self, b: np.ndarray) -> None:
-        d = np.asarray(b, dtype=np.float64) - self.xy
+    def steps(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(n, 2) xy of the poses a straight drive from ``a`` to ``b`` adds (steps of at most :data:`MAX_STEP_M`,
+        rounded as :func:`pose7` rounds them); (0, 2) when ``b`` is ``a``."""
+        d = np.asarray(b, dtype=np.float64) - a
         length = float(np.hypot(*d))
         if length < 1e-6:
+            return np.zeros((0, 2))
+        n = int(math.ceil(length / MAX_STEP_M - 1e-9))
+        return np.round(a + d * (np.arange(1, n + 1)[:, None] / n), 6) + 0.0
+
+    def drivable(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """Whether every step of the straight drive ``a``→``b`` (:meth:`steps`, as rounded) is free
+        (:meth:`~.free_space.FreeSpace.segment_free`)."""
+        pts = np.concatenate([np.asarray(a, dtype=np.float64)[None, :2], self.steps(a, b)])
+        return all(self.fs.segment_free(p, q) for p, q in zip(pts[:-1], pts[1:]))
+
+    def straight(self, b: np.ndarray) -> None:
+        d = np.asarray(b, dtype=np.float64) - self.xy
+        pts = self.steps(self.xy, b)
+        if not len(pts):
             return
         heading = math.atan2(d[1], d[0])
         self.turn(heading)
-        n = int(math.ceil(length / MAX_STEP_M - 1e-9))
-        start = self.xy.copy()
-        for k in range(1, n + 1):
-            p = start + d * k / n
+        for p in pts:
             self.poses.append(pose7(float(p[0]), float(p[1]), heading))
         self.xy = np.array(self.poses[-1][4:6])
+
+    def shortcut(self, path: np.ndarray) -> np.ndarray:
+        """``path`` (M, 2) with corners cut: from each kept point, the farthest later point it can drive to
+        (:meth:`drivable`; the next point else: neighbouring free cells' centres always are)."""
+        out, i, m = [path[0]], 0, len(path)
+        while i < m - 1:
+            j = m - 1
+            if not self.drivable(path[i], path[j]):
+                j = i + 1
+                while j + 1 < m and self.drivable(path[i], path[j + 1]):
+                    j += 1
+            out.append(path[j])
+            i = j
+        return np.array(out)
 
     def go(self, b: np.ndarray, window=None) -> bool:
         """Drive to ``b``: straight when free, else along a grid path (``window`` first, then the whole grid) with
         its corners cut. False (no pose added) when no free path reaches it."""
         b = np.asarray(b, dtype=np.float64)
-        if self.fs.segment_free(self.xy, b):
+        if self.drivable(self.xy, b):
             path = np.array([self.xy, b])
         else:
             path = grid_path(self.fs, self.xy, b, window) if window is not None else None
             path = grid_path(self.fs, self.xy, b) if path is None else path
             if path is None:
                 return False
-            path = shortcut(self.fs, path)
+            path = self.shortcut(path)
         for p in path[1:]:
             self.straight(p)
         return True
@@ -245,7 +320,8 @@ def _cross(drv: _Driver, layout: Layout, door: int, frm: int, to: int) -> bool:
             pb[1 - ax] += shift
             pa[ax] -= sign * s
             pb[ax] += sign * s
-            if fs.is_free(np.array([pa, pb])).all() and fs.segment_free(pa, pb) and drv.go(pa, room_cells(fs, frm)):
+            if fs.is_free(np.array([pa, pb])).all() and drv.drivable(pa, pb) and drv.go(pa, room_cells(fs, frm)) \
+                    and drv.drivable(drv.xy, pb):
                 drv.straight(pb)
                 return True
     return False
@@ -347,6 +423,7 @@ def passive_trajectory(layout: Layout, objects: list[dict], seed: int, *, robot_
     notes = [f"room {r} is not reachable" for r in range(len(layout.rooms)) if not reach[r]]
     walls, points = wall_rects(layout), sample_points(objects)
     views = _viewpoints(layout, fs, mask, points, walls, camera, rng, notes)
+    _add_sweep(views, fs, mask, points, np.array([_room_of(layout, p[0, :2]) for p in points], dtype=np.int64))
     here = rooms[int(rng.integers(len(rooms)))]
     order = _room_order(layout, reach, here, rng)
     first = views[here][0][0] if views[here] else _candidates(fs, mask, here)[0]
