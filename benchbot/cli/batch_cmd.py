@@ -110,6 +110,8 @@ def register(app: typer.Typer) -> None:
             if parsed_sweep and parsed_sweep.factor == "robot" and robots:
                 raise UsageError("--robots and --sweep robot=... both set the robots", "give one of them")
             env_list = parse_env_list(envs, envs_batch, reg)
+            reg.make_generated(env_list, workers, on_start=lambda homes, procs: err.print(
+                f"making {homes} procedural homes ({procs} at a time) …", highlight=False))
             robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
             container = None
             isolation = "container" if containerised is not None or example_containerised else (

@@ -284,6 +284,31 @@ class Registry:
         """The spec ``name`` of ``kind`` (see :meth:`entry`)."""
         return self.entry(kind, name).spec
 
+    def make_generated(self, env_strings: list[str], workers: int = 1,
+                       on_start: Callable[[int, int], None] | None = None) -> int:
+        """Make the generated homes of ``env_strings`` that are not made yet, up to ``workers`` at a time (through
+        each generator's optional ``prepare(homes, workers)``; one at a time without it): a batch calls it before
+        resolving its plan, so that a sweep over new homes does not make them one by one. ``on_start(homes,
+        processes)`` is called before a generator starts. Returns the number of homes asked for (made or not).
+
+        Raises:
+            SpecError: as :meth:`scenes` for a malformed or impossible name.
+        """
+        wanted: dict[str, list[tuple[str, int]]] = {}
+        for env in env_strings:
+            name = self.canonical(env).partition(":")[0]
+            home = parse_home(name, self.generators)
+            if home is not None and not any(k.partition(":")[0] == name for k in self.entries["environments"]):
+                wanted.setdefault(home.generator, []).append((home.split, home.index))
+        for gen_name, homes in wanted.items():
+            homes = list(dict.fromkeys(homes))
+            prepare = getattr(self.generators[gen_name], "prepare", None)
+            if callable(prepare) and len(homes) > 1:
+                if on_start is not None:
+                    on_start(len(homes), min(workers, len(homes)))
+                prepare(homes, workers)
+        return sum(len(h) for h in wanted.values())
+
     def canonical(self, env_string: str) -> str:
         """The environment string as results and run directories name it: a generated home's short form
         ``procedural:val:42[:VARIANT...]`` as ``procedural_val_42:1`` (or its variants); any other string unchanged.

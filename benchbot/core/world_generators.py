@@ -52,6 +52,9 @@ class WorldGenerator(Protocol):
             SpecError: the home cannot be made here (e.g. a held-out split without its key), one line with the fix.
         """
 
+    # Optional: ``prepare(homes: list[tuple[str, int]], workers: int) -> None`` makes the (split, index) homes up to
+    # ``workers`` at a time before they are asked for (Registry.make_generated; a batch calls it).
+
     def describe(self, split: str) -> str:
         """A few words for ``benchbot list environments`` on the homes of ``split`` (what they are for, what they
         need)."""

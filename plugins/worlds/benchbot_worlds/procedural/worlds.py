@@ -108,6 +108,24 @@ class ProceduralWorlds:
             out.append({k: data[k] for k in ("environment", "format", "ground_truth")})
         return out
 
+    def prepare(self, homes: list[tuple[str, int]], workers: int) -> None:
+        """Make the files of ``homes`` ((split, index) pairs) that are missing, in up to ``workers`` processes (at
+        most one per CPU; spawned, so nothing of this process is shared): a sweep over 100 new homes on a 16-core
+        host makes them in seconds instead of one by one (:func:`home_files` in each)."""
+        import os
+        from concurrent.futures import ProcessPoolExecutor
+        from multiprocessing import get_context
+
+        if any(split == splits.HELD_OUT for split, _ in homes):
+            splits.read_key()  # its one-line error here, not from a worker process
+        processes = max(1, min(int(workers), os.cpu_count() or 1, len(homes)))
+        if processes == 1:
+            for split, index in homes:
+                home_files(split, index)
+            return
+        with ProcessPoolExecutor(processes, mp_context=get_context("spawn")) as pool:
+            list(pool.map(home_files, [s for s, _ in homes], [i for _, i in homes]))
+
     def describe(self, split: str) -> str:
         """A few words on the homes of ``split`` for ``benchbot list environments``."""
         return {"train": "procedural homes to train on (public)",
