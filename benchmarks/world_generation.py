@@ -4,9 +4,11 @@ histogram against BEAR's (chi-square goodness of fit, scipy.stats.chisquare).
     uv run python benchmarks/world_generation.py            # 1,000 seeds (chi-square over the first 200)
     uv run python benchmarks/world_generation.py --smoke    # 20 seeds, same checks (a slow test runs this)
 
-Times cover the layout, objects, variants and trajectory (``generate_home``), not the rendering. Prints figures;
-exits 1 when two seeds give the same home or a home is invalid (objects overlapping or floating, a room missing from
-its floor plan).
+Times cover the layout, objects, variants and trajectory (``generate_home``), not the rendering. Prints figures
+(times, poses and objects per home, homes with an object no trajectory pose sees or a room the robot cannot reach,
+both checked on the JSON: :func:`~benchbot_worlds.procedural.visibility.unseen_objects` over the union of the
+variants' objects, :func:`~benchbot_worlds.procedural.free_space.main_component`); exits 1 when two seeds give the
+same home, a home is invalid (objects overlapping or floating), has an unseen object or an unreachable room.
 """
 
 from __future__ import annotations
@@ -42,6 +44,21 @@ def _valid(home) -> str:
     return ""
 
 
+def _unseen_unreached(home) -> tuple[int, int]:
+    """(objects of the variants' union no trajectory pose sees, rooms outside the robot's main free component)."""
+    from benchbot_worlds.procedural.free_space import free_space, main_component
+    from benchbot_worlds.procedural.visibility import unseen_objects
+
+    union = {}
+    for v in home.variants:
+        for o in v["ground_truth"]["objects"]:
+            union[(o["ID_name"], tuple(o["centroid"]))] = o
+    objs = list(union.values())
+    env = home.variants[0]["environment"]
+    unseen = unseen_objects(home.layout, objs, [env["start_pose"]] + env["trajectory_poses"])
+    return len(unseen), sum(not r for r in main_component(free_space(home.layout, objs))[1])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--smoke", action="store_true", help="20 seeds")
@@ -55,7 +72,7 @@ def main(argv=None) -> int:
     n = args.seeds or (20 if args.smoke else 1000)
     names, p = bear_proportions()
     counts = dict.fromkeys(names, 0)
-    times, digests, bad, unseen_homes, notes = [], set(), [], 0, 0
+    times, digests, bad, notes, poses, n_objects, unseen, unreached = [], set(), [], 0, [], [], [], []
     generate_home(0, "warm_up")
     for seed in range(n):
         t0 = time.perf_counter()
@@ -65,8 +82,14 @@ def main(argv=None) -> int:
         why = _valid(home)
         if why:
             bad.append((seed, why))
-        unseen_homes += any("not seen" in x for x in home.notes)
         notes += len(home.notes)
+        poses.append(len(home.variants[0]["environment"]["trajectory_poses"]))
+        n_objects.append(len(home.variants[0]["ground_truth"]["objects"]))
+        u, r = _unseen_unreached(home)
+        if u:
+            unseen.append(seed)
+        if r:
+            unreached.append(seed)
         if seed < 200:
             for o in home.variants[0]["ground_truth"]["objects"]:
                 counts[o["class"]] += 1
@@ -75,12 +98,15 @@ def main(argv=None) -> int:
     chi = chisquare(obs, p * obs.sum())
     print(f"generator v{GENERATOR_VERSION}: {n} seeds; per home {t.mean():.3f} s mean, {np.median(t):.3f} s median, "
           f"{np.percentile(t, 95):.3f} s p95, {t.max():.3f} s max (seed {int(t.argmax())})")
-    print(f"distinct homes: {len(digests)} of {n}; invalid: {len(bad)} {bad[:5]}; homes with an unseen object: "
-          f"{unseen_homes}; notes: {notes}")
+    print(f"distinct homes: {len(digests)} of {n}; invalid: {len(bad)} {bad[:5]}; homes with an object no pose sees: "
+          f"{len(unseen)} {unseen[:5]}; homes with a room the robot cannot reach: {len(unreached)} {unreached[:5]}; "
+          f"notes: {notes}")
+    print(f"trajectory poses per home: median {np.median(poses):.0f}, min {min(poses)}, max {max(poses)}; objects per "
+          f"home (variant 1): median {np.median(n_objects):.0f}, min {min(n_objects)}, max {max(n_objects)}")
     print(f"pooled class histogram of variant 1 over {min(n, 200)} homes ({obs.sum()} objects) vs BEAR: "
           f"chi-square {chi.statistic:.1f}, p {chi.pvalue:.3g}, {len(names) - 1} dof")
     print("  " + ", ".join(f"{k} {c}" for k, c in zip(names, obs.tolist())))
-    return 0 if len(digests) == n and not bad else 1
+    return 0 if len(digests) == n and not bad and not unseen and not unreached else 1
 
 
 if __name__ == "__main__":

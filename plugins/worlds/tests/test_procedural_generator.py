@@ -14,10 +14,13 @@ from benchbot_worlds.bear import lighting_of_map_path
 from benchbot_worlds.homes.floorplan import (
     DOOR_JAMB_M, MIN_ROOM_SIDE_M, derive_floor_plan, home_inputs, plan_for_home)
 from benchbot_worlds.homes.home_frame import SQUARE_SYMMETRIES, HomeFrame
+from benchbot_worlds.procedural.free_space import free_space, main_component
 from benchbot_worlds.procedural.generator import GENERATOR_VERSION, generate_home
 from benchbot_worlds.procedural.layout import layout_from_dict, layout_to_dict
+from benchbot_worlds.procedural.objects import MAX_OBJECTS, quota
 from benchbot_worlds.procedural.rooms import generate_layout
 from benchbot_worlds.procedural.variants import LIGHTINGS
+from benchbot_worlds.procedural.visibility import unseen_objects
 
 #: Seeds whose homes take < 0.3 s each on a 2-core CPU.
 FAST_SEEDS = (1, 3, 5, 8, 9)
@@ -120,6 +123,42 @@ def test_generated_homes_are_valid(seed):
         a[d.axis], b[d.axis] = d.pos - t / 2 - 0.7, d.pos + t / 2 + 0.7
         a[1 - d.axis], b[1 - d.axis] = d.lo, d.hi
         assert not np.any(np.all(lo[:, :2] < b, axis=1) & np.all(hi[:, :2] > a, axis=1))
+
+
+def _union(home) -> list[dict]:
+    union = {}
+    for v in home.variants:
+        for o in v["ground_truth"]["objects"]:
+            union[(o["ID_name"], tuple(o["centroid"]))] = o
+    return list(union.values())
+
+
+def _sees_all_and_reaches_all(seed: int) -> None:
+    home = generate_home(seed, f"procedural_test_{seed:04d}")
+    objs, env = _union(home), home.variants[0]["environment"]
+    assert unseen_objects(home.layout, objs, [env["start_pose"]] + env["trajectory_poses"]) == [], seed
+    assert all(main_component(free_space(home.layout, objs))[1]), seed
+    assert not any("not reachable" in n or "not seen" in n or "no pose sees" in n for n in home.notes), seed
+
+
+@pytest.mark.parametrize("seed", (7, 30))  # before: rooms the trajectory could not reach (objects.py's own grid)
+def test_every_object_is_seen_and_every_room_reached(seed):
+    _sees_all_and_reaches_all(seed)
+
+
+@pytest.mark.slow
+def test_every_object_is_seen_and_every_room_reached_over_50_seeds():
+    for seed in range(50):
+        _sees_all_and_reaches_all(seed)
+
+
+def test_quota_is_capped_and_keeps_a_bed_per_bedroom_and_a_toilet_per_bathroom():
+    for seed in range(40):
+        lay = generate_layout(np.random.default_rng(seed))
+        q = quota(np.random.default_rng(seed), lay)
+        kinds = [r.kind for r in lay.rooms]
+        assert sum(q.values()) <= MAX_OBJECTS
+        assert q["bed"] >= kinds.count("bedroom") and q["toilet"] >= kinds.count("bathroom")
 
 
 @pytest.mark.parametrize("seed", FAST_SEEDS[:3])
