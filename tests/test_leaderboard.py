@@ -149,7 +149,7 @@ def test_runs_without_the_sandbox_are_marked_and_not_ranked(tmp_path):
 @pytest.mark.slow
 def test_cli_writes_the_site_with_each_entrys_report(tmp_path):
     a = make_run(tmp_path, "a", {"miniroom:1": [0.9]})
-    b = scores_only_run(tmp_path, "b", {"miniroom:1": [0.3]}, example="other")
+    b = make_run(tmp_path, "b", {"miniroom:1": [0.3]}, example="other")  # with its results: re-scored, as recorded
     stopped = scores_only_run(tmp_path, "stopped", {"miniroom:1": [0.3, 0.4]}, example="killed")
     manifest = json.loads((stopped / "manifest.json").read_text())
     manifest["episodes"][1]["status"] = "running"
@@ -269,3 +269,109 @@ def test_the_report_labels_runs_on_public_worlds_as_development(tmp_path):
     assert result["runs"][1]["provenance"]["worlds"] == DEVELOPMENT
     html = render_html(runs, result, [], [], "assets")
     assert "Development — ground truth public:</b> public ran on public worlds" in html
+
+
+# --- a leaderboard that re-scores (issue 56) ------------------------------------------------------------------------
+def test_the_leaderboard_rescores_every_entry_and_refuses_a_mismatch(tmp_path, monkeypatch):
+    """Real run directories (results files scored by OMQ): an intact one is re-scored, matches and is ranked as
+    before; one with an edited "OMQ" in scores.json, or in episode_scores.json, or a results file gone, is listed as
+    'scores do not match its results' and never ranked; one on held-out worlds whose key this host lacks is listed as
+    'not re-scored' and ranked on its recorded scores."""
+    from benchbot.batch.leaderboard import MISMATCH
+    from benchbot.core.registry import get_registry
+
+    monkeypatch.setenv("BENCHBOT_WORLDS_KEY_FILE", str(tmp_path / "no-such.key"))  # this host holds no test key
+    reg = get_registry()
+    envs = {"miniroom:1": [0.8], "miniroom:2": [0.6]}
+    paths = {"intact": make_run(tmp_path, "a", envs, example="intact"),
+             "worse": make_run(tmp_path, "b", {e: [0.4] for e in envs}, example="worse"),
+             "combined": make_run(tmp_path, "c", {e: [0.3] for e in envs}, example="combined"),
+             "episode": make_run(tmp_path, "d", {e: [0.3] for e in envs}, example="episode"),
+             "gone": make_run(tmp_path, "e", {e: [0.3] for e in envs}, example="gone")}
+    scores = paths["combined"] / "scores.json"
+    text = scores.read_text()
+    assert len(re.findall(r'"OMQ": [0-9.e-]+', text)) == 1
+    scores.write_text(re.sub(r'"OMQ": [0-9.e-]+', '"OMQ": 0.95', text))  # the edit of issue 56
+    episodes = paths["episode"] / "episode_scores.json"
+    episodes.write_text(re.sub(r'"OMQ": [0-9.e-]+', '"OMQ": 0.95', episodes.read_text(), count=1))
+    next((paths["gone"] / "results").iterdir()).unlink()
+    runs = [load_run(p) for p in paths.values()]
+    assign_labels(runs, None)
+    before = {e["label"]: e["rank"] for e in entries(runs[:2])[report_runs.TASK][0]["entries"]}
+    [(task, [table])] = entries(runs, ground_truth=reg).items()
+    got = {e["label"]: (e["rescored"], e["rank"]) for e in table["entries"]}
+    assert got == {"intact": ("matches", 1), "worse": ("matches", 2), "combined": ("differs", None),
+                   "episode": ("differs", None), "gone": ("differs", None)}
+    assert before == {"intact": 1, "worse": 2}  # intact entries: ranked as before
+    reasons = {e["label"]: e["rescore_reason"] for e in table["entries"]}
+    assert reasons["intact"] == "re-scored: 2 results files give its scores"
+    assert reasons["combined"].startswith(f"{MISMATCH}: scores.json: scores.OMQ 0.95 recorded, ")
+    assert reasons["episode"].startswith(f"{MISMATCH}: episode_scores.json, episode 0: OMQ 0.95 recorded, ")
+    assert "is not in the run directory" in reasons["gone"]
+    # an entry whose ground truth this host lacks: not re-scored (said), ranked on its recorded scores
+    held = [load_run(scores_only_run(tmp_path, "f", {"procedural_test_7:1": [0.5]}, example="held"))]
+    assign_labels(held, None)
+    [[row]] = [t["entries"] for t in entries(held, ground_truth=reg)[report_runs.TASK]]
+    assert (row["rescored"], row["rank"]) == ("not re-scored", 1)
+    assert row["rescore_reason"] == ("not re-scored: this host lacks the ground truth of procedural_test_7:1 "
+                                     "(held-out worlds: only their host builds them)")
+    write_site(runs + held, tmp_path / "site", reports=False, ground_truth=reg)
+    page = (tmp_path / "site" / f"{slug(task)}.html").read_text()
+    assert f"combined ({MISMATCH})" in page and "listed, never ranked" in page
+    assert "1 entry is <b>not re-scored</b>: this host lacks the ground truth of procedural_test_7:1" in page
+    data = json.loads((tmp_path / "site" / "leaderboard.json").read_text())
+    assert {e["label"]: e["rescored"] for t in data["tasks"][task] for e in t["entries"]}["held"] == "not re-scored"
+
+
+def test_a_signed_entry_whose_scores_differ_from_its_results_is_not_ranked_with_the_verified(tmp_path, monkeypatch):
+    """Re-scoring refuses a mismatch whatever signs it: on held-out worlds whose key this host holds, a run whose
+    host signed scores its results do not give (a host's bug, or an evaluation changed since) is listed in the
+    verified table, not ranked; the intact one is re-scored and ranked; through the CLI, one line names the refused."""
+    from benchbot.batch.signing import sign_run, write_key_pair
+    from benchbot_worlds.procedural import splits
+
+    monkeypatch.setenv("BENCHBOT_WORLDS_KEY_FILE", str(tmp_path / "worlds" / "test_split.key"))
+    splits.make_key()
+    host, host_pub = write_key_pair(tmp_path / "host")
+    intact = make_run(tmp_path, "a", {"procedural_test_0:1": [0.7]}, example="intact")
+    wrong = make_run(tmp_path, "b", {"procedural_test_0:1": [0.2]}, example="wrong")
+    scores = wrong / "scores.json"
+    scores.write_text(re.sub(r'"OMQ": [0-9.e-]+', '"OMQ": 0.9', scores.read_text()))
+    for run in (intact, wrong):
+        manifest = json.loads((run / "manifest.json").read_text())
+        manifest["finished"] = "2026-11-26T00:00:00+00:00"
+        (run / "manifest.json").write_text(json.dumps(manifest))
+        sign_run(run, host)  # signed after the edit: the signature holds, the re-score does not
+    proc = cli("leaderboard", str(intact), str(wrong), "-o", str(tmp_path / "site"), "--no-reports",
+               "--trusted-key", str(host_pub))
+    assert proc.returncode == 0, proc.stderr
+    [line] = [x for x in proc.stderr.splitlines() if x.startswith("not ranked")]
+    assert line.startswith(f"not ranked wrong ({wrong}): scores do not match its results: scores.json: scores.OMQ 0.9 "
+                           "recorded, 0.")
+    data = json.loads((tmp_path / "site" / "leaderboard.json").read_text())
+    [table] = data["tasks"][report_runs.TASK]
+    assert table["standing"] == "verified"
+    assert {e["label"]: (e["status"], e["rescored"], e["rank"]) for e in table["entries"]} == {
+        "intact": ("verified", "matches", 1), "wrong": ("verified", "differs", None)}
+
+
+def test_the_batch_says_whether_its_worlds_are_public(tmp_path):
+    """`benchbot batch`'s manifest records its worlds' standing, and its closing line says it: development — ground
+    truth public on BEAR and procedural train/val, held-out worlds on a held-out split."""
+    from types import SimpleNamespace
+
+    from benchbot.batch.plan import plan_episodes
+    from benchbot.batch.runner import prepare_batch
+    from benchbot.batch.signing import DEVELOPMENT, HELD_OUT
+    from benchbot.cli.batch_cmd import batch_summary
+    from benchbot.core.registry import get_registry
+
+    specs = plan_episodes(task=report_runs.TASK, robots=["carter"], envs=["miniroom:1"], repeat=1, seed=0,
+                          argv=["true"], cwd=str(tmp_path), options={}, timeout_s=None)
+    prepare_batch(get_registry(), run_dir=tmp_path, specs=specs, evaluate_with=None, prefix="batch", zip_results=False)
+    assert json.loads((tmp_path / "manifest.json").read_text())["worlds"] == DEVELOPMENT
+    public = SimpleNamespace(episodes=[SimpleNamespace(status="ok", env="miniroom:1"),
+                                       SimpleNamespace(status="ok", env="procedural_test_0:1")], evaluation=None)
+    held = SimpleNamespace(episodes=[SimpleNamespace(status="ok", env="procedural_test_0:1")], evaluation=None)
+    assert batch_summary(public, 3.0).endswith(f"; {DEVELOPMENT}")
+    assert batch_summary(held, 3.0).endswith("; held-out worlds") and HELD_OUT == "held-out"

@@ -26,6 +26,12 @@ Verified and self-reported entries are never ranked together (:func:`standing`, 
 tables of their own. Everything else is **self-reported** (not signed, signed by a key not trusted, or run on public
 worlds: "development — ground truth public"), listed in tables apart and ranked only among themselves; an entry whose
 signature fails (an edited signed run) is listed as failing verification and never ranked.
+
+Where this host holds an entry's ground truth (BEAR, procedural train/val, and test homes when it holds the split's
+key), every results file of the entry is re-scored with its evaluation method (:func:`rescore`): an entry whose
+recorded scores (``episode_scores.json``, ``scores.json``) differ from the re-score is listed as "scores do not match
+its results" and never ranked, verified or not; an entry whose ground truth this host lacks is listed as "not
+re-scored".
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ from typing import Callable
 
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
-from benchbot.batch.signing import DEVELOPMENT
+from benchbot.batch.signing import DEVELOPMENT, is_held_out
 from benchbot.batch.report import (
     CONDITIONS, CSS, RunData, bounded, conditions, present_scores, provenance, solution, verifiable, worlds,
     write_report,
@@ -149,6 +155,136 @@ def standing(run: RunData, trusted=None) -> dict:
     return {"status": "verified", "reason": f"signed by trusted key {v.fingerprint}", "fingerprint": v.fingerprint}
 
 
+RESCORE_STATES = ("matches", "differs", "not re-scored")
+"""What re-scoring an entry found (:func:`rescore`): its scores are its results' (``matches``), are not (``differs``:
+"scores do not match its results", never ranked), or this host could not tell (``not re-scored``)."""
+
+MISMATCH = "scores do not match its results"
+"""How an entry whose recorded scores differ from its results' re-score is listed (never ranked)."""
+
+
+def _leaves(value, path: str = "") -> dict[str, object]:
+    """``{path: number or None}`` of every number in ``value`` (nested dicts and lists; strings and booleans are
+    left out, None kept as a leaf so that a score replaced by null is a difference)."""
+    if isinstance(value, dict):
+        return {k: v for key, item in value.items() for k, v in _leaves(item, f"{path}.{key}").items()}
+    if isinstance(value, list):
+        return {k: v for i, item in enumerate(value) for k, v in _leaves(item, f"{path}[{i}]").items()}
+    if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)):
+        return {path or ".": value}
+    return {}
+
+
+def _differs(recorded, rescored, tolerance: float) -> str:
+    """The first number (its path, both values) that differs between ``recorded`` and ``rescored`` by more than
+    ``tolerance`` (NaN equals NaN; a number on one side only is a difference); "" when none does."""
+    a, b = _leaves(recorded), _leaves(rescored)
+    for key in sorted(set(a) | set(b)):
+        x, y = a.get(key, "missing"), b.get(key, "missing")
+        if isinstance(x, (int, float)) and isinstance(y, (int, float)):
+            if (x != x and y != y) or abs(float(x) - float(y)) <= tolerance:
+                continue
+        elif x is None and y is None:
+            continue
+        return f"{key.lstrip('.')} {x if x == 'missing' else fmt(x) if isinstance(x, float) else x} recorded, " \
+               f"{y if y == 'missing' else fmt(y) if isinstance(y, float) else y} re-scored"
+    return ""
+
+
+def rescore(run: RunData, registry) -> dict:
+    """Re-score every results file of ``run`` with its evaluation method against ``registry``'s ground truth, as
+    ``benchbot batch`` scored it (:func:`benchbot.core.evaluation.evaluate` over its ``ok`` episodes' results, each
+    against the environment of its plan, the run's ``--ground-truths`` set), and compare with what it records:
+    every episode's scores (``episode_scores.json``) and the combined ones (``scores.json``), within
+    :data:`~benchbot.batch.report.RESCORE_TOLERANCE`.
+
+    Returns:
+        ``{"status": "matches" | "differs" | "not re-scored", "reason": one line}``. ``differs`` (:data:`MISMATCH`)
+        also when a scored episode has no results file, when a results file no longer scores, or when an ``ok``
+        episode's results are scored but not recorded. ``not re-scored`` when ``registry`` is None, when this host
+        lacks the ground truth of one of its environments (held-out worlds of another host: only their host builds
+        them) or the evaluation method, or when the run recorded none. Never raises.
+    """
+    from benchbot.batch.report import RESCORE_TOLERANCE
+    from benchbot.core.errors import BenchbotError
+    from benchbot.core.evaluation import evaluate
+
+    def result(status: str, reason: str) -> dict:
+        return {"status": status, "reason": reason}
+
+    if registry is None:
+        return result("not re-scored", "not re-scored: no ground truth given to this leaderboard")
+    manifest = run.manifest
+    method = manifest.get("evaluate_with")
+    if not method:
+        return result("not re-scored", "not re-scored: the run recorded no evaluation method")
+    envs = [str(e) for e in manifest.get("environments") or []] or sorted({r["env"] for r in run.rows})
+    for env in envs:
+        try:
+            names = [f"{s['name']}:{s['variant']}" for s in registry.scenes(env)]
+            lacking = [n for n in names if not registry.has("ground_truths", n)]
+        except BenchbotError as exc:
+            lacking, names = [env], [exc.message]
+        if lacking:
+            held = " (held-out worlds: only their host builds them)" if is_held_out(env) else ""
+            return result("not re-scored", f"not re-scored: this host lacks the ground truth of {lacking[0]}{held}")
+    try:
+        registry.get("evaluators", method)
+    except BenchbotError:
+        return result("not re-scored", f"not re-scored: this host lacks the evaluation method '{method}'")
+    plan = {p.get("index"): p for p in manifest.get("plan") or [] if isinstance(p, dict)}
+    rows = {r["index"]: r for r in run.rows}
+    ok = [e for e in manifest.get("episodes") or [] if isinstance(e, dict) and e.get("status") == "ok"]
+    sources: dict[str, int] = {}
+    for index in [e.get("index") for e in ok] + list(rows):
+        path = (rows.get(index) or {}).get("results") or next((e.get("results") for e in ok if e.get("index") == index),
+                                                               None)
+        if not path or ".." in Path(str(path)).parts or Path(str(path)).is_absolute():
+            return result("differs", f"{MISMATCH}: episode {index} names no results file in the run")
+        full = run.run_dir / str(path)
+        if full.is_symlink() or not full.is_file():
+            return result("differs", f"{MISMATCH}: {path}, scored, is not in the run directory")
+        sources.setdefault(str(full), index)
+    try:
+        evaluation = evaluate(list(sources), method, registry, required_envs=envs, required_task=manifest.get("task"),
+                              keep_going=True, environments={p: str((plan.get(i) or rows.get(i) or {}).get("env"))
+                                                             for p, i in sources.items()},
+                              ground_truth_set=manifest.get("ground_truth_set"))
+    except BenchbotError as exc:
+        return result("differs", f"{MISMATCH}: its results do not score ({exc.message})")
+    if evaluation.errors:
+        source, exc = evaluation.errors[0]
+        return result("differs", f"{MISMATCH}: {Path(source).name} does not score ({exc.message})")
+    if evaluation.skipped:
+        return result("differs", f"{MISMATCH}: {Path(evaluation.skipped[0][0]).name} is not scored "
+                                 f"({evaluation.skipped[0][1]})")
+    try:
+        recorded_rows = {e.get("index"): e for e in json.loads((run.run_dir / "episode_scores.json").read_text())
+                         if isinstance(e, dict)}
+        recorded = json.loads((run.run_dir / "scores.json").read_text())
+    except (OSError, ValueError, AttributeError, TypeError) as exc:
+        return result("differs", f"{MISMATCH}: episode_scores.json or scores.json unreadable "
+                                 f"({exc.__class__.__name__})")
+    for source, scores in evaluation.per_result:
+        index = sources.get(source)
+        entry = recorded_rows.get(index)
+        if entry is None:
+            return result("differs", f"{MISMATCH}: episode {index}'s results score, but episode_scores.json "
+                                     "does not hold it")
+        why = _differs(entry.get("scores"), (scores or {}).get("scores") if isinstance(scores, dict) else scores,
+                       RESCORE_TOLERANCE)
+        if why:
+            return result("differs", f"{MISMATCH}: episode_scores.json, episode {index}: {why}")
+    combined = evaluation.to_json()
+    if isinstance(recorded, dict) and isinstance(combined, dict):
+        recorded = {k: v for k, v in recorded.items() if k != "excluded_episodes"}
+    why = _differs(recorded, combined, RESCORE_TOLERANCE)
+    if why:
+        return result("differs", f"{MISMATCH}: scores.json: {why}")
+    return result("matches", f"re-scored: {len(sources)} results file{'s' if len(sources) != 1 else ''} give its "
+                             "scores")
+
+
 def better(a: dict, b: dict, sign: int) -> bool:
     """Whether estimate ``a`` is distinguishably better than ``b`` (``sign`` +1: higher is better, −1: lower):
     both have intervals and ``a``'s lies wholly on the better side of ``b``'s; where either has none (fewer than
@@ -161,11 +297,12 @@ def better(a: dict, b: dict, sign: int) -> bool:
 
 
 def rank_entries(rows: list[dict], score: str, sign: int) -> None:
-    """Rank the rankable entries of one table (``covers`` and ``verifiable``, and not failing verification) in
-    place: an entry's rank is 1 + the
+    """Rank the rankable entries of one table (``covers`` and ``verifiable``, not failing verification, and not
+    re-scored to other scores than it records: :func:`rescore`) in place: an entry's rank is 1 + the
     number of entries distinguishably better (:func:`better`), so entries the intervals do not tell apart share a
     rank (``tied`` True); the others get ``rank`` None. Sorts ``rows``: ranked first, by rank then mean."""
-    ranked = [e for e in rows if e["covers"] and e["verifiable"] and e.get("status") != "failed"]
+    ranked = [e for e in rows if e["covers"] and e["verifiable"] and e.get("status") != "failed"
+              and e.get("rescored") != "differs"]
     for e in rows:
         e["rank"], e["tied"] = None, False
     for e in ranked:
@@ -177,19 +314,23 @@ def rank_entries(rows: list[dict], score: str, sign: int) -> None:
                              -sign * (e["scores"].get(score, {}).get("value") or 0.0)))
 
 
-def entries(runs: list[RunData], environments: list[str] | None = None, trusted=None) -> dict[str, list[dict]]:
+def entries(runs: list[RunData], environments: list[str] | None = None, trusted=None,
+            ground_truth=None) -> dict[str, list[dict]]:
     """Each task's tables: ``{task: [{"standing": "verified" | "self-reported", "conditions": {condition: value},
     "benchmark": [env], "score", "direction", "entries": [{"run", "label", "slug", "scores": {score: Estimate dict
     (environment level)}, "episodes", "environments", "covers", "verifiable", "status", "status_reason", "worlds",
-    "rank", "tied", "benchmark"}]}]}``, one table per standing and condition set (:func:`standing` with ``trusted``,
-    the public keys of ``--trusted-key``; :func:`condition_key`), verified tables first, entries best first
-    (:func:`rank_entries`). An entry that ``covers`` its table's :func:`benchmark_set` is scored on its episodes of
+    "rescored", "rescore_reason", "rank", "tied", "benchmark"}]}]}``, one table per standing and condition set
+    (:func:`standing` with ``trusted``, the public keys of ``--trusted-key``; :func:`condition_key`), verified tables
+    first, entries best first (:func:`rank_entries`). Every entry is re-scored against ``ground_truth`` (a registry;
+    None: none is, each ``not re-scored``) by :func:`rescore`: one whose scores differ from its results' is never
+    ranked. An entry that ``covers`` its table's :func:`benchmark_set` is scored on its episodes of
     those environments and ranked (when verifiable and not failing verification); any other entry on all its
     episodes, with ``rank`` None."""
     by_task: dict[str, dict[tuple, list[RunData]]] = {}
-    standings = {}
+    standings, rescored = {}, {}
     for run in runs:
         standings[id(run)] = standing(run, trusted)
+        rescored[id(run)] = rescore(run, ground_truth)
         group = "verified" if standings[id(run)]["status"] == "verified" else "self-reported"
         by_task.setdefault(str(run.manifest.get("task", "unknown task")), {}).setdefault(
             (("standing", group),) + condition_key(run), []).append(run)
@@ -215,6 +356,7 @@ def entries(runs: list[RunData], environments: list[str] | None = None, trusted=
                              "environments": envs, "covers": covers, "benchmark": bench,
                              "verifiable": verifiable(run.manifest), "status": st["status"],
                              "status_reason": st["reason"], "worlds": worlds(run.manifest),
+                             "rescored": rescored[id(run)]["status"], "rescore_reason": rescored[id(run)]["reason"],
                              "scores": {s: bounded(stats.cluster_mean_ci([r[s] for r in scored if s in r],
                                                                          [r["env"] for r in scored if s in r]),
                                                    run, s).to_json()
@@ -274,12 +416,16 @@ def _table_html(table: dict, reports: bool, number: int) -> str:
         if reports:
             links.insert(0, f"<a href='entries/{esc(e['slug'])}/report.html'>report</a>")
         label = e["label"] + ("" if e["verifiable"] else " (not verifiable)") + (
-            " (fails verification)" if e["status"] == "failed" else "")
-        tag = e["status"] + (f" · {DEVELOPMENT}" if e["worlds"] == DEVELOPMENT else "")
+            " (fails verification)" if e["status"] == "failed" else "") + (
+            f" ({MISMATCH})" if e.get("rescored") == "differs" else "")
+        tag = e["status"] + (f" · {DEVELOPMENT}" if e["worlds"] == DEVELOPMENT else "") + (
+            " · not re-scored" if e.get("rescored") == "not re-scored" else " · re-scored" if e.get("rescored") ==
+            "matches" else "")
         rank = f"{e['rank']}=" if e["tied"] else str(e["rank"]) if e["rank"] else "–"
         cells = [_cell(e["rank"], rank, "num rank",
                        title="not told apart from the entries of the same rank by the intervals" if e["tied"] else ""),
-                 f"<td class='txt' data-v='{esc(label)}' title='{esc(e['status_reason'])}"
+                 f"<td class='txt' data-v='{esc(label)}' title='{esc(e['status_reason'])}; "
+                 f"{esc(e.get('rescore_reason') or '')}"
                  f"{'' if e['verifiable'] else '; run without the sandbox: its solution could read the ground truth'}'>"
                  f"{esc(label)}<br><small>{esc(tag)}</small></td>"]
         cells += [_estimate_cell(e["scores"].get(s), "num" if s == main else "num opt") for s in scores]
@@ -307,6 +453,17 @@ def _table_html(table: dict, reports: bool, number: int) -> str:
         if e["status"] == "failed":
             notes.append(f"{esc(e['label'])} {esc(e['status_reason'])}: its files are not as the host signed them; "
                          "listed, not ranked.")
+    for e in rows:
+        if e.get("rescored") == "differs":
+            notes.append(f"{esc(e['label'])}: <b>{esc(MISMATCH)}</b> ({esc(e['rescore_reason'].split(': ', 1)[-1])}):"
+                         " re-scored against this host's ground truth, its recorded scores are not its results'; "
+                         "listed, never ranked.")
+    unchecked = [e for e in rows if e.get("rescored") == "not re-scored"]
+    if unchecked:
+        notes.append(f"{len(unchecked)} entr{'y is' if len(unchecked) == 1 else 'ies are'} <b>not re-scored</b>: "
+                     + esc(unchecked[0]["rescore_reason"].removeprefix("not re-scored: "))
+                     + ("" if len(unchecked) == 1 else " (hover an entry for each one's reason)")
+                     + "; their scores are as recorded.")
     public = sum(e["worlds"] == DEVELOPMENT for e in rows)
     if public:
         notes.append(f"{public} entr{'y ran' if public == 1 else 'ies ran'} on public worlds "
@@ -351,7 +508,7 @@ def task_page(task: str, tables: list[dict], title: str, made: str, reports: boo
 
 def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot leaderboard", registry=None,
                reports: bool = True, environments: list[str] | None = None, skipped: list[str] | None = None,
-               on_step: Callable[[str], None] | None = None, trusted=None) -> dict:
+               on_step: Callable[[str], None] | None = None, trusted=None, ground_truth=None) -> dict:
     """Write the static site into the folder ``output`` (created; files of earlier runs of this command are
     replaced, nothing else is touched). Every file is written atomically.
 
@@ -363,6 +520,8 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
         skipped: one line per run directory left out (unfinished batches, or every episode failed), listed on the index page.
         on_step: told each step as it starts ("writing entry 2 of 5's report: semslam_geometric").
         trusted: the hosts' Ed25519 public keys whose signatures make an entry verified (:func:`standing`).
+        ground_truth: the registry whose ground truth re-scores every entry's results (:func:`rescore`); None:
+            entries are not re-scored.
 
     Returns:
         ``{"title", "made", "tasks": {task: [{"conditions", "benchmark", "score", "direction", "entries":
@@ -374,7 +533,7 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
     if output.exists() and not output.is_dir():
         raise UsageError(f"--output: {output} is a file", "give a folder for the site, e.g. -o site/")
     made = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    tasks = entries(runs, environments, trusted)
+    tasks = entries(runs, environments, trusted, ground_truth)
     data = {"title": title, "made": made, "tasks": {}, "skipped": list(skipped or [])}
     say = on_step or (lambda what: None)
     total, done = sum(len(t["entries"]) for tables in tasks.values() for t in tables), 0
@@ -398,7 +557,8 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
             data["tasks"][task] = [
                 {k: t[k] for k in ("standing", "conditions", "benchmark", "score", "direction")}
                 | {"entries": [{k: e[k] for k in ("rank", "tied", "label", "slug", "episodes", "environments", "covers",
-                                                  "verifiable", "status", "status_reason", "worlds", "scores")} | {"run_dir": str(e["run"].run_dir)}
+                                                  "verifiable", "status", "status_reason", "worlds", "rescored",
+                                                  "rescore_reason", "scores")} | {"run_dir": str(e["run"].run_dir)}
                                for e in t["entries"]]}
                 for t in tables]
         items = []

@@ -41,6 +41,7 @@ from benchbot.batch.executors import (
 )
 from benchbot.batch import provenance
 from benchbot.batch.progress import ProgressFile
+from benchbot.batch.signing import worlds_standing
 from benchbot.batch.plan import (
     EpisodeRecord, EpisodeSpec, expected_steps, new_record, read_manifest, specs_from_manifest, to_json,
     trajectory_length, write_manifest,
@@ -239,7 +240,8 @@ def prepare_batch(
     })
     manifest = {
         "command": sys.argv, "task": specs[0].task, "robots": sorted({s.robot for s in specs}),
-        "environments": list(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
+        "environments": list(dict.fromkeys(s.env for s in specs)),
+        "worlds": worlds_standing(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
         "prefix": prefix, "zip": zip_results, "versions": _versions(registry, isolation),
         "provenance": provenance.collect([s.cwd for s in specs]),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,

@@ -343,7 +343,10 @@ def episode_line(record: EpisodeRecord, label: str) -> str:
 
 def batch_summary(outcome, elapsed_s: float) -> str:
     """The closing line of a batch: episode counts by status, the time taken, the combined primary score of the
-    evaluation method when scored (its name as the method declares it)."""
+    evaluation method when scored (its name as the method declares it), and the standing of its worlds
+    (:func:`benchbot.batch.signing.worlds_standing`: ``held-out worlds``, or ``development — ground truth public``
+    when any environment is a public world, BEAR or procedural train/val)."""
+    from benchbot.batch.signing import HELD_OUT, worlds_standing
     from benchbot.tui.batch_app import format_seconds
 
     counts: dict[str, int] = {}
@@ -358,6 +361,10 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     value = (combined.get("scores", combined) if isinstance(combined, dict) else {}).get(primary) if primary else None
     if isinstance(value, (int, float)):
         text += f"; {primary} {value:.4f}"
+    envs = [str(r.env) for r in outcome.episodes if getattr(r, "env", None)]
+    if envs:
+        standing = worlds_standing(envs)
+        text += "; held-out worlds" if standing == HELD_OUT else f"; {standing}"
     return text
 
 

@@ -35,8 +35,10 @@ def register(app: typer.Typer) -> None:
         """Write a static leaderboard site: an index, one page per task with one sortable table per condition set
         (robot, noise preset, camera, simulator and version, scene style, isolation, evaluation method), entries
         ranked by the evaluation method's primary score over environments with intervals (entries the intervals do
-        not tell apart share a rank), each entry's manifest and report linked. Unfinished batches are skipped with
-        one line each, as are batches whose every episode failed. Plain files, no server: copy the folder to any web host."""
+        not tell apart share a rank), each entry's manifest and report linked. Every entry whose ground truth this
+        host holds is re-scored from its results files: one whose recorded scores differ is not ranked. Unfinished
+        batches are skipped with one line each, as are batches whose every episode failed. Plain files, no server:
+        copy the folder to any web host."""
         from benchbot.cli.progress_lines import Steps
 
         from benchbot.batch.signing import load_public_key
@@ -58,12 +60,15 @@ def register(app: typer.Typer) -> None:
                 envs = [e.strip() for e in environments.split(",") if e.strip()] if environments else None
                 site = write_site(data, output, title=title, registry=reg if reports else None, reports=reports,
                                   environments=envs, skipped=skipped, on_step=say,
-                                  trusted=trusted)
+                                  trusted=trusted, ground_truth=reg)
         if not data:
             raise UsageError(f"no finished run directory with scores among the {len(runs)} given", "finish or re-run "
                              "them with benchbot batch --resume RUN_DIR (it re-runs failed episodes too), or give "
                              "scored ones")
         for task, tables in site["tasks"].items():
+            for e in (e for t in tables for e in t["entries"] if e["rescored"] == "differs"):
+                err.print(f"[red]not ranked[/] {e['label']} ({e['run_dir']}): {e['rescore_reason']}",
+                          highlight=False)
             n = sum(len(t["entries"]) for t in tables)
             out.print(f"{output / (slug(task) + '.html')}: {n} entries in {len(tables)} condition set"
                       f"{'s' if len(tables) != 1 else ''}", highlight=False)
