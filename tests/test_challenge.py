@@ -115,3 +115,36 @@ def test_evaluate_runs_the_submission_sandboxed_and_signs_it(tmp_path, worlds_ke
     results.write_bytes(bytes(data))
     proc = cli("verify", str(run), "--key", str(public))
     assert proc.returncode == 1 and f"{results}: changed since it was signed" in proc.stderr
+
+
+@pytest.mark.slow
+def test_a_solution_carrying_public_ground_truth_scores_no_better_than_the_baseline_on_held_out_worlds(tmp_path,
+                                                                                                      worlds_key):
+    """Issue 56's adversary through `challenge evaluate` on the held-out split (procedural_test_0:1, this test's
+    key): the solution that carries BEAR's public ground truth in its code (tests/embedded_gt_solution.py) has none
+    for a test home and guesses another home's; it scores no better than semslam_geometric, the honest baseline
+    (docs/challenge.md, "What an adversary gets": 2-core CPU, 3 homes, 0.0009 vs 0.1511). About 1 minute."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    import embedded_gt_solution
+
+    from benchbot.core.registry import get_registry
+
+    proc = cli("challenge", "init", str(tmp_path / "ch"), "--split", "test", "--count", "1")
+    assert proc.returncode == 0, proc.stderr
+    cheat = embedded_gt_solution.write_submission(tmp_path / "cheat")
+    example = get_registry().entry("examples", "semslam_geometric")  # as `benchbot batch --example` runs it
+    omq = {}
+    for name, folder, command in (("cheat", cheat.parent, f"python {cheat.name}"),
+                                  ("baseline", example.path.parent, example.spec["native_command"])):
+        proc = cli("challenge", "evaluate", str(folder), "--challenge", str(tmp_path / "ch"), "--native", command,
+                   timeout=600)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        run = Path(proc.stdout.strip().splitlines()[-1].removeprefix("signed: ")).parent
+        assert json.loads((run / "manifest.json").read_text())["worlds"] == signing.HELD_OUT
+        assert "; held-out worlds" in proc.stderr
+        omq[name] = json.loads((run / "scores.json").read_text())["scores"]["OMQ"]
+        if name == "cheat":
+            [log] = (run / "logs").iterdir()
+            assert "GUESSED house:1 for procedural_test_0:1" in log.read_text()  # it ran, it carried, it guessed
+    assert omq["cheat"] <= omq["baseline"], omq
+    assert omq["baseline"] > 0.05, omq  # the baseline found something: the comparison means something
