@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 from pathlib import Path
 
@@ -48,7 +49,7 @@ def test_prepare_batch_records_provenance(tmp_path):
                              zip_results=False).manifest
     written = json.loads((tmp_path / "manifest.json").read_text())
     assert written["provenance"] == manifest["provenance"]
-    assert written["provenance"]["solution_git"] == {str(tmp_path): None}
+    assert written["provenance"]["solution_git"] == {"$RUN_DIR": None}  # no absolute path: the run directory
     assert written["provenance"]["benchbot_git"]
     assert written["provenance"]["machine"]["cpus"] >= 1
 
@@ -78,3 +79,20 @@ def test_an_episode_records_its_backend(registry):
     assert facts["settings"]["BENCHBOT_SIM_STYLE"] == "primitives"
     furnished = [dict(e, style="furnished") for e in run.environments]
     assert provenance.backend_facts(registry, run.robot, furnished)["style"] == "furnished"
+
+
+def test_manifest_paths_are_portable_and_made_local_again(tmp_path, monkeypatch):
+    """Manifests name no absolute path: under the home folder ``~/...``, elsewhere relative to the run directory
+    (``$RUN_DIR/...``); ``--resume`` makes them local again; ``BENCHBOT_MANIFEST_LOCAL=1`` keeps them."""
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    run_dir = tmp_path / "runs" / "batch-1"
+    plan = [{"cwd": str(tmp_path / "home" / "sol"), "argv": ["/usr/bin/python3", "my.py", "--fast"],
+             "container": None}]
+    portable = provenance.portable_plan(plan, run_dir)
+    assert portable == [{"cwd": "~/sol", "argv": ["$RUN_DIR/" + os.path.relpath("/usr/bin/python3", run_dir),
+                                                  "my.py", "--fast"], "container": None}]
+    assert provenance.local_plan({"plan": portable}, run_dir)["plan"] == plan
+    assert provenance.portable_command(["/x/.venv/bin/benchbot", "batch", "--output-dir", str(tmp_path / "home" / "r")],
+                                       run_dir) == ["benchbot", "batch", "--output-dir", "~/r"]
+    monkeypatch.setenv("BENCHBOT_MANIFEST_LOCAL", "1")
+    assert provenance.portable_plan(plan, run_dir) == plan and provenance.local_node()["hostname"]

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from benchbot.batch.provenance import backend_facts
 from benchbot.core import stages
 from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
+from benchbot.core.leftovers import owned_tempdir
 from benchbot.core.registry import get_registry
 from benchbot.core.server import ServerThread, build_app
 from benchbot.core.session import RunSpec, start_service
@@ -57,7 +57,9 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
     outputs folder (``spec.outputs``, made afresh) and reaches the backend through ``backend_socket`` at
     ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. The run directories beside
     ``folder`` and the folders ``hide`` lists are hidden from it. Sets ``record.returncode`` (and ``record.error``
-    when its results file is refused); returns (whether it timed out, whether it read its standard input)."""
+    when its results file is refused; ``record.status`` ``resource_limit`` and the reason when the solution went
+    past a resource limit, :mod:`benchbot.core.sandbox_limits`); returns (whether it timed out, whether it read its
+    standard input)."""
     from benchbot.core.sandbox import run_sandboxed
 
     outputs = folder / spec.outputs
@@ -68,7 +70,9 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
                         hide=[*run_directories(folder), *hide], log=log,
                         timeout_s=spec.timeout_s)
     record.returncode = run.outcome.returncode
-    if run.problem:
+    if run.limit:
+        record.status, record.error = "resource_limit", run.limit
+    elif run.problem:
         record.error = run.problem
     elif run.results is not None:
         os.replace(run.results, folder / spec.results)
@@ -156,11 +160,17 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
 
                 recorder = attach_recorder(registry, service, run, folder / spec.recording, seed=spec.seed,
                                            options=options)
-            private = tempfile.mkdtemp(prefix="benchbot-episode-")  # the sandbox's way to the backend
+            private_dir = owned_tempdir("benchbot-episode-")  # the sandbox's way to the backend; marked as ours
+            private = private_dir.__enter__()
             backend_socket = Path(private) / "backend.sock"
-            server = ServerThread(build_app(service), unix_socket=backend_socket if spec.sandbox == "bwrap" else None)
-            server.start()
             timed_out = read_stdin = False
+            try:
+                server = ServerThread(build_app(service),
+                                      unix_socket=backend_socket if spec.sandbox == "bwrap" else None)
+                server.start()
+            except BaseException:
+                private_dir.__exit__(None, None, None)
+                raise
             try:
                 with open(folder / spec.log, "w") as log:
                     if spec.sandbox == "bwrap":
@@ -184,7 +194,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                         read_stdin = outcome.read_stdin
             finally:
                 server.stop()
-                shutil.rmtree(private, ignore_errors=True)
+                private_dir.__exit__(None, None, None)
             state = service.call(service.episode.state)
             record.steps, record.collided = state["step"], state["is_collided"]
             record.backend = backend_facts(registry, run.robot, run.environments)
@@ -195,7 +205,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
 
                 detach_recorder(registry, service, recorder)
             service.close()
-        if record.error:  # the sandbox refused what the solution left as its results
+        if record.status == "resource_limit":  # past a limit of the sandbox: the reason is in record.error
+            pass
+        elif record.error:  # the sandbox refused what the solution left as its results
             record.status = "bad_results"
         elif timed_out:
             record.status = "timeout"

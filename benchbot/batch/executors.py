@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from benchbot.batch import provenance
 from benchbot.batch.episode_runner import run_episode
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
 from benchbot.core import atomic
@@ -124,8 +125,9 @@ def run_local(
 ) -> None:
     """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
     thread) as each ends. Worker processes end with the batch process, even when it is killed
-    (:func:`_end_with_parent`). Each record says it ran here (``executor`` ``local``, ``node`` this host)."""
-    here = {"hostname": socket.gethostname()}
+    (:func:`_end_with_parent`). Each record says it ran here (``executor`` ``local``; ``node`` this host's name only
+    with ``BENCHBOT_MANIFEST_LOCAL=1``)."""
+    here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
 
     def done(record: EpisodeRecord) -> None:
         record.executor, record.node = "local", dict(here)
@@ -188,7 +190,7 @@ def run_batched(
     """
     from benchbot.core import process_group
 
-    here = {"hostname": socket.gethostname()}
+    here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
     threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
     added = [name for name in THREAD_VARIABLES[1:] if name not in os.environ]
     for name in added:  # the solutions' libraries (the one simulator keeps every core); taken back at the end
@@ -606,11 +608,12 @@ class _ActorSink:
 
 
 def _node_facts() -> dict:
-    """Where a Ray task runs: ``{id, address, hostname}`` (its node's id and IP address)."""
+    """Where a Ray task runs: ``{id, address}`` (its node's id and IP address; ``hostname`` too with
+    ``BENCHBOT_MANIFEST_LOCAL=1``)."""
     import ray
 
     return {"id": ray.get_runtime_context().get_node_id(), "address": ray.util.get_node_ip_address(),
-            "hostname": socket.gethostname()}
+            **provenance.local_node()}  # its host name only with BENCHBOT_MANIFEST_LOCAL=1
 
 
 def node_name(node: dict) -> str:

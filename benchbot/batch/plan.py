@@ -89,14 +89,16 @@ class EpisodeRecord:
         status: ``pending``, ``running``, ``ok`` (results written), ``failed`` (the submission exited non-zero or
             was killed), ``timeout`` (stopped after ``timeout_s``), ``no_results`` (it exited 0 without results),
             ``bad_results`` (its results file cannot be read or scored: why in ``error``; it is left out of the
-            scores) or ``error`` (the backend failed: message in ``error``).
+            scores), ``resource_limit`` (a sandboxed solution went past a resource limit: memory, processes, file
+            size or CPU time; the one-line reason, naming the limit and its variable, in ``error``) or ``error``
+            (the backend failed: message in ``error``).
         attempts: how many times it was run. steps: actions performed. collided: the robot collided.
         wall_s: seconds of the last attempt. returncode: the submission's exit status.
         backend: what the episode's backend was (:func:`benchbot.batch.provenance.backend_facts`: simulator plugin
             and version, scene style, Taichi arch and device, the plugin's settings); ``{}`` before it ran.
         executor: what ran its last attempt, ``local`` or ``ray`` (``""`` before it ran).
-        node: where its last attempt ran: ``{"hostname"}`` for ``local``; ``{"id", "address", "hostname"}`` (the
-            Ray node's id and IP address) for ``ray``.
+        node: where its last attempt ran: ``{}`` for ``local`` (``{"hostname"}`` with ``BENCHBOT_MANIFEST_LOCAL=1``);
+            ``{"id", "address"}`` (the Ray node's id and IP address) for ``ray``.
         lost: the attempts lost with their Ray node or worker process (``[{"node", "error"}]``, oldest first),
             each run again on another node (:data:`benchbot.batch.executors.RAY_LOST_RETRIES`); they count in
             ``attempts``.

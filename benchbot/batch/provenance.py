@@ -10,7 +10,11 @@ the scores and compare runs on it (:func:`conditions`). Nothing here fails a bat
 outside any repository, an unreadable ``/proc`` or a backend that cannot say gives ``None`` for that entry.
 
 The host name is deliberately not recorded: manifests are published with leaderboards, and the CPU model, core
-count and memory say what a reader needs to compare wall times.
+count and memory say what a reader needs to compare wall times. Nor is any absolute path: a path under the home
+folder is written ``~/...``, any other one relative to the run directory, marked ``$RUN_DIR/...``
+(:func:`portable_path`); the plan's folders and commands are made local again when a batch is resumed
+(:func:`local_plan`). ``BENCHBOT_MANIFEST_LOCAL=1`` (:func:`keep_paths`) keeps both: the host name in each
+episode's ``node``, and the paths as they are.
 """
 
 from __future__ import annotations
@@ -96,7 +100,89 @@ def packages() -> dict[str, str]:
     return dict(sorted(out.items()))
 
 
-def command_line(argv: list[str] | None = None) -> str:
+#: The setting that keeps the host name and absolute paths in manifests (``1``); by default neither is written.
+PATHS_SETTING = "BENCHBOT_MANIFEST_LOCAL"
+#: How a path outside the home folder starts in a manifest: relative to the run directory.
+RUN_DIR_MARK = "$RUN_DIR"
+
+
+def local_node() -> dict:
+    """A local episode's ``node``: ``{"hostname"}`` with ``BENCHBOT_MANIFEST_LOCAL=1``, else ``{}``."""
+    import socket
+
+    return {"hostname": socket.gethostname()} if keep_paths() else {}
+
+
+def keep_paths() -> bool:
+    """Whether manifests keep the host name (each record's ``node``) and absolute paths
+    (``BENCHBOT_MANIFEST_LOCAL=1``)."""
+    return os.environ.get(PATHS_SETTING, "").strip().lower() in ("1", "yes", "true", "on")
+
+
+def portable_path(path: str, run_dir: Path | str) -> str:
+    """``path`` as a manifest writes it: unchanged when it is not absolute or :func:`keep_paths`; ``~/rest`` under
+    the home folder; else ``$RUN_DIR/<path relative to run_dir>`` (``$RUN_DIR/../../usr/bin/python3``)."""
+    if keep_paths() or not os.path.isabs(path):
+        return path
+    home = os.path.expanduser("~")
+    if home not in ("", "/") and (path == home or path.startswith(home.rstrip("/") + "/")):
+        return "~" + path[len(home.rstrip("/")):]
+    relative = os.path.relpath(path, run_dir)
+    return RUN_DIR_MARK if relative == "." else f"{RUN_DIR_MARK}/{relative}"
+
+
+def local_path(path: str, run_dir: Path | str) -> str:
+    """The inverse of :func:`portable_path` on this machine: ``~/...`` and ``$RUN_DIR/...`` made absolute; any other
+    text unchanged."""
+    if path == "~" or path.startswith("~/"):
+        return os.path.expanduser(path)
+    if path == RUN_DIR_MARK or path.startswith(RUN_DIR_MARK + "/"):
+        return os.path.normpath(os.path.join(str(run_dir), path[len(RUN_DIR_MARK) + 1:]))
+    return path
+
+
+def portable_plan(plan: list[dict], run_dir: Path | str) -> list[dict]:
+    """A manifest's ``plan`` (dicts of :class:`~benchbot.batch.plan.EpisodeSpec`) with every absolute path in its
+    ``cwd``, ``argv`` and ``container`` made portable (:func:`portable_path`)."""
+    out = []
+    for entry in plan:
+        entry = dict(entry)
+        entry["cwd"] = portable_path(str(entry.get("cwd", "")), run_dir)
+        entry["argv"] = [portable_path(str(a), run_dir) for a in entry.get("argv") or []]
+        if isinstance(entry.get("container"), dict):
+            entry["container"] = {k: portable_path(v, run_dir) if isinstance(v, str) else v
+                                  for k, v in entry["container"].items()}
+        out.append(entry)
+    return out
+
+
+def local_plan(manifest: dict, run_dir: Path | str) -> dict:
+    """``manifest`` with its plan's portable paths made local again (:func:`local_path`), for ``--resume``."""
+    plan = []
+    for entry in manifest.get("plan") or []:
+        if isinstance(entry, dict):
+            entry = dict(entry)
+            if isinstance(entry.get("cwd"), str):
+                entry["cwd"] = local_path(entry["cwd"], run_dir)
+            if isinstance(entry.get("argv"), list):
+                entry["argv"] = [local_path(a, run_dir) if isinstance(a, str) else a for a in entry["argv"]]
+            if isinstance(entry.get("container"), dict):
+                entry["container"] = {k: local_path(v, run_dir) if isinstance(v, str) else v
+                                      for k, v in entry["container"].items()}
+        plan.append(entry)
+    return {**manifest, "plan": plan}
+
+
+def portable_command(argv: list[str], run_dir: Path | str) -> list[str]:
+    """The manifest's ``command``: ``argv`` with the program named by its file name and every absolute path made
+    portable (:func:`portable_path`)."""
+    argv = [str(a) for a in argv]
+    if argv and not keep_paths():  # `python -m benchbot.cli` runs benchbot/cli/__main__.py
+        argv[0] = "benchbot" if argv[0].endswith("__main__.py") else Path(argv[0]).name
+    return [argv[0], *(portable_path(a, run_dir) for a in argv[1:])] if argv else []
+
+
+def command_line(argv: list[str] | None = None, run_dir: Path | str | None = None) -> str:
     """The command as typed, shell-quoted (``shlex.join``) so that it can be pasted back: ``benchbot batch
     --native 'python my.py' --envs miniroom:1``; the program is named by its file name (``benchbot``), not its
     path, and a run through ``python -m benchbot.cli`` is written so (from ``sys.orig_argv``)."""
@@ -105,21 +191,28 @@ def command_line(argv: list[str] | None = None) -> str:
         argv = list(sys.orig_argv)  # `python -m benchbot.cli ...`: the interpreter's own argv says so
     if argv:
         argv[0] = Path(argv[0]).name
+    if not keep_paths():  # an absolute path typed (--output-dir /home/me/runs) is written ~/runs
+        argv = [argv[0], *(portable_path(a, run_dir or Path.cwd()) for a in argv[1:])] if argv else argv
     return shlex.join(argv)
 
 
-def collect(solution_dirs: list[str]) -> dict:
+def collect(solution_dirs: list[str], run_dir: Path | str | None = None) -> dict:
     """The manifest's ``provenance``: ``{benchbot_git, solution_git: {folder: revision}, machine, command, lock,
     packages}`` (:func:`command_line`, :func:`lock_hash`, :func:`packages`).
 
     Args:
         solution_dirs: the folders the solutions run in (each plan entry's ``cwd``); each distinct one is asked
-            for its git revision.
+            for its git revision (named as :func:`portable_path` writes it).
+        run_dir: the run directory, for :func:`portable_path` (default: the current folder).
     """
     source = Path(__file__).resolve().parents[2]
+    base = Path.cwd() if run_dir is None else run_dir
+    lock = lock_hash(source)
+    if lock is not None and not keep_paths():
+        lock["file"] = LOCK_FILE  # at the root of BenchBot's checkout
     return {"benchbot_git": git_revision(source),
-            "solution_git": {d: git_revision(d) for d in dict.fromkeys(solution_dirs)},
-            "machine": machine(), "command": command_line(), "lock": lock_hash(source), "packages": packages()}
+            "solution_git": {portable_path(d, base): git_revision(d) for d in dict.fromkeys(solution_dirs)},
+            "machine": machine(), "command": command_line(run_dir=base), "lock": lock, "packages": packages()}
 
 
 def taichi_device() -> dict:

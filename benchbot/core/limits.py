@@ -35,6 +35,10 @@ MAX_RENDER_SAMPLES          4096 samples             (none: sim render --spp, ..
 MAX_LOG_BYTES               16 MiB (0: no cap)       BENCHBOT_MAX_LOG_BYTES               log cut, with a last line
 STOP_GRACE_S                5 seconds (0: no grace)  BENCHBOT_STOP_GRACE_S                SIGKILL after SIGTERM
 SANDBOX_TMP_BYTES           1 GiB                    BENCHBOT_SANDBOX_TMP_BYTES           ENOSPC in the sandbox's /tmp
+SANDBOX_MEMORY_BYTES        8 GiB                    BENCHBOT_SANDBOX_MEMORY_BYTES        episode ``resource_limit``
+SANDBOX_PROCESSES           512 tasks                BENCHBOT_SANDBOX_PROCESSES           episode ``resource_limit``
+SANDBOX_FILE_BYTES          1 GiB                    BENCHBOT_SANDBOX_FILE_BYTES          episode ``resource_limit``
+SANDBOX_CPU_S               36000 seconds            BENCHBOT_SANDBOX_CPU_S               episode ``resource_limit``
 RAY_EPISODE_BYTES           1 GiB                    BENCHBOT_RAY_EPISODE_BYTES           episode error, its log kept
 **caches**
 SCENE_CACHE_BYTES           4 GiB (0: no cache)      BENCHBOT_SCENE_CACHE_BYTES           oldest built scenes removed
@@ -302,6 +306,33 @@ SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", intege
                           meaning="bytes of a sandboxed solution's private /tmp")
 """Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.core.sandbox`):
 past it, writes there fail with "No space left on device"."""
+
+SANDBOX_MEMORY_BYTES = Limit(8 << 30, "BENCHBOT_SANDBOX_MEMORY_BYTES", "bytes", integer=True,
+                             meaning="bytes of data memory of each process of a sandboxed solution")
+"""A sandboxed solution's memory: ``RLIMIT_DATA`` of each of its processes (its heap and every private writable
+mapping: what NumPy and malloc allocate). Not ``RLIMIT_AS``: that counts address space merely reserved (thread
+stacks, glibc's 64 MiB malloc arenas per thread, CUDA's reservations), so a NumPy or PyTorch solution that uses
+little memory would fail. Past it an allocation fails (Python: ``MemoryError``) and the episode ends
+``resource_limit`` (:mod:`benchbot.core.sandbox_limits`)."""
+
+SANDBOX_PROCESSES = Limit(512, "BENCHBOT_SANDBOX_PROCESSES", "tasks", integer=True,
+                          meaning="processes and threads of a sandboxed solution")
+"""Processes and threads a sandboxed solution may have at once (bubblewrap's and the relay's few included): a pids
+cgroup's ``pids.max`` over the whole sandbox where one can be made, else ``RLIMIT_NPROC`` set inside the sandbox's
+user namespace, where it counts that namespace's tasks only (but never binds root). Threads count (a BLAS library
+starts one per core). Past it ``fork``/``clone`` fail (``EAGAIN``) and the episode ends ``resource_limit``."""
+
+SANDBOX_FILE_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_FILE_BYTES", "bytes", integer=True,
+                           meaning="bytes of one file a sandboxed solution writes")
+"""Bytes of any one file a sandboxed solution writes (its outputs folder, its ``/tmp``): ``RLIMIT_FSIZE``. Past it
+the write fails (``EFBIG``; ``SIGXFSZ`` for programs that do not ignore it) and the episode ends
+``resource_limit``."""
+
+SANDBOX_CPU_S = Limit(36000, "BENCHBOT_SANDBOX_CPU_S", "seconds", integer=True,
+                      meaning="CPU seconds of each process of a sandboxed solution")
+"""CPU seconds (all its threads together) each process of a sandboxed solution may use: ``RLIMIT_CPU`` (``SIGXCPU``
+at the limit, ``SIGKILL`` one second later). A backstop beside the episode's wall-clock timeout. Past it the
+episode ends ``resource_limit``."""
 
 RAY_EPISODE_BYTES = Limit(1 << 30, "BENCHBOT_RAY_EPISODE_BYTES", "bytes", integer=True,
                           meaning="bytes of the files an episode on a Ray node sends back")

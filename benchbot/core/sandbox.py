@@ -23,6 +23,7 @@ and ``none`` (``--no-sandbox``: a process of your user; its scores are not verif
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.util
 import os
@@ -30,17 +31,18 @@ import shutil
 import stat
 import subprocess
 import sys
-import tempfile
 import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
+from benchbot.core.leftovers import owned_tempdir
 from benchbot.core.sandbox_extras import registry_files
 from benchbot.core import socket_relay
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_RESULTS_BYTES, SANDBOX_TMP_BYTES
 from benchbot.core.process_group import ChildOutcome, run_child
+from benchbot.core.sandbox_limits import PidsCgroup, SandboxLimits, exceeded, pids_cgroup_root
 
 #: Isolation levels of a solution, strongest first: bubblewrap, a container, none (``--no-sandbox``).
 ISOLATION_LEVELS = ("bwrap", "container", "none")
@@ -65,6 +67,33 @@ DEVICES = ("/dev/nvidia0", "/dev/nvidia1", "/dev/nvidia2", "/dev/nvidia3", "/dev
 #: Namespaces and privileges of every sandbox (bubblewrap's flags).
 NAMESPACE_FLAGS = ("--unshare-all", "--unshare-user", "--disable-userns", "--cap-drop", "ALL", "--die-with-parent",
                    "--hostname", HOSTNAME)
+
+#: The host's environment variables a sandboxed solution is given (when set), besides every ``LC_*`` variable, the
+#: API's ``BENCHBOT_*`` client settings (:data:`CLIENT_SETTINGS`), the display's variables when the display is passed
+#: (:func:`~benchbot.core.sandbox_extras.display_access`) and what the sandbox sets itself (``HOME``, the backend's
+#: address, the results file, ``PYTHONUNBUFFERED``): the locale and time zone, the terminal, the Python settings a
+#: solution may be run with, the thread counts of numerical libraries (a batch sets them) and the GPUs' selection.
+#: Nothing else of the host's environment (tokens, keys, cloud credentials a user keeps there) reaches a solution.
+ENV_ALLOWED = ("PATH", "LANG", "LANGUAGE", "TZ", "TERM", "COLORTERM", "NO_COLOR", "COLUMNS", "LINES",
+               "PYTHONPATH", "PYTHONHASHSEED", "PYTHONWARNINGS", "PYTHONDONTWRITEBYTECODE", "PYTHONIOENCODING",
+               "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
+               "CUDA_VISIBLE_DEVICES", "NVIDIA_VISIBLE_DEVICES", "NVIDIA_DRIVER_CAPABILITIES")
+#: The API client's settings, passed when set (:mod:`benchbot.core.settings`, owner ``api``).
+CLIENT_SETTINGS = ("BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_TOKEN", "BENCHBOT_CA_FILE",
+                   "BENCHBOT_CLIENT_ID", "BENCHBOT_SHARED_MEMORY")
+#: Display variables, kept only as :func:`~benchbot.core.sandbox_extras.display_access` leaves them.
+DISPLAY_VARIABLES = ("DISPLAY", "WAYLAND_DISPLAY", "XAUTHORITY", "MPLBACKEND")
+
+
+def sandbox_environment(env: dict[str, str]) -> dict[str, str]:
+    """``env`` cut to what a sandboxed solution may be given (:data:`ENV_ALLOWED`, ``LC_*``,
+    :data:`CLIENT_SETTINGS`, :data:`DISPLAY_VARIABLES`; ``XDG_RUNTIME_DIR`` only with a ``WAYLAND_DISPLAY``)."""
+    kept = {k: v for k, v in env.items()
+            if k in ENV_ALLOWED or k.startswith("LC_") or k in CLIENT_SETTINGS or k in DISPLAY_VARIABLES}
+    if env.get("WAYLAND_DISPLAY") and env.get("XDG_RUNTIME_DIR"):
+        kept["XDG_RUNTIME_DIR"] = env["XDG_RUNTIME_DIR"]
+    return kept
+
 
 NO_SANDBOX_HINT = "or run with --no-sandbox (for local development: the scores are then not verifiable)"
 
@@ -327,6 +356,7 @@ class SandboxLayout:
     cwd: Path
     revealed: list[Path] = field(default_factory=list)
     files: list[tuple[Path, str]] = field(default_factory=list)
+    tmp_bytes: int | None = None
 
     def _reveal(self, folder: Path | None, emitted: list[Path]) -> list[str]:
         """The binds of the revealed folders inside the hidden ``folder`` of ``emitted`` (the hidden folders made
@@ -351,7 +381,8 @@ class SandboxLayout:
         for device in DEVICES:
             if os.path.exists(device):
                 args += ["--dev-bind", device, device]
-        args += ["--size", str(SANDBOX_TMP_BYTES.value()), "--tmpfs", "/tmp", "--dir", "/tmp/home",
+        tmp_bytes = SANDBOX_TMP_BYTES.value() if self.tmp_bytes is None else self.tmp_bytes
+        args += ["--size", str(tmp_bytes), "--tmpfs", "/tmp", "--dir", "/tmp/home",
                  "--symlink", f"{INSIDE_OUTPUTS}/benchbot_result", ORIGINAL_RESULT]
         for folder in self.shown:
             args += ["--ro-bind", str(folder), str(folder)]
@@ -406,11 +437,15 @@ def _is_ip(host: str) -> bool:
 @dataclass
 class SandboxedRun:
     """How a sandboxed solution ended and what it left: the :class:`ChildOutcome`, and the results file it wrote
-    in its outputs folder (``results``, None when it wrote none), or why that file was refused (``problem``)."""
+    in its outputs folder (``results``, None when it wrote none), or why that file was refused (``problem``); the
+    one-line reason when it went past a resource limit (``limit``, :func:`benchbot.core.sandbox_limits.exceeded`);
+    the symbolic links it left in its outputs folder, removed (``dropped_links``, relative to it)."""
 
     outcome: ChildOutcome
     results: Path | None = None
     problem: str = ""
+    limit: str = ""
+    dropped_links: list[str] = field(default_factory=list)
 
 
 def _make_hidden_dirs() -> None:
@@ -430,7 +465,7 @@ def _make_hidden_dirs() -> None:
 def run_sandboxed(
     argv: list[str], cwd: Path, *, registry, backend_socket: Path, address: str, outputs: Path, result_name: str,
     hide: list[Path] | tuple = (), env: dict[str, str] | None = None, log: IO | None = None,
-    timeout_s: float | None = None, stdin: str = "none",
+    timeout_s: float | None = None, stdin: str = "none", limits: SandboxLimits | None = None,
 ) -> SandboxedRun:
     """Run ``argv`` in folder ``cwd`` sandboxed (module docstring), in its own process group
     (:func:`benchbot.core.process_group.run_child`: stopped whole when it ends, watched, its log capped).
@@ -443,14 +478,17 @@ def run_sandboxed(
         outputs: an empty host folder the solution may write (its results, pictures, ...).
         result_name: the results file's name in ``outputs`` (``BENCHBOT_RESULT_LOCATION`` inside).
         hide: more host folders to hide (run directories).
-        env: the environment to start from (default: this process's); ``HOME``, ``TMPDIR``, the backend's address
-            and the results location are set for the sandbox, and the shared-memory fast path is turned off
+        env: the environment to start from (default: this process's), cut to :func:`sandbox_environment`
+            (``TMPDIR`` and every variable not listed there are dropped); ``HOME``, the backend's address and the
+            results location are set for the sandbox, and the shared-memory fast path is turned off
             (the sandbox's ``/dev/shm`` is its own); the display variables as
             :func:`~benchbot.core.sandbox_extras.display_access` decides.
         log, timeout_s, stdin: as for :func:`~benchbot.core.process_group.run_child` (``stdin="inherit"``: the
             terminal reaches the solution; the sandbox's session of its own keeps it from typing into your shell,
             docs/security.md). What the solution is not given and why (a display that cannot be passed, an
             editable install's source that stays hidden) is said in ``log`` (else on stderr) first, one line each.
+        limits: the solution's resource limits (default: :meth:`SandboxLimits.current`), set inside the sandbox
+            (:mod:`benchbot.core.sandbox_limits`); the ``/tmp`` size among them.
 
     Besides the module docstring's folders the sandbox shows (:mod:`benchbot.core.sandbox_extras`): an installed
     content pack's example's own folder, when ``cwd`` is in the pack; the sources of the editable installs of
@@ -459,7 +497,8 @@ def run_sandboxed(
     Returns:
         A :class:`SandboxedRun`; its ``results`` is ``outputs/result_name``, else ``outputs/benchbot_result`` (an
         original client's), whichever is a regular file; a symbolic link or other special file there is refused
-        (``problem``): read from outside, a link would lead to files the sandbox hid.
+        (``problem``): read from outside, a link would lead to files the sandbox hid. Every other symbolic link it
+        left in ``outputs`` is removed, never followed, with a line in ``log`` (else on stderr) naming it.
 
     Raises:
         UsageError: no sandbox can be made (:func:`check_available`), ``cwd`` is ``/`` or the solution's folder
@@ -469,6 +508,7 @@ def run_sandboxed(
     from benchbot.core.sandbox_extras import check_pack_example, display_access, editable_view
 
     bwrap = check_available()
+    limits = limits or SandboxLimits.current()
     cwd = Path(cwd).resolve()
     if cwd == Path("/"):
         raise UsageError("a sandboxed solution cannot run from / (the whole file system would be its folder)",
@@ -493,38 +533,48 @@ def run_sandboxed(
     if log is not None:  # a batch's episode log: a path the solution prints is the sandbox's; say where it is
         notes.append(f"[benchbot] the solution's {INSIDE_OUTPUTS} is {Path(outputs).resolve()} (the sandbox shows the "
                      f"run directory's folder there): paths it prints under {INSIDE_OUTPUTS} are in that folder")
-    with tempfile.TemporaryDirectory(prefix="benchbot-sandbox-") as private:
+    with owned_tempdir("benchbot-sandbox-") as private:
         hosts = Path(private) / "hosts"
         hosts.write_text("127.0.0.1\tlocalhost " + " ".join(names) + f" {HOSTNAME}\n::1\tlocalhost\n")
-        child_env = {k: v for k, v in (os.environ if env is None else env).items() if k != "TMPDIR"}
+        child_env = dict(os.environ if env is None else env)
         display = display_access(child_env, Path(private))
         for key, value in display.env.items():
             if value is None:
                 child_env.pop(key, None)
             else:
                 child_env[key] = value
+        child_env = sandbox_environment(child_env)
         notes += [display.note] if display.note else []
         child_env.update(HOME="/tmp/home", BENCHBOT_SUPERVISOR_ADDRESS=inside, PYTHONUNBUFFERED="1",
                          BENCHBOT_RESULT_LOCATION=f"{INSIDE_OUTPUTS}/{result_name}", BENCHBOT_SHARED_MEMORY="0")
         layout = SandboxLayout(shown=_outermost(shown + editable.shown), hidden=hidden,
                                outputs=Path(outputs).resolve(), backend_socket=Path(backend_socket),
-                               hosts_file=hosts, cwd=cwd, revealed=revealed, files=display.binds)
+                               hosts_file=hosts, cwd=cwd, revealed=revealed, files=display.binds,
+                               tmp_bytes=limits.tmp_bytes)
         for note in notes:  # one line each, where the solution's output goes
             if log is not None:
                 log.write(note + "\n")
                 log.flush()
             else:
                 print(note, file=sys.stderr, flush=True)
-        relay = [sys.executable, "-I", "-S", socket_relay.__file__, "--socket", INSIDE_SOCKET]
+        relay = [sys.executable, "-I", "-S", socket_relay.__file__, "--socket", INSIDE_SOCKET,
+                 *limits.relay_args()]
         for port in ports:
             relay += ["--port", str(port)]
         command = [bwrap, *layout.bwrap_args(), *relay, "--", *argv]
-        try:
-            outcome = run_child(command, cwd=cwd, env=child_env, log=log, timeout_s=timeout_s, stdin=stdin)
-        except OSError as exc:
-            raise UsageError(f"cannot start the sandbox: {exc.strerror}: {bwrap}", "check the bubblewrap install") \
-                from None
+        with _pids_cgroup(limits) as cgroup:
+            try:
+                outcome = run_child(cgroup.wrap(command) if cgroup else command, cwd=cwd, env=child_env, log=log,
+                                    timeout_s=timeout_s, stdin=stdin)
+            except OSError as exc:
+                raise UsageError(f"cannot start the sandbox: {exc.strerror}: {bwrap}",
+                                 "check the bubblewrap install") from None
+            refused = cgroup is not None and cgroup.refused()
     run = SandboxedRun(outcome)
+    if not outcome.timed_out:
+        log_path = Path(log.name) if log is not None and isinstance(getattr(log, "name", None), str) else None
+        run.limit = limits.reason("processes") if refused and outcome.returncode != 0 else exceeded(
+            limits, outcome.returncode, Path(outputs), log_path)
     for name in dict.fromkeys((result_name, "benchbot_result")):
         problem = _special_file(outputs / name)
         if problem == "missing":
@@ -535,7 +585,54 @@ def run_sandboxed(
         else:
             run.results = outputs / name
         break
+    run.dropped_links = drop_links(Path(outputs), log)
     return run
+
+
+@contextlib.contextmanager
+def _pids_cgroup(limits: SandboxLimits):
+    """A :class:`~benchbot.core.sandbox_limits.PidsCgroup` capping the sandbox's tasks where one can be made, else
+    None (``RLIMIT_NPROC`` then stands alone)."""
+    root = pids_cgroup_root()
+    cgroup = None
+    if root is not None:
+        try:
+            cgroup = PidsCgroup(root, limits.processes)
+        except OSError:
+            cgroup = None
+    try:
+        yield cgroup
+    finally:
+        if cgroup is not None:
+            cgroup.close()
+
+
+def drop_links(outputs: Path, log: IO | None = None) -> list[str]:
+    """Remove every symbolic link under ``outputs`` (a solution's outputs folder), never following one (a link
+    would lead, from outside, to files the sandbox hid); says so in one line each in ``log`` (else on stderr).
+    Returns them, relative to ``outputs``. Never raises."""
+    dropped = []
+    for root, folders, files in os.walk(outputs):  # os.walk does not descend into links to folders
+        for name in folders + files:
+            path = Path(root) / name
+            if path.is_symlink():
+                try:
+                    path.unlink()
+                except OSError:
+                    continue
+                dropped.append(str(path.relative_to(outputs)))
+    for name in dropped:
+        line = (f"[benchbot] the solution left a symbolic link in its outputs folder, {INSIDE_OUTPUTS}/{name}: "
+                "dropped (links are never followed out of the sandbox)")
+        if log is not None:
+            try:
+                log.write(line + "\n")
+                log.flush()
+            except (OSError, ValueError):
+                pass
+        else:
+            print(line, file=sys.stderr, flush=True)
+    return dropped
 
 
 def _special_file(path: Path) -> str:

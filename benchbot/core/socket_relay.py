@@ -5,9 +5,10 @@ its loopback device, so it cannot reach the backend's TCP port. It reaches the b
 the sandbox binds in:
 
 * inside the sandbox, this file runs as a script, the sandbox's first process (``python -I -S socket_relay.py
-  --socket PATH --port P [--port Q] -- COMMAND...``): it listens on ``127.0.0.1:P`` (and ``Q``) of the sandbox's
-  loopback, relays every connection to the Unix socket, starts ``COMMAND`` once the ports listen, and exits with
-  the command's exit status (``128 + n`` when a signal ``n`` ended it);
+  --socket PATH --port P [--port Q] [--rlimit NAME=SOFT:HARD ...] -- COMMAND...``): it listens on ``127.0.0.1:P``
+  (and ``Q``) of the sandbox's loopback, relays every connection to the Unix socket, starts ``COMMAND`` once the
+  ports listen, with those resource limits (``resource.RLIMIT_<NAME>``), and exits with the command's exit status
+  (``128 + n`` when a signal ``n`` ended it);
 * outside, the Unix socket is either served by the backend itself (a batch episode's server listens on it) or by a
   :class:`UnixToTcpRelay` that relays each connection to a backend's TCP address (``benchbot submit`` to the
   backend of ``benchbot run``).
@@ -18,6 +19,7 @@ that the script starts in milliseconds with ``-I -S`` and needs nothing of the e
 
 from __future__ import annotations
 
+import resource
 import signal
 import socket
 import subprocess
@@ -155,7 +157,7 @@ def _listen_loopback(port: int) -> socket.socket:
 
 
 def main(argv: list[str]) -> int:
-    """The sandbox's first process: ``--socket PATH --port P [--port Q ...] -- COMMAND...`` (see the module
+    """The sandbox's first process: ``--socket PATH --port P [--port Q ...] [--rlimit ...] -- COMMAND...`` (the module
     docstring). SIGTERM and SIGINT are left to the command (they reach its process group too); this process exits
     when the command does. Exit status 125 with a line on stderr when the arguments are wrong, a port cannot be
     bound or the command cannot be started."""
@@ -164,12 +166,16 @@ def main(argv: list[str]) -> int:
     except ValueError:
         split = len(argv)
     options, command = argv[:split], argv[split + 1:]
-    socket_path, ports = None, []
+    socket_path, ports, limits = None, [], []
     for flag, value in zip(options[::2], options[1::2]):
         if flag == "--socket":
             socket_path = value
         elif flag == "--port":
             ports.append(int(value))
+        elif flag == "--rlimit":  # NAME=SOFT:HARD, e.g. DATA=1073741824:1073741824 (resource.RLIMIT_DATA)
+            name, _, values = value.partition("=")
+            soft, _, hard = values.partition(":")
+            limits.append((getattr(resource, f"RLIMIT_{name}"), int(soft), int(hard or soft)))
     if socket_path is None or not ports or not command or len(options) % 2:
         print("benchbot sandbox: usage: socket_relay.py --socket PATH --port P [--port Q] -- COMMAND...",
               file=sys.stderr)
@@ -183,7 +189,7 @@ def main(argv: list[str]) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, signal.SIG_IGN)
     try:
-        child = subprocess.Popen(command, preexec_fn=_default_signals)
+        child = subprocess.Popen(command, preexec_fn=lambda: _start_child(limits))
     except OSError as exc:
         print(f"benchbot sandbox: cannot start {command[0]}: {exc.strerror}", file=sys.stderr)
         return 127 if isinstance(exc, FileNotFoundError) else 126
@@ -191,9 +197,15 @@ def main(argv: list[str]) -> int:
     return code if code >= 0 else 128 - code
 
 
-def _default_signals() -> None:
-    for sig in (signal.SIGTERM, signal.SIGINT):
+def _start_child(limits: list[tuple[int, int, int]]) -> None:
+    """In the command's process before it starts: default SIGTERM, SIGINT and SIGXFSZ (Python ignores the last; a
+    program past its file size limit is then ended by it, as without Python in between), and the resource limits
+    (soft and hard: with no capability, the command cannot raise them again). Set here, inside the sandbox's user
+    namespace, ``RLIMIT_NPROC`` counts the sandbox's tasks only (docs/security.md, "Resource limits")."""
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGXFSZ):
         signal.signal(sig, signal.SIG_DFL)
+    for which, soft, hard in limits:
+        resource.setrlimit(which, (soft, hard))
 
 
 if __name__ == "__main__":

@@ -36,9 +36,9 @@ COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "sc
 #: Bytes of an episode's log that the log screen shows (its end).
 LOG_TAIL_BYTES = 256 * 1024
 #: Statuses of an episode that will not change any more in this batch.
-FINAL_STATUSES = ("ok", "failed", "no_results", "error", "bad_results", "timeout")
+FINAL_STATUSES = ("ok", "failed", "no_results", "error", "bad_results", "timeout", "resource_limit")
 STATUS_STYLE = {"ok": "green", "running": "yellow", "pending": "dim", "failed": "red", "no_results": "red",
-                "timeout": "red", "bad_results": "red",
+                "timeout": "red", "bad_results": "red", "resource_limit": "red",
                 "error": "bold red"}
 
 

@@ -1,0 +1,251 @@
+"""What a sandboxed solution may use of the machine, how it is enforced, and how an episode that went past a limit is
+told apart (docs/security.md, "Resource limits").
+
+Every limit is a kernel resource limit that the sandbox's first process (:mod:`benchbot.core.socket_relay`) sets on
+the solution's process, inside the sandbox, before it starts (``setrlimit`` in ``preexec_fn``; soft and hard, and the
+solution holds no capability to raise them):
+
+* memory: ``RLIMIT_DATA`` of each process (:data:`~benchbot.core.limits.SANDBOX_MEMORY_BYTES`; why not
+  ``RLIMIT_AS``: see its docstring);
+* processes: a cgroup's ``pids.max`` over the whole sandbox where this process may make one (:class:`PidsCgroup`: a
+  writable cgroup v1 ``pids`` hierarchy, as root on most machines), else ``RLIMIT_NPROC``
+  (:data:`~benchbot.core.limits.SANDBOX_PROCESSES`). ``RLIMIT_NPROC`` counts tasks per user and user namespace: set
+  inside the sandbox's own user namespace it counts the sandbox's tasks, not the host's processes of the same user;
+  but the kernel never applies it to root (user id 0 outside the namespace), which is why the cgroup comes first;
+* the size of any one file it writes: ``RLIMIT_FSIZE`` (:data:`~benchbot.core.limits.SANDBOX_FILE_BYTES`), beside
+  the size-capped tmpfs of its ``/tmp`` (:data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`);
+* CPU time of each process: ``RLIMIT_CPU`` (:data:`~benchbot.core.limits.SANDBOX_CPU_S`; ``SIGXCPU``, then
+  ``SIGKILL`` a second later).
+
+A cgroup v2 (``memory.max``, ``pids.max`` over the sandbox as a whole) would be stronger — rlimits bind each process
+on its own — but needs a delegated cgroup v2 hierarchy with the memory and pids controllers; :func:`cgroup_v2`
+says whether this machine has one, and the manifest records it. Memory uses no cgroup yet; processes use a ``pids``
+cgroup this process can write to (cgroup v1, or v2 where delegated).
+
+How an episode past a limit is recognised (:func:`exceeded`): the cgroup's ``pids.events`` (forks refused), the
+signal that ended it (``SIGXCPU``: CPU time; ``SIGXFSZ``: file size), a file of its outputs folder exactly at the
+file size limit (a write past it was refused), or, when it failed, the last lines of its log naming the failure the
+limit causes (``MemoryError``, "Cannot allocate memory"; ``EAGAIN`` from ``fork``, "can't start new thread";
+``EFBIG``). A solution can fake the log lines, but that only turns its own failed episode into ``resource_limit``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from benchbot.core.limits import (SANDBOX_CPU_S, SANDBOX_FILE_BYTES, SANDBOX_MEMORY_BYTES, SANDBOX_PROCESSES,
+                                  SANDBOX_TMP_BYTES, Limit)
+
+#: Bytes of the end of an episode's log searched for the failure a limit causes.
+LOG_TAIL_BYTES = 64 << 10
+
+_MEMORY = re.compile(r"MemoryError|Unable to allocate|Cannot allocate memory|std::bad_alloc|out of memory")
+_PROCESSES = re.compile(r"Resource temporarily unavailable|can't start new thread|fork: retry|\[Errno 11\]")
+_FILE = re.compile(r"File too large|\[Errno 27\]")
+
+
+@dataclass(frozen=True)
+class SandboxLimits:
+    """The limits of one sandboxed solution (by default the ``BENCHBOT_SANDBOX_*`` variables': :meth:`current`; a
+    challenge may give its own)."""
+
+    memory_bytes: int
+    processes: int
+    file_bytes: int
+    cpu_s: int
+    tmp_bytes: int
+
+    @classmethod
+    def current(cls) -> "SandboxLimits":
+        """The limits the environment sets now (each variable's default when unset).
+
+        Raises:
+            UsageError: a variable is not a valid value (one line naming it)."""
+        return cls(SANDBOX_MEMORY_BYTES.value(), SANDBOX_PROCESSES.value(), SANDBOX_FILE_BYTES.value(),
+                   int(SANDBOX_CPU_S.value()), SANDBOX_TMP_BYTES.value())
+
+    def relay_args(self) -> list[str]:
+        """:mod:`benchbot.core.socket_relay`'s ``--rlimit`` arguments setting them on the solution."""
+        limits = [("DATA", self.memory_bytes, self.memory_bytes), ("NPROC", self.processes, self.processes),
+                  ("FSIZE", self.file_bytes, self.file_bytes), ("CPU", self.cpu_s, self.cpu_s + 1)]
+        return [arg for name, soft, hard in limits for arg in ("--rlimit", f"{name}={soft}:{hard}")]
+
+    def record(self, pids_cgroup: "Path | None" = None) -> dict:
+        """What a manifest records (``limits``): every value and how each is enforced."""
+        return {"memory_bytes": self.memory_bytes, "processes": self.processes, "file_bytes": self.file_bytes,
+                "cpu_s": self.cpu_s, "tmp_bytes": self.tmp_bytes, "mechanism": {
+                    "memory_bytes": "RLIMIT_DATA, each process",
+                    "processes": processes_mechanism(pids_cgroup),
+                    "file_bytes": "RLIMIT_FSIZE, each file",
+                    "cpu_s": "RLIMIT_CPU, each process", "tmp_bytes": "tmpfs size of the sandbox's /tmp",
+                    "cgroup_v2": cgroup_v2()}}
+
+    def reason(self, which: str) -> str:
+        """The one-line reason of an episode past the limit ``which`` (``memory``, ``processes``, ``file``,
+        ``cpu``)."""
+        limit, what = {"memory": (SANDBOX_MEMORY_BYTES, "memory limit"),
+                       "processes": (SANDBOX_PROCESSES, "limit on processes and threads"),
+                       "file": (SANDBOX_FILE_BYTES, "file size limit"),
+                       "cpu": (SANDBOX_CPU_S, "CPU time limit")}[which]
+        value = {"memory": self.memory_bytes, "processes": self.processes, "file": self.file_bytes,
+                 "cpu": self.cpu_s}[which]
+        return f"the solution exceeded its {what} of {_describe(limit, value)} ({limit.env})"
+
+
+def _describe(limit: Limit, value: int) -> str:
+    return limit.describe(value)
+
+
+def processes_mechanism(pids_cgroup: Path | None = None) -> str:
+    """How the processes limit is enforced here, for the manifest."""
+    folder = pids_cgroup if pids_cgroup is not None else pids_cgroup_root()
+    if folder is not None:
+        return "cgroup pids.max over the whole sandbox (processes and threads)"
+    if os.getuid() == 0:
+        return "RLIMIT_NPROC in the sandbox's user namespace: NOT enforced (root is exempt; no writable pids cgroup)"
+    return "RLIMIT_NPROC in the sandbox's user namespace (processes and threads)"
+
+
+def pids_cgroup_root() -> Path | None:
+    """The folder of this process's cgroup in a ``pids`` hierarchy it may make cgroups in (cgroup v1's ``pids``;
+    v2's where the ``pids`` controller is delegated to it), None when there is none."""
+    try:
+        lines = Path("/proc/self/cgroup").read_text().splitlines()
+        mounts = [line.split() for line in Path("/proc/self/mounts").read_text().splitlines()]
+    except OSError:
+        return None
+    for line in lines:
+        number, controllers, path = (line.split(":", 2) + ["", ""])[:3]
+        if "pids" in controllers.split(","):
+            where = next((m[1] for m in mounts if len(m) > 3 and m[2] == "cgroup" and "pids" in m[3].split(",")),
+                         None)
+        elif number == "0" and cgroup_v2() == "available":
+            where = next((m[1] for m in mounts if len(m) > 2 and m[2] == "cgroup2"), None)
+        else:
+            continue
+        if where is None:
+            continue
+        folder = Path(where) / path.lstrip("/")
+        if (folder / "cgroup.procs").is_file() and os.access(folder, os.W_OK):
+            return folder
+    return None
+
+
+class PidsCgroup:
+    """A cgroup of its own for one sandbox, with ``pids.max`` (a context manager; removed afterwards): the command
+    :meth:`wrap` returns joins it before it starts bubblewrap, so every task of the sandbox counts; :meth:`refused`
+    says whether a fork was refused at the limit. Named ``benchbot-sandbox-<pid>-<n>`` (its owner's PID: one a
+    killed batch left is removed by :func:`benchbot.core.leftovers.clean_leftovers`)."""
+
+    _count = 0
+
+    def __init__(self, root: Path, tasks: int) -> None:
+        PidsCgroup._count += 1
+        self.folder = root / f"benchbot-sandbox-{os.getpid()}-{PidsCgroup._count}-{os.urandom(3).hex()}"
+        self.folder.mkdir()
+        try:
+            (self.folder / "pids.max").write_text(str(tasks))
+        except OSError:
+            self.close()
+            raise
+
+    def wrap(self, command: list[str]) -> list[str]:
+        """``command`` started from a shell that first moves itself into the cgroup (then ``exec``)."""
+        return ["/bin/sh", "-c", 'echo $$ > "$0" && exec "$@"', str(self.folder / "cgroup.procs"), *command]
+
+    def refused(self) -> bool:
+        try:
+            events = (self.folder / "pids.events").read_text().split()
+        except OSError:
+            return False
+        return len(events) >= 2 and events[0] == "max" and events[1] != "0"
+
+    def close(self) -> None:
+        for _ in range(50):  # the sandbox's last tasks are being reaped
+            try:
+                self.folder.rmdir()
+                return
+            except FileNotFoundError:
+                return
+            except OSError:
+                time.sleep(0.02)
+
+    def __enter__(self) -> "PidsCgroup":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def cgroup_v2() -> str:
+    """Whether this process's cgroup v2 could cap a sandbox as a whole (``available: /sys/fs/cgroup/...``), or why
+    not (``unavailable: ...``), for the manifest."""
+    try:
+        lines = Path("/proc/self/cgroup").read_text().splitlines()
+    except OSError as exc:
+        return f"unavailable: /proc/self/cgroup: {exc.strerror}"
+    own = next((line[3:] for line in lines if line.startswith("0::")), None)
+    if own is None:
+        return "unavailable: no cgroup v2 hierarchy (cgroup v1 only)"
+    mounts = []
+    try:
+        for line in Path("/proc/self/mounts").read_text().splitlines():
+            fields = line.split()
+            if len(fields) > 2 and fields[2] == "cgroup2":
+                mounts.append(fields[1])
+    except OSError:
+        pass
+    if not mounts:
+        return "unavailable: cgroup2 is not mounted"
+    folder = Path(mounts[0]) / own.lstrip("/")
+    try:
+        controllers = set((folder / "cgroup.controllers").read_text().split())
+    except OSError as exc:
+        return f"unavailable: this process's cgroup v2 cannot be read ({exc.strerror})"
+    missing = sorted({"memory", "pids"} - controllers)
+    if missing:
+        return f"unavailable: the {' and '.join(missing)} controller{'s' if len(missing) > 1 else ''} not " \
+               f"delegated to this process's cgroup v2 (a cgroup v1 hierarchy may hold them)"
+    if not os.access(folder, os.W_OK):
+        return "unavailable: this process's cgroup v2 is not writable by this user"
+    return "available"
+
+
+def exceeded(limits: SandboxLimits, returncode: int, outputs: Path, log: Path | None) -> str:
+    """The one-line reason why a sandboxed solution that ended with ``returncode`` (its sandbox's: ``128 + n`` for
+    a signal ``n``) went past one of ``limits`` (module docstring), ``""`` when nothing says it did."""
+    if returncode in (128 + signal.SIGXCPU, -signal.SIGXCPU):
+        return limits.reason("cpu")
+    if returncode in (128 + signal.SIGXFSZ, -signal.SIGXFSZ) or _file_at(outputs, limits.file_bytes):
+        return limits.reason("file")
+    if returncode == 0 or log is None:
+        return ""
+    try:
+        with open(log, "rb") as f:
+            f.seek(max(0, os.fstat(f.fileno()).st_size - LOG_TAIL_BYTES))
+            tail = f.read().decode("utf-8", "replace")
+    except OSError:
+        return ""
+    for pattern, which in ((_FILE, "file"), (_MEMORY, "memory"), (_PROCESSES, "processes")):
+        if pattern.search(tail):
+            return limits.reason(which)
+    return ""
+
+
+def _file_at(folder: Path, size: int) -> bool:
+    """A regular file under ``folder`` (links not followed) of exactly ``size`` bytes: one a write past the file size
+    limit stopped at."""
+    for root, _, files in os.walk(folder):
+        for name in files:
+            try:
+                st = os.lstat(os.path.join(root, name))
+            except OSError:
+                continue
+            if st.st_size == size and not os.path.islink(os.path.join(root, name)):
+                return True
+    return False
