@@ -4,6 +4,7 @@ that follows a generated layout."""
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 
@@ -20,7 +21,7 @@ from benchbot_worlds.procedural.layout import layout_from_dict, layout_to_dict
 from benchbot_worlds.procedural.objects import MAX_OBJECTS, quota
 from benchbot_worlds.procedural.rooms import generate_layout
 from benchbot_worlds.procedural.variants import LIGHTINGS
-from benchbot_worlds.procedural.visibility import unseen_objects
+from benchbot_worlds.procedural.visibility import poses_to_se2, unseen_objects
 
 #: Seeds whose homes take < 0.3 s each on a 2-core CPU.
 FAST_SEEDS = (1, 3, 5, 8, 9)
@@ -137,7 +138,16 @@ def _sees_all_and_reaches_all(seed: int) -> None:
     home = generate_home(seed, f"procedural_test_{seed:04d}")
     objs, env = _union(home), home.variants[0]["environment"]
     assert unseen_objects(home.layout, objs, [env["start_pose"]] + env["trajectory_poses"]) == [], seed
-    assert all(main_component(free_space(home.layout, objs))[1]), seed
+    fs = free_space(home.layout, objs)
+    assert all(main_component(fs)[1]), seed
+    se2 = poses_to_se2([env["start_pose"]] + env["trajectory_poses"])
+    assert fs.is_free(se2[:, :2]).all(), seed
+    for a, b in zip(se2[:-1], se2[1:]):  # a turn on the spot or a straight drive of at most 1 m along the heading
+        moved = float(np.hypot(*(b[:2] - a[:2])))
+        turned = abs((b[2] - a[2] + math.pi) % (2 * math.pi) - math.pi)
+        heading = math.atan2(b[1] - a[1], b[0] - a[0])
+        assert moved < 1e-6 or (turned < 1e-4 and moved <= 1.0 + 1e-6 and math.cos(heading - a[2]) > 1 - 1e-5
+                                and fs.segment_free(a[:2], b[:2])), (seed, a, b)
     assert not any("not reachable" in n or "not seen" in n or "no pose sees" in n for n in home.notes), seed
 
 

@@ -45,6 +45,10 @@ LOOK_AROUND_DEG = 90.0
 #: poses grow with the floor's area as BEAR's hand-made ones do (miniroom ~30 m²: 33-56 poses; house ~100 m²:
 #: 237-286).
 COVER_SPACING_M = 1.5
+#: A home with little reachable floor gets smaller squares: about :data:`COVER_MIN_STOPS` of them over the home, at
+#: least :data:`COVER_MIN_SIDE_M` a side (a cluttered studio is still swept).
+COVER_MIN_STOPS = 5
+COVER_MIN_SIDE_M = 0.6
 #: At a sweep stop the robot looks at the room's objects within this distance (m), at most :data:`COVER_LOOKS` of
 #: them, nearest first.
 COVER_NEAR_M = 2.5
@@ -93,14 +97,14 @@ def _candidates(fs: FreeSpace, mask: np.ndarray, room: int) -> np.ndarray:
     return fs.centres(on)
 
 
-def _cover_points(fs: FreeSpace, mask: np.ndarray, room: int) -> np.ndarray:
-    """(S, 2) xy of a room's sweep stops: per :data:`COVER_SPACING_M` square of its reachable cells, the reachable
-    cell nearest the mean of the square's reachable cells; squares in x-major order."""
+def _cover_points(fs: FreeSpace, mask: np.ndarray, room: int, side: float) -> np.ndarray:
+    """(S, 2) xy of a room's sweep stops: per square of ``side`` (m) of its reachable cells, the reachable cell
+    nearest the mean of the square's reachable cells; squares in x-major order."""
     w = room_cells(fs, room)
     ij = np.argwhere(mask[w])
     if not len(ij):
         return np.zeros((0, 2))
-    k = max(1, int(round(COVER_SPACING_M / fs.cell_m)))
+    k = max(1, int(round(side / fs.cell_m)))
     sq = ij // k
     keys, inv = np.unique(sq, axis=0, return_inverse=True)
     out = []
@@ -112,14 +116,17 @@ def _cover_points(fs: FreeSpace, mask: np.ndarray, room: int) -> np.ndarray:
 
 
 def _add_sweep(views, fs: FreeSpace, mask: np.ndarray, points: np.ndarray, home: np.ndarray) -> None:
-    """Append each room's sweep stops (:func:`_cover_points`) farther than half a square from its viewpoints to
+    """Append each room's sweep stops (:func:`_cover_points`; squares of :data:`COVER_SPACING_M`, smaller in a home
+    of little reachable floor: :data:`COVER_MIN_STOPS`) farther than half a square from its viewpoints to
     ``views`` (per room, [(xy, objects to look at)]), each looking at its nearest objects (:data:`COVER_NEAR_M`,
     :data:`COVER_LOOKS`)."""
+    side = min(COVER_SPACING_M, max(COVER_MIN_SIDE_M, math.sqrt(mask.sum() * fs.cell_m ** 2 / COVER_MIN_STOPS)))
+    side = max(1, int(round(side / fs.cell_m))) * fs.cell_m
     for r in range(len(views)):
         have = [v[0] for v in views[r]]
         objs = np.nonzero(home == r)[0]
-        for p in _cover_points(fs, mask, r):
-            if have and min(float(np.hypot(*(p - q))) for q in have) < COVER_SPACING_M / 2:
+        for p in _cover_points(fs, mask, r, side):
+            if have and min(float(np.hypot(*(p - q))) for q in have) < side / 2:
                 continue
             d = np.hypot(*(points[objs, 0, :2] - p).T) if len(objs) else np.zeros(0)
             near = [int(objs[i]) for i in np.argsort(d, kind="stable")[:COVER_LOOKS] if d[i] <= COVER_NEAR_M]
