@@ -9,9 +9,9 @@ every point of it in free space (:meth:`~.free_space.FreeSpace.segment_free`).
 
 How: viewpoints on a grid of reachable free cells in each room are chosen greedily (a seeded tie-break) until every
 object of the room is seen from one, each looked at from there (turns that cover the objects' bearings); then the
-room is swept: one more stop per :data:`COVER_SPACING_M` square of its reachable floor (farther than half a square
-from the other stops), looking at the nearest objects (:data:`COVER_NEAR_M`, :data:`COVER_LOOKS`), so that the
-poses grow with the floor's area as BEAR's hand-made ones do (procedural homes under 40 m²: about 45 poses; 90-120
+room is swept: one more stop per :data:`COVER_SPACING_M` square of its reachable floor (smaller squares in a home of
+little reachable floor, :data:`COVER_MIN_STOPS`; farther than half a square from the other stops), looking at the nearest objects (:data:`COVER_NEAR_M`, :data:`COVER_LOOKS`), so that the
+poses grow with the floor's area as BEAR's hand-made ones do (procedural homes under 40 m²: about 65 poses; 90-120
 m²: about 240; BEAR's miniroom 33-56, house 237-286). A room's stops are visited nearest first, from the first of
 which the robot looks all around; the rooms are toured in a seeded depth-first order of the door graph; paths
 between stops are straight when every step of the drive, as rounded, is free, else shortest grid paths with
