@@ -89,6 +89,8 @@ DOOR_APPROACH_M = 0.85  # >= the 0.7 m asked; the trajectory stops 0.1 m + its r
 WALL_GAP_M = 0.03
 OBJECT_GAP_M = 0.05
 PLACE_TRIES = 30
+#: A bedroom whose bed finds no place tries BEAR's smallest bed with this many times :data:`PLACE_TRIES` draws.
+BED_RETRY_FACTOR = 3
 #: Rooms tried for a leftover floor object; emptiest table tops tried for an object on a table.
 ROOM_TRIES = 4
 TOP_TRIES = 8
@@ -437,8 +439,12 @@ def _furnish_room(h: _Home, room: int, kind: str, left: dict, share: dict) -> No
         return False
 
     if kind == "bedroom":
-        for _ in range(share.get("bed", 1)):
-            wall("bed", False)
+        for k in range(share.get("bed", 1)):
+            if not wall("bed", False) and k == 0 and left["bed"] > 0:  # a tight bedroom: BEAR's smallest bed
+                h.tries = PLACE_TRIES * BED_RETRY_FACTOR
+                if _wall_object(h, "bed", room, np.array(BEAR_SIZES["bed"][0]), False) is not None:
+                    left["bed"] -= 1
+                h.tries = PLACE_TRIES
         if left["table"] > 0 and _table(h, room, "side", True) is not None:
             left["table"] -= 1
     elif kind == "bathroom":
