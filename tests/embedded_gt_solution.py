@@ -1,4 +1,4 @@
-"""A solution that carries public ground truth in its own code (issue 56's adversary: no file read, nothing looked up).
+"""A solution that carries public ground truth in its own code (an adversary: no file read, nothing looked up).
 
 :func:`write_submission` writes a copy of this file into a submission folder with :data:`GROUND_TRUTH` filled in
 as a Python literal: every public BEAR environment's ground-truth objects (``{class, centroid, extent}``) as the
@@ -47,7 +47,7 @@ def _public_ground_truth() -> dict:
     out = {}
     for env in reg.names("ground_truths"):
         if is_held_out(env) or env.startswith("procedural_"):
-            continue  # only BEAR's shipped homes: the public data the issue's adversary carried
+            continue  # only BEAR's shipped homes: the public data such an adversary carries
         gt = reg.ground_truth(env)["ground_truth"]
         out[env] = [{"class": o["class"], "centroid": [float(v) for v in o["centroid"]],
                      "extent": [float(v) for v in o["extent"]]} for o in gt["objects"]]

@@ -120,7 +120,7 @@ def test_evaluate_runs_the_submission_sandboxed_and_signs_it(tmp_path, worlds_ke
 @pytest.mark.slow
 def test_a_solution_carrying_public_ground_truth_scores_no_better_than_the_baseline_on_held_out_worlds(tmp_path,
                                                                                                       worlds_key):
-    """Issue 56's adversary through `challenge evaluate` on the held-out split (procedural_test_0:1, this test's
+    """The embedded-ground-truth adversary through `challenge evaluate` on the held-out split (procedural_test_0:1, this test's
     key): the solution that carries BEAR's public ground truth in its code (tests/embedded_gt_solution.py) has none
     for a test home and guesses another home's; it scores no better than semslam_geometric, the honest baseline
     (docs/challenge.md, "What an adversary gets": 2-core CPU, 3 homes, 0.0009 vs 0.1511). About 1 minute."""

@@ -271,7 +271,7 @@ def test_the_report_labels_runs_on_public_worlds_as_development(tmp_path):
     assert "Development — ground truth public:</b> public ran on public worlds" in html
 
 
-# --- a leaderboard that re-scores (issue 56) ------------------------------------------------------------------------
+# --- a leaderboard that re-scores ----------------------------------------------------------------------------------
 def test_the_leaderboard_rescores_every_entry_and_refuses_a_mismatch(tmp_path, monkeypatch):
     """Real run directories (results files scored by OMQ): an intact one is re-scored, matches and is ranked as
     before; one with an edited "OMQ" in scores.json, or in episode_scores.json, or a results file gone, is listed as
@@ -291,7 +291,7 @@ def test_the_leaderboard_rescores_every_entry_and_refuses_a_mismatch(tmp_path, m
     scores = paths["combined"] / "scores.json"
     text = scores.read_text()
     assert len(re.findall(r'"OMQ": [0-9.e-]+', text)) == 1
-    scores.write_text(re.sub(r'"OMQ": [0-9.e-]+', '"OMQ": 0.95', text))  # the edit of issue 56
+    scores.write_text(re.sub(r'"OMQ": [0-9.e-]+', '"OMQ": 0.95', text))  # an adversary's edit
     episodes = paths["episode"] / "episode_scores.json"
     episodes.write_text(re.sub(r'"OMQ": [0-9.e-]+', '"OMQ": 0.95', episodes.read_text(), count=1))
     next((paths["gone"] / "results").iterdir()).unlink()

@@ -49,7 +49,7 @@ NOT_INSTALLED = {"rclpy": "ros-jazzy-rclpy"}
 #: which extra to install), per distribution: {import name: extra}.
 OPTIONAL = {
     "benchbot": {"gymnasium": "gym", "matplotlib": "vis", "mcap": "record", "mcap_ros2": "record", "ray": "ray",
-                 "cv2": "examples"},
+                 "cv2": "examples", "benchbot_worlds": "worlds"},
     "benchbot-sim-taichi": {"matplotlib": "vis"},
     "benchbot-worlds": {"matplotlib": "vis"},
     "benchbot-task-semslam": {"onnxruntime": "detector"},

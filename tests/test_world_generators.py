@@ -130,3 +130,12 @@ def test_the_short_form_is_made_canonical_where_runs_and_batches_take_it(tiny):
     run = resolve_run(reg, "semantic_slam:passive:ground_truth", "carter", "tiny:val:4")
     assert run.env_string == "tiny_val_4:1"  # the name its results carry (name:variant)
     assert reg.has("ground_truths", "tiny_val_5:2") and not reg.has("ground_truths", "miniroom:77")
+
+
+def test_generated_entries_are_found_but_never_listed(tiny):
+    _, reg = tiny
+    listed = reg.names("environments")
+    reg.scenes("tiny:val:8")
+    assert "tiny_val_8:1" in reg.entries["environments"] and reg.names("environments") == listed
+    assert ("ground_truths", "tiny_val_8:2") in reg.generated
+    assert not any("tiny_val_8:1" in members for members in reg.ground_truth_sets().values())

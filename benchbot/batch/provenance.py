@@ -116,7 +116,9 @@ def local_node() -> dict:
 def keep_paths() -> bool:
     """Whether manifests keep the host name (each record's ``node``) and absolute paths
     (``BENCHBOT_MANIFEST_LOCAL=1``)."""
-    return os.environ.get(PATHS_SETTING, "").strip().lower() in ("1", "yes", "true", "on")
+    from benchbot.core import settings
+
+    return (settings.get(PATHS_SETTING) or "").lower() in ("1", "yes", "true", "on")
 
 
 def portable_path(path: str, run_dir: Path | str) -> str:

@@ -48,6 +48,9 @@ class Registry:
         overridden: ``{(kind, name): Entry}`` of every spec a pack's ``--override`` replaced.
         alternative_ground_truths: ``{environment: [Entry]}``: ground truths of environments that have one already
             (the default, in :attr:`entries`), which differ from it: other sets (:meth:`ground_truth_sets`).
+        generators: ``{name: WorldGenerator}`` of the ``benchbot_world_generators`` hook
+            (:mod:`benchbot.core.world_generators`); generated: ``(kind, name)`` of the entries they made on use (in
+            :attr:`entries`, not in :meth:`names`).
         observations: ``{name: ObservationKind}``: the core's observation kinds
             (:data:`benchbot.core.observations.BUILT_IN`), then those of plugins (hook ``benchbot_observations``)
             that clash with none before them; the others are in :attr:`problems` under ``("observations", plugin)``.
@@ -94,6 +97,7 @@ class Registry:
                 if plugin_name in infos:
                     infos[plugin_name].registers.setdefault("robot_backends", []).append(type_name)
         self.generators: dict[str, WorldGenerator] = {}
+        self.generated: set[tuple[str, str]] = set()  # (kind, name) of the entries a generator made on use
         self._generator_plugins: dict[str, str] = {}
         self._add_generators()
         self.observations: dict[str, observations.ObservationKind] = dict(observations.BUILT_IN)
@@ -163,6 +167,7 @@ class Registry:
         plugin = self._generator_plugins[generator]
         before = set(self.problems)
         self._add(kind, KIND_SCHEMAS[kind], spec, plugin, None)
+        self.generated.add((kind, entry_name(kind, spec)))
         new = [self.problems.pop(k) for k in set(self.problems) - before]
         if new:
             raise SpecError(f"world generator '{generator}': {new[0]}", "report it to the generator's plugin")
@@ -262,8 +267,9 @@ class Registry:
         return self._generated(kind, name) and name in self.entries[kind]
 
     def names(self, kind: str) -> list[str]:
-        """Sorted names of every valid entry of ``kind``."""
-        return sorted(self.entries[kind])
+        """Sorted names of every valid entry of ``kind`` that a plugin or pack lists (not those a world generator
+        made on use: :attr:`generated`)."""
+        return sorted(n for n in self.entries[kind] if (kind, n) not in self.generated)
 
     def entry(self, kind: str, name: str) -> Entry:
         """The entry ``name`` of ``kind``.
@@ -389,7 +395,8 @@ class Registry:
         from benchbot.core.original_addons import GROUND_TRUTH_SETS, bear_develop_from_isaac_develop
 
         sets: dict[str, dict[str, Entry]] = {}
-        every = [(name, e) for name, e in self.entries["ground_truths"].items()]
+        every = [(name, e) for name, e in self.entries["ground_truths"].items()
+                 if ("ground_truths", name) not in self.generated]
         every += [(name, e) for name, entries in self.alternative_ground_truths.items() for e in entries]
         for name, entry in every:
             sets.setdefault(self._set_of(entry), {}).setdefault(name, entry)

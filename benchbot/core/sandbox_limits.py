@@ -51,7 +51,7 @@ _FILE = re.compile(r"File too large|\[Errno 27\]")
 
 @dataclass(frozen=True)
 class SandboxLimits:
-    """The limits of one sandboxed solution (by default the ``BENCHBOT_SANDBOX_*`` variables': :meth:`current`; a
+    """The limits of one sandboxed solution (by default the variables of the ``SANDBOX_*`` limits': :meth:`current`; a
     challenge may give its own)."""
 
     memory_bytes: int

@@ -63,6 +63,8 @@ SETTINGS: tuple[Setting, ...] = (
             "workers set it)", "sim_taichi"),
     Setting("BENCHBOT_TAICHI_FULL_POSITIONS", None, "1: the simulator's kernels keep Taichi's full source excerpts "
             "in their debug information (slower start; for changing the kernels)", "sim_taichi"),
+    Setting("BENCHBOT_MANIFEST_LOCAL", None, "1: a batch's manifest keeps the host name and absolute paths (by "
+            "default it names no host, and paths are ~/... or $RUN_DIR/...)", "core"),
     Setting("BENCHBOT_WORLDS_KEY_FILE", None, "the host's key of the held-out test split of procedural homes (only "
             "a host holding it can build them); else <data dir>/worlds/test_split.key, made by `benchbot worlds "
             "key`", "worlds"),
