@@ -16,9 +16,11 @@ How many of each class: a quota of ``N`` objects apportioned by BEAR's proportio
 remainders drawn by weight), ``N`` large enough that every bedroom gets a bed and every bathroom a toilet
 (``N >= beds / p_bed``, ``N >= toilets / p_toilet``) and at least :data:`DENSITY_PER_M2` per m² of floor, but at
 most :data:`MAX_OBJECTS` (120; BEAR's homes hold 18-57); a capped home still gets a bed per bedroom and a toilet per
-bathroom, taken from the classes most above their share.
+bathroom, taken from the classes most above their share. (A quota, not a promise: a bed that fits in no place of
+its bedroom goes to the leftovers; over seeds 0-199, 83 of 588 bedrooms and bathrooms miss theirs.)
 
-Where (a designer's rules): a bed against a wall of a bedroom (head to the wall); a toilet and a sink against
+Where (a designer's rules): a bed against a wall of a bedroom (head to the wall; BEAR's smallest bed, with
+:data:`BED_RETRY_FACTOR` times the draws, when the drawn one finds no place); a toilet and a sink against
 bathroom walls; a refrigerator and a sink against kitchen walls; a couch against a living-room wall facing a tv
 standing on a low table (tv stand) against the opposite wall, a coffee table between; a dining table (kitchen,
 dining room) free-standing with chairs around it; an office desk (table) against a wall with a chair, a laptop,
