@@ -842,12 +842,15 @@ def all_homes() -> list[str]:
 
 
 def _env_spec(name: str, style: str | None) -> dict:
-    from benchbot_worlds import bear
+    """The environment spec of ``name``: any registered one, generated homes too (``procedural_val_3:1``)."""
+    from benchbot.core.errors import BenchbotError
+    from benchbot.core.registry import get_registry
 
-    envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
-    if name not in envs:
-        raise RealismError(f"unknown environment {name!r}", f"use one of {', '.join(sorted(envs))}")
-    env = dict(envs[name])
+    try:
+        (spec,) = get_registry().scenes(name)
+    except (BenchbotError, ValueError) as e:
+        raise RealismError(f"unknown environment {name!r}", "give one name:variant (benchbot list environments)") from e
+    env = dict(spec)
     if style:
         env["style"] = style
     return env

@@ -244,7 +244,7 @@ def test_missing_tools_are_one_line_errors(realism, tmp_path, monkeypatch, capsy
         realism.install_detector(tmp_path / "det")
     assert realism.main(["--env", "nowhere:1", "--no-detector", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[0].startswith("error: unknown environment 'nowhere:1'") and err[1].startswith("hint: use one of")
+    assert err[0].startswith("error: unknown environment 'nowhere:1'") and err[1].startswith("hint: give one name:variant")
 
 
 def test_select_frames(realism):
