@@ -60,16 +60,17 @@ def _unseen_unreached(home) -> tuple[int, int]:
 
 
 def main(argv=None) -> int:
+    import smoke
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--smoke", action="store_true", help="20 seeds")
-    ap.add_argument("--seeds", type=int, default=None)
-    args = ap.parse_args(argv)
+    ap.add_argument("--seeds", type=int, default=None, help="consecutive seeds from 0 (default 1000)")
+    args = smoke.parse_args(ap, argv, style=None, seeds=20)
     from scipy.stats import chisquare
 
     from benchbot_worlds.procedural.generator import GENERATOR_VERSION, generate_home
     from benchbot_worlds.procedural.objects import bear_proportions
 
-    n = args.seeds or (20 if args.smoke else 1000)
+    n = args.seeds or 1000
     names, p = bear_proportions()
     counts = dict.fromkeys(names, 0)
     times, digests, bad, notes, poses, n_objects, unseen, unreached = [], set(), [], 0, [], [], [], []

@@ -48,6 +48,7 @@ FIGURES = {
     "one_camera.py": [r"launch \(cpu\): [\d.]+ µs", r"\d+ ndarray arguments, \d+ dispatches"],
     "quality_vs_reference.py": [r"ours quality 1 spp +[\d.]+ +[\d.]+ +[\d.]+"],
     "realism.py": [r"fast [\d.]+ ms a frame, quality [\d.]+ ms"],
+    "realism_compare.py": [r"recall: first [\d.]+%, second [\d.]+%; the first in the second's class mix [\d.]+%"],
     "render.py": [r"[\d.]+ fps \([\d.]+ ms/frame\)", r"embree [\d.]+ Mrays/s"],
     "render_fps.py": [r"miniroom:4 +[\d.]+ fps"],
     "render_gpu.py": [r'"fps": [\d.]+', r'"fps_textured": [\d.]+'],
@@ -60,6 +61,8 @@ FIGURES = {
     "shadow_maps.py": [r"[\d.]+ fps with maps, [\d.]+ with rays"],
     "turned_homes.py": [r"miniroom:1, first 2 poses", r"mirror_y +OMQ [\d.]+",
                         r"largest OMQ gap between turns: [\d.]+"],
+    "world_generation.py": [r"per home [\d.]+ s mean", r"distinct homes: 20 of 20; invalid: 0",
+                            r"chi-square [\d.]+, p [\d.e-]+"],
     "vector_env.py": [r"batched +N=3 +[\d.]+ env-steps/s", r"sync +N=1 +[\d.]+ env-steps/s"],
 }
 #: Per script, what its smoke run leaves out (words of its ``smoke: left out ...`` line on stderr).
