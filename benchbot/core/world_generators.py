@@ -72,6 +72,19 @@ class HomeName:
         return f"{self.generator}_{self.split}_{self.index}"
 
 
+def _split_of(name: str, generators: dict[str, WorldGenerator], what: str, example_number: int):
+    """(generator, split, number) of ``<generator>_<split>_<number>`` when a generator of ``generators`` owns it, else
+    None. Raises SpecError (naming ``what`` the name is) when the split is not the generator's."""
+    m = _HOME.match(name)
+    if m is None or m["generator"] not in generators:
+        return None
+    gen = generators[m["generator"]]
+    if m["split"] not in gen.splits:
+        raise SpecError(f"{what}'{name}': generator '{gen.name}' has no split '{m['split']}'",
+                        f"its splits: {', '.join(gen.splits)} (e.g. {gen.name}_{gen.splits[0]}_{example_number})")
+    return gen, m["split"], int(m["index"])
+
+
 def parse_home(name: str, generators: dict[str, WorldGenerator]) -> HomeName | None:
     """The :class:`HomeName` of ``name`` (``procedural_val_42``) when it names a home of one of ``generators``,
     else ``None`` (it is no generated home's name).
@@ -79,18 +92,14 @@ def parse_home(name: str, generators: dict[str, WorldGenerator]) -> HomeName | N
     Raises:
         SpecError: it is one generator's name pattern but the split is unknown or the index is out of range.
     """
-    m = _HOME.match(name)
-    if m is None or m["generator"] not in generators:
+    found = _split_of(name, generators, "", 0)
+    if found is None:
         return None
-    gen = generators[m["generator"]]
-    if m["split"] not in gen.splits:
-        raise SpecError(f"'{name}': generator '{gen.name}' has no split '{m['split']}'",
-                        f"its splits: {', '.join(gen.splits)} (e.g. {gen.name}_{gen.splits[0]}_0)")
-    index = int(m["index"])
+    gen, split, index = found
     if not 0 <= index <= MAX_HOME_INDEX:
         raise SpecError(f"'{name}': home index {index} is out of range",
                         f"indices run from 0 to {MAX_HOME_INDEX:,}".replace(",", " "))
-    return HomeName(gen.name, m["split"], index)
+    return HomeName(gen.name, split, index)
 
 
 def short_form(env_string: str, generators: dict[str, WorldGenerator]) -> str:
@@ -121,19 +130,16 @@ def parse_batch(name: str, generators: dict[str, WorldGenerator]) -> tuple[World
     Raises:
         SpecError: an unknown split, or a count of 0 or above :data:`MAX_BATCH_HOMES`.
     """
-    m = _HOME.match(name)
-    if m is None or m["generator"] not in generators:
+    found = _split_of(name, generators, "batch ", 100)
+    if found is None:
         return None
-    gen = generators[m["generator"]]
-    if m["split"] not in gen.splits:
-        raise SpecError(f"batch '{name}': generator '{gen.name}' has no split '{m['split']}'",
-                        f"its splits: {', '.join(gen.splits)} (e.g. {gen.name}_{gen.splits[0]}_100)")
-    count, most = int(m["index"]), int(MAX_GENERATED_HOMES.value())
+    gen, split, count = found
+    most = int(MAX_GENERATED_HOMES.value())
     if not 1 <= count <= most:
         raise SpecError(f"batch '{name}': {count} homes is outside 1..{most}",
                         f"a generated batch holds at most {most} homes (BENCHBOT_MAX_GENERATED_HOMES); sweep more as "
                         "several batches")
-    return gen, m["split"], count
+    return gen, split, count
 
 
 def batch_spec(gen: WorldGenerator, split: str, count: int) -> dict:

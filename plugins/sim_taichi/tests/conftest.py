@@ -2,14 +2,25 @@
 
 from __future__ import annotations
 
-import json
+import importlib.util
 import os
+from pathlib import Path
 
 import pytest
 
 os.environ.setdefault("BENCHBOT_TAICHI_ARCH", "cpu")
 
-CLASS_LIST = ["chair", "table", "background"]
+def _worlds_fixtures():
+    """The benchbot_worlds tests' conftest (its ``synthetic_env`` fixture: a BEAR-style JSON world in tmp_path),
+    loaded under a name of its own: one home for the fixture, used by both plugins' tests."""
+    path = Path(__file__).resolve().parents[2] / "worlds" / "tests" / "conftest.py"
+    spec = importlib.util.spec_from_file_location("benchbot_worlds_test_fixtures", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+synthetic_env = _worlds_fixtures().synthetic_env
 
 
 @pytest.fixture(autouse=True)
@@ -53,30 +64,5 @@ def make_backend(carter_spec):
 
     def make(width=64, height=48, **options):
         return TaichiSimBackend(carter_spec, {"arch": "cpu", "width": width, "height": height, **options})
-
-    return make
-
-
-@pytest.fixture
-def synthetic_env(tmp_path):
-    """synthetic_env(objects, start=(x, y, yaw_quat_wxyz...), trajectory=[]) → environment spec whose map_path is a
-    BEAR-style JSON in tmp_path. objects: list of (class, centroid, extent)."""
-
-    def make(objects, start_pose=(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), trajectory=(), lighting="base", name="synth"):
-        data = {
-            "environment": {"name": name, "variant": 1, "map_path": f"/Game/X_{lighting}/Maps/X",
-                            "start_pose": list(start_pose), "trajectory_poses": [list(p) for p in trajectory]},
-            "format": {"name": "object_map_ground_truth"},
-            "ground_truth": {
-                "class_list": CLASS_LIST,
-                "objects": [{"class": c, "ID_name": f"{c}_{i}", "centroid": list(ce), "extent": list(ex),
-                             "isgroup": False} for i, (c, ce, ex) in enumerate(objects)],
-            },
-        }
-        path = tmp_path / f"{name}.json"
-        path.write_text(json.dumps(data))
-        return {"name": name, "variant": 1, "type": "sim_taichi", "map_path": str(path),
-                "start_pose": list(start_pose), "trajectory_poses": [list(p) for p in trajectory],
-                "object_labels": CLASS_LIST[:-1], "lighting": lighting}
 
     return make
