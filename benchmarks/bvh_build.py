@@ -61,13 +61,11 @@ def box_shell(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 def house1(n: int) -> np.ndarray:
-    """(≈n, 3, 3) float32: house:1's ground-truth objects (the BEAR JSON shipped with the plugin, 56 cuboids) as
-    tessellated ellipsoids filling their cuboids, the budget shared by surface area, inside the room's shell."""
-    from pathlib import Path
+    """(≈n, 3, 3) float32: house:1's ground-truth objects (the BEAR JSON shipped with benchbot-worlds, 56 cuboids)
+    as tessellated ellipsoids filling their cuboids, the budget shared by surface area, inside the room's shell."""
+    from benchbot_worlds.bear import DATA_DIR
 
-    import benchbot_sim_taichi
-
-    path = Path(benchbot_sim_taichi.__file__).parent / "data" / "bear" / "house_1.json"
+    path = DATA_DIR / "house_1.json"
     objects = json.loads(path.read_text(encoding="utf-8"))["ground_truth"]["objects"]
     cen = np.array([o["centroid"] for o in objects], float)
     ext = np.maximum(np.array([o["extent"] for o in objects], float), 1e-3)
