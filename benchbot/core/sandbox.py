@@ -77,6 +77,7 @@ NAMESPACE_FLAGS = ("--unshare-all", "--unshare-user", "--disable-userns", "--cap
 ENV_ALLOWED = ("PATH", "LANG", "LANGUAGE", "TZ", "TERM", "COLORTERM", "NO_COLOR", "COLUMNS", "LINES",
                "PYTHONPATH", "PYTHONHASHSEED", "PYTHONWARNINGS", "PYTHONDONTWRITEBYTECODE", "PYTHONIOENCODING",
                "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
+               "BENCHBOT_TAICHI_THREADS",  # a batch worker's share of the cores, as its simulator gets it
                "CUDA_VISIBLE_DEVICES", "NVIDIA_VISIBLE_DEVICES", "NVIDIA_DRIVER_CAPABILITIES")
 #: The API client's settings, passed when set (:mod:`benchbot.core.settings`, owner ``api``).
 CLIENT_SETTINGS = ("BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_TOKEN", "BENCHBOT_CA_FILE",
