@@ -37,23 +37,26 @@ class TfBuffer:
         self._newest = -float("inf")  # receipt time (monotonic s) of the newest dynamic transform
 
     def add_message(self, msg: Any, static: bool = False) -> None:
-        """Store every ``TransformStamped`` of a ``tf2_msgs/TFMessage``; malformed entries are skipped (the first
-        problem is re-raised as ValueError after the good ones are stored)."""
-        now = time.monotonic()
+        """Store every ``TransformStamped`` of a ``tf2_msgs/TFMessage`` at once (a lookup sees all of a message's
+        edges or none: after a pause, a lookup between two edges of one message would find the second one stale);
+        malformed entries are skipped (the first problem is re-raised as ValueError after the good ones are
+        stored)."""
         problem = None
+        parsed = []
         for ts in list(msg.transforms):
             try:
                 parent, child = str(ts.header.frame_id).lstrip("/"), str(ts.child_frame_id).lstrip("/")
                 if not parent or not child or parent == child:
                     raise ValueError(f"transform with frames {parent!r} → {child!r}")
-                T = transform_to_matrix(ts.transform)
+                parsed.append((child, parent, transform_to_matrix(ts.transform)))
             except Exception as exc:  # noqa: BLE001
                 problem = problem or exc
-                continue
-            with self._lock:
+        with self._lock:
+            now = time.monotonic()
+            for child, parent, T in parsed:
                 self._edges[child] = (parent, T, now, static)
-                if not static:
-                    self._newest = max(self._newest, now)
+            if parsed and not static:
+                self._newest = max(self._newest, now)
         if problem is not None:
             raise ValueError(f"malformed transform: {problem}")
 
