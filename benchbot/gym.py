@@ -237,7 +237,7 @@ def make_env_class() -> type:
         * ``task``/``env``/``robot`` (any of them; the others default to :data:`DEFAULT_TASK`, :data:`DEFAULT_ENV`,
           :data:`DEFAULT_ROBOT`): an in-process simulator that this environment builds (``seed``, ``options``) and
           closes;
-        * ``backend``: a :class:`~benchbot.core.server.BackendService` of this process (the caller closes it);
+        * ``backend``: a :class:`~benchbot.server.BackendService` of this process (the caller closes it);
         * neither: HTTP to ``address`` (default ``BENCHBOT_SUPERVISOR_ADDRESS``, else ``http://127.0.0.1:10000/``).
 
         Args:

@@ -51,10 +51,10 @@ def batched_entries(kinds: dict, observations: Sequence[str], sensed: Sequence[s
 
 
 def _on_backend_thread(fn: Any, *args: Any) -> Any:
-    """``fn(*args)`` on the process's backend thread (:func:`benchbot.core.server.service.backend_worker`: Taichi
+    """``fn(*args)`` on the process's backend thread (:func:`benchbot.server.service.backend_worker`: Taichi
     runs on one thread, shared with in-process ``BenchBot-v0`` environments and services); returns its value,
     raises what it raises."""
-    from benchbot.core.server.service import backend_worker
+    from benchbot.server.service import backend_worker
 
     return backend_worker().submit(fn, *args).result()
 

@@ -14,7 +14,7 @@ same motion and the same images for every path) through:
 * ``inprocess``: :func:`benchbot.api.InProcessBenchBot` (no HTTP, no serialisation);
 * ``native``: :class:`benchbot.api.BenchBot` over HTTP on 127.0.0.1 (``POST /native/step``, MessagePack), as a
   client gets it by default: on the same host, large arrays travel through a shared-memory file
-  (:mod:`benchbot.core.shared_frames`);
+  (:mod:`benchbot.protocol.shared_frames`);
 * ``native_inline``: the same with the shared-memory path off (``BENCHBOT_SHARED_MEMORY=0``: every array in the
   HTTP reply, as for a client on another host or in a container);
 * ``legacy``: the original client's request sequence (tests/legacy_client.py: ``requests`` GETs with JSON bodies,
@@ -71,7 +71,7 @@ def start_backend(args: argparse.Namespace):
 
 def serve(args: argparse.Namespace, pipe) -> None:
     """Backend process: serve the episode on 127.0.0.1, send the address, stop when told."""
-    from benchbot.core.server import ServerThread, build_app
+    from benchbot.server import ServerThread, build_app
 
     service = start_backend(args)
     server = ServerThread(build_app(service)).start()
@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from benchbot.api import BenchBot, InProcessBenchBot
     from benchbot.api.benchbot import CLIENT_HEADER, HttpTransport
-    from benchbot.core.server import ServerThread, build_app
+    from benchbot.server import ServerThread, build_app
 
     # one client for the BenchBot paths and the resets (HttpTransport reads the id when it is made)
     os.environ["BENCHBOT_CLIENT_ID"] = client_id = secrets.token_hex(16)

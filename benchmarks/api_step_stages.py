@@ -38,8 +38,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--steps must be at least 1")
 
     from benchbot.api.benchbot import HttpTransport
-    from benchbot.core import server as server_module
-    from benchbot.core import shared_frames, wire
+    from benchbot import server as server_module
+    from benchbot.protocol import shared_frames, wire
 
     service = start_backend(args)  # the same episode as api_step.py
 

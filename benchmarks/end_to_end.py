@@ -114,7 +114,7 @@ def load_agent(script: Path, result_location: Path):
 def one_run(args: argparse.Namespace, registry, agent: str, path: str, work: Path) -> dict:
     """Build an episode, run ``agent`` through it on ``path``; the figures of the run (module docstring)."""
     from benchbot.api import InProcessBenchBot
-    from benchbot.core.server import ServerThread, build_app
+    from benchbot.server import ServerThread, build_app
     from benchbot.core.session import resolve_run, start_service
 
     stamps: list[float] = []

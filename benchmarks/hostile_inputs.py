@@ -202,7 +202,7 @@ def raw_post(port: int, path: str, body: bytes, content_type: str, timeout_s: fl
 
 def server_cases(args: argparse.Namespace, tmp: Path) -> list[dict]:
     """The requests of the ``server`` group against one ``benchbot run`` backend, in order."""
-    from benchbot.core import wire
+    from benchbot.protocol import wire
 
     json_type = "application/json"
     requests = [

@@ -1,6 +1,6 @@
 """How long `benchbot install`'s content checks take on a hostile layout: the worst cases a pack may bring.
 
-:func:`benchbot.core.layout_checks.layout_problems` runs on every ground truth and environment layout of a pack
+:func:`benchbot.packs.layout_checks.layout_problems` runs on every ground truth and environment layout of a pack
 when it is installed. A hostile pack may fill its files up to ``BENCHBOT_MAX_SPEC_BYTES`` (4 MiB each): this script
 builds such layouts in memory — ``--objects`` thin boxes in a row (class ``--class``, the class list ``--classes``
 names ``c0``, ``c1``, …; an unknown class makes every object a problem) and ``--poses`` trajectory poses outside
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.objects, args.poses, args.classes) < 0:
         ap.error("--objects, --poses and --classes must be 0 or more")
 
-    from benchbot.core.layout_checks import layout_problems
+    from benchbot.packs.layout_checks import layout_problems
 
     layout, poses = hostile_layout(args.objects, args.poses, args.cls, args.classes)
     t = time.perf_counter()

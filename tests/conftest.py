@@ -8,7 +8,7 @@ import subprocess
 import pytest
 
 from benchbot.core.registry import Registry, get_registry
-from benchbot.core.server import ServerThread, build_app
+from benchbot.server import ServerThread, build_app
 from benchbot.core.session import resolve_run, start_service
 
 SMALL = {"width": 64, "height": 48}
@@ -67,7 +67,7 @@ def container_engine_with_base_image() -> tuple[str, str]:
     """``(engine, base image)``: a working Docker/Podman with :data:`CONTAINER_BASE_IMAGE` present locally; otherwise
     the test is skipped with the reason."""
     from benchbot.core.errors import UsageError
-    from benchbot.core.submission import container_engine
+    from benchbot.solutions.submission import container_engine
 
     try:
         engine = container_engine()

@@ -1,4 +1,4 @@
-"""Asset packs (benchbot.core.assets): manifests validated with one-line errors naming file and field; packs of
+"""Asset packs (benchbot.packs.assets): manifests validated with one-line errors naming file and field; packs of
 several plugins merged into one library indexed by class and kind; a bad pack left out and reported."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pluggy
 import pytest
 
 from benchbot.core import hookspecs
-from benchbot.core.assets import AssetInfo, AssetLibrary, asset_library, load_asset_manifest
+from benchbot.packs.assets import AssetInfo, AssetLibrary, asset_library, load_asset_manifest
 from benchbot.core.errors import SpecError
 from benchbot.core.hookspecs import hookimpl
 

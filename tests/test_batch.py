@@ -177,7 +177,7 @@ def test_ray_executor_gives_the_same_results_as_local(tmp_path):
 
 def _engine_works() -> str | None:
     from benchbot.core.errors import UsageError as _UsageError
-    from benchbot.core.submission import container_engine
+    from benchbot.solutions.submission import container_engine
 
     try:
         container_engine()

@@ -168,7 +168,7 @@ class Cluster:
     def start_node_b(self) -> None:
         """The second node: one CPU, in a mount namespace where ``runs`` is an empty folder and with user
         namespaces turned off (so bubblewrap cannot make a sandbox there)."""
-        from benchbot.core.sandbox import bwrap_executable
+        from benchbot.solutions.sandbox import bwrap_executable
 
         self.node_b = self._start([
             bwrap_executable(), "--bind", "/", "/", "--dev-bind", "/dev", "/dev", "--proc", "/proc", "--unshare-pid",
@@ -355,7 +355,7 @@ def test_sandboxed_episodes_through_ray_client_and_a_node_that_cannot_sandbox(cl
     sandbox (its host name, no ground truth, no run directories); the one on the node where no sandbox can be made
     fails in one line naming the node and the cause."""
     from benchbot.core.registry import get_registry
-    from benchbot.core.sandbox import hidden_folders
+    from benchbot.solutions.sandbox import hidden_folders
 
     cluster.ensure_node_b()
     secret = next(str(p) for p in hidden_folders(get_registry()) if p.exists())

@@ -26,8 +26,8 @@ import uvicorn
 
 from benchbot.api import BenchBot
 from benchbot.api.benchbot import BackendRefused, BackendUnreachable, EpisodeRefused, HttpTransport
-from benchbot.core import wire
-from benchbot.core.server import CLIENT_HEADER, ServerThread, build_app
+from benchbot.protocol import wire
+from benchbot.server import CLIENT_HEADER, ServerThread, build_app
 
 PASSIVE = "semantic_slam:passive:ground_truth"
 TESTS = Path(__file__).resolve().parent

@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from benchbot.core import content_packs as cp
+from benchbot.packs import content_packs as cp
 from benchbot.core.errors import BackendError
 from benchbot.core.registry import Registry
-from benchbot.core.server.redaction import ground_truth_strings, redact
+from benchbot.server.redaction import ground_truth_strings, redact
 from benchbot_worlds.bear import DATA_DIR, home_files_of
 from benchbot_worlds.homes.floorplan import home_files, plan_for_files
 from benchbot_sim_taichi import scene_cache as cache

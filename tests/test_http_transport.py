@@ -13,7 +13,7 @@ import time
 import pytest
 
 from benchbot.api.benchbot import HttpRequest, HttpResponse, HttpTransport, _refusal, _reply_refusal
-from benchbot.core import wire
+from benchbot.protocol import wire
 
 
 class Backend(http.server.ThreadingHTTPServer):

@@ -1,6 +1,6 @@
 """A world is checked when installed: ``benchbot install`` refuses a content pack whose layouts hold unknown
 classes, objects of no size or far from the rest of the home, or start/trajectory poses inside objects, with one line
-per problem naming the file, the object and the fix (benchbot.core.layout_checks); the ten BEAR homes pass."""
+per problem naming the file, the object and the fix (benchbot.packs.layout_checks); the ten BEAR homes pass."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from benchbot.core import content_packs as cp
-from benchbot.core.layout_checks import FAR_FROM_HOME_M, MAX_PROBLEMS_PER_FILE, layout_problems
+from benchbot.packs import content_packs as cp
+from benchbot.packs.layout_checks import FAR_FROM_HOME_M, MAX_PROBLEMS_PER_FILE, layout_problems
 from benchbot.core.registry import Registry
 
 BEAR = Path(__file__).resolve().parents[1] / "plugins/worlds/benchbot_worlds/data/bear"
@@ -163,7 +163,7 @@ def test_far_limit_and_problem_cap(tmp_path):
 def test_a_huge_layout_is_checked_in_bounded_work(monkeypatch):
     """A hostile pack's layout of many objects and poses: "did you mean" is worked out only for the lines shown (it
     is O(classes) per name), and a pose inside several objects names the first of them, as the objects are listed."""
-    from benchbot.core import layout_checks
+    from benchbot.packs import layout_checks
 
     calls = []
     real = layout_checks.close_names

@@ -155,7 +155,7 @@ def _normalise(value):
 
 
 def test_in_process_and_http_give_identical_results(make_service):
-    from benchbot.core.server import ServerThread, build_app
+    from benchbot.server import ServerThread, build_app
 
     runs = []
     for mode in ("inprocess", "http"):

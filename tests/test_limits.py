@@ -11,7 +11,7 @@ import pytest
 from benchbot.core import limits
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import Limit
-from benchbot.core.process_group import run_child
+from benchbot.solutions.process_group import run_child
 
 BENCHBOT_PACKAGE = Path(limits.__file__).resolve().parents[1]
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from benchbot.core import content_packs as cp
+from benchbot.packs import content_packs as cp
 from benchbot.core.registry import Registry
 from benchbot.core.specs import load_spec_file, singular
 from benchbot.core.spec_meaning import differences, same_meaning

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from benchbot.core import original_addons as oa
+from benchbot.packs import original_addons as oa
 from benchbot.core.registry import Registry
 from benchbot.core.specs import load_spec_file
 

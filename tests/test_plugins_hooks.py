@@ -165,7 +165,7 @@ def test_every_hookspec_is_called_by_the_core(make_service, registry):
     import typer
 
     from benchbot.cli.main import add_plugin_commands
-    from benchbot.core.assets import asset_library
+    from benchbot.packs.assets import asset_library
 
     calls: list[str] = []
     recorder = recording_plugin(calls)

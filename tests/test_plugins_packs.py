@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from benchbot.core import content_packs as cp
+from benchbot.packs import content_packs as cp
 from benchbot.core.registry import Registry
 
 TASK = "name: counting:passive:ground_truth\nactions: [move_next]\nobservations: [image_rgb, poses]\ndescription: Count.\n"

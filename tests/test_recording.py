@@ -10,7 +10,7 @@ import pytest
 from benchbot.api import ActionResult, Agent
 from benchbot.api.benchbot import BenchBot
 from benchbot.core.evaluation import evaluate
-from benchbot.core.server import ServerThread, build_app
+from benchbot.server import ServerThread, build_app
 from benchbot.core.session import resolve_run, start_service
 from benchbot.plugins.recorder import attach_recorder, detach_recorder
 from benchbot.plugins.replay import Recording, RecordingError, start_replay_service

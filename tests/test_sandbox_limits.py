@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from benchbot.core.sandbox import run_sandboxed
-from benchbot.core.sandbox_limits import SandboxLimits
+from benchbot.solutions.sandbox import run_sandboxed
+from benchbot.solutions.sandbox_limits import SandboxLimits
 
 SMALL = SandboxLimits(memory_bytes=512 << 20, processes=48, file_bytes=1 << 20, cpu_s=1, tmp_bytes=16 << 20)
 
@@ -155,7 +155,7 @@ def test_links_left_in_the_outputs_folder_are_dropped_with_a_line(sandbox, tmp_p
 
 OWNER = """
 import sys, time
-from benchbot.core.leftovers import owned_tempdir
+from benchbot.solutions.leftovers import owned_tempdir
 with owned_tempdir(sys.argv[1]) as folder:
     print(folder, flush=True)
     time.sleep(600)
@@ -163,7 +163,7 @@ with owned_tempdir(sys.argv[1]) as folder:
 
 
 def test_a_killed_owners_temporary_folders_are_cleaned_and_a_live_ones_kept(tmp_path):
-    from benchbot.core.leftovers import clean_leftovers
+    from benchbot.solutions.leftovers import clean_leftovers
 
     env = dict(os.environ, TMPDIR=str(tmp_path))
     owners = {prefix: subprocess.Popen([sys.executable, "-c", OWNER, prefix], env=env, stdout=subprocess.PIPE,

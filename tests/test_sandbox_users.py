@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from benchbot.core import sandbox_extras as extras
+from benchbot.solutions import sandbox_extras as extras
 from benchbot.core.registry import Registry
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,7 +41,7 @@ def install(*args: str):
 
 def sandboxed(argv: list[str], folder: Path, tmp_path: Path, registry, env: dict | None = None):
     """Run ``argv`` in ``folder`` sandboxed against a backend socket that answers nothing; (run, its log's text)."""
-    from benchbot.core.sandbox import run_sandboxed
+    from benchbot.solutions.sandbox import run_sandboxed
 
     outputs = tmp_path / "outputs"
     outputs.mkdir(exist_ok=True)
@@ -151,8 +151,8 @@ def test_a_packs_example_whose_folder_holds_a_ground_truth_runs_only_unsandboxed
     would show it, holds a ground truth, so it is refused before anything runs, in one line naming the file and the
     fix; a link out of an example's folder (edited in after the install) is refused the same way."""
     from benchbot.core.errors import UsageError
-    from benchbot.core.sandbox import check_sandboxable
-    from benchbot.core.submission import example_submission
+    from benchbot.solutions.sandbox import check_sandboxable
+    from benchbot.solutions.submission import example_submission
 
     pack = example_pack(tmp_path, "eval_copy", "print('reads its ground truth')\n",
                         {"ground_truth_miniroom_1.json": ISAAC_MINIROOM_1.read_bytes()})
@@ -183,7 +183,7 @@ def test_a_revealed_folder_inside_a_hidden_folder_under_a_shown_one_is_all_that_
     """The data directory inside a shown folder (emptied by a tmpfs): the example's folder is bound into that tmpfs
     before it is made read-only, the example's working folder is made there, and nothing else of the data
     directory shows; neither can be written."""
-    from benchbot.core.sandbox import SandboxLayout, check_available
+    from benchbot.solutions.sandbox import SandboxLayout, check_available
 
     shown = tmp_path / "shown"
     hidden = shown / "data"
@@ -471,7 +471,7 @@ def test_xauthority_entries_round_trip_and_are_rewritten_for_any_host(tmp_path):
 def test_editable_sources_survive_odd_pth_lines_and_finders(tmp_path):
     """A solution's own site-packages may hold anything: a 5,000-character .pth line and a finder whose MAPPING is
     no usable literal are skipped, never a traceback."""
-    from benchbot.core.sandbox_extras import editable_sources
+    from benchbot.solutions.sandbox_extras import editable_sources
 
     (tmp_path / "long.pth").write_text("x" * 5000 + "\n")
     (tmp_path / "__editable___odd_finder.py").write_text("MAPPING = {[1]: 2}\nNAMESPACES = {}\n")

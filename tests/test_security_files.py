@@ -17,7 +17,7 @@ from unittest.mock import ANY
 
 import pytest
 
-from benchbot.core import content_packs as cp
+from benchbot.packs import content_packs as cp
 from benchbot.core.errors import ResultsError, SpecError, UsageError
 from benchbot.core.evaluation import load_all
 from benchbot.core.limits import MAX_RESULTS_BYTES

@@ -18,11 +18,12 @@ import pytest
 
 from benchbot.api import ActionResult, BenchBot
 from benchbot.api.benchbot import HttpTransport
-from benchbot.core import limits, wire
+from benchbot.core import limits
+from benchbot.protocol import wire
 from benchbot.core.episode import ActionArgumentError, served_environment
 from benchbot.core.motion import PoseController
-from benchbot.core.server import CLIENT_HEADER, EpisodeInUseError, EpisodeOwnership, ServerThread, build_app
-from benchbot.core.shared_frames import is_loopback
+from benchbot.server import CLIENT_HEADER, EpisodeInUseError, EpisodeOwnership, ServerThread, build_app
+from benchbot.protocol.shared_frames import is_loopback
 
 PASSIVE = "semantic_slam:passive:ground_truth"
 ACTIVE = "semantic_slam:active:ground_truth"
@@ -397,7 +398,7 @@ def test_loopback_is_decided_by_the_address(host, expected):
 
 
 def test_localhost_must_resolve_to_loopback_only(monkeypatch):
-    import benchbot.core.shared_frames as sf
+    import benchbot.protocol.shared_frames as sf
 
     def resolve(addresses):
         return lambda name, port: [(socket.AF_INET, socket.SOCK_STREAM, 6, "", (a, 0)) for a in addresses]

@@ -86,7 +86,7 @@ def test_original_routes_and_errors(served):
         bad = http.post("/results_functions/create", content=b"{not json")
         assert bad.status_code == 400 and "not valid JSON" in bad.json()["error"]
         assert http.post("/native/step", content=b"\xc1garbage").status_code == 400
-        from benchbot.core import wire
+        from benchbot.protocol import wire
         assert http.post("/native/step", content=wire.pack({"action": 3})).status_code == 400
         refused = http.post("/native/step", content=wire.pack({"action": "move_angle", "args": {"angle": 5}}))
         assert refused.status_code == 409 and "not an action of this task" in refused.json()["error"]
@@ -127,7 +127,7 @@ def test_native_steps_and_json_routes_over_https(make_service, tmp_path):
     import trustme
 
     from benchbot.api.benchbot import HttpTransport
-    from benchbot.core.server import ServerThread, build_app
+    from benchbot.server import ServerThread, build_app
 
     authority = trustme.CA()
     server_pem, ca_pem = tmp_path / "server.pem", tmp_path / "ca.pem"

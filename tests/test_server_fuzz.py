@@ -14,8 +14,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from benchbot.api import BenchBot
-from benchbot.core import wire
-from benchbot.core.server import ServerThread, build_app
+from benchbot.protocol import wire
+from benchbot.server import ServerThread, build_app
 
 PASSIVE = "semantic_slam:passive:ground_truth"
 ACTIVE = "semantic_slam:active:ground_truth"

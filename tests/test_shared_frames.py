@@ -1,4 +1,4 @@
-"""The native step's same-host shared-memory path (benchbot.core.shared_frames) against a real backend on loopback."""
+"""The native step's same-host shared-memory path (benchbot.protocol.shared_frames) against a real backend on loopback."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from starlette.testclient import TestClient
 
 from benchbot.api import BenchBot, InProcessBenchBot
 from benchbot.api.benchbot import HttpTransport
-from benchbot.core import shared_frames, wire
+from benchbot.protocol import shared_frames, wire
 from benchbot.core.errors import BenchbotError
-from benchbot.core.server import build_app
+from benchbot.server import build_app
 
 pytestmark = pytest.mark.skipif(not shared_frames.available(), reason="no writable /dev/shm on this machine")
 

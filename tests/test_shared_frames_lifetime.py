@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from benchbot.core import shared_frames
+from benchbot.protocol import shared_frames
 
 pytestmark = pytest.mark.skipif(not shared_frames.available(), reason="no writable /dev/shm on this machine")
 
@@ -30,7 +30,7 @@ os.environ["BENCHBOT_CLIENT_ID"] = "shared-frames-test"  # one solution of many 
 import numpy as np
 from benchbot.api import BenchBot
 from benchbot.api.benchbot import HttpTransport
-from benchbot.core import shared_frames
+from benchbot.protocol import shared_frames
 
 ADDRESS = sys.argv[1]
 

@@ -1,6 +1,6 @@
 """A solution's standard input: ``benchbot submit`` passes the terminal through (sandboxed or not), and the
 sandbox's session of its own keeps the solution from typing into your shell (TIOCSTI); batches give none and say
-so once when a solution reads it (docs/security.md, "Processes"; benchbot/core/process_group.py)."""
+so once when a solution reads it (docs/security.md, "Processes"; benchbot/solutions/process_group.py)."""
 
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from benchbot.batch.episode_runner import READ_STDIN_ERROR
-from benchbot.core.process_group import STDIN_NOTICE, run_child
-from benchbot.core.server import SUPERVISOR_GREETING
+from benchbot.solutions.process_group import STDIN_NOTICE, run_child
+from benchbot.server import SUPERVISOR_GREETING
 
 sys.path.insert(0, str(Path(__file__).parent))
 from terminal import Terminal  # noqa: E402

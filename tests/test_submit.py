@@ -17,9 +17,9 @@ from pathlib import Path
 import pytest
 
 from benchbot.core.errors import UsageError
-from benchbot.core.result_files import ORIGINAL_RESULT_LOCATION
-from benchbot.core.server import SUPERVISOR_GREETING
-from benchbot.core.submission import container_engine, container_image_tag
+from benchbot.solutions.result_files import ORIGINAL_RESULT_LOCATION
+from benchbot.server import SUPERVISOR_GREETING
+from benchbot.solutions.submission import container_engine, container_image_tag
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 

@@ -191,7 +191,7 @@ def test_a_batch_whose_script_is_missing_says_so_before_starting_anything(tmp_pa
 
 def test_only_a_python_scripts_path_is_checked(tmp_path):
     from benchbot.core.errors import UsageError
-    from benchbot.core.submission import check_native_files
+    from benchbot.solutions.submission import check_native_files
 
     (tmp_path / "ok.py").write_text("")
     for fine in ("python ok.py", "python3 -u -W ignore ok.py --x", "python -m mypkg", "python -c 'print(1)'",
@@ -204,7 +204,7 @@ def test_only_a_python_scripts_path_is_checked(tmp_path):
 
 def test_a_native_command_with_unbalanced_quotes_is_one_line(tmp_path):
     from benchbot.core.errors import UsageError
-    from benchbot.core.submission import check_native_files
+    from benchbot.solutions.submission import check_native_files
 
     with pytest.raises(UsageError, match="No closing quotation") as info:
         check_native_files('python "my solution.py', tmp_path)
@@ -254,7 +254,7 @@ def test_an_episode_log_names_the_run_directorys_folder_for_the_sandboxs(tmp_pat
     """A sandboxed solution prints /benchbot/results/...; its episode log says which folder of the run directory
     that is (before: only the sandbox's path, which does not exist outside it)."""
     from benchbot.core.registry import get_registry
-    from benchbot.core.sandbox import run_sandboxed
+    from benchbot.solutions.sandbox import run_sandboxed
 
     outputs = tmp_path / "run" / "outputs" / "000_miniroom_1"
     outputs.mkdir(parents=True)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from benchbot.core import wire
+from benchbot.protocol import wire
 from benchbot.core.errors import BenchbotError
 
 

@@ -35,13 +35,14 @@ from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
-from benchbot.core import settings, shared_frames, wire
+from benchbot.core import settings
+from benchbot.protocol import shared_frames, wire
 from benchbot.core.errors import BenchbotError
 # one request on a connection of its own, and the TLS context of an address: the core's (re-exported here)
-from benchbot.core.wire import ConnectTimeout, ReadTimeout, request_once, tls_context
+from benchbot.protocol.wire import ConnectTimeout, ReadTimeout, request_once, tls_context
 
 if TYPE_CHECKING:
-    from benchbot.core.server import BackendService
+    from benchbot.server import BackendService
 
 RESULT_LOCATION = settings.get("BENCHBOT_RESULT_LOCATION")
 DEFAULT_ADDRESS = settings.default("BENCHBOT_SUPERVISOR_ADDRESS")
@@ -185,7 +186,7 @@ class HttpTransport:
             :class:`HttpRequest` before every request is sent, or an :class:`HttpResponse` once its reply is read
             (e.g. to count requests); other keys are ignored.
         shared_memory: receive a step's large arrays through a shared-memory file instead of the HTTP reply
-            (:mod:`benchbot.core.shared_frames`; same results, fewer copies). ``None`` (default): when the backend
+            (:mod:`benchbot.protocol.shared_frames`; same results, fewer copies). ``None`` (default): when the backend
             is on loopback and ``/dev/shm`` is usable, unless ``$BENCHBOT_SHARED_MEMORY=0``. If this process cannot
             map the backend's segment (e.g. it runs in another container), the transport turns the path off and
             carries on inline; :attr:`shared_memory_error` says why.
@@ -247,11 +248,11 @@ class HttpTransport:
 
     def _map(self, announced: Any) -> None:
         """Map the segment a reply announced (``shm_segment``), replacing this thread's (arrays read from the old
-        one stay valid: :meth:`ClientMapping.close <benchbot.core.shared_frames.ClientMapping.close>`). If that
+        one stay valid: :meth:`ClientMapping.close <benchbot.protocol.shared_frames.ClientMapping.close>`). If that
         fails, the backend cannot share memory with this process: turn the path off. A segment missing from
         ``/dev/shm`` may instead have been evicted by the backend (more clients than it keeps segments) between
         its reply and this call: the next step asks for a new one, up to
-        :data:`~benchbot.core.shared_frames.MAP_ATTEMPTS` misses in a row."""
+        :data:`~benchbot.protocol.shared_frames.MAP_ATTEMPTS` misses in a row."""
         old = self._local.mapping
         try:
             self._local.mapping = shared_frames.ClientMapping(announced.get("name"), announced.get("size"),
@@ -493,7 +494,7 @@ def _read_only(obj: Any) -> Any:
 
 
 class InProcessTransport:
-    """Calls a :class:`~benchbot.core.server.BackendService` in this process: no HTTP, no serialisation; episode
+    """Calls a :class:`~benchbot.server.BackendService` in this process: no HTTP, no serialisation; episode
     calls run on the backend thread (``service.call``). Errors are raised as the HTTP transport raises them
     (``ValueError`` for a refused action, ``ConnectionError`` otherwise).
 
@@ -502,7 +503,7 @@ class InProcessTransport:
     """
 
     def __init__(self, service: "BackendService") -> None:
-        from benchbot.core.server import BackendApi
+        from benchbot.server import BackendApi
 
         self.service = service
         self.api = BackendApi(service)
@@ -510,7 +511,7 @@ class InProcessTransport:
 
     def _call(self, route: str, fn: Callable, *args: Any) -> Any:
         from benchbot.core.errors import ActionError, BenchbotError
-        from benchbot.core.server import status_of
+        from benchbot.server import status_of
 
         try:
             return fn(*args)
@@ -541,7 +542,7 @@ class InProcessTransport:
         raise ConnectionError(f"BenchBot backend refused /{route} (404): unknown route")
 
     def step(self, action: str | None, args: dict, observations: list[str] | None) -> dict:
-        """The native step (:meth:`benchbot.core.server.BackendApi.step`) on the backend thread. Its arrays come
+        """The native step (:meth:`benchbot.server.BackendApi.step`) on the backend thread. Its arrays come
         back as read-only views (no copy), as over HTTP: the episode keeps the same arrays for its observers
         (recorder, live view) and a backend may cache them, so a caller must not be able to write into them."""
         reply = self._call("native/step", self.service.call, self.api.step, action, args, observations)
@@ -559,7 +560,7 @@ class BenchBot:
         supervisor_address: ``http://host:port/`` of the backend (see module doc for the default).
         auto_start: wait for the backend and reset the episode now.
         timeout_s: per-request timeout in seconds (an action may take this long).
-        backend: a :class:`~benchbot.core.server.BackendService` in this process: use it directly instead of
+        backend: a :class:`~benchbot.server.BackendService` in this process: use it directly instead of
             HTTP (``supervisor_address`` is then ignored).
         transport: any object with the transport methods (``ping``, ``get``, ``step``, ``close``); overrides the
             two above.

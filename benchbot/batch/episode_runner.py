@@ -17,11 +17,11 @@ from benchbot.batch.provenance import backend_facts
 from benchbot.core import stages
 from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
-from benchbot.core.leftovers import owned_tempdir
+from benchbot.solutions.leftovers import owned_tempdir
 from benchbot.core.registry import get_registry
-from benchbot.core.server import ServerThread, build_app
+from benchbot.server import ServerThread, build_app
 from benchbot.core.session import RunSpec, start_service
-from benchbot.core.submission import Submission, run_container_submission, run_submission
+from benchbot.solutions.submission import Submission, run_container_submission, run_submission
 
 
 #: An episode's error when it did not end ``ok`` and its solution read standard input (its log has the line).
@@ -53,14 +53,14 @@ def run_directories(run_dir: Path) -> list[Path]:
 
 def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log,
                    record: EpisodeRecord, hide: tuple = ()) -> tuple[bool, bool]:
-    """Run ``spec``'s solution in the sandbox (:func:`benchbot.core.sandbox.run_sandboxed`): it writes only to its
+    """Run ``spec``'s solution in the sandbox (:func:`benchbot.solutions.sandbox.run_sandboxed`): it writes only to its
     outputs folder (``spec.outputs``, made afresh) and reaches the backend through ``backend_socket`` at
     ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. The run directories beside
     ``folder`` and the folders ``hide`` lists are hidden from it. Sets ``record.returncode`` (and ``record.error``
     when its results file is refused; ``record.status`` ``resource_limit`` and the reason when the solution went
-    past a resource limit, :mod:`benchbot.core.sandbox_limits`); returns (whether it timed out, whether it read its
+    past a resource limit, :mod:`benchbot.solutions.sandbox_limits`); returns (whether it timed out, whether it read its
     standard input)."""
-    from benchbot.core.sandbox import run_sandboxed
+    from benchbot.solutions.sandbox import run_sandboxed
 
     outputs = folder / spec.outputs
     shutil.rmtree(outputs, ignore_errors=True)

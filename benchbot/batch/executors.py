@@ -185,10 +185,10 @@ def run_batched(
     (``executor`` ``batched``, ``node`` this host).
 
     Ctrl-C (KeyboardInterrupt in this thread): every running solution's group is stopped
-    (:func:`benchbot.core.process_group.interrupt_children`), the episodes are given :data:`BATCHED_STOP_WAIT_S`
+    (:func:`benchbot.solutions.process_group.interrupt_children`), the episodes are given :data:`BATCHED_STOP_WAIT_S`
     seconds to close their servers and backends, and the interrupt is re-raised; episodes not started never start.
     """
-    from benchbot.core import process_group
+    from benchbot.solutions import process_group
 
     here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
     threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))

@@ -40,7 +40,7 @@ class EpisodeSpec:
         container: for containerised solutions, ``{engine, dockerfile, context, args}`` (``argv`` is then unused).
         noise: the sensor and motion noise preset of the episode (:mod:`benchbot.core.noise`; ``none``: no noise
             beyond the robot's and the task's own).
-        sandbox: how the solution is isolated (:data:`benchbot.core.sandbox.ISOLATION_LEVELS`): ``bwrap`` (its
+        sandbox: how the solution is isolated (:data:`benchbot.solutions.sandbox.ISOLATION_LEVELS`): ``bwrap`` (its
             outputs folder is ``outputs/NNN_<env>/``, :attr:`outputs`), ``container`` or ``none``. Plans written
             before isolation levels existed read as ``none``, as they ran.
     """
@@ -150,7 +150,7 @@ def plan_episodes(
             ``timeout_s`` negative or not finite.
         ValueError: ``sandbox`` is not an isolation level.
     """
-    from benchbot.core.sandbox import ISOLATION_LEVELS
+    from benchbot.solutions.sandbox import ISOLATION_LEVELS
 
     if sandbox not in ISOLATION_LEVELS:
         raise ValueError(f"unknown isolation level {sandbox!r}")

@@ -48,7 +48,7 @@ from benchbot.batch.plan import read_manifest
 from benchbot.core import atomic
 from benchbot.core.errors import BenchbotError, UsageError
 from benchbot.core.evaluation import ScoreSet, method_scores, observed_scores
-from benchbot.core.sandbox import VERIFIABLE
+from benchbot.solutions.sandbox import VERIFIABLE
 
 ROW_FIELDS = ("index", "env", "robot", "repeat", "seed", "noise", "lighting", "results", "ground_truth_set")
 """The fields of an episode's row besides its scores (a score of one of these names is not read)."""

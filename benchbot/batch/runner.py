@@ -21,7 +21,7 @@ A run directory holds::
 whose record is not ``ok`` (or whose results file has since gone or stopped parsing); finished results are never
 redone. A results file that cannot be read or scored fails its own episode (``bad_results``); the others are scored.
 Every episode has a timeout (:func:`default_timeout_s` unless ``--episode-timeout`` is given) and its solution runs
-in its own process group, stopped whole when the episode ends (:mod:`benchbot.core.process_group`).
+in its own process group, stopped whole when the episode ends (:mod:`benchbot.solutions.process_group`).
 """
 
 from __future__ import annotations
@@ -153,7 +153,7 @@ def _versions(registry: Registry, isolation: str) -> dict:
         except md.PackageNotFoundError:
             pass
     if isolation == "bwrap":
-        from benchbot.core.sandbox import bwrap_executable, bwrap_version
+        from benchbot.solutions.sandbox import bwrap_executable, bwrap_version
 
         path = bwrap_executable()
         version = bwrap_version(path)  # its path only with BENCHBOT_MANIFEST_LOCAL=1
@@ -263,10 +263,10 @@ def prepare_batch(
 
 def _sandbox_limits(isolation: str) -> dict | None:
     """The resource limits of the batch's sandboxed solutions and how each is enforced (the manifest's ``limits``,
-    :meth:`benchbot.core.sandbox_limits.SandboxLimits.record`); None for solutions not sandboxed."""
+    :meth:`benchbot.solutions.sandbox_limits.SandboxLimits.record`); None for solutions not sandboxed."""
     if isolation != "bwrap":
         return None
-    from benchbot.core.sandbox_limits import SandboxLimits
+    from benchbot.solutions.sandbox_limits import SandboxLimits
 
     return SandboxLimits.current().record()
 
@@ -279,7 +279,7 @@ def _ground_truth_sets(registry: Registry, runs: dict, chosen: str | None) -> di
     Raises:
         SpecError: no set named ``chosen``, or a scene without a ground truth in it.
     """
-    from benchbot.core.original_addons import ground_truth_set_name
+    from benchbot.packs.original_addons import ground_truth_set_name
 
     out: dict[str, str] = {}
     for run in runs.values():
@@ -402,7 +402,7 @@ def run_batch(
     if executor == "ray":
         RAY_EPISODE_BYTES.value()
     run_dir, manifest, specs, records = batch.run_dir, batch.manifest, batch.specs, batch.records
-    from benchbot.core.leftovers import clean_leftovers
+    from benchbot.solutions.leftovers import clean_leftovers
 
     clean_leftovers()  # temporary folders and cgroups of batches killed earlier (never a live one's)
     for record in records:  # results finished earlier but since removed or corrupted are done again

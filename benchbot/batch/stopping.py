@@ -3,8 +3,8 @@ Ctrl-C (or SIGTERM), whatever its episodes are doing.
 
 At the interrupt (:func:`StopDeadline.arm`, time 0):
 
-1. every solution this process started (:func:`benchbot.core.process_group.run_child`, on any thread) has its
-   group stopped: SIGTERM, ``BENCHBOT_STOP_GRACE_S`` (5 s), SIGKILL (:func:`~benchbot.core.process_group.
+1. every solution this process started (:func:`benchbot.solutions.process_group.run_child`, on any thread) has its
+   group stopped: SIGTERM, ``BENCHBOT_STOP_GRACE_S`` (5 s), SIGKILL (:func:`~benchbot.solutions.process_group.
    interrupt_children`); worker processes of ``--workers N`` get SIGINT when the terminal did not send it to them
    (a live view reads Ctrl-C as a key), and stop their episodes the same way;
 2. the batch's own clean-up runs as before (servers stopped, backends closed); whatever solution group or worker
@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from benchbot.core import process_group
+from benchbot.solutions import process_group
 
 #: Seconds from the first Ctrl-C to the batch command's exit, at most (what the screen promises).
 STOP_BOUND_S = 10.0

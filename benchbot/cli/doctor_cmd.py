@@ -192,7 +192,7 @@ def check_containers() -> Check:
 def check_sandbox() -> Check:
     """Whether the solution sandbox can be made here (required: the main job runs its example sandboxed)."""
     from benchbot.core.errors import UsageError
-    from benchbot.core.sandbox import bwrap_version, check_available
+    from benchbot.solutions.sandbox import bwrap_version, check_available
 
     try:
         bwrap = check_available()
@@ -212,7 +212,7 @@ def check_port(port: int = 10000) -> Check:
 
 
 def check_data_dir() -> Check:
-    from benchbot.core.pack_layout import data_dir
+    from benchbot.packs.pack_layout import data_dir
 
     path = data_dir()
     try:

@@ -149,7 +149,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         reg = registry()
         if ground_truths is not None:
-            from benchbot.core.original_addons import ground_truth_set_name
+            from benchbot.packs.original_addons import ground_truth_set_name
 
             if ground_truth_set_name(ground_truths) not in reg.ground_truth_sets():
                 raise SpecError(f"--ground-truths: no set of ground truths named '{ground_truths}'",

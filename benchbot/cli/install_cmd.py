@@ -15,9 +15,9 @@ from benchbot.core import settings
 from benchbot.cli.common import err, handle_errors
 from rich.markup import escape
 
-from benchbot.core.content_packs import install_pack, installed_packs, pack_name, uninstall_pack
-from benchbot.core.pack_layout import PackError
-from benchbot.core.original_addons import is_addon_folder
+from benchbot.packs.content_packs import install_pack, installed_packs, pack_name, uninstall_pack
+from benchbot.packs.pack_layout import PackError
+from benchbot.packs.original_addons import is_addon_folder
 from benchbot.core.errors import BenchbotError, UsageError
 
 PROTECTED = {"benchbot"}
@@ -49,7 +49,7 @@ def installer_command(action: str, targets: list[str]) -> list[str]:
 
 def is_content_pack(target: str) -> bool:
     """A local folder without a Python project file that holds add-on type folders or an original add-on's
-    ``.remote``/``.dependencies`` (:func:`benchbot.core.original_addons.is_addon_folder`): never handed to pip."""
+    ``.remote``/``.dependencies`` (:func:`benchbot.packs.original_addons.is_addon_folder`): never handed to pip."""
     return is_addon_folder(target)
 
 

@@ -70,7 +70,7 @@ def plugin_rows() -> list[dict]:
     """One dict per plugin: ``name``, ``module``, ``distribution``, ``version``, ``status`` (loaded, disabled,
     failed), ``error``, ``registers`` ({kind: names}), ``hooks`` (implemented hook names), ``problems`` (skipped
     specs, one line each); plus the installed content packs as ``packs`` of the ``content_packs`` plugin."""
-    from benchbot.core.content_packs import installed_packs
+    from benchbot.packs.content_packs import installed_packs
 
     rows = [asdict(p) for p in registry().plugins]
     for row in rows:

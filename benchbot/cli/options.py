@@ -38,7 +38,7 @@ def arch_value(value: str) -> str:
 def native_words(ctx: typer.Context, words: list[str] | None) -> list[str] | None:
     """Argument callback of ``benchbot submit``'s trailing words: with ``--native CMD`` they are appended to CMD
     (``--native python my.py`` runs ``python my.py``; ``-n 'python my.py'`` too), returned as one shell-quoted
-    string that :func:`benchbot.core.submission.native_submission` splits back. Without ``--native`` they are
+    string that :func:`benchbot.solutions.submission.native_submission` splits back. Without ``--native`` they are
     returned unchanged (the command refuses them).
 
     Click processes every option before the positional arguments, so ``--native`` is already in ``ctx.params``.

@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
         the recorded observations at every step. A solution of the passive task can be re-run and re-scored
         (`benchbot submit`). Ctrl-C stops it.
         """
-        from benchbot.core.server import ServerThread, build_app  # here, not with the module: --help stays light
+        from benchbot.server import ServerThread, build_app  # here, not with the module: --help stays light
         from benchbot.plugins.replay import start_replay_service
 
         service, spec = start_replay_service(file, registry())

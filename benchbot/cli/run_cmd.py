@@ -16,7 +16,7 @@ from benchbot.cli.common import backend_options, err, handle_errors, registry, s
 from benchbot.cli.options import at_most, check_count
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import DEFAULT_ACTION_TIMEOUT_S, MAX_SEED
-from benchbot.core.shared_frames import is_loopback
+from benchbot.protocol.shared_frames import is_loopback
 
 DEFAULT_TASK = "semantic_slam:passive:ground_truth"
 DEFAULT_ROBOT = "carter"
@@ -57,7 +57,7 @@ def register(app: typer.Typer) -> None:
             check_tls_files(tls_cert, tls_key)
         # the server and the session are imported here, not with the module: ``benchbot --help`` (which imports
         # every command) does not load the web stack
-        from benchbot.core.server import ServerThread, build_app
+        from benchbot.server import ServerThread, build_app
         from benchbot.core.session import resolve_run, start_service
 
         options = backend_options(arch, camera_size)

@@ -19,10 +19,10 @@ from benchbot.cli.options import native_words, refused
 from benchbot.core import atomic
 from benchbot.core.errors import BackendError, ExitCode, UsageError
 from benchbot.core.evaluation import evaluate
-from benchbot.core.result_files import ORIGINAL_RESULT_LOCATION, ResultWatch, submission_result_location
-from benchbot.core.sandbox import INSIDE_OUTPUTS, check_available, check_sandboxable, not_verifiable_note
-from benchbot.core.solution_lease import supervised_solution
-from benchbot.core.submission import (
+from benchbot.solutions.result_files import ORIGINAL_RESULT_LOCATION, ResultWatch, submission_result_location
+from benchbot.solutions.sandbox import INSIDE_OUTPUTS, check_available, check_sandboxable, not_verifiable_note
+from benchbot.solutions.solution_lease import supervised_solution
+from benchbot.solutions.submission import (
     container_engine,
     container_files,
     example_submission,
@@ -123,8 +123,8 @@ def check_backend(address: str) -> None:
 
 
 def _run_sandboxed(reg, sub, address: str, location: Path, timeout: float | None) -> int:
-    """Run ``sub`` in the sandbox (:func:`benchbot.core.sandbox.run_sandboxed`) against the backend at ``address``,
-    reached through a Unix socket relayed to it (:class:`~benchbot.core.socket_relay.UnixToTcpRelay`); copy the
+    """Run ``sub`` in the sandbox (:func:`benchbot.solutions.sandbox.run_sandboxed`) against the backend at ``address``,
+    reached through a Unix socket relayed to it (:class:`~benchbot.solutions.socket_relay.UnixToTcpRelay`); copy the
     results file it wrote to ``location`` (never through a link) and say where its other files are. Returns its
     exit status (-9 when it timed out).
 
@@ -133,8 +133,8 @@ def _run_sandboxed(reg, sub, address: str, location: Path, timeout: float | None
     """
     import urllib.parse
 
-    from benchbot.core.sandbox import inside_address, read_results, run_sandboxed
-    from benchbot.core.socket_relay import UnixToTcpRelay
+    from benchbot.solutions.sandbox import inside_address, read_results, run_sandboxed
+    from benchbot.solutions.socket_relay import UnixToTcpRelay
 
     parts = urllib.parse.urlsplit(address)
     port = parts.port or {"http": 80, "https": 443}.get(parts.scheme)

@@ -127,13 +127,13 @@ class ContentHooks:
         (glTF 2.0: metres, +Y up, front +Z, origin at the centre of the bottom of the bounds) and
         ``ATTRIBUTION.md``. Each asset has an ``id``, a ``class`` (a ground-truth class, or null for furniture that
         is never an object), a ``kind``, a ``role`` (``object``/``distractor``/``structure``), its size, licence
-        and creator (see ``benchbot.core.assets``).
+        and creator (see ``benchbot.packs.assets``).
 
         Returns:
             A list of paths (``str``/``Path``) of ``manifest.json`` files.
 
         Called:
-            Once per process, by ``benchbot.core.assets.asset_library()``, when a simulator first needs models
+            Once per process, by ``benchbot.packs.assets.asset_library()``, when a simulator first needs models
             (not when the registry is built).
 
         Call policy:

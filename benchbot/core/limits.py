@@ -284,13 +284,13 @@ MAX_HOME_INDEX = Limit(10**9, None, "", integer=True, meaning="a generated home'
 
 DEFAULT_ACTION_TIMEOUT_S = 120.0
 """Seconds after which an action answers 504 (the episode stays usable), unless ``run --action-timeout`` says
-otherwise (:func:`benchbot.core.server.build_app`); a default, not a :class:`Limit`, kept here so that the command
+otherwise (:func:`benchbot.server.build_app`); a default, not a :class:`Limit`, kept here so that the command
 line reads it without importing the server."""
 
 MAX_RENDER_SAMPLES = Limit(4096, None, "samples", integer=True, meaning="sim render --spp and --shadow-samples")
 """``benchbot sim render --spp`` and ``--shadow-samples``: rays per pixel (the renderer packs them in float32)."""
 
-# --- child processes (benchbot.core.process_group) ----------------------------------------------------------------
+# --- child processes (benchbot.solutions.process_group) ----------------------------------------------------------------
 
 MAX_LOG_BYTES = Limit(16 << 20, "BENCHBOT_MAX_LOG_BYTES", "bytes", integer=True, zero_means="no cap",
                       meaning="bytes of a solution's log (0: no cap)")
@@ -304,7 +304,7 @@ right after SIGTERM)."""
 
 SANDBOX_TMP_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_TMP_BYTES", "bytes", integer=True,
                           meaning="bytes of a sandboxed solution's private /tmp")
-"""Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.core.sandbox`):
+"""Bytes a sandboxed solution may keep in its private ``/tmp`` (a tmpfs, so in memory; :mod:`benchbot.solutions.sandbox`):
 past it, writes there fail with "No space left on device"."""
 
 SANDBOX_MEMORY_BYTES = Limit(8 << 30, "BENCHBOT_SANDBOX_MEMORY_BYTES", "bytes", integer=True,
@@ -313,7 +313,7 @@ SANDBOX_MEMORY_BYTES = Limit(8 << 30, "BENCHBOT_SANDBOX_MEMORY_BYTES", "bytes", 
 mapping: what NumPy and malloc allocate). Not ``RLIMIT_AS``: that counts address space merely reserved (thread
 stacks, glibc's 64 MiB malloc arenas per thread, CUDA's reservations), so a NumPy or PyTorch solution that uses
 little memory would fail. Past it an allocation fails (Python: ``MemoryError``) and the episode ends
-``resource_limit`` (:mod:`benchbot.core.sandbox_limits`)."""
+``resource_limit`` (:mod:`benchbot.solutions.sandbox_limits`)."""
 
 SANDBOX_PROCESSES = Limit(512, "BENCHBOT_SANDBOX_PROCESSES", "tasks", integer=True,
                           meaning="processes and threads of a sandboxed solution")
@@ -345,5 +345,5 @@ object store and the batch process's memory. Past it the episode ends as ``error
 SCENE_CACHE_BYTES = Limit(4 << 30, "BENCHBOT_SCENE_CACHE_BYTES", "bytes", integer=True, zero_means="no cache",
                           meaning="bytes of the simulator's scene cache in the cache directory (0: no cache)")
 """Bytes the simulator's cache of built scenes (scene arrays, BVH, shadow maps, baked light: tens to hundreds of MiB
-an environment) may take in the cache directory (:func:`benchbot.core.pack_layout.cache_dir`): past it, the entries
+an environment) may take in the cache directory (:func:`benchbot.packs.pack_layout.cache_dir`): past it, the entries
 used longest ago are removed after each write. 0: scenes are neither read from nor written to the cache."""

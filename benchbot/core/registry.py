@@ -20,7 +20,7 @@ import functools
 from pathlib import Path
 from typing import Any, Callable
 
-from benchbot.core.content_packs import (
+from benchbot.packs.content_packs import (
     LOAD_ERROR_KEY, OVERRIDE_KEY, imported_function_problem, installed_function_problem, is_pack_entry,
 )
 from benchbot.core import observations
@@ -350,7 +350,7 @@ class Registry:
         """
         if ground_truth_set is None:
             return self.get("ground_truths", env_name)
-        from benchbot.core.original_addons import ground_truth_set_name
+        from benchbot.packs.original_addons import ground_truth_set_name
 
         sets = self.ground_truth_sets()
         chosen = ground_truth_set_name(ground_truth_set)
@@ -369,8 +369,8 @@ class Registry:
         return self._set_of(entry)
 
     def _set_of(self, entry: Entry) -> str:
-        from benchbot.core.pack_layout import packs_dir
-        from benchbot.core.original_addons import ground_truth_set_of
+        from benchbot.packs.pack_layout import packs_dir
+        from benchbot.packs.original_addons import ground_truth_set_of
 
         known = ground_truth_set_of(entry.spec)
         if known is not None:
@@ -385,14 +385,14 @@ class Registry:
     def ground_truth_sets(self) -> dict[str, dict[str, Entry]]:
         """``{set: {environment: Entry}}`` of every set of ground truths: a ground-truth file that is an unchanged
         copy of one of the original's add-ons belongs to its set (``isaac_develop``, ``bear_develop``:
-        :data:`benchbot.core.original_addons.GROUND_TRUTH_SETS`), any other to the pack (or plugin) that gives it.
+        :data:`benchbot.packs.original_addons.GROUND_TRUTH_SETS`), any other to the pack (or plugin) that gives it.
         ``bear_develop`` is also made from ``isaac_develop`` where the files are not installed (it moves one sink
-        in miniroom:1, 2, 3 and 5: :func:`~benchbot.core.original_addons.bear_develop_from_isaac_develop`), so the
+        in miniroom:1, 2, 3 and 5: :func:`~benchbot.packs.original_addons.bear_develop_from_isaac_develop`), so the
         BEAR environments have both. Computed once (the files are hashed)."""
         cached = getattr(self, "_ground_truth_sets", None)
         if cached is not None:
             return cached
-        from benchbot.core.original_addons import GROUND_TRUTH_SETS, bear_develop_from_isaac_develop
+        from benchbot.packs.original_addons import GROUND_TRUTH_SETS, bear_develop_from_isaac_develop
 
         sets: dict[str, dict[str, Entry]] = {}
         every = [(name, e) for name, e in self.entries["ground_truths"].items()
@@ -440,7 +440,7 @@ class Registry:
 
         The functions of a content pack's spec are checked before they are imported (only the pack's own code, when
         installed with ``--allow-code``, or modules of installed plugins' formats/evaluators; see
-        :func:`benchbot.core.content_packs.function_problem`) and after (the object must be defined there).
+        :func:`benchbot.packs.content_packs.function_problem`) and after (the object must be defined there).
 
         Raises:
             SpecError: a function cannot be imported, or a pack may not name it.

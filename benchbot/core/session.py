@@ -19,7 +19,7 @@ from benchbot.core import stages
 from benchbot.core.episode import Episode
 from benchbot.core.errors import SpecError
 from benchbot.core.registry import Registry
-from benchbot.core.server import BackendService
+from benchbot.server import BackendService
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """Spec files and their schemas: the kinds of content (:data:`KIND_SCHEMAS`), loading a spec file, validating it
 against ``schemas/`` (JSON Schema 2020-12) and the checks a schema cannot express, a registered spec
 (:class:`Entry`) and its index name. The registry (:mod:`benchbot.core.registry`) and content packs
-(:mod:`benchbot.core.content_packs`) both build on this module, which imports neither.
+(:mod:`benchbot.packs.content_packs`) both build on this module, which imports neither.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Built-in plugin ``content_packs``: the content of the packs installed with ``benchbot install ./my_pack``
-(``<data dir>/packs/*``, see :mod:`benchbot.core.content_packs`)."""
+(``<data dir>/packs/*``, see :mod:`benchbot.packs.content_packs`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from benchbot.core.hookspecs import hookimpl
 
 
 def _specs(kind: str) -> list[Any]:
-    from benchbot.core.content_packs import load_installed_specs
+    from benchbot.packs.content_packs import load_installed_specs
 
     return load_installed_specs().get(kind, [])
 

@@ -324,7 +324,7 @@ def attach_recorder(registry: Any, service: Any, run_spec: Any, path: Path | str
 
     Args:
         registry: the :class:`~benchbot.core.registry.Registry` whose hooks the episode calls.
-        service: the :class:`~benchbot.core.server.BackendService` running the episode.
+        service: the :class:`~benchbot.server.BackendService` running the episode.
         run_spec: its :class:`~benchbot.core.session.RunSpec`.
         path: the ``.mcap`` file to write.
     """

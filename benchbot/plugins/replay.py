@@ -7,7 +7,7 @@ structures (docs/observations.md: REP 118's NaN depth back to 0.0, REP 117's +In
 and ``frame_transforms`` comes from the recorded ``/tf`` and ``/tf_static`` (frame names as
 :func:`~benchbot.plugins.recorder.tf_frames`; recordings made before ``/tf_static`` and those names have every
 frame on ``/tf`` under its BenchBot name, and replay as well). It plugs into the same
-:class:`~benchbot.core.episode.Episode` / :class:`~benchbot.core.server.BackendService` / ``ServerThread``
+:class:`~benchbot.core.episode.Episode` / :class:`~benchbot.server.BackendService` / ``ServerThread``
 machinery as a simulator (:func:`start_replay_service`), so a solution of a *passive* task can be re-run and
 re-scored without a simulator. Precision: images, depth, camera matrices are exact; laser ranges are float32
 (``sensor_msgs/LaserScan``); poses go through quaternions (about 1e-15).
@@ -249,7 +249,7 @@ class ReplayBackend(RobotBackend):
 
 
 def start_replay_service(path: Path | str, registry: Any = None, *, on_step: Any = None):
-    """A :class:`~benchbot.core.server.BackendService` replaying ``path``: the recorded task, robot and
+    """A :class:`~benchbot.server.BackendService` replaying ``path``: the recorded task, robot and
     environments (from its metadata), an :class:`~benchbot.core.episode.Episode` over a :class:`ReplayBackend`,
     with the observer hooks of ``registry`` (default: the process's) and the results-format functions.
 

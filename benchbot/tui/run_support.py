@@ -26,7 +26,7 @@ class RunObservers:
 
     Args:
         registry: the registry whose plugin manager the episode's observer hooks go through.
-        service: the :class:`~benchbot.core.server.BackendService`.
+        service: the :class:`~benchbot.server.BackendService`.
         spec: its :class:`~benchbot.core.session.RunSpec`.
         record: an ``.mcap`` path to record to, or None.
         tui: show the live view; None: when stderr is a terminal.

@@ -15,5 +15,5 @@ MANIFEST = PACK_DIR / "manifest.json"
 
 @hookimpl
 def benchbot_asset_packs() -> list[Path]:
-    """The pack's manifest (see ``benchbot.core.assets``)."""
+    """The pack's manifest (see ``benchbot.packs.assets``)."""
     return [MANIFEST]

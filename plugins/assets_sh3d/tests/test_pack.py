@@ -12,7 +12,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from benchbot.core.assets import asset_library, load_asset_manifest
+from benchbot.packs.assets import asset_library, load_asset_manifest
 from benchbot_assets_sh3d import plugin
 
 PACK = plugin.PACK_DIR

@@ -242,7 +242,7 @@ def _poses(log: str) -> list[list[float]]:
 
 
 def test_one_solution_scored_in_the_simulated_twin_and_on_a_stand_in_turtlebot4(tmp_path, domain_id):
-    from benchbot.core.content_packs import install_pack
+    from benchbot.packs.content_packs import install_pack
     from benchbot.core.registry import Registry
     from benchbot_robot_ros2.plugin import EXAMPLE_ROOM
     from benchbot_robot_ros2.transport import FASTDDS_LOOPBACK_PROFILE, LOOPBACK_URI

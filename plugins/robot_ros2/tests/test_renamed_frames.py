@@ -69,7 +69,7 @@ def _pack(folder: Path) -> Path:
 
 @pytest.mark.slow
 def test_turtlebot4_frames_and_topics_end_to_end_with_a_recording(tmp_path, domain_id):
-    from benchbot.core.content_packs import install_pack
+    from benchbot.packs.content_packs import install_pack
     from benchbot.core.registry import Registry
 
     dom = domain_id + 13

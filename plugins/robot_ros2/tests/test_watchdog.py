@@ -225,7 +225,7 @@ def test_a_fault_over_http_is_a_503_the_client_shows_as_one_line(transport, regi
     client treats any status >= 300 as a failure of that route); the native client raises ``BackendRefused``
     (a ``ConnectionError``) whose text is one line naming the topic. Never a 500."""
     from benchbot.api.benchbot import BackendRefused, BenchBot
-    from benchbot.core.server import ServerThread, build_app
+    from benchbot.server import ServerThread, build_app
     from benchbot.core.session import RunSpec, start_service
 
     with FakeRobot(transport) as robot:

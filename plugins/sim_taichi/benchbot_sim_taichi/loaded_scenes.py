@@ -6,7 +6,7 @@ light and textures uploaded once, in GPU memory on CUDA).
 This is what lets a batch run the episodes that share a world together in one process (the ``batched`` executor of
 ``benchbot batch``, :func:`benchbot.batch.executors.run_batched`): one kernel compile, one scene upload, each
 episode with its own robot, solution process and API endpoint. Sharing changes no image: every backend of a process
-runs on the process's one backend thread (:func:`benchbot.core.server.service.backend_worker`), so renders never
+runs on the process's one backend thread (:func:`benchbot.server.service.backend_worker`), so renders never
 overlap, and :meth:`~benchbot_sim_taichi.render.renderer.Renderer.render` returns new arrays its caller owns.
 
 A loaded scene lives while a backend uses it (counted); the last backend to let go closes its renderer (frees its

@@ -4,7 +4,7 @@ textures), and what the renderer makes of it (:meth:`~benchbot_sim_taichi.render
 the packed arrays with the BVH, the traced shadow maps, the light lists, the baked light) — kept on disk, so that a
 second run of the same environment loads it in a fraction of a second instead of building it again.
 
-Where: ``<cache dir>/sim_taichi-scenes/`` (:func:`benchbot.core.pack_layout.cache_dir`: ``$BENCHBOT_CACHE_DIR``, else
+Where: ``<cache dir>/sim_taichi-scenes/`` (:func:`benchbot.packs.pack_layout.cache_dir`: ``$BENCHBOT_CACHE_DIR``, else
 ``$XDG_CACHE_HOME/benchbot``, else ``~/.cache/benchbot``), made readable by its owner only; the solution sandbox hides
 the cache directory, as it holds the layouts (the ground truth). Two files an environment: ``<key>.scene.npz`` (the
 Scene) and ``<key>.prepared.npz`` (the renderer's arrays; its key adds the renderer's
@@ -67,7 +67,7 @@ STALE_TMP_S = 3600.0
 _PACKAGES = (Path(__file__).resolve().parent, Path(benchbot_worlds.__file__).resolve().parent)
 #: Modules of the BenchBot core whose code decides what a scene holds (poses and start poses; the asset library the
 #: furnished style chooses from): their bytes are part of :func:`code_fingerprint`.
-CORE_MODULES = ("benchbot.core.geometry", "benchbot.core.assets")
+CORE_MODULES = ("benchbot.core.geometry", "benchbot.packs.assets")
 #: Distributions whose version decides what a scene holds besides NumPy: trimesh loads every mesh file, Pillow
 #: decodes their textures (see also :func:`image_decoder`).
 LIBRARIES = ("trimesh", "pillow")
@@ -76,7 +76,7 @@ LIBRARIES = ("trimesh", "pillow")
 # ------------------------------------------------------------------------------------------------------ where, when
 def cache_folder() -> Path:
     """``<cache dir>/sim_taichi-scenes`` (not created; see the module docstring)."""
-    from benchbot.core.pack_layout import cache_dir
+    from benchbot.packs.pack_layout import cache_dir
 
     return cache_dir().expanduser() / FOLDER_NAME
 
@@ -159,14 +159,14 @@ def _content_digest(path: str, size: int, mtime_ns: int) -> str:
 
 def assets_fingerprint() -> list:
     """The installed asset packs' contents as the furnished style uses them: per model, every field of its manifest
-    entry as read (:class:`benchbot.core.assets.AssetInfo`: id, class, kind, role, size, mount, tags, the manifest's
+    entry as read (:class:`benchbot.packs.assets.AssetInfo`: id, class, kind, role, size, mount, tags, the manifest's
     digest, …, its path) and the SHA-256 of the model file's bytes (so a file changed without its manifest is a
     miss too).
 
     Raises:
         OSError: a model file cannot be read.
     """
-    from benchbot.core.assets import asset_library
+    from benchbot.packs.assets import asset_library
 
     rows = []
     for a in asset_library().all():

@@ -272,7 +272,7 @@ def small_pack(tmp_path, monkeypatch):
     manifest's path."""
     import shutil
 
-    from benchbot.core import assets
+    from benchbot.packs import assets
 
     shipped = pytest.importorskip("benchbot_assets_sh3d.plugin").MANIFEST
     data = json.loads(shipped.read_text())

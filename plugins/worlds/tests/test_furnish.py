@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchbot.core.assets import AssetInfo, AssetLibrary
+from benchbot.packs.assets import AssetInfo, AssetLibrary
 from benchbot_worlds.homes import fitting as FIT
 from benchbot_worlds.homes import furnish as F
 from benchbot_worlds.homes import furnish_space as SP
@@ -763,7 +763,7 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
     if which == "synthetic":
         lib = synthetic_library()
     else:
-        from benchbot.core.assets import asset_library
+        from benchbot.packs.assets import asset_library
 
         lib = asset_library()
         assert len(lib) > 100, "the shipped asset pack (benchbot-assets-sh3d) is not installed"
@@ -826,7 +826,7 @@ def test_the_houses_coffee_tables_take_a_wooden_coffee_table():
     of benchmarks/realism.py hardly ever took for a table (docs/realism.md, 25 Nov 2026)."""
     import json
 
-    from benchbot.core.assets import asset_library
+    from benchbot.packs.assets import asset_library
 
     tables = asset_library().by_class("table")
     assert len(tables) >= 10, "the shipped asset pack (benchbot-assets-sh3d) is not installed"

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchbot.core.assets import AssetLibrary
+from benchbot.packs.assets import AssetLibrary
 from benchbot_worlds.homes import furnish as F
 from benchbot_worlds.homes import furnish_tables as T
 
@@ -162,7 +162,7 @@ def test_things_stand_on_the_shipped_tables_of_bear_homes(name):
     cuboid of any variant of the home but a table's top, which it may sink into by at most MAX_GAP_M."""
     import json
 
-    from benchbot.core.assets import asset_library
+    from benchbot.packs.assets import asset_library
     from benchbot_worlds.bear import DATA_DIR
     from benchbot_worlds.homes.floorplan import home_files
     from benchbot_worlds.homes.furnished import furnish_environment

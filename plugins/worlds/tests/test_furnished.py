@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from benchbot.core.assets import asset_library
+from benchbot.packs.assets import asset_library
 from benchbot.core.errors import BackendError
 from benchbot.core.seeding import home_seed
 from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG

@@ -53,7 +53,7 @@ def test_pooled_class_histogram_fits_bears():
 
 @pytest.mark.slow
 def test_a_generated_home_builds_furnished_and_models_fill_their_cuboids(tmp_path):
-    from benchbot.core.assets import asset_library
+    from benchbot.packs.assets import asset_library
     from benchbot.core.seeding import home_seed
     from benchbot_worlds.homes.furnish import PROPORTIONAL_TAG
     from benchbot_worlds.homes.floorplan import home_files

@@ -160,6 +160,6 @@ class DeviceArray:
 
     def numpy(self) -> np.ndarray:
         """A new host copy, (shape) of :attr:`dtype` (Taichi's ``to_numpy``: call it on the backend thread,
-        :func:`benchbot.core.server.service.backend_worker`, as :meth:`BenchBotVectorEnv.render
+        :func:`benchbot.server.service.backend_worker`, as :meth:`BenchBotVectorEnv.render
         <benchbot.gym_vector.BenchBotVectorEnv.render>` does; on CUDA Taichi's context is current there only)."""
         return self.ndarray.to_numpy()

@@ -1,6 +1,6 @@
 """Fitting a model into an axis-aligned box, and choosing a model by its proportions (pure NumPy).
 
-A model (an :class:`~benchbot.core.assets.AssetInfo`) is described in its map frame: z up, front −y, origin at the
+A model (an :class:`~benchbot.packs.assets.AssetInfo`) is described in its map frame: z up, front −y, origin at the
 centre of the bottom of its bounds, bounds ``size_m = [w, d, h]``. :func:`fit_to_cuboid` gives the transform
 ``T = Translate(box bottom centre) · Rz(k·90°) · Scale(s) · Translate(−model bottom centre)`` that makes the model's
 bounds EQUAL the box (k odd swaps the x and y extents; quarter turns only, so axis-aligned bounds stay exact).
@@ -73,7 +73,7 @@ def fit_to_cuboid(asset: Any, lo: Sequence[float], hi: Sequence[float], yaw_quar
     that the model's bounds map onto the box (to rounding): with ``k`` odd the model's x extent spans the box's y.
 
     Args:
-        asset: an :class:`~benchbot.core.assets.AssetInfo` (its ``size_m`` gives the bounds unless ``bounds``).
+        asset: an :class:`~benchbot.packs.assets.AssetInfo` (its ``size_m`` gives the bounds unless ``bounds``).
         lo, hi: (3,) box corners, map frame, metres; ``hi > lo`` on every axis.
         yaw_quarter_turns: k (any integer; taken mod 4); the model's front faces :func:`front_of` (k).
         bounds: (2, 3) the model's true bounds in its map frame (e.g. its mesh's), if they differ from ``size_m``.

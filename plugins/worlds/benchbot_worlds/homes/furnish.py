@@ -1,7 +1,7 @@
 """Furnishing a floor plan: real models for the ground-truth objects, supports under floating ones, distractors.
 
 :func:`furnish_home` (and :func:`furnish`, its placements only) turns the ground-truth (GT) objects of an environment,
-its :class:`~benchbot_worlds.homes.floorplan.FloorPlan` and an :class:`~benchbot.core.assets.AssetLibrary` into
+its :class:`~benchbot_worlds.homes.floorplan.FloorPlan` and an :class:`~benchbot.packs.assets.AssetLibrary` into
 :class:`~benchbot_worlds.homes.furnish_space.Placement` s: an asset id and the (4, 4) transform taking the asset's
 map-frame model (z up, front −y, origin at the centre of the bottom of its bounds) to the map. Pure NumPy,
 deterministic per ``seed``; GT is never changed. The steps:
@@ -215,7 +215,7 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
         objects: the environment's GT objects (dicts with ``class``, ``centroid`` (3,), ``extent`` (3,), optional
             ``ID_name``, ``isgroup``), map frame, metres.
         plan: its :class:`~benchbot_worlds.homes.floorplan.FloorPlan`.
-        library: an :class:`~benchbot.core.assets.AssetLibrary`.
+        library: an :class:`~benchbot.packs.assets.AssetLibrary`.
         seed: the same seed gives the same placements.
         context_objects: every GT object of the home (the union over its variants). Supports and distractors are
             derived from these, so the variants of a home share their furniture; default ``objects``.

@@ -39,7 +39,7 @@ class Placement:
     """One model in the scene.
 
     Attributes:
-        asset_id: the :class:`~benchbot.core.assets.AssetInfo` id.
+        asset_id: the :class:`~benchbot.packs.assets.AssetInfo` id.
         transform: (4, 4) float64, the asset's map-frame model (z up, front −y) → map, non-uniform scale included.
         object_index: index into the ``objects`` given to :func:`furnish` (several placements share it for a book
             row), −1 for everything that is not a GT object.

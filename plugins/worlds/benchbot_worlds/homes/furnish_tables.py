@@ -95,7 +95,7 @@ def dress_tables(objects: Sequence[dict], placements: Sequence[Placement], space
         objects: the environment's GT objects (``class``, ``ID_name``), home frame.
         placements: the GT objects' placements (``object_index`` into ``objects``, role ``object``).
         space: the occupied space of the home (every variant's GT cuboids, supports, distractors); items are added.
-        library: an :class:`~benchbot.core.assets.AssetLibrary`; nothing happens without a :data:`TABLETOP_KIND`.
+        library: an :class:`~benchbot.packs.assets.AssetLibrary`; nothing happens without a :data:`TABLETOP_KIND`.
         seed: the home's seed.
         mesh_of: an asset's mesh (``v`` (V, 3) model frame, metres; ``f`` (F, 3) int).
         bounds_of: an asset's (2, 3) model-frame bounds (for the fit).

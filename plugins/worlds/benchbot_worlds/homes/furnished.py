@@ -9,7 +9,7 @@
 2. the furnishing (:func:`benchbot_worlds.homes.furnish.furnish_home`): a textured model of its class fitted exactly
    to every ground-truth cuboid, supports under objects that would float, distractor furniture of no ground-truth
    class, door frames, windows, ceiling lamps — models from the asset packs of the plugins
-   (:func:`benchbot.core.assets.asset_library`);
+   (:func:`benchbot.packs.assets.asset_library`);
 3. the structure as textured triangles (:data:`benchbot_worlds.scene.surfaces`): floors, walls and ceilings with
    materials chosen by room kind;
 4. the robot's obstacles: the walls, and every support and distractor (with its bottom height: what the robot
@@ -188,13 +188,13 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
         seed: the home's seed (:func:`benchbot.core.seeding.home_seed` of its name, as the scene build passes it):
             the same seed gives the same home; pass the same one for every variant of a home, so that they share
             their plan, materials and furniture.
-        library: an :class:`~benchbot.core.assets.AssetLibrary` (default: every installed asset pack).
+        library: an :class:`~benchbot.packs.assets.AssetLibrary` (default: every installed asset pack).
 
     Raises:
         BackendError: a ground-truth file or pose is unreadable (from the floor plan); a model file that cannot be read
             (from :func:`~benchbot_worlds.scene.meshes.load_mesh`).
     """
-    from benchbot.core.assets import asset_library
+    from benchbot.packs.assets import asset_library
     from benchbot_worlds.homes.furnish import furnish_home
 
     library = asset_library() if library is None else library

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from benchbot.core import settings
 from benchbot.core.errors import SpecError, UsageError
-from benchbot.core.pack_layout import data_dir
+from benchbot.packs.pack_layout import data_dir
 
 SPLITS = ("train", "val", "test")
 #: The held-out split: its seeds need the host's key.

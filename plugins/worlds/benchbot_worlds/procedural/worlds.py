@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 
 from benchbot.core.atomic import write_text
-from benchbot.core.pack_layout import cache_dir
+from benchbot.packs.pack_layout import cache_dir
 from benchbot_worlds.procedural import splits
 
 GENERATOR_NAME = "procedural"

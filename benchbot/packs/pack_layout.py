@@ -1,7 +1,7 @@
 """The layout of content packs: the folders of a pack (:data:`FOLDER_KINDS`: the original add-on layout), its spec
 files (:func:`spec_files`), where installed packs live (:func:`data_dir`, :func:`packs_dir`) and the error every pack
-problem is (:class:`PackError`). :mod:`benchbot.core.content_packs` (scanning, checking, installing) and
-:mod:`benchbot.core.original_addons` (the original's add-on files) build on it."""
+problem is (:class:`PackError`). :mod:`benchbot.packs.content_packs` (scanning, checking, installing) and
+:mod:`benchbot.packs.original_addons` (the original's add-on files) build on it."""
 
 from __future__ import annotations
 
@@ -57,7 +57,7 @@ def data_dir() -> Path:
 def cache_dir() -> Path:
     """BenchBot's cache directory (what can be rebuilt, such as the simulator's built scenes): ``$BENCHBOT_CACHE_DIR``,
     else ``$XDG_CACHE_HOME/benchbot``, else ``~/.cache/benchbot`` (not created). It may hold scene layouts, so the
-    sandbox hides it (:func:`benchbot.core.sandbox.hidden_folders`)."""
+    sandbox hides it (:func:`benchbot.solutions.sandbox.hidden_folders`)."""
     if settings.get("BENCHBOT_CACHE_DIR"):
         return Path(settings.get("BENCHBOT_CACHE_DIR")).expanduser()
     xdg = settings.get("XDG_CACHE_HOME")

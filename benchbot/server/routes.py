@@ -1,4 +1,4 @@
-"""The HTTP routes: :func:`build_app` puts a :class:`~benchbot.core.server.service.BackendService`'s episode behind
+"""The HTTP routes: :func:`build_app` puts a :class:`~benchbot.server.service.BackendService`'s episode behind
 them (the original supervisor's, plus the native protocol; docs/protocol.md).
 
 ======================================  ======================================================================
@@ -11,7 +11,7 @@ them (the original supervisor's, plus the native protocol; docs/protocol.md).
                                         ``reset``, ``restart``, ``stop``, ``selected_environment``, ``state``,
                                         ``run_info`` (task, robot, environments, seed), ``is_free`` (whether
                                         the caller may start the episode now, else why not), ``release`` (give the
-                                        episode up: :class:`~benchbot.core.server.ownership.EpisodeOwnership`;
+                                        episode up: :class:`~benchbot.server.ownership.EpisodeOwnership`;
                                         a supervisor's ``{"client": id, "anonymous": bool}`` ends the hold of
                                         a solution that has ended: loopback or token holders only, else 403)
 ``GET|POST /results_functions/[fn]``    the results format's function names, or call one with
@@ -22,7 +22,7 @@ them (the original supervisor's, plus the native protocol; docs/protocol.md).
                                         go through a shared-memory segment instead (shared_frames.py)
 ======================================  ======================================================================
 
-Errors and their statuses: :mod:`benchbot.core.server.http_errors`. Request-sized work (parsing a large body,
+Errors and their statuses: :mod:`benchbot.server.http_errors`. Request-sized work (parsing a large body,
 results functions, encoding observations) never runs on the event loop; every episode call runs on the backend
 thread.
 """
@@ -38,20 +38,21 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
-from benchbot.core import limits, shared_frames, wire
+from benchbot.core import limits
+from benchbot.protocol import shared_frames, wire
 from benchbot.core.errors import BenchbotError
-from benchbot.core.server.http_errors import (
+from benchbot.server.http_errors import (
     ActionTimeoutError, BadRequestError, ForbiddenError, error_response, status_of,
 )
-from benchbot.core.server.middleware import BodyLimit, MergeSlashes, TokenGuard
-from benchbot.core.server.operations import BackendApi
-from benchbot.core.server.ownership import (
+from benchbot.server.middleware import BodyLimit, MergeSlashes, TokenGuard
+from benchbot.server.operations import BackendApi
+from benchbot.server.ownership import (
     CLIENT_ID_PATTERN, READ_ONLY_COMMANDS, EpisodeOwnership, client_identity,
 )
-from benchbot.core.server.request_decoding import PARSE_OFF_LOOP_BYTES, parse_json_body, parse_step_body
-from benchbot.core.server.service import BackendService
+from benchbot.server.request_decoding import PARSE_OFF_LOOP_BYTES, parse_json_body, parse_step_body
+from benchbot.server.service import BackendService
 from benchbot.core.limits import DEFAULT_ACTION_TIMEOUT_S
-from benchbot.core.shared_frames import is_loopback
+from benchbot.protocol.shared_frames import is_loopback
 
 SUPERVISOR_GREETING = "Hello, I am the BenchBot supervisor"
 MSGPACK = wire.MSGPACK_TYPE

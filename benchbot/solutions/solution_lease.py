@@ -19,7 +19,8 @@ import os
 import secrets
 from typing import Any, Iterator
 
-from benchbot.core import settings, wire
+from benchbot.core import settings
+from benchbot.protocol import wire
 from benchbot.core.errors import BackendError
 
 #: The environment variable that names a solution's client (read by :mod:`benchbot.api`).
@@ -35,7 +36,7 @@ def new_client_id() -> str:
 
 def _request(address: str, route: str, *, client_id: str | None = None, body: dict | None = None) -> tuple[int, Any]:
     """``POST route`` with a JSON ``body`` (as ``client_id`` when given, with ``$BENCHBOT_TOKEN`` when set), on a
-    connection of its own (:func:`~benchbot.core.wire.request_once`, which the client uses too): ``(status,
+    connection of its own (:func:`~benchbot.protocol.wire.request_once`, which the client uses too): ``(status,
     parsed JSON)``.
 
     Raises:

@@ -1,5 +1,5 @@
 """What a sandboxed solution is given beyond its own folder, BenchBot's Python and the system's folders
-(:mod:`benchbot.core.sandbox`; docs/security.md, "Isolation levels"), each checked so that no ground truth comes with
+(:mod:`benchbot.solutions.sandbox`; docs/security.md, "Isolation levels"), each checked so that no ground truth comes with
 it:
 
 * **An installed content pack's example** runs from BenchBot's data directory, which the sandbox hides. Its own
@@ -53,7 +53,7 @@ def registry_files(registry) -> set[str]:
     """The absolute paths of the files that hold ground truth or build a layout, as ``registry``'s environments and
     ground truths name them (their spec files, ``map_path``, ``home_files``, mesh files; overridden entries too) and
     as they exist on this machine."""
-    from benchbot.core.server.redaction import ground_truth_strings
+    from benchbot.server.redaction import ground_truth_strings
 
     files: set[str] = set()
     for kind in ("environments", "ground_truths"):
@@ -199,7 +199,7 @@ def pack_example_folder(argv: list[str], cwd: Path) -> Path | None:
     Raises:
         UsageError: that folder is not inside the pack.
     """
-    from benchbot.core.pack_layout import packs_dir
+    from benchbot.packs.pack_layout import packs_dir
 
     packs = packs_dir().expanduser().resolve()
     cwd = Path(cwd).resolve()

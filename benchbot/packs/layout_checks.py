@@ -1,5 +1,5 @@
 """Checks of an environment's layout before anything runs on it: the one home of the content rules that
-``benchbot install`` applies to a content pack's environments and ground truths (:mod:`benchbot.core.content_packs`).
+``benchbot install`` applies to a content pack's environments and ground truths (:mod:`benchbot.packs.content_packs`).
 
 A layout is a ground-truth JSON in the original's ``object_map_ground_truth`` layout, ``{environment, format,
 ground_truth: {class_list, objects: [{class, centroid [x,y,z] m, extent [dx,dy,dz] m, ID_name}]}}`` (``map`` frame,

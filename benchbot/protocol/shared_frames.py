@@ -205,7 +205,7 @@ class SegmentPool:
         """``reply`` packed for a client whose ``shm`` field is ``offer`` (as :func:`check_offer` returns it; see
         the module doc): large arrays in the requested slot of its segment when it has mapped it, else inline with
         ``shm_segment`` to map (or ``shm_error`` when none can be made)."""
-        from benchbot.core import wire
+        from benchbot.protocol import wire
 
         client, mapped, slot = offer
         needed = sum(aligned(a.nbytes) for a in large_arrays(reply))

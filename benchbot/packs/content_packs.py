@@ -13,7 +13,7 @@ A spec whose name is already installed is no clash when the two are identical in
 (:mod:`benchbot.core.spec_meaning`): it is reported as already provided and the installed copy is used. Nor is an
 original add-on's spec copied unchanged whose name a first-party plugin re-implements (formats_object_map's
 formats, eval_omq's ``omq``, the examples of the built-in names, robots_isaac's ``carter``:
-:func:`benchbot.core.original_addons.built_in_counterpart`): it is reported as already provided, the built-in is
+:func:`benchbot.packs.original_addons.built_in_counterpart`): it is reported as already provided, the built-in is
 used, and the pack's copy (and its code, which then needs no ``--allow-code``) is never loaded (the manifest's
 ``built_in``). A robot whose type no installed plugin runs never replaces an installed robot of its name; under a
 new name it installs and is listed as unavailable with the reason (``Registry.unavailable_reason``). A ground truth
@@ -24,9 +24,9 @@ source's while the pack is installed (the manifest's ``overrides``).
 
 An original add-on whose content lives elsewhere — a ``.remote`` file naming a URL to download and a folder to
 unzip it into (the original's environments and Omniverse robots) — is recognised by its markers
-(:data:`benchbot.core.original_addons.ADDON_MARKERS`); BenchBot downloads nothing, so installing it is refused with
+(:data:`benchbot.packs.original_addons.ADDON_MARKERS`); BenchBot downloads nothing, so installing it is refused with
 an explanation: what it would download, and which installed content corresponds
-(:data:`benchbot.core.original_addons.KNOWN_REMOTES`). ``.dependencies`` and ``.dependencies-python`` are
+(:data:`benchbot.packs.original_addons.KNOWN_REMOTES`). ``.dependencies`` and ``.dependencies-python`` are
 reported, never installed.
 
 Security: symlinks leaving the pack, symlinked folders and special files are refused; ``map_path`` may not be
@@ -65,7 +65,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from benchbot.core.errors import SpecError
-from benchbot.core.pack_layout import (
+from benchbot.packs.pack_layout import (
     FOLDER_KINDS, IGNORED, MANIFEST, PackError, data_dir, packs_dir, spec_files,
 )
 
@@ -530,11 +530,11 @@ def _function_errors(scan: PackScan, allow_code: bool, allowed: set[str]) -> lis
 
 
 def _layout_errors(scan: PackScan) -> list[str]:
-    """The content problems (:func:`benchbot.core.layout_checks.layout_problems`) of the pack's layouts: every
+    """The content problems (:func:`benchbot.packs.layout_checks.layout_problems`) of the pack's layouts: every
     ground truth, and every environment's ``map_path`` that is a ``.json`` file in the pack, checked with the
     environment's own start and trajectory poses; every file of an environment's ``home_files`` must be a ground
     truth (:func:`_home_file_errors`). One line each, no line twice."""
-    from benchbot.core.layout_checks import layout_problems
+    from benchbot.packs.layout_checks import layout_problems
     from benchbot.core.limits import MAX_SPEC_BYTES
     from benchbot.core.safe_load import load_data_file
 
@@ -594,7 +594,7 @@ def _home_file_errors(pf: PackFile, root: Path) -> list[str]:
 def verify_pack(path: Path | str, name: str | None = None, *, registry: "Registry") -> PackScan:
     """:func:`scan_pack`, plus the functions check: every function that is not pack code must be in a module of an
     installed plugin's formats/evaluators (:func:`function_problem`), and the content check of the pack's layouts
-    (:func:`benchbot.core.layout_checks.layout_problems`: unknown classes, objects of no size or far from the rest
+    (:func:`benchbot.packs.layout_checks.layout_problems`: unknown classes, objects of no size or far from the rest
     of the home, poses inside objects); problems are added to ``errors``.
 
     Args:
@@ -679,7 +679,7 @@ def _unavailable_robot(pf: PackFile, registry: "Registry") -> str:
     robot_type = str(pf.spec.get("type")) if pf.kind == "robots" and pf.spec else ""
     if not robot_type or robot_type in registry.backend_factories:
         return ""
-    from benchbot.core.original_addons import shown
+    from benchbot.packs.original_addons import shown
 
     types = ", ".join(sorted(registry.backend_factories)) or "none"
     return (f"its type '{shown(robot_type, 40)}' needs a robot backend that no installed plugin provides "
@@ -690,7 +690,7 @@ def _classify(scan: PackScan, registry: "Registry", replacing: Path | None, over
     """Each pack file whose name is already installed: identical in meaning or an unchanged original add-on's
     spec that a first-party plugin re-implements (provided), a robot this machine cannot run (the installed one
     stays), a ground truth of another set (an alternative), or a real clash."""
-    from benchbot.core.original_addons import built_in_counterpart, ground_truth_set_of
+    from benchbot.packs.original_addons import built_in_counterpart, ground_truth_set_of
     from benchbot.core.specs import singular
     from benchbot.core.spec_meaning import differences
 
@@ -765,7 +765,7 @@ def _usability_notes(scan: PackScan, registry: "Registry", overrides: dict[str, 
                      built_in: dict[str, list[str]], dest: Path) -> list[str]:
     """Notes on content that installs but cannot be used here: robots of a type no plugin runs (listed as
     unavailable), batches naming environments that are not installed."""
-    from benchbot.core.original_addons import compact_names, shown
+    from benchbot.packs.original_addons import compact_names, shown
     from benchbot.core.specs import singular
 
     notes = []
@@ -860,7 +860,7 @@ def install_pack(path: Path | str, *, name: str | None = None, allow_code: bool 
             names clashing with installed specs that differ in meaning (without ``override``, naming both
             sources and the fields that differ); or the copy failed.
     """
-    from benchbot.core.original_addons import addon_notes, addon_problem
+    from benchbot.packs.original_addons import addon_notes, addon_problem
 
     given = Path(path).expanduser()
     if given.is_dir():

@@ -5,7 +5,7 @@
 unknown route, key,
 connection or results function; 405: a method the route does not take; 409: an action refused, or the episode
 belongs to another client; 413: a body past :data:`~benchbot.core.limits.MAX_REQUEST_BYTES`; 500: a backend failure
-(its message says which; paths of ground-truth files are blanked out, :mod:`benchbot.core.server.redaction`);
+(its message says which; paths of ground-truth files are blanked out, :mod:`benchbot.server.redaction`);
 503: the robot stopped on a fault it detected (:class:`~benchbot.core.errors.RobotFaultError`: a sensor topic silent
 past its limit, TF lost; the message names the topic and the setting); 504:
 an action or results function that ran past its timeout (the motion still completes on the backend thread and the
@@ -18,7 +18,7 @@ from starlette.responses import JSONResponse
 
 from benchbot.core.episode import ActionArgumentError
 from benchbot.core.errors import ActionError, BackendError, BenchbotError, RobotFaultError
-from benchbot.core.server.redaction import redact
+from benchbot.server.redaction import redact
 
 
 class NotFoundError(BenchbotError):
@@ -42,7 +42,7 @@ class ForbiddenError(BenchbotError):
 
 
 class EpisodeInUseError(BenchbotError):
-    """The episode belongs to another client (HTTP 409; :class:`~benchbot.core.server.ownership.EpisodeOwnership`)."""
+    """The episode belongs to another client (HTTP 409; :class:`~benchbot.server.ownership.EpisodeOwnership`)."""
 
 
 class PayloadTooLargeError(BenchbotError):
@@ -67,7 +67,7 @@ STATUS_BY_ERROR: tuple[tuple[tuple[type, ...], int], ...] = (
 
 
 def status_of(exc: BaseException) -> int:
-    """The HTTP status of an error raised by :class:`~benchbot.core.server.operations.BackendApi` (an ``int``, from
+    """The HTTP status of an error raised by :class:`~benchbot.server.operations.BackendApi` (an ``int``, from
     :data:`STATUS_BY_ERROR`; 500 for anything that is not a :class:`~benchbot.core.errors.BenchbotError`; never
     raises)."""
     return next((status for classes, status in STATUS_BY_ERROR if isinstance(exc, classes)), 500)
@@ -82,7 +82,7 @@ def error_response(status: int, exc: BaseException | str, hint: str = "",
         exc: the error (a :class:`~benchbot.core.errors.BenchbotError` gives its own message and hint), or the
             message itself.
         hint: the hint when ``exc`` is not a :class:`~benchbot.core.errors.BenchbotError`.
-        hidden: strings blanked out of the message and hint (:func:`~benchbot.core.server.redaction.redact`).
+        hidden: strings blanked out of the message and hint (:func:`~benchbot.server.redaction.redact`).
     """
     message = exc.message if isinstance(exc, BenchbotError) else str(exc)
     hint = exc.hint if isinstance(exc, BenchbotError) else hint

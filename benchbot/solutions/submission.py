@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import IO
 
 from benchbot.core.errors import BenchbotError, SpecError, UsageError
-from benchbot.core.process_group import ChildOutcome, run_child
+from benchbot.solutions.process_group import ChildOutcome, run_child
 from benchbot.core.registry import Registry
 
 
@@ -114,7 +114,7 @@ def run_submission(
     timeout_s: float | None = None,
     stdin: str = "none",
 ) -> ChildOutcome:
-    """Run the submission to completion in its own process group (:func:`benchbot.core.process_group.run_child`):
+    """Run the submission to completion in its own process group (:func:`benchbot.solutions.process_group.run_child`):
     when it ends, for any reason, every process it started is stopped too, and a watchdog stops them if this process
     dies first.
 
@@ -127,7 +127,7 @@ def run_submission(
             pipe; a read of it is said once and gets end-of-file).
 
     Returns:
-        The :class:`~benchbot.core.process_group.ChildOutcome`: ``returncode``, ``timed_out``, ``output_bytes``,
+        The :class:`~benchbot.solutions.process_group.ChildOutcome`: ``returncode``, ``timed_out``, ``output_bytes``,
         ``log_truncated``.
 
     Raises:

@@ -4,7 +4,7 @@ not exist (docs/security.md, "Isolation levels").
 A sandboxed solution's process sees, read-only: the system's folders (``/usr``, ``/etc``, ``/opt``, ...), the Python
 installation and virtual environment BenchBot runs in (for an editable install, only the Python packages of its folders,
 not the folders themselves), and the solution's own folder; an installed pack's example its own folder only, the sources
-of editable installs and the user's display are added by :mod:`benchbot.core.sandbox_extras`. Over those, every folder
+of editable installs and the user's display are added by :mod:`benchbot.solutions.sandbox_extras`. Over those, every folder
 that holds ground truth or a scene layout is replaced by an empty tmpfs (:func:`hidden_folders`: the folders of every
 environment's and ground truth's files in the registry, the package of every plugin that contributes environments or
 ground truths (the simulator's), the data directory of installed content packs, the cache directory of built scenes, the
@@ -14,7 +14,7 @@ batches write run directories to. It writes only to its own outputs folder (``/b
 too) and to a private ``/tmp`` of at most :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS,
 user and network namespaces: no other process is visible, no capability is kept, no new user namespace can be made, and
 its network is a loopback device of its own on which the backend answers at ``127.0.0.1:<port>`` and at
-``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.core.socket_relay`.
+``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.solutions.socket_relay`.
 
 What the isolation levels of a run mean (:data:`ISOLATION_LEVELS`, recorded in a batch's manifest as ``sandbox``):
 ``bwrap`` (this module), ``container`` (``--containerised``: the container holds only its image and mounts nothing)
@@ -36,13 +36,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
-from benchbot.core.leftovers import owned_tempdir
-from benchbot.core.sandbox_extras import registry_files
-from benchbot.core import socket_relay
+from benchbot.solutions.leftovers import owned_tempdir
+from benchbot.solutions.sandbox_extras import registry_files
+from benchbot.solutions import socket_relay
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_RESULTS_BYTES, SANDBOX_TMP_BYTES
-from benchbot.core.process_group import ChildOutcome, run_child
-from benchbot.core.sandbox_limits import PidsCgroup, SandboxLimits, exceeded, pids_cgroup_root
+from benchbot.solutions.process_group import ChildOutcome, run_child
+from benchbot.solutions.sandbox_limits import PidsCgroup, SandboxLimits, exceeded, pids_cgroup_root
 
 #: Isolation levels of a solution, strongest first: bubblewrap, a container, none (``--no-sandbox``).
 ISOLATION_LEVELS = ("bwrap", "container", "none")
@@ -70,7 +70,7 @@ NAMESPACE_FLAGS = ("--unshare-all", "--unshare-user", "--disable-userns", "--cap
 
 #: The host's environment variables a sandboxed solution is given (when set), besides every ``LC_*`` variable, the
 #: API's ``BENCHBOT_*`` client settings (:data:`CLIENT_SETTINGS`), the display's variables when the display is passed
-#: (:func:`~benchbot.core.sandbox_extras.display_access`) and what the sandbox sets itself (``HOME``, the backend's
+#: (:func:`~benchbot.solutions.sandbox_extras.display_access`) and what the sandbox sets itself (``HOME``, the backend's
 #: address, the results file, ``PYTHONUNBUFFERED``): the locale and time zone, the terminal, the Python settings a
 #: solution may be run with, the thread counts of numerical libraries (a batch sets them) and the GPUs' selection.
 #: Nothing else of the host's environment (tokens, keys, cloud credentials a user keeps there) reaches a solution.
@@ -82,7 +82,7 @@ ENV_ALLOWED = ("PATH", "LANG", "LANGUAGE", "TZ", "TERM", "COLORTERM", "NO_COLOR"
 #: The API client's settings, passed when set (:mod:`benchbot.core.settings`, owner ``api``).
 CLIENT_SETTINGS = ("BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_TOKEN", "BENCHBOT_CA_FILE",
                    "BENCHBOT_CLIENT_ID", "BENCHBOT_SHARED_MEMORY")
-#: Display variables, kept only as :func:`~benchbot.core.sandbox_extras.display_access` leaves them.
+#: Display variables, kept only as :func:`~benchbot.solutions.sandbox_extras.display_access` leaves them.
 DISPLAY_VARIABLES = ("DISPLAY", "WAYLAND_DISPLAY", "XAUTHORITY", "MPLBACKEND")
 
 
@@ -164,10 +164,10 @@ def check_available() -> str:
 
 
 def check_sandboxable(submission, registry=None) -> None:
-    """Refuse to sandbox a :class:`~benchbot.core.submission.Submission` that reads the ground truth on purpose
+    """Refuse to sandbox a :class:`~benchbot.solutions.submission.Submission` that reads the ground truth on purpose
     (an example whose spec says ``reads_ground_truth: true``, such as ``hello_eval_semantic_slam``), or, given the
     ``registry``, an installed pack's example whose own folder, which the sandbox shows it, holds a ground truth
-    (:func:`benchbot.core.sandbox_extras.check_pack_example`: the original ``hello_eval_scd`` keeps copies beside
+    (:func:`benchbot.solutions.sandbox_extras.check_pack_example`: the original ``hello_eval_scd`` keeps copies beside
     its script).
 
     Raises:
@@ -177,7 +177,7 @@ def check_sandboxable(submission, registry=None) -> None:
         raise UsageError(f"{submission.label} reads the ground truth on purpose (a check of the evaluation "
                          "pipeline, not a solution), and the sandbox hides it", "run it with --no-sandbox")
     if registry is not None:
-        from benchbot.core.sandbox_extras import check_pack_example
+        from benchbot.solutions.sandbox_extras import check_pack_example
 
         check_pack_example(submission.argv, submission.cwd, registry)
 
@@ -250,7 +250,7 @@ def hidden_folders(registry, extra: list[Path] | tuple = ()) -> list[Path]:
         checkout's folder that does not exist is left out; the data and cache directories and ``extra`` are kept
         whether they exist or not (:func:`run_sandboxed` makes the first two).
     """
-    from benchbot.core.pack_layout import cache_dir, data_dir
+    from benchbot.packs.pack_layout import cache_dir, data_dir
 
     folders = {Path(f).resolve().parent for f in registry_files(registry)}
     for plugin in registry.plugins:
@@ -344,7 +344,7 @@ class SandboxLayout:
         cwd: the solution's folder (shown; inside a hidden folder, an empty folder is made for it unless it is
             inside a ``revealed`` one).
         revealed: host folders shown read-only although they lie inside a hidden folder (an installed pack's
-            example's own folder, checked for ground truth by :func:`benchbot.core.sandbox_extras.check_pack_example`):
+            example's own folder, checked for ground truth by :func:`benchbot.solutions.sandbox_extras.check_pack_example`):
             bound over that folder's empty tmpfs, nothing else of it.
         files: ``(host path, path inside)`` bound read-only last (the display's sockets and cookie).
     """
@@ -439,7 +439,7 @@ def _is_ip(host: str) -> bool:
 class SandboxedRun:
     """How a sandboxed solution ended and what it left: the :class:`ChildOutcome`, and the results file it wrote
     in its outputs folder (``results``, None when it wrote none), or why that file was refused (``problem``); the
-    one-line reason when it went past a resource limit (``limit``, :func:`benchbot.core.sandbox_limits.exceeded`);
+    one-line reason when it went past a resource limit (``limit``, :func:`benchbot.solutions.sandbox_limits.exceeded`);
     the symbolic links it left in its outputs folder, removed (``dropped_links``, relative to it)."""
 
     outcome: ChildOutcome
@@ -454,7 +454,7 @@ def _make_hidden_dirs() -> None:
     lies inside a shown folder (a solution run from the home folder: ``~/.local/share/benchbot``,
     ``~/.cache/benchbot``), bubblewrap cannot make the mount point of its empty tmpfs in that read-only folder, and
     one made on the host while the sandbox runs (a pack installed, a scene cached) would show through it."""
-    from benchbot.core.pack_layout import cache_dir, data_dir
+    from benchbot.packs.pack_layout import cache_dir, data_dir
 
     for folder in (data_dir(), cache_dir()):
         try:
@@ -469,7 +469,7 @@ def run_sandboxed(
     timeout_s: float | None = None, stdin: str = "none", limits: SandboxLimits | None = None,
 ) -> SandboxedRun:
     """Run ``argv`` in folder ``cwd`` sandboxed (module docstring), in its own process group
-    (:func:`benchbot.core.process_group.run_child`: stopped whole when it ends, watched, its log capped).
+    (:func:`benchbot.solutions.process_group.run_child`: stopped whole when it ends, watched, its log capped).
 
     Args:
         argv, cwd: the solution's command and folder (a leading ``python`` already made an absolute interpreter).
@@ -483,15 +483,15 @@ def run_sandboxed(
             (``TMPDIR`` and every variable not listed there are dropped); ``HOME``, the backend's address and the
             results location are set for the sandbox, and the shared-memory fast path is turned off
             (the sandbox's ``/dev/shm`` is its own); the display variables as
-            :func:`~benchbot.core.sandbox_extras.display_access` decides.
-        log, timeout_s, stdin: as for :func:`~benchbot.core.process_group.run_child` (``stdin="inherit"``: the
+            :func:`~benchbot.solutions.sandbox_extras.display_access` decides.
+        log, timeout_s, stdin: as for :func:`~benchbot.solutions.process_group.run_child` (``stdin="inherit"``: the
             terminal reaches the solution; the sandbox's session of its own keeps it from typing into your shell,
             docs/security.md). What the solution is not given and why (a display that cannot be passed, an
             editable install's source that stays hidden) is said in ``log`` (else on stderr) first, one line each.
         limits: the solution's resource limits (default: :meth:`SandboxLimits.current`), set inside the sandbox
-            (:mod:`benchbot.core.sandbox_limits`); the ``/tmp`` size among them.
+            (:mod:`benchbot.solutions.sandbox_limits`); the ``/tmp`` size among them.
 
-    Besides the module docstring's folders the sandbox shows (:mod:`benchbot.core.sandbox_extras`): an installed
+    Besides the module docstring's folders the sandbox shows (:mod:`benchbot.solutions.sandbox_extras`): an installed
     content pack's example's own folder, when ``cwd`` is in the pack; the sources of the editable installs of
     BenchBot's Python and of a virtual environment ``argv`` runs; the user's display.
 
@@ -504,9 +504,9 @@ def run_sandboxed(
     Raises:
         UsageError: no sandbox can be made (:func:`check_available`), ``cwd`` is ``/`` or the solution's folder
             is hidden (but for a pack's example whose own folder holds no ground truth:
-            :func:`~benchbot.core.sandbox_extras.check_pack_example`), or the command cannot be started.
+            :func:`~benchbot.solutions.sandbox_extras.check_pack_example`), or the command cannot be started.
     """
-    from benchbot.core.sandbox_extras import check_pack_example, display_access, editable_view
+    from benchbot.solutions.sandbox_extras import check_pack_example, display_access, editable_view
 
     bwrap = check_available()
     limits = limits or SandboxLimits.current()
@@ -592,7 +592,7 @@ def run_sandboxed(
 
 @contextlib.contextmanager
 def _pids_cgroup(limits: SandboxLimits):
-    """A :class:`~benchbot.core.sandbox_limits.PidsCgroup` capping the sandbox's tasks where one can be made, else
+    """A :class:`~benchbot.solutions.sandbox_limits.PidsCgroup` capping the sandbox's tasks where one can be made, else
     None (``RLIMIT_NPROC`` then stands alone)."""
     root = pids_cgroup_root()
     cgroup = None

@@ -1,7 +1,7 @@
 """Ground truth is never served: the strings that name ground-truth files, and text with them blanked out.
 
-:class:`~benchbot.core.server.service.BackendService` gathers the strings; every error the server answers passes
-through :func:`redact` (:func:`~benchbot.core.server.http_errors.error_response`).
+:class:`~benchbot.server.service.BackendService` gathers the strings; every error the server answers passes
+through :func:`redact` (:func:`~benchbot.server.http_errors.error_response`).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Serving an app: :class:`ServerThread` runs uvicorn on a background thread (127.0.0.1 by default; HTTPS with a
-certificate) and, when it stops, frees what :func:`~benchbot.core.server.routes.build_app` made (shared-memory
+certificate) and, when it stops, frees what :func:`~benchbot.server.routes.build_app` made (shared-memory
 segments, worker threads)."""
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ class ServerThread:
         sock: a socket already bound to ``host:port`` (e.g. reserved before a long start-up, so that a taken port is
             said first); the server listens on it and closes it when it stops. None: bind ``host:port`` at start.
         unix_socket: also serve on a Unix socket made at this path (a sandboxed solution's way in:
-            :mod:`benchbot.core.sandbox`); its requests have no client address.
+            :mod:`benchbot.solutions.sandbox`); its requests have no client address.
 
     Raises:
         BackendError: (from start) the server did not come up within 10 s, e.g. the port is taken.

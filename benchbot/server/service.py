@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable
 
 from benchbot.core.episode import Episode
-from benchbot.core.server.redaction import ground_truth_strings
+from benchbot.server.redaction import ground_truth_strings
 
 _WORKER: ThreadPoolExecutor | None = None
 _WORKER_LOCK = threading.Lock()

@@ -1,6 +1,6 @@
 """The ASGI middleware around the app, outermost first: :class:`MergeSlashes` (``//`` counts as ``/``),
 :class:`TokenGuard` (401 without the token; only when the server has one) and :class:`BodyLimit` (413 past
-:data:`~benchbot.core.limits.MAX_REQUEST_BYTES`). :func:`~benchbot.core.server.routes.build_app` stacks them.
+:data:`~benchbot.core.limits.MAX_REQUEST_BYTES`). :func:`~benchbot.server.routes.build_app` stacks them.
 Each passes the wrapped app's ``state`` on."""
 
 from __future__ import annotations
@@ -8,8 +8,9 @@ from __future__ import annotations
 import hmac
 from typing import Any, Callable
 
-from benchbot.core import limits, wire
-from benchbot.core.server.http_errors import PayloadTooLargeError, error_response
+from benchbot.core import limits
+from benchbot.protocol import wire
+from benchbot.server.http_errors import PayloadTooLargeError, error_response
 
 TOKEN_HEADER = wire.TOKEN_HEADER.lower()  # as ASGI gives header names
 

@@ -2,8 +2,8 @@
 
 Request bodies are only ever parsed as JSON or MessagePack: nothing a client sends is unpickled. Every bound a
 request can reach is in :mod:`benchbot.core.limits` (the body's size is bounded before it is read, by
-:class:`~benchbot.core.server.middleware.BodyLimit`); bodies of at least :data:`PARSE_OFF_LOOP_BYTES` are parsed on
-a worker thread, never on the event loop (:func:`~benchbot.core.server.routes.build_app`).
+:class:`~benchbot.server.middleware.BodyLimit`); bodies of at least :data:`PARSE_OFF_LOOP_BYTES` are parsed on
+a worker thread, never on the event loop (:func:`~benchbot.server.routes.build_app`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,10 @@ import json
 import math
 from typing import Any
 
-from benchbot.core import limits, wire
+from benchbot.core import limits
+from benchbot.protocol import wire
 from benchbot.core.errors import BenchbotError
-from benchbot.core.server.http_errors import BadRequestError
+from benchbot.server.http_errors import BadRequestError
 
 #: Request bodies at least this large are parsed on a worker thread, not on the event loop.
 PARSE_OFF_LOOP_BYTES = 64 * 1024
@@ -42,7 +43,7 @@ def parse_json_body(raw: bytes) -> dict:
 
 
 def parse_step_body(raw: bytes) -> dict:
-    """The MessagePack map of a ``/native/step`` body (:func:`benchbot.core.wire.unpack`; ``{}`` when empty).
+    """The MessagePack map of a ``/native/step`` body (:func:`benchbot.protocol.wire.unpack`; ``{}`` when empty).
 
     Raises:
         BadRequestError: not a valid payload, or not a map.

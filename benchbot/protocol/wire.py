@@ -1,13 +1,13 @@
 """The native protocol's payload encoding: MessagePack with NumPy arrays as raw bytes.
 
 An ndarray travels as ``{"__ndarray__": dtype str, "shape": [...], "data": raw C-order bytes}``, or, on the
-same-host shared-memory path (:mod:`benchbot.core.shared_frames`), as ``{"__shm__": dtype str, "shape": [...],
+same-host shared-memory path (:mod:`benchbot.protocol.shared_frames`), as ``{"__shm__": dtype str, "shape": [...],
 "offset": bytes}`` pointing into the client's segment; tuples become lists; NumPy scalars become Python numbers.
 No pickle: decoding never executes code.
 
 Also the HTTP of a request on a connection of its own (:func:`request_once`, how a supervisor looks at a backend
 without being its client) and the TLS context of an address (:func:`tls_context`), which the client
-(:mod:`benchbot.api`) and the supervisor (:mod:`benchbot.core.solution_lease`, ``benchbot submit``) share.
+(:mod:`benchbot.api`) and the supervisor (:mod:`benchbot.solutions.solution_lease`, ``benchbot submit``) share.
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def unpack(data: bytes, fetch: Callable[[str, list, int], np.ndarray] | None = N
     except BenchbotError:
         raise
     except Exception as exc:
-        raise BenchbotError(f"malformed payload: {exc}", "send MessagePack made by benchbot.core.wire.pack") from None
+        raise BenchbotError(f"malformed payload: {exc}", "send MessagePack made by benchbot.protocol.wire.pack") from None
 
 
 def tls_context(address: str, ca_file: str | None = None) -> ssl.SSLContext | None:

@@ -1,7 +1,7 @@
 """What a sandboxed solution may use of the machine, how it is enforced, and how an episode that went past a limit is
 told apart (docs/security.md, "Resource limits").
 
-Every limit is a kernel resource limit that the sandbox's first process (:mod:`benchbot.core.socket_relay`) sets on
+Every limit is a kernel resource limit that the sandbox's first process (:mod:`benchbot.solutions.socket_relay`) sets on
 the solution's process, inside the sandbox, before it starts (``setrlimit`` in ``preexec_fn``; soft and hard, and the
 solution holds no capability to raise them):
 
@@ -70,7 +70,7 @@ class SandboxLimits:
                    int(SANDBOX_CPU_S.value()), SANDBOX_TMP_BYTES.value())
 
     def relay_args(self) -> list[str]:
-        """:mod:`benchbot.core.socket_relay`'s ``--rlimit`` arguments setting them on the solution."""
+        """:mod:`benchbot.solutions.socket_relay`'s ``--rlimit`` arguments setting them on the solution."""
         limits = [("DATA", self.memory_bytes, self.memory_bytes), ("NPROC", self.processes, self.processes),
                   ("FSIZE", self.file_bytes, self.file_bytes), ("CPU", self.cpu_s, self.cpu_s + 1)]
         return [arg for name, soft, hard in limits for arg in ("--rlimit", f"{name}={soft}:{hard}")]
@@ -140,7 +140,7 @@ class PidsCgroup:
     """A cgroup of its own for one sandbox, with ``pids.max`` (a context manager; removed afterwards): the command
     :meth:`wrap` returns joins it before it starts bubblewrap, so every task of the sandbox counts; :meth:`refused`
     says whether a fork was refused at the limit. Named ``benchbot-sandbox-<pid>-<n>`` (its owner's PID: one a
-    killed batch left is removed by :func:`benchbot.core.leftovers.clean_leftovers`)."""
+    killed batch left is removed by :func:`benchbot.solutions.leftovers.clean_leftovers`)."""
 
     _count = 0
 

@@ -1,5 +1,5 @@
 """The protocol-independent operations of the backend (:class:`BackendApi`), shared by the HTTP routes
-(:mod:`benchbot.core.server.routes`) and the in-process client (:mod:`benchbot.api`)."""
+(:mod:`benchbot.server.routes`) and the in-process client (:mod:`benchbot.api`)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from benchbot.core import limits
 from benchbot.core.episode import ACTIONS
 from benchbot.core.observations import BUILT_IN
 from benchbot.core.errors import BenchbotError
-from benchbot.core.server.http_errors import BadRequestError, NotFoundError
-from benchbot.core.server.request_decoding import check_results_arguments
-from benchbot.core.server.service import BackendService
+from benchbot.server.http_errors import BadRequestError, NotFoundError
+from benchbot.server.request_decoding import check_results_arguments
+from benchbot.server.service import BackendService
 
 ROBOT_GREETING = "Hello, I am the BenchBot robot controller"
 #: The original robot config's API-side callback for colour images (docs/original-benchbot.md): clients import it

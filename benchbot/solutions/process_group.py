@@ -3,7 +3,7 @@
 :func:`run_child` starts a command in a new session (so it leads a new process group that its forked children
 join), and, whatever way the run ends — the command exits, the timeout passes, the caller is interrupted — stops
 every process still in that group: SIGTERM, up to :data:`~benchbot.core.limits.STOP_GRACE_S` seconds, then
-SIGKILL. A watchdog process (:mod:`benchbot.core.group_watchdog`) does the same if the calling process dies without
+SIGKILL. A watchdog process (:mod:`benchbot.solutions.group_watchdog`) does the same if the calling process dies without
 doing it (``kill -9``). A process that leaves the group on purpose (``setsid``) escapes both.
 
 With a ``log``, the command's stdout and stderr go through a pipe that is always drained (the command never blocks
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
-from benchbot.core import group_watchdog
+from benchbot.solutions import group_watchdog
 from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
 
 FINAL_DRAIN_S = 2.0

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from benchbot.core.pack_layout import FOLDER_KINDS, PackError, spec_files
+from benchbot.packs.pack_layout import FOLDER_KINDS, PackError, spec_files
 
 if TYPE_CHECKING:  # pragma: no cover
     from benchbot.core.registry import Registry

@@ -73,9 +73,9 @@ def clean_leftovers(tmp: Path | str | None = None) -> list[Path]:
 
 
 def _dead_cgroups() -> list[Path]:
-    """Remove the pids cgroups of sandboxes (:class:`benchbot.core.sandbox_limits.PidsCgroup`) whose owner (the PID
+    """Remove the pids cgroups of sandboxes (:class:`benchbot.solutions.sandbox_limits.PidsCgroup`) whose owner (the PID
     in the name) is gone; the kernel refuses to remove one that still holds a process. Never raises."""
-    from benchbot.core.sandbox_limits import pids_cgroup_root
+    from benchbot.solutions.sandbox_limits import pids_cgroup_root
 
     removed = []
     root = pids_cgroup_root()

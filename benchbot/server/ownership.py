@@ -9,8 +9,9 @@ from typing import Callable
 
 from starlette.requests import Request
 
-from benchbot.core import limits, wire
-from benchbot.core.server.http_errors import BadRequestError, EpisodeInUseError
+from benchbot.core import limits
+from benchbot.protocol import wire
+from benchbot.server.http_errors import BadRequestError, EpisodeInUseError
 
 #: The header naming a client (8–128 of ``A-Z a-z 0-9 _ . : -``, e.g. a random hex id): the episode belongs to one
 #: client at a time (:class:`EpisodeOwnership`).
@@ -31,7 +32,7 @@ class EpisodeOwnership:
     client, as they did in the original. The first client whose request uses the episode (an action, an
     observation, a native step, a robot command other than :data:`READ_ONLY_COMMANDS`) owns it; until the owner
     releases it (``/robot/release``) or sends no request for ``lease_s`` seconds (none in flight), every other
-    client's episode request is refused with :class:`~benchbot.core.server.http_errors.EpisodeInUseError` (409). A
+    client's episode request is refused with :class:`~benchbot.server.http_errors.EpisodeInUseError` (409). A
     client whose lease ran out and whose episode another client then took is told so (409) on its next episode
     request: a client never carries on in an episode that someone else has reset. The supervisor of a solution
     (``benchbot submit``) ends its client's hold once the solution's processes have ended

@@ -9,7 +9,7 @@ milliseconds) with the read end of a pipe as its stdin; the starting process kee
 
 The watchdog runs in its own session, so neither Ctrl-C in the terminal nor a signal to the starter's process group
 reaches it. :func:`group_running`, :func:`group_members` and :func:`process_groups` are also used by
-:mod:`benchbot.core.process_group`.
+:mod:`benchbot.solutions.process_group`.
 """
 
 from __future__ import annotations

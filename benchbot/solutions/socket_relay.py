@@ -1,6 +1,6 @@
 """Byte relays between a sandboxed solution and its backend, and the sandbox's first process.
 
-A sandboxed solution (:mod:`benchbot.core.sandbox`) lives in a network namespace of its own that holds nothing but
+A sandboxed solution (:mod:`benchbot.solutions.sandbox`) lives in a network namespace of its own that holds nothing but
 its loopback device, so it cannot reach the backend's TCP port. It reaches the backend through one Unix socket that
 the sandbox binds in:
 
