@@ -218,3 +218,25 @@ def test_results_of_two_tasks_and_missing_ground_truth(registry, tmp_path):
     b = write(tmp_path / "b.json", perfect_results(registry, "miniroom:2", task="semantic_slam:active:ground_truth"))
     with pytest.raises(ResultsError, match="several tasks"):
         evaluate([a, b], "omq", registry, keep_going=True)
+
+
+def test_results_read_once_are_scored_without_reading_the_file_again(registry, tmp_path):
+    """A batch reads each episode's results file once (``loaded``): evaluate validates and scores what it was given
+    and never reads that path again; other paths are read as usual, and errors keep their order and messages."""
+    given = write(tmp_path / "given.json", perfect_results(registry, "miniroom:1"))
+    loaded = {str(given): load_results(given)}
+    given.write_text("{ this is no longer JSON")  # read again, it would fail
+    data = perfect_results(registry, "house:1")
+    data["results"]["objects"][3]["extent"] = [1, 2]
+    bad = write(tmp_path / "bad.json", data)
+    ev = evaluate([given, bad], "omq", registry, required_envs=["miniroom:1", "house:1"], keep_going=True,
+                  loaded=loaded)
+    assert [s for s, _ in ev.per_result] == [str(given)]
+    assert ev.per_result[0][1]["scores"]["OMQ"] == 1.0
+    assert [e.message for _, e in ev.errors] == [f"{bad}: results.objects[3].extent: expected 3 numbers, got 2"]
+    invalid = dict(perfect_results(registry, "miniroom:2"))
+    del invalid["environment_details"]
+    (tmp_path / "invalid.json").write_text(json.dumps(invalid))
+    with pytest.raises(ResultsError, match=r"invalid.json: \$: 'environment_details' is a required property"):
+        evaluate([tmp_path / "invalid.json"], "omq", registry, loaded={
+            str(tmp_path / "invalid.json"): load_results(tmp_path / "invalid.json")})  # given, still validated

@@ -359,11 +359,82 @@ def method_scores(registry: Registry, method: str) -> ScoreSet | None:
 
 
 def _accepts(fn: Callable, name: str) -> bool:
+    """Whether ``fn`` takes a keyword argument ``name`` (by name, or through ``**kwargs``)."""
     try:
         params = inspect.signature(fn).parameters
     except (TypeError, ValueError):
         return False
     return name in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+
+
+@dataclass
+class _Scoring:
+    """An evaluation method ready to score results: its spec and functions, the keyword arguments its ``evaluate``
+    is given, the set of ground truths asked for (None: each environment's default) and how results combine."""
+
+    method: str
+    registry: Registry
+    spec: dict
+    functions: dict
+    kwargs: dict
+    ground_truth_set: str | None
+    combine: str
+
+    @classmethod
+    def of(cls, method: str, registry: Registry, combine: str, options: dict[str, Any] | None,
+           ground_truth_set: str | None) -> "_Scoring":
+        """Check the method, its options and the combine mode (:func:`evaluate`'s arguments).
+
+        Raises:
+            UsageError: unknown combine mode, or the method does not support an option or that combine mode.
+            SpecError: no method of that name, or one without an ``evaluate`` function.
+        """
+        if combine not in COMBINE_MODES:
+            raise UsageError(f"unknown combine mode '{combine}'", f"use one of: {', '.join(COMBINE_MODES)}")
+        spec = registry.get("evaluators", method)
+        functions = registry.functions("evaluators", method)
+        if "evaluate" not in functions:
+            raise SpecError(f"evaluator '{method}': has no 'evaluate' function", "check its spec's functions")
+        kwargs = {k: v for k, v in (options or {}).items() if v}
+        for name in kwargs:
+            if not _accepts(functions["evaluate"], name):
+                raise UsageError(f"evaluation method '{method}' does not support the option '{name}'", "")
+        if combine != "mean" and "combine" in functions and not _accepts(functions["combine"], "mode"):
+            raise UsageError(f"evaluation method '{method}' has no '{combine}' combine mode", "use --combine mean")
+        return cls(method, registry, spec, functions, kwargs, ground_truth_set, combine)
+
+    def score(self, result: LoadedResult, own_env: str | None) -> dict:
+        """The method's scores of one valid result, against the ground truth of ``own_env`` (the environment the
+        results are of, when known) else of the scenes its ``environment_details`` name; a dict of scores says the
+        set of ground truths it was scored against (``ground_truth_set``).
+
+        Raises:
+            ResultsError: the results are not of ``own_env``, of a format the method cannot score, or the method
+                fails on them (one line naming the file).
+            SpecError: a scene has no ground truth (in the set asked for).
+        """
+        task = result.data["task_details"]
+        if own_env is not None and result.env_string != own_env:
+            raise ResultsError(
+                f"{result.source}: environment_details name {result.env_string}, but these are the results of "
+                f"an episode on {own_env}", "a solution writes the results of the environment it ran in")
+        scenes = result.data["environment_details"] if own_env is None else self.registry.scenes(own_env)
+        if task["results_format"] not in self.spec["valid_result_formats"]:
+            raise ResultsError(
+                f"{result.source}: method '{self.method}' cannot score results of format '{task['results_format']}'",
+                f"it scores: {', '.join(self.spec['valid_result_formats'])}",
+            )
+        ground_truths, used_set = _ground_truths(result.source, scenes, self.spec, self.registry,
+                                                 self.ground_truth_set)
+        try:
+            scores = self.functions["evaluate"](result.data, ground_truths, **self.kwargs)
+        except BenchbotError as exc:
+            raise type(exc)(f"{result.source}: {exc.message}", exc.hint) from None
+        except Exception as exc:  # the method's own bug: name the file, keep a one-line message
+            raise ResultsError(
+                f"{result.source}: {self.method} failed: {_one_line(exc)}", "report this as a bug in the method"
+            ) from exc
+        return {**scores, "ground_truth_set": used_set} if isinstance(scores, dict) else scores
 
 
 def evaluate(
@@ -378,6 +449,7 @@ def evaluate(
     keep_going: bool = False,
     environments: dict[str, str] | None = None,
     ground_truth_set: str | None = None,
+    loaded: dict[str, list[LoadedResult]] | None = None,
 ) -> Evaluation:
     """Validate and score results files (docs/cli.md).
 
@@ -401,6 +473,9 @@ def evaluate(
             :meth:`~benchbot.core.registry.Registry.ground_truth_sets`) instead of each environment's default. Every
             per-result score dict says the set it was scored against (``ground_truth_set``), and so does the combined
             one (the sets used, comma-separated).
+        loaded: ``{str(path): its results}`` for paths already read with :func:`load_results` (a batch reads each
+            episode's results file once, when the episode ends): they are validated and scored without being read
+            again; every other path is read here.
 
     Raises:
         UsageError: unknown combine mode, or the method does not support an option or pooled combining.
@@ -409,18 +484,7 @@ def evaluate(
             it, results of other tasks are skipped); (without ``keep_going``) a results file is malformed (naming
             it and the field), is not of its environment in ``environments``, or the method cannot score it.
     """
-    if combine not in COMBINE_MODES:
-        raise UsageError(f"unknown combine mode '{combine}'", f"use one of: {', '.join(COMBINE_MODES)}")
-    spec = registry.get("evaluators", method)
-    functions = registry.functions("evaluators", method)
-    if "evaluate" not in functions:
-        raise SpecError(f"evaluator '{method}': has no 'evaluate' function", "check its spec's functions")
-    method_kwargs = {k: v for k, v in (options or {}).items() if v}
-    for name in method_kwargs:
-        if not _accepts(functions["evaluate"], name):
-            raise UsageError(f"evaluation method '{method}' does not support the option '{name}'", "")
-    if combine != "mean" and "combine" in functions and not _accepts(functions["combine"], "mode"):
-        raise UsageError(f"evaluation method '{method}' has no '{combine}' combine mode", "use --combine mean")
+    scoring = _Scoring.of(method, registry, combine, options, ground_truth_set)
     if required_task is not None:
         registry.get("tasks", required_task)
     for env in required_envs or []:
@@ -432,86 +496,112 @@ def evaluate(
             raise exc
         evaluation.errors.append((source, exc))
 
+    results, order = _read_in_order(paths, loaded or {}, fail)
+    valid = _validated(results, registry, fail)
+    own_env = {r.source: environments.get(str(paths[order[r.source]])) for r in valid} if environments else {}
+    covered, task_details = _score_each(valid, scoring, evaluation, fail, required_task, required_envs, own_env)
+    evaluation.errors.sort(key=lambda e: order.get(e[0], len(paths)))
+    evaluation.score_set = ScoreSet.from_json({"method": method, "scores": scoring.spec["scores"]}) \
+        if scoring.spec.get("scores") else _observed_or_none(method, [s.get("scores") or {}
+                                                                      for _, s in evaluation.per_result])
+    evaluation.missing = [e for e in (required_envs or []) if e not in covered]
+    if "combine" in scoring.functions:
+        if task_details is None and required_task is not None and combine != "mean":
+            task_details = registry.get("tasks", required_task)
+        evaluation.combined = _combined(evaluation, scoring, task_details)
+    if isinstance(evaluation.combined, dict):
+        used = sorted({s.get("ground_truth_set") for _, s in evaluation.per_result if isinstance(s, dict)} - {None})
+        evaluation.combined["ground_truth_set"] = ", ".join(used) if used else None
+    return evaluation
+
+
+def _read_in_order(paths: list[Path | str], loaded: dict[str, list[LoadedResult]],
+                   fail: Callable[[str, BenchbotError], None]) -> tuple[list[LoadedResult], dict[str, int]]:
+    """Every path's results, in order: those of ``loaded`` as they are, the others read (:func:`load_all`), each
+    file or member that cannot be read given to ``fail``. Returns ``(results, {source: index of its path})``.
+
+    Raises:
+        ResultsError: a path does not exist or is not a regular file (checked for all before anything is read), or
+            there are no results and nothing failed.
+    """
     _check_exist(paths)  # before anything is read
     order: dict[str, int] = {}  # source -> index of its path (errors are reported in input order)
-    loaded: list[LoadedResult] = []
+    results: list[LoadedResult] = []
+    failed = False
     for index, path in enumerate(paths):
-        results, load_errors = load_all([path])
-        order.update({r.source: index for r in results})
+        ready = loaded.get(str(path))
+        found, load_errors = (ready, []) if ready is not None else load_all([path])
+        order.update({r.source: index for r in found})
         order.update({source: index for source, _ in load_errors})
         for source, exc in load_errors:
+            failed = True
             fail(source, exc)
-        loaded += results
-    if not loaded and not evaluation.errors:
+        results += found
+    if not results and not failed:
         raise ResultsError("no results to evaluate", "give results files or zip archives")
+    return results, order
+
+
+def _validated(results: list[LoadedResult], registry: Registry,
+               fail: Callable[[str, BenchbotError], None]) -> list[LoadedResult]:
+    """The results that pass :func:`validate_result`; each one that does not is given to ``fail``."""
     valid = []
-    for result in loaded:
+    for result in results:
         try:
             validate_result(result, registry)
             valid.append(result)
         except BenchbotError as exc:
             fail(result.source, exc)
+    return valid
+
+
+def _score_each(valid: list[LoadedResult], scoring: _Scoring, evaluation: Evaluation,
+                fail: Callable[[str, BenchbotError], None], required_task: str | None,
+                required_envs: list[str] | None, own_env: dict[str, str | None]) -> tuple[set[str], dict | None]:
+    """Score every valid result of the task (:meth:`_Scoring.score`) into ``evaluation.per_result``; results of
+    another task, or (without an environment of their own in ``own_env``) of an environment not required, into
+    ``evaluation.skipped``; a result the method cannot score is given to ``fail``. Returns ``(the environments
+    covered, the first scored result's task details or None)``.
+
+    Raises:
+        ResultsError: the results name several tasks and no ``required_task`` was given.
+    """
     tasks = {r.data["task_details"]["name"] for r in valid}
     if len(tasks) > 1 and required_task is None:
         raise ResultsError(f"results name several tasks: {', '.join(sorted(tasks))}", "evaluate one task at a time")
-    covered = set()
+    covered: set[str] = set()
     task_details = None
     for result in valid:
         task = result.data["task_details"]
+        env = own_env.get(result.source)
         if required_task is not None and task["name"] != required_task:
             evaluation.skipped.append((result.source, f"task {task['name']} is not {required_task}"))
             continue
-        own_env = environments.get(str(paths[order[result.source]])) if environments else None
-        if own_env is None and required_envs is not None and result.env_string not in required_envs:
+        if env is None and required_envs is not None and result.env_string not in required_envs:
             evaluation.skipped.append((result.source, f"environment {result.env_string} is not required"))
             continue
         try:
-            if own_env is not None and result.env_string != own_env:
-                raise ResultsError(
-                    f"{result.source}: environment_details name {result.env_string}, but these are the results of "
-                    f"an episode on {own_env}", "a solution writes the results of the environment it ran in")
-            scenes = result.data["environment_details"] if own_env is None else registry.scenes(own_env)
-            if task["results_format"] not in spec["valid_result_formats"]:
-                raise ResultsError(
-                    f"{result.source}: method '{method}' cannot score results of format '{task['results_format']}'",
-                    f"it scores: {', '.join(spec['valid_result_formats'])}",
-                )
-            ground_truths, used_set = _ground_truths(result.source, scenes, spec, registry, ground_truth_set)
-            try:
-                scores = functions["evaluate"](result.data, ground_truths, **method_kwargs)
-            except BenchbotError as exc:
-                raise type(exc)(f"{result.source}: {exc.message}", exc.hint) from None
-            except Exception as exc:  # the method's own bug: name the file, keep a one-line message
-                raise ResultsError(
-                    f"{result.source}: {method} failed: {_one_line(exc)}", "report this as a bug in the method"
-                ) from exc
+            scores = scoring.score(result, env)
         except BenchbotError as exc:
             fail(result.source, exc)
             continue
-        if isinstance(scores, dict):
-            scores = {**scores, "ground_truth_set": used_set}
         evaluation.per_result.append((result.source, scores))
         covered.add(result.env_string)
         task_details = task_details or task
-    evaluation.errors.sort(key=lambda e: order.get(e[0], len(paths)))
-    evaluation.score_set = ScoreSet.from_json({"method": method, "scores": spec["scores"]}) if spec.get("scores") \
-        else _observed_or_none(method, [s.get("scores") or {} for _, s in evaluation.per_result])
-    evaluation.missing = [e for e in (required_envs or []) if e not in covered]
-    if "combine" in functions:
-        scores_list = [s for _, s in evaluation.per_result]
-        if combine == "mean":
-            scores_list += [{} for _ in evaluation.missing]
-            evaluation.combined = functions["combine"](scores_list)
-        else:
-            if task_details is None and required_task is not None:
-                task_details = registry.get("tasks", required_task)
-            for env in evaluation.missing:
-                scores_list.append(_empty_evaluation(env, task_details, spec, functions, registry, method_kwargs))
-            evaluation.combined = functions["combine"](scores_list, mode=combine)
-    if isinstance(evaluation.combined, dict):
-        used = sorted({s.get("ground_truth_set") for _, s in evaluation.per_result if isinstance(s, dict)} - {None})
-        evaluation.combined["ground_truth_set"] = ", ".join(used) if used else None
-    return evaluation
+    return covered, task_details
+
+
+def _combined(evaluation: Evaluation, scoring: _Scoring, task_details: dict | None):
+    """The method's ``combine`` over the scored results, each missing required environment padded (``{}`` for
+    ``mean``; for ``pooled``, the method's scores of an empty map of it, :func:`_empty_evaluation`)."""
+    combine = scoring.functions["combine"]
+    scores_list = [s for _, s in evaluation.per_result]
+    if scoring.combine == "mean":
+        return combine(scores_list + [{} for _ in evaluation.missing])
+    for env in evaluation.missing:
+        scores_list.append(_empty_evaluation(env, task_details, scoring.spec, scoring.functions, scoring.registry,
+                                             scoring.kwargs))
+    return combine(scores_list, mode=scoring.combine)
 
 
 def _observed_or_none(method: str, entries: list[dict]) -> ScoreSet | None:
