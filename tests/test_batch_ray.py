@@ -375,7 +375,8 @@ def test_sandboxed_episodes_through_ray_client_and_a_node_that_cannot_sandbox(cl
     assert (run_dir / ok[0]["results"]).is_file() and (run_dir / "outputs" / Path(ok[0]["results"]).stem).is_dir()
     error = failed[0]["error"]
     assert failed[0]["status"] == "error" and "\n" not in error
-    assert error.startswith(f"on node {failed[0]['node']['address']} ({failed[0]['node']['id'][:8]}): "
+    assert "address" not in failed[0]["node"]  # manifests name no host (BENCHBOT_MANIFEST_LOCAL=1 keeps it)
+    assert error.startswith(f"on node {failed[0]['node']['id'][:8]}: "
                             "bubblewrap cannot make the solution sandbox on this machine"), error
     lines = [line for line in proc.stderr.splitlines() if "bubblewrap cannot make" in line]
     assert len(lines) == 2 and all(line.startswith(("[", "miniroom:4: error")) for line in lines), proc.stderr

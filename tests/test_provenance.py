@@ -96,3 +96,12 @@ def test_manifest_paths_are_portable_and_made_local_again(tmp_path, monkeypatch)
                                        run_dir) == ["benchbot", "batch", "--output-dir", "~/r"]
     monkeypatch.setenv("BENCHBOT_MANIFEST_LOCAL", "1")
     assert provenance.portable_plan(plan, run_dir) == plan and provenance.local_node()["hostname"]
+
+
+def test_a_ray_node_is_named_by_its_id_and_by_its_address_only_where_recorded():
+    """Manifests name no host by default: a Ray node's record is ``{id}``, and error lines name it by its id's start."""
+    from benchbot.batch.executors import node_name
+
+    assert node_name({"id": "3f2a1b2c99aa"}) == "3f2a1b2c"
+    assert node_name({"id": "3f2a1b2c99aa", "address": "10.0.0.7"}) == "10.0.0.7 (3f2a1b2c)"
+    assert node_name({}) == "an unknown node"

@@ -98,7 +98,7 @@ class EpisodeRecord:
             and version, scene style, Taichi arch and device, the plugin's settings); ``{}`` before it ran.
         executor: what ran its last attempt, ``local`` or ``ray`` (``""`` before it ran).
         node: where its last attempt ran: ``{}`` for ``local`` (``{"hostname"}`` with ``BENCHBOT_MANIFEST_LOCAL=1``);
-            ``{"id", "address"}`` (the Ray node's id and IP address) for ``ray``.
+            ``{"id"}`` (the Ray node's id; its IP ``address`` too with ``BENCHBOT_MANIFEST_LOCAL=1``) for ``ray``.
         lost: the attempts lost with their Ray node or worker process (``[{"node", "error"}]``, oldest first),
             each run again on another node (:data:`benchbot.batch.executors.RAY_LOST_RETRIES`); they count in
             ``attempts``.
