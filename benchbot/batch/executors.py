@@ -296,22 +296,27 @@ class RayCluster:
     _handler: logging.Handler | None = field(default=None, repr=False)
 
     def nodes(self) -> list[dict]:
-        """The cluster's live nodes: ``[{id, address, hostname, cpus, gpus}]`` (``[]`` when Ray cannot say)."""
+        """The cluster's live nodes: ``[{id, cpus, gpus}]``, with ``address`` and ``hostname`` only where
+        ``BENCHBOT_MANIFEST_LOCAL=1`` keeps hosts in manifests (``[]`` when Ray cannot say)."""
         import ray
 
         try:
             nodes = ray.nodes()
         except Exception:  # noqa: BLE001 - facts for the manifest; never fail a batch over them
             return []
-        return [{"id": n.get("NodeID", ""), "address": n.get("NodeManagerAddress", ""),
-                 "hostname": n.get("NodeManagerHostname", ""), "cpus": n.get("Resources", {}).get("CPU", 0),
-                 "gpus": n.get("Resources", {}).get("GPU", 0)} for n in nodes if n.get("Alive")]
+        local = provenance.keep_paths()
+        return [{"id": n.get("NodeID", ""), "cpus": n.get("Resources", {}).get("CPU", 0),
+                 "gpus": n.get("Resources", {}).get("GPU", 0),
+                 **({"address": n.get("NodeManagerAddress", ""), "hostname": n.get("NodeManagerHostname", "")}
+                    if local else {})} for n in nodes if n.get("Alive")]
 
     def facts(self) -> dict:
-        """The manifest's ``executor`` entry: ``{name: "ray", ray: version, address, source, started_here, nodes}``."""
+        """The manifest's ``executor`` entry: ``{name: "ray", ray: version, address, source, started_here, nodes}``;
+        the cluster's address only when it names no host (``auto``, None) or ``BENCHBOT_MANIFEST_LOCAL=1``."""
         import ray
 
-        return {"name": "ray", "ray": ray.__version__, "address": self.address, "source": self.source,
+        address = self.address if self.address in (None, "auto") or provenance.keep_paths() else "not recorded"
+        return {"name": "ray", "ray": ray.__version__, "address": address, "source": self.source,
                 "started_here": self.started_here, "nodes": self.nodes()}
 
     def describe(self) -> str:
@@ -608,18 +613,24 @@ class _ActorSink:
 
 
 def _node_facts() -> dict:
-    """Where a Ray task runs: ``{id, address}`` (its node's id and IP address; ``hostname`` too with
-    ``BENCHBOT_MANIFEST_LOCAL=1``)."""
+    """Where a Ray task runs: ``{id}`` (its node's id, as `ray status` and Ray's dashboard show it); its IP
+    ``address`` and ``hostname`` too only with ``BENCHBOT_MANIFEST_LOCAL=1`` (manifests name no host by default)."""
     import ray
 
-    return {"id": ray.get_runtime_context().get_node_id(), "address": ray.util.get_node_ip_address(),
-            **provenance.local_node()}  # its host name only with BENCHBOT_MANIFEST_LOCAL=1
+    here = {"id": ray.get_runtime_context().get_node_id()}
+    if provenance.keep_paths():
+        here["address"] = ray.util.get_node_ip_address()
+    return {**here, **provenance.local_node()}
 
 
 def node_name(node: dict) -> str:
-    """A Ray node in a few words, ``10.0.0.7 (3f2a1b2c)`` (its address and the start of its id), from a record's
-    ``node`` (:func:`_node_facts`); ``an unknown node`` when ``node`` is empty."""
-    return f"{node.get('address', '?')} ({str(node.get('id', ''))[:8]})" if node else "an unknown node"
+    """A Ray node in a few words, from a record's ``node`` (:func:`_node_facts`): the start of its id,
+    ``3f2a1b2c``, after its address where recorded, ``10.0.0.7 (3f2a1b2c)``; ``an unknown node`` when ``node`` is
+    empty."""
+    if not node:
+        return "an unknown node"
+    short = str(node.get("id", ""))[:8] or "?"
+    return f"{node['address']} ({short})" if node.get("address") else short
 
 
 def distribution_versions() -> dict[str, str]:
