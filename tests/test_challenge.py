@@ -52,6 +52,37 @@ def test_init_on_the_test_split_makes_the_keys_and_public_conditions(tmp_path, w
         challenge.init_challenge(tmp_path / "ch", task="t", robot="r", split="test", count=1)
 
 
+def test_the_challenge_sets_each_solutions_limits_and_refuses_a_run_under_others(tmp_path, monkeypatch):
+    """conditions.json records the limits on each solution (this host's BENCHBOT_SANDBOX_* values, --limit on top);
+    the batch gets them as those variables; a run whose manifest records other limits is not signed."""
+    from benchbot.solutions.sandbox_limits import SandboxLimits
+
+    monkeypatch.setenv("BENCHBOT_SANDBOX_PROCESSES", "300")
+    cond = challenge.init_challenge(tmp_path / "ch", task="t", robot="r", split=None, count=1,
+                                    environments=["miniroom:1"], limits=["memory=3G", "cpu=600"])
+    solution = cond["limits"]["solution"]
+    assert solution == {"memory_bytes": 3 << 30, "processes": 300, "file_bytes": SandboxLimits.current().file_bytes,
+                        "cpu_s": 600, "tmp_bytes": SandboxLimits.current().tmp_bytes}
+    env = challenge.batch_environment(cond)
+    assert (env["BENCHBOT_SANDBOX_MEMORY_BYTES"], env["BENCHBOT_SANDBOX_CPU_S"]) == (str(3 << 30), "600")
+    monkeypatch.setenv("BENCHBOT_SANDBOX_MEMORY_BYTES", env["BENCHBOT_SANDBOX_MEMORY_BYTES"])
+    monkeypatch.setenv("BENCHBOT_SANDBOX_CPU_S", "600")
+    run = tmp_path / "run"
+    run.mkdir()
+    manifest = {"task": "t", "robots": ["r"], "environments": ["miniroom:1"], "sandbox": "bwrap",
+                "limits": SandboxLimits.current().record()}
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    challenge.check_matches(run, cond)  # the run's solutions ran under the challenge's limits
+    manifest["limits"]["memory_bytes"] = 8 << 30
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(UsageError, match="its solution limits .* is not the challenge's"):
+        challenge.check_matches(run, cond)
+    for bad, words in ((["speed=3"], "is not NAME=VALUE"), (["memory=lots"], "--limit memory='lots' is not a positive")):
+        with pytest.raises(UsageError, match=words) as info:
+            challenge.solution_limits(bad)
+        assert "--limit" in info.value.hint
+
+
 def test_init_without_benchbot_worlds_says_so_in_one_line(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "benchbot_worlds.procedural", None)  # as if it were not installed
     with pytest.raises(UsageError, match="needs benchbot-worlds, which is not installed") as info:
@@ -63,6 +94,7 @@ def test_cli_bad_input_is_one_line(tmp_path):
     for args, words in ((("init", str(tmp_path / "a"), "--split", "exam"), "--split 'exam' is not a split"),
                         (("init", str(tmp_path / "a")), "give --split"),
                         (("init", str(tmp_path / "a"), "--task", "nope", "--split", "val"), "nope"),
+                        (("init", str(tmp_path / "a"), "--split", "val", "--limit", "cpu=-1"), "--limit cpu='-1' is not"),
                         (("evaluate", str(tmp_path), "--challenge", str(tmp_path)), "conditions.json: missing")):
         proc = cli("challenge", *args)
         assert proc.returncode in (2, 3) and words in proc.stderr and "Traceback" not in proc.stderr, (args, proc.stderr)
@@ -83,7 +115,7 @@ def test_evaluate_runs_the_submission_sandboxed_and_signs_it(tmp_path, worlds_ke
     """End to end on one episode of the held-out split (procedural_test_0:1, built with this test's worlds key; the
     hello_passive example as a participant's folder): the run is sandboxed, signed, verifies with the host's key,
     is ranked as verified on the leaderboard, and fails verification once a results byte is edited."""
-    proc = cli("challenge", "init", str(tmp_path / "ch"), "--split", "test", "--count", "1")
+    proc = cli("challenge", "init", str(tmp_path / "ch"), "--split", "test", "--count", "1", "--limit", "memory=3G")
     assert proc.returncode == 0, proc.stderr
     submission = tmp_path / "team"
     submission.mkdir()
@@ -99,6 +131,7 @@ def test_evaluate_runs_the_submission_sandboxed_and_signs_it(tmp_path, worlds_ke
     signed = json.loads((run / "signature.json").read_text())["signed"]
     assert signed["conditions"]["challenge"]["split"] == "test" and "conditions.json" in signed["files"]
     assert signed["conditions"]["worlds"] == signing.HELD_OUT
+    assert signed["conditions"]["limits"]["solution"]["memory_bytes"] == manifest["limits"]["memory_bytes"] == 3 << 30
     assert any(f.startswith("results/") for f in signed["files"])
     public = tmp_path / "ch" / signing.PUBLIC_KEY_FILE
     proc = cli("verify", str(run), "--key", str(public))

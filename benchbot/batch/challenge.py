@@ -18,6 +18,7 @@ conditions, copies ``conditions.json`` into the run and signs it (:func:`benchbo
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import subprocess
 import sys
@@ -59,9 +60,56 @@ def split_environments(split: str, count: int) -> list[str]:
     return [f"{GENERATOR}_{split}_{i}:1" for i in range(count)]
 
 
+#: A challenge's solution limits: ``--limit`` name → (the manifest's key, the limit whose variable the batch gets).
+SOLUTION_LIMITS = {"memory": ("memory_bytes", "SANDBOX_MEMORY_BYTES"), "processes": ("processes", "SANDBOX_PROCESSES"),
+                   "file": ("file_bytes", "SANDBOX_FILE_BYTES"), "cpu": ("cpu_s", "SANDBOX_CPU_S"),
+                   "tmp": ("tmp_bytes", "SANDBOX_TMP_BYTES")}
+
+
+def solution_limits(given: list[str] | None = None) -> dict[str, int]:
+    """A challenge's limits on each solution, ``{memory_bytes, processes, file_bytes, cpu_s, tmp_bytes}``: this
+    host's (the ``BENCHBOT_SANDBOX_*`` variables, else their defaults; docs/security.md) with ``given`` on top.
+
+    Args:
+        given: ``NAME=VALUE`` strings, NAME one of :data:`SOLUTION_LIMITS` (``memory=4G``, ``cpu=600``), VALUE as
+            the limit's variable takes it (bytes may end in ``K``/``M``/``G``).
+
+    Raises:
+        UsageError: an unknown name, a missing ``=``, or a value the limit does not take (one line naming it).
+    """
+    from benchbot.core import limits as all_limits
+    from benchbot.solutions.sandbox_limits import SandboxLimits
+
+    current = SandboxLimits.current()
+    values = {key: int(getattr(current, key)) for key, _ in SOLUTION_LIMITS.values()}
+    for item in given or []:
+        name, sep, raw = item.partition("=")
+        if not sep or name.strip() not in SOLUTION_LIMITS:
+            raise UsageError(f"--limit {item!r} is not NAME=VALUE with NAME one of {', '.join(SOLUTION_LIMITS)}",
+                             "e.g. --limit memory=4G --limit cpu=600")
+        key, limit_name = SOLUTION_LIMITS[name.strip()]
+        limit = getattr(all_limits, limit_name)
+        values[key] = int(limit.parse(raw, f"--limit {name.strip()}",
+                                      f"e.g. --limit {name.strip()}={limit.example(limit.default)}"))
+    return values
+
+
+def batch_environment(conditions: dict) -> dict[str, str]:
+    """The environment a challenge's batch runs in: this process's, with the challenge's solution limits as the
+    ``BENCHBOT_SANDBOX_*`` variables the sandbox reads (a challenge made before limits were recorded: unchanged)."""
+    from benchbot.core import limits as all_limits
+
+    env = dict(os.environ)
+    given = (conditions.get("limits") or {}).get("solution") or {}
+    for key, limit_name in SOLUTION_LIMITS.values():
+        if isinstance(given.get(key), int):
+            env[getattr(all_limits, limit_name).env] = str(given[key])
+    return env
+
+
 def init_challenge(folder: Path, *, task: str, robot: str, split: str | None, count: int,
                    environments: list[str] | None = None, evaluate_with: str = "auto",
-                   episode_timeout_s: float | None = None) -> dict:
+                   episode_timeout_s: float | None = None, limits: list[str] | None = None) -> dict:
     """Make a challenge in ``folder``: the host key pair (:func:`benchbot.batch.signing.write_key_pair`), the test
     split's key when ``split`` is ``test`` (:func:`ensure_test_key`) and ``conditions.json``.
 
@@ -69,15 +117,16 @@ def init_challenge(folder: Path, *, task: str, robot: str, split: str | None, co
         split: ``train``, ``val`` or ``test``: the challenge runs variant 1 of its first ``count`` homes; None with
             ``environments`` (a development challenge on named environments, e.g. ``miniroom:1``).
         environments: named environments instead of a split.
+        limits: ``NAME=VALUE`` limits on each solution over this host's (:func:`solution_limits`).
 
     Returns:
         the conditions as written: ``{"format", "task", "robot", "split", "count", "environments", "worlds",
-        "evaluate_with", "limits": {"episode_timeout_s"}, "isolation", "public_key", "fingerprint",
-        "test_split_key_id", "created"}``.
+        "evaluate_with", "limits": {"episode_timeout_s", "solution": {memory_bytes, processes, file_bytes, cpu_s,
+        tmp_bytes}}, "isolation", "public_key", "fingerprint", "test_split_key_id", "created"}``.
 
     Raises:
-        UsageError: the folder already holds a challenge; a bad split or count; neither or both of split and
-            environments; benchbot-worlds missing for the test split.
+        UsageError: the folder already holds a challenge; a bad split, count or limit; neither or both of split
+            and environments; benchbot-worlds missing for the test split.
     """
     folder = Path(folder)
     if (folder / CONDITIONS_FILE).exists() or (folder / signing.PRIVATE_KEY_FILE).exists():
@@ -89,13 +138,14 @@ def init_challenge(folder: Path, *, task: str, robot: str, split: str | None, co
         raise UsageError(f"--split '{split}' is not a split", f"use one of {', '.join(SPLITS)}")
     if not 1 <= count <= 10_000:
         raise UsageError(f"--count {count} is outside 1..10000", "e.g. --count 100")
+    solution = solution_limits(limits)
     key_id = ensure_test_key() if split == "test" else None
     envs = list(environments) if environments else split_environments(split, count)
     private, public = signing.write_key_pair(folder)
     conditions = {
         "format": FORMAT, "task": task, "robot": robot, "split": split, "count": len(envs), "environments": envs,
         "worlds": signing.worlds_standing(envs), "evaluate_with": evaluate_with,
-        "limits": {"episode_timeout_s": episode_timeout_s}, "isolation": "bwrap",
+        "limits": {"episode_timeout_s": episode_timeout_s, "solution": solution}, "isolation": "bwrap",
         "public_key": public.name, "fingerprint": signing.fingerprint(signing.load_public_key(public)),
         "test_split_key_id": key_id, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
@@ -153,16 +203,20 @@ def batch_argv(conditions: dict, command: str, output_dir: Path, *, workers: int
 
 
 def check_matches(run_dir: Path, conditions: dict) -> None:
-    """Refuse to sign a run that does not match the challenge: its task, robots, environments and isolation.
+    """Refuse to sign a run that does not match the challenge: its task, robots, environments, isolation and the
+    limits its solutions ran under (the manifest's ``limits``).
 
     Raises:
         UsageError: naming the first difference.
     """
     manifest = json.loads((run_dir / "manifest.json").read_text(encoding="utf-8"))
+    wanted_limits = (conditions.get("limits") or {}).get("solution")
+    ran_limits = {key: (manifest.get("limits") or {}).get(key) for key in wanted_limits} if wanted_limits else None
     for what, ran, wanted in (("task", manifest.get("task"), conditions["task"]),
                               ("robots", manifest.get("robots"), [conditions["robot"]]),
                               ("environments", manifest.get("environments"), conditions["environments"]),
-                              ("isolation", manifest.get("sandbox"), conditions.get("isolation", "bwrap"))):
+                              ("isolation", manifest.get("sandbox"), conditions.get("isolation", "bwrap")),
+                              ("solution limits", ran_limits, wanted_limits)):
         if ran != wanted:
             raise UsageError(f"{run_dir}: its {what} {ran!r} is not the challenge's {wanted!r}; not signed",
                              "evaluate it again with `benchbot challenge evaluate`")
@@ -203,7 +257,7 @@ def evaluate_submission(submission: Path, challenge: Path, *, native: str | None
     runs.mkdir(exist_ok=True)
     before = set(runs.iterdir())
     status = subprocess.call(batch_argv(conditions, command, runs, workers=workers, executor=executor),
-                             cwd=submission)
+                             cwd=submission, env=batch_environment(conditions))
     made = sorted(set(runs.iterdir()) - before)
     if not made:
         raise UsageError(f"the batch made no run directory in {runs} (exit status {status}); nothing to sign",

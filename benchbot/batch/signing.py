@@ -211,7 +211,8 @@ def covered_files(run_dir: Path) -> list[str]:
 def run_conditions(manifest: dict) -> dict:
     """The conditions a run ran under, from its manifest: ``task``, ``robots``, ``environments``, ``worlds``
     (:func:`worlds_standing`), ``episodes``, ``seeds``, ``noise``, ``limits`` (``episode_timeout_s``: the distinct
-    per-episode timeouts), ``evaluate_with``, ``ground_truth_sets``, ``executor``."""
+    per-episode timeouts; ``solution``: the manifest's record of each solution's resource limits and how each was
+    enforced, None for solutions not sandboxed), ``evaluate_with``, ``ground_truth_sets``, ``executor``."""
     plan = [p for p in manifest.get("plan") or [] if isinstance(p, dict)]
     envs = list(manifest.get("environments") or [])
     return {
@@ -219,7 +220,9 @@ def run_conditions(manifest: dict) -> dict:
         "worlds": worlds_standing(envs), "episodes": len(plan), "seeds": sorted({p.get("seed") for p in plan
                                                                                 if isinstance(p.get("seed"), int)}),
         "noise": sorted({str(p.get("noise", "none")) for p in plan}),
-        "limits": {"episode_timeout_s": sorted({p.get("timeout_s") for p in plan if isinstance(p.get("timeout_s"), (int, float))})},
+        "limits": {"episode_timeout_s": sorted({p.get("timeout_s") for p in plan
+                                                if isinstance(p.get("timeout_s"), (int, float))}),
+                   "solution": manifest.get("limits")},
         "evaluate_with": manifest.get("evaluate_with"), "ground_truth_sets": manifest.get("ground_truth_sets"),
         "executor": manifest.get("executor"),
     }

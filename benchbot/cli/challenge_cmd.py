@@ -35,6 +35,10 @@ def register(app: typer.Typer) -> None:
         evaluate_with: str = typer.Option("auto", "--evaluate-with", help="Evaluation method."),
         episode_timeout: Optional[float] = typer.Option(None, "--episode-timeout", help="Seconds per episode "
                                                         "(default: the task's)."),
+        limit: Optional[list[str]] = typer.Option(None, "--limit", help="A limit on each solution, NAME=VALUE: "
+                                                  "memory (bytes, K/M/G), processes, file (bytes), cpu (seconds), "
+                                                  "tmp (bytes); repeat it. Default: this host's BENCHBOT_SANDBOX_* "
+                                                  "values (docs/security.md)."),
     ) -> None:
         """Make a challenge: the host's Ed25519 key pair (private key mode 0600), the test split's key when the
         split is test (as `benchbot worlds key`), and conditions.json (public)."""
@@ -46,7 +50,7 @@ def register(app: typer.Typer) -> None:
         reg.get("robots", robot)
         envs = [e.strip() for e in environments.split(",") if e.strip()] if environments else None
         cond = init_challenge(folder, task=task, robot=robot, split=split, count=count, environments=envs,
-                              evaluate_with=evaluate_with, episode_timeout_s=episode_timeout)
+                              evaluate_with=evaluate_with, episode_timeout_s=episode_timeout, limits=limit)
         out.print(f"challenge in {folder}: {cond['task']}, {cond['robot']}, {cond['count']} environments "
                   f"({cond['worlds']}); host key {cond['fingerprint']}", highlight=False, markup=False)
         err.print(f"publish {folder / 'conditions.json'} and {folder / cond['public_key']}; keep "

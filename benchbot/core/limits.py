@@ -103,9 +103,18 @@ class Limit:
         raw = os.environ.get(self.env, "").strip() if self.env else ""
         if not raw:
             return self.default
-        number = self._parse(raw)
+        return self.parse(raw, self.env)
+
+    def parse(self, raw: str, name: str, hint: str | None = None) -> float:
+        """``raw`` as a value of this limit (as :meth:`value` reads its variable: ``4G``, ``600``).
+
+        Raises:
+            UsageError: ``raw`` is not a valid value; the message names it as ``name=raw`` (``hint``: the fix; default:
+                how to set the variable).
+        """
+        number = self._parse(raw.strip())
         if number is None or not (number > 0 or (number == 0 and self.zero_means is not None)):
-            raise UsageError(f"{self.env}={raw!r} is not {self.kind()}", self._fix_hint())
+            raise UsageError(f"{name}={raw!r} is not {self.kind()}", hint or self._fix_hint())
         return number
 
     def _parse(self, raw: str) -> float | None:
