@@ -12,8 +12,10 @@ from types import SimpleNamespace
 
 import pytest
 
+from benchbot.batch.analysis import analyse
 from benchbot.batch.leaderboard import entries
-from benchbot.batch.report import analyse, assign_labels, load_run, provenance
+from benchbot.batch.run_conditions import provenance_rows
+from benchbot.batch.run_data import assign_labels, load_run
 from benchbot.core.evaluation import ScoreSet, evaluate, method_scores, observed_scores
 from benchbot.core.registry import Registry
 
@@ -75,7 +77,7 @@ def test_report_compares_on_the_declared_primary_score(runs, reg):
     [c] = result["comparisons"]
     assert c["score"] == "miss_m" and c["direction"] == "lower" and c["difference"]["value"] < 0  # close misses less
     assert "gives no per-class scores" in result["runs"][0]["objects_note"]
-    assert "primary score miss_m, lower is better" in dict(provenance(close))["evaluation"]
+    assert "primary score miss_m, lower is better" in dict(provenance_rows(close))["evaluation"]
 
 
 def test_leaderboard_ranks_lower_is_better_first(runs):
@@ -126,7 +128,7 @@ def test_a_sweep_plots_the_declared_primary_score(runs, tmp_path):
 def test_a_method_without_a_declaration_still_gets_views(reg, tmp_path):
     run = load_run(make_run(tmp_path, "old", {"miniroom:1": [0.9]}, method="reach_undeclared", registry=reg))
     assert (run.primary, run.score_set.declared) == ("miss_m", False)  # the first real-valued score it returned
-    assert "not declared by the method: assumed" in dict(provenance(run))["evaluation"]
+    assert "not declared by the method: assumed" in dict(provenance_rows(run))["evaluation"]
 
 
 def test_the_contract_check_holds_a_method_to_its_declaration(reg):

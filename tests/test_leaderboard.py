@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from benchbot.batch.leaderboard import entries, slug, write_site
-from benchbot.batch.report import assign_labels, load_run
+from benchbot.batch.run_data import assign_labels, load_run
 
 sys.path.insert(0, str(Path(__file__).parent))
 import report_runs  # noqa: E402
@@ -128,7 +128,8 @@ def test_entries_the_intervals_do_not_tell_apart_share_a_rank(tmp_path):
 def test_runs_without_the_sandbox_are_marked_and_not_ranked(tmp_path):
     """A run whose solution could read the ground truth (--no-sandbox, or a batch from before the sandbox) is listed
     as not verifiable and never ranked, however high it scores; its report says so too."""
-    from benchbot.batch.report import analyse, render_html
+    from benchbot.batch.analysis import analyse
+    from benchbot.batch.report import render_html
 
     runs = [load_run(scores_only_run(tmp_path, "a", {"miniroom:1": [0.2]}, example="honest")),
             load_run(scores_only_run(tmp_path, "b", {"miniroom:1": [0.99]}, example="copied", sandbox="none"))]
@@ -258,7 +259,8 @@ def test_verified_entries_are_ranked_apart_from_self_reported_ones(tmp_path):
 
 def test_the_report_labels_runs_on_public_worlds_as_development(tmp_path):
     """`benchbot report` says which runs ran on public worlds (ground truth public) and which on held-out ones."""
-    from benchbot.batch.report import analyse, render_html
+    from benchbot.batch.analysis import analyse
+    from benchbot.batch.report import render_html
     from benchbot.batch.signing import DEVELOPMENT, HELD_OUT
 
     runs = [load_run(scores_only_run(tmp_path, "a", {"procedural_test_0:1": [0.2]}, example="held")),

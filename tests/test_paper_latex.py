@@ -18,8 +18,10 @@ import numpy as np
 import pytest
 
 from benchbot.batch import predictivity as pred
+from benchbot.batch.analysis import analyse
 from benchbot.batch.paper import LATEX_PACKAGES, Table, latex_escape, latex_layout, to_latex
-from benchbot.batch.report import analyse, assign_labels, load_run, tables
+from benchbot.batch.report_tables import tables
+from benchbot.batch.run_data import assign_labels, load_run
 from benchbot.core.registry import get_registry
 
 sys.path.insert(0, str(Path(__file__).parent))

@@ -17,10 +17,11 @@ import pytest
 from scipy import stats as sps
 
 from benchbot.batch import stats
-from benchbot.batch.report import (
-    UnfinishedRun, analyse, assign_labels, compare, comparisons, default_label, driven_path, factor_views, load_run,
-    pair_episodes, per_class_rows, write_report,
-)
+from benchbot.batch.analysis import analyse, factor_views
+from benchbot.batch.object_views import driven_path, per_class_rows
+from benchbot.batch.report import write_report
+from benchbot.batch.run_data import UnfinishedRun, assign_labels, default_label, load_run
+from benchbot.batch.run_stats import compare, comparisons, pair_episodes
 from benchbot.core.errors import UsageError
 from benchbot.core.registry import get_registry
 

@@ -17,7 +17,8 @@ import pytest
 
 from benchbot.batch import figures
 from benchbot.batch.leaderboard import write_site
-from benchbot.batch.report import assign_labels, load_run, write_report
+from benchbot.batch.report import write_report
+from benchbot.batch.run_data import assign_labels, load_run
 from benchbot.core.registry import get_registry
 
 sys.path.insert(0, str(Path(__file__).parent))

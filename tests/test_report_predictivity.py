@@ -12,7 +12,7 @@ import pytest
 
 from benchbot.batch import predictivity as pred
 from benchbot.batch import stats
-from benchbot.batch.report import assign_labels, load_run
+from benchbot.batch.run_data import assign_labels, load_run
 from benchbot.core.errors import UsageError
 
 sys.path.insert(0, str(Path(__file__).parent))

@@ -254,7 +254,8 @@ def test_intervals_stay_in_the_declared_range(tmp_path):
     import sys
     from pathlib import Path
 
-    from benchbot.batch.report import analyse, load_run
+    from benchbot.batch.analysis import analyse
+    from benchbot.batch.run_data import load_run
 
     sys.path.insert(0, str(Path(__file__).parent))
     from report_runs import scores_only_run
@@ -315,7 +316,8 @@ def test_report_plans_from_a_pilot(tmp_path):
     import sys
     from pathlib import Path
 
-    from benchbot.batch.report import analyse, load_run
+    from benchbot.batch.analysis import analyse
+    from benchbot.batch.run_data import load_run
 
     sys.path.insert(0, str(Path(__file__).parent))
     from report_runs import scores_only_run

@@ -306,7 +306,7 @@ def paired_differences(comparison: dict, score: str, min_pairs: int):
     Args:
         comparison: ``{"a", "b", "keys", "envs", "differences" (per episode pair), "environments",
             "environment_differences", "difference": Estimate dict, "n", "ttest_p_holm", "reason", "pairing",
-            "episodes": {...}}`` (:func:`benchbot.batch.report.compare`).
+            "episodes": {...}}`` (:func:`benchbot.batch.run_stats.compare`).
     """
     plt = pyplot()
     envs = comparison.get("environments") or list(dict.fromkeys(comparison.get("envs", [])))

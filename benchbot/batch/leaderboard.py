@@ -9,7 +9,7 @@ The site is plain files — no server, no external scripts, fonts or styles — 
     site/entries/<entry>/report.html     and its report (``benchbot report``), with report_files/
     site/leaderboard.json                every entry's numbers
 
-Entries are comparable only under identical conditions (:data:`~benchbot.batch.report.CONDITIONS` but the
+Entries are comparable only under identical conditions (:data:`~benchbot.batch.run_conditions.CONDITIONS` but the
 environments: robot, noise preset, camera, simulator and its version, scene style, isolation level, evaluation
 method, the set of ground truths the scores used), so each task's page has one table per condition set (:func:`condition_key`). Within a table, entries are
 ranked on one set of environments (:func:`benchmark_set`: ``--environments``, else the set most of its entries ran):
@@ -46,11 +46,12 @@ from typing import Callable
 
 from benchbot.batch import stats
 from benchbot.batch.figures import fmt
+from benchbot.batch.object_views import RESCORE_TOLERANCE
+from benchbot.batch.report import CSS, write_report
+from benchbot.batch.run_conditions import CONDITIONS, conditions, provenance_rows, solution, verifiable, worlds
+from benchbot.batch.run_data import RunData
+from benchbot.batch.run_stats import bounded, present_scores
 from benchbot.batch.signing import DEVELOPMENT, is_held_out
-from benchbot.batch.report import (
-    CONDITIONS, CSS, RunData, bounded, conditions, present_scores, provenance, solution, verifiable, worlds,
-    write_report,
-)
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 
@@ -196,7 +197,7 @@ def rescore(run: RunData, registry) -> dict:
     ``benchbot batch`` scored it (:func:`benchbot.core.evaluation.evaluate` over its ``ok`` episodes' results, each
     against the environment of its plan, the run's ``--ground-truths`` set), and compare with what it records:
     every episode's scores (``episode_scores.json``) and the combined ones (``scores.json``), within
-    :data:`~benchbot.batch.report.RESCORE_TOLERANCE`.
+    :data:`~benchbot.batch.object_views.RESCORE_TOLERANCE`.
 
     Returns:
         ``{"status": "matches" | "differs" | "not re-scored", "reason": one line}``. ``differs`` (:data:`MISMATCH`)
@@ -205,7 +206,6 @@ def rescore(run: RunData, registry) -> dict:
         lacks the ground truth of one of its environments (held-out worlds of another host: only their host builds
         them) or the evaluation method, or when the run recorded none. Never raises.
     """
-    from benchbot.batch.report import RESCORE_TOLERANCE
     from benchbot.core.errors import BenchbotError
     from benchbot.core.evaluation import evaluate
 
@@ -408,7 +408,7 @@ def _table_html(table: dict, reports: bool, number: int) -> str:
     body = []
     for e in rows:
         run: RunData = e["run"]
-        prov = dict(provenance(run))
+        prov = dict(provenance_rows(run))
         git = (run.manifest.get("provenance") or {}).get("benchbot_git") or ""
         kind, what = solution(run.manifest)
         started = str(run.manifest.get("started", ""))[:10]
@@ -513,7 +513,7 @@ def write_site(runs: list[RunData], output: Path, *, title: str = "BenchBot lead
     replaced, nothing else is touched). Every file is written atomically.
 
     Args:
-        runs: labelled runs (:func:`benchbot.batch.report.assign_labels`).
+        runs: labelled runs (:func:`benchbot.batch.run_data.assign_labels`).
         registry: for the entries' reports (per-class views and maps); None leaves them out of those reports.
         reports: also write each entry's report (the slow part: its figures).
         environments: the environments entries are ranked on (:func:`benchmark_set`); None: the most common set.

@@ -31,7 +31,10 @@ import numpy as np
 
 from benchbot.batch import figures, stats
 from benchbot.batch.paper import Table, to_csv, to_html, to_latex
-from benchbot.batch.report import CSS, RunData, group, main_score, make_assets_dir, png_size, provenance, solution
+from benchbot.batch.report import CSS, make_assets_dir, png_size
+from benchbot.batch.run_conditions import condition_differences, provenance_rows, solution
+from benchbot.batch.run_data import RunData
+from benchbot.batch.run_stats import group, main_score
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 
@@ -109,7 +112,6 @@ def analyse(sim: list[RunData], real: list[RunData], across: str = "auto", names
     "pairs": [[sim label, real label]]}``."""
     score = score or main_score(sim)
     u = units(sim, real, across, score)
-    from benchbot.batch.report import condition_differences
 
     differs = {}
     for s, r in zip(sim, real):
@@ -189,7 +191,7 @@ def write_report(sim: list[RunData], real: list[RunData], output: Path, result: 
     parts.append("<h2>Runs</h2>")
     for (s, r) in zip(sim, real):
         for run, setting in ((s, sim_name), (r, real_name)):
-            rows = "".join(f"<tr><td>{esc(k)}</td><td>{esc(v)}</td></tr>" for k, v in provenance(run))
+            rows = "".join(f"<tr><td>{esc(k)}</td><td>{esc(v)}</td></tr>" for k, v in provenance_rows(run))
             parts.append(f"<details><summary>{esc(setting)}: {esc(run.name)} <code>{esc(str(run.run_dir))}</code>"
                          f"</summary><div class='scroll'><table class='kv'>{rows}</table></div></details>")
     parts.append("</main></html>")

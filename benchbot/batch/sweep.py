@@ -221,8 +221,8 @@ def robustness(rows: list[dict], factor: str, levels: list[str], *, score: str =
 
 def primary_score(manifest: dict, episode_scores: list[dict]) -> str:
     """The name of the primary score of the batch's evaluation method (its manifest's declaration, else what its
-    scores show: :func:`benchbot.batch.report.resolve_score_set`)."""
-    from benchbot.batch.report import resolve_score_set
+    scores show: :func:`benchbot.batch.run_data.resolve_score_set`)."""
+    from benchbot.batch.run_data import resolve_score_set
 
     return resolve_score_set(manifest, episode_scores).primary.name
 

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from benchbot.batch.leaderboard import slug, write_site
-from benchbot.batch.report import FailedRun, UnfinishedRun, assign_labels, load_run
+from benchbot.batch.run_data import FailedRun, UnfinishedRun, assign_labels, load_run
 from benchbot.cli.common import err, handle_errors, out, registry
 from benchbot.core.errors import UsageError
 

@@ -13,8 +13,10 @@ from rich.table import Table
 
 from benchbot.batch import predictivity as pred
 from benchbot.batch import stats
+from benchbot.batch.analysis import analyse
 from benchbot.batch.figures import comparison_text, fmt, interval_text
-from benchbot.batch.report import analyse, assets_dir, assign_labels, load_run, write_report
+from benchbot.batch.report import assets_dir, write_report
+from benchbot.batch.run_data import assign_labels, load_run
 from benchbot.cli.common import err, handle_errors, out, registry
 from benchbot.core.errors import UsageError
 
