@@ -34,8 +34,8 @@ def make_figures(runs: list[RunData], result: dict, registry=None) -> list[Figur
         UsageError: matplotlib is missing (:func:`benchbot.batch.figures.pyplot`).
     """
     shorts = figures.short_labels([r["label"] for r in result["runs"]])
-    return (_overview_figures(runs, result, shorts) + _comparison_figures(result)
-            + _factor_figures(result, shorts) + _per_class_figures(runs, result) + _maps(runs, result, shorts, registry))
+    return (_overview_figures(runs, result, shorts) + _comparison_figures(result) + _factor_figures(result, shorts)
+            + _per_class_figures(runs, result) + _maps(runs, result, shorts, registry))
 
 
 def _overview_figures(runs: list[RunData], result: dict, shorts: list[str]) -> list[Figure]:
@@ -49,8 +49,9 @@ def _overview_figures(runs: list[RunData], result: dict, shorts: list[str]) -> l
                           for s in scores},
                "estimates": r["summary"]} for run, r, short in zip(runs, result["runs"], shorts)]
     envs = list(dict.fromkeys(e for r in result["runs"] for e in r["environments"]))
-    env_series = [{"label": r["label"], "short": short, "values": {e: v["values"] for e, v in r["environments"].items()},
-                   "estimates": r["environments"]} for r, short in zip(result["runs"], shorts)]
+    env_series = [{"label": r["label"], "short": short,
+                   "values": {e: v["values"] for e, v in r["environments"].items()}, "estimates": r["environments"]}
+                  for r, short in zip(result["runs"], shorts)]
     return [
         Figure("summary", "Scores over environments",
                "Each dot is one environment's mean; the mean over environments is drawn with its 95 % interval "
