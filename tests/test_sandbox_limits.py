@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from benchbot.solutions.sandbox import run_sandboxed
-from benchbot.solutions.sandbox_limits import SandboxLimits
+from benchbot.solutions.sandbox_limits import SandboxLimits, cgroup_root
 
 SMALL = SandboxLimits(memory_bytes=512 << 20, processes=48, file_bytes=1 << 20, cpu_s=1, tmp_bytes=16 << 20)
 
@@ -60,6 +60,33 @@ def test_a_solution_past_its_memory_limit_is_stopped_with_the_reason(sandbox):
     """)
     assert "small ok" in log and run.outcome.returncode != 0
     assert run.limit == ("the solution exceeded its memory limit of 512 MiB (BENCHBOT_SANDBOX_MEMORY_BYTES)"), log
+
+
+@pytest.mark.skipif(cgroup_root("memory") is None, reason="no memory cgroup this process may make (cgroup v1 memory "
+                    "or a delegated v2): memory is capped per process only here")
+def test_memory_spread_over_processes_is_capped_for_the_sandbox_as_a_whole(sandbox):
+    """Four processes of 200 MB each stay under the per-process RLIMIT_DATA of 512 MiB, but together pass the
+    sandbox's memory cgroup (512 MiB): the OOM killer ends one, and the episode says which limit."""
+    assert SandboxLimits.current().record()["mechanism"]["memory_bytes"].startswith("cgroup memory limit")
+    run, log, _, _ = sandbox("""
+        import multiprocessing as mp, sys, time
+        import numpy as np
+
+        def hold():
+            block = np.ones(25_000_000)  # 200 MB, touched
+            time.sleep(20)
+
+        procs = [mp.Process(target=hold) for _ in range(4)]
+        for p in procs:
+            p.start()
+        for p in procs:
+            p.join()
+        codes = [p.exitcode for p in procs]
+        print("exit codes", codes, flush=True)
+        sys.exit(1 if any(codes) else 0)
+    """)
+    assert run.outcome.returncode != 0, log
+    assert run.limit == "the solution exceeded its memory limit of 512 MiB (BENCHBOT_SANDBOX_MEMORY_BYTES)", log
 
 
 def test_a_fork_bomb_is_stopped_at_its_process_limit_fast(sandbox):
@@ -202,7 +229,8 @@ def test_a_batch_records_its_limits_and_goes_on_past_an_episode_over_one(tmp_pat
     assert [(e["status"], e["error"]) for e in manifest["episodes"]] == [("resource_limit", reason)] * 2
     limits = manifest["limits"]
     assert (limits["memory_bytes"], limits["processes"], limits["file_bytes"]) == (256 << 20, 512, 1 << 30)
-    assert limits["mechanism"]["memory_bytes"] == "RLIMIT_DATA, each process"
+    assert limits["mechanism"]["memory_bytes"].startswith(("cgroup memory limit over the whole sandbox",
+                                                           "RLIMIT_DATA, each process"))
     assert limits["mechanism"]["processes"].startswith(("cgroup pids.max", "RLIMIT_NPROC"))
     assert "cgroup_v2" in limits["mechanism"]
     # no host name and no absolute path of this machine anywhere in the manifest; --resume finds the solution again

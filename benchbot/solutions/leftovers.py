@@ -73,16 +73,35 @@ def clean_leftovers(tmp: Path | str | None = None) -> list[Path]:
 
 
 def _dead_cgroups() -> list[Path]:
-    """Remove the pids cgroups of sandboxes (:class:`benchbot.solutions.sandbox_limits.PidsCgroup`) whose owner (the PID
-    in the name) is gone; the kernel refuses to remove one that still holds a process. Never raises."""
-    from benchbot.solutions.sandbox_limits import pids_cgroup_root
+    """Remove the cgroups of sandboxes (:class:`benchbot.solutions.sandbox_limits.SandboxCgroups`, in every
+    hierarchy it uses) whose owner (the PID in the name) is gone; the kernel refuses to remove one that still holds a
+    process. Never raises."""
+    from benchbot.solutions.sandbox_limits import CGROUP_PREFIX, cgroup_root
 
     removed = []
-    root = pids_cgroup_root()
-    try:
-        folders = [p for p in root.iterdir() if p.name.startswith("benchbot-sandbox-")] if root else []
-    except OSError:
-        return removed
+    roots = dict.fromkeys(root for root in (cgroup_root("pids"), cgroup_root("memory")) if root is not None)
+    for root in roots:
+        try:
+            folders = [p for p in root.iterdir() if p.name.startswith(CGROUP_PREFIX)]
+        except OSError:
+            continue
+        for folder in folders:
+            try:
+                owner = int(folder.name.split("-")[2])
+                os.kill(owner, 0)
+                continue  # its owner lives
+            except (ValueError, IndexError):
+                continue
+            except ProcessLookupError:
+                pass
+            except OSError:
+                continue
+            try:
+                folder.rmdir()
+                removed.append(folder)
+            except OSError:
+                pass
+    return removed
     for folder in folders:
         try:
             owner = int(folder.name.split("-")[2])

@@ -23,7 +23,6 @@ and ``none`` (``--no-sandbox``: a process of your user; its scores are not verif
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import importlib.util
 import os
@@ -42,7 +41,7 @@ from benchbot.solutions import socket_relay
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_RESULTS_BYTES, SANDBOX_TMP_BYTES
 from benchbot.solutions.process_group import ChildOutcome, run_child
-from benchbot.solutions.sandbox_limits import PidsCgroup, SandboxLimits, exceeded, pids_cgroup_root
+from benchbot.solutions.sandbox_limits import SandboxCgroups, SandboxLimits, exceeded
 
 #: Isolation levels of a solution, strongest first: bubblewrap, a container, none (``--no-sandbox``).
 ISOLATION_LEVELS = ("bwrap", "container", "none")
@@ -563,19 +562,20 @@ def run_sandboxed(
         for port in ports:
             relay += ["--port", str(port)]
         command = [bwrap, *layout.bwrap_args(), *relay, "--", *argv]
-        with _pids_cgroup(limits) as cgroup:
+        with SandboxCgroups(limits) as cgroups:
             try:
-                outcome = run_child(cgroup.wrap(command) if cgroup else command, cwd=cwd, env=child_env, log=log,
-                                    timeout_s=timeout_s, stdin=stdin)
+                outcome = run_child(cgroups.wrap(command), cwd=cwd, env=child_env, log=log, timeout_s=timeout_s,
+                                    stdin=stdin)
             except OSError as exc:
                 raise UsageError(f"cannot start the sandbox: {exc.strerror}: {bwrap}",
                                  "check the bubblewrap install") from None
-            refused = cgroup is not None and cgroup.refused()
+            refused, out_of_memory = cgroups.refused(), cgroups.out_of_memory()
     run = SandboxedRun(outcome)
     if not outcome.timed_out:
         log_path = Path(log.name) if log is not None and isinstance(getattr(log, "name", None), str) else None
-        run.limit = limits.reason("processes") if refused and outcome.returncode != 0 else exceeded(
-            limits, outcome.returncode, Path(outputs), log_path)
+        run.limit = (limits.reason("memory") if out_of_memory and outcome.returncode != 0 else
+                     limits.reason("processes") if refused and outcome.returncode != 0 else
+                     exceeded(limits, outcome.returncode, Path(outputs), log_path))
     for name in dict.fromkeys((result_name, "benchbot_result")):
         problem = _special_file(outputs / name)
         if problem == "missing":
@@ -588,24 +588,6 @@ def run_sandboxed(
         break
     run.dropped_links = drop_links(Path(outputs), log)
     return run
-
-
-@contextlib.contextmanager
-def _pids_cgroup(limits: SandboxLimits):
-    """A :class:`~benchbot.solutions.sandbox_limits.PidsCgroup` capping the sandbox's tasks where one can be made, else
-    None (``RLIMIT_NPROC`` then stands alone)."""
-    root = pids_cgroup_root()
-    cgroup = None
-    if root is not None:
-        try:
-            cgroup = PidsCgroup(root, limits.processes)
-        except OSError:
-            cgroup = None
-    try:
-        yield cgroup
-    finally:
-        if cgroup is not None:
-            cgroup.close()
 
 
 def drop_links(outputs: Path, log: IO | None = None) -> list[str]:

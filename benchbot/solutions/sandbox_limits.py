@@ -5,10 +5,13 @@ Every limit is a kernel resource limit that the sandbox's first process (:mod:`b
 the solution's process, inside the sandbox, before it starts (``setrlimit`` in ``preexec_fn``; soft and hard, and the
 solution holds no capability to raise them):
 
-* memory: ``RLIMIT_DATA`` of each process (:data:`~benchbot.core.limits.SANDBOX_MEMORY_BYTES`; why not
-  ``RLIMIT_AS``: see its docstring);
-* processes: a cgroup's ``pids.max`` over the whole sandbox where this process may make one (:class:`PidsCgroup`: a
-  writable cgroup v1 ``pids`` hierarchy, as root on most machines), else ``RLIMIT_NPROC``
+* memory: a cgroup's memory limit over the whole sandbox where this process may make one (:class:`SandboxCgroups`:
+  cgroup v1's ``memory.limit_in_bytes``, and ``memory.memsw.limit_in_bytes`` where swap is accounted, or v2's
+  ``memory.max`` and ``memory.swap.max``), beside ``RLIMIT_DATA`` of each process
+  (:data:`~benchbot.core.limits.SANDBOX_MEMORY_BYTES`; why not ``RLIMIT_AS``: see its docstring). Past the cgroup's
+  limit the kernel's OOM killer ends a process of the sandbox, which the cgroup counts (``oom_kill``);
+* processes: a cgroup's ``pids.max`` over the whole sandbox where this process may make one (cgroup v1's ``pids``,
+  as root on most machines; v2's where delegated), else ``RLIMIT_NPROC``
   (:data:`~benchbot.core.limits.SANDBOX_PROCESSES`). ``RLIMIT_NPROC`` counts tasks per user and user namespace: set
   inside the sandbox's own user namespace it counts the sandbox's tasks, not the host's processes of the same user;
   but the kernel never applies it to root (user id 0 outside the namespace), which is why the cgroup comes first;
@@ -17,13 +20,12 @@ solution holds no capability to raise them):
 * CPU time of each process: ``RLIMIT_CPU`` (:data:`~benchbot.core.limits.SANDBOX_CPU_S`; ``SIGXCPU``, then
   ``SIGKILL`` a second later).
 
-A cgroup v2 (``memory.max``, ``pids.max`` over the sandbox as a whole) would be stronger — rlimits bind each process
-on its own — but needs a delegated cgroup v2 hierarchy with the memory and pids controllers; :func:`cgroup_v2`
-says whether this machine has one, and the manifest records it. Memory uses no cgroup yet; processes use a ``pids``
-cgroup this process can write to (cgroup v1, or v2 where delegated).
+The cgroups are made in the hierarchy this process may write (cgroup v1's ``memory`` and ``pids``, or a delegated
+cgroup v2); where none can be made, the rlimits stand alone, and the manifest records which mechanism held each
+limit (:meth:`SandboxLimits.record`).
 
 How an episode past a limit is recognised (:func:`exceeded`): the cgroup's ``pids.events`` (forks refused), the
-signal that ended it (``SIGXCPU``: CPU time; ``SIGXFSZ``: file size), a file of its outputs folder exactly at the
+signal that ended it (``SIGXCPU``: CPU time; ``SIGXFSZ``: file size), the memory cgroup's OOM kills, a file of its outputs folder exactly at the
 file size limit (a write past it was refused), or, when it failed, the last lines of its log naming the failure the
 limit causes (``MemoryError``, "Cannot allocate memory"; ``EAGAIN`` from ``fork``, "can't start new thread";
 ``EFBIG``). A solution can fake the log lines, but that only turns its own failed episode into ``resource_limit``.
@@ -75,12 +77,12 @@ class SandboxLimits:
                   ("FSIZE", self.file_bytes, self.file_bytes), ("CPU", self.cpu_s, self.cpu_s + 1)]
         return [arg for name, soft, hard in limits for arg in ("--rlimit", f"{name}={soft}:{hard}")]
 
-    def record(self, pids_cgroup: "Path | None" = None) -> dict:
-        """What a manifest records (``limits``): every value and how each is enforced."""
+    def record(self) -> dict:
+        """What a manifest records (``limits``): every value and how each is enforced on this host."""
         return {"memory_bytes": self.memory_bytes, "processes": self.processes, "file_bytes": self.file_bytes,
                 "cpu_s": self.cpu_s, "tmp_bytes": self.tmp_bytes, "mechanism": {
-                    "memory_bytes": "RLIMIT_DATA, each process",
-                    "processes": processes_mechanism(pids_cgroup),
+                    "memory_bytes": memory_mechanism(),
+                    "processes": processes_mechanism(),
                     "file_bytes": "RLIMIT_FSIZE, each file",
                     "cpu_s": "RLIMIT_CPU, each process", "tmp_bytes": "tmpfs size of the sandbox's /tmp",
                     "cgroup_v2": cgroup_v2()}}
@@ -101,19 +103,26 @@ def _describe(limit: Limit, value: int) -> str:
     return limit.describe(value)
 
 
-def processes_mechanism(pids_cgroup: Path | None = None) -> str:
+def processes_mechanism() -> str:
     """How the processes limit is enforced here, for the manifest."""
-    folder = pids_cgroup if pids_cgroup is not None else pids_cgroup_root()
-    if folder is not None:
+    if cgroup_root("pids") is not None:
         return "cgroup pids.max over the whole sandbox (processes and threads)"
     if os.getuid() == 0:
         return "RLIMIT_NPROC in the sandbox's user namespace: NOT enforced (root is exempt; no writable pids cgroup)"
     return "RLIMIT_NPROC in the sandbox's user namespace (processes and threads)"
 
 
-def pids_cgroup_root() -> Path | None:
-    """The folder of this process's cgroup in a ``pids`` hierarchy it may make cgroups in (cgroup v1's ``pids``;
-    v2's where the ``pids`` controller is delegated to it), None when there is none."""
+def memory_mechanism() -> str:
+    """How the memory limit is enforced here, for the manifest."""
+    if cgroup_root("memory") is not None:
+        return "cgroup memory limit over the whole sandbox, and RLIMIT_DATA of each process"
+    return "RLIMIT_DATA, each process (no writable memory cgroup)"
+
+
+def cgroup_root(controller: str) -> Path | None:
+    """The folder of this process's cgroup in a hierarchy with ``controller`` (``pids``, ``memory``) that it may make
+    cgroups in (cgroup v1's hierarchy of that controller; v2's where the controller is delegated to it), None when
+    there is none."""
     try:
         lines = Path("/proc/self/cgroup").read_text().splitlines()
         mounts = [line.split() for line in Path("/proc/self/mounts").read_text().splitlines()]
@@ -121,8 +130,8 @@ def pids_cgroup_root() -> Path | None:
         return None
     for line in lines:
         number, controllers, path = (line.split(":", 2) + ["", ""])[:3]
-        if "pids" in controllers.split(","):
-            where = next((m[1] for m in mounts if len(m) > 3 and m[2] == "cgroup" and "pids" in m[3].split(",")),
+        if controller in controllers.split(","):
+            where = next((m[1] for m in mounts if len(m) > 3 and m[2] == "cgroup" and controller in m[3].split(",")),
                          None)
         elif number == "0" and cgroup_v2() == "available":
             where = next((m[1] for m in mounts if len(m) > 2 and m[2] == "cgroup2"), None)
@@ -136,50 +145,112 @@ def pids_cgroup_root() -> Path | None:
     return None
 
 
-class PidsCgroup:
-    """A cgroup of its own for one sandbox, with ``pids.max`` (a context manager; removed afterwards): the command
-    :meth:`wrap` returns joins it before it starts bubblewrap, so every task of the sandbox counts; :meth:`refused`
-    says whether a fork was refused at the limit. Named ``benchbot-sandbox-<pid>-<n>`` (its owner's PID: one a
-    killed batch left is removed by :func:`benchbot.solutions.leftovers.clean_leftovers`)."""
+#: The files that set a limit in each controller's cgroup: cgroup v1's, then v2's (the first that exists is used).
+_LIMIT_FILES = {"pids": (("pids.max",),), "memory": (("memory.limit_in_bytes", "memory.memsw.limit_in_bytes"),
+                                                    ("memory.max", "memory.swap.max"))}
+#: A prefix of the cgroups made for sandboxes: ``benchbot-sandbox-<owner pid>-<n>-<random>``.
+CGROUP_PREFIX = "benchbot-sandbox-"
+
+
+class SandboxCgroups:
+    """Cgroups of their own for one sandbox, one per controller this process may use (``pids``: ``pids.max``;
+    ``memory``: the memory limit, swap included where accounted), a context manager (removed afterwards). The
+    command :meth:`wrap` returns joins them before it starts bubblewrap, so every task of the sandbox counts;
+    :meth:`refused` says whether a fork was refused at the limit, :meth:`out_of_memory` whether the OOM killer ended
+    a task at the memory limit. Named ``benchbot-sandbox-<pid>-<n>-<random>`` (its owner's PID: one a killed batch
+    left is removed by :func:`benchbot.solutions.leftovers.clean_leftovers`). A controller whose cgroup cannot be
+    made is left out (its rlimit stands alone)."""
 
     _count = 0
 
-    def __init__(self, root: Path, tasks: int) -> None:
-        PidsCgroup._count += 1
-        self.folder = root / f"benchbot-sandbox-{os.getpid()}-{PidsCgroup._count}-{os.urandom(3).hex()}"
-        self.folder.mkdir()
-        try:
-            (self.folder / "pids.max").write_text(str(tasks))
-        except OSError:
-            self.close()
-            raise
+    def __init__(self, limits: SandboxLimits) -> None:
+        SandboxCgroups._count += 1
+        name = f"{CGROUP_PREFIX}{os.getpid()}-{SandboxCgroups._count}-{os.urandom(3).hex()}"
+        self.folders: dict[str, Path] = {}
+        made: set[Path] = set()
+        for controller, value in (("pids", limits.processes), ("memory", limits.memory_bytes)):
+            root = cgroup_root(controller)
+            if root is None:
+                continue
+            folder = root / name  # cgroup v2: one folder for both controllers
+            try:
+                if folder not in made:
+                    folder.mkdir()
+                    made.add(folder)
+                _write_limit(folder, controller, value)
+                self.folders[controller] = folder
+            except OSError:
+                continue
+        for folder in made - set(self.folders.values()):
+            _remove(folder)
 
     def wrap(self, command: list[str]) -> list[str]:
-        """``command`` started from a shell that first moves itself into the cgroup (then ``exec``)."""
-        return ["/bin/sh", "-c", 'echo $$ > "$0" && exec "$@"', str(self.folder / "cgroup.procs"), *command]
+        """``command`` started from a shell that first moves itself into each cgroup (then ``exec``)."""
+        procs = [str(folder / "cgroup.procs") for folder in dict.fromkeys(self.folders.values())]
+        if not procs:
+            return command
+        joins = " && ".join(f'echo $$ > "${i + 1}"' for i in range(len(procs)))
+        shift = f"shift {len(procs)}"
+        return ["/bin/sh", "-c", f'{joins} && {shift} && exec "$@"', "sh", *procs, *command]
 
     def refused(self) -> bool:
-        try:
-            events = (self.folder / "pids.events").read_text().split()
-        except OSError:
-            return False
-        return len(events) >= 2 and events[0] == "max" and events[1] != "0"
+        """A fork or thread was refused at ``pids.max``."""
+        events = _read_counts(self.folders.get("pids"), "pids.events")
+        return events.get("max", 0) > 0
+
+    def out_of_memory(self) -> bool:
+        """The OOM killer ended a task of the sandbox at its memory limit."""
+        folder = self.folders.get("memory")
+        return (_read_counts(folder, "memory.oom_control").get("oom_kill", 0) > 0
+                or _read_counts(folder, "memory.events").get("oom_kill", 0) > 0)
 
     def close(self) -> None:
-        for _ in range(50):  # the sandbox's last tasks are being reaped
-            try:
-                self.folder.rmdir()
-                return
-            except FileNotFoundError:
-                return
-            except OSError:
-                time.sleep(0.02)
+        for folder in dict.fromkeys(self.folders.values()):
+            _remove(folder)
+        self.folders = {}
 
-    def __enter__(self) -> "PidsCgroup":
+    def __enter__(self) -> "SandboxCgroups":
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _write_limit(folder: Path, controller: str, value: int) -> None:
+    """Set ``controller``'s limit ``value`` in ``folder`` (the first file set of :data:`_LIMIT_FILES` it holds; the
+    swap-inclusive file too where present). Raises OSError where the limit cannot be set."""
+    for files in _LIMIT_FILES[controller]:
+        if (folder / files[0]).exists():
+            (folder / files[0]).write_text(str(value))
+            for extra in files[1:]:
+                if (folder / extra).exists():
+                    # v1: memory+swap at the same value (no swap past it); v2: no swap at all
+                    (folder / extra).write_text(str(value) if extra.startswith("memory.memsw") else "0")
+            return
+    raise OSError(f"no {controller} limit file in {folder}")
+
+
+def _read_counts(folder: Path | None, name: str) -> dict[str, int]:
+    """``key value`` lines of a cgroup file as ``{key: value}`` (``{}`` when it cannot be read)."""
+    if folder is None:
+        return {}
+    try:
+        pairs = [line.split() for line in (folder / name).read_text().splitlines()]
+    except OSError:
+        return {}
+    return {p[0]: int(p[1]) for p in pairs if len(p) == 2 and p[1].isdigit()}
+
+
+def _remove(folder: Path) -> None:
+    """Remove a sandbox's cgroup, waiting up to 1 s for its last tasks to be reaped. Never raises."""
+    for _ in range(50):
+        try:
+            folder.rmdir()
+            return
+        except FileNotFoundError:
+            return
+        except OSError:
+            time.sleep(0.02)
 
 
 def cgroup_v2() -> str:
