@@ -489,3 +489,20 @@ def test_a_ray_client_session_that_dies_as_it_starts_fails_in_one_line_and_the_n
     finally:
         head.stop()
         shutil.rmtree(base, ignore_errors=True)
+
+
+@pytest.mark.slow
+def test_a_ray_started_for_the_batch_runs_its_episodes_at_normal_priority(tmp_path, monkeypatch):
+    """Ray's workers run at nice 15 by default (starved on a busy node); the Ray a batch starts for itself runs them
+    at nice 0, as the local executor, and each episode records the value and no host (docs/cluster.md)."""
+    monkeypatch.delenv("RAY_worker_niceness", raising=False)
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    proc = subprocess.run([*BENCHBOT, "batch", "--example", "hello_passive", "--envs", "miniroom:1", "--executor",
+                           "ray", "--ray-address", "local", "--output-dir", str(tmp_path), "--json", "--no-tui",
+                           *SMALL], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    manifest = json.loads((Path(json.loads(proc.stdout)["run_dir"]) / "manifest.json").read_text())
+    [episode] = manifest["episodes"]
+    assert episode["node"]["niceness"] == 0 and "address" not in episode["node"], episode["node"]
+    assert manifest["executor"]["address"] in (None, "local") and all("address" not in n for n in
+                                                                       manifest["executor"]["nodes"])
