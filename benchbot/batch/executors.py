@@ -478,6 +478,9 @@ def connect_ray(address: str | None = None, *, workers: int = 1, log: Path | Non
     kwargs: dict = {"runtime_env": {"env_vars": env_vars}, "log_to_driver": False}
     if target is None:
         kwargs.update(address="local", num_cpus=workers, include_dashboard=False, configure_logging=False)
+        # Ray runs workers at nice 15 by default: a Ray started for this batch runs its episodes at the batch's own
+        # priority, as the local executor does (a user's RAY_worker_niceness wins; docs/cluster.md).
+        os.environ.setdefault("RAY_worker_niceness", "0")
     elif target.startswith("ray://"):
         kwargs.update(address=target)
     else:
@@ -613,11 +616,12 @@ class _ActorSink:
 
 
 def _node_facts() -> dict:
-    """Where a Ray task runs: ``{id}`` (its node's id, as `ray status` and Ray's dashboard show it); its IP
+    """Where a Ray task runs: ``{id, niceness}`` (its node's id, as `ray status` and Ray's dashboard show it, and the
+    worker's nice value: Ray's default is 15, docs/cluster.md); its IP
     ``address`` and ``hostname`` too only with ``BENCHBOT_MANIFEST_LOCAL=1`` (manifests name no host by default)."""
     import ray
 
-    here = {"id": ray.get_runtime_context().get_node_id()}
+    here = {"id": ray.get_runtime_context().get_node_id(), "niceness": os.nice(0)}
     if provenance.keep_paths():
         here["address"] = ray.util.get_node_ip_address()
     return {**here, **provenance.local_node()}
