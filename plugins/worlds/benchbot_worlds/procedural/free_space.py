@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy import ndimage
@@ -280,15 +281,15 @@ def grid_path(fs: FreeSpace, a, b, window: tuple[slice, slice] | None = None) ->
     return np.concatenate([np.asarray(a, float)[None, :2], fs.centres(ij), np.asarray(b, float)[None, :2]])
 
 
-def shortcut(fs: FreeSpace, path: np.ndarray) -> np.ndarray:
-    """``path`` (M, 2) with corners cut: from each kept point, the farthest later point that a free straight segment
-    (:meth:`FreeSpace.segment_free`) reaches (at least the next point); (M', 2), same ends."""
+def shortcut(path: np.ndarray, reachable: "Callable[[np.ndarray, np.ndarray], bool]") -> np.ndarray:
+    """``path`` (M, 2) in metres with corners cut: from each kept point, the farthest later point that
+    ``reachable(a, b)`` says a straight move reaches (at least the next point); (M', 2), the same ends."""
     out, i, m = [path[0]], 0, len(path)
     while i < m - 1:
         j = m - 1
-        if not fs.segment_free(path[i], path[j]):
+        if not reachable(path[i], path[j]):
             j = i + 1
-            while j + 1 < m and fs.segment_free(path[i], path[j + 1]):
+            while j + 1 < m and reachable(path[i], path[j + 1]):
                 j += 1
         out.append(path[j])
         i = j

@@ -25,9 +25,8 @@ import math
 
 import numpy as np
 
-from .free_space import FreeSpace, free_space, grid_path, main_component, room_cells
+from .free_space import FreeSpace, free_space, grid_path, main_component, rects_near, room_cells, shortcut, wall_rects
 from .layout import Layout
-from .free_space import rects_near, wall_rects
 from .visibility import CARTER_CAMERA, ROBOT_Z_M, Camera, poses_to_se2, sample_points, seen_pairs, unseen_objects
 
 __all__ = ["PassiveTrajectory", "passive_trajectory", "unseen_objects", "MAX_STEP_M", "VIEWPOINT_SPACING_M"]
@@ -258,20 +257,6 @@ class _Driver:
             self.poses.append(pose7(float(p[0]), float(p[1]), heading))
         self.xy = np.array(self.poses[-1][4:6])
 
-    def shortcut(self, path: np.ndarray) -> np.ndarray:
-        """``path`` (M, 2) with corners cut: from each kept point, the farthest later point it can drive to
-        (:meth:`drivable`; the next point else: neighbouring free cells' centres always are)."""
-        out, i, m = [path[0]], 0, len(path)
-        while i < m - 1:
-            j = m - 1
-            if not self.drivable(path[i], path[j]):
-                j = i + 1
-                while j + 1 < m and self.drivable(path[i], path[j + 1]):
-                    j += 1
-            out.append(path[j])
-            i = j
-        return np.array(out)
-
     def go(self, b: np.ndarray, window=None) -> bool:
         """Drive to ``b``: straight when free, else along a grid path (``window`` first, then the whole grid) with
         its corners cut. False (no pose added) when no free path reaches it."""
@@ -283,7 +268,7 @@ class _Driver:
             path = grid_path(self.fs, self.xy, b) if path is None else path
             if path is None:
                 return False
-            path = self.shortcut(path)
+            path = shortcut(path, self.drivable)  # the next point is always drivable: neighbouring free cells
         for p in path[1:]:
             self.straight(p)
         return True
