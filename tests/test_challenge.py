@@ -62,7 +62,8 @@ def test_the_challenge_sets_each_solutions_limits_and_refuses_a_run_under_others
                                     environments=["miniroom:1"], limits=["memory=3G", "cpu=600"])
     solution = cond["limits"]["solution"]
     assert solution == {"memory_bytes": 3 << 30, "processes": 300, "file_bytes": SandboxLimits.current().file_bytes,
-                        "cpu_s": 600, "tmp_bytes": SandboxLimits.current().tmp_bytes}
+                        "cpu_s": 600, "tmp_bytes": SandboxLimits.current().tmp_bytes,
+                        "outputs_bytes": SandboxLimits.current().outputs_bytes}
     env = challenge.batch_environment(cond)
     assert (env["BENCHBOT_SANDBOX_MEMORY_BYTES"], env["BENCHBOT_SANDBOX_CPU_S"]) == (str(3 << 30), "600")
     monkeypatch.setenv("BENCHBOT_SANDBOX_MEMORY_BYTES", env["BENCHBOT_SANDBOX_MEMORY_BYTES"])

@@ -20,7 +20,8 @@ import pytest
 from benchbot.solutions.sandbox import run_sandboxed
 from benchbot.solutions.sandbox_limits import SandboxLimits, cgroup_root
 
-SMALL = SandboxLimits(memory_bytes=512 << 20, processes=48, file_bytes=1 << 20, cpu_s=1, tmp_bytes=16 << 20)
+SMALL = SandboxLimits(memory_bytes=512 << 20, processes=48, file_bytes=1 << 20, cpu_s=1, tmp_bytes=16 << 20,
+                      outputs_bytes=8 << 20)
 
 
 @pytest.fixture
@@ -128,6 +129,23 @@ def test_writing_past_the_file_size_limit_is_stopped(sandbox):
         raise SystemExit(1)
     """)
     assert run.limit.startswith("the solution exceeded its file size limit"), log
+
+
+def test_filling_the_outputs_folder_with_many_small_files_is_stopped(sandbox):
+    """Each file stays under the file size limit (1 MiB); together they pass the outputs limit (8 MiB): the sandbox is
+    stopped within a measurement period and the episode says which limit."""
+    from benchbot.solutions.sandbox_limits import disk_bytes
+
+    run, log, outputs, seconds = sandbox("""
+        import os, time
+        for n in range(100_000):
+            with open(os.path.join(os.environ["BENCHBOT_RESULT_LOCATION"] + f".{n}"), "wb") as f:
+                f.write(os.urandom(512 << 10))
+            time.sleep(0.005)
+    """)
+    assert run.limit == ("the solution exceeded its limit on its outputs folder of 8 MiB "
+                         "(BENCHBOT_SANDBOX_OUTPUTS_BYTES)"), log
+    assert 8 << 20 < disk_bytes(outputs) < 64 << 20 and seconds < 60
 
 
 def test_spinning_past_the_cpu_limit_is_stopped(sandbox):

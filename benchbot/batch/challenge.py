@@ -63,11 +63,12 @@ def split_environments(split: str, count: int) -> list[str]:
 #: A challenge's solution limits: ``--limit`` name → (the manifest's key, the limit whose variable the batch gets).
 SOLUTION_LIMITS = {"memory": ("memory_bytes", "SANDBOX_MEMORY_BYTES"), "processes": ("processes", "SANDBOX_PROCESSES"),
                    "file": ("file_bytes", "SANDBOX_FILE_BYTES"), "cpu": ("cpu_s", "SANDBOX_CPU_S"),
-                   "tmp": ("tmp_bytes", "SANDBOX_TMP_BYTES")}
+                   "tmp": ("tmp_bytes", "SANDBOX_TMP_BYTES"), "outputs": ("outputs_bytes", "SANDBOX_OUTPUTS_BYTES")}
 
 
 def solution_limits(given: list[str] | None = None) -> dict[str, int]:
-    """A challenge's limits on each solution, ``{memory_bytes, processes, file_bytes, cpu_s, tmp_bytes}``: this
+    """A challenge's limits on each solution, ``{memory_bytes, processes, file_bytes, cpu_s, tmp_bytes,
+    outputs_bytes}``: this
     host's (the ``BENCHBOT_SANDBOX_*`` variables, else their defaults; docs/security.md) with ``given`` on top.
 
     Args:
@@ -122,7 +123,7 @@ def init_challenge(folder: Path, *, task: str, robot: str, split: str | None, co
     Returns:
         the conditions as written: ``{"format", "task", "robot", "split", "count", "environments", "worlds",
         "evaluate_with", "limits": {"episode_timeout_s", "solution": {memory_bytes, processes, file_bytes, cpu_s,
-        tmp_bytes}}, "isolation", "public_key", "fingerprint", "test_split_key_id", "created"}``.
+        tmp_bytes, outputs_bytes}}, "isolation", "public_key", "fingerprint", "test_split_key_id", "created"}``.
 
     Raises:
         UsageError: the folder already holds a challenge; a bad split, count or limit; neither or both of split

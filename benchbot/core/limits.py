@@ -38,6 +38,7 @@ SANDBOX_TMP_BYTES           1 GiB                    BENCHBOT_SANDBOX_TMP_BYTES 
 SANDBOX_MEMORY_BYTES        8 GiB                    BENCHBOT_SANDBOX_MEMORY_BYTES        episode ``resource_limit``
 SANDBOX_PROCESSES           512 tasks                BENCHBOT_SANDBOX_PROCESSES           episode ``resource_limit``
 SANDBOX_FILE_BYTES          1 GiB                    BENCHBOT_SANDBOX_FILE_BYTES          episode ``resource_limit``
+SANDBOX_OUTPUTS_BYTES       4 GiB                    BENCHBOT_SANDBOX_OUTPUTS_BYTES       episode ``resource_limit``
 SANDBOX_CPU_S               36000 seconds            BENCHBOT_SANDBOX_CPU_S               episode ``resource_limit``
 RAY_EPISODE_BYTES           1 GiB                    BENCHBOT_RAY_EPISODE_BYTES           episode error, its log kept
 **caches**
@@ -318,8 +319,8 @@ past it, writes there fail with "No space left on device"."""
 
 SANDBOX_MEMORY_BYTES = Limit(8 << 30, "BENCHBOT_SANDBOX_MEMORY_BYTES", "bytes", integer=True,
                              meaning="bytes of data memory of each process of a sandboxed solution")
-"""A sandboxed solution's memory: ``RLIMIT_DATA`` of each of its processes (its heap and every private writable
-mapping: what NumPy and malloc allocate). Not ``RLIMIT_AS``: that counts address space merely reserved (thread
+"""A sandboxed solution's memory: a memory cgroup over the whole sandbox where one can be made, and ``RLIMIT_DATA``
+of each of its processes (its heap and every private writable mapping: what NumPy and malloc allocate). Not ``RLIMIT_AS``: that counts address space merely reserved (thread
 stacks, glibc's 64 MiB malloc arenas per thread, CUDA's reservations), so a NumPy or PyTorch solution that uses
 little memory would fail. Past it an allocation fails (Python: ``MemoryError``) and the episode ends
 ``resource_limit`` (:mod:`benchbot.solutions.sandbox_limits`)."""
@@ -336,6 +337,14 @@ SANDBOX_FILE_BYTES = Limit(1 << 30, "BENCHBOT_SANDBOX_FILE_BYTES", "bytes", inte
 """Bytes of any one file a sandboxed solution writes (its outputs folder, its ``/tmp``): ``RLIMIT_FSIZE``. Past it
 the write fails (``EFBIG``; ``SIGXFSZ`` for programs that do not ignore it) and the episode ends
 ``resource_limit``."""
+
+SANDBOX_OUTPUTS_BYTES = Limit(4 << 30, "BENCHBOT_SANDBOX_OUTPUTS_BYTES", "bytes", integer=True,
+                              meaning="bytes a sandboxed solution keeps in its outputs folder, all files together")
+"""Bytes a sandboxed solution may keep in its outputs folder, all its files together (the disk they take, links not
+followed): the folder is measured every :data:`benchbot.solutions.process_group.STOP_WHEN_PERIOD_S` while the solution
+runs, and a solution past it is stopped and its episode ends ``resource_limit``. A measurement, not a quota: a
+solution writing fast can pass it by what it writes in that period (each file stays under
+:data:`SANDBOX_FILE_BYTES`)."""
 
 SANDBOX_CPU_S = Limit(36000, "BENCHBOT_SANDBOX_CPU_S", "seconds", integer=True,
                       meaning="CPU seconds of each process of a sandboxed solution")

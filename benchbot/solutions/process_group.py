@@ -33,7 +33,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
+from typing import IO, Callable
 
 from benchbot.solutions import group_watchdog
 from benchbot.core.limits import MAX_LOG_BYTES, STOP_GRACE_S
@@ -55,6 +55,7 @@ class ChildOutcome:
         output_bytes: bytes it wrote to the log pipe (0 without a log).
         log_truncated: the log kept only the first ``MAX_LOG_BYTES`` of them.
         read_stdin: with ``stdin="none"``, a process of its group read its standard input (and got end-of-file).
+        stopped: why ``stop_when`` stopped it (its one-line reason), ``""`` when it did not.
     """
 
     returncode: int
@@ -62,6 +63,11 @@ class ChildOutcome:
     output_bytes: int = 0
     log_truncated: bool = False
     read_stdin: bool = False
+    stopped: str = ""
+
+
+#: Seconds between two calls of :func:`run_child`'s ``stop_when``.
+STOP_WHEN_PERIOD_S = 0.25
 
 
 class _Watchdog:
@@ -283,7 +289,7 @@ def interrupt_children(on: bool = True) -> None:
 
 def run_child(
     argv: list[str], *, cwd: Path, env: dict[str, str], log: IO | None = None, timeout_s: float | None = None,
-    stdin: str = "none",
+    stdin: str = "none", stop_when: Callable[[], str] | None = None,
 ) -> ChildOutcome:
     """Run ``argv`` to completion in its own process group, then stop whatever is left of the group.
 
@@ -295,6 +301,8 @@ def run_child(
         stdin: ``"none"``: an empty pipe, watched (a read of it is said once, in ``log`` or on stderr, and gets
             end-of-file); ``"inherit"``: this process's standard input (the terminal of ``benchbot submit``),
             restored afterwards (module docstring).
+        stop_when: called every :data:`STOP_WHEN_PERIOD_S` while the child runs: a non-empty string (a one-line
+            reason) stops the group, as a timeout does (``stopped`` is then that reason).
 
     Raises:
         OSError: the command cannot be started. UsageError: a bad ``BENCHBOT_MAX_LOG_BYTES`` or
@@ -328,7 +336,7 @@ def run_child(
         _forget(child.pid)
         _release(watch, terminal)
         raise
-    timed_out = False
+    timed_out, stopped, next_check = False, "", time.monotonic()
     try:
         pump = _LogPump(child.stdout, log, cap) if log is not None else None
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
@@ -339,6 +347,11 @@ def run_child(
             if remaining is not None and remaining <= 0:
                 timed_out = True
                 break
+            if stop_when is not None and time.monotonic() >= next_check:
+                next_check = time.monotonic() + STOP_WHEN_PERIOD_S
+                stopped = stop_when()
+                if stopped:
+                    break
             step = 0.1 if remaining is None else min(0.1, remaining)
             if watch is not None and watch.look(child.pid):
                 if pump is not None:
@@ -349,7 +362,7 @@ def run_child(
                 pump.pump(step)
             else:
                 try:
-                    watched = watch is not None and watch.write_end is not None
+                    watched = (watch is not None and watch.write_end is not None) or stop_when is not None
                     child.wait(timeout=step if remaining is not None or watched else None)
                 except subprocess.TimeoutExpired:
                     pass
@@ -363,7 +376,7 @@ def run_child(
         elif child.stdout is not None:
             child.stdout.close()
     return ChildOutcome(child.returncode, timed_out, pump.total if pump else 0, bool(pump and pump.truncated),
-                        bool(watch and watch.seen))
+                        bool(watch and watch.seen), stopped)
 
 
 def _forget(pgid: int) -> None:

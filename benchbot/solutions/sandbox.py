@@ -41,7 +41,7 @@ from benchbot.solutions import socket_relay
 from benchbot.core.errors import UsageError
 from benchbot.core.limits import MAX_RESULTS_BYTES, SANDBOX_TMP_BYTES
 from benchbot.solutions.process_group import ChildOutcome, run_child
-from benchbot.solutions.sandbox_limits import SandboxCgroups, SandboxLimits, exceeded
+from benchbot.solutions.sandbox_limits import SandboxCgroups, SandboxLimits, exceeded, outputs_watch
 
 #: Isolation levels of a solution, strongest first: bubblewrap, a container, none (``--no-sandbox``).
 ISOLATION_LEVELS = ("bwrap", "container", "none")
@@ -565,7 +565,7 @@ def run_sandboxed(
         with SandboxCgroups(limits) as cgroups:
             try:
                 outcome = run_child(cgroups.wrap(command), cwd=cwd, env=child_env, log=log, timeout_s=timeout_s,
-                                    stdin=stdin)
+                                    stdin=stdin, stop_when=outputs_watch(limits, Path(outputs)))
             except OSError as exc:
                 raise UsageError(f"cannot start the sandbox: {exc.strerror}: {bwrap}",
                                  "check the bubblewrap install") from None
@@ -573,7 +573,8 @@ def run_sandboxed(
     run = SandboxedRun(outcome)
     if not outcome.timed_out:
         log_path = Path(log.name) if log is not None and isinstance(getattr(log, "name", None), str) else None
-        run.limit = (limits.reason("memory") if out_of_memory and outcome.returncode != 0 else
+        run.limit = (outcome.stopped if outcome.stopped else
+                     limits.reason("memory") if out_of_memory and outcome.returncode != 0 else
                      limits.reason("processes") if refused and outcome.returncode != 0 else
                      exceeded(limits, outcome.returncode, Path(outputs), log_path))
     for name in dict.fromkeys((result_name, "benchbot_result")):

@@ -18,7 +18,9 @@ solution holds no capability to raise them):
 * the size of any one file it writes: ``RLIMIT_FSIZE`` (:data:`~benchbot.core.limits.SANDBOX_FILE_BYTES`), beside
   the size-capped tmpfs of its ``/tmp`` (:data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`);
 * CPU time of each process: ``RLIMIT_CPU`` (:data:`~benchbot.core.limits.SANDBOX_CPU_S`; ``SIGXCPU``, then
-  ``SIGKILL`` a second later).
+  ``SIGKILL`` a second later);
+* the disk its outputs folder takes, all files together: measured while it runs (:func:`outputs_watch`,
+  :data:`~benchbot.core.limits.SANDBOX_OUTPUTS_BYTES`), the sandbox stopped past it.
 
 The cgroups are made in the hierarchy this process may write (cgroup v1's ``memory`` and ``pids``, or a delegated
 cgroup v2); where none can be made, the rlimits stand alone, and the manifest records which mechanism held each
@@ -39,9 +41,10 @@ import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
-from benchbot.core.limits import (SANDBOX_CPU_S, SANDBOX_FILE_BYTES, SANDBOX_MEMORY_BYTES, SANDBOX_PROCESSES,
-                                  SANDBOX_TMP_BYTES, Limit)
+from benchbot.core.limits import (SANDBOX_CPU_S, SANDBOX_FILE_BYTES, SANDBOX_MEMORY_BYTES, SANDBOX_OUTPUTS_BYTES,
+                                  SANDBOX_PROCESSES, SANDBOX_TMP_BYTES, Limit)
 
 #: Bytes of the end of an episode's log searched for the failure a limit causes.
 LOG_TAIL_BYTES = 64 << 10
@@ -61,6 +64,7 @@ class SandboxLimits:
     file_bytes: int
     cpu_s: int
     tmp_bytes: int
+    outputs_bytes: int = SANDBOX_OUTPUTS_BYTES.default
 
     @classmethod
     def current(cls) -> "SandboxLimits":
@@ -69,7 +73,7 @@ class SandboxLimits:
         Raises:
             UsageError: a variable is not a valid value (one line naming it)."""
         return cls(SANDBOX_MEMORY_BYTES.value(), SANDBOX_PROCESSES.value(), SANDBOX_FILE_BYTES.value(),
-                   int(SANDBOX_CPU_S.value()), SANDBOX_TMP_BYTES.value())
+                   int(SANDBOX_CPU_S.value()), SANDBOX_TMP_BYTES.value(), SANDBOX_OUTPUTS_BYTES.value())
 
     def relay_args(self) -> list[str]:
         """:mod:`benchbot.solutions.socket_relay`'s ``--rlimit`` arguments setting them on the solution."""
@@ -80,22 +84,24 @@ class SandboxLimits:
     def record(self) -> dict:
         """What a manifest records (``limits``): every value and how each is enforced on this host."""
         return {"memory_bytes": self.memory_bytes, "processes": self.processes, "file_bytes": self.file_bytes,
-                "cpu_s": self.cpu_s, "tmp_bytes": self.tmp_bytes, "mechanism": {
+                "cpu_s": self.cpu_s, "tmp_bytes": self.tmp_bytes, "outputs_bytes": self.outputs_bytes, "mechanism": {
                     "memory_bytes": memory_mechanism(),
                     "processes": processes_mechanism(),
                     "file_bytes": "RLIMIT_FSIZE, each file",
                     "cpu_s": "RLIMIT_CPU, each process", "tmp_bytes": "tmpfs size of the sandbox's /tmp",
+                    "outputs_bytes": "the outputs folder's total, measured while the solution runs",
                     "cgroup_v2": cgroup_v2()}}
 
     def reason(self, which: str) -> str:
         """The one-line reason of an episode past the limit ``which`` (``memory``, ``processes``, ``file``,
-        ``cpu``)."""
+        ``cpu``, ``outputs``)."""
         limit, what = {"memory": (SANDBOX_MEMORY_BYTES, "memory limit"),
                        "processes": (SANDBOX_PROCESSES, "limit on processes and threads"),
                        "file": (SANDBOX_FILE_BYTES, "file size limit"),
-                       "cpu": (SANDBOX_CPU_S, "CPU time limit")}[which]
+                       "cpu": (SANDBOX_CPU_S, "CPU time limit"),
+                       "outputs": (SANDBOX_OUTPUTS_BYTES, "limit on its outputs folder")}[which]
         value = {"memory": self.memory_bytes, "processes": self.processes, "file": self.file_bytes,
-                 "cpu": self.cpu_s}[which]
+                 "cpu": self.cpu_s, "outputs": self.outputs_bytes}[which]
         return f"the solution exceeded its {what} of {_describe(limit, value)} ({limit.env})"
 
 
@@ -285,6 +291,29 @@ def cgroup_v2() -> str:
     if not os.access(folder, os.W_OK):
         return "unavailable: this process's cgroup v2 is not writable by this user"
     return "available"
+
+
+def outputs_watch(limits: SandboxLimits, outputs: Path) -> "Callable[[], str]":
+    """A ``stop_when`` for :func:`benchbot.solutions.process_group.run_child`: the reason of the outputs limit once
+    the files under ``outputs`` (links not followed) take more than ``limits.outputs_bytes`` of disk, else ``""``."""
+
+    def over() -> str:
+        return limits.reason("outputs") if disk_bytes(outputs) > limits.outputs_bytes else ""
+
+    return over
+
+
+def disk_bytes(folder: Path) -> int:
+    """Bytes of disk the files under ``folder`` take (allocated blocks, links not followed; what cannot be read
+    counts 0). Never raises."""
+    total = 0
+    for root, _, files in os.walk(folder):
+        for name in files:
+            try:
+                total += os.lstat(os.path.join(root, name)).st_blocks * 512
+            except OSError:
+                continue
+    return total
 
 
 def exceeded(limits: SandboxLimits, returncode: int, outputs: Path, log: Path | None) -> str:
