@@ -102,20 +102,3 @@ def _dead_cgroups() -> list[Path]:
             except OSError:
                 pass
     return removed
-    for folder in folders:
-        try:
-            owner = int(folder.name.split("-")[2])
-            os.kill(owner, 0)
-            continue  # its owner lives
-        except (ValueError, IndexError):
-            continue
-        except ProcessLookupError:
-            pass
-        except OSError:
-            continue
-        try:
-            folder.rmdir()
-            removed.append(folder)
-        except OSError:
-            pass
-    return removed
