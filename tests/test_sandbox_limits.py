@@ -11,6 +11,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -226,6 +227,32 @@ def test_a_killed_owners_temporary_folders_are_cleaned_and_a_live_ones_kept(tmp_
         for p in owners.values():
             p.kill()
             p.wait()
+
+
+@pytest.mark.skipif(cgroup_root("pids") is None and cgroup_root("memory") is None,
+                    reason="no cgroup this process may make: sandboxes here leave none behind")
+def test_a_killed_owners_cgroups_are_removed_and_a_live_ones_kept():
+    """Each sandbox's cgroups (pids, memory) name their owner's PID: those of a dead owner are removed at the next
+    batch start, a live owner's are kept."""
+    from benchbot.solutions.leftovers import clean_leftovers
+    from benchbot.solutions.sandbox_limits import SandboxCgroups
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    live = SandboxCgroups(SMALL)
+    made = list(live.folders.values())
+    try:
+        assert made
+        roots = {folder.parent for folder in made}
+        orphans = [root / f"benchbot-sandbox-{dead.pid}-1-000000" for root in roots]
+        for folder in orphans:
+            folder.mkdir()
+        removed = clean_leftovers(Path(tempfile.mkdtemp()))
+        assert sorted(removed) == sorted(orphans) and not any(f.exists() for f in orphans)
+        assert all(folder.is_dir() for folder in made)
+    finally:
+        live.close()
+    assert not any(folder.exists() for folder in made)
 
 
 @pytest.mark.slow
