@@ -138,13 +138,21 @@ def test_every_hook_says_since_when_and_a_retired_one_warns_its_implementers():
         pm.register(plugin)
 
 
+#: The one setting the recording plugin declares (``benchbot_settings``).
+RECORDED_SETTING = "BENCHBOT_RECORDER_EVERY_HOOK"
+
+
 def recording_plugin(calls: list[str]) -> types.ModuleType:
     """A plugin implementing every hookspec: each implementation records its hook's name in ``calls`` and offers
-    nothing (an empty list; an empty dict for ``benchbot_robot_backends``; None for the commands and observers)."""
+    nothing (an empty list; an empty dict for ``benchbot_robot_backends``; None for the commands and observers),
+    but for ``benchbot_settings``, which declares :data:`RECORDED_SETTING`."""
+    from benchbot.core.settings import Setting
+
     plugin = types.ModuleType("recording_plugin")
     offers: dict[str, object] = {"benchbot_robot_backends": {}, "benchbot_commands": None,
                                  "benchbot_episode_started": None, "benchbot_step": None,
-                                 "benchbot_episode_finished": None}
+                                 "benchbot_episode_finished": None,
+                                 "benchbot_settings": [Setting(RECORDED_SETTING, "1", "a setting of the recorder")]}
     for _, name, _ in hookdoc.hooks():
         setattr(plugin, name, hookimpl(_recorder(calls, name, offers.get(name, []))))
     return plugin
@@ -153,7 +161,7 @@ def recording_plugin(calls: list[str]) -> types.ModuleType:
 def _recorder(calls: list[str], name: str, offer: object):
     def record() -> object:  # names no argument: pluggy passes it none of the hook's
         calls.append(name)
-        return type(offer)() if isinstance(offer, (list, dict)) else offer
+        return type(offer)(offer) if isinstance(offer, (list, dict)) else offer
 
     return record
 
@@ -161,10 +169,12 @@ def _recorder(calls: list[str], name: str, offer: object):
 def test_every_hookspec_is_called_by_the_core(make_service, registry):
     """datasette's habit: a hook nobody calls is a promise nobody keeps. A plugin implementing every hookspec, in a
     real run: a registry built with it (content, observation, generator and backend hooks), the CLI adding plugins'
-    commands, the asset library, and an episode served and closed with it registered (the observer hooks)."""
+    commands, the asset library, the settings as `benchbot doctor` lists them (its setting shown, owned by it), and
+    an episode served and closed with it registered (the observer hooks)."""
     import typer
 
     from benchbot.cli.main import add_plugin_commands
+    from benchbot.core import settings
     from benchbot.packs.assets import asset_library
 
     calls: list[str] = []
@@ -172,6 +182,8 @@ def test_every_hookspec_is_called_by_the_core(make_service, registry):
     reg = Registry(extra_plugins={"recorder": recorder})
     add_plugin_commands(reg.plugin_manager, typer.Typer())
     asset_library(reg.plugin_manager)
+    shown = {row["name"]: row for row in settings.effective(reg.plugin_manager)}
+    assert shown[RECORDED_SETTING]["owner"] == "recorder" and shown[RECORDED_SETTING]["value"] == "1"
     registry.plugin_manager.register(recorder, name="recorder")
     try:
         service = make_service("semantic_slam:passive:ground_truth", "miniroom:1")
@@ -180,7 +192,7 @@ def test_every_hookspec_is_called_by_the_core(make_service, registry):
     finally:
         registry.plugin_manager.unregister(recorder)
     every = [name for _, name, _ in hookdoc.hooks()]
-    assert len(every) >= 13
+    assert len(every) >= 14 and "benchbot_settings" in every
     assert sorted(set(every) - set(calls)) == [], "hooks never called by the core"
 
 

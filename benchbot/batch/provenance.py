@@ -252,6 +252,25 @@ STYLE_SETTING = "BENCHBOT_SIM_STYLE"
 """The setting naming the scene style of environments whose spec names none (:mod:`benchbot.core.settings`)."""
 
 
+def _plugins_used_by(registry, plugin: str) -> set[str]:
+    """``plugin`` and the plugins whose distributions its distribution requires (not as an extra): e.g.
+    ``{'sim_taichi', 'worlds'}``, the simulator building its scenes with the worlds package."""
+    from packaging.requirements import InvalidRequirement, Requirement
+    from packaging.utils import canonicalize_name
+
+    info = next((p for p in registry.plugins if p.name == plugin), None)
+    required = set()
+    for line in (md.requires(info.distribution) or []) if info is not None and info.distribution else []:
+        try:
+            requirement = Requirement(line)
+        except InvalidRequirement:
+            continue
+        if requirement.marker is None or "extra" not in str(requirement.marker):
+            required.add(canonicalize_name(requirement.name))
+    return {plugin} | {p.name for p in registry.plugins
+                       if p.distribution and canonicalize_name(p.distribution) in required}
+
+
 def backend_facts(registry, robot: dict, scenes: list[dict], versions: dict | None = None) -> dict:
     """What an episode's backend was, for the record's ``backend`` (call it in the process that ran the episode,
     after the episode, where the backend initialised its libraries):
@@ -260,9 +279,10 @@ def backend_facts(registry, robot: dict, scenes: list[dict], versions: dict | No
     type; the episode's clock, ``simulated`` or ``wall`` (a real robot: an environment of type ``real``,
     :func:`benchbot.core.robot.episode_clock`); the plugin providing its backend and that plugin's distribution and
     version; the scene style (the scenes' own
-    ``style``, else the setting ``BENCHBOT_SIM_STYLE`` when that plugin reads it; absent otherwise); the Taichi
-    arch and device (:func:`taichi_device`; absent without Taichi); the effective values of the settings that
-    plugin reads (:mod:`benchbot.core.settings`). Never raises: what cannot be told is left out.
+    ``style``, else the setting ``BENCHBOT_SIM_STYLE`` when that plugin, or a plugin it requires, declares it; absent
+    otherwise); the Taichi arch and device (:func:`taichi_device`; absent without Taichi); the effective values of
+    the settings that plugin declares (:mod:`benchbot.core.settings`, not the secret ones), and of the style
+    setting when the style came from it. Never raises: what cannot be told is left out.
     """
     from benchbot.core import settings
 
@@ -276,12 +296,16 @@ def backend_facts(registry, robot: dict, scenes: list[dict], versions: dict | No
         if info is not None and info.distribution:
             out["distribution"] = info.distribution
             out["version"] = (versions or {}).get(info.distribution) or md.version(info.distribution)
-        owned = {s.name: settings.get(s.name) for s in settings.SETTINGS if s.owner == plugin and not s.secret}
+        declared = settings.all_settings(registry.plugin_manager)
+        owned = {s.name: settings.get(s) for s in declared if s.owner == plugin and not s.secret}
+        style = next((s for s in declared if s.name == STYLE_SETTING
+                      and s.owner in _plugins_used_by(registry, plugin)), None)
+        named = [str(s["style"]) for s in scenes if isinstance(s, dict) and s.get("style")]
+        if len(named) < len(scenes) and style is not None:
+            owned[STYLE_SETTING] = settings.get(style)
+            named.append(str(owned[STYLE_SETTING]))
         if owned:
             out["settings"] = owned
-        named = [str(s["style"]) for s in scenes if isinstance(s, dict) and s.get("style")]
-        if len(named) < len(scenes) and STYLE_SETTING in owned:
-            named.append(str(owned[STYLE_SETTING]))
         if named:
             out["style"] = "+".join(sorted(set(named)))
     except Exception:  # noqa: BLE001 - provenance never fails an episode

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable, Union
 import pluggy
 
 if TYPE_CHECKING:  # pragma: no cover
+    from benchbot.core.core_settings import Setting
     from benchbot.core.observations import ObservationKind
     from benchbot.core.robot import RobotBackend
 
@@ -208,6 +209,34 @@ class BehaviourHooks:
             every implementation is called; the dicts are merged. A type offered by two plugins is an error: the
             second is skipped and reported; an implementation that raises offers nothing and is reported
             (``benchbot plugins``), and the other plugins' backends still load.
+        """
+
+    @declared("0.2")
+    def benchbot_settings(self) -> list[Setting]:
+        """The environment variables a plugin reads, declared once (as conda's ``conda_settings``): ``benchbot
+        doctor`` shows each with its effective value, where the value came from and the plugin that reads it, and
+        ``benchbot.core.settings.get`` finds it by name (docs/plugin-guide.md, "Settings").
+
+        Returns:
+            A list of ``benchbot.core.settings.Setting``: ``name`` (``BENCHBOT_<WORDS>``, upper case; another
+            program's variable that the plugin reads too, such as ``ROS_DOMAIN_ID``, with ``external=True``),
+            ``default`` (text, or ``None``), ``meaning`` (a phrase), optionally ``secret`` (never shown or recorded)
+            and ``reader`` (text to value, raising ``ValueError`` with a reason: ``settings.value`` applies it,
+            ``benchbot doctor`` marks a value it rejects). The plugin's code reads them through these declarations
+            (``settings.get(MY_SETTING)``), so keep them in a module of their own that the plugin's other modules
+            import. ``owner`` is set by the core to the plugin's entry-point name.
+
+        Called:
+            Once per process, when a setting that is not the core's is first looked up by name, or when all are
+            listed (``benchbot doctor``, a batch recording the settings of an episode's backend plugin); through
+            the plugin manager alone, without building the registry.
+
+        Call policy:
+            every implementation is called; the lists are concatenated after the core's settings, in plugin order.
+            A declaration whose name is not ``BENCHBOT_`` and upper-case words (unless ``external``), whose name
+            is declared already (by the core, an earlier plugin or the same one), or that is not a ``Setting`` is
+            left out; an implementation that raises offers nothing. Each is one line of ``benchbot doctor``'s
+            ``settings`` check, naming the plugin; the other declarations still count.
         """
 
     @declared("0.1")

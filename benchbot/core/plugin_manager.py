@@ -48,9 +48,11 @@ class PluginInfo:
 
 
 def _names_from_env(var: str) -> set[str]:
-    from benchbot.core import settings
+    """The comma list of the core's setting ``var`` (read through :mod:`benchbot.core.core_settings`, which knows
+    no plugin: :mod:`benchbot.core.settings` loads plugins through this module)."""
+    from benchbot.core.core_settings import core_get
 
-    return {n.strip() for n in (settings.get(var) or "").split(",") if n.strip()}
+    return {n.strip() for n in (core_get(var) or "").split(",") if n.strip()}
 
 
 def build_plugin_manager(extra_plugins: dict[str, ModuleType | object] | None = None) -> tuple[

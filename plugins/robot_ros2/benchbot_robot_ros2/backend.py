@@ -44,6 +44,7 @@ from benchbot.core.geometry import se2_relative, se2_to_matrix, start_pose_to_se
 from benchbot.core.motion import ControllerGains, PoseController
 from benchbot.core.specs import first_error
 from benchbot.core.robot import MotionOutcome, RobotBackend
+from benchbot_robot_ros2.settings import ROS2_TIME_SCALE, ROS_DOMAIN_ID
 from benchbot_robot_ros2.watchdog import SilenceWatch, header_stamp_s
 
 #: Defaults of the robot spec's ``ros2`` block (see docs/ros2.md).
@@ -149,12 +150,12 @@ def ros2_config(robot_spec: dict, options: dict | None = None) -> dict[str, Any]
     options = options or {}
     # Values from outside the spec: converted and checked here, against the schema's fields, naming their source.
     domain_hint = "use a domain id 0..232"
-    if settings.source("ROS_DOMAIN_ID") == "environment":
-        _override(cfg, "domain_id", settings.get("ROS_DOMAIN_ID"), "ROS_DOMAIN_ID", int, domain_hint)
+    if settings.source(ROS_DOMAIN_ID) == "environment":
+        _override(cfg, "domain_id", settings.get(ROS_DOMAIN_ID), ROS_DOMAIN_ID.name, int, domain_hint)
     if options.get("ros2_domain_id") is not None:
         _override(cfg, "domain_id", options["ros2_domain_id"], "options.ros2_domain_id", int, domain_hint)
-    if settings.get("BENCHBOT_ROS2_TIME_SCALE"):
-        _override(cfg, "time_scale", settings.get("BENCHBOT_ROS2_TIME_SCALE"), "BENCHBOT_ROS2_TIME_SCALE", float,
+    if settings.get(ROS2_TIME_SCALE):
+        _override(cfg, "time_scale", settings.get(ROS2_TIME_SCALE), ROS2_TIME_SCALE.name, float,
                   "simulated seconds per wall second, > 0 (e.g. 1.0)")
     cfg["domain_id"] = int(cfg["domain_id"])
     for k in ("rate_hz", "time_scale", "settle_s", "sensor_timeout_s", "observation_timeout_s", "startup_timeout_s",

@@ -37,6 +37,15 @@ def benchbot_robot_backends() -> dict:
 
 
 @hookimpl
+def benchbot_settings() -> list:
+    """The environment variables this package reads (benchbot_robot_ros2.settings): ``ROS_DOMAIN_ID``, ``CYCLONEDDS_URI``, ``FASTRTPS_DEFAULT_PROFILES_FILE`` (ROS 2's own) and
+    ``BENCHBOT_ROS2_TIME_SCALE``."""
+    from benchbot_robot_ros2.settings import SETTINGS
+
+    return list(SETTINGS)
+
+
+@hookimpl
 def benchbot_commands(app: Any) -> None:
     """``benchbot ros2 serve-sim --env ENV`` (the Taichi simulator served as a ROS 2 robot) and ``benchbot ros2
     example-room DEST`` (a copy of :data:`EXAMPLE_ROOM` to edit)."""
@@ -75,11 +84,12 @@ def benchbot_commands(app: Any) -> None:
             domain = domain_id
             if domain is None:
                 from benchbot.core import settings
+                from benchbot_robot_ros2.settings import ROS_DOMAIN_ID
 
-                raw = settings.get("ROS_DOMAIN_ID")
-                if not raw.isdigit() or int(raw) > 232:
-                    raise UsageError(f"ROS_DOMAIN_ID '{raw}' is not a domain id", "use an integer 0..232, or --domain-id")
-                domain = int(raw)
+                try:
+                    domain = settings.value(ROS_DOMAIN_ID)
+                except UsageError as exc:
+                    raise UsageError(exc.message, "use a domain id 0..232, or --domain-id") from None
             w, h = parse_size(camera_size)
             serve(env, domain_id=domain, width=w, height=h, arch=arch, time_scale=time_scale, camera_hz=camera_hz,
                   transport=transport, network=network, seed=seed, robot=robot, ros_robot=ros_robot)

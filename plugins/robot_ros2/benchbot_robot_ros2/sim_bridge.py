@@ -517,8 +517,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--ros-robot", default="carter_ros2")
     a = ap.parse_args(argv)
     from benchbot.core import settings
+    from benchbot_robot_ros2.settings import ROS_DOMAIN_ID
 
-    domain = a.domain_id if a.domain_id is not None else int(settings.get("ROS_DOMAIN_ID"))
+    domain = a.domain_id if a.domain_id is not None else settings.value(ROS_DOMAIN_ID)
     w, h = parse_size(a.camera_size)
     serve(a.env, robot=a.robot, domain_id=domain, width=w, height=h, arch=a.arch, time_scale=a.time_scale,
           camera_hz=a.camera_hz, transport=a.transport, network=a.network, seed=a.seed, ros_robot=a.ros_robot)

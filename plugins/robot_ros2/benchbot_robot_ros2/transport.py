@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from benchbot.core import settings
+from benchbot_robot_ros2.settings import CYCLONEDDS_URI, FASTRTPS_DEFAULT_PROFILES_FILE
 
 log = logging.getLogger(__name__)
 
@@ -69,9 +70,9 @@ def configure_network(network: str = "loopback") -> None:
     """
     if network not in ("loopback", "system"):
         raise ValueError(f"ros2.network must be 'loopback' or 'system', got {network!r}")
-    if network == "loopback" and not settings.get("CYCLONEDDS_URI"):
+    if network == "loopback" and not settings.get(CYCLONEDDS_URI):
         os.environ["CYCLONEDDS_URI"] = LOOPBACK_URI
-    if network == "loopback" and not settings.get("FASTRTPS_DEFAULT_PROFILES_FILE"):
+    if network == "loopback" and not settings.get(FASTRTPS_DEFAULT_PROFILES_FILE):
         os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_LOOPBACK_PROFILE)
 
 

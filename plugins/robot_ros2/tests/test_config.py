@@ -97,3 +97,21 @@ def test_a_bad_override_names_its_source(monkeypatch, variable, value, options, 
     with pytest.raises(BackendError) as e:
         ros2_config(spec(), options)
     assert e.value.message.startswith(problem) and "\n" not in e.value.message and e.value.hint
+
+
+def test_serve_sim_reads_the_domain_through_the_plugin_s_declared_setting(monkeypatch):
+    """``ROS_DOMAIN_ID`` is the plugin's setting (``benchbot_robot_ros2.settings``, an external variable): `benchbot
+    ros2 serve-sim` and the bridge read it through its reader, a bad value is one line naming it (before: the
+    bridge's ``int()`` raised a traceback on ``abc``, and nothing bounded it to 0..232)."""
+    from benchbot.core import settings
+    from benchbot.core.errors import UsageError
+    from benchbot_robot_ros2.plugin import benchbot_settings
+    from benchbot_robot_ros2.settings import ROS_DOMAIN_ID
+
+    assert ROS_DOMAIN_ID in benchbot_settings() and ROS_DOMAIN_ID.external
+    monkeypatch.setenv("ROS_DOMAIN_ID", "17")
+    assert settings.value(ROS_DOMAIN_ID) == 17
+    for bad in ("300", "abc"):
+        monkeypatch.setenv("ROS_DOMAIN_ID", bad)
+        with pytest.raises(UsageError, match=rf"^ROS_DOMAIN_ID='{bad}' is not a whole number from 0 to 232$"):
+            settings.value(ROS_DOMAIN_ID)

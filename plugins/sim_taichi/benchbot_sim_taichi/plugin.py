@@ -32,6 +32,14 @@ def benchbot_robot_backends() -> dict:
 
 
 @hookimpl
+def benchbot_settings() -> list:
+    """The environment variables this package reads (benchbot_sim_taichi.settings): ``BENCHBOT_TAICHI_ARCH``, ``BENCHBOT_TAICHI_THREADS``, ``BENCHBOT_TAICHI_FULL_POSITIONS``."""
+    from benchbot_sim_taichi.settings import SETTINGS
+
+    return list(SETTINGS)
+
+
+@hookimpl
 def benchbot_commands(app) -> None:
     """``benchbot sim render|export|ground-truth|plan`` (see :mod:`benchbot_sim_taichi.cli`)."""
     from benchbot_sim_taichi.cli import app as sim_app

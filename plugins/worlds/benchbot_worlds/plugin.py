@@ -39,6 +39,14 @@ def benchbot_world_generators() -> list:
 
 
 @hookimpl
+def benchbot_settings() -> list:
+    """The environment variables this package reads (benchbot_worlds.settings): ``BENCHBOT_SIM_STYLE`` and ``BENCHBOT_WORLDS_KEY_FILE``."""
+    from benchbot_worlds.settings import SETTINGS
+
+    return list(SETTINGS)
+
+
+@hookimpl
 def benchbot_commands(app) -> None:
     """``benchbot worlds generate|key`` (see :mod:`benchbot_worlds.cli`)."""
     from benchbot_worlds.cli import app as worlds_app

@@ -84,6 +84,7 @@ from benchbot.core import settings, stages
 from benchbot.core.errors import UsageError
 from benchbot_sim_taichi.render.camera_model import CameraModel, tone_table
 from benchbot_sim_taichi.render.pixel_integration import grid_side, integrate, subpixel_intrinsics
+from benchbot_sim_taichi.settings import TAICHI_ARCH, TAICHI_THREADS
 
 # Taichi prints a banner on import and "Starting on arch=…" on ti.init, on stdout, which carries our programs' data
 # (tables, --json); neither is of use on every command, so both are kept in TAICHI_BANNER instead (`benchbot
@@ -156,10 +157,12 @@ def ensure_taichi(arch: str | None = None) -> str:
             positive integer.
     """
     global _INIT_ARCH, _INIT_THREAD
-    want = (arch or settings.get("BENCHBOT_TAICHI_ARCH")).strip().lower()
-    if want not in ("cpu", "gpu", "cuda"):
-        raise TaichiSettingError(f"unknown Taichi arch {want!r}",
-                                 "use cpu, gpu or cuda (--arch, or BENCHBOT_TAICHI_ARCH)")
+    try:
+        want = TAICHI_ARCH.reader(arch) if arch else settings.value(TAICHI_ARCH)
+    except (ValueError, UsageError):
+        given = arch or settings.get(TAICHI_ARCH)
+        raise TaichiSettingError(f"unknown Taichi arch {given.strip().lower()!r}",
+                                 "use cpu, gpu or cuda (--arch, or BENCHBOT_TAICHI_ARCH)") from None
     if _INIT_ARCH is not None:
         if (want == "cpu") != (_INIT_ARCH == "cpu") and not (want != "cpu" and _INIT_ARCH == "cpu-fallback"):
             warnings.warn(f"Taichi is already initialised on {_INIT_ARCH}; ignoring the request for {want}",
@@ -239,16 +242,13 @@ def _init_quietly(want: str) -> str:
 def _cpu_threads() -> dict:
     """``{'cpu_max_num_threads': n}`` from ``BENCHBOT_TAICHI_THREADS`` (set by batch workers so that N parallel
     episodes share the cores instead of each starting one thread per core), else ``{}`` (Taichi's default: all)."""
-    value = settings.get("BENCHBOT_TAICHI_THREADS") or ""
-    if not value:
-        return {}
     try:
-        n = int(value)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise TaichiSettingError(f"BENCHBOT_TAICHI_THREADS={value!r} is not a positive integer",
-                                 "set it to the simulator's threads per process, e.g. 2, or unset it")
+        n = settings.value(TAICHI_THREADS)
+    except UsageError as exc:
+        raise TaichiSettingError(exc.message, "set it to the simulator's threads per process, e.g. 2, or unset it"
+                                 ) from None
+    if n is None:
+        return {}
     return {"cpu_max_num_threads": n}
 
 

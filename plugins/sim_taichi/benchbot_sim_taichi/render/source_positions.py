@@ -23,6 +23,7 @@ import os
 from pathlib import Path
 
 from benchbot.core import settings
+from benchbot_sim_taichi.settings import TAICHI_FULL_POSITIONS
 
 #: This package's folder: kernels whose file is under it get brief positions.
 PACKAGE_DIR = str(Path(__file__).resolve().parents[1]) + os.sep
@@ -44,7 +45,7 @@ def use_brief_positions() -> bool:
     global _installed
     if _installed:
         return True
-    if (settings.get("BENCHBOT_TAICHI_FULL_POSITIONS") or "") == "1":
+    if (settings.get(TAICHI_FULL_POSITIONS) or "") == "1":
         return False
     try:
         from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext

@@ -25,6 +25,7 @@ from pathlib import Path
 from benchbot.core import settings
 from benchbot.core.errors import SpecError, UsageError
 from benchbot.packs.pack_layout import data_dir
+from benchbot_worlds.settings import WORLDS_KEY_FILE
 
 SPLITS = ("train", "val", "test")
 #: The held-out split: its seeds need the host's key.
@@ -34,7 +35,7 @@ KEY_BYTES = 32
 
 def key_path() -> Path:
     """The host's key file: ``$BENCHBOT_WORLDS_KEY_FILE``, else ``<data dir>/worlds/test_split.key`` (may not exist)."""
-    given = settings.get("BENCHBOT_WORLDS_KEY_FILE")
+    given = settings.get(WORLDS_KEY_FILE)
     return Path(given).expanduser() if given else data_dir() / "worlds" / "test_split.key"
 
 

@@ -28,6 +28,7 @@ from benchbot_worlds.scene.meshes import MeshInstance, add_mesh_instances, insta
 from benchbot_worlds.scene.model import (
     LIGHT_DIRECTIONAL, LIGHT_POINT, PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID, PRIM_TRIANGLE, Scene, srgb_to_linear,
 )
+from benchbot_worlds.settings import SIM_STYLE
 
 #: Margin (metres) between the walls and every object / pose.
 WALL_MARGIN_M = 0.5
@@ -84,10 +85,10 @@ ENVIRONMENT_SCHEMA = Path(__file__).resolve().parents[1] / "schemas" / "environm
 #: (:mod:`benchbot_worlds.homes.furnished`); ``primitives`` — procedural primitives in one room shell.
 STYLES = ("furnished", "primitives")
 #: The style of an environment that names none, unless :data:`STYLE_VARIABLE` says otherwise.
-DEFAULT_STYLE = settings.default("BENCHBOT_SIM_STYLE")
+DEFAULT_STYLE = SIM_STYLE.default
 #: The environment variable that sets the style of environments naming none, for a whole run and the processes it
 #: starts (e.g. ``BENCHBOT_SIM_STYLE=primitives benchbot batch …`` for speed; the test suite sets it).
-STYLE_VARIABLE = "BENCHBOT_SIM_STYLE"
+STYLE_VARIABLE = SIM_STYLE.name
 #: Furnished homes: the outdoors (ground, sky) lies this far (m) beyond the outer walls; sRGB ground, sky, sky.
 OUTDOOR_MARGIN_M = 6.0
 _OUTDOOR_COLOURS = ((0.36, 0.40, 0.26), (0.62, 0.74, 0.90), (0.70, 0.80, 0.94))
@@ -401,7 +402,7 @@ def default_style() -> str:
     Raises:
         BackendError: the variable is set to a name not in :data:`STYLES`.
     """
-    style = settings.get(STYLE_VARIABLE)
+    style = settings.get(SIM_STYLE)
     if style not in STYLES:
         raise BackendError(f"the environment variable {STYLE_VARIABLE}={style[:40]!r} names no style",
                            f"set it to one of: {', '.join(STYLES)} (or unset it for {DEFAULT_STYLE})")
