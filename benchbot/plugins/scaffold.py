@@ -116,7 +116,8 @@ def project_files(kind: str, name: str) -> dict[str, str]:
     dist, pkg, ep = f"benchbot-{kind}-{name.replace('_', '-')}", f"benchbot_{kind}_{name}", f"{kind}_{name}"
     v = {"dist": dist, "pkg": pkg, "ep": ep, "name": name, "kind": kind, "type": f"{kind}_{name}",
          "robot": f"{name}_bot", "env": f"{name}_room", "task": f"{name}:passive:ground_truth",
-         "cls": "".join(p.title() for p in name.split("_")) + "Backend"}
+         "cls": "".join(p.title() for p in name.split("_")) + "Backend",
+         "speed_setting": f"BENCHBOT_{kind.upper()}_{name.upper()}_SPEED_M_S"}
     files: dict[str, str] = {f"{pkg}/__init__.py": f'"""{dist}: a BenchBot plugin."""\n'}
     tests = ["test_header.py"]  # followed by the kind's tests
     if kind in ("sim", "robot"):
@@ -124,9 +125,11 @@ def project_files(kind: str, name: str) -> dict[str, str]:
         v["summary"] = f"{what} (robot type `{v['type']}`), the robot `{v['robot']}` and the environment `{v['env']}:1`."
         v["usage"] = f"benchbot run --robot {v['robot']} --env {v['env']}:1 --port 0     # any task its robot can do"
         v["layout"] = (f"| `{pkg}/backend.py` | the robot backend (`benchbot.core.robot.RobotBackend`) |\n"
+                       f"| `{pkg}/settings.py` | the environment variables it reads (`benchbot doctor` shows them) |\n"
                        f"| `{pkg}/robots/`, `{pkg}/environments/` | the robot and environment specs |\n")
         files[f"{pkg}/plugin.py"] = _fill("sim_plugin.py", v)
         files[f"{pkg}/backend.py"] = _fill("backend.py", v)
+        files[f"{pkg}/settings.py"] = _fill("settings.py", v)
         files[f"{pkg}/robots/{v['robot']}.yaml"] = _fill("robot.yaml", v)
         files[f"{pkg}/environments/{v['env']}_1.yaml"] = _fill("environment.yaml", v)
         tests.append("sim_tests.py")

@@ -65,8 +65,10 @@ def _importable(module_name: str) -> bool:
 
 def check_content_plugin(module: ModuleType | object, *, light_import: bool = True) -> dict[str, list[str]]:
     """Check a plugin module: its hook implementations name real hooks, every content hook returns a list of specs
-    that load and validate against their schema, names are unique, robot-backend factories are callable, and
-    importing the module imports nothing heavy (taichi, rclpy, ray, torch, cyclonedds).
+    that load and validate against their schema, names are unique, robot-backend factories are callable, its
+    settings (``benchbot_settings``) follow the rules of :mod:`benchbot.core.settings` (the ``BENCHBOT_`` prefix
+    unless external, no name the core or the plugin declares already), and importing the module imports nothing
+    heavy (taichi, rclpy, ray, torch, cyclonedds).
 
     Args:
         module: the plugin (the object registered under the entry point).
@@ -74,7 +76,7 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
             (only for real modules).
 
     Returns:
-        ``{kind: [names]}`` of what the plugin registers (``robot_backends`` included).
+        ``{kind: [names]}`` of what the plugin registers (``robot_backends`` and ``settings`` included).
 
     Raises:
         AssertionError: every problem found, one per line.
@@ -141,6 +143,13 @@ def check_content_plugin(module: ModuleType | object, *, light_import: bool = Tr
                 if not callable(factory):
                     problems.append(f"robot backend '{type_name}': factory is not callable")
                 registers.setdefault("robot_backends", []).append(type_name)
+    if "benchbot_settings" in implemented:
+        from benchbot.core.settings import from_plugins
+
+        declared = from_plugins(pm)
+        problems.extend(declared.problems)
+        if declared.settings:
+            registers["settings"] = [s.name for s in declared.settings]
     module_name = getattr(module, "__name__", None)
     if light_import and isinstance(module, ModuleType) and module_name and _importable(module_name):
         code = (f"import sys, json; import {module_name}; "
