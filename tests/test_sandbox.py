@@ -9,12 +9,14 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
 
 from benchbot.core.registry import get_registry
 from benchbot.server.redaction import ground_truth_strings
+from benchbot.solutions.containers import PASSED_BY_NAME
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 SMALL = ["--camera-size", "64x48"]
@@ -414,17 +416,20 @@ def test_an_example_that_reads_the_ground_truth_needs_no_sandbox(tmp_path):
 
 
 FAKE_ENGINE = """#!/bin/sh
-# Records how BenchBot calls the container engine (one line of arguments per call) and does nothing else.
+# Records how BenchBot calls the container engine (one line of arguments per call) and does nothing else; an image
+# it is asked about runs `python3 solution.py`.
 printf '%s\\0' "$@" >> "$ENGINE_CALLS"; printf '\\n' >> "$ENGINE_CALLS"
+[ "$1" = image ] && printf 'null\\t["python3", "solution.py"]\\n'
 exit 0
 """
 
 
 @pytest.mark.slow
-def test_a_container_is_given_no_mount_no_device_and_no_host_path(tmp_path):
-    """--containerised: what the container sees is its image, the documented variables and the host network; no
-    volume, bind mount or device, and no path of the host (no ground truth, no run directory) on its command line.
-    The engine is a stand-in that records its calls (no container engine runs on CI machines)."""
+def test_a_container_is_given_no_network_no_device_and_only_private_mounts(tmp_path):
+    """--containerised through a batch: what the container sees is its image, the documented variables, no network
+    and three read-only or private binds (a hosts file and BenchBot's relay from a private folder, the backend's
+    socket from the episode's private folder): no device, no capability, no run directory, no ground truth. The
+    engine is a stand-in that records its calls (tests/test_containers.py runs real ones)."""
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     (bin_dir / "docker").write_text(FAKE_ENGINE)
@@ -438,18 +443,25 @@ def test_a_container_is_given_no_mount_no_device_and_no_host_path(tmp_path):
                            *SMALL, "--output-dir", str(tmp_path / "runs"), "--no-tui", "--json"],
                           capture_output=True, text=True, timeout=600, env=env)
     run_dir = Path(json.loads(proc.stdout)["run_dir"])
-    assert json.loads((run_dir / "manifest.json").read_text())["sandbox"] == "container"
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["sandbox"] == "container" and manifest["limits"]["mechanism"]["network"].startswith("--network none")
     runs = [line.split("\0")[:-1] for line in calls.read_text().splitlines() if line.startswith("run\0")]
     assert len(runs) == 1, calls.read_text()
     run = runs[0]
-    for flag in ("-v", "--volume", "--mount", "--device", "--privileged", "--cap-add", "--pid", "--ipc"):
+    for flag in ("--mount", "--device", "--privileged", "--cap-add", "--pid", "--ipc", "--volumes-from"):
         assert flag not in run and not any(w.startswith(flag + "=") for w in run), run
+    assert run[run.index("--network") + 1] == "none" and run[run.index("--cap-drop") + 1] == "ALL"
+    binds = [run[i + 1].split(":") for i, w in enumerate(run) if w in ("-v", "--volume")]
+    assert [inside for _, inside, *_ in binds] == ["/etc/hosts", "/run/benchbot-init", "/run/benchbot/backend.sock"]
+    temp = Path(tempfile.gettempdir())
+    for host, _inside, *_ in binds:
+        assert Path(host).parent.name.startswith(("benchbot-sandbox-", "benchbot-episode-", "init")), host
+        assert Path(host).is_relative_to(temp) and not Path(host).is_relative_to(run_dir), host
     variables = {run[i + 1].split("=", 1)[0] for i, w in enumerate(run) if w == "-e"}
-    assert variables == {"BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_SHARED_MEMORY", "args",
-                         "BENCHBOT_CLIENT_ID"}  # the last by name only: its value comes from the engine's environment
-    assert "--network" in run and run[run.index("--network") + 1] == "host"
-    host_paths = [w for w in run if "/" in w and not w.startswith(("BENCHBOT_", "benchbot/", "args="))]
-    assert host_paths == [], host_paths
+    set_here = {"BENCHBOT_SUPERVISOR_ADDRESS", "BENCHBOT_RESULT_LOCATION", "BENCHBOT_SHARED_MEMORY", "args", "HOME",
+                "PYTHONUNBUFFERED"}
+    assert set_here <= variables <= set_here | set(PASSED_BY_NAME)  # the rest by name only, when set
+    assert not any(str(run_dir) in w or "ground_truth" in w for w in run), run
 
 
 def test_the_systems_bubblewrap_comes_first_then_the_bundled_one(tmp_path, monkeypatch):

@@ -22,15 +22,8 @@ from benchbot.core.evaluation import evaluate
 from benchbot.solutions.result_files import ORIGINAL_RESULT_LOCATION, ResultWatch, submission_result_location
 from benchbot.solutions.sandbox import INSIDE_OUTPUTS, check_available, check_sandboxable, not_verifiable_note
 from benchbot.solutions.solution_lease import supervised_solution
-from benchbot.solutions.submission import (
-    container_engine,
-    container_files,
-    example_submission,
-    make_submission_archive,
-    native_submission,
-    run_container_submission,
-    run_submission,
-)
+from benchbot.solutions.container_engine import container_engine, container_files
+from benchbot.solutions.submission import example_submission, make_submission_archive, native_submission, run_submission
 
 DEFAULT_ADDRESS = "http://127.0.0.1:10000/"
 
@@ -133,7 +126,7 @@ def _run_sandboxed(reg, sub, address: str, location: Path, timeout: float | None
     """
     import urllib.parse
 
-    from benchbot.solutions.sandbox import inside_address, read_results, run_sandboxed
+    from benchbot.solutions.sandbox import inside_address, run_sandboxed
     from benchbot.solutions.socket_relay import UnixToTcpRelay
 
     parts = urllib.parse.urlsplit(address)
@@ -143,16 +136,51 @@ def _run_sandboxed(reg, sub, address: str, location: Path, timeout: float | None
         run = run_sandboxed(sub.argv, sub.cwd, registry=reg, backend_socket=relay.path,
                             address=inside_address(address)[0], outputs=outputs, result_name=location.name,
                             timeout_s=timeout, stdin="inherit")
-    if run.problem:
-        err.print(f"[red]{run.problem}[/]", highlight=False)
-    elif run.results is not None:
-        atomic.write_bytes(location, read_results(run.results))
-        run.results.unlink()
+    _hand_back(run.problem or run.limit, run.results, outputs, location)
+    return -9 if run.outcome.timed_out else run.outcome.returncode
+
+
+def _run_containerised(tool: str, dockerfile: Path, context: Path, address: str, location: Path, args: str,
+                       timeout: float | None) -> int:
+    """Build ``dockerfile`` and run its image (:func:`benchbot.solutions.containers.run_container`: no network, the
+    sandbox's limits) against the backend at ``address``, reached through a Unix socket relayed to it; copy its
+    results file to ``location`` and say where its other files are. Returns its exit status (-9 when it timed out).
+
+    Raises:
+        BenchbotError: the build failed, or the engine could not start the container.
+    """
+    import urllib.parse
+
+    from benchbot.solutions.container_engine import build_image
+    from benchbot.solutions.containers import run_container
+    from benchbot.solutions.socket_relay import UnixToTcpRelay
+
+    parts = urllib.parse.urlsplit(address)
+    port = parts.port or {"http": 80, "https": 443}.get(parts.scheme)
+    tag = build_image(tool, dockerfile, context)
+    outputs = Path(tempfile.mkdtemp(prefix="benchbot-submit-outputs-"))
+    with UnixToTcpRelay(parts.hostname or "127.0.0.1", port) as relay:
+        run = run_container(tool, tag, backend_socket=relay.path, address=address, outputs=outputs,
+                            result_name=location.name, args=args, token=settings.get("BENCHBOT_TOKEN"),
+                            timeout_s=timeout, stdin="inherit")
+    _hand_back(run.limit, run.results, outputs, location)
+    return -9 if run.outcome.timed_out else run.outcome.returncode
+
+
+def _hand_back(problem: str, results: Path | None, outputs: Path, location: Path) -> None:
+    """After an isolated solution: say ``problem`` (a refused results file, a resource limit), copy its results file
+    to ``location`` (never through a link), and say where its other files are (``outputs``, removed when empty)."""
+    from benchbot.solutions.sandbox import read_results
+
+    if problem:
+        err.print(f"[red]{problem}[/]", highlight=False)
+    if results is not None:
+        atomic.write_bytes(location, read_results(results))
+        results.unlink()
     if any(outputs.iterdir()):
         err.print(f"the solution's other files (it wrote them in {INSIDE_OUTPUTS}): {outputs}", highlight=False)
     else:
         outputs.rmdir()
-    return -9 if run.outcome.timed_out else run.outcome.returncode
 
 
 def register(app: typer.Typer) -> None:
@@ -237,11 +265,10 @@ def register(app: typer.Typer) -> None:
         # the episode must be free; the solution's client gets an id of ours, whose hold ends when the solution does
         with supervised_solution(address):
             if in_container:
-                err.print(f"building and running {dockerfile} with {engine} against {address}")
-                watch = ResultWatch(location)  # the container writes its own /tmp/benchbot_result, copied to location
-                code = run_container_submission(engine, dockerfile, context, address=address,
-                                                result_location=location, args=args,
-                                                token=settings.get("BENCHBOT_TOKEN"), timeout_s=timeout)
+                err.print(f"building and running {dockerfile} with {engine} against {address} (no network but "
+                          "the backend)", highlight=False)
+                watch = ResultWatch(location)  # the container's own results file, copied to location
+                code = _run_containerised(engine, dockerfile, context, address, location, args, timeout)
             elif sandboxed:
                 err.print(f"running {sub.label} against {address} in the sandbox (bubblewrap: it sees no ground "
                           "truth)")
