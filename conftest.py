@@ -2,7 +2,9 @@
 packs come from an empty, per-session data directory, never from the user's (and built scenes go to a per-session
 cache directory). Environments that name no style are
 drawn in sim_taichi's ``primitives`` style (fast to build); the tests of the furnished default name it, and
-``tests/test_furnished_episode.py`` runs the README's main job on it."""
+``tests/test_furnished_episode.py`` runs the README's main job on it. The commands the tests run build their
+simulator in their own process (``BENCHBOT_SERVICE=off``, as ``--no-service``): no test leaves a resident simulator
+service behind, nor depends on one another test started; ``tests/test_service.py`` turns it on where it tests it."""
 
 import os
 import tempfile
@@ -13,6 +15,7 @@ os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,worlds,sim_ta
 os.environ["BENCHBOT_DATA_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-data-")
 os.environ["BENCHBOT_CACHE_DIR"] = _TEST_CACHE_DIR = tempfile.mkdtemp(prefix="benchbot-test-cache-")
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
+os.environ["BENCHBOT_SERVICE"] = "off"
 
 
 # ---------------------------------------------------------------------------------------------------------------------

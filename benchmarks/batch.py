@@ -37,7 +37,7 @@ def run(workers: int, args: argparse.Namespace, out: Path, executor: str = "loca
     envs = ["--envs", args.envs] if args.envs else ["--envs-batch", args.envs_batch]
     command = [sys.executable, "-m", "benchbot.cli", "batch", "--example", args.example, *envs,
                "--workers", str(workers), "--executor", executor, "--output-dir", str(out), "--json",
-               "--arch", args.arch]
+               "--arch", args.arch, "--no-service"]  # executors compared alike: each with its own simulator
     if args.camera_size:
         command += ["--camera-size", args.camera_size]
     if args.repeat > 1:

@@ -110,7 +110,9 @@ def main(argv: list[str] | None = None) -> int:
     command = ["batch", "--example", args.example, "--envs", args.env]
     runs = []
     with tempfile.TemporaryDirectory(prefix="benchbot-first-run-") as tmp:
-        env = dict(os.environ, BENCHBOT_CACHE_DIR=os.path.join(tmp, "cache"))
+        # in the command's own process, every run: the simulator service (benchmarks/service_warm.py) would keep
+        # the first run's Taichi and kernels for the next
+        env = dict(os.environ, BENCHBOT_CACHE_DIR=os.path.join(tmp, "cache"), BENCHBOT_SERVICE="off")
         if not args.smoke:
             env["TI_OFFLINE_CACHE_FILE_PATH"] = os.path.join(tmp, "taichi")  # read by ti.init: an empty cache
         for i in range(1 + max(0, args.warm)):

@@ -30,7 +30,7 @@ ORIGINAL = DOCS / "original-benchbot.md"
 PROJECT_DIRS = ("benchbot", "benchbot_api", "plugins", "docs", "schemas", "tests", "benchmarks")
 PROJECT_FILES = ("README.md", "pyproject.toml", "conftest.py", "uv.lock")
 #: Core packages whose every module architecture.md must name.
-MAPPED_PACKAGES = ("benchbot/core", "benchbot/server", "benchbot/solutions", "benchbot/packs", "benchbot/protocol", "benchbot/batch", "benchbot/api", "benchbot/tui",
+MAPPED_PACKAGES = ("benchbot/core", "benchbot/server", "benchbot/solutions", "benchbot/packs", "benchbot/protocol", "benchbot/service", "benchbot/batch", "benchbot/api", "benchbot/tui",
                    "benchbot/plugins")
 
 SPAN = re.compile(r"`([^`\n]+)`")

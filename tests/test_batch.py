@@ -65,7 +65,7 @@ def _fake_executor(handed: list):
     """A ``run_local`` that runs nothing: it keeps what it is handed and fails every episode."""
     from benchbot.batch.plan import new_record
 
-    def run_local(episodes, run_dir, *, workers, on_event, on_record):
+    def run_local(episodes, run_dir, *, workers, on_event, on_record, service=False):
         for spec, run in episodes:
             handed.append((spec, run))
             record = new_record(spec)

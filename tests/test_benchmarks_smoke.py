@@ -59,6 +59,8 @@ FIGURES = {
     "ros2_step.py": [r"ros2_observe_ms: [\d.]+", r"direct_observe_ms: [\d.]+"],
     "sensors_kernels.py": [r"[\d.]+ fps with a synchronisation", r"shade\w*_kernel +[\d.]+ ms/launch"],
     "shadow_maps.py": [r"[\d.]+ fps with maps, [\d.]+ with rays"],
+    "service_warm.py": [r"in-process +[\d.]+ s wall, +[\d.]+ s CPU", r"service +[\d.]+ s wall, +[\d.]+ s CPU",
+                        r"byte-identical: yes"],
     "turned_homes.py": [r"miniroom:1, first 2 poses", r"mirror_y +OMQ [\d.]+",
                         r"largest OMQ gap between turns: [\d.]+"],
     "world_generation.py": [r"per home [\d.]+ s mean", r"distinct homes: 20 of 20; invalid: 0",

@@ -1,4 +1,5 @@
-"""Running one batch episode: a backend on a free 127.0.0.1 port, the submission as a child process, the record.
+"""Running one batch episode: a backend on a free 127.0.0.1 port (built in this process, or in the user's simulator
+service: :mod:`benchbot.service`), the submission as a child process of this one, the record.
 
 :func:`run_episode` runs in the batch process (one worker) or in a worker process (several workers, Ray); it
 reports steps through an optional ``events`` queue as ``("step", index, info)`` tuples.
@@ -13,14 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
-from benchbot.batch.provenance import backend_facts
 from benchbot.core import stages
 from benchbot.core.errors import BenchbotError, ResultsError
 from benchbot.core.evaluation import load_results
 from benchbot.solutions.leftovers import owned_tempdir
 from benchbot.core.registry import get_registry
-from benchbot.server import ServerThread, build_app
-from benchbot.core.session import RunSpec, start_service
+from benchbot.core.session import RunSpec
+from benchbot.service.episodes import open_episode
 from benchbot.solutions.submission import Submission, run_container_submission, run_submission
 
 
@@ -51,12 +51,23 @@ def run_directories(run_dir: Path) -> list[Path]:
     return [run_dir, *siblings] if run_dir.is_dir() else siblings
 
 
+def service_folders() -> list[Path]:
+    """The simulator service's socket folder (:func:`benchbot.service.location.runtime_dir`) where it exists: hidden
+    from sandboxed solutions, whose own shown folder may hold it (the service refuses them all the same,
+    :func:`benchbot.service.protocol.peer_problem`)."""
+    from benchbot.service.location import runtime_dir
+
+    folder = runtime_dir()
+    return [folder.resolve()] if folder.is_dir() else []
+
+
 def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log,
                    record: EpisodeRecord, hide: tuple = ()) -> tuple[bool, bool]:
     """Run ``spec``'s solution in the sandbox (:func:`benchbot.solutions.sandbox.run_sandboxed`): it writes only to its
     outputs folder (``spec.outputs``, made afresh) and reaches the backend through ``backend_socket`` at
     ``http://127.0.0.1:10000/``; its results file is then moved to ``spec.results``. The run directories beside
-    ``folder`` and the folders ``hide`` lists are hidden from it. Sets ``record.returncode`` (and ``record.error``
+    ``folder``, the simulator service's socket folder (:func:`service_folders`) and the folders ``hide`` lists are
+    hidden from it. Sets ``record.returncode`` (and ``record.error``
     when its results file is refused; ``record.status`` ``resource_limit`` and the reason when the solution went
     past a resource limit, :mod:`benchbot.solutions.sandbox_limits`); returns (whether it timed out, whether it read its
     standard input)."""
@@ -67,7 +78,7 @@ def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pa
     outputs.mkdir(parents=True)
     run = run_sandboxed(list(spec.argv), Path(spec.cwd), registry=registry, backend_socket=backend_socket,
                         address="http://127.0.0.1:10000/", outputs=outputs, result_name=Path(spec.results).name,
-                        hide=[*run_directories(folder), *hide], log=log,
+                        hide=[*run_directories(folder), *service_folders(), *hide], log=log,
                         timeout_s=spec.timeout_s)
     record.returncode = run.outcome.returncode
     if run.limit:
@@ -104,8 +115,31 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
         pass
 
 
+def _run_solution(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, address: str, log,
+                  record: EpisodeRecord, hide: tuple) -> tuple[bool, bool]:
+    """Run ``spec``'s solution as its isolation level says: sandboxed (through ``backend_socket``,
+    :func:`_run_sandboxed`), in its container, or as a plain process (both reaching the backend at ``address``).
+    Sets ``record.returncode`` (and what :func:`_run_sandboxed` sets); returns (whether it timed out, whether it
+    read its standard input)."""
+    if spec.sandbox == "bwrap":
+        return _run_sandboxed(spec, registry, folder, backend_socket, log, record, hide)
+    if spec.container:
+        c = spec.container
+        record.returncode = run_container_submission(
+            c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=address,
+            result_location=folder / spec.results, args=c.get("args", ""), name_suffix=f"_{spec.index}", log=log,
+            timeout_s=spec.timeout_s,
+        )
+        return record.returncode == -9 and spec.timeout_s is not None, False
+    submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
+    outcome = run_submission(submission, address=address, result_location=folder / spec.results, log=log,
+                             timeout_s=spec.timeout_s)
+    record.returncode = outcome.returncode
+    return outcome.timed_out, outcome.read_stdin
+
+
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None, *,
-                hide: tuple = ()) -> EpisodeRecord:
+                hide: tuple = (), in_service: bool = False) -> EpisodeRecord:
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
     Args:
@@ -119,6 +153,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             ``("end", index, None)``.
         hide: more folders a sandboxed solution must not see (a Ray node runs the episode in a run directory of
             its own and hides the batch's, :func:`benchbot.batch.executors.run_ray`).
+        in_service: build and serve the backend in the user's simulator service (:mod:`benchbot.service`; started
+            when none answers) instead of this process; a recorded episode runs here all the same. What the
+            solution observes, its results and the record's fields but ``wall_s`` are the same either way.
     """
     record = new_record(spec)
     folder = Path(run_dir)
@@ -150,61 +187,23 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                 events.put(("stage", spec.index, {"stage": "" if event.kind == "end" else event.text()}))
 
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
-        # only this episode's backend: episodes run together in one process build theirs one after another
-        service = start_service(registry, run, seed=spec.seed, options=options, on_step=on_step,
-                                world_seed=spec.world_seed, on_stage=on_stage)
-        recorder = None
-        try:
-            if spec.record:
-                from benchbot.plugins.recorder import attach_recorder
-
-                recorder = attach_recorder(registry, service, run, folder / spec.recording, seed=spec.seed,
-                                           options=options)
-            private_dir = owned_tempdir("benchbot-episode-")  # the sandbox's way to the backend; marked as ours
-            private = private_dir.__enter__()
+        timed_out = read_stdin = False
+        with owned_tempdir("benchbot-episode-") as private:  # the sandbox's way to the backend; marked as ours
             backend_socket = Path(private) / "backend.sock"
-            timed_out = read_stdin = False
-            try:
-                server = ServerThread(build_app(service),
-                                      unix_socket=backend_socket if spec.sandbox == "bwrap" else None)
-                server.start()
-            except BaseException:
-                private_dir.__exit__(None, None, None)
-                raise
+            # only this episode's backend: episodes run together in one process build theirs one after another
+            served = open_episode(registry, run, in_service=in_service, seed=spec.seed, options=options,
+                                  world_seed=spec.world_seed, on_step=on_step, on_stage=on_stage,
+                                  unix_socket=backend_socket if spec.sandbox == "bwrap" else None,
+                                  recording=folder / spec.recording if spec.record else None)
             try:
                 with open(folder / spec.log, "w") as log:
-                    if spec.sandbox == "bwrap":
-                        timed_out, read_stdin = _run_sandboxed(spec, registry, folder, backend_socket, log, record,
-                                                             tuple(hide))
-                    elif spec.container:
-                        c = spec.container
-                        record.returncode = run_container_submission(
-                            c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=server.address,
-                            result_location=folder / spec.results, args=c.get("args", ""),
-                            name_suffix=f"_{spec.index}", log=log, timeout_s=spec.timeout_s,
-                        )
-                        timed_out = record.returncode == -9 and spec.timeout_s is not None
-                    else:
-                        submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
-                        outcome = run_submission(
-                            submission, address=server.address, result_location=folder / spec.results, log=log,
-                            timeout_s=spec.timeout_s,
-                        )
-                        record.returncode, timed_out = outcome.returncode, outcome.timed_out
-                        read_stdin = outcome.read_stdin
+                    timed_out, read_stdin = _run_solution(spec, registry, folder, backend_socket, served.address,
+                                                          log, record, tuple(hide))
+                end = served.finish()
             finally:
-                server.stop()
-                private_dir.__exit__(None, None, None)
-            state = service.call(service.episode.state)
-            record.steps, record.collided = state["step"], state["is_collided"]
-            record.backend = backend_facts(registry, run.robot, run.environments)
-            write_trajectory(folder / spec.trajectory, run, driven)
-        finally:
-            if recorder is not None:
-                from benchbot.plugins.recorder import detach_recorder
-
-                detach_recorder(registry, service, recorder)
-            service.close()
+                served.close()
+        record.steps, record.collided, record.backend = end.steps, end.collided, end.backend
+        write_trajectory(folder / spec.trajectory, run, driven)
         if record.status == "resource_limit":  # past a limit of the sandbox: the reason is in record.error
             pass
         elif record.error:  # the sandbox refused what the solution left as its results

@@ -121,12 +121,14 @@ def _worker_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str) -> EpisodeRec
 
 def run_local(
     episodes: list[Episode], run_dir: str, *, workers: int, on_event: EventHandler,
-    on_record: Callable[[EpisodeRecord], None],
+    on_record: Callable[[EpisodeRecord], None], service: bool = False,
 ) -> None:
     """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
     thread) as each ends. Worker processes end with the batch process, even when it is killed
     (:func:`_end_with_parent`). Each record says it ran here (``executor`` ``local``; ``node`` this host's name only
-    with ``BENCHBOT_MANIFEST_LOCAL=1``)."""
+    with ``BENCHBOT_MANIFEST_LOCAL=1``). ``service``: with one worker, the episodes' backends are built and served by
+    the user's simulator service (:mod:`benchbot.service`) rather than this process (several workers keep a
+    simulator each, in their own processes)."""
     here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
 
     def done(record: EpisodeRecord) -> None:
@@ -142,7 +144,7 @@ def run_local(
     try:
         if context is None:
             for spec, run in episodes:
-                done(run_episode(spec, run, run_dir, events))
+                done(run_episode(spec, run, run_dir, events, in_service=service))
             return
         threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
         with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,

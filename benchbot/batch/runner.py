@@ -364,6 +364,7 @@ def run_batch(
     registry: Registry, batch: Batch, *, workers: int = 1, retries: int = 0, executor: str = "local",
     ray_address: str | None = None, on_event: EventHandler | None = None,
     on_record: Callable[[EpisodeRecord], None] | None = None, ray_cluster: RayCluster | None = None,
+    service: bool = False,
 ) -> BatchOutcome:
     """Run (or resume) ``batch`` (from :func:`prepare_batch` or :func:`load_batch`), then evaluate.
 
@@ -382,6 +383,9 @@ def run_batch(
             says which, and every record its ``executor`` and ``node``.
         ray_cluster: for ``ray``, a connection already open (``connect_ray``; the CLI connects before its live
             table starts, as ``ray.init`` cannot run under it); run_batch closes it when the episodes are done.
+        service: with the ``local`` executor and one worker, build and serve the episodes' backends in the user's
+            simulator service (:mod:`benchbot.service`; the CLI's default) instead of this process; the results
+            are the same.
 
     Raises:
         UsageError: ``workers`` < 1; unknown executor; ``batched`` with ``workers`` > 1 and recorded episodes; a
@@ -452,7 +456,8 @@ def run_batch(
             elif executor == "batched":
                 run_batched(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
             else:
-                run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done)
+                run_local(episodes, str(run_dir), workers=workers, on_event=handler, on_record=record_done,
+                          service=service)
     finally:
         if cluster is not None:
             cluster.close()

@@ -62,6 +62,7 @@ def register(app: typer.Typer) -> None:
         noise: Optional[str] = typer.Option(None, "--noise", help="Sensor and motion noise preset: none (default), low, realistic or high (docs/noise.md); recorded in the manifest."),
         sweep: Optional[str] = typer.Option(None, "--sweep", help="Run the batch at every level of one factor and plot the score against it: noise=none,low,realistic,high, robot=A,B, variant=1,2,3 or lighting=day,night (docs/noise.md)."),
         no_sandbox: bool = typer.Option(False, "--no-sandbox", help="Run native solutions as plain processes of your user instead of in the bubblewrap sandbox (for development: they could read the ground truth, so the scores are marked not verifiable; docs/security.md)."),
+        no_service: bool = typer.Option(False, "--no-service", help="Build the simulator in this process instead of the resident simulator service (which keeps Taichi, its kernels and scenes loaded between commands; BENCHBOT_SERVICE=off does the same; docs/service.md)."),
         ground_truths: Optional[str] = typer.Option(None, "--ground-truths", help="Score against this set of ground truths (`benchbot list ground_truths`: isaac_develop, the default, or bear_develop, what the original's default install used); the manifest and the scores say which set each score used."),
     ) -> None:
         """Run a solution on every environment, each episode with its own backend on 127.0.0.1, then score it.
@@ -179,17 +180,18 @@ def register(app: typer.Typer) -> None:
             narrator.event(kind, index, info)
             print_lost(kind, index, info)
 
+        service = _start_service(no_service, executor, workers, specs)
         started = time.monotonic()
         try:
             with interrupts_arm(deadline), narrator:  # Ctrl-C: the command is gone within STOP_BOUND_S, by design
                 if is_tty() and not no_tui:
                     outcome = _run_with_tui(reg, batch, print_line, deadline, narrator, workers=workers,
                                             retries=retries, executor=executor, ray_address=ray_address,
-                                            ray_cluster=cluster, on_event=on_log_event)
+                                            ray_cluster=cluster, on_event=on_log_event, service=service)
                 elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
                     outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
                                         ray_address=ray_address, on_record=print_line, on_event=on_log_event,
-                                        ray_cluster=cluster)
+                                        ray_cluster=cluster, service=service)
                 else:
                     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
                                   TimeElapsedColumn(), console=err) as progress:
@@ -214,7 +216,7 @@ def register(app: typer.Typer) -> None:
 
                         outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
                                             ray_address=ray_address, on_event=on_event, on_record=on_record,
-                                            ray_cluster=cluster)
+                                            ray_cluster=cluster, service=service)
         except KeyboardInterrupt:
             deadline.arm(signal_sent=True)
             stopped_by_user(run_dir, deadline)
@@ -296,6 +298,25 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
         err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
     elif summary.get("plot_error"):
         err.print(f"no robustness plot: {summary['plot_error']}")
+
+
+def _start_service(no_service: bool, executor: str, workers: int, specs: list) -> bool:
+    """Whether the batch's episodes get their backends from the simulator service (:mod:`benchbot.service`): with the
+    local executor and one worker, episodes not recorded, unless ``--no-service`` or ``BENCHBOT_SERVICE=off``. The
+    service is started here (saying so once), before the progress display; one of another installation that is busy
+    leaves the batch in this process (said in one line)."""
+    from benchbot.service import client
+
+    if executor != "local" or workers != 1 or any(s.record for s in specs) or not client.wanted(no_service):
+        return False
+    from benchbot.service.location import locate
+
+    try:
+        client.start(locate(), say=lambda line: err.print(line, highlight=False)).close()
+    except client.ServiceBusy as exc:
+        err.print(f"{exc.message}: {exc.hint}", highlight=False)
+        return False
+    return True
 
 
 def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path):

@@ -74,15 +74,16 @@ def _build_app() -> typer.Typer:
 
     from benchbot.cli import (
         batch_cmd, doctor_cmd, eval_cmd, gt_cmd, install_cmd, leaderboard_cmd, list_cmd, plugin_cmd, replay_cmd,
-        report_cmd, run_cmd, show_cmd, submit_cmd, tui_cmd,
+        report_cmd, run_cmd, service_cmd, show_cmd, submit_cmd, tui_cmd,
     )
-    from benchbot.cli import challenge_cmd, verify_cmd
+    from benchbot.cli import challenge_cmd, container_base_cmd, verify_cmd
 
     _no_type_on_flags()
     root = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
                        context_settings=CONTEXT)
     for module in (list_cmd, show_cmd, run_cmd, submit_cmd, eval_cmd, batch_cmd, report_cmd, leaderboard_cmd,
-                   install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd, challenge_cmd, verify_cmd):
+                   install_cmd, plugin_cmd, doctor_cmd, gt_cmd, tui_cmd, replay_cmd, challenge_cmd, verify_cmd,
+                   service_cmd, container_base_cmd):
         module.register(root)
 
     @root.callback()

@@ -112,6 +112,13 @@ def stage(name: str, *, detail: str = "", total: int | None = None) -> Iterator[
         _tell(current._event("end"))
 
 
+def relay(event: StageEvent) -> None:
+    """Tell this process's listeners (those of :func:`listening`, and this thread's of :func:`listening_here`) of a
+    stage of work done in another process (the simulator service builds a command's backend: its stages arrive
+    as events and are told here, as if the work ran here). Never raises."""
+    _tell(event)
+
+
 @contextlib.contextmanager
 def listening(listener: Listener) -> Iterator[None]:
     """Call ``listener`` with every :class:`StageEvent` of this process while the block runs."""

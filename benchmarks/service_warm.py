@@ -1,0 +1,109 @@
+"""README command 1 (``benchbot batch --example semslam_geometric --envs miniroom:1``) warm, with and without the
+resident simulator service (docs/service.md): the median wall time of ``--runs`` runs of each, taken in turns (so a
+busy machine slows both alike), after one run of each that fills the caches and starts the service. Also the CPU
+seconds of the command and its children (the sandboxed solution; the service's own CPU is not in them), and whether
+every run's results and scores files are byte-identical.
+
+    uv run python benchmarks/service_warm.py [--env miniroom:1] [--example semslam_geometric] [--runs 5] [--json]
+
+Each run is a fresh process running BenchBot's command-line entry point (what the ``benchbot`` script runs; ``uv
+run``'s own start, about 0.1 s, is not in it), in a run directory under a temporary folder. The service is one of
+this script's own: its socket folder is in a temporary ``XDG_RUNTIME_DIR``, and it is stopped at the end.
+``--smoke`` runs ``hello_passive`` once each, in the primitives style.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import smoke  # this folder is on sys.path when a script here runs
+
+#: The files of a run directory that must not depend on where the simulator ran.
+COMPARED = ("results", "scores.json", "episode_scores.json")
+
+
+def run_once(argv: list[str], env: dict, cwd: Path) -> dict:
+    """One ``benchbot ARGV`` in a child process: ``{wall_s, cpu_s, run_dir}`` (``cpu_s``: user + system seconds
+    of the child and what it waited for).
+
+    Raises:
+        RuntimeError: the command failed (its stderr's end in the message)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", *argv, "--json"], env=env, cwd=cwd,
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise RuntimeError(f"benchbot {' '.join(argv)} exited {proc.returncode}:\n{proc.stderr[-3000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "run_dir": json.loads(proc.stdout)["run_dir"]}
+
+
+def run_files(run_dir: str) -> dict[str, bytes]:
+    """``{path relative to the run directory: bytes}`` of the :data:`COMPARED` files."""
+    root = Path(run_dir)
+    files: dict[str, bytes] = {}
+    for name in COMPARED:
+        path = root / name
+        for file in sorted(path.rglob("*")) if path.is_dir() else [path]:
+            if file.is_file():
+                files[str(file.relative_to(root))] = file.read_bytes()
+    return files
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--env", default="miniroom:1")
+    ap.add_argument("--example", default="semslam_geometric")
+    ap.add_argument("--runs", type=int, default=5, help="timed runs of each mode (after one untimed run of each)")
+    ap.add_argument("--json", action="store_true")
+    args = smoke.parse_args(ap, argv, example="hello_passive", runs=1)
+    with tempfile.TemporaryDirectory(prefix="service-warm-") as tmp:
+        runtime = Path(tmp, "runtime")
+        runtime.mkdir(mode=0o700)
+        env = {**os.environ, "XDG_RUNTIME_DIR": str(runtime)}
+        env.pop("BENCHBOT_SERVICE", None)
+        command = ["batch", "--example", args.example, "--envs", args.env, "--output-dir", str(Path(tmp, "runs"))]
+        modes = {"in-process": command + ["--no-service"], "service": command}
+        times: dict[str, list[dict]] = {mode: [] for mode in modes}
+        try:
+            for k in range(args.runs + 1):
+                for mode, words in modes.items():
+                    run = run_once(words, env, Path(tmp))
+                    if k:  # the first of each fills the caches and starts the service
+                        times[mode].append(run)
+                    print(f"{mode:10} run {k}: {run['wall_s']:.2f} s{'' if k else ' (untimed)'}", file=sys.stderr,
+                          flush=True)
+        finally:
+            subprocess.run([sys.executable, "-m", "benchbot.cli", "service", "stop"], env=env, cwd=tmp,
+                           capture_output=True, stdin=subprocess.DEVNULL)
+        reference = run_files(times["in-process"][0]["run_dir"])
+        identical = all(run_files(run["run_dir"]) == reference for runs in times.values() for run in runs)
+    figures = {mode: {"median_wall_s": round(statistics.median(r["wall_s"] for r in runs), 2),
+                      "median_cpu_s": round(statistics.median(r["cpu_s"] for r in runs), 2),
+                      "wall_s": [r["wall_s"] for r in runs]} for mode, runs in times.items()}
+    figures["identical"] = identical
+    if args.json:
+        print(json.dumps(figures, indent=1))
+    else:
+        print(f"benchbot batch --example {args.example} --envs {args.env}, warm, median of {args.runs}:")
+        for mode in modes:
+            f = figures[mode]
+            print(f"  {mode:10} {f['median_wall_s']:6.2f} s wall, {f['median_cpu_s']:5.2f} s CPU of the command "
+                  f"(runs: {', '.join(f'{w:.2f}' for w in f['wall_s'])})")
+        print(f"  results and scores byte-identical: {'yes' if identical else 'NO'}")
+    return figures
+
+
+if __name__ == "__main__":
+    main()
