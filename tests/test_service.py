@@ -220,11 +220,14 @@ def test_episodes_through_the_service_give_the_files_of_episodes_run_in_process_
                         "--output-dir", str(tmp_path / name), "--json", "--no-tui", *flags)
         assert proc.returncode == 0, proc.stderr
         assert ("started the simulator service" in proc.stderr) == (name == "service_first"), proc.stderr
+        assert name != "service_first" or "the scene (miniroom:1" in proc.stderr, proc.stderr  # its stages shown
         outcome[name] = json.loads(proc.stdout)
         outcome[name]["files"] = _run_files(Path(outcome[name]["run_dir"]))
     # both through one service, unless the code changed in between (a checkout being edited): a new one then
     replaced = "replaced the simulator service" in proc.stderr
     assert status()["episodes_served"] == (2 if replaced else 4)
+    if not replaced:  # the service kept the scene of the command before: nothing loaded, Taichi started already
+        assert "loading the scene" not in proc.stderr and "starting Taichi" not in proc.stderr, proc.stderr
     reference = outcome["in_process"]
     assert any(json.loads(b)["results"]["objects"] for p, b in reference["files"].items() if p.startswith("results"))
     for name in ("service_first", "service_warm"):

@@ -10,7 +10,9 @@ runs on the process's one backend thread (:func:`benchbot.server.service.backend
 overlap, and :meth:`~benchbot_sim_taichi.render.renderer.Renderer.render` returns new arrays its caller owns.
 
 A loaded scene lives while a backend uses it (counted); the last backend to let go closes its renderer (frees its
-GPU memory), and one whose backends are dropped without closing goes when they are garbage collected. Only scenes with a scene-cache key are shared (:func:`benchbot_sim_taichi.scene_cache.scene_key`: the
+GPU memory), and one whose backends are dropped without closing goes when they are garbage collected. A resident
+process (the simulator service, :func:`benchbot.service.resident`) keeps the :data:`KEPT_WHEN_RESIDENT` scenes it
+let go of last instead, so that the next command's episode in one of those worlds finds it uploaded. Only scenes with a scene-cache key are shared (:func:`benchbot_sim_taichi.scene_cache.scene_key`: the
 world's content, style, seed and the simulator's code); with the scene cache off (``BENCHBOT_SCENE_CACHE_BYTES=0``)
 or a file the key cannot read, each backend loads its own.
 """
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import threading
 import weakref
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -46,6 +49,10 @@ class LoadedScene:
 #: held weakly: a scene whose backends were dropped without ``close`` goes with them, as their own renderer would
 _LOADED: "weakref.WeakValueDictionary[SharingKey, LoadedScene]" = weakref.WeakValueDictionary()
 _LOCK = threading.Lock()
+#: Scenes a resident process keeps loaded after their last backend let go, at most this many, the oldest closed first.
+KEPT_WHEN_RESIDENT = 3
+#: those scenes, the one let go of last at the end (held strongly: no backend holds them)
+_KEPT: "OrderedDict[SharingKey, LoadedScene]" = OrderedDict()
 
 
 def acquire(key: SharingKey | None, load: Callable[[], tuple[Any, Any]]) -> LoadedScene:
@@ -60,6 +67,11 @@ def acquire(key: SharingKey | None, load: Callable[[], tuple[Any, Any]]) -> Load
         if held is not None:
             held.users += 1
             return held
+        kept = _KEPT.pop(key, None) if key is not None else None
+        if kept is not None:  # let go of earlier in this resident process: in use again
+            kept.users = 1
+            _LOADED[key] = kept
+            return kept
     renderer, scene = load()
     loaded = LoadedScene(renderer, scene, key)
     if key is not None:
@@ -69,8 +81,12 @@ def acquire(key: SharingKey | None, load: Callable[[], tuple[Any, Any]]) -> Load
 
 
 def release(loaded: LoadedScene) -> None:
-    """One backend lets go of ``loaded``; the last one closes its renderer (on the backend thread, where it renders).
-    Never raises for a scene already released."""
+    """One backend lets go of ``loaded``; the last one closes its renderer (on the backend thread, where it renders),
+    or, in a resident process (:func:`benchbot.service.resident`), keeps it for a later :func:`acquire` and closes
+    the scene kept longest once more than :data:`KEPT_WHEN_RESIDENT` are kept. Never raises for a scene already
+    released."""
+    from benchbot.service import resident
+
     with _LOCK:
         if loaded.users <= 0:
             return
@@ -79,10 +95,21 @@ def release(loaded: LoadedScene) -> None:
             return
         if loaded.key is not None and _LOADED.get(loaded.key) is loaded:
             del _LOADED[loaded.key]
-    loaded.renderer.close()
+        closing = [loaded]
+        if loaded.key is not None and resident():
+            _KEPT[loaded.key] = loaded
+            closing = [_KEPT.popitem(last=False)[1] for _ in range(len(_KEPT) - KEPT_WHEN_RESIDENT)]
+    for scene in closing:
+        scene.renderer.close()
 
 
 def loaded_count() -> int:
-    """How many shared scenes this process holds now (for tests and diagnostics)."""
+    """How many shared scenes this process's backends hold now (for tests and diagnostics; kept ones not counted)."""
     with _LOCK:
         return len(_LOADED)
+
+
+def kept_count() -> int:
+    """How many scenes this resident process keeps loaded for later episodes (0 in any other process)."""
+    with _LOCK:
+        return len(_KEPT)

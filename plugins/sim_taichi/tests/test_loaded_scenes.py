@@ -95,3 +95,46 @@ def bear_envs_trajectory(make_backend, env) -> list:
         return [np.asarray(p, dtype=np.float64) for p in probe.scene.trajectory_se2]
     finally:
         probe.close()
+
+
+def test_a_resident_process_keeps_the_scenes_it_let_go_of_last_and_they_render_as_new(bear_envs, make_backend,
+                                                                                      monkeypatch):
+    """In the simulator service (resident) a world's scene outlives its episode: the next episode there renders
+    through the same upload, byte for byte what a fresh one renders; past the limit the oldest is closed."""
+    import benchbot.service as service
+
+    env = bear_envs["miniroom:4"]
+    fresh = make_backend(width=16, height=12)
+    fresh.load_scene(env, seed=0)
+    expected = observations(fresh)
+    fresh.close()
+    monkeypatch.setattr(service, "_RESIDENT", True)
+    monkeypatch.setattr(loaded_scenes, "KEPT_WHEN_RESIDENT", 1)
+    before = loaded_scenes.loaded_count()
+    try:
+        first = make_backend(width=16, height=12)
+        first.load_scene(env, seed=0)
+        kept_renderer = first._renderer
+        first.close()
+        assert loaded_scenes.kept_count() == 1 and loaded_scenes.loaded_count() == before
+        again = make_backend(width=16, height=12)
+        again.load_scene(env, seed=0)  # the next episode of that world: nothing loaded again
+        assert again._renderer is kept_renderer and loaded_scenes.kept_count() == 0
+        got = observations(again)
+        assert all(np.array_equal(got[name], expected[name]) for name in expected)
+        assert kept_renderer._buffers  # it holds its upload and outputs
+        again.close()
+        other = make_backend(width=16, height=12)
+        other.load_scene(env, seed=1)  # another world seed: a scene of its own
+        other.close()  # two let go of, one kept: the older is closed
+        assert loaded_scenes.kept_count() == 1 and kept_renderer._buffers == {}
+    finally:
+        monkeypatch.setattr(service, "_RESIDENT", False)
+        while loaded_scenes.kept_count():  # close what is kept, as a non-resident process would have
+            loaded_scenes.release(_take_kept())
+
+
+def _take_kept():
+    key, scene = loaded_scenes._KEPT.popitem()
+    scene.users = 1
+    return scene
