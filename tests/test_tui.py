@@ -336,3 +336,74 @@ def test_fit_drops_the_detail_then_cuts():
     assert fit("0/48", 10) == "0/48"
     assert fit("building the scene (miniroom:1) …", 24) == "building the scene …"
     assert fit("building the scene (miniroom:1) …", 12) == "building th…"
+
+
+# --------------------------------------------------------------------------------------------- typed messages
+def test_the_batch_view_draws_what_its_typed_messages_carry(tmp_path):
+    """The view holds no file reading of its own: on a run directory with no files at all, the messages a watcher
+    would post (manifest, config, progress) are enough to draw the running episode (before: the widgets re-read and
+    compared the files every 0.5 s)."""
+    asyncio.run(_draws_messages(tmp_path))
+
+
+async def _draws_messages(tmp_path):
+    from benchbot.tui.batch_app import ConfigChanged, ManifestChanged, ProgressChanged, read_expected
+
+    source = make_run_dir(tmp_path / "source")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    app = BatchApp(empty, poll_s=3600, clock=lambda: FROZEN)
+    async with app.run_test() as pilot:
+        assert "waiting for" in str(app.query_one("#summary").render())
+        app.post_message(ManifestChanged(json.loads((source / "manifest.json").read_text())))
+        app.post_message(ConfigChanged(read_expected(source / "config.json")))
+        app.post_message(ProgressChanged({"2": {"state": "running", "step": 21, "started": FROZEN - 5.0}}))
+        table = app.query_one("DataTable")
+        await settle(pilot, lambda: "2" in table.rows and table.get_cell("2", "steps") == "21/33")
+        assert table.get_cell("2", "steps") == "21/33" and table.get_cell("2", "wall") == "0:05"
+    assert not any(empty.iterdir())
+
+
+def test_the_watcher_reads_a_file_only_when_its_stat_changed(tmp_path):
+    """Each check is a stat; a file is read (its message made) only when its size, time or inode changed: an
+    atomic rewrite with the same bytes is a new inode, so it is seen; an idle directory is never read again."""
+    from benchbot.tui.watch import FileWatcher, Watched
+
+    reads = []
+    path = tmp_path / "progress.json"
+
+    def message(p):
+        reads.append(p.read_text() if p.exists() else "missing")
+        return reads[-1]  # stands for a message (FileWatcher only passes it on)
+
+    watcher = FileWatcher(None, [Watched(path, message)], interval_s=3600)
+    assert watcher.scan() == ["missing"]  # the first scan: every file, a missing one too
+    assert watcher.scan() == [] and reads == ["missing"]
+    atomic.write_json(path, {"episodes": {}})
+    assert watcher.scan() == [path.read_text()]
+    for _ in range(20):
+        assert watcher.scan() == []
+    atomic.write_json(path, {"episodes": {}})  # the same bytes, replaced: a new inode
+    assert len(watcher.scan()) == 1 and len(reads) == 3
+
+
+def test_an_idle_view_reads_no_file_after_its_first_frame(tmp_path):
+    """A finished batch's view, checked every 0.05 s for half a second, reads each file once (its first frame)."""
+    asyncio.run(_idle_reads(tmp_path))
+
+
+async def _idle_reads(tmp_path):
+    from benchbot.tui import batch_app
+
+    run_dir = make_run_dir(tmp_path, finished=True)
+    read = []
+    original = batch_app.read_json
+    batch_app.read_json = lambda path: read.append(path.name) or original(path)
+    try:
+        app = BatchApp(run_dir, poll_s=0.05, clock=lambda: FROZEN)
+        async with app.run_test() as pilot:
+            await pilot.pause(0.5)
+            assert "0.9877" in str(app.query_one("DataTable").get_cell("3", "score"))
+    finally:
+        batch_app.read_json = original
+    assert sorted(read) == ["config.json", "episode_scores.json", "manifest.json", "scores.json"], read

@@ -15,7 +15,7 @@ def register(app: typer.Typer) -> None:
     @handle_errors
     def tui(
         path: Path = typer.Argument(..., help="A run directory of `benchbot batch` (with manifest.json), or a live-state folder (state.json)."),
-        poll: float = typer.Option(0.5, "--poll", help="Seconds between reads of the files."),
+        poll: float = typer.Option(0.5, "--poll", help="Seconds between checks of the files (their size and time: a file is read only when it changed)."),
     ) -> None:
         """Open the live view of a batch (its episode table) or of a running episode; it only reads files.
 

@@ -1,22 +1,26 @@
 """The batch view: a live table of a run directory's episodes (it observes, it never drives).
 
-:class:`BatchApp` polls the run directory every ``poll_s`` seconds and reads ``manifest.json`` (the plan and every
-episode's record, written atomically by the batch after each episode), ``progress.json`` (live step counts, written
-by the batch at most 4 times a second: :mod:`benchbot.batch.progress`), ``config.json`` (the expected steps of
-passive tasks) and ``episode_scores.json`` (the evaluation method's primary score, once the batch is evaluated; its
-name from the manifest's ``scores``, which the method declares). It works for a batch running in this
-process (``benchbot batch`` runs it in a background thread) or in another one (``benchbot tui RUN_DIR``), and for a
-finished one: one way in for all three, since the files are written for the other process and the finished batch
-anyway.
+:class:`BatchApp` receives typed messages (:class:`ManifestChanged`, :class:`ProgressChanged`,
+:class:`ConfigChanged`, :class:`EpisodeScoresChanged`, :class:`ScoresChanged`) from a
+:class:`~benchbot.tui.watch.FileWatcher`, which checks the run directory's files' stat every ``poll_s`` seconds and
+reads a file only when it changed: ``manifest.json`` (the plan and every episode's record, written atomically by the
+batch after each episode), ``progress.json`` (live step counts, written by the batch at most 4 times a second:
+:mod:`benchbot.batch.progress`), ``config.json`` (the expected steps of passive tasks), ``episode_scores.json`` and
+``scores.json`` (the evaluation method's primary score, once the batch is evaluated; its name from the manifest's
+``scores``, which the method declares). The view keeps what the messages carry (:class:`BatchFiles`) and redraws the
+cells that changed; a one-second tick moves the wall times of running episodes and the ETA (no file is read then).
+It works for a batch running in this process (``benchbot batch`` runs it in a background thread) or in another one
+(``benchbot tui RUN_DIR``), and for a finished one: one way in for all three, since the files are written for the
+other process and the finished batch anyway.
 """
 
 from __future__ import annotations
 
 import asyncio
-import json
 import signal
 import threading
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -25,11 +29,13 @@ from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.css.query import NoMatches
+from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Log, Static
 
 from benchbot.batch.plan import expected_steps
-from benchbot.batch.progress import read_progress
+from benchbot.batch.progress import PROGRESS, read_progress
+from benchbot.tui.watch import FileWatcher, Watched, read_json
 
 COLUMNS = ("#", "environment", "robot", "repeat", "status", "steps", "wall", "score")
 """The episode table's column keys; the last one is headed by the primary score's name (:func:`primary_score`)."""
@@ -40,14 +46,8 @@ FINAL_STATUSES = ("ok", "failed", "no_results", "error", "bad_results", "timeout
 STATUS_STYLE = {"ok": "green", "running": "yellow", "pending": "dim", "failed": "red", "no_results": "red",
                 "timeout": "red", "bad_results": "red", "resource_limit": "red",
                 "error": "bold red"}
-
-
-def read_json(path: Path) -> Any:
-    """``path``'s JSON, or None when it is missing or unreadable (files are replaced atomically: never half)."""
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None
+#: Seconds between two redraws of the running episodes' wall times and the ETA (from what the view holds).
+TICK_S = 1.0
 
 
 def expected_steps_by_env(config: dict | None) -> dict[str, int]:
@@ -112,11 +112,48 @@ def format_seconds(seconds: float | None) -> str:
     return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
+@dataclass
+class BatchFiles:
+    """What the view holds of a run directory: each file's content as its message carried it.
+
+    Attributes:
+        manifest: ``manifest.json`` (a dict for a batch's; None: missing or unreadable).
+        progress: ``progress.json``'s episodes (:func:`benchbot.batch.progress.read_progress`; ``{}``: none).
+        expected: ``{environment: steps}`` of a passive task, from ``config.json`` (:func:`expected_steps_by_env`).
+        episode_scores: ``episode_scores.json`` (a list once the batch is evaluated; else None).
+        scores: ``scores.json`` (the combined scores; else None).
+    """
+
+    manifest: Any = None
+    progress: dict = field(default_factory=dict)
+    expected: dict = field(default_factory=dict)
+    episode_scores: Any = None
+    scores: Any = None
+
+    @classmethod
+    def read(cls, run_dir: Path) -> "BatchFiles":
+        """All of ``run_dir``'s files at once (what the messages would carry)."""
+        return cls(read_json(run_dir / "manifest.json"), read_progress(run_dir),
+                   read_expected(run_dir / "config.json"), read_json(run_dir / "episode_scores.json"),
+                   read_json(run_dir / "scores.json"))
+
+
+def read_expected(config_path: Path) -> dict[str, int]:
+    """``{environment: steps}`` from a ``config.json`` (:func:`expected_steps_by_env`); ``{}`` when it is missing,
+    unreadable or of another shape."""
+    return _or_empty(expected_steps_by_env, read_json(config_path))
+
+
 def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tuple]]:
-    """The header facts and the table rows of ``run_dir`` now.
+    """The header facts and the table rows of ``run_dir`` now: :func:`rows_of` its files, read at once."""
+    return rows_of(BatchFiles.read(run_dir), now)
+
+
+def rows_of(files: BatchFiles, now: float | None = None) -> tuple[dict, list[tuple]]:
+    """The header facts and the table rows of a run directory whose files hold ``files``.
 
     Args:
-        run_dir: a run directory of ``benchbot batch``.
+        files: the run directory's files (:class:`BatchFiles`).
         now: the current Unix time (s) for running episodes' wall time (default ``time.time()``).
 
     Returns:
@@ -126,14 +163,15 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
         (0–1: ended episodes plus running ones' step fractions, over all), ``logs`` (``{index: log path relative
         to run_dir}``); each row is ``(index, env, robot, repeat, status,
         steps text, wall text, score text)``. Empty when there is no manifest yet.
+
+    Raises:
+        AttributeError, KeyError, TypeError, ValueError: a manifest of another shape (edited by hand).
     """
-    manifest = read_json(run_dir / "manifest.json")
+    manifest = files.manifest
     if not isinstance(manifest, dict):
         return {}, []
     now = time.time() if now is None else now
-    live = read_progress(run_dir)
-    expected = _or_empty(expected_steps_by_env, read_json(run_dir / "config.json"))
-    episode_scores_ = read_json(run_dir / "episode_scores.json")
+    live, expected, episode_scores_ = files.progress, files.expected, files.episode_scores
     name = primary_score(manifest, episode_scores_)
     omq = _or_empty(lambda content: episode_scores(content, name), episode_scores_)
     counts: dict[str, int] = {}
@@ -161,7 +199,7 @@ def batch_rows(run_dir: Path, now: float | None = None) -> tuple[dict, list[tupl
             progress_sum += min(1.0, float(steps) / float(total))
         rows.append((index, record["env"], record["robot"], record.get("repeat", 0), status, steps_text,
                      format_seconds(wall), f"{omq[index]:.4f}" if index in omq else ""))
-    scores = read_json(run_dir / "scores.json")
+    scores = files.scores
     combined = None
     if isinstance(scores, dict):
         inner = scores.get("scores") if isinstance(scores.get("scores"), dict) else scores
@@ -215,11 +253,10 @@ def summary_text(summary: dict, eta_s: float | None) -> str:
     return text
 
 
-class PollingApp(App):
-    """An app that re-reads files every ``poll_s`` seconds: subclasses set ``poll_s``, implement ``_refresh``
-    (a :class:`~textual.css.query.NoMatches` it raises while the app is closing is ignored) and call
-    :meth:`start_polling` from their ``on_mount`` (not ``super().on_mount()``: Textual already calls the handlers of
-    every class in the MRO).
+class WatchingApp(App):
+    """An app fed by typed messages from a :class:`~benchbot.tui.watch.FileWatcher`: subclasses set ``poll_s`` (the
+    watcher's seconds between checks of the files' stat), handle their messages, and call :meth:`follow_files` from
+    their ``on_mount`` (not ``super().on_mount()``: Textual already calls the handlers of every class in the MRO).
 
     Keys: ``q`` quits the view; Ctrl-C (the key, or SIGINT/SIGTERM sent to the process) quits it at once with
     :attr:`interrupted` set and return code 130, so the command that showed it stops its work as it would on Ctrl-C
@@ -232,21 +269,14 @@ class PollingApp(App):
     #: True when the view was closed by Ctrl-C (or SIGINT/SIGTERM) rather than by ``q`` or by itself.
     interrupted: bool = False
 
-    def start_polling(self) -> None:
-        """Refresh now, then every ``poll_s`` seconds; route SIGINT and SIGTERM to :meth:`action_interrupt`."""
+    def follow_files(self, watched: list[Watched]) -> None:
+        """Post the messages of ``watched`` now (the first frame shows the files), then whenever one changes (a
+        watcher thread, stopped on unmount); route SIGINT and SIGTERM to :meth:`action_interrupt`."""
         self._catch_signals()
-        self.refresh_view()
-        self.set_interval(self.poll_s, self.refresh_view)
-
-    def refresh_view(self) -> None:
-        """Re-read the files and update the widgets in place."""
-        try:
-            self._refresh()
-        except NoMatches:  # the app is closing
-            pass
-
-    def _refresh(self) -> None:
-        raise NotImplementedError
+        self._watcher = FileWatcher(self, watched, self.poll_s)
+        for message in self._watcher.scan():
+            self.post_message(message)
+        self._watcher.start()
 
     #: Called at once on Ctrl-C (before the view closes, which takes a while on a busy machine): what stops the
     #: work starts with the key press.
@@ -274,22 +304,50 @@ class PollingApp(App):
                 self._previous_handlers.pop(signum, None)
 
     def on_unmount(self) -> None:
-        """Give SIGINT and SIGTERM back to the handlers they had before :meth:`start_polling`."""
+        """Stop the watcher; give SIGINT and SIGTERM back to the handlers they had before :meth:`follow_files`."""
+        watcher = getattr(self, "_watcher", None)
+        if watcher is not None:
+            watcher.stop()
         loop = asyncio.get_running_loop()
         for signum, handler in getattr(self, "_previous_handlers", {}).items():
             loop.remove_signal_handler(signum)
             signal.signal(signum, handler)
 
 
+class LogChanged(Message):
+    """An episode's log changed: ``text``, its last :data:`LOG_TAIL_BYTES` (``None``: there is no log yet, or it
+    cannot be read: ``problem`` says why), and ``size`` in bytes."""
+
+    def __init__(self, text: str | None, size: int | None, problem: str = "") -> None:
+        super().__init__()
+        self.text, self.size, self.problem = text, size, problem
+
+
+def read_log_tail(path: Path) -> LogChanged:
+    """The :class:`LogChanged` of the log at ``path`` (its end, at most :data:`LOG_TAIL_BYTES`)."""
+    try:
+        with open(path, "rb") as f:
+            size = f.seek(0, 2)
+            f.seek(max(0, size - LOG_TAIL_BYTES))
+            text = f.read().decode("utf-8", errors="replace")
+    except FileNotFoundError:
+        return LogChanged(None, None)
+    except OSError as exc:  # removed or replaced while it was read
+        return LogChanged(None, None, f"cannot read the log: {exc.strerror or exc}")
+    return LogChanged(text, size)
+
+
 class LogScreen(Screen):
-    """One episode's log (its last :data:`LOG_TAIL_BYTES`), followed while it grows; Escape or q goes back."""
+    """One episode's log (its last :data:`LOG_TAIL_BYTES`), followed while it grows (:class:`LogChanged` messages
+    from a watcher of the file); Escape or q goes back."""
 
     BINDINGS = [Binding("escape", "app.pop_screen", "back"), Binding("q", "app.pop_screen", "back")]
     DEFAULT_CSS = "LogScreen Log { height: 1fr; }"
 
-    def __init__(self, path: Path, title: str) -> None:
+    def __init__(self, path: Path, title: str, poll_s: float = 0.5) -> None:
         super().__init__()
-        self.path, self.title_text, self._log_size = path, title, -1
+        self.path, self.title_text, self.poll_s = path, title, poll_s
+        self._watcher: FileWatcher | None = None
 
     def compose(self) -> ComposeResult:
         yield Static(f"[b]{escape(self.title_text)}[/b] · {escape(str(self.path))}", id="log-title")
@@ -297,33 +355,74 @@ class LogScreen(Screen):
         yield Footer()
 
     def on_mount(self) -> None:
-        self.follow()
-        self.set_interval(0.5, self.follow)
+        self._watcher = FileWatcher(self, [Watched(self.path, read_log_tail)], self.poll_s)
+        for message in self._watcher.scan():
+            self.post_message(message)
+        self._watcher.start()
 
-    def follow(self) -> None:
-        """Re-read the log when its size changed."""
-        try:
-            size = self.path.stat().st_size
-        except OSError:
-            size = None
-        if size == self._log_size:
-            return
-        self._log_size = size
+    def on_unmount(self) -> None:
+        if self._watcher is not None:
+            self._watcher.stop()
+
+    def on_log_changed(self, message: LogChanged) -> None:
+        """Show the log's end as the message carries it."""
         log = self.query_one(Log)
         log.clear()
-        if size is None:
-            log.write_line("(no log yet: the episode has not started)")
+        if message.text is None:
+            log.write_line(f"({message.problem or 'no log yet: the episode has not started'})")
             return
-        try:
-            with open(self.path, "rb") as f:
-                f.seek(max(0, size - LOG_TAIL_BYTES))
-                text = f.read().decode("utf-8", errors="replace")
-        except OSError as exc:  # removed or replaced since its size was read
-            log.write_line(f"(cannot read the log: {exc.strerror or exc})")
-            return
-        if size > LOG_TAIL_BYTES:
-            log.write_line(f"[… the first {size - LOG_TAIL_BYTES} bytes are not shown]")
-        log.write_lines(text.splitlines())
+        if message.size > LOG_TAIL_BYTES:
+            log.write_line(f"[… the first {message.size - LOG_TAIL_BYTES} bytes are not shown]")
+        log.write_lines(message.text.splitlines())
+
+
+class ManifestChanged(Message):
+    """``manifest.json`` changed: ``manifest``, its content (None: missing or unreadable)."""
+
+    def __init__(self, manifest: Any) -> None:
+        super().__init__()
+        self.manifest = manifest
+
+
+class ProgressChanged(Message):
+    """``progress.json`` changed: ``episodes``, ``{index: {state, step, started, stage}}`` (``{}``: none)."""
+
+    def __init__(self, episodes: dict) -> None:
+        super().__init__()
+        self.episodes = episodes
+
+
+class ConfigChanged(Message):
+    """``config.json`` changed: ``expected``, ``{environment: steps}`` of a passive task (``{}``: none)."""
+
+    def __init__(self, expected: dict) -> None:
+        super().__init__()
+        self.expected = expected
+
+
+class EpisodeScoresChanged(Message):
+    """``episode_scores.json`` changed: ``entries``, its content (a list once evaluated; else None)."""
+
+    def __init__(self, entries: Any) -> None:
+        super().__init__()
+        self.entries = entries
+
+
+class ScoresChanged(Message):
+    """``scores.json`` changed: ``scores``, its content (the combined scores; else None)."""
+
+    def __init__(self, scores: Any) -> None:
+        super().__init__()
+        self.scores = scores
+
+
+def run_dir_files(run_dir: Path) -> list[Watched]:
+    """The files of ``run_dir`` the batch view follows, each with the message it becomes."""
+    return [Watched(run_dir / "manifest.json", lambda p: ManifestChanged(read_json(p))),
+            Watched(run_dir / PROGRESS, lambda p: ProgressChanged(read_progress(p.parent))),
+            Watched(run_dir / "config.json", lambda p: ConfigChanged(read_expected(p))),
+            Watched(run_dir / "episode_scores.json", lambda p: EpisodeScoresChanged(read_json(p))),
+            Watched(run_dir / "scores.json", lambda p: ScoresChanged(read_json(p)))]
 
 
 def fit(text: str, width: int) -> str:
@@ -350,12 +449,12 @@ class EpisodeTable(DataTable):
     BINDINGS = [Binding("enter", "select_cursor", "episode log")]
 
 
-class BatchApp(PollingApp):
+class BatchApp(WatchingApp):
     """A live table of a batch's episodes, with an overall progress line; Enter on a row opens its log.
 
     Args:
         run_dir: the run directory to watch.
-        poll_s: seconds between reads of its files.
+        poll_s: seconds between two checks of its files' stat (a file is read only when it changed).
         is_done: optional callable; when it returns True (the batch thread ended) the app shows the final state
             and exits after ``linger_s`` seconds.
         linger_s: seconds the final state stays on screen once ``is_done()`` is True.
@@ -375,8 +474,13 @@ class BatchApp(PollingApp):
         super().__init__()
         self.run_dir = Path(run_dir)
         self.poll_s, self.is_done, self.linger_s, self.clock = poll_s, is_done, linger_s, clock
+        self.files = BatchFiles()
         self._exit_scheduled = False  # not `_closing`: Textual's MessagePump uses that name
         self._logs: dict[str, tuple[str, str]] = {}
+        self._shown: dict[str, tuple] = {}  # row key -> the cells on screen
+        self._episodes_running = False  # not `_running`: Textual's MessagePump uses that name
+        self._show_pending = False
+        self._summary_shown: str | None = None
         self._eta = EtaEstimator()
 
     def compose(self) -> ComposeResult:
@@ -386,31 +490,87 @@ class BatchApp(PollingApp):
 
     def on_mount(self) -> None:
         self.sub_title = str(self.run_dir.name)
-        table = self.query_one(DataTable)
-        manifest = read_json(self.run_dir / "manifest.json")
-        name = primary_score(manifest, read_json(self.run_dir / "episode_scores.json")) \
-            if isinstance(manifest, dict) else None
-        for key in COLUMNS:
-            table.add_column(name if key == COLUMNS[-1] and name else key, key=key)
-        self.start_polling()
+        self.follow_files(run_dir_files(self.run_dir))
+        self.set_interval(TICK_S, self._tick)
 
-    def _refresh(self) -> None:
+    def on_manifest_changed(self, message: ManifestChanged) -> None:
+        self.files.manifest = message.manifest
+        self._changed()
+
+    def on_progress_changed(self, message: ProgressChanged) -> None:
+        self.files.progress = message.episodes
+        self._changed()
+
+    def on_config_changed(self, message: ConfigChanged) -> None:
+        self.files.expected = message.expected
+        self._changed()
+
+    def on_episode_scores_changed(self, message: EpisodeScoresChanged) -> None:
+        self.files.episode_scores = message.entries
+        self._changed()
+
+    def on_scores_changed(self, message: ScoresChanged) -> None:
+        self.files.scores = message.scores
+        self._changed()
+
+    def _changed(self) -> None:
+        """A message changed :attr:`files`: draw once the messages queued already are handled too (the files of
+        the first scan come together: a run directory is never drawn half read)."""
+        if not self._show_pending:
+            self._show_pending = True
+            self.call_later(self._show_after_messages)
+
+    def _show_after_messages(self) -> None:
+        self._show_pending = False
+        self.show()
+
+    def _tick(self) -> None:
+        """Every :data:`TICK_S`: while episodes run, their wall times and the ETA move on; with ``is_done``, see
+        whether the batch ended. Nothing is read."""
+        if self._episodes_running or (self.is_done is not None and not self._exit_scheduled):
+            self.show()
+
+    def show(self) -> None:
+        """Draw what :attr:`files` holds now: the header, and the table cells that changed."""
         try:
-            summary, rows = batch_rows(self.run_dir, self.clock())
+            self._show()
+        except NoMatches:  # the app is closing
+            pass
+
+    def _show(self) -> None:
+        try:
+            summary, rows = rows_of(self.files, self.clock())
         except (AttributeError, KeyError, TypeError, ValueError) as exc:  # a manifest edited by hand, not ours
-            self.query_one("#summary", Static).update(
+            self._update_summary(
                 f"[red]{escape(str(self.run_dir / 'manifest.json'))} is not a batch manifest[/] ({escape(repr(exc))})")
             return
         table = self.query_one(DataTable)
         if not summary:
-            self.query_one("#summary", Static).update(f"waiting for {self.run_dir / 'manifest.json'} …")
+            self._update_summary(f"waiting for {self.run_dir / 'manifest.json'} …")
             return
-        self.query_one("#summary", Static).update(summary_text(summary, self._eta.update(summary, self.clock())))
+        self._episodes_running = summary["counts"].get("running", 0) > 0
+        self._update_summary(summary_text(summary, self._eta.update(summary, self.clock())))
         name = summary.get("score_name") or "score"
+        if not table.columns:  # the first manifest: the score column headed by its name from the start
+            for key in COLUMNS:
+                table.add_column(name if key == COLUMNS[-1] else key, key=key)
         column = table.columns.get(COLUMNS[-1])
         if column is not None and str(column.label) != name:
             column.label = Text(name)
             table.refresh()
+        self._show_rows(table, summary, rows, name)
+        if self.is_done is not None and not self._exit_scheduled and self.is_done():
+            self._exit_scheduled = True
+            self.set_timer(self.linger_s, self.exit)
+
+    def _update_summary(self, text: str) -> None:
+        """Put ``text`` (rich markup) in the header, unless it is there already (a redraw costs a layout)."""
+        if text != self._summary_shown:
+            self.query_one("#summary", Static).update(text)
+            self._summary_shown = text
+
+    def _show_rows(self, table: DataTable, summary: dict, rows: list[tuple], name: str) -> None:
+        """Put ``rows`` in the table, updating only the cells that differ from what is shown."""
         # the steps cell (a stage's name while the backend starts) gets what the other columns leave of the
         # screen's width, so that at 80 columns the wall and score columns stay on it
         headers = {k: (name if k == COLUMNS[-1] else k) for k in COLUMNS}
@@ -425,14 +585,14 @@ class BatchApp(PollingApp):
                                summary["logs"].get(row[0], ""))
             cells = list(row)
             cells[4] = f"[{STATUS_STYLE.get(row[4], '')}]{row[4]}[/]"
-            if key in table.rows:
-                for column, value in zip(COLUMNS, cells):
-                    table.update_cell(key, column, value, update_width=True)
-            else:
+            shown = self._shown.get(key)
+            if shown is None:
                 table.add_row(*cells, key=key)
-        if self.is_done is not None and not self._exit_scheduled and self.is_done():
-            self._exit_scheduled = True
-            self.set_timer(self.linger_s, self.exit)
+            else:
+                for column, value, before in zip(COLUMNS, cells, shown):
+                    if value != before:  # a new layout only for a longer text (columns never narrow)
+                        table.update_cell(key, column, value, update_width=len(str(value)) > len(str(before)))
+            self._shown[key] = tuple(cells)
 
     def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
         self.open_log(event.row_key.value)
@@ -441,4 +601,4 @@ class BatchApp(PollingApp):
         """Show episode ``key``'s log (:class:`LogScreen`)."""
         if key in self._logs and self._logs[key][1]:
             title, log = self._logs[key]
-            self.push_screen(LogScreen(self.run_dir / log, title))
+            self.push_screen(LogScreen(self.run_dir / log, title, self.poll_s))

@@ -1,8 +1,10 @@
 """The live view of one episode (``benchbot run --tui``): task, robot, environment, robot state and pose, step count
 and rate, the last action and its result, a camera preview drawn with half-block characters, and the log.
 
-:class:`RunApp` only reads the folder that :class:`benchbot.plugins.live_state.LiveStateWriter` keeps
-(``state.json``, ``preview.npy``), polling it every ``poll_s`` seconds; it never touches the episode.
+:class:`RunApp` is fed typed messages (:class:`LiveStateChanged`, :class:`PreviewChanged`) by a
+:class:`~benchbot.tui.watch.FileWatcher` of the folder that :class:`benchbot.plugins.live_state.LiveStateWriter`
+keeps (``state.json``, ``preview.npy``): the watcher checks the files' stat every ``poll_s`` seconds and reads one
+only when it changed. The view never reads a file, and never touches the episode.
 """
 
 from __future__ import annotations
@@ -16,10 +18,13 @@ from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
+from textual.css.query import NoMatches
+from textual.message import Message
 from textual.widgets import Footer, Log, Static
 
 from benchbot.plugins.live_state import PREVIEW, STATE
-from benchbot.tui.batch_app import PollingApp, read_json
+from benchbot.tui.batch_app import WatchingApp
+from benchbot.tui.watch import Watched, read_json
 
 HALF_BLOCK = "▀"
 
@@ -72,12 +77,44 @@ def describe(state: dict, address: str = "") -> str:
     return "\n".join(lines)
 
 
-class RunApp(PollingApp):
+class LiveStateChanged(Message):
+    """``state.json`` changed: ``state``, its content (a dict; module :mod:`benchbot.plugins.live_state`)."""
+
+    def __init__(self, state: dict) -> None:
+        super().__init__()
+        self.state = state
+
+
+class PreviewChanged(Message):
+    """``preview.npy`` changed: ``rgb``, the camera preview, (h, w, 3) uint8."""
+
+    def __init__(self, rgb: np.ndarray) -> None:
+        super().__init__()
+        self.rgb = rgb
+
+
+def read_state(path: Path) -> LiveStateChanged | None:
+    """The :class:`LiveStateChanged` of ``state.json`` at ``path``; None when it is missing, unreadable or no dict."""
+    state = read_json(path)
+    return LiveStateChanged(state) if isinstance(state, dict) else None
+
+
+def read_preview(path: Path) -> PreviewChanged | None:
+    """The :class:`PreviewChanged` of ``preview.npy`` at ``path``; None when it is missing, unreadable or not
+    (h, w, 3)."""
+    try:
+        rgb = np.load(path, allow_pickle=False)
+    except (OSError, ValueError):
+        return None
+    return PreviewChanged(rgb) if rgb.ndim == 3 and rgb.shape[2] >= 3 else None
+
+
+class RunApp(WatchingApp):
     """The live view of a running episode.
 
     Args:
         state_dir: the live-state folder (``state.json``, ``preview.npy``).
-        poll_s: seconds between reads.
+        poll_s: seconds between two checks of its files' stat (a file is read only when it changed).
         preview_width: columns of the camera preview.
         address: the backend's address, shown in the sub-title (optional).
     """
@@ -97,7 +134,6 @@ class RunApp(PollingApp):
         super().__init__()
         self.state_dir = Path(state_dir)
         self.poll_s, self.preview_width, self.address = poll_s, preview_width, address
-        self._preview_mtime: float | None = None
         self._log_lines = 0
 
     def compose(self) -> ComposeResult:
@@ -114,24 +150,25 @@ class RunApp(PollingApp):
         waiting = "waiting for a solution to connect (e.g. `benchbot submit --example hello_active`) …"
         self.query_one("#status", Static).update(
             (f"[b]backend[/b]      {self.address}\n" if self.address else "") + waiting)
-        self.start_polling()
+        self.follow_files([Watched(self.state_dir / STATE, read_state),
+                           Watched(self.state_dir / PREVIEW, read_preview)])
 
-    def _refresh(self) -> None:
-        state = read_json(self.state_dir / STATE)
-        if not isinstance(state, dict):
-            return
+    def on_preview_changed(self, message: PreviewChanged) -> None:
+        """Draw the new camera preview."""
+        try:
+            self.query_one("#preview", Static).update(half_blocks(message.rgb, self.preview_width))
+        except NoMatches:  # the app is closing
+            pass
+
+    def on_live_state_changed(self, message: LiveStateChanged) -> None:
+        """Show the new state and append the log lines it adds."""
+        try:
+            self._show_state(message.state)
+        except NoMatches:  # the app is closing
+            pass
+
+    def _show_state(self, state: dict) -> None:
         self.query_one("#status", Static).update(describe(state, self.address))
-        preview = self.state_dir / PREVIEW
-        if state.get("preview") and preview.is_file():
-            mtime = preview.stat().st_mtime_ns
-            if mtime != self._preview_mtime:
-                try:
-                    rgb = np.load(preview, allow_pickle=False)
-                except (OSError, ValueError):
-                    rgb = None
-                if rgb is not None and rgb.ndim == 3:
-                    self.query_one("#preview", Static).update(half_blocks(rgb, self.preview_width))
-                    self._preview_mtime = mtime
         lines = state.get("log") or []
         total = int(state.get("log_total", len(lines)))
         log = self.query_one(Log)
