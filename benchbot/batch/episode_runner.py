@@ -21,7 +21,7 @@ from benchbot.solutions.leftovers import owned_tempdir
 from benchbot.core.registry import get_registry
 from benchbot.core.session import RunSpec
 from benchbot.service.episodes import open_episode
-from benchbot.solutions.submission import Submission, run_container_submission, run_submission
+from benchbot.solutions.submission import Submission, run_submission
 
 
 #: An episode's error when it did not end ``ok`` and its solution read standard input (its log has the line).
@@ -117,20 +117,17 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
 
 def _run_solution(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, address: str, log,
                   record: EpisodeRecord, hide: tuple) -> tuple[bool, bool]:
-    """Run ``spec``'s solution as its isolation level says: sandboxed (through ``backend_socket``,
-    :func:`_run_sandboxed`), in its container, or as a plain process (both reaching the backend at ``address``).
+    """Run ``spec``'s solution as its isolation level says: sandboxed or in its container (both through
+    ``backend_socket``: :func:`_run_sandboxed`, :func:`~benchbot.batch.container_episode.run_container_episode`), or
+    as a plain process (reaching the backend at ``address``).
     Sets ``record.returncode`` (and what :func:`_run_sandboxed` sets); returns (whether it timed out, whether it
     read its standard input)."""
     if spec.sandbox == "bwrap":
         return _run_sandboxed(spec, registry, folder, backend_socket, log, record, hide)
-    if spec.container:
-        c = spec.container
-        record.returncode = run_container_submission(
-            c["engine"], Path(c["dockerfile"]), Path(c["context"]), address=address,
-            result_location=folder / spec.results, args=c.get("args", ""), name_suffix=f"_{spec.index}", log=log,
-            timeout_s=spec.timeout_s,
-        )
-        return record.returncode == -9 and spec.timeout_s is not None, False
+    if spec.container:  # through backend_socket too: the container has no network
+        from benchbot.batch.container_episode import run_container_episode
+
+        return run_container_episode(spec, folder, backend_socket, log, record)
     submission = Submission(list(spec.argv), Path(spec.cwd), "submission")
     outcome = run_submission(submission, address=address, result_location=folder / spec.results, log=log,
                              timeout_s=spec.timeout_s)
@@ -193,7 +190,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             # only this episode's backend: episodes run together in one process build theirs one after another
             served = open_episode(registry, run, in_service=in_service, seed=spec.seed, options=options,
                                   world_seed=spec.world_seed, on_step=on_step, on_stage=on_stage,
-                                  unix_socket=backend_socket if spec.sandbox == "bwrap" else None,
+                                  unix_socket=backend_socket if spec.sandbox in ("bwrap", "container") else None,
                                   recording=folder / spec.recording if spec.record else None)
             try:
                 with open(folder / spec.log, "w") as log:

@@ -262,13 +262,16 @@ def prepare_batch(
 
 
 def _sandbox_limits(isolation: str) -> dict | None:
-    """The resource limits of the batch's sandboxed solutions and how each is enforced (the manifest's ``limits``,
-    :meth:`benchbot.solutions.sandbox_limits.SandboxLimits.record`); None for solutions not sandboxed."""
-    if isolation != "bwrap":
-        return None
+    """The resource limits of the batch's sandboxed or containerised solutions and how each is enforced (the
+    manifest's ``limits``: :meth:`benchbot.solutions.sandbox_limits.SandboxLimits.record`,
+    :func:`benchbot.solutions.containers.limits_record`); None for solutions not isolated."""
     from benchbot.solutions.sandbox_limits import SandboxLimits
 
-    return SandboxLimits.current().record()
+    if isolation == "container":
+        from benchbot.solutions.containers import limits_record
+
+        return limits_record(SandboxLimits.current())
+    return SandboxLimits.current().record() if isolation == "bwrap" else None
 
 
 def _ground_truth_sets(registry: Registry, runs: dict, chosen: str | None) -> dict[str, str]:

@@ -23,8 +23,8 @@ from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.limits import MAX_REPEAT, MAX_RETRIES, MAX_SEED, MAX_WORKERS
 from benchbot.core.noise import get_preset
 from benchbot.solutions.sandbox import check_available, check_sandboxable, not_verifiable_note
-from benchbot.solutions.submission import (check_native_files, container_engine, container_files, example_submission,
-                                      native_submission)
+from benchbot.solutions.container_engine import container_engine, container_files
+from benchbot.solutions.submission import check_native_files, example_submission, native_submission
 
 
 def register(app: typer.Typer) -> None:

@@ -173,20 +173,19 @@ def check_module(name: str, label: str, fix: str) -> Check:
 
 
 def check_containers() -> Check:
-    for client in ("docker", "podman"):
-        exe = shutil.which(client)
-        if not exe:
-            continue
-        try:
-            proc = subprocess.run([exe, "info", "--format", "{{.ServerVersion}}" if client == "docker" else "{{.Version.Version}}"],
-                                  capture_output=True, text=True, timeout=15)
-            answers = proc.returncode == 0
-        except subprocess.TimeoutExpired:
-            answers = False
-        return Check("containers", answers, False,
-                     f"{client} client at {exe}; engine " + (f"answers ({proc.stdout.strip()})" if answers else "does not answer"),
-                     "" if answers else f"start the engine (e.g. systemctl start {client}) or add yourself to the {client} group")
-    return Check("containers", False, False, "neither docker nor podman found", "optional: install Docker or Podman for containerised solutions")
+    """Whether a container engine answers (the one containerised solutions use: Docker where its daemon answers, else
+    Podman) and whether the base image of containerised solutions is there (not required)."""
+    from benchbot.core.errors import UsageError
+    from benchbot.solutions.container_base import BASE_TAG
+    from benchbot.solutions.container_engine import container_engine, engine_facts
+
+    try:
+        tool = container_engine()
+    except UsageError as exc:
+        return Check("containers", False, False, exc.message, f"optional (containerised solutions): {exc.hint}")
+    base = subprocess.run([tool, "image", "inspect", BASE_TAG], capture_output=True, timeout=60).returncode == 0
+    return Check("containers", True, False, f"{engine_facts(tool).describe()} answers; base image {BASE_TAG} "
+                 f"{'present' if base else 'missing'}", "" if base else "make the base image: benchbot container-base")
 
 
 def check_sandbox() -> Check:

@@ -1,4 +1,5 @@
-"""Running a submission (a native command or an installed example) against a backend.
+"""Running a submission (a native command or an installed example) against a backend (a containerised one:
+:mod:`benchbot.solutions.containers`).
 
 The submission is a child process; it finds the backend through ``BENCHBOT_SUPERVISOR_ADDRESS`` and writes its
 results to ``BENCHBOT_RESULT_LOCATION`` (both read by :mod:`benchbot.api`), so user code needs no edits.
@@ -9,13 +10,12 @@ from __future__ import annotations
 import os
 import re
 import shlex
-import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
-from benchbot.core.errors import BenchbotError, SpecError, UsageError
+from benchbot.core.errors import SpecError, UsageError
 from benchbot.solutions.process_group import ChildOutcome, run_child
 from benchbot.core.registry import Registry
 
@@ -140,144 +140,6 @@ def run_submission(
         return run_child(submission.argv, cwd=submission.cwd, env=env, log=log, timeout_s=timeout_s, stdin=stdin)
     except OSError as exc:
         raise UsageError(f"cannot start {submission.label}: {exc.strerror}: {submission.argv[0]}", "check the command") from None
-
-
-# ------------------------------------------------------------------------------------------------- containers
-def container_engine() -> str:
-    """The first of ``docker``/``podman`` whose engine answers (``<tool> info`` exits 0 within 15 s).
-
-    Raises:
-        UsageError: none is installed, or the installed clients reach no engine (one line naming which).
-    """
-    import shutil
-
-    found = []
-    for tool in ("docker", "podman"):
-        if shutil.which(tool) is None:
-            continue
-        found.append(tool)
-        try:
-            probe = subprocess.run([tool, "info"], capture_output=True, text=True, timeout=15)
-        except (OSError, subprocess.TimeoutExpired):
-            continue
-        if probe.returncode == 0:
-            return tool
-    if not found:
-        raise UsageError("containerised submissions need Docker or Podman, and neither is installed",
-                         "install one, or run the submission with --native")
-    raise UsageError(f"{' and '.join(found)} installed but no container engine answers ({found[0]} info failed)",
-                     "start the engine (e.g. `sudo systemctl start docker`) or use --native")
-
-
-def container_files(registry: Registry, *, path: Path | None = None, example: str | None = None) -> tuple[Path, Path]:
-    """(Dockerfile, build context) of ``--containerised PATH`` (a folder means ``PATH/Dockerfile``; the context is
-    the Dockerfile's folder) or of an example's ``container_directory``/``container_filename`` (docs/cli.md).
-
-    Raises:
-        UsageError: no Dockerfile there. SpecError: unknown example.
-    """
-    if example is not None:
-        entry = registry.entry("examples", example)
-        if "container_directory" not in entry.spec and "container_filename" not in entry.spec:
-            raise UsageError(f"example '{example}' has no container set up (no container_directory or "
-                             "container_filename in its spec)", f"run it natively: --example {example}")
-        base = entry.path.parent if entry.path else Path.cwd()
-        context = base / entry.spec.get("container_directory", ".")
-        name = entry.spec.get("container_filename")
-        dockerfile = base / name if name else context / "Dockerfile"
-        if not dockerfile.is_file():
-            raise UsageError(f"example '{example}' has no Dockerfile ({dockerfile})", "run it natively instead")
-        return dockerfile, context
-    assert path is not None
-    dockerfile = path / "Dockerfile" if path.is_dir() else path
-    if not dockerfile.is_file():
-        raise UsageError(f"--containerised: no Dockerfile at {dockerfile}", "give a folder holding a Dockerfile, or the file")
-    return dockerfile.resolve(), dockerfile.parent.resolve()
-
-
-def container_image_tag(directory: Path) -> str:
-    """``benchbot/submission:<first 10 hex of sha256(directory)>`` (the original hashed ``$PWD``)."""
-    import hashlib
-
-    return "benchbot/submission:" + hashlib.sha256(f"{directory.resolve()}\n".encode()).hexdigest()[:10]
-
-
-def supervisor_host_ip(address: str) -> str:
-    """The IP that ``benchbot_supervisor`` must resolve to inside a host-network container so that the original
-    client's default ``http://benchbot_supervisor:10000/`` reaches the backend at ``address``: the address's own IP,
-    its host name resolved here, else loopback. (``host-gateway`` would be the bridge's IP, where a backend bound to
-    127.0.0.1 does not listen, and needs a daemon with a bridge and a recent Podman.)"""
-    import ipaddress
-    import socket
-    import urllib.parse
-
-    host = urllib.parse.urlsplit(address).hostname or "127.0.0.1"
-    try:
-        return str(ipaddress.ip_address(host))
-    except ValueError:
-        pass
-    try:
-        return socket.gethostbyname(host)
-    except OSError:
-        return "127.0.0.1"
-
-
-def run_container_submission(
-    engine: str,
-    dockerfile: Path,
-    context: Path,
-    *,
-    address: str,
-    result_location: Path,
-    args: str = "",
-    token: str | None = None,
-    name_suffix: str = "",
-    log: IO[str] | None = None,
-    timeout_s: float | None = None,
-) -> int:
-    """Build ``dockerfile`` with build context ``context`` (the submission's folder, not the current one as in the
-    original), run it on the host network with ``BENCHBOT_SUPERVISOR_ADDRESS``, ``BENCHBOT_RESULT_LOCATION``
-    (``/tmp/benchbot_result`` inside), ``BENCHBOT_SHARED_MEMORY=0`` (the host's ``/dev/shm`` is not the
-    container's) and ``args`` set, and copy the results out to ``result_location``. ``benchbot_supervisor``
-    resolves to the backend's IP (:func:`supervisor_host_ip`) for original clients. ``token`` reaches the container
-    through the engine's environment, not its command line. ``name_suffix`` keeps parallel containers apart;
-    ``log`` receives the build's and the container's output; ``timeout_s`` kills the container after that many
-    seconds (exit status -9). The container is removed whatever happens. Returns the container's exit status.
-
-    Raises:
-        BenchbotError: the build failed, or the engine could not start the container (``run`` exited 125).
-    """
-    tag = container_image_tag(context)
-    output = {"stdout": log, "stderr": subprocess.STDOUT} if log is not None else {}
-    build = subprocess.run([engine, "build", "-f", str(dockerfile), "-t", tag, str(context)], **output)
-    if build.returncode != 0:
-        raise BenchbotError(f"{engine} build of {dockerfile} failed (exit status {build.returncode})",
-                            "see the build output; the base image must be present locally or pullable")
-    name = "benchbot_submission_" + tag.rsplit(":", 1)[1] + name_suffix
-    subprocess.run([engine, "rm", "-f", name], capture_output=True)
-    env = ["-e", f"BENCHBOT_SUPERVISOR_ADDRESS={address}", "-e", "BENCHBOT_RESULT_LOCATION=/tmp/benchbot_result",
-           "-e", "BENCHBOT_SHARED_MEMORY=0", "-e", f"args={args}"]
-    env += ["-e", "BENCHBOT_CLIENT_ID"]  # when set: the id `benchbot submit` gave the solution (solution_lease.py)
-    engine_env = None
-    if token:
-        env += ["-e", "BENCHBOT_TOKEN"]  # the value comes from the engine client's environment
-        engine_env = dict(os.environ, BENCHBOT_TOKEN=token)
-    try:
-        try:
-            code = subprocess.run([engine, "run", "--network", "host",
-                                   "--add-host", f"benchbot_supervisor:{supervisor_host_ip(address)}",
-                                   "--name", name, "--hostname", "benchbot_submission", *env, tag],
-                                  env=engine_env, timeout=timeout_s, **output).returncode
-        except subprocess.TimeoutExpired:
-            return -9
-        if code == 125:
-            raise BenchbotError(f"{engine} could not start the container of {dockerfile} (exit status 125)",
-                                "see the engine's message in its output")
-        # results are optional here: the caller reports a submission that saved none
-        subprocess.run([engine, "cp", f"{name}:/tmp/benchbot_result", str(result_location)], capture_output=True)
-        return code
-    finally:
-        subprocess.run([engine, "rm", "-f", name], capture_output=True)
 
 
 # ------------------------------------------------------------------------------------------------- tarballs
