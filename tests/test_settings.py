@@ -239,3 +239,17 @@ def test_a_third_party_plugin_s_setting_is_read_by_name_and_shown_by_doctor(tmp_
         "name": "BENCHBOT_ACME_SPEED", "value": "fast", "source": "environment", "owner": "acme",
         "meaning": "speed of the acme robot", "problem": "not a number above 0"}
     assert problems == ["BENCHBOT_ACME_SPEED='fast' is not a number above 0"]  # what `benchbot doctor` shows
+
+
+def test_doctor_names_a_value_its_reader_rejects():
+    """`benchbot doctor` has a `settings` row: a value a setting's reader rejects is one line naming the variable
+    (not required: only what reads it fails), and the table says `environment (invalid: ...)`."""
+    from benchbot.cli.main import app
+
+    result = CliRunner().invoke(app, ["doctor", "--no-render", "--json"], env={"BENCHBOT_TAICHI_THREADS": "two"})
+    report = json.loads(result.stdout)
+    check = next(c for c in report["checks"] if c["name"] == "settings")
+    assert check["ok"] is False and check["required"] is False
+    assert check["detail"] == "BENCHBOT_TAICHI_THREADS='two' is not a whole number of at least 1"
+    row = next(r for r in report["settings"] if r["name"] == "BENCHBOT_TAICHI_THREADS")
+    assert row["owner"] == "sim_taichi" and row["problem"] == "not a whole number of at least 1"

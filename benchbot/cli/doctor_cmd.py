@@ -224,6 +224,17 @@ def check_data_dir() -> Check:
                      "set BENCHBOT_DATA_DIR (or XDG_DATA_HOME) to a writable folder")
 
 
+def check_settings() -> Check:
+    """Whether every setting is well declared and has a valid value (not required: a bad one fails only what reads
+    it): :func:`benchbot.core.settings.problems`."""
+    found = settings.problems()
+    if not found:
+        return Check("settings", True, False, f"{len(settings.all_settings())} settings, each with a valid value "
+                     "(the table below)")
+    return Check("settings", False, False, "; ".join(found), "set a valid value or unset it; a plugin named must fix "
+                 "its benchbot_settings (docs/plugin-guide.md, Settings)")
+
+
 def run_checks(render: bool = True, timeout_s: float = 180.0, on_check: Callable[[str], None] = lambda _: None
                ) -> list[Check]:
     """Every check, in order (renders run in one subprocess per arch, each limited to ``timeout_s`` seconds);
@@ -248,6 +259,7 @@ def run_checks(render: bool = True, timeout_s: float = 180.0, on_check: Callable
         ("the solution sandbox", check_sandbox), ("container engines", check_containers),
         ("Ray", lambda: check_module("ray", "ray", "optional (distributed batches): benchbot install ray")),
         ("port 10000", lambda: check_port(10000)), ("the data directory", check_data_dir),
+        ("the settings", check_settings),
     ):
         checks += step(what, check)
     return checks
@@ -258,7 +270,7 @@ def register(app: typer.Typer) -> None:
     @handle_errors
     def doctor(
         as_json: bool = typer.Option(False, "--json", help="Print JSON: {ok, checks: [{name, ok, required, detail, fix}], "
-                                     "settings: [{name, value, source, owner, meaning}]}."),
+                                     "settings: [{name, value, source, owner, meaning, problem}]}."),
         render: bool = typer.Option(True, "--render/--no-render", help="Render one frame per Taichi backend (subprocesses)."),
         timeout: float = typer.Option(180.0, "--timeout", min=1.0, help="Seconds each render may take."),
     ) -> None:
@@ -286,8 +298,8 @@ def register(app: typer.Typer) -> None:
             shown = Table("setting", "value", "from", "read by", "meaning")
             for row in settings.effective():
                 value = "" if row["value"] is None else row["value"]
-                shown.add_row(*(Text(str(v)) for v in (row["name"], value, row["source"], row["owner"],
-                                                        row["meaning"])))
+                where = row["source"] + (f" (invalid: {row['problem']})" if row["problem"] else "")
+                shown.add_row(*(Text(str(v)) for v in (row["name"], value, where, row["owner"], row["meaning"])))
             out.print(shown)
             out.print("[green]the main job can run here[/]" if ok else "[red]the main job cannot run here: see the FAIL rows[/]")
         if not ok:
