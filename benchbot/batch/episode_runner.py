@@ -16,7 +16,6 @@ from typing import Any
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
 from benchbot.core import stages
 from benchbot.core.errors import BenchbotError, ResultsError
-from benchbot.core.evaluation import load_results
 from benchbot.solutions.leftovers import owned_tempdir
 from benchbot.core.registry import get_registry
 from benchbot.core.session import RunSpec
@@ -27,16 +26,6 @@ from benchbot.solutions.submission import Submission, run_submission
 #: An episode's error when it did not end ``ok`` and its solution read standard input (its log has the line).
 READ_STDIN_ERROR = ("the solution read its standard input, which a batch does not give (end-of-file); "
                     "an interactive solution runs with `benchbot submit`")
-
-
-def results_problem(path: Path) -> str:
-    """Why the results file at ``path`` cannot be scored at all (not readable, not JSON, not a JSON object), in one
-    line naming it; "" when it parses. (Its format is checked when the batch is evaluated.)"""
-    try:
-        load_results(path)
-    except BenchbotError as exc:
-        return exc.message
-    return ""
 
 
 def run_directories(run_dir: Path) -> list[Path]:
@@ -212,9 +201,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             record.status = "failed"
         elif not (folder / spec.results).is_file():
             record.status = "no_results"
-        else:
-            record.error = results_problem(folder / spec.results)
-            record.status = "bad_results" if record.error else "ok"
+        else:  # read (once) by the batch process as the record arrives: benchbot.batch.episode_results
+            record.status = "ok"
         if read_stdin and record.status != "ok" and not record.error:
             record.error = READ_STDIN_ERROR
     except BenchbotError as exc:

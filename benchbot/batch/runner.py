@@ -36,7 +36,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable
 
-from benchbot.batch.episode_runner import results_problem
+from benchbot.batch.episode_results import EpisodeResults
 from benchbot.batch.executors import (
     EXECUTORS, RAY_LOG, EventHandler, RayCluster, connect_ray, run_batched, run_local, run_ray,
 )
@@ -412,10 +412,9 @@ def run_batch(
     from benchbot.solutions.leftovers import clean_leftovers
 
     clean_leftovers()  # temporary folders and cgroups of batches killed earlier (never a live one's)
+    results = EpisodeResults(run_dir, keep=bool(manifest.get("evaluate_with")))  # each results file read once
     for record in records:  # results finished earlier but since removed or corrupted are done again
-        problem = results_problem(run_dir / record.results) if record.status == "ok" else ""
-        if problem:
-            record.status, record.error = "bad_results", problem
+        results.check(record)
     by_index = {r.index: r for r in records}
     t0 = time.monotonic()
     progress = ProgressFile(run_dir)
@@ -426,6 +425,7 @@ def run_batch(
             on_event(kind, index, info)
 
     def record_done(record: EpisodeRecord) -> None:  # a Ray record counts its lost attempts too
+        results.check(record)
         record.attempts = by_index[record.index].attempts + max(1, record.attempts)
         record.lost = by_index[record.index].lost + record.lost
         by_index[record.index] = record
@@ -471,7 +471,7 @@ def run_batch(
     method = manifest.get("evaluate_with")
     if method and done:
         try:
-            _evaluate(registry, run_dir, manifest, specs, method, outcome)
+            _evaluate(registry, run_dir, manifest, specs, method, outcome, results.loaded)
         except BenchbotError as exc:
             outcome.evaluation_error = exc.message
     outcome.excluded = _excluded(outcome.episodes)
@@ -501,12 +501,13 @@ def _excluded(episodes: list[EpisodeRecord]) -> list[dict]:
 
 
 def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[EpisodeSpec], method: str,
-              outcome: BatchOutcome) -> None:
+              outcome: BatchOutcome, loaded: dict | None = None) -> None:
     """Score the ``ok`` episodes' results with ``method``; a results file that cannot be loaded, validated or
     scored turns its episode into ``bad_results`` (with the one-line reason) instead of failing the whole
     evaluation, and the others are scored. Each episode is scored against its own environment, the one of its
     plan (never the one its results file names): results naming another environment, or results of another task,
-    are ``bad_results`` naming both. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes are not
+    are ``bad_results`` naming both. ``loaded`` holds the results files already read (:class:`EpisodeResults`),
+    which are not read again. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes are not
     in it) and ``episode_scores.json``.
 
     Raises:
@@ -519,7 +520,7 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[Epi
     evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
                           required_task=manifest["task"], keep_going=True,
                           environments={path: env_of[record.index] for path, record in by_source.items()},
-                          ground_truth_set=manifest.get("ground_truth_set"))
+                          ground_truth_set=manifest.get("ground_truth_set"), loaded=loaded)
     problems = [(source, exc.message) for source, exc in evaluation.errors]
     problems += [(source, f"{source}: results not scored: {why}") for source, why in evaluation.skipped]
     for source, message in problems:  # a zip archive's members are named PATH:MEMBER
