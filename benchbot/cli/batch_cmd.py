@@ -13,18 +13,14 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from benchbot.batch.plan import EpisodeRecord, expected_steps, plan_episodes
-from benchbot.batch.sweep import parse_sweep, plan_sweep
-from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry, writing
+from benchbot.batch.plan import EpisodeRecord, expected_steps
+from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.options import at_most, check_count
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
 from benchbot.core.errors import ExitCode, UsageError
 from benchbot.core.limits import MAX_REPEAT, MAX_RETRIES, MAX_SEED, MAX_WORKERS
-from benchbot.core.noise import get_preset
-from benchbot.solutions.sandbox import check_available, check_sandboxable, not_verifiable_note
-from benchbot.solutions.container_engine import container_engine, container_files
-from benchbot.solutions.submission import check_native_files, example_submission, native_submission
+from benchbot.solutions.sandbox import not_verifiable_note
 
 
 def register(app: typer.Typer) -> None:
@@ -71,182 +67,166 @@ def register(app: typer.Typer) -> None:
         directory under --output-dir, named on stderr; a batch stopped at any moment continues with --resume.
         Exit status 0 when every episode produced results.
         """
-        from benchbot.batch.executors import EXECUTORS
-        from benchbot.batch.runner import load_batch, new_run_dir, parse_env_list, prepare_batch, run_batch
+        from benchbot.batch.request import BatchRequest, new_batch, resume_batch
 
         for flag, value, limit, least in (("--repeat", repeat, MAX_REPEAT, 1), ("--workers", workers, MAX_WORKERS, 1),
                                           ("--retries", retries, MAX_RETRIES, 0), ("--seed", seed, MAX_SEED, 0)):
             check_count(flag, value, limit, least)  # first: nothing is planned for an absurd count
         reg = registry()
-        if executor not in EXECUTORS:
-            raise UsageError(f"--executor '{executor}' is not an executor", f"use one of {', '.join(EXECUTORS)}")
-        if ray_address is not None and executor != "ray":
-            raise UsageError("--ray-address is for --executor ray", "add --executor ray, or leave --ray-address out")
-        cluster = None
+        _check_executor(executor, ray_address)
         if resume is not None:
-            batch = load_batch(reg, resume)
-            isolation = batch.specs[0].sandbox
-            if no_sandbox and isolation != "none":
-                raise UsageError(f"{batch.run_dir} ran its solutions with isolation '{isolation}'; a batch resumes "
-                                 "as it started", "drop --no-sandbox, or start a new batch")
-            if isolation == "bwrap":
-                check_available()
+            batch = resume_batch(reg, resume, no_sandbox)
             done = sum(r.status == "ok" for r in batch.records)
             cluster = _connect_ray(executor, ray_address, workers, batch.run_dir)
             err.print(f"resuming {batch.run_dir}: {done} of {len(batch.specs)} episodes already done")
         else:
-            modes = [m for m, on in (("--native", native), ("--example", example), ("--containerised", containerised)) if on]
-            if len(modes) != 1:
-                raise UsageError("give exactly one of --native COMMAND, --example NAME and --containerised DIR",
-                                 "e.g. --example semslam_geometric")
-            if example_containerised and not example:
-                raise UsageError("--example-containerised needs --example NAME", "")
-            if not prefix or any(c in prefix for c in "/\\") or prefix in (".", ".."):
-                raise UsageError(f"--prefix '{prefix}' is not a name", "give a plain name, e.g. --prefix ablation")
-            if noise is not None:
-                get_preset(noise, flag="--noise")
-            parsed_sweep = parse_sweep(sweep) if sweep is not None else None
-            if parsed_sweep and parsed_sweep.factor == "noise" and noise is not None:
-                raise UsageError("--noise and --sweep noise=... both set the noise", "give one of them")
-            if parsed_sweep and parsed_sweep.factor == "robot" and robots:
-                raise UsageError("--robots and --sweep robot=... both set the robots", "give one of them")
-            env_list = parse_env_list(envs, envs_batch, reg)
-            reg.make_generated(env_list, workers, on_start=lambda homes, procs: err.print(
-                f"making {homes} procedural homes ({procs} at a time) …", highlight=False))
-            robot_list = [r.strip() for r in robots.split(",") if r.strip()] if robots else [robot]
-            container = None
-            isolation = "container" if containerised is not None or example_containerised else (
-                "none" if no_sandbox else "bwrap")
-            if isolation == "bwrap":
-                check_available()  # before anything is planned: one line when bubblewrap is missing
-            if containerised is not None or example_containerised:
-                dockerfile, context = container_files(reg, path=containerised, example=example if example_containerised else None)
-                container = {"engine": container_engine(), "dockerfile": str(dockerfile), "context": str(context), "args": args}
-                submission = native_submission(["true"])  # unused: the container runs instead
-            else:
-                if native:  # its script must be there before a backend starts (one line, not an episode log)
-                    check_native_files(native, Path.cwd())
-                submission = example_submission(reg, example, args) if example else native_submission([native], args)
-                if isolation == "bwrap":
-                    check_sandboxable(submission, reg)
-            plan = dict(task=task, repeat=repeat, seed=seed, argv=submission.argv, cwd=str(submission.cwd),
-                        options=backend_options(arch, camera_size), timeout_s=timeout, container=container,
-                        record=record, sandbox=isolation)
-            sweep_record = None
-            if parsed_sweep is None:
-                specs = plan_episodes(robots=robot_list, envs=env_list, noise=noise or "none", **plan)
-            else:
-                specs, level_of = plan_sweep(parsed_sweep, robots=robot_list, envs=env_list, noise=noise or "none",
-                                             registry=reg, **plan)
-                sweep_record = {"factor": parsed_sweep.factor, "levels": list(parsed_sweep.levels),
-                                "level_of": level_of}
-            with writing(output_dir, "--output-dir"):
-                run_dir = new_run_dir(output_dir, prefix)
-            try:
-                batch = prepare_batch(reg, run_dir=run_dir, specs=specs,
-                                      evaluate_with=None if no_evaluate else evaluate_with, prefix=prefix,
-                                      zip_results=zip_results, sweep=sweep_record, ground_truth_set=ground_truths)
-                cluster = _connect_ray(executor, ray_address, workers, run_dir)
-            except BaseException:  # nothing ran: leave no empty run directory behind
-                shutil.rmtree(run_dir, ignore_errors=True)
-                raise
-            err.print(f"run directory: {run_dir}")
-        if not_verifiable_note(isolation):
-            err.print(f"[yellow]warning:[/] {not_verifiable_note(isolation)}", highlight=False)
-        run_dir, specs = batch.run_dir, batch.specs
-        total = len(specs)
-        label = {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
-                 + (f" noise={s.noise}" if len({x.noise for x in specs}) > 1 else "")
-                 + (f" r{s.repeat}" if s.repeat else "") for s in specs}
-
-        def print_line(record: EpisodeRecord) -> None:  # one line per finished episode, as it finishes
-            err.print(episode_line(record, label[record.index]), highlight=False)
-
-        def print_lost(kind: str, index: int, info: dict | None) -> None:  # a Ray episode lost with its node
-            if kind == "lost":
-                err.print(lost_line(info or {}, label[index]), highlight=False)
-
-        from benchbot.batch.narration import Narrator
-        from benchbot.batch.stopping import StopDeadline, interrupts_arm
-
-        runs = {s.index: batch.runs.get((s.robot, s.env)) for s in specs}  # None: no longer resolves (--resume)
-        expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
-        # what an episode is doing, in plain lines, where nothing live shows it (a log; the view closed with q)
-        deadline = StopDeadline(run_dir, say=lambda line: err.print(line, highlight=False, markup=False))
-        narrator = Narrator(lambda line: err.print(line, highlight=False, markup=False), label, expected,
-                            speaking=not is_tty(), muted=lambda: deadline.armed_at is not None)
-
-        def on_log_event(kind: str, index: int, info: dict | None) -> None:
-            narrator.event(kind, index, info)
-            print_lost(kind, index, info)
-
-        service = _start_service(no_service, executor, workers, specs)
-        started = time.monotonic()
-        try:
-            with interrupts_arm(deadline), narrator:  # Ctrl-C: the command is gone within STOP_BOUND_S, by design
-                if is_tty() and not no_tui:
-                    outcome = _run_with_tui(reg, batch, print_line, deadline, narrator, workers=workers,
-                                            retries=retries, executor=executor, ray_address=ray_address,
-                                            ray_cluster=cluster, on_event=on_log_event, service=service)
-                elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
-                    outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                        ray_address=ray_address, on_record=print_line, on_event=on_log_event,
-                                        ray_cluster=cluster, service=service)
-                else:
-                    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
-                                  TimeElapsedColumn(), console=err) as progress:
-                        rows: dict[int, int] = {}
-
-                        def on_event(kind: str, index: int, info: dict | None) -> None:
-                            if kind == "start":
-                                rows[index] = progress.add_task(label[index], total=expected[index])
-                            elif kind == "stage" and index in rows:  # what the backend does before the first step
-                                stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
-                                progress.update(rows[index], description=label[index] + stage)
-                            elif kind == "step" and index in rows:
-                                progress.update(rows[index], completed=info["step"])
-                            elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
-                                progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
-                                print_lost(kind, index, info)
-
-                        def on_record(record: EpisodeRecord) -> None:
-                            colour = "green" if record.status == "ok" else "red"
-                            if record.index in rows:
-                                progress.update(rows[record.index], description=f"{label[record.index]} [{colour}]{record.status}[/]")
-
-                        outcome = run_batch(reg, batch, workers=workers, retries=retries, executor=executor,
-                                            ray_address=ray_address, on_event=on_event, on_record=on_record,
-                                            ray_cluster=cluster, service=service)
-        except KeyboardInterrupt:
-            deadline.arm(signal_sent=True)
-            stopped_by_user(run_dir, deadline)
-        err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
-        for record in outcome.episodes:
-            if record.status != "ok":
-                why = record.error or f"exit status {record.returncode}"
-                err.print(f"[red]{record.env}: {record.status}[/] ({why}); see {run_dir / record.log}", highlight=False)
-        if outcome.evaluation_error:
-            err.print(f"[red]evaluation failed:[/] {outcome.evaluation_error}", highlight=False)
-        if as_json:
-            out.print_json(json.dumps({
-                "run_dir": str(run_dir), "episodes": [vars(e) for e in outcome.episodes],
-                "scores": outcome.evaluation.to_json() if outcome.evaluation else None,
-                "robustness": outcome.robustness,
-            }, default=lambda o: o.tolist()))
-        elif outcome.evaluation is not None:
-            print_scores(outcome.evaluation)
-            if outcome.robustness is not None:
-                print_robustness(outcome.robustness, run_dir)
-        if outcome.evaluation is not None:
-            err.print(f"results and scores in {run_dir}")
-        else:
-            why = ("evaluation failed" if outcome.evaluation_error
-                   else "no episode produced results" if not any(e.status == "ok" for e in outcome.episodes)
-                   else "not evaluated: --no-evaluate, or an environment without ground truth")
-            err.print(f"nothing was scored ({why}); results, logs and the manifest are in {run_dir}")
+            batch = new_batch(reg, BatchRequest(
+                task=task, robot=robot, robots=robots, envs=envs, envs_batch=envs_batch, native=native,
+                example=example, containerised=containerised, example_containerised=example_containerised,
+                args=args, repeat=repeat, seed=seed, timeout_s=timeout, record=record, noise=noise, sweep=sweep,
+                backend_options=lambda: backend_options(arch, camera_size), no_sandbox=no_sandbox, workers=workers,
+                prefix=prefix, output_dir=output_dir, zip_results=zip_results,
+                evaluate_with=None if no_evaluate else evaluate_with, ground_truths=ground_truths,
+            ), say=lambda line: err.print(line, highlight=False))
+            cluster = _connect_ray(executor, ray_address, workers, batch.run_dir, new=True)
+            err.print(f"run directory: {batch.run_dir}")
+        if not_verifiable_note(batch.specs[0].sandbox):
+            err.print(f"[yellow]warning:[/] {not_verifiable_note(batch.specs[0].sandbox)}", highlight=False)
+        service = _start_service(no_service, executor, workers, batch.specs)
+        outcome = _run_shown(reg, batch, no_tui=no_tui, workers=workers, retries=retries, executor=executor,
+                             ray_address=ray_address, ray_cluster=cluster, service=service)
+        print_outcome(outcome, batch.run_dir, as_json)
         if not outcome.ok:
             raise typer.Exit(int(ExitCode.FAILURE))
 
+
+def _check_executor(executor: str, ray_address: str | None) -> None:
+    """Check ``--executor`` and ``--ray-address``.
+
+    Raises:
+        UsageError: an unknown executor, or ``--ray-address`` without ``--executor ray``.
+    """
+    from benchbot.batch.executors import EXECUTORS
+
+    if executor not in EXECUTORS:
+        raise UsageError(f"--executor '{executor}' is not an executor", f"use one of {', '.join(EXECUTORS)}")
+    if ray_address is not None and executor != "ray":
+        raise UsageError("--ray-address is for --executor ray", "add --executor ray, or leave --ray-address out")
+
+
+def episode_labels(specs: list) -> dict[int, str]:
+    """``{index: label}`` of a batch's episodes as its lines and progress rows name them: ``[2/4] house:1``, with the
+    robot, noise preset and repetition where the batch varies them (``[3/8] house:1 jackal noise=high r1``)."""
+    total = len(specs)
+    return {s.index: f"[{s.index + 1}/{total}] {s.env}" + (f" {s.robot}" if len({x.robot for x in specs}) > 1 else "")
+            + (f" noise={s.noise}" if len({x.noise for x in specs}) > 1 else "")
+            + (f" r{s.repeat}" if s.repeat else "") for s in specs}
+
+
+def _run_shown(reg, batch, *, no_tui: bool, **run):
+    """Run ``batch`` (:func:`benchbot.batch.runner.run_batch` with ``run``) as stderr can show it: the live episode
+    table on a terminal (:func:`_run_with_tui`; progress bars with ``no_tui``), a line per finished episode and what
+    the running ones are doing in a log (:class:`benchbot.batch.narration.Narrator`); then the closing line
+    (:func:`batch_summary`). Ctrl-C stops it within the bound of :class:`benchbot.batch.stopping.StopDeadline`
+    (:func:`stopped_by_user`).
+
+    Raises:
+        typer.Exit: interrupted (``ExitCode.INTERRUPTED``).
+    """
+    from benchbot.batch.narration import Narrator
+    from benchbot.batch.runner import run_batch
+    from benchbot.batch.stopping import StopDeadline, interrupts_arm
+
+    label = episode_labels(batch.specs)
+    runs = {s.index: batch.runs.get((s.robot, s.env)) for s in batch.specs}  # None: no longer resolves (--resume)
+    expected = {i: expected_steps(run.task, run.environments) if run else None for i, run in runs.items()}
+    # what an episode is doing, in plain lines, where nothing live shows it (a log; the view closed with q)
+    deadline = StopDeadline(batch.run_dir, say=lambda line: err.print(line, highlight=False, markup=False))
+    narrator = Narrator(lambda line: err.print(line, highlight=False, markup=False), label, expected,
+                        speaking=not is_tty(), muted=lambda: deadline.armed_at is not None)
+
+    def print_line(record: EpisodeRecord) -> None:  # one line per finished episode, as it finishes
+        err.print(episode_line(record, label[record.index]), highlight=False)
+
+    def on_log_event(kind: str, index: int, info: dict | None) -> None:
+        narrator.event(kind, index, info)
+        if kind == "lost":  # a Ray episode lost with its node
+            err.print(lost_line(info or {}, label[index]), highlight=False)
+
+    started = time.monotonic()
+    try:
+        with interrupts_arm(deadline), narrator:  # Ctrl-C: the command is gone within STOP_BOUND_S, by design
+            if is_tty() and not no_tui:
+                outcome = _run_with_tui(reg, batch, print_line, deadline, narrator, on_event=on_log_event, **run)
+            elif not is_tty():  # a log (CI, SLURM, `> file`): lines, never a live display
+                outcome = run_batch(reg, batch, on_record=print_line, on_event=on_log_event, **run)
+            else:
+                outcome = _run_with_progress(reg, batch, label, expected, **run)
+    except KeyboardInterrupt:
+        deadline.arm(signal_sent=True)
+        stopped_by_user(batch.run_dir, deadline)
+    err.print(batch_summary(outcome, time.monotonic() - started), highlight=False)
+    return outcome
+
+
+def _run_with_progress(reg, batch, label: dict[int, str], expected: dict[int, int | None], **run):
+    """Run ``batch`` (:func:`benchbot.batch.runner.run_batch` with ``run``) under rich progress bars on stderr: a row
+    per episode as it starts (``label``), its steps out of ``expected``, the backend's stage before the first step,
+    and its status when it ends."""
+    from benchbot.batch.runner import run_batch
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+                  TimeElapsedColumn(), console=err) as progress:
+        rows: dict[int, int] = {}
+
+        def on_event(kind: str, index: int, info: dict | None) -> None:
+            if kind == "start":
+                rows[index] = progress.add_task(label[index], total=expected[index])
+            elif kind == "stage" and index in rows:  # what the backend does before the first step
+                stage = f" [dim]{info['stage']} …[/]" if info.get("stage") else ""
+                progress.update(rows[index], description=label[index] + stage)
+            elif kind == "step" and index in rows:
+                progress.update(rows[index], completed=info["step"])
+            elif kind == "lost" and index in rows:  # its re-run, if any, gets a row of its own
+                progress.update(rows[index], description=f"{label[index]} [yellow]lost[/]")
+                err.print(lost_line(info or {}, label[index]), highlight=False)
+
+        def on_record(record: EpisodeRecord) -> None:
+            colour = "green" if record.status == "ok" else "red"
+            if record.index in rows:
+                progress.update(rows[record.index],
+                                description=f"{label[record.index]} [{colour}]{record.status}[/]")
+
+        return run_batch(reg, batch, on_event=on_event, on_record=on_record, **run)
+
+
+def print_outcome(outcome, run_dir: Path, as_json: bool) -> None:
+    """What a finished batch says: each episode that is not ``ok`` and why (with its log), an evaluation that failed
+    (stderr); the outcome as JSON (``as_json``) or the scores and a sweep's robustness summary (stdout); where the
+    results are, or why nothing was scored (stderr)."""
+    for record in outcome.episodes:
+        if record.status != "ok":
+            why = record.error or f"exit status {record.returncode}"
+            err.print(f"[red]{record.env}: {record.status}[/] ({why}); see {run_dir / record.log}", highlight=False)
+    if outcome.evaluation_error:
+        err.print(f"[red]evaluation failed:[/] {outcome.evaluation_error}", highlight=False)
+    if as_json:
+        out.print_json(json.dumps({
+            "run_dir": str(run_dir), "episodes": [vars(e) for e in outcome.episodes],
+            "scores": outcome.evaluation.to_json() if outcome.evaluation else None,
+            "robustness": outcome.robustness,
+        }, default=lambda o: o.tolist()))
+    elif outcome.evaluation is not None:
+        print_scores(outcome.evaluation)
+        if outcome.robustness is not None:
+            print_robustness(outcome.robustness, run_dir)
+    if outcome.evaluation is not None:
+        err.print(f"results and scores in {run_dir}")
+    else:
+        why = ("evaluation failed" if outcome.evaluation_error
+               else "no episode produced results" if not any(e.status == "ok" for e in outcome.episodes)
+               else "not evaluated: --no-evaluate, or an environment without ground truth")
+        err.print(f"nothing was scored ({why}); results, logs and the manifest are in {run_dir}")
 
 def stopped_by_user(run_dir: Path, deadline=None) -> None:
     """Ctrl-C ended the batch in ``run_dir``: its ``progress.json`` says so for the episodes it left running
@@ -319,10 +299,11 @@ def _start_service(no_service: bool, executor: str, workers: int, specs: list) -
     return True
 
 
-def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path):
+def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path, new: bool = False):
     """For ``--executor ray``: connect to Ray now (:func:`benchbot.batch.executors.connect_ray`), in the main
     thread and before any live table (``ray.init`` needs the terminal's real stderr, which the table takes over),
-    and say where the episodes will run; None for ``local``.
+    and say where the episodes will run; None for ``local``. ``new``: ``run_dir`` was made for this batch, and is
+    removed when this fails (nothing ran: no empty run directory is left behind).
 
     Raises:
         UsageError: Ray missing, or its cluster unreachable (one line, with the fix).
@@ -331,11 +312,16 @@ def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path
         return None
     from benchbot.batch.executors import RAY_LOG, connect_ray
 
-    cluster = connect_ray(address, workers=workers, log=run_dir / RAY_LOG)
-    err.print(cluster.describe(), highlight=False)
-    if workers > 1 and not cluster.started_here:
-        err.print("(--workers is not used on an existing cluster: its free CPUs decide how many episodes run at "
-                  "once)", highlight=False)
+    try:
+        cluster = connect_ray(address, workers=workers, log=run_dir / RAY_LOG)
+        err.print(cluster.describe(), highlight=False)
+        if workers > 1 and not cluster.started_here:
+            err.print("(--workers is not used on an existing cluster: its free CPUs decide how many episodes run "
+                      "at once)", highlight=False)
+    except BaseException:
+        if new:
+            shutil.rmtree(run_dir, ignore_errors=True)
+        raise
     return cluster
 
 
