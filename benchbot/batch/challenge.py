@@ -69,7 +69,7 @@ SOLUTION_LIMITS = {"memory": ("memory_bytes", "SANDBOX_MEMORY_BYTES"), "processe
 def solution_limits(given: list[str] | None = None) -> dict[str, int]:
     """A challenge's limits on each solution, ``{memory_bytes, processes, file_bytes, cpu_s, tmp_bytes,
     outputs_bytes}``: this
-    host's (the ``BENCHBOT_SANDBOX_*`` variables, else their defaults; docs/security.md) with ``given`` on top.
+    host's (its sandbox limits' variables, else their defaults; docs/security.md) with ``given`` on top.
 
     Args:
         given: ``NAME=VALUE`` strings, NAME one of :data:`SOLUTION_LIMITS` (``memory=4G``, ``cpu=600``), VALUE as
@@ -97,7 +97,7 @@ def solution_limits(given: list[str] | None = None) -> dict[str, int]:
 
 def batch_environment(conditions: dict) -> dict[str, str]:
     """The environment a challenge's batch runs in: this process's, with the challenge's solution limits as the
-    ``BENCHBOT_SANDBOX_*`` variables the sandbox reads (a challenge made before limits were recorded: unchanged)."""
+    variables the sandbox reads (a challenge made before limits were recorded: unchanged)."""
     from benchbot.core import limits as all_limits
 
     env = dict(os.environ)

@@ -37,8 +37,8 @@ def register(app: typer.Typer) -> None:
                                                         "(default: the task's)."),
         limit: Optional[list[str]] = typer.Option(None, "--limit", help="A limit on each solution, NAME=VALUE: "
                                                   "memory (bytes, K/M/G), processes, file (bytes), cpu (seconds), "
-                                                  "tmp (bytes), outputs (bytes); repeat it. Default: this host's BENCHBOT_SANDBOX_* "
-                                                  "values (docs/security.md)."),
+                                                  "tmp (bytes), outputs (bytes); repeat it. Default: this host's "
+                                                  "sandbox limits (docs/security.md)."),
     ) -> None:
         """Make a challenge: the host's Ed25519 key pair (private key mode 0600), the test split's key when the
         split is test (as `benchbot worlds key`), and conditions.json (public)."""
