@@ -6,7 +6,7 @@ the plugin's settings).
 
 ``benchbot batch`` calls :func:`collect` once when it writes the manifest and :func:`backend_facts` after each
 episode, in the process that ran it; ``benchbot report`` and ``benchbot leaderboard`` print what they recorded next to
-the scores and compare runs on it (:func:`conditions`). Nothing here fails a batch: a missing ``git``, a folder
+the scores and compare runs on it (:func:`benchbot.batch.run_conditions.conditions`). Nothing here fails a batch: a missing ``git``, a folder
 outside any repository, an unreadable ``/proc`` or a backend that cannot say gives ``None`` for that entry.
 
 The host name is deliberately not recorded: manifests are published with leaderboards, and the CPU model, core
