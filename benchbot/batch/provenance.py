@@ -6,8 +6,9 @@ the plugin's settings).
 
 ``benchbot batch`` calls :func:`collect` once when it writes the manifest and :func:`backend_facts` after each
 episode, in the process that ran it; ``benchbot report`` and ``benchbot leaderboard`` print what they recorded next to
-the scores and compare runs on it (:func:`benchbot.batch.run_conditions.conditions`). Nothing here fails a batch: a missing ``git``, a folder
-outside any repository, an unreadable ``/proc`` or a backend that cannot say gives ``None`` for that entry.
+the scores and compare runs on it (:func:`benchbot.batch.run_conditions.conditions`). Nothing here fails a batch: a
+missing ``git``, a folder outside any repository, an unreadable ``/proc`` or a backend that cannot say gives ``None``
+for that entry.
 
 The host name is deliberately not recorded: manifests are published with leaderboards, and the CPU model, core
 count and memory say what a reader needs to compare wall times. Nor is any absolute path: a path under the home
