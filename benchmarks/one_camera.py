@@ -57,7 +57,7 @@ _LOOP = 32  # items of the probe kernels' loop: little work, so that a run costs
 @functools.cache
 def _probe_kernels(ti):
     """The launch-cost probes: Taichi kernels with 2 and 30 ndarray parameters, and one with 8 loops (made once)."""
-    nd = ti.types.ndarray(dtype=ti.f32, ndim=1)
+    nd = ti.types.ndarray(dtype=ti.f32, ndim=1)  # (_LOOP,) f32 each
 
     @ti.kernel
     def two(a0: nd, a1: nd):
@@ -230,7 +230,7 @@ def _frames(args, r, renderer_module, intrinsics, views, ti) -> dict:
     spin_out = ti.ndarray(ti.f32, shape=(1,))
 
     @ti.kernel
-    def spin(n: ti.i32, out: ti.types.ndarray()):
+    def spin(n: ti.i32, out: ti.types.ndarray()):  # out: (1,) f32
         for _ in range(1):  # one GPU thread, n dependent steps
             x = 0.0
             for i in range(n):

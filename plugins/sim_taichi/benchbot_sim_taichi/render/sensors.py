@@ -326,24 +326,24 @@ def _primitives_step(table: ti.template(), pose0: ti.template(), one: ti.templat
 
 @ti.kernel
 def occluders_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (≥ n_beams,) f32 the beams' angles (rad, from the lidar's x)
     n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
     n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (O,) i32 SceneArrays.occluders
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, ≥ n_beams) f32 out: each frame's laser ranges (m)
 ):
     """Step 1 alone (the CPU's first kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
     _occluders_step(table, pose0, one, images, beams, n_beams, nodes, pf, pi, tris, consts, n_occluders, occluders,
@@ -352,17 +352,17 @@ def occluders_kernel(
 
 @ti.kernel
 def clusters_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (C, 6) f32 SceneArrays.cluster_box
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (C, 2) i32 SceneArrays.cluster_prims
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
 ):
     """Step 2 alone (the CPU's second kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
     _clusters_step(table, pose0, one, images, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
@@ -370,21 +370,21 @@ def clusters_kernel(
 
 @ti.kernel
 def primitives_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (C, 2) i32 SceneArrays.cluster_prims
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (P,) i32 SceneArrays.is_occluder
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
 ):
     """Step 3 alone (the CPU's third kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
     _primitives_step(table, pose0, one, images, pf, pi, tris, consts, cluster_prims, is_occluder, listed, queue,
@@ -393,22 +393,22 @@ def primitives_kernel(
 
 @ti.kernel
 def visibility_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (≥ n_beams,) f32 the beams' angles (rad, from the lidar's x)
     n_beams: ti.i32,
-    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (F,) f32 SceneArrays.scene_f32
+    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
     n_occluders: ti.i32,
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, ≥ n_beams) f32 out: each frame's laser ranges (m)
 ):
     """Steps 1 to 3 in one kernel (CUDA's first): every camera ray's closest hit and nearest pane into ``vis``, and
     the laser's beams into ``ranges``. Parameters: those of :func:`sensors_kernel` that it uses."""
@@ -507,20 +507,20 @@ def _shading_kernel(name: str, shadow_rays: bool, packed: bool, doc: str):
 
     if packed:
         def kernel(
-            table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
             pose0: ti.types.vector(POSE_LEN, ti.f32),
             one: ti.i32,
             images: ti.i32,
-            scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (F,) f32 SceneArrays.scene_f32
+            scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
             lit: ti.i32,
             n_always: ti.i32,
-            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),  # (B, H, W, 3) u8 out: sRGB
+            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (B, H, W) f32 out: z-depth (m; 0: no hit)
+            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class ids
+            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class·1000 + instance ids
         ):
             v = ti.static(scene_views(scene_f32, scene_i32))
             _shade_step(table, pose0, one, images, v.nodes, v.pf, v.pi, v.tris, v.shade, v.texels, v.tex_info,
@@ -530,35 +530,35 @@ def _shading_kernel(name: str, shadow_rays: bool, packed: bool, doc: str):
 
     else:
         def kernel(
-            table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
             pose0: ti.types.vector(POSE_LEN, ti.f32),
             one: ti.i32,
             images: ti.i32,
-            nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-            tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-            tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+            pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+            pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+            tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+            shade: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 17) f32 SceneArrays.shade
+            texels: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (N,) i32 SceneArrays.texels
+            tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (X, 4) i32 SceneArrays.tex_info
+            tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (256,) f32 SceneArrays.tex_lut
+            lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
             lit: ti.i32,
             n_always: ti.i32,
-            always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-            grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-            sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            always: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (A,) i32 SceneArrays.always
+            light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (NY, NX, W) i32 SceneArrays.light_grid
+            grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (4,) f32 SceneArrays.grid_xform
+            light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (S,) i32 SceneArrays.light_of_slot
+            lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (6·S, R, R) f32 SceneArrays.lamp_maps
+            sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (R, R) f32 SceneArrays.sun_map
+            baked: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (Q,) i32 SceneArrays.baked
+            baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 2) i32 SceneArrays.baked_info
+            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),  # (B, H, W, 3) u8 out: sRGB
+            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (B, H, W) f32 out: z-depth (m; 0: no hit)
+            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class ids
+            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class·1000 + instance ids
         ):
             _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit,
                         n_always, always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info,
