@@ -99,15 +99,15 @@ def test_the_renderers_packs_hold_the_scene_and_the_maps_and_light_its_kernels_c
     """After ``set_scene`` of a furnished room (lamps with shadow maps, the sun's map, baked light), the packs that
     CUDA's all-sensors kernels read hold the arrays that the renderer's other kernels read: the packed scene, the
     maps and the baked light computed on the device, the light lists."""
-    from benchbot_sim_taichi.render.renderer import _SCENE_ARG_NAMES, Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
     from benchbot_worlds.scene.build import build_scene
 
     r = Renderer("cpu")
     r.set_scene(build_scene({**bear_envs["miniroom:1"], "style": "furnished"}))
-    assert r._sensor_packs is None  # the CPU's kernels take the arrays one by one: no packs unless asked for
+    assert r._scene.scene_f32 is None  # the CPU's kernels take the arrays one by one: no packs unless asked for
     f32, i32 = r._fetch(dict(zip(("f32", "i32"), r._pack_for_sensors()))).values()
-    scene = dict(zip(_SCENE_ARG_NAMES, r._scene_args, strict=True))  # where the other kernels read them
-    expected = r._fetch({name: scene[name] for name in packed_scene.PACKED_NAMES})
+    # where the other kernels read them
+    expected = r._fetch({name: getattr(r._scene, name) for name in packed_scene.PACKED_NAMES})
     assert r.baked_points > 0 and r.lamps_with_maps > 0 and r.sun_map
     for computed in ("lamp_maps", "sun_map", "baked"):  # not the zeros they start as
         assert expected[computed].any(), computed

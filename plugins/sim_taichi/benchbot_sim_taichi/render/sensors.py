@@ -23,7 +23,6 @@ culling changes no pixel.
 import contextlib
 import functools
 import gc
-import inspect
 import sys
 
 with contextlib.redirect_stdout(sys.stderr):
@@ -41,6 +40,7 @@ from benchbot_sim_taichi.render.layouts import (  # noqa: E402
     P_SEED, PARAMS_LEN, POSE_LEN, POSE_LIDAR_XYZ, POSE_LIDAR_YAW, WORLD_AMBIENT, WORLD_ROOM_MAX, WORLD_ROOM_MIN,
 )
 from benchbot_sim_taichi.render.packed_scene import scene_views  # noqa: E402
+from benchbot_sim_taichi.render.scene_arrays import annotations, parameters  # noqa: E402
 
 #: Entries of the tone table (``camera_model.tone_table``), which starts at ``FRAME_TONE_TABLE`` of the frame constants.
 GAMMA_STEPS = TABLE_STEPS
@@ -608,14 +608,15 @@ def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True
 
     Args:
         arch: the Taichi arch the renderer runs on.
-        values: every name of :data:`SENSORS_ARGS` → its value (NumPy arrays or Taichi ndarrays, scalars, and
-            ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it declares.
+        values: every parameter of the kernels (:func:`launch_parameters`) by name → its value (NumPy arrays or
+            Taichi ndarrays, scalars, and ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it
+            declares.
         timer: ``None``, or a callable taking a kernel's name and returning a context manager that each launch runs
             inside (``benchmarks/sensors_kernels.py`` times the kernels one by one with it).
         shadow_rays: False shades with :func:`shade_maps_kernel` (see :func:`sensors_kernels`).
     """
     for kernel in sensors_kernels(arch, shadow_rays):
-        args = [values[name] for name in kernel_parameters(kernel)]
+        args = [values[name] for name in parameters(kernel)]
         if timer is None:
             kernel(*args)
         else:
@@ -643,45 +644,38 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel if shadow_rays else shade_maps_kernel)
 
 
-def launch_arg_names(arch: str, shadow_rays: bool = True) -> tuple[str, ...]:
-    """The names of :data:`SENSORS_ARGS` that the kernels of :func:`sensors_kernels` (``arch``, ``shadow_rays``)
-    take, in the order of :data:`SENSORS_ARGS` (the values a launch needs; read on every launch)."""
-    return _arg_names_of(sensors_kernels(arch, shadow_rays))
+def launch_parameters(arch: str, shadow_rays: bool = True) -> tuple[str, ...]:
+    """The parameters of the kernels of :func:`sensors_kernels` (``arch``, ``shadow_rays``) by name, each once, in
+    the order first met: the values a launch (:func:`sensors_kernel`, :func:`sensors_graph`) takes (read on every
+    launch; cached). CUDA's kernels take the scene's packs ``scene_f32`` and ``scene_i32``, the CPU's its arrays
+    one by one."""
+    return _parameters_of(sensors_kernels(arch, shadow_rays))
 
 
 @functools.cache
-def _arg_names_of(kernels: tuple) -> tuple[str, ...]:
-    taken = {name for kernel in kernels for name in kernel_parameters(kernel)}
-    return tuple(name for name in SENSORS_ARG_NAMES if name in taken)
+def _parameters_of(kernels: tuple) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(name for kernel in kernels for name in parameters(kernel)))
 
 
-@functools.cache
-def kernel_parameters(kernel) -> tuple[str, ...]:
-    """The names of a Taichi kernel's parameters, in order (names of :data:`SENSORS_ARGS`); cached (read on every
-    launch)."""
-    return tuple(inspect.signature(kernel).parameters)
+def graph_arg(name: str, annotation) -> "ti.graph.Arg":
+    """The ``ti.graph.Arg`` of a kernel parameter of annotation ``annotation`` (as the kernel declares it: an
+    ndarray type, a vector type or a scalar dtype)."""
+    if isinstance(annotation, ti.types.ndarray_type.NdarrayType):
+        return ti.graph.Arg(ti.graph.ArgKind.NDARRAY, name, dtype=annotation.dtype, ndim=annotation.ndim)
+    if isinstance(annotation, ti.lang.matrix.MatrixType):
+        return ti.graph.Arg(ti.graph.ArgKind.MATRIX, name, dtype=annotation)
+    return ti.graph.Arg(ti.graph.ArgKind.SCALAR, name, dtype=annotation)
 
-#: Parameters of the all-sensors kernels (:func:`sensors_kernel`): (name, kind, dtype, ndim) with kind ``nd``
-#: (ndarray), ``sc`` (scalar) or ``vec`` (by-value vector of POSE_LEN). The CPU's kernels take the scene's arrays;
-#: CUDA's take ``scene_f32`` and ``scene_i32``, their packs, instead (:func:`launch_arg_names` gives which).
-SENSORS_ARGS = (
-    ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
-    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
-    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
-    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1),
-    ("lights", "nd", "f32", 2), ("lit", "sc", "i32", 0), ("n_always", "sc", "i32", 0), ("always", "nd", "i32", 1),
-    ("light_grid", "nd", "i32", 3), ("grid_xform", "nd", "f32", 1), ("light_of_slot", "nd", "i32", 1),
-    ("lamp_maps", "nd", "f32", 3),
-    ("sun_map", "nd", "f32", 2), ("baked", "nd", "i32", 1), ("baked_info", "nd", "i32", 2), ("consts", "nd", "f32", 1),
-    ("cluster_box", "nd", "f32", 2), ("cluster_prims", "nd", "i32", 2), ("n_occluders", "sc", "i32", 0),
-    ("occluders", "nd", "i32", 1), ("is_occluder", "nd", "i32", 1), ("listed", "nd", "i32", 1),
-    ("queue", "nd", "i32", 2), ("counters", "nd", "i32", 1), ("tiles", "nd", "f32", 2), ("vis", "nd", "i64", 4),
-    ("rgb", "nd", "u8", 4),
-    ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
-    ("scene_f32", "nd", "f32", 1), ("scene_i32", "nd", "i32", 1),
-)
-#: The names of :data:`SENSORS_ARGS`, in order (the renderer keys a launch's values with them on every frame).
-SENSORS_ARG_NAMES = tuple(name for name, *_ in SENSORS_ARGS)
+
+def _type_key(annotation) -> tuple:
+    """What makes two kernel parameters' annotations the same type (the objects themselves differ)."""
+    if isinstance(annotation, ti.types.ndarray_type.NdarrayType):
+        return "ndarray", str(annotation.dtype), annotation.ndim
+    if isinstance(annotation, ti.lang.matrix.MatrixType):
+        return "matrix", annotation.n, annotation.m, str(annotation.dtype)
+    return "scalar", str(annotation)
+
+
 _SENSORS_GRAPHS: dict = {}
 
 
@@ -689,19 +683,25 @@ def sensors_graph(arch: str, shadow_rays: bool = True):
     """:func:`sensors_kernels` of ``arch`` (and ``shadow_rays``) as one compiled Taichi compute graph (``ti.graph``),
     built once per process, arch and ``shadow_rays``. Running the graph sets the arguments in C++ and costs a
     fraction of a Python kernel call's per-argument work, which is most of the time of a one-camera frame on a GPU
-    (the CPU runs it too). Its arguments (``graph.run({name: value})``) are
-    :data:`SENSORS_ARGS`; ndarray arguments must be Taichi ndarrays (device buffers)."""
+    (the CPU runs it too). Its arguments (``graph.run({name: value})``) are the kernels' parameters by name
+    (:func:`launch_parameters`), each of the type the kernels declare; ndarray arguments must be Taichi ndarrays
+    (device buffers).
+
+    Raises:
+        TypeError: two of the kernels declare a parameter of the same name with different types.
+    """
     if (arch, shadow_rays) not in _SENSORS_GRAPHS:
-        kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
-        dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8, "i64": ti.i64}
-        symbols = {}
-        for name, kind, dtype, ndim in SENSORS_ARGS:
-            extra = {"ndim": ndim} if kind == "nd" else {}
-            dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
-            symbols[name] = ti.graph.Arg(kinds[kind], name, dtype=dt, **extra)
+        kernels = sensors_kernels(arch, shadow_rays)
+        declared = {}
+        for kernel in kernels:
+            for name, annotation in annotations(kernel).items():
+                if _type_key(declared.setdefault(name, annotation)) != _type_key(annotation):
+                    raise TypeError(f"sensors kernels: {name} is {_type_key(declared[name])} in one, "
+                                    f"{_type_key(annotation)} in {kernel.__name__}")
+        symbols = {name: graph_arg(name, annotation) for name, annotation in declared.items()}
         builder = ti.graph.GraphBuilder()
-        for kernel in sensors_kernels(arch, shadow_rays):
-            builder.dispatch(kernel, *(symbols[name] for name in kernel_parameters(kernel)))
+        for kernel in kernels:
+            builder.dispatch(kernel, *(symbols[name] for name in parameters(kernel)))
         _SENSORS_GRAPHS[arch, shadow_rays] = builder.compile()
         # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
         # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
