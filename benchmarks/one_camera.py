@@ -27,7 +27,7 @@ items) run with 2 ndarray arguments, with 30, as two dispatches of the 2-argumen
 of one (8 offloaded tasks, 8 GPU kernel launches), each timed over bursts (median µs per run). From those:
 ``per_ndarray_us`` = (30 − 2 arguments) / 28, ``per_dispatch_us`` = two dispatches − one, ``per_task_us`` = (8 loops
 − 1) / 7. ``frame_launch`` counts the ndarray arguments and dispatches of the renderer's own graph on this arch
-(``sensors.sensors_kernels``, ``sensors.kernel_parameters``) and adds up their cost (``estimate_us``, see
+(``sensors.sensors_kernels``, ``scene_arrays.annotations``) and adds up their cost (``estimate_us``, see
 :func:`frame_launch`), the per-task cost left out: the frame's task count is not read here.
 
 JSON keys: ``env``, ``arch``, ``width``, ``height``, ``frames``, ``fps``, ``host_us_per_frame``,
@@ -57,7 +57,7 @@ _LOOP = 32  # items of the probe kernels' loop: little work, so that a run costs
 @functools.cache
 def _probe_kernels(ti):
     """The launch-cost probes: Taichi kernels with 2 and 30 ndarray parameters, and one with 8 loops (made once)."""
-    nd = ti.types.ndarray(dtype=ti.f32, ndim=1)
+    nd = ti.types.ndarray(dtype=ti.f32, ndim=1)  # (_LOOP,) f32 each
 
     @ti.kernel
     def two(a0: nd, a1: nd):
@@ -127,11 +127,13 @@ def frame_launch(arch: str, costs: dict) -> dict:
     """The ndarray arguments and dispatches of the renderer's graph on ``arch``, and their cost at ``costs``: one
     2-ndarray dispatch, one ``per_dispatch_us`` (a 2-ndarray dispatch) for each further kernel, and
     ``per_ndarray_us`` for each ndarray argument beyond those."""
-    from benchbot_sim_taichi.render.sensors import SENSORS_ARGS, kernel_parameters, sensors_kernels
+    from taichi.types.ndarray_type import NdarrayType
 
-    kinds = {name: kind for name, kind, *_ in SENSORS_ARGS}
+    from benchbot_sim_taichi.render.scene_arrays import annotations
+    from benchbot_sim_taichi.render.sensors import sensors_kernels
+
     kernels = sensors_kernels(arch)  # (both shading kernels take the same arguments)
-    n_nd = sum(kinds[p] == "nd" for k in kernels for p in kernel_parameters(k))
+    n_nd = sum(isinstance(a, NdarrayType) for k in kernels for a in annotations(k).values())
     return {"ndarray_args": n_nd, "dispatches": len(kernels),
             "estimate_us": costs["two_ndarrays_us"] + (len(kernels) - 1) * costs["per_dispatch_us"]
             + (n_nd - 2 * len(kernels)) * costs["per_ndarray_us"]}
@@ -230,7 +232,7 @@ def _frames(args, r, renderer_module, intrinsics, views, ti) -> dict:
     spin_out = ti.ndarray(ti.f32, shape=(1,))
 
     @ti.kernel
-    def spin(n: ti.i32, out: ti.types.ndarray()):
+    def spin(n: ti.i32, out: ti.types.ndarray()):  # out: (1,) f32
         for _ in range(1):  # one GPU thread, n dependent steps
             x = 0.0
             for i in range(n):

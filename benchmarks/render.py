@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     args = smoke.parse_args(ap, argv, env="miniroom:4", width=32, height=24, frames=2, warmup=1)
 
     from benchbot_worlds import bear
-    from benchbot_sim_taichi.render.renderer import _SCENE_ARRAYS, Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import _IN_PACKED, Renderer, intrinsics
     from benchbot_worlds.scene.build import build_scene
     from trajectory_views import trajectory_views  # this folder is on sys.path when a script here runs
 
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
            "sun_map": r.sun_map, "baked_points": r.baked_points,
            "triangles": int(scene.tri_v.shape[0]), "build_scene_s": t_build,
            "setup_s": t_setup, "bvh_build_s": sum(bvh_s), "fps_with_host_copy": fps_host,
-           "scene_mb": sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20,
+           "scene_mb": sum(r._packed[k].nbytes for k in _IN_PACKED) / 2**20,
            "bvh_mb": r._packed["nodes"].nbytes / 2**20,
            "device_buffers": r.device_buffers, **extra,
            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,

@@ -70,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     from render import time_bvh_builds  # this folder is on sys.path when a script here runs
     from benchbot_sim_taichi.backend import camera_at
     from benchbot_worlds.scene.meshes import MeshInstance, add_mesh_instances, load_mesh
-    from benchbot_sim_taichi.render.renderer import _SCENE_ARRAYS, Renderer, intrinsics
+    from benchbot_sim_taichi.render.renderer import _IN_PACKED, Renderer, intrinsics
     from benchbot_worlds.scene.build import BEAR_CLASS_LIST, build_scene
 
     bvh_s = time_bvh_builds()
@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     r.sync()
     t_set = time.perf_counter() - t0
     t_bvh = sum(bvh_s)
-    scene_mb = sum(r._packed[k].nbytes for k in _SCENE_ARRAYS) / 2**20
+    scene_mb = sum(r._packed[k].nbytes for k in _IN_PACKED) / 2**20
     bvh_mb = r._packed["nodes"].nbytes / 2**20
     W, H = args.width, args.height
     K = intrinsics(W, H, 90.0)

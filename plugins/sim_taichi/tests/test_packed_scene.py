@@ -6,15 +6,18 @@ import numpy as np
 import pytest
 
 from benchbot_sim_taichi.render import packed_scene
+from benchbot_sim_taichi.render.scene_arrays import SceneArrays
+
+PACKED = SceneArrays.arrays(packed=True)
 
 
 def _arrays(rng, rows: int = 5) -> dict:
     """Random arrays of every packed name, of the shapes the kernels read (R = 3 for the maps, a 2×3×2 grid)."""
     out = {}
-    for name, kind, trailing in packed_scene.PACKED:
+    for name in PACKED:
         n = rows + len(out)  # every array a different number of rows
-        shape = (n,) + tuple(d if d is not None else 3 - k for k, d in enumerate(trailing))
-        if kind == "f32":
+        shape = (n,) + tuple(d if d is not None else 3 - k for k, d in enumerate(SceneArrays.spec(name).trailing))
+        if SceneArrays.spec(name).dtype == "f32":
             out[name] = rng.standard_normal(shape).astype(np.float32)
         else:
             out[name] = rng.integers(-1000, 1000, shape).astype(np.int32)
@@ -26,14 +29,17 @@ def test_pack_holds_every_array_at_the_offset_and_with_the_shape_of_its_header()
     f32, i32 = packed_scene.pack(arrays)
     assert f32.dtype == np.float32 and i32.dtype == np.int32
     packs = {"f32": f32, "i32": i32}
-    for slot, (name, kind, trailing) in enumerate(packed_scene.PACKED):
+    for slot, name in enumerate(PACKED):
         a = arrays[name]
         offset, *dims = i32[4 * slot:4 * slot + 4]
         assert tuple(dims[:a.ndim]) == a.shape and all(d == 1 for d in dims[a.ndim:]), name
-        np.testing.assert_array_equal(packs[kind][offset:offset + a.size].reshape(a.shape), a, err_msg=name)
+        np.testing.assert_array_equal(packs[SceneArrays.spec(name).dtype][offset:offset + a.size].reshape(a.shape), a,
+                                      err_msg=name)
     # the first array of each pack lies where the views expect it without reading the header
-    assert i32[0] == 0 and i32[4 * packed_scene.PACKED_NAMES.index("pi")] == packed_scene.HEADER_LEN
-    assert f32.size == sum(arrays[n].size for n, k, _ in packed_scene.PACKED if k == "f32")
+    first_f32, first_i32 = (next(n for n in PACKED if SceneArrays.spec(n).dtype == k) for k in ("f32", "i32"))
+    assert (first_f32, first_i32) == ("nodes", "pi")  # the arrays read most
+    assert i32[4 * PACKED.index("nodes")] == 0 and i32[4 * PACKED.index("pi")] == packed_scene.HEADER_LEN
+    assert f32.size == sum(arrays[n].size for n in PACKED if SceneArrays.spec(n).dtype == "f32")
 
 
 @pytest.mark.parametrize("change, message", [
@@ -61,7 +67,7 @@ def test_a_kernel_reads_through_the_views_what_numpy_indexing_gives():
     arrays = _arrays(rng)
     f32, i32 = packed_scene.pack(arrays)
     probes = []  # (slot, index tuple): 4 random entries of each array
-    for slot, (name, _, _) in enumerate(packed_scene.PACKED):
+    for slot, name in enumerate(PACKED):
         a = arrays[name]
         for _ in range(4):
             probes.append((slot, tuple(int(rng.integers(0, n)) for n in a.shape) + (0,) * (3 - a.ndim)))
@@ -73,9 +79,9 @@ def test_a_kernel_reads_through_the_views_what_numpy_indexing_gives():
              shapes: ti.types.ndarray(dtype=ti.i32, ndim=2)):
         v = ti.static(packed_scene.scene_views(scene_f32, scene_i32))
         for p in range(where.shape[0]):
-            for slot in ti.static(range(len(packed_scene.PACKED))):
+            for slot in ti.static(range(len(PACKED))):
                 if where[p, 0] == slot:
-                    nd = ti.static(len(packed_scene.PACKED[slot][2]) + 1)
+                    nd = ti.static(len(SceneArrays.spec(PACKED[slot]).dims))
                     if ti.static(nd == 1):
                         values[p] = ti.cast(v[slot][where[p, 1]], ti.f32)
                     elif ti.static(nd == 2):
@@ -89,9 +95,9 @@ def test_a_kernel_reads_through_the_views_what_numpy_indexing_gives():
     shapes = np.zeros((len(probes), 3), np.int32)
     read(f32, i32, where, values, shapes)
     for p, (slot, idx) in enumerate(probes):
-        a = arrays[packed_scene.PACKED_NAMES[slot]]
-        assert values[p] == np.float32(a[idx[:a.ndim]]), (packed_scene.PACKED_NAMES[slot], idx)
-        assert tuple(shapes[p, :a.ndim]) == a.shape, packed_scene.PACKED_NAMES[slot]
+        a = arrays[PACKED[slot]]
+        assert values[p] == np.float32(a[idx[:a.ndim]]), (PACKED[slot], idx)
+        assert tuple(shapes[p, :a.ndim]) == a.shape, PACKED[slot]
 
 
 @pytest.mark.slow  # builds a furnished room's scene, its BVH, shadow maps and baked light
@@ -99,20 +105,20 @@ def test_the_renderers_packs_hold_the_scene_and_the_maps_and_light_its_kernels_c
     """After ``set_scene`` of a furnished room (lamps with shadow maps, the sun's map, baked light), the packs that
     CUDA's all-sensors kernels read hold the arrays that the renderer's other kernels read: the packed scene, the
     maps and the baked light computed on the device, the light lists."""
-    from benchbot_sim_taichi.render.renderer import _SCENE_ARG_NAMES, Renderer
+    from benchbot_sim_taichi.render.renderer import Renderer
     from benchbot_worlds.scene.build import build_scene
 
     r = Renderer("cpu")
     r.set_scene(build_scene({**bear_envs["miniroom:1"], "style": "furnished"}))
-    assert r._sensor_packs is None  # the CPU's kernels take the arrays one by one: no packs unless asked for
+    assert r._scene.scene_f32 is None  # the CPU's kernels take the arrays one by one: no packs unless asked for
     f32, i32 = r._fetch(dict(zip(("f32", "i32"), r._pack_for_sensors()))).values()
-    scene = dict(zip(_SCENE_ARG_NAMES, r._scene_args, strict=True))  # where the other kernels read them
-    expected = r._fetch({name: scene[name] for name in packed_scene.PACKED_NAMES})
+    expected = r._fetch({name: getattr(r._scene, name) for name in PACKED})  # where the other kernels read them
     assert r.baked_points > 0 and r.lamps_with_maps > 0 and r.sun_map
     for computed in ("lamp_maps", "sun_map", "baked"):  # not the zeros they start as
         assert expected[computed].any(), computed
     packs = {"f32": f32, "i32": i32}
-    for slot, (name, kind, _) in enumerate(packed_scene.PACKED):
+    for slot, name in enumerate(PACKED):
         a = expected[name]
         offset = i32[4 * slot]
-        np.testing.assert_array_equal(packs[kind][offset:offset + a.size].reshape(a.shape), a, err_msg=name)
+        np.testing.assert_array_equal(packs[SceneArrays.spec(name).dtype][offset:offset + a.size].reshape(a.shape), a,
+                                      err_msg=name)

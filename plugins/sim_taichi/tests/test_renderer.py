@@ -215,6 +215,7 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
 
     from benchbot_sim_taichi.render import renderer as rmod
     from benchbot_sim_taichi.render.host_copy import host_view
+    from benchbot_sim_taichi.render.scene_arrays import SceneArrays
     from benchbot_worlds.scene.build import build_scene
 
     scene = build_scene(bear_envs["miniroom:1"])
@@ -230,7 +231,7 @@ def test_device_arrays_of_a_renderer_dropped_on_another_thread_are_freed_on_the_
     owner.set_scene(scene)
     kept = owner.render_sensors(K, cam[None], 16, 12, to_host=False)["depth"]  # a caller still holds an output
     made = len(rmod._DEVICE_ARRAYS) - held_before
-    assert made >= len(rmod._SCENE_ARRAYS) + 4
+    assert made >= len(SceneArrays.arrays()) + 4
 
     box = [owner]
     del owner

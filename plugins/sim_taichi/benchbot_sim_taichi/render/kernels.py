@@ -847,21 +847,21 @@ def _ray(c, x, y):
 
 @ti.kernel
 def lamp_map_kernel(
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (S,) i32 SceneArrays.light_of_slot
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (6·S, R, R) f32 out: SceneArrays.lamp_maps
 ):
-    """Cube shadow maps of point lights into ``maps`` (6·S, R, R) float32: texel (x, y) of face 2·a + (0: +a,
+    """Cube shadow maps of point lights into ``lamp_maps`` (6·S, R, R) float32: texel (x, y) of face 2·a + (0: +a,
     1: −a) of slot s (light ``light_of_slot[s]``) holds the distance (m) from the light to the first primitive along
     the direction whose components are ``(2(x + ½)/R − 1, 2(y + ½)/R − 1, ±1)`` on the axes (a+1, a+2, a) (mod 3),
     counting only primitives beyond ``LAMP_FIXTURE_M`` (a lamp's own fixture casts no shadow, as with shadow rays)
     and within the light's range; 1e30 where there is none. The room shell and window panes cast no shadow."""
-    R = maps.shape[1]
-    for z, y, x in ti.ndrange(maps.shape[0], R, R):
+    R = lamp_maps.shape[1]
+    for z, y, x in ti.ndrange(lamp_maps.shape[0], R, R):
         j = light_of_slot[z // 6]
         face = z % 6
         ax = face // 2
@@ -875,18 +875,18 @@ def lamp_map_kernel(
                                               tris, False, PANES_UNSEEN)
             if k >= 0:
                 depth = LAMP_FIXTURE_M + t
-        maps[z, y, x] = depth
+        lamp_maps[z, y, x] = depth
 
 
 @ti.kernel
 def light_grid_kernel(
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (S,) i32 SceneArrays.light_of_slot
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (6·S, R, R) f32 out: SceneArrays.lamp_maps
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (4,) f32 SceneArrays.grid_xform
     block: ti.i32,
     step: ti.f32,
-    grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
+    grid: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (NY, NX, W) i32 out: the cells marked (zeros on entry)
 ):
     """Mark in ``grid`` (NY, NX, words) int32 (zeros on entry; cells as :func:`_direct` reads them) each cell that a
     sample of a lamp's lit region falls in: for each block of ``block`` × ``block`` texels of a cube map (:func:`
@@ -895,9 +895,9 @@ def light_grid_kernel(
     A point that the map lets the lamp light lies within the block's cone up to that depth, so it lies within
     ``step / 2`` plus the cone's width there, plus the lookup's offset along the normal, of a sample: the renderer
     grows the marked cells by that much (``renderer._light_grid``)."""
-    R = maps.shape[1]
+    R = lamp_maps.shape[1]
     nb = (R + block - 1) // block
-    for z, by, bx in ti.ndrange(maps.shape[0], nb, nb):
+    for z, by, bx in ti.ndrange(lamp_maps.shape[0], nb, nb):
         slot = z // 6
         j = light_of_slot[slot]
         face = z % 6
@@ -906,7 +906,7 @@ def light_grid_kernel(
         depth = 0.0
         for y, x in ti.ndrange((ti.max(by * block - 1, 0), ti.min(by * block + block + 1, R)),
                                (ti.max(bx * block - 1, 0), ti.min(bx * block + block + 1, R))):
-            depth = ti.max(depth, maps[z, y, x])
+            depth = ti.max(depth, lamp_maps[z, y, x])
         cu = (ti.cast(bx * block, ti.f32) + 0.5 * block) * 2.0 / R - 1.0
         cv = (ti.cast(by * block, ti.f32) + 0.5 * block) * 2.0 / R - 1.0
         d = _unperm(ti.Vector([cu, cv, sign]), ax).normalized()
@@ -923,14 +923,14 @@ def light_grid_kernel(
 
 @ti.kernel
 def sun_map_kernel(
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
     j: ti.i32,
     top: ti.f32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (R, R) f32 out: SceneArrays.sun_map
 ):
     """The orthographic shadow map of directional light j (its row's projection columns, see :data:`LIGHT_COLS`)
     into ``sun_map`` (R, R) float32: texel (x, y) holds the height ``p·l`` (l: the unit vector towards the light) of

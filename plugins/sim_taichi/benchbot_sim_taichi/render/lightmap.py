@@ -120,29 +120,30 @@ def _lattice_point(n, idx):
 
 @ti.kernel
 def bake_kernel(
-    starts: ti.types.ndarray(dtype=ti.i64, ndim=1),
-    info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    params: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    starts: ti.types.ndarray(dtype=ti.i64, ndim=1),  # (P + 1,) i64 the first word of each primitive in baked (layout)
+    baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 2) i32 SceneArrays.baked_info
+    params: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (PARAMS_LEN,) f32 the render parameters (renderer.render_params)
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
     n_always: ti.i32,
-    always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    store: ti.types.ndarray(dtype=ti.i32, ndim=1),
+    always: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (A,) i32 SceneArrays.always
+    light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (NY, NX, W) i32 SceneArrays.light_grid
+    grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (4,) f32 SceneArrays.grid_xform
+    light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (S,) i32 SceneArrays.light_of_slot
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 17) f32 SceneArrays.shade
+    lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (6·S, R, R) f32 SceneArrays.lamp_maps
+    sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (R, R) f32 SceneArrays.sun_map
+    baked: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (Q,) i32 out: SceneArrays.baked
 ):
-    """Every lattice point of the store (:func:`layout`'s ``starts`` and ``info``): the direct light
-    (:func:`~benchbot_sim_taichi.render.kernels._direct`, with the render params ``params`` and the light lists as the
-    all-sensors kernel takes them) at the triangle's point, seen from that side, encoded RGB9E5."""
+    """Every lattice point of the store ``baked`` (:func:`layout`'s ``starts`` and ``info``, here ``baked_info``): the
+    direct light (:func:`~benchbot_sim_taichi.render.kernels._direct`, with the render params ``params`` and the
+    light lists as the all-sensors kernel takes them) at the triangle's point, seen from that side, encoded
+    RGB9E5."""
     P = starts.shape[0] - 1
-    for w in range(store.shape[0]):
+    for w in range(baked.shape[0]):
         lo = 0  # the primitive whose words hold w: the last start ≤ w
         hi = P
         while hi - lo > 1:
@@ -152,7 +153,7 @@ def bake_kernel(
             else:
                 hi = mid
         k = lo
-        n = info[k, 1]
+        n = baked_info[k, 1]
         per_side = (n + 1) * (n + 2) // 2
         local = ti.cast(w - starts[k], ti.i32)
         side = local // per_side
@@ -171,7 +172,7 @@ def bake_kernel(
         if side == 1:
             ng = -ng
         ns, _sgn, ps = _triangle_point(tris, shade, k, b0, b1, b2, ng, p, True)
-        store[w] = encode_rgb9e5(_direct(ps, ng, ns, 0, params, lights, n_always, always, light_grid, grid_xform,
+        baked[w] = encode_rgb9e5(_direct(ps, ng, ns, 0, params, lights, n_always, always, light_grid, grid_xform,
                                          light_of_slot, nodes, pf, pi, tris, lamp_maps, sun_map, True))
 
 

@@ -7,11 +7,14 @@ is limited by the host's launch work. The scene's 21 arrays, which do not change
 of the all-sensors graph's 41 ndarray arguments on CUDA; packed, they are 4 (two in each kernel). The CPU's
 kernels take the arrays one by one (:func:`~benchbot_sim_taichi.render.sensors.sensors_kernels`).
 
-Layout: the int32 pack starts with a header of :data:`HEADER_LEN` int32 entries, four for each array of
-:data:`PACKED` in order: its offset in its pack (elements), then its shape's first three entries (1 where it has
-fewer). The first array of each pack lies at a fixed offset (0 in the float32 pack, :data:`HEADER_LEN` in the int32
-pack), so reading it costs no header read; the others' offsets are read from the header where they are used.
-Entries are indexed with int32, so a pack holds fewer than 2³¹ entries (:func:`pack` checks).
+Layout: the packed arrays are the fields of :class:`~benchbot_sim_taichi.render.scene_arrays.SceneArrays` marked
+packed (``SceneArrays.arrays(packed=True)``), each in the pack of its dtype, in the order of the fields. The int32 pack
+starts with a header of :data:`HEADER_LEN` int32 entries, four for each packed array in order: its offset in its pack
+(elements), then its shape's first three entries (1 where it has fewer). The first array of each pack lies at a fixed
+offset (0 in the float32 pack, :data:`HEADER_LEN` in the int32 pack), so reading it costs no header read; the others'
+offsets are read from the header where they are used. A trailing dim that the field's shape fixes (``"(P, 11) f32"``)
+is a constant of the kernels' index arithmetic; the others are read from the header. Entries are indexed with int32,
+so a pack holds fewer than 2³¹ entries (:func:`pack` checks).
 
 The views emit their reads with ``taichi.lang.impl.subscript``, the call Taichi 1.7 itself makes for ``a[i]`` in a
 kernel; it is not public API, so a Taichi upgrade must keep ``test_packed_scene.py`` passing (a kernel there reads
@@ -23,34 +26,19 @@ import collections
 import numpy as np
 from taichi.lang import impl
 
-from benchbot_sim_taichi.render.kernels import LIGHT_COLS, SHADE_COLS
+from benchbot_sim_taichi.render.scene_arrays import SceneArrays
 
-#: The packed arrays: (name, pack, trailing dims), the pack ``"f32"`` or ``"i32"``, each trailing dim a number
-#: fixed at compile time or ``None``: read from the header (it varies with the scene). Names and shapes are
-#: :func:`~benchbot_sim_taichi.render.renderer.pack_scene`'s and the renderer's (``Renderer.set_scene``).
-PACKED = (
-    ("nodes", "f32", (16,)), ("pf", "f32", (11,)), ("tris", "f32", (9,)), ("shade", "f32", (SHADE_COLS,)),
-    ("tex_lut", "f32", ()), ("lights", "f32", (LIGHT_COLS,)), ("grid_xform", "f32", ()),
-    ("lamp_maps", "f32", (None, None)), ("sun_map", "f32", (None,)), ("cluster_box", "f32", (6,)),
-    ("pi", "i32", (4,)), ("texels", "i32", ()), ("tex_info", "i32", (4,)), ("always", "i32", ()),
-    ("light_grid", "i32", (None, None)), ("light_of_slot", "i32", ()), ("baked", "i32", ()),
-    ("baked_info", "i32", (2,)), ("cluster_prims", "i32", (2,)), ("occluders", "i32", ()),
-    ("is_occluder", "i32", ()),
-)
-#: Names of :data:`PACKED`, in order.
-PACKED_NAMES = tuple(name for name, *_ in PACKED)
 #: int32 entries of the header at the start of the int32 pack.
-HEADER_LEN = 4 * len(PACKED)
-_DTYPES = {"f32": np.float32, "i32": np.int32}
+HEADER_LEN = 4 * len(SceneArrays.arrays(packed=True))
 _LIMIT = 2**31 - 1
 
 
 def pack(arrays: dict) -> tuple[np.ndarray, np.ndarray]:
-    """The arrays of :data:`PACKED` in their two packs.
+    """The packed arrays (``SceneArrays.arrays(packed=True)``) in their two packs.
 
     Args:
-        arrays: every name of :data:`PACKED` → a NumPy array of its dtype (float32 or int32, as its pack), with the
-            trailing dims that :data:`PACKED` fixes and at most 3 dims.
+        arrays: every packed array's name → a NumPy array of its dtype (float32 or int32, as its pack), with the
+            trailing dims that its field's shape fixes and at most 3 dims.
 
     Returns:
         ``(scene_f32, scene_i32)``: (F,) float32 and (I,) int32, the int32 one starting with the header.
@@ -62,12 +50,15 @@ def pack(arrays: dict) -> tuple[np.ndarray, np.ndarray]:
     parts = {"f32": [], "i32": [np.zeros(HEADER_LEN, np.int32)]}
     sizes = {"f32": 0, "i32": HEADER_LEN}
     header = parts["i32"][0]
-    for k, (name, kind, trailing) in enumerate(PACKED):
+    for k, name in enumerate(SceneArrays.arrays(packed=True)):
         if name not in arrays:
             raise ValueError(f"packed_scene.pack: array {name!r} is missing")
         a = np.asarray(arrays[name])
-        if a.dtype != _DTYPES[kind]:
-            raise ValueError(f"packed_scene.pack: {name} is {a.dtype}, the kernels read it as {_DTYPES[kind].__name__}")
+        spec = SceneArrays.spec(name)
+        kind, trailing = spec.dtype, spec.trailing
+        if a.dtype != spec.numpy_dtype:
+            raise ValueError(f"packed_scene.pack: {name} is {a.dtype}, the kernels read it as "
+                             f"{spec.numpy_dtype.__name__}")
         if a.ndim != 1 + len(trailing) or any(d is not None and d != n for d, n in zip(trailing, a.shape[1:])):
             raise ValueError(f"packed_scene.pack: {name} has shape {a.shape}, the kernels read (rows, "
                              f"{', '.join('any' if d is None else str(d) for d in trailing)})")
@@ -83,17 +74,19 @@ def pack(arrays: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 class PackedView:
-    """One array of :data:`PACKED`, read from its pack inside a Taichi kernel as the array itself: ``view[i, j]``
-    and ``view.shape`` (made at compile time by :func:`scene_views`; read-only use).
+    """One packed array, read from its pack inside a Taichi kernel as the array itself: ``view[i, j]`` and
+    ``view.shape`` (made at compile time by :func:`scene_views`; read-only use).
 
     Args:
         data: the pack (a Taichi kernel's 1-D ndarray argument). header: the int32 pack (holds the header).
-        slot: the array's index in :data:`PACKED`. trailing: its trailing dims (:data:`PACKED`).
+        name: the array's name. slot: its index among the packed arrays (its header row). trailing: its trailing
+            dims (``SceneArrays.spec(name).trailing``: a number fixed at compile time, or None: read from the header).
         offset: its offset when fixed at compile time, else ``None`` (read from the header).
     """
 
-    def __init__(self, data, header, slot: int, trailing: tuple, offset: int | None):
-        self._data, self._header, self._slot, self._trailing, self._offset = data, header, slot, trailing, offset
+    def __init__(self, data, header, name: str, slot: int, trailing: tuple, offset: int | None):
+        self._data, self._header, self._name, self._slot = data, header, name, slot
+        self._trailing, self._offset = trailing, offset
 
     def _entry(self, k: int):
         """Entry k of the array's header row: 0 its offset, 1 + d its shape's dim d."""
@@ -107,7 +100,7 @@ class PackedView:
     def __getitem__(self, index):
         index = index if isinstance(index, tuple) else (index,)
         if len(index) != 1 + len(self._trailing):
-            raise IndexError(f"{PACKED_NAMES[self._slot]} has {1 + len(self._trailing)} dims, indexed with "
+            raise IndexError(f"{self._name} has {1 + len(self._trailing)} dims, indexed with "
                              f"{len(index)}")
         flat = index[0]
         for k, i in enumerate(index[1:], start=1):
@@ -121,17 +114,18 @@ class PackedView:
         return (self._entry(1),) + tuple(self._dim(k) for k in range(1, 1 + len(self._trailing)))
 
 
-#: Every array of :data:`PACKED` as a :class:`PackedView`, by name (``views.nodes``...): a named tuple, which
-#: ``ti.static`` accepts.
-SceneViews = collections.namedtuple("SceneViews", PACKED_NAMES)
+#: Every packed array as a :class:`PackedView`, by name (``views.nodes``...): a named tuple, which ``ti.static``
+#: accepts.
+SceneViews = collections.namedtuple("SceneViews", SceneArrays.arrays(packed=True))
 
 
 def scene_views(scene_f32, scene_i32) -> SceneViews:
     """The views of the packs ``scene_f32`` (F,) float32 and ``scene_i32`` (I,) int32 (a kernel's ndarray
     arguments, as :func:`pack` made them); call it in a kernel inside ``ti.static(...)``."""
     views, first = [], set()
-    for slot, (_, kind, trailing) in enumerate(PACKED):
+    for slot, name in enumerate(SceneArrays.arrays(packed=True)):
+        kind, trailing = SceneArrays.spec(name).dtype, SceneArrays.spec(name).trailing
         offset = None if kind in first else (0 if kind == "f32" else HEADER_LEN)
         first.add(kind)
-        views.append(PackedView(scene_f32 if kind == "f32" else scene_i32, scene_i32, slot, trailing, offset))
+        views.append(PackedView(scene_f32 if kind == "f32" else scene_i32, scene_i32, name, slot, trailing, offset))
     return SceneViews(*views)

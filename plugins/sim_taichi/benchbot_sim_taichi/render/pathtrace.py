@@ -145,20 +145,20 @@ def _cone_hit(lights: ti.template(), j, o, d, tmax, params):
 @ti.kernel
 def quality_kernel(
     cam: ti.types.vector(CAM_LEN, ti.f32),
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    shade: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 17) f32 SceneArrays.shade
+    texels: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (N,) i32 SceneArrays.texels
+    tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (X, 4) i32 SceneArrays.tex_info
+    tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (256,) f32 SceneArrays.tex_lut
+    lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
     n_lights: ti.i32,
-    world: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    world: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (19,) f32 SceneArrays.world
     params: ti.types.vector(PARAMS_LEN, ti.f32),
-    out: ti.types.ndarray(dtype=ti.f32, ndim=4),
-    aux: ti.types.ndarray(dtype=ti.f32, ndim=4),
+    out: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, H, W, 3) f32 linear radiance (B = 1)
+    aux: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, H, W, 6) f32 the denoiser's guides: albedo rgb, normal xyz
 ):
     """Path-traced linear radiance into ``out`` (B, H, W, 3) float32 (B = 1) for camera ``cam``
     (``renderer.camera_params``: optical frame in ``map``, pixels), as the module docstring describes.
@@ -318,7 +318,10 @@ def quality_kernel(
 
 
 @ti.kernel
-def prepare_denoiser_inputs(out: ti.types.ndarray(dtype=ti.f32, ndim=4), aux: ti.types.ndarray(dtype=ti.f32, ndim=4)):
+def prepare_denoiser_inputs(
+    out: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, H, W, 3) f32 linear radiance (B = 1)
+    aux: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, H, W, 6) f32 the denoiser's guides: albedo rgb, normal xyz
+):
     """Clamp :func:`quality_kernel`'s outputs in place to the ranges the denoiser reads (what
     ``denoiser.Denoiser`` does to its copies): radiance ``out`` (B, H, W, 3) ≥ 0, the albedo guide (``aux`` channels
     0–2) to 0..1 and the normal guide (channels 3–5) to −1..1."""
@@ -330,8 +333,11 @@ def prepare_denoiser_inputs(out: ti.types.ndarray(dtype=ti.f32, ndim=4), aux: ti
 
 
 @ti.kernel
-def encode_kernel(radiance: ti.types.ndarray(dtype=ti.f32, ndim=4), camera: ti.types.vector(8, ti.f64),
-                  rgb: ti.types.ndarray(dtype=ti.u8, ndim=4)):
+def encode_kernel(
+    radiance: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, H, W, 3) f32 linear radiance
+    camera: ti.types.vector(8, ti.f64),
+    rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),  # (B, H, W, 3) u8 out: sRGB
+):
     """The camera model (``camera_model.CameraModel.encode``'s steps 1–4, in float64 as there) of linear radiance
     (B, H, W, 3) float32 into ``rgb`` (B, H, W, 3) uint8 sRGB, where the images are (on the GPU: no copy to the
     host first). ``camera`` is ``CameraModel.kernel_params``: [2^EV, 1 for the filmic curve else 0, vignetting,
@@ -350,8 +356,10 @@ def encode_kernel(radiance: ti.types.ndarray(dtype=ti.f32, ndim=4), camera: ti.t
 
 
 @ti.kernel
-def meter_sample_kernel(radiance: ti.types.ndarray(dtype=ti.f32, ndim=4),
-                        sample: ti.types.ndarray(dtype=ti.f32, ndim=4)):
+def meter_sample_kernel(
+    radiance: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, H, W, 3) f32 linear radiance
+    sample: ti.types.ndarray(dtype=ti.f32, ndim=4),  # (B, h, w, 3) f32 out: the meter's pixels (camera_model.METER_*)
+):
     """The auto-exposure meter's pixels of linear radiance (B, H, W, 3) float32 into ``sample`` (B, h, w, 3),
     ``sample[b, i, j] = radiance[b, METER_OFFSET + METER_STRIDE i, METER_OFFSET + METER_STRIDE j]``: what
     ``camera_model.CameraModel.meter_sample`` takes on the host, gathered where the images are (a copy, so the

@@ -96,7 +96,7 @@ with contextlib.redirect_stdout(_banner):
     import taichi as ti
 
 from benchbot_sim_taichi.render.denoiser import denoise_radiance, denoise_shared  # noqa: E402
-from benchbot_sim_taichi.render.packed_scene import PACKED_NAMES, pack as pack_for_sensors  # noqa: E402
+from benchbot_sim_taichi.render.packed_scene import pack as pack_for_sensors  # noqa: E402
 from benchbot_sim_taichi.render.pathtrace import (  # noqa: E402
     encode_kernel,
     meter_sample_kernel,
@@ -115,8 +115,9 @@ from benchbot_sim_taichi.render.raster import (  # noqa: E402
 from benchbot_sim_taichi.render import layouts as L  # noqa: E402
 from benchbot_sim_taichi.render.source_positions import use_brief_positions  # noqa: E402
 from benchbot_sim_taichi.render.layouts import POSE_LEN  # noqa: E402
+from benchbot_sim_taichi.render.scene_arrays import SceneArrays, arguments, launch  # noqa: E402
 from benchbot_sim_taichi.render.sensors import (  # noqa: E402
-    SENSORS_ARG_NAMES, launch_arg_names, reset_graph, sensors_graph, sensors_kernel,
+    launch_parameters, reset_graph, sensors_graph, sensors_kernel,
 )
 
 #: What Taichi printed on import and on ``ti.init`` (its version line, the arch it started on).
@@ -469,26 +470,12 @@ def frame_constants(world: np.ndarray, params: np.ndarray, K: np.ndarray | None,
 
 
 # ---------------------------------------------------------------------------------------------------------- renderer
-#: Keys of the packed scene that the kernels read (uploaded once per scene when buffers live on the device).
-_SCENE_ARRAYS = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world",
-                 "lamp_maps", "sun_map", "cluster_box", "cluster_prims", "light_of_slot", "occluders", "is_occluder")
-#: Names of the entries of ``Renderer._scene_args`` (what ``set_scene`` leaves where the kernels read it), in order.
-_SCENE_ARG_NAMES = ("nodes", "pf", "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "n_lights",
-                    "world", "lamp_maps", "sun_map", "cluster_box", "cluster_prims", "n_always", "always",
-                    "light_grid", "grid_xform", "light_of_slot", "baked", "baked_info", "n_occluders", "occluders",
-                    "is_occluder")
-#: The arrays of the sensors' packs that kernels compute in ``set_scene`` (shadow maps, light lists, baked light):
-#: copied from the device when packed; the others are taken from the host's packed scene.
-_COMPUTED_FOR_SENSORS = ("lamp_maps", "sun_map", "always", "light_grid", "grid_xform", "baked", "baked_info")
-#: The packed scene's integer counts (``Renderer.prepared_scene`` keeps them as 0-d arrays).
-_PACKED_INTS = ("n_prims", "n_lights", "n_occluders")
-#: The packed scene's arrays that ``Renderer.prepared_scene`` keeps from the host (``lamp_maps`` and ``sun_map`` are
-#: fetched from where the kernels traced them instead).
-_PREPARED_PACKED = ("nodes", "nodes_f", "nodes_i", "cluster_box", "cluster_prims", "occluders", "is_occluder", "pf",
-                    "pi", "tris", "shade", "texels", "tex_info", "tex_lut", "lights", "world", "order",
-                    "light_of_slot")
-#: The arrays of ``Renderer.prepared_scene`` that set_scene's kernels computed, fetched from where they read them.
-_PREPARED_COMPUTED = ("lamp_maps", "sun_map", "always", "light_grid", "grid_xform", "baked", "baked_info")
+#: The packed scene's arrays that only the host reads (``Renderer.prepared_scene`` keeps them, with the scene's
+#: arrays: :class:`~benchbot_sim_taichi.render.scene_arrays.SceneArrays`).
+_HOST_ONLY = ("nodes_f", "nodes_i", "order")
+#: The scene's arrays that ``Renderer._packed`` (the host's packed scene) holds: all but those computed in
+#: ``set_scene``, and the shadow maps (zeros there, traced where the kernels read them; a prepared scene's as traced).
+_IN_PACKED = SceneArrays.arrays(computed=False) + ("lamp_maps", "sun_map")
 
 
 def _plan_sun_map(packed: dict) -> tuple[int | None, float]:
@@ -616,8 +603,7 @@ class Renderer:
         self.camera = camera
         self._packed: dict | None = None
         self._every_light_mapped = False  # (of the current scene: see shadow_rays)
-        self._scene_args: tuple | None = None
-        self._sensor_packs: tuple | None = None  # (scene_f32, scene_i32): packed_scene.pack of the current scene
+        self._scene: SceneArrays | None = None  # the current scene where the kernels read it
         self.shadow_samples = int(shadow_samples)
         self.seed = int(seed)
         self.device_buffers = True if device_buffers is None else bool(device_buffers)
@@ -626,7 +612,7 @@ class Renderer:
         self._uploaded: dict = {}
         self._consts_key: tuple | None = None
         self._consts = None
-        self._scene_arrays: list = []
+        self._scene_buffers: list = []  # the device arrays of the current scene (retired with it)
         self.shadow_maps = shadow_maps
         self.baked_light = baked_light
         self.baked_points = 0  # lattice points of the current scene's baked light
@@ -640,7 +626,7 @@ class Renderer:
     def __del__(self) -> None:
         # may run on any thread: the device arrays are only retired here, and freed later on Taichi's thread
         try:
-            _retire(list(getattr(self, "_buffers", {}).values()) + getattr(self, "_scene_arrays", [])
+            _retire(list(getattr(self, "_buffers", {}).values()) + getattr(self, "_scene_buffers", [])
                     + [a for a in getattr(self, "_work_arrays", {}).values() if not isinstance(a, np.ndarray)])
         except (TypeError, AttributeError):  # at interpreter exit this module's globals may already be None
             pass
@@ -648,10 +634,10 @@ class Renderer:
     def close(self) -> None:
         """Release the GPU memory of this renderer now (call on the thread that renders); it cannot render
         afterwards until :meth:`set_scene` is called again."""
-        _retire(list(self._buffers.values()) + self._scene_arrays
+        _retire(list(self._buffers.values()) + self._scene_buffers
                 + [a for a in self._work_arrays.values() if not isinstance(a, np.ndarray)])
-        self._buffers, self._uploaded, self._scene_arrays, self._work_arrays = {}, {}, [], {}
-        self._packed = self._scene_args = self._sensor_packs = self._consts = self._consts_key = None
+        self._buffers, self._uploaded, self._scene_buffers, self._work_arrays = {}, {}, [], {}
+        self._packed = self._scene = self._consts = self._consts_key = None
         _free_retired()
         for copier in (self._pinned_copier, self._render_copier):
             if copier is not None:
@@ -687,52 +673,43 @@ class Renderer:
         res = SUN_MAP_RES if sun is not None else 1
         packed["sun_map"] = np.zeros((res, res), np.float32)
         packed["light_of_slot"] = lamps.astype(np.int32) if lamps.size else np.full(1, -1, np.int32)
-        self._packed, self._sensor_packs = packed, None
+        self._packed = packed
         self._every_light_mapped = bool((packed["lights"][:packed["n_lights"], 8] >= 0).all())
-        _retire(self._scene_arrays)
-        self._scene_arrays = []
-        arrays = {k: self._scene_array(self._packed[k]) for k in _SCENE_ARRAYS}
+        self._retire_scene()
+        arrays = {k: self._scene_array(packed[k]) for k in _IN_PACKED}  # where the kernels read them
         if lamps.size or sun is not None:  # the lamps' and the sun's shadow maps, traced once per scene
             with stages.stage("tracing shadow maps", detail=f"{lamps.size} lamps" + (" and the sun" if sun is not None
                                                                                     else "")):
                 if lamps.size:
-                    lamp_map_kernel(arrays["lights"], arrays["light_of_slot"], arrays["nodes"], arrays["pf"],
-                                    arrays["pi"], arrays["tris"], arrays["lamp_maps"])
+                    launch(lamp_map_kernel, arrays)
                 if sun is not None:
-                    sun_map_kernel(arrays["lights"], sun, top, arrays["nodes"], arrays["pf"], arrays["pi"],
-                                   arrays["tris"], arrays["sun_map"])
+                    launch(sun_map_kernel, arrays, j=sun, top=top)
         always, grid, xform = self._light_grid(arrays, lamps.size)
-        lights = (always.shape[0], self._scene_array(always if always.size else np.full(1, -1, np.int32)),
-                  self._scene_array(grid), self._scene_array(xform), arrays["light_of_slot"])
+        arrays.update(always=self._scene_array(always if always.size else np.full(1, -1, np.int32)),
+                      light_grid=self._scene_array(grid), grid_xform=self._scene_array(xform))
         bake = (lamps.size > 0 or sun is not None) and self.shadow_samples <= 1 \
             if self.baked_light is None else bool(self.baked_light)
-        self._scene_args = (arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
-                            arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
-                            arrays["lights"], self._packed["n_lights"], arrays["world"],
-                            arrays["lamp_maps"], arrays["sun_map"], arrays["cluster_box"], arrays["cluster_prims"],
-                            *lights, *self._bake(arrays, lights, bake), self._packed["n_occluders"],
-                            arrays["occluders"], arrays["is_occluder"])
+        arrays.update(self._bake(arrays, always.shape[0], bake))
+        self._scene = SceneArrays(**arrays, n_lights=packed["n_lights"], n_always=always.shape[0],
+                                  n_occluders=packed["n_occluders"])
 
     def _set_prepared_scene(self, prepared: dict) -> None:
         """:meth:`set_scene` from :meth:`prepared_scene`'s arrays: upload them, trace and bake nothing."""
-        packed = {k: np.asarray(prepared[k]) for k in _PREPARED_PACKED}
-        packed.update({k: np.asarray(prepared[k]) for k in ("lamp_maps", "sun_map")})
-        packed.update({k: int(prepared[k]) for k in _PACKED_INTS})
-        self._packed, self._sensor_packs = packed, None
+        arrays = {k: np.asarray(prepared[k]) for k in SceneArrays.arrays()}
+        packed = {k: arrays[k] for k in _IN_PACKED}
+        packed.update({k: np.asarray(prepared[k]) for k in _HOST_ONLY})
+        packed.update({k: int(prepared[k]) for k in ("n_prims", "n_lights", "n_occluders")})
+        self._packed = packed
         self._every_light_mapped = bool((packed["lights"][:packed["n_lights"], 8] >= 0).all())
-        _retire(self._scene_arrays)
-        self._scene_arrays = []
-        arrays = {k: self._scene_array(packed[k]) for k in _SCENE_ARRAYS}
-        lights = (int(prepared["n_always"]), self._scene_array(np.asarray(prepared["always"])),
-                  self._scene_array(np.asarray(prepared["light_grid"])),
-                  self._scene_array(np.asarray(prepared["grid_xform"])), arrays["light_of_slot"])
+        self._retire_scene()
         self.baked_points = int(prepared["baked_points"])
-        baked = self._scene_array(np.asarray(prepared["baked"])), self._scene_array(np.asarray(prepared["baked_info"]))
-        self._scene_args = (arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"],
-                            arrays["shade"], arrays["texels"], arrays["tex_info"], arrays["tex_lut"],
-                            arrays["lights"], packed["n_lights"], arrays["world"],
-                            arrays["lamp_maps"], arrays["sun_map"], arrays["cluster_box"], arrays["cluster_prims"],
-                            *lights, *baked, packed["n_occluders"], arrays["occluders"], arrays["is_occluder"])
+        self._scene = SceneArrays(**{k: self._scene_array(a) for k, a in arrays.items()},
+                                  **{k: int(prepared[k]) for k in SceneArrays.counts()})
+
+    def _retire_scene(self) -> None:
+        """Retire the last scene's device arrays (a new scene is being set)."""
+        _retire(self._scene_buffers)
+        self._scene_buffers, self._scene = [], None
 
     def preparation_options(self) -> dict:
         """What, besides the scene, decides :meth:`prepared_scene`'s arrays: ``{arch, shadow_samples, seed,
@@ -752,12 +729,11 @@ class Renderer:
         Raises:
             RuntimeError: no scene is set.
         """
-        packed = self._need_scene()
-        named = dict(zip(_SCENE_ARG_NAMES, self._scene_args, strict=True))
-        out = {k: np.array(packed[k]) for k in _PREPARED_PACKED}
-        out.update(self._fetch({k: named[k] for k in _PREPARED_COMPUTED}, once=True))
-        out.update({k: np.array(packed[k], np.int64) for k in _PACKED_INTS})
-        out["n_always"] = np.array(int(named["n_always"]), np.int64)
+        packed, scene = self._need_scene(), self._scene
+        out = {k: np.array(packed[k]) for k in SceneArrays.arrays(computed=False) + _HOST_ONLY}
+        out.update(self._fetch({k: getattr(scene, k) for k in SceneArrays.arrays(computed=True)}, once=True))
+        out.update({k: np.array(getattr(scene, k), np.int64) for k in SceneArrays.counts()})
+        out["n_prims"] = np.array(packed["n_prims"], np.int64)
         out["baked_points"] = np.array(self.baked_points, np.int64)
         return {k: np.asarray(v) for k, v in out.items()}
 
@@ -766,15 +742,16 @@ class Renderer:
         where they read them: ``(scene_f32, scene_i32)``, made by the first launch that needs them. The arrays that
         kernels computed in :meth:`set_scene` (shadow maps, baked light) and the light lists are copied from where
         the kernels read them; the others are taken from the packed scene."""
-        scene = dict(zip(_SCENE_ARG_NAMES, self._scene_args, strict=True))
-        named = {name: self._packed[name] for name in PACKED_NAMES if name not in _COMPUTED_FOR_SENSORS}
-        named.update(self._fetch({name: scene[name] for name in _COMPUTED_FOR_SENSORS}, once=True))
+        named = {k: self._packed[k] for k in SceneArrays.arrays(packed=True, computed=False)}
+        named.update(self._fetch({k: getattr(self._scene, k) for k in SceneArrays.arrays(packed=True, computed=True)},
+                                 once=True))
         return tuple(self._scene_array(a) for a in pack_for_sensors(named))
 
-    def _bake(self, arrays: dict, lights: tuple, bake: bool) -> tuple:
-        """The current scene's baked direct light (:mod:`benchbot_sim_taichi.render.lightmap`): ``(store, info)`` where the
-        kernels read them, baked now when ``bake``; else an empty store and every triangle unbaked (per-pixel
-        light)."""
+    def _bake(self, arrays: dict, n_always: int, bake: bool) -> dict:
+        """The current scene's baked direct light (:mod:`benchbot_sim_taichi.render.lightmap`): ``{"baked": store,
+        "baked_info": info}`` where the kernels read them, baked now when ``bake`` (``arrays``: the scene's arrays so
+        far, by name; ``n_always``: its count of always-summed lights); else an empty store and every triangle
+        unbaked (per-pixel light)."""
         packed = self._packed
         n = packed["n_prims"]
         kinds = packed["pi"][:n, 0] if bake else np.zeros(n, np.int32)  # kinds 0: no triangle is baked
@@ -785,10 +762,9 @@ class Renderer:
         if starts[-1] > 0:
             params = self._upload("bake_params", render_params(self.shadow_samples, self.seed))
             with stages.stage("baking light", detail=f"{int(starts[-1]):,} points"):
-                bake_kernel(self._upload("bake_starts", starts.astype(np.int64)), info_arr, params, arrays["lights"],
-                            *lights, arrays["nodes"], arrays["pf"], arrays["pi"], arrays["tris"], arrays["shade"],
-                            arrays["lamp_maps"], arrays["sun_map"], store)
-        return store, info_arr
+                launch(bake_kernel, arrays, starts=self._upload("bake_starts", starts.astype(np.int64)), params=params,
+                       n_always=n_always, baked_info=info_arr, baked=store)
+        return {"baked": store, "baked_info": info_arr}
 
     def _scene_array(self, a: np.ndarray) -> object:
         """``a`` where the kernels read it for the current scene: a new device array (freed with the scene) with
@@ -797,7 +773,7 @@ class Renderer:
             return a
         arr = _new_device_array(a.dtype, a.shape)
         arr.from_numpy(np.ascontiguousarray(a))
-        self._scene_arrays.append(arr)
+        self._scene_buffers.append(arr)
         return arr
 
     def _light_grid(self, arrays: dict, n_maps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -824,8 +800,8 @@ class Renderer:
             else np.zeros((ny, nx, words), np.int32)
         if self.device_buffers:
             marked.fill(0)
-        light_grid_kernel(arrays["lights"], arrays["light_of_slot"], arrays["lamp_maps"],
-                          self._upload("light_grid_xform", xform), LIGHT_GRID_BLOCK, LIGHT_GRID_STEP, marked)
+        launch(light_grid_kernel, arrays, grid_xform=self._upload("light_grid_xform", xform), block=LIGHT_GRID_BLOCK,
+               step=LIGHT_GRID_STEP, grid=marked)
         marked = self._fetch({"marks": marked})["marks"]  # (not to_numpy: its first call compiles a copy kernel,
         # which leaves the ndarray in a reference cycle for the collector to free on any thread)
         reach = float(packed["lights"][:n, 7][lamp].max())
@@ -867,9 +843,10 @@ class Renderer:
             raise RuntimeError("Renderer.set_scene() has not been called")
         return self._packed
 
-    def _args(self) -> tuple:
+    def _kernel_scene(self) -> SceneArrays:
+        """The current scene where the kernels read it."""
         self._need_scene()
-        return self._scene_args
+        return self._scene
 
     def _buffer(self, name: str, shape: tuple, dtype) -> object:
         """The output/input buffer ``name`` of ``shape``: a reused Taichi ndarray with device buffers, else a new
@@ -1030,22 +1007,21 @@ class Renderer:
         beams = self._upload("beams", np.asarray(angles if n_beams else [0.0], dtype=np.float32).reshape(-1),
                              cached=True)
         consts = self._frame_constants(K)
-        s = self._args()
+        scene = self._kernel_scene()
         n_clusters = self._packed["cluster_prims"].shape[0]
-        work = (self._work("listed", (B * n_clusters if images else 1,), np.int32, 0),
-                self._work("queue", ((B if images else 1) * split()["queue_items"], QUEUE_COLS), np.int32, 0),
-                self._work("counters", (COUNTERS,), np.int32, 0),
-                self._work("tiles", (shape[0], tile_entries(shape[2], shape[1])), np.float32, 0.0),
-                self._work("vis", (2,) + shape, np.int64, EMPTY))
+        work = {"listed": self._work("listed", (B * n_clusters if images else 1,), np.int32, 0),
+                "queue": self._work("queue", ((B if images else 1) * split()["queue_items"], QUEUE_COLS), np.int32, 0),
+                "counters": self._work("counters", (COUNTERS,), np.int32, 0),
+                "tiles": self._work("tiles", (shape[0], tile_entries(shape[2], shape[1])), np.float32, 0.0),
+                "vis": self._work("vis", (2,) + shape, np.int64, EMPTY)}
         rays = self.shadow_rays
-        names = launch_arg_names(self.arch, rays)
-        if "scene_f32" in names and self._sensor_packs is None:  # (CUDA's kernels: the first launch of a scene)
-            self._sensor_packs = self._pack_for_sensors()
-        values = (table, pose0, one, int(images), beams, n_beams, *s[:9], int(lit), *s[15:20], s[11], s[12], s[20],
-                  s[21], consts, s[13], s[14], *s[22:25], *work, out["rgb"], out["depth"], out["class"],
-                  out["instance"], ranges, *(self._sensor_packs or (None, None)))
-        values = dict(zip(SENSORS_ARG_NAMES, values))
-        values = {name: values[name] for name in names}
+        names = launch_parameters(self.arch, rays)
+        if "scene_f32" in names and scene.scene_f32 is None:  # (CUDA's kernels: the first launch of a scene)
+            scene.scene_f32, scene.scene_i32 = self._pack_for_sensors()
+        values = arguments(names, scene, dict(
+            table=table, pose0=pose0, one=one, images=int(images), beams=beams, n_beams=n_beams, lit=int(lit),
+            consts=consts, **work, rgb=out["rgb"], depth=out["depth"], cls=out["class"], inst=out["instance"],
+            ranges=ranges))
         if self.device_buffers and self.kernel_timer is None:  # all Taichi ndarrays: launch the compiled graph
             values["pose0"] = ti.Vector(values["pose0"].tolist())
             sensors_graph(self.arch, rays).run(values)
@@ -1111,7 +1087,8 @@ class Renderer:
             lin = self._buffer("quality", (1, H, W, 3), np.float32)
             aux = self._buffer("quality_guides", (1, H, W, 6), np.float32)
             params = render_params(seed=self.seed, spp=spp, bounces=bounces)
-            quality_kernel(camera_params(K, T_map_camera), *self._args()[:11], params, lin, aux)
+            launch(quality_kernel, self._kernel_scene(), cam=camera_params(K, T_map_camera), params=params, out=lin,
+                   aux=aux)
             finished = self._finish_quality_in_place(lin, aux, K, denoise)
             if finished is not None:  # denoised and encoded where the images are: copy the results only
                 batch["radiance"], batch["rgb"] = finished

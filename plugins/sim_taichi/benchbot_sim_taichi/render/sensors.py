@@ -23,7 +23,6 @@ culling changes no pixel.
 import contextlib
 import functools
 import gc
-import inspect
 import sys
 
 with contextlib.redirect_stdout(sys.stderr):
@@ -41,6 +40,7 @@ from benchbot_sim_taichi.render.layouts import (  # noqa: E402
     P_SEED, PARAMS_LEN, POSE_LEN, POSE_LIDAR_XYZ, POSE_LIDAR_YAW, WORLD_AMBIENT, WORLD_ROOM_MAX, WORLD_ROOM_MIN,
 )
 from benchbot_sim_taichi.render.packed_scene import scene_views  # noqa: E402
+from benchbot_sim_taichi.render.scene_arrays import annotations, parameters  # noqa: E402
 
 #: Entries of the tone table (``camera_model.tone_table``), which starts at ``FRAME_TONE_TABLE`` of the frame constants.
 GAMMA_STEPS = TABLE_STEPS
@@ -326,24 +326,24 @@ def _primitives_step(table: ti.template(), pose0: ti.template(), one: ti.templat
 
 @ti.kernel
 def occluders_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (≥ n_beams,) f32 the beams' angles (rad, from the lidar's x)
     n_beams: ti.i32,
-    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
     n_occluders: ti.i32,
-    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    occluders: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (O,) i32 SceneArrays.occluders
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, ≥ n_beams) f32 out: each frame's laser ranges (m)
 ):
     """Step 1 alone (the CPU's first kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
     _occluders_step(table, pose0, one, images, beams, n_beams, nodes, pf, pi, tris, consts, n_occluders, occluders,
@@ -352,17 +352,17 @@ def occluders_kernel(
 
 @ti.kernel
 def clusters_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+    cluster_box: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (C, 6) f32 SceneArrays.cluster_box
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (C, 2) i32 SceneArrays.cluster_prims
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
 ):
     """Step 2 alone (the CPU's second kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
     _clusters_step(table, pose0, one, images, consts, cluster_box, cluster_prims, listed, counters, tiles, vis)
@@ -370,21 +370,21 @@ def clusters_kernel(
 
 @ti.kernel
 def primitives_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
+    pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+    pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+    tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+    cluster_prims: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (C, 2) i32 SceneArrays.cluster_prims
+    is_occluder: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (P,) i32 SceneArrays.is_occluder
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
 ):
     """Step 3 alone (the CPU's third kernel). Parameters: those of :func:`sensors_kernel` that it uses."""
     _primitives_step(table, pose0, one, images, pf, pi, tris, consts, cluster_prims, is_occluder, listed, queue,
@@ -393,22 +393,22 @@ def primitives_kernel(
 
 @ti.kernel
 def visibility_kernel(
-    table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
     images: ti.i32,
-    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    beams: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (≥ n_beams,) f32 the beams' angles (rad, from the lidar's x)
     n_beams: ti.i32,
-    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),
-    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
+    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (F,) f32 SceneArrays.scene_f32
+    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
     n_occluders: ti.i32,
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),
-    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),
-    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),
-    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+    ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, ≥ n_beams) f32 out: each frame's laser ranges (m)
 ):
     """Steps 1 to 3 in one kernel (CUDA's first): every camera ray's closest hit and nearest pane into ``vis``, and
     the laser's beams into ``ranges``. Parameters: those of :func:`sensors_kernel` that it uses."""
@@ -507,20 +507,20 @@ def _shading_kernel(name: str, shadow_rays: bool, packed: bool, doc: str):
 
     if packed:
         def kernel(
-            table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
             pose0: ti.types.vector(POSE_LEN, ti.f32),
             one: ti.i32,
             images: ti.i32,
-            scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),
+            scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (F,) f32 SceneArrays.scene_f32
+            scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
             lit: ti.i32,
             n_always: ti.i32,
-            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),  # (B, H, W, 3) u8 out: sRGB
+            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (B, H, W) f32 out: z-depth (m; 0: no hit)
+            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class ids
+            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class·1000 + instance ids
         ):
             v = ti.static(scene_views(scene_f32, scene_i32))
             _shade_step(table, pose0, one, images, v.nodes, v.pf, v.pi, v.tris, v.shade, v.texels, v.tex_info,
@@ -530,35 +530,35 @@ def _shading_kernel(name: str, shadow_rays: bool, packed: bool, doc: str):
 
     else:
         def kernel(
-            table: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
             pose0: ti.types.vector(POSE_LEN, ti.f32),
             one: ti.i32,
             images: ti.i32,
-            nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            pf: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            pi: ti.types.ndarray(dtype=ti.i32, ndim=2),
-            tris: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            shade: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            texels: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-            tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            lights: ti.types.ndarray(dtype=ti.f32, ndim=2),
+            nodes: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (I, 16) f32 SceneArrays.nodes
+            pf: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 11) f32 SceneArrays.pf
+            pi: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 4) i32 SceneArrays.pi
+            tris: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 9) f32 SceneArrays.tris
+            shade: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (P, 17) f32 SceneArrays.shade
+            texels: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (N,) i32 SceneArrays.texels
+            tex_info: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (X, 4) i32 SceneArrays.tex_info
+            tex_lut: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (256,) f32 SceneArrays.tex_lut
+            lights: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (L, 17) f32 SceneArrays.lights
             lit: ti.i32,
             n_always: ti.i32,
-            always: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),
-            grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),
-            sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),
-            baked: ti.types.ndarray(dtype=ti.i32, ndim=1),
-            baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),
-            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),
-            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),
-            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),
-            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),
-            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),
-            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),
+            always: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (A,) i32 SceneArrays.always
+            light_grid: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (NY, NX, W) i32 SceneArrays.light_grid
+            grid_xform: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (4,) f32 SceneArrays.grid_xform
+            light_of_slot: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (S,) i32 SceneArrays.light_of_slot
+            lamp_maps: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (6·S, R, R) f32 SceneArrays.lamp_maps
+            sun_map: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (R, R) f32 SceneArrays.sun_map
+            baked: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (Q,) i32 SceneArrays.baked
+            baked_info: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (P, 2) i32 SceneArrays.baked_info
+            consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+            vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+            rgb: ti.types.ndarray(dtype=ti.u8, ndim=4),  # (B, H, W, 3) u8 out: sRGB
+            depth: ti.types.ndarray(dtype=ti.f32, ndim=3),  # (B, H, W) f32 out: z-depth (m; 0: no hit)
+            cls: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class ids
+            inst: ti.types.ndarray(dtype=ti.i32, ndim=3),  # (B, H, W) i32 out: class·1000 + instance ids
         ):
             _shade_step(table, pose0, one, images, nodes, pf, pi, tris, shade, texels, tex_info, tex_lut, lights, lit,
                         n_always, always, light_grid, grid_xform, light_of_slot, lamp_maps, sun_map, baked, baked_info,
@@ -608,14 +608,15 @@ def sensors_kernel(arch: str, values: dict, timer=None, shadow_rays: bool = True
 
     Args:
         arch: the Taichi arch the renderer runs on.
-        values: every name of :data:`SENSORS_ARGS` → its value (NumPy arrays or Taichi ndarrays, scalars, and
-            ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it declares.
+        values: every parameter of the kernels (:func:`launch_parameters`) by name → its value (NumPy arrays or
+            Taichi ndarrays, scalars, and ``pose0`` a (POSE_LEN,) float32 array); each kernel takes those it
+            declares.
         timer: ``None``, or a callable taking a kernel's name and returning a context manager that each launch runs
             inside (``benchmarks/sensors_kernels.py`` times the kernels one by one with it).
         shadow_rays: False shades with :func:`shade_maps_kernel` (see :func:`sensors_kernels`).
     """
     for kernel in sensors_kernels(arch, shadow_rays):
-        args = [values[name] for name in kernel_parameters(kernel)]
+        args = [values[name] for name in parameters(kernel)]
         if timer is None:
             kernel(*args)
         else:
@@ -643,45 +644,38 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel if shadow_rays else shade_maps_kernel)
 
 
-def launch_arg_names(arch: str, shadow_rays: bool = True) -> tuple[str, ...]:
-    """The names of :data:`SENSORS_ARGS` that the kernels of :func:`sensors_kernels` (``arch``, ``shadow_rays``)
-    take, in the order of :data:`SENSORS_ARGS` (the values a launch needs; read on every launch)."""
-    return _arg_names_of(sensors_kernels(arch, shadow_rays))
+def launch_parameters(arch: str, shadow_rays: bool = True) -> tuple[str, ...]:
+    """The parameters of the kernels of :func:`sensors_kernels` (``arch``, ``shadow_rays``) by name, each once, in
+    the order first met: the values a launch (:func:`sensors_kernel`, :func:`sensors_graph`) takes (read on every
+    launch; cached). CUDA's kernels take the scene's packs ``scene_f32`` and ``scene_i32``, the CPU's its arrays
+    one by one."""
+    return _parameters_of(sensors_kernels(arch, shadow_rays))
 
 
 @functools.cache
-def _arg_names_of(kernels: tuple) -> tuple[str, ...]:
-    taken = {name for kernel in kernels for name in kernel_parameters(kernel)}
-    return tuple(name for name in SENSORS_ARG_NAMES if name in taken)
+def _parameters_of(kernels: tuple) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(name for kernel in kernels for name in parameters(kernel)))
 
 
-@functools.cache
-def kernel_parameters(kernel) -> tuple[str, ...]:
-    """The names of a Taichi kernel's parameters, in order (names of :data:`SENSORS_ARGS`); cached (read on every
-    launch)."""
-    return tuple(inspect.signature(kernel).parameters)
+def graph_arg(name: str, annotation) -> "ti.graph.Arg":
+    """The ``ti.graph.Arg`` of a kernel parameter of annotation ``annotation`` (as the kernel declares it: an
+    ndarray type, a vector type or a scalar dtype)."""
+    if isinstance(annotation, ti.types.ndarray_type.NdarrayType):
+        return ti.graph.Arg(ti.graph.ArgKind.NDARRAY, name, dtype=annotation.dtype, ndim=annotation.ndim)
+    if isinstance(annotation, ti.lang.matrix.MatrixType):
+        return ti.graph.Arg(ti.graph.ArgKind.MATRIX, name, dtype=annotation)
+    return ti.graph.Arg(ti.graph.ArgKind.SCALAR, name, dtype=annotation)
 
-#: Parameters of the all-sensors kernels (:func:`sensors_kernel`): (name, kind, dtype, ndim) with kind ``nd``
-#: (ndarray), ``sc`` (scalar) or ``vec`` (by-value vector of POSE_LEN). The CPU's kernels take the scene's arrays;
-#: CUDA's take ``scene_f32`` and ``scene_i32``, their packs, instead (:func:`launch_arg_names` gives which).
-SENSORS_ARGS = (
-    ("table", "nd", "f32", 2), ("pose0", "vec", "f32", 0), ("one", "sc", "i32", 0), ("images", "sc", "i32", 0),
-    ("beams", "nd", "f32", 1), ("n_beams", "sc", "i32", 0), ("nodes", "nd", "f32", 2),
-    ("pf", "nd", "f32", 2), ("pi", "nd", "i32", 2), ("tris", "nd", "f32", 2), ("shade", "nd", "f32", 2),
-    ("texels", "nd", "i32", 1), ("tex_info", "nd", "i32", 2), ("tex_lut", "nd", "f32", 1),
-    ("lights", "nd", "f32", 2), ("lit", "sc", "i32", 0), ("n_always", "sc", "i32", 0), ("always", "nd", "i32", 1),
-    ("light_grid", "nd", "i32", 3), ("grid_xform", "nd", "f32", 1), ("light_of_slot", "nd", "i32", 1),
-    ("lamp_maps", "nd", "f32", 3),
-    ("sun_map", "nd", "f32", 2), ("baked", "nd", "i32", 1), ("baked_info", "nd", "i32", 2), ("consts", "nd", "f32", 1),
-    ("cluster_box", "nd", "f32", 2), ("cluster_prims", "nd", "i32", 2), ("n_occluders", "sc", "i32", 0),
-    ("occluders", "nd", "i32", 1), ("is_occluder", "nd", "i32", 1), ("listed", "nd", "i32", 1),
-    ("queue", "nd", "i32", 2), ("counters", "nd", "i32", 1), ("tiles", "nd", "f32", 2), ("vis", "nd", "i64", 4),
-    ("rgb", "nd", "u8", 4),
-    ("depth", "nd", "f32", 3), ("cls", "nd", "i32", 3), ("inst", "nd", "i32", 3), ("ranges", "nd", "f32", 2),
-    ("scene_f32", "nd", "f32", 1), ("scene_i32", "nd", "i32", 1),
-)
-#: The names of :data:`SENSORS_ARGS`, in order (the renderer keys a launch's values with them on every frame).
-SENSORS_ARG_NAMES = tuple(name for name, *_ in SENSORS_ARGS)
+
+def _type_key(annotation) -> tuple:
+    """What makes two kernel parameters' annotations the same type (the objects themselves differ)."""
+    if isinstance(annotation, ti.types.ndarray_type.NdarrayType):
+        return "ndarray", str(annotation.dtype), annotation.ndim
+    if isinstance(annotation, ti.lang.matrix.MatrixType):
+        return "matrix", annotation.n, annotation.m, str(annotation.dtype)
+    return "scalar", str(annotation)
+
+
 _SENSORS_GRAPHS: dict = {}
 
 
@@ -689,19 +683,25 @@ def sensors_graph(arch: str, shadow_rays: bool = True):
     """:func:`sensors_kernels` of ``arch`` (and ``shadow_rays``) as one compiled Taichi compute graph (``ti.graph``),
     built once per process, arch and ``shadow_rays``. Running the graph sets the arguments in C++ and costs a
     fraction of a Python kernel call's per-argument work, which is most of the time of a one-camera frame on a GPU
-    (the CPU runs it too). Its arguments (``graph.run({name: value})``) are
-    :data:`SENSORS_ARGS`; ndarray arguments must be Taichi ndarrays (device buffers)."""
+    (the CPU runs it too). Its arguments (``graph.run({name: value})``) are the kernels' parameters by name
+    (:func:`launch_parameters`), each of the type the kernels declare; ndarray arguments must be Taichi ndarrays
+    (device buffers).
+
+    Raises:
+        TypeError: two of the kernels declare a parameter of the same name with different types.
+    """
     if (arch, shadow_rays) not in _SENSORS_GRAPHS:
-        kinds = {"nd": ti.graph.ArgKind.NDARRAY, "sc": ti.graph.ArgKind.SCALAR, "vec": ti.graph.ArgKind.MATRIX}
-        dtypes = {"f32": ti.f32, "i32": ti.i32, "u8": ti.u8, "i64": ti.i64}
-        symbols = {}
-        for name, kind, dtype, ndim in SENSORS_ARGS:
-            extra = {"ndim": ndim} if kind == "nd" else {}
-            dt = ti.types.vector(POSE_LEN, ti.f32) if kind == "vec" else dtypes[dtype]
-            symbols[name] = ti.graph.Arg(kinds[kind], name, dtype=dt, **extra)
+        kernels = sensors_kernels(arch, shadow_rays)
+        declared = {}
+        for kernel in kernels:
+            for name, annotation in annotations(kernel).items():
+                if _type_key(declared.setdefault(name, annotation)) != _type_key(annotation):
+                    raise TypeError(f"sensors kernels: {name} is {_type_key(declared[name])} in one, "
+                                    f"{_type_key(annotation)} in {kernel.__name__}")
+        symbols = {name: graph_arg(name, annotation) for name, annotation in declared.items()}
         builder = ti.graph.GraphBuilder()
-        for kernel in sensors_kernels(arch, shadow_rays):
-            builder.dispatch(kernel, *(symbols[name] for name in kernel_parameters(kernel)))
+        for kernel in kernels:
+            builder.dispatch(kernel, *(symbols[name] for name in parameters(kernel)))
         _SENSORS_GRAPHS[arch, shadow_rays] = builder.compile()
         # Compiling made placeholder ndarrays that are left in reference cycles; collect them now, on Taichi's
         # thread: if the collector found them later on another thread, freeing them would abort a CUDA process.
