@@ -1,8 +1,9 @@
 """README command 1 (``benchbot batch --example semslam_geometric --envs miniroom:1``) warm, with and without the
 resident simulator service (docs/service.md): the median wall time of ``--runs`` runs of each, taken in turns (so a
 busy machine slows both alike), after one run of each that fills the caches and starts the service. Also the CPU
-seconds of the command and its children (the sandboxed solution; the service's own CPU is not in them), and whether
-every run's results and scores files are byte-identical.
+seconds of the command and its children (the sandboxed solution), and of the service while it served the command
+(the work the command left to it): on a machine busy with other work, CPU seconds change far less than wall times.
+And whether every run's results and scores files are byte-identical.
 
     uv run python benchmarks/service_warm.py [--env miniroom:1] [--example semslam_geometric] [--runs 5] [--json]
 
@@ -49,6 +50,29 @@ def run_once(argv: list[str], env: dict, cwd: Path) -> dict:
     return {"wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "run_dir": json.loads(proc.stdout)["run_dir"]}
 
 
+def process_cpu_s(pid: int) -> float:
+    """User + system CPU seconds process ``pid`` has used (``/proc/PID/stat``); 0.0 when it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            fields = stat.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def service_pid(env: dict, cwd: Path) -> int:
+    """The pid of the running service (``benchbot service status --json``).
+
+    Raises:
+        RuntimeError: none runs."""
+    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "service", "status", "--json"], env=env, cwd=cwd,
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    status = json.loads(proc.stdout) if proc.returncode == 0 else {}
+    if not status.get("running"):
+        raise RuntimeError(f"no simulator service runs after a command that uses it:\n{proc.stderr[-2000:]}")
+    return int(status["pid"])
+
+
 def run_files(run_dir: str) -> dict[str, bytes]:
     """``{path relative to the run directory: bytes}`` of the :data:`COMPARED` files."""
     root = Path(run_dir)
@@ -76,10 +100,15 @@ def main(argv: list[str] | None = None) -> dict:
         command = ["batch", "--example", args.example, "--envs", args.env, "--output-dir", str(Path(tmp, "runs"))]
         modes = {"in-process": command + ["--no-service"], "service": command}
         times: dict[str, list[dict]] = {mode: [] for mode in modes}
+        pid = None
         try:
             for k in range(args.runs + 1):
                 for mode, words in modes.items():
+                    before = process_cpu_s(pid) if pid and mode == "service" else 0.0
                     run = run_once(words, env, Path(tmp))
+                    run["service_cpu_s"] = round(process_cpu_s(pid) - before, 3) if pid and mode == "service" else 0.0
+                    if mode == "service" and pid is None:
+                        pid = service_pid(env, Path(tmp))
                     if k:  # the first of each fills the caches and starts the service
                         times[mode].append(run)
                     print(f"{mode:10} run {k}: {run['wall_s']:.2f} s{'' if k else ' (untimed)'}", file=sys.stderr,
@@ -91,6 +120,7 @@ def main(argv: list[str] | None = None) -> dict:
         identical = all(run_files(run["run_dir"]) == reference for runs in times.values() for run in runs)
     figures = {mode: {"median_wall_s": round(statistics.median(r["wall_s"] for r in runs), 2),
                       "median_cpu_s": round(statistics.median(r["cpu_s"] for r in runs), 2),
+                      "median_service_cpu_s": round(statistics.median(r["service_cpu_s"] for r in runs), 2),
                       "wall_s": [r["wall_s"] for r in runs]} for mode, runs in times.items()}
     figures["identical"] = identical
     if args.json:
@@ -99,8 +129,9 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"benchbot batch --example {args.example} --envs {args.env}, warm, median of {args.runs}:")
         for mode in modes:
             f = figures[mode]
-            print(f"  {mode:10} {f['median_wall_s']:6.2f} s wall, {f['median_cpu_s']:5.2f} s CPU of the command "
-                  f"(runs: {', '.join(f'{w:.2f}' for w in f['wall_s'])})")
+            walls = ", ".join(f"{w:.2f}" for w in f["wall_s"])
+            print(f"  {mode:10} {f['median_wall_s']:6.2f} s wall, {f['median_cpu_s']:5.2f} s CPU of the command, "
+                  f"{f['median_service_cpu_s']:5.2f} s of the service (runs: {walls})")
         print(f"  results and scores byte-identical: {'yes' if identical else 'NO'}")
     return figures
 
