@@ -150,12 +150,8 @@ def distribution_closure(root: str = "benchbot", extras: tuple[str, ...] = EXTRA
 
     Raises:
         BenchbotError: a required distribution is not installed (naming it)."""
-    try:
-        from packaging.requirements import Requirement
-        from packaging.utils import canonicalize_name
-    except ImportError:  # not a dependency of BenchBot's: pip carries a copy
-        from pip._vendor.packaging.requirements import Requirement
-        from pip._vendor.packaging.utils import canonicalize_name
+    from packaging.requirements import Requirement
+    from packaging.utils import canonicalize_name
 
     def requirements(dist: metadata.Distribution, extra: str) -> list:
         reqs = [Requirement(r) for r in dist.requires or []]
