@@ -416,3 +416,24 @@ def test_the_base_image_is_made_again_on_its_kept_root_file_system(container_eng
     made = json.loads(proc.stdout)
     assert made["tag"] == "benchbot/submission:base" and made["rootfs_s"] < 5
     assert made["python"].startswith("%d.%d." % sys.version_info[:2]) and made["distributions"] > 20
+
+
+@pytest.mark.slow
+def test_a_challenge_evaluates_a_container_submission_and_signs_it(tmp_path, container_engine_with_base_image):
+    """`benchbot challenge evaluate DIR --containerised` runs the submission's Dockerfile as the solution under the
+    challenge's conditions; the run is signed, records its isolation as a container, and verifies."""
+    _, base = container_engine_with_base_image
+    folder = _solution(tmp_path / "team", base)
+    challenge = tmp_path / "ch"
+    proc = cli("challenge", "init", str(challenge), "--environments", "miniroom:1")
+    assert proc.returncode == 0, proc.stderr
+    proc = cli("challenge", "evaluate", str(folder), "--challenge", str(challenge), "--containerised", timeout=1200)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    [run] = list((challenge / "runs").iterdir())
+    assert json.loads((run / "manifest.json").read_text())["sandbox"] == "container"
+    signed = json.loads((run / "signature.json").read_text())["signed"]
+    assert signed["conditions"]["limits"]["solution"]["memory_bytes"] > 0
+    proc = cli("verify", str(run), "--key", str(challenge / "host_key.pub.pem"))
+    assert proc.returncode == 0 and proc.stdout.startswith("verified: "), proc.stderr
+    proc = cli("challenge", "evaluate", str(tmp_path), "--challenge", str(challenge), "--containerised")
+    assert proc.returncode == 2 and "no Dockerfile" in proc.stderr and "Traceback" not in proc.stderr

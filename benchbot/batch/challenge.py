@@ -191,9 +191,16 @@ def submission_command(submission: Path, native: str | None) -> str:
     return f"python {shlex.quote(scripts[0])}"
 
 
-def batch_argv(conditions: dict, command: str, output_dir: Path, *, workers: int = 1, executor: str = "local") -> list[str]:
-    """The ``benchbot batch`` command line that runs a submission under ``conditions`` (always sandboxed)."""
-    argv = [sys.executable, "-m", "benchbot.cli", "batch", "--native", command, "--task", conditions["task"],
+#: Isolation levels a challenge accepts for its runs: the bubblewrap sandbox (native submissions) or a container.
+SANDBOXED = ("bwrap", "container")
+
+
+def batch_argv(conditions: dict, command: str | None, output_dir: Path, *, workers: int = 1, executor: str = "local",
+               dockerfile: Path | None = None) -> list[str]:
+    """The ``benchbot batch`` command line that runs a submission under ``conditions``, always isolated: ``--native
+    command`` (the bubblewrap sandbox), or ``--containerised dockerfile`` when one is given."""
+    solution = ["--containerised", str(dockerfile)] if dockerfile is not None else ["--native", str(command)]
+    argv = [sys.executable, "-m", "benchbot.cli", "batch", *solution, "--task", conditions["task"],
             "--robot", conditions["robot"], "--envs", ",".join(conditions["environments"]),
             "--evaluate-with", str(conditions.get("evaluate_with") or "auto"), "--output-dir", str(output_dir),
             "--prefix", "challenge", "--no-tui", "--workers", str(workers), "--executor", executor]
@@ -204,8 +211,9 @@ def batch_argv(conditions: dict, command: str, output_dir: Path, *, workers: int
 
 
 def check_matches(run_dir: Path, conditions: dict) -> None:
-    """Refuse to sign a run that does not match the challenge: its task, robots, environments, isolation and the
-    limits its solutions ran under (the manifest's ``limits``).
+    """Refuse to sign a run that does not match the challenge: its task, robots, environments, isolation (the
+    bubblewrap sandbox or a container: :data:`SANDBOXED`) and the limits its solutions ran under (the manifest's
+    ``limits``).
 
     Raises:
         UsageError: naming the first difference.
@@ -213,10 +221,11 @@ def check_matches(run_dir: Path, conditions: dict) -> None:
     manifest = json.loads((run_dir / "manifest.json").read_text(encoding="utf-8"))
     wanted_limits = (conditions.get("limits") or {}).get("solution")
     ran_limits = {key: (manifest.get("limits") or {}).get(key) for key in wanted_limits} if wanted_limits else None
+    isolation = manifest.get("sandbox") if manifest.get("sandbox") in SANDBOXED else " or ".join(SANDBOXED)
     for what, ran, wanted in (("task", manifest.get("task"), conditions["task"]),
                               ("robots", manifest.get("robots"), [conditions["robot"]]),
                               ("environments", manifest.get("environments"), conditions["environments"]),
-                              ("isolation", manifest.get("sandbox"), conditions.get("isolation", "bwrap")),
+                              ("isolation", manifest.get("sandbox"), isolation),
                               ("solution limits", ran_limits, wanted_limits)):
         if ran != wanted:
             raise UsageError(f"{run_dir}: its {what} {ran!r} is not the challenge's {wanted!r}; not signed",
@@ -224,9 +233,10 @@ def check_matches(run_dir: Path, conditions: dict) -> None:
 
 
 def evaluate_submission(submission: Path, challenge: Path, *, native: str | None = None, workers: int = 1,
-                        executor: str = "local") -> tuple[Path, Path | None, int]:
-    """Run ``submission`` in the sandbox on the challenge's environments with ``benchbot batch`` (its output goes
-    to this process's stdout and stderr), check the run, copy ``conditions.json`` into it and sign it.
+                        executor: str = "local", containerised: bool = False) -> tuple[Path, Path | None, int]:
+    """Run ``submission`` on the challenge's environments with ``benchbot batch`` (its output goes to this process's
+    stdout and stderr) — in the sandbox, or with ``containerised`` as the container its ``Dockerfile`` builds (Podman
+    or Docker, docs/containers.md) — check the run, copy ``conditions.json`` into it and sign it.
 
     Returns:
         (run directory, signature file — or None when the batch scored nothing, the batch's exit status).
@@ -240,7 +250,12 @@ def evaluate_submission(submission: Path, challenge: Path, *, native: str | None
     private = challenge / signing.PRIVATE_KEY_FILE
     signing.load_private_key(private)  # a bad key stops before anything runs
     submission = Path(submission).resolve()
-    command = submission_command(submission, native)
+    dockerfile = submission / "Dockerfile" if containerised else None
+    if dockerfile is not None and native:
+        raise UsageError("give --native or --containerised, not both", "a container runs its Dockerfile's command")
+    if dockerfile is not None and not dockerfile.is_file():
+        raise UsageError(f"{submission}: no Dockerfile, cannot run it --containerised", "add one, or drop --containerised")
+    command = None if dockerfile is not None else submission_command(submission, native)
     if conditions.get("split") == "test":
         ensure_test_key()
     secrets = [challenge]
@@ -257,8 +272,8 @@ def evaluate_submission(submission: Path, challenge: Path, *, native: str | None
     runs = challenge / RUNS
     runs.mkdir(exist_ok=True)
     before = set(runs.iterdir())
-    status = subprocess.call(batch_argv(conditions, command, runs, workers=workers, executor=executor),
-                             cwd=submission, env=batch_environment(conditions))
+    status = subprocess.call(batch_argv(conditions, command, runs, workers=workers, executor=executor,
+                                        dockerfile=dockerfile), cwd=submission, env=batch_environment(conditions))
     made = sorted(set(runs.iterdir()) - before)
     if not made:
         raise UsageError(f"the batch made no run directory in {runs} (exit status {status}); nothing to sign",

@@ -65,15 +65,19 @@ def register(app: typer.Typer) -> None:
                                              "default: python FILE for its one top-level .py file."),
         workers: int = typer.Option(1, "--workers", "-w", help=f"Episodes run in parallel: {at_most(MAX_WORKERS, 1)}."),
         executor: str = typer.Option("local", "--executor", help="local, batched or ray (as `benchbot batch`)."),
+        containerised: bool = typer.Option(False, "--containerised", "-c", help="Build the submission's Dockerfile "
+                                           "and run it as a container (Podman or Docker; docs/containers.md) "
+                                           "instead of the sandbox."),
     ) -> None:
-        """Run a submission sandboxed on the challenge's environments with `benchbot batch --native`, then sign the
-        run directory with the host's key (signature.json: the files' hashes, the scores, the conditions, the
-        versions, the isolation). Anyone can check it with `benchbot verify RUN --key host_key.pub.pem`."""
+        """Run a submission sandboxed on the challenge's environments with `benchbot batch --native` (or, with
+        --containerised, its Dockerfile as a container: `benchbot batch --containerised`), then sign the run
+        directory with the host's key (signature.json: the files' hashes, the scores, the conditions, the versions,
+        the isolation). Anyone can check it with `benchbot verify RUN --key host_key.pub.pem`."""
         from benchbot.batch.challenge import evaluate_submission
 
         check_count("--workers", workers, MAX_WORKERS, 1)
         run_dir, signature, status = evaluate_submission(submission, folder, native=native, workers=workers,
-                                                         executor=executor)
+                                                         executor=executor, containerised=containerised)
         if signature is None:
             err.print(f"nothing was scored, so nothing was signed; see {run_dir}", highlight=False, markup=False)
             raise typer.Exit(int(ExitCode.FAILURE))
