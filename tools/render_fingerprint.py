@@ -5,14 +5,15 @@
     uv run python tools/render_fingerprint.py save after.npz       # on the new code
     uv run python tools/render_fingerprint.py compare before.npz after.npz
 
-``save`` renders, on the CPU (``--arch cuda``: on the GPU), the first three trajectory poses of ``--envs`` (default ``miniroom:1,house:1``) at
-96 × 72 pixels: RGB, depth, class and instance images with the laser scan of the same instant (fast mode), and one
-quality-mode view (4 samples per pixel, not denoised); ``--samples-per-pixel N`` renders the fast views with the
-camera's pixel integration (``sensors.camera.samples_per_pixel``). Saved on the CPU and on a GPU and compared, two
-files show how far the two devices' images are apart. ``compare`` prints one line per differing array (largest
-absolute difference) and the count of equal ones; it exits 1 when any differs or the two files hold different
-arrays. Bit-identical output is what a refactor of the kernels should give; a change meant to alter the images shows
-here how much they moved.
+``save`` renders, on the CPU (``--arch cuda``: on the GPU), the first three trajectory poses of ``--envs`` (default
+``miniroom:1,house:1``) at 96 × 72 pixels: RGB, depth, class and instance images with the laser scan of the same
+instant (fast mode), and one quality-mode view (4 samples per pixel, not denoised); ``--samples-per-pixel N`` renders
+the fast views with the camera's pixel integration (``sensors.camera.samples_per_pixel``), ``--shadow-samples N`` with
+N shadow rays per light and pixel (soft shadows: the shading kernel with shadow rays, ``sensors.shade_kernel``).
+Saved on the CPU and on a GPU and compared, two files show how far the two devices' images are apart. ``compare``
+prints one line per differing array (largest absolute difference) and the count of equal ones; it exits 1 when any
+differs or the two files hold different arrays. Bit-identical output is what a refactor of the kernels should give; a
+change meant to alter the images shows here how much they moved.
 
 Ground truth: BEAR (QUT Centre for Robotic Vision, https://github.com/qcr/benchbot_envs; see the BEAR data manifest
 shipped with sim_taichi).
@@ -31,10 +32,11 @@ WIDTH, HEIGHT, FOV_DEG, POSES = 96, 72, 90.0, 3
 LIDAR_Z = 0.3
 
 
-def save(path: str, envs: list[str], arch: str = "cpu", samples_per_pixel: int = 1) -> int:
+def save(path: str, envs: list[str], arch: str = "cpu", samples_per_pixel: int = 1,
+         shadow_samples: int = 1) -> int:
     """Render the fixed views of ``envs`` (``name:variant``) on ``arch`` (``cpu`` or ``cuda``), the fast views with
-    ``samples_per_pixel`` sub-pixels a pixel, and write them to ``path`` (``.npz``, one array per
-    ``env/pose/output``). Returns the exit status."""
+    ``samples_per_pixel`` sub-pixels a pixel and ``shadow_samples`` shadow rays per light and pixel, and write them
+    to ``path`` (``.npz``, one array per ``env/pose/output``). Returns the exit status."""
     from benchbot.core.geometry import se2_to_matrix
     from benchbot.core.registry import get_registry
     from benchbot_sim_taichi.backend import camera_mount
@@ -42,7 +44,7 @@ def save(path: str, envs: list[str], arch: str = "cpu", samples_per_pixel: int =
     from benchbot_worlds.scene.build import build_scene
 
     registry = get_registry()
-    renderer = Renderer(arch)
+    renderer = Renderer(arch, shadow_samples=shadow_samples)
     K = intrinsics(WIDTH, HEIGHT, FOV_DEG)
     angles = np.linspace(-3.0, 3.0, 90)
     out: dict[str, np.ndarray] = {}
@@ -92,13 +94,16 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--arch", default="cpu", choices=("cpu", "cuda"), help="where to render (default: cpu)")
     s.add_argument("--samples-per-pixel", type=int, default=1, choices=(1, 4, 9, 16),
                    help="the fast views' pixel integration (sensors.camera.samples_per_pixel; default 1)")
+    s.add_argument("--shadow-samples", type=int, default=1, choices=(1, 2, 4),
+                   help="shadow rays per light and pixel (the option shadow_samples; default 1: hard shadows from the "
+                        "shadow maps)")
     c = sub.add_parser("compare", help="compare two .npz files written by save")
     c.add_argument("before")
     c.add_argument("after")
     args = parser.parse_args(argv)
     if args.command == "save":
         return save(args.path, [e.strip() for e in args.envs.split(",") if e.strip()], args.arch,
-                    args.samples_per_pixel)
+                    args.samples_per_pixel, args.shadow_samples)
     return compare(args.before, args.after)
 
 

@@ -33,7 +33,8 @@ def benchbot_robot_backends() -> dict:
 
 @hookimpl
 def benchbot_settings() -> list:
-    """The environment variables this package reads (benchbot_sim_taichi.settings): ``BENCHBOT_TAICHI_ARCH``, ``BENCHBOT_TAICHI_THREADS``, ``BENCHBOT_TAICHI_FULL_POSITIONS``."""
+    """The environment variables this package reads (benchbot_sim_taichi.settings): ``BENCHBOT_TAICHI_ARCH``,
+    ``BENCHBOT_TAICHI_THREADS``, ``BENCHBOT_TAICHI_FULL_POSITIONS``, ``BENCHBOT_TAICHI_QUICK_COMPILE``."""
     from benchbot_sim_taichi.settings import SETTINGS
 
     return list(SETTINGS)

@@ -18,6 +18,11 @@ TAICHI_THREADS = Setting("BENCHBOT_TAICHI_THREADS", None, "CPU threads per simul
 TAICHI_FULL_POSITIONS = Setting("BENCHBOT_TAICHI_FULL_POSITIONS", None, "1: the simulator's kernels keep Taichi's "
                                 "full source excerpts in their debug information (slower start; for changing the "
                                 "kernels)")
+#: ``1`` (default): the kernels listed in :mod:`benchbot_sim_taichi.render.compile_options` compile without Taichi's
+#: CFG optimisation (several times faster, the same output); ``0``: every kernel with it.
+TAICHI_QUICK_COMPILE = Setting("BENCHBOT_TAICHI_QUICK_COMPILE", "1", "1: the simulator's kernels checked to render the "
+                               "same without Taichi's CFG optimisation compile without it (a faster first run); 0: "
+                               "every kernel with it", reader=one_of("0", "1"))
 
 #: Every setting of the simulator, in the order ``benchbot doctor`` shows them.
-SETTINGS = (TAICHI_ARCH, TAICHI_THREADS, TAICHI_FULL_POSITIONS)
+SETTINGS = (TAICHI_ARCH, TAICHI_THREADS, TAICHI_FULL_POSITIONS, TAICHI_QUICK_COMPILE)

@@ -10,7 +10,7 @@ def test_the_plugin_declares_its_taichi_settings():
     from benchbot_sim_taichi.plugin import benchbot_settings
 
     assert [s.name for s in benchbot_settings()] == ["BENCHBOT_TAICHI_ARCH", "BENCHBOT_TAICHI_THREADS",
-                                                     "BENCHBOT_TAICHI_FULL_POSITIONS"]
+                                                     "BENCHBOT_TAICHI_FULL_POSITIONS", "BENCHBOT_TAICHI_QUICK_COMPILE"]
 
 
 def test_threads_and_arch_are_read_through_their_readers(monkeypatch):

@@ -114,6 +114,7 @@ from benchbot_sim_taichi.render.raster import (  # noqa: E402
 )
 from benchbot_sim_taichi.render import layouts as L  # noqa: E402
 from benchbot_sim_taichi.render.source_positions import use_brief_positions  # noqa: E402
+from benchbot_sim_taichi.render.compile_options import use_quick_compiles  # noqa: E402
 from benchbot_sim_taichi.render.layouts import POSE_LEN  # noqa: E402
 from benchbot_sim_taichi.render.scene_arrays import SceneArrays, arguments, launch  # noqa: E402
 from benchbot_sim_taichi.render.sensors import (  # noqa: E402
@@ -225,6 +226,7 @@ def _init(want: str) -> str:
 
 def _init_quietly(want: str) -> str:
     use_brief_positions()
+    use_quick_compiles()
     if want == "cpu":
         ti.init(arch=ti.cpu, default_fp=ti.f32, offline_cache=True, log_level=ti.WARN, **_cpu_threads())
         return "cpu"
