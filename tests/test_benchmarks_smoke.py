@@ -36,6 +36,7 @@ FIGURES = {
     "batch.py": [r" 1 worker\(s\): +[\d.]+ s", r" 2 worker\(s\): +[\d.]+ s.*\[local\]",
                  r" 2 worker\(s\): +[\d.]+ s.*\[batched\]", r"speed-up [\d.]+x \[batched\]"],
     "bvh_build.py": [r"soup +old +\d+ tris +[\d.]+ s", r"house1 +new +\d+ tris +[\d.]+ s"],
+    "cold_start.py": [r"quick compiles: [\d.]+ s wall, [\d.]+ s CPU", r"occluders_kernel +compile +[\d.]+ s CPU"],
     "compile_time.py": [r"fast [\d.]+ s, quality [\d.]+ s"],
     "cpu_paths.py": [r"graph [\d.]+ fps, numpy [\d.]+ fps"],
     "denoise.py": [r"median_ms +[\d.]+"],
@@ -70,6 +71,7 @@ FIGURES = {
 }
 #: Per script, what its smoke run leaves out (words of its ``smoke: left out ...`` line on stderr).
 LEFT_OUT = {
+    "cold_start.py": ["the empty kernel cache"],
     "compile_time.py": ["the empty kernel cache"],
     "first_run.py": ["the empty kernel cache"],
     "one_camera.py": ["host/GPU split"],
