@@ -69,6 +69,18 @@ print("END", time.time(), flush=True)
 '''
 
 
+def _listening(port: int) -> bool:
+    """Whether a TCP socket listens on ``port`` (IPv4 or IPv6), from ``/proc/net/tcp*`` (state ``0A``)."""
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            rows = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        if any(r.split()[1].rsplit(":", 1)[1] == f"{port:04X}" and r.split()[3] == "0A" for r in rows):
+            return True
+    return False
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -160,10 +172,18 @@ class Cluster:
         return proc
 
     def start_head(self) -> None:
+        """The head, and its Ray Client server listening: ``ray start`` says it is up before that server, which
+        starts on its own, listens (a loaded machine once refused the first connection). Judged from the kernel's
+        table of listening sockets: a probe connection would start a client session of its own."""
         self.head = self._start([RAY, "start", "--head", "--block", "--node-ip-address", "127.0.0.1",
                                  "--port", str(self.gcs), "--ray-client-server-port", str(self.client),
                                  "--dashboard-port", str(_free_port()), "--num-cpus", "1",
                                  "--include-dashboard", "false", "--disable-usage-stats"], "head")
+        deadline = time.monotonic() + 60
+        while not _listening(self.client):
+            if time.monotonic() > deadline:
+                pytest.fail(f"the head's Ray Client server never listened on {self.client}:\n{self.diagnostics()}")
+            time.sleep(0.3)
 
     def start_node_b(self) -> None:
         """The second node: one CPU, in a mount namespace where ``runs`` is an empty folder and with user
