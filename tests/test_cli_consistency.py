@@ -266,6 +266,7 @@ COUNT_FLAG_COMMANDS = {
     "benchbot batch": ["--example", "hello_passive", "--envs", "miniroom:1"],
     "benchbot run": ["--env", "miniroom:1"],
     "benchbot sim render": ["miniroom:1", "-o", "never.png"],
+    "benchbot sim prepare": ["miniroom:1", "--arch", "cpu"],
     "benchbot ros2 serve-sim": ["--env", "miniroom:1"],
     "benchbot worlds generate": ["-o", "never_pack"],
     "benchbot challenge init": ["never_challenge"],

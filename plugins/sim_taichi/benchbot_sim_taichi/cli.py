@@ -8,6 +8,9 @@
   the ground-truth boxes and the robot's path)
 * ``benchbot sim ground-truth ENV -o FILE.json`` (the ground truth derived from the scene: per object the
   axis-aligned bounds of its geometry; for environments with mesh ``objects``)
+* ``benchbot sim prepare [ENV ...] [--arch auto|cpu|gpu] [--quality] [--json]`` (a machine's first-run work done
+  ahead: the kernels compiled into Taichi's offline cache, the scenes built into the scene cache;
+  :mod:`benchbot_sim_taichi.prepare`)
 """
 
 from __future__ import annotations
@@ -240,3 +243,80 @@ def ground_truth(env: str = typer.Argument(..., help="name:variant or an environ
         typer.echo(f"{output} ({len(gt['ground_truth']['objects'])} objects)")
 
     _run(go)
+
+
+@app.command("prepare")
+def prepare(envs: list[str] = typer.Argument(None, help="environments, name:variant or YAML files (default: "
+                                             "miniroom:1, README command 1's)"),
+            arch: str = typer.Option("auto", "--arch", help="as benchbot batch's: auto (a GPU when an NVIDIA device "
+                                     "is present, else the CPU), cpu or gpu"),
+            seed: int = typer.Option(0, "--seed", help=f"the run seed of the episodes to prepare for, as benchbot "
+                                     f"batch's --seed ({at_most(MAX_SEED)})"),
+            quality: bool = typer.Option(False, "--quality", help="also quality mode's kernels (the path tracer: "
+                                         "about half a minute more on 2 cores)"),
+            as_json: bool = typer.Option(False, "--json", help="print {kernel_cache, kernel_cache_bytes, "
+                                         "scene_cache, scene_cache_bytes, seconds} as JSON"),
+            ) -> None:
+    """Build ahead what a machine's first run builds: compile the simulator's kernels into Taichi's offline cache and
+    build ENVS' scenes (BVH, shadow maps, baked light) into the scene cache, with a progress bar on stderr. The
+    first episode then starts as later ones do (docs/simulator.md, Cold start)."""
+
+    def go():
+        import time
+
+        from benchbot.cli.common import backend_options, registry
+        from benchbot_sim_taichi import prepare as ahead
+
+        check_count("--seed", seed, MAX_SEED)
+        if arch not in ("auto", "cpu", "gpu", "cuda"):
+            from benchbot.core.errors import UsageError
+
+            raise UsageError(f"unknown --arch {arch!r}", "use auto, cpu or gpu")
+        names = list(envs or ahead.DEFAULT_ENVIRONMENTS)
+        todo = ahead.steps([(name, _environment(name)) for name in names], registry().get("robots", "carter"),
+                           backend_options(arch, None), seed=seed, quality=quality)
+        started = time.monotonic()
+        _run_steps(todo)
+        summary = {**ahead.finish(), "seconds": round(time.monotonic() - started, 1)}
+        if as_json:
+            typer.echo(json.dumps(summary))
+            return
+        kernels = summary["kernel_cache"] or "off (Taichi's offline cache is off)"
+        typer.echo(f"kernels: {kernels} ({summary['kernel_cache_bytes'] / 1e6:.1f} MB)")
+        typer.echo(f"scenes: {summary['scene_cache']} ({summary['scene_cache_bytes'] / 1e6:.1f} MB)")
+        typer.echo(f"prepared {', '.join(names)} in {summary['seconds']:.0f} s")
+
+    _run(go)
+
+
+def _run_steps(todo: list) -> None:
+    """Run the steps of :func:`benchbot_sim_taichi.prepare.steps` under a progress bar on stderr (a terminal: the
+    bar, the step and its current stage; a log: a line as each step and stage starts, and one with each step's
+    time)."""
+    import time
+
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from benchbot.cli.common import err, is_tty
+
+    live = is_tty()
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err, disable=not live) as progress:
+        task = progress.add_task("preparing", total=len(todo))
+        for step in todo:
+            def show(event, step=step) -> None:
+                if event.kind == "end":
+                    return
+                if live:
+                    progress.update(task, description=f"{step.label} [dim]{event.text()} …[/]")
+                elif event.kind == "start":
+                    err.print(f"  {event.text()} …", highlight=False)
+
+            progress.update(task, description=step.label)
+            if not live:
+                err.print(f"{step.label} …", highlight=False)
+            t = time.monotonic()
+            with stages.listening(show):
+                step.run()
+            err.print(f"{step.label}: {time.monotonic() - t:.1f} s", highlight=False)
+            progress.advance(task)
