@@ -15,6 +15,9 @@ import pytest
 from benchbot.batch import challenge, signing
 from benchbot.core.errors import UsageError
 
+sys.path.insert(0, str(Path(__file__).parent))
+from cli_in_process import benchbot  # noqa: E402
+
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
 EXAMPLES = Path(__file__).resolve().parents[1] / "benchbot" / "plugins" / "examples"
 
@@ -97,17 +100,18 @@ def test_cli_bad_input_is_one_line(tmp_path):
                         (("init", str(tmp_path / "a"), "--task", "nope", "--split", "val"), "nope"),
                         (("init", str(tmp_path / "a"), "--split", "val", "--limit", "cpu=-1"), "--limit cpu='-1' is not"),
                         (("evaluate", str(tmp_path), "--challenge", str(tmp_path)), "conditions.json: missing")):
-        proc = cli("challenge", *args)
+        proc = benchbot("challenge", *args)
         assert proc.returncode in (2, 3) and words in proc.stderr and "Traceback" not in proc.stderr, (args, proc.stderr)
-    proc = cli("challenge", "init", str(tmp_path / "ch"), "--environments", "miniroom:1")
+    proc = benchbot("challenge", "init", str(tmp_path / "ch"), "--environments", "miniroom:1")
     assert proc.returncode == 0, proc.stderr
     (tmp_path / "empty").mkdir()
-    proc = cli("challenge", "evaluate", str(tmp_path / "empty"), "--challenge", str(tmp_path / "ch"))
+    proc = benchbot("challenge", "evaluate", str(tmp_path / "empty"), "--challenge", str(tmp_path / "ch"))
     assert proc.returncode == 2 and "0 top-level .py files" in proc.stderr and "--native" in proc.stderr
-    proc = cli("challenge", "evaluate", str(tmp_path), "--challenge", str(tmp_path / "ch"), "--native", "python x.py")
+    proc = benchbot("challenge", "evaluate", str(tmp_path), "--challenge", str(tmp_path / "ch"), "--native",
+                    "python x.py")
     assert proc.returncode == 2 and "is inside the submission folder" in proc.stderr
     (tmp_path / "ch" / "host_key.pem").write_text("garbled\n")
-    proc = cli("challenge", "evaluate", str(tmp_path / "empty"), "--challenge", str(tmp_path / "ch"))
+    proc = benchbot("challenge", "evaluate", str(tmp_path / "empty"), "--challenge", str(tmp_path / "ch"))
     assert proc.returncode == 2 and "host_key.pem: not a readable Ed25519 private key" in proc.stderr
 
 

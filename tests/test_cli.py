@@ -77,8 +77,10 @@ def test_batch_scores_the_ground_truth_example_one(tmp_path):
     assert sorted(p.name for p in (run_dir / "results").glob("*.json")) == ["000_miniroom_1.json", "001_house_1.json"]
 
 
+@pytest.mark.slow
 def test_readme_main_job_with_the_baseline(tmp_path):
-    """README command 1 (smaller camera so the test stays quick)."""
+    """README command 1 (smaller camera so the test stays quick). A whole batch (5-7 s on a 2-core machine): slow,
+    as conftest.py defines it; CI runs README command 1 itself just before the fast loop, and this test in -m slow."""
     proc = cli("batch", "--example", "semslam_geometric", "--envs", "miniroom:1", "--camera-size", "320x240",
                "--output-dir", str(tmp_path))
     assert proc.returncode == 0, proc.stderr

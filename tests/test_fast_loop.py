@@ -1,9 +1,11 @@
 """The fast loop (root conftest.py): the default run leaves out tests marked slow and says so; ``-m slow``,
 ``--run-slow`` and a named file run them. Checked with pytest itself on a two-test project that uses this
-repository's conftest, in a subprocess (the conftest sets environment variables when imported)."""
+repository's conftest, in this process (pytester's in-process run; the environment variables that conftest sets
+when imported are put back after each run)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -12,7 +14,16 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
-def project(pytester, monkeypatch):
+def environment_kept():
+    """The process's environment, put back after the test (the conftest under test sets BENCHBOT_* variables)."""
+    saved = dict(os.environ)
+    yield
+    os.environ.clear()
+    os.environ.update(saved)
+
+
+@pytest.fixture
+def project(environment_kept, pytester, monkeypatch):
     monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")  # only pytest and this conftest: seconds faster
     pytester.makeconftest((ROOT / "conftest.py").read_text())
     pytester.makeini("[pytest]\ntestpaths = suite\nmarkers =\n    slow: slow\n")
@@ -29,7 +40,7 @@ def project(pytester, monkeypatch):
     (("suite/test_two.py",), ["test_quick", "test_long"], 0),  # a named file runs all of it
 ])
 def test_the_default_run_leaves_out_slow_tests(project, args, passed, deselected):
-    result = project.runpytest_subprocess("-v", "-p", "no:cacheprovider", *args)
+    result = project.runpytest_inprocess("-v", "-p", "no:cacheprovider", *args)
     outcomes = result.parseoutcomes()
     assert outcomes.get("passed") == len(passed) and outcomes.get("deselected", 0) == deselected, result.stdout.str()
     for name in passed:

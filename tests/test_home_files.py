@@ -7,8 +7,6 @@ key follows the declared files and no others."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -23,6 +21,9 @@ from benchbot_worlds.bear import DATA_DIR, home_files_of
 from benchbot_worlds.homes.floorplan import home_files, plan_for_files
 from benchbot_sim_taichi import scene_cache as cache
 from benchbot_worlds.scene.build import build_scene
+
+sys.path.insert(0, str(Path(__file__).parent))
+from cli_in_process import benchbot  # noqa: E402
 
 pytestmark = pytest.mark.usefixtures("data_dir")  # tests/conftest.py: installs go to a fresh data directory
 SIBLINGS = [f"../maps/house_{v}.json" for v in range(1, 6)]
@@ -98,9 +99,7 @@ def test_a_bad_declaration_is_refused_by_benchbot_install_in_one_line(tmp_path, 
     pack = _house_pack(tmp_path / "pack", home_files=[SIBLINGS[0], entry])
     (pack / "maps" / "notes.json").write_text("{not json")
     (pack / "maps" / "plain.json").write_text('{"ground_truth": {}}')
-    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "install", str(pack)], capture_output=True,
-                          text=True, env={**os.environ, "BENCHBOT_ONLY_PLUGINS": "content_packs,sim_taichi"},
-                          timeout=120)
+    proc = benchbot("install", str(pack), env={"BENCHBOT_ONLY_PLUGINS": "content_packs,sim_taichi"})
     assert proc.returncode == 3, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if "home_files" in line]
     assert len(lines) == 1 and expected in lines[0], proc.stderr
@@ -109,9 +108,7 @@ def test_a_bad_declaration_is_refused_by_benchbot_install_in_one_line(tmp_path, 
 
 def test_more_home_files_than_the_schema_allows_are_refused_by_benchbot_install_in_one_line(tmp_path):
     pack = _house_pack(tmp_path / "pack", home_files=[SIBLINGS[0]] * 33)
-    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", "install", str(pack)], capture_output=True,
-                          text=True, env={**os.environ, "BENCHBOT_ONLY_PLUGINS": "content_packs,sim_taichi"},
-                          timeout=120)
+    proc = benchbot("install", str(pack), env={"BENCHBOT_ONLY_PLUGINS": "content_packs,sim_taichi"})
     assert proc.returncode == 3, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if "$.home_files" in line]
     assert lines == ["  environments/house_2.yaml: $.home_files: 33 items, more than the 32 allowed"], proc.stderr

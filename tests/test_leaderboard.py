@@ -16,6 +16,7 @@ from benchbot.batch.run_data import assign_labels, load_run
 
 sys.path.insert(0, str(Path(__file__).parent))
 import report_runs  # noqa: E402
+from cli_in_process import benchbot  # noqa: E402
 from report_runs import make_run, scores_only_run  # noqa: E402
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
@@ -191,13 +192,13 @@ def test_a_batch_whose_every_episode_failed_is_skipped_with_a_note(tmp_path):
     (failed / "manifest.json").write_text(json.dumps(manifest))
     (failed / "episode_scores.json").unlink()
     site = tmp_path / "site"
-    proc = cli("leaderboard", str(good), str(failed), "-o", str(site), "--no-reports")
+    proc = benchbot("leaderboard", str(good), str(failed), "-o", str(site), "--no-reports")
     assert proc.returncode == 0, proc.stderr
     [line] = [x for x in proc.stderr.splitlines() if "failed" in x]
     assert line.startswith("skipped ") and "every episode failed, 2 of 2 (first: miniroom:1: exit status 1; log " in line
     assert f"benchbot batch --resume {failed} runs them again" in line and "--evaluate-with" not in proc.stderr
     assert "every episode failed, 2 of 2" in (site / "index.html").read_text()
-    proc = cli("leaderboard", str(failed), "-o", str(tmp_path / "site2"))
+    proc = benchbot("leaderboard", str(failed), "-o", str(tmp_path / "site2"))
     assert proc.returncode == 2 and "no finished run directory with scores among the 1 given" in proc.stderr
 
 
@@ -249,10 +250,10 @@ def test_verified_entries_are_ranked_apart_from_self_reported_ones(tmp_path):
     assert verified["status"] == "verified" and verified["worlds"] == "held-out"
     # no trusted key: nothing is verified, whatever it carries
     assert all(t["standing"] == "self-reported" for t in entries(runs)[task])
-    proc = cli("leaderboard", *map(str, paths.values()), "-o", str(tmp_path / "s2"), "--no-reports",
-               "--trusted-key", str(host_pub))
+    proc = benchbot("leaderboard", *map(str, paths.values()), "-o", str(tmp_path / "s2"), "--no-reports",
+                    "--trusted-key", str(host_pub))
     assert proc.returncode == 0, proc.stderr
-    proc = cli("leaderboard", str(paths["honest"]), "-o", str(tmp_path / "s3"), "--trusted-key", str(scores))
+    proc = benchbot("leaderboard", str(paths["honest"]), "-o", str(tmp_path / "s3"), "--trusted-key", str(scores))
     assert proc.returncode == 2 and "episode_scores.json: not an Ed25519 public key" in proc.stderr
     assert "Traceback" not in proc.stderr
 
@@ -344,8 +345,8 @@ def test_a_signed_entry_whose_scores_differ_from_its_results_is_not_ranked_with_
         manifest["finished"] = "2026-11-26T00:00:00+00:00"
         (run / "manifest.json").write_text(json.dumps(manifest))
         sign_run(run, host)  # signed after the edit: the signature holds, the re-score does not
-    proc = cli("leaderboard", str(intact), str(wrong), "-o", str(tmp_path / "site"), "--no-reports",
-               "--trusted-key", str(host_pub))
+    proc = benchbot("leaderboard", str(intact), str(wrong), "-o", str(tmp_path / "site"), "--no-reports",
+                    "--trusted-key", str(host_pub))
     assert proc.returncode == 0, proc.stderr
     [line] = [x for x in proc.stderr.splitlines() if x.startswith("not ranked")]
     assert line.startswith(f"not ranked wrong ({wrong}): scores do not match its results: scores.json: scores.OMQ 0.9 "

@@ -107,3 +107,32 @@ def test_list_tells_every_task_apart(registry):
 
     shown = [first_sentence(registry.get("tasks", name).get("description", "")) for name in registry.names("tasks")]
     assert len(shown) >= 6 and len(set(shown)) == len(shown), shown
+
+
+def test_a_spec_found_valid_is_not_validated_again_and_any_change_is(monkeypatch):
+    """``specs.validate`` remembers the specs it found valid (a registry is built again for every command and test):
+    the same spec again is not validated again; a changed value, a value of another type (``True`` for ``1``) or
+    another schema is, and an invalid spec is refused every time."""
+    from benchbot.core import specs
+
+    checked = []
+    real = specs.first_error
+    monkeypatch.setattr(specs, "first_error", lambda instance, schema: checked.append(schema) or real(instance, schema))
+    monkeypatch.setattr(specs, "_SCHEMA_VALID", {})
+    batch = {"name": "b", "environments": ["miniroom:1", "house:2"]}
+    for _ in range(3):
+        specs.validate(json.loads(json.dumps(batch)), "batch", "b.yaml")
+    assert checked == ["batch"]
+    specs.validate({**batch, "environments": ["miniroom:1", "house:3"]}, "batch", "b.yaml")
+    specs.validate({**batch, "description": "x"}, "batch", "b.yaml")
+    assert len(checked) == 3
+    for bad in ({**batch, "name": True}, {**batch, "environments": []}):
+        for _ in range(2):
+            with pytest.raises(SpecError, match=r"b\.yaml: \$\."):
+                specs.validate(bad, "batch", "b.yaml")
+    assert len(checked) == 7
+    assert specs._frozen({"a": 1}) != specs._frozen({"a": True}) != specs._frozen({"a": 1.0})
+    monkeypatch.setattr(specs, "SCHEMA_VALID_MEMO", 2)
+    for k in range(5):
+        specs.validate({**batch, "name": f"b{k}"}, "batch", "b.yaml")
+    assert len(specs._SCHEMA_VALID) <= 2

@@ -25,6 +25,7 @@ from benchbot.core.registry import Registry
 from benchbot.core.safe_load import parse_json, parse_yaml
 
 sys.path.insert(0, str(Path(__file__).parent))
+from cli_in_process import benchbot  # noqa: E402  (commands whose subject is not the process)
 from hostile_files import alias_bomb, zip_bomb as raw_zip  # noqa: E402
 
 BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
@@ -277,7 +278,7 @@ def test_eval_refuses_deep_nesting_and_huge_integers_in_one_line(tmp_path):
     archive = tmp_path / "deep.zip"
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("deep.json", '{"a": ' + "[" * 70 + "]" * 70 + "}")
-    proc, _, _ = cli("eval", "-V", str(deep), str(bigint), str(archive))
+    proc = benchbot("eval", "-V", str(deep), str(bigint), str(archive), env={"COLUMNS": "200"})
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
     assert [line for line in proc.stderr.splitlines() if not line.startswith("warning:")] == [
         f"error: {deep}: {TOO_DEEP}",
@@ -331,7 +332,7 @@ def test_eval_refuses_numbers_beyond_a_float_naming_file_and_field_and_scores_th
     paths["yaw"].write_text(json.dumps(yaw))
     paths["good"].write_text(json.dumps(_perfect(registry, "miniroom:2")))
     out = tmp_path / "s.json"
-    proc, _, _ = cli("eval", "--oriented", *map(str, paths.values()), "-o", str(out))
+    proc = benchbot("eval", "--oriented", *map(str, paths.values()), "-o", str(out), env={"COLUMNS": "200"})
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
     assert [line for line in proc.stderr.splitlines() if line.startswith("error:")] == [
         f"error: {paths['big']}: results.objects[2].centroid[1]: expected a finite number, got an integer of 401 "

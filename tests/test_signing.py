@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import stat
-import subprocess
 import sys
 from pathlib import Path
 
@@ -16,13 +15,8 @@ from benchbot.batch import signing
 from benchbot.core.errors import UsageError
 
 sys.path.insert(0, str(Path(__file__).parent))
+from cli_in_process import benchbot as cli  # noqa: E402  (`benchbot verify`, run in this process)
 from report_runs import make_run  # noqa: E402
-
-BENCHBOT = [sys.executable, "-m", "benchbot.cli"]
-
-
-def cli(*args):
-    return subprocess.run([*BENCHBOT, *args], capture_output=True, text=True, timeout=120)
 
 
 @pytest.fixture(scope="module")

@@ -96,6 +96,26 @@ def _sized_message(err: Any) -> "str | None":
     return f"{len(err.instance)} {words[0]}, {words[1].format(err.validator_value)}"
 
 
+#: At most this many specs are remembered as valid against their schema (:func:`validate`): a registry is built
+#: again for every command, test and installed pack, and validating the same built-in specs (an environment's
+#: trajectory is thousands of schema nodes) was most of its time.
+SCHEMA_VALID_MEMO = 4096
+_SCHEMA_VALID: dict[tuple, None] = {}
+
+
+def _frozen(value: Any) -> tuple:
+    """A hashable copy of a JSON-like value that equals another's only when both are the same JSON document with
+    the same Python types (``True`` is not ``1``, ``1`` is not ``1.0``; mappings in their key order). Raises
+    TypeError for any other type (its validation is then not remembered)."""
+    if isinstance(value, dict):
+        return (dict, tuple((_frozen(k), _frozen(v)) for k, v in value.items()))
+    if isinstance(value, (list, tuple)):
+        return (type(value), tuple(_frozen(v) for v in value))
+    if value is None or type(value) in (str, int, float, bool):
+        return (type(value), value)
+    raise TypeError(f"{type(value).__name__} is not a JSON type")
+
+
 def validate(instance: Any, schema_name: str, source: str) -> None:
     """Validate ``instance`` against ``schemas/<schema_name>.schema.json``.
 
@@ -104,10 +124,19 @@ def validate(instance: Any, schema_name: str, source: str) -> None:
     Raises:
         SpecError: ``"<source>: <$.json.path>: <message>"`` for the first error (by path).
     """
-    error = first_error(instance, schema_name)
-    if error:
-        raise SpecError(f"{source}: {error[0]}: {error[1]}",
-                        f"fix the field to match schemas/{schema_name}.schema.json")
+    try:
+        key = (schema_name, _frozen(instance))
+    except (TypeError, RecursionError):  # a value JSON has no type for: validated every time
+        key = None
+    if key is None or key not in _SCHEMA_VALID:
+        error = first_error(instance, schema_name)
+        if error:
+            raise SpecError(f"{source}: {error[0]}: {error[1]}",
+                            f"fix the field to match schemas/{schema_name}.schema.json")
+        if key is not None:
+            if len(_SCHEMA_VALID) >= SCHEMA_VALID_MEMO:
+                _SCHEMA_VALID.clear()
+            _SCHEMA_VALID[key] = None
     if schema_name == "task":
         check_task_actions(instance, source)
     if schema_name == "evaluator":

@@ -17,6 +17,22 @@ def bear_envs():
     return {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
 
 
+@pytest.fixture(scope="session")
+def furnished_bear_scenes(bear_envs) -> dict:
+    """{(home, variant): furnished Scene} of the ten BEAR environments, each built with the world seed an episode run
+    with ``--seed 0`` gives it (benchbot.core.seeding.environment_world_seed). Built once for the session: the tests
+    of one home (test_one_home) and of furnished homes (test_furnished) read the same scenes (ten furnished builds
+    took seconds in each)."""
+    from benchbot.core.seeding import environment_world_seed
+    from benchbot_worlds.scene.build import build_scene
+
+    out = {}
+    for key, env in bear_envs.items():
+        name, v = key.split(":")
+        out[name, int(v)] = build_scene({**env, "style": "furnished"}, seed=environment_world_seed(0, env))
+    return out
+
+
 @pytest.fixture
 def synthetic_env(tmp_path):
     """synthetic_env(objects, start=(x, y, yaw_quat_wxyz...), trajectory=[]) → environment spec whose map_path is a

@@ -38,8 +38,10 @@ def _environment(name: str, **extra) -> dict:
 
 
 @pytest.fixture(scope="module")
-def scenes() -> dict:
-    return {name: build_scene(_environment(name, style="furnished"), seed=0) for name in ENVS}
+def scenes(furnished_bear_scenes) -> dict:
+    """{'miniroom_1': furnished Scene, …} of the ten BEAR environments, as an episode run with ``--seed 0`` builds
+    them (conftest.py: the scenes test_one_home reads too)."""
+    return {name: furnished_bear_scenes[name.rsplit("_", 1)[0], int(name.rsplit("_", 1)[1])] for name in ENVS}
 
 
 @pytest.mark.slow

@@ -9,7 +9,6 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -42,14 +41,10 @@ def _key(o: dict) -> tuple:
 
 
 @pytest.fixture(scope="module")
-def variants(bear_envs) -> dict:
+def variants(furnished_bear_scenes) -> dict:
     """{(home, variant): furnished Scene} of the ten BEAR environments, each built with the world seed an episode run
-    with ``--seed 0`` gives it (benchbot.core.seeding.environment_world_seed)."""
-    out = {}
-    for key, env in bear_envs.items():
-        name, v = key.split(":")
-        out[name, int(v)] = build_scene({**env, "style": "furnished"}, seed=environment_world_seed(0, env))
-    return out
+    with ``--seed 0`` gives it (benchbot.core.seeding.environment_world_seed; conftest.py)."""
+    return furnished_bear_scenes
 
 
 def _material_fingerprints(scene) -> list[str]:
@@ -78,10 +73,34 @@ def _triangles(scene, objects: bool) -> tuple[np.ndarray, np.ndarray, list[str]]
     return scene.tri_v[idx].astype(np.float64), scene.tri_uv[idx].astype(np.float64), mats
 
 
-def _bag(v: np.ndarray, uv: np.ndarray, mats: list[str]) -> Counter:
+#: Material fingerprints (:func:`_material_fingerprints`) numbered in the order first met, for the rows of a bag.
+_FINGERPRINT_NUMBERS: dict[str, int] = {}
+
+
+class _Bag:
+    """The triangles as a multiset (vertices and UVs to 10 µm, materials): a Counter of the triangles' tuples, kept
+    as their rows sorted (NumPy: a house's 100,000 triangles as Python tuples took seconds). Two bags are equal when
+    they hold the same triangles, each as many times; ``len`` is the number of distinct triangles."""
+
+    def __init__(self, v: np.ndarray, uv: np.ndarray, mats: list[str]):
+        numbers = [_FINGERPRINT_NUMBERS.setdefault(m, len(_FINGERPRINT_NUMBERS)) for m in mats]
+        rows = np.concatenate([np.round(v.reshape(len(v), 9), 5), np.round(uv.reshape(len(uv), 6), 5),
+                               np.asarray(numbers, dtype=np.float64).reshape(-1, 1)], axis=1)
+        rows += 0.0  # -0.0 → 0.0: equal as the tuples' floats are
+        self.rows = rows[np.lexsort(rows.T[::-1])]
+
+    def __len__(self) -> int:
+        return int(len(self.rows) and 1 + np.any(self.rows[1:] != self.rows[:-1], axis=1).sum())
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Bag) and np.array_equal(self.rows, other.rows)
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def _bag(v: np.ndarray, uv: np.ndarray, mats: list[str]) -> _Bag:
     """The triangles as a multiset (vertices and UVs to 10 µm, materials)."""
-    return Counter(zip(map(tuple, np.round(v.reshape(len(v), 9), 5)), map(tuple, np.round(uv.reshape(len(uv), 6), 5)),
-                       mats))
+    return _Bag(v, uv, mats)
 
 
 @pytest.mark.parametrize("name", HOMES)
