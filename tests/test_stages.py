@@ -124,3 +124,30 @@ def test_the_kernel_stage_says_compiling_then_loading_cached_kernels(tmp_path):
     assert kernel_cache.kernels_state("k1", cache) == "disk"
     assert kernel_cache.STAGES["disk"][0] == "loading cached kernels"
     assert kernel_cache.kernels_state("k2", cache) == "cold"  # other sources, Taichi or arch
+
+
+def test_the_kernels_key_follows_what_taichi_keys_its_kernels_by(monkeypatch):
+    """The thread count Taichi holds (``cpu_max_num_threads``: a batch worker's share of the cores) and the quick
+    compiles' setting are in Taichi's own kernel keys, so they are in the marker's key too."""
+    import taichi as ti
+
+    from benchbot_sim_taichi.render import kernel_cache
+    from benchbot_sim_taichi.render.renderer import ensure_taichi
+
+    ensure_taichi("cpu")
+    real = ti.lang.impl.current_cfg
+
+    def keys() -> set:
+        found = set()
+        for threads, quick in ((2, "1"), (1, "1"), (2, "0")):
+            monkeypatch.setattr(ti.lang.impl, "current_cfg", lambda: type("Cfg", (), {"cpu_max_num_threads": threads}))
+            monkeypatch.setenv("BENCHBOT_TAICHI_QUICK_COMPILE", quick)
+            kernel_cache.kernels_key.cache_clear()
+            found.add(kernel_cache.kernels_key("cpu", "fast"))
+        return found
+
+    try:
+        assert len(keys()) == 3
+    finally:
+        monkeypatch.setattr(ti.lang.impl, "current_cfg", real)
+        kernel_cache.kernels_key.cache_clear()

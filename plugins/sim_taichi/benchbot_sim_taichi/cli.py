@@ -8,8 +8,8 @@
   the ground-truth boxes and the robot's path)
 * ``benchbot sim ground-truth ENV -o FILE.json`` (the ground truth derived from the scene: per object the
   axis-aligned bounds of its geometry; for environments with mesh ``objects``)
-* ``benchbot sim prepare [ENV ...] [--arch auto|cpu|gpu] [--quality] [--json]`` (a machine's first-run work done
-  ahead: the kernels compiled into Taichi's offline cache, the scenes built into the scene cache;
+* ``benchbot sim prepare [ENV ...] [--arch auto|cpu|gpu] [--quality] [--workers N] [--json]`` (a machine's first-run
+  work done ahead: the kernels compiled into Taichi's offline cache, the scenes built into the scene cache;
   :mod:`benchbot_sim_taichi.prepare`)
 """
 
@@ -24,7 +24,7 @@ import typer
 from benchbot.cli.common import showing_stages
 from benchbot.cli.options import at_most, check_count
 from benchbot.core import stages
-from benchbot.core.limits import MAX_CAMERA_SIDE, MAX_RENDER_SAMPLES, MAX_SEED
+from benchbot.core.limits import MAX_CAMERA_SIDE, MAX_RENDER_SAMPLES, MAX_SEED, MAX_WORKERS
 from benchbot.core.seeding import environment_world_seed
 
 app = typer.Typer(help="The Taichi simulator (sim_taichi): render views, export scenes, derive ground truths.",
@@ -254,6 +254,9 @@ def prepare(envs: list[str] = typer.Argument(None, help="environments, name:vari
                                      f"batch's --seed ({at_most(MAX_SEED)})"),
             quality: bool = typer.Option(False, "--quality", help="also quality mode's kernels (the path tracer: "
                                          "about half a minute more on 2 cores)"),
+            workers: int = typer.Option(1, "--workers", help="prepare for benchbot batch --workers N on the CPU: "
+                                        "Taichi keys its kernels by the thread count, and each of N workers gets "
+                                        f"cores/N threads ({at_most(MAX_WORKERS, 1)})"),
             as_json: bool = typer.Option(False, "--json", help="print {kernel_cache, kernel_cache_bytes, "
                                          "scene_cache, scene_cache_bytes, seconds} as JSON"),
             ) -> None:
@@ -268,10 +271,15 @@ def prepare(envs: list[str] = typer.Argument(None, help="environments, name:vari
         from benchbot_sim_taichi import prepare as ahead
 
         check_count("--seed", seed, MAX_SEED)
+        check_count("--workers", workers, MAX_WORKERS, 1)
         if arch not in ("auto", "cpu", "gpu", "cuda"):
             from benchbot.core.errors import UsageError
 
             raise UsageError(f"unknown --arch {arch!r}", "use auto, cpu or gpu")
+        if workers > 1:  # as a batch's worker gets it (benchbot.batch.executors); a value set already wins
+            import os
+
+            os.environ.setdefault("BENCHBOT_TAICHI_THREADS", str(max(1, (os.cpu_count() or 1) // workers)))
         names = list(envs or ahead.DEFAULT_ENVIRONMENTS)
         todo = ahead.steps([(name, _environment(name)) for name in names], registry().get("robots", "carter"),
                            backend_options(arch, None), seed=seed, quality=quality)

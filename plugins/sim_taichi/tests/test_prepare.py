@@ -80,3 +80,27 @@ def test_prepare_refuses_bad_input_in_one_line(tmp_path, args, says):
     assert proc.returncode != 0
     assert says in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
     assert not (tmp_path / "taichi").exists()  # refused before anything was compiled
+
+
+def test_workers_give_the_threads_a_batch_worker_gets(monkeypatch):
+    """``--workers N``: the steps run with BENCHBOT_TAICHI_THREADS = cores // N (as ``benchbot batch --workers N``
+    gives each worker; Taichi keys its kernels by it), unless it is set already."""
+    from typer.testing import CliRunner
+
+    from benchbot_sim_taichi import prepare
+    from benchbot_sim_taichi.cli import app
+
+    seen = []
+    monkeypatch.setattr(prepare, "steps", lambda *a, **k: [prepare.Step("look", lambda: seen.append(
+        os.environ.get("BENCHBOT_TAICHI_THREADS")))])
+    monkeypatch.setattr(prepare, "finish", lambda: {"kernel_cache": None, "kernel_cache_bytes": 0,
+                                                    "scene_cache": "x", "scene_cache_bytes": 0})
+    monkeypatch.delenv("BENCHBOT_TAICHI_THREADS", raising=False)
+    for args, want in ((["--workers", "2"], str(max(1, (os.cpu_count() or 1) // 2))), ([], None)):
+        monkeypatch.delenv("BENCHBOT_TAICHI_THREADS", raising=False)
+        result = CliRunner().invoke(app, ["prepare", "miniroom:1", "--arch", "cpu", "--json", *args])
+        assert result.exit_code == 0, result.output
+        assert seen[-1] == want
+    monkeypatch.setenv("BENCHBOT_TAICHI_THREADS", "7")
+    assert CliRunner().invoke(app, ["prepare", "miniroom:1", "--arch", "cpu", "--workers", "2"]).exit_code == 0
+    assert seen[-1] == "7"

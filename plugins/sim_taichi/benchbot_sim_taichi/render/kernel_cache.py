@@ -5,9 +5,12 @@ later run) or only warming up ones this process compiled already (a later scene 
 Taichi keys its offline cache (``offline_cache_file_path``, ``~/.cache/taichi/ticache`` by default, a flat folder of
 ``*.tic`` files and a ``ticache.tcb`` index) by a hash of each kernel, which is not cheap to predict. So after a run
 that compiled, a marker ``benchbot-<key>.compiled`` is written beside those files, ``<key>`` hashing Taichi's
-version, the arch, the render mode, the Python version and the sources of ``render/`` (where every kernel is). A
-later run finds its kernels cached when that marker exists and the index was written after it (Taichi writes the
-index when a process that compiled ends; a process that died first left no kernels, and then it compiles again).
+version, the arch, the render mode, the Python version, the sources of ``render/`` (where every kernel is) and the
+settings that are part of Taichi's own keys (Taichi's ``cpu_max_num_threads``, which ``BENCHBOT_TAICHI_THREADS``
+sets, and ``BENCHBOT_TAICHI_QUICK_COMPILE``: the compile options of
+:mod:`~benchbot_sim_taichi.render.compile_options`). A later run finds its kernels cached when that marker exists and
+the index was written after it (Taichi writes the index when a process that compiled ends; a process that died first
+left no kernels, and then it compiles again).
 """
 
 from __future__ import annotations
@@ -31,11 +34,18 @@ STAGES = {  # state -> (stage name, detail)
 
 @functools.lru_cache(maxsize=8)
 def kernels_key(arch: str, mode: str) -> str:
-    """16 hex digits naming this process's kernels: Taichi's version, ``arch``, ``mode``, Python, render/'s sources
-    (read once per process: every episode's reset asks)."""
+    """16 hex digits naming this process's kernels: Taichi's version, ``arch``, ``mode``, Python, render/'s sources,
+    the thread count and quick-compile settings (read once per process: every episode's reset asks)."""
     import taichi as ti
 
-    digest = hashlib.sha256(f"{ti.__version__}|{arch}|{mode}|{sys.version_info[:2]}".encode())
+    from benchbot_sim_taichi.render.compile_options import quick_compiles_wanted
+
+    try:  # the thread count initialised Taichi's config holds (its default: every core)
+        threads = ti.lang.impl.current_cfg().cpu_max_num_threads
+    except AttributeError:
+        threads = None
+    taken = f"{threads}|{quick_compiles_wanted()}"
+    digest = hashlib.sha256(f"{ti.__version__}|{arch}|{mode}|{sys.version_info[:2]}|{taken}".encode())
     for path in sorted(_SOURCES.glob("*.py")):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
