@@ -652,7 +652,7 @@ def _score(
 
     ``detail`` (a dict, or None) receives what was decided, for :func:`_matches`: ``pairs`` ``{gt row: (proposal
     column, overall, label, spatial)}`` of the TPs and ``fp_cost`` ``{proposal column: cost}`` of the FPs."""
-    from scipy.optimize import linear_sum_assignment
+    from benchbot_eval_omq.assignment import linear_sum_assignment
 
     scd = states is not None
     g, p = len(gt_class), labels.shape[0]
@@ -690,7 +690,7 @@ def _score(
     # the rectangular g×p one solved here (scipy supports rectangular matrices; 40× faster at g=56, p=1000).
     # Only pairs with overall > 0 become TPs; every other real row is an FN and every other real column an FP.
     cost = (1.0 - overall).astype(np.float32)
-    rows, cols = linear_sum_assignment(cost)
+    rows, cols = linear_sum_assignment()(cost)
     matched = overall[rows, cols] > 0
     tp_rows, tp_cols = rows[matched], cols[matched]
     for r, c in zip(tp_rows, tp_cols):
