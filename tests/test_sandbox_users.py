@@ -369,6 +369,7 @@ def xvfb(tmp_path):
     server.wait(timeout=10)
 
 
+@pytest.mark.slow
 def test_the_users_x11_display_reaches_a_sandboxed_solution(tmp_path, registry, xvfb):
     """The original viewer's case: with ``DISPLAY`` set, Tk connects inside the sandbox (the display's socket and
     its cookie, rewritten for the sandbox's own host name) and matplotlib picks TkAgg. A cookie that does not match

@@ -367,6 +367,7 @@ def test_a_format_validator_that_crashes_fails_only_its_file(registry, tmp_path)
     assert json.loads((tmp_path / "s.json").read_text())["scores"]["OMQ"] == 1.0
 
 
+@pytest.mark.slow
 def test_eval_says_what_a_results_path_is_in_one_line(registry, tmp_path):
     """A folder, a FIFO and /dev/zero were "no such results file"; a text file named .zip and a truncated zip were
     "not valid JSON". Each is now said for what it is, and the FIFO is never opened (no writer ever comes)."""
@@ -426,6 +427,7 @@ def test_allow_code_written_into_an_installed_manifest_by_hand_imports_nothing(t
     assert not marker.exists()
 
 
+@pytest.mark.slow
 def test_code_changed_after_install_with_allow_code_is_not_imported_until_installed_again(tmp_path, data_dir):
     marker = tmp_path / "imported"
     pack = make_pack(tmp_path / "coded", {"formats/f.yaml": EVIL_FORMAT.format(function="mine.create"),

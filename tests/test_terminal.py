@@ -33,6 +33,7 @@ def test_batch_view_closes_itself_and_prints_the_scores(tmp_path):
         assert "[Taichi]" not in term.text  # Taichi's banner is kept out of every command's output
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
     """The bound is the design's (benchbot/batch/stopping.py), not this machine's speed: the waits before Ctrl-C
     are on what the screen shows, with room for a loaded machine; after it, the command must be gone within
@@ -55,6 +56,7 @@ def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
     assert "running" not in states and "interrupted" in states, states
 
 
+@pytest.mark.slow
 def test_ctrl_c_is_bounded_even_when_the_solution_ignores_sigterm(tmp_path):
     """The worst case the bound is for: a solution that ignores SIGTERM with a 60 s grace before SIGKILL. The
     command is still gone within STOP_BOUND_S of Ctrl-C, and so is the solution (its group was SIGKILLed)."""

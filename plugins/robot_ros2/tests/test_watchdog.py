@@ -135,6 +135,7 @@ def _backend(transport, **ros2):
     return Ros2RobotBackend(spec, {"transport": transport})
 
 
+@pytest.mark.slow
 def test_a_starved_reading_thread_and_a_late_check_do_not_fault(transport):
     """Mid-motion the reading thread stops taking messages and the control loop's next check runs 1.5 s late (5x
     ``sensor_timeout_s``), judging while the robot's messages are still queued: the motion goes on and ends. Before
@@ -220,6 +221,7 @@ def _task():
             "localisation": "ground_truth", "scene_count": 1}
 
 
+@pytest.mark.slow
 def test_a_fault_over_http_is_a_503_the_client_shows_as_one_line(transport, registry_for_http):
     """The original protocol's action route answers a robot fault with 503 and ``{error, hint}`` (the original
     client treats any status >= 300 as a failure of that route); the native client raises ``BackendRefused``

@@ -26,6 +26,7 @@ def _count_calls(monkeypatch, owner, name: str) -> list:
     return calls
 
 
+@pytest.mark.slow
 def test_factory_and_start_pose(bear_envs, carter_spec):
     from benchbot_sim_taichi import plugin
 
@@ -167,6 +168,7 @@ def test_drive_into_wall_collides(synthetic_env, make_backend):
     assert isinstance(b.obstacles, Obstacles)
 
 
+@pytest.mark.slow
 def test_all_trajectories_collision_free(bear_envs, carter_spec):
     """Driving the start pose through every trajectory pose of all ten environments never collides and reaches each
     pose within 0.01 m / 1°. (Kinematics only: no rendering.)"""

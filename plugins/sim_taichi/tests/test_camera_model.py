@@ -110,6 +110,7 @@ def test_auto_exposure_meters_the_log_average_luminance_to_the_key():
     assert np.array_equal(auto.encode(dim, K, gain=1.0), CameraModel(tone_curve="filmic").encode(dim, K))
 
 
+@pytest.mark.slow
 def test_quality_mode_frames_of_a_daylit_and_a_lamplit_room_are_exposed_alike(bear_envs):
     """Quality mode's light is physical: a furnished room lit by daylight through its windows (miniroom:2) and one
     under its lamps at night (miniroom:3) differ severalfold in radiance, and a fixed exposure leaves the first dark

@@ -57,7 +57,7 @@ def test_bear_homes_are_in_their_home_frame_and_every_symmetry_finds_it(name):
         assert f.objects_to_home(moved_objects) == objects  # … exactly: the same home-frame layout, bit for bit
 
 
-@pytest.mark.parametrize("name, variant", [("miniroom", 1), ("house", 2)])
+@pytest.mark.parametrize("name, variant", [("miniroom", 1), pytest.param("house", 2, marks=pytest.mark.slow)])
 def test_a_turned_or_mirrored_layout_gives_the_same_world_turned_or_mirrored(tmp_path, name, variant):
     base = _scene(tmp_path / "base", name, variant, _home(name))
     for label, M in TURNS.items():
@@ -93,6 +93,7 @@ def test_a_turned_or_mirrored_layout_gives_the_same_world_turned_or_mirrored(tmp
         np.testing.assert_array_equal(base.light_colour, moved.light_colour)
 
 
+@pytest.mark.slow
 def test_the_turned_and_mirrored_worlds_render_as_turned_and_mirrored_images(tmp_path):
     """From the carried poses, a quarter turn of miniroom:1 renders the same images, a mirror the images mirrored
     left to right: depth, class and instance exactly; RGB to one level in a few pixels (float32 shading sums). The

@@ -103,7 +103,7 @@ def _bag(v: np.ndarray, uv: np.ndarray, mats: list[str]) -> _Bag:
     return _Bag(v, uv, mats)
 
 
-@pytest.mark.parametrize("name", HOMES)
+@pytest.mark.parametrize("name", ["miniroom", pytest.param("house", marks=pytest.mark.slow)])
 def test_the_variants_of_a_home_share_one_plan_materials_and_furniture(variants, name):
     """The plan (rooms, walls, doors, windows, lamps: its digest), and every triangle that is not a ground-truth
     object — floors, walls and ceilings with their materials, doors, windows, lamps, supports, distractor furniture —
@@ -196,7 +196,7 @@ def _carry(M, t, lo, hi):
     return np.minimum(a, b), np.maximum(a, b)
 
 
-@pytest.mark.parametrize("name, variant", [("miniroom", 1), ("house", 2)])
+@pytest.mark.parametrize("name, variant", [("miniroom", 1), pytest.param("house", 2, marks=pytest.mark.slow)])
 def test_a_moved_home_is_the_same_world_moved(tmp_path, variants, name, variant):
     """Translated by (7.3, -2.1) m, or turned a quarter and translated: the same rooms, walls, doors, windows, lamps
     (to 1e-9 m), every triangle in the same order within 1e-5 m (float32) with the same texture coordinates and
