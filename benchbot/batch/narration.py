@@ -18,6 +18,15 @@ from typing import Callable
 QUIET_S = 10.0
 
 
+def format_seconds(seconds: float | None) -> str:
+    """``m:ss`` (``h:mm:ss`` past an hour); ``""`` for None. Here, not in the live view's module, so that a batch
+    that prints lines does not import Textual for it."""
+    if seconds is None:
+        return ""
+    s = int(round(seconds))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
 def _clock(seconds: float) -> str:
     s = int(seconds)
     return f"{s // 60}:{s % 60:02d}"

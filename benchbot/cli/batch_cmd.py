@@ -338,7 +338,7 @@ def lost_line(info: dict, label: str) -> str:
 
 def episode_line(record: EpisodeRecord, label: str) -> str:
     """One line (rich markup) for a finished episode: ``[2/4] house:1  ok  269 steps  1:12``."""
-    from benchbot.tui.batch_app import format_seconds
+    from benchbot.batch.narration import format_seconds
 
     colour = "green" if record.status == "ok" else "red"
     line = f"{label}  [{colour}]{record.status}[/]  {record.steps} step{'s' if record.steps != 1 else ''}"
@@ -354,7 +354,7 @@ def batch_summary(outcome, elapsed_s: float) -> str:
     (:func:`benchbot.batch.signing.worlds_standing`: ``held-out worlds``, or ``development — ground truth public``
     when any environment is a public world, BEAR or procedural train/val)."""
     from benchbot.batch.signing import HELD_OUT, worlds_standing
-    from benchbot.tui.batch_app import format_seconds
+    from benchbot.batch.narration import format_seconds
 
     counts: dict[str, int] = {}
     for record in outcome.episodes:

@@ -33,6 +33,7 @@ from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Log, Static
 
+from benchbot.batch.narration import format_seconds
 from benchbot.batch.plan import expected_steps
 from benchbot.batch.progress import PROGRESS, read_progress
 from benchbot.tui.watch import FileWatcher, Watched, read_json
@@ -102,14 +103,6 @@ def _or_empty(read: Callable[[Any], dict], content: Any) -> dict:
         return read(content)
     except (AttributeError, KeyError, TypeError, ValueError):
         return {}
-
-
-def format_seconds(seconds: float | None) -> str:
-    """``m:ss`` (``h:mm:ss`` past an hour); ``""`` for None."""
-    if seconds is None:
-        return ""
-    s = int(round(seconds))
-    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
 @dataclass
