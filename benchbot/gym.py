@@ -39,7 +39,7 @@ ENV_IDS: dict[str, dict[str, Any]] = {
 
 #: Gymnasium id → its ``vector_entry_point``: ``gym.make_vec(id, num_envs=N)`` builds N batched robots in one
 #: process by default (:mod:`benchbot.gym_vector`); ``vectorization_mode="sync"`` steps N environments instead.
-VECTOR_ENTRY_POINTS: dict[str, str] = {"BenchBot-v0": "benchbot.gym_vector:BenchBotVectorEnv"}
+VECTOR_ENTRY_POINTS: dict[str, str] = {"BenchBot-v0": "benchbot.gym_devices:make_vector_env"}
 
 
 def _gym() -> Any:

@@ -64,6 +64,36 @@ def _one_line(array: np.ndarray) -> str:
     return " ".join(np.array2string(np.asarray(array), threshold=16, max_line_width=10**9).split())
 
 
+def reset_mask(options: dict | None, num_envs: int) -> np.ndarray:
+    """The (N,) bool mask of ``reset(options=...)``: ``options['reset_mask']``, else all True.
+
+    Raises:
+        ValueError: a mask that is not (N,) bool with at least one True.
+    """
+    if options is None or "reset_mask" not in options:
+        return np.ones(num_envs, dtype=bool)
+    mask = np.asarray(options["reset_mask"])
+    if mask.shape != (num_envs,) or mask.dtype != np.bool_ or not mask.any():
+        raise ValueError(f"options['reset_mask'] must be ({num_envs},) bool with at least one True, "
+                         f"got {_one_line(mask)}")
+    return mask
+
+
+def checked_actions(actions: Any, env: Any) -> np.ndarray:
+    """``actions`` as (N,) int64 for ``env`` (a vector environment: ``num_envs``, ``action_space``,
+    ``single_action_space``).
+
+    Raises:
+        ValueError: not N integers of the action space (one line).
+    """
+    actions = np.asarray(actions)
+    if (actions.shape != (env.num_envs,) or actions.dtype.kind not in "iu"
+            or not env.action_space.contains(actions.astype(np.int64))):
+        raise ValueError(f"actions must be {env.num_envs} integers of {env.single_action_space}, got "
+                         f"{_one_line(actions)} (shape {actions.shape}, {actions.dtype})")
+    return actions.astype(np.int64)
+
+
 def _environment_list(env: str | Sequence[str], num_envs: int) -> list[str]:
     """``env`` as one ``name:variant`` string per sub-environment.
 
@@ -208,12 +238,7 @@ class _VectorEnvMethods:
         """
         if seed is not None:
             self._np_random, self._np_random_seed = _gym().utils.seeding.np_random(seed)
-        mask = np.ones(self.num_envs, dtype=bool)
-        if options is not None and "reset_mask" in options:
-            mask = np.asarray(options["reset_mask"])
-            if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
-                raise ValueError(f"options['reset_mask'] must be ({self.num_envs},) bool with at least one True, "
-                                 f"got {_one_line(mask)}")
+        mask = reset_mask(options, self.num_envs)
         self._steps[mask] = 0
         self._next_pose[mask] = 0
         self._needs_reset[mask] = False
@@ -248,14 +273,9 @@ class _VectorEnvMethods:
         Raises:
             ValueError: ``actions`` is not N actions of the action space.
         """
-        actions = np.asarray(actions)
-        if (actions.shape != (self.num_envs,) or actions.dtype.kind not in "iu"
-                or not self.action_space.contains(actions.astype(np.int64))):
-            raise ValueError(f"actions must be {self.num_envs} integers of {self.single_action_space}, got "
-                             f"{_one_line(actions)} "
-                             f"(shape {actions.shape}, {actions.dtype})")
+        actions = checked_actions(actions, self)
         resetting, acting = self._needs_reset.copy(), ~self._needs_reset
-        collided, obs = _on_backend_thread(self._move_and_observe, actions.astype(np.int64), resetting, acting)
+        collided, obs = _on_backend_thread(self._move_and_observe, actions, resetting, acting)
         self._steps[resetting], self._next_pose[resetting] = 0, 0
         self._steps[acting] += 1
         finished = np.zeros(self.num_envs, dtype=bool)
@@ -340,4 +360,5 @@ def make_vector_env_class() -> type:
 __getattr__ = lazy_classes(globals(), {"BenchBotVectorEnv": make_vector_env_class})
 
 
-__all__ = ["BUILT_HERE", "BenchBotVectorEnv", "batched_entries", "make_vector_env_class"]
+__all__ = ["BUILT_HERE", "BenchBotVectorEnv", "batched_entries", "checked_actions", "make_vector_env_class",
+           "reset_mask"]

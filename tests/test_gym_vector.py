@@ -248,3 +248,123 @@ def test_bad_keywords_are_one_line_value_errors():
                           ({"max_steps": 0}, "max_steps"), ({"step_m": -1.0}, "step_m")):
         with pytest.raises(ValueError, match=match):
             gymnasium.make_vec("BenchBot-v0", **{"num_envs": 2, "task": ACTIVE, **kwargs})
+
+
+# --------------------------------------------------------------------------------------- several devices (processes)
+def test_devices_are_checked_before_anything_starts():
+    """``devices`` is refused in one line for bad values, GPUs on a CPU arch, 'cpu' processes on a GPU arch, and
+    more devices than sub-environments; the slices are contiguous and as even as possible."""
+    from benchbot.gym_devices import resolve_devices, split_envs
+
+    assert resolve_devices(None, "cpu") == ["cpu"] and resolve_devices(1, "cuda") == [0]
+    assert resolve_devices(["cpu", "cpu", "cpu"], None) == ["cpu"] * 3
+    assert split_envs(7, 3) == [(0, 3), (3, 5), (5, 7)] and split_envs(1024, 2) == [(0, 512), (512, 1024)]
+    make = gymnasium.make_vec
+    for devices, arch, match in ((0, "cpu", "devices must be"), ("many", "cpu", "devices must be"),
+                                 ([1, 0], "cuda", "devices must be"), ([0, 0], "cuda", "devices must be"),
+                                 (True, "cpu", "devices must be"), (2, "cpu", "options arch is 'cpu'"),
+                                 ("all", "cpu", "options arch is 'cpu'"), (["cpu", "cpu"], "cuda", "runs on the CPU")):
+        with pytest.raises(ValueError, match=match) as error:
+            make("BenchBot-v0", num_envs=4, task=ACTIVE, options={**SMALL, "arch": arch}, devices=devices)
+        assert "\n" not in str(error.value), devices
+    with pytest.raises(ValueError, match="at least one sub-environment per device"):
+        make("BenchBot-v0", num_envs=2, task=ACTIVE, options=SMALL, devices=["cpu"] * 3)
+
+
+@pytest.mark.slow
+def test_two_processes_give_one_process_results_byte_for_byte():
+    """devices=['cpu', 'cpu']: sub-environments 0-1 here, 2 in a worker process; observations (images, laser, pose),
+    terminated, truncated and infos equal a one-process vector environment's exactly, through collisions,
+    truncation, autoreset and reset masks that leave a whole slice out; ``on_device`` gives a tuple of the slices'
+    arrays; a worker's error comes back as its own exception."""
+    rng = np.random.default_rng(7)
+    actions = np.stack([np.zeros(14, int), np.full(14, 2), rng.integers(0, 4, 14)], axis=1)
+    kwargs = {"num_envs": 3, "task": ACTIVE, "env": "miniroom:1", "options": SMALL, "max_steps": 6}
+    runs = {}
+    for devices in (None, ["cpu", "cpu"]):
+        vec = gymnasium.make_vec("BenchBot-v0", devices=devices, **kwargs)
+        try:
+            run = [vec.reset(seed=0)]
+            run += [vec.step(a) for a in actions]
+            run += [vec.reset(options={"reset_mask": m}) for m in (np.array([False, False, True]),
+                                                                   np.array([True, False, False]))]
+            if devices:
+                assert type(vec).__name__ == "MultiDeviceVectorEnv" and vec.slices == [(0, 2), (2, 3)]
+                assert len(vec.render()) == 3
+        finally:
+            vec.close()
+        runs[str(devices)] = run
+    for t, (one, two) in enumerate(zip(runs["None"], runs["['cpu', 'cpu']"], strict=True)):
+        for a, b in zip(one, two, strict=True):
+            items = a.items() if isinstance(a, dict) else [("", a)]
+            for key, value in items:
+                other = b[key] if key else b
+                assert np.asarray(value).dtype == np.asarray(other).dtype, (t, key)
+                assert np.array_equal(value, other), (t, key)
+    assert {"COLLISION", "SUCCESS"} <= {r for step in runs["None"][1:15] for r in step[4]["result"]}
+
+    vec = gymnasium.make_vec("BenchBot-v0", num_envs=3, task=ACTIVE, env="miniroom:1", options=SMALL,
+                             devices=["cpu", "cpu"], on_device=True)
+    try:
+        obs, _ = vec.reset()
+        assert [np.from_dlpack(part).shape for part in obs["image_rgb"]] == [(2, 24, 32, 3), (1, 24, 32, 3)]
+        assert obs["laser"].shape == (3, 360)
+        first = np.concatenate(obs["image_rgb"])
+        obs = vec.step(np.array([2, 2, 2]))[0]
+        assert not np.array_equal(np.concatenate(obs["image_rgb"]), first)
+    finally:
+        vec.close()
+    with pytest.raises(SpecError, match="nosuchhome"):
+        gymnasium.make_vec("BenchBot-v0", num_envs=2, task=ACTIVE, env=["miniroom:1", "nosuchhome:1"], options=SMALL,
+                           devices=["cpu", "cpu"])
+
+
+def _gpus_and_torch() -> int:
+    try:
+        import torch
+    except ImportError:
+        return 0
+    return torch.cuda.device_count() if torch.cuda.is_available() else 0
+
+
+@pytest.mark.skipif(_gpus_and_torch() < 2, reason="needs two NVIDIA GPUs and PyTorch (runs on the GPU machine)")
+def test_two_gpus_hand_each_slice_over_on_its_own_gpu():
+    """devices=2 on CUDA: ``obs['image_rgb']`` is a tuple of one array per GPU, ``torch.from_dlpack`` of entry g a
+    tensor on cuda:g, equal byte for byte to one GPU's images of those sub-environments; the host path gives the same
+    NumPy arrays as one GPU; a read queued on GPU 1 behind a long kernel still sees its frame after the next step."""
+    import torch
+
+    options = {**SMALL, "arch": "cuda"}
+    kwargs = {"num_envs": 4, "task": ACTIVE, "env": "miniroom:1", "options": options}
+    one = gymnasium.make_vec("BenchBot-v0", **kwargs)
+    host = gymnasium.make_vec("BenchBot-v0", devices=2, **kwargs)
+    vec = gymnasium.make_vec("BenchBot-v0", devices=2, on_device=True, **kwargs)
+    try:
+        steps = [None, np.array([0, 2, 3, 1]), np.array([2, 2, 0, 3])]
+        for actions in steps:
+            expected = one.reset()[0] if actions is None else one.step(actions)[0]
+            got = vec.reset()[0] if actions is None else vec.step(actions)[0]
+            on_host = host.reset()[0] if actions is None else host.step(actions)[0]
+            for key in expected:
+                assert np.array_equal(on_host[key], expected[key]), key
+            for key in ("image_rgb", "image_depth"):
+                parts = [torch.from_dlpack(part) for part in got[key]]
+                assert [p.device.index for p in parts] == [0, 1], key
+                joined = torch.cat([p.cpu() for p in parts])
+                assert torch.equal(joined, torch.from_numpy(expected[key])), key
+            assert np.array_equal(got["pose"], expected["pose"]) and np.array_equal(got["laser"], expected["laser"])
+        assert vec.render()[3].shape == (24, 32, 3)
+        stream = torch.cuda.Stream(device=1)
+        rgb = torch.from_dlpack(got["image_rgb"][1])
+        with torch.cuda.device(1), torch.cuda.stream(stream):
+            given = rgb.clone()
+            torch.cuda.synchronize(1)
+            torch.cuda._sleep(200_000_000)
+            late = rgb.clone()  # queued behind the sleep, on GPU 1
+        obs = vec.step(np.array([3, 3, 3, 3]))[0]
+        torch.cuda.synchronize(1)
+        assert not torch.equal(torch.from_dlpack(obs["image_rgb"][1]), given) and torch.equal(late, given)
+    finally:
+        vec.close()
+        host.close()
+        one.close()

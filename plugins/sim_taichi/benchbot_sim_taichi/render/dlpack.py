@@ -80,8 +80,9 @@ class DeviceArray:
     """A Taichi ndarray (one of the renderer's output buffers), exported without a copy.
 
     Args:
-        ndarray: the Taichi ndarray (``taichi.ndarray``; element dimensions last in :attr:`shape`).
-        device_id: the CUDA device ordinal (Taichi's, 0).
+        ndarray: the Taichi ndarray (``taichi.ndarray``; element dimensions last in :attr:`shape`); None for an
+            array mapped from another process (:func:`open_shared` builds those).
+        device_id: the CUDA device ordinal (Taichi's, 0; a mapped array's: the device it lives on).
         device_type: :data:`KDL_CUDA` (default: the ndarray is in CUDA memory) or :data:`KDL_CPU` (Taichi on the
             CPU; NumPy views, :func:`~benchbot_sim_taichi.render.host_copy.host_view`, are simpler there, and the
             CUDA Array Interface is not offered).
@@ -161,5 +162,66 @@ class DeviceArray:
     def numpy(self) -> np.ndarray:
         """A new host copy, (shape) of :attr:`dtype` (Taichi's ``to_numpy``: call it on the backend thread,
         :func:`benchbot.server.service.backend_worker`, as :meth:`BenchBotVectorEnv.render
-        <benchbot.gym_vector.BenchBotVectorEnv.render>` does; on CUDA Taichi's context is current there only)."""
+        <benchbot.gym_vector.BenchBotVectorEnv.render>` does; on CUDA Taichi's context is current there only). An
+        array mapped from another process (:func:`open_shared`) is copied through its device's primary context, from
+        any thread."""
+        if self.ndarray is None:
+            from benchbot_sim_taichi.render.host_copy import copy_device_to_host
+
+            return copy_device_to_host(self.pointer, np.empty(self.shape, self.dtype), self.device_id)
         return self.ndarray.to_numpy()
+
+    # --- sharing with another process (CUDA IPC: a vector environment over several GPUs, benchbot.gym_devices) ---
+    def share(self) -> tuple[str, tuple]:
+        """How another process maps this memory: ``(opener, args)``, where ``opener`` names :func:`open_shared`
+        (``"module:function"``, so that the receiving side needs no import of this plugin up front) and ``args`` are
+        ``(IPC handle bytes, byte offset, shape, dtype str)``; ``open_shared(*args, device_id=k)`` there gives a
+        :class:`DeviceArray` over the same memory. Call on the thread where Taichi's CUDA context is current (the
+        backend thread).
+
+        Raises:
+            BufferError: the array is in host memory (share it through shared memory instead).
+            RuntimeError: the driver refused (its CUDA error in the message).
+        """
+        if self.device_type != KDL_CUDA:
+            raise BufferError("DeviceArray.share: the array is in host memory; CUDA IPC shares device memory only")
+        from benchbot_sim_taichi.render.host_copy import ipc_export
+
+        handle, offset = ipc_export(self.pointer)
+        return f"{__name__}:open_shared", (handle, offset, self.shape, self.dtype.str)
+
+    def release(self) -> None:
+        """Unmap an array made by :func:`open_shared` (idempotent; nothing for the renderer's own arrays). Exported
+        DLPack tensors of it must not be used afterwards."""
+        handle, self._ipc_handle = getattr(self, "_ipc_handle", None), None
+        if handle is not None:
+            from benchbot_sim_taichi.render.host_copy import ipc_close
+
+            ipc_close(handle, self.device_id)
+
+    def wait_for_readers(self) -> None:
+        """Wait for all work this process queued on the array's device in its primary context (a consumer's reads
+        on any of its streams), so that the process that owns the memory may write the next frame into it."""
+        from benchbot_sim_taichi.render.host_copy import synchronize_primary
+
+        synchronize_primary(self.device_id)
+
+
+def open_shared(handle: bytes, offset: int, shape: tuple, dtype: str, *, device_id: int) -> DeviceArray:
+    """A :class:`DeviceArray` over memory another process shared (:meth:`DeviceArray.share`), mapped into CUDA
+    device ``device_id``'s primary context of this process (``device_id``: this process's ordinal of the device the
+    other process renders on). Its DLPack and CUDA Array Interface exports name that device; :meth:`~DeviceArray.release`
+    unmaps it.
+
+    Raises:
+        RuntimeError: the driver refused (its CUDA error in the message).
+    """
+    from benchbot_sim_taichi.render.host_copy import ipc_open
+
+    array = DeviceArray.__new__(DeviceArray)
+    array.ndarray = None
+    array.device_id, array.device_type = int(device_id), KDL_CUDA
+    array.dtype, array.shape = np.dtype(dtype), tuple(int(n) for n in shape)
+    array.pointer = ipc_open(handle, device_id) + int(offset)
+    array._ipc_handle = bytes(handle)
+    return array

@@ -138,3 +138,135 @@ class HostCopier:
         for p in self._pinned_ptrs:
             check("cuMemFreeHost", cuda_driver().cuMemFreeHost(ctypes.c_void_p(p)))
         self._pinned_ptrs, self._host = [], {}
+
+
+# --- device memory shared between processes (CUDA IPC), for vector environments over several GPUs -------------------
+# (benchbot.gym_devices: a worker process per extra GPU exports its renderer's output buffers once; the main process
+# maps them and hands them to the user as DLPack arrays of that GPU). Driver API: cuIpcGetMemHandle,
+# cuIpcOpenMemHandle, cuDevicePrimaryCtxRetain (CUDA Driver API reference, "Memory Management" and "Primary Context
+# Management").
+
+#: ``CU_IPC_HANDLE_SIZE`` of cuda.h: an IPC memory handle is 64 opaque bytes.
+IPC_HANDLE_SIZE = 64
+_CU_IPC_MEM_LAZY_ENABLE_PEER_ACCESS = 1
+
+
+class _IpcMemHandle(ctypes.Structure):
+    _fields_ = [("reserved", ctypes.c_char * IPC_HANDLE_SIZE)]
+
+
+_PRIMARY: dict[int, int] = {}  # CUDA ordinal -> its primary context (retained once per process)
+_OPENED: dict[tuple[int, bytes], list] = {}  # (ordinal, handle) -> [mapped base address, references]
+
+
+def primary_context(ordinal: int) -> int:
+    """The primary context (``CUcontext`` as int) of CUDA device ``ordinal`` (of this process's visible devices),
+    retained once per process: the context PyTorch, CuPy and JAX use on that device.
+
+    Raises:
+        RuntimeError: a driver call failed (e.g. no such device).
+    """
+    if ordinal not in _PRIMARY:
+        lib = cuda_driver()
+        check("cuInit", lib.cuInit(0))
+        dev, ctx = ctypes.c_int(), ctypes.c_void_p()
+        check("cuDeviceGet", lib.cuDeviceGet(ctypes.byref(dev), int(ordinal)))
+        check("cuDevicePrimaryCtxRetain", lib.cuDevicePrimaryCtxRetain(ctypes.byref(ctx), dev))
+        _PRIMARY[ordinal] = ctx.value
+    return _PRIMARY[ordinal]
+
+
+class in_primary_context:
+    """``with in_primary_context(k):`` runs driver calls in CUDA device ``k``'s primary context (pushed on this
+    thread, popped after)."""
+
+    def __init__(self, ordinal: int) -> None:
+        self.ctx = primary_context(ordinal)
+
+    def __enter__(self) -> "in_primary_context":
+        check("cuCtxPushCurrent_v2", cuda_driver().cuCtxPushCurrent_v2(ctypes.c_void_p(self.ctx)))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        popped = ctypes.c_void_p()
+        check("cuCtxPopCurrent_v2", cuda_driver().cuCtxPopCurrent_v2(ctypes.byref(popped)))
+
+
+def device_count() -> int:
+    """The number of CUDA devices this process sees (``CUDA_VISIBLE_DEVICES`` applied); 0 without a driver or GPU."""
+    try:
+        lib = cuda_driver()
+    except OSError:
+        return 0
+    if lib.cuInit(0) != 0:
+        return 0
+    n = ctypes.c_int()
+    return n.value if lib.cuDeviceGetCount(ctypes.byref(n)) == 0 else 0
+
+
+def ipc_export(pointer: int) -> tuple[bytes, int]:
+    """What another process needs to map the device memory at ``pointer``: ``(handle, offset)``, the 64-byte IPC
+    handle of the allocation holding it (``cuMemGetAddressRange`` finds its base: Taichi sub-allocates ndarrays from
+    larger blocks) and ``pointer``'s offset in it. Call it where the memory's context is current (Taichi's thread).
+
+    Raises:
+        RuntimeError: a driver call failed (e.g. memory that cannot be shared: managed memory).
+    """
+    lib = cuda_driver()
+    base, size = ctypes.c_uint64(), ctypes.c_size_t()
+    check("cuMemGetAddressRange_v2", lib.cuMemGetAddressRange_v2(ctypes.byref(base), ctypes.byref(size),
+                                                                 ctypes.c_uint64(int(pointer))))
+    handle = _IpcMemHandle()
+    check("cuIpcGetMemHandle", lib.cuIpcGetMemHandle(ctypes.byref(handle), ctypes.c_uint64(base.value)))
+    return ctypes.string_at(ctypes.addressof(handle), IPC_HANDLE_SIZE), int(pointer) - base.value
+
+
+def ipc_open(handle: bytes, ordinal: int) -> int:
+    """The address, in CUDA device ``ordinal``'s primary context of this process, of the allocation another process
+    exported as ``handle`` (:func:`ipc_export`); mapped once per process and counted: pair each call with
+    :func:`ipc_close`.
+
+    Raises:
+        RuntimeError: the driver refused (its CUDA error in the message).
+    """
+    key = (int(ordinal), bytes(handle))
+    if key not in _OPENED:
+        lib = cuda_driver()
+        h = _IpcMemHandle.from_buffer_copy(bytes(handle))
+        ptr = ctypes.c_uint64()
+        open_fn = getattr(lib, "cuIpcOpenMemHandle_v2", None) or lib.cuIpcOpenMemHandle
+        with in_primary_context(ordinal):
+            check("cuIpcOpenMemHandle", open_fn(ctypes.byref(ptr), h, ctypes.c_uint(_CU_IPC_MEM_LAZY_ENABLE_PEER_ACCESS)))
+        _OPENED[key] = [ptr.value, 0]
+    _OPENED[key][1] += 1
+    return _OPENED[key][0]
+
+
+def ipc_close(handle: bytes, ordinal: int) -> None:
+    """Drop one reference taken by :func:`ipc_open`; the last unmaps the allocation (``cuIpcCloseMemHandle``)."""
+    key = (int(ordinal), bytes(handle))
+    entry = _OPENED.get(key)
+    if entry is None:
+        return
+    entry[1] -= 1
+    if entry[1] <= 0:
+        del _OPENED[key]
+        with in_primary_context(ordinal):
+            check("cuIpcCloseMemHandle", cuda_driver().cuIpcCloseMemHandle(ctypes.c_uint64(entry[0])))
+
+
+def synchronize_primary(ordinal: int) -> None:
+    """Wait for all work this process queued in CUDA device ``ordinal``'s primary context, on every stream (a
+    consumer's reads of mapped frames: PyTorch's, CuPy's)."""
+    with in_primary_context(ordinal):
+        check("cuCtxSynchronize", cuda_driver().cuCtxSynchronize())
+
+
+def copy_device_to_host(pointer: int, out: np.ndarray, ordinal: int) -> np.ndarray:
+    """Fill ``out`` (contiguous) from device memory at ``pointer`` of CUDA device ``ordinal`` (primary context;
+    synchronous); returns ``out``."""
+    with in_primary_context(ordinal):
+        check("cuMemcpyDtoH_v2", cuda_driver().cuMemcpyDtoH_v2(ctypes.c_void_p(out.ctypes.data),
+                                                                ctypes.c_uint64(int(pointer)),
+                                                                ctypes.c_size_t(out.nbytes)))
+    return out
