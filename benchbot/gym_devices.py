@@ -134,7 +134,6 @@ def serve_fd(fd: int) -> None:
     except BaseException as exc:  # noqa: BLE001 - sent to the main process, which raises it
         conn.send(("error", _portable(exc)))
         return
-    shared: dict[int, tuple] = {}  # device pointer -> its IPC description (exported once)
     try:
         while True:
             try:
@@ -148,7 +147,7 @@ def serve_fd(fd: int) -> None:
                 conn.send(("ok", None))
                 continue
             try:
-                conn.send(("ok", _answer(env, command, payload, blocks, shared)))
+                conn.send(("ok", _answer(env, command, payload, blocks)))
             except BaseException as exc:  # noqa: BLE001
                 conn.send(("error", _portable(exc)))
     finally:
@@ -170,7 +169,7 @@ def _attached(name: str) -> shared_memory.SharedMemory:
     return block
 
 
-def _answer(env: Any, command: str, payload: Any, blocks: dict, shared: dict) -> tuple:
+def _answer(env: Any, command: str, payload: Any, blocks: dict) -> tuple:
     from benchbot.gym_vector import _on_backend_thread
 
     if command == "reset":
@@ -180,14 +179,14 @@ def _answer(env: Any, command: str, payload: Any, blocks: dict, shared: dict) ->
         else:  # nothing of this slice is reset: its current observation, as the one-device env re-renders it
             obs = _on_backend_thread(env._observe)
             info = {"scene_number": np.zeros(len(mask), dtype=np.int64), "_scene_number": mask.copy()}
-        return _pack(obs, blocks, shared), info
+        return _pack(obs, blocks), info
     if command == "step":
         obs, rewards, terminated, truncated, info = env.step(payload)
-        return _pack(obs, blocks, shared), rewards, terminated, truncated, info
+        return _pack(obs, blocks), rewards, terminated, truncated, info
     raise ValueError(f"unknown worker command {command!r}")
 
 
-def _pack(obs: dict, blocks: dict, shared: dict) -> dict:
+def _pack(obs: dict, blocks: dict) -> dict:
     """The worker's observations for the pipe: ``("shm",)`` once written into their block, ``("ipc", opener,
     args)`` for a CUDA image, else the value."""
     from benchbot.gym_vector import _on_backend_thread
@@ -198,10 +197,8 @@ def _pack(obs: dict, blocks: dict, shared: dict) -> dict:
             value = np.asarray(value)
             np.copyto(np.ndarray(value.shape, value.dtype, buffer=blocks[key].buf), value)
             out[key] = ("shm",)
-        elif hasattr(value, "share"):
-            if value.pointer not in shared:
-                shared[value.pointer] = _on_backend_thread(value.share)  # Taichi's context is current there
-            out[key] = ("ipc",) + shared[value.pointer]
+        elif hasattr(value, "share"):  # described once per buffer by the array itself; on Taichi's thread
+            out[key] = ("ipc",) + _on_backend_thread(value.share)
         else:
             out[key] = ("value", value)
     return out
@@ -244,7 +241,8 @@ class _Worker:
         for key, sub in space.spaces.items():
             shape, dtype = (self.count,) + tuple(sub.shape), np.dtype(sub.dtype)
             self.shapes[key] = (shape, dtype)
-            self.blocks[key] = shared_memory.SharedMemory(create=True, size=max(1, int(np.prod(shape)) * dtype.itemsize))
+            size = max(1, int(np.prod(shape)) * dtype.itemsize)
+            self.blocks[key] = shared_memory.SharedMemory(create=True, size=size)
         self.conn.send(("blocks", {key: block.name for key, block in self.blocks.items()}))
         self.receive()
 
@@ -317,7 +315,8 @@ class _Worker:
 
 
 class _MultiDeviceMethods:
-    """The methods of :class:`MultiDeviceVectorEnv` (which adds Gymnasium's ``VectorEnv``: :func:`make_multi_device_class`)."""
+    """The methods of :class:`MultiDeviceVectorEnv` (which adds Gymnasium's ``VectorEnv``:
+    :func:`make_multi_device_class`)."""
 
     def __init__(self, num_envs: int = 1, *, devices: Any = "all", on_device: bool = False,
                  env: str | Sequence[str] | None = None, options: dict | None = None, **kwargs: Any) -> None:

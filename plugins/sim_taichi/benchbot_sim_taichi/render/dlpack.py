@@ -176,8 +176,11 @@ class DeviceArray:
         """How another process maps this memory: ``(opener, args)``, where ``opener`` names :func:`open_shared`
         (``"module:function"``, so that the receiving side needs no import of this plugin up front) and ``args`` are
         ``(IPC handle bytes, byte offset, shape, dtype str)``; ``open_shared(*args, device_id=k)`` there gives a
-        :class:`DeviceArray` over the same memory. Call on the thread where Taichi's CUDA context is current (the
-        backend thread).
+        :class:`DeviceArray` over the same memory. Call it on the thread where Taichi's CUDA context is current (the
+        backend thread), after the kernels that write the array, for every frame: the description is made once per
+        buffer. Where the driver refuses to share the renderer's own memory (memory that is not a plain
+        ``cuMemAlloc`` block), the frame is copied into a shareable buffer of the same size instead (device to
+        device, synchronised before this returns; said once on stderr).
 
         Raises:
             BufferError: the array is in host memory (share it through shared memory instead).
@@ -187,7 +190,20 @@ class DeviceArray:
             raise BufferError("DeviceArray.share: the array is in host memory; CUDA IPC shares device memory only")
         from benchbot_sim_taichi.render.host_copy import ipc_export
 
-        handle, offset = ipc_export(self.pointer)
+        key = (self.pointer, self.shape, self.dtype.str)
+        if key not in _SHARED:
+            try:
+                _SHARED[key] = (None, ipc_export(self.pointer))
+            except RuntimeError as exc:
+                staging = _Staging(self.dtype.itemsize * int(np.prod(self.shape)))
+                _SHARED[key] = (staging, ipc_export(staging.pointer))
+                import sys
+
+                print(f"benchbot: CUDA IPC of the renderer's buffer was refused ({exc}); sharing a copy instead",
+                      file=sys.stderr, flush=True)
+        staging, (handle, offset) = _SHARED[key]
+        if staging is not None:
+            staging.fill(self.pointer)
         return f"{__name__}:open_shared", (handle, offset, self.shape, self.dtype.str)
 
     def release(self) -> None:
@@ -207,11 +223,37 @@ class DeviceArray:
         synchronize_primary(self.device_id)
 
 
+class _Staging:
+    """A shareable device buffer (``cuMemAlloc``) of ``nbytes`` in the current context, into which a frame is
+    copied when its own memory cannot be shared; freed with the process."""
+
+    def __init__(self, nbytes: int) -> None:
+        from benchbot_sim_taichi.render.host_copy import check, cuda_driver
+
+        self.nbytes = int(nbytes)
+        p = ctypes.c_uint64()
+        check("cuMemAlloc_v2", cuda_driver().cuMemAlloc_v2(ctypes.byref(p), ctypes.c_size_t(max(self.nbytes, 1))))
+        self.pointer = p.value
+
+    def fill(self, source: int) -> None:
+        """Copy ``nbytes`` from device address ``source`` and wait for the copy (``cuCtxSynchronize``)."""
+        from benchbot_sim_taichi.render.host_copy import check, cuda_driver
+
+        lib = cuda_driver()
+        check("cuMemcpyDtoD_v2", lib.cuMemcpyDtoD_v2(ctypes.c_uint64(self.pointer), ctypes.c_uint64(int(source)),
+                                                     ctypes.c_size_t(self.nbytes)))
+        check("cuCtxSynchronize", lib.cuCtxSynchronize())
+
+
+#: ``{(pointer, shape, dtype): (staging buffer or None, (IPC handle, offset))}`` of the arrays this process shared
+_SHARED: dict[tuple, tuple] = {}
+
+
 def open_shared(handle: bytes, offset: int, shape: tuple, dtype: str, *, device_id: int) -> DeviceArray:
     """A :class:`DeviceArray` over memory another process shared (:meth:`DeviceArray.share`), mapped into CUDA
     device ``device_id``'s primary context of this process (``device_id``: this process's ordinal of the device the
-    other process renders on). Its DLPack and CUDA Array Interface exports name that device; :meth:`~DeviceArray.release`
-    unmaps it.
+    other process renders on). Its DLPack and CUDA Array Interface exports name that device;
+    :meth:`~DeviceArray.release` unmaps it.
 
     Raises:
         RuntimeError: the driver refused (its CUDA error in the message).

@@ -236,7 +236,8 @@ def ipc_open(handle: bytes, ordinal: int) -> int:
         ptr = ctypes.c_uint64()
         open_fn = getattr(lib, "cuIpcOpenMemHandle_v2", None) or lib.cuIpcOpenMemHandle
         with in_primary_context(ordinal):
-            check("cuIpcOpenMemHandle", open_fn(ctypes.byref(ptr), h, ctypes.c_uint(_CU_IPC_MEM_LAZY_ENABLE_PEER_ACCESS)))
+            flags = ctypes.c_uint(_CU_IPC_MEM_LAZY_ENABLE_PEER_ACCESS)
+            check("cuIpcOpenMemHandle", open_fn(ctypes.byref(ptr), h, flags))
         _OPENED[key] = [ptr.value, 0]
     _OPENED[key][1] += 1
     return _OPENED[key][0]
