@@ -3,7 +3,8 @@
 first frame) with an empty Taichi kernel cache and an empty scene cache, and each kernel's compile is timed on its
 own.
 
-    uv run python benchmarks/cold_start.py [--env miniroom:1] [--arch cpu] [--runs 1] [--compare] [--json]
+    uv run python benchmarks/cold_start.py [--env miniroom:1] [--arch cpu] [--runs 1] [--compare] [--cached]
+        [--keep-kernels DIR] [--json]
 
 Per kernel: its front end (Taichi turning its Python into IR, ``Kernel.materialize``) and its compile (Taichi's IR
 passes and LLVM's, ``Program.compile_kernel``), each in wall seconds and in CPU seconds of the whole process (Taichi
@@ -13,9 +14,13 @@ seconds grow with it, the CPU seconds much less). The sensors' kernels are launc
 (``Renderer.kernel_timer``), not through their compiled graph, so that each is timed alone: the graph compiles the
 same kernels at its first run. ``--compare`` runs each case with quick compiles on and off
 (``BENCHBOT_TAICHI_QUICK_COMPILE``, :mod:`benchbot_sim_taichi.render.compile_options`), alternating, and prints the
-median of ``--runs`` runs of each; ``--taichi-profile FILE`` writes Taichi's scoped profiler (seconds per IR pass) of
+median of ``--runs`` runs of each; ``--cached`` follows each cold load with a second fresh process that loads the
+environment with the kernels the first one compiled (an empty scene cache again): the case's ``kernels cached``
+figures, what a later first command costs; ``--keep-kernels DIR`` copies the kernels that the last cold load with
+quick compiles compiled into DIR (a Taichi offline cache: ``TI_OFFLINE_CACHE_FILE_PATH=DIR`` for later runs);
+``--taichi-profile FILE`` writes Taichi's scoped profiler (seconds per IR pass) of
 the last run to FILE. ``--smoke`` loads miniroom:1 in the primitives style with the usual kernel cache (its compile
-seconds are then load times).
+seconds are then load times; with ``--cached`` too).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -127,9 +133,10 @@ print("\nRESULT " + json.dumps(out), flush=True)
 """
 
 
-def run_once(env_name: str, arch: str, quick: bool, empty_kernel_cache: bool, profile: str = "") -> dict:
-    """One cold load in a fresh process with an empty scene cache (and an empty kernel cache when
-    ``empty_kernel_cache``): the child's result (see the module docstring), seconds rounded to milliseconds.
+def run_once(env_name: str, arch: str, quick: bool, kernel_cache: str | None, profile: str = "") -> dict:
+    """One cold load in a fresh process with an empty scene cache and Taichi's kernel cache in the folder
+    ``kernel_cache`` (empty: every kernel is compiled; ``None``: the usual cache): the child's result (see the module
+    docstring), seconds rounded to milliseconds.
 
     Raises:
         RuntimeError: the child failed (the end of its stderr in the message).
@@ -137,8 +144,8 @@ def run_once(env_name: str, arch: str, quick: bool, empty_kernel_cache: bool, pr
     with tempfile.TemporaryDirectory(prefix="benchbot-cold-start-") as tmp:
         env = dict(os.environ, BENCHBOT_CACHE_DIR=os.path.join(tmp, "cache"),
                    BENCHBOT_TAICHI_QUICK_COMPILE="1" if quick else "0")
-        if empty_kernel_cache:
-            env["TI_OFFLINE_CACHE_FILE_PATH"] = os.path.join(tmp, "taichi")  # read by ti.init: an empty cache
+        if kernel_cache is not None:
+            env["TI_OFFLINE_CACHE_FILE_PATH"] = kernel_cache  # read by ti.init
         proc = subprocess.run([sys.executable, "-c", CHILD, env_name, arch, profile], env=env, capture_output=True,
                               text=True, stdin=subprocess.DEVNULL)
     lines = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
@@ -194,30 +201,58 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "gpu"), help="Taichi arch (default: cpu)")
     ap.add_argument("--runs", type=int, default=1, help="runs of each case (default: 1)")
     ap.add_argument("--compare", action="store_true", help="quick compiles on and off, alternating")
+    ap.add_argument("--cached", action="store_true",
+                    help="after each cold load, load again in a fresh process with the kernels it compiled")
+    ap.add_argument("--keep-kernels", default="", metavar="DIR",
+                    help="copy the kernels the last cold load (quick compiles) compiled into DIR")
     ap.add_argument("--taichi-profile", default="", metavar="FILE", help="write Taichi's scoped profiler to FILE")
     ap.add_argument("--json", action="store_true", help="print one JSON object instead of lines")
-    args = smoke.parse_args(ap, argv)
+    args = smoke.parse_args(ap, argv, cached=True)
+    if args.smoke and args.keep_kernels:
+        ap.error("--keep-kernels keeps what a cold load compiled: a smoke run compiles nothing")
     if args.smoke:
         smoke.left_out("the empty kernel cache", "compiling the kernels takes a minute or more on 2 cores; this run "
                        "loads them from the usual cache, so its compile seconds are load times")
-    cases = [True, False] if args.compare else [True]
-    runs: dict[bool, list[dict]] = {case: [] for case in cases}
-    for _ in range(max(1, args.runs)):
-        for quick in cases:
-            try:
-                runs[quick].append(run_once(args.env, args.arch, quick, not args.smoke,
-                                            os.path.abspath(args.taichi_profile) if args.taichi_profile else ""))
-            except RuntimeError as exc:
-                raise SystemExit(str(exc)) from None
-    labels = {True: "quick compiles", False: "every kernel with Taichi's CFG pass"}
-    out = {"env": args.env, "arch": runs[True][0]["arch"], "empty_kernel_cache": not args.smoke,
-           "cpus": os.cpu_count(), "cases": {labels[q]: {"summary": summary(r), "runs": r} for q, r in runs.items()}}
+    try:
+        runs = measure(args)
+    except RuntimeError as exc:
+        raise SystemExit(str(exc)) from None
+    out = {"env": args.env, "arch": runs[LABELS[True]][0]["arch"], "empty_kernel_cache": not args.smoke,
+           "cpus": os.cpu_count(), "cases": {label: {"summary": summary(r), "runs": r} for label, r in runs.items()}}
     if args.json:
         print(json.dumps(out))
     else:
-        for quick, r in runs.items():
-            print("\n".join(describe(labels[quick], summary(r))))
+        for label, r in runs.items():
+            print("\n".join(describe(label, summary(r))))
     return 0
+
+
+#: Each case's label by whether its kernels compile quickly; ``CACHED`` is added to a cached load's label.
+LABELS = {True: "quick compiles", False: "every kernel with Taichi's CFG pass"}
+CACHED = ", kernels cached"
+
+
+def measure(args: argparse.Namespace) -> dict[str, list[dict]]:
+    """The runs of each case (label -> results of :func:`run_once`): ``args.runs`` cold loads of each, alternating,
+    each with a kernel cache of its own (the usual one with ``args.smoke``), and with ``args.cached`` a load after
+    each with the kernels it compiled.
+
+    Raises:
+        RuntimeError: a load failed (its message says how).
+    """
+    cases = [True, False] if args.compare else [True]
+    runs: dict[str, list[dict]] = {}
+    profile = os.path.abspath(args.taichi_profile) if args.taichi_profile else ""
+    for _ in range(max(1, args.runs)):
+        for quick in cases:
+            with tempfile.TemporaryDirectory(prefix="benchbot-cold-kernels-") as kernels:
+                cache = None if args.smoke else kernels
+                runs.setdefault(LABELS[quick], []).append(run_once(args.env, args.arch, quick, cache, profile))
+                if args.cached:
+                    runs.setdefault(LABELS[quick] + CACHED, []).append(run_once(args.env, args.arch, quick, cache))
+                if args.keep_kernels and quick:
+                    shutil.copytree(kernels, args.keep_kernels, dirs_exist_ok=True)
+    return runs
 
 
 if __name__ == "__main__":

@@ -329,8 +329,9 @@ def test_the_tile_pyramid_holds_the_farthest_depth_of_each_tile():
 
 @pytest.mark.slow
 def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frames(bear_envs, monkeypatch):
-    """CUDA runs steps 1 to 3 of the all-sensors work as one kernel (``sensors.visibility_kernel``), the CPU as three;
-    run here on the CPU, both give the same frames and laser scans (miniroom:1, furnished, batched and one camera)."""
+    """CUDA's kernels of the all-sensors work read the scene from its two packs (``sensors.occluders_packed_kernel``
+    and the rest), the CPU's from its arrays one by one; run here on the CPU, both give the same frames and laser
+    scans (miniroom:1, furnished, batched and one camera)."""
     from benchbot_sim_taichi.render import sensors
     from benchbot_sim_taichi.backend import trajectory_cameras
     from benchbot_sim_taichi.render.renderer import Renderer, intrinsics
@@ -344,7 +345,7 @@ def test_the_cuda_grouping_of_the_sensors_kernels_gives_the_cpu_grouping_s_frame
     lidars[:, :3, :3] = np.eye(3)
     angles = np.radians(np.arange(-180.0, 180.0, 1.0))
     K = intrinsics(96, 72, 90.0)
-    assert len(sensors.sensors_kernels("cpu")) == 4 and len(sensors.sensors_kernels("cuda")) == 2
+    assert len(sensors.sensors_kernels("cpu")) == 4 and len(sensors.sensors_kernels("cuda")) == 4
     cpu = [r.render_sensors(K, cams, 96, 72, lidars, angles), r.render_sensors(K, cams[:1], 96, 72, lidars[:1], angles)]
     cuda_kernels = {rays: sensors.sensors_kernels("cuda", rays) for rays in (True, False)}
     monkeypatch.setattr(sensors, "sensors_kernels", lambda arch, shadow_rays=True: cuda_kernels[shadow_rays])

@@ -25,7 +25,7 @@ def _kernels() -> list:
 
 def test_the_kernels_are_found():
     names = {k.__name__ for k in _kernels()}
-    assert {"visibility_kernel", "shade_kernel", "shade_maps_packed_kernel", "occluders_kernel", "quality_kernel",
+    assert {"occluders_packed_kernel", "shade_kernel", "shade_maps_packed_kernel", "occluders_kernel", "quality_kernel",
             "bake_kernel", "lamp_map_kernel", "sun_map_kernel", "light_grid_kernel"} <= names
 
 

@@ -42,7 +42,7 @@ from benchbot_sim_taichi.settings import TAICHI_QUICK_COMPILE
 #: 15.6 (occluders 9.3-9.5 either way). Frame times unchanged (``benchmarks/render_fps.py``, 640 x 480: 44.1-44.4 ms
 #: against 44.1-44.8 ms for miniroom:1, 46.8-47.5 against 46.0-47.7 for house:1). None for CUDA: there lamp_map,
 #: sun_map, light_grid, bake and shade_maps_packed render the same without the pass (40 of 40 arrays) but compile no
-#: faster (miniroom:1 cold on an H200: 106.4 s against 100.7 s; ``visibility_kernel``'s 72-77 s are LLVM's either way).
+#: faster (miniroom:1 cold on an H200, steps 1 to 3 then one kernel: 106.4 s against 100.7 s).
 QUICK_COMPILES: dict[str, frozenset[str]] = {
     "lamp_map_kernel": frozenset({"cpu"}),
     "sun_map_kernel": frozenset({"cpu"}),

@@ -392,7 +392,7 @@ def primitives_kernel(
 
 
 @ti.kernel
-def visibility_kernel(
+def occluders_packed_kernel(
     table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
     pose0: ti.types.vector(POSE_LEN, ti.f32),
     one: ti.i32,
@@ -403,19 +403,55 @@ def visibility_kernel(
     scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
     consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
     n_occluders: ti.i32,
-    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
     queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
     counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
     tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
     vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
     ranges: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, ≥ n_beams) f32 out: each frame's laser ranges (m)
 ):
-    """Steps 1 to 3 in one kernel (CUDA's first): every camera ray's closest hit and nearest pane into ``vis``, and
-    the laser's beams into ``ranges``. Parameters: those of :func:`sensors_kernel` that it uses."""
+    """Step 1, the scene packed (CUDA's first kernel): :func:`occluders_kernel` reading the scene's arrays through
+    :func:`~benchbot_sim_taichi.render.packed_scene.scene_views`."""
     v = ti.static(scene_views(scene_f32, scene_i32))
     _occluders_step(table, pose0, one, images, beams, n_beams, v.nodes, v.pf, v.pi, v.tris, consts, n_occluders,
                     v.occluders, queue, counters, tiles, vis, ranges)
+
+
+@ti.kernel
+def clusters_packed_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (F,) f32 SceneArrays.scene_f32
+    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+):
+    """Step 2, the scene packed (CUDA's second kernel): :func:`clusters_kernel` reading the scene's packs."""
+    v = ti.static(scene_views(scene_f32, scene_i32))
     _clusters_step(table, pose0, one, images, consts, v.cluster_box, v.cluster_prims, listed, counters, tiles, vis)
+
+
+@ti.kernel
+def primitives_packed_kernel(
+    table: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, POSE_LEN) f32 frame b's pose in row b (if one == 0)
+    pose0: ti.types.vector(POSE_LEN, ti.f32),
+    one: ti.i32,
+    images: ti.i32,
+    scene_f32: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (F,) f32 SceneArrays.scene_f32
+    scene_i32: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (J,) i32 SceneArrays.scene_i32
+    consts: ti.types.ndarray(dtype=ti.f32, ndim=1),  # (FRAME_TONE_TABLE + GAMMA_STEPS,) f32 frame constants
+    listed: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (≥ B·C,) i32 work: the clusters listed in the cameras' views
+    queue: ti.types.ndarray(dtype=ti.i32, ndim=2),  # (Q, raster.QUEUE_COLS) i32 work: the large images queued in parts
+    counters: ti.types.ndarray(dtype=ti.i32, ndim=1),  # (raster.COUNTERS,) i32 work: clusters listed, images queued
+    tiles: ti.types.ndarray(dtype=ti.f32, ndim=2),  # (B, raster.tile_entries(W, H)) f32 work: tile pyramids
+    vis: ti.types.ndarray(dtype=ti.i64, ndim=4),  # (2, B, H, W) i64 closest hit, nearest pane (work)
+):
+    """Step 3, the scene packed (CUDA's third kernel): :func:`primitives_kernel` reading the scene's packs."""
+    v = ti.static(scene_views(scene_f32, scene_i32))
     _primitives_step(table, pose0, one, images, v.pf, v.pi, v.tris, consts, v.cluster_prims, v.is_occluder, listed,
                      queue, counters, tiles, vis)
 
@@ -628,19 +664,24 @@ def sensors_kernels(arch: str, shadow_rays: bool = True) -> tuple:
     """The kernels that make up the all-sensors work on ``arch``, in the order they run; the last shades the pixels:
     :func:`shade_kernel`, or with ``shadow_rays`` False :func:`shade_maps_kernel`, which has no code of shadow rays:
     only for frames whose every light has a shadow map and one shadow sample (the renderer's choice,
-    ``Renderer.shadow_rays``), where it is faster (fewer registers, so more threads at once on a GPU). On the CPU
-    one kernel per step (:func:`occluders_kernel`, :func:`clusters_kernel`, :func:`primitives_kernel`, the shading):
-    Taichi's compile time grows faster than a kernel's length: on the 2-core CPU the four compile in 99 s
-    (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had not finished
-    after 14 minutes. On CUDA steps 1 to 3 are one kernel (:func:`visibility_kernel`), fewer launches for a
-    one-camera frame, which is short there: its GPU work takes 194–198 µs (one H200, house:1), launching it 163–181
-    µs of a fast host's time, most of that Taichi's work for each argument and loop (``benchmarks/one_camera.py``;
-    steps 1 to 3 loop over constant lanes there, :func:`_lanes`, which saves a launch for each loop, and the scene's
-    arrays come packed, :mod:`~benchbot_sim_taichi.render.packed_scene`: 20 ndarray arguments instead of 41). The CPU's
-    kernels take the scene's arrays one by one: a launch's cost is nothing there beside a frame's tens of
-    milliseconds, and the packs would be a second copy of the scene in its memory."""
+    ``Renderer.shadow_rays``), where it is faster (fewer registers, so more threads at once on a GPU). One kernel
+    per step on either arch: Taichi's compile time grows faster than a kernel's length. On the 2-core CPU the four
+    compile in 99 s (``benchmarks/compile_time.py``), steps 1 to 3 as one kernel took 296 s, all four steps as one had
+    not finished after 14 minutes. On CUDA steps 1 to 3 were one kernel until 2026-11-26 (one launch for a one-camera
+    frame instead of three), whose compile took 62.5 s of a first start; as three kernels they compile in 14.2 + 1.6
+    + 10.1 s, and loading miniroom:1 into empty caches fell from 90.7 to 53.0 s, for two more launches a frame: one
+    camera 4,938 fps against 5,063 (the host's launch work 208 µs a frame against 166, the GPU's 199 against 195),
+    the vector environment's 256 and 512 robots a launch unchanged (one H200; ``benchmarks/cold_start.py``,
+    ``benchmarks/one_camera.py``, ``benchmarks/vector_env.py``). CUDA's kernels (:func:`occluders_packed_kernel`,
+    :func:`clusters_packed_kernel`, :func:`primitives_packed_kernel`, :func:`shade_packed_kernel` or
+    :func:`shade_maps_packed_kernel`) take the scene's arrays packed, :mod:`~benchbot_sim_taichi.render.packed_scene`
+    (a one-camera frame is short there, and Taichi's work for each ndarray argument is much of its launch), and
+    steps 1 to 3 loop over constant lanes there, :func:`_lanes`, which saves a launch for each loop. The CPU's kernels
+    take the scene's arrays one by one: a launch's cost is nothing there beside a frame's tens of milliseconds, and
+    the packs would be a second copy of the scene in its memory."""
     if arch == "cuda":
-        return (visibility_kernel, shade_packed_kernel if shadow_rays else shade_maps_packed_kernel)
+        return (occluders_packed_kernel, clusters_packed_kernel, primitives_packed_kernel,
+                shade_packed_kernel if shadow_rays else shade_maps_packed_kernel)
     return (occluders_kernel, clusters_kernel, primitives_kernel, shade_kernel if shadow_rays else shade_maps_kernel)
 
 
