@@ -204,3 +204,32 @@ def test_offline_script(frames, tmp_path):
     assert len(objs) >= len(BOXES)
     for o in objs:
         assert len(o["label_probs"]) == 31 and len(o["centroid"]) == 3 and len(o["extent"]) == 3
+
+
+@pytest.mark.parametrize("preset, expected", [(None, 1), ("2", 2)])
+def test_script_runs_numpy_with_one_blas_thread_unless_told_otherwise(preset, expected):
+    """Run as the solution, the script gives NumPy's OpenBLAS one thread (its spinning threads took the simulator's
+    cores while it rendered the next frame), or the count the user set in OPENBLAS_NUM_THREADS."""
+    import os
+    import subprocess
+
+    code = f"""
+import ctypes, glob, os, runpy, sys
+sys.argv = ["semslam_geometric.py", "--help"]
+try:
+    runpy.run_path({str(EXAMPLE_DIR / "semslam_geometric.py")!r}, run_name="__main__")
+except SystemExit:
+    pass
+import numpy
+libs = glob.glob(os.path.join(os.path.dirname(numpy.__path__[0]), "numpy.libs", "libscipy_openblas*.so"))
+print(ctypes.CDLL(libs[0]).scipy_openblas_get_num_threads64_() if libs else "no OpenBLAS library found")
+"""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if preset is not None:
+        env["OPENBLAS_NUM_THREADS"] = preset
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    last = proc.stdout.strip().splitlines()[-1]
+    if last == "no OpenBLAS library found":
+        pytest.skip("this NumPy is not built with scipy-openblas")
+    assert int(last) == expected
