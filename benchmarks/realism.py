@@ -1125,10 +1125,18 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--control-photos", type=Path, default=None,
                     help="folder with the control photos (astronaut.png, coffee.png, dog.jpg, ...): check the "
                          "detector on real photos first")
+    ap.add_argument("--real-reference", action="store_true",
+                    help="also run the detector on the real photos of --real-photos (COCO val2017) and print sim,\n"
+                         "real and sim / real recall per class with bootstrap intervals (benchmarks/realism_real.py)")
+    ap.add_argument("--real-photos", type=Path, default=HERE / "realism" / "photos",
+                    help="the real-photo reference set (coco_val2017.json and its photos)")
+    ap.add_argument("--real-limit", type=int, default=None, help="only the first N photos (default: all)")
+    ap.add_argument("--real-resamples", type=int, default=2000, help="bootstrap resamples of the intervals")
     ap.add_argument("--pngs", type=int, default=PNGS_PER_ENV, help="annotated PNGs per environment and mode")
     ap.add_argument("--out", type=Path, default=Path("runs") / "realism")
     args = smoke.parse_args(ap, argv, frames=2, quality_frames=1, quality_spp=1, reference_spp=8, ladder=[1],
-                            no_detector=True, width=32, height=24, min_pixels=20, pngs=1,
+                            no_detector=True, width=32, height=24, min_pixels=20, pngs=1, real_limit=2,
+                            real_resamples=50,
                             out=Path(tempfile.gettempdir()) / "benchbot-smoke" / "realism")
     for flag in ("frames", "quality_spp", "reference_spp", "width", "height", "min_pixels", "supersample"):
         if getattr(args, flag) <= 0:
@@ -1141,6 +1149,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     if side > MAX_CAMERA_SIDE.value():
         ap.error(f"--width and --height (times --supersample) must be at most {int(MAX_CAMERA_SIDE.value())} pixels: "
                  f"the rendered side would be {side}")
+    if args.real_reference and args.no_detector and not args.smoke:  # else every object would count as missed
+        ap.error("--real-reference needs the detector: drop --no-detector")
+    if (args.real_limit is not None and args.real_limit <= 0) or args.real_resamples < 2:
+        ap.error("--real-limit must be positive and --real-resamples at least 2")
     for flag in ("quality_frames", "reference_frames", "pngs"):
         if getattr(args, flag) < 0:
             ap.error(f"--{flag.replace('_', '-')} must be 0 or more")
@@ -1158,6 +1170,16 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         ap.error(f"--style must be one of {', '.join(STYLES)}")
     args.env = all_homes() if args.all_homes else args.env or (["miniroom:4"] if args.smoke else list(DEFAULT_ENVS))
     return args
+
+
+def real_reference(args, detector, sections: dict, threshold: float) -> tuple[dict, str]:
+    """``--real-reference``: :func:`realism_real.run` (sim against real photos); in the smoke run, without a detector,
+    every object of both sides counts as missed and this is said."""
+    import realism_real
+
+    if detector is None:
+        smoke.left_out("the real photos' detections", "no detector in the smoke run: every object counts as missed")
+    return realism_real.run(sys.modules[__name__], args, detector, sections, threshold)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -1225,6 +1247,10 @@ def _run(args) -> int:
             report["detector"]["overall"] = {m: t.as_dict() for m, t in overall.items() if t.frames}
         if detector is not None and overall["fast"].frames:  # per model: in the file only (about 60 rows)
             tables.append(model_table(f"{', '.join(args.env)}, fast mode", overall["fast"], thresholds[0]))
+        if args.real_reference:
+            report["real_reference"], real_table = real_reference(args, detector, report["environments"], thresholds[0])
+            tables.append(real_table)
+            print("\n" + real_table)
     finally:
         if detector is not None:
             report.setdefault("detector", {})["seconds_per_frame"] = detector.seconds / max(1, detector.frames)

@@ -1,0 +1,267 @@
+"""The realism benchmark's real-photo reference: a detector's recall in the simulator's frames against its recall on
+real photos of the same classes at the same pixel sizes (``benchmarks/realism.py --real-reference``).
+
+The photos are the COCO val2017 images of ``benchmarks/realism/photos`` (``coco_val2017.json``: their COCO boxes;
+``ATTRIBUTION.md``: sources and licences; built by ``tools/realism_photos.py``): not in the training set of the COCO
+detectors the benchmark runs (train2017). Each photo goes to the detector as it is (no crop or colour change), and
+its objects are scored by the rules the simulator's frames are (``realism.score_frame``, at the same score threshold
+and IoU): an object counts when its mask has at least ``--min-pixels`` pixels (COCO's ``area``; a photo's objects
+have no truncation figure, so none is applied), and COCO's ``iscrowd`` boxes are crowd regions
+(``realism.with_crowd_rule``), as BEAR's group boxes are in the sim column ``fast, crowd rule``, which is the sim
+side here.
+
+An object's size is the square root of its mask pixels, binned at :data:`SIZE_EDGES`. Per class, the real recall
+is weighted to the sim's size mix of that class (the sim's objects per size bin, over the bins where the photos have
+boxes of that class; the sim's recall is taken over the same bins); overall, both are weighted to the sim's class ×
+size mix over the classes and bins both sides have. Intervals: SciPy's ``stats.bootstrap`` (percentile, 95 %,
+:data:`BOOTSTRAP_RESAMPLES` resamples), resampling **images** — the sim's frames and the photos independently, an
+image's objects staying together — since objects of one image are not independent; a class's interval is taken over
+the resamples that hold it on both sides. Only BEAR classes are compared (the photos' other COCO classes are
+scored, so their detections are no false positives, but not counted).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+PHOTOS = HERE / "realism" / "photos"
+MANIFEST = "coco_val2017.json"
+#: Bin edges of an object's size, √(mask pixels) in pixels: [20, 32), [32, 64), [64, 128), [128, ∞) at the
+#: benchmark's 400-pixel visibility floor (COCO's small/medium split is at 32).
+SIZE_EDGES = (32, 64, 128)
+SIZE_LABELS = ("<32 px", "32-64 px", "64-128 px", ">=128 px")
+BOOTSTRAP_RESAMPLES = 2000
+CONFIDENCE = 0.95
+
+
+@dataclass
+class Photo:
+    """One reference photo: its ``path``, COCO ``image_id`` and ground truth as ``realism.Truth`` rows."""
+
+    path: Path
+    image_id: int
+    truths: list
+
+
+def size_bin(pixels: float) -> int:
+    """The size bin (index into :data:`SIZE_LABELS`) of an object with ``pixels`` mask pixels."""
+    return int(np.searchsorted(SIZE_EDGES, np.sqrt(float(pixels)), side="right"))
+
+
+def load_photos(realism, folder: Path = PHOTOS, min_pixels: int = 400, limit: int | None = None) -> list[Photo]:
+    """The photos of ``folder`` with their COCO boxes as ``realism.Truth`` (BEAR class names; ``box`` [x1, y1, x2,
+    y2] pixels; ``pixels`` the COCO mask area; ``crowd`` COCO's ``iscrowd``; ``visible``: ``pixels`` ≥
+    ``min_pixels``); the first ``limit`` photos only when given.
+
+    Raises:
+        realism.RealismError: the manifest or a photo is missing or unreadable.
+    """
+    from benchbot_task_semslam.coco import COCO_TO_BEAR
+
+    try:
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        names = {c["id"]: COCO_TO_BEAR.get(c["name"], c["name"]) for c in data["categories"]}
+        per_image: dict[int, list] = {im["id"]: [] for im in data["images"]}
+        for a in data["annotations"]:
+            x, y, w, h = a["bbox"]
+            per_image[a["image_id"]].append(realism.Truth(
+                int(a["id"]), names[a["category_id"]], [x, y, x + w, y + h], int(round(a["area"])), 0.0,
+                a["area"] >= min_pixels, "", bool(a["iscrowd"])))
+        photos = [Photo(folder / im["file_name"], int(im["id"]), per_image[im["id"]]) for im in data["images"]]
+    except (OSError, ValueError, KeyError) as exc:
+        raise realism.RealismError(f"{folder / MANIFEST}: {exc}", "rebuild it with tools/realism_photos.py") from exc
+    photos = photos[:limit] if limit is not None else photos
+    missing = [p.path.name for p in photos if not p.path.is_file()]
+    if missing:
+        raise realism.RealismError(f"{folder}: photos missing: {', '.join(missing[:3])}",
+                                   "restore benchmarks/realism/photos from the repository")
+    return photos
+
+
+def records(realism, truths: list, detections: list, threshold: float, iou: float) -> list[tuple[str, int, bool]]:
+    """``(class, size bin, found)`` of each object of one image counted under COCO's crowd rule, its detections
+    (rows ``[x1, y1, x2, y2, score, coco_class]``) matched by ``realism.score_frame`` at ``threshold`` and ``iou``."""
+    as_crowd = realism.with_crowd_rule(truths)
+    hits = realism.score_frame(as_crowd, detections, threshold, iou, crowd_rule=True).hits
+    return [(t.cls, size_bin(t.pixels), bool(hits[t.instance])) for t in as_crowd if t.visible]
+
+
+def bear_classes() -> frozenset[str]:
+    """BEAR's class names (``BEAR_CLASS_LIST`` less ``background``)."""
+    from benchbot_worlds.scene.build import BEAR_CLASS_LIST
+
+    return frozenset(BEAR_CLASS_LIST) - {"background"}
+
+
+def photo_records(realism, detector, photos: list[Photo], threshold: float, iou: float) -> list[list]:
+    """Per photo, :func:`records` of its BEAR-class objects against the ``detector``'s detections on it
+    (``detector=None``: none, every object missed, for the smoke run)."""
+    from PIL import Image
+
+    keep = bear_classes()
+    out = []
+    for p in photos:
+        with Image.open(p.path) as im:
+            rgb = np.asarray(im.convert("RGB"))
+        dets = detector.detect(rgb) if detector is not None else []
+        out.append([r for r in records(realism, p.truths, dets, threshold, iou) if r[0] in keep])
+    return out
+
+
+def sim_records(realism, sections: dict, threshold: float, iou: float) -> list[list]:
+    """Per fast frame of ``realism.judge_environment``'s sections, :func:`records` of its objects and fast-mode
+    detections (frames without detections: every object missed)."""
+    out = []
+    for section in sections.values():
+        for fr in section["frames"]:
+            truths = [realism.Truth(**o) for o in fr["objects"]]
+            out.append(records(realism, truths, fr.get("detections_fast", []), threshold, iou))
+    return out
+
+
+def count_table(per_image: list[list], classes: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """``(objects, found)``: int arrays (images, classes, size bins) of :func:`records` lists."""
+    index = {c: k for k, c in enumerate(classes)}
+    n = np.zeros((len(per_image), len(classes), len(SIZE_LABELS)), np.int64)
+    h = np.zeros_like(n)
+    for i, rows in enumerate(per_image):
+        for cls, b, found in rows:
+            if cls in index:
+                n[i, index[cls], b] += 1
+                h[i, index[cls], b] += int(found)
+    return n, h
+
+
+def weighted(ns, hs, nr, hr) -> np.ndarray:
+    """Sim recall, real recall and their ratio per class, then overall (rows 3·classes + 3), from summed counts
+    ``(..., classes, bins)`` of sim objects/found ``ns``/``hs`` and real ``nr``/``hr`` (any leading batch axes; NaN
+    where undefined, ∞ for a ratio over a real recall of 0). Per class: the bins where the photos have objects,
+    the real recall weighted by the sim's objects per bin; overall: every class and bin both have, weighted by the
+    sim's objects per (class, bin)."""
+    both = (nr > 0) & (ns > 0)
+    w = np.where(both, ns, 0).astype(np.float64)
+    real_cell = np.divide(hr, nr, out=np.zeros(hr.shape, np.float64), where=nr > 0)
+    hs_in = np.where(both, hs, 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sim_c = hs_in.sum(-1) / w.sum(-1)
+        real_c = (w * real_cell).sum(-1) / w.sum(-1)
+        sim_all = hs_in.sum((-1, -2)) / w.sum((-1, -2))
+        real_all = (w * real_cell).sum((-1, -2)) / w.sum((-1, -2))
+        ratio_c, ratio_all = sim_c / real_c, sim_all / real_all
+    return np.concatenate([np.moveaxis(a, -1, 0) for a in (sim_c, real_c, ratio_c)]
+                          + [a[None] for a in (sim_all, real_all, ratio_all)], axis=0)
+
+
+def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
+    """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
+    (images resampled, see the module docstring), and the objects on each side. Classes: those with objects on
+    both sides; the others are listed with their counts only."""
+    from scipy import stats
+
+    seen_sim = {c for rows in sim for c, _, _ in rows}
+    seen_real = {c for rows in real for c, _, _ in rows}
+    classes = sorted(seen_sim & seen_real)
+    ns, hs = count_table(sim, classes)
+    nr, hr = count_table(real, classes)
+    point = weighted(ns.sum(0), hs.sum(0), nr.sum(0), hr.sum(0))
+    low = high = np.full_like(point, np.nan)
+    if classes and len(sim) > 1 and len(real) > 1:
+        def statistic(i, j, axis=-1):
+            i, j = i.astype(np.int64), j.astype(np.int64)
+            return weighted(ns[i].sum(-3), hs[i].sum(-3), nr[j].sum(-3), hr[j].sum(-3))
+
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # resamples without a class: NaN there, SciPy's interval NaN
+            res = stats.bootstrap((np.arange(len(sim)), np.arange(len(real))), statistic, paired=False,
+                                  vectorized=True, n_resamples=resamples, batch=50, method="percentile",
+                                  confidence_level=CONFIDENCE, random_state=seed)
+            # the percentile interval over the resamples where the figure is defined (a class in both resamples)
+            tail = 100 * (1 - CONFIDENCE) / 2
+            low, high = np.nanpercentile(res.bootstrap_distribution, [tail, 100 - tail], axis=-1)
+    k = len(classes)
+
+    def entry(rows: tuple[int, int, int], n_sim: int, n_real: int) -> dict:
+        return {name: {"value": _num(point[r]), "ci95": [_num(low[r]), _num(high[r])]}
+                for name, r in zip(("sim", "real", "ratio"), rows)} | {"objects_sim": n_sim, "objects_real": n_real}
+
+    out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), int(ns[:, ci].sum()), int(nr[:, ci].sum()))
+                       for ci, c in enumerate(classes)},
+           "overall": entry((3 * k, 3 * k + 1, 3 * k + 2), int(ns.sum()), int(nr.sum())),
+           "only_sim": _counts(sim, seen_sim - seen_real), "only_real": _counts(real, seen_real - seen_sim),
+           "images_sim": len(sim), "images_real": len(real), "size_bins": list(SIZE_LABELS),
+           "bootstrap": {"method": "percentile", "confidence": CONFIDENCE, "resamples": resamples,
+                         "resampled": "images (sim frames and photos, independently)", "seed": seed}}
+    return out
+
+
+def _num(v) -> float | str | None:
+    """A strict-JSON value of a figure: ``None`` for NaN (undefined), ``"inf"`` for ∞ (a ratio over a real recall
+    of 0)."""
+    v = float(v)
+    return None if np.isnan(v) else "inf" if np.isinf(v) else v
+
+
+def _counts(per_image: list[list], classes: set[str]) -> dict:
+    """Objects per class of ``classes`` in :func:`records` lists."""
+    out: dict[str, int] = {}
+    for rows in per_image:
+        for c, _, _ in rows:
+            if c in classes:
+                out[c] = out.get(c, 0) + 1
+    return dict(sorted(out.items()))
+
+
+def _cell(v: dict, percent: bool) -> str:
+    """``value [low, high]`` of a :func:`compare` figure (percent or a ratio; ``–`` undefined, ``∞`` unbounded)."""
+    def fmt(x):
+        if x is None:
+            return "–"
+        if x == "inf":
+            return "∞"
+        return f"{100 * x:.0f} %" if percent else f"{x:.2f}"
+    return f"{fmt(v['value'])} [{fmt(v['ci95'][0])}, {fmt(v['ci95'][1])}]"
+
+
+def table(result: dict, title: str) -> str:
+    """A Markdown table of :func:`compare`'s result under a ``title`` heading: per class (most sim objects first)
+    sim recall, real recall (weighted to the sim's size mix), sim / real, each with its 95 % interval, and the
+    objects on each side; then overall; then the classes on one side only."""
+    lines = [f"### {title}", "",
+             "| class | sim recall | real recall (sim's size mix) | sim / real | objects sim / real |",
+             "|---|---|---|---|---|"]
+    rows = sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
+    rows.append(("**all (sim's class × size mix)**", result["overall"]))
+    for name, v in rows:
+        lines.append(f"| {name} | {_cell(v['sim'], True)} | {_cell(v['real'], True)} | {_cell(v['ratio'], False)} "
+                     f"| {v['objects_sim']} / {v['objects_real']} |")
+    for side in ("only_sim", "only_real"):
+        if result[side]:
+            lines.append(f"\n{side.replace('_', ' ')}: " + ", ".join(f"{c} {n}" for c, n in result[side].items()))
+    lines.append(f"\n{result['images_sim']} sim frames, {result['images_real']} photos; intervals: 95 % percentile "
+                 f"bootstrap, {result['bootstrap']['resamples']} resamples of images.")
+    return "\n".join(lines) + "\n"
+
+
+def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict, str]:
+    """``realism.py --real-reference``: the photos of ``args.real_photos`` (the first ``args.real_limit``) through
+    ``detector`` (``None`` in the smoke run: no detections), compared with the fast frames of ``sections`` at score
+    ``threshold``; returns the JSON section and its Markdown table."""
+    import time
+
+    t0 = time.perf_counter()
+    photos = load_photos(realism, args.real_photos, args.min_pixels, args.real_limit)
+    real = photo_records(realism, detector, photos, threshold, args.iou)
+    sim = sim_records(realism, sections, threshold, args.iou)
+    result = compare(sim, real, seed=args.seed, resamples=args.real_resamples)
+    result.update({"photos": str(args.real_photos), "threshold": threshold, "iou": args.iou,
+                   "min_pixels": args.min_pixels, "sim_side": "fast frames, COCO's crowd rule",
+                   "seconds": time.perf_counter() - t0})
+    title = (f"{args.detector}: sim (fast, crowd rule) against {len(photos)} COCO val2017 photos, recall at score ≥ "
+             f"{threshold}, real weighted to the sim's size mix")
+    return result, table(result, title)
