@@ -287,3 +287,83 @@ def test_a_sandboxed_solution_whose_folder_holds_the_socket_folder_cannot_see_it
     log = (run_dir / json.loads(proc.stdout)["episodes"][0]["log"]).read_text()
     assert "SOLUTION FOLDER SHOWN: True" in log and "SOCKET VISIBLE: False" in log, log
     benchbot("service", "stop")
+
+
+# ------------------------------------------------------------------------------------ the pool: batch --workers N
+@pytest.mark.slow
+def test_batches_with_workers_are_served_by_warm_pool_workers_byte_for_byte(service_env, tmp_path):
+    """``--workers 2`` through the service: two warm worker processes of its pool serve the episodes; the second
+    command finds them (same pids) with Taichi started and the scene loaded; results, trajectories and scores are
+    those of the batch's own worker processes (``--no-service``), byte for byte."""
+    outcome, pools = {}, {}
+    for name, flags in (("in_process", ["--no-service"]), ("pool_first", []), ("pool_warm", [])):
+        proc = benchbot("batch", "--example", "semslam_geometric", "--envs", "miniroom:1", "--repeat", "2",
+                        "--workers", "2", *SMALL, "--output-dir", str(tmp_path / name), "--json", "--no-tui", *flags)
+        assert proc.returncode == 0, proc.stderr
+        outcome[name] = json.loads(proc.stdout)
+        outcome[name]["files"] = _run_files(Path(outcome[name]["run_dir"]))
+        outcome[name]["stderr"] = proc.stderr
+        if name != "in_process":
+            pools[name] = status()["pool"]
+            assert len(pools[name]) == 2 and all(not w["busy"] and w["gpu"] is None for w in pools[name])
+    reference = outcome["in_process"]
+    for name in ("pool_first", "pool_warm"):
+        assert outcome[name]["files"] == reference["files"], name
+        assert [e["status"] for e in outcome[name]["episodes"]] == ["ok", "ok"]
+    if "replaced the simulator service" not in outcome["pool_warm"]["stderr"]:  # the code did not change meanwhile
+        assert {w["pid"] for w in pools["pool_warm"]} == {w["pid"] for w in pools["pool_first"]}
+        assert sum(w["served"] for w in pools["pool_warm"]) == 4
+        assert "starting Taichi" not in outcome["pool_warm"]["stderr"], outcome["pool_warm"]["stderr"]
+
+
+@pytest.mark.slow
+def test_a_pool_worker_killed_mid_episode_is_a_one_line_error_and_the_next_episode_gets_a_fresh_one(service_env,
+                                                                                                    tmp_path):
+    script, marker = tmp_path / "poll.py", tmp_path / "running"
+    script.write_text(POLLING_SOLUTION)
+    batch = subprocess.Popen([*BENCHBOT, "batch", "--native", f"{sys.executable} {script} {marker}", "--no-sandbox",
+                              "--envs", "miniroom:1", "--workers", "2", *SMALL, "--no-tui", "--json", "--output-dir",
+                              str(tmp_path / "runs")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             stdin=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not marker.exists() and batch.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert marker.exists(), batch.communicate()[1]
+    service_pid = status()["pid"]
+    busy = [w["pid"] for w in status()["pool"] if w["busy"]]
+    assert len(busy) == 1
+    os.kill(busy[0], signal.SIGKILL)
+    stdout, stderr = batch.communicate(timeout=120)
+    assert batch.returncode != 0 and "Traceback" not in stderr, stderr
+    episode = json.loads(stdout)["episodes"][0]
+    assert episode["status"] == "error"
+    assert episode["error"].startswith(f"the simulator service's worker (pid {busy[0]}) stopped during the episode "
+                                       "(killed or crashed; its log: ") and "\n" not in episode["error"], episode
+    again = benchbot("batch", "--example", "hello_passive", "--envs", "miniroom:1", "--workers", "2", *SMALL,
+                     "--no-tui", "--json", "--output-dir", str(tmp_path / "runs"))
+    assert again.returncode == 0, again.stderr
+    if "replaced the simulator service" not in again.stderr:  # the same service, a fresh worker
+        assert status()["pid"] == service_pid
+    assert busy[0] not in [w["pid"] for w in status()["pool"]]
+
+
+@pytest.mark.slow
+def test_the_pool_puts_a_gpu_batchs_workers_on_every_gpu(service_env, tmp_path, monkeypatch):
+    """Two GPUs listed (a stand-in ``nvidia-smi``), ``--arch cuda --workers 2``: the pool's two workers get one GPU
+    each (``CUDA_VISIBLE_DEVICES``); on this machine without CUDA, Taichi falls back to the CPU, and the records
+    then name no GPU."""
+    folder = tmp_path / "bin"
+    folder.mkdir()
+    (folder / "nvidia-smi").write_text("#!/bin/sh\n[ \"$1\" = \"-L\" ] || exit 9\n"
+                                       "echo 'GPU 0: NVIDIA Fake A (UUID: GPU-0a0a0a0a-0000-0000-0000-000000000000)'\n"
+                                       "echo 'GPU 1: NVIDIA Fake B (UUID: GPU-1b1b1b1b-0000-0000-0000-000000000000)'\n")
+    (folder / "nvidia-smi").chmod(0o755)
+    monkeypatch.setenv("PATH", f"{folder}{os.pathsep}{os.environ['PATH']}")
+    proc = benchbot("batch", "--example", "hello_passive", "--envs", "miniroom:1", "--repeat", "2", "--workers", "2",
+                    "--arch", "cuda", *SMALL, "--no-tui", "--json", "--output-dir", str(tmp_path / "runs"))
+    assert proc.returncode == 0, proc.stderr
+    workers = status()["pool"]
+    assert sorted((w["gpu"]["index"], w["gpu"]["name"]) for w in workers) == [(0, "NVIDIA Fake A"),
+                                                                                (1, "NVIDIA Fake B")]
+    episodes = json.loads(proc.stdout)["episodes"]
+    assert all(e["status"] == "ok" and "gpu" not in e["node"] and e["backend"]["arch"] == "x64" for e in episodes)

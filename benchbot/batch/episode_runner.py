@@ -125,7 +125,7 @@ def _run_solution(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pat
 
 
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None, *,
-                hide: tuple = (), in_service: bool = False) -> EpisodeRecord:
+                hide: tuple = (), in_service: bool = False, pool: dict | None = None) -> EpisodeRecord:
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
     Args:
@@ -142,6 +142,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
         in_service: build and serve the backend in the user's simulator service (:mod:`benchbot.service`; started
             when none answers) instead of this process; a recorded episode runs here all the same. What the
             solution observes, its results and the record's fields but ``wall_s`` are the same either way.
+        pool: with ``in_service``, ``{"threads", "gpus"}``: served by a warm worker process of the service's pool
+            (:mod:`benchbot.service.pool`) with that many Taichi threads on one of those GPUs (``[]``: the CPU);
+            the record's ``node`` then says which GPU (``{"gpu": {"index", "name"}}``).
     """
     record = new_record(spec)
     folder = Path(run_dir)
@@ -180,7 +183,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             served = open_episode(registry, run, in_service=in_service, seed=spec.seed, options=options,
                                   world_seed=spec.world_seed, on_step=on_step, on_stage=on_stage,
                                   unix_socket=backend_socket if spec.sandbox in ("bwrap", "container") else None,
-                                  recording=folder / spec.recording if spec.record else None)
+                                  recording=folder / spec.recording if spec.record else None, pool=pool)
             try:
                 with open(folder / spec.log, "w") as log:
                     timed_out, read_stdin = _run_solution(spec, registry, folder, backend_socket, served.address,
@@ -189,6 +192,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             finally:
                 served.close()
         record.steps, record.collided, record.backend = end.steps, end.collided, end.backend
+        record.node = dict(end.node)
         write_trajectory(folder / spec.trajectory, run, driven)
         if record.status == "resource_limit":  # past a limit of the sandbox: the reason is in record.error
             pass

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Callable
 
 from benchbot.batch import provenance
+from benchbot.batch.gpus import on_cpu, pin, recorded, visible_gpus, wants_gpu
 from benchbot.batch.episode_runner import run_episode
 from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
 from benchbot.core import atomic
@@ -69,16 +70,24 @@ THREAD_VARIABLES = ("BENCHBOT_TAICHI_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_
 
 
 _events = None  # in a worker process: the batch's event queue (set by _init_worker)
+_gpu: dict | None = None  # in a worker process: its GPU (set by _init_worker), None on the CPU
 _parent_gone = threading.Event()  # in a worker process: the batch process has died
 
 
-def _init_worker(threads: int, events: "multiprocessing.Queue") -> None:
+def _init_worker(threads: int, events: "multiprocessing.Queue", gpus: list[dict] = (), counter=None) -> None:
     """Worker initialiser: cap each worker's simulator threads and its solutions' BLAS/OpenMP threads to the
     worker's share of the cores (unless the user set them), so N workers do not each start one thread per core —
-    oversubscribed BLAS threads spin and slow every episode down; keep the event queue; :func:`_end_with_parent`."""
-    global _events
+    oversubscribed BLAS threads spin and slow every episode down; with ``gpus`` (a GPU batch), worker k (its number
+    from the shared ``counter``) gets GPU k mod G alone (:func:`benchbot.batch.gpus.pin`, before Taichi starts);
+    keep the event queue; :func:`_end_with_parent`."""
+    global _events, _gpu
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, str(threads))
+    if gpus and counter is not None:
+        with counter.get_lock():
+            k, counter.value = counter.value, counter.value + 1
+        _gpu = gpus[k % len(gpus)]
+        pin(_gpu)
     _events = events
     _end_with_parent()
 
@@ -109,14 +118,29 @@ def _end_with_parent() -> None:
 
 
 def _worker_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str) -> EpisodeRecord:
-    """:func:`run_episode` in a worker process, reporting to the batch's event queue; exits the worker at once
-    when its batch process has died (once the episode has cleaned up)."""
+    """:func:`run_episode` in a worker process, reporting to the batch's event queue, its GPU in the record's
+    ``node``; exits the worker at once when its batch process has died (once the episode has cleaned up)."""
     try:
-        return run_episode(spec, run, run_dir, _events)
+        record = run_episode(spec, run, run_dir, _events)
     except KeyboardInterrupt:
         if _parent_gone.is_set():
             os._exit(1)
         raise
+    if wants_gpu(spec.options):
+        record.node = {**record.node, **recorded(_gpu)}
+    return record
+
+
+def batch_gpus(episodes: list[Episode]) -> list[dict]:
+    """The GPUs a batch's workers are spread over: this process's visible GPUs
+    (:func:`benchbot.batch.gpus.visible_gpus`) when any episode renders on a GPU, else ``[]``."""
+    return visible_gpus() if any(wants_gpu(spec.options) for spec, _ in episodes) else []
+
+
+def thread_share(workers: int, episodes: int) -> int:
+    """The threads each of ``workers`` parallel episodes gets (of ``episodes``): the cores over the episodes that
+    run at once, at least 1."""
+    return max(1, (os.cpu_count() or 1) // max(1, min(workers, episodes)))
 
 
 def run_local(
@@ -124,17 +148,37 @@ def run_local(
     on_record: Callable[[EpisodeRecord], None], service: bool = False,
 ) -> None:
     """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
-    thread) as each ends. Worker processes end with the batch process, even when it is killed
-    (:func:`_end_with_parent`). Each record says it ran here (``executor`` ``local``; ``node`` this host's name only
-    with ``BENCHBOT_MANIFEST_LOCAL=1``). ``service``: with one worker, the episodes' backends are built and served by
-    the user's simulator service (:mod:`benchbot.service`) rather than this process (several workers keep a
-    simulator each, in their own processes)."""
+    thread) as each ends. Each record says it ran here (``executor`` ``local``; ``node`` this host's name only
+    with ``BENCHBOT_MANIFEST_LOCAL=1``, and the GPU it rendered on, ``gpu: {index, name}``, for a GPU arch).
+
+    Where the backends are built and served:
+
+    * ``service`` and one worker, on the CPU: by the user's simulator service (:mod:`benchbot.service`), on its
+      own backend thread;
+    * ``service`` with several workers, or on a GPU: by warm worker processes of the service's pool
+      (:mod:`benchbot.service.pool`: kept between commands, each with its Taichi threads and its GPU), ``workers``
+      episodes at a time, each episode's solution a child of this process (:func:`_run_in_threads`); recorded
+      episodes (their recorder observes the episode in the process that serves it) run as without the service;
+    * otherwise, one worker: in this process, one episode after another; several: in that many worker processes
+      of this batch (spawned; each with its own simulator, its share of the cores, and GPU k mod G for worker k;
+      they end with the batch process, even when it is killed: :func:`_end_with_parent`).
+    """
     here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
+    gpus = batch_gpus(episodes)
+    threads = thread_share(workers, len(episodes))
 
     def done(record: EpisodeRecord) -> None:
-        record.executor, record.node = "local", dict(here)
+        record.executor, record.node = "local", on_cpu({**here, **record.node}, record.backend)
         on_record(record)
 
+    if service and (workers > 1 or gpus) and not any(spec.record for spec, _ in episodes):
+        def pooled(spec: EpisodeSpec, run: RunSpec, events) -> EpisodeRecord:
+            pool = {"threads": threads, "gpus": gpus if wants_gpu(spec.options) else []}
+            return run_episode(spec, run, run_dir, events, in_service=True, pool=pool)
+
+        _run_in_threads(episodes, workers=workers, threads=threads, on_event=on_event, on_record=done,
+                        run_one=pooled)
+        return
     context = multiprocessing.get_context("spawn") if workers > 1 else None
     # between processes a plain multiprocessing queue: a manager process would outlive a killed batch
     events = context.Queue() if context is not None else queue.Queue()
@@ -144,11 +188,13 @@ def run_local(
     try:
         if context is None:
             for spec, run in episodes:
-                done(run_episode(spec, run, run_dir, events, in_service=service))
+                record = run_episode(spec, run, run_dir, events, in_service=service)
+                if wants_gpu(spec.options) and not record.node:  # this process's CUDA device 0
+                    record.node = recorded(gpus[0] if gpus else None)
+                done(record)
             return
-        threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
         with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
-                                 initargs=(threads, events)) as pool:
+                                 initargs=(threads, events, gpus, context.Value("i", 0))) as pool:
             futures = [pool.submit(_worker_episode, spec, run, run_dir) for spec, run in episodes]
             for future in as_completed(futures):
                 done(future.result())
@@ -173,18 +219,13 @@ def world_order(episodes: list[Episode]) -> list[Episode]:
     return [episode for group in groups.values() for episode in group]
 
 
-def run_batched(
-    episodes: list[Episode], run_dir: str, *, workers: int, on_event: EventHandler,
-    on_record: Callable[[EpisodeRecord], None],
+def _run_in_threads(
+    todo: list[Episode], *, workers: int, threads: int, on_event: EventHandler,
+    on_record: Callable[[EpisodeRecord], None], run_one: Callable[[EpisodeSpec, RunSpec, queue.Queue], EpisodeRecord],
 ) -> None:
-    """Run ``episodes`` together in THIS process, ``workers`` at a time: each episode in a thread of its own with
-    its own backend, API endpoint and solution process (as :func:`run_episode` runs it), all backends on the
-    process's one backend thread, so the simulator starts and compiles its kernels once. Episodes of one world run
-    together (:func:`world_order`) and share its loaded scene where the simulator shares scenes (``sim_taichi``:
-    :mod:`benchbot_sim_taichi.loaded_scenes`: one upload, one copy in GPU memory); what each episode observes, its
-    results and its record are what it would get alone. Solutions' BLAS/OpenMP threads are capped to
-    ``cores / workers`` (unless set; the variables are taken back afterwards). Each record says it ran here
-    (``executor`` ``batched``, ``node`` this host).
+    """Run ``todo`` in this process, ``workers`` at a time, each in a thread of its own (``run_one(spec, run,
+    events)``, whose solution is a child of this process); ``on_record`` in this thread as each ends. Solutions'
+    BLAS/OpenMP threads are capped to ``threads`` (unless set; the variables are taken back afterwards).
 
     Ctrl-C (KeyboardInterrupt in this thread): every running solution's group is stopped
     (:func:`benchbot.solutions.process_group.interrupt_children`), the episodes are given :data:`BATCHED_STOP_WAIT_S`
@@ -192,14 +233,11 @@ def run_batched(
     """
     from benchbot.solutions import process_group
 
-    here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
-    threads = max(1, (os.cpu_count() or 1) // min(workers, len(episodes)))
     added = [name for name in THREAD_VARIABLES[1:] if name not in os.environ]
-    for name in added:  # the solutions' libraries (the one simulator keeps every core); taken back at the end
+    for name in added:  # the solutions' libraries; taken back at the end
         os.environ[name] = str(threads)
     events: queue.Queue = queue.Queue()
     finished: queue.Queue = queue.Queue()  # (index in todo, record or the exception it raised)
-    todo = list(world_order(episodes))
     claim = threading.Lock()
     stop = threading.Event()
     next_one = [0]
@@ -213,7 +251,7 @@ def run_batched(
                 next_one[0] += 1
             spec, run = todo[k]
             try:
-                finished.put((k, run_episode(spec, run, run_dir, events)))
+                finished.put((k, run_one(spec, run, events)))
             except BaseException as exc:  # KeyboardInterrupt from interrupt_children, or a bug: the caller says
                 finished.put((k, exc))
 
@@ -234,7 +272,6 @@ def run_batched(
                     continue
             if isinstance(outcome, BaseException):
                 raise outcome
-            outcome.executor, outcome.node = "batched", dict(here)
             on_record(outcome)
     except BaseException:
         stop.set()
@@ -251,6 +288,34 @@ def run_batched(
             os.environ.pop(name, None)
 
 
+def run_batched(
+    episodes: list[Episode], run_dir: str, *, workers: int, on_event: EventHandler,
+    on_record: Callable[[EpisodeRecord], None],
+) -> None:
+    """Run ``episodes`` together in THIS process, ``workers`` at a time: each episode in a thread of its own with
+    its own backend, API endpoint and solution process (as :func:`run_episode` runs it), all backends on the
+    process's one backend thread, so the simulator starts and compiles its kernels once. Episodes of one world run
+    together (:func:`world_order`) and share its loaded scene where the simulator shares scenes (``sim_taichi``:
+    :mod:`benchbot_sim_taichi.loaded_scenes`: one upload, one copy in GPU memory); what each episode observes, its
+    results and its record are what it would get alone. Solutions' BLAS/OpenMP threads are capped to
+    ``cores / workers`` (unless set; the variables are taken back afterwards). Each record says it ran here
+    (``executor`` ``batched``, ``node`` this host, and this process's GPU for a GPU arch). Ctrl-C: as
+    :func:`_run_in_threads`.
+    """
+    here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
+    gpus = batch_gpus(episodes)
+
+    def done(record: EpisodeRecord) -> None:
+        spec_gpu = recorded(gpus[0] if gpus else None) if record.index in gpu_episodes else {}
+        record.executor, record.node = "batched", on_cpu({**here, **spec_gpu}, record.backend)
+        on_record(record)
+
+    gpu_episodes = {spec.index for spec, _ in episodes if wants_gpu(spec.options)}
+    _run_in_threads(world_order(episodes), workers=workers, threads=thread_share(workers, len(episodes)),
+                    on_event=on_event, on_record=done,
+                    run_one=lambda spec, run, events: run_episode(spec, run, run_dir, events))
+
+
 # ------------------------------------------------------------------------------------------------------------ Ray
 #: Seconds ``ray.init`` may take to attach to a cluster (or to start a local Ray) before the batch gives up.
 RAY_CONNECT_TIMEOUT_S = 60.0
@@ -262,6 +327,29 @@ RAY_LOST_RETRIES = 3
 #: CPUs an episode reserves on its Ray node for its whole life. Its task never waits on Ray (its events are sent
 #: without waiting for a reply), so Ray never lends the CPU to another task while the episode runs.
 RAY_EPISODE_CPUS = 1
+#: The setting of the share of a GPU an episode on a GPU reserves on its Ray node (:func:`ray_gpus_per_episode`).
+RAY_GPUS_SETTING = "BENCHBOT_RAY_GPUS_PER_EPISODE"
+
+
+def ray_gpus_per_episode() -> float:
+    """``BENCHBOT_RAY_GPUS_PER_EPISODE`` (default 0.0625: sixteen episodes share a GPU, as many as a one-GPU host
+    runs at once with profit, docs/cluster.md): the ``num_gpus`` an episode on a GPU requests from Ray.
+
+    Raises:
+        UsageError: not a number in (0, 1], or a number above 1 that is not whole (Ray's rule)."""
+    from benchbot.core import settings
+
+    text = settings.get(RAY_GPUS_SETTING) or "0.0625"
+    try:
+        share = float(text)
+    except ValueError:
+        share = -1.0
+    if not (0 < share <= 1 or (share > 1 and share.is_integer())):
+        raise UsageError(f"{RAY_GPUS_SETTING}={text!r} is not a share of a GPU",
+                         "set it to a number above 0 and at most 1 (0.0625: 16 episodes per GPU), or a whole number")
+    return share
+
+
 #: Seconds an interrupted Ray batch waits for its cancelled episodes to stop (solution, server, backend).
 STOP_WAIT_S = 10.0
 #: Ray Client's default port (``ray://HOST`` without one).
@@ -740,6 +828,8 @@ def _ray_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events, versions
         record = new_record(spec)
         record.status, record.error = "error", f"{type(exc).__name__}: {_first_line(exc)}"
     record.executor, record.node = "ray", node
+    if wants_gpu(spec.options):  # the GPU Ray gave the task (CUDA_VISIBLE_DEVICES), or this node's first
+        record.node = on_cpu({**node, **recorded(next(iter(visible_gpus()), None))}, record.backend)
     if record.status == "error":
         record.error = f"on node {node_name(node)}: {record.error}"
     return record, files
@@ -803,7 +893,10 @@ def run_ray(episodes: list[Episode], run_dir: str | Path, *, on_event: EventHand
     """Run ``episodes`` as Ray tasks on the cluster this process is connected to (:func:`connect_ray`; the caller
     closes it) and call ``on_record`` (in this thread) as each ends (docs/cluster.md).
 
-    Each episode reserves :data:`RAY_EPISODE_CPUS` CPU on its node for its whole life and runs in a run directory
+    Each episode reserves :data:`RAY_EPISODE_CPUS` CPU on its node for its whole life, and an episode on a GPU
+    (``--arch cuda``) :func:`ray_gpus_per_episode` of a GPU where the cluster has GPUs (Ray then places episodes by
+    GPU and gives each task its GPU in ``CUDA_VISIBLE_DEVICES``; the record's ``node`` says which, ``gpu``); it runs
+    in a run directory
     of the node's own; what it wrote comes back through Ray's object store and this process writes it into
     ``run_dir`` (:func:`_ray_episode`): no shared file system is needed for the run directory. The solution's
     folder, and BenchBot with the same plugins, must be at the same paths on every node. An episode lost with its
@@ -837,8 +930,13 @@ def run_ray(episodes: list[Episode], run_dir: str | Path, *, on_event: EventHand
     lost: dict[int, list[dict]] = {spec.index: [] for spec, _ in episodes}
     running: dict = {}
 
+    gpu_share = ray_gpus_per_episode() if ray.cluster_resources().get("GPU", 0) > 0 else 0.0
+
     def submit(episode: Episode) -> None:
-        running[remote_episode.remote(episode[0], episode[1], str(run_dir), buffer, versions)] = episode
+        task = remote_episode  # an episode on a GPU also reserves its share of one, so Ray places it by GPU
+        if gpu_share and wants_gpu(episode[0].options):
+            task = remote_episode.options(num_gpus=gpu_share)
+        running[task.remote(episode[0], episode[1], str(run_dir), buffer, versions)] = episode
 
     try:
         for episode in episodes:

@@ -38,7 +38,7 @@ from typing import Callable
 
 from benchbot.batch.episode_results import EpisodeResults
 from benchbot.batch.executors import (
-    EXECUTORS, RAY_LOG, EventHandler, RayCluster, connect_ray, run_batched, run_local, run_ray,
+    EXECUTORS, RAY_LOG, EventHandler, RayCluster, connect_ray, ray_gpus_per_episode, run_batched, run_local, run_ray,
 )
 from benchbot.batch import provenance
 from benchbot.batch.progress import ProgressFile
@@ -386,9 +386,10 @@ def run_batch(
             says which, and every record its ``executor`` and ``node``.
         ray_cluster: for ``ray``, a connection already open (``connect_ray``; the CLI connects before its live
             table starts, as ``ray.init`` cannot run under it); run_batch closes it when the episodes are done.
-        service: with the ``local`` executor and one worker, build and serve the episodes' backends in the user's
-            simulator service (:mod:`benchbot.service`; the CLI's default) instead of this process; the results
-            are the same.
+        service: with the ``local`` executor, build and serve the episodes' backends in the user's simulator
+            service (:mod:`benchbot.service`; the CLI's default) instead of this process: on its backend thread
+            with one worker on the CPU, on warm worker processes of its pool with several workers or a GPU
+            (:func:`~benchbot.batch.executors.run_local`); the results are the same.
 
     Raises:
         UsageError: ``workers`` < 1; unknown executor; ``batched`` with ``workers`` > 1 and recorded episodes; a
@@ -407,7 +408,7 @@ def run_batch(
     # a bad limit variable stops here, not once per episode (a Ray node reads its own only after the episode ran)
     MAX_LOG_BYTES.value(), STOP_GRACE_S.value(), SCENE_CACHE_BYTES.value()
     if executor == "ray":
-        RAY_EPISODE_BYTES.value()
+        RAY_EPISODE_BYTES.value(), ray_gpus_per_episode()
     run_dir, manifest, specs, records = batch.run_dir, batch.manifest, batch.specs, batch.records
     from benchbot.solutions.leftovers import clean_leftovers
 

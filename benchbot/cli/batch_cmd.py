@@ -282,12 +282,13 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
 
 def _start_service(no_service: bool, executor: str, workers: int, specs: list) -> bool:
     """Whether the batch's episodes get their backends from the simulator service (:mod:`benchbot.service`): with the
-    local executor and one worker, episodes not recorded, unless ``--no-service`` or ``BENCHBOT_SERVICE=off``. The
+    local executor (one worker: the service's backend thread; several, or a GPU: warm worker processes of its pool),
+    episodes not recorded, unless ``--no-service`` or ``BENCHBOT_SERVICE=off``. The
     service is started here (saying so once), before the progress display; one of another installation that is busy
     leaves the batch in this process (said in one line)."""
     from benchbot.service import client
 
-    if executor != "local" or workers != 1 or any(s.record for s in specs) or not client.wanted(no_service):
+    if executor != "local" or any(s.record for s in specs) or not client.wanted(no_service):
         return False
     from benchbot.service.location import locate
 

@@ -16,7 +16,21 @@ def _describe(status: dict, key: str) -> list[tuple[str, str]]:
             ("up for", f"{status.get('uptime_s', 0):.0f} s"),
             ("idle for", f"{status.get('idle_for_s', 0):.0f} s of {status.get('idle_s', 0):g} s (then it stops)"),
             ("episodes", f"{status.get('episodes_served', 0)} served, {status.get('episodes_running', 0)} running"),
-            ("memory", f"{status.get('rss_bytes', 0) / (1 << 20):.0f} MiB"), ("log", str(status.get("log", "")))]
+            ("memory", f"{status.get('rss_bytes', 0) / (1 << 20):.0f} MiB"),
+            ("pool workers", _pool_row(status)), ("log", str(status.get("log", "")))]
+
+
+def _pool_row(status: dict) -> str:
+    """The warm worker processes of the service's pool, in a few words: ``2 of at most 32 (1 busy; GPU 0: 1, GPU
+    1: 1)``."""
+    pool = status.get("pool") or []
+    on = {}
+    for worker in pool:
+        if worker.get("gpu"):
+            on[worker["gpu"]["index"]] = on.get(worker["gpu"]["index"], 0) + 1
+    where = "".join(f"; GPU {k}: {n}" for k, n in sorted(on.items()))
+    busy = sum(1 for w in pool if w.get("busy"))
+    return f"{len(pool)} of at most {status.get('pool_limit', '?')} ({busy} busy{where})"
 
 
 def register(app: typer.Typer) -> None:

@@ -83,6 +83,8 @@ SETTINGS: tuple[Setting, ...] = (
             "started on first use; off: in the command's own process, as --no-service (docs/service.md)", "cli"),
     Setting("BENCHBOT_SERVICE_IDLE_S", "900", "seconds without an episode after which the simulator service stops "
             "by itself (read when it starts)", "cli"),
+    Setting("BENCHBOT_RAY_GPUS_PER_EPISODE", "0.0625", "the share of a GPU a Ray batch's episode on a GPU "
+            "(--arch cuda) reserves on its node: Ray places episodes by GPU (docs/cluster.md)", "core"),
     Setting("BENCHBOT_MANIFEST_LOCAL", None, "1: a batch's manifest keeps the host name and absolute paths (by "
             "default it names no host, and paths are ~/... or $RUN_DIR/...)", "core"),
 )

@@ -16,6 +16,8 @@ Its modules:
 * :mod:`~benchbot.service.protocol`: length-prefixed MessagePack messages on its Unix socket, and the check of the
   peer's credentials (same user, same user namespace: never a sandboxed solution);
 * :mod:`~benchbot.service.daemon`: the service process (``python -m benchbot.service.daemon``);
+* :mod:`~benchbot.service.pool` and :mod:`~benchbot.service.worker`: its pool of warm simulator worker processes,
+  which serve ``batch --workers N`` and GPU batches (each worker with its Taichi threads and its GPU);
 * :mod:`~benchbot.service.client`: starting, finding, asking and stopping it;
 * :mod:`~benchbot.service.episodes`: an episode's served backend, in this process or in the service, behind one
   interface (what :func:`benchbot.batch.episode_runner.run_episode` uses).

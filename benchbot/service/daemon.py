@@ -31,6 +31,7 @@ from pathlib import Path
 from benchbot.core.errors import BenchbotError
 from benchbot.service import protocol, set_resident
 from benchbot.service.location import ServiceLocation, locate, private_dir
+from benchbot.service.pool import WorkerPool, serve_pooled
 
 log = logging.getLogger("benchbot.service")
 
@@ -57,6 +58,7 @@ class ServiceDaemon:
         self._episodes: dict[int, socket.socket] = {}  # running episodes: thread id -> its client's connection
         self._served = 0
         self._last_episode_end = time.monotonic()
+        self.pool = WorkerPool(location.folder, location.log)
 
     # ---------------------------------------------------------------------------------------------- the clock
     def idle_for(self) -> float:
@@ -66,13 +68,15 @@ class ServiceDaemon:
 
     def status(self) -> dict:
         """``{event: "status", pid, key, started (Unix time), uptime_s, idle_s, idle_for_s, episodes_served,
-        episodes_running, python, log, rss_bytes}``."""
+        episodes_running, python, log, rss_bytes, pool (its warm workers: pid, busy, served, threads, gpu),
+        pool_limit}``."""
         with self._lock:
             running, served = len(self._episodes), self._served
         return {"event": "status", "pid": os.getpid(), "key": self.location.key, "started": self.started,
                 "uptime_s": round(time.time() - self.started, 1), "idle_s": self.idle_s,
                 "idle_for_s": round(self.idle_for(), 1), "episodes_served": served, "episodes_running": running,
-                "python": sys.executable, "log": str(self.location.log), "rss_bytes": _rss_bytes()}
+                "python": sys.executable, "log": str(self.location.log), "rss_bytes": _rss_bytes(),
+                "pool": self.pool.facts(), "pool_limit": self.pool.limit}
 
     # ---------------------------------------------------------------------------------------------- serving
     def serve(self, listener: socket.socket) -> None:
@@ -153,7 +157,10 @@ class ServiceDaemon:
                 return
             self._episodes[me] = conn
         try:
-            serve_episode(self.registry, conn, request)
+            if request.get("pool"):  # on a warm worker process of the pool (benchbot.service.pool)
+                serve_pooled(self.pool, conn, request)
+            else:
+                serve_episode(self.registry, conn, request)
         finally:
             with self._lock:
                 self._episodes.pop(me, None)
@@ -336,6 +343,7 @@ def main(argv: list[str] | None = None) -> int:
         daemon.serve(listener)
     finally:
         listener.close()
+        daemon.pool.close()
         _unlink_if_ours(location.socket, inode)
         log.info("stopped after %d episodes", daemon.status()["episodes_served"])
         logging.shutdown()

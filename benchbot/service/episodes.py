@@ -28,11 +28,14 @@ class EpisodeEnd:
     Attributes:
         steps: actions executed. collided: whether the robot collided. backend: the record's ``backend`` facts
             (:func:`benchbot.batch.provenance.backend_facts`, told by the process that ran the backend).
+        node: where the backend ran, for the record's ``node``: ``{"gpu": {"index", "name"}}`` when a worker of
+            the service's pool pinned to a GPU served it (:mod:`benchbot.service.pool`), else ``{}``.
     """
 
     steps: int
     collided: bool
     backend: dict
+    node: dict = dataclasses.field(default_factory=dict)
 
 
 class InProcessEpisode:
@@ -123,8 +126,9 @@ class ServiceEpisode:
     def __init__(self, run, *, seed: int, options: dict, world_seed: int | None,
                  on_step: Callable[[dict], None], on_stage: Callable[[Any], None],
                  unix_socket: Path | None = None, location: ServiceLocation | None = None,
-                 say: Callable[[str], None] | None = None) -> None:
+                 say: Callable[[str], None] | None = None, pool: dict | None = None) -> None:
         self.location = location or locate()
+        self.node: dict = {}
         self.on_step, self._on_stage = on_step, on_stage
         self._end: dict | None = None
         started: list[stages.StageEvent] = []
@@ -139,7 +143,8 @@ class ServiceEpisode:
         try:
             protocol.send(self.sock, {"op": "episode", "run": dataclasses.asdict(run), "seed": seed,
                                       "options": options, "world_seed": world_seed,
-                                      "unix_socket": str(unix_socket) if unix_socket is not None else None})
+                                      "unix_socket": str(unix_socket) if unix_socket is not None else None,
+                                      "pool": pool})
             self.address = self._until_ready()
         except protocol.ConnectionLost:
             self.close()
@@ -164,6 +169,7 @@ class ServiceEpisode:
             if event == "stage":
                 self.on_stage(stages.StageEvent(**message["stage"]))
             elif event == "ready":
+                self.node = dict(message.get("node") or {})
                 return str(message["address"])
             elif event == "error":
                 raise client.error_from(message)
@@ -201,7 +207,8 @@ class ServiceEpisode:
         if end.get("event") == "error":
             raise client.error_from(end)
         state = end.get("state") or {}
-        return EpisodeEnd(int(state.get("step", 0)), bool(state.get("is_collided", False)), end.get("backend") or {})
+        return EpisodeEnd(int(state.get("step", 0)), bool(state.get("is_collided", False)), end.get("backend") or {},
+                          self.node)
 
     def close(self) -> None:
         """Close the connection (the service closes the episode if it still runs). Never raises."""
@@ -214,9 +221,13 @@ class ServiceEpisode:
 def open_episode(registry, run, *, in_service: bool, seed: int, options: dict, world_seed: int | None,
                  on_step: Callable[[dict], None], on_stage: Callable[[Any], None],
                  unix_socket: Path | None = None, recording: Path | None = None,
-                 say: Callable[[str], None] | None = None):
+                 say: Callable[[str], None] | None = None, pool: dict | None = None):
     """The served backend of ``run``: in the simulator service when ``in_service`` and nothing needs it in this
     process (a recording does: its recorder observes the episode here), else in this process.
+
+    ``pool``: ``{"threads", "gpus"}``: the service serves it on a warm worker process of its pool with that many
+    Taichi threads on one of those GPUs (:mod:`benchbot.service.pool`; ``benchbot batch --workers N`` and GPU
+    batches); None: on the service's own backend thread.
 
     The service serving another installation or other settings and busy with an episode
     (:class:`benchbot.service.client.ServiceBusy`) leaves the episode to this process.
@@ -229,7 +240,7 @@ def open_episode(registry, run, *, in_service: bool, seed: int, options: dict, w
     if in_service and recording is None:
         try:
             return ServiceEpisode(run, seed=seed, options=options, world_seed=world_seed, on_step=on_step,
-                                  on_stage=on_stage, unix_socket=unix_socket, say=say)
+                                  on_stage=on_stage, unix_socket=unix_socket, say=say, pool=pool)
         except client.ServiceBusy:
             pass
     return InProcessEpisode(registry, run, seed=seed, options=options, world_seed=world_seed, on_step=on_step,

@@ -1,0 +1,125 @@
+"""Workers on every GPU (benchbot.batch.gpus, the local executor's worker processes, the service's worker pool, Ray's
+share of a GPU): the GPUs come from ``nvidia-smi -L`` (a stand-in on PATH here, listing two), narrowed by
+``CUDA_VISIBLE_DEVICES``; worker k gets GPU k mod G; the pool balances its workers over the GPUs, reuses free ones
+of a profile, replaces idle ones of another when full and waits when all are busy."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import subprocess
+
+import pytest
+
+from benchbot.batch import executors, gpus
+from benchbot.core.errors import UsageError
+from benchbot.service import pool as pool_module
+from benchbot.service.pool import PoolWorker, WorkerPool
+
+A = "GPU-0a0a0a0a-0000-0000-0000-000000000000"
+B = "GPU-1b1b1b1b-0000-0000-0000-000000000000"
+FAKE_SMI = f"""#!/bin/sh
+[ "$1" = "-L" ] || exit 9
+echo "GPU 0: NVIDIA Fake A (UUID: {A})"
+echo "GPU 1: NVIDIA Fake B (UUID: {B})"
+"""
+
+
+@pytest.fixture
+def two_gpus(tmp_path, monkeypatch):
+    """``nvidia-smi`` on PATH lists two GPUs; no ``CUDA_VISIBLE_DEVICES``."""
+    folder = tmp_path / "bin"
+    folder.mkdir()
+    (folder / "nvidia-smi").write_text(FAKE_SMI)
+    (folder / "nvidia-smi").chmod(0o755)
+    monkeypatch.setenv("PATH", f"{folder}{os.pathsep}{os.environ['PATH']}")
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)
+    return folder
+
+
+def test_the_visible_gpus_follow_cuda_visible_devices(two_gpus, monkeypatch):
+    assert [(g["index"], g["name"], g["uuid"]) for g in gpus.visible_gpus()] == [(0, "NVIDIA Fake A", A),
+                                                                                (1, "NVIDIA Fake B", B)]
+    for value, indices in (("1", [1]), ("GPU-1b1b,0", [1, 0]), ("0,7,1", [0]), ("", []), ("0,0", [0])):
+        monkeypatch.setenv("CUDA_VISIBLE_DEVICES", value)
+        assert [g["index"] for g in gpus.visible_gpus()] == indices, value
+    monkeypatch.setenv("PATH", str(two_gpus.parent / "nowhere"))
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES")
+    assert gpus.visible_gpus() == []  # no nvidia-smi: no GPUs
+
+
+def test_worker_k_gets_gpu_k_mod_g_before_its_simulator_starts(two_gpus, monkeypatch):
+    found = gpus.visible_gpus()
+    assert [gpus.gpu_for_worker(k, found)["index"] for k in range(5)] == [0, 1, 0, 1, 0]
+    assert gpus.gpu_for_worker(3, []) is None
+    for name in executors.THREAD_VARIABLES:
+        monkeypatch.setenv(name, "1")
+    counter = multiprocessing.get_context("spawn").Value("i", 0)
+    seen = []
+    for _ in range(3):  # what three worker processes' initialisers do, one after another
+        monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)
+        executors._init_worker(1, None, found, counter)
+        seen.append((os.environ["CUDA_VISIBLE_DEVICES"], executors._gpu["index"]))
+    monkeypatch.setattr(executors, "_gpu", None)
+    assert seen == [(A, 0), (B, 1), (A, 0)]
+
+
+def test_a_record_names_its_gpu_unless_its_backend_fell_back_to_the_cpu():
+    gpu = {"index": 1, "name": "NVIDIA Fake B", "uuid": B}
+    node = {"hostname": "h", **gpus.recorded(gpu)}
+    assert node["gpu"] == {"index": 1, "name": "NVIDIA Fake B"}
+    assert gpus.on_cpu(node, {"arch": "cuda"}) == node
+    assert gpus.on_cpu(node, {"arch": "x64"}) == {"hostname": "h"}
+    assert gpus.wants_gpu({"arch": "cuda"}) and gpus.wants_gpu({"arch": "gpu"}) and not gpus.wants_gpu({"arch": "cpu"})
+
+
+def test_rays_share_of_a_gpu_per_episode_is_a_checked_setting(monkeypatch):
+    assert executors.ray_gpus_per_episode() == 0.0625
+    for good, value in (("0.25", 0.25), ("1", 1.0), ("2", 2.0)):
+        monkeypatch.setenv("BENCHBOT_RAY_GPUS_PER_EPISODE", good)
+        assert executors.ray_gpus_per_episode() == value
+    for bad in ("0", "-1", "1.5", "half"):
+        monkeypatch.setenv("BENCHBOT_RAY_GPUS_PER_EPISODE", bad)
+        with pytest.raises(UsageError, match="BENCHBOT_RAY_GPUS_PER_EPISODE"):
+            executors.ray_gpus_per_episode()
+
+
+@pytest.fixture
+def sleeper_pool(tmp_path, monkeypatch):
+    """A :class:`WorkerPool` of at most 3 whose workers are ``sleep`` processes (the lease logic, not the worker)."""
+    made: list[PoolWorker] = []
+
+    def spawn(self, threads, gpu):
+        worker = PoolWorker(subprocess.Popen(["sleep", "60"]), tmp_path / f"w{len(made)}.sock", threads, gpu)
+        self._workers.append(worker)
+        made.append(worker)
+        return worker
+
+    monkeypatch.setattr(WorkerPool, "_spawn", spawn)
+    pool = WorkerPool(tmp_path, tmp_path / "log", limit=3)
+    yield pool, made
+    pool.close()
+
+
+def test_the_pool_spreads_workers_over_the_gpus_reuses_free_ones_and_waits_when_full(sleeper_pool):
+    pool, made = sleeper_pool
+    two = [{"index": 0, "name": "A", "uuid": A}, {"index": 1, "name": "B", "uuid": B}]
+    leased = [pool.lease(8, two) for _ in range(3)]
+    assert [w.gpu["index"] for w in leased] == [0, 1, 0] and len(made) == 3
+    with pytest.raises(TimeoutError):
+        pool.lease(8, two, timeout_s=0.3)  # all three busy, the pool full
+    pool.release(leased[1])
+    again = pool.lease(8, two)
+    assert again is leased[1] and len(made) == 3  # the free worker of that profile, no new process
+    pool.release(leased[0])
+    cpu = pool.lease(2, [])  # another profile, the pool full: its idle worker is replaced
+    assert cpu.gpu is None and cpu.threads == 2 and len(made) == 4 and leased[0].process.poll() is not None
+    pool.release(leased[2], broken=True)  # a broken worker is stopped and dropped
+    assert leased[2].process.poll() is not None and all(f["pid"] != leased[2].process.pid for f in pool.facts())
+    pool.release(again)
+    pool.release(cpu)
+    assert {f["gpu"]["index"] if f["gpu"] else None for f in pool.facts()} == {1, None}
+
+
+def test_the_pool_limit_is_bounded():
+    assert 4 <= pool_module.POOL_LIMIT <= 64
