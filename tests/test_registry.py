@@ -119,6 +119,7 @@ def test_a_spec_found_valid_is_not_validated_again_and_any_change_is(monkeypatch
     real = specs.first_error
     monkeypatch.setattr(specs, "first_error", lambda instance, schema: checked.append(schema) or real(instance, schema))
     monkeypatch.setattr(specs, "_SCHEMA_VALID", {})
+    monkeypatch.setattr(specs, "_store", None)  # this process's memory only (the store across processes: below)
     batch = {"name": "b", "environments": ["miniroom:1", "house:2"]}
     for _ in range(3):
         specs.validate(json.loads(json.dumps(batch)), "batch", "b.yaml")
@@ -136,3 +137,66 @@ def test_a_spec_found_valid_is_not_validated_again_and_any_change_is(monkeypatch
     for k in range(5):
         specs.validate({**batch, "name": f"b{k}"}, "batch", "b.yaml")
     assert len(specs._SCHEMA_VALID) <= 2
+
+
+def test_specs_found_valid_are_remembered_across_processes_by_content(tmp_path, monkeypatch):
+    """The registry stores the digests of the specs it found valid in the cache directory (``specs.ValidStore``): a
+    later process (a fresh memory and store) validates none of them again, but a changed spec, a changed schema file
+    and an invalid spec (never stored) are validated; an unreadable store counts as empty."""
+    from benchbot.core import specs
+
+    checked = []
+    real = specs.first_error
+    monkeypatch.setattr(specs, "first_error", lambda instance, schema: checked.append(schema) or real(instance, schema))
+    monkeypatch.setenv("BENCHBOT_CACHE_DIR", str(tmp_path / "cache"))
+    store_file = tmp_path / "cache" / specs.VALID_STORE_FILE
+
+    def new_process() -> None:
+        monkeypatch.setattr(specs, "_SCHEMA_VALID", {})
+        monkeypatch.setattr(specs, "_store", None)
+        checked.clear()
+
+    new_process()
+    first = Registry()
+    assert checked and not first.problems and store_file.is_file()
+    stored = json.loads(store_file.read_text())["digests"]
+    assert len(stored) == len(checked)
+    new_process()
+    second = Registry()
+    assert checked == [] and not second.problems
+    assert {k: set(v) for k, v in second.entries.items()} == {k: set(v) for k, v in first.entries.items()}
+
+    new_process()
+    store = specs.valid_store(store_file)
+    batch = {"name": "b", "environments": ["miniroom:1"]}
+    specs.validate(batch, "batch", "b.yaml")
+    store.save()
+    new_process()
+    store = specs.valid_store(store_file)
+    specs.validate(dict(batch), "batch", "b.yaml")
+    specs.validate({**batch, "environments": ["miniroom:2"]}, "batch", "b.yaml")
+    assert checked == ["batch"]
+    for _ in range(2):
+        with pytest.raises(SpecError):
+            specs.validate({**batch, "environments": []}, "batch", "b.yaml")
+    assert len(checked) == 3
+    store.save()
+
+    schema = tmp_path / "thing.schema.json"
+    schema.write_text(json.dumps({"type": "object", "properties": {"n": {"type": "integer"}}}))
+    specs.validate({"n": 1}, schema, "t.yaml")
+    store.save()
+    schema.write_text(json.dumps({"type": "object", "properties": {"n": {"type": "string"}}}))
+    new_process()
+    specs._schema_identity.cache_clear()
+    specs.validator.cache_clear()
+    specs.valid_store(store_file)
+    with pytest.raises(SpecError, match=r"t\.yaml: \$\.n"):  # the schema changed: validated again, now invalid
+        specs.validate({"n": 1}, schema, "t.yaml")
+
+    store_file.write_text("{not json")
+    new_process()
+    specs.valid_store(store_file)
+    specs.validate(dict(batch), "batch", "b.yaml")
+    assert checked == ["batch"]
+    monkeypatch.setattr(specs, "_store", None)

@@ -30,7 +30,8 @@ from benchbot.core.plugin_manager import PluginInfo, build_plugin_manager, call_
 from benchbot.core.spec_meaning import same_meaning
 from benchbot.core.world_generators import WorldGenerator, batch_spec, parse_batch, parse_home, short_form
 from benchbot.core.specs import (
-    KIND_SCHEMAS, SPEC_SUFFIXES, Entry, entry_name, expand_spec_folders, load_spec_file, singular, validate,
+    KIND_SCHEMAS, SPEC_SUFFIXES, VALID_STORE_FILE, Entry, entry_name, expand_spec_folders, load_spec_file, singular,
+    valid_store, validate,
 )
 
 
@@ -57,6 +58,9 @@ class Registry:
     """
 
     def __init__(self, extra_plugins: dict | None = None) -> None:
+        from benchbot.packs.pack_layout import cache_dir
+
+        store = valid_store(cache_dir() / VALID_STORE_FILE)  # specs found valid by earlier commands
         self.plugin_manager, self.plugins = build_plugin_manager(extra_plugins)
         self.entries: dict[str, dict[str, Entry]] = {kind: {} for kind in KIND_SCHEMAS}
         self.problems: dict[tuple[str, str], str] = {}  # (kind, name or source) -> one-line problem
@@ -75,6 +79,7 @@ class Registry:
                     continue
                 for raw in expand_spec_folders(specs or []):
                     self._add(kind, schema_name, raw, plugin, infos.get(plugin))
+        store.save()
         for plugin_name, factories, exc in call_each_plugin(self.plugin_manager, "benchbot_robot_backends"):
             if exc is not None or not isinstance(factories or {}, dict):  # the plugin offers nothing; others load
                 problem = (f"plugin {plugin_name}: benchbot_robot_backends() raised {exc!r}" if exc is not None else

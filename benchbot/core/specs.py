@@ -7,6 +7,7 @@ against ``schemas/`` (JSON Schema 2020-12) and the checks a schema cannot expres
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 from dataclasses import dataclass
 from importlib import resources
@@ -116,8 +117,104 @@ def _frozen(value: Any) -> tuple:
     raise TypeError(f"{type(value).__name__} is not a JSON type")
 
 
+#: The file (in BenchBot's cache directory) of the specs found valid by earlier processes (:class:`ValidStore`).
+VALID_STORE_FILE = "valid_specs.json"
+
+
+class ValidStore:
+    """The specs found valid by earlier processes, remembered across them: each command built its registry again and
+    validated every installed spec against its schema (jsonschema's walk over the built-in environments' trajectories,
+    0.1-0.15 s of README command 1 on the 2-core CPU). A spec is remembered by a SHA-256 digest of its exact value
+    (:func:`_frozen`: types and key order included), of its schema file's bytes and of jsonschema's version, so that
+    a changed spec, schema or validator is validated again; only valid specs are stored (an invalid one is refused
+    every time), at most :data:`SCHEMA_VALID_MEMO` (the oldest go first).
+
+    The registry loads it (:func:`valid_store`) and saves what it added once it is built (:meth:`save`). The file
+    is JSON ``{"format": 1, "digests": [hex, ...]}``, written atomically; one that cannot be read counts as empty.
+
+    Args:
+        path: the store's file (default: :data:`VALID_STORE_FILE` in the cache directory).
+    """
+
+    FORMAT = 1
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.digests: dict[str, None] = {}
+        self.added = False
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            if isinstance(data, dict) and data.get("format") == self.FORMAT and isinstance(data.get("digests"), list):
+                self.digests = {d: None for d in data["digests"] if isinstance(d, str)}
+        except (OSError, ValueError):
+            pass
+
+    def __contains__(self, digest: str) -> bool:
+        return digest in self.digests
+
+    def add(self, digest: str) -> None:
+        """Remember ``digest`` (saved by :meth:`save`)."""
+        if digest not in self.digests:
+            self.digests[digest] = None
+            self.added = True
+
+    def save(self) -> None:
+        """Write the store when digests were added since it was read (the newest :data:`SCHEMA_VALID_MEMO`); a
+        folder or file that cannot be written leaves it unsaved (the next process validates again)."""
+        if not self.added:
+            return
+        from benchbot.core import atomic
+
+        kept = list(self.digests)[-SCHEMA_VALID_MEMO:]
+        try:
+            atomic.write_json(self.path, {"format": self.FORMAT, "digests": kept})
+            self.added = False
+        except OSError:
+            pass
+
+
+_store: ValidStore | None = None
+
+
+def valid_store(path: Path | None) -> ValidStore | None:
+    """Validate with the store at ``path`` from now on in this process, or with none (``None``); returns the store
+    (the one in use when it is at ``path`` already, else read now)."""
+    global _store
+    if path is None:
+        _store = None
+    elif _store is None or _store.path != path:
+        _store = ValidStore(path)
+    return _store
+
+
+@functools.lru_cache(maxsize=None)
+def _schema_identity(schema_name: "str | Path") -> str:
+    """The SHA-256 of the schema file's bytes and jsonschema's version: what a stored digest depends on besides the
+    spec. Raises OSError when the schema file cannot be read."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    path = schema_name if isinstance(schema_name, Path) else schema_dir() / f"{schema_name}.schema.json"
+    try:
+        validator_version = version("jsonschema")
+    except PackageNotFoundError:
+        validator_version = jsonschema.__file__ or ""
+    return hashlib.sha256(path.read_bytes() + b"\0" + validator_version.encode()).hexdigest()
+
+
+def _stored_digest(schema_name: "str | Path", frozen: tuple) -> str | None:
+    """The digest of a spec (its :func:`_frozen` value) against ``schema_name`` in the :class:`ValidStore`; None
+    when its schema file cannot be read (then the spec is validated, and its error says so)."""
+    try:
+        identity = _schema_identity(schema_name)
+    except OSError:
+        return None
+    return hashlib.sha256(f"{identity}\0{frozen!r}".encode()).hexdigest()
+
+
 def validate(instance: Any, schema_name: str, source: str) -> None:
-    """Validate ``instance`` against ``schemas/<schema_name>.schema.json``.
+    """Validate ``instance`` against ``schemas/<schema_name>.schema.json``. A spec found valid before is not walked
+    again: in this process (:data:`_SCHEMA_VALID`) or, with the registry's store, in an earlier one
+    (:class:`ValidStore`).
 
     A task's ``actions`` must also be actions the episode performs (:func:`check_task_actions`).
 
@@ -129,10 +226,15 @@ def validate(instance: Any, schema_name: str, source: str) -> None:
     except (TypeError, RecursionError):  # a value JSON has no type for: validated every time
         key = None
     if key is None or key not in _SCHEMA_VALID:
-        error = first_error(instance, schema_name)
-        if error:
-            raise SpecError(f"{source}: {error[0]}: {error[1]}",
-                            f"fix the field to match schemas/{schema_name}.schema.json")
+        store = _store
+        digest = _stored_digest(schema_name, key[1]) if key is not None and store is not None else None
+        if digest is None or digest not in store:
+            error = first_error(instance, schema_name)
+            if error:
+                raise SpecError(f"{source}: {error[0]}: {error[1]}",
+                                f"fix the field to match schemas/{schema_name}.schema.json")
+            if digest is not None:
+                store.add(digest)
         if key is not None:
             if len(_SCHEMA_VALID) >= SCHEMA_VALID_MEMO:
                 _SCHEMA_VALID.clear()
