@@ -527,3 +527,117 @@ def test_supersample_renders_the_fast_frames_with_the_cameras_sub_pixels(realism
     assert ("fast", 4) in asked and all(spp == 4 for mode, spp in asked if mode == "fast")
     report = json.loads((tmp_path / "realism.json").read_text())
     assert [env["fast_supersample"] for env in report["environments"].values()] == [2]
+
+
+# ------------------------------------------------------------------------------------- the real-photo reference
+@pytest.fixture
+def realism_real(realism):
+    """``benchmarks/realism_real.py`` (importable once ``realism`` put ``benchmarks`` on the path)."""
+    import importlib
+
+    return importlib.import_module("realism_real")
+
+
+def test_the_photo_set_is_val2017_with_its_boxes_and_a_licence_per_photo(realism, realism_real):
+    folder = ROOT / "benchmarks" / "realism" / "photos"
+    data = json.loads((folder / "coco_val2017.json").read_text())
+    licences = {entry["id"] for entry in data["licenses"]}
+    attribution = (folder / "ATTRIBUTION.md").read_text()
+    assert len(data["images"]) >= 100 and "CC BY 4.0" in attribution
+    for im in data["images"]:
+        assert "/val2017/" in im["coco_url"] and im["license"] in licences and im["flickr_url"].startswith("http")
+        assert f"| {im['id']} | `{im['file_name']}` |" in attribution
+        assert max(im["width"], im["height"]) <= 640
+    assert sum(p.stat().st_size for p in folder.glob("*.jpg")) < 8e6
+    photos = realism_real.load_photos(realism, folder)
+    assert {p.path.name for p in photos} == {p.name for p in folder.glob("*.jpg")}
+    from PIL import Image
+
+    for p in photos[:5]:
+        with Image.open(p.path) as im:
+            w, h = im.size
+        assert all(0 <= t.box[0] < t.box[2] <= w + 0.5 and 0 <= t.box[1] < t.box[3] <= h + 0.5 for t in p.truths)
+    bear = realism_real.bear_classes()
+    assert all(any(t.cls in bear - {"person"} for t in p.truths) for p in photos)  # every photo has a BEAR object
+    assert any(t.crowd for p in photos for t in p.truths)  # COCO's iscrowd boxes are kept as crowd regions
+
+
+def test_size_bins_are_the_square_root_of_mask_pixels(realism_real):
+    assert [realism_real.size_bin(n) for n in (400, 31 ** 2, 32 ** 2, 64 ** 2 - 1, 64 ** 2, 128 ** 2)] == [0, 0, 1, 1, 2, 3]
+
+
+def test_the_real_side_is_weighted_to_the_sims_size_mix(realism_real):
+    # chair: sim all small (2 of 4 found); real: small 1 of 4, large 4 of 4 -> real at the sim's mix 25 %, ratio 2
+    # cup: sim 1 small (found) + 1 large (missed), real 1 small (missed), 1 large (found): 50 % both sides
+    sim = [[("chair", 0, True), ("chair", 0, False)], [("chair", 0, True), ("chair", 0, False)],
+           [("cup", 0, True), ("cup", 3, False)], [("bed", 2, True)]]
+    real = [[("chair", 0, True)] + [("chair", 0, False)] * 3, [("chair", 3, True)] * 4,
+            [("cup", 0, False), ("cup", 3, True)], [("oven", 1, True)]]
+    res = realism_real.compare(sim, real, resamples=200)
+    chair, cup = res["classes"]["chair"], res["classes"]["cup"]
+    assert chair["sim"]["value"] == 0.5 and chair["real"]["value"] == 0.25 and chair["ratio"]["value"] == 2.0
+    assert cup["sim"]["value"] == 0.5 and cup["real"]["value"] == 0.5
+    assert (chair["objects_sim"], chair["objects_real"]) == (4, 8)
+    # overall at the sim's class x size mix: chair-small 4, cup-small 1, cup-large 1 sim objects
+    assert res["overall"]["sim"]["value"] == pytest.approx((2 + 1 + 0) / 6)
+    assert res["overall"]["real"]["value"] == pytest.approx((4 * 0.25 + 1 * 0.0 + 1 * 1.0) / 6)
+    assert res["only_sim"] == {"bed": 1} and res["only_real"] == {"oven": 1}
+    lo, hi = chair["ratio"]["ci95"]
+    assert lo <= 2.0 <= hi
+    assert "| chair | 50 % [" in realism_real.table(res, "t") and "sim's class × size mix" in realism_real.table(res, "t")
+
+
+def test_bootstrap_resamples_images_not_objects(realism_real):
+    # every sim frame alike and every photo alike: any resample of images gives the same figures (a resample of
+    # objects would not), so the interval is the point
+    sim = [[("cup", 1, True), ("cup", 1, False)]] * 20
+    real = [[("cup", 1, True), ("cup", 1, True), ("cup", 1, False), ("cup", 1, False)]] * 10
+    res = realism_real.compare(sim, real, resamples=100)
+    assert res["classes"]["cup"]["ratio"]["value"] == 1.0 and res["classes"]["cup"]["ratio"]["ci95"] == [1.0, 1.0]
+    assert res["bootstrap"]["resampled"].startswith("images")
+
+
+def test_photos_are_scored_as_frames_are_with_cocos_crowd_rule(realism, realism_real, tmp_path):
+    """A detector (here one that answers the boxes it is told) finds a photo's objects through ``score_frame``:
+    one detection per object at IoU >= 0.5, a crowd box neither found nor missed, tiny objects not counted."""
+    from PIL import Image
+
+    Image.new("RGB", (64, 48), (90, 90, 90)).save(tmp_path / "000000000001.jpg")
+    data = {"licenses": [{"id": 4, "name": "Attribution License", "url": "http://creativecommons.org/licenses/by/2.0/"}],
+            "categories": [{"id": 62, "name": "chair"}, {"id": 67, "name": "dining table"}, {"id": 84, "name": "book"}],
+            "images": [{"id": 1, "file_name": "000000000001.jpg", "width": 64, "height": 48, "license": 4}],
+            "annotations": [{"id": 10, "image_id": 1, "category_id": 62, "iscrowd": 0, "bbox": [2, 2, 30, 30], "area": 600},
+                            {"id": 11, "image_id": 1, "category_id": 67, "iscrowd": 0, "bbox": [30, 10, 30, 30], "area": 700},
+                            {"id": 12, "image_id": 1, "category_id": 84, "iscrowd": 1, "bbox": [0, 30, 40, 18], "area": 500},
+                            {"id": 13, "image_id": 1, "category_id": 62, "iscrowd": 0, "bbox": [50, 0, 5, 5], "area": 20}]}
+    (tmp_path / "coco_val2017.json").write_text(json.dumps(data))
+    photos = realism_real.load_photos(realism, tmp_path, min_pixels=400)
+
+    class Answers:  # the chair found, a book inside the crowd box, nothing on the table
+        def detect(self, rgb):
+            assert rgb.shape == (48, 64, 3)
+            return [[2.0, 2.0, 32.0, 32.0, 0.8, realism.COCO80.index("chair")],
+                    [5.0, 32.0, 15.0, 46.0, 0.7, realism.COCO80.index("book")]]
+
+    (rows,) = realism_real.photo_records(realism, Answers(), photos, 0.3, 0.5)
+    assert sorted(rows) == [("chair", 0, True), ("table", 0, False)]  # sqrt(600), sqrt(700) < 32 px
+
+
+def test_real_reference_needs_the_detector(realism, capsys):
+    with pytest.raises(SystemExit):
+        realism.parse_args(["--real-reference", "--no-detector"])
+    assert "--real-reference needs the detector" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_smoke_run_with_the_real_reference(realism, tmp_path, capsys):
+    """``--smoke --real-reference``: two photos against the smoke frames, no detector (every object missed), the
+    table printed and written, the JSON section with its bootstrap settings."""
+    assert realism.main(["--smoke", "--real-reference", "--reference-frames", "0", "--out", str(tmp_path)]) == 0
+    out, err = capsys.readouterr()
+    assert "left out the real photos' detections" in err and "against 2 COCO val2017 photos" in out
+    report = json.loads((tmp_path / "realism.json").read_text())
+    real = report["real_reference"]
+    assert real["images_real"] == 2 and real["bootstrap"]["resamples"] == 50
+    assert real["overall"]["objects_real"] > 0 and real["overall"]["real"]["value"] in (0.0, None)
+    assert "sim / real" in (tmp_path / "per_class.md").read_text()
