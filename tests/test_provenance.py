@@ -105,3 +105,31 @@ def test_a_ray_node_is_named_by_its_id_and_by_its_address_only_where_recorded():
     assert node_name({"id": "3f2a1b2c99aa"}) == "3f2a1b2c"
     assert node_name({"id": "3f2a1b2c99aa", "address": "10.0.0.7"}) == "10.0.0.7 (3f2a1b2c)"
     assert node_name({}) == "an unknown node"
+
+
+def test_packages_read_name_and_version_as_importlib_metadata_does():
+    """The manifest's ``packages`` read each distribution's header alone (``provenance.metadata_fields``): the same
+    names and versions as ``dist.metadata`` / ``dist.version`` give, for every installed distribution and for
+    headers with continuation lines, other cases, repeated fields, a field after a line that ends the header."""
+    import importlib.metadata as md
+    from email import message_from_string
+
+    expected = {}
+    for dist in md.distributions():
+        name = (dist.metadata["Name"] or "").lower()
+        if name:
+            expected[name] = dist.version
+    assert provenance.packages() == dict(sorted(expected.items()))
+    texts = [
+        "Metadata-Version: 2.1\nname: Foo-Bar\nVERSION: 1.0\n\nName: not-this\n",
+        "Name: a\n  continued\nVersion:\t2.0 \nName: second\n",
+        "Summary: x\nNot a field line\nName: after-the-header\nVersion: 3\n",
+        "From someone\nName: b\nVersion: 4\n",
+        "Version: 5\n",
+        "Name: c\r\n  d\r\nVersion: 6\r\n\r\n",
+        "",
+    ]
+    for text in texts:
+        message = message_from_string(text)
+        want = {k: message[k] for k in ("name", "version") if message[k] is not None}
+        assert provenance.metadata_fields(text, ("name", "version")) == want, text
