@@ -233,3 +233,22 @@ print(ctypes.CDLL(libs[0]).scipy_openblas_get_num_threads64_() if libs else "no 
     if last == "no OpenBLAS library found":
         pytest.skip("this NumPy is not built with scipy-openblas")
     assert int(last) == expected
+
+
+def test_pose_to_matrix_equals_scipys_rotation_bit_for_bit():
+    """The example computes SciPy's ``Rotation.from_quat(q).as_matrix()`` itself (no ``scipy.spatial`` import at
+    its start): equal bit for bit on random quaternions of any length, unit ones, and the axes' quarter turns."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(7)
+    quats = rng.normal(size=(20000, 4)) * rng.uniform(0.01, 5.0, size=(20000, 1))
+    quats[::3] /= np.linalg.norm(quats[::3], axis=1, keepdims=True)
+    half = math.sqrt(0.5)
+    special = [[0, 0, 0, 1], [1, 0, 0, 0], [0, 0, half, half], [0, half, 0, -half], [0, 0, 0.3826834, 0.9238795]]
+    quats = np.concatenate([quats, np.array(special, dtype=np.float64)])
+    expected = Rotation.from_quat(quats).as_matrix()
+    got = np.stack([mapping.pose_to_matrix([1.0, 2.0, 3.0], q)[:3, :3] for q in quats])
+    assert np.array_equal(got, expected)
+    assert mapping.pose_to_matrix([1.0, 2.0, 3.0], [0, 0, 0, 1])[:3, 3].tolist() == [1.0, 2.0, 3.0]
+    with pytest.raises(ValueError):
+        mapping.pose_to_matrix([0, 0, 0], [0, 0, 0, 0])
