@@ -1,0 +1,222 @@
+"""A warm sweep end to end: ``benchbot batch --example semslam_geometric --envs-batch bear_all --repeat 3 --workers N``
+(30 episodes, 4,587 frames) as a user runs it, through the simulator service and without it, with where each
+episode's time goes and how busy the GPUs were.
+
+Each mode (``--modes service,no-service``) runs once to warm up (kernel and scene caches, the service and its warm
+workers), then ``--runs`` times, timed. For every timed run it reports:
+
+* the wall time of the whole ``benchbot batch`` process and the frames rendered (the episodes' steps);
+* per stage, summed over the episodes and per episode, from the command's progress lines (``--no-tui``), each
+  timestamped as it arrives: ``command start`` (interpreter, plugins, planning: until the first episode starts),
+  per episode ``waiting`` (started, no backend stage yet), the backend's stages (``loading the scene``,
+  ``starting Taichi``, ``loading the BVH…``, ``compiling kernels``…: what the warm service skips), ``solution``
+  (sandbox, the solution's start, every step's round trip and render, its exit) and ``per frame`` (solution seconds
+  over its steps), and ``evaluation and writing`` (from the last episode's end to the command's exit);
+* the GPUs' utilisation sampled by ``nvidia-smi`` every second (mean and peak per GPU; none without ``nvidia-smi``);
+* whether every run's results, trajectories and scores files are byte-identical (across runs and modes).
+
+    python benchmarks/sweep.py [--workers 16] [--repeat 3] [--envs-batch bear_all | --envs ENV,...]
+        [--example semslam_geometric] [--arch cuda|cpu] [--camera-size WxH] [--modes service,no-service] [--runs 1]
+        [--warm-up MODES|none] [--output-dir DIR] [--json] [--smoke]
+
+``--smoke``: ``semslam_geometric`` on miniroom:1 twice at 64×48 with two workers, both modes, one timed run each.
+The service it uses is its own (a socket folder of its own, stopped at the end).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import smoke  # this folder is on sys.path when a script here runs
+
+#: A progress line of ``benchbot batch --no-tui``: ``[k/N] label  what it does …`` or ``[k/N] label  ok  48 steps …``.
+LINE = re.compile(r"^\[(\d+)/(\d+)\] (.+?)  (.+?)(?: …)?$")
+ENDED = re.compile(r"^(ok|failed|error|timeout|no_results|bad_results|resource_limit)\b")
+
+
+class GpuSampler:
+    """``nvidia-smi`` sampling every GPU's utilisation once a second in the background (nothing without it)."""
+
+    def __init__(self) -> None:
+        self.samples: dict[int, list[int]] = {}
+        self.proc = None
+        if shutil.which("nvidia-smi"):
+            self.proc = subprocess.Popen(["nvidia-smi", "--query-gpu=index,utilization.gpu",
+                                          "--format=csv,noheader,nounits", "-l", "1"],
+                                         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+            threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:
+            parts = [p.strip() for p in line.split(",")]
+            if len(parts) == 2 and parts[0].isdigit() and parts[1].isdigit():
+                self.samples.setdefault(int(parts[0]), []).append(int(parts[1]))
+
+    def stop(self) -> dict:
+        """``{gpu index: {"mean_pct", "peak_pct", "samples"}}``."""
+        if self.proc is not None:
+            self.proc.terminate()
+            self.proc.wait()
+        return {k: {"mean_pct": round(sum(v) / len(v), 1), "peak_pct": max(v), "samples": len(v)}
+                for k, v in sorted(self.samples.items()) if v}
+
+
+def stage_name(text: str) -> str:
+    """A progress line's stage without its details: ``loading the scene (miniroom:1, from the cache)`` → ``loading
+    the scene``; the backend-ready line → ``solution``; ``starting`` → ``waiting``."""
+    text = re.sub(r"\s*\(.*$", "", text).strip()
+    if text.startswith("the backend is ready"):
+        return "solution"
+    return "waiting" if text == "starting" else text
+
+
+def profile(lines: list[tuple[float, str]], t0: float, t_exit: float, steps: int) -> dict:
+    """Per-stage seconds from the timestamped progress lines of one run (module docstring)."""
+    per_stage: dict[str, float] = {}
+    last: dict[str, tuple[float, str]] = {}  # episode -> (since, stage)
+    first = ended = None
+    for t, line in lines:
+        match = LINE.match(line)
+        if not match:
+            continue
+        episode, text = match[1], match[4].strip()
+        first = t if first is None else first
+        if episode in last:
+            since, stage = last.pop(episode)
+            per_stage[stage] = per_stage.get(stage, 0.0) + t - since
+        if ENDED.match(text):
+            ended = t
+        else:
+            last[episode] = (t, stage_name(text))
+    out = {"command start": round((first or t_exit) - t0, 3)}
+    out.update({k: round(v, 3) for k, v in per_stage.items()})
+    out["evaluation and writing"] = round(t_exit - (ended or t_exit), 3)
+    if steps and "solution" in per_stage:
+        out["solution per frame"] = round(per_stage["solution"] / steps, 5)
+    return out
+
+
+def digest(run_dir: Path) -> str:
+    """A digest of every results, trajectories and scores file of a run directory (names and bytes)."""
+    h = hashlib.sha256()
+    for name in ("results", "trajectories", "scores.json", "episode_scores.json"):
+        path = run_dir / name
+        for file in sorted(path.rglob("*")) if path.is_dir() else [path]:
+            if file.is_file():
+                h.update(str(file.relative_to(run_dir)).encode() + b"\0" + file.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def run_once(args: argparse.Namespace, mode: str, out: Path, env: dict) -> dict:
+    """One ``benchbot batch`` of the sweep in ``mode``; its figures (module docstring)."""
+    envs = ["--envs", args.envs] if args.envs else ["--envs-batch", args.envs_batch]
+    command = [sys.executable, "-m", "benchbot.cli", "batch", "--example", args.example, *envs, "--repeat",
+               str(args.repeat), "--workers", str(args.workers), "--arch", args.arch, "--output-dir", str(out),
+               "--json", "--no-tui"] + (["--camera-size", args.camera_size] if args.camera_size else []) + \
+        (["--no-service"] if mode == "no-service" else [])
+    sampler = GpuSampler()
+    lines: list[tuple[float, str]] = []
+    t0 = time.monotonic()
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            stdin=subprocess.DEVNULL)
+    stdout: list[str] = []
+    reader = threading.Thread(target=lambda: stdout.append(proc.stdout.read()), daemon=True)
+    reader.start()
+    for line in proc.stderr:
+        lines.append((time.monotonic(), line.rstrip("\n")))
+    proc.wait()
+    reader.join()
+    t_exit = time.monotonic()
+    gpus = sampler.stop()
+    if proc.returncode != 0:
+        tail = "\n".join(line for _, line in lines[-20:])
+        sys.exit(f"the {mode} sweep failed (exit {proc.returncode}):\n{tail}")
+    outcome = json.loads(stdout[0])
+    steps = sum(e["steps"] for e in outcome["episodes"])
+    devices = sorted({e["node"]["gpu"]["index"] for e in outcome["episodes"] if e.get("node", {}).get("gpu")})
+    return {"mode": mode, "wall_s": round(t_exit - t0, 2), "episodes": len(outcome["episodes"]), "frames": steps,
+            "ok": sum(e["status"] == "ok" for e in outcome["episodes"]), "gpus_used": devices,
+            "gpu_utilisation": gpus, "stages_s": profile(lines, t0, t_exit, steps),
+            "digest": digest(Path(outcome["run_dir"]))}
+
+
+def show(r: dict) -> None:
+    gpus = ", ".join(f"GPU {k} {v['mean_pct']:.1f} % mean, {v['peak_pct']} % peak" for k, v in
+                     r["gpu_utilisation"].items()) or "no GPU sampled"
+    print(f"{r['mode']:>10}: {r['wall_s']:7.2f} s wall, {r['episodes']} episodes ({r['ok']} ok), {r['frames']} frames; "
+          f"{gpus}; episodes on GPUs {r['gpus_used'] or '-'}")
+    n = max(1, r["episodes"])
+    for stage, seconds in r["stages_s"].items():
+        if stage in ("command start", "evaluation and writing"):
+            print(f"{'':>12}{stage:<44} {seconds:8.2f} s")
+        elif stage == "solution per frame":
+            print(f"{'':>12}{stage:<44} {seconds * 1000:8.2f} ms")
+        else:
+            print(f"{'':>12}{stage:<44} {seconds:8.2f} s summed, {seconds / n:6.2f} s per episode")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=16)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--envs-batch", default="bear_all")
+    ap.add_argument("--envs", default=None, help="a comma list of environments instead of --envs-batch")
+    ap.add_argument("--example", default="semslam_geometric")
+    ap.add_argument("--arch", default="auto")
+    ap.add_argument("--camera-size", default=None, help="WIDTHxHEIGHT (default: the robot's 640x480)")
+    ap.add_argument("--modes", default="service,no-service", help="comma list of service, no-service")
+    ap.add_argument("--runs", type=int, default=1, help="timed runs per mode, after one warm-up run")
+    ap.add_argument("--warm-up", default=None, help="comma list of the modes that get a warm-up run (default: all; "
+                    "'none' where the caches are warm already, e.g. after benchbot sim prepare)")
+    ap.add_argument("--output-dir", default=None, help="keep the run directories here (default: a temporary one)")
+    ap.add_argument("--json", action="store_true")
+    args = smoke.parse_args(ap, argv, envs="miniroom:1", repeat=2, workers=2, camera_size="64x48", arch="cpu")
+    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    if not modes or set(modes) - {"service", "no-service"} or args.runs < 1:
+        ap.error("--modes takes service and/or no-service; --runs at least 1")
+    with tempfile.TemporaryDirectory(prefix="benchbot-sweep-") as tmp:
+        folder = Path(args.output_dir) if args.output_dir else Path(tmp)
+        runtime = Path(tmp) / "runtime"
+        runtime.mkdir(mode=0o700)
+        env = dict(os.environ, XDG_RUNTIME_DIR=str(runtime), BENCHBOT_SERVICE="auto")  # a service of our own
+        results = []
+        try:
+            for mode in modes:
+                if args.warm_up is None or mode in args.warm_up.split(","):
+                    warm = run_once(args, mode, folder / f"{mode}-warm-up", env)
+                    print(f"warm-up {mode}: {warm['wall_s']:.2f} s", file=sys.stderr, flush=True)
+                    results.append({**warm, "warm_up": True})
+                for k in range(args.runs):
+                    results.append(run_once(args, mode, folder / f"{mode}-{k}", env))
+                    print(f"{mode}: {results[-1]['wall_s']:.2f} s", file=sys.stderr, flush=True)
+        finally:
+            subprocess.run([sys.executable, "-m", "benchbot.cli", "service", "stop"], env=env, capture_output=True,
+                           timeout=120)
+    same = len({r["digest"] for r in results}) == 1
+    summary = {"example": args.example, "envs": args.envs or args.envs_batch, "repeat": args.repeat,
+               "workers": args.workers, "arch": args.arch, "cpu_count": os.cpu_count(),
+               "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES"), "load_average": os.getloadavg(),
+               "runs": results, "byte_identical": same}
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for r in results:
+            if not r.get("warm_up"):
+                show(r)
+        print(f"byte-identical: {'yes' if same else 'NO'}")
+    return 0 if same else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
