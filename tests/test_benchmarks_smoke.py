@@ -64,6 +64,8 @@ FIGURES = {
     "service_warm.py": [r"in-process +[\d.]+ s wall, +[\d.]+ s CPU",
                         r"service +[\d.]+ s wall, +[\d.]+ s CPU of the command, +[\d.]+ s of the service",
                         r"byte-identical: yes"],
+    "sweep.py": [r" service: +[\d.]+ s wall, 2 episodes \(2 ok\), 96 frames", r"no-service: +[\d.]+ s wall",
+                 r"solution per frame +[\d.]+ ms", r"byte-identical: yes"],
     "turned_homes.py": [r"miniroom:1, first 2 poses", r"mirror_y +OMQ [\d.]+",
                         r"largest OMQ gap between turns: [\d.]+"],
     "world_generation.py": [r"per home [\d.]+ s mean", r"distinct homes: 20 of 20; invalid: 0",
