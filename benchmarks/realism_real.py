@@ -99,9 +99,11 @@ def bear_classes() -> frozenset[str]:
     return frozenset(BEAR_CLASS_LIST) - {"background"}
 
 
-def photo_records(realism, detector, photos: list[Photo], threshold: float, iou: float) -> list[list]:
+def photo_records(realism, detector, photos: list[Photo], threshold: float, iou: float,
+                  detections: dict | None = None) -> list[list]:
     """Per photo, :func:`records` of its BEAR-class objects against the ``detector``'s detections on it
-    (``detector=None``: none, every object missed, for the smoke run)."""
+    (``detector=None``: none, every object missed, for the smoke run); each photo's detections also go into
+    ``detections`` (COCO image id → rows) when given."""
     from PIL import Image
 
     keep = bear_classes()
@@ -110,6 +112,8 @@ def photo_records(realism, detector, photos: list[Photo], threshold: float, iou:
         with Image.open(p.path) as im:
             rgb = np.asarray(im.convert("RGB"))
         dets = detector.detect(rgb) if detector is not None else []
+        if detections is not None:
+            detections[p.image_id] = dets
         out.append([r for r in records(realism, p.truths, dets, threshold, iou) if r[0] in keep])
     return out
 
@@ -160,8 +164,8 @@ def weighted(ns, hs, nr, hr) -> np.ndarray:
 
 def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
     """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
-    (images resampled, see the module docstring), and the objects on each side. Classes: those with objects on
-    both sides; the others are listed with their counts only."""
+    (images resampled, see the module docstring), and the objects and objects found on each side (all sizes,
+    unweighted). Classes: those with objects on both sides; the others are listed with their counts only."""
     from scipy import stats
 
     seen_sim = {c for rows in sim for c, _, _ in rows}
@@ -182,17 +186,20 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
                                   vectorized=True, n_resamples=resamples, batch=50, method="percentile",
                                   confidence_level=CONFIDENCE, random_state=seed)
             # the percentile interval over the resamples where the figure is defined (a class in both resamples)
+            # (the outer order statistics, so that an unbounded ratio shows as ∞ rather than ∞ − ∞)
             tail = 100 * (1 - CONFIDENCE) / 2
-            low, high = np.nanpercentile(res.bootstrap_distribution, [tail, 100 - tail], axis=-1)
+            low = np.nanpercentile(res.bootstrap_distribution, tail, axis=-1, method="lower")
+            high = np.nanpercentile(res.bootstrap_distribution, 100 - tail, axis=-1, method="higher")
     k = len(classes)
 
-    def entry(rows: tuple[int, int, int], n_sim: int, n_real: int) -> dict:
+    def entry(rows: tuple[int, int, int], cls: slice | int) -> dict:
+        counts = {"objects_sim": int(ns[:, cls].sum()), "found_sim": int(hs[:, cls].sum()),
+                  "objects_real": int(nr[:, cls].sum()), "found_real": int(hr[:, cls].sum())}
         return {name: {"value": _num(point[r]), "ci95": [_num(low[r]), _num(high[r])]}
-                for name, r in zip(("sim", "real", "ratio"), rows)} | {"objects_sim": n_sim, "objects_real": n_real}
+                for name, r in zip(("sim", "real", "ratio"), rows)} | counts
 
-    out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), int(ns[:, ci].sum()), int(nr[:, ci].sum()))
-                       for ci, c in enumerate(classes)},
-           "overall": entry((3 * k, 3 * k + 1, 3 * k + 2), int(ns.sum()), int(nr.sum())),
+    out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), ci) for ci, c in enumerate(classes)},
+           "overall": entry((3 * k, 3 * k + 1, 3 * k + 2), slice(None)),
            "only_sim": _counts(sim, seen_sim - seen_real), "only_real": _counts(real, seen_real - seen_sim),
            "images_sim": len(sim), "images_real": len(real), "size_bins": list(SIZE_LABELS),
            "bootstrap": {"method": "percentile", "confidence": CONFIDENCE, "resamples": resamples,
@@ -233,13 +240,13 @@ def table(result: dict, title: str) -> str:
     sim recall, real recall (weighted to the sim's size mix), sim / real, each with its 95 % interval, and the
     objects on each side; then overall; then the classes on one side only."""
     lines = [f"### {title}", "",
-             "| class | sim recall | real recall (sim's size mix) | sim / real | objects sim / real |",
+             "| class | sim recall | real recall (sim's size mix) | sim / real | found / objects: sim; real |",
              "|---|---|---|---|---|"]
     rows = sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
     rows.append(("**all (sim's class × size mix)**", result["overall"]))
     for name, v in rows:
         lines.append(f"| {name} | {_cell(v['sim'], True)} | {_cell(v['real'], True)} | {_cell(v['ratio'], False)} "
-                     f"| {v['objects_sim']} / {v['objects_real']} |")
+                     f"| {v['found_sim']}/{v['objects_sim']}; {v['found_real']}/{v['objects_real']} |")
     for side in ("only_sim", "only_real"):
         if result[side]:
             lines.append(f"\n{side.replace('_', ' ')}: " + ", ".join(f"{c} {n}" for c, n in result[side].items()))
@@ -256,10 +263,12 @@ def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict
 
     t0 = time.perf_counter()
     photos = load_photos(realism, args.real_photos, args.min_pixels, args.real_limit)
-    real = photo_records(realism, detector, photos, threshold, args.iou)
+    detections: dict = {}
+    real = photo_records(realism, detector, photos, threshold, args.iou, detections)
     sim = sim_records(realism, sections, threshold, args.iou)
     result = compare(sim, real, seed=args.seed, resamples=args.real_resamples)
-    result.update({"photos": str(args.real_photos), "threshold": threshold, "iou": args.iou,
+    result.update({"photos": str(args.real_photos), "photo_detections": detections, "threshold": threshold,
+                   "iou": args.iou,
                    "min_pixels": args.min_pixels, "sim_side": "fast frames, COCO's crowd rule",
                    "seconds": time.perf_counter() - t0})
     title = (f"{args.detector}: sim (fast, crowd rule) against {len(photos)} COCO val2017 photos, recall at score ≥ "

@@ -577,14 +577,23 @@ def test_the_real_side_is_weighted_to_the_sims_size_mix(realism_real):
     chair, cup = res["classes"]["chair"], res["classes"]["cup"]
     assert chair["sim"]["value"] == 0.5 and chair["real"]["value"] == 0.25 and chair["ratio"]["value"] == 2.0
     assert cup["sim"]["value"] == 0.5 and cup["real"]["value"] == 0.5
-    assert (chair["objects_sim"], chair["objects_real"]) == (4, 8)
+    assert (chair["found_sim"], chair["objects_sim"], chair["found_real"], chair["objects_real"]) == (2, 4, 5, 8)
     # overall at the sim's class x size mix: chair-small 4, cup-small 1, cup-large 1 sim objects
     assert res["overall"]["sim"]["value"] == pytest.approx((2 + 1 + 0) / 6)
     assert res["overall"]["real"]["value"] == pytest.approx((4 * 0.25 + 1 * 0.0 + 1 * 1.0) / 6)
     assert res["only_sim"] == {"bed": 1} and res["only_real"] == {"oven": 1}
     lo, hi = chair["ratio"]["ci95"]
     assert lo <= 2.0 <= hi
-    assert "| chair | 50 % [" in realism_real.table(res, "t") and "sim's class × size mix" in realism_real.table(res, "t")
+    assert "| chair | 50 % [" in realism_real.table(res, "t") and "| 2/4; 5/8 |" in realism_real.table(res, "t") and "sim's class × size mix" in realism_real.table(res, "t")
+
+
+def test_a_ratio_over_a_real_recall_of_zero_is_unbounded(realism_real):
+    sim = [[("cup", 1, True)], [("cup", 1, False)]] * 5
+    real = [[("cup", 1, False)], [("cup", 1, False)]] * 5
+    res = realism_real.compare(sim, real, resamples=100)
+    assert res["classes"]["cup"]["ratio"]["value"] == "inf" and res["classes"]["cup"]["ratio"]["ci95"][1] == "inf"
+    assert "| cup | 50 % [" in realism_real.table(res, "t") and "| ∞ [" in realism_real.table(res, "t")
+    json.dumps(res, allow_nan=False)  # strict JSON
 
 
 def test_bootstrap_resamples_images_not_objects(realism_real):
@@ -619,7 +628,9 @@ def test_photos_are_scored_as_frames_are_with_cocos_crowd_rule(realism, realism_
             return [[2.0, 2.0, 32.0, 32.0, 0.8, realism.COCO80.index("chair")],
                     [5.0, 32.0, 15.0, 46.0, 0.7, realism.COCO80.index("book")]]
 
-    (rows,) = realism_real.photo_records(realism, Answers(), photos, 0.3, 0.5)
+    kept: dict = {}
+    (rows,) = realism_real.photo_records(realism, Answers(), photos, 0.3, 0.5, kept)
+    assert list(kept) == [1] and len(kept[1]) == 2
     assert sorted(rows) == [("chair", 0, True), ("table", 0, False)]  # sqrt(600), sqrt(700) < 32 px
 
 
