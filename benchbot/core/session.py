@@ -13,13 +13,15 @@ from __future__ import annotations
 import contextlib
 import sys
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from benchbot.core import stages
 from benchbot.core.episode import Episode
 from benchbot.core.errors import SpecError
 from benchbot.core.registry import Registry
-from benchbot.server import BackendService
+
+if TYPE_CHECKING:
+    from benchbot.server import BackendService
 
 
 @dataclass
@@ -105,6 +107,9 @@ def start_service(
     Raises:
         SpecError, BackendError: the backend or the first scene cannot be built.
     """
+    from benchbot.server import BackendService  # here: a command whose episodes the simulator service serves
+    # imports no server (uvicorn, Starlette: 0.04 s on the 2-core CPU)
+
     factory = factory or registry.backend_factory(run.robot["type"])
     hook = registry.plugin_manager.hook
 

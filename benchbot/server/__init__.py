@@ -18,22 +18,44 @@ reach is in :mod:`benchbot.core.limits`; the episode belongs to one client at a 
 The names below are importable from here (``from benchbot.server import ServerThread, build_app``).
 """
 
-from benchbot.server.http_errors import (
-    ActionTimeoutError, BadRequestError, EpisodeInUseError, ForbiddenError, NotFoundError, PayloadTooLargeError,
-    UnauthorizedError, status_of,
-)
-from benchbot.server.middleware import TOKEN_HEADER, BodyLimit, MergeSlashes, TokenGuard
-from benchbot.server.operations import RGB_CALLBACK, ROBOT_GREETING, BackendApi
-from benchbot.server.ownership import (
-    CLIENT_HEADER, CLIENT_ID_PATTERN, READ_ONLY_COMMANDS, EpisodeOwnership, client_identity,
-)
-from benchbot.server.redaction import HIDDEN, ground_truth_strings, redact
-from benchbot.server.request_decoding import PARSE_OFF_LOOP_BYTES, check_results_arguments, parse_json_body
-from benchbot.server.routes import (
-    DEFAULT_ACTION_TIMEOUT_S, MSGPACK, SUPERVISOR_GREETING, build_app, encode_jsonpickle,
-)
-from benchbot.server.server_thread import ServerThread
-from benchbot.server.service import BackendService, backend_worker
+import importlib
+
+#: Where each name below is defined. They are imported on first use (PEP 562), so that importing one light module of
+#: this package (``benchbot.server.redaction``, which the sandbox uses to hide ground truth) or a module that names
+#: these only for typing loads no web server: uvicorn and Starlette took 0.04 s of every ``benchbot batch`` on the
+#: 2-core CPU, whose episodes the simulator service serves.
+_DEFINED_IN = {
+    **dict.fromkeys(("ActionTimeoutError", "BadRequestError", "EpisodeInUseError", "ForbiddenError", "NotFoundError",
+                     "PayloadTooLargeError", "UnauthorizedError", "status_of"), "http_errors"),
+    **dict.fromkeys(("TOKEN_HEADER", "BodyLimit", "MergeSlashes", "TokenGuard"), "middleware"),
+    **dict.fromkeys(("RGB_CALLBACK", "ROBOT_GREETING", "BackendApi"), "operations"),
+    **dict.fromkeys(("CLIENT_HEADER", "CLIENT_ID_PATTERN", "READ_ONLY_COMMANDS", "EpisodeOwnership",
+                     "client_identity"), "ownership"),
+    **dict.fromkeys(("HIDDEN", "ground_truth_strings", "redact"), "redaction"),
+    **dict.fromkeys(("PARSE_OFF_LOOP_BYTES", "check_results_arguments", "parse_json_body"), "request_decoding"),
+    **dict.fromkeys(("DEFAULT_ACTION_TIMEOUT_S", "MSGPACK", "SUPERVISOR_GREETING", "build_app", "encode_jsonpickle"),
+                    "routes"),
+    "ServerThread": "server_thread",
+    **dict.fromkeys(("BackendService", "backend_worker"), "service"),
+}
+
+
+def __getattr__(name: str):
+    """``benchbot.server.<name>`` for the names of :data:`__all__`, imported from their module on first use.
+
+    Raises:
+        AttributeError: no such name."""
+    module = _DEFINED_IN.get(name)
+    if module is None:
+        raise AttributeError(f"module 'benchbot.server' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"benchbot.server.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_DEFINED_IN})
+
 
 __all__ = [
     "ActionTimeoutError", "BackendApi", "BackendService", "BadRequestError", "BodyLimit", "CLIENT_HEADER",
