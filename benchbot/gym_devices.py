@@ -17,9 +17,10 @@ How observations come back:
 * ``on_device=True`` on CUDA: each image entry (``image_rgb``, ``image_depth``) is a **tuple of G arrays, one per GPU
   in the order of** ``devices``, entry ``g`` holding the images of slice ``g`` (``env.slices[g]``) in that GPU's
   memory, exporting DLPack and the CUDA Array Interface on that device (``torch.from_dlpack(obs["image_rgb"][1])`` is a
-  tensor on ``cuda:1``). A worker's buffers are exported once by CUDA IPC (``cuIpcGetMemHandle`` in the worker,
-  ``cuIpcOpenMemHandle`` here in that GPU's primary context) and mapped again only if the renderer reallocates them.
-  The worker waits for its kernels before it answers; before the next ``step``/``reset`` this process waits for its own
+  tensor on ``cuda:1``). A worker's frames are shared by CUDA IPC (``DeviceArray.share``: ``cuIpcGetMemHandle``
+  in the worker, once per buffer; ``cuIpcOpenMemHandle`` here in that GPU's primary context, once): Taichi 1.7's
+  own buffers cannot be exported, so the worker copies each frame device to device into a shareable buffer. The
+  worker waits for its kernels and that copy before it answers; before the next ``step``/``reset`` this process waits for its own
   work queued on each worker's GPU (your reads of the frames, on any stream), so no frame is written over while read.
   The laser and pose are NumPy arrays of all N, as with one device.
 * ``on_device=True`` on the CPU (``devices=["cpu", "cpu"]``: processes on the CPU, for tests and CPU nodes): the same

@@ -2,7 +2,8 @@
 (``pip install benchbot[gym]``; docs/gym.md, *Vector environments*).
 
 ``gym.make_vec("BenchBot-v0", num_envs=N)`` builds :class:`BenchBotVectorEnv` (Gymnasium's ``vector_entry_point``
-mode, the default for this id; ``vectorization_mode="sync"`` steps N separate simulators instead). Each distinct
+mode, the default for this id, through :func:`benchbot.gym_devices.make_vector_env`, which spreads the
+sub-environments over several GPUs with ``devices=``; ``vectorization_mode="sync"`` steps N separate simulators instead). Each distinct
 environment among the sub-environments is one scene, loaded once, with its robots batched
 (:meth:`benchbot.core.robot.RobotBackend.batched`): every step moves all N robots with the pose controller on arrays
 and renders every camera and laser of a scene in one kernel launch. Sub-environment ``i`` behaves as
