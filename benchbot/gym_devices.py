@@ -244,23 +244,34 @@ class _Worker:
             self.shapes[key] = (shape, dtype)
             size = max(1, int(np.prod(shape)) * dtype.itemsize)
             self.blocks[key] = shared_memory.SharedMemory(create=True, size=size)
-        self.conn.send(("blocks", {key: block.name for key, block in self.blocks.items()}))
+        self.send(("blocks", {key: block.name for key, block in self.blocks.items()}))
         self.receive()
+
+    def send(self, message: tuple) -> None:
+        """Send ``message`` (``(command, payload)``); a one-line ``RuntimeError`` if the worker died."""
+        try:
+            self.conn.send(message)
+        except OSError:  # BrokenPipeError, ConnectionResetError
+            raise self._died() from None
 
     def receive(self) -> Any:
         """The worker's answer; raises what it raised, or a one-line ``RuntimeError`` if it died."""
         try:
             status, value = self.conn.recv()
         except (EOFError, OSError):
-            try:
-                code = self.process.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                code = None
-            raise RuntimeError(f"the vector environment's worker for sub-environments {self.bounds[0]}.."
-                               f"{self.bounds[1] - 1} on {self._where()} exited (code {code})") from None
+            raise self._died() from None
         if status == "error":
             raise value
         return value
+
+    def _died(self) -> RuntimeError:
+        try:
+            code = self.process.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            code = None
+        return RuntimeError(f"the vector environment's worker for sub-environments {self.bounds[0]}.."
+                            f"{self.bounds[1] - 1} on {self._where()} exited (code {code}): close this environment "
+                            "and make a new one")
 
     def _where(self) -> str:
         return "the CPU" if self.device == "cpu" else f"cuda:{self.device}"
@@ -369,7 +380,7 @@ class _MultiDeviceMethods:
         command, payloads = message
         for worker, payload in zip(self._workers, payloads):
             worker.wait_for_readers()
-            worker.conn.send((command, payload))
+            worker.send((command, payload))
         answers, error = [], None
         try:
             answers.append(local_answer())

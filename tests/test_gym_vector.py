@@ -312,6 +312,10 @@ def test_two_processes_give_one_process_results_byte_for_byte():
         first = np.concatenate(obs["image_rgb"])
         obs = vec.step(np.array([2, 2, 2]))[0]
         assert not np.array_equal(np.concatenate(obs["image_rgb"]), first)
+        vec._workers[0].process.kill()  # a worker that dies is one line naming its sub-environments
+        with pytest.raises(RuntimeError, match=r"sub-environments 2\.\.2 on the CPU exited") as died:
+            vec.step(np.array([2, 2, 2]))
+        assert "\n" not in str(died.value)
     finally:
         vec.close()
     with pytest.raises(SpecError, match="nosuchhome"):
