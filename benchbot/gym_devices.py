@@ -20,9 +20,10 @@ How observations come back:
   tensor on ``cuda:1``). A worker's frames are shared by CUDA IPC (``DeviceArray.share``: ``cuIpcGetMemHandle``
   in the worker, once per buffer; ``cuIpcOpenMemHandle`` here in that GPU's primary context, once): Taichi 1.7's
   own buffers cannot be exported, so the worker copies each frame device to device into a shareable buffer. The
-  worker waits for its kernels and that copy before it answers; before the next ``step``/``reset`` this process waits for its own
-  work queued on each worker's GPU (your reads of the frames, on any stream), so no frame is written over while read.
-  The laser and pose are NumPy arrays of all N, as with one device.
+  worker waits for its kernels and that copy before it answers; before the next ``step``/``reset`` this process waits
+  for its own work queued on each worker's GPU (your reads of the frames, on any stream), so no frame is written
+  over while read. The laser and pose are NumPy arrays of all N, as with one device (from the second answer on, a
+  worker writes them into shared memory too, as every array that came through the pipe).
 * ``on_device=True`` on the CPU (``devices=["cpu", "cpu"]``: processes on the CPU, for tests and CPU nodes): the same
   tuples, of NumPy views (slice 0 the renderer's buffer, the others shared memory); overwritten by the next step.
 """
@@ -226,6 +227,7 @@ class _Worker:
         self.blocks: dict[str, shared_memory.SharedMemory] = {}
         self.shapes: dict[str, tuple] = {}
         self.mapped: dict[str, tuple[tuple, Any]] = {}  # key -> (description, DeviceArray)
+        self.pending: dict[str, tuple] = {}  # arrays that came through the pipe: shared memory for them next
         self.conn, child = multiprocessing.Pipe()
         environ = dict(os.environ)
         if device != "cpu":
@@ -236,16 +238,19 @@ class _Worker:
         child.close()
         self.conn.send({**kwargs, "num_envs": self.count})
 
-    def attach(self, space: Any) -> None:
-        """Give the (started) worker shared memory for each entry of ``space`` (one sub-environment's
-        ``gymnasium.spaces.Dict``), sized for its slice; it writes those observations there from now on."""
-        for key, sub in space.spaces.items():
-            shape, dtype = (self.count,) + tuple(sub.shape), np.dtype(sub.dtype)
-            self.shapes[key] = (shape, dtype)
-            size = max(1, int(np.prod(shape)) * dtype.itemsize)
-            self.blocks[key] = shared_memory.SharedMemory(create=True, size=size)
-        self.send(("blocks", {key: block.name for key, block in self.blocks.items()}))
-        self.receive()
+    def attach(self, shapes: dict[str, tuple]) -> None:
+        """Give the (started) worker shared memory for the observations ``shapes`` (``{key: (its slice's shape,
+        dtype)}``) that have none yet; it writes them there from its next answer on."""
+        names = {}
+        for key, (shape, dtype) in shapes.items():
+            if key not in self.blocks:
+                self.shapes[key] = (tuple(shape), np.dtype(dtype))
+                size = max(1, int(np.prod(shape)) * np.dtype(dtype).itemsize)
+                self.blocks[key] = shared_memory.SharedMemory(create=True, size=size)
+                names[key] = self.blocks[key].name
+        if names:
+            self.send(("blocks", names))
+            self.receive()
 
     def send(self, message: tuple) -> None:
         """Send ``message`` (``(command, payload)``); a one-line ``RuntimeError`` if the worker died."""
@@ -285,8 +290,10 @@ class _Worker:
                 out[key] = np.ndarray(shape, dtype, buffer=self.blocks[key].buf)
             elif item[0] == "ipc":
                 out[key] = self._mapped(key, item[1], item[2])
-            else:
+            else:  # through the pipe: an array goes through shared memory from the next step on (_gather)
                 out[key] = item[1]
+                if isinstance(item[1], np.ndarray) and item[1].dtype != object:
+                    self.pending[key] = (item[1].shape, item[1].dtype)
         return out
 
     def _mapped(self, key: str, opener: str, args: tuple) -> Any:
@@ -360,9 +367,10 @@ class _MultiDeviceMethods:
             self._local = BenchBotVectorEnv(stop - start, **slice_kwargs(self.slices[0]))
             for worker in self._workers:
                 worker.receive()
-            if not (self.on_device and self.devices[0] != "cpu"):  # the host path, and CPU processes
+            if not self.on_device:  # the host path; on_device: after the first answer (what is not shared by IPC)
                 for worker in self._workers:
-                    worker.attach(self._local.single_observation_space)
+                    worker.attach({key: ((worker.count,) + tuple(sub.shape), sub.dtype)
+                                   for key, sub in self._local.single_observation_space.spaces.items()})
         except BaseException:
             self.close_extras()
             raise
@@ -394,6 +402,10 @@ class _MultiDeviceMethods:
                 error = error or exc
         if error is not None:
             raise error
+        for worker in self._workers:  # e.g. the laser and poses beside on-device images: shared memory from now on
+            if worker.pending:
+                worker.attach(worker.pending)
+                worker.pending = {}
         return answers
 
     def _join(self, parts: list[dict]) -> dict:
