@@ -69,6 +69,11 @@ class ChildOutcome:
 #: Seconds between two calls of :func:`run_child`'s ``stop_when``.
 STOP_WHEN_PERIOD_S = 0.25
 
+#: Seconds between two looks at whether a group being stopped has ended (:func:`_stop`). A sandboxed solution's group
+#: is still ending (its relay, bubblewrap) when its leader has exited; looking every 0.05 s left README command 1
+#: waiting 0.05-0.1 s for it on the 2-core CPU, where the group had ended within a few milliseconds.
+STOP_POLL_S = 0.005
+
 
 class _Watchdog:
     """The watchdog process of one child's group; :meth:`release` tells it the group was stopped here."""
@@ -408,9 +413,9 @@ def _stop(child: subprocess.Popen, grace_s: float, pump: _LogPump | None) -> Non
         if child.returncode is not None and not group_watchdog.group_running(pgid):
             return
         if pump is not None:
-            pump.pump(0.05)
+            pump.pump(STOP_POLL_S)
         else:
-            time.sleep(0.05)
+            time.sleep(STOP_POLL_S)
     try:
         os.killpg(pgid, signal.SIGKILL)
     except OSError:
