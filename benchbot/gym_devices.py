@@ -241,6 +241,8 @@ class _Worker:
     def attach(self, shapes: dict[str, tuple]) -> None:
         """Give the (started) worker shared memory for the observations ``shapes`` (``{key: (its slice's shape,
         dtype)}``) that have none yet; it writes them there from its next answer on."""
+        _check_shared_memory(sum(int(np.prod(shape)) * np.dtype(dtype).itemsize for key, (shape, dtype)
+                                 in shapes.items() if key not in self.blocks))
         names = {}
         for key, (shape, dtype) in shapes.items():
             if key not in self.blocks:
@@ -477,6 +479,21 @@ class _MultiDeviceMethods:
         local, self._local = getattr(self, "_local", None), None
         if local is not None:
             local.close()
+
+
+def _check_shared_memory(nbytes: int) -> None:
+    """Raise a one-line ``MemoryError`` if ``/dev/shm`` (where shared memory lives on Linux) has less than
+    ``nbytes`` free: a block larger than it would kill the worker that writes it (SIGBUS), not raise."""
+    import shutil
+
+    try:
+        free = shutil.disk_usage("/dev/shm").free
+    except OSError:  # not Linux: nothing to check
+        return
+    if nbytes > free:
+        raise MemoryError(f"the vector environment needs {nbytes / 2**20:.0f} MiB of shared memory for a worker's "
+                          f"observations but /dev/shm has {free / 2**20:.0f} MiB free: use on_device=True (images "
+                          "stay on the GPUs), fewer sub-environments or smaller images, or a larger /dev/shm")
 
 
 def _concatenated(infos: list[dict]) -> dict:

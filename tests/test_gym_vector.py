@@ -271,6 +271,20 @@ def test_devices_are_checked_before_anything_starts():
         make("BenchBot-v0", num_envs=2, task=ACTIVE, options=SMALL, devices=["cpu"] * 3)
 
 
+def test_too_little_shared_memory_is_one_line_before_a_worker_writes(monkeypatch):
+    """A worker's observations that would not fit in /dev/shm are refused in one line (writing them would kill it)."""
+    import collections
+    import shutil
+
+    from benchbot.gym_devices import _check_shared_memory
+
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(64 * 2**20, 0, 64 * 2**20))
+    _check_shared_memory(32 * 2**20)
+    with pytest.raises(MemoryError, match="needs 1051 MiB of shared memory .* has 64 MiB free: use on_device=True"):
+        _check_shared_memory(512 * 480 * 640 * 7 + 512 * 360 * 8)
+
+
 @pytest.mark.slow
 def test_two_processes_give_one_process_results_byte_for_byte():
     """devices=['cpu', 'cpu']: sub-environments 0-1 here, 2 in a worker process; observations (images, laser, pose),
