@@ -3,7 +3,7 @@ photos, and a physically based reference renderer (Blender Cycles) on the same e
 
     python benchmarks/realism.py [--env miniroom:1 --env house:1 | --all-homes] [--frames 16] [--quality-frames 4]
         [--reference-frames 1] [--reference-spp 64] [--ladder 1,4,16] [--style furnished|primitives]
-        [--seed 0] [--out runs/realism] [--arch cpu|cuda]
+        [--seed 0] [--out runs/realism] [--arch cpu|cuda] [--real-reference]
 
 Per environment (``--all-homes``: the ten BEAR homes) it builds the world an episode run with ``--seed`` sees (world
 seed ``benchbot.core.seeding.world_seed(seed, name, variant)``, through the scene cache as the simulator loads it),
@@ -41,6 +41,12 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
 (:mod:`benchbot_sim_taichi.render.pixel_integration`: an N × N grid of sub-pixels averaged in linear radiance, as a
 sensor's pixel integrates the light on its area); the objects, masks and boxes are the pixel centres', as always. It
 says what aliasing costs the detector; the default robot's camera has 1 sample a pixel.
+
+``--real-reference`` runs the same detector, with the same settings, on the real photos of ``--real-photos`` (102
+COCO val2017 photos shipped in ``benchmarks/realism/photos``, not in the detectors' training set) and prints per
+BEAR class the sim's recall (fast frames, COCO's crowd rule), the photos' recall weighted to the sim's pixel-size
+mix, their ratio, each with a bootstrap interval over images, and the objects on each side
+(:mod:`realism_real`); ``realism.json``'s ``real_reference`` has it all and each photo's detections.
 
 Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
 each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and
