@@ -269,6 +269,17 @@ def test_devices_are_checked_before_anything_starts():
         assert "\n" not in str(error.value), devices
     with pytest.raises(ValueError, match="at least one sub-environment per device"):
         make("BenchBot-v0", num_envs=2, task=ACTIVE, options=SMALL, devices=["cpu"] * 3)
+    with pytest.raises(ValueError, match=r"needs GPU 99, but this process sees \d+ GPU"):
+        make("BenchBot-v0", num_envs=2, task=ACTIVE, options={**SMALL, "arch": "cuda"}, devices=[0, 99])
+
+
+def test_a_worker_sees_only_its_gpu_of_this_processs_visible_ones(monkeypatch):
+    from benchbot.gym_devices import _visible_after
+
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)
+    assert _visible_after(1) == "1"
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "2, 3")
+    assert (_visible_after(0), _visible_after(1)) == ("2", "3")
 
 
 def test_too_little_shared_memory_is_one_line_before_a_worker_writes(monkeypatch):
