@@ -17,7 +17,8 @@ def test_session_redaction_and_the_cli_app_import_no_web_server_nor_leaderboard(
         from benchbot.server.redaction import ground_truth_strings
         from benchbot.cli.main import get_app
         get_app()
-        print(sorted(m for m in ("uvicorn", "starlette", "benchbot.batch.leaderboard", "benchbot.server.routes")
+        print(sorted(m for m in ("uvicorn", "starlette", "benchbot.batch.leaderboard", "benchbot.server.routes",
+                                  "benchbot.batch.predictivity")
                      if m in sys.modules))
     """)
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -11,17 +11,15 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from benchbot.batch import predictivity as pred
-from benchbot.batch import stats
-from benchbot.batch.analysis import analyse
-from benchbot.batch.figures import comparison_text, fmt, interval_text
-from benchbot.batch.report import assets_dir, write_report
-from benchbot.batch.run_data import assign_labels, load_run
 from benchbot.cli.common import err, handle_errors, out, registry
 from benchbot.core.errors import UsageError
 
 
 def _print_report(result: dict) -> None:
+    # the report's modules are imported where they are used: at the module's top every command paid 0.04 s for them
+    from benchbot.batch import stats
+    from benchbot.batch.figures import comparison_text, fmt, interval_text
+
     main = result["main_score"]
     pct = f"{int(stats.CONFIDENCE * 100)} % CI"
     for r in result["runs"]:
@@ -72,6 +70,8 @@ def _print_report(result: dict) -> None:
 
 
 def _print_predictivity(result: dict) -> None:
+    from benchbot.batch.figures import fmt, interval_text
+
     sim_name, real_name = result["settings"]
     table = Table(result["across"][:-1] if result["across"].endswith("s") else result["across"], sim_name, real_name,
                   title=f"{result['score']} per paired {result['across'][:-1]}", title_justify="left")
@@ -129,6 +129,10 @@ def register(app: typer.Typer) -> None:
         mapped and driven, figures as PNG/SVG/PDF and tables as CSV/LaTeX. Runs that differ in a condition the
         comparison does not name are warned about (--strict refuses). --predictivity measures how well one
         setting's runs predict another's."""
+        from benchbot.batch import predictivity as pred
+        from benchbot.batch.analysis import analyse
+        from benchbot.batch.report import assets_dir, write_report
+        from benchbot.batch.run_data import assign_labels, load_run
         from benchbot.cli.progress_lines import Steps
 
         reg = registry()
