@@ -230,6 +230,7 @@ class _Worker:
         self.pending: dict[str, tuple] = {}  # arrays that came through the pipe: shared memory for them next
         self.conn, child = multiprocessing.Pipe()
         environ = dict(os.environ)
+        environ["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # imports resolve as they do here
         if device != "cpu":
             environ["CUDA_VISIBLE_DEVICES"] = _visible_after(int(device))
         code = "import sys; from benchbot.gym_devices import serve_fd; serve_fd(int(sys.argv[1]))"
