@@ -107,8 +107,8 @@ def test_the_script_runs_in_its_smoke_mode_and_prints_its_figures(script):
 
 def test_the_helper_modules_are_no_scripts_and_import():
     """``gpu_host.py``, ``realism_real.py``, ``smoke.py`` and ``trajectory_views.py`` are modules the scripts import
-    (each imported by a script smoke-run above), not scripts; they import in a fresh interpreter; the Blender script beside
-    ``realism.py`` (run under bpy, which ``uv sync`` does not install) is valid Python."""
+    (each imported by a script smoke-run above), not scripts; they import in a fresh interpreter; the Blender script
+    beside ``realism.py`` (run under bpy, which ``uv sync`` does not install) is valid Python."""
     for helper, user in HELPERS.items():
         source = (BENCHMARKS / helper).read_text(encoding="utf-8")
         assert "__main__" not in source, f"{helper} is a script: give it a smoke mode and take it out of HELPERS"

@@ -563,7 +563,8 @@ def test_the_photo_set_is_val2017_with_its_boxes_and_a_licence_per_photo(realism
 
 
 def test_size_bins_are_the_square_root_of_mask_pixels(realism_real):
-    assert [realism_real.size_bin(n) for n in (400, 31 ** 2, 32 ** 2, 64 ** 2 - 1, 64 ** 2, 128 ** 2)] == [0, 0, 1, 1, 2, 3]
+    sizes = (400, 31 ** 2, 32 ** 2, 64 ** 2 - 1, 64 ** 2, 128 ** 2)
+    assert [realism_real.size_bin(n) for n in sizes] == [0, 0, 1, 1, 2, 3]
 
 
 def test_the_real_side_is_weighted_to_the_sims_size_mix(realism_real):
@@ -584,7 +585,8 @@ def test_the_real_side_is_weighted_to_the_sims_size_mix(realism_real):
     assert res["only_sim"] == {"bed": 1} and res["only_real"] == {"oven": 1}
     lo, hi = chair["ratio"]["ci95"]
     assert lo <= 2.0 <= hi
-    assert "| chair | 50 % [" in realism_real.table(res, "t") and "| 2/4; 5/8 |" in realism_real.table(res, "t") and "sim's class × size mix" in realism_real.table(res, "t")
+    text = realism_real.table(res, "t")
+    assert "| chair | 50 % [" in text and "| 2/4; 5/8 |" in text and "sim's class × size mix" in text
 
 
 def test_a_ratio_over_a_real_recall_of_zero_is_unbounded(realism_real):
@@ -612,13 +614,15 @@ def test_photos_are_scored_as_frames_are_with_cocos_crowd_rule(realism, realism_
     from PIL import Image
 
     Image.new("RGB", (64, 48), (90, 90, 90)).save(tmp_path / "000000000001.jpg")
-    data = {"licenses": [{"id": 4, "name": "Attribution License", "url": "http://creativecommons.org/licenses/by/2.0/"}],
+    def box(aid, cat, crowd, bbox, area):
+        return {"id": aid, "image_id": 1, "category_id": cat, "iscrowd": crowd, "bbox": bbox, "area": area}
+
+    licence = {"id": 4, "name": "Attribution License", "url": "http://creativecommons.org/licenses/by/2.0/"}
+    data = {"licenses": [licence],
             "categories": [{"id": 62, "name": "chair"}, {"id": 67, "name": "dining table"}, {"id": 84, "name": "book"}],
             "images": [{"id": 1, "file_name": "000000000001.jpg", "width": 64, "height": 48, "license": 4}],
-            "annotations": [{"id": 10, "image_id": 1, "category_id": 62, "iscrowd": 0, "bbox": [2, 2, 30, 30], "area": 600},
-                            {"id": 11, "image_id": 1, "category_id": 67, "iscrowd": 0, "bbox": [30, 10, 30, 30], "area": 700},
-                            {"id": 12, "image_id": 1, "category_id": 84, "iscrowd": 1, "bbox": [0, 30, 40, 18], "area": 500},
-                            {"id": 13, "image_id": 1, "category_id": 62, "iscrowd": 0, "bbox": [50, 0, 5, 5], "area": 20}]}
+            "annotations": [box(10, 62, 0, [2, 2, 30, 30], 600), box(11, 67, 0, [30, 10, 30, 30], 700),
+                            box(12, 84, 1, [0, 30, 40, 18], 500), box(13, 62, 0, [50, 0, 5, 5], 20)]}
     (tmp_path / "coco_val2017.json").write_text(json.dumps(data))
     photos = realism_real.load_photos(realism, tmp_path, min_pixels=400)
 

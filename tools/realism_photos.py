@@ -5,7 +5,8 @@
 
 Each ``ANNOTATIONS.json`` is a COCO instances file of **val2017** images (the official ``instances_val2017.json`` or
 a subset of it; train2017 images are refused: the detectors were trained on them) and its ``IMAGE_DIR`` holds its
-images (``file_name``); several sources are merged (an image or box in two of them is kept once). It keeps the photos with at least one box of a BEAR class other than ``person``
+images (``file_name``); several sources are merged (an image or box in two of them is kept once). It keeps the
+photos with at least one box of a BEAR class other than ``person``
 (``benchbot_task_semslam.coco``'s names, ``dining table`` → ``table``), re-encodes them as JPEG (``--quality``,
 longest side at most ``--max-side``, boxes and areas scaled with the image) and writes beside them
 ``coco_val2017.json``: the kept images (COCO id, file name, size, licence id, ``flickr_url``, ``coco_url``), their
@@ -142,8 +143,8 @@ detectors were trained on train2017. They are the val2017 images with at least o
 - **Photos:** each is a Flickr photo under the licence below (COCO's licence id for it; COCO gives no author names:
   the Flickr URL leads to the photo's page and author). COCO's terms: the images are not COCO's; their use must
   abide by the Flickr terms of use and each photo's licence. Several are non-commercial (NC) or no-derivatives (ND)
-  licences: they are shipped here for evaluation only, re-encoded and not otherwise edited; keep this attribution wherever they are
-  redistributed, and leave out the NC/ND ones where those terms do not fit.
+  licences: they are shipped here for evaluation only, re-encoded and not otherwise edited; keep this attribution
+  wherever they are redistributed, and leave out the NC/ND ones where those terms do not fit.
 
 | COCO id | file | licence | Flickr URL |
 |---|---|---|---|
