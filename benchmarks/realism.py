@@ -1137,6 +1137,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--real-photos", type=Path, default=HERE / "realism" / "photos",
                     help="the real-photo reference set (coco_val2017.json and its photos)")
     ap.add_argument("--real-limit", type=int, default=None, help="only the first N photos (default: all)")
+    ap.add_argument("--real-drop-border", action="store_true",
+                    help="leave out the photos' objects whose box touches the photo's border (the nearest\n"
+                         "stand-in for --max-truncation, which COCO's boxes cannot give)")
     ap.add_argument("--real-resamples", type=int, default=2000, help="bootstrap resamples of the intervals")
     ap.add_argument("--pngs", type=int, default=PNGS_PER_ENV, help="annotated PNGs per environment and mode")
     ap.add_argument("--out", type=Path, default=Path("runs") / "realism")

@@ -8,7 +8,8 @@ its objects are scored by the rules the simulator's frames are (``realism.score_
 and IoU): an object counts when its mask has at least ``--min-pixels`` pixels (COCO's ``area``; a photo's objects
 have no truncation figure, so none is applied), and COCO's ``iscrowd`` boxes are crowd regions
 (``realism.with_crowd_rule``), as BEAR's group boxes are in the sim column ``fast, crowd rule``, which is the sim
-side here.
+side here. ``--real-drop-border`` also leaves out the photos' objects whose box touches the photo's border, the
+nearest stand-in for the sim's truncation rule.
 
 An object's size is the square root of its mask pixels, binned at :data:`SIZE_EDGES`. Per class, the real recall
 is weighted to the sim's size mix of that class (the sim's objects per size bin, over the bins where the photos have
@@ -36,6 +37,8 @@ MANIFEST = "coco_val2017.json"
 #: benchmark's 400-pixel visibility floor (COCO's small/medium split is at 32).
 SIZE_EDGES = (32, 64, 128)
 SIZE_LABELS = ("<32 px", "32-64 px", "64-128 px", ">=128 px")
+#: ``--real-drop-border``: an object whose box comes closer than this to a photo's edge (pixels) is not counted.
+BORDER_PX = 1.0
 BOOTSTRAP_RESAMPLES = 2000
 CONFIDENCE = 0.95
 
@@ -54,10 +57,13 @@ def size_bin(pixels: float) -> int:
     return int(np.searchsorted(SIZE_EDGES, np.sqrt(float(pixels)), side="right"))
 
 
-def load_photos(realism, folder: Path = PHOTOS, min_pixels: int = 400, limit: int | None = None) -> list[Photo]:
+def load_photos(realism, folder: Path = PHOTOS, min_pixels: int = 400, limit: int | None = None,
+                drop_border: bool = False) -> list[Photo]:
     """The photos of ``folder`` with their COCO boxes as ``realism.Truth`` (BEAR class names; ``box`` [x1, y1, x2,
     y2] pixels; ``pixels`` the COCO mask area; ``crowd`` COCO's ``iscrowd``; ``visible``: ``pixels`` ≥
-    ``min_pixels``); the first ``limit`` photos only when given.
+    ``min_pixels`` and, with ``drop_border``, a box at least :data:`BORDER_PX` from every edge of the photo: the
+    nearest stand-in for the sim's truncation rule, which COCO's boxes cannot give); the first ``limit`` photos only
+    when given.
 
     Raises:
         realism.RealismError: the manifest or a photo is missing or unreadable.
@@ -68,11 +74,14 @@ def load_photos(realism, folder: Path = PHOTOS, min_pixels: int = 400, limit: in
         data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
         names = {c["id"]: COCO_TO_BEAR.get(c["name"], c["name"]) for c in data["categories"]}
         per_image: dict[int, list] = {im["id"]: [] for im in data["images"]}
+        size = {im["id"]: (im["width"], im["height"]) for im in data["images"]}
         for a in data["annotations"]:
             x, y, w, h = a["bbox"]
+            W, H = size[a["image_id"]]
+            inside = min(x, y, W - x - w, H - y - h) >= BORDER_PX
             per_image[a["image_id"]].append(realism.Truth(
                 int(a["id"]), names[a["category_id"]], [x, y, x + w, y + h], int(round(a["area"])), 0.0,
-                a["area"] >= min_pixels, "", bool(a["iscrowd"])))
+                a["area"] >= min_pixels and (inside or not drop_border), "", bool(a["iscrowd"])))
         photos = [Photo(folder / im["file_name"], int(im["id"]), per_image[im["id"]]) for im in data["images"]]
     except (OSError, ValueError, KeyError) as exc:
         raise realism.RealismError(f"{folder / MANIFEST}: {exc}", "rebuild it with tools/realism_photos.py") from exc
@@ -262,15 +271,17 @@ def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict
     import time
 
     t0 = time.perf_counter()
-    photos = load_photos(realism, args.real_photos, args.min_pixels, args.real_limit)
+    photos = load_photos(realism, args.real_photos, args.min_pixels, args.real_limit, args.real_drop_border)
     detections: dict = {}
     real = photo_records(realism, detector, photos, threshold, args.iou, detections)
     sim = sim_records(realism, sections, threshold, args.iou)
     result = compare(sim, real, seed=args.seed, resamples=args.real_resamples)
     result.update({"photos": str(args.real_photos), "photo_detections": detections, "threshold": threshold,
                    "iou": args.iou,
-                   "min_pixels": args.min_pixels, "sim_side": "fast frames, COCO's crowd rule",
+                   "min_pixels": args.min_pixels, "drop_border": args.real_drop_border,
+                   "sim_side": "fast frames, COCO's crowd rule",
                    "seconds": time.perf_counter() - t0})
     title = (f"{args.detector}: sim (fast, crowd rule) against {len(photos)} COCO val2017 photos, recall at score ≥ "
-             f"{threshold}, real weighted to the sim's size mix")
+             f"{threshold}, real weighted to the sim's size mix"
+             + (", the photos' objects at their border left out" if args.real_drop_border else ""))
     return result, table(result, title)

@@ -621,7 +621,7 @@ def test_photos_are_scored_as_frames_are_with_cocos_crowd_rule(realism, realism_
     data = {"licenses": [licence],
             "categories": [{"id": 62, "name": "chair"}, {"id": 67, "name": "dining table"}, {"id": 84, "name": "book"}],
             "images": [{"id": 1, "file_name": "000000000001.jpg", "width": 64, "height": 48, "license": 4}],
-            "annotations": [box(10, 62, 0, [2, 2, 30, 30], 600), box(11, 67, 0, [30, 10, 30, 30], 700),
+            "annotations": [box(10, 62, 0, [2, 2, 30, 30], 600), box(11, 67, 0, [33.5, 10, 30, 30], 700),
                             box(12, 84, 1, [0, 30, 40, 18], 500), box(13, 62, 0, [50, 0, 5, 5], 20)]}
     (tmp_path / "coco_val2017.json").write_text(json.dumps(data))
     photos = realism_real.load_photos(realism, tmp_path, min_pixels=400)
@@ -636,6 +636,10 @@ def test_photos_are_scored_as_frames_are_with_cocos_crowd_rule(realism, realism_
     (rows,) = realism_real.photo_records(realism, Answers(), photos, 0.3, 0.5, kept)
     assert list(kept) == [1] and len(kept[1]) == 2
     assert sorted(rows) == [("chair", 0, True), ("table", 0, False)]  # sqrt(600), sqrt(700) < 32 px
+    # the table's box reaches the right edge (33.5 + 30 > 64 - 1): left out with drop_border, as if truncated
+    photos = realism_real.load_photos(realism, tmp_path, min_pixels=400, drop_border=True)
+    (rows,) = realism_real.photo_records(realism, Answers(), photos, 0.3, 0.5)
+    assert sorted(rows) == [("chair", 0, True)]
 
 
 def test_real_reference_needs_the_detector(realism, capsys):
