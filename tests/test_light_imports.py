@@ -40,3 +40,17 @@ def test_every_name_of_benchbot_server_is_its_modules_own():
         assert "no_such_name" in str(exc)
     else:
         raise AssertionError("an unknown name was found")
+
+
+def test_the_solution_api_reads_no_package_metadata_and_the_version_is_read_on_use():
+    code = textwrap.dedent("""
+        import sys
+        import benchbot_api
+        before = "importlib.metadata" in sys.modules
+        import benchbot
+        from importlib.metadata import version
+        print(before, benchbot.__version__ == version("benchbot"))
+    """)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.split() == ["False", "True"]
