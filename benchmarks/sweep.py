@@ -9,9 +9,12 @@ workers), then ``--runs`` times, timed. For every timed run it reports:
 * per stage, summed over the episodes and per episode, from the command's progress lines (``--no-tui``), each
   timestamped as it arrives: ``command start`` (interpreter, plugins, planning: until the first episode starts),
   per episode ``waiting`` (started, no backend stage yet), the backend's stages (``loading the scene``,
-  ``starting Taichi``, ``loading the BVH…``, ``compiling kernels``…: what the warm service skips), ``solution``
-  (sandbox, the solution's start, every step's round trip and render, its exit) and ``per frame`` (solution seconds
-  over its steps), and ``evaluation and writing`` (from the last episode's end to the command's exit);
+  ``starting Taichi``, ``loading the BVH…``, ``compiling kernels``…: what the warm service skips; the command prints
+  the next line at the solution's first step, so the backend's last stage is reported with the solution's start as
+  ``… + solution start``: serving the backend, the sandbox, the solution's interpreter and imports, its first
+  request), ``solution steps`` (from its first step to its exit: every step's round trip, render and the solution's
+  own work) and ``per frame`` (those seconds over the frames), and ``evaluation and writing`` (from the last
+  episode's end to the command's exit);
 * the GPUs' utilisation sampled by ``nvidia-smi`` every second (mean and peak per GPU; none without ``nvidia-smi``);
 * whether every run's results, trajectories and scores files are byte-identical (across runs and modes).
 
@@ -74,10 +77,8 @@ class GpuSampler:
 
 def stage_name(text: str) -> str:
     """A progress line's stage without its details: ``loading the scene (miniroom:1, from the cache)`` → ``loading
-    the scene``; the backend-ready line → ``solution``; ``starting`` → ``waiting``."""
+    the scene``; ``starting`` → ``waiting``."""
     text = re.sub(r"\s*\(.*$", "", text).strip()
-    if text.startswith("the backend is ready"):
-        return "solution"
     return "waiting" if text == "starting" else text
 
 
@@ -92,18 +93,21 @@ def profile(lines: list[tuple[float, str]], t0: float, t_exit: float, steps: int
             continue
         episode, text = match[1], match[4].strip()
         first = t if first is None else first
+        now = "solution steps" if text.startswith("the backend is ready") else stage_name(text)
         if episode in last:
             since, stage = last.pop(episode)
+            if now == "solution steps" and stage != "waiting":  # the line comes with the solution's first step
+                stage = f"{stage} + solution start"
             per_stage[stage] = per_stage.get(stage, 0.0) + t - since
         if ENDED.match(text):
             ended = t
         else:
-            last[episode] = (t, stage_name(text))
+            last[episode] = (t, now)
     out = {"command start": round((first or t_exit) - t0, 3)}
     out.update({k: round(v, 3) for k, v in per_stage.items()})
     out["evaluation and writing"] = round(t_exit - (ended or t_exit), 3)
-    if steps and "solution" in per_stage:
-        out["solution per frame"] = round(per_stage["solution"] / steps, 5)
+    if steps and "solution steps" in per_stage:
+        out["solution per frame"] = round(per_stage["solution steps"] / steps, 5)
     return out
 
 
