@@ -171,34 +171,42 @@ def weighted(ns, hs, nr, hr) -> np.ndarray:
                           + [a[None] for a in (sim_all, real_all, ratio_all)], axis=0)
 
 
+def intervals(ns, hs, nr, hr, seed: int, resamples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Ends of the 95 % intervals of :func:`weighted`'s rows, from per-image counts ``(images, classes, bins)`` of
+    sim objects/found ``ns``/``hs`` and real ``nr``/``hr``: SciPy's ``stats.bootstrap`` resampling the sim's images
+    and the photos independently (percentile method), each end taken over the resamples where the figure is
+    defined (a class in both resamples) as the outer order statistic, so that an unbounded ratio reads ∞."""
+    from scipy import stats
+
+    def statistic(i, j, axis=-1):
+        i, j = i.astype(np.int64), j.astype(np.int64)
+        return weighted(ns[i].sum(-3), hs[i].sum(-3), nr[j].sum(-3), hr[j].sum(-3))
+
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # resamples without a class: NaN there, and SciPy's own interval NaN
+        res = stats.bootstrap((np.arange(ns.shape[0]), np.arange(nr.shape[0])), statistic, paired=False,
+                              vectorized=True, n_resamples=resamples, batch=50, method="percentile",
+                              confidence_level=CONFIDENCE, random_state=seed)
+        tail = 100 * (1 - CONFIDENCE) / 2
+        low = np.nanpercentile(res.bootstrap_distribution, tail, axis=-1, method="lower")
+        high = np.nanpercentile(res.bootstrap_distribution, 100 - tail, axis=-1, method="higher")
+    return low, high
+
+
 def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
     """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
     (images resampled, see the module docstring), and the objects and objects found on each side (all sizes,
     unweighted). Classes: those with objects on both sides; the others are listed with their counts only."""
-    from scipy import stats
-
     seen_sim = {c for rows in sim for c, _, _ in rows}
     seen_real = {c for rows in real for c, _, _ in rows}
     classes = sorted(seen_sim & seen_real)
     ns, hs = count_table(sim, classes)
     nr, hr = count_table(real, classes)
     point = weighted(ns.sum(0), hs.sum(0), nr.sum(0), hr.sum(0))
-    low = high = np.full_like(point, np.nan)
     if classes and len(sim) > 1 and len(real) > 1:
-        def statistic(i, j, axis=-1):
-            i, j = i.astype(np.int64), j.astype(np.int64)
-            return weighted(ns[i].sum(-3), hs[i].sum(-3), nr[j].sum(-3), hr[j].sum(-3))
-
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # resamples without a class: NaN there, SciPy's interval NaN
-            res = stats.bootstrap((np.arange(len(sim)), np.arange(len(real))), statistic, paired=False,
-                                  vectorized=True, n_resamples=resamples, batch=50, method="percentile",
-                                  confidence_level=CONFIDENCE, random_state=seed)
-            # the percentile interval over the resamples where the figure is defined (a class in both resamples)
-            # (the outer order statistics, so that an unbounded ratio shows as ∞ rather than ∞ − ∞)
-            tail = 100 * (1 - CONFIDENCE) / 2
-            low = np.nanpercentile(res.bootstrap_distribution, tail, axis=-1, method="lower")
-            high = np.nanpercentile(res.bootstrap_distribution, 100 - tail, axis=-1, method="higher")
+        low, high = intervals(ns, hs, nr, hr, seed, resamples)
+    else:
+        low = high = np.full_like(point, np.nan)
     k = len(classes)
 
     def entry(rows: tuple[int, int, int], cls: slice | int) -> dict:
