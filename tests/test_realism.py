@@ -4,6 +4,7 @@ the Blender camera, the glTF export for the reference renderer, and the detector
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import os
@@ -543,8 +544,10 @@ def test_the_photo_set_is_val2017_with_its_boxes_and_a_licence_per_photo(realism
     data = json.loads((folder / "coco_val2017.json").read_text())
     licences = {entry["id"] for entry in data["licenses"]}
     attribution = (folder / "ATTRIBUTION.md").read_text()
-    assert len(data["images"]) >= 100 and "CC BY 4.0" in attribution
+    assert len(data["images"]) >= 70 and "CC BY 4.0" in attribution
+    no_derivatives = {e["id"] for e in data["licenses"] if "noderivs" in e["name"].lower()}
     for im in data["images"]:
+        assert im["license"] not in no_derivatives  # re-encoding could count as altering a no-derivatives photo
         assert "/val2017/" in im["coco_url"] and im["license"] in licences and im["flickr_url"].startswith("http")
         assert f"| {im['id']} | `{im['file_name']}` |" in attribution
         assert max(im["width"], im["height"]) <= 640
@@ -660,3 +663,25 @@ def test_smoke_run_with_the_real_reference(realism, tmp_path, capsys):
     assert real["images_real"] == 2 and real["bootstrap"]["resamples"] == 50
     assert real["overall"]["objects_real"] > 0 and real["overall"]["real"]["value"] in (0.0, None)
     assert "sim / real" in (tmp_path / "per_class.md").read_text()
+
+
+def test_the_photo_tool_keeps_val2017_photos_with_a_bear_box_and_leaves_out_no_derivatives_ones():
+    """``tools/realism_photos.kept_images``: a photo with a BEAR-class box is kept unless its licence forbids
+    derivatives; one with only a person is left out; a train2017 image is refused."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        tool = importlib.import_module("realism_photos")
+    finally:
+        sys.path.remove(str(ROOT / "tools"))
+    licences = [{"id": 1, "name": "Attribution License"},
+                {"id": 3, "name": "Attribution-NonCommercial-NoDerivs License"}]
+    categories = [{"id": 1, "name": "person"}, {"id": 62, "name": "chair"}]
+    images = [{"id": i, "license": lic, "coco_url": "http://images.cocodataset.org/val2017/x.jpg"}
+              for i, lic in ((10, 1), (11, 3), (12, 1))]
+    boxes = [{"image_id": 10, "category_id": 62}, {"image_id": 11, "category_id": 62},
+             {"image_id": 12, "category_id": 1}]
+    data = {"licenses": licences, "categories": categories, "images": images, "annotations": boxes}
+    assert [im["id"] for im in tool.kept_images(data, tool.bear_classes())] == [10]
+    images.append({"id": 13, "license": 1, "coco_url": "http://images.cocodataset.org/train2017/y.jpg"})
+    with pytest.raises(ValueError, match="not a val2017 image"):
+        tool.kept_images(data, tool.bear_classes())

@@ -6,7 +6,7 @@
 Each ``ANNOTATIONS.json`` is a COCO instances file of **val2017** images (the official ``instances_val2017.json`` or
 a subset of it; train2017 images are refused: the detectors were trained on them) and its ``IMAGE_DIR`` holds its
 images (``file_name``); several sources are merged (an image or box in two of them is kept once). It keeps the
-photos with at least one box of a BEAR class other than ``person``
+photos with at least one box of a BEAR class other than ``person`` whose licence allows derivatives (no "NoDerivs")
 (``benchbot_task_semslam.coco``'s names, ``dining table`` → ``table``), re-encodes them as JPEG (``--quality``,
 longest side at most ``--max-side``, boxes and areas scaled with the image) and writes beside them
 ``coco_val2017.json``: the kept images (COCO id, file name, size, licence id, ``flickr_url``, ``coco_url``), their
@@ -38,8 +38,15 @@ def bear_classes() -> set[str]:
     return (set(BEAR_CLASS_LIST) & coco_as_bear) - {"person"}
 
 
+def no_derivatives(data: dict) -> set[int]:
+    """The licence ids of COCO instances ``data`` whose licence forbids derivatives (Creative Commons "NoDerivs"):
+    their photos are left out, since re-encoding them at another size could count as altering them."""
+    return {entry["id"] for entry in data.get("licenses", []) if "noderivs" in entry.get("name", "").lower()}
+
+
 def kept_images(data: dict, classes: set[str]) -> list[dict]:
-    """The images of COCO instances ``data`` with at least one box of ``classes`` (BEAR names), in file order.
+    """The images of COCO instances ``data`` with at least one box of ``classes`` (BEAR names) and a licence that
+    allows derivatives (:func:`no_derivatives`), in file order.
 
     Raises:
         ValueError: an image is not a val2017 one (its ``coco_url`` names another split).
@@ -48,12 +55,12 @@ def kept_images(data: dict, classes: set[str]) -> list[dict]:
 
     names = {c["id"]: COCO_TO_BEAR.get(c["name"], c["name"]) for c in data["categories"]}
     with_class = {a["image_id"] for a in data["annotations"] if names[a["category_id"]] in classes}
-    out = []
+    out, refused = [], no_derivatives(data)
     for im in data["images"]:
         if "/val2017/" not in im.get("coco_url", "/val2017/"):
             raise ValueError(f"image {im['id']} is not a val2017 image ({im['coco_url']}): the detectors trained "
                              "on train2017")
-        if im["id"] in with_class:
+        if im["id"] in with_class and im.get("license") not in refused:
             out.append(im)
     return out
 
@@ -142,9 +149,10 @@ detectors were trained on train2017. They are the val2017 images with at least o
   [CC BY 4.0](https://creativecommons.org/licenses/by/4.0/) (COCO terms of use, https://cocodataset.org/#termsofuse).
 - **Photos:** each is a Flickr photo under the licence below (COCO's licence id for it; COCO gives no author names:
   the Flickr URL leads to the photo's page and author). COCO's terms: the images are not COCO's; their use must
-  abide by the Flickr terms of use and each photo's licence. Several are non-commercial (NC) or no-derivatives (ND)
-  licences: they are shipped here for evaluation only, re-encoded and not otherwise edited; keep this attribution
-  wherever they are redistributed, and leave out the NC/ND ones where those terms do not fit.
+  abide by the Flickr terms of use and each photo's licence. Photos under no-derivatives (ND) licences are left out
+  (re-encoding them could count as altering them). Several are non-commercial (NC) licences: they are shipped here
+  for evaluation only, re-encoded and not otherwise edited; keep this attribution wherever they are redistributed,
+  and leave out the NC ones where those terms do not fit.
 
 | COCO id | file | licence | Flickr URL |
 |---|---|---|---|
