@@ -20,7 +20,7 @@ workers), then ``--runs`` times, timed. For every timed run it reports:
 
     python benchmarks/sweep.py [--workers 16] [--repeat 3] [--envs-batch bear_all | --envs ENV,...]
         [--example semslam_geometric] [--arch cuda|cpu] [--camera-size WxH] [--modes service,no-service] [--runs 1]
-        [--warm-up MODES|none] [--output-dir DIR] [--json] [--smoke]
+        [--warm-up MODES|none] [--batch-args ARGS] [--output-dir DIR] [--json] [--smoke]
 
 ``--smoke``: ``semslam_geometric`` on miniroom:1 twice at 64×48 with two workers, both modes, one timed run each.
 The service it uses is its own (a socket folder of its own, stopped at the end).
@@ -33,6 +33,7 @@ import hashlib
 import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -128,7 +129,7 @@ def run_once(args: argparse.Namespace, mode: str, out: Path, env: dict) -> dict:
     command = [sys.executable, "-m", "benchbot.cli", "batch", "--example", args.example, *envs, "--repeat",
                str(args.repeat), "--workers", str(args.workers), "--arch", args.arch, "--output-dir", str(out),
                "--json", "--no-tui"] + (["--camera-size", args.camera_size] if args.camera_size else []) + \
-        (["--no-service"] if mode == "no-service" else [])
+        (["--no-service"] if mode == "no-service" else []) + shlex.split(args.batch_args)
     sampler = GpuSampler()
     lines: list[tuple[float, str]] = []
     t0 = time.monotonic()
@@ -183,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=1, help="timed runs per mode, after one warm-up run")
     ap.add_argument("--warm-up", default=None, help="comma list of the modes that get a warm-up run (default: all; "
                     "'none' where the caches are warm already, e.g. after benchbot sim prepare)")
+    ap.add_argument("--batch-args", default="", help="more arguments for benchbot batch, e.g. '--no-sandbox'")
     ap.add_argument("--output-dir", default=None, help="keep the run directories here (default: a temporary one)")
     ap.add_argument("--json", action="store_true")
     args = smoke.parse_args(ap, argv, envs="miniroom:1", repeat=2, workers=2, camera_size="64x48", arch="cpu")
