@@ -500,3 +500,27 @@ def test_a_solution_in_its_own_virtual_environment_gets_it_shown(tmp_path):
     script.parent.mkdir()
     script.write_text("")
     assert program_folders(["/usr/bin/python3", str(script)], tmp_path) == [script.parent.resolve(), Path("/usr/bin")]
+
+
+def test_outermost_and_inside_any_agree_with_is_relative_to_on_random_paths():
+    """``_outermost`` and ``_inside_any`` (parent look-ups, so that many run directories beside the run cost little)
+    give what comparing every pair with ``Path.is_relative_to`` gives."""
+    import random
+
+    from benchbot.solutions import sandbox
+
+    rng = random.Random(0)
+    names = ["a", "b", "ab", "a.b", "runs"]
+
+    def path() -> Path:
+        return Path("/" + "/".join(rng.choice(names) for _ in range(rng.randint(1, 5))))
+
+    for _ in range(2000):
+        folders = [path() for _ in range(rng.randint(0, 10))]
+        kept: list[Path] = []
+        for folder in sorted(set(folders), key=lambda p: len(p.parts)):
+            if not any(folder.is_relative_to(k) for k in kept):
+                kept.append(folder)
+        assert sandbox._outermost(folders) == sorted(kept)
+        probe = path()
+        assert sandbox._inside_any(probe, set(folders)) == any(probe.is_relative_to(f) for f in folders)

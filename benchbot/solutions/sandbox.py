@@ -386,7 +386,8 @@ class SandboxLayout:
                  "--symlink", f"{INSIDE_OUTPUTS}/benchbot_result", ORIGINAL_RESULT]
         for folder in self.shown:
             args += ["--ro-bind", str(folder), str(folder)]
-        emitted = [h for h in self.hidden if any(h.is_relative_to(s) or s.is_relative_to(h) for s in self.shown)]
+        shown, around_shown = set(self.shown), {a for s in self.shown for a in (s, *s.parents)}
+        emitted = [h for h in self.hidden if h in around_shown or _inside_any(h, shown)]  # inside or around one
         for folder in emitted:  # an empty folder in its place, with what is revealed in it bound before it is frozen
             args += ["--tmpfs", str(folder), *self._reveal(folder, emitted), "--remount-ro", str(folder)]
         args += self._reveal(None, emitted)
@@ -526,7 +527,8 @@ def run_sandboxed(
             break
     inside, ports, names = inside_address(address)
     programs = program_folders(argv, cwd)
-    shown = [p for p in python_folders() + [cwd] + programs if not any(p.is_relative_to(h) for h in hidden)]
+    hidden_set = set(hidden)
+    shown = [p for p in python_folders() + [cwd] + programs if not _inside_any(p, hidden_set)]
     own_prefixes = [Path(p) for p in dict.fromkeys((sys.prefix, sys.base_prefix))]
     editable = editable_view(own_prefixes + programs, own_prefixes, _outermost(shown + revealed), hidden, registry)
     notes = list(editable.notes)
@@ -654,8 +656,15 @@ def read_results(path: Path) -> bytes:
 
 def _outermost(folders: list[Path]) -> list[Path]:
     """``folders`` without those inside another of them, sorted (binding an outer folder shows the inner)."""
-    kept: list[Path] = []
+    kept: set[Path] = set()
     for folder in sorted(set(folders), key=lambda p: len(p.parts)):
-        if not any(folder.is_relative_to(k) for k in kept):
-            kept.append(folder)
+        if not _inside_any(folder, kept):
+            kept.add(folder)
     return sorted(kept)
+
+
+def _inside_any(path: Path, folders: set[Path]) -> bool:
+    """Whether ``path`` is one of ``folders`` or inside one (``path.is_relative_to(f)`` for an ``f`` of them, for
+    absolute, normalised paths) by a look-up of each of its parents: a run directory's solution hides each run
+    directory beside it, and comparing every shown folder with every hidden one took time that grew with them."""
+    return path in folders or any(parent in folders for parent in path.parents)
