@@ -5,9 +5,12 @@ of a profile, replaces idle ones of another when full and waits when all are bus
 
 from __future__ import annotations
 
+import json
 import multiprocessing
 import os
 import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -123,3 +126,33 @@ def test_the_pool_spreads_workers_over_the_gpus_reuses_free_ones_and_waits_when_
 
 def test_the_pool_limit_is_bounded():
     assert 4 <= pool_module.POOL_LIMIT <= 64
+
+
+@pytest.mark.slow
+def test_ray_episodes_on_a_gpu_request_their_share_of_one(tmp_path, monkeypatch):
+    """A Ray with two (logical) GPUs: each ``--arch cuda`` episode reserves BENCHBOT_RAY_GPUS_PER_EPISODE of one, so
+    Ray gives its task one GPU in CUDA_VISIBLE_DEVICES, which its solution (a child of the task) inherits; a CPU
+    episode reserves none."""
+    ray = pytest.importorskip("ray")
+    sys.path.insert(0, str(Path(__file__).parent))
+    from cli_in_process import benchbot
+
+    show = tmp_path / "show.py"
+    show.write_text("import os\nprint('GPUS=' + repr(os.environ.get('CUDA_VISIBLE_DEVICES')))\n")
+    monkeypatch.setenv("BENCHBOT_RAY_GPUS_PER_EPISODE", "1")  # a whole GPU each: the two episodes get one each
+    monkeypatch.setenv("RAY_ENABLE_UV_RUN_RUNTIME_ENV", "0")
+    seen = {}
+    ray.init(address="local", num_cpus=2, num_gpus=2, include_dashboard=False, log_to_driver=False,
+             configure_logging=False)
+    try:
+        for arch in ("cuda", "cpu"):
+            proc = benchbot("batch", "--native", f"{sys.executable} {show}", "--no-sandbox", "--envs", "miniroom:1",
+                            "--repeat", "2", "--arch", arch, "--executor", "ray", "--camera-size", "64x48",
+                            "--output-dir", str(tmp_path / arch), "--json", "--no-tui", "--no-evaluate")
+            episodes = json.loads(proc.stdout)["episodes"]
+            run_dir = Path(json.loads(proc.stdout)["run_dir"])
+            seen[arch] = sorted((run_dir / e["log"]).read_text().split("GPUS=")[1].split()[0] for e in episodes)
+    finally:
+        ray.shutdown()
+    assert seen["cuda"] == ["'0'", "'1'"], seen
+    assert all(value in ("None", "''") for value in seen["cpu"]), seen
