@@ -58,6 +58,7 @@ def test_worker_k_gets_gpu_k_mod_g_before_its_simulator_starts(two_gpus, monkeyp
     for name in executors.THREAD_VARIABLES:
         monkeypatch.setenv(name, "1")
     counter = multiprocessing.get_context("spawn").Value("i", 0)
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "")  # recorded: put back (unset) after the test
     seen = []
     for _ in range(3):  # what three worker processes' initialisers do, one after another
         monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)
@@ -141,6 +142,7 @@ def test_ray_episodes_on_a_gpu_request_their_share_of_one(tmp_path, monkeypatch)
     show.write_text("import os\nprint('GPUS=' + repr(os.environ.get('CUDA_VISIBLE_DEVICES')))\n")
     monkeypatch.setenv("BENCHBOT_RAY_GPUS_PER_EPISODE", "1")  # a whole GPU each: the two episodes get one each
     monkeypatch.setenv("RAY_ENABLE_UV_RUN_RUNTIME_ENV", "0")
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)  # Ray's two logical GPUs, not this machine's
     seen = {}
     ray.init(address="local", num_cpus=2, num_gpus=2, include_dashboard=False, log_to_driver=False,
              configure_logging=False)
