@@ -44,7 +44,8 @@ from pathlib import Path
 
 import smoke  # this folder is on sys.path when a script here runs
 
-#: A progress line of ``benchbot batch --no-tui``: ``[k/N] label  what it does …`` or ``[k/N] label  ok  48 steps …``.
+#: A progress line of ``benchbot batch --no-tui``: ``[k/N] label  what it does …`` or
+#: ``[k/N] label  ok  48 steps …``.
 LINE = re.compile(r"^\[(\d+)/(\d+)\] (.+?)  (.+?)(?: …)?$")
 ENDED = re.compile(r"^(ok|failed|error|timeout|no_results|bad_results|resource_limit)\b")
 

@@ -158,3 +158,19 @@ def test_ray_episodes_on_a_gpu_request_their_share_of_one(tmp_path, monkeypatch)
         ray.shutdown()
     assert seen["cuda"] == ["'0'", "'1'"], seen
     assert all(value in ("None", "''") for value in seen["cpu"]), seen
+
+
+def test_the_pool_gives_an_episode_the_free_worker_that_served_its_world_lately(sleeper_pool):
+    """Its scene is likely still loaded there (a resident simulator keeps the last three)."""
+    pool, made = sleeper_pool
+    a, b = pool.lease(4, [], world="house:1"), pool.lease(4, [], world="house:2")
+    pool.release(a)
+    pool.release(b)
+    assert pool.lease(4, [], world="house:2") is b
+    assert pool.lease(4, [], world="house:1") is a and len(made) == 2
+    pool.release(a)
+    pool.release(b)
+    for world in ("house:3", "house:4", "house:5"):  # a's three latest worlds: house:1 is no longer among them
+        pool.release(pool.lease(4, [], world=world))
+    assert a.worlds == ["house:5", "house:4", "house:3"]
+    assert pool.lease(4, [], world="house:2") is b

@@ -173,7 +173,8 @@ def run_local(
 
     if service and (workers > 1 or gpus) and not any(spec.record for spec, _ in episodes):
         def pooled(spec: EpisodeSpec, run: RunSpec, events) -> EpisodeRecord:
-            pool = {"threads": threads, "gpus": gpus if wants_gpu(spec.options) else []}
+            world = repr((spec.robot, spec.env, spec.world_seed, sorted(spec.options.items()), spec.noise))
+            pool = {"threads": threads, "gpus": gpus if wants_gpu(spec.options) else [], "world": world}
             return run_episode(spec, run, run_dir, events, in_service=True, pool=pool)
 
         _run_in_threads(episodes, workers=workers, threads=threads, on_event=on_event, on_record=done,

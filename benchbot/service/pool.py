@@ -30,6 +30,9 @@ POOL_LIMIT = max(4, min(64, 2 * (os.cpu_count() or 1)))
 STOP_WAIT_S = 5.0
 #: Seconds a new worker may take to accept the service's connection (it binds its socket first thing).
 CONNECT_TIMEOUT_S = 60.0
+#: Worlds remembered per worker: as many scenes as a resident simulator keeps loaded
+#: (``benchbot_sim_taichi.loaded_scenes`` keeps three).
+WORLDS_KEPT = 3
 #: Thread-count variables a worker gets (unless the service's environment sets them), as a batch's own workers do
 #: (:data:`benchbot.batch.executors.THREAD_VARIABLES`).
 THREAD_VARIABLES = ("BENCHBOT_TAICHI_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -42,7 +45,9 @@ class PoolWorker:
     Attributes:
         process: the worker (``python -m benchbot.service.worker``). socket: where it listens.
         threads: its Taichi threads. gpu: its GPU (``{"index", "name", "uuid"}``) or None (CPU episodes).
-        busy: serving an episode now. served: episodes it served.
+        busy: serving an episode now. served: episodes it served. worlds: the worlds (robot, environment, world
+            seed, options) of its last :data:`WORLDS_KEPT` episodes, the latest first: the scenes it likely keeps
+            loaded.
     """
 
     process: subprocess.Popen
@@ -52,6 +57,7 @@ class PoolWorker:
     busy: bool = False
     served: int = 0
     started: float = field(default_factory=time.time)
+    worlds: list = field(default_factory=list)  # the worlds of its last episodes, the latest first
 
     def matches(self, threads: int, gpus: list[dict]) -> bool:
         """Whether it may serve an episode wanting ``threads`` Taichi threads on one of ``gpus`` (``[]``: the
@@ -123,10 +129,10 @@ class WorkerPool:
                 load[w.gpu["uuid"]] += 1
         return min(load, key=lambda uuid: (load[uuid], list(load).index(uuid)))
 
-    def lease(self, threads: int, gpus: list[dict], timeout_s: float | None = None) -> PoolWorker:
+    def lease(self, threads: int, gpus: list[dict], timeout_s: float | None = None, world: str = "") -> PoolWorker:
         """A worker of the profile (``threads``, one of ``gpus``; ``[]`` for the CPU), marked busy: a free one on
-        the GPU least busy, else a new one (on the GPU with the fewest workers), waiting while the pool is full of
-        busy workers.
+        the GPU least busy (of those, one that served ``world`` lately, whose scene it likely keeps loaded), else a
+        new one (on the GPU with the fewest workers), waiting while the pool is full of busy workers.
 
         Raises:
             TimeoutError: none was free within ``timeout_s`` seconds (None: wait as long as it takes).
@@ -141,7 +147,8 @@ class WorkerPool:
                 free = [w for w in mine if not w.busy]
                 if free:
                     best = self._least_used_gpu(gpus, mine, busy_only=True)
-                    worker = next((w for w in free if w.gpu is not None and w.gpu["uuid"] == best), free[0])
+                    there = [w for w in free if w.gpu is not None and w.gpu["uuid"] == best] or free
+                    worker = min(there, key=lambda w: w.worlds.index(world) if world in w.worlds else WORLDS_KEPT)
                 else:
                     idle_other = [w for w in self._workers if not w.busy and not w.matches(threads, gpus)]
                     if len(self._workers) >= self.limit and idle_other:
@@ -157,6 +164,8 @@ class WorkerPool:
                         self._cond.wait(0.5 if left is None else min(0.5, left))
                         continue
                 worker.busy = True
+                if world:
+                    worker.worlds = [world, *[w for w in worker.worlds if w != world]][:WORLDS_KEPT]
                 return worker
 
     def release(self, worker: PoolWorker, *, broken: bool = False) -> None:
@@ -221,8 +230,8 @@ def worker_lost_error(worker: PoolWorker, log: Path) -> dict:
 
 
 def serve_pooled(pool: WorkerPool, conn: socket.socket, request: dict) -> None:
-    """Serve ``request`` (an ``episode`` with ``pool: {threads, gpus}``) on a worker of ``pool``: lease one, pass
-    the request on, and relay its messages (stages, ready, steps, the end) to the client and the client's
+    """Serve ``request`` (an ``episode`` with ``pool: {threads, gpus, world}``) on a worker of ``pool``: lease one,
+    pass the request on, and relay its messages (stages, ready, steps, the end) to the client and the client's
     ``finish`` to it. The ``ready`` message gets ``node`` (the worker's GPU, :func:`benchbot.batch.gpus.recorded`).
     A worker that goes away before the episode's end is dropped and the client told in one line
     (:func:`worker_lost_error`); a client that goes away has its episode closed by the worker (its connection
@@ -230,7 +239,8 @@ def serve_pooled(pool: WorkerPool, conn: socket.socket, request: dict) -> None:
     from benchbot.batch.gpus import recorded
 
     wanted = request.get("pool") or {}
-    worker = pool.lease(int(wanted.get("threads") or 1), list(wanted.get("gpus") or []))
+    worker = pool.lease(int(wanted.get("threads") or 1), list(wanted.get("gpus") or []),
+                        world=str(wanted.get("world") or ""))
     upstream = _connect(worker)
     if upstream is None:
         pool.release(worker, broken=True)

@@ -68,7 +68,8 @@ def serve(listener: socket.socket, registry) -> None:
                 continue
             request = protocol.receive(conn)
             if request.get("op") != "episode":
-                protocol.send(conn, error_event(ValueError(f"a pool worker serves episodes, not {request.get('op')!r}")))
+                wrong = ValueError(f"a pool worker serves episodes, not {request.get('op')!r}")
+                protocol.send(conn, error_event(wrong))
                 continue
             serve_episode(registry, conn, request)
         except protocol.ConnectionLost:
