@@ -125,7 +125,8 @@ def _run_solution(spec: EpisodeSpec, registry, folder: Path, backend_socket: Pat
 
 
 def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = None, *,
-                hide: tuple = (), in_service: bool = False, pool: dict | None = None) -> EpisodeRecord:
+                hide: tuple = (), in_service: bool = False, pool: dict | None = None,
+                service_location=None) -> EpisodeRecord:
     """Run ``spec`` and return its record (never raises for an episode's own failure: the record says it).
 
     Args:
@@ -145,6 +146,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
         pool: with ``in_service``, ``{"threads", "gpus"}``: served by a warm worker process of the service's pool
             (:mod:`benchbot.service.pool`) with that many Taichi threads on one of those GPUs (``[]``: the CPU);
             the record's ``node`` then says which GPU (``{"gpu": {"index", "name"}}``).
+        service_location: with ``in_service``, the service's :class:`~benchbot.service.location.ServiceLocation`,
+            found once for the batch (finding it hashes the installation's files); None: found here.
     """
     record = new_record(spec)
     folder = Path(run_dir)
@@ -183,7 +186,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             served = open_episode(registry, run, in_service=in_service, seed=spec.seed, options=options,
                                   world_seed=spec.world_seed, on_step=on_step, on_stage=on_stage,
                                   unix_socket=backend_socket if spec.sandbox in ("bwrap", "container") else None,
-                                  recording=folder / spec.recording if spec.record else None, pool=pool)
+                                  recording=folder / spec.recording if spec.record else None, pool=pool,
+                                  location=service_location)
             try:
                 with open(folder / spec.log, "w") as log:
                     timed_out, read_stdin = _run_solution(spec, registry, folder, backend_socket, served.address,

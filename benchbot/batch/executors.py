@@ -171,11 +171,15 @@ def run_local(
         record.executor, record.node = "local", on_cpu({**here, **record.node}, record.backend)
         on_record(record)
 
+    if service:  # found once: finding it hashes the installation's files (30 ms; more with 16 threads at once)
+        from benchbot.service.location import locate
+
+        location = locate()
     if service and (workers > 1 or gpus) and not any(spec.record for spec, _ in episodes):
         def pooled(spec: EpisodeSpec, run: RunSpec, events) -> EpisodeRecord:
             world = repr((spec.robot, spec.env, spec.world_seed, sorted(spec.options.items()), spec.noise))
             pool = {"threads": threads, "gpus": gpus if wants_gpu(spec.options) else [], "world": world}
-            return run_episode(spec, run, run_dir, events, in_service=True, pool=pool)
+            return run_episode(spec, run, run_dir, events, in_service=True, pool=pool, service_location=location)
 
         _run_in_threads(episodes, workers=workers, threads=threads, on_event=on_event, on_record=done,
                         run_one=pooled)
@@ -189,7 +193,8 @@ def run_local(
     try:
         if context is None:
             for spec, run in episodes:
-                record = run_episode(spec, run, run_dir, events, in_service=service)
+                record = run_episode(spec, run, run_dir, events, in_service=service,
+                                     service_location=location if service else None)
                 if wants_gpu(spec.options) and not record.node:  # this process's CUDA device 0
                     record.node = recorded(gpus[0] if gpus else None)
                 done(record)

@@ -221,13 +221,15 @@ class ServiceEpisode:
 def open_episode(registry, run, *, in_service: bool, seed: int, options: dict, world_seed: int | None,
                  on_step: Callable[[dict], None], on_stage: Callable[[Any], None],
                  unix_socket: Path | None = None, recording: Path | None = None,
-                 say: Callable[[str], None] | None = None, pool: dict | None = None):
+                 say: Callable[[str], None] | None = None, pool: dict | None = None,
+                 location: ServiceLocation | None = None):
     """The served backend of ``run``: in the simulator service when ``in_service`` and nothing needs it in this
     process (a recording does: its recorder observes the episode here), else in this process.
 
     ``pool``: ``{"threads", "gpus"}``: the service serves it on a warm worker process of its pool with that many
     Taichi threads on one of those GPUs (:mod:`benchbot.service.pool`; ``benchbot batch --workers N`` and GPU
-    batches); None: on the service's own backend thread.
+    batches); None: on the service's own backend thread. ``location``: the service's, found once by the caller
+    (None: found here, :func:`benchbot.service.location.locate`).
 
     The service serving another installation or other settings and busy with an episode
     (:class:`benchbot.service.client.ServiceBusy`) leaves the episode to this process.
@@ -240,7 +242,7 @@ def open_episode(registry, run, *, in_service: bool, seed: int, options: dict, w
     if in_service and recording is None:
         try:
             return ServiceEpisode(run, seed=seed, options=options, world_seed=world_seed, on_step=on_step,
-                                  on_stage=on_stage, unix_socket=unix_socket, say=say, pool=pool)
+                                  on_stage=on_stage, unix_socket=unix_socket, say=say, pool=pool, location=location)
         except client.ServiceBusy:
             pass
     return InProcessEpisode(registry, run, seed=seed, options=options, world_seed=world_seed, on_step=on_step,
