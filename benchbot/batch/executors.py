@@ -181,8 +181,11 @@ def run_local(
             pool = {"threads": threads, "gpus": gpus if wants_gpu(spec.options) else [], "world": world}
             return run_episode(spec, run, run_dir, events, in_service=True, pool=pool, service_location=location)
 
-        _run_in_threads(episodes, workers=workers, threads=threads, on_event=on_event, on_record=done,
-                        run_one=pooled)
+        from benchbot.service.pool import POOL_LIMIT
+
+        # no more at once than the pool holds workers: the others would only wait in the service for a free one
+        _run_in_threads(episodes, workers=min(workers, POOL_LIMIT), threads=threads, on_event=on_event,
+                        on_record=done, run_one=pooled)
         return
     context = multiprocessing.get_context("spawn") if workers > 1 else None
     # between processes a plain multiprocessing queue: a manager process would outlive a killed batch
