@@ -53,7 +53,7 @@ def resolve_devices(devices: Any, arch: str | None) -> list[int | str]:
         ValueError: one line: a value not described by :data:`DEVICES_HELP`, GPUs without ``arch`` ``'cuda'``
             (or ``'gpu'``), more GPUs than are visible, or ``'cpu'`` entries with a GPU arch.
     """
-    arch = (arch or os.environ.get("BENCHBOT_TAICHI_ARCH") or "cpu").strip().lower()
+    arch = (arch or _default_arch()).strip().lower()
     on_gpu = arch in ("cuda", "gpu")
     if devices is None or (isinstance(devices, int) and not isinstance(devices, bool) and devices == 1):
         return ["cpu"] if not on_gpu else [0]
@@ -79,13 +79,24 @@ def resolve_devices(devices: Any, arch: str | None) -> list[int | str]:
     return ordinals
 
 
+def _default_arch() -> str:
+    """The simulator's arch setting (``BENCHBOT_TAICHI_ARCH``, declared by the simulator plugin), ``"cpu"`` where no
+    enabled plugin declares it."""
+    from benchbot.core import settings
+
+    try:
+        return settings.get("BENCHBOT_TAICHI_ARCH") or "cpu"
+    except KeyError:
+        return "cpu"
+
+
 def _visible_gpus(arch: str, devices: Any) -> int:
     if arch not in ("cuda", "gpu"):
         raise ValueError(f"devices={devices!r} places sub-environments on GPUs, but options arch is {arch!r}: pass "
                          "options={'arch': 'cuda'}, or devices=['cpu', 'cpu'] for processes on the CPU")
-    from benchbot_sim_taichi.render.host_copy import device_count  # the CUDA driver's home (ctypes)
+    from benchbot.batch.gpus import visible_gpus  # the GPUs nvidia-smi lists, narrowed by CUDA_VISIBLE_DEVICES
 
-    return device_count()
+    return len(visible_gpus())
 
 
 def split_envs(num_envs: int, parts: int) -> list[tuple[int, int]]:
