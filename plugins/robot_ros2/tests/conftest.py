@@ -3,6 +3,7 @@ the simulator served over ROS 2 in a subprocess (Taichi is one thread per proces
 
 from __future__ import annotations
 
+import gc
 import os
 import subprocess
 import sys
@@ -25,6 +26,18 @@ def domain_id() -> int:
     base, lock = claim_domain_block()
     yield base
     lock.close()
+
+
+@pytest.fixture(autouse=True)
+def _earlier_dds_entities_collected_here():
+    """Collect the cyclic garbage of earlier tests (DDS readers, writers, participants they dropped) on the test's
+    own thread before it starts, and its own after it ends. Left to the garbage collector's whim, such an entity
+    could be deleted (``Entity.__del__``, a ``dds_delete``) inside a listener callback of another thread, while the
+    test's teardown removes that listener: Cyclone DDS then waits on both sides and the run hangs (seen once in the
+    fast loop: a fake robot's ``DataWriter.write`` delivering to a local reader, ``close`` in ``set_listener``)."""
+    gc.collect()
+    yield
+    gc.collect()
 
 
 @pytest.fixture()
