@@ -70,7 +70,9 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_DISABLE_PLUGINS", None, "comma list of plugins (entry-point names) not to load", "core"),
     Setting("BENCHBOT_ONLY_PLUGINS", None, "comma list of the only plugins to load (the tests set it)", "core"),
     Setting("BENCHBOT_SHARED_MEMORY", "1", "0: clients take frames in the HTTP reply, never through /dev/shm "
-            "(sandboxes and containers set it)", "api"),
+            "(containers set it; sandboxes where the backend made no frames folder)", "api"),
+    Setting("BENCHBOT_SHARED_MEMORY_DIR", "/dev/shm", "the folder where a client opens its shared-memory segments "
+            "(a sandbox sets it to its read-only frames folder)", "api"),
     Setting("BENCHBOT_SANDBOX_DISPLAY", "1", "0: sandboxed solutions get no display (they draw off screen, "
             "MPLBACKEND=Agg); otherwise your X11 or Wayland display is passed into the sandbox", "core"),
     Setting("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", "1", "seconds `benchbot submit` gives a backend to accept a "

@@ -20,7 +20,11 @@ Handshake (no step's data can be lost on the way):
    ``/dev/shm`` is asked for again up to :data:`MAP_ATTEMPTS` times in a row: the backend may have evicted it
    before the client mapped it); a reply is never unreadable.
 
-Only loopback clients are offered segments; the backend holds at most :data:`MAX_SEGMENTS` (the least recently used
+Only loopback clients are offered segments, and the clients of a Unix socket the backend serves a sandboxed solution
+on (:meth:`SegmentPool.serve_socket`): theirs are made in that socket's own episode folder
+(:func:`episode_folder`, mode 0700, at most :data:`EPISODE_SEGMENTS` at once and :data:`EPISODE_SEGMENT_BYTES` over
+the episode), which the sandbox binds read-only where its client looks (``$BENCHBOT_SHARED_MEMORY_DIR``,
+:func:`client_folder`). The backend holds at most :data:`MAX_SEGMENTS` (the least recently used
 is removed), removes a segment's file as soon as its client has mapped it (so a killed backend leaves nothing in
 ``/dev/shm``) and the rest when it closes or exits. Only the backend's user can open them (0600). Linux only
 (``/dev/shm``); elsewhere :func:`available` is False and clients use the inline path.
@@ -71,16 +75,91 @@ SLOTS = 4
 MAP_ATTEMPTS = 3
 #: Environment variable that turns the path off in clients (``0``).
 ENV_SWITCH = "BENCHBOT_SHARED_MEMORY"
+#: Environment variable naming the folder where a client finds its segments (default :data:`SHM_DIR`); the sandbox
+#: sets it to :data:`~benchbot.solutions.sandbox.INSIDE_FRAMES`, where its episode's folder is bound read-only.
+ENV_FOLDER = "BENCHBOT_SHARED_MEMORY_DIR"
+#: Segments the backend keeps in an episode's folder (:func:`episode_folder`): a sandboxed solution's clients.
+EPISODE_SEGMENTS = 2
+#: Bytes of segments the backend makes in an episode's folder over the whole episode; past them its clients get
+#: inline replies. A sandboxed solution's mappings are charged to the backend, which wrote the pages, not to the
+#: sandbox's memory limit: this bounds what it can hold that way (a 640x480 RGB-D step's segment is about 11 MB).
+EPISODE_SEGMENT_BYTES = 64 << 20
+
+
+def client_folder() -> str:
+    """Where this client opens segments: ``$BENCHBOT_SHARED_MEMORY_DIR``, else :data:`SHM_DIR`."""
+    from benchbot.core import settings
+
+    return settings.get(ENV_FOLDER) or SHM_DIR
 
 
 def available() -> bool:
-    """True where segments can be used: :data:`SHM_DIR` is a writable directory and ``$BENCHBOT_SHARED_MEMORY``
-    is not ``0``."""
+    """True where a client can use segments: ``$BENCHBOT_SHARED_MEMORY`` is not ``0`` and :func:`client_folder` is a
+    directory it can read (:data:`SHM_DIR` must also be writable: the backend may be this process's)."""
     from benchbot.core import settings
 
     if settings.get(ENV_SWITCH) == "0":
         return False
-    return os.path.isdir(SHM_DIR) and os.access(SHM_DIR, os.W_OK | os.X_OK)
+    folder = client_folder()
+    need = os.R_OK | os.X_OK if folder != SHM_DIR else os.W_OK | os.X_OK
+    return os.path.isdir(folder) and os.access(folder, need)
+
+
+def episode_folder(unix_socket: str | os.PathLike) -> str:
+    """The folder in :data:`SHM_DIR` (a tmpfs) that holds the segments of the clients that reach a backend through
+    the Unix socket ``unix_socket`` (a sandboxed solution's way in): ``/dev/shm/benchbot-frames-<32 hex>``, named by
+    the SHA-256 of the socket's absolute path, so that the backend that serves the socket and the sandbox that binds
+    it find the same folder. The backend makes it (:func:`make_episode_folder`); the sandbox binds it read-only."""
+    import hashlib
+
+    digest = hashlib.sha256(os.path.abspath(os.fspath(unix_socket)).encode()).hexdigest()[:32]
+    return os.path.join(SHM_DIR, f"benchbot-frames-{digest}")
+
+
+def is_private_folder(path: str) -> bool:
+    """Whether ``path`` is a real directory (no symbolic link) owned by this process's user that no one else may
+    enter (mode 0700 or stricter): an episode's folder that no other user made or can read."""
+    try:
+        info = os.lstat(path)
+    except OSError:
+        return False
+    import stat
+
+    return stat.S_ISDIR(info.st_mode) and info.st_uid == os.geteuid() and info.st_mode & 0o077 == 0
+
+
+def make_episode_folder(path: str) -> str:
+    """Make the episode's folder ``path`` (mode 0700); one left by a killed backend of this user is emptied and kept.
+
+    Raises:
+        OSError: it cannot be made, or ``path`` exists and is not this user's private folder (someone else made it).
+    """
+    try:
+        os.mkdir(path, 0o700)
+    except FileExistsError:
+        if not is_private_folder(path):
+            raise OSError(f"{path} exists and is not this user's private folder") from None
+        remove_episode_folder(path, keep=True)
+    return path
+
+
+def remove_episode_folder(path: str, keep: bool = False) -> None:
+    """Remove the files in an episode's folder (links are removed, never followed), and the folder unless ``keep``
+    (missing: nothing to do)."""
+    try:
+        names = os.listdir(path)
+    except OSError:
+        return
+    for name in names:
+        try:
+            os.unlink(os.path.join(path, name))
+        except OSError:  # gone, or a folder (the backend makes none)
+            pass
+    if not keep:
+        try:
+            os.rmdir(path)
+        except OSError:
+            pass
 
 
 def is_loopback(host: str) -> bool:
@@ -153,14 +232,16 @@ class BackendSegment:
 
     Args:
         size: bytes (a tmpfs file takes memory only for the pages written).
+        folder: where the file is made (an episode's folder, :func:`episode_folder`, for a sandboxed solution).
 
     Raises:
         OSError: the file cannot be made or mapped (no ``/dev/shm``, full).
     """
 
-    def __init__(self, size: int) -> None:
+    def __init__(self, size: int, folder: str = SHM_DIR) -> None:
         self.name = f"benchbot-{secrets.token_hex(16)}"
-        path = os.path.join(SHM_DIR, self.name)
+        self.folder = folder
+        path = os.path.join(folder, self.name)
         fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o600)
         try:
             os.ftruncate(fd, size)
@@ -194,33 +275,54 @@ class BackendSegment:
 
 
 class SegmentPool:
-    """The backend's segments by client id (the most recent :data:`MAX_SEGMENTS`). Used from one thread (the
-    backend thread, which packs each native step's reply)."""
+    """The backend's segments by client id (the most recent :data:`MAX_SEGMENTS`), and, once :meth:`serve_socket`
+    named an episode's folder, those of the clients on the backend's Unix socket in that folder (the most recent
+    :data:`EPISODE_SEGMENTS`, and :data:`EPISODE_SEGMENT_BYTES` over the episode). Used from one thread (the backend thread, which packs each native step's reply)."""
 
     def __init__(self, capacity: int = MAX_SEGMENTS) -> None:
         self.capacity = capacity
+        self.socket_folder: str | None = None
         self._by_client: OrderedDict[str, BackendSegment] = OrderedDict()
+        self._by_socket_client: OrderedDict[str, BackendSegment] = OrderedDict()
+        self._socket_bytes = 0  # made in the episode's folder so far (EPISODE_SEGMENT_BYTES)
 
-    def pack(self, reply: dict, offer: tuple[str, str | None, int]) -> bytes:
+    def serve_socket(self, unix_socket: str | os.PathLike) -> None:
+        """Offer segments to the clients of the Unix socket ``unix_socket`` too, in its episode's folder
+        (:func:`episode_folder`, made here, mode 0700; removed by :meth:`close`). A folder that cannot be made (no
+        ``/dev/shm``, or another user made it) leaves those clients on the inline path."""
+        try:
+            self.socket_folder = make_episode_folder(episode_folder(unix_socket))
+        except OSError:
+            self.socket_folder = None
+
+    def pack(self, reply: dict, offer: tuple[str, str | None, int], via_socket: bool = False) -> bytes:
         """``reply`` packed for a client whose ``shm`` field is ``offer`` (as :func:`check_offer` returns it; see
         the module doc): large arrays in the requested slot of its segment when it has mapped it, else inline with
-        ``shm_segment`` to map (or ``shm_error`` when none can be made)."""
+        ``shm_segment`` to map (or ``shm_error`` when none can be made). ``via_socket``: the client came through the
+        Unix socket of :meth:`serve_socket` (its segment is made in that folder)."""
         from benchbot.protocol import wire
 
         client, mapped, slot = offer
+        folder, segments, capacity = (self.socket_folder, self._by_socket_client, EPISODE_SEGMENTS) if via_socket \
+            else (SHM_DIR, self._by_client, self.capacity)
         needed = sum(aligned(a.nbytes) for a in large_arrays(reply))
-        segment = self._by_client.pop(client, None)
+        segment = segments.pop(client, None)
         if segment is not None and needed > segment.size // SLOTS:
             segment.close()
             segment = None
         if segment is None:
+            size = SLOTS * max(aligned(needed + needed // 4), 1 << 18)
+            if via_socket and self._socket_bytes + size > EPISODE_SEGMENT_BYTES:
+                return wire.pack({**reply, "shm_error": "the episode's shared-memory budget is spent "
+                                                        f"({EPISODE_SEGMENT_BYTES} bytes of segments)"})
             try:
-                segment = BackendSegment(SLOTS * max(aligned(needed + needed // 4), 1 << 18))
+                segment = BackendSegment(size, folder) if via_socket else BackendSegment(size)
             except OSError as exc:
                 return wire.pack({**reply, "shm_error": f"no shared-memory segment: {exc.strerror or exc}"})
-        self._by_client[client] = segment
-        while len(self._by_client) > self.capacity:
-            self._by_client.popitem(last=False)[1].close()
+            self._socket_bytes += size if via_socket else 0
+        segments[client] = segment
+        while len(segments) > capacity:
+            segments.popitem(last=False)[1].close()
         if mapped != segment.name:
             return wire.pack({**reply, "shm_segment": {"name": segment.name, "size": segment.size, "slots": SLOTS}})
         segment.unlink()  # the client has it mapped
@@ -239,9 +341,13 @@ class SegmentPool:
         return wire.pack(reply, place)
 
     def close(self) -> None:
-        """Remove every segment."""
-        while self._by_client:
-            self._by_client.popitem()[1].close()
+        """Remove every segment, and the episode's folder."""
+        for segments in (self._by_client, self._by_socket_client):
+            while segments:
+                segments.popitem()[1].close()
+        if self.socket_folder is not None:
+            remove_episode_folder(self.socket_folder)
+            self.socket_folder = None
 
 
 def check_offer(offer: object) -> tuple[str, str | None, int]:
@@ -285,7 +391,7 @@ class ClientMapping:
         if not (isinstance(name, str) and NAME_PATTERN.fullmatch(name)) or not isinstance(size, int) or size <= 0 \
                 or not isinstance(slots, int) or not 1 <= slots <= 64:
             raise BenchbotError(f"malformed shm_segment {name!r} ({size!r} bytes, {slots!r} slots)", "")
-        fd = os.open(os.path.join(SHM_DIR, name), os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0)
+        fd = os.open(os.path.join(client_folder(), name), os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0)
                      | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NONBLOCK", 0))
         try:
             if os.fstat(fd).st_size < size:

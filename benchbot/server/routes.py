@@ -308,7 +308,11 @@ class _Handlers:
                 offer = shared_frames.check_offer(body["shm"])
             except BenchbotError as exc:
                 raise BadRequestError(exc.message, exc.hint) from None
-        refused = offer is not None and (request.client is None or not is_loopback(request.client.host))
+        # A request with no client address came through the Unix socket, which only the sandboxed solution it is
+        # bound into reaches: its segments go to that episode's folder, bound read-only into that sandbox only.
+        via_socket = request.client is None and self.segments.socket_folder is not None
+        refused = offer is not None and not via_socket and (
+            request.client is None or not is_loopback(request.client.host))
 
         def step_and_pack() -> bytes:
             # On the backend thread: the observations are borrowed from the backend and copied once, into the
@@ -318,6 +322,6 @@ class _Handlers:
                 reply["shm_error"] = "shared memory is for clients on the backend's host (loopback) only"
             if offer is None or refused:
                 return wire.pack(reply)
-            return self.segments.pack(reply, offer)
+            return self.segments.pack(reply, offer, via_socket)
 
         return Response(await self.with_timeout(step_and_pack), media_type=MSGPACK)

@@ -88,7 +88,9 @@ class ServerThread:
         sock: a socket already bound to ``host:port`` (e.g. reserved before a long start-up, so that a taken port is
             said first); the server listens on it and closes it when it stops. None: bind ``host:port`` at start.
         unix_socket: also serve on a Unix socket made at this path (a sandboxed solution's way in:
-            :mod:`benchbot.solutions.sandbox`); its requests have no client address.
+            :mod:`benchbot.solutions.sandbox`); its requests have no client address, and their shared-memory
+            segments are made in the socket's episode folder (:func:`benchbot.protocol.shared_frames.episode_folder`,
+            removed by :meth:`stop`).
 
     Raises:
         BackendError: (from start) the server did not come up within 10 s, e.g. the port is taken.
@@ -106,9 +108,14 @@ class ServerThread:
         self.port = port
         sockets = [sock] if sock else []
         if unix_socket is not None:
+            segments = getattr(app, "segments", None)
+            if segments is not None:  # its clients' frames in the episode's folder (shared_frames.episode_folder)
+                segments.serve_socket(unix_socket)
             try:
                 sockets = [sock or config.bind_socket(), _bind_unix(str(unix_socket))]
             except (OSError, SystemExit) as exc:  # uvicorn's bind_socket exits when the port is taken
+                if segments is not None:
+                    segments.close()  # the episode's folder goes too
                 raise BackendError(f"the backend server could not listen on {host}:{port} and {unix_socket}: "
                                    f"{exc}", "choose another --port") from None
         self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": sockets} if sockets else {},

@@ -14,7 +14,9 @@ batches write run directories to. It writes only to its own outputs folder (``/b
 too) and to a private ``/tmp`` of at most :data:`~benchbot.core.limits.SANDBOX_TMP_BYTES`. It has its own PID, IPC, UTS,
 user and network namespaces: no other process is visible, no capability is kept, no new user namespace can be made, and
 its network is a loopback device of its own on which the backend answers at ``127.0.0.1:<port>`` and at
-``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.solutions.socket_relay`.
+``benchbot_supervisor:10000`` (where the original client looks) through :mod:`benchbot.solutions.socket_relay`. The
+images of its observations come through shared memory in its episode's frames folder, which the backend serving the
+socket makes and writes and the sandbox binds read-only at :data:`INSIDE_FRAMES` (:func:`_frames_folder`).
 
 What the isolation levels of a run mean (:data:`ISOLATION_LEVELS`, recorded in a batch's manifest as ``sandbox``):
 ``bwrap`` (this module), ``container`` (``--containerised``: the container holds only its image and mounts nothing)
@@ -51,6 +53,9 @@ VERIFIABLE = frozenset({"bwrap", "container"})
 INSIDE_OUTPUTS = "/benchbot/results"
 #: The backend's Unix socket, inside the sandbox.
 INSIDE_SOCKET = "/run/benchbot/backend.sock"
+#: Where the episode's frames folder (:func:`benchbot.protocol.shared_frames.episode_folder`) is bound read-only,
+#: inside the sandbox (``BENCHBOT_SHARED_MEMORY_DIR`` names it to the client).
+INSIDE_FRAMES = "/run/benchbot/frames"
 #: Where the original client looks for the backend (``http://benchbot_supervisor:10000/``).
 ORIGINAL_SUPERVISOR = ("benchbot_supervisor", 10000)
 #: The original client's fixed results file, inside the sandbox; it leads to ``INSIDE_OUTPUTS/benchbot_result``.
@@ -346,6 +351,8 @@ class SandboxLayout:
             example's own folder, checked for ground truth by :func:`benchbot.solutions.sandbox_extras.check_pack_example`):
             bound over that folder's empty tmpfs, nothing else of it.
         files: ``(host path, path inside)`` bound read-only last (the display's sockets and cookie).
+        frames: the episode's frames folder on the host (the backend's shared-memory segments for this solution),
+            bound read-only at :data:`INSIDE_FRAMES`; None: frames come in the HTTP reply.
     """
 
     shown: list[Path]
@@ -357,6 +364,7 @@ class SandboxLayout:
     revealed: list[Path] = field(default_factory=list)
     files: list[tuple[Path, str]] = field(default_factory=list)
     tmp_bytes: int | None = None
+    frames: Path | None = None
 
     def _reveal(self, folder: Path | None, emitted: list[Path]) -> list[str]:
         """The binds of the revealed folders inside the hidden ``folder`` of ``emitted`` (the hidden folders made
@@ -394,8 +402,10 @@ class SandboxLayout:
         for host, inside in self.files:
             args += ["--ro-bind", str(host), inside]
         args += ["--bind", str(self.outputs), INSIDE_OUTPUTS,
-                 "--bind", str(self.backend_socket), INSIDE_SOCKET, "--chdir", str(self.cwd)]
-        return args
+                 "--bind", str(self.backend_socket), INSIDE_SOCKET]
+        if self.frames is not None:
+            args += ["--ro-bind", str(self.frames), INSIDE_FRAMES]
+        return args + ["--chdir", str(self.cwd)]
 
 
 def inside_address(address: str) -> tuple[str, list[int], list[str]]:
@@ -481,8 +491,9 @@ def run_sandboxed(
         hide: more host folders to hide (run directories).
         env: the environment to start from (default: this process's), cut to :func:`sandbox_environment`
             (``TMPDIR`` and every variable not listed there are dropped); ``HOME``, the backend's address and the
-            results location are set for the sandbox, and the shared-memory fast path is turned off
-            (the sandbox's ``/dev/shm`` is its own); the display variables as
+            results location are set for the sandbox, and the shared-memory fast path goes through the episode's
+            frames folder, bound read-only (:func:`_frames_folder`; turned off where the backend made none: the
+            sandbox's ``/dev/shm`` is its own); the display variables as
             :func:`~benchbot.solutions.sandbox_extras.display_access` decides.
         log, timeout_s, stdin: as for :func:`~benchbot.solutions.process_group.run_child` (``stdin="inherit"``: the
             terminal reaches the solution; the sandbox's session of its own keeps it from typing into your shell,
@@ -548,11 +559,12 @@ def run_sandboxed(
         child_env = sandbox_environment(child_env)
         notes += [display.note] if display.note else []
         child_env.update(HOME="/tmp/home", BENCHBOT_SUPERVISOR_ADDRESS=inside, PYTHONUNBUFFERED="1",
-                         BENCHBOT_RESULT_LOCATION=f"{INSIDE_OUTPUTS}/{result_name}", BENCHBOT_SHARED_MEMORY="0")
+                         BENCHBOT_RESULT_LOCATION=f"{INSIDE_OUTPUTS}/{result_name}")
+        frames = _frames_folder(backend_socket, child_env)
         layout = SandboxLayout(shown=_outermost(shown + editable.shown), hidden=hidden,
                                outputs=Path(outputs).resolve(), backend_socket=Path(backend_socket),
                                hosts_file=hosts, cwd=cwd, revealed=revealed, files=display.binds,
-                               tmp_bytes=limits.tmp_bytes)
+                               tmp_bytes=limits.tmp_bytes, frames=frames)
         for note in notes:  # one line each, where the solution's output goes
             if log is not None:
                 log.write(note + "\n")
@@ -591,6 +603,21 @@ def run_sandboxed(
         break
     run.dropped_links = drop_links(Path(outputs), log)
     return run
+
+
+def _frames_folder(backend_socket: Path, child_env: dict[str, str]) -> Path | None:
+    """The episode's frames folder to bind at :data:`INSIDE_FRAMES`, with ``child_env`` set for it
+    (``BENCHBOT_SHARED_MEMORY_DIR``; the host's ``BENCHBOT_SHARED_MEMORY=0`` is kept); None, with
+    ``BENCHBOT_SHARED_MEMORY=0``, where the backend serving ``backend_socket`` made none that is this user's private
+    folder (a relay's socket, a backend of another version, ``/dev/shm`` missing): frames then come in the reply."""
+    from benchbot.protocol import shared_frames
+
+    folder = shared_frames.episode_folder(backend_socket)
+    if not shared_frames.is_private_folder(folder):
+        child_env[shared_frames.ENV_SWITCH] = "0"
+        return None
+    child_env[shared_frames.ENV_FOLDER] = INSIDE_FRAMES
+    return Path(folder)
 
 
 def drop_links(outputs: Path, log: IO | None = None) -> list[str]:
