@@ -293,9 +293,15 @@ def bind(location: ServiceLocation) -> socket.socket | None:
             os.unlink(path)
         finally:
             probe.close()
-    from benchbot.service.worker import listen
-
-    return listen(path, backlog=64)
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    old = os.umask(0o177)
+    try:
+        listener.bind(path)
+    finally:
+        os.umask(old)
+    os.chmod(path, 0o600)
+    listener.listen(64)
+    return listener
 
 
 def _unlink_if_ours(path: Path, inode: int) -> None:

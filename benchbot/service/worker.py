@@ -38,9 +38,8 @@ def _exit_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="benchbot-worker-parent", daemon=True).start()
 
 
-def listen(path: str, backlog: int = 4) -> socket.socket:
-    """A listening Unix socket at ``path`` (mode 0600 from its creation on; a stale file there is replaced), with
-    ``backlog`` pending connections: a pool worker's and the service's own (:func:`benchbot.service.daemon`)."""
+def listen(path: str) -> socket.socket:
+    """A listening Unix socket at ``path`` (mode 0600; a stale file there is replaced)."""
     try:
         os.unlink(path)
     except FileNotFoundError:
@@ -52,7 +51,7 @@ def listen(path: str, backlog: int = 4) -> socket.socket:
     finally:
         os.umask(old)
     os.chmod(path, 0o600)
-    listener.listen(backlog)
+    listener.listen(4)
     return listener
 
 
