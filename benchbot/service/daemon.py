@@ -30,7 +30,7 @@ from pathlib import Path
 
 from benchbot.core.errors import BenchbotError
 from benchbot.service import protocol, set_resident
-from benchbot.service.location import ServiceLocation, locate, private_dir
+from benchbot.service.location import ServiceLocation, listen_private, locate, private_dir
 from benchbot.service.pool import WorkerPool, serve_pooled
 
 log = logging.getLogger("benchbot.service")
@@ -293,15 +293,7 @@ def bind(location: ServiceLocation) -> socket.socket | None:
             os.unlink(path)
         finally:
             probe.close()
-    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    old = os.umask(0o177)
-    try:
-        listener.bind(path)
-    finally:
-        os.umask(old)
-    os.chmod(path, 0o600)
-    listener.listen(64)
-    return listener
+    return listen_private(path, backlog=64)
 
 
 def _unlink_if_ours(path: Path, inode: int) -> None:

@@ -22,6 +22,7 @@ import hashlib
 import importlib.metadata as md
 import importlib.util
 import os
+import socket
 import stat
 import sys
 import tempfile
@@ -180,3 +181,26 @@ def installation_key(environ: dict[str, str] | None = None) -> str:
         if name.startswith(KEYED_PREFIXES) and name not in OWN_SETTINGS:
             digest.update(f"{name}={environ[name]}\n".encode())
     return digest.hexdigest()[:KEY_CHARS]
+
+
+def listen_private(path: str, backlog: int) -> socket.socket:
+    """A listening Unix socket at ``path``, mode 0600 from its creation on (umask 0177 while it is bound), with
+    ``backlog`` pending connections; a stale file at ``path`` is replaced. The service's own socket and each pool
+    worker's (:mod:`benchbot.service.daemon`, :mod:`benchbot.service.worker`).
+
+    Raises:
+        OSError: the socket cannot be bound (a folder that is not writable, a path too long for a Unix socket).
+    """
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    old = os.umask(0o177)
+    try:
+        listener.bind(path)
+    finally:
+        os.umask(old)
+    os.chmod(path, 0o600)
+    listener.listen(backlog)
+    return listener

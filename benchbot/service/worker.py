@@ -39,20 +39,10 @@ def _exit_with_parent(parent: int) -> None:
 
 
 def listen(path: str) -> socket.socket:
-    """A listening Unix socket at ``path`` (mode 0600; a stale file there is replaced)."""
-    try:
-        os.unlink(path)
-    except FileNotFoundError:
-        pass
-    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    old = os.umask(0o177)
-    try:
-        listener.bind(path)
-    finally:
-        os.umask(old)
-    os.chmod(path, 0o600)
-    listener.listen(4)
-    return listener
+    """A pool worker's listening Unix socket at ``path`` (:func:`benchbot.service.location.listen_private`)."""
+    from benchbot.service.location import listen_private
+
+    return listen_private(path, backlog=4)
 
 
 def serve(listener: socket.socket, registry) -> None:
