@@ -255,10 +255,13 @@ def test_a_service_killed_mid_episode_is_a_one_line_error_and_the_next_command_s
     stdout, stderr = batch.communicate(timeout=120)
     assert batch.returncode != 0
     assert "Traceback" not in stderr, stderr
-    episode = json.loads(stdout)["episodes"][0]
+    outcome = json.loads(stdout)
+    episode = outcome["episodes"][0]
     assert episode["status"] == "error"
     assert episode["error"].startswith("the simulator service stopped during the episode (killed or crashed; its "
                                        "log: ") and "\n" not in episode["error"]
+    log = (Path(outcome["run_dir"]) / episode["log"]).read_text()  # the episode's log says why, too
+    assert log.endswith(f"benchbot: the episode ended with an error: {episode['error']}\n"), log[-2000:]
     said = [line for line in stderr.splitlines() if "the simulator service stopped during the episode" in line]
     assert said and all(line.startswith(("[1/1] miniroom:1", "miniroom:1: error")) for line in said), stderr
     again = benchbot("batch", "--example", "hello_passive", "--envs", "miniroom:1", *SMALL, "--no-tui", "--json",

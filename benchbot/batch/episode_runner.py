@@ -104,6 +104,16 @@ def write_trajectory(path: Path, run: RunSpec, driven: list[tuple[int, list[floa
         pass
 
 
+def _log_error(path: Path, message: str) -> None:
+    """Append ``message`` (an episode's error) to its log ``path``, so that the log the record names exists and
+    says why; a log that cannot be written is left as it is (the record holds the error)."""
+    try:
+        with open(path, "a") as log:
+            log.write(f"benchbot: the episode ended with an error: {message}\n")
+    except OSError:
+        pass
+
+
 def _run_solution(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, address: str, log,
                   record: EpisodeRecord, hide: tuple) -> tuple[bool, bool]:
     """Run ``spec``'s solution as its isolation level says: sandboxed or in its container (both through
@@ -180,8 +190,9 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
 
         options = spec.options if spec.noise == "none" else {**spec.options, "noise": spec.noise}
         timed_out = read_stdin = False
-        with owned_tempdir("benchbot-episode-") as private:  # the sandbox's way to the backend; marked as ours
-            backend_socket = Path(private) / "backend.sock"
+        # the log first: an episode whose backend cannot start has its reason there too (see below)
+        with open(folder / spec.log, "w") as log, owned_tempdir("benchbot-episode-") as private:
+            backend_socket = Path(private) / "backend.sock"  # the sandbox's way to the backend; marked as ours
             # only this episode's backend: episodes run together in one process build theirs one after another
             served = open_episode(registry, run, in_service=in_service, seed=spec.seed, options=options,
                                   world_seed=spec.world_seed, on_step=on_step, on_stage=on_stage,
@@ -189,9 +200,8 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
                                   recording=folder / spec.recording if spec.record else None, pool=pool,
                                   location=service_location)
             try:
-                with open(folder / spec.log, "w") as log:
-                    timed_out, read_stdin = _run_solution(spec, registry, folder, backend_socket, served.address,
-                                                          log, record, tuple(hide))
+                timed_out, read_stdin = _run_solution(spec, registry, folder, backend_socket, served.address,
+                                                      log, record, tuple(hide))
                 end = served.finish()
             finally:
                 served.close()
@@ -215,6 +225,7 @@ def run_episode(spec: EpisodeSpec, run: RunSpec, run_dir: str, events: Any = Non
             record.error = READ_STDIN_ERROR
     except BenchbotError as exc:
         record.status, record.error = "error", exc.message
+        _log_error(folder / spec.log, exc.message)
     record.wall_s = round(time.monotonic() - t0, 3)
     if events is not None:
         events.put(("end", spec.index, None))
