@@ -5,6 +5,15 @@ seconds of the command and its children (the sandboxed solution), and of the ser
 (the work the command left to it): on a machine busy with other work, CPU seconds change far less than wall times.
 And whether every run's results and scores files are byte-identical.
 
+Where each mode's time goes, median per stage, from the command's progress lines on stderr, each timestamped as it
+arrives (``sweep.profile``): ``command start`` (the interpreter, the command's imports, the registry, planning and
+the run directory, the service's connection: until the episode starts), ``waiting`` (until the backend's first
+stage), the backend's stages (through the service, ``warming up kernels``: the kept scene and kernels; the command
+prints the next line at the solution's first step, so this stage ends with the solution's start: the sandbox, the
+solution's interpreter and imports, its first request), ``solution steps`` (from its first step to its exit: every
+step's round trip and the solution's own work, its results, the sandbox's end), ``evaluation and writing`` (from the
+episode's end to the command's exit: scoring, the run directory's files, the table, the process's exit).
+
     uv run python benchmarks/service_warm.py [--env miniroom:1] [--example semslam_geometric] [--runs 5] [--json]
 
 Each run is a fresh process running BenchBot's command-line entry point (what the ``benchbot`` script runs; ``uv
@@ -23,31 +32,55 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
 import smoke  # this folder is on sys.path when a script here runs
+from sweep import profile
 
 #: The files of a run directory that must not depend on where the simulator ran.
 COMPARED = ("results", "scores.json", "episode_scores.json")
 
 
 def run_once(argv: list[str], env: dict, cwd: Path) -> dict:
-    """One ``benchbot ARGV`` in a child process: ``{wall_s, cpu_s, run_dir}`` (``cpu_s``: user + system seconds
-    of the child and what it waited for).
+    """One ``benchbot ARGV`` in a child process: ``{wall_s, cpu_s, run_dir, stages_s}`` (``cpu_s``: user + system
+    seconds of the child and what it waited for; ``stages_s``: seconds per stage, from its progress lines (module
+    docstring)).
 
     Raises:
         RuntimeError: the command failed (its stderr's end in the message)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "benchbot.cli", *argv, "--json"], env=env, cwd=cwd,
-                          capture_output=True, text=True, stdin=subprocess.DEVNULL)
-    wall = time.perf_counter() - t
+    lines: list[tuple[float, str]] = []
+    stdout: list[str] = []
+    t = time.monotonic()
+    proc = subprocess.Popen([sys.executable, "-m", "benchbot.cli", *argv, "--json"], env=env, cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL)
+    reader = threading.Thread(target=lambda: stdout.append(proc.stdout.read()), daemon=True)
+    reader.start()
+    for line in proc.stderr:
+        lines.append((time.monotonic(), line.rstrip("\n")))
+    proc.wait()
+    reader.join()
+    t_exit = time.monotonic()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
-        raise RuntimeError(f"benchbot {' '.join(argv)} exited {proc.returncode}:\n{proc.stderr[-3000:]}")
+        tail = "\n".join(line for _, line in lines)[-3000:]
+        raise RuntimeError(f"benchbot {' '.join(argv)} exited {proc.returncode}:\n{tail}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return {"wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "run_dir": json.loads(proc.stdout)["run_dir"]}
+    outcome = json.loads(stdout[0])
+    steps = sum(e.get("steps", 0) for e in outcome.get("episodes", []))
+    return {"wall_s": round(t_exit - t, 3), "cpu_s": round(cpu, 3), "run_dir": outcome["run_dir"],
+            "stages_s": profile(lines, t, t_exit, steps)}
+
+
+def median_stages(runs: list[dict]) -> dict[str, float]:
+    """The median of each stage's seconds over ``runs`` (a stage missing from a run counts 0 there), in the order
+    the stages first came."""
+    names: dict[str, None] = {}
+    for run in runs:
+        names.update(dict.fromkeys(run["stages_s"]))
+    return {name: round(statistics.median(run["stages_s"].get(name, 0.0) for run in runs), 4) for name in names}
 
 
 def process_cpu_s(pid: int) -> float:
@@ -121,7 +154,8 @@ def main(argv: list[str] | None = None) -> dict:
     figures = {mode: {"median_wall_s": round(statistics.median(r["wall_s"] for r in runs), 2),
                       "median_cpu_s": round(statistics.median(r["cpu_s"] for r in runs), 2),
                       "median_service_cpu_s": round(statistics.median(r["service_cpu_s"] for r in runs), 2),
-                      "wall_s": [r["wall_s"] for r in runs]} for mode, runs in times.items()}
+                      "wall_s": [r["wall_s"] for r in runs],
+                      "median_stages_s": median_stages(runs)} for mode, runs in times.items()}
     figures["identical"] = identical
     if args.json:
         print(json.dumps(figures, indent=1))
@@ -132,6 +166,9 @@ def main(argv: list[str] | None = None) -> dict:
             walls = ", ".join(f"{w:.2f}" for w in f["wall_s"])
             print(f"  {mode:10} {f['median_wall_s']:6.2f} s wall, {f['median_cpu_s']:5.2f} s CPU of the command, "
                   f"{f['median_service_cpu_s']:5.2f} s of the service (runs: {walls})")
+            for stage, seconds in f["median_stages_s"].items():
+                shown = f"{seconds * 1000:8.2f} ms" if stage == "solution per frame" else f"{seconds:8.3f} s"
+                print(f"      {stage:<44} {shown}")
         print(f"  results and scores byte-identical: {'yes' if identical else 'NO'}")
     return figures
 
