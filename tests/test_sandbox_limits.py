@@ -220,10 +220,10 @@ def test_a_killed_owners_temporary_folders_are_cleaned_and_a_live_ones_kept(tmp_
     folders = {prefix: Path(p.stdout.readline().strip()) for prefix, p in owners.items()}
     (tmp_path / "benchbot-episode-old").mkdir()  # no owner file: never judged
     try:
-        assert clean_leftovers(tmp_path) == []  # both owners live
+        assert clean_leftovers(tmp_path, shm=None) == []  # both owners live
         owners["benchbot-episode-"].send_signal(signal.SIGKILL)
         owners["benchbot-episode-"].wait()
-        assert clean_leftovers(tmp_path) == [folders["benchbot-episode-"]]
+        assert clean_leftovers(tmp_path, shm=None) == [folders["benchbot-episode-"]]
         assert not folders["benchbot-episode-"].exists() and folders["benchbot-sandbox-"].is_dir()
         assert (tmp_path / "benchbot-episode-old").is_dir()
     finally:
@@ -250,7 +250,7 @@ def test_a_killed_owners_cgroups_are_removed_and_a_live_ones_kept():
         orphans = [root / f"benchbot-sandbox-{dead.pid}-1-000000" for root in roots]
         for folder in orphans:
             folder.mkdir()
-        removed = clean_leftovers(Path(tempfile.mkdtemp()))
+        removed = clean_leftovers(Path(tempfile.mkdtemp()), shm=None)
         assert sorted(removed) == sorted(orphans) and not any(f.exists() for f in orphans)
         assert all(folder.is_dir() for folder in made)
     finally:

@@ -25,9 +25,11 @@ on (:meth:`SegmentPool.serve_socket`): theirs are made in that socket's own epis
 (:func:`episode_folder`, mode 0700, at most :data:`EPISODE_SEGMENTS` at once and :data:`EPISODE_SEGMENT_BYTES` over
 the episode), which the sandbox binds read-only where its client looks (``$BENCHBOT_SHARED_MEMORY_DIR``,
 :func:`client_folder`). The backend holds at most :data:`MAX_SEGMENTS` (the least recently used
-is removed), removes a segment's file as soon as its client has mapped it (so a killed backend leaves nothing in
-``/dev/shm``) and the rest when it closes or exits. Only the backend's user can open them (0600). Linux only
-(``/dev/shm``); elsewhere :func:`available` is False and clients use the inline path.
+is removed), removes a segment's file as soon as its client has mapped it (so a killed backend leaves no segment in
+``/dev/shm``) and the rest when it closes or exits. A killed backend's episode folder (empty, or holding segments no
+client mapped) and its owner file are removed by the next batch's start
+(:func:`benchbot.solutions.leftovers.clean_leftovers`), never while their backend lives. Only the backend's user can
+open them (0600). Linux only (``/dev/shm``); elsewhere :func:`available` is False and clients use the inline path.
 
 Lifetime of the arrays a client holds: they stay valid and unchanged for as long as the caller keeps them, across
 ``BenchBot.close()`` and across an eviction. Each segment is its own file, so its memory is shared only by the
@@ -112,8 +114,10 @@ def episode_folder(unix_socket: str | os.PathLike) -> str:
     it find the same folder. The backend makes it (:func:`make_episode_folder`); the sandbox binds it read-only."""
     import hashlib
 
+    from benchbot.solutions.leftovers import FRAMES_PREFIX
+
     digest = hashlib.sha256(os.path.abspath(os.fspath(unix_socket)).encode()).hexdigest()[:32]
-    return os.path.join(SHM_DIR, f"benchbot-frames-{digest}")
+    return os.path.join(SHM_DIR, f"{FRAMES_PREFIX}{digest}")
 
 
 def is_private_folder(path: str) -> bool:
@@ -128,28 +132,66 @@ def is_private_folder(path: str) -> bool:
     return stat.S_ISDIR(info.st_mode) and info.st_uid == os.geteuid() and info.st_mode & 0o077 == 0
 
 
-def make_episode_folder(path: str) -> str:
-    """Make the episode's folder ``path`` (mode 0700); one left by a killed backend of this user is emptied and kept.
+def make_episode_folder(path: str) -> tuple[str, int]:
+    """Make the episode's folder ``path`` (mode 0700) with its owner file beside it, ``<path>.owner``, locked by this
+    process (:func:`benchbot.solutions.leftovers.lock_owner_file`): while it is held, the folder is in use, and once
+    this process is gone (killed) :func:`benchbot.solutions.leftovers.clean_leftovers` may remove both. A folder left
+    by a killed backend of this user is emptied and kept.
+
+    Returns:
+        ``(path, descriptor of the locked owner file)``: :func:`remove_episode_folder` with it lets both go.
 
     Raises:
-        OSError: it cannot be made, or ``path`` exists and is not this user's private folder (someone else made it).
+        OSError: it cannot be made; ``path`` exists and is not this user's private folder (someone else made it); or
+            a live process owns it (another backend serving the same socket path).
     """
+    from benchbot.solutions.leftovers import lock_owner_file, take_abandoned_lock
+
+    owner = owner_file(path)
+    previous = take_abandoned_lock(owner)
+    if previous is None and os.path.lexists(owner):
+        raise OSError(f"{path} is in use by a live backend, or its owner file {owner} is not this user's")
+    if previous is not None:
+        os.close(previous)
+    fd = lock_owner_file(owner)
     try:
         os.mkdir(path, 0o700)
     except FileExistsError:
         if not is_private_folder(path):
+            _let_go(owner, fd)
             raise OSError(f"{path} exists and is not this user's private folder") from None
         remove_episode_folder(path, keep=True)
-    return path
+    except OSError:
+        _let_go(owner, fd)
+        raise
+    return path, fd
 
 
-def remove_episode_folder(path: str, keep: bool = False) -> None:
+def owner_file(path: str) -> str:
+    """The owner file of the episode's folder ``path``: ``<path>.owner``, beside it (never inside: the sandbox that
+    binds the folder sees only frames)."""
+    from benchbot.solutions.leftovers import FRAMES_OWNER_SUFFIX
+
+    return path + FRAMES_OWNER_SUFFIX
+
+
+def _let_go(owner: str, fd: int) -> None:
+    """Remove the owner file ``owner`` and release its lock (descriptor ``fd``)."""
+    try:
+        os.unlink(owner)
+    except OSError:
+        pass
+    os.close(fd)
+
+
+def remove_episode_folder(path: str, keep: bool = False, owner_fd: int | None = None) -> None:
     """Remove the files in an episode's folder (links are removed, never followed), and the folder unless ``keep``
-    (missing: nothing to do)."""
+    (missing: nothing to do); then, given ``owner_fd`` (the descriptor :func:`make_episode_folder` returned), its
+    owner file and lock. Never raises."""
     try:
         names = os.listdir(path)
     except OSError:
-        return
+        names = []
     for name in names:
         try:
             os.unlink(os.path.join(path, name))
@@ -160,6 +202,8 @@ def remove_episode_folder(path: str, keep: bool = False) -> None:
             os.rmdir(path)
         except OSError:
             pass
+    if owner_fd is not None:
+        _let_go(owner_file(path), owner_fd)
 
 
 def is_loopback(host: str) -> bool:
@@ -277,21 +321,26 @@ class BackendSegment:
 class SegmentPool:
     """The backend's segments by client id (the most recent :data:`MAX_SEGMENTS`), and, once :meth:`serve_socket`
     named an episode's folder, those of the clients on the backend's Unix socket in that folder (the most recent
-    :data:`EPISODE_SEGMENTS`, and :data:`EPISODE_SEGMENT_BYTES` over the episode). Used from one thread (the backend thread, which packs each native step's reply)."""
+    :data:`EPISODE_SEGMENTS`, and :data:`EPISODE_SEGMENT_BYTES` over the episode). Used from one thread (the backend
+    thread, which packs each native step's reply)."""
 
     def __init__(self, capacity: int = MAX_SEGMENTS) -> None:
         self.capacity = capacity
         self.socket_folder: str | None = None
+        self._socket_folder_owner: int | None = None  # the locked owner file's descriptor (make_episode_folder)
         self._by_client: OrderedDict[str, BackendSegment] = OrderedDict()
         self._by_socket_client: OrderedDict[str, BackendSegment] = OrderedDict()
         self._socket_bytes = 0  # made in the episode's folder so far (EPISODE_SEGMENT_BYTES)
 
     def serve_socket(self, unix_socket: str | os.PathLike) -> None:
         """Offer segments to the clients of the Unix socket ``unix_socket`` too, in its episode's folder
-        (:func:`episode_folder`, made here, mode 0700; removed by :meth:`close`). A folder that cannot be made (no
-        ``/dev/shm``, or another user made it) leaves those clients on the inline path."""
+        (:func:`episode_folder`, made here, mode 0700, with its owner file locked by this process until
+        :meth:`close` removes both: :func:`make_episode_folder`). A folder that cannot be made (no ``/dev/shm``,
+        another user made it, a live process owns it) leaves those clients on the inline path."""
+        if self.socket_folder is not None:  # a second socket: the first one's folder is let go
+            remove_episode_folder(self.socket_folder, owner_fd=self._socket_folder_owner)
         try:
-            self.socket_folder = make_episode_folder(episode_folder(unix_socket))
+            self.socket_folder, self._socket_folder_owner = make_episode_folder(episode_folder(unix_socket))
         except OSError:
             self.socket_folder = None
 
@@ -346,8 +395,8 @@ class SegmentPool:
             while segments:
                 segments.popitem()[1].close()
         if self.socket_folder is not None:
-            remove_episode_folder(self.socket_folder)
-            self.socket_folder = None
+            remove_episode_folder(self.socket_folder, owner_fd=self._socket_folder_owner)
+            self.socket_folder = self._socket_folder_owner = None
 
 
 def check_offer(offer: object) -> tuple[str, str | None, int]:
@@ -434,7 +483,8 @@ class ClientMapping:
         end = offset + count * dt.itemsize
         view = self.view  # this call's own reference: a concurrent close() cannot unmap it under us
         if view is None:
-            raise BenchbotError(f"shared-memory segment {self.name} was closed", "the client was closed while this step was in flight")
+            raise BenchbotError(f"shared-memory segment {self.name} was closed",
+                                "the client was closed while this step was in flight")
         if offset < 0 or end > self.size:
             raise BenchbotError(f"shared-memory array [{offset}, {end}) lies outside the {self.size}-byte segment", "")
         slot = offset // self.slot_size
