@@ -20,6 +20,8 @@ A run directory holds::
 ``--resume RUN_DIR`` checks the manifest (:func:`~benchbot.batch.plan.check_manifest`) and re-runs only the episodes
 whose record is not ``ok`` (or whose results file has since gone or stopped parsing); finished results are never
 redone. A results file that cannot be read or scored fails its own episode (``bad_results``); the others are scored.
+Each episode's results are read and scored as its record arrives, while the others run (:mod:`.episode_results`); the
+evaluation after the last episode only combines them (and scores what was not scored yet), with the same scores.
 Every episode has a timeout (:func:`default_timeout_s` unless ``--episode-timeout`` is given) and its solution runs
 in its own process group, stopped whole when the episode ends (:mod:`benchbot.solutions.process_group`).
 """
@@ -50,7 +52,7 @@ from benchbot.batch.plan import (
 from benchbot.core import atomic
 from benchbot.core.episode import served_environment
 from benchbot.core.errors import BenchbotError, UsageError
-from benchbot.core.evaluation import Evaluation, evaluate, method_scores
+from benchbot.core.evaluation import EarlyScores, Evaluation, evaluate, method_scores
 from benchbot.core.limits import MAX_LOG_BYTES, RAY_EPISODE_BYTES, SCENE_CACHE_BYTES, STOP_GRACE_S
 from benchbot.core.noise import get_preset
 from benchbot.core.registry import Registry
@@ -372,8 +374,10 @@ def run_batch(
     """Run (or resume) ``batch`` (from :func:`prepare_batch` or :func:`load_batch`), then evaluate.
 
     Episodes whose record is ``ok`` are skipped; the others run, and failed ones are retried up to ``retries``
-    times. The manifest is rewritten atomically after every episode, ``progress.json`` as episodes start, step
-    and end (:class:`~benchbot.batch.progress.ProgressFile`).
+    times. Each ``ok`` episode's results are read and scored as its record arrives (:func:`early_scores`; those
+    finished before a resume, one per episode that ends), so the evaluation at the end only combines. The manifest
+    is rewritten atomically after every episode, ``progress.json`` as episodes start, step and end
+    (:class:`~benchbot.batch.progress.ProgressFile`).
 
     Args:
         on_event: called with every executor event (``start``/``step``/``end``, index, info), in the thread that
@@ -413,7 +417,9 @@ def run_batch(
     from benchbot.solutions.leftovers import clean_leftovers
 
     clean_leftovers()  # temporary folders and cgroups of batches killed earlier (never a live one's)
-    results = EpisodeResults(run_dir, keep=bool(manifest.get("evaluate_with")))  # each results file read once
+    # each results file read once, and scored as its record arrives: the evaluation at the end only combines
+    results = EpisodeResults(run_dir, keep=bool(manifest.get("evaluate_with")),
+                             early=early_scores(registry, manifest))
     for record in records:  # results finished earlier but since removed or corrupted are done again
         results.check(record)
     by_index = {r.index: r for r in records}
@@ -434,6 +440,8 @@ def run_batch(
         write_manifest(run_dir, manifest)
         if on_record is not None:
             on_record(record)
+        results.score(record)  # after its line is out; while the other episodes run
+        results.score_waiting()  # one finished before --resume, if any
 
     cluster = ray_cluster
     if executor == "ray" and cluster is None:
@@ -472,7 +480,7 @@ def run_batch(
     method = manifest.get("evaluate_with")
     if method and done:
         try:
-            _evaluate(registry, run_dir, manifest, specs, method, outcome, results.loaded)
+            _evaluate(registry, run_dir, manifest, specs, method, outcome, results.loaded, results.early)
         except BenchbotError as exc:
             outcome.evaluation_error = exc.message
     outcome.excluded = _excluded(outcome.episodes)
@@ -501,14 +509,30 @@ def _excluded(episodes: list[EpisodeRecord]) -> list[dict]:
             for e in episodes if e.status != "ok"]
 
 
+def early_scores(registry: Registry, manifest: dict) -> EarlyScores | None:
+    """What scores a batch's episodes as their records arrive (:class:`~benchbot.core.evaluation.EarlyScores`,
+    with the batch's method, task and set of ground truths, as :func:`_evaluate` scores them); None for a batch
+    without an evaluation method, or one whose method cannot be made ready (the evaluation at the end then says
+    why, as before)."""
+    method = manifest.get("evaluate_with")
+    if not method:
+        return None
+    try:
+        return EarlyScores(method, registry, required_task=manifest.get("task"),
+                           ground_truth_set=manifest.get("ground_truth_set"))
+    except BenchbotError:
+        return None
+
+
 def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[EpisodeSpec], method: str,
-              outcome: BatchOutcome, loaded: dict | None = None) -> None:
+              outcome: BatchOutcome, loaded: dict | None = None, early: EarlyScores | None = None) -> None:
     """Score the ``ok`` episodes' results with ``method``; a results file that cannot be loaded, validated or
     scored turns its episode into ``bad_results`` (with the one-line reason) instead of failing the whole
     evaluation, and the others are scored. Each episode is scored against its own environment, the one of its
     plan (never the one its results file names): results naming another environment, or results of another task,
     are ``bad_results`` naming both. ``loaded`` holds the results files already read (:class:`EpisodeResults`),
-    which are not read again. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes are not
+    which are not read again; ``early``, the results already scored as their records arrived (:func:`early_scores`),
+    which are not scored again. Writes ``scores.json`` (with ``excluded_episodes`` when some episodes are not
     in it) and ``episode_scores.json``.
 
     Raises:
@@ -521,7 +545,7 @@ def _evaluate(registry: Registry, run_dir: Path, manifest: dict, specs: list[Epi
     evaluation = evaluate(list(by_source), method, registry, required_envs=manifest["environments"],
                           required_task=manifest["task"], keep_going=True,
                           environments={path: env_of[record.index] for path, record in by_source.items()},
-                          ground_truth_set=manifest.get("ground_truth_set"), loaded=loaded)
+                          ground_truth_set=manifest.get("ground_truth_set"), loaded=loaded, early=early)
     problems = [(source, exc.message) for source, exc in evaluation.errors]
     problems += [(source, f"{source}: results not scored: {why}") for source, why in evaluation.skipped]
     for source, message in problems:  # a zip archive's members are named PATH:MEMBER

@@ -450,6 +450,7 @@ def evaluate(
     environments: dict[str, str] | None = None,
     ground_truth_set: str | None = None,
     loaded: dict[str, list[LoadedResult]] | None = None,
+    early: "EarlyScores | None" = None,
 ) -> Evaluation:
     """Validate and score results files (docs/cli.md).
 
@@ -476,6 +477,10 @@ def evaluate(
         loaded: ``{str(path): its results}`` for paths already read with :func:`load_results` (a batch reads each
             episode's results file once, when the episode ends): they are validated and scored without being read
             again; every other path is read here.
+        early: results of ``loaded`` already validated and scored (:class:`EarlyScores`: a batch scores each
+            episode's results as its record arrives): their outcomes are taken as they are (the same scores, the
+            same errors, in the same order) and only the others are validated and scored here. Ignored unless it
+            scores as this call does (same method, registry, options and set of ground truths).
 
     Raises:
         UsageError: unknown combine mode, or the method does not support an option or pooled combining.
@@ -497,9 +502,12 @@ def evaluate(
         evaluation.errors.append((source, exc))
 
     results, order = _read_in_order(paths, loaded or {}, fail)
-    valid = _validated(results, registry, fail)
+    if early is not None and not early.scores_as(scoring):
+        early = None
+    valid = _validated(results, early.validate if early else lambda r: validate_result(r, registry), fail)
     own_env = {r.source: environments.get(str(paths[order[r.source]])) for r in valid} if environments else {}
-    covered, task_details = _score_each(valid, scoring, evaluation, fail, required_task, required_envs, own_env)
+    covered, task_details = _score_each(valid, early.score if early else scoring.score, evaluation, fail,
+                                        required_task, required_envs, own_env)
     evaluation.errors.sort(key=lambda e: order.get(e[0], len(paths)))
     evaluation.score_set = ScoreSet.from_json({"method": method, "scores": scoring.spec["scores"]}) \
         if scoring.spec.get("scores") else _observed_or_none(method, [s.get("scores") or {}
@@ -513,6 +521,91 @@ def evaluate(
         used = sorted({s.get("ground_truth_set") for _, s in evaluation.per_result if isinstance(s, dict)} - {None})
         evaluation.combined["ground_truth_set"] = ", ".join(used) if used else None
     return evaluation
+
+
+class EarlyScores:
+    """Results validated and scored ahead of :func:`evaluate`, one file at a time: a batch scores each episode's
+    results as its record arrives, while other episodes still run, and its evaluation at the end then only combines
+    (``evaluate(..., early=...)``). Each outcome is what :func:`evaluate` would compute for that result (the same
+    :func:`validate_result`, the same method, options and set of ground truths, against the same environment), the
+    scores or the error alike, so the scores are identical whichever path computed them.
+
+    An outcome belongs to the very :class:`LoadedResult` object it was computed for: a results file read again (an
+    episode run again) has new objects, and its old outcomes are never used. A failure that is not a
+    :class:`~benchbot.core.errors.BenchbotError` (a bug) is not kept: :func:`evaluate` meets it again and raises it
+    as it would have.
+
+    Args:
+        method, registry, options, ground_truth_set: as :func:`evaluate`'s (the combine mode plays no part).
+        required_task: results of another task are not scored (:func:`evaluate` skips them).
+
+    Raises:
+        UsageError, SpecError: as :func:`evaluate` for an unknown method or an option it does not take.
+    """
+
+    def __init__(self, method: str, registry: Registry, *, required_task: str | None = None,
+                 options: dict[str, Any] | None = None, ground_truth_set: str | None = None) -> None:
+        self.scoring = _Scoring.of(method, registry, "mean", options, ground_truth_set)
+        self.required_task = required_task
+        self._validation: dict[str, tuple[LoadedResult, BenchbotError | None]] = {}  # source -> (result, error)
+        self._scores: dict[tuple[str, str | None], tuple[LoadedResult, dict | BenchbotError]] = {}
+
+    def add(self, results: list[LoadedResult], env: str | None) -> int:
+        """Validate and score ``results`` (one file's, :func:`load_results`) as the results of environment ``env``
+        (None: of the scenes they name). Returns how many were scored (or refused by the method)."""
+        scored = 0
+        for result in results:
+            try:
+                validate_result(result, self.scoring.registry)
+                self._validation[result.source] = (result, None)
+            except BenchbotError as exc:
+                self._validation[result.source] = (result, exc)
+                continue
+            except Exception:  # noqa: BLE001 - a bug: evaluate raises it, as without early scores
+                continue
+            if self.required_task is not None and result.data["task_details"]["name"] != self.required_task:
+                continue
+            try:
+                self._scores[(result.source, env)] = (result, self.scoring.score(result, env))
+            except BenchbotError as exc:
+                self._scores[(result.source, env)] = (result, exc)
+            except Exception:  # noqa: BLE001 - as above
+                continue
+            scored += 1
+        return scored
+
+    def scores_as(self, scoring: "_Scoring") -> bool:
+        """Whether these outcomes are what ``scoring`` computes (same method, registry, options, ground truths)."""
+        mine = self.scoring
+        return (mine.method, mine.kwargs, mine.ground_truth_set) == (scoring.method, scoring.kwargs,
+                                                                     scoring.ground_truth_set) \
+            and mine.registry is scoring.registry
+
+    def validate(self, result: LoadedResult) -> None:
+        """:func:`validate_result` of ``result``: its outcome kept by :meth:`add`, else validated now.
+
+        Raises:
+            BenchbotError: as :func:`validate_result`.
+        """
+        kept = self._validation.get(result.source)
+        if kept is None or kept[0] is not result:
+            return validate_result(result, self.scoring.registry)
+        if kept[1] is not None:
+            raise kept[1]
+
+    def score(self, result: LoadedResult, own_env: str | None) -> dict:
+        """The method's scores of ``result`` against ``own_env`` (:meth:`_Scoring.score`): those kept by
+        :meth:`add`, else scored now.
+
+        Raises:
+            BenchbotError: as :meth:`_Scoring.score`.
+        """
+        kept = self._scores.get((result.source, own_env))
+        if kept is None or kept[0] is not result:
+            return self.scoring.score(result, own_env)
+        if isinstance(kept[1], BenchbotError):
+            raise kept[1]
+        return kept[1]
 
 
 def _read_in_order(paths: list[Path | str], loaded: dict[str, list[LoadedResult]],
@@ -542,23 +635,25 @@ def _read_in_order(paths: list[Path | str], loaded: dict[str, list[LoadedResult]
     return results, order
 
 
-def _validated(results: list[LoadedResult], registry: Registry,
+def _validated(results: list[LoadedResult], validate: Callable[[LoadedResult], None],
                fail: Callable[[str, BenchbotError], None]) -> list[LoadedResult]:
-    """The results that pass :func:`validate_result`; each one that does not is given to ``fail``."""
+    """The results that pass ``validate`` (:func:`validate_result` or :meth:`EarlyScores.validate`); each one that
+    does not is given to ``fail``."""
     valid = []
     for result in results:
         try:
-            validate_result(result, registry)
+            validate(result)
             valid.append(result)
         except BenchbotError as exc:
             fail(result.source, exc)
     return valid
 
 
-def _score_each(valid: list[LoadedResult], scoring: _Scoring, evaluation: Evaluation,
-                fail: Callable[[str, BenchbotError], None], required_task: str | None,
+def _score_each(valid: list[LoadedResult], score: Callable[[LoadedResult, str | None], dict],
+                evaluation: Evaluation, fail: Callable[[str, BenchbotError], None], required_task: str | None,
                 required_envs: list[str] | None, own_env: dict[str, str | None]) -> tuple[set[str], dict | None]:
-    """Score every valid result of the task (:meth:`_Scoring.score`) into ``evaluation.per_result``; results of
+    """Score every valid result of the task (``score``: :meth:`_Scoring.score` or :meth:`EarlyScores.score`) into
+    ``evaluation.per_result``; results of
     another task, or (without an environment of their own in ``own_env``) of an environment not required, into
     ``evaluation.skipped``; a result the method cannot score is given to ``fail``. Returns ``(the environments
     covered, the first scored result's task details or None)``.
@@ -581,7 +676,7 @@ def _score_each(valid: list[LoadedResult], scoring: _Scoring, evaluation: Evalua
             evaluation.skipped.append((result.source, f"environment {result.env_string} is not required"))
             continue
         try:
-            scores = scoring.score(result, env)
+            scores = score(result, env)
         except BenchbotError as exc:
             fail(result.source, exc)
             continue
