@@ -20,7 +20,10 @@ workers), then ``--runs`` times, timed. For every timed run it reports:
 
     python benchmarks/sweep.py [--workers 16] [--repeat 3] [--envs-batch bear_all | --envs ENV,...]
         [--example semslam_geometric] [--arch cuda|cpu] [--camera-size WxH] [--modes service,no-service] [--runs 1]
-        [--warm-up MODES|none] [--batch-args ARGS] [--output-dir DIR] [--json] [--smoke]
+        [--warm-up MODES|none] [--batch-args ARGS] [--output-dir DIR] [--json] [--json-file PATH] [--smoke]
+
+``--json-file PATH``: the JSON summary is also written there (atomically) after every run, so a sweep cut short
+(a time limit) leaves the runs it finished.
 
 ``--smoke``: ``semslam_geometric`` on miniroom:1 twice at 64×48 with two workers, both modes, one timed run each.
 The service it uses is its own (a socket folder of its own, stopped at the end).
@@ -172,6 +175,24 @@ def show(r: dict) -> None:
             print(f"{'':>12}{stage:<44} {seconds:8.2f} s summed, {seconds / n:6.2f} s per episode")
 
 
+def summary(args: argparse.Namespace, results: list[dict]) -> dict:
+    """The JSON summary of the runs so far: the settings, the machine's cores, GPUs asked for and load, every run,
+    and whether their results are byte-identical."""
+    return {"example": args.example, "envs": args.envs or args.envs_batch, "repeat": args.repeat,
+            "workers": args.workers, "arch": args.arch, "cpu_count": os.cpu_count(),
+            "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES"), "load_average": os.getloadavg(),
+            "runs": results, "byte_identical": len({r["digest"] for r in results}) == 1}
+
+
+def write_partial(path: str | None, args: argparse.Namespace, results: list[dict]) -> None:
+    """Write :func:`summary` of the runs so far to ``path`` (atomically: a temporary file renamed); nothing
+    without a path."""
+    if path:
+        tmp = Path(f"{path}.tmp")
+        tmp.write_text(json.dumps(summary(args, results)))
+        tmp.replace(path)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=16)
@@ -188,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch-args", default="", help="more arguments for benchbot batch, e.g. '--no-sandbox'")
     ap.add_argument("--output-dir", default=None, help="keep the run directories here (default: a temporary one)")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--json-file", default=None, help="also write the JSON summary here after every run")
     args = smoke.parse_args(ap, argv, envs="miniroom:1", repeat=2, workers=2, camera_size="64x48", arch="cpu")
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
     if not modes or set(modes) - {"service", "no-service"} or args.runs < 1:
@@ -204,19 +226,18 @@ def main(argv: list[str] | None = None) -> int:
                     warm = run_once(args, mode, folder / f"{mode}-warm-up", env)
                     print(f"warm-up {mode}: {warm['wall_s']:.2f} s", file=sys.stderr, flush=True)
                     results.append({**warm, "warm_up": True})
+                    write_partial(args.json_file, args, results)
                 for k in range(args.runs):
                     results.append(run_once(args, mode, folder / f"{mode}-{k}", env))
+                    write_partial(args.json_file, args, results)
                     print(f"{mode}: {results[-1]['wall_s']:.2f} s", file=sys.stderr, flush=True)
         finally:
             subprocess.run([sys.executable, "-m", "benchbot.cli", "service", "stop"], env=env, capture_output=True,
                            timeout=120)
-    same = len({r["digest"] for r in results}) == 1
-    summary = {"example": args.example, "envs": args.envs or args.envs_batch, "repeat": args.repeat,
-               "workers": args.workers, "arch": args.arch, "cpu_count": os.cpu_count(),
-               "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES"), "load_average": os.getloadavg(),
-               "runs": results, "byte_identical": same}
+    figures = summary(args, results)
+    same = figures["byte_identical"]
     if args.json:
-        print(json.dumps(summary))
+        print(json.dumps(figures))
     else:
         for r in results:
             if not r.get("warm_up"):
