@@ -252,3 +252,69 @@ def test_pose_to_matrix_equals_scipys_rotation_bit_for_bit():
     assert mapping.pose_to_matrix([1.0, 2.0, 3.0], [0, 0, 0, 1])[:3, 3].tolist() == [1.0, 2.0, 3.0]
     with pytest.raises(ValueError):
         mapping.pose_to_matrix([0, 0, 0], [0, 0, 0, 0])
+
+
+def _reference_frame_sums(rgb, depth, T, stride=2, voxel=0.04, min_depth=0.1, max_depth=6.0):
+    """One frame's ``(voxel keys, hits, position sums, colour sums)`` as the mapper computed them before it skipped
+    the masks of a frame with every pixel kept and sorted only the keys' runs: ``np.unique`` over every kept pixel's
+    key, then ``np.bincount``."""
+    d = np.asarray(depth, np.float32)[::stride, ::stride]
+    h, w = d.shape
+    v, u = np.mgrid[0:h * stride:stride, 0:w * stride:stride]
+    rays = (np.linalg.inv(K) @ np.stack([u.ravel(), v.ravel(), np.ones(u.size)]).astype(np.float64)).T
+    rays = rays.astype(np.float32)
+    d = d.ravel()
+    ok = np.isfinite(d) & (d > min_depth) & (d < max_depth)
+    pts = (rays[ok] * d[ok, None]) @ T[:3, :3].T.astype(np.float32) + T[:3, 3].astype(np.float32)
+    cols = rgb[::stride, ::stride].reshape(-1, 3)[ok].astype(np.float32)
+    keys, inv = np.unique(mapping._encode(np.floor(pts / voxel).astype(np.int64)), return_inverse=True)
+    n = len(keys)
+    return (keys, np.bincount(inv, minlength=n).astype(np.float64),
+            np.stack([np.bincount(inv, pts[:, i], minlength=n) for i in range(3)], axis=1),
+            np.stack([np.bincount(inv, cols[:, i], minlength=n) for i in range(3)], axis=1))
+
+
+@pytest.mark.parametrize("holes", [False, True], ids=["every pixel kept", "pixels without depth"])
+def test_a_frame_sums_equal_those_of_numpy_unique_bit_for_bit(frames, holes):
+    """What :meth:`GeometricMapper.integrate` keeps of a frame (its voxels' keys, hits and sums) equals, bit for bit,
+    the ``np.unique`` + ``np.bincount`` computation it replaced, for a frame whose every pixel has a depth (no masks
+    then) and for one with pixels without a return (zero, infinite, too far), so its results files do not change."""
+    for rgb, depth, T in frames[:6]:
+        if holes:
+            depth = depth.copy()
+            depth[::7, ::5] = 0.0
+            depth[40:60, 30:90] = np.inf
+            depth[:10] = 7.0
+        mapper = mapping.GeometricMapper(merge_every=100)
+        mapper.integrate(rgb, depth, K, T)
+        for got, want in zip(mapper._buffer[0], _reference_frame_sums(rgb, depth, T)):
+            assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+def test_unique_inverse_equals_numpys():
+    """``mapping._unique_inverse`` gives what ``np.unique(keys, return_inverse=True)`` gives (values, dtypes,
+    shapes) for keys in runs, keys without runs, one key and none."""
+    rng = np.random.default_rng(3)
+    runs = np.repeat(rng.integers(-50, 50, size=300), rng.integers(1, 9, size=300))
+    for keys in (runs, rng.integers(-(1 << 40), 1 << 40, size=1000), np.array([5]), np.zeros(0, np.int64)):
+        keys = keys.astype(np.int64)
+        got, want = mapping._unique_inverse(keys), np.unique(keys, return_inverse=True)
+        for g, w in zip(got, want):
+            assert g.dtype == w.dtype and g.shape == w.shape and np.array_equal(g, w)
+
+
+def test_scipy_ndimage_is_imported_for_the_clustering_only():
+    """Importing the example's mapper leaves SciPy's ``ndimage`` (0.17 s of the solution's start) unimported;
+    ``import_clustering`` (which the solution runs on a thread as it starts) imports it."""
+    import subprocess
+
+    code = f"""
+import sys
+sys.path.insert(0, {str(EXAMPLE_DIR)!r})
+import mapping
+assert "scipy.ndimage" not in sys.modules, "mapping imported scipy.ndimage"
+mapping.import_clustering()
+assert "scipy.ndimage" in sys.modules
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
