@@ -14,11 +14,14 @@ solution's interpreter and imports, its first request), ``solution steps`` (from
 step's round trip and the solution's own work, its results, the sandbox's end), ``evaluation and writing`` (from the
 episode's end to the command's exit: scoring, the run directory's files, the table, the process's exit).
 
-    uv run python benchmarks/service_warm.py [--env miniroom:1] [--example semslam_geometric] [--runs 5] [--json]
+    uv run python benchmarks/service_warm.py [--env miniroom:1] [--example semslam_geometric] [--runs 5]
+        [--modes in-process,service] [--json]
 
 Each run is a fresh process running BenchBot's command-line entry point (what the ``benchbot`` script runs; ``uv
 run``'s own start, about 0.1 s, is not in it), in a run directory under a temporary folder. The service is one of
 this script's own: its socket folder is in a temporary ``XDG_RUNTIME_DIR``, and it is stopped at the end.
+``--modes service`` runs only the service's (where the in-process runs would cost a GPU host's time to no purpose);
+the results are then compared among its runs.
 ``--smoke`` runs ``hello_passive`` once each, in the primitives style.
 """
 
@@ -123,15 +126,21 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--env", default="miniroom:1")
     ap.add_argument("--example", default="semslam_geometric")
     ap.add_argument("--runs", type=int, default=5, help="timed runs of each mode (after one untimed run of each)")
+    ap.add_argument("--modes", default="in-process,service",
+                    help="comma list of the modes to run: in-process (--no-service), service (both by default)")
     ap.add_argument("--json", action="store_true")
     args = smoke.parse_args(ap, argv, example="hello_passive", runs=1)
+    wanted = [mode for mode in args.modes.split(",") if mode]
+    if not wanted or set(wanted) - {"in-process", "service"}:
+        ap.error(f"--modes {args.modes!r}: a comma list of in-process and service")
     with tempfile.TemporaryDirectory(prefix="service-warm-") as tmp:
         runtime = Path(tmp, "runtime")
         runtime.mkdir(mode=0o700)
         env = {**os.environ, "XDG_RUNTIME_DIR": str(runtime)}
         env.pop("BENCHBOT_SERVICE", None)
         command = ["batch", "--example", args.example, "--envs", args.env, "--output-dir", str(Path(tmp, "runs"))]
-        modes = {"in-process": command + ["--no-service"], "service": command}
+        modes = {mode: words for mode, words in (("in-process", command + ["--no-service"]), ("service", command))
+                 if mode in wanted}
         times: dict[str, list[dict]] = {mode: [] for mode in modes}
         pid = None
         try:
@@ -149,7 +158,7 @@ def main(argv: list[str] | None = None) -> dict:
         finally:
             subprocess.run([sys.executable, "-m", "benchbot.cli", "service", "stop"], env=env, cwd=tmp,
                            capture_output=True, stdin=subprocess.DEVNULL)
-        reference = run_files(times["in-process"][0]["run_dir"])
+        reference = run_files(next(iter(times.values()))[0]["run_dir"])
         identical = all(run_files(run["run_dir"]) == reference for runs in times.values() for run in runs)
     figures = {mode: {"median_wall_s": round(statistics.median(r["wall_s"] for r in runs), 2),
                       "median_cpu_s": round(statistics.median(r["cpu_s"] for r in runs), 2),
