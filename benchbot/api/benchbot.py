@@ -187,9 +187,12 @@ class HttpTransport:
             (e.g. to count requests); other keys are ignored.
         shared_memory: receive a step's large arrays through a shared-memory file instead of the HTTP reply
             (:mod:`benchbot.protocol.shared_frames`; same results, fewer copies). ``None`` (default): when the backend
-            is on loopback and ``/dev/shm`` is usable, unless ``$BENCHBOT_SHARED_MEMORY=0``. If this process cannot
-            map the backend's segment (e.g. it runs in another container), the transport turns the path off and
-            carries on inline; :attr:`shared_memory_error` says why.
+            is on loopback and ``/dev/shm`` (``$BENCHBOT_SHARED_MEMORY_DIR``) is usable, unless
+            ``$BENCHBOT_SHARED_MEMORY=0``; a setting with no valid value (``BENCHBOT_SHARED_MEMORY=on``,
+            ``BENCHBOT_SHARED_MEMORY_DIR`` no readable folder) leaves it off and says so in one line on stderr
+            (:func:`benchbot.protocol.shared_frames.unavailable_reason`). If this process cannot map the backend's
+            segment (e.g. it runs in another container), the transport turns the path off and carries on inline;
+            :attr:`shared_memory_error` says why in either case.
         ca_file: for ``https://`` addresses (a backend behind a TLS proxy, or ``benchbot run --tls-cert``): a PEM
             file of the certificate authorities to trust, else ``$BENCHBOT_CA_FILE``, else the system's.
 
@@ -224,10 +227,14 @@ class HttpTransport:
         # every thread's connection, to close them all on close (a thread that ends takes its own with it)
         self._connections: weakref.WeakSet[http.client.HTTPConnection] = weakref.WeakSet()
         self._connections_lock = threading.Lock()
-        if shared_memory is None:
-            shared_memory = shared_frames.is_loopback(self._host) and shared_frames.available()
-        self.shared_memory = bool(shared_memory)
         self.shared_memory_error: str | None = None
+        if shared_memory is None:
+            shared_memory = shared_frames.is_loopback(self._host)
+            if shared_memory and (reason := shared_frames.unavailable_reason()) is not None:
+                shared_memory, self.shared_memory_error = False, reason
+                if reason.startswith(settings.PREFIX) and not reason.startswith(f"{shared_frames.ENV_SWITCH}=0"):
+                    print(f"[benchbot] {reason}", file=sys.stderr, flush=True)  # a mistyped setting
+        self.shared_memory = bool(shared_memory)
         self._mappings: list[shared_frames.ClientMapping] = []  # every thread's, to let go of them on close
         self._missed_maps = 0  # announced segments gone before this client could map them, in a row
         self._closed = False

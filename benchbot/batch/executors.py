@@ -345,18 +345,11 @@ def ray_gpus_per_episode() -> float:
     runs at once with profit, docs/cluster.md): the ``num_gpus`` an episode on a GPU requests from Ray.
 
     Raises:
-        UsageError: not a number in (0, 1], or a number above 1 that is not whole (Ray's rule)."""
+        UsageError: not a share of a GPU (:func:`benchbot.core.settings.gpu_share`: from 0.0001, Ray's finest
+            share, to 1, or a whole number above 1, Ray's rule), one line naming the variable and the fix."""
     from benchbot.core import settings
 
-    text = settings.get(RAY_GPUS_SETTING) or "0.0625"
-    try:
-        share = float(text)
-    except ValueError:
-        share = -1.0
-    if not (0 < share <= 1 or (share > 1 and share.is_integer())):
-        raise UsageError(f"{RAY_GPUS_SETTING}={text!r} is not a share of a GPU",
-                         "set it to a number above 0 and at most 1 (0.0625: 16 episodes per GPU), or a whole number")
-    return share
+    return settings.value(RAY_GPUS_SETTING)
 
 
 #: Seconds an interrupted Ray batch waits for its cancelled episodes to stop (solution, server, backend).
@@ -550,9 +543,11 @@ def connect_ray(address: str | None = None, *, workers: int = 1, log: Path | Non
     (appended) from here on; a process already connected to Ray keeps its connection.
 
     Raises:
-        UsageError: Ray is not installed (or, for ``ray://``, Ray Client); the address is not ``HOST:PORT``,
-            refuses connections, does not answer within ``timeout_s``, or refuses this process's token.
+        UsageError: a Ray setting has no valid value (:func:`ray_gpus_per_episode`: checked before any Ray starts);
+            Ray is not installed (or, for ``ray://``, Ray Client); the address is not ``HOST:PORT``, refuses
+            connections, does not answer within ``timeout_s``, or refuses this process's token.
     """
+    ray_gpus_per_episode()  # a mistyped setting is one line now, not after a local Ray has started (seconds)
     # Under `uv run`, Ray would copy the working directory to every worker and run from that copy (paths in specs
     # and results would differ from a local run); workers use the installed BenchBot instead. Read at import.
     os.environ["RAY_ENABLE_UV_RUN_RUNTIME_ENV"] = "0"

@@ -1,5 +1,7 @@
 """The core's own settings: what one environment variable BenchBot reads is (:class:`Setting`), the table of those
-the core, the client API and the CLI read (:data:`SETTINGS`), and how a value is read (:func:`resolve`).
+the core, the client API and the CLI read (:data:`SETTINGS`), how a value is read (:func:`resolve`), and the readers
+that check a value's text (:func:`whole_number`, :func:`positive_number`, :func:`one_of`, :func:`gpu_share`,
+:func:`absolute_path`; :func:`benchbot.core.settings.value` applies them).
 
 This module knows no plugin, so that the plugin manager can read ``BENCHBOT_DISABLE_PLUGINS`` through it; plugins
 declare their own settings through the hook ``benchbot_settings``, and :mod:`benchbot.core.settings` reads both
@@ -10,6 +12,7 @@ value counts as unset.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -46,6 +49,91 @@ class Setting:
     external: bool = False
 
 
+# Readers for Setting.reader: each takes the text and raises ValueError with a short reason (``benchbot.core.settings``
+# names them too).
+
+
+def whole_number(low: int, high: int | None = None):
+    """A reader of a whole number from ``low`` to ``high`` (``None``: no upper bound), giving an ``int``.
+
+    Raises (the reader):
+        ValueError: ``"not a whole number from LOW to HIGH"`` (``"not a whole number of at least LOW"``).
+    """
+    bounds = f"from {low} to {high}" if high is not None else f"of at least {low}"
+
+    def read(text: str) -> int:
+        try:
+            number = int(text)
+        except ValueError:
+            raise ValueError(f"not a whole number {bounds}") from None
+        if number < low or (high is not None and number > high):
+            raise ValueError(f"not a whole number {bounds}")
+        return number
+
+    read.__doc__ = f"A whole number {bounds}."
+    return read
+
+
+def positive_number(text: str) -> float:
+    """A reader of a finite number above 0 (a speed, a scale), giving a ``float``.
+
+    Raises:
+        ValueError: ``"not a number above 0"``.
+    """
+    try:
+        number = float(text)
+    except ValueError:
+        number = math.nan
+    if not 0.0 < number < math.inf:
+        raise ValueError("not a number above 0")
+    return number
+
+
+def one_of(*choices: str):
+    """A reader accepting ``choices`` (case and surrounding blanks ignored) and giving the choice in lower case.
+
+    Raises (the reader):
+        ValueError: ``"not one of a, b, c"``.
+    """
+    def read(text: str) -> str:
+        word = text.strip().lower()
+        if word not in choices:
+            raise ValueError(f"not one of {', '.join(choices)}")
+        return word
+
+    read.__doc__ = f"One of {', '.join(choices)} (case ignored)."
+    return read
+
+
+def gpu_share(text: str) -> float:
+    """A reader of a share of a GPU as Ray's ``num_gpus`` takes it: a number from 0.0001 (Ray's finest share) to 1,
+    or a whole number of GPUs above 1, giving a ``float``.
+
+    Raises:
+        ValueError: ``"not a share of a GPU: ..."`` (what is valid, in a phrase).
+    """
+    try:
+        share = float(text)
+    except ValueError:
+        share = math.nan
+    if not (0.0001 <= share <= 1 or (1 < share < math.inf and share.is_integer())):
+        raise ValueError("not a share of a GPU: a number from 0.0001 to 1 (0.0625: 16 episodes per GPU), or a whole "
+                         "number of GPUs")
+    return share
+
+
+def absolute_path(text: str) -> str:
+    """A reader of an absolute path (``/dev/shm``), giving it as written; whether it exists is for its user to check
+    (it may name a folder inside a sandbox).
+
+    Raises:
+        ValueError: ``"not an absolute path (one starting with /)"``.
+    """
+    if not os.path.isabs(text):
+        raise ValueError("not an absolute path (one starting with /)")
+    return text
+
+
 #: The core's settings (the core, the client API, the CLI), in the order ``benchbot doctor`` shows them; plugins'
 #: settings follow them there, in plugin order.
 SETTINGS: tuple[Setting, ...] = (
@@ -70,9 +158,11 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_DISABLE_PLUGINS", None, "comma list of plugins (entry-point names) not to load", "core"),
     Setting("BENCHBOT_ONLY_PLUGINS", None, "comma list of the only plugins to load (the tests set it)", "core"),
     Setting("BENCHBOT_SHARED_MEMORY", "1", "0: clients take frames in the HTTP reply, never through /dev/shm "
-            "(containers set it; sandboxes where the backend made no frames folder)", "api"),
+            "(containers set it; sandboxes where the backend made no frames folder); a value other than 0 or 1 is "
+            "taken as 0", "api", reader=one_of("0", "1")),
     Setting("BENCHBOT_SHARED_MEMORY_DIR", "/dev/shm", "the folder where a client opens its shared-memory segments "
-            "(a sandbox sets it to its read-only frames folder)", "api"),
+            "(a sandbox sets it to its read-only frames folder); where it is no folder the client can read, frames "
+            "come in the HTTP reply and the client's shared_memory_error says why", "api", reader=absolute_path),
     Setting("BENCHBOT_SANDBOX_DISPLAY", "1", "0: sandboxed solutions get no display (they draw off screen, "
             "MPLBACKEND=Agg); otherwise your X11 or Wayland display is passed into the sandbox", "core"),
     Setting("BENCHBOT_BACKEND_CHECK_TIMEOUT_S", "1", "seconds `benchbot submit` gives a backend to accept a "
@@ -86,7 +176,8 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("BENCHBOT_SERVICE_IDLE_S", "900", "seconds without an episode after which the simulator service stops "
             "by itself (read when it starts)", "cli"),
     Setting("BENCHBOT_RAY_GPUS_PER_EPISODE", "0.0625", "the share of a GPU a Ray batch's episode on a GPU "
-            "(--arch cuda) reserves on its node: Ray places episodes by GPU (docs/cluster.md)", "core"),
+            "(--arch cuda) reserves on its node: Ray places episodes by GPU (docs/cluster.md); 0.0001 to 1, or a "
+            "whole number", "core", reader=gpu_share),
     Setting("BENCHBOT_MANIFEST_LOCAL", None, "1: a batch's manifest keeps the host name and absolute paths (by "
             "default it names no host, and paths are ~/... or $RUN_DIR/...)", "core"),
 )

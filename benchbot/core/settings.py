@@ -25,17 +25,17 @@ value counts as unset.
 from __future__ import annotations
 
 import functools
-import math
 import re
 from dataclasses import dataclass, replace
 from typing import Any
 
-from benchbot.core.core_settings import BY_NAME, PREFIX, SETTINGS, Setting, resolve
+from benchbot.core.core_settings import (BY_NAME, PREFIX, SETTINGS, Setting, absolute_path, gpu_share, one_of,
+                                         positive_number, resolve, whole_number)
 from benchbot.core.errors import UsageError
 
-__all__ = ["PREFIX", "SETTINGS", "PluginSettings", "Setting", "all_settings", "default", "effective", "find",
-           "from_plugins", "get", "one_of", "plugin_settings", "positive_number", "problems", "source", "value",
-           "whole_number"]
+__all__ = ["PREFIX", "SETTINGS", "PluginSettings", "Setting", "absolute_path", "all_settings", "default", "effective",
+           "find", "from_plugins", "get", "gpu_share", "one_of", "plugin_settings", "positive_number", "problems",
+           "source", "value", "whole_number"]
 
 _NAME = re.compile(r"[A-Z][A-Z0-9_]*")
 _HOOK = "benchbot_settings"
@@ -244,58 +244,3 @@ def problems(plugin_manager=None) -> tuple[str, ...]:
                                                          f"not valid: {row['problem']}")
                for row in effective(plugin_manager) if row["problem"]]
     return tuple(invalid) + _declared(plugin_manager).problems
-
-
-# Readers for Setting.reader: each takes the text and raises ValueError with a short reason.
-
-
-def whole_number(low: int, high: int | None = None):
-    """A reader of a whole number from ``low`` to ``high`` (``None``: no upper bound), giving an ``int``.
-
-    Raises (the reader):
-        ValueError: ``"not a whole number from LOW to HIGH"`` (``"not a whole number of at least LOW"``).
-    """
-    bounds = f"from {low} to {high}" if high is not None else f"of at least {low}"
-
-    def read(text: str) -> int:
-        try:
-            number = int(text)
-        except ValueError:
-            raise ValueError(f"not a whole number {bounds}") from None
-        if number < low or (high is not None and number > high):
-            raise ValueError(f"not a whole number {bounds}")
-        return number
-
-    read.__doc__ = f"A whole number {bounds}."
-    return read
-
-
-def positive_number(text: str) -> float:
-    """A reader of a finite number above 0 (a speed, a scale), giving a ``float``.
-
-    Raises:
-        ValueError: ``"not a number above 0"``.
-    """
-    try:
-        number = float(text)
-    except ValueError:
-        number = math.nan
-    if not 0.0 < number < math.inf:
-        raise ValueError("not a number above 0")
-    return number
-
-
-def one_of(*choices: str):
-    """A reader accepting ``choices`` (case and surrounding blanks ignored) and giving the choice in lower case.
-
-    Raises (the reader):
-        ValueError: ``"not one of a, b, c"``.
-    """
-    def read(text: str) -> str:
-        word = text.strip().lower()
-        if word not in choices:
-            raise ValueError(f"not one of {', '.join(choices)}")
-        return word
-
-    read.__doc__ = f"One of {', '.join(choices)} (case ignored)."
-    return read

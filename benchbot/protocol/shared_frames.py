@@ -95,16 +95,35 @@ def client_folder() -> str:
     return settings.get(ENV_FOLDER) or SHM_DIR
 
 
-def available() -> bool:
-    """True where a client can use segments: ``$BENCHBOT_SHARED_MEMORY`` is not ``0`` and :func:`client_folder` is a
-    directory it can read (:data:`SHM_DIR` must also be writable: the backend may be this process's)."""
+def unavailable_reason() -> str | None:
+    """Why a client cannot use segments here, in one line naming the setting and the fix; ``None`` when it can.
+
+    It cannot where ``$BENCHBOT_SHARED_MEMORY`` is ``0`` (or any value but ``0`` and ``1``, read as ``0``), or where
+    :func:`client_folder` is no folder it can read (:data:`SHM_DIR` must also be writable: the backend may be this
+    process's). Its frames then come in the HTTP reply: the same arrays, more copies."""
     from benchbot.core import settings
 
-    if settings.get(ENV_SWITCH) == "0":
-        return False
+    switch = settings.get(ENV_SWITCH)
+    if switch == "0":
+        return f"{ENV_SWITCH}=0: frames come in the HTTP reply"
+    if switch != "1":
+        return (f"{ENV_SWITCH}={switch!r} is not 0 or 1, taken as 0: frames come in the HTTP reply (set it to 1, or "
+                "unset it, for shared memory)")
     folder = client_folder()
     need = os.R_OK | os.X_OK if folder != SHM_DIR else os.W_OK | os.X_OK
-    return os.path.isdir(folder) and os.access(folder, need)
+    if os.path.isabs(folder) and os.path.isdir(folder) and os.access(folder, need):
+        return None
+    if settings.source(ENV_FOLDER) == "default":
+        return f"{SHM_DIR} is not a folder this process can write (no shared memory): frames come in the HTTP reply"
+    what = "an absolute path" if not os.path.isabs(folder) else "a folder this process can read" \
+        if folder != SHM_DIR else "a folder this process can write"
+    return (f"{ENV_FOLDER}={folder!r} is not {what}: frames come in the HTTP reply (unset it for {SHM_DIR}, or name "
+            "the folder where the backend makes this client's segments)")
+
+
+def available() -> bool:
+    """True where a client can use segments (:func:`unavailable_reason` gives none)."""
+    return unavailable_reason() is None
 
 
 def episode_folder(unix_socket: str | os.PathLike) -> str:
