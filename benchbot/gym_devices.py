@@ -52,6 +52,7 @@ def resolve_devices(devices: Any, arch: str | None) -> list[int | str]:
     Raises:
         ValueError: one line: a value not described by :data:`DEVICES_HELP`, GPUs without ``arch`` ``'cuda'``
             (or ``'gpu'``), more GPUs than are visible, or ``'cpu'`` entries with a GPU arch.
+        UsageError: no ``arch`` given and ``BENCHBOT_TAICHI_ARCH`` has no valid value (one line naming it).
     """
     arch = (arch or _default_arch()).strip().lower()
     on_gpu = arch in ("cuda", "gpu")
@@ -80,12 +81,15 @@ def resolve_devices(devices: Any, arch: str | None) -> list[int | str]:
 
 
 def _default_arch() -> str:
-    """The simulator's arch setting (``BENCHBOT_TAICHI_ARCH``, declared by the simulator plugin), ``"cpu"`` where no
-    enabled plugin declares it."""
+    """The simulator's arch setting (``BENCHBOT_TAICHI_ARCH``, declared by the simulator plugin, read by its reader),
+    ``"cpu"`` where no enabled plugin declares it.
+
+    Raises:
+        UsageError: the variable's value is none its reader takes: one line naming it and the fix."""
     from benchbot.core import settings
 
     try:
-        return settings.get("BENCHBOT_TAICHI_ARCH") or "cpu"
+        return settings.value("BENCHBOT_TAICHI_ARCH") or "cpu"
     except KeyError:
         return "cpu"
 

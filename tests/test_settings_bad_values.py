@@ -95,3 +95,15 @@ def test_a_client_given_a_bad_switch_takes_frames_in_the_reply_and_a_good_one_is
         transport = HttpTransport("http://127.0.0.1:9/")
         assert transport.shared_memory is shared and capsys.readouterr().err == ""
         transport.close()
+
+
+def test_gym_over_devices_reads_the_simulators_arch_through_its_reader(monkeypatch):
+    """``make_vec(devices=...)`` without an ``arch`` option reads BENCHBOT_TAICHI_ARCH: a value the simulator's
+    setting does not take is one line naming it (it was read as text, and 'abc' ran as a CPU arch)."""
+    from benchbot.gym_devices import resolve_devices
+
+    monkeypatch.setenv("BENCHBOT_TAICHI_ARCH", "abc")
+    with pytest.raises(UsageError, match=r"^BENCHBOT_TAICHI_ARCH='abc' is not one of cpu, gpu, cuda$"):
+        resolve_devices(["cpu", "cpu"], None)
+    monkeypatch.setenv("BENCHBOT_TAICHI_ARCH", " CPU ")
+    assert resolve_devices(["cpu", "cpu"], None) == ["cpu", "cpu"]
