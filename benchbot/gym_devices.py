@@ -256,7 +256,11 @@ class _Worker:
 
     def attach(self, shapes: dict[str, tuple]) -> None:
         """Give the (started) worker shared memory for the observations ``shapes`` (``{key: (its slice's shape,
-        dtype)}``) that have none yet; it writes them there from its next answer on."""
+        dtype)}``) that have none yet; it writes them there from its next answer on.
+
+        Raises:
+            MemoryError: ``/dev/shm`` has less room than the new blocks take (:func:`_check_shared_memory`).
+        """
         _check_shared_memory(sum(int(np.prod(shape)) * np.dtype(dtype).itemsize for key, (shape, dtype)
                                  in shapes.items() if key not in self.blocks))
         names = {}
@@ -536,7 +540,10 @@ def make_multi_device_class() -> type:
 
         Raises:
             ValueError: a bad ``devices`` or ``num_envs``, and whatever ``BenchBotVectorEnv`` raises for a slice.
-            RuntimeError: a worker process died (one line naming its device).
+            UsageError: no ``options['arch']`` and ``BENCHBOT_TAICHI_ARCH`` has no valid value (one line naming it).
+            RuntimeError: a worker process died (one line naming its device), here or in ``reset``/``step``.
+            MemoryError: (``reset``, ``step``) ``/dev/shm`` has too little room for the workers' shared memory (one
+                line; ``on_device=True`` on CUDA needs less of it).
         """
 
     return MultiDeviceVectorEnv

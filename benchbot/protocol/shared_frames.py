@@ -367,7 +367,19 @@ class SegmentPool:
         """``reply`` packed for a client whose ``shm`` field is ``offer`` (as :func:`check_offer` returns it; see
         the module doc): large arrays in the requested slot of its segment when it has mapped it, else inline with
         ``shm_segment`` to map (or ``shm_error`` when none can be made). ``via_socket``: the client came through the
-        Unix socket of :meth:`serve_socket` (its segment is made in that folder)."""
+        Unix socket of :meth:`serve_socket` (its segment is made in that folder).
+
+        Args:
+            reply: the step's reply, nested dicts, lists and tuples; its NumPy arrays of at least :data:`MIN_BYTES`
+                and of any dtype but ``object`` (``image_rgb`` (H, W, 3) uint8, ``image_depth`` (H, W) float32
+                metres, ...) go into the segment as C-contiguous bytes, each at a :data:`ALIGN`-byte offset, and
+                are sent as ``{"__shm__": dtype string, "shape", "offset": bytes}``; the rest inline.
+            offer: ``(client id, mapped segment name or None, slot)``.
+
+        Returns:
+            The reply's bytes (:func:`benchbot.protocol.wire.pack`). Never raises for a segment that cannot be
+            made: the reply then says why (``shm_error``).
+        """
         from benchbot.protocol import wire
 
         client, mapped, slot = offer

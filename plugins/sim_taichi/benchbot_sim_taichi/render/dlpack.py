@@ -252,6 +252,12 @@ def open_shared(handle: bytes, offset: int, shape: tuple, dtype: str, *, device_
     other process renders on). Its DLPack and CUDA Array Interface exports name that device;
     :meth:`~DeviceArray.release` unmaps it.
 
+    Args:
+        handle: the 64-byte CUDA IPC handle of the shared allocation. offset: the array's start in it, in bytes.
+        shape: the array's shape, element dimensions last (e.g. ``(n, H, W, 3)`` for colour images). dtype: a NumPy
+            dtype string (``'|u1'`` colour, ``'<f4'`` depth in metres), as :meth:`DeviceArray.share` gave them.
+        device_id: keyword only, as above.
+
     Raises:
         RuntimeError: the driver refused (its CUDA error in the message).
     """

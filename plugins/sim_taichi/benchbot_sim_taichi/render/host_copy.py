@@ -178,7 +178,15 @@ def primary_context(ordinal: int) -> int:
 
 class in_primary_context:
     """``with in_primary_context(k):`` runs driver calls in CUDA device ``k``'s primary context (pushed on this
-    thread, popped after)."""
+    thread, popped after).
+
+    Args:
+        ordinal: the CUDA device ordinal, of this process's visible devices (``CUDA_VISIBLE_DEVICES`` applied).
+
+    Raises:
+        RuntimeError: a driver call failed (no such device, on making it; pushing or popping the context, on
+            entering or leaving the block).
+    """
 
     def __init__(self, ordinal: int) -> None:
         self.ctx = primary_context(ordinal)
@@ -244,7 +252,12 @@ def ipc_open(handle: bytes, ordinal: int) -> int:
 
 
 def ipc_close(handle: bytes, ordinal: int) -> None:
-    """Drop one reference taken by :func:`ipc_open`; the last unmaps the allocation (``cuIpcCloseMemHandle``)."""
+    """Drop one reference taken by :func:`ipc_open`; the last unmaps the allocation (``cuIpcCloseMemHandle``). A
+    ``handle`` not open on ``ordinal`` is nothing to do.
+
+    Raises:
+        RuntimeError: the driver refused to unmap it (its CUDA error in the message).
+    """
     key = (int(ordinal), bytes(handle))
     entry = _OPENED.get(key)
     if entry is None:
@@ -258,14 +271,23 @@ def ipc_close(handle: bytes, ordinal: int) -> None:
 
 def synchronize_primary(ordinal: int) -> None:
     """Wait for all work this process queued in CUDA device ``ordinal``'s primary context, on every stream (a
-    consumer's reads of mapped frames: PyTorch's, CuPy's)."""
+    consumer's reads of mapped frames: PyTorch's, CuPy's).
+
+    Raises:
+        RuntimeError: a driver call failed (its CUDA error in the message, e.g. an earlier kernel's fault).
+    """
     with in_primary_context(ordinal):
         check("cuCtxSynchronize", cuda_driver().cuCtxSynchronize())
 
 
 def copy_device_to_host(pointer: int, out: np.ndarray, ordinal: int) -> np.ndarray:
-    """Fill ``out`` (contiguous) from device memory at ``pointer`` of CUDA device ``ordinal`` (primary context;
-    synchronous); returns ``out``."""
+    """Fill ``out`` from device memory at ``pointer`` of CUDA device ``ordinal`` (primary context; synchronous):
+    ``out.nbytes`` bytes, copied as they are, so ``out`` is a C-contiguous NumPy array of the device array's shape
+    and dtype (e.g. ``(n, H, W, 3)`` uint8 colour images); returns ``out``.
+
+    Raises:
+        RuntimeError: the driver refused (its CUDA error in the message, e.g. ``pointer`` is not device memory).
+    """
     with in_primary_context(ordinal):
         check("cuMemcpyDtoH_v2", cuda_driver().cuMemcpyDtoH_v2(ctypes.c_void_p(out.ctypes.data),
                                                                 ctypes.c_uint64(int(pointer)),
