@@ -233,7 +233,8 @@ def _batch(tmp_path: Path, env: dict, robot: str, envs: str, *extra: str) -> tup
     run_dir = Path(result["run_dir"])
     episode = result["episodes"][0]
     log = (run_dir / episode["log"]).read_text()
-    assert episode["status"] == "ok", (episode, log[-3000:], proc.stderr[-3000:])
+    assert episode["status"] == "ok", (f"{episode['status']}: {episode.get('error')}\n--- episode log:\n{log[-3000:]}"
+                                       f"\n--- stderr:\n{proc.stderr[-3000:]}")
     return result, run_dir, log
 
 
