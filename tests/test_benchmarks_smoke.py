@@ -62,6 +62,8 @@ FIGURES = {
     "ros2_step.py": [r"ros2_observe_ms: [\d.]+", r"direct_observe_ms: [\d.]+"],
     "sensors_kernels.py": [r"[\d.]+ fps with a synchronisation", r"shade\w*_kernel +[\d.]+ ms/launch"],
     "shadow_maps.py": [r"[\d.]+ fps with maps, [\d.]+ with rays"],
+    "run_warm_start.py": [r"in-process +[\d.]+ s to ready \([\d.]+-[\d.]+\), Ctrl-C to exit [\d.]+ s",
+                          r"service +[\d.]+ s to ready \([\d.]+-[\d.]+\), Ctrl-C to exit [\d.]+ s"],
     "service_warm.py": [r"in-process +[\d.]+ s wall, +[\d.]+ s CPU",
                         r"service +[\d.]+ s wall, +[\d.]+ s CPU of the command, +[\d.]+ s of the service",
                         r"byte-identical: yes"],

@@ -42,6 +42,7 @@ def register(app: typer.Typer) -> None:
         tui: Optional[bool] = typer.Option(None, "--tui/--no-tui", help="Live view (state, pose, camera preview, log); default: when stderr is a terminal."),
         tls_cert: Optional[Path] = typer.Option(None, "--tls-cert", help="Serve HTTPS with this PEM certificate (chain); clients trust its authority through BENCHBOT_CA_FILE or the system's store."),
         tls_key: Optional[Path] = typer.Option(None, "--tls-key", help="The certificate's PEM private key (default: in the --tls-cert file)."),
+        no_service: bool = typer.Option(False, "--no-service", help="Build the simulator in this process instead of the resident simulator service (which keeps Taichi, its kernels and scenes loaded between commands; BENCHBOT_SERVICE=off does the same; --record and the live view always run in this process; docs/service.md)."),
     ) -> None:
         """Start a backend for one task, robot and environment on 127.0.0.1, validating the combination first.
 
@@ -57,12 +58,12 @@ def register(app: typer.Typer) -> None:
             check_tls_files(tls_cert, tls_key)
         # the server and the session are imported here, not with the module: ``benchbot --help`` (which imports
         # every command) does not load the web stack
-        from benchbot.server import ServerThread, build_app
-        from benchbot.core.session import resolve_run, start_service
+        from benchbot.core.session import resolve_run
 
         options = backend_options(arch, camera_size)
         if record is not None:
             check_record_path(record)
+        in_service = wants_service(no_service, record, tui)
         sock = reserve_port(host, port)
         try:
             reg = registry()
@@ -71,34 +72,116 @@ def register(app: typer.Typer) -> None:
                 token = secrets.token_urlsafe(24)
                 err.print(f"serving beyond loopback: clients must send the token [bold]{token}[/] (export BENCHBOT_TOKEN={token})")
             err.print(f"task {task} | robot {robot} | environment {env} | results format {spec.task.get('results_format') or 'none'}")
-            with showing_stages():
-                service = start_service(reg, spec, seed=seed, options=options)
+            tcp = {"host": host, "token": token, "action_timeout_s": action_timeout,
+                   "tls_cert": str(tls_cert.resolve()) if tls_cert else None,
+                   "tls_key": str(tls_key.resolve()) if tls_key else None}
+            served = serve_in_service(spec, sock, tcp, seed=seed, options=options) if in_service else None
         except BaseException:
             sock.close()
             raise
-        try:
-            server = ServerThread(build_app(service, token=token, action_timeout_s=action_timeout), host=host, port=port,
-                                  tls_cert=tls_cert, tls_key=tls_key, sock=sock).start()
-        except BaseException:
-            sock.close()
-            service.close()
-            raise
-        err.print(f"[green]backend ready[/] at {server.address}  (BENCHBOT_SUPERVISOR_ADDRESS={server.address}); Ctrl-C stops it")
-        from benchbot.tui.run_support import RunObservers
+        if served is not None:
+            sock.close()  # the service serves on its own descriptor of the port
+            err.print(f"[green]backend ready[/] at {served.address}  (BENCHBOT_SUPERVISOR_ADDRESS={served.address}); Ctrl-C stops it")
+            try:
+                served.wait()  # until Ctrl-C (or the service goes away: one line)
+            finally:
+                served.end()  # the service closes the episode and frees the port
+            return
+        serve_here(reg, spec, sock, tcp, seed=seed, options=options, record=record, tui=tui)
 
-        try:
-            observers = RunObservers(reg, service, spec, record=record, tui=tui, seed=seed,
-                                     options=options, address=server.address)
-        except BaseException:
-            server.stop()
-            service.close()
-            raise
-        try:
-            observers.wait()  # the live view in the foreground, or until Ctrl-C
-        finally:
-            observers.close()  # finishes the recording
-            server.stop()
-            service.close()
+
+def wants_service(no_service: bool, record: Path | None, tui: bool | None) -> bool:
+    """Whether ``benchbot run`` serves its backend through the simulator service (docs/service.md): unless
+    ``--no-service`` or ``BENCHBOT_SERVICE=off``, and not when recording (the recorder observes the episode in this
+    process) nor with the live view (``--tui``, the default when stderr is a terminal: it reads the episode here).
+
+    Raises:
+        UsageError: ``BENCHBOT_SERVICE`` is invalid."""
+    import sys
+
+    from benchbot.service import client
+
+    live_view = sys.stderr.isatty() if tui is None else tui
+    return record is None and not live_view and client.wanted(no_service)
+
+
+def serve_in_service(spec, sock, tcp: dict, *, seed: int, options: dict):
+    """Have the user's simulator service (started first when none answers, said in one line) build ``spec``'s
+    backend and serve it on the reserved ``sock`` with ``tcp``'s settings (:class:`ServiceEpisode`); the stages
+    show as if it ran here. None when the service runs other code or settings and is busy (said in one line): the
+    caller serves it in this process.
+
+    Raises:
+        BenchbotError: the backend cannot be built, or the service cannot be started or goes away (one line)."""
+    from benchbot.service import client
+    from benchbot.service.episodes import ServiceEpisode
+
+    try:
+        with showing_stages():
+            return ServiceEpisode(spec, seed=seed, options=options, world_seed=None, on_step=lambda info: None,
+                                  on_stage=lambda event: None, say=lambda line: err.print(line, highlight=False),
+                                  pool=gpu_pool(spec, options), tcp=tcp, listener=sock)
+    except client.ServiceBusy as exc:
+        err.print(f"{exc.message}: {exc.hint}", highlight=False)
+        return None
+
+
+def gpu_pool(spec, options: dict) -> dict | None:
+    """``ServiceEpisode``'s ``pool`` for a backend on a GPU: a warm worker of the service's pool with this machine's
+    cores on one of the visible GPUs (as ``benchbot batch`` serves a GPU episode, :mod:`benchbot.service.pool`);
+    None on the CPU (the service's own backend thread)."""
+    import os
+
+    from benchbot.batch.gpus import visible_gpus, wants_gpu
+
+    gpus = visible_gpus() if wants_gpu(options) else []
+    if not gpus:
+        return None
+    world = repr((spec.robot.get("name"), spec.env_string, None, sorted(options.items()), "none"))
+    return {"threads": os.cpu_count() or 1, "gpus": gpus, "world": world}
+
+
+def serve_here(reg, spec, sock, tcp: dict, *, seed: int, options: dict, record: Path | None,
+               tui: bool | None) -> None:
+    """Build ``spec``'s backend in this process and serve it on the reserved ``sock`` with ``tcp``'s settings,
+    recorded and/or shown live as asked, until Ctrl-C; closes ``sock``.
+
+    Raises:
+        BenchbotError: the backend or its server cannot be started."""
+    from benchbot.core.session import start_service
+    from benchbot.server import ServerThread, build_app
+
+    host, token, action_timeout = tcp["host"], tcp["token"], tcp["action_timeout_s"]
+    tls_cert, tls_key = tcp["tls_cert"], tcp["tls_key"]
+    try:
+        with showing_stages():
+            service = start_service(reg, spec, seed=seed, options=options)
+    except BaseException:
+        sock.close()
+        raise
+    try:
+        server = ServerThread(build_app(service, token=token, action_timeout_s=action_timeout), host=host,
+                              port=sock.getsockname()[1], tls_cert=tls_cert, tls_key=tls_key, sock=sock).start()
+    except BaseException:
+        sock.close()
+        service.close()
+        raise
+    err.print(f"[green]backend ready[/] at {server.address}  (BENCHBOT_SUPERVISOR_ADDRESS={server.address}); Ctrl-C stops it")
+    from benchbot.tui.run_support import RunObservers
+
+    try:
+        observers = RunObservers(reg, service, spec, record=record, tui=tui, seed=seed,
+                                 options=options, address=server.address)
+    except BaseException:
+        server.stop()
+        service.close()
+        raise
+    try:
+        observers.wait()  # the live view in the foreground, or until Ctrl-C
+    finally:
+        observers.close()  # finishes the recording
+        server.stop()
+        service.close()
 
 
 def reserve_port(host: str, port: int) -> socket.socket:

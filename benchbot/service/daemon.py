@@ -156,12 +156,17 @@ class ServiceDaemon:
                                                               "run the command again: a new service starts")))
                 return
             self._episodes[me] = conn
+        listener = None
         try:
+            if request.get("tcp"):  # benchbot run: its listening socket follows the request
+                listener = protocol.receive_listener(conn)
             if request.get("pool"):  # on a warm worker process of the pool (benchbot.service.pool)
-                serve_pooled(self.pool, conn, request)
+                serve_pooled(self.pool, conn, request, listener)
             else:
-                serve_episode(self.registry, conn, request)
+                serve_episode(self.registry, conn, request, listener)
         finally:
+            if listener is not None:
+                listener.close()
             with self._lock:
                 self._episodes.pop(me, None)
                 self._served += 1
@@ -201,12 +206,27 @@ class _Reporter:
         self.send({"event": "stage", "stage": dataclasses.asdict(event)})
 
 
-def serve_episode(registry, conn: socket.socket, request: dict) -> None:
+def episode_server(service, request: dict, listener: socket.socket | None):
+    """The (not yet started) :class:`benchbot.server.ServerThread` of an episode's backend ``service``: with the
+    request's ``tcp`` settings (``benchbot run``: host, token, action timeout, TLS files) on the command's
+    ``listener``, else on a free 127.0.0.1 port and the request's ``unix_socket`` (a sandboxed solution's way in)."""
+    from benchbot.server import ServerThread, build_app
+
+    tcp = request.get("tcp")
+    if tcp and listener is not None:
+        app = build_app(service, token=tcp.get("token"), action_timeout_s=float(tcp["action_timeout_s"]))
+        return ServerThread(app, host=str(tcp["host"]), port=int(listener.getsockname()[1]),
+                            tls_cert=tcp.get("tls_cert"), tls_key=tcp.get("tls_key"), sock=listener)
+    unix_socket = request.get("unix_socket")
+    return ServerThread(build_app(service), unix_socket=Path(unix_socket) if unix_socket else None)
+
+
+def serve_episode(registry, conn: socket.socket, request: dict, listener: socket.socket | None = None) -> None:
     """Build the requested episode's backend, serve it until the client says ``finish`` (or goes away), close it,
-    and send the client its final state and backend facts (or the error that stopped it)."""
+    and send the client its final state and backend facts (or the error that stopped it). ``listener``: the
+    command's listening TCP socket of a ``tcp`` request (:func:`episode_server`), closed once its server stops."""
     from benchbot.batch.provenance import backend_facts
     from benchbot.core.session import RunSpec, start_service
-    from benchbot.server import ServerThread, build_app
 
     reporter = _Reporter(conn)
     try:
@@ -220,14 +240,14 @@ def serve_episode(registry, conn: socket.socket, request: dict) -> None:
         return
     finished: dict = {}
     try:
-        unix_socket = request.get("unix_socket")
-        server = ServerThread(build_app(service), unix_socket=Path(unix_socket) if unix_socket else None)
-        server.start()
+        server = episode_server(service, request, listener).start()
         try:
             reporter.send({"event": "ready", "address": server.address})
             _wait_for_finish(conn, reporter)
         finally:
             server.stop()
+            if listener is not None:
+                listener.close()  # the port is free before the client hears the end
         state = service.call(service.episode.state)
         finished = {"event": "finished", "state": {"step": int(state["step"]),
                                                    "is_collided": bool(state["is_collided"])},

@@ -11,12 +11,13 @@ final state and backend facts; :meth:`close` frees it. What the solution observe
 from __future__ import annotations
 
 import dataclasses
+import socket
 import threading
 from pathlib import Path
 from typing import Any, Callable
 
 from benchbot.core import stages
-from benchbot.core.errors import BackendError
+from benchbot.core.errors import BackendError, BenchbotError
 from benchbot.service import client, protocol
 from benchbot.service.location import ServiceLocation, locate
 
@@ -118,6 +119,11 @@ class ServiceEpisode:
     :func:`benchbot.service.client.start`; ``say`` hears the one line saying so). Stages and steps arrive on a reader
     thread of this process and go to ``on_stage`` (and this process's stage listeners) and ``on_step``.
 
+    ``tcp`` (``{host, token, action_timeout_s, tls_cert, tls_key}``, TLS files as absolute paths) with ``listener``
+    (a listening TCP socket of this process, ``benchbot run``'s reserved port): the service serves the backend on
+    that socket, passed to it (:func:`benchbot.service.protocol.send_listener`), with those settings, as
+    ``benchbot run`` would in its own process; the caller may close its ``listener`` once this returns.
+
     Raises:
         BenchbotError: what the service reports (a bad spec, a backend that cannot start), or
             :class:`~benchbot.core.errors.BackendError` when it cannot be started or goes away before the backend
@@ -126,7 +132,8 @@ class ServiceEpisode:
     def __init__(self, run, *, seed: int, options: dict, world_seed: int | None,
                  on_step: Callable[[dict], None], on_stage: Callable[[Any], None],
                  unix_socket: Path | None = None, location: ServiceLocation | None = None,
-                 say: Callable[[str], None] | None = None, pool: dict | None = None) -> None:
+                 say: Callable[[str], None] | None = None, pool: dict | None = None, tcp: dict | None = None,
+                 listener: socket.socket | None = None) -> None:
         self.location = location or locate()
         self.node: dict = {}
         self.on_step, self._on_stage = on_step, on_stage
@@ -144,7 +151,9 @@ class ServiceEpisode:
             protocol.send(self.sock, {"op": "episode", "run": dataclasses.asdict(run), "seed": seed,
                                       "options": options, "world_seed": world_seed,
                                       "unix_socket": str(unix_socket) if unix_socket is not None else None,
-                                      "pool": pool})
+                                      "pool": pool, "tcp": tcp if listener is not None else None})
+            if tcp is not None and listener is not None:
+                protocol.send_listener(self.sock, listener)
             self.address = self._until_ready()
         except protocol.ConnectionLost:
             self.close()
@@ -209,6 +218,27 @@ class ServiceEpisode:
         state = end.get("state") or {}
         return EpisodeEnd(int(state.get("step", 0)), bool(state.get("is_collided", False)), end.get("backend") or {},
                           self.node)
+
+    def wait(self) -> None:
+        """Block while the service serves the episode (``benchbot run``: until Ctrl-C raises KeyboardInterrupt here).
+
+        Raises:
+            BackendError: the service went away or ended the episode (one line with its log's path), or reported
+                the error that ended it."""
+        while self._reader.is_alive():
+            self._reader.join(0.5)
+        self.finish()
+        raise lost_error(self.location, "during the episode")
+
+    def end(self) -> None:
+        """Finish the episode, ignoring how it ended, and close the connection: once this returns the service has
+        closed the backend and its server (the port is free again). Never raises a :class:`BenchbotError`."""
+        try:
+            self.finish()
+        except BenchbotError:
+            pass
+        finally:
+            self.close()
 
     def close(self) -> None:
         """Close the connection (the service closes the episode if it still runs). Never raises."""

@@ -229,13 +229,14 @@ def worker_lost_error(worker: PoolWorker, log: Path) -> dict:
                        f"or crashed; its log: {log})"}
 
 
-def serve_pooled(pool: WorkerPool, conn: socket.socket, request: dict) -> None:
+def serve_pooled(pool: WorkerPool, conn: socket.socket, request: dict, listener: socket.socket | None = None) -> None:
     """Serve ``request`` (an ``episode`` with ``pool: {threads, gpus, world}``) on a worker of ``pool``: lease one,
     pass the request on, and relay its messages (stages, ready, steps, the end) to the client and the client's
     ``finish`` to it. The ``ready`` message gets ``node`` (the worker's GPU, :func:`benchbot.batch.gpus.recorded`).
     A worker that goes away before the episode's end is dropped and the client told in one line
     (:func:`worker_lost_error`); a client that goes away has its episode closed by the worker (its connection
-    shut)."""
+    shut). ``listener``: the command's listening TCP socket of a ``tcp`` request (``benchbot run``), passed on to
+    the worker (and closed here once passed on)."""
     from benchbot.batch.gpus import recorded
 
     wanted = request.get("pool") or {}
@@ -265,6 +266,9 @@ def serve_pooled(pool: WorkerPool, conn: socket.socket, request: dict) -> None:
     reader = threading.Thread(target=down, name="benchbot-pool-relay", daemon=True)
     try:
         protocol.send(upstream, {k: v for k, v in request.items() if k != "pool"})
+        if listener is not None:
+            protocol.send_listener(upstream, listener)
+            listener.close()  # the worker has its own: the port is freed when the worker's server stops
         reader.start()
         while reader.is_alive():  # the client's messages (its "finish") to the worker
             message = protocol.receive(conn)

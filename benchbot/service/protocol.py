@@ -7,7 +7,9 @@ message (a pose in a step's report) become lists of floats (:func:`_plain`).
 Requests: ``{op: "status"}`` → ``{event: "status", ...}``; ``{op: "stop"}`` → ``{event: "stopping"}``;
 ``{op: "episode", run, seed, options, world_seed, unix_socket}`` → ``stage``/``ready``/``step`` events, then, after
 the client's ``{op: "finish"}``, ``{event: "finished", state, backend}`` (:mod:`benchbot.service.daemon`). Any
-failure is ``{event: "error", message, hint, exit_code}``.
+failure is ``{event: "error", message, hint, exit_code}``. An episode request with ``tcp: {host, token,
+action_timeout_s, tls_cert, tls_key}`` (``benchbot run``) is followed by one byte carrying the command's listening
+TCP socket (``SCM_RIGHTS``, :func:`send_listener`): the backend is served on that socket with those settings.
 """
 
 from __future__ import annotations
@@ -120,3 +122,31 @@ def peer_problem(sock: socket.socket) -> str:
         return (f"refused a connection from pid {pid}: it runs in another user namespace (a sandbox or a container), "
                 "or its namespace cannot be read")
     return ""
+
+
+def send_listener(sock: socket.socket, listener: socket.socket) -> None:
+    """Pass ``listener`` (a listening TCP socket) to the other end of the Unix socket ``sock``: one byte with its file
+    descriptor (``SCM_RIGHTS``); the other end gets its own descriptor of the same socket (:func:`receive_listener`).
+
+    Raises:
+        ConnectionLost: the connection is closed or broken."""
+    try:
+        socket.send_fds(sock, [b"L"], [listener.fileno()])
+    except OSError as exc:
+        raise ConnectionLost(f"the connection to the simulator service broke: {exc.strerror or exc}") from None
+
+
+def receive_listener(sock: socket.socket) -> socket.socket:
+    """The listening socket the other end passed with :func:`send_listener` (the next byte on ``sock``).
+
+    Raises:
+        ConnectionLost: the connection closed or broke first, or the byte carried no socket."""
+    try:
+        data, fds, _, _ = socket.recv_fds(sock, 1, 1)
+    except OSError as exc:
+        raise ConnectionLost(f"the connection to the simulator service broke: {exc.strerror or exc}") from None
+    if data != b"L" or len(fds) != 1:
+        for fd in fds:
+            os.close(fd)
+        raise ConnectionLost("the episode's listening socket did not arrive")
+    return socket.socket(fileno=fds[0])

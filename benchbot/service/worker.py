@@ -61,7 +61,12 @@ def serve(listener: socket.socket, registry) -> None:
                 wrong = ValueError(f"a pool worker serves episodes, not {request.get('op')!r}")
                 protocol.send(conn, error_event(wrong))
                 continue
-            serve_episode(registry, conn, request)
+            port = protocol.receive_listener(conn) if request.get("tcp") else None  # benchbot run's TCP socket
+            try:
+                serve_episode(registry, conn, request, port)
+            finally:
+                if port is not None:
+                    port.close()
         except protocol.ConnectionLost:
             pass
         except Exception:  # noqa: BLE001 - one episode's failure never stops the worker
