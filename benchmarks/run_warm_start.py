@@ -87,6 +87,7 @@ def main(argv: list[str] | None = None) -> dict:
             for _ in range(args.runs):
                 for mode, flags in MODES.items():
                     timed[mode].append(start_once([*base, *flags], env))
+                    print(f"{mode}: {timed[mode][-1]}", file=sys.stderr, flush=True)
         finally:
             subprocess.run([sys.executable, "-m", "benchbot.cli", "service", "stop"], env=env,
                            capture_output=True, stdin=subprocess.DEVNULL)
