@@ -24,19 +24,6 @@ from typing import Sequence
 import cv2
 import numpy as np
 
-
-
-def import_clustering() -> None:
-    """Import SciPy's ``ndimage``, which only the clustering at the end needs (:meth:`GeometricMapper.clusters`).
-
-    It is imported on first use rather than with this module: its import (0.17 s on the 2-core CPU: it loads SciPy's
-    array-API layer, which loads ``numpy.testing`` and ``numpy.f2py``, and ``scipy.special``) was half of the
-    solution's start. The solution calls this on a
-    thread of its own as it starts, so that the import runs while it waits for its first frames; a clustering that
-    comes first waits for that import to finish (Python's import lock)."""
-    import scipy.ndimage  # noqa: F401
-
-
 # --------------------------------------------------------------------------------------------------------------
 # Pose helpers
 # --------------------------------------------------------------------------------------------------------------
@@ -426,7 +413,11 @@ class GeometricMapper:
         Returns (N,) int labels 0..C-1."""
         if len(ijk) == 0:
             return np.zeros(0, int)
-        from scipy import ndimage  # imported on first use (import_clustering)
+        # SciPy's ndimage is imported here, at the clustering, not with this module: its import (0.17 s on the 2-core
+        # CPU: SciPy's array-API layer, which loads numpy.testing and numpy.f2py, and scipy.special) was half of the
+        # solution's start, before its first step. Imported on a thread during the steps instead, it gained nothing
+        # measurable: it took the interpreter lock from the mapping and, on a CPU, the cores from the renderer.
+        from scipy import ndimage
 
         lo = ijk.min(axis=0) - bridge
         idx = ijk - lo

@@ -20,7 +20,6 @@ import argparse
 import json
 import os
 import sys
-import threading
 
 # One BLAS thread (unless the user set another count): the mapping's BLAS work is each frame's 76,800 × 3
 # points times a 3 × 3 rotation, which OpenBLAS split over every core, and its threads then spin-wait for the
@@ -34,7 +33,7 @@ if __name__ == "__main__":
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from mapping import GeometricMapper, import_clustering, pose_to_matrix  # noqa: E402
+from mapping import GeometricMapper, pose_to_matrix  # noqa: E402
 
 try:
     from benchbot_api import ActionResult, Agent, BenchBot
@@ -192,8 +191,6 @@ def main(argv=None) -> None:
         return
     if BenchBot is None:
         sys.exit("benchbot_api is not installed: use --offline")
-    # SciPy's ndimage (for the clustering at the end) is imported while the frames come (mapping.import_clustering)
-    threading.Thread(target=import_clustering, name="import scipy.ndimage", daemon=True).start()
     BenchBot(agent=GeometricAgent(**kwargs)).run()
 
 
