@@ -244,3 +244,24 @@ def test_the_service_serves_a_pool_workers_backend_on_the_commands_socket_with_i
         served.end()
     assert can_listen_on(port)
     assert [w["busy"] for w in status()["pool"]] == [False]
+
+
+def test_a_listening_socket_passes_over_the_service_connection_and_a_byte_without_one_is_refused():
+    """What ``run`` hands the service: the receiver gets its own descriptor of the same listening socket, which
+    accepts after the sender closed its own; a byte that carries no socket is a lost connection, not a hang."""
+    from benchbot.service import protocol
+
+    ours, theirs = socket.socketpair()
+    with ours, theirs:
+        listener = socket.create_server(("127.0.0.1", 0))
+        address = listener.getsockname()
+        protocol.send_listener(ours, listener)
+        listener.close()
+        with protocol.receive_listener(theirs) as passed:
+            assert passed.getsockname() == address
+            with socket.create_connection(address, timeout=5):
+                accepted, _ = passed.accept()
+                accepted.close()
+        ours.sendall(b"L")
+        with pytest.raises(protocol.ConnectionLost, match="listening socket did not arrive"):
+            protocol.receive_listener(theirs)
