@@ -11,8 +11,9 @@ the run directory, the service's connection: until the episode starts), ``waitin
 stage), the backend's stages (through the service, ``warming up kernels``: the kept scene and kernels; the command
 prints the next line at the solution's first step, so this stage ends with the solution's start: the sandbox, the
 solution's interpreter and imports, its first request), ``solution steps`` (from its first step to its exit: every
-step's round trip and the solution's own work, its results, the sandbox's end), ``evaluation and writing`` (from the
-episode's end to the command's exit: scoring, the run directory's files, the table, the process's exit).
+step's round trip and the solution's own work, its results, the sandbox's end; a slow episode's ``step K of N`` lines
+count there), ``evaluation and writing`` (from the episode's end to the command's exit: scoring, the run directory's
+files, the table, the process's exit).
 
     uv run python benchmarks/service_warm.py [--env miniroom:1] [--example semslam_geometric] [--runs 5]
         [--modes in-process,service] [--json]
@@ -30,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import resource
 import statistics
 import subprocess
@@ -42,6 +44,8 @@ from pathlib import Path
 import smoke  # this folder is on sys.path when a script here runs
 from sweep import profile
 
+#: The stage of a slow episode's progress line ``step 28 of 48 (the solution runs), 0:11``: its solution's steps.
+STEP_LINE = re.compile(r"^step \d+ of \d+$")
 #: The files of a run directory that must not depend on where the simulator ran.
 COMPARED = ("results", "scores.json", "episode_scores.json")
 
@@ -74,7 +78,19 @@ def run_once(argv: list[str], env: dict, cwd: Path) -> dict:
     outcome = json.loads(stdout[0])
     steps = sum(e.get("steps", 0) for e in outcome.get("episodes", []))
     return {"wall_s": round(t_exit - t, 3), "cpu_s": round(cpu, 3), "run_dir": outcome["run_dir"],
-            "stages_s": profile(lines, t, t_exit, steps)}
+            "stages_s": steps_as_one(profile(lines, t, t_exit, steps), steps)}
+
+
+def steps_as_one(stages: dict[str, float], steps: int) -> dict[str, float]:
+    """``stages`` with the stages of the lines ``step K of N`` (a slow episode's progress) added to ``solution
+    steps``, whose per-frame figure is computed again over ``steps`` frames."""
+    out = {name: seconds for name, seconds in stages.items() if not STEP_LINE.match(name)}
+    if "solution steps" in out:
+        out["solution steps"] = round(sum(v for k, v in stages.items() if k == "solution steps" or STEP_LINE.match(k)),
+                                      3)
+        if steps:
+            out["solution per frame"] = round(out["solution steps"] / steps, 5)
+    return out
 
 
 def median_stages(runs: list[dict]) -> dict[str, float]:
