@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import shutil
 import threading
 import time
@@ -14,7 +13,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from benchbot.batch.plan import EpisodeRecord, expected_steps
-from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, registry
+from benchbot.cli.common import backend_options, err, handle_errors, is_tty, out, print_json, registry
 from benchbot.cli.eval_cmd import print_scores
 from benchbot.cli.options import at_most, check_count
 from benchbot.cli.run_cmd import DEFAULT_ROBOT, DEFAULT_TASK
@@ -211,11 +210,11 @@ def print_outcome(outcome, run_dir: Path, as_json: bool) -> None:
     if outcome.evaluation_error:
         err.print(f"[red]evaluation failed:[/] {outcome.evaluation_error}", highlight=False)
     if as_json:
-        out.print_json(json.dumps({
+        print_json({
             "run_dir": str(run_dir), "episodes": [vars(e) for e in outcome.episodes],
             "scores": outcome.evaluation.to_json() if outcome.evaluation else None,
             "robustness": outcome.robustness,
-        }, default=lambda o: o.tolist()))
+        }, default=lambda o: o.tolist())
     elif outcome.evaluation is not None:
         print_scores(outcome.evaluation)
         if outcome.robustness is not None:

@@ -23,6 +23,23 @@ out = Console(soft_wrap=True, width=None if sys.stdout.isatty() else 160)
 err = Console(stderr=True, soft_wrap=True)
 
 
+def print_json(data: Any, *, default: Callable[[Any], Any] | None = None) -> None:
+    """Print ``data`` as JSON (indented by 2, non-ASCII kept) on stdout: highlighted by Rich in a terminal, written
+    as is into a pipe or a file, where Rich's highlighting only costs time (0.7 s for a 30-episode batch's outcome
+    on the 2-core CPU) and the bytes are the same. ``default``: as :func:`json.dumps`'s (objects JSON cannot hold).
+
+    Raises:
+        TypeError, ValueError: ``data`` cannot be written as JSON."""
+    import json
+
+    text = json.dumps(data, indent=2, ensure_ascii=False, default=default)
+    if out.is_terminal:
+        out.print_json(text)
+    else:
+        sys.stdout.write(text + "\n")
+        sys.stdout.flush()
+
+
 def registry() -> Registry:
     """The registry; warns on stderr (once) about plugins or specs that were skipped."""
     reg = get_registry()

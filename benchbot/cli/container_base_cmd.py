@@ -3,13 +3,12 @@ on this machine, without an image registry (docs/containers.md)."""
 
 from __future__ import annotations
 
-import json
 import sys
 from typing import Optional
 
 import typer
 
-from benchbot.cli.common import err, handle_errors, out
+from benchbot.cli.common import err, handle_errors, out, print_json
 
 
 def register(app: typer.Typer) -> None:
@@ -39,7 +38,7 @@ def register(app: typer.Typer) -> None:
         err.print(f"making {tag} with {engine_facts(tool).describe()} from {source} …", highlight=False)
         made = build_base(tool, source=source, mirror=mirror, tag=tag, log=sys.stderr, reuse_rootfs=not fresh_rootfs)
         if as_json:
-            out.print_json(json.dumps(made.__dict__))
+            print_json(made.__dict__)
         else:
             reused = "reused" if made.rootfs_s < 1 else f"{made.rootfs_s:g} s"
             out.print(f"{made.tag}: {made.source} (Python {made.python}; root file system {reused}) + "

@@ -20,7 +20,7 @@ import typer
 from rich.table import Table
 from rich.text import Text
 
-from benchbot.cli.common import err, handle_errors, is_tty, out
+from benchbot.cli.common import err, handle_errors, is_tty, out, print_json
 from benchbot.core import settings
 
 MAIN_JOB = {"tasks": "semantic_slam:passive:ground_truth", "robots": "carter", "environments": "miniroom:1",
@@ -287,8 +287,7 @@ def register(app: typer.Typer) -> None:
                 checks = run_checks(render, timeout, on_check=lambda what: status.update(f"checking {what} …"))
         ok = all(c.ok for c in checks if c.required)
         if as_json:
-            out.print_json(json.dumps({"ok": ok, "checks": [asdict(c) for c in checks],
-                                       "settings": settings.effective()}))
+            print_json({"ok": ok, "checks": [asdict(c) for c in checks], "settings": settings.effective()})
         else:
             table = Table("check", "", "detail", "fix")
             for c in checks:

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import difflib
-import json
 from pathlib import Path
 from typing import Optional
 
 import typer
 from rich.table import Table
 
-from benchbot.cli.common import err, handle_errors, out, registry, writing
+from benchbot.cli.common import err, handle_errors, out, print_json, registry, writing
 from benchbot.core import atomic
 from benchbot.core.errors import ExitCode, ResultsError, SpecError, UsageError
 from benchbot.core.evaluation import COMBINE_MODES, Evaluation, evaluate, validate_all
@@ -191,14 +190,14 @@ def register(app: typer.Typer) -> None:
         with writing(output, "--output-location"):
             atomic.write_json(output, evaluation.to_json())
         if as_json:
-            out.print_json(json.dumps({
+            print_json({
                 "per_result": [{"source": s, **v} for s, v in evaluation.per_result],
                 "combined": evaluation.combined,
                 "combine": evaluation.combine_mode,
                 "skipped": [{"source": s, "reason": r} for s, r in evaluation.skipped],
                 "missing": evaluation.missing,
                 "errors": [{"source": s, "error": e.message} for s, e in evaluation.errors],
-            }, default=lambda o: o.tolist()))  # fmt: skip
+            }, default=lambda o: o.tolist())  # fmt: skip
         else:
             print_scores(evaluation, per_class=per_class)
         err.print(f"scores written to {output}", highlight=False)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import enum
-import json
 import re
 from dataclasses import asdict
 
@@ -12,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from benchbot.cli.common import handle_errors, out, registry
+from benchbot.cli.common import handle_errors, out, print_json, registry
 from benchbot.core.names import close_names
 from benchbot.core.world_generators import MAX_BATCH_HOMES
 
@@ -83,7 +82,7 @@ def print_plugins(as_json: bool) -> None:
     """Print the plugins (``benchbot plugins`` and ``benchbot list plugins``)."""
     rows = plugin_rows()
     if as_json:
-        out.print_json(json.dumps(rows))
+        print_json(rows)
         return
     table = Table("plugin", "distribution", "version", "status", "hooks", "registers / problems")
     for p in rows:
@@ -157,7 +156,7 @@ def register(app: typer.Typer) -> None:
                 rows.append(row)
             if kind in (Kind.environments, Kind.batches):  # generated on demand: one row per split, a pattern
                 rows.extend(generated_rows(reg, kind))
-            out.print_json(json.dumps(rows))
+            print_json(rows)
             return
         table = Table("name", "plugin", "sets (default first)" if kind is Kind.ground_truths else "description")
         table.columns[0].no_wrap = True

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Optional
@@ -11,7 +10,7 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from benchbot.cli.common import err, handle_errors, out, registry
+from benchbot.cli.common import err, handle_errors, out, print_json, registry
 from benchbot.core.errors import UsageError
 
 
@@ -154,7 +153,7 @@ def register(app: typer.Typer) -> None:
             assign_labels(real, (labels[len(sim):] or labels) or None)
             result = pred.analyse(sim, real, across, names)
             if as_json:
-                out.print_json(json.dumps(result))
+                print_json(result)
             else:
                 _print_predictivity(result)
             if output is not None:
@@ -177,7 +176,7 @@ def register(app: typer.Typer) -> None:
             raise UsageError(f"the runs differ in {d['what']} (" + "; ".join(f"{k}: {v}" for k, v in d["values"].items())
                              + ")", f"run them under the same {d['what']}, or name it: --factor '{d['what']}'")
         if as_json:
-            out.print_json(json.dumps(result))
+            print_json(result)
         else:
             _print_report(result)
         if output is not None:

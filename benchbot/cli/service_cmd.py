@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import json
 
 import typer
 
-from benchbot.cli.common import err, handle_errors, out
+from benchbot.cli.common import err, handle_errors, out, print_json
 
 
 def _describe(status: dict, key: str) -> list[tuple[str, str]]:
@@ -64,7 +63,7 @@ def register(app: typer.Typer) -> None:
             shown = {"running": answer is not None, "this_installation": location.key}
             if answer is not None:
                 shown.update({k: v for k, v in answer.items() if k != "event"})
-            out.print_json(json.dumps(shown))
+            print_json(shown)
             return
         if answer is None:
             out.print("no simulator service is running (a command that needs it starts it)", highlight=False)

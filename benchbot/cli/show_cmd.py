@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import json
 
 import typer
 import yaml
 
-from benchbot.cli.common import handle_errors, out, registry
+from benchbot.cli.common import handle_errors, out, print_json, registry
 from benchbot.cli.list_cmd import KINDS_HELP, Kind, parse_kind
 from benchbot.core.errors import UsageError
 from benchbot.core.specs import singular
@@ -27,7 +26,7 @@ def register(app: typer.Typer) -> None:
         entry = registry().entry(kind.value, name)
         spec = {k: v for k, v in entry.spec.items() if k != "_file_path"}
         if as_json:
-            out.print_json(json.dumps(spec))
+            print_json(spec)
             return
         # spec text is printed as written (markup=False): "[x, y, z]" in a description is not Rich markup
         out.print(f"# {singular(kind.value)} '{entry.name}' from plugin {entry.plugin}" + (f" ({entry.path})" if entry.path else ""), markup=False, highlight=False)
