@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import queue
+import re
 import signal
 import socket
 import subprocess
@@ -265,3 +266,25 @@ def test_a_listening_socket_passes_over_the_service_connection_and_a_byte_withou
         ours.sendall(b"L")
         with pytest.raises(protocol.ConnectionLost, match="listening socket did not arrive"):
             protocol.receive_listener(theirs)
+
+
+@pytest.mark.slow
+def test_runs_live_view_at_a_terminal_shows_the_episode_the_service_serves(service_env):
+    """``benchbot run`` at a terminal (the live view by default) through the service: the view shows the task and the
+    client's actions from the snapshots the service writes; Ctrl-C in the view ends the episode in the service."""
+    from terminal import Terminal
+
+    argv = [*BENCHBOT, "run", "-e", "miniroom:1", "--port", "0", *SMALL]
+    with Terminal(argv, env=dict(os.environ, COLUMNS="160")) as terminal:
+        assert terminal.wait_for(r"backend ready at http://127\.0\.0\.1:\d+/", 300), terminal.text
+        assert STARTED in terminal.text
+        address = re.search(r"backend ready at (http://127\.0\.0\.1:\d+/)", terminal.text)[1]
+        assert terminal.wait_for(r"semantic_slam:passive:ground_truth", 60), terminal.text
+        assert status()["episodes_running"] == 1
+        original_client_observations(address, steps=2)
+        assert terminal.wait_for(r"move_next\(\) → .*SUCCESS", 60), terminal.text[-3000:]
+        terminal.press(b"\x03")
+        assert terminal.wait(60) == 130, terminal.text[-3000:]
+    assert "Traceback" not in terminal.text
+    now = status()
+    assert now["running"] and now["episodes_running"] == 0 and now["episodes_served"] == 1, now

@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import errno
 import secrets
+import shutil
 import socket
+import sys
 import tempfile
+import threading
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -42,7 +46,7 @@ def register(app: typer.Typer) -> None:
         tui: Optional[bool] = typer.Option(None, "--tui/--no-tui", help="Live view (state, pose, camera preview, log); default: when stderr is a terminal."),
         tls_cert: Optional[Path] = typer.Option(None, "--tls-cert", help="Serve HTTPS with this PEM certificate (chain); clients trust its authority through BENCHBOT_CA_FILE or the system's store."),
         tls_key: Optional[Path] = typer.Option(None, "--tls-key", help="The certificate's PEM private key (default: in the --tls-cert file)."),
-        no_service: bool = typer.Option(False, "--no-service", help="Build the simulator in this process instead of the resident simulator service (which keeps Taichi, its kernels and scenes loaded between commands; BENCHBOT_SERVICE=off does the same; --record and the live view always run in this process; docs/service.md)."),
+        no_service: bool = typer.Option(False, "--no-service", help="Build the simulator in this process instead of the resident simulator service (which keeps Taichi, its kernels and scenes loaded between commands; BENCHBOT_SERVICE=off does the same; --record always runs in this process; docs/service.md)."),
     ) -> None:
         """Start a backend for one task, robot and environment on 127.0.0.1, validating the combination first.
 
@@ -63,7 +67,8 @@ def register(app: typer.Typer) -> None:
         options = backend_options(arch, camera_size)
         if record is not None:
             check_record_path(record)
-        in_service = wants_service(no_service, record, tui)
+        in_service = wants_service(no_service, record)
+        live_view = sys.stderr.isatty() if tui is None else tui
         sock = reserve_port(host, port)
         try:
             reg = registry()
@@ -75,40 +80,79 @@ def register(app: typer.Typer) -> None:
             tcp = {"host": host, "token": token, "action_timeout_s": action_timeout,
                    "tls_cert": str(tls_cert.resolve()) if tls_cert else None,
                    "tls_key": str(tls_key.resolve()) if tls_key else None}
-            served = serve_in_service(spec, sock, tcp, seed=seed, options=options) if in_service else None
+            state_dir = Path(tempfile.mkdtemp(prefix="benchbot-live-")) if in_service and live_view else None
+            served = serve_in_service(spec, sock, tcp, seed=seed, options=options,
+                                      live_state=state_dir) if in_service else None
         except BaseException:
             sock.close()
             raise
+        if served is None and state_dir is not None:
+            shutil.rmtree(state_dir, ignore_errors=True)  # served here: the view's observers make their own
         if served is not None:
             sock.close()  # the service serves on its own descriptor of the port
             err.print(f"[green]backend ready[/] at {served.address}  (BENCHBOT_SUPERVISOR_ADDRESS={served.address}); Ctrl-C stops it")
             try:
-                served.wait()  # until Ctrl-C (or the service goes away: one line)
+                if state_dir is not None:
+                    show_live_view(served, state_dir)
+                else:
+                    served.wait()  # until Ctrl-C (or the service goes away: one line)
             finally:
                 served.end()  # the service closes the episode and frees the port
+                if state_dir is not None:
+                    shutil.rmtree(state_dir, ignore_errors=True)
             return
         serve_here(reg, spec, sock, tcp, seed=seed, options=options, record=record, tui=tui)
 
 
-def wants_service(no_service: bool, record: Path | None, tui: bool | None) -> bool:
+def wants_service(no_service: bool, record: Path | None) -> bool:
     """Whether ``benchbot run`` serves its backend through the simulator service (docs/service.md): unless
     ``--no-service`` or ``BENCHBOT_SERVICE=off``, and not when recording (the recorder observes the episode in this
-    process) nor with the live view (``--tui``, the default when stderr is a terminal: it reads the episode here).
+    process).
 
     Raises:
         UsageError: ``BENCHBOT_SERVICE`` is invalid."""
-    import sys
-
     from benchbot.service import client
 
-    live_view = sys.stderr.isatty() if tui is None else tui
-    return record is None and not live_view and client.wanted(no_service)
+    return record is None and client.wanted(no_service)
 
 
-def serve_in_service(spec, sock, tcp: dict, *, seed: int, options: dict):
+def show_live_view(served, state_dir: Path) -> None:
+    """The live view (:class:`benchbot.tui.run_app.RunApp`) of the episode the service serves, reading the snapshots
+    the service writes to ``state_dir``, in the foreground until it is quit (q); it closes when the service stops
+    serving.
+
+    Raises:
+        KeyboardInterrupt: Ctrl-C in the view. BackendError: the service went away (one line)."""
+    from benchbot.tui.run_app import RunApp
+
+    app = RunApp(state_dir, address=served.address)
+    shown = threading.Event()
+
+    def close_when_the_service_stops() -> None:
+        while served.serving() and not shown.is_set():
+            time.sleep(0.2)
+        while not shown.is_set():  # the view may not run yet: try until it takes the request
+            try:
+                app.call_from_thread(app.exit)
+                return
+            except Exception:  # noqa: BLE001 - not running (yet, or any more)
+                time.sleep(0.1)
+
+    threading.Thread(target=close_when_the_service_stops, name="benchbot-run-view-watch", daemon=True).start()
+    try:
+        app.run()
+    finally:
+        shown.set()
+    if app.interrupted:  # Ctrl-C in the view: stop as Ctrl-C without it does
+        raise KeyboardInterrupt
+    if not served.serving():
+        served.wait()  # raises why the service stopped
+
+
+def serve_in_service(spec, sock, tcp: dict, *, seed: int, options: dict, live_state: Path | None = None):
     """Have the user's simulator service (started first when none answers, said in one line) build ``spec``'s
     backend and serve it on the reserved ``sock`` with ``tcp``'s settings (:class:`ServiceEpisode`); the stages
-    show as if it ran here. None when the service runs other code or settings and is busy (said in one line): the
+    show as if it ran here; ``live_state``: where the service writes the live view's snapshots. None when the service runs other code or settings and is busy (said in one line): the
     caller serves it in this process.
 
     Raises:
@@ -120,7 +164,7 @@ def serve_in_service(spec, sock, tcp: dict, *, seed: int, options: dict):
         with showing_stages():
             return ServiceEpisode(spec, seed=seed, options=options, world_seed=None, on_step=lambda info: None,
                                   on_stage=lambda event: None, say=lambda line: err.print(line, highlight=False),
-                                  pool=gpu_pool(spec, options), tcp=tcp, listener=sock)
+                                  pool=gpu_pool(spec, options), tcp=tcp, listener=sock, live_state=live_state)
     except client.ServiceBusy as exc:
         err.print(f"{exc.message}: {exc.hint}", highlight=False)
         return None

@@ -224,15 +224,24 @@ def episode_server(service, request: dict, listener: socket.socket | None):
 def serve_episode(registry, conn: socket.socket, request: dict, listener: socket.socket | None = None) -> None:
     """Build the requested episode's backend, serve it until the client says ``finish`` (or goes away), close it,
     and send the client its final state and backend facts (or the error that stopped it). ``listener``: the
-    command's listening TCP socket of a ``tcp`` request (:func:`episode_server`), closed once its server stops."""
+    command's listening TCP socket of a ``tcp`` request (:func:`episode_server`), closed once its server stops. A
+    request's ``live_state`` (a folder of the command's) gets the episode's live-view snapshots
+    (:class:`benchbot.service.live_view.ServiceLiveView`)."""
     from benchbot.batch.provenance import backend_facts
     from benchbot.core.session import RunSpec, start_service
 
     reporter = _Reporter(conn)
+    views: list = []  # the live view of a run's episode (its request's live_state folder)
+
+    def on_step(info: dict) -> None:
+        reporter.step(info)
+        for view in views:
+            view.step(info)
+
     try:
         run = RunSpec(**request["run"])
         service = start_service(registry, run, seed=int(request.get("seed", 0)), options=request.get("options") or {},
-                                on_step=reporter.step, world_seed=request.get("world_seed"),
+                                on_step=on_step, world_seed=request.get("world_seed"),
                                 on_stage=reporter.stage)
     except BaseException as exc:  # noqa: BLE001 - the client hears why
         _log_unexpected(exc)
@@ -240,6 +249,10 @@ def serve_episode(registry, conn: socket.socket, request: dict, listener: socket
         return
     finished: dict = {}
     try:
+        if request.get("live_state"):
+            from benchbot.service.live_view import ServiceLiveView
+
+            views.append(ServiceLiveView(service, Path(request["live_state"])))
         server = episode_server(service, request, listener).start()
         try:
             reporter.send({"event": "ready", "address": server.address})
@@ -256,6 +269,8 @@ def serve_episode(registry, conn: socket.socket, request: dict, listener: socket
         _log_unexpected(exc)
         finished = error_event(exc)
     finally:
+        for view in views:
+            view.close()
         try:
             service.close()
         except BaseException as exc:  # noqa: BLE001

@@ -123,6 +123,8 @@ class ServiceEpisode:
     (a listening TCP socket of this process, ``benchbot run``'s reserved port): the service serves the backend on
     that socket, passed to it (:func:`benchbot.service.protocol.send_listener`), with those settings, as
     ``benchbot run`` would in its own process; the caller may close its ``listener`` once this returns.
+    ``live_state``: a folder where the service writes the episode's live-view snapshots (``benchbot run``'s view,
+    :mod:`benchbot.service.live_view`).
 
     Raises:
         BenchbotError: what the service reports (a bad spec, a backend that cannot start), or
@@ -133,7 +135,7 @@ class ServiceEpisode:
                  on_step: Callable[[dict], None], on_stage: Callable[[Any], None],
                  unix_socket: Path | None = None, location: ServiceLocation | None = None,
                  say: Callable[[str], None] | None = None, pool: dict | None = None, tcp: dict | None = None,
-                 listener: socket.socket | None = None) -> None:
+                 listener: socket.socket | None = None, live_state: Path | None = None) -> None:
         self.location = location or locate()
         self.node: dict = {}
         self.on_step, self._on_stage = on_step, on_stage
@@ -151,7 +153,8 @@ class ServiceEpisode:
             protocol.send(self.sock, {"op": "episode", "run": dataclasses.asdict(run), "seed": seed,
                                       "options": options, "world_seed": world_seed,
                                       "unix_socket": str(unix_socket) if unix_socket is not None else None,
-                                      "pool": pool, "tcp": tcp if listener is not None else None})
+                                      "pool": pool, "tcp": tcp if listener is not None else None,
+                                      "live_state": str(live_state) if live_state is not None else None})
             if tcp is not None and listener is not None:
                 protocol.send_listener(self.sock, listener)
             self.address = self._until_ready()
@@ -218,6 +221,10 @@ class ServiceEpisode:
         state = end.get("state") or {}
         return EpisodeEnd(int(state.get("step", 0)), bool(state.get("is_collided", False)), end.get("backend") or {},
                           self.node)
+
+    def serving(self) -> bool:
+        """Whether the service still serves the episode (its reports still come)."""
+        return self._reader.is_alive()
 
     def wait(self) -> None:
         """Block while the service serves the episode (``benchbot run``: until Ctrl-C raises KeyboardInterrupt here).
