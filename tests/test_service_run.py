@@ -28,6 +28,8 @@ from test_service import BENCHBOT, SMALL, service_env, status  # noqa: E402, F40
 
 READY = "backend ready at "
 STARTED = "started the simulator service"
+#: The live view's pose line (benchbot.tui.run_app.describe): the view shows the service's snapshot.
+VIEW_POSE = r"pose +x [+-]\d"
 
 
 class RunningBackend:
@@ -279,7 +281,7 @@ def test_runs_live_view_at_a_terminal_shows_the_episode_the_service_serves(servi
         assert terminal.wait_for(r"backend ready at http://127\.0\.0\.1:\d+/", 300), terminal.text
         assert STARTED in terminal.text
         address = re.search(r"backend ready at (http://127\.0\.0\.1:\d+/)", terminal.text)[1]
-        assert terminal.wait_for(r"semantic_slam:passive:ground_truth", 60), terminal.text
+        assert terminal.wait_for(VIEW_POSE, 60), terminal.text
         assert status()["episodes_running"] == 1
         original_client_observations(address, steps=2)
         assert terminal.wait_for(r"move_next\(\) → .*SUCCESS", 60), terminal.text[-3000:]
@@ -288,3 +290,17 @@ def test_runs_live_view_at_a_terminal_shows_the_episode_the_service_serves(servi
     assert "Traceback" not in terminal.text
     now = status()
     assert now["running"] and now["episodes_running"] == 0 and now["episodes_served"] == 1, now
+
+
+@pytest.mark.slow
+def test_a_service_killed_under_runs_live_view_closes_the_view_with_one_line(service_env):
+    from terminal import Terminal
+
+    argv = [*BENCHBOT, "run", "-e", "miniroom:1", "--port", "0", *SMALL]
+    with Terminal(argv, env=dict(os.environ, COLUMNS="160")) as terminal:
+        assert terminal.wait_for(READY, 300) and terminal.wait_for(VIEW_POSE, 60), terminal.text[-3000:]
+        os.kill(status()["pid"], signal.SIGKILL)
+        assert terminal.wait(60) == 5, terminal.text[-3000:]
+    said = re.sub(r"\s+", " ", terminal.text)  # the terminal wraps long lines
+    assert said.count("error: the simulator service stopped during the episode (killed or crashed") == 1, said
+    assert "Traceback" not in terminal.text
