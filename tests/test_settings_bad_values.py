@@ -107,3 +107,20 @@ def test_gym_over_devices_reads_the_simulators_arch_through_its_reader(monkeypat
         resolve_devices(["cpu", "cpu"], None)
     monkeypatch.setenv("BENCHBOT_TAICHI_ARCH", " CPU ")
     assert resolve_devices(["cpu", "cpu"], None) == ["cpu", "cpu"]
+
+
+@pytest.mark.parametrize(("variable", "bad", "said"), [
+    ("BENCHBOT_SERVICE", "abc", "BENCHBOT_SERVICE='abc' is not one of auto, off"),
+    ("BENCHBOT_SERVICE_IDLE_S", "soon", "BENCHBOT_SERVICE_IDLE_S"),
+])
+def test_a_batch_with_a_bad_service_setting_stops_in_one_line_before_making_anything(tmp_path, variable, bad, said):
+    """The service's settings are checked before the batch is planned: no run directory is made (it was, and
+    `run directory:` printed, before the error)."""
+    env = {**os.environ, "BENCHBOT_SERVICE": "auto", variable: bad}
+    env.pop("BENCHBOT_DEBUG", None)
+    run = subprocess.run([sys.executable, "-m", "benchbot.cli", "batch", "--example", "hello_passive", "--envs",
+                          "miniroom:1", "--no-tui", "--output-dir", str(tmp_path)], env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 2, run.stderr
+    assert said in run.stderr and "Traceback" not in run.stderr and "run directory" not in run.stderr, run.stderr
+    assert list(tmp_path.iterdir()) == []

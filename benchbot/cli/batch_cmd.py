@@ -73,6 +73,7 @@ def register(app: typer.Typer) -> None:
             check_count(flag, value, limit, least)  # first: nothing is planned for an absurd count
         reg = registry()
         _check_executor(executor, ray_address)
+        _check_service_settings(no_service)  # before anything is made: a bad BENCHBOT_SERVICE is one line
         if resume is not None:
             batch = resume_batch(reg, resume, no_sandbox)
             done = sum(r.status == "ok" for r in batch.records)
@@ -277,6 +278,18 @@ def print_robustness(summary: dict, run_dir: Path) -> None:
         err.print(f"robustness plot: {', '.join(str(run_dir / p) for p in summary['plots'])}")
     elif summary.get("plot_error"):
         err.print(f"no robustness plot: {summary['plot_error']}")
+
+
+def _check_service_settings(no_service: bool) -> None:
+    """Check ``BENCHBOT_SERVICE`` (and, where the service is wanted, ``BENCHBOT_SERVICE_IDLE_S``) before the batch is
+    planned or its run directory made.
+
+    Raises:
+        UsageError: either has a value it cannot take (the message names the variable and its values)."""
+    from benchbot.service import client
+
+    if client.wanted(no_service):
+        client.idle_seconds()
 
 
 def _start_service(no_service: bool, executor: str, workers: int, specs: list) -> bool:

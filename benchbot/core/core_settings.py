@@ -171,7 +171,7 @@ SETTINGS: tuple[Setting, ...] = (
             "the connection but is still starting", "cli"),
     Setting("BENCHBOT_INSTALLER", None, "uv or pip: the installer of `benchbot install` (default: uv when on "
             "PATH)", "cli"),
-    Setting("BENCHBOT_SERVICE", "auto", "auto: `batch` builds the simulator in the resident simulator service, "
+    Setting("BENCHBOT_SERVICE", "auto", "auto: `batch` and `run` build the simulator in the resident simulator service, "
             "started on first use; off: in the command's own process, as --no-service (docs/service.md)", "cli"),
     Setting("BENCHBOT_SERVICE_IDLE_S", "900", "seconds without an episode after which the simulator service stops "
             "by itself (read when it starts)", "cli"),
