@@ -67,6 +67,7 @@ class PoolWorker:
         return self.gpu is None if not gpus else self.gpu is not None and self.gpu["uuid"] in {g["uuid"] for g in gpus}
 
     def alive(self) -> bool:
+        """Whether the worker's process is still running (it has not exited nor been killed)."""
         return self.process.poll() is None
 
     def stop(self) -> None:

@@ -176,6 +176,11 @@ def fuse_recording(agent: "GeometricAgent", path: str, output: str) -> dict:
 
 
 def main(argv=None) -> None:
+    """The example's command line (``argv``: its arguments, None for ``sys.argv``): run as a solution against the
+    backend ``benchbot_api`` connects to, or with ``--offline NPZ`` fuse recorded frames into ``--output``.
+
+    Exits (``SystemExit`` with a one-line message) when the recording cannot be read or ``benchbot_api`` is missing
+    without ``--offline``."""
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--offline", metavar="NPZ", help="fuse recorded frames instead of connecting to BenchBot")
     p.add_argument("--output", default="semslam_geometric_result.json", help="results file in offline mode")
