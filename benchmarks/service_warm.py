@@ -37,12 +37,10 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
-import time
 from pathlib import Path
 
 import smoke  # this folder is on sys.path when a script here runs
-from sweep import profile
+from sweep import profile, run_stamped
 
 #: The stage of a slow episode's progress line ``step 28 of 48 (the solution runs), 0:11``: its solution's steps.
 STEP_LINE = re.compile(r"^step \d+ of \d+$")
@@ -58,27 +56,16 @@ def run_once(argv: list[str], env: dict, cwd: Path) -> dict:
     Raises:
         RuntimeError: the command failed (its stderr's end in the message)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    lines: list[tuple[float, str]] = []
-    stdout: list[str] = []
-    t = time.monotonic()
-    proc = subprocess.Popen([sys.executable, "-m", "benchbot.cli", *argv, "--json"], env=env, cwd=cwd,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL)
-    reader = threading.Thread(target=lambda: stdout.append(proc.stdout.read()), daemon=True)
-    reader.start()
-    for line in proc.stderr:
-        lines.append((time.monotonic(), line.rstrip("\n")))
-    proc.wait()
-    reader.join()
-    t_exit = time.monotonic()
+    run = run_stamped([sys.executable, "-m", "benchbot.cli", *argv, "--json"], env, cwd)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        tail = "\n".join(line for _, line in lines)[-3000:]
-        raise RuntimeError(f"benchbot {' '.join(argv)} exited {proc.returncode}:\n{tail}")
+    if run.returncode != 0:
+        tail = "\n".join(line for _, line in run.lines)[-3000:]
+        raise RuntimeError(f"benchbot {' '.join(argv)} exited {run.returncode}:\n{tail}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    outcome = json.loads(stdout[0])
+    outcome = json.loads(run.stdout)
     steps = sum(e.get("steps", 0) for e in outcome.get("episodes", []))
-    return {"wall_s": round(t_exit - t, 3), "cpu_s": round(cpu, 3), "run_dir": outcome["run_dir"],
-            "stages_s": steps_as_one(profile(lines, t, t_exit, steps), steps)}
+    return {"wall_s": round(run.t_exit - run.t0, 3), "cpu_s": round(cpu, 3), "run_dir": outcome["run_dir"],
+            "stages_s": steps_as_one(profile(run.lines, run.t0, run.t_exit, steps), steps)}
 
 
 def steps_as_one(stages: dict[str, float], steps: int) -> dict[str, float]:

@@ -43,6 +43,7 @@ import sys
 import tempfile
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import smoke  # this folder is on sys.path when a script here runs
@@ -127,6 +128,38 @@ def digest(run_dir: Path) -> str:
     return h.hexdigest()[:16]
 
 
+@dataclass
+class StampedRun:
+    """A finished command: its exit status, its standard output, its stderr lines each stamped with
+    ``time.monotonic()`` as it arrived, and the monotonic seconds at its start and exit."""
+
+    returncode: int
+    stdout: str
+    lines: list[tuple[float, str]]
+    t0: float
+    t_exit: float
+
+
+def run_stamped(command: list[str], env: dict, cwd: Path | None = None) -> StampedRun:
+    """Run ``command`` to its end with ``env`` in ``cwd`` (no standard input), stamping each of its stderr lines as
+    it arrives (what :func:`profile` reads) while a thread collects its stdout.
+
+    Raises:
+        OSError: the command cannot be started."""
+    lines: list[tuple[float, str]] = []
+    stdout: list[str] = []
+    t0 = time.monotonic()
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=cwd,
+                            stdin=subprocess.DEVNULL)
+    reader = threading.Thread(target=lambda: stdout.append(proc.stdout.read()), daemon=True)
+    reader.start()
+    for line in proc.stderr:
+        lines.append((time.monotonic(), line.rstrip("\n")))
+    proc.wait()
+    reader.join()
+    return StampedRun(proc.returncode, stdout[0] if stdout else "", lines, t0, time.monotonic())
+
+
 def run_once(args: argparse.Namespace, mode: str, out: Path, env: dict) -> dict:
     """One ``benchbot batch`` of the sweep in ``mode``; its figures (module docstring)."""
     envs = ["--envs", args.envs] if args.envs else ["--envs-batch", args.envs_batch]
@@ -135,23 +168,13 @@ def run_once(args: argparse.Namespace, mode: str, out: Path, env: dict) -> dict:
                "--json", "--no-tui"] + (["--camera-size", args.camera_size] if args.camera_size else []) + \
         (["--no-service"] if mode == "no-service" else []) + shlex.split(args.batch_args)
     sampler = GpuSampler()
-    lines: list[tuple[float, str]] = []
-    t0 = time.monotonic()
-    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                            stdin=subprocess.DEVNULL)
-    stdout: list[str] = []
-    reader = threading.Thread(target=lambda: stdout.append(proc.stdout.read()), daemon=True)
-    reader.start()
-    for line in proc.stderr:
-        lines.append((time.monotonic(), line.rstrip("\n")))
-    proc.wait()
-    reader.join()
-    t_exit = time.monotonic()
+    run = run_stamped(command, env)
     gpus = sampler.stop()
-    if proc.returncode != 0:
+    lines, t0, t_exit = run.lines, run.t0, run.t_exit
+    if run.returncode != 0:
         tail = "\n".join(line for _, line in lines[-20:])
-        sys.exit(f"the {mode} sweep failed (exit {proc.returncode}):\n{tail}")
-    outcome = json.loads(stdout[0])
+        sys.exit(f"the {mode} sweep failed (exit {run.returncode}):\n{tail}")
+    outcome = json.loads(run.stdout)
     steps = sum(e["steps"] for e in outcome["episodes"])
     devices = sorted({e["node"]["gpu"]["index"] for e in outcome["episodes"] if e.get("node", {}).get("gpu")})
     return {"mode": mode, "wall_s": round(t_exit - t0, 2), "episodes": len(outcome["episodes"]), "frames": steps,
