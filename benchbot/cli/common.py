@@ -25,8 +25,8 @@ err = Console(stderr=True, soft_wrap=True)
 
 def print_json(data: Any, *, default: Callable[[Any], Any] | None = None) -> None:
     """Print ``data`` as JSON (indented by 2, non-ASCII kept) on stdout: highlighted by Rich in a terminal, written
-    as is into a pipe or a file, where Rich's highlighting only costs time (0.7 s for a 30-episode batch's outcome
-    on the 2-core CPU) and the bytes are the same. ``default``: as :func:`json.dumps`'s (objects JSON cannot hold).
+    as is into a pipe or a file, where Rich's highlighting only costs time (a large batch's outcome) and the bytes
+    are the same. ``default``: as :func:`json.dumps`'s (objects JSON cannot hold).
 
     Raises:
         TypeError, ValueError: ``data`` cannot be written as JSON."""
