@@ -1,6 +1,6 @@
 """Workers on every GPU (benchbot.batch.gpus, the local executor's worker processes, the service's worker pool, Ray's
-share of a GPU): the GPUs come from ``nvidia-smi -L`` (a stand-in on PATH here, listing two), narrowed by
-``CUDA_VISIBLE_DEVICES``; worker k gets GPU k mod G; the pool balances its workers over the GPUs, reuses free ones
+share of a GPU): the GPUs come from the driver's ``/proc/driver/nvidia/gpus`` files (a stand-in folder here) or else
+``nvidia-smi -L`` (a stand-in on PATH here, listing two), narrowed by ``CUDA_VISIBLE_DEVICES``; worker k gets GPU k mod G; the pool balances its workers over the GPUs, reuses free ones
 of a profile, replaces idle ones of another when full and waits when all are busy."""
 
 from __future__ import annotations
@@ -37,7 +37,22 @@ def two_gpus(tmp_path, monkeypatch):
     (folder / "nvidia-smi").chmod(0o755)
     monkeypatch.setenv("PATH", f"{folder}{os.pathsep}{os.environ['PATH']}")
     monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)
+    monkeypatch.setattr(gpus, "NVIDIA_PROC_GPUS", tmp_path / "no-driver-files")  # a GPU host's own are not read
     return folder
+
+
+def driver_files(root: Path, dev: Path, gpus_by_bus: dict[str, tuple[str, str, int]], **extra: str) -> None:
+    """A stand-in for ``/proc/driver/nvidia/gpus`` in ``root`` (one ``information`` file per PCI bus id, as the
+    driver writes it: tab-aligned ``Field: value`` lines) and the device files ``dev/nvidia<minor>``; ``extra``:
+    more lines for every GPU (``GPU Excluded="Yes"``)."""
+    for bus, (model, uuid, minor) in gpus_by_bus.items():
+        (root / bus).mkdir(parents=True)
+        lines = [f"Model: \t\t {model}", "IRQ:   \t\t 0", f"GPU UUID: \t {uuid}", "Video BIOS: \t 96.00.74.00.01",
+                 "Bus Type: \t PCIe", f"Bus Location: \t {bus}", f"Device Minor: \t {minor}",
+                 *(f"{key.replace('_', ' ')}:\t {value}" for key, value in extra.items())]
+        (root / bus / "information").write_text("\n".join(lines) + "\n")
+        dev.mkdir(exist_ok=True)
+        (dev / f"nvidia{minor}").touch()
 
 
 def test_the_visible_gpus_follow_cuda_visible_devices(two_gpus, monkeypatch):
@@ -49,6 +64,50 @@ def test_the_visible_gpus_follow_cuda_visible_devices(two_gpus, monkeypatch):
     monkeypatch.setenv("PATH", str(two_gpus.parent / "nowhere"))
     monkeypatch.delenv("CUDA_VISIBLE_DEVICES")
     assert gpus.visible_gpus() == []  # no nvidia-smi: no GPUs
+
+
+def test_the_drivers_files_list_the_gpus_in_bus_order_without_nvidia_smi(tmp_path, monkeypatch):
+    root, dev = tmp_path / "gpus", tmp_path / "dev"
+    # written out of order: the index is the place in PCI bus id order, as nvidia-smi numbers them
+    driver_files(root, dev, {"0000:b8:00.0": ("NVIDIA H200", B, 1), "0000:18:00.0": ("NVIDIA H200", A, 0)})
+    assert gpus.proc_gpus(root, dev) == [{"index": 0, "name": "NVIDIA H200", "uuid": A},
+                                         {"index": 1, "name": "NVIDIA H200", "uuid": B}]
+    monkeypatch.setattr(gpus, "NVIDIA_PROC_GPUS", root)
+    monkeypatch.setenv("PATH", str(tmp_path / "no-nvidia-smi"))  # nvidia-smi is not run: there is none
+    monkeypatch.setattr(gpus, "DEVICE_DIR", dev)
+    monkeypatch.delenv("CUDA_VISIBLE_DEVICES", raising=False)
+    assert [g["uuid"] for g in gpus.visible_gpus()] == [A, B]
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "GPU-1b1b")
+    assert [(g["index"], g["uuid"]) for g in gpus.visible_gpus()] == [(1, B)]
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "1")  # an index: numbered by nvidia-smi (here none: no GPU)
+    assert gpus.visible_gpus() == []
+
+
+def test_gpus_the_driver_excludes_or_this_process_cannot_open_are_left_out(tmp_path):
+    root, dev = tmp_path / "gpus", tmp_path / "dev"
+    driver_files(root, dev, {"0000:18:00.0": ("NVIDIA H100", A, 0), "0000:2a:00.0": ("NVIDIA H100", B, 1)})
+    (dev / "nvidia0").unlink()  # a container given the host's second GPU only
+    assert gpus.proc_gpus(root, dev) == [{"index": 0, "name": "NVIDIA H100", "uuid": B}]
+    excluded = tmp_path / "excluded"
+    driver_files(excluded, dev, {"0000:18:00.0": ("NVIDIA H100", A, 1)}, GPU_Excluded="Yes")
+    assert gpus.proc_gpus(excluded, dev) is None
+
+
+def test_without_usable_driver_files_nvidia_smi_lists_the_gpus(two_gpus, tmp_path, monkeypatch):
+    root, dev = tmp_path / "gpus", tmp_path / "dev"
+    assert gpus.proc_gpus(root, dev) is None  # no folder
+    root.mkdir()
+    assert gpus.proc_gpus(root, dev) is None  # no GPU in it
+    driver_files(root, dev, {"0000:18:00.0": ("NVIDIA H100", "GPU-????????-????-????-????-????????????", 0)})
+    assert gpus.proc_gpus(root, dev) is None  # a UUID the driver has not read yet
+    monkeypatch.setattr(gpus, "NVIDIA_PROC_GPUS", root)
+    assert [(g["index"], g["name"], g["uuid"]) for g in gpus.machine_gpus()] == [(0, "NVIDIA Fake A", A),
+                                                                                (1, "NVIDIA Fake B", B)]
+    driver_files(tmp_path / "good", dev, {"0000:18:00.0": ("NVIDIA H100", A, 0)})
+    monkeypatch.setattr(gpus, "NVIDIA_PROC_GPUS", tmp_path / "good")
+    monkeypatch.setattr(gpus, "DEVICE_DIR", dev)
+    assert [g["name"] for g in gpus.machine_gpus({})] == ["NVIDIA H100"]
+    assert [g["name"] for g in gpus.machine_gpus({"CUDA_VISIBLE_DEVICES": "0"})] == ["NVIDIA Fake A", "NVIDIA Fake B"]
 
 
 def test_worker_k_gets_gpu_k_mod_g_before_its_simulator_starts(two_gpus, monkeypatch):

@@ -272,19 +272,11 @@ def taichi_device() -> dict:
 
 
 def _gpu_name() -> str | None:
-    for info in sorted(Path("/proc/driver/nvidia/gpus").glob("*/information")):
-        try:
-            for line in info.read_text(errors="replace").splitlines():
-                if line.startswith("Model:"):
-                    return line.split(":", 1)[1].strip()
-        except OSError:
-            pass
-    try:
-        proc = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"], capture_output=True,
-                              text=True, timeout=GIT_TIMEOUT_S, check=False)
-        return proc.stdout.strip().splitlines()[0] if proc.returncode == 0 and proc.stdout.strip() else None
-    except (OSError, subprocess.TimeoutExpired):
-        return None
+    """The model of the machine's first NVIDIA GPU (:func:`benchbot.batch.gpus.machine_gpus`), None without one."""
+    from benchbot.batch.gpus import machine_gpus
+
+    found = machine_gpus()
+    return found[0]["name"] if found else None
 
 
 STYLE_SETTING = "BENCHBOT_SIM_STYLE"
