@@ -1,5 +1,6 @@
 """What ``benchbot --version`` and ``--help`` load: the version imports no command and builds no registry; help
-loads the plugins (their commands are listed) but builds no registry; a command builds it as before."""
+loads the plugins (their commands are listed) but builds no registry; a command builds it as before, importing no
+jsonschema once its specs are known valid."""
 
 from __future__ import annotations
 
@@ -30,13 +31,14 @@ print(json.dumps({
     "commands_imported": "benchbot.cli.batch_cmd" in sys.modules,
     "registry_built": bool(registry and registry.get_registry.cache_info().currsize),
     "frozen_at_exit": gc.get_freeze_count(),
+    "jsonschema_imported": "jsonschema" in sys.modules,
 }))
 """
 
 
-def probe(*args: str) -> dict:
+def probe(*args: str, env: dict | None = None) -> dict:
     done = subprocess.run([sys.executable, "-c", PROBE, json.dumps(list(args))], capture_output=True, text=True,
-                          timeout=120, env={**__import__("os").environ, "COLUMNS": "160"})
+                          timeout=120, env={**__import__("os").environ, "COLUMNS": "160", **(env or {})})
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -61,6 +63,15 @@ def test_help_lists_plugin_commands_without_building_the_registry() -> None:
 def test_a_command_still_builds_the_registry() -> None:
     got = probe("list", "tasks")
     assert got["code"] == 0 and got["registry_built"]
+
+
+def test_a_command_whose_specs_are_known_valid_imports_no_jsonschema(tmp_path) -> None:
+    cache = {"BENCHBOT_CACHE_DIR": str(tmp_path / "cache")}
+    first = probe("list", "tasks", env=cache)  # validates every spec, and remembers them (specs.ValidStore)
+    assert first["code"] == 0 and first["registry_built"] and first["jsonschema_imported"]
+    again = probe("list", "tasks", env=cache)
+    assert again["code"] == 0 and again["registry_built"] and not again["jsonschema_imported"]
+    assert again["out"] == first["out"]
 
 
 @pytest.mark.parametrize(("argv", "only_help"), [

@@ -32,7 +32,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from benchbot.batch import provenance
 from benchbot.batch.gpus import on_cpu, pin, recorded, visible_gpus, wants_gpu
@@ -41,6 +41,9 @@ from benchbot.batch.plan import EpisodeRecord, EpisodeSpec, new_record
 from benchbot.core import atomic
 from benchbot.core.errors import UsageError
 from benchbot.core.session import RunSpec
+
+if TYPE_CHECKING:
+    from benchbot.service.location import ServiceLocation
 
 EventHandler = Callable[[str, int, dict | None], None]
 #: The executors a batch can run its episodes with (module docstring).
@@ -145,7 +148,7 @@ def thread_share(workers: int, episodes: int) -> int:
 
 def run_local(
     episodes: list[Episode], run_dir: str, *, workers: int, on_event: EventHandler,
-    on_record: Callable[[EpisodeRecord], None], service: bool = False,
+    on_record: Callable[[EpisodeRecord], None], service: "bool | ServiceLocation" = False,
 ) -> None:
     """Run ``episodes`` (at least one) with ``workers`` parallel episodes; ``on_record`` is called (in this
     thread) as each ends. Each record says it ran here (``executor`` ``local``; ``node`` this host's name only
@@ -162,6 +165,9 @@ def run_local(
     * otherwise, one worker: in this process, one episode after another; several: in that many worker processes
       of this batch (spawned; each with its own simulator, its share of the cores, and GPU k mod G for worker k;
       they end with the batch process, even when it is killed: :func:`_end_with_parent`).
+
+    ``service``: False, True, or the service's location the command found already
+    (:func:`benchbot.service.location.locate`, which hashes the installation's files: once per command).
     """
     here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1
     gpus = batch_gpus(episodes)
@@ -171,10 +177,10 @@ def run_local(
         record.executor, record.node = "local", on_cpu({**here, **record.node}, record.backend)
         on_record(record)
 
-    if service:  # found once: finding it hashes the installation's files (30 ms; more with 16 threads at once)
-        from benchbot.service.location import locate
+    if service:  # found once: finding it hashes the installation's files (20-30 ms; more with 16 threads at once)
+        from benchbot.service.location import ServiceLocation, locate
 
-        location = locate()
+        location = service if isinstance(service, ServiceLocation) else locate()
     if service and (workers > 1 or gpus) and not any(spec.record for spec, _ in episodes):
         def pooled(spec: EpisodeSpec, run: RunSpec, events) -> EpisodeRecord:
             world = repr((spec.robot, spec.env, spec.world_seed, sorted(spec.options.items()), spec.noise))
@@ -196,7 +202,7 @@ def run_local(
     try:
         if context is None:
             for spec, run in episodes:
-                record = run_episode(spec, run, run_dir, events, in_service=service,
+                record = run_episode(spec, run, run_dir, events, in_service=bool(service),
                                      service_location=location if service else None)
                 if wants_gpu(spec.options) and not record.node:  # this process's CUDA device 0
                     record.node = recorded(gpus[0] if gpus else None)

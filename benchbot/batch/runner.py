@@ -36,7 +36,7 @@ import zipfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from benchbot.batch.episode_results import EpisodeResults
 from benchbot.batch.executors import (
@@ -57,6 +57,9 @@ from benchbot.core.limits import MAX_LOG_BYTES, RAY_EPISODE_BYTES, SCENE_CACHE_B
 from benchbot.core.noise import get_preset
 from benchbot.core.registry import Registry
 from benchbot.core.session import RunSpec, resolve_run
+
+if TYPE_CHECKING:
+    from benchbot.service.location import ServiceLocation
 
 
 @dataclass
@@ -369,7 +372,7 @@ def run_batch(
     registry: Registry, batch: Batch, *, workers: int = 1, retries: int = 0, executor: str = "local",
     ray_address: str | None = None, on_event: EventHandler | None = None,
     on_record: Callable[[EpisodeRecord], None] | None = None, ray_cluster: RayCluster | None = None,
-    service: bool = False,
+    service: "bool | ServiceLocation" = False,
 ) -> BatchOutcome:
     """Run (or resume) ``batch`` (from :func:`prepare_batch` or :func:`load_batch`), then evaluate.
 
@@ -393,7 +396,8 @@ def run_batch(
         service: with the ``local`` executor, build and serve the episodes' backends in the user's simulator
             service (:mod:`benchbot.service`; the CLI's default) instead of this process: on its backend thread
             with one worker on the CPU, on warm worker processes of its pool with several workers or a GPU
-            (:func:`~benchbot.batch.executors.run_local`); the results are the same.
+            (:func:`~benchbot.batch.executors.run_local`); the results are the same. The service's location
+            (:func:`benchbot.service.location.locate`) where the caller found it already, else True.
 
     Raises:
         UsageError: ``workers`` < 1; unknown executor; ``batched`` with ``workers`` > 1 and recorded episodes; a

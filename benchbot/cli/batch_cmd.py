@@ -292,8 +292,10 @@ def _check_service_settings(no_service: bool) -> None:
         client.idle_seconds()
 
 
-def _start_service(no_service: bool, executor: str, workers: int, specs: list) -> bool:
-    """Whether the batch's episodes get their backends from the simulator service (:mod:`benchbot.service`): with the
+def _start_service(no_service: bool, executor: str, workers: int, specs: list):
+    """The simulator service's location (:class:`benchbot.service.location.ServiceLocation`, for
+    :func:`benchbot.batch.runner.run_batch`) when the batch's episodes get their backends from it
+    (:mod:`benchbot.service`), else False: with the
     local executor (one worker: the service's backend thread; several, or a GPU: warm worker processes of its pool),
     episodes not recorded, unless ``--no-service`` or ``BENCHBOT_SERVICE=off``. The
     service is started here (saying so once), before the progress display; one of another installation that is busy
@@ -304,12 +306,13 @@ def _start_service(no_service: bool, executor: str, workers: int, specs: list) -
         return False
     from benchbot.service.location import locate
 
+    location = locate()  # found once per command: it hashes the installation's files
     try:
-        client.start(locate(), say=lambda line: err.print(line, highlight=False)).close()
+        client.start(location, say=lambda line: err.print(line, highlight=False)).close()
     except client.ServiceBusy as exc:
         err.print(f"{exc.message}: {exc.hint}", highlight=False)
         return False
-    return True
+    return location
 
 
 def _connect_ray(executor: str, address: str | None, workers: int, run_dir: Path, new: bool = False):

@@ -12,14 +12,15 @@ import json
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
-
-import jsonschema
+from typing import TYPE_CHECKING, Any
 
 from benchbot.core.errors import SpecError
 from benchbot.core.limits import MAX_SPEC_BYTES
 from benchbot.core.names import close_names
 from benchbot.core.safe_load import load_data_file
+
+if TYPE_CHECKING:
+    import jsonschema
 
 KIND_SCHEMAS = {
     "tasks": "task",
@@ -42,7 +43,7 @@ def schema_dir() -> Path:
 
 
 @functools.lru_cache(maxsize=None)
-def validator(schema_name: "str | Path") -> jsonschema.Draft202012Validator:
+def validator(schema_name: "str | Path") -> "jsonschema.Draft202012Validator":
     """The Draft 2020-12 validator of ``schemas/<schema_name>.schema.json``, or, when ``schema_name`` is a
     :class:`~pathlib.Path`, of that schema file (a plugin's schema of the fields its robot backend reads, shipped in
     the plugin's package: ``benchbot_<plugin>/schemas/``).
@@ -50,6 +51,10 @@ def validator(schema_name: "str | Path") -> jsonschema.Draft202012Validator:
     Raises:
         OSError: the schema file cannot be read. jsonschema.SchemaError: it is not a valid Draft 2020-12 schema.
     """
+    # imported here: a command whose specs are all known valid (ValidStore) needs no validator, and importing
+    # jsonschema (with referencing, attrs, rpds) took 30-40 ms of every command's start on the 2-core CPU
+    import jsonschema
+
     path = schema_name if isinstance(schema_name, Path) else schema_dir() / f"{schema_name}.schema.json"
     schema = json.loads(path.read_text(encoding="utf-8"))
     jsonschema.Draft202012Validator.check_schema(schema)
@@ -197,6 +202,8 @@ def _schema_identity(schema_name: "str | Path") -> str:
     try:
         validator_version = version("jsonschema")
     except PackageNotFoundError:
+        import jsonschema
+
         validator_version = jsonschema.__file__ or ""
     return hashlib.sha256(path.read_bytes() + b"\0" + validator_version.encode()).hexdigest()
 
