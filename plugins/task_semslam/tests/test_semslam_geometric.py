@@ -319,3 +319,13 @@ assert "scipy.ndimage" in sys.modules
 """
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+def test_lab_conversion_matches_published_srgb_values():
+    """sRGB → CIE L*a*b* (D65) against published values of the sRGB primaries, white, black and mid grey (Bruce
+    Lindbloom's colour calculator, sRGB / D65: red 53.24, 80.09, 67.20; green 87.73, −86.18, 83.18; blue 32.30,
+    79.19, −107.86; grey 128 53.59, 0, 0)."""
+    lab = mapping._lab(np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255], [0, 0, 0], [128, 128, 128]]))
+    expected = np.array([[53.24, 80.09, 67.20], [87.73, -86.18, 83.18], [32.30, 79.19, -107.86],
+                         [100.0, 0.0, 0.0], [0.0, 0.0, 0.0], [53.59, 0.0, 0.0]])
+    np.testing.assert_allclose(lab, expected, atol=0.05)
