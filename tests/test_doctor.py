@@ -59,3 +59,52 @@ def test_doctor_names_the_packages_as_a_user_reads_them():
     detail = check_packages().detail
     assert detail.startswith("benchbot ") and "; plugins of the main job: worlds " in detail
     assert "; libraries: taichi " in detail and "benchbot-" not in detail
+
+
+BYTECODE_PROBE = """
+import json, sys
+from dataclasses import asdict
+from benchbot.cli.main import get_app
+from benchbot.cli.common import registry
+import benchbot.cli.doctor_cmd as doctor
+registry()  # what a command imports: the CLI, the registry, its plugins, NumPy
+print(json.dumps(asdict(doctor.check_bytecode())))
+"""
+
+
+def test_modules_without_up_to_date_bytecode_are_found(tmp_path, monkeypatch):
+    import importlib
+    import py_compile
+
+    from benchbot.cli.doctor_cmd import runs_from_source
+
+    (tmp_path / "bytecode_probe_module.py").write_text("A = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    module = importlib.import_module("bytecode_probe_module")
+    source = module.__file__
+    assert runs_from_source([module]) == [source]  # never compiled to a file
+    py_compile.compile(source, cfile=importlib.util.cache_from_source(source))
+    assert runs_from_source([module]) == []
+    (tmp_path / "bytecode_probe_module.py").write_text("A = 22\n")  # edited: the .pyc is stale
+    assert runs_from_source([module]) == [source]
+    assert runs_from_source([sys, json]) == []  # built in; a compiled standard module (the venv's Python)
+
+
+def test_doctor_says_when_every_command_compiles_its_modules_again(tmp_path):
+    def bytecode(**env):
+        done = subprocess.run([sys.executable, "-c", BYTECODE_PROBE], capture_output=True, text=True, timeout=300,
+                              env={**os.environ, **env})
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    empty = tmp_path / "no-bytecode"  # a bytecode folder with nothing in it: every module comes from its source
+    empty.mkdir()
+    got = bytecode(PYTHONPYCACHEPREFIX=str(empty), PYTHONDONTWRITEBYTECODE="1")
+    assert not got["ok"] and "PYTHONDONTWRITEBYTECODE" in got["detail"] and "compileall" in got["fix"]
+    assert not any(empty.iterdir())
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    done = subprocess.run([sys.executable, "-c", BYTECODE_PROBE], capture_output=True, text=True, timeout=300,
+                          env={**env, "PYTHONPYCACHEPREFIX": str(tmp_path / "written")})
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.strip().splitlines()[-1])["ok"]  # Python writes what is missing as it imports

@@ -172,6 +172,75 @@ def check_module(name: str, label: str, fix: str) -> Check:
                  "" if found else fix)
 
 
+def _pyc_header_fresh(header: bytes, source: os.stat_result) -> bool:
+    """Whether a ``.pyc``'s 16-byte header (PEP 552: magic, flags, then the source's modification time and size, or
+    a hash Python checks itself) is this Python's and matches ``source``'s stat."""
+    if len(header) < 16 or header[:4] != importlib.util.MAGIC_NUMBER:
+        return False
+    flags = int.from_bytes(header[4:8], "little")
+    if flags & 1:  # hash-based
+        return True
+    return (int.from_bytes(header[8:12], "little") == int(source.st_mtime) & 0xFFFFFFFF
+            and int.from_bytes(header[12:16], "little") == source.st_size & 0xFFFFFFFF)
+
+
+def runs_from_source(modules: "list | None" = None) -> list[str]:
+    """The source files of ``modules`` (default: every module this process has imported) that have no up-to-date
+    compiled bytecode (``__pycache__/*.pyc``, or under ``sys.pycache_prefix``): their import compiles them again.
+    A ``.pyc`` is up to date when its header has this Python's magic number and the source's modification time and
+    size (or is hash-based, checked by Python itself); modules without a ``.py`` source (built in, extensions,
+    frozen) are left out."""
+    out = []
+    for module in list(sys.modules.values()) if modules is None else modules:
+        source = getattr(module, "__file__", None) or ""
+        if not source.endswith(".py"):
+            continue
+        try:
+            cached, info = importlib.util.cache_from_source(source), os.stat(source)
+            with open(cached, "rb") as pyc:
+                header = pyc.read(16)
+        except (OSError, NotImplementedError, ValueError):
+            out.append(source)
+            continue
+        if not _pyc_header_fresh(header, info):
+            out.append(source)
+    return out
+
+
+#: Fewer modules than this without bytecode (a checkout's files edited since it was compiled) cost milliseconds.
+FEW_FROM_SOURCE = 50
+
+
+def _pyc_writable(source: str) -> bool:
+    """Whether Python can write the compiled bytecode of ``source``: its cache folder is writable, or (not made yet)
+    the folder above it is."""
+    folder = os.path.dirname(importlib.util.cache_from_source(source))
+    return os.access(folder if os.path.isdir(folder) else os.path.dirname(folder), os.W_OK)
+
+
+def check_bytecode() -> Check:
+    """Whether this process's modules (a command's: the CLI, the registry, NumPy, Typer, Rich, Pydantic) ran from
+    compiled bytecode. Where Python may not write it (``PYTHONDONTWRITEBYTECODE``, or a folder it cannot write),
+    every command compiles the missing ones again (docs/performance.md)."""
+    missing = runs_from_source()
+    if not missing:
+        return Check("bytecode", True, False, f"the {len(sys.modules)} modules of a command load compiled bytecode")
+    if not sys.flags.dont_write_bytecode and all(_pyc_writable(f) for f in missing):
+        return Check("bytecode", True, False, f"{len(missing)} modules have no compiled bytecode yet: Python writes it "
+                     "on their first import")
+    if len(missing) < FEW_FROM_SOURCE:
+        return Check("bytecode", True, False, f"{len(missing)} modules a command imports are compiled again in every "
+                     f"process (files edited since they were compiled: milliseconds)")
+    why = "PYTHONDONTWRITEBYTECODE is set" if sys.flags.dont_write_bytecode else "their folders are not writable"
+    folders = sorted({os.path.dirname(f).split("/site-packages/")[0] + "/site-packages" if "/site-packages/" in f
+                      else os.path.dirname(f) for f in missing})
+    return Check("bytecode", False, False,
+                 f"{len(missing)} modules a command imports have no up-to-date compiled bytecode and {why}: every "
+                 f"command compiles them again (docs/performance.md)",
+                 f"run `uv sync --compile-bytecode` once, or `{os.path.basename(sys.executable)} -m compileall -q "
+                 f"{' '.join(folders[:3])}{' …' if len(folders) > 3 else ''}`")
+
+
 def check_containers() -> Check:
     """Whether a container engine answers (the one containerised solutions use: Docker where its daemon answers, else
     Podman) and whether the base image of containerised solutions is there (not required)."""
@@ -259,7 +328,7 @@ def run_checks(render: bool = True, timeout_s: float = 180.0, on_check: Callable
         ("the solution sandbox", check_sandbox), ("container engines", check_containers),
         ("Ray", lambda: check_module("ray", "ray", "optional (distributed batches): benchbot install ray")),
         ("port 10000", lambda: check_port(10000)), ("the data directory", check_data_dir),
-        ("the settings", check_settings),
+        ("the settings", check_settings), ("compiled bytecode", check_bytecode),
     ):
         checks += step(what, check)
     return checks
