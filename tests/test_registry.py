@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 import types
 from pathlib import Path
 
@@ -132,7 +133,17 @@ def test_a_spec_found_valid_is_not_validated_again_and_any_change_is(monkeypatch
             with pytest.raises(SpecError, match=r"b\.yaml: \$\."):
                 specs.validate(bad, "batch", "b.yaml")
     assert len(checked) == 7
-    assert specs._frozen({"a": 1}) != specs._frozen({"a": True}) != specs._frozen({"a": 1.0})
+    exact = specs._exact_bytes
+    assert exact({"a": 1}) != exact({"a": True}) != exact({"a": 1.0}) != exact({"a": -0.0}) != exact({"a": 0.0})
+    assert exact({"a": 1, "b": 2}) != exact({"b": 2, "a": 1}) and exact({1: "x"}) != exact({"1": "x"})
+    assert exact([1, [2]]) != exact([1, (2,)]) and exact({"a": "é"}) == exact(json.loads('{"a": "\\u00e9"}'))
+    assert exact(sys.intern("name")) == exact("".join(["na", "me"]))  # an interned string as any other
+
+    class Named(str):
+        pass
+
+    with pytest.raises(ValueError):  # a subclass of str is not remembered: validated every time
+        exact({"a": Named("x")})
     monkeypatch.setattr(specs, "SCHEMA_VALID_MEMO", 2)
     for k in range(5):
         specs.validate({**batch, "name": f"b{k}"}, "batch", "b.yaml")
