@@ -360,7 +360,9 @@ class Episode:
                 value = motion_argument(action, "angle", args.get("angle", 0.0), limits.MAX_MOVE_ANGLE_DEG, "degrees")
                 delta = np.array([0.0, 0.0, math.radians(value)])
             goal = se2_compose(current, delta)
-        truth_goal = self._truth_goal(goal, before)
+        # In noisy localisation the robot steers by its estimate: the motion it makes is the one that would take
+        # the estimate to the goal, applied from where it really is.
+        truth_goal = goal if self.localisation != "noisy" else se2_compose(before, se2_relative(current, goal))
         if self.actuation_rng is not None:  # the motion executed differs from the one commanded (noise preset)
             executed = noise_models.sample_actuation(se2_relative(before, truth_goal), self.noise_preset["actuation"],
                                                      self.actuation_rng)
@@ -387,26 +389,6 @@ class Episode:
                  "scene_number": self.scene_index, "pose": after}
             )
         return result
-
-    def _truth_goal(self, goal: np.ndarray, before: np.ndarray) -> np.ndarray:
-        """Where the robot at ``before`` (its true pose, (3,) ``[x, y, yaw]``, map) really drives when commanded to
-        ``goal`` (3,): ``goal`` itself, but in noisy localisation, where the robot steers by its estimate, the motion
-        that would take the estimate (the odometry) to the goal, applied from where it really is."""
-        if self.localisation != "noisy":
-            return goal
-        return se2_compose(before, se2_relative(self.odometry, goal))
-
-    def prefetch_next(self) -> None:
-        """Hint the backend (:meth:`~benchbot.core.robot.RobotBackend.prefetch`) with the goal of the next action when
-        it is bound to be ``move_next``: a passive task (``move_next`` its only action) that is running, neither
-        collided nor finished, and whose motion draws nothing from a generator (no actuation noise). Nothing
-        otherwise. Changes no state of the episode."""
-        if not self.running or self.actions != ["move_next"] or self.actuation_rng is not None:
-            return
-        trajectory = self.environment.get("trajectory_poses") or []
-        index = self.trajectory_next or 0
-        if index < len(trajectory):
-            self.backend.prefetch(self._truth_goal(pose7_to_se2(trajectory[index]), self.backend.base_pose()))
 
     # ----------------------------------------------------------------------------------------- observations
     def observe(self, names: Sequence[str] | None = None, *, borrowed: bool = False) -> dict[str, Any]:

@@ -110,18 +110,6 @@ class RobotBackend(abc.ABC):
         """
         return self.observe(names)
 
-    def prefetch(self, goal: np.ndarray) -> None:
-        """A hint, never required: the robot will most likely be asked to :meth:`move_to` ``goal`` next ((3,)
-        float64 ``[x m, y m, yaw rad]``, map frame) and then to observe there as it last observed. The episode gives
-        it after a passive task's step (:meth:`benchbot.core.episode.Episode.prefetch_next`), on the backend thread,
-        while the reply travels and the solution works on it. A simulator may compute those observations now;
-        whatever it returns later must be bit for bit what it would have returned without the hint, and a hint
-        never taken (the client resets instead) must change nothing. By default it does nothing.
-
-        Raises:
-            nothing the caller acts on: the server drops a hint that fails (the step itself then reports it).
-        """
-
     def batched(self, count: int) -> "BatchedRobots":
         """``count`` robots like this one in the scene :meth:`load_scene` loaded, moved and sensed together (the
         Gym vector environment, :mod:`benchbot.gym_vector`). A simulator offers it by overriding this method.

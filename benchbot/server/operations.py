@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-import logging
 from typing import Any, Callable
 
 from benchbot.core import limits
@@ -14,8 +13,6 @@ from benchbot.core.errors import BenchbotError
 from benchbot.server.http_errors import BadRequestError, NotFoundError
 from benchbot.server.request_decoding import check_results_arguments
 from benchbot.server.service import BackendService
-
-_log = logging.getLogger(__name__)
 
 ROBOT_GREETING = "Hello, I am the BenchBot robot controller"
 #: The original robot config's API-side callback for colour images (docs/original-benchbot.md): clients import it
@@ -191,15 +188,6 @@ class BackendApi:
         ep = self.episode
         result = self._mutate(lambda: ep.act(action, args)) if action is not None else ep.result()
         return {"result": result, "observations": ep.observe(names, borrowed=borrowed), "state": ep.state()}
-
-    def prefetch(self) -> None:
-        """*worker*. Let the robot backend get the next step's observations ready while the client works on this
-        one's (:meth:`benchbot.core.episode.Episode.prefetch_next`: a passive task's next ``move_next``). A hint that
-        fails is dropped and logged: the next step renders as it would have, and reports any failure itself."""
-        try:
-            self.episode.prefetch_next()
-        except Exception as exc:  # noqa: BLE001 - a hint must never end the episode
-            _log.debug("prefetch dropped: %r", exc)
 
     def act(self, action: str, args: dict) -> None:
         """*worker*. The original protocol's action connection: perform it (blocking)."""

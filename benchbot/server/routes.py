@@ -320,10 +320,8 @@ class _Handlers:
             reply = self.api.step(body.get("action"), body.get("args"), body.get("observations"), borrowed=True)
             if refused:
                 reply["shm_error"] = "shared memory is for clients on the backend's host (loopback) only"
-            packed = wire.pack(reply) if offer is None or refused else self.segments.pack(reply, offer, via_socket)
-            # Next on this thread, while the reply travels and the solution works on it: a passive task's next
-            # observations (BackendApi.prefetch). The next request waits behind it, as it waits for any call.
-            self.service.executor.submit(self.api.prefetch)
-            return packed
+            if offer is None or refused:
+                return wire.pack(reply)
+            return self.segments.pack(reply, offer, via_socket)
 
         return Response(await self.with_timeout(step_and_pack), media_type=MSGPACK)

@@ -274,10 +274,6 @@ class TaichiSimBackend(RobotBackend):
         self.obstacles: Obstacles | None = None
         self._pose = np.zeros(3)
         self._cache: dict[str, Any] = {}
-        #: :meth:`prefetch`'s render, ``(pose (3,), with_scan, render output)``, until the next :meth:`_render`
-        self._prefetched: tuple[np.ndarray, bool, dict] | None = None
-        #: whether the last render of a pose launched the laser scan with the images (what :meth:`prefetch` repeats)
-        self._render_with_scan = False
         #: the scene this backend renders, shared with the process's other backends of the same world
         self._loaded: loaded_scenes.LoadedScene | None = None
 
@@ -324,7 +320,6 @@ class TaichiSimBackend(RobotBackend):
         self.obstacles = Obstacles.from_scene(scene, self.radius, self.max_height)
         self._pose = scene.start_se2.copy()
         self._cache = {}
-        self._prefetched = None
         clearance, what = self.obstacles.clearance(self._pose[:2])
         if clearance <= 0.0:
             raise BackendError(
@@ -405,40 +400,14 @@ class TaichiSimBackend(RobotBackend):
             out[rf] = T_map_robot.copy()
         return out
 
-    def prefetch(self, goal: np.ndarray) -> None:
-        """Render now, as :meth:`_render` would, the view at the pose :meth:`move_to` ``goal`` ((3,) ``[x m, y m,
-        yaw rad]``, map) would reach from here (the pose controller is deterministic), so that the next step's
-        render is done while the client works (:meth:`benchbot.core.robot.RobotBackend.prefetch`). The render is
-        a function of the pose alone (the renderer's seed is fixed); the sensor noise of a frame is drawn when the
-        frame is taken, from its frame count, so results are bit for bit those without the hint. Kept until the next
-        :meth:`_render`, which takes it if the robot is at that pose and asks for the same launch, else drops it.
-        Nothing without a scene, or when ``goal`` leaves the robot where it is."""
-        if self.scene is None or self._renderer is None:
-            return
-        pose, _ = drive(self._pose, np.asarray(goal, dtype=np.float64).reshape(3), self.obstacles, self.gains)
-        if np.array_equal(pose, self._pose):
-            return
-        self._prefetched = (pose, self._render_with_scan, self._launch_render(pose, self._render_with_scan))
-
-    def _launch_render(self, pose: np.ndarray, with_scan: bool) -> dict[str, np.ndarray]:
-        """The renderer's output at robot pose ``pose`` (3,) (:meth:`Renderer.render`), with the laser's ``ranges``
-        when ``with_scan``; no noise."""
-        T_map_footprint = se2_to_matrix(*pose)
-        lidar = (T_map_footprint @ self.T_footprint_lidar) if with_scan else None
-        return self._renderer.render(self.K, T_map_footprint @ self.T_footprint_camera, self.width, self.height,
-                                     mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles,
-                                     samples_per_pixel=self.samples_per_pixel)
-
     def _render(self, with_scan: bool = False) -> dict[str, np.ndarray]:
-        """This pose's camera images (cached); ``with_scan``: its laser scan too, from the same kernel launch (the
-        :meth:`prefetch`'ed render when it is this pose's and launched the same way)."""
+        """This pose's camera images (cached); ``with_scan``: its laser scan too, from the same kernel launch."""
         if "render" not in self._cache:
-            prefetched, self._prefetched = self._prefetched, None
-            if prefetched is not None and prefetched[1] == with_scan and np.array_equal(prefetched[0], self._pose):
-                out = prefetched[2]
-            else:
-                out = self._launch_render(self._pose, with_scan)
-            self._render_with_scan = with_scan
+            T_map_footprint = se2_to_matrix(*self._pose)
+            lidar = (T_map_footprint @ self.T_footprint_lidar) if with_scan else None
+            out = self._renderer.render(self.K, T_map_footprint @ self.T_footprint_camera, self.width, self.height,
+                                        mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles,
+                                        samples_per_pixel=self.samples_per_pixel)
             if with_scan:
                 self._cache_scan(out.pop("ranges"))
             self._cache_images(out)
@@ -574,7 +543,6 @@ class TaichiSimBackend(RobotBackend):
         frees its GPU memory, :mod:`benchbot_sim_taichi.loaded_scenes`; Taichi's runtime stays up for the process).
         Runs on the backend thread, the thread that renders."""
         self._cache = {}
-        self._prefetched = None
         self.scene = None
         self._let_go()
 
