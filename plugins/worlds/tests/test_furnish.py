@@ -393,6 +393,21 @@ def test_books_are_deterministic_per_seed(lib):
     assert books(0) == books(0) and books(0) != books(1)
 
 
+def test_bottles_keep_their_proportions_inside_a_wide_cuboid():
+    lib = AssetLibrary(FULL_LIB + [obj_asset("wine_bottle", "bottle", (0.085, 0.085, 0.30))])
+    objs = [gt("bottle", [3.2, 2.85, 0.75], [3.44, 3.16, 1.05], "wide_bottle"),  # the houses' 0.24 x 0.31 bottle
+            gt("table", [2.8, 2.8, 0], [3.6, 3.5, 0.75])]
+    res = F.furnish_home(objs, one_room_plan(), lib, seed=0)
+    (bottle,) = [p for p in res.placements if p.object_index == 0]
+    size = np.asarray(lib.get(bottle.asset_id).size_m)
+    blo, bhi = placed_box(lib, bottle)
+    lo, hi = box_of(objs[0])
+    assert np.all(blo >= lo - 1e-9) and np.all(bhi <= hi + 1e-9) and abs(blo[2] - lo[2]) < 1e-9  # inside, on its bottom
+    got = np.sort((bhi - blo)[:2]) / (bhi - blo)[2]
+    np.testing.assert_allclose(got, np.sort(size[:2]) / size[2], rtol=1e-6)  # scaled uniformly, not squat
+    assert np.any(np.abs((bhi - blo) - (hi - lo)) < 1e-9)  # as large as fits: it meets the cuboid on one axis
+
+
 # ------------------------------------------------------------------------------------------------ supports
 def _supports(res, lib):
     return [placed_box(lib, p) for p in res.placements if p.role == "support"]
@@ -782,7 +797,8 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
                 mine = [p for p in res.placements if p.object_index == i]
                 bs = np.array([placed_box(lib, p) for p in mine])
                 lo, hi = box_of(o)
-                if any(p.mesh is None and F.PROPORTIONAL_TAG in lib.get(p.asset_id).tags for p in mine):  # on bottom
+                if o["class"] in F.UNSTRETCHED_CLASSES or any(  # uniformly scaled, on the bottom
+                        p.mesh is None and F.PROPORTIONAL_TAG in lib.get(p.asset_id).tags for p in mine):
                     assert len(bs) == 1 and np.all(bs[0, 0] >= lo - 1e-6) and np.all(bs[0, 1] <= hi + 1e-6), (where, i)
                     assert abs(bs[0, 0, 2] - lo[2]) < 1e-6, (where, i)
                     continue

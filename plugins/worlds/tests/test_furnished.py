@@ -14,7 +14,7 @@ import pytest
 from benchbot.packs.assets import asset_library
 from benchbot.core.errors import BackendError
 from benchbot.core.seeding import home_seed
-from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG
+from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG, UNSTRETCHED_CLASSES
 from benchbot_worlds.homes.furnished import furnish_environment
 from benchbot_worlds.homes.furnish_supports import standing_box
 from benchbot_sim_taichi.kinematics import Obstacles
@@ -72,7 +72,8 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
     modelled = set(by_object)
     library = asset_library()
     proportional = {p.object_index for p in home.furnishing.placements
-                    if p.mesh is None and PROPORTIONAL_TAG in library.get(p.asset_id).tags}
+                    if p.mesh is None and (PROPORTIONAL_TAG in library.get(p.asset_id).tags
+                                           or objects[p.object_index]["class"] in UNSTRETCHED_CLASSES)}
     assert len(modelled) >= 0.9 * len(objects), f"{name}: only {len(modelled)} of {len(objects)} objects have models"
     # every object but a mouse (no model in Sweet Home 3D's libraries) is a real model; nothing floats
     assert {objects[i]["class"] for i in range(len(objects)) if i not in modelled} <= {"mouse"}
@@ -92,9 +93,12 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
         lo = np.min([b[0] for b in bounds], axis=0)
         hi = np.max([b[1] for b in bounds], axis=0)
         c, e = np.asarray(objects[i]["centroid"]), np.asarray(objects[i]["extent"])
-        if i in proportional:  # a round clock dial: inside its cuboid, on its bottom (furnish.proportional_box)
+        if i in proportional:  # a round clock dial, a bottle: inside its cuboid, on its bottom (proportional_box)
             assert np.all(lo >= c - e / 2 - 1e-4) and np.all(hi <= c + e / 2 + 1e-4), (name, i)
             assert abs(lo[2] - (c[2] - e[2] / 2)) < 1e-4, (name, i)
+            size = np.sort(np.asarray(library.get(models[i]).size_m[:2])) / library.get(models[i]).size_m[2]
+            np.testing.assert_allclose(np.sort(hi[:2] - lo[:2]) / (hi[2] - lo[2]), size, rtol=0.02,
+                                       err_msg=f"{name} object {i}: not scaled uniformly")  # the model's proportions
             continue
         want_lo, want_hi = standing_box(objects[i], (c - e / 2, c + e / 2))  # a toilet's bowl: from the floor up
         np.testing.assert_allclose(lo, want_lo, atol=1e-4, err_msg=f"{name} object {i} {objects[i]['class']}")

@@ -23,9 +23,10 @@ deterministic per ``seed``; GT is never changed. The steps:
   heights, depths and spine colours, their union exactly the cuboid, all with the object's index; one book standing or
   lying (:attr:`Placement.mesh` holds each book's mesh). A class with models tagged :data:`PROPORTIONAL_TAG` (the
   clocks' round dial) takes one of them, never stretched: uniformly scaled into the cuboid against its back
-  (:func:`proportional_box`). A chair cuboid from :data:`SEAT_HEIGHT_M` up to :data:`LOW_CHAIR_M` high takes a model
-  tagged :data:`DINING_TAG` (a chair with a back, squashed), if the class has one; a bowl cuboid at least
-  :data:`FRUIT_BOWL_M` across one tagged :data:`FRUIT_TAG` (a bowl of fruit). A class other than ``book`` with no
+  (:func:`proportional_box`); so does the model chosen for a class of :data:`UNSTRETCHED_CLASSES` (bottles). A
+  chair cuboid from :data:`SEAT_HEIGHT_M` up to :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a
+  chair with a back, squashed), if the class has one; a bowl cuboid at least :data:`FRUIT_BOWL_M` across one tagged
+  :data:`FRUIT_TAG` (a bowl of fruit). A class other than ``book`` with no
   model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_worlds.homes.furnish_supports`): counters, cabinets, shelves … under objects that
   would float, their tops at the objects' bottoms; the ones left without are reported with why
@@ -151,6 +152,13 @@ FRUIT_TAG = "fruit"
 FRUIT_BOWL_M = 0.4
 
 
+#: Classes whose chosen model is never stretched, only scaled uniformly into its cuboid like a
+#: :data:`PROPORTIONAL_TAG` model (:func:`proportional_box`): a glass bottle keeps its proportions, and BEAR's wide
+#: bottle cuboids (0.24 x 0.31 x 0.30 m in the houses) drew a squat jar the COCO detectors of
+#: ``benchmarks/realism.py`` did not read as a bottle (docs/realism.md, 26 Nov 2026).
+UNSTRETCHED_CLASSES = frozenset(("bottle",))
+
+
 def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing, tables: list) -> None:
     """A model for every GT object (module docstring); ``tables``: the (lo, hi) boxes of the home's GT tables (in
     every variant: a chair of several variants faces the same way in all of them)."""
@@ -183,7 +191,10 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             assets = [a for a in assets if FRUIT_TAG in getattr(a, "tags", ())] or assets
         lo, hi = standing_box(obj, (lo, hi))  # a toilet's bowl boxed alone stands on its own foot
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
-        out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds_of(a)), i, "object"))
+        bounds = bounds_of(a)
+        if cls in UNSTRETCHED_CLASSES:  # see UNSTRETCHED_CLASSES
+            lo, hi = proportional_box(bounds[1] - bounds[0], lo, hi, k)
+        out.placements.append(Placement(a.id, fit_to_cuboid(a, lo, hi, k, bounds=bounds), i, "object"))
 
 
 def _default_bounds_of(asset: Any) -> np.ndarray:

@@ -15,8 +15,9 @@
 4. the robot's obstacles: the walls, and every support and distractor (with its bottom height: what the robot
    passes under is no obstacle).
 
-The ground truth is not changed: an object's drawn bounds are its cuboid (the fit is exact), and an object of a class
-no asset pack provides is drawn with the procedural primitives of the ``primitives`` style.
+The ground truth is not changed: an object's drawn bounds are its cuboid (the fit is exact; a round clock and a
+bottle are scaled uniformly inside it), and an object of a class no asset pack provides is drawn with the procedural
+primitives of the ``primitives`` style.
 
 Steps 1–3 happen in the home's frame (:mod:`benchbot_worlds.homes.home_frame`), and what they make is carried to
 the map frame, so that a turned or mirrored layout gives the same home turned or mirrored.
