@@ -55,7 +55,7 @@ def test_pooled_class_histogram_fits_bears():
 def test_a_generated_home_builds_furnished_and_models_fill_their_cuboids(tmp_path):
     from benchbot.packs.assets import asset_library
     from benchbot.core.seeding import home_seed
-    from benchbot_worlds.homes.furnish import PROPORTIONAL_TAG
+    from benchbot_worlds.homes.furnish import PROPORTIONAL_TAG, UNSTRETCHED_CLASSES
     from benchbot_worlds.homes.floorplan import home_files
     from benchbot_worlds.homes.furnish_supports import standing_box
     from benchbot_worlds.homes.furnished import furnish_environment
@@ -88,8 +88,9 @@ def test_a_generated_home_builds_furnished_and_models_fill_their_cuboids(tmp_pat
         lo = np.min([b[0] for b in bounds], axis=0)
         hi = np.max([b[1] for b in bounds], axis=0)
         c, e = np.asarray(objects[i]["centroid"]), np.asarray(objects[i]["extent"])
-        if i in proportional:  # a round clock dial: inside its cuboid (furnish.proportional_box)
-            assert np.all(lo >= c - e / 2 - 1e-4) and np.all(hi <= c + e / 2 + 1e-4)
+        if i in proportional or objects[i]["class"] in UNSTRETCHED_CLASSES:
+            # a round clock dial, a bottle: scaled uniformly, inside its cuboid (furnish.proportional_box)
+            assert np.all(lo >= c - e / 2 - 1e-4) and np.all(hi <= c + e / 2 + 1e-4), f"object {i}"
             continue
         want_lo, want_hi = standing_box(objects[i], (c - e / 2, c + e / 2))
         np.testing.assert_allclose(lo, want_lo, atol=1e-4, err_msg=f"object {i} {objects[i]['class']}")
