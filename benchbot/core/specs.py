@@ -116,7 +116,7 @@ def _exact_bytes(value: Any) -> bytes:
     ``{"1": x}``; mappings in their key order): ``marshal`` format version 0, which writes every string and float the
     same way in every process (no interning flags, no shared references; floats as their shortest exact text) and
     refuses subclasses of the built-in types (bytes-like values are written alike, and jsonschema judges them
-    alike). 5-6 times faster than walking the value in Python, which was a third of building the registry. Raises
+    alike). Faster than walking the value in Python, which was a third of building the registry. Raises
     ValueError for a value ``marshal`` cannot write (its validation is then not remembered)."""
     return marshal.dumps(value, 0)
 
