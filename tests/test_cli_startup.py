@@ -90,3 +90,39 @@ def test_a_command_freezes_its_objects_for_the_exit() -> None:
     before and leaves them alone."""
     assert probe("list", "tasks")["frozen_at_exit"] > 10_000
     assert probe("--version")["frozen_at_exit"] == 0
+
+
+BLAS_PROBE = """
+import contextlib, io, json, os, sys
+if sys.argv[1] == "command":
+    sys.argv = ["benchbot", "list", "tasks"]
+    from benchbot.cli.main import main
+    with contextlib.redirect_stdout(io.StringIO()):
+        try:
+            main()
+        except SystemExit:
+            pass
+import numpy as np
+a = np.ones((400, 400))
+a @ a
+print(json.dumps({"threads": len(os.listdir("/proc/self/task")),
+                  "variable": os.environ.get("OPENBLAS_NUM_THREADS")}))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or (len(__import__("os").sched_getaffinity(0)) < 2),
+                    reason="counts the threads in /proc; OpenBLAS starts one per core, so two cores are needed")
+def test_the_command_runs_one_blas_thread_and_leaves_the_environment_as_it_was() -> None:
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+
+    def threads(mode: str) -> dict:
+        done = subprocess.run([sys.executable, "-c", BLAS_PROBE, mode], capture_output=True, text=True, env=env,
+                              timeout=120)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    plain, command = threads("numpy"), threads("command")
+    assert plain["threads"] > 1, "NumPy's OpenBLAS started no thread per core: the probe cannot tell"
+    assert command == {"threads": 1, "variable": None}

@@ -162,6 +162,33 @@ def _plugins_for_help() -> Any:
     return plugin_manager
 
 
+#: OpenBLAS's thread-count variable, read once, as the library loads with NumPy.
+OPENBLAS_THREADS_VARIABLE = "OPENBLAS_NUM_THREADS"
+
+
+def import_numpy_with_one_blas_thread() -> None:
+    """Import NumPy so that the command's own process runs one OpenBLAS thread, and leave the environment as it was.
+
+    NumPy's wheels from PyPI ship OpenBLAS, which starts one thread per core as it loads and keeps them spinning
+    after every matrix product. The command's own products are small (poses, OMQ's boxes), but on a host with 32
+    cores its 31 extra threads took 4.3–4.8 s of CPU in a `benchbot eval` of 0.6–1.0 s wall, CPU that a sweep's
+    solutions on the same cores need (``OPENBLAS_NUM_THREADS=1``: 0.06 s for 100 products that took 4.45 s with the
+    32 threads; 2 × H100 host, 2026-11-26). OpenBLAS reads ``OPENBLAS_NUM_THREADS`` only as it loads, so the
+    variable is set for NumPy's import and then removed again: the processes the command starts (the service, its
+    workers, the solutions, to which a batch gives their share of the cores) see the environment the
+    user gave. A value the user set is kept, and so is a NumPy already imported (the command run in-process)."""
+    import os
+    import sys
+
+    if "numpy" in sys.modules or OPENBLAS_THREADS_VARIABLE in os.environ:
+        return
+    os.environ[OPENBLAS_THREADS_VARIABLE] = "1"
+    try:
+        import numpy  # noqa: F401
+    finally:
+        del os.environ[OPENBLAS_THREADS_VARIABLE]
+
+
 def main() -> None:
     """Entry point of the ``benchbot`` script. ``benchbot --version`` is answered at once (no command, no plugin
     imported); help loads the plugins (for their commands) but builds no registry."""
@@ -179,6 +206,7 @@ def main() -> None:
     # exit handlers (last in, first out). Objects are still freed as the modules are torn down; only reference
     # cycles left at exit stay uncollected, which Python never promised to collect at exit.
     atexit.register(gc.freeze)
+    import_numpy_with_one_blas_thread()
 
     from benchbot.cli.common import registry, report
     from benchbot.core.errors import ExitCode
