@@ -291,14 +291,18 @@ def test_a_frame_sums_equal_those_of_numpy_unique_bit_for_bit(frames, holes):
             assert got.dtype == want.dtype and np.array_equal(got, want)
 
 
-def test_unique_inverse_equals_numpys():
-    """``mapping._unique_inverse`` gives what ``np.unique(keys, return_inverse=True)`` gives (values, dtypes,
-    shapes) for keys in runs, keys without runs, one key and none."""
+@pytest.mark.parametrize("unique_inverse", ["_unique_inverse", "_sorted_unique_inverse"])
+def test_unique_inverse_equals_numpys(unique_inverse):
+    """``mapping._unique_inverse`` (a frame's keys) and ``mapping._sorted_unique_inverse`` (the map's merge) give
+    what ``np.unique(keys, return_inverse=True)`` gives (values, dtypes, shapes) for keys in runs, keys without runs,
+    sorted runs one after another (a map and the frames merged into it), one key and none."""
     rng = np.random.default_rng(3)
     runs = np.repeat(rng.integers(-50, 50, size=300), rng.integers(1, 9, size=300))
-    for keys in (runs, rng.integers(-(1 << 40), 1 << 40, size=1000), np.array([5]), np.zeros(0, np.int64)):
+    sorted_runs = np.concatenate([np.unique(rng.integers(-5000, 5000, size=n)) for n in (4000, 700, 700, 50)])
+    for keys in (runs, rng.integers(-(1 << 40), 1 << 40, size=1000), sorted_runs, np.array([5]),
+                 np.zeros(0, np.int64)):
         keys = keys.astype(np.int64)
-        got, want = mapping._unique_inverse(keys), np.unique(keys, return_inverse=True)
+        got, want = getattr(mapping, unique_inverse)(keys), np.unique(keys, return_inverse=True)
         for g, w in zip(got, want):
             assert g.dtype == w.dtype and g.shape == w.shape and np.array_equal(g, w)
 

@@ -207,13 +207,32 @@ def _encode(ijk: np.ndarray) -> np.ndarray:
 def _unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(keys, return_inverse=True)`` of a frame's (N,) int64 voxel keys, equal to it element for element
     (same dtypes), in a third of its time: neighbouring pixels mostly fall in one voxel, so the keys come in runs
-    (76,800 keys of a 640 × 480 frame at stride 2 make ~30,000 runs); only the runs' first keys are sorted, and each
-    run's index is repeated over the run. On the 2-core CPU 1.6–1.9 ms a frame instead of 4–5.6 ms."""
+    (76,800 keys of a 640 × 480 frame at stride 2 make ~30,000 runs); only the runs' first keys are sorted
+    (:func:`_sorted_unique_inverse`), and each run's index is repeated over the run. On the 2-core CPU 1.3 ms a frame
+    of house:1 instead of 4–5.6 ms."""
     if len(keys) == 0:
         return np.unique(keys, return_inverse=True)
     starts = np.flatnonzero(np.concatenate(([True], keys[1:] != keys[:-1])))
-    unique, run_index = np.unique(keys[starts], return_inverse=True)
+    unique, run_index = _sorted_unique_inverse(keys[starts])
     return unique, np.repeat(run_index, np.diff(starts, append=len(keys)))
+
+
+def _sorted_unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, return_inverse=True)`` of (N,) int64 keys, equal to it element for element (unique keys
+    (M,) int64 ascending, inverse (N,) intp), sorted by a stable sort instead of NumPy's quicksort: for int64 that is
+    Timsort, which merges the sorted runs it finds. The map's keys and a few frames' sorted keys are such runs, so
+    merging 8 frames into the 430,000 voxels of house:1 took 5.3 ms instead of 39.5 ms (2-core CPU); a frame's
+    ~30,000 run keys, partly ordered along the image rows, 1.3 ms instead of 2.0 ms."""
+    if len(keys) == 0:
+        return np.unique(keys, return_inverse=True)
+    order = np.argsort(keys, kind="stable")
+    ordered = keys[order]
+    first = np.empty(len(ordered), bool)
+    first[0] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
+    inverse = np.empty(len(keys), np.intp)
+    inverse[order] = np.cumsum(first) - 1
+    return ordered[first], inverse
 
 
 def _decode(keys: np.ndarray) -> np.ndarray:
@@ -322,7 +341,7 @@ class GeometricMapper:
         sxyz = np.concatenate([self._sum_xyz] + [b[2] for b in self._buffer])
         srgb = np.concatenate([self._sum_rgb] + [b[3] for b in self._buffer])
         self._buffer = []
-        uk, inv = np.unique(keys, return_inverse=True)
+        uk, inv = _sorted_unique_inverse(keys)
         n = len(uk)
         self._keys = uk
         self._count = np.bincount(inv, cnt, minlength=n)
