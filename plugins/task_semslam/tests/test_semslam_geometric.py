@@ -333,3 +333,43 @@ def test_lab_conversion_matches_published_srgb_values():
     expected = np.array([[53.24, 80.09, 67.20], [87.73, -86.18, 83.18], [32.30, 79.19, -107.86],
                          [100.0, 0.0, 0.0], [0.0, 0.0, 0.0], [53.59, 0.0, 0.0]])
     np.testing.assert_allclose(lab, expected, atol=0.05)
+
+
+def _observations(rgb, depth, T) -> dict:
+    """The BenchBot observations of one frame (``image_rgb``, ``image_depth``, intrinsics, the camera's pose)."""
+    from scipy.spatial.transform import Rotation
+
+    camera = {"translation_xyz": list(T[:3, 3]), "rotation_xyzw": list(Rotation.from_matrix(T[:3, :3]).as_quat())}
+    return {"image_rgb": rgb, "image_depth": depth, "image_rgb_info": {"matrix_intrinsics": K.tolist()},
+            "poses": {"camera": camera}, "scene_number": 0}
+
+
+def test_fusing_ahead_on_a_thread_builds_the_same_map_bit_for_bit(frames):
+    """The agent fuses each frame on its thread while the next step is on its way (the default): its map and objects
+    equal those of an agent that fuses every frame in ``pick_action``, bit for bit."""
+    script = _load("semslam_geometric_script", "semslam_geometric.py")
+    maps = {}
+    for ahead in (True, False):
+        agent = script.GeometricAgent(fuse_ahead=ahead, stride=1)
+        for rgb, depth, T in frames:
+            assert agent.pick_action(_observations(rgb, depth, T), ["move_next"]) == ("move_next", {})
+        objects = agent.build_objects(CLASS_LIST)
+        maps[ahead] = (json.dumps(objects), *(a.tobytes() for a in agent.mappers[0].voxels()))
+    assert len(json.loads(maps[True][0])) >= len(BOXES)
+    assert maps[True] == maps[False]
+
+
+def test_an_error_of_a_frame_fused_ahead_is_raised_at_the_next_step(frames):
+    """A frame whose fusion fails on the agent's thread raises its error at the next ``pick_action``."""
+    script = _load("semslam_geometric_script", "semslam_geometric.py")
+    agent = script.GeometricAgent(stride=1)
+    rgb, depth, T = frames[0]
+    agent.pick_action(_observations(rgb, depth, T), ["move_next"])
+
+    def broken(*frame):
+        raise FloatingPointError("the frame cannot be fused")
+
+    agent.mappers[0].integrate = broken
+    agent.pick_action(_observations(rgb, depth, T), ["move_next"])
+    with pytest.raises(FloatingPointError, match="cannot be fused"):
+        agent.pick_action(_observations(rgb, depth, T), ["move_next"])

@@ -20,6 +20,7 @@ import argparse
 import json
 import os
 import sys
+from concurrent.futures import Future, ThreadPoolExecutor
 
 # One BLAS thread (unless the user set another count): the mapping's BLAS work is each frame's 76,800 × 3
 # points times a 3 × 3 rotation, which OpenBLAS split over every core, and its threads then spin-wait for the
@@ -68,31 +69,57 @@ def observation_frame(observations: dict) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 class GeometricAgent(Agent):
-    """Passive agent: fuses every observation and follows the trajectory with ``move_next`` until it ends."""
+    """Passive agent: fuses every observation and follows the trajectory with ``move_next`` until it ends.
+
+    A frame is fused on a thread of its own while the next step is on its way: :meth:`pick_action` hands the frame to
+    that thread and answers at once, so the backend renders the next frame while this one is fused (NumPy releases
+    the interpreter lock in its array work). One frame at a time, in order: before the next frame is handed over,
+    and before the map is built, the last one is waited for, so the map is the same, bit for bit, as when each frame
+    is fused in :meth:`pick_action` itself (``fuse_ahead=False``). An error of the fusion is raised again at the next
+    :meth:`pick_action` or at :meth:`build_objects`.
+
+    Args:
+        fuse_ahead: fuse each frame on the thread (default) or in :meth:`pick_action`.
+        mapper_kwargs: the :class:`~mapping.GeometricMapper`'s arguments.
+    """
 
     #: The name its messages start with.
     NAME = "semslam_geometric"
 
-    def __init__(self, **mapper_kwargs):
+    def __init__(self, fuse_ahead: bool = True, **mapper_kwargs):
         self._mapper_kwargs = mapper_kwargs
         self.mappers: dict[int, GeometricMapper] = {}
+        self._fusion = ThreadPoolExecutor(max_workers=1, thread_name_prefix="fuse") if fuse_ahead else None
+        self._fusing: Future | None = None
 
     def _mapper(self, scene: int) -> GeometricMapper:
         if scene not in self.mappers:
             self.mappers[scene] = GeometricMapper(**self._mapper_kwargs)
         return self.mappers[scene]
 
+    def _fused(self) -> None:
+        """Wait for the frame being fused (raising its error, if any)."""
+        fusing, self._fusing = self._fusing, None
+        if fusing is not None:
+            fusing.result()
+
     def is_done(self, action_result) -> bool:
         return action_result != ActionResult.SUCCESS
 
     def pick_action(self, observations, action_list):
         frame = observation_frame(observations)
+        self._fused()
         if frame is not None:
-            self._mapper(int(observations.get("scene_number", 0) or 0)).integrate(*frame)
+            mapper = self._mapper(int(observations.get("scene_number", 0) or 0))
+            if self._fusion is None:
+                mapper.integrate(*frame)
+            else:
+                self._fusing = self._fusion.submit(mapper.integrate, *frame)
         return "move_next", {}
 
     def build_objects(self, class_list) -> list[dict]:
-        """Objects of the first scene's map (semantic SLAM has one scene)."""
+        """Objects of the first scene's map (semantic SLAM has one scene), once the last frame is fused."""
+        self._fused()
         if not self.mappers:
             return []
         return self.mappers[min(self.mappers)].build_map(class_list)
