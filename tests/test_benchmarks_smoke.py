@@ -37,6 +37,8 @@ FIGURES = {
     "batch.py": [r" 1 worker\(s\): +[\d.]+ s", r" 2 worker\(s\): +[\d.]+ s.*\[local\]",
                  r" 2 worker\(s\): +[\d.]+ s.*\[batched\]", r"speed-up [\d.]+x \[batched\]"],
     "bvh_build.py": [r"soup +old +\d+ tris +[\d.]+ s", r"house1 +new +\d+ tris +[\d.]+ s"],
+    "cpu_by_process.py": [r"CPU of the command and every process started meanwhile: [\d.]+ s in [\d.]+ s wall",
+                          r"processes +at most +\d+ threads +benchbot\.cli"],
     "cold_start.py": [r"quick compiles: [\d.]+ s wall, [\d.]+ s CPU", r"occluders_kernel +compile +[\d.]+ s CPU",
                       r"quick compiles, kernels cached: [\d.]+ s wall"],
     "compile_time.py": [r"fast [\d.]+ s, quality [\d.]+ s"],
