@@ -172,11 +172,12 @@ def import_numpy_with_one_blas_thread() -> None:
     NumPy's wheels from PyPI ship OpenBLAS, which starts one thread per core as it loads and keeps them spinning
     after every matrix product. The command's own products are small (poses, OMQ's boxes), but on a host with 32
     cores its 31 extra threads took 4.3–4.8 s of CPU in a `benchbot eval` of 0.6–1.0 s wall, CPU that a sweep's
-    solutions on the same cores need (``OPENBLAS_NUM_THREADS=1``: 0.06 s for 100 products that took 4.45 s with the
-    32 threads; 2 × H100 host, 2026-11-26). OpenBLAS reads ``OPENBLAS_NUM_THREADS`` only as it loads, so the
-    variable is set for NumPy's import and then removed again: the processes the command starts (the service, its
-    workers, the solutions, to which a batch gives their share of the cores) see the environment the
-    user gave. A value the user set is kept, and so is a NumPy already imported (the command run in-process)."""
+    solutions on the same cores need (``benchmarks/cpu_by_process.py -- benchbot eval FILE``, 2 × H100 host,
+    2026-11-26; ``benchmarks/service_warm.py`` counted 4.83 s of the command's CPU in README command 1 on one such
+    host before, 0.63 s on another after). OpenBLAS reads ``OPENBLAS_NUM_THREADS`` only as it loads, so the variable
+    is set for NumPy's import and then removed again: the processes the command starts (the service, its workers,
+    the solutions, to which a batch gives their share of the cores) see the environment the user gave. A value the
+    user set is kept, and so is a NumPy already imported (the command run in-process)."""
     import os
     import sys
 
