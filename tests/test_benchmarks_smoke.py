@@ -39,6 +39,8 @@ FIGURES = {
     "bvh_build.py": [r"soup +old +\d+ tris +[\d.]+ s", r"house1 +new +\d+ tris +[\d.]+ s"],
     "cpu_by_process.py": [r"CPU of the command and every process started meanwhile: [\d.]+ s in [\d.]+ s wall",
                           r"processes +at most +\d+ threads +benchbot\.cli"],
+    "example_mapping.py": [r"merged by stable sort +[\d.]+ ms a frame", r"merged by np\.unique +[\d.]+ ms a frame",
+                   r"equal bit for bit: yes"],
     "cold_start.py": [r"quick compiles: [\d.]+ s wall, [\d.]+ s CPU", r"occluders_kernel +compile +[\d.]+ s CPU",
                       r"quick compiles, kernels cached: [\d.]+ s wall"],
     "compile_time.py": [r"fast [\d.]+ s, quality [\d.]+ s"],
