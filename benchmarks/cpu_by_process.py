@@ -66,7 +66,10 @@ def kind_of(cmd: str) -> str:
 
 def measure(argv: list[str], interval: float) -> dict:
     """Run ``argv`` (its output discarded) and return ``{wall_s, returncode, kinds: {kind: {cpu_s, processes,
-    max_threads}}}``: CPU seconds each kind of process used while it ran."""
+    max_threads}}}``: CPU seconds each kind of process used while it ran.
+
+    Raises:
+        OSError: ``argv`` cannot be started (no such program, not executable)."""
     before = snapshot()
     last: dict[tuple[int, int], tuple[str, float]] = {}
     peak_threads: collections.Counter = collections.Counter()
@@ -77,8 +80,9 @@ def measure(argv: list[str], interval: float) -> dict:
         now = snapshot()
         for pid, n in collections.Counter(pid for pid, _ in now).items():
             peak_threads[pid] = max(peak_threads[pid], n)
-        for key, (cmd, cpu) in now.items():  # a process's command line is kept from when it still had one
-            last[key] = (last[key][0] or cmd if key in last else cmd, cpu)
+        for key, (cmd, cpu) in now.items():
+            seen_cmd = last[key][0] if key in last else ""
+            last[key] = (seen_cmd or cmd, cpu)  # an ended process's command line is empty: keep the one seen
         if done:
             break
         time.sleep(interval)
@@ -99,19 +103,25 @@ def measure(argv: list[str], interval: float) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    command = argv[argv.index("--") + 1:] if "--" in argv else []
+    split = argv.index("--") if "--" in argv else len(argv)
+    own, command = argv[:split], argv[split + 1:]
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--interval", type=float, default=0.05, help="seconds between two samples of /proc")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = smoke.parse_args(ap, argv[:argv.index("--")] if "--" in argv else argv, style=None)
+    args = smoke.parse_args(ap, own, style=None)
     if not sys.platform.startswith("linux"):
         ap.error("it reads /proc: Linux only")
+    if args.interval <= 0:
+        ap.error("--interval must be more than 0 s")
     with tempfile.TemporaryDirectory(prefix="benchbot-cpu-") as tmp:
         if args.smoke and not command:
             empty = os.path.join(tmp, "empty.json")
             open(empty, "w").close()
             command = [sys.executable, "-m", "benchbot.cli", "eval", empty, "-o", os.path.join(tmp, "scores.json")]
-        figures = measure(command or README_COMMAND_1, args.interval)
+        try:
+            figures = measure(command or README_COMMAND_1, args.interval)
+        except OSError as exc:
+            ap.error(f"cannot start {' '.join(command or README_COMMAND_1)}: {exc.strerror or exc}")
     figures["command"] = command or README_COMMAND_1
     if args.json:
         print(json.dumps(figures))

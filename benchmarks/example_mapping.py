@@ -26,7 +26,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the example runs (semsl
 
 def record_frames(env: str, width: int, height: int, limit: int) -> list[tuple]:
     """``(rgb (H, W, 3) uint8, depth (H, W) float32 m, K (3, 3), T_map_camera (4, 4))`` of each step of ``env``'s
-    passive trajectory (``move_next`` until it ends, or ``limit`` frames when > 0), rendered in this process."""
+    passive trajectory (``move_next`` until it ends, or ``limit`` frames when > 0), rendered in this process.
+
+    Raises:
+        BenchbotError: no such environment, or its backend cannot start (the message says why)."""
     from benchbot.api.benchbot import InProcessBenchBot
     from benchbot.core.registry import get_registry
     from benchbot.core.session import resolve_run, start_service
@@ -39,14 +42,14 @@ def record_frames(env: str, width: int, height: int, limit: int) -> list[tuple]:
     frames = []
     try:
         bot = InProcessBenchBot(service)
-        observations, result = bot.reset()
+        observations, _ = bot.reset()
         while True:
             frame = observation_frame(observations)
             if frame is not None:
                 frames.append(tuple(a.copy() for a in frame))
-            if limit and len(frames) >= limit or "move_next" not in bot.actions:
+            if (limit and len(frames) >= limit) or "move_next" not in bot.actions:
                 break
-            observations, result = bot.step("move_next")
+            observations, _ = bot.step("move_next")
     finally:
         service.close()
     return frames
@@ -80,7 +83,12 @@ def main(argv: list[str] | None = None) -> int:
     import mapping
     import numpy as np
 
-    frames = record_frames(args.env, args.width, args.height, args.frames)
+    from benchbot.core.errors import BenchbotError
+
+    try:
+        frames = record_frames(args.env, args.width, args.height, args.frames)
+    except BenchbotError as exc:
+        ap.error(f"--env {args.env}: {exc.message}")
     stable = mapping._sorted_unique_inverse
     quicksort = lambda keys: np.unique(keys, return_inverse=True)  # noqa: E731 (the merge before the stable sort)
     best = {"stable sort": float("inf"), "np.unique": float("inf")}

@@ -5,6 +5,7 @@ jsonschema once its specs are known valid."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -110,11 +111,9 @@ print(json.dumps({"threads": len(os.listdir("/proc/self/task")),
 """
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux") or (len(__import__("os").sched_getaffinity(0)) < 2),
+@pytest.mark.skipif(not sys.platform.startswith("linux") or len(os.sched_getaffinity(0)) < 2,
                     reason="counts the threads in /proc; OpenBLAS starts one per core, so two cores are needed")
 def test_the_command_runs_one_blas_thread_and_leaves_the_environment_as_it_was() -> None:
-    import os
-
     env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
 
     def threads(mode: str) -> dict:

