@@ -16,7 +16,8 @@ workers), then ``--runs`` times, timed. For every timed run it reports:
   own work) and ``per frame`` (those seconds over the frames), and ``evaluation and writing`` (from the last
   episode's end to the command's exit);
 * the GPUs' utilisation sampled by ``nvidia-smi`` every second (mean and peak per GPU; none without ``nvidia-smi``);
-* whether every run's results, trajectories and scores files are byte-identical (across runs and modes).
+* whether every run's results, trajectories and scores files are byte-identical (across runs and modes), and if
+  not, which files differ (``differing_files``; each run's ``files`` gives every file's digest).
 
     python benchmarks/sweep.py [--workers 16] [--repeat 3] [--envs-batch bear_all | --envs ENV,...]
         [--example semslam_geometric] [--arch cuda|cpu] [--camera-size WxH] [--modes service,no-service] [--runs 1]
@@ -117,15 +118,28 @@ def profile(lines: list[tuple[float, str]], t0: float, t_exit: float, steps: int
     return out
 
 
-def digest(run_dir: Path) -> str:
-    """A digest of every results, trajectories and scores file of a run directory (names and bytes)."""
-    h = hashlib.sha256()
+def file_digests(run_dir: Path) -> dict[str, str]:
+    """``{path relative to run_dir: SHA-256 (16 hex digits)}`` of every results, trajectories and scores file of a
+    run directory, in path order."""
+    out = {}
     for name in ("results", "trajectories", "scores.json", "episode_scores.json"):
         path = run_dir / name
         for file in sorted(path.rglob("*")) if path.is_dir() else [path]:
             if file.is_file():
-                h.update(str(file.relative_to(run_dir)).encode() + b"\0" + file.read_bytes())
-    return h.hexdigest()[:16]
+                out[str(file.relative_to(run_dir))] = hashlib.sha256(file.read_bytes()).hexdigest()[:16]
+    return out
+
+
+def digest(files: dict[str, str]) -> str:
+    """One digest (16 hex digits) of :func:`file_digests`' names and digests."""
+    return hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def differing_files(results: list[dict]) -> list[str]:
+    """The files (paths relative to a run directory) whose bytes are not the same in every run, or that some run
+    lacks."""
+    names = set().union(*(r["files"] for r in results)) if results else set()
+    return sorted(n for n in names if len({r["files"].get(n) for r in results}) > 1)
 
 
 @dataclass
@@ -175,12 +189,13 @@ def run_once(args: argparse.Namespace, mode: str, out: Path, env: dict) -> dict:
         tail = "\n".join(line for _, line in lines[-20:])
         sys.exit(f"the {mode} sweep failed (exit {run.returncode}):\n{tail}")
     outcome = json.loads(run.stdout)
+    files = file_digests(Path(outcome["run_dir"]))
     steps = sum(e["steps"] for e in outcome["episodes"])
     devices = sorted({e["node"]["gpu"]["index"] for e in outcome["episodes"] if e.get("node", {}).get("gpu")})
     return {"mode": mode, "wall_s": round(t_exit - t0, 2), "episodes": len(outcome["episodes"]), "frames": steps,
             "ok": sum(e["status"] == "ok" for e in outcome["episodes"]), "gpus_used": devices,
             "gpu_utilisation": gpus, "stages_s": profile(lines, t0, t_exit, steps),
-            "digest": digest(Path(outcome["run_dir"]))}
+            "digest": digest(files), "files": files}
 
 
 def show(r: dict) -> None:
@@ -204,7 +219,8 @@ def summary(args: argparse.Namespace, results: list[dict]) -> dict:
     return {"example": args.example, "envs": args.envs or args.envs_batch, "repeat": args.repeat,
             "workers": args.workers, "arch": args.arch, "cpu_count": os.cpu_count(),
             "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES"), "load_average": os.getloadavg(),
-            "runs": results, "byte_identical": len({r["digest"] for r in results}) == 1}
+            "runs": results, "byte_identical": len({r["digest"] for r in results}) == 1,
+            "differing_files": differing_files(results)}
 
 
 def write_partial(path: str | None, args: argparse.Namespace, results: list[dict]) -> None:
@@ -266,6 +282,8 @@ def main(argv: list[str] | None = None) -> int:
             if not r.get("warm_up"):
                 show(r)
         print(f"byte-identical: {'yes' if same else 'NO'}")
+        for name in figures["differing_files"]:
+            print(f"  differs: {name} ({', '.join(r['files'].get(name, 'missing') for r in results)})")
     return 0 if same else 1
 
 
