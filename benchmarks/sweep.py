@@ -17,7 +17,9 @@ workers), then ``--runs`` times, timed. For every timed run it reports:
   episode's end to the command's exit);
 * the GPUs' utilisation sampled by ``nvidia-smi`` every second (mean and peak per GPU; none without ``nvidia-smi``);
 * whether every run's results, trajectories and scores files are byte-identical (across runs and modes), and if
-  not, which files differ (``differing_files``; each run's ``files`` gives every file's digest).
+  not, which files differ (``differing_files``; each run's ``files`` gives every file's digest);
+* whether every episode of an environment, in every run, wrote the same results file
+  (``distinct_results_per_environment``: 1 each when they did; ``--repeat`` runs each environment several times).
 
     python benchmarks/sweep.py [--workers 16] [--repeat 3] [--envs-batch bear_all | --envs ENV,...]
         [--example semslam_geometric] [--arch cuda|cpu] [--camera-size WxH] [--modes service,no-service] [--runs 1]
@@ -135,6 +137,19 @@ def digest(files: dict[str, str]) -> str:
     return hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def results_per_environment(results: list[dict]) -> dict[str, int]:
+    """``{environment: distinct results files}`` over every episode of every run (``results/NNN_<env>_r<k>.json``,
+    the environment's name and variant joined by ``_``): 1 where every episode of an environment wrote the same
+    bytes, as the same solution on the same simulator should."""
+    seen: dict[str, set] = {}
+    for r in results:
+        for name, sha in r["files"].items():
+            match = re.fullmatch(r"results/\d+_(.+?)(?:_r\d+)?\.json", name)
+            if match:
+                seen.setdefault(match[1], set()).add(sha)
+    return {env: len(shas) for env, shas in sorted(seen.items())}
+
+
 def differing_files(results: list[dict]) -> list[str]:
     """The files (paths relative to a run directory) whose bytes are not the same in every run, or that some run
     lacks."""
@@ -220,7 +235,8 @@ def summary(args: argparse.Namespace, results: list[dict]) -> dict:
             "workers": args.workers, "arch": args.arch, "cpu_count": os.cpu_count(),
             "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES"), "load_average": os.getloadavg(),
             "runs": results, "byte_identical": len({r["digest"] for r in results}) == 1,
-            "differing_files": differing_files(results)}
+            "differing_files": differing_files(results),
+            "distinct_results_per_environment": results_per_environment(results)}
 
 
 def write_partial(path: str | None, args: argparse.Namespace, results: list[dict]) -> None:
@@ -282,6 +298,9 @@ def main(argv: list[str] | None = None) -> int:
             if not r.get("warm_up"):
                 show(r)
         print(f"byte-identical: {'yes' if same else 'NO'}")
+        varied = {env: n for env, n in figures["distinct_results_per_environment"].items() if n > 1}
+        print("every episode of an environment wrote the same results: "
+              + ("yes" if not varied else "NO (" + ", ".join(f"{env}: {n} different" for env, n in varied.items()) + ")"))
         for name in figures["differing_files"]:
             print(f"  differs: {name} ({', '.join(r['files'].get(name, 'missing') for r in results)})")
     return 0 if same else 1

@@ -37,3 +37,13 @@ def test_a_changed_or_missing_results_file_is_named(tmp_path):
     assert sweep.digest(a) != sweep.digest(b)
     assert sweep.differing_files([{"files": a}, {"files": b}]) == ["results/001_house_1_r1.json"]
     assert sweep.differing_files([{"files": a}, {"files": a}, {"files": c}]) == ["results/001_house_1_r1.json"]
+
+
+def test_episodes_of_one_environment_that_wrote_different_results_are_counted(tmp_path):
+    a = sweep.file_digests(_run_dir(tmp_path / "a", {"000_house_1_r0.json": b"1", "001_house_1_r1.json": b"1",
+                                                     "002_miniroom_3_r0.json": b"x", "003_miniroom_3_r1.json": b"y"}))
+    b = sweep.file_digests(_run_dir(tmp_path / "b", {"000_house_1_r0.json": b"1", "001_house_1_r1.json": b"1",
+                                                     "002_miniroom_3_r0.json": b"x", "003_miniroom_3_r1.json": b"x"}))
+    c = sweep.file_digests(_run_dir(tmp_path / "c", {"000_miniroom_1.json": b"1"}))  # one repeat: no _r suffix
+    assert sweep.results_per_environment([{"files": a}, {"files": b}, {"files": c}]) == {
+        "house_1": 1, "miniroom_1": 1, "miniroom_3": 2}
