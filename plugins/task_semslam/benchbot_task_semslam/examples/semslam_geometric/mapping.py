@@ -234,6 +234,21 @@ def _sorted_unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered[first], inverse
 
 
+def _dilate_by_cube(grid: np.ndarray) -> np.ndarray:
+    """(X, Y, Z) bool ``grid`` dilated by the 3 × 3 × 3 cube (outside the grid counts as False): equal to
+    ``scipy.ndimage.binary_dilation(grid, structure=np.ones((3, 3, 3), bool))``, as the cube is the sum of three
+    segments of 3 voxels, one per axis, and so done one axis at a time (a tenth of its time on a house's map)."""
+    for axis in range(3):
+        out = grid.copy()
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        out[tuple(hi)] |= grid[tuple(lo)]
+        out[tuple(lo)] |= grid[tuple(hi)]
+        grid = out
+    return grid
+
+
 def _decode(keys: np.ndarray) -> np.ndarray:
     """(N,) int64 keys → (N, 3) int64 voxel indices."""
     return np.stack([(keys >> (2 * _KEY_BITS)) & _KEY_MASK, (keys >> _KEY_BITS) & _KEY_MASK, keys & _KEY_MASK],
@@ -250,7 +265,10 @@ class GeometricMapper:
         voxel: voxel edge, metres.
         stride: keep every ``stride``-th pixel in u and v (2 → 320 × 240 points from a 640 × 480 frame).
         min_depth, max_depth: depth range used, metres (far points are sparse and thin out clusters).
-        merge_every: frames buffered before they are merged into the map (amortises the sort).
+        merge_every: frames buffered before they are merged into the map (amortises the sort of the map's keys).
+            The map is the same bit for bit whatever it is: each voxel's sums start at 0.0 and add the frames'
+            in the order they were fused either way. 32 instead of 8 took house:1's mapping from 7.7 to 5.7 ms
+            a frame, with the kept rows taken by ``np.compress`` (2-core CPU, ``benchmarks/example_mapping.py``).
         plane_margin: distance (metres) from the floor / ceiling / wall planes within which points are removed.
         min_cluster_voxels: clusters with fewer voxels are dropped.
         bridge_voxels: gaps of up to this many voxels are bridged when clustering (sparse far-away surfaces).
@@ -259,7 +277,7 @@ class GeometricMapper:
     """
 
     def __init__(self, voxel: float = 0.04, stride: int = 2, min_depth: float = 0.1, max_depth: float = 6.0,
-                 merge_every: int = 8, plane_margin: float = 0.04, min_cluster_voxels: int = 4,
+                 merge_every: int = 32, plane_margin: float = 0.04, min_cluster_voxels: int = 4,
                  bridge_voxels: int = 1, max_object_size: float = 3.0, split_supports: bool = True):
         self.voxel = float(voxel)
         self.stride = int(stride)
@@ -313,11 +331,13 @@ class GeometricMapper:
         if n_ok == 0:
             return 0
         every = n_ok == len(d)  # every pixel kept (a closed room): the same arrays without the masks' copies
-        pts_c = rays * d[:, None] if every else rays[ok] * d[ok, None]
+        # np.compress takes the kept rows as boolean indexing does, in half its time
+        pts_c = rays * d[:, None] if every else np.compress(ok, rays, axis=0) * np.compress(ok, d)[:, None]
         T = np.asarray(T_map_camera, dtype=np.float64)
         pts = pts_c @ T[:3, :3].T.astype(np.float32) + T[:3, 3].astype(np.float32)
         rgb_kept = np.asarray(rgb)[::s, ::s]
-        cols = rgb_kept.astype(np.float32).reshape(-1, 3) if every else rgb_kept.reshape(-1, 3)[ok].astype(np.float32)
+        cols = rgb_kept.astype(np.float32).reshape(-1, 3) if every \
+            else np.compress(ok, rgb_kept.reshape(-1, 3), axis=0).astype(np.float32)
         ijk = np.floor(pts / self.voxel).astype(np.int64)
         keys = _encode(ijk)
         uk, inv = _unique_inverse(keys)
@@ -441,8 +461,8 @@ class GeometricMapper:
         shape = tuple(idx.max(axis=0) + bridge + 1)
         grid = np.zeros(shape, bool)
         grid[idx[:, 0], idx[:, 1], idx[:, 2]] = True
-        if bridge > 0:
-            grid = ndimage.binary_dilation(grid, structure=np.ones((3, 3, 3), bool), iterations=bridge)
+        for _ in range(bridge):
+            grid = _dilate_by_cube(grid)
         lab, _ = ndimage.label(grid, structure=np.ones((3, 3, 3), int))
         lab = lab[idx[:, 0], idx[:, 1], idx[:, 2]]
         _, out = np.unique(lab, return_inverse=True)
