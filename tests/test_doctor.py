@@ -108,3 +108,32 @@ def test_doctor_says_when_every_command_compiles_its_modules_again(tmp_path):
                           env={**env, "PYTHONPYCACHEPREFIX": str(tmp_path / "written")})
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.strip().splitlines()[-1])["ok"]  # Python writes what is missing as it imports
+
+
+SOLUTION_BYTECODE_PROBE = """
+import json
+from dataclasses import asdict
+import benchbot.cli.doctor_cmd as doctor
+print(json.dumps(asdict(doctor.check_solution_bytecode())))
+"""
+
+
+def test_doctor_says_when_sandboxed_solutions_compile_scipy_in_every_episode(tmp_path):
+    """SciPy's ndimage, which the example solutions import and a command does not: with no bytecode and none written
+    (a sandboxed solution can never write it) the check says every episode compiles it, and how to compile it once;
+    where this process may write bytecode, the check's own import writes it and it passes."""
+    def check(**env):
+        base = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        done = subprocess.run([sys.executable, "-c", SOLUTION_BYTECODE_PROBE], capture_output=True, text=True,
+                              timeout=300, env={**base, **env})
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    empty = tmp_path / "no-bytecode"
+    empty.mkdir()
+    got = check(PYTHONPYCACHEPREFIX=str(empty), PYTHONDONTWRITEBYTECODE="1")
+    assert not got["ok"] and "every episode compiles them again" in got["detail"] and "compileall" in got["fix"]
+    assert "scipy.ndimage" in got["detail"] and not any(empty.iterdir())
+    got = check(PYTHONPYCACHEPREFIX=str(tmp_path / "written"))
+    assert got["ok"] and "scipy.ndimage" in got["detail"], got
+    assert any((tmp_path / "written").rglob("*.pyc"))

@@ -241,6 +241,41 @@ def check_bytecode() -> Check:
                  f"{' '.join(folders[:3])}{' …' if len(folders) > 3 else ''}`")
 
 
+#: Modules the installed example solutions import and a command does not: SciPy's ``ndimage`` (``semslam_geometric``'s
+#: clustering, with what it loads: SciPy's array-API layer, ``scipy.special``).
+SOLUTION_MODULES = ("scipy.ndimage",)
+
+
+def check_solution_bytecode() -> Check:
+    """Whether the modules that sandboxed solutions import beyond a command's (:data:`SOLUTION_MODULES`, imported
+    here, with what they load) have compiled bytecode. A sandboxed solution sees this Python's folders read-only, so
+    it can never write bytecode: a module without it is compiled again in every episode (SciPy's ``ndimage`` took
+    about a second of a solution's start so on a GPU host, docs/service.md). Where this process may write bytecode,
+    importing them here writes it, and the check then passes."""
+    import importlib
+
+    before = set(sys.modules)
+    for name in SOLUTION_MODULES:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            continue
+    loaded = [sys.modules[n] for n in sorted(set(sys.modules) - before)] or \
+        [m for n, m in list(sys.modules.items()) if any(n == r or n.startswith(r + ".") for r in SOLUTION_MODULES)]
+    missing = runs_from_source(loaded)
+    if not missing:
+        return Check("solution bytecode", True, False, f"the {len(loaded)} modules that sandboxed solutions import "
+                     f"beyond a command's ({', '.join(SOLUTION_MODULES)}) load compiled bytecode")
+    folders = sorted({f.split("/site-packages/")[0] + "/site-packages" if "/site-packages/" in f
+                      else os.path.dirname(f) for f in missing})
+    return Check("solution bytecode", False, False,
+                 f"{len(missing)} modules that sandboxed solutions import ({', '.join(SOLUTION_MODULES)} and what it "
+                 "loads) have no compiled bytecode, which a sandboxed solution cannot write: every episode compiles "
+                 "them again",
+                 f"run `uv sync --compile-bytecode` once, or `{os.path.basename(sys.executable)} -m compileall -q "
+                 f"{' '.join(folders[:3])}{' …' if len(folders) > 3 else ''}`")
+
+
 def check_containers() -> Check:
     """Whether a container engine answers (the one containerised solutions use: Docker where its daemon answers, else
     Podman) and whether the base image of containerised solutions is there (not required)."""
@@ -329,6 +364,7 @@ def run_checks(render: bool = True, timeout_s: float = 180.0, on_check: Callable
         ("Ray", lambda: check_module("ray", "ray", "optional (distributed batches): benchbot install ray")),
         ("port 10000", lambda: check_port(10000)), ("the data directory", check_data_dir),
         ("the settings", check_settings), ("compiled bytecode", check_bytecode),
+        ("the solutions' compiled bytecode", check_solution_bytecode),
     ):
         checks += step(what, check)
     return checks
