@@ -7,7 +7,8 @@ to make the objects from the map (``build_map``) as it is; and whether the maps 
     uv run python benchmarks/example_mapping.py [--env house:1] [--frames 0] [--repeat 3] [--width 640 --height 480] [--json]
 
 ``--frames 0`` takes the whole trajectory (269 frames for house:1). Figures are the best of ``--repeat`` passes, in
-milliseconds per frame, the map's last merge included"""
+milliseconds per frame, the map's last merge included.
+"""
 
 from __future__ import annotations
 
@@ -55,7 +56,7 @@ def record_frames(env: str, width: int, height: int, limit: int) -> list[tuple]:
     return frames
 
 
-def fuse(mapping, frames: list[tuple], **mapper_kwargs):
+def fuse(mapping, frames: list[tuple], **mapper_kwargs) -> tuple[float, bytes, object]:
     """Seconds to fuse ``frames`` into a new mapper with ``mapper_kwargs`` (the last merge included), its map's
     bytes, and the mapper."""
     mapper = mapping.GeometricMapper(**mapper_kwargs)

@@ -232,13 +232,18 @@ def check_bytecode() -> Check:
         return Check("bytecode", True, False, f"{len(missing)} modules a command imports are compiled again in every "
                      f"process (files edited since they were compiled: milliseconds)")
     why = "PYTHONDONTWRITEBYTECODE is set" if sys.flags.dont_write_bytecode else "their folders are not writable"
-    folders = sorted({os.path.dirname(f).split("/site-packages/")[0] + "/site-packages" if "/site-packages/" in f
-                      else os.path.dirname(f) for f in missing})
     return Check("bytecode", False, False,
                  f"{len(missing)} modules a command imports have no up-to-date compiled bytecode and {why}: every "
-                 f"command compiles them again (docs/performance.md)",
-                 f"run `uv sync --compile-bytecode` once, or `{os.path.basename(sys.executable)} -m compileall -q "
-                 f"{' '.join(folders[:3])}{' …' if len(folders) > 3 else ''}`")
+                 f"command compiles them again (docs/performance.md)", _compile_fix(missing))
+
+
+def _compile_fix(missing: list[str]) -> str:
+    """The fix for source files ``missing`` compiled bytecode: ``uv sync --compile-bytecode``, or ``compileall`` of
+    their folders (a site-packages folder as a whole; three named at most)."""
+    folders = sorted({f.split("/site-packages/")[0] + "/site-packages" if "/site-packages/" in f
+                      else os.path.dirname(f) for f in missing})
+    return (f"run `uv sync --compile-bytecode` once, or `{os.path.basename(sys.executable)} -m compileall -q "
+            f"{' '.join(folders[:3])}{' …' if len(folders) > 3 else ''}`")
 
 
 #: Modules the installed example solutions import and a command does not: SciPy's ``ndimage`` (``semslam_geometric``'s
@@ -249,11 +254,9 @@ SOLUTION_MODULES = ("scipy.ndimage",)
 def check_solution_bytecode() -> Check:
     """Whether the modules that sandboxed solutions import beyond a command's (:data:`SOLUTION_MODULES`, imported
     here, with what they load) have compiled bytecode. A sandboxed solution sees this Python's folders read-only, so
-    it can never write bytecode: a module without it is compiled again in every episode (SciPy's ``ndimage`` took
-    about a second of a solution's start so on a GPU host, docs/service.md). Where this process may write bytecode,
-    importing them here writes it, and the check then passes."""
-    import importlib
-
+    it can never write bytecode: a module without it is compiled again in every episode (docs/service.md, *What is
+    left*: bytecode). Where this process may write bytecode, importing them here writes it, and the check then
+    passes."""
     before = set(sys.modules)
     for name in SOLUTION_MODULES:
         try:
@@ -266,14 +269,10 @@ def check_solution_bytecode() -> Check:
     if not missing:
         return Check("solution bytecode", True, False, f"the {len(loaded)} modules that sandboxed solutions import "
                      f"beyond a command's ({', '.join(SOLUTION_MODULES)}) load compiled bytecode")
-    folders = sorted({f.split("/site-packages/")[0] + "/site-packages" if "/site-packages/" in f
-                      else os.path.dirname(f) for f in missing})
     return Check("solution bytecode", False, False,
                  f"{len(missing)} modules that sandboxed solutions import ({', '.join(SOLUTION_MODULES)} and what it "
                  "loads) have no compiled bytecode, which a sandboxed solution cannot write: every episode compiles "
-                 "them again",
-                 f"run `uv sync --compile-bytecode` once, or `{os.path.basename(sys.executable)} -m compileall -q "
-                 f"{' '.join(folders[:3])}{' …' if len(folders) > 3 else ''}`")
+                 "them again", _compile_fix(missing))
 
 
 def check_containers() -> Check:
