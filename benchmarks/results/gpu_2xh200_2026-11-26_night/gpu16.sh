@@ -1,0 +1,45 @@
+#!/bin/bash
+# issue 60 call 6: is a CUDA bake of a scene the same every time (three in turn, three at once), and which frames
+# differ between episodes of one environment, within a service and between two services?
+set -u
+R=$PWD; T0=$(date +%s); el() { echo $(( $(date +%s) - T0 )); }
+exec > >(tee -a "$OUT/log16.txt") 2>&1
+echo "== $(date -u +%FT%TZ)"; nvidia-smi -L; nproc
+mkdir -p /tmp/site /tmp/bsite /tmp/semP /root/w
+tar -C /tmp/site -xJf .whl/lead3/site312_slim.tar.xz && tar -C /tmp/bsite -xJf .whl/lead3/build312.tar.xz || exit 3
+PIP="python3 -m pip install -q --no-index --no-deps --no-build-isolation --no-compile"
+PYTHONPATH=/tmp/bsite:/tmp/site $PIP --target /tmp/site . plugins/worlds plugins/sim_taichi plugins/eval_omq plugins/assets_sh3d || exit 5
+PYTHONPATH=/tmp/bsite:/tmp/site $PIP --target /tmp/semP plugins/task_semslam || exit 7
+python3 .whl/lead3/patch_frames.py /tmp/semP/benchbot_task_semslam/examples/semslam_geometric/semslam_geometric.py || exit 8
+SP=/opt/torch/.venv/lib/python3.12/site-packages
+python3 -m compileall -q -j 0 /tmp/site /tmp/semP $(for p in numpy scipy yaml msgpack anyio h11 attr attrs pygments idna sniffio typing_extensions.py packaging PIL; do [ -e $SP/$p ] && echo $SP/$p; done) > /dev/null 2>&1
+unset PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX
+export PATH=/tmp/site/bin:$PATH PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/semP:/tmp/site
+cd /root/w
+echo "-- setup done at $(el) s"
+for k in 0 1 2; do
+  BENCHBOT_CACHE_DIR=/root/c$k timeout 240 python3 -m benchbot.cli sim prepare miniroom:3 miniroom:1 --json 2>"$OUT/prep$k.txt" | tail -1
+  rc=${PIPESTATUS[0]}; echo "prepare $k rc=$rc at $(el) s"; [ $rc = 0 ] || { tail -5 "$OUT/prep$k.txt"; exit 9; }
+done
+python3 "$R/.whl/lead3/npz_diff.py" /root/c0/sim_taichi-scenes /root/c1/sim_taichi-scenes /root/c2/sim_taichi-scenes
+P=""; for k in 3 4 5; do BENCHBOT_CACHE_DIR=/root/c$k timeout 120 python3 -m benchbot.cli sim prepare miniroom:3 > /dev/null 2>&1 & P="$P $!"; done; wait $P
+echo "-- three at once done at $(el) s"
+python3 "$R/.whl/lead3/npz_diff.py" /root/c0/sim_taichi-scenes /root/c3/sim_taichi-scenes /root/c4/sim_taichi-scenes /root/c5/sim_taichi-scenes
+mkdir -p /tmp/rt && chmod 700 /tmp/rt
+export XDG_RUNTIME_DIR=/tmp/rt BENCHBOT_SERVICE=auto BENCHBOT_CACHE_DIR=/root/cB
+B="python3 -m benchbot.cli batch --example semslam_geometric --envs miniroom:3,miniroom:1,house:2 --repeat 10 --workers 30 --arch cuda --json --no-tui"
+run() { s=$(date +%s.%N); timeout 170 $B --output-dir /root/w/$1 > /dev/null 2>"$OUT/err_$1.txt"; rc=$?
+  echo "run $1 rc=$rc $(python3 -c "print(round($(date +%s.%N)-$s,1))") s at $(el) s"; }
+run S1_0; [ -n "$(ls /root/w/S1_0/*/results/ 2>/dev/null)" ] || { tail -5 "$OUT/err_S1_0.txt"; exit 10; }
+for k in 1 2 3; do run S1_$k; done
+cp /root/cB/service/service.log "$OUT/service1.log" 2>/dev/null
+python3 -m benchbot.cli service stop > /dev/null 2>&1
+echo "-- service 1 (scenes baked in its run 0):"; python3 "$R/.whl/lead3/frame_diff.py" /root/w/S1_*
+python3 "$R/.whl/lead3/npz_diff.py" /root/c0/sim_taichi-scenes /root/cB/sim_taichi-scenes
+if [ $(el) -lt 400 ]; then
+  for k in 0 1; do run S2_$k; done
+  python3 -m benchbot.cli service stop > /dev/null 2>&1
+  echo "-- services 1 and 2 (2: scenes from the cache):"; python3 "$R/.whl/lead3/frame_diff.py" /root/w/S1_* /root/w/S2_*
+fi
+tar -C /root/w -czf "$OUT/logs16.tgz" $(cd /root/w && ls -d S*/*/logs S*/*/results 2>/dev/null)
+echo "== done at $(el) s"
