@@ -33,6 +33,7 @@ from benchbot.core.robot import MotionOutcome, RobotBackend
 from benchbot_sim_taichi.render.camera_model import CameraModel
 from benchbot_sim_taichi import loaded_scenes
 from benchbot_sim_taichi.kinematics import Obstacles, drive
+from benchbot_sim_taichi.render_check import render_check
 from benchbot_sim_taichi import scene_cache
 from benchbot_worlds.scene.build import build_scene
 from benchbot_worlds.scene.model import Scene
@@ -276,6 +277,9 @@ class TaichiSimBackend(RobotBackend):
         self._cache: dict[str, Any] = {}
         #: the scene this backend renders, shared with the process's other backends of the same world
         self._loaded: loaded_scenes.LoadedScene | None = None
+        #: ``BENCHBOT_SIM_CHECK_RENDERS=1``: every pose rendered twice and compared (:mod:`.render_check`)
+        self._render_check = render_check()
+        self._environment = ""
 
     # ------------------------------------------------------------------------------------------------ contract
     def load_scene(self, environment: dict, *, seed: int = 0) -> None:
@@ -316,6 +320,7 @@ class TaichiSimBackend(RobotBackend):
         scene = self._loaded.scene
         self._seed = seed
         self._frame = 0
+        self._environment = f"{environment.get('name')}:{environment.get('variant')}"
         self.scene = scene
         self.obstacles = Obstacles.from_scene(scene, self.radius, self.max_height)
         self._pose = scene.start_se2.copy()
@@ -405,9 +410,15 @@ class TaichiSimBackend(RobotBackend):
         if "render" not in self._cache:
             T_map_footprint = se2_to_matrix(*self._pose)
             lidar = (T_map_footprint @ self.T_footprint_lidar) if with_scan else None
-            out = self._renderer.render(self.K, T_map_footprint @ self.T_footprint_camera, self.width, self.height,
-                                        mode=self.mode, T_map_lidar=lidar, angles=self.laser_angles,
-                                        samples_per_pixel=self.samples_per_pixel)
+
+            def render() -> dict[str, np.ndarray]:
+                return self._renderer.render(self.K, T_map_footprint @ self.T_footprint_camera, self.width,
+                                             self.height, mode=self.mode, T_map_lidar=lidar,
+                                             angles=self.laser_angles, samples_per_pixel=self.samples_per_pixel)
+
+            out = render()
+            if self._render_check is not None:
+                self._render_check.compare(out, render(), f"{self._environment} frame {self._frame}")
             if with_scan:
                 self._cache_scan(out.pop("ranges"))
             self._cache_images(out)

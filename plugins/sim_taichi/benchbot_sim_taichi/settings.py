@@ -23,6 +23,11 @@ TAICHI_FULL_POSITIONS = Setting("BENCHBOT_TAICHI_FULL_POSITIONS", None, "1: the 
 TAICHI_QUICK_COMPILE = Setting("BENCHBOT_TAICHI_QUICK_COMPILE", "1", "1: the simulator's kernels checked to render the "
                                "same without Taichi's CFG optimisation compile without it (a faster first run); 0: "
                                "every kernel with it", reader=one_of("0", "1"))
+#: ``1``: the backend renders every pose twice and says where the two differ
+#: (:mod:`benchbot_sim_taichi.render_check`); ``0`` (default): once.
+CHECK_RENDERS = Setting("BENCHBOT_SIM_CHECK_RENDERS", "0", "1: render every pose twice and log where the two images "
+                        "differ, keeping both under the cache directory (a check of the simulator's determinism; "
+                        "twice the render time)", reader=one_of("0", "1"))
 
 #: Every setting of the simulator, in the order ``benchbot doctor`` shows them.
-SETTINGS = (TAICHI_ARCH, TAICHI_THREADS, TAICHI_FULL_POSITIONS, TAICHI_QUICK_COMPILE)
+SETTINGS = (TAICHI_ARCH, TAICHI_THREADS, TAICHI_FULL_POSITIONS, TAICHI_QUICK_COMPILE, CHECK_RENDERS)
