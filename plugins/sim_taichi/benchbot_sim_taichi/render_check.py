@@ -49,7 +49,7 @@ def differences(first: dict, second: dict) -> list[str]:
         if key not in first or key not in second:
             out.append(f"{key}: only in the {'first' if key in first else 'second'} render")
             continue
-        a, b = np.asarray(first[key]), np.asarray(second[key])
+        a, b = np.ascontiguousarray(first[key]), np.ascontiguousarray(second[key])
         if a.shape != b.shape or a.dtype != b.dtype:
             out.append(f"{key}: {a.dtype}{list(a.shape)} then {b.dtype}{list(b.shape)}")
             continue
