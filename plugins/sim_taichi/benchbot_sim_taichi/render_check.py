@@ -97,6 +97,7 @@ class RenderCheck:
         name = "".join(ch if ch.isalnum() else "_" for ch in where) + f"_{os.getpid()}_{RenderCheck.kept}.npz"
         arrays = {f"first_{k}": np.asarray(v) for k, v in first.items()}
         arrays.update({f"second_{k}": np.asarray(v) for k, v in second.items()})
+        tmp = None
         try:
             self.folder.mkdir(parents=True, exist_ok=True, mode=0o700)
             fd, tmp = tempfile.mkstemp(dir=self.folder, suffix=".tmp")
@@ -104,6 +105,8 @@ class RenderCheck:
                 np.savez_compressed(f, **arrays)
             os.replace(tmp, self.folder / name)
         except OSError as exc:
+            if tmp is not None:  # a full disk: no half-written file left behind
+                Path(tmp).unlink(missing_ok=True)
             return f"not kept ({exc.strerror or exc})"
         RenderCheck.kept += 1
         return f"both kept in {self.folder / name}"
@@ -111,7 +114,11 @@ class RenderCheck:
 
 def render_check() -> RenderCheck | None:
     """The check the settings ask for: a :class:`RenderCheck` keeping renders under the cache directory when
-    ``BENCHBOT_SIM_CHECK_RENDERS`` is ``1``, else None (the default: each pose rendered once)."""
+    ``BENCHBOT_SIM_CHECK_RENDERS`` is ``1``, else None (the default: each pose rendered once).
+
+    Raises:
+        UsageError: the variable is set to something else than ``0`` or ``1`` (one line naming it).
+    """
     from benchbot.core import settings
     from benchbot.packs.pack_layout import cache_dir
 
