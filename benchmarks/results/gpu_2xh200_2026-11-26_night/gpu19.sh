@@ -15,9 +15,9 @@ unset PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site
 cd /root/w
 S="$R/.whl/lead3/resident_stress.py"
-timeout 200 python3 $S 0 3 miniroom:3 miniroom:1 house:2 2>/root/w/warm.err | grep -v "^\[Taichi\]"; echo "warm-up rc=$? at $(el) s"
+timeout 200 python3 $S --main-thread 0 3 miniroom:3 miniroom:1 house:2 2>/root/w/warm.err | grep -v "^\[Taichi\]"; echo "warm-up rc=$? at $(el) s"
 P=""
-for k in $(seq 1 30); do CUDA_VISIBLE_DEVICES=$((k % 2)) timeout $((380 - $(el))) python3 $S $k 12 miniroom:3 miniroom:1 house:2 > /root/w/r_$k.txt 2>/root/w/r_$k.err & P="$P $!"; done
+for k in $(seq 1 30); do CUDA_VISIBLE_DEVICES=$((k % 2)) timeout $((380 - $(el))) python3 $S --main-thread $k 12 miniroom:3 miniroom:1 house:2 > /root/w/r_$k.txt 2>/root/w/r_$k.err & P="$P $!"; done
 wait $P; echo "30 processes done at $(el) s"
 cat /root/w/r_*.txt | grep "^DIFF" | head -20
 cat /root/w/r_*.txt | grep "^SUM" | awk '{f+=$4; o+=$(NF-4)} END {print "frames", f, "unlike", o}'

@@ -46,7 +46,6 @@ def run(env, reps, recopy):
 def summarise(files):
     first = collections.defaultdict(collections.Counter)
     again = collections.defaultdict(collections.Counter)
-    mism = 0
     n = 0
     for f in files:
         for line in open(f):

@@ -2,8 +2,9 @@
 kept between episodes): episodes of several environments in a seeded random order, each a new backend that loads
 its world (sharing the kept renderer), walks the trajectory and observes as the server does (observe_borrowed), then
 closes. Every frame is compared with the same frame of the process's first episode of that environment; on a
-difference, the differing pixels are described. Usage: resident_stress.py SEED EPISODES ENV..."""
-import hashlib, random, sys
+difference, the differing pixels are described. The episodes run on a backend thread, as in a service worker;
+``--main-thread`` runs them on the main thread. Usage: resident_stress.py [--main-thread] SEED EPISODES ENV..."""
+import random, sys
 import numpy as np
 import yaml
 from benchbot.service import set_resident
@@ -11,6 +12,9 @@ from benchbot_worlds import bear
 from benchbot_sim_taichi import plugin
 from benchbot_sim_taichi.backend import TaichiSimBackend
 
+MAIN_THREAD = "--main-thread" in sys.argv
+if MAIN_THREAD:
+    sys.argv.remove("--main-thread")
 NAMES = ["image_rgb", "image_depth", "image_rgb_info", "image_depth_info", "image_segment", "laser"]
 seed, episodes, envs = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3:]
 set_resident(True)
@@ -52,5 +56,8 @@ def main():
 
 
 if __name__ == "__main__":
-    from benchbot.server.service import backend_worker
-    backend_worker().submit(main).result()  # on the backend thread, as a service worker renders
+    if MAIN_THREAD:
+        main()
+    else:
+        from benchbot.server.service import backend_worker
+        backend_worker().submit(main).result()  # on the backend thread, as a service worker renders
