@@ -8,8 +8,10 @@ episode goes on with the first render, as without the check, so its observations
 unchecked run; each frame costs a second render.
 
 Why: on hosts with several GPUs and the simulator service, an episode now and then received one frame whose RGB
-image differed from the same frame of the other episodes of its environment in one small region (docs/service.md,
-*What is left*). The check tells whether a render, repeated at once, can give another image there.
+image differed from the same frame of the other episodes of its environment in one small region. This check showed
+that a render repeated at once could give another image there, which led to the cause: the rasteriser lost a nearer
+hit now and then on CUDA (``render.raster._keep``, fixed; docs/service.md, *What is left*). It stays to check a
+device, a driver or a change of the kernels.
 """
 
 from __future__ import annotations

@@ -364,8 +364,14 @@ def _span(c, v, u0, u1, n0, n1, n2):
 
 @ti.func
 def _keep(buf: ti.template(), layer, b, v, u, key):
-    if key < buf[layer, b, v, u]:  # a plain read first: most writes lose, and then need no atomic
-        ti.atomic_min(buf[layer, b, v, u], key)
+    """Keep ``key`` in pixel (v, u) of camera b's layer when it is the smallest so far: an atomic minimum, always.
+    Reading the key first and skipping the atomic when it would change nothing lost a nearer hit now and then on
+    CUDA, so a pose did not always render the same image: in 32 processes rendering miniroom:3's frames 40-55 over
+    and over on two H100s, 17 of 79,200 renders had a pixel on the edge between two triangles of one mesh take the
+    farther one, and 0 of 80,000 with the atomic alone (``benchmarks/results/gpu_2026-11-27_render_determinism/``).
+    On the 2-core CPU the read saved nothing measurable (house:1, ``benchmarks/render.py``: 24.6-27.8 fps with it,
+    25.8-28.7 without, in turns)."""
+    ti.atomic_min(buf[layer, b, v, u], key)
 
 
 @ti.func
