@@ -40,7 +40,6 @@ def taichi_on_a_live_thread():
 def bear_envs():
     """The plugin's ten environment specs, keyed 'name:variant'."""
     from benchbot_worlds import bear
-    from benchbot_sim_taichi import plugin
 
     return {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
 
@@ -50,7 +49,6 @@ def carter_spec():
     """The carter robot spec (YAML)."""
     import yaml
 
-    from benchbot_worlds import bear
     from benchbot_sim_taichi import plugin
 
     with open(plugin.ROBOTS_DIR / "carter.yaml", encoding="utf-8") as f:

@@ -19,7 +19,6 @@ def test_plugin_imports_no_taichi():
 
 
 def test_robot_spec(carter_spec):
-    from benchbot_worlds import bear
     from benchbot_sim_taichi import plugin
 
     from benchbot.core.specs import expand_spec_folders
