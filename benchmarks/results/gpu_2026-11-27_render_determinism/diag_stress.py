@@ -2,8 +2,9 @@
 (as an episode does) until a deadline, and report every render unlike the process's first render of its frame: the
 outputs that differ and, for up to 6 RGB pixels that differ, the values of both renders (with diag_patch.py applied:
 depth = green radiance before the tone curve, class = pane index, instance = primitive index). Also counts renders
-whose radiance differs where the RGB does not. Usage: diag_stress.py ENV A B SECONDS TAG"""
-import sys, time
+whose radiance differs where the RGB does not. Arch: DIAG_ARCH (default cuda; cpu to try the script on a CPU).
+Usage: diag_stress.py ENV A B SECONDS TAG"""
+import os, sys, time
 import numpy as np
 import yaml
 from benchbot_worlds import bear
@@ -12,7 +13,7 @@ from benchbot_sim_taichi.backend import TaichiSimBackend
 env, a, b, secs, tag = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]), sys.argv[5]
 spec = yaml.safe_load(open(plugin.ROBOTS_DIR / "carter.yaml"))
 envs = {f"{e['name']}:{e['variant']}": e for e in bear.environment_specs()}
-be = TaichiSimBackend(spec, {"arch": __import__("os").environ.get("DIAG_ARCH", "cuda")})
+be = TaichiSimBackend(spec, {"arch": os.environ.get("DIAG_ARCH", "cuda")})
 be.load_scene(envs[env], seed=0)
 poses = [np.asarray(p, np.float64) for p in be.scene.trajectory_se2]
 r = be._renderer

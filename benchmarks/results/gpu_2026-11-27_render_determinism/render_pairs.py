@@ -1,22 +1,20 @@
-"""Summarise render pairs kept by BENCHBOT_SIM_CHECK_RENDERS=1 (issue 60): per file, which outputs differ, where,
-and by how much. Usage: render_pairs.py FOLDER"""
+"""Summarise render pairs kept by BENCHBOT_SIM_CHECK_RENDERS=1 (issue 60): per file, what the render check's own
+``differences`` says of the two renders, and the largest and mean absolute difference of the pixels that differ.
+Usage: render_pairs.py FOLDER"""
 import pathlib, sys
 import numpy as np
-files = sorted(pathlib.Path(sys.argv[1]).glob("*.npz")) if pathlib.Path(sys.argv[1]).is_dir() else []
+from benchbot_sim_taichi.render_check import differences
+folder = pathlib.Path(sys.argv[1])
+files = sorted(folder.glob("*.npz")) if folder.is_dir() else []
 print(f"{len(files)} kept pairs")
 for f in files:
-    z = np.load(f, allow_pickle=False)
-    keys = sorted({k.split("_", 1)[1] for k in z.files})
-    parts = []
-    for k in keys:
-        a, b = z[f"first_{k}"], z[f"second_{k}"]
-        if a.shape != b.shape or a.tobytes() == b.tobytes():
-            continue
-        if a.ndim >= 2:
-            m = (a != b).reshape(a.shape[:2] + (-1,)).any(-1)
-            rr, cc = np.nonzero(m)
-            d = np.abs(a.astype(np.float64) - b.astype(np.float64))
-            parts.append(f"{k}: {m.sum()} px rows {rr.min()}..{rr.max()} cols {cc.min()}..{cc.max()} max|d| {d.max():.4g} mean|d| {d[m].mean():.4g}")
-        else:
-            parts.append(f"{k}: {(a != b).sum()} of {a.size}")
-    print(f"  {f.name}: {'; '.join(parts) or 'equal'}")
+    with np.load(f, allow_pickle=False) as z:
+        first = {k.removeprefix("first_"): z[k] for k in z.files if k.startswith("first_")}
+        second = {k.removeprefix("second_"): z[k] for k in z.files if k.startswith("second_")}
+    sizes = []
+    for k in first:
+        a, b = first[k].astype(np.float64), second.get(k)
+        if b is not None and a.shape == b.shape and not np.array_equal(first[k], b):
+            d = np.abs(a - b)
+            sizes.append(f"{k} max|d| {d.max():.4g} mean|d| {d[d > 0].mean():.4g}")
+    print(f"  {f.name}: {'; '.join(differences(first, second)) or 'equal'}{' (' + '; '.join(sizes) + ')' if sizes else ''}")
