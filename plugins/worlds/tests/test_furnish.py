@@ -581,6 +581,32 @@ def test_a_riser_stands_on_what_is_under_the_object(lib):
     assert not inter(s, box_of(sink)) and not inter(s, box_of(toaster))
 
 
+def test_supports_keep_clear_of_a_basin_and_what_floats_over_it_gets_a_board_on_it(lib):
+    # miniroom's layout: a sink 0.35 m off the north wall, a bottle and a cup 5 cm above its top behind and beside it,
+    # a toaster over most of its basin. A wall shelf from the north wall carrying the bottle and cup once covered the
+    # basin 1 cm over it (the tap through the board); now no support stands in the room above the sink but the
+    # toaster's board, which stands on the sink's top.
+    plan = one_room_plan()
+    sink = gt("sink", [2.0, 4.3, 0.68], [2.35, 4.65, 0.83], "sink")
+    bottle = gt("bottle", [1.75, 4.7, 0.885], [1.81, 4.76, 1.0], "bottle")
+    cup = gt("cup", [2.4, 4.75, 0.88], [2.48, 4.83, 0.98], "cup")
+    toaster = gt("toaster", [2.15, 4.32, 0.88], [2.37, 4.6, 1.08], "toaster")
+    library = AssetLibrary(FULL_LIB + [obj_asset("toaster_a", "toaster", (0.3, 0.2, 0.2)),
+                                       obj_asset("sink_a", "sink", (0.35, 0.35, 0.15))])
+    objs = [sink, bottle, cup, toaster]
+    res = F.furnish_home(objs, plan, library, seed=0)
+    assert res.unsupported == []
+    sup = res.boxes["support"]
+    slo, shi = box_of(sink)
+    open_room = (np.array([slo[0], slo[1], shi[2]]), np.array([shi[0], shi[1], shi[2] + S.OPEN_ABOVE_M["sink"]]))
+    over = [s for s in sup if inter(s, open_room)]
+    assert len(over) == 1 and abs(over[0][0][2] - shi[2]) < 1e-9 and abs(over[0][1][2] - 0.88) < 1e-9  # the board
+    for o in objs[1:]:
+        assert S.supported_by(box_of(o), sup), o["class"]
+        assert not any(inter(s, box_of(o)) for s in sup)
+    assert not any(inter(s, box_of(sink)) for s in sup)
+
+
 # ------------------------------------------------------------------------------------------------ distractors
 def _hits(b, los, his, eps=1e-6):
     """(N,) which boxes los/his (N, 3) the box b = (lo, hi) overlaps with positive volume (beyond eps)."""

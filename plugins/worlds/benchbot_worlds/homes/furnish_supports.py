@@ -10,8 +10,9 @@ exactly under a single object; a thin wall shelf against a wall within :data:`WA
 a riser standing on a support or a flat-topped GT object under them (:data:`FLAT_TOP_CLASSES`). The one carrying the
 most objects wins; among equals an untrimmed floor unit, a wall shelf, a much-trimmed, slim or low floor unit, a
 pedestal, a riser. Floor furniture (:data:`FLOOR_CLASSES`) at most :data:`LOW_SUPPORT_Z_M` up gets a rug or plinth.
-Each support avoids every GT cuboid, wall, other furniture, window and door hole and the doorways
-(:data:`SUPPORT_DOOR_CLEARANCE_M`; not for one inside a single object's footprint), and stays out of the robot
+Each support avoids every GT cuboid, the room kept open above a basin (:data:`OPEN_ABOVE_M`; an object floating
+in it gets a support of its own, a board on the basin's top), wall, other furniture, window and door hole and the
+doorways (:data:`SUPPORT_DOOR_CLEARANCE_M`; not for one inside a single object's footprint), and stays out of the robot
 corridor except where GT objects below the robot's height already take the floor
 (:meth:`~benchbot_worlds.homes.furnish_space.Space.blocked_beyond_gt`), or, for a shelf, when its underside is above
 :data:`~benchbot_worlds.homes.furnish_space.OVERHEAD_CLEAR_Z_M`. Objects left without one are reported with why.
@@ -97,6 +98,12 @@ FLAT_TOP_CLASSES = frozenset(("table", "refrigerator", "oven", "microwave", "sin
 #: objects that low get the usual candidates (a low wall shelf: the bottom board of a shelving unit).
 FLOOR_CLASSES = frozenset(("chair", "table", "couch", "bed", "toilet", "refrigerator", "oven", "person",
                            "potted plant", "sink"))
+#: GT classes whose top stays open (the room, m, above their cuboid) to a support that does not stand on them: a
+#: basin and its tap. A wall shelf 1 cm over the minirooms' sink once covered its basin, the tap through the board; the
+#: objects beside the basin now get shelves beside it. A board standing on the sink's top (a riser) is still allowed:
+#: it carries an object that floats over the basin (:func:`_over_open`).
+OPEN_ABOVE_M = {"sink": 0.3}
+
 #: Kinds of a riser: a unit standing on a GT object or support under the objects (a thin one is a board).
 RISER_KINDS = ("shelf", "bookcase", "cabinet")
 
@@ -216,11 +223,13 @@ def _group_floating(objects, boxes, need: list[int], plan) -> list[list[int]]:
 
 
 def _trim(lo: np.ndarray, hi: np.ndarray, space: Space, keep: Callable[[np.ndarray, np.ndarray], float]):
-    """Shrink the box lo..hi until it intersects no GT cuboid and no support/distractor, each time cutting the side
-    that keeps the most ``keep(lo, hi)`` (then area). None if that leaves a sliver (< SUPPORT_MIN_SIDE_M)."""
+    """Shrink the box lo..hi until it intersects no GT cuboid, no support/distractor and no room kept open above a GT
+    cuboid (:func:`_open_above`), each time cutting the side that keeps the most ``keep(lo, hi)`` (then area). None if
+    that leaves a sliver (< SUPPORT_MIN_SIDE_M)."""
     lo, hi = lo.copy(), hi.copy()
-    olo = np.vstack([space.gt_lo, space.placed_lo])
-    ohi = np.vstack([space.gt_hi, space.placed_hi])
+    alo, ahi = _open_above(lo, space)
+    olo = np.vstack([space.gt_lo, space.placed_lo, alo])
+    ohi = np.vstack([space.gt_hi, space.placed_hi, ahi])
     for _ in range(24):
         hit = np.flatnonzero(boxes_hit(lo, hi, olo, ohi, -1e-6))
         if not len(hit):
@@ -240,6 +249,34 @@ def _trim(lo: np.ndarray, hi: np.ndarray, space: Space, keep: Callable[[np.ndarr
             return None
         lo, hi = max(options, key=lambda o: (round(keep(*o), 9), float(np.prod((o[1] - o[0])[:2]))))
     return None
+
+
+def _open_above(lo: np.ndarray, space: Space) -> tuple[np.ndarray, np.ndarray]:
+    """(lo (K, 3), hi (K, 3)), the frame of ``space``, m: the room kept open above the GT cuboids of ``space`` whose
+    class is in :data:`OPEN_ABOVE_M`, from each one's top up by its headroom, for a support whose bottom is at height
+    ``lo[2]``; none above a cuboid that support stands on (its top within 1 mm of ``lo[2]``, as
+    :func:`_rests_on_something`)."""
+    rows = [k for k, c in enumerate(space.gt_classes)
+            if c in OPEN_ABOVE_M and abs(float(space.gt_hi[k, 2]) - float(lo[2])) > 1e-3]
+    alo, ahi = space.gt_lo[rows].copy(), space.gt_hi[rows].copy()
+    alo[:, 2] = ahi[:, 2]
+    ahi[:, 2] += [OPEN_ABOVE_M[space.gt_classes[k]] for k in rows]
+    return alo.reshape(-1, 3), ahi.reshape(-1, 3)
+
+
+def _over_open(box, space: Space) -> bool:
+    """Whether the GT ``box`` (lo (3,), hi (3,)) floats in the room kept open above a cuboid (:func:`_open_above`):
+    its bottom within that room and at least REST_MIN_OVERLAP of its footprint over that cuboid's (miniroom_2's
+    toaster over its sink). It then gets a support of its own, a board standing on that cuboid, and its neighbours'
+    support stays clear of the room."""
+    lo, hi = box
+    area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 1e-12)
+    for k, c in enumerate(space.gt_classes):
+        top = float(space.gt_hi[k, 2])
+        if (c in OPEN_ABOVE_M and top - REST_TOL_M <= lo[2] < top + OPEN_ABOVE_M[c]
+                and overlap_area(lo, hi, space.gt_lo[k], space.gt_hi[k]) >= REST_MIN_OVERLAP * area):
+            return True
+    return False
 
 
 def _support_attempt(group, boxes, names, classes, space: Space, library, plan, rng, bounds_of, out: Furnishing):
@@ -439,8 +476,12 @@ def place_supports(objects: list[dict], boxes: list, space: Space, library, plan
         need.append(i)
     names = [f"{o.get('class')} {o.get('ID_name', i)}" for i, o in enumerate(objects)]
     classes = [str(o.get("class", "")) for o in objects]
+    groups = []
+    for group in _group_floating(objects, boxes, need, plan):
+        over = [i for i in group if _over_open(boxes[i], space)]
+        groups += [[i] for i in over] + [[i for i in group if i not in over]] * (len(over) < len(group))
     # lowest first: furniture under the lower objects of a shelving column is placed before the boards above them
-    for group in sorted(_group_floating(objects, boxes, need, plan), key=lambda g: min(boxes[i][0][2] for i in g)):
+    for group in sorted(groups, key=lambda g: min(boxes[i][0][2] for i in g)):
         left = _support_group(group, boxes, names, classes, space, library, plan, seed, bounds_of, out)
         out.unsupported.extend(sorted(left.items()))
 
