@@ -237,6 +237,27 @@ def test_parallel_workers_share_the_cores(tmp_path):
 
 
 @pytest.mark.slow
+def test_one_episode_at_a_time_leaves_the_solutions_threads_as_the_user_has_them(tmp_path):
+    """Through the path a GPU batch takes with the service (episodes in threads of the batch process, here the
+    ``batched`` executor's): one episode at a time, a solution's BLAS/OpenMP variables are left unset, so its own
+    default applies (the example takes one BLAS thread); two at a time, each gets cores / 2."""
+    report = ("import os; print('threads', os.environ.get('OMP_NUM_THREADS'), "
+              "os.environ.get('OPENBLAS_NUM_THREADS'), os.environ.get('MKL_NUM_THREADS'))")
+    env = {k: v for k, v in os.environ.items() if k not in ("BENCHBOT_TAICHI_THREADS", "OMP_NUM_THREADS",
+                                                           "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+    share = str(max(1, (os.cpu_count() or 1) // 2))
+    for workers, expected in (("1", "threads None None None"), ("2", f"threads {share} {share} {share}")):
+        out = tmp_path / workers
+        proc = subprocess.run([*BENCHBOT, "batch", "--native", f"{sys.executable} -c \"{report}\"", "--envs",
+                               "miniroom:1,miniroom:2", "--executor", "batched", "--workers", workers,
+                               "--output-dir", str(out), *SMALL], capture_output=True, text=True, timeout=300, env=env)
+        run_dir = next(out.iterdir())
+        for record in manifest(run_dir)["episodes"]:
+            log = (run_dir / record["log"]).read_text()
+            assert expected in log, (workers, log, proc.stderr)
+
+
+@pytest.mark.slow
 def test_noise_sweep_records_the_presets_and_the_noise_reaches_the_solution(tmp_path):
     """``--sweep noise=none,low`` runs both levels with the same seed, records the presets in the manifest and plan,
     and writes the robustness summary and plot; ``--noise low`` alone, with that seed, gives bit-identical results

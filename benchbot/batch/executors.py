@@ -239,8 +239,11 @@ def _run_in_threads(
     on_record: Callable[[EpisodeRecord], None], run_one: Callable[[EpisodeSpec, RunSpec, queue.Queue], EpisodeRecord],
 ) -> None:
     """Run ``todo`` in this process, ``workers`` at a time, each in a thread of its own (``run_one(spec, run,
-    events)``, whose solution is a child of this process); ``on_record`` in this thread as each ends. Solutions'
-    BLAS/OpenMP threads are capped to ``threads`` (unless set; the variables are taken back afterwards).
+    events)``, whose solution is a child of this process); ``on_record`` in this thread as each ends. When several
+    episodes run at once, solutions' BLAS/OpenMP threads are capped to ``threads`` (unless set; the variables are
+    taken back afterwards); one at a time, they are left as the user has them, so a solution's own default applies
+    (the example ``semslam_geometric`` takes one BLAS thread: given every core's, README command 1 on a GPU host ran
+    its solution with one BLAS thread per core).
 
     Ctrl-C (KeyboardInterrupt in this thread): every running solution's group is stopped
     (:func:`benchbot.solutions.process_group.interrupt_children`), the episodes are given :data:`BATCHED_STOP_WAIT_S`
@@ -248,7 +251,7 @@ def _run_in_threads(
     """
     from benchbot.solutions import process_group
 
-    added = [name for name in THREAD_VARIABLES[1:] if name not in os.environ]
+    added = [name for name in THREAD_VARIABLES[1:] if name not in os.environ and min(workers, len(todo)) > 1]
     for name in added:  # the solutions' libraries; taken back at the end
         os.environ[name] = str(threads)
     events: queue.Queue = queue.Queue()
@@ -312,8 +315,8 @@ def run_batched(
     process's one backend thread, so the simulator starts and compiles its kernels once. Episodes of one world run
     together (:func:`world_order`) and share its loaded scene where the simulator shares scenes (``sim_taichi``:
     :mod:`benchbot_sim_taichi.loaded_scenes`: one upload, one copy in GPU memory); what each episode observes, its
-    results and its record are what it would get alone. Solutions' BLAS/OpenMP threads are capped to
-    ``cores / workers`` (unless set; the variables are taken back afterwards). Each record says it ran here
+    results and its record are what it would get alone. With several at once, solutions' BLAS/OpenMP threads are
+    capped to ``cores / workers`` (unless set; the variables are taken back afterwards: :func:`_run_in_threads`). Each record says it ran here
     (``executor`` ``batched``, ``node`` this host, and this process's GPU for a GPU arch). Ctrl-C: as
     :func:`_run_in_threads`.
     """
