@@ -5,7 +5,7 @@
 # First, what the solution is given in each (a native solution printing its variables).
 set -u
 R=$PWD; T0=$(date +%s); el() { echo $(( $(date +%s) - T0 )); }
-N=${CALL:-26}  # gpu27: CALL=27 ORDER="before after", the same rounds in the other order
+N=${CALL:-26}  # gpu27: CALL=27 ORDER="before after", the same rounds in the other order; gpu29: CALL=29 on one H100
 exec > >(tee -a "$OUT/log$N.txt") 2>&1
 echo "== $(date -u +%FT%TZ) $(git -C "$R" rev-parse --short HEAD 2>/dev/null)"; nvidia-smi -L; nproc
 rm -rf /tmp/site /tmp/bsite /tmp/semP /root/w
