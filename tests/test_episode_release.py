@@ -10,7 +10,6 @@ may send it; the one-line errors in the solution's terminal and in the CLI's.
 from __future__ import annotations
 
 import os
-import signal
 import socket
 import subprocess
 import sys

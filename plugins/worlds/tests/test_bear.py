@@ -15,7 +15,6 @@ def test_plugin_imports_no_simulator_and_no_mesh_library():
 
 
 def test_environment_specs(bear_envs):
-    from benchbot_worlds import bear
     from benchbot_worlds import plugin
 
     envs = plugin.benchbot_environments()

@@ -8,7 +8,6 @@ failed or interrupted run leaves no half pack.
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import tempfile
