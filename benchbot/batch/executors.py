@@ -251,7 +251,8 @@ def _run_in_threads(
     """
     from benchbot.solutions import process_group
 
-    added = [name for name in THREAD_VARIABLES[1:] if name not in os.environ and min(workers, len(todo)) > 1]
+    several = min(workers, len(todo)) > 1
+    added = [name for name in THREAD_VARIABLES[1:] if several and name not in os.environ]
     for name in added:  # the solutions' libraries; taken back at the end
         os.environ[name] = str(threads)
     events: queue.Queue = queue.Queue()
@@ -316,8 +317,9 @@ def run_batched(
     together (:func:`world_order`) and share its loaded scene where the simulator shares scenes (``sim_taichi``:
     :mod:`benchbot_sim_taichi.loaded_scenes`: one upload, one copy in GPU memory); what each episode observes, its
     results and its record are what it would get alone. With several at once, solutions' BLAS/OpenMP threads are
-    capped to ``cores / workers`` (unless set; the variables are taken back afterwards: :func:`_run_in_threads`). Each record says it ran here
-    (``executor`` ``batched``, ``node`` this host, and this process's GPU for a GPU arch). Ctrl-C: as
+    capped to ``cores / workers`` (unless set; the variables are taken back afterwards: :func:`_run_in_threads`).
+    Each record says it ran here (``executor`` ``batched``, ``node`` this host, and this process's GPU for a GPU
+    arch). Ctrl-C: as
     :func:`_run_in_threads`.
     """
     here = provenance.local_node()  # no host name unless BENCHBOT_MANIFEST_LOCAL=1

@@ -251,32 +251,36 @@ def _trim(lo: np.ndarray, hi: np.ndarray, space: Space, keep: Callable[[np.ndarr
     return None
 
 
-def _open_above(lo: np.ndarray, space: Space) -> tuple[np.ndarray, np.ndarray]:
-    """(lo (K, 3), hi (K, 3)), the frame of ``space``, m: the room kept open above the GT cuboids of ``space`` whose
-    class is in :data:`OPEN_ABOVE_M`, from each one's top up by its headroom, for a support whose bottom is at height
-    ``lo[2]``; none above a cuboid that support stands on (its top within 1 mm of ``lo[2]``, as
-    :func:`_rests_on_something`)."""
-    rows = [k for k, c in enumerate(space.gt_classes)
-            if c in OPEN_ABOVE_M and abs(float(space.gt_hi[k, 2]) - float(lo[2])) > 1e-3]
-    alo, ahi = space.gt_lo[rows].copy(), space.gt_hi[rows].copy()
+def _open_rooms(space: Space) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lo (K, 3), hi (K, 3), rows (K,) int), the frame of ``space``, m: the room kept open above each GT cuboid of
+    ``space`` whose class is in :data:`OPEN_ABOVE_M`, from its top up by its headroom, and that cuboid's row."""
+    rows = np.array([k for k, c in enumerate(space.gt_classes) if c in OPEN_ABOVE_M], dtype=int)
+    alo, ahi = space.gt_lo[rows].reshape(-1, 3).copy(), space.gt_hi[rows].reshape(-1, 3).copy()
     alo[:, 2] = ahi[:, 2]
     ahi[:, 2] += [OPEN_ABOVE_M[space.gt_classes[k]] for k in rows]
-    return alo.reshape(-1, 3), ahi.reshape(-1, 3)
+    return alo, ahi, rows
+
+
+def _open_above(lo: np.ndarray, space: Space) -> tuple[np.ndarray, np.ndarray]:
+    """(lo (K, 3), hi (K, 3)) of :func:`_open_rooms` that a support whose bottom is at height ``lo[2]`` (m) must keep
+    clear of: all but those above a cuboid it stands on (its top within 1 mm of ``lo[2]``, as
+    :func:`_rests_on_something`)."""
+    alo, ahi, _ = _open_rooms(space)
+    keep = np.abs(alo[:, 2] - float(lo[2])) > 1e-3
+    return alo[keep], ahi[keep]
 
 
 def _over_open(box, space: Space) -> bool:
-    """Whether the GT ``box`` (lo (3,), hi (3,)) floats in the room kept open above a cuboid (:func:`_open_above`):
-    its bottom within that room and at least REST_MIN_OVERLAP of its footprint over that cuboid's (miniroom_2's
-    toaster over its sink). It then gets a support of its own, a board standing on that cuboid, and its neighbours'
-    support stays clear of the room."""
+    """Whether the GT ``box`` (lo (3,), hi (3,), m) floats in a room of :func:`_open_rooms`: its bottom from
+    REST_TOL_M under that room's bottom to its top, and at least REST_MIN_OVERLAP of its footprint over the cuboid's
+    (miniroom_2's toaster over its sink). It then gets a support of its own, a board standing on that cuboid, and its
+    neighbours' support stays clear of the room."""
     lo, hi = box
     area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 1e-12)
-    for k, c in enumerate(space.gt_classes):
-        top = float(space.gt_hi[k, 2])
-        if (c in OPEN_ABOVE_M and top - REST_TOL_M <= lo[2] < top + OPEN_ABOVE_M[c]
-                and overlap_area(lo, hi, space.gt_lo[k], space.gt_hi[k]) >= REST_MIN_OVERLAP * area):
-            return True
-    return False
+    alo, ahi, rows = _open_rooms(space)
+    return any(alo[j, 2] - REST_TOL_M <= lo[2] < ahi[j, 2]
+               and overlap_area(lo, hi, space.gt_lo[k], space.gt_hi[k]) >= REST_MIN_OVERLAP * area
+               for j, k in enumerate(rows))
 
 
 def _support_attempt(group, boxes, names, classes, space: Space, library, plan, rng, bounds_of, out: Furnishing):
