@@ -114,6 +114,35 @@ def test_truncation_and_frame_truths(realism):
     assert got[19001].model == "table__sc_round-table" and got[18001].model == "chair__cc0_thonet"
 
 
+def test_a_sink_counts_by_its_basin_as_coco_boxes_sinks(realism):
+    """A pedestal washbasin's cuboid reaches the floor; COCO boxes the basin: with the depth, only the sink's pixels
+    within SINK_BASIN_M under its cuboid's top count; a table's whole mask counts either way."""
+    W, H = 64, 48
+    K = np.array([[32.0, 0, (W - 1) / 2], [0, 32.0, (H - 1) / 2], [0, 0, 1]])
+    T = np.eye(4)  # the camera 1 m over the floor, looking along map +x (optical x = map -y, y = map -z, z = map x)
+    T[:3, :3] = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    T[2, 3] = 1.0
+    depth = np.full((H, W), 2.0, np.float32)  # a wall 2 m ahead: height = 1 - (v - 23.5) / 16
+    heights = realism.pixel_heights(depth, K, T, np.array([0, 23, 47]), np.array([5, 31, 60]))
+    assert heights == pytest.approx([1 + 23.5 / 16, 1 + 0.5 / 16, 1 - 23.5 / 16])
+    img = np.zeros((H, W), np.int32)
+    img[10:30, 10:54] = 71001  # the basin and tap: heights 1.41 to 0.66 m
+    img[30:48, 28:36] = 71001  # the pedestal, down to the image's bottom (0.53 m)
+    img[2:8, 2:62] = 60001     # a table top, far from any sink rule
+    classes = ["x"] * 72
+    classes[71], classes[60] = "sink", "table"
+    scene = SimpleNamespace(box_instance=np.array([71001, 60001]), box_min=np.array([[1.8, -1, 0.0], [1.8, -1, 1.6]]),
+                            box_max=np.array([[2.2, 1, 1.0], [2.2, 1, 1.7]]), class_list=classes)
+    whole = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=100)}
+    basin = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=100, depth=depth)}
+    assert whole[71001].box == [10, 10, 54, 48] and whole[71001].pixels == 20 * 44 + 18 * 8
+    # height >= 1.0 - 0.35 m: rows v <= 23.5 + 16 * 0.35 = 29.1, i.e. the basin's rows 10..29
+    assert basin[71001].box == [10, 10, 54, 30] and basin[71001].pixels == 20 * 44
+    assert basin[60001] == whole[60001] and basin[60001].box == [2, 2, 62, 8]
+    img[10:30, 10:54] = 0  # only the pedestal in view: no basin pixel, so no sink
+    assert 71001 not in {t.instance for t in realism.frame_truths(img, scene, K, T, depth=depth)}
+
+
 def test_psnr_ssim(realism):
     rng = np.random.default_rng(0)
     a = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
