@@ -558,14 +558,14 @@ def test_the_photo_set_is_val2017_with_its_boxes_and_a_licence_per_photo(realism
     data = json.loads((folder / "coco_val2017.json").read_text())
     licences = {entry["id"] for entry in data["licenses"]}
     attribution = (folder / "ATTRIBUTION.md").read_text()
-    assert len(data["images"]) >= 70 and "CC BY 4.0" in attribution
+    assert len(data["images"]) >= 150 and "CC BY 4.0" in attribution
     no_derivatives = {e["id"] for e in data["licenses"] if "noderivs" in e["name"].lower()}
     for im in data["images"]:
         assert im["license"] not in no_derivatives  # re-encoding could count as altering a no-derivatives photo
         assert "/val2017/" in im["coco_url"] and im["license"] in licences and im["flickr_url"].startswith("http")
         assert f"| {im['id']} | `{im['file_name']}` |" in attribution
         assert max(im["width"], im["height"]) <= 640
-    assert sum(p.stat().st_size for p in folder.glob("*.jpg")) < 8e6
+    assert sum(p.stat().st_size for p in folder.glob("*.jpg")) < 14e6
     photos = realism_real.load_photos(realism, folder)
     assert {p.path.name for p in photos} == {p.name for p in folder.glob("*.jpg")}
     from PIL import Image
@@ -699,3 +699,30 @@ def test_the_photo_tool_keeps_val2017_photos_with_a_bear_box_and_leaves_out_no_d
     images.append({"id": 13, "license": 1, "coco_url": "http://images.cocodataset.org/train2017/y.jpg"})
     with pytest.raises(ValueError, match="not a val2017 image"):
         tool.kept_images(data, tool.bear_classes())
+
+
+def test_the_photo_tool_refuses_a_photo_whose_licence_it_cannot_check():
+    """A source without COCO's ``licenses`` list takes another source's; with none, a photo's licence id names
+    nothing and the tool refuses it rather than keep a photo that may be no-derivatives; two different lists are
+    refused too."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        tool = importlib.import_module("realism_photos")
+    finally:
+        sys.path.remove(str(ROOT / "tools"))
+    licences = [{"id": 1, "name": "Attribution License"},
+                {"id": 3, "name": "Attribution-NonCommercial-NoDerivs License"}]
+    categories = [{"id": 62, "name": "chair"}]
+    url = "http://images.cocodataset.org/val2017/x.jpg"
+    with_list = {"licenses": licences, "categories": categories, "images": [{"id": 10, "license": 1, "coco_url": url}],
+                 "annotations": [{"id": 1, "image_id": 10, "category_id": 62}]}
+    without = {"categories": categories, "images": [{"id": 11, "license": 3, "coco_url": url}],
+               "annotations": [{"id": 2, "image_id": 11, "category_id": 62}]}
+    merged, _ = tool.merge([(with_list, Path("a")), (without, Path("b"))])
+    assert [im["id"] for im in tool.kept_images(merged, tool.bear_classes())] == [10]  # 11 is no-derivatives
+    alone, _ = tool.merge([(without, Path("b"))])
+    with pytest.raises(ValueError, match="licence id 3 is in no source's"):
+        tool.kept_images(alone, tool.bear_classes())
+    other = {**with_list, "licenses": licences[:1]}
+    with pytest.raises(ValueError, match="licences of the source of b differ"):
+        tool.merge([(with_list, Path("a")), (other, Path("b"))])

@@ -49,17 +49,22 @@ def kept_images(data: dict, classes: set[str]) -> list[dict]:
     allows derivatives (:func:`no_derivatives`), in file order.
 
     Raises:
-        ValueError: an image is not a val2017 one (its ``coco_url`` names another split).
+        ValueError: an image is not a val2017 one (its ``coco_url`` names another split), or one with a box of
+            ``classes`` has a licence id that ``data["licenses"]`` does not name (its licence cannot be checked).
     """
     from benchbot_task_semslam.coco import COCO_TO_BEAR
 
     names = {c["id"]: COCO_TO_BEAR.get(c["name"], c["name"]) for c in data["categories"]}
     with_class = {a["image_id"] for a in data["annotations"] if names[a["category_id"]] in classes}
     out, refused = [], no_derivatives(data)
+    known = {entry["id"] for entry in data.get("licenses", [])}
     for im in data["images"]:
         if "/val2017/" not in im.get("coco_url", "/val2017/"):
             raise ValueError(f"image {im['id']} is not a val2017 image ({im['coco_url']}): the detectors trained "
                              "on train2017")
+        if im["id"] in with_class and im.get("license") not in known:
+            raise ValueError(f"image {im['id']}'s licence id {im.get('license')} is in no source's `licenses`: "
+                             "give a source with COCO's licence list")
         if im["id"] in with_class and im.get("license") not in refused:
             out.append(im)
     return out
@@ -83,8 +88,11 @@ def merge(sources: list[tuple[dict, Path]]) -> tuple[dict, dict]:
     """One COCO instances dict from several (``data``, image folder) sources, images and boxes kept once (by id),
     and {image id: its folder}.
 
+    A source without COCO's ``licenses`` list (some subsets drop it) takes the other sources' list.
+
     Raises:
-        ValueError: two sources give the same image or box different contents, or their categories differ.
+        ValueError: two sources give the same image or box different contents, or their categories or licence
+            lists differ.
     """
     merged: dict = {"info": sources[0][0].get("info", {}), "licenses": [], "categories": sources[0][0]["categories"],
                     "images": [], "annotations": []}
@@ -93,6 +101,8 @@ def merge(sources: list[tuple[dict, Path]]) -> tuple[dict, dict]:
     for data, image_dir in sources:
         if data["categories"] != merged["categories"]:
             raise ValueError(f"the categories of the source of {image_dir} differ from the first source's")
+        if data.get("licenses") and merged["licenses"] and data["licenses"] != merged["licenses"]:
+            raise ValueError(f"the licences of the source of {image_dir} differ from an earlier source's")
         merged["licenses"] = merged["licenses"] or data.get("licenses", [])
         for kind in ("images", "annotations"):
             for item in data[kind]:
