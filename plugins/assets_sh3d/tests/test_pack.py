@@ -165,6 +165,18 @@ def test_no_texture_is_a_uv_checker_placeholder():
     assert not found, f"UV checker textures in {found}"
 
 
+def test_no_placeholder_textile_is_drawn_in_its_placeholder_white():
+    # Kator Legaz's TEXTILE_generic (the mid-century sofa's upholstery) is a diffuse 1.0 white that Sweet Home 3D's
+    # users recolour; drawn as it is, the couches of the BEAR houses read as glowing white blocks. build_pack draws it
+    # as a grey fabric (Pick.fabric)
+    placeholder = [(a["id"], m) for a in ASSETS for m in gltf(a["file"])[0].get("materials", [])
+                   if m.get("name") == "TEXTILE_generic"]
+    assert [i for i, _ in placeholder] == ["couch__kl_mid-century-sofa"]
+    for asset_id, material in placeholder:
+        base = material["pbrMetallicRoughness"].get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
+        assert max(base[:3]) < 0.5, f"{asset_id}: {material['name']} drawn in {base}"
+
+
 GT_WORDS = ("chair", "stool", "table", "desk", "plant", "flower", "tv", "television", "monitor", "sofa", "couch",
             "bed", "toilet", "sink", "basin", "book", "clock", "bottle", "cup", "glass", "bowl", "fridge", "oven",
             "microwave", "toaster", "laptop", "computer", "keyboard", "phone", "person", "male", "female")

@@ -1,7 +1,7 @@
 """Rebuild the asset pack of ``benchbot_assets_sh3d`` from Debian's ``sweethome3d-furniture`` package.
 
-    uv run --with fast-simplification python plugins/assets_sh3d/tools/build_pack.py            # download + build
-    uv run --with fast-simplification python plugins/assets_sh3d/tools/build_pack.py --deb X.deb
+    uv run --with fast-simplification --with rtree python plugins/assets_sh3d/tools/build_pack.py            # download + build
+    uv run --with fast-simplification --with rtree python plugins/assets_sh3d/tools/build_pack.py --deb X.deb
 
 Steps: ``apt-get download sweethome3d-furniture`` (or ``--deb``), ``dpkg -x``; read each library's catalogue
 (``PluginFurnitureCatalog.properties`` in the ``.sh3f`` zips) and the package's copyright file; for every model of
@@ -102,6 +102,9 @@ class Pick:
         plain: regex: materials it matches (search, by name) are drawn in their texture's mean colour instead of
             the texture (a placeholder texture: Blend Swap's ``bedWithTexture`` covers its coverlet with a 16 × 16
             grey-and-white UV checker, which the draped coverlet's coordinates bend into blotches 10-30 cm across).
+        fabric: (regex, sRGB colour): materials it matches (search, by name) are drawn in that colour (0-1 per
+            channel) instead of their own: for a placeholder material a user of Sweet Home 3D is meant to recolour
+            (Kator Legaz's ``TEXTILE_generic``, diffuse 1.0: whiter than fresh snow, which reflects about 0.9).
     """
 
     lib: str
@@ -118,6 +121,7 @@ class Pick:
     name: str | None = None
     max_error: float = meshops.DECIMATION_MAX_ERROR
     plain: str | None = None
+    fabric: tuple[str, tuple[float, float, float]] | None = None
 
     @property
     def asset_kind(self) -> str:
@@ -194,7 +198,7 @@ SELECTION: tuple[Pick, ...] = (
     P("cc0", "couch", "couch"),
     P("ccby", "sofa2", "couch"),
     P("ccby", "couch3", "couch"),
-    P("kl", "mid-century-sofa", "couch"),
+    P("kl", "mid-century-sofa", "couch", fabric=("^TEXTILE_generic$", (0.52, 0.50, 0.47))),  # a grey fabric
     P("sc", "beige_sofa", "couch"),
     P("sc", "burlap_sofa", "couch"),
     P("sc", "leather_sofa", "couch"),
@@ -563,6 +567,8 @@ def build_asset(pick: Pick, libs: dict[str, sh3d.Library], copyright_text: str) 
                 alpha_mode = "MASK" if has_alpha else "OPAQUE"
             elif img is not None:  # a texture without coordinates (or a placeholder, ``plain``): its mean colour
                 base = np.r_[meshops.srgb_to_linear(meshops.mean_colour(img)), mat.d]
+        if pick.fabric and re.search(pick.fabric[0], mname or "") and texture is None:
+            base = np.r_[meshops.srgb_to_linear(np.asarray(pick.fabric[1], float)), mat.d]
         if mat.d < 0.99 and alpha_mode == "OPAQUE":
             alpha_mode = "BLEND"
         roughness = float(np.clip(np.sqrt(2.0 / (mat.ns + 2.0)), 0.05, 1.0)) if mat.ns > 0 else 1.0
@@ -705,6 +711,8 @@ def attribution(built: list[Built]) -> str:
             changes.append(f"step: {b.pick.op}")
         if b.pick.plain:
             changes.append(f"drawn without its texture, in its mean colour: {b.pick.plain}")
+        if b.pick.fabric:
+            changes.append("material {} drawn in sRGB ({:.2f}, {:.2f}, {:.2f})".format(b.pick.fabric[0], *b.pick.fabric[1]))
         lines.append(f"| `{b.pick.asset_id}` | {b.model} | {b.creator} | {b.library} | "
                      f"[{b.licence}]({b.licence_url}) | {b.source_url or 'sweethome3d.com'} | {'; '.join(changes)} |")
     return "\n".join(lines) + "\n"
