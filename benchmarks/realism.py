@@ -284,7 +284,9 @@ def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: n
     (``class_list``), cuboid (``box_min``/``box_max``/``box_instance``) and, where it has them, model
     (``box_models``; a scene without them gives ``""``); ``crowd``: the instances of :func:`crowd_instances`.
     With the frame's z-depth ``depth`` ((H, W) float32 metres), a sink counts by its basin, as COCO boxes sinks:
-    the pixels within :data:`SINK_BASIN_M` under its cuboid's top (:func:`pixel_heights`)."""
+    the pixels within :data:`SINK_BASIN_M` under its cuboid's top (:func:`pixel_heights`); a sink with none of them
+    in view (only its pedestal or cabinet) keeps its whole mask but is never visible, so that a detection on it is
+    ignored rather than counted as a false positive."""
     H, W = instance_img.shape
     ids, counts = np.unique(instance_img, return_counts=True)
     index = {int(i): k for k, i in enumerate(np.asarray(scene.box_instance).tolist())}
@@ -296,15 +298,16 @@ def frame_truths(instance_img: np.ndarray, scene, K: np.ndarray, T_map_camera: n
         k = index[iid]
         ys, xs = np.nonzero(instance_img == iid)
         cls = str(scene.class_list[iid // 1000])
+        basin_in_view = True
         if cls == "sink" and depth is not None:
             basin = pixel_heights(depth, K, T_map_camera, ys, xs) >= float(scene.box_max[k][2]) - SINK_BASIN_M
-            ys, xs, n = ys[basin], xs[basin], int(basin.sum())
-            if n == 0:
-                continue
+            basin_in_view = bool(basin.any())
+            if basin_in_view:
+                ys, xs, n = ys[basin], xs[basin], int(basin.sum())
         box = [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1]
         trunc = cuboid_truncation(scene.box_min[k], scene.box_max[k], K, T_map_camera, W, H)
-        out.append(Truth(iid, cls, box, int(n), trunc, n >= min_pixels and trunc <= max_truncation,
-                         models[k] if k < len(models) else "", iid in crowd))
+        visible = basin_in_view and n >= min_pixels and trunc <= max_truncation
+        out.append(Truth(iid, cls, box, int(n), trunc, visible, models[k] if k < len(models) else "", iid in crowd))
     return out
 
 

@@ -139,8 +139,12 @@ def test_a_sink_counts_by_its_basin_as_coco_boxes_sinks(realism):
     # height >= 1.0 - 0.35 m: rows v <= 23.5 + 16 * 0.35 = 29.1, i.e. the basin's rows 10..29
     assert basin[71001].box == [10, 10, 54, 30] and basin[71001].pixels == 20 * 44
     assert basin[60001] == whole[60001] and basin[60001].box == [2, 2, 62, 8]
-    img[10:30, 10:54] = 0  # only the pedestal in view: no basin pixel, so no sink
-    assert 71001 not in {t.instance for t in realism.frame_truths(img, scene, K, T, depth=depth)}
+    img[10:30, 10:54] = 0  # only the pedestal in view: no basin pixel, so a sink never visible, whole mask kept
+    (pedestal,) = [t for t in realism.frame_truths(img, scene, K, T, min_pixels=100, depth=depth) if t.cls == "sink"]
+    assert not pedestal.visible and pedestal.box == [28, 30, 36, 48] and pedestal.pixels == 18 * 8
+    # so a sink box on the pedestal is ignored, neither a hit nor a false positive (COCO class 71 is "sink")
+    score = realism.score_frame([pedestal], [[28, 30, 36, 48, 0.9, 71]], 0.3)
+    assert not score.hits and not score.false_positives
 
 
 def test_psnr_ssim(realism):
@@ -679,50 +683,54 @@ def test_smoke_run_with_the_real_reference(realism, tmp_path, capsys):
     assert "sim / real" in (tmp_path / "per_class.md").read_text()
 
 
-def test_the_photo_tool_keeps_val2017_photos_with_a_bear_box_and_leaves_out_no_derivatives_ones():
-    """``tools/realism_photos.kept_images``: a photo with a BEAR-class box is kept unless its licence forbids
-    derivatives; one with only a person is left out; a train2017 image is refused."""
+PHOTO_LICENCES = [{"id": 1, "name": "Attribution License"},
+                  {"id": 3, "name": "Attribution-NonCommercial-NoDerivs License"}]
+"""Two of COCO's licences: one that allows derivatives, one that does not."""
+
+
+@pytest.fixture
+def photo_tool():
+    """``tools/realism_photos.py`` as a module."""
     sys.path.insert(0, str(ROOT / "tools"))
     try:
-        tool = importlib.import_module("realism_photos")
+        return importlib.import_module("realism_photos")
     finally:
         sys.path.remove(str(ROOT / "tools"))
-    licences = [{"id": 1, "name": "Attribution License"},
-                {"id": 3, "name": "Attribution-NonCommercial-NoDerivs License"}]
+
+
+def test_the_photo_tool_keeps_val2017_photos_with_a_bear_box_and_leaves_out_no_derivatives_ones(photo_tool):
+    """``tools/realism_photos.kept_images``: a photo with a BEAR-class box is kept unless its licence forbids
+    derivatives; one with only a person is left out; a train2017 image is refused."""
+    licences = PHOTO_LICENCES
     categories = [{"id": 1, "name": "person"}, {"id": 62, "name": "chair"}]
     images = [{"id": i, "license": lic, "coco_url": "http://images.cocodataset.org/val2017/x.jpg"}
               for i, lic in ((10, 1), (11, 3), (12, 1))]
     boxes = [{"image_id": 10, "category_id": 62}, {"image_id": 11, "category_id": 62},
              {"image_id": 12, "category_id": 1}]
     data = {"licenses": licences, "categories": categories, "images": images, "annotations": boxes}
-    assert [im["id"] for im in tool.kept_images(data, tool.bear_classes())] == [10]
+    assert [im["id"] for im in photo_tool.kept_images(data, photo_tool.bear_classes())] == [10]
     images.append({"id": 13, "license": 1, "coco_url": "http://images.cocodataset.org/train2017/y.jpg"})
     with pytest.raises(ValueError, match="not a val2017 image"):
-        tool.kept_images(data, tool.bear_classes())
+        photo_tool.kept_images(data, photo_tool.bear_classes())
 
 
-def test_the_photo_tool_refuses_a_photo_whose_licence_it_cannot_check():
+def test_the_photo_tool_refuses_a_photo_whose_licence_it_cannot_check(photo_tool):
     """A source without COCO's ``licenses`` list takes another source's; with none, a photo's licence id names
     nothing and the tool refuses it rather than keep a photo that may be no-derivatives; two different lists are
     refused too."""
-    sys.path.insert(0, str(ROOT / "tools"))
-    try:
-        tool = importlib.import_module("realism_photos")
-    finally:
-        sys.path.remove(str(ROOT / "tools"))
-    licences = [{"id": 1, "name": "Attribution License"},
-                {"id": 3, "name": "Attribution-NonCommercial-NoDerivs License"}]
+    licences = PHOTO_LICENCES
     categories = [{"id": 62, "name": "chair"}]
     url = "http://images.cocodataset.org/val2017/x.jpg"
     with_list = {"licenses": licences, "categories": categories, "images": [{"id": 10, "license": 1, "coco_url": url}],
                  "annotations": [{"id": 1, "image_id": 10, "category_id": 62}]}
     without = {"categories": categories, "images": [{"id": 11, "license": 3, "coco_url": url}],
                "annotations": [{"id": 2, "image_id": 11, "category_id": 62}]}
-    merged, _ = tool.merge([(with_list, Path("a")), (without, Path("b"))])
-    assert [im["id"] for im in tool.kept_images(merged, tool.bear_classes())] == [10]  # 11 is no-derivatives
-    alone, _ = tool.merge([(without, Path("b"))])
+    merged, _ = photo_tool.merge([(with_list, Path("a")), (without, Path("b"))])
+    kept = photo_tool.kept_images(merged, photo_tool.bear_classes())
+    assert [im["id"] for im in kept] == [10]  # 11 is a no-derivatives photo
+    alone, _ = photo_tool.merge([(without, Path("b"))])
     with pytest.raises(ValueError, match="licence id 3 is in no source's"):
-        tool.kept_images(alone, tool.bear_classes())
+        photo_tool.kept_images(alone, photo_tool.bear_classes())
     other = {**with_list, "licenses": licences[:1]}
     with pytest.raises(ValueError, match="licences of the source of b differ"):
-        tool.merge([(with_list, Path("a")), (other, Path("b"))])
+        photo_tool.merge([(with_list, Path("a")), (other, Path("b"))])

@@ -1,6 +1,6 @@
 """Rebuild the asset pack of ``benchbot_assets_sh3d`` from Debian's ``sweethome3d-furniture`` package.
 
-    uv run --with fast-simplification --with rtree python plugins/assets_sh3d/tools/build_pack.py            # download + build
+    uv run --with fast-simplification --with rtree python plugins/assets_sh3d/tools/build_pack.py   # download + build
     uv run --with fast-simplification --with rtree python plugins/assets_sh3d/tools/build_pack.py --deb X.deb
 
 Steps: ``apt-get download sweethome3d-furniture`` (or ``--deb``), ``dpkg -x``; read each library's catalogue
@@ -712,7 +712,8 @@ def attribution(built: list[Built]) -> str:
         if b.pick.plain:
             changes.append(f"drawn without its texture, in its mean colour: {b.pick.plain}")
         if b.pick.fabric:
-            changes.append("material {} drawn in sRGB ({:.2f}, {:.2f}, {:.2f})".format(b.pick.fabric[0], *b.pick.fabric[1]))
+            pattern, (r, g, b_) = b.pick.fabric
+            changes.append(f"material {pattern} drawn in sRGB ({r:.2f}, {g:.2f}, {b_:.2f})")
         lines.append(f"| `{b.pick.asset_id}` | {b.model} | {b.creator} | {b.library} | "
                      f"[{b.licence}]({b.licence_url}) | {b.source_url or 'sweethome3d.com'} | {'; '.join(changes)} |")
     return "\n".join(lines) + "\n"
