@@ -102,9 +102,10 @@ class Pick:
         plain: regex: materials it matches (search, by name) are drawn in their texture's mean colour instead of
             the texture (a placeholder texture: Blend Swap's ``bedWithTexture`` covers its coverlet with a 16 × 16
             grey-and-white UV checker, which the draped coverlet's coordinates bend into blotches 10-30 cm across).
-        fabric: (regex, sRGB colour): materials it matches (search, by name) are drawn in that colour (0-1 per
-            channel) instead of their own: for a placeholder material a user of Sweet Home 3D is meant to recolour
-            (Kator Legaz's ``TEXTILE_generic``, diffuse 1.0: whiter than fresh snow, which reflects about 0.9).
+        fabric: (regex, sRGB colour): untextured materials it matches (search, by name) are drawn in that colour
+            (0-1 per channel) instead of their own: for a placeholder material a user of Sweet Home 3D is meant to
+            recolour (Kator Legaz's ``TEXTILE_generic``, diffuse 1.0: whiter than fresh snow, which reflects about
+            0.9).
     """
 
     lib: str
