@@ -17,7 +17,11 @@ boxes of that class; the sim's recall is taken over the same bins); overall, bot
 size mix over the classes and bins both sides have. Intervals: SciPy's ``stats.bootstrap`` (percentile, 95 %,
 :data:`BOOTSTRAP_RESAMPLES` resamples), resampling **images** — the sim's frames and the photos independently, an
 image's objects staying together — since objects of one image are not independent; a class's interval is taken over
-the resamples that hold it on both sides. Only BEAR classes are compared (the photos' other COCO classes are
+the resamples that hold it on both sides. Where a side found none or all of a class's objects (in the bins both
+sides have), no resample can vary its recall and the percentile interval is a point: there that side's interval is
+the exact (Clopper–Pearson) 95 % binomial interval of its counts, SciPy's ``stats.binomtest(...).proportion_ci()``,
+and the ratio's interval reaches the quotients of the sides' opposite ends (:func:`boundary_intervals`). Only BEAR
+classes are compared (the photos' other COCO classes are
 scored, so their detections are no false positives, but not counted).
 """
 
@@ -193,6 +197,31 @@ def intervals(ns, hs, nr, hr, seed: int, resamples: int) -> tuple[np.ndarray, np
     return low, high
 
 
+def boundary_intervals(k_sim: int, n_sim: int, k_real: int, n_real: int, sim: list, real: list, ratio: list,
+                       confidence: float = CONFIDENCE) -> dict:
+    """Intervals where the bootstrap cannot give one: a side that found none or all of its ``n`` objects (``k`` = 0
+    or ``n``, counted in the bins both sides have) recalls the same in every resample, so its percentile interval
+    is a point. Such a side's ``[low, high]`` (lists of floats, changed in place) widens to the exact Clopper–Pearson
+    interval of ``k`` of ``n`` (SciPy's ``stats.binomtest(k, n).proportion_ci(confidence)``), and the ratio's to
+    ``[sim low / real high, sim high / real low]`` (∞ over a real low of 0; 0/0 counts as 0). Returns the interval
+    method of each figure: ``{"sim": "bootstrap" | "clopper-pearson", "real": …, "ratio": "bootstrap" |
+    "bounds of the sides"}``."""
+    from scipy import stats
+
+    methods = {"sim": "bootstrap", "real": "bootstrap", "ratio": "bootstrap"}
+    for name, k, n, ends in (("sim", k_sim, n_sim, sim), ("real", k_real, n_real, real)):
+        if n > 0 and k in (0, n):
+            ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
+            ends[0], ends[1] = min(ends[0], ci.low), max(ends[1], ci.high)
+            methods[name] = "clopper-pearson"
+    if "clopper-pearson" in (methods["sim"], methods["real"]):
+        low = sim[0] / real[1] if real[1] > 0 else 0.0
+        high = sim[1] / real[0] if real[0] > 0 else (np.inf if sim[1] > 0 else 0.0)
+        ratio[0], ratio[1] = min(ratio[0], low), max(ratio[1], high)
+        methods["ratio"] = "bounds of the sides"
+    return methods
+
+
 def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
     """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
     (images resampled, see the module docstring), and the objects and objects found on each side (all sizes,
@@ -209,11 +238,19 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
         low = high = np.full_like(point, np.nan)
     k = len(classes)
 
+    both = (ns.sum(0) > 0) & (nr.sum(0) > 0)  # (classes, bins) where both sides have objects
+
     def entry(rows: tuple[int, int, int], cls: slice | int) -> dict:
         counts = {"objects_sim": int(ns[:, cls].sum()), "found_sim": int(hs[:, cls].sum()),
                   "objects_real": int(nr[:, cls].sum()), "found_real": int(hr[:, cls].sum())}
-        return {name: {"value": _num(point[r]), "ci95": [_num(low[r]), _num(high[r])]}
-                for name, r in zip(("sim", "real", "ratio"), rows)} | counts
+        ends = [[float(low[r]), float(high[r])] for r in rows]
+        if not np.isnan(ends).any():
+            methods = boundary_intervals(*(int(np.where(both, a.sum(0), 0)[cls].sum()) for a in (hs, ns, hr, nr)),
+                                         *ends)
+        else:
+            methods = dict.fromkeys(("sim", "real", "ratio"), "bootstrap")
+        return {name: {"value": _num(point[r]), "ci95": [_num(e[0]), _num(e[1])], "interval": methods[name]}
+                for name, r, e in zip(("sim", "real", "ratio"), rows, ends)} | counts
 
     out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), ci) for ci, c in enumerate(classes)},
            "overall": entry((3 * k, 3 * k + 1, 3 * k + 2), slice(None)),
@@ -242,14 +279,16 @@ def _counts(per_image: list[list], classes: set[str]) -> dict:
 
 
 def _cell(v: dict, percent: bool) -> str:
-    """``value [low, high]`` of a :func:`compare` figure (percent or a ratio; ``–`` undefined, ``∞`` unbounded)."""
+    """``value [low, high]`` of a :func:`compare` figure (percent or a ratio; ``–`` undefined, ``∞`` unbounded;
+    ``†`` after an interval not from the bootstrap, :func:`boundary_intervals`)."""
     def fmt(x):
         if x is None:
             return "–"
         if x == "inf":
             return "∞"
         return f"{100 * x:.0f} %" if percent else f"{x:.2f}"
-    return f"{fmt(v['value'])} [{fmt(v['ci95'][0])}, {fmt(v['ci95'][1])}]"
+    mark = "" if v.get("interval", "bootstrap") == "bootstrap" else " †"
+    return f"{fmt(v['value'])} [{fmt(v['ci95'][0])}, {fmt(v['ci95'][1])}]{mark}"
 
 
 def table(result: dict, title: str) -> str:
@@ -268,7 +307,9 @@ def table(result: dict, title: str) -> str:
         if result[side]:
             lines.append(f"\n{side.replace('_', ' ')}: " + ", ".join(f"{c} {n}" for c, n in result[side].items()))
     lines.append(f"\n{result['images_sim']} sim frames, {result['images_real']} photos; intervals: 95 % percentile "
-                 f"bootstrap, {result['bootstrap']['resamples']} resamples of images.")
+                 f"bootstrap, {result['bootstrap']['resamples']} resamples of images; † where a side found none or "
+                 "all of its objects (no resample varies it): that side's exact binomial (Clopper–Pearson) 95 % "
+                 "interval, and for the ratio the quotients of the sides' opposite ends.")
     return "\n".join(lines) + "\n"
 
 

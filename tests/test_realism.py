@@ -619,6 +619,29 @@ def test_a_ratio_over_a_real_recall_of_zero_is_unbounded(realism_real):
     json.dumps(res, allow_nan=False)  # strict JSON
 
 
+def test_a_side_that_found_none_or_all_gets_an_exact_interval_not_a_point(realism_real):
+    # sim: 30 cups in 30 frames, none found -> every resample 0, the percentile interval [0, 0]; the exact binomial
+    # interval of 0 of 30 reaches 11.6 % (Clopper-Pearson). real: 40 photos, 20 of their 60 cups found; beds all found
+    sim = [[("cup", 1, False), ("bed", 2, True)]] * 30
+    real = [[("cup", 1, True), ("cup", 1, False), ("bed", 2, True)]] * 20 + [[("cup", 1, False), ("bed", 2, True)]] * 20
+    res = realism_real.compare(sim, real, resamples=200)
+    cup, bed = res["classes"]["cup"], res["classes"]["bed"]
+    assert cup["sim"]["value"] == 0.0 and cup["sim"]["interval"] == "clopper-pearson"
+    assert cup["sim"]["ci95"][0] == 0.0 and cup["sim"]["ci95"][1] == pytest.approx(0.1157, abs=1e-4)
+    assert cup["real"]["value"] == pytest.approx(1 / 3) and cup["real"]["interval"] == "bootstrap"
+    assert 0.0 < cup["real"]["ci95"][0] < 1 / 3 < cup["real"]["ci95"][1]
+    assert cup["ratio"]["interval"] == "bounds of the sides" and cup["ratio"]["ci95"][0] == 0.0
+    assert cup["ratio"]["ci95"][1] == pytest.approx(cup["sim"]["ci95"][1] / cup["real"]["ci95"][0])
+    # all found on both sides: each side's interval is exact, reaching down to 88.4 % (30 of 30) and 91.2 % (40 of 40)
+    assert bed["sim"]["ci95"] == [pytest.approx(0.8843, abs=1e-4), 1.0]
+    assert bed["real"]["ci95"] == [pytest.approx(0.9119, abs=1e-4), 1.0]
+    assert bed["ratio"]["value"] == 1.0 and bed["ratio"]["ci95"][0] < 1.0 < bed["ratio"]["ci95"][1]
+    assert res["overall"]["ratio"]["interval"] == "bootstrap"
+    text = realism_real.table(res, "t")
+    assert "| cup | 0 % [0 %, 12 %] † |" in text and "† where a side found none or all" in text
+    json.dumps(res, allow_nan=False)
+
+
 def test_bootstrap_resamples_images_not_objects(realism_real):
     # every sim frame alike and every photo alike: any resample of images gives the same figures (a resample of
     # objects would not), so the interval is the point

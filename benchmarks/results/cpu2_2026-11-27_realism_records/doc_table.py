@@ -8,7 +8,8 @@ for d in dets:
     txt = open(f"{prefix}{d}/per_class.md").read()
     part = txt[txt.index("COCO val2017 photos, recall"):]
     for line in part.splitlines():
-        m = re.match(r"\| (\**[^|]+?\**) \| (\d+) % \[[^]]*\] \| (\d+) % \[[^]]*\] \| ([^|]+) \| (\d+)/(\d+); (\d+)/(\d+) \|", line)
+        m = re.match(r"\| (\**[^|]+?\**) \| (\d+) % \[[^]]*\](?: †)? \| (\d+) % \[[^]]*\](?: †)? \| ([^|]+) \| "
+                     r"(\d+)/(\d+); (\d+)/(\d+) \|", line)  # († an exact interval: realism_real.boundary_intervals)
         if m:
             cls = m.group(1).strip("*")
             rows.setdefault(cls, {})[d] = m.groups()
