@@ -224,7 +224,8 @@ def boundary_intervals(k_sim: int, n_sim: int, k_real: int, n_real: int, sim: li
 
 def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
     """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
-    (images resampled, see the module docstring), and the objects and objects found on each side (all sizes,
+    (images resampled, see the module docstring; an exact one where a side found none or all,
+    :func:`boundary_intervals`; ``"interval"`` names which), and the objects and objects found on each side (all sizes,
     unweighted). Classes: those with objects on both sides; the others are listed with their counts only."""
     seen_sim = {c for rows in sim for c, _, _ in rows}
     seen_real = {c for rows in real for c, _, _ in rows}
