@@ -177,6 +177,30 @@ def test_no_placeholder_textile_is_drawn_in_its_placeholder_white():
         assert max(base[:3]) < 0.5, f"{asset_id}: {material['name']} drawn in {base}"
 
 
+def _in_handle_box(centroids: np.ndarray) -> np.ndarray:
+    return (centroids[:, 2] > 0.37) & (np.abs(centroids[:, 0]) < 0.16)
+
+
+def test_the_side_by_side_fridges_handles_are_drawn_in_its_dark_trim_not_its_door_steel():
+    # Blend Swap's largeFridge models its two door handles in the doors' grey steel; lit by fast mode's Lambertian
+    # shading they vanish into the doors. build_pack draws them in the model's own dark trim (Pick.trim): the faces
+    # of material "metal" more than 0.37 m in front of its centre and within 0.16 m of its middle
+    doc, binary = gltf("refrigerator__cc0_largeFridge.glb")
+    names = [m["name"] for m in doc["materials"]]
+    colour = {m["name"]: m["pbrMetallicRoughness"]["baseColorFactor"][:3] for m in doc["materials"]}
+    assert "waterDispenser_trim" in names and max(colour["waterDispenser_trim"]) < 0.05
+    assert colour["waterDispenser_trim"] == colour["waterDispenser"] and min(colour["metal"]) > 0.25
+    centroids = {}
+    for prim in doc["meshes"][0]["primitives"]:
+        xyz = accessor(doc, binary, prim["attributes"]["POSITION"])
+        faces = accessor(doc, binary, prim["indices"]).reshape(-1, 3)
+        centroids[names[prim["material"]]] = xyz[faces].mean(axis=1)
+    handles, doors = centroids["waterDispenser_trim"], centroids["metal"]
+    assert len(handles) > 100 and _in_handle_box(handles).all()
+    assert not _in_handle_box(doors).any() and len(doors) > len(handles)
+    assert np.ptp(handles[:, 1]) > 0.6  # the handles' height: long vertical bars
+
+
 GT_WORDS = ("chair", "stool", "table", "desk", "plant", "flower", "tv", "television", "monitor", "sofa", "couch",
             "bed", "toilet", "sink", "basin", "book", "clock", "bottle", "cup", "glass", "bowl", "fridge", "oven",
             "microwave", "toaster", "laptop", "computer", "keyboard", "phone", "person", "male", "female")

@@ -27,7 +27,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
 import numpy as np
@@ -106,6 +106,11 @@ class Pick:
             (0-1 per channel) instead of their own: for a placeholder material a user of Sweet Home 3D is meant to
             recolour (Kator Legaz's ``TEXTILE_generic``, diffuse 1.0: whiter than fresh snow, which reflects about
             0.9).
+        trim: (regex, box min xyz, box max xyz, donor regex): the faces of the materials the first regex matches
+            (search, by name) whose centroid lies in the box (m, the built model's frame: y up, front +z, origin
+            at the bottom centre) are drawn in a copy of the material the donor regex matches: for parts modelled
+            in their neighbours' material (the side-by-side fridge's door handles, in its door steel, take its
+            own dark trim).
     """
 
     lib: str
@@ -123,6 +128,7 @@ class Pick:
     max_error: float = meshops.DECIMATION_MAX_ERROR
     plain: str | None = None
     fabric: tuple[str, tuple[float, float, float]] | None = None
+    trim: tuple[str, tuple[float, float, float], tuple[float, float, float], str] | None = None
 
     @property
     def asset_kind(self) -> str:
@@ -280,7 +286,8 @@ SELECTION: tuple[Pick, ...] = (
     P("sc", "maceta", "potted plant", max_error=0.05),
     # kitchen appliances
     P("cc0", "refrigerator", "refrigerator"),
-    P("cc0", "largeFridge", "refrigerator"),
+    P("cc0", "largeFridge", "refrigerator",  # its door handles, modelled in the doors' steel, in its dark trim
+      trim=("^metal$", (-0.16, 0.0, 0.37), (0.16, 2.0, 1.0), "^waterDispenser$")),
     P("kl", "fridge", "refrigerator"),
     P("sc", "small-oven", "oven"),
     P("ccby", "largeStove", "oven"),
@@ -614,6 +621,8 @@ def build_asset(pick: Pick, libs: dict[str, sh3d.Library], copyright_text: str) 
         pr.positions = (pr.positions.astype(np.float64) - shift).astype(np.float32)
     allp = np.concatenate([pr.positions for pr in prims]).astype(np.float64)
     ext = allp.max(axis=0) - allp.min(axis=0)
+    if pick.trim:
+        prims, materials = trim_faces(prims, materials, *pick.trim)
     # drop unused materials, renumber
     used = sorted({pr.material for pr in prims})
     remap = {m: i for i, m in enumerate(used)}
@@ -633,6 +642,34 @@ def build_asset(pick: Pick, libs: dict[str, sh3d.Library], copyright_text: str) 
                  triangles=int(sum(len(pr.indices) for pr in prims)), textures=textures_meta,
                  model=f"{item.id} ({item.name})", creator=creator, licence=spdx, licence_url=url,
                  library=lib_name, source_url=source_url, notes=notes)
+
+
+def trim_faces(prims: list[glb.Primitive], materials: list[glb.PbrMaterial], pattern: str, lo, hi,
+               donor: str) -> tuple[list[glb.Primitive], list[glb.PbrMaterial]]:
+    """``Pick.trim``: the faces of the primitives whose material name ``pattern`` matches (search) and whose centroid
+    lies in the box [lo, hi] (m, the built model's frame) split off into a primitive of their own, drawn in a copy of
+    the material ``donor`` matches (named ``<its name>_trim``). Returns the new primitives and materials.
+
+    Raises:
+        SystemExit: no material matches ``donor``, or no face matches: the pick names parts the model does not have.
+    """
+    donors = [m for m in materials if re.search(donor, m.name)]
+    if not donors:
+        raise SystemExit(f"trim: no material matches {donor!r} in {[m.name for m in materials]}")
+    materials = materials + [replace(donors[0], name=f"{donors[0].name}_trim")]
+    out, moved = [], 0
+    for pr in prims:
+        if not re.search(pattern, materials[pr.material].name):
+            out.append(pr)
+            continue
+        centroid = pr.positions[pr.indices].mean(axis=1)
+        inside = np.all((centroid >= np.asarray(lo)) & (centroid <= np.asarray(hi)), axis=1)
+        moved += int(inside.sum())
+        out.append(glb.Primitive(pr.positions, pr.normals, pr.uvs, pr.indices[~inside], pr.material))
+        out.append(glb.Primitive(pr.positions, pr.normals, pr.uvs, pr.indices[inside], len(materials) - 1))
+    if moved == 0:
+        raise SystemExit(f"trim: no face of a material matching {pattern!r} lies in {lo}..{hi}")
+    return [pr for pr in out if len(pr.indices)], materials
 
 
 def author_line(lib_name: str, item: sh3d.CatalogItem, author: str) -> str:
@@ -715,6 +752,9 @@ def attribution(built: list[Built]) -> str:
         if b.pick.fabric:
             pattern, (r, g, b_) = b.pick.fabric
             changes.append(f"material {pattern} drawn in sRGB ({r:.2f}, {g:.2f}, {b_:.2f})")
+        if b.pick.trim:
+            pattern, _lo, _hi, donor = b.pick.trim
+            changes.append(f"faces of material {pattern} in a box (the door handles) drawn in material {donor}")
         lines.append(f"| `{b.pick.asset_id}` | {b.model} | {b.creator} | {b.library} | "
                      f"[{b.licence}]({b.licence_url}) | {b.source_url or 'sweethome3d.com'} | {'; '.join(changes)} |")
     return "\n".join(lines) + "\n"
