@@ -665,11 +665,19 @@ def trim_faces(prims: list[glb.Primitive], materials: list[glb.PbrMaterial], pat
         centroid = pr.positions[pr.indices].mean(axis=1)
         inside = np.all((centroid >= np.asarray(lo)) & (centroid <= np.asarray(hi)), axis=1)
         moved += int(inside.sum())
-        out.append(glb.Primitive(pr.positions, pr.normals, pr.uvs, pr.indices[~inside], pr.material))
-        out.append(glb.Primitive(pr.positions, pr.normals, pr.uvs, pr.indices[inside], len(materials) - 1))
+        out += [_faces_of(pr, ~inside, pr.material), _faces_of(pr, inside, len(materials) - 1)]
     if moved == 0:
         raise SystemExit(f"trim: no face of a material matching {pattern!r} lies in {lo}..{hi}")
     return [pr for pr in out if len(pr.indices)], materials
+
+
+def _faces_of(pr: glb.Primitive, keep: np.ndarray, material: int) -> glb.Primitive:
+    """The faces ``keep`` ((F,) bool) of ``pr`` as a primitive of ``material`` holding only the vertices they use
+    (in their order in ``pr``), so that a split does not store a primitive's vertices twice."""
+    used, faces = np.unique(pr.indices[keep], return_inverse=True)
+    uvs = None if pr.uvs is None else pr.uvs[used]
+    return glb.Primitive(pr.positions[used], pr.normals[used], uvs, faces.reshape(-1, 3).astype(pr.indices.dtype),
+                         material)
 
 
 def author_line(lib_name: str, item: sh3d.CatalogItem, author: str) -> str:
@@ -753,8 +761,9 @@ def attribution(built: list[Built]) -> str:
             pattern, (r, g, b_) = b.pick.fabric
             changes.append(f"material {pattern} drawn in sRGB ({r:.2f}, {g:.2f}, {b_:.2f})")
         if b.pick.trim:
-            pattern, _lo, _hi, donor = b.pick.trim
-            changes.append(f"faces of material {pattern} in a box (the door handles) drawn in material {donor}")
+            pattern, lo, hi, donor = b.pick.trim
+            box = " to ".join("(" + ", ".join(f"{v:g}" for v in corner) + ")" for corner in (lo, hi))
+            changes.append(f"faces of material {pattern} within {box} m drawn in material {donor}")
         lines.append(f"| `{b.pick.asset_id}` | {b.model} | {b.creator} | {b.library} | "
                      f"[{b.licence}]({b.licence_url}) | {b.source_url or 'sweethome3d.com'} | {'; '.join(changes)} |")
     return "\n".join(lines) + "\n"
