@@ -240,14 +240,14 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
     k = len(classes)
 
     both = (ns.sum(0) > 0) & (nr.sum(0) > 0)  # (classes, bins) where both sides have objects
+    in_both = [np.where(both, a.sum(0), 0) for a in (hs, ns, hr, nr)]  # (classes, bins) counts over those bins
 
     def entry(rows: tuple[int, int, int], cls: slice | int) -> dict:
         counts = {"objects_sim": int(ns[:, cls].sum()), "found_sim": int(hs[:, cls].sum()),
                   "objects_real": int(nr[:, cls].sum()), "found_real": int(hr[:, cls].sum())}
         ends = [[float(low[r]), float(high[r])] for r in rows]
         if not np.isnan(ends).any():
-            methods = boundary_intervals(*(int(np.where(both, a.sum(0), 0)[cls].sum()) for a in (hs, ns, hr, nr)),
-                                         *ends)
+            methods = boundary_intervals(*(int(a[cls].sum()) for a in in_both), *ends)
         else:
             methods = dict.fromkeys(("sim", "real", "ratio"), "bootstrap")
         return {name: {"value": _num(point[r]), "ci95": [_num(e[0]), _num(e[1])], "interval": methods[name]}
