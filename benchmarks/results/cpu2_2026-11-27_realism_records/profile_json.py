@@ -11,16 +11,24 @@ import subprocess
 import sys
 from pathlib import Path
 
+if len(sys.argv) != 5:
+    sys.exit("usage: profile_json.py DETECTOR_RUN GEOMETRIC_RUN NOTE OUT.json")
 detector, geometric, note, out = sys.argv[1:5]
 
 
 def per_environment(run: str) -> dict:
-    episodes = json.loads((Path(run) / "episode_scores.json").read_text())
-    return {e["env"]: e["scores"] for e in episodes}
+    """{environment: its episode's scores} of a batch run folder (its ``episode_scores.json``)."""
+    path = Path(run) / "episode_scores.json"
+    if not path.is_file():
+        sys.exit(f"{path}: not found; give the folder of a finished `benchbot batch` run")
+    return {e["env"]: e["scores"] for e in json.loads(path.read_text())}
 
 
-report = json.loads(subprocess.run(["uv", "run", "benchbot", "report", geometric, detector, "--json"],
-                                   capture_output=True, text=True, check=True).stdout)
+done = subprocess.run(["uv", "run", "benchbot", "report", geometric, detector, "--json"], capture_output=True,
+                      text=True)
+if done.returncode != 0:
+    sys.exit(f"benchbot report {geometric} {detector} failed: {(done.stderr.strip().splitlines() or ['?'])[-1]}")
+report = json.loads(done.stdout)
 
 
 def omq(run: dict) -> str:
