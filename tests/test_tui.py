@@ -101,7 +101,8 @@ async def _test_batch_app_follows_the_run_directory(tmp_path):
         assert table.row_count == 4
         assert "running" in str(table.get_cell("2", "status"))
         make_run_dir(run_dir, finished=True)  # the batch writes its manifest; the view polls it
-        await settle(pilot, lambda: "ok" in str(table.get_cell("2", "status")))
+        # the watcher may see the new manifest one poll before the scores written just ahead of it: wait for both
+        await settle(pilot, lambda: "ok" in str(table.get_cell("2", "status")) and table.get_cell("0", "score") != "")
         assert "ok" in str(table.get_cell("2", "status"))
         assert table.get_cell("0", "score") == "0.2377" and str(table.columns["score"].label) == "OMQ"
         await pilot.press("q")
