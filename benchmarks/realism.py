@@ -48,7 +48,9 @@ says what aliasing costs the detector; the default robot's camera has 1 sample a
 COCO val2017 photos shipped in ``benchmarks/realism/photos``, not in the detectors' training set) and prints per
 BEAR class the sim's recall (fast frames, COCO's crowd rule), the photos' recall weighted to the sim's pixel-size
 mix, their ratio, each with a bootstrap interval over images, and the objects on each side
-(:mod:`realism_real`); ``realism.json``'s ``real_reference`` has it all and each photo's detections.
+(:mod:`realism_real`); with ``--quality-frames``, two more tables: the frames rendered in quality mode, in quality
+mode and in fast mode, against the same photos. ``realism.json``'s ``real_reference`` has it all and each photo's
+detections.
 
 Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
 each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and
@@ -1269,7 +1271,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                          "detector on real photos first")
     ap.add_argument("--real-reference", action="store_true",
                     help="also run the detector on the real photos of --real-photos (COCO val2017) and print sim,\n"
-                         "real and sim / real recall per class with bootstrap intervals (benchmarks/realism_real.py)")
+                         "real and sim / real recall per class with bootstrap intervals (benchmarks/realism_real.py);\n"
+                         "with --quality-frames also for those frames in quality and in fast mode")
     ap.add_argument("--real-photos", type=Path, default=HERE / "realism" / "photos",
                     help="the real-photo reference set (coco_val2017.json and its photos)")
     ap.add_argument("--real-limit", type=int, default=None, help="only the first N photos (default: all)")

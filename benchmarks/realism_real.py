@@ -131,14 +131,19 @@ def photo_records(realism, detector, photos: list[Photo], threshold: float, iou:
     return out
 
 
-def sim_records(realism, sections: dict, threshold: float, iou: float) -> list[list]:
-    """Per fast frame of ``realism.judge_environment``'s sections, :func:`records` of its objects and fast-mode
-    detections (frames without detections: every object missed)."""
+def sim_records(realism, sections: dict, threshold: float, iou: float, mode: str = "fast",
+                only_with: str | None = None) -> list[list]:
+    """Per frame of ``realism.judge_environment``'s sections, :func:`records` of its objects and its ``mode``
+    ("fast" or "quality") detections (frames without detections: every object missed); ``only_with`` a mode: only
+    the frames that were also rendered and detected in that mode (the quality frames are the first
+    ``--quality-frames`` of each environment)."""
     out = []
     for section in sections.values():
         for fr in section["frames"]:
+            if only_with is not None and f"detections_{only_with}" not in fr:
+                continue
             truths = [realism.Truth(**o) for o in fr["objects"]]
-            out.append(records(realism, truths, fr.get("detections_fast", []), threshold, iou))
+            out.append(records(realism, truths, fr.get(f"detections_{mode}", []), threshold, iou))
     return out
 
 
@@ -317,7 +322,10 @@ def table(result: dict, title: str) -> str:
 def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict, str]:
     """``realism.py --real-reference``: the photos of ``args.real_photos`` (the first ``args.real_limit``) through
     ``detector`` (``None`` in the smoke run: no detections), compared with the fast frames of ``sections`` at score
-    ``threshold``; returns the JSON section and its Markdown table."""
+    ``threshold``; where frames were also rendered in quality mode (``--quality-frames``), those frames in quality
+    mode and, on the same frames, in fast mode, against the same photos (``"quality"`` and ``"fast_same_frames"``
+    in the JSON section, two more tables), so that quality mode's ratio is read beside fast mode's on one sample.
+    Returns the JSON section and its Markdown tables."""
     import time
 
     t0 = time.perf_counter()
@@ -329,9 +337,19 @@ def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict
     result.update({"photos": str(args.real_photos), "photo_detections": detections, "threshold": threshold,
                    "iou": args.iou,
                    "min_pixels": args.min_pixels, "drop_border": args.real_drop_border,
-                   "sim_side": "fast frames, COCO's crowd rule",
-                   "seconds": time.perf_counter() - t0})
-    title = (f"{args.detector}: sim (fast, crowd rule) against {len(photos)} COCO val2017 photos, recall at score ≥ "
-             f"{threshold}, real weighted to the sim's size mix"
-             + (", the photos' objects at their border left out" if args.real_drop_border else ""))
-    return result, table(result, title)
+                   "sim_side": "fast frames, COCO's crowd rule"})
+    against = (f"against {len(photos)} COCO val2017 photos, recall at score ≥ {threshold}, real weighted to the "
+               "sim's size mix" + (", the photos' objects at their border left out" if args.real_drop_border else ""))
+    tables = [table(result, f"{args.detector}: sim (fast, crowd rule) {against}")]
+    quality = sim_records(realism, sections, threshold, args.iou, "quality", only_with="quality")
+    if quality:
+        for key, mode, rows in (("quality", "quality", quality),
+                                ("fast_same_frames", "fast",
+                                 sim_records(realism, sections, threshold, args.iou, "fast", only_with="quality"))):
+            result[key] = compare(rows, real, seed=args.seed, resamples=args.real_resamples)
+            result[key]["sim_side"] = (f"the {len(quality)} frames rendered in quality mode, {mode} mode, "
+                                       "COCO's crowd rule")
+            tables.append(table(result[key], f"{args.detector}: sim ({mode}, crowd rule, the {len(quality)} quality "
+                                             f"frames) {against}"))
+    result["seconds"] = time.perf_counter() - t0
+    return result, "\n".join(tables)

@@ -686,6 +686,53 @@ def test_photos_are_scored_as_frames_are_with_cocos_crowd_rule(realism, realism_
     assert sorted(rows) == [("chair", 0, True)]
 
 
+def test_quality_frames_are_compared_with_the_photos_beside_fast_mode_on_the_same_frames(realism, realism_real,
+                                                                                       tmp_path):
+    """Where frames were also rendered in quality mode, ``run`` compares those frames in quality mode and in fast
+    mode with the same photos: the fast table keeps every frame, the two others only the quality frames."""
+    import argparse
+
+    from PIL import Image
+
+    Image.new("RGB", (64, 48), (90, 90, 90)).save(tmp_path / "000000000001.jpg")
+    licence = {"id": 4, "name": "Attribution License", "url": "http://creativecommons.org/licenses/by/2.0/"}
+    data = {"licenses": [licence], "categories": [{"id": 62, "name": "chair"}],
+            "images": [{"id": 1, "file_name": "000000000001.jpg", "width": 64, "height": 48, "license": 4}],
+            "annotations": [{"id": 10, "image_id": 1, "category_id": 62, "iscrowd": 0, "bbox": [2, 2, 30, 30],
+                             "area": 600}]}
+    (tmp_path / "coco_val2017.json").write_text(json.dumps(data))
+    chair = realism.COCO80.index("chair")
+
+    class Answers:  # finds the photo's chair
+        def detect(self, rgb):
+            return [[2.0, 2.0, 32.0, 32.0, 0.8, chair]]
+
+    def frame(quality_found: bool | None, fast_found: bool) -> dict:
+        obj = {"instance": 62001, "cls": "chair", "box": [10, 10, 40, 40], "pixels": 900, "truncation": 0.0,
+               "visible": True}
+        hit = [[10.0, 10.0, 40.0, 40.0, 0.9, chair]]
+        fr = {"pose_index": 0, "objects": [obj], "detections_fast": hit if fast_found else []}
+        if quality_found is not None:
+            fr["detections_quality"] = hit if quality_found else []
+        return fr
+
+    # two quality frames (found in quality mode in both, in fast mode in one), two fast-only frames (neither found)
+    sections = {"e:1": {"frames": [frame(True, True), frame(True, False), frame(None, False), frame(None, False)]}}
+    args = argparse.Namespace(real_photos=tmp_path, min_pixels=400, real_limit=None, real_drop_border=False, iou=0.5,
+                              seed=0, real_resamples=50, detector="centernet")
+    res, text = realism_real.run(realism, args, Answers(), sections, 0.3)
+    assert res["images_sim"] == 4 and res["classes"]["chair"]["found_sim"] == 1
+    assert res["quality"]["images_sim"] == 2 and res["quality"]["classes"]["chair"]["found_sim"] == 2
+    assert res["fast_same_frames"]["images_sim"] == 2 and res["fast_same_frames"]["classes"]["chair"]["found_sim"] == 1
+    assert res["quality"]["classes"]["chair"]["ratio"]["value"] == 1.0
+    assert res["fast_same_frames"]["classes"]["chair"]["ratio"]["value"] == 0.5
+    assert text.count("### centernet: sim") == 3 and "sim (quality, crowd rule, the 2 quality frames)" in text
+    json.dumps(res, allow_nan=False)
+    # without quality frames: the fast table alone
+    res, text = realism_real.run(realism, args, Answers(), {"e:1": {"frames": [frame(None, True)]}}, 0.3)
+    assert "quality" not in res and "fast_same_frames" not in res and text.count("### ") == 1
+
+
 def test_real_reference_needs_the_detector(realism, capsys):
     with pytest.raises(SystemExit):
         realism.parse_args(["--real-reference", "--no-detector"])
