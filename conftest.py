@@ -7,6 +7,7 @@ simulator in their own process (``BENCHBOT_SERVICE=off``, as ``--no-service``): 
 service behind, nor depends on one another test started; ``tests/test_service.py`` turns it on where it tests it."""
 
 import os
+import signal
 import tempfile
 
 pytest_plugins = ["pytester"]  # tests/test_fast_loop.py runs pytest on this conftest
@@ -17,12 +18,20 @@ os.environ["BENCHBOT_CACHE_DIR"] = _TEST_CACHE_DIR = tempfile.mkdtemp(prefix="be
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
 os.environ["BENCHBOT_SERVICE"] = "off"
 
+# Ctrl-C reaches the commands the tests start, however pytest was started. A shell without job control starts its
+# background commands (`pytest ... &`, nohup) with SIGINT ignored, every child inherits that, and a Python that starts
+# with SIGINT ignored never raises KeyboardInterrupt: the tests that press Ctrl-C (SIGINT) would wait out their
+# timeouts. Python's own handler here becomes the default disposition in every child that pytest starts.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
 
 # ---------------------------------------------------------------------------------------------------------------------
 # The default run is the fast loop: tests marked ``slow`` (more than about 2 s each on a 2-core machine: whole batches,
 # real terminals, Ray, ROS 2 end to end) are left out when pytest is run with no path and no ``-m``. `uv run pytest
 # -m slow` runs only them, `uv run pytest --run-slow` runs everything, and naming a file or test runs all of it.
-# CI (.ci/run) runs the default command and then `uv run pytest -m slow`, so every test runs there.
+# CI (.ci/run) runs the default command and then `uv run pytest -m slow -n 2` (two pytest-xdist workers), so every
+# test runs there.
 # ---------------------------------------------------------------------------------------------------------------------
 def pytest_unconfigure(config):
     """The per-session cache of built scenes holds hundreds of MB once furnished homes were built: removed at the

@@ -70,8 +70,10 @@ def container_engine_with_base_image() -> tuple[str, str]:
     ``benchbot container-base`` makes it when it is missing (a few minutes, once per machine: the engine keeps it).
     Skipped with the reason only where no engine answers, or where the image is missing and mmdebstrap, which makes
     it, is not installed; a failed build fails the test."""
+    import fcntl
     import shutil
     import tempfile
+    from pathlib import Path
 
     from benchbot.core.errors import BenchbotError, UsageError
     from benchbot.solutions.container_base import build_base
@@ -82,18 +84,21 @@ def container_engine_with_base_image() -> tuple[str, str]:
     except UsageError as exc:
         pytest.skip(f"no working container engine: {exc.message}")
     image = CONTAINER_BASE_IMAGE
-    if subprocess.run([engine, "image", "inspect", image], capture_output=True, timeout=60).returncode == 0:
-        return engine, image
-    if image != "benchbot/submission:base" or shutil.which("mmdebstrap") is None:
-        pytest.skip(f"base image {image} is not in {engine}, and tests never pull" +
-                    ("" if image != "benchbot/submission:base" else
-                     "; install mmdebstrap to make it (`benchbot container-base`)"))
-    with tempfile.TemporaryFile("w+") as log:
-        try:
-            build_base(engine, log=log)  # what `benchbot container-base` does
-        except BenchbotError as exc:
-            log.seek(0)
-            pytest.fail(f"making {image} failed: {exc.message}\n{log.read()[-4000:]}")
+    # One maker at a time: CI's slow tests run in two pytest-xdist workers, and each has this session fixture.
+    with open(Path(tempfile.gettempdir()) / "benchbot-test-base-image.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if subprocess.run([engine, "image", "inspect", image], capture_output=True, timeout=60).returncode == 0:
+            return engine, image
+        if image != "benchbot/submission:base" or shutil.which("mmdebstrap") is None:
+            pytest.skip(f"base image {image} is not in {engine}, and tests never pull" +
+                        ("" if image != "benchbot/submission:base" else
+                         "; install mmdebstrap to make it (`benchbot container-base`)"))
+        with tempfile.TemporaryFile("w+") as log:
+            try:
+                build_base(engine, log=log)  # what `benchbot container-base` does
+            except BenchbotError as exc:
+                log.seek(0)
+                pytest.fail(f"making {image} failed: {exc.message}\n{log.read()[-4000:]}")
     return engine, image
 
 
