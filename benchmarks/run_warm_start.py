@@ -32,6 +32,8 @@ READY = "backend ready at "
 STARTED = ("started the simulator service", "replaced the simulator service")
 #: The flags of each mode.
 MODES = {"in-process": ["--no-service"], "service": []}
+#: Seconds a run may take to exit after Ctrl-C before it is killed (and the benchmark fails, saying so).
+STOP_TIMEOUT_S = 60.0
 
 
 def start_once(argv: list[str], env: dict) -> dict:
@@ -39,7 +41,8 @@ def start_once(argv: list[str], env: dict) -> dict:
     SIGINT to its exit; whether it started or replaced the service: a checkout edited meanwhile has another key).
 
     Raises:
-        RuntimeError: it ended before serving, or did not exit 130 on Ctrl-C (its stderr's end in the message)."""
+        RuntimeError: it ended before serving, did not exit 130 on Ctrl-C (its stderr's end in the message), or
+            did not exit within :data:`STOP_TIMEOUT_S` of it (then it is killed)."""
     t = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "benchbot.cli", "run", *argv], env=env, stdin=subprocess.DEVNULL,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -54,8 +57,15 @@ def start_once(argv: list[str], env: dict) -> dict:
         raise RuntimeError(f"benchbot run {' '.join(argv)} ended before serving:\n" + "\n".join(lines)[-3000:])
     t_stop = time.monotonic()
     proc.send_signal(signal.SIGINT)
-    rest = proc.stderr.read()
-    code = proc.wait()
+    try:
+        rest = proc.communicate(timeout=STOP_TIMEOUT_S)[1]
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        raise RuntimeError(f"benchbot run did not exit within {STOP_TIMEOUT_S:.0f} s of Ctrl-C (SIGINT); killed it "
+                           "(a command started with SIGINT ignored, as by `nohup` or `&` in a script, never sees "
+                           "Ctrl-C)") from None
+    code = proc.returncode
     if code != 130:
         raise RuntimeError(f"benchbot run exited {code} on Ctrl-C:\n{rest[-3000:]}")
     started = any(said in line for line in lines for said in STARTED)

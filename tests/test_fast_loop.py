@@ -47,3 +47,20 @@ def test_the_default_run_leaves_out_slow_tests(project, args, passed, deselected
         result.stdout.fnmatch_lines([f"*::{name} PASSED*"])
     if not args:
         result.stdout.fnmatch_lines(["*tests marked slow are left out*", "1 slow tests left out of this fast run*"])
+
+
+def test_ctrl_c_reaches_the_tests_commands_when_pytest_was_started_with_sigint_ignored(project):
+    """A background start (`pytest … &` in a script, nohup) ignores SIGINT, and the children would inherit that: the
+    conftest gives pytest Python's handler back, so a command a test starts handles Ctrl-C."""
+    import signal
+    import subprocess
+    import sys
+
+    (project.path / "suite" / "test_child.py").write_text(
+        "import subprocess, sys\n\n\ndef test_child_handles_ctrl_c():\n"
+        "    code = 'import signal, sys; sys.exit(signal.getsignal(signal.SIGINT) is not signal.default_int_handler)'\n"
+        "    assert subprocess.run([sys.executable, '-c', code]).returncode == 0\n")
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "suite/test_child.py"],
+                          cwd=project.path, capture_output=True, text=True, timeout=120,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    assert proc.returncode == 0, proc.stdout[-2000:]
