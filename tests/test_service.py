@@ -8,11 +8,13 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import stat
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -52,11 +54,12 @@ def status() -> dict:
 
 
 @pytest.fixture
-def service_env(tmp_path, monkeypatch):
-    """The service on, in a socket folder of this test's own (``XDG_RUNTIME_DIR`` under ``tmp_path``), idle for at
-    most 120 s; any service left at the end is stopped (killed if it does not stop)."""
-    runtime = tmp_path / "xdg-runtime"
-    runtime.mkdir(mode=0o700)
+def service_env(monkeypatch):
+    """The service on, in a socket folder of this test's own (``XDG_RUNTIME_DIR``, a new folder in the temporary
+    folder), idle for at most 120 s; any service left at the end is stopped (killed if it does not stop). Not under
+    ``tmp_path``: under pytest-xdist that is 10 characters longer (``popen-gw1/``), and a pool worker's socket path
+    there passed the 107 bytes a Unix socket's path may have, so the workers could not listen."""
+    runtime = Path(tempfile.mkdtemp(prefix="bb-xdg-"))  # mode 0700, as a runtime folder must be
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(runtime))
     monkeypatch.setenv("BENCHBOT_SERVICE", "auto")
     monkeypatch.setenv("BENCHBOT_SERVICE_IDLE_S", "120")
@@ -68,6 +71,7 @@ def service_env(tmp_path, monkeypatch):
             os.kill(left["pid"], signal.SIGKILL)
         except ProcessLookupError:
             pass
+    shutil.rmtree(runtime, ignore_errors=True)
 
 
 # ------------------------------------------------------------------------------------------------ the parts, alone
