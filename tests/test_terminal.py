@@ -34,6 +34,7 @@ def test_batch_view_closes_itself_and_prints_the_scores(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.alone  # its bound holds on a machine not busy with other tests
 def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
     """The bound is the design's (benchbot/batch/stopping.py), not this machine's speed: the waits before Ctrl-C
     are on what the screen shows, with room for a loaded machine; after it, the command must be gone within
@@ -57,6 +58,7 @@ def test_ctrl_c_stops_a_batch_in_its_live_view_at_once(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.alone  # its bound holds on a machine not busy with other tests
 def test_ctrl_c_is_bounded_even_when_the_solution_ignores_sigterm(tmp_path):
     """The worst case the bound is for: a solution that ignores SIGTERM with a 60 s grace before SIGKILL. The
     command is still gone within STOP_BOUND_S of Ctrl-C, and so is the solution (its group was SIGKILLed)."""
