@@ -115,6 +115,23 @@ def test_mark_interrupted_rewrites_only_the_running_episodes(tmp_path):
                                                                    "stage": ""}
 
 
+def test_an_episode_still_running_after_ctrl_c_cannot_undo_the_interrupted_mark(tmp_path):
+    """After Ctrl-C the batch's thread can still be busy in its episode (a kernel compile no exception interrupts)
+    and send its next stage or step: that must not write ``running`` over the mark."""
+    from benchbot.batch.progress import PROGRESS, ProgressFile, mark_interrupted
+
+    progress = ProgressFile(tmp_path)
+    progress.event("start", 0, None)
+    progress.event("start", 1, None)
+    progress.event("end", 0, None)
+    assert mark_interrupted(tmp_path) == 1
+    progress.event("stage", 1, {"stage": "compiling kernels"})
+    progress.event("step", 1, {"step": 3})
+    progress.event("start", 2, None)
+    episodes = json.loads((tmp_path / PROGRESS).read_text())["episodes"]
+    assert {k: e["state"] for k, e in episodes.items()} == {"0": "ended", "1": "interrupted"}
+
+
 @pytest.mark.slow
 def test_q_closes_the_batch_view_and_the_batch_goes_on(tmp_path):
     with Terminal(_batch(tmp_path, "miniroom:4"), columns=100, rows=30) as term:

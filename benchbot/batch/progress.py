@@ -17,16 +17,24 @@ from __future__ import annotations
 import json
 import threading
 import time
+import weakref
 from pathlib import Path
 
 from benchbot.core import atomic
 
 PROGRESS = "progress.json"
 
+#: Seconds :func:`mark_interrupted` waits for a writer's write in progress (one atomic replace of a small file).
+LOCK_WAIT_S = 1.0
+#: The writers alive in this process, by their file's resolved path: :func:`mark_interrupted` stops one before marking.
+_WRITERS: "weakref.WeakValueDictionary[str, ProgressFile]" = weakref.WeakValueDictionary()
+
 
 class ProgressFile:
     """The writer of ``RUN_DIR/progress.json``: replaced atomically on every episode start and end, and at most
-    ``max_rate_hz`` times a second on steps (each step still updates the count it writes next).
+    ``max_rate_hz`` times a second on steps (each step still updates the count it writes next). Once
+    :func:`mark_interrupted` has marked its run directory it writes nothing more, so that an episode thread still
+    running after Ctrl-C (a backend busy in a kernel compile) cannot put ``running`` back.
 
     Args:
         run_dir: the run directory.
@@ -38,6 +46,8 @@ class ProgressFile:
         self.episodes: dict[str, dict] = {}
         self.min_interval, self.written_at = 1.0 / max_rate_hz, 0.0
         self.lock = threading.Lock()
+        self.stopped = False
+        _WRITERS[str(self.path.resolve())] = self
 
     def event(self, kind: str, index: int, info: dict | None) -> None:
         """An executor event: ``("start", index, None)``, ``("stage", index, {"stage": text})``, ``("step", index,
@@ -47,6 +57,8 @@ class ProgressFile:
             OSError: the file cannot be written.
         """
         with self.lock:
+            if self.stopped:
+                return
             key = str(index)
             if kind == "start":
                 self.episodes[key] = {"state": "running", "step": 0, "started": time.time(), "stage": ""}
@@ -66,7 +78,26 @@ class ProgressFile:
 
 def mark_interrupted(run_dir: Path) -> int:
     """After Ctrl-C: the episodes ``run_dir``'s ``progress.json`` still calls ``running`` become ``interrupted``
-    (replaced atomically; nothing is written when none runs or the file is missing). Returns how many."""
+    (replaced atomically; nothing is written when none runs or the file is missing). A :class:`ProgressFile` of
+    this process writing that file is stopped first, under its lock, so no later event of it undoes the mark.
+    Returns how many.
+
+    Raises:
+        OSError: the file cannot be written.
+    """
+    writer = _WRITERS.get(str((Path(run_dir) / PROGRESS).resolve()))
+    if writer is None:
+        return _mark_running_interrupted(Path(run_dir))
+    locked = writer.lock.acquire(timeout=LOCK_WAIT_S)  # a stop is bounded: never wait long on a stuck write
+    try:
+        writer.stopped = True
+        return _mark_running_interrupted(Path(run_dir))
+    finally:
+        if locked:
+            writer.lock.release()
+
+
+def _mark_running_interrupted(run_dir: Path) -> int:
     episodes = read_progress(run_dir)
     running = [e for e in episodes.values() if isinstance(e, dict) and e.get("state") == "running"]
     for e in running:
