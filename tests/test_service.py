@@ -74,6 +74,14 @@ def service_env(monkeypatch):
     shutil.rmtree(runtime, ignore_errors=True)
 
 
+@pytest.fixture
+def short_tmp():
+    """A new folder (mode 0700) with a short path, removed afterwards."""
+    folder = Path(tempfile.mkdtemp(prefix="bb-short-"))
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 # ------------------------------------------------------------------------------------------------ the parts, alone
 def test_the_socket_folder_must_be_a_private_folder_of_the_user(tmp_path):
     made = location.private_dir(tmp_path / "fresh")
@@ -87,6 +95,35 @@ def test_the_socket_folder_must_be_a_private_folder_of_the_user(tmp_path):
     link.symlink_to(made)
     with pytest.raises(UsageError, match="not a folder of its own"):
         location.private_dir(link)
+
+
+def _deep_folder(root: Path, length: int) -> Path:
+    """A folder of this user's under ``root`` whose path is ``length`` bytes or a few more."""
+    folder = root
+    while len(str(folder)) < length:
+        folder = folder / ("d" * 40)
+    folder.mkdir(parents=True, mode=0o700)
+    return folder
+
+
+def test_a_runtime_folder_too_long_for_the_pool_workers_sockets_is_passed_over(short_tmp, tmp_path, monkeypatch):
+    """A pool worker's socket is the longest path the service makes; where ``XDG_RUNTIME_DIR`` is too long for it
+    the temporary folder is used, and where that is too long too the command says so in one line."""
+    monkeypatch.setenv("TMPDIR", str(short_tmp))
+    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
+    long_runtime = _deep_folder(tmp_path, 90)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(long_runtime))
+    assert location.runtime_dir() == short_tmp / f"benchbot-service-{os.geteuid()}"
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(short_tmp))
+    assert location.runtime_dir() == short_tmp / "benchbot"
+    monkeypatch.setenv("TMPDIR", str(_deep_folder(tmp_path / "t", 90)))
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(long_runtime))
+    with pytest.raises(UsageError, match="too long for a Unix socket's path.*at most 107"):
+        location.runtime_dir()
+    proc = benchbot("service", "status")
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr, proc.stderr
+    assert "too long for a Unix socket" in proc.stderr and "TMPDIR" in proc.stderr, proc.stderr
 
 
 def test_the_installation_key_follows_code_and_settings_but_not_the_services_own(tmp_path, monkeypatch):
@@ -276,10 +313,12 @@ def test_a_service_killed_mid_episode_is_a_one_line_error_and_the_next_command_s
 
 
 @pytest.mark.slow
-def test_a_sandboxed_solution_whose_folder_holds_the_socket_folder_cannot_see_it(service_env, tmp_path, monkeypatch):
+def test_a_sandboxed_solution_whose_folder_holds_the_socket_folder_cannot_see_it(service_env, short_tmp, tmp_path,
+                                                                                monkeypatch):
     """The socket folder inside the solution's own folder (shown to it, read-only) is hidden: the solution finds an
-    empty folder where the socket is."""
-    solution = tmp_path / "solution"
+    empty folder where the socket is. (A short folder, not under ``tmp_path``: there the sockets' paths would be too
+    long for a Unix socket, and the service would pass the folder over.)"""
+    solution = short_tmp
     (solution / "run").mkdir(parents=True, mode=0o700)
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(solution / "run"))
     socket_path = solution / "run" / "benchbot" / "service.sock"

@@ -41,13 +41,12 @@ def run_directories(run_dir: Path) -> list[Path]:
 
 
 def service_folders() -> list[Path]:
-    """The simulator service's socket folder (:func:`benchbot.service.location.runtime_dir`) where it exists: hidden
-    from sandboxed solutions, whose own shown folder may hold it (the service refuses them all the same,
+    """The simulator service's socket folders (:func:`benchbot.service.location.socket_folders`) that exist: hidden
+    from sandboxed solutions, whose own shown folder may hold them (the service refuses them all the same,
     :func:`benchbot.service.protocol.peer_problem`)."""
-    from benchbot.service.location import runtime_dir
+    from benchbot.service.location import socket_folders
 
-    folder = runtime_dir()
-    return [folder.resolve()] if folder.is_dir() else []
+    return [folder.resolve() for folder in socket_folders() if folder.is_dir()]
 
 
 def _run_sandboxed(spec: EpisodeSpec, registry, folder: Path, backend_socket: Path, log,

@@ -1,7 +1,7 @@
 """Where the simulator service lives, and which service serves this installation.
 
 * The folder of its sockets and locks (:func:`runtime_dir`): ``$XDG_RUNTIME_DIR/benchbot`` where the user has a
-  runtime folder, else ``<temporary folder>/benchbot-service-<uid>``; made with mode 0700 and refused unless it is
+  runtime folder short enough for a Unix socket's path, else ``<temporary folder>/benchbot-service-<uid>``; made with mode 0700 and refused unless it is
   a real folder of this user's that no one else may enter (:func:`private_dir`). Sandboxed solutions never see it
   (:func:`benchbot.solutions.sandbox.hidden_folders` hides it, and the service refuses a peer in another user
   namespace, :func:`benchbot.service.protocol.peer_problem`).
@@ -58,18 +58,43 @@ class ServiceLocation:
     log: Path
 
 
-def runtime_dir() -> Path:
-    """The folder of this user's service sockets (not created): ``$XDG_RUNTIME_DIR/benchbot`` when that variable
-    names a folder of this user's, else ``<temporary folder>/benchbot-service-<uid>``."""
+#: The most bytes a Unix socket's path may have on Linux (``sun_path`` holds 108, its closing NUL included).
+SOCKET_PATH_MAX = 107
+#: The longest name of a socket the service makes in its folder: a pool worker's (``worker-<pid>-<count>.sock``,
+#: a pid of up to 7 digits and a count of up to 9).
+LONGEST_SOCKET_NAME = "worker-4194304-999999999.sock"
+
+
+def socket_folders() -> list[Path]:
+    """Where the service's sockets may go, in order of preference: ``$XDG_RUNTIME_DIR/benchbot`` when that variable
+    names a folder of this user's, then ``<temporary folder>/benchbot-service-<uid>`` (neither is created)."""
+    folders = []
     runtime = os.environ.get("XDG_RUNTIME_DIR", "").strip()
     if runtime:
         try:
             info = os.stat(runtime)
             if stat.S_ISDIR(info.st_mode) and info.st_uid == os.geteuid():
-                return Path(runtime) / "benchbot"
+                folders.append(Path(runtime) / "benchbot")
         except OSError:
             pass
-    return Path(tempfile.gettempdir()) / f"benchbot-service-{os.geteuid()}"
+    return [*folders, Path(tempfile.gettempdir()) / f"benchbot-service-{os.geteuid()}"]
+
+
+def runtime_dir() -> Path:
+    """The folder of this user's service sockets (not created): the first of :func:`socket_folders` in which every
+    socket the service makes has a path short enough for a Unix socket (:data:`SOCKET_PATH_MAX` bytes).
+
+    Raises:
+        UsageError: no such folder fits (a very long ``XDG_RUNTIME_DIR`` and ``TMPDIR``); one line with the fix.
+    """
+    folders = socket_folders()
+    for folder in folders:
+        if len(os.fsencode(str(folder / LONGEST_SOCKET_NAME))) <= SOCKET_PATH_MAX:
+            return folder
+    longest = len(os.fsencode(str(folders[-1] / LONGEST_SOCKET_NAME)))
+    raise UsageError(f"the simulator service's socket folder {folders[-1]} is too long for a Unix socket's path "
+                     f"({longest} bytes with its sockets' names; at most {SOCKET_PATH_MAX})",
+                     "set TMPDIR or XDG_RUNTIME_DIR to a shorter folder (e.g. TMPDIR=/tmp), or run with --no-service")
 
 
 def private_dir(folder: Path) -> Path:
