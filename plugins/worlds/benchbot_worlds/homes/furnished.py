@@ -57,6 +57,8 @@ class FurnishedHome:
         obstacles: ``(lo_xy (2,), hi_xy (2,), bottom_z, name)`` what the robot's footprint may not touch when the
             robot is taller than ``bottom_z`` (m): walls, supports and distractor furniture.
         lamps: (K, 3) float64 ceiling light positions (metres, map frame).
+        windows: (W, 2, 3) float64 per window the centre of its opening and the unit normal pointing into the home
+            (metres, map frame).
         outer_lo, outer_hi: (2,) float64 xy of the outer walls' outer faces.
         wall_height: metres.
     """
@@ -68,6 +70,7 @@ class FurnishedHome:
     without_model: list[int] = field(default_factory=list)
     obstacles: list[tuple[np.ndarray, np.ndarray, float, str]] = field(default_factory=list)
     lamps: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    windows: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
     outer_lo: np.ndarray = field(default_factory=lambda: np.zeros(2))
     outer_hi: np.ndarray = field(default_factory=lambda: np.zeros(2))
     wall_height: float = 2.6
@@ -234,6 +237,9 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
         if not any(abs(q[0] - a) < 0.6 and abs(q[1] - b) < 0.6 for a, b in placed):
             lamps.append(q.tolist())
     home.lamps = np.asarray(lamps, dtype=np.float64).reshape(-1, 3)
+    home.windows = np.asarray([[(np.asarray(o.lo, float) + np.asarray(o.hi, float)) / 2,
+                                [-float(o.outward[0]), -float(o.outward[1]), 0.0]]
+                               for o in plan.openings if o.kind == "window"], dtype=np.float64).reshape(-1, 2, 3)
     half = float(plan.wall_thickness)
     home.outer_lo = np.asarray(plan.outer_lo, float) - half
     home.outer_hi = np.asarray(plan.outer_hi, float) + half

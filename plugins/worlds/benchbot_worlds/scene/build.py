@@ -100,6 +100,11 @@ INDOOR_AMBIENT_GAIN = 1.75
 #: Furnished homes, lighting ``base``: the ceiling lamps' intensity (before :data:`LAMP_GAIN`).
 BASE_LAMP_INTENSITY = 0.9
 LAMP_RANGE_M = 6.0
+#: Furnished homes lit by day alone (``day``): the sky seen through each window lights the room as a lamp in the
+#: window's opening would, this far (m) inside it, with the sky's colour at a lamp's luminance and range; the ambient
+#: term, which stood in for that light too, keeps :data:`DAY_WINDOW_AMBIENT_SHARE` of its level.
+WINDOW_LIGHT_INSET_M = 0.3
+DAY_WINDOW_AMBIENT_SHARE = 0.6
 
 
 def load_ground_truth_json(path: "str | Path") -> dict:
@@ -331,7 +336,7 @@ def object_colour(cls: str, id_name: str, seed: int) -> np.ndarray:
 
 
 def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None,
-            frame=None):
+            frame=None, windows: np.ndarray | None = None):
     """(ambient, kind, vec, colour, range) for a lighting name and a room; ``lamps`` (K, 3): the ceiling lights'
     positions (furnished homes), else a grid under the room's ceiling; ``frame``: a furnished home's
     :class:`~benchbot_worlds.homes.home_frame.HomeFrame`, in which the sun's direction is fixed (else the map
@@ -371,6 +376,17 @@ def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np
     if lighting == "day":
         ambient = np.array([0.30, 0.31, 0.33])
         sun(0.95)
+        if windows is not None and len(windows):  # a furnished home: the sky lights it through its windows
+            ambient = ambient * DAY_WINDOW_AMBIENT_SHARE
+            luma = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance of linear RGB
+            sky = srgb_to_linear(np.asarray(_OUTDOOR_COLOURS[1], dtype=np.float32)).astype(np.float64)
+            lamp = np.array([1.0, 0.82, 0.60]) * BASE_LAMP_INTENSITY * LAMP_GAIN
+            colour = sky / (luma @ sky) * (luma @ lamp)
+            for centre, inward in np.asarray(windows, dtype=np.float64).reshape(-1, 2, 3):
+                kinds.append(LIGHT_POINT)
+                vecs.append(centre + WINDOW_LIGHT_INSET_M * inward)
+                cols.append(colour)
+                ranges.append(LAMP_RANGE_M)
     elif lighting == "day_extra":
         ambient = np.array([0.34, 0.35, 0.37])
         sun(1.05)
@@ -549,7 +565,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         room_max = np.array([*(home.outer_hi + OUTDOOR_MARGIN_M), home.wall_height + OUTDOOR_MARGIN_M], np.float32)
         shell = _OUTDOOR_COLOURS
     ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max, lamps=None if home is None else home.lamps,
-                                           frame=frame)
+                                           frame=frame, windows=None if home is None else home.windows)
     if home is not None:  # walls and ceilings keep the sun out but for the windows: light bounced indoors
         ambient = (ambient * INDOOR_AMBIENT_GAIN).astype(np.float32)
     obstacles = [] if home is None else home.obstacles
