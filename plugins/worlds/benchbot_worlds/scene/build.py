@@ -340,7 +340,8 @@ def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np
     """(ambient, kind, vec, colour, range) for a lighting name and a room; ``lamps`` (K, 3): the ceiling lights'
     positions (furnished homes), else a grid under the room's ceiling; ``frame``: a furnished home's
     :class:`~benchbot_worlds.homes.home_frame.HomeFrame`, in which the sun's direction is fixed (else the map
-    frame)."""
+    frame); ``windows`` (W, 2, 3): a furnished home's windows (centre, inward unit normal; metres, map frame), each
+    a point light :data:`WINDOW_LIGHT_INSET_M` inside it when the lighting is ``day``."""
     h = float(room_max[2])
     sun_dir = np.array([0.45, 0.30, 0.84], dtype=np.float64)
     sun_dir /= np.linalg.norm(sun_dir)
