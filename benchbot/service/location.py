@@ -1,10 +1,10 @@
 """Where the simulator service lives, and which service serves this installation.
 
 * The folder of its sockets and locks (:func:`runtime_dir`): ``$XDG_RUNTIME_DIR/benchbot`` where the user has a
-  runtime folder short enough for a Unix socket's path, else ``<temporary folder>/benchbot-service-<uid>``; made with mode 0700 and refused unless it is
-  a real folder of this user's that no one else may enter (:func:`private_dir`). Sandboxed solutions never see it
-  (:func:`benchbot.solutions.sandbox.hidden_folders` hides it, and the service refuses a peer in another user
-  namespace, :func:`benchbot.service.protocol.peer_problem`).
+  runtime folder short enough for a Unix socket's path, else ``<temporary folder>/benchbot-service-<uid>``; made
+  with mode 0700 and refused unless it is a real folder of this user's that no one else may enter
+  (:func:`private_dir`). Sandboxed solutions never see it (:func:`benchbot.solutions.sandbox.hidden_folders` hides
+  it, and the service refuses a peer in another user namespace, :func:`benchbot.service.protocol.peer_problem`).
 * Its socket and lock there: ``service.sock`` and ``service.lock``; one service per user and machine.
 * Whether it may serve a command (:func:`installation_key`): a digest of what the service's results depend on besides
   a request — the Python and its ``sys.path``, BenchBot's and its plugins' distributions, the files of their packages
