@@ -107,7 +107,7 @@ class WorkerPool:
         from benchbot.batch.gpus import pin
 
         self._count += 1
-        path = self.folder / f"worker-{os.getpid()}-{self._count}.sock"
+        path = self.folder / f"worker-{os.getpid()}-{self._count}.sock"  # at most location.LONGEST_SOCKET_NAME long
         env = dict(os.environ)
         for name in THREAD_VARIABLES:
             env.setdefault(name, str(threads))
