@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchbot_worlds.scene.meshes import Material, MeshInstance, load_mesh, make_mesh, with_glass_panes
+from benchbot_worlds.scene.meshes import (
+    Material, MeshInstance, load_mesh, make_mesh, with_glass_panes, with_real_blacks)
 from benchbot_worlds.scene.surfaces import TILE_SIZE_M, room_materials, surface_texture
 
 #: Roles of placements that stand in the robot's way (when their bottom is below its height).
@@ -217,7 +218,7 @@ def furnish_environment(objects: list[dict], home_files: list | None, paths: lis
                                        -1))
     lamps = []
     for p in furnishing.placements:
-        mesh = p.mesh if p.mesh is not None else load_mesh(library.get(p.asset_id).path)
+        mesh = p.mesh if p.mesh is not None else with_real_blacks(load_mesh(library.get(p.asset_id).path))
         if p.role in ("window", "door"):  # glass panes: the outdoors is seen and the sun shines in through them
             mesh = with_glass_panes(mesh)
         T = np.asarray(p.transform, dtype=np.float64)

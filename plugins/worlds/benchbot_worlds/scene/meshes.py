@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
 import math
 import threading
 from dataclasses import dataclass, field
@@ -592,6 +593,34 @@ def with_glass_panes(mesh: MeshData) -> MeshData:
     if not any(m.opacity < GLASS_OPACITY for m in mesh.materials):
         return mesh
     mats = [dataclasses.replace(m, glass=True) if m.opacity < GLASS_OPACITY else m for m in mesh.materials]
+    return dataclasses.replace(mesh, materials=mats)
+
+
+#: The darkest albedo (linear, Rec. 709 luminance) of a model's untextured material in a furnished home: about
+#: black paint's, black plastic's or charcoal's (they reflect 3-5 % of the light; physically based material guides
+#: put the darkest dielectric base colour near 50 in sRGB, 0.03 linear). Sweet Home 3D's models leave many
+#: materials at 0.0-0.012, darker than black velvet (about 0.01), so that they draw as flat silhouettes.
+MIN_BLACK_ALBEDO = 0.03
+#: Rec. 709 luminance weights of linear RGB.
+_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+
+
+@functools.lru_cache(maxsize=512)
+def with_real_blacks(mesh: MeshData) -> MeshData:
+    """``mesh`` (sharing its arrays) with each untextured, opaque material whose albedo's luminance is below
+    :data:`MIN_BLACK_ALBEDO` lifted to it by adding the same amount to every channel (a black level: a dark red
+    stays red, with a little grey in it); textured materials and glass are as they are. Returns ``mesh`` itself
+    when none is that dark; the same mesh gives the same result (cached by identity, so that a model placed many
+    times keeps one set of materials)."""
+    def lifted(m: Material) -> Material:
+        lum = float(_LUMA @ np.asarray(m.albedo, np.float32))
+        if m.texture is not None or m.opacity < GLASS_OPACITY or m.glass or lum >= MIN_BLACK_ALBEDO:
+            return m
+        return dataclasses.replace(m, albedo=(np.asarray(m.albedo, np.float32) + (MIN_BLACK_ALBEDO - lum)))
+
+    mats = [lifted(m) for m in mesh.materials]
+    if all(a is b for a, b in zip(mats, mesh.materials)):
+        return mesh
     return dataclasses.replace(mesh, materials=mats)
 
 
