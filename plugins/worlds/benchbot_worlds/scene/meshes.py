@@ -611,7 +611,13 @@ def with_real_blacks(mesh: MeshData) -> MeshData:
     :data:`MIN_BLACK_ALBEDO` lifted to it by adding the same amount to every channel (a black level: a dark red
     stays red, with a little grey in it); textured materials and glass are as they are. Returns ``mesh`` itself
     when none is that dark; the same mesh gives the same result (cached by identity, so that a model placed many
-    times keeps one set of materials)."""
+    times keeps one set of materials).
+
+    Args:
+        mesh: a loaded model; each ``Material.albedo`` is (3,) float32 linear RGB in [0, 1].
+    Returns:
+        a :class:`MeshData` whose lifted materials have (3,) float32 albedos of Rec. 709 luminance exactly
+        :data:`MIN_BLACK_ALBEDO`. Raises nothing for a valid mesh."""
     def lifted(m: Material) -> Material:
         lum = float(_LUMA @ np.asarray(m.albedo, np.float32))
         if m.texture is not None or m.opacity < GLASS_OPACITY or m.glass or lum >= MIN_BLACK_ALBEDO:
