@@ -9,10 +9,11 @@ import pytest
 
 from benchbot.core.registry import Registry
 from benchbot_worlds.scene import build
+from benchbot_worlds.scene.model import LUMA_709
 from benchbot_worlds.scene.build import (BASE_LAMP_INTENSITY, DAY_WINDOW_AMBIENT_SHARE, INDOOR_AMBIENT_GAIN,
                                          LAMP_GAIN, LAMP_RANGE_M, LIGHT_POINT, WINDOW_LIGHT_INSET_M, build_scene)
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
+LUMA = np.asarray(LUMA_709)
 
 
 def _furnished(name: str, lighting: str | None = None) -> dict:
@@ -25,7 +26,7 @@ def miniroom_2():
     """miniroom:2 (lit ``day`` by BEAR's map), its furnished home and its scene."""
     env = _furnished("miniroom:2")
     data = build.load_ground_truth_json(env["map_path"])
-    home = build._furnished_home(env, data["environment"], data["ground_truth"]["objects"], env["map_path"])
+    home = build.furnished_home(env, data["environment"], data["ground_truth"]["objects"], env["map_path"])
     return env, home, build_scene(env)
 
 
@@ -58,8 +59,8 @@ def test_a_day_homes_ambient_keeps_its_share(miniroom_2):
 def test_other_lightings_get_no_window_lights(miniroom_2, lighting):
     _, home, _ = miniroom_2
     room_min, room_max = np.array([-5.0, -5.0, 0.0]), np.array([5.0, 5.0, 3.0])
-    with_windows = build._lights(lighting, room_min, room_max, lamps=home.lamps, windows=home.windows)
-    without = build._lights(lighting, room_min, room_max, lamps=home.lamps)
+    with_windows = build.scene_lights(lighting, room_min, room_max, lamps=home.lamps, windows=home.windows)
+    without = build.scene_lights(lighting, room_min, room_max, lamps=home.lamps)
     for a, b in zip(with_windows, without):
         assert np.array_equal(a, b)
 

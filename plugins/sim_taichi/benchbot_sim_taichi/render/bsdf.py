@@ -26,6 +26,8 @@ Model (glTF 2.0 metallic–roughness, Appendix B, with Blender's Principled BSDF
 import contextlib
 import sys
 
+from benchbot_worlds.scene.model import LUMA_709
+
 with contextlib.redirect_stdout(sys.stderr):
     import taichi as ti
 
@@ -37,10 +39,15 @@ PI = 3.14159265358979
 INV_PI = 0.3183098861837907
 
 
+#: The Rec. 709 weights (:data:`benchbot_worlds.scene.model.LUMA_709`) as scalars, which Taichi compiles in as
+#: constants.
+_LUMA_R, _LUMA_G, _LUMA_B = LUMA_709
+
+
 @ti.func
 def luminance(c):
     """Rec. 709 luminance of a linear RGB vector."""
-    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+    return _LUMA_R * c[0] + _LUMA_G * c[1] + _LUMA_B * c[2]
 
 
 @ti.func

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from benchbot_worlds.scene.model import LUMA_709
+
 #: Tone curves (see the module doc).
 TONE_CURVES = ("clip", "filmic")
 #: Exposure-scaled radiance at which the filmic curve is taken as 1 (its value there is above 0.999 … 1.02).
@@ -51,8 +53,6 @@ METER_OFFSET = METER_STRIDE // 2
 METER_DELTA = 1e-4
 #: Auto-exposure: the meter's gain stays within ±METER_RANGE_EV stops of 1.
 METER_RANGE_EV = 8.0
-#: Rec. 709 (sRGB) luminance weights of linear R, G, B.
-LUMA_709 = (0.2126, 0.7152, 0.0722)
 
 
 def aces_filmic(x: np.ndarray) -> np.ndarray:

@@ -26,7 +26,8 @@ from benchbot.core.specs import first_error
 from benchbot_worlds.bear import lighting_of_map_path
 from benchbot_worlds.scene.meshes import MeshInstance, add_mesh_instances, instance_bounds, load_mesh, with_albedo
 from benchbot_worlds.scene.model import (
-    LIGHT_DIRECTIONAL, LIGHT_POINT, PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID, PRIM_TRIANGLE, Scene, srgb_to_linear,
+    LIGHT_DIRECTIONAL, LIGHT_POINT, LUMA_709, PRIM_BOX, PRIM_CYLINDER, PRIM_ELLIPSOID, PRIM_TRIANGLE, Scene,
+    srgb_to_linear,
 )
 from benchbot_worlds.settings import SIM_STYLE
 
@@ -335,13 +336,27 @@ def object_colour(cls: str, id_name: str, seed: int) -> np.ndarray:
     return np.clip(np.asarray(base, dtype=np.float64) + jitter, 0.02, 0.98).astype(np.float32)
 
 
-def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None,
+def scene_lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None,
             frame=None, windows: np.ndarray | None = None):
-    """(ambient, kind, vec, colour, range) for a lighting name and a room; ``lamps`` (K, 3): the ceiling lights'
-    positions (furnished homes), else a grid under the room's ceiling; ``frame``: a furnished home's
-    :class:`~benchbot_worlds.homes.home_frame.HomeFrame`, in which the sun's direction is fixed (else the map
-    frame); ``windows`` (W, 2, 3): a furnished home's windows (centre, inward unit normal; metres, map frame), each
-    a point light :data:`WINDOW_LIGHT_INSET_M` inside it when the lighting is ``day``."""
+    """The lights of a lighting variant in a room, before :data:`INDOOR_AMBIENT_GAIN` (what :func:`build_scene`
+    stores in :class:`~benchbot_worlds.scene.model.Scene`'s ``ambient`` and ``light_*`` fields).
+
+    Args:
+        lighting: ``base``, ``day``, ``day_extra``, ``night`` or ``night_extra`` (BEAR's variants; another name is
+            lit as ``base``).
+        room_min, room_max: (3,) the room's corners (metres, map frame); the ceiling is at ``room_max[2]``.
+        lamps: (K, 3) the ceiling lights' positions (furnished homes), else a grid under the room's ceiling.
+        frame: a furnished home's :class:`~benchbot_worlds.homes.home_frame.HomeFrame`, in which the sun's
+            direction is fixed (else the map frame).
+        windows: (W, 2, 3) a furnished home's windows (centre, inward unit normal; metres, map frame), each a point
+            light :data:`WINDOW_LIGHT_INSET_M` inside it when the lighting is ``day``.
+
+    Returns:
+        ``(ambient, kind, vec, colour, range)``: (3,) float32 linear ambient radiance; (L,) int32 light kinds
+        (``LIGHT_DIRECTIONAL``, ``LIGHT_POINT``); (L, 3) float32 the direction towards a directional light (unit) or
+        a point light's position (metres, map frame); (L, 3) float32 linear radiance; (L,) float32 a point light's
+        range in metres (0 for a directional light). Raises nothing.
+    """
     h = float(room_max[2])
     sun_dir = np.array([0.45, 0.30, 0.84], dtype=np.float64)
     sun_dir /= np.linalg.norm(sun_dir)
@@ -379,7 +394,7 @@ def _lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np
         sun(0.95)
         if windows is not None and len(windows):  # a furnished home: the sky lights it through its windows
             ambient = ambient * DAY_WINDOW_AMBIENT_SHARE
-            luma = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance of linear RGB
+            luma = np.asarray(LUMA_709, dtype=np.float64)
             sky = srgb_to_linear(np.asarray(_OUTDOOR_COLOURS[1], dtype=np.float32)).astype(np.float64)
             lamp = np.array([1.0, 0.82, 0.60]) * BASE_LAMP_INTENSITY * LAMP_GAIN
             colour = sky / (luma @ sky) * (luma @ lamp)
@@ -466,7 +481,7 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
     home = None
     map_objects = gt["objects"][: len(gt["objects"]) - len(mesh_objs)]
     if style == "furnished" and map_objects:  # the plan is derived from the map's cuboids: without any, a room shell
-        home = _furnished_home(environment, file_env, map_objects, map_path)
+        home = furnished_home(environment, file_env, map_objects, map_path)
     frame = home.frame if home is not None else _primitives_frame(environment, file_env, map_objects, map_path)
     modelled = set() if home is None else \
         {i.object_index for i in home.instances if i.object_index >= 0}
@@ -565,8 +580,9 @@ def build_scene(environment: dict, *, seed: int = 0) -> Scene:
         room_min = np.array([*(home.outer_lo - OUTDOOR_MARGIN_M), 0.0], dtype=np.float32)
         room_max = np.array([*(home.outer_hi + OUTDOOR_MARGIN_M), home.wall_height + OUTDOOR_MARGIN_M], np.float32)
         shell = _OUTDOOR_COLOURS
-    ambient, kind, vec, col, rng = _lights(lighting, room_min, room_max, lamps=None if home is None else home.lamps,
-                                           frame=frame, windows=None if home is None else home.windows)
+    ambient, kind, vec, col, rng = scene_lights(lighting, room_min, room_max,
+                                                lamps=None if home is None else home.lamps, frame=frame,
+                                                windows=None if home is None else home.windows)
     if home is not None:  # walls and ceilings keep the sun out but for the windows: light bounced indoors
         ambient = (ambient * INDOOR_AMBIENT_GAIN).astype(np.float32)
     obstacles = [] if home is None else home.obstacles
@@ -668,7 +684,7 @@ def _box_models(home, n_boxes: int) -> list[str]:
     return [by_object.get(k, "") for k in range(n_boxes)]
 
 
-def _furnished_home(environment: dict, file_env: dict, objects: list, map_path):
+def furnished_home(environment: dict, file_env: dict, objects: list, map_path):
     """The :class:`~benchbot_worlds.homes.furnished.FurnishedHome` of an environment (its home's plan is derived
     from the ground-truth files its ``home_files`` declares with its own map file,
     :func:`~benchbot_worlds.homes.floorplan.home_files`, or from this environment's own poses without a map file),

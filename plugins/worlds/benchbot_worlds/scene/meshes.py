@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from benchbot.core.errors import BackendError
+from benchbot_worlds.scene.model import LUMA_709
 
 #: Crease angle (degrees) of the smooth normals computed for meshes whose files have none: faces meeting at a
 #: vertex are smoothed together when their normals differ by less than this, so curved surfaces look round and
@@ -601,8 +602,6 @@ def with_glass_panes(mesh: MeshData) -> MeshData:
 #: put the darkest dielectric base colour near 50 in sRGB, 0.03 linear). Sweet Home 3D's models leave many
 #: materials at 0.0-0.012, darker than black velvet (about 0.01), so that they draw as flat silhouettes.
 MIN_BLACK_ALBEDO = 0.03
-#: Rec. 709 luminance weights of linear RGB.
-_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
 
 
 @functools.lru_cache(maxsize=512)
@@ -619,7 +618,7 @@ def with_real_blacks(mesh: MeshData) -> MeshData:
         a :class:`MeshData` whose lifted materials have (3,) float32 albedos of Rec. 709 luminance exactly
         :data:`MIN_BLACK_ALBEDO`. Raises nothing for a valid mesh."""
     def lifted(m: Material) -> Material:
-        lum = float(_LUMA @ np.asarray(m.albedo, np.float32))
+        lum = float(np.asarray(LUMA_709, np.float32) @ np.asarray(m.albedo, np.float32))
         if m.texture is not None or m.opacity < GLASS_OPACITY or m.glass or lum >= MIN_BLACK_ALBEDO:
             return m
         return dataclasses.replace(m, albedo=(np.asarray(m.albedo, np.float32) + (MIN_BLACK_ALBEDO - lum)))

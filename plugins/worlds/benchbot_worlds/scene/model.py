@@ -11,6 +11,10 @@ import numpy as np
 LIGHT_DIRECTIONAL = 0
 LIGHT_POINT = 1
 
+#: Rec. 709 (sRGB) luminance weights of linear R, G, B: ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` (ITU-R BT.709-6,
+#: item 3.2). The one copy that the scene, the renderer and the camera model read.
+LUMA_709 = (0.2126, 0.7152, 0.0722)
+
 #: Shell surfaces, indices into :attr:`Scene.shell_albedo`.
 SHELL_FLOOR, SHELL_WALL, SHELL_CEILING = 0, 1, 2
 
