@@ -337,7 +337,7 @@ def object_colour(cls: str, id_name: str, seed: int) -> np.ndarray:
 
 
 def scene_lights(lighting: str, room_min: np.ndarray, room_max: np.ndarray, lamps: np.ndarray | None = None,
-            frame=None, windows: np.ndarray | None = None):
+                 frame=None, windows: np.ndarray | None = None):
     """The lights of a lighting variant in a room, before :data:`INDOOR_AMBIENT_GAIN` (what :func:`build_scene`
     stores in :class:`~benchbot_worlds.scene.model.Scene`'s ``ambient`` and ``light_*`` fields).
 
