@@ -37,3 +37,8 @@ tracked=$(git ls-files -z | xargs -0 stat -c %s | awk '{s += 512 + int(($1 + 511
 bundle=$(du -cb "$OUT" | tail -1 | cut -f1)
 echo "site312_slim.tar.xz $(du -h "$OUT/site312_slim.tar.xz" | cut -f1), build312.tar.xz $(du -h "$OUT/build312.tar.xz" | cut -f1);" \
      "tracked files as tar + $OUT: $(( (tracked + bundle) / 1048576 )) MiB of the 64 MiB a call carries"
+# Over the limit (28 Nov 2026: 47 MiB tracked + 23 MiB), a call can still go with folders no device script reads moved
+# out of the checkout for it and back after, e.g. benchmarks/realism (the photos, 12 MiB) and docs/gallery (7 MiB).
+if [ $(( (tracked + bundle) / 1048576 )) -ge 64 ]; then
+  echo "over the limit: move folders the device script does not read (benchmarks/realism, docs/gallery) out for the call"
+fi
