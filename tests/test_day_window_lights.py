@@ -9,9 +9,9 @@ import pytest
 
 from benchbot.core.registry import Registry
 from benchbot_worlds.scene import build
-from benchbot_worlds.scene.model import LUMA_709
 from benchbot_worlds.scene.build import (BASE_LAMP_INTENSITY, DAY_WINDOW_AMBIENT_SHARE, INDOOR_AMBIENT_GAIN,
                                          LAMP_GAIN, LAMP_RANGE_M, LIGHT_POINT, WINDOW_LIGHT_INSET_M, build_scene)
+from benchbot_worlds.scene.model import LUMA_709
 
 LUMA = np.asarray(LUMA_709)
 

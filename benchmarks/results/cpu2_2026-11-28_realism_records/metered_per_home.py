@@ -13,12 +13,15 @@ from pathlib import Path
 import numpy as np
 sys.path.insert(0, "benchmarks")
 import realism as R
-from benchbot_sim_taichi.render.camera_model import CameraModel, METER_KEY, METER_DELTA, LUMA_709
+from benchbot_sim_taichi.render.camera_model import CameraModel, METER_KEY, METER_DELTA
+from benchbot_worlds.scene.model import LUMA_709
 
 EV_FILE = Path(__file__).with_name("metered_per_home_ev.json")
 default_cam = R.camera_model()
 
-def home_evs():
+def home_evs() -> dict:
+    """{environment name: exposure (EV)} for the ten BEAR homes: metered_per_home_ev.json if it exists, else metered
+    from fast frames of every 8th pose (seed 0) and written there."""
     if EV_FILE.exists():
         return json.loads(EV_FILE.read_text())
     from benchbot_sim_taichi.render.renderer import Renderer
@@ -46,14 +49,20 @@ def home_evs():
     EV_FILE.write_text(json.dumps(evs, indent=1))
     return evs
 
-evs = home_evs()
-_judge = R.judge_environment
-def judge(name, *a, **k):
-    R.camera_model = lambda: dataclasses.replace(default_cam, exposure_ev=evs[name])
-    try:
-        return _judge(name, *a, **k)
-    finally:
-        R.camera_model = lambda: default_cam
-R.judge_environment = judge
+def main(argv: list[str]) -> int:
+    """realism.py's main with each home judged at its own exposure (realism.py's camera_model replaced per home)."""
+    evs = home_evs()
+    judge_at_default = R.judge_environment
+
+    def judge(name, *a, **k):
+        R.camera_model = lambda: dataclasses.replace(default_cam, exposure_ev=evs[name])
+        try:
+            return judge_at_default(name, *a, **k)
+        finally:
+            R.camera_model = lambda: default_cam
+    R.judge_environment = judge
+    return R.main(argv)
+
+
 if __name__ == "__main__" and len(sys.argv) > 1:
-    sys.exit(R.main(sys.argv[1:]))
+    sys.exit(main(sys.argv[1:]))

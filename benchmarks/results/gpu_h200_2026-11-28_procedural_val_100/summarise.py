@@ -12,10 +12,12 @@ BEFORE = HERE.parent / "gpu_h200_2026-11-26_procedural_val_100_final_report.json
 
 
 def interval(v: dict) -> str:
+    """'value [low, high]' of one of `benchbot report --json`'s interval dicts, to 4 decimals."""
     return f"{v['value']:.4f} [{v['low']:.4f}, {v['high']:.4f}]"
 
 
 def main() -> None:
+    """Print each solution's OMQ then and now, how its homes moved, and the paired difference then and now."""
     now, then = (json.loads(p.read_text()) for p in (HERE / "report30.json", BEFORE))
     for run_now, run_then in zip(now["runs"], then["runs"]):
         homes_now = {k: v["value"] for k, v in run_now["environments"].items()}

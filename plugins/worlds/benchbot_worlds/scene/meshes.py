@@ -617,8 +617,10 @@ def with_real_blacks(mesh: MeshData) -> MeshData:
     Returns:
         a :class:`MeshData` whose lifted materials have (3,) float32 albedos of Rec. 709 luminance exactly
         :data:`MIN_BLACK_ALBEDO`. Raises nothing for a valid mesh."""
+    luma = np.asarray(LUMA_709, np.float32)
+
     def lifted(m: Material) -> Material:
-        lum = float(np.asarray(LUMA_709, np.float32) @ np.asarray(m.albedo, np.float32))
+        lum = float(luma @ np.asarray(m.albedo, np.float32))
         if m.texture is not None or m.opacity < GLASS_OPACITY or m.glass or lum >= MIN_BLACK_ALBEDO:
             return m
         return dataclasses.replace(m, albedo=(np.asarray(m.albedo, np.float32) + (MIN_BLACK_ALBEDO - lum)))
