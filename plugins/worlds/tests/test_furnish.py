@@ -325,7 +325,9 @@ def _books_scene():
             gt("book", [3.0, 3.0, 0.75], [3.3, 3.25, 0.88], "stack", isgroup=True),  # lying books on a table
             gt("book", [5.0, 0.05, 0.9], [5.166, 0.099, 1.089], "one_standing"),  # by the south wall
             gt("book", [2.0, 1.0, 0.75], [2.297, 1.311, 0.786], "one_lying"),
-            gt("table", [2.8, 2.8, 0], [3.6, 3.5, 0.75])]
+            gt("table", [2.8, 2.8, 0], [3.6, 3.5, 0.75]),
+            # one book by its isgroup, but 13 cm at its thinnest: a procedural home's (BEAR's median book cuboid)
+            gt("book", [2.0, 2.0, 0.0], [2.26, 2.28, 0.13], "too_thick_for_one")]
 
 
 def _book_corners_and_faces(mesh):
@@ -344,7 +346,9 @@ def test_books_are_closed_books_made_in_code_filling_their_cuboid_exactly(lib):
     objs = _books_scene()
     res = F.furnish_home(objs, one_room_plan(), lib, seed=0)
     assert res.without_model == []
-    for i, o in enumerate(objs[:4]):
+    for i, o in enumerate(objs):
+        if o["class"] != "book":
+            continue
         books = [p for p in res.placements if p.object_index == i]
         assert all(p.asset_id == F.CLOSED_BOOK_ID and p.mesh is not None for p in books)  # never the pack's models
         bs = np.array([placed_box(lib, p) for p in books])
@@ -380,6 +384,21 @@ def test_books_are_closed_books_made_in_code_filling_their_cuboid_exactly(lib):
     standing = [p for p in res.placements if p.object_index == 2]
     assert len(standing) == 1 and abs(_front(standing[0])[0]) > 0.999  # spine across its thickness (y)
     assert len([p for p in res.placements if p.object_index == 3]) == 1
+    thick = np.array([placed_box(lib, p) for p in res.placements if p.object_index == 5])
+    assert len(thick) == round(0.13 / B.LYING_BOOK_THICKNESS_M) == 3 and np.all(np.diff(thick[:, 0, 2]) > 0)  # a pile
+
+
+def test_a_cuboid_no_book_is_as_thick_as_holds_several_books():
+    from benchbot_worlds.homes.books import ONE_BOOK_MAX_THICKNESS_M, book_layout
+
+    # BEAR's single books (extents, metres) stay one book: standing, lying, lying
+    assert book_layout((0.049, 0.166, 0.189), False) == ("standing", 1)
+    assert book_layout((0.297, 0.311, 0.036), False) == ("lying", 1)
+    assert book_layout((0.216, 0.253, 0.039), False) == ("lying", 1)
+    assert book_layout((0.30, 0.30, ONE_BOOK_MAX_THICKNESS_M), False) == ("lying", 1)  # the thickest one book
+    # thicker than any book along every axis: a stack when flat, a row when upright, as for isgroup
+    assert book_layout((0.28, 0.26, 0.13), False) == book_layout((0.28, 0.26, 0.13), True) == ("stack", 3)
+    assert book_layout((0.10, 0.30, 0.25), False) == book_layout((0.10, 0.30, 0.25), True) == ("row", 10)
 
 
 def test_books_are_deterministic_per_seed(lib):

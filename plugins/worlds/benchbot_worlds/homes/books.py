@@ -2,7 +2,8 @@
 :class:`~benchbot_worlds.scene.meshes.MeshData`).
 
 A BEAR ``book`` object with ``isgroup`` is ONE ground-truth cuboid for a row or a stack of books; without it, one
-book. :func:`closed_books` fills such a cuboid with closed books as a person sees them on a shelf or a table:
+book, unless no book could be that thick (:data:`ONE_BOOK_MAX_THICKNESS_M`). :func:`closed_books` fills such a
+cuboid with closed books as a person sees them on a shelf or a table:
 
 * a **row** of standing books (a cuboid at least as tall as it is deep, ``isgroup``): along the cuboid's long
   horizontal axis, seeded spine widths (about :data:`BOOK_THICKNESS_M`), heights and depths, the spines flush at the
@@ -33,7 +34,7 @@ import numpy as np
 from benchbot_worlds.homes.fitting import fit_to_cuboid, turns_facing
 from benchbot_worlds.scene.meshes import Material, MeshData, make_mesh
 
-__all__ = ["BOOK_THICKNESS_M", "MAX_BOOKS_PER_GROUP", "book_boxes", "book_layout", "closed_book_mesh",
+__all__ = ["BOOK_THICKNESS_M", "MAX_BOOKS_PER_GROUP", "ONE_BOOK_MAX_THICKNESS_M", "book_boxes", "book_layout", "closed_book_mesh",
            "closed_books"]
 
 #: Typical thickness (m) of a standing book: a row has about one spine per this along its length (each seeded
@@ -43,6 +44,11 @@ BOOK_THICKNESS_M = 0.03
 #: 3 cm books the detector of ``benchmarks/realism.py`` boxed single books of a stack, not the stack
 #: (docs/realism.md, 25 Nov 2026).
 LYING_BOOK_THICKNESS_M = 0.04
+#: The thickest one book can be (m): a large dictionary is about 8 cm thick. A ``book`` cuboid with no extent this
+#: thin cannot be one book, whatever its ``isgroup`` says, and is filled as a row or a stack (:func:`book_layout`).
+#: BEAR's single books are 3.6-4.9 cm at their thinnest; the procedural homes draw each book's size from all of BEAR's
+#: book cuboids, most of them rows and stacks (median 0.25 x 0.29 x 0.13 m), and mark it one book.
+ONE_BOOK_MAX_THICKNESS_M = 0.08
 #: The smallest fraction of a stack's footprint (per axis) a book of it covers: a neat pile.
 STACK_FOOTPRINT_MIN = 0.92
 #: The most books in one row or stack.
@@ -73,10 +79,11 @@ def book_layout(ext: np.ndarray, isgroup: bool) -> tuple[str, int]:
     ``"lying"``, number of books). A group at least as tall as its shorter horizontal side is a row of about
     ``long side / BOOK_THICKNESS_M`` standing books, a flatter group a stack of about
     ``height / LYING_BOOK_THICKNESS_M`` lying books (1 to :data:`MAX_BOOKS_PER_GROUP`); a single book stands when it is
-    taller than its shorter horizontal side, else it lies."""
+    taller than its shorter horizontal side, else it lies. A cuboid thicker than :data:`ONE_BOOK_MAX_THICKNESS_M`
+    along every axis is a group whatever ``isgroup`` says (no book is that thick)."""
     ext = np.asarray(ext, dtype=np.float64)
     upright = ext[2] >= min(ext[0], ext[1])
-    if not isgroup:
+    if not isgroup and ext.min() <= ONE_BOOK_MAX_THICKNESS_M:
         return ("standing" if ext[2] > min(ext[0], ext[1]) else "lying"), 1
     if upright:
         n = int(np.clip(round(max(ext[0], ext[1]) / BOOK_THICKNESS_M), 1, MAX_BOOKS_PER_GROUP))
