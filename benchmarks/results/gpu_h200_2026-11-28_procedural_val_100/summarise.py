@@ -1,10 +1,15 @@
-"""summarise.py: the figures of gpu30.sh's report (report30.json) beside 26 Nov's (5b9fc67's) for the same 100 homes:
-each solution's OMQ with its 95 % BCa interval, the paired difference, and how far each home moved. Run from the
-repository root:
+"""summarise.py [REPORT [BEFORE]]: the figures of a `benchbot report --json` of the two 100-home sweeps (REPORT,
+default gpu30.sh's report30.json here) beside those of an earlier one for the same 100 homes (BEFORE, default 26
+Nov's, 5b9fc67's): each solution's OMQ with its 95 % BCa interval, the paired difference, and how far each home
+moved. Run from the repository root:
 
     uv run python benchmarks/results/gpu_h200_2026-11-28_procedural_val_100/summarise.py
+    uv run python benchmarks/results/gpu_h200_2026-11-28_procedural_val_100/summarise.py \
+        benchmarks/results/gpu_h200_2026-11-28_book_piles_val_100/report31.json \
+        benchmarks/results/gpu_h200_2026-11-28_procedural_val_100/report30.json
 """
 import json
+import sys
 from pathlib import Path
 
 HERE = Path(__file__).parent
@@ -18,15 +23,17 @@ def interval(v: dict) -> str:
 
 def main() -> None:
     """Print each solution's OMQ then and now, how its homes moved, and the paired difference then and now."""
-    now, then = (json.loads(p.read_text()) for p in (HERE / "report30.json", BEFORE))
+    paths = [Path(a) for a in sys.argv[1:3]]
+    paths += [HERE / "report30.json", BEFORE][len(paths):]
+    now, then = (json.loads(p.read_text()) for p in paths)
     for run_now, run_then in zip(now["runs"], then["runs"]):
         homes_now = {k: v["value"] for k, v in run_now["environments"].items()}
         homes_then = {k: v["value"] for k, v in run_then["environments"].items()}
         moved = sorted(homes_now[k] - homes_then[k] for k in homes_then)
-        print(f"{run_now['label']}: OMQ {interval(run_then['summary']['OMQ'])} (26 Nov) -> "
+        print(f"{run_now['label']}: OMQ {interval(run_then['summary']['OMQ'])} (before) -> "
               f"{interval(run_now['summary']['OMQ'])}; homes up {sum(d > 0 for d in moved)}, "
               f"down {sum(d < 0 for d in moved)}, by {moved[0]:+.4f} to {moved[-1]:+.4f}")
-    for label, report in (("26 Nov", then), ("now", now)):
+    for label, report in (("before", then), ("now", now)):
         c = report["comparisons"][0]
         a, b = (r["environments"] for r in report["runs"])
         higher = sum(b[k]["value"] > a[k]["value"] for k in a)
