@@ -34,8 +34,8 @@ import numpy as np
 from benchbot_worlds.homes.fitting import fit_to_cuboid, turns_facing
 from benchbot_worlds.scene.meshes import Material, MeshData, make_mesh
 
-__all__ = ["BOOK_THICKNESS_M", "MAX_BOOKS_PER_GROUP", "ONE_BOOK_MAX_THICKNESS_M", "book_boxes", "book_layout", "closed_book_mesh",
-           "closed_books"]
+__all__ = ["BOOK_THICKNESS_M", "MAX_BOOKS_PER_GROUP", "ONE_BOOK_MAX_THICKNESS_M", "book_boxes", "book_layout",
+           "closed_book_mesh", "closed_books"]
 
 #: Typical thickness (m) of a standing book: a row has about one spine per this along its length (each seeded
 #: 0.7..1.3 times the mean).
