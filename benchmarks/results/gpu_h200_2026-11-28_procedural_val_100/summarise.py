@@ -25,6 +25,9 @@ def main() -> None:
     """Print each solution's OMQ then and now, how its homes moved, and the paired difference then and now."""
     paths = [Path(a) for a in sys.argv[1:3]]
     paths += [HERE / "report30.json", BEFORE][len(paths):]
+    for p in paths:
+        if not p.is_file():
+            sys.exit(f"summarise.py: {p}: no such file; give the JSON of `benchbot report RUN_A RUN_B --json`")
     now, then = (json.loads(p.read_text()) for p in paths)
     for run_now, run_then in zip(now["runs"], then["runs"]):
         homes_now = {k: v["value"] for k, v in run_now["environments"].items()}
