@@ -1,0 +1,40 @@
+"""kitchen_run_homes.py ENV ...: with ``kitchen_run_beside_fridges.patch`` applied (``git apply`` it first), per
+environment (``name:variant``): its GT refrigerators and the base units the patch's ``place_kitchen_runs`` puts
+beside them (wall cabinets above them not counted), as the scene build furnishes the home. Run from the repository
+root:
+
+    git apply benchmarks/results/cpu2_2026-11-29_procedural_kitchens/kitchen_run_beside_fridges.patch
+    uv run python benchmarks/results/cpu2_2026-11-29_procedural_kitchens/kitchen_run_homes.py \
+        $(for i in $(seq 0 99); do echo procedural_val_$i:1; done)
+"""
+import json
+import sys
+
+import benchbot_worlds.homes.furnish as furnish
+from benchbot.core.registry import get_registry
+from benchbot.core.seeding import home_seed
+from benchbot_worlds.homes.floorplan import home_files
+from benchbot_worlds.homes.furnished import furnish_environment
+
+placed: list[int] = []
+_place_kitchen_runs = furnish.place_kitchen_runs  # AttributeError: the patch is not applied
+
+
+def counting(space, library, plan, seed, bounds_of, out) -> None:
+    """The patch's step, counting the base units it adds."""
+    n = len(out.placements)
+    _place_kitchen_runs(space, library, plan, seed, bounds_of, out)
+    placed.append(sum(1 for p in out.placements[n:] if library.get(p.asset_id).kind != "wall_cabinet"))
+
+
+furnish.place_kitchen_runs = counting
+fridges = units = homes = 0
+for name in sys.argv[1:]:
+    (env,) = get_registry().scenes(name)
+    data = json.loads(open(env["map_path"]).read())
+    objects = data.get("objects") or data["ground_truth"]["objects"]
+    furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    n = sum(o["class"] == "refrigerator" for o in objects)
+    print(f"{name}: {n} fridges, {placed[-1]} base units beside them", flush=True)
+    fridges, units, homes = fridges + n, units + placed[-1], homes + (placed[-1] > 0)
+print(f"{fridges} fridges in {len(sys.argv) - 1} environments; {units} base units beside them, in {homes} homes")
