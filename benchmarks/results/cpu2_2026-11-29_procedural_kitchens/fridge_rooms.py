@@ -18,6 +18,7 @@ import sys
 
 import numpy as np
 
+from benchbot.core.errors import BenchbotError
 from benchbot.core.registry import get_registry
 from benchbot.core.seeding import home_seed
 from benchbot.packs.assets import asset_library
@@ -30,6 +31,15 @@ from benchbot_worlds.homes.furnished import _home_plan, furnish_environment
 KITCHEN_KINDS = ("counter", "cabinet", "wall_cabinet")
 
 
+def environment(name: str) -> dict:
+    """The registered environment spec of ``name`` (``name:variant``); exits with one line if there is none."""
+    try:
+        (env,) = get_registry().scenes(name)
+    except (BenchbotError, ValueError):
+        sys.exit(f"{name}: no such environment; give name:variant (`benchbot list environments`)")
+    return env
+
+
 def objects_of(env: dict) -> list[dict]:
     data = json.loads(open(env["map_path"]).read())
     return data.get("objects") or data["ground_truth"]["objects"]
@@ -37,7 +47,7 @@ def objects_of(env: dict) -> list[dict]:
 
 def units_by_fridge(name: str, library) -> list[tuple[str, float, collections.Counter]]:
     """(room kind, room area m², kitchen furniture in the room by kind) for each refrigerator of ``name``."""
-    (env,) = get_registry().scenes(name)
+    env = environment(name)
     objects = objects_of(env)
     home = furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
     plan, out = home.plan, []
@@ -61,7 +71,7 @@ def units_by_fridge(name: str, library) -> list[tuple[str, float, collections.Co
 
 def why_no_unit(name: str, unit, tally: collections.Counter) -> None:
     """Add to ``tally`` the reason at each 0.1 m of the wall spans of ``name``'s fridge rooms (module docstring)."""
-    (env,) = get_registry().scenes(name)
+    env = environment(name)
     frame, plan, context = _home_plan(home_files(env), [], [], home_seed(env["name"]))
     classes = [o["class"] for o in context]
     space = Space(plan, [standing_box(o, gt_box(o)) for o in context], classes, classes)

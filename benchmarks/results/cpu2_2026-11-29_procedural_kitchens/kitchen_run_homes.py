@@ -11,13 +11,17 @@ import json
 import sys
 
 import benchbot_worlds.homes.furnish as furnish
+from benchbot.core.errors import BenchbotError
 from benchbot.core.registry import get_registry
 from benchbot.core.seeding import home_seed
 from benchbot_worlds.homes.floorplan import home_files
 from benchbot_worlds.homes.furnished import furnish_environment
 
 placed: list[int] = []
-_place_kitchen_runs = furnish.place_kitchen_runs  # AttributeError: the patch is not applied
+if not hasattr(furnish, "place_kitchen_runs"):
+    sys.exit("the patch is not applied: git apply benchmarks/results/cpu2_2026-11-29_procedural_kitchens/"
+             "kitchen_run_beside_fridges.patch")
+_place_kitchen_runs = furnish.place_kitchen_runs
 
 
 def counting(space, library, plan, seed, bounds_of, out) -> None:
@@ -30,7 +34,10 @@ def counting(space, library, plan, seed, bounds_of, out) -> None:
 furnish.place_kitchen_runs = counting
 fridges = units = homes = 0
 for name in sys.argv[1:]:
-    (env,) = get_registry().scenes(name)
+    try:
+        (env,) = get_registry().scenes(name)
+    except (BenchbotError, ValueError):
+        sys.exit(f"{name}: no such environment; give name:variant (`benchbot list environments`)")
     data = json.loads(open(env["map_path"]).read())
     objects = data.get("objects") or data["ground_truth"]["objects"]
     furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))

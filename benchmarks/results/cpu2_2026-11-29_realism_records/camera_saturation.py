@@ -58,11 +58,15 @@ def calibrate() -> None:
             frames.append(r.render(K, se2_to_matrix(*scene.trajectory_se2[i]) @ Tc, 640, 480, mode="fast")["rgb"])
     print(f"photos: {len(photos)}, mean HSV saturation {np.mean(photos):.3f}; fast frames: {len(frames)}")
     for s in (1.0, 1.25, 1.5, 1.75, 2.0, 2.5):
-        print(f"S = {s}: fast frames' mean saturation {np.mean([mean_saturation(saturated(f, s)) for f in frames]):.3f}")
+        mean = np.mean([mean_saturation(saturated(f, s)) for f in frames])
+        print(f"S = {s}: fast frames' mean saturation {mean:.3f}")
 
 
 def main(argv: list[str]) -> int:
-    s = float(argv[0])
+    try:
+        s = float(argv[0])
+    except (IndexError, ValueError):
+        sys.exit("usage: camera_saturation.py --calibrate | camera_saturation.py S REALISM_ARGS... (S a number)")
     render = Renderer.render
 
     def render_saturated(self, *a, **k):

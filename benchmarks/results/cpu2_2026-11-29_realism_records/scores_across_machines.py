@@ -13,7 +13,18 @@ import sys
 
 if len(sys.argv) != 3:
     sys.exit("usage: scores_across_machines.py A.json B.json")
-a, b = (json.load(open(p))["batches"] for p in sys.argv[1:3])
+
+
+def batches(path: str) -> dict:
+    """The ``batches`` of a profile record; exits with one line if the file is missing or not such a record."""
+    try:
+        with open(path) as f:
+            return json.load(f)["batches"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f"{path}: not a ten-home profile record ({type(e).__name__}); give a file made by profile_json.py")
+
+
+a, b = batches(sys.argv[1]), batches(sys.argv[2])
 for batch in sorted(set(a) & set(b)):
     worst, counts_differ = 0.0, 0
     for env, sa in a[batch]["per_environment"].items():
@@ -21,5 +32,6 @@ for batch in sorted(set(a) & set(b)):
         d = sb["OMQ"] - sa["OMQ"]
         same = all(sa[k] == sb[k] for k in ("TP", "FP", "FN"))
         worst, counts_differ = max(worst, abs(d)), counts_differ + (not same)
-        print(f"{batch:30s} {env:11s} {sa['OMQ']:.17f} {sb['OMQ']:.17f} {d:+.2e} TP/FP/FN {'same' if same else 'differ'}")
+        verdict = "same" if same else "differ"
+        print(f"{batch:30s} {env:11s} {sa['OMQ']:.17f} {sb['OMQ']:.17f} {d:+.2e} TP/FP/FN {verdict}")
     print(f"{batch}: largest difference {worst:.2e}; TP/FP/FN differ in {counts_differ} environments")
