@@ -14,6 +14,7 @@ from benchbot_worlds.homes import fitting as FIT
 from benchbot_worlds.homes import furnish as F
 from benchbot_worlds.homes import furnish_space as SP
 from benchbot_worlds.homes import furnish_supports as S
+from benchbot_worlds.homes import furnish_walls as FW
 
 
 # ------------------------------------------------------------------------------------------------ fakes
@@ -715,6 +716,33 @@ def test_kitchen_counters_get_wall_cabinets_and_nightstands_lamps():
     for lamp in lamps:  # on top of a nightstand, within its footprint
         assert any(abs(lamp[0][2] - st[1][2]) < 1e-9 and np.all(lamp[0][:2] >= st[0][:2])
                    and np.all(lamp[1][:2] <= st[1][:2]) for st in stands)
+
+
+def _over_fridge_cabinets(fridge_lo, fridge_hi, H=2.6):
+    library = AssetLibrary([obj_asset("fridge_a", "refrigerator", (0.85, 0.95, 1.9)),
+                            asset("narrow_cabinet", "wall_cabinet", (0.6, 0.41, 0.72), mount="wall"),
+                            asset("wide_cabinet", "wall_cabinet", (1.094, 0.321, 0.771), mount="wall")])
+    res = F.furnish_home([gt("refrigerator", fridge_lo, fridge_hi)], one_room_plan(kind="kitchen", H=H), library)
+    return [(p, placed_box(library, p)) for p in res.placements if "cabinet" in p.asset_id]
+
+
+def test_a_fridge_backed_onto_a_wall_gets_a_cabinet_over_it_spanning_its_width():
+    (p, (lo, hi)), = _over_fridge_cabinets([2.0, 0.03, 0.0], [2.95, 0.88, 1.92])
+    assert p.asset_id == "wide_cabinet"  # the model nearest the fridge's 0.95 m, scaled to it
+    assert np.allclose([lo[0], hi[0]], [2.0, 2.95]) and abs(lo[1]) < 1e-9  # its width, back on the south wall
+    assert abs(lo[2] - (1.92 + FW.OVER_FRIDGE_GAP_M)) < 1e-9 and hi[2] <= 2.6 - FW.CEILING_GAP_M + 1e-9
+    assert hi[2] - lo[2] < 0.771 * 0.95 / 1.094 - 0.05  # squashed under the ceiling
+    assert abs(hi[1] - lo[1] - 0.321 * 0.95 / 1.094) < 1e-9  # its depth scaled with its width
+    f = p.transform[:3, :3] @ np.array([0.0, -1.0, 0.0])
+    assert np.allclose(f[:2] / np.linalg.norm(f[:2]), [0.0, 1.0])  # facing into the room
+    # a fridge by the east wall gets it on that wall, as wide as the fridge is along it
+    (_, (lo, hi)), = _over_fridge_cabinets([5.1, 2.0, 0.0], [5.95, 2.95, 1.92])
+    assert np.allclose([lo[1], hi[1], hi[0]], [2.0, 2.95, 6.0])
+
+
+def test_no_cabinet_over_a_fridge_out_in_the_room_or_under_a_low_ceiling():
+    assert _over_fridge_cabinets([2.0, 0.49, 0.0], [2.95, 1.34, 1.92]) == []  # BEAR's: 0.49 m from the wall
+    assert _over_fridge_cabinets([2.0, 0.03, 0.0], [2.95, 0.88, 1.92], H=2.2) == []  # under 0.3 m would fit
 
 
 def test_a_class_without_models_is_reported_not_placed():

@@ -32,7 +32,8 @@ deterministic per ``seed``; GT is never changed. The steps:
   would float, their tops at the objects' bottoms; the ones left without are reported with why
   (:attr:`Furnishing.unsupported`).
 * **Along the walls** (:mod:`benchbot_worlds.homes.furnish_walls`): distractors by room kind (never a GT class),
-  pictures, radiators and curtains at windows, door and window models, ceiling lamps.
+  pictures, radiators and curtains at windows, door and window models, a cabinet over each refrigerator that backs
+  onto a wall, ceiling lamps.
 
 Everything that is not a GT model is derived from ``context_objects`` (the home's union over its variants) so the
 variants of a home share it; an object that floats in one variant only (what it rested on is absent there) gets a
@@ -57,7 +58,7 @@ from benchbot_worlds.homes.furnish_space import (
 from benchbot_worlds.homes.furnish_supports import (
     FLOAT_MIN_Z_M, place_supports, rests_on, standing_box, stands_on_own_foot, supported_by)
 from benchbot_worlds.homes.furnish_tables import dress_tables
-from benchbot_worlds.homes.furnish_walls import place_lights, place_openings, place_span
+from benchbot_worlds.homes.furnish_walls import place_lights, place_openings, place_over_fridges, place_span
 
 __all__ = ["Furnishing", "Placement", "asset_bounds", "fit_to_cuboid", "furnish", "furnish_home",
            "transformed_bounds"]
@@ -254,6 +255,7 @@ def furnish_home(objects: Sequence[dict], plan: Any, library: Any, *, seed: int 
     ctx_out = Furnishing()
     place_supports(context, ctx_boxes, space, library, plan, seed, bounds_of, ctx_out)
     place_openings(space, library, plan, seed, bounds_of, ctx_out)
+    place_over_fridges(context, ctx_boxes, space, library, plan, bounds_of, ctx_out)
     for idx, span in enumerate(getattr(plan, "wall_spans", []) or []):
         place_span(span, idx, space, library, plan, seed, bounds_of, ctx_out)
     place_lights(space, library, plan, seed, bounds_of, ctx_out)

@@ -1,5 +1,5 @@
 """Furniture along the walls: distractors by room kind, pictures, radiators and curtains at windows, door and window
-models in the openings, ceiling lamps (pure NumPy).
+models in the openings, a cabinet over a refrigerator that backs onto a wall, ceiling lamps (pure NumPy).
 
 Distractors stand along ``plan.wall_spans`` at their natural size (± 5 %), back to the wall, kinds drawn by room
 (:data:`ROOM_DISTRACTORS`; never a GT class), no taller than the span allows (a window's sill); pictures hang on
@@ -18,7 +18,8 @@ import numpy as np
 
 from benchbot_worlds.homes.fitting import FACING_WEIGHT, choose_model, fit_to_cuboid, turns_facing
 from benchbot_worlds.homes.furnish_space import (
-    OVERHEAD_CLEAR_Z_M, Furnishing, Placement, Space, add_placement, furniture_of_kinds, room_of, seeded_rng)
+    OVERHEAD_CLEAR_Z_M, Furnishing, Placement, Space, add_placement, furniture_of_kinds, room_of, seeded_rng,
+    wall_faces)
 
 #: Floor-standing distractors keep this clearance (m) from GT cuboids, supports and each other.
 DISTRACTOR_CLEARANCE_M = 0.05
@@ -57,6 +58,16 @@ WALL_DISTRACTORS: dict[str, tuple[float, float]] = {"picture": (1.45, 1.75), "mi
 #: The most wall-hung distractors of a kind per room (kinds not listed: no limit).
 WALL_DISTRACTORS_PER_ROOM = {"air_conditioner": 1, "mirror": 1}
 
+#: A refrigerator whose back stands within this distance (m) of a wall gets a cabinet over it
+#: (:func:`place_over_fridges`); BEAR's houses stand theirs 0.49 m out, in the room.
+FRIDGE_AT_WALL_M = 0.15
+#: Gap (m) between a refrigerator's top and the cabinet over it.
+OVER_FRIDGE_GAP_M = 0.06
+#: The shortest cabinet (m) worth hanging over a refrigerator.
+OVER_FRIDGE_MIN_HEIGHT_M = 0.3
+#: A cabinet over a refrigerator stops this far (m) under the ceiling.
+CEILING_GAP_M = 0.02
+
 #: Tallest ceiling lamp (m); bigger models are scaled down uniformly.
 LAMP_MAX_DROP_M = 0.5
 
@@ -78,6 +89,45 @@ def _weighted_kind(rng, table, library) -> list:
         return []
     p = np.array([x[1] for x in avail], dtype=np.float64)
     return avail[int(rng.choice(len(avail), p=p / p.sum()))][2]
+
+
+def place_over_fridges(context, boxes, space: Space, library, plan, bounds_of, out: Furnishing) -> None:
+    """A wall cabinet over each refrigerator that stands with its back to a wall, as fitted kitchens build one (and
+    the detectors trained on photos of kitchens expect: docs/realism.md, *What paid*).
+
+    The cabinet spans the fridge's width, its back on that wall (the wall :func:`wall_faces` finds nearest, the one
+    the fridge's model backs onto), OVER_FRIDGE_GAP_M over the fridge's top; the model whose width is nearest the
+    fridge's, scaled uniformly to it, and squashed to stop CEILING_GAP_M under the ceiling (over-fridge cabinets
+    are short). Left out where it would be under OVER_FRIDGE_MIN_HEIGHT_M or hit anything (a window, another
+    distractor). ``context``: GT objects (dicts with ``class``); ``boxes``: their (lo (3,), hi (3,)) boxes, home
+    frame, metres; ``out`` and ``space`` gain each cabinet."""
+    cabinets = sorted((x for x in furniture_of_kinds(library, ("wall_cabinet",)) if x.mount == "wall"),
+                      key=lambda x: x.id)
+    ceiling = float(getattr(plan, "wall_height", 2.6)) - CEILING_GAP_M
+    for o, (lo, hi) in zip(context, boxes):
+        if o.get("class") != "refrigerator" or not cabinets:
+            continue
+        lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+        faces = wall_faces(space, lo, hi)
+        if not faces or faces[0][0] > FRIDGE_AT_WALL_M:
+            continue
+        _, away, ax, face = faces[0]
+        other = 1 - ax
+        along = float(hi[other] - lo[other])
+        if along <= 1e-6:  # a flat cuboid: no model is drawn for it either
+            continue
+        z0 = float(hi[2]) + OVER_FRIDGE_GAP_M
+        for asset in sorted(cabinets, key=lambda x: abs(math.log(along / float(x.size_m[0])))):
+            w0, d0, h0 = (float(v) for v in asset.size_m)
+            depth, height = d0 * along / w0, min(h0 * along / w0, ceiling - z0)
+            blo, bhi = np.zeros(3), np.zeros(3)
+            blo[other], bhi[other] = lo[other], hi[other]
+            blo[ax], bhi[ax] = (face, face + depth) if away[ax] > 0 else (face - depth, face)
+            blo[2], bhi[2] = z0, z0 + height
+            if height >= OVER_FRIDGE_MIN_HEIGHT_M and space.why_not(
+                    blo, bhi, gt_margin=OVER_FRIDGE_GAP_M / 2, corridor=False, doors=False, openings=True) is None:
+                add_placement(out, space, asset, blo, bhi, turns_facing(away), "distractor", bounds_of)
+                break
 
 
 def place_span(span, idx: int, space: Space, library, plan, seed, bounds_of, out: Furnishing) -> None:
