@@ -13,7 +13,6 @@ before any furniture is placed): the tally of reasons. Run from the repository r
         $(for i in $(seq 0 99); do echo procedural_val_$i:1; done)
 """
 import collections
-import json
 import sys
 
 import numpy as np
@@ -26,7 +25,8 @@ from benchbot_worlds.homes import furnish_walls
 from benchbot_worlds.homes.floorplan import home_files
 from benchbot_worlds.homes.furnish_space import Space, gt_box
 from benchbot_worlds.homes.furnish_supports import standing_box
-from benchbot_worlds.homes.furnished import _home_plan, furnish_environment
+from benchbot_worlds.homes.furnished import _home_plan
+from benchbot_worlds.scene.build import furnished_home, load_ground_truth_json
 
 KITCHEN_KINDS = ("counter", "cabinet", "wall_cabinet")
 
@@ -40,16 +40,19 @@ def environment(name: str) -> dict:
     return env
 
 
-def objects_of(env: dict) -> list[dict]:
-    data = json.loads(open(env["map_path"]).read())
-    return data.get("objects") or data["ground_truth"]["objects"]
+def furnished(name: str):
+    """(environment spec, its GT objects (map frame), its ``FurnishedHome``) of ``name`` (``name:variant``), furnished
+    as the scene build furnishes it (``scene.build.furnished_home``); exits with one line if there is no such
+    environment. The other record scripts of this folder and of ``cpu2_2026-11-29_realism_records/`` use it too."""
+    env = environment(name)
+    data = load_ground_truth_json(env["map_path"])
+    objects = data["ground_truth"]["objects"]
+    return env, objects, furnished_home(env, data.get("environment") or {}, objects, env["map_path"])
 
 
 def units_by_fridge(name: str, library) -> list[tuple[str, float, collections.Counter]]:
     """(room kind, room area m², kitchen furniture in the room by kind) for each refrigerator of ``name``."""
-    env = environment(name)
-    objects = objects_of(env)
-    home = furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    _, objects, home = furnished(name)
     plan, out = home.plan, []
     for o in objects:
         if o["class"] != "refrigerator":

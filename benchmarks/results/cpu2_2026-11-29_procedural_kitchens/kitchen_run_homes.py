@@ -1,4 +1,5 @@
-"""kitchen_run_homes.py ENV ...: with ``kitchen_run_beside_fridges.patch`` applied (``git apply`` it first), per
+"""kitchen_run_homes.py ENV ...: with ``kitchen_run_beside_fridges.patch`` applied (``git apply`` it first; on trees from
+``d06a386`` on, ``../cpu2_2026-11-29_realism_records/kitchen_run_with_fridge_cabinet.patch`` instead), per
 environment (``name:variant``): its GT refrigerators and the base units the patch's ``place_kitchen_runs`` puts
 beside them (wall cabinets above them not counted), as the scene build furnishes the home. Run from the repository
 root:
@@ -7,20 +8,16 @@ root:
     uv run python benchmarks/results/cpu2_2026-11-29_procedural_kitchens/kitchen_run_homes.py \
         $(for i in $(seq 0 99); do echo procedural_val_$i:1; done)
 """
-import json
 import sys
 
 import benchbot_worlds.homes.furnish as furnish
-from benchbot.core.errors import BenchbotError
-from benchbot.core.registry import get_registry
-from benchbot.core.seeding import home_seed
-from benchbot_worlds.homes.floorplan import home_files
-from benchbot_worlds.homes.furnished import furnish_environment
+from fridge_rooms import furnished  # this folder's helper: the home as the scene build furnishes it
 
 placed: list[int] = []
 if not hasattr(furnish, "place_kitchen_runs"):
-    sys.exit("the patch is not applied: git apply benchmarks/results/cpu2_2026-11-29_procedural_kitchens/"
-             "kitchen_run_beside_fridges.patch")
+    sys.exit("the patch is not applied: git apply benchmarks/results/cpu2_2026-11-29_realism_records/"
+             "kitchen_run_with_fridge_cabinet.patch (before d06a386: cpu2_2026-11-29_procedural_kitchens/"
+             "kitchen_run_beside_fridges.patch)")
 _place_kitchen_runs = furnish.place_kitchen_runs
 
 
@@ -34,13 +31,7 @@ def counting(space, library, plan, seed, bounds_of, out) -> None:
 furnish.place_kitchen_runs = counting
 fridges = units = homes = 0
 for name in sys.argv[1:]:
-    try:
-        (env,) = get_registry().scenes(name)
-    except (BenchbotError, ValueError):
-        sys.exit(f"{name}: no such environment; give name:variant (`benchbot list environments`)")
-    data = json.loads(open(env["map_path"]).read())
-    objects = data.get("objects") or data["ground_truth"]["objects"]
-    furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    _, objects, _ = furnished(name)
     n = sum(o["class"] == "refrigerator" for o in objects)
     print(f"{name}: {n} fridges, {placed[-1]} base units beside them", flush=True)
     fridges, units, homes = fridges + n, units + placed[-1], homes + (placed[-1] > 0)

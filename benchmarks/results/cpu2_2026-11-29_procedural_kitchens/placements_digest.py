@@ -10,20 +10,10 @@ import hashlib
 import json
 import sys
 
-from benchbot.core.errors import BenchbotError
-from benchbot.core.registry import get_registry
-from benchbot.core.seeding import home_seed
-from benchbot_worlds.homes.floorplan import home_files
-from benchbot_worlds.homes.furnished import furnish_environment
+from fridge_rooms import furnished  # this folder's helper: the home as the scene build furnishes it
 
 for name in sys.argv[1:]:
-    try:
-        (env,) = get_registry().scenes(name)
-    except (BenchbotError, ValueError):
-        sys.exit(f"{name}: no such environment; give name:variant (`benchbot list environments`)")
-    data = json.loads(open(env["map_path"]).read())
-    objects = data.get("objects") or data["ground_truth"]["objects"]
-    home = furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    _, _, home = furnished(name)
     rows = [(p.asset_id, p.role, [[round(float(x), 6) for x in r] for r in p.transform])
             for p in home.furnishing.placements]
     print(name, len(rows), hashlib.sha256(json.dumps(rows).encode()).hexdigest()[:16], flush=True)

@@ -39,6 +39,7 @@ def mean_saturation(rgb: np.ndarray) -> float:
 
 
 def calibrate() -> None:
+    """Print the photos' mean HSV saturation and the fast frames' (ten BEAR homes, every 16th pose) at several S."""
     from PIL import Image
     from benchbot.core.geometry import se2_to_matrix
     from benchbot.core.seeding import environment_world_seed

@@ -17,12 +17,12 @@ import numpy as np
 
 sys.path.insert(0, "benchmarks")
 import realism as R  # noqa: E402
-from benchbot.core.registry import get_registry  # noqa: E402
-from benchbot.core.seeding import environment_world_seed, home_seed  # noqa: E402
+from benchbot.core.seeding import environment_world_seed  # noqa: E402
 from benchbot_sim_taichi import scene_cache  # noqa: E402
-from benchbot_worlds.homes.floorplan import home_files  # noqa: E402
-from benchbot_worlds.homes.furnished import furnish_environment  # noqa: E402
 from benchbot_worlds.scene.build import build_scene  # noqa: E402
+
+sys.path.insert(0, "benchmarks/results/cpu2_2026-11-29_procedural_kitchens")
+from fridge_rooms import furnished  # noqa: E402  (the home as the scene build furnishes it)
 
 #: Angle bands (deg) the counts are given in.
 BANDS = ((0, 45), (45, 70), (70, 181))
@@ -38,10 +38,7 @@ def load(run: str) -> dict:
 
 def fridge_fronts(name: str) -> list:
     """[(centroid xy (2,), unit front xy (2,))] of the environment's refrigerators, map frame."""
-    (env,) = get_registry().scenes(name)
-    data = json.loads(open(env["map_path"]).read())
-    objects = data.get("objects") or data["ground_truth"]["objects"]
-    home = furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    _, objects, home = furnished(name)
     out = []
     for inst in home.instances:
         if inst.object_index >= 0 and objects[inst.object_index].get("class") == "refrigerator":

@@ -6,15 +6,12 @@ Run from the repository root:
         miniroom:1 miniroom:2 miniroom:3 miniroom:4 miniroom:5 house:1 house:2 house:3 house:4 house:5 \
         $(for i in $(seq 0 99); do echo procedural_val_$i:1; done)
 """
-import json
 import sys
 
-from benchbot.core.errors import BenchbotError
-from benchbot.core.registry import get_registry
-from benchbot.core.seeding import home_seed
 from benchbot_worlds.homes import furnish
-from benchbot_worlds.homes.floorplan import home_files
-from benchbot_worlds.homes.furnished import furnish_environment
+
+sys.path.insert(0, "benchmarks/results/cpu2_2026-11-29_procedural_kitchens")
+from fridge_rooms import furnished  # noqa: E402  (the home as the scene build furnishes it)
 
 counted = {"fridges": 0, "cabinets": 0}
 _place = furnish.place_over_fridges
@@ -33,14 +30,8 @@ if len(sys.argv) < 2:
     sys.exit("usage: over_fridge_cabinets.py ENV ... (name:variant, e.g. house:1 procedural_val_7:1)")
 totals = [0, 0, 0]
 for name in sys.argv[1:]:
-    try:
-        (env,) = get_registry().scenes(name)
-    except (BenchbotError, ValueError):
-        sys.exit(f"{name}: no such environment; give name:variant (`benchbot list environments`)")
-    data = json.loads(open(env["map_path"]).read())
-    objects = data.get("objects") or data["ground_truth"]["objects"]
     counted.update(fridges=0, cabinets=0)
-    furnish_environment(objects, home_files(env), [], seed=home_seed(env["name"]))
+    furnished(name)
     if counted["fridges"]:
         print(f"{name}: {counted['fridges']} fridges, {counted['cabinets']} with a cabinet over them", flush=True)
     totals = [totals[0] + 1, totals[1] + counted["fridges"], totals[2] + counted["cabinets"]]

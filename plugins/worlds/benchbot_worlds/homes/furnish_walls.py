@@ -100,12 +100,15 @@ def place_over_fridges(context, boxes, space: Space, library, plan, bounds_of, o
     fridge's, scaled uniformly to it, and squashed to stop CEILING_GAP_M under the ceiling (over-fridge cabinets
     are short). Left out where it would be under OVER_FRIDGE_MIN_HEIGHT_M or hit anything (a window, another
     distractor). ``context``: GT objects (dicts with ``class``); ``boxes``: their (lo (3,), hi (3,)) boxes, home
-    frame, metres; ``out`` and ``space`` gain each cabinet."""
+    frame, metres; ``out`` and ``space`` gain each cabinet. Raises nothing: a library without wall-mounted wall
+    cabinets, or a fridge with no wall behind it, gets no cabinet."""
     cabinets = sorted((x for x in furniture_of_kinds(library, ("wall_cabinet",)) if x.mount == "wall"),
                       key=lambda x: x.id)
+    if not cabinets:
+        return
     ceiling = float(getattr(plan, "wall_height", 2.6)) - CEILING_GAP_M
     for o, (lo, hi) in zip(context, boxes):
-        if o.get("class") != "refrigerator" or not cabinets:
+        if o.get("class") != "refrigerator":
             continue
         lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
         faces = wall_faces(space, lo, hi)
