@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from benchbot.packs.assets import AssetInfo, AssetLibrary
+from benchbot_worlds.homes import beds as BEDS
 from benchbot_worlds.homes import fitting as FIT
 from benchbot_worlds.homes import furnish as F
 from benchbot_worlds.homes import furnish_space as SP
@@ -481,6 +482,35 @@ def test_a_toilet_boxed_a_little_over_the_floor_stands_on_its_own_foot(lib):
         assert any(abs(s[1][2] - olo[2]) < 1e-9 and SP.overlap_area(olo, ohi, *s) > 0 for s in sup), o["ID_name"]
 
 
+def test_a_bed_is_drawn_clear_of_the_nightstand_reaching_into_its_cuboid():
+    """BEAR's minirooms box a bed with its headboard: their nightstand stands 0.2 m inside the bed's cuboid and a
+    laptop on it 0.26 m. The bed's model (chosen for its whole cuboid) stops at the laptop's edge on that side and
+    fills its cuboid elsewhere; the nightstand and the laptop keep their own cuboids, clear of it. A person sitting on
+    the bed's edge, a book lying on it and a clock on a shelf over its other edge draw nothing back; nor does a
+    neighbour that would take more than CLEARED_MIN_FRACTION of its width."""
+    library = AssetLibrary(FULL_LIB + [obj_asset("bed_a", "bed", (1.6, 2.1, 0.9)),
+                                       obj_asset("laptop_a", "laptop", (0.35, 0.3, 0.24)),
+                                       obj_asset("person_a", "person", (0.5, 0.4, 1.3))])
+    plan = one_room_plan(kind="bedroom")  # 6 x 5 m: the bed's head against the wall at x = 6
+    bed = gt("bed", [3.7, 1.0, 0.0], [6.0, 2.85, 0.9], "bed")  # x: its length, y: its width
+    objs = [bed, gt("table", [5.55, 2.65, 0.0], [5.96, 3.26, 0.35], "nightstand"),
+            gt("laptop", [5.56, 2.6, 0.35], [5.95, 2.99, 0.59], "laptop"),
+            gt("person", [4.3, 2.5, 0.0], [4.75, 3.2, 1.3], "sitting"),
+            gt("book", [4.2, 1.5, 0.9], [4.45, 1.8, 0.95], "on_the_bed"),
+            gt("clock", [4.7, 0.85, 0.84], [4.87, 1.05, 1.0], "on_a_shelf")]
+    res = F.furnish_home(objs, plan, library, seed=0)
+    blo, bhi = placed_box(library, _placement_of(res, 0))
+    assert np.allclose(blo, [3.7, 1.0, 0.0]) and np.allclose(bhi, [6.0, 2.6, 0.9])  # back to the laptop's edge
+    for i in (1, 2):  # the nightstand and the laptop fill their own cuboids, clear of the bed's model
+        olo, ohi = placed_box(library, _placement_of(res, i))
+        assert np.allclose(olo, box_of(objs[i])[0]) and np.allclose(ohi, box_of(objs[i])[1])
+        assert not inter((blo, bhi), (olo, ohi))
+    wide = gt("table", [3.7, 2.0, 0.0], [6.1, 3.3, 0.4], "too_wide")  # would leave 1.0 of 1.85 m
+    res = F.furnish_home([bed, wide], plan, library, seed=0)
+    blo, bhi = placed_box(library, _placement_of(res, 0))
+    assert np.allclose(blo, box_of(bed)[0]) and np.allclose(bhi, box_of(bed)[1])
+
+
 def test_a_proportional_clock_keeps_its_proportions_against_the_wall():
     """A clock model tagged ``proportional`` (a round dial) in a cube cuboid on the north wall: scaled uniformly to
     the cube's width and height, its back on the wall side, on the cuboid's bottom; the plain clock is not drawn."""
@@ -874,6 +904,12 @@ def test_bear_homes_fit_support_and_keep_clear(bear_homes, which):
                         p.mesh is None and F.PROPORTIONAL_TAG in lib.get(p.asset_id).tags for p in mine):
                     assert len(bs) == 1 and np.all(bs[0, 0] >= lo - 1e-6) and np.all(bs[0, 1] <= hi + 1e-6), (where, i)
                     assert abs(bs[0, 0, 2] - lo[2]) < 1e-6, (where, i)
+                    continue
+                if o["class"] in BEDS.CLEARED_CLASSES:  # inside its cuboid, drawn back only across its sides
+                    assert len(bs) == 1 and np.all(bs[0, 0] >= lo - 1e-6) and np.all(bs[0, 1] <= hi + 1e-6), (where, i)
+                    assert np.allclose(bs[0, :, 2], [lo[2], hi[2]]), (where, i)
+                    width = bs[0, 1, :2] - bs[0, 0, :2]
+                    assert np.all(width >= BEDS.CLEARED_MIN_FRACTION * (hi - lo)[:2] - 1e-6), where
                     continue
                 lo, hi = S.standing_box(o, (lo, hi))  # a toilet's bowl boxed alone: its model from the floor up
                 assert len(bs) and np.abs(bs[:, 0].min(axis=0) - lo).max() < 1e-6, (where, i)

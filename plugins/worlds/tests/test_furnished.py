@@ -14,6 +14,7 @@ import pytest
 from benchbot.packs.assets import asset_library
 from benchbot.core.errors import BackendError
 from benchbot.core.seeding import home_seed
+from benchbot_worlds.homes.beds import CLEARED_MIN_FRACTION
 from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG, UNSTRETCHED_CLASSES
 from benchbot_worlds.homes.furnished import furnish_environment
 from benchbot_worlds.homes.furnish_supports import standing_box
@@ -99,6 +100,17 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
             size = np.sort(np.asarray(library.get(models[i]).size_m[:2])) / library.get(models[i]).size_m[2]
             np.testing.assert_allclose(np.sort(hi[:2] - lo[:2]) / (hi[2] - lo[2]), size, rtol=0.02,
                                        err_msg=f"{name} object {i}: not scaled uniformly")  # the model's proportions
+            continue
+        if objects[i]["class"] == "bed":  # its model does not reach into a lower neighbour's (beds.clear_of_neighbours)
+            for j, other in by_object.items():
+                olo = np.min([q[0] for q in other], axis=0)
+                ohi = np.max([q[1] for q in other], axis=0)
+                if j != i and olo[2] < c[2] and objects[j]["class"] != "person" \
+                        and not np.all((olo >= c - e / 2 - 1e-4) & (ohi <= c + e / 2 + 1e-4)):
+                    assert np.any(np.minimum(hi, ohi) - np.maximum(lo, olo) <= 1e-3), (name, i, j)
+            assert np.all(lo >= c - e / 2 - 1e-4) and np.all(hi <= c + e / 2 + 1e-4), (name, i)  # inside its cuboid,
+            assert np.allclose([lo[2], hi[2]], [c[2] - e[2] / 2, c[2] + e[2] / 2], atol=1e-4), (name, i)  # full height
+            assert np.all(hi[:2] - lo[:2] >= CLEARED_MIN_FRACTION * e[:2] - 1e-4), (name, i)
             continue
         want_lo, want_hi = standing_box(objects[i], (c - e / 2, c + e / 2))  # a toilet's bowl: from the floor up
         np.testing.assert_allclose(lo, want_lo, atol=1e-4, err_msg=f"{name} object {i} {objects[i]['class']}")

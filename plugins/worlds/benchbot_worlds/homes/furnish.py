@@ -24,6 +24,9 @@ deterministic per ``seed``; GT is never changed. The steps:
   lying (:attr:`Placement.mesh` holds each book's mesh). A class with models tagged :data:`PROPORTIONAL_TAG` (the
   clocks' round dial) takes one of them, never stretched: uniformly scaled into the cuboid against its back
   (:func:`proportional_box`); so does the model chosen for a class of :data:`UNSTRETCHED_CLASSES` (bottles). A
+  bed's model, chosen for its cuboid, is drawn back from a side where a lower GT object beside it reaches in
+  (:mod:`~benchbot_worlds.homes.beds`: BEAR's minirooms box a bed with its headboard, and their nightstand stands
+  inside the cuboid). A
   chair cuboid from :data:`SEAT_HEIGHT_M` up to :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a
   chair with a back, squashed), if the class has one; a bowl cuboid at least :data:`FRUIT_BOWL_M` across one tagged
   :data:`FRUIT_TAG` (a bowl of fruit). A class other than ``book`` with no
@@ -49,6 +52,7 @@ from typing import Any
 
 import numpy as np
 
+from benchbot_worlds.homes.beds import CLEARED_CLASSES, clear_of_neighbours
 from benchbot_worlds.homes.books import closed_books
 from benchbot_worlds.homes.fitting import (
     FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of,
@@ -192,6 +196,8 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             assets = [a for a in assets if FRUIT_TAG in getattr(a, "tags", ())] or assets
         lo, hi = standing_box(obj, (lo, hi))  # a toilet's bowl boxed alone stands on its own foot
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
+        if cls in CLEARED_CLASSES:  # the model chosen for the cuboid, clear of the nightstand beside it
+            lo, hi = clear_of_neighbours(lo, hi, space)
         bounds = bounds_of(a)
         if cls in UNSTRETCHED_CLASSES:  # see UNSTRETCHED_CLASSES
             lo, hi = proportional_box(bounds[1] - bounds[0], lo, hi, k)
