@@ -1,0 +1,62 @@
+"""headline_table.py CENTERNET.md NANODET.md SSD.md: docs/realism.md's table *Where it stands: against real photos*,
+printed from the real-photo sections of three ``per_class.md`` files of ``benchmarks/realism.py --real-reference``
+(CenterNet, NanoDet, SSD, in that order). The classes with fewer than 10 sim objects share one row of found counts.
+Run from the repository root, e.g.:
+
+    uv run python benchmarks/results/cpu2_2026-11-29_realism_records/headline_table.py \\
+        benchmarks/results/cpu2_2026-11-29_realism_10homes_every4_real_reference_bed_clear_{centernet,nanodet,ssd}_per_class.md
+"""
+import re
+import sys
+from pathlib import Path
+
+FEW = 10  # sim objects under this: the class goes into the shared row
+ROW = re.compile(r"^\| (?P<cls>[^|*]+?) \| (?P<sim>\d+) % [^|]*\| (?P<real>\d+) % [^|]*\| (?P<ratio>[^|]+?) \| "
+                 r"(?P<fs>\d+)/(?P<ns>\d+); (?P<fr>\d+)/(?P<nr>\d+) \|$")
+ALL = re.compile(r"^\| \*\*all \(sim's class × size mix\)\*\* \| (?P<sim>\d+) % [^|]*\| (?P<real>\d+) % [^|]*\| "
+                 r"(?P<ratio>[^|]+?) \| (?P<fs>\d+)/(?P<ns>\d+); (?P<fr>\d+)/(?P<nr>\d+) \|$")
+
+
+def real_section(path: Path) -> tuple[list[dict], dict]:
+    """(the class rows in file order, the all-classes row) of ``path``'s real-photo table; exits if it has none."""
+    text = path.read_text(encoding="utf-8")
+    if "COCO val2017 photos" not in text:
+        sys.exit(f"{path}: no real-photo table (run benchmarks/realism.py with --real-reference)")
+    section = text[text.index("COCO val2017 photos"):].splitlines()
+    rows = [m.groupdict() for line in section if (m := ROW.match(line))]
+    total = next(m.groupdict() for line in section if (m := ALL.match(line)))
+    return rows, total
+
+
+def cell(r: dict) -> str:
+    ratio = r["ratio"].strip()
+    head, _, rest = ratio.partition(" ")
+    return f"{r['sim']} · {r['real']} · **{head}** {rest}"
+
+
+def main(paths: list[str]) -> None:
+    if len(paths) != 3:
+        sys.exit("usage: headline_table.py CENTERNET.md NANODET.md SSD.md")
+    tables = [real_section(Path(p)) for p in paths]
+    by_class = [{r["cls"]: r for r in rows} for rows, _ in tables]
+    print("| class | objects sim; photos | CenterNet | NanoDet | SSD |")
+    print("|---|---|---|---|---|")
+    few = []
+    for r in tables[0][0]:
+        c = r["cls"]
+        if int(r["ns"]) < FEW:
+            few.append(c)
+            continue
+        print(f"| {c} | {r['ns']}; {r['nr']} | " + " | ".join(cell(t[c]) for t in by_class) + " |")
+    if few:
+        ns, nr = (sum(int(by_class[0][c][k]) for c in few) for k in ("ns", "nr"))
+        found = [f"found: {sum(int(t[c]['fs']) for c in few)} of {ns}; {sum(int(t[c]['fr']) for c in few)} of {nr}"
+                 for t in by_class]
+        print(f"| {', '.join(few)} | {ns}; {nr} | " + " | ".join(found) + " |")
+    t0 = tables[0][1]
+    print(f"| **all (sim's class × size mix)** | {t0['ns']}; {t0['nr']} | "
+          + " | ".join(cell(t) for _, t in tables) + " |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
