@@ -28,9 +28,7 @@ def drawn_back(name: str, library) -> tuple[int, list[str]]:
         if p.role != "object" or objects[p.object_index]["class"] != "bed":
             continue
         beds += 1
-        T = np.asarray(p.transform, float)
-        T = T if home.frame.is_identity else home.frame.T_map_home @ T
-        lo, hi = transformed_bounds(T, asset_bounds(library.get(p.asset_id)))
+        lo, hi = home.frame.box_to_map(*transformed_bounds(p.transform, asset_bounds(library.get(p.asset_id))))
         glo, ghi = gt_box(objects[p.object_index])
         cuts = np.concatenate([lo - glo, ghi - hi])[[0, 1, 3, 4]]
         if np.any(np.abs(cuts) > 1e-3):
@@ -48,7 +46,8 @@ def main(names: list[str]) -> None:
     for name in names:
         n, lines = drawn_back(name, library)
         beds, back = beds + n, back + len(lines)
-        print("\n".join(lines)) if lines else None
+        for line in lines:
+            print(line)
     print(f"{beds} GT beds in {len(names)} environments; {back} drawn back from their cuboid")
 
 

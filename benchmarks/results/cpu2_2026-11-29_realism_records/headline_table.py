@@ -11,24 +11,30 @@ import sys
 from pathlib import Path
 
 FEW = 10  # sim objects under this: the class goes into the shared row
-ROW = re.compile(r"^\| (?P<cls>[^|*]+?) \| (?P<sim>\d+) % [^|]*\| (?P<real>\d+) % [^|]*\| (?P<ratio>[^|]+?) \| "
+ALL = "**all (sim's class × size mix)**"  # the all-classes row's first cell
+ROW = re.compile(r"^\| (?P<cls>[^|]+?) \| (?P<sim>\d+) % [^|]*\| (?P<real>\d+) % [^|]*\| (?P<ratio>[^|]+?) \| "
                  r"(?P<fs>\d+)/(?P<ns>\d+); (?P<fr>\d+)/(?P<nr>\d+) \|$")
-ALL = re.compile(r"^\| \*\*all \(sim's class × size mix\)\*\* \| (?P<sim>\d+) % [^|]*\| (?P<real>\d+) % [^|]*\| "
-                 r"(?P<ratio>[^|]+?) \| (?P<fs>\d+)/(?P<ns>\d+); (?P<fr>\d+)/(?P<nr>\d+) \|$")
 
 
 def real_section(path: Path) -> tuple[list[dict], dict]:
-    """(the class rows in file order, the all-classes row) of ``path``'s real-photo table; exits if it has none."""
-    text = path.read_text(encoding="utf-8")
+    """(the class rows in file order, the all-classes row) of ``path``'s real-photo table; exits with one line if
+    the file cannot be read or has no such table."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        sys.exit(f"{path}: cannot read it ({e}); give the per_class.md files of benchmarks/realism.py")
     if "COCO val2017 photos" not in text:
         sys.exit(f"{path}: no real-photo table (run benchmarks/realism.py with --real-reference)")
     section = text[text.index("COCO val2017 photos"):].splitlines()
     rows = [m.groupdict() for line in section if (m := ROW.match(line))]
-    total = next(m.groupdict() for line in section if (m := ALL.match(line)))
-    return rows, total
+    total = [r for r in rows if r["cls"] == ALL]
+    if not total:
+        sys.exit(f"{path}: its real-photo table has no row {ALL}")
+    return [r for r in rows if r["cls"] != ALL], total[0]
 
 
 def cell(r: dict) -> str:
+    """One detector's cell: sim recall · real recall · **ratio** [interval] (the ratio's † kept)."""
     ratio = r["ratio"].strip()
     head, _, rest = ratio.partition(" ")
     return f"{r['sim']} · {r['real']} · **{head}** {rest}"
@@ -39,6 +45,9 @@ def main(paths: list[str]) -> None:
         sys.exit("usage: headline_table.py CENTERNET.md NANODET.md SSD.md")
     tables = [real_section(Path(p)) for p in paths]
     by_class = [{r["cls"]: r for r in rows} for rows, _ in tables]
+    for path, classes in zip(paths[1:], by_class[1:]):
+        if classes.keys() != by_class[0].keys():
+            sys.exit(f"{path}: its classes differ from {paths[0]}'s; give three runs of the same homes")
     print("| class | objects sim; photos | CenterNet | NanoDet | SSD |")
     print("|---|---|---|---|---|")
     few = []
@@ -54,7 +63,7 @@ def main(paths: list[str]) -> None:
                  for t in by_class]
         print(f"| {', '.join(few)} | {ns}; {nr} | " + " | ".join(found) + " |")
     t0 = tables[0][1]
-    print(f"| **all (sim's class × size mix)** | {t0['ns']}; {t0['nr']} | "
+    print(f"| {ALL} | {t0['ns']}; {t0['nr']} | "
           + " | ".join(cell(t) for _, t in tables) + " |")
 
 

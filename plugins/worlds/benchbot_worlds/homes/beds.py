@@ -29,22 +29,31 @@ CLEARED_MIN_FRACTION = 0.7
 
 
 def clear_of_neighbours(lo: np.ndarray, hi: np.ndarray, space: Space) -> tuple[np.ndarray, np.ndarray]:
-    """The box (lo (3,), hi (3,)) float64, map frame, metres, that a bed's model fills: its cuboid ``lo``..``hi``,
-    drawn back on each side that a neighbour reaches in across, to the neighbour's edge.
+    """The box a bed's model fills: its cuboid, drawn back on each side that a neighbour reaches in across, to the
+    neighbour's edge.
 
-    A neighbour is a GT object of the home (``space.gt_lo``/``gt_hi``, people left out) that overlaps the cuboid,
-    comes in from outside it across one side (crossing two, the one it reaches in less across) and whose bottom is
-    lower than :data:`NEIGHBOUR_BELOW_FRACTION` of the cuboid's height. An axis that would keep less than
-    :data:`CLEARED_MIN_FRACTION` of its extent is left whole. Raises nothing.
+    Args:
+        lo, hi: (3,) the bed's cuboid corners, metres, in the frame of ``space`` (the home frame that
+            :func:`~benchbot_worlds.homes.furnish.furnish_home` works in); positive extents.
+        space: the home's :class:`~benchbot_worlds.homes.furnish_space.Space`; its GT boxes (``gt_lo``/``gt_hi``,
+            ``gt_classes``) are the candidate neighbours.
+
+    A neighbour is a GT box that overlaps the cuboid, comes in from outside it across one side (crossing two, the one
+    it reaches in less across) and whose bottom is lower than :data:`NEIGHBOUR_BELOW_FRACTION` of the cuboid's
+    height; people are left out. An axis that would keep less than :data:`CLEARED_MIN_FRACTION` of its extent is
+    left whole.
+
+    Returns:
+        (lo, hi): (3,) float64 new arrays, the same frame and units; z is never changed. Raises nothing.
     """
     lo, hi = np.asarray(lo, dtype=np.float64).copy(), np.asarray(hi, dtype=np.float64).copy()
     new_lo, new_hi = lo.copy(), hi.copy()
     for olo, ohi in _neighbours(lo, hi, space):
         cuts = []  # (depth reached in, axis, side)
-        for ax in (0, 1):
-            if lo[ax] < olo[ax] < hi[ax] < ohi[ax]:
+        for ax in (0, 1):  # it overlaps the cuboid: across a side is beyond that side and short of the other
+            if olo[ax] > lo[ax] and ohi[ax] > hi[ax]:
                 cuts.append((hi[ax] - olo[ax], ax, 1))
-            elif olo[ax] < lo[ax] < ohi[ax] < hi[ax]:
+            elif olo[ax] < lo[ax] and ohi[ax] < hi[ax]:
                 cuts.append((ohi[ax] - lo[ax], ax, 0))
         if cuts:
             _, ax, side = min(cuts)
