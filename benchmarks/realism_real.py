@@ -23,6 +23,10 @@ the exact (Clopper–Pearson) 95 % binomial interval of its counts, SciPy's ``st
 and the ratio's interval reaches the quotients of the sides' opposite ends (:func:`boundary_intervals`). Only BEAR
 classes are compared (the photos' other COCO classes are
 scored, so their detections are no false positives, but not counted).
+
+Each table ends with the goal's verdict for its detector (:func:`goal`): the overall ratio against
+:data:`GOAL_RATIO`, the classes whose interval lies wholly below 1, and the classes of both sides the detector found
+none of in the sim. ``python benchmarks/realism_real.py RUN/realism.json ...`` prints it again from finished runs.
 """
 
 from __future__ import annotations
@@ -45,6 +49,8 @@ SIZE_LABELS = ("<32 px", "32-64 px", "64-128 px", ">=128 px")
 BORDER_PX = 1.0
 BOOTSTRAP_RESAMPLES = 2000
 CONFIDENCE = 0.95
+#: The realism goal's bar: sim / real recall overall, at matched class and size, for every detector (:func:`goal`).
+GOAL_RATIO = 0.9
 
 
 @dataclass
@@ -264,7 +270,25 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
            "images_sim": len(sim), "images_real": len(real), "size_bins": list(SIZE_LABELS),
            "bootstrap": {"method": "percentile", "confidence": CONFIDENCE, "resamples": resamples,
                          "resampled": "images (sim frames and photos, independently)", "seed": seed}}
+    out["goal"] = goal(out)
     return out
+
+
+def goal(result: dict) -> dict:
+    """The realism goal (docs/realism.md, *The goal's verdict*) checked on a :func:`compare` result, for its one
+    detector: the overall sim / real ratio against :data:`GOAL_RATIO` (``"overall_met"``: its value at least that;
+    None where it is undefined), the classes whose ratio interval lies wholly below 1 (``"below_one"``: {class:
+    [low, high]}, the high end a number under 1), and the classes with objects on both sides that the detector found
+    none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects in the photos]}),
+    each in the table's order. Raises nothing."""
+    ratio = result["overall"]["ratio"]["value"]
+    rows = sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
+    below = {c: v["ratio"]["ci95"] for c, v in rows
+             if isinstance(v["ratio"]["ci95"][1], float) and v["ratio"]["ci95"][1] < 1.0}
+    none = {c: [v["objects_sim"], v["found_real"], v["objects_real"]] for c, v in rows if v["found_sim"] == 0}
+    met = None if ratio is None else ratio == "inf" or ratio >= GOAL_RATIO
+    return {"ratio_at_least": GOAL_RATIO, "overall_ratio": ratio, "overall_met": met, "below_one": below,
+            "not_found": none}
 
 
 def _num(v) -> float | str | None:
@@ -312,11 +336,24 @@ def table(result: dict, title: str) -> str:
     for side in ("only_sim", "only_real"):
         if result[side]:
             lines.append(f"\n{side.replace('_', ' ')}: " + ", ".join(f"{c} {n}" for c, n in result[side].items()))
+    lines.append("\n" + goal_line(result["goal"]))
     lines.append(f"\n{result['images_sim']} sim frames, {result['images_real']} photos; intervals: 95 % percentile "
                  f"bootstrap, {result['bootstrap']['resamples']} resamples of images; † where a side found none or "
                  "all of its objects (no resample varies it): that side's exact binomial (Clopper–Pearson) 95 % "
                  "interval, and for the ratio the quotients of the sides' opposite ends.")
     return "\n".join(lines) + "\n"
+
+
+def goal_line(g: dict) -> str:
+    """One line of :func:`goal`'s verdict for the table: the overall ratio against the bar, the classes wholly below
+    1 and those found none of in the sim (with the photos' found / objects beside)."""
+    r = g["overall_ratio"]
+    overall = "–" if r is None else "∞" if r == "inf" else f"{r:.2f}"
+    met = {True: "met", False: "**not met**", None: "undefined"}[g["overall_met"]]
+    below = ", ".join(f"{c} [{lo:.2f}, {hi:.2f}]" for c, (lo, hi) in g["below_one"].items()) or "none"
+    none = ", ".join(f"{c} 0/{n} (photos {k}/{m})" for c, (n, k, m) in g["not_found"].items()) or "none"
+    return (f"goal: sim / real ≥ {g['ratio_at_least']} overall {overall}, {met}; classes wholly below 1: {below}; "
+            f"classes of both sides found none of in the sim: {none}")
 
 
 def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict, str]:
@@ -353,3 +390,30 @@ def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict
                                              f"frames) {against}"))
     result["seconds"] = time.perf_counter() - t0
     return result, "\n".join(tables)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``realism_real.py RUN/realism.json ...``: the goal's verdict (:func:`goal_line`) of each finished
+    ``realism.py --real-reference`` run, one line each after its detector's name. A file that is missing, not JSON,
+    or without a ``real_reference`` section is a one-line error (exit 1)."""
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(description="the realism goal's verdict of finished realism.py --real-reference runs")
+    ap.add_argument("runs", nargs="+", type=Path, help="realism.json of a run (its --out folder's)")
+    args = ap.parse_args(argv)
+    for path in args.runs:
+        try:
+            run_json = json.loads(path.read_text())
+            section = run_json["real_reference"]
+            line = goal_line(goal(section))
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            print(f"error: {path}: not a finished realism.py --real-reference run ({type(e).__name__}: {e}); "
+                  "give the realism.json of a run made with --real-reference", file=sys.stderr)
+            return 1
+        print(f"{path} ({run_json.get('settings', {}).get('detector', '?')}): {line}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

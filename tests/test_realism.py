@@ -642,6 +642,35 @@ def test_a_side_that_found_none_or_all_gets_an_exact_interval_not_a_point(realis
     json.dumps(res, allow_nan=False)
 
 
+def test_the_goal_names_classes_wholly_below_one_and_classes_found_none_of(realism_real, tmp_path, capsys):
+    # cup: found none of 30 in the sim, 60 of 80 in the photos; chair: 6 of 30 against 30 of 40, wholly below 1;
+    # bed: all found on both sides (a ratio of 1, its interval reaching above 1)
+    sim = [[("cup", 1, False), ("bed", 2, True), ("chair", 2, i < 6)] for i in range(30)]
+    real = [[("cup", 1, True), ("cup", 1, i < 20), ("bed", 2, True), ("chair", 2, i < 30)] for i in range(40)]
+    res = realism_real.compare(sim, real, resamples=200)
+    g = res["goal"]
+    assert list(g["below_one"]) == ["chair", "cup"] and g["not_found"] == {"cup": [30, 60, 80]}
+    assert g["overall_ratio"] < realism_real.GOAL_RATIO and g["overall_met"] is False
+    text = realism_real.table(res, "t")
+    assert "goal: sim / real ≥ 0.9 overall" in text and "**not met**" in text
+    assert "classes wholly below 1: chair [" in text and "cup 0/30 (photos 60/80)" in text
+    # the same frames with every object found: the goal met, nothing below 1 or missing
+    found = [[(c, b, True) for c, b, _ in rows] for rows in sim]
+    g = realism_real.compare(found, real, resamples=200)["goal"]
+    assert g["overall_met"] is True and g["below_one"] == {} and g["not_found"] == {}
+    assert "met; classes wholly below 1: none; classes of both sides found none of in the sim: none" in \
+        realism_real.goal_line(g)
+    # printed again from a finished run's realism.json; a file that is not one is a one-line error
+    run = tmp_path / "realism.json"
+    run.write_text(json.dumps({"settings": {"detector": "nanodet"}, "real_reference": res}))
+    assert realism_real.main([str(run)]) == 0
+    assert capsys.readouterr().out == f"{run} (nanodet): {realism_real.goal_line(res['goal'])}\n"
+    run.write_text(json.dumps({"settings": {}}))
+    assert realism_real.main([str(run)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "real_reference" in err and "--real-reference" in err
+
+
 def test_bootstrap_resamples_images_not_objects(realism_real):
     # every sim frame alike and every photo alike: any resample of images gives the same figures (a resample of
     # objects would not), so the interval is the point
