@@ -278,13 +278,13 @@ def goal(result: dict) -> dict:
     """The realism goal (docs/realism.md, *The goal's verdict*) checked on a :func:`compare` result, for its one
     detector: the overall sim / real ratio against :data:`GOAL_RATIO` (``"overall_met"``: its value at least that;
     None where it is undefined), the classes whose ratio interval lies wholly below 1 (``"below_one"``: {class:
-    [low, high]}, the high end a number under 1), and the classes with objects on both sides that the detector found
+    [low, high]}, both ends numbers, the high end under 1), and the classes with objects on both sides that the detector found
     none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects in the photos]}),
     each in the table's order. Raises nothing."""
     ratio = result["overall"]["ratio"]["value"]
     rows = sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
     below = {c: v["ratio"]["ci95"] for c, v in rows
-             if isinstance(v["ratio"]["ci95"][1], float) and v["ratio"]["ci95"][1] < 1.0}
+             if all(isinstance(e, float) for e in v["ratio"]["ci95"]) and v["ratio"]["ci95"][1] < 1.0}
     none = {c: [v["objects_sim"], v["found_real"], v["objects_real"]] for c, v in rows if v["found_sim"] == 0}
     met = None if ratio is None else ratio == "inf" or ratio >= GOAL_RATIO
     return {"ratio_at_least": GOAL_RATIO, "overall_ratio": ratio, "overall_met": met, "below_one": below,
