@@ -1280,6 +1280,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="leave out the photos' objects whose box touches the photo's border (the nearest\n"
                          "stand-in for --max-truncation, which COCO's boxes cannot give)")
     ap.add_argument("--real-resamples", type=int, default=2000, help="bootstrap resamples of the intervals")
+    ap.add_argument("--verdict", type=Path, nargs="+", metavar="RUN/realism.json", default=None,
+                    help="print the goal's verdict (the line that ends each real-photo table) of finished\n"
+                         "--real-reference runs, one line each, and exit; renders nothing")
     ap.add_argument("--pngs", type=int, default=PNGS_PER_ENV, help="annotated PNGs per environment and mode")
     ap.add_argument("--out", type=Path, default=Path("runs") / "realism")
     args = smoke.parse_args(ap, argv, frames=2, quality_frames=1, quality_spp=1, reference_spp=8, ladder=[1],
@@ -1345,12 +1348,25 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; 0 on success, 2 on a bad flag or a missing tool (one line on stderr)."""
     args = parse_args(argv)
     try:
-        return _run(args)
+        return _verdicts(args.verdict) if args.verdict else _run(args)
     except RealismError as exc:
         print(f"error: {exc.message}", file=sys.stderr)
         if exc.hint:
             print(f"hint: {exc.hint}", file=sys.stderr)
         return 2
+
+
+def _verdicts(paths: list[Path]) -> int:
+    """``--verdict``: the goal's verdict of each finished run (:func:`realism_real.verdict`), one line each on stdout;
+    0, or :class:`RealismError` for a file that is not a finished ``--real-reference`` run."""
+    import realism_real
+
+    for path in paths:
+        try:
+            print(realism_real.verdict(path))
+        except ValueError as e:
+            raise RealismError(str(e), "give the realism.json of a run made with --real-reference") from e
+    return 0
 
 
 def _run(args) -> int:

@@ -26,7 +26,8 @@ scored, so their detections are no false positives, but not counted).
 
 Each table ends with the goal's verdict for its detector (:func:`goal`): the overall ratio against
 :data:`GOAL_RATIO`, the classes whose interval lies wholly below 1, and the classes of both sides the detector found
-none of in the sim. ``python benchmarks/realism_real.py RUN/realism.json ...`` prints it again from finished runs.
+none of in the sim. ``realism.py --verdict RUN/realism.json ...`` prints it again from finished runs
+(:func:`verdict`).
 """
 
 from __future__ import annotations
@@ -392,28 +393,18 @@ def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict
     return result, "\n".join(tables)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``realism_real.py RUN/realism.json ...``: the goal's verdict (:func:`goal_line`) of each finished
-    ``realism.py --real-reference`` run, one line each after its detector's name. A file that is missing, not JSON,
-    or without a ``real_reference`` section is a one-line error (exit 1)."""
-    import argparse
-    import sys
 
-    ap = argparse.ArgumentParser(description="the realism goal's verdict of finished realism.py --real-reference runs")
-    ap.add_argument("runs", nargs="+", type=Path, help="realism.json of a run (its --out folder's)")
-    args = ap.parse_args(argv)
-    for path in args.runs:
-        try:
-            run_json = json.loads(path.read_text())
-            section = run_json["real_reference"]
-            line = goal_line(goal(section))
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            print(f"error: {path}: not a finished realism.py --real-reference run ({type(e).__name__}: {e}); "
-                  "give the realism.json of a run made with --real-reference", file=sys.stderr)
-            return 1
-        print(f"{path} ({run_json.get('settings', {}).get('detector', '?')}): {line}")
-    return 0
+def verdict(path: Path) -> str:
+    """The goal's verdict (:func:`goal_line`) of a finished ``realism.py --real-reference`` run, read from its
+    ``realism.json`` at ``path``, after the path and the run's detector (``realism.py --verdict``).
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    Raises:
+        ValueError: the file is missing or unreadable, not JSON, or holds no real-photo section.
+    """
+    try:
+        run_json = json.loads(path.read_text())
+        line = goal_line(goal(run_json["real_reference"]))
+        detector = run_json.get("settings", {}).get("detector", "?")
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
+        raise ValueError(f"{path}: not a finished realism.py --real-reference run ({type(e).__name__}: {e})") from e
+    return f"{path} ({detector}): {line}"

@@ -642,7 +642,7 @@ def test_a_side_that_found_none_or_all_gets_an_exact_interval_not_a_point(realis
     json.dumps(res, allow_nan=False)
 
 
-def test_the_goal_names_classes_wholly_below_one_and_classes_found_none_of(realism_real, tmp_path, capsys):
+def test_the_goal_names_classes_wholly_below_one_and_classes_found_none_of(realism, realism_real, tmp_path, capsys):
     # cup: found none of 30 in the sim, 60 of 80 in the photos; chair: 6 of 30 against 30 of 40, wholly below 1;
     # bed: all found on both sides (a ratio of 1, its interval reaching above 1)
     sim = [[("cup", 1, False), ("bed", 2, True), ("chair", 2, i < 6)] for i in range(30)]
@@ -660,15 +660,19 @@ def test_the_goal_names_classes_wholly_below_one_and_classes_found_none_of(reali
     assert g["overall_met"] is True and g["below_one"] == {} and g["not_found"] == {}
     assert "met; classes wholly below 1: none; classes of both sides found none of in the sim: none" in \
         realism_real.goal_line(g)
-    # printed again from a finished run's realism.json; a file that is not one is a one-line error
+    # printed again from a finished run's realism.json (realism.py --verdict, nothing rendered); a file that is not
+    # one is an error line and a hint, exit 2
     run = tmp_path / "realism.json"
     run.write_text(json.dumps({"settings": {"detector": "nanodet"}, "real_reference": res}))
-    assert realism_real.main([str(run)]) == 0
+    assert realism.main(["--verdict", str(run)]) == 0
     assert capsys.readouterr().out == f"{run} (nanodet): {realism_real.goal_line(res['goal'])}\n"
-    run.write_text(json.dumps({"settings": {}}))
-    assert realism_real.main([str(run)]) == 1
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "real_reference" in err and "--real-reference" in err
+    for text in (json.dumps({"settings": {}}), "not json", "[]"):
+        run.write_text(text)
+        assert realism.main(["--verdict", str(run)]) == 2
+        err = capsys.readouterr().err.splitlines()
+        assert len(err) == 2 and err[0].startswith(f"error: {run}: not a finished") and "--real-reference" in err[1]
+    assert realism.main(["--verdict", str(tmp_path / "missing.json")]) == 2
+    assert "missing.json: not a finished" in capsys.readouterr().err
 
 
 def test_bootstrap_resamples_images_not_objects(realism_real):
