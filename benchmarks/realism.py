@@ -44,13 +44,14 @@ renders ``--frames`` camera frames spread evenly along the trajectory (``--every
 sensor's pixel integrates the light on its area); the objects, masks and boxes are the pixel centres', as always. It
 says what aliasing costs the detector; the default robot's camera has 1 sample a pixel.
 
-``--real-reference`` runs the same detector, with the same settings, on the real photos of ``--real-photos`` (102
+``--real-reference`` runs the same detector, with the same settings, on the real photos of ``--real-photos`` (156
 COCO val2017 photos shipped in ``benchmarks/realism/photos``, not in the detectors' training set) and prints per
 BEAR class the sim's recall (fast frames, COCO's crowd rule), the photos' recall weighted to the sim's pixel-size
 mix, their ratio, each with a bootstrap interval over images, and the objects on each side
 (:mod:`realism_real`); with ``--quality-frames``, two more tables: the frames rendered in quality mode, in quality
 mode and in fast mode, against the same photos. ``realism.json``'s ``real_reference`` has it all and each photo's
-detections.
+detections. Each table ends with the goal's verdict for its detector (:func:`realism_real.goal`); ``--verdict
+RUN/realism.json ...`` prints it again from finished runs and renders nothing.
 
 Writes ``<out>/realism.json``, ``<out>/per_class.md`` (the per-class tables it prints: all environments, then
 each one; then, fast mode, found / visible per class and model, the model being the scene's ``box_models``) and
@@ -1345,7 +1346,9 @@ def real_reference(args, detector, sections: dict, threshold: float) -> tuple[di
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the benchmark; 0 on success, 2 on a bad flag or a missing tool (one line on stderr)."""
+    """Run the benchmark (or, with ``--verdict``, print finished runs' verdicts); 0 on success, 2 on a bad flag, a
+    missing tool or a ``--verdict`` file that is no finished ``--real-reference`` run (an error line and a hint on
+    stderr)."""
     args = parse_args(argv)
     try:
         return _verdicts(args.verdict) if args.verdict else _run(args)

@@ -283,7 +283,7 @@ def goal(result: dict) -> dict:
     none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects in the photos]}),
     each in the table's order. Raises nothing."""
     ratio = result["overall"]["ratio"]["value"]
-    rows = sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
+    rows = _table_order(result)
     below = {c: v["ratio"]["ci95"] for c, v in rows
              if all(isinstance(e, float) for e in v["ratio"]["ci95"]) and v["ratio"]["ci95"][1] < 1.0}
     none = {c: [v["objects_sim"], v["found_real"], v["objects_real"]] for c, v in rows if v["found_sim"] == 0}
@@ -322,6 +322,11 @@ def _cell(v: dict, percent: bool) -> str:
     return f"{fmt(v['value'])} [{fmt(v['ci95'][0])}, {fmt(v['ci95'][1])}]{mark}"
 
 
+def _table_order(result: dict) -> list[tuple[str, dict]]:
+    """(class, figures) of a :func:`compare` result in the tables' order: most sim objects first, then by name."""
+    return sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
+
+
 def table(result: dict, title: str) -> str:
     """A Markdown table of :func:`compare`'s result under a ``title`` heading: per class (most sim objects first)
     sim recall, real recall (weighted to the sim's size mix), sim / real, each with its 95 % interval, and the
@@ -329,7 +334,7 @@ def table(result: dict, title: str) -> str:
     lines = [f"### {title}", "",
              "| class | sim recall | real recall (sim's size mix) | sim / real | found / objects: sim; real |",
              "|---|---|---|---|---|"]
-    rows = sorted(result["classes"].items(), key=lambda kv: (-kv[1]["objects_sim"], kv[0]))
+    rows = _table_order(result)
     rows.append(("**all (sim's class × size mix)**", result["overall"]))
     for name, v in rows:
         lines.append(f"| {name} | {_cell(v['sim'], True)} | {_cell(v['real'], True)} | {_cell(v['ratio'], False)} "
