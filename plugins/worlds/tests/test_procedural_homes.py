@@ -11,7 +11,7 @@ import pytest
 
 from benchbot_worlds.bear import DATA_DIR
 from benchbot_worlds.procedural.generator import generate_home
-from benchbot_worlds.procedural.objects import BEAR_CLASS_COUNTS, BEAR_SIZES, bear_proportions
+from benchbot_worlds.procedural.objects import BEAR_CLASS_COUNTS, BEAR_FORMS, BEAR_SIZES, bear_proportions, draw_size
 
 
 def test_class_counts_and_sizes_are_bears():
@@ -28,6 +28,26 @@ def test_class_counts_and_sizes_are_bears():
         np.testing.assert_allclose(v.min(0), lo, atol=1e-3)
         np.testing.assert_allclose(np.median(v, 0), med, atol=1e-3)
         np.testing.assert_allclose(v.max(0), hi, atol=1e-3)
+    for cls, forms in BEAR_FORMS.items():
+        v = np.array(sides[cls])
+        below = 0.0
+        for top, count, (lo, med, hi) in forms.values():
+            w = v[(v[:, 2] > below) & (v[:, 2] <= top)]
+            assert len(w) == count
+            np.testing.assert_allclose([w.min(0), np.median(w, 0), w.max(0)], [lo, med, hi], atol=1e-3)
+            below = top
+        assert sum(f[1] for f in forms.values()) == BEAR_CLASS_COUNTS[cls]
+
+
+def test_laptops_are_drawn_open_and_closed_in_bears_proportion():
+    """BEAR has 5 closed and 2 open laptops: 2,100 draws give an open share near 2/7, each size inside its form."""
+    rng = np.random.default_rng(0)
+    sizes = np.array([draw_size(rng, "laptop") for _ in range(2100)])
+    is_open = sizes[:, 2] > 0.1
+    assert abs(is_open.mean() - 2 / 7) < 0.03
+    for part, form in ((sizes[is_open], "open"), (sizes[~is_open], "closed")):
+        lo, _, hi = BEAR_FORMS["laptop"][form][2]
+        assert (part >= np.array(lo) - 1e-9).all() and (part <= np.array(hi) + 1e-9).all()
 
 
 def test_variant_changes_are_measured_on_bear():

@@ -31,7 +31,7 @@ from benchbot_worlds.procedural.rooms import generate_layout
 from benchbot_worlds.procedural.variants import LIGHTINGS, make_variants
 
 #: The generator's version: bump it whenever the output of any seed may change.
-GENERATOR_VERSION = 1
+GENERATOR_VERSION = 2
 #: Candidate objects tried per object dropped to clear the robot's way (:func:`_clear_the_way`).
 REPAIR_TRIES = 6
 #: BEAR's class list (30 classes, background last).

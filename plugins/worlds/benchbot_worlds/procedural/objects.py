@@ -73,6 +73,15 @@ BEAR_SIZES = {
     "spoon": ((0.084, 0.121, 0.262), (0.084, 0.121, 0.262), (0.084, 0.121, 0.262)),
     "banana": ((0.038, 0.226, 0.113), (0.038, 0.226, 0.113), (0.038, 0.226, 0.113)),
 }
+#: Classes whose BEAR objects come in forms of distinct shape, told apart by height: per form, its upper height bound
+#: (m), BEAR's count and the (min, median, max) of its (shorter side, longer side, height). Five of BEAR's seven
+#: laptops are closed (2.6 cm high), two open (24 and 30 cm), so the class's median is a closed one.
+BEAR_FORMS = {
+    "laptop": {
+        "closed": (0.1, 5, ((0.25, 0.34, 0.026), (0.25, 0.34, 0.026), (0.25, 0.34, 0.026))),
+        "open": (1.0, 2, ((0.386, 0.389, 0.237), (0.403, 0.411, 0.266), (0.42, 0.433, 0.296))),
+    },
+}
 #: Table heights by role (m), inside BEAR's table heights (0.30-0.91).
 TABLE_HEIGHT_M = {"dining": (0.72, 0.78), "desk": (0.72, 0.76), "coffee": (0.35, 0.45), "side": (0.45, 0.6),
                   "stand": (0.4, 0.55)}
@@ -133,10 +142,17 @@ def quota(rng: np.random.Generator, layout: Layout) -> dict[str, int]:
     return {k: int(v) for k, v in zip(names, base)}
 
 
-def draw_size(rng: np.random.Generator, cls: str) -> np.ndarray:
+def draw_size(rng: np.random.Generator, cls: str, form_rng: np.random.Generator | None = None) -> np.ndarray:
     """(3,) float64 (shorter side, longer side, height) of a ``cls`` object: BEAR's median scaled by exp(U(-0.15,
-    0.15)) per dimension, clipped to BEAR's range (:data:`BEAR_SIZES`), rounded to 1 mm."""
-    lo, med, hi = (np.asarray(v) for v in BEAR_SIZES[cls])
+    0.15)) per dimension, clipped to BEAR's range (:data:`BEAR_SIZES`), rounded to 1 mm. A class of
+    :data:`BEAR_FORMS` first draws its form with BEAR's proportions (an open laptop 2 times in 7) from ``form_rng``
+    (default ``rng``), then a size of that form the same way."""
+    sizes = BEAR_SIZES[cls]
+    if cls in BEAR_FORMS:
+        forms = list(BEAR_FORMS[cls].values())
+        counts = np.array([f[1] for f in forms], dtype=np.float64)
+        sizes = forms[int((form_rng or rng).choice(len(forms), p=counts / counts.sum()))][2]
+    lo, med, hi = (np.asarray(v) for v in sizes)
     s = np.clip(med * np.exp(rng.uniform(-0.15, 0.15, 3)), lo, hi)
     s[:2] = np.sort(s[:2])
     return np.round(s, 3)
@@ -226,14 +242,20 @@ class RoomSpace:
 
 class _Home:
     """Placement state: per-room spaces, the objects placed (class, lo (3,), hi (3,), room, role), the tables' tops
-    (index into objects, xy boxes of what stands on them), the notes."""
+    (index into objects, xy boxes of what stands on them), the notes. A class's form (:data:`BEAR_FORMS`) comes from
+    a stream of its own (``rng``'s bit generator jumped, ``rng`` untouched), so forms leave every other draw as is."""
 
     def __init__(self, rng: np.random.Generator, layout: Layout, notes: list[str]):
         self.rng, self.layout, self.notes = rng, layout, notes
+        self.form_rng = np.random.Generator(rng.bit_generator.jumped())
         self.spaces = [RoomSpace(r, layout) for r in layout.rooms]
         self.objects: list[dict] = []
         self.tops: dict[int, list] = {}
         self.tries = PLACE_TRIES  # draws per placement
+
+    def draw_size(self, cls: str) -> np.ndarray:
+        """:func:`draw_size` of ``cls`` from this home's streams."""
+        return draw_size(self.rng, cls, self.form_rng)
 
     def add(self, cls: str, lo, hi, room: int, role: str = "") -> int:
         self.objects.append({"class": cls, "lo": np.asarray(lo, float), "hi": np.asarray(hi, float), "room": room,
@@ -368,7 +390,7 @@ def _chairs_around(h: _Home, table: int, room: int, want: int, desk_side=None) -
     for i in h.rng.permutation(len(spots)):
         if placed >= want:
             break
-        size = draw_size(h.rng, "chair")
+        size = h.draw_size("chair")
         box = h.free_box(room, size[:2], near=spots[i], spread=0.03, gap=0.02)
         if box is not None:
             h.floor("chair", room, size, box)
@@ -393,7 +415,7 @@ def _living(h: _Home, room: int, left: dict) -> None:
     """Couch against a wall, a tv on a stand against the opposite wall facing it, a coffee table between."""
     if left["couch"] <= 0:
         return
-    got = _wall_object(h, "couch", room, draw_size(h.rng, "couch"), True)
+    got = _wall_object(h, "couch", room, h.draw_size("couch"), True)
     if got is None:
         return
     left["couch"] -= 1
@@ -419,7 +441,7 @@ def _living(h: _Home, room: int, left: dict) -> None:
 def _tv_on(h: _Home, stand: int, side, left: dict) -> None:
     """A tv standing on ``stand``, its thin side across the wall ``side``."""
     t = h.objects[stand]
-    size = draw_size(h.rng, "tv")
+    size = h.draw_size("tv")
     ax = side[0]
     xy = np.zeros(2)
     xy[ax], xy[1 - ax] = size[0], min(size[1], t["hi"][1 - ax] - t["lo"][1 - ax] - 0.02)
@@ -435,7 +457,7 @@ def _furnish_room(h: _Home, room: int, kind: str, left: dict, share: dict) -> No
     """The anchors of one room by its kind (module docstring); ``share`` [kind] = the room's share of its kind's
     beds / toilets / sinks when a home has several such rooms."""
     def wall(cls, long_along, role=""):
-        if left[cls] > 0 and _wall_object(h, cls, room, draw_size(h.rng, cls), long_along, role) is not None:
+        if left[cls] > 0 and _wall_object(h, cls, room, h.draw_size(cls), long_along, role) is not None:
             left[cls] -= 1
             return True
         return False
@@ -503,7 +525,7 @@ def _floor_anywhere(h: _Home, cls: str, rooms: list[int]) -> bool:
     """One ``cls`` floor object in the first of ``rooms`` (a seeded order, at most :data:`ROOM_TRIES`) that takes
     it; a potted plant that no floor takes stands on a table."""
     for room in [rooms[i] for i in h.rng.permutation(len(rooms))[:ROOM_TRIES]]:
-        size = table_size(h.rng, "side") if cls == "table" else draw_size(h.rng, cls)
+        size = table_size(h.rng, "side") if cls == "table" else h.draw_size(cls)
         if cls == "chair":
             tables = [i for i in sorted(h.tops) if h.objects[i]["room"] == room and h.objects[i]["role"] != "stand"]
             if any(_chairs_around(h, t, room, 1) for t in tables[:2]):
@@ -516,7 +538,7 @@ def _floor_anywhere(h: _Home, cls: str, rooms: list[int]) -> bool:
             if box is not None:
                 h.floor(cls, room, size, box)
                 return True
-    return cls == "potted plant" and h.on_table(cls, draw_size(h.rng, cls), sorted(h.tops))
+    return cls == "potted plant" and h.on_table(cls, h.draw_size(cls), sorted(h.tops))
 
 
 def _leftovers(h: _Home, left: dict) -> None:
@@ -540,7 +562,7 @@ def _leftovers(h: _Home, left: dict) -> None:
     small = [c for c in SMALL_CLASSES for _ in range(left[c])]
     todo += [small[i] for i in h.rng.permutation(len(small))]
     for cls in todo:
-        size = draw_size(h.rng, cls)
+        size = h.draw_size(cls)
         first = desks if cls in DESK_CLASSES else kitchen if cls == "toaster" else []
         if not (first and h.on_table(cls, size, first)) and not h.on_table(cls, size, sorted(h.tops)):
             h.notes.append(f"objects: no place for a {cls}; dropped")

@@ -61,7 +61,7 @@ def _add(home: objs._Home, cls: str) -> int | None:
     n = len(home.objects)
     rooms = [r.index for r in home.layout.rooms if r.kind != "bathroom"] or [r.index for r in home.layout.rooms]
     if cls in objs.SMALL_CLASSES + objs.DESK_CLASSES + ("tv",):
-        ok = bool(home.tops) and home.on_table(cls, objs.draw_size(home.rng, cls), sorted(home.tops))
+        ok = bool(home.tops) and home.on_table(cls, home.draw_size(cls), sorted(home.tops))
     else:
         ok = objs._floor_anywhere(home, cls, rooms)
     return n if ok and len(home.objects) > n else None
