@@ -8,9 +8,11 @@ arXiv:2009.05246; ground truths of benchbot-addons ``ground_truths_isaac_develop
 
     python -c "import json,glob,numpy as np; ..."   # per class: min/median/max of sorted xy extents and z extent
 
-(tests/test_procedural_objects.py recomputes both from the bundled files). The seven classes BEAR never has (knife,
-wine glass, fork, cake, cell phone, microwave, oven) are not generated: a goodness-of-fit test against BEAR's
-proportions has zero expected counts for them.
+and :data:`BEAR_FORMS` the same per form of a class whose objects differ in shape (laptops: closed or open), told
+apart by height (plugins/worlds/tests/test_procedural_homes.py recomputes all three from the bundled files). An
+object's size is BEAR's median of its class, or of a form drawn in BEAR's proportion, ± 15 % (:func:`draw_size`).
+The seven classes BEAR never has (knife, wine glass, fork, cake, cell phone, microwave, oven) are not generated: a
+goodness-of-fit test against BEAR's proportions has zero expected counts for them.
 
 How many of each class: a quota of ``N`` objects apportioned by BEAR's proportions (floor of ``N p`` plus the
 remainders drawn by weight), ``N`` large enough that every bedroom gets a bed and every bathroom a toilet
