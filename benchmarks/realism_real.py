@@ -279,9 +279,9 @@ def goal(result: dict) -> dict:
     """The realism goal (docs/realism.md, *The goal's verdict*) checked on a :func:`compare` result, for its one
     detector: the overall sim / real ratio against :data:`GOAL_RATIO` (``"overall_met"``: its value at least that;
     None where it is undefined), the classes whose ratio interval lies wholly below 1 (``"below_one"``: {class:
-    [low, high]}, both ends numbers, the high end under 1), and the classes with objects on both sides that the detector found
-    none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects in the photos]}),
-    each in the table's order. Raises nothing."""
+    [low, high]}, both ends numbers, the high end under 1), and the classes with objects on both sides that the
+    detector found none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects
+    in the photos]}), each in the table's order. Raises nothing."""
     ratio = result["overall"]["ratio"]["value"]
     rows = _table_order(result)
     below = {c: v["ratio"]["ci95"] for c, v in rows
@@ -396,7 +396,6 @@ def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict
                                              f"frames) {against}"))
     result["seconds"] = time.perf_counter() - t0
     return result, "\n".join(tables)
-
 
 
 def verdict(path: Path) -> str:

@@ -36,6 +36,9 @@ def crops(run: Path, model: str, n: int = 5) -> list[tuple[str, Image.Image]]:
 
 if len(sys.argv) != 4:
     sys.exit("usage: laptop_views.py RUN_V1 RUN_V2 OUT.jpg (RUN: a realism.py --out folder made with --pngs 999)")
+for run in sys.argv[1:3]:
+    if not (Path(run) / "realism.json").is_file():
+        sys.exit(f"{run}/realism.json: not found; give the --out folder of a finished benchmarks/realism.py run")
 rows = [("generator v1: every laptop closed", crops(Path(sys.argv[1]), "laptop__kl_apple-ibook-2001_closed")),
         ("generator v2: open in 2 of 7, as BEAR's", crops(Path(sys.argv[2]), "laptop__kl_apple-ibook-2001"))]
 sheet = Image.new("RGB", (TILE * 5, 2 * (TILE + 30)), "white")

@@ -148,7 +148,11 @@ def draw_size(rng: np.random.Generator, cls: str, form_rng: np.random.Generator 
     """(3,) float64 (shorter side, longer side, height) of a ``cls`` object: BEAR's median scaled by exp(U(-0.15,
     0.15)) per dimension, clipped to BEAR's range (:data:`BEAR_SIZES`), rounded to 1 mm. A class of
     :data:`BEAR_FORMS` first draws its form with BEAR's proportions (an open laptop 2 times in 7) from ``form_rng``
-    (default ``rng``), then a size of that form the same way."""
+    (default ``rng``), then a size of that form the same way.
+
+    Raises:
+        KeyError: ``cls`` is not one of :data:`BEAR_SIZES`' classes.
+    """
     sizes = BEAR_SIZES[cls]
     if cls in BEAR_FORMS:
         forms = list(BEAR_FORMS[cls].values())
@@ -245,7 +249,8 @@ class RoomSpace:
 class _Home:
     """Placement state: per-room spaces, the objects placed (class, lo (3,), hi (3,), room, role), the tables' tops
     (index into objects, xy boxes of what stands on them), the notes. A class's form (:data:`BEAR_FORMS`) comes from
-    a stream of its own (``rng``'s bit generator jumped, ``rng`` untouched), so forms leave every other draw as is."""
+    a stream of its own (``rng``'s bit generator jumped, ``rng`` untouched), so forms leave every other draw as is;
+    ``rng``'s bit generator must be one that jumps (the generator's PCG64 does; SFC64 would raise AttributeError)."""
 
     def __init__(self, rng: np.random.Generator, layout: Layout, notes: list[str]):
         self.rng, self.layout, self.notes = rng, layout, notes
