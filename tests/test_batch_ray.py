@@ -7,13 +7,15 @@ shared file system) and no user namespace can be made (it cannot make the soluti
 Covered: the live table in a pseudo-terminal; attaching as ``ray.init`` does (the cluster ``ray start`` began on
 this machine, ``RAY_ADDRESS``, ``--ray-address``, ``ray://`` through Ray Client); one CPU per episode for its whole
 life; results shipped back through Ray; sandboxing on a node, and a node that cannot sandbox failing its episode in
-one line; a node whose raylet is killed losing only its episode, which runs again on the other node; wrong
-addresses and Ctrl-C while attaching, in one line. About 80 s on a 2-core machine (``uv run pytest
-tests/test_batch_ray.py -m slow``: 4 passed in 79.5 s, 2026-11-24, with other work on the machine).
+one line; a node whose raylet is killed losing only its episode, which runs again on the other node; Ray Client
+session servers that die as they start, asked for again (and a session that never comes, in one line); wrong
+addresses and Ctrl-C while attaching, in one line. About 3.5 min on a 2-core machine (``uv run pytest
+tests/test_batch_ray.py -m slow``: 7 passed in 209 s, 2026-11-29).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -273,8 +275,9 @@ def _batch(cluster: Cluster, *args: str) -> list[str]:
 
 
 def _through_ray_client(cluster: Cluster, argv: list[str], env: dict, cwd: Path) -> subprocess.CompletedProcess:
-    """Run a batch through Ray Client; once more if Ray's session server died as it started (a transient failure of
-    Ray Client's proxy, which the batch reports in one line: see the test of that below), and only then."""
+    """Run a batch through Ray Client; once more if no session came within the batch's 60 s (Ray's session server
+    died as it started, and the proxy said so too late for the batch's own retries: see the tests of both below), and
+    only then."""
     died_before = cluster.session_servers_that_died_starting()
     proc = subprocess.run(argv, env=env, cwd=cwd, capture_output=True, text=True, timeout=300)
     if proc.returncode == 2 and "started no session" in proc.stderr \
@@ -283,23 +286,57 @@ def _through_ray_client(cluster: Cluster, argv: list[str], env: dict, cwd: Path)
     return proc
 
 
-#: A ``sitecustomize`` for a head whose Ray Client proxy starts, for its first connection, a session server that dies
-#: at once, as Ray 2.60's sometimes does (it forks that server from a multithreaded process).
-FIRST_SESSION_DIES = '''\
+#: A ``sitecustomize`` for a head whose Ray Client proxy starts, for its first connections, session servers that die
+#: as they start, as Ray 2.60's sometimes do (it forks them from a multithreaded process). ``BENCHBOT_TEST_DEATHS``
+#: lists how each dies, in order: ``exit`` exits at once (the proxy sees the exit and says the server did not start);
+#: ``zombie`` exits while the proxy reads its command line (psutil raises ZombieProcess in the proxy). Each death
+#: leaves a file in ``BENCHBOT_TEST_DIED`` (a folder); later connections get real session servers.
+SESSIONS_DIE = '''\
 import os, subprocess, sys
 _ARGV = open("/proc/self/cmdline", "rb").read().split(b"\\0")
 if b"ray.util.client.server" in _ARGV and b"--mode=proxy" in _ARGV:
-    _popen_init = subprocess.Popen.__init__
+    _popen_init, _popen_poll = subprocess.Popen.__init__, subprocess.Popen.poll
 
-    def _first_session_dies(self, args, *rest, **kwargs):
-        flag = os.environ["BENCHBOT_TEST_SESSION_DIED"]
-        if isinstance(args, list) and "--mode=specific-server" in args and not os.path.exists(flag):
-            open(flag, "w").close()
+    def _sessions_die(self, args, *rest, **kwargs):
+        died = os.environ["BENCHBOT_TEST_DIED"]
+        deaths = os.environ["BENCHBOT_TEST_DEATHS"].split(",")
+        if isinstance(args, list) and "--mode=specific-server" in args and len(os.listdir(died)) < len(deaths):
+            how = deaths[len(os.listdir(died))]
+            open(os.path.join(died, f"{len(os.listdir(died))}-{how}"), "w").close()
             args = [sys.executable, "-c", "raise SystemExit(1)"]
+            self._benchbot_zombie = how == "zombie"
         _popen_init(self, args, *rest, **kwargs)
 
-    subprocess.Popen.__init__ = _first_session_dies
+    def _poll(self, *args, **kwargs):
+        if getattr(self, "_benchbot_zombie", False):  # the proxy's first look: alive; then it has exited, unreaped
+            self._benchbot_zombie = False
+            os.waitid(os.P_PID, self.pid, os.WEXITED | os.WNOWAIT)
+            return None
+        return _popen_poll(self, *args, **kwargs)
+
+    subprocess.Popen.__init__, subprocess.Popen.poll = _sessions_die, _poll
 '''
+
+
+@contextlib.contextmanager
+def _head_whose_sessions_die(deaths: str):
+    """A one-node cluster whose first Ray Client session servers die as :data:`SESSIONS_DIE` says: yields the head
+    (its ``env`` reaches it; ``base / "died"`` holds one file per death)."""
+    base = Path(tempfile.mkdtemp(prefix="bbray", dir="/tmp"))
+    for folder in ("site", "died", "r", "runs"):
+        (base / folder).mkdir()
+    (base / "site" / "sitecustomize.py").write_text(SESSIONS_DIE)
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    env.update(RAY_TMPDIR=str(base / "r"), RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(32),
+               RAY_USAGE_STATS_ENABLED="0", PYTHONPATH=str(base / "site"), BENCHBOT_TEST_DIED=str(base / "died"),
+               BENCHBOT_TEST_DEATHS=deaths)
+    head = Cluster(base, env, _free_port(), _free_port(), _free_port())
+    try:
+        head.start_head()
+        yield head
+    finally:
+        head.stop()
+        shutil.rmtree(base, ignore_errors=True)
 
 
 def _run_dir(text: str) -> Path:
@@ -469,46 +506,52 @@ def test_a_bad_limit_variable_stops_a_ray_batch_before_any_episode(monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_ray_client_session_that_dies_as_it_starts_fails_in_one_line_and_the_next_batch_runs(solution):
+def test_ray_client_sessions_that_die_as_they_start_are_asked_for_again(solution):
     """Ray Client's proxy on the head starts a session server per connection; when that server dies as it starts,
-    ``ray.init`` waits over two minutes and then raises from inside Ray Client. The batch stops at its connection
-    timeout in one line that says what happened and what to do, and the next batch gets a session and runs."""
-    base = Path(tempfile.mkdtemp(prefix="bbray", dir="/tmp"))
-    (base / "site").mkdir()
-    (base / "site" / "sitecustomize.py").write_text(FIRST_SESSION_DIES)
-    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
-    env.update(RAY_TMPDIR=str(base / "r"), RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(32),
-               RAY_USAGE_STATS_ENABLED="0", PYTHONPATH=str(base / "site"),
-               BENCHBOT_TEST_SESSION_DIED=str(base / "session_died"))
-    (base / "r").mkdir()
-    (base / "runs").mkdir()
-    head = Cluster(base, env, _free_port(), _free_port(), _free_port())
-    try:
-        head.start_head()
+    the proxy answers ``ray.init`` with an error after its 30 s grace period. The batch asks for another session,
+    up to three tries in all, logs each retry to its ``logs/ray.log``, and runs. Both deaths the proxy reports are
+    made here: a server that exits at once, and one that exits while the proxy reads its command line (the zombie of
+    a CI run, where the batch used to stop with ``psutil.ZombieProcess``)."""
+    with _head_whose_sessions_die("zombie,exit") as head:
+        target = f"ray://127.0.0.1:{head.client}"
+        argv = _batch(head, "--native", "python solution.py 0", "--no-sandbox")
+        proc = subprocess.run(argv, env={**head.env, "PYTHONPATH": "", "RAY_ADDRESS": target}, cwd=solution,
+                              capture_output=True, text=True, timeout=400)
+        assert proc.returncode == 0 and "1 episode: 1 ok" in proc.stderr, proc.stderr[-3000:] + head.diagnostics()
+        assert sorted(p.name for p in (head.base / "died").iterdir()) == ["0-zombie", "1-exit"]
+        retries = [line for line in (_run_dir(proc.stderr) / "logs" / "ray.log").read_text().splitlines()
+                   if "session server died as it started" in line]
+        assert len(retries) == 2, retries
+        assert "ZombieProcess" in retries[0] and "(try 2 of 3)" in retries[0], retries
+        assert "Starting Ray client server failed" in retries[1] and "(try 3 of 3)" in retries[1], retries
+
+
+@pytest.mark.slow
+def test_a_ray_client_session_that_never_comes_fails_in_one_line_and_the_next_batch_runs(solution):
+    """When no session comes within the connection timeout (here 15 s: the proxy's answer for a server that died
+    comes later), the batch stops in one line that says what happened and what to do, and the next batch gets a
+    session and runs."""
+    with _head_whose_sessions_die("exit") as head:
         target = f"ray://127.0.0.1:{head.client}"
         code = ("from benchbot.batch.executors import connect_ray\nfrom benchbot.core.errors import UsageError\n"
                 f"try:\n    connect_ray({target!r}, timeout_s=15)\nexcept UsageError as exc:\n"
                 "    print(exc.message)\n    print(exc.hint)\n")
         t0 = time.monotonic()
-        proc = subprocess.run([sys.executable, "-c", code], env={**env, "PYTHONPATH": ""}, capture_output=True,
+        proc = subprocess.run([sys.executable, "-c", code], env={**head.env, "PYTHONPATH": ""}, capture_output=True,
                               text=True, timeout=120)
         assert time.monotonic() - t0 < 60, proc.stdout + proc.stderr
         message, hint = proc.stdout.strip().splitlines()
         assert message == (f"the Ray Client server at {target} (--ray-address) accepted the connection but started "
                            "no session for this batch within 15 s"), proc.stdout + proc.stderr
         assert hint.startswith("run the batch again") and "ray_client_server*.err" in hint
-        # The first session server was replaced by one that exits at once (the flag says the replacement ran). Ray's
-        # proxy logs that death only when its poll sees the exit before it reads the process's command line; when
-        # the process exits between the two, psutil raises ZombieProcess and nothing is logged: the log shows 0 or 1.
-        assert Path(env["BENCHBOT_TEST_SESSION_DIED"]).is_file(), head.diagnostics()
+        # The proxy logs the death only when its poll sees the exit before it reads the process's command line;
+        # when the process exits between the two, psutil raises ZombieProcess and nothing is logged: 0 or 1.
+        assert [p.name for p in (head.base / "died").iterdir()] == ["0-exit"], head.diagnostics()
         assert head.session_servers_that_died_starting() <= 1, head.diagnostics()
         argv = _batch(head, "--native", "python solution.py 0", "--no-sandbox")
-        proc = subprocess.run(argv, env={**env, "PYTHONPATH": "", "RAY_ADDRESS": target}, cwd=solution,
+        proc = subprocess.run(argv, env={**head.env, "PYTHONPATH": "", "RAY_ADDRESS": target}, cwd=solution,
                               capture_output=True, text=True, timeout=300)
         assert proc.returncode == 0 and "1 episode: 1 ok" in proc.stderr, proc.stderr[-3000:] + head.diagnostics()
-    finally:
-        head.stop()
-        shutil.rmtree(base, ignore_errors=True)
 
 
 @pytest.mark.slow

@@ -467,12 +467,22 @@ def _ray_target(address: str | None) -> tuple[str | None, str]:
     return None, "started for this batch"
 
 
-#: The fix when Ray Client's server accepts a connection but gives it no session. Its proxy starts one session server
-#: per connection, forking from a multithreaded process, and that server sometimes dies as it starts (Ray 2.60); the
-#: client then waits minutes before it fails.
+#: The fix when Ray Client's server accepts a connection but gives it no session in time. Its proxy starts one
+#: session server per connection, forking from a multithreaded process, and that server sometimes dies as it starts
+#: (Ray 2.60); the proxy says so only after its grace period (30 s or more), and a batch asks again
+#: (:data:`RAY_CLIENT_SESSION_TRIES`) while its timeout allows.
 RAY_CLIENT_NO_SESSION_HINT = ("run the batch again (a session server that dies as it starts is a transient Ray Client "
                               "failure); the head's ray_client_server*.err (its session's logs folder, "
                               "/tmp/ray/session_latest/logs by default) says why")
+
+
+#: How many times in all a batch asks Ray Client for a session when the head reports that the session server died as
+#: it started (:func:`_session_died_starting`; the transient failure of :data:`RAY_CLIENT_NO_SESSION_HINT`).
+RAY_CLIENT_SESSION_TRIES = 3
+#: What Ray 2.60's Ray Client proxy says, in the error ``ray.init`` raises, when this connection's session server
+#: died as it started.
+RAY_CLIENT_SESSION_DIED_MARKS = ("psutil.ZombieProcess", "Starting Ray client server failed",
+                                 "Proxy failed to Connect to backend")
 
 
 def _unreachable_hint(source: str) -> str:
@@ -556,7 +566,8 @@ def connect_ray(address: str | None = None, *, workers: int = 1, log: Path | Non
     Raises:
         UsageError: a Ray setting has no valid value (:func:`ray_gpus_per_episode`: checked before any Ray starts);
             Ray is not installed (or, for ``ray://``, Ray Client); the address is not ``HOST:PORT``, refuses
-            connections, does not answer within ``timeout_s``, or refuses this process's token.
+            connections, does not answer within ``timeout_s``, or refuses this process's token; through Ray Client,
+            the head's session server died as it started :data:`RAY_CLIENT_SESSION_TRIES` times.
     """
     ray_gpus_per_episode()  # a mistyped setting is one line now, not after a local Ray has started (seconds)
     # Under `uv run`, Ray would copy the working directory to every worker and run from that copy (paths in specs
@@ -620,10 +631,40 @@ def _init_local(ray, kwargs: dict) -> None:
 
 def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str, source: str) -> None:
     """``ray.init(**kwargs)`` in a helper thread; this thread waits (Ctrl-C interrupts the wait) at most
-    ``timeout_s`` seconds.
+    ``timeout_s`` seconds. Through Ray Client, a session server that the head reports dead as it started
+    (:func:`_session_died_starting`) is asked for again, up to :data:`RAY_CLIENT_SESSION_TRIES` times in all, each
+    try with its own ``timeout_s``; each retry is logged to Ray's log (``logs/ray.log``).
 
     Raises:
         UsageError: ``ray.init`` failed or did not return in time.
+    """
+    for attempt in range(1, RAY_CLIENT_SESSION_TRIES + 1):
+        error = _init_in_thread(ray, kwargs, timeout_s, target, source)
+        if error is None:
+            return
+        if attempt < RAY_CLIENT_SESSION_TRIES and target.startswith("ray://") and _session_died_starting(error):
+            logging.getLogger("ray").warning(
+                "the head's Ray Client session server died as it started (%s); asking for another (try %d of %d)",
+                _first_line(str(error).splitlines()[-1]), attempt + 1, RAY_CLIENT_SESSION_TRIES)
+            continue
+        raise _init_problem(error, target, source) from None
+
+
+def _session_died_starting(error: BaseException) -> bool:
+    """Whether a failed Ray Client ``ray.init`` says that the head's proxy could not start this connection's session
+    server (it died as it started): Ray 2.60's proxy answers ``ConnectionAbortedError`` with its own traceback,
+    ending in ``psutil.ZombieProcess`` (the server exited while the proxy read its command line) or in one of the
+    proxy's own messages for a server that did not start (``ray/util/client/server/proxier.py``)."""
+    text = str(error)
+    return isinstance(error, ConnectionAbortedError) and any(mark in text for mark in RAY_CLIENT_SESSION_DIED_MARKS)
+
+
+def _init_in_thread(ray, kwargs: dict, timeout_s: float, target: str, source: str) -> BaseException | None:
+    """One ``ray.init(**kwargs)`` in a helper thread, waited for at most ``timeout_s`` seconds: what it raised, or
+    None.
+
+    Raises:
+        UsageError: ``ray.init`` did not return in time.
     """
     outcome: dict = {}
 
@@ -642,8 +683,7 @@ def _init_with_timeout(ray, kwargs: dict, timeout_s: float, target: str, source:
     if thread.is_alive():
         raise UsageError(f"the Ray cluster at {target} ({source}) did not answer within {timeout_s:g} s",
                          _unreachable_hint(source))
-    if "error" in outcome:
-        raise _init_problem(outcome["error"], target, source) from None
+    return outcome.get("error")
 
 
 @contextlib.contextmanager
