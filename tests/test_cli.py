@@ -78,6 +78,18 @@ def test_batch_scores_the_ground_truth_example_one(tmp_path):
 
 
 @pytest.mark.slow
+def test_repeated_envs_and_robots_add_up(tmp_path):
+    """``--envs A --envs B`` runs A and B (before, Typer kept only the last: B alone), and so does ``--robots``."""
+    proc = cli("batch", "--example", "hello_passive", "--envs", "miniroom:1", "--envs", "miniroom:4,miniroom:2",
+               "--robots", "carter", "--robots", "carter", "--camera-size", "32x24", "--no-evaluate",
+               "--output-dir", str(tmp_path), "--json", "--no-tui")
+    assert proc.returncode == 0, proc.stderr
+    manifest = json.loads((Path(json.loads(proc.stdout)["run_dir"]) / "manifest.json").read_text())
+    assert [(e["robot"], e["env"]) for e in manifest["episodes"]] == [
+        (robot, env) for robot in ("carter", "carter") for env in ("miniroom:1", "miniroom:4", "miniroom:2")]
+
+
+@pytest.mark.slow
 def test_readme_main_job_with_the_baseline(tmp_path):
     """README command 1 (smaller camera so the test stays quick). A whole batch (5-7 s on a 2-core machine): slow,
     as conftest.py defines it; CI runs README command 1 itself just before the fast loop, and this test in -m slow."""

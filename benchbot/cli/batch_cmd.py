@@ -22,15 +22,20 @@ from benchbot.core.limits import MAX_REPEAT, MAX_RETRIES, MAX_SEED, MAX_WORKERS
 from benchbot.solutions.sandbox import not_verifiable_note
 
 
+def _joined(values: list[str] | None) -> str | None:
+    """A repeated comma-list option (``--envs a,b --envs c``) as one comma list (``a,b,c``), or None if not given."""
+    return ",".join(values) if values else None
+
+
 def register(app: typer.Typer) -> None:
     @app.command("batch")
     @handle_errors
     def batch(
-        envs: Optional[str] = typer.Option(None, "--envs", "--env", "-e", help="Comma list of environments, e.g. miniroom:1,house:1 (scene pairs: miniroom:1:2)."),
+        envs: Optional[list[str]] = typer.Option(None, "--envs", "--env", "-e", help="Comma list of environments, e.g. miniroom:1,house:1 (scene pairs: miniroom:1:2); repeat it to add more (--envs miniroom:1 --envs house:1)."),
         envs_batch: Optional[str] = typer.Option(None, "--envs-batch", help="A named batch of environments (`benchbot list batches`)."),
         task: str = typer.Option(DEFAULT_TASK, "--task", "-t", help="Task name (`benchbot list tasks`)."),
         robot: str = typer.Option(DEFAULT_ROBOT, "--robot", "-r", help="Robot name (`benchbot list robots`)."),
-        robots: Optional[str] = typer.Option(None, "--robots", help="Comma list of robots to sweep (instead of --robot)."),
+        robots: Optional[list[str]] = typer.Option(None, "--robots", help="Comma list of robots to sweep (instead of --robot); repeat it to add more."),
         native: Optional[str] = typer.Option(None, "--native", "-n", help="A command to run as the solution, e.g. 'python my.py'."),
         example: Optional[str] = typer.Option(None, "--example", "-E", help="An installed example as the solution (`benchbot list examples`)."),
         containerised: Optional[Path] = typer.Option(None, "--containerised", "-c", help="Build and run DIR/Dockerfile (or a Dockerfile) with Docker or Podman as the solution."),
@@ -81,8 +86,9 @@ def register(app: typer.Typer) -> None:
             err.print(f"resuming {batch.run_dir}: {done} of {len(batch.specs)} episodes already done")
         else:
             batch = new_batch(reg, BatchRequest(
-                task=task, robot=robot, robots=robots, envs=envs, envs_batch=envs_batch, native=native,
-                example=example, containerised=containerised, example_containerised=example_containerised,
+                task=task, robot=robot, robots=_joined(robots), envs=_joined(envs), envs_batch=envs_batch,
+                native=native, example=example, containerised=containerised,
+                example_containerised=example_containerised,
                 args=args, repeat=repeat, seed=seed, timeout_s=timeout, record=record, noise=noise, sweep=sweep,
                 backend_options=lambda: backend_options(arch, camera_size), no_sandbox=no_sandbox, workers=workers,
                 prefix=prefix, output_dir=output_dir, zip_results=zip_results,
