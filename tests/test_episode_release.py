@@ -51,11 +51,12 @@ def _starts(address: str) -> bool:
 
 def _submit(address: str, *args: str, cwd: Path | None = None, env: dict | None = None,
             ) -> subprocess.CompletedProcess:
-    return subprocess.run([*BENCHBOT, "submit", "--address", address, "--no-sandbox", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=240,
-                          env=dict(os.environ, COLUMNS="200", BENCHBOT_RESULT_LOCATION=str(
-                              Path(tempfile.mkdtemp(prefix="benchbot-release-test-")) / "result.json"),
-                                   **(env or {})))
+    """``benchbot submit`` to ``address``; its results file goes to a temporary folder removed afterwards."""
+    with tempfile.TemporaryDirectory(prefix="benchbot-release-test-") as results:
+        return subprocess.run([*BENCHBOT, "submit", "--address", address, "--no-sandbox", *args], cwd=cwd,
+                              capture_output=True, text=True, timeout=240,
+                              env=dict(os.environ, COLUMNS="200",
+                                       BENCHBOT_RESULT_LOCATION=str(Path(results) / "result.json"), **(env or {})))
 
 
 AGENT = """

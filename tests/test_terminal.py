@@ -146,10 +146,16 @@ def test_q_closes_the_batch_view_and_the_batch_goes_on(tmp_path):
 
 @pytest.mark.slow
 def test_ctrl_c_stops_benchbot_run_in_its_live_view(tmp_path):
-    with Terminal([*BENCHBOT, "run", "--env", "miniroom:1", "--port", "0", *SMALL], columns=100, rows=30) as term:
+    """Ctrl-C in the live view of an episode served in the command's process ends it (130), and the view's
+    live-state folder goes with it (a temporary folder of its own, which used to stay behind)."""
+    (tmp_path / "tmp").mkdir()
+    with Terminal([*BENCHBOT, "run", "--env", "miniroom:1", "--port", "0", *SMALL], columns=100, rows=30,
+                  env=dict(os.environ, TMPDIR=str(tmp_path / "tmp"))) as term:
         assert term.wait_for(r"backend +http://127\.0\.0\.1:\d+/", 120), term.text[-2000:]  # the view shows it
+        assert any(p.name.startswith("benchbot-live-") for p in (tmp_path / "tmp").iterdir())
         term.press(b"\x03")
         assert term.wait(15) == 130, term.text[-2000:]
+    assert not any(p.name.startswith("benchbot-live-") for p in (tmp_path / "tmp").iterdir())
 
 
 @pytest.mark.slow

@@ -14,6 +14,7 @@ Everything touching the episode runs on the backend thread (observer hooks, ``Ba
 
 from __future__ import annotations
 
+import shutil
 import sys
 import tempfile
 import threading
@@ -43,6 +44,7 @@ class RunObservers:
         self.recorder = self.writer = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._own_state_dir: Path | None = None  # made here: removed by close()
         if record:
             from benchbot.plugins.recorder import attach_recorder
 
@@ -50,7 +52,9 @@ class RunObservers:
         if self.tui:
             from benchbot.plugins.live_state import LiveStateWriter
 
-            self.state_dir = Path(state_dir) if state_dir else Path(tempfile.mkdtemp(prefix="benchbot-live-"))
+            if state_dir is None:
+                state_dir = self._own_state_dir = Path(tempfile.mkdtemp(prefix="benchbot-live-"))
+            self.state_dir = Path(state_dir)
             self.writer = LiveStateWriter(self.state_dir)
             service.call(self.writer.attach, service.episode)
             registry.plugin_manager.register(self.writer)
@@ -79,7 +83,8 @@ class RunObservers:
             threading.Event().wait()
 
     def close(self) -> None:
-        """Stop the live view's refresher, unregister the observers, finish the recording."""
+        """Stop the live view's refresher, unregister the observers, finish the recording, and remove the live-state
+        folder if it was made here."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
@@ -90,3 +95,5 @@ class RunObservers:
             from benchbot.plugins.recorder import detach_recorder
 
             detach_recorder(self.registry, self.service, self.recorder)
+        if self._own_state_dir is not None:
+            shutil.rmtree(self._own_state_dir, ignore_errors=True)
