@@ -1,4 +1,5 @@
-"""``benchbot batch --executor ray`` as a lab with a cluster runs it: a two-node Ray cluster on loopback, started as
+"""``benchbot batch --executor ray`` as a lab with a cluster runs it: a two-node Ray cluster addressed on loopback
+(Ray itself listens on every interface, whatever ``--node-ip-address`` says: docs/cluster.md), started as
 Ray's users start one (``ray start --head``, then ``ray start --address`` on a second node with its own CPU), with
 token authentication on, in a Ray temporary folder of the test's own (``RAY_TMPDIR``: nothing here touches another
 Ray on the machine). The second node runs in a mount namespace where the batch's run directories do not exist (no
