@@ -554,14 +554,15 @@ def _init_problem(exc: BaseException, target: str | None, source: str) -> UsageE
 
 def connect_ray(address: str | None = None, *, workers: int = 1, log: Path | None = None,
                 timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> RayCluster:
-    """Connect this process to Ray for a batch, choosing the cluster as ``ray.init`` does (docs/cluster.md): ``address``
-    (``--ray-address``: the head's ``HOST:PORT``, ``ray://HOST:PORT`` through Ray Client, ``auto``, or ``local`` for a
-    new local Ray), else ``$RAY_ADDRESS``, else the cluster ``ray start`` last started on this machine, else a new local
-    Ray with ``workers`` CPUs, started for this batch (:meth:`RayCluster.close` stops it). An address is first tried
-    with a plain TCP connection, and attaching to it (``ray.init``) runs in a helper thread for at most ``timeout_s``
-    seconds, so a wrong address fails in one line and Ctrl-C works while it waits (a local Ray is started in this
-    thread, without that limit: its processes are tied to the thread that starts them). Ray's messages go to ``log``
-    (appended) from here on; a process already connected to Ray keeps its connection.
+    """Connect this process to Ray for a batch, choosing the cluster as ``ray.init`` does (docs/cluster.md):
+    ``address`` (``--ray-address``: the head's ``HOST:PORT``, ``ray://HOST:PORT`` through Ray Client, ``auto``, or
+    ``local`` for a new local Ray), else ``$RAY_ADDRESS``, else the cluster ``ray start`` last started on this
+    machine, else a new local Ray with ``workers`` CPUs, started for this batch (:meth:`RayCluster.close` stops it).
+    An address is first tried with a plain TCP connection, and attaching to it (``ray.init``) runs in a helper
+    thread for at most ``timeout_s`` seconds a try (through Ray Client, up to :data:`RAY_CLIENT_SESSION_TRIES`
+    tries: :func:`_init_with_timeout`), so a wrong address fails in one line and Ctrl-C works while it waits (a
+    local Ray is started in this thread, without that limit: its processes are tied to the thread that starts them).
+    Ray's messages go to ``log`` (appended) from here on; a process already connected to Ray keeps its connection.
 
     Raises:
         UsageError: a Ray setting has no valid value (:func:`ray_gpus_per_episode`: checked before any Ray starts);

@@ -46,8 +46,9 @@ def tally(run: Path, cls: str = "refrigerator") -> dict[str, tuple[int, int]]:
                     continue
                 box = np.asarray(o["box"], float)
                 best = max((d[4] for d in dets if R.box_iou(box, np.asarray(d[:4], float)) >= 0.5), default=0.0)
-                out[kind(o)][0] += best >= FOUND_SCORE
-                out[kind(o)][1] += 1
+                tally_of = out[kind(o)]
+                tally_of[0] += best >= FOUND_SCORE
+                tally_of[1] += 1
     return {k: (f, n) for k, (f, n) in out.items()}
 
 
