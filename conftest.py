@@ -13,7 +13,7 @@ import tempfile
 pytest_plugins = ["pytester"]  # tests/test_fast_loop.py runs pytest on this conftest
 
 os.environ["BENCHBOT_ONLY_PLUGINS"] = "core_examples,content_packs,worlds,sim_taichi,eval_omq,task_semslam,robot_ros2,assets_sh3d"
-os.environ["BENCHBOT_DATA_DIR"] = tempfile.mkdtemp(prefix="benchbot-test-data-")
+os.environ["BENCHBOT_DATA_DIR"] = _TEST_DATA_DIR = tempfile.mkdtemp(prefix="benchbot-test-data-")
 os.environ["BENCHBOT_CACHE_DIR"] = _TEST_CACHE_DIR = tempfile.mkdtemp(prefix="benchbot-test-cache-")
 os.environ["BENCHBOT_SIM_STYLE"] = "primitives"
 os.environ["BENCHBOT_SERVICE"] = "off"
@@ -34,12 +34,13 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
 # test runs there.
 # ---------------------------------------------------------------------------------------------------------------------
 def pytest_unconfigure(config):
-    """The per-session cache of built scenes holds hundreds of MB once furnished homes were built: removed at the
-    end."""
+    """The per-session cache of built scenes (hundreds of MB once furnished homes were built) and data directory
+    are removed at the end."""
     import shutil
 
-    if os.environ.get("BENCHBOT_CACHE_DIR") == _TEST_CACHE_DIR:
-        shutil.rmtree(_TEST_CACHE_DIR, ignore_errors=True)
+    for name, made in (("BENCHBOT_CACHE_DIR", _TEST_CACHE_DIR), ("BENCHBOT_DATA_DIR", _TEST_DATA_DIR)):
+        if os.environ.get(name) == made:
+            shutil.rmtree(made, ignore_errors=True)
 
 
 def pytest_addoption(parser):

@@ -121,14 +121,14 @@ def test_a_folder_another_user_could_have_made_is_never_used(tmp_path, monkeypat
     assert not os.path.exists(path)
 
 
-def test_an_episodes_folder_holds_a_bounded_number_of_bytes():
+def test_an_episodes_folder_holds_a_bounded_number_of_bytes(tmp_path):
     """Past EPISODE_SEGMENT_BYTES made in the episode's folder, its clients' replies go inline with a reason."""
     import numpy as np
 
     from benchbot.protocol import wire
 
     pool = shared_frames.SegmentPool()
-    pool.serve_socket(Path(tempfile.mkdtemp(prefix="benchbot-test-budget-")) / "backend.sock")
+    pool.serve_socket(tmp_path / "backend.sock")
     try:
         reply = {"observations": {"image_rgb": np.zeros((480, 640, 3), np.uint8)}}
         answers = [wire.unpack(pool.pack(reply, (f"{k:032x}", None, 0), True)) for k in range(40)]
