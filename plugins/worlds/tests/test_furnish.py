@@ -414,6 +414,61 @@ def test_books_are_deterministic_per_seed(lib):
     assert books(0) == books(0) and books(0) != books(1)
 
 
+def test_keyboards_are_made_in_code_filling_their_cuboid_with_their_keys_toward_the_room(lib):
+    """Whatever model the pack has for the class: a keyboard made in code, exactly its cuboid, its width along the
+    cuboid's longer side, its typist's side away from the wall, the layout of its proportions."""
+    from benchbot_worlds.homes import keyboards as K
+
+    lib = AssetLibrary(FULL_LIB + [obj_asset("pack_keyboard", "keyboard", (0.45, 0.15, 0.02))])
+    objs = [gt("table", [2.0, 4.2, 0], [3.2, 5.0, 0.75]),  # a desk against the north wall (y = 5)
+            gt("keyboard", [2.3, 4.6, 0.75], [2.75, 4.75, 0.78], "full_size"),  # 0.45 x 0.15: along x
+            gt("keyboard", [0.05, 2.0, 0.75], [0.19, 2.31, 0.767], "compact"),  # the procedural homes' 0.14 x 0.31,
+            gt("table", [0.0, 1.8, 0], [0.6, 2.6, 0.75])]  # on a desk against the west wall: along y
+    res = F.furnish_home(objs, one_room_plan(), lib, seed=0)
+    for i, front, layout in ((1, (0, -1), "full"), (2, (1, 0), "compact")):
+        (p,) = [p for p in res.placements if p.object_index == i]
+        assert p.asset_id == F.KEYBOARD_ID and p.mesh is not None  # never the pack's model
+        assert np.abs(placed_box(lib, p) - np.array(box_of(objs[i]))).max() < 1e-9
+        assert np.allclose(_front(p), front)  # the keys' near side toward the room
+        width = p.transform[:3, :3] @ np.array([1.0, 0.0, 0.0])
+        along = 0 if front[0] == 0 else 1  # the cuboid's longer horizontal side
+        assert abs(width[along]) > 0.1 and abs(width[1 - along]) < 1e-9
+        assert p.mesh.materials[0].name.startswith(f"keyboard_keys:{layout}:")
+        assert np.allclose(p.mesh.bounds, K.UNIT_BOUNDS)
+
+
+def test_a_keyboards_top_slopes_to_the_back_and_shows_key_caps_apart():
+    from benchbot_worlds.homes import keyboards as K
+
+    for layout, (width_u, _, _) in K.LAYOUTS.items():
+        keys = K.layout_keys(layout)
+        assert max(x + w for x, _, w, _, _ in keys) == width_u - 0.5  # the keys end half a unit in from the edge
+        assert max(y + d for _, y, _, d, _ in keys) == 7.0
+        for black in (True, False):
+            style = "black" if black else "white"
+            tex = K.key_texture(layout, style).astype(float)
+            assert tex.shape == (120, width_u * 16, 3)
+            cap, gap = np.asarray(K.STYLES[style][2]) * 255, np.asarray(K.STYLES[style][1]) * 255
+            space_bar = tex[int(6.2 * 16), int((0.5 + 3.75 + 3) * 16)]  # the middle of the space bar
+            between = tex[100, 28]  # between the two left keys of the front row
+            assert np.abs(space_bar - cap).max() < 20 and np.abs(between - gap).max() < 2
+    mesh = K.keyboard_mesh("full", "black")
+    top = mesh.v[mesh.f[mesh.f_material == 0]].reshape(-1, 3)
+    assert np.allclose(top[top[:, 1] < 0, 2], K.FRONT_HEIGHT) and np.allclose(top[top[:, 1] > 0, 2], 1.0)
+
+
+def test_keyboards_are_deterministic_per_seed_and_come_in_both_styles():
+    from benchbot_worlds.homes import keyboards as K
+
+    def styles(seed):
+        rng = np.random.default_rng(seed)
+        return [K.keyboard(np.zeros(3), np.array([0.45, 0.15, 0.03]), prefer=None, rng=rng)[0].materials[0].name
+                for _ in range(40)]
+
+    assert styles(0) == styles(0) and styles(0) != styles(1)
+    assert 0.5 < sum("black" in s for s in styles(0)) / 40 < 0.9  # K.BLACK_SHARE, 0.7
+
+
 def test_bottles_keep_their_proportions_inside_a_wide_cuboid():
     lib = AssetLibrary(FULL_LIB + [obj_asset("wine_bottle", "bottle", (0.085, 0.085, 0.30))])
     objs = [gt("bottle", [3.2, 2.85, 0.75], [3.44, 3.16, 1.05], "wide_bottle"),  # the houses' 0.24 x 0.31 bottle

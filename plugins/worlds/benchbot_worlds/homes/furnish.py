@@ -21,7 +21,9 @@ deterministic per ``seed``; GT is never changed. The steps:
   (:func:`~benchbot_worlds.homes.books.closed_books`): an ``isgroup`` cuboid a row of standing books along its
   long horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
   heights, depths and spine colours, their union exactly the cuboid, all with the object's index; one book standing or
-  lying (:attr:`Placement.mesh` holds each book's mesh). A class with models tagged :data:`PROPORTIONAL_TAG` (the
+  lying (:attr:`Placement.mesh` holds each book's mesh). Keyboards are made in code too
+  (:func:`~benchbot_worlds.homes.keyboards.keyboard`): a sloped case exactly the cuboid, a texture of key caps on
+  the top, the keys' near side away from the nearest wall. A class with models tagged :data:`PROPORTIONAL_TAG` (the
   clocks' round dial) takes one of them, never stretched: uniformly scaled into the cuboid against its back
   (:func:`proportional_box`); so does the model chosen for a class of :data:`UNSTRETCHED_CLASSES` (bottles). A
   bed's model, chosen for its cuboid, is drawn back from a side where a lower GT object beside it reaches in
@@ -29,7 +31,7 @@ deterministic per ``seed``; GT is never changed. The steps:
   inside the cuboid). A
   chair cuboid from :data:`SEAT_HEIGHT_M` up to :data:`LOW_CHAIR_M` high takes a model tagged :data:`DINING_TAG` (a
   chair with a back, squashed), if the class has one; a bowl cuboid at least :data:`FRUIT_BOWL_M` across one tagged
-  :data:`FRUIT_TAG` (a bowl of fruit). A class other than ``book`` with no
+  :data:`FRUIT_TAG` (a bowl of fruit). A class not in :data:`MADE_IN_CODE` with no
   model, or a flat cuboid: no placement (:attr:`Furnishing.without_model`; the caller draws it otherwise).
 * **Supports** (:mod:`benchbot_worlds.homes.furnish_supports`): counters, cabinets, shelves … under objects that
   would float, their tops at the objects' bottoms; the ones left without are reported with why
@@ -54,6 +56,7 @@ import numpy as np
 
 from benchbot_worlds.homes.beds import CLEARED_CLASSES, clear_of_neighbours
 from benchbot_worlds.homes.books import closed_books
+from benchbot_worlds.homes.keyboards import keyboard
 from benchbot_worlds.homes.fitting import (
     FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of,
     transformed_bounds, turns_facing)
@@ -81,6 +84,10 @@ FACE_ROOM = frozenset(("person",))
 
 #: The ``asset_id`` of the placements of closed books made in code (:mod:`~benchbot_worlds.homes.books`).
 CLOSED_BOOK_ID = "closed_book"
+#: The ``asset_id`` of the placements of keyboards made in code (:mod:`~benchbot_worlds.homes.keyboards`).
+KEYBOARD_ID = "computer_keyboard"
+#: Classes drawn by meshes made in code, whatever models the asset packs have for them.
+MADE_IN_CODE = frozenset(("book", "keyboard"))
 
 def _facing(i: int, obj: dict, box, space: Space, tables: list, rng: np.random.Generator) -> tuple[np.ndarray, float]:
     """(preferred facing (2,), weight) of a GT object."""
@@ -171,7 +178,7 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
         lo, hi = boxes[i]
         cls = str(obj.get("class", ""))
         assets = [a for a in library.by_class(cls) if getattr(a, "role", "object") == "object"]
-        if (not assets and cls != "book") or np.any(hi - lo <= 1e-6):
+        if (not assets and cls not in MADE_IN_CODE) or np.any(hi - lo <= 1e-6):
             out.without_model.append(i)
             continue
         key = (cls, obj.get("ID_name", i))
@@ -181,6 +188,10 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             away = nearest_wall_away(space, lo, hi)
             for mesh, T in closed_books(lo, hi, isgroup=bool(obj.get("isgroup")), away=away, rng=rng):
                 out.placements.append(Placement(CLOSED_BOOK_ID, T, i, "object", mesh=mesh))
+            continue
+        if cls == "keyboard":  # a keyboard made in code, its typist's side away from the nearest wall
+            mesh, T = keyboard(lo, hi, prefer=prefer, rng=rng)
+            out.placements.append(Placement(KEYBOARD_ID, T, i, "object", mesh=mesh))
             continue
         proportional = [a for a in assets if PROPORTIONAL_TAG in getattr(a, "tags", ())]
         if proportional:  # seeded among them; the turn that faces the preferred way
