@@ -222,9 +222,9 @@ def cuboid_truncation(lo, hi, K: np.ndarray, T_map_camera: np.ndarray, width: in
 class Truth:
     """One ground-truth object seen in a frame: ``instance`` id (class·1000 + n), BEAR ``cls``, mask ``box``
     ``[x1, y1, x2, y2]`` (pixels, exclusive max), mask ``pixels``, ``truncation`` (0..1), ``visible`` (counted) and
-    the ``model`` that draws it (the scene's ``box_models``: an asset id, ``closed_book``, ``computer_keyboard``, ``""`` for a primitive
-    model or the primitives style) and ``crowd``: one cuboid for several instances (BEAR's ``isgroup``: a row or a
-    stack of books; :func:`crowd_instances`)."""
+    the ``model`` that draws it (the scene's ``box_models``: an asset id, ``closed_book`` or ``computer_keyboard``
+    for what is made in code, ``""`` for a primitive model or the primitives style) and ``crowd``: one cuboid for
+    several instances (BEAR's ``isgroup``: a row or a stack of books; :func:`crowd_instances`)."""
 
     instance: int
     cls: str

@@ -1,8 +1,9 @@
 """class_views.py CLASS RUN_BEFORE RUN_AFTER OUT [--model-before M] [--model-after M] [--titles BEFORE AFTER]
 [--views N] [--tile PX]: a picture of a class's views before and after a change. Top row: the first N (5) visible
 views of CLASS in RUN_BEFORE (drawn by model M, if given); bottom row: the first N in RUN_AFTER; each a PX × PX
-(300) crop around the object's counted box from the run's annotated fast frame. The runs are the ``--out`` folders of benchmarks/realism.py runs
-made with ``--pngs 999`` (which writes those frames). Made, from the runs the history names:
+(300) crop around the object's counted box from the run's annotated fast frame. The runs are the ``--out`` folders
+of benchmarks/realism.py runs made with ``--pngs 999`` (which writes those frames). Made, from the runs the history
+names:
 
 - docs/gallery/procedural_open_laptops.jpg (*Open laptops in BEAR's proportion*; CenterNet, the twenty homes)::
 

@@ -15,7 +15,7 @@ from benchbot.packs.assets import asset_library
 from benchbot.core.errors import BackendError
 from benchbot.core.seeding import home_seed
 from benchbot_worlds.homes.beds import CLEARED_MIN_FRACTION
-from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, PROPORTIONAL_TAG, UNSTRETCHED_CLASSES
+from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, KEYBOARD_ID, PROPORTIONAL_TAG, UNSTRETCHED_CLASSES
 from benchbot_worlds.homes.furnished import furnish_environment
 from benchbot_worlds.homes.furnish_supports import standing_box
 from benchbot_sim_taichi.kinematics import Obstacles
@@ -79,13 +79,15 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
     # every object but a mouse (no model in Sweet Home 3D's libraries) is a real model; nothing floats
     assert {objects[i]["class"] for i in range(len(objects)) if i not in modelled} <= {"mouse"}
     assert home.furnishing.unsupported == [], [(objects[i]["class"], why) for i, why in home.furnishing.unsupported]
-    # the scene names each object's model (benchmarks/realism.py counts per model); books are made in code
+    # the scene names each object's model (benchmarks/realism.py counts per model); books and keyboards are made in code
     models = {p.object_index: p.asset_id for p in home.furnishing.placements if p.role == "object"}
     assert scene.box_models == [models.get(i, "") for i in range(len(objects))]
     for i, model in enumerate(scene.box_models):
         cls = objects[i]["class"]
         if cls == "book":
             assert model == CLOSED_BOOK_ID, (name, i, model)
+        elif cls == "keyboard":
+            assert model == KEYBOARD_ID, (name, i, model)
         elif i in modelled:
             assert library.get(model).cls == cls, (name, i, model)
         else:
