@@ -56,7 +56,6 @@ import numpy as np
 
 from benchbot_worlds.homes.beds import CLEARED_CLASSES, clear_of_neighbours
 from benchbot_worlds.homes.books import closed_books
-from benchbot_worlds.homes.keyboards import keyboard
 from benchbot_worlds.homes.fitting import (
     FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of,
     transformed_bounds, turns_facing)
@@ -66,6 +65,7 @@ from benchbot_worlds.homes.furnish_supports import (
     FLOAT_MIN_Z_M, place_supports, rests_on, standing_box, stands_on_own_foot, supported_by)
 from benchbot_worlds.homes.furnish_tables import dress_tables
 from benchbot_worlds.homes.furnish_walls import place_lights, place_openings, place_over_fridges, place_span
+from benchbot_worlds.homes.keyboards import keyboard
 
 __all__ = ["Furnishing", "Placement", "asset_bounds", "fit_to_cuboid", "furnish", "furnish_home",
            "transformed_bounds"]
@@ -88,6 +88,7 @@ CLOSED_BOOK_ID = "closed_book"
 KEYBOARD_ID = "computer_keyboard"
 #: Classes drawn by meshes made in code, whatever models the asset packs have for them.
 MADE_IN_CODE = frozenset(("book", "keyboard"))
+
 
 def _facing(i: int, obj: dict, box, space: Space, tables: list, rng: np.random.Generator) -> tuple[np.ndarray, float]:
     """(preferred facing (2,), weight) of a GT object."""
