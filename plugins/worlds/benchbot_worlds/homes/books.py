@@ -151,10 +151,6 @@ def book_boxes(lo: np.ndarray, hi: np.ndarray, rng: np.random.Generator, front_s
 
 
 # ----------------------------------------------------------------------------------------------------- the meshes
-def _linear(srgb) -> np.ndarray:
-    return np.power(np.clip(np.asarray(srgb, dtype=np.float64), 0.0, 1.0), 2.2).astype(np.float32)
-
-
 def _srgb8(rgb) -> np.ndarray:
     return np.clip(np.round(np.asarray(rgb, dtype=np.float64) * 255.0), 0, 255).astype(np.uint8)
 

@@ -23,14 +23,15 @@ in −0.5..0.5, z in 0..1, the typist's side at −y, the model's front), stretc
 from __future__ import annotations
 
 import functools
+from typing import NamedTuple
 
 import numpy as np
 
 from benchbot_worlds.homes.fitting import fit_to_cuboid, front_of
-from benchbot_worlds.scene.meshes import Material, MeshData, make_mesh
+from benchbot_worlds.scene.meshes import Material, MeshData, _srgb_to_linear, make_mesh
 
-__all__ = ["FRONT_HEIGHT", "LAYOUTS", "STYLES", "UNIT_BOUNDS", "key_texture", "keyboard", "keyboard_mesh",
-           "layout_keys"]
+__all__ = ["BLACK_SHARE", "FRONT_HEIGHT", "LAYOUTS", "STYLES", "UNIT_BOUNDS", "KeyboardStyle", "key_texture",
+           "keyboard", "keyboard_mesh", "layout_keys"]
 
 #: Bounds of the unit keyboard of :func:`keyboard_mesh` (its model frame).
 UNIT_BOUNDS = np.array([[-0.5, -0.5, 0.0], [0.5, 0.5, 1.0]])
@@ -53,11 +54,26 @@ _MAIN_ROWS = (
 #: full size. Depth is always 7.5 units (the function row, half a unit apart, five rows, margins).
 LAYOUTS = {"compact": (16.0, False, False), "tenkeyless": (19.5, True, False), "full": (24.0, True, True)}
 _DEPTH_U = 7.5
-#: Styles (sRGB): case, gaps between caps, cap tops, the caps' shadowed fronts, legends; and the roughness. Black
-#: plastic reflects about 4 % (sRGB ≈ 0.2); the gaps are cavities.
+
+
+class KeyboardStyle(NamedTuple):
+    """A keyboard's colours (sRGB, 0..1): its case, the gaps between caps, the cap tops, the caps' shadowed fronts,
+    the legends; and its roughness (0..1)."""
+
+    case: tuple[float, float, float]
+    gap: tuple[float, float, float]
+    cap: tuple[float, float, float]
+    front: tuple[float, float, float]
+    legend: tuple[float, float, float]
+    roughness: float
+
+
+#: The styles. Black plastic reflects about 4 % (sRGB ≈ 0.2); the gaps are cavities.
 STYLES = {
-    "black": ((0.20, 0.20, 0.21), (0.07, 0.07, 0.07), (0.25, 0.25, 0.26), (0.13, 0.13, 0.14), (0.72, 0.72, 0.72), 0.55),
-    "white": ((0.82, 0.82, 0.84), (0.45, 0.45, 0.47), (0.93, 0.93, 0.93), (0.66, 0.66, 0.68), (0.30, 0.30, 0.32), 0.5),
+    "black": KeyboardStyle((0.20, 0.20, 0.21), (0.07, 0.07, 0.07), (0.25, 0.25, 0.26), (0.13, 0.13, 0.14),
+                           (0.72, 0.72, 0.72), 0.55),
+    "white": KeyboardStyle((0.82, 0.82, 0.84), (0.45, 0.45, 0.47), (0.93, 0.93, 0.93), (0.66, 0.66, 0.68),
+                           (0.30, 0.30, 0.32), 0.5),
 }
 #: Share of keyboards drawn in the black style (the rest white).
 BLACK_SHARE = 0.7
@@ -106,7 +122,8 @@ def key_texture(layout: str, style: str) -> np.ndarray:
     Raises:
         KeyError: an unknown layout or style.
     """
-    case, gap, cap, front, legend = (np.asarray(c, dtype=np.float64) for c in STYLES[style][:5])
+    s = STYLES[style]
+    case, gap, cap, front, legend = (np.asarray(c, dtype=np.float64) for c in (s.case, s.gap, s.cap, s.front, s.legend))
     width_u = LAYOUTS[layout][0]
     rows, cols = int(round(_DEPTH_U * _PX_PER_U)), int(round(width_u * _PX_PER_U))
     img = np.tile(case, (rows, cols, 1))
@@ -125,10 +142,6 @@ def key_texture(layout: str, style: str) -> np.ndarray:
     return np.clip(np.round(np.clip(img, 0.0, 1.0) * 255.0), 0, 255).astype(np.uint8)
 
 
-def _linear(srgb) -> np.ndarray:
-    return np.power(np.clip(np.asarray(srgb, dtype=np.float64), 0.0, 1.0), 2.2).astype(np.float32)
-
-
 @functools.lru_cache(maxsize=None)
 def keyboard_mesh(layout: str, style: str) -> MeshData:
     """The unit keyboard of ``layout`` (:data:`LAYOUTS`) in ``style`` (:data:`STYLES`): x and y in −0.5..0.5, z in
@@ -139,7 +152,7 @@ def keyboard_mesh(layout: str, style: str) -> MeshData:
     Raises:
         KeyError: an unknown layout or style.
     """
-    case, *_, roughness = STYLES[style]
+    case, roughness = STYLES[style].case, STYLES[style].roughness
     f = FRONT_HEIGHT
     top, body = 0, 1
     faces = [  # corners counter-clockwise seen from outside, outward normal, material
@@ -162,7 +175,8 @@ def keyboard_mesh(layout: str, style: str) -> MeshData:
     white = np.ones(3, np.float32)
     materials = [Material(albedo=white, texture=key_texture(layout, style), roughness=roughness,
                           name=f"keyboard_keys:{layout}:{style}", from_file=False),
-                 Material(albedo=_linear(case), roughness=roughness, name=f"keyboard_case:{style}", from_file=False)]
+                 Material(albedo=_srgb_to_linear(case), roughness=roughness, name=f"keyboard_case:{style}",
+                          from_file=False)]
     return make_mesh(np.asarray(v, float), np.asarray(tris), n=np.asarray(n, float), uv=np.asarray(t, float),
                      f_material=np.asarray(fm), materials=materials)
 
@@ -178,6 +192,9 @@ def keyboard(lo: np.ndarray, hi: np.ndarray, *, prefer: np.ndarray | None,
     Returns:
         ``(mesh, transform (4, 4) float64)``: the unit mesh (:func:`keyboard_mesh`) and the transform that puts its
         :data:`UNIT_BOUNDS` exactly onto the cuboid.
+
+    Raises:
+        ValueError: the cuboid is flat or empty on an axis (:func:`~benchbot_worlds.homes.fitting.fit_to_cuboid`).
     """
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
     ext = hi - lo
