@@ -23,6 +23,7 @@ from pathlib import Path
 
 from PIL import Image, ImageDraw
 
+
 def crops(run: Path, cls: str, model: str | None, n: int, size: int) -> list[tuple[str, Image.Image]]:
     """The first ``n`` views of a visible ``cls`` object (drawn by ``model``, if given) in ``run``: (label, crop)."""
     out = []
@@ -53,11 +54,16 @@ parser.add_argument("--titles", nargs=2, default=("before", "after"))
 parser.add_argument("--views", type=int, default=5)
 parser.add_argument("--tile", type=int, default=300)
 args = parser.parse_args()
-for run in (args.before, args.after):
-    if not (run / "realism.json").is_file():
-        sys.exit(f"{run}/realism.json: not found; give the --out folder of a finished benchmarks/realism.py run")
-rows = [(args.titles[0], crops(args.before, args.cls, args.model_before, args.views, args.tile)),
-        (args.titles[1], crops(args.after, args.cls, args.model_after, args.views, args.tile))]
+if args.views < 1 or args.tile < 16:
+    sys.exit(f"--views {args.views} --tile {args.tile}: give at least one view and tiles of at least 16 px")
+rows = []
+for title, run, model in ((args.titles[0], args.before, args.model_before),
+                          (args.titles[1], args.after, args.model_after)):
+    try:
+        rows.append((title, crops(run, args.cls, model, args.views, args.tile)))
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f"{run}/realism.json: cannot read its frames ({type(e).__name__}: {e}); give the --out folder of a "
+                 "finished benchmarks/realism.py run made with --pngs 999")
 TILE = args.tile
 sheet = Image.new("RGB", (TILE * args.views, 2 * (TILE + 30)), "white")
 draw = ImageDraw.Draw(sheet)
