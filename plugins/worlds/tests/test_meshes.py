@@ -169,6 +169,23 @@ def test_instances_flatten_with_inverse_transpose_normals():
         flatten_instances([MeshInstance(mesh, np.diag([1.0, 0.0, 1.0, 1.0]))])
 
 
+def test_quad_mesh_gives_each_quad_four_flat_shaded_vertices_and_two_triangles():
+    from benchbot_worlds.scene.meshes import Material, quad_mesh
+
+    red, grey = Material(np.array([1.0, 0.0, 0.0], np.float32)), Material(np.full(3, 0.5, np.float32))
+    floor = ([(0, 0, 0), (2, 0, 0), (2, 1, 0), (0, 1, 0)], (0, 0, 1), 1, lambda p: (p[0] / 2, p[1]))
+    wall = ([(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)], (-1, 0, 0), 0, lambda p: (p[1], p[2]))
+    mesh = quad_mesh([floor, wall], [red, grey])
+    np.testing.assert_array_equal(mesh.f, [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+    np.testing.assert_array_equal(mesh.f_material, [1, 1, 0, 0])
+    np.testing.assert_array_equal(mesh.n, [(0, 0, 1)] * 4 + [(-1, 0, 0)] * 4)
+    np.testing.assert_allclose(mesh.uv[:4], [(0, 0), (1, 0), (1, 1), (0, 1)])
+    np.testing.assert_allclose(mesh.uv[4:], [(0, 0), (0, 1), (1, 1), (1, 0)])
+    np.testing.assert_array_equal(mesh.bounds, [(0, 0, 0), (2, 1, 1)])
+    with pytest.raises(ValueError, match="f_material"):
+        quad_mesh([floor], [red])
+
+
 def test_mip_chain_and_atlas_layout():
     from benchbot_worlds.scene.meshes import mip_chain, texture_atlas
 

@@ -32,7 +32,7 @@ import functools
 import numpy as np
 
 from benchbot_worlds.homes.fitting import fit_to_cuboid, turns_facing
-from benchbot_worlds.scene.meshes import Material, MeshData, make_mesh
+from benchbot_worlds.scene.meshes import Material, MeshData, quad_mesh
 
 __all__ = ["BOOK_THICKNESS_M", "MAX_BOOKS_PER_GROUP", "ONE_BOOK_MAX_THICKNESS_M", "book_boxes", "book_layout",
            "closed_book_mesh", "closed_books"]
@@ -271,17 +271,7 @@ def closed_book_mesh(colour: int, band: int, lying: bool) -> MeshData:
             ([(.5, -.5, 0), (.5, .5, 0), (.5, .5, 1), (.5, -.5, 1)], (1, 0, 0), cover, yz),
             ([(-.5, .5, 0), (-.5, -.5, 0), (-.5, -.5, 1), (-.5, .5, 1)], (-1, 0, 0), cover, yz),
         ]
-    v, n, t, f, fm = [], [], [], [], []
-    for corners, normal, mat, uv in faces:
-        base = len(v)
-        for p in corners:
-            v.append(p)
-            n.append(normal)
-            t.append(uv(p))
-        f.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]])
-        fm.extend([mat, mat])
-    return make_mesh(np.asarray(v, float), np.asarray(f), n=np.asarray(n, float), uv=np.asarray(t, float),
-                     f_material=np.asarray(fm), materials=list(_materials(colour, band)))
+    return quad_mesh(faces, list(_materials(colour, band)))
 
 
 def closed_books(lo: np.ndarray, hi: np.ndarray, *, isgroup: bool, away: np.ndarray | None,

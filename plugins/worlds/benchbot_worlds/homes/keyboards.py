@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from benchbot_worlds.homes.fitting import fit_to_cuboid, front_of
-from benchbot_worlds.scene.meshes import Material, MeshData, _srgb_to_linear, make_mesh
+from benchbot_worlds.scene.meshes import Material, MeshData, _srgb_to_linear, quad_mesh
 
 __all__ = ["BLACK_SHARE", "FRONT_HEIGHT", "LAYOUTS", "STYLES", "UNIT_BOUNDS", "KeyboardStyle", "key_texture",
            "keyboard", "keyboard_mesh", "layout_keys"]
@@ -143,6 +143,11 @@ def key_texture(layout: str, style: str) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=None)
+def _across_and_back(p) -> tuple[float, float]:
+    """A unit keyboard corner's texture coordinates: ``u`` across the width, ``v`` toward the back."""
+    return p[0] + .5, p[1] + .5
+
+
 def keyboard_mesh(layout: str, style: str) -> MeshData:
     """The unit keyboard of ``layout`` (:data:`LAYOUTS`) in ``style`` (:data:`STYLES`): x and y in −0.5..0.5, z in
     0..1 (:data:`UNIT_BOUNDS`), the typist's side at −y. Its top, textured with :func:`key_texture` (``u`` across
@@ -163,22 +168,12 @@ def keyboard_mesh(layout: str, style: str) -> MeshData:
         ([(-.5, .5, 0), (-.5, -.5, 0), (-.5, -.5, f), (-.5, .5, 1)], (-1, 0, 0), body),
         ([(-.5, .5, 0), (.5, .5, 0), (.5, -.5, 0), (-.5, -.5, 0)], (0, 0, -1), body),
     ]
-    v, n, t, tris, fm = [], [], [], [], []
-    for corners, normal, mat in faces:
-        base = len(v)
-        for p in corners:
-            v.append(p)
-            n.append(normal)
-            t.append((p[0] + .5, p[1] + .5))
-        tris.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]])
-        fm.extend([mat, mat])
     white = np.ones(3, np.float32)
     materials = [Material(albedo=white, texture=key_texture(layout, style), roughness=roughness,
                           name=f"keyboard_keys:{layout}:{style}", from_file=False),
                  Material(albedo=_srgb_to_linear(case), roughness=roughness, name=f"keyboard_case:{style}",
                           from_file=False)]
-    return make_mesh(np.asarray(v, float), np.asarray(tris), n=np.asarray(n, float), uv=np.asarray(t, float),
-                     f_material=np.asarray(fm), materials=materials)
+    return quad_mesh([(corners, normal, mat, _across_and_back) for corners, normal, mat in faces], materials)
 
 
 def keyboard(lo: np.ndarray, hi: np.ndarray, *, prefer: np.ndarray | None,

@@ -273,6 +273,35 @@ def make_mesh(v, f, *, n=None, uv=None, f_material=None, materials=None,
                     f=np.asarray(f, np.int32), f_material=fm.astype(np.int32), materials=materials, bounds=bounds)
 
 
+def quad_mesh(quads, materials) -> MeshData:
+    """A flat-shaded :class:`MeshData` of quadrilateral faces (for boxes made in code: books, keyboards).
+
+    Args:
+        quads: sequence of ``(corners, normal, material, uv_of)``: ``corners`` four (x, y, z) points in metres,
+            counter-clockwise seen from outside; ``normal`` the face's outward (x, y, z) normal; ``material`` an
+            index into ``materials``; ``uv_of`` a function of a corner giving its (u, v) texture coordinates.
+        materials: list of :class:`Material`.
+
+    Returns:
+        Four vertices and two triangles, ``(c0, c1, c2)`` and ``(c0, c2, c3)``, per quad, each vertex with its face's
+        normal (so 4 Q vertices and 2 Q triangles for Q quads).
+
+    Raises:
+        ValueError: as :func:`make_mesh` (a material index out of range, non-finite corners or uvs).
+    """
+    v, n, t, tris, fm = [], [], [], [], []
+    for corners, normal, material, uv_of in quads:
+        base = len(v)
+        for p in corners:
+            v.append(p)
+            n.append(normal)
+            t.append(uv_of(p))
+        tris.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]])
+        fm.extend([material, material])
+    return make_mesh(np.asarray(v, float), np.asarray(tris), n=np.asarray(n, float), uv=np.asarray(t, float),
+                     f_material=np.asarray(fm), materials=materials)
+
+
 # ------------------------------------------------------------------------------------------------------- loading
 def _texture_array(image) -> np.ndarray | None:
     """A PIL image (or array) as an (H, W, 3) uint8 sRGB array, at most :data:`TEXTURE_MAX_SIDE_PX` on a side."""
