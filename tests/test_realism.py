@@ -837,3 +837,23 @@ def test_the_photo_tool_refuses_a_photo_whose_licence_it_cannot_check(photo_tool
     other = {**with_list, "licenses": licences[:1]}
     with pytest.raises(ValueError, match="licences of the source of b differ"):
         photo_tool.merge([(with_list, Path("a")), (other, Path("b"))])
+
+
+def test_the_photo_tool_merges_licence_lists_that_differ_only_in_escaped_slashes(photo_tool):
+    """Some val2017 subsets write their licence URLs with JSON's escaped slash kept literally (``http:\\/\\/…``,
+    as the first source in ``ATTRIBUTION.md`` does): the same licences, so merging them with a subset that writes
+    ``http://…`` keeps the first list as written; a list that differs in a name or a URL is still refused."""
+    categories = [{"id": 62, "name": "chair"}]
+    licences = [{**e, "url": f"http://creativecommons.org/licenses/{kind}/2.0/"}
+                for e, kind in zip(PHOTO_LICENCES, ("by", "by-nc-nd"))]
+    escaped = [{**e, "url": e["url"].replace("/", "\\/")} for e in licences]
+    assert all("\\/" in e["url"] for e in escaped)
+    first = {"licenses": escaped, "categories": categories, "images": [], "annotations": []}
+    second = {**first, "licenses": licences}
+    merged, _ = photo_tool.merge([(first, Path("a")), (second, Path("b"))])
+    assert merged["licenses"] == escaped
+    renamed = [{**licences[0], "name": "Another License"}, *licences[1:]]
+    moved = [{**licences[0], "url": "http://creativecommons.org/licenses/by-nd/2.0/"}, *licences[1:]]
+    for other in (renamed, moved):
+        with pytest.raises(ValueError, match="licences of the source of b differ"):
+            photo_tool.merge([(first, Path("a")), ({**first, "licenses": other}, Path("b"))])

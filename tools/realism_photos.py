@@ -84,11 +84,18 @@ def reencode(src: Path, max_side: int, quality: int) -> tuple[bytes, float]:
     return buf.getvalue(), scale
 
 
+def licence_key(licenses: list[dict]) -> list[tuple]:
+    """A COCO ``licenses`` list as comparable (id, name, url) tuples, each URL with JSON's optional escape of
+    ``/`` (``\\/``, written literally by some subsets) undone: two lists with equal keys name the same licences."""
+    return [(e.get("id"), e.get("name"), str(e.get("url", "")).replace("\\/", "/")) for e in licenses]
+
+
 def merge(sources: list[tuple[dict, Path]]) -> tuple[dict, dict]:
     """One COCO instances dict from several (``data``, image folder) sources, images and boxes kept once (by id),
     and {image id: its folder}.
 
-    A source without COCO's ``licenses`` list (some subsets drop it) takes the other sources' list.
+    A source without COCO's ``licenses`` list (some subsets drop it) takes the other sources' list; lists that
+    differ only in how their URLs escape ``/`` are the same (:func:`licence_key`), and the first source's is kept.
 
     Raises:
         ValueError: two sources give the same image or box different contents, or their categories or licence
@@ -101,7 +108,8 @@ def merge(sources: list[tuple[dict, Path]]) -> tuple[dict, dict]:
     for data, image_dir in sources:
         if data["categories"] != merged["categories"]:
             raise ValueError(f"the categories of the source of {image_dir} differ from the first source's")
-        if data.get("licenses") and merged["licenses"] and data["licenses"] != merged["licenses"]:
+        if data.get("licenses") and merged["licenses"] and licence_key(data["licenses"]) != licence_key(
+                merged["licenses"]):
             raise ValueError(f"the licences of the source of {image_dir} differ from an earlier source's")
         merged["licenses"] = merged["licenses"] or data.get("licenses", [])
         for kind in ("images", "annotations"):
