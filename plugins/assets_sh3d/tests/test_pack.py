@@ -168,13 +168,25 @@ def test_no_texture_is_a_uv_checker_placeholder():
 def test_no_placeholder_textile_is_drawn_in_its_placeholder_white():
     # Kator Legaz's TEXTILE_generic (the mid-century sofa's upholstery) is a diffuse 1.0 white that Sweet Home 3D's
     # users recolour; drawn as it is, the couches of the BEAR houses read as glowing white blocks. build_pack draws it
-    # as a grey fabric (Pick.fabric)
+    # as a grey fabric (Pick.recolour)
     placeholder = [(a["id"], m) for a in ASSETS for m in gltf(a["file"])[0].get("materials", [])
                    if m.get("name") == "TEXTILE_generic"]
     assert [i for i, _ in placeholder] == ["couch__kl_mid-century-sofa"]
     for asset_id, material in placeholder:
         base = material["pbrMetallicRoughness"].get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
         assert max(base[:3]) < 0.5, f"{asset_id}: {material['name']} drawn in {base}"
+
+
+def test_every_screen_of_a_tv_is_dark_as_a_screen_is():
+    # A screen, off or showing a room's light, is dark glass; the apple_pc monitor's came light grey (sRGB 0.80), a
+    # white panel to a detector (no detector found one in twenty procedural homes). build_pack draws it in the pack's
+    # flat TV's screen colour (Pick.recolour)
+    screens = {a["id"]: m for a in ASSETS if a["class"] == "tv" for m in gltf(a["file"])[0].get("materials", [])
+               if m.get("name") == "screen"}
+    assert {"tv__sc_apple_pc_monitor", "tv__cc0_led_tv"} <= set(screens)
+    for asset_id, material in screens.items():
+        base = material["pbrMetallicRoughness"].get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
+        assert "baseColorTexture" not in material["pbrMetallicRoughness"] and max(base[:3]) < 0.05, (asset_id, base)
 
 
 def _in_handle_box(centroids: np.ndarray) -> np.ndarray:

@@ -102,10 +102,11 @@ class Pick:
         plain: regex: materials it matches (search, by name) are drawn in their texture's mean colour instead of
             the texture (a placeholder texture: Blend Swap's ``bedWithTexture`` covers its coverlet with a 16 × 16
             grey-and-white UV checker, which the draped coverlet's coordinates bend into blotches 10-30 cm across).
-        fabric: (regex, sRGB colour): untextured materials it matches (search, by name) are drawn in that colour
+        recolour: (regex, sRGB colour): untextured materials it matches (search, by name) are drawn in that colour
             (0-1 per channel) instead of their own: for a placeholder material a user of Sweet Home 3D is meant to
             recolour (Kator Legaz's ``TEXTILE_generic``, diffuse 1.0: whiter than fresh snow, which reflects about
-            0.9).
+            0.9), or a screen drawn in a colour no screen has (the apple_pc monitor's light grey, sRGB 0.80, in
+            the pack's flat TV's dark screen).
         trim: (regex, box min xyz, box max xyz, donor regex): the faces of the materials the first regex matches
             (search, by name) whose centroid lies in the box (m, the built model's frame: y up, front +z, origin
             at the bottom centre) are drawn in a copy of the material the donor regex matches: for parts modelled
@@ -127,7 +128,7 @@ class Pick:
     name: str | None = None
     max_error: float = meshops.DECIMATION_MAX_ERROR
     plain: str | None = None
-    fabric: tuple[str, tuple[float, float, float]] | None = None
+    recolour: tuple[str, tuple[float, float, float]] | None = None
     trim: tuple[str, tuple[float, float, float], tuple[float, float, float], str] | None = None
 
     @property
@@ -205,7 +206,7 @@ SELECTION: tuple[Pick, ...] = (
     P("cc0", "couch", "couch"),
     P("ccby", "sofa2", "couch"),
     P("ccby", "couch3", "couch"),
-    P("kl", "mid-century-sofa", "couch", fabric=("^TEXTILE_generic$", (0.52, 0.50, 0.47))),  # a grey fabric
+    P("kl", "mid-century-sofa", "couch", recolour=("^TEXTILE_generic$", (0.52, 0.50, 0.47))),  # a grey fabric
     P("sc", "beige_sofa", "couch"),
     P("sc", "burlap_sofa", "couch"),
     P("sc", "leather_sofa", "couch"),
@@ -234,7 +235,8 @@ SELECTION: tuple[Pick, ...] = (
     P("sc", "tv", "tv"),
     P("sc", "wall-flat-tv", "tv", mount="wall"),
     P("kl", "apple-imac-1998", "tv"),
-    P("sc", "apple_pc", "tv", groups="monitor", name="apple_pc_monitor"),
+    P("sc", "apple_pc", "tv", groups="monitor", name="apple_pc_monitor",
+      recolour=("^screen$", (0.21, 0.21, 0.21))),  # a dark screen: cc0 led_tv's, sRGB 53 of 255
     # laptop (open, and one shut: BEAR's laptops are mostly closed)
     P("ccby", "laptop", "laptop"),
     P("kl", "apple-ibook-2001", "laptop"),
@@ -575,8 +577,8 @@ def build_asset(pick: Pick, libs: dict[str, sh3d.Library], copyright_text: str) 
                 alpha_mode = "MASK" if has_alpha else "OPAQUE"
             elif img is not None:  # a texture without coordinates (or a placeholder, ``plain``): its mean colour
                 base = np.r_[meshops.srgb_to_linear(meshops.mean_colour(img)), mat.d]
-        if pick.fabric and re.search(pick.fabric[0], mname or "") and texture is None:
-            base = np.r_[meshops.srgb_to_linear(np.asarray(pick.fabric[1], float)), mat.d]
+        if pick.recolour and re.search(pick.recolour[0], mname or "") and texture is None:
+            base = np.r_[meshops.srgb_to_linear(np.asarray(pick.recolour[1], float)), mat.d]
         if mat.d < 0.99 and alpha_mode == "OPAQUE":
             alpha_mode = "BLEND"
         roughness = float(np.clip(np.sqrt(2.0 / (mat.ns + 2.0)), 0.05, 1.0)) if mat.ns > 0 else 1.0
@@ -757,8 +759,8 @@ def attribution(built: list[Built]) -> str:
             changes.append(f"step: {b.pick.op}")
         if b.pick.plain:
             changes.append(f"drawn without its texture, in its mean colour: {b.pick.plain}")
-        if b.pick.fabric:
-            pattern, (r, g, b_) = b.pick.fabric
+        if b.pick.recolour:
+            pattern, (r, g, b_) = b.pick.recolour
             changes.append(f"material {pattern} drawn in sRGB ({r:.2f}, {g:.2f}, {b_:.2f})")
         if b.pick.trim:
             pattern, lo, hi, donor = b.pick.trim
