@@ -15,6 +15,13 @@ names:
 
     uv run python benchmarks/results/cpu2_2026-11-29_realism_records/class_views.py keyboard BEFORE AFTER OUT.jpg \\
         --titles "the pack's keyboard model" "keyboards made in code" --views 10 --tile 200
+
+- docs/gallery/procedural_monitor_screens.jpg (*A dark screen for the pack's monitor*; NanoDet, before: the seven
+  homes with keyboards, after: homes 2, 3 and 4)::
+
+    uv run python benchmarks/results/cpu2_2026-11-29_realism_records/class_views.py tv BEFORE AFTER OUT.jpg \\
+        --model-before tv__sc_apple_pc_monitor --model-after tv__sc_apple_pc_monitor --views 8 --tile 200 \\
+        --titles "the pack's monitor: a light-grey screen" "its screen drawn dark, as the pack's flat TV's"
 """
 import argparse
 import json
