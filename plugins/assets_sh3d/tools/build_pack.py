@@ -106,7 +106,7 @@ class Pick:
             (0-1 per channel) instead of their own: for a placeholder material a user of Sweet Home 3D is meant to
             recolour (Kator Legaz's ``TEXTILE_generic``, diffuse 1.0: whiter than fresh snow, which reflects about
             0.9), or a screen drawn in a colour no screen has (the apple_pc monitor's light grey, sRGB 0.80, in
-            the pack's flat TV's dark screen).
+            about the pack's flat TV's dark screen, sRGB 0.20).
         trim: (regex, box min xyz, box max xyz, donor regex): the faces of the materials the first regex matches
             (search, by name) whose centroid lies in the box (m, the built model's frame: y up, front +z, origin
             at the bottom centre) are drawn in a copy of the material the donor regex matches: for parts modelled
@@ -236,7 +236,7 @@ SELECTION: tuple[Pick, ...] = (
     P("sc", "wall-flat-tv", "tv", mount="wall"),
     P("kl", "apple-imac-1998", "tv"),
     P("sc", "apple_pc", "tv", groups="monitor", name="apple_pc_monitor",
-      recolour=("^screen$", (0.21, 0.21, 0.21))),  # a dark screen: cc0 led_tv's, sRGB 53 of 255
+      recolour=("^screen$", (0.21, 0.21, 0.21))),  # a dark screen, about cc0 led_tv's (0.20)
     # laptop (open, and one shut: BEAR's laptops are mostly closed)
     P("ccby", "laptop", "laptop"),
     P("kl", "apple-ibook-2001", "laptop"),
