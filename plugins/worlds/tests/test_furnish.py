@@ -455,6 +455,7 @@ def test_a_keyboards_top_slopes_to_the_back_and_shows_key_caps_apart():
     mesh = K.keyboard_mesh("full", "black")
     top = mesh.v[mesh.f[mesh.f_material == 0]].reshape(-1, 3)
     assert np.allclose(top[top[:, 1] < 0, 2], K.FRONT_HEIGHT) and np.allclose(top[top[:, 1] > 0, 2], 1.0)
+    assert K.keyboard_mesh("full", "black") is mesh  # one mesh per layout and style, as its docstring says
 
 
 def test_keyboards_are_deterministic_per_seed_and_come_in_both_styles():

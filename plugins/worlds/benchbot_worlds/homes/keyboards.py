@@ -142,12 +142,12 @@ def key_texture(layout: str, style: str) -> np.ndarray:
     return np.clip(np.round(np.clip(img, 0.0, 1.0) * 255.0), 0, 255).astype(np.uint8)
 
 
-@functools.lru_cache(maxsize=None)
 def _across_and_back(p) -> tuple[float, float]:
     """A unit keyboard corner's texture coordinates: ``u`` across the width, ``v`` toward the back."""
     return p[0] + .5, p[1] + .5
 
 
+@functools.lru_cache(maxsize=None)
 def keyboard_mesh(layout: str, style: str) -> MeshData:
     """The unit keyboard of ``layout`` (:data:`LAYOUTS`) in ``style`` (:data:`STYLES`): x and y in −0.5..0.5, z in
     0..1 (:data:`UNIT_BOUNDS`), the typist's side at −y. Its top, textured with :func:`key_texture` (``u`` across
