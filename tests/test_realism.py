@@ -857,3 +857,16 @@ def test_the_photo_tool_merges_licence_lists_that_differ_only_in_escaped_slashes
     for other in (renamed, moved):
         with pytest.raises(ValueError, match="licences of the source of b differ"):
             photo_tool.merge([(first, Path("a")), ({**first, "licenses": other}, Path("b"))])
+
+
+@pytest.mark.parametrize("content, field", [("[1, 2]", "COCO instances file"), ('{"images": []}', "annotations"),
+                                            ('{"images": [], "annotations": [], "categories": [], "licenses": ["by"]}',
+                                             "licenses"), ("{not json", "not JSON")])
+def test_the_photo_tool_names_the_file_and_field_of_a_malformed_source(photo_tool, tmp_path, capsys, content, field):
+    """A source that is not a COCO instances file ends in exit code 2 and one line naming the file and the field,
+    not a traceback."""
+    bad = tmp_path / "bad.json"
+    bad.write_text(content)
+    assert photo_tool.main(["--source", str(bad), str(tmp_path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(bad) in err and field in err, err

@@ -84,6 +84,27 @@ def reencode(src: Path, max_side: int, quality: int) -> tuple[bytes, float]:
     return buf.getvalue(), scale
 
 
+def read_instances(path: Path) -> dict:
+    """A COCO instances file (JSON): an object whose ``images``, ``annotations`` and ``categories`` (and
+    ``licenses``, if given) are lists of objects.
+
+    Raises:
+        OSError: the file cannot be read. ValueError: it is not JSON, or not of that shape (the message names the
+            file and the field).
+    """
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not JSON ({exc}); give a COCO instances file") from exc
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: not a COCO instances file (a JSON object with images, annotations, categories)")
+    for key in ("images", "annotations", "categories", "licenses"):
+        value = data.get(key, [] if key == "licenses" else None)
+        if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
+            raise ValueError(f"{path}: `{key}` must be a list of objects, as in a COCO instances file")
+    return data
+
+
 def licence_key(licenses: list[dict]) -> list[tuple]:
     """A COCO ``licenses`` list as comparable (id, name, url) tuples, each URL with JSON's optional escape of
     ``/`` (``\\/``, written literally by some subsets) undone: two lists with equal keys name the same licences."""
@@ -201,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-side", type=int, default=640)
     args = ap.parse_args(argv)
     try:
-        sources = [(json.loads(Path(ann).read_text(encoding="utf-8")), Path(d)) for ann, d in args.source]
+        sources = [(read_instances(Path(ann)), Path(d)) for ann, d in args.source]
         data, folder = merge(sources)
         manifest = build(data, folder, args.out, args.max_side, args.quality)
         (args.out / "ATTRIBUTION.md").write_text(attribution(manifest, args.origin, args.quality, args.max_side),
