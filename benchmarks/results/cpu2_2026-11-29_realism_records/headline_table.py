@@ -1,6 +1,6 @@
-"""headline_table.py CENTERNET.md NANODET.md SSD.md: docs/realism.md's table *Where it stands: against real photos*,
-printed from the real-photo sections of three ``per_class.md`` files of ``benchmarks/realism.py --real-reference``
-(CenterNet, NanoDet, SSD, in that order). The classes with fewer than 10 sim objects share one row of found counts.
+"""headline_table.py CENTERNET.md NANODET.md SSD.md [YOLO.md]: docs/realism.md's table *Where it stands: against real
+photos*, printed from the real-photo sections of three or four ``per_class.md`` files of ``benchmarks/realism.py
+--real-reference`` (CenterNet, NanoDet, SSD and, given, YOLOv4-tiny, in that order). The classes with fewer than 10 sim objects share one row of found counts.
 Run from the repository root, e.g.:
 
     uv run python benchmarks/results/cpu2_2026-11-29_realism_records/headline_table.py \\
@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 FEW = 10  # sim objects under this: the class goes into the shared row
+NAMES = ("CenterNet", "NanoDet", "SSD", "YOLOv4-tiny")  # the detectors, in the order of the files
 ALL = "**all (sim's class × size mix)**"  # the all-classes row's first cell
 ROW = re.compile(r"^\| (?P<cls>[^|]+?) \| (?P<sim>\d+) % [^|]*\| (?P<real>\d+) % [^|]*\| (?P<ratio>[^|]+?) \| "
                  r"(?P<fs>\d+)/(?P<ns>\d+); (?P<fr>\d+)/(?P<nr>\d+) \|$")
@@ -41,15 +42,15 @@ def cell(r: dict) -> str:
 
 
 def main(paths: list[str]) -> None:
-    if len(paths) != 3:
-        sys.exit("usage: headline_table.py CENTERNET.md NANODET.md SSD.md")
+    if len(paths) not in (3, 4):
+        sys.exit("usage: headline_table.py CENTERNET.md NANODET.md SSD.md [YOLO.md]")
     tables = [real_section(Path(p)) for p in paths]
     by_class = [{r["cls"]: r for r in rows} for rows, _ in tables]
     for path, classes in zip(paths[1:], by_class[1:]):
         if classes.keys() != by_class[0].keys():
-            sys.exit(f"{path}: its classes differ from {paths[0]}'s; give three runs of the same homes")
-    print("| class | objects sim; photos | CenterNet | NanoDet | SSD |")
-    print("|---|---|---|---|---|")
+            sys.exit(f"{path}: its classes differ from {paths[0]}'s; give runs of the same homes")
+    print("| class | objects sim; photos | " + " | ".join(NAMES[:len(paths)]) + " |")
+    print("|---|---|" + "---|" * len(paths))
     few = []
     for r in tables[0][0]:
         c = r["cls"]
