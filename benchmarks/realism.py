@@ -637,6 +637,9 @@ def install_yolo(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Pat
             staging = Path(tmp) / "yolo"
             staging.mkdir()
             for name, digest in YOLO_SHA256.items():
+                if not (sources[0] / name).is_file():
+                    raise RealismError(f"the YOLO environment's {sources[0]} has no {name}",
+                                       f"remove {directory / 'yolo-venv'} and run again")
                 shutil.copyfile(sources[0] / name, staging / name)
                 if _sha256(staging / name) != digest:
                     raise RealismError(f"{sources[0] / name} is not the pinned file (SHA-256 {digest[:12]}...)",

@@ -153,3 +153,14 @@ def test_frame_protocol_serves_a_python_detector_through_realism_detector(realis
     finally:
         d.close()
     assert d._proc.returncode == 0  # the end of its input (close) ends it cleanly
+
+
+def test_a_yolo_environment_missing_a_model_file_is_one_line_not_a_traceback(realism, tmp_path, monkeypatch):
+    files = {"yolov4-tiny.cfg": b"[net]\n", "coco.names": b"person\n"}
+    _stand_in_environment(realism, monkeypatch, files)
+    monkeypatch.setattr(realism, "YOLO_SHA256", {name: hashlib.sha256(data).hexdigest() for name, data in files.items()}
+                        | {"yolov4-tiny.weights": "0" * 64})
+    with pytest.raises(realism.RealismError) as exc:
+        realism.install_yolo(tmp_path / "detector")
+    assert "has no yolov4-tiny.weights" in str(exc.value) and "\n" not in str(exc.value)
+    assert "yolo-venv" in exc.value.hint

@@ -29,7 +29,12 @@ MAX_DETECTIONS = 100
 
 
 def parse_cfg(text: str) -> list[dict]:
-    """Darknet's network description as a list of sections: ``{"type": "convolutional", "filters": "32", ...}``."""
+    """Darknet's network description as a list of sections: ``{"type": "convolutional", "filters": "32", ...}``
+    (values as written; ``#`` starts a comment).
+
+    Raises:
+        ValueError: a setting line without ``=``. IndexError: a setting before the first ``[section]``.
+    """
     sections: list[dict] = []
     for line in text.splitlines():
         line = line.split("#")[0].strip()
@@ -160,8 +165,11 @@ def build_graph(cfg_text: str, weights: bytes):
 
 def decode(maps: list[np.ndarray], heads: list[dict], input_hw: tuple[int, int], frame_hw: tuple[int, int],
            min_score: float) -> list[list[float]]:
-    """Rows ``[x1, y1, x2, y2, score, coco80_class]`` in the frame's pixels from the raw ``yolo`` maps, score ≥
-    ``min_score``, best first, after per-class NMS at :data:`CLASS_NMS_IOU`, at most :data:`MAX_DETECTIONS`.
+    """Rows ``[x1, y1, x2, y2, score, coco80_class]`` in the frame's pixels (x right, y down) from the raw ``yolo``
+    maps, score ≥ ``min_score``, best first, after per-class NMS at :data:`CLASS_NMS_IOU`, at most
+    :data:`MAX_DETECTIONS`. ``maps``: one (1, 3 · (5 + classes), h, w) float32 array per head of ``heads``
+    (:func:`build_graph`); ``input_hw``: the network's input (height, width), px; ``frame_hw``: the frame's. Raises
+    nothing for maps of those shapes.
 
     Darknet's decoding (AlexeyAB's ``yolo_layer.c``): a cell's box centre is ``(cell + s·σ(t) − (s − 1)/2) /
     cells`` of the input (``s`` = ``scale_x_y``), its size ``anchor · exp(t)``; a class's score is σ(objectness) ·
