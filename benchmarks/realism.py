@@ -8,8 +8,9 @@ photos, and a physically based reference renderer (Blender Cycles) on the same e
 Per environment (``--all-homes``: the ten BEAR homes) it builds the world an episode run with ``--seed`` sees (world
 seed ``benchbot.core.seeding.world_seed(seed, name, variant)``, through the scene cache as the simulator loads it),
 renders ``--frames`` camera frames spread evenly along the trajectory (``--every K``: every K-th pose instead) in
-``fast`` mode, the first ``--quality-frames`` of them also in ``quality`` mode, through the robot's default camera
-(``DEFAULT_SENSORS``: intrinsics, mount; ``backend.camera_model()``: exposure, tone curve), and:
+``fast`` mode (``--with-class CLS``: keeping only those in which a CLS object is visible), the first
+``--quality-frames`` of them also in ``quality`` mode, through the robot's default camera (``DEFAULT_SENSORS``:
+intrinsics, mount; ``backend.camera_model()``: exposure, tone curve), and:
 
 - **Detector.** CenterNet (MobileNetV3 backbone, trained on MS-COCO photos) from the npm package ``@vladmandic/human``
   3.3.6, run by TF.js on WebAssembly through Node.js (``benchmarks/realism/detect.mjs``; installed with ``npm ci``
@@ -1075,6 +1076,12 @@ def _env_spec(name: str, style: str | None) -> dict:
     return env
 
 
+def shows_class(truths: list[Truth], cls: str | None) -> bool:
+    """Whether a frame's ``truths`` hold a visible object of class ``cls`` (always, when ``cls`` is None): the frames
+    ``--with-class`` keeps."""
+    return cls is None or any(t.visible and t.cls == cls for t in truths)
+
+
 def judge_environment(name: str, args, detector: Detector | None, out_dir: Path, thresholds) -> dict:
     """Render, detect, compare for one environment; returns its JSON section and fills PNGs under ``out_dir``."""
     env = _env_spec(name, args.style)
@@ -1102,22 +1109,31 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
     modes = {m: Tally(thresholds) for m in SOURCES}
     crowd = crowd_instances(scene, env)
     times = {"fast": [], "quality": []}
-    frames_json, images = [], {}
-    for n, i in enumerate(idx):
+    frames_json, images, kept = [], {}, []
+    compiled = set()
+    for i in idx:
+        n = len(kept)  # the frame's number among those kept
         T = se2_to_matrix(*poses[i]) @ Tc
         outs = {}
         for mode in ("fast", "quality"):
             if mode == "quality" and n >= args.quality_frames:
                 continue
-            if n == 0:  # compile the mode's kernels outside the timing (kernels do not depend on the image size)
+            if mode not in compiled:  # compile the mode's kernels outside the timing (they do not depend on the size)
                 r.render(camera_setup(8, 8)[0], T, 8, 8, mode=mode, spp=args.quality_spp,
                          samples_per_pixel=args.supersample ** 2)
+                compiled.add(mode)
             t1 = time.perf_counter()
             outs[mode] = r.render(K, T, W, H, mode=mode, spp=args.quality_spp,
                                   samples_per_pixel=args.supersample ** 2)
             times[mode].append(time.perf_counter() - t1)
-        truths = frame_truths(outs["fast"]["instance"], scene, K, T, args.min_pixels, args.max_truncation, crowd,
-                              depth=outs["fast"]["depth"])
+            if mode == "fast":
+                truths = frame_truths(outs["fast"]["instance"], scene, K, T, args.min_pixels, args.max_truncation,
+                                      crowd, depth=outs["fast"]["depth"])
+                if not shows_class(truths, args.with_class):
+                    break
+        if not shows_class(truths, args.with_class):  # left out: no quality frame, no detector, no PNG
+            continue
+        kept.append(i)
         fj = {"pose_index": i, "objects": [t.__dict__ for t in truths]}
         images[n] = {"T": T, "pose_index": i, "truths": truths, **{m: o["rgb"] for m, o in outs.items()}}
         if detector is not None:
@@ -1139,7 +1155,8 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
                 from PIL import Image
                 Image.fromarray(o["rgb"]).save(env_dir / f"pose{i:03d}_{mode}.png")
         frames_json.append(fj)
-    section = {"style": scene.style, "world_seed": world, "lighting": scene.lighting, "poses": len(poses), "pose_indices": idx,
+    section = {"style": scene.style, "world_seed": world, "lighting": scene.lighting, "poses": len(poses),
+               "pose_indices": kept, "with_class": args.with_class,
                "build_scene_s": build_s, "renderer_setup_s": setup_s,
                "primitives": int(np.asarray(scene.prim_type).shape[0]),
                "triangles": int(np.asarray(scene.tri_v).shape[0]),
@@ -1147,7 +1164,7 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
                "quality_spp": args.quality_spp, "fast_supersample": args.supersample, "frames": frames_json}
     if detector is not None:
         section["detector"] = {m: t.as_dict() for m, t in modes.items() if t.frames}
-    n_ref = min(args.reference_frames, len(idx))
+    n_ref = min(args.reference_frames, len(kept))
     if n_ref > 0:
         section["reference"] = reference_section(name, scene, K, W, H, images, n_ref, args, detector, modes,
                                                  thresholds, env_dir)
@@ -1363,6 +1380,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="print the goal's verdict (the line that ends each real-photo table) of finished\n"
                          "--real-reference runs, one line each, and exit; renders nothing")
     ap.add_argument("--pngs", type=int, default=PNGS_PER_ENV, help="annotated PNGs per environment and mode")
+    ap.add_argument("--with-class", metavar="CLASS", default=None,
+                    help="keep only the frames in which a CLASS object is visible (fast mode's truths; the others\n"
+                         "are rendered to tell, then left out): one class's lever judged in a fraction of the time")
     ap.add_argument("--out", type=Path, default=Path("runs") / "realism")
     args = smoke.parse_args(ap, argv, frames=2, quality_frames=1, quality_spp=1, reference_spp=8, ladder=[1],
                             no_detector=True, width=32, height=24, min_pixels=20, pngs=1, real_limit=2,
@@ -1398,6 +1418,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
     if args.style is not None and args.style not in STYLES:  # else build_scene's BackendError, a traceback
         ap.error(f"--style must be one of {', '.join(STYLES)}")
+    import realism_real
+
+    if args.with_class is not None and args.with_class not in realism_real.bear_classes():
+        ap.error(f"--with-class {args.with_class!r} is no BEAR class; give one of "
+                 f"{', '.join(sorted(realism_real.bear_classes()))}")
     args.env = all_homes() if args.all_homes else args.env or (["miniroom:4"] if args.smoke else list(DEFAULT_ENVS))
     return args
 

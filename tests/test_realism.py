@@ -870,3 +870,33 @@ def test_the_photo_tool_names_the_file_and_field_of_a_malformed_source(photo_too
     assert photo_tool.main(["--source", str(bad), str(tmp_path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(bad) in err and field in err, err
+
+
+def test_with_class_must_be_a_bear_class(realism, capsys):
+    """``--with-class`` names a BEAR class, or the run stops with one line listing them."""
+    with pytest.raises(SystemExit):
+        realism.parse_args(["--with-class", "unicorn", "--no-detector"])
+    err = capsys.readouterr().err
+    assert "--with-class 'unicorn' is no BEAR class" in err and "refrigerator" in err
+    assert realism.parse_args(["--with-class", "refrigerator", "--no-detector"]).with_class == "refrigerator"
+
+
+@pytest.mark.slow
+def test_with_class_keeps_exactly_the_frames_that_show_the_class(realism, tmp_path):
+    """``--with-class CLS`` keeps the frames of the plain run in which a CLS object is visible, with the same objects,
+    and leaves out the rest (a real render of miniroom:1, eight frames)."""
+    argv = ["--smoke", "--env", "miniroom:1", "--frames", "8", "--width", "160", "--height", "120",
+            "--min-pixels", "100", "--quality-frames", "0", "--reference-frames", "0"]
+    assert realism.main([*argv, "--out", str(tmp_path / "all")]) == 0
+    frames = json.loads((tmp_path / "all" / "realism.json").read_text())["environments"]["miniroom:1"]["frames"]
+    shown: dict = {}
+    for f in frames:
+        for cls in {o["cls"] for o in f["objects"] if o["visible"]}:
+            shown.setdefault(cls, []).append(f["pose_index"])
+    cls, poses = min(((c, p) for c, p in shown.items() if len(p) < len(frames)), key=lambda cp: (len(cp[1]), cp[0]))
+    assert realism.main([*argv, "--with-class", cls, "--out", str(tmp_path / "cls")]) == 0
+    section = json.loads((tmp_path / "cls" / "realism.json").read_text())["environments"]["miniroom:1"]
+    assert section["with_class"] == cls and section["pose_indices"] == poses
+    assert [f["pose_index"] for f in section["frames"]] == poses
+    by_pose = {f["pose_index"]: f["objects"] for f in frames}
+    assert all(f["objects"] == by_pose[f["pose_index"]] for f in section["frames"])
