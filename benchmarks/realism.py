@@ -1111,28 +1111,27 @@ def judge_environment(name: str, args, detector: Detector | None, out_dir: Path,
     times = {"fast": [], "quality": []}
     frames_json, images, kept = [], {}, []
     compiled = set()
+
+    def timed_render(mode: str, T: np.ndarray) -> dict:
+        if mode not in compiled:  # compile the mode's kernels outside the timing (they do not depend on the size)
+            r.render(camera_setup(8, 8)[0], T, 8, 8, mode=mode, spp=args.quality_spp,
+                     samples_per_pixel=args.supersample ** 2)
+            compiled.add(mode)
+        t1 = time.perf_counter()
+        out = r.render(K, T, W, H, mode=mode, spp=args.quality_spp, samples_per_pixel=args.supersample ** 2)
+        times[mode].append(time.perf_counter() - t1)
+        return out
+
     for i in idx:
         n = len(kept)  # the frame's number among those kept
         T = se2_to_matrix(*poses[i]) @ Tc
-        outs = {}
-        for mode in ("fast", "quality"):
-            if mode == "quality" and n >= args.quality_frames:
-                continue
-            if mode not in compiled:  # compile the mode's kernels outside the timing (they do not depend on the size)
-                r.render(camera_setup(8, 8)[0], T, 8, 8, mode=mode, spp=args.quality_spp,
-                         samples_per_pixel=args.supersample ** 2)
-                compiled.add(mode)
-            t1 = time.perf_counter()
-            outs[mode] = r.render(K, T, W, H, mode=mode, spp=args.quality_spp,
-                                  samples_per_pixel=args.supersample ** 2)
-            times[mode].append(time.perf_counter() - t1)
-            if mode == "fast":
-                truths = frame_truths(outs["fast"]["instance"], scene, K, T, args.min_pixels, args.max_truncation,
-                                      crowd, depth=outs["fast"]["depth"])
-                if not shows_class(truths, args.with_class):
-                    break
+        outs = {"fast": timed_render("fast", T)}
+        truths = frame_truths(outs["fast"]["instance"], scene, K, T, args.min_pixels, args.max_truncation, crowd,
+                              depth=outs["fast"]["depth"])
         if not shows_class(truths, args.with_class):  # left out: no quality frame, no detector, no PNG
             continue
+        if n < args.quality_frames:
+            outs["quality"] = timed_render("quality", T)
         kept.append(i)
         fj = {"pose_index": i, "objects": [t.__dict__ for t in truths]}
         images[n] = {"T": T, "pose_index": i, "truths": truths, **{m: o["rgb"] for m, o in outs.items()}}

@@ -156,6 +156,7 @@ def test_frame_protocol_serves_a_python_detector_through_realism_detector(realis
 
 
 def test_a_yolo_environment_missing_a_model_file_is_one_line_not_a_traceback(realism, tmp_path, monkeypatch):
+    """A YOLO environment whose wheel lacks a model file: one line naming the folder and the file, and the fix."""
     files = {"yolov4-tiny.cfg": b"[net]\n", "coco.names": b"person\n"}
     _stand_in_environment(realism, monkeypatch, files)
     monkeypatch.setattr(realism, "YOLO_SHA256", {name: hashlib.sha256(data).hexdigest() for name, data in files.items()}
@@ -164,3 +165,18 @@ def test_a_yolo_environment_missing_a_model_file_is_one_line_not_a_traceback(rea
         realism.install_yolo(tmp_path / "detector")
     assert "has no yolov4-tiny.weights" in str(exc.value) and "\n" not in str(exc.value)
     assert "yolo-venv" in exc.value.hint
+
+
+def test_frame_protocol_ends_with_one_line_when_the_input_stops_inside_a_frame(tmp_path):
+    """A frame whose pixels are cut short (the parent died mid-write): exit 1 and one line on stderr, no traceback."""
+    import struct
+    import subprocess
+
+    (tmp_path / "frame_protocol.py").write_bytes((CHILD.parent / "frame_protocol.py").read_bytes())
+    script = tmp_path / "fake_child.py"
+    script.write_text("import sys\nfrom frame_protocol import serve\nsys.exit(serve(lambda rgb: [], {}))\n")
+    proc = subprocess.run([sys.executable, str(script)], input=struct.pack("<II", 4, 6) + bytes(10),
+                          capture_output=True, timeout=30, cwd=tmp_path)
+    err = proc.stderr.decode().strip()
+    assert proc.returncode == 1 and len(err.splitlines()) == 1 and "10 bytes into a 4x6 frame of 72" in err, err
+    assert proc.stdout.decode().splitlines() == ['{"ready": true}']

@@ -231,5 +231,6 @@ def main() -> int:
     return serve(lambda rgb: decode(session.run(None, {"rgb": rgb}), heads, input_hw, rgb.shape[:2], min_score),
                  {"model": "yolo", "backend": "onnxruntime-cpu", "input": input_hw[0]})
 
+
 if __name__ == "__main__":
     sys.exit(main())

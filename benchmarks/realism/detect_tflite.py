@@ -77,5 +77,6 @@ def main() -> int:
     return serve(lambda rgb: detect(interpreter, rgb, min_score),
                  {"model": "ssd", "backend": "litert-cpu", "input": INPUT})
 
+
 if __name__ == "__main__":
     sys.exit(main())

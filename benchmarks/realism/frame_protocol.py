@@ -21,7 +21,8 @@ import numpy as np
 
 def serve(detect: Callable[[np.ndarray], list], ready: dict) -> int:
     """Write ``{"ready": true, **ready}``, then answer each frame of stdin with ``detect`` ((H, W, 3) uint8 RGB →
-    rows ``[x1, y1, x2, y2, score, coco80_class]``) until a zero size or the end of input; returns 0."""
+    rows ``[x1, y1, x2, y2, score, coco80_class]``) until a zero size or the end of input; returns 0. Input that
+    ends inside a frame's pixels ends it with one line on stderr and returns 1."""
     out = sys.stdout
     out.write(json.dumps({"ready": True, **ready}) + "\n")
     out.flush()
@@ -33,6 +34,11 @@ def serve(detect: Callable[[np.ndarray], list], ready: dict) -> int:
         h, w = struct.unpack("<II", head)
         if h == 0 or w == 0:
             return 0
-        rgb = np.frombuffer(inp.read(h * w * 3), np.uint8).reshape(h, w, 3)
+        data = inp.read(h * w * 3)
+        if len(data) < h * w * 3:
+            print(f"frame_protocol: the input ended {len(data)} bytes into a {h}x{w} frame of {h * w * 3}",
+                  file=sys.stderr, flush=True)
+            return 1
+        rgb = np.frombuffer(data, np.uint8).reshape(h, w, 3)
         out.write(json.dumps({"detections": detect(rgb)}) + "\n")
         out.flush()

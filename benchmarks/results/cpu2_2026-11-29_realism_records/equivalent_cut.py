@@ -41,13 +41,16 @@ def main() -> None:
     ap.add_argument("runs", nargs="+", type=Path)
     ap.add_argument("--cuts", default="0.2,0.25,0.3,0.35,0.4")
     args = ap.parse_args()
+    try:
+        cuts = [float(c) for c in args.cuts.split(",")]
+    except ValueError:
+        sys.exit(f"--cuts {args.cuts!r}: give scores separated by commas, e.g. 0.2,0.25,0.3")
     photos = realism_real.load_photos(realism)
     for path in args.runs:
         try:
             run = json.loads(path.read_text())
             detector = run["settings"]["detector"]
-            rows = [(float(c), found(run, photos, float(c), None), found(run, photos, float(c), 72))
-                    for c in args.cuts.split(",")]
+            rows = [(c, found(run, photos, c, None), found(run, photos, c, 72)) for c in cuts]
         except (OSError, ValueError, KeyError, TypeError) as e:
             sys.exit(f"{path}: not a finished realism.py --real-reference run ({type(e).__name__}: {e})")
         for cut, (k, n), (k72, n72) in rows:

@@ -1,6 +1,7 @@
 """headline_table.py CENTERNET.md NANODET.md SSD.md [YOLO.md]: docs/realism.md's table *Where it stands: against real
 photos*, printed from the real-photo sections of three or four ``per_class.md`` files of ``benchmarks/realism.py
---real-reference`` (CenterNet, NanoDet, SSD and, given, YOLOv4-tiny, in that order). The classes with fewer than 10 sim objects share one row of found counts.
+--real-reference`` (CenterNet, NanoDet, SSD and, given, YOLOv4-tiny, in that order). The classes with fewer than 10
+sim objects share one row of found counts.
 Run from the repository root, e.g.:
 
     uv run python benchmarks/results/cpu2_2026-11-29_realism_records/headline_table.py \\
