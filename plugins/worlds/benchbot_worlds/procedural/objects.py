@@ -23,8 +23,9 @@ its bedroom goes to the leftovers; over seeds 0-199, 83 of 588 bedrooms and bath
 
 Where (a designer's rules): a bed against a wall of a bedroom (head to the wall; BEAR's smallest bed, with
 :data:`BED_RETRY_FACTOR` times the draws, when the drawn one finds no place); a toilet and a sink against
-bathroom walls; a refrigerator and a sink against kitchen walls; a couch against a living-room wall facing a tv
-standing on a low table (tv stand) against the opposite wall, a coffee table between; a dining table (kitchen,
+bathroom walls; a refrigerator and a sink against kitchen walls, the fridge with :data:`FRIDGE_FRONT_M` of floor
+in front of it that no floor object takes (since generator version 3); a couch against a living-room wall facing a
+tv standing on a low table (tv stand) against the opposite wall, a coffee table between; a dining table (kitchen,
 dining room) free-standing with chairs around it; an office desk (table) against a wall with a chair, a laptop,
 keyboard and mouse on it; side tables in bedrooms; potted plants and persons standing on the floor; small objects
 (cup, bowl, bottle, book, apple, orange, banana, spoon, toaster, clock) on table tops (their bottom exactly on the
@@ -99,6 +100,9 @@ ROBOT_RADIUS_M = 0.35
 #: trajectory's free-space model too (:mod:`.free_space`: other grid, exact distances), whatever the grids' offsets.
 CHECK_MARGIN_M = 0.05
 DOOR_APPROACH_M = 0.85  # >= the 0.7 m asked; the trajectory stops 0.1 m + its radius beyond a wall's face
+#: Floor kept clear in front of a refrigerator (m, across its width): its doors swing out 0.45-0.8 m and someone
+#: stands at them, so no table or chair stands there (kitchen planners keep a 36 in, 0.91 m, walkway).
+FRIDGE_FRONT_M = 0.9
 WALL_GAP_M = 0.03
 OBJECT_GAP_M = 0.05
 PLACE_TRIES = 30
@@ -206,6 +210,16 @@ class RoomSpace:
         a, b = self._arrays()
         return not bool(np.any(np.all(lo < b + gap, axis=1) & np.all(hi > a - gap, axis=1)))
 
+    def clear_floor(self, lo: np.ndarray, hi: np.ndarray) -> bool:
+        """Whether the xy box lo..hi lies in the clear floor and overlaps no floor object placed (it may overlap a
+        door's approach: both stay free)."""
+        if np.any(lo < self.lo - 1e-9) or np.any(hi > self.hi + 1e-9):
+            return False
+        if not self.boxes:
+            return True
+        a, b = self._arrays()
+        return not bool(np.any(np.all(lo < b, axis=1) & np.all(hi > a, axis=1)))
+
     def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if self._cache is None or len(self._cache[0]) != len(self.boxes):
             self._cache = (np.array([a for a, _ in self.boxes]), np.array([b for _, b in self.boxes]))
@@ -271,9 +285,11 @@ class _Home:
             self.tops[len(self.objects) - 1] = []
         return len(self.objects) - 1
 
-    def wall_box(self, room: int, along: float, depth: float, side=None):
+    def wall_box(self, room: int, along: float, depth: float, side=None, front: float = 0.0):
         """An xy box (lo, hi, (axis, sign)) against a wall of ``room``: ``along`` metres along the wall, ``depth``
-        out of it, placed when it fits; None after :data:`PLACE_TRIES` draws."""
+        out of it, placed when it fits; None after :data:`PLACE_TRIES` draws. With ``front`` > 0 the floor strip
+        ``front`` metres deep in front of it (across its width) must lie in the room and hold no floor object, and
+        is then kept clear of later ones (added to the room's keep-out boxes, as a door's approach is)."""
         sp = self.spaces[room]
         for _ in range(self.tries):
             ax, sg = side if side is not None else (int(self.rng.integers(2)), int(self.rng.choice([-1, 1])))
@@ -290,7 +306,12 @@ class _Home:
             lo[o] = sp.lo[o] + WALL_GAP_M + float(self.rng.uniform(0, free))
             hi[o] = lo[o] + along
             lo, hi = np.round(lo, 6), np.round(hi, 6)
+            strip = _front_strip(lo, hi, ax, sg, front) if front > 0 else None
+            if strip is not None and not sp.clear_floor(*strip):
+                continue
             if sp.try_box(lo, hi):
+                if strip is not None:
+                    sp.keep_out.append(strip)
                 return lo, hi, (ax, sg)
         return None
 
@@ -366,12 +387,25 @@ class _Home:
         return False
 
 
+def _front_strip(lo: np.ndarray, hi: np.ndarray, ax: int, sg: int, depth: float):
+    """The xy box ``depth`` metres deep in front of a wall box lo..hi whose back is against the wall on side
+    (``ax``, ``sg``) of its room (sign -1: the wall at the room's low ``ax``), across its width."""
+    flo, fhi = lo.copy(), hi.copy()
+    if sg < 0:
+        flo[ax], fhi[ax] = hi[ax], hi[ax] + depth
+    else:
+        flo[ax], fhi[ax] = lo[ax] - depth, lo[ax]
+    return flo, fhi
+
+
 def _wall_object(h: _Home, cls: str, room: int, size, long_along: bool, role: str = "", side=None):
     """A floor object against a wall: its longer side along the wall (``long_along``) or into the room (a bed, a
-    couch, a table that does not fit so: turned a quarter)."""
+    couch, a table that does not fit so: turned a quarter); a refrigerator with :data:`FRIDGE_FRONT_M` of free
+    floor in front of it, kept free."""
+    front = FRIDGE_FRONT_M if cls == "refrigerator" else 0.0
     for flip in (False, True) if cls in ("bed", "couch", "table") else (False,):  # then turned a quarter
         along, depth = (size[1], size[0]) if long_along != flip else (size[0], size[1])
-        got = h.wall_box(room, along, depth, side)
+        got = h.wall_box(room, along, depth, side, front)
         if got is not None:
             return h.floor(cls, room, size, got[:2], role), got[2]
     return None
