@@ -10,8 +10,10 @@ clear: generator v3*):
     uv run --extra realism python benchmarks/results/cpu2_2026-11-30_realism_records/fridge_front_views.py \\
         procedural_val_17:1 372 docs/gallery/procedural_fridge_front.jpg
 """
+import atexit
 import os
 import re
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -27,11 +29,15 @@ from benchbot_task_semslam.coco import bear_name, box_iou  # noqa: E402
 from benchbot_worlds.procedural import generator, objects, worlds  # noqa: E402
 from benchbot_worlds.scene.build import build_scene  # noqa: E402
 
+#: The generator's own clearance, kept before the rule is turned off for the first home.
+FRONT = objects.FRIDGE_FRONT_M
 
 def scene_of(name: str, rule: bool):
     """(scene, environment spec) of ``name`` (``procedural_<split>_<index>:<variant>``) with v2's seeds, the rule on
-    or off, its files made in a fresh cache."""
-    os.environ["BENCHBOT_CACHE_DIR"] = tempfile.mkdtemp(prefix="fridge_front_")
+    or off, its files made in a fresh cache (removed at exit)."""
+    cache = tempfile.mkdtemp(prefix="fridge_front_")
+    atexit.register(shutil.rmtree, cache, ignore_errors=True)
+    os.environ["BENCHBOT_CACHE_DIR"] = cache
     objects.FRIDGE_FRONT_M = FRONT if rule else 0.0
     home, variant = name.split(":")
     _, split, index = home.rsplit("_", 2)
@@ -63,8 +69,6 @@ def view(scene, env, pose, detector) -> tuple[Image.Image, list]:
             found.append((t.box, s))
     return im, found
 
-
-FRONT = objects.FRIDGE_FRONT_M
 
 
 def main() -> None:

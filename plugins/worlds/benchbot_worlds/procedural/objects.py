@@ -101,7 +101,8 @@ ROBOT_RADIUS_M = 0.35
 CHECK_MARGIN_M = 0.05
 DOOR_APPROACH_M = 0.85  # >= the 0.7 m asked; the trajectory stops 0.1 m + its radius beyond a wall's face
 #: Floor kept clear in front of a refrigerator (m, across its width): its doors swing out 0.45-0.8 m and someone
-#: stands at them, so no table or chair stands there (kitchen planners keep a 36 in, 0.91 m, walkway).
+#: stands at them, so no table or chair stands there (the NKBA's kitchen planning guidelines ask a walkway of at least
+#: 36 in, 0.91 m).
 FRIDGE_FRONT_M = 0.9
 WALL_GAP_M = 0.03
 OBJECT_GAP_M = 0.05
@@ -211,8 +212,8 @@ class RoomSpace:
         return not bool(np.any(np.all(lo < b + gap, axis=1) & np.all(hi > a - gap, axis=1)))
 
     def clear_floor(self, lo: np.ndarray, hi: np.ndarray) -> bool:
-        """Whether the xy box lo..hi lies in the clear floor and overlaps no floor object placed (it may overlap a
-        door's approach: both stay free)."""
+        """Whether the xy box lo..hi ((2,) float64 each, metres, map frame) lies in the room's clear floor and
+        overlaps no floor object placed, contact allowed (it may overlap a door's approach: both stay free)."""
         if np.any(lo < self.lo - 1e-9) or np.any(hi > self.hi + 1e-9):
             return False
         if not self.boxes:
@@ -388,8 +389,9 @@ class _Home:
 
 
 def _front_strip(lo: np.ndarray, hi: np.ndarray, ax: int, sg: int, depth: float):
-    """The xy box ``depth`` metres deep in front of a wall box lo..hi whose back is against the wall on side
-    (``ax``, ``sg``) of its room (sign -1: the wall at the room's low ``ax``), across its width."""
+    """(lo, hi), (2,) float64 each: the xy box ``depth`` metres deep in front of a wall box lo..hi (metres, map frame)
+    whose back is against the wall on side (``ax``, ``sg``) of its room (sign -1: the wall at the room's low ``ax``),
+    across its width."""
     flo, fhi = lo.copy(), hi.copy()
     if sg < 0:
         flo[ax], fhi[ax] = hi[ax], hi[ax] + depth
