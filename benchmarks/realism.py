@@ -46,7 +46,7 @@ intrinsics, mount; ``backend.camera_model()``: exposure, tone curve), and:
 sensor's pixel integrates the light on its area); the objects, masks and boxes are the pixel centres', as always. It
 says what aliasing costs the detector; the default robot's camera has 1 sample a pixel.
 
-``--real-reference`` runs the same detector, with the same settings, on the real photos of ``--real-photos`` (156
+``--real-reference`` runs the same detector, with the same settings, on the real photos of ``--real-photos`` (784
 COCO val2017 photos shipped in ``benchmarks/realism/photos``, not in the detectors' training set) and prints per
 BEAR class the sim's recall (fast frames, COCO's crowd rule), the photos' recall weighted to the sim's pixel-size
 mix, their ratio, each with a bootstrap interval over images, and the objects on each side

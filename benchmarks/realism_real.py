@@ -5,8 +5,9 @@ The photos are the COCO val2017 images of ``benchmarks/realism/photos`` (``coco_
 ``ATTRIBUTION.md``: sources and licences; built by ``tools/realism_photos.py``): not in the training set of the COCO
 detectors the benchmark runs (train2017). Each photo goes to the detector as it is (no crop or colour change), and
 its objects are scored by the rules the simulator's frames are (``realism.score_frame``, at the same score threshold
-and IoU): an object counts when its mask has at least ``--min-pixels`` pixels (COCO's ``area``; a photo's objects
-have no truncation figure, so none is applied), and COCO's ``iscrowd`` boxes are crowd regions
+and IoU): an object counts when its mask has at least ``--min-pixels`` pixels (COCO's ``area``; for the photos whose
+boxes come without masks, marked ``area_from_box``, an estimate from the box and its class; a photo's objects have
+no truncation figure, so none is applied), and COCO's ``iscrowd`` boxes are crowd regions
 (``realism.with_crowd_rule``), as BEAR's group boxes are in the sim column ``fast, crowd rule``, which is the sim
 side here. ``--real-drop-border`` also leaves out the photos' objects whose box touches the photo's border, the
 nearest stand-in for the sim's truncation rule.
@@ -71,10 +72,10 @@ def size_bin(pixels: float) -> int:
 def load_photos(realism, folder: Path = PHOTOS, min_pixels: int = 400, limit: int | None = None,
                 drop_border: bool = False) -> list[Photo]:
     """The photos of ``folder`` with their COCO boxes as ``realism.Truth`` (BEAR class names; ``box`` [x1, y1, x2,
-    y2] pixels; ``pixels`` the COCO mask area; ``crowd`` COCO's ``iscrowd``; ``visible``: ``pixels`` ≥
-    ``min_pixels`` and, with ``drop_border``, a box at least :data:`BORDER_PX` from every edge of the photo: the
-    nearest stand-in for the sim's truncation rule, which COCO's boxes cannot give); the first ``limit`` photos only
-    when given.
+    y2] pixels; ``pixels`` the COCO mask area, or its estimate where ``area_from_box``; ``crowd`` COCO's
+    ``iscrowd``; ``visible``: ``pixels`` ≥ ``min_pixels`` and, with ``drop_border``, a box at least
+    :data:`BORDER_PX` from every edge of the photo: the nearest stand-in for the sim's truncation rule, which COCO's
+    boxes cannot give); the first ``limit`` photos only when given.
 
     Raises:
         realism.RealismError: the manifest or a photo is missing or unreadable.

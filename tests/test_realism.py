@@ -569,15 +569,20 @@ def test_the_photo_set_is_val2017_with_its_boxes_and_a_licence_per_photo(realism
         assert "/val2017/" in im["coco_url"] and im["license"] in licences and im["flickr_url"].startswith("http")
         assert f"| {im['id']} | `{im['file_name']}` |" in attribution
         assert max(im["width"], im["height"]) <= 640
-    assert sum(p.stat().st_size for p in folder.glob("*.jpg")) < 14e6
+    assert sum(p.stat().st_size for p in folder.glob("*.jpg")) < 70e6
     photos = realism_real.load_photos(realism, folder)
     assert {p.path.name for p in photos} == {p.name for p in folder.glob("*.jpg")}
     from PIL import Image
 
-    for p in photos[:5]:
+    for p in photos:
         with Image.open(p.path) as im:
             w, h = im.size
         assert all(0 <= t.box[0] < t.box[2] <= w + 0.5 and 0 <= t.box[1] < t.box[3] <= h + 0.5 for t in p.truths)
+    estimated = [a for a in data["annotations"] if a.get("area_from_box")]
+    assert estimated and "area_from_box" in attribution  # the box-only photos' areas are estimates, and say so
+    ratios = data["info"]["area_ratios"]
+    assert all(a["area"] == round(a["bbox"][2] * a["bbox"][3] * ratios[str(a["category_id"])], 2)
+               for a in estimated)
     bear = realism_real.bear_classes()
     assert all(any(t.cls in bear - {"person"} for t in p.truths) for p in photos)  # every photo has a BEAR object
     assert any(t.crowd for p in photos for t in p.truths)  # COCO's iscrowd boxes are kept as crowd regions
@@ -870,6 +875,108 @@ def test_the_photo_tool_names_the_file_and_field_of_a_malformed_source(photo_too
     assert photo_tool.main(["--source", str(bad), str(tmp_path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(bad) in err and field in err, err
+
+
+def _coco80_categories() -> list[dict]:
+    """COCO's 80 categories with ids 1–80 (the order the YOLO labels index)."""
+    from benchbot_task_semslam.coco import COCO80
+
+    return [{"id": k + 1, "name": name} for k, name in enumerate(COCO80)]
+
+
+def test_the_photo_tool_estimates_a_box_only_area_from_its_class_median_mask_ratio(photo_tool):
+    """``area_ratios``: a class with at least ``MIN_RATIO_BOXES`` masked boxes takes its own median mask / box
+    ratio, one with fewer the median over every masked box; crowd boxes and boxes whose area is itself an estimate
+    do not count."""
+    categories = _coco80_categories()
+    chair, fridge = (next(c["id"] for c in categories if c["name"] == n) for n in ("chair", "refrigerator"))
+    n = photo_tool.MIN_RATIO_BOXES
+    boxes = [{"category_id": chair, "bbox": [0, 0, 10, 10], "area": 50.0, "iscrowd": 0} for _ in range(n)]
+    boxes += [{"category_id": fridge, "bbox": [0, 0, 10, 10], "area": 90.0, "iscrowd": 0}]
+    boxes += [{"category_id": chair, "bbox": [0, 0, 10, 10], "area": 99.0, "iscrowd": 1},
+              {"category_id": chair, "bbox": [0, 0, 10, 10], "area": 99.0, "iscrowd": 0, "area_from_box": 1}]
+    ratios = photo_tool.area_ratios({"categories": categories, "annotations": boxes})
+    assert ratios[chair] == 0.5 and ratios[fridge] == 0.5  # the fridge's one box: the median of all eleven
+    boxes += [{"category_id": fridge, "bbox": [0, 0, 10, 10], "area": 90.0, "iscrowd": 0}] * n
+    assert photo_tool.area_ratios({"categories": categories, "annotations": boxes})[fridge] == 0.9
+    with pytest.raises(ValueError, match="no box with a mask area"):
+        photo_tool.area_ratios({"categories": categories, "annotations": boxes[-n - 2:-n]})
+
+
+def _photo(path: Path, width: int, height: int) -> None:
+    """A plain JPEG of ``width`` × ``height`` pixels at ``path``."""
+    from PIL import Image
+
+    Image.new("RGB", (width, height), (120, 90, 60)).save(path, "JPEG")
+
+
+def test_the_photo_tool_extends_a_set_with_box_only_photos_and_keeps_what_it_held(photo_tool, tmp_path, capsys):
+    """``--extend --box-source``: a val2017 photo with YOLO labels is added with its boxes in pixels and estimated
+    areas, marked ``area_from_box``; a person-only one and one already in the set are not; the set's own photo and
+    boxes stay byte for byte, and ``ATTRIBUTION.md`` names every source and says which areas are estimates."""
+    categories = _coco80_categories()
+    chair = next(c["id"] for c in categories if c["name"] == "chair")
+    licences = [{"id": 4, "name": "Attribution License", "url": "http://creativecommons.org/licenses/by/2.0/"}]
+    url = "http://images.cocodataset.org/val2017/"
+    src, out = tmp_path / "masked", tmp_path / "set"
+    src.mkdir()
+    _photo(src / "000000000010.jpg", 64, 48)
+    masked = {"licenses": licences, "categories": categories,
+              "images": [{"id": 10, "file_name": "000000000010.jpg", "width": 64, "height": 48, "license": 4,
+                          "coco_url": url + "000000000010.jpg"}],
+              "annotations": [{"id": 7, "image_id": 10, "category_id": chair, "iscrowd": 0, "bbox": [0, 0, 20, 10],
+                               "area": 120.0}]}
+    (src / "instances.json").write_text(json.dumps(masked))
+    assert photo_tool.main(["--source", str(src / "instances.json"), str(src), "--out", str(out),
+                            "--origin", "first source"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.suffix == ".jpg"}
+    old_boxes = json.loads((out / "coco_val2017.json").read_text())["annotations"]
+
+    labels, images = tmp_path / "labels", tmp_path / "images"
+    labels.mkdir(), images.mkdir()
+    info = {"licenses": licences, "images": [
+        {"id": i, "file_name": f"{i:012d}.jpg", "width": 100, "height": 50, "license": 4,
+         "coco_url": f"{url}{i:012d}.jpg", "flickr_url": f"http://farm.example/{i}.jpg"} for i in (10, 20, 30, 40)]}
+    (tmp_path / "captions.json").write_text(json.dumps(info))
+    for i, line in ((10, "56 0.5 0.5 0.2 0.2"), (20, "56 0.5 0.5 0.2 0.4\n0 0.25 0.5 0.1 0.2"), (30, "0 0.5 0.5 1 1")):
+        _photo(images / f"{i:012d}.jpg", 100, 50)
+        (labels / f"{i:012d}.txt").write_text(line + "\n")
+    argv = ["--extend", "--box-source", str(labels), str(tmp_path / "captions.json"), str(images), "--out", str(out),
+            "--origin", "second source"]
+    assert photo_tool.main(argv) == 0, capsys.readouterr().err
+    manifest = json.loads((out / "coco_val2017.json").read_text())
+    assert [im["id"] for im in manifest["images"]] == [10, 20]  # 30: a person only; 40: no image; 10: held
+    assert manifest["annotations"][:1] == old_boxes
+    new = manifest["annotations"][1:]
+    assert [a["bbox"] for a in new] == [[40.0, 15.0, 20.0, 20.0], [20.0, 20.0, 10.0, 10.0]]
+    ratio = manifest["info"]["area_ratios"]
+    assert ratio[str(chair)] == 0.6 and new[0]["area"] == 240.0  # the chair's one masked box: 120 / 200
+    assert all(a["area_from_box"] == 1 and a["id"] >= photo_tool.BOX_ID_BASE for a in new)
+    assert manifest["info"]["origins"] == ["first source", "second source"]
+    assert all((out / name).read_bytes() == data for name, data in before.items())
+    attribution = (out / "ATTRIBUTION.md").read_text()
+    assert "- first source" in attribution and "- second source" in attribution and "area_from_box" in attribution
+    assert "| 20 | `000000000020.jpg` |" in attribution
+
+    (labels / "000000000040.txt").write_text("56 0.5 0.5 0.2\n")
+    _photo(images / "000000000040.jpg", 100, 50)
+    assert photo_tool.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "000000000040.txt:1" in err, err
+    (labels / "000000000040.txt").write_text("56 0.5 0.5 0.2 0.2\n")
+    _photo(images / "000000000040.jpg", 50, 50)
+    assert photo_tool.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "000000000040.jpg: 50x50 pixels" in err, err
+
+
+def test_the_photo_tool_takes_new_sources_or_an_extension_not_both(photo_tool, tmp_path, capsys):
+    """``--source`` builds a new set and ``--extend`` needs ``--box-source``: any other mix stops with usage."""
+    for argv in (["--extend"], ["--box-source", "a", "b", "c"], [],
+                 ["--extend", "--box-source", "a", "b", "c", "--source", "x", "y"]):
+        with pytest.raises(SystemExit):
+            photo_tool.main([*argv, "--out", str(tmp_path)])
+        assert "give --source" in capsys.readouterr().err
 
 
 def test_with_class_must_be_a_bear_class(realism, capsys):

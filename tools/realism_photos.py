@@ -2,6 +2,8 @@
 
     python tools/realism_photos.py --source ANNOTATIONS.json IMAGE_DIR [--source ...] [--out benchmarks/realism/photos]
         [--quality 90] [--max-side 640]
+    python tools/realism_photos.py --extend --box-source LABEL_DIR IMAGE_INFO.json IMAGE_DIR [--box-source ...]
+        [--out benchmarks/realism/photos]
 
 Each ``ANNOTATIONS.json`` is a COCO instances file of **val2017** images (the official ``instances_val2017.json`` or
 a subset of it; train2017 images are refused: the detectors were trained on them) and its ``IMAGE_DIR`` holds its
@@ -12,7 +14,17 @@ longest side at most ``--max-side``, boxes and areas scaled with the image) and 
 ``coco_val2017.json``: the kept images (COCO id, file name, size, licence id, ``flickr_url``, ``coco_url``), their
 boxes of every class (``bbox`` [x, y, w, h] pixels, mask ``area`` pixels, ``iscrowd``, ``category_id``; no
 segmentation), COCO's categories and licences, and ``ATTRIBUTION.md``: where they come from (``--origin``, one line a
-source) and, per photo, its COCO id, Flickr licence and Flickr URL. Exit code 2 with one line on a bad file.
+source) and, per photo, its COCO id, Flickr licence and Flickr URL.
+
+``--extend`` adds photos to the set in ``--out`` whose boxes come without masks: each ``--box-source`` is a folder of
+Ultralytics YOLO labels of val2017 (``<12-digit id>.txt``, one line ``class cx cy w h`` a box, the class an index
+into the 80 COCO classes in COCO's order, the box's centre and size as fractions of the image; crowd regions left
+out), a COCO file whose ``images`` and ``licenses`` give each image's size, licence and URLs (the official
+``captions_val2017.json`` does, for all val2017 images) and a folder of the images. Only the images in that folder,
+not yet in the set, go through the same filter and re-encoding. A box without a mask gets an estimated ``area``: its
+box area times its class's median mask / box area ratio over the set's masked boxes (:func:`area_ratios`), and
+``"area_from_box": 1``; its ``id`` is ``BOX_ID_BASE + 1000 × image id + line`` (COCO gives such boxes none). The
+photos already in the set are kept byte for byte. Exit code 2 with one line on a bad file.
 """
 
 from __future__ import annotations
@@ -26,6 +38,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO / "benchmarks" / "realism" / "photos"
 MANIFEST = "coco_val2017.json"
+#: A class's mask / box area ratio is its own median where the set holds at least this many masked boxes of it, else
+#: the median over every masked box (:func:`area_ratios`).
+MIN_RATIO_BOXES = 10
+#: Ids of boxes without a COCO annotation (``--extend``) start here, above COCO's own (crowd ids reach 9.0e11).
+BOX_ID_BASE = 10**12
 
 
 def bear_classes() -> set[str]:
@@ -70,11 +87,18 @@ def kept_images(data: dict, classes: set[str]) -> list[dict]:
     return out
 
 
-def reencode(src: Path, max_side: int, quality: int) -> tuple[bytes, float]:
-    """JPEG bytes of the image at ``src`` (RGB, longest side at most ``max_side``, Lanczos) and the scale applied."""
+def reencode(src: Path, max_side: int, quality: int, size: tuple[int, int] | None = None) -> tuple[bytes, float]:
+    """JPEG bytes of the image at ``src`` (RGB, longest side at most ``max_side``, Lanczos) and the scale applied.
+
+    Raises:
+        ValueError: the image is not ``size`` (width, height) pixels, when given: its boxes would not fit it.
+    """
     from PIL import Image
 
     with Image.open(src) as im:
+        if size is not None and tuple(im.size) != tuple(size):
+            raise ValueError(f"{src}: {im.size[0]}x{im.size[1]} pixels, but its annotations are of a "
+                             f"{size[0]}x{size[1]} image; give the original val2017 image")
         im = im.convert("RGB")
         scale = min(1.0, max_side / max(im.size))
         if scale < 1.0:
@@ -84,9 +108,9 @@ def reencode(src: Path, max_side: int, quality: int) -> tuple[bytes, float]:
     return buf.getvalue(), scale
 
 
-def read_instances(path: Path) -> dict:
-    """A COCO instances file (JSON): an object whose ``images``, ``annotations`` and ``categories`` (and
-    ``licenses``, if given) are lists of objects.
+def read_instances(path: Path, keys: tuple[str, ...] = ("images", "annotations", "categories")) -> dict:
+    """A COCO instances file (JSON): an object whose ``keys`` (and ``licenses``, if given) are lists of objects
+    (``keys=("images",)`` for a file that only lists images, as ``captions_val2017.json`` does for ``--extend``).
 
     Raises:
         OSError: the file cannot be read. ValueError: it is not JSON, or not of that shape (the message names the
@@ -98,7 +122,7 @@ def read_instances(path: Path) -> dict:
         raise ValueError(f"{path}: not JSON ({exc}); give a COCO instances file") from exc
     if not isinstance(data, dict):
         raise ValueError(f"{path}: not a COCO instances file (a JSON object with images, annotations, categories)")
-    for key in ("images", "annotations", "categories", "licenses"):
+    for key in (*keys, "licenses"):
         value = data.get(key, [] if key == "licenses" else None)
         if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
             raise ValueError(f"{path}: `{key}` must be a list of objects, as in a COCO instances file")
@@ -147,17 +171,19 @@ def merge(sources: list[tuple[dict, Path]]) -> tuple[dict, dict]:
     return merged, folder
 
 
-def build(data: dict, folder: dict, out: Path, max_side: int, quality: int) -> dict:
+def build(data: dict, folder: dict, out: Path, max_side: int, quality: int, write: bool = True,
+          origins: list[str] | None = None) -> dict:
     """Write the kept photos of ``data`` (each read from ``folder[image id]``) under ``out`` and return the manifest
-    (see the module docstring)."""
+    (see the module docstring; ``info.origins``: ``origins``), also written unless ``write`` is false."""
     images = kept_images(data, bear_classes())
     out.mkdir(parents=True, exist_ok=True)
     manifest = {"info": {**data.get("info", {}), "subset": "COCO val2017 photos with a BEAR-class box, re-encoded "
-                         f"JPEG q{quality}, longest side <= {max_side}; boxes scaled with them"},
+                         f"JPEG q{quality}, longest side <= {max_side}; boxes scaled with them",
+                         "origins": origins or []},
                 "licenses": data.get("licenses", []), "categories": data["categories"], "images": [],
                 "annotations": []}
     for im in images:
-        jpeg, scale = reencode(folder[im["id"]] / im["file_name"], max_side, quality)
+        jpeg, scale = reencode(folder[im["id"]] / im["file_name"], max_side, quality, (im["width"], im["height"]))
         (out / im["file_name"]).write_bytes(jpeg)
         keys = ("id", "file_name", "license", "flickr_url", "coco_url", "date_captured")
         manifest["images"].append({**{k: im[k] for k in keys if k in im},
@@ -167,7 +193,119 @@ def build(data: dict, folder: dict, out: Path, max_side: int, quality: int) -> d
                 manifest["annotations"].append({"id": a["id"], "image_id": a["image_id"],
                                                 "category_id": a["category_id"], "iscrowd": int(a["iscrowd"]),
                                                 "bbox": [round(v * scale, 2) for v in a["bbox"]],
-                                                "area": round(a["area"] * scale * scale, 2)})
+                                                "area": round(a["area"] * scale * scale, 2),
+                                                **({"area_from_box": 1} if a.get("area_from_box") else {})})
+    if write:
+        (out / MANIFEST).write_text(json.dumps(manifest, indent=0) + "\n", encoding="utf-8")
+    return manifest
+
+
+def area_ratios(manifest: dict) -> dict[int, float]:
+    """{COCO category id: the median of mask ``area`` / box area} over the masked, non-crowd boxes of ``manifest``
+    (a COCO instances dict; boxes marked ``area_from_box`` are left out), for every category of it: a category with
+    fewer than :data:`MIN_RATIO_BOXES` such boxes takes the median over all of them. Ratios are dimensionless,
+    rounded to 4 decimals.
+
+    Raises:
+        ValueError: ``manifest`` holds no masked box to measure.
+    """
+    import statistics
+
+    per: dict[int, list[float]] = {}
+    for a in manifest["annotations"]:
+        w, h = a["bbox"][2:]
+        if not a.get("iscrowd") and not a.get("area_from_box") and w * h > 0:
+            per.setdefault(a["category_id"], []).append(a["area"] / (w * h))
+    pooled = [r for rs in per.values() for r in rs]
+    if not pooled:
+        raise ValueError("the set holds no box with a mask area to estimate other boxes' areas from")
+    everyone = statistics.median(pooled)
+    return {c["id"]: round(statistics.median(per[c["id"]]) if len(per.get(c["id"], [])) >= MIN_RATIO_BOXES
+                           else everyone, 4) for c in manifest["categories"]}
+
+
+def read_yolo_labels(path: Path, width: int, height: int) -> list[tuple[int, list[float]]]:
+    """The boxes of one Ultralytics YOLO label file as (COCO80 class index, [x, y, w, h] pixels of a ``width`` ×
+    ``height`` image, rounded to 2 decimals), in file order.
+
+    Raises:
+        ValueError: a line is not ``class cx cy w h`` with a class in 0–79 and fractions in [0, 1] (the message names
+            the file and line).
+    """
+    boxes = []
+    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        fields = line.split()
+        try:
+            cls, cx, cy, w, h = int(fields[0]), *(float(v) for v in fields[1:])
+            ok = len(fields) == 5 and 0 <= cls < 80 and all(0.0 <= v <= 1.0 for v in (cx, cy, w, h))
+        except (ValueError, IndexError):
+            ok = False
+        if not ok:
+            raise ValueError(f"{path}:{n}: not a YOLO label line `class cx cy w h` (class 0-79, fractions 0-1)")
+        boxes.append((cls, [round(v, 2) for v in ((cx - w / 2) * width, (cy - h / 2) * height, w * width,
+                                                   h * height)]))
+    return boxes
+
+
+def box_source(labels: Path, info: dict, image_dir: Path, categories: list[dict], ratios: dict[int, float],
+               known: set[int]) -> dict:
+    """A COCO instances dict of the images in ``image_dir`` that ``info`` (a COCO file's ``images`` and
+    ``licenses``) names, ``labels`` holds a label file of, and ``known`` (image ids already in the set) does not
+    hold: their boxes from the labels (:func:`read_yolo_labels`), each with ``category_id`` by COCO80 name in
+    ``categories``, ``iscrowd`` 0, an ``area`` estimated as box area × ``ratios`` (pixels², 2 decimals),
+    ``area_from_box`` 1 and an id from :data:`BOX_ID_BASE`.
+
+    Raises:
+        ValueError: a label file is malformed, or ``categories`` lacks a COCO80 class.
+    """
+    from benchbot_task_semslam.coco import COCO80
+
+    by_name = {c["name"]: c["id"] for c in categories}
+    missing = [n for n in COCO80 if n not in by_name]
+    if missing:
+        raise ValueError(f"the set's categories lack COCO classes {missing[:3]}: extend a COCO val2017 set")
+    images, boxes = [], []
+    for im in info["images"]:
+        label = labels / f"{Path(im['file_name']).stem}.txt"
+        if im["id"] in known or not (image_dir / im["file_name"]).is_file() or not label.is_file():
+            continue
+        images.append(im)
+        for k, (cls, bbox) in enumerate(read_yolo_labels(label, im["width"], im["height"])):
+            cat = by_name[COCO80[cls]]
+            boxes.append({"id": BOX_ID_BASE + 1000 * im["id"] + k, "image_id": im["id"], "category_id": cat,
+                          "iscrowd": 0, "bbox": bbox, "area": round(bbox[2] * bbox[3] * ratios[cat], 2),
+                          "area_from_box": 1})
+    return {"licenses": info.get("licenses", []), "categories": categories, "images": images, "annotations": boxes}
+
+
+def extend(out: Path, sources: list[tuple[Path, Path, Path]], origins: list[str], max_side: int,
+           quality: int) -> dict:
+    """Add the photos of box-only ``sources`` ((label folder, COCO image-info file, image folder) each;
+    :func:`box_source`) to the set in ``out``, which keeps its photos and boxes as they are; its mask / box ratios
+    (:func:`area_ratios`) estimate the new boxes' areas. Writes the manifest (``info``: ``area_ratios`` by
+    category id, ``origins`` the set's and the new ``origins`` not yet among them) and returns it (``main`` writes
+    ``ATTRIBUTION.md`` from it).
+
+    Raises:
+        OSError, ValueError: the set or a source cannot be read, or a source is malformed.
+    """
+    manifest = read_instances(out / MANIFEST)
+    ratios = area_ratios(manifest)
+    known = {im["id"] for im in manifest["images"]}
+    added = 0
+    for labels, info_path, image_dir in sources:
+        data = box_source(labels, read_instances(info_path, ("images",)), image_dir, manifest["categories"], ratios, known)
+        if licence_key(data["licenses"]) != licence_key(manifest["licenses"]):
+            raise ValueError(f"{info_path}: its licence list differs from the set's")
+        new = build(data, {im["id"]: image_dir for im in data["images"]}, out, max_side, quality, write=False)
+        manifest["images"] += new["images"]
+        manifest["annotations"] += new["annotations"]
+        known |= {im["id"] for im in new["images"]}
+        added += len(new["images"])
+    info = {k: v for k, v in manifest["info"].items() if k not in ("origins", "area_ratios")}
+    held = manifest["info"].get("origins", [])
+    manifest["info"] = {**info, "origins": [*held, *(o for o in origins if o not in held)],
+                        "area_ratios": {str(k): v for k, v in ratios.items()}}
     (out / MANIFEST).write_text(json.dumps(manifest, indent=0) + "\n", encoding="utf-8")
     return manifest
 
@@ -177,10 +315,10 @@ ATTRIBUTION_HEAD = """# Attribution: real-photo reference (COCO val2017)
 The photos in this folder are images of the **COCO 2017 validation set** (val2017; T.-Y. Lin et al., "Microsoft COCO:
 Common Objects in Context", ECCV 2014, https://cocodataset.org), not of its training set: the realism benchmark's
 detectors were trained on train2017. They are the val2017 images with at least one box of a BEAR class other than
-`person`, from these public repositories, which commit val2017 subsets with COCO's own annotations:
+`person`, from these public repositories, which commit val2017 images with COCO's annotations:
 
 {origins}
-
+{box_note}
 **The photos have been modified:** re-encoded as JPEG (quality {quality}, longest side at most {max_side} pixels) by
 `tools/realism_photos.py`, which also wrote `coco_val2017.json` (their COCO annotations, boxes only, scaled with them).
 
@@ -198,11 +336,21 @@ detectors were trained on train2017. They are the val2017 images with at least o
 """
 
 
-def attribution(manifest: dict, origins: list[str], quality: int, max_side: int) -> str:
-    """The ``ATTRIBUTION.md`` text of a manifest: sources, licences, one row a photo."""
+BOX_NOTE = """
+The photos whose boxes come from YOLO labels (the last source above; `"area_from_box": 1` on their boxes in
+`coco_val2017.json`) have COCO's boxes, as Ultralytics converted COCO's annotations, without masks or crowd regions:
+their mask areas are estimates, each box's area times its class's median mask / box area ratio over the photos with
+masks (`info.area_ratios`, by COCO category id).
+"""
+
+
+def attribution(manifest: dict, quality: int, max_side: int) -> str:
+    """The ``ATTRIBUTION.md`` text of a manifest: its sources (``info.origins``), licences, one row a photo."""
     lic = {entry["id"]: entry for entry in manifest["licenses"]}
+    origins = manifest["info"].get("origins", [])
+    estimated = any(a.get("area_from_box") for a in manifest["annotations"])
     head = ATTRIBUTION_HEAD.format(origins="\n".join(f"- {o}" for o in origins) or "- (not given)",
-                                   quality=quality, max_side=max_side)
+                                   box_note=BOX_NOTE if estimated else "", quality=quality, max_side=max_side)
     rows = []
     for im in manifest["images"]:
         entry = lic.get(im.get("license"), {"name": "unknown", "url": ""})
@@ -214,18 +362,30 @@ def attribution(manifest: dict, origins: list[str], quality: int, max_side: int)
 def main(argv: list[str] | None = None) -> int:
     """Build the set; 0 on success, 2 with one line on a bad file."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--source", nargs=2, action="append", required=True, metavar=("ANNOTATIONS", "IMAGE_DIR"))
+    ap.add_argument("--source", nargs=2, action="append", default=[], metavar=("ANNOTATIONS", "IMAGE_DIR"),
+                    help="a COCO instances file of val2017 images and their folder (builds a new set)")
+    ap.add_argument("--extend", action="store_true",
+                    help="add the photos of --box-source to the set in --out, keeping what it holds")
+    ap.add_argument("--box-source", nargs=3, action="append", default=[],
+                    metavar=("LABEL_DIR", "IMAGE_INFO", "IMAGE_DIR"),
+                    help="with --extend: YOLO labels of val2017, a COCO file giving the images' sizes and licences "
+                         "(captions_val2017.json), and a folder of images")
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     ap.add_argument("--origin", action="append", default=[],
                     help="where the sources come from (a repository and commit), one line each in ATTRIBUTION.md")
     ap.add_argument("--quality", type=int, default=90)
     ap.add_argument("--max-side", type=int, default=640)
     args = ap.parse_args(argv)
+    if args.extend != bool(args.box_source) or args.extend == bool(args.source):
+        ap.error("give --source (a new set) or --extend with --box-source (add to the set in --out)")
     try:
-        sources = [(read_instances(Path(ann)), Path(d)) for ann, d in args.source]
-        data, folder = merge(sources)
-        manifest = build(data, folder, args.out, args.max_side, args.quality)
-        (args.out / "ATTRIBUTION.md").write_text(attribution(manifest, args.origin, args.quality, args.max_side),
+        if args.extend:
+            manifest = extend(args.out, [tuple(map(Path, s)) for s in args.box_source], args.origin,
+                              args.max_side, args.quality)
+        else:
+            data, folder = merge([(read_instances(Path(ann)), Path(d)) for ann, d in args.source])
+            manifest = build(data, folder, args.out, args.max_side, args.quality, origins=args.origin)
+        (args.out / "ATTRIBUTION.md").write_text(attribution(manifest, args.quality, args.max_side),
                                                  encoding="utf-8")
     except (OSError, ValueError, KeyError) as exc:
         print(f"error: {exc}", file=sys.stderr)
