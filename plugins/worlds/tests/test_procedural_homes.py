@@ -11,17 +11,26 @@ import pytest
 
 from benchbot_worlds.bear import DATA_DIR
 from benchbot_worlds.procedural.generator import generate_home
-from benchbot_worlds.procedural.objects import BEAR_CLASS_COUNTS, BEAR_FORMS, BEAR_SIZES, bear_proportions, draw_size
+from benchbot_worlds.procedural.objects import (BEAR_CLASS_COUNTS, BEAR_FORMS, BEAR_GROUPS, BEAR_SIZES,
+                                                bear_proportions, draw_object, draw_size)
 
 
 def test_class_counts_and_sizes_are_bears():
     counts = collections.Counter()
     sides = collections.defaultdict(list)
+    kinds = collections.defaultdict(list)
     for f in sorted(DATA_DIR.glob("*.json")):
         for o in json.loads(f.read_text())["ground_truth"]["objects"]:
             counts[o["class"]] += 1
             e = np.abs(np.asarray(o["extent"], float))
             sides[o["class"]].append([min(e[:2]), max(e[:2]), e[2]])
+            kinds[o["class"], bool(o["isgroup"])].append(sides[o["class"]][-1])
+    assert {cls for cls, group in kinds if group} == set(BEAR_GROUPS)  # every class with groups, and only those
+    for cls, by_kind in BEAR_GROUPS.items():
+        for group, (count, (lo, med, hi)) in by_kind.items():
+            v = np.array(kinds[cls, group])
+            assert len(v) == count
+            np.testing.assert_allclose([v.min(0), np.median(v, 0), v.max(0)], [lo, med, hi], atol=1e-3)
     assert dict(counts) == BEAR_CLASS_COUNTS and sum(counts.values()) == 369
     for cls, (lo, med, hi) in BEAR_SIZES.items():
         v = np.array(sides[cls])
@@ -48,6 +57,36 @@ def test_laptops_are_drawn_open_and_closed_in_bears_proportion():
     for part, form in ((sizes[is_open], "open"), (sizes[~is_open], "closed")):
         lo, _, hi = BEAR_FORMS["laptop"][form][2]
         assert (part >= np.array(lo) - 1e-9).all() and (part <= np.array(hi) + 1e-9).all()
+
+
+def test_books_are_drawn_single_and_grouped_in_bears_proportion():
+    """BEAR has 9 single books and 29 groups (rows and piles): 3,800 draws give a group share near 29/38, each size
+    inside its kind's range; other classes are never groups."""
+    rng = np.random.default_rng(0)
+    draws = [draw_object(rng, "book") for _ in range(3800)]
+    group = np.array([g for _, g in draws])
+    assert abs(group.mean() - 29 / 38) < 0.03
+    sizes = np.array([s for s, _ in draws])
+    for part, kind in ((sizes[group], True), (sizes[~group], False)):
+        lo, _, hi = BEAR_GROUPS["book"][kind][1]
+        assert (part >= np.array(lo) - 1e-9).all() and (part <= np.array(hi) + 1e-9).all()
+    assert not any(draw_object(rng, "cup")[1] for _ in range(50))
+
+
+def test_generated_books_carry_their_group_flag_into_the_ground_truth():
+    """The ground truth marks a generated book ``isgroup`` as BEAR's rows and piles are, in about BEAR's share over
+    a few homes; no object of another class is a group."""
+    books = others = 0
+    groups = []
+    for seed in range(8):
+        for o in generate_home(seed, f"procedural_test_{seed}").variants[0]["ground_truth"]["objects"]:
+            if o["class"] == "book":
+                books += 1
+                groups.append(o["isgroup"])
+            else:
+                others += o["isgroup"]
+    assert books >= 30 and others == 0
+    assert 0.55 < np.mean(groups) < 0.95, (books, np.mean(groups))
 
 
 def test_variant_changes_are_measured_on_bear():

@@ -30,10 +30,10 @@ from benchbot_worlds.procedural.objects import place_home
 from benchbot_worlds.procedural.rooms import generate_layout
 from benchbot_worlds.procedural.variants import LIGHTINGS, make_variants
 
-#: The generator's version: bump it whenever the output of any seed may change (docs/worlds.md, *Versions*: 3 keeps
-#: the floor in front of a refrigerator clear; 2 draws laptops open or closed in BEAR's proportion; 1 drew every
-#: laptop closed).
-GENERATOR_VERSION = 3
+#: The generator's version: bump it whenever the output of any seed may change (docs/worlds.md, *Versions*: 4 draws
+#: books as single books or groups in BEAR's proportion, groups marked ``isgroup``; 3 keeps the floor in front of a
+#: refrigerator clear; 2 draws laptops open or closed in BEAR's proportion; 1 drew every laptop closed).
+GENERATOR_VERSION = 4
 #: Candidate objects tried per object dropped to clear the robot's way (:func:`_clear_the_way`).
 REPAIR_TRIES = 6
 #: BEAR's class list (30 classes, background last).
@@ -60,7 +60,7 @@ def _r(v) -> float:
 def _gt_object(o: dict, id_name: str) -> dict:
     lo, hi = np.round(o["lo"], 6), np.round(o["hi"], 6)
     return {"class": o["class"], "ID_name": id_name, "centroid": [_r(v) for v in (lo + hi) / 2],
-            "extent": [_r(v) for v in hi - lo], "isgroup": False}
+            "extent": [_r(v) for v in hi - lo], "isgroup": bool(o.get("isgroup", False))}
 
 
 def _id_names(objects: list[dict]) -> list[str]:

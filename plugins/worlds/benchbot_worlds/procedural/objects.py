@@ -8,9 +8,12 @@ arXiv:2009.05246; ground truths of benchbot-addons ``ground_truths_isaac_develop
 
     python -c "import json,glob,numpy as np; ..."   # per class: min/median/max of sorted xy extents and z extent
 
-and :data:`BEAR_FORMS` the same per form of a class whose objects differ in shape (laptops: closed or open), told
-apart by height (plugins/worlds/tests/test_procedural_homes.py recomputes all three from the bundled files). An
-object's size is BEAR's median of its class, or of a form drawn in BEAR's proportion, ± 15 % (:func:`draw_size`).
+:data:`BEAR_FORMS` the same per form of a class whose objects differ in shape (laptops: closed or open), told
+apart by height, and :data:`BEAR_GROUPS` the same for single objects and groups (BEAR's ``isgroup``: a row or a pile
+of books as one cuboid) of a class that has both (plugins/worlds/tests/test_procedural_homes.py recomputes all four
+from the bundled files). An object's size is BEAR's median of its class, or of a form or kind drawn in BEAR's
+proportion, ± 15 % (:func:`draw_object`); a group is marked ``isgroup`` in the ground truth, as BEAR's are (since
+generator version 4).
 The seven classes BEAR never has (knife, wine glass, fork, cake, cell phone, microwave, oven) are not generated: a
 goodness-of-fit test against BEAR's proportions has zero expected counts for them.
 
@@ -85,6 +88,15 @@ BEAR_FORMS = {
         "open": (1.0, 2, ((0.386, 0.389, 0.237), (0.403, 0.411, 0.266), (0.42, 0.433, 0.296))),
     },
 }
+#: Classes whose BEAR objects are single objects or groups (``isgroup``): per kind (False: single, True: group),
+#: BEAR's count and the (min, median, max) of its (shorter side, longer side, height). All 29 of BEAR's groups are
+#: books (rows and piles); its 9 single books lie flat (3.6 cm) but one, which stands (18.9 cm).
+BEAR_GROUPS = {
+    "book": {
+        False: (9, ((0.049, 0.166, 0.036), (0.297, 0.311, 0.036), (0.297, 0.311, 0.189))),
+        True: (29, ((0.188, 0.26, 0.055), (0.247, 0.289, 0.131), (0.337, 0.339, 0.305))),
+    },
+}
 #: Table heights by role (m), inside BEAR's table heights (0.30-0.91).
 TABLE_HEIGHT_M = {"dining": (0.72, 0.78), "desk": (0.72, 0.76), "coffee": (0.35, 0.45), "side": (0.45, 0.6),
                   "stand": (0.4, 0.55)}
@@ -149,24 +161,39 @@ def quota(rng: np.random.Generator, layout: Layout) -> dict[str, int]:
     return {k: int(v) for k, v in zip(names, base)}
 
 
-def draw_size(rng: np.random.Generator, cls: str, form_rng: np.random.Generator | None = None) -> np.ndarray:
-    """(3,) float64 (shorter side, longer side, height) of a ``cls`` object: BEAR's median scaled by exp(U(-0.15,
-    0.15)) per dimension, clipped to BEAR's range (:data:`BEAR_SIZES`), rounded to 1 mm. A class of
-    :data:`BEAR_FORMS` first draws its form with BEAR's proportions (an open laptop 2 times in 7) from ``form_rng``
-    (default ``rng``), then a size of that form the same way.
+def draw_object(rng: np.random.Generator, cls: str,
+                form_rng: np.random.Generator | None = None) -> tuple[np.ndarray, bool]:
+    """((3,) float64 (shorter side, longer side, height) in metres, ``isgroup``) of a ``cls`` object: BEAR's median
+    scaled by exp(U(-0.15, 0.15)) per dimension, clipped to BEAR's range (:data:`BEAR_SIZES`), rounded to 1 mm. A
+    class of :data:`BEAR_FORMS` first draws its form with BEAR's proportions (an open laptop 2 times in 7), a class
+    of :data:`BEAR_GROUPS` whether it is a group (a book 29 times in 38), from ``form_rng`` (default ``rng``), then
+    a size of that form or kind the same way; ``isgroup`` is False for every other class.
 
     Raises:
         KeyError: ``cls`` is not one of :data:`BEAR_SIZES`' classes.
     """
-    sizes = BEAR_SIZES[cls]
+    sizes, group = BEAR_SIZES[cls], False
     if cls in BEAR_FORMS:
         forms = list(BEAR_FORMS[cls].values())
         counts = np.array([f[1] for f in forms], dtype=np.float64)
         sizes = forms[int((form_rng or rng).choice(len(forms), p=counts / counts.sum()))][2]
+    elif cls in BEAR_GROUPS:
+        counts = np.array([BEAR_GROUPS[cls][False][0], BEAR_GROUPS[cls][True][0]], dtype=np.float64)
+        group = bool((form_rng or rng).choice(2, p=counts / counts.sum()))
+        sizes = BEAR_GROUPS[cls][group][1]
     lo, med, hi = (np.asarray(v) for v in sizes)
     s = np.clip(med * np.exp(rng.uniform(-0.15, 0.15, 3)), lo, hi)
     s[:2] = np.sort(s[:2])
-    return np.round(s, 3)
+    return np.round(s, 3), group
+
+
+def draw_size(rng: np.random.Generator, cls: str, form_rng: np.random.Generator | None = None) -> np.ndarray:
+    """The size of :func:`draw_object` alone: (3,) float64 (shorter side, longer side, height), metres.
+
+    Raises:
+        KeyError: ``cls`` is not one of :data:`BEAR_SIZES`' classes.
+    """
+    return draw_object(rng, cls, form_rng)[0]
 
 
 def table_size(rng: np.random.Generator, role: str) -> np.ndarray:
@@ -279,9 +306,13 @@ class _Home:
         """:func:`draw_size` of ``cls`` from this home's streams."""
         return draw_size(self.rng, cls, self.form_rng)
 
-    def add(self, cls: str, lo, hi, room: int, role: str = "") -> int:
+    def draw_object(self, cls: str) -> tuple[np.ndarray, bool]:
+        """:func:`draw_object` of ``cls`` from this home's streams: (size, isgroup)."""
+        return draw_object(self.rng, cls, self.form_rng)
+
+    def add(self, cls: str, lo, hi, room: int, role: str = "", group: bool = False) -> int:
         self.objects.append({"class": cls, "lo": np.asarray(lo, float), "hi": np.asarray(hi, float), "room": room,
-                             "role": role})
+                             "role": role, "isgroup": group})
         if cls == "table":
             self.tops[len(self.objects) - 1] = []
         return len(self.objects) - 1
@@ -339,8 +370,9 @@ class _Home:
         lo, hi = box[0], box[1]
         return self.add(cls, [lo[0], lo[1], 0.0], [hi[0], hi[1], float(size[2])], room, role)
 
-    def on_table(self, cls: str, size, tables: list[int]) -> bool:
-        """Stand a ``cls`` object of ``size`` on the top of one of ``tables`` (tried in a seeded order)."""
+    def on_table(self, cls: str, size, tables: list[int], group: bool = False) -> bool:
+        """Stand a ``cls`` object of ``size`` (a group when ``group``: BEAR's ``isgroup``) on the top of one of
+        ``tables`` (tried in a seeded order)."""
         def used(ti):
             return float(sum((b[0] - a[0]) * (b[1] - a[1]) for a, b in self.tops[ti])) / float(
                 (self.objects[ti]["hi"][0] - self.objects[ti]["lo"][0])
@@ -371,7 +403,7 @@ class _Home:
                 lo, hi = los[free[0]].copy(), his[free[0]].copy()
                 self.tops[ti].append((lo, hi))
                 z = float(t["hi"][2])
-                self.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on")
+                self.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on", group)
                 return True
         if cls == "book":  # a stack: on a book of at least this footprint, at most three high
             for i, o in enumerate(self.objects):
@@ -382,7 +414,7 @@ class _Home:
                     o["covered"] = True
                     z = float(o["hi"][2])
                     j = self.add(cls, [lo[0], lo[1], z], [lo[0] + xy[0], lo[1] + xy[1], z + float(size[2])],
-                                 o["room"], "on")
+                                 o["room"], "on", group)
                     self.objects[j]["stack"] = o.get("stack", 0) + 1
                     return True
         return False
@@ -605,9 +637,9 @@ def _leftovers(h: _Home, left: dict) -> None:
     small = [c for c in SMALL_CLASSES for _ in range(left[c])]
     todo += [small[i] for i in h.rng.permutation(len(small))]
     for cls in todo:
-        size = h.draw_size(cls)
+        size, group = h.draw_object(cls)
         first = desks if cls in DESK_CLASSES else kitchen if cls == "toaster" else []
-        if not (first and h.on_table(cls, size, first)) and not h.on_table(cls, size, sorted(h.tops)):
+        if not (first and h.on_table(cls, size, first, group)) and not h.on_table(cls, size, sorted(h.tops), group):
             h.notes.append(f"objects: no place for a {cls}; dropped")
         left[cls] -= 1
 

@@ -61,7 +61,8 @@ def _add(home: objs._Home, cls: str) -> int | None:
     n = len(home.objects)
     rooms = [r.index for r in home.layout.rooms if r.kind != "bathroom"] or [r.index for r in home.layout.rooms]
     if cls in objs.SMALL_CLASSES + objs.DESK_CLASSES + ("tv",):
-        ok = bool(home.tops) and home.on_table(cls, home.draw_size(cls), sorted(home.tops))
+        size, group = home.draw_object(cls)
+        ok = bool(home.tops) and home.on_table(cls, size, sorted(home.tops), group)
     else:
         ok = objs._floor_anywhere(home, cls, rooms)
     return n if ok and len(home.objects) > n else None
