@@ -965,9 +965,15 @@ def test_the_photo_tool_extends_a_set_with_box_only_photos_and_keeps_what_it_hel
     assert len(err.splitlines()) == 1 and "000000000040.txt:1" in err, err
     (labels / "000000000040.txt").write_text("56 0.5 0.5 0.2 0.2\n")
     _photo(images / "000000000040.jpg", 50, 50)
+    (labels / "000000000050.txt").write_text("56 0.5 0.5 0.2 0.2\n")
+    _photo(images / "000000000050.jpg", 100, 50)
+    info["images"].append({**info["images"][-1], "id": 50, "file_name": "000000000050.jpg"})
+    (tmp_path / "captions.json").write_text(json.dumps(info))
+    held = sorted(p.name for p in out.iterdir()), (out / "coco_val2017.json").read_bytes()
     assert photo_tool.main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "000000000040.jpg: 50x50 pixels" in err, err
+    assert (sorted(p.name for p in out.iterdir()), (out / "coco_val2017.json").read_bytes()) == held  # 50 not written
 
 
 def test_the_photo_tool_takes_new_sources_or_an_extension_not_both(photo_tool, tmp_path, capsys):

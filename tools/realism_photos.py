@@ -35,6 +35,8 @@ import json
 import sys
 from pathlib import Path
 
+from benchbot.core import atomic
+
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO / "benchmarks" / "realism" / "photos"
 MANIFEST = "coco_val2017.json"
@@ -87,18 +89,11 @@ def kept_images(data: dict, classes: set[str]) -> list[dict]:
     return out
 
 
-def reencode(src: Path, max_side: int, quality: int, size: tuple[int, int] | None = None) -> tuple[bytes, float]:
-    """JPEG bytes of the image at ``src`` (RGB, longest side at most ``max_side``, Lanczos) and the scale applied.
-
-    Raises:
-        ValueError: the image is not ``size`` (width, height) pixels, when given: its boxes would not fit it.
-    """
+def reencode(src: Path, max_side: int, quality: int) -> tuple[bytes, float]:
+    """JPEG bytes of the image at ``src`` (RGB, longest side at most ``max_side``, Lanczos) and the scale applied."""
     from PIL import Image
 
     with Image.open(src) as im:
-        if size is not None and tuple(im.size) != tuple(size):
-            raise ValueError(f"{src}: {im.size[0]}x{im.size[1]} pixels, but its annotations are of a "
-                             f"{size[0]}x{size[1]} image; give the original val2017 image")
         im = im.convert("RGB")
         scale = min(1.0, max_side / max(im.size))
         if scale < 1.0:
@@ -174,8 +169,21 @@ def merge(sources: list[tuple[dict, Path]]) -> tuple[dict, dict]:
 def build(data: dict, folder: dict, out: Path, max_side: int, quality: int, write: bool = True,
           origins: list[str] | None = None) -> dict:
     """Write the kept photos of ``data`` (each read from ``folder[image id]``) under ``out`` and return the manifest
-    (see the module docstring; ``info.origins``: ``origins``), also written unless ``write`` is false."""
+    (see the module docstring; ``info.origins``: ``origins``), also written unless ``write`` is false.
+
+    Raises:
+        ValueError: an image is not the size its annotations give (checked for all before any is written: its boxes
+            would not fit it).
+    """
+    from PIL import Image
+
     images = kept_images(data, bear_classes())
+    for im in images:  # every image's size before any is written, so that a bad one leaves the set as it was
+        with Image.open(folder[im["id"]] / im["file_name"]) as f:
+            if tuple(f.size) != (im["width"], im["height"]):
+                raise ValueError(f"{folder[im['id']] / im['file_name']}: {f.size[0]}x{f.size[1]} pixels, but its "
+                                 f"annotations are of a {im['width']}x{im['height']} image; give the original "
+                                 "val2017 image")
     out.mkdir(parents=True, exist_ok=True)
     manifest = {"info": {**data.get("info", {}), "subset": "COCO val2017 photos with a BEAR-class box, re-encoded "
                          f"JPEG q{quality}, longest side <= {max_side}; boxes scaled with them",
@@ -183,8 +191,8 @@ def build(data: dict, folder: dict, out: Path, max_side: int, quality: int, writ
                 "licenses": data.get("licenses", []), "categories": data["categories"], "images": [],
                 "annotations": []}
     for im in images:
-        jpeg, scale = reencode(folder[im["id"]] / im["file_name"], max_side, quality, (im["width"], im["height"]))
-        (out / im["file_name"]).write_bytes(jpeg)
+        jpeg, scale = reencode(folder[im["id"]] / im["file_name"], max_side, quality)
+        atomic.write_bytes(out / im["file_name"], jpeg)
         keys = ("id", "file_name", "license", "flickr_url", "coco_url", "date_captured")
         manifest["images"].append({**{k: im[k] for k in keys if k in im},
                                    "width": round(im["width"] * scale), "height": round(im["height"] * scale)})
@@ -196,7 +204,7 @@ def build(data: dict, folder: dict, out: Path, max_side: int, quality: int, writ
                                                 "area": round(a["area"] * scale * scale, 2),
                                                 **({"area_from_box": 1} if a.get("area_from_box") else {})})
     if write:
-        (out / MANIFEST).write_text(json.dumps(manifest, indent=0) + "\n", encoding="utf-8")
+        atomic.write_bytes(out / MANIFEST, (json.dumps(manifest, indent=0) + "\n").encode("utf-8"))
     return manifest
 
 
@@ -292,21 +300,20 @@ def extend(out: Path, sources: list[tuple[Path, Path, Path]], origins: list[str]
     manifest = read_instances(out / MANIFEST)
     ratios = area_ratios(manifest)
     known = {im["id"] for im in manifest["images"]}
-    added = 0
     for labels, info_path, image_dir in sources:
-        data = box_source(labels, read_instances(info_path, ("images",)), image_dir, manifest["categories"], ratios, known)
+        data = box_source(labels, read_instances(info_path, ("images",)), image_dir, manifest["categories"], ratios,
+                          known)
         if licence_key(data["licenses"]) != licence_key(manifest["licenses"]):
             raise ValueError(f"{info_path}: its licence list differs from the set's")
         new = build(data, {im["id"]: image_dir for im in data["images"]}, out, max_side, quality, write=False)
         manifest["images"] += new["images"]
         manifest["annotations"] += new["annotations"]
         known |= {im["id"] for im in new["images"]}
-        added += len(new["images"])
     info = {k: v for k, v in manifest["info"].items() if k not in ("origins", "area_ratios")}
     held = manifest["info"].get("origins", [])
     manifest["info"] = {**info, "origins": [*held, *(o for o in origins if o not in held)],
                         "area_ratios": {str(k): v for k, v in ratios.items()}}
-    (out / MANIFEST).write_text(json.dumps(manifest, indent=0) + "\n", encoding="utf-8")
+    atomic.write_bytes(out / MANIFEST, (json.dumps(manifest, indent=0) + "\n").encode("utf-8"))
     return manifest
 
 
@@ -385,8 +392,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             data, folder = merge([(read_instances(Path(ann)), Path(d)) for ann, d in args.source])
             manifest = build(data, folder, args.out, args.max_side, args.quality, origins=args.origin)
-        (args.out / "ATTRIBUTION.md").write_text(attribution(manifest, args.quality, args.max_side),
-                                                 encoding="utf-8")
+        atomic.write_bytes(args.out / "ATTRIBUTION.md",
+                           attribution(manifest, args.quality, args.max_side).encode("utf-8"))
     except (OSError, ValueError, KeyError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
