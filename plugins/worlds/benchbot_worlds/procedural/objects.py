@@ -8,13 +8,12 @@ arXiv:2009.05246; ground truths of benchbot-addons ``ground_truths_isaac_develop
 
     python -c "import json,glob,numpy as np; ..."   # per class: min/median/max of sorted xy extents and z extent
 
-:data:`BEAR_FORMS` the same per form of a class whose objects differ in shape (laptops: closed or open), told
+and :data:`BEAR_FORMS` the same per form of a class whose objects differ in shape (laptops: closed or open), told
 apart by height, and :data:`BEAR_GROUPS` the same for single objects and groups (BEAR's ``isgroup``: a row or a pile
 of books as one cuboid) of a class that has both (plugins/worlds/tests/test_procedural_homes.py recomputes all four
 from the bundled files). An object's size is BEAR's median of its class, or of a form or kind drawn in BEAR's
 proportion, ± 15 % (:func:`draw_object`); a group is marked ``isgroup`` in the ground truth, as BEAR's are (since
-generator version 4).
-The seven classes BEAR never has (knife, wine glass, fork, cake, cell phone, microwave, oven) are not generated: a
+generator version 4). The seven classes BEAR never has (knife, wine glass, fork, cake, cell phone, microwave, oven) are not generated: a
 goodness-of-fit test against BEAR's proportions has zero expected counts for them.
 
 How many of each class: a quota of ``N`` objects apportioned by BEAR's proportions (floor of ``N p`` plus the
