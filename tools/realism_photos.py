@@ -264,7 +264,8 @@ def box_source(labels: Path, info: dict, image_dir: Path, categories: list[dict]
     ``area_from_box`` 1 and an id from :data:`BOX_ID_BASE`.
 
     Raises:
-        ValueError: a label file is malformed, or ``categories`` lacks a COCO80 class.
+        ValueError: a label file is malformed or holds more than 1,000 boxes (the ids' room), or ``categories``
+            lacks a COCO80 class.
     """
     from benchbot_task_semslam.coco import COCO80
 
@@ -278,7 +279,10 @@ def box_source(labels: Path, info: dict, image_dir: Path, categories: list[dict]
         if im["id"] in known or not (image_dir / im["file_name"]).is_file() or not label.is_file():
             continue
         images.append(im)
-        for k, (cls, bbox) in enumerate(read_yolo_labels(label, im["width"], im["height"])):
+        rows = read_yolo_labels(label, im["width"], im["height"])
+        if len(rows) > 1000:  # the ids below leave room for 1,000 boxes a photo (COCO's most is under 100)
+            raise ValueError(f"{label}: {len(rows)} boxes, more than the 1000 a photo may hold; give val2017's labels")
+        for k, (cls, bbox) in enumerate(rows):
             cat = by_name[COCO80[cls]]
             boxes.append({"id": BOX_ID_BASE + 1000 * im["id"] + k, "image_id": im["id"], "category_id": cat,
                           "iscrowd": 0, "bbox": bbox, "area": round(bbox[2] * bbox[3] * ratios[cat], 2),
@@ -309,8 +313,8 @@ def extend(out: Path, sources: list[tuple[Path, Path, Path]], origins: list[str]
         manifest["images"] += new["images"]
         manifest["annotations"] += new["annotations"]
         known |= {im["id"] for im in new["images"]}
-    info = {k: v for k, v in manifest["info"].items() if k not in ("origins", "area_ratios")}
-    held = manifest["info"].get("origins", [])
+    info = {k: v for k, v in manifest.get("info", {}).items() if k not in ("origins", "area_ratios")}
+    held = manifest.get("info", {}).get("origins", [])
     manifest["info"] = {**info, "origins": [*held, *(o for o in origins if o not in held)],
                         "area_ratios": {str(k): v for k, v in ratios.items()}}
     atomic.write_bytes(out / MANIFEST, (json.dumps(manifest, indent=0) + "\n").encode("utf-8"))
@@ -354,7 +358,7 @@ masks (`info.area_ratios`, by COCO category id).
 def attribution(manifest: dict, quality: int, max_side: int) -> str:
     """The ``ATTRIBUTION.md`` text of a manifest: its sources (``info.origins``), licences, one row a photo."""
     lic = {entry["id"]: entry for entry in manifest["licenses"]}
-    origins = manifest["info"].get("origins", [])
+    origins = manifest.get("info", {}).get("origins", [])
     estimated = any(a.get("area_from_box") for a in manifest["annotations"])
     head = ATTRIBUTION_HEAD.format(origins="\n".join(f"- {o}" for o in origins) or "- (not given)",
                                    box_note=BOX_NOTE if estimated else "", quality=quality, max_side=max_side)
