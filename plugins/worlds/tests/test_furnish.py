@@ -485,6 +485,27 @@ def test_bottles_keep_their_proportions_inside_a_wide_cuboid():
     assert np.any(np.abs((bhi - blo) - (hi - lo)) < 1e-9)  # as large as fits: it meets the cuboid on one axis
 
 
+def test_cups_take_no_model_stretched_taller_than_wide_while_one_fits_so():
+    """A teacup on its saucer fitted into a mug-sized cup cuboid would be stretched 1.4 times taller than wide (a
+    vase); the take-away cup fits it instead. A low cuboid (BEAR's teacup) still takes the teacup, and a class with
+    nothing else keeps what it has."""
+    teacup, takeaway = ("teacup", "cup", (0.121, 0.120, 0.068)), ("takeaway", "cup", (0.0855, 0.0868, 0.13))
+    assert FIT.tall_stretch(teacup[2], (0.117, 0.149, 0.119)) == pytest.approx(1.40, abs=0.01)
+    assert FIT.tall_stretch(teacup[2], (0.155, 0.117, 0.065)) < 1.0
+    assert FIT.tall_stretch((0.1, 0.2, 0.3), (0.2, 0.1, 0.3)) == pytest.approx(1.0)  # turned, not stretched
+    assert FIT.tall_stretch((0.1, 0.1, 0.1), (0.1, 0.1, 0.2)) == pytest.approx(2.0)
+    both = AssetLibrary(FULL_LIB[:5] + [obj_asset(*teacup), obj_asset(*takeaway)])
+    mug_box = [gt("cup", [1.0 + j, 2.0, 0.75], [1.117 + j, 2.149, 0.869], f"mug{j}") for j in range(8)]
+    low_box = [gt("cup", [1.0 + j, 3.0, 0.75], [1.155 + j, 3.117, 0.815], f"low{j}") for j in range(8)]
+    res = F.furnish_home(mug_box + low_box, one_room_plan(), both, seed=0)
+    chosen = {p.object_index: p.asset_id for p in res.placements if p.role == "object"}
+    assert [chosen[i] for i in range(8)] == ["takeaway"] * 8
+    assert [chosen[i] for i in range(8, 16)] == ["teacup"] * 8
+    only = AssetLibrary(FULL_LIB[:5] + [obj_asset(*teacup)])
+    res = F.furnish_home(mug_box[:1], one_room_plan(), only, seed=0)
+    assert [p.asset_id for p in res.placements if p.role == "object"] == ["teacup"]
+
+
 # ------------------------------------------------------------------------------------------------ supports
 def _supports(res, lib):
     return [placed_box(lib, p) for p in res.placements if p.role == "support"]

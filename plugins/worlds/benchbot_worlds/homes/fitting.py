@@ -141,6 +141,17 @@ def size_change(size: Sequence[float], ext: Sequence[float], k: int) -> float:
     return float(abs(np.log(ext / size).mean()))
 
 
+def tall_stretch(size: Sequence[float], ext: Sequence[float]) -> float:
+    """How much taller than wide fitting a model of ``size`` (3,) into a box of ``ext`` (3,) makes it: the vertical
+    scale over the larger horizontal one, ``s_z / max(s_x, s_y)``, turned as it distorts least (:func:`distortion`)
+    (1: the model keeps its proportion of height to width; 1.4: a teacup fitted into a mug's box, which reads as a
+    vase)."""
+    size = np.asarray(size, dtype=np.float64)
+    ext = np.asarray(ext, dtype=np.float64)
+    s = size[[1, 0, 2]] if distortion(size, ext, 1) < distortion(size, ext, 0) else size
+    return float(ext[2] / s[2] / max(ext[0] / s[0], ext[1] / s[1]))
+
+
 def choose_model(assets: Sequence[Any], ext: Sequence[float], prefer: np.ndarray | None, weight: float,
                  rng: np.random.Generator, *, size_weight: float = 0.0) -> tuple[Any, int] | None:
     """Seeded choice of (asset, quarter turns) for a box of extents ``ext`` (3,), ``prefer`` the wanted facing (2,)

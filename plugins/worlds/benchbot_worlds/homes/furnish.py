@@ -26,6 +26,8 @@ deterministic per ``seed``; GT is never changed. The steps:
   the top, the keys' near side away from the nearest wall. A class with models tagged :data:`PROPORTIONAL_TAG` (the
   clocks' round dial) takes one of them, never stretched: uniformly scaled into the cuboid against its back
   (:func:`proportional_box`); so does the model chosen for a class of :data:`UNSTRETCHED_CLASSES` (bottles). A
+  class of :data:`NOT_STRETCHED_TALL` (cups) chooses among the models that its cuboid stretches at most
+  :data:`MAX_TALL_STRETCH` taller than wide, if any (a teacup stays in low cuboids). A
   bed's model, chosen for its cuboid, is drawn back from a side where a lower GT object beside it reaches in
   (:mod:`~benchbot_worlds.homes.beds`: BEAR's minirooms box a bed with its headboard, and their nightstand stands
   inside the cuboid). A
@@ -58,7 +60,7 @@ from benchbot_worlds.homes.beds import CLEARED_CLASSES, clear_of_neighbours
 from benchbot_worlds.homes.books import closed_books
 from benchbot_worlds.homes.fitting import (
     FACING_WEIGHT, RANDOM_FACING_WEIGHT, SIZE_WEIGHT, asset_bounds, choose_model, fit_to_cuboid, front_of,
-    transformed_bounds, turns_facing)
+    tall_stretch, transformed_bounds, turns_facing)
 from benchbot_worlds.homes.furnish_space import (
     Furnishing, Placement, Space, gt_box, nearest_wall_away, rect_gap, room_centre, seeded_rng, unit_vector)
 from benchbot_worlds.homes.furnish_supports import (
@@ -172,6 +174,16 @@ FRUIT_BOWL_M = 0.4
 UNSTRETCHED_CLASSES = frozenset(("bottle",))
 
 
+#: Classes whose models are never stretched more than :data:`MAX_TALL_STRETCH` taller than wide
+#: (:func:`~benchbot_worlds.homes.fitting.tall_stretch`), if the class has a model that fits so: the pack's teacup on
+#: its saucer fitted into the procedural homes' mug-sized cup cuboids (0.12 x 0.15 x 0.12 m, BEAR's median) was
+#: stretched 1.75 times in height and 1.24 across (1.4 taller than wide), a vase more than a cup
+#: (docs/history/realism-2026-11.md, *Teacups kept to low cuboids*).
+NOT_STRETCHED_TALL = frozenset(("cup",))
+#: The most a model of :data:`NOT_STRETCHED_TALL` is stretched taller than wide.
+MAX_TALL_STRETCH = 1.2
+
+
 def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnishing, tables: list) -> None:
     """A model for every GT object (module docstring); ``tables``: the (lo, hi) boxes of the home's GT tables (in
     every variant: a chair of several variants faces the same way in all of them)."""
@@ -206,6 +218,8 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
             assets = [a for a in assets if DINING_TAG in getattr(a, "tags", ())] or assets
         if cls == "bowl" and min(hi[0] - lo[0], hi[1] - lo[1]) >= FRUIT_BOWL_M:  # see FRUIT_BOWL_M
             assets = [a for a in assets if FRUIT_TAG in getattr(a, "tags", ())] or assets
+        if cls in NOT_STRETCHED_TALL:  # see NOT_STRETCHED_TALL
+            assets = [a for a in assets if tall_stretch(a.size_m, hi - lo) <= MAX_TALL_STRETCH] or assets
         lo, hi = standing_box(obj, (lo, hi))  # a toilet's bowl boxed alone stands on its own foot
         a, k = choose_model(assets, hi - lo, prefer, weight, rng, size_weight=SIZE_WEIGHT)
         if cls in CLEARED_CLASSES:  # the model chosen for the cuboid, clear of the nightstand beside it
