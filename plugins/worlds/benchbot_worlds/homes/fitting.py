@@ -142,10 +142,11 @@ def size_change(size: Sequence[float], ext: Sequence[float], k: int) -> float:
 
 
 def tall_stretch(size: Sequence[float], ext: Sequence[float]) -> float:
-    """How much taller than wide fitting a model of ``size`` (3,) into a box of ``ext`` (3,) makes it: the vertical
-    scale over the larger horizontal one, ``s_z / max(s_x, s_y)``, turned as it distorts least (:func:`distortion`)
-    (1: the model keeps its proportion of height to width; 1.4: a teacup fitted into a mug's box, which reads as a
-    vase)."""
+    """How much taller than wide fitting a model of ``size`` (3,) into a box of ``ext`` (3,) makes it (both extents in
+    metres along x, y, z, z up; positive): the vertical scale over the larger horizontal one, ``s_z / max(s_x, s_y)``,
+    with the quarter turn that distorts least (:func:`distortion`). 1: the model keeps its proportion of height to
+    width; 1.4: a teacup fitted into a mug's box, which reads as a vase. A float; raises nothing (a zero extent gives
+    0 or inf)."""
     size = np.asarray(size, dtype=np.float64)
     ext = np.asarray(ext, dtype=np.float64)
     s = size[[1, 0, 2]] if distortion(size, ext, 1) < distortion(size, ext, 0) else size

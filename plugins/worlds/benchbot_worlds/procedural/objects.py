@@ -13,8 +13,8 @@ apart by height, and :data:`BEAR_GROUPS` the same for single objects and groups 
 of books as one cuboid) of a class that has both (plugins/worlds/tests/test_procedural_homes.py recomputes all four
 from the bundled files). An object's size is BEAR's median of its class, or of a form or kind drawn in BEAR's
 proportion, ± 15 % (:func:`draw_object`); a group is marked ``isgroup`` in the ground truth, as BEAR's are (since
-generator version 4). The seven classes BEAR never has (knife, wine glass, fork, cake, cell phone, microwave, oven) are not generated: a
-goodness-of-fit test against BEAR's proportions has zero expected counts for them.
+generator version 4). The seven classes BEAR never has (knife, wine glass, fork, cake, cell phone, microwave, oven)
+are not generated: a goodness-of-fit test against BEAR's proportions has zero expected counts for them.
 
 How many of each class: a quota of ``N`` objects apportioned by BEAR's proportions (floor of ``N p`` plus the
 remainders drawn by weight), ``N`` large enough that every bedroom gets a bed and every bathroom a toilet
