@@ -28,8 +28,10 @@ Where (a designer's rules): a bed against a wall of a bedroom (head to the wall;
 bathroom walls; a refrigerator and a sink against kitchen walls, the fridge with :data:`FRIDGE_FRONT_M` of floor
 in front of it that no floor object takes (since generator version 3); a couch against a living-room wall facing a
 tv standing on a low table (tv stand) against the opposite wall, a coffee table between; a dining table (kitchen,
-dining room) free-standing with chairs around it; an office desk (table) against a wall with a chair, a laptop,
-keyboard and mouse on it; side tables in bedrooms; potted plants and persons standing on the floor; small objects
+dining room) free-standing with chairs around it; an office desk (table) against a wall with a chair, and a
+workstation on it: a keyboard at its front edge, a monitor (tv) behind it against the wall, a mouse at its right
+(a home with keyboards and no office gets its desk in a bedroom, else a living room, since generator version 5),
+a laptop beside; side tables in bedrooms; potted plants and persons standing on the floor; small objects
 (cup, bowl, bottle, book, apple, orange, banana, spoon, toaster, clock) on table tops (their bottom exactly on the
 top); potted plants on the floor or a table. Every floor object lies inside its room's clear floor, overlaps no
 other object, keeps the door approaches (:data:`DOOR_APPROACH_M` deep on both sides of each door) clear, and the
@@ -104,6 +106,8 @@ TABLE_TOP_M = {"dining": ((0.8, 1.0), (1.1, 1.6)), "desk": ((0.6, 0.75), (1.1, 1
                (0.9, 1.2)), "side": ((0.45, 0.6), (0.6, 1.0)), "stand": ((0.4, 0.5), (1.0, 1.5))}
 SMALL_CLASSES = ("bowl", "book", "cup", "bottle", "clock", "apple", "orange", "banana", "spoon", "toaster")
 DESK_CLASSES = ("laptop", "keyboard", "mouse")
+#: Rooms, in order, that take a desk for the keyboards of a home with no office (:func:`_workstations`).
+WORKSTATION_ROOMS = ("bedroom", "living_room", "dining_room", "hall")
 #: Least objects per m² of floor; the robot's radius (m); door approach depth (m); gaps (m); draws per object.
 DENSITY_PER_M2 = 0.8
 ROBOT_RADIUS_M = 0.35
@@ -559,12 +563,73 @@ def _furnish_room(h: _Home, room: int, kind: str, left: dict, share: dict) -> No
         _living(h, room, left)
     elif kind == "dining_room":
         _dining(h, room, left, 6)
-    elif kind == "office" and left["table"] > 0:
-        got = _table(h, room, "desk", True)
-        if got is not None:
-            left["table"] -= 1
-            if left["chair"] > 0:
-                left["chair"] -= _chairs_around(h, got[0], room, 1, desk_side=_opposite(got[1]))
+    elif kind == "office":
+        _desk(h, room, left)
+
+
+def _desk(h: _Home, room: int, left: dict) -> bool:
+    """A desk (a table of role "desk") against a wall of ``room`` with a chair at its free side, when the quota has a
+    table left; its wall side ``(axis, sign)`` is kept as the desk's ``"wall"``. Whether one was placed."""
+    if left["table"] <= 0:
+        return False
+    got = _table(h, room, "desk", True)
+    if got is None:
+        return False
+    left["table"] -= 1
+    h.objects[got[0]]["wall"] = got[1]
+    if left["chair"] > 0:
+        left["chair"] -= _chairs_around(h, got[0], room, 1, desk_side=_opposite(got[1]))
+    return True
+
+
+def _workstation(h: _Home, desk: int, left: dict) -> bool:
+    """A keyboard at the front edge of ``desk`` (the side away from its wall), its long side along the wall, with a
+    monitor (a ``tv`` of the quota, if one is left) behind it against the wall and a mouse (if one is left) at the
+    typist's right, as BEAR's one desk stands (house:1-5: a monitor 0.34 m behind the keyboard, the mouse beside it).
+    Footprints are kept in ``h.tops[desk]`` so that later objects keep clear of them; what the top has no room for
+    is not placed. Whether the keyboard was placed."""
+    t = h.objects[desk]
+    ax, sg = t["wall"]
+    o = 1 - ax
+    top_lo, top_hi = t["lo"][:2], t["hi"][:2]
+    kb = h.draw_size("keyboard")
+    mon = h.draw_size("tv") if left["tv"] > 0 else None
+    mouse = h.draw_size("mouse") if left["mouse"] > 0 else None
+    typist_right = np.zeros(2)
+    typist_right[o] = -sg if ax == 0 else sg  # facing the wall (+sg along ax): right is (f_y, -f_x)
+    span = float(top_hi[o] - top_lo[o]) - 0.04
+    side_room = (float(mouse[1]) + 0.06) if mouse is not None else 0.0
+    free = span - float(kb[1]) - side_room
+    if free < 0 or float(top_hi[ax] - top_lo[ax]) < float(kb[0]) + 0.1 + (float(mon[0]) + 0.08 if mon is not None else 0):
+        return False
+    # the keyboard's centre along the wall: the mouse's room kept on the typist's right
+    start = float(top_lo[o]) + 0.02 + (side_room if typist_right[o] < 0 else 0.0)
+    c_o = start + float(h.rng.uniform(0, free)) + float(kb[1]) / 2
+    front = float(top_hi[ax]) if sg < 0 else float(top_lo[ax])  # the edge away from the wall
+    inset = float(h.rng.uniform(0.05, 0.1))
+    placed = []
+
+    def put(cls, size, centre_ax, centre_o):
+        lo, hi = np.zeros(2), np.zeros(2)
+        lo[ax], hi[ax] = centre_ax - size[0] / 2, centre_ax + size[0] / 2
+        lo[o], hi[o] = centre_o - size[1] / 2, centre_o + size[1] / 2
+        lo, hi = np.round(lo, 6), np.round(hi, 6)
+        h.tops[desk].append((lo, hi))
+        z = float(t["hi"][2])
+        placed.append(h.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on"))
+        left[cls] -= 1
+
+    inward = -sg  # from the wall toward the room
+    kb_ax = front - inward * (inset + float(kb[0]) / 2)
+    put("keyboard", kb, kb_ax, c_o)
+    if mon is not None:
+        back = float(top_lo[ax]) if sg < 0 else float(top_hi[ax])
+        put("tv", mon, back + inward * (float(h.rng.uniform(0.02, 0.06)) + float(mon[0]) / 2), c_o)
+    if mouse is not None:
+        m_ax = front - inward * (inset + float(mouse[0]) / 2 + float(h.rng.uniform(0, 0.03)))
+        put("mouse", mouse, m_ax, c_o + typist_right[o] * (float(kb[1]) / 2 + float(h.rng.uniform(0.04, 0.06))
+                                                         + float(mouse[1]) / 2))
+    return True
 
 
 def _dining(h: _Home, room: int, left: dict, chairs: int) -> None:
@@ -615,11 +680,29 @@ def _floor_anywhere(h: _Home, cls: str, rooms: list[int]) -> bool:
     return cls == "potted plant" and h.on_table(cls, h.draw_size(cls), sorted(h.tops))
 
 
+def _workstations(h: _Home, left: dict) -> None:
+    """A :func:`_workstation` on each desk while keyboards are left; a home with keyboards and no desk first gets
+    one (:func:`_desk`) in a bedroom, else a living room, dining room or hall (of :data:`WORKSTATION_ROOMS`, at most
+    :data:`ROOM_TRIES` rooms tried), since generator version 5."""
+    desks = [i for i in sorted(h.tops) if h.objects[i]["role"] == "desk"]
+    if left["keyboard"] > 0 and not desks:
+        rooms = sorted((r.index for r in h.layout.rooms if r.kind in WORKSTATION_ROOMS),
+                       key=lambda i: (WORKSTATION_ROOMS.index(h.layout.rooms[i].kind), i))
+        for room in rooms[:ROOM_TRIES]:
+            if _desk(h, room, left):
+                break
+        desks = [i for i in sorted(h.tops) if h.objects[i]["role"] == "desk"]
+    for desk in desks:
+        if left["keyboard"] > 0:
+            _workstation(h, desk, left)
+
+
 def _leftovers(h: _Home, left: dict) -> None:
     """Everything the rooms' anchors did not take: tables (side tables), chairs, persons and potted plants on
     floors of rooms that are no bathrooms (each tried in every such room), then tvs, desk objects and small objects
     on tables (desks, kitchen tables first where they belong; in a seeded order of the objects); what finds no
     place is dropped and noted."""
+    _workstations(h, left)
     rooms = [r.index for r in h.layout.rooms if r.kind != "bathroom"] or [r.index for r in h.layout.rooms]
     for cls in ("table", "couch", "bed", "refrigerator", "chair", "person", "potted plant"):
         for _ in range(left[cls]):

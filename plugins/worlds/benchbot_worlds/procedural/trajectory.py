@@ -268,7 +268,9 @@ class _Driver:
             path = grid_path(self.fs, self.xy, b) if path is None else path
             if path is None:
                 return False
-            path = shortcut(path, self.drivable)  # the next point is always drivable: neighbouring free cells
+            # judged at the positions the poses will hold (rounded as pose7 rounds them): a cell centre's last bit
+            # can move a sample point across a cell's edge (generator version 5)
+            path = shortcut(np.round(path, 6) + 0.0, self.drivable)  # the next point: a neighbouring free cell
         for p in path[1:]:
             self.straight(p)
         return True
