@@ -87,7 +87,7 @@ def test_layouts_rooms_tile_the_outer_rectangle_and_doors_connect_them():
         assert layout_to_dict(layout_from_dict(layout_to_dict(lay))) == layout_to_dict(lay)
 
 
-@pytest.mark.parametrize("seed", FAST_SEEDS)
+@pytest.mark.parametrize("seed", FAST_SEEDS + (121, 223))  # 121, 223: a desk's monitor once stood past its top
 def test_generated_homes_are_valid(seed):
     home = generate_home(seed, f"procedural_test_{seed:04d}")
     lay = home.layout
@@ -111,12 +111,12 @@ def test_generated_homes_are_valid(seed):
     for k in range(n):
         assert any(np.all(lo[k, :2] >= r.lo + t / 2 * (r.lo > lay.outer_lo) - 1e-6)
                    and np.all(hi[k, :2] <= r.hi - t / 2 * (r.hi < lay.outer_hi) + 1e-6) for r in lay.rooms), k
-    # nothing floats: on the floor or within 1 mm of another object's top, over it
+    # nothing floats or overhangs: on the floor or within 1 mm of another object's top, inside its footprint
     for k in range(n):
         if abs(lo[k, 2]) <= 1e-3:
             continue
-        under = (np.abs(hi[:, 2] - lo[k, 2]) <= 1e-3) & np.all(lo[:, :2] < hi[k, :2], axis=1) & \
-            np.all(hi[:, :2] > lo[k, :2], axis=1)
+        under = (np.abs(hi[:, 2] - lo[k, 2]) <= 1e-3) & np.all(lo[:, :2] <= lo[k, :2] + 1e-3, axis=1) & \
+            np.all(hi[:, :2] >= hi[k, :2] - 1e-3, axis=1)
         assert under.any(), objects[k]
     # door approaches clear of floor objects
     for d in lay.doors:

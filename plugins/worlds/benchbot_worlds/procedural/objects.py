@@ -622,9 +622,11 @@ def _workstation(h: _Home, desk: int, left: dict) -> bool:
     inward = -sg  # from the wall toward the room
     kb_ax = front - inward * (inset + float(kb[0]) / 2)
     put("keyboard", kb, kb_ax, c_o)
-    if mon is not None:
+    if mon is not None:  # as wide as the top at most, and on it: behind the keyboard as far as the top allows
+        mon[1] = min(float(mon[1]), span)
         back = float(top_lo[ax]) if sg < 0 else float(top_hi[ax])
-        put("tv", mon, back + inward * (float(h.rng.uniform(0.02, 0.06)) + float(mon[0]) / 2), c_o)
+        m_o = float(np.clip(c_o, float(top_lo[o]) + 0.02 + mon[1] / 2, float(top_hi[o]) - 0.02 - mon[1] / 2))
+        put("tv", mon, back + inward * (float(h.rng.uniform(0.02, 0.06)) + float(mon[0]) / 2), m_o)
     if mouse is not None:
         m_ax = front - inward * (inset + float(mouse[0]) / 2 + float(h.rng.uniform(0, 0.03)))
         put("mouse", mouse, m_ax, c_o + typist_right[o] * (float(kb[1]) / 2 + float(h.rng.uniform(0.04, 0.06))
