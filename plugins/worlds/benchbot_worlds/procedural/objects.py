@@ -586,8 +586,11 @@ def _workstation(h: _Home, desk: int, left: dict) -> bool:
     """A keyboard at the front edge of ``desk`` (the side away from its wall), its long side along the wall, with a
     monitor (a ``tv`` of the quota, if one is left) behind it against the wall and a mouse (if one is left) at the
     typist's right, as BEAR's one desk stands (house:1-5: a monitor 0.34 m behind the keyboard, the mouse beside it).
-    Footprints are kept in ``h.tops[desk]`` so that later objects keep clear of them; what the top has no room for
-    is not placed. Whether the keyboard was placed."""
+    Sizes are BEAR's (:func:`draw_size`), in metres in the map frame; the keyboard sits 5-10 cm in from the front edge,
+    the monitor 2-6 cm off the wall, no wider than the top and on it, the mouse 4-6 cm beside the keyboard. Footprints
+    are kept in ``h.tops[desk]`` so that later objects keep clear of them. Nothing is placed (False) when the top is
+    too short for the keyboard and the mouse's room or too shallow for the keyboard and the monitor; else True. Raises
+    nothing."""
     t = h.objects[desk]
     ax, sg = t["wall"]
     o = 1 - ax
@@ -607,7 +610,6 @@ def _workstation(h: _Home, desk: int, left: dict) -> bool:
     c_o = start + float(h.rng.uniform(0, free)) + float(kb[1]) / 2
     front = float(top_hi[ax]) if sg < 0 else float(top_lo[ax])  # the edge away from the wall
     inset = float(h.rng.uniform(0.05, 0.1))
-    placed = []
 
     def put(cls, size, centre_ax, centre_o):
         lo, hi = np.zeros(2), np.zeros(2)
@@ -616,7 +618,7 @@ def _workstation(h: _Home, desk: int, left: dict) -> bool:
         lo, hi = np.round(lo, 6), np.round(hi, 6)
         h.tops[desk].append((lo, hi))
         z = float(t["hi"][2])
-        placed.append(h.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on"))
+        h.add(cls, [lo[0], lo[1], z], [hi[0], hi[1], z + float(size[2])], t["room"], "on")
         left[cls] -= 1
 
     inward = -sg  # from the wall toward the room
