@@ -598,15 +598,15 @@ def _workstation(h: _Home, desk: int, left: dict) -> bool:
     kb = h.draw_size("keyboard")
     mon = h.draw_size("tv") if left["tv"] > 0 else None
     mouse = h.draw_size("mouse") if left["mouse"] > 0 else None
-    typist_right = np.zeros(2)
-    typist_right[o] = -sg if ax == 0 else sg  # facing the wall (+sg along ax): right is (f_y, -f_x)
+    right = -sg if ax == 0 else sg  # the typist's right along the wall: facing it (+sg along ax), right is (f_y, -f_x)
     span = float(top_hi[o] - top_lo[o]) - 0.04
     side_room = (float(mouse[1]) + 0.06) if mouse is not None else 0.0
     free = span - float(kb[1]) - side_room
-    if free < 0 or float(top_hi[ax] - top_lo[ax]) < float(kb[0]) + 0.1 + (float(mon[0]) + 0.08 if mon is not None else 0):
+    depth = float(kb[0]) + 0.1 + (float(mon[0]) + 0.08 if mon is not None else 0.0)  # the top's depth it needs
+    if free < 0 or float(top_hi[ax] - top_lo[ax]) < depth:
         return False
     # the keyboard's centre along the wall: the mouse's room kept on the typist's right
-    start = float(top_lo[o]) + 0.02 + (side_room if typist_right[o] < 0 else 0.0)
+    start = float(top_lo[o]) + 0.02 + (side_room if right < 0 else 0.0)
     c_o = start + float(h.rng.uniform(0, free)) + float(kb[1]) / 2
     front = float(top_hi[ax]) if sg < 0 else float(top_lo[ax])  # the edge away from the wall
     inset = float(h.rng.uniform(0.05, 0.1))
@@ -631,8 +631,8 @@ def _workstation(h: _Home, desk: int, left: dict) -> bool:
         put("tv", mon, back + inward * (float(h.rng.uniform(0.02, 0.06)) + float(mon[0]) / 2), m_o)
     if mouse is not None:
         m_ax = front - inward * (inset + float(mouse[0]) / 2 + float(h.rng.uniform(0, 0.03)))
-        put("mouse", mouse, m_ax, c_o + typist_right[o] * (float(kb[1]) / 2 + float(h.rng.uniform(0.04, 0.06))
-                                                         + float(mouse[1]) / 2))
+        gap = float(h.rng.uniform(0.04, 0.06))
+        put("mouse", mouse, m_ax, c_o + right * (float(kb[1]) / 2 + gap + float(mouse[1]) / 2))
     return True
 
 
