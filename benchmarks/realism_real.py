@@ -27,7 +27,8 @@ scored, so their detections are no false positives, but not counted).
 
 Each table ends with the goal's verdict for its detector (:func:`goal`): the overall ratio against
 :data:`GOAL_RATIO`, the classes whose interval lies wholly below 1, and the classes of both sides the detector found
-none of in the sim. ``realism.py --verdict RUN/realism.json ...`` prints it again from finished runs
+none of in the sim, each with what the photos' recall would find of its sim objects and the chance it finds none
+(:func:`at_photos_rate`). ``realism.py --verdict RUN/realism.json ...`` prints it again from finished runs
 (:func:`verdict`).
 """
 
@@ -235,6 +236,19 @@ def boundary_intervals(k_sim: int, n_sim: int, k_real: int, n_real: int, sim: li
     return methods
 
 
+def at_photos_rate(n_sim, found_real, n_real) -> tuple[np.ndarray, np.ndarray]:
+    """What the sim's objects would give if the detector found them at the photos' rate, per class, from summed
+    counts ``(classes, bins)`` (int arrays: the sim's objects in the bins both sides have ``n_sim``, the photos'
+    found ``found_real`` and objects ``n_real``): ``(expected, chance_none)``, float arrays ``(classes,)`` of the
+    objects expected found, Σ over bins of the sim's objects × the photos' recall in that bin, and the chance of
+    finding none, Π (1 − the photos' recall)^(the sim's objects), as if each view were found independently (the
+    views of one object in several frames are not, which makes none likelier still). A class the sim found none of
+    with ``chance_none`` well above 0.05 is what a world exactly as findable as the photos would give too."""
+    rate = np.divide(found_real, n_real, out=np.zeros(found_real.shape, np.float64), where=n_real > 0)
+    n = np.where(n_real > 0, n_sim, 0)
+    return (n * rate).sum(-1), np.prod((1.0 - rate) ** n, axis=-1)
+
+
 def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
     """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
     (images resampled, see the module docstring; an exact one where a side found none or all,
@@ -255,6 +269,8 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
     both = (ns.sum(0) > 0) & (nr.sum(0) > 0)  # (classes, bins) where both sides have objects
     in_both = [np.where(both, a.sum(0), 0) for a in (hs, ns, hr, nr)]  # (classes, bins) counts over those bins
 
+    at_real = at_photos_rate(in_both[1], hr.sum(0), nr.sum(0))
+
     def entry(rows: tuple[int, int, int], cls: slice | int) -> dict:
         counts = {"objects_sim": int(ns[:, cls].sum()), "found_sim": int(hs[:, cls].sum()),
                   "objects_real": int(nr[:, cls].sum()), "found_real": int(hr[:, cls].sum())}
@@ -266,7 +282,9 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
         return {name: {"value": _num(point[r]), "ci95": [_num(e[0]), _num(e[1])], "interval": methods[name]}
                 for name, r, e in zip(("sim", "real", "ratio"), rows, ends)} | counts
 
-    out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), ci) for ci, c in enumerate(classes)},
+    out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), ci) | {"at_photos_rate": {
+               "expected_found_sim": float(at_real[0][ci]), "chance_none": float(at_real[1][ci])}}
+               for ci, c in enumerate(classes)},
            "overall": entry((3 * k, 3 * k + 1, 3 * k + 2), slice(None)),
            "only_sim": _counts(sim, seen_sim - seen_real), "only_real": _counts(real, seen_real - seen_sim),
            "images_sim": len(sim), "images_real": len(real), "size_bins": list(SIZE_LABELS),
@@ -282,12 +300,16 @@ def goal(result: dict) -> dict:
     None where it is undefined), the classes whose ratio interval lies wholly below 1 (``"below_one"``: {class:
     [low, high]}, both ends numbers, the high end under 1), and the classes with objects on both sides that the
     detector found none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects
-    in the photos]}), each in the table's order. Raises nothing."""
+    in the photos, objects expected found at the photos' rate, chance of none at that rate]}, the last two from
+    :func:`at_photos_rate`, None in a result written before they were), each in the table's order. Raises
+    nothing."""
     ratio = result["overall"]["ratio"]["value"]
     rows = _table_order(result)
     below = {c: v["ratio"]["ci95"] for c, v in rows
              if all(isinstance(e, float) for e in v["ratio"]["ci95"]) and v["ratio"]["ci95"][1] < 1.0}
-    none = {c: [v["objects_sim"], v["found_real"], v["objects_real"]] for c, v in rows if v["found_sim"] == 0}
+    none = {c: [v["objects_sim"], v["found_real"], v["objects_real"],
+                *(v.get("at_photos_rate") or dict.fromkeys(("expected_found_sim", "chance_none"))).values()]
+            for c, v in rows if v["found_sim"] == 0}
     met = None if ratio is None else ratio == "inf" or ratio >= GOAL_RATIO
     return {"ratio_at_least": GOAL_RATIO, "overall_ratio": ratio, "overall_met": met, "below_one": below,
             "not_found": none}
@@ -353,14 +375,21 @@ def table(result: dict, title: str) -> str:
 
 def goal_line(g: dict) -> str:
     """One line of :func:`goal`'s verdict for the table: the overall ratio against the bar, the classes wholly below
-    1 and those found none of in the sim (with the photos' found / objects beside)."""
+    1 and those found none of in the sim (with the photos' found / objects beside, and what the photos' rate would
+    find of the sim's objects: :func:`at_photos_rate`)."""
     r = g["overall_ratio"]
     overall = "–" if r is None else "∞" if r == "inf" else f"{r:.2f}"
     met = {True: "met", False: "**not met**", None: "undefined"}[g["overall_met"]]
     below = ", ".join(f"{c} [{lo:.2f}, {hi:.2f}]" for c, (lo, hi) in g["below_one"].items()) or "none"
-    none = ", ".join(f"{c} 0/{n} (photos {k}/{m})" for c, (n, k, m) in g["not_found"].items()) or "none"
+    none = ", ".join(f"{c} 0/{n} (photos {k}/{m}{_at_rate(e, p)})" for c, (n, k, m, e, p) in g["not_found"].items())
+    none = none or "none"
     return (f"goal: sim / real ≥ {g['ratio_at_least']} overall {overall}, {met}; classes wholly below 1: {below}; "
             f"classes of both sides found none of in the sim: {none}")
+
+
+def _at_rate(expected: float | None, chance_none: float | None) -> str:
+    """``; at their rate E expected, P(none) P`` for :func:`goal_line` (empty for a result without the figures)."""
+    return "" if expected is None else f"; at their rate {expected:.2f} expected, P(none) {chance_none:.2f}"
 
 
 def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict, str]:

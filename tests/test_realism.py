@@ -654,11 +654,19 @@ def test_the_goal_names_classes_wholly_below_one_and_classes_found_none_of(reali
     real = [[("cup", 1, True), ("cup", 1, i < 20), ("bed", 2, True), ("chair", 2, i < 30)] for i in range(40)]
     res = realism_real.compare(sim, real, resamples=200)
     g = res["goal"]
-    assert list(g["below_one"]) == ["chair", "cup"] and g["not_found"] == {"cup": [30, 60, 80]}
+    assert list(g["below_one"]) == ["chair", "cup"] and g["not_found"]["cup"][:3] == [30, 60, 80]
+    # at the photos' rate (60 of 80 in the cups' one size bin) the sim's 30 cups would give 22.5 found, and none
+    # with a chance of 0.25 ** 30
+    assert g["not_found"]["cup"][3:] == [pytest.approx(22.5), pytest.approx(0.25 ** 30)]
     assert g["overall_ratio"] < realism_real.GOAL_RATIO and g["overall_met"] is False
     text = realism_real.table(res, "t")
     assert "goal: sim / real ≥ 0.9 overall" in text and "**not met**" in text
-    assert "classes wholly below 1: chair [" in text and "cup 0/30 (photos 60/80)" in text
+    assert "classes wholly below 1: chair [" in text
+    assert "cup 0/30 (photos 60/80; at their rate 22.50 expected, P(none) 0.00)" in text
+    # a result written before the photos' rate was kept: the verdict without it
+    old = {**res, "classes": {c: {k: x for k, x in v.items() if k != "at_photos_rate"}
+                              for c, v in res["classes"].items()}}
+    assert realism_real.goal_line(realism_real.goal(old)).endswith("cup 0/30 (photos 60/80)")
     # the same frames with every object found: the goal met, nothing below 1 or missing
     found = [[(c, b, True) for c, b, _ in rows] for rows in sim]
     g = realism_real.compare(found, real, resamples=200)["goal"]
@@ -1013,3 +1021,20 @@ def test_with_class_keeps_exactly_the_frames_that_show_the_class(realism, tmp_pa
     assert [f["pose_index"] for f in section["frames"]] == poses
     by_pose = {f["pose_index"]: f["objects"] for f in frames}
     assert all(f["objects"] == by_pose[f["pose_index"]] for f in section["frames"])
+
+
+def test_a_class_found_none_of_is_weighed_against_what_the_photos_rate_would_find(realism_real):
+    # spoons: 3 views in the sim, none found; the photos find 1 of 20 at that size and 10 of 10 at a size the sim
+    # does not have (left out). At the photos' rate 3 views give 0.15 expected, and none 0.95 ** 3 of the time: a
+    # zero that a world exactly as findable as the photos would give too. Bowls: 2 of 4 found at two sizes; the
+    # figure is kept for every class, found or not.
+    sim = [[("spoon", 1, False), ("bowl", 1, i < 1), ("bowl", 2, i < 1)] for i in range(3)] + [[("bowl", 1, False)]]
+    real = [[("spoon", 1, i < 1)] for i in range(20)] + [[("spoon", 3, True), ("bowl", 1, True), ("bowl", 2, i < 5)]
+                                                       for i in range(10)]
+    res = realism_real.compare(sim, real, resamples=50)
+    spoon = res["classes"]["spoon"]["at_photos_rate"]
+    assert spoon == {"expected_found_sim": pytest.approx(0.15), "chance_none": pytest.approx(0.95 ** 3)}
+    bowl = res["classes"]["bowl"]["at_photos_rate"]  # 4 views at 10 of 10 and 3 at 5 of 10
+    assert bowl == {"expected_found_sim": pytest.approx(4 + 1.5), "chance_none": pytest.approx(0.0)}
+    assert list(res["goal"]["not_found"]) == ["spoon"]
+    assert "spoon 0/3 (photos 11/30; at their rate 0.15 expected, P(none) 0.86)" in realism_real.goal_line(res["goal"])
