@@ -1,12 +1,12 @@
 """box_aspect.py RUN CLASS [--max-size PX]: how a class's boxes are shaped in the homes and in the photos, width over
-height (the median and the share over 4), for the visible objects of CLASS in a finished ``benchmarks/realism.py``
-run (its fast frames) and for the photos' objects of CLASS (not crowd regions) of at least 400 mask pixels and a size,
-√(mask pixels), under PX (64). A keyboard seen from a camera 0.3 m over its desk is a wider strip than one seen from
-over the desk, as most photos see it. Run from the repository root:
+height (the median and the share over 4), for the visible objects of CLASS (a BEAR class name) in a finished
+``benchmarks/realism.py`` run (its fast frames) and for the photos' objects of CLASS (not crowd regions) of at least
+400 mask pixels and a size, √(mask pixels), under PX (64), as ``realism_real.load_photos`` reads them. A keyboard seen
+from a camera 0.3 m over its desk is a wider strip than one seen from over the desk, as most photos see it:
 
     uv run python benchmarks/results/cpu2_2026-11-30_photos_rate/box_aspect.py RUN keyboard
 
-Exit 2 with one line when RUN holds no finished run.
+Exit 2 with one line when RUN holds no finished run or the photos cannot be read.
 """
 import argparse
 import json
@@ -14,7 +14,7 @@ import statistics
 import sys
 from pathlib import Path
 
-PHOTOS = Path("benchmarks/realism/photos/coco_val2017.json")
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def summary(ratios: list[float]) -> str:
@@ -39,10 +39,17 @@ def main() -> int:
     except (OSError, ValueError, KeyError, TypeError) as e:
         print(f"error: {args.run}: not a finished benchmarks/realism.py run ({type(e).__name__}: {e})", file=sys.stderr)
         return 2
-    coco = json.loads(PHOTOS.read_text())
-    cat = {c["id"]: c["name"] for c in coco["categories"]}
-    real = [a["bbox"][2] / max(1.0, a["bbox"][3]) for a in coco["annotations"]
-            if cat[a["category_id"]] == args.cls and not a["iscrowd"] and 400 <= a["area"] < args.max_size ** 2]
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import realism
+    import realism_real
+
+    try:
+        photos = realism_real.load_photos(realism)  # the benchmark's own reading of the photos' boxes and areas
+    except realism.RealismError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    real = [(t.box[2] - t.box[0]) / max(1.0, t.box[3] - t.box[1]) for p in photos for t in p.truths
+            if t.cls == args.cls and t.visible and not t.crowd and t.pixels < args.max_size ** 2]
     print(f"{args.cls}, width / height: homes {summary(sim)}; photos under {args.max_size:.0f} px {summary(real)}")
     return 0
 
