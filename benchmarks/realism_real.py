@@ -243,7 +243,8 @@ def at_photos_rate(n_sim, found_real, n_real) -> tuple[np.ndarray, np.ndarray]:
     objects expected found, Σ over bins of the sim's objects × the photos' recall in that bin, and the chance of
     finding none, Π (1 − the photos' recall)^(the sim's objects), as if each view were found independently (the
     views of one object in several frames are not, which makes none likelier still). A class the sim found none of
-    with ``chance_none`` well above 0.05 is what a world exactly as findable as the photos would give too."""
+    with ``chance_none`` well above 0.05 is what a world exactly as findable as the photos would give too. A bin
+    without photo objects counts none of the sim's. Raises nothing."""
     rate = np.divide(found_real, n_real, out=np.zeros(found_real.shape, np.float64), where=n_real > 0)
     n = np.where(n_real > 0, n_sim, 0)
     return (n * rate).sum(-1), np.prod((1.0 - rate) ** n, axis=-1)
@@ -308,8 +309,7 @@ def goal(result: dict) -> dict:
     below = {c: v["ratio"]["ci95"] for c, v in rows
              if all(isinstance(e, float) for e in v["ratio"]["ci95"]) and v["ratio"]["ci95"][1] < 1.0}
     none = {c: [v["objects_sim"], v["found_real"], v["objects_real"],
-                *(v.get("at_photos_rate") or dict.fromkeys(("expected_found_sim", "chance_none"))).values()]
-            for c, v in rows if v["found_sim"] == 0}
+                *(_photos_rate(v.get("at_photos_rate", {})))] for c, v in rows if v["found_sim"] == 0}
     met = None if ratio is None else ratio == "inf" or ratio >= GOAL_RATIO
     return {"ratio_at_least": GOAL_RATIO, "overall_ratio": ratio, "overall_met": met, "below_one": below,
             "not_found": none}
@@ -371,6 +371,11 @@ def table(result: dict, title: str) -> str:
                  "all of its objects (no resample varies it): that side's exact binomial (Clopper–Pearson) 95 % "
                  "interval, and for the ratio the quotients of the sides' opposite ends.")
     return "\n".join(lines) + "\n"
+
+
+def _photos_rate(entry: dict) -> tuple[float | None, float | None]:
+    """A class's ``at_photos_rate`` entry as ``(expected found, chance of none)``; None for a result without it."""
+    return entry.get("expected_found_sim"), entry.get("chance_none")
 
 
 def goal_line(g: dict) -> str:
