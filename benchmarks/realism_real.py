@@ -28,7 +28,8 @@ scored, so their detections are no false positives, but not counted).
 Each table ends with the goal's verdict for its detector (:func:`goal`): the overall ratio against
 :data:`GOAL_RATIO`, the classes whose interval lies wholly below 1, and the classes of both sides the detector found
 none of in the sim, each with what the photos' recall would find of its sim objects and the chance it finds none
-(:func:`at_photos_rate`). ``realism.py --verdict RUN/realism.json ...`` prints it again from finished runs
+(:func:`at_photos_rate`), and the most that chance can be when an object's views are found together
+(:func:`chance_none_views_together`). ``realism.py --verdict RUN/realism.json ...`` prints it again from finished runs
 (:func:`verdict`).
 """
 
@@ -106,12 +107,18 @@ def load_photos(realism, folder: Path = PHOTOS, min_pixels: int = 400, limit: in
     return photos
 
 
-def records(realism, truths: list, detections: list, threshold: float, iou: float) -> list[tuple[str, int, bool]]:
+def records(realism, truths: list, detections: list, threshold: float, iou: float,
+            object_prefix: str | None = None) -> list[tuple]:
     """``(class, size bin, found)`` of each object of one image counted under COCO's crowd rule, its detections
-    (rows ``[x1, y1, x2, y2, score, coco_class]``) matched by ``realism.score_frame`` at ``threshold`` and ``iou``."""
+    (rows ``[x1, y1, x2, y2, score, coco_class]``) matched by ``realism.score_frame`` at ``threshold`` and ``iou``;
+    with ``object_prefix``, a fourth element names the object, ``"<object_prefix>#<instance>"``."""
     as_crowd = realism.with_crowd_rule(truths)
     hits = realism.score_frame(as_crowd, detections, threshold, iou, crowd_rule=True).hits
-    return [(t.cls, size_bin(t.pixels), bool(hits[t.instance])) for t in as_crowd if t.visible]
+    out = []
+    for t in (t for t in as_crowd if t.visible):
+        row = (t.cls, size_bin(t.pixels), bool(hits[t.instance]))
+        out.append(row if object_prefix is None else (*row, f"{object_prefix}#{t.instance}"))
+    return out
 
 
 def bear_classes() -> frozenset[str]:
@@ -143,26 +150,28 @@ def photo_records(realism, detector, photos: list[Photo], threshold: float, iou:
 def sim_records(realism, sections: dict, threshold: float, iou: float, mode: str = "fast",
                 only_with: str | None = None) -> list[list]:
     """Per frame of ``realism.judge_environment``'s sections, :func:`records` of its objects and its ``mode``
-    ("fast" or "quality") detections (frames without detections: every object missed); ``only_with`` a mode: only
-    the frames that were also rendered and detected in that mode (the quality frames are the first
+    ("fast" or "quality") detections (frames without detections: every object missed), each with the object it
+    views as a fourth element, ``"<environment>#<instance>"`` (one object seen in several frames); ``only_with`` a
+    mode: only the frames that were also rendered and detected in that mode (the quality frames are the first
     ``--quality-frames`` of each environment)."""
     out = []
-    for section in sections.values():
+    for env, section in sections.items():
         for fr in section["frames"]:
             if only_with is not None and f"detections_{only_with}" not in fr:
                 continue
             truths = [realism.Truth(**o) for o in fr["objects"]]
-            out.append(records(realism, truths, fr.get(f"detections_{mode}", []), threshold, iou))
+            out.append(records(realism, truths, fr.get(f"detections_{mode}", []), threshold, iou, object_prefix=env))
     return out
 
 
 def count_table(per_image: list[list], classes: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    """``(objects, found)``: int arrays (images, classes, size bins) of :func:`records` lists."""
+    """``(objects, found)``: int arrays (images, classes, size bins) of :func:`records` lists (a row's elements
+    after the third, :func:`sim_records`' object, are not read)."""
     index = {c: k for k, c in enumerate(classes)}
     n = np.zeros((len(per_image), len(classes), len(SIZE_LABELS)), np.int64)
     h = np.zeros_like(n)
     for i, rows in enumerate(per_image):
-        for cls, b, found in rows:
+        for cls, b, found, *_ in rows:
             if cls in index:
                 n[i, index[cls], b] += 1
                 h[i, index[cls], b] += int(found)
@@ -236,6 +245,12 @@ def boundary_intervals(k_sim: int, n_sim: int, k_real: int, n_real: int, sim: li
     return methods
 
 
+def photo_rate(found_real, n_real) -> np.ndarray:
+    """The photos' recall per class and size bin, float array ``(classes, bins)`` from int counts of the same shape
+    (found ``found_real`` of ``n_real`` objects); 0 in a bin without photo objects. Raises nothing."""
+    return np.divide(found_real, n_real, out=np.zeros(np.shape(found_real), np.float64), where=np.asarray(n_real) > 0)
+
+
 def at_photos_rate(n_sim, found_real, n_real) -> tuple[np.ndarray, np.ndarray]:
     """What the sim's objects would give if the detector found them at the photos' rate, per class, from summed
     counts ``(classes, bins)`` (int arrays: the sim's objects in the bins both sides have ``n_sim``, the photos'
@@ -245,18 +260,44 @@ def at_photos_rate(n_sim, found_real, n_real) -> tuple[np.ndarray, np.ndarray]:
     views of one object in several frames are not, which makes none likelier still). A class the sim found none of
     with ``chance_none`` well above 0.05 is what a world exactly as findable as the photos would give too. A bin
     without photo objects counts none of the sim's. Raises nothing."""
-    rate = np.divide(found_real, n_real, out=np.zeros(found_real.shape, np.float64), where=n_real > 0)
+    rate = photo_rate(found_real, n_real)
     n = np.where(n_real > 0, n_sim, 0)
     return (n * rate).sum(-1), np.prod((1.0 - rate) ** n, axis=-1)
+
+
+def chance_none_views_together(object_bins: list[list[int]], rate: np.ndarray) -> float:
+    """The most the chance of finding none of a class's sim objects can be at the photos' rate when the views of one
+    object are found together, however closely: ``object_bins`` lists each object's views (their size bins, ints
+    indexing ``rate``, the class's photo recall per bin, float ``(bins,)``: :func:`photo_rate`). An object none of
+    whose views is found has a chance of at most 1 − the largest of its views' rates (the Fréchet–Hoeffding upper
+    bound of the views' joint miss; reached when one draw decides them all), objects independent: Π over objects
+    (1 − max rate). Where an object's views are found together more often than apart, :func:`at_photos_rate`'s
+    ``chance_none`` (views independent) is the least it can be, and the two bound it. Raises nothing."""
+    return float(np.prod([1.0 - max(float(rate[b]) for b in bins) for bins in object_bins if bins]))
+
+
+def _object_bins(sim: list[list], cls: str) -> list[list[int]] | None:
+    """Each sim object of ``cls``: its views' size bins, from :func:`sim_records` rows; None when a row names no
+    object (rows of :func:`records`)."""
+    views: dict[str, list[int]] = {}
+    for rows in sim:
+        for row in rows:
+            if row[0] == cls:
+                if len(row) < 4:
+                    return None
+                views.setdefault(row[3], []).append(row[1])
+    return list(views.values())
 
 
 def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
     """Per class and overall: sim and real recall, their ratio (:func:`weighted`), each with a bootstrap interval
     (images resampled, see the module docstring; an exact one where a side found none or all,
     :func:`boundary_intervals`; ``"interval"`` names which), and the objects and objects found on each side (all sizes,
-    unweighted). Classes: those with objects on both sides; the others are listed with their counts only."""
-    seen_sim = {c for rows in sim for c, _, _ in rows}
-    seen_real = {c for rows in real for c, _, _ in rows}
+    unweighted). Classes: those with objects on both sides; the others are listed with their counts only. Each
+    class's ``at_photos_rate`` holds :func:`at_photos_rate`'s figures and, where ``sim`` rows name their objects
+    (:func:`sim_records`), :func:`chance_none_views_together` (``"chance_none_views_together"``, else None)."""
+    seen_sim = {row[0] for rows in sim for row in rows}
+    seen_real = {row[0] for rows in real for row in rows}
     classes = sorted(seen_sim & seen_real)
     ns, hs = count_table(sim, classes)
     nr, hr = count_table(real, classes)
@@ -271,6 +312,11 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
     in_both = [np.where(both, a.sum(0), 0) for a in (hs, ns, hr, nr)]  # (classes, bins) counts over those bins
 
     at_real = at_photos_rate(in_both[1], hr.sum(0), nr.sum(0))
+    rate = photo_rate(hr.sum(0), nr.sum(0))
+
+    def together(ci: int, cls: str) -> float | None:
+        bins = _object_bins(sim, cls)
+        return None if bins is None else chance_none_views_together(bins, rate[ci])
 
     def entry(rows: tuple[int, int, int], cls: slice | int) -> dict:
         counts = {"objects_sim": int(ns[:, cls].sum()), "found_sim": int(hs[:, cls].sum()),
@@ -284,7 +330,8 @@ def compare(sim: list[list], real: list[list], seed: int = 0, resamples: int = B
                 for name, r, e in zip(("sim", "real", "ratio"), rows, ends)} | counts
 
     out = {"classes": {c: entry((ci, k + ci, 2 * k + ci), ci) | {"at_photos_rate": {
-               "expected_found_sim": float(at_real[0][ci]), "chance_none": float(at_real[1][ci])}}
+               "expected_found_sim": float(at_real[0][ci]), "chance_none": float(at_real[1][ci]),
+               "chance_none_views_together": together(ci, c)}}
                for ci, c in enumerate(classes)},
            "overall": entry((3 * k, 3 * k + 1, 3 * k + 2), slice(None)),
            "only_sim": _counts(sim, seen_sim - seen_real), "only_real": _counts(real, seen_real - seen_sim),
@@ -301,9 +348,10 @@ def goal(result: dict) -> dict:
     None where it is undefined), the classes whose ratio interval lies wholly below 1 (``"below_one"``: {class:
     [low, high]}, both ends numbers, the high end under 1), and the classes with objects on both sides that the
     detector found none of in the sim (``"not_found"``: {class: [objects in the sim, found in the photos, objects
-    in the photos, objects expected found at the photos' rate, chance of none at that rate]}, the last two from
-    :func:`at_photos_rate`, None in a result written before they were), each in the table's order. Raises
-    nothing."""
+    in the photos, objects expected found at the photos' rate, chance of none at that rate with views independent,
+    the most that chance can be with each object's views found together]}, the last three from
+    :func:`at_photos_rate` and :func:`chance_none_views_together`, None in a result written before they were), each
+    in the table's order. Raises nothing."""
     ratio = result["overall"]["ratio"]["value"]
     rows = _table_order(result)
     below = {c: v["ratio"]["ci95"] for c, v in rows
@@ -326,7 +374,7 @@ def _counts(per_image: list[list], classes: set[str]) -> dict:
     """Objects per class of ``classes`` in :func:`records` lists."""
     out: dict[str, int] = {}
     for rows in per_image:
-        for c, _, _ in rows:
+        for c, *_ in rows:
             if c in classes:
                 out[c] = out.get(c, 0) + 1
     return dict(sorted(out.items()))
@@ -373,9 +421,10 @@ def table(result: dict, title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _photos_rate(entry: dict) -> tuple[float | None, float | None]:
-    """A class's ``at_photos_rate`` entry as ``(expected found, chance of none)``; None for a result without it."""
-    return entry.get("expected_found_sim"), entry.get("chance_none")
+def _photos_rate(entry: dict) -> tuple[float | None, float | None, float | None]:
+    """A class's ``at_photos_rate`` entry as ``(expected found, chance of none, its most with an object's views found
+    together)``; None for a figure a result was written without."""
+    return entry.get("expected_found_sim"), entry.get("chance_none"), entry.get("chance_none_views_together")
 
 
 def goal_line(g: dict) -> str:
@@ -386,15 +435,20 @@ def goal_line(g: dict) -> str:
     overall = "–" if r is None else "∞" if r == "inf" else f"{r:.2f}"
     met = {True: "met", False: "**not met**", None: "undefined"}[g["overall_met"]]
     below = ", ".join(f"{c} [{lo:.2f}, {hi:.2f}]" for c, (lo, hi) in g["below_one"].items()) or "none"
-    none = ", ".join(f"{c} 0/{n} (photos {k}/{m}{_at_rate(e, p)})" for c, (n, k, m, e, p) in g["not_found"].items())
+    none = ", ".join(f"{c} 0/{row[0]} (photos {row[1]}/{row[2]}{_at_rate(*row[3:])})"
+                     for c, row in g["not_found"].items())
     none = none or "none"
     return (f"goal: sim / real ≥ {g['ratio_at_least']} overall {overall}, {met}; classes wholly below 1: {below}; "
             f"classes of both sides found none of in the sim: {none}")
 
 
-def _at_rate(expected: float | None, chance_none: float | None) -> str:
-    """``; at their rate E expected, P(none) P`` for :func:`goal_line` (empty for a result without the figures)."""
-    return "" if expected is None else f"; at their rate {expected:.2f} expected, P(none) {chance_none:.2f}"
+def _at_rate(expected: float | None = None, chance_none: float | None = None, together: float | None = None) -> str:
+    """``; at their rate E expected, P(none) P`` for :func:`goal_line`, then ``, at most Q with an object's views
+    found together`` (each part left out for a result without its figures)."""
+    if expected is None:
+        return ""
+    most = "" if together is None else f", at most {together:.2f} with an object's views found together"
+    return f"; at their rate {expected:.2f} expected, P(none) {chance_none:.2f}{most}"
 
 
 def run(realism, args, detector, sections: dict, threshold: float) -> tuple[dict, str]:

@@ -657,7 +657,7 @@ def test_the_goal_names_classes_wholly_below_one_and_classes_found_none_of(reali
     assert list(g["below_one"]) == ["chair", "cup"] and g["not_found"]["cup"][:3] == [30, 60, 80]
     # at the photos' rate (60 of 80 in the cups' one size bin) the sim's 30 cups would give 22.5 found, and none
     # with a chance of 0.25 ** 30
-    assert g["not_found"]["cup"][3:] == [pytest.approx(22.5), pytest.approx(0.25 ** 30)]
+    assert g["not_found"]["cup"][3:] == [pytest.approx(22.5), pytest.approx(0.25 ** 30), None]
     assert g["overall_ratio"] < realism_real.GOAL_RATIO and g["overall_met"] is False
     text = realism_real.table(res, "t")
     assert "goal: sim / real ≥ 0.9 overall" in text and "**not met**" in text
@@ -797,6 +797,8 @@ def test_smoke_run_with_the_real_reference(realism, tmp_path, capsys):
     assert real["images_real"] == 2 and real["bootstrap"]["resamples"] == 50
     assert real["overall"]["objects_real"] > 0 and real["overall"]["real"]["value"] in (0.0, None)
     assert "sim / real" in (tmp_path / "per_class.md").read_text()
+    rates = [v["at_photos_rate"] for v in real["classes"].values()]  # the frames name their objects: both bounds
+    assert rates and all(r["chance_none_views_together"] >= r["chance_none"] for r in rates)
 
 
 PHOTO_LICENCES = [{"id": 1, "name": "Attribution License"},
@@ -1023,6 +1025,19 @@ def test_with_class_keeps_exactly_the_frames_that_show_the_class(realism, tmp_pa
     assert all(f["objects"] == by_pose[f["pose_index"]] for f in section["frames"])
 
 
+def test_sim_records_name_each_view_by_its_environment_and_instance(realism, realism_real):
+    """One cup seen in two frames of a home and another home's cup: three views of two objects."""
+    def obj(instance, x):
+        return {"instance": instance, "cls": "cup", "box": [x, 100, x + 40, 140], "pixels": 1600, "truncation": 0.0,
+                "visible": True, "model": "m", "crowd": False}
+
+    sections = {"house:1": {"frames": [{"objects": [obj(7, 10)], "detections_fast": [[10, 100, 50, 140, 0.9, 41]]},
+                                       {"objects": [obj(7, 200)]}]},
+                "house:2": {"frames": [{"objects": [obj(7, 10), {**obj(8, 300), "visible": False}]}]}}
+    rows = realism_real.sim_records(realism, sections, 0.3, 0.5)
+    assert rows == [[("cup", 1, True, "house:1#7")], [("cup", 1, False, "house:1#7")], [("cup", 1, False, "house:2#7")]]
+
+
 def test_a_class_found_none_of_is_weighed_against_what_the_photos_rate_would_find(realism_real):
     # spoons: 3 views in the sim, none found; the photos find 1 of 20 at that size and 10 of 10 at a size the sim
     # does not have (left out). At the photos' rate 3 views give 0.15 expected, and none 0.95 ** 3 of the time: a
@@ -1033,8 +1048,22 @@ def test_a_class_found_none_of_is_weighed_against_what_the_photos_rate_would_fin
                                                        for i in range(10)]
     res = realism_real.compare(sim, real, resamples=50)
     spoon = res["classes"]["spoon"]["at_photos_rate"]
-    assert spoon == {"expected_found_sim": pytest.approx(0.15), "chance_none": pytest.approx(0.95 ** 3)}
+    assert spoon == {"expected_found_sim": pytest.approx(0.15), "chance_none": pytest.approx(0.95 ** 3),
+                     "chance_none_views_together": None}  # rows that name no object: no bound
     bowl = res["classes"]["bowl"]["at_photos_rate"]  # 4 views at 10 of 10 and 3 at 5 of 10
-    assert bowl == {"expected_found_sim": pytest.approx(4 + 1.5), "chance_none": pytest.approx(0.0)}
+    assert bowl["expected_found_sim"] == pytest.approx(4 + 1.5) and bowl["chance_none"] == pytest.approx(0.0)
     assert list(res["goal"]["not_found"]) == ["spoon"]
     assert "spoon 0/3 (photos 11/30; at their rate 0.15 expected, P(none) 0.86)" in realism_real.goal_line(res["goal"])
+    # the same views as sim_records gives them, naming their objects: spoon a seen twice, spoon b once. If each
+    # object's views are found together, none is found with a chance of at most (1 - 0.05) ** 2, two draws, not
+    # three; a bowl seen at 10 of 10 in one view is found for sure, so its class's bound is 0
+    named = [[(*row, f"home#{row[0]}-{'a' if i < 2 else 'b'}") for row in rows] for i, rows in enumerate(sim)]
+    res = realism_real.compare(named, real, resamples=50)
+    spoon = res["classes"]["spoon"]["at_photos_rate"]
+    assert spoon["chance_none"] == pytest.approx(0.95 ** 3)
+    assert spoon["chance_none_views_together"] == pytest.approx(0.95 ** 2)
+    assert res["classes"]["bowl"]["at_photos_rate"]["chance_none_views_together"] == pytest.approx(0.0)
+    assert res["classes"]["spoon"]["found_sim"] == 0 and res["classes"]["bowl"]["found_sim"] == 2  # counts unchanged
+    assert ("spoon 0/3 (photos 11/30; at their rate 0.15 expected, P(none) 0.86, at most 0.90 with an object's views "
+            "found together)") in realism_real.goal_line(res["goal"])
+    assert realism_real.chance_none_views_together([[0, 1], [1]], np.array([0.1, 0.4])) == pytest.approx(0.6 * 0.6)
