@@ -452,9 +452,21 @@ def test_a_keyboards_top_slopes_to_the_back_and_shows_key_caps_apart():
             space_bar = tex[int(6.2 * 16), int((0.5 + 3.75 + 3) * 16)]  # the middle of the space bar
             between = tex[100, 28]  # between the two left keys of the front row
             assert np.abs(space_bar - cap).max() < 20 and np.abs(between - gap).max() < 2
-    mesh = K.keyboard_mesh("full", "black")
-    top = mesh.v[mesh.f[mesh.f_material == 0]].reshape(-1, 3)
-    assert np.allclose(top[top[:, 1] < 0, 2], K.FRONT_HEIGHT) and np.allclose(top[top[:, 1] > 0, 2], 1.0)
+    for layout, (width_u, _, _) in K.LAYOUTS.items():  # every key a cap standing on the plate, apart from the next
+        mesh = K.keyboard_mesh(layout, "black")
+        tops = mesh.v[mesh.f[mesh.f_material == 0]].reshape(-1, 2, 3, 3)  # the caps' top faces: two triangles each
+        keys = K.layout_keys(layout)
+        assert len(tops) == len(keys) and np.allclose(mesh.bounds, K.UNIT_BOUNDS)
+        for (x, y, w, d, _), quad in zip(keys, tops):
+            pts = quad.reshape(-1, 3)
+            plate = K.PLATE_FRONT + (K.PLATE_BACK - K.PLATE_FRONT) * (pts[:, 1] + 0.5)
+            assert np.allclose(pts[:, 2] - plate, K.CAP_HEIGHT)  # parallel to the plate, a cap's height over it
+            assert -0.5 + x / width_u < pts[:, 0].min() < pts[:, 0].max() < -0.5 + (x + w) / width_u  # inside its key
+        front_row = sorted((q.reshape(-1, 3)[:, 0].min(), q.reshape(-1, 3)[:, 0].max()) for q in tops
+                           if q.reshape(-1, 3)[:, 1].min() < -0.3)
+        assert all(b0 - a1 > 0.1 / width_u for (_, a1), (b0, _) in zip(front_row, front_row[1:]))  # gaps between caps
+        sides = mesh.v[mesh.f[mesh.f_material == 2]].reshape(-1, 3)
+        assert sides[:, 2].max() == pytest.approx(1.0)  # the back row's caps reach the case's top
     assert K.keyboard_mesh("full", "black") is mesh  # one mesh per layout and style, as its docstring says
 
 

@@ -1,19 +1,23 @@
 """Computer keyboards made in code for ``keyboard`` cuboids (pure NumPy; the meshes are
 :class:`~benchbot_worlds.scene.meshes.MeshData`).
 
-A keyboard is a low case whose top slopes up toward its back (as a keyboard on its feet does) and carries the keys:
-a texture of key caps on a standard layout, in rows of 1-unit keys (a unit, ``u``, is a key's pitch) with the wider
+A keyboard is a low case whose top, the plate, slopes up toward its back (as a keyboard on its feet does), and on
+it a key cap for every key of a standard layout: rows of 1-unit keys (a unit, ``u``, is a key's pitch) with the wider
 keys of a real keyboard (tab, caps lock, shift, enter, backspace, the space bar), the function row apart at the back,
 and, where the cuboid is wide enough for them, the navigation keys and the numeric keypad (:data:`LAYOUTS`; the one
-whose width-to-depth ratio is nearest the cuboid's is drawn, so keys stay near square). Each cap is lit on its top,
-with its front face (toward the typist, which the robot's camera sees from 1.05 m) in shadow and dark gaps between
-the caps; letter keys carry a small legend. Two styles of real keyboards (:data:`STYLES`): black plastic, and white
-or silver with light keys; the style is drawn per keyboard.
+whose width-to-depth ratio is nearest the cuboid's is drawn, so keys stay near square). Each cap is a box standing
+:data:`CAP_HEIGHT` over the plate, its sides the caps' shadowed colour and its top textured (:func:`key_texture`: lit
+a little more toward its back, a small legend on letter keys). Two styles of real keyboards (:data:`STYLES`): black
+plastic, and white or silver with light keys; the style is drawn per keyboard.
 
 The model the asset pack has for the class (a desktop computer's keyboard, its keys geometry a few millimetres
 apart) was drawn at one sample a pixel as an irregular pattern of black blots, which no COCO detector of
 ``benchmarks/realism.py`` took for a keyboard in the procedural homes (0 of 10 views; docs/realism.md, 29 Nov 2026).
-A texture's mip levels keep the keys a regular grid at any distance.
+Drawn instead as a texture of key caps on a flat sloping top (29 Nov), the keys vanished at the robot's view: the
+camera meets a keyboard on a desk 10-15 degrees from grazing, where the renderer's texture filtering blurs a flat top
+into its mean colour (docs/history/realism-2026-11.md, *Anisotropic texture filtering*). The caps as geometry keep
+what a camera sees of a real keyboard from there: the rows of caps standing over the plate, their lit tops over their
+shadowed fronts, the gaps between them (*Key caps as geometry*, 30 Nov 2026).
 
 Meshes (:func:`keyboard_mesh`) are unit keyboards in a model's map frame (x across its width and y across its depth
 in −0.5..0.5, z in 0..1, the typist's side at −y, the model's front), stretched into the cuboid by
@@ -30,13 +34,11 @@ import numpy as np
 from benchbot_worlds.homes.fitting import fit_to_cuboid, front_of
 from benchbot_worlds.scene.meshes import Material, MeshData, _srgb_to_linear, quad_mesh
 
-__all__ = ["BLACK_SHARE", "FRONT_HEIGHT", "LAYOUTS", "STYLES", "UNIT_BOUNDS", "KeyboardStyle", "key_texture",
-           "keyboard", "keyboard_mesh", "layout_keys"]
+__all__ = ["BLACK_SHARE", "CAP_HEIGHT", "LAYOUTS", "PLATE_BACK", "PLATE_FRONT", "STYLES", "UNIT_BOUNDS",
+           "KeyboardStyle", "key_texture", "keyboard", "keyboard_mesh", "layout_keys"]
 
 #: Bounds of the unit keyboard of :func:`keyboard_mesh` (its model frame).
 UNIT_BOUNDS = np.array([[-0.5, -0.5, 0.0], [0.5, 0.5, 1.0]])
-#: Height of the top's front edge, a fraction of the back's: the top slopes up toward the back.
-FRONT_HEIGHT = 0.6
 #: Texture pixels per key unit.
 _PX_PER_U = 16
 #: Margin of case around the keys (key units).
@@ -147,33 +149,66 @@ def _across_and_back(p) -> tuple[float, float]:
     return p[0] + .5, p[1] + .5
 
 
+#: Height of the plate the caps stand on at the front and at the back of the case (fractions of its height).
+PLATE_FRONT, PLATE_BACK = 0.35, 0.6
+#: Space between a cap's top and its key's square of the layout, each side (key units).
+_CAP_INSET_U = 0.06
+
+
+def _plate(y: float) -> float:
+    """The plate's height (unit model) at ``y`` (−0.5 front .. 0.5 back)."""
+    return PLATE_FRONT + (PLATE_BACK - PLATE_FRONT) * (y + 0.5)
+
+
+#: A cap's height over the plate (a fraction of the case's height): the back row's caps reach the top of the case.
+CAP_HEIGHT = 1.0 - _plate(0.5 - (_MARGIN_U + _CAP_INSET_U) / _DEPTH_U)
+
+
 @functools.lru_cache(maxsize=None)
 def keyboard_mesh(layout: str, style: str) -> MeshData:
     """The unit keyboard of ``layout`` (:data:`LAYOUTS`) in ``style`` (:data:`STYLES`): x and y in −0.5..0.5, z in
-    0..1 (:data:`UNIT_BOUNDS`), the typist's side at −y. Its top, textured with :func:`key_texture` (``u`` across
-    the width, ``v`` toward the back), rises from :data:`FRONT_HEIGHT` at the front to 1 at the back; the four sides
-    and the bottom are the case's plain colour. 24 vertices, 12 triangles, 2 materials, flat normals; cached.
+    0..1 (:data:`UNIT_BOUNDS`), the typist's side at −y. A case whose top (the plate) rises from
+    :data:`PLATE_FRONT` to :data:`PLATE_BACK` toward the back, and on it each key of the layout as a cap: a box
+    :data:`CAP_HEIGHT` tall whose top, parallel to the plate, is textured with :func:`key_texture` (``u`` across the
+    width, ``v`` toward the back) and whose sides are the caps' shadowed front colour. Three materials (the caps'
+    tops, the case, the caps' sides); 10 triangles a key (its top and four sides) and 12 for the case (752 for the compact layout, 1,052 for
+    full size); flat normals; cached.
 
     Raises:
         KeyError: an unknown layout or style.
     """
-    case, roughness = STYLES[style].case, STYLES[style].roughness
-    f = FRONT_HEIGHT
-    top, body = 0, 1
-    faces = [  # corners counter-clockwise seen from outside, outward normal, material
-        ([(-.5, -.5, f), (.5, -.5, f), (.5, .5, 1), (-.5, .5, 1)], (0, 0, 1), top),
-        ([(-.5, -.5, 0), (.5, -.5, 0), (.5, -.5, f), (-.5, -.5, f)], (0, -1, 0), body),
-        ([(.5, .5, 0), (-.5, .5, 0), (-.5, .5, 1), (.5, .5, 1)], (0, 1, 0), body),
-        ([(.5, -.5, 0), (.5, .5, 0), (.5, .5, 1), (.5, -.5, f)], (1, 0, 0), body),
-        ([(-.5, .5, 0), (-.5, -.5, 0), (-.5, -.5, f), (-.5, .5, 1)], (-1, 0, 0), body),
-        ([(-.5, .5, 0), (.5, .5, 0), (.5, -.5, 0), (-.5, -.5, 0)], (0, 0, -1), body),
-    ]
+    s = STYLES[style]
+    width_u = LAYOUTS[layout][0]
+    top, body, side = 0, 1, 2
+    quads = []
+
+    def uv(p):
+        return p[0] + .5, p[1] + .5
+
+    def box(x0, x1, y0, y1, z0, z1f, z1b, top_mat, side_mat):
+        # z1f, z1b: the top's height at the front (y0) and the back (y1)
+        a, b, c, d = (x0, y0, z1f), (x1, y0, z1f), (x1, y1, z1b), (x0, y1, z1b)
+        quads.append(([a, b, c, d], (0, -(z1b - z1f), y1 - y0), top_mat))
+        quads.append(([(x0, y0, z0), (x1, y0, z0), b, a], (0, -1, 0), side_mat))
+        quads.append(([(x1, y1, z0), (x0, y1, z0), d, c], (0, 1, 0), side_mat))
+        quads.append(([(x1, y0, z0), (x1, y1, z0), c, b], (1, 0, 0), side_mat))
+        quads.append(([(x0, y1, z0), (x0, y0, z0), a, d], (-1, 0, 0), side_mat))
+
+    box(-.5, .5, -.5, .5, 0.0, _plate(-.5), _plate(.5), body, body)
+    quads.append(([(-.5, .5, 0), (.5, .5, 0), (.5, -.5, 0), (-.5, -.5, 0)], (0, 0, -1), body))
+    for x, y, w, d, _ in layout_keys(layout):
+        x0, x1 = -.5 + (x + _CAP_INSET_U) / width_u, -.5 + (x + w - _CAP_INSET_U) / width_u
+        y1, y0 = .5 - (y + _CAP_INSET_U) / _DEPTH_U, .5 - (y + d - _CAP_INSET_U) / _DEPTH_U
+        box(x0, x1, y0, y1, _plate(y0) - 0.05, _plate(y0) + CAP_HEIGHT, _plate(y1) + CAP_HEIGHT, top, side)
+    quads = [(c, np.asarray(n, float) / np.linalg.norm(n), m, uv) for c, n, m in quads]
     white = np.ones(3, np.float32)
-    materials = [Material(albedo=white, texture=key_texture(layout, style), roughness=roughness,
+    materials = [Material(albedo=white, texture=key_texture(layout, style), roughness=s.roughness,
                           name=f"keyboard_keys:{layout}:{style}", from_file=False),
-                 Material(albedo=_srgb_to_linear(case), roughness=roughness, name=f"keyboard_case:{style}",
+                 Material(albedo=_srgb_to_linear(s.case), roughness=s.roughness, name=f"keyboard_case:{style}",
+                          from_file=False),
+                 Material(albedo=_srgb_to_linear(s.front), roughness=s.roughness, name=f"keyboard_cap_sides:{style}",
                           from_file=False)]
-    return quad_mesh([(corners, normal, mat, _across_and_back) for corners, normal, mat in faces], materials)
+    return quad_mesh(quads, materials)
 
 
 def keyboard(lo: np.ndarray, hi: np.ndarray, *, prefer: np.ndarray | None,
