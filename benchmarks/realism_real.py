@@ -115,7 +115,9 @@ def records(realism, truths: list, detections: list, threshold: float, iou: floa
     as_crowd = realism.with_crowd_rule(truths)
     hits = realism.score_frame(as_crowd, detections, threshold, iou, crowd_rule=True).hits
     out = []
-    for t in (t for t in as_crowd if t.visible):
+    for t in as_crowd:
+        if not t.visible:
+            continue
         row = (t.cls, size_bin(t.pixels), bool(hits[t.instance]))
         out.append(row if object_prefix is None else (*row, f"{object_prefix}#{t.instance}"))
     return out

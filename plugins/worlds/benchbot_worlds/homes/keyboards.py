@@ -171,8 +171,8 @@ def keyboard_mesh(layout: str, style: str) -> MeshData:
     :data:`PLATE_FRONT` to :data:`PLATE_BACK` toward the back, and on it each key of the layout as a cap: a box
     :data:`CAP_HEIGHT` tall whose top, parallel to the plate, is textured with :func:`key_texture` (``u`` across the
     width, ``v`` toward the back) and whose sides are the caps' shadowed front colour. Three materials (the caps'
-    tops, the case, the caps' sides); 10 triangles a key (its top and four sides) and 12 for the case (752 for the compact layout, 1,052 for
-    full size); flat normals; cached.
+    tops, the case, the caps' sides); 10 triangles a key (its top and four sides) and 12 for the case (752 for the
+    compact layout, 1,052 for full size); flat normals; cached.
 
     Raises:
         KeyError: an unknown layout or style.
@@ -181,9 +181,6 @@ def keyboard_mesh(layout: str, style: str) -> MeshData:
     width_u = LAYOUTS[layout][0]
     top, body, side = 0, 1, 2
     quads = []
-
-    def uv(p):
-        return p[0] + .5, p[1] + .5
 
     def box(x0, x1, y0, y1, z0, z1f, z1b, top_mat, side_mat):
         # z1f, z1b: the top's height at the front (y0) and the back (y1)
@@ -200,7 +197,7 @@ def keyboard_mesh(layout: str, style: str) -> MeshData:
         x0, x1 = -.5 + (x + _CAP_INSET_U) / width_u, -.5 + (x + w - _CAP_INSET_U) / width_u
         y1, y0 = .5 - (y + _CAP_INSET_U) / _DEPTH_U, .5 - (y + d - _CAP_INSET_U) / _DEPTH_U
         box(x0, x1, y0, y1, _plate(y0) - 0.05, _plate(y0) + CAP_HEIGHT, _plate(y1) + CAP_HEIGHT, top, side)
-    quads = [(c, np.asarray(n, float) / np.linalg.norm(n), m, uv) for c, n, m in quads]
+    quads = [(c, np.asarray(n, float) / np.linalg.norm(n), m, _across_and_back) for c, n, m in quads]
     white = np.ones(3, np.float32)
     materials = [Material(albedo=white, texture=key_texture(layout, style), roughness=s.roughness,
                           name=f"keyboard_keys:{layout}:{style}", from_file=False),
