@@ -171,3 +171,37 @@ def test_replay_names_a_damaged_metadata_record_in_one_line(tmp_path, metadata, 
     with pytest.raises(RecordingError) as err:
         Recording(path)
     assert named in err.value.message and "\n" not in err.value.message
+
+
+def test_benchbot_replay_serves_the_recording_and_stops_on_sigterm(recorded):
+    """``benchbot replay FILE`` as a user runs it: the backend comes up on a free port, answers as the supervisor with
+    the recorded task, and SIGTERM ends it as Ctrl-C does (exit 130)."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    import httpx
+
+    from benchbot.server import SUPERVISOR_GREETING
+
+    path = recorded[2]
+    proc = subprocess.Popen([sys.executable, "-m", "benchbot.cli", "replay", str(path), "--port", "0"],
+                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            env=dict(os.environ, COLUMNS="200"))
+    line = ""
+    try:
+        for line in proc.stderr:  # closes (and ends the loop) if the command exits before it is ready
+            if "backend ready" in line:
+                break
+        address = re.search(r"http://127\.0\.0\.1:\d+", line)
+        assert address, f"no 'backend ready' line; last line: {line!r}"
+        assert httpx.get(address[0] + "/", timeout=10).json() == SUPERVISOR_GREETING
+        assert httpx.get(address[0] + "/config/task/name", timeout=10).json() == TASK
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 130
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

@@ -7,6 +7,7 @@ import functools
 import os
 import re
 import sys
+import threading
 import traceback
 from typing import Any, Callable, Iterator
 
@@ -116,6 +117,24 @@ def writing(path: Any, flag: str) -> Iterator[None]:
         yield
     except OSError as exc:
         raise UsageError(f"{flag}: cannot write {path} ({exc.strerror or exc})", "choose a writable path") from None
+
+
+#: How often (seconds) :func:`wait_until_interrupted` lets the main thread run a signal handler that is pending.
+INTERRUPT_POLL_S = 0.5
+
+
+def wait_until_interrupted() -> None:
+    """Block the main thread until Ctrl-C (or SIGTERM, which ``benchbot`` turns into Ctrl-C) raises
+    KeyboardInterrupt, which propagates to the caller.
+
+    Waits in timed slices of :data:`INTERRUPT_POLL_S`, never in one untimed wait: the kernel may deliver a signal
+    to any thread of the process (a server's, a refresher's), and CPython runs Python signal handlers only on the
+    main thread, between bytecodes; an untimed lock wait on the main thread is then never woken, and the signal is
+    left pending for good (a ``kill`` that did not stop the process). A pending signal is handled within one slice.
+    """
+    never_set = threading.Event()
+    while not never_set.wait(INTERRUPT_POLL_S):
+        pass
 
 
 def is_tty() -> bool:

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import threading
 from pathlib import Path
 
 import typer
 
-from benchbot.cli.common import err, handle_errors, registry
+from benchbot.cli.common import err, handle_errors, registry, wait_until_interrupted
 
 
 def register(app: typer.Typer) -> None:
@@ -31,7 +30,7 @@ def register(app: typer.Typer) -> None:
                       f"{spec.env_string}")
             err.print(f"[green]backend ready[/] at {server.address}  (BENCHBOT_SUPERVISOR_ADDRESS={server.address}); Ctrl-C stops it")
             try:
-                threading.Event().wait()
+                wait_until_interrupted()
             finally:
                 server.stop()
         finally:

@@ -80,7 +80,9 @@ class RunObservers:
             if app.interrupted:  # Ctrl-C in the view: stop as Ctrl-C without it does
                 raise KeyboardInterrupt
         else:
-            threading.Event().wait()
+            from benchbot.cli.common import wait_until_interrupted
+
+            wait_until_interrupted()
 
     def close(self) -> None:
         """Stop the live view's refresher, unregister the observers, finish the recording, and remove the live-state
