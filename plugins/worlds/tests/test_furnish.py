@@ -482,6 +482,84 @@ def test_keyboards_are_deterministic_per_seed_and_come_in_both_styles():
     assert 0.5 < sum("black" in s for s in styles(0)) / 40 < 0.9  # K.BLACK_SHARE, 0.7
 
 
+def test_toasters_are_made_in_code_filling_their_cuboid_with_their_front_toward_the_room(lib):
+    """Whatever model the pack has for the class: a toaster made in code, exactly its cuboid, its width (the slots'
+    direction) along the cuboid's longer side, its front away from the wall behind it."""
+    from benchbot_worlds.homes import toasters as T
+
+    lib = AssetLibrary(FULL_LIB + [obj_asset("pack_toaster", "toaster", (0.3, 0.17, 0.2))])
+    objs = [gt("table", [2.0, 4.2, 0], [3.2, 5.0, 0.9]),  # a counter against the north wall (y = 5)
+            gt("toaster", [2.3, 4.7, 0.9], [2.6, 4.87, 1.1]),  # 0.30 x 0.17: along x
+            gt("toaster", [0.05, 2.0, 0.9], [0.2, 2.253, 1.043]),  # the procedural homes' 0.15 x 0.253: along y
+            gt("table", [0.0, 1.8, 0], [0.6, 2.6, 0.9])]  # a counter against the west wall
+    res = F.furnish_home(objs, one_room_plan(), lib, seed=0)
+    for i, front in ((1, (0, -1)), (2, (1, 0))):
+        (p,) = [p for p in res.placements if p.object_index == i]
+        assert p.asset_id == F.TOASTER_ID and p.mesh is not None  # never the pack's model
+        assert np.abs(placed_box(lib, p) - np.array(box_of(objs[i]))).max() < 1e-9
+        assert np.allclose(_front(p), front)
+        width = p.transform[:3, :3] @ np.array([1.0, 0.0, 0.0])
+        along = 0 if front[0] == 0 else 1
+        assert abs(width[along]) > 0.1 and abs(width[1 - along]) < 1e-9
+        assert p.mesh.materials[0].name.startswith("toaster_body:")
+        assert np.allclose(p.mesh.bounds, T.UNIT_BOUNDS)
+
+
+def _first_face_from_above(mesh, x, y):
+    """(height, material name) of the highest face of ``mesh`` over the point (x, y) (barycentric coordinates)."""
+    tris = mesh.v[mesh.f]  # (F, 3, 3)
+    best = (-np.inf, "")
+    for k, (a, b, c) in enumerate(tris):
+        m = np.array([[b[0] - a[0], c[0] - a[0]], [b[1] - a[1], c[1] - a[1]]])
+        if abs(np.linalg.det(m)) < 1e-12:  # a vertical face
+            continue
+        u, v = np.linalg.solve(m, [x - a[0], y - a[1]])
+        if u >= 0 and v >= 0 and u + v <= 1:
+            z = a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])
+            best = max(best, (z, mesh.materials[mesh.f_material[k]].name))
+    return best
+
+
+def test_a_toaster_has_two_open_slots_in_its_top_and_its_lever_on_its_right_end():
+    """Looking down on the unit toaster: its top is solid except over the two slots, whose inside is the dark cavity
+    material down to their floor; the lever stands out of the right end to the cuboid's side; the steel finish
+    mirrors a dark band between a light top and the counter."""
+    from benchbot_worlds.homes import toasters as T
+
+    for style in T.STYLES:
+        mesh = T.toaster_mesh(style)
+
+        def hit_from_above(x, y):
+            return _first_face_from_above(mesh, x, y)
+
+        for y in (-0.17, 0.17):  # the middle of each slot: open down to its floor
+            z, name = hit_from_above(0.0, y)
+            assert name == "toaster_slots" and z == pytest.approx(0.45)
+        for x, y in ((0.0, 0.0), (0.0, -0.4), (-0.45, -0.17), (0.35, 0.17)):  # between and around the slots: the top
+            z, name = hit_from_above(x, y)
+            assert name.startswith("toaster_body:") and z > 0.95, (style, x, y, z, name)
+        z, name = hit_from_above(0.48, -0.1)  # the lever, beyond the body's right end
+        assert name.startswith("toaster_controls:") and z == pytest.approx(0.7)
+        assert np.allclose(mesh.bounds, T.UNIT_BOUNDS)
+    steel = T.steel_texture().astype(float).mean(axis=(1, 2))  # row 0 at the top
+    top, band, counter = steel[5], steel[int(0.5 * len(steel))], steel[-5]
+    assert band < 0.6 * counter and counter < top
+    assert T.toaster_mesh("steel") is T.toaster_mesh("steel")  # one mesh per finish, as its docstring says
+
+
+def test_toasters_are_deterministic_per_seed_and_come_in_every_finish():
+    from benchbot_worlds.homes import toasters as T
+
+    def finishes(seed):
+        rng = np.random.default_rng(seed)
+        return [T.toaster(np.zeros(3), np.array([0.3, 0.17, 0.2]), prefer=None, rng=rng)[0].materials[0].name
+                for _ in range(200)]
+
+    assert finishes(0) == finishes(0) and finishes(0) != finishes(1)
+    shares = {style: sum(name.endswith(style) for name in finishes(0)) / 200 for style in T.STYLES}
+    assert all(abs(shares[s] - T.STYLE_SHARES[s]) < 0.1 for s in T.STYLES), shares
+
+
 def test_bottles_keep_their_proportions_inside_a_wide_cuboid():
     lib = AssetLibrary(FULL_LIB + [obj_asset("wine_bottle", "bottle", (0.085, 0.085, 0.30))])
     objs = [gt("bottle", [3.2, 2.85, 0.75], [3.44, 3.16, 1.05], "wide_bottle"),  # the houses' 0.24 x 0.31 bottle
@@ -866,7 +944,7 @@ def test_no_cabinet_over_a_fridge_out_in_the_room_or_under_a_low_ceiling():
 
 def test_a_class_without_models_is_reported_not_placed():
     library = AssetLibrary([obj_asset("chair_a", "chair", (0.5, 0.5, 0.9))])
-    objs = [gt("chair", [1, 1, 0], [1.5, 1.5, 0.9]), gt("toaster", [3, 3, 0], [3.3, 3.2, 0.2])]
+    objs = [gt("chair", [1, 1, 0], [1.5, 1.5, 0.9]), gt("microwave", [3, 3, 0], [3.5, 3.35, 0.3])]
     res = F.furnish_home(objs, one_room_plan(), library)
     assert res.without_model == [1] and [p.object_index for p in res.placements] == [0]
 

@@ -15,7 +15,8 @@ from benchbot.packs.assets import asset_library
 from benchbot.core.errors import BackendError
 from benchbot.core.seeding import home_seed
 from benchbot_worlds.homes.beds import CLEARED_MIN_FRACTION
-from benchbot_worlds.homes.furnish import CLOSED_BOOK_ID, KEYBOARD_ID, PROPORTIONAL_TAG, UNSTRETCHED_CLASSES
+from benchbot_worlds.homes.furnish import (CLOSED_BOOK_ID, KEYBOARD_ID, PROPORTIONAL_TAG, TOASTER_ID,
+                                           UNSTRETCHED_CLASSES)
 from benchbot_worlds.homes.furnished import furnish_environment
 from benchbot_worlds.homes.furnish_supports import standing_box
 from benchbot_sim_taichi.kinematics import Obstacles
@@ -88,6 +89,8 @@ def test_ground_truth_is_unchanged_and_models_fill_their_cuboids(name, scenes):
             assert model == CLOSED_BOOK_ID, (name, i, model)
         elif cls == "keyboard":
             assert model == KEYBOARD_ID, (name, i, model)
+        elif cls == "toaster":
+            assert model == TOASTER_ID, (name, i, model)
         elif i in modelled:
             assert library.get(model).cls == cls, (name, i, model)
         else:

@@ -68,6 +68,7 @@ from benchbot_worlds.homes.furnish_supports import (
 from benchbot_worlds.homes.furnish_tables import dress_tables
 from benchbot_worlds.homes.furnish_walls import place_lights, place_openings, place_over_fridges, place_span
 from benchbot_worlds.homes.keyboards import keyboard
+from benchbot_worlds.homes.toasters import toaster
 
 __all__ = ["Furnishing", "Placement", "asset_bounds", "fit_to_cuboid", "furnish", "furnish_home",
            "transformed_bounds"]
@@ -88,8 +89,10 @@ FACE_ROOM = frozenset(("person",))
 CLOSED_BOOK_ID = "closed_book"
 #: The ``asset_id`` of the placements of keyboards made in code (:mod:`~benchbot_worlds.homes.keyboards`).
 KEYBOARD_ID = "computer_keyboard"
+#: The ``asset_id`` of the placements of toasters made in code (:mod:`~benchbot_worlds.homes.toasters`).
+TOASTER_ID = "pop_up_toaster"
 #: Classes drawn by meshes made in code, whatever models the asset packs have for them.
-MADE_IN_CODE = frozenset(("book", "keyboard"))
+MADE_IN_CODE = frozenset(("book", "keyboard", "toaster"))
 
 
 def _facing(i: int, obj: dict, box, space: Space, tables: list, rng: np.random.Generator) -> tuple[np.ndarray, float]:
@@ -205,6 +208,10 @@ def _place_objects(objects, boxes, space, library, seed, bounds_of, out: Furnish
         if cls == "keyboard":  # a keyboard made in code, its typist's side away from the nearest wall
             mesh, T = keyboard(lo, hi, prefer=prefer, rng=rng)
             out.placements.append(Placement(KEYBOARD_ID, T, i, "object", mesh=mesh))
+            continue
+        if cls == "toaster":  # a toaster made in code, its front away from the wall behind it
+            mesh, T = toaster(lo, hi, prefer=prefer, rng=rng)
+            out.placements.append(Placement(TOASTER_ID, T, i, "object", mesh=mesh))
             continue
         proportional = [a for a in assets if PROPORTIONAL_TAG in getattr(a, "tags", ())]
         if proportional:  # seeded among them; the turn that faces the preferred way
