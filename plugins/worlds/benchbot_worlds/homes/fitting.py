@@ -65,6 +65,18 @@ def turns_facing(direction: Sequence[float]) -> int:
     return int(np.argmax(_FRONT @ d))
 
 
+def turns_along_longer_side(lo: Sequence[float], hi: Sequence[float], prefer: Sequence[float] | None,
+                            rng: np.random.Generator) -> int:
+    """The quarter turn ``k`` that lays a model's x (its width) along the longer horizontal side of the cuboid
+    ``lo``..``hi`` (3,) metres, its front (:func:`front_of`) toward ``prefer`` (2,): of the two turns that do, the
+    one whose front is nearer ``prefer``; a seeded one of the two (one draw from ``rng``) when ``prefer`` is None."""
+    ext = np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64)
+    turns = (0, 2) if ext[0] >= ext[1] else (1, 3)  # an even k keeps the model's x along the map's x
+    if prefer is None:
+        return turns[int(rng.integers(2))]
+    return max(turns, key=lambda k: float(front_of(k) @ np.asarray(prefer, dtype=np.float64)[:2]))
+
+
 def fit_to_cuboid(asset: Any, lo: Sequence[float], hi: Sequence[float], yaw_quarter_turns: int, *,
                   bounds: np.ndarray | None = None) -> np.ndarray:
     """The transform that puts ``asset`` exactly into the axis-aligned box ``lo``..``hi``.

@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from benchbot_worlds.homes.fitting import fit_to_cuboid, front_of
+from benchbot_worlds.homes.fitting import fit_to_cuboid, turns_along_longer_side
 from benchbot_worlds.scene.meshes import Material, MeshData, _srgb_to_linear, quad_mesh
 
 __all__ = ["BLACK_SHARE", "CAP_HEIGHT", "LAYOUTS", "PLATE_BACK", "PLATE_FRONT", "STYLES", "UNIT_BOUNDS",
@@ -225,12 +225,7 @@ def keyboard(lo: np.ndarray, hi: np.ndarray, *, prefer: np.ndarray | None,
     """
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
     ext = hi - lo
-    across = 0 if ext[0] >= ext[1] else 1  # the axis the keyboard's width runs along
-    turns = (0, 2) if across == 0 else (1, 3)  # fit_to_cuboid: k even keeps the model's x along the map's x
-    if prefer is None:
-        k = turns[int(rng.integers(2))]
-    else:
-        k = max(turns, key=lambda kk: float(front_of(kk) @ np.asarray(prefer, dtype=np.float64)[:2]))
+    k = turns_along_longer_side(lo, hi, prefer, rng)
     ratio = max(ext[0], ext[1]) / max(min(ext[0], ext[1]), 1e-9)
     layout = min(LAYOUTS, key=lambda name: abs(np.log(LAYOUTS[name][0] / _DEPTH_U / ratio)))
     style = "black" if rng.random() < BLACK_SHARE else "white"

@@ -33,7 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from benchbot_worlds.homes.fitting import fit_to_cuboid, front_of
+from benchbot_worlds.homes.fitting import fit_to_cuboid, turns_along_longer_side
 from benchbot_worlds.scene.meshes import Material, MeshData, _srgb_to_linear, quad_mesh
 
 __all__ = ["STYLES", "STYLE_SHARES", "UNIT_BOUNDS", "ToasterStyle", "steel_texture", "toaster", "toaster_mesh"]
@@ -227,12 +227,6 @@ def toaster(lo: np.ndarray, hi: np.ndarray, *, prefer: np.ndarray | None,
     Raises:
         ValueError: the cuboid is flat or empty on an axis (:func:`~benchbot_worlds.homes.fitting.fit_to_cuboid`).
     """
-    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-    ext = hi - lo
-    turns = (0, 2) if ext[0] >= ext[1] else (1, 3)  # fit_to_cuboid: k even keeps the model's x along the map's x
-    if prefer is None:
-        k = turns[int(rng.integers(2))]
-    else:
-        k = max(turns, key=lambda kk: float(front_of(kk) @ np.asarray(prefer, dtype=np.float64)[:2]))
+    k = turns_along_longer_side(lo, hi, prefer, rng)
     style = str(rng.choice(list(STYLE_SHARES), p=list(STYLE_SHARES.values())))
     return toaster_mesh(style), fit_to_cuboid(None, lo, hi, k, bounds=UNIT_BOUNDS)
