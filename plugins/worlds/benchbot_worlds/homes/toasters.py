@@ -3,8 +3,8 @@
 
 A toaster is a two-slot pop-up toaster as most kitchens have one: a body whose cross-section is a rectangle with
 rounded top edges, extruded along its width; two slots in its top running along the width, open onto a dark
-inside; on the right-hand end the lever in its groove and the browning knob, in dark plastic; a plinth of dark
-plastic under it all. Three finishes (:data:`STYLES`): brushed stainless steel, the commonest, and white or red
+inside; on the right-hand end the lever in its groove and the browning knob (dark plastic; white on a white
+toaster); a plinth under it all. Three finishes (:data:`STYLES`): brushed stainless steel, the commonest, and white or red
 paint; the finish is drawn per toaster (:data:`STYLE_SHARES`). No black finish and no end panels of black plastic:
 drawn so (a first version), a toaster seen end-on from the robot's height read as a dark screen, and NanoDet took
 toasters for TVs.
@@ -12,9 +12,9 @@ toasters for TVs.
 The renderer's fast mode has no specular term, so steel drawn as a grey diffuse colour reads as grey plastic. The
 steel finish therefore carries what a camera sees on a toaster's polished sides from a person's or a robot's height
 as a texture (:func:`steel_texture`): the room mirrored as a light upper band, a dark band where the counter's edge
-and the cabinets below are mirrored, the counter's lighter top under it, and faint horizontal brushing. Quality mode
-draws it the same (the texture is the albedo; the material is a dielectric of moderate roughness, not a metal, so its
-highlights are not counted twice).
+and the cabinets below are mirrored, the counter's lighter top under it, and faint horizontal brushing. The texture is
+the albedo in both modes; the material is a dielectric of roughness 0.35, not a metal, so quality mode adds only a
+dielectric's faint highlights over it, not a second mirror image.
 
 The model the asset pack has for the class (a rounded orange-and-white toaster with a black panel on its side) was
 found in none of 104 views of the validation homes 0–59 by NanoDet, which took it for a chair, a vase, a bottle or
@@ -51,7 +51,7 @@ _ROUND_Y, _ROUND_Z, _ROUND_FACETS = 0.14, 0.12, 3
 _SLOT_X = (-0.34, 0.28)
 _SLOTS_Y = ((-0.27, -0.06), (0.06, 0.27))
 _SLOT_FLOOR = 0.45
-#: The lever (a box standing out of the right end panel, at its front half) and the knob (below it): x, y, z ranges.
+#: The lever (a box standing out of the right end, at its front half) and the knob (below it): x, y, z ranges.
 _LEVER = ((_X_RIGHT, 0.5), (-0.2, 0.02), (0.6, 0.7))
 _KNOB = ((_X_RIGHT, 0.47), (-0.14, -0.02), (0.22, 0.36))
 #: The lever's groove: a dark strip on the right end's face, under and over the lever.
@@ -68,7 +68,7 @@ class ToasterStyle(NamedTuple):
     roughness: float
 
 
-#: The finishes. Black plastic reflects about 4 % (sRGB ≈ 0.2); the slots' inside is a cavity (sRGB 0.05).
+#: The finishes. Black plastic reflects about 4 % (sRGB ≈ 0.2).
 STYLES = {
     "steel": ToasterStyle(None, (0.16, 0.16, 0.17), (0.10, 0.10, 0.10), 0.35),
     "white": ToasterStyle((0.86, 0.86, 0.85), (0.80, 0.80, 0.79), (0.30, 0.30, 0.30), 0.45),
@@ -76,6 +76,7 @@ STYLES = {
 }
 #: Share of toasters in each finish (in :data:`STYLES`' order; they sum to 1).
 STYLE_SHARES = {"steel": 0.7, "white": 0.2, "red": 0.1}
+#: The slots' inside and the lever's groove (sRGB): cavities, which let little light out.
 _CAVITY = (0.05, 0.05, 0.05)
 
 
