@@ -31,14 +31,26 @@ ap.add_argument("--tile", type=int, default=240)
 ap.add_argument("--min-px", type=int, default=70)
 ap.add_argument("--below", type=Path)
 a = ap.parse_args()
+if a.views < 1 or a.tile < 16:
+    sys.exit(f"--views {a.views} --tile {a.tile}: give at least one view and tiles of at least 16 px")
+top = None  # the picture the row goes under (--below), read before the rendering
+if a.below is not None:
+    try:
+        top = Image.open(a.below).convert("RGB")
+    except OSError as e:
+        sys.exit(f"--below {a.below}: cannot read it as an image ({e})")
 
 views = []  # (environment, pose index, box)
-for env, section in json.loads((a.run / "realism.json").read_text())["environments"].items():
-    for frame in section["frames"]:
-        for o in frame["objects"]:
-            x0, y0, x1, y1 = o["box"]
-            if o["cls"] == a.cls and o["visible"] and max(x1 - x0, y1 - y0) >= a.min_px:
-                views.append((env, frame["pose_index"], o["box"]))
+try:
+    for env, section in json.loads((a.run / "realism.json").read_text())["environments"].items():
+        for frame in section["frames"]:
+            for o in frame["objects"]:
+                x0, y0, x1, y1 = o["box"]
+                if o["cls"] == a.cls and o["visible"] and max(x1 - x0, y1 - y0) >= a.min_px:
+                    views.append((env, frame["pose_index"], o["box"]))
+except (OSError, ValueError, KeyError, TypeError) as e:
+    sys.exit(f"{a.run}/realism.json: cannot read its frames ({type(e).__name__}: {e}); give the --out folder of a "
+             "finished benchmarks/realism.py run")
 views = views[: a.views]
 if not views:
     sys.exit(f"{a.run}: no visible {a.cls} of {a.min_px} px or more")
@@ -73,8 +85,7 @@ row = Image.new("RGB", (a.tile * len(tiles), a.tile + head), "white")
 ImageDraw.Draw(row).text((6, 5), a.title, fill=(0, 0, 0))
 for k, tile in enumerate(tiles):
     row.paste(tile, (k * a.tile, head))
-if a.below is not None:
-    top = Image.open(a.below).convert("RGB")
+if top is not None:
     both = Image.new("RGB", (max(top.width, row.width), top.height + row.height), "white")
     both.paste(top, (0, 0))
     both.paste(row, (0, top.height))

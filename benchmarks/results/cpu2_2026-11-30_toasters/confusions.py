@@ -15,7 +15,12 @@ from benchbot_task_semslam.coco import COCO80
 if len(sys.argv) not in (2, 3):
     sys.exit("usage: confusions.py RUN [CLS]")
 cls = sys.argv[2] if len(sys.argv) == 3 else "toaster"
-run = json.loads((Path(sys.argv[1]) / "realism.json").read_text())
+try:
+    run = json.loads((Path(sys.argv[1]) / "realism.json").read_text())
+    sections = run["environments"].values()
+except (OSError, ValueError, KeyError, AttributeError) as e:
+    sys.exit(f"{sys.argv[1]}/realism.json: cannot read it ({type(e).__name__}: {e}); give the --out folder of a "
+             "finished benchmarks/realism.py run")
 
 
 def iou(a, b) -> float:
@@ -27,7 +32,7 @@ def iou(a, b) -> float:
 
 
 taken_for, best = collections.Counter(), []
-for section in run["environments"].values():
+for section in sections:
     for frame in section["frames"]:
         for o in frame["objects"]:
             if o["cls"] != cls or not o["visible"]:

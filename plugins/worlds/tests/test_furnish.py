@@ -528,17 +528,13 @@ def test_a_toaster_has_two_open_slots_in_its_top_and_its_lever_on_its_right_end(
 
     for style in T.STYLES:
         mesh = T.toaster_mesh(style)
-
-        def hit_from_above(x, y):
-            return _first_face_from_above(mesh, x, y)
-
         for y in (-0.17, 0.17):  # the middle of each slot: open down to its floor
-            z, name = hit_from_above(0.0, y)
+            z, name = _first_face_from_above(mesh, 0.0, y)
             assert name == "toaster_slots" and z == pytest.approx(0.45)
         for x, y in ((0.0, 0.0), (0.0, -0.4), (-0.45, -0.17), (0.35, 0.17)):  # between and around the slots: the top
-            z, name = hit_from_above(x, y)
+            z, name = _first_face_from_above(mesh, x, y)
             assert name.startswith("toaster_body:") and z > 0.95, (style, x, y, z, name)
-        z, name = hit_from_above(0.48, -0.1)  # the lever, beyond the body's right end
+        z, name = _first_face_from_above(mesh, 0.48, -0.1)  # the lever, beyond the body's right end
         assert name.startswith("toaster_controls:") and z == pytest.approx(0.7)
         assert np.allclose(mesh.bounds, T.UNIT_BOUNDS)
     steel = T.steel_texture().astype(float).mean(axis=(1, 2))  # row 0 at the top

@@ -22,8 +22,10 @@ deterministic per ``seed``; GT is never changed. The steps:
   long horizontal axis, spines toward the room (a stack of lying books when the cuboid is flat), seeded thicknesses,
   heights, depths and spine colours, their union exactly the cuboid, all with the object's index; one book standing or
   lying (:attr:`Placement.mesh` holds each book's mesh). Keyboards are made in code too
-  (:func:`~benchbot_worlds.homes.keyboards.keyboard`): a sloped case exactly the cuboid, a texture of key caps on
-  the top, the keys' near side away from the nearest wall. A class with models tagged :data:`PROPORTIONAL_TAG` (the
+  (:func:`~benchbot_worlds.homes.keyboards.keyboard`): a case exactly the cuboid, a cap standing on its sloping
+  plate for every key, the keys' near side away from the nearest wall; and toasters
+  (:func:`~benchbot_worlds.homes.toasters.toaster`): a two-slot pop-up toaster exactly the cuboid, its front away from
+  the wall behind it. A class with models tagged :data:`PROPORTIONAL_TAG` (the
   clocks' round dial) takes one of them, never stretched: uniformly scaled into the cuboid against its back
   (:func:`proportional_box`); so does the model chosen for a class of :data:`UNSTRETCHED_CLASSES` (bottles). A
   class of :data:`NOT_STRETCHED_TALL` (cups) chooses among the models that its cuboid stretches at most

@@ -44,7 +44,8 @@ class Placement:
         object_index: index into the ``objects`` given to :func:`furnish` (several placements share it for a book
             row), −1 for everything that is not a GT object.
         role: one of :data:`ROLES`.
-        mesh: a mesh made in code (a closed book, :mod:`~benchbot_worlds.homes.books`), drawn instead of an
+        mesh: a mesh made in code (a closed book, a keyboard, a toaster: :mod:`~benchbot_worlds.homes.books`,
+            :mod:`~benchbot_worlds.homes.keyboards`, :mod:`~benchbot_worlds.homes.toasters`), drawn instead of an
             asset's model (``transform`` then maps the mesh's frame to the map); ``asset_id`` names it. None: the
             asset's model.
     """

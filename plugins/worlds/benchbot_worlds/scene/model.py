@@ -35,8 +35,9 @@ class Scene:
         box_instance: (N,) int32 instance ids ``class_id * 1000 + instance`` (instance ≥ 1, per class).
         box_names: the objects' ``ID_name``.
         box_models: the furnished style's model of each object: the asset id
-            (:class:`~benchbot.packs.assets.AssetInfo`) of the mesh that draws it, ``closed_book`` for books and
-            ``computer_keyboard`` for keyboards made in code, ``""`` where the object keeps its primitive model;
+            (:class:`~benchbot.packs.assets.AssetInfo`) of the mesh that draws it, ``closed_book``,
+            ``computer_keyboard`` and ``pop_up_toaster`` for books, keyboards and toasters made in code, ``""``
+            where the object keeps its primitive model;
             empty in the primitives style.
         room_min, room_max: (3,) float32 corners of the room shell (floor at ``room_min[2] = 0``).
         shell_albedo: (3, 3) float32 linear albedo of the floor, walls, ceiling.
