@@ -1,11 +1,13 @@
 """profile_json.py DETECTOR_RUN GEOMETRIC_RUN NOTE OUT.json: the ten-home profile's record (the format of
 ``benchmarks/results/cpu2_2026-11-27_semslam_detector_ten_homes*.json``) from two ``benchbot batch`` run folders:
 each environment's scores from their ``episode_scores.json`` and the three summary lines of
-``benchbot report GEOMETRIC DETECTOR --json``, run here. Run from the repository root:
+``benchbot report GEOMETRIC DETECTOR --json``, run here; ``date`` is the day it runs (UTC). Run from the repository
+root:
 
     uv run python benchmarks/results/cpu2_2026-11-27_realism_records/profile_json.py \
         runs/batch-A runs/batch-B "the tree of ..." benchmarks/results/NAME.json
 """
+import datetime
 import json
 import subprocess
 import sys
@@ -42,7 +44,7 @@ better = sum(x > 0 for x in c["differences"])
 diff = (f"over {c['n']} environments: mean difference {d['value']:.4g} [{d['low']:.4g}, {d['high']:.4g}], paired "
         f"t-test p = {c['ttest_p']:.4g}, Wilcoxon p = {c['wilcoxon_p']:.4g}, better in {better} of {c['n']}")
 record = {
-    "date": "2026-11-27",
+    "date": datetime.datetime.now(datetime.timezone.utc).date().isoformat(),
     "machine": "2-core development CPU (no GPU)",
     "commands": ["uv run benchbot batch --example semslam_detector --envs-batch bear_all --no-tui",
                  "uv run benchbot batch --example semslam_geometric --envs-batch bear_all --no-tui",
