@@ -110,9 +110,9 @@ def picture(out: Path, photo_rows: list, sim_rows: list, run: Path, cls: str, n:
     tmp.replace(out)
 
 
-def report(path: Path, cls: str, ratio: float, out: Path | None = None, n: int = 8) -> str:
-    """The Markdown section of one run folder; with ``out``, its :func:`picture` of ``n`` views a row too. Raises
-    OSError, ValueError, KeyError or TypeError on a bad run."""
+def report(path: Path, cls: str, ratio: float) -> tuple[str, list, list]:
+    """The Markdown section of one run folder, and its photo and sim :func:`views` rows (for :func:`picture`).
+    Raises OSError, ValueError, KeyError, TypeError or AttributeError on a bad run."""
     run = json.loads((path / "realism.json").read_text(encoding="utf-8"))
     ref = run["real_reference"]
     threshold, iou = ref["threshold"], ref["iou"]
@@ -124,8 +124,6 @@ def report(path: Path, cls: str, ratio: float, out: Path | None = None, n: int =
                            for env, sec in run["environments"].items() for fr in sec["frames"]),
                           cls, threshold, iou, ratio))
     real, sim = counts(photo_rows), counts(sim_rows)
-    if out is not None:
-        picture(out, photo_rows, sim_rows, path, cls, n)
     name = run["detector"]["model"]
     lines = [f"## {name}: single {cls} objects found / visible at score ≥ {threshold} ({path})", "",
              "| size | photos, wide | photos, tall | sim, wide | sim, tall |", "|---|---|---|---|---|"]
@@ -149,7 +147,7 @@ def report(path: Path, cls: str, ratio: float, out: Path | None = None, n: int =
               f"shape {by_shape:.2f} ({at_most:.2f})"
               + (f" ({unmatched} sim views in a size and shape without photo objects count none)" if unmatched else ""),
               ""]
-    return "\n".join(lines)
+    return "\n".join(lines), photo_rows, sim_rows
 
 
 def main() -> None:
@@ -166,10 +164,17 @@ def main() -> None:
         ap.error(f"--views {args.views}: give at least 1")
     for i, path in enumerate(args.runs):
         try:
-            print(report(path, args.cls, args.ratio, args.picture if i == 0 else None, args.views))
+            text, photo_rows, sim_rows = report(path, args.cls, args.ratio)
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
             sys.exit(f"{path}/realism.json: cannot read it ({type(exc).__name__}: {exc}); give the --out folder of a "
                      "finished benchmarks/realism.py --real-reference run")
+        print(text)
+        if i == 0 and args.picture is not None:
+            try:
+                picture(args.picture, photo_rows, sim_rows, path, args.cls, args.views)
+            except OSError as exc:
+                sys.exit(f"--picture {args.picture}: cannot write it from {path}'s photos and PNGs ({exc}); give a "
+                         "writable .jpg path and a run made with --pngs")
 
 
 if __name__ == "__main__":
