@@ -4,8 +4,8 @@
 A toaster is a two-slot pop-up toaster as most kitchens have one: a body whose cross-section is a rectangle with
 rounded top edges, extruded along its width; two slots in its top running along the width, open onto a dark
 inside; on the right-hand end the lever in its groove and the browning knob (dark plastic; white on a white
-toaster); a plinth under it all. Three finishes (:data:`STYLES`): brushed stainless steel, the commonest, and white or red
-paint; the finish is drawn per toaster (:data:`STYLE_SHARES`). No black finish and no end panels of black plastic:
+toaster); a plinth under it all. Three finishes (:data:`STYLES`): brushed stainless steel, the commonest, and white or
+red paint; the finish is drawn per toaster (:data:`STYLE_SHARES`). No black finish and no end panels of black plastic:
 drawn so (a first version), a toaster seen end-on from the robot's height read as a dark screen, and NanoDet took
 toasters for TVs.
 
