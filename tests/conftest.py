@@ -116,3 +116,12 @@ def realism():
     spec.loader.exec_module(mod)
     yield mod
     sys.modules.pop("realism_benchmark", None)
+
+
+@pytest.fixture(scope="module")
+def realism_detectors(realism):
+    """``benchmarks/realism_detectors.py``, the module ``realism`` imported (the same object, so that what a test
+    patches in it is what ``realism`` runs)."""
+    import sys
+
+    return sys.modules["realism_detectors"]

