@@ -125,3 +125,11 @@ def realism_detectors(realism):
     import sys
 
     return sys.modules["realism_detectors"]
+
+
+@pytest.fixture(scope="module")
+def realism_counting(realism):
+    """``benchmarks/realism_counting.py``, the module ``realism`` imported (the same object)."""
+    import sys
+
+    return sys.modules["realism_counting"]

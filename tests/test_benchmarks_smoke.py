@@ -25,8 +25,8 @@ pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
 #: Modules of ``benchmarks/`` that the scripts import, not scripts: imported below, and run through their scripts.
-HELPERS = {"gpu_host.py": "one_camera.py", "realism_detectors.py": "realism.py", "realism_real.py": "realism.py",
-           "smoke.py": "render.py", "trajectory_views.py": "render.py"}
+HELPERS = {"gpu_host.py": "one_camera.py", "realism_counting.py": "realism.py", "realism_detectors.py": "realism.py",
+           "realism_real.py": "realism.py", "smoke.py": "render.py", "trajectory_views.py": "render.py"}
 SCRIPTS = sorted(p.name for p in BENCHMARKS.glob("*.py") if p.name not in HELPERS)
 #: Per script, what its printed figures look like: patterns its standard output must match (a smoke run prints what
 #: a real run prints, at its tiny sizes).
@@ -114,10 +114,10 @@ def test_the_script_runs_in_its_smoke_mode_and_prints_its_figures(script):
 
 
 def test_the_helper_modules_are_no_scripts_and_import():
-    """``gpu_host.py``, ``realism_detectors.py``, ``realism_real.py``, ``smoke.py`` and ``trajectory_views.py`` are
-    modules the scripts import (each imported by a script smoke-run above), not scripts; they import in a fresh
-    interpreter; the Blender script beside ``realism.py`` (run under bpy, which ``uv sync`` does not install) is valid
-    Python."""
+    """``gpu_host.py``, ``realism_counting.py``, ``realism_detectors.py``, ``realism_real.py``, ``smoke.py`` and
+    ``trajectory_views.py`` are modules the scripts import (each imported by a script smoke-run above), not scripts;
+    they import in a fresh interpreter; the Blender script beside ``realism.py`` (run under bpy, which ``uv sync`` does
+    not install) is valid Python."""
     for helper, user in HELPERS.items():
         source = (BENCHMARKS / helper).read_text(encoding="utf-8")
         assert "__main__" not in source, f"{helper} is a script: give it a smoke mode and take it out of HELPERS"

@@ -21,7 +21,7 @@ POSES = (0, 9, 19, 28, 38, 47)
 
 
 @pytest.fixture(scope="module")
-def frames(realism):
+def frames(realism, realism_counting):
     """``[(pose index, rgb (480, 640, 3) uint8, ground-truth objects)]`` of miniroom:1 as an episode with seed 0
     sees it, through the robot's default camera (fast mode)."""
     from benchbot_sim_taichi.render.renderer import Renderer
@@ -41,7 +41,7 @@ def frames(realism):
     for i in POSES:
         T = se2_to_matrix(*scene.trajectory_se2[i]) @ Tc
         img = r.render(K, T, 640, 480, mode="fast")
-        out.append((i, img["rgb"], realism.frame_truths(img["instance"], scene, K, T)))
+        out.append((i, img["rgb"], realism_counting.frame_truths(img["instance"], scene, K, T)))
     return out
 
 
@@ -79,7 +79,7 @@ def test_the_detector_takes_the_batchs_thread_share(monkeypatch):
 
 
 @pytest.mark.slow
-def test_boxes_land_on_ground_truth_objects_of_rendered_frames(realism, frames):
+def test_boxes_land_on_ground_truth_objects_of_rendered_frames(realism_counting, frames):
     """At a score of 0.1, over six frames: at least four visible ground-truth objects get a box (IoU ≥ 0.5 with
     their mask's box) and at least two get a box of their own class."""
     det = CocoDetector()
@@ -87,7 +87,7 @@ def test_boxes_land_on_ground_truth_objects_of_rendered_frames(realism, frames):
     for _, rgb, truths in frames:
         dets = det.detect(rgb)
         assert dets == sorted(dets, key=lambda d: -d[4]) and all(d[4] >= det.min_score for d in dets)
-        s = realism.score_frame(truths, dets, 0.1)
+        s = realism_counting.score_frame(truths, dets, 0.1)
         found += sum(s.hits.values())
         localised += sum(s.localised.values())
     print(f"{found} objects found, {localised} localised")

@@ -22,8 +22,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from fake_npm import fake_npm  # noqa: E402
 
 
-def truth(realism, iid, cls, box, visible=True):
-    return realism.Truth(iid, cls, list(box), 1000, 0.0, visible)
+def truth(realism_counting, iid, cls, box, visible=True):
+    return realism_counting.Truth(iid, cls, list(box), 1000, 0.0, visible)
 
 
 def det(realism, box, score, name):
@@ -38,39 +38,39 @@ def test_iou_and_nms(realism):
     assert [k[5] for k in kept] == [2, 3]  # class-agnostic, best first
 
 
-def test_matching_maps_coco_names_ignores_hidden_objects_and_counts_false_positives(realism):
-    table = truth(realism, 19001, "table", (100, 100, 200, 160))
-    chair = truth(realism, 18001, "chair", (300, 100, 340, 200))
-    tiny = truth(realism, 18002, "chair", (400, 100, 410, 110), visible=False)
+def test_matching_maps_coco_names_ignores_hidden_objects_and_counts_false_positives(realism, realism_counting):
+    table = truth(realism_counting, 19001, "table", (100, 100, 200, 160))
+    chair = truth(realism_counting, 18001, "chair", (300, 100, 340, 200))
+    tiny = truth(realism_counting, 18002, "chair", (400, 100, 410, 110), visible=False)
     dets = [det(realism, (102, 98, 198, 162), 0.8, "dining table"),   # the table, in COCO's name
             det(realism, (104, 100, 200, 160), 0.5, "dining table"),  # a second box on it: a false positive
             det(realism, (300, 100, 340, 200), 0.35, "couch"),        # on the chair, wrong class: false positive
             det(realism, (400, 100, 410, 110), 0.9, "chair"),         # on the hidden chair: ignored
             det(realism, (500, 300, 600, 400), 0.2, "tv")]            # below the threshold
-    s = realism.score_frame([table, chair, tiny], dets, 0.3)
+    s = realism_counting.score_frame([table, chair, tiny], dets, 0.3)
     assert s.hits == {19001: True, 18001: False}
     assert s.localised == {19001: True, 18001: True}
     assert [realism.COCO80[d[5]] for d in s.false_positives] == ["dining table", "couch"]
-    low = realism.score_frame([table, chair, tiny], dets, 0.1)
+    low = realism_counting.score_frame([table, chair, tiny], dets, 0.1)
     assert [realism.COCO80[d[5]] for d in low.false_positives] == ["dining table", "couch", "tv"]
 
 
-def test_the_crowd_rule_treats_a_group_box_as_cocos_iscrowd_region(realism):
+def test_the_crowd_rule_treats_a_group_box_as_cocos_iscrowd_region(realism, realism_counting):
     """A row of books boxed as one (BEAR's isgroup): plain, the row is a visible book that a single book's box does
     not match (a miss and a false positive); under the crowd rule the row is neither found nor missed and the
     single book inside it is no false positive, while a book box elsewhere still is."""
-    row = realism.Truth(84001, "book", [100, 100, 200, 130], 3000, 0.0, True, "closed_book", crowd=True)
-    cup = truth(realism, 41001, "cup", (300, 100, 330, 130))
+    row = realism_counting.Truth(84001, "book", [100, 100, 200, 130], 3000, 0.0, True, "closed_book", crowd=True)
+    cup = truth(realism_counting, 41001, "cup", (300, 100, 330, 130))
     dets = [det(realism, (110, 102, 125, 130), 0.7, "book"),    # one book of the row: ioa 1, IoU 0.13
             det(realism, (300, 100, 330, 130), 0.6, "cup"),     # the cup
             det(realism, (400, 300, 420, 330), 0.5, "book")]    # a book on nothing
-    assert realism.box_ioa(dets[0], row.box) == 1.0 and realism.box_ioa(dets[2], row.box) == 0.0
-    assert realism.box_ioa([5, 5, 5, 9], row.box) == 0.0  # an empty box
-    plain = realism.score_frame([row, cup], dets, 0.3)
+    assert realism_counting.box_ioa(dets[0], row.box) == 1.0 and realism_counting.box_ioa(dets[2], row.box) == 0.0
+    assert realism_counting.box_ioa([5, 5, 5, 9], row.box) == 0.0  # an empty box
+    plain = realism_counting.score_frame([row, cup], dets, 0.3)
     assert plain.hits == {84001: False, 41001: True} and len(plain.false_positives) == 2
-    as_crowd = realism.with_crowd_rule([row, cup])
+    as_crowd = realism_counting.with_crowd_rule([row, cup])
     assert [t.visible for t in as_crowd] == [False, True] and row.visible  # the plain truths are left as they are
-    crowd = realism.score_frame(as_crowd, dets, 0.3, crowd_rule=True)
+    crowd = realism_counting.score_frame(as_crowd, dets, 0.3, crowd_rule=True)
     assert crowd.hits == {41001: True} and [d[:4] for d in crowd.false_positives] == [[400.0, 300.0, 420.0, 330.0]]
     tally = realism.Tally((0.3,))
     tally.add(as_crowd, {0.3: crowd})
@@ -78,43 +78,43 @@ def test_the_crowd_rule_treats_a_group_box_as_cocos_iscrowd_region(realism):
 
 
 @pytest.mark.slow
-def test_crowd_instances_are_the_group_boxes_of_the_ground_truth(realism):
+def test_crowd_instances_are_the_group_boxes_of_the_ground_truth(realism, realism_counting):
     """house:1's ground truth marks four book boxes isgroup; the scene's instances of exactly those cuboids."""
     from benchbot_worlds.scene.build import build_scene
 
     env = realism._env_spec("house:1", "primitives")
     scene = build_scene(env)
-    crowd = realism.crowd_instances(scene, env)
+    crowd = realism_counting.crowd_instances(scene, env)
     data = json.loads(Path(env["map_path"]).read_text(encoding="utf-8"))
     groups = [o for o in data["ground_truth"]["objects"] if o.get("isgroup")]
     assert len(crowd) == len(groups) == 4
     assert all(scene.class_list[i // 1000] == "book" for i in crowd)
 
 
-def test_truncation_and_frame_truths(realism):
+def test_truncation_and_frame_truths(realism_counting):
     W, H = 64, 48
     K = np.array([[32.0, 0, (W - 1) / 2], [0, 32.0, (H - 1) / 2], [0, 0, 1]])
     T = np.eye(4)  # optical frame = map frame: z forward
-    assert realism.cuboid_truncation([-0.1, -0.1, 2], [0.1, 0.1, 2.2], K, T, W, H) == 0.0
-    assert realism.cuboid_truncation([-0.1, -0.1, -3], [0.1, 0.1, -2], K, T, W, H) == 1.0
+    assert realism_counting.cuboid_truncation([-0.1, -0.1, 2], [0.1, 0.1, 2.2], K, T, W, H) == 0.0
+    assert realism_counting.cuboid_truncation([-0.1, -0.1, -3], [0.1, 0.1, -2], K, T, W, H) == 1.0
     # x from 0 to 4 m at 1..1.2 m (the image edge at x = z): of the grid's x = 0, 1, 2, 3, 4 only 0 and 1 are inside
-    assert realism.cuboid_truncation([0.0, -0.1, 1.0], [4.0, 0.1, 1.2], K, T, W, H) == pytest.approx(0.6)
+    assert realism_counting.cuboid_truncation([0.0, -0.1, 1.0], [4.0, 0.1, 1.2], K, T, W, H) == pytest.approx(0.6)
     img = np.zeros((H, W), np.int32)
     img[10:30, 20:44] = 19001  # 480 pixels, in view
     img[0:5, 0:5] = 18001      # 25 pixels: too small
     scene = SimpleNamespace(box_instance=np.array([19001, 18001]), box_min=np.array([[-0.2, -0.1, 2], [-1, -1, 2]]),
                             box_max=np.array([[0.2, 0.1, 2.2], [-0.9, -0.9, 2.1]]),
                             class_list=["x"] * 18 + ["chair", "table"])
-    got = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=400)}
+    got = {t.instance: t for t in realism_counting.frame_truths(img, scene, K, T, min_pixels=400)}
     assert got[19001].cls == "table" and got[19001].box == [20, 10, 44, 30] and got[19001].visible
     assert got[18001].cls == "chair" and got[18001].pixels == 25 and not got[18001].visible
     assert got[19001].model == ""  # a scene without box_models (the primitives style)
     scene.box_models = ["table__sc_round-table", "chair__cc0_thonet"]
-    got = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=400)}
+    got = {t.instance: t for t in realism_counting.frame_truths(img, scene, K, T, min_pixels=400)}
     assert got[19001].model == "table__sc_round-table" and got[18001].model == "chair__cc0_thonet"
 
 
-def test_a_sink_counts_by_its_basin_as_coco_boxes_sinks(realism):
+def test_a_sink_counts_by_its_basin_as_coco_boxes_sinks(realism_counting):
     """A pedestal washbasin's cuboid reaches the floor; COCO boxes the basin: with the depth, only the sink's pixels
     within SINK_BASIN_M under its cuboid's top count; a table's whole mask counts either way."""
     W, H = 64, 48
@@ -123,7 +123,7 @@ def test_a_sink_counts_by_its_basin_as_coco_boxes_sinks(realism):
     T[:3, :3] = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
     T[2, 3] = 1.0
     depth = np.full((H, W), 2.0, np.float32)  # a wall 2 m ahead: height = 1 - (v - 23.5) / 16
-    heights = realism.pixel_heights(depth, K, T, np.array([0, 23, 47]), np.array([5, 31, 60]))
+    heights = realism_counting.pixel_heights(depth, K, T, np.array([0, 23, 47]), np.array([5, 31, 60]))
     assert heights == pytest.approx([1 + 23.5 / 16, 1 + 0.5 / 16, 1 - 23.5 / 16])
     img = np.zeros((H, W), np.int32)
     img[10:30, 10:54] = 71001  # the basin and tap: heights 1.41 to 0.66 m
@@ -133,17 +133,18 @@ def test_a_sink_counts_by_its_basin_as_coco_boxes_sinks(realism):
     classes[71], classes[60] = "sink", "table"
     scene = SimpleNamespace(box_instance=np.array([71001, 60001]), box_min=np.array([[1.8, -1, 0.0], [1.8, -1, 1.6]]),
                             box_max=np.array([[2.2, 1, 1.0], [2.2, 1, 1.7]]), class_list=classes)
-    whole = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=100)}
-    basin = {t.instance: t for t in realism.frame_truths(img, scene, K, T, min_pixels=100, depth=depth)}
+    whole = {t.instance: t for t in realism_counting.frame_truths(img, scene, K, T, min_pixels=100)}
+    basin = {t.instance: t for t in realism_counting.frame_truths(img, scene, K, T, min_pixels=100, depth=depth)}
     assert whole[71001].box == [10, 10, 54, 48] and whole[71001].pixels == 20 * 44 + 18 * 8
     # height >= 1.0 - 0.35 m: rows v <= 23.5 + 16 * 0.35 = 29.1, i.e. the basin's rows 10..29
     assert basin[71001].box == [10, 10, 54, 30] and basin[71001].pixels == 20 * 44
     assert basin[60001] == whole[60001] and basin[60001].box == [2, 2, 62, 8]
     img[10:30, 10:54] = 0  # only the pedestal in view: no basin pixel, so a sink never visible, whole mask kept
-    (pedestal,) = [t for t in realism.frame_truths(img, scene, K, T, min_pixels=100, depth=depth) if t.cls == "sink"]
+    (pedestal,) = [t for t in realism_counting.frame_truths(img, scene, K, T, min_pixels=100, depth=depth)
+                   if t.cls == "sink"]
     assert not pedestal.visible and pedestal.box == [28, 30, 36, 48] and pedestal.pixels == 18 * 8
     # so a sink box on the pedestal is ignored, neither a hit nor a false positive (COCO class 71 is "sink")
-    score = realism.score_frame([pedestal], [[28, 30, 36, 48, 0.9, 71]], 0.3)
+    score = realism_counting.score_frame([pedestal], [[28, 30, 36, 48, 0.9, 71]], 0.3)
     assert not score.hits and not score.false_positives
 
 
@@ -290,11 +291,11 @@ def test_select_frames(realism):
     assert realism.select_frames(0, 4) == []
 
 
-def test_tally_counts_and_merges(realism):
+def test_tally_counts_and_merges(realism, realism_counting):
     t1, t2 = realism.Tally((0.3,)), realism.Tally((0.3,))
-    tr = [truth(realism, 19001, "table", (0, 0, 10, 10))]
-    t1.add(tr, {0.3: realism.score_frame(tr, [det(realism, (0, 0, 10, 10), 0.9, "dining table")], 0.3)})
-    t2.add(tr, {0.3: realism.score_frame(tr, [det(realism, (50, 50, 60, 60), 0.9, "cup")], 0.3)})
+    tr = [truth(realism_counting, 19001, "table", (0, 0, 10, 10))]
+    t1.add(tr, {0.3: realism_counting.score_frame(tr, [det(realism, (0, 0, 10, 10), 0.9, "dining table")], 0.3)})
+    t2.add(tr, {0.3: realism_counting.score_frame(tr, [det(realism, (50, 50, 60, 60), 0.9, "cup")], 0.3)})
     t1.merge(t2)
     d = t1.as_dict()
     assert d["visible"] == {"table": 2} and d["score>=0.3"]["detected"] == {"table": 1}
@@ -302,16 +303,16 @@ def test_tally_counts_and_merges(realism):
     assert json.loads(json.dumps(d)) == d
 
 
-def test_counts_per_model_in_the_tally_and_its_table(realism):
+def test_counts_per_model_in_the_tally_and_its_table(realism, realism_counting):
     t = realism.Tally((0.3,))
-    stool = realism.Truth(18001, "chair", [0, 0, 10, 10], 1000, 0.0, True, "chair__ccby_green_stool")
-    thonet = realism.Truth(18002, "chair", [50, 0, 60, 10], 1000, 0.0, True, "chair__cc0_thonet")
-    plant = realism.Truth(59001, "potted plant", [0, 50, 40, 90], 1000, 0.0, True, "")
+    stool = realism_counting.Truth(18001, "chair", [0, 0, 10, 10], 1000, 0.0, True, "chair__ccby_green_stool")
+    thonet = realism_counting.Truth(18002, "chair", [50, 0, 60, 10], 1000, 0.0, True, "chair__cc0_thonet")
+    plant = realism_counting.Truth(59001, "potted plant", [0, 50, 40, 90], 1000, 0.0, True, "")
     frame = [stool, thonet, plant]
-    t.add(frame, {0.3: realism.score_frame(frame, [det(realism, (50, 0, 60, 10), 0.9, "chair")], 0.3)})
-    t.add(frame[:1], {0.3: realism.score_frame(frame[:1], [det(realism, (0, 0, 10, 10), 0.8, "chair")], 0.3)})
+    t.add(frame, {0.3: realism_counting.score_frame(frame, [det(realism, (50, 0, 60, 10), 0.9, "chair")], 0.3)})
+    t.add(frame[:1], {0.3: realism_counting.score_frame(frame[:1], [det(realism, (0, 0, 10, 10), 0.8, "chair")], 0.3)})
     other = realism.Tally((0.3,))
-    other.add(frame[:1], {0.3: realism.score_frame(frame[:1], [], 0.3)})
+    other.add(frame[:1], {0.3: realism_counting.score_frame(frame[:1], [], 0.3)})
     t.merge(other)
     d = t.as_dict()
     assert d["visible_by_model"] == {"chair chair__cc0_thonet": 1, "chair chair__ccby_green_stool": 3,
@@ -415,14 +416,15 @@ def test_each_environment_is_built_with_its_world_seed(realism, tmp_path, monkey
     assert world_seed(seed, "house", 2) != seed
 
 
-def test_class_table_counts_per_class_recall_and_false_positives(realism):
+def test_class_table_counts_per_class_recall_and_false_positives(realism, realism_counting):
     t = realism.Tally((0.3, 0.1))
-    chairs = [truth(realism, 18001, "chair", (0, 0, 10, 10)), truth(realism, 18002, "chair", (50, 0, 60, 10)),
-              truth(realism, 19001, "table", (0, 50, 40, 90))]
+    chairs = [truth(realism_counting, 18001, "chair", (0, 0, 10, 10)),
+              truth(realism_counting, 18002, "chair", (50, 0, 60, 10)),
+              truth(realism_counting, 19001, "table", (0, 50, 40, 90))]
     dets = [det(realism, (0, 0, 10, 10), 0.9, "chair"), det(realism, (0, 50, 40, 90), 0.2, "dining table"),
             det(realism, (200, 200, 220, 220), 0.5, "tv")]
-    t.add(chairs, {thr: realism.score_frame(chairs, dets, thr) for thr in (0.3, 0.1)})
-    t.add(chairs[:1], {thr: realism.score_frame(chairs[:1], [], thr) for thr in (0.3, 0.1)})
+    t.add(chairs, {thr: realism_counting.score_frame(chairs, dets, thr) for thr in (0.3, 0.1)})
+    t.add(chairs[:1], {thr: realism_counting.score_frame(chairs[:1], [], thr) for thr in (0.3, 0.1)})
     lines = realism.class_table("house:1", {"fast": t}, (0.3, 0.1)).splitlines()
     assert lines[0] == "### house:1: objects detected at score ≥ 0.3 / visible"
     assert "| chair | 1/3 |" in lines and "| table | 0/1 |" in lines
