@@ -444,16 +444,33 @@ class Detector:
 
 
 def control_check(detector: Detector, folder: Path) -> dict:
-    """Run the detector on the control photos found in ``folder`` (:data:`CONTROL_PHOTOS`): per photo, whether a
-    detection of score ≥ 0.3 has the main object's class, and the top detections."""
+    """Run ``detector`` (anything with :meth:`Detector.detect`) on the control photos of :data:`CONTROL_PHOTOS` that
+    ``folder`` holds (the others are skipped).
+
+    Returns:
+        ``{file name: {"main_object": COCO class, "found": a detection of score ≥ 0.3 has that class,
+        "top": [(COCO class, score rounded to 0.01)] of its five best detections]}}``.
+
+    Raises:
+        RealismError: ``folder`` holds none of the control photos, or one of them is not a readable image.
+    """
     from PIL import Image
 
     res = {}
-    for fname, want in CONTROL_PHOTOS.items():
+    present = [name for name in CONTROL_PHOTOS if (folder / name).is_file()]
+    if not present:
+        raise RealismError(f"--control-photos {folder}: none of the control photos is there",
+                           f"give a folder with some of {', '.join(sorted(CONTROL_PHOTOS))} (scikit-image's "
+                           "skimage/data, Debian's /usr/share/darknet/data)")
+    for fname in present:
+        want = CONTROL_PHOTOS[fname]
         p = folder / fname
-        if not p.is_file():
-            continue
-        rgb = np.asarray(Image.open(p).convert("RGB"))
+        try:
+            with Image.open(p) as im:
+                rgb = np.asarray(im.convert("RGB"))
+        except OSError as exc:  # PIL's UnidentifiedImageError is an OSError
+            raise RealismError(f"--control-photos: {p} is not a readable image ({exc})",
+                               "replace it with the package's file, or leave it out") from None
         dets = detector.detect(rgb)
         res[fname] = {"main_object": want, "found": any(COCO80[d[5]] == want and d[4] >= 0.3 for d in dets),
                       "top": [(COCO80[d[5]], round(d[4], 2)) for d in dets[:5]]}

@@ -275,6 +275,34 @@ def test_detector_that_hangs_or_dies_is_one_error(realism_detectors, tmp_path, m
         realism_detectors.Detector(script, timeout_s=5)
 
 
+def test_control_photos_are_checked_and_a_bad_folder_or_photo_is_one_error(realism_detectors, tmp_path):
+    """``--control-photos``: per control photo found, whether the detector's boxes name its main object; a folder
+    with none of them, or an unreadable one, is a RealismError naming it, not an empty check or a traceback."""
+    from PIL import Image
+
+    det = realism_detectors
+    Image.new("RGB", (40, 30), (120, 90, 60)).save(tmp_path / "dog.jpg")
+    Image.new("RGB", (40, 30), (20, 90, 160)).save(tmp_path / "kite.jpg")
+    (tmp_path / "other.jpg").write_bytes(b"not a control photo")
+
+    class Answers:  # a dog in every photo, and a weak person
+        def detect(self, rgb):
+            assert rgb.shape == (30, 40, 3)
+            return [[1.0, 1.0, 20.0, 20.0, 0.8, det.COCO80.index("dog")],
+                    [5.0, 5.0, 9.0, 9.0, 0.2, det.COCO80.index("person")]]
+
+    res = det.control_check(Answers(), tmp_path)
+    assert sorted(res) == ["dog.jpg", "kite.jpg"]
+    assert res["dog.jpg"] == {"main_object": "dog", "found": True, "top": [("dog", 0.8), ("person", 0.2)]}
+    assert res["kite.jpg"]["main_object"] == "kite" and res["kite.jpg"]["found"] is False
+    with pytest.raises(det.RealismError, match="none of the control photos is there"):
+        det.control_check(Answers(), tmp_path / "nowhere")
+    (tmp_path / "kite.jpg").write_bytes(b"\xff\xd8 truncated")
+    with pytest.raises(det.RealismError, match=r"kite\.jpg is not a readable image") as exc:
+        det.control_check(Answers(), tmp_path)
+    assert "\n" not in str(exc.value)
+
+
 def test_missing_tools_are_one_line_errors(realism, realism_detectors, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("PATH", str(tmp_path))
     with pytest.raises(realism_detectors.RealismError, match="npm is not on PATH"):

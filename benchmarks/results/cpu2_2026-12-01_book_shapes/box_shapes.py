@@ -168,6 +168,9 @@ def main() -> None:
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
             sys.exit(f"{path}/realism.json: cannot read it ({type(exc).__name__}: {exc}); give the --out folder of a "
                      "finished benchmarks/realism.py --real-reference run")
+        if not photo_rows and not sim_rows:
+            sys.exit(f"{path}: no visible {args.cls!r} object in its frames or its photos; give a BEAR class name, "
+                     "e.g. book, cup or laptop")
         print(text)
         if i == 0 and args.picture is not None:
             try:
